@@ -1,0 +1,176 @@
+"""The ``dynderive`` command line. The only place where errors become exit codes.
+
+Exit codes: 0 success; 1 internal error or missing tool; 2 bad input
+(``FILE:LINE:COL: message``); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated, Any, TypeVar
+
+import typer
+
+from . import __version__
+from .errors import DynderiveError, ExternalToolError, InputError, ToolMissingError
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Derive a robot's equations of motion symbolically and render them as a LaTeX "
+         "solution sheet, a PDF, a NumPy module or JSON.",
+)
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _fail(message: str, code: int) -> typer.Exit:
+    typer.echo(message, err=True)
+    return typer.Exit(code)
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def handle_errors(function: F) -> F:
+    """Map dynderive's errors to exit codes and one-line messages, never a traceback."""
+
+    @functools.wraps(function)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+        try:
+            return function(*args, **kwargs)
+        except InputError as exc:
+            raise _fail(str(exc), 2) from None
+        except (ToolMissingError, ExternalToolError) as exc:
+            raise _fail(f"dynderive: {exc}", 1) from None
+        except DynderiveError as exc:
+            raise _fail(f"dynderive: {exc}", 1) from None
+        except KeyboardInterrupt:
+            raise _fail("dynderive: interrupted; no output was changed", 130) from None
+        except typer.Exit:
+            raise
+        except Exception as exc:  # an internal error: say so plainly, traceback on request
+            if os.environ.get("DYNDERIVE_DEBUG"):
+                raise
+            raise _fail(f"dynderive: internal error: {type(exc).__name__}: {exc} "
+                        "(set DYNDERIVE_DEBUG=1 for a traceback, and please report it)", 1) from None
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+
+    return wrapper  # type: ignore[return-value]
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"dynderive {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                          help="Print the version and exit.")] = False,
+) -> None:
+    """dynderive: equations of motion from a YAML robot description."""
+
+
+class _Progress:
+    """Stage-by-stage progress on stderr, shown only once a derivation has run for 1 s."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.start = time.monotonic()
+        self.pending: list[str] = []
+
+    def __call__(self, stage: str) -> None:
+        if self.quiet:
+            return
+        elapsed = time.monotonic() - self.start
+        line = f"  [{elapsed:6.1f} s] {stage}"
+        if elapsed < 1.0:
+            self.pending.append(line)
+            return
+        for earlier in self.pending:
+            typer.echo(earlier, err=True)
+        self.pending.clear()
+        typer.echo(line, err=True)
+
+
+@app.command()
+@handle_errors
+def solve(
+    robot: Annotated[str, typer.Argument(help="Robot file (YAML) or the name of a bundled robot, e.g. rp_arm.")],
+    latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
+    pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk).")] = False,
+    code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
+    json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
+    out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("."),
+    template_dir: Annotated[Path | None, typer.Option("--template-dir",
+                            help="Directory of templates that override the built-in ones by file name.")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
+) -> None:
+    """Derive the equations of motion of ROBOT. With no output flag, print them."""
+    from . import derive, load_robot
+    from .output import write_all
+    from .render.code import render_code
+    from .render.json import render_json
+    from .render.latex import render_latex
+    from .render.terminal import render_terminal
+
+    if template_dir is not None and not template_dir.is_dir():
+        raise InputError(_problem(str(template_dir), "template directory does not exist"))
+    progress = _Progress(quiet)
+    progress("loading")
+    model = load_robot(robot)
+    derivation = derive(model, progress=progress)
+    if not (latex or pdf or code or json_):
+        typer.echo(render_terminal(derivation), nl=False)
+        return
+    files: dict[Path, bytes] = {}
+    tex = None
+    if latex or pdf:
+        progress("rendering LaTeX")
+        tex = render_latex(derivation, template_dir)
+    if latex:
+        files[out / f"{model.name}.tex"] = tex.encode()  # type: ignore[union-attr]
+    if pdf:
+        from .render.pdf import compile_pdf
+
+        progress("compiling PDF")
+        files[out / f"{model.name}.pdf"] = compile_pdf(tex, model.name)  # type: ignore[arg-type]
+    if code:
+        progress("generating code")
+        files[out / f"{model.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
+    if json_:
+        files[out / f"{model.name}.json"] = render_json(derivation).encode()
+    write_all(files)
+    if not quiet:
+        for path in files:
+            typer.echo(f"wrote {path}", err=True)
+        failed = [c for c in derivation.checks if not c.passed]
+        for check in failed:
+            typer.echo(f"warning: check failed: {check.description}", err=True)
+
+
+def _problem(file: str, message: str) -> Any:
+    from .errors import Problem
+
+    return Problem(file, 1, 1, message)
+
+
+def run() -> None:
+    """Console-script entry point."""
+    app(prog_name="dynderive")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(run())

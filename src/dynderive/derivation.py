@@ -1,0 +1,82 @@
+"""``Derivation``: every named quantity of a robot's equations of motion, and the checks.
+
+The engine's only output. Renderers read it; they never call back into the engine.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import sympy
+
+from .kinematics import planar_kinematics
+from .model import Robot
+from .symbols import SymbolTable
+from .tidy import Check, check_zero
+
+#: What each quantity is, for the sheet, the terminal and the JSON consumers.
+DESCRIPTIONS = {
+    "T_g": "kinetic energy (generalized coordinates)",
+    "V_g": "potential energy (generalized coordinates)",
+    "L_g": "Lagrangian T_g - V_g",
+    "Y_g": "applied generalized forces",
+    "EOM_g1": "equations of motion from Lagrange's equations (= 0)",
+    "M_g": "mass matrix",
+    "C_g": "Coriolis matrix (Christoffel symbols)",
+    "N_g": "gravity vector dV/dq",
+    "EOM_g2": "equations of motion M qdd + C qd + N - Y (= 0)",
+}
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class Derivation:
+    """Named SymPy quantities (DESIGN.md section 4), intermediate steps and checks.
+
+    >>> d = derive(load_robot("rp_arm"))          # doctest: +SKIP
+    >>> d["N_g"]                                   # doctest: +SKIP
+    Matrix([[g*m*(l + q2)*cos(q1)], [g*m*sin(q1)]])
+    """
+
+    robot: Robot
+    symbols: SymbolTable
+    quantities: dict[str, Any]
+    steps: dict[str, Any] = field(default_factory=dict)
+    checks: list[Check] = field(default_factory=list)
+
+    def __getitem__(self, name: str) -> Any:
+        try:
+            return self.quantities[name]
+        except KeyError:
+            raise KeyError(f"no quantity {name!r}; available: {', '.join(self.quantities)}") from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.quantities
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.quantities)
+
+    @property
+    def all_checks_passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+
+def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
+    """Derive every quantity of ``robot`` and run the built-in consistency checks."""
+    from .generalized import derive_generalized
+
+    report = progress or (lambda stage: None)
+    table = SymbolTable.for_robot(robot)
+    report("kinematics")
+    links = planar_kinematics(robot, table)
+    report("generalized coordinates")
+    quantities, steps = derive_generalized(robot, table, links)
+    derivation = Derivation(robot, table, quantities, {"generalized": steps, "kinematics": links})
+    report("checks")
+    derivation.checks.append(check_zero(
+        "EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) equal the manipulator form (EOM_g2)",
+        sympy.Matrix(quantities["EOM_g1"]) - quantities["EOM_g2"], table.all_symbols()))
+    return derivation

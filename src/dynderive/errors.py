@@ -1,0 +1,46 @@
+"""Error classes of dynderive.
+
+Inner code raises these; only the CLI maps them to exit codes (2 for bad input, 1 for a
+missing tool or an internal error), so the library never prints or exits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+class DynderiveError(Exception):
+    """Base class of every error dynderive raises on purpose."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with an input file, with its 1-based position."""
+
+    file: str
+    line: int
+    column: int
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}: {self.message}"
+
+
+class InputError(DynderiveError):
+    """Bad input: one or more positioned problems (exit code 2).
+
+    The validator collects every problem of a file and raises once, so a user can fix a file
+    in one pass. ``str(error)`` is one ``FILE:LINE:COL: message`` line per problem.
+    """
+
+    def __init__(self, problems: list[Problem] | Problem):
+        self.problems = [problems] if isinstance(problems, Problem) else list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class ToolMissingError(DynderiveError):
+    """An external program (a TeX engine) is needed but not installed (exit code 1)."""
+
+
+class ExternalToolError(DynderiveError):
+    """An external program ran and failed, e.g. LaTeX could not compile a sheet (exit 1)."""

@@ -1,0 +1,63 @@
+"""Joint kinds, one small class each.
+
+A kind answers the few questions the planar kinematics asks: how the joint moves its child
+frame for a coordinate value (rotation and translation in the joint frame), and its unit
+twist in the joint frame. A new kind is one new class registered in ``KINDS``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy
+
+Vector2 = tuple[sympy.Expr, sympy.Expr]
+
+
+@dataclass(frozen=True)
+class PlanarMotion:
+    """Child frame relative to the joint frame: rotate by ``angle``, then shift by ``shift``."""
+
+    angle: sympy.Expr
+    shift: Vector2
+    #: Unit twist (vx, vy, omega) in the joint frame: the velocity per unit coordinate rate.
+    twist: tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+
+
+class JointKind:
+    moves = True
+
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        raise NotImplementedError
+
+
+class Revolute(JointKind):
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        zero = sympy.Integer(0)
+        return PlanarMotion(q, (zero, zero), (zero, zero, sympy.Integer(1)))
+
+
+class Prismatic(JointKind):
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        ux, uy = unit(axis)
+        zero = sympy.Integer(0)
+        return PlanarMotion(zero, (q * ux, q * uy), (ux, uy, zero))
+
+
+class Fixed(JointKind):
+    moves = False
+
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        zero = sympy.Integer(0)
+        return PlanarMotion(zero, (zero, zero), (zero, zero, zero))
+
+
+KINDS: dict[str, JointKind] = {"revolute": Revolute(), "prismatic": Prismatic(), "fixed": Fixed()}
+
+
+def unit(axis: tuple[sympy.Expr, ...]) -> tuple[sympy.Expr, ...]:
+    """Normalise an axis; numbers stay exact (``[3, 4]`` -> ``(3/5, 4/5)``)."""
+    norm = sympy.sqrt(sum(a**2 for a in axis))
+    if norm == 1:
+        return tuple(axis)
+    return tuple(sympy.radsimp(a / norm) for a in axis)

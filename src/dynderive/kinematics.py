@@ -1,0 +1,118 @@
+"""Planar kinematics: COM frames, their world poses and body Jacobians.
+
+A world position is kept as a sum of link-local vectors, each tagged with the angle of the
+frame it is written in. Expressing it in another frame rotates each group by the *relative*
+angle, which SymPy reduces on its own (``q1 + q2 - q1`` -> ``q2``), so body-frame quantities
+come out compact without any trigonometric simplification.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy
+
+from .joints import KINDS
+from .model import Robot
+from .symbols import SymbolTable
+
+
+@dataclass
+class RotatedSum:
+    """``sum_i Rot(angle_i) @ vector_i``; consecutive terms of one angle are merged."""
+
+    terms: list[tuple[sympy.Expr, list[sympy.Expr]]] = field(default_factory=list)
+
+    def add(self, angle: sympy.Expr, vector: tuple[sympy.Expr, sympy.Expr]) -> None:
+        if vector[0] == 0 and vector[1] == 0:
+            return
+        if self.terms and self.terms[-1][0] == angle:  # only the last: keeps tails exact
+            total = self.terms[-1][1]
+            total[0] += vector[0]
+            total[1] += vector[1]
+            return
+        self.terms.append((angle, [vector[0], vector[1]]))
+
+    def tail(self, start: int) -> RotatedSum:
+        return RotatedSum([(a, list(v)) for a, v in self.terms[start:]])
+
+    def copy(self) -> RotatedSum:
+        return self.tail(0)
+
+    def in_frame(self, frame_angle: sympy.Expr) -> sympy.Matrix:
+        """The vector expressed in a frame at ``frame_angle`` (world: 0)."""
+        grouped: dict[sympy.Expr, list[sympy.Expr]] = {}
+        for angle, (x, y) in self.terms:
+            relative = angle - frame_angle
+            slot = grouped.setdefault(relative, [sympy.Integer(0), sympy.Integer(0)])
+            slot[0] += x
+            slot[1] += y
+        out_x, out_y = sympy.Integer(0), sympy.Integer(0)
+        for relative, (x, y) in grouped.items():
+            c, s = sympy.cos(relative), sympy.sin(relative)
+            out_x += c * x - s * y
+            out_y += s * x + c * y
+        return sympy.Matrix([out_x, out_y])
+
+
+@dataclass
+class JointFrame:
+    """Where a moving joint sits on a link's path, for Jacobian columns."""
+
+    coordinate: int            # index into the generalized coordinates
+    position_index: int        # how many position terms lie before the joint frame origin
+    angle: sympy.Expr          # angle of the joint frame (before its own motion)
+    twist: tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+
+
+@dataclass
+class PlanarLinkKinematics:
+    """Kinematics of one link's COM frame."""
+
+    name: str
+    angle: sympy.Expr                 # world angle of the link (and COM) frame
+    com_position: RotatedSum          # world position of the COM, as a rotated sum
+    joint_origin: sympy.Matrix        # world position of the link frame origin (joint point)
+    body_jacobian: sympy.Matrix       # 3 x n: (vx, vy, omega) of the COM frame in its own axes
+
+    @property
+    def com_world(self) -> sympy.Matrix:
+        return self.com_position.in_frame(sympy.Integer(0))
+
+
+def planar_kinematics(robot: Robot, table: SymbolTable) -> list[PlanarLinkKinematics]:
+    """COM poses and body Jacobians of every link, in the file's link order."""
+    index_of = {name: i for i, name in enumerate(robot.coordinates)}
+    n = len(robot.coordinates)
+    results = []
+    for link in robot.links:
+        angle = sympy.Integer(0)
+        position = RotatedSum()
+        frames: list[JointFrame] = []
+        for joint in robot.path_to(link.name):
+            x, y, theta = (table.expr(e) for e in joint.origin)
+            position.add(angle, (x, y))
+            angle = angle + theta
+            kind = KINDS[joint.type]
+            q = table.q[index_of[joint.name]] if kind.moves else sympy.Integer(0)
+            axis = tuple(table.expr(e) for e in joint.axis)
+            motion = kind.planar(q, axis)  # type: ignore[arg-type]
+            if kind.moves:
+                frames.append(JointFrame(index_of[joint.name], len(position.terms), angle, motion.twist))
+            position.add(angle, motion.shift)
+            angle = angle + motion.angle
+        origin = position.in_frame(sympy.Integer(0))
+        cx, cy = (table.expr(e) for e in link.com)
+        position.add(angle, (cx, cy))
+        jacobian = sympy.zeros(3, n)
+        for frame in frames:
+            vx, vy, omega = frame.twist
+            # velocity of the COM from this joint: the joint's own translation rate, plus
+            # omega z x (COM - joint origin); both rotated into the COM frame.
+            lever = position.tail(frame.position_index).in_frame(angle)
+            own = RotatedSum([(frame.angle, [vx, vy])]).in_frame(angle)
+            jacobian[0, frame.coordinate] = own[0] - omega * lever[1]
+            jacobian[1, frame.coordinate] = own[1] + omega * lever[0]
+            jacobian[2, frame.coordinate] = omega
+        results.append(PlanarLinkKinematics(link.name, angle, position, origin, jacobian))
+    return results

@@ -1,0 +1,186 @@
+"""Read robot files into plain Python data, remembering where every value stands.
+
+The loader is one of only two modules that touch files (the other is the CLI). It turns a
+YAML document into ``SourceDocument``: the plain data (dicts, lists, scalars) plus a map from
+each value's path, e.g. ``("links", 1, "mass")``, to its 1-based ``(line, column)``, so that
+the validator can point at the exact spot of a problem long after parsing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import InputError, Problem
+
+Path_ = tuple[Any, ...]
+
+#: Longest robot file we read; protects against megabyte-sized junk.
+MAX_FILE_BYTES = 2_000_000
+
+
+@dataclass
+class SourceDocument:
+    """Parsed file contents with positions.
+
+    ``positions[path]`` is where the value at ``path`` starts; ``key_positions[path]`` is
+    where the key naming it starts (for "unknown key" errors); ``quoted[path]`` tells whether
+    a scalar was written in quotes (so expression errors can point inside the string).
+    """
+
+    file: str
+    data: Any
+    positions: dict[Path_, tuple[int, int]] = field(default_factory=dict)
+    key_positions: dict[Path_, tuple[int, int]] = field(default_factory=dict)
+    scalar_style: dict[Path_, str | None] = field(default_factory=dict)
+
+    def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
+        """Position of ``path``, falling back to the nearest enclosing value."""
+        table = self.key_positions if key else self.positions
+        probe = tuple(path)
+        while probe:
+            if probe in table:
+                return table[probe]
+            if probe in self.positions:
+                return self.positions[probe]
+            probe = probe[:-1]
+        return self.positions.get((), (1, 1))
+
+    def problem(self, path: Path_, message: str, key: bool = False, offset: int = 0) -> Problem:
+        line, column = self.where(path, key)
+        return Problem(self.file, line, column + offset, message)
+
+
+def bundled_robots_dir() -> Path:
+    """Directory of the robots shipped with dynderive (inside the wheel, or the checkout)."""
+    packaged = resources.files("dynderive") / "robots"
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parents[2] / "robots"
+
+
+def bundled_robot_names() -> list[str]:
+    directory = bundled_robots_dir()
+    return sorted(
+        p.stem for p in directory.glob("*") if p.suffix in {".yaml", ".yml", ".urdf"}
+    )
+
+
+def resolve_robot_path(robot: str | Path) -> Path:
+    """A path as given, or the file of a bundled robot called ``robot``."""
+    path = Path(robot)
+    if path.exists() or path.suffix in {".yaml", ".yml", ".urdf"} or len(path.parts) > 1:
+        return path
+    for suffix in (".yaml", ".yml", ".urdf"):
+        candidate = bundled_robots_dir() / f"{robot}{suffix}"
+        if candidate.is_file():
+            return candidate
+    names = ", ".join(bundled_robot_names())
+    raise InputError(
+        Problem(str(robot), 1, 1, f"no such file, and no bundled robot of that name "
+                f"(bundled: {names})")
+    )
+
+
+def read_text(path: Path) -> str:
+    display = str(path)
+    try:
+        if path.stat().st_size > MAX_FILE_BYTES:
+            raise InputError(Problem(display, 1, 1, f"file is larger than {MAX_FILE_BYTES} bytes"))
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(Problem(display, 1, 1, "no such file")) from None
+    except IsADirectoryError:
+        raise InputError(Problem(display, 1, 1, "is a directory, not a robot file")) from None
+    except OSError as exc:
+        raise InputError(Problem(display, 1, 1, f"cannot read file: {exc.strerror}")) from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise InputError(Problem(display, line, column, "file is not valid UTF-8")) from None
+
+
+class _Composer(yaml.SafeLoader):
+    """Safe loader used only to compose nodes; values are built by ``_build``."""
+
+
+def parse_yaml(text: str, file: str) -> SourceDocument:
+    """Parse YAML text, keeping positions and rejecting duplicate keys."""
+    try:
+        loader = _Composer(text)
+        try:
+            node = loader.get_single_node()
+        finally:
+            loader.dispose()
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+        what = exc.problem or exc.context or "invalid YAML"
+        raise InputError(Problem(file, line, column, f"YAML syntax error: {what}")) from None
+    except yaml.YAMLError as exc:  # pragma: no cover - defensive, PyYAML marks nearly all
+        raise InputError(Problem(file, 1, 1, f"YAML syntax error: {exc}")) from None
+    except RecursionError:
+        raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
+
+    document = SourceDocument(file=file, data=None)
+    if node is None:
+        document.data = None
+        document.positions[()] = (1, 1)
+        return document
+    problems: list[Problem] = []
+    try:
+        document.data = _build(node, (), document, problems, _Composer(""))
+    except RecursionError:
+        raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
+    if problems:
+        raise InputError(problems)
+    return document
+
+
+def _mark(node: yaml.Node) -> tuple[int, int]:
+    return node.start_mark.line + 1, node.start_mark.column + 1
+
+
+def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Problem],
+           constructor: yaml.SafeLoader) -> Any:
+    doc.positions[path] = _mark(node)
+    if isinstance(node, yaml.MappingNode):
+        result: dict[Any, Any] = {}
+        for key_node, value_node in node.value:
+            if not isinstance(key_node, yaml.ScalarNode):
+                line, column = _mark(key_node)
+                problems.append(Problem(doc.file, line, column, "mapping keys must be plain names"))
+                continue
+            key = constructor.construct_object(key_node)
+            if not isinstance(key, str):
+                key = str(key_node.value)
+            if key in result:
+                line, column = _mark(key_node)
+                first = doc.key_positions[path + (key,)]
+                problems.append(Problem(doc.file, line, column,
+                                        f"duplicate key '{key}' (first given at line {first[0]})"))
+                continue
+            doc.key_positions[path + (key,)] = _mark(key_node)
+            result[key] = _build(value_node, path + (key,), doc, problems, constructor)
+        return result
+    if isinstance(node, yaml.SequenceNode):
+        return [_build(item, path + (i,), doc, problems, constructor)
+                for i, item in enumerate(node.value)]
+    doc.scalar_style[path] = node.style
+    try:
+        return constructor.construct_object(node)
+    except yaml.constructor.ConstructorError as exc:
+        line, column = _mark(node)
+        problems.append(Problem(doc.file, line, column, f"invalid value: {exc.problem}"))
+        return None
+
+
+def load_document(path: Path) -> SourceDocument:
+    """Read and parse one YAML robot file."""
+    return parse_yaml(read_text(path), str(path))

@@ -1,0 +1,104 @@
+"""The robot description as plain typed data (no SymPy).
+
+``Robot`` holds what the file says, already validated: names, tree structure and the
+expression *texts* of masses, inertias and offsets (parsed again by the kinematics). It fits
+3-D robots and branching trees even where only planar chains are derived yet.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+JointType = Literal["revolute", "prismatic", "fixed"]
+Expression = str | int | float
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A free symbol of the robot, with an optional default value."""
+
+    name: str
+    value: float | None = None
+    unit: str = ""
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Link:
+    """A rigid body. ``com`` is in the link frame; ``inertia`` is about the COM.
+
+    Planar: ``inertia`` has one entry (about z). Spatial: six entries
+    ``(ixx, iyy, izz, ixy, ixz, iyz)`` in link axes.
+    """
+
+    name: str
+    mass: Expression
+    com: tuple[Expression, ...]
+    inertia: tuple[Expression, ...]
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint between ``parent`` (a link name or ``world``) and ``child``.
+
+    ``origin`` places the joint frame in the parent link frame at q = 0: planar
+    ``(x, y, theta)``, spatial ``(x, y, z, roll, pitch, yaw)``. ``axis`` is the motion axis
+    in the joint frame (planar prismatic: 2 entries; spatial: 3 entries).
+    """
+
+    name: str
+    type: JointType
+    parent: str
+    child: str
+    origin: tuple[Expression, ...]
+    axis: tuple[Expression, ...]
+    effort: str | None = None
+
+    @property
+    def moves(self) -> bool:
+        """Whether the joint has a coordinate (fixed joints do not)."""
+        return self.type != "fixed"
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A validated robot description. Links and joints keep the file's order."""
+
+    name: str
+    title: str
+    planar: bool
+    parameters: tuple[Parameter, ...]
+    gravity: tuple[Expression, ...]
+    links: tuple[Link, ...]
+    joints: tuple[Joint, ...]
+    maximal_constraints: tuple[Expression, ...] | None = None
+    source: str = ""
+    #: Where each named item was written, for errors found after validation.
+    positions: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        """Names of the generalized coordinates: the moving joints, in file order."""
+        return tuple(j.name for j in self.joints if j.moves)
+
+    @property
+    def efforts(self) -> tuple[str, ...]:
+        """Names of the actuator efforts, in joint order (unactuated joints give none)."""
+        return tuple(j.effort for j in self.joints if j.moves and j.effort)
+
+    def link(self, name: str) -> Link:
+        return next(link for link in self.links if link.name == name)
+
+    def parent_joint(self, link_name: str) -> Joint:
+        return next(j for j in self.joints if j.child == link_name)
+
+    def path_to(self, link_name: str) -> list[Joint]:
+        """Joints from the world down to ``link_name``, root first."""
+        path: list[Joint] = []
+        name = link_name
+        while name != "world":
+            joint = self.parent_joint(name)
+            path.append(joint)
+            name = joint.parent
+        return path[::-1]

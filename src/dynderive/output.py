@@ -1,0 +1,35 @@
+"""Atomic output: every file is written to a temporary sibling, then renamed into place.
+
+All outputs of a run are rendered in memory first; ``write_all`` then writes each to a
+temporary file and renames them only once all are written, so a failed or interrupted run
+leaves earlier outputs untouched and no stray temporaries.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+
+def write_all(files: dict[Path, bytes]) -> None:
+    staged: list[tuple[str, Path]] = []
+    try:
+        for path, data in files.items():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            staged.append((temp, path))
+            with os.fdopen(fd, "wb") as handle:
+                handle.write(data)
+                handle.flush()
+                os.fsync(handle.fileno())
+        for temp, path in staged:
+            os.chmod(temp, 0o644)
+            os.replace(temp, path)
+        staged.clear()
+    finally:
+        for temp, _ in staged:
+            try:
+                os.unlink(temp)
+            except FileNotFoundError:
+                pass

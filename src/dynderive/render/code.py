@@ -1,0 +1,127 @@
+"""The generated NumPy module: CSE per function, a NumPy printer, blocks into a template."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import sympy
+from sympy.printing.numpy import NumPyPrinter
+
+from ..derivation import Derivation
+from .environment import render
+
+CODE_TEMPLATE = "dynamics.py.j2"
+
+
+class _Printer(NumPyPrinter):
+    """NumPy printer that writes ``np.sin`` rather than ``numpy.sin``."""
+
+    def _module_format(self, fqn: str, register: bool = True) -> str:
+        text = super()._module_format(fqn, register)
+        return "np." + text[len("numpy."):] if text.startswith("numpy.") else text
+
+
+@dataclass
+class Argument:
+    """An array argument: its name and the symbols it carries along its last axis."""
+
+    name: str
+    symbols: list[sympy.Symbol]
+    doc: str
+
+
+@dataclass
+class ExpressionFunction:
+    """A generated function whose result is one SymPy matrix, evaluated entry by entry."""
+
+    name: str
+    doc: str
+    arguments: list[Argument]
+    shape: tuple[int, ...]
+    unpack: list[tuple[str, str, int]]   # (symbol, argument, index)
+    lines: list[tuple[str, str]]          # CSE temporaries
+    entries: list[tuple[str, str]]        # (index text, expression)
+
+    @property
+    def shape_text(self) -> str:
+        return repr(tuple(self.shape))
+
+
+def expression_function(name: str, doc: str, arguments: list[Argument], value: Any,
+                        printer: _Printer, parameters: set[sympy.Symbol]) -> ExpressionFunction:
+    """Eliminate common subexpressions of ``value`` and print it as NumPy code."""
+    matrix = value if isinstance(value, sympy.MatrixBase) else sympy.Matrix([[value]])
+    scalar = not isinstance(value, sympy.MatrixBase)
+    column = not scalar and matrix.shape[1] == 1
+    cells = [(i, j) for i in range(matrix.shape[0]) for j in range(matrix.shape[1])
+             if matrix[i, j] != 0]
+    exprs = [matrix[i, j] for i, j in cells]
+    temporaries, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("t"), order="canonical")
+    used = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in temporaries)) if exprs else set()
+    unpack = []
+    for arg in arguments:
+        for index, symbol in enumerate(arg.symbols):
+            if symbol in used:
+                unpack.append((str(symbol), arg.name, index))
+    lines = [(str(t), printer.doprint(e)) for t, e in temporaries]
+    entries = []
+    for (i, j), expr in zip(cells, reduced):
+        index = "" if scalar else (f"{i}" if column else f"{i}, {j}")
+        entries.append((index, printer.doprint(expr)))
+    shape = () if scalar else ((matrix.shape[0],) if column else tuple(matrix.shape))
+    return ExpressionFunction(name, doc, arguments, shape, unpack, lines, entries)
+
+
+def code_context(derivation: Derivation) -> dict[str, Any]:
+    """Every variable the code template can use (documented in docs/templates.md)."""
+    robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
+    printer = _Printer({"fully_qualified_modules": True, "strict": False})
+    params = set(table.parameters.values())
+    n = len(table.q)
+    q = Argument("q", table.q, f"joint coordinates {tuple(robot.coordinates)}, shape (..., {n})")
+    qd = Argument("qd", table.qd, f"joint velocities, shape (..., {n})")
+    u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
+    functions = [
+        expression_function("mass_matrix", f"Mass matrix M_g(q), shape (..., {n}, {n}).", [q],
+                            quantities["M_g"], printer, params),
+        expression_function("coriolis_matrix", f"Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., {n}, {n}).",
+                            [q, qd], quantities["C_g"], printer, params),
+        expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
+                            quantities["N_g"], printer, params),
+        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
+                            [q, u], quantities["Y_g"], printer, params),
+        expression_function("kinetic_energy", "Kinetic energy T_g(q, qd), shape (...).", [q, qd],
+                            quantities["T_g"], printer, params),
+        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
+                            quantities["V_g"], printer, params),
+    ]
+    parameters = []
+    for p in robot.parameters:
+        parameters.append({"name": p.name, "default": None if p.value is None else repr(p.value),
+                           "unit": p.unit, "description": p.description})
+    from .. import __version__
+
+    return {
+        "generator": f"dynderive {__version__}",
+        "source": Path(robot.source).name,
+        "robot": {"name": robot.name, "title": robot.title},
+        "parameters": parameters,
+        "coordinates": list(robot.coordinates),
+        "coordinates_tuple": _tuple(robot.coordinates),
+        "efforts": list(robot.efforts),
+        "efforts_tuple": _tuple(robot.efforts),
+        "dof": n,
+        "functions": functions,
+    }
+
+
+def _tuple(names: tuple[str, ...]) -> str:
+    """Python source of a tuple of strings, with double quotes as ruff formats them."""
+    items = ", ".join(f'"{n}"' for n in names)
+    return f"({items},)" if len(names) == 1 else f"({items})"
+
+
+def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    return render("code", CODE_TEMPLATE, code_context(derivation), template_dir)

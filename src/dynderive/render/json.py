@@ -1,0 +1,47 @@
+"""The JSON dump of every derived quantity (DESIGN.md section 5).
+
+``{"robot": NAME, "quantities": {NAME: {"shape": [r, c], "sympy": STR, "latex": STR}}}``.
+Scalars have shape ``[1, 1]`` and a bare expression as ``sympy``; matrices print as
+``Matrix([[...]])``. Every ``sympy`` string parses back with
+``sympy.sympify(text, locals={name: sympy.Symbol(name) for name in ...})``.
+"""
+
+from __future__ import annotations
+
+import json
+
+import sympy
+
+from ..derivation import DESCRIPTIONS, Derivation
+from .latex import Formatter
+
+
+def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict[str, object]:
+    if isinstance(value, sympy.MatrixBase):
+        shape = [int(value.shape[0]), int(value.shape[1])]
+        text = "Matrix([" + ", ".join(
+            "[" + ", ".join(sympy.sstr(value[i, j], order="lex") for j in range(value.shape[1])) + "]"
+            for i in range(value.shape[0])) + "])"
+    else:
+        shape = [1, 1]
+        text = sympy.sstr(value, order="lex")
+    entry: dict[str, object] = {"shape": shape, "sympy": text, "latex": fmt(value)}
+    if description:
+        entry["description"] = description
+    return entry
+
+
+def render_json(derivation: Derivation) -> str:
+    fmt = Formatter(derivation)
+    quantities = {name: quantity_entry(value, fmt, DESCRIPTIONS.get(name, ""))
+                  for name, value in derivation.quantities.items()}
+    document = {
+        "robot": derivation.robot.name,
+        "coordinates": list(derivation.robot.coordinates),
+        "efforts": list(derivation.robot.efforts),
+        "parameters": {p.name: p.value for p in derivation.robot.parameters},
+        "quantities": quantities,
+        "checks": [{"name": c.name, "description": c.description, "passed": c.passed,
+                    "method": c.method, "residual": c.residual} for c in derivation.checks],
+    }
+    return json.dumps(document, indent=2, ensure_ascii=False) + "\n"

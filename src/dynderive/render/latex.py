@@ -1,0 +1,119 @@
+"""The LaTeX solution sheet: quantities turned into LaTeX strings, laid out by a template."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import sympy
+
+from ..derivation import Derivation
+from .environment import render
+
+#: A matrix whose LaTeX is longer than this is typeset entry by entry.
+WIDE_MATRIX = 320
+SHEET_TEMPLATE = "sheet.tex.j2"
+
+_SPECIALS = {
+    "\\": r"\textbackslash{}", "{": r"\{", "}": r"\}", "$": r"\$", "&": r"\&", "#": r"\#",
+    "^": r"\textasciicircum{}", "_": r"\_", "~": r"\textasciitilde{}", "%": r"\%",
+}
+
+
+def escape_tex(text: object) -> str:
+    """Free text for LaTeX: every special character appears literally."""
+    return "".join(_SPECIALS.get(ch, ch) for ch in str(text))
+
+
+class Formatter:
+    """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``)."""
+
+    def __init__(self, derivation: Derivation):
+        self.names = derivation.symbols.latex_names()
+
+    def __call__(self, expr: Any) -> str:
+        return sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
+                           mul_symbol=None, long_frac_ratio=2)
+
+    def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
+        """A matrix as a whole (``wide`` False) or as its non-zero entries."""
+        whole = self(matrix)
+        rows, cols = matrix.shape
+        entries = []
+        for i in range(rows):
+            for j in range(cols):
+                if matrix[i, j] != 0:
+                    index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
+                    entries.append({"name": f"{name}_{{{index}}}", "latex": self(matrix[i, j])})
+        return {"latex": whole, "wide": len(whole) > WIDE_MATRIX, "entries": entries,
+                "shape": [rows, cols]}
+
+
+def sheet_context(derivation: Derivation) -> dict[str, Any]:
+    """Every variable the sheet template can use (documented in docs/templates.md)."""
+    fmt = Formatter(derivation)
+    robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
+    gen = derivation.steps["generalized"]
+    coordinate_latex = [fmt(s) for s in table.q]
+    lagrange = []
+    for i, name in enumerate(robot.coordinates):
+        lagrange.append({
+            "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
+            "dL_dqd": fmt(gen["lagrange"]["dL_dqd"][i]),
+            "ddt_dL_dqd": fmt(gen["lagrange"]["ddt_dL_dqd"][i]),
+            "dL_dq": fmt(gen["lagrange"]["dL_dq"][i]),
+            "effort": fmt(q["Y_g"][i]),
+            "equation": fmt(q["EOM_g1"][i]),
+        })
+    links = []
+    for t in gen["links"]:
+        links.append({
+            "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
+            "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
+            "jacobian": fmt(t.body_jacobian), "velocity": fmt(t.body_velocity),
+            "com": fmt(t.com_position), "angle": fmt(t.angle), "kinetic": fmt(t.kinetic),
+            "potential": fmt(t.potential),
+        })
+    parameters = [{
+        "symbol": fmt(table.parameters[p.name]),
+        "value": "" if p.value is None else f"{p.value:g}",
+        "unit": escape_tex(p.unit), "description": escape_tex(p.description),
+    } for p in robot.parameters]
+    joints = [{
+        "name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),
+        "child": escape_tex(j.child),
+        "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else "",
+        "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
+    } for j in robot.joints]
+    return {
+        "generator": f"dynderive {_version()}",
+        "source": escape_tex(Path(robot.source).name),
+        "robot": {"name": escape_tex(robot.name), "title": escape_tex(robot.title),
+                  "planar": robot.planar, "parameters": parameters, "joints": joints,
+                  "gravity": fmt(gen["gravity"])},
+        "dof": len(robot.coordinates),
+        "coordinates": coordinate_latex,
+        "q_g": fmt(sympy.Matrix(table.q)),
+        "qd_g": fmt(sympy.Matrix(table.qd)),
+        "links": links,
+        "T_g": fmt(q["T_g"]), "V_g": fmt(q["V_g"]), "L_g": fmt(q["L_g"]),
+        "Y_g": fmt(q["Y_g"]),
+        "lagrange": lagrange,
+        "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]),
+        "M_g": fmt.matrix("M", q["M_g"]),
+        "C_g": fmt.matrix("C", q["C_g"]),
+        "N_g": fmt.matrix("N", q["N_g"]),
+        "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
+        "checks": [{"description": escape_tex(c.description), "passed": c.passed,
+                    "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks],
+    }
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
+
+
+def render_latex(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    return render("latex", SHEET_TEMPLATE, sheet_context(derivation), template_dir)

@@ -1,0 +1,30 @@
+"""Plain-text summary of a derivation for the terminal (no output flag given)."""
+
+from __future__ import annotations
+
+import sympy
+
+from ..derivation import Derivation
+
+
+def _block(title: str, value: object) -> str:
+    art = sympy.pretty(value, use_unicode=True, wrap_line=False, order="none")
+    return f"{title}\n{art}\n"
+
+
+def render_terminal(derivation: Derivation) -> str:
+    robot, q = derivation.robot, derivation.quantities
+    coords = ", ".join(robot.coordinates)
+    parts = [
+        f"{robot.title} ({robot.name}): {len(robot.coordinates)} DOF, coordinates ({coords})",
+        "",
+        "Equations of motion  M(q) q'' + C(q, q') q' + N(q) = Y",
+        "",
+        _block("M(q) =", q["M_g"]),
+        _block("C(q, q') =", q["C_g"]),
+        _block("N(q) =", q["N_g"]),
+        _block("Y =", q["Y_g"]),
+        "Checks:",
+    ]
+    parts += [f"  {c.summary()}" for c in derivation.checks]
+    return "\n".join(parts) + "\n"

@@ -1,0 +1,495 @@
+"""Validate a parsed robot file and build the ``Robot`` it describes.
+
+Every problem is collected with its position and raised once as an ``InputError``, so a
+user sees all of them in one run. Expressions are parsed here (safely) only to check them;
+the kinematics parses them again from the texts kept in ``Robot``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import keyword
+import math
+import re
+from collections.abc import Iterable
+from typing import Any
+
+import sympy
+
+from .errors import InputError, Problem
+from .expressions import RESERVED, ExpressionError, parse_expression
+from .loader import SourceDocument
+from .model import Joint, Link, Parameter, Robot
+
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+JOINT_TYPES = ("revolute", "prismatic", "fixed")
+
+TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "maximal")
+PARAMETER_KEYS = ("value", "unit", "description")
+LINK_KEYS = ("name", "mass", "com", "inertia")
+JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort")
+MAXIMAL_KEYS = ("constraints",)
+ORIGIN_KEYS = ("xyz", "rpy")
+
+#: Names the generated module defines or uses; robot symbols may not take them.
+MODULE_NAMES = frozenset({
+    "np", "numpy", "math", "q", "qd", "qdd", "u", "qm", "qmd", "p", "out", "result",
+    "PARAMETERS", "COORDINATES", "EFFORTS", "MAXIMAL_COORDINATES", "mass_matrix",
+    "coriolis_matrix", "gravity_vector", "inverse_dynamics", "forward_dynamics",
+    "kinetic_energy", "potential_energy", "generalized_forces", "maximal_mass_matrix",
+    "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts", "constraints",
+    "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
+    "to_maximal_jacobian", "maximal_forward_dynamics", "world",
+})
+
+
+def velocity_name(name: str) -> str:
+    """``q1`` -> ``qd1``; ``phi2`` -> ``phid2``; ``x`` -> ``xd``."""
+    stem, digits = split_index(name)
+    return f"{stem}d{digits}"
+
+
+def acceleration_name(name: str) -> str:
+    stem, digits = split_index(name)
+    return f"{stem}dd{digits}"
+
+
+def split_index(name: str) -> tuple[str, str]:
+    match = re.fullmatch(r"(.*?)(\d*)", name)
+    assert match is not None
+    stem, digits = match.group(1), match.group(2)
+    if not stem:  # a name of digits only cannot happen (identifiers), keep it whole
+        return name, ""
+    return stem, digits
+
+
+def maximal_coordinate_names(link_count: int) -> list[str]:
+    """Planar maximal coordinates: ``x<k>, y<k>, phi<k>`` of each link's COM frame."""
+    return [f"{v}{k}" for k in range(1, link_count + 1) for v in ("x", "y", "phi")]
+
+
+class _Validator:
+    def __init__(self, doc: SourceDocument):
+        self.doc = doc
+        self.problems: list[Problem] = []
+
+    # -- reporting -------------------------------------------------------------------
+    def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
+        self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
+
+    def label(self, path: tuple[Any, ...]) -> str:
+        text = ""
+        for part in path:
+            text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+        return text or "document"
+
+    # -- generic checks ----------------------------------------------------------------
+    def mapping(self, value: Any, path: tuple[Any, ...], allowed: Iterable[str],
+                required: Iterable[str] = ()) -> dict[str, Any] | None:
+        if not isinstance(value, dict):
+            self.error(path, f"{self.label(path)}: expected a mapping, got {_kind(value)}")
+            return None
+        allowed = tuple(allowed)
+        for key in value:
+            if key not in allowed:
+                close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+                hint = f" (did you mean '{close[0]}'?)" if close else f" (allowed: {', '.join(allowed)})"
+                self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}",
+                           key=True)
+        for key in required:
+            if key not in value:
+                self.error(path, f"{self.label(path)}: missing required key '{key}'")
+        return value
+
+    def identifier(self, value: Any, path: tuple[Any, ...], what: str) -> str | None:
+        if not isinstance(value, str) or not IDENTIFIER.match(value):
+            self.error(path, f"{self.label(path)}: {what} must be an identifier "
+                       f"(letters, digits, '_'), got {value!r}")
+            return None
+        if keyword.iskeyword(value):
+            self.error(path, f"{self.label(path)}: {what} '{value}' is a Python keyword")
+            return None
+        return value
+
+    def text(self, value: Any, path: tuple[Any, ...], default: str = "") -> str:
+        if value is None:
+            return default
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return str(value)
+        if not isinstance(value, str):
+            self.error(path, f"{self.label(path)}: expected text, got {_kind(value)}")
+            return default
+        return value
+
+    def expression(self, value: Any, path: tuple[Any, ...], symbols: dict[str, sympy.Expr]) -> sympy.Expr | None:
+        try:
+            return parse_expression(value, symbols)
+        except ExpressionError as exc:
+            offset = 0
+            style = self.doc.scalar_style.get(path)
+            if isinstance(value, str) and "\n" not in value:
+                offset = exc.offset + (1 if style in ("'", '"') else 0)
+                if style == '"' and "\\" in value:
+                    offset = 0
+            self.error(path, f"{self.label(path)}: {exc}", offset=offset)
+            return None
+
+    def vector(self, value: Any, path: tuple[Any, ...], lengths: tuple[int, ...],
+               symbols: dict[str, sympy.Expr]) -> list[sympy.Expr | None] | None:
+        if not isinstance(value, list):
+            self.error(path, f"{self.label(path)}: expected a list of {_lengths(lengths)} "
+                       f"entries, got {_kind(value)}")
+            return None
+        if len(value) not in lengths:
+            self.error(path, f"{self.label(path)}: expected {_lengths(lengths)} entries, "
+                       f"got {len(value)}")
+            return None
+        return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
+
+
+def _kind(value: Any) -> str:
+    if value is None:
+        return "nothing"
+    return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
+            dict: "a mapping"}.get(type(value), type(value).__name__)
+
+
+def _lengths(lengths: tuple[int, ...]) -> str:
+    return " or ".join(str(n) for n in lengths)
+
+
+def _numeric(expr: sympy.Expr | None, defaults: dict[sympy.Symbol, sympy.Float]) -> float | None:
+    """Value of ``expr`` with the parameter defaults, or None if it is not a number."""
+    if expr is None:
+        return None
+    try:
+        value = complex(expr.xreplace(defaults).evalf())
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+    if value.imag != 0 or not math.isfinite(value.real):
+        return None
+    return value.real
+
+
+def validate(doc: SourceDocument) -> Robot:
+    """Check a parsed robot file and return its ``Robot``; raise ``InputError`` otherwise."""
+    v = _Validator(doc)
+    top = v.mapping(doc.data, (), TOP_KEYS, required=("name", "links", "joints", "gravity"))
+    if top is None:
+        raise InputError(v.problems)
+
+    name = v.identifier(top.get("name"), ("name",), "robot name") if "name" in top else None
+    title = v.text(top.get("title"), ("title",), default=name or "")
+    planar = top.get("planar", False)
+    if not isinstance(planar, bool):
+        v.error(("planar",), f"planar: expected true or false, got {planar!r}")
+        planar = True
+
+    # parameters ---------------------------------------------------------------------
+    parameters: list[Parameter] = []
+    raw_parameters = top.get("parameters", {}) or {}
+    if not isinstance(raw_parameters, dict):
+        v.error(("parameters",), f"parameters: expected a mapping of name: value, got "
+                f"{_kind(raw_parameters)}")
+        raw_parameters = {}
+    for pname, spec in raw_parameters.items():
+        path = ("parameters", pname)
+        if v.identifier(pname, path, "parameter name") is None:
+            continue
+        if pname in RESERVED:
+            v.error(path, f"parameters.{pname}: '{pname}' is a built-in function or constant", key=True)
+            continue
+        value, unit, description = spec, "", ""
+        if isinstance(spec, dict):
+            v.mapping(spec, path, PARAMETER_KEYS)
+            value = spec.get("value")
+            unit = v.text(spec.get("unit"), path + ("unit",))
+            description = v.text(spec.get("description"), path + ("description",))
+            vpath = path + ("value",)
+        else:
+            vpath = path
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
+            v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {_kind(value)}")
+            value = None
+        elif value is not None and not math.isfinite(float(value)):
+            v.error(vpath, f"{v.label(vpath)}: default value must be finite, got {value}")
+            value = None
+        parameters.append(Parameter(pname, None if value is None else float(value), unit, description))
+    symbols = {p.name: sympy.Symbol(p.name) for p in parameters}
+    defaults = {sympy.Symbol(p.name): sympy.Float(p.value) for p in parameters if p.value is not None}
+
+    dimension = 2 if planar else 3
+    gravity = v.vector(top.get("gravity"), ("gravity",), (dimension,), symbols) if "gravity" in top else None
+
+    # links ----------------------------------------------------------------------------
+    links: list[Link] = []
+    raw_links = top.get("links")
+    if "links" in top and (not isinstance(raw_links, list) or not raw_links):
+        v.error(("links",), f"links: expected a non-empty list of links, got {_kind(raw_links)}")
+        raw_links = []
+    link_names: dict[str, tuple[Any, ...]] = {}
+    for i, raw in enumerate(raw_links or []):
+        path = ("links", i)
+        item = v.mapping(raw, path, LINK_KEYS, required=("name", "mass"))
+        if item is None:
+            continue
+        lname = v.identifier(item.get("name"), path + ("name",), "link name") if "name" in item else None
+        if lname == "world":
+            v.error(path + ("name",), f"links[{i}].name: 'world' is reserved for the fixed frame")
+            lname = None
+        if lname is not None:
+            if lname in link_names:
+                v.error(path + ("name",), f"links[{i}].name: duplicate link name '{lname}'")
+            link_names.setdefault(lname, path)
+        mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
+        value = _numeric(mass, defaults)
+        if value is not None and value <= 0:
+            v.error(path + ("mass",), f"links[{i}].mass: must be positive (got {value:g})")
+        com = item.get("com", [0] * dimension)
+        v.vector(com, path + ("com",), (dimension,), symbols)
+        inertia = _inertia(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
+                           planar, symbols, defaults)
+        links.append(Link(lname or f"link{i + 1}", item.get("mass", 1), tuple(com) if isinstance(com, list) else (),
+                          inertia))
+
+    # joints ---------------------------------------------------------------------------
+    joints: list[Joint] = []
+    raw_joints = top.get("joints")
+    if "joints" in top and (not isinstance(raw_joints, list) or not raw_joints):
+        v.error(("joints",), f"joints: expected a non-empty list of joints, got {_kind(raw_joints)}")
+        raw_joints = []
+    joint_names: set[str] = set()
+    for i, raw in enumerate(raw_joints or []):
+        path = ("joints", i)
+        item = v.mapping(raw, path, JOINT_KEYS, required=("name", "type", "parent", "child"))
+        if item is None:
+            continue
+        jname = v.identifier(item.get("name"), path + ("name",), "joint name") if "name" in item else None
+        if jname is not None and jname in joint_names:
+            v.error(path + ("name",), f"joints[{i}].name: duplicate joint name '{jname}'")
+        if jname:
+            joint_names.add(jname)
+        jtype = item.get("type")
+        if "type" in item and jtype not in JOINT_TYPES:
+            extra = {"continuous": " (write 'revolute')", "floating": "", "planar": ""}.get(str(jtype), "")
+            v.error(path + ("type",), f"joints[{i}].type: unsupported joint type {jtype!r}; "
+                    f"expected one of {', '.join(JOINT_TYPES)}{extra}")
+            jtype = None
+        parent, child = item.get("parent"), item.get("child")
+        if "parent" in item and parent != "world" and parent not in link_names:
+            v.error(path + ("parent",), f"joints[{i}].parent: unknown link {parent!r}"
+                    + _did_you_mean(parent, [*link_names, "world"]))
+        if "child" in item:
+            if child == "world":
+                v.error(path + ("child",), f"joints[{i}].child: 'world' cannot be a child")
+            elif child not in link_names:
+                v.error(path + ("child",), f"joints[{i}].child: unknown link {child!r}"
+                        + _did_you_mean(child, list(link_names)))
+        origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
+        axis = _axis(v, item, path, jtype, planar, symbols, defaults)
+        effort = item.get("effort")
+        if effort is not None:
+            effort = v.identifier(effort, path + ("effort",), "effort name")
+            if effort is not None and jtype == "fixed":
+                v.error(path + ("effort",), f"joints[{i}].effort: a fixed joint has no effort")
+                effort = None
+        joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
+                            origin, axis, effort))
+
+    _check_tree(v, joints, link_names)
+    _check_names(v, parameters, links, joints, planar)
+
+    # maximal ---------------------------------------------------------------------------
+    constraints = None
+    if "maximal" in top:
+        block = v.mapping(top["maximal"], ("maximal",), MAXIMAL_KEYS)
+        if block is not None and "constraints" in block:
+            raw_constraints = block["constraints"]
+            cpath = ("maximal", "constraints")
+            if not planar:
+                v.error(cpath, "maximal.constraints: maximal coordinates are planar-only for now")
+            elif not isinstance(raw_constraints, list):
+                v.error(cpath, f"maximal.constraints: expected a list of expressions, got "
+                        f"{_kind(raw_constraints)}")
+            else:
+                names = maximal_coordinate_names(len(links))
+                scope = dict(symbols) | {n: sympy.Symbol(n) for n in names}
+                for k, expr in enumerate(raw_constraints):
+                    v.expression(expr, cpath + (k,), scope)
+                needed = 3 * len(links) - sum(1 for j in joints if j.moves)
+                if len(raw_constraints) != needed:
+                    v.error(cpath, f"maximal.constraints: expected {needed} constraints "
+                            f"(3 per link minus {sum(1 for j in joints if j.moves)} degrees of "
+                            f"freedom), got {len(raw_constraints)}")
+                constraints = tuple(raw_constraints)
+
+    if not planar and not v.problems:
+        v.error(("planar",) if "planar" in top else (),
+                "3-D robots (planar: false) are not supported yet; this version derives "
+                "planar robots only", key="planar" in top)
+    if v.problems:
+        raise InputError(v.problems)
+    positions = {f"joint:{j.name}": doc.where(("joints", i)) for i, j in enumerate(joints)}
+    positions |= {f"link:{lk.name}": doc.where(("links", i)) for i, lk in enumerate(links)}
+    positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
+    return Robot(
+        name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
+        gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
+        maximal_constraints=constraints, source=doc.file, positions=positions,
+    )
+
+
+def _did_you_mean(value: Any, options: list[str]) -> str:
+    close = difflib.get_close_matches(str(value), options, n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def _inertia(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,
+             symbols: dict[str, sympy.Expr], defaults: dict[sympy.Symbol, sympy.Float]) -> tuple[Any, ...]:
+    label = v.label(path)
+    if planar:
+        if isinstance(value, list):
+            v.error(path, f"{label}: a planar link takes one scalar inertia about the COM")
+            return (0,)
+        expr = v.expression(value, path, symbols)
+        number = _numeric(expr, defaults)
+        if number is not None and number < 0:
+            v.error(path, f"{label}: must not be negative (got {number:g})")
+        return (value,)
+    if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
+        rows = value
+        if any(len(r) != 3 for r in rows):
+            v.error(path, f"{label}: a 3x3 inertia needs three rows of three entries")
+            return (0,) * 6
+        flat = [rows[0][0], rows[1][1], rows[2][2], rows[0][1], rows[0][2], rows[1][2]]
+        exprs = [v.expression(rows[r][c], path + (r, c), symbols) for r in range(3) for c in range(3)]
+        for (r, c) in ((0, 1), (0, 2), (1, 2)):
+            a, b = exprs[3 * r + c], exprs[3 * c + r]
+            if a is not None and b is not None and sympy.expand(a - b) != 0:
+                v.error(path + (c, r), f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}])")
+        values = [_numeric(e, defaults) for e in (exprs[0], exprs[4], exprs[8], exprs[1], exprs[2], exprs[5])]
+    else:
+        entries = v.vector(value, path, (6,), symbols)
+        if entries is None:
+            return (0,) * 6
+        flat = list(value)
+        values = [_numeric(e, defaults) for e in entries]
+    if all(x is not None for x in values):
+        ixx, iyy, izz, ixy, ixz, iyz = values  # type: ignore[misc]
+        tensor = [[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]
+        import numpy as np
+
+        eig = np.linalg.eigvalsh(np.array(tensor, dtype=float))
+        tol = 1e-12 * max(1.0, float(np.max(np.abs(eig))))
+        if eig[0] < -tol:
+            v.error(path, f"{label}: inertia is not positive semi-definite (smallest "
+                    f"principal moment {eig[0]:g})")
+        elif any(eig[a] + eig[b] < eig[c] - tol for a, b, c in ((0, 1, 2), (0, 2, 1), (1, 2, 0))):
+            v.error(path, f"{label}: principal moments {', '.join(f'{x:g}' for x in eig)} "
+                    "violate the triangle inequality")
+    return tuple(flat)
+
+
+def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,
+            symbols: dict[str, sympy.Expr]) -> tuple[Any, ...]:
+    if value is None:
+        return (0, 0, 0) if planar else (0,) * 6
+    if planar:
+        entries = v.vector(value, path, (2, 3), symbols)
+        if entries is None:
+            return (0, 0, 0)
+        return tuple(value) + ((0,) if len(value) == 2 else ())
+    block = v.mapping(value, path, ORIGIN_KEYS)
+    if block is None:
+        return (0,) * 6
+    xyz = block.get("xyz", [0, 0, 0])
+    rpy = block.get("rpy", [0, 0, 0])
+    ok_xyz = v.vector(xyz, path + ("xyz",), (3,), symbols) is not None
+    ok_rpy = v.vector(rpy, path + ("rpy",), (3,), symbols) is not None
+    return tuple(xyz if ok_xyz else [0] * 3) + tuple(rpy if ok_rpy else [0] * 3)
+
+
+def _axis(v: _Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None,
+          planar: bool, symbols: dict[str, sympy.Expr],
+          defaults: dict[sympy.Symbol, sympy.Float]) -> tuple[Any, ...]:
+    default = (1, 0) if planar else (0, 0, 1)
+    if "axis" not in item:
+        return default
+    apath = path + ("axis",)
+    if planar and jtype in ("revolute", "fixed"):
+        v.error(apath, f"{v.label(apath)}: a planar {jtype} joint takes no axis "
+                "(planar revolute joints turn about z)")
+        return default
+    if jtype == "fixed":
+        v.error(apath, f"{v.label(apath)}: a fixed joint takes no axis")
+        return default
+    entries = v.vector(item["axis"], apath, (2,) if planar else (3,), symbols)
+    if entries is None:
+        return default
+    numbers = [_numeric(e, defaults) for e in entries]
+    if all(x is not None for x in numbers) and math.hypot(*numbers) < 1e-12:  # type: ignore[arg-type]
+        v.error(apath, f"{v.label(apath)}: axis has zero length")
+    return tuple(item["axis"])
+
+
+def _check_tree(v: _Validator, joints: list[Joint], link_names: dict[str, tuple[Any, ...]]) -> None:
+    """Each link has exactly one parent joint, and every link hangs from the world."""
+    parent_of: dict[str, int] = {}
+    for i, joint in enumerate(joints):
+        if joint.child in link_names:
+            if joint.child in parent_of:
+                first = parent_of[joint.child]
+                v.error(("joints", i, "child"), f"joints[{i}].child: link '{joint.child}' already "
+                        f"has a parent joint (joints[{first}]); robots must be trees")
+            else:
+                parent_of[joint.child] = i
+    for lname, lpath in link_names.items():
+        if lname not in parent_of:
+            v.error(lpath, f"{v.label(lpath)}: link '{lname}' is not the child of any joint")
+    reported: set[str] = set()
+    for lname in link_names:
+        seen: list[str] = []
+        current = lname
+        while current in parent_of and current not in seen:
+            seen.append(current)
+            current = joints[parent_of[current]].parent
+        if current in seen and not reported.intersection(seen):
+            reported.update(seen)
+            i = parent_of[current]
+            v.error(("joints", i), f"joints[{i}]: links {' -> '.join(seen[seen.index(current):] + [current])}"
+                    " form a cycle not connected to 'world'")
+
+
+def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
+                 joints: list[Joint], planar: bool) -> None:
+    """Every symbol the derivation creates must be unique and free for the generated code."""
+    owners: dict[str, str] = {}
+
+    def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False) -> None:
+        if name in MODULE_NAMES:
+            v.error(path, f"{owner}: name '{name}' is reserved by the generated module", key=key)
+        elif name in RESERVED:
+            v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
+        elif name in owners:
+            v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
+        else:
+            owners[name] = owner
+
+    if planar:  # names the maximal-coordinate derivation creates come first
+        for name in maximal_coordinate_names(len(links)):
+            for derived in (name, velocity_name(name), acceleration_name(name)):
+                owners[derived] = f"the maximal coordinate '{derived}'"
+        for k in range(1, 3 * len(links) + 1):
+            owners[f"lambda{k}"] = f"the multiplier 'lambda{k}'"
+    for p in parameters:
+        claim(p.name, f"parameters.{p.name}", ("parameters", p.name), key=True)
+    for i, joint in enumerate(joints):
+        if not joint.moves:
+            continue
+        claim(joint.name, f"joints[{i}].name", ("joints", i, "name"))
+        claim(velocity_name(joint.name), f"joints[{i}].name (velocity '{velocity_name(joint.name)}')",
+              ("joints", i, "name"))
+        claim(acceleration_name(joint.name),
+              f"joints[{i}].name (acceleration '{acceleration_name(joint.name)}')", ("joints", i, "name"))
+        if joint.effort:
+            claim(joint.effort, f"joints[{i}].effort", ("joints", i, "effort"))

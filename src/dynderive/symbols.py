@@ -1,0 +1,95 @@
+"""The SymPy symbols of a robot, named as DESIGN.md section 3 fixes them.
+
+Every symbol is a plain ``sympy.Symbol`` (no assumptions), so the ``sympy`` strings of the
+JSON dump parse back to equal expressions with ``sympy.sympify(text, locals=...)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy
+
+from .expressions import parse_expression
+from .model import Robot
+from .schema import acceleration_name, maximal_coordinate_names, split_index, velocity_name
+
+GREEK = {
+    "alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa",
+    "lambda", "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi",
+    "omega", "Gamma", "Delta", "Theta", "Lambda", "Xi", "Pi", "Sigma", "Upsilon", "Phi", "Psi",
+    "Omega",
+}
+
+
+def latex_name(name: str, dots: int = 0) -> str:
+    """LaTeX for a symbol name, with ``dots`` time derivatives.
+
+    ``latex_name("q1", 1)`` -> ``\\dot{q}_{1}``; ``phi2`` -> ``\\phi_{2}``;
+    ``m_link`` -> ``m_{\\mathrm{link}}``; ``lc1`` -> ``\\mathrm{lc}_{1}``.
+    """
+    head, _, rest = name.partition("_")
+    if not head:
+        head, rest = name, ""
+    stem, digits = (head, "") if rest else split_index(head)
+    sub = digits or (rest if rest.isdigit() else (r"\mathrm{" + rest.replace("_", r"\_") + "}" if rest else ""))
+    body = f"\\{stem}" if stem in GREEK else (stem if len(stem) == 1 else f"\\mathrm{{{stem}}}")
+    if dots:
+        body = "\\" + ("dot", "ddot")[dots - 1] + "{" + body + "}"
+    return body + (f"_{{{sub}}}" if sub else "")
+
+
+@dataclass
+class SymbolTable:
+    """All symbols of one robot: parameters, coordinates and their rates, efforts."""
+
+    parameters: dict[str, sympy.Symbol]
+    q: list[sympy.Symbol]
+    qd: list[sympy.Symbol]
+    qdd: list[sympy.Symbol]
+    efforts: dict[str, sympy.Symbol]
+    qm: list[sympy.Symbol] = field(default_factory=list)
+    qmd: list[sympy.Symbol] = field(default_factory=list)
+    qmdd: list[sympy.Symbol] = field(default_factory=list)
+    multipliers: list[sympy.Symbol] = field(default_factory=list)
+
+    @classmethod
+    def for_robot(cls, robot: Robot) -> SymbolTable:
+        coords = robot.coordinates
+        table = cls(
+            parameters={p.name: sympy.Symbol(p.name) for p in robot.parameters},
+            q=[sympy.Symbol(n) for n in coords],
+            qd=[sympy.Symbol(velocity_name(n)) for n in coords],
+            qdd=[sympy.Symbol(acceleration_name(n)) for n in coords],
+            efforts={e: sympy.Symbol(e) for e in robot.efforts},
+        )
+        if robot.planar:
+            names = maximal_coordinate_names(len(robot.links))
+            table.qm = [sympy.Symbol(n) for n in names]
+            table.qmd = [sympy.Symbol(velocity_name(n)) for n in names]
+            table.qmdd = [sympy.Symbol(acceleration_name(n)) for n in names]
+        return table
+
+    def expr(self, text: object) -> sympy.Expr:
+        """Parse an (already validated) expression over the parameters."""
+        return parse_expression(text, self.parameters)
+
+    def maximal_expr(self, text: object) -> sympy.Expr:
+        scope = dict(self.parameters) | {str(s): s for s in self.qm}
+        return parse_expression(text, scope)
+
+    def all_symbols(self) -> list[sympy.Symbol]:
+        return [*self.parameters.values(), *self.q, *self.qd, *self.qdd, *self.efforts.values(),
+                *self.qm, *self.qmd, *self.qmdd, *self.multipliers]
+
+    def latex_names(self) -> dict[sympy.Symbol, str]:
+        names = {s: latex_name(str(s)) for s in self.all_symbols()}
+        for coords, rates, accels in ((self.q, self.qd, self.qdd), (self.qm, self.qmd, self.qmdd)):
+            for c, r, a in zip(coords, rates, accels):
+                names[r] = latex_name(str(c), 1)
+                names[a] = latex_name(str(c), 2)
+        return names
+
+    def locals(self) -> dict[str, sympy.Symbol]:
+        """Name -> symbol, for ``sympy.sympify(text, locals=table.locals())``."""
+        return {str(s): s for s in self.all_symbols()}
