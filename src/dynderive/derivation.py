@@ -75,8 +75,36 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
     report("generalized coordinates")
     quantities, steps = derive_generalized(robot, table, links)
     derivation = Derivation(robot, table, quantities, {"generalized": steps, "kinematics": links})
+    if robot.planar:
+        from .maximal import derive_maximal
+
+        report("maximal coordinates")
+        maximal, maximal_steps = derive_maximal(robot, table, links, steps, steps["links"])
+        quantities.update(maximal)
+        derivation.steps["maximal"] = maximal_steps
     report("checks")
-    derivation.checks.append(check_zero(
-        "EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) equal the manipulator form (EOM_g2)",
-        sympy.Matrix(quantities["EOM_g1"]) - quantities["EOM_g2"], table.all_symbols()))
+    derivation.checks.extend(run_checks(derivation))
     return derivation
+
+
+def run_checks(derivation: Derivation) -> list[Check]:
+    """The engine's consistency checks (DESIGN.md section 4), each proven or tested."""
+    q, table = derivation.quantities, derivation.symbols
+    symbols = table.all_symbols()
+    checks = [check_zero(
+        "EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) equal the manipulator form (EOM_g2)",
+        sympy.Matrix(q["EOM_g1"]) - q["EOM_g2"], symbols)]
+    if "maximal" not in derivation.steps:
+        return checks
+    steps = derivation.steps["maximal"]
+    checks += [
+        check_zero("a_m(h(q)) == 0", "the constraints a_m hold on the change of basis h(q_g)",
+                   steps["a_on_h"], symbols),
+        check_zero("A_m(h(q)) H(q) == 0", "A_m(h(q)) H(q) = 0: every generalized motion satisfies the constraints",
+                   steps["AH"], symbols),
+        check_zero("EOM_m1 == EOM_m2", "constrained Lagrange equations (EOM_m1) equal the manipulator form (EOM_m2)",
+                   q["EOM_m1"] - q["EOM_m2"], symbols),
+        check_zero("EOM_g3 == EOM_g1", "the maximal model mapped through H (EOM_g3) equals EOM_g1",
+                   q["EOM_g3"] - q["EOM_g1"], symbols),
+    ]
+    return checks

@@ -26,17 +26,38 @@ def tidy(expr: sympy.Expr) -> sympy.Expr:
     expanded = sympy.expand(expr)
     candidates.append(expanded)
     if sympy.count_ops(expanded) <= FACTOR_LIMIT:
-        candidates.append(sympy.factor_terms(expanded))
         candidates.append(sympy.factor_terms(expr))
-        collected = _collect_common(expanded)
-        if collected is not None:
-            candidates.append(collected)
+        for base in _pythagoras(expanded):
+            candidates.append(base)
+            candidates.append(sympy.factor_terms(base))
+            collected = _collect_common(base)
+            if collected is not None:
+                candidates.append(collected)
     best = min(candidates, key=lambda e: (sympy.count_ops(e), len(sympy.srepr(e))))
     # Keep the form the derivation built (it carries the kinematics' own groupings, such
     # as l/2 + q2) unless a rewriting is clearly shorter.
     if sympy.count_ops(expr) <= sympy.count_ops(best) + sympy.count_ops(best) // 8:
         return expr
     return best
+
+
+def _pythagoras(expanded: sympy.Expr) -> list[sympy.Expr]:
+    """``expanded`` and its rewritings with ``sin(a)**2 -> 1 - cos(a)**2`` (and back).
+
+    Sums of squares of rotated components leave ``sin(a)**2 + cos(a)**2`` behind; replacing
+    one square and expanding again removes them exactly, at polynomial cost.
+    """
+    pairs = [(f.args[0]) for f in expanded.atoms(sympy.sin) if expanded.has(sympy.cos(f.args[0]))]
+    if not pairs:
+        return [expanded]
+    args = sorted(set(pairs), key=sympy.default_sort_key)
+    sin_first = expanded.xreplace({sympy.sin(a) ** 2: 1 - sympy.cos(a) ** 2 for a in args})
+    cos_first = expanded.xreplace({sympy.cos(a) ** 2: 1 - sympy.sin(a) ** 2 for a in args})
+    out = [expanded]
+    for candidate in (sin_first, cos_first):
+        if candidate != expanded:
+            out.append(sympy.expand(candidate))
+    return out
 
 
 def _collect_common(expr: sympy.Expr) -> sympy.Expr | None:

@@ -1,0 +1,251 @@
+"""Equations of motion in maximal coordinates (Problem 2 of the reference).
+
+Each link's centre-of-mass frame has its own pose ``(x_k, y_k, phi_k)``; the joints become
+holonomic constraints ``a(q_m) = 0`` with multipliers ``lambda``. The change of basis
+``q_m = h(q_g)``, ``H = Dh`` maps the model back to generalized coordinates, which proves
+both models equal (``EOM_g3 == EOM_g1``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy
+
+from .joints import unit
+from .kinematics import PlanarLinkKinematics
+from .lagrange import (
+    christoffel_coriolis,
+    constraint_jacobian_dot,
+    gravity_vector,
+    lagrange_steps,
+    mass_matrix_from_jacobians,
+    time_derivative,
+)
+from .model import Joint, Robot
+from .symbols import SymbolTable
+from .tidy import tidy, tidy_matrix
+
+#: Above this many operations in A M^-1 A^T, lambda is not solved symbolically (the
+#: generated code always solves it numerically).
+LAMBDA_SYMBOLIC_LIMIT = 200
+#: Systems with more constraints than this keep lambda numeric only.
+LAMBDA_SYMBOLIC_ROWS = 4
+
+
+def _rot(angle: sympy.Expr, vector: tuple[sympy.Expr, sympy.Expr]) -> sympy.Matrix:
+    c, s = sympy.cos(angle), sympy.sin(angle)
+    return sympy.Matrix([c * vector[0] - s * vector[1], s * vector[0] + c * vector[1]])
+
+
+def _cross(a: sympy.Matrix | tuple, b: sympy.Matrix | tuple) -> sympy.Expr:
+    return a[0] * b[1] - a[1] * b[0]
+
+
+class _Bodies:
+    """Pose symbols of each link's COM frame, and the world as a fixed body."""
+
+    def __init__(self, robot: Robot, table: SymbolTable):
+        self.robot, self.table = robot, table
+        self.index = {link.name: k for k, link in enumerate(robot.links)}
+
+    def pose(self, name: str) -> tuple[sympy.Matrix, sympy.Expr, tuple[sympy.Expr, sympy.Expr]]:
+        """(COM position, angle, COM offset in the link frame) of a link or the world."""
+        if name == "world":
+            zero = sympy.Integer(0)
+            return sympy.Matrix([0, 0]), zero, (zero, zero)
+        k = self.index[name]
+        x, y, phi = self.table.qm[3 * k: 3 * k + 3]
+        com = tuple(self.table.expr(e) for e in self.robot.links[k].com)
+        return sympy.Matrix([x, y]), phi, com  # type: ignore[return-value]
+
+    def slots(self, name: str) -> int | None:
+        return None if name == "world" else 3 * self.index[name]
+
+
+def joint_constraints(joint: Joint, bodies: _Bodies) -> list[sympy.Expr]:
+    """Constraints a joint imposes, each zero when it holds.
+
+    Revolute: the joint point seen from both links coincides (2). Prismatic: no offset of
+    the child's frame across the axis, relative rotation fixed (2). Fixed: both (3).
+    """
+    table = bodies.table
+    ox, oy, theta = (table.expr(e) for e in joint.origin)
+    p_parent, phi_parent, com_parent = bodies.pose(joint.parent)
+    p_child, phi_child, com_child = bodies.pose(joint.child)
+    # the joint point, fixed in the parent; the child's link-frame origin, fixed in the child
+    joint_point = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
+    child_origin = p_child + _rot(phi_child, (-com_child[0], -com_child[1]))
+    rotation = phi_child - phi_parent - theta
+    if joint.type == "revolute":
+        gap = child_origin - joint_point
+        return [gap[0], gap[1]]
+    if joint.type == "fixed":
+        gap = child_origin - joint_point
+        return [gap[0], gap[1], rotation]
+    ax, ay = unit(tuple(table.expr(e) for e in joint.axis))
+    normal = _rot(phi_parent + theta, (-ay, ax))
+    offset = (normal.T * (child_origin - joint_point))[0, 0]
+    return [offset, rotation]
+
+
+def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
+    """The effort of one joint as equal and opposite wrenches on its two links.
+
+    Revolute: torque ``u`` on the child, ``-u`` on the parent. Prismatic: force ``u`` along
+    the axis (fixed in the parent) on the child at its frame origin and ``-u`` on the parent
+    at the joint point; both lie on the axis line, so the pair does work ``u dq`` only.
+    """
+    Y = sympy.zeros(size, 1)
+    if not joint.effort:
+        return Y
+    table = bodies.table
+    u = table.efforts[joint.effort]
+    child, parent = bodies.slots(joint.child), bodies.slots(joint.parent)
+    if joint.type == "revolute":
+        Y[child + 2] += u  # type: ignore[operator]
+        if parent is not None:
+            Y[parent + 2] -= u
+        return Y
+    ox, oy, theta = (table.expr(e) for e in joint.origin)
+    _, phi_parent, com_parent = bodies.pose(joint.parent)
+    _, _, com_child = bodies.pose(joint.child)
+    axis = unit(tuple(table.expr(e) for e in joint.axis))
+    direction = _rot(phi_parent + theta, axis)  # type: ignore[arg-type]
+    axis_in_child = axis  # the child frame is parallel to the joint frame
+    Y[child] += u * direction[0]  # type: ignore[operator]
+    Y[child + 1] += u * direction[1]  # type: ignore[operator]
+    Y[child + 2] += u * _cross((-com_child[0], -com_child[1]), axis_in_child)  # type: ignore[operator]
+    if parent is not None:
+        axis_in_parent = _rot(theta, axis)  # type: ignore[arg-type]
+        lever = (ox - com_parent[0], oy - com_parent[1])
+        Y[parent] -= u * direction[0]
+        Y[parent + 1] -= u * direction[1]
+        Y[parent + 2] -= u * _cross(lever, axis_in_parent)
+    return Y
+
+
+def maximal_body_jacobian(k: int, table: SymbolTable) -> sympy.Matrix:
+    """Maps qm_dot to the body velocity of link k's COM frame: a rotation into its axes."""
+    phi = table.qm[3 * k + 2]
+    c, s = sympy.cos(phi), sympy.sin(phi)
+    J = sympy.zeros(3, len(table.qm))
+    J[0, 3 * k], J[0, 3 * k + 1] = c, s
+    J[1, 3 * k], J[1, 3 * k + 1] = -s, c
+    J[2, 3 * k + 2] = 1
+    return J
+
+
+def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinematics],
+                   generalized: dict[str, Any], link_terms: list[Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Quantities of Problem 2 (2.1-2.7) by the reference's names, and the steps."""
+    bodies = _Bodies(robot, table)
+    qm, qmd, qmdd = table.qm, table.qmd, table.qmdd
+    size = len(qm)
+
+    # 2.1 constraints
+    if robot.maximal_constraints is not None:
+        a = sympy.Matrix([table.maximal_expr(e) for e in robot.maximal_constraints])
+        origin = "override"
+    else:
+        rows: list[sympy.Expr] = []
+        for joint in robot.joints:
+            rows += joint_constraints(joint, bodies)
+        a = sympy.Matrix(rows).applyfunc(tidy)
+        origin = "joints"
+    K = a.shape[0]
+    table.multipliers = [sympy.Symbol(f"lambda{k}") for k in range(1, K + 1)]
+    lam = sympy.Matrix(table.multipliers)
+    A = tidy_matrix(a.jacobian(qm))
+    Adot = tidy_matrix(constraint_jacobian_dot(A, qm, qmd))
+
+    # 2.2 energies
+    gravity = generalized["gravity"]
+    T = sympy.Integer(0)
+    V = sympy.Integer(0)
+    for k, term in enumerate(link_terms):
+        x, y, phi = qmd[3 * k: 3 * k + 3]
+        T += sympy.Rational(1, 2) * (term.mass * (x**2 + y**2) + term.inertia * phi**2)
+        V += -term.mass * (gravity.T * sympy.Matrix(qm[3 * k: 3 * k + 2]))[0, 0]
+    T, V = tidy(T), tidy(V)
+    L = T - V
+
+    # 2.3 efforts
+    Y = sympy.zeros(size, 1)
+    for joint in robot.joints:
+        Y += joint_efforts(joint, bodies, size)
+    Y = tidy_matrix(Y)
+
+    # 2.4 constrained Lagrange equations
+    steps = lagrange_steps(L, qm, qmd, qmdd)
+    EOM_m1 = (steps.lhs + A.T * lam - Y).applyfunc(tidy)
+
+    # 2.5 manipulator form
+    jacobians = [maximal_body_jacobian(k, table) for k in range(len(robot.links))]
+    M = tidy_matrix(mass_matrix_from_jacobians(jacobians, [t.spatial_inertia for t in link_terms]))
+    C = tidy_matrix(christoffel_coriolis(M, qm, qmd))
+    N = tidy_matrix(gravity_vector(V, qm))
+    qmd_vec = sympy.Matrix(qmd)
+    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + A.T * lam - Y).applyfunc(tidy)
+
+    # 2.6 constraint forces, in closed form while it stays small
+    lambda_vec = _closed_form_lambda(M, A, Adot, Y, C, N, qmd_vec)
+
+    # 2.7 change of basis
+    q, qd, qdd = table.q, table.qd, table.qdd
+    h = sympy.Matrix([e for kin in links for e in (*kin.com_world, kin.angle)]).applyfunc(tidy)
+    H = tidy_matrix(h.jacobian(q))
+    Hdot = constraint_jacobian_dot(H, q, qd)
+    on_h = dict(zip(qm, h))
+    on_hd = dict(zip(qmd, H * sympy.Matrix(qd)))
+    M_h = M.xreplace(on_h)
+    M_tilde = tidy_matrix(H.T * M_h * H)
+    C_tilde = tidy_matrix(H.T * C.xreplace(on_h).xreplace(on_hd) * H + H.T * M_h * Hdot)
+    N_tilde = tidy_matrix(H.T * N.xreplace(on_h))
+    Y_tilde = tidy_matrix(H.T * Y.xreplace(on_h))
+    EOM_g3 = (M_tilde * sympy.Matrix(qdd) + C_tilde * sympy.Matrix(qd) + N_tilde - Y_tilde).applyfunc(tidy)
+
+    quantities: dict[str, Any] = {
+        "q_m": sympy.Matrix(qm), "a_m": a, "A_m": A, "Adot_m": Adot,
+        "T_m": T, "V_m": V, "L_m": L, "Y_m": Y, "EOM_m1": EOM_m1,
+        "M_m": M, "C_m": C, "N_m": N, "EOM_m2": EOM_m2,
+    }
+    if lambda_vec is not None:
+        quantities["lambdaVec"] = lambda_vec
+    quantities |= {"h": h, "H": H, "EOM_g3": EOM_g3}
+    intermediate = {
+        "constraint_origin": origin,
+        "lagrange": {"dL_dqd": tidy_matrix(steps.dL_dqd), "ddt_dL_dqd": tidy_matrix(steps.ddt_dL_dqd),
+                     "dL_dq": tidy_matrix(steps.dL_dq)},
+        "jacobians": jacobians,
+        "lambda_symbolic": lambda_vec is not None,
+        "Hdot": tidy_matrix(Hdot),
+        "M_tilde": M_tilde, "C_tilde": C_tilde, "N_tilde": N_tilde, "Y_tilde": Y_tilde,
+        "a_on_h": a.xreplace(on_h),
+        "AH": A.xreplace(on_h) * H,
+    }
+    return quantities, intermediate
+
+
+def _closed_form_lambda(M: sympy.Matrix, A: sympy.Matrix, Adot: sympy.Matrix, Y: sympy.Matrix,
+                        C: sympy.Matrix, N: sympy.Matrix, qmd: sympy.Matrix) -> sympy.Matrix | None:
+    """``(A M^-1 A^T)^-1 (A M^-1 (Y - C qd - N) + Adot qd)``, or None when too large.
+
+    Solved as ``adj(W) rhs / det(W)`` with each piece tidied: a general symbolic LU solve
+    followed by ``cancel`` takes minutes even for the RP arm's 4 x 4 system.
+    """
+    if not M.is_diagonal() or A.shape[0] > LAMBDA_SYMBOLIC_ROWS:
+        return None
+    M_inv = sympy.diag(*[1 / M[i, i] for i in range(M.shape[0])])
+    W = (A * M_inv * A.T).applyfunc(tidy)
+    if sum(sympy.count_ops(e) for e in W) > LAMBDA_SYMBOLIC_LIMIT:
+        return None
+    rhs = (A * M_inv * (Y - C * qmd - N) + Adot * qmd).applyfunc(tidy)
+    det = tidy(W.det(method="berkowitz"))
+    if det == 0:
+        return None
+    numerator = (W.adjugate(method="berkowitz").applyfunc(tidy) * rhs).applyfunc(tidy)
+    return numerator.applyfunc(lambda e: tidy(e / det))
+
+
+__all__ = ["derive_maximal", "joint_constraints", "joint_efforts", "time_derivative"]

@@ -1,0 +1,54 @@
+"""Shared test helpers: load robots, derive them once, import generated modules."""
+
+from __future__ import annotations
+
+import importlib.util
+import itertools
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+import pytest
+
+import dynderive
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ROOT / "robots"
+REFERENCE = ROOT.parent / "shared" / "reference" / "hw6_lagrangian_dynamics.md"
+BUNDLED = sorted(p.stem for p in ROBOTS.glob("*.yaml"))
+
+_counter = itertools.count()
+
+
+@lru_cache(maxsize=None)
+def derivation_of(robot: str):
+    """Derivation of a bundled robot (cached across tests)."""
+    return dynderive.derive(dynderive.load_robot(robot))
+
+
+def import_code(source: str, directory: Path, name: str | None = None):
+    """Import generated module source from ``directory`` under a fresh module name."""
+    name = name or f"generated_{next(_counter)}"
+    path = directory / f"{name}.py"
+    path.write_text(source)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+@lru_cache(maxsize=None)
+def module_of(robot: str, directory: str):
+    return import_code(dynderive.render_code(derivation_of(robot)), Path(directory), f"{robot}_dynamics")
+
+
+@pytest.fixture(scope="session")
+def code_dir(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("generated")
+
+
+@pytest.fixture(scope="session")
+def generated(code_dir):
+    """``generated("rp_arm")`` -> the imported generated module of a bundled robot."""
+    return lambda robot: module_of(robot, str(code_dir))

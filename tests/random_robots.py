@@ -1,0 +1,169 @@
+"""Random planar robot trees, as YAML text plus the plain numbers behind it.
+
+``random_planar_tree(rng, n)`` draws a branching tree of ``n`` moving joints (revolute and
+prismatic mixed), sometimes with one ``fixed`` weld, with arbitrary joint origins (including
+the angle) and non-unit prismatic axes. Every number is rounded to 3 decimals *before* it is
+written, and the numeric description holds exactly those rounded values, so an independent
+model (e.g. Pinocchio) built from ``PlanarTree.links``/``joints`` is the same robot as the file.
+
+Conventions (those of dynderive's planar files):
+
+* link ``k`` (``b{k+1}``) is the child of joint ``k``; joints and links are listed in the same
+  order, so a joint's parent link always comes earlier;
+* joint frame = parent link frame * Trans(x, y) * Rot(theta); the child link frame is the
+  joint frame rotated by ``q`` (revolute) or shifted by ``q * axis / |axis|`` (prismatic);
+* the COM sits at ``com`` in the link frame, the scalar inertia is about the COM.
+
+No dynderive import: this module only writes text.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class PlanarLink:
+    name: str
+    mass: float
+    com: tuple[float, float]
+    inertia: float  # about the COM, z axis
+
+
+@dataclass(frozen=True)
+class PlanarJoint:
+    name: str
+    type: str                              # 'revolute' | 'prismatic' | 'fixed'
+    parent: int                            # parent link index, -1 for the world
+    child: int                             # child link index
+    origin: tuple[float, float, float]     # x, y, theta in the parent link frame
+    axis: tuple[float, float] | None       # prismatic only; not unit length
+    effort: str | None                     # None for fixed joints
+
+    @property
+    def moves(self) -> bool:
+        return self.type != "fixed"
+
+
+@dataclass(frozen=True)
+class PlanarTree:
+    yaml_text: str
+    links: tuple[PlanarLink, ...]
+    joints: tuple[PlanarJoint, ...]        # file order; joints[k].child == k
+    gravity: tuple[float, float]
+
+    @property
+    def moving_joints(self) -> tuple[PlanarJoint, ...]:
+        """The joints with a coordinate, in coordinate order."""
+        return tuple(j for j in self.joints if j.moves)
+
+    @property
+    def n_dof(self) -> int:
+        return len(self.moving_joints)
+
+    @property
+    def has_fixed(self) -> bool:
+        return any(not j.moves for j in self.joints)
+
+    @property
+    def branches(self) -> bool:
+        """Whether some link (or the world) has two or more children."""
+        parents = [j.parent for j in self.joints]
+        return len(set(parents)) < len(parents)
+
+
+def _r(value: float) -> float:
+    """Round to 3 decimals (no negative zero)."""
+    out = round(value, 3)
+    return 0.0 if out == 0 else out
+
+
+def _fmt(value: float) -> str:
+    return repr(value)
+
+
+def random_planar_tree(rng: random.Random, n_joints: int, *, fixed: bool | None = None) -> PlanarTree:
+    """A random branching planar tree with ``n_joints`` moving joints (2 to 5).
+
+    ``fixed``: include one fixed weld (True), none (False) or decide at random (None).
+    """
+    if not 2 <= n_joints <= 5:
+        raise ValueError(f"n_joints must be between 2 and 5, got {n_joints}")
+    if fixed is None:
+        fixed = rng.random() < 0.5
+    types = [rng.choice(("revolute", "prismatic")) for _ in range(n_joints)]
+    if len(set(types)) == 1:  # always mix the kinds
+        k = rng.randrange(n_joints)
+        types[k] = "prismatic" if types[k] == "revolute" else "revolute"
+    if fixed:
+        types.insert(rng.randrange(n_joints + 1), "fixed")
+
+    links: list[PlanarLink] = []
+    joints: list[PlanarJoint] = []
+    moving = 0
+    for k, jtype in enumerate(types):
+        parent = rng.randrange(-1, k)  # the world or any earlier link
+        origin = (_r(rng.uniform(-1.0, 1.0)), _r(rng.uniform(-1.0, 1.0)), _r(rng.uniform(-math.pi, math.pi)))
+        axis = None
+        if jtype == "prismatic":
+            while True:
+                axis = (_r(rng.uniform(-2.0, 2.0)), _r(rng.uniform(-2.0, 2.0)))
+                if math.hypot(*axis) > 0.3:
+                    break
+        if jtype == "fixed":
+            name, effort = "weld1", None
+        else:
+            moving += 1
+            name, effort = f"q{moving}", f"u{moving}"
+        joints.append(PlanarJoint(name, jtype, parent, k, origin, axis, effort))
+        links.append(PlanarLink(
+            f"b{k + 1}",
+            _r(rng.uniform(0.5, 2.0)),
+            (_r(rng.uniform(-0.8, 0.8)), _r(rng.uniform(-0.8, 0.8))),
+            _r(rng.uniform(0.01, 0.5)),
+        ))
+
+    angle = rng.uniform(-math.pi, math.pi)
+    magnitude = rng.uniform(5.0, 12.0)
+    gravity = (_r(magnitude * math.cos(angle)), _r(magnitude * math.sin(angle)))
+
+    lines = [
+        "# Random planar tree (generated by tests/random_robots.py).",
+        "name: random_tree",
+        "planar: true",
+        "parameters: {}",
+        f"gravity: [{_fmt(gravity[0])}, {_fmt(gravity[1])}]",
+        "links:",
+    ]
+    for link in links:
+        lines += [
+            f"  - name: {link.name}",
+            f"    mass: {_fmt(link.mass)}",
+            f"    com: [{_fmt(link.com[0])}, {_fmt(link.com[1])}]",
+            f"    inertia: {_fmt(link.inertia)}",
+        ]
+    lines.append("joints:")
+    for joint in joints:
+        parent = "world" if joint.parent < 0 else links[joint.parent].name
+        lines += [
+            f"  - name: {joint.name}",
+            f"    type: {joint.type}",
+            f"    parent: {parent}",
+            f"    child: {links[joint.child].name}",
+            f"    origin: [{', '.join(_fmt(v) for v in joint.origin)}]",
+        ]
+        if joint.axis is not None:
+            lines.append(f"    axis: [{_fmt(joint.axis[0])}, {_fmt(joint.axis[1])}]")
+        if joint.effort is not None:
+            lines.append(f"    effort: {joint.effort}")
+    return PlanarTree("\n".join(lines) + "\n", tuple(links), tuple(joints), gravity)
+
+
+if __name__ == "__main__":  # pragma: no cover - eyeballing aid
+    import sys
+
+    seed = int(sys.argv[1]) if len(sys.argv) > 1 else 0
+    n = int(sys.argv[2]) if len(sys.argv) > 2 else 4
+    print(random_planar_tree(random.Random(seed), n).yaml_text)
