@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib.util
 import itertools
 import sys
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -20,7 +20,7 @@ BUNDLED = sorted(p.stem for p in ROBOTS.glob("*.yaml"))
 _counter = itertools.count()
 
 
-@lru_cache(maxsize=None)
+@cache
 def derivation_of(robot: str):
     """Derivation of a bundled robot (cached across tests)."""
     return dynderive.derive(dynderive.load_robot(robot))
@@ -38,7 +38,7 @@ def import_code(source: str, directory: Path, name: str | None = None):
     return module
 
 
-@lru_cache(maxsize=None)
+@cache
 def module_of(robot: str, directory: str):
     return import_code(dynderive.render_code(derivation_of(robot)), Path(directory), f"{robot}_dynamics")
 
@@ -52,3 +52,23 @@ def code_dir(tmp_path_factory) -> Path:
 def generated(code_dir):
     """``generated("rp_arm")`` -> the imported generated module of a bundled robot."""
     return lambda robot: module_of(robot, str(code_dir))
+
+
+@cache
+def random_tree_derivation(seed: int, n_joints: int, directory: str):
+    """(Derivation, generated module) of ``random_planar_tree(Random(seed), n_joints)``.
+
+    Cached, so test files that check the same random trees derive each one once.
+    """
+    import random
+
+    from random_robots import random_planar_tree
+
+    tree = random_planar_tree(random.Random(seed), n_joints)
+    folder = Path(directory) / f"random_tree_{seed}_{n_joints}"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "random_tree.yaml"
+    path.write_text(tree.yaml_text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    module = import_code(dynderive.render_code(derivation), folder, f"random_tree_{seed}_{n_joints}_dynamics")
+    return derivation, module

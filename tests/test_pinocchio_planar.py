@@ -18,7 +18,7 @@ import pytest
 pin = pytest.importorskip("pinocchio")
 
 import dynderive  # noqa: E402
-from conftest import import_code  # noqa: E402
+from conftest import random_tree_derivation  # noqa: E402
 from random_robots import PlanarTree, random_planar_tree  # noqa: E402
 
 pytestmark = pytest.mark.pinocchio
@@ -108,21 +108,6 @@ def pinocchio_model(tree: PlanarTree):
     return model, np.array(perm, dtype=int), world_energy
 
 
-def _importable(source: str) -> str:
-    """The generated source, minus a known template bug so the numbers still get compared.
-
-    With ``parameters: {}`` templates/dynamics.py.j2 writes ``def mass_matrix(q, *):`` (a
-    bare ``*`` with no keyword after it: SyntaxError). ``test_module_without_parameters_compiles``
-    fails on that bug; here it is patched so the dynamics comparison is not blocked by it.
-    A no-op once the template is fixed.
-    """
-    try:
-        compile(source, "<generated>", "exec")
-    except SyntaxError:
-        return source.replace(", *):", "):")
-    return source
-
-
 # --- the case under test ---------------------------------------------------------------
 
 
@@ -175,11 +160,7 @@ class Case:
 def case(request, tmp_path_factory) -> Case:
     seed, n_joints = request.param
     tree = tree_of(seed, n_joints)
-    directory = tmp_path_factory.mktemp(f"random_tree_{seed}")
-    path = directory / "random_tree.yaml"
-    path.write_text(tree.yaml_text)
-    derivation = dynderive.derive(dynderive.load_robot(path))
-    module = import_code(_importable(dynderive.render_code(derivation)), directory, f"random_tree_{seed}_dynamics")
+    _, module = random_tree_derivation(seed, n_joints, str(tmp_path_factory.getbasetemp()))
     assert tuple(module.COORDINATES) == tuple(j.name for j in tree.moving_joints)
     assert tuple(module.EFFORTS) == tuple(j.effort for j in tree.moving_joints)
     model, perm, world_energy = pinocchio_model(tree)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
+
 from conftest import BUNDLED, derivation_of
 
 STATES = 6
@@ -59,7 +60,7 @@ def test_power_balance(generated, robot):
     for q, qd, u in zip(qs, qds, us):
         qdd = module.forward_dynamics(q, qd, u)
 
-        def energy(t):
+        def energy(t, q=q, qd=qd, qdd=qdd):
             qt, qdt = q + qd * t + qdd * t**2 / 2, qd + qdd * t
             return module.kinetic_energy(qt, qdt) + module.potential_energy(qt)
 

@@ -219,7 +219,8 @@ def validate(doc: SourceDocument) -> Robot:
     defaults = {sympy.Symbol(p.name): sympy.Float(p.value) for p in parameters if p.value is not None}
 
     dimension = 2 if planar else 3
-    gravity = v.vector(top.get("gravity"), ("gravity",), (dimension,), symbols) if "gravity" in top else None
+    if "gravity" in top:
+        v.vector(top["gravity"], ("gravity",), (dimension,), symbols)
 
     # links ----------------------------------------------------------------------------
     links: list[Link] = []

@@ -97,6 +97,25 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
                             quantities["V_g"], printer, params),
     ]
+    maximal = "M_m" in quantities
+    if maximal:
+        m = len(table.qm)
+        qm = Argument("qm", table.qm, f"maximal coordinates (x, y, phi of each link's COM frame), shape (..., {m})")
+        qmd = Argument("qmd", table.qmd, f"maximal velocities, shape (..., {m})")
+        k = quantities["a_m"].shape[0]
+        specs = [
+            ("maximal_mass_matrix", f"Mass matrix M_m(qm) in maximal coordinates, shape (..., {m}, {m}).", [qm], "M_m"),
+            ("maximal_coriolis_matrix", f"Coriolis matrix C_m(qm, qmd), shape (..., {m}, {m}).", [qm, qmd], "C_m"),
+            ("maximal_gravity_vector", f"Gravity vector N_m(qm), shape (..., {m}).", [qm], "N_m"),
+            ("maximal_efforts", f"Joint efforts as forces on the links, Y_m(qm, u), shape (..., {m}).", [qm, u], "Y_m"),
+            ("constraints", f"Holonomic constraints a_m(qm) (zero when they hold), shape (..., {k}).", [qm], "a_m"),
+            ("constraint_jacobian", f"Constraint Jacobian A_m(qm) = da/dqm, shape (..., {k}, {m}).", [qm], "A_m"),
+            ("constraint_jacobian_dot", f"Time derivative Adot_m(qm, qmd), shape (..., {k}, {m}).", [qm, qmd], "Adot_m"),
+            ("to_maximal", f"Change of basis qm = h(q), shape (..., {m}).", [q], "h"),
+            ("to_maximal_jacobian", f"Its Jacobian H(q) = dh/dq (qmd = H qd), shape (..., {m}, {n}).", [q], "H"),
+        ]
+        for name, doc, args, quantity in specs:
+            functions.append(expression_function(name, doc, args, quantities[quantity], printer, params))
     parameters = []
     for p in robot.parameters:
         parameters.append({"name": p.name, "default": None if p.value is None else repr(p.value),
@@ -114,6 +133,10 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "efforts_tuple": _tuple(robot.efforts),
         "dof": n,
         "functions": functions,
+        "maximal": maximal,
+        "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
+        "maximal_size": len(table.qm),
+        "constraint_count": quantities["a_m"].shape[0] if maximal else 0,
     }
 
 

@@ -56,7 +56,7 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
     gen = derivation.steps["generalized"]
     coordinate_latex = [fmt(s) for s in table.q]
     lagrange = []
-    for i, name in enumerate(robot.coordinates):
+    for i in range(len(robot.coordinates)):
         lagrange.append({
             "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
             "dL_dqd": fmt(gen["lagrange"]["dL_dqd"][i]),
@@ -85,7 +85,7 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else "",
         "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
     } for j in robot.joints]
-    return {
+    context = {
         "generator": f"dynderive {_version()}",
         "source": escape_tex(Path(robot.source).name),
         "robot": {"name": escape_tex(robot.name), "title": escape_tex(robot.title),
@@ -106,6 +106,51 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
         "checks": [{"description": escape_tex(c.description), "passed": c.passed,
                     "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks],
+        "maximal": maximal_context(derivation, fmt) if "maximal" in derivation.steps else None,
+    }
+    return context
+
+
+#: Longest LaTeX of one lambda entry that the sheet still prints.
+LONGEST_LAMBDA = 1800
+
+
+def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
+    q, steps, table = derivation.quantities, derivation.steps["maximal"], derivation.symbols
+    lagrange = []
+    for i, coordinate in enumerate(table.qm):
+        lagrange.append({
+            "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
+            "dL_dqd": fmt(steps["lagrange"]["dL_dqd"][i]),
+            "ddt_dL_dqd": fmt(steps["lagrange"]["ddt_dL_dqd"][i]),
+            "dL_dq": fmt(steps["lagrange"]["dL_dq"][i]),
+            "equation": fmt(q["EOM_m1"][i]),
+        })
+    lambda_entries = None
+    if "lambdaVec" in q:
+        lambda_entries = [fmt(e) for e in q["lambdaVec"]]
+        if max(len(e) for e in lambda_entries) > LONGEST_LAMBDA:
+            lambda_entries = None
+    return {
+        "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
+        "lambda": fmt(sympy.Matrix(table.multipliers)),
+        "constraint_count": q["a_m"].shape[0],
+        "constraints_from_file": steps["constraint_origin"] == "override",
+        "a_m": fmt.matrix("a", q["a_m"]), "A_m": fmt.matrix("A", q["A_m"]),
+        "Adot_m": fmt.matrix("\\dot{A}", q["Adot_m"]),
+        "T_m": fmt(q["T_m"]), "V_m": fmt(q["V_m"]), "L_m": fmt(q["L_m"]),
+        "Y_m": fmt.matrix("\\Upsilon", q["Y_m"]),
+        "lagrange": lagrange,
+        "jacobians": [fmt(j) for j in steps["jacobians"]],
+        "M_m": fmt.matrix("M", q["M_m"]), "C_m": fmt.matrix("C", q["C_m"]),
+        "N_m": fmt.matrix("N", q["N_m"]), "EOM_m2": fmt.matrix("\\mathrm{EOM}", q["EOM_m2"]),
+        "lambda_symbolic": "lambdaVec" in q, "lambda_entries": lambda_entries,
+        "h": fmt(q["h"]), "H": fmt.matrix("H", q["H"]), "Hdot": fmt.matrix("\\dot{H}", steps["Hdot"]),
+        "M_tilde": fmt.matrix("\\tilde{M}", steps["M_tilde"]),
+        "C_tilde": fmt.matrix("\\tilde{C}", steps["C_tilde"]),
+        "N_tilde": fmt.matrix("\\tilde{N}", steps["N_tilde"]),
+        "Y_tilde": fmt.matrix("\\tilde{\\Upsilon}", steps["Y_tilde"]),
+        "EOM_g3": fmt.matrix("\\mathrm{EOM}", q["EOM_g3"]),
     }
 
 
