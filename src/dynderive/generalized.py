@@ -12,7 +12,6 @@ from typing import Any
 
 import sympy
 
-from .kinematics import PlanarLinkKinematics
 from .lagrange import (
     christoffel_coriolis,
     gravity_vector,
@@ -21,7 +20,12 @@ from .lagrange import (
 )
 from .model import Robot
 from .symbols import SymbolTable
-from .tidy import tidy, tidy_matrix
+from .tidy import is_small, tidy, tidy_matrix
+
+#: 3-D robots whose Lagrangian has more tree nodes than this skip the symbolic Lagrange
+#: route (EOM_g1): differentiating it twice costs minutes for 6-7 DOF arms, while the
+#: manipulator form comes from the body Jacobians directly.
+LAGRANGE_LIMIT = 6000
 
 
 @dataclass
@@ -31,12 +35,12 @@ class LinkTerms:
     name: str
     index: int
     mass: sympy.Expr
-    inertia: sympy.Expr
-    spatial_inertia: sympy.Matrix   # diag(m, m, I)
+    inertia: sympy.Expr | sympy.Matrix   # planar: scalar about z; spatial: 3 x 3 about the COM
+    spatial_inertia: sympy.Matrix        # planar diag(m, m, I); spatial diag(m, m, m) + I
     body_jacobian: sympy.Matrix
-    body_velocity: sympy.Matrix     # J_b qd
-    com_position: sympy.Matrix      # world
-    angle: sympy.Expr
+    body_velocity: sympy.Matrix          # J_b qd
+    com_position: sympy.Matrix           # world
+    orientation: sympy.Expr | sympy.Matrix  # planar: angle; spatial: world rotation matrix
     kinetic: sympy.Expr
     potential: sympy.Expr
 
@@ -45,24 +49,46 @@ def spatial_inertia_planar(mass: sympy.Expr, inertia: sympy.Expr) -> sympy.Matri
     return sympy.diag(mass, mass, inertia)
 
 
+def inertia_tensor(entries: tuple[sympy.Expr, ...]) -> sympy.Matrix:
+    """``(ixx, iyy, izz, ixy, ixz, iyz)`` as a symmetric 3 x 3 matrix."""
+    ixx, iyy, izz, ixy, ixz, iyz = entries
+    return sympy.Matrix([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+
+
+def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
+               gravity: sympy.Matrix) -> list[LinkTerms]:
+    """Per-link inertias, velocities and energies, planar or spatial."""
+    qd_vec = sympy.Matrix(table.qd)
+    terms = []
+    for k, (link, kin) in enumerate(zip(robot.links, links), start=1):
+        mass = table.expr(link.mass)
+        velocity = (kin.body_jacobian * qd_vec).applyfunc(tidy)
+        com = kin.com_world.applyfunc(tidy)
+        potential = tidy(-mass * (gravity.T * com)[0, 0])
+        if robot.planar:
+            inertia = table.expr(link.inertia[0])
+            G = spatial_inertia_planar(mass, inertia)
+            kinetic = sympy.Rational(1, 2) * (mass * (velocity[0] ** 2 + velocity[1] ** 2)
+                                              + inertia * velocity[2] ** 2)
+            orientation = kin.angle
+        else:
+            inertia = inertia_tensor(tuple(table.expr(e) for e in link.inertia))
+            G = sympy.diag(mass, mass, mass, inertia)
+            v, w = velocity[0:3, 0], velocity[3:6, 0]
+            kinetic = sympy.Rational(1, 2) * (mass * (v.T * v)[0, 0] + (w.T * inertia * w)[0, 0])
+            orientation = kin.rotation
+        terms.append(LinkTerms(link.name, k, mass, inertia, G, kin.body_jacobian, velocity, com,
+                               orientation, kinetic, potential))
+    return terms
+
+
 def derive_generalized(robot: Robot, table: SymbolTable,
-                       links: list[PlanarLinkKinematics]) -> tuple[dict[str, Any], dict[str, Any]]:
+                       links: list[Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     """Quantities (by the reference's names) and intermediate steps, generalized coordinates."""
     q, qd, qdd = table.q, table.qd, table.qdd
     qd_vec = sympy.Matrix(qd)
     gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
-    terms: list[LinkTerms] = []
-    for k, (link, kin) in enumerate(zip(robot.links, links), start=1):
-        mass = table.expr(link.mass)
-        inertia = table.expr(link.inertia[0])
-        G = spatial_inertia_planar(mass, inertia)
-        velocity = (kin.body_jacobian * qd_vec).applyfunc(tidy)
-        kinetic = sympy.Rational(1, 2) * (mass * (velocity[0] ** 2 + velocity[1] ** 2)
-                                          + inertia * velocity[2] ** 2)
-        com = kin.com_world.applyfunc(tidy)
-        potential = tidy(-mass * (gravity.T * com)[0, 0])
-        terms.append(LinkTerms(link.name, k, mass, inertia, G, kin.body_jacobian, velocity, com,
-                               kin.angle, kinetic, potential))
+    terms = link_terms(robot, table, links, gravity)
 
     T = tidy(sum((t.kinetic for t in terms), sympy.Integer(0)))
     V = tidy(sum((t.potential for t in terms), sympy.Integer(0)))
@@ -70,17 +96,29 @@ def derive_generalized(robot: Robot, table: SymbolTable,
     efforts = {j.name: j.effort for j in robot.joints if j.moves}
     Y = sympy.Matrix([table.efforts[efforts[n]] if efforts[n] else 0 for n in robot.coordinates])
 
-    steps = lagrange_steps(L, q, qd, qdd)
-    steps_tidy = {
-        "dL_dqd": tidy_matrix(steps.dL_dqd),
-        "ddt_dL_dqd": tidy_matrix(steps.ddt_dL_dqd),
-        "dL_dq": tidy_matrix(steps.dL_dq),
-    }
-    EOM_g1 = (steps.lhs - Y).applyfunc(tidy)
+    steps_tidy = None
+    EOM_g1 = None
+    if robot.planar or is_small(L, LAGRANGE_LIMIT):
+        steps = lagrange_steps(L, q, qd, qdd)
+        steps_tidy = {
+            "dL_dqd": tidy_matrix(steps.dL_dqd),
+            "ddt_dL_dqd": tidy_matrix(steps.ddt_dL_dqd),
+            "dL_dq": tidy_matrix(steps.dL_dq),
+        }
+        EOM_g1 = (steps.lhs - Y).applyfunc(tidy)
 
-    M = tidy_matrix(mass_matrix_from_jacobians([t.body_jacobian for t in terms],
-                                               [t.spatial_inertia for t in terms]))
-    C = tidy_matrix(christoffel_coriolis(M, q, qd))
+    jacobians = [t.body_jacobian for t in terms]
+    inertias = [t.spatial_inertia for t in terms]
+    M = tidy_matrix(mass_matrix_from_jacobians(jacobians, inertias))
+    if robot.planar:
+        C = tidy_matrix(christoffel_coriolis(M, q, qd))
+    else:
+        from .spatial import mass_matrix_derivatives
+
+        index = {name: i for i, name in enumerate(robot.coordinates)}
+        paths = [[index[j.name] for j in robot.path_to(link.name) if j.moves] for link in robot.links]
+        dM = [tidy_matrix(d) for d in mass_matrix_derivatives(jacobians, inertias, paths)]
+        C = tidy_matrix(christoffel_coriolis(M, q, qd, dM))
     N = tidy_matrix(gravity_vector(V, q))
     EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N - Y).applyfunc(tidy)
 
@@ -88,6 +126,8 @@ def derive_generalized(robot: Robot, table: SymbolTable,
         "T_g": T, "V_g": V, "L_g": L, "Y_g": Y, "EOM_g1": EOM_g1,
         "M_g": M, "C_g": C, "N_g": N, "EOM_g2": EOM_g2,
     }
+    if EOM_g1 is None:
+        del quantities["EOM_g1"]
     for t in terms:
         quantities[f"J_b{t.index}"] = t.body_jacobian
     intermediate = {"links": terms, "lagrange": steps_tidy, "gravity": gravity}

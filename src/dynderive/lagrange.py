@@ -72,14 +72,16 @@ def mass_matrix_from_jacobians(jacobians: Sequence[sympy.Matrix],
 
 
 def christoffel_coriolis(M: sympy.Matrix, q: Sequence[sympy.Symbol],
-                         qd: Sequence[sympy.Symbol]) -> sympy.Matrix:
+                         qd: Sequence[sympy.Symbol],
+                         dM: Sequence[sympy.Matrix] | None = None) -> sympy.Matrix:
     """Coriolis matrix from Christoffel symbols of the first kind.
 
     ``C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k``; with this choice
-    ``Mdot - 2C`` is skew-symmetric. Each dM/dq_k is computed once.
+    ``Mdot - 2C`` is skew-symmetric. Each dM/dq_k is computed once (or passed in ``dM``).
     """
     n = M.shape[0]
-    dM = [M.diff(qk) for qk in q]
+    if dM is None:
+        dM = [M.diff(qk) for qk in q]
     C = sympy.zeros(n, n)
     half = sympy.Rational(1, 2)
     for i in range(n):

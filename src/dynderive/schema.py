@@ -324,10 +324,6 @@ def validate(doc: SourceDocument) -> Robot:
                             f"freedom), got {len(raw_constraints)}")
                 constraints = tuple(raw_constraints)
 
-    if not planar and not v.problems:
-        v.error(("planar",) if "planar" in top else (),
-                "3-D robots (planar: false) are not supported yet; this version derives "
-                "planar robots only", key="planar" in top)
     if v.problems:
         raise InputError(v.problems)
     positions = {f"joint:{j.name}": doc.where(("joints", i)) for i, j in enumerate(joints)}

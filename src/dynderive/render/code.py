@@ -83,20 +83,11 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
     q = Argument("q", table.q, f"joint coordinates {tuple(robot.coordinates)}, shape (..., {n})")
     qd = Argument("qd", table.qd, f"joint velocities, shape (..., {n})")
     u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
-    functions = [
-        expression_function("mass_matrix", f"Mass matrix M_g(q), shape (..., {n}, {n}).", [q],
-                            quantities["M_g"], printer, params),
-        expression_function("coriolis_matrix", f"Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., {n}, {n}).",
-                            [q, qd], quantities["C_g"], printer, params),
-        expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
-                            quantities["N_g"], printer, params),
-        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
-                            [q, u], quantities["Y_g"], printer, params),
-        expression_function("kinetic_energy", "Kinetic energy T_g(q, qd), shape (...).", [q, qd],
-                            quantities["T_g"], printer, params),
-        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
-                            quantities["V_g"], printer, params),
-    ]
+    structured = not robot.planar
+    if structured:
+        functions, structure = _structured_functions(derivation, q, qd, u, printer, params)
+    else:
+        functions, structure = _expression_functions(derivation, q, qd, u, printer, params), {}
     maximal = "M_m" in quantities
     if maximal:
         m = len(table.qm)
@@ -122,7 +113,10 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
                            "unit": p.unit, "description": p.description})
     from .. import __version__
 
+    keywords = [p["name"] if p["default"] is None else f"{p['name']}={p['default']}" for p in parameters]
     return {
+        "params_keywords": ("*, " + ", ".join(keywords)) if keywords else "",
+        "params_pass": ", ".join(f"{p['name']}={p['name']}" for p in parameters),
         "generator": f"dynderive {__version__}",
         "source": Path(robot.source).name,
         "robot": {"name": robot.name, "title": robot.title},
@@ -133,11 +127,75 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "efforts_tuple": _tuple(robot.efforts),
         "dof": n,
         "functions": functions,
+        "structured": structured,
+        "structure": structure,
         "maximal": maximal,
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
         "maximal_size": len(table.qm),
         "constraint_count": quantities["a_m"].shape[0] if maximal else 0,
     }
+
+
+def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
+                          printer: _Printer, params: set[sympy.Symbol]) -> list[ExpressionFunction]:
+    """Every generalized function as explicit expressions (planar robots: short, readable)."""
+    quantities, n = derivation.quantities, len(derivation.symbols.q)
+    return [
+        expression_function("mass_matrix", f"Mass matrix M_g(q), shape (..., {n}, {n}).", [q],
+                            quantities["M_g"], printer, params),
+        expression_function("coriolis_matrix", f"Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., {n}, {n}).",
+                            [q, qd], quantities["C_g"], printer, params),
+        expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
+                            quantities["N_g"], printer, params),
+        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
+                            [q, u], quantities["Y_g"], printer, params),
+        expression_function("kinetic_energy", "Kinetic energy T_g(q, qd), shape (...).", [q, qd],
+                            quantities["T_g"], printer, params),
+        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
+                            quantities["V_g"], printer, params),
+    ]
+
+
+def _structured_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
+                          printer: _Printer, params: set[sympy.Symbol]) -> tuple[list[ExpressionFunction], dict[str, Any]]:
+    """3-D robots: body Jacobians and N as expressions; M, dM/dq and C assembled with einsum.
+
+    ``M = sum_l J_l^T G_l J_l``; ``dM/dq_k`` from the Lie brackets ``dJ_i/dq_k = ad(J_i) J_k``;
+    ``C`` from the Christoffel symbols of these: the same formulas as the symbolic derivation,
+    without printing its (very large) explicit entries.
+    """
+    robot, quantities = derivation.robot, derivation.quantities
+    terms = derivation.steps["generalized"]["links"]
+    n, links = len(derivation.symbols.q), len(terms)
+    jacobians = sympy.Matrix.vstack(*[t.body_jacobian for t in terms])
+    inertias = sympy.Matrix.vstack(*[t.spatial_inertia for t in terms])
+    index = {name: i for i, name in enumerate(robot.coordinates)}
+    triples = []  # (link, i, k): column i of link l's Jacobian depends on q_k
+    for l, link in enumerate(robot.links):
+        path = [index[j.name] for j in robot.path_to(link.name) if j.moves]
+        for b, k in enumerate(path):
+            for i in path[:b]:
+                triples.append((l, i, k))
+    functions = [
+        expression_function("_body_jacobians", f"Body Jacobians of the COM frames, shape (..., {6 * links}, {n}).",
+                            [q], jacobians, printer, params),
+        expression_function("_spatial_inertias", f"Spatial inertias diag(m, m, m) + I_com, shape ({6 * links}, 6).",
+                            [], inertias, printer, params),
+        expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
+                            quantities["N_g"], printer, params),
+        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
+                            [q, u], quantities["Y_g"], printer, params),
+        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
+                            quantities["V_g"], printer, params),
+    ]
+    structure = {
+        "links": links,
+        "triples": triples,
+        "bracket_link": repr(tuple(t[0] for t in triples)),
+        "bracket_i": repr(tuple(t[1] for t in triples)),
+        "bracket_k": repr(tuple(t[2] for t in triples)),
+    }
+    return functions, structure
 
 
 def _tuple(names: tuple[str, ...]) -> str:

@@ -71,7 +71,7 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
             "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
             "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
             "jacobian": fmt(t.body_jacobian), "velocity": fmt(t.body_velocity),
-            "com": fmt(t.com_position), "angle": fmt(t.angle), "kinetic": fmt(t.kinetic),
+            "com": fmt(t.com_position), "angle": fmt(t.orientation), "kinetic": fmt(t.kinetic),
             "potential": fmt(t.potential),
         })
     parameters = [{
