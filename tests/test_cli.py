@@ -53,13 +53,15 @@ def test_unknown_robot_name(tmp_path):
     assert "no_such_robot:1:1: no such file, and no bundled robot of that name" in result.stderr
 
 
-def test_3d_robot_not_supported_yet(tmp_path):
+def test_3d_robot_has_no_maximal_coordinates(tmp_path):
     robot = tmp_path / "arm3d.yaml"
     robot.write_text("name: arm\nplanar: false\ngravity: [0, 0, -9.81]\nlinks:\n  - {name: a, mass: 1}\n"
-                     "joints:\n  - {name: q1, type: revolute, parent: world, child: a}\n")
+                     "joints:\n  - {name: q1, type: revolute, parent: world, child: a}\n"
+                     "maximal:\n  constraints: [x1]\n")
     result = runner.invoke(app, ["solve", str(robot)])
     assert result.exit_code == 2
-    assert result.stderr.startswith(f"{robot}:2:1: 3-D robots (planar: false) are not supported yet")
+    assert result.stderr.strip() == (f"{robot}:9:16: maximal.constraints: maximal coordinates are "
+                                     "planar-only for now")
 
 
 def test_pdf_without_tex_engine_is_a_clear_error(tmp_path, monkeypatch):

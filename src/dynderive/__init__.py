@@ -23,7 +23,13 @@ def load_robot(robot: str | Path) -> Robot:
     from .loader import load_document, resolve_robot_path
     from .schema import validate
 
-    return validate(load_document(resolve_robot_path(robot)))
+    path = resolve_robot_path(robot)
+    if path.suffix.lower() == ".urdf":
+        from .loader import read_text
+        from .urdf import read_urdf
+
+        return validate(read_urdf(read_text(path), str(path)))
+    return validate(load_document(path))
 
 
 def render_latex(derivation: Derivation, template_dir: str | Path | None = None) -> str:

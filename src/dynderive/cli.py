@@ -161,6 +161,24 @@ def solve(
             typer.echo(f"warning: check failed: {check.description}", err=True)
 
 
+@app.command("import")
+@handle_errors
+def import_(
+    urdf: Annotated[Path, typer.Argument(help="URDF file to convert.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")],
+) -> None:
+    """Convert a URDF file into the equivalent dynderive YAML robot file."""
+    from .loader import read_text
+    from .output import write_all
+    from .schema import validate
+    from .urdf import read_urdf, to_yaml
+
+    document = read_urdf(read_text(urdf), str(urdf))
+    validate(document)  # the same checks as any robot file, before anything is written
+    write_all({output: to_yaml(document.data, urdf.name).encode()})
+    typer.echo(f"wrote {output}", err=True)
+
+
 def _problem(file: str, message: str) -> Any:
     from .errors import Problem
 

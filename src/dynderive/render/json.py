@@ -2,7 +2,7 @@
 
 ``{"robot": NAME, "quantities": {NAME: {"shape": [r, c], "sympy": STR, "latex": STR}}}``.
 Scalars have shape ``[1, 1]`` and a bare expression as ``sympy``; matrices print as
-``Matrix([[...]])``. Every ``sympy`` string parses back with
+``Matrix([[...]])``. ``latex`` is null for entries too large to typeset. Every ``sympy`` string parses back with
 ``sympy.sympify(text, locals={name: sympy.Symbol(name) for name in ...})``.
 """
 
@@ -15,6 +15,9 @@ import sympy
 from ..derivation import DESCRIPTIONS, Derivation
 from .latex import Formatter
 
+#: Quantities larger than this (tree nodes per entry) get ``"latex": null``.
+LATEX_NODES = 20000
+
 
 def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict[str, object]:
     if isinstance(value, sympy.MatrixBase):
@@ -25,7 +28,9 @@ def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict
     else:
         shape = [1, 1]
         text = sympy.sstr(value, order="lex")
-    entry: dict[str, object] = {"shape": shape, "sympy": text, "latex": fmt(value)}
+    # LaTeX of very large quantities (3-D arms' C_g) takes minutes and nobody reads it.
+    latex = fmt.maybe(value, LATEX_NODES) if isinstance(value, sympy.MatrixBase) else fmt.maybe(value, LATEX_NODES)
+    entry: dict[str, object] = {"shape": shape, "sympy": text, "latex": latex}
     if description:
         entry["description"] = description
     return entry

@@ -8,8 +8,13 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
+from ..tidy import is_small
 from .environment import render
 
+#: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
+ENTRY_NODES = 400
+#: Largest matrix (tree nodes in all) the sheet typesets.
+MATRIX_NODES = 6000
 #: A matrix whose LaTeX is longer than this is typeset entry by entry.
 WIDE_MATRIX = 320
 SHEET_TEMPLATE = "sheet.tex.j2"
@@ -35,10 +40,22 @@ class Formatter:
         return sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
                            mul_symbol=None, long_frac_ratio=2)
 
+    def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> str | None:
+        """LaTeX of ``expr``, or None when it is too large to read (or to typeset)."""
+        entries = list(expr) if isinstance(expr, sympy.MatrixBase) else [expr]
+        budget = limit * max(1, len(entries)) if isinstance(expr, sympy.MatrixBase) else limit
+        if not is_small(sympy.Tuple(*entries), budget):
+            return None
+        return self(expr)
+
     def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
-        """A matrix as a whole (``wide`` False) or as its non-zero entries."""
-        whole = self(matrix)
+        """A matrix as a whole (``wide`` False), as its non-zero entries, or ``too_large``."""
         rows, cols = matrix.shape
+        nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
+        if nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix):
+            return {"latex": "", "wide": True, "entries": [], "shape": [rows, cols],
+                    "too_large": True, "nodes": nodes}
+        whole = self(matrix)
         entries = []
         for i in range(rows):
             for j in range(cols):
@@ -46,7 +63,18 @@ class Formatter:
                     index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
                     entries.append({"name": f"{name}_{{{index}}}", "latex": self(matrix[i, j])})
         return {"latex": whole, "wide": len(whole) > WIDE_MATRIX, "entries": entries,
-                "shape": [rows, cols]}
+                "shape": [rows, cols], "too_large": False, "nodes": nodes}
+
+
+def _nodes_up_to(exprs: list[Any], limit: int) -> int:
+    """Tree nodes of ``exprs``, counting no further than just past ``limit``."""
+    count = 0
+    for expr in exprs:
+        for _ in sympy.preorder_traversal(expr):
+            count += 1
+            if count > limit:
+                return count
+    return count
 
 
 def sheet_context(derivation: Derivation) -> dict[str, Any]:
@@ -56,23 +84,23 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
     gen = derivation.steps["generalized"]
     coordinate_latex = [fmt(s) for s in table.q]
     lagrange = []
-    for i in range(len(robot.coordinates)):
+    for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
         lagrange.append({
             "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
-            "dL_dqd": fmt(gen["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": fmt(gen["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": fmt(gen["lagrange"]["dL_dq"][i]),
+            "dL_dqd": fmt.maybe(gen["lagrange"]["dL_dqd"][i]),
+            "ddt_dL_dqd": fmt.maybe(gen["lagrange"]["ddt_dL_dqd"][i]),
+            "dL_dq": fmt.maybe(gen["lagrange"]["dL_dq"][i]),
             "effort": fmt(q["Y_g"][i]),
-            "equation": fmt(q["EOM_g1"][i]),
+            "equation": fmt.maybe(q["EOM_g1"][i]),
         })
     links = []
     for t in gen["links"]:
         links.append({
             "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
             "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
-            "jacobian": fmt(t.body_jacobian), "velocity": fmt(t.body_velocity),
-            "com": fmt(t.com_position), "angle": fmt(t.orientation), "kinetic": fmt(t.kinetic),
-            "potential": fmt(t.potential),
+            "jacobian": fmt.maybe(t.body_jacobian), "velocity": fmt.maybe(t.body_velocity),
+            "com": fmt.maybe(t.com_position), "angle": fmt.maybe(t.orientation),
+            "kinetic": fmt.maybe(t.kinetic), "potential": fmt.maybe(t.potential),
         })
     parameters = [{
         "symbol": fmt(table.parameters[p.name]),
@@ -96,10 +124,11 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "q_g": fmt(sympy.Matrix(table.q)),
         "qd_g": fmt(sympy.Matrix(table.qd)),
         "links": links,
-        "T_g": fmt(q["T_g"]), "V_g": fmt(q["V_g"]), "L_g": fmt(q["L_g"]),
+        "T_g": fmt.maybe(q["T_g"], MATRIX_NODES), "V_g": fmt.maybe(q["V_g"], MATRIX_NODES),
+        "L_g": fmt.maybe(q["L_g"], MATRIX_NODES),
         "Y_g": fmt(q["Y_g"]),
         "lagrange": lagrange,
-        "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]),
+        "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
         "M_g": fmt.matrix("M", q["M_g"]),
         "C_g": fmt.matrix("C", q["C_g"]),
         "N_g": fmt.matrix("N", q["N_g"]),
