@@ -100,7 +100,8 @@ def test_fixed_joints_are_merged_into_the_parent(tmp_path):
             '  <joint name="w" type="fixed"><parent link="a"/><child link="tip"/>'
             '<origin xyz="0.2 0 0" rpy="0 0.4 0"/></joint>\n')
     path = tmp_path / "weld.urdf"
-    path.write_text(_urdf(LINK + JOINT.format(type="continuous", extra="") + weld))
+    limit = '<limit lower="-3" upper="3" effort="1" velocity="1"/>'
+    path.write_text(_urdf(LINK + JOINT.format(type="revolute", extra=limit) + weld))
     d = dynderive.derive(dynderive.load_robot(path))
     module = import_code(dynderive.render_code(d), tmp_path, "weld_dynamics")
     model = pin.buildModelFromUrdf(str(path))
