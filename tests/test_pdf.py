@@ -55,7 +55,7 @@ def test_tex_compiles_with_plain_pdflatex(rp_pdf, tmp_path):
     assert result.returncode == 0, result.stdout[-2000:]
 
 
-@pytest.mark.parametrize("robot", ["double_pendulum", "cart_pole"])
+@pytest.mark.parametrize("robot", ["double_pendulum", "cart_pole", "elbow_arm", "panda"])
 def test_other_bundled_sheets_compile(tmp_path, robot):
     result = CliRunner().invoke(app, ["solve", robot, "--pdf", "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
@@ -66,3 +66,14 @@ def test_pdf_is_reproducible(rp_pdf, tmp_path):
     result = CliRunner().invoke(app, ["solve", "rp_arm", "--pdf", "--out", str(tmp_path)])
     assert result.exit_code == 0
     assert (tmp_path / "rp_arm.pdf").read_bytes() == (rp_pdf / "rp_arm.pdf").read_bytes()
+
+
+def test_large_arm_sheet_stays_short(tmp_path):
+    """The 7-DOF arm's sheet names what is too large instead of printing hundreds of pages."""
+    result = CliRunner().invoke(app, ["solve", "panda", "--pdf", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    info = subprocess.run(["pdfinfo", str(tmp_path / "panda.pdf")], capture_output=True, text=True).stdout
+    pages = int(next(line.split()[-1] for line in info.splitlines() if line.startswith("Pages:")))
+    assert pages <= 40
+    text = _text(tmp_path / "panda.pdf")
+    assert "too large to typeset" in text
