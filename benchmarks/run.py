@@ -166,7 +166,7 @@ TITLES = ["robot", "dof", "derive s", "code s", "M nodes", "C nodes", "N nodes",
 
 def print_row(row: dict, header: bool) -> None:
     if header:
-        print(" ".join(f"{t:>{len(f.format(0) if 's' not in f else f.format('x'))}}" if False else t for t in TITLES))
+        print(" ".join(TITLES))
     cells = []
     for key, fmt in COLUMNS:
         value = row.get(key, "-")

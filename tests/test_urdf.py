@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROBOTS, import_code
 from typer.testing import CliRunner
 
 import dynderive
+from conftest import ROBOTS, import_code
 from dynderive.cli import app
 
 pin = pytest.importorskip("pinocchio")

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import math
 import re
-from xml.parsers import expat
 from dataclasses import dataclass, field
 from typing import Any
+from xml.parsers import expat
 
 import numpy as np
 
