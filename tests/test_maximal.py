@@ -10,6 +10,7 @@ import sympy as sp
 from sympy import Matrix, cos, sin
 
 import dynderive
+
 from conftest import BUNDLED, import_code, random_tree_derivation
 
 m, l, g, tau1, F2 = sp.symbols("m l g tau1 F2")

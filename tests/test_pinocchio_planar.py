@@ -18,6 +18,7 @@ import pytest
 pin = pytest.importorskip("pinocchio")
 
 import dynderive  # noqa: E402
+
 from conftest import random_tree_derivation  # noqa: E402
 from random_robots import PlanarTree, random_planar_tree  # noqa: E402
 

@@ -26,6 +26,7 @@ import pytest
 pin = pytest.importorskip("pinocchio")
 
 import dynderive  # noqa: E402
+
 from conftest import import_code, random_tree_derivation  # noqa: E402
 from random_robots import random_planar_tree  # noqa: E402
 from random_robots3d import SpatialTree, random_spatial_tree, spatial_from_planar  # noqa: E402

@@ -9,8 +9,9 @@ import pytest
 from typer.testing import CliRunner
 
 import dynderive
-from conftest import ROBOTS, import_code
 from dynderive.cli import app
+
+from conftest import ROBOTS, import_code
 
 pin = pytest.importorskip("pinocchio")
 runner = CliRunner()

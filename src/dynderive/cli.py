@@ -161,6 +161,48 @@ def solve(
             typer.echo(f"warning: check failed: {check.description}", err=True)
 
 
+@app.command()
+@handle_errors
+def check(
+    robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
+    json_: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
+    states: Annotated[int, typer.Option("--states", help="Random states for the numeric checks.")] = 12,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+) -> None:
+    """Run every check that applies to ROBOT's derivation and generated code.
+
+    Exit code 1 if any check fails, 0 otherwise (skipped checks are listed, not failed).
+    """
+    import json
+
+    from . import derive, load_robot
+    from .checks import run_checks
+    from .render.code import render_code
+
+    progress = _Progress(quiet)
+    model = load_robot(robot)
+    derivation = derive(model, progress=progress)
+    progress("generating code")
+    source = render_code(derivation)
+    progress("checking")
+    rows = run_checks(derivation, source, states=states)
+    failed = [r for r in rows if r.status == "FAIL"]
+    if json_:
+        typer.echo(json.dumps({"robot": model.name, "passed": not failed,
+                               "checks": [r.as_dict() for r in rows]}, indent=2))
+    else:
+        width = max(len(r.name) for r in rows)
+        typer.echo(f"{'check':<{width}}  result  {'worst residual':>14}  method")
+        for r in rows:
+            residual = "-" if r.residual != r.residual else f"{r.residual:.3g}"
+            typer.echo(f"{r.name:<{width}}  {r.status:<6}  {residual:>14}  {r.method}")
+        passed = sum(r.status == "pass" for r in rows)
+        skipped = sum(r.status == "skip" for r in rows)
+        typer.echo(f"\n{passed} passed, {len(failed)} failed, {skipped} skipped")
+    if failed:
+        raise typer.Exit(1)
+
+
 @app.command("import")
 @handle_errors
 def import_(

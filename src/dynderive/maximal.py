@@ -234,7 +234,7 @@ def _closed_form_lambda(M: sympy.Matrix, A: sympy.Matrix, Adot: sympy.Matrix, Y:
     Solved as ``adj(W) rhs / det(W)`` with each piece tidied: a general symbolic LU solve
     followed by ``cancel`` takes minutes even for the RP arm's 4 x 4 system.
     """
-    if not M.is_diagonal() or A.shape[0] > LAMBDA_SYMBOLIC_ROWS:
+    if not M.is_diagonal() or A.shape[0] > LAMBDA_SYMBOLIC_ROWS or any(M[i, i] == 0 for i in range(M.shape[0])):
         return None
     M_inv = sympy.diag(*[1 / M[i, i] for i in range(M.shape[0])])
     W = (A * M_inv * A.T).applyfunc(tidy)

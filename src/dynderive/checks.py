@@ -1,0 +1,218 @@
+"""``dynderive check``: every consistency check that applies to a derivation.
+
+Symbolic checks where they are cheap, numeric ones at random states otherwise; the
+generated code is checked against the symbolic result, and against Pinocchio when ``pin`` is
+installed. Each row says how it was checked and its worst residual.
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import sympy
+
+from .derivation import Derivation
+from .tidy import Check, check_zero, is_small
+
+#: Quantities larger than this (tree nodes) are not evaluated symbolically against the code.
+SYMBOLIC_EVALUATION_NODES = 60_000
+
+
+@dataclass(frozen=True)
+class Row:
+    name: str
+    status: str        # "pass", "FAIL" or "skip"
+    method: str        # "symbolic", "numeric", "engine", or why it was skipped
+    residual: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def generated_module(source: str, name: str) -> types.ModuleType:
+    """Execute generated source (ours, never user text) as a fresh module."""
+    module = types.ModuleType(f"{name}_dynamics")
+    exec(compile(source, f"<{name}_dynamics.py>", "exec"), module.__dict__)  # noqa: S102
+    return module
+
+
+def _row(name: str, passed: bool, method: str, residual: float) -> Row:
+    return Row(name, "pass" if passed else "FAIL", method, float(residual))
+
+
+def _from_check(check: Check) -> Row:
+    if check.skipped:
+        return Row(check.name, "skip", "not derived (too large)", float("nan"))
+    return _row(check.name, check.passed, f"engine, {check.method}", check.residual)
+
+
+def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int = 0) -> list[Row]:
+    robot, quantities = derivation.robot, derivation.quantities
+    module = generated_module(source, robot.name)
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
+    rng = np.random.default_rng(seed)
+    n = len(robot.coordinates)
+    qs = rng.uniform(-1.5, 1.5, (states, n))
+    qds = rng.uniform(-1.0, 1.0, (states, n))
+    us = rng.uniform(-1.0, 1.0, (states, len(robot.efforts)))
+    rows: list[Row] = []
+
+    M = quantities["M_g"]
+    if is_small(M, SYMBOLIC_EVALUATION_NODES):
+        check = check_zero("M symmetric", "", M - M.T, [])
+        rows.append(_row("M symmetric", check.passed, check.method, check.residual))
+    else:
+        mats = module.mass_matrix(qs, **values)
+        worst = float(np.max(np.abs(mats - np.swapaxes(mats, -1, -2))))
+        rows.append(_row("M symmetric", worst < 1e-9, "numeric", worst))
+    eig = np.linalg.eigvalsh(module.mass_matrix(qs, **values))
+    rows.append(_row(f"M positive definite ({states} random states)", bool(np.all(eig[..., 0] > 0)),
+                     "numeric, smallest eigenvalue", float(np.min(eig[..., 0]))))
+    rows.append(_skew_check(derivation, module, values, qs, qds))
+    rows.append(_power_balance(module, values, qs, qds, us))
+    rows += [_from_check(c) for c in derivation.checks]
+    if "M_m" in quantities:
+        rows += _maximal_checks(module, values, qs, qds, us)
+    rows += _code_matches_symbolic(derivation, module, values, qs[:3], qds[:3], us[:3])
+    rows += _pinocchio(derivation, module, values, qs[:5], qds[:5])
+    return rows
+
+
+def _skew_check(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
+                qds: np.ndarray) -> Row:
+    name = "Mdot - 2C skew-symmetric"
+    table, M, C = derivation.symbols, derivation["M_g"], derivation["C_g"]
+    if is_small(M, 2000) and is_small(C, 4000):
+        Mdot = sum((M.diff(qk) * qdk for qk, qdk in zip(table.q, table.qd)), sympy.zeros(*M.shape))
+        S = Mdot - 2 * C
+        check = check_zero(name, "", S + S.T, [])
+        return _row(name, check.passed, check.method, check.residual)
+    h, worst, scale = 1e-6, 0.0, 1.0
+    for q, qd in zip(qs, qds):
+        Mdot = (module.mass_matrix(q + h * qd, **values) - module.mass_matrix(q - h * qd, **values)) / (2 * h)
+        S = Mdot - 2 * module.coriolis_matrix(q, qd, **values)
+        worst = max(worst, float(np.max(np.abs(S + S.T))))
+        scale = max(scale, float(np.max(np.abs(Mdot))))
+    return _row(name, worst < 1e-6 * scale, "numeric (central differences)", worst)
+
+
+def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
+                   us: np.ndarray) -> Row:
+    """dE/dt = qd . Y along the dynamics, E = T + V."""
+    h, worst, scale = 1e-5, 0.0, 1.0
+    for q, qd, u in zip(qs, qds, us):
+        qdd = module.forward_dynamics(q, qd, u, **values)
+
+        def energy(t: float, q: np.ndarray = q, qd: np.ndarray = qd, qdd: np.ndarray = qdd) -> float:
+            qt, qdt = q + qd * t + qdd * t**2 / 2, qd + qdd * t
+            return float(module.kinetic_energy(qt, qdt, **values) + module.potential_energy(qt, **values))
+
+        rate = (energy(h) - energy(-h)) / (2 * h)
+        power = float(qd @ module.generalized_forces(q, u, **values))
+        worst = max(worst, abs(rate - power))
+        scale = max(scale, abs(power))
+    return _row("power balance dE/dt = qd . Y", worst < 1e-5 * scale, "numeric (central differences)", worst)
+
+
+def _maximal_checks(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
+                    us: np.ndarray) -> list[Row]:
+    worst = {"H^T M_m H = M_g": 0.0, "H^T (M_m Hdot + C_m H) qd = C_g qd": 0.0, "H^T N_m = N_g": 0.0,
+             "H^T Y_m = Y_g": 0.0, "constraint forces consistent": 0.0}
+    h = 1e-6
+    for q, qd, u in zip(qs, qds, us):
+        hq = module.to_maximal(q, **values)
+        H = module.to_maximal_jacobian(q, **values)
+        Hdot = (module.to_maximal_jacobian(q + h * qd, **values) - module.to_maximal_jacobian(q - h * qd, **values)) / (2 * h)
+        v = H @ qd
+        Mm = module.maximal_mass_matrix(hq, **values)
+        Cm = module.maximal_coriolis_matrix(hq, v, **values)
+        Ym = module.maximal_efforts(hq, u, **values)
+        pairs = {
+            "H^T M_m H = M_g": (H.T @ Mm @ H, module.mass_matrix(q, **values)),
+            "H^T (M_m Hdot + C_m H) qd = C_g qd": (H.T @ (Mm @ Hdot + Cm @ H) @ qd,
+                                                   module.coriolis_matrix(q, qd, **values) @ qd),
+            "H^T N_m = N_g": (H.T @ module.maximal_gravity_vector(hq, **values), module.gravity_vector(q, **values)),
+            "H^T Y_m = Y_g": (H.T @ Ym, module.generalized_forces(q, u, **values)),
+        }
+        for key, (a, b) in pairs.items():
+            worst[key] = max(worst[key], float(np.max(np.abs(a - b))))
+        qmdd = module.maximal_forward_dynamics(hq, v, u, **values)
+        lam = module.constraint_forces(hq, v, u, **values)
+        A = module.constraint_jacobian(hq, **values)
+        residual = Mm @ qmdd + Cm @ v + module.maximal_gravity_vector(hq, **values) + A.T @ lam - Ym
+        acceleration = A @ qmdd + module.constraint_jacobian_dot(hq, v, **values) @ v
+        worst["constraint forces consistent"] = max(worst["constraint forces consistent"],
+                                                    float(np.max(np.abs(residual))), float(np.max(np.abs(acceleration))))
+    tolerance = {"H^T (M_m Hdot + C_m H) qd = C_g qd": 1e-5}
+    return [_row(k, w < tolerance.get(k, 1e-8), "numeric", w) for k, w in worst.items()]
+
+
+def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str, float],
+                           qs: np.ndarray, qds: np.ndarray, us: np.ndarray) -> list[Row]:
+    table = derivation.symbols
+    params = [table.parameters[p.name] for p in derivation.robot.parameters]
+    specs: list[tuple[str, str, Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]]] = [
+        ("M_g", "mass_matrix", lambda q, qd, u: module.mass_matrix(q, **values)),
+        ("C_g", "coriolis_matrix", lambda q, qd, u: module.coriolis_matrix(q, qd, **values)),
+        ("N_g", "gravity_vector", lambda q, qd, u: module.gravity_vector(q, **values)),
+        ("T_g", "kinetic_energy", lambda q, qd, u: module.kinetic_energy(q, qd, **values)),
+        ("V_g", "potential_energy", lambda q, qd, u: module.potential_energy(q, **values)),
+    ]
+    rows = []
+    for quantity, function, call in specs:
+        name = f"generated {function} == symbolic {quantity}"
+        value = derivation[quantity]
+        if not is_small(value if not isinstance(value, sympy.MatrixBase) else sympy.Tuple(*value),
+                        SYMBOLIC_EVALUATION_NODES):
+            rows.append(Row(name, "skip", "symbolic form too large to evaluate", float("nan")))
+            continue
+        symbolic = sympy.lambdify([table.q, table.qd, list(table.efforts.values()), params], value,
+                                  modules="numpy", cse=True)
+        worst, scale = 0.0, 1.0
+        for q, qd, u in zip(qs, qds, us):
+            expected = np.asarray(symbolic(q, qd, u, [values[p.name] for p in params]), dtype=float)
+            got = np.asarray(call(q, qd, u), dtype=float)
+            worst = max(worst, float(np.max(np.abs(expected.reshape(got.shape) - got))))
+            scale = max(scale, float(np.max(np.abs(expected))))
+        rows.append(_row(name, worst <= 1e-10 * scale, "numeric", worst))
+    return rows
+
+
+def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
+               qds: np.ndarray) -> list[Row]:
+    name = "agrees with Pinocchio (crba, rnea, aba)"
+    try:
+        import pinocchio as pin
+    except ImportError:
+        return [Row(name, "skip", "pin is not installed", float("nan"))]
+    if any(p.value is None for p in derivation.robot.parameters):
+        return [Row(name, "skip", "a parameter has no default value", float("nan"))]
+    from .pinocchio_model import pinocchio_model
+
+    model, perm = pinocchio_model(derivation.robot, values)
+    data = model.createData()
+    worst, scale = 0.0, 1.0
+    for q, qd in zip(qs, qds):
+        u = np.linspace(-1, 1, len(q))
+        qp, qdp = q[perm], qd[perm]
+        M = pin.crba(model, data, qp)
+        M = np.triu(M) + np.triu(M, 1).T
+        ours = module.mass_matrix(q, **values)[np.ix_(perm, perm)]
+        g = pin.computeGeneralizedGravity(model, data, qp)
+        bias = pin.rnea(model, data, qp, qdp, np.zeros(len(q))) - g
+        Y = module.generalized_forces(q, module_efforts(module, u), **values)
+        acc = pin.aba(model, data, qp, qdp, Y[perm])
+        diffs = [ours - M, module.gravity_vector(q, **values)[perm] - g,
+                 (module.coriolis_matrix(q, qd, **values) @ qd)[perm] - bias,
+                 module.forward_dynamics(q, qd, module_efforts(module, u), **values)[perm] - acc]
+        worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
+        scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
+    return [_row(name, worst < 1e-9 * scale, "numeric", worst)]
+
+
+def module_efforts(module: Any, u: np.ndarray) -> np.ndarray:
+    return u[: len(module.EFFORTS)]

@@ -1,0 +1,79 @@
+"""Build a Pinocchio model of a ``Robot`` (optional: only when ``pin`` is installed).
+
+Used by ``dynderive check`` to compare the generated dynamics with an independent engine.
+Joints are added depth-first (Pinocchio's CRBA assumes each subtree has consecutive joint
+indices), fixed joints append their child's inertia to the parent's Pinocchio joint; the
+returned permutation maps dynderive's coordinate order to Pinocchio's.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sympy
+
+from .model import Robot
+from .symbols import SymbolTable
+
+
+def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndarray]:
+    """(model, perm) with ``q_pin = q[perm]``; parameters take ``values``."""
+    import pinocchio as pin
+
+    table = SymbolTable.for_robot(robot)
+    numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}
+
+    def num(text: object) -> float:
+        return float(table.expr(text).xreplace(numbers).evalf())
+
+    model = pin.Model()
+    model.gravity.linear = np.array([num(e) for e in robot.gravity] + ([0.0] if robot.planar else []))
+    coordinate = {name: i for i, name in enumerate(robot.coordinates)}
+    # where each link lives: (pinocchio joint id, placement of the link frame in that joint)
+    frame_of: dict[str, tuple[int, Any]] = {"world": (0, pin.SE3.Identity())}
+    perm: list[int] = []
+
+    def placement(joint: Any) -> Any:
+        if robot.planar:
+            x, y, theta = (num(e) for e in joint.origin)
+            return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, theta), np.array([x, y, 0.0]))
+        x, y, z, roll, pitch, yaw = (num(e) for e in joint.origin)
+        return pin.SE3(pin.rpy.rpyToMatrix(roll, pitch, yaw), np.array([x, y, z]))
+
+    def inertia(link_name: str) -> Any:
+        link = robot.link(link_name)
+        mass = num(link.mass)
+        com = [num(e) for e in link.com] + ([0.0] if robot.planar else [])
+        if robot.planar:
+            izz = num(link.inertia[0])
+            tensor = np.diag([izz, izz, izz])
+        else:
+            ixx, iyy, izz, ixy, ixz, iyz = (num(e) for e in link.inertia)
+            tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        return pin.Inertia(mass, np.array(com), tensor)
+
+    def visit(parent: str) -> None:
+        for joint in robot.joints:
+            if joint.parent != parent:
+                continue
+            parent_id, parent_frame = frame_of[parent]
+            place = parent_frame * placement(joint)
+            if not joint.moves:
+                frame_of[joint.child] = (parent_id, place)
+                model.appendBodyToJoint(parent_id, inertia(joint.child), place)
+            else:
+                axis = np.array([num(e) for e in joint.axis] + ([0.0] if robot.planar else []))
+                axis = axis / np.linalg.norm(axis)
+                if joint.type == "revolute":
+                    kind = pin.JointModelRZ() if robot.planar else pin.JointModelRevoluteUnaligned(axis)
+                else:
+                    kind = pin.JointModelPrismaticUnaligned(axis)
+                joint_id = model.addJoint(parent_id, kind, place, joint.name)
+                model.appendBodyToJoint(joint_id, inertia(joint.child), pin.SE3.Identity())
+                frame_of[joint.child] = (joint_id, pin.SE3.Identity())
+                perm.append(coordinate[joint.name])
+            visit(joint.child)
+
+    visit("world")
+    return model, np.array(perm, dtype=int)
