@@ -113,6 +113,8 @@ def solve(
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
+    tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
+                                        "pytest property checks of the generated module.")] = False,
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("."),
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Directory of templates that override the built-in ones by file name.")] = None,
@@ -132,6 +134,8 @@ def solve(
     progress("loading")
     model = load_robot(robot)
     derivation = derive(model, progress=progress)
+    if tests and not code:
+        raise InputError(_problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     if not (latex or pdf or code or json_):
         typer.echo(render_terminal(derivation), nl=False)
         return
@@ -150,6 +154,10 @@ def solve(
     if code:
         progress("generating code")
         files[out / f"{model.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
+        if tests:
+            from .render.code import render_code_tests
+
+            files[out / f"test_{model.name}_dynamics.py"] = render_code_tests(derivation, template_dir).encode()
     if json_:
         files[out / f"{model.name}.json"] = render_json(derivation).encode()
     write_all(files)
@@ -201,6 +209,92 @@ def check(
         typer.echo(f"\n{passed} passed, {len(failed)} failed, {skipped} skipped")
     if failed:
         raise typer.Exit(1)
+
+
+def _vector(text: str | None, size: int, option: str) -> Any:
+    import numpy as np
+
+    if text is None:
+        return None
+    try:
+        values = [float(v) for v in text.replace(",", " ").split()]
+    except ValueError:
+        values = []
+    if len(values) != size:
+        raise InputError(_problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
+    return np.array(values)
+
+
+@app.command()
+@handle_errors
+def simulate(
+    robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
+    duration: Annotated[float, typer.Option("--duration", help="Simulated time in seconds.")] = 5.0,
+    q0: Annotated[str | None, typer.Option("--q0", help="Initial coordinates, e.g. '0.5,0.1' (default: 0.5 rad / 0.2 m).")] = None,
+    qd0: Annotated[str | None, typer.Option("--qd0", help="Initial velocities (default: 0).")] = None,
+    effort: Annotated[list[str] | None, typer.Option("--effort", help="NAME=EXPR(t, q, qd), repeatable; others are 0.")] = None,
+    coordinates: Annotated[str, typer.Option("--coordinates", help="generalized or maximal (planar robots).")] = "generalized",
+    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift).")] = None,
+    csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
+    animate: Annotated[Path | None, typer.Option("--animate", help="GIF animation (planar robots).")] = None,
+    rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of solve_ivp (DOP853).")] = 1e-9,
+    atol: Annotated[float, typer.Option("--atol", help="Absolute tolerance of solve_ivp.")] = 1e-9,
+    baumgarte: Annotated[float, typer.Option("--baumgarte", help="Baumgarte gain (alpha = beta) for maximal runs.")] = 10.0,
+    frames: Annotated[int, typer.Option("--frames", help="Output samples (and animation frames).")] = 101,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+) -> None:
+    """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
+    import numpy as np
+
+    from . import derive, load_robot
+    from .output import write_all
+    from .render.code import render_code
+    from .simulate import animation_gif, csv_text, default_initial, parse_efforts, plot_png
+    from .simulate import simulate as run
+
+    if coordinates not in ("generalized", "maximal"):
+        raise InputError(_problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
+    if duration <= 0 or frames < 2:
+        raise InputError(_problem("--duration", "duration must be positive and frames at least 2"))
+    try:
+        import matplotlib  # noqa: F401
+        import scipy  # noqa: F401
+    except ImportError as exc:
+        raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
+                               'pip install "dynderive[simulate]"') from None
+    progress = _Progress(quiet)
+    model = load_robot(robot)
+    maximal = coordinates == "maximal"
+    if maximal and not model.planar:
+        raise InputError(_problem(model.source, "maximal coordinates are planar-only for now"))
+    if animate is not None and not model.planar:
+        raise InputError(_problem(model.source, "--animate draws planar robots only"))
+    n = len(model.coordinates)
+    start_q = _vector(q0, n, "--q0")
+    start_qd = _vector(qd0, n, "--qd0")
+    derivation = derive(model, progress=progress)
+    efforts = parse_efforts(derivation, effort or [], maximal)
+    progress("generating code")
+    source = render_code(derivation)
+    trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
+                     np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
+                     frames, progress)
+    files: dict[Path, bytes] = {}
+    if plot is not None:
+        progress("plotting")
+        files[plot] = plot_png(derivation, trajectory)
+    if csv is not None:
+        files[csv] = csv_text(trajectory).encode()
+    if animate is not None:
+        progress("animating")
+        files[animate] = animation_gif(derivation, trajectory)
+    write_all(files)
+    relative = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])) / max(abs(trajectory.energy[0]), 1e-12))
+    typer.echo(f"simulated {duration:g} s of {model.name} in {coordinates} coordinates: "
+               f"largest relative energy change {relative:.3g}"
+               + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else ""))
+    for path in files:
+        typer.echo(f"wrote {path}", err=True)
 
 
 @app.command("import")

@@ -102,6 +102,8 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
             ("constraints", f"Holonomic constraints a_m(qm) (zero when they hold), shape (..., {k}).", [qm], "a_m"),
             ("constraint_jacobian", f"Constraint Jacobian A_m(qm) = da/dqm, shape (..., {k}, {m}).", [qm], "A_m"),
             ("constraint_jacobian_dot", f"Time derivative Adot_m(qm, qmd), shape (..., {k}, {m}).", [qm, qmd], "Adot_m"),
+            ("maximal_kinetic_energy", "Kinetic energy T_m(qm, qmd), shape (...).", [qm, qmd], "T_m"),
+            ("maximal_potential_energy", "Potential energy V_m(qm), shape (...).", [qm], "V_m"),
             ("to_maximal", f"Change of basis qm = h(q), shape (..., {m}).", [q], "h"),
             ("to_maximal_jacobian", f"Its Jacobian H(q) = dh/dq (qmd = H qd), shape (..., {m}, {n}).", [q], "H"),
         ]
@@ -206,3 +208,12 @@ def _tuple(names: tuple[str, ...]) -> str:
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     return render("code", CODE_TEMPLATE, code_context(derivation), template_dir)
+
+
+def render_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    """A pytest file of property checks for the generated module (``solve --code --tests``)."""
+    from .. import __version__
+
+    context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
+               "source": Path(derivation.robot.source).name, "maximal": "M_m" in derivation.quantities}
+    return render("code", "dynamics_test.py.j2", context, template_dir)

@@ -1,0 +1,245 @@
+"""``dynderive simulate``: integrate the generated dynamics, plot, tabulate and animate.
+
+Needs SciPy and matplotlib (``pip install "dynderive[simulate]"``). Efforts are expressions
+of ``t``, the coordinates, their velocities and the parameters, parsed by the same whitelist
+as robot files. Maximal-coordinate runs use Baumgarte stabilisation and accept efforts of
+``t`` only (the generalized coordinates are not state there).
+"""
+
+from __future__ import annotations
+
+import io
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import sympy
+
+from .checks import generated_module
+from .derivation import Derivation
+from .errors import InputError, Problem
+from .expressions import ExpressionError, parse_expression
+
+
+@dataclass
+class Trajectory:
+    names: list[str]           # coordinate names of the state (generalized or maximal)
+    times: np.ndarray
+    position: np.ndarray       # (frames, n)
+    velocity: np.ndarray
+    energy: np.ndarray
+    drift: np.ndarray | None   # max |a(qm)| per frame (maximal runs)
+    link_poses: Callable[[np.ndarray], list[tuple[np.ndarray, float]]] | None  # planar drawing
+
+
+def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Callable[..., np.ndarray]:
+    """``NAME=EXPR`` options -> u(t, q, qd) for the effort vector (missing efforts are 0)."""
+    table, robot = derivation.symbols, derivation.robot
+    t = sympy.Symbol("t")
+    scope: dict[str, sympy.Expr] = {"t": t, **table.parameters}
+    if not maximal:
+        scope |= {str(s): s for s in (*table.q, *table.qd)}
+    exprs: dict[str, sympy.Expr] = {}
+    for spec in specs:
+        name, sep, text = spec.partition("=")
+        where = f"--effort {spec}"
+        if not sep or name.strip() not in robot.efforts:
+            raise InputError(Problem(where, 1, 1, f"expected NAME=EXPR with NAME one of "
+                                     f"{', '.join(robot.efforts) or '(this robot has no efforts)'}"))
+        try:
+            exprs[name.strip()] = parse_expression(text, scope)
+        except ExpressionError as exc:
+            hint = " (maximal runs take efforts of t only)" if maximal else ""
+            raise InputError(Problem(where, 1, len(name) + 2 + exc.offset, f"{exc}{hint}")) from None
+    values = {table.parameters[p.name]: p.value for p in robot.parameters if p.value is not None}
+    vector = sympy.Matrix([exprs.get(e, sympy.Integer(0)) for e in robot.efforts]).xreplace(values)
+    function = sympy.lambdify([t, table.q, table.qd], vector, modules="numpy")
+    return lambda time, q, qd: np.asarray(function(time, q, qd), dtype=float).reshape(-1)
+
+
+def default_initial(derivation: Derivation) -> np.ndarray:
+    """A meaningful start with no options: revolute joints at 0.5 rad, prismatic at 0.2."""
+    kinds = {j.name: j.type for j in derivation.robot.joints}
+    return np.array([0.5 if kinds[name] == "revolute" else 0.2 for name in derivation.robot.coordinates])
+
+
+def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarray, qd0: np.ndarray,
+             efforts: Callable[..., np.ndarray], maximal: bool, rtol: float, atol: float,
+             baumgarte: float, frames: int, progress: Callable[[str], None]) -> Trajectory:
+    from scipy.integrate import solve_ivp
+
+    module = generated_module(source, derivation.robot.name)
+    values = {p.name: p.value for p in derivation.robot.parameters if p.value is not None}
+    n = len(q0)
+    reported = [-1]
+
+    def tick(time: float) -> None:
+        percent = int(100 * time / duration) // 10 * 10
+        if percent > reported[0]:
+            reported[0] = percent
+            progress(f"simulated {percent:3d} % of {duration:g} s")
+
+    if not maximal:
+        def rhs(time: float, y: np.ndarray) -> np.ndarray:
+            tick(time)
+            q, qd = y[:n], y[n:]
+            return np.concatenate([qd, module.forward_dynamics(q, qd, efforts(time, q, qd), **values)])
+        y0 = np.concatenate([q0, qd0])
+        names = list(derivation.robot.coordinates)
+    else:
+        qm0 = module.to_maximal(q0, **values)
+        y0 = np.concatenate([qm0, module.to_maximal_jacobian(q0, **values) @ qd0])
+        n = len(qm0)
+        zero_q = np.zeros(len(q0))
+
+        def rhs(time: float, y: np.ndarray) -> np.ndarray:
+            tick(time)
+            qm, qmd = y[:n], y[n:]
+            u = efforts(time, zero_q, zero_q)
+            return np.concatenate([qmd, module.maximal_forward_dynamics(qm, qmd, u, alpha=baumgarte,
+                                                                         beta=baumgarte, **values)])
+        names = [str(s) for s in derivation.symbols.qm]
+    times = np.linspace(0.0, duration, frames)
+    solution = solve_ivp(rhs, (0.0, duration), y0, method="DOP853", t_eval=times, rtol=rtol, atol=atol)
+    if not solution.success:
+        raise InputError(Problem("--duration", 1, 1, f"integration failed: {solution.message}"))
+    tick(duration)
+    position, velocity = solution.y[:n].T, solution.y[n:].T
+    if maximal:
+        energy = module.maximal_kinetic_energy(position, velocity, **values) + module.maximal_potential_energy(position, **values)
+        drift = np.max(np.abs(module.constraints(position, **values)), axis=-1)
+    else:
+        energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
+        drift = None
+    return Trajectory(names, solution.t, position, velocity, np.asarray(energy), drift,
+                      _link_poses(derivation, maximal) if derivation.robot.planar else None)
+
+
+def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray], list[tuple[np.ndarray, float]]]:
+    """state -> [(link frame origin, angle)] per link, for drawing."""
+    table, robot = derivation.symbols, derivation.robot
+    values = {table.parameters[p.name]: p.value for p in robot.parameters if p.value is not None}
+    poses = []
+    if maximal:
+        for k, link in enumerate(robot.links):
+            x, y, phi = table.qm[3 * k: 3 * k + 3]
+            cx, cy = (table.expr(e) for e in link.com)
+            origin = sympy.Matrix([x - sympy.cos(phi) * cx + sympy.sin(phi) * cy,
+                                   y - sympy.sin(phi) * cx - sympy.cos(phi) * cy])
+            poses.append((origin, phi))
+        state = table.qm
+    else:
+        for kin in derivation.steps["kinematics"]:
+            poses.append((kin.joint_origin, kin.angle))
+        state = table.q
+    flat = sympy.Matrix([e for origin, angle in poses for e in (*origin, angle)]).xreplace(values)
+    function = sympy.lambdify([state], flat, modules="numpy")
+
+    def evaluate(s: np.ndarray) -> list[tuple[np.ndarray, float]]:
+        numbers = np.asarray(function(s), dtype=float).reshape(-1, 3)
+        return [(row[:2], float(row[2])) for row in numbers]
+
+    return evaluate
+
+
+def _segments(derivation: Derivation, poses: list[tuple[np.ndarray, float]]) -> list[np.ndarray]:
+    """Polylines drawing each link: frame origin to its children's joints, or to 2 x COM."""
+    robot, table = derivation.robot, derivation.symbols
+    values = {table.parameters[p.name]: p.value for p in robot.parameters if p.value is not None}
+
+    def number(text: object) -> float:
+        return float(table.expr(text).xreplace(values))
+
+    lines = []
+    for (origin, angle), link in zip(poses, robot.links):
+        rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        ends = [np.array([number(j.origin[0]), number(j.origin[1])]) for j in robot.joints if j.parent == link.name]
+        com = np.array([number(e) for e in link.com])
+        if not ends:
+            ends = [2 * com] if np.any(com) else [np.array([0.0, 0.0])]
+        for end in ends:
+            lines.append(np.array([origin, origin + rotation @ end]))
+    return lines
+
+
+def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = 3 if trajectory.drift is not None else 2
+    figure, axes = plt.subplots(panels, 1, figsize=(8, 2.6 * panels), sharex=True)
+    for i, name in enumerate(trajectory.names):
+        axes[0].plot(trajectory.times, trajectory.position[:, i], label=name)
+    axes[0].set_ylabel("coordinate")
+    axes[0].legend(loc="upper right", fontsize="small", ncol=min(len(trajectory.names), 6))
+    axes[0].set_title(f"{derivation.robot.title}: simulation")
+    axes[1].plot(trajectory.times, trajectory.energy - trajectory.energy[0], color="tab:red",
+                 label="E(t) - E(0)")
+    axes[1].set_ylabel("total energy change")
+    axes[1].legend(loc="upper right", fontsize="small")
+    if trajectory.drift is not None:
+        axes[2].semilogy(trajectory.times, np.maximum(trajectory.drift, 1e-18), color="tab:green",
+                         label="max |a(q_m)|")
+        axes[2].set_ylabel("constraint drift")
+        axes[2].legend(loc="upper right", fontsize="small")
+    axes[-1].set_xlabel("time [s]")
+    figure.tight_layout()
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    plt.close(figure)
+    return buffer.getvalue()
+
+
+def csv_text(trajectory: Trajectory) -> str:
+    from .schema import velocity_name
+
+    header = ["t", *trajectory.names, *(velocity_name(n) for n in trajectory.names), "energy"]
+    columns = [trajectory.times[:, None], trajectory.position, trajectory.velocity, trajectory.energy[:, None]]
+    if trajectory.drift is not None:
+        header.append("constraint_drift")
+        columns.append(trajectory.drift[:, None])
+    table = np.hstack(columns)
+    lines = [",".join(header)] + [",".join(f"{v:.12g}" for v in row) for row in table]
+    return "\n".join(lines) + "\n"
+
+
+def animation_gif(derivation: Derivation, trajectory: Trajectory, fps: int = 20) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    assert trajectory.link_poses is not None
+    frames = [_segments(derivation, trajectory.link_poses(s)) for s in trajectory.position]
+    points = np.concatenate([np.concatenate(f) for f in frames])
+    low, high = points.min(axis=0), points.max(axis=0)
+    span = max(float(np.max(high - low)), 1e-3) * 0.6
+    centre = (low + high) / 2
+    figure, axis = plt.subplots(figsize=(5, 5))
+    axis.set_xlim(centre[0] - span, centre[0] + span)
+    axis.set_ylim(centre[1] - span, centre[1] + span)
+    axis.set_aspect("equal")
+    axis.grid(True, alpha=0.3)
+    axis.set_title(derivation.robot.title)
+    artists = [axis.plot([], [], "o-", lw=3)[0] for _ in frames[0]]
+    label = axis.text(0.02, 0.95, "", transform=axis.transAxes)
+
+    def draw(index: int) -> list[Any]:
+        for artist, segment in zip(artists, frames[index]):
+            artist.set_data(segment[:, 0], segment[:, 1])
+        label.set_text(f"t = {trajectory.times[index]:.2f} s")
+        return [*artists, label]
+
+    animation = FuncAnimation(figure, draw, frames=len(frames), blit=True)
+    with tempfile.TemporaryDirectory(prefix="dynderive-gif-") as folder:
+        path = Path(folder) / "animation.gif"
+        animation.save(str(path), writer=PillowWriter(fps=fps))
+        data = path.read_bytes()
+    plt.close(figure)
+    return data
