@@ -297,6 +297,46 @@ def simulate(
         typer.echo(f"wrote {path}", err=True)
 
 
+@app.command()
+@handle_errors
+def build(
+    paths: Annotated[list[Path] | None, typer.Argument(help="Robot files or folders to search (default: .).")] = None,
+    out: Annotated[Path, typer.Option("--out", help="Output directory (holds the build manifest).")] = Path("build"),
+    latex: Annotated[bool, typer.Option("--latex", help="Write <name>.tex.")] = False,
+    pdf: Annotated[bool, typer.Option("--pdf", help="Write <name>.pdf.")] = False,
+    code: Annotated[bool, typer.Option("--code", help="Write <name>_dynamics.py.")] = False,
+    json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
+    jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
+    check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "
+                                             "missing or differ from what would be generated.")] = False,
+    template_dir: Annotated[Path | None, typer.Option("--template-dir",
+                            help="Templates that override the built-in ones by file name.")] = None,
+) -> None:
+    """Build the outputs of every robot file under PATHS, only where inputs changed."""
+    from .build import build as run_build
+    from .build import default_jobs
+
+    kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("json", json_)) if wanted)
+    if not kinds:
+        kinds = ("latex", "code")
+    if template_dir is not None and not template_dir.is_dir():
+        raise InputError(_problem(str(template_dir), "template directory does not exist"))
+    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir)
+    width = max([len(o.source) for o in outcomes] + [5])
+    typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds")
+    for o in outcomes:
+        typer.echo(f"{o.source:<{width}}  {o.status:<10}  {o.seconds:7.1f}")
+        for line in o.problems:
+            typer.echo(f"  {line}")
+        if o.message:
+            for line in o.message.splitlines():
+                typer.echo(f"  {line}", err=True)
+    counts = {s: sum(o.status == s for o in outcomes) for s in ("built", "up to date", "current", "differs", "failed")}
+    typer.echo(", ".join(f"{n} {s}" for s, n in counts.items() if n) or "no robot files found")
+    if counts["failed"] or counts["differs"]:
+        raise typer.Exit(1)
+
+
 @app.command("import")
 @handle_errors
 def import_(

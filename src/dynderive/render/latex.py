@@ -13,6 +13,10 @@ from .environment import render
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
+#: Largest scalar (tree nodes) typeset in a breqn display; beyond it breqn overflows.
+SCALAR_NODES = 500
+#: Largest entry of a matrix typeset inline on one line (positions, Jacobians, rotations).
+INLINE_NODES = 120
 #: Largest matrix (tree nodes in all) the sheet typesets.
 MATRIX_NODES = 6000
 #: A matrix whose LaTeX is longer than this is typeset entry by entry.
@@ -87,20 +91,21 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
     for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
         lagrange.append({
             "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
-            "dL_dqd": fmt.maybe(gen["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": fmt.maybe(gen["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": fmt.maybe(gen["lagrange"]["dL_dq"][i]),
+            "dL_dqd": fmt.maybe(gen["lagrange"]["dL_dqd"][i], SCALAR_NODES),
+            "ddt_dL_dqd": fmt.maybe(gen["lagrange"]["ddt_dL_dqd"][i], SCALAR_NODES),
+            "dL_dq": fmt.maybe(gen["lagrange"]["dL_dq"][i], SCALAR_NODES),
             "effort": fmt(q["Y_g"][i]),
-            "equation": fmt.maybe(q["EOM_g1"][i]),
+            "equation": fmt.maybe(q["EOM_g1"][i], SCALAR_NODES),
         })
     links = []
     for t in gen["links"]:
         links.append({
             "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
             "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
-            "jacobian": fmt.maybe(t.body_jacobian), "velocity": fmt.maybe(t.body_velocity),
-            "com": fmt.maybe(t.com_position), "angle": fmt.maybe(t.orientation),
-            "kinetic": fmt.maybe(t.kinetic), "potential": fmt.maybe(t.potential),
+            "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
+            "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
+            "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
+            "kinetic": fmt.maybe(t.kinetic, SCALAR_NODES), "potential": fmt.maybe(t.potential, SCALAR_NODES),
         })
     parameters = [{
         "symbol": fmt(table.parameters[p.name]),
@@ -124,8 +129,8 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "q_g": fmt(sympy.Matrix(table.q)),
         "qd_g": fmt(sympy.Matrix(table.qd)),
         "links": links,
-        "T_g": fmt.maybe(q["T_g"], MATRIX_NODES), "V_g": fmt.maybe(q["V_g"], MATRIX_NODES),
-        "L_g": fmt.maybe(q["L_g"], MATRIX_NODES),
+        "T_g": fmt.maybe(q["T_g"], SCALAR_NODES), "V_g": fmt.maybe(q["V_g"], SCALAR_NODES),
+        "L_g": fmt.maybe(q["L_g"], SCALAR_NODES),
         "Y_g": fmt(q["Y_g"]),
         "lagrange": lagrange,
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,

@@ -1,0 +1,182 @@
+"""``dynderive build``: regenerate the outputs of many robot files, only where inputs changed.
+
+A small manifest in the output directory records, per robot file, a content hash of its
+inputs (the robot file, the templates in use, the dynderive version and the output kinds)
+and of each output it produced. A robot whose inputs and outputs match is up to date and is
+not derived again. ``--check`` writes nothing and reports every output that is missing or
+differs from what would be generated (deriving only robots whose record does not match).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import DynderiveError, InputError, Problem
+
+MANIFEST = ".dynderive-build.json"
+SUFFIXES = (".yaml", ".yml", ".urdf")
+KINDS = ("latex", "pdf", "code", "json")
+TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
+             "code": ["dynamics.py.j2"], "json": []}
+
+
+@dataclass
+class Outcome:
+    source: str
+    status: str                      # built, up to date, failed, current, differs
+    seconds: float = 0.0
+    message: str = ""
+    outputs: dict[str, str] = field(default_factory=dict)   # file name -> sha256
+    problems: list[str] = field(default_factory=list)        # --check: missing/differing files
+
+
+def discover(paths: list[Path]) -> list[Path]:
+    """Robot files under ``paths`` (files as given, folders searched), in a stable order."""
+    found: list[Path] = []
+    for path in paths:
+        if path.is_dir():
+            found += sorted(p for p in path.rglob("*") if p.suffix in SUFFIXES and p.is_file())
+        elif path.is_file():
+            found.append(path)
+        else:
+            raise InputError(Problem(str(path), 1, 1, "no such file or directory"))
+    seen: set[Path] = set()
+    return [p for p in found if not (p.resolve() in seen or seen.add(p.resolve()))]  # type: ignore[func-returns-value]
+
+
+def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -> str:
+    from . import __version__
+    from .render.environment import templates_in_use
+
+    digest = hashlib.sha256()
+    digest.update(f"dynderive {__version__} {engine_fingerprint()}\n{','.join(kinds)}\n".encode())
+    digest.update(source.read_bytes())
+    names = sorted({name for kind in kinds for name in TEMPLATES[kind]})
+    for template in templates_in_use(names, template_dir):
+        digest.update(template.name.encode() + b"\0" + template.read_bytes())
+    return digest.hexdigest()
+
+
+def engine_fingerprint() -> str:
+    """Hash of dynderive's own source: an engine change invalidates every manifest record."""
+    digest = hashlib.sha256()
+    package = Path(__file__).resolve().parent
+    for path in sorted(package.rglob("*.py")):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
+    """Every requested output of one robot file, in memory (runs in a worker process)."""
+    from . import derive, load_robot
+    from .render.code import render_code
+    from .render.json import render_json
+    from .render.latex import render_latex
+
+    robot = load_robot(source)
+    derivation = derive(robot)
+    files: dict[str, bytes] = {}
+    tex = render_latex(derivation, template_dir) if ("latex" in kinds or "pdf" in kinds) else None
+    if "latex" in kinds:
+        files[f"{robot.name}.tex"] = tex.encode()  # type: ignore[union-attr]
+    if "pdf" in kinds:
+        from .render.pdf import compile_pdf
+
+        files[f"{robot.name}.pdf"] = compile_pdf(tex, robot.name)  # type: ignore[arg-type]
+    if "code" in kinds:
+        files[f"{robot.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
+    if "json" in kinds:
+        files[f"{robot.name}.json"] = render_json(derivation).encode()
+    return files
+
+
+def _work(source: str, kinds: tuple[str, ...], template_dir: str | None) -> tuple[dict[str, bytes] | None, str, float]:
+    start = time.monotonic()
+    try:
+        return render_outputs(source, kinds, template_dir), "", time.monotonic() - start
+    except DynderiveError as exc:
+        return None, str(exc), time.monotonic() - start
+    except Exception as exc:  # an internal error in one robot must not stop the others
+        return None, f"internal error: {type(exc).__name__}: {exc}", time.monotonic() - start
+
+
+def _sha(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def load_manifest(out: Path) -> dict[str, dict]:
+    try:
+        return json.loads((out / MANIFEST).read_text())["robots"]
+    except (FileNotFoundError, ValueError, KeyError, TypeError):
+        return {}
+
+
+def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check: bool,
+          template_dir: Path | None) -> list[Outcome]:
+    from .output import write_all
+
+    sources = discover(paths)
+    manifest = load_manifest(out)
+    outcomes: dict[str, Outcome] = {}
+    pending: list[tuple[Path, str]] = []
+    for source in sources:
+        name = str(source)
+        key = input_key(source, kinds, template_dir)
+        record = manifest.get(name)
+        if record and record.get("key") == key and _outputs_match(out, record.get("outputs", {})):
+            outcomes[name] = Outcome(name, "current" if check else "up to date", outputs=record["outputs"])
+        else:
+            pending.append((source, key))
+    workers = max(1, min(jobs, len(pending)))
+    results: list[tuple[Path, str, tuple[dict[str, bytes] | None, str, float]]] = []
+    if pending:
+        if workers == 1:
+            results = [(s, k, _work(str(s), kinds, str(template_dir) if template_dir else None)) for s, k in pending]
+        else:
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                futures = [(s, k, pool.submit(_work, str(s), kinds, str(template_dir) if template_dir else None))
+                           for s, k in pending]
+                results = [(s, k, f.result()) for s, k, f in futures]
+    for source, key, (files, error, seconds) in results:
+        name = str(source)
+        if files is None:
+            outcomes[name] = Outcome(name, "failed", seconds, error)
+            continue
+        hashes = {file: _sha(data) for file, data in files.items()}
+        if check:
+            problems = [f"{out / file}: missing" if not (out / file).is_file() else f"{out / file}: differs"
+                        for file, data in files.items()
+                        if not (out / file).is_file() or (out / file).read_bytes() != data]
+            outcomes[name] = Outcome(name, "differs" if problems else "current", seconds, outputs=hashes,
+                                     problems=problems)
+        else:
+            write_all({out / file: data for file, data in files.items()})
+            outcomes[name] = Outcome(name, "built", seconds, outputs=hashes)
+            manifest[name] = {"key": key, "outputs": hashes}
+    if not check:
+        for name in list(manifest):
+            if name not in outcomes and not Path(name).exists():
+                del manifest[name]
+        document = {"version": 1, "robots": dict(sorted(manifest.items()))}
+        write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()})
+    return [outcomes[str(s)] for s in sources]
+
+
+def _outputs_match(out: Path, outputs: dict[str, str]) -> bool:
+    if not outputs:
+        return False
+    for file, digest in outputs.items():
+        path = out / file
+        if not path.is_file() or _sha(path.read_bytes()) != digest:
+            return False
+    return True
+
+
+def default_jobs() -> int:
+    return max(1, os.cpu_count() or 1)

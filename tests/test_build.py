@@ -1,0 +1,131 @@
+"""`dynderive build`: incremental, --check, reproducible, custom templates, examples current."""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from dynderive.cli import app
+
+from conftest import ROBOTS
+
+runner = CliRunner()
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture()
+def robots(tmp_path):
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    for name in ("rp_arm", "cart_pole"):
+        shutil.copy(ROBOTS / f"{name}.yaml", folder)
+    return folder
+
+
+def _build(*args):
+    return runner.invoke(app, ["build", *map(str, args)])
+
+
+def test_second_build_is_up_to_date_and_fast(robots, tmp_path):
+    out = tmp_path / "out"
+    start = time.perf_counter()
+    first = _build(robots, "--out", out, "--latex", "--code", "--json", "-j", "1")
+    first_time = time.perf_counter() - start
+    assert first.exit_code == 0, first.output
+    assert "2 built" in first.stdout
+    start = time.perf_counter()
+    second = _build(robots, "--out", out, "--latex", "--code", "--json", "-j", "1")
+    assert second.exit_code == 0
+    assert "2 up to date" in second.stdout
+    assert time.perf_counter() - start < first_time / 10
+    # editing one robot rebuilds that robot only
+    path = robots / "cart_pole.yaml"
+    path.write_text(path.read_text().replace("mp: {value: 0.1", "mp: {value: 0.2"))
+    third = _build(robots, "--out", out, "--latex", "--code", "--json", "-j", "1")
+    assert "1 built, 1 up to date" in third.stdout
+    statuses = {line.split()[0]: line.split()[1] for line in third.stdout.splitlines()[1:-1]}
+    assert statuses == {str(robots / "cart_pole.yaml"): "built", str(robots / "rp_arm.yaml"): "up"}
+
+
+def test_check_passes_when_current_and_fails_after_edits(robots, tmp_path):
+    out = tmp_path / "out"
+    templates = tmp_path / "templates"
+    templates.mkdir()
+    shutil.copy(ROOT / "templates" / "preamble.tex.j2", templates)
+    assert _build(robots, "--out", out, "--latex", "--template-dir", templates).exit_code == 0
+    check = _build(robots, "--out", out, "--latex", "--template-dir", templates, "--check")
+    assert check.exit_code == 0, check.output
+    assert "2 current" in check.stdout
+    before = sorted(p.name for p in out.iterdir())
+    # a template edit: every sheet differs
+    preamble = templates / "preamble.tex.j2"
+    preamble.write_text(preamble.read_text() + "% edited\n")
+    check = _build(robots, "--out", out, "--latex", "--template-dir", templates, "--check")
+    assert check.exit_code == 1
+    assert f"{out / 'rp_arm.tex'}: differs" in check.stdout
+    preamble.write_text(preamble.read_text().replace("% edited\n", ""))
+    # a robot edit: that robot's sheet differs; --check wrote nothing
+    path = robots / "rp_arm.yaml"
+    path.write_text(path.read_text().replace("title: Two-link RP arm", "title: An RP arm"))
+    check = _build(robots, "--out", out, "--latex", "--template-dir", templates, "--check")
+    assert check.exit_code == 1
+    assert f"{out / 'rp_arm.tex'}: differs" in check.stdout
+    assert f"{out / 'cart_pole.tex'}" not in check.stdout
+    assert sorted(p.name for p in out.iterdir()) == before
+    # a missing output is reported as missing
+    (out / "cart_pole.tex").unlink()
+    check = _build(robots, "--out", out, "--latex", "--template-dir", templates, "--check")
+    assert f"{out / 'cart_pole.tex'}: missing" in check.stdout
+
+
+def test_failed_robot_does_not_stop_the_others(robots, tmp_path):
+    (robots / "broken.yaml").write_text("name: broken\nplanar: true\n")
+    result = _build(robots, "--out", tmp_path / "out", "--code")
+    assert result.exit_code == 1
+    assert "2 built, 1 failed" in result.stdout
+    assert "missing required key 'links'" in result.stderr
+    assert (tmp_path / "out" / "rp_arm_dynamics.py").is_file()
+
+
+@pytest.mark.pdf
+def test_two_builds_are_byte_identical(robots, tmp_path):
+    if shutil.which("latexmk") is None:
+        pytest.skip("no TeX engine")
+    for name in ("a", "b"):
+        result = _build(robots, "--out", tmp_path / name, "--latex", "--code", "--json", "--pdf", "-j", "2")
+        assert result.exit_code == 0, result.output
+    files = sorted(p.name for p in (tmp_path / "a").iterdir() if not p.name.startswith("."))
+    assert {"rp_arm.pdf", "rp_arm.tex", "rp_arm.json", "rp_arm_dynamics.py"} <= set(files)
+    for name in files:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+
+
+@pytest.mark.pdf
+def test_custom_preamble_changes_the_sheet_and_compiles(tmp_path):
+    if shutil.which("latexmk") is None:
+        pytest.skip("no TeX engine")
+    templates = tmp_path / "templates"
+    templates.mkdir()
+    preamble = (ROOT / "templates" / "preamble.tex.j2").read_text()
+    (templates / "preamble.tex.j2").write_text(preamble.replace("[11pt]", "[12pt]") + "\\usepackage{xcolor}\n")
+    result = runner.invoke(app, ["solve", "rp_arm", "--latex", "--pdf", "--template-dir", str(templates),
+                                 "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    tex = (tmp_path / "out" / "rp_arm.tex").read_text()
+    assert "\\documentclass[12pt]{article}" in tex and "\\usepackage{xcolor}" in tex
+    assert (tmp_path / "out" / "rp_arm.pdf").read_bytes().startswith(b"%PDF")
+
+
+@pytest.mark.pdf
+def test_committed_examples_are_current(monkeypatch):
+    """examples/ holds the outputs of every bundled robot; an output-changing commit must regenerate them."""
+    if shutil.which("latexmk") is None:
+        pytest.skip("no TeX engine")
+    monkeypatch.chdir(ROOT)  # the manifest records paths as given: robots/<file>
+    result = runner.invoke(app, ["build", "robots", "--out", "examples", "--latex", "--code", "--pdf", "--check"])
+    assert result.exit_code == 0, result.stdout + (
+        "\nregenerate with: dynderive build robots --out examples --latex --code --pdf")
