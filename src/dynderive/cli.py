@@ -337,6 +337,17 @@ def build(
         raise typer.Exit(1)
 
 
+@app.command()
+@handle_errors
+def schema() -> None:
+    """Print the JSON Schema of the robot file format (for editors such as VS Code's YAML extension)."""
+    import json
+
+    from .json_schema import robot_schema
+
+    typer.echo(json.dumps(robot_schema(), indent=2))
+
+
 @app.command("import")
 @handle_errors
 def import_(

@@ -21,6 +21,13 @@ Path_ = tuple[Any, ...]
 
 #: Longest robot file we read; protects against megabyte-sized junk.
 MAX_FILE_BYTES = 2_000_000
+#: Most values a document may expand to (YAML aliases can expand exponentially).
+MAX_VALUES = 50_000
+
+
+class _TooLarge(Exception):
+    def __init__(self, node: yaml.Node):
+        self.node = node
 
 
 @dataclass
@@ -135,9 +142,13 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
         return document
     problems: list[Problem] = []
     try:
-        document.data = _build(node, (), document, problems, _Composer(""))
+        document.data = _build(node, (), document, problems, _Composer(""), [0])
     except RecursionError:
         raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
+    except _TooLarge as exc:
+        line, column = _mark(exc.node)
+        raise InputError(Problem(file, line, column, f"document expands to more than {MAX_VALUES} "
+                                 "values (YAML aliases?)")) from None
     if problems:
         raise InputError(problems)
     return document
@@ -148,7 +159,10 @@ def _mark(node: yaml.Node) -> tuple[int, int]:
 
 
 def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Problem],
-           constructor: yaml.SafeLoader) -> Any:
+           constructor: yaml.SafeLoader, count: list[int]) -> Any:
+    count[0] += 1
+    if count[0] > MAX_VALUES:
+        raise _TooLarge(node)
     doc.positions[path] = _mark(node)
     if isinstance(node, yaml.MappingNode):
         result: dict[Any, Any] = {}
@@ -167,10 +181,10 @@ def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Pro
                                         f"duplicate key '{key}' (first given at line {first[0]})"))
                 continue
             doc.key_positions[path + (key,)] = _mark(key_node)
-            result[key] = _build(value_node, path + (key,), doc, problems, constructor)
+            result[key] = _build(value_node, path + (key,), doc, problems, constructor, count)
         return result
     if isinstance(node, yaml.SequenceNode):
-        return [_build(item, path + (i,), doc, problems, constructor)
+        return [_build(item, path + (i,), doc, problems, constructor, count)
                 for i, item in enumerate(node.value)]
     doc.scalar_style[path] = node.style
     try:

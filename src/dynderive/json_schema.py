@@ -1,0 +1,90 @@
+"""The JSON Schema of the robot file format (version 1), for editors and validators.
+
+``dynderive schema > robot.schema.json``; VS Code's YAML extension picks it up with
+``# yaml-language-server: $schema=robot.schema.json`` at the top of a robot file. The schema
+checks shape and names; meaning (the tree, positive masses, symbols) is left to dynderive's own
+validation, which reports positions.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+IDENTIFIER = "^[A-Za-z_][A-Za-z0-9_]*$"
+EXPRESSION: dict[str, Any] = {
+    "description": "A number, or an expression in Python syntax over the declared parameters",
+    "oneOf": [{"type": "number"}, {"type": "string", "minLength": 1, "maxLength": 1000}],
+}
+
+
+def _vector(sizes: list[int], description: str) -> dict[str, Any]:
+    return {"description": description, "type": "array", "items": EXPRESSION,
+            "minItems": min(sizes), "maxItems": max(sizes)}
+
+
+def robot_schema() -> dict[str, Any]:
+    parameter = {
+        "oneOf": [
+            {"type": "number", "description": "default value"},
+            {"type": "null", "description": "a symbol without a default"},
+            {"type": "object", "additionalProperties": False, "properties": {
+                "value": {"type": ["number", "null"]},
+                "unit": {"type": "string"},
+                "description": {"type": "string"},
+            }},
+        ]
+    }
+    inertia = {
+        "description": "planar: scalar about the COM; 3-D: [ixx, iyy, izz, ixy, ixz, iyz] or a 3x3 list",
+        "oneOf": [EXPRESSION, _vector([6], "[ixx, iyy, izz, ixy, ixz, iyz]"),
+                  {"type": "array", "minItems": 3, "maxItems": 3, "items": _vector([3], "row")}],
+    }
+    link = {
+        "type": "object", "additionalProperties": False, "required": ["name", "mass"],
+        "properties": {
+            "name": {"type": "string", "pattern": IDENTIFIER},
+            "mass": EXPRESSION,
+            "com": _vector([2, 3], "centre of mass in the link frame"),
+            "inertia": inertia,
+        },
+    }
+    origin = {
+        "description": "planar: [x, y] or [x, y, theta]; 3-D: {xyz: [..], rpy: [..]} (URDF convention)",
+        "oneOf": [
+            _vector([2, 3], "[x, y] or [x, y, theta]"),
+            {"type": "object", "additionalProperties": False, "properties": {
+                "xyz": _vector([3], "translation"), "rpy": _vector([3], "roll, pitch, yaw")}},
+        ],
+    }
+    joint = {
+        "type": "object", "additionalProperties": False, "required": ["name", "type", "parent", "child"],
+        "properties": {
+            "name": {"type": "string", "pattern": IDENTIFIER, "description": "also the coordinate's symbol"},
+            "type": {"enum": ["revolute", "prismatic", "fixed"]},
+            "parent": {"type": "string", "description": "a link name or world"},
+            "child": {"type": "string"},
+            "origin": origin,
+            "axis": _vector([2, 3], "prismatic axis (planar) or joint axis (3-D)"),
+            "effort": {"type": "string", "pattern": IDENTIFIER},
+        },
+    }
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://dynderive.invalid/schema/robot-v1.json",
+        "title": "dynderive robot description (version 1)",
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["name", "gravity", "links", "joints"],
+        "properties": {
+            "name": {"type": "string", "pattern": IDENTIFIER},
+            "title": {"type": "string"},
+            "planar": {"type": "boolean", "default": False},
+            "parameters": {"type": "object", "propertyNames": {"pattern": IDENTIFIER},
+                           "additionalProperties": parameter},
+            "gravity": _vector([2, 3], "world-frame gravity vector"),
+            "links": {"type": "array", "minItems": 1, "items": link},
+            "joints": {"type": "array", "minItems": 1, "items": joint},
+            "maximal": {"type": "object", "additionalProperties": False, "properties": {
+                "constraints": {"type": "array", "items": EXPRESSION}}},
+        },
+    }
