@@ -116,3 +116,12 @@ def test_outputs_are_written_atomically_without_temporaries(tmp_path):
     assert runner.invoke(app, ["solve", "cart_pole", "--latex", "--code", "--json", "--out", str(out)]).exit_code == 0
     assert sorted(p.name for p in out.iterdir()) == ["cart_pole.json", "cart_pole.tex", "cart_pole_dynamics.py"]
     assert all(not p.name.startswith(".") for p in Path(out).iterdir())
+
+
+def test_output_directory_that_is_a_file_is_a_clear_error(tmp_path):
+    blocker = tmp_path / "out"
+    blocker.write_text("not a folder")
+    result = runner.invoke(app, ["solve", "rp_arm", "--code", "--out", str(blocker), "-q"])
+    assert result.exit_code == 1
+    assert result.stderr.startswith(f"dynderive: cannot write {blocker}")
+    assert "internal error" not in result.stderr and "Traceback" not in result.output

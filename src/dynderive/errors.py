@@ -44,3 +44,7 @@ class ToolMissingError(DynderiveError):
 
 class ExternalToolError(DynderiveError):
     """An external program ran and failed, e.g. LaTeX could not compile a sheet (exit 1)."""
+
+
+class OutputError(DynderiveError):
+    """An output could not be written (a file where a folder should be, no permission; exit 1)."""

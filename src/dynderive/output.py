@@ -11,8 +11,19 @@ import os
 import tempfile
 from pathlib import Path
 
+from .errors import OutputError
+
 
 def write_all(files: dict[Path, bytes]) -> None:
+    """Write every file or none; an OS failure becomes ``OutputError`` (nothing replaced)."""
+    try:
+        _write_all(files)
+    except OSError as exc:
+        where = exc.filename or next(iter(files), "")
+        raise OutputError(f"cannot write {where}: {exc.strerror or exc}") from None
+
+
+def _write_all(files: dict[Path, bytes]) -> None:
     staged: list[tuple[str, Path]] = []
     try:
         for path, data in files.items():

@@ -190,9 +190,14 @@ def _structured_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
         expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
                             quantities["V_g"], printer, params),
     ]
+    by_link: dict[int, tuple[list[int], list[int]]] = {}
+    for l, i, k in triples:
+        by_link.setdefault(l, ([], []))[0].append(i)
+        by_link[l][1].append(k)
     structure = {
         "links": links,
         "triples": triples,
+        "brackets": repr(tuple((l, tuple(i), tuple(k)) for l, (i, k) in sorted(by_link.items()))),
         "bracket_link": repr(tuple(t[0] for t in triples)),
         "bracket_i": repr(tuple(t[1] for t in triples)),
         "bracket_k": repr(tuple(t[2] for t in triples)),
