@@ -160,32 +160,27 @@ def mass_matrix(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, l
     """
     q = _coordinates("q", q, 3)
     jac = _jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-    return np.einsum("...lri,lrs,...lsj->...ij", jac, _inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), jac)
+    weighted = _inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g) @ jac                  # (..., l, 6, n): G_l J_l
+    return (np.swapaxes(jac, -1, -2) @ weighted).sum(axis=-3)
 
 
-#: (link, i, k): column i of link l's body Jacobian depends on q_k, dJ_i/dq_k = ad(J_i) J_k.
-_BRACKET_LINK = (1, 2, 2, 2)
-_BRACKET_I = (0, 0, 0, 1)
-_BRACKET_K = (1, 1, 2, 2)
+#: Per link l: the column pairs (i, k), i before k on the link's path, with dJ_i/dq_k = ad(J_i) J_k.
+_BRACKETS = ((1, (0,), (1,)), (2, (0, 0, 1), (1, 2, 2)))
 
 
 def _mass_matrix_derivatives(jac, inertias):
     """dM/dq_k for every k, shape (..., k, i, j), from Lie brackets of Jacobian columns."""
-    batch = jac.shape[:-3]
-    dm = np.zeros(batch + (3, 3, 3))
-    if not _BRACKET_LINK:
-        return dm
-    link, col_i, col_k = np.array(_BRACKET_LINK), np.array(_BRACKET_I), np.array(_BRACKET_K)
-    columns = np.swapaxes(jac, -1, -2)      # (..., l, n, 6)
-    a = columns[..., link, col_i, :]        # (..., t, 6): J_i of each triple
-    b = columns[..., link, col_k, :]        # (..., t, 6): J_k
-    va, wa, vb, wb = a[..., :3], a[..., 3:], b[..., :3], b[..., 3:]
-    bracket = np.concatenate([np.cross(wa, vb) - np.cross(wb, va), np.cross(wa, wb)], axis=-1)
-    # row i of (dJ^T G J) for each triple: bracket^T G_l J_l
-    rows = np.einsum("...tr,trs,...tsj->...tj", bracket, inertias[link], jac[..., link, :, :])
-    for t in range(len(_BRACKET_LINK)):
-        dm[..., col_k[t], col_i[t], :] += rows[..., t, :]
-        dm[..., col_k[t], :, col_i[t]] += rows[..., t, :]
+    dm = np.zeros(jac.shape[:-3] + (3, 3, 3))
+    weighted = inertias @ jac                                      # (..., l, 6, n): G_l J_l
+    for link, col_i, col_k in _BRACKETS:
+        columns = np.swapaxes(jac[..., link, :, :], -1, -2)        # (..., n, 6)
+        a, b = columns[..., col_i, :], columns[..., col_k, :]      # (..., t, 6)
+        va, wa, vb, wb = a[..., :3], a[..., 3:], b[..., :3], b[..., 3:]
+        bracket = np.concatenate([np.cross(wa, vb) - np.cross(wb, va), np.cross(wa, wb)], axis=-1)
+        rows = bracket @ weighted[..., link, :, :]                 # (..., t, n): row i of dJ^T G J
+        for t, (i, k) in enumerate(zip(col_i, col_k)):
+            dm[..., k, i, :] += rows[..., t, :]
+            dm[..., k, :, i] += rows[..., t, :]
     return dm
 
 
@@ -198,19 +193,19 @@ def coriolis_matrix(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     dm = _mass_matrix_derivatives(_jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), _inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g))
-    return 0.5 * (
-        np.einsum("...kij,...k->...ij", dm, qd)
-        + np.einsum("...jik,...k->...ij", dm, qd)
-        - np.einsum("...ijk,...k->...ij", dm, qd)
-    )
+    qd_b = np.broadcast_to(qd, dm.shape[:-3] + (3,))
+    first = np.einsum("...kij,...k->...ij", dm, qd_b)              # sum_k dM_ij/dq_k qd_k
+    second = (dm @ qd_b[..., None, :, None])[..., 0]              # [j, i] = sum_k dM_ik/dq_j qd_k
+    return 0.5 * (first + np.swapaxes(second, -1, -2) - second)
 
 
 def kinetic_energy(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """Kinetic energy T_g = 1/2 sum_l V_l^T G_l V_l with V_l = J_l qd, shape (...)."""
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
-    twist = np.einsum("...lrj,...j->...lr", _jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), qd)
-    return 0.5 * np.einsum("...lr,lrs,...ls->...", twist, _inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), twist)
+    twist = (_jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g) @ qd[..., None, :, None])[..., 0]   # (..., l, 6)
+    momentum = (_inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g) @ twist[..., None])[..., 0]
+    return 0.5 * (twist * momentum).sum(axis=(-1, -2))
 
 
 def inverse_dynamics(q, qd, qdd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
