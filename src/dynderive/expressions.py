@@ -13,6 +13,7 @@ l**2*m/12
 from __future__ import annotations
 
 import ast
+import math
 from collections.abc import Mapping
 from decimal import Decimal, InvalidOperation
 
@@ -33,6 +34,8 @@ RESERVED = frozenset(FUNCTIONS) | frozenset(CONSTANTS)
 MAX_LENGTH = 1000
 MAX_DEPTH = 60
 MAX_EXPONENT = 1000
+#: ``(m + l)**999`` would stall the derivation; physics needs small powers of symbols.
+MAX_SYMBOLIC_EXPONENT = 12
 
 
 class ExpressionError(ValueError):
@@ -76,7 +79,7 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression is too complex") from None
     lead = len(source) - len(source.lstrip())
-    return _Builder(symbols, lead).build(tree.body)
+    return _Builder(symbols, lead, source.strip()).build(tree.body)
 
 
 def _kind(value: object) -> str:
@@ -97,9 +100,10 @@ def _number(literal: str, offset: int) -> sympy.Expr:
 
 
 class _Builder:
-    def __init__(self, symbols: Mapping[str, sympy.Expr], lead: int):
+    def __init__(self, symbols: Mapping[str, sympy.Expr], lead: int, source: str = ""):
         self.symbols = symbols
         self.lead = lead
+        self.source = source
 
     def fail(self, node: ast.AST, message: str) -> ExpressionError:
         return ExpressionError(message, getattr(node, "col_offset", 0) + self.lead)
@@ -108,6 +112,9 @@ class _Builder:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
                 raise self.fail(node, f"only numbers are allowed as constants, not {node.value!r}")
+            if isinstance(node.value, float) and not math.isfinite(node.value):
+                raise self.fail(node, f"number '{ast.get_source_segment(self.source, node) or node.value}' "
+                                "is out of range")
             return _number(repr(node.value) if isinstance(node.value, float) else str(node.value),
                            node.col_offset + self.lead)
         if isinstance(node, ast.Name):
@@ -143,6 +150,9 @@ class _Builder:
         if isinstance(op, ast.Pow):
             if right.is_Number and abs(right) > MAX_EXPONENT:
                 raise self.fail(node, f"exponent {right} is too large (limit {MAX_EXPONENT})")
+            if not left.is_Number and not (right.is_Number and abs(right) <= MAX_SYMBOLIC_EXPONENT):
+                raise self.fail(node, "powers of symbolic expressions need a number exponent of at most "
+                                f"{MAX_SYMBOLIC_EXPONENT} (got {right})")
             if left == 0 and right.is_Number and right.is_negative:
                 raise self.fail(node, "division by zero")
             return left**right

@@ -44,6 +44,8 @@ class SourceDocument:
     positions: dict[Path_, tuple[int, int]] = field(default_factory=dict)
     key_positions: dict[Path_, tuple[int, int]] = field(default_factory=dict)
     scalar_style: dict[Path_, str | None] = field(default_factory=dict)
+    #: Names for item paths in messages, e.g. ``("joints", 1) -> "joint 'elbow'"`` (URDF).
+    labels: dict[Path_, str] = field(default_factory=dict)
 
     def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
         """Position of ``path``, falling back to the nearest enclosing value."""
@@ -126,14 +128,12 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
         finally:
             loader.dispose()
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-        what = exc.problem or exc.context or "invalid YAML"
-        raise InputError(Problem(file, line, column, f"YAML syntax error: {what}")) from None
+        raise InputError(_syntax_problem(exc, file)) from None
     except yaml.YAMLError as exc:  # pragma: no cover - defensive, PyYAML marks nearly all
         raise InputError(Problem(file, 1, 1, f"YAML syntax error: {exc}")) from None
     except RecursionError:
-        raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
+        line, column = _deep_nesting_start(text)
+        raise InputError(Problem(file, line, column, "YAML nesting is too deep")) from None
 
     document = SourceDocument(file=file, data=None)
     if node is None:
@@ -154,8 +154,48 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
     return document
 
 
+def _deep_nesting_start(text: str, limit: int = 100) -> tuple[int, int]:
+    """Where the first run of brackets nested deeper than ``limit`` opens (1-based)."""
+    depth, line, column, start = 0, 1, 0, (1, 1)
+    for char in text:
+        column += 1
+        if char == "\n":
+            line, column = line + 1, 0
+        elif char in "[{":
+            if depth == 0:
+                start = (line, column)
+            depth += 1
+            if depth > limit:
+                return start
+        elif char in "]}" and depth:
+            depth -= 1
+    return start
+
+
+def _syntax_problem(exc: yaml.MarkedYAMLError, file: str) -> Problem:
+    """PyYAML's error at its position; an unclosed quote or bracket points at where it opened."""
+    what = exc.problem or exc.context or "invalid YAML"
+    mark = exc.problem_mark or exc.context_mark
+    context = (exc.context or "").replace("while scanning ", "").replace("while parsing ", "")
+    opened = exc.context_mark
+    if opened is not None and context and exc.problem_mark is not None and opened.line != exc.problem_mark.line:
+        if "quoted scalar" in context:
+            quote = opened.buffer[opened.pointer] if opened.buffer else '"'
+            return Problem(file, opened.line + 1, opened.column + 1, f"YAML syntax error: '{quote}' was never closed")
+        if "flow sequence" in context or "flow mapping" in context:
+            bracket = "[" if "sequence" in context else "{"
+            return Problem(file, opened.line + 1, opened.column + 1,
+                           f"YAML syntax error: '{bracket}' was never closed ({what} at line "
+                           f"{exc.problem_mark.line + 1})")
+    line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+    return Problem(file, line, column, f"YAML syntax error: {what}")
+
+
 def _mark(node: yaml.Node) -> tuple[int, int]:
     return node.start_mark.line + 1, node.start_mark.column + 1
+
+
+_PLAIN_TAGS = {"tag:yaml.org,2002:seq", "tag:yaml.org,2002:map"}
 
 
 def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Problem],
@@ -164,6 +204,11 @@ def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Pro
     if count[0] > MAX_VALUES:
         raise _TooLarge(node)
     doc.positions[path] = _mark(node)
+    if not isinstance(node, yaml.ScalarNode) and node.tag not in _PLAIN_TAGS:
+        line, column = _mark(node)
+        problems.append(Problem(doc.file, line, column, "invalid value: could not determine a "
+                                f"constructor for the tag '{node.tag}'"))
+        return None
     if isinstance(node, yaml.MappingNode):
         result: dict[Any, Any] = {}
         for key_node, value_node in node.value:

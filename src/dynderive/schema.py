@@ -72,12 +72,17 @@ class _Validator:
     def __init__(self, doc: SourceDocument):
         self.doc = doc
         self.problems: list[Problem] = []
+        self.parameters_broken = False
 
     # -- reporting -------------------------------------------------------------------
     def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
         self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
 
     def label(self, path: tuple[Any, ...]) -> str:
+        for cut in range(len(path), 0, -1):  # a source may name its items (URDF: "joint 'elbow'")
+            if tuple(path[:cut]) in self.doc.labels:
+                rest = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path[cut:])
+                return self.doc.labels[tuple(path[:cut])] + (f" {rest[1:]}" if rest else "")
         text = ""
         for part in path:
             text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
@@ -101,13 +106,13 @@ class _Validator:
                 self.error(path, f"{self.label(path)}: missing required key '{key}'")
         return value
 
-    def identifier(self, value: Any, path: tuple[Any, ...], what: str) -> str | None:
+    def identifier(self, value: Any, path: tuple[Any, ...], what: str, key: bool = False) -> str | None:
         if not isinstance(value, str) or not IDENTIFIER.match(value):
             self.error(path, f"{self.label(path)}: {what} must be an identifier "
-                       f"(letters, digits, '_'), got {value!r}")
+                       f"(letters, digits, '_'), got {value!r}", key=key)
             return None
         if keyword.iskeyword(value):
-            self.error(path, f"{self.label(path)}: {what} '{value}' is a Python keyword")
+            self.error(path, f"{self.label(path)}: {what} '{value}' is a Python keyword", key=key)
             return None
         return value
 
@@ -125,6 +130,8 @@ class _Validator:
         try:
             return parse_expression(value, symbols)
         except ExpressionError as exc:
+            if self.parameters_broken and str(exc).startswith("undeclared symbol"):
+                return None  # the broken parameters block is already reported
             offset = 0
             style = self.doc.scalar_style.get(path)
             if isinstance(value, str) and "\n" not in value:
@@ -147,9 +154,11 @@ class _Validator:
         return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
 
 
-def _kind(value: Any) -> str:
+def _kind(value: Any, empty: bool = False) -> str:
     if value is None:
         return "nothing"
+    if empty and value in ([], {}):
+        return f"an empty {'list' if value == [] else 'mapping'}"
     return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
             dict: "a mapping"}.get(type(value), type(value).__name__)
 
@@ -191,10 +200,11 @@ def validate(doc: SourceDocument) -> Robot:
     if not isinstance(raw_parameters, dict):
         v.error(("parameters",), f"parameters: expected a mapping of name: value, got "
                 f"{_kind(raw_parameters)}")
+        v.parameters_broken = True
         raw_parameters = {}
     for pname, spec in raw_parameters.items():
         path = ("parameters", pname)
-        if v.identifier(pname, path, "parameter name") is None:
+        if v.identifier(pname, path, "parameter name", key=True) is None:
             continue
         if pname in RESERVED:
             v.error(path, f"parameters.{pname}: '{pname}' is a built-in function or constant", key=True)
@@ -225,27 +235,31 @@ def validate(doc: SourceDocument) -> Robot:
     # links ----------------------------------------------------------------------------
     links: list[Link] = []
     raw_links = top.get("links")
-    if "links" in top and (not isinstance(raw_links, list) or not raw_links):
-        v.error(("links",), f"links: expected a non-empty list of links, got {_kind(raw_links)}")
+    links_broken = "links" in top and (not isinstance(raw_links, list) or not raw_links)
+    if links_broken:
+        v.error(("links",), f"links: expected a non-empty list of links, got {_kind(raw_links, empty=True)}")
         raw_links = []
     link_names: dict[str, tuple[Any, ...]] = {}
+    bad_link_names: set[Any] = set()  # reported already; joints naming them are not re-reported
     for i, raw in enumerate(raw_links or []):
         path = ("links", i)
         item = v.mapping(raw, path, LINK_KEYS, required=("name", "mass"))
         if item is None:
             continue
         lname = v.identifier(item.get("name"), path + ("name",), "link name") if "name" in item else None
+        if lname is None and "name" in item and isinstance(item["name"], (str, int, float)):
+            bad_link_names.add(item["name"])
         if lname == "world":
-            v.error(path + ("name",), f"links[{i}].name: 'world' is reserved for the fixed frame")
+            v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: 'world' is reserved for the fixed frame")
             lname = None
         if lname is not None:
             if lname in link_names:
-                v.error(path + ("name",), f"links[{i}].name: duplicate link name '{lname}'")
+                v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: duplicate link name '{lname}'")
             link_names.setdefault(lname, path)
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
         value = _numeric(mass, defaults)
         if value is not None and value <= 0:
-            v.error(path + ("mass",), f"links[{i}].mass: must be positive (got {value:g})")
+            v.error(path + ("mass",), f"{v.label(('links', i, 'mass'))}: must be positive (got {value:g})")
         com = item.get("com", [0] * dimension)
         v.vector(com, path + ("com",), (dimension,), symbols)
         inertia = _inertia(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
@@ -257,7 +271,7 @@ def validate(doc: SourceDocument) -> Robot:
     joints: list[Joint] = []
     raw_joints = top.get("joints")
     if "joints" in top and (not isinstance(raw_joints, list) or not raw_joints):
-        v.error(("joints",), f"joints: expected a non-empty list of joints, got {_kind(raw_joints)}")
+        v.error(("joints",), f"joints: expected a non-empty list of joints, got {_kind(raw_joints, empty=True)}")
         raw_joints = []
     joint_names: set[str] = set()
     for i, raw in enumerate(raw_joints or []):
@@ -267,24 +281,25 @@ def validate(doc: SourceDocument) -> Robot:
             continue
         jname = v.identifier(item.get("name"), path + ("name",), "joint name") if "name" in item else None
         if jname is not None and jname in joint_names:
-            v.error(path + ("name",), f"joints[{i}].name: duplicate joint name '{jname}'")
+            v.error(path + ("name",), f"{v.label(('joints', i, 'name'))}: duplicate joint name '{jname}'")
         if jname:
             joint_names.add(jname)
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
             extra = {"continuous": " (write 'revolute')", "floating": "", "planar": ""}.get(str(jtype), "")
-            v.error(path + ("type",), f"joints[{i}].type: unsupported joint type {jtype!r}; "
+            v.error(path + ("type",), f"{v.label(('joints', i, 'type'))}: unsupported joint type {jtype!r}; "
                     f"expected one of {', '.join(JOINT_TYPES)}{extra}")
             jtype = None
         parent, child = item.get("parent"), item.get("child")
-        if "parent" in item and parent != "world" and parent not in link_names:
-            v.error(path + ("parent",), f"joints[{i}].parent: unknown link {parent!r}"
+        known = links_broken or parent in bad_link_names
+        if "parent" in item and parent != "world" and parent not in link_names and not known:
+            v.error(path + ("parent",), f"{v.label(('joints', i, 'parent'))}: unknown link {parent!r}"
                     + _did_you_mean(parent, [*link_names, "world"]))
         if "child" in item:
             if child == "world":
-                v.error(path + ("child",), f"joints[{i}].child: 'world' cannot be a child")
-            elif child not in link_names:
-                v.error(path + ("child",), f"joints[{i}].child: unknown link {child!r}"
+                v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: 'world' cannot be a child")
+            elif child not in link_names and not (links_broken or child in bad_link_names):
+                v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: unknown link {child!r}"
                         + _did_you_mean(child, list(link_names)))
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
         axis = _axis(v, item, path, jtype, planar, symbols, defaults)
@@ -292,7 +307,7 @@ def validate(doc: SourceDocument) -> Robot:
         if effort is not None:
             effort = v.identifier(effort, path + ("effort",), "effort name")
             if effort is not None and jtype == "fixed":
-                v.error(path + ("effort",), f"joints[{i}].effort: a fixed joint has no effort")
+                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
                 effort = None
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
                             origin, axis, effort))
@@ -436,8 +451,8 @@ def _check_tree(v: _Validator, joints: list[Joint], link_names: dict[str, tuple[
         if joint.child in link_names:
             if joint.child in parent_of:
                 first = parent_of[joint.child]
-                v.error(("joints", i, "child"), f"joints[{i}].child: link '{joint.child}' already "
-                        f"has a parent joint (joints[{first}]); robots must be trees")
+                v.error(("joints", i, "child"), f"{v.label(('joints', i, 'child'))}: link '{joint.child}' already "
+                        f"has a parent joint ({v.label(('joints', first))}); robots must be trees")
             else:
                 parent_of[joint.child] = i
     for lname, lpath in link_names.items():
@@ -453,7 +468,7 @@ def _check_tree(v: _Validator, joints: list[Joint], link_names: dict[str, tuple[
         if current in seen and not reported.intersection(seen):
             reported.update(seen)
             i = parent_of[current]
-            v.error(("joints", i), f"joints[{i}]: links {' -> '.join(seen[seen.index(current):] + [current])}"
+            v.error(("joints", i), f"{v.label(('joints', i))}: links {' -> '.join(seen[seen.index(current):] + [current])}"
                     " form a cycle not connected to 'world'")
 
 
@@ -462,15 +477,18 @@ def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
     """Every symbol the derivation creates must be unique and free for the generated code."""
     owners: dict[str, str] = {}
 
-    def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False) -> None:
+    def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False) -> bool:
         if name in MODULE_NAMES:
             v.error(path, f"{owner}: name '{name}' is reserved by the generated module", key=key)
         elif name in RESERVED:
             v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
         elif name in owners:
-            v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
+            if owners[name] != "duplicate":
+                v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
         else:
             owners[name] = owner
+            return True
+        return False
 
     if planar:  # names the maximal-coordinate derivation creates come first
         for name in maximal_coordinate_names(len(links)):
@@ -480,13 +498,18 @@ def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
             owners[f"lambda{k}"] = f"the multiplier 'lambda{k}'"
     for p in parameters:
         claim(p.name, f"parameters.{p.name}", ("parameters", p.name), key=True)
+    seen_joints: set[str] = set()
     for i, joint in enumerate(joints):
         if not joint.moves:
             continue
-        claim(joint.name, f"joints[{i}].name", ("joints", i, "name"))
-        claim(velocity_name(joint.name), f"joints[{i}].name (velocity '{velocity_name(joint.name)}')",
+        if joint.name in seen_joints:  # a duplicate joint name is reported once, where found
+            continue
+        seen_joints.add(joint.name)
+        if not claim(joint.name, f"{v.label(('joints', i, 'name'))}", ("joints", i, "name")):
+            continue
+        claim(velocity_name(joint.name), f"{v.label(('joints', i, 'name'))} (velocity '{velocity_name(joint.name)}')",
               ("joints", i, "name"))
         claim(acceleration_name(joint.name),
-              f"joints[{i}].name (acceleration '{acceleration_name(joint.name)}')", ("joints", i, "name"))
+              f"{v.label(('joints', i, 'name'))} (acceleration '{acceleration_name(joint.name)}')", ("joints", i, "name"))
         if joint.effort:
             claim(joint.effort, f"joints[{i}].effort", ("joints", i, "effort"))

@@ -270,7 +270,7 @@ def read_urdf(text: str, file: str) -> SourceDocument:
         body = merged.get(name)
         path = ("links", index)
         positions[path] = (element.line, element.column)
-        if body is None or body.mass <= 0:
+        if body is None:
             reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass: "
                          "give it an <inertial> with a positive mass")
             continue
@@ -279,8 +279,13 @@ def read_urdf(text: str, file: str) -> SourceDocument:
                  "com": [_number(c) for c in body.com],
                  "inertia": [_number(v) for v in (t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2])]}
         data["links"].append(entry)
+        doc.labels[path] = f"link '{name}'"
+        inertial = body.element
+        spots = {"name": element, "mass": inertial.find("mass"), "inertia": inertial.find("inertia"),
+                 "com": inertial.find("origin")}
         for key in entry:
-            positions[path + (key,)] = (body.element.line, body.element.column) if key != "name" else (element.line, element.column)
+            spot = spots.get(key) or inertial
+            positions[path + (key,)] = (spot.line, spot.column)
     for index, joint in enumerate(moving):
         element = joint["element"]
         parent_owner = owner[joint["parent"]]
@@ -298,6 +303,7 @@ def read_urdf(text: str, file: str) -> SourceDocument:
         }
         data["joints"].append(entry)
         path = ("joints", index)
+        doc.labels[path] = f"joint '{joint['name']}'"
         positions[path] = (element.line, element.column)
         for key in entry:
             positions[path + (key,)] = (element.line, element.column)
