@@ -167,3 +167,23 @@ if __name__ == "__main__":  # pragma: no cover - eyeballing aid
     seed = int(sys.argv[1]) if len(sys.argv) > 1 else 0
     n = int(sys.argv[2]) if len(sys.argv) > 2 else 4
     print(random_planar_tree(random.Random(seed), n).yaml_text)
+
+
+def depth_first(tree) -> list[int]:
+    """Joint indices of a random tree (planar or 3-D) in depth-first pre-order (children in file order).
+
+    Pinocchio needs its joints in this order: CRBA and the other algorithms walking
+    ``nvSubtree`` assume every subtree occupies consecutive indices (parents-first alone is
+    not enough: with q2 on the world added between q1 and q1's child q3, ``crba`` silently
+    drops M[q1, q3] while ``rnea``/``aba`` stay right).
+    """
+    order: list[int] = []
+
+    def visit(link: int) -> None:
+        for k, joint in enumerate(tree.joints):
+            if joint.parent == link:
+                order.append(k)
+                visit(joint.child)
+
+    visit(-1)
+    return order

@@ -20,7 +20,7 @@ pin = pytest.importorskip("pinocchio")
 import dynderive  # noqa: E402
 
 from conftest import random_tree_derivation  # noqa: E402
-from random_robots import PlanarTree, random_planar_tree  # noqa: E402
+from random_robots import PlanarTree, depth_first, random_planar_tree  # noqa: E402
 
 pytestmark = pytest.mark.pinocchio
 
@@ -41,26 +41,6 @@ def _placement(x: float, y: float, theta: float):
     c, s = np.cos(theta), np.sin(theta)
     rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     return pin.SE3(rotation, np.array([x, y, 0.0]))
-
-
-def depth_first(tree: PlanarTree) -> list[int]:
-    """Joint indices in depth-first pre-order (children in file order).
-
-    Pinocchio needs its joints in this order: CRBA and the other algorithms walking
-    ``nvSubtree`` assume every subtree occupies consecutive indices (parents-first alone is
-    not enough: with q2 on the world added between q1 and q1's child q3, ``crba`` silently
-    drops M[q1, q3] while ``rnea``/``aba`` stay right).
-    """
-    order: list[int] = []
-
-    def visit(link: int) -> None:
-        for k, joint in enumerate(tree.joints):
-            if joint.parent == link:
-                order.append(k)
-                visit(joint.child)
-
-    visit(-1)
-    return order
 
 
 def pinocchio_model(tree: PlanarTree):

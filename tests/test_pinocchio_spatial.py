@@ -28,7 +28,7 @@ pin = pytest.importorskip("pinocchio")
 import dynderive  # noqa: E402
 
 from conftest import import_code, random_tree_derivation  # noqa: E402
-from random_robots import random_planar_tree  # noqa: E402
+from random_robots import depth_first, random_planar_tree  # noqa: E402
 from random_robots3d import SpatialTree, random_spatial_tree, spatial_from_planar  # noqa: E402
 
 pytestmark = pytest.mark.pinocchio
@@ -100,26 +100,6 @@ def _joint_model(joint):
     if joint.type == "revolute":
         return getattr(pin, f"JointModelR{aligned}")() if aligned else pin.JointModelRevoluteUnaligned(axis)
     return getattr(pin, f"JointModelP{aligned}")() if aligned else pin.JointModelPrismaticUnaligned(axis)
-
-
-def depth_first(tree: SpatialTree) -> list[int]:
-    """Joint indices in depth-first pre-order (children in file order).
-
-    Pinocchio needs its joints in this order: CRBA and the other algorithms walking
-    ``nvSubtree`` assume every subtree occupies consecutive indices (parents-first alone is
-    not enough: with q2 on the world added between q1 and q1's child q3, ``crba`` silently
-    drops M[q1, q3] while ``rnea``/``aba`` stay right).
-    """
-    order: list[int] = []
-
-    def visit(link: int) -> None:
-        for k, joint in enumerate(tree.joints):
-            if joint.parent == link:
-                order.append(k)
-                visit(joint.child)
-
-    visit(-1)
-    return order
 
 
 def pinocchio_model(tree: SpatialTree):
