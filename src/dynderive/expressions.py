@@ -106,7 +106,10 @@ class _Builder:
         self.source = source
 
     def fail(self, node: ast.AST, message: str) -> ExpressionError:
-        return ExpressionError(message, getattr(node, "col_offset", 0) + self.lead)
+        # ast offsets count UTF-8 bytes; positions count characters
+        offset = getattr(node, "col_offset", 0)
+        characters = len(self.source.encode("utf-8")[:offset].decode("utf-8", errors="ignore"))
+        return ExpressionError(message, characters + self.lead)
 
     def build(self, node: ast.AST) -> sympy.Expr:
         if isinstance(node, ast.Constant):

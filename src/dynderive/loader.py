@@ -46,6 +46,8 @@ class SourceDocument:
     scalar_style: dict[Path_, str | None] = field(default_factory=dict)
     #: Names for item paths in messages, e.g. ``("joints", 1) -> "joint 'elbow'"`` (URDF).
     labels: dict[Path_, str] = field(default_factory=dict)
+    #: Scalars written over several lines (column offsets inside them are not meaningful).
+    multiline: set[Path_] = field(default_factory=set)
 
     def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
         """Position of ``path``, falling back to the nearest enclosing value."""
@@ -129,6 +131,12 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
             loader.dispose()
     except yaml.MarkedYAMLError as exc:
         raise InputError(_syntax_problem(exc, file)) from None
+    except yaml.reader.ReaderError as exc:
+        line = text.count("\n", 0, exc.position) + 1
+        column = exc.position - (text.rfind("\n", 0, exc.position) + 1) + 1
+        character = exc.character if isinstance(exc.character, str) else chr(exc.character or 0)
+        raise InputError(Problem(file, line, column, f"YAML syntax error: character U+{ord(character):04X} "
+                                 "is not allowed in YAML")) from None
     except yaml.YAMLError as exc:  # pragma: no cover - defensive, PyYAML marks nearly all
         raise InputError(Problem(file, 1, 1, f"YAML syntax error: {exc}")) from None
     except RecursionError:
@@ -216,7 +224,7 @@ def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Pro
                 line, column = _mark(key_node)
                 problems.append(Problem(doc.file, line, column, "mapping keys must be plain names"))
                 continue
-            key = constructor.construct_object(key_node)
+            key = _construct(key_node, doc, problems, constructor)
             if not isinstance(key, str):
                 key = str(key_node.value)
             if key in result:
@@ -232,12 +240,23 @@ def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Pro
         return [_build(item, path + (i,), doc, problems, constructor, count)
                 for i, item in enumerate(node.value)]
     doc.scalar_style[path] = node.style
+    if node.start_mark.line != node.end_mark.line:
+        doc.multiline.add(path)
+    return _construct(node, doc, problems, constructor)
+
+
+def _construct(node: yaml.Node, doc: SourceDocument, problems: list[Problem],
+               constructor: yaml.SafeLoader) -> Any:
+    """A scalar's value; a bad tag or a tagged value that does not parse is a positioned problem."""
     try:
         return constructor.construct_object(node)
     except yaml.constructor.ConstructorError as exc:
-        line, column = _mark(node)
-        problems.append(Problem(doc.file, line, column, f"invalid value: {exc.problem}"))
-        return None
+        message = exc.problem or "cannot be constructed"
+    except (ValueError, KeyError, TypeError, OverflowError) as exc:
+        message = f"{node.tag.rsplit(':', 1)[-1]} value {node.value!r} does not parse ({type(exc).__name__})"
+    line, column = _mark(node)
+    problems.append(Problem(doc.file, line, column, f"invalid value: {message}"))
+    return None
 
 
 def load_document(path: Path) -> SourceDocument:

@@ -134,7 +134,7 @@ class _Validator:
                 return None  # the broken parameters block is already reported
             offset = 0
             style = self.doc.scalar_style.get(path)
-            if isinstance(value, str) and "\n" not in value:
+            if isinstance(value, str) and "\n" not in value and path not in self.doc.multiline:
                 offset = exc.offset + (1 if style in ("'", '"') else 0)
                 if style == '"' and "\\" in value:
                     offset = 0
@@ -312,6 +312,8 @@ def validate(doc: SourceDocument) -> Robot:
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
                             origin, axis, effort))
 
+    if joints and not any(j.moves for j in joints):
+        v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, link_names)
     _check_names(v, parameters, links, joints, planar)
 

@@ -49,12 +49,20 @@ class ExpressionFunction:
         return repr(tuple(self.shape))
 
 
+#: Quantities that stay matrices even with one column (a 1-DOF robot's M is 1 x 1).
+MATRICES = {"M_g", "C_g", "M_m", "C_m", "A_m", "Adot_m", "H"}
+
+
 def expression_function(name: str, doc: str, arguments: list[Argument], value: Any,
-                        printer: _Printer, parameters: set[sympy.Symbol]) -> ExpressionFunction:
-    """Eliminate common subexpressions of ``value`` and print it as NumPy code."""
+                        printer: _Printer, parameters: set[sympy.Symbol],
+                        matrix_result: bool = False) -> ExpressionFunction:
+    """Eliminate common subexpressions of ``value`` and print it as NumPy code.
+
+    A column matrix becomes a vector ``(..., n)`` unless ``matrix_result`` keeps it ``(..., n, 1)``.
+    """
     matrix = value if isinstance(value, sympy.MatrixBase) else sympy.Matrix([[value]])
     scalar = not isinstance(value, sympy.MatrixBase)
-    column = not scalar and matrix.shape[1] == 1
+    column = not scalar and matrix.shape[1] == 1 and not matrix_result
     cells = [(i, j) for i in range(matrix.shape[0]) for j in range(matrix.shape[1])
              if matrix[i, j] != 0]
     exprs = [matrix[i, j] for i, j in cells]
@@ -108,7 +116,8 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
             ("to_maximal_jacobian", f"Its Jacobian H(q) = dh/dq (qmd = H qd), shape (..., {m}, {n}).", [q], "H"),
         ]
         for name, doc, args, quantity in specs:
-            functions.append(expression_function(name, doc, args, quantities[quantity], printer, params))
+            functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
+                                                 matrix_result=quantity in MATRICES))
     parameters = []
     for p in robot.parameters:
         parameters.append({"name": p.name, "default": None if p.value is None else repr(p.value),
@@ -144,9 +153,9 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
     quantities, n = derivation.quantities, len(derivation.symbols.q)
     return [
         expression_function("mass_matrix", f"Mass matrix M_g(q), shape (..., {n}, {n}).", [q],
-                            quantities["M_g"], printer, params),
+                            quantities["M_g"], printer, params, matrix_result=True),
         expression_function("coriolis_matrix", f"Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., {n}, {n}).",
-                            [q, qd], quantities["C_g"], printer, params),
+                            [q, qd], quantities["C_g"], printer, params, matrix_result=True),
         expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
                             quantities["N_g"], printer, params),
         expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
@@ -180,9 +189,9 @@ def _structured_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
                 triples.append((l, i, k))
     functions = [
         expression_function("_body_jacobians", f"Body Jacobians of the COM frames, shape (..., {6 * links}, {n}).",
-                            [q], jacobians, printer, params),
+                            [q], jacobians, printer, params, matrix_result=True),
         expression_function("_spatial_inertias", f"Spatial inertias diag(m, m, m) + I_com, shape ({6 * links}, 6).",
-                            [], inertias, printer, params),
+                            [], inertias, printer, params, matrix_result=True),
         expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
                             quantities["N_g"], printer, params),
         expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
