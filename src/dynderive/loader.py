@@ -132,8 +132,7 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
     except yaml.MarkedYAMLError as exc:
         raise InputError(_syntax_problem(exc, file)) from None
     except yaml.reader.ReaderError as exc:
-        line = text.count("\n", 0, exc.position) + 1
-        column = exc.position - (text.rfind("\n", 0, exc.position) + 1) + 1
+        line, column = _yaml_position(text, exc.position)
         character = exc.character if isinstance(exc.character, str) else chr(exc.character or 0)
         raise InputError(Problem(file, line, column, f"YAML syntax error: character U+{ord(character):04X} "
                                  "is not allowed in YAML")) from None
@@ -160,6 +159,19 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
     if problems:
         raise InputError(problems)
     return document
+
+
+def _yaml_position(text: str, index: int) -> tuple[int, int]:
+    """1-based (line, column) of ``text[index]`` with YAML's line breaks (CR LF, CR, LF, NEL, LS, PS)."""
+    line, start, i = 1, 0, 0
+    while i < index:
+        char = text[i]
+        if char in "\r\n\x85\u2028\u2029":
+            if char == "\r" and i + 1 < len(text) and text[i + 1] == "\n":
+                i += 1
+            line, start = line + 1, i + 1
+        i += 1
+    return line, index - start + 1
 
 
 def _deep_nesting_start(text: str, limit: int = 100) -> tuple[int, int]:
