@@ -20,7 +20,6 @@ from .lagrange import (
     gravity_vector,
     lagrange_steps,
     mass_matrix_from_jacobians,
-    time_derivative,
 )
 from .model import Joint, Robot
 from .symbols import SymbolTable
@@ -112,10 +111,10 @@ def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
     _, _, com_child = bodies.pose(joint.child)
     axis = unit(tuple(table.expr(e) for e in joint.axis))
     direction = _rot(phi_parent + theta, axis)  # type: ignore[arg-type]
-    axis_in_child = axis  # the child frame is parallel to the joint frame
     Y[child] += u * direction[0]  # type: ignore[operator]
     Y[child + 1] += u * direction[1]  # type: ignore[operator]
-    Y[child + 2] += u * _cross((-com_child[0], -com_child[1]), axis_in_child)  # type: ignore[operator]
+    # the child frame is parallel to the joint frame, so the axis reads the same in it
+    Y[child + 2] += u * _cross((-com_child[0], -com_child[1]), axis)  # type: ignore[operator]
     if parent is not None:
         axis_in_parent = _rot(theta, axis)  # type: ignore[arg-type]
         lever = (ox - com_parent[0], oy - com_parent[1])
@@ -248,4 +247,4 @@ def _closed_form_lambda(M: sympy.Matrix, A: sympy.Matrix, Adot: sympy.Matrix, Y:
     return numerator.applyfunc(lambda e: tidy(e / det))
 
 
-__all__ = ["derive_maximal", "joint_constraints", "joint_efforts", "time_derivative"]
+__all__ = ["derive_maximal", "joint_constraints", "joint_efforts"]

@@ -485,8 +485,7 @@ def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
         elif name in RESERVED:
             v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
         elif name in owners:
-            if owners[name] != "duplicate":
-                v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
+            v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
         else:
             owners[name] = owner
             return True

@@ -54,7 +54,7 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
         except ExpressionError as exc:
             hint = " (maximal runs take efforts of t only)" if maximal else ""
             raise InputError(Problem(where, 1, len(name) + 2 + exc.offset, f"{exc}{hint}")) from None
-    values = {table.parameters[p.name]: p.value for p in robot.parameters if p.value is not None}
+    values = table.defaults(robot)
     vector = sympy.Matrix([exprs.get(e, sympy.Integer(0)) for e in robot.efforts]).xreplace(values)
     function = sympy.lambdify([t, table.q, table.qd], vector, modules="numpy")
     return lambda time, q, qd: np.asarray(function(time, q, qd), dtype=float).reshape(-1)
@@ -121,7 +121,7 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
 def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray], list[tuple[np.ndarray, float]]]:
     """state -> [(link frame origin, angle)] per link, for drawing."""
     table, robot = derivation.symbols, derivation.robot
-    values = {table.parameters[p.name]: p.value for p in robot.parameters if p.value is not None}
+    values = table.defaults(robot)
     poses = []
     if maximal:
         for k, link in enumerate(robot.links):
@@ -148,7 +148,7 @@ def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray],
 def _segments(derivation: Derivation, poses: list[tuple[np.ndarray, float]]) -> list[np.ndarray]:
     """Polylines drawing each link: frame origin to its children's joints, or to 2 x COM."""
     robot, table = derivation.robot, derivation.symbols
-    values = {table.parameters[p.name]: p.value for p in robot.parameters if p.value is not None}
+    values = table.defaults(robot)
 
     def number(text: object) -> float:
         return float(table.expr(text).xreplace(values))

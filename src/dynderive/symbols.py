@@ -90,6 +90,10 @@ class SymbolTable:
                 names[a] = latex_name(str(c), 2)
         return names
 
+    def defaults(self, robot: Robot) -> dict[sympy.Symbol, float]:
+        """Parameter symbol -> default value, for the parameters that have one."""
+        return {self.parameters[p.name]: p.value for p in robot.parameters if p.value is not None}
+
     def locals(self) -> dict[str, sympy.Symbol]:
         """Name -> symbol, for ``sympy.sympify(text, locals=table.locals())``."""
         return {str(s): s for s in self.all_symbols()}

@@ -29,7 +29,7 @@ def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict
         shape = [1, 1]
         text = sympy.sstr(value, order="lex")
     # LaTeX of very large quantities (3-D arms' C_g) takes minutes and nobody reads it.
-    latex = fmt.maybe(value, LATEX_NODES) if isinstance(value, sympy.MatrixBase) else fmt.maybe(value, LATEX_NODES)
+    latex = fmt.maybe(value, LATEX_NODES)
     entry: dict[str, object] = {"shape": shape, "sympy": text, "latex": latex}
     if description:
         entry["description"] = description

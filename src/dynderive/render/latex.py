@@ -47,8 +47,7 @@ class Formatter:
     def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> str | None:
         """LaTeX of ``expr``, or None when it is too large to read (or to typeset)."""
         entries = list(expr) if isinstance(expr, sympy.MatrixBase) else [expr]
-        budget = limit * max(1, len(entries)) if isinstance(expr, sympy.MatrixBase) else limit
-        if not is_small(sympy.Tuple(*entries), budget):
+        if not is_small(sympy.Tuple(*entries), limit * max(1, len(entries))):
             return None
         return self(expr)
 
