@@ -102,7 +102,7 @@ def run_checks(derivation: Derivation) -> list[Check]:
             sympy.Matrix(q["EOM_g1"]) - q["EOM_g2"], symbols)]
     else:
         checks = [Check("EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) were not derived "
-                        "symbolically: the Lagrangian of this 3-D robot is too large", False,
+                        "symbolically: this 3-D robot is too large (see `dynderive check`)", False,
                         "skipped", float("nan"))]
     if "maximal" not in derivation.steps:
         return checks

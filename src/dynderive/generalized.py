@@ -7,6 +7,7 @@ V_g`` (``EOM_g1``), and the manipulator form from body Jacobians and Christoffel
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,12 +21,36 @@ from .lagrange import (
 )
 from .model import Robot
 from .symbols import SymbolTable
-from .tidy import is_small, tidy, tidy_matrix
+from .tidy import is_small, quick_tidy, tidy, tidy_matrix
 
-#: 3-D robots whose Lagrangian has more tree nodes than this skip the symbolic Lagrange
-#: route (EOM_g1): differentiating it twice costs minutes for 6-7 DOF arms, while the
-#: manipulator form comes from the body Jacobians directly.
+#: 3-D robots with more coordinates than this, or whose Lagrangian has more tree nodes than
+#: LAGRANGE_LIMIT, skip the symbolic Lagrange route (EOM_g1): differentiating it twice costs
+#: more than the rest of the derivation for 6-7 DOF arms (whose sheets cannot show it anyway),
+#: while the manipulator form comes from the body Jacobians directly. `dynderive check`
+#: verifies such robots against Pinocchio instead.
+LAGRANGE_DOF_LIMIT = 4
 LAGRANGE_LIMIT = 6000
+#: 3-D entries larger than this (tree nodes) are kept as built: they are too large to typeset,
+#: and expanding them (floats, six angles) costs seconds for a few per cent fewer operations.
+SPATIAL_TIDY_LIMIT = 400
+
+
+def _spatial_tidy(expr: sympy.Expr) -> sympy.Expr:
+    return tidy(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
+
+
+def _spatial_quick_tidy(expr: sympy.Expr) -> sympy.Expr:
+    return quick_tidy(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
+
+
+def tidier(robot: Robot) -> Callable[[sympy.Expr], sympy.Expr]:
+    """The clean-up used for ``robot``'s quantities: full ``tidy`` for planar robots; for 3-D
+    robots only entries small enough to be read, and for arms beyond LAGRANGE_DOF_LIMIT
+    coordinates only the cheap ``quick_tidy`` (full ``tidy`` costs 2 s on the Panda's
+    entries for 4 % fewer operations)."""
+    if robot.planar:
+        return tidy
+    return _spatial_tidy if len(robot.coordinates) <= LAGRANGE_DOF_LIMIT else _spatial_quick_tidy
 
 
 @dataclass
@@ -59,12 +84,13 @@ def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
                gravity: sympy.Matrix) -> list[LinkTerms]:
     """Per-link inertias, velocities and energies, planar or spatial."""
     qd_vec = sympy.Matrix(table.qd)
+    clean = tidier(robot)
     terms = []
     for k, (link, kin) in enumerate(zip(robot.links, links), start=1):
         mass = table.expr(link.mass)
-        velocity = (kin.body_jacobian * qd_vec).applyfunc(tidy)
-        com = kin.com_world.applyfunc(tidy)
-        potential = tidy(-mass * (gravity.T * com)[0, 0])
+        velocity = (kin.body_jacobian * qd_vec).applyfunc(clean)
+        com = kin.com_world.applyfunc(clean)
+        potential = clean(-mass * (gravity.T * com)[0, 0])
         if robot.planar:
             inertia = table.expr(link.inertia[0])
             G = spatial_inertia_planar(mass, inertia)
@@ -98,7 +124,7 @@ def derive_generalized(robot: Robot, table: SymbolTable,
 
     steps_tidy = None
     EOM_g1 = None
-    if robot.planar or is_small(L, LAGRANGE_LIMIT):
+    if robot.planar or (len(q) <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
         steps = lagrange_steps(L, q, qd, qdd)
         steps_tidy = {
             "dL_dqd": tidy_matrix(steps.dL_dqd),
@@ -109,7 +135,8 @@ def derive_generalized(robot: Robot, table: SymbolTable,
 
     jacobians = [t.body_jacobian for t in terms]
     inertias = [t.spatial_inertia for t in terms]
-    M = tidy_matrix(mass_matrix_from_jacobians(jacobians, inertias))
+    clean = tidier(robot)
+    M = mass_matrix_from_jacobians(jacobians, inertias).applyfunc(clean)
     if robot.planar:
         C = tidy_matrix(christoffel_coriolis(M, q, qd))
     else:
@@ -117,10 +144,11 @@ def derive_generalized(robot: Robot, table: SymbolTable,
 
         index = {name: i for i, name in enumerate(robot.coordinates)}
         paths = [[index[j.name] for j in robot.path_to(link.name) if j.moves] for link in robot.links]
-        dM = [tidy_matrix(d) for d in mass_matrix_derivatives(jacobians, inertias, paths)]
-        C = tidy_matrix(christoffel_coriolis(M, q, qd, dM))
-    N = tidy_matrix(gravity_vector(V, q))
-    EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N - Y).applyfunc(tidy)
+        # dM/dq_k is an intermediate: C's entries are tidied, not the derivatives
+        dM = mass_matrix_derivatives(jacobians, inertias, paths)
+        C = christoffel_coriolis(M, q, qd, dM).applyfunc(clean)
+    N = gravity_vector(V, q).applyfunc(clean)
+    EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N - Y).applyfunc(clean)
 
     quantities: dict[str, Any] = {
         "T_g": T, "V_g": V, "L_g": L, "Y_g": Y, "EOM_g1": EOM_g1,

@@ -86,10 +86,9 @@ def christoffel_coriolis(M: sympy.Matrix, q: Sequence[sympy.Symbol],
     half = sympy.Rational(1, 2)
     for i in range(n):
         for j in range(n):
-            C[i, j] = sum(
-                (half * (dM[k][i, j] + dM[j][i, k] - dM[i][j, k]) * qd[k] for k in range(n)),
-                sympy.Integer(0),
-            )
+            # Mul(half, qd_k, sum) keeps the sum whole: half * sum alone would distribute
+            C[i, j] = sympy.Add(*(
+                sympy.Mul(half, qd[k], dM[k][i, j] + dM[j][i, k] - dM[i][j, k]) for k in range(n)))
     return C
 
 
