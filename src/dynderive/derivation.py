@@ -77,8 +77,8 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
         from .spatial import spatial_kinematics
 
         links = spatial_kinematics(robot, table)
-    report("generalized coordinates")
-    quantities, steps = derive_generalized(robot, table, links)
+    report("energies")
+    quantities, steps = derive_generalized(robot, table, links, report)
     derivation = Derivation(robot, table, quantities, {"generalized": steps, "kinematics": links})
     if robot.planar:
         from .maximal import derive_maximal

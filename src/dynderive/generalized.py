@@ -108,9 +108,12 @@ def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
     return terms
 
 
-def derive_generalized(robot: Robot, table: SymbolTable,
-                       links: list[Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Quantities (by the reference's names) and intermediate steps, generalized coordinates."""
+def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
+                       report: Callable[[str], None] = lambda stage: None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Quantities (by the reference's names) and intermediate steps, generalized coordinates.
+
+    ``report`` is called with the name of each stage as it starts (for progress and timing).
+    """
     q, qd, qdd = table.q, table.qd, table.qdd
     qd_vec = sympy.Matrix(qd)
     gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
@@ -125,6 +128,7 @@ def derive_generalized(robot: Robot, table: SymbolTable,
     steps_tidy = None
     EOM_g1 = None
     if robot.planar or (len(q) <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
+        report("Lagrange's equations")
         steps = lagrange_steps(L, q, qd, qdd)
         steps_tidy = {
             "dL_dqd": tidy_matrix(steps.dL_dqd),
@@ -136,7 +140,9 @@ def derive_generalized(robot: Robot, table: SymbolTable,
     jacobians = [t.body_jacobian for t in terms]
     inertias = [t.spatial_inertia for t in terms]
     clean = tidier(robot)
+    report("mass matrix")
     M = mass_matrix_from_jacobians(jacobians, inertias).applyfunc(clean)
+    report("Coriolis matrix")
     if robot.planar:
         C = tidy_matrix(christoffel_coriolis(M, q, qd))
     else:
@@ -147,7 +153,9 @@ def derive_generalized(robot: Robot, table: SymbolTable,
         # dM/dq_k is an intermediate: C's entries are tidied, not the derivatives
         dM = mass_matrix_derivatives(jacobians, inertias, paths)
         C = christoffel_coriolis(M, q, qd, dM).applyfunc(clean)
+    report("gravity vector")
     N = gravity_vector(V, q).applyfunc(clean)
+    report("equations of motion")
     EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N - Y).applyfunc(clean)
 
     quantities: dict[str, Any] = {

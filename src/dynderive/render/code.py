@@ -8,6 +8,8 @@ from typing import Any
 
 import sympy
 from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.precedence import precedence
+from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
 from .environment import render
@@ -47,6 +49,92 @@ class ExpressionFunction:
     @property
     def shape_text(self) -> str:
         return repr(tuple(self.shape))
+
+
+class _LinePrinter(StrPrinter):
+    """Plain Python for straight-line programs: ``sin(x)`` (bound to ``math`` or NumPy by the
+    caller), numbers as float literals (``0.333*x``: one multiplication at run time), each
+    symbol under its name in ``names``."""
+
+    def __init__(self, names: dict[sympy.Symbol, str]):
+        super().__init__({"order": "none"})
+        self.names = names
+
+    def _print_Symbol(self, expr: sympy.Symbol) -> str:
+        return self.names.get(expr, expr.name)
+
+    def _print_Float(self, expr: sympy.Float) -> str:
+        return repr(float(expr))
+
+    def _print_Rational(self, expr: sympy.Rational) -> str:
+        return str(expr.p) if expr.q == 1 else repr(float(expr))
+
+    def _print_Mul(self, expr: sympy.Mul) -> str:
+        coeff, rest = expr.as_coeff_Mul()
+        if coeff.is_Rational and not coeff.is_Integer:
+            value = float(coeff)
+            text = self.parenthesize(rest, precedence(expr))
+            return f"{value!r}*{text}" if value >= 0 else f"-{-value!r}*{text}"
+        return super()._print_Mul(expr)
+
+
+@dataclass
+class ProgramFunction:
+    """A straight-line body (see ``recursive.py``) printed with reused local names."""
+
+    name: str
+    doc: str
+    arguments: list[Argument]
+    lines: list[tuple[str, str]]
+    outputs: list[str]
+    operations: int
+
+    @property
+    def size(self) -> int:
+        return len(self.outputs)
+
+
+def program_function(name: str, doc: str, arguments: list[Argument], program: Any) -> ProgramFunction:
+    """Print ``program``, giving each value a local name that is reused once the value is dead.
+
+    Reuse keeps the live arrays few (a batch chunk stays in cache); the same body then runs
+    on floats for one state.
+    """
+    needed = set().union(*(sympy.sympify(e).free_symbols for e in program.outputs))
+    kept = []
+    for target, expr in reversed(program.lines):   # drop values nothing reads
+        if target in needed:
+            kept.append((target, expr))
+            needed |= expr.free_symbols
+    body = kept[::-1]
+    names = [target for target, _ in body]
+    last_use: dict[sympy.Symbol, int] = {}
+    for position, (_, expr) in enumerate(body):
+        for symbol in expr.free_symbols:
+            last_use[symbol] = position
+    end = len(body)
+    for expr in program.outputs:
+        for symbol in sympy.sympify(expr).free_symbols:
+            last_use[symbol] = end
+    targets = set(names)
+    slot: dict[sympy.Symbol, str] = {}
+    printer = _LinePrinter(slot)
+    free: list[str] = []
+    count = 0
+    lines = []
+    for position, (target, expr) in enumerate(body):
+        text = printer.doprint(expr)
+        for symbol in sorted(expr.free_symbols & targets, key=str):
+            if last_use[symbol] == position:
+                free.append(slot[symbol])
+        if free:
+            slot[target] = free.pop()
+        else:
+            slot[target] = f"_r{count}"
+            count += 1
+        lines.append((slot[target], text))
+    outputs = [printer.doprint(sympy.sympify(e)) for e in program.outputs]
+    return ProgramFunction(name, doc, arguments, lines, outputs, program.operations)
 
 
 #: Quantities that stay matrices even with one column (a 1-DOF robot's M is 1 x 1).
@@ -169,49 +257,38 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
 
 def _structured_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
                           printer: _Printer, params: set[sympy.Symbol]) -> tuple[list[ExpressionFunction], dict[str, Any]]:
-    """3-D robots: body Jacobians and N as expressions; M, dM/dq and C assembled with einsum.
+    """3-D robots: M, C, N, inverse and forward dynamics as straight-line programs of the
+    recursive algorithms (``recursive.py``); their explicit symbolic entries are far too large
+    to print for a 6-7 DOF arm, and slower to evaluate."""
+    from ..recursive import (
+        coriolis_program,
+        forward_dynamics_program,
+        gravity_program,
+        inverse_dynamics_program,
+        mass_matrix_program,
+    )
 
-    ``M = sum_l J_l^T G_l J_l``; ``dM/dq_k`` from the Lie brackets ``dJ_i/dq_k = ad(J_i) J_k``;
-    ``C`` from the Christoffel symbols of these: the same formulas as the symbolic derivation,
-    without printing its (very large) explicit entries.
-    """
-    robot, quantities = derivation.robot, derivation.quantities
-    terms = derivation.steps["generalized"]["links"]
-    n, links = len(derivation.symbols.q), len(terms)
-    jacobians = sympy.Matrix.vstack(*[t.body_jacobian for t in terms])
-    inertias = sympy.Matrix.vstack(*[t.spatial_inertia for t in terms])
-    index = {name: i for i, name in enumerate(robot.coordinates)}
-    triples = []  # (link, i, k): column i of link l's Jacobian depends on q_k
-    for l, link in enumerate(robot.links):
-        path = [index[j.name] for j in robot.path_to(link.name) if j.moves]
-        for b, k in enumerate(path):
-            for i in path[:b]:
-                triples.append((l, i, k))
+    robot, quantities, table = derivation.robot, derivation.quantities, derivation.symbols
+    n = len(table.q)
     functions = [
-        expression_function("_body_jacobians", f"Body Jacobians of the COM frames, shape (..., {6 * links}, {n}).",
-                            [q], jacobians, printer, params, matrix_result=True),
-        expression_function("_spatial_inertias", f"Spatial inertias diag(m, m, m) + I_com, shape ({6 * links}, 6).",
-                            [], inertias, printer, params, matrix_result=True),
-        expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
-                            quantities["N_g"], printer, params),
         expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
                             [q, u], quantities["Y_g"], printer, params),
         expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
                             quantities["V_g"], printer, params),
     ]
-    by_link: dict[int, tuple[list[int], list[int]]] = {}
-    for l, i, k in triples:
-        by_link.setdefault(l, ([], []))[0].append(i)
-        by_link[l][1].append(k)
-    structure = {
-        "links": links,
-        "triples": triples,
-        "brackets": repr(tuple((l, tuple(i), tuple(k)) for l, (i, k) in sorted(by_link.items()))),
-        "bracket_link": repr(tuple(t[0] for t in triples)),
-        "bracket_i": repr(tuple(t[1] for t in triples)),
-        "bracket_k": repr(tuple(t[2] for t in triples)),
-    }
-    return functions, structure
+    qdd = Argument("qdd", table.qdd, f"joint accelerations, shape (..., {n})")
+    programs = [
+        program_function("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q],
+                         mass_matrix_program(robot, table)),
+        program_function("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.",
+                         [q, qd], coriolis_program(robot, table)),
+        program_function("_gravity_body", "N(q): Newton-Euler at rest.", [q], gravity_program(robot, table)),
+        program_function("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd],
+                         inverse_dynamics_program(robot, table)),
+        program_function("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N.",
+                         [q, qd, u], forward_dynamics_program(robot, table, list(quantities["Y_g"]))),
+    ]
+    return functions, {"programs": programs}
 
 
 def _tuple(names: tuple[str, ...]) -> str:

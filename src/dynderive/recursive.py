@@ -1,0 +1,412 @@
+"""Straight-line programs of the recursive algorithms, for the generated code of 3-D robots.
+
+The composite-rigid-body algorithm (M), recursive Newton-Euler (C qd + N, inverse dynamics)
+and an LDL^T solve (forward dynamics) of Featherstone's *Rigid Body Dynamics Algorithms*
+(2008, ch. 5-6) run once on SymPy symbols. Every intermediate value gets a name, so no
+expression ever grows, and SymPy's own arithmetic drops the products with structural zeros
+and ones (joint axes along z, rotations by multiples of pi/2): the result is a short list of
+assignments, each a few operations, that the code template prints as Python. The same lines
+run on floats (one state, with ``math``) and on NumPy arrays (a batch).
+
+>>> program = mass_matrix_program(robot, table)          # doctest: +SKIP
+>>> len(program.lines), program.outputs[0]                 # doctest: +SKIP
+(231, _t230)
+
+Conventions: link frames as in the robot file (the joint frame after its motion); spatial
+vectors as pairs of 3-vectors, motion ``(omega, v)`` with ``v`` the velocity of the body point
+at the frame origin, force ``(n, f)`` with the moment about that origin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import sympy
+
+from .joints import unit
+from .model import Joint, Robot
+from .spatial import axis_angle, rpy_matrix
+from .symbols import SymbolTable
+
+Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+Matrix3 = tuple[Vector, Vector, Vector]
+
+
+@dataclass
+class Program:
+    """Assignments ``name = expression`` in order; ``outputs`` are expressions of the names."""
+
+    inputs: list[sympy.Symbol]
+    lines: list[tuple[sympy.Symbol, sympy.Expr]] = field(default_factory=list)
+    outputs: list[sympy.Expr] = field(default_factory=list)
+    _count: int = 0
+    _known: dict[sympy.Expr, sympy.Symbol] = field(default_factory=dict)
+
+    def let(self, expr: sympy.Expr) -> sympy.Expr:
+        """``expr`` itself if it costs nothing to repeat (a number, a name, minus a name),
+        else a new name bound to it."""
+        expr = sympy.sympify(expr)
+        if not expr.free_symbols and not expr.is_Number:
+            expr = sympy.Float(expr.evalf(20), 20)
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
+                            and expr.args[1].is_Atom):
+            return expr
+        if expr in self._known:       # the same value computed twice: one name
+            return self._known[expr]
+        name = sympy.Symbol(f"_t{self._count}")
+        self._count += 1
+        self._known[expr] = name
+        self.lines.append((name, expr))
+        return name
+
+    def vector(self, values: Sequence[sympy.Expr]) -> Vector:
+        return tuple(self.let(v) for v in values)  # type: ignore[return-value]
+
+    @property
+    def operations(self) -> int:
+        """Arithmetic operations and function calls of the program."""
+        return sum(operation_count(e) for _, e in self.lines) + sum(operation_count(e) for e in self.outputs)
+
+
+def operation_count(expr: sympy.Expr) -> int:
+    """n - 1 per n-ary sum or product, one per power or function call (``count_ops`` without
+    its separate counting of signs and divisions, and much faster)."""
+    expr = sympy.sympify(expr)
+    if not expr.args:
+        return 0
+    own = len(expr.args) - 1 if isinstance(expr, (sympy.Add, sympy.Mul)) else 1
+    return own + sum(operation_count(a) for a in expr.args)
+
+
+def _dot(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> sympy.Expr:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _add(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    return tuple(x + y for x, y in zip(a, b))
+
+
+def _rotate(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    return tuple(_dot(row, v) for row in R)
+
+
+def _rotate_back(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    """``R^T v``."""
+    return tuple(R[0][k] * v[0] + R[1][k] * v[1] + R[2][k] * v[2] for k in range(3))
+
+
+@dataclass
+class _Body:
+    """One link as the algorithms see it: its parent joint's transform and motion axis."""
+
+    link: str
+    parent: str
+    joint: Joint
+    coordinate: int | None       # index of the joint's coordinate, None for fixed joints
+    revolute: bool
+    axis: Vector                 # motion axis in the link frame
+    rotation: Matrix3            # link axes in the parent frame (R), with the joint's motion
+    position: Vector             # link origin in the parent frame
+    mass: sympy.Expr
+    com: Vector                  # centre of mass, link frame
+    first_moment: Vector         # h = m c, link frame
+    inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
+
+
+class _Tree:
+    """The robot's links in an order where parents come first, with their transforms."""
+
+    def __init__(self, robot: Robot, table: SymbolTable, program: Program):
+        self.robot, self.table, self.program = robot, table, program
+        index = {name: i for i, name in enumerate(robot.coordinates)}
+        depth = {link.name: len(robot.path_to(link.name)) for link in robot.links}
+        order = sorted(robot.links, key=lambda link: depth[link.name])  # stable: file order per depth
+        self.bodies: list[_Body] = []
+        for link in order:
+            joint = robot.parent_joint(link.name)
+            coordinate = index.get(joint.name) if joint.moves else None
+            self.bodies.append(self._body(link, joint, coordinate))
+        self.by_link = {b.link: b for b in self.bodies}
+        #: links welded to the world (no moving joint above them): they carry no dynamics
+        self.static = {"world"} | {link.name for link in robot.links
+                                   if not any(j.moves for j in robot.path_to(link.name))}
+
+    def _body(self, link, joint: Joint, coordinate: int | None) -> _Body:
+        expr, let = self.table.expr, self.program.let
+        x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
+        origin = rpy_matrix(roll, pitch, yaw)
+        position = [x, y, z]
+        axis: Vector = (sympy.Integer(0),) * 3  # type: ignore[assignment]
+        motion = sympy.eye(3)
+        revolute = joint.type == "revolute"
+        if coordinate is not None:
+            axis = unit(tuple(expr(e) for e in joint.axis))  # type: ignore[assignment]
+            q = self.table.q[coordinate]
+            if revolute:
+                cos, sin = sympy.Symbol(f"_cos{coordinate}"), sympy.Symbol(f"_sin{coordinate}")
+                motion = axis_angle(axis, q).subs({sympy.cos(q): cos, sympy.sin(q): sin})
+            else:
+                position = [p + d * q for p, d in zip(position, origin * sympy.Matrix(axis))]
+        rotation = origin * motion
+        R = tuple(tuple(let(rotation[i, j]) for j in range(3)) for i in range(3))
+        mass = let(expr(link.mass))
+        com = [expr(e) for e in link.com]
+        ixx, iyy, izz, ixy, ixz, iyz = (expr(e) for e in link.inertia)
+        about_com = ((ixx, ixy, ixz), (ixy, iyy, iyz), (ixz, iyz, izz))
+        square = sum(c * c for c in com)
+        inertia = tuple(tuple(let(about_com[i][j] + mass * ((square if i == j else 0) - com[i] * com[j]))
+                              for j in range(3)) for i in range(3))
+        return _Body(link.name, joint.parent, joint, coordinate, revolute, axis, R,  # type: ignore[arg-type]
+                     self.program.vector(position), mass, self.program.vector(com),
+                     self.program.vector([mass * c for c in com]), inertia)
+
+    def trig(self) -> list[tuple[sympy.Symbol, sympy.Expr]]:
+        """The sines and cosines the transforms use, to compute first."""
+        lines = []
+        for body in self.bodies:
+            if body.coordinate is not None and body.revolute:
+                q = self.table.q[body.coordinate]
+                lines += [(sympy.Symbol(f"_cos{body.coordinate}"), sympy.cos(q)),
+                          (sympy.Symbol(f"_sin{body.coordinate}"), sympy.sin(q))]
+        return lines
+
+    def force_to_parent(self, body: _Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+        """A force (moment about the link origin, force) in the parent's frame."""
+        let = self.program.vector
+        f_parent = let(_rotate(body.rotation, f))
+        n_parent = let(_add(_rotate(body.rotation, n), _cross(body.position, f_parent)))
+        return n_parent, f_parent
+
+    def motion_from_parent(self, body: _Body, w: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+        """A motion vector of the parent's frame seen in this link's frame."""
+        let = self.program.vector
+        return (let(_rotate_back(body.rotation, w)),
+                let(_rotate_back(body.rotation, _add(v, _cross(w, body.position)))))
+
+
+def _start(robot: Robot, table: SymbolTable, inputs: list[sympy.Symbol]) -> tuple[Program, _Tree]:
+    program = Program(inputs)
+    tree = _Tree(robot, table, program)
+    # the bodies' constant lines were recorded while building the tree; sines and cosines
+    # are inputs to them only through the rotation entries, which come later in the list
+    trig = tree.trig()
+    program.lines[0:0] = trig
+    return program, tree
+
+
+def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
+    """CRBA: composite inertias from the leaves up, then M_ij = S_i . (X^* I^c_j S_j)."""
+    let, vec = tree.program.let, tree.program.vector
+    n = len(tree.robot.coordinates)
+    composite = {b.link: (b.mass, b.first_moment, b.inertia) for b in tree.bodies}
+    for body in reversed(tree.bodies):
+        if body.parent in tree.static:
+            continue
+        mass, h, inertia = composite[body.link]
+        R, p = body.rotation, body.position
+        h_r = vec(_rotate(R, h))
+        inertia_rt = [[let(_dot(inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
+        rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
+        ph = _dot(p, h_r)
+        pp = _dot(p, p)
+        moved = [[rotated[a][b] + mass * ((pp if a == b else 0) - p[a] * p[b])
+                  + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
+        p_mass, p_h, p_inertia = composite[body.parent]
+        total = [[None] * 3 for _ in range(3)]
+        for a in range(3):
+            for b in range(a, 3):
+                total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b])
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, [mass * x for x in p]))),
+                                  tuple(tuple(row) for row in total))
+    M = [[sympy.Integer(0)] * n for _ in range(n)]
+    for body in tree.bodies:
+        if body.coordinate is None:
+            continue
+        mass, h, inertia = composite[body.link]
+        a = body.axis
+        if body.revolute:
+            f, nm = vec(_cross(a, h)), vec(_rotate(inertia, a))
+        else:
+            f, nm = vec([mass * x for x in a]), vec(_cross(h, a))
+        j = body.coordinate
+        M[j][j] = let(_dot(a, nm if body.revolute else f))
+        current = body
+        while current.parent not in tree.static:
+            nm, f = tree.force_to_parent(current, nm, f)
+            current = tree.by_link[current.parent]
+            if current.coordinate is not None:
+                i = current.coordinate
+                M[i][j] = M[j][i] = let(_dot(current.axis, nm if current.revolute else f))
+    return M
+
+
+def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr],
+                  gravity: Sequence[sympy.Expr]) -> list[sympy.Expr]:
+    """RNEA: the generalized forces M qdd + C qd + N (gravity as an upward base acceleration)."""
+    vec = tree.program.vector
+    zero = (sympy.Integer(0),) * 3
+    motion = {"world": (zero, zero, zero, vec([-g for g in gravity]))}   # (w, v, alpha, a)
+    forces = {}
+    for body in tree.bodies:
+        if body.link in tree.static:   # at rest: only its frame's acceleration (gravity) matters
+            motion[body.link] = (zero, zero, zero, tree.motion_from_parent(body, zero, motion[body.parent][3])[1])
+            continue
+        w, v, alpha, acc = motion[body.parent]
+        w, v = tree.motion_from_parent(body, w, v)
+        alpha, acc = tree.motion_from_parent(body, alpha, acc)
+        if body.coordinate is not None:
+            rate, accel = qd[body.coordinate], qdd[body.coordinate]
+            s = body.axis
+            if body.revolute:   # joint motion S qd = (s qd, 0); v x S qd = (w x s, v x s) qd
+                w_new = vec(_add(w, [x * rate for x in s]))
+                alpha = vec(_add(alpha, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
+                acc = vec(_add(acc, [y * rate for y in _cross(v, s)]))
+                w = w_new
+            else:               # S qd = (0, s qd); v x S qd = (0, w x s qd)
+                acc = vec(_add(acc, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
+                v = vec(_add(v, [x * rate for x in s]))
+        motion[body.link] = (w, v, alpha, acc)
+        m, h, inertia = body.mass, body.first_moment, body.inertia
+        # momentum (I w + h x v, m v + w x h) and the force I a + v x* momentum
+        momentum_n = vec(_add(_rotate(inertia, w), _cross(h, v)))
+        momentum_f = vec(_add([m * x for x in v], _cross(w, h)))
+        n = _add(_add(_rotate(inertia, alpha), _cross(h, acc)), _add(_cross(w, momentum_n), _cross(v, momentum_f)))
+        f = _add(_add([m * x for x in acc], _cross(alpha, h)), _cross(w, momentum_f))
+        forces[body.link] = (vec(n), vec(f))
+    tau: list[sympy.Expr] = [sympy.Integer(0)] * len(tree.robot.coordinates)
+    for body in reversed(tree.bodies):
+        if body.link in tree.static:
+            continue
+        n, f = forces[body.link]
+        if body.coordinate is not None:
+            tau[body.coordinate] = tree.program.let(_dot(body.axis, n if body.revolute else f))
+        if body.parent not in tree.static:
+            n_p, f_p = tree.force_to_parent(body, n, f)
+            parent_n, parent_f = forces[body.parent]
+            forces[body.parent] = (vec(_add(parent_n, n_p)), vec(_add(parent_f, f_p)))
+    return tau
+
+
+def _gravity(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
+    return [table.expr(e) for e in robot.gravity]
+
+
+def mass_matrix_program(robot: Robot, table: SymbolTable) -> Program:
+    """``M(q)`` by the composite-rigid-body algorithm; outputs row by row."""
+    program, tree = _start(robot, table, list(table.q))
+    program.outputs = [e for row in _composite_mass_matrix(tree) for e in row]
+    return program
+
+
+def inverse_dynamics_program(robot: Robot, table: SymbolTable) -> Program:
+    """``M qdd + C qd + N`` by recursive Newton-Euler."""
+    program, tree = _start(robot, table, [*table.q, *table.qd, *table.qdd])
+    program.outputs = _newton_euler(tree, table.qd, table.qdd, _gravity(robot, table))
+    return program
+
+
+def gravity_program(robot: Robot, table: SymbolTable) -> Program:
+    """``N(q)``: recursive Newton-Euler at rest."""
+    program, tree = _start(robot, table, list(table.q))
+    zeros = [sympy.Integer(0)] * len(table.q)
+    program.outputs = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
+    return program
+
+
+def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr]) -> Program:
+    """``qdd`` solving ``M qdd = Y - (C qd + N)``: CRBA, Newton-Euler and an LDL^T solve.
+
+    ``efforts`` is ``Y_g`` as expressions of the effort symbols. M is positive definite, so the
+    factorization needs no pivoting; zeros of M (branches) stay zeros in L.
+    """
+    program, tree = _start(robot, table, [*table.q, *table.qd, *table.efforts.values()])
+    let = program.let
+    n = len(table.q)
+    M = _composite_mass_matrix(tree)
+    bias = _newton_euler(tree, table.qd, [sympy.Integer(0)] * n, _gravity(robot, table))
+    rhs = [let(y - b) for y, b in zip(efforts, bias)]
+    L = [[sympy.Integer(0)] * n for _ in range(n)]
+    inverse_d: list[sympy.Expr] = [sympy.Integer(0)] * n
+    scaled = [[sympy.Integer(0)] * n for _ in range(n)]   # L_jk D_k
+    for j in range(n):
+        d = let(M[j][j] - sum((L[j][k] * scaled[j][k] for k in range(j)), sympy.Integer(0)))
+        inverse_d[j] = let(1 / d)
+        for i in range(j + 1, n):
+            residual = M[i][j] - sum((L[i][k] * scaled[j][k] for k in range(j)), sympy.Integer(0))
+            if residual != 0:
+                L[i][j] = let(residual * inverse_d[j])
+                scaled[i][j] = let(residual)
+    y: list[sympy.Expr] = []
+    for i in range(n):
+        y.append(let(rhs[i] - sum((L[i][k] * y[k] for k in range(i)), sympy.Integer(0))))
+    x: list[sympy.Expr] = [sympy.Integer(0)] * n
+    for i in reversed(range(n)):
+        x[i] = let(y[i] * inverse_d[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), sympy.Integer(0)))
+    program.outputs = x
+    return program
+
+
+def body_jacobians_program(robot: Robot, table: SymbolTable) -> Program:
+    """The 6 x n body Jacobians ``(v, omega)`` of every link's COM frame (axes of the link),
+    stacked in the file's link order: column k of a link is column k of its parent carried
+    into the link's frame, plus the link's own joint axis."""
+    program, tree = _start(robot, table, list(table.q))
+    n = len(table.q)
+    zero = (sympy.Integer(0),) * 3
+    columns: dict[str, dict[int, tuple[Vector, Vector]]] = {"world": {}}
+    for body in tree.bodies:
+        own = {} if body.link in tree.static else {
+            k: tree.motion_from_parent(body, w, v) for k, (w, v) in columns[body.parent].items()}
+        if body.coordinate is not None:
+            own[body.coordinate] = (body.axis, zero) if body.revolute else (zero, body.axis)
+        columns[body.link] = own
+    outputs: list[sympy.Expr] = []
+    for link in robot.links:
+        body = tree.by_link[link.name]
+        at_com = {k: (program.vector(_add(v, _cross(w, body.com))), w) for k, (w, v) in columns[link.name].items()}
+        for row in range(6):
+            for k in range(n):
+                v, w = at_com.get(k, (zero, zero))
+                outputs.append((v + w)[row])
+    program.outputs = outputs
+    return program
+
+
+def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
+    """The Christoffel-symbol Coriolis matrix ``C(q, qd)``, row by row.
+
+    ``dM/dq_k`` comes from differentiating the CRBA program line by line (forward mode: each
+    line's tangent from its own small expression), then
+    ``C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k``, the same C as C_g.
+    """
+    program, tree = _start(robot, table, [*table.q, *table.qd])
+    n = len(table.q)
+    M = _composite_mass_matrix(tree)
+    lines = list(program.lines)
+    trig = {}
+    for name, expr in lines[:len(tree.trig())]:
+        trig[expr] = name
+    def derivative(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr]) -> sympy.Expr:
+        expr = sympy.sympify(expr)
+        terms = [sympy.diff(expr, s) * tangent[s] for s in expr.free_symbols if s in tangent]
+        return sympy.Add(*terms).xreplace(trig) if terms else sympy.Integer(0)
+
+    dM = []
+    for k in range(n):
+        tangent: dict[sympy.Symbol, sympy.Expr] = {table.q[k]: sympy.Integer(1)}
+        for name, expr in lines:
+            d = derivative(expr, tangent)
+            if d != 0:
+                tangent[name] = program.let(d)
+        dM.append([[derivative(M[i][j], tangent) for j in range(n)] for i in range(n)])
+    half = sympy.Rational(1, 2)
+    qd = table.qd
+    program.outputs = [
+        program.let(half * sum((qd[k] * (dM[k][i][j] + dM[j][i][k] - dM[i][j][k]) for k in range(n)), sympy.Integer(0)))
+        for i in range(n) for j in range(n)]
+    return program
