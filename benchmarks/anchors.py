@@ -74,13 +74,12 @@ from dynderive.symbols import SymbolTable
 
 def pendulum_yaml(n: int) -> str:
     """A planar n-link pendulum (copy of ``benchmarks/run.py``'s, to keep the files independent)."""
-    lines = [f"name: pendulum{n}", f"title: Planar {n}-link pendulum", "planar: true", "parameters:"]
-    lines += [f"  m{k}: 1.0\n  l{k}: 1.0" for k in range(1, n + 1)] + ["  g: 9.81", "gravity: [0, -g]", "links:"]
-    lines += [f"  - {{name: b{k}, mass: m{k}, com: [l{k}/2, 0], inertia: m{k}*l{k}**2/12}}" for k in range(1, n + 1)]
+    lines = [f"name: pendulum{n}", f"title: Planar {n}-link pendulum", "planar: true", "gravity: [0, -9.81]", "links:"]
+    lines += [f"  - {{name: b{k}, mass: 1, com: [1/2, 0], inertia: 1/12}}" for k in range(1, n + 1)]
     lines.append("joints:")
     for k in range(1, n + 1):
         parent = "world" if k == 1 else f"b{k - 1}"
-        origin = "[0, 0]" if k == 1 else f"[l{k - 1}, 0]"
+        origin = "[0, 0]" if k == 1 else "[1, 0]"
         lines.append(f"  - {{name: q{k}, type: revolute, parent: {parent}, child: b{k}, origin: {origin}, effort: tau{k}}}")
     return "\n".join(lines) + "\n"
 

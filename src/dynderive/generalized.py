@@ -21,7 +21,7 @@ from .lagrange import (
 )
 from .model import Robot
 from .symbols import SymbolTable
-from .tidy import is_small, quick_tidy, tidy, tidy_matrix
+from .tidy import fewest_operations, is_small, quick_tidy, tidy, tidy_matrix, trig_group, trig_linear
 
 #: 3-D robots with more coordinates than this, or whose Lagrangian has more tree nodes than
 #: LAGRANGE_LIMIT, skip the symbolic Lagrange route (EOM_g1): differentiating it twice costs
@@ -33,6 +33,9 @@ LAGRANGE_LIMIT = 6000
 #: 3-D entries larger than this (tree nodes) are kept as built: they are too large to typeset,
 #: and expanding them (floats, six angles) costs seconds for a few per cent fewer operations.
 SPATIAL_TIDY_LIMIT = 400
+#: Planar C entries larger than this are only grouped by trigonometric factor (M is in
+#: Fourier form already, so its derivatives are too), not offered to ``tidy``.
+PLANAR_TIDY_LIMIT = 300
 
 
 def _spatial_tidy(expr: sympy.Expr) -> sympy.Expr:
@@ -140,11 +143,17 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     jacobians = [t.body_jacobian for t in terms]
     inertias = [t.spatial_inertia for t in terms]
     clean = tidier(robot)
+    n = len(q)
     report("mass matrix")
     M = mass_matrix_from_jacobians(jacobians, inertias).applyfunc(clean)
     report("Coriolis matrix")
     if robot.planar:
-        C = tidy_matrix(christoffel_coriolis(M, q, qd))
+        # Fourier form where shorter: trig products of different angles combine, and C (from
+        # dM/dq) then has single sines instead of products that cancel in pairs
+        fourier = M.applyfunc(trig_linear)
+        M = sympy.Matrix(n, n, [f if sympy.count_ops(f) < sympy.count_ops(e) else e for e, f in zip(M, fourier)])
+        C = christoffel_coriolis(fourier, q, qd).applyfunc(
+            lambda e: fewest_operations(trig_group(e), *([tidy] if is_small(e, PLANAR_TIDY_LIMIT) else [])))
     else:
         from .spatial import mass_matrix_derivatives
 

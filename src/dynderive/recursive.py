@@ -46,9 +46,7 @@ class Program:
     def let(self, expr: sympy.Expr) -> sympy.Expr:
         """``expr`` itself if it costs nothing to repeat (a number, a name, minus a name),
         else a new name bound to it."""
-        expr = sympy.sympify(expr)
-        if not expr.free_symbols and not expr.is_Number:
-            expr = sympy.Float(expr.evalf(20), 20)
+        expr = _numeric_constants(sympy.sympify(expr))
         if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
                             and expr.args[1].is_Atom):
             return expr
@@ -77,6 +75,17 @@ def operation_count(expr: sympy.Expr) -> int:
         return 0
     own = len(expr.args) - 1 if isinstance(expr, (sympy.Add, sympy.Mul)) else 1
     return own + sum(operation_count(a) for a in expr.args)
+
+
+def _numeric_constants(expr: sympy.Expr) -> sympy.Expr:
+    """Irrational constants (``sqrt(2)/2``, ``cos(0.147)``) as 20-digit floats, so that the
+    printed lines call ``sin`` and ``cos`` of coordinates only; rationals stay exact."""
+    if expr.is_Atom:
+        return expr
+    if not expr.free_symbols:
+        return expr if expr.is_Rational else sympy.Float(expr.evalf(20), 20)
+    args = [_numeric_constants(a) for a in expr.args]
+    return expr.func(*args) if any(a is not b for a, b in zip(args, expr.args)) else expr
 
 
 def _dot(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> sympy.Expr:
