@@ -19,6 +19,8 @@ with the robot file's defaults (see ``PARAMETERS``):
     g [m/s^2]: gravitational acceleration
 """
 
+import math
+
 import numpy as np
 
 PARAMETERS = {"m1": 4.0, "m2": 3.0, "m3": 2.0, "l1": 0.4, "l2": 0.5, "l3": 0.4, "lc1": 0.2, "lc2": 0.25, "lc3": 0.2, "I1": 0.02, "g": 9.81}
@@ -31,84 +33,6 @@ def _coordinates(name, value, size):
     if array.ndim == 0 or array.shape[-1] != size:
         raise ValueError(f"{name} must have shape (..., {size}), got {array.shape}")
     return array
-
-
-def _body_jacobians(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Body Jacobians of the COM frames, shape (..., 18, 3).
-
-    q: joint coordinates ('q1', 'q2', 'q3'), shape (..., 3)
-    """
-    q = _coordinates("q", q, 3)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    q2 = q[..., 1]
-    q3 = q[..., 2]
-    t0 = np.cos(q2)
-    t1 = np.sin(q2)
-    t2 = np.sin(q3)
-    t3 = np.cos(q3)
-    t4 = t1*t2
-    out = np.zeros(batch + (18, 3))
-    out[..., 5, 0] = 1
-    out[..., 7, 0] = lc2*t0
-    out[..., 8, 1] = lc2
-    out[..., 9, 0] = t1
-    out[..., 10, 1] = -1
-    out[..., 11, 0] = t0
-    out[..., 12, 1] = l2*t2
-    out[..., 13, 0] = l2*t0 + lc3*t0*t3 - lc3*t4
-    out[..., 14, 1] = l2*t3 + lc3
-    out[..., 14, 2] = lc3
-    out[..., 15, 0] = t0*t2 + t1*t3
-    out[..., 16, 1] = -1
-    out[..., 16, 2] = -1
-    out[..., 17, 0] = t0*t3 - t4
-    return out
-
-
-def _spatial_inertias(*, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Spatial inertias diag(m, m, m) + I_com, shape (18, 6).
-    """
-    batch = np.broadcast_shapes()
-    t0 = (1/2)*I1
-    t1 = (1/12)*l2**2*m2
-    t2 = (1/12)*l3**2*m3
-    out = np.zeros(batch + (18, 6))
-    out[..., 0, 0] = m1
-    out[..., 1, 1] = m1
-    out[..., 2, 2] = m1
-    out[..., 3, 3] = t0
-    out[..., 4, 4] = t0
-    out[..., 5, 5] = I1
-    out[..., 6, 0] = m2
-    out[..., 7, 1] = m2
-    out[..., 8, 2] = m2
-    out[..., 10, 4] = t1
-    out[..., 11, 5] = t1
-    out[..., 12, 0] = m3
-    out[..., 13, 1] = m3
-    out[..., 14, 2] = m3
-    out[..., 16, 4] = t2
-    out[..., 17, 5] = t2
-    return out
-
-
-def gravity_vector(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Gravity vector N_g(q) = dV/dq, shape (..., 3).
-
-    q: joint coordinates ('q1', 'q2', 'q3'), shape (..., 3)
-    """
-    q = _coordinates("q", q, 3)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    q2 = q[..., 1]
-    q3 = q[..., 2]
-    t0 = np.cos(q2)
-    t1 = lc3*np.sin(q2)*np.sin(q3)
-    t2 = np.cos(q3)
-    t3 = g*m3
-    out = np.zeros(batch + (3,))
-    out[..., 1] = g*lc2*m2*t0 + t3*(t0*(l2 + lc3*t2) - t1)
-    out[..., 2] = t3*(lc3*t0*t2 - t1)
-    return out
 
 
 def generalized_forces(q, u, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
@@ -145,95 +69,355 @@ def potential_energy(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0
     return out
 
 
-def _jacobians(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    return _body_jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g).reshape(np.shape(q)[:-1] + (3, 6, 3))
+#: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
+_CHUNK = 4096
 
 
-def _inertias(*, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    return _spatial_inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g).reshape(3, 6, 6)
+def _evaluate(body, arrays, shape, parameters):
+    """Run a straight-line body on one state (floats and ``math``) or on a batch (NumPy,
+    in chunks of _CHUNK states); the result has shape batch + ``shape``."""
+    batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+    size = math.prod(shape)
+    if not batch and all(np.ndim(v) == 0 for v in parameters.values()):
+        values = body(*(a.tolist() for a in arrays), math.sin, math.cos, **parameters)
+        return np.array(values, dtype=float).reshape(shape)
+    if any(np.ndim(v) for v in parameters.values()):  # array parameters: one broadcast pass
+        columns = [np.moveaxis(np.broadcast_to(a, batch + a.shape[-1:]), -1, 0) for a in arrays]
+        values = body(*columns, np.sin, np.cos, **parameters)
+        result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
+        return np.stack(result, axis=-1).reshape(result[0].shape + shape)
+    flat = [np.broadcast_to(a, batch + a.shape[-1:]).reshape(-1, a.shape[-1]) for a in arrays]
+    total = flat[0].shape[0]
+    out = np.empty((total, size))
+    for start in range(0, total, _CHUNK):
+        columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]
+        block = out[start : start + _CHUNK]
+        for k, value in enumerate(body(*columns, np.sin, np.cos, **parameters)):
+            block[:, k] = value
+    return out.reshape(batch + shape)
+
+
+def _mass_matrix_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """M(q), row by row: composite-rigid-body algorithm. 19 lines, 135 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r5 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r6 = lc3*m3
+    _r7 = _r2*_r6
+    _r6 = _r3*_r6
+    _r8 = -_r3*_r5
+    _r9 = _r2*_r5
+    _r8 = -_r3*_r8
+    _r6 = -_r3*_r9 - _r6*l2
+    _r3 = _r4 + _r5 + m3*l2**2 + 2*_r7*l2
+    _r9 = _r4 + _r2*_r9 + m3*l2**2 + 2*_r7*l2
+    _r8 = _r0*_r6 + _r1*_r8
+    _r9 = _r0*_r9 + _r1*_r6
+    _r9 = I1 + _r0*_r9 + _r1*_r8
+    _r7 = -_r5 - _r7*l2
+    return (
+        _r9,
+        0,
+        0,
+        0,
+        _r3,
+        -_r7,
+        0,
+        -_r7,
+        _r5,
+    )
+
+
+def _coriolis_body(q, qd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """C(q, qd), row by row: Christoffel symbols of the differentiated CRBA. 37 lines, 286 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r5 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r6 = lc3*m3
+    _r7 = _r2*_r6
+    _r8 = _r3*_r6
+    _r9 = -_r3*_r5
+    _r10 = _r2*_r5
+    _r11 = -_r3*_r9
+    _r8 = -_r3*_r10 - _r8*l2
+    _r4 = _r4 + _r2*_r10 + m3*l2**2 + 2*_r7*l2
+    _r12 = _r0*_r11 - _r1*_r8
+    _r11 = _r0*_r8 + _r1*_r11
+    _r13 = _r0*_r8 - _r1*_r4
+    _r4 = _r0*_r4 + _r1*_r8
+    _r6 = -_r3*_r6
+    _r4 = _r0*_r11 + _r0*_r13 + _r1*_r12 - _r1*_r4
+    _r5 = -_r2*_r5
+    _r5 = -_r2*_r9 - _r3*_r5
+    _r7 = -_r2*_r10 - _r3*_r9 - _r7*l2
+    _r13 = 2*_r6*l2
+    _r10 = _r2*_r9 - _r3*_r10 + 2*_r6*l2
+    _r5 = _r0*_r7 + _r1*_r5
+    _r10 = _r0*_r10 + _r1*_r7
+    _r10 = _r0*_r10 + _r1*_r5
+    _r6 = -_r6*l2
+    _r5 = 0.5*(_r4*qd2) + 0.5*(_r10*qd3)
+    _r1 = 0.5*(_r4*qd1)
+    _r0 = 0.5*(_r10*qd1)
+    _r4 = -0.5*_r4*qd1
+    _r7 = 0.5*(_r13*qd3)
+    _r6 = 0.5*(_r13*qd2) - _r6*qd3
+    _r10 = -0.5*_r10*qd1
+    _r13 = -0.5*_r13*qd2
+    return (
+        _r5,
+        _r1,
+        _r0,
+        _r4,
+        _r7,
+        _r6,
+        _r10,
+        _r13,
+        0,
+    )
+
+
+def _gravity_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """N(q): Newton-Euler at rest. 17 lines, 68 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = lc2*m2
+    _r5 = lc3*m3
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r4 = -_r4*_r0
+    _r6 = _r2*_r1 + _r3*_r0
+    _r0 = _r2*_r0 - _r3*_r1
+    _r5 = -_r0*_r5
+    _r6 = _r6*m3
+    _r0 = _r0*m3
+    _r0 = _r2*_r0 + _r3*_r6
+    _r0 = _r5 - _r0*l2
+    _r4 = _r0 + _r4
+    return (
+        0,
+        -_r4,
+        -_r5,
+    )
+
+
+def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """M qdd + C qd + N: recursive Newton-Euler. 56 lines, 240 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    qdd1, qdd2, qdd3 = qdd
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r5 = lc2*m2
+    _r6 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r7 = lc3*m3
+    _r8 = I1*qdd1
+    _r9 = _r1*qd1
+    _r10 = _r0*qd1
+    _r11 = _r1*qdd1
+    _r12 = _r0*qdd1
+    _r13 = _r1*g
+    _r14 = _r0*g
+    _r11 = _r11 + _r10*qd2
+    _r12 = _r12 - _r9*qd2
+    _r15 = -_r4*qd2
+    _r16 = _r10*_r4
+    _r17 = -_r10*_r15 - _r16*qd2
+    _r5 = -_r14*_r5 - _r16*_r9 - _r4*qdd2
+    _r4 = _r12*_r4 + _r15*_r9
+    _r15 = _r2*_r9 + _r3*_r10
+    _r9 = _r2*_r10 - _r3*_r9
+    _r16 = _r3*l2*qd2
+    _r10 = _r10*l2
+    _r18 = _r2*l2*qd2
+    _r11 = _r2*_r12 - _r3*_r11
+    _r19 = _r2*_r13 + _r3*(_r14 + l2*qdd2)
+    _r12 = _r12*l2
+    _r14 = _r2*(_r14 + l2*qdd2) - _r3*_r13
+    _r13 = -qd2 - qd3
+    _r20 = -qdd2 - qdd3
+    _r11 = _r11 - _r15*qd3
+    _r19 = _r19 + _r18*qd3
+    _r14 = _r14 - _r16*qd3
+    _r21 = _r13*_r6 - _r18*_r7
+    _r22 = _r9*_r6 + _r10*_r7
+    _r23 = _r16*m3
+    _r24 = _r9*_r7 + _r10*m3
+    _r25 = _r18*m3 - _r13*_r7
+    _r26 = _r10*_r25 + _r13*_r22 - _r9*_r21 - _r18*_r24
+    _r22 = _r18*_r23 + _r20*_r6 - _r15*_r22 - _r16*_r25 - _r14*_r7
+    _r21 = _r15*_r21 + _r16*_r24 + _r12*_r7 + _r6*_r11 - _r10*_r23
+    _r19 = _r13*_r25 + _r19*m3 - _r9*_r24
+    _r25 = _r9*_r23 + _r12*m3 + _r11*_r7 - _r15*_r25
+    _r7 = _r15*_r24 + _r14*m3 - _r13*_r23 - _r20*_r7
+    _r7 = _r2*_r7 + _r3*_r19
+    _r19 = _r2*_r26 - _r3*_r21
+    _r7 = _r22 - _r7*l2
+    _r25 = _r2*_r21 + _r3*_r26 + _r25*l2
+    _r19 = _r17 + _r19
+    _r7 = _r5 + _r7
+    _r25 = _r4 + _r25
+    _r25 = _r0*_r25 + _r1*_r19
+    _r8 = _r25 + _r8
+    return (
+        _r8,
+        -_r7,
+        -_r22,
+    )
+
+
+def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 75 lines, 343 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    tau1, tau2, tau3 = u
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r5 = lc2*m2
+    _r6 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r7 = lc3*m3
+    _r8 = _r2*_r7
+    _r9 = _r3*_r7
+    _r10 = -_r3*_r6
+    _r11 = _r2*_r6
+    _r10 = -_r3*_r10
+    _r9 = -_r3*_r11 - _r9*l2
+    _r12 = _r4 + _r6 + m3*l2**2 + 2*_r8*l2
+    _r11 = _r4 + _r2*_r11 + m3*l2**2 + 2*_r8*l2
+    _r10 = _r0*_r9 + _r1*_r10
+    _r11 = _r0*_r11 + _r1*_r9
+    _r11 = I1 + _r0*_r11 + _r1*_r10
+    _r8 = -_r6 - _r8*l2
+    _r10 = _r1*qd1
+    _r9 = _r0*qd1
+    _r13 = _r1*g
+    _r14 = _r0*g
+    _r15 = _r9*qd2
+    _r16 = -_r10*qd2
+    _r17 = -_r4*qd2
+    _r18 = _r4*_r9
+    _r19 = -_r9*_r17 - _r18*qd2
+    _r18 = -_r5*_r14 - _r10*_r18
+    _r17 = _r4*_r16 + _r10*_r17
+    _r4 = _r2*_r10 + _r3*_r9
+    _r10 = _r2*_r9 - _r3*_r10
+    _r5 = _r3*l2*qd2
+    _r9 = _r9*l2
+    _r20 = _r2*l2*qd2
+    _r15 = _r2*_r16 - _r3*_r15
+    _r21 = _r2*_r13 + _r3*_r14
+    _r16 = _r16*l2
+    _r14 = _r2*_r14 - _r3*_r13
+    _r13 = -qd2 - qd3
+    _r15 = _r15 - _r4*qd3
+    _r21 = _r21 + _r20*qd3
+    _r14 = _r14 - _r5*qd3
+    _r22 = _r6*_r13 - _r7*_r20
+    _r23 = _r6*_r10 + _r7*_r9
+    _r24 = _r5*m3
+    _r25 = _r7*_r10 + _r9*m3
+    _r26 = _r20*m3 - _r7*_r13
+    _r27 = _r9*_r26 + _r13*_r23 - _r10*_r22 - _r20*_r25
+    _r23 = _r20*_r24 - _r7*_r14 - _r4*_r23 - _r5*_r26
+    _r22 = _r6*_r15 + _r7*_r16 + _r4*_r22 + _r5*_r25 - _r9*_r24
+    _r21 = _r13*_r26 + _r21*m3 - _r10*_r25
+    _r26 = _r7*_r15 + _r10*_r24 + _r16*m3 - _r4*_r26
+    _r25 = _r4*_r25 + _r14*m3 - _r13*_r24
+    _r25 = _r2*_r25 + _r3*_r21
+    _r21 = _r2*_r27 - _r3*_r22
+    _r25 = _r23 - _r25*l2
+    _r26 = _r2*_r22 + _r3*_r27 + _r26*l2
+    _r21 = _r19 + _r21
+    _r25 = _r18 + _r25
+    _r26 = _r17 + _r26
+    _r26 = _r0*_r26 + _r1*_r21
+    _r26 = tau1 - _r26
+    _r25 = _r25 + tau2
+    _r23 = _r23 + tau3
+    _r11 = 1/_r11
+    _r12 = 1/_r12
+    _r21 = -_r12*_r8
+    _r6 = _r6 + _r21*_r8
+    _r6 = 1/_r6
+    _r23 = _r23 - _r21*_r25
+    _r23 = _r6*_r23
+    _r25 = _r12*_r25 - _r21*_r23
+    _r11 = _r26*_r11
+    return (
+        _r11,
+        _r25,
+        _r23,
+    )
 
 
 def mass_matrix(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Mass matrix M_g(q) = sum_l J_l^T G_l J_l, shape (..., 3, 3).
+    """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 3, 3).
 
     q: joint coordinates ("q1", "q2", "q3"), shape (..., 3)
     """
     q = _coordinates("q", q, 3)
-    jac = _jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-    weighted = _inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g) @ jac                  # (..., l, 6, n): G_l J_l
-    return (np.swapaxes(jac, -1, -2) @ weighted).sum(axis=-3)
-
-
-#: Per link l: the column pairs (i, k), i before k on the link's path, with dJ_i/dq_k = ad(J_i) J_k.
-_BRACKETS = ((1, (0,), (1,)), (2, (0, 0, 1), (1, 2, 2)))
-
-
-def _mass_matrix_derivatives(jac, inertias):
-    """dM/dq_k for every k, shape (..., k, i, j), from Lie brackets of Jacobian columns."""
-    dm = np.zeros(jac.shape[:-3] + (3, 3, 3))
-    weighted = inertias @ jac                                      # (..., l, 6, n): G_l J_l
-    for link, col_i, col_k in _BRACKETS:
-        columns = np.swapaxes(jac[..., link, :, :], -1, -2)        # (..., n, 6)
-        a, b = columns[..., col_i, :], columns[..., col_k, :]      # (..., t, 6)
-        va, wa, vb, wb = a[..., :3], a[..., 3:], b[..., :3], b[..., 3:]
-        bracket = np.concatenate([np.cross(wa, vb) - np.cross(wb, va), np.cross(wa, wb)], axis=-1)
-        rows = bracket @ weighted[..., link, :, :]                 # (..., t, n): row i of dJ^T G J
-        for t, (i, k) in enumerate(zip(col_i, col_k)):
-            dm[..., k, i, :] += rows[..., t, :]
-            dm[..., k, :, i] += rows[..., t, :]
-    return dm
+    return _evaluate(_mass_matrix_body, [q], (3, 3), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
 
 
 def coriolis_matrix(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """Coriolis matrix C_g(q, qd) from the Christoffel symbols of M, shape (..., 3, 3).
 
-    C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k.
+    C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k, with dM/dq_k from the
+    composite-rigid-body algorithm differentiated line by line.
     q: joint coordinates, shape (..., 3); qd: joint velocities, shape (..., 3)
     """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
+    return _evaluate(_coriolis_body, arrays, (3, 3), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def gravity_vector(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Gravity vector N_g(q) = dV/dq (Newton-Euler at rest), shape (..., 3).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3)
+    """
     q = _coordinates("q", q, 3)
-    qd = _coordinates("qd", qd, 3)
-    dm = _mass_matrix_derivatives(_jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), _inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g))
-    qd_b = np.broadcast_to(qd, dm.shape[:-3] + (3,))
-    first = np.einsum("...kij,...k->...ij", dm, qd_b)              # sum_k dM_ij/dq_k qd_k
-    second = (dm @ qd_b[..., None, :, None])[..., 0]              # [j, i] = sum_k dM_ik/dq_j qd_k
-    return 0.5 * (first + np.swapaxes(second, -1, -2) - second)
+    return _evaluate(_gravity_body, [q], (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
 
 
 def kinetic_energy(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Kinetic energy T_g = 1/2 sum_l V_l^T G_l V_l with V_l = J_l qd, shape (...)."""
-    q = _coordinates("q", q, 3)
+    """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
     qd = _coordinates("qd", qd, 3)
-    twist = (_jacobians(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g) @ qd[..., None, :, None])[..., 0]   # (..., l, 6)
-    momentum = (_inertias(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g) @ twist[..., None])[..., 0]
-    return 0.5 * (twist * momentum).sum(axis=(-1, -2))
+    return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), qd)
 
 
 def inverse_dynamics(q, qd, qdd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q), shape (..., 3)."""
-    qdd = _coordinates("qdd", qdd, 3)
-    mass = mass_matrix(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-    coriolis = coriolis_matrix(q, qd, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-    qd = _coordinates("qd", qd, 3)
-    return (
-        np.einsum("...ij,...j->...i", mass, qdd)
-        + np.einsum("...ij,...j->...i", coriolis, qd)
-        + gravity_vector(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-    )
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 3)."""
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
+    return _evaluate(_inverse_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
 
 
 def forward_dynamics(q, qd, u=None, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 3).
 
     u: efforts ("tau1", "tau2", "tau3"), shape (..., 3); None means no effort.
+    M is factored as L D L^T (it is positive definite), never inverted.
     """
-    qd = _coordinates("qd", qd, 3)
     if u is None:
         u = np.zeros(3)
-    rhs = (
-        generalized_forces(q, u, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-        - np.einsum("...ij,...j->...i", coriolis_matrix(q, qd, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), qd)
-        - gravity_vector(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-    )
-    mass = mass_matrix(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g)
-    mass, rhs = np.broadcast_arrays(mass, rhs[..., None])
-    return np.linalg.solve(mass, rhs)[..., 0]
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), np.asarray(u, dtype=float)]
+    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 3:
+        raise ValueError(f"u must have shape (..., 3), got {arrays[2].shape}")
+    return _evaluate(_forward_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})

@@ -9,6 +9,8 @@ with the robot file's defaults (see ``PARAMETERS``):
     g [m/s^2]: gravitational acceleration
 """
 
+import math
+
 import numpy as np
 
 PARAMETERS = {"g": 9.81}
@@ -21,247 +23,6 @@ def _coordinates(name, value, size):
     if array.ndim == 0 or array.shape[-1] != size:
         raise ValueError(f"{name} must have shape (..., {size}), got {array.shape}")
     return array
-
-
-def _body_jacobians(q, *, g=9.81):
-    """Body Jacobians of the COM frames, shape (..., 36, 6).
-
-    q: joint coordinates ('shoulder_pan_joint', 'shoulder_lift_joint', 'elbow_joint', 'wrist_1_joint', 'wrist_2_joint', 'wrist_3_joint'), shape (..., 6)
-    """
-    q = _coordinates("q", q, 6)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    shoulder_lift_joint = q[..., 1]
-    elbow_joint = q[..., 2]
-    wrist_1_joint = q[..., 3]
-    wrist_2_joint = q[..., 4]
-    wrist_3_joint = q[..., 5]
-    t0 = np.sin(shoulder_lift_joint)
-    t1 = np.cos(shoulder_lift_joint)
-    t2 = np.sin(elbow_joint)
-    t3 = t1*t2
-    t4 = (323/20000)*t3
-    t5 = np.cos(elbow_joint)
-    t6 = t0*t5
-    t7 = (323/20000)*t6
-    t8 = (17/40)*t5
-    t9 = (17/40)*t1
-    t10 = t0*t2
-    t11 = t1*t5
-    t12 = (323/20000)*t10
-    t13 = (323/20000)*t11
-    t14 = (17/40)*t2
-    t15 = np.cos(wrist_1_joint)
-    t16 = np.sin(wrist_1_joint)
-    t17 = (1569/4000)*t16
-    t18 = t14*t15
-    t19 = t16*t8
-    t20 = t17 + t18 + t19
-    t21 = (1569/4000)*t10
-    t22 = (1569/4000)*t11
-    t23 = (1569/4000)*t15
-    t24 = t15*t8
-    t25 = -t14*t16 + t23 + t24
-    t26 = t15*t3
-    t27 = t15*t6
-    t28 = t11*t16
-    t29 = t10*t16
-    t30 = t10*t15
-    t31 = t16*t3
-    t32 = t16*t6
-    t33 = t11*t15
-    t34 = t30 + t31 + t32 - t33
-    t35 = np.sin(wrist_2_joint)
-    t36 = np.cos(wrist_2_joint)
-    t37 = (2183/20000)*t36
-    t38 = t17*t36
-    t39 = (2183/20000)*t35
-    t40 = t17*t35
-    t41 = t2*t35
-    t42 = -t0*(t15*t35*t5 - t16*t41) - t1*(t15*t41 + t16*t35*t5)
-    t43 = (17/40)*t16*t2*t35 - t23*t35 - t24*t35 - t37
-    t44 = np.cos(wrist_3_joint)
-    t45 = np.sin(wrist_3_joint)
-    t46 = t16*t45
-    t47 = t36*t46
-    t48 = t16*t44
-    t49 = t15*t45
-    t50 = t36*t49
-    t51 = t2*(-t48 - t50) + t5*(t15*t44 - t47)
-    t52 = t15*t44
-    t53 = t16*t2*t36*t45 - t2*t52 - t48*t5 - t5*t50
-    t54 = -t0*t53 - t1*t51
-    t55 = t35*t45
-    t56 = (1893/20000)*t15
-    t57 = 1569/4000 - 1893/20000*t16
-    t58 = t2*t57 + t5*t56
-    t59 = -t2*t56 + t5*t57 + 17/40
-    t60 = -t0*t58 + t1*t59
-    t61 = -t0*t59 - t1*t58
-    t62 = -t54*t61 - 2183/20000*t55 - t60*(-t0*t51 + t1*t53)
-    t63 = t36*t48
-    t64 = t36*t52
-    t65 = t23*t45 - 1893/20000*t36*t44 + t38*t44
-    t66 = (1893/20000)*t36
-    t67 = t35*t44
-    t68 = t2*t49 + t2*t63 + t46*t5 - t5*t64
-    t69 = t2*(t46 - t64) + t5*(-t49 - t63)
-    t70 = -t0*t68 - t1*t69
-    t71 = -t60*(-t0*t69 + t1*t68) - t61*t70 - 2183/20000*t67
-    t72 = -1893/20000*t35
-    t73 = t40 + t72
-    t74 = t38*t45
-    t75 = t45*t66
-    out = np.zeros(batch + (36, 6))
-    out[..., 5, 0] = 1
-    out[..., 6, 0] = (2717/20000)*t0
-    out[..., 6, 1] = 7/25
-    out[..., 7, 0] = (7/25)*t1
-    out[..., 8, 0] = -2717/20000*t1
-    out[..., 9, 0] = -t1
-    out[..., 10, 1] = 1
-    out[..., 11, 0] = -t0
-    out[..., 12, 0] = t4 + t7
-    out[..., 12, 1] = t8 + 1/4
-    out[..., 12, 2] = 1/4
-    out[..., 13, 0] = -1/4*t10 + (1/4)*t11 + t9
-    out[..., 14, 0] = t12 - t13
-    out[..., 14, 1] = t14
-    out[..., 15, 0] = t10 - t11
-    out[..., 16, 1] = 1
-    out[..., 16, 2] = 1
-    out[..., 17, 0] = -t3 - t6
-    out[..., 18, 0] = (323/20000)*t1*t15*t5 - t12*t15 - t16*t4 - t16*t7
-    out[..., 18, 1] = -t20
-    out[..., 18, 2] = -t17
-    out[..., 19, 0] = -t21 + t22 + t9
-    out[..., 20, 0] = -t12*t16 + t13*t16 + t15*t4 + t15*t7
-    out[..., 20, 1] = t25
-    out[..., 20, 2] = t23
-    out[..., 21, 0] = t26 + t27 + t28 - t29
-    out[..., 22, 1] = 1
-    out[..., 22, 2] = 1
-    out[..., 22, 3] = 1
-    out[..., 23, 0] = t34
-    out[..., 24, 0] = (2183/20000)*t1*t15*t36*t5 + (1569/4000)*t1*t35*t5 + (17/40)*t1*t35 - t21*t35 - t30*t37 - t31*t37 - t32*t37
-    out[..., 24, 1] = -t20*t36
-    out[..., 24, 2] = -t38
-    out[..., 25, 0] = -t21*t36 + t22*t36 + t30*t39 + t31*t39 + t32*t39 - t33*t39 + t36*t9
-    out[..., 25, 1] = t20*t35
-    out[..., 25, 2] = t40
-    out[..., 26, 0] = (2183/20000)*t26 + (2183/20000)*t27 + (2183/20000)*t28 - 2183/20000*t29
-    out[..., 26, 1] = t25
-    out[..., 26, 2] = t23
-    out[..., 27, 0] = t26*t36 + t27*t36 + t28*t36 - t29*t36
-    out[..., 27, 1] = t35
-    out[..., 27, 2] = t35
-    out[..., 27, 3] = t35
-    out[..., 28, 0] = t42
-    out[..., 28, 1] = t36
-    out[..., 28, 2] = t36
-    out[..., 28, 3] = t36
-    out[..., 29, 0] = t34
-    out[..., 29, 4] = 1
-    out[..., 30, 0] = -t42*t62 + t43*t54
-    out[..., 30, 1] = -t14*t64 + (17/40)*t16*t2*t45 - t49*t8 - t63*t8 - t65
-    out[..., 30, 2] = -t65
-    out[..., 30, 3] = t44*t66
-    out[..., 31, 0] = -t54*t71 + t62*t70
-    out[..., 31, 1] = t18*t35 + t19*t35 + t73
-    out[..., 31, 2] = t73
-    out[..., 31, 3] = t72
-    out[..., 32, 0] = t42*t71 - t43*t70
-    out[..., 32, 1] = -t14*t48 - t14*t50 + (17/40)*t15*t44*t5 + (1569/4000)*t15*t44 + (1893/20000)*t36*t45 - t47*t8 - t74
-    out[..., 32, 2] = t23*t44 - t74 + t75
-    out[..., 32, 3] = t75
-    out[..., 33, 0] = t70
-    out[..., 33, 1] = t67
-    out[..., 33, 2] = t67
-    out[..., 33, 3] = t67
-    out[..., 33, 4] = -t45
-    out[..., 34, 0] = t42
-    out[..., 34, 1] = t36
-    out[..., 34, 2] = t36
-    out[..., 34, 3] = t36
-    out[..., 34, 5] = 1
-    out[..., 35, 0] = t54
-    out[..., 35, 1] = t55
-    out[..., 35, 2] = t55
-    out[..., 35, 3] = t55
-    out[..., 35, 4] = t44
-    return out
-
-
-def _spatial_inertias(*, g=9.81):
-    """Spatial inertias diag(m, m, m) + I_com, shape (36, 6).
-    """
-    batch = np.broadcast_shapes()
-    out = np.zeros(batch + (36, 6))
-    out[..., 0, 0] = 37/10
-    out[..., 1, 1] = 37/10
-    out[..., 2, 2] = 37/10
-    out[..., 3, 3] = 10267495893/1000000000000
-    out[..., 4, 4] = 10267495893/1000000000000
-    out[..., 5, 5] = 333/50000
-    out[..., 6, 0] = 8393/1000
-    out[..., 7, 1] = 8393/1000
-    out[..., 8, 2] = 8393/1000
-    out[..., 9, 3] = 22689067591/100000000000
-    out[..., 10, 4] = 22689067591/100000000000
-    out[..., 11, 5] = 75537/5000000
-    out[..., 12, 0] = 91/40
-    out[..., 13, 1] = 91/40
-    out[..., 14, 2] = 91/40
-    out[..., 15, 3] = 12360828389/250000000000
-    out[..., 16, 4] = 12360828389/250000000000
-    out[..., 17, 5] = 819/200000
-    out[..., 18, 0] = 1219/1000
-    out[..., 19, 1] = 1219/1000
-    out[..., 20, 2] = 1219/1000
-    out[..., 21, 3] = 111172755531/1000000000000
-    out[..., 22, 4] = 111172755531/1000000000000
-    out[..., 23, 5] = 10971/50000
-    out[..., 24, 0] = 1219/1000
-    out[..., 25, 1] = 1219/1000
-    out[..., 26, 2] = 1219/1000
-    out[..., 27, 3] = 111172755531/1000000000000
-    out[..., 28, 4] = 111172755531/1000000000000
-    out[..., 29, 5] = 10971/50000
-    out[..., 30, 0] = 1879/10000
-    out[..., 31, 1] = 1879/10000
-    out[..., 32, 2] = 1879/10000
-    out[..., 33, 3] = 85682365727/5000000000000
-    out[..., 34, 4] = 85682365727/5000000000000
-    out[..., 35, 5] = 16911/500000
-    return out
-
-
-def gravity_vector(q, *, g=9.81):
-    """Gravity vector N_g(q) = dV/dq, shape (..., 6).
-
-    q: joint coordinates ('shoulder_pan_joint', 'shoulder_lift_joint', 'elbow_joint', 'wrist_1_joint', 'wrist_2_joint', 'wrist_3_joint'), shape (..., 6)
-    """
-    q = _coordinates("q", q, 6)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    shoulder_lift_joint = q[..., 1]
-    elbow_joint = q[..., 2]
-    wrist_1_joint = q[..., 3]
-    t0 = np.cos(elbow_joint)
-    t1 = np.sin(shoulder_lift_joint)
-    t2 = np.cos(wrist_1_joint)
-    t3 = t1*t2
-    t4 = t0*t3
-    t5 = (3556947/200000000)*g
-    t6 = np.cos(shoulder_lift_joint)
-    t7 = np.sin(wrist_1_joint)
-    t8 = (1/200000000)*g
-    t9 = np.sin(elbow_joint)
-    t10 = 3556947*t7
-    t11 = 3556947*t2*t6
-    out = np.zeros(batch + (6,))
-    out[..., 1] = t4*t5 + t6*t8*(3556947*t0*t7 - 319751855*t0 - 886584500) + t8*t9*(-t1*t10 + 319751855*t1 + t11)
-    out[..., 2] = t8*(t0*(t10*t6 + 3556947*t3 - 319751855*t6) + t1*t9*(319751855 - t10) + t11*t9)
-    out[..., 3] = t5*(t0*t6*t7 + t4 + t9*(-t1*t7 + t2*t6))
-    return out
 
 
 def generalized_forces(q, u, *, g=9.81):
@@ -310,95 +71,1136 @@ def potential_energy(q, *, g=9.81):
     return out
 
 
-def _jacobians(q, *, g=9.81):
-    return _body_jacobians(q, g=g).reshape(np.shape(q)[:-1] + (6, 6, 6))
+#: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
+_CHUNK = 4096
 
 
-def _inertias(*, g=9.81):
-    return _spatial_inertias(g=g).reshape(6, 6, 6)
+def _evaluate(body, arrays, shape, parameters):
+    """Run a straight-line body on one state (floats and ``math``) or on a batch (NumPy,
+    in chunks of _CHUNK states); the result has shape batch + ``shape``."""
+    batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+    size = math.prod(shape)
+    if not batch and all(np.ndim(v) == 0 for v in parameters.values()):
+        values = body(*(a.tolist() for a in arrays), math.sin, math.cos, **parameters)
+        return np.array(values, dtype=float).reshape(shape)
+    if any(np.ndim(v) for v in parameters.values()):  # array parameters: one broadcast pass
+        columns = [np.moveaxis(np.broadcast_to(a, batch + a.shape[-1:]), -1, 0) for a in arrays]
+        values = body(*columns, np.sin, np.cos, **parameters)
+        result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
+        return np.stack(result, axis=-1).reshape(result[0].shape + shape)
+    flat = [np.broadcast_to(a, batch + a.shape[-1:]).reshape(-1, a.shape[-1]) for a in arrays]
+    total = flat[0].shape[0]
+    out = np.empty((total, size))
+    for start in range(0, total, _CHUNK):
+        columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]
+        block = out[start : start + _CHUNK]
+        for k, value in enumerate(body(*columns, np.sin, np.cos, **parameters)):
+            block[:, k] = value
+    return out.reshape(batch + shape)
+
+
+def _mass_matrix_body(q, sin, cos, *, g=9.81):
+    """M(q), row by row: composite-rigid-body algorithm. 88 lines, 368 operations."""
+    shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
+    _r0 = cos(shoulder_lift_joint)
+    _r1 = sin(shoulder_lift_joint)
+    _r2 = cos(elbow_joint)
+    _r3 = sin(elbow_joint)
+    _r4 = cos(wrist_1_joint)
+    _r5 = sin(wrist_1_joint)
+    _r6 = cos(wrist_2_joint)
+    _r7 = sin(wrist_2_joint)
+    _r8 = cos(wrist_3_joint)
+    _r9 = sin(wrist_3_joint)
+    _r10 = 0.0171364731454*_r8
+    _r11 = -0.0171364731454*_r9
+    _r12 = 0.033822*_r9
+    _r13 = 0.033822*_r8
+    _r12 = 0.11285608069875 + _r8*_r10 + _r9*_r12
+    _r10 = _r8*_r11 + _r9*_r13
+    _r13 = 0.21942 + _r8*_r13 - _r9*_r11
+    _r11 = _r6*_r12
+    _r12 = _r7*_r12
+    _r9 = -0.12999255384415*_r7
+    _r8 = 0.12999255384415*_r6
+    _r14 = _r6*_r10
+    _r15 = _r7*_r10
+    _r9 = 0.123341033631 + _r6*_r11 - _r7*_r9
+    _r11 = _r6*_r12 - _r7*_r8
+    _r12 = 0.111172755531 + _r6*_r8 + _r7*_r12
+    _r10 = -0.001653980355 + _r7*_r10
+    _r8 = 0.2315882781 + _r13
+    _r16 = 0.017784735*_r4
+    _r17 = -0.017784735*_r5
+    _r18 = _r4*_r14 - _r5*_r9
+    _r9 = -_r4*_r9 - _r5*_r14
+    _r19 = _r4*_r10 - _r5*_r11
+    _r10 = -_r4*_r11 - _r5*_r10
+    _r11 = _r4*_r8 - _r5*_r14
+    _r8 = -_r4*_r14 - _r5*_r8
+    _r11 = 0.59565195167475 + 0.7845*_r17 + _r4*_r11 - _r5*_r18
+    _r18 = -0.39225*_r16 + _r4*_r8 - _r5*_r9
+    _r20 = 0.59565195167475 + _r12 + 0.7845*_r17
+    _r21 = -0.051322656825 + _r10
+    _r8 = 0.004095 - _r4*_r9 - _r5*_r8
+    _r9 = 1.598759275 + _r17
+    _r22 = _r2*_r16 + _r3*_r9
+    _r23 = _r2*_r9 - _r3*_r16
+    _r24 = _r2*_r11 + _r3*_r18
+    _r11 = _r2*_r18 - _r3*_r11
+    _r25 = _r2*_r21 - _r3*_r19
+    _r26 = _r2*_r18 + _r3*_r8
+    _r8 = _r2*_r8 - _r3*_r18
+    _r26 = 1.809023971711 + 0.85*_r23 + _r2*_r24 + _r3*_r26
+    _r24 = 0.1197*_r22 + _r2*_r19 + _r3*_r21
+    _r18 = -0.425*_r22 + _r2*_r11 + _r3*_r8
+    _r27 = 1.77012693841 + _r20 + 0.85*_r23
+    _r25 = 0.19371331275 + _r25 + 0.1197*_r23
+    _r8 = 0.054004433301 + _r2*_r8 - _r3*_r11
+    _r11 = 4.4329225 + _r23
+    _r11 = -_r0*_r22 - _r1*_r11
+    _r26 = -_r0*_r26 - _r1*_r18
+    _r8 = -_r0*_r18 - _r1*_r8
+    _r8 = 0.12816210104175 - _r0*_r26 - _r1*_r8
+    _r11 = -0.13585*_r11 - _r0*_r24 - _r1*_r25
+    _r9 = -_r2*_r16 - _r3*_r9
+    _r16 = -0.1197*_r9 + _r2*_r19 + _r3*_r21
+    _r25 = _r20 + 0.425*_r23
+    _r21 = 0.1197*_r23 + _r2*_r21 - _r3*_r19
+    _r9 = _r0*_r9 - _r1*_r23
+    _r9 = -0.13585*_r9 - _r0*_r16 - _r1*_r21
+    _r21 = -0.017784735*_r4
+    _r16 = _r12 + 0.39225*_r17
+    _r23 = _r2*_r17 + _r3*_r21
+    _r21 = _r2*_r21 - _r3*_r17
+    _r17 = -0.1197*_r21 + _r2*_r19 + _r3*_r10
+    _r24 = _r16 + 0.425*_r23
+    _r10 = 0.1197*_r23 + _r2*_r10 - _r3*_r19
+    _r21 = _r0*_r21 - _r1*_r23
+    _r21 = -0.13585*_r21 - _r0*_r17 - _r1*_r10
+    _r10 = _r4*_r13 - _r5*_r14
+    _r14 = -_r4*_r14 - _r5*_r13
+    _r17 = _r2*_r10 + _r3*_r14
+    _r14 = _r2*_r14 - _r3*_r10
+    _r14 = -_r0*_r17 - _r1*_r14
+    _r7 = -0.0171364731454*_r7
+    _r6 = 0.0171364731454*_r6
+    _r5 = -_r5*_r7
+    _r7 = -_r4*_r7
+    _r4 = _r2*_r5 + _r3*_r7
+    _r7 = _r2*_r7 - _r3*_r5
+    _r7 = -_r0*_r4 - _r1*_r7
+    return (
+        _r8,
+        _r11,
+        _r9,
+        _r21,
+        _r14,
+        _r7,
+        _r11,
+        _r27,
+        _r25,
+        _r24,
+        _r15,
+        _r6,
+        _r9,
+        _r25,
+        _r20,
+        _r16,
+        _r15,
+        _r6,
+        _r21,
+        _r24,
+        _r16,
+        _r12,
+        _r15,
+        _r6,
+        _r14,
+        _r15,
+        _r15,
+        _r15,
+        _r13,
+        0,
+        _r7,
+        _r6,
+        _r6,
+        _r6,
+        0,
+        0.0171364731454,
+    )
+
+
+def _coriolis_body(q, qd, sin, cos, *, g=9.81):
+    """C(q, qd), row by row: Christoffel symbols of the differentiated CRBA. 262 lines, 1905 operations."""
+    shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
+    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = qd
+    _r0 = cos(shoulder_lift_joint)
+    _r1 = sin(shoulder_lift_joint)
+    _r2 = cos(elbow_joint)
+    _r3 = sin(elbow_joint)
+    _r4 = cos(wrist_1_joint)
+    _r5 = sin(wrist_1_joint)
+    _r6 = cos(wrist_2_joint)
+    _r7 = sin(wrist_2_joint)
+    _r8 = cos(wrist_3_joint)
+    _r9 = sin(wrist_3_joint)
+    _r10 = 0.0171364731454*_r8
+    _r11 = -0.0171364731454*_r9
+    _r12 = 0.033822*_r9
+    _r13 = 0.033822*_r8
+    _r14 = 0.11285608069875 + _r8*_r10 + _r9*_r12
+    _r15 = _r8*_r11 + _r9*_r13
+    _r16 = 0.21942 + _r8*_r13 - _r9*_r11
+    _r17 = _r6*_r14
+    _r18 = _r7*_r14
+    _r19 = -0.12999255384415*_r7
+    _r20 = 0.12999255384415*_r6
+    _r21 = _r6*_r15
+    _r22 = 0.123341033631 + _r6*_r17 - _r7*_r19
+    _r23 = _r6*_r18 - _r7*_r20
+    _r24 = -0.001653980355 + _r7*_r15
+    _r25 = 0.2315882781 + _r16
+    _r26 = 0.017784735*_r4
+    _r27 = -0.017784735*_r5
+    _r28 = _r4*_r21 - _r5*_r22
+    _r29 = -_r4*_r22 - _r5*_r21
+    _r30 = _r4*_r24 - _r5*_r23
+    _r31 = -_r4*_r23 - _r5*_r24
+    _r32 = _r4*_r25 - _r5*_r21
+    _r33 = -_r4*_r21 - _r5*_r25
+    _r34 = 0.59565195167475 + 0.7845*_r27 + _r4*_r32 - _r5*_r28
+    _r35 = -0.39225*_r26 + _r4*_r33 - _r5*_r29
+    _r36 = -0.051322656825 + _r31
+    _r37 = 0.004095 - _r4*_r29 - _r5*_r33
+    _r38 = 1.598759275 + _r27
+    _r39 = _r2*_r26 + _r3*_r38
+    _r40 = _r2*_r38 - _r3*_r26
+    _r41 = _r2*_r34 + _r3*_r35
+    _r42 = _r2*_r35 - _r3*_r34
+    _r43 = _r2*_r36 - _r3*_r30
+    _r44 = _r2*_r35 + _r3*_r37
+    _r45 = _r2*_r37 - _r3*_r35
+    _r46 = 1.809023971711 + 0.85*_r40 + _r2*_r41 + _r3*_r44
+    _r47 = 0.1197*_r39 + _r2*_r30 + _r3*_r36
+    _r48 = -0.425*_r39 + _r2*_r42 + _r3*_r45
+    _r43 = 0.19371331275 + _r43 + 0.1197*_r40
+    _r49 = 0.054004433301 + _r2*_r45 - _r3*_r42
+    _r50 = 4.4329225 + _r40
+    _r51 = -_r0*_r46 - _r1*_r48
+    _r52 = -_r0*_r48 - _r1*_r49
+    _r50 = _r1*_r39 - _r0*_r50
+    _r39 = -_r2*_r26 - _r3*_r38
+    _r53 = -0.1197*_r39 + _r2*_r30 + _r3*_r36
+    _r54 = 0.1197*_r40 + _r2*_r36 - _r3*_r30
+    _r55 = -_r0*_r40 - _r1*_r39
+    _r56 = -0.017784735*_r4
+    _r57 = _r2*_r27 + _r3*_r56
+    _r58 = _r2*_r56 - _r3*_r27
+    _r59 = -0.1197*_r58 + _r2*_r30 + _r3*_r31
+    _r60 = 0.1197*_r57 + _r2*_r31 - _r3*_r30
+    _r61 = -_r0*_r57 - _r1*_r58
+    _r62 = _r4*_r16 - _r5*_r21
+    _r63 = -_r4*_r21 - _r5*_r16
+    _r64 = _r2*_r62 + _r3*_r63
+    _r65 = _r2*_r63 - _r3*_r62
+    _r66 = -0.0171364731454*_r7
+    _r67 = -_r5*_r66
+    _r68 = -_r4*_r66
+    _r69 = _r2*_r67 + _r3*_r68
+    _r70 = _r2*_r68 - _r3*_r67
+    _r46 = _r1*_r46 - _r0*_r48
+    _r49 = _r1*_r48 - _r0*_r49
+    _r49 = _r1*_r51 - _r0*_r52 - _r0*_r46 - _r1*_r49
+    _r50 = -0.13585*_r50 + _r1*_r47 - _r0*_r43
+    _r53 = -0.13585*_r55 + _r1*_r53 - _r0*_r54
+    _r60 = -0.13585*_r61 + _r1*_r59 - _r0*_r60
+    _r64 = _r1*_r64 - _r0*_r65
+    _r69 = _r1*_r69 - _r0*_r70
+    _r34 = -_r2*_r34 - _r3*_r35
+    _r59 = -_r2*_r30 - _r3*_r36
+    _r37 = -_r2*_r35 - _r3*_r37
+    _r44 = 0.85*_r39 + _r2*_r42 + _r2*_r44 + _r3*_r45 - _r3*_r41
+    _r40 = -0.425*_r40 + _r2*_r34 + _r2*_r45 + _r3*_r37 - _r3*_r42
+    _r41 = 0.85*_r39
+    _r59 = _r59 + 0.1197*_r39
+    _r45 = _r2*_r37 - _r2*_r42 - _r3*_r34 - _r3*_r45
+    _r44 = -_r0*_r44 - _r1*_r40
+    _r45 = -_r0*_r40 - _r1*_r45
+    _r45 = -_r0*_r44 - _r1*_r45
+    _r55 = -0.13585*_r55 - _r0*_r54 - _r1*_r59
+    _r38 = _r3*_r26 - _r2*_r38
+    _r26 = -0.1197*_r38 + _r2*_r36 - _r3*_r30
+    _r54 = 0.425*_r39
+    _r36 = 0.1197*_r39 - _r2*_r30 - _r3*_r36
+    _r39 = _r0*_r38 - _r1*_r39
+    _r39 = -0.13585*_r39 - _r0*_r26 - _r1*_r36
+    _r36 = -_r2*_r27 - _r3*_r56
+    _r26 = -0.1197*_r36 + _r2*_r31 - _r3*_r30
+    _r38 = 0.425*_r58
+    _r30 = 0.1197*_r58 - _r2*_r30 - _r3*_r31
+    _r59 = _r0*_r36 - _r1*_r58
+    _r30 = -0.13585*_r59 - _r0*_r26 - _r1*_r30
+    _r62 = -_r2*_r62 - _r3*_r63
+    _r65 = -_r0*_r65 - _r1*_r62
+    _r67 = -_r2*_r67 - _r3*_r68
+    _r70 = -_r0*_r70 - _r1*_r67
+    _r22 = _r5*_r22 - _r4*_r21
+    _r24 = _r5*_r23 - _r4*_r24
+    _r25 = _r5*_r21 - _r4*_r25
+    _r32 = 0.7845*_r56 + _r4*_r33 - _r4*_r28 - _r5*_r29 - _r5*_r32
+    _r27 = -0.39225*_r27 + _r4*_r25 - _r4*_r29 - _r5*_r22 - _r5*_r33
+    _r28 = 0.7845*_r56
+    _r33 = _r5*_r29 - _r4*_r22 - _r4*_r33 - _r5*_r25
+    _r29 = _r2*_r32 + _r3*_r27
+    _r32 = _r2*_r27 - _r3*_r32
+    _r25 = _r2*_r24 - _r3*_r31
+    _r22 = _r2*_r27 + _r3*_r33
+    _r33 = _r2*_r33 - _r3*_r27
+    _r22 = 0.85*_r58 + _r2*_r29 + _r3*_r22
+    _r29 = 0.1197*_r57 + _r2*_r31 + _r3*_r24
+    _r57 = -0.425*_r57 + _r2*_r32 + _r3*_r33
+    _r27 = _r28 + 0.85*_r58
+    _r25 = _r25 + 0.1197*_r58
+    _r33 = _r2*_r33 - _r3*_r32
+    _r22 = -_r0*_r22 - _r1*_r57
+    _r33 = -_r0*_r57 - _r1*_r33
+    _r33 = -_r0*_r22 - _r1*_r33
+    _r61 = -0.13585*_r61 - _r0*_r29 - _r1*_r25
+    _r36 = -0.1197*_r36 + _r2*_r31 + _r3*_r24
+    _r25 = _r28 + 0.425*_r58
+    _r58 = 0.1197*_r58 + _r2*_r24 - _r3*_r31
+    _r58 = -0.13585*_r59 - _r0*_r36 - _r1*_r58
+    _r36 = 0.017784735*_r5
+    _r59 = 0.39225*_r56
+    _r29 = _r2*_r56 + _r3*_r36
+    _r56 = _r2*_r36 - _r3*_r56
+    _r36 = -0.1197*_r56 + _r2*_r31 + _r3*_r24
+    _r22 = _r59 + 0.425*_r29
+    _r31 = 0.1197*_r29 + _r2*_r24 - _r3*_r31
+    _r56 = _r0*_r56 - _r1*_r29
+    _r56 = -0.13585*_r56 - _r0*_r36 - _r1*_r31
+    _r16 = _r5*_r21 - _r4*_r16
+    _r31 = _r2*_r63 + _r3*_r16
+    _r63 = _r2*_r16 - _r3*_r63
+    _r63 = -_r0*_r31 - _r1*_r63
+    _r31 = _r5*_r66
+    _r16 = _r2*_r68 + _r3*_r31
+    _r68 = _r2*_r31 - _r3*_r68
+    _r68 = -_r0*_r16 - _r1*_r68
+    _r14 = -_r7*_r14
+    _r16 = -0.12999255384415*_r6
+    _r15 = -_r7*_r15
+    _r16 = _r6*_r14 - _r6*_r19 - _r7*_r16 - _r7*_r17
+    _r14 = _r6*_r17 - _r6*_r20 - _r7*_r18 - _r7*_r19
+    _r19 = _r6*_r18 + _r6*_r19 + _r7*_r17 - _r7*_r20
+    _r18 = _r4*_r15 - _r5*_r16
+    _r16 = -_r4*_r16 - _r5*_r15
+    _r17 = _r4*_r21 - _r5*_r14
+    _r14 = -_r4*_r14 - _r5*_r21
+    _r20 = -_r5*_r15
+    _r15 = -_r4*_r15
+    _r18 = _r4*_r20 - _r5*_r18
+    _r31 = _r4*_r15 - _r5*_r16
+    _r16 = -_r4*_r16 - _r5*_r15
+    _r36 = _r2*_r18 + _r3*_r31
+    _r18 = _r2*_r31 - _r3*_r18
+    _r29 = _r2*_r17 + _r3*_r14
+    _r14 = _r2*_r14 - _r3*_r17
+    _r17 = _r2*_r31 + _r3*_r16
+    _r16 = _r2*_r16 - _r3*_r31
+    _r17 = _r2*_r36 + _r3*_r17
+    _r36 = _r2*_r18 + _r3*_r16
+    _r16 = _r2*_r16 - _r3*_r18
+    _r17 = -_r0*_r17 - _r1*_r36
+    _r14 = -_r0*_r29 - _r1*_r14
+    _r16 = -_r0*_r36 - _r1*_r16
+    _r16 = -_r0*_r17 - _r1*_r16
+    _r17 = _r2*_r20 + _r3*_r15
+    _r15 = _r2*_r15 - _r3*_r20
+    _r15 = -_r0*_r17 - _r1*_r15
+    _r17 = -0.0171364731454*_r6
+    _r20 = -_r5*_r17
+    _r17 = -_r4*_r17
+    _r36 = _r2*_r20 + _r3*_r17
+    _r17 = _r2*_r17 - _r3*_r20
+    _r17 = -_r0*_r36 - _r1*_r17
+    _r36 = -0.0171364731454*_r8
+    _r20 = -0.033822*_r9
+    _r12 = _r8*_r11 + _r8*_r12 + _r9*_r13 - _r9*_r10
+    _r10 = _r8*_r36 + _r8*_r13 + _r9*_r20 - _r9*_r11
+    _r13 = _r8*_r20 - _r8*_r11 - _r9*_r36 - _r9*_r13
+    _r20 = _r6*_r12
+    _r12 = _r7*_r12
+    _r36 = _r6*_r10
+    _r10 = _r7*_r10
+    _r20 = _r6*_r20
+    _r6 = _r6*_r12
+    _r12 = _r7*_r12
+    _r7 = _r4*_r36 - _r5*_r20
+    _r20 = -_r4*_r20 - _r5*_r36
+    _r11 = _r4*_r10 - _r5*_r6
+    _r6 = -_r4*_r6 - _r5*_r10
+    _r9 = _r4*_r13 - _r5*_r36
+    _r36 = -_r4*_r36 - _r5*_r13
+    _r7 = _r4*_r9 - _r5*_r7
+    _r8 = _r4*_r36 - _r5*_r20
+    _r20 = -_r4*_r20 - _r5*_r36
+    _r5 = _r2*_r7 + _r3*_r8
+    _r7 = _r2*_r8 - _r3*_r7
+    _r4 = _r2*_r11 + _r3*_r6
+    _r6 = _r2*_r6 - _r3*_r11
+    _r11 = _r2*_r8 + _r3*_r20
+    _r20 = _r2*_r20 - _r3*_r8
+    _r11 = _r2*_r5 + _r3*_r11
+    _r5 = _r2*_r7 + _r3*_r20
+    _r20 = _r2*_r20 - _r3*_r7
+    _r11 = -_r0*_r11 - _r1*_r5
+    _r6 = -_r0*_r4 - _r1*_r6
+    _r20 = -_r0*_r5 - _r1*_r20
+    _r20 = -_r0*_r11 - _r1*_r20
+    _r11 = _r2*_r9 + _r3*_r36
+    _r36 = _r2*_r36 - _r3*_r9
+    _r36 = -_r0*_r11 - _r1*_r36
+    _r11 = 0.5*(_r49*shoulder_lift_jointd) + 0.5*(_r45*elbow_jointd) + 0.5*(_r33*wrist_1_jointd) + 0.5*(_r16*wrist_2_jointd) + 0.5*(_r20*wrist_3_jointd)
+    _r50 = _r50*shoulder_lift_jointd + 0.5*(_r49*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r53 + _r55)) + 0.5*(wrist_1_jointd*(_r60 + _r61)) + 0.5*(wrist_2_jointd*(_r64 + _r14)) + 0.5*(wrist_3_jointd*(_r69 + _r6))
+    _r39 = _r39*elbow_jointd + 0.5*(_r45*shoulder_pan_jointd) + 0.5*(shoulder_lift_jointd*(_r53 + _r55)) + 0.5*(wrist_1_jointd*(_r30 + _r58)) + 0.5*(wrist_2_jointd*(_r65 + _r14)) + 0.5*(wrist_3_jointd*(_r70 + _r6))
+    _r56 = _r56*wrist_1_jointd + 0.5*(_r33*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r30 + _r58)) + 0.5*(shoulder_lift_jointd*(_r60 + _r61)) + 0.5*(wrist_2_jointd*(_r63 + _r14)) + 0.5*(wrist_3_jointd*(_r68 + _r6))
+    _r15 = _r15*wrist_2_jointd + 0.5*(_r16*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r65 + _r14)) + 0.5*(shoulder_lift_jointd*(_r64 + _r14)) + 0.5*(wrist_1_jointd*(_r63 + _r14)) + 0.5*(wrist_3_jointd*(_r17 + _r36))
+    _r1 = 0.5*(_r20*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r70 + _r6)) + 0.5*(shoulder_lift_jointd*(_r69 + _r6)) + 0.5*(wrist_1_jointd*(_r68 + _r6)) + 0.5*(wrist_2_jointd*(_r17 + _r36))
+    _r49 = 0.5*(elbow_jointd*(_r55 - _r53)) + 0.5*(wrist_1_jointd*(_r61 - _r60)) + 0.5*(wrist_2_jointd*(_r14 - _r64)) + 0.5*(wrist_3_jointd*(_r6 - _r69)) - 0.5*_r49*shoulder_pan_jointd
+    _r0 = 0.5*(_r41*elbow_jointd) + 0.5*(_r27*wrist_1_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd)
+    _r54 = _r54*elbow_jointd + 0.5*(_r41*shoulder_lift_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_pan_jointd*(_r55 - _r53)) + 0.5*(wrist_1_jointd*(_r38 + _r25))
+    _r22 = _r22*wrist_1_jointd + 0.5*(_r27*shoulder_lift_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(elbow_jointd*(_r38 + _r25)) + 0.5*(shoulder_pan_jointd*(_r61 - _r60))
+    _r9 = _r21*wrist_2_jointd + 0.5*(_r19*elbow_jointd) + 0.5*(_r19*shoulder_lift_jointd) + 0.5*(_r19*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r64)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
+    _r3 = 0.5*(_r12*elbow_jointd) + 0.5*(_r12*shoulder_lift_jointd) + 0.5*(_r12*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r69)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
+    _r45 = 0.5*(shoulder_lift_jointd*(_r53 - _r55)) + 0.5*(wrist_1_jointd*(_r58 - _r30)) + 0.5*(wrist_2_jointd*(_r14 - _r65)) + 0.5*(wrist_3_jointd*(_r6 - _r70)) - 0.5*_r45*shoulder_pan_jointd
+    _r55 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_pan_jointd*(_r53 - _r55)) + 0.5*(wrist_1_jointd*(_r25 - _r38)) - 0.5*_r41*shoulder_lift_jointd
+    _r41 = 0.5*(_r28*wrist_1_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd)
+    _r59 = _r59*wrist_1_jointd + 0.5*(_r28*elbow_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_lift_jointd*(_r25 - _r38)) + 0.5*(shoulder_pan_jointd*(_r58 - _r30))
+    _r53 = _r21*wrist_2_jointd + 0.5*(_r19*elbow_jointd) + 0.5*(_r19*shoulder_lift_jointd) + 0.5*(_r19*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r65)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
+    _r2 = 0.5*(_r12*elbow_jointd) + 0.5*(_r12*shoulder_lift_jointd) + 0.5*(_r12*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r70)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
+    _r33 = 0.5*(elbow_jointd*(_r30 - _r58)) + 0.5*(shoulder_lift_jointd*(_r60 - _r61)) + 0.5*(wrist_2_jointd*(_r14 - _r63)) + 0.5*(wrist_3_jointd*(_r6 - _r68)) - 0.5*_r33*shoulder_pan_jointd
+    _r61 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(elbow_jointd*(_r38 - _r25)) + 0.5*(shoulder_pan_jointd*(_r60 - _r61)) - 0.5*_r27*shoulder_lift_jointd
+    _r58 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_lift_jointd*(_r38 - _r25)) + 0.5*(shoulder_pan_jointd*(_r30 - _r58)) - 0.5*_r28*elbow_jointd
+    _r25 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd)
+    _r21 = _r21*wrist_2_jointd + 0.5*(_r19*elbow_jointd) + 0.5*(_r19*shoulder_lift_jointd) + 0.5*(_r19*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r63)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
+    _r28 = 0.5*(_r12*elbow_jointd) + 0.5*(_r12*shoulder_lift_jointd) + 0.5*(_r12*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r68)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
+    _r16 = 0.5*(elbow_jointd*(_r65 - _r14)) + 0.5*(shoulder_lift_jointd*(_r64 - _r14)) + 0.5*(wrist_1_jointd*(_r63 - _r14)) + 0.5*(wrist_3_jointd*(_r36 - _r17)) - 0.5*_r16*shoulder_pan_jointd
+    _r64 = 0.5*(shoulder_pan_jointd*(_r64 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r19*elbow_jointd - 0.5*_r19*shoulder_lift_jointd - 0.5*_r19*wrist_1_jointd
+    _r65 = 0.5*(shoulder_pan_jointd*(_r65 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r19*elbow_jointd - 0.5*_r19*shoulder_lift_jointd - 0.5*_r19*wrist_1_jointd
+    _r14 = 0.5*(shoulder_pan_jointd*(_r63 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r19*elbow_jointd - 0.5*_r19*shoulder_lift_jointd - 0.5*_r19*wrist_1_jointd
+    _r19 = 0.5*(_r13*wrist_3_jointd)
+    _r63 = 0.5*(_r13*wrist_2_jointd) + 0.5*(elbow_jointd*(_r10 - _r66)) + 0.5*(shoulder_lift_jointd*(_r10 - _r66)) + 0.5*(shoulder_pan_jointd*(_r36 - _r17)) + 0.5*(wrist_1_jointd*(_r10 - _r66))
+    _r20 = 0.5*(elbow_jointd*(_r70 - _r6)) + 0.5*(shoulder_lift_jointd*(_r69 - _r6)) + 0.5*(wrist_1_jointd*(_r68 - _r6)) + 0.5*(wrist_2_jointd*(_r17 - _r36)) - 0.5*_r20*shoulder_pan_jointd
+    _r69 = 0.5*(shoulder_pan_jointd*(_r69 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r12*elbow_jointd - 0.5*_r12*shoulder_lift_jointd - 0.5*_r12*wrist_1_jointd
+    _r70 = 0.5*(shoulder_pan_jointd*(_r70 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r12*elbow_jointd - 0.5*_r12*shoulder_lift_jointd - 0.5*_r12*wrist_1_jointd
+    _r6 = 0.5*(shoulder_pan_jointd*(_r68 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r12*elbow_jointd - 0.5*_r12*shoulder_lift_jointd - 0.5*_r12*wrist_1_jointd
+    _r66 = 0.5*(elbow_jointd*(_r66 - _r10)) + 0.5*(shoulder_lift_jointd*(_r66 - _r10)) + 0.5*(shoulder_pan_jointd*(_r17 - _r36)) + 0.5*(wrist_1_jointd*(_r66 - _r10)) - 0.5*_r13*wrist_2_jointd
+    return (
+        _r11,
+        _r50,
+        _r39,
+        _r56,
+        _r15,
+        _r1,
+        _r49,
+        _r0,
+        _r54,
+        _r22,
+        _r9,
+        _r3,
+        _r45,
+        _r55,
+        _r41,
+        _r59,
+        _r53,
+        _r2,
+        _r33,
+        _r61,
+        _r58,
+        _r25,
+        _r21,
+        _r28,
+        _r16,
+        _r64,
+        _r65,
+        _r14,
+        _r19,
+        _r63,
+        _r20,
+        _r69,
+        _r70,
+        _r6,
+        _r66,
+        0,
+    )
+
+
+def _gravity_body(q, sin, cos, *, g=9.81):
+    """N(q): Newton-Euler at rest. 65 lines, 160 operations."""
+    shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
+    _r0 = cos(shoulder_lift_joint)
+    _r1 = sin(shoulder_lift_joint)
+    _r2 = cos(elbow_joint)
+    _r3 = sin(elbow_joint)
+    _r4 = cos(wrist_1_joint)
+    _r5 = sin(wrist_1_joint)
+    _r6 = cos(wrist_2_joint)
+    _r7 = sin(wrist_2_joint)
+    _r8 = cos(wrist_3_joint)
+    _r9 = sin(wrist_3_joint)
+    _r10 = -_r0*g
+    _r11 = -_r1*g
+    _r12 = 2.35004*_r10
+    _r13 = 8.393*_r10
+    _r14 = 8.393*_r11
+    _r15 = _r2*_r10 - _r3*_r11
+    _r11 = _r2*_r11 + _r3*_r10
+    _r10 = 0.56875*_r15
+    _r16 = 2.275*_r15
+    _r17 = 2.275*_r11
+    _r18 = -_r4*_r11 - _r5*_r15
+    _r11 = _r4*_r15 - _r5*_r11
+    _r15 = 1.219*_r18
+    _r19 = 1.219*_r11
+    _r20 = _r6*_r18
+    _r18 = -_r7*_r18
+    _r21 = 1.219*_r20
+    _r22 = 1.219*_r18
+    _r23 = _r8*_r20 - _r9*_r11
+    _r20 = _r8*_r11 + _r9*_r20
+    _r23 = 0.1879*_r23
+    _r18 = 0.1879*_r18
+    _r20 = 0.1879*_r20
+    _r11 = _r8*_r23 + _r9*_r20
+    _r20 = _r8*_r20 - _r9*_r23
+    _r23 = -0.09465*_r18
+    _r9 = 0.09465*_r11
+    _r11 = _r21 + _r11
+    _r18 = _r22 + _r18
+    _r20 = _r19 + _r20
+    _r22 = _r6*_r11 - _r7*_r18
+    _r18 = _r6*_r18 + _r7*_r11
+    _r11 = 0.093*_r20 + _r6*_r23 - _r7*_r9
+    _r9 = _r6*_r9 + _r7*_r23
+    _r23 = -0.093*_r22
+    _r22 = _r15 + _r22
+    _r20 = _r19 + _r20
+    _r19 = _r4*_r20 - _r5*_r22
+    _r20 = -_r4*_r22 - _r5*_r20
+    _r22 = -0.39225*_r18 + _r4*_r23 - _r5*_r11
+    _r15 = _r9 + 0.39225*_r19
+    _r23 = -_r4*_r11 - _r5*_r23
+    _r10 = _r15 + _r10
+    _r16 = _r19 + _r16
+    _r20 = _r17 + _r20
+    _r17 = _r2*_r16 + _r3*_r20
+    _r20 = _r2*_r20 - _r3*_r16
+    _r18 = -0.1197*_r20 - 0.425*_r18 + _r2*_r22 + _r3*_r23
+    _r16 = _r10 + 0.425*_r17
+    _r23 = 0.1197*_r17 + _r2*_r23 - _r3*_r22
+    _r16 = _r12 + _r16
+    _r17 = _r13 + _r17
+    _r14 = _r20 + _r14
+    _r14 = _r0*_r14 - _r1*_r17
+    _r14 = -0.13585*_r14 - _r0*_r18 - _r1*_r23
+    return (
+        _r14,
+        _r16,
+        _r10,
+        _r9,
+        0,
+        0,
+    )
+
+
+def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, g=9.81):
+    """M qdd + C qd + N: recursive Newton-Euler. 192 lines, 709 operations."""
+    shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
+    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = qd
+    shoulder_pan_jointdd, shoulder_lift_jointdd, elbow_jointdd, wrist_1_jointdd, wrist_2_jointdd, wrist_3_jointdd = qdd
+    _r0 = cos(shoulder_lift_joint)
+    _r1 = sin(shoulder_lift_joint)
+    _r2 = cos(elbow_joint)
+    _r3 = sin(elbow_joint)
+    _r4 = cos(wrist_1_joint)
+    _r5 = sin(wrist_1_joint)
+    _r6 = cos(wrist_2_joint)
+    _r7 = sin(wrist_2_joint)
+    _r8 = cos(wrist_3_joint)
+    _r9 = sin(wrist_3_joint)
+    _r10 = 0.00666*shoulder_pan_jointdd
+    _r11 = -_r0*shoulder_pan_jointd
+    _r12 = -_r1*shoulder_pan_jointd
+    _r13 = 0.13585*(_r1*shoulder_pan_jointd)
+    _r14 = -0.13585*_r0*shoulder_pan_jointd
+    _r15 = -_r0*shoulder_pan_jointdd
+    _r16 = -_r1*shoulder_pan_jointdd
+    _r17 = -_r0*g + 0.13585*(_r1*shoulder_pan_jointdd)
+    _r18 = -_r1*g - 0.13585*_r0*shoulder_pan_jointdd
+    _r15 = _r15 - _r12*shoulder_lift_jointd
+    _r16 = _r16 + _r11*shoulder_lift_jointd
+    _r17 = _r17 - _r14*shoulder_lift_jointd
+    _r18 = _r18 + _r13*shoulder_lift_jointd
+    _r19 = 0.88490187591*_r11
+    _r20 = 2.35004*_r13 + 0.88490187591*shoulder_lift_jointd
+    _r21 = 0.0151074*_r12
+    _r22 = 8.393*_r13 + 2.35004*shoulder_lift_jointd
+    _r23 = -2.35004*_r11
+    _r24 = 8.393*_r14
+    _r25 = 0.88490187591*_r15 + _r21*shoulder_lift_jointd - _r20*_r12 - _r23*_r14
+    _r21 = 2.35004*_r17 + 0.88490187591*shoulder_lift_jointdd + _r19*_r12 + _r22*_r14 - _r21*_r11 - _r24*_r13
+    _r20 = 0.0151074*_r16 + _r20*_r11 + _r23*_r13 - _r19*shoulder_lift_jointd
+    _r24 = 8.393*_r17 + 2.35004*shoulder_lift_jointdd + _r24*shoulder_lift_jointd - _r23*_r12
+    _r23 = 8.393*_r18 + _r23*_r11 - _r22*shoulder_lift_jointd
+    _r22 = _r2*_r11 - _r3*_r12
+    _r19 = _r2*_r12 + _r3*_r11
+    _r26 = _r2*(_r13 + 0.425*shoulder_lift_jointd + 0.1197*_r12) - _r3*(_r14 - 0.1197*_r11)
+    _r27 = -0.425*_r11
+    _r14 = _r2*(_r14 - 0.1197*_r11) + _r3*(_r13 + 0.425*shoulder_lift_jointd + 0.1197*_r12)
+    _r13 = _r2*_r15 - _r3*_r16
+    _r12 = _r2*_r16 + _r3*_r15
+    _r11 = _r2*(_r17 + 0.425*shoulder_lift_jointdd + 0.1197*_r16) - _r3*(_r18 - 0.1197*_r15)
+    _r28 = -0.425*_r15
+    _r18 = _r2*(_r18 - 0.1197*_r15) + _r3*(_r17 + 0.425*shoulder_lift_jointdd + 0.1197*_r16)
+    _r17 = elbow_jointd + shoulder_lift_jointd
+    _r13 = _r13 - _r19*elbow_jointd
+    _r16 = elbow_jointdd + shoulder_lift_jointdd
+    _r12 = _r12 + _r22*elbow_jointd
+    _r11 = _r11 - _r14*elbow_jointd
+    _r18 = _r18 + _r26*elbow_jointd
+    _r15 = -0.56875*_r27 + 0.191630813556*_r22
+    _r29 = 0.56875*_r26 + 0.191630813556*_r17
+    _r30 = 0.004095*_r19
+    _r31 = 2.275*_r26 + 0.56875*_r17
+    _r32 = -0.56875*_r22 + 2.275*_r27
+    _r33 = 2.275*_r14
+    _r34 = -0.56875*_r28 + 0.191630813556*_r13 + _r27*_r33 + _r17*_r30 - _r19*_r29 - _r14*_r32
+    _r30 = 0.56875*_r11 + 0.191630813556*_r16 + _r19*_r15 + _r14*_r31 - _r22*_r30 - _r26*_r33
+    _r29 = 0.004095*_r12 + _r22*_r29 + _r26*_r32 - _r27*_r31 - _r17*_r15
+    _r15 = 2.275*_r11 + 0.56875*_r16 + _r17*_r33 - _r19*_r32
+    _r33 = -0.56875*_r13 + 2.275*_r28 + _r19*_r31 - _r22*_r33
+    _r32 = 2.275*_r18 + _r22*_r32 - _r17*_r31
+    _r31 = -_r4*_r19 - _r5*_r22
+    _r19 = _r4*_r22 - _r5*_r19
+    _r35 = -_r4*_r14 - _r5*(_r26 + 0.39225*_r17)
+    _r27 = _r27 - 0.39225*_r22
+    _r14 = _r4*(_r26 + 0.39225*_r17) - _r5*_r14
+    _r26 = -_r4*_r12 - _r5*_r13
+    _r12 = _r4*_r13 - _r5*_r12
+    _r22 = -_r4*_r18 - _r5*(_r11 + 0.39225*_r16)
+    _r13 = _r28 - 0.39225*_r13
+    _r18 = _r4*(_r11 + 0.39225*_r16) - _r5*_r18
+    _r17 = _r17 + wrist_1_jointd
+    _r26 = _r26 - _r19*wrist_1_jointd
+    _r16 = _r16 + wrist_1_jointdd
+    _r12 = _r12 + _r31*wrist_1_jointd
+    _r22 = _r22 - _r14*wrist_1_jointd
+    _r18 = _r18 + _r35*wrist_1_jointd
+    _r11 = 0.111172755531*_r31
+    _r28 = 0.111172755531*_r17
+    _r36 = 0.21942*_r19
+    _r37 = 1.219*_r35
+    _r38 = 1.219*_r27
+    _r39 = 1.219*_r14
+    _r40 = 0.111172755531*_r26 + _r27*_r39 + _r17*_r36 - _r19*_r28 - _r14*_r38
+    _r36 = 0.111172755531*_r16 + _r19*_r11 + _r14*_r37 - _r31*_r36 - _r35*_r39
+    _r28 = 0.21942*_r12 + _r31*_r28 + _r35*_r38 - _r27*_r37 - _r17*_r11
+    _r11 = 1.219*_r22 + _r17*_r39 - _r19*_r38
+    _r39 = 1.219*_r13 + _r19*_r37 - _r31*_r39
+    _r38 = 1.219*_r18 + _r31*_r38 - _r17*_r37
+    _r37 = _r6*_r31 + _r7*_r17
+    _r17 = _r6*_r17 - _r7*_r31
+    _r41 = _r6*(_r35 - 0.093*_r19) + _r7*_r27
+    _r27 = _r6*_r27 - _r7*(_r35 - 0.093*_r19)
+    _r14 = _r14 + 0.093*_r31
+    _r31 = _r6*_r26 + _r7*_r16
+    _r16 = _r6*_r16 - _r7*_r26
+    _r35 = _r6*(_r22 - 0.093*_r12) + _r7*_r13
+    _r22 = _r6*_r13 - _r7*(_r22 - 0.093*_r12)
+    _r18 = _r18 + 0.093*_r26
+    _r19 = _r19 + wrist_2_jointd
+    _r31 = _r31 + _r17*wrist_2_jointd
+    _r16 = _r16 - _r37*wrist_2_jointd
+    _r12 = _r12 + wrist_2_jointdd
+    _r35 = _r35 + _r27*wrist_2_jointd
+    _r22 = _r22 - _r41*wrist_2_jointd
+    _r26 = 0.111172755531*_r37
+    _r13 = 0.111172755531*_r17
+    _r42 = 0.21942*_r19
+    _r43 = 1.219*_r41
+    _r44 = 1.219*_r27
+    _r45 = 1.219*_r14
+    _r46 = 0.111172755531*_r31 + _r42*_r17 + _r45*_r27 - _r13*_r19 - _r44*_r14
+    _r42 = 0.111172755531*_r16 + _r43*_r14 + _r19*_r26 - _r42*_r37 - _r45*_r41
+    _r26 = 0.21942*_r12 + _r13*_r37 + _r44*_r41 - _r43*_r27 - _r17*_r26
+    _r13 = 1.219*_r35 + _r45*_r17 - _r44*_r19
+    _r45 = 1.219*_r22 + _r43*_r19 - _r45*_r37
+    _r44 = 1.219*_r18 + _r44*_r37 - _r43*_r17
+    _r43 = _r8*_r37 - _r9*_r19
+    _r19 = _r8*_r19 + _r9*_r37
+    _r47 = _r8*(_r41 + 0.09465*_r17) - _r9*_r14
+    _r27 = _r27 - 0.09465*_r37
+    _r14 = _r8*_r14 + _r9*(_r41 + 0.09465*_r17)
+    _r41 = _r8*_r31 - _r9*_r12
+    _r12 = _r8*_r12 + _r9*_r31
+    _r37 = _r8*(_r35 + 0.09465*_r16) - _r9*_r18
+    _r22 = _r22 - 0.09465*_r31
+    _r35 = _r8*_r18 + _r9*(_r35 + 0.09465*_r16)
+    _r17 = _r17 + wrist_3_jointd
+    _r41 = _r41 - _r19*wrist_3_jointd
+    _r16 = _r16 + wrist_3_jointdd
+    _r12 = _r12 + _r43*wrist_3_jointd
+    _r37 = _r37 - _r14*wrist_3_jointd
+    _r35 = _r35 + _r47*wrist_3_jointd
+    _r18 = 0.0171364731454*_r43
+    _r31 = 0.0171364731454*_r17
+    _r48 = 0.033822*_r19
+    _r49 = 0.1879*_r47
+    _r50 = 0.1879*_r27
+    _r51 = 0.1879*_r14
+    _r41 = 0.0171364731454*_r41 + _r27*_r51 + _r17*_r48 - _r19*_r31 - _r14*_r50
+    _r48 = 0.0171364731454*_r16 + _r19*_r18 + _r14*_r49 - _r43*_r48 - _r47*_r51
+    _r31 = 0.033822*_r12 + _r43*_r31 + _r47*_r50 - _r27*_r49 - _r17*_r18
+    _r37 = 0.1879*_r37 + _r17*_r51 - _r19*_r50
+    _r51 = 0.1879*_r22 + _r19*_r49 - _r43*_r51
+    _r50 = 0.1879*_r35 + _r43*_r50 - _r17*_r49
+    _r49 = _r8*_r37 + _r9*_r50
+    _r50 = _r8*_r50 - _r9*_r37
+    _r37 = -0.09465*_r51 + _r8*_r41 + _r9*_r31
+    _r35 = _r48 + 0.09465*_r49
+    _r31 = _r8*_r31 - _r9*_r41
+    _r37 = _r46 + _r37
+    _r35 = _r42 + _r35
+    _r31 = _r26 + _r31
+    _r49 = _r13 + _r49
+    _r51 = _r45 + _r51
+    _r50 = _r44 + _r50
+    _r44 = _r6*_r49 - _r7*_r51
+    _r51 = _r6*_r51 + _r7*_r49
+    _r49 = 0.093*_r50 + _r6*_r37 - _r7*_r35
+    _r35 = _r6*_r35 + _r7*_r37
+    _r37 = _r31 - 0.093*_r44
+    _r40 = _r49 + _r40
+    _r36 = _r35 + _r36
+    _r28 = _r37 + _r28
+    _r11 = _r44 + _r11
+    _r39 = _r51 + _r39
+    _r38 = _r50 + _r38
+    _r50 = _r4*_r38 - _r5*_r11
+    _r38 = -_r4*_r11 - _r5*_r38
+    _r11 = -0.39225*_r39 + _r4*_r28 - _r5*_r40
+    _r51 = _r36 + 0.39225*_r50
+    _r28 = -_r4*_r40 - _r5*_r28
+    _r34 = _r11 + _r34
+    _r30 = _r51 + _r30
+    _r29 = _r28 + _r29
+    _r15 = _r50 + _r15
+    _r33 = _r39 + _r33
+    _r32 = _r38 + _r32
+    _r38 = _r2*_r15 + _r3*_r32
+    _r32 = _r2*_r32 - _r3*_r15
+    _r33 = -0.1197*_r32 - 0.425*_r33 + _r2*_r34 + _r3*_r29
+    _r15 = _r30 + 0.425*_r38
+    _r29 = 0.1197*_r38 + _r2*_r29 - _r3*_r34
+    _r25 = _r33 + _r25
+    _r21 = _r15 + _r21
+    _r20 = _r29 + _r20
+    _r24 = _r38 + _r24
+    _r23 = _r32 + _r23
+    _r23 = _r0*_r23 - _r1*_r24
+    _r23 = -0.13585*_r23 - _r0*_r25 - _r1*_r20
+    _r23 = _r10 + _r23
+    return (
+        _r23,
+        _r21,
+        _r30,
+        _r36,
+        _r31,
+        _r48,
+    )
+
+
+def _forward_dynamics_body(q, qd, u, sin, cos, *, g=9.81):
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 315 lines, 1317 operations."""
+    shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
+    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = qd
+    tau_shoulder_pan_joint, tau_shoulder_lift_joint, tau_elbow_joint, tau_wrist_1_joint, tau_wrist_2_joint, tau_wrist_3_joint = u
+    _r0 = cos(shoulder_lift_joint)
+    _r1 = sin(shoulder_lift_joint)
+    _r2 = cos(elbow_joint)
+    _r3 = sin(elbow_joint)
+    _r4 = cos(wrist_1_joint)
+    _r5 = sin(wrist_1_joint)
+    _r6 = cos(wrist_2_joint)
+    _r7 = sin(wrist_2_joint)
+    _r8 = cos(wrist_3_joint)
+    _r9 = sin(wrist_3_joint)
+    _r10 = 0.0171364731454*_r8
+    _r11 = -0.0171364731454*_r9
+    _r12 = 0.033822*_r9
+    _r13 = 0.033822*_r8
+    _r12 = 0.11285608069875 + _r8*_r10 + _r9*_r12
+    _r10 = _r8*_r11 + _r9*_r13
+    _r13 = 0.21942 + _r8*_r13 - _r9*_r11
+    _r11 = _r6*_r12
+    _r12 = _r7*_r12
+    _r14 = -0.12999255384415*_r7
+    _r15 = 0.12999255384415*_r6
+    _r16 = _r6*_r10
+    _r17 = _r7*_r10
+    _r14 = 0.123341033631 + _r6*_r11 - _r7*_r14
+    _r11 = _r6*_r12 - _r7*_r15
+    _r12 = 0.111172755531 + _r6*_r15 + _r7*_r12
+    _r10 = -0.001653980355 + _r7*_r10
+    _r15 = 0.2315882781 + _r13
+    _r18 = 0.017784735*_r4
+    _r19 = -0.017784735*_r5
+    _r20 = _r4*_r16 - _r5*_r14
+    _r14 = -_r4*_r14 - _r5*_r16
+    _r21 = _r4*_r10 - _r5*_r11
+    _r10 = -_r4*_r11 - _r5*_r10
+    _r11 = _r4*_r15 - _r5*_r16
+    _r15 = -_r4*_r16 - _r5*_r15
+    _r11 = 0.59565195167475 + 0.7845*_r19 + _r4*_r11 - _r5*_r20
+    _r20 = -0.39225*_r18 + _r4*_r15 - _r5*_r14
+    _r22 = 0.59565195167475 + _r12 + 0.7845*_r19
+    _r23 = -0.051322656825 + _r10
+    _r15 = 0.004095 - _r4*_r14 - _r5*_r15
+    _r14 = 1.598759275 + _r19
+    _r24 = _r2*_r18 + _r3*_r14
+    _r25 = _r2*_r14 - _r3*_r18
+    _r26 = _r2*_r11 + _r3*_r20
+    _r11 = _r2*_r20 - _r3*_r11
+    _r27 = _r2*_r23 - _r3*_r21
+    _r28 = _r2*_r20 + _r3*_r15
+    _r15 = _r2*_r15 - _r3*_r20
+    _r28 = 1.809023971711 + 0.85*_r25 + _r2*_r26 + _r3*_r28
+    _r26 = 0.1197*_r24 + _r2*_r21 + _r3*_r23
+    _r20 = -0.425*_r24 + _r2*_r11 + _r3*_r15
+    _r29 = 1.77012693841 + _r22 + 0.85*_r25
+    _r27 = 0.19371331275 + _r27 + 0.1197*_r25
+    _r15 = 0.054004433301 + _r2*_r15 - _r3*_r11
+    _r11 = 4.4329225 + _r25
+    _r11 = -_r0*_r24 - _r1*_r11
+    _r28 = -_r0*_r28 - _r1*_r20
+    _r15 = -_r0*_r20 - _r1*_r15
+    _r15 = 0.12816210104175 - _r0*_r28 - _r1*_r15
+    _r11 = -0.13585*_r11 - _r0*_r26 - _r1*_r27
+    _r14 = -_r2*_r18 - _r3*_r14
+    _r18 = -0.1197*_r14 + _r2*_r21 + _r3*_r23
+    _r27 = _r22 + 0.425*_r25
+    _r23 = 0.1197*_r25 + _r2*_r23 - _r3*_r21
+    _r14 = _r0*_r14 - _r1*_r25
+    _r14 = -0.13585*_r14 - _r0*_r18 - _r1*_r23
+    _r23 = -0.017784735*_r4
+    _r18 = _r12 + 0.39225*_r19
+    _r25 = _r2*_r19 + _r3*_r23
+    _r23 = _r2*_r23 - _r3*_r19
+    _r19 = -0.1197*_r23 + _r2*_r21 + _r3*_r10
+    _r26 = _r18 + 0.425*_r25
+    _r10 = 0.1197*_r25 + _r2*_r10 - _r3*_r21
+    _r23 = _r0*_r23 - _r1*_r25
+    _r23 = -0.13585*_r23 - _r0*_r19 - _r1*_r10
+    _r10 = _r4*_r13 - _r5*_r16
+    _r16 = -_r4*_r16 - _r5*_r13
+    _r19 = _r2*_r10 + _r3*_r16
+    _r16 = _r2*_r16 - _r3*_r10
+    _r16 = -_r0*_r19 - _r1*_r16
+    _r19 = -0.0171364731454*_r7
+    _r10 = 0.0171364731454*_r6
+    _r25 = -_r5*_r19
+    _r19 = -_r4*_r19
+    _r21 = _r2*_r25 + _r3*_r19
+    _r19 = _r2*_r19 - _r3*_r25
+    _r19 = -_r0*_r21 - _r1*_r19
+    _r21 = -_r0*shoulder_pan_jointd
+    _r25 = -_r1*shoulder_pan_jointd
+    _r28 = 0.13585*(_r1*shoulder_pan_jointd)
+    _r20 = -0.13585*_r0*shoulder_pan_jointd
+    _r24 = -_r0*g
+    _r30 = -_r1*g
+    _r31 = -_r25*shoulder_lift_jointd
+    _r32 = _r21*shoulder_lift_jointd
+    _r24 = _r24 - _r20*shoulder_lift_jointd
+    _r30 = _r30 + _r28*shoulder_lift_jointd
+    _r33 = 0.88490187591*_r21
+    _r34 = 2.35004*_r28 + 0.88490187591*shoulder_lift_jointd
+    _r35 = 0.0151074*_r25
+    _r36 = 8.393*_r28 + 2.35004*shoulder_lift_jointd
+    _r37 = -2.35004*_r21
+    _r38 = 8.393*_r20
+    _r39 = 0.88490187591*_r31 + _r35*shoulder_lift_jointd - _r25*_r34 - _r20*_r37
+    _r35 = 2.35004*_r24 + _r25*_r33 + _r20*_r36 - _r28*_r38 - _r35*_r21
+    _r34 = 0.0151074*_r32 + _r28*_r37 + _r34*_r21 - _r33*shoulder_lift_jointd
+    _r38 = 8.393*_r24 + _r38*shoulder_lift_jointd - _r25*_r37
+    _r37 = 8.393*_r30 + _r37*_r21 - _r36*shoulder_lift_jointd
+    _r36 = _r2*_r21 - _r3*_r25
+    _r33 = _r2*_r25 + _r3*_r21
+    _r40 = _r2*(_r28 + 0.425*shoulder_lift_jointd + 0.1197*_r25) - _r3*(_r20 - 0.1197*_r21)
+    _r41 = -0.425*_r21
+    _r21 = _r2*(_r20 - 0.1197*_r21) + _r3*(_r28 + 0.425*shoulder_lift_jointd + 0.1197*_r25)
+    _r20 = _r2*_r31 - _r3*_r32
+    _r28 = _r2*_r32 + _r3*_r31
+    _r25 = _r2*(_r24 + 0.1197*_r32) - _r3*(_r30 - 0.1197*_r31)
+    _r42 = -0.425*_r31
+    _r30 = _r2*(_r30 - 0.1197*_r31) + _r3*(_r24 + 0.1197*_r32)
+    _r24 = elbow_jointd + shoulder_lift_jointd
+    _r20 = _r20 - _r33*elbow_jointd
+    _r28 = _r28 + _r36*elbow_jointd
+    _r25 = _r25 - _r21*elbow_jointd
+    _r30 = _r30 + _r40*elbow_jointd
+    _r32 = -0.56875*_r41 + 0.191630813556*_r36
+    _r31 = 0.56875*_r40 + 0.191630813556*_r24
+    _r43 = 0.004095*_r33
+    _r44 = 2.275*_r40 + 0.56875*_r24
+    _r45 = -0.56875*_r36 + 2.275*_r41
+    _r46 = 2.275*_r21
+    _r47 = -0.56875*_r42 + 0.191630813556*_r20 + _r41*_r46 + _r24*_r43 - _r33*_r31 - _r21*_r45
+    _r43 = 0.56875*_r25 + _r33*_r32 + _r21*_r44 - _r36*_r43 - _r40*_r46
+    _r31 = 0.004095*_r28 + _r36*_r31 + _r40*_r45 - _r41*_r44 - _r24*_r32
+    _r32 = 2.275*_r25 + _r24*_r46 - _r33*_r45
+    _r46 = -0.56875*_r20 + 2.275*_r42 + _r33*_r44 - _r36*_r46
+    _r45 = 2.275*_r30 + _r36*_r45 - _r24*_r44
+    _r44 = -_r4*_r33 - _r5*_r36
+    _r33 = _r4*_r36 - _r5*_r33
+    _r48 = -_r4*_r21 - _r5*(_r40 + 0.39225*_r24)
+    _r41 = _r41 - 0.39225*_r36
+    _r21 = _r4*(_r40 + 0.39225*_r24) - _r5*_r21
+    _r40 = -_r4*_r28 - _r5*_r20
+    _r28 = _r4*_r20 - _r5*_r28
+    _r36 = -_r4*_r30 - _r5*_r25
+    _r20 = _r42 - 0.39225*_r20
+    _r30 = _r4*_r25 - _r5*_r30
+    _r24 = _r24 + wrist_1_jointd
+    _r40 = _r40 - _r33*wrist_1_jointd
+    _r28 = _r28 + _r44*wrist_1_jointd
+    _r36 = _r36 - _r21*wrist_1_jointd
+    _r30 = _r30 + _r48*wrist_1_jointd
+    _r25 = 0.111172755531*_r44
+    _r42 = 0.111172755531*_r24
+    _r49 = 0.21942*_r33
+    _r50 = 1.219*_r48
+    _r51 = 1.219*_r41
+    _r52 = 1.219*_r21
+    _r53 = 0.111172755531*_r40 + _r41*_r52 + _r24*_r49 - _r33*_r42 - _r21*_r51
+    _r49 = _r33*_r25 + _r21*_r50 - _r44*_r49 - _r48*_r52
+    _r42 = 0.21942*_r28 + _r44*_r42 + _r48*_r51 - _r41*_r50 - _r24*_r25
+    _r25 = 1.219*_r36 + _r24*_r52 - _r33*_r51
+    _r52 = 1.219*_r20 + _r33*_r50 - _r44*_r52
+    _r51 = 1.219*_r30 + _r44*_r51 - _r24*_r50
+    _r50 = _r6*_r44 + _r7*_r24
+    _r24 = _r6*_r24 - _r7*_r44
+    _r54 = _r6*(_r48 - 0.093*_r33) + _r7*_r41
+    _r41 = _r6*_r41 - _r7*(_r48 - 0.093*_r33)
+    _r21 = _r21 + 0.093*_r44
+    _r44 = _r6*_r40
+    _r48 = -_r7*_r40
+    _r55 = _r6*(_r36 - 0.093*_r28) + _r7*_r20
+    _r36 = _r6*_r20 - _r7*(_r36 - 0.093*_r28)
+    _r30 = _r30 + 0.093*_r40
+    _r33 = _r33 + wrist_2_jointd
+    _r44 = _r44 + _r24*wrist_2_jointd
+    _r48 = _r48 - _r50*wrist_2_jointd
+    _r55 = _r55 + _r41*wrist_2_jointd
+    _r36 = _r36 - _r54*wrist_2_jointd
+    _r40 = 0.111172755531*_r50
+    _r20 = 0.111172755531*_r24
+    _r56 = 0.21942*_r33
+    _r57 = 1.219*_r54
+    _r58 = 1.219*_r41
+    _r59 = 1.219*_r21
+    _r60 = 0.111172755531*_r44 + _r24*_r56 + _r41*_r59 - _r21*_r58 - _r33*_r20
+    _r56 = 0.111172755531*_r48 + _r21*_r57 + _r33*_r40 - _r50*_r56 - _r54*_r59
+    _r20 = 0.21942*_r28 + _r50*_r20 + _r54*_r58 - _r24*_r40 - _r41*_r57
+    _r40 = 1.219*_r55 + _r24*_r59 - _r33*_r58
+    _r59 = 1.219*_r36 + _r33*_r57 - _r50*_r59
+    _r58 = 1.219*_r30 + _r50*_r58 - _r24*_r57
+    _r57 = _r8*_r50 - _r9*_r33
+    _r33 = _r8*_r33 + _r9*_r50
+    _r61 = _r8*(_r54 + 0.09465*_r24) - _r9*_r21
+    _r41 = _r41 - 0.09465*_r50
+    _r21 = _r8*_r21 + _r9*(_r54 + 0.09465*_r24)
+    _r54 = _r8*_r44 - _r9*_r28
+    _r28 = _r8*_r28 + _r9*_r44
+    _r50 = _r8*(_r55 + 0.09465*_r48) - _r9*_r30
+    _r36 = _r36 - 0.09465*_r44
+    _r55 = _r8*_r30 + _r9*(_r55 + 0.09465*_r48)
+    _r24 = _r24 + wrist_3_jointd
+    _r54 = _r54 - _r33*wrist_3_jointd
+    _r28 = _r28 + _r57*wrist_3_jointd
+    _r50 = _r50 - _r21*wrist_3_jointd
+    _r55 = _r55 + _r61*wrist_3_jointd
+    _r30 = 0.0171364731454*_r57
+    _r44 = 0.0171364731454*_r24
+    _r62 = 0.033822*_r33
+    _r63 = 0.1879*_r61
+    _r64 = 0.1879*_r41
+    _r65 = 0.1879*_r21
+    _r54 = 0.0171364731454*_r54 + _r41*_r65 + _r24*_r62 - _r33*_r44 - _r21*_r64
+    _r62 = 0.0171364731454*_r48 + _r33*_r30 + _r21*_r63 - _r57*_r62 - _r61*_r65
+    _r44 = 0.033822*_r28 + _r57*_r44 + _r61*_r64 - _r41*_r63 - _r24*_r30
+    _r50 = 0.1879*_r50 + _r24*_r65 - _r33*_r64
+    _r65 = 0.1879*_r36 + _r33*_r63 - _r57*_r65
+    _r64 = 0.1879*_r55 + _r57*_r64 - _r24*_r63
+    _r63 = _r8*_r50 + _r9*_r64
+    _r64 = _r8*_r64 - _r9*_r50
+    _r50 = -0.09465*_r65 + _r8*_r54 + _r9*_r44
+    _r55 = _r62 + 0.09465*_r63
+    _r44 = _r8*_r44 - _r9*_r54
+    _r50 = _r60 + _r50
+    _r55 = _r56 + _r55
+    _r44 = _r20 + _r44
+    _r63 = _r40 + _r63
+    _r65 = _r59 + _r65
+    _r64 = _r58 + _r64
+    _r58 = _r6*_r63 - _r7*_r65
+    _r65 = _r6*_r65 + _r7*_r63
+    _r63 = 0.093*_r64 + _r6*_r50 - _r7*_r55
+    _r55 = _r6*_r55 + _r7*_r50
+    _r50 = _r44 - 0.093*_r58
+    _r63 = _r53 + _r63
+    _r55 = _r49 + _r55
+    _r50 = _r42 + _r50
+    _r58 = _r25 + _r58
+    _r65 = _r52 + _r65
+    _r64 = _r51 + _r64
+    _r51 = _r4*_r64 - _r5*_r58
+    _r64 = -_r4*_r58 - _r5*_r64
+    _r58 = -0.39225*_r65 + _r4*_r50 - _r5*_r63
+    _r52 = _r55 + 0.39225*_r51
+    _r50 = -_r4*_r63 - _r5*_r50
+    _r58 = _r47 + _r58
+    _r52 = _r43 + _r52
+    _r50 = _r31 + _r50
+    _r51 = _r32 + _r51
+    _r65 = _r46 + _r65
+    _r64 = _r45 + _r64
+    _r45 = _r2*_r51 + _r3*_r64
+    _r64 = _r2*_r64 - _r3*_r51
+    _r65 = -0.1197*_r64 - 0.425*_r65 + _r2*_r58 + _r3*_r50
+    _r51 = _r52 + 0.425*_r45
+    _r50 = 0.1197*_r45 + _r2*_r50 - _r3*_r58
+    _r65 = _r39 + _r65
+    _r51 = _r35 + _r51
+    _r50 = _r34 + _r50
+    _r45 = _r38 + _r45
+    _r64 = _r37 + _r64
+    _r64 = _r0*_r64 - _r1*_r45
+    _r64 = -0.13585*_r64 - _r0*_r65 - _r1*_r50
+    _r64 = tau_shoulder_pan_joint - _r64
+    _r51 = tau_shoulder_lift_joint - _r51
+    _r52 = tau_elbow_joint - _r52
+    _r55 = tau_wrist_1_joint - _r55
+    _r44 = tau_wrist_2_joint - _r44
+    _r62 = tau_wrist_3_joint - _r62
+    _r15 = 1/_r15
+    _r50 = _r15*_r11
+    _r65 = _r15*_r14
+    _r1 = _r15*_r23
+    _r0 = _r15*_r16
+    _r45 = _r15*_r19
+    _r29 = _r29 - _r50*_r11
+    _r29 = 1/_r29
+    _r37 = _r29*(_r27 - _r65*_r11)
+    _r27 = _r27 - _r65*_r11
+    _r38 = _r29*(_r26 - _r1*_r11)
+    _r26 = _r26 - _r1*_r11
+    _r34 = _r29*(_r17 - _r0*_r11)
+    _r35 = _r17 - _r0*_r11
+    _r39 = _r29*(_r10 - _r45*_r11)
+    _r11 = _r10 - _r45*_r11
+    _r22 = _r22 - _r65*_r14 - _r37*_r27
+    _r22 = 1/_r22
+    _r58 = _r22*(_r18 - _r1*_r14 - _r27*_r38)
+    _r18 = _r18 - _r1*_r14 - _r27*_r38
+    _r3 = _r22*(_r17 - _r0*_r14 - _r27*_r34)
+    _r2 = _r17 - _r0*_r14 - _r27*_r34
+    _r46 = _r22*(_r10 - _r45*_r14 - _r27*_r39)
+    _r14 = _r10 - _r45*_r14 - _r27*_r39
+    _r12 = _r12 - _r1*_r23 - _r38*_r26 - _r58*_r18
+    _r12 = 1/_r12
+    _r27 = _r12*(_r17 - _r0*_r23 - _r26*_r34 - _r18*_r3)
+    _r17 = _r17 - _r0*_r23 - _r26*_r34 - _r18*_r3
+    _r32 = _r12*(_r10 - _r45*_r23 - _r26*_r39 - _r18*_r46)
+    _r10 = _r10 - _r45*_r23 - _r26*_r39 - _r18*_r46
+    _r13 = _r13 - _r0*_r16 - _r34*_r35 - _r3*_r2 - _r27*_r17
+    _r13 = 1/_r13
+    _r23 = _r13*(-_r45*_r16 - _r35*_r39 - _r2*_r46 - _r17*_r32)
+    _r16 = -_r45*_r16 - _r35*_r39 - _r2*_r46 - _r17*_r32
+    _r19 = 0.0171364731454 - _r45*_r19 - _r39*_r11 - _r46*_r14 - _r32*_r10 - _r23*_r16
+    _r19 = 1/_r19
+    _r51 = _r51 - _r64*_r50
+    _r52 = _r52 - _r64*_r65 - _r37*_r51
+    _r55 = _r55 - _r64*_r1 - _r38*_r51 - _r58*_r52
+    _r44 = _r44 - _r64*_r0 - _r34*_r51 - _r3*_r52 - _r27*_r55
+    _r62 = _r62 - _r64*_r45 - _r39*_r51 - _r46*_r52 - _r32*_r55 - _r23*_r44
+    _r62 = _r19*_r62
+    _r44 = _r13*_r44 - _r23*_r62
+    _r55 = _r12*_r55 - _r27*_r44 - _r32*_r62
+    _r52 = _r22*_r52 - _r58*_r55 - _r3*_r44 - _r46*_r62
+    _r51 = _r29*_r51 - _r37*_r52 - _r38*_r55 - _r34*_r44 - _r39*_r62
+    _r45 = _r64*_r15 - _r50*_r51 - _r65*_r52 - _r1*_r55 - _r0*_r44 - _r45*_r62
+    return (
+        _r45,
+        _r51,
+        _r52,
+        _r55,
+        _r44,
+        _r62,
+    )
 
 
 def mass_matrix(q, *, g=9.81):
-    """Mass matrix M_g(q) = sum_l J_l^T G_l J_l, shape (..., 6, 6).
+    """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 6, 6).
 
     q: joint coordinates ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"), shape (..., 6)
     """
     q = _coordinates("q", q, 6)
-    jac = _jacobians(q, g=g)
-    weighted = _inertias(g=g) @ jac                  # (..., l, 6, n): G_l J_l
-    return (np.swapaxes(jac, -1, -2) @ weighted).sum(axis=-3)
-
-
-#: Per link l: the column pairs (i, k), i before k on the link's path, with dJ_i/dq_k = ad(J_i) J_k.
-_BRACKETS = ((1, (0,), (1,)), (2, (0, 0, 1), (1, 2, 2)), (3, (0, 0, 1, 0, 1, 2), (1, 2, 2, 3, 3, 3)), (4, (0, 0, 1, 0, 1, 2, 0, 1, 2, 3), (1, 2, 2, 3, 3, 3, 4, 4, 4, 4)), (5, (0, 0, 1, 0, 1, 2, 0, 1, 2, 3, 0, 1, 2, 3, 4), (1, 2, 2, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 5)))
-
-
-def _mass_matrix_derivatives(jac, inertias):
-    """dM/dq_k for every k, shape (..., k, i, j), from Lie brackets of Jacobian columns."""
-    dm = np.zeros(jac.shape[:-3] + (6, 6, 6))
-    weighted = inertias @ jac                                      # (..., l, 6, n): G_l J_l
-    for link, col_i, col_k in _BRACKETS:
-        columns = np.swapaxes(jac[..., link, :, :], -1, -2)        # (..., n, 6)
-        a, b = columns[..., col_i, :], columns[..., col_k, :]      # (..., t, 6)
-        va, wa, vb, wb = a[..., :3], a[..., 3:], b[..., :3], b[..., 3:]
-        bracket = np.concatenate([np.cross(wa, vb) - np.cross(wb, va), np.cross(wa, wb)], axis=-1)
-        rows = bracket @ weighted[..., link, :, :]                 # (..., t, n): row i of dJ^T G J
-        for t, (i, k) in enumerate(zip(col_i, col_k)):
-            dm[..., k, i, :] += rows[..., t, :]
-            dm[..., k, :, i] += rows[..., t, :]
-    return dm
+    return _evaluate(_mass_matrix_body, [q], (6, 6), {"g": g})
 
 
 def coriolis_matrix(q, qd, *, g=9.81):
     """Coriolis matrix C_g(q, qd) from the Christoffel symbols of M, shape (..., 6, 6).
 
-    C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k.
+    C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k, with dM/dq_k from the
+    composite-rigid-body algorithm differentiated line by line.
     q: joint coordinates, shape (..., 6); qd: joint velocities, shape (..., 6)
     """
+    arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6)]
+    return _evaluate(_coriolis_body, arrays, (6, 6), {"g": g})
+
+
+def gravity_vector(q, *, g=9.81):
+    """Gravity vector N_g(q) = dV/dq (Newton-Euler at rest), shape (..., 6).
+
+    q: joint coordinates ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"), shape (..., 6)
+    """
     q = _coordinates("q", q, 6)
-    qd = _coordinates("qd", qd, 6)
-    dm = _mass_matrix_derivatives(_jacobians(q, g=g), _inertias(g=g))
-    qd_b = np.broadcast_to(qd, dm.shape[:-3] + (6,))
-    first = np.einsum("...kij,...k->...ij", dm, qd_b)              # sum_k dM_ij/dq_k qd_k
-    second = (dm @ qd_b[..., None, :, None])[..., 0]              # [j, i] = sum_k dM_ik/dq_j qd_k
-    return 0.5 * (first + np.swapaxes(second, -1, -2) - second)
+    return _evaluate(_gravity_body, [q], (6,), {"g": g})
 
 
 def kinetic_energy(q, qd, *, g=9.81):
-    """Kinetic energy T_g = 1/2 sum_l V_l^T G_l V_l with V_l = J_l qd, shape (...)."""
-    q = _coordinates("q", q, 6)
+    """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
     qd = _coordinates("qd", qd, 6)
-    twist = (_jacobians(q, g=g) @ qd[..., None, :, None])[..., 0]   # (..., l, 6)
-    momentum = (_inertias(g=g) @ twist[..., None])[..., 0]
-    return 0.5 * (twist * momentum).sum(axis=(-1, -2))
+    return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, g=g), qd)
 
 
 def inverse_dynamics(q, qd, qdd, *, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q), shape (..., 6)."""
-    qdd = _coordinates("qdd", qdd, 6)
-    mass = mass_matrix(q, g=g)
-    coriolis = coriolis_matrix(q, qd, g=g)
-    qd = _coordinates("qd", qd, 6)
-    return (
-        np.einsum("...ij,...j->...i", mass, qdd)
-        + np.einsum("...ij,...j->...i", coriolis, qd)
-        + gravity_vector(q, g=g)
-    )
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 6)."""
+    arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), _coordinates("qdd", qdd, 6)]
+    return _evaluate(_inverse_dynamics_body, arrays, (6,), {"g": g})
 
 
 def forward_dynamics(q, qd, u=None, *, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 6).
 
     u: efforts ("tau_shoulder_pan_joint", "tau_shoulder_lift_joint", "tau_elbow_joint", "tau_wrist_1_joint", "tau_wrist_2_joint", "tau_wrist_3_joint"), shape (..., 6); None means no effort.
+    M is factored as L D L^T (it is positive definite), never inverted.
     """
-    qd = _coordinates("qd", qd, 6)
     if u is None:
         u = np.zeros(6)
-    rhs = (
-        generalized_forces(q, u, g=g)
-        - np.einsum("...ij,...j->...i", coriolis_matrix(q, qd, g=g), qd)
-        - gravity_vector(q, g=g)
-    )
-    mass = mass_matrix(q, g=g)
-    mass, rhs = np.broadcast_arrays(mass, rhs[..., None])
-    return np.linalg.solve(mass, rhs)[..., 0]
+    arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), np.asarray(u, dtype=float)]
+    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 6:
+        raise ValueError(f"u must have shape (..., 6), got {arrays[2].shape}")
+    return _evaluate(_forward_dynamics_body, arrays, (6,), {"g": g})

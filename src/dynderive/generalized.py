@@ -21,7 +21,16 @@ from .lagrange import (
 )
 from .model import Robot
 from .symbols import SymbolTable
-from .tidy import fewest_operations, is_small, quick_tidy, tidy, tidy_matrix, trig_group, trig_linear
+from .tidy import (
+    FOURIER_LIMIT,
+    fewest_operations,
+    is_small,
+    quick_tidy,
+    tidy,
+    tidy_matrix,
+    trig_group,
+    trig_linear,
+)
 
 #: 3-D robots with more coordinates than this, or whose Lagrangian has more tree nodes than
 #: LAGRANGE_LIMIT, skip the symbolic Lagrange route (EOM_g1): differentiating it twice costs
@@ -147,11 +156,13 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     report("mass matrix")
     M = mass_matrix_from_jacobians(jacobians, inertias).applyfunc(clean)
     report("Coriolis matrix")
-    if robot.planar:
+    small = robot.planar or (n <= LAGRANGE_DOF_LIMIT and all(is_small(e, FOURIER_LIMIT) for e in M))
+    if small:
         # Fourier form where shorter: trig products of different angles combine, and C (from
         # dM/dq) then has single sines instead of products that cancel in pairs
         fourier = M.applyfunc(trig_linear)
-        M = sympy.Matrix(n, n, [f if sympy.count_ops(f) < sympy.count_ops(e) else e for e, f in zip(M, fourier)])
+        M = sympy.Matrix(n, n, [f if e.has(sympy.sin, sympy.cos) and sympy.count_ops(f) < sympy.count_ops(e) else e
+                                for e, f in zip(M, fourier)])
         C = christoffel_coriolis(fourier, q, qd).applyfunc(
             lambda e: fewest_operations(trig_group(e), *([tidy] if is_small(e, PLANAR_TIDY_LIMIT) else [])))
     else:
@@ -164,6 +175,8 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
         C = christoffel_coriolis(M, q, qd, dM).applyfunc(clean)
     report("gravity vector")
     N = gravity_vector(V, q).applyfunc(clean)
+    if small and not robot.planar:
+        N = N.applyfunc(lambda e: fewest_operations(e, trig_linear))
     report("equations of motion")
     EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N - Y).applyfunc(clean)
 

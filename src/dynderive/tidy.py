@@ -108,6 +108,16 @@ def _collect_common(expr: sympy.Expr) -> sympy.Expr | None:
     return sympy.collect(expr, trig, func=sympy.factor_terms)
 
 
+#: Entries larger than this (tree nodes) are not put into Fourier form or regrouped.
+FOURIER_LIMIT = 1500
+
+
+def _constant_trig(expr: sympy.Expr) -> dict[sympy.Expr, sympy.Dummy]:
+    """Sines and cosines of constants (``cos(253/100)`` from a joint origin), to be treated as
+    coefficients rather than combined with the coordinates' ones."""
+    return {f: sympy.Dummy() for f in expr.atoms(sympy.sin, sympy.cos) if not f.free_symbols}
+
+
 def trig_linear(expr: sympy.Expr) -> sympy.Expr:
     """Products of sines and cosines turned into sines and cosines of angle sums (product to
     sum), then grouped by trigonometric factor with common factors pulled out.
@@ -115,15 +125,23 @@ def trig_linear(expr: sympy.Expr) -> sympy.Expr:
     The Fourier form of an entry: for planar chains with relative angles it is what a person
     would write, ``(l1 l2 m2/2 + ...) cos(q2) + ... cos(q2 + q3)``, and the products such as
     ``sin(q3) cos(q2 + q3) - sin(q2 + q3) cos(q3)`` that Christoffel symbols leave disappear.
+    Entries over FOURIER_LIMIT nodes are returned unchanged.
     """
     from sympy.simplify.fu import TR8
 
-    return trig_group(TR8(sympy.expand(expr)))
+    if not is_small(expr, FOURIER_LIMIT):
+        return expr
+    constants = _constant_trig(expr)
+    linear = trig_group(TR8(sympy.expand(expr.xreplace(constants))))
+    return linear.xreplace({d: f for f, d in constants.items()})
 
 
 def trig_group(expr: sympy.Expr) -> sympy.Expr:
-    """``expr`` expanded, then grouped by trigonometric factor, common factors pulled out
-    (``sympy.collect`` does the same, several times slower)."""
+    """``expr`` expanded, then grouped by trigonometric factor (of the coordinates), common
+    factors pulled out (``sympy.collect`` does the same, several times slower). Entries over
+    FOURIER_LIMIT nodes are returned unchanged."""
+    if not is_small(expr, FOURIER_LIMIT):
+        return expr
     expanded = sympy.expand(expr)
     if not expanded.is_Add:
         return expanded
@@ -132,7 +150,8 @@ def trig_group(expr: sympy.Expr) -> sympy.Expr:
         trig, rest = [], []
         for factor in sympy.Mul.make_args(term):
             base = factor.base if factor.is_Pow else factor
-            (trig if isinstance(base, (sympy.sin, sympy.cos)) else rest).append(factor)
+            moves = isinstance(base, (sympy.sin, sympy.cos)) and base.free_symbols
+            (trig if moves else rest).append(factor)
         groups.setdefault(sympy.Mul(*trig), []).append(sympy.Mul(*rest))
     return sympy.Add(*(sympy.factor_terms(sympy.Add(*coefficients)) * key for key, coefficients in groups.items()))
 
