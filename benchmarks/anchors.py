@@ -71,17 +71,8 @@ import dynderive
 from dynderive.model import Robot
 from dynderive.symbols import SymbolTable
 
-
-def pendulum_yaml(n: int) -> str:
-    """A planar n-link pendulum (copy of ``benchmarks/run.py``'s, to keep the files independent)."""
-    lines = [f"name: pendulum{n}", f"title: Planar {n}-link pendulum", "planar: true", "gravity: [0, -9.81]", "links:"]
-    lines += [f"  - {{name: b{k}, mass: 1, com: [1/2, 0], inertia: 1/12}}" for k in range(1, n + 1)]
-    lines.append("joints:")
-    for k in range(1, n + 1):
-        parent = "world" if k == 1 else f"b{k - 1}"
-        origin = "[0, 0]" if k == 1 else "[1, 0]"
-        lines.append(f"  - {{name: q{k}, type: revolute, parent: {parent}, child: b{k}, origin: {origin}, effort: tau{k}}}")
-    return "\n".join(lines) + "\n"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from run import pendulum_yaml  # noqa: E402  (the benchmark's own pendulum; run.py imports us lazily)
 
 
 def load(robot: str | Path) -> Robot:

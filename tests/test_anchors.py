@@ -126,11 +126,6 @@ def test_the_model_is_numeric_in_the_parameters():
     assert result["forcing_ops"] > 0 and result["setup_s"] > 0 and result["kane_s"] > 0
 
 
-def test_pendulum_yaml_is_the_benchmark_one():
-    run = pytest.importorskip("run")
-    assert anchors.pendulum_yaml(4) == run.pendulum_yaml(4)
-
-
 def test_trigsimp_in_a_child_process():
     robot, result = kane_of("double_pendulum")
     simplified = anchors.kane_trigsimp(robot, timeout_s=60)
