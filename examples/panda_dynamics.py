@@ -109,8 +109,8 @@ def _evaluate(body, arrays, shape, parameters):
         values = body(*columns, np.sin, np.cos, **parameters)
         result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
         return np.stack(result, axis=-1).reshape(result[0].shape + shape)
-    flat = [np.broadcast_to(a, batch + a.shape[-1:]).reshape(-1, a.shape[-1]) for a in arrays]
-    total = flat[0].shape[0]
+    total = math.prod(batch)
+    flat = [np.broadcast_to(a, batch + a.shape[-1:]).reshape(total, a.shape[-1]) for a in arrays]
     out = np.empty((total, size))
     for start in range(0, total, _CHUNK):
         columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]

@@ -137,3 +137,17 @@ def test_programs_are_short_and_skip_structural_zeros():
     program = mass_matrix_program(robot, table)
     assert program.operations < 1000
     assert operation_count(sympy.sympify("a*b + c*d + sin(x)")) == 5
+
+
+def test_robot_without_efforts_in_a_batch(tmp_path):
+    """No effort symbols: u has shape (..., 0) and the chunks must still be cut (regression)."""
+    path = tmp_path / "one.yaml"
+    path.write_text("name: one\ngravity: [0, 0, -9.81]\nlinks:\n"
+                    "  - {name: b1, mass: 1.0, com: [0.3, 0, 0], inertia: [0.1, 0.1, 0.1, 0, 0, 0]}\n"
+                    "joints:\n  - {name: q1, type: revolute, parent: world, child: b1, axis: [0, 1, 0]}\n")
+    module = import_code(dynderive.render_code(dynderive.derive(dynderive.load_robot(path))), tmp_path, "one_dof")
+    q = np.linspace(-1, 1, 7)[:, None]
+    qdd = module.forward_dynamics(q, np.zeros_like(q))
+    # a pendulum about y: M = I_yy + m c^2 = 0.19, N = dV/dq = -m g c cos(q)
+    np.testing.assert_allclose(qdd[:, 0], 9.81 * 0.3 * np.cos(q[:, 0]) / 0.19, rtol=1e-13)
+    assert module.mass_matrix(np.zeros((0, 1))).shape == (0, 1, 1)
