@@ -12,6 +12,8 @@ with the robot file's defaults (see ``PARAMETERS``):
     g [m/s^2]: gravitational acceleration
 """
 
+import math
+
 import numpy as np
 
 PARAMETERS = {"mc": 1.0, "mp": 0.1, "lp": 1.0, "g": 9.81}
@@ -35,11 +37,11 @@ def mass_matrix(q, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     q = _coordinates("q", q, 2)
     batch = np.broadcast_shapes(q.shape[:-1])
     theta = q[..., 1]
-    t0 = -1/2*lp*mp*np.cos(theta)
+    _t0 = -1/2*lp*mp*np.cos(theta)
     out = np.zeros(batch + (2, 2))
     out[..., 0, 0] = mc + mp
-    out[..., 0, 1] = t0
-    out[..., 1, 0] = t0
+    out[..., 0, 1] = _t0
+    out[..., 1, 0] = _t0
     out[..., 1, 1] = (1/3)*lp**2*mp
     return out
 
@@ -100,9 +102,9 @@ def kinetic_energy(q, qd, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     theta = q[..., 1]
     xd = qd[..., 0]
     thetad = qd[..., 1]
-    t0 = (1/2)*xd**2
+    _t0 = (1/2)*xd**2
     out = np.zeros(batch + ())
-    out[...] = (1/6)*lp**2*mp*thetad**2 - 1/2*lp*mp*thetad*xd*np.cos(theta) + mc*t0 + mp*t0
+    out[...] = _t0*mc + _t0*mp + (1/6)*lp**2*mp*thetad**2 - 1/2*lp*mp*thetad*xd*np.cos(theta)
     return out
 
 
@@ -189,12 +191,12 @@ def constraints(qm, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     x2 = qm[..., 3]
     y2 = qm[..., 4]
     phi2 = qm[..., 5]
-    t0 = (1/2)*lp
+    _t0 = (1/2)*lp
     out = np.zeros(batch + (4,))
     out[..., 0] = y1
     out[..., 1] = phi1
-    out[..., 2] = -t0*np.cos(phi2) - x1 + x2
-    out[..., 3] = -t0*np.sin(phi2) - y1 + y2
+    out[..., 2] = -_t0*np.cos(phi2) - x1 + x2
+    out[..., 3] = -_t0*np.sin(phi2) - y1 + y2
     return out
 
 
@@ -206,16 +208,16 @@ def constraint_jacobian(qm, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     qm = _coordinates("qm", qm, 6)
     batch = np.broadcast_shapes(qm.shape[:-1])
     phi2 = qm[..., 5]
-    t0 = (1/2)*lp
+    _t0 = (1/2)*lp
     out = np.zeros(batch + (4, 6))
     out[..., 0, 1] = 1
     out[..., 1, 2] = 1
     out[..., 2, 0] = -1
     out[..., 2, 3] = 1
-    out[..., 2, 5] = t0*np.sin(phi2)
+    out[..., 2, 5] = _t0*np.sin(phi2)
     out[..., 3, 1] = -1
     out[..., 3, 4] = 1
-    out[..., 3, 5] = -t0*np.cos(phi2)
+    out[..., 3, 5] = -_t0*np.cos(phi2)
     return out
 
 
@@ -230,10 +232,10 @@ def constraint_jacobian_dot(qm, qmd, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     batch = np.broadcast_shapes(qm.shape[:-1], qmd.shape[:-1])
     phi2 = qm[..., 5]
     phid2 = qmd[..., 5]
-    t0 = (1/2)*lp*phid2
+    _t0 = (1/2)*lp*phid2
     out = np.zeros(batch + (4, 6))
-    out[..., 2, 5] = t0*np.cos(phi2)
-    out[..., 3, 5] = t0*np.sin(phi2)
+    out[..., 2, 5] = _t0*np.cos(phi2)
+    out[..., 3, 5] = _t0*np.sin(phi2)
     return out
 
 
@@ -279,11 +281,11 @@ def to_maximal(q, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     batch = np.broadcast_shapes(q.shape[:-1])
     x = q[..., 0]
     theta = q[..., 1]
-    t0 = (1/2)*lp
+    _t0 = (1/2)*lp
     out = np.zeros(batch + (6,))
     out[..., 0] = x
-    out[..., 3] = -t0*np.sin(theta) + x
-    out[..., 4] = t0*np.cos(theta)
+    out[..., 3] = -_t0*np.sin(theta) + x
+    out[..., 4] = _t0*np.cos(theta)
     out[..., 5] = theta + (1/2)*np.pi
     return out
 
@@ -296,45 +298,128 @@ def to_maximal_jacobian(q, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     q = _coordinates("q", q, 2)
     batch = np.broadcast_shapes(q.shape[:-1])
     theta = q[..., 1]
-    t0 = (1/2)*lp
+    _t0 = (1/2)*lp
     out = np.zeros(batch + (6, 2))
     out[..., 0, 0] = 1
     out[..., 3, 0] = 1
-    out[..., 3, 1] = -t0*np.cos(theta)
-    out[..., 4, 1] = -t0*np.sin(theta)
+    out[..., 3, 1] = -_t0*np.cos(theta)
+    out[..., 4, 1] = -_t0*np.sin(theta)
     out[..., 5, 1] = 1
     return out
 
 
-def inverse_dynamics(q, qd, qdd, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q), shape (..., 2)."""
-    qdd = _coordinates("qdd", qdd, 2)
-    mass = mass_matrix(q, mc=mc, mp=mp, lp=lp, g=g)
-    coriolis = coriolis_matrix(q, qd, mc=mc, mp=mp, lp=lp, g=g)
-    qd = _coordinates("qd", qd, 2)
+#: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
+_CHUNK = 4096
+
+
+def _evaluate(body, arrays, shape, parameters):
+    """Run a straight-line body on one state (floats and ``math``) or on a batch (NumPy,
+    in chunks of _CHUNK states); the result has shape batch + ``shape``."""
+    batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+    size = math.prod(shape)
+    if not batch and all(np.ndim(v) == 0 for v in parameters.values()):
+        values = body(*(a.tolist() for a in arrays), math.sin, math.cos, **parameters)
+        return np.array(values, dtype=float).reshape(shape)
+    if any(np.ndim(v) for v in parameters.values()):  # array parameters: one broadcast pass
+        columns = [np.moveaxis(np.broadcast_to(a, batch + a.shape[-1:]), -1, 0) for a in arrays]
+        values = body(*columns, np.sin, np.cos, **parameters)
+        result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
+        return np.stack(result, axis=-1).reshape(result[0].shape + shape)
+    total = math.prod(batch)
+    flat = [np.broadcast_to(a, batch + a.shape[-1:]).reshape(total, a.shape[-1]) for a in arrays]
+    out = np.empty((total, size))
+    for start in range(0, total, _CHUNK):
+        columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]
+        block = out[start : start + _CHUNK]
+        for k, value in enumerate(body(*columns, np.sin, np.cos, **parameters)):
+            block[:, k] = value
+    return out.reshape(batch + shape)
+
+
+def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
+    """M qdd + C qd + N: recursive Newton-Euler. 18 lines, 67 operations."""
+    x, theta = q
+    xd, thetad = qd
+    xdd, thetadd = qdd
+    _r0 = cos(theta)
+    _r1 = sin(theta)
+    _r2 = 0.3333333333333333*(mp*lp**2)
+    _r3 = 0.5*(lp*mp)
+    _r4 = mc*xdd
+    _r5 = -_r1*xd
+    _r6 = -_r0*xd
+    _r7 = _r0*g - _r1*xdd
+    _r8 = -_r0*xdd - _r1*g
+    _r7 = _r7 + _r6*thetad
+    _r8 = _r8 - _r5*thetad
+    _r9 = _r5*mp
+    _r10 = _r3*thetad + _r6*mp
+    _r6 = _r2*thetadd + _r8*_r3 + _r10*_r5 - _r9*_r6
+    _r10 = _r7*mp - _r10*thetad
+    _r3 = _r8*mp + _r9*thetad + _r3*thetadd
+    _r3 = -_r0*_r3 - _r1*_r10
+    _r4 = _r3 + _r4
     return (
-        np.einsum("...ij,...j->...i", mass, qdd)
-        + np.einsum("...ij,...j->...i", coriolis, qd)
-        + gravity_vector(q, mc=mc, mp=mp, lp=lp, g=g)
+        _r4,
+        _r6,
     )
+
+
+def _forward_dynamics_body(q, qd, u, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 26 lines, 88 operations."""
+    x, theta = q
+    xd, thetad = qd
+    F, = u
+    _r0 = cos(theta)
+    _r1 = sin(theta)
+    _r2 = 0.3333333333333333*(mp*lp**2)
+    _r3 = 0.5*(lp*mp)
+    _r4 = mc + mp
+    _r5 = -_r0*_r3
+    _r6 = -_r1*xd
+    _r7 = -_r0*xd
+    _r8 = _r0*g
+    _r9 = -_r1*g
+    _r8 = _r8 + _r7*thetad
+    _r9 = _r9 - _r6*thetad
+    _r10 = _r6*mp
+    _r11 = _r7*mp + _r3*thetad
+    _r3 = _r6*_r11 + _r9*_r3 - _r7*_r10
+    _r11 = _r8*mp - _r11*thetad
+    _r10 = _r9*mp + _r10*thetad
+    _r10 = -_r0*_r10 - _r1*_r11
+    _r10 = F - _r10
+    _r4 = 1/_r4
+    _r11 = _r5*_r4
+    _r5 = _r2 - _r5*_r11
+    _r5 = 1/_r5
+    _r3 = -_r3 - _r10*_r11
+    _r3 = _r5*_r3
+    _r11 = _r10*_r4 - _r11*_r3
+    return (
+        _r11,
+        _r3,
+    )
+
+
+def inverse_dynamics(q, qd, qdd, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 2)."""
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    return _evaluate(_inverse_dynamics_body, arrays, (2,), {"mc": mc, "mp": mp, "lp": lp, "g": g})
 
 
 def forward_dynamics(q, qd, u=None, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 2).
 
     u: efforts ("F",), shape (..., 1); None means no effort.
+    M is factored as L D L^T (it is positive definite), never inverted.
     """
-    qd = _coordinates("qd", qd, 2)
     if u is None:
         u = np.zeros(1)
-    rhs = (
-        generalized_forces(q, u, mc=mc, mp=mp, lp=lp, g=g)
-        - np.einsum("...ij,...j->...i", coriolis_matrix(q, qd, mc=mc, mp=mp, lp=lp, g=g), qd)
-        - gravity_vector(q, mc=mc, mp=mp, lp=lp, g=g)
-    )
-    mass = mass_matrix(q, mc=mc, mp=mp, lp=lp, g=g)
-    mass, rhs = np.broadcast_arrays(mass, rhs[..., None])
-    return np.linalg.solve(mass, rhs)[..., 0]
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
+    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 1:
+        raise ValueError(f"u must have shape (..., 1), got {arrays[2].shape}")
+    return _evaluate(_forward_dynamics_body, arrays, (2,), {"mc": mc, "mp": mp, "lp": lp, "g": g})
 
 
 def _matvec(matrix, vector):

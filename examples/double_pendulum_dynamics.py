@@ -13,6 +13,8 @@ with the robot file's defaults (see ``PARAMETERS``):
     g [m/s^2]: gravitational acceleration
 """
 
+import math
+
 import numpy as np
 
 PARAMETERS = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
@@ -36,16 +38,16 @@ def mass_matrix(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     q = _coordinates("q", q, 2)
     batch = np.broadcast_shapes(q.shape[:-1])
     q2 = q[..., 1]
-    t0 = l1**2
-    t1 = (1/3)*l2**2*m2
-    t2 = l1*np.cos(q2)
-    t3 = l2*m2
-    t4 = (1/12)*t3*(4*l2 + 6*t2)
+    _t0 = l1**2
+    _t1 = (1/3)*l2**2*m2
+    _t2 = l1*np.cos(q2)
+    _t3 = l2*m2
+    _t4 = (1/12)*_t3*(6*_t2 + 4*l2)
     out = np.zeros(batch + (2, 2))
-    out[..., 0, 0] = (1/3)*m1*t0 + m2*t0 + t1 + t2*t3
-    out[..., 0, 1] = t4
-    out[..., 1, 0] = t4
-    out[..., 1, 1] = t1
+    out[..., 0, 0] = (1/3)*_t0*m1 + _t0*m2 + _t1 + _t2*_t3
+    out[..., 0, 1] = _t4
+    out[..., 1, 0] = _t4
+    out[..., 1, 1] = _t1
     return out
 
 
@@ -61,11 +63,11 @@ def coriolis_matrix(q, qd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     q2 = q[..., 1]
     qd1 = qd[..., 0]
     qd2 = qd[..., 1]
-    t0 = (1/2)*l1*l2*m2*np.sin(q2)
+    _t0 = (1/2)*l1*l2*m2*np.sin(q2)
     out = np.zeros(batch + (2, 2))
-    out[..., 0, 0] = -qd2*t0
-    out[..., 0, 1] = -t0*(qd1 + qd2)
-    out[..., 1, 0] = qd1*t0
+    out[..., 0, 0] = -_t0*qd2
+    out[..., 0, 1] = -_t0*(qd1 + qd2)
+    out[..., 1, 0] = _t0*qd1
     return out
 
 
@@ -78,10 +80,10 @@ def gravity_vector(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     batch = np.broadcast_shapes(q.shape[:-1])
     q1 = q[..., 0]
     q2 = q[..., 1]
-    t0 = (1/2)*g*l2*m2*np.cos(q1 + q2)
+    _t0 = (1/2)*g*l2*m2*np.cos(q1 + q2)
     out = np.zeros(batch + (2,))
-    out[..., 0] = g*l1*((1/2)*m1 + m2)*np.cos(q1) + t0
-    out[..., 1] = t0
+    out[..., 0] = _t0 + g*l1*((1/2)*m1 + m2)*np.cos(q1)
+    out[..., 1] = _t0
     return out
 
 
@@ -114,10 +116,10 @@ def kinetic_energy(q, qd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     q2 = q[..., 1]
     qd1 = qd[..., 0]
     qd2 = qd[..., 1]
-    t0 = l1**2*qd1**2
-    t1 = qd1 + qd2
+    _t0 = l1**2*qd1**2
+    _t1 = qd1 + qd2
     out = np.zeros(batch + ())
-    out[...] = (1/24)*l2**2*m2*t1**2 + (1/6)*m1*t0 + (1/2)*m2*(t0*np.sin(q2)**2 + (l1*qd1*np.cos(q2) + (1/2)*l2*t1)**2)
+    out[...] = (1/6)*_t0*m1 + (1/24)*_t1**2*l2**2*m2 + (1/2)*m2*(_t0*np.sin(q2)**2 + ((1/2)*_t1*l2 + l1*qd1*np.cos(q2))**2)
     return out
 
 
@@ -208,15 +210,15 @@ def constraints(qm, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     x2 = qm[..., 3]
     y2 = qm[..., 4]
     phi2 = qm[..., 5]
-    t0 = (1/2)*l1
-    t1 = t0*np.cos(phi1)
-    t2 = t0*np.sin(phi1)
-    t3 = (1/2)*l2
+    _t0 = (1/2)*l1
+    _t1 = _t0*np.cos(phi1)
+    _t2 = _t0*np.sin(phi1)
+    _t3 = (1/2)*l2
     out = np.zeros(batch + (4,))
-    out[..., 0] = -t1 + x1
-    out[..., 1] = -t2 + y1
-    out[..., 2] = -t1 - t3*np.cos(phi2) - x1 + x2
-    out[..., 3] = -t2 - t3*np.sin(phi2) - y1 + y2
+    out[..., 0] = -_t1 + x1
+    out[..., 1] = -_t2 + y1
+    out[..., 2] = -_t1 - _t3*np.cos(phi2) - x1 + x2
+    out[..., 3] = -_t2 - _t3*np.sin(phi2) - y1 + y2
     return out
 
 
@@ -229,23 +231,23 @@ def constraint_jacobian(qm, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     batch = np.broadcast_shapes(qm.shape[:-1])
     phi1 = qm[..., 2]
     phi2 = qm[..., 5]
-    t0 = (1/2)*l1
-    t1 = t0*np.sin(phi1)
-    t2 = -t0*np.cos(phi1)
-    t3 = (1/2)*l2
+    _t0 = (1/2)*l1
+    _t1 = _t0*np.sin(phi1)
+    _t2 = -_t0*np.cos(phi1)
+    _t3 = (1/2)*l2
     out = np.zeros(batch + (4, 6))
     out[..., 0, 0] = 1
-    out[..., 0, 2] = t1
+    out[..., 0, 2] = _t1
     out[..., 1, 1] = 1
-    out[..., 1, 2] = t2
+    out[..., 1, 2] = _t2
     out[..., 2, 0] = -1
-    out[..., 2, 2] = t1
+    out[..., 2, 2] = _t1
     out[..., 2, 3] = 1
-    out[..., 2, 5] = t3*np.sin(phi2)
+    out[..., 2, 5] = _t3*np.sin(phi2)
     out[..., 3, 1] = -1
-    out[..., 3, 2] = t2
+    out[..., 3, 2] = _t2
     out[..., 3, 4] = 1
-    out[..., 3, 5] = -t3*np.cos(phi2)
+    out[..., 3, 5] = -_t3*np.cos(phi2)
     return out
 
 
@@ -262,17 +264,17 @@ def constraint_jacobian_dot(qm, qmd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     phi2 = qm[..., 5]
     phid1 = qmd[..., 2]
     phid2 = qmd[..., 5]
-    t0 = (1/2)*l1*phid1
-    t1 = t0*np.cos(phi1)
-    t2 = t0*np.sin(phi1)
-    t3 = (1/2)*l2*phid2
+    _t0 = (1/2)*l1*phid1
+    _t1 = _t0*np.cos(phi1)
+    _t2 = _t0*np.sin(phi1)
+    _t3 = (1/2)*l2*phid2
     out = np.zeros(batch + (4, 6))
-    out[..., 0, 2] = t1
-    out[..., 1, 2] = t2
-    out[..., 2, 2] = t1
-    out[..., 2, 5] = t3*np.cos(phi2)
-    out[..., 3, 2] = t2
-    out[..., 3, 5] = t3*np.sin(phi2)
+    out[..., 0, 2] = _t1
+    out[..., 1, 2] = _t2
+    out[..., 2, 2] = _t1
+    out[..., 2, 5] = _t3*np.cos(phi2)
+    out[..., 3, 2] = _t2
+    out[..., 3, 5] = _t3*np.sin(phi2)
     return out
 
 
@@ -319,17 +321,17 @@ def to_maximal(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     batch = np.broadcast_shapes(q.shape[:-1])
     q1 = q[..., 0]
     q2 = q[..., 1]
-    t0 = l1*np.cos(q1)
-    t1 = l1*np.sin(q1)
-    t2 = q1 + q2
-    t3 = (1/2)*l2
+    _t0 = l1*np.cos(q1)
+    _t1 = l1*np.sin(q1)
+    _t2 = q1 + q2
+    _t3 = (1/2)*l2
     out = np.zeros(batch + (6,))
-    out[..., 0] = (1/2)*t0
-    out[..., 1] = (1/2)*t1
+    out[..., 0] = (1/2)*_t0
+    out[..., 1] = (1/2)*_t1
     out[..., 2] = q1
-    out[..., 3] = t0 + t3*np.cos(t2)
-    out[..., 4] = t1 + t3*np.sin(t2)
-    out[..., 5] = t2
+    out[..., 3] = _t0 + _t3*np.cos(_t2)
+    out[..., 4] = _t1 + _t3*np.sin(_t2)
+    out[..., 5] = _t2
     return out
 
 
@@ -342,54 +344,158 @@ def to_maximal_jacobian(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     batch = np.broadcast_shapes(q.shape[:-1])
     q1 = q[..., 0]
     q2 = q[..., 1]
-    t0 = l1*np.sin(q1)
-    t1 = l1*np.cos(q1)
-    t2 = q1 + q2
-    t3 = (1/2)*l2
-    t4 = t3*np.sin(t2)
-    t5 = t3*np.cos(t2)
+    _t0 = l1*np.sin(q1)
+    _t1 = l1*np.cos(q1)
+    _t2 = q1 + q2
+    _t3 = (1/2)*l2
+    _t4 = _t3*np.sin(_t2)
+    _t5 = _t3*np.cos(_t2)
     out = np.zeros(batch + (6, 2))
-    out[..., 0, 0] = -1/2*t0
-    out[..., 1, 0] = (1/2)*t1
+    out[..., 0, 0] = -1/2*_t0
+    out[..., 1, 0] = (1/2)*_t1
     out[..., 2, 0] = 1
-    out[..., 3, 0] = -t0 - t4
-    out[..., 3, 1] = -t4
-    out[..., 4, 0] = t1 + t5
-    out[..., 4, 1] = t5
+    out[..., 3, 0] = -_t0 - _t4
+    out[..., 3, 1] = -_t4
+    out[..., 4, 0] = _t1 + _t5
+    out[..., 4, 1] = _t5
     out[..., 5, 0] = 1
     out[..., 5, 1] = 1
     return out
 
 
-def inverse_dynamics(q, qd, qdd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q), shape (..., 2)."""
-    qdd = _coordinates("qdd", qdd, 2)
-    mass = mass_matrix(q, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
-    coriolis = coriolis_matrix(q, qd, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
-    qd = _coordinates("qd", qd, 2)
+#: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
+_CHUNK = 4096
+
+
+def _evaluate(body, arrays, shape, parameters):
+    """Run a straight-line body on one state (floats and ``math``) or on a batch (NumPy,
+    in chunks of _CHUNK states); the result has shape batch + ``shape``."""
+    batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+    size = math.prod(shape)
+    if not batch and all(np.ndim(v) == 0 for v in parameters.values()):
+        values = body(*(a.tolist() for a in arrays), math.sin, math.cos, **parameters)
+        return np.array(values, dtype=float).reshape(shape)
+    if any(np.ndim(v) for v in parameters.values()):  # array parameters: one broadcast pass
+        columns = [np.moveaxis(np.broadcast_to(a, batch + a.shape[-1:]), -1, 0) for a in arrays]
+        values = body(*columns, np.sin, np.cos, **parameters)
+        result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
+        return np.stack(result, axis=-1).reshape(result[0].shape + shape)
+    total = math.prod(batch)
+    flat = [np.broadcast_to(a, batch + a.shape[-1:]).reshape(total, a.shape[-1]) for a in arrays]
+    out = np.empty((total, size))
+    for start in range(0, total, _CHUNK):
+        columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]
+        block = out[start : start + _CHUNK]
+        for k, value in enumerate(body(*columns, np.sin, np.cos, **parameters)):
+            block[:, k] = value
+    return out.reshape(batch + shape)
+
+
+def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """M qdd + C qd + N: recursive Newton-Euler. 27 lines, 94 operations."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    qdd1, qdd2 = qdd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = 0.3333333333333333*(m1*l1**2)
+    _r5 = 0.5*(l1*m1)
+    _r6 = 0.3333333333333333*(m2*l2**2)
+    _r7 = 0.5*(l2*m2)
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r5 = _r4*qdd1 + _r5*_r0
+    _r4 = _r3*l1*qd1
+    _r8 = _r2*l1*qd1
+    _r9 = _r2*_r1 + _r3*(_r0 + l1*qdd1)
+    _r0 = _r2*(_r0 + l1*qdd1) - _r3*_r1
+    _r1 = qd1 + qd2
+    _r10 = qdd1 + qdd2
+    _r9 = _r9 + _r8*qd2
+    _r0 = _r0 - _r4*qd2
+    _r11 = _r4*m2
+    _r12 = _r8*m2 + _r1*_r7
+    _r6 = _r4*_r12 + _r10*_r6 + _r0*_r7 - _r8*_r11
+    _r12 = _r9*m2 - _r1*_r12
+    _r7 = _r1*_r11 + _r10*_r7 + _r0*m2
+    _r7 = _r2*_r7 + _r3*_r12
+    _r7 = _r6 + _r7*l1
+    _r7 = _r5 + _r7
     return (
-        np.einsum("...ij,...j->...i", mass, qdd)
-        + np.einsum("...ij,...j->...i", coriolis, qd)
-        + gravity_vector(q, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
+        _r7,
+        _r6,
     )
+
+
+def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 38 lines, 134 operations."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    tau1, tau2 = u
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = 0.3333333333333333*(m1*l1**2)
+    _r5 = 0.5*(l1*m1)
+    _r6 = 0.3333333333333333*(m2*l2**2)
+    _r7 = 0.5*(l2*m2)
+    _r8 = _r2*_r7
+    _r4 = _r4 + _r6 + m2*l1**2 + 2*_r8*l1
+    _r8 = _r6 + _r8*l1
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r5 = _r0*_r5
+    _r9 = _r3*l1*qd1
+    _r10 = _r2*l1*qd1
+    _r11 = _r2*_r1 + _r3*_r0
+    _r0 = _r2*_r0 - _r3*_r1
+    _r1 = qd1 + qd2
+    _r11 = _r11 + _r10*qd2
+    _r0 = _r0 - _r9*qd2
+    _r12 = _r9*m2
+    _r13 = _r10*m2 + _r1*_r7
+    _r7 = _r9*_r13 + _r0*_r7 - _r10*_r12
+    _r13 = _r11*m2 - _r1*_r13
+    _r12 = _r1*_r12 + _r0*m2
+    _r12 = _r2*_r12 + _r3*_r13
+    _r12 = _r7 + _r12*l1
+    _r12 = _r5 + _r12
+    _r12 = tau1 - _r12
+    _r7 = tau2 - _r7
+    _r4 = 1/_r4
+    _r5 = _r8*_r4
+    _r6 = _r6 - _r8*_r5
+    _r6 = 1/_r6
+    _r7 = _r7 - _r12*_r5
+    _r7 = _r6*_r7
+    _r5 = _r12*_r4 - _r5*_r7
+    return (
+        _r5,
+        _r7,
+    )
+
+
+def inverse_dynamics(q, qd, qdd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 2)."""
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    return _evaluate(_inverse_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
 
 
 def forward_dynamics(q, qd, u=None, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 2).
 
     u: efforts ("tau1", "tau2"), shape (..., 2); None means no effort.
+    M is factored as L D L^T (it is positive definite), never inverted.
     """
-    qd = _coordinates("qd", qd, 2)
     if u is None:
         u = np.zeros(2)
-    rhs = (
-        generalized_forces(q, u, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
-        - np.einsum("...ij,...j->...i", coriolis_matrix(q, qd, m1=m1, m2=m2, l1=l1, l2=l2, g=g), qd)
-        - gravity_vector(q, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
-    )
-    mass = mass_matrix(q, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
-    mass, rhs = np.broadcast_arrays(mass, rhs[..., None])
-    return np.linalg.solve(mass, rhs)[..., 0]
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
+    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 2:
+        raise ValueError(f"u must have shape (..., 2), got {arrays[2].shape}")
+    return _evaluate(_forward_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
 
 
 def _matvec(matrix, vector):

@@ -63,9 +63,9 @@ def potential_energy(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0
     batch = np.broadcast_shapes(q.shape[:-1])
     q2 = q[..., 1]
     q3 = q[..., 2]
-    t0 = np.sin(q2)
+    _t0 = np.sin(q2)
     out = np.zeros(batch + ())
-    out[...] = g*lc1*m1 + g*m2*(l1 + lc2*t0) + g*m3*(l1 + lc3*np.sin(q3)*np.cos(q2) + t0*(l2 + lc3*np.cos(q3)))
+    out[...] = g*lc1*m1 + g*m2*(_t0*lc2 + l1) + g*m3*(_t0*(l2 + lc3*np.cos(q3)) + l1 + lc3*np.sin(q3)*np.cos(q2))
     return out
 
 

@@ -11,6 +11,8 @@ with the robot file's defaults (see ``PARAMETERS``):
     g [m/s^2]: gravitational acceleration
 """
 
+import math
+
 import numpy as np
 
 PARAMETERS = {"m": 1.0, "l": 1.0, "g": 9.81}
@@ -52,12 +54,12 @@ def coriolis_matrix(q, qd, *, m=1.0, l=1.0, g=9.81):
     q2 = q[..., 1]
     qd1 = qd[..., 0]
     qd2 = qd[..., 1]
-    t0 = m*((1/2)*l + q2)
-    t1 = qd1*t0
+    _t0 = m*((1/2)*l + q2)
+    _t1 = _t0*qd1
     out = np.zeros(batch + (2, 2))
-    out[..., 0, 0] = qd2*t0
-    out[..., 0, 1] = t1
-    out[..., 1, 0] = -t1
+    out[..., 0, 0] = _t0*qd2
+    out[..., 0, 1] = _t1
+    out[..., 1, 0] = -_t1
     return out
 
 
@@ -70,10 +72,10 @@ def gravity_vector(q, *, m=1.0, l=1.0, g=9.81):
     batch = np.broadcast_shapes(q.shape[:-1])
     q1 = q[..., 0]
     q2 = q[..., 1]
-    t0 = g*m
+    _t0 = g*m
     out = np.zeros(batch + (2,))
-    out[..., 0] = t0*(l + q2)*np.cos(q1)
-    out[..., 1] = t0*np.sin(q1)
+    out[..., 0] = _t0*(l + q2)*np.cos(q1)
+    out[..., 1] = _t0*np.sin(q1)
     return out
 
 
@@ -106,9 +108,9 @@ def kinetic_energy(q, qd, *, m=1.0, l=1.0, g=9.81):
     q2 = q[..., 1]
     qd1 = qd[..., 0]
     qd2 = qd[..., 1]
-    t0 = qd1**2
+    _t0 = qd1**2
     out = np.zeros(batch + ())
-    out[...] = (5/24)*l**2*m*t0 + (1/2)*m*(qd2**2 + t0*((1/2)*l + q2)**2)
+    out[...] = (5/24)*_t0*l**2*m + (1/2)*m*(_t0*((1/2)*l + q2)**2 + qd2**2)
     return out
 
 
@@ -133,14 +135,14 @@ def maximal_mass_matrix(qm, *, m=1.0, l=1.0, g=9.81):
     """
     qm = _coordinates("qm", qm, 6)
     batch = np.broadcast_shapes(qm.shape[:-1])
-    t0 = (1/12)*l**2*m
+    _t0 = (1/12)*l**2*m
     out = np.zeros(batch + (6, 6))
     out[..., 0, 0] = m
     out[..., 1, 1] = m
-    out[..., 2, 2] = t0
+    out[..., 2, 2] = _t0
     out[..., 3, 3] = m
     out[..., 4, 4] = m
-    out[..., 5, 5] = t0
+    out[..., 5, 5] = _t0
     return out
 
 
@@ -164,10 +166,10 @@ def maximal_gravity_vector(qm, *, m=1.0, l=1.0, g=9.81):
     """
     qm = _coordinates("qm", qm, 6)
     batch = np.broadcast_shapes(qm.shape[:-1])
-    t0 = g*m
+    _t0 = g*m
     out = np.zeros(batch + (6,))
-    out[..., 1] = t0
-    out[..., 4] = t0
+    out[..., 1] = _t0
+    out[..., 4] = _t0
     return out
 
 
@@ -183,14 +185,14 @@ def maximal_efforts(qm, u, *, m=1.0, l=1.0, g=9.81):
     phi1 = qm[..., 2]
     tau1 = u[..., 0]
     F2 = u[..., 1]
-    t0 = F2*np.cos(phi1)
-    t1 = F2*np.sin(phi1)
+    _t0 = F2*np.cos(phi1)
+    _t1 = F2*np.sin(phi1)
     out = np.zeros(batch + (6,))
-    out[..., 0] = -t0
-    out[..., 1] = -t1
+    out[..., 0] = -_t0
+    out[..., 1] = -_t1
     out[..., 2] = tau1
-    out[..., 3] = t0
-    out[..., 4] = t1
+    out[..., 3] = _t0
+    out[..., 4] = _t1
     return out
 
 
@@ -207,10 +209,10 @@ def constraints(qm, *, m=1.0, l=1.0, g=9.81):
     x2 = qm[..., 3]
     y2 = qm[..., 4]
     phi2 = qm[..., 5]
-    t0 = (1/2)*l
+    _t0 = (1/2)*l
     out = np.zeros(batch + (4,))
-    out[..., 0] = -t0*np.cos(phi1) + x1
-    out[..., 1] = -t0*np.sin(phi1) + y1
+    out[..., 0] = -_t0*np.cos(phi1) + x1
+    out[..., 1] = -_t0*np.sin(phi1) + y1
     out[..., 2] = -x2*np.sin(phi2) + y2*np.cos(phi2)
     out[..., 3] = -phi1 + phi2
     return out
@@ -227,17 +229,17 @@ def constraint_jacobian(qm, *, m=1.0, l=1.0, g=9.81):
     x2 = qm[..., 3]
     y2 = qm[..., 4]
     phi2 = qm[..., 5]
-    t0 = (1/2)*l
-    t1 = np.sin(phi2)
-    t2 = np.cos(phi2)
+    _t0 = (1/2)*l
+    _t1 = np.sin(phi2)
+    _t2 = np.cos(phi2)
     out = np.zeros(batch + (4, 6))
     out[..., 0, 0] = 1
-    out[..., 0, 2] = t0*np.sin(phi1)
+    out[..., 0, 2] = _t0*np.sin(phi1)
     out[..., 1, 1] = 1
-    out[..., 1, 2] = -t0*np.cos(phi1)
-    out[..., 2, 3] = -t1
-    out[..., 2, 4] = t2
-    out[..., 2, 5] = -t1*y2 - t2*x2
+    out[..., 1, 2] = -_t0*np.cos(phi1)
+    out[..., 2, 3] = -_t1
+    out[..., 2, 4] = _t2
+    out[..., 2, 5] = -_t1*y2 - _t2*x2
     out[..., 3, 2] = -1
     out[..., 3, 5] = 1
     return out
@@ -260,15 +262,15 @@ def constraint_jacobian_dot(qm, qmd, *, m=1.0, l=1.0, g=9.81):
     xd2 = qmd[..., 3]
     yd2 = qmd[..., 4]
     phid2 = qmd[..., 5]
-    t0 = (1/2)*l*phid1
-    t1 = np.cos(phi2)
-    t2 = np.sin(phi2)
+    _t0 = (1/2)*l*phid1
+    _t1 = np.cos(phi2)
+    _t2 = np.sin(phi2)
     out = np.zeros(batch + (4, 6))
-    out[..., 0, 2] = t0*np.cos(phi1)
-    out[..., 1, 2] = t0*np.sin(phi1)
-    out[..., 2, 3] = -phid2*t1
-    out[..., 2, 4] = -phid2*t2
-    out[..., 2, 5] = -t1*(phid2*y2 + xd2) + t2*(phid2*x2 - yd2)
+    out[..., 0, 2] = _t0*np.cos(phi1)
+    out[..., 1, 2] = _t0*np.sin(phi1)
+    out[..., 2, 3] = -_t1*phid2
+    out[..., 2, 4] = -_t2*phid2
+    out[..., 2, 5] = -_t1*(phid2*y2 + xd2) + _t2*(phid2*x2 - yd2)
     return out
 
 
@@ -287,10 +289,10 @@ def maximal_kinetic_energy(qm, qmd, *, m=1.0, l=1.0, g=9.81):
     xd2 = qmd[..., 3]
     yd2 = qmd[..., 4]
     phid2 = qmd[..., 5]
-    t0 = (1/24)*l**2*m
-    t1 = (1/2)*m
+    _t0 = (1/24)*l**2*m
+    _t1 = (1/2)*m
     out = np.zeros(batch + ())
-    out[...] = phid1**2*t0 + phid2**2*t0 + t1*(xd1**2 + yd1**2) + t1*(xd2**2 + yd2**2)
+    out[...] = _t0*phid1**2 + _t0*phid2**2 + _t1*(xd1**2 + yd1**2) + _t1*(xd2**2 + yd2**2)
     return out
 
 
@@ -317,16 +319,16 @@ def to_maximal(q, *, m=1.0, l=1.0, g=9.81):
     batch = np.broadcast_shapes(q.shape[:-1])
     q1 = q[..., 0]
     q2 = q[..., 1]
-    t0 = np.cos(q1)
-    t1 = (1/2)*l
-    t2 = np.sin(q1)
-    t3 = q2 + t1
+    _t0 = np.cos(q1)
+    _t1 = (1/2)*l
+    _t2 = np.sin(q1)
+    _t3 = _t1 + q2
     out = np.zeros(batch + (6,))
-    out[..., 0] = t0*t1
-    out[..., 1] = t1*t2
+    out[..., 0] = _t0*_t1
+    out[..., 1] = _t1*_t2
     out[..., 2] = q1
-    out[..., 3] = t0*t3
-    out[..., 4] = t2*t3
+    out[..., 3] = _t0*_t3
+    out[..., 4] = _t2*_t3
     out[..., 5] = q1
     return out
 
@@ -340,51 +342,131 @@ def to_maximal_jacobian(q, *, m=1.0, l=1.0, g=9.81):
     batch = np.broadcast_shapes(q.shape[:-1])
     q1 = q[..., 0]
     q2 = q[..., 1]
-    t0 = np.sin(q1)
-    t1 = (1/2)*l
-    t2 = np.cos(q1)
-    t3 = q2 + t1
+    _t0 = np.sin(q1)
+    _t1 = (1/2)*l
+    _t2 = np.cos(q1)
+    _t3 = _t1 + q2
     out = np.zeros(batch + (6, 2))
-    out[..., 0, 0] = -t0*t1
-    out[..., 1, 0] = t1*t2
+    out[..., 0, 0] = -_t0*_t1
+    out[..., 1, 0] = _t1*_t2
     out[..., 2, 0] = 1
-    out[..., 3, 0] = -t0*t3
-    out[..., 3, 1] = t2
-    out[..., 4, 0] = t2*t3
-    out[..., 4, 1] = t0
+    out[..., 3, 0] = -_t0*_t3
+    out[..., 3, 1] = _t2
+    out[..., 4, 0] = _t2*_t3
+    out[..., 4, 1] = _t0
     out[..., 5, 0] = 1
     return out
 
 
-def inverse_dynamics(q, qd, qdd, *, m=1.0, l=1.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q), shape (..., 2)."""
-    qdd = _coordinates("qdd", qdd, 2)
-    mass = mass_matrix(q, m=m, l=l, g=g)
-    coriolis = coriolis_matrix(q, qd, m=m, l=l, g=g)
-    qd = _coordinates("qd", qd, 2)
+#: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
+_CHUNK = 4096
+
+
+def _evaluate(body, arrays, shape, parameters):
+    """Run a straight-line body on one state (floats and ``math``) or on a batch (NumPy,
+    in chunks of _CHUNK states); the result has shape batch + ``shape``."""
+    batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+    size = math.prod(shape)
+    if not batch and all(np.ndim(v) == 0 for v in parameters.values()):
+        values = body(*(a.tolist() for a in arrays), math.sin, math.cos, **parameters)
+        return np.array(values, dtype=float).reshape(shape)
+    if any(np.ndim(v) for v in parameters.values()):  # array parameters: one broadcast pass
+        columns = [np.moveaxis(np.broadcast_to(a, batch + a.shape[-1:]), -1, 0) for a in arrays]
+        values = body(*columns, np.sin, np.cos, **parameters)
+        result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
+        return np.stack(result, axis=-1).reshape(result[0].shape + shape)
+    total = math.prod(batch)
+    flat = [np.broadcast_to(a, batch + a.shape[-1:]).reshape(total, a.shape[-1]) for a in arrays]
+    out = np.empty((total, size))
+    for start in range(0, total, _CHUNK):
+        columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]
+        block = out[start : start + _CHUNK]
+        for k, value in enumerate(body(*columns, np.sin, np.cos, **parameters)):
+            block[:, k] = value
+    return out.reshape(batch + shape)
+
+
+def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m=1.0, l=1.0, g=9.81):
+    """M qdd + C qd + N: recursive Newton-Euler. 18 lines, 60 operations."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    qdd1, qdd2 = qdd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = 0.3333333333333333*(m*l**2)
+    _r3 = 0.5*(l*m)
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r4 = _r2*qdd1 + _r3*_r0
+    _r5 = q2*qd1
+    _r0 = _r0 + q2*qdd1
+    _r1 = _r1 + qdd2
+    _r0 = _r0 + qd1*qd2
+    _r6 = m*qd2
+    _r7 = _r5*m + _r3*qd1
+    _r5 = _r2*qdd1 + _r0*_r3 + _r7*qd2 - _r5*_r6
+    _r7 = _r1*m - _r7*qd1
+    _r3 = _r0*m + _r6*qd1 + _r3*qdd1
+    _r3 = _r5 + _r3*q2
+    _r4 = _r3 + _r4
     return (
-        np.einsum("...ij,...j->...i", mass, qdd)
-        + np.einsum("...ij,...j->...i", coriolis, qd)
-        + gravity_vector(q, m=m, l=l, g=g)
+        _r4,
+        _r7,
     )
+
+
+def _forward_dynamics_body(q, qd, u, sin, cos, *, m=1.0, l=1.0, g=9.81):
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 23 lines, 75 operations."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    tau1, F2 = u
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = 0.3333333333333333*(m*l**2)
+    _r3 = 0.5*(l*m)
+    _r2 = 2*_r2 + m*q2**2 + 2*_r3*q2
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r4 = _r3*_r0
+    _r5 = q2*qd1
+    _r0 = _r0 + qd1*qd2
+    _r6 = m*qd2
+    _r7 = _r5*m + _r3*qd1
+    _r3 = _r0*_r3 + _r7*qd2 - _r5*_r6
+    _r1 = _r1*m - _r7*qd1
+    _r6 = _r0*m + _r6*qd1
+    _r6 = _r3 + _r6*q2
+    _r6 = _r4 + _r6
+    _r6 = tau1 - _r6
+    _r1 = F2 - _r1
+    _r2 = 1/_r2
+    _r4 = 1/m
+    _r4 = _r1*_r4
+    _r2 = _r6*_r2
+    return (
+        _r2,
+        _r4,
+    )
+
+
+def inverse_dynamics(q, qd, qdd, *, m=1.0, l=1.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 2)."""
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    return _evaluate(_inverse_dynamics_body, arrays, (2,), {"m": m, "l": l, "g": g})
 
 
 def forward_dynamics(q, qd, u=None, *, m=1.0, l=1.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 2).
 
     u: efforts ("tau1", "F2"), shape (..., 2); None means no effort.
+    M is factored as L D L^T (it is positive definite), never inverted.
     """
-    qd = _coordinates("qd", qd, 2)
     if u is None:
         u = np.zeros(2)
-    rhs = (
-        generalized_forces(q, u, m=m, l=l, g=g)
-        - np.einsum("...ij,...j->...i", coriolis_matrix(q, qd, m=m, l=l, g=g), qd)
-        - gravity_vector(q, m=m, l=l, g=g)
-    )
-    mass = mass_matrix(q, m=m, l=l, g=g)
-    mass, rhs = np.broadcast_arrays(mass, rhs[..., None])
-    return np.linalg.solve(mass, rhs)[..., 0]
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
+    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 2:
+        raise ValueError(f"u must have shape (..., 2), got {arrays[2].shape}")
+    return _evaluate(_forward_dynamics_body, arrays, (2,), {"m": m, "l": l, "g": g})
 
 
 def _matvec(matrix, vector):

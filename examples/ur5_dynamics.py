@@ -60,14 +60,14 @@ def potential_energy(q, *, g=9.81):
     shoulder_lift_joint = q[..., 1]
     elbow_joint = q[..., 2]
     wrist_1_joint = q[..., 3]
-    t0 = np.cos(elbow_joint)
-    t1 = np.cos(shoulder_lift_joint)
-    t2 = np.cos(wrist_1_joint)
-    t3 = np.sin(shoulder_lift_joint)
-    t4 = np.sin(wrist_1_joint)
-    t5 = (1/200000000)*g
+    _t0 = np.cos(elbow_joint)
+    _t1 = np.cos(shoulder_lift_joint)
+    _t2 = np.cos(wrist_1_joint)
+    _t3 = np.sin(shoulder_lift_joint)
+    _t4 = np.sin(wrist_1_joint)
+    _t5 = (1/200000000)*g
     out = np.zeros(batch + ())
-    out[...] = -3556947/200000000*g*t0*t1*t2 + (15151591301/10000000000)*g + t3*t5*(3556947*t0*t4 - 319751855*t0 - 886584500) + t5*(3556947*t1*t4 - 319751855*t1 + 3556947*t2*t3)*np.sin(elbow_joint)
+    out[...] = -3556947/200000000*_t0*_t1*_t2*g + _t3*_t5*(3556947*_t0*_t4 - 319751855*_t0 - 886584500) + _t5*(3556947*_t1*_t4 - 319751855*_t1 + 3556947*_t2*_t3)*np.sin(elbow_joint) + (15151591301/10000000000)*g
     return out
 
 

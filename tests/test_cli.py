@@ -93,10 +93,11 @@ def test_same_input_same_bytes(tmp_path, robot):
 
 
 def test_generated_module_imports_only_numpy(tmp_path):
+    """NumPy is its only dependency; ``math`` (standard library) runs single states fast."""
     result = runner.invoke(app, ["solve", "rp_arm", "--code", "--out", str(tmp_path)])
     assert result.exit_code == 0
     source = (tmp_path / "rp_arm_dynamics.py").read_text()
     imports = [line for line in source.splitlines() if line.startswith(("import ", "from "))]
-    assert imports == ["import numpy as np"]
+    assert imports == ["import math", "import numpy as np"]
     code = "import sys, rp_arm_dynamics; assert set(sys.modules) >= {'numpy'}; assert 'sympy' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], cwd=tmp_path, check=True)

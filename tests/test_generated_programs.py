@@ -1,4 +1,5 @@
-"""The fast generated code of 3-D robots (straight-line programs, ``recursive.py``) is exact.
+"""The fast generated code (straight-line programs, ``recursive.py``: M, C, N of 3-D robots,
+inverse and forward dynamics of every robot) is exact.
 
 Independent reference: the derivation's own symbolic M_g, C_g, N_g (explicit expressions from
 body Jacobians and Lie brackets, a different route from CRBA / Newton-Euler), evaluated with
@@ -30,7 +31,7 @@ def _rel(actual, expected) -> float:
     return float(np.max(np.abs(np.asarray(actual) - expected)) / max(1.0, float(np.max(np.abs(expected)))))
 
 
-@pytest.fixture(scope="module", params=["elbow_arm", "ur5", "panda", "tree-6", "tree-7"])
+@pytest.fixture(scope="module", params=["double_pendulum", "cart_pole", "elbow_arm", "ur5", "panda", "tree-6", "tree-7"])
 def case(request, tmp_path_factory):
     folder = tmp_path_factory.mktemp(request.param)
     if request.param.startswith("tree"):

@@ -147,14 +147,22 @@ class _Tree:
 
     def _body(self, link, joint: Joint, coordinate: int | None) -> _Body:
         expr, let = self.table.expr, self.program.let
-        x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
+        zero = sympy.Integer(0)
+        if self.robot.planar:   # the plane z = 0 of a 3-D model: rotations about z only
+            x, y, yaw = (expr(e) for e in joint.origin)
+            z = roll = pitch = zero
+        else:
+            x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
         origin = rpy_matrix(roll, pitch, yaw)
         position = [x, y, z]
-        axis: Vector = (sympy.Integer(0),) * 3  # type: ignore[assignment]
+        axis: Vector = (zero,) * 3  # type: ignore[assignment]
         motion = sympy.eye(3)
         revolute = joint.type == "revolute"
         if coordinate is not None:
-            axis = unit(tuple(expr(e) for e in joint.axis))  # type: ignore[assignment]
+            if self.robot.planar:
+                axis = (zero, zero, sympy.Integer(1)) if revolute else (*unit(tuple(expr(e) for e in joint.axis)), zero)
+            else:
+                axis = unit(tuple(expr(e) for e in joint.axis))  # type: ignore[assignment]
             q = self.table.q[coordinate]
             if revolute:
                 cos, sin = sympy.Symbol(f"_cos{coordinate}"), sympy.Symbol(f"_sin{coordinate}")
@@ -165,7 +173,12 @@ class _Tree:
         R = tuple(tuple(let(rotation[i, j]) for j in range(3)) for i in range(3))
         mass = let(expr(link.mass))
         com = [expr(e) for e in link.com]
-        ixx, iyy, izz, ixy, ixz, iyz = (expr(e) for e in link.inertia)
+        if self.robot.planar:   # only the inertia about z enters planar motion
+            com.append(zero)
+            ixx = iyy = ixy = ixz = iyz = zero
+            izz = expr(link.inertia[0])
+        else:
+            ixx, iyy, izz, ixy, ixz, iyz = (expr(e) for e in link.inertia)
         about_com = ((ixx, ixy, ixz), (ixy, iyy, iyz), (ixz, iyz, izz))
         square = sum(c * c for c in com)
         inertia = tuple(tuple(let(about_com[i][j] + mass * ((square if i == j else 0) - com[i] * com[j]))
@@ -302,7 +315,7 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
 
 
 def _gravity(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
-    return [table.expr(e) for e in robot.gravity]
+    return [table.expr(e) for e in robot.gravity] + ([sympy.Integer(0)] if robot.planar else [])
 
 
 def mass_matrix_program(robot: Robot, table: SymbolTable) -> Program:

@@ -39,7 +39,7 @@ MODULE_NAMES = frozenset({
     "kinetic_energy", "potential_energy", "generalized_forces", "maximal_mass_matrix",
     "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts", "constraints",
     "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
-    "to_maximal_jacobian", "maximal_forward_dynamics", "world",
+    "to_maximal_jacobian", "maximal_forward_dynamics", "world", "arrays", "batch",
 })
 
 
@@ -482,6 +482,9 @@ def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
     def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False) -> bool:
         if name in MODULE_NAMES:
             v.error(path, f"{owner}: name '{name}' is reserved by the generated module", key=key)
+        elif name.startswith("_"):
+            v.error(path, f"{owner}: name '{name}' starts with '_', which the generated module keeps for "
+                    "its own temporaries", key=key)
         elif name in RESERVED:
             v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
         elif name in owners:

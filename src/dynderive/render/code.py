@@ -154,7 +154,7 @@ def expression_function(name: str, doc: str, arguments: list[Argument], value: A
     cells = [(i, j) for i in range(matrix.shape[0]) for j in range(matrix.shape[1])
              if matrix[i, j] != 0]
     exprs = [matrix[i, j] for i, j in cells]
-    temporaries, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("t"), order="canonical")
+    temporaries, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("_t"), order="canonical")
     used = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in temporaries)) if exprs else set()
     unpack = []
     for arg in arguments:
@@ -181,9 +181,10 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
     u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
     structured = not robot.planar
     if structured:
-        functions, structure = _structured_functions(derivation, q, qd, u, printer, params)
+        functions = _structured_functions(derivation, q, qd, u, printer, params)
     else:
-        functions, structure = _expression_functions(derivation, q, qd, u, printer, params), {}
+        functions = _expression_functions(derivation, q, qd, u, printer, params)
+    programs = _programs(derivation, q, qd, u, structured)
     maximal = "M_m" in quantities
     if maximal:
         m = len(table.qm)
@@ -227,7 +228,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "dof": n,
         "functions": functions,
         "structured": structured,
-        "structure": structure,
+        "programs": programs,
         "maximal": maximal,
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
         "maximal_size": len(table.qm),
@@ -256,10 +257,24 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
 
 
 def _structured_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
-                          printer: _Printer, params: set[sympy.Symbol]) -> tuple[list[ExpressionFunction], dict[str, Any]]:
-    """3-D robots: M, C, N, inverse and forward dynamics as straight-line programs of the
-    recursive algorithms (``recursive.py``); their explicit symbolic entries are far too large
-    to print for a 6-7 DOF arm, and slower to evaluate."""
+                          printer: _Printer, params: set[sympy.Symbol]) -> list[ExpressionFunction]:
+    """3-D robots: only Y_g and V_g as expressions. M, C and N are programs (``_programs``):
+    their explicit symbolic entries are far too large to print for a 6-7 DOF arm, and slower
+    to evaluate."""
+    quantities, n = derivation.quantities, len(derivation.symbols.q)
+    return [
+        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
+                            [q, u], quantities["Y_g"], printer, params),
+        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
+                            quantities["V_g"], printer, params),
+    ]
+
+
+def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
+              structured: bool) -> list[ProgramFunction]:
+    """Straight-line programs of the recursive algorithms (``recursive.py``): inverse and
+    forward dynamics for every robot, and M, C, N for 3-D robots (planar ones print their
+    short explicit M, C, N, which read like the sheet)."""
     from ..recursive import (
         coriolis_program,
         forward_dynamics_program,
@@ -270,25 +285,23 @@ def _structured_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
 
     robot, quantities, table = derivation.robot, derivation.quantities, derivation.symbols
     n = len(table.q)
-    functions = [
-        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
-                            [q, u], quantities["Y_g"], printer, params),
-        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
-                            quantities["V_g"], printer, params),
-    ]
     qdd = Argument("qdd", table.qdd, f"joint accelerations, shape (..., {n})")
-    programs = [
-        program_function("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q],
-                         mass_matrix_program(robot, table)),
-        program_function("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.",
-                         [q, qd], coriolis_program(robot, table)),
-        program_function("_gravity_body", "N(q): Newton-Euler at rest.", [q], gravity_program(robot, table)),
+    programs = []
+    if structured:
+        programs += [
+            program_function("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q],
+                             mass_matrix_program(robot, table)),
+            program_function("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.",
+                             [q, qd], coriolis_program(robot, table)),
+            program_function("_gravity_body", "N(q): Newton-Euler at rest.", [q], gravity_program(robot, table)),
+        ]
+    programs += [
         program_function("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd],
                          inverse_dynamics_program(robot, table)),
         program_function("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N.",
                          [q, qd, u], forward_dynamics_program(robot, table, list(quantities["Y_g"]))),
     ]
-    return functions, {"programs": programs}
+    return programs
 
 
 def _tuple(names: tuple[str, ...]) -> str:
