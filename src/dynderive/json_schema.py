@@ -11,6 +11,8 @@ from __future__ import annotations
 from typing import Any
 
 IDENTIFIER = "^[A-Za-z_][A-Za-z0-9_]*$"
+#: Symbols (parameters, efforts) may not start with '_': the generated module's temporaries do.
+SYMBOL = "^[A-Za-z][A-Za-z0-9_]*$"
 EXPRESSION: dict[str, Any] = {
     "description": "A number, or an expression in Python syntax over the declared parameters",
     "oneOf": [{"type": "number"}, {"type": "string", "minLength": 1, "maxLength": 1000}],
@@ -65,7 +67,7 @@ def robot_schema() -> dict[str, Any]:
             "child": {"type": "string"},
             "origin": origin,
             "axis": _vector([2, 3], "prismatic axis (planar) or joint axis (3-D)"),
-            "effort": {"type": "string", "pattern": IDENTIFIER},
+            "effort": {"type": "string", "pattern": SYMBOL},
         },
     }
     return {
@@ -79,7 +81,7 @@ def robot_schema() -> dict[str, Any]:
             "name": {"type": "string", "pattern": IDENTIFIER},
             "title": {"type": "string"},
             "planar": {"type": "boolean", "default": False},
-            "parameters": {"type": "object", "propertyNames": {"pattern": IDENTIFIER},
+            "parameters": {"type": "object", "propertyNames": {"pattern": SYMBOL},
                            "additionalProperties": parameter},
             "gravity": _vector([2, 3], "world-frame gravity vector"),
             "links": {"type": "array", "minItems": 1, "items": link},
