@@ -16,8 +16,9 @@ from ..derivation import DESCRIPTIONS, Derivation
 from ..tidy import is_small
 from .latex import Formatter
 
-#: Quantities larger than this (tree nodes per entry) get ``"latex": null``.
-LATEX_NODES = 20000
+#: Quantities larger than this (tree nodes per entry, on average) get ``"latex": null``: their
+#: LaTeX would run to pages per entry and costs most of the JSON's time (30 s for the UR5's C_g).
+LATEX_NODES = 2000
 
 
 def _text(expr: sympy.Expr) -> str:
