@@ -101,3 +101,25 @@ def test_generated_module_imports_only_numpy(tmp_path):
     assert imports == ["import math", "import numpy as np"]
     code = "import sys, rp_arm_dynamics; assert set(sys.modules) >= {'numpy'}; assert 'sympy' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], cwd=tmp_path, check=True)
+
+
+def test_json_of_a_6_dof_arm_parses_back(tmp_path):
+    """Entries too large to typeset are printed plainly (fast); they still parse back exactly."""
+    import random
+
+    import sympy
+
+    import dynderive
+
+    derivation = dynderive.derive(dynderive.load_robot(Path(__file__).parents[1] / "robots" / "ur5.urdf"))
+    dump = json.loads(dynderive.render_json(derivation))["quantities"]
+    names = {str(s): s for s in derivation.symbols.all_symbols()}
+    rng = random.Random(3)
+    values = {s: rng.uniform(-1, 1) for s in derivation.symbols.all_symbols()}
+    assert dump["C_g"]["latex"] is None   # too large to typeset: printed plainly
+    for name in ("M_g", "C_g", "EOM_g2"):
+        back = sympy.sympify(dump[name]["sympy"], locals=names)
+        original = derivation[name]
+        for k in (0, len(original) - 1, len(original) // 2):
+            expected = float(original[k].xreplace(values))
+            assert abs(float(back[k].xreplace(values)) - expected) <= 1e-12 * max(1.0, abs(expected))

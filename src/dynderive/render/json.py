@@ -22,10 +22,44 @@ LATEX_NODES = 2000
 
 
 def _text(expr: sympy.Expr) -> str:
-    """``sstr`` with terms in lexicographic order; entries too large to typeset keep SymPy's own
-    (canonical, deterministic) argument order instead, which prints 2-3x faster (a 7-DOF
-    arm's C_g: minutes otherwise)."""
-    return sympy.sstr(expr, order="lex" if is_small(expr, LATEX_NODES) else "none")
+    """``sstr`` with terms in lexicographic order; entries too large to typeset get the plain
+    printing of ``_plain`` (a 7-DOF arm's C_g: minutes with ``sstr``, seconds so)."""
+    return sympy.sstr(expr, order="lex") if is_small(expr, LATEX_NODES) else _plain(expr)
+
+
+def _plain(expr: sympy.Expr) -> str:
+    """SymPy's own (canonical, deterministic) argument order, every sum inside a product or
+    power in parentheses, every number that is negative or a fraction in parentheses: no
+    precedence rules to apply, so it prints fast; ``sympify`` reads it back to ``expr``."""
+    memo: dict[int, str] = {}
+
+    def text(e: sympy.Basic) -> str:
+        key = id(e)
+        if key in memo:
+            return memo[key]
+        if e.is_Symbol:
+            out = e.name
+        elif e.is_Integer:
+            out = str(e.p) if e.p >= 0 else f"({e.p})"
+        elif e.is_Rational:
+            out = f"({e.p}/{e.q})"
+        elif e.is_Number:
+            out = f"({sympy.sstr(e)})"
+        elif e.is_Add:
+            out = " + ".join(text(a) for a in e.args)
+        elif e.is_Mul:
+            out = "*".join(f"({text(a)})" if a.is_Add else text(a) for a in e.args)
+        elif e.is_Pow:
+            base, exp = e.args
+            out = f"({text(base)})**{text(exp)}" if not (base.is_Symbol or base.is_Function) else f"{text(base)}**{text(exp)}"
+        elif e.is_Function:
+            out = f"{type(e).__name__}({', '.join(text(a) for a in e.args)})"
+        else:
+            out = sympy.sstr(e)
+        memo[key] = out
+        return out
+
+    return text(expr)
 
 
 def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict[str, object]:
