@@ -121,7 +121,7 @@ def _evaluate(body, arrays, shape, parameters):
 
 
 def _mass_matrix_body(q, sin, cos, *, g=9.81):
-    """M(q), row by row: composite-rigid-body algorithm. 157 lines, 673 operations."""
+    """M(q), row by row: composite-rigid-body algorithm. 157 lines, 568 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
     _r0 = cos(panda_joint2)
     _r1 = sin(panda_joint2)
@@ -334,7 +334,7 @@ def _mass_matrix_body(q, sin, cos, *, g=9.81):
 
 
 def _coriolis_body(q, qd, sin, cos, *, g=9.81):
-    """C(q, qd), row by row: Christoffel symbols of the differentiated CRBA. 560 lines, 3750 operations."""
+    """C(q, qd), row by row: Christoffel symbols of the differentiated CRBA. 560 lines, 3277 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
     panda_jointd1, panda_jointd2, panda_jointd3, panda_jointd4, panda_jointd5, panda_jointd6, panda_jointd7 = qd
     _r0 = cos(panda_joint2)
@@ -951,7 +951,7 @@ def _coriolis_body(q, qd, sin, cos, *, g=9.81):
 
 
 def _gravity_body(q, sin, cos, *, g=9.81):
-    """N(q): Newton-Euler at rest. 106 lines, 275 operations."""
+    """N(q): Newton-Euler at rest. 106 lines, 247 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
     _r0 = cos(panda_joint2)
     _r1 = sin(panda_joint2)
@@ -1071,7 +1071,7 @@ def _gravity_body(q, sin, cos, *, g=9.81):
 
 
 def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, g=9.81):
-    """M qdd + C qd + N: recursive Newton-Euler. 213 lines, 1221 operations."""
+    """M qdd + C qd + N: recursive Newton-Euler. 213 lines, 1125 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
     panda_jointd1, panda_jointd2, panda_jointd3, panda_jointd4, panda_jointd5, panda_jointd6, panda_jointd7 = qd
     panda_jointdd1, panda_jointdd2, panda_jointdd3, panda_jointdd4, panda_jointdd5, panda_jointdd6, panda_jointdd7 = qdd
@@ -1300,7 +1300,7 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, g=9.81):
 
 
 def _forward_dynamics_body(q, qd, u, sin, cos, *, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 418 lines, 2287 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 418 lines, 2100 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
     panda_jointd1, panda_jointd2, panda_jointd3, panda_jointd4, panda_jointd5, panda_jointd6, panda_jointd7 = qd
     tau_panda_joint1, tau_panda_joint2, tau_panda_joint3, tau_panda_joint4, tau_panda_joint5, tau_panda_joint6, tau_panda_joint7 = u

@@ -18,7 +18,8 @@ import pytest
 import sympy
 
 import dynderive
-from dynderive.recursive import mass_matrix_program, operation_count
+from dynderive.recursive import mass_matrix_program
+from dynderive.tidy import operation_count
 
 from conftest import import_code
 from random_robots3d import random_spatial_tree

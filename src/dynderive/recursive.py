@@ -1,4 +1,4 @@
-"""Straight-line programs of the recursive algorithms, for the generated code of 3-D robots.
+"""Straight-line programs of the recursive algorithms, for the generated code.
 
 The composite-rigid-body algorithm (M), recursive Newton-Euler (C qd + N, inverse dynamics)
 and an LDL^T solve (forward dynamics) of Featherstone's *Rigid Body Dynamics Algorithms*
@@ -6,7 +6,8 @@ and an LDL^T solve (forward dynamics) of Featherstone's *Rigid Body Dynamics Alg
 expression ever grows, and SymPy's own arithmetic drops the products with structural zeros
 and ones (joint axes along z, rotations by multiples of pi/2): the result is a short list of
 assignments, each a few operations, that the code template prints as Python. The same lines
-run on floats (one state, with ``math``) and on NumPy arrays (a batch).
+run on floats (one state, with ``math``) and on NumPy arrays (a batch). Planar robots are
+treated as 3-D ones moving in the plane z = 0.
 
 >>> program = mass_matrix_program(robot, table)          # doctest: +SKIP
 >>> len(program.lines), program.outputs[0]                 # doctest: +SKIP
@@ -24,10 +25,12 @@ from dataclasses import dataclass, field
 
 import sympy
 
+from .generalized import inertia_tensor
 from .joints import unit
 from .model import Joint, Robot
 from .spatial import axis_angle, rpy_matrix
 from .symbols import SymbolTable
+from .tidy import operation_count
 
 Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
 Matrix3 = tuple[Vector, Vector, Vector]
@@ -37,7 +40,6 @@ Matrix3 = tuple[Vector, Vector, Vector]
 class Program:
     """Assignments ``name = expression`` in order; ``outputs`` are expressions of the names."""
 
-    inputs: list[sympy.Symbol]
     lines: list[tuple[sympy.Symbol, sympy.Expr]] = field(default_factory=list)
     outputs: list[sympy.Expr] = field(default_factory=list)
     _count: int = 0
@@ -65,16 +67,6 @@ class Program:
     def operations(self) -> int:
         """Arithmetic operations and function calls of the program."""
         return sum(operation_count(e) for _, e in self.lines) + sum(operation_count(e) for e in self.outputs)
-
-
-def operation_count(expr: sympy.Expr) -> int:
-    """n - 1 per n-ary sum or product, one per power or function call (``count_ops`` without
-    its separate counting of signs and divisions, and much faster)."""
-    expr = sympy.sympify(expr)
-    if not expr.args:
-        return 0
-    own = len(expr.args) - 1 if isinstance(expr, (sympy.Add, sympy.Mul)) else 1
-    return own + sum(operation_count(a) for a in expr.args)
 
 
 def _numeric_constants(expr: sympy.Expr) -> sympy.Expr:
@@ -122,7 +114,6 @@ class _Body:
     rotation: Matrix3            # link axes in the parent frame (R), with the joint's motion
     position: Vector             # link origin in the parent frame
     mass: sympy.Expr
-    com: Vector                  # centre of mass, link frame
     first_moment: Vector         # h = m c, link frame
     inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
 
@@ -179,13 +170,12 @@ class _Tree:
             izz = expr(link.inertia[0])
         else:
             ixx, iyy, izz, ixy, ixz, iyz = (expr(e) for e in link.inertia)
-        about_com = ((ixx, ixy, ixz), (ixy, iyy, iyz), (ixz, iyz, izz))
+        about_com = inertia_tensor((ixx, iyy, izz, ixy, ixz, iyz))
         square = sum(c * c for c in com)
-        inertia = tuple(tuple(let(about_com[i][j] + mass * ((square if i == j else 0) - com[i] * com[j]))
+        inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]))
                               for j in range(3)) for i in range(3))
         return _Body(link.name, joint.parent, joint, coordinate, revolute, axis, R,  # type: ignore[arg-type]
-                     self.program.vector(position), mass, self.program.vector(com),
-                     self.program.vector([mass * c for c in com]), inertia)
+                     self.program.vector(position), mass, self.program.vector([mass * c for c in com]), inertia)
 
     def trig(self) -> list[tuple[sympy.Symbol, sympy.Expr]]:
         """The sines and cosines the transforms use, to compute first."""
@@ -211,8 +201,8 @@ class _Tree:
                 let(_rotate_back(body.rotation, _add(v, _cross(w, body.position)))))
 
 
-def _start(robot: Robot, table: SymbolTable, inputs: list[sympy.Symbol]) -> tuple[Program, _Tree]:
-    program = Program(inputs)
+def _start(robot: Robot, table: SymbolTable) -> tuple[Program, _Tree]:
+    program = Program()
     tree = _Tree(robot, table, program)
     # the bodies' constant lines were recorded while building the tree; sines and cosines
     # are inputs to them only through the rotation entries, which come later in the list
@@ -320,21 +310,21 @@ def _gravity(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
 
 def mass_matrix_program(robot: Robot, table: SymbolTable) -> Program:
     """``M(q)`` by the composite-rigid-body algorithm; outputs row by row."""
-    program, tree = _start(robot, table, list(table.q))
+    program, tree = _start(robot, table)
     program.outputs = [e for row in _composite_mass_matrix(tree) for e in row]
     return program
 
 
 def inverse_dynamics_program(robot: Robot, table: SymbolTable) -> Program:
     """``M qdd + C qd + N`` by recursive Newton-Euler."""
-    program, tree = _start(robot, table, [*table.q, *table.qd, *table.qdd])
+    program, tree = _start(robot, table)
     program.outputs = _newton_euler(tree, table.qd, table.qdd, _gravity(robot, table))
     return program
 
 
 def gravity_program(robot: Robot, table: SymbolTable) -> Program:
     """``N(q)``: recursive Newton-Euler at rest."""
-    program, tree = _start(robot, table, list(table.q))
+    program, tree = _start(robot, table)
     zeros = [sympy.Integer(0)] * len(table.q)
     program.outputs = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
     return program
@@ -346,7 +336,7 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     ``efforts`` is ``Y_g`` as expressions of the effort symbols. M is positive definite, so the
     factorization needs no pivoting; zeros of M (branches) stay zeros in L.
     """
-    program, tree = _start(robot, table, [*table.q, *table.qd, *table.efforts.values()])
+    program, tree = _start(robot, table)
     let = program.let
     n = len(table.q)
     M = _composite_mass_matrix(tree)
@@ -373,32 +363,6 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     return program
 
 
-def body_jacobians_program(robot: Robot, table: SymbolTable) -> Program:
-    """The 6 x n body Jacobians ``(v, omega)`` of every link's COM frame (axes of the link),
-    stacked in the file's link order: column k of a link is column k of its parent carried
-    into the link's frame, plus the link's own joint axis."""
-    program, tree = _start(robot, table, list(table.q))
-    n = len(table.q)
-    zero = (sympy.Integer(0),) * 3
-    columns: dict[str, dict[int, tuple[Vector, Vector]]] = {"world": {}}
-    for body in tree.bodies:
-        own = {} if body.link in tree.static else {
-            k: tree.motion_from_parent(body, w, v) for k, (w, v) in columns[body.parent].items()}
-        if body.coordinate is not None:
-            own[body.coordinate] = (body.axis, zero) if body.revolute else (zero, body.axis)
-        columns[body.link] = own
-    outputs: list[sympy.Expr] = []
-    for link in robot.links:
-        body = tree.by_link[link.name]
-        at_com = {k: (program.vector(_add(v, _cross(w, body.com))), w) for k, (w, v) in columns[link.name].items()}
-        for row in range(6):
-            for k in range(n):
-                v, w = at_com.get(k, (zero, zero))
-                outputs.append((v + w)[row])
-    program.outputs = outputs
-    return program
-
-
 def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
     """The Christoffel-symbol Coriolis matrix ``C(q, qd)``, row by row.
 
@@ -406,7 +370,7 @@ def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
     line's tangent from its own small expression), then
     ``C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k``, the same C as C_g.
     """
-    program, tree = _start(robot, table, [*table.q, *table.qd])
+    program, tree = _start(robot, table)
     n = len(table.q)
     M = _composite_mass_matrix(tree)
     lines = list(program.lines)

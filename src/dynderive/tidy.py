@@ -61,6 +61,24 @@ def tidy(expr: sympy.Expr) -> sympy.Expr:
     return candidates[best]
 
 
+def operation_count(value: sympy.Expr | sympy.MatrixBase) -> int:
+    """Operations of an expression tree (a matrix's entries summed): n - 1 per n-ary sum or
+    product, one per power or function call. ``count_ops`` without its separate counting of
+    signs and divisions; each shared subtree is visited once, so it is fast on huge entries."""
+    memo: dict[int, int] = {}
+
+    def count(expr: sympy.Basic) -> int:
+        key = id(expr)
+        if key not in memo:
+            args = expr.args
+            own = (len(args) - 1 if isinstance(expr, (sympy.Add, sympy.Mul)) else 1) if args else 0
+            memo[key] = own + sum(count(a) for a in args)
+        return memo[key]
+
+    entries = list(value) if isinstance(value, sympy.MatrixBase) else [value]
+    return sum(count(sympy.sympify(e)) for e in entries)
+
+
 def quick_tidy(expr: sympy.Expr) -> sympy.Expr:
     """A cheaper ``tidy`` for many small pieces (3-D kinematics): expand, drop sin^2 + cos^2.
 

@@ -12,6 +12,7 @@ from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
+from ..tidy import operation_count
 from .environment import render
 
 CODE_TEMPLATE = "dynamics.py.j2"
@@ -89,10 +90,6 @@ class ProgramFunction:
     outputs: list[str]
     operations: int
 
-    @property
-    def size(self) -> int:
-        return len(self.outputs)
-
 
 def program_function(name: str, doc: str, arguments: list[Argument], program: Any) -> ProgramFunction:
     """Print ``program``, giving each value a local name that is reused once the value is dead.
@@ -107,7 +104,6 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             kept.append((target, expr))
             needed |= expr.free_symbols
     body = kept[::-1]
-    names = [target for target, _ in body]
     last_use: dict[sympy.Symbol, int] = {}
     for position, (_, expr) in enumerate(body):
         for symbol in expr.free_symbols:
@@ -116,7 +112,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
     for expr in program.outputs:
         for symbol in sympy.sympify(expr).free_symbols:
             last_use[symbol] = end
-    targets = set(names)
+    targets = {target for target, _ in body}
     slot: dict[sympy.Symbol, str] = {}
     printer = _LinePrinter(slot)
     free: list[str] = []
@@ -134,7 +130,8 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             count += 1
         lines.append((slot[target], text))
     outputs = [printer.doprint(sympy.sympify(e)) for e in program.outputs]
-    return ProgramFunction(name, doc, arguments, lines, outputs, program.operations)
+    operations = sum(operation_count(e) for _, e in body) + operation_count(sympy.Matrix(program.outputs))
+    return ProgramFunction(name, doc, arguments, lines, outputs, operations)
 
 
 #: Quantities that stay matrices even with one column (a 1-DOF robot's M is 1 x 1).
@@ -180,10 +177,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
     qd = Argument("qd", table.qd, f"joint velocities, shape (..., {n})")
     u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
     structured = not robot.planar
-    if structured:
-        functions = _structured_functions(derivation, q, qd, u, printer, params)
-    else:
-        functions = _expression_functions(derivation, q, qd, u, printer, params)
+    functions = _expression_functions(derivation, q, qd, u, printer, params, structured)
     programs = _programs(derivation, q, qd, u, structured)
     maximal = "M_m" in quantities
     if maximal:
@@ -237,37 +231,30 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
 
 
 def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
-                          printer: _Printer, params: set[sympy.Symbol]) -> list[ExpressionFunction]:
-    """Every generalized function as explicit expressions (planar robots: short, readable)."""
+                          printer: _Printer, params: set[sympy.Symbol],
+                          structured: bool) -> list[ExpressionFunction]:
+    """Functions printed as explicit expressions: Y_g and V_g always; M, C, N and T_g for
+    planar robots (short, readable beside the sheet). A 3-D robot's M, C, N are programs
+    (``_programs``): their explicit entries are far too large to print for a 6-7 DOF arm."""
     quantities, n = derivation.quantities, len(derivation.symbols.q)
-    return [
-        expression_function("mass_matrix", f"Mass matrix M_g(q), shape (..., {n}, {n}).", [q],
-                            quantities["M_g"], printer, params, matrix_result=True),
-        expression_function("coriolis_matrix", f"Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., {n}, {n}).",
-                            [q, qd], quantities["C_g"], printer, params, matrix_result=True),
-        expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
-                            quantities["N_g"], printer, params),
-        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
-                            [q, u], quantities["Y_g"], printer, params),
-        expression_function("kinetic_energy", "Kinetic energy T_g(q, qd), shape (...).", [q, qd],
-                            quantities["T_g"], printer, params),
-        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
-                            quantities["V_g"], printer, params),
-    ]
-
-
-def _structured_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
-                          printer: _Printer, params: set[sympy.Symbol]) -> list[ExpressionFunction]:
-    """3-D robots: only Y_g and V_g as expressions. M, C and N are programs (``_programs``):
-    their explicit symbolic entries are far too large to print for a 6-7 DOF arm, and slower
-    to evaluate."""
-    quantities, n = derivation.quantities, len(derivation.symbols.q)
-    return [
-        expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
-                            [q, u], quantities["Y_g"], printer, params),
-        expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
-                            quantities["V_g"], printer, params),
-    ]
+    functions = []
+    if not structured:
+        functions += [
+            expression_function("mass_matrix", f"Mass matrix M_g(q), shape (..., {n}, {n}).", [q],
+                                quantities["M_g"], printer, params, matrix_result=True),
+            expression_function("coriolis_matrix", f"Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., {n}, {n}).",
+                                [q, qd], quantities["C_g"], printer, params, matrix_result=True),
+            expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
+                                quantities["N_g"], printer, params),
+        ]
+    functions.append(expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
+                                          [q, u], quantities["Y_g"], printer, params))
+    if not structured:
+        functions.append(expression_function("kinetic_energy", "Kinetic energy T_g(q, qd), shape (...).", [q, qd],
+                                             quantities["T_g"], printer, params))
+    functions.append(expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
+                                         quantities["V_g"], printer, params))
+    return functions
 
 
 def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
