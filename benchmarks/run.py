@@ -17,7 +17,7 @@ is that robot's alone), the anchors in subprocesses of their own:
 4. peak memory (RSS) of the derivation;
 
 then the goals of issue 8 with their measured figures, met or not. Times are medians over
-``--repeats``. Operations are counted by one function for both tools (``operations``).
+``--repeats``. Operations are counted by one function for both tools (``dynderive.tidy.operation_count``).
 """
 
 from __future__ import annotations
@@ -52,31 +52,6 @@ def pendulum_yaml(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def operations(value) -> int:
-    """Operations of expression trees (entries of a matrix summed): n - 1 per n-ary sum or
-    product, one per power or function call. Like ``sympy.count_ops`` without its rules for
-    signs and division, in time linear in the number of distinct subexpressions."""
-    import sympy
-
-    memo: dict[int, int] = {}
-
-    def ops(expr) -> int:
-        key = id(expr)
-        if key in memo:
-            return memo[key]
-        args = expr.args
-        if not args:
-            total = 0
-        else:
-            own = len(args) - 1 if isinstance(expr, (sympy.Add, sympy.Mul)) else 1
-            total = own + sum(ops(a) for a in args)
-        memo[key] = total
-        return total
-
-    entries = list(value) if isinstance(value, sympy.MatrixBase) else [value]
-    return sum(ops(sympy.sympify(e)) for e in entries)
-
-
 def _median_time(function, *args, repeats: int, number: int = 1) -> float:
     samples = []
     for _ in range(repeats):
@@ -92,7 +67,9 @@ def measure_dynderive(robot: str, repeats: int, batch: int, loop: int) -> dict:
     import numpy as np
 
     import dynderive
+    from dynderive.checks import generated_module
     from dynderive.render.code import render_code
+    from dynderive.tidy import operation_count
 
     row: dict = {}
     start = time.perf_counter()
@@ -116,16 +93,15 @@ def measure_dynderive(robot: str, repeats: int, batch: int, loop: int) -> dict:
     row["latex_s"] = time.perf_counter() - start
     row["dof"] = n = len(model.coordinates)
     for name in ("M_g", "C_g", "N_g"):
-        row[f"{name}_ops"] = operations(derivation[name])
+        row[f"{name}_ops"] = operation_count(derivation[name])
     if model.planar:   # the readable-form comparison uses sympy.count_ops, as for the anchor
         import sympy
 
         row["mcn_count_ops"] = sum(sympy.count_ops(e) for name in ("M_g", "C_g", "N_g") for e in derivation[name])
 
-    namespace: dict = {"__name__": "bench_dynamics"}
-    exec(compile(source, "bench_dynamics.py", "exec"), namespace)
-    mass_matrix, forward_dynamics = namespace["mass_matrix"], namespace["forward_dynamics"]
-    efforts = len(namespace["EFFORTS"])
+    module = generated_module(source, "bench")
+    mass_matrix, forward_dynamics = module.mass_matrix, module.forward_dynamics
+    efforts = len(module.EFFORTS)
     rng = np.random.default_rng(0)
     q1, qd1 = rng.uniform(-1, 1, (2, n))
     u1 = rng.uniform(-1, 1, efforts)
@@ -135,13 +111,11 @@ def measure_dynderive(robot: str, repeats: int, batch: int, loop: int) -> dict:
     row["forward_dynamics_call_us"] = _median_time(forward_dynamics, q1, qd1, u1, repeats=repeats, number=500) * 1e6
     row["mass_matrix_batch_ns"] = _median_time(mass_matrix, qb, repeats=repeats) / batch * 1e9
     row["forward_dynamics_batch_ns"] = _median_time(forward_dynamics, qb, qdb, ub, repeats=repeats) / batch * 1e9
-    row.update(_measure_pinocchio(model, derivation, mass_matrix, forward_dynamics, q1, qd1, u1, qb, qdb, ub,
-                                  repeats, loop))
+    row.update(_measure_pinocchio(model, module, q1, qd1, u1, qb, qdb, repeats, loop))
     return row
 
 
-def _measure_pinocchio(model, derivation, mass_matrix, forward_dynamics, q1, qd1, u1, qb, qdb, ub,
-                       repeats: int, loop: int) -> dict:
+def _measure_pinocchio(model, module, q1, qd1, u1, qb, qdb, repeats: int, loop: int) -> dict:
     """Pinocchio's crba / aba on the same robot (built from the robot file, default parameters),
     and the largest relative difference from the generated code (the same model, checked)."""
     import numpy as np
@@ -157,10 +131,7 @@ def _measure_pinocchio(model, derivation, mass_matrix, forward_dynamics, q1, qd1
         return {}
     pmodel, perm = pinocchio_model(model, values)
     data = pmodel.createData()
-    # efforts enter Y_g as +u on their joints (the bundled robots are fully actuated or zero)
-    tau = np.zeros(len(model.coordinates))
-    actuated = [k for k, j in enumerate(j for j in model.joints if j.moves) if j.effort]
-    tau[actuated] = u1
+    tau = module.generalized_forces(q1, u1)   # Y_g: the efforts on their joints
     q_pin, v_pin, tau_pin = q1[perm], qd1[perm], tau[perm]
     row = {
         "pin_crba_call_us": _median_time(pin.crba, pmodel, data, q_pin, repeats=repeats, number=2000) * 1e6,
@@ -182,10 +153,10 @@ def _measure_pinocchio(model, derivation, mass_matrix, forward_dynamics, q1, qd1
     M = pin.crba(pmodel, data, q_pin)
     M = np.triu(M) + np.triu(M, 1).T
     inverse = np.argsort(perm)
-    ours = mass_matrix(q1)
+    ours = module.mass_matrix(q1)
     row["pin_M_rel_diff"] = float(np.abs(M[np.ix_(inverse, inverse)] - ours).max() / np.abs(ours).max())
     qdd = pin.aba(pmodel, data, q_pin, v_pin, tau_pin)[inverse]
-    ours_qdd = forward_dynamics(q1, qd1, u1)
+    ours_qdd = module.forward_dynamics(q1, qd1, u1)
     row["pin_qdd_rel_diff"] = float(np.abs(qdd - ours_qdd).max() / np.abs(ours_qdd).max())
     return row
 
@@ -196,11 +167,12 @@ def measure_kane(robot: str, trigsimp_timeout: float) -> dict:
     import anchors
 
     import dynderive
+    from dynderive.tidy import operation_count
 
     model = dynderive.load_robot(robot)
     result = anchors.kane_equations(model)
     row = {"kane_setup_s": result["setup_s"], "kane_s": result["kane_s"],
-           "kane_M_ops": operations(result["mass_matrix"]), "kane_forcing_ops": operations(result["forcing"]),
+           "kane_M_ops": operation_count(result["mass_matrix"]), "kane_forcing_ops": operation_count(result["forcing"]),
            "kane_count_ops": result["mass_matrix_ops"] + result["forcing_ops"],
            "kane_peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     if trigsimp_timeout > 0:
