@@ -48,6 +48,9 @@ class SourceDocument:
     labels: dict[Path_, str] = field(default_factory=dict)
     #: Scalars written over several lines (column offsets inside them are not meaningful).
     multiline: set[Path_] = field(default_factory=set)
+    #: Remarks about input that was accepted but changed or ignored (e.g. URDF ``<mimic>`` on
+    #: a fixed joint), shown by the CLI as ``note:`` lines.
+    notes: list[str] = field(default_factory=list)
 
     def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
         """Position of ``path``, falling back to the nearest enclosing value."""

@@ -76,6 +76,8 @@ class Robot:
     source: str = ""
     #: Where each named item was written, for errors found after validation.
     positions: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)
+    #: Remarks from the reader about input accepted but changed or ignored (``note:`` lines).
+    notes: tuple[str, ...] = field(default=(), compare=False)
 
     @property
     def coordinates(self) -> tuple[str, ...]:

@@ -349,7 +349,7 @@ def validate(doc: SourceDocument) -> Robot:
     return Robot(
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
         gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
-        maximal_constraints=constraints, source=doc.file, positions=positions,
+        maximal_constraints=constraints, source=doc.file, positions=positions, notes=tuple(doc.notes),
     )
 
 
