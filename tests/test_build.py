@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
 import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -89,6 +93,74 @@ def test_failed_robot_does_not_stop_the_others(robots, tmp_path):
     assert "2 built, 1 failed" in result.stdout
     assert "missing required key 'links'" in result.stderr
     assert (tmp_path / "out" / "rp_arm_dynamics.py").is_file()
+
+
+def test_duplicate_robot_names_are_refused_before_anything_is_built(tmp_path):
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    text = (ROBOTS / "rp_arm.yaml").read_text()
+    (folder / "a.yaml").write_text(text.replace("name: rp_arm", "name: arm"))
+    (folder / "b.yaml").write_text("name: arm\n" + text.replace("name: rp_arm\n", ""))
+    shutil.copy(ROBOTS / "double_pendulum.yaml", folder)
+    urdf = folder / "c.urdf"  # a URDF whose <robot name> becomes the same identifier
+    urdf.write_text('<?xml version="1.0"?>\n<robot\n   name="arm">\n  <link name="base"/>\n</robot>\n')
+    out = tmp_path / "out"
+    for extra in ((), ("--check",)):
+        result = _build(folder, "--out", out, "--code", *extra)
+        assert result.exit_code == 2, result.output
+        assert (f"{folder / 'b.yaml'}:1:7: robot name 'arm' is also used by {folder / 'a.yaml'} "
+                "(outputs would overwrite each other)") in result.stderr
+        assert f"{folder / 'c.urdf'}:3:10: robot name 'arm' is also used by {folder / 'a.yaml'}" in result.stderr
+        assert not out.exists()
+
+
+def test_check_compares_bytes_not_the_manifest(tmp_path):
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    for name in ("rp_arm", "double_pendulum"):
+        shutil.copy(ROBOTS / f"{name}.yaml", folder)
+    out = tmp_path / "out"
+    assert _build(folder, "--out", out, "--code", "-j", "1").exit_code == 0
+    manifest = out / ".dynderive-build.json"
+    # tamper with an output and forge its hash in the manifest: the manifest alone looks current
+    tampered = out / "rp_arm_dynamics.py"
+    tampered.write_text(tampered.read_text() + "# tampered\n")
+    document = json.loads(manifest.read_text())
+    document["robots"][str(folder / "rp_arm.yaml")]["outputs"]["rp_arm_dynamics.py"] = (
+        hashlib.sha256(tampered.read_bytes()).hexdigest())
+    manifest.write_text(json.dumps(document, indent=2) + "\n")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    check = _build(folder, "--out", out, "--code", "--check", "-j", "1")
+    assert check.exit_code == 1, check.output
+    assert f"{tampered}: differs" in check.stdout
+    assert "1 current, 1 differs" in check.stdout
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # --check wrote nothing
+    # a plain build believes the forged record; --check still catches it afterwards
+    assert "2 up to date" in _build(folder, "--out", out, "--code", "-j", "1").stdout
+    assert _build(folder, "--out", out, "--code", "--check", "-j", "1").exit_code == 1
+
+
+def test_concurrent_builds_into_one_directory_keep_every_record(tmp_path):
+    out = tmp_path / "out"
+    sources = []
+    for name in ("rp_arm", "double_pendulum"):
+        folder = tmp_path / name
+        folder.mkdir()
+        sources.append(folder / f"{name}.yaml")
+        shutil.copy(ROBOTS / f"{name}.yaml", sources[-1])
+    command = [sys.executable, "-c", "from dynderive.cli import run; run()", "build"]
+    processes = [subprocess.Popen([*command, str(source), "--out", str(out), "--code", "-j", "1"],
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                 for source in sources]
+    for process in processes:
+        stdout, stderr = process.communicate(timeout=300)
+        assert process.returncode == 0, stdout + stderr
+    records = json.loads((out / ".dynderive-build.json").read_text())["robots"]
+    assert sorted(records) == sorted(map(str, sources))
+    assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+    # both records are real: a second build of both is up to date
+    again = _build(*sources, "--out", out, "--code", "-j", "1")
+    assert "2 up to date" in again.stdout, again.output
 
 
 @pytest.mark.pdf

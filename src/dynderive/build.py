@@ -3,8 +3,13 @@
 A small manifest in the output directory records, per robot file, a content hash of its
 inputs (the robot file, the templates in use, the dynderive version and the output kinds)
 and of each output it produced. A robot whose inputs and outputs match is up to date and is
-not derived again. ``--check`` writes nothing and reports every output that is missing or
-differs from what would be generated (deriving only robots whose record does not match).
+not derived again. ``--check`` writes nothing and trusts no manifest: it regenerates every
+output in memory and reports each one that is missing or whose bytes differ from the file.
+
+Two robot files with the same robot name (hence the same output files) are refused before
+anything is built. The manifest is read, merged and replaced under an exclusive lock
+(``flock`` on a lock file beside it), so concurrent builds into one directory keep every
+record.
 """
 
 from __future__ import annotations
@@ -12,14 +17,23 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import time
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import DynderiveError, InputError, Problem
+from .errors import DynderiveError, InputError, OutputError, Problem
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
+    fcntl = None  # type: ignore[assignment]
 
 MANIFEST = ".dynderive-build.json"
+LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf")
 KINDS = ("latex", "pdf", "code", "json")
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
@@ -48,6 +62,61 @@ def discover(paths: list[Path]) -> list[Path]:
             raise InputError(Problem(str(path), 1, 1, "no such file or directory"))
     seen: set[Path] = set()
     return [p for p in found if not (p.resolve() in seen or seen.add(p.resolve()))]  # type: ignore[func-returns-value]
+
+
+def robot_name(source: Path) -> tuple[str, int, int] | None:
+    """The name a robot file's outputs are called by, and where it is written (1-based line
+    and column of the ``name:`` value, or of the URDF ``<robot name>`` attribute's value).
+
+    ``None`` if the file cannot be read that far; building it will report why.
+    """
+    from .loader import load_document, read_text
+
+    try:
+        if source.suffix.lower() == ".urdf":
+            from .urdf import _parse_xml, identifier
+
+            text = read_text(source)
+            root = _parse_xml(text, str(source))
+            if root.tag != "robot":
+                return None
+            return (identifier(root.attrib.get("name", "robot")), *_urdf_name_position(text, root.line, root.column))
+        doc = load_document(source)
+    except DynderiveError:
+        return None
+    if not isinstance(doc.data, dict) or not isinstance(doc.data.get("name"), str):
+        return None
+    return (doc.data["name"], *doc.where(("name",)))
+
+
+def _urdf_name_position(text: str, line: int, column: int) -> tuple[int, int]:
+    """Position of the value of the ``name`` attribute of the element starting at (line, column)."""
+    lines = text.split("\n")
+    start = sum(len(row) + 1 for row in lines[: line - 1])
+    match = re.compile(r"<robot\b[^>]*?\sname\s*=\s*[\"']").search(text, start)
+    if match is None:
+        return line, column
+    offset = match.end()
+    before = text.rfind("\n", 0, offset)
+    return text.count("\n", 0, offset) + 1, offset - before
+
+
+def check_names(sources: list[Path]) -> None:
+    """Refuse robot files whose outputs would overwrite each other's: one problem per later file."""
+    owners: dict[str, Path] = {}
+    problems: list[Problem] = []
+    for source in sources:
+        found = robot_name(source)
+        if found is None:
+            continue
+        name, line, column = found
+        if name in owners:
+            problems.append(Problem(str(source), line, column, f"robot name '{name}' is also used by "
+                                    f"{owners[name]} (outputs would overwrite each other)"))
+        else:
+            owners[name] = source
+    if problems:
+        raise InputError(problems)
 
 
 def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -> str:
@@ -112,9 +181,46 @@ def _sha(data: bytes) -> str:
 
 def load_manifest(out: Path) -> dict[str, dict]:
     try:
-        return json.loads((out / MANIFEST).read_text())["robots"]
+        robots = json.loads((out / MANIFEST).read_text())["robots"]
     except (FileNotFoundError, ValueError, KeyError, TypeError):
         return {}
+    return robots if isinstance(robots, dict) else {}
+
+
+@contextmanager
+def manifest_lock(out: Path) -> Iterator[None]:
+    """Hold an exclusive lock on ``out``'s manifest (released when the block ends)."""
+    lock = out / LOCK
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        handle = open(lock, "ab")  # closed below, which releases the lock
+    except OSError as exc:
+        raise OutputError(f"cannot write {exc.filename or lock}: {exc.strerror or exc}") from None
+    with handle:
+        if fcntl is not None:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
+        yield
+
+
+def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict]) -> None:
+    """Merge this run's records into the manifest on disk, under the lock, and replace it atomically.
+
+    ``built`` records replace what is on disk; ``current`` (up-to-date) records are only put
+    back if missing, so a newer record written meanwhile by a concurrent build is kept.
+    Records of robot files that no longer exist are dropped.
+    """
+    from .output import write_all
+
+    with manifest_lock(out):
+        manifest = load_manifest(out)
+        manifest.update(built)
+        for name, record in current.items():
+            manifest.setdefault(name, record)
+        for name in list(manifest):
+            if name not in built and name not in current and not Path(name).exists():
+                del manifest[name]
+        document = {"version": 1, "robots": dict(sorted(manifest.items()))}
+        write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()})
 
 
 def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check: bool,
@@ -122,15 +228,19 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
     from .output import write_all
 
     sources = discover(paths)
-    manifest = load_manifest(out)
+    check_names(sources)
+    manifest = {} if check else load_manifest(out)   # --check compares bytes, never the manifest
     outcomes: dict[str, Outcome] = {}
     pending: list[tuple[Path, str]] = []
+    current: dict[str, dict] = {}
     for source in sources:
         name = str(source)
-        key = input_key(source, kinds, template_dir)
+        key = "" if check else input_key(source, kinds, template_dir)
         record = manifest.get(name)
-        if record and record.get("key") == key and _outputs_match(out, record.get("outputs", {})):
-            outcomes[name] = Outcome(name, "current" if check else "up to date", outputs=record["outputs"])
+        if (isinstance(record, dict) and record.get("key") == key
+                and _outputs_match(out, record.get("outputs", {}))):
+            outcomes[name] = Outcome(name, "up to date", outputs=record["outputs"])
+            current[name] = record
         else:
             pending.append((source, key))
     workers = max(1, min(jobs, len(pending)))
@@ -143,6 +253,7 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
                 futures = [(s, k, pool.submit(_work, str(s), kinds, str(template_dir) if template_dir else None))
                            for s, k in pending]
                 results = [(s, k, f.result()) for s, k, f in futures]
+    built: dict[str, dict] = {}
     for source, key, (files, error, seconds) in results:
         name = str(source)
         if files is None:
@@ -158,13 +269,9 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
         else:
             write_all({out / file: data for file, data in files.items()})
             outcomes[name] = Outcome(name, "built", seconds, outputs=hashes)
-            manifest[name] = {"key": key, "outputs": hashes}
+            built[name] = {"key": key, "outputs": hashes}
     if not check:
-        for name in list(manifest):
-            if name not in outcomes and not Path(name).exists():
-                del manifest[name]
-        document = {"version": 1, "robots": dict(sorted(manifest.items()))}
-        write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()})
+        update_manifest(out, built, current)
     return [outcomes[str(s)] for s in sources]
 
 
