@@ -12,31 +12,14 @@ import sympy
 
 from .expressions import parse_expression
 from .model import Robot
-from .schema import acceleration_name, maximal_coordinate_names, split_index, velocity_name
-
-GREEK = {
-    "alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa",
-    "lambda", "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi",
-    "omega", "Gamma", "Delta", "Theta", "Lambda", "Xi", "Pi", "Sigma", "Upsilon", "Phi", "Psi",
-    "Omega",
-}
-
-
-def latex_name(name: str, dots: int = 0) -> str:
-    """LaTeX for a symbol name, with ``dots`` time derivatives.
-
-    ``latex_name("q1", 1)`` -> ``\\dot{q}_{1}``; ``phi2`` -> ``\\phi_{2}``;
-    ``m_link`` -> ``m_{\\mathrm{link}}``; ``lc1`` -> ``\\mathrm{lc}_{1}``.
-    """
-    head, _, rest = name.partition("_")
-    if not head:
-        head, rest = name, ""
-    stem, digits = (head, "") if rest else split_index(head)
-    sub = digits or (rest if rest.isdigit() else (r"\mathrm{" + rest.replace("_", r"\_") + "}" if rest else ""))
-    body = f"\\{stem}" if stem in GREEK else (stem if len(stem) == 1 else f"\\mathrm{{{stem}}}")
-    if dots:
-        body = "\\" + ("dot", "ddot")[dots - 1] + "{" + body + "}"
-    return body + (f"_{{{sub}}}" if sub else "")
+from .naming import (  # noqa: F401 - GREEK and latex_name are re-exported from here
+    GREEK,
+    acceleration_name,
+    latex_name,
+    maximal_coordinate_names,
+    split_index,
+    velocity_name,
+)
 
 
 @dataclass
