@@ -8,6 +8,8 @@ the validator can point at the exact spot of a problem long after parsing.
 
 from __future__ import annotations
 
+import os
+import stat
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -100,24 +102,51 @@ def resolve_robot_path(robot: str | Path) -> Path:
     )
 
 
+_FILE_KINDS = (
+    (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
 def read_text(path: Path) -> str:
+    """The UTF-8 text of a regular file of at most ``MAX_FILE_BYTES`` bytes.
+
+    The file is ``stat``-ed before it is opened: opening a FIFO blocks until a writer comes,
+    and a device such as ``/dev/zero`` (or a symlink to it) never ends. It is opened without
+    blocking, checked again, and read up to ``MAX_FILE_BYTES + 1`` bytes whatever its size said.
+    """
     display = str(path)
     try:
-        if path.stat().st_size > MAX_FILE_BYTES:
+        info = os.stat(path)
+        if stat.S_ISDIR(info.st_mode):
+            raise InputError(Problem(display, 1, 1, "is a directory, not a robot file"))
+        if not stat.S_ISREG(info.st_mode):
+            raise InputError(Problem(display, 1, 1, f"not a regular file ({_file_kind(info.st_mode)})"))
+        if info.st_size > MAX_FILE_BYTES:
             raise InputError(Problem(display, 1, 1, f"file is larger than {MAX_FILE_BYTES} bytes"))
-        raw = path.read_bytes()
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        with os.fdopen(descriptor, "rb") as handle:
+            if not stat.S_ISREG(os.fstat(handle.fileno()).st_mode):  # replaced since the stat
+                raise InputError(Problem(display, 1, 1, "not a regular file"))
+            raw = handle.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
         raise InputError(Problem(display, 1, 1, "no such file")) from None
     except IsADirectoryError:
         raise InputError(Problem(display, 1, 1, "is a directory, not a robot file")) from None
     except OSError as exc:
         raise InputError(Problem(display, 1, 1, f"cannot read file: {exc.strerror}")) from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise InputError(Problem(display, 1, 1, f"file is larger than {MAX_FILE_BYTES} bytes"))
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
         raise InputError(Problem(display, line, column, "file is not valid UTF-8")) from None
+
+
+def _file_kind(mode: int) -> str:
+    return next((kind for test, kind in _FILE_KINDS if test(mode)), "not a file with contents")
 
 
 class _Composer(yaml.SafeLoader):
