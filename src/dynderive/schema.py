@@ -7,6 +7,7 @@ the kinematics parses them again from the texts kept in ``Robot``.
 
 from __future__ import annotations
 
+import builtins
 import difflib
 import keyword
 import math
@@ -17,9 +18,24 @@ from typing import Any
 import sympy
 
 from .errors import InputError, Problem
-from .expressions import RESERVED, ExpressionError, parse_expression
+from .expressions import (
+    RESERVED,
+    Evaluator,
+    ExpressionError,
+    NotFiniteError,
+    describe_number,
+    imaginary_part,
+    parse_expression,
+)
 from .loader import SourceDocument
 from .model import Joint, Link, Parameter, Robot
+from .naming import (  # noqa: F401 - re-exported: other modules import them from here
+    acceleration_name,
+    latex_name,
+    maximal_coordinate_names,
+    split_index,
+    velocity_name,
+)
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
@@ -31,8 +47,26 @@ JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort")
 MAXIMAL_KEYS = ("constraints",)
 ORIGIN_KEYS = ("xyz", "rpy")
 
+#: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
+#: of that name would shadow them in the generated module. The names ``site`` adds are listed
+#: too, so the set does not depend on how Python was started.
+PYTHON_BUILTINS = frozenset(
+    name for name in dir(builtins) if not name.startswith("_")
+) | {"copyright", "credits", "exit", "help", "license", "quit"}
+
+#: Argument names of the generated functions, current and planned (DESIGN.md section 6).
+API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess"})
+
+#: Public names of the generated module planned in DESIGN.md section 6.
+PLANNED_NAMES = frozenset({
+    "friction_forces", "loop_constraints", "loop_jacobian", "loop_jacobian_dot", "loop_forces",
+    "assemble", "FRAMES", "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd",
+    "linearize", "regressor", "PARAMETER_VECTOR", "parameter_vector", "maximal_kinetic_energy",
+    "maximal_potential_energy", "generalized_forces", "maximal_forward_dynamics",
+})
+
 #: Names the generated module defines or uses; robot symbols may not take them.
-MODULE_NAMES = frozenset({
+MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | frozenset({
     "np", "numpy", "math", "q", "qd", "qdd", "u", "qm", "qmd", "p", "out", "result",
     "PARAMETERS", "COORDINATES", "EFFORTS", "MAXIMAL_COORDINATES", "mass_matrix",
     "coriolis_matrix", "gravity_vector", "inverse_dynamics", "forward_dynamics",
@@ -43,36 +77,13 @@ MODULE_NAMES = frozenset({
 })
 
 
-def velocity_name(name: str) -> str:
-    """``q1`` -> ``qd1``; ``phi2`` -> ``phid2``; ``x`` -> ``xd``."""
-    stem, digits = split_index(name)
-    return f"{stem}d{digits}"
-
-
-def acceleration_name(name: str) -> str:
-    stem, digits = split_index(name)
-    return f"{stem}dd{digits}"
-
-
-def split_index(name: str) -> tuple[str, str]:
-    match = re.fullmatch(r"(.*?)(\d*)", name)
-    assert match is not None
-    stem, digits = match.group(1), match.group(2)
-    if not stem:  # a name of digits only cannot happen (identifiers), keep it whole
-        return name, ""
-    return stem, digits
-
-
-def maximal_coordinate_names(link_count: int) -> list[str]:
-    """Planar maximal coordinates: ``x<k>, y<k>, phi<k>`` of each link's COM frame."""
-    return [f"{v}{k}" for k in range(1, link_count + 1) for v in ("x", "y", "phi")]
-
-
 class _Validator:
     def __init__(self, doc: SourceDocument):
         self.doc = doc
         self.problems: list[Problem] = []
         self.parameters_broken = False
+        #: Values at the parameter defaults (set once the parameters are read).
+        self.evaluate = Evaluator()
 
     # -- reporting -------------------------------------------------------------------
     def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
@@ -128,7 +139,7 @@ class _Validator:
 
     def expression(self, value: Any, path: tuple[Any, ...], symbols: dict[str, sympy.Expr]) -> sympy.Expr | None:
         try:
-            return parse_expression(value, symbols)
+            expr = parse_expression(value, symbols)
         except ExpressionError as exc:
             if self.parameters_broken and str(exc).startswith("undeclared symbol"):
                 return None  # the broken parameters block is already reported
@@ -140,6 +151,27 @@ class _Validator:
                     offset = 0
             self.error(path, f"{self.label(path)}: {exc}", offset=offset)
             return None
+        return expr if self.at_defaults(expr, value, path) else None
+
+    def at_defaults(self, expr: sympy.Expr, value: Any, path: tuple[Any, ...]) -> bool:
+        """Refuse an expression that is not finite or not real at the parameter defaults."""
+        if not expr.free_symbols or expr.free_symbols - set(self.evaluate.values):
+            return True  # a constant (checked by the parser) or not every symbol has a default
+        detail = ""
+        try:
+            number = self.evaluate(expr)
+        except NotFiniteError as exc:
+            what = "out of the range of a double" if exc.reason == "out of range" else exc.reason
+        else:
+            if number is None or not imaginary_part(number):
+                return True
+            what, detail = "not a real number", f" (its value is {describe_number(number)})"
+        text = str(value) if len(str(value)) <= 40 else str(value)[:37] + "..."
+        names = ", ".join(f"{s} = {float(self.evaluate.values[s]):g}"
+                          for s in sorted(expr.free_symbols, key=str))
+        self.error(path, f"{self.label(path)}: '{text}' is {what} at the default parameter values "
+                   f"{names}{detail}")
+        return False
 
     def vector(self, value: Any, path: tuple[Any, ...], lengths: tuple[int, ...],
                symbols: dict[str, sympy.Expr]) -> list[sympy.Expr | None] | None:
@@ -167,17 +199,17 @@ def _lengths(lengths: tuple[int, ...]) -> str:
     return " or ".join(str(n) for n in lengths)
 
 
-def _numeric(expr: sympy.Expr | None, defaults: dict[sympy.Symbol, sympy.Float]) -> float | None:
-    """Value of ``expr`` with the parameter defaults, or None if it is not a number."""
+def _numeric(expr: sympy.Expr | None, defaults: Evaluator) -> float | None:
+    """Value of ``expr`` with the parameter defaults, or None if it is not a real number."""
     if expr is None:
         return None
     try:
-        value = complex(expr.xreplace(defaults).evalf())
-    except (TypeError, ValueError, ZeroDivisionError):
+        value = defaults(expr)
+    except NotFiniteError:
         return None
-    if value.imag != 0 or not math.isfinite(value.real):
+    if value is None or imaginary_part(value):
         return None
-    return value.real
+    return float(sympy.re(value))
 
 
 def validate(doc: SourceDocument) -> Robot:
@@ -221,13 +253,23 @@ def validate(doc: SourceDocument) -> Robot:
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
             v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {_kind(value)}")
             value = None
+        elif value is not None and isinstance(value, int) and abs(value) > 1.7976931348623157e308:
+            v.error(vpath, f"{v.label(vpath)}: default value is out of the range of a double")
+            value = None
         elif value is not None and not math.isfinite(float(value)):
             v.error(vpath, f"{v.label(vpath)}: default value must be finite, got {value}")
             value = None
         parameters.append(Parameter(pname, None if value is None else float(value), unit, description))
     symbols = {p.name: sympy.Symbol(p.name) for p in parameters}
-    defaults = {sympy.Symbol(p.name): sympy.Float(p.value) for p in parameters if p.value is not None}
+    v.evaluate = Evaluator({sympy.Symbol(p.name): sympy.Float(p.value) for p in parameters
+                            if p.value is not None})
+    defaults = v.evaluate
 
+    gravity = top.get("gravity")
+    if not planar and isinstance(gravity, list) and len(gravity) == 2 and _looks_planar(top):
+        why = "'planar: false' makes this robot 3-D" if "planar" in top else "this robot is 3-D"
+        v.error(("gravity",), f"gravity: has 2 entries, but {why}; planar robots need 'planar: true'")
+        planar = True  # check the rest as the planar robot it is, without piling up follow-on errors
     dimension = 2 if planar else 3
     if "gravity" in top:
         v.vector(top["gravity"], ("gravity",), (dimension,), symbols)
@@ -353,13 +395,32 @@ def validate(doc: SourceDocument) -> Robot:
     )
 
 
+def _looks_planar(top: dict[str, Any]) -> bool:
+    """Whether nothing in the file has a 3-D shape (com, inertia, origin, axis)."""
+    links = top.get("links") if isinstance(top.get("links"), list) else []
+    joints = top.get("joints") if isinstance(top.get("joints"), list) else []
+    for link in links:
+        if isinstance(link, dict):
+            com = link.get("com")
+            if (isinstance(com, list) and len(com) != 2) or isinstance(link.get("inertia"), (list, dict)):
+                return False
+    for joint in joints:
+        if isinstance(joint, dict):
+            origin, axis = joint.get("origin"), joint.get("axis")
+            if isinstance(origin, dict) or (isinstance(origin, list) and len(origin) not in (2, 3)):
+                return False
+            if isinstance(axis, list) and len(axis) != 2:
+                return False
+    return True
+
+
 def _did_you_mean(value: Any, options: list[str]) -> str:
     close = difflib.get_close_matches(str(value), options, n=1)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def _inertia(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,
-             symbols: dict[str, sympy.Expr], defaults: dict[sympy.Symbol, sympy.Float]) -> tuple[Any, ...]:
+             symbols: dict[str, sympy.Expr], defaults: Evaluator) -> tuple[Any, ...]:
     label = v.label(path)
     if planar:
         if isinstance(value, list):
@@ -425,7 +486,7 @@ def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,
 
 def _axis(v: _Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None,
           planar: bool, symbols: dict[str, sympy.Expr],
-          defaults: dict[sympy.Symbol, sympy.Float]) -> tuple[Any, ...]:
+          defaults: Evaluator) -> tuple[Any, ...]:
     default = (1, 0) if planar else (0, 0, 1)
     if "axis" not in item:
         return default
@@ -476,12 +537,20 @@ def _check_tree(v: _Validator, joints: list[Joint], link_names: dict[str, tuple[
 
 def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
                  joints: list[Joint], planar: bool) -> None:
-    """Every symbol the derivation creates must be unique and free for the generated code."""
+    """Every symbol the derivation creates must be unique, free for the generated code, and
+    typeset differently from every other symbol (``l1`` and ``l_1`` both print as l_{1})."""
     owners: dict[str, str] = {}
+    typeset: dict[str, tuple[str, str]] = {}  # LaTeX -> (name, owner)
 
-    def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False) -> bool:
+    def other(name: str, owner: str) -> str:
+        return owner if owner.startswith("the ") else f"'{name}' ({owner})"
+
+    def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False, dots: int = 0,
+              base: str | None = None) -> bool:
+        latex = latex_name(base or name, dots)
         if name in MODULE_NAMES:
-            v.error(path, f"{owner}: name '{name}' is reserved by the generated module", key=key)
+            why = " (a Python built-in)" if name in PYTHON_BUILTINS else ""
+            v.error(path, f"{owner}: name '{name}' is reserved by the generated module{why}", key=key)
         elif name.startswith("_"):
             v.error(path, f"{owner}: name '{name}' starts with '_', which the generated module keeps for "
                     "its own temporaries", key=key)
@@ -489,17 +558,24 @@ def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
             v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
         elif name in owners:
             v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
+        elif latex in typeset:
+            first, first_owner = typeset[latex]
+            v.error(path, f"{owner}: name '{name}' is typeset as {latex}, the same as "
+                    f"{other(first, first_owner)}", key=key)
         else:
             owners[name] = owner
+            typeset[latex] = (name, owner)
             return True
         return False
 
     if planar:  # names the maximal-coordinate derivation creates come first
         for name in maximal_coordinate_names(len(links)):
-            for derived in (name, velocity_name(name), acceleration_name(name)):
+            for dots, derived in enumerate((name, velocity_name(name), acceleration_name(name))):
                 owners[derived] = f"the maximal coordinate '{derived}'"
+                typeset[latex_name(name, dots)] = (derived, owners[derived])
         for k in range(1, 3 * len(links) + 1):
             owners[f"lambda{k}"] = f"the multiplier 'lambda{k}'"
+            typeset[latex_name(f"lambda{k}")] = (f"lambda{k}", owners[f"lambda{k}"])
     for p in parameters:
         claim(p.name, f"parameters.{p.name}", ("parameters", p.name), key=True)
     seen_joints: set[str] = set()
@@ -509,11 +585,12 @@ def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
         if joint.name in seen_joints:  # a duplicate joint name is reported once, where found
             continue
         seen_joints.add(joint.name)
-        if not claim(joint.name, f"{v.label(('joints', i, 'name'))}", ("joints", i, "name")):
+        label = v.label(("joints", i, "name"))
+        if not claim(joint.name, label, ("joints", i, "name")):
             continue
-        claim(velocity_name(joint.name), f"{v.label(('joints', i, 'name'))} (velocity '{velocity_name(joint.name)}')",
-              ("joints", i, "name"))
-        claim(acceleration_name(joint.name),
-              f"{v.label(('joints', i, 'name'))} (acceleration '{acceleration_name(joint.name)}')", ("joints", i, "name"))
+        claim(velocity_name(joint.name), f"{label} (velocity '{velocity_name(joint.name)}')",
+              ("joints", i, "name"), dots=1, base=joint.name)
+        claim(acceleration_name(joint.name), f"{label} (acceleration '{acceleration_name(joint.name)}')",
+              ("joints", i, "name"), dots=2, base=joint.name)
         if joint.effort:
             claim(joint.effort, f"joints[{i}].effort", ("joints", i, "effort"))
