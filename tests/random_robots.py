@@ -2,8 +2,8 @@
 
 ``random_planar_tree(rng, n)`` draws a branching tree of ``n`` moving joints (revolute and
 prismatic mixed), sometimes with one ``fixed`` weld, with arbitrary joint origins (including
-the angle) and non-unit prismatic axes. Every number is rounded to 3 decimals *before* it is
-written, and the numeric description holds exactly those rounded values, so an independent
+the angle) and non-unit prismatic axes. Every number is written at full precision (``repr``
+of the double, 17 digits), and the numeric description holds exactly those values, so an independent
 model (e.g. Pinocchio) built from ``PlanarTree.links``/``joints`` is the same robot as the file.
 
 Conventions (those of dynderive's planar files):
@@ -75,9 +75,9 @@ class PlanarTree:
 
 
 def _r(value: float) -> float:
-    """Round to 3 decimals (no negative zero)."""
-    out = round(value, 3)
-    return 0.0 if out == 0 else out
+    """The value at full precision, as CAD exporters write it (no negative zero): round
+    numbers hide bugs (exact rationals of 17 digits must still give working code)."""
+    return 0.0 if value == 0 else float(value)
 
 
 def _fmt(value: float) -> str:

@@ -4,8 +4,8 @@
 prismatic mixed) about arbitrary, non-unit axes, sometimes with one ``fixed`` weld, with
 arbitrary joint origins (``xyz`` and general ``rpy`` rotations) and full inertia tensors
 (a random rotation of random principal moments that satisfy the triangle inequality). Every
-number is rounded to 4 decimals *before* it is written, and the numeric description holds
-exactly those rounded values, so an independent model (e.g. Pinocchio) built from
+number is written at full precision (``repr`` of the double, 17 digits, as CAD exporters
+write them), and the numeric description holds exactly those values, so an independent model (e.g. Pinocchio) built from
 ``SpatialTree.links``/``joints`` is the same robot as the file.
 
 Conventions (those of dynderive's 3-D files, which are URDF's):
@@ -99,9 +99,9 @@ class SpatialTree:
 
 
 def _r(value: float) -> float:
-    """Round to 4 decimals (no negative zero)."""
-    out = round(value, 4)
-    return 0.0 if out == 0 else out
+    """The value at full precision, as CAD exporters write it (no negative zero): round
+    numbers hide bugs (exact rationals of 17 digits must still give working code)."""
+    return 0.0 if value == 0 else float(value)
 
 
 def _fmt(value: float) -> str:
@@ -132,11 +132,8 @@ def _random_rotation(rng: random.Random) -> list[list[float]]:
 
 
 def _random_inertia(rng: random.Random) -> Matrix3:
-    """``R diag(a, b, c) R^T``, rounded; the moments stay 0.02 inside the triangle limits.
-
-    Rounding moves every entry by at most 5e-5, so the eigenvalues move by at most 1.5e-4:
-    the rounded tensor is still positive definite and physical.
-    """
+    """``R diag(a, b, c) R^T`` at full precision; the moments stay 0.02 inside the triangle
+    limits, so the tensor as written is positive definite and physical."""
     a = rng.uniform(0.05, 0.3)
     b = rng.uniform(0.05, 0.3)
     c = rng.uniform(abs(a - b) + 0.02, a + b - 0.02)

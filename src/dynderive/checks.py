@@ -16,7 +16,7 @@ import numpy as np
 import sympy
 
 from .derivation import Derivation
-from .tidy import Check, check_zero, is_small
+from .tidy import Check, check_zero, fold_constants, is_small
 
 #: Quantities larger than this (tree nodes) are not evaluated symbolically against the code.
 SYMBOLIC_EVALUATION_NODES = 60_000
@@ -170,7 +170,7 @@ def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str
                         SYMBOLIC_EVALUATION_NODES):
             rows.append(Row(name, "skip", "symbolic form too large to evaluate", float("nan")))
             continue
-        symbolic = sympy.lambdify([table.q, table.qd, list(table.efforts.values()), params], value,
+        symbolic = sympy.lambdify([table.q, table.qd, list(table.efforts.values()), params], fold_constants(value),
                                   modules="numpy", cse=True)
         worst, scale = 0.0, 1.0
         for q, qd, u in zip(qs, qds, us):

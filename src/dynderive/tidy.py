@@ -10,6 +10,7 @@ from __future__ import annotations
 import random
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import sympy
 
@@ -23,6 +24,53 @@ SYMBOLIC_CHECK_LIMIT = 6000
 CANONICAL_LIMIT = 20000
 #: Grouping by trigonometric factors is the costliest candidate; only for small entries.
 COLLECT_LIMIT = 150
+
+
+#: Integers (and numerators, denominators) above this are not exact in a double.
+EXACT_INTEGER = 2**53
+
+
+def fold_constants(expr: Any) -> Any:
+    """``expr`` with every constant sub-expression that a double cannot hold exactly
+    (irrational constants, ``E``, huge rationals, functions of numbers) folded to a
+    correctly rounded ``Float``; small integers and rationals stay exact. Code printers and
+    numeric checks use it: NumPy has no ``sqrt`` of a 30-digit integer.
+
+    >>> fold_constants(sympy.sqrt(2) * sympy.Symbol("x") / 2)
+    0.707106781186548*x
+    """
+    if isinstance(expr, sympy.MatrixBase):
+        memo: dict[sympy.Basic, sympy.Basic] = {}
+        return expr.applyfunc(lambda e: _fold(sympy.sympify(e), memo))
+    return _fold(sympy.sympify(expr), {})
+
+
+def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic]) -> sympy.Basic:
+    if expr.is_Integer:
+        return expr if abs(expr.p) <= EXACT_INTEGER else _to_float(expr)
+    if expr.is_Rational:
+        return expr if abs(expr.p) <= EXACT_INTEGER and expr.q <= EXACT_INTEGER else _to_float(expr)
+    if expr.is_Float or expr.is_Symbol or not expr.args and expr.free_symbols:
+        return expr
+    if expr in memo:
+        return memo[expr]
+    if not expr.free_symbols:
+        result = _to_float(expr)
+    else:
+        args = [_fold(a, memo) for a in expr.args]
+        result = expr.func(*args) if any(a is not b for a, b in zip(args, expr.args)) else expr
+    memo[expr] = result
+    return result
+
+
+def _to_float(expr: sympy.Expr) -> sympy.Float:
+    value = expr.evalf(30)
+    if not (value.is_Float or value.is_Integer or value.is_Rational):
+        raise ValueError(f"constant {sympy.sstr(expr)[:60]} has no real floating-point value")
+    number = float(value)
+    if number != number or number in (float("inf"), float("-inf")):
+        raise ValueError(f"constant {sympy.sstr(expr)[:60]} is out of the range of a double")
+    return sympy.Float(number)
 
 
 def is_small(expr: sympy.Expr, limit: int) -> bool:

@@ -1,7 +1,17 @@
-"""The generated NumPy module: CSE per function, a NumPy printer, blocks into a template."""
+"""The generated NumPy module: CSE per function, a NumPy printer, blocks into a template.
+
+Numbers: constant sub-expressions (``sqrt(2)/2``, ``E``, a square root of a 17-digit
+rational from a CAD file's axis) are folded to correctly rounded floats, printed with
+``repr`` (17 significant digits, exact round trip); only integers and rationals that a double
+holds exactly stay as they were written. Free text reaches the module only through the
+encoders of ``encode.py``, and the rendered module is parsed back and checked before anyone
+can write or import it.
+"""
 
 from __future__ import annotations
 
+import ast
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -12,8 +22,20 @@ from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
-from ..tidy import operation_count
+from ..tidy import fold_constants, operation_count
+from .encode import Code, python_literal
 from .environment import render
+
+
+class CodeGenerationError(ValueError):
+    """The generated module would not be what the engine meant (an internal error)."""
+
+
+#: Functions the printed code may call, as the straight-line bodies receive them: from
+#: ``math`` (one state on floats) or NumPy (a batch). SymPy's ``Abs`` prints as ``abs``.
+BODY_FUNCTIONS = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
+                  "exp", "log", "sqrt", "abs")
+_CALL = re.compile(r"\b(" + "|".join(BODY_FUNCTIONS) + r")\(")
 
 CODE_TEMPLATE = "dynamics.py.j2"
 
@@ -25,6 +47,12 @@ class _Printer(NumPyPrinter):
         text = super()._module_format(fqn, register)
         return "np." + text[len("numpy."):] if text.startswith("numpy.") else text
 
+    def _print_Float(self, expr: sympy.Float) -> str:
+        return repr(float(expr))
+
+    def _print_Function(self, expr: sympy.Function) -> str:   # anything NumPy has no name for
+        raise CodeGenerationError(f"no NumPy function for {type(expr).__name__}")
+
 
 @dataclass
 class Argument:
@@ -33,6 +61,9 @@ class Argument:
     name: str
     symbols: list[sympy.Symbol]
     doc: str
+
+    def __post_init__(self) -> None:
+        self.doc = Code(self.doc)   # built from validated identifiers only
 
 
 @dataclass
@@ -65,10 +96,23 @@ class _LinePrinter(StrPrinter):
         return self.names.get(expr, expr.name)
 
     def _print_Float(self, expr: sympy.Float) -> str:
-        return repr(float(expr))
+        text = repr(float(expr))
+        return f"({text})" if text.startswith("-") else text
 
     def _print_Rational(self, expr: sympy.Rational) -> str:
         return str(expr.p) if expr.q == 1 else repr(float(expr))
+
+    def _print_Abs(self, expr: sympy.Abs) -> str:
+        return f"abs({self._print(expr.args[0])})"
+
+    def _print_Function(self, expr: sympy.Function) -> str:
+        name = type(expr).__name__
+        if name not in BODY_FUNCTIONS:
+            raise CodeGenerationError(f"no function {name} in generated bodies")
+        return f"{name}({', '.join(self._print(a) for a in expr.args)})"
+
+    def _print_NumberSymbol(self, expr: sympy.Expr) -> str:   # pi, E: folded before printing
+        return repr(float(expr))
 
     def _print_Mul(self, expr: sympy.Mul) -> str:
         coeff, rest = expr.as_coeff_Mul()
@@ -89,6 +133,8 @@ class ProgramFunction:
     lines: list[tuple[str, str]]
     outputs: list[str]
     operations: int
+    #: Names of the functions the body calls (its parameters after the argument rows).
+    functions: tuple[str, ...] = ()
 
 
 def program_function(name: str, doc: str, arguments: list[Argument], program: Any) -> ProgramFunction:
@@ -119,7 +165,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
     count = 0
     lines = []
     for position, (target, expr) in enumerate(body):
-        text = printer.doprint(expr)
+        text = Code(printer.doprint(fold_constants(expr)))
         for symbol in sorted(expr.free_symbols & targets, key=str):
             if last_use[symbol] == position:
                 free.append(slot[symbol])
@@ -129,9 +175,11 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             slot[target] = f"_r{count}"
             count += 1
         lines.append((slot[target], text))
-    outputs = [printer.doprint(sympy.sympify(e)) for e in program.outputs]
+    outputs = [Code(printer.doprint(fold_constants(e))) for e in program.outputs]
     operations = sum(operation_count(e) for _, e in body) + operation_count(sympy.Matrix(program.outputs))
-    return ProgramFunction(name, doc, arguments, lines, outputs, operations)
+    used = {m.group(1) for text in [*(t for _, t in lines), *outputs] for m in _CALL.finditer(text)}
+    functions = tuple(f for f in BODY_FUNCTIONS if f in used)
+    return ProgramFunction(name, Code(doc), arguments, lines, outputs, operations, functions)
 
 
 #: Quantities that stay matrices even with one column (a 1-DOF robot's M is 1 x 1).
@@ -150,7 +198,7 @@ def expression_function(name: str, doc: str, arguments: list[Argument], value: A
     column = not scalar and matrix.shape[1] == 1 and not matrix_result
     cells = [(i, j) for i in range(matrix.shape[0]) for j in range(matrix.shape[1])
              if matrix[i, j] != 0]
-    exprs = [matrix[i, j] for i, j in cells]
+    exprs = [fold_constants(matrix[i, j]) for i, j in cells]
     temporaries, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("_t"), order="canonical")
     used = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in temporaries)) if exprs else set()
     unpack = []
@@ -158,13 +206,13 @@ def expression_function(name: str, doc: str, arguments: list[Argument], value: A
         for index, symbol in enumerate(arg.symbols):
             if symbol in used:
                 unpack.append((str(symbol), arg.name, index))
-    lines = [(str(t), printer.doprint(e)) for t, e in temporaries]
+    lines = [(str(t), Code(printer.doprint(e))) for t, e in temporaries]
     entries = []
     for (i, j), expr in zip(cells, reduced):
         index = "" if scalar else (f"{i}" if column else f"{i}, {j}")
-        entries.append((index, printer.doprint(expr)))
+        entries.append((index, Code(printer.doprint(expr))))
     shape = () if scalar else ((matrix.shape[0],) if column else tuple(matrix.shape))
-    return ExpressionFunction(name, doc, arguments, shape, unpack, lines, entries)
+    return ExpressionFunction(name, Code(doc), arguments, shape, unpack, lines, entries)
 
 
 def code_context(derivation: Derivation) -> dict[str, Any]:
@@ -203,7 +251,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
                                                  matrix_result=quantity in MATRICES))
     parameters = []
     for p in robot.parameters:
-        parameters.append({"name": p.name, "default": None if p.value is None else repr(p.value),
+        parameters.append({"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
                            "unit": p.unit, "description": p.description})
     from .. import __version__
 
@@ -291,14 +339,44 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
     return programs
 
 
-def _tuple(names: tuple[str, ...]) -> str:
+def _tuple(names: tuple[str, ...]) -> Code:
     """Python source of a tuple of strings, with double quotes as ruff formats them."""
-    items = ", ".join(f'"{n}"' for n in names)
-    return f"({items},)" if len(names) == 1 else f"({items})"
+    return python_literal(tuple(names))
 
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
-    return render("code", CODE_TEMPLATE, code_context(derivation), template_dir)
+    text = render("code", CODE_TEMPLATE, code_context(derivation), template_dir)
+    verify_module(text, derivation.robot.title if template_dir is None else None)
+    return text
+
+
+#: What the top level of a generated module may hold: its docstring, imports of these
+#: modules, constants and functions. Anything else (a call, an ``if``) is not ours.
+_TOP_LEVEL = (ast.Import, ast.ImportFrom, ast.Assign, ast.AnnAssign, ast.FunctionDef)
+_IMPORTS = {"math", "numpy", "pytest", "__future__"}
+
+
+def verify_module(text: str, title: str | None = None) -> None:
+    """Parse the rendered module and check that it is only what the generator meant: no
+    statement at the top level but imports, constants and functions, and (built-in template)
+    a docstring that reads back the robot's title exactly, so no free text changed the program.
+
+    Raises ``CodeGenerationError`` (an internal error, exit 1) before anything is written.
+    """
+    try:
+        tree = ast.parse(text)
+    except (SyntaxError, ValueError) as exc:
+        raise CodeGenerationError(f"the generated module does not parse: {exc}") from None
+    body = tree.body[1:] if ast.get_docstring(tree, clean=False) is not None else tree.body
+    for node in body:
+        if not isinstance(node, _TOP_LEVEL):
+            raise CodeGenerationError(f"unexpected {type(node).__name__} at line {node.lineno} of the generated module")
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            names = [node.module or ""] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
+            if any(n.split(".")[0] not in _IMPORTS for n in names):
+                raise CodeGenerationError(f"unexpected import at line {node.lineno} of the generated module")
+    if title is not None and title not in (ast.get_docstring(tree, clean=False) or ""):
+        raise CodeGenerationError("the generated module's docstring does not read back the robot's title")
 
 
 def render_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
@@ -307,4 +385,9 @@ def render_code_tests(derivation: Derivation, template_dir: str | Path | None = 
 
     context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
                "source": Path(derivation.robot.source).name, "maximal": "M_m" in derivation.quantities}
-    return render("code", "dynamics_test.py.j2", context, template_dir)
+    text = render("code", "dynamics_test.py.j2", context, template_dir)
+    try:
+        ast.parse(text)
+    except (SyntaxError, ValueError) as exc:
+        raise CodeGenerationError(f"the generated test module does not parse: {exc}") from None
+    return text

@@ -12,6 +12,9 @@ from importlib import resources
 from pathlib import Path
 
 import jinja2
+import markupsafe
+
+from .encode import Code, docstring, escape_tex, is_plain, python_literal, tex_unit
 
 LATEX_DELIMITERS = {
     "block_start_string": r"\BLOCK{",
@@ -38,7 +41,7 @@ def environment(kind: str, template_dir: str | None = None) -> jinja2.Environmen
     """The environment for ``kind`` ("latex" or "code"); ``template_dir`` overrides by file name."""
     search = [str(template_dir)] if template_dir else []
     search.append(str(builtin_templates_dir()))
-    options = dict(LATEX_DELIMITERS) if kind == "latex" else {}
+    options: dict[str, object] = dict(LATEX_DELIMITERS) if kind == "latex" else {"finalize": _python_source}
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(search),
         undefined=jinja2.StrictUndefined,
@@ -48,7 +51,25 @@ def environment(kind: str, template_dir: str | None = None) -> jinja2.Environmen
         lstrip_blocks=True,
         **options,  # type: ignore[arg-type]
     )
+    env.filters.update({"docstring": docstring, "py": python_literal, "tex": escape_tex, "tex_unit": tex_unit})
     return env
+
+
+def _python_source(value: object) -> object:
+    """What a code template prints: encoded text (``Code``), numbers, or text that holds
+    nothing that could change the program; anything else is a template bug (free text
+    printed without ``|docstring`` or ``|py``), refused before a module is written."""
+    if isinstance(value, (Code, markupsafe.Markup)) or value is None or isinstance(value, (bool, int, float)):
+        return value
+    text = str(value)
+    if not is_plain(text):
+        raise TemplateEncodingError(f"a code template printed text that is not encoded for Python: {text[:60]!r} "
+                                    "(use the |docstring or |py filter)")
+    return value
+
+
+class TemplateEncodingError(ValueError):
+    """A code template printed free text without encoding it."""
 
 
 def render(kind: str, name: str, context: dict[str, object], template_dir: str | Path | None) -> str:
