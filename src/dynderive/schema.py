@@ -397,14 +397,13 @@ def validate(doc: SourceDocument) -> Robot:
 
 def _looks_planar(top: dict[str, Any]) -> bool:
     """Whether nothing in the file has a 3-D shape (com, inertia, origin, axis)."""
-    links = top.get("links") if isinstance(top.get("links"), list) else []
-    joints = top.get("joints") if isinstance(top.get("joints"), list) else []
-    for link in links:
+    links, joints = top.get("links"), top.get("joints")
+    for link in links if isinstance(links, list) else []:
         if isinstance(link, dict):
             com = link.get("com")
             if (isinstance(com, list) and len(com) != 2) or isinstance(link.get("inertia"), (list, dict)):
                 return False
-    for joint in joints:
+    for joint in joints if isinstance(joints, list) else []:
         if isinstance(joint, dict):
             origin, axis = joint.get("origin"), joint.get("axis")
             if isinstance(origin, dict) or (isinstance(origin, list) and len(origin) not in (2, 3)):
