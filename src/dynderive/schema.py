@@ -235,7 +235,7 @@ def validate(doc: SourceDocument) -> Robot:
         v.parameters_broken = True
         raw_parameters = {}
     for pname, spec in raw_parameters.items():
-        path = ("parameters", pname)
+        path: tuple[Any, ...] = ("parameters", pname)
         if v.identifier(pname, path, "parameter name", key=True) is None:
             continue
         if pname in RESERVED:
