@@ -10,6 +10,11 @@ becomes ``world``; ``continuous`` joints are revolute; ``fixed`` joints are merg
 parent link (mass, centre of mass and inertia combined), so every remaining link moves;
 inertial frames with ``rpy`` are rotated into the link axes; efforts are named ``tau_<joint>``
 (revolute) and ``f_<joint>`` (prismatic); gravity is ``[0, 0, -g]`` with ``g = 9.81``.
+
+Rotations are composed as matrices; a composed ``rpy`` is extracted so that its matrix
+reproduces the composed one to rounding, also near gimbal lock (``matrix_to_rpy``). Only the
+``rpy`` numbers written in the file are snapped to exact quarter turns (``snap``), never
+composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``.
 """
 
 from __future__ import annotations
@@ -99,35 +104,126 @@ class _Reader:
         return values
 
 
-def _rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    cr, sr, cp, sp, cy, sy = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw), math.sin(yaw)
+#: A written angle within this distance of a multiple of pi/2 is that multiple, exactly.
+SNAP = 1e-9
+#: Only angles of at most this many quarter turns (one full turn either way) are snapped.
+SNAP_QUARTERS = 4
+
+#: An angle: its value, and the number of quarter turns when it is exactly a multiple of pi/2.
+Angle = tuple[float, int | None]
+
+
+def snap(value: float) -> Angle:
+    """A written angle: within ``SNAP`` of ``k*pi/2`` (``|k| <= 4``) it is exactly ``k`` quarter turns.
+
+    Applied only to angles as written in the file (``rpy`` of joint and inertial origins), never
+    to angles computed by composing rotations.
+    """
+    quarters = round(value / (math.pi / 2)) if math.isfinite(value) and abs(value) < 10 else None
+    if quarters is None or abs(quarters) > SNAP_QUARTERS or abs(value - quarters * (math.pi / 2)) > SNAP:
+        return value, None
+    return quarters * (math.pi / 2), quarters
+
+
+_QUARTER_COS_SIN = ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))
+
+
+def _cos_sin(angle: Angle) -> tuple[float, float]:
+    value, quarters = angle
+    if quarters is not None:
+        return _QUARTER_COS_SIN[quarters % 4]
+    return math.cos(value), math.sin(value)
+
+
+def rpy_matrix(roll: Angle, pitch: Angle, yaw: Angle) -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw ``Rz(yaw) Ry(pitch) Rx(roll)``; exact for quarter turns."""
+    (cr, sr), (cp, sp), (cy, sy) = _cos_sin(roll), _cos_sin(pitch), _cos_sin(yaw)
     return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
                      [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
                      [-sp, cp * sr, cp * cr]])
 
 
-def _to_rpy(R: np.ndarray) -> list[float]:
+def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:
+    """Roll, pitch, yaw whose ``rpy_matrix`` reproduces ``R`` to rounding, also near gimbal lock.
+
+    Pitch and yaw come from the first column (pitch in [-pi/2, pi/2]); roll from the matrix
+    with that yaw and pitch undone, ``Ry(p)^T Rz(y)^T R = Rx(roll)``, whose entries are of
+    order one even where the classic ``atan2(r21, r22)`` divides two numbers near zero. Near
+    gimbal lock the yaw is poorly determined, but that de-rotation absorbs its error into roll.
+    """
     pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    if abs(math.cos(pitch)) < 1e-12:  # gimbal lock: put everything in yaw
-        return [0.0, pitch, math.atan2(-R[0, 1], R[1, 1])]
-    return [math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])]
+    yaw = math.atan2(R[1, 0], R[0, 0])
+    cp, sp, cy, sy = math.cos(pitch), math.sin(pitch), math.cos(yaw), math.sin(yaw)
+    undo_yaw = np.array([[cy, sy, 0.0], [-sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    undo_pitch = np.array([[cp, 0.0, -sp], [0.0, 1.0, 0.0], [sp, 0.0, cp]])
+    X = undo_pitch @ (undo_yaw @ R)
+    roll = math.atan2(X[2, 1] - X[1, 2], X[1, 1] + X[2, 2])
+    return roll, pitch, yaw
+
+
+@dataclass(frozen=True)
+class Rotation:
+    """A rotation matrix, with the ``rpy`` it was written with until it is composed."""
+
+    matrix: np.ndarray
+    written: tuple[Angle, Angle, Angle] | None = None
+
+    @classmethod
+    def from_rpy(cls, rpy: list[float]) -> Rotation:
+        angles = (snap(rpy[0]), snap(rpy[1]), snap(rpy[2]))
+        return cls(rpy_matrix(*angles), angles)
+
+    @property
+    def is_identity(self) -> bool:
+        return bool(np.array_equal(self.matrix, np.eye(3)))
+
+    def __matmul__(self, other: Rotation) -> Rotation:
+        if self.is_identity:
+            return other
+        if other.is_identity:
+            return self
+        return Rotation(self.matrix @ other.matrix)
+
+    def rpy(self) -> list[float | int | str]:
+        """``rpy`` entries for the robot file: as written (snapped) if not composed; otherwise
+        extracted from the matrix, exact quarter turns only when the matrix is exactly one."""
+        if self.written is not None:
+            return [_angle(a) for a in self.written]
+        angles = matrix_to_rpy(self.matrix)
+        quarters = tuple((0.0, round(a / (math.pi / 2))) for a in angles)
+        if np.array_equal(rpy_matrix(*quarters), self.matrix):  # type: ignore[arg-type]
+            return [_angle(a) for a in quarters]
+        return [_angle((a, None)) for a in angles]
+
+
+IDENTITY = Rotation(np.eye(3), ((0.0, 0), (0.0, 0), (0.0, 0)))
+
+
+def _angle(angle: Angle) -> float | int | str:
+    value, quarters = angle
+    if quarters is None:
+        return 0 if abs(value) < 1e-15 else _number(value)
+    if quarters % 2:
+        return {1: "pi/2", -1: "-pi/2"}.get(quarters, f"{quarters}*pi/2")
+    return {0: 0, 2: "pi", -2: "-pi"}.get(quarters, f"{quarters // 2}*pi")
 
 
 def _number(value: float) -> float | int:
     """A float as written in the source (shortest round-trip form), integers as integers."""
     value = float(value)
-    if abs(value) < 1e-15:
-        return 0
     return int(value) if value == int(value) and abs(value) < 1e15 else value
 
 
-def _angle(value: float) -> float | int | str:
-    """An angle; within 1e-9 of a multiple of pi/2 it is taken as exact (``pi/2``)."""
-    value = float(value)
-    quarter = round(value / (math.pi / 2))
-    if abs(value - quarter * math.pi / 2) > 1e-9:
-        return _number(value)
-    return {0: 0, 1: "pi/2", -1: "-pi/2", 2: "pi", -2: "-pi"}.get(quarter, f"{quarter}*pi/2")
+def _numbers(values: Any, scale: float | None = None) -> list[float | int]:
+    """Entries of a computed vector or tensor; those below 1e-15 of ``scale`` (default: the
+    largest entry), i.e. rounding noise of the products that made them, are written as 0."""
+    values = [float(v) for v in np.ravel(values)]
+    scale = max((abs(v) for v in values), default=0.0) if scale is None else scale
+    return [0 if abs(v) <= 1e-15 * scale else _number(v) for v in values]
+
+
+def _finite(*arrays: Any) -> bool:
+    return all(bool(np.all(np.isfinite(np.asarray(a, dtype=float)))) for a in arrays)
 
 
 @dataclass
@@ -136,11 +232,26 @@ class _Body:
     com: np.ndarray        # in the link frame
     inertia: np.ndarray    # about the COM, link axes
     element: _Element
+    scale: float = 0.0     # the largest |COM entry| that went into com (for rounding noise)
 
 
 def identifier(name: str) -> str:
     cleaned = re.sub(r"\W", "_", name)
     return cleaned if re.match(r"[A-Za-z_]", cleaned) else f"r_{cleaned}"
+
+
+def _inertia_problem(tensor: np.ndarray) -> str | None:
+    """Why a 3x3 inertia is not physical (same test and words as the YAML validator), or None."""
+    with np.errstate(all="ignore"):
+        eig = [float(x) for x in np.linalg.eigvalsh(tensor)]
+    if not all(math.isfinite(x) for x in eig):
+        return "inertia is too large"
+    tol = 1e-12 * max(1.0, max(abs(x) for x in eig))
+    if eig[0] < -tol:
+        return f"inertia is not positive semi-definite (smallest principal moment {eig[0]:g})"
+    if any(eig[a] + eig[b] < eig[c] - tol for a, b, c in ((0, 1, 2), (0, 2, 1), (1, 2, 0))):
+        return f"principal moments {', '.join(f'{x:g}' for x in eig)} violate the triangle inequality"
+    return None
 
 
 def read_urdf(text: str, file: str) -> SourceDocument:
@@ -166,7 +277,7 @@ def read_urdf(text: str, file: str) -> SourceDocument:
             continue
         origin = inertial.find("origin")
         xyz = reader.numbers(origin, "xyz", 3, [0, 0, 0])
-        rpy = reader.numbers(origin, "rpy", 3, [0, 0, 0])
+        rotation = Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0]))
         mass_element = inertial.find("mass")
         inertia_element = inertial.find("inertia")
         if mass_element is None or inertia_element is None:
@@ -177,8 +288,16 @@ def read_urdf(text: str, file: str) -> SourceDocument:
                   for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")]
         ixx, ixy, ixz, iyy, iyz, izz = values
         tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        R = _rpy(*rpy)
-        bodies[name] = _Body(mass, np.array(xyz), R @ tensor @ R.T, inertial)
+        problem = _inertia_problem(tensor)
+        if problem is not None:
+            reader.error(inertia_element, f"link '{name}' inertia: {problem}")
+        R = rotation.matrix
+        with np.errstate(all="ignore"):
+            rotated = R @ tensor @ R.T
+        if problem is None and not _finite(rotated):
+            reader.error(inertia_element, f"link '{name}' inertia: too large (rotating it by the "
+                         "<origin rpy> of <inertial> overflows)")
+        bodies[name] = _Body(mass, np.array(xyz), rotated, inertial, max(map(abs, xyz)))
 
     joints: list[dict[str, Any]] = []
     for joint in root.findall("joint"):
@@ -186,8 +305,11 @@ def read_urdf(text: str, file: str) -> SourceDocument:
         jtype = joint.attrib.get("type", "")
         parent = (joint.find("parent") or _Element("parent", {}, joint.line, joint.column)).attrib.get("link")
         child = (joint.find("child") or _Element("child", {}, joint.line, joint.column)).attrib.get("link")
-        if joint.find("mimic") is not None:
-            reader.error(joint.find("mimic"), f"joint '{name}': <mimic> joints are not supported")  # type: ignore[arg-type]
+        mimic = joint.find("mimic")
+        if mimic is not None and jtype == "fixed":
+            doc.notes.append(f"{file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
+        elif mimic is not None:
+            reader.error(mimic, f"joint '{name}': <mimic> joints are not supported")
             continue
         if jtype in ("floating", "planar"):
             reader.error(joint, f"joint '{name}': {jtype} joints are not supported (only revolute, "
@@ -207,14 +329,22 @@ def read_urdf(text: str, file: str) -> SourceDocument:
             "element": joint, "name": name, "type": "revolute" if jtype == "continuous" else jtype,
             "parent": parent, "child": child,
             "xyz": np.array(reader.numbers(origin, "xyz", 3, [0, 0, 0])),
-            "R": _rpy(*reader.numbers(origin, "rpy", 3, [0, 0, 0])),
+            "R": Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0])),
             "axis": reader.numbers(joint.find("axis"), "xyz", 3, [1, 0, 0]),
             "axis_element": joint.find("axis") or joint,
         })
+    moving_children = {j["child"] for j in joints if j["type"] != "fixed"}
+    for name, body in bodies.items():
+        if body.mass < 0:  # a moving link needs a positive mass in the end; a welded one may have none
+            rule = "must be positive" if name in moving_children else "must not be negative"
+            reader.error(body.element.find("mass") or body.element, f"link '{name}' mass: {rule} (got {body.mass:g})")
     if reader.problems:
         raise InputError(reader.problems)
 
-    children = {j["child"] for j in joints}
+    by_child = _check_tree(reader, joints, link_elements)
+    if reader.problems:
+        raise InputError(reader.problems)
+    children = set(by_child)
     roots = [name for name in link_elements if name not in children]
     if len(roots) != 1:
         where = root if not roots else link_elements[roots[1]]
@@ -223,33 +353,51 @@ def read_urdf(text: str, file: str) -> SourceDocument:
                                  + (f" ({', '.join(roots)})" if roots else "")))
     base = roots[0]
 
-    # merge fixed joints into their parent (world for the root), children first
-    owner = {name: name for name in link_elements}   # link -> the moving link it is merged into
-    offset = {name: (np.eye(3), np.zeros(3)) for name in link_elements}  # frame of link in its owner
-    by_child = {j["child"]: j for j in joints}
-
-    def resolve(name: str) -> tuple[str, np.ndarray, np.ndarray]:
-        if name == base:
-            return "world", np.eye(3), np.zeros(3)
-        joint = by_child[name]
-        if joint["type"] != "fixed":
-            return name, np.eye(3), np.zeros(3)
-        parent_owner, R0, p0 = resolve(joint["parent"])
-        return parent_owner, R0 @ joint["R"], R0 @ joint["xyz"] + p0
+    # merge fixed joints into their parent (world for the root): every link's frame in the
+    # moving link it is welded to, composed as matrices from the top (no recursion: chains
+    # of fixed joints may be long)
+    frames: dict[str, tuple[str, Rotation, np.ndarray]] = {base: ("world", IDENTITY, np.zeros(3))}
+    for name in link_elements:
+        chain = []
+        current = name
+        while current not in frames:
+            joint = by_child[current]
+            if joint["type"] != "fixed":
+                frames[current] = (current, IDENTITY, np.zeros(3))
+                break
+            chain.append(joint)
+            current = joint["parent"]
+        for joint in reversed(chain):
+            target, R0, p0 = frames[joint["parent"]]
+            with np.errstate(all="ignore"):
+                p = R0.matrix @ joint["xyz"] + p0
+            if not _finite(p):
+                reader.error(joint["element"], f"joint '{joint['name']}': origin too large (composing it "
+                             "with the fixed joints above overflows)")
+            frames[joint["child"]] = (target, R0 @ joint["R"], p)
+    if reader.problems:
+        raise InputError(reader.problems)
 
     merged: dict[str, _Body] = {}
     for name in link_elements:
-        target, R, p = resolve(name)
-        owner[name], offset[name] = target, (R, p)
+        target, rotation, p = frames[name]
         if target == "world" or name not in bodies:
             continue
         body = bodies[name]
-        com = R @ body.com + p
-        inertia = R @ body.inertia @ R.T
-        if target not in merged:
-            merged[target] = _Body(body.mass, com, inertia, body.element)
-        else:
-            merged[target] = _combine(merged[target], _Body(body.mass, com, inertia, body.element))
+        R = rotation.matrix
+        with np.errstate(all="ignore"):
+            placed = _Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
+                           max(body.scale, float(np.max(np.abs(p)))))
+            combined = placed if target not in merged else _combine(merged[target], placed)
+        if not _finite(combined.mass, combined.com, combined.inertia):
+            what, tag = next((w, t) for w, t, v in (("mass", "mass", combined.mass), ("centre of mass", "origin",
+                              combined.com), ("inertia", "inertia", combined.inertia)) if not _finite(v))
+            reader.error(body.element.find(tag) or body.element, f"link '{name}': merging it into link "
+                         f"'{target}' (fixed joints) makes the {what} overflow")
+            continue
+        merged[target] = combined
+    if reader.problems:
+        raise InputError(reader.problems)
 
     data: dict[str, Any] = {
         "name": identifier(root.attrib.get("name", "robot")),
@@ -276,8 +424,8 @@ def read_urdf(text: str, file: str) -> SourceDocument:
             continue
         t = body.inertia
         entry = {"name": identifier(name), "mass": _number(body.mass),
-                 "com": [_number(c) for c in body.com],
-                 "inertia": [_number(v) for v in (t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2])]}
+                 "com": _numbers(body.com, max(body.scale, float(np.max(np.abs(body.com))))),
+                 "inertia": _numbers([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])}
         data["links"].append(entry)
         doc.labels[path] = f"link '{name}'"
         inertial = body.element
@@ -288,16 +436,21 @@ def read_urdf(text: str, file: str) -> SourceDocument:
             positions[path + (key,)] = (spot.line, spot.column)
     for index, joint in enumerate(moving):
         element = joint["element"]
-        parent_owner = owner[joint["parent"]]
-        R0, p0 = offset[joint["parent"]]
-        R = R0 @ joint["R"]
-        xyz = R0 @ joint["xyz"] + p0
+        parent_owner, R0, p0 = frames[joint["parent"]]
+        rotation = R0 @ joint["R"]
+        with np.errstate(all="ignore"):
+            xyz = R0.matrix @ joint["xyz"] + p0
+        if not _finite(xyz):
+            reader.error(element, f"joint '{joint['name']}': origin too large (composing it with the "
+                         "fixed joints above overflows)")
+            continue
         jname = identifier(joint["name"])
+        scale = max(float(np.max(np.abs(joint["xyz"]))), float(np.max(np.abs(p0))))
         entry = {
             "name": jname, "type": joint["type"],
             "parent": "world" if parent_owner == "world" else identifier(parent_owner),
             "child": identifier(joint["child"]),
-            "origin": {"xyz": [_number(v) for v in xyz], "rpy": [_angle(v) for v in _to_rpy(R)]},
+            "origin": {"xyz": _numbers(xyz, scale), "rpy": rotation.rpy()},
             "axis": [_number(v) for v in joint["axis"]],
             "effort": ("tau_" if joint["type"] == "revolute" else "f_") + jname,
         }
@@ -317,15 +470,44 @@ def read_urdf(text: str, file: str) -> SourceDocument:
     return doc
 
 
+def _check_tree(reader: _Reader, joints: list[dict[str, Any]],
+                link_elements: dict[str, _Element]) -> dict[str, dict[str, Any]]:
+    """Each link is the child of at most one joint, and no chain of joints closes on itself
+    (same words as the YAML validator). Returns the parent joint of each child link."""
+    by_child: dict[str, dict[str, Any]] = {}
+    for joint in joints:
+        first = by_child.setdefault(joint["child"], joint)
+        if first is not joint:
+            where = joint["element"].find("child") or joint["element"]
+            reader.error(where, f"joint '{joint['name']}': link '{joint['child']}' already has a parent "
+                         f"joint (joint '{first['name']}'); robots must be trees")
+    done: set[str] = set()   # links whose chain up to a root (or a reported cycle) is walked
+    for name in link_elements:
+        seen: dict[str, int] = {}   # the current walk, in order (a dict: linear time)
+        current = name
+        while current in by_child and current not in seen and current not in done:
+            seen[current] = len(seen)
+            current = by_child[current]["parent"]
+        done.update(seen)
+        if current in seen:
+            loop = list(seen)[seen[current]:] + [current]
+            joint = by_child[current]
+            reader.error(joint["element"], f"joint '{joint['name']}': links {' -> '.join(loop)} form a "
+                         "cycle not connected to 'world'")
+    return by_child
+
+
 def _combine(a: _Body, b: _Body) -> _Body:
     """Two rigid bodies welded together (all in one frame): mass, COM, inertia about the COM."""
     mass = a.mass + b.mass
     com = (a.mass * a.com + b.mass * b.com) / mass if mass > 0 else a.com
     inertia = np.zeros((3, 3))
     for body in (a, b):
-        d = body.com - com
-        inertia += body.inertia + body.mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
-    return _Body(mass, com, inertia, a.element)
+        inertia += body.inertia
+        if body.mass:  # a massless body adds no parallel-axis term, however far away it is
+            d = body.com - com
+            inertia += body.mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    return _Body(mass, com, inertia, a.element, max(a.scale, b.scale))
 
 
 def to_yaml(data: dict[str, Any], source: str) -> str:
