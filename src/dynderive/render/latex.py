@@ -9,6 +9,7 @@ import sympy
 
 from ..derivation import Derivation
 from ..tidy import is_small
+from .encode import escape_tex, tex_unit
 from .environment import render
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
@@ -22,17 +23,6 @@ MATRIX_NODES = 6000
 #: A matrix whose LaTeX is longer than this is typeset entry by entry.
 WIDE_MATRIX = 320
 SHEET_TEMPLATE = "sheet.tex.j2"
-
-_SPECIALS = {
-    "\\": r"\textbackslash{}", "{": r"\{", "}": r"\}", "$": r"\$", "&": r"\&", "#": r"\#",
-    "^": r"\textasciicircum{}", "_": r"\_", "~": r"\textasciitilde{}", "%": r"\%",
-}
-
-
-def escape_tex(text: object) -> str:
-    """Free text for LaTeX: every special character appears literally."""
-    return "".join(_SPECIALS.get(ch, ch) for ch in str(text))
-
 
 class Formatter:
     """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``)."""
@@ -57,7 +47,7 @@ class Formatter:
         nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
         if nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix):
             return {"latex": "", "wide": True, "entries": [], "shape": [rows, cols],
-                    "too_large": True, "nodes": nodes}
+                    "too_large": True, "nodes": nodes, "zeros": 0}
         whole = self(matrix)
         entries = []
         for i in range(rows):
@@ -66,7 +56,7 @@ class Formatter:
                     index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
                     entries.append({"name": f"{name}_{{{index}}}", "latex": self(matrix[i, j])})
         return {"latex": whole, "wide": len(whole) > WIDE_MATRIX, "entries": entries,
-                "shape": [rows, cols], "too_large": False, "nodes": nodes}
+                "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
 
 
 def _nodes_up_to(exprs: list[Any], limit: int) -> int:
@@ -109,7 +99,7 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
     parameters = [{
         "symbol": fmt(table.parameters[p.name]),
         "value": "" if p.value is None else f"{p.value:g}",
-        "unit": escape_tex(p.unit), "description": escape_tex(p.description),
+        "unit": tex_unit(p.unit), "description": escape_tex(p.description),
     } for p in robot.parameters]
     joints = [{
         "name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sympy
 
 from ..derivation import Derivation
+from .encode import terminal_text
 
 
 def _block(title: str, value: object) -> str:
@@ -16,7 +17,7 @@ def render_terminal(derivation: Derivation) -> str:
     robot, q = derivation.robot, derivation.quantities
     coords = ", ".join(robot.coordinates)
     parts = [
-        f"{robot.title} ({robot.name}): {len(robot.coordinates)} DOF, coordinates ({coords})",
+        f"{terminal_text(robot.title)} ({robot.name}): {len(robot.coordinates)} DOF, coordinates ({coords})",
         "",
         "Equations of motion  M(q) q'' + C(q, q') q' + N(q) = Y",
         "",
