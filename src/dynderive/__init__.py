@@ -1,21 +1,52 @@
-"""dynderive: equations of motion of robots, derived symbolically, rendered for people and code."""
+"""dynderive: equations of motion of robots, derived symbolically, rendered for people and code.
+
+The package imports nothing heavy until an attribute is used (SymPy takes half a second to
+import), so the command line starts at once and an early Ctrl-C exits quietly.
+
+>>> import dynderive
+>>> d = dynderive.derive(dynderive.load_robot("rp_arm"))       # doctest: +SKIP
+"""
 
 from __future__ import annotations
 
+from importlib import import_module
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from .derivation import Derivation, derive
-from .errors import DynderiveError, InputError
-from .lagrange import (
-    christoffel_coriolis,
-    constraint_jacobian_dot,
-    gravity_vector,
-    lagrange_equations,
-    time_derivative,
-)
-from .model import Joint, Link, Parameter, Robot
+if TYPE_CHECKING:  # pragma: no cover
+    from ._version import __version__
+    from .derivation import Derivation, derive
+    from .errors import DynderiveError, InputError
+    from .lagrange import (
+        christoffel_coriolis,
+        constraint_jacobian_dot,
+        gravity_vector,
+        lagrange_equations,
+        time_derivative,
+    )
+    from .model import Joint, Link, Parameter, Robot
 
-__version__ = "0.1.0"
+#: Public names and the modules that define them, imported on first use.
+_LAZY = {
+    "__version__": "_version",
+    "Derivation": "derivation", "derive": "derivation",
+    "DynderiveError": "errors", "InputError": "errors",
+    "christoffel_coriolis": "lagrange", "constraint_jacobian_dot": "lagrange",
+    "gravity_vector": "lagrange", "lagrange_equations": "lagrange", "time_derivative": "lagrange",
+    "Joint": "model", "Link": "model", "Parameter": "model", "Robot": "model",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'dynderive' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
 
 
 def load_robot(robot: str | Path) -> Robot:

@@ -120,7 +120,7 @@ def check_names(sources: list[Path]) -> None:
 
 
 def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -> str:
-    from . import __version__
+    from ._version import __version__
     from .render.environment import templates_in_use
 
     digest = hashlib.sha256()

@@ -9,7 +9,6 @@ from __future__ import annotations
 import functools
 import os
 import signal
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -17,8 +16,8 @@ from typing import Annotated, Any, TypeVar
 
 import typer
 
-from . import __version__
-from .errors import DynderiveError, ExternalToolError, InputError, ToolMissingError
+from ._version import __version__
+from .errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
 
 app = typer.Typer(
     add_completion=False,
@@ -37,7 +36,7 @@ def _fail(message: str, code: int) -> typer.Exit:
 
 
 def _terminate(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
+    raise Interrupted
 
 
 def handle_errors(function: F) -> F:
@@ -54,7 +53,7 @@ def handle_errors(function: F) -> F:
             raise _fail(f"dynderive: {exc}", 1) from None
         except DynderiveError as exc:
             raise _fail(f"dynderive: {exc}", 1) from None
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, Interrupted):
             raise _fail("dynderive: interrupted; no output was changed", 130) from None
         except typer.Exit:
             raise
@@ -373,9 +372,11 @@ def _problem(file: str, message: str) -> Any:
 
 
 def run() -> None:
-    """Console-script entry point."""
-    app(prog_name="dynderive")
+    """Console-script entry point (``dynderive.__main__.run``, which takes over signals first)."""
+    from .__main__ import run as main_run
+
+    main_run()
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(run())
+    run()

@@ -48,3 +48,8 @@ class ExternalToolError(DynderiveError):
 
 class OutputError(DynderiveError):
     """An output could not be written (a file where a folder should be, no permission; exit 1)."""
+
+
+class Interrupted(BaseException):
+    """Ctrl-C or SIGTERM (exit code 130). A ``BaseException`` that is not a
+    ``KeyboardInterrupt``, so that nothing on the way (Click's "Aborted!") swallows it."""

@@ -1,14 +1,17 @@
 """Atomic output: every file is written to a temporary sibling, then renamed into place.
 
 All outputs of a run are rendered in memory first; ``write_all`` then writes each to a
-temporary file and renames them only once all are written, so a failed or interrupted run
-leaves earlier outputs untouched and no stray temporaries.
+temporary file, keeps a hard link to every output it will replace, and renames the new files
+into place only once all are written. If a rename fails or the run is interrupted, the files
+already replaced are put back from those links: a run changes all of its outputs or none.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
+import uuid
 from pathlib import Path
 
 from .errors import OutputError
@@ -25,6 +28,8 @@ def write_all(files: dict[Path, bytes]) -> None:
 
 def _write_all(files: dict[Path, bytes]) -> None:
     staged: list[tuple[str, Path]] = []
+    backups: dict[Path, str] = {}
+    done: list[Path] = []
     try:
         for path, data in files.items():
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -34,13 +39,41 @@ def _write_all(files: dict[Path, bytes]) -> None:
                 handle.write(data)
                 handle.flush()
                 os.fsync(handle.fileno())
-        for temp, path in staged:
             os.chmod(temp, 0o644)
-            os.replace(temp, path)
+        for _, path in staged:   # keep the current outputs until every new one is in place
+            if path.is_file():
+                backup = str(path.parent / f".{path.name}.{uuid.uuid4().hex}.old")
+                try:
+                    os.link(path, backup)
+                except OSError:   # a file system without hard links
+                    shutil.copy2(path, backup)
+                backups[path] = backup
+        try:
+            for temp, path in staged:
+                os.replace(temp, path)
+                done.append(path)
+        except BaseException:
+            _restore(done, backups)
+            raise
         staged.clear()
     finally:
         for temp, _ in staged:
-            try:
-                os.unlink(temp)
-            except FileNotFoundError:
-                pass
+            _unlink(temp)
+        for backup in backups.values():
+            _unlink(backup)
+
+
+def _restore(done: list[Path], backups: dict[Path, str]) -> None:
+    """Put back what a failed or interrupted run had already replaced."""
+    for path in reversed(done):
+        if path in backups:
+            os.replace(backups.pop(path), path)
+        else:
+            _unlink(str(path))
+
+
+def _unlink(name: str) -> None:
+    try:
+        os.unlink(name)
+    except FileNotFoundError:
+        pass

@@ -514,7 +514,7 @@ def to_yaml(data: dict[str, Any], source: str) -> str:
     """The robot data as a version-1 YAML robot file, lists written inline."""
     import yaml
 
-    from . import __version__
+    from ._version import __version__
 
     class _Dumper(yaml.SafeDumper):
         pass

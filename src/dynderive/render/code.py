@@ -253,7 +253,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
     for p in robot.parameters:
         parameters.append({"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
                            "unit": p.unit, "description": p.description})
-    from .. import __version__
+    from .._version import __version__
 
     keywords = [p["name"] if p["default"] is None else f"{p['name']}={p['default']}" for p in parameters]
     return {
@@ -381,7 +381,7 @@ def verify_module(text: str, title: str | None = None) -> None:
 
 def render_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """A pytest file of property checks for the generated module (``solve --code --tests``)."""
-    from .. import __version__
+    from .._version import __version__
 
     context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
                "source": Path(derivation.robot.source).name, "maximal": "M_m" in derivation.quantities}

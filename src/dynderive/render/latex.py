@@ -178,7 +178,7 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
 
 
 def _version() -> str:
-    from .. import __version__
+    from .._version import __version__
 
     return __version__
 
