@@ -13,6 +13,7 @@ import sympy
 
 from .kinematics import planar_kinematics
 from .model import Robot
+from .regularity import check_mass_matrix
 from .symbols import SymbolTable
 from .tidy import Check, check_zero
 
@@ -70,6 +71,7 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
 
     report = progress or (lambda stage: None)
     table = SymbolTable.for_robot(robot)
+    check_mass_matrix(robot, table)
     report("kinematics")
     if robot.planar:
         links: list[Any] = planar_kinematics(robot, table)
