@@ -132,6 +132,7 @@ def solve(
     progress = _Progress(quiet)
     progress("loading")
     model = load_robot(robot)
+    _notes(model, quiet)
     derivation = derive(model, progress=progress)
     if tests and not code:
         raise InputError(_problem("--tests", "--tests writes checks of the generated module: use it with --code"))
@@ -145,11 +146,15 @@ def solve(
         tex = render_latex(derivation, template_dir)
     if latex:
         files[out / f"{model.name}.tex"] = tex.encode()  # type: ignore[union-attr]
+    skipped: ToolMissingError | None = None
     if pdf:
         from .render.pdf import compile_pdf
 
         progress("compiling PDF")
-        files[out / f"{model.name}.pdf"] = compile_pdf(tex, model.name)  # type: ignore[arg-type]
+        try:
+            files[out / f"{model.name}.pdf"] = compile_pdf(tex, model.name)  # type: ignore[arg-type]
+        except ToolMissingError as exc:   # the other outputs are still worth writing
+            skipped = exc
     if code:
         progress("generating code")
         files[out / f"{model.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
@@ -166,6 +171,8 @@ def solve(
         failed = [c for c in derivation.checks if not c.passed and not c.skipped]
         for check in failed:
             typer.echo(f"warning: check failed: {check.description}", err=True)
+    if skipped is not None:
+        raise _fail(f"dynderive: {out / (model.name + '.pdf')} skipped: {skipped}", 1)
 
 
 @app.command()
@@ -174,6 +181,8 @@ def check(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
     json_: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
     states: Annotated[int, typer.Option("--states", help="Random states for the numeric checks.")] = 12,
+    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
+                     "(repeatable; parameters without a default take 1.0).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
@@ -187,7 +196,8 @@ def check(
     from .render.code import render_code
 
     progress = _Progress(quiet)
-    model = load_robot(robot)
+    model = _with_parameters(load_robot(robot), param or [], required=False)
+    _notes(model, quiet)
     derivation = derive(model, progress=progress)
     progress("generating code")
     source = render_code(derivation)
@@ -208,6 +218,55 @@ def check(
         typer.echo(f"\n{passed} passed, {len(failed)} failed, {skipped} skipped")
     if failed:
         raise typer.Exit(1)
+
+
+def _with_parameters(model: Any, assignments: list[str], required: bool) -> Any:
+    """``model`` with the defaults of ``--param NAME=VALUE`` (VALUE: a number or a whitelisted
+    expression of numbers, e.g. ``pi/4``); ``required``: every parameter must then have a value."""
+    import dataclasses
+    import math
+
+    from .errors import Problem
+    from .expressions import ExpressionError, parse_expression
+
+    known = {p.name: p for p in model.parameters}
+    given: dict[str, float] = {}
+    problems = []
+    for text in assignments:
+        name, sep, value = text.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            problems.append(_problem("--param", f"expected NAME=VALUE, got {text!r}"))
+            continue
+        if name not in known:
+            names = ", ".join(known) or "none"
+            problems.append(_problem("--param", f"unknown parameter {name!r} (parameters of {model.name}: {names})"))
+            continue
+        try:
+            number = complex(parse_expression(value, {}).evalf(17))
+        except (ExpressionError, TypeError, ValueError) as exc:
+            problems.append(_problem("--param", f"{name}: {exc}"))
+            continue
+        if number.imag or not math.isfinite(number.real):
+            problems.append(_problem("--param", f"{name}: {value!r} is not a finite real number"))
+            continue
+        given[name] = number.real
+    parameters = tuple(dataclasses.replace(p, value=given.get(p.name, p.value)) for p in model.parameters)
+    if required:
+        for p in parameters:
+            if p.value is None:
+                line, column = model.positions.get(f"parameter:{p.name}", (1, 1))
+                problems.append(Problem(model.source, line, column, f"parameter '{p.name}' has no default value: "
+                                        f"give one with --param {p.name}=VALUE"))
+    if problems:
+        raise InputError(problems)
+    return dataclasses.replace(model, parameters=parameters) if given else model
+
+
+def _notes(model: Any, quiet: bool) -> None:
+    if not quiet:
+        for note in model.notes:
+            typer.echo(note, err=True)
 
 
 def _vector(text: str | None, size: int, option: str) -> Any:
@@ -240,6 +299,8 @@ def simulate(
     atol: Annotated[float, typer.Option("--atol", help="Absolute tolerance of solve_ivp.")] = 1e-9,
     baumgarte: Annotated[float, typer.Option("--baumgarte", help="Baumgarte gain (alpha = beta) for maximal runs.")] = 10.0,
     frames: Annotated[int, typer.Option("--frames", help="Output samples (and animation frames).")] = 101,
+    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
+                     "(repeatable; required for parameters without a default).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
@@ -262,7 +323,8 @@ def simulate(
         raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
                                'pip install "dynderive[simulate]"') from None
     progress = _Progress(quiet)
-    model = load_robot(robot)
+    model = _with_parameters(load_robot(robot), param or [], required=True)
+    _notes(model, quiet)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
         raise InputError(_problem(model.source, "maximal coordinates are planar-only for now"))
@@ -350,18 +412,23 @@ def schema() -> None:
 @app.command("import")
 @handle_errors
 def import_(
-    urdf: Annotated[Path, typer.Argument(help="URDF file to convert.")],
+    urdf: Annotated[str, typer.Argument(help="URDF file to convert, or a bundled URDF robot (ur5, panda).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")],
 ) -> None:
     """Convert a URDF file into the equivalent dynderive YAML robot file."""
-    from .loader import read_text
+    from .loader import read_text, resolve_robot_path
     from .output import write_all
     from .schema import validate
     from .urdf import read_urdf, to_yaml
 
-    document = read_urdf(read_text(urdf), str(urdf))
+    path = resolve_robot_path(urdf)
+    if path.suffix.lower() in (".yaml", ".yml"):
+        raise InputError(_problem(str(path), "is already a YAML robot file (import converts URDF files)"))
+    document = read_urdf(read_text(path), str(path))
+    for note in document.notes:
+        typer.echo(note, err=True)
     validate(document)  # the same checks as any robot file, before anything is written
-    write_all({output: to_yaml(document.data, urdf.name).encode()})
+    write_all({output: to_yaml(document.data, path.name).encode()})
     typer.echo(f"wrote {output}", err=True)
 
 

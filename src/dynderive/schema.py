@@ -388,6 +388,7 @@ def validate(doc: SourceDocument) -> Robot:
     positions = {f"joint:{j.name}": doc.where(("joints", i)) for i, j in enumerate(joints)}
     positions |= {f"link:{lk.name}": doc.where(("links", i)) for i, lk in enumerate(links)}
     positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
+    positions |= {f"parameter:{p.name}": doc.where(("parameters", p.name), key=True) for p in parameters}
     return Robot(
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
         gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
