@@ -286,7 +286,7 @@ def to_maximal(q, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     out[..., 0] = x
     out[..., 3] = -_t0*np.sin(theta) + x
     out[..., 4] = _t0*np.cos(theta)
-    out[..., 5] = theta + (1/2)*np.pi
+    out[..., 5] = theta + 1.5707963267948966
     return out
 
 
@@ -310,6 +310,17 @@ def to_maximal_jacobian(q, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
 
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
+#: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
+_MATH = {
+    "sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
+    "atan": math.atan, "atan2": math.atan2, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+    "exp": math.exp, "log": math.log, "sqrt": math.sqrt, "abs": abs,
+}
+_NUMPY = {
+    "sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos,
+    "atan": np.arctan, "atan2": np.arctan2, "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh,
+    "exp": np.exp, "log": np.log, "sqrt": np.sqrt, "abs": np.abs,
+}
 
 
 def _evaluate(body, arrays, shape, parameters):
@@ -318,11 +329,12 @@ def _evaluate(body, arrays, shape, parameters):
     batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
     size = math.prod(shape)
     if not batch and all(np.ndim(v) == 0 for v in parameters.values()):
-        values = body(*(a.tolist() for a in arrays), math.sin, math.cos, **parameters)
+        values = body(*(a.tolist() for a in arrays), *(_MATH[f] for f in body.functions), **parameters)
         return np.array(values, dtype=float).reshape(shape)
+    functions = [_NUMPY[f] for f in body.functions]
     if any(np.ndim(v) for v in parameters.values()):  # array parameters: one broadcast pass
         columns = [np.moveaxis(np.broadcast_to(a, batch + a.shape[-1:]), -1, 0) for a in arrays]
-        values = body(*columns, np.sin, np.cos, **parameters)
+        values = body(*columns, *functions, **parameters)
         result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
         return np.stack(result, axis=-1).reshape(result[0].shape + shape)
     total = math.prod(batch)
@@ -331,7 +343,7 @@ def _evaluate(body, arrays, shape, parameters):
     for start in range(0, total, _CHUNK):
         columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]
         block = out[start : start + _CHUNK]
-        for k, value in enumerate(body(*columns, np.sin, np.cos, **parameters)):
+        for k, value in enumerate(body(*columns, *functions, **parameters)):
             block[:, k] = value
     return out.reshape(batch + shape)
 
@@ -363,6 +375,9 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, g=9.
         _r4,
         _r6,
     )
+
+
+_inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
@@ -402,6 +417,9 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, g=9.81
     )
 
 
+_forward_dynamics_body.functions = ("sin", "cos")
+
+
 def inverse_dynamics(q, qd, qdd, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 2)."""
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
@@ -436,29 +454,29 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     qmd = _coordinates("qmd", qmd, 6)
     if u is None:
         u = np.zeros(1)
-    mass = maximal_mass_matrix(qm, mc=mc, mp=mp, lp=lp, g=g)
-    jac = constraint_jacobian(qm, mc=mc, mp=mp, lp=lp, g=g)
-    top = (
+    _mass = maximal_mass_matrix(qm, mc=mc, mp=mp, lp=lp, g=g)
+    _jac = constraint_jacobian(qm, mc=mc, mp=mp, lp=lp, g=g)
+    _top = (
         maximal_efforts(qm, u, mc=mc, mp=mp, lp=lp, g=g)
         - _matvec(maximal_coriolis_matrix(qm, qmd, mc=mc, mp=mp, lp=lp, g=g), qmd)
         - maximal_gravity_vector(qm, mc=mc, mp=mp, lp=lp, g=g)
     )
-    bottom = (
+    _bottom = (
         -_matvec(constraint_jacobian_dot(qm, qmd, mc=mc, mp=mp, lp=lp, g=g), qmd)
-        - 2 * alpha * _matvec(jac, qmd)
+        - 2 * alpha * _matvec(_jac, qmd)
         - beta**2 * constraints(qm, mc=mc, mp=mp, lp=lp, g=g)
     )
-    batch = np.broadcast_shapes(mass.shape[:-2], jac.shape[:-2], top.shape[:-1], bottom.shape[:-1])
-    n, k = 6, 4
-    kkt = np.zeros(batch + (n + k, n + k))
-    kkt[..., :n, :n] = mass
-    kkt[..., :n, n:] = np.swapaxes(jac, -1, -2)
-    kkt[..., n:, :n] = jac
-    rhs = np.zeros(batch + (n + k,))
-    rhs[..., :n] = top
-    rhs[..., n:] = bottom
-    solution = np.linalg.solve(kkt, rhs[..., None])[..., 0]
-    return solution[..., :n], solution[..., n:]
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _top.shape[:-1], _bottom.shape[:-1])
+    _n, _k = 6, 4
+    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
+    _kkt[..., :_n, :_n] = _mass
+    _kkt[..., :_n, _n:] = np.swapaxes(_jac, -1, -2)
+    _kkt[..., _n:, :_n] = _jac
+    _rhs = np.zeros(_batch + (_n + _k,))
+    _rhs[..., :_n] = _top
+    _rhs[..., _n:] = _bottom
+    _solution = np.linalg.solve(_kkt, _rhs[..., None])[..., 0]
+    return _solution[..., :_n], _solution[..., _n:]
 
 
 def constraint_forces(qm, qmd, u=None, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):

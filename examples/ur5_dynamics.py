@@ -73,6 +73,17 @@ def potential_energy(q, *, g=9.81):
 
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
+#: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
+_MATH = {
+    "sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
+    "atan": math.atan, "atan2": math.atan2, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+    "exp": math.exp, "log": math.log, "sqrt": math.sqrt, "abs": abs,
+}
+_NUMPY = {
+    "sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos,
+    "atan": np.arctan, "atan2": np.arctan2, "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh,
+    "exp": np.exp, "log": np.log, "sqrt": np.sqrt, "abs": np.abs,
+}
 
 
 def _evaluate(body, arrays, shape, parameters):
@@ -81,11 +92,12 @@ def _evaluate(body, arrays, shape, parameters):
     batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
     size = math.prod(shape)
     if not batch and all(np.ndim(v) == 0 for v in parameters.values()):
-        values = body(*(a.tolist() for a in arrays), math.sin, math.cos, **parameters)
+        values = body(*(a.tolist() for a in arrays), *(_MATH[f] for f in body.functions), **parameters)
         return np.array(values, dtype=float).reshape(shape)
+    functions = [_NUMPY[f] for f in body.functions]
     if any(np.ndim(v) for v in parameters.values()):  # array parameters: one broadcast pass
         columns = [np.moveaxis(np.broadcast_to(a, batch + a.shape[-1:]), -1, 0) for a in arrays]
-        values = body(*columns, np.sin, np.cos, **parameters)
+        values = body(*columns, *functions, **parameters)
         result = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
         return np.stack(result, axis=-1).reshape(result[0].shape + shape)
     total = math.prod(batch)
@@ -94,7 +106,7 @@ def _evaluate(body, arrays, shape, parameters):
     for start in range(0, total, _CHUNK):
         columns = [np.ascontiguousarray(a[start : start + _CHUNK].T) for a in flat]
         block = out[start : start + _CHUNK]
-        for k, value in enumerate(body(*columns, np.sin, np.cos, **parameters)):
+        for k, value in enumerate(body(*columns, *functions, **parameters)):
             block[:, k] = value
     return out.reshape(batch + shape)
 
@@ -228,6 +240,9 @@ def _mass_matrix_body(q, sin, cos, *, g=9.81):
         0,
         0.0171364731454,
     )
+
+
+_mass_matrix_body.functions = ("sin", "cos")
 
 
 def _coriolis_body(q, qd, sin, cos, *, g=9.81):
@@ -536,6 +551,9 @@ def _coriolis_body(q, qd, sin, cos, *, g=9.81):
     )
 
 
+_coriolis_body.functions = ("sin", "cos")
+
+
 def _gravity_body(q, sin, cos, *, g=9.81):
     """N(q): Newton-Euler at rest. 65 lines, 145 operations."""
     shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
@@ -612,6 +630,9 @@ def _gravity_body(q, sin, cos, *, g=9.81):
         0,
         0,
     )
+
+
+_gravity_body.functions = ("sin", "cos")
 
 
 def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, g=9.81):
@@ -819,6 +840,9 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, g=9.81):
         _r31,
         _r48,
     )
+
+
+_inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, sin, cos, *, g=9.81):
@@ -1149,6 +1173,9 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, g=9.81):
         _r44,
         _r62,
     )
+
+
+_forward_dynamics_body.functions = ("sin", "cos")
 
 
 def mass_matrix(q, *, g=9.81):
