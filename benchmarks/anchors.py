@@ -293,7 +293,8 @@ def kane_trigsimp(robot: Robot, timeout_s: float, floats: bool = False) -> dict:
 
 def numeric_mass_matrix(result: dict, q_values) -> np.ndarray:
     """The mass matrix of ``kane_equations``' result at ``q_values`` (robot coordinate order)."""
-    function = sympy.lambdify([result["q"]], result["mass_matrix"], "numpy")
+    # constants evaluated first: NumPy has no sqrt of the 30-digit integers of full-precision inputs
+    function = sympy.lambdify([result["q"]], result["mass_matrix"].evalf(20), "numpy")
     return np.array(function(np.asarray(q_values, dtype=float)), dtype=float)
 
 
@@ -302,7 +303,7 @@ def numeric_forcing(result: dict, q_values, u_values, efforts: dict[str, float] 
     forcing = result["forcing"]
     taus = sorted((s for s in forcing.free_symbols if isinstance(s, sympy.Symbol)), key=str)
     given = efforts or {}
-    function = sympy.lambdify([result["q"], result["u"], taus], forcing, "numpy")
+    function = sympy.lambdify([result["q"], result["u"], taus], forcing.evalf(20), "numpy")
     return np.array(function(np.asarray(q_values, dtype=float), np.asarray(u_values, dtype=float),
                              [given.get(str(s), 0.0) for s in taus]), dtype=float).reshape(-1)
 
