@@ -48,9 +48,7 @@ import argparse
 import json
 import multiprocessing
 import queue
-import re
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -67,24 +65,11 @@ from sympy.physics.mechanics import (
     inertia,
 )
 
-import dynderive
-from dynderive.model import Robot
-from dynderive.symbols import SymbolTable
+from dynderive.model.robot import Robot
+from dynderive.model.symbols import SymbolTable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from run import pendulum_yaml  # noqa: E402  (the benchmark's own pendulum; run.py imports us lazily)
-
-
-def load(robot: str | Path) -> Robot:
-    """``dynderive.load_robot``, plus ``pendulumN`` for the planar N-link pendulum."""
-    match = re.fullmatch(r"pendulum(\d+)", str(robot))
-    if match is None:
-        return dynderive.load_robot(robot)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / f"{robot}.yaml"
-        path.write_text(pendulum_yaml(int(match.group(1))))
-        return dynderive.load_robot(path)
-
+from models import load  # noqa: E402,F401  (re-exported: tests load robots through the anchor module)
 
 # --- the model ---------------------------------------------------------------------------
 

@@ -17,7 +17,7 @@ is that robot's alone), the anchors in subprocesses of their own:
 4. peak memory (RSS) of the derivation;
 
 then the goals of issue 8 with their measured figures, met or not. Times are medians over
-``--repeats``. Operations are counted by one function for both tools (``dynderive.tidy.operation_count``).
+``--repeats``. Operations are counted by one function for both tools (``dynderive.mechanics.tidy.operation_count``).
 """
 
 from __future__ import annotations
@@ -33,23 +33,12 @@ import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from models import pendulum_yaml  # noqa: E402  (shared with anchors.py)
+
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ["rp_arm", "double_pendulum", "cart_pole", "elbow_arm", "ur5", "panda"]
 URDF = {"ur5": ROOT / "robots" / "ur5.urdf", "panda": ROOT / "robots" / "panda.urdf"}
-
-
-def pendulum_yaml(n: int) -> str:
-    """A planar n-link pendulum: uniform rods of 1 kg and 1 m, a torque at each joint. The numbers
-    are written into the file (no parameters) so that both tools derive exactly the same model:
-    the KanesMethod anchor substitutes numbers too."""
-    lines = [f"name: pendulum{n}", f"title: Planar {n}-link pendulum", "planar: true", "gravity: [0, -9.81]", "links:"]
-    lines += [f"  - {{name: b{k}, mass: 1, com: [1/2, 0], inertia: 1/12}}" for k in range(1, n + 1)]
-    lines.append("joints:")
-    for k in range(1, n + 1):
-        parent = "world" if k == 1 else f"b{k - 1}"
-        origin = "[0, 0]" if k == 1 else "[1, 0]"
-        lines.append(f"  - {{name: q{k}, type: revolute, parent: {parent}, child: b{k}, origin: {origin}, effort: tau{k}}}")
-    return "\n".join(lines) + "\n"
 
 
 def _median_time(function, *args, repeats: int, number: int = 1) -> float:
@@ -67,9 +56,9 @@ def measure_dynderive(robot: str, repeats: int, batch: int, loop: int) -> dict:
     import numpy as np
 
     import dynderive
-    from dynderive.checks import generated_module
+    from dynderive.mechanics.tidy import operation_count
     from dynderive.render.code import render_code
-    from dynderive.tidy import operation_count
+    from dynderive.verify.checks import generated_module
 
     row: dict = {}
     start = time.perf_counter()
@@ -124,7 +113,7 @@ def _measure_pinocchio(model, module, q1, qd1, u1, qb, qdb, repeats: int, loop: 
         import pinocchio as pin
     except ImportError:
         return {}
-    from dynderive.pinocchio_model import pinocchio_model
+    from dynderive.verify.pinocchio_model import pinocchio_model
 
     values = {p.name: p.value for p in model.parameters if p.value is not None}
     if len(values) != len(model.parameters):
@@ -167,7 +156,7 @@ def measure_kane(robot: str, trigsimp_timeout: float) -> dict:
     import anchors
 
     import dynderive
-    from dynderive.tidy import operation_count
+    from dynderive.mechanics.tidy import operation_count
 
     model = dynderive.load_robot(robot)
     result = anchors.kane_equations(model)

@@ -1,7 +1,7 @@
 """The KanesMethod anchor of the benchmarks (``benchmarks/anchors.py``) builds the same robot.
 
 Its mass matrix and forcing vector are compared, numerically at random states, with an
-independent Pinocchio model (``dynderive.pinocchio_model``) and with dynderive's own mass
+independent Pinocchio model (``dynderive.verify.pinocchio_model``) and with dynderive's own mass
 matrix; the trigsimp child process and the command line are exercised on small robots.
 """
 
@@ -66,7 +66,7 @@ def assert_close(actual: np.ndarray, expected: np.ndarray) -> None:
 @pytest.mark.parametrize("name", ROBOTS + [f"{kind}:{seed}:{joints}" for kind, seed, joints in TREES])
 def test_kane_matches_pinocchio(name):
     pin = pytest.importorskip("pinocchio")
-    from dynderive.pinocchio_model import pinocchio_model
+    from dynderive.verify.pinocchio_model import pinocchio_model
 
     robot, result = kane_of(name)
     model, perm = pinocchio_model(robot, defaults(robot))

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from dynderive.cli import app
+from dynderive.commands.cli import app
 
 from conftest import ROBOTS
 
@@ -148,7 +148,7 @@ def test_concurrent_builds_into_one_directory_keep_every_record(tmp_path):
         folder.mkdir()
         sources.append(folder / f"{name}.yaml")
         shutil.copy(ROBOTS / f"{name}.yaml", sources[-1])
-    command = [sys.executable, "-c", "from dynderive.cli import run; run()", "build"]
+    command = [sys.executable, "-c", "from dynderive.__main__ import run; run()", "build"]
     processes = [subprocess.Popen([*command, str(source), "--out", str(out), "--code", "-j", "1"],
                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
                  for source in sources]

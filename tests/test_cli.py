@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from dynderive.cli import app
+from dynderive.commands.cli import app
 
 runner = CliRunner()
 
@@ -76,7 +76,7 @@ def test_pdf_without_tex_engine_is_a_clear_error(tmp_path, monkeypatch):
 def test_console_script_runs_from_any_directory(tmp_path):
     """Bundled robots and templates are found without the checkout as working directory."""
     env = dict(os.environ)
-    result = subprocess.run([sys.executable, "-m", "dynderive.cli", "solve", "cart_pole", "--code", "--out", "o"],
+    result = subprocess.run([sys.executable, "-m", "dynderive", "solve", "cart_pole", "--code", "--out", "o"],
                             cwd=tmp_path, capture_output=True, text=True, env=env)
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "o" / "cart_pole_dynamics.py").is_file()

@@ -8,7 +8,7 @@ import textwrap
 import pytest
 from typer.testing import CliRunner
 
-from dynderive.cli import app
+from dynderive.commands.cli import app
 
 runner = CliRunner()
 

@@ -486,7 +486,7 @@ def test_mutated_robot_file_loads_or_reports_positioned_problems(case, derive, w
 def _solve(path: Path, out: Path):
     from typer.testing import CliRunner
 
-    from dynderive.cli import app
+    from dynderive.commands.cli import app
 
     return CliRunner().invoke(app, ["solve", str(path), "--code", "--out", str(out), "-q"])
 

@@ -26,9 +26,9 @@ import pytest
 import sympy
 
 import dynderive
-from dynderive.expressions import FUNCTIONS
+from dynderive.input.names import MODULE_NAMES
+from dynderive.model.expressions import FUNCTIONS
 from dynderive.render.encode import docstring, escape_tex, terminal_text
-from dynderive.schema import MODULE_NAMES
 
 from conftest import import_code
 
@@ -93,7 +93,7 @@ def test_hostile_text_in_every_field_runs_nothing_and_reads_back(index, tmp_path
     source = tmp_path / "robot.yaml"
     source.write_text(_robot_yaml(text, "u " + text, "d " + text), encoding="utf-8")
     out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "dynderive.cli", "solve", str(source), "--code", "--latex",
+    done = subprocess.run([sys.executable, "-m", "dynderive", "solve", str(source), "--code", "--latex",
                            "--json", "--tests", "--out", str(out), "-q"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     result = _import_and_read(out, "hostile_dynamics")

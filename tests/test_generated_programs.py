@@ -18,8 +18,8 @@ import pytest
 import sympy
 
 import dynderive
-from dynderive.recursive import mass_matrix_program
-from dynderive.tidy import fold_constants, operation_count
+from dynderive.mechanics.recursive import mass_matrix_program
+from dynderive.mechanics.tidy import fold_constants, operation_count
 
 from conftest import import_code
 from random_robots3d import random_spatial_tree
@@ -136,7 +136,7 @@ def test_programs_are_short_and_skip_structural_zeros():
     """The Panda's axes along z and pi/2 rotations leave CRBA under 1000 operations (the
     explicit symbolic M has over 100 000)."""
     robot = dynderive.load_robot(ROOT / "robots" / "panda.urdf")
-    table = dynderive.symbols.SymbolTable.for_robot(robot)
+    table = dynderive.model.symbols.SymbolTable.for_robot(robot)
     program = mass_matrix_program(robot, table)
     assert program.operations < 1000
     assert operation_count(sympy.sympify("a*b + c*d + sin(x)")) == 5

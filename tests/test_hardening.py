@@ -14,7 +14,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from dynderive.cli import app
+from dynderive.commands.cli import app
 
 from conftest import ROBOTS
 
@@ -53,7 +53,7 @@ def test_sigterm_midway_leaves_previous_outputs_untouched(tmp_path):
     joints = "".join(f"  - {{name: q{k}, type: revolute, parent: {'world' if k == 1 else f'b{k - 1}'}, "
                      f"child: b{k}, origin: [{0 if k == 1 else 1}, 0]}}\n" for k in range(1, 6))
     robot.write_text(f"name: rp_arm\nplanar: true\ngravity: [0, -9.81]\nlinks:\n{links}joints:\n{joints}")
-    process = subprocess.Popen([sys.executable, "-m", "dynderive.cli", "solve", str(robot), "--latex", "--code",
+    process = subprocess.Popen([sys.executable, "-m", "dynderive", "solve", str(robot), "--latex", "--code",
                                 "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(1.5)  # loading done, derivation under way
     process.send_signal(signal.SIGTERM)

@@ -18,8 +18,8 @@ import pytest
 import sympy
 
 from dynderive.errors import InputError
-from dynderive.expressions import ExpressionError, parse_expression
-from dynderive.loader import MAX_FILE_BYTES, read_text
+from dynderive.input.loader import MAX_FILE_BYTES, read_text
+from dynderive.model.expressions import ExpressionError, parse_expression
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 #: Seconds a refusal may take in a fresh interpreter (imports included).
@@ -28,7 +28,7 @@ TIMEOUT = 60
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
     """``dynderive ARGS`` in a fresh interpreter, stopped after ``TIMEOUT`` seconds."""
-    code = "import sys; from dynderive.cli import app; sys.argv = ['dynderive', *sys.argv[1:]]; app()"
+    code = "import sys; from dynderive.commands.cli import app; sys.argv = ['dynderive', *sys.argv[1:]]; app()"
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
                           timeout=TIMEOUT, stdin=subprocess.DEVNULL)
 
@@ -68,7 +68,7 @@ def test_read_text_never_reads_more_than_the_limit(tmp_path, monkeypatch):
     """A file that grows after its ``stat`` (or lies about its size) is still cut off."""
     path = tmp_path / "big.yaml"
     path.write_bytes(b"#" * 100)
-    monkeypatch.setattr("dynderive.loader.MAX_FILE_BYTES", 10)
+    monkeypatch.setattr("dynderive.input.loader.MAX_FILE_BYTES", 10)
     with pytest.raises(InputError, match="larger than 10 bytes"):
         read_text(path)
     assert MAX_FILE_BYTES > 10

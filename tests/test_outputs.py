@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from dynderive.commands.output import write_all
 from dynderive.errors import OutputError
-from dynderive.output import write_all
 
 
 def _listing(folder: Path) -> dict[str, bytes]:

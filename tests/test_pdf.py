@@ -13,7 +13,7 @@ import subprocess
 import pytest
 from typer.testing import CliRunner
 
-from dynderive.cli import app
+from dynderive.commands.cli import app
 
 pytestmark = pytest.mark.pdf
 TOOLS = ("latexmk", "pdflatex", "pdftotext")

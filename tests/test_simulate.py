@@ -10,9 +10,9 @@ import pytest
 from typer.testing import CliRunner
 
 import dynderive
-from dynderive.cli import app
+from dynderive.commands.cli import app
+from dynderive.commands.simulate import simulate
 from dynderive.render.code import render_code
-from dynderive.simulate import simulate
 
 pytest.importorskip("scipy")
 pytest.importorskip("matplotlib")
@@ -35,7 +35,7 @@ def test_unforced_double_pendulum_conserves_energy():
 def test_maximal_and_generalized_rp_arm_agree(tmp_path):
     d, generalized = _run("rp_arm", False, 3.0, [0.3, 0.2], [0.0, 0.1])
     _, maximal = _run("rp_arm", True, 3.0, [0.3, 0.2], [0.0, 0.1])
-    module = dynderive.checks.generated_module(render_code(d), "rp_arm")
+    module = dynderive.verify.checks.generated_module(render_code(d), "rp_arm")
     mapped = module.to_maximal(generalized.position)
     assert np.max(np.abs(maximal.position - mapped)) < 1e-5
     assert np.max(maximal.drift) < 1e-6

@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 import dynderive
-from dynderive.cli import app
+from dynderive.commands.cli import app
 
 from conftest import ROBOTS, import_code
 
@@ -124,7 +124,7 @@ def _random_rotation(rng) -> np.ndarray:
 
 def _near_gimbal_lock(rng) -> np.ndarray:
     """A rotation whose pitch is within 1e-17..1e-6 of +-pi/2 (or exactly +-pi/2 in floats)."""
-    from dynderive.urdf import rpy_matrix
+    from dynderive.input.urdf import rpy_matrix
 
     sign = rng.choice([-1.0, 1.0])
     pitch = sign * (np.pi / 2 - (10.0 ** rng.uniform(-17, -6) if rng.uniform() < 0.9 else 0.0))
@@ -136,7 +136,7 @@ def _near_gimbal_lock(rng) -> np.ndarray:
 def test_rpy_extraction_reproduces_the_matrix(kind):
     """``rpy_matrix(matrix_to_rpy(R))`` is ``R`` to 1e-15, also within 1e-11 of gimbal lock
     (the classic ``roll = atan2(r21, r22)`` loses ~5 digits there)."""
-    from dynderive.urdf import matrix_to_rpy, rpy_matrix
+    from dynderive.input.urdf import matrix_to_rpy, rpy_matrix
 
     rng = np.random.default_rng(11)
     make = _random_rotation if kind == "random" else _near_gimbal_lock
@@ -153,7 +153,7 @@ def test_rpy_extraction_reproduces_the_matrix(kind):
 def test_composed_quarter_turns_stay_exact():
     """Rotations of whole quarter turns compose to an exact matrix, written as exact angles;
     near-quarter composed angles are not snapped."""
-    from dynderive.urdf import Rotation, rpy_matrix
+    from dynderive.input.urdf import Rotation, rpy_matrix
 
     quarter = Rotation.from_rpy([0, 0, 1.57079632679])
     assert quarter.rpy() == [0, 0, "pi/2"]
@@ -169,7 +169,7 @@ def test_composed_quarter_turns_stay_exact():
 
 
 def _read(body: str, tmp_path: Path, name: str = "t.urdf"):
-    from dynderive.urdf import read_urdf
+    from dynderive.input.urdf import read_urdf
 
     path = tmp_path / name
     path.write_text(_urdf(body))
@@ -231,7 +231,7 @@ def test_fixed_then_revolute_near_gimbal_lock_agrees_with_pinocchio(tmp_path):
     pitch 3e-12 short of pi/2, twice: dynderive's merged model against Pinocchio's own URDF
     parser (which keeps the fixed joints), M, rnea and aba to 1e-12 relative. Extracting the
     composed roll from the tiny r21/r22 and snapping the composed pitch to pi/2 gave 1e-5."""
-    from dynderive.checks import generated_module
+    from dynderive.verify.checks import generated_module
 
     fixed = [0.3, 1.2, -0.7]
     R_fixed = pin.rpy.rpyToMatrix(*fixed)

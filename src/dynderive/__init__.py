@@ -17,23 +17,23 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._version import __version__
     from .derivation import Derivation, derive
     from .errors import DynderiveError, InputError
-    from .lagrange import (
+    from .mechanics.lagrange import (
         christoffel_coriolis,
         constraint_jacobian_dot,
         gravity_vector,
         lagrange_equations,
         time_derivative,
     )
-    from .model import Joint, Link, Parameter, Robot
+    from .model.robot import Joint, Link, Parameter, Robot
 
 #: Public names and the modules that define them, imported on first use.
 _LAZY = {
     "__version__": "_version",
     "Derivation": "derivation", "derive": "derivation",
     "DynderiveError": "errors", "InputError": "errors",
-    "christoffel_coriolis": "lagrange", "constraint_jacobian_dot": "lagrange",
-    "gravity_vector": "lagrange", "lagrange_equations": "lagrange", "time_derivative": "lagrange",
-    "Joint": "model", "Link": "model", "Parameter": "model", "Robot": "model",
+    "christoffel_coriolis": "mechanics.lagrange", "constraint_jacobian_dot": "mechanics.lagrange",
+    "gravity_vector": "mechanics.lagrange", "lagrange_equations": "mechanics.lagrange", "time_derivative": "mechanics.lagrange",
+    "Joint": "model.robot", "Link": "model.robot", "Parameter": "model.robot", "Robot": "model.robot",
 }
 
 
@@ -51,13 +51,13 @@ def __dir__() -> list[str]:
 
 def load_robot(robot: str | Path) -> Robot:
     """Load and validate a robot file (YAML path) or a bundled robot by name."""
-    from .loader import load_document, resolve_robot_path
-    from .schema import validate
+    from .input.loader import load_document, resolve_robot_path
+    from .input.schema import validate
 
     path = resolve_robot_path(robot)
     if path.suffix.lower() == ".urdf":
-        from .loader import read_text
-        from .urdf import read_urdf
+        from .input.loader import read_text
+        from .input.urdf import read_urdf
 
         return validate(read_urdf(read_text(path), str(path)))
     return validate(load_document(path))

@@ -21,7 +21,7 @@ def run() -> None:
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
     try:
-        from .cli import app
+        from .commands.cli import app
 
         app(prog_name="dynderive")
     except Interrupted:

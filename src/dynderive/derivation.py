@@ -1,6 +1,7 @@
-"""``Derivation``: every named quantity of a robot's equations of motion, and the checks.
+"""``Derivation``: every named quantity of a robot's equations of motion, the straight-line
+programs of the recursive algorithms, and the checks.
 
-The engine's only output. Renderers read it; they never call back into the engine.
+The engine's only output. Renderers read it; they never call into ``mechanics`` themselves.
 """
 
 from __future__ import annotations
@@ -11,11 +12,12 @@ from typing import Any
 
 import sympy
 
-from .kinematics import planar_kinematics
-from .model import Robot
-from .regularity import check_mass_matrix
-from .symbols import SymbolTable
-from .tidy import Check, check_zero
+from .mechanics.planar import planar_kinematics
+from .mechanics.recursive import Program, build_programs
+from .mechanics.regularity import check_mass_matrix
+from .mechanics.tidy import Check, check_zero, is_small
+from .model.robot import Robot
+from .model.symbols import SymbolTable
 
 #: What each quantity is, for the sheet, the terminal and the JSON consumers.
 DESCRIPTIONS = {
@@ -47,6 +49,35 @@ class Derivation:
     quantities: dict[str, Any]
     steps: dict[str, Any] = field(default_factory=dict)
     checks: list[Check] = field(default_factory=list)
+    _programs: dict[str, Program] | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def programs(self) -> dict[str, Program]:
+        """Straight-line programs of the recursive algorithms (``mechanics/recursive.py``), by
+        what they compute: ``inverse_dynamics`` and ``forward_dynamics`` for every robot, and
+        ``mass_matrix``, ``coriolis``, ``gravity`` for 3-D robots (a planar robot's explicit
+        M, C, N are short and read like the sheet). Built once, on first use: a run that
+        writes only a sheet never pays for them."""
+        if self._programs is None:
+            self._programs = build_programs(self.robot, self.symbols, list(self.quantities["Y_g"]))
+        return self._programs
+
+    def keys(self) -> list[str]:
+        """The names of the quantities, in derivation order (``d.keys()``, as for a dict)."""
+        return list(self.quantities)
+
+    def _repr_latex_(self) -> str:
+        """The equations of motion in a notebook: the manipulator form, and M, C, N where they
+        are short enough to read."""
+        names = self.symbols.latex_names()
+        parts = [r"M(q)\,\ddot q + C(q, \dot q)\,\dot q + N(q) = \Upsilon"]
+        for label, key in (("M", "M_g"), ("C", "C_g"), ("N", "N_g")):
+            value = self.quantities[key]
+            if is_small(sympy.Tuple(*value), 60 * len(value)):
+                parts.append(f"{label} = " + sympy.latex(value, symbol_names=names, mat_delim="["))
+            else:
+                parts.append(rf"{label}:\ \text{{{value.shape[0]} $\times$ {value.shape[1]}, too large to show}}")
+        return rf"$\displaystyle \text{{{_latex_text(self.robot.title)}}}:\quad " + r",\quad ".join(parts) + "$"
 
     def __getitem__(self, name: str) -> Any:
         try:
@@ -67,7 +98,7 @@ class Derivation:
 
 def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
     """Derive every quantity of ``robot`` and run the built-in consistency checks."""
-    from .generalized import derive_generalized
+    from .mechanics.generalized import derive_generalized
 
     report = progress or (lambda stage: None)
     table = SymbolTable.for_robot(robot)
@@ -76,14 +107,14 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
     if robot.planar:
         links: list[Any] = planar_kinematics(robot, table)
     else:
-        from .spatial import spatial_kinematics
+        from .mechanics.spatial import spatial_kinematics
 
         links = spatial_kinematics(robot, table)
     report("energies")
     quantities, steps = derive_generalized(robot, table, links, report)
     derivation = Derivation(robot, table, quantities, {"generalized": steps, "kinematics": links})
     if robot.planar:
-        from .maximal import derive_maximal
+        from .mechanics.maximal import derive_maximal
 
         report("maximal coordinates")
         maximal, maximal_steps = derive_maximal(robot, table, links, steps, steps["links"])
@@ -120,3 +151,10 @@ def run_checks(derivation: Derivation) -> list[Check]:
                    q["EOM_g3"] - q["EOM_g1"], symbols),
     ]
     return checks
+
+
+def _latex_text(text: str) -> str:
+    """Free text inside ``\\text{}`` (a notebook cell): LaTeX specials written literally."""
+    specials = {"\\": r"\textbackslash{}", "{": r"\{", "}": r"\}", "&": r"\&", "#": r"\#", "%": r"\%", "$": r"\$",
+                "_": r"\_", "^": r"\^{}", "~": r"\~{}"}
+    return "".join(specials.get(c, c) for c in text if c.isprintable())

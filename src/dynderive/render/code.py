@@ -22,7 +22,7 @@ from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
-from ..tidy import fold_constants, operation_count
+from ..mechanics.tidy import fold_constants, operation_count
 from .encode import Code, python_literal
 from .environment import render
 
@@ -226,7 +226,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
     u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
     structured = not robot.planar
     functions = _expression_functions(derivation, q, qd, u, printer, params, structured)
-    programs = _programs(derivation, q, qd, u, structured)
+    programs = _programs(derivation, q, qd, u)
     maximal = "M_m" in quantities
     if maximal:
         m = len(table.qm)
@@ -305,38 +305,20 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
     return functions
 
 
-def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
-              structured: bool) -> list[ProgramFunction]:
-    """Straight-line programs of the recursive algorithms (``recursive.py``): inverse and
-    forward dynamics for every robot, and M, C, N for 3-D robots (planar ones print their
-    short explicit M, C, N, which read like the sheet)."""
-    from ..recursive import (
-        coriolis_program,
-        forward_dynamics_program,
-        gravity_program,
-        inverse_dynamics_program,
-        mass_matrix_program,
-    )
-
-    robot, quantities, table = derivation.robot, derivation.quantities, derivation.symbols
-    n = len(table.q)
-    qdd = Argument("qdd", table.qdd, f"joint accelerations, shape (..., {n})")
-    programs = []
-    if structured:
-        programs += [
-            program_function("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q],
-                             mass_matrix_program(robot, table)),
-            program_function("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.",
-                             [q, qd], coriolis_program(robot, table)),
-            program_function("_gravity_body", "N(q): Newton-Euler at rest.", [q], gravity_program(robot, table)),
-        ]
-    programs += [
-        program_function("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd],
-                         inverse_dynamics_program(robot, table)),
-        program_function("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N.",
-                         [q, qd, u], forward_dynamics_program(robot, table, list(quantities["Y_g"]))),
-    ]
-    return programs
+def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) -> list[ProgramFunction]:
+    """The straight-line programs the derivation holds (``Derivation.programs``), printed:
+    inverse and forward dynamics for every robot, M, C, N for 3-D robots."""
+    n = len(derivation.symbols.q)
+    qdd = Argument("qdd", derivation.symbols.qdd, f"joint accelerations, shape (..., {n})")
+    specs = {
+        "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
+        "coriolis": ("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.", [q, qd]),
+        "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
+        "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
+        "forward_dynamics": ("_forward_dynamics_body",
+                             "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N.", [q, qd, u]),
+    }
+    return [program_function(*specs[key], program) for key, program in derivation.programs.items()]
 
 
 def _tuple(names: tuple[str, ...]) -> Code:

@@ -13,7 +13,7 @@ import json
 import sympy
 
 from ..derivation import DESCRIPTIONS, Derivation
-from ..tidy import is_small
+from ..mechanics.tidy import is_small
 from .latex import Formatter
 
 #: Quantities larger than this (tree nodes per entry, on average) get ``"latex": null``: their

@@ -8,7 +8,7 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
-from ..tidy import is_small
+from ..mechanics.tidy import is_small
 from .encode import escape_tex, tex_unit
 from .environment import render
 

@@ -12,8 +12,9 @@ from typing import Any
 
 import sympy
 
+from ..model.robot import Joint, Robot
+from ..model.symbols import SymbolTable
 from .joints import unit
-from .kinematics import PlanarLinkKinematics
 from .lagrange import (
     christoffel_coriolis,
     constraint_jacobian_dot,
@@ -21,8 +22,7 @@ from .lagrange import (
     lagrange_steps,
     mass_matrix_from_jacobians,
 )
-from .model import Joint, Robot
-from .symbols import SymbolTable
+from .planar import PlanarLinkKinematics
 from .tidy import tidy, tidy_matrix
 
 #: Above this many operations in A M^-1 A^T, lambda is not solved symbolically (the

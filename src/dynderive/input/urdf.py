@@ -27,7 +27,7 @@ from xml.parsers import expat
 
 import numpy as np
 
-from .errors import InputError, Problem
+from ..errors import InputError, Problem
 from .loader import SourceDocument
 
 Path_ = tuple[Any, ...]
@@ -255,12 +255,47 @@ def _inertia_problem(tensor: np.ndarray) -> str | None:
 
 
 def read_urdf(text: str, file: str) -> SourceDocument:
-    """URDF text -> the data of an equivalent robot file, with positions for every value."""
+    """URDF text -> the data of an equivalent robot file, with positions for every value.
+
+    Steps: read the links' inertials and the joints, check the tree, place every link in the
+    moving link it is welded to (fixed joints composed as rotation matrices), merge welded
+    bodies, and write the moving links and joints as robot-file data.
+    """
     root = _parse_xml(text, file)
     reader = _Reader(file)
     doc = SourceDocument(file=file, data=None)
     if root.tag != "robot":
         raise InputError(Problem(file, root.line, root.column, f"expected a <robot> element, got <{root.tag}>"))
+    bodies, link_elements = _read_links(root, reader)
+    joints = _read_joints(root, reader, doc, link_elements)
+    moving_children = {j["child"] for j in joints if j["type"] != "fixed"}
+    for name, body in bodies.items():
+        if body.mass < 0:  # a moving link needs a positive mass in the end; a welded one may have none
+            rule = "must be positive" if name in moving_children else "must not be negative"
+            reader.error(body.element.find("mass") or body.element, f"link '{name}' mass: {rule} (got {body.mass:g})")
+    if reader.problems:
+        raise InputError(reader.problems)
+
+    by_child = _check_tree(reader, joints, link_elements)
+    if reader.problems:
+        raise InputError(reader.problems)
+    children = set(by_child)
+    roots = [name for name in link_elements if name not in children]
+    if len(roots) != 1:
+        where = root if not roots else link_elements[roots[1]]
+        raise InputError(Problem(file, where.line, where.column,
+                                 f"a URDF robot needs exactly one root link, found {len(roots)}"
+                                 + (f" ({', '.join(roots)})" if roots else "")))
+    base = roots[0]
+
+    frames = _fixed_frames(reader, joints, link_elements, by_child, base)
+    merged = _merge_bodies(reader, bodies, link_elements, frames)
+    return _robot_document(root, reader, doc, joints, link_elements, frames, merged)
+
+
+def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, _Body], dict[str, _Element]]:
+    """Every <link>'s element and, where it has an <inertial>, its body (mass, COM, inertia
+    rotated into link axes)."""
     bodies: dict[str, _Body] = {}
     link_elements: dict[str, _Element] = {}
     for link in root.findall("link"):
@@ -299,6 +334,12 @@ def read_urdf(text: str, file: str) -> SourceDocument:
                          "<origin rpy> of <inertial> overflows)")
         bodies[name] = _Body(mass, np.array(xyz), rotated, inertial, max(map(abs, xyz)))
 
+    return bodies, link_elements
+
+
+def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
+                 link_elements: dict[str, _Element]) -> list[dict[str, Any]]:
+    """Every <joint> as a dict (type, links, origin as xyz and a rotation, axis)."""
     joints: list[dict[str, Any]] = []
     for joint in root.findall("joint"):
         name = joint.attrib.get("name", "")
@@ -307,7 +348,7 @@ def read_urdf(text: str, file: str) -> SourceDocument:
         child = (joint.find("child") or _Element("child", {}, joint.line, joint.column)).attrib.get("link")
         mimic = joint.find("mimic")
         if mimic is not None and jtype == "fixed":
-            doc.notes.append(f"{file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
+            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
         elif mimic is not None:
             reader.error(mimic, f"joint '{name}': <mimic> joints are not supported")
             continue
@@ -333,29 +374,13 @@ def read_urdf(text: str, file: str) -> SourceDocument:
             "axis": reader.numbers(joint.find("axis"), "xyz", 3, [1, 0, 0]),
             "axis_element": joint.find("axis") or joint,
         })
-    moving_children = {j["child"] for j in joints if j["type"] != "fixed"}
-    for name, body in bodies.items():
-        if body.mass < 0:  # a moving link needs a positive mass in the end; a welded one may have none
-            rule = "must be positive" if name in moving_children else "must not be negative"
-            reader.error(body.element.find("mass") or body.element, f"link '{name}' mass: {rule} (got {body.mass:g})")
-    if reader.problems:
-        raise InputError(reader.problems)
+    return joints
 
-    by_child = _check_tree(reader, joints, link_elements)
-    if reader.problems:
-        raise InputError(reader.problems)
-    children = set(by_child)
-    roots = [name for name in link_elements if name not in children]
-    if len(roots) != 1:
-        where = root if not roots else link_elements[roots[1]]
-        raise InputError(Problem(file, where.line, where.column,
-                                 f"a URDF robot needs exactly one root link, found {len(roots)}"
-                                 + (f" ({', '.join(roots)})" if roots else "")))
-    base = roots[0]
 
-    # merge fixed joints into their parent (world for the root): every link's frame in the
-    # moving link it is welded to, composed as matrices from the top (no recursion: chains
-    # of fixed joints may be long)
+def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: dict[str, _Element],
+                  by_child: dict[str, dict[str, Any]], base: str) -> dict[str, tuple[str, Rotation, np.ndarray]]:
+    """Each link's frame in the moving link it is welded to (``world`` for the root's): fixed
+    joints composed as matrices from the top, without recursion (chains may be long)."""
     frames: dict[str, tuple[str, Rotation, np.ndarray]] = {base: ("world", IDENTITY, np.zeros(3))}
     for name in link_elements:
         chain = []
@@ -378,6 +403,12 @@ def read_urdf(text: str, file: str) -> SourceDocument:
     if reader.problems:
         raise InputError(reader.problems)
 
+    return frames
+
+
+def _merge_bodies(reader: _Reader, bodies: dict[str, _Body], link_elements: dict[str, _Element],
+                  frames: dict[str, tuple[str, Rotation, np.ndarray]]) -> dict[str, _Body]:
+    """Bodies welded together, combined by the parallel-axis theorem, by moving link."""
     merged: dict[str, _Body] = {}
     for name in link_elements:
         target, rotation, p = frames[name]
@@ -399,6 +430,13 @@ def read_urdf(text: str, file: str) -> SourceDocument:
     if reader.problems:
         raise InputError(reader.problems)
 
+    return merged
+
+
+def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints: list[dict[str, Any]],
+                    link_elements: dict[str, _Element], frames: dict[str, tuple[str, Rotation, np.ndarray]],
+                    merged: dict[str, _Body]) -> SourceDocument:
+    """The moving links and joints as robot-file data, with a position for every value."""
     data: dict[str, Any] = {
         "name": identifier(root.attrib.get("name", "robot")),
         "title": root.attrib.get("name", "robot"),
@@ -514,7 +552,7 @@ def to_yaml(data: dict[str, Any], source: str) -> str:
     """The robot data as a version-1 YAML robot file, lists written inline."""
     import yaml
 
-    from ._version import __version__
+    from .._version import __version__
 
     class _Dumper(yaml.SafeDumper):
         pass

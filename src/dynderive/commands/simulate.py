@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 import sympy
 
-from .checks import generated_module
-from .derivation import Derivation
-from .errors import InputError, Problem
-from .expressions import ExpressionError, parse_expression
+from ..derivation import Derivation
+from ..errors import InputError, Problem
+from ..model.expressions import ExpressionError, parse_expression
+from ..verify.checks import generated_module
 
 
 @dataclass
@@ -196,7 +196,7 @@ def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
 
 
 def csv_text(trajectory: Trajectory) -> str:
-    from .schema import velocity_name
+    from ..model.naming import velocity_name
 
     header = ["t", *trajectory.names, *(velocity_name(n) for n in trajectory.names), "energy"]
     columns = [trajectory.times[:, None], trajectory.position, trajectory.velocity, trajectory.energy[:, None]]

@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import DynderiveError, InputError, OutputError, Problem
+from ..errors import DynderiveError, InputError, OutputError, Problem
 
 try:
     import fcntl
@@ -70,11 +70,11 @@ def robot_name(source: Path) -> tuple[str, int, int] | None:
 
     ``None`` if the file cannot be read that far; building it will report why.
     """
-    from .loader import load_document, read_text
+    from ..input.loader import load_document, read_text
 
     try:
         if source.suffix.lower() == ".urdf":
-            from .urdf import _parse_xml, identifier
+            from ..input.urdf import _parse_xml, identifier
 
             text = read_text(source)
             root = _parse_xml(text, str(source))
@@ -120,8 +120,8 @@ def check_names(sources: list[Path]) -> None:
 
 
 def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -> str:
-    from ._version import __version__
-    from .render.environment import templates_in_use
+    from .._version import __version__
+    from ..render.environment import templates_in_use
 
     digest = hashlib.sha256()
     digest.update(f"dynderive {__version__} {engine_fingerprint()}\n{','.join(kinds)}\n".encode())
@@ -135,7 +135,7 @@ def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -
 def engine_fingerprint() -> str:
     """Hash of dynderive's own source: an engine change invalidates every manifest record."""
     digest = hashlib.sha256()
-    package = Path(__file__).resolve().parent
+    package = Path(__file__).resolve().parents[1]   # the dynderive package
     for path in sorted(package.rglob("*.py")):
         digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()[:16]
@@ -143,10 +143,10 @@ def engine_fingerprint() -> str:
 
 def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
     """Every requested output of one robot file, in memory (runs in a worker process)."""
-    from . import derive, load_robot
-    from .render.code import render_code
-    from .render.json import render_json
-    from .render.latex import render_latex
+    from .. import derive, load_robot
+    from ..render.code import render_code
+    from ..render.json import render_json
+    from ..render.latex import render_latex
 
     robot = load_robot(source)
     derivation = derive(robot)
@@ -155,7 +155,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     if "latex" in kinds:
         files[f"{robot.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     if "pdf" in kinds:
-        from .render.pdf import compile_pdf
+        from ..render.pdf import compile_pdf
 
         files[f"{robot.name}.pdf"] = compile_pdf(tex, robot.name)  # type: ignore[arg-type]
     if "code" in kinds:

@@ -16,8 +16,8 @@ from typing import Annotated, Any, TypeVar
 
 import typer
 
-from ._version import __version__
-from .errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from .._version import __version__
+from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
 
 app = typer.Typer(
     add_completion=False,
@@ -120,12 +120,12 @@ def solve(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
-    from . import derive, load_robot
+    from .. import derive, load_robot
+    from ..render.code import render_code
+    from ..render.json import render_json
+    from ..render.latex import render_latex
+    from ..render.terminal import render_terminal
     from .output import write_all
-    from .render.code import render_code
-    from .render.json import render_json
-    from .render.latex import render_latex
-    from .render.terminal import render_terminal
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(_problem(str(template_dir), "template directory does not exist"))
@@ -148,7 +148,7 @@ def solve(
         files[out / f"{model.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     skipped: ToolMissingError | None = None
     if pdf:
-        from .render.pdf import compile_pdf
+        from ..render.pdf import compile_pdf
 
         progress("compiling PDF")
         try:
@@ -159,7 +159,7 @@ def solve(
         progress("generating code")
         files[out / f"{model.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
         if tests:
-            from .render.code import render_code_tests
+            from ..render.code import render_code_tests
 
             files[out / f"test_{model.name}_dynamics.py"] = render_code_tests(derivation, template_dir).encode()
     if json_:
@@ -191,9 +191,9 @@ def check(
     """
     import json
 
-    from . import derive, load_robot
-    from .checks import run_checks
-    from .render.code import render_code
+    from .. import derive, load_robot
+    from ..render.code import render_code
+    from ..verify.checks import run_checks
 
     progress = _Progress(quiet)
     model = _with_parameters(load_robot(robot), param or [], required=False)
@@ -226,8 +226,8 @@ def _with_parameters(model: Any, assignments: list[str], required: bool) -> Any:
     import dataclasses
     import math
 
-    from .errors import Problem
-    from .expressions import ExpressionError, parse_expression
+    from ..errors import Problem
+    from ..model.expressions import ExpressionError, parse_expression
 
     known = {p.name: p for p in model.parameters}
     given: dict[str, float] = {}
@@ -306,9 +306,9 @@ def simulate(
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
     import numpy as np
 
-    from . import derive, load_robot
+    from .. import derive, load_robot
+    from ..render.code import render_code
     from .output import write_all
-    from .render.code import render_code
     from .simulate import animation_gif, csv_text, default_initial, parse_efforts, plot_png
     from .simulate import simulate as run
 
@@ -404,7 +404,7 @@ def schema() -> None:
     """Print the JSON Schema of the robot file format (for editors such as VS Code's YAML extension)."""
     import json
 
-    from .json_schema import robot_schema
+    from ..input.json_schema import robot_schema
 
     typer.echo(json.dumps(robot_schema(), indent=2))
 
@@ -416,10 +416,10 @@ def import_(
     output: Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")],
 ) -> None:
     """Convert a URDF file into the equivalent dynderive YAML robot file."""
-    from .loader import read_text, resolve_robot_path
+    from ..input.loader import read_text, resolve_robot_path
+    from ..input.schema import validate
+    from ..input.urdf import read_urdf, to_yaml
     from .output import write_all
-    from .schema import validate
-    from .urdf import read_urdf, to_yaml
 
     path = resolve_robot_path(urdf)
     if path.suffix.lower() in (".yaml", ".yml"):
@@ -433,14 +433,14 @@ def import_(
 
 
 def _problem(file: str, message: str) -> Any:
-    from .errors import Problem
+    from ..errors import Problem
 
     return Problem(file, 1, 1, message)
 
 
 def run() -> None:
     """Console-script entry point (``dynderive.__main__.run``, which takes over signals first)."""
-    from .__main__ import run as main_run
+    from ..__main__ import run as main_run
 
     main_run()
 

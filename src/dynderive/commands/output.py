@@ -14,7 +14,7 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from .errors import OutputError
+from ..errors import OutputError
 
 
 def write_all(files: dict[Path, bytes]) -> None:

@@ -11,15 +11,13 @@ from dataclasses import dataclass, field
 import sympy
 
 from .expressions import parse_expression
-from .model import Robot
-from .naming import (  # noqa: F401 - GREEK and latex_name are re-exported from here
-    GREEK,
+from .naming import (
     acceleration_name,
     latex_name,
     maximal_coordinate_names,
-    split_index,
     velocity_name,
 )
+from .robot import Robot
 
 
 @dataclass

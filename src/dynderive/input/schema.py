@@ -7,18 +7,18 @@ the kinematics parses them again from the texts kept in ``Robot``.
 
 from __future__ import annotations
 
-import builtins
 import difflib
 import keyword
 import math
 import re
 from collections.abc import Iterable
+from dataclasses import dataclass
 from typing import Any
 
 import sympy
 
-from .errors import InputError, Problem
-from .expressions import (
+from ..errors import InputError, Problem
+from ..model.expressions import (
     RESERVED,
     Evaluator,
     ExpressionError,
@@ -27,15 +27,12 @@ from .expressions import (
     imaginary_part,
     parse_expression,
 )
-from .loader import SourceDocument
-from .model import Joint, Link, Parameter, Robot
-from .naming import (  # noqa: F401 - re-exported: other modules import them from here
-    acceleration_name,
-    latex_name,
+from ..model.naming import (
     maximal_coordinate_names,
-    split_index,
-    velocity_name,
 )
+from ..model.robot import Joint, Link, Parameter, Robot
+from .loader import SourceDocument
+from .names import check_names
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
@@ -46,36 +43,6 @@ LINK_KEYS = ("name", "mass", "com", "inertia")
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort")
 MAXIMAL_KEYS = ("constraints",)
 ORIGIN_KEYS = ("xyz", "rpy")
-
-#: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
-#: of that name would shadow them in the generated module. The names ``site`` adds are listed
-#: too, so the set does not depend on how Python was started.
-PYTHON_BUILTINS = frozenset(
-    name for name in dir(builtins) if not name.startswith("_")
-) | {"copyright", "credits", "exit", "help", "license", "quit"}
-
-#: Argument names of the generated functions, current and planned (DESIGN.md section 6).
-API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess"})
-
-#: Public names of the generated module planned in DESIGN.md section 6.
-PLANNED_NAMES = frozenset({
-    "friction_forces", "loop_constraints", "loop_jacobian", "loop_jacobian_dot", "loop_forces",
-    "assemble", "FRAMES", "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd",
-    "linearize", "regressor", "PARAMETER_VECTOR", "parameter_vector", "maximal_kinetic_energy",
-    "maximal_potential_energy", "generalized_forces", "maximal_forward_dynamics",
-})
-
-#: Names the generated module defines or uses; robot symbols may not take them.
-MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | frozenset({
-    "np", "numpy", "math", "q", "qd", "qdd", "u", "qm", "qmd", "p", "out", "result",
-    "PARAMETERS", "COORDINATES", "EFFORTS", "MAXIMAL_COORDINATES", "mass_matrix",
-    "coriolis_matrix", "gravity_vector", "inverse_dynamics", "forward_dynamics",
-    "kinetic_energy", "potential_energy", "generalized_forces", "maximal_mass_matrix",
-    "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts", "constraints",
-    "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
-    "to_maximal_jacobian", "maximal_forward_dynamics", "world", "arrays", "batch",
-})
-
 
 class _Validator:
     def __init__(self, doc: SourceDocument):
@@ -213,7 +180,11 @@ def _numeric(expr: sympy.Expr | None, defaults: Evaluator) -> float | None:
 
 
 def validate(doc: SourceDocument) -> Robot:
-    """Check a parsed robot file and return its ``Robot``; raise ``InputError`` otherwise."""
+    """Check a parsed robot file and return its ``Robot``; raise ``InputError`` otherwise.
+
+    Every problem is collected (top level, parameters, links, joints, tree, names, maximal
+    constraints) and raised once, so a user fixes a file in one pass.
+    """
     v = _Validator(doc)
     top = v.mapping(doc.data, (), TOP_KEYS, required=("name", "links", "joints", "gravity"))
     if top is None:
@@ -226,7 +197,52 @@ def validate(doc: SourceDocument) -> Robot:
         v.error(("planar",), f"planar: expected true or false, got {planar!r}")
         planar = True
 
-    # parameters ---------------------------------------------------------------------
+    parameters = _parameters(v, top)
+    symbols = {p.name: sympy.Symbol(p.name) for p in parameters}
+    v.evaluate = Evaluator({sympy.Symbol(p.name): sympy.Float(p.value) for p in parameters
+                            if p.value is not None})
+
+    gravity = top.get("gravity")
+    if not planar and isinstance(gravity, list) and len(gravity) == 2 and _looks_planar(top):
+        why = "'planar: false' makes this robot 3-D" if "planar" in top else "this robot is 3-D"
+        v.error(("gravity",), f"gravity: has 2 entries, but {why}; planar robots need 'planar: true'")
+        planar = True  # check the rest as the planar robot it is, without piling up follow-on errors
+    if "gravity" in top:
+        v.vector(top["gravity"], ("gravity",), (2 if planar else 3,), symbols)
+
+    links, tree = _links(v, top, planar, symbols)
+    joints = _joints(v, top, planar, symbols, tree)
+    if joints and not any(j.moves for j in joints):
+        v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
+    _check_tree(v, joints, tree.names)
+    check_names(v, parameters, links, joints, planar)
+    constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
+
+    if v.problems:
+        raise InputError(v.problems)
+    positions = {f"joint:{j.name}": doc.where(("joints", i)) for i, j in enumerate(joints)}
+    positions |= {f"link:{lk.name}": doc.where(("links", i)) for i, lk in enumerate(links)}
+    positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
+    positions |= {f"parameter:{p.name}": doc.where(("parameters", p.name), key=True) for p in parameters}
+    return Robot(
+        name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
+        gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
+        maximal_constraints=constraints, source=doc.file, positions=positions, notes=tuple(doc.notes),
+    )
+
+
+@dataclass
+class _LinkNames:
+    """What the joints need to know of the links: their names (-> path), the names already
+    reported as bad (joints naming them are not re-reported), and whether the list is broken."""
+
+    names: dict[str, tuple[Any, ...]]
+    bad: set[Any]
+    broken: bool
+
+
+def _parameters(v: _Validator, top: dict[str, Any]) -> list[Parameter]:
+    """The ``parameters`` block: names, default values (finite doubles), units, descriptions."""
     parameters: list[Parameter] = []
     raw_parameters = top.get("parameters", {}) or {}
     if not isinstance(raw_parameters, dict):
@@ -260,21 +276,14 @@ def validate(doc: SourceDocument) -> Robot:
             v.error(vpath, f"{v.label(vpath)}: default value must be finite, got {value}")
             value = None
         parameters.append(Parameter(pname, None if value is None else float(value), unit, description))
-    symbols = {p.name: sympy.Symbol(p.name) for p in parameters}
-    v.evaluate = Evaluator({sympy.Symbol(p.name): sympy.Float(p.value) for p in parameters
-                            if p.value is not None})
+    return parameters
+
+
+def _links(v: _Validator, top: dict[str, Any], planar: bool,
+           symbols: dict[str, sympy.Expr]) -> tuple[list[Link], _LinkNames]:
+    """The ``links`` list: names, positive masses, centres of mass, physical inertias."""
     defaults = v.evaluate
-
-    gravity = top.get("gravity")
-    if not planar and isinstance(gravity, list) and len(gravity) == 2 and _looks_planar(top):
-        why = "'planar: false' makes this robot 3-D" if "planar" in top else "this robot is 3-D"
-        v.error(("gravity",), f"gravity: has 2 entries, but {why}; planar robots need 'planar: true'")
-        planar = True  # check the rest as the planar robot it is, without piling up follow-on errors
     dimension = 2 if planar else 3
-    if "gravity" in top:
-        v.vector(top["gravity"], ("gravity",), (dimension,), symbols)
-
-    # links ----------------------------------------------------------------------------
     links: list[Link] = []
     raw_links = top.get("links")
     links_broken = "links" in top and (not isinstance(raw_links, list) or not raw_links)
@@ -309,7 +318,14 @@ def validate(doc: SourceDocument) -> Robot:
         links.append(Link(lname or f"link{i + 1}", item.get("mass", 1), tuple(com) if isinstance(com, list) else (),
                           inertia))
 
-    # joints ---------------------------------------------------------------------------
+    return links, _LinkNames(link_names, bad_link_names, links_broken)
+
+
+def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
+            tree: _LinkNames) -> list[Joint]:
+    """The ``joints`` list: names, types, parent and child links, origins, axes, efforts."""
+    defaults = v.evaluate
+    link_names, bad_link_names, links_broken = tree.names, tree.bad, tree.broken
     joints: list[Joint] = []
     raw_joints = top.get("joints")
     if "joints" in top and (not isinstance(raw_joints, list) or not raw_joints):
@@ -354,12 +370,12 @@ def validate(doc: SourceDocument) -> Robot:
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
                             origin, axis, effort))
 
-    if joints and not any(j.moves for j in joints):
-        v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
-    _check_tree(v, joints, link_names)
-    _check_names(v, parameters, links, joints, planar)
+    return joints
 
-    # maximal ---------------------------------------------------------------------------
+
+def _maximal_constraints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
+                         links: list[Link], joints: list[Joint]) -> tuple[Any, ...] | None:
+    """The optional ``maximal.constraints`` override: planar only, 3 per link minus the DOF."""
     constraints = None
     if "maximal" in top:
         block = v.mapping(top["maximal"], ("maximal",), MAXIMAL_KEYS)
@@ -383,17 +399,7 @@ def validate(doc: SourceDocument) -> Robot:
                             f"freedom), got {len(raw_constraints)}")
                 constraints = tuple(raw_constraints)
 
-    if v.problems:
-        raise InputError(v.problems)
-    positions = {f"joint:{j.name}": doc.where(("joints", i)) for i, j in enumerate(joints)}
-    positions |= {f"link:{lk.name}": doc.where(("links", i)) for i, lk in enumerate(links)}
-    positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
-    positions |= {f"parameter:{p.name}": doc.where(("parameters", p.name), key=True) for p in parameters}
-    return Robot(
-        name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
-        gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
-        maximal_constraints=constraints, source=doc.file, positions=positions, notes=tuple(doc.notes),
-    )
+    return constraints
 
 
 def _looks_planar(top: dict[str, Any]) -> bool:
@@ -533,64 +539,3 @@ def _check_tree(v: _Validator, joints: list[Joint], link_names: dict[str, tuple[
             i = parent_of[current]
             v.error(("joints", i), f"{v.label(('joints', i))}: links {' -> '.join(seen[seen.index(current):] + [current])}"
                     " form a cycle not connected to 'world'")
-
-
-def _check_names(v: _Validator, parameters: list[Parameter], links: list[Link],
-                 joints: list[Joint], planar: bool) -> None:
-    """Every symbol the derivation creates must be unique, free for the generated code, and
-    typeset differently from every other symbol (``l1`` and ``l_1`` both print as l_{1})."""
-    owners: dict[str, str] = {}
-    typeset: dict[str, tuple[str, str]] = {}  # LaTeX -> (name, owner)
-
-    def other(name: str, owner: str) -> str:
-        return owner if owner.startswith("the ") else f"'{name}' ({owner})"
-
-    def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False, dots: int = 0,
-              base: str | None = None) -> bool:
-        latex = latex_name(base or name, dots)
-        if name in MODULE_NAMES:
-            why = " (a Python built-in)" if name in PYTHON_BUILTINS else ""
-            v.error(path, f"{owner}: name '{name}' is reserved by the generated module{why}", key=key)
-        elif name.startswith("_"):
-            v.error(path, f"{owner}: name '{name}' starts with '_', which the generated module keeps for "
-                    "its own temporaries", key=key)
-        elif name in RESERVED:
-            v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
-        elif name in owners:
-            v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
-        elif latex in typeset:
-            first, first_owner = typeset[latex]
-            v.error(path, f"{owner}: name '{name}' is typeset as {latex}, the same as "
-                    f"{other(first, first_owner)}", key=key)
-        else:
-            owners[name] = owner
-            typeset[latex] = (name, owner)
-            return True
-        return False
-
-    if planar:  # names the maximal-coordinate derivation creates come first
-        for name in maximal_coordinate_names(len(links)):
-            for dots, derived in enumerate((name, velocity_name(name), acceleration_name(name))):
-                owners[derived] = f"the maximal coordinate '{derived}'"
-                typeset[latex_name(name, dots)] = (derived, owners[derived])
-        for k in range(1, 3 * len(links) + 1):
-            owners[f"lambda{k}"] = f"the multiplier 'lambda{k}'"
-            typeset[latex_name(f"lambda{k}")] = (f"lambda{k}", owners[f"lambda{k}"])
-    for p in parameters:
-        claim(p.name, f"parameters.{p.name}", ("parameters", p.name), key=True)
-    seen_joints: set[str] = set()
-    for i, joint in enumerate(joints):
-        if not joint.moves:
-            continue
-        if joint.name in seen_joints:  # a duplicate joint name is reported once, where found
-            continue
-        seen_joints.add(joint.name)
-        label = v.label(("joints", i, "name"))
-        if not claim(joint.name, label, ("joints", i, "name")):
-            continue
-        claim(velocity_name(joint.name), f"{label} (velocity '{velocity_name(joint.name)}')",
-              ("joints", i, "name"), dots=1, base=joint.name)
-        claim(acceleration_name(joint.name), f"{label} (acceleration '{acceleration_name(joint.name)}')",
-              ("joints", i, "name"), dots=2, base=joint.name)
-        if joint.effort:
-            claim(joint.effort, f"joints[{i}].effort", ("joints", i, "effort"))

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 import sympy
 
-from .derivation import Derivation
-from .tidy import Check, check_zero, fold_constants, is_small
+from ..derivation import Derivation
+from ..mechanics.tidy import Check, check_zero, fold_constants, is_small
 
 #: Quantities larger than this (tree nodes) are not evaluated symbolically against the code.
 SYMBOLIC_EVALUATION_NODES = 60_000

@@ -12,9 +12,9 @@ from dataclasses import dataclass, field
 
 import sympy
 
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
 from .joints import KINDS
-from .model import Robot
-from .symbols import SymbolTable
 
 
 @dataclass

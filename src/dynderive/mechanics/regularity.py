@@ -16,10 +16,10 @@ import random
 import numpy as np
 import sympy
 
-from .errors import InputError, Problem
-from .model import Robot
+from ..errors import InputError, Problem
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
 from .recursive import mass_matrix_program
-from .symbols import SymbolTable
 
 #: Smallest eigenvalue of M, relative to the largest, still taken as regular.
 RELATIVE_TOLERANCE = 1e-10

@@ -25,11 +25,10 @@ from dataclasses import dataclass, field
 
 import sympy
 
-from .generalized import inertia_tensor
+from ..model.robot import Joint, Robot
+from ..model.symbols import SymbolTable
 from .joints import unit
-from .model import Joint, Robot
-from .spatial import axis_angle, rpy_matrix
-from .symbols import SymbolTable
+from .spatial import axis_angle, inertia_tensor, rpy_matrix
 from .tidy import operation_count
 
 Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
@@ -396,3 +395,18 @@ def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
         program.let(half * sum((qd[k] * (dM[k][i][j] + dM[j][i][k] - dM[i][j][k]) for k in range(n)), sympy.Integer(0)))
         for i in range(n) for j in range(n)]
     return program
+
+
+def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr]) -> dict[str, Program]:
+    """The programs the generated module runs, by name: ``inverse_dynamics`` and
+    ``forward_dynamics`` (``efforts`` is ``Y_g``) for every robot; ``mass_matrix``,
+    ``coriolis`` and ``gravity`` too for 3-D robots, whose explicit M, C, N are too large to
+    print (a planar robot's are short and read like the sheet)."""
+    programs: dict[str, Program] = {}
+    if not robot.planar:
+        programs["mass_matrix"] = mass_matrix_program(robot, table)
+        programs["coriolis"] = coriolis_program(robot, table)
+        programs["gravity"] = gravity_program(robot, table)
+    programs["inverse_dynamics"] = inverse_dynamics_program(robot, table)
+    programs["forward_dynamics"] = forward_dynamics_program(robot, table, efforts)
+    return programs

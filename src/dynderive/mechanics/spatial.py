@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import sympy
 
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
 from .joints import unit
-from .model import Robot
-from .symbols import SymbolTable
 from .tidy import is_small, quick_tidy
 
 #: Pieces larger than this (operations) are composed without tidying.
@@ -38,6 +38,12 @@ class Transform:
     def inverse(self) -> Transform:
         Rt = self.R.T
         return Transform(Rt, _tidy(-(Rt * self.p)))
+
+
+def inertia_tensor(entries: tuple[sympy.Expr, ...]) -> sympy.Matrix:
+    """``(ixx, iyy, izz, ixy, ixz, iyz)`` as a symmetric 3 x 3 matrix."""
+    ixx, iyy, izz, ixy, ixz, iyz = entries
+    return sympy.Matrix([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
 
 
 def _tidy(matrix: sympy.Matrix) -> sympy.Matrix:

@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import sympy
 
-from .model import Robot
-from .symbols import SymbolTable
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
 
 
 def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndarray]:

@@ -17,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from .errors import InputError, Problem
+from ..errors import InputError, Problem
 
 Path_ = tuple[Any, ...]
 
@@ -76,7 +76,7 @@ def bundled_robots_dir() -> Path:
     packaged = resources.files("dynderive") / "robots"
     if packaged.is_dir():
         return Path(str(packaged))
-    return Path(__file__).resolve().parents[2] / "robots"
+    return Path(__file__).resolve().parents[3] / "robots"
 
 
 def bundled_robot_names() -> list[str]:

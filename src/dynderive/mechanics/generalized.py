@@ -13,14 +13,15 @@ from typing import Any
 
 import sympy
 
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
 from .lagrange import (
     christoffel_coriolis,
     gravity_vector,
     lagrange_steps,
     mass_matrix_from_jacobians,
 )
-from .model import Robot
-from .symbols import SymbolTable
+from .spatial import inertia_tensor
 from .tidy import (
     FOURIER_LIMIT,
     fewest_operations,
@@ -84,12 +85,6 @@ class LinkTerms:
 
 def spatial_inertia_planar(mass: sympy.Expr, inertia: sympy.Expr) -> sympy.Matrix:
     return sympy.diag(mass, mass, inertia)
-
-
-def inertia_tensor(entries: tuple[sympy.Expr, ...]) -> sympy.Matrix:
-    """``(ixx, iyy, izz, ixy, ixz, iyz)`` as a symmetric 3 x 3 matrix."""
-    ixx, iyy, izz, ixy, ixz, iyz = entries
-    return sympy.Matrix([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
 
 
 def link_terms(robot: Robot, table: SymbolTable, links: list[Any],

@@ -1,0 +1,102 @@
+"""Which names a robot's symbols may take: none that the generated module uses (its
+functions, arguments, ``np``, every Python built-in), none that clash, none that typeset
+alike on the sheet. Part of validation (``schema.validate`` calls ``check_names``)."""
+
+from __future__ import annotations
+
+import builtins
+from typing import Any
+
+from ..model.expressions import RESERVED
+from ..model.naming import acceleration_name, latex_name, maximal_coordinate_names, velocity_name
+from ..model.robot import Joint, Link, Parameter
+
+#: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
+#: of that name would shadow them in the generated module. The names ``site`` adds are listed
+#: too, so the set does not depend on how Python was started.
+PYTHON_BUILTINS = frozenset(
+    name for name in dir(builtins) if not name.startswith("_")
+) | {"copyright", "credits", "exit", "help", "license", "quit"}
+
+#: Argument names of the generated functions, current and planned (DESIGN.md section 6).
+API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess"})
+
+#: Public names of the generated module planned in DESIGN.md section 6.
+PLANNED_NAMES = frozenset({
+    "friction_forces", "loop_constraints", "loop_jacobian", "loop_jacobian_dot", "loop_forces",
+    "assemble", "FRAMES", "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd",
+    "linearize", "regressor", "PARAMETER_VECTOR", "parameter_vector", "maximal_kinetic_energy",
+    "maximal_potential_energy", "generalized_forces", "maximal_forward_dynamics",
+})
+
+#: Names the generated module defines or uses; robot symbols may not take them.
+MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | frozenset({
+    "np", "numpy", "math", "q", "qd", "qdd", "u", "qm", "qmd", "p", "out", "result",
+    "PARAMETERS", "COORDINATES", "EFFORTS", "MAXIMAL_COORDINATES", "mass_matrix",
+    "coriolis_matrix", "gravity_vector", "inverse_dynamics", "forward_dynamics",
+    "kinetic_energy", "potential_energy", "generalized_forces", "maximal_mass_matrix",
+    "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts", "constraints",
+    "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
+    "to_maximal_jacobian", "maximal_forward_dynamics", "world", "arrays", "batch",
+})
+
+
+def check_names(v: Any, parameters: list[Parameter], links: list[Link],
+                 joints: list[Joint], planar: bool) -> None:
+    """Every symbol the derivation creates must be unique, free for the generated code, and
+    typeset differently from every other symbol (``l1`` and ``l_1`` both print as l_{1})."""
+    owners: dict[str, str] = {}
+    typeset: dict[str, tuple[str, str]] = {}  # LaTeX -> (name, owner)
+
+    def other(name: str, owner: str) -> str:
+        return owner if owner.startswith("the ") else f"'{name}' ({owner})"
+
+    def claim(name: str, owner: str, path: tuple[Any, ...], key: bool = False, dots: int = 0,
+              base: str | None = None) -> bool:
+        latex = latex_name(base or name, dots)
+        if name in MODULE_NAMES:
+            why = " (a Python built-in)" if name in PYTHON_BUILTINS else ""
+            v.error(path, f"{owner}: name '{name}' is reserved by the generated module{why}", key=key)
+        elif name.startswith("_"):
+            v.error(path, f"{owner}: name '{name}' starts with '_', which the generated module keeps for "
+                    "its own temporaries", key=key)
+        elif name in RESERVED:
+            v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
+        elif name in owners:
+            v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
+        elif latex in typeset:
+            first, first_owner = typeset[latex]
+            v.error(path, f"{owner}: name '{name}' is typeset as {latex}, the same as "
+                    f"{other(first, first_owner)}", key=key)
+        else:
+            owners[name] = owner
+            typeset[latex] = (name, owner)
+            return True
+        return False
+
+    if planar:  # names the maximal-coordinate derivation creates come first
+        for name in maximal_coordinate_names(len(links)):
+            for dots, derived in enumerate((name, velocity_name(name), acceleration_name(name))):
+                owners[derived] = f"the maximal coordinate '{derived}'"
+                typeset[latex_name(name, dots)] = (derived, owners[derived])
+        for k in range(1, 3 * len(links) + 1):
+            owners[f"lambda{k}"] = f"the multiplier 'lambda{k}'"
+            typeset[latex_name(f"lambda{k}")] = (f"lambda{k}", owners[f"lambda{k}"])
+    for p in parameters:
+        claim(p.name, f"parameters.{p.name}", ("parameters", p.name), key=True)
+    seen_joints: set[str] = set()
+    for i, joint in enumerate(joints):
+        if not joint.moves:
+            continue
+        if joint.name in seen_joints:  # a duplicate joint name is reported once, where found
+            continue
+        seen_joints.add(joint.name)
+        label = v.label(("joints", i, "name"))
+        if not claim(joint.name, label, ("joints", i, "name")):
+            continue
+        claim(velocity_name(joint.name), f"{label} (velocity '{velocity_name(joint.name)}')",
+              ("joints", i, "name"), dots=1, base=joint.name)
+        claim(acceleration_name(joint.name), f"{label} (acceleration '{acceleration_name(joint.name)}')",
+              ("joints", i, "name"), dots=2, base=joint.name)
+        if joint.effort:
+            claim(joint.effort, f"joints[{i}].effort", ("joints", i, "effort"))

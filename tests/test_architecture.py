@@ -1,0 +1,94 @@
+"""The package layout by layer (DESIGN.md section 2, issue 14): each layer imports only the
+layers before it, renderers only format (no derivation inside), and no module grows past
+the size a reader takes in at once. Checked on the source's own import statements."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import dynderive
+
+PACKAGE = Path(dynderive.__file__).resolve().parent
+
+#: Layers in pipeline order; a module may import its own layer and the layers before it.
+#: ``errors`` and ``_version`` are leaves every layer may use.
+LAYERS = ["model", "input", "mechanics", "derivation", "render", "verify", "commands"]
+LEAVES = {"errors", "_version"}
+#: What the renderers may take from the engine: pure helpers, never a derivation step.
+RENDER_MAY_USE = {"mechanics.tidy"}
+
+
+def _layer(module: str) -> str:
+    return module.split(".")[0]
+
+
+def _modules():
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = list(path.relative_to(PACKAGE).with_suffix("").parts)
+        package = parts[:-1] if parts[-1] != "__init__" else parts[:-1]
+        yield path, ".".join(p for p in parts if p != "__init__"), package
+
+
+def _imports(path: Path, package: list[str]) -> set[str]:
+    """Modules of dynderive that ``path`` imports (absolute dotted names inside the package)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+                if node.module is None:   # from . import x: x may be a module
+                    found |= {".".join([*base, a.name]).lstrip(".") for a in node.names}
+                else:
+                    found.add(target)
+            elif node.module and node.module.startswith("dynderive."):
+                found.add(node.module[len("dynderive."):])
+    return {f for f in found if f}
+
+
+MODULES = [(str(path.relative_to(PACKAGE)), module, package) for path, module, package in _modules()]
+
+
+@pytest.mark.parametrize("relative, module, package", MODULES, ids=[m[0] for m in MODULES])
+def test_each_layer_imports_only_the_layers_before_it(relative, module, package):
+    layer = _layer(module)
+    if layer not in LAYERS:   # the package root, __main__ and the leaves sit outside the pipeline
+        return
+    allowed = set(LAYERS[: LAYERS.index(layer) + 1]) | LEAVES
+    for target in _imports(PACKAGE / relative, package):
+        target_layer = _layer(target)
+        if target_layer not in LAYERS and target_layer not in LEAVES:
+            continue   # names imported from the package root are checked below
+        assert target_layer in allowed, f"{module} (layer {layer}) imports {target} (layer {target_layer})"
+        if layer == "render" and target_layer == "mechanics":
+            assert target in RENDER_MAY_USE, f"{module} calls into the engine ({target}): renderers only format"
+
+
+def test_only_commands_and_the_package_root_use_the_package_root():
+    """``from .. import derive`` inside a layer would hide a dependency on every layer."""
+    for relative, module, package in MODULES:
+        if _layer(module) in LAYERS and _layer(module) != "commands":
+            tree = ast.parse((PACKAGE / relative).read_text())
+            for node in ast.walk(tree):
+                if isinstance(node, ast.ImportFrom) and node.level and node.module is None:
+                    assert len(package) - (node.level - 1) > 0, f"{module} imports from the package root"
+
+
+@pytest.mark.parametrize("relative", [m[0] for m in MODULES])
+def test_modules_stay_readable(relative):
+    assert len((PACKAGE / relative).read_text().splitlines()) <= 650, f"{relative}: split it by purpose"
+
+
+def test_public_api_keeps_working():
+    robot = dynderive.load_robot("rp_arm")
+    d = dynderive.derive(robot)
+    assert d.keys()[:3] == ["T_g", "V_g", "L_g"] and "M_g" in d.keys()
+    assert "M(q)" in d._repr_latex_() and d._repr_latex_().startswith("$")
+    assert set(d.programs) == {"inverse_dynamics", "forward_dynamics"}
+    for name in ("render_latex", "render_code", "render_json", "lagrange_equations", "christoffel_coriolis",
+                 "gravity_vector", "constraint_jacobian_dot", "time_derivative", "Robot", "InputError",
+                 "__version__"):
+        assert getattr(dynderive, name) is not None
