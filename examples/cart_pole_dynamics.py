@@ -22,6 +22,10 @@ EFFORTS = ("F",)
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2")
 
 
+def _matvec(matrix, vector):
+    return np.einsum("...ij,...j->...i", matrix, vector)
+
+
 def _coordinates(name, value, size):
     array = np.asarray(value, dtype=float)
     if array.ndim == 0 or array.shape[-1] != size:
@@ -426,6 +430,8 @@ def inverse_dynamics(q, qd, qdd, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     return _evaluate(_inverse_dynamics_body, arrays, (2,), {"mc": mc, "mp": mp, "lp": lp, "g": g})
 
 
+
+
 def forward_dynamics(q, qd, u=None, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 2).
 
@@ -438,10 +444,6 @@ def forward_dynamics(q, qd, u=None, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 1:
         raise ValueError(f"u must have shape (..., 1), got {arrays[2].shape}")
     return _evaluate(_forward_dynamics_body, arrays, (2,), {"mc": mc, "mp": mp, "lp": lp, "g": g})
-
-
-def _matvec(matrix, vector):
-    return np.einsum("...ij,...j->...i", matrix, vector)
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):

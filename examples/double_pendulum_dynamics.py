@@ -23,6 +23,10 @@ EFFORTS = ("tau1", "tau2")
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2")
 
 
+def _matvec(matrix, vector):
+    return np.einsum("...ij,...j->...i", matrix, vector)
+
+
 def _coordinates(name, value, size):
     array = np.asarray(value, dtype=float)
     if array.ndim == 0 or array.shape[-1] != size:
@@ -502,6 +506,8 @@ def inverse_dynamics(q, qd, qdd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     return _evaluate(_inverse_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
 
 
+
+
 def forward_dynamics(q, qd, u=None, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 2).
 
@@ -514,10 +520,6 @@ def forward_dynamics(q, qd, u=None, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 2:
         raise ValueError(f"u must have shape (..., 2), got {arrays[2].shape}")
     return _evaluate(_forward_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
-
-
-def _matvec(matrix, vector):
-    return np.einsum("...ij,...j->...i", matrix, vector)
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):

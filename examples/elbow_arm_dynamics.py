@@ -28,6 +28,10 @@ COORDINATES = ("q1", "q2", "q3")
 EFFORTS = ("tau1", "tau2", "tau3")
 
 
+def _matvec(matrix, vector):
+    return np.einsum("...ij,...j->...i", matrix, vector)
+
+
 def _coordinates(name, value, size):
     array = np.asarray(value, dtype=float)
     if array.ndim == 0 or array.shape[-1] != size:
@@ -434,6 +438,8 @@ def inverse_dynamics(q, qd, qdd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0
     """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 3)."""
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
     return _evaluate(_inverse_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
 
 
 def forward_dynamics(q, qd, u=None, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):

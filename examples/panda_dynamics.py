@@ -18,6 +18,10 @@ COORDINATES = ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "
 EFFORTS = ("tau_panda_joint1", "tau_panda_joint2", "tau_panda_joint3", "tau_panda_joint4", "tau_panda_joint5", "tau_panda_joint6", "tau_panda_joint7")
 
 
+def _matvec(matrix, vector):
+    return np.einsum("...ij,...j->...i", matrix, vector)
+
+
 def _coordinates(name, value, size):
     array = np.asarray(value, dtype=float)
     if array.ndim == 0 or array.shape[-1] != size:
@@ -1799,6 +1803,8 @@ def inverse_dynamics(q, qd, qdd, *, g=9.81):
     """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 7)."""
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), _coordinates("qdd", qdd, 7)]
     return _evaluate(_inverse_dynamics_body, arrays, (7,), {"g": g})
+
+
 
 
 def forward_dynamics(q, qd, u=None, *, g=9.81):

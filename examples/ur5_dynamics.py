@@ -18,6 +18,10 @@ COORDINATES = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wris
 EFFORTS = ("tau_shoulder_pan_joint", "tau_shoulder_lift_joint", "tau_elbow_joint", "tau_wrist_1_joint", "tau_wrist_2_joint", "tau_wrist_3_joint")
 
 
+def _matvec(matrix, vector):
+    return np.einsum("...ij,...j->...i", matrix, vector)
+
+
 def _coordinates(name, value, size):
     array = np.asarray(value, dtype=float)
     if array.ndim == 0 or array.shape[-1] != size:
@@ -1217,6 +1221,8 @@ def inverse_dynamics(q, qd, qdd, *, g=9.81):
     """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 6)."""
     arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), _coordinates("qdd", qdd, 6)]
     return _evaluate(_inverse_dynamics_body, arrays, (6,), {"g": g})
+
+
 
 
 def forward_dynamics(q, qd, u=None, *, g=9.81):

@@ -20,6 +20,28 @@ BUNDLED = sorted(p.stem for p in ROBOTS.glob("*.yaml"))
 _counter = itertools.count()
 
 
+def on_loops(module, qs, qds, spread: float = 0.3):
+    """For a module with closed loops: the states assembled near the first configuration
+    ``assemble`` finds from q = 0 (independent coordinates moved by ``spread * qs``) and the
+    velocities projected onto the motions the loops allow; other modules: unchanged."""
+    import numpy as np
+
+    if not hasattr(module, "LOOPS"):
+        return qs, qds
+    base = np.array(module.ASSEMBLED_CONFIGURATION)
+    independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
+    states, rates = [], []
+    for q, qd in zip(qs, qds):
+        guess = base.copy()
+        guess[independent] += spread * q[independent]
+        assembled = module.assemble(guess)
+        A = module.loop_jacobian(assembled)
+        null = np.linalg.svd(A)[2][A.shape[0]:]
+        states.append(assembled)
+        rates.append(null.T @ (null @ qd))
+    return np.array(states), np.array(rates)
+
+
 @cache
 def derivation_of(robot: str):
     """Derivation of a bundled robot (cached across tests)."""

@@ -25,7 +25,8 @@ def test_every_bundled_robot_passes(robot):
     assert statuses["M positive definite (12 random states)"] == "pass"
     assert statuses["Mdot - 2C skew-symmetric"] == "pass"
     assert statuses["power balance dE/dt = qd . Y"] == "pass"
-    assert statuses["agrees with Pinocchio (crba, rnea, aba)"] == "pass"
+    pinocchio = [status for name, status in statuses.items() if name.startswith("agrees with Pinocchio")]
+    assert pinocchio == ["pass"]
     if robot in {"rp_arm", "double_pendulum", "cart_pole"}:
         for name in ("EOM_g1 == EOM_g2", "A_m(h(q)) H(q) == 0", "EOM_g3 == EOM_g1", "H^T M_m H = M_g",
                      "constraint forces consistent", "generated coriolis_matrix == symbolic C_g"):

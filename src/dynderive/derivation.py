@@ -15,7 +15,7 @@ import sympy
 from .mechanics.planar import planar_kinematics
 from .mechanics.recursive import Program, build_programs
 from .mechanics.regularity import check_mass_matrix
-from .mechanics.tidy import Check, check_zero, is_small
+from .mechanics.tidy import Check, check_zero, is_small, tidy
 from .model.robot import Robot
 from .model.symbols import SymbolTable
 
@@ -49,6 +49,8 @@ class Derivation:
     quantities: dict[str, Any]
     steps: dict[str, Any] = field(default_factory=dict)
     checks: list[Check] = field(default_factory=list)
+    #: Remarks about the derivation (dropped redundant loop rows, singular partitions).
+    notes: list[str] = field(default_factory=list)
     _programs: dict[str, Program] | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -113,16 +115,42 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
     report("energies")
     quantities, steps = derive_generalized(robot, table, links, report)
     derivation = Derivation(robot, table, quantities, {"generalized": steps, "kinematics": links})
+    loop_force = None
+    if robot.loops:
+        report("loop constraints")
+        loop_force = _add_loops(derivation, links)
     if robot.planar:
         from .mechanics.maximal import derive_maximal
 
         report("maximal coordinates")
-        maximal, maximal_steps = derive_maximal(robot, table, links, steps, steps["links"])
+        loops = derivation.steps.get("loops")
+        maximal, maximal_steps = derive_maximal(robot, table, links, steps, steps["links"],
+                                                loops.row_indices if loops else None, loop_force)
         quantities.update(maximal)
         derivation.steps["maximal"] = maximal_steps
     report("checks")
     derivation.checks.extend(run_checks(derivation))
     return derivation
+
+
+def _add_loops(derivation: Derivation, links: list[Any]) -> sympy.Matrix:
+    """Loop constraints, multipliers and the reduced form (``mechanics/loops.py``); the
+    multiplier form ``- A_g^T lambda_g`` joins EOM_g1 and EOM_g2. Returns that force."""
+    from .mechanics.loops import derive_loops, reduced_form
+
+    robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
+    model = derive_loops(robot, table, links)
+    table.loop_multipliers = model.multipliers
+    force = (model.jacobian.T * sympy.Matrix(model.multipliers))
+    q.update({"a_g": model.constraints, "A_g": model.jacobian, "Adot_g": model.jacobian_dot,
+              "lambda_g": sympy.Matrix(model.multipliers)})
+    if "EOM_g1" in q:
+        q["EOM_g1"] = (q["EOM_g1"] - force).applyfunc(tidy)
+    q["EOM_g2"] = (q["EOM_g2"] - force).applyfunc(tidy)
+    q.update(reduced_form(model, table, q["M_g"], q["C_g"], q["N_g"], q["Y_g"]))
+    derivation.steps["loops"] = model
+    derivation.notes.extend(model.notes)
+    return force
 
 
 def run_checks(derivation: Derivation) -> list[Check]:
@@ -137,14 +165,24 @@ def run_checks(derivation: Derivation) -> list[Check]:
         checks = [Check("EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) were not derived "
                         "symbolically: this 3-D robot is too large (see `dynderive check`)", False,
                         "skipped", float("nan"))]
+    loops = derivation.steps.get("loops")
+    if loops is not None and "R_g" in q:
+        checks.append(check_zero("A_g R_g == 0", "A_g R_g = 0: the reduced velocities qd = R_g qd_i satisfy the "
+                                 "loop constraints", q["A_g"] * q["R_g"], symbols))
     if "maximal" not in derivation.steps:
         return checks
     steps = derivation.steps["maximal"]
+    a_on_h, AH = steps["a_on_h"], steps["AH"]
+    if loops is not None:   # the loop rows of a_m become a_g on h(q): compare with them
+        tree = a_on_h.shape[0] - loops.constraints.shape[0]
+        a_on_h = a_on_h - sympy.Matrix.vstack(sympy.zeros(tree, 1), loops.constraints)
+        AH = AH - sympy.Matrix.vstack(sympy.zeros(tree, AH.shape[1]), loops.jacobian)
+    tree_note = " (the loop rows give a_g)" if loops is not None else ""
     checks += [
-        check_zero("a_m(h(q)) == 0", "the constraints a_m hold on the change of basis h(q_g)",
-                   steps["a_on_h"], symbols),
-        check_zero("A_m(h(q)) H(q) == 0", "A_m(h(q)) H(q) = 0: every generalized motion satisfies the constraints",
-                   steps["AH"], symbols),
+        check_zero("a_m(h(q)) == 0", f"the constraints a_m hold on the change of basis h(q_g){tree_note}",
+                   a_on_h, symbols),
+        check_zero("A_m(h(q)) H(q) == 0", "A_m(h(q)) H(q) = 0: every generalized motion satisfies the constraints"
+                   + (" (the loop rows give A_g)" if loops is not None else ""), AH, symbols),
         check_zero("EOM_m1 == EOM_m2", "constrained Lagrange equations (EOM_m1) equal the manipulator form (EOM_m2)",
                    q["EOM_m1"] - q["EOM_m2"], symbols),
         check_zero("EOM_g3 == EOM_g1", "the maximal model mapped through H (EOM_g3) equals EOM_g1",

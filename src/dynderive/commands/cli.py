@@ -134,6 +134,7 @@ def solve(
     model = load_robot(robot)
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
+    _notes(derivation, quiet)
     if tests and not code:
         raise InputError(_problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     if not (latex or pdf or code or json_):
@@ -199,6 +200,7 @@ def check(
     model = _with_parameters(load_robot(robot), param or [], required=False)
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
+    _notes(derivation, quiet)
     progress("generating code")
     source = render_code(derivation)
     progress("checking")
@@ -334,6 +336,7 @@ def simulate(
     start_q = _vector(q0, n, "--q0")
     start_qd = _vector(qd0, n, "--qd0")
     derivation = derive(model, progress=progress)
+    _notes(derivation, quiet)
     efforts = parse_efforts(derivation, effort or [], maximal)
     progress("generating code")
     source = render_code(derivation)

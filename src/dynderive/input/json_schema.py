@@ -70,6 +70,20 @@ def robot_schema() -> dict[str, Any]:
             "effort": {"type": "string", "pattern": SYMBOL},
         },
     }
+    loop = {
+        "type": "object", "additionalProperties": False, "required": ["name", "type", "parent", "child"],
+        "description": "a loop-closing joint between two links of the spanning tree (or a link and world)",
+        "properties": {
+            "name": {"type": "string", "pattern": IDENTIFIER},
+            "type": {"enum": ["revolute", "prismatic", "spherical"],
+                     "description": "planar: revolute | prismatic; 3-D: revolute | spherical | prismatic"},
+            "parent": {"type": "string", "description": "a link name or world"},
+            "child": {"type": "string", "description": "a link name or world"},
+            "origin": origin,
+            "child_origin": origin,
+            "axis": _vector([2, 3], "prismatic axis (planar, 3-D) or revolute axis (3-D), in the loop frame"),
+        },
+    }
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://dynderive.invalid/schema/robot-v1.json",
@@ -86,6 +100,9 @@ def robot_schema() -> dict[str, Any]:
             "gravity": _vector([2, 3], "world-frame gravity vector"),
             "links": {"type": "array", "minItems": 1, "items": link},
             "joints": {"type": "array", "minItems": 1, "items": joint},
+            "loops": {"type": "array", "minItems": 1, "items": loop},
+            "independent": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern": IDENTIFIER},
+                            "description": "robots with loops: coordinates kept independent"},
             "maximal": {"type": "object", "additionalProperties": False, "properties": {
                 "constraints": {"type": "array", "items": EXPRESSION}}},
         },

@@ -38,11 +38,12 @@ MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | frozenset({
     "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts", "constraints",
     "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
     "to_maximal_jacobian", "maximal_forward_dynamics", "world", "arrays", "batch",
+    "LOOPS", "INDEPENDENT_COORDINATES", "ASSEMBLED_CONFIGURATION",
 })
 
 
 def check_names(v: Any, parameters: list[Parameter], links: list[Link],
-                 joints: list[Joint], planar: bool) -> None:
+                 joints: list[Joint], planar: bool, loop_rows: int = 0) -> None:
     """Every symbol the derivation creates must be unique, free for the generated code, and
     typeset differently from every other symbol (``l1`` and ``l_1`` both print as l_{1})."""
     owners: dict[str, str] = {}
@@ -82,6 +83,9 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
         for k in range(1, 3 * len(links) + 1):
             owners[f"lambda{k}"] = f"the multiplier 'lambda{k}'"
             typeset[latex_name(f"lambda{k}")] = (f"lambda{k}", owners[f"lambda{k}"])
+    for k in range(1, loop_rows + 1):   # multipliers of the loop constraints
+        owners[f"lambda_g{k}"] = f"the loop multiplier 'lambda_g{k}'"
+        typeset[latex_name(f"lambda_g{k}")] = (f"lambda_g{k}", owners[f"lambda_g{k}"])
     for p in parameters:
         claim(p.name, f"parameters.{p.name}", ("parameters", p.name), key=True)
     seen_joints: set[str] = set()

@@ -30,18 +30,22 @@ from ..model.expressions import (
 from ..model.naming import (
     maximal_coordinate_names,
 )
-from ..model.robot import Joint, Link, Parameter, Robot
+from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from .loader import SourceDocument
 from .names import check_names
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
 
-TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "maximal")
+TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "loops", "independent",
+            "maximal")
 PARAMETER_KEYS = ("value", "unit", "description")
 LINK_KEYS = ("name", "mass", "com", "inertia")
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort")
 MAXIMAL_KEYS = ("constraints",)
+LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis")
+#: Loop-closing joint types, and how many constraints each imposes.
+LOOP_TYPES = {True: {"revolute": 2, "prismatic": 2}, False: {"revolute": 5, "spherical": 3, "prismatic": 5}}
 ORIGIN_KEYS = ("xyz", "rpy")
 
 class _Validator:
@@ -215,8 +219,13 @@ def validate(doc: SourceDocument) -> Robot:
     if joints and not any(j.moves for j in joints):
         v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, tree.names)
-    check_names(v, parameters, links, joints, planar)
+    loops = _loops(v, top, planar, symbols, tree, joints)
+    independent = _independent(v, top, joints, loops)
+    check_names(v, parameters, links, joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
+    if loops and constraints is not None:
+        v.error(("maximal", "constraints"), "maximal.constraints: a robot with loops derives its maximal "
+                "constraints from its joints and loops (an override is not supported yet)")
 
     if v.problems:
         raise InputError(v.problems)
@@ -224,10 +233,14 @@ def validate(doc: SourceDocument) -> Robot:
     positions |= {f"link:{lk.name}": doc.where(("links", i)) for i, lk in enumerate(links)}
     positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
     positions |= {f"parameter:{p.name}": doc.where(("parameters", p.name), key=True) for p in parameters}
+    positions |= {f"loop:{lp.name}": doc.where(("loops", i)) for i, lp in enumerate(loops)}
+    positions["loops"] = doc.where(("loops",))
+    positions["independent"] = doc.where(("independent",))
     return Robot(
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
         gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
         maximal_constraints=constraints, source=doc.file, positions=positions, notes=tuple(doc.notes),
+        loops=tuple(loops), independent=independent,
     )
 
 
@@ -371,6 +384,88 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
                             origin, axis, effort))
 
     return joints
+
+
+def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
+           tree: _LinkNames, joints: list[Joint]) -> list[LoopJoint]:
+    """The optional ``loops`` list: loop-closing joints between two links (or a link and the
+    world) of the spanning tree. Their constraints are derived, and checked for redundancy
+    and assembly, by ``mechanics/loops.py``."""
+    if "loops" not in top:
+        return []
+    raw = top["loops"]
+    if not isinstance(raw, list) or not raw:
+        v.error(("loops",), f"loops: expected a non-empty list of loop joints, got {_kind(raw, empty=True)}")
+        return []
+    types = LOOP_TYPES[planar]
+    taken = {j.name for j in joints}
+    loops: list[LoopJoint] = []
+    for i, item_raw in enumerate(raw):
+        path = ("loops", i)
+        item = v.mapping(item_raw, path, LOOP_KEYS, required=("name", "type", "parent", "child"))
+        if item is None:
+            continue
+        name = v.identifier(item.get("name"), path + ("name",), "loop joint name") if "name" in item else None
+        if name is not None and name in taken:
+            v.error(path + ("name",), f"{v.label(path + ('name',))}: name '{name}' is already used by a joint "
+                    "or another loop joint")
+        taken.add(name or "")
+        ltype = item.get("type")
+        if "type" in item and ltype not in types:
+            kind = "planar" if planar else "3-D"
+            v.error(path + ("type",), f"{v.label(path + ('type',))}: unsupported {kind} loop joint type "
+                    f"{ltype!r}; expected one of {', '.join(types)}")
+            ltype = None
+        ends = []
+        for role in ("parent", "child"):
+            end = item.get(role)
+            if role in item and end != "world" and end not in tree.names and not (tree.broken or end in tree.bad):
+                v.error(path + (role,), f"{v.label(path + (role,))}: unknown link {end!r}"
+                        + _did_you_mean(end, [*tree.names, "world"]))
+            ends.append(end)
+        if "parent" in item and "child" in item and ends[0] == ends[1]:
+            v.error(path + ("child",), f"{v.label(path + ('child',))}: a loop joint needs two different links "
+                    f"(parent and child are both {ends[0]!r})")
+        origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
+        child_origin = _origin(v, item.get("child_origin"), path + ("child_origin",), planar, symbols)
+        needs_axis = ltype == "prismatic" or (ltype == "revolute" and not planar)
+        default_axis = (1, 0) if planar else (0, 0, 1)
+        if "axis" in item and not needs_axis and ltype is not None:
+            v.error(path + ("axis",), f"{v.label(path + ('axis',))}: a {'planar ' if planar else ''}{ltype} "
+                    "loop joint takes no axis")
+            axis: tuple[Any, ...] = default_axis
+        else:
+            axis = _axis(v, item, path, ltype if ltype != "spherical" else "revolute", planar, symbols,
+                         v.evaluate) if "axis" in item else default_axis
+        loops.append(LoopJoint(name or f"loop{i + 1}", ltype or "revolute", str(ends[0]), str(ends[1]),
+                               origin, child_origin, axis))
+    return loops
+
+
+def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
+                 loops: list[LoopJoint]) -> tuple[str, ...] | None:
+    """The optional ``independent`` list: coordinates kept in the reduced form (loops only)."""
+    if "independent" not in top:
+        return None
+    raw = top["independent"]
+    if not loops:
+        v.error(("independent",), "independent: only robots with loops have dependent coordinates")
+        return None
+    if not isinstance(raw, list) or not raw:
+        v.error(("independent",), f"independent: expected a non-empty list of coordinate names, got "
+                f"{_kind(raw, empty=True)}")
+        return None
+    coordinates = [j.name for j in joints if j.moves]
+    names: list[str] = []
+    for k, name in enumerate(raw):
+        if name not in coordinates:
+            v.error(("independent", k), f"independent[{k}]: {name!r} is not a coordinate (coordinates: "
+                    f"{', '.join(coordinates)})")
+        elif name in names:
+            v.error(("independent", k), f"independent[{k}]: {name!r} is listed twice")
+        else:
+            names.append(name)
+    return tuple(names)
 
 
 def _maximal_constraints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],

@@ -12,7 +12,7 @@ from typing import Any
 
 import sympy
 
-from ..model.robot import Joint, Robot
+from ..model.robot import Joint, LoopJoint, Robot
 from ..model.symbols import SymbolTable
 from .joints import unit
 from .lagrange import (
@@ -135,9 +135,34 @@ def maximal_body_jacobian(k: int, table: SymbolTable) -> sympy.Matrix:
     return J
 
 
+def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
+    """The rows of a loop-closing joint in maximal coordinates, in the order of
+    ``mechanics/loops.py``: revolute, the loop frames' origins coincide (2); prismatic, no
+    offset across the axis and no relative rotation (2)."""
+    table = bodies.table
+    ox, oy, theta = (table.expr(e) for e in loop.origin)
+    cx, cy, child_theta = (table.expr(e) for e in loop.child_origin)
+    p_parent, phi_parent, com_parent = bodies.pose(loop.parent)
+    p_child, phi_child, com_child = bodies.pose(loop.child)
+    point_parent = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
+    point_child = p_child + _rot(phi_child, (cx - com_child[0], cy - com_child[1]))
+    gap = point_child - point_parent
+    if loop.type == "revolute":
+        return [gap[0], gap[1]]
+    ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
+    normal = _rot(phi_parent + theta, (-uy, ux))
+    return [(normal.T * gap)[0, 0], (phi_child + child_theta) - (phi_parent + theta)]
+
+
 def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinematics],
-                   generalized: dict[str, Any], link_terms: list[Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Quantities of Problem 2 (2.1-2.7) by the reference's names, and the steps."""
+                   generalized: dict[str, Any], link_terms: list[Any], loop_rows: list[int] | None = None,
+                   loop_force: sympy.Matrix | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Quantities of Problem 2 (2.1-2.7) by the reference's names, and the steps.
+
+    With loops, ``loop_rows`` selects the loop constraints kept in generalized coordinates
+    (redundant ones dropped there are dropped here too) and ``loop_force`` is
+    ``A_g^T lambda_g``: the maximal loop multipliers equal ``-lambda_g``, so EOM_g3 carries
+    ``- A_g^T lambda_g`` like EOM_g1."""
     bodies = _Bodies(robot, table)
     qm, qmd, qmdd = table.qm, table.qmd, table.qmdd
     size = len(qm)
@@ -150,6 +175,8 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
         rows: list[sympy.Expr] = []
         for joint in robot.joints:
             rows += joint_constraints(joint, bodies)
+        closing = [row for loop in robot.loops for row in loop_constraints(loop, bodies)]
+        rows += [closing[i] for i in (loop_rows or [])]
         a = sympy.Matrix(rows).applyfunc(tidy)
         origin = "joints"
     K = a.shape[0]
@@ -202,7 +229,10 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
     C_tilde = tidy_matrix(H.T * C.xreplace(on_h).xreplace(on_hd) * H + H.T * M_h * Hdot)
     N_tilde = tidy_matrix(H.T * N.xreplace(on_h))
     Y_tilde = tidy_matrix(H.T * Y.xreplace(on_h))
-    EOM_g3 = (M_tilde * sympy.Matrix(qdd) + C_tilde * sympy.Matrix(qd) + N_tilde - Y_tilde).applyfunc(tidy)
+    EOM_g3 = M_tilde * sympy.Matrix(qdd) + C_tilde * sympy.Matrix(qd) + N_tilde - Y_tilde
+    if loop_force is not None:
+        EOM_g3 = EOM_g3 - loop_force
+    EOM_g3 = EOM_g3.applyfunc(tidy)
 
     quantities: dict[str, Any] = {
         "q_m": sympy.Matrix(qm), "a_m": a, "A_m": A, "Adot_m": Adot,

@@ -408,5 +408,6 @@ def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Exp
         programs["coriolis"] = coriolis_program(robot, table)
         programs["gravity"] = gravity_program(robot, table)
     programs["inverse_dynamics"] = inverse_dynamics_program(robot, table)
-    programs["forward_dynamics"] = forward_dynamics_program(robot, table, efforts)
+    if not robot.loops:   # closed loops solve a KKT system in the module instead
+        programs["forward_dynamics"] = forward_dynamics_program(robot, table, efforts)
     return programs

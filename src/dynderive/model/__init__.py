@@ -4,6 +4,6 @@ No file is read and nothing is derived here: ``input`` builds a ``Robot`` from a
 ``mechanics`` derives from it.
 """
 
-from .robot import Joint, Link, Parameter, Robot
+from .robot import Joint, Link, LoopJoint, Parameter, Robot
 
-__all__ = ["Joint", "Link", "Parameter", "Robot"]
+__all__ = ["Joint", "Link", "LoopJoint", "Parameter", "Robot"]

@@ -62,6 +62,26 @@ class Joint:
 
 
 @dataclass(frozen=True)
+class LoopJoint:
+    """A joint that closes a kinematic loop between two links of the spanning tree (or a
+    link and the world). It has no coordinate: it adds constraints ``a_g(q) = 0``.
+
+    ``origin`` places the loop frame in the parent link's frame, ``child_origin`` in the
+    child's (planar ``(x, y, theta)``, spatial ``(x, y, z, roll, pitch, yaw)``); the joint
+    holds when the two frames meet as its type allows. ``axis`` (in the loop frame) is the
+    prismatic direction, or the 3-D revolute axis.
+    """
+
+    name: str
+    type: str   # planar: revolute | prismatic; 3-D: revolute | spherical | prismatic
+    parent: str
+    child: str
+    origin: tuple[Expression, ...]
+    child_origin: tuple[Expression, ...]
+    axis: tuple[Expression, ...]
+
+
+@dataclass(frozen=True)
 class Robot:
     """A validated robot description. Links and joints keep the file's order."""
 
@@ -73,6 +93,10 @@ class Robot:
     links: tuple[Link, ...]
     joints: tuple[Joint, ...]
     maximal_constraints: tuple[Expression, ...] | None = None
+    #: Loop-closing joints (closed kinematic chains); empty for trees.
+    loops: tuple[LoopJoint, ...] = ()
+    #: Coordinates kept independent in the reduced form (robots with loops); None: chosen.
+    independent: tuple[str, ...] | None = None
     source: str = ""
     #: Where each named item was written, for errors found after validation.
     positions: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)

@@ -33,6 +33,8 @@ class SymbolTable:
     qmd: list[sympy.Symbol] = field(default_factory=list)
     qmdd: list[sympy.Symbol] = field(default_factory=list)
     multipliers: list[sympy.Symbol] = field(default_factory=list)
+    #: Multipliers of the loop constraints (robots with loops): lambda_g1, lambda_g2, ...
+    loop_multipliers: list[sympy.Symbol] = field(default_factory=list)
 
     @classmethod
     def for_robot(cls, robot: Robot) -> SymbolTable:
@@ -61,7 +63,7 @@ class SymbolTable:
 
     def all_symbols(self) -> list[sympy.Symbol]:
         return [*self.parameters.values(), *self.q, *self.qd, *self.qdd, *self.efforts.values(),
-                *self.qm, *self.qmd, *self.qmdd, *self.multipliers]
+                *self.qm, *self.qmd, *self.qmdd, *self.multipliers, *self.loop_multipliers]
 
     def latex_names(self) -> dict[sympy.Symbol, str]:
         names = {s: latex_name(str(s)) for s in self.all_symbols()}

@@ -227,6 +227,15 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
     structured = not robot.planar
     functions = _expression_functions(derivation, q, qd, u, printer, params, structured)
     programs = _programs(derivation, q, qd, u)
+    if robot.loops:
+        k = quantities["a_g"].shape[0]
+        for name, doc, args, quantity in [
+            ("loop_constraints", f"Loop constraints a_g(q) (zero when the loops are closed), shape (..., {k}).", [q], "a_g"),
+            ("loop_jacobian", f"Loop constraint Jacobian A_g(q) = da_g/dq, shape (..., {k}, {n}).", [q], "A_g"),
+            ("loop_jacobian_dot", f"Its time derivative Adot_g(q, qd), shape (..., {k}, {n}).", [q, qd], "Adot_g"),
+        ]:
+            functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
+                                                 matrix_result=quantity != "a_g"))
     maximal = "M_m" in quantities
     if maximal:
         m = len(table.qm)
@@ -275,6 +284,14 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
         "maximal_size": len(table.qm),
         "constraint_count": quantities["a_m"].shape[0] if maximal else 0,
+        "loops": bool(robot.loops),
+        "loop_count": quantities["a_g"].shape[0] if robot.loops else 0,
+        "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
+        "independent_tuple": _tuple(tuple(robot.coordinates[i] for i in derivation.steps["loops"].independent))
+        if robot.loops else Code("()"),
+        "dependent_list": Code(repr(derivation.steps["loops"].dependent)) if robot.loops else Code("[]"),
+        "assembled_tuple": python_literal(tuple(derivation.steps["loops"].assembled or ()))
+        if robot.loops else Code("()"),
     }
 
 
@@ -366,7 +383,8 @@ def render_code_tests(derivation: Derivation, template_dir: str | Path | None = 
     from .._version import __version__
 
     context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
-               "source": Path(derivation.robot.source).name, "maximal": "M_m" in derivation.quantities}
+               "source": Path(derivation.robot.source).name, "maximal": "M_m" in derivation.quantities,
+               "loops": bool(derivation.robot.loops)}
     text = render("code", "dynamics_test.py.j2", context, template_dir)
     try:
         ast.parse(text)

@@ -130,8 +130,29 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "checks": [{"description": escape_tex(c.description), "passed": c.passed,
                     "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks],
         "maximal": maximal_context(derivation, fmt) if "maximal" in derivation.steps else None,
+        "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
     }
     return context
+
+
+def loops_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
+    """The closed-loop section: constraints, multiplier form, reduced form (where derived)."""
+    q, model, table = derivation.quantities, derivation.steps["loops"], derivation.symbols
+    reduced = {key: fmt.matrix(key.split("_")[0], q[key]) if key in q else None
+               for key in ("R_g", "M_r", "C_r", "N_r", "Y_r")}
+    return {
+        "joints": [escape_tex(lp.name) for lp in derivation.robot.loops],
+        "count": q["a_g"].shape[0],
+        "rows": [f"{escape_tex(name)}: {escape_tex(what)}" for name, what in model.rows],
+        "a_g": fmt.matrix("a", q["a_g"]), "A_g": fmt.matrix("A", q["A_g"]),
+        "Adot_g": fmt.matrix("\\dot{A}", q["Adot_g"]),
+        "multipliers": fmt(q["lambda_g"]),
+        "independent": fmt(sympy.Matrix([table.q[i] for i in model.independent])),
+        "dependent": fmt(sympy.Matrix([table.q[i] for i in model.dependent])),
+        "assembled": fmt(sympy.Matrix([sympy.Float(x, 4) for x in model.assembled])) if model.assembled else "?",
+        "notes": [escape_tex(n.split(": note: ", 1)[-1]) for n in model.notes],
+        **reduced,
+    }
 
 
 #: Longest LaTeX of one lambda entry that the sheet still prints.

@@ -60,6 +60,10 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
     qds = rng.uniform(-1.0, 1.0, (states, n))
     us = rng.uniform(-1.0, 1.0, (states, len(robot.efforts)))
     rows: list[Row] = []
+    if robot.loops:   # states on the loop constraints, velocities the loops allow
+        qs, qds, loop_rows = _loop_states(derivation, module, values, qs, qds)
+        us = us[: len(qs)]
+        rows += loop_rows
 
     M = quantities["M_g"]
     if is_small(M, SYMBOLIC_EVALUATION_NODES):
@@ -74,12 +78,63 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
                      "numeric, smallest eigenvalue", float(np.min(eig[..., 0]))))
     rows.append(_skew_check(derivation, module, values, qs, qds))
     rows.append(_power_balance(module, values, qs, qds, us))
+    if robot.loops:
+        rows.append(_reduced_agrees(module, values, qs, qds, us))
     rows += [_from_check(c) for c in derivation.checks]
     if "M_m" in quantities:
         rows += _maximal_checks(module, values, qs, qds, us)
     rows += _code_matches_symbolic(derivation, module, values, qs[:3], qds[:3], us[:3])
     rows += _pinocchio(derivation, module, values, qs[:5], qds[:5])
     return rows
+
+
+def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
+                 qds: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[Row]]:
+    """Random configurations assembled by the generated ``assemble`` (independent coordinates
+    near the default assembly), and velocities projected onto the null space of A_g."""
+    model = derivation.steps["loops"]
+    start = np.array(model.assembled if model.assembled is not None else np.zeros(qs.shape[1]))
+    states, rates = [], []
+    for q, qd in zip(qs, qds):
+        guess = start.copy()
+        guess[model.independent] += 0.4 * q[model.independent]
+        try:
+            assembled = module.assemble(guess, **values)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        A = module.loop_jacobian(assembled, **values)
+        _, sigma, vt = np.linalg.svd(A)
+        null = vt[len(sigma):]
+        states.append(assembled)
+        rates.append(null.T @ (null @ qd))
+    rows = []
+    if not states:
+        return qs[:0], qds[:0], [Row("loop constraints hold at assembled states", "FAIL",
+                                     "numeric: no random state could be assembled", float("nan"))]
+    qs, qds = np.array(states), np.array(rates)
+    residual = float(np.max(np.abs(module.loop_constraints(qs, **values))))
+    rows.append(_row(f"loop constraints a_g = 0 at {len(qs)} assembled states", residual < 1e-9, "numeric", residual))
+    velocity = float(np.max(np.abs(np.einsum("...ij,...j->...i", module.loop_jacobian(qs, **values), qds))))
+    rows.append(_row("A_g qd = 0 for the velocities the loops allow", velocity < 1e-9, "numeric", velocity))
+    return qs, qds, rows
+
+
+def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
+                    us: np.ndarray) -> Row:
+    """The reduced form R^T (M qdd + C qd + N - Y) = 0 (R: a basis of the motions the loops
+    allow) holds for the constrained accelerations of the multiplier form."""
+    worst, scale = 0.0, 1.0
+    for q, qd, u in zip(qs, qds, us):
+        A = module.loop_jacobian(q, **values)
+        _, sigma, vt = np.linalg.svd(A)
+        R = vt[len(sigma):].T
+        qdd = module.forward_dynamics(q, qd, u, **values)
+        forces = module.mass_matrix(q, **values) @ qdd + module.inverse_dynamics(q, qd, np.zeros(len(q)), **values) \
+            - module.generalized_forces(q, u, **values)
+        worst = max(worst, float(np.max(np.abs(R.T @ forces))))
+        scale = max(scale, float(np.max(np.abs(forces))))
+    return _row("reduced form R_g^T (M qdd + C qd + N - Y) = 0 (multiplier form agrees)",
+                worst < 1e-9 * scale, "numeric", worst)
 
 
 def _skew_check(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
@@ -184,7 +239,7 @@ def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str
 
 def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
                qds: np.ndarray) -> list[Row]:
-    name = "agrees with Pinocchio (crba, rnea, aba)"
+    name = "agrees with Pinocchio (crba, rnea" + (", open tree)" if derivation.robot.loops else ", aba)")
     try:
         import pinocchio as pin
     except ImportError:
@@ -207,8 +262,9 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
         Y = module.generalized_forces(q, module_efforts(module, u), **values)
         acc = pin.aba(model, data, qp, qdp, Y[perm])
         diffs = [ours - M, module.gravity_vector(q, **values)[perm] - g,
-                 (module.coriolis_matrix(q, qd, **values) @ qd)[perm] - bias,
-                 module.forward_dynamics(q, qd, module_efforts(module, u), **values)[perm] - acc]
+                 (module.coriolis_matrix(q, qd, **values) @ qd)[perm] - bias]
+        if not derivation.robot.loops:   # with loops forward_dynamics is the constrained one
+            diffs.append(module.forward_dynamics(q, qd, module_efforts(module, u), **values)[perm] - acc)
         worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
         scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
     return [_row(name, worst < 1e-9 * scale, "numeric", worst)]

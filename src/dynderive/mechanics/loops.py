@@ -1,0 +1,379 @@
+"""Closed kinematic loops: the constraints of loop-closing joints on the generalized
+coordinates, their multipliers, and the reduced form on the independent coordinates.
+
+A loop joint between links P and C holds when its two frames (``origin`` on P,
+``child_origin`` on C) meet as its type allows:
+
+* planar revolute: the frame origins coincide (2 rows);
+* planar prismatic: no offset across the axis, no relative rotation (2 rows);
+* 3-D spherical: the origins coincide (3 rows); revolute: and the axes stay aligned (5);
+  prismatic: no relative rotation and no offset across the axis (5).
+
+The rows ``a_g(q)`` are written from the links' world poses, so ``A_g = da_g/dq`` and
+``Adot_g`` follow by differentiation. Rows that are identically zero or that depend on others
+(a planar loop described in 3-D) are dropped, with a note. The mechanism is assembled at the
+default parameters (Newton / Levenberg-Marquardt from a few starts): a loop that cannot close
+is bad input. The independent coordinates are the file's ``independent`` list, or chosen:
+actuated coordinates first, then those whose dependent block of ``A_g`` is best conditioned at
+the assembled configuration. With ``qd = R_g qd_i``, ``R_g = P [I; -A_d^-1 A_i]``, the reduced
+equations are ``R_g^T`` times the multiplier form, in which ``A_g^T lambda_g`` drops out.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import random
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy
+
+from ..errors import InputError, Problem
+from ..model.robot import LoopJoint, Robot
+from ..model.symbols import SymbolTable
+from .joints import unit
+from .lagrange import constraint_jacobian_dot
+from .spatial import rpy_matrix
+from .tidy import fold_constants, is_small, tidy, tidy_matrix
+
+#: Rows whose Jacobian is dependent at the assembled configuration to this relative level
+#: are redundant.
+RANK_TOLERANCE = 1e-9
+#: Largest residual |a_g| accepted as assembled.
+ASSEMBLY_TOLERANCE = 1e-10
+#: The reduced form is derived symbolically only for at most this many loop constraints, with
+#: entries of A_g small enough that the inverse of the dependent block stays readable.
+REDUCED_ROWS = 3
+REDUCED_NODES = 400
+
+
+@dataclass
+class LoopModel:
+    """Everything the derivation, the renderers and the generated code need of the loops."""
+
+    constraints: sympy.Matrix                 # a_g(q), k x 1
+    jacobian: sympy.Matrix                    # A_g, k x n
+    jacobian_dot: sympy.Matrix                # Adot_g, k x n
+    multipliers: list[sympy.Symbol]           # lambda_g1..k
+    rows: list[tuple[str, str]]               # (loop joint, what the row says)
+    row_indices: list[int]                    # which rows of ``loop_rows`` were kept
+    independent: list[int]                    # coordinate indices kept independent
+    dependent: list[int]
+    assembled: list[float] | None             # a configuration on a_g = 0 at the defaults
+    notes: list[str] = field(default_factory=list)
+    reduced: dict[str, sympy.Matrix] = field(default_factory=dict)   # R_g, M_r, C_r, N_r, Y_r, EOM_r
+
+
+def _planar_frame(link: str, kinematics: dict[str, Any], offset: tuple[sympy.Expr, ...]
+                  ) -> tuple[sympy.Matrix, sympy.Expr]:
+    """World position and angle of the loop frame at ``offset = (x, y, theta)`` on ``link``."""
+    if link == "world":
+        origin, angle = sympy.Matrix([0, 0]), sympy.Integer(0)
+    else:
+        kin = kinematics[link]
+        origin, angle = kin.joint_origin, kin.angle
+    x, y, theta = offset
+    c, s = sympy.cos(angle), sympy.sin(angle)
+    return origin + sympy.Matrix([c * x - s * y, s * x + c * y]), angle + theta
+
+
+def _spatial_frame(link: str, kinematics: dict[str, Any], offset: tuple[sympy.Expr, ...],
+                   table: SymbolTable, robot: Robot) -> tuple[sympy.Matrix, sympy.Matrix]:
+    """World position and rotation of the loop frame at ``offset = (xyz, rpy)`` on ``link``."""
+    if link == "world":
+        R, origin = sympy.eye(3), sympy.zeros(3, 1)
+    else:
+        kin = kinematics[link]
+        com = sympy.Matrix([table.expr(e) for e in robot.link(link).com])
+        R, origin = kin.rotation, kin.com_world - kin.rotation * com
+    x, y, z, roll, pitch, yaw = offset
+    return origin + R * sympy.Matrix([x, y, z]), R * rpy_matrix(roll, pitch, yaw)
+
+
+def _normals(axis: tuple[sympy.Expr, ...]) -> tuple[sympy.Matrix, sympy.Matrix]:
+    """Two unit vectors perpendicular to the unit ``axis`` and to each other."""
+    a = sympy.Matrix(axis)
+    first = float(sympy.N(axis[0])) if axis[0].is_number else 0.0
+    helper = sympy.Matrix([1, 0, 0]) if abs(first) < 0.9 else sympy.Matrix([0, 1, 0])
+    b1 = a.cross(helper)
+    b1 = b1 / sympy.sqrt(sum(e**2 for e in b1))
+    return b1, a.cross(b1)
+
+
+def loop_rows(robot: Robot, table: SymbolTable, links: list[Any]) -> list[tuple[str, str, sympy.Expr]]:
+    """Every loop constraint row as ``(loop joint, description, expression)``, before
+    redundant rows are dropped."""
+    kinematics = {kin.name: kin for kin in links}
+    rows: list[tuple[str, str, sympy.Expr]] = []
+    for loop in robot.loops:
+        origin = tuple(table.expr(e) for e in loop.origin)
+        child_origin = tuple(table.expr(e) for e in loop.child_origin)
+        if robot.planar:
+            rows += _planar_rows(loop, kinematics, origin, child_origin, table)
+        else:
+            rows += _spatial_rows(loop, kinematics, origin, child_origin, table, robot)
+    return [(name, what, tidy(expr)) for name, what, expr in rows]
+
+
+def _planar_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[sympy.Expr, ...],
+                 child_origin: tuple[sympy.Expr, ...], table: SymbolTable) -> list[tuple[str, str, sympy.Expr]]:
+    p_parent, angle_parent = _planar_frame(loop.parent, kinematics, origin)
+    p_child, angle_child = _planar_frame(loop.child, kinematics, child_origin)
+    gap = p_child - p_parent
+    if loop.type == "revolute":
+        return [(loop.name, "x of the gap between the loop frames", gap[0]),
+                (loop.name, "y of the gap between the loop frames", gap[1])]
+    ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
+    c, s = sympy.cos(angle_parent), sympy.sin(angle_parent)
+    normal = sympy.Matrix([c * -uy - s * ux, s * -uy + c * ux])
+    return [(loop.name, "offset across the sliding axis", (normal.T * gap)[0, 0]),
+            (loop.name, "relative rotation", angle_child - angle_parent)]
+
+
+def _spatial_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[sympy.Expr, ...],
+                  child_origin: tuple[sympy.Expr, ...], table: SymbolTable,
+                  robot: Robot) -> list[tuple[str, str, sympy.Expr]]:
+    p_parent, R_parent = _spatial_frame(loop.parent, kinematics, origin, table, robot)
+    p_child, R_child = _spatial_frame(loop.child, kinematics, child_origin, table, robot)
+    rows: list[tuple[str, str, sympy.Expr]] = []
+    if loop.type in ("spherical", "revolute"):
+        gap = p_child - p_parent
+        rows += [(loop.name, f"{axis} of the gap between the loop frames", gap[i]) for i, axis in enumerate("xyz")]
+    if loop.type == "spherical":
+        return rows
+    axis = unit(tuple(table.expr(e) for e in loop.axis))
+    b1, b2 = _normals(axis)   # type: ignore[arg-type]
+    if loop.type == "revolute":
+        a_world = R_parent * sympy.Matrix(axis)
+        rows += [(loop.name, "axis alignment (first normal)", (a_world.T * R_child * b1)[0, 0]),
+                 (loop.name, "axis alignment (second normal)", (a_world.T * R_child * b2)[0, 0])]
+        return rows
+    relative = R_parent.T * R_child
+    rows += [(loop.name, "relative rotation about x", relative[2, 1] - relative[1, 2]),
+             (loop.name, "relative rotation about y", relative[0, 2] - relative[2, 0]),
+             (loop.name, "relative rotation about z", relative[1, 0] - relative[0, 1])]
+    offset = R_parent.T * (p_child - p_parent)
+    rows += [(loop.name, "offset across the sliding axis (first normal)", (b1.T * offset)[0, 0]),
+             (loop.name, "offset across the sliding axis (second normal)", (b2.T * offset)[0, 0])]
+    return rows
+
+
+class _Numeric:
+    """``a_g`` and ``A_g`` as NumPy functions of q at the default parameters."""
+
+    def __init__(self, a: sympy.Matrix, A: sympy.Matrix, table: SymbolTable, defaults: dict[sympy.Symbol, float]):
+        values = {s: sympy.Float(v) for s, v in defaults.items()}
+        self.a = sympy.lambdify([table.q], fold_constants(a.xreplace(values)), "numpy")
+        self.A = sympy.lambdify([table.q], fold_constants(A.xreplace(values)), "numpy")
+
+    def residual(self, q: np.ndarray) -> np.ndarray:
+        return np.asarray(self.a(q), dtype=float).reshape(-1)
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        return np.asarray(self.A(q), dtype=float).reshape(-1, len(q))
+
+
+def assemble(numeric: _Numeric, start: np.ndarray, fixed: list[int] | None = None,
+             iterations: int = 60) -> np.ndarray | None:
+    """A configuration near ``start`` with ``a_g = 0`` (Levenberg-Marquardt on the free
+    coordinates; ``fixed`` coordinates keep their values), or None if it does not converge."""
+    q = np.array(start, dtype=float)
+    free = [i for i in range(len(q)) if not fixed or i not in fixed]
+    damping = 1e-6
+    for _ in range(iterations):
+        r = numeric.residual(q)
+        if not np.all(np.isfinite(r)):
+            return None
+        if np.max(np.abs(r), initial=0.0) < ASSEMBLY_TOLERANCE:
+            return q
+        J = numeric.jacobian(q)[:, free]
+        step = np.linalg.solve(J.T @ J + damping * np.eye(len(free)), -J.T @ r)
+        trial = q.copy()
+        trial[free] += step
+        if np.linalg.norm(numeric.residual(trial)) < np.linalg.norm(r):
+            q, damping = trial, max(damping / 10, 1e-12)
+        else:
+            damping *= 10
+            if damping > 1e8:
+                return None
+    return q if np.max(np.abs(numeric.residual(q)), initial=0.0) < ASSEMBLY_TOLERANCE else None
+
+
+def default_assembly(numeric: _Numeric, robot: Robot) -> np.ndarray | None:
+    """The assembled configuration closest to ``q = 0`` (angles wrapped to (-pi, pi]) among
+    those reached from a few deterministic starts: the branch the sheet and ``assemble`` use."""
+    n = len(robot.coordinates)
+    revolute = [j.type == "revolute" for j in robot.joints if j.moves]
+    rng = random.Random(15)
+    starts = [np.zeros(n), np.array([0.3 * (-1) ** i for i in range(n)]), np.array([-0.3 * (-1) ** i for i in range(n)])]
+    starts += [np.array([rng.uniform(-math.pi, math.pi) for _ in range(n)]) for _ in range(9)]
+    found = []
+    for start in starts:
+        q = assemble(numeric, start)
+        if q is not None:
+            q = np.array([math.remainder(x, 2 * math.pi) if r else x for x, r in zip(q, revolute)])
+            found.append(q)
+    return min(found, key=lambda q: float(np.linalg.norm(q))) if found else None
+
+
+def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopModel:
+    """The loop constraints of ``robot``, without redundant rows, its assembly at the default
+    parameters and the choice of independent coordinates."""
+    n = len(table.q)
+    every = loop_rows(robot, table, links)
+    nonzero = [i for i, row in enumerate(every) if row[2] != 0]
+    rows = [every[i] for i in nonzero]
+    notes: list[str] = []
+    where = robot.positions.get("loops", (1, 1))
+    defaults = table.defaults(robot)
+    complete = all(p.value is not None for p in robot.parameters)
+    a = sympy.Matrix([r[2] for r in rows]) if rows else sympy.zeros(0, 1)
+    A = a.jacobian(table.q) if rows else sympy.zeros(0, n)
+    numeric = _Numeric(a, A, table, defaults if complete else {s: 1.0 for s in table.parameters.values()})
+    assembled = default_assembly(numeric, robot)
+    if assembled is None:
+        if complete:
+            first = robot.loops[0]
+            line, column = robot.positions.get(f"loop:{first.name}", where)
+            raise InputError(Problem(robot.source, line, column, f"loops[0] '{first.name}': the mechanism cannot "
+                                     "be assembled at the default parameters (the loop constraints have no "
+                                     "solution near any tried configuration: check lengths and origins)"))
+        probe = np.random.default_rng(15).uniform(-1, 1, n)
+    else:
+        probe = assembled
+    # redundant rows: keep a maximal independent set of A's rows at the assembled configuration
+    J = numeric.jacobian(probe)
+    keep: list[int] = []
+    basis: list[np.ndarray] = []
+    scale = max(float(np.max(np.abs(J), initial=0.0)), 1e-300)
+    for i, row in enumerate(J):
+        residual = row.copy()
+        for b in basis:
+            residual -= (residual @ b) * b
+        if np.linalg.norm(residual) > RANK_TOLERANCE * scale * math.sqrt(n):
+            keep.append(i)
+            basis.append(residual / np.linalg.norm(residual))
+    dropped = [rows[i] for i in range(len(rows)) if i not in keep]
+    if dropped:
+        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
+                     "implied by the others and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
+    rows = [rows[i] for i in keep]
+    k = len(rows)
+    if k >= n:
+        raise InputError(Problem(robot.source, where[0], where[1], f"loops: the loop joints impose {k} independent "
+                                 f"constraints on {n} coordinates, which leaves no degree of freedom"))
+    a = sympy.Matrix([r[2] for r in rows])
+    A = tidy_matrix(a.jacobian(table.q))
+    Adot = tidy_matrix(constraint_jacobian_dot(A, table.q, table.qd))
+    J = J[keep]
+    independent = _independent(robot, J, n, k, notes)
+    dependent = [i for i in range(n) if i not in independent]
+    multipliers = [sympy.Symbol(f"lambda_g{i}") for i in range(1, k + 1)]
+    model = LoopModel(a, A, Adot, multipliers, [(r[0], r[1]) for r in rows], [nonzero[i] for i in keep],
+                      independent, dependent,
+                      None if assembled is None else [float(x) for x in assembled], notes)
+    if assembled is not None:
+        _singular_partition(robot, model, _Numeric(a, A, table, defaults), notes)
+    return model
+
+
+def _independent(robot: Robot, J: np.ndarray, n: int, k: int, notes: list[str]) -> list[int]:
+    """Indices of the independent coordinates: the file's, or chosen (actuated first, then
+    the best-conditioned dependent block at the assembled configuration)."""
+    names = list(robot.coordinates)
+    if robot.independent is not None:
+        chosen = [names.index(c) for c in robot.independent]
+        line, column = robot.positions.get("independent", (1, 1))
+        if len(chosen) != n - k:
+            raise InputError(Problem(robot.source, line, column, f"independent: the mechanism has {n - k} degree(s) "
+                                     f"of freedom ({n} coordinates, {k} loop constraints), so {n - k} independent "
+                                     f"coordinate(s) are needed, got {len(chosen)}"))
+        dependent = [i for i in range(n) if i not in chosen]
+        if np.linalg.svd(J[:, dependent], compute_uv=False)[-1] < 1e-9 * max(1.0, float(np.max(np.abs(J)))):
+            raise InputError(Problem(robot.source, line, column, "independent: with these independent coordinates "
+                                     "the dependent ones are not determined at the default configuration (the "
+                                     "dependent block of A_g is singular there)"))
+        return sorted(chosen)
+    actuated = {i for i, joint in enumerate(j for j in robot.joints if j.moves) if joint.effort}
+    best: tuple[Any, ...] | None = None
+    combos = itertools.combinations(range(n), k) if math.comb(n, k) <= 5000 else [tuple(range(n - k, n))]
+    for dependent in combos:
+        sigma = np.linalg.svd(J[:, list(dependent)], compute_uv=False)
+        score = (len(actuated & set(dependent)), -sigma[-1] / max(sigma[0], 1e-300))
+        if best is None or score < best[0]:
+            best = (score, dependent)
+    assert best is not None
+    return [i for i in range(n) if i not in best[1]]
+
+
+def _singular_partition(robot: Robot, model: LoopModel, numeric: _Numeric, notes: list[str]) -> None:
+    """Note configurations (along the independent coordinates) where the dependent block is
+    singular, or where the mechanism cannot be assembled: the reduced form breaks down there."""
+    assert model.assembled is not None
+    q = np.array(model.assembled)
+    names = list(robot.coordinates)
+    bad: list[str] = []
+    rng = np.random.default_rng(15)
+    if len(model.independent) == 1:
+        samples = [q[model.independent[0]] + t for t in np.linspace(-math.pi, math.pi, 73)[1:]]
+        points = [[s] for s in samples]
+    else:
+        points = [list(q[model.independent] + rng.uniform(-1, 1, len(model.independent))) for _ in range(40)]
+    current = q.copy()
+    for values in points:
+        guess = current.copy()
+        guess[model.independent] = values
+        solved = assemble(numeric, guess, fixed=model.independent, iterations=40)
+        label = ", ".join(f"{names[i]} = {v:.3g}" for i, v in zip(model.independent, values))
+        if solved is None:
+            bad.append(f"{label} (not assembled)")
+            continue
+        current = solved
+        block = numeric.jacobian(solved)[:, model.dependent]
+        sigma = np.linalg.svd(block, compute_uv=False)
+        if sigma[-1] < 1e-6 * max(sigma[0], 1.0):
+            bad.append(label)
+    if bad:
+        where = robot.positions.get("loops", (1, 1))
+        shown = "; ".join(bad[:4]) + (f"; and {len(bad) - 4} more" if len(bad) > 4 else "")
+        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: with independent "
+                     f"{', '.join(names[i] for i in model.independent)} the reduced form is singular or the "
+                     f"loop does not close near {shown}")
+
+
+def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy.Matrix,
+                 N: sympy.Matrix, Y: sympy.Matrix) -> dict[str, sympy.Matrix]:
+    """``R_g`` and the reduced ``M_r, C_r, N_r, Y_r, EOM_r`` while they stay readable; empty
+    otherwise (the generated code solves the multiplier form numerically)."""
+    A = model.jacobian
+    k = A.shape[0]
+    if k > REDUCED_ROWS or not is_small(sympy.Tuple(*A), REDUCED_NODES * A.shape[0] * A.shape[1]):
+        return {}
+    A_d = A.extract(list(range(k)), model.dependent)
+    A_i = A.extract(list(range(k)), model.independent)
+    det = tidy(A_d.det(method="berkowitz"))
+    if det == 0:
+        return {}
+    solution = (A_d.adjugate(method="berkowitz") * A_i).applyfunc(lambda e: tidy(-e / det))
+    n, m = len(table.q), len(model.independent)
+    R = sympy.zeros(n, m)
+    for column, i in enumerate(model.independent):
+        R[i, column] = 1
+    for row, d in enumerate(model.dependent):
+        for column in range(m):
+            R[d, column] = solution[row, column]
+    Rdot = tidy_matrix(constraint_jacobian_dot(R, table.q, table.qd))
+    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
+    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
+    M_r = tidy_matrix(R.T * M * R)
+    if not is_small(sympy.Tuple(*M_r), 4000 * m * m):
+        return {"R_g": R}
+    # on the manifold qd = R qd_i: Rdot's qd are written through R as well
+    Rdot = Rdot.xreplace(dict(zip(table.qd, R * qd_i)))
+    C_r = tidy_matrix(R.T * (M * Rdot + C.xreplace(dict(zip(table.qd, R * qd_i))) * R))
+    N_r = tidy_matrix(R.T * N)
+    Y_r = tidy_matrix(R.T * Y)
+    EOM_r = (M_r * qdd_i + C_r * qd_i + N_r - Y_r).applyfunc(tidy)
+    return {"R_g": R, "M_r": M_r, "C_r": C_r, "N_r": N_r, "Y_r": Y_r, "EOM_r": EOM_r}
