@@ -82,6 +82,9 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
             reported[0] = percent
             progress(f"simulated {percent:3d} % of {duration:g} s")
 
+    if derivation.robot.loops and not maximal:
+        return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
+                               frames, tick)
     if not maximal:
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
@@ -116,6 +119,55 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         drift = None
     return Trajectory(names, solution.t, position, velocity, np.asarray(energy), drift,
                       _link_poses(derivation, maximal) if derivation.robot.planar else None)
+
+
+def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float], duration: float,
+                    q0: np.ndarray, qd0: np.ndarray, efforts: Callable[..., np.ndarray], rtol: float, atol: float,
+                    baumgarte: float, frames: int, tick: Callable[[float], None]) -> Trajectory:
+    """A closed-loop mechanism: start on the constraints (``assemble`` keeps q0's independent
+    coordinates; qd0 projected onto the allowed motions), integrate the constrained dynamics
+    (Baumgarte gains ``baumgarte``) from frame to frame, and project the state back onto the
+    constraints at every frame; ``drift`` is the largest |a_g| before each projection."""
+    from scipy.integrate import solve_ivp
+
+    n = len(q0)
+    independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
+
+    def project(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        guess = np.array(module.ASSEMBLED_CONFIGURATION) if q is q0 else q.copy()
+        guess[independent] = q[independent]
+        try:
+            q = module.assemble(guess, **values)
+        except (ValueError, np.linalg.LinAlgError):
+            raise InputError(Problem("--q0", 1, 1, "the loops cannot be closed with independent coordinates "
+                                     + ", ".join(f"{module.COORDINATES[i]} = {q[i]:g}" for i in independent))) from None
+        A = module.loop_jacobian(q, **values)
+        null = np.linalg.svd(A)[2][A.shape[0]:]
+        return q, null.T @ (null @ qd)
+
+    def rhs(time: float, y: np.ndarray) -> np.ndarray:
+        tick(time)
+        q, qd = y[:n], y[n:]
+        return np.concatenate([qd, module.forward_dynamics(q, qd, efforts(time, q, qd), alpha=baumgarte,
+                                                           beta=baumgarte, **values)])
+
+    times = np.linspace(0.0, duration, frames)
+    q, qd = project(q0, qd0)
+    positions, velocities, drift = [q], [qd], [float(np.max(np.abs(module.loop_constraints(q, **values))))]
+    for start, end in zip(times[:-1], times[1:]):
+        step = solve_ivp(rhs, (start, end), np.concatenate([q, qd]), method="DOP853", rtol=rtol, atol=atol)
+        if not step.success:
+            raise InputError(Problem("--duration", 1, 1, f"integration failed: {step.message}"))
+        q, qd = step.y[:n, -1], step.y[n:, -1]
+        drift.append(float(np.max(np.abs(module.loop_constraints(q, **values)))))
+        q, qd = project(q, qd)
+        positions.append(q)
+        velocities.append(qd)
+    tick(duration)
+    position, velocity = np.array(positions), np.array(velocities)
+    energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
+    return Trajectory(list(derivation.robot.coordinates), times, position, velocity, np.asarray(energy),
+                      np.array(drift), _link_poses(derivation, False) if derivation.robot.planar else None)
 
 
 def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray], list[tuple[np.ndarray, float]]]:
@@ -157,6 +209,9 @@ def _segments(derivation: Derivation, poses: list[tuple[np.ndarray, float]]) -> 
     for (origin, angle), link in zip(poses, robot.links):
         rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
         ends = [np.array([number(j.origin[0]), number(j.origin[1])]) for j in robot.joints if j.parent == link.name]
+        ends += [np.array([number(lp.origin[0]), number(lp.origin[1])]) for lp in robot.loops if lp.parent == link.name]
+        ends += [np.array([number(lp.child_origin[0]), number(lp.child_origin[1])])
+                 for lp in robot.loops if lp.child == link.name]   # a closed chain is drawn closed
         com = np.array([number(e) for e in link.com])
         if not ends:
             ends = [2 * com] if np.any(com) else [np.array([0.0, 0.0])]
@@ -184,7 +239,7 @@ def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
     axes[1].legend(loc="upper right", fontsize="small")
     if trajectory.drift is not None:
         axes[2].semilogy(trajectory.times, np.maximum(trajectory.drift, 1e-18), color="tab:green",
-                         label="max |a(q_m)|")
+                         label="max |a_g(q)|" if derivation.robot.loops else "max |a(q_m)|")
         axes[2].set_ylabel("constraint drift")
         axes[2].legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("time [s]")
