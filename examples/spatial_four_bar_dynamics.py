@@ -514,6 +514,40 @@ def loop_forces(q, qd, u=None, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05
     return _loop_solve(q, qd, u, 0.0, 0.0, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[1]
 
 
+def reduced_basis(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """R_g(q), shape (..., 4, 1): the motions the loops allow, qd = R_g qd_i with
+    qd_i the velocities of ("q1",) (R_g = P [I; -A_d^-1 A_i], A_g R_g = 0)."""
+    _jac = loop_jacobian(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _independent, _dependent = [0], [1, 2, 3]
+    _basis = np.zeros(_jac.shape[:-2] + (4, len(_independent)))
+    _basis[..., _independent, :] = np.eye(len(_independent))
+    _basis[..., _dependent, :] = -np.linalg.solve(_jac[..., _dependent], _jac[..., _independent])
+    return _basis
+
+
+def reduced_forward_dynamics(q, qd, u=None, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Accelerations qdd, shape (..., 4), by the reduced form instead of the multipliers:
+    qdd = R_g qdd_i + s with s the dependent accelerations A_g qdd + Adot_g qd = 0 requires, and
+    M_r qdd_i = R_g^T (Y - C qd - N - M s), M_r = R_g^T M R_g (no lambda_g). Equals
+    ``forward_dynamics`` with alpha = beta = 0 on the constraints; a check of one by the other."""
+    q = _coordinates("q", q, 4)
+    qd = _coordinates("qd", qd, 4)
+    if u is None:
+        u = np.zeros(1)
+    _jac = loop_jacobian(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _dependent = [1, 2, 3]
+    _basis = reduced_basis(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _shift = np.zeros(np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1]) + (4,))
+    _shift[..., _dependent] = -np.linalg.solve(
+        _jac[..., _dependent], _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)[..., None])[..., 0]
+    _mass = mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _force = (generalized_forces(q, u, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g) - inverse_dynamics(q, qd, np.zeros(4), a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+              - _matvec(_mass, _shift))
+    _transpose = np.swapaxes(_basis, -1, -2)
+    _accel = np.linalg.solve(_transpose @ _mass @ _basis, _matvec(_transpose, _force)[..., None])[..., 0]
+    return _matvec(_basis, _accel) + _shift
+
+
 def assemble(q_guess, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method,
     keeping the independent coordinates ("q1",); shape (..., 4).

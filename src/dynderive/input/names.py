@@ -38,7 +38,7 @@ MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | frozenset({
     "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts", "constraints",
     "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
     "to_maximal_jacobian", "maximal_forward_dynamics", "world", "arrays", "batch",
-    "LOOPS", "INDEPENDENT_COORDINATES", "ASSEMBLED_CONFIGURATION",
+    "LOOPS", "INDEPENDENT_COORDINATES", "ASSEMBLED_CONFIGURATION", "reduced_basis", "reduced_forward_dynamics",
 })
 
 

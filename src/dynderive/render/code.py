@@ -290,6 +290,8 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "independent_tuple": _tuple(tuple(robot.coordinates[i] for i in derivation.steps["loops"].independent))
         if robot.loops else Code("()"),
         "dependent_list": Code(repr(derivation.steps["loops"].dependent)) if robot.loops else Code("[]"),
+        "independent_list": Code(repr(derivation.steps["loops"].independent)) if robot.loops else Code("[]"),
+        "independent_count": len(derivation.steps["loops"].independent) if robot.loops else 0,
         "assembled_tuple": python_literal(tuple(derivation.steps["loops"].assembled or ()))
         if robot.loops else Code("()"),
     }

@@ -129,11 +129,12 @@ def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: 
         _, sigma, vt = np.linalg.svd(A)
         R = vt[len(sigma):].T
         qdd = module.forward_dynamics(q, qd, u, **values)
+        worst = max(worst, float(np.max(np.abs(module.reduced_forward_dynamics(q, qd, u, **values) - qdd))))
         forces = module.mass_matrix(q, **values) @ qdd + module.inverse_dynamics(q, qd, np.zeros(len(q)), **values) \
             - module.generalized_forces(q, u, **values)
         worst = max(worst, float(np.max(np.abs(R.T @ forces))))
         scale = max(scale, float(np.max(np.abs(forces))))
-    return _row("reduced form R_g^T (M qdd + C qd + N - Y) = 0 (multiplier form agrees)",
+    return _row("reduced form R_g^T (M qdd + C qd + N - Y) = 0, reduced_forward_dynamics == forward_dynamics",
                 worst < 1e-9 * scale, "numeric", worst)
 
 
