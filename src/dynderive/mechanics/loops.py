@@ -255,10 +255,11 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
         if np.linalg.norm(residual) > RANK_TOLERANCE * scale * math.sqrt(n):
             keep.append(i)
             basis.append(residual / np.linalg.norm(residual))
-    dropped = [rows[i] for i in range(len(rows)) if i not in keep]
+    dropped = [every[i] for i in range(len(every)) if i not in nonzero]   # identically zero
+    dropped += [rows[i] for i in range(len(rows)) if i not in keep]
     if dropped:
         notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
-                     "implied by the others and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
+                     "identically zero or implied by the others and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
     rows = [rows[i] for i in keep]
     k = len(rows)
     if k >= n:
