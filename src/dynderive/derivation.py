@@ -29,7 +29,11 @@ DESCRIPTIONS = {
     "M_g": "mass matrix",
     "C_g": "Coriolis matrix (Christoffel symbols)",
     "N_g": "gravity vector dV/dq",
-    "EOM_g2": "equations of motion M qdd + C qd + N - Y (= 0)",
+    "EOM_g2": "equations of motion M qdd + C qd + N + F - Y (= 0)",
+    "D_g": "Rayleigh dissipation function 1/2 sum b_i qd_i^2",
+    "F_g": "dissipative generalized forces dD/dqd + fc sign(qd) (damping and friction)",
+    "D_m": "Rayleigh dissipation function in maximal coordinates",
+    "F_m": "dissipative forces in maximal coordinates",
 }
 
 Progress = Callable[[str], None]

@@ -68,6 +68,12 @@ def robot_schema() -> dict[str, Any]:
             "origin": origin,
             "axis": _vector([2, 3], "prismatic axis (planar) or joint axis (3-D)"),
             "effort": {"type": "string", "pattern": SYMBOL},
+            "damping": {**EXPRESSION, "description": "viscous damping b: force -b*qd (Rayleigh D = b*qd**2/2)"},
+            "friction": {**EXPRESSION, "description": "Coulomb friction fc: force -fc*sign(qd)"},
+            "stiffness": {**EXPRESSION, "description": "spring stiffness k: potential k*(q - rest)**2/2"},
+            "rest": {**EXPRESSION, "description": "spring rest position (default 0; needs stiffness)"},
+            "armature": {**EXPRESSION, "description": "reflected rotor inertia (gear ratio**2 * rotor "
+                         "inertia): added to M[i, i]"},
         },
     }
     loop = {

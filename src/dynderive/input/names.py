@@ -19,7 +19,7 @@ PYTHON_BUILTINS = frozenset(
 ) | {"copyright", "credits", "exit", "help", "license", "quit"}
 
 #: Argument names of the generated functions, current and planned (DESIGN.md section 6).
-API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess"})
+API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess", "friction_smoothing"})
 
 #: Public names of the generated module planned in DESIGN.md section 6.
 PLANNED_NAMES = frozenset({
@@ -39,6 +39,7 @@ MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | frozenset({
     "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
     "to_maximal_jacobian", "maximal_forward_dynamics", "world", "arrays", "batch",
     "LOOPS", "INDEPENDENT_COORDINATES", "ASSEMBLED_CONFIGURATION", "reduced_basis", "reduced_forward_dynamics",
+    "maximal_friction_forces",
 })
 
 

@@ -31,6 +31,7 @@ from ..model.naming import (
     maximal_coordinate_names,
 )
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
+from .drives import DRIVE_KEYS, drive_terms
 from .loader import SourceDocument
 from .names import check_names
 
@@ -41,7 +42,7 @@ TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints
             "maximal")
 PARAMETER_KEYS = ("value", "unit", "description")
 LINK_KEYS = ("name", "mass", "com", "inertia")
-JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort")
+JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS)
 MAXIMAL_KEYS = ("constraints",)
 LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis")
 #: Loop-closing joint types, and how many constraints each imposes.
@@ -380,8 +381,9 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             if effort is not None and jtype == "fixed":
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
                 effort = None
+        drives = drive_terms(v, item, path, jtype, symbols, lambda e: _numeric(e, defaults))
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
-                            origin, axis, effort))
+                            origin, axis, effort, **drives))
 
     return joints
 

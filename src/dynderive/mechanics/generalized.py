@@ -15,6 +15,7 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
+from .drives import drive_terms
 from .lagrange import (
     christoffel_coriolis,
     gravity_vector,
@@ -126,9 +127,11 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
     terms = link_terms(robot, table, links, gravity)
 
-    T = tidy(sum((t.kinetic for t in terms), sympy.Integer(0)))
-    V = tidy(sum((t.potential for t in terms), sympy.Integer(0)))
+    drives = drive_terms(robot, table)
+    T = tidy(sum((t.kinetic for t in terms), drives.kinetic))
+    V = tidy(sum((t.potential for t in terms), drives.potential))
     L = T - V
+    F = drives.forces.applyfunc(tidy)
     efforts = {j.name: j.effort for j in robot.joints if j.moves}
     Y = sympy.Matrix([table.efforts[efforts[n]] if efforts[n] else 0 for n in robot.coordinates])
 
@@ -142,14 +145,16 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
             "ddt_dL_dqd": tidy_matrix(steps.ddt_dL_dqd),
             "dL_dq": tidy_matrix(steps.dL_dq),
         }
-        EOM_g1 = (steps.lhs - Y).applyfunc(tidy)
+        # Lagrange's equations with Rayleigh's dissipation function and Coulomb friction:
+        # d/dt dL/dqd - dL/dq + dD/dqd + fc sign(qd) = Y
+        EOM_g1 = (steps.lhs + F - Y).applyfunc(tidy)
 
     jacobians = [t.body_jacobian for t in terms]
     inertias = [t.spatial_inertia for t in terms]
     clean = tidier(robot)
     n = len(q)
     report("mass matrix")
-    M = mass_matrix_from_jacobians(jacobians, inertias).applyfunc(clean)
+    M = (mass_matrix_from_jacobians(jacobians, inertias) + drives.armature).applyfunc(clean)
     report("Coriolis matrix")
     small = robot.planar or (n <= LAGRANGE_DOF_LIMIT and all(is_small(e, FOURIER_LIMIT) for e in M))
     if small:
@@ -173,15 +178,17 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     if small and not robot.planar:
         N = N.applyfunc(lambda e: fewest_operations(e, trig_linear))
     report("equations of motion")
-    EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N - Y).applyfunc(clean)
+    EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N + F - Y).applyfunc(clean)
 
     quantities: dict[str, Any] = {
         "T_g": T, "V_g": V, "L_g": L, "Y_g": Y, "EOM_g1": EOM_g1,
         "M_g": M, "C_g": C, "N_g": N, "EOM_g2": EOM_g2,
     }
+    if robot.dissipative:
+        quantities |= {"D_g": tidy(drives.dissipation), "F_g": F}
     if EOM_g1 is None:
         del quantities["EOM_g1"]
     for t in terms:
         quantities[f"J_b{t.index}"] = t.body_jacobian
-    intermediate = {"links": terms, "lagrange": steps_tidy, "gravity": gravity}
+    intermediate = {"links": terms, "lagrange": steps_tidy, "gravity": gravity, "drives": drives}
     return quantities, intermediate

@@ -124,6 +124,49 @@ def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
     return Y
 
 
+def joint_coordinate(joint: Joint, bodies: _Bodies) -> sympy.Expr:
+    """A moving joint's coordinate as a function of the maximal coordinates (zero at the joint's
+    reference position, equal to ``q_i`` on ``h(q)``): revolute, the relative angle; prismatic,
+    the child frame's offset from the joint point along the axis. The drive terms of the joint
+    (springs, damping, friction, armature) act through it, on both links alike."""
+    table = bodies.table
+    ox, oy, theta = (table.expr(e) for e in joint.origin)
+    p_parent, phi_parent, com_parent = bodies.pose(joint.parent)
+    p_child, phi_child, com_child = bodies.pose(joint.child)
+    if joint.type == "revolute":
+        return phi_child - phi_parent - theta
+    joint_point = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
+    child_origin = p_child + _rot(phi_child, (-com_child[0], -com_child[1]))
+    direction = _rot(phi_parent + theta, unit(tuple(table.expr(e) for e in joint.axis)))  # type: ignore[arg-type]
+    return (direction.T * (child_origin - joint_point))[0, 0]
+
+
+def _maximal_drives(robot: Robot, bodies: _Bodies, generalized: dict[str, Any]) -> dict[str, Any]:
+    """The joints' drive terms in maximal coordinates, through each joint's coordinate
+    ``g_i(qm)`` and its gradient ``G_i``: springs ``k (g_i - rest)**2/2`` in V_m, armature
+    ``Ia (G_i qmd)**2/2`` in T_m (``Ia G_i^T G_i`` in M_m), dissipation
+    ``D_m = sum b (G_i qmd)**2/2`` and forces ``F_m = sum G_i^T (b G_i qmd + fc sign(G_i qmd))``.
+    Since ``G_i H = e_i``, ``H^T F_m = F_g``: the same forces, equal and opposite on both links."""
+    from .drives import dissipative_force
+
+    table, size = bodies.table, len(bodies.table.qm)
+    qmd = sympy.Matrix(table.qmd)
+    moving = [j for j in robot.joints if j.moves]
+    half = sympy.Rational(1, 2)
+    terms = {"T": sympy.Integer(0), "V": sympy.Integer(0), "D": sympy.Integer(0), "F": sympy.zeros(size, 1),
+             "M": sympy.zeros(size, size)}
+    for drive in generalized["drives"].joints:
+        g = tidy(joint_coordinate(moving[drive.coordinate], bodies))
+        G = sympy.Matrix([g]).jacobian(table.qm).applyfunc(tidy)
+        rate = tidy((G * qmd)[0, 0])
+        terms["T"] += half * drive.armature * rate**2
+        terms["V"] += half * drive.stiffness * (g - drive.rest) ** 2
+        terms["D"] += half * drive.damping * rate**2
+        terms["F"] += G.T * dissipative_force(drive.damping, drive.friction, rate)
+        terms["M"] += drive.armature * G.T * G
+    return terms
+
+
 def maximal_body_jacobian(k: int, table: SymbolTable) -> sympy.Matrix:
     """Maps qm_dot to the body velocity of link k's COM frame: a rotation into its axes."""
     phi = table.qm[3 * k + 2]
@@ -193,8 +236,10 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
         x, y, phi = qmd[3 * k: 3 * k + 3]
         T += sympy.Rational(1, 2) * (term.mass * (x**2 + y**2) + term.inertia * phi**2)
         V += -term.mass * (gravity.T * sympy.Matrix(qm[3 * k: 3 * k + 2]))[0, 0]
-    T, V = tidy(T), tidy(V)
+    drives = _maximal_drives(robot, bodies, generalized)
+    T, V = tidy(T + drives["T"]), tidy(V + drives["V"])
     L = T - V
+    F = tidy_matrix(drives["F"])
 
     # 2.3 efforts
     Y = sympy.zeros(size, 1)
@@ -204,18 +249,18 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
 
     # 2.4 constrained Lagrange equations
     steps = lagrange_steps(L, qm, qmd, qmdd)
-    EOM_m1 = (steps.lhs + A.T * lam - Y).applyfunc(tidy)
+    EOM_m1 = (steps.lhs + F + A.T * lam - Y).applyfunc(tidy)
 
     # 2.5 manipulator form
     jacobians = [maximal_body_jacobian(k, table) for k in range(len(robot.links))]
-    M = tidy_matrix(mass_matrix_from_jacobians(jacobians, [t.spatial_inertia for t in link_terms]))
+    M = tidy_matrix(mass_matrix_from_jacobians(jacobians, [t.spatial_inertia for t in link_terms]) + drives["M"])
     C = tidy_matrix(christoffel_coriolis(M, qm, qmd))
     N = tidy_matrix(gravity_vector(V, qm))
     qmd_vec = sympy.Matrix(qmd)
-    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + A.T * lam - Y).applyfunc(tidy)
+    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + F + A.T * lam - Y).applyfunc(tidy)
 
     # 2.6 constraint forces, in closed form while it stays small
-    lambda_vec = _closed_form_lambda(M, A, Adot, Y, C, N, qmd_vec)
+    lambda_vec = _closed_form_lambda(M, A, Adot, Y - F, C, N, qmd_vec)
 
     # 2.7 change of basis
     q, qd, qdd = table.q, table.qd, table.qdd
@@ -229,7 +274,8 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
     C_tilde = tidy_matrix(H.T * C.xreplace(on_h).xreplace(on_hd) * H + H.T * M_h * Hdot)
     N_tilde = tidy_matrix(H.T * N.xreplace(on_h))
     Y_tilde = tidy_matrix(H.T * Y.xreplace(on_h))
-    EOM_g3 = M_tilde * sympy.Matrix(qdd) + C_tilde * sympy.Matrix(qd) + N_tilde - Y_tilde
+    F_tilde = tidy_matrix(H.T * F.xreplace(on_h).xreplace(on_hd).applyfunc(_tidy_sign))
+    EOM_g3 = M_tilde * sympy.Matrix(qdd) + C_tilde * sympy.Matrix(qd) + N_tilde + F_tilde - Y_tilde
     if loop_force is not None:
         EOM_g3 = EOM_g3 - loop_force
     EOM_g3 = EOM_g3.applyfunc(tidy)
@@ -239,6 +285,8 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
         "T_m": T, "V_m": V, "L_m": L, "Y_m": Y, "EOM_m1": EOM_m1,
         "M_m": M, "C_m": C, "N_m": N, "EOM_m2": EOM_m2,
     }
+    if robot.dissipative:
+        quantities |= {"D_m": tidy(drives["D"]), "F_m": F}
     if lambda_vec is not None:
         quantities["lambdaVec"] = lambda_vec
     quantities |= {"h": h, "H": H, "EOM_g3": EOM_g3}
@@ -249,11 +297,16 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
         "jacobians": jacobians,
         "lambda_symbolic": lambda_vec is not None,
         "Hdot": tidy_matrix(Hdot),
-        "M_tilde": M_tilde, "C_tilde": C_tilde, "N_tilde": N_tilde, "Y_tilde": Y_tilde,
+        "M_tilde": M_tilde, "C_tilde": C_tilde, "N_tilde": N_tilde, "Y_tilde": Y_tilde, "F_tilde": F_tilde,
         "a_on_h": a.xreplace(on_h),
         "AH": A.xreplace(on_h) * H,
     }
     return quantities, intermediate
+
+
+def _tidy_sign(expr: sympy.Expr) -> sympy.Expr:
+    """Tidy the arguments of ``sign`` (a joint rate on h(q) is ``G_i H qd = qd_i``)."""
+    return expr.replace(lambda e: isinstance(e, sympy.sign), lambda e: sympy.sign(tidy(e.args[0])))
 
 
 def _closed_form_lambda(M: sympy.Matrix, A: sympy.Matrix, Adot: sympy.Matrix, Y: sympy.Matrix,
@@ -277,4 +330,4 @@ def _closed_form_lambda(M: sympy.Matrix, A: sympy.Matrix, Adot: sympy.Matrix, Y:
     return numerator.applyfunc(lambda e: tidy(e / det))
 
 
-__all__ = ["derive_maximal", "joint_constraints", "joint_efforts"]
+__all__ = ["derive_maximal", "joint_constraints", "joint_coordinate", "joint_efforts"]

@@ -27,6 +27,7 @@ import sympy
 
 from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
+from .drives import drive_terms
 from .joints import unit
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 from .tidy import operation_count
@@ -41,6 +42,9 @@ class Program:
 
     lines: list[tuple[sympy.Symbol, sympy.Expr]] = field(default_factory=list)
     outputs: list[sympy.Expr] = field(default_factory=list)
+    #: Symbols the body takes besides q, qd, qdd and u (forward dynamics of a robot with
+    #: damping or friction: the dissipative forces, computed outside the body).
+    extra_inputs: list[sympy.Symbol] = field(default_factory=list)
     _count: int = 0
     _known: dict[sympy.Expr, sympy.Symbol] = field(default_factory=dict)
 
@@ -131,6 +135,10 @@ class _Tree:
             coordinate = index.get(joint.name) if joint.moves else None
             self.bodies.append(self._body(link, joint, coordinate))
         self.by_link = {b.link: b for b in self.bodies}
+        #: drive terms by coordinate: armature joins M[i, i] (CRBA) and Ia qdd_i the joint
+        #: force (Newton-Euler), springs k (q_i - rest) the joint force
+
+        self.drives = {d.coordinate: d for d in drive_terms(robot, table).joints}
         #: links welded to the world (no moving joint above them): they carry no dynamics
         self.static = {"world"} | {link.name for link in robot.links
                                    if not any(j.moves for j in robot.path_to(link.name))}
@@ -245,7 +253,8 @@ def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
         else:
             f, nm = vec([mass * x for x in a]), vec(_cross(h, a))
         j = body.coordinate
-        M[j][j] = let(_dot(a, nm if body.revolute else f))
+        armature = tree.drives[j].armature if j in tree.drives else 0
+        M[j][j] = let(_dot(a, nm if body.revolute else f) + armature)
         current = body
         while current.parent not in tree.static:
             nm, f = tree.force_to_parent(current, nm, f)
@@ -295,7 +304,11 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
             continue
         n, f = forces[body.link]
         if body.coordinate is not None:
-            tau[body.coordinate] = tree.program.let(_dot(body.axis, n if body.revolute else f))
+            j = body.coordinate
+            drive = tree.drives.get(j)
+            extra = 0 if drive is None else (drive.armature * qdd[j]
+                                             + drive.stiffness * (tree.table.q[j] - drive.rest))
+            tau[j] = tree.program.let(_dot(body.axis, n if body.revolute else f) + extra)
         if body.parent not in tree.static:
             n_p, f_p = tree.force_to_parent(body, n, f)
             parent_n, parent_f = forces[body.parent]
@@ -329,10 +342,17 @@ def gravity_program(robot: Robot, table: SymbolTable) -> Program:
     return program
 
 
-def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr]) -> Program:
-    """``qdd`` solving ``M qdd = Y - (C qd + N)``: CRBA, Newton-Euler and an LDL^T solve.
+#: Inputs of the forward-dynamics body for robots with damping or friction: the dissipative
+#: forces F_g, computed by the module's ``friction_forces`` (exact or smoothed sign).
+def friction_symbols(n: int) -> list[sympy.Symbol]:
+    return [sympy.Symbol(f"_friction{i}") for i in range(n)]
 
-    ``efforts`` is ``Y_g`` as expressions of the effort symbols. M is positive definite, so the
+
+def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr]) -> Program:
+    """``qdd`` solving ``M qdd = Y - (C qd + N) - F``: CRBA, Newton-Euler and an LDL^T solve.
+
+    ``efforts`` is ``Y_g`` as expressions of the effort symbols; for a robot with damping or
+    friction, ``F`` comes in as the inputs ``friction_symbols``. M is positive definite, so the
     factorization needs no pivoting; zeros of M (branches) stay zeros in L.
     """
     program, tree = _start(robot, table)
@@ -340,7 +360,8 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     n = len(table.q)
     M = _composite_mass_matrix(tree)
     bias = _newton_euler(tree, table.qd, [sympy.Integer(0)] * n, _gravity(robot, table))
-    rhs = [let(y - b) for y, b in zip(efforts, bias)]
+    friction = friction_symbols(n) if robot.dissipative else [0] * n
+    rhs = [let(y - b - f) for y, b, f in zip(efforts, bias, friction)]
     L = [[sympy.Integer(0)] * n for _ in range(n)]
     inverse_d: list[sympy.Expr] = [sympy.Integer(0)] * n
     scaled = [[sympy.Integer(0)] * n for _ in range(n)]   # L_jk D_k
@@ -359,6 +380,8 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     for i in reversed(range(n)):
         x[i] = let(y[i] * inverse_d[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), sympy.Integer(0)))
     program.outputs = x
+    if robot.dissipative:
+        program.extra_inputs = friction
     return program
 
 

@@ -54,11 +54,30 @@ class Joint:
     origin: tuple[Expression, ...]
     axis: tuple[Expression, ...]
     effort: str | None = None
+    #: Drive and dissipation terms (expressions over the parameters; None: absent). Viscous
+    #: damping ``b`` (force ``-b qd``, Rayleigh ``D = b qd**2/2``), Coulomb friction ``fc``
+    #: (``-fc sign(qd)``), a spring of stiffness ``k`` about ``rest`` (``V = k (q - rest)**2/2``),
+    #: and armature (reflected rotor inertia, ``T = armature qd**2/2``).
+    damping: Expression | None = None
+    friction: Expression | None = None
+    stiffness: Expression | None = None
+    rest: Expression | None = None
+    armature: Expression | None = None
 
     @property
     def moves(self) -> bool:
         """Whether the joint has a coordinate (fixed joints do not)."""
         return self.type != "fixed"
+
+    @property
+    def dissipates(self) -> bool:
+        """Whether the joint has viscous damping or Coulomb friction."""
+        return self.damping is not None or self.friction is not None
+
+    @property
+    def driven(self) -> bool:
+        """Whether the joint declares any drive or dissipation term."""
+        return self.dissipates or self.stiffness is not None or self.armature is not None
 
 
 @dataclass(frozen=True)
@@ -107,6 +126,11 @@ class Robot:
     def coordinates(self) -> tuple[str, ...]:
         """Names of the generalized coordinates: the moving joints, in file order."""
         return tuple(j.name for j in self.joints if j.moves)
+
+    @property
+    def dissipative(self) -> bool:
+        """Whether some joint has damping or friction (the robot has ``D_g`` and ``F_g``)."""
+        return any(j.dissipates for j in self.joints if j.moves)
 
     @property
     def efforts(self) -> tuple[str, ...]:

@@ -255,6 +255,9 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
             ("to_maximal", f"Change of basis qm = h(q), shape (..., {m}).", [q], "h"),
             ("to_maximal_jacobian", f"Its Jacobian H(q) = dh/dq (qmd = H qd), shape (..., {m}, {n}).", [q], "H"),
         ]
+        if "F_m" in quantities:
+            specs.append(("maximal_friction_forces", "Dissipative forces F_m(qm, qmd) of the joints' damping and "
+                          f"friction on the links (exact sign), shape (..., {m}).", [qm, qmd], "F_m"))
         for name, doc, args, quantity in specs:
             functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
                                                  matrix_result=quantity in MATRICES))
@@ -279,6 +282,8 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "dof": n,
         "functions": functions,
         "structured": structured,
+        "dissipative": robot.dissipative,
+        "maximal_dissipative": "F_m" in quantities,
         "programs": programs,
         "maximal": maximal,
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
@@ -321,6 +326,15 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
                                              quantities["T_g"], printer, params))
     functions.append(expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
                                          quantities["V_g"], printer, params))
+    if derivation.robot.dissipative:   # F_g = b qd + fc sign(qd): the coefficients, per coordinate
+        drives = derivation.steps["generalized"]["drives"].joints
+        for name, what, attribute in (("_damping_coefficients", "Viscous damping b", "damping"),
+                                      ("_friction_coefficients", "Coulomb friction fc", "friction")):
+            value = sympy.zeros(n, 1)
+            for drive in drives:
+                value[drive.coordinate] = getattr(drive, attribute)
+            functions.append(expression_function(name, f"{what} of each coordinate, shape (..., {n}).", [qd],
+                                                 value, printer, params))
     return functions
 
 
@@ -329,13 +343,18 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
     inverse and forward dynamics for every robot, M, C, N for 3-D robots."""
     n = len(derivation.symbols.q)
     qdd = Argument("qdd", derivation.symbols.qdd, f"joint accelerations, shape (..., {n})")
+    effort_args = [q, qd, u]
+    forward = derivation.programs.get("forward_dynamics")
+    if forward is not None and forward.extra_inputs:   # damping, friction: F_g computed outside the body
+        effort_args.append(Argument("_friction", forward.extra_inputs, f"dissipative forces F_g, shape (..., {n})"))
     specs = {
         "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
         "coriolis": ("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.", [q, qd]),
         "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
         "forward_dynamics": ("_forward_dynamics_body",
-                             "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N.", [q, qd, u]),
+                             "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N"
+                             + (" - F." if derivation.robot.dissipative else "."), effort_args),
     }
     return [program_function(*specs[key], program) for key, program in derivation.programs.items()]
 

@@ -1,0 +1,56 @@
+"""Validation of a joint's drive and dissipation terms (``damping``, ``friction``,
+``stiffness``, ``rest``, ``armature``): expressions over the parameters, on moving joints
+only, not negative at the parameter defaults (``rest`` may be), ``rest`` only with a spring.
+Part of validation (``schema._joints`` calls ``drive_terms``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy
+
+#: The drive keys of a joint, in the order the sheet lists them, and what each is.
+DRIVE_KEYS = {
+    "damping": "viscous damping",
+    "friction": "Coulomb friction",
+    "stiffness": "spring stiffness",
+    "rest": "spring rest position",
+    "armature": "armature (reflected rotor inertia)",
+}
+#: Terms that must not be negative: a negative one would feed energy in (or make M indefinite).
+NON_NEGATIVE = ("damping", "friction", "stiffness", "armature")
+
+
+def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None,
+                symbols: dict[str, sympy.Expr], numeric: Any) -> dict[str, Any]:
+    """The drive terms of one joint entry, checked; problems go to the validator ``v``.
+
+    ``numeric(expr)`` gives an expression's value at the parameter defaults (None if it has
+    no number there). Returns ``{key: expression text}`` for the keys present and valid.
+    """
+    terms: dict[str, Any] = {}
+    for key in DRIVE_KEYS:
+        if key not in item:
+            continue
+        kpath = path + (key,)
+        if jtype == "fixed":
+            v.error(kpath, f"{v.label(kpath)}: a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}",
+                    key=True)
+            continue
+        if item[key] is None or isinstance(item[key], (bool, list, dict)):
+            kind = "nothing" if item[key] is None else type(item[key]).__name__
+            v.error(kpath, f"{v.label(kpath)}: expected a number or an expression, got {kind}")
+            continue
+        expr = v.expression(item[key], kpath, symbols)
+        if expr is None:
+            continue
+        value = numeric(expr)
+        if key in NON_NEGATIVE and value is not None and value < 0:
+            v.error(kpath, f"{v.label(kpath)}: {DRIVE_KEYS[key]} must not be negative (got {value:g})")
+            continue
+        terms[key] = item[key]
+    if "rest" in item and "stiffness" not in item and jtype != "fixed":
+        rpath = path + ("rest",)
+        v.error(rpath, f"{v.label(rpath)}: a rest position needs a spring: add 'stiffness'", key=True)
+        terms.pop("rest", None)
+    return terms

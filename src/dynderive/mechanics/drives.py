@@ -1,0 +1,91 @@
+"""Drive and dissipation terms of the joints: viscous damping, Coulomb friction, springs and
+armature (reflected rotor inertia), as they enter Lagrange's equations.
+
+With the Rayleigh dissipation function ``D = 1/2 sum b_i qd_i**2`` and Coulomb friction the
+equations read ``d/dt dL/dqd - dL/dq + dD/dqd + fc sign(qd) = Y``: springs enter ``L``
+through ``V`` (``k (q - rest)**2/2``), armature through ``T`` (``Ia qd**2/2``, so ``Ia`` joins
+``M[i, i]``), and the dissipative forces ``F = dD/dqd + fc sign(qd)`` join the manipulator
+form ``M qdd + C qd + N + F = Y``.
+
+>>> terms = drive_terms(robot, table)          # doctest: +SKIP
+>>> terms.forces                                 # doctest: +SKIP
+Matrix([[b1*qd1 + fc1*sign(qd1)], [0]])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy
+
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
+
+
+@dataclass(frozen=True)
+class JointDrive:
+    """The drive terms of one coordinate (zero where the file declares none)."""
+
+    coordinate: int
+    damping: sympy.Expr
+    friction: sympy.Expr
+    stiffness: sympy.Expr
+    rest: sympy.Expr
+    armature: sympy.Expr
+
+
+@dataclass(frozen=True)
+class DriveTerms:
+    """What the drives add to a robot's energies and forces, in generalized coordinates."""
+
+    joints: list[JointDrive]          # the coordinates that declare any drive term
+    kinetic: sympy.Expr               # armature: sum Ia_i qd_i**2 / 2
+    potential: sympy.Expr             # springs: sum k_i (q_i - rest_i)**2 / 2
+    dissipation: sympy.Expr           # Rayleigh: sum b_i qd_i**2 / 2      (D_g)
+    forces: sympy.Matrix              # dD/dqd + fc sign(qd)               (F_g)
+    armature: sympy.Matrix            # diag(Ia), added to M
+
+    @property
+    def empty(self) -> bool:
+        return not self.joints
+
+
+def dissipative_force(damping: sympy.Expr, friction: sympy.Expr, rate: sympy.Expr) -> sympy.Expr:
+    """``b v + fc sign(v)``: the force a damper and a Coulomb friction oppose to the rate ``v``."""
+    return damping * rate + friction * sympy.sign(rate)
+
+
+def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
+    """The drive terms of ``robot``'s moving joints, in coordinate order."""
+    zero, half = sympy.Integer(0), sympy.Rational(1, 2)
+    drives: list[JointDrive] = []
+    moving = [j for j in robot.joints if j.moves]
+    for i, joint in enumerate(moving):
+        if not joint.driven:
+            continue
+
+        def value(text: object, default: sympy.Expr = zero) -> sympy.Expr:
+            return default if text is None else table.expr(text)
+
+        drives.append(JointDrive(i, value(joint.damping), value(joint.friction), value(joint.stiffness),
+                                 value(joint.rest), value(joint.armature)))
+    n = len(moving)
+    q, qd = table.q, table.qd
+    kinetic = sympy.Add(*(half * d.armature * qd[d.coordinate] ** 2 for d in drives))
+    potential = sympy.Add(*(half * d.stiffness * (q[d.coordinate] - d.rest) ** 2 for d in drives))
+    dissipation = sympy.Add(*(half * d.damping * qd[d.coordinate] ** 2 for d in drives))
+    forces = sympy.zeros(n, 1)
+    armature = sympy.zeros(n, n)
+    for d in drives:
+        forces[d.coordinate] = dissipative_force(d.damping, d.friction, qd[d.coordinate])
+        armature[d.coordinate, d.coordinate] = d.armature
+    return DriveTerms(drives, kinetic, potential, dissipation, forces, armature)
+
+
+def coulomb_forces(forces: sympy.Matrix, rates: Sequence[sympy.Symbol]) -> sympy.Matrix:
+    """The Coulomb part of ``forces`` (the terms with ``sign``), for the sheet's steps."""
+    return forces.applyfunc(lambda e: sympy.Add(*(t for t in sympy.Add.make_args(e) if t.has(sympy.sign))))
+
+
+__all__ = ["DriveTerms", "JointDrive", "coulomb_forces", "dissipative_force", "drive_terms"]
