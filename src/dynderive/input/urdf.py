@@ -366,6 +366,11 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             if link_name not in link_elements:
                 reader.error(joint.find(role) or joint, f"joint '{name}': unknown {role} link '{link_name}'")
         origin = joint.find("origin")
+        dynamics = joint.find("dynamics")
+        if dynamics is not None and jtype == "fixed":
+            doc.notes.append(f"{reader.file}:{dynamics.line}:{dynamics.column}: note: <dynamics> on fixed joint "
+                             f"'{name}' ignored (it has no coordinate)")
+            dynamics = None
         joints.append({
             "element": joint, "name": name, "type": "revolute" if jtype == "continuous" else jtype,
             "parent": parent, "child": child,
@@ -373,6 +378,10 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             "R": Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0])),
             "axis": reader.numbers(joint.find("axis"), "xyz", 3, [1, 0, 0]),
             "axis_element": joint.find("axis") or joint,
+            "dynamics": dynamics,
+            # <dynamics damping friction>: viscous damping and Coulomb friction (0 = none)
+            "damping": reader.numbers(dynamics, "damping", 1, [0.0])[0] if dynamics is not None else 0.0,
+            "friction": reader.numbers(dynamics, "friction", 1, [0.0])[0] if dynamics is not None else 0.0,
         })
     return joints
 
@@ -492,6 +501,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
             "axis": [_number(v) for v in joint["axis"]],
             "effort": ("tau_" if joint["type"] == "revolute" else "f_") + jname,
         }
+        for key in ("damping", "friction"):   # validated as joint keys: finite, not negative
+            if joint[key] != 0:
+                entry[key] = _number(joint[key])
         data["joints"].append(entry)
         path = ("joints", index)
         doc.labels[path] = f"joint '{joint['name']}'"
@@ -499,6 +511,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         for key in entry:
             positions[path + (key,)] = (element.line, element.column)
         positions[path + ("axis",)] = (joint["axis_element"].line, joint["axis_element"].column)
+        if joint["dynamics"] is not None:
+            for key in ("damping", "friction"):
+                positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
         for i in range(3):
             positions[path + ("axis", i)] = positions[path + ("axis",)]
     if reader.problems:

@@ -158,7 +158,8 @@ def _skew_check(derivation: Derivation, module: Any, values: dict[str, float], q
 
 def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
                    us: np.ndarray) -> Row:
-    """dE/dt = qd . Y along the dynamics, E = T + V."""
+    """dE/dt = qd . Y - qd . F along the dynamics, E = T + V (springs in V, armature in T): the
+    dissipated power qd . F of damping and friction is measured, not ignored."""
     h, worst, scale = 1e-5, 0.0, 1.0
     for q, qd, u in zip(qs, qds, us):
         qdd = module.forward_dynamics(q, qd, u, **values)
@@ -168,10 +169,17 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, qds: n
             return float(module.kinetic_energy(qt, qdt, **values) + module.potential_energy(qt, **values))
 
         rate = (energy(h) - energy(-h)) / (2 * h)
-        power = float(qd @ module.generalized_forces(q, u, **values))
+        dissipated = float(qd @ module.friction_forces(qd, **values))
+        power = float(qd @ module.generalized_forces(q, u, **values)) - dissipated
         worst = max(worst, abs(rate - power))
-        scale = max(scale, abs(power))
-    return _row("power balance dE/dt = qd . Y", worst < 1e-5 * scale, "numeric (central differences)", worst)
+        scale = max(scale, abs(power), abs(dissipated))
+    name = "power balance dE/dt = qd . Y - qd . F" if _dissipates(module) else "power balance dE/dt = qd . Y"
+    return _row(name, worst < 1e-5 * scale, "numeric (central differences)", worst)
+
+
+def _dissipates(module: Any) -> bool:
+    """Whether the generated module has damping or friction (its friction_forces is not zero)."""
+    return hasattr(module, "_damping_coefficients")
 
 
 def _maximal_checks(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
@@ -194,12 +202,16 @@ def _maximal_checks(module: Any, values: dict[str, float], qs: np.ndarray, qds: 
             "H^T N_m = N_g": (H.T @ module.maximal_gravity_vector(hq, **values), module.gravity_vector(q, **values)),
             "H^T Y_m = Y_g": (H.T @ Ym, module.generalized_forces(q, u, **values)),
         }
+        friction = np.zeros(len(v))
+        if hasattr(module, "maximal_friction_forces"):
+            friction = module.maximal_friction_forces(hq, v, **values)
+            pairs["H^T F_m = F_g"] = (H.T @ friction, module.friction_forces(qd, **values))
         for key, (a, b) in pairs.items():
-            worst[key] = max(worst[key], float(np.max(np.abs(a - b))))
+            worst[key] = max(worst.get(key, 0.0), float(np.max(np.abs(a - b))))
         qmdd = module.maximal_forward_dynamics(hq, v, u, **values)
         lam = module.constraint_forces(hq, v, u, **values)
         A = module.constraint_jacobian(hq, **values)
-        residual = Mm @ qmdd + Cm @ v + module.maximal_gravity_vector(hq, **values) + A.T @ lam - Ym
+        residual = Mm @ qmdd + Cm @ v + module.maximal_gravity_vector(hq, **values) + friction + A.T @ lam - Ym
         acceleration = A @ qmdd + module.constraint_jacobian_dot(hq, v, **values) @ v
         worst["constraint forces consistent"] = max(worst["constraint forces consistent"],
                                                     float(np.max(np.abs(residual))), float(np.max(np.abs(acceleration))))
@@ -218,6 +230,8 @@ def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str
         ("T_g", "kinetic_energy", lambda q, qd, u: module.kinetic_energy(q, qd, **values)),
         ("V_g", "potential_energy", lambda q, qd, u: module.potential_energy(q, **values)),
     ]
+    if "F_g" in derivation:
+        specs.append(("F_g", "friction_forces", lambda q, qd, u: module.friction_forces(qd, **values)))
     rows = []
     for quantity, function, call in specs:
         name = f"generated {function} == symbolic {quantity}"
@@ -247,9 +261,10 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
         return [Row(name, "skip", "pin is not installed", float("nan"))]
     if any(p.value is None for p in derivation.robot.parameters):
         return [Row(name, "skip", "a parameter has no default value", float("nan"))]
-    from .pinocchio_model import pinocchio_model
+    from .pinocchio_model import PinocchioDrives, pinocchio_model
 
     model, perm = pinocchio_model(derivation.robot, values)
+    drives = PinocchioDrives(derivation.robot, values, perm)
     data = model.createData()
     worst, scale = 0.0, 1.0
     for q, qd in zip(qs, qds):
@@ -258,10 +273,11 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
         M = pin.crba(model, data, qp)
         M = np.triu(M) + np.triu(M, 1).T
         ours = module.mass_matrix(q, **values)[np.ix_(perm, perm)]
-        g = pin.computeGeneralizedGravity(model, data, qp)
-        bias = pin.rnea(model, data, qp, qdp, np.zeros(len(q))) - g
+        # Pinocchio has the armature (model.armature); springs and dissipation are added here
+        g = pin.computeGeneralizedGravity(model, data, qp) + drives.spring(qp)
+        bias = pin.rnea(model, data, qp, qdp, np.zeros(len(q))) - pin.computeGeneralizedGravity(model, data, qp)
         Y = module.generalized_forces(q, module_efforts(module, u), **values)
-        acc = pin.aba(model, data, qp, qdp, Y[perm])
+        acc = pin.aba(model, data, qp, qdp, Y[perm] - drives.spring(qp) - drives.dissipative(qdp))
         diffs = [ours - M, module.gravity_vector(q, **values)[perm] - g,
                  (module.coriolis_matrix(q, qd, **values) @ qd)[perm] - bias]
         if not derivation.robot.loops:   # with loops forward_dynamics is the constrained one

@@ -76,4 +76,30 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
             visit(joint.child)
 
     visit("world")
-    return model, np.array(perm, dtype=int)
+    order = np.array(perm, dtype=int)
+    model.armature = PinocchioDrives(robot, values, order).armature   # crba, rnea and aba use it
+    return model, order
+
+
+class PinocchioDrives:
+    """The joints' springs, damping and friction in Pinocchio's coordinate order, which Pinocchio
+    does not model (its ``armature`` it does): ``spring(q)`` = k (q - rest), ``dissipative(v)``
+    = b v + fc sign(v)."""
+
+    def __init__(self, robot: Robot, values: dict[str, float], perm: np.ndarray):
+        table = SymbolTable.for_robot(robot)
+        numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}
+        moving = [j for j in robot.joints if j.moves]
+
+        def column(key: str) -> np.ndarray:
+            return np.array([float(table.expr(getattr(moving[i], key) or 0).xreplace(numbers).evalf())
+                             for i in perm])
+
+        self.armature, self.damping, self.friction = column("armature"), column("damping"), column("friction")
+        self.stiffness, self.rest = column("stiffness"), column("rest")
+
+    def spring(self, q: np.ndarray) -> np.ndarray:
+        return self.stiffness * (q - self.rest)
+
+    def dissipative(self, v: np.ndarray) -> np.ndarray:
+        return self.damping * v + self.friction * np.sign(v)
