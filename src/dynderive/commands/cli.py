@@ -303,6 +303,9 @@ def simulate(
     frames: Annotated[int, typer.Option("--frames", help="Output samples (and animation frames).")] = 101,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                      "(repeatable; required for parameters without a default).")] = None,
+    friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
+                                  "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, hard for "
+                                  "integrators).")] = 1e-3,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
@@ -318,6 +321,8 @@ def simulate(
         raise InputError(_problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
     if duration <= 0 or frames < 2:
         raise InputError(_problem("--duration", "duration must be positive and frames at least 2"))
+    if not friction_smoothing >= 0 or friction_smoothing == float("inf"):
+        raise InputError(_problem("--friction-smoothing", f"expected a finite velocity >= 0, got {friction_smoothing:g}"))
     try:
         import matplotlib  # noqa: F401
         import scipy  # noqa: F401
@@ -342,7 +347,7 @@ def simulate(
     source = render_code(derivation)
     trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
                      np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
-                     frames, progress)
+                     frames, progress, friction_smoothing)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
@@ -356,7 +361,9 @@ def simulate(
     relative = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])) / max(abs(trajectory.energy[0]), 1e-12))
     typer.echo(f"simulated {duration:g} s of {model.name} in {coordinates} coordinates: "
                f"largest relative energy change {relative:.3g}"
-               + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else ""))
+               + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else "")
+               + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"
+                  if trajectory.dissipated is not None else ""))
     for path in files:
         typer.echo(f"wrote {path}", err=True)
 

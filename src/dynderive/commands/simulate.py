@@ -33,6 +33,9 @@ class Trajectory:
     energy: np.ndarray
     drift: np.ndarray | None   # max |a(qm)| per frame (maximal runs)
     link_poses: Callable[[np.ndarray], list[tuple[np.ndarray, float]]] | None  # planar drawing
+    #: work done by damping and friction since t = 0, integral of qd . F dt (generalized runs of
+    #: robots with damping or friction; None otherwise): E + W changes only by the efforts' work
+    dissipated: np.ndarray | None = None
 
 
 def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Callable[..., np.ndarray]:
@@ -68,7 +71,10 @@ def default_initial(derivation: Derivation) -> np.ndarray:
 
 def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarray, qd0: np.ndarray,
              efforts: Callable[..., np.ndarray], maximal: bool, rtol: float, atol: float,
-             baumgarte: float, frames: int, progress: Callable[[str], None]) -> Trajectory:
+             baumgarte: float, frames: int, progress: Callable[[str], None],
+             friction_smoothing: float = 0.0) -> Trajectory:
+    """Integrate the generated dynamics. Robots with Coulomb friction use the module's smoothed
+    sign (``friction_smoothing``, a velocity; 0 = exact) in generalized coordinates."""
     from scipy.integrate import solve_ivp
 
     module = generated_module(source, derivation.robot.name)
@@ -84,13 +90,18 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
 
     if derivation.robot.loops and not maximal:
         return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
-                               frames, tick)
+                               frames, tick, friction_smoothing)
+    dissipative = derivation.robot.dissipative and not maximal
     if not maximal:
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
-            q, qd = y[:n], y[n:]
-            return np.concatenate([qd, module.forward_dynamics(q, qd, efforts(time, q, qd), **values)])
-        y0 = np.concatenate([q0, qd0])
+            q, qd = y[:n], y[n:2 * n]
+            qdd = module.forward_dynamics(q, qd, efforts(time, q, qd), friction_smoothing=friction_smoothing, **values)
+            if not dissipative:
+                return np.concatenate([qd, qdd])
+            power = qd @ module.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
+            return np.concatenate([qd, qdd, [power]])   # the dissipated work W rides along
+        y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
         names = list(derivation.robot.coordinates)
     else:
         qm0 = module.to_maximal(q0, **values)
@@ -110,7 +121,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     if not solution.success:
         raise InputError(Problem("--duration", 1, 1, f"integration failed: {solution.message}"))
     tick(duration)
-    position, velocity = solution.y[:n].T, solution.y[n:].T
+    position, velocity = solution.y[:n].T, solution.y[n:2 * n].T
+    dissipated = solution.y[2 * n] if dissipative else None
     if maximal:
         energy = module.maximal_kinetic_energy(position, velocity, **values) + module.maximal_potential_energy(position, **values)
         drift = np.max(np.abs(module.constraints(position, **values)), axis=-1)
@@ -118,12 +130,13 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
         drift = None
     return Trajectory(names, solution.t, position, velocity, np.asarray(energy), drift,
-                      _link_poses(derivation, maximal) if derivation.robot.planar else None)
+                      _link_poses(derivation, maximal) if derivation.robot.planar else None, dissipated)
 
 
 def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float], duration: float,
                     q0: np.ndarray, qd0: np.ndarray, efforts: Callable[..., np.ndarray], rtol: float, atol: float,
-                    baumgarte: float, frames: int, tick: Callable[[float], None]) -> Trajectory:
+                    baumgarte: float, frames: int, tick: Callable[[float], None],
+                    friction_smoothing: float = 0.0) -> Trajectory:
     """A closed-loop mechanism: start on the constraints (``assemble`` keeps q0's independent
     coordinates; qd0 projected onto the allowed motions), integrate the constrained dynamics
     (Baumgarte gains ``baumgarte``) from frame to frame, and project the state back onto the
@@ -149,7 +162,8 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
         tick(time)
         q, qd = y[:n], y[n:]
         return np.concatenate([qd, module.forward_dynamics(q, qd, efforts(time, q, qd), alpha=baumgarte,
-                                                           beta=baumgarte, **values)])
+                                                           beta=baumgarte, friction_smoothing=friction_smoothing,
+                                                           **values)])
 
     times = np.linspace(0.0, duration, frames)
     q, qd = project(q0, qd0)
@@ -235,6 +249,9 @@ def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
     axes[0].set_title(f"{derivation.robot.title}: simulation")
     axes[1].plot(trajectory.times, trajectory.energy - trajectory.energy[0], color="tab:red",
                  label="E(t) - E(0)")
+    if trajectory.dissipated is not None:
+        axes[1].plot(trajectory.times, trajectory.energy - trajectory.energy[0] + trajectory.dissipated,
+                     color="tab:blue", linestyle="--", label="E(t) - E(0) + W_diss(t)")
     axes[1].set_ylabel("total energy change")
     axes[1].legend(loc="upper right", fontsize="small")
     if trajectory.drift is not None:
@@ -258,6 +275,9 @@ def csv_text(trajectory: Trajectory) -> str:
     if trajectory.drift is not None:
         header.append("constraint_drift")
         columns.append(trajectory.drift[:, None])
+    if trajectory.dissipated is not None:
+        header.append("dissipated")
+        columns.append(trajectory.dissipated[:, None])
     table = np.hstack(columns)
     lines = [",".join(header)] + [",".join(f"{v:.12g}" for v in row) for row in table]
     return "\n".join(lines) + "\n"

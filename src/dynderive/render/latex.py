@@ -84,6 +84,7 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
             "ddt_dL_dqd": fmt.maybe(gen["lagrange"]["ddt_dL_dqd"][i], SCALAR_NODES),
             "dL_dq": fmt.maybe(gen["lagrange"]["dL_dq"][i], SCALAR_NODES),
             "effort": fmt(q["Y_g"][i]),
+            "dissipation": fmt(q["F_g"][i]) if "F_g" in q and q["F_g"][i] != 0 else None,
             "equation": fmt.maybe(q["EOM_g1"][i], SCALAR_NODES),
         })
     links = []
@@ -129,10 +130,35 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
         "checks": [{"description": escape_tex(c.description), "passed": c.passed,
                     "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks],
+        "drives": drives_context(derivation, fmt),
+        "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
         "maximal": maximal_context(derivation, fmt) if "maximal" in derivation.steps else None,
         "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
     }
     return context
+
+
+def drives_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any] | None:
+    """The joints' drive terms and where each enters Lagrange's equations (None: no drives)."""
+    drives = derivation.steps["generalized"]["drives"]
+    if drives.empty:
+        return None
+    table, q = derivation.symbols, derivation.quantities
+
+    def term(value: sympy.Expr) -> str:
+        return fmt(value) if value != 0 else ""
+
+    return {
+        "joints": [{"coordinate": fmt(table.q[d.coordinate]), "damping": term(d.damping),
+                    "friction": term(d.friction), "stiffness": term(d.stiffness),
+                    "rest": term(d.rest) if d.stiffness != 0 else "", "armature": term(d.armature)}
+                   for d in drives.joints],
+        "kinetic": fmt(drives.kinetic) if drives.kinetic != 0 else None,
+        "potential": fmt(drives.potential) if drives.potential != 0 else None,
+        "armature": drives.armature != sympy.zeros(*drives.armature.shape),
+        "D_g": fmt(q["D_g"]) if "D_g" in q else None,
+        "coulomb": any(d.friction != 0 for d in drives.joints),
+    }
 
 
 def loops_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
@@ -195,6 +221,10 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
         "N_tilde": fmt.matrix("\\tilde{N}", steps["N_tilde"]),
         "Y_tilde": fmt.matrix("\\tilde{\\Upsilon}", steps["Y_tilde"]),
         "EOM_g3": fmt.matrix("\\mathrm{EOM}", q["EOM_g3"]),
+        "F_m": fmt.matrix("F", q["F_m"]) if "F_m" in q else None,
+        "F_tilde": fmt.matrix("\\tilde{F}", steps["F_tilde"]) if "F_m" in q else None,
+        "D_m": fmt.maybe(q["D_m"], SCALAR_NODES) if "D_m" in q else None,
+        "drives": not derivation.steps["generalized"]["drives"].empty,
     }
 
 

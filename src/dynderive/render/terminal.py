@@ -19,11 +19,12 @@ def render_terminal(derivation: Derivation) -> str:
     parts = [
         f"{terminal_text(robot.title)} ({robot.name}): {len(robot.coordinates)} DOF, coordinates ({coords})",
         "",
-        "Equations of motion  M(q) q'' + C(q, q') q' + N(q) = Y",
+        "Equations of motion  M(q) q'' + C(q, q') q' + N(q)" + (" + F(q')" if "F_g" in q else "") + " = Y",
         "",
         _block("M(q) =", q["M_g"]),
         _block("C(q, q') =", q["C_g"]),
         _block("N(q) =", q["N_g"]),
+        *([_block("F(q') = (damping and friction)", q["F_g"])] if "F_g" in q else []),
         _block("Y =", q["Y_g"]),
         "Checks:",
     ]
