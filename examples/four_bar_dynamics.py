@@ -24,7 +24,7 @@ import numpy as np
 LOOPS = ("c1",)
 INDEPENDENT_COORDINATES = ("q1",)
 #: A configuration on the loop constraints at the default parameters (a guess for ``assemble``).
-ASSEMBLED_CONFIGURATION = (0.2349886380976749, 0.37208776081624045, 1.2620535492701348)
+ASSEMBLED_CONFIGURATION = (0.234988638101119, 0.3720877608114523, 1.2620535492692782)
 PARAMETERS = {"a": 0.25, "b": 0.9, "c": 0.6, "d": 0.8, "m1": 0.5, "m2": 1.5, "m3": 1.0, "g": 9.81}
 COORDINATES = ("q1", "q2", "q3")
 EFFORTS = ("tau1",)
@@ -600,15 +600,21 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, a=0.25, b=0.9, c=0.6, d=0.8,
 _inverse_dynamics_body.functions = ("sin", "cos")
 
 
-def inverse_dynamics(q, qd, qdd, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 3)."""
+def friction_forces(qd, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+    """Dissipative forces F_g of the joints, shape (..., 3): zero, this robot declares no
+    damping or friction (the signature matches robots that do)."""
+    return np.zeros_like(_coordinates("qd", qd, 3))
+
+
+def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 3).    """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
     return _evaluate(_inverse_dynamics_body, arrays, (3,), {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g})
 
 
 
 
-def _loop_solve(q, qd, u, alpha, beta, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+def _loop_solve(q, qd, u, alpha, beta, friction_smoothing, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
     """Solve [M -A^T; A 0] [qdd; lambda] = [Y - C qd - N; -Adot qd - 2 alpha A qd - beta**2 a]
     for the accelerations and the loop multipliers (A = loop_jacobian, a = loop_constraints)."""
     q = _coordinates("q", q, 3)
@@ -617,7 +623,8 @@ def _loop_solve(q, qd, u, alpha, beta, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m
         u = np.zeros(1)
     _mass = mass_matrix(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _jac = loop_jacobian(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-    _top = generalized_forces(q, u, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g) - inverse_dynamics(q, qd, np.zeros(3), a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
+    _top = generalized_forces(q, u, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g) - inverse_dynamics(
+        q, qd, np.zeros(3), friction_smoothing=friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _bottom = (
         -_matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g), qd)
         - 2 * alpha * _matvec(_jac, qd)
@@ -636,7 +643,7 @@ def _loop_solve(q, qd, u, alpha, beta, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m
     return _solution[..., :_n], _solution[..., _n:]
 
 
-def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
     """Accelerations qdd of the closed-loop mechanism, shape (..., 3), from
 
         [M  -A^T] [qdd     ]   [Y - C qd - N                               ]
@@ -646,13 +653,13 @@ def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, a=0.25, b=0.9, c=0.6
     differentiated twice). alpha, beta: Baumgarte gains against drift (0 = none); start from a
     state on the constraints (``assemble``, and qd with loop_jacobian(q) @ qd = 0).
     """
-    return _loop_solve(q, qd, u, alpha, beta, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)[0]
+    return _loop_solve(q, qd, u, alpha, beta, friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)[0]
 
 
-def loop_forces(q, qd, u=None, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+def loop_forces(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
     """Loop multipliers lambda_g, shape (..., 2): A_g^T lambda_g is the generalized force the
     loop joints exert (M qdd + C qd + N - Y - A_g^T lambda_g = 0)."""
-    return _loop_solve(q, qd, u, 0.0, 0.0, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)[1]
+    return _loop_solve(q, qd, u, 0.0, 0.0, friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)[1]
 
 
 def reduced_basis(q, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
@@ -666,7 +673,7 @@ def reduced_basis(q, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9
     return _basis
 
 
-def reduced_forward_dynamics(q, qd, u=None, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
     """Accelerations qdd, shape (..., 3), by the reduced form instead of the multipliers:
     qdd = R_g qdd_i + s with s the dependent accelerations A_g qdd + Adot_g qd = 0 requires, and
     M_r qdd_i = R_g^T (Y - C qd - N - M s), M_r = R_g^T M R_g (no lambda_g). Equals
@@ -682,7 +689,8 @@ def reduced_forward_dynamics(q, qd, u=None, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0
     _shift[..., _dependent] = -np.linalg.solve(
         _jac[..., _dependent], _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g), qd)[..., None])[..., 0]
     _mass = mass_matrix(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-    _force = (generalized_forces(q, u, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g) - inverse_dynamics(q, qd, np.zeros(3), a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
+    _force = (generalized_forces(q, u, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
+              - inverse_dynamics(q, qd, np.zeros(3), friction_smoothing=friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
               - _matvec(_mass, _shift))
     _transpose = np.swapaxes(_basis, -1, -2)
     _accel = np.linalg.solve(_transpose @ _mass @ _basis, _matvec(_transpose, _force)[..., None])[..., 0]

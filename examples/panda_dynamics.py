@@ -1799,20 +1799,25 @@ def kinetic_energy(q, qd, *, g=9.81):
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, g=g), qd)
 
 
-def inverse_dynamics(q, qd, qdd, *, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 7)."""
+def friction_forces(qd, *, friction_smoothing=0.0, g=9.81):
+    """Dissipative forces F_g of the joints, shape (..., 7): zero, this robot declares no
+    damping or friction (the signature matches robots that do)."""
+    return np.zeros_like(_coordinates("qd", qd, 7))
+
+
+def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 7).    """
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), _coordinates("qdd", qdd, 7)]
     return _evaluate(_inverse_dynamics_body, arrays, (7,), {"g": g})
 
 
 
 
-def forward_dynamics(q, qd, u=None, *, g=9.81):
+def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 7).
 
     u: efforts ("tau_panda_joint1", "tau_panda_joint2", "tau_panda_joint3", "tau_panda_joint4", "tau_panda_joint5", "tau_panda_joint6", "tau_panda_joint7"), shape (..., 7); None means no effort.
-    M is factored as L D L^T (it is positive definite), never inverted.
-    """
+    M is factored as L D L^T (it is positive definite), never inverted.    """
     if u is None:
         u = np.zeros(7)
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), np.asarray(u, dtype=float)]

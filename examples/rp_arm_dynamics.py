@@ -471,20 +471,25 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m=1.0, l=1.0, g=9.81):
 _forward_dynamics_body.functions = ("sin", "cos")
 
 
-def inverse_dynamics(q, qd, qdd, *, m=1.0, l=1.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 2)."""
+def friction_forces(qd, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
+    """Dissipative forces F_g of the joints, shape (..., 2): zero, this robot declares no
+    damping or friction (the signature matches robots that do)."""
+    return np.zeros_like(_coordinates("qd", qd, 2))
+
+
+def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 2).    """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
     return _evaluate(_inverse_dynamics_body, arrays, (2,), {"m": m, "l": l, "g": g})
 
 
 
 
-def forward_dynamics(q, qd, u=None, *, m=1.0, l=1.0, g=9.81):
+def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 2).
 
     u: efforts ("tau1", "F2"), shape (..., 2); None means no effort.
-    M is factored as L D L^T (it is positive definite), never inverted.
-    """
+    M is factored as L D L^T (it is positive definite), never inverted.    """
     if u is None:
         u = np.zeros(2)
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]

@@ -459,15 +459,21 @@ def kinetic_energy(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)
 
 
-def inverse_dynamics(q, qd, qdd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 4)."""
+def friction_forces(qd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Dissipative forces F_g of the joints, shape (..., 4): zero, this robot declares no
+    damping or friction (the signature matches robots that do)."""
+    return np.zeros_like(_coordinates("qd", qd, 4))
+
+
+def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 4).    """
     arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4), _coordinates("qdd", qdd, 4)]
     return _evaluate(_inverse_dynamics_body, arrays, (4,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
 
 
 
 
-def _loop_solve(q, qd, u, alpha, beta, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+def _loop_solve(q, qd, u, alpha, beta, friction_smoothing, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Solve [M -A^T; A 0] [qdd; lambda] = [Y - C qd - N; -Adot qd - 2 alpha A qd - beta**2 a]
     for the accelerations and the loop multipliers (A = loop_jacobian, a = loop_constraints)."""
     q = _coordinates("q", q, 4)
@@ -476,7 +482,8 @@ def _loop_solve(q, qd, u, alpha, beta, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, 
         u = np.zeros(1)
     _mass = mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
     _jac = loop_jacobian(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
-    _top = generalized_forces(q, u, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g) - inverse_dynamics(q, qd, np.zeros(4), a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _top = generalized_forces(q, u, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g) - inverse_dynamics(
+        q, qd, np.zeros(4), friction_smoothing=friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
     _bottom = (
         -_matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)
         - 2 * alpha * _matvec(_jac, qd)
@@ -495,7 +502,7 @@ def _loop_solve(q, qd, u, alpha, beta, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, 
     return _solution[..., :_n], _solution[..., _n:]
 
 
-def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Accelerations qdd of the closed-loop mechanism, shape (..., 4), from
 
         [M  -A^T] [qdd     ]   [Y - C qd - N                               ]
@@ -505,13 +512,13 @@ def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, a=0.1, b=0.4, c=0.3,
     differentiated twice). alpha, beta: Baumgarte gains against drift (0 = none); start from a
     state on the constraints (``assemble``, and qd with loop_jacobian(q) @ qd = 0).
     """
-    return _loop_solve(q, qd, u, alpha, beta, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[0]
+    return _loop_solve(q, qd, u, alpha, beta, friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[0]
 
 
-def loop_forces(q, qd, u=None, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+def loop_forces(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Loop multipliers lambda_g, shape (..., 3): A_g^T lambda_g is the generalized force the
     loop joints exert (M qdd + C qd + N - Y - A_g^T lambda_g = 0)."""
-    return _loop_solve(q, qd, u, 0.0, 0.0, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[1]
+    return _loop_solve(q, qd, u, 0.0, 0.0, friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[1]
 
 
 def reduced_basis(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
@@ -525,7 +532,7 @@ def reduced_basis(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, 
     return _basis
 
 
-def reduced_forward_dynamics(q, qd, u=None, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Accelerations qdd, shape (..., 4), by the reduced form instead of the multipliers:
     qdd = R_g qdd_i + s with s the dependent accelerations A_g qdd + Adot_g qd = 0 requires, and
     M_r qdd_i = R_g^T (Y - C qd - N - M s), M_r = R_g^T M R_g (no lambda_g). Equals
@@ -541,7 +548,8 @@ def reduced_forward_dynamics(q, qd, u=None, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0
     _shift[..., _dependent] = -np.linalg.solve(
         _jac[..., _dependent], _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)[..., None])[..., 0]
     _mass = mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
-    _force = (generalized_forces(q, u, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g) - inverse_dynamics(q, qd, np.zeros(4), a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _force = (generalized_forces(q, u, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+              - inverse_dynamics(q, qd, np.zeros(4), friction_smoothing=friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
               - _matvec(_mass, _shift))
     _transpose = np.swapaxes(_basis, -1, -2)
     _accel = np.linalg.solve(_transpose @ _mass @ _basis, _matvec(_transpose, _force)[..., None])[..., 0]

@@ -1217,20 +1217,25 @@ def kinetic_energy(q, qd, *, g=9.81):
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, g=g), qd)
 
 
-def inverse_dynamics(q, qd, qdd, *, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 6)."""
+def friction_forces(qd, *, friction_smoothing=0.0, g=9.81):
+    """Dissipative forces F_g of the joints, shape (..., 6): zero, this robot declares no
+    damping or friction (the signature matches robots that do)."""
+    return np.zeros_like(_coordinates("qd", qd, 6))
+
+
+def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 6).    """
     arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), _coordinates("qdd", qdd, 6)]
     return _evaluate(_inverse_dynamics_body, arrays, (6,), {"g": g})
 
 
 
 
-def forward_dynamics(q, qd, u=None, *, g=9.81):
+def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 6).
 
     u: efforts ("tau_shoulder_pan_joint", "tau_shoulder_lift_joint", "tau_elbow_joint", "tau_wrist_1_joint", "tau_wrist_2_joint", "tau_wrist_3_joint"), shape (..., 6); None means no effort.
-    M is factored as L D L^T (it is positive definite), never inverted.
-    """
+    M is factored as L D L^T (it is positive definite), never inverted.    """
     if u is None:
         u = np.zeros(6)
     arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), np.asarray(u, dtype=float)]
