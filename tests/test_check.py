@@ -24,7 +24,8 @@ def test_every_bundled_robot_passes(robot):
     assert report["passed"] and "FAIL" not in statuses.values()
     assert statuses["M positive definite (12 random states)"] == "pass"
     assert statuses["Mdot - 2C skew-symmetric"] == "pass"
-    assert statuses["power balance dE/dt = qd . Y"] == "pass"
+    power = [status for name, status in statuses.items() if name.startswith("power balance dE/dt = qd . Y")]
+    assert power == ["pass"]   # "- qd . F" with damping or friction
     pinocchio = [status for name, status in statuses.items() if name.startswith("agrees with Pinocchio")]
     assert pinocchio == ["pass"]
     if robot in {"rp_arm", "double_pendulum", "cart_pole"}:
