@@ -61,6 +61,18 @@ def import_code(source: str, directory: Path, name: str | None = None):
 
 
 @cache
+def text_derivation(name: str, yaml_text: str, directory: str):
+    """(Derivation, generated module) of a robot file's text, derived once per session."""
+    folder = Path(directory) / name
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.yaml"
+    path.write_text(yaml_text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    module = import_code(dynderive.render_code(derivation), folder, f"{name}_dynamics")
+    return derivation, module
+
+
+@cache
 def module_of(robot: str, directory: str):
     return import_code(dynderive.render_code(derivation_of(robot)), Path(directory), f"{robot}_dynamics")
 

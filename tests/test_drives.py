@@ -15,11 +15,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy
-from conftest import ROBOTS, derivation_of, import_code
 from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
+
+from conftest import ROBOTS, derivation_of, import_code
 
 runner = CliRunner()
 

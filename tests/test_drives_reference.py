@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import math
 import random
-from functools import cache
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,9 +27,7 @@ import sympy as sp
 import yaml
 from scipy.integrate import solve_ivp
 
-import dynderive
-
-from conftest import import_code
+from conftest import text_derivation
 
 #: the drive keys, the parameter prefix used for them in ``with_drives`` and their range
 DRIVE_RANGES = {
@@ -47,16 +43,7 @@ TOL = {"rtol": 1e-9, "atol": 1e-9}
 # --- deriving YAML texts (cached for the session) --------------------------------------
 
 
-@cache
-def _derivation(name: str, yaml_text: str, directory: str):
-    """(Derivation, generated module) of a YAML text, derived once per session."""
-    folder = Path(directory) / name
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{name}.yaml"
-    path.write_text(yaml_text)
-    derivation = dynderive.derive(dynderive.load_robot(path))
-    module = import_code(dynderive.render_code(derivation), folder, f"{name}_dynamics")
-    return derivation, module
+_derivation = text_derivation
 
 
 @pytest.fixture(scope="session")

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import random
 from dataclasses import dataclass
-from functools import cache
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,9 +23,8 @@ import pytest
 
 pin = pytest.importorskip("pinocchio")
 
-import dynderive  # noqa: E402
 
-from conftest import import_code, random_tree_derivation  # noqa: E402
+from conftest import random_tree_derivation, text_derivation  # noqa: E402
 from random_robots import depth_first, random_planar_tree  # noqa: E402
 from random_robots3d import SpatialTree, random_spatial_tree, spatial_from_planar  # noqa: E402
 
@@ -52,16 +49,7 @@ def tree_of(seed: int, n_joints: int) -> SpatialTree:
 # --- deriving (cached for the session) -------------------------------------------------
 
 
-@cache
-def _derivation(name: str, yaml_text: str, directory: str):
-    """(Derivation, generated module) of a 3-D YAML text, derived once per session."""
-    folder = Path(directory) / name
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{name}.yaml"
-    path.write_text(yaml_text)
-    derivation = dynderive.derive(dynderive.load_robot(path))
-    module = import_code(dynderive.render_code(derivation), folder, f"{name}_dynamics")
-    return derivation, module
+_derivation = text_derivation
 
 
 @pytest.fixture(scope="session")
