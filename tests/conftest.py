@@ -26,6 +26,8 @@ def on_loops(module, qs, qds, spread: float = 0.3):
     velocities projected onto the motions the loops allow; other modules: unchanged."""
     import numpy as np
 
+    from dynderive.verify.checks import allowed_velocity
+
     if not hasattr(module, "LOOPS"):
         return qs, qds
     base = np.array(module.ASSEMBLED_CONFIGURATION)
@@ -35,10 +37,8 @@ def on_loops(module, qs, qds, spread: float = 0.3):
         guess = base.copy()
         guess[independent] += spread * q[independent]
         assembled = module.assemble(guess)
-        A = module.loop_jacobian(assembled)
-        null = np.linalg.svd(A)[2][A.shape[0]:]
         states.append(assembled)
-        rates.append(null.T @ (null @ qd))
+        rates.append(allowed_velocity(module, assembled, qd, {}))
     return np.array(states), np.array(rates)
 
 

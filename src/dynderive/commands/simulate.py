@@ -21,7 +21,7 @@ import sympy
 from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError, parse_expression
-from ..verify.checks import generated_module
+from ..verify.checks import allowed_velocity, generated_module
 
 
 @dataclass
@@ -154,9 +154,7 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
         except (ValueError, np.linalg.LinAlgError):
             raise InputError(Problem("--q0", 1, 1, "the loops cannot be closed with independent coordinates "
                                      + ", ".join(f"{module.COORDINATES[i]} = {q[i]:g}" for i in independent))) from None
-        A = module.loop_jacobian(q, **values)
-        null = np.linalg.svd(A)[2][A.shape[0]:]
-        return q, null.T @ (null @ qd)
+        return q, allowed_velocity(module, q, qd, values)
 
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)

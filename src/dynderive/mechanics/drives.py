@@ -14,7 +14,6 @@ Matrix([[b1*qd1 + fc1*sign(qd1)], [0]])
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import sympy
@@ -56,21 +55,22 @@ def dissipative_force(damping: sympy.Expr, friction: sympy.Expr, rate: sympy.Exp
     return damping * rate + friction * sympy.sign(rate)
 
 
+def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
+    """The coordinates whose joints declare drive terms, each with its terms (absent ones 0)."""
+
+    def value(text: object) -> sympy.Expr:
+        return sympy.Integer(0) if text is None else table.expr(text)
+
+    moving = [j for j in robot.joints if j.moves]
+    return [JointDrive(i, value(j.damping), value(j.friction), value(j.stiffness), value(j.rest), value(j.armature))
+            for i, j in enumerate(moving) if j.driven]
+
+
 def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
     """The drive terms of ``robot``'s moving joints, in coordinate order."""
-    zero, half = sympy.Integer(0), sympy.Rational(1, 2)
-    drives: list[JointDrive] = []
-    moving = [j for j in robot.joints if j.moves]
-    for i, joint in enumerate(moving):
-        if not joint.driven:
-            continue
-
-        def value(text: object, default: sympy.Expr = zero) -> sympy.Expr:
-            return default if text is None else table.expr(text)
-
-        drives.append(JointDrive(i, value(joint.damping), value(joint.friction), value(joint.stiffness),
-                                 value(joint.rest), value(joint.armature)))
-    n = len(moving)
+    half = sympy.Rational(1, 2)
+    drives = joint_drives(robot, table)
+    n = len(robot.coordinates)
     q, qd = table.q, table.qd
     kinetic = sympy.Add(*(half * d.armature * qd[d.coordinate] ** 2 for d in drives))
     potential = sympy.Add(*(half * d.stiffness * (q[d.coordinate] - d.rest) ** 2 for d in drives))
@@ -83,9 +83,4 @@ def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
     return DriveTerms(drives, kinetic, potential, dissipation, forces, armature)
 
 
-def coulomb_forces(forces: sympy.Matrix, rates: Sequence[sympy.Symbol]) -> sympy.Matrix:
-    """The Coulomb part of ``forces`` (the terms with ``sign``), for the sheet's steps."""
-    return forces.applyfunc(lambda e: sympy.Add(*(t for t in sympy.Add.make_args(e) if t.has(sympy.sign))))
-
-
-__all__ = ["DriveTerms", "JointDrive", "coulomb_forces", "dissipative_force", "drive_terms"]
+__all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "joint_drives"]

@@ -27,7 +27,7 @@ import sympy
 
 from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
-from .drives import drive_terms
+from .drives import joint_drives
 from .joints import unit
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 from .tidy import operation_count
@@ -137,8 +137,7 @@ class _Tree:
         self.by_link = {b.link: b for b in self.bodies}
         #: drive terms by coordinate: armature joins M[i, i] (CRBA) and Ia qdd_i the joint
         #: force (Newton-Euler), springs k (q_i - rest) the joint force
-
-        self.drives = {d.coordinate: d for d in drive_terms(robot, table).joints}
+        self.drives = {d.coordinate: d for d in joint_drives(robot, table)}
         #: links welded to the world (no moving joint above them): they carry no dynamics
         self.static = {"world"} | {link.name for link in robot.links
                                    if not any(j.moves for j in robot.path_to(link.name))}
@@ -342,9 +341,9 @@ def gravity_program(robot: Robot, table: SymbolTable) -> Program:
     return program
 
 
-#: Inputs of the forward-dynamics body for robots with damping or friction: the dissipative
-#: forces F_g, computed by the module's ``friction_forces`` (exact or smoothed sign).
 def friction_symbols(n: int) -> list[sympy.Symbol]:
+    """Inputs of the forward-dynamics body for robots with damping or friction: the dissipative
+    forces F_g, computed by the module's ``friction_forces`` (exact or smoothed sign)."""
     return [sympy.Symbol(f"_friction{i}") for i in range(n)]
 
 

@@ -77,7 +77,7 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
     rows.append(_row(f"M positive definite ({states} random states)", bool(np.all(eig[..., 0] > 0)),
                      "numeric, smallest eigenvalue", float(np.min(eig[..., 0]))))
     rows.append(_skew_check(derivation, module, values, qs, qds))
-    rows.append(_power_balance(module, values, qs, qds, us))
+    rows.append(_power_balance(module, values, qs, qds, us, robot.dissipative))
     if robot.loops:
         rows.append(_reduced_agrees(module, values, qs, qds, us))
     rows += [_from_check(c) for c in derivation.checks]
@@ -102,11 +102,8 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
             assembled = module.assemble(guess, **values)
         except (ValueError, np.linalg.LinAlgError):
             continue
-        A = module.loop_jacobian(assembled, **values)
-        _, sigma, vt = np.linalg.svd(A)
-        null = vt[len(sigma):]
         states.append(assembled)
-        rates.append(null.T @ (null @ qd))
+        rates.append(allowed_velocity(module, assembled, qd, values))
     rows = []
     if not states:
         return qs[:0], qds[:0], [Row("loop constraints hold at assembled states", "FAIL",
@@ -117,6 +114,13 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
     velocity = float(np.max(np.abs(np.einsum("...ij,...j->...i", module.loop_jacobian(qs, **values), qds))))
     rows.append(_row("A_g qd = 0 for the velocities the loops allow", velocity < 1e-9, "numeric", velocity))
     return qs, qds, rows
+
+
+def allowed_velocity(module: Any, q: np.ndarray, qd: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """``qd`` projected onto the motions the loops allow at ``q`` (the null space of A_g)."""
+    A = module.loop_jacobian(q, **values)
+    null = np.linalg.svd(A)[2][A.shape[0]:]
+    return null.T @ (null @ qd)
 
 
 def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
@@ -157,7 +161,7 @@ def _skew_check(derivation: Derivation, module: Any, values: dict[str, float], q
 
 
 def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
-                   us: np.ndarray) -> Row:
+                   us: np.ndarray, dissipative: bool) -> Row:
     """dE/dt = qd . Y - qd . F along the dynamics, E = T + V (springs in V, armature in T): the
     dissipated power qd . F of damping and friction is measured, not ignored."""
     h, worst, scale = 1e-5, 0.0, 1.0
@@ -173,13 +177,8 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, qds: n
         power = float(qd @ module.generalized_forces(q, u, **values)) - dissipated
         worst = max(worst, abs(rate - power))
         scale = max(scale, abs(power), abs(dissipated))
-    name = "power balance dE/dt = qd . Y - qd . F" if _dissipates(module) else "power balance dE/dt = qd . Y"
+    name = "power balance dE/dt = qd . Y - qd . F" if dissipative else "power balance dE/dt = qd . Y"
     return _row(name, worst < 1e-5 * scale, "numeric (central differences)", worst)
-
-
-def _dissipates(module: Any) -> bool:
-    """Whether the generated module has damping or friction (its friction_forces is not zero)."""
-    return hasattr(module, "_damping_coefficients")
 
 
 def _maximal_checks(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
