@@ -131,10 +131,11 @@ def test_smoothed_coulomb_friction(generated):
 
 def test_parameter_values_change_the_drives(generated):
     module = generated("mass_spring_damper")
-    qd = np.array([0.25, -0.5])
-    assert np.allclose(module.friction_forces(qd, b1=0.0, b2=2.0), [0.0, -1.0])
-    q = np.array([0.1, -0.2])
-    assert np.allclose(module.gravity_vector(q, k1=3.0, k2=5.0), [0.3, -1.0])
+    qd = np.array([0.2538174319460236, -0.5127930624817112])
+    b2, k1, k2 = 1.9386027145920357, 3.1415874210936882, 5.072984113640275
+    assert np.allclose(module.friction_forces(qd, b1=0.0, b2=b2), [0.0, b2 * qd[1]], rtol=1e-14, atol=0)
+    q = np.array([0.10384719263540127, -0.19735201836471048])
+    assert np.allclose(module.gravity_vector(q, k1=k1, k2=k2), [k1 * q[0], k2 * q[1]], rtol=1e-14, atol=0)
 
 
 def test_reserved_argument_name_refused(tmp_path):
