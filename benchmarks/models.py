@@ -36,3 +36,80 @@ def load(robot: str | Path) -> Robot:
         path = Path(folder) / f"{robot}.yaml"
         path.write_text(pendulum_yaml(int(match.group(1))))
         return dynderive.load_robot(path)
+
+
+def _full(value: float) -> str:
+    """A number as CAD exporters write it: every digit of the double."""
+    return repr(float(value))
+
+
+def _vector(values) -> str:
+    return "[" + ", ".join(_full(v) for v in values) + "]"
+
+
+def planar_chain_yaml(n: int, seed: int = 0) -> str:
+    """A planar serial chain of ``n`` joints with full-precision random numbers (link lengths,
+    masses, COM offsets off the link line, inertias); every fourth joint is prismatic along a
+    random direction, the others revolute. Fixed ``seed``: the same file every run."""
+    import math
+    import random
+
+    rng = random.Random(seed * 1000 + n)
+    lines = [f"name: chain{n}", f"title: Planar {n}-joint chain (seed {seed})", "planar: true",
+             "gravity: [0, -9.80665]", "links:"]
+    for k in range(1, n + 1):
+        com = (rng.uniform(0.1, 0.6), rng.uniform(-0.1, 0.1))
+        lines.append(f"  - {{name: b{k}, mass: {_full(rng.uniform(0.5, 3.0))}, com: {_vector(com)}, "
+                     f"inertia: {_full(rng.uniform(0.01, 0.3))}}}")
+    lines.append("joints:")
+    for k in range(1, n + 1):
+        parent = "world" if k == 1 else f"b{k - 1}"
+        origin = [0.0, 0.0, 0.0] if k == 1 else [rng.uniform(0.3, 1.0), rng.uniform(-0.1, 0.1), rng.uniform(-0.5, 0.5)]
+        if k % 4 == 0:
+            angle = rng.uniform(-math.pi, math.pi)
+            kind = f"prismatic, axis: {_vector((math.cos(angle), math.sin(angle)))}"
+        else:
+            kind = "revolute"
+        lines.append(f"  - {{name: q{k}, type: {kind}, parent: {parent}, child: b{k}, "
+                     f"origin: {_vector(origin)}, effort: u{k}}}")
+    return "\n".join(lines) + "\n"
+
+
+def spatial_chain_yaml(n: int, seed: int = 0) -> str:
+    """A generic 3-D serial chain of ``n`` joints, as a CAD exporter writes it: arbitrary
+    (non-unit) axes, arbitrary ``rpy``, full inertia tensors (a random rotation of random
+    principal moments), every number at full precision; every fifth joint prismatic."""
+    import math
+    import random
+
+    rng = random.Random(seed * 1000 + n)
+
+    def rotation():
+        w, x, y, z = (rng.gauss(0.0, 1.0) for _ in range(4))
+        s = math.sqrt(w * w + x * x + y * y + z * z)
+        w, x, y, z = w / s, x / s, y / s, z / s
+        return [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
+
+    lines = [f"name: spatial_chain{n}", f"title: Generic 3-D {n}-joint chain (seed {seed})", "planar: false",
+             "gravity: [0, 0, -9.80665]", "links:"]
+    for k in range(1, n + 1):
+        a, b = rng.uniform(0.05, 0.3), rng.uniform(0.05, 0.3)
+        c = rng.uniform(abs(a - b) + 0.02, a + b - 0.02)
+        R = rotation()
+        full = [[sum(R[i][m] * (a, b, c)[m] * R[j][m] for m in range(3)) for j in range(3)] for i in range(3)]
+        inertia = (full[0][0], full[1][1], full[2][2], full[0][1], full[0][2], full[1][2])
+        com = [rng.uniform(-0.2, 0.2) for _ in range(3)]
+        lines.append(f"  - {{name: b{k}, mass: {_full(rng.uniform(0.5, 3.0))}, com: {_vector(com)}, "
+                     f"inertia: {_vector(inertia)}}}")
+    lines.append("joints:")
+    for k in range(1, n + 1):
+        parent = "world" if k == 1 else f"b{k - 1}"
+        xyz = [rng.uniform(-0.3, 0.3) for _ in range(3)]
+        rpy = [rng.uniform(-math.pi, math.pi) for _ in range(3)]
+        axis = [rng.uniform(-1.0, 1.0) for _ in range(3)]
+        kind = "prismatic" if k % 5 == 0 else "revolute"
+        lines.append(f"  - {{name: q{k}, type: {kind}, parent: {parent}, child: b{k}, "
+                     f"origin: {{xyz: {_vector(xyz)}, rpy: {_vector(rpy)}}}, axis: {_vector(axis)}, effort: u{k}}}")
+    return "\n".join(lines) + "\n"

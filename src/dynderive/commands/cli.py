@@ -169,7 +169,7 @@ def solve(
     if not quiet:
         for path in files:
             typer.echo(f"wrote {path}", err=True)
-        failed = [c for c in derivation.checks if not c.passed and not c.skipped]
+        failed = [c for c in derivation.checks_run if not c.passed and not c.skipped]
         for check in failed:
             typer.echo(f"warning: check failed: {check.description}", err=True)
     if skipped is not None:

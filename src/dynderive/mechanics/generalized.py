@@ -116,6 +116,12 @@ def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
     return terms
 
 
+def applied_forces(robot: Robot, table: SymbolTable) -> sympy.Matrix:
+    """``Y_g``: each joint's effort symbol on its own coordinate (0 where it has none)."""
+    efforts = {j.name: j.effort for j in robot.joints if j.moves}
+    return sympy.Matrix([table.efforts[efforts[n]] if efforts[n] else 0 for n in robot.coordinates])
+
+
 def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
                        report: Callable[[str], None] = lambda stage: None) -> tuple[dict[str, Any], dict[str, Any]]:
     """Quantities (by the reference's names) and intermediate steps, generalized coordinates.
@@ -132,8 +138,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     V = tidy(sum((t.potential for t in terms), drives.potential))
     L = T - V
     F = drives.forces.applyfunc(tidy)
-    efforts = {j.name: j.effort for j in robot.joints if j.moves}
-    Y = sympy.Matrix([table.efforts[efforts[n]] if efforts[n] else 0 for n in robot.coordinates])
+    Y = applied_forces(robot, table)
 
     steps_tidy = None
     EOM_g1 = None

@@ -8,6 +8,7 @@ both models equal (``EOM_g3 == EOM_g1``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import sympy
@@ -141,7 +142,7 @@ def joint_coordinate(joint: Joint, bodies: _Bodies) -> sympy.Expr:
     return (direction.T * (child_origin - joint_point))[0, 0]
 
 
-def _maximal_drives(robot: Robot, bodies: _Bodies, generalized: dict[str, Any]) -> dict[str, Any]:
+def _maximal_drives(robot: Robot, bodies: _Bodies, drives: Any) -> dict[str, Any]:
     """The joints' drive terms in maximal coordinates, through each joint's coordinate
     ``g_i(qm)`` and its gradient ``G_i``: springs ``k (g_i - rest)**2/2`` in V_m, armature
     ``Ia (G_i qmd)**2/2`` in T_m (``Ia G_i^T G_i`` in M_m), dissipation
@@ -155,7 +156,7 @@ def _maximal_drives(robot: Robot, bodies: _Bodies, generalized: dict[str, Any]) 
     half = sympy.Rational(1, 2)
     terms = {"T": sympy.Integer(0), "V": sympy.Integer(0), "D": sympy.Integer(0), "F": sympy.zeros(size, 1),
              "M": sympy.zeros(size, size)}
-    for drive in generalized["drives"].joints:
+    for drive in drives.joints:
         g = tidy(joint_coordinate(moving[drive.coordinate], bodies))
         G = sympy.Matrix([g]).jacobian(table.qm).applyfunc(tidy)
         rate = tidy((G * qmd)[0, 0])
@@ -197,17 +198,20 @@ def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     return [(normal.T * gap)[0, 0], (phi_child + child_theta) - (phi_parent + theta)]
 
 
-def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinematics],
-                   generalized: dict[str, Any], link_terms: list[Any], loop_rows: list[int] | None = None,
-                   loop_force: sympy.Matrix | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Quantities of Problem 2 (2.1-2.7) by the reference's names, and the steps.
+def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinematics],
+                  gravity: sympy.Matrix, drives: Any,
+                  loop_rows: list[int] | None = None,
+                  clean: Callable[[sympy.Expr], sympy.Expr] = tidy) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The maximal model of Problem 2 (2.1-2.3, 2.5 and the change of basis 2.7): constraints,
+    energies, efforts, ``M_m, C_m, N_m``, ``h`` and ``H``, by the reference's names, and the
+    steps. Cheap for any size (each constraint involves two links); the generated module's
+    maximal functions need only these. ``maximal_equations`` adds the equations of motion.
 
     With loops, ``loop_rows`` selects the loop constraints kept in generalized coordinates
-    (redundant ones dropped there are dropped here too) and ``loop_force`` is
-    ``A_g^T lambda_g``: the maximal loop multipliers equal ``-lambda_g``, so EOM_g3 carries
-    ``- A_g^T lambda_g`` like EOM_g1."""
+    (redundant ones dropped there are dropped here too). ``clean`` tidies each entry (a large
+    robot's: ``quick_tidy``, since ``tidy`` of full-precision floats costs seconds per entry)."""
     bodies = _Bodies(robot, table)
-    qm, qmd, qmdd = table.qm, table.qmd, table.qmdd
+    qm, qmd = table.qm, table.qmd
     size = len(qm)
 
     # 2.1 constraints
@@ -220,52 +224,86 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
             rows += joint_constraints(joint, bodies)
         closing = [row for loop in robot.loops for row in loop_constraints(loop, bodies)]
         rows += [closing[i] for i in (loop_rows or [])]
-        a = sympy.Matrix(rows).applyfunc(tidy)
+        a = sympy.Matrix(rows).applyfunc(clean)
         origin = "joints"
     K = a.shape[0]
     table.multipliers = [sympy.Symbol(f"lambda{k}") for k in range(1, K + 1)]
-    lam = sympy.Matrix(table.multipliers)
-    A = tidy_matrix(a.jacobian(qm))
-    Adot = tidy_matrix(constraint_jacobian_dot(A, qm, qmd))
+    A = _apply(clean, a.jacobian(qm))
+    Adot = _apply(clean, constraint_jacobian_dot(A, qm, qmd))
 
     # 2.2 energies
-    gravity = generalized["gravity"]
+    masses = [table.expr(link.mass) for link in robot.links]
+    inertias = [table.expr(link.inertia[0]) for link in robot.links]
     T = sympy.Integer(0)
     V = sympy.Integer(0)
-    for k, term in enumerate(link_terms):
+    for k, (mass, inertia) in enumerate(zip(masses, inertias)):
         x, y, phi = qmd[3 * k: 3 * k + 3]
-        T += sympy.Rational(1, 2) * (term.mass * (x**2 + y**2) + term.inertia * phi**2)
-        V += -term.mass * (gravity.T * sympy.Matrix(qm[3 * k: 3 * k + 2]))[0, 0]
-    drives = _maximal_drives(robot, bodies, generalized)
-    T, V = tidy(T + drives["T"]), tidy(V + drives["V"])
-    L = T - V
-    F = tidy_matrix(drives["F"])
+        T += sympy.Rational(1, 2) * (mass * (x**2 + y**2) + inertia * phi**2)
+        V += -mass * (gravity.T * sympy.Matrix(qm[3 * k: 3 * k + 2]))[0, 0]
+    drive_terms = _maximal_drives(robot, bodies, drives)
+    T, V = clean(T + drive_terms["T"]), clean(V + drive_terms["V"])
+    F = _apply(clean, drive_terms["F"])
 
     # 2.3 efforts
     Y = sympy.zeros(size, 1)
     for joint in robot.joints:
         Y += joint_efforts(joint, bodies, size)
-    Y = tidy_matrix(Y)
-
-    # 2.4 constrained Lagrange equations
-    steps = lagrange_steps(L, qm, qmd, qmdd)
-    EOM_m1 = (steps.lhs + F + A.T * lam - Y).applyfunc(tidy)
+    Y = _apply(clean, Y)
 
     # 2.5 manipulator form
     jacobians = [maximal_body_jacobian(k, table) for k in range(len(robot.links))]
-    M = tidy_matrix(mass_matrix_from_jacobians(jacobians, [t.spatial_inertia for t in link_terms]) + drives["M"])
-    C = tidy_matrix(christoffel_coriolis(M, qm, qmd))
-    N = tidy_matrix(gravity_vector(V, qm))
-    qmd_vec = sympy.Matrix(qmd)
-    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + F + A.T * lam - Y).applyfunc(tidy)
-
-    # 2.6 constraint forces, in closed form while it stays small
-    lambda_vec = _closed_form_lambda(M, A, Adot, Y - F, C, N, qmd_vec)
+    spatial = [sympy.diag(m, m, i) for m, i in zip(masses, inertias)]
+    M = _apply(clean, mass_matrix_from_jacobians(jacobians, spatial) + drive_terms["M"])
+    C = _apply(clean, christoffel_coriolis(M, qm, qmd))
+    N = _apply(clean, gravity_vector(V, qm))
 
     # 2.7 change of basis
+    h = sympy.Matrix([e for kin in links for e in (*kin.com_world, kin.angle)]).applyfunc(clean)
+    H = _apply(clean, h.jacobian(table.q))
+    quantities: dict[str, Any] = {
+        "q_m": sympy.Matrix(qm), "a_m": a, "A_m": A, "Adot_m": Adot,
+        "T_m": T, "V_m": V, "L_m": T - V, "Y_m": Y, "M_m": M, "C_m": C, "N_m": N,
+        "h": h, "H": H,
+    }
+    if robot.dissipative:
+        quantities |= {"D_m": tidy(drive_terms["D"]), "F_m": F}
+    steps = {"constraint_origin": origin, "jacobians": jacobians}
+    return quantities, steps
+
+
+def _apply(clean: Callable[[sympy.Expr], sympy.Expr], matrix: sympy.Matrix) -> sympy.Matrix:
+    return matrix.applyfunc(clean)
+
+
+def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: dict[str, Any],
+                      loop_force: sympy.Matrix | None = None,
+                      change_of_basis: bool = True) -> dict[str, Any]:
+    """The equations of motion of Problem 2 on the quantities of ``maximal_model``: the
+    constrained Lagrange equations ``EOM_m1`` (2.4), the manipulator form ``EOM_m2`` (2.5),
+    ``lambdaVec`` in closed form while it stays small (2.6) and, with ``change_of_basis``,
+    the model mapped through H, ``EOM_g3`` (2.7). Fills ``steps``; returns the quantities.
+
+    ``loop_force`` is ``A_g^T lambda_g``: the maximal loop multipliers equal ``-lambda_g``,
+    so EOM_g3 carries ``- A_g^T lambda_g`` like EOM_g1."""
+    qm, qmd, qmdd = table.qm, table.qmd, table.qmdd
+    a, A, Adot, Y, M, C, N = (model[k] for k in ("a_m", "A_m", "Adot_m", "Y_m", "M_m", "C_m", "N_m"))
+    F = model.get("F_m", sympy.zeros(len(qm), 1))
+    lam = sympy.Matrix(table.multipliers)
+    lagrange = lagrange_steps(model["L_m"], qm, qmd, qmdd)
+    EOM_m1 = (lagrange.lhs + F + A.T * lam - Y).applyfunc(tidy)
+    qmd_vec = sympy.Matrix(qmd)
+    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + F + A.T * lam - Y).applyfunc(tidy)
+    lambda_vec = _closed_form_lambda(M, A, Adot, Y - F, C, N, qmd_vec)
+    quantities: dict[str, Any] = {"EOM_m1": EOM_m1, "EOM_m2": EOM_m2}
+    if lambda_vec is not None:
+        quantities["lambdaVec"] = lambda_vec
+    steps |= {"lagrange": {"dL_dqd": tidy_matrix(lagrange.dL_dqd), "ddt_dL_dqd": tidy_matrix(lagrange.ddt_dL_dqd),
+                           "dL_dq": tidy_matrix(lagrange.dL_dq)},
+              "lambda_symbolic": lambda_vec is not None}
+    if not change_of_basis:
+        return quantities
     q, qd, qdd = table.q, table.qd, table.qdd
-    h = sympy.Matrix([e for kin in links for e in (*kin.com_world, kin.angle)]).applyfunc(tidy)
-    H = tidy_matrix(h.jacobian(q))
+    h, H = model["h"], model["H"]
     Hdot = constraint_jacobian_dot(H, q, qd)
     on_h = dict(zip(qm, h))
     on_hd = dict(zip(qmd, H * sympy.Matrix(qd)))
@@ -278,30 +316,10 @@ def derive_maximal(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinem
     EOM_g3 = M_tilde * sympy.Matrix(qdd) + C_tilde * sympy.Matrix(qd) + N_tilde + F_tilde - Y_tilde
     if loop_force is not None:
         EOM_g3 = EOM_g3 - loop_force
-    EOM_g3 = EOM_g3.applyfunc(tidy)
-
-    quantities: dict[str, Any] = {
-        "q_m": sympy.Matrix(qm), "a_m": a, "A_m": A, "Adot_m": Adot,
-        "T_m": T, "V_m": V, "L_m": L, "Y_m": Y, "EOM_m1": EOM_m1,
-        "M_m": M, "C_m": C, "N_m": N, "EOM_m2": EOM_m2,
-    }
-    if robot.dissipative:
-        quantities |= {"D_m": tidy(drives["D"]), "F_m": F}
-    if lambda_vec is not None:
-        quantities["lambdaVec"] = lambda_vec
-    quantities |= {"h": h, "H": H, "EOM_g3": EOM_g3}
-    intermediate = {
-        "constraint_origin": origin,
-        "lagrange": {"dL_dqd": tidy_matrix(steps.dL_dqd), "ddt_dL_dqd": tidy_matrix(steps.ddt_dL_dqd),
-                     "dL_dq": tidy_matrix(steps.dL_dq)},
-        "jacobians": jacobians,
-        "lambda_symbolic": lambda_vec is not None,
-        "Hdot": tidy_matrix(Hdot),
-        "M_tilde": M_tilde, "C_tilde": C_tilde, "N_tilde": N_tilde, "Y_tilde": Y_tilde, "F_tilde": F_tilde,
-        "a_on_h": a.xreplace(on_h),
-        "AH": A.xreplace(on_h) * H,
-    }
-    return quantities, intermediate
+    quantities["EOM_g3"] = EOM_g3.applyfunc(tidy)
+    steps |= {"Hdot": tidy_matrix(Hdot), "M_tilde": M_tilde, "C_tilde": C_tilde, "N_tilde": N_tilde,
+              "Y_tilde": Y_tilde, "F_tilde": F_tilde}
+    return quantities
 
 
 def _tidy_sign(expr: sympy.Expr) -> sympy.Expr:
@@ -330,4 +348,4 @@ def _closed_form_lambda(M: sympy.Matrix, A: sympy.Matrix, Adot: sympy.Matrix, Y:
     return numerator.applyfunc(lambda e: tidy(e / det))
 
 
-__all__ = ["derive_maximal", "joint_constraints", "joint_coordinate", "joint_efforts"]
+__all__ = ["maximal_equations", "maximal_model", "joint_constraints", "joint_coordinate", "joint_efforts"]

@@ -20,7 +20,7 @@ at the frame origin, force ``(n, f)`` with the moment about that origin.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import sympy
@@ -384,20 +384,18 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     return program
 
 
-def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
-    """The Christoffel-symbol Coriolis matrix ``C(q, qd)``, row by row.
+def _coriolis(tree: _Tree, M: list[list[sympy.Expr]]) -> list[sympy.Expr]:
+    """The Christoffel-symbol Coriolis matrix ``C(q, qd)`` of the CRBA's ``M``, row by row.
 
-    ``dM/dq_k`` comes from differentiating the CRBA program line by line (forward mode: each
+    ``dM/dq_k`` comes from differentiating the program line by line (forward mode: each
     line's tangent from its own small expression), then
     ``C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k``, the same C as C_g.
     """
-    program, tree = _start(robot, table)
+    program, table = tree.program, tree.table
     n = len(table.q)
-    M = _composite_mass_matrix(tree)
     lines = list(program.lines)
-    trig = {}
-    for name, expr in lines[:len(tree.trig())]:
-        trig[expr] = name
+    trig = {expr: name for name, expr in lines[:len(tree.trig())]}
+
     def derivative(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr]) -> sympy.Expr:
         expr = sympy.sympify(expr)
         terms = [sympy.diff(expr, s) * tangent[s] for s in expr.free_symbols if s in tangent]
@@ -413,22 +411,119 @@ def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
         dM.append([[derivative(M[i][j], tangent) for j in range(n)] for i in range(n)])
     half = sympy.Rational(1, 2)
     qd = table.qd
-    program.outputs = [
-        program.let(half * sum((qd[k] * (dM[k][i][j] + dM[j][i][k] - dM[i][j][k]) for k in range(n)), sympy.Integer(0)))
-        for i in range(n) for j in range(n)]
+    return [program.let(half * sum((qd[k] * (dM[k][i][j] + dM[j][i][k] - dM[i][j][k]) for k in range(n)),
+                                   sympy.Integer(0)))
+            for i in range(n) for j in range(n)]
+
+
+def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
+    """The Christoffel-symbol Coriolis matrix ``C(q, qd)``, row by row (``_coriolis``)."""
+    program, tree = _start(robot, table)
+    program.outputs = _coriolis(tree, _composite_mass_matrix(tree))
     return program
 
 
-def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr]) -> dict[str, Program]:
+def _potential(tree: _Tree) -> sympy.Expr:
+    """``V(q)``: gravity's potential ``-sum (m_i g.p_i + g.R_i h_i)`` of every link, with gravity
+    carried into each link frame (``g_i = R^T g_parent``) and ``s_i = g.p_i`` (link origin)
+    accumulated along the tree, plus the joints' springs ``k (q - rest)**2 / 2``."""
+    let, vec = tree.program.let, tree.program.vector
+    gravity = _gravity(tree.robot, tree.table)
+    frames: dict[str, tuple[Vector, sympy.Expr]] = {"world": (vec(gravity), sympy.Integer(0))}
+    total = sympy.Integer(0)
+    for body in tree.bodies:
+        g_parent, s_parent = frames[body.parent]
+        g = vec(_rotate_back(body.rotation, g_parent))
+        s = let(s_parent + _dot(g_parent, body.position))
+        frames[body.link] = (g, s)
+        total += body.mass * s + _dot(g, body.first_moment)
+    springs = [d.stiffness * (tree.table.q[d.coordinate] - d.rest) ** 2 / 2 for d in tree.drives.values()]
+    return let(-total + sum(springs, sympy.Integer(0)))
+
+
+def potential_program(robot: Robot, table: SymbolTable) -> Program:
+    """``V(q)``, the potential energy (gravity and springs), as one output."""
+    program, tree = _start(robot, table)
+    program.outputs = [_potential(tree)]
+    return program
+
+
+def _body_jacobians(tree: _Tree) -> dict[str, sympy.Matrix]:
+    """Each link's body Jacobian: the twist of its COM frame (axes of the link frame) per
+    joint rate, rows ``(v, omega)`` (planar ``(vx, vy, omega)``), as ``J_b`` of the
+    kinematics. Columns are carried from parent to child like Newton-Euler's velocities."""
+    vec, n = tree.program.vector, len(tree.robot.coordinates)
+    zero = (sympy.Integer(0),) * 3
+    columns: dict[str, dict[int, tuple[Vector, Vector]]] = {"world": {}}
+    jacobians = {}
+    for body in tree.bodies:
+        own = {j: tree.motion_from_parent(body, w, v) for j, (w, v) in columns[body.parent].items()}
+        if body.coordinate is not None:
+            own[body.coordinate] = (body.axis, zero) if body.revolute else (zero, body.axis)
+        columns[body.link] = own
+        link = next(link for link in tree.robot.links if link.name == body.link)
+        com = [tree.table.expr(e) for e in link.com] + ([sympy.Integer(0)] if tree.robot.planar else [])
+        rows = 3 if tree.robot.planar else 6
+        jacobian = sympy.zeros(rows, n)
+        for j, (w, v) in own.items():
+            v_com = vec(_add(v, _cross(w, com)))
+            column = [v_com[0], v_com[1], w[2]] if tree.robot.planar else [*v_com, *w]
+            for r, value in enumerate(column):
+                jacobian[r, j] = value
+        jacobians[body.link] = jacobian
+    return jacobians
+
+
+@dataclass
+class GeneralizedProgram:
+    """One straight-line program for a large robot's generalized quantities: M (CRBA), C
+    (its Christoffel symbols), N (Newton-Euler at rest), V and the body Jacobians, sharing
+    every intermediate (``mechanics/structured.py`` names them for the sheet and JSON)."""
+
+    program: Program
+    mass_matrix: list[list[sympy.Expr]]
+    coriolis: list[sympy.Expr]            # row by row
+    gravity: list[sympy.Expr]
+    potential: sympy.Expr
+    jacobians: dict[str, sympy.Matrix]    # by link name
+    trig: list[tuple[sympy.Symbol, sympy.Expr]]
+
+
+def generalized_program(robot: Robot, table: SymbolTable,
+                        report: Callable[[str], None] = lambda stage: None) -> GeneralizedProgram:
+    program, tree = _start(robot, table)
+    report("mass matrix (composite rigid bodies)")
+    M = _composite_mass_matrix(tree)
+    report(f"Coriolis matrix ({len(table.q)} forward derivatives of {len(program.lines)} lines)")
+    C = _coriolis(tree, M)
+    report("gravity vector and potential energy")
+    zeros = [sympy.Integer(0)] * len(table.q)
+    N = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
+    V = _potential(tree)
+    report("body Jacobians")
+    jacobians = _body_jacobians(tree)
+    return GeneralizedProgram(program, M, C, N, V, jacobians, tree.trig())
+
+
+def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr], structured: bool,
+                   report: Callable[[str], None] = lambda stage: None) -> dict[str, Program]:
     """The programs the generated module runs, by name: ``inverse_dynamics`` and
-    ``forward_dynamics`` (``efforts`` is ``Y_g``) for every robot; ``mass_matrix``,
-    ``coriolis`` and ``gravity`` too for 3-D robots, whose explicit M, C, N are too large to
-    print (a planar robot's are short and read like the sheet)."""
+    ``forward_dynamics`` (``efforts`` is ``Y_g``) for every robot; with ``structured``
+    (3-D robots and large planar ones, whose explicit M, C, N are too large to print)
+    ``mass_matrix``, ``coriolis``, ``gravity`` and ``potential`` too; a small planar
+    robot's explicit quantities are short and read like the sheet."""
     programs: dict[str, Program] = {}
-    if not robot.planar:
+    n = len(robot.coordinates)
+    if structured:
+        report(f"program: mass matrix ({n} coordinates)")
         programs["mass_matrix"] = mass_matrix_program(robot, table)
+        report(f"program: Coriolis matrix ({n} forward derivatives of {len(programs['mass_matrix'].lines)} lines"
+               + (", the longest stage: about n^3" if n > 12 else "") + ")")
         programs["coriolis"] = coriolis_program(robot, table)
+        report("program: gravity vector and potential energy")
         programs["gravity"] = gravity_program(robot, table)
+        programs["potential"] = potential_program(robot, table)
+    report("program: inverse dynamics" + (" and forward dynamics" if not robot.loops else ""))
     programs["inverse_dynamics"] = inverse_dynamics_program(robot, table)
     if not robot.loops:   # closed loops solve a KKT system in the module instead
         programs["forward_dynamics"] = forward_dynamics_program(robot, table, efforts)

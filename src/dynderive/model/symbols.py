@@ -35,6 +35,9 @@ class SymbolTable:
     multipliers: list[sympy.Symbol] = field(default_factory=list)
     #: Multipliers of the loop constraints (robots with loops): lambda_g1, lambda_g2, ...
     loop_multipliers: list[sympy.Symbol] = field(default_factory=list)
+    #: Intermediate variables of a large robot's quantities (``_w1, _w2, ...``, LaTeX
+    #: ``w_{1}``): names of sub-expressions, not free symbols, so not in ``all_symbols``.
+    intermediates: list[sympy.Symbol] = field(default_factory=list)
 
     @classmethod
     def for_robot(cls, robot: Robot) -> SymbolTable:
@@ -71,6 +74,8 @@ class SymbolTable:
             for c, r, a in zip(coords, rates, accels):
                 names[r] = latex_name(str(c), 1)
                 names[a] = latex_name(str(c), 2)
+        for s in self.intermediates:
+            names[s] = rf"\mathsf{{w}}_{{{str(s)[2:]}}}"
         return names
 
     def defaults(self, robot: Robot) -> dict[sympy.Symbol, float]:
@@ -79,4 +84,4 @@ class SymbolTable:
 
     def locals(self) -> dict[str, sympy.Symbol]:
         """Name -> symbol, for ``sympy.sympify(text, locals=table.locals())``."""
-        return {str(s): s for s in self.all_symbols()}
+        return {str(s): s for s in [*self.all_symbols(), *self.intermediates]}

@@ -224,7 +224,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
     q = Argument("q", table.q, f"joint coordinates {tuple(robot.coordinates)}, shape (..., {n})")
     qd = Argument("qd", table.qd, f"joint velocities, shape (..., {n})")
     u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
-    structured = not robot.planar
+    structured = derivation.structured_code
     functions = _expression_functions(derivation, q, qd, u, printer, params, structured)
     programs = _programs(derivation, q, qd, u)
     if robot.loops:
@@ -236,7 +236,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         ]:
             functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
                                                  matrix_result=quantity != "a_g"))
-    maximal = "M_m" in quantities
+    maximal = robot.planar
     if maximal:
         m = len(table.qm)
         qm = Argument("qm", table.qm, f"maximal coordinates (x, y, phi of each link's COM frame), shape (..., {m})")
@@ -255,7 +255,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
             ("to_maximal", f"Change of basis qm = h(q), shape (..., {m}).", [q], "h"),
             ("to_maximal_jacobian", f"Its Jacobian H(q) = dh/dq (qmd = H qd), shape (..., {m}, {n}).", [q], "H"),
         ]
-        if "F_m" in quantities:
+        if robot.dissipative:
             specs.append(("maximal_friction_forces", "Dissipative forces F_m(qm, qmd) of the joints' damping and "
                           f"friction on the links (exact sign), shape (..., {m}).", [qm, qmd], "F_m"))
         for name, doc, args, quantity in specs:
@@ -283,7 +283,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "functions": functions,
         "structured": structured,
         "dissipative": robot.dissipative,
-        "maximal_dissipative": "F_m" in quantities,
+        "maximal_dissipative": robot.planar and robot.dissipative,
         "programs": programs,
         "maximal": maximal,
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
@@ -324,10 +324,10 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
     if not structured:
         functions.append(expression_function("kinetic_energy", "Kinetic energy T_g(q, qd), shape (...).", [q, qd],
                                              quantities["T_g"], printer, params))
-    functions.append(expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
-                                         quantities["V_g"], printer, params))
+        functions.append(expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
+                                             quantities["V_g"], printer, params))
     if derivation.robot.dissipative:   # F_g = b qd + fc sign(qd): the coefficients, per coordinate
-        drives = derivation.steps["generalized"]["drives"].joints
+        drives = derivation.joint_drives
         for name, what, attribute in (("_damping_coefficients", "Viscous damping b", "damping"),
                                       ("_friction_coefficients", "Coulomb friction fc", "friction")):
             value = sympy.zeros(n, 1)
@@ -351,6 +351,7 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
         "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
         "coriolis": ("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.", [q, qd]),
         "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
+        "potential": ("_potential_body", "V(q): gravity along the tree, and the springs.", [q]),
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
         "forward_dynamics": ("_forward_dynamics_body",
                              "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N"
@@ -404,7 +405,7 @@ def render_code_tests(derivation: Derivation, template_dir: str | Path | None = 
     from .._version import __version__
 
     context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
-               "source": Path(derivation.robot.source).name, "maximal": "M_m" in derivation.quantities,
+               "source": Path(derivation.robot.source).name, "maximal": derivation.robot.planar,
                "loops": bool(derivation.robot.loops)}
     text = render("code", "dynamics_test.py.j2", context, template_dir)
     try:

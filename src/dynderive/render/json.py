@@ -4,6 +4,11 @@
 Scalars have shape ``[1, 1]`` and a bare expression as ``sympy``; matrices print as
 ``Matrix([[...]])``. ``latex`` is null for entries too large to typeset. Every ``sympy`` string parses back with
 ``sympy.sympify(text, locals={name: sympy.Symbol(name) for name in ...})``.
+
+Large robots (``Derivation.intermediate_form``) add ``"intermediates": {NAME: {"shape",
+"sympy", "latex"}}``: the sub-expressions ``_w1, _w2, ...`` their quantities are written in,
+in order, each over coordinates, parameters and earlier names (substitute them in reverse
+order to expand a quantity).
 """
 
 from __future__ import annotations
@@ -89,6 +94,8 @@ def render_json(derivation: Derivation) -> str:
         "efforts": list(derivation.robot.efforts),
         "parameters": {p.name: p.value for p in derivation.robot.parameters},
         "quantities": quantities,
+        **({"intermediates": {str(name): quantity_entry(value, fmt) for name, value in derivation.intermediates}}
+           if derivation.intermediate_form else {}),
         "checks": [{"name": c.name, "description": c.description, "passed": c.passed,
                     "method": c.method, "residual": c.residual} for c in derivation.checks],
     }

@@ -28,6 +28,7 @@ class Formatter:
     """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``)."""
 
     def __init__(self, derivation: Derivation):
+        self.intermediates = derivation.intermediates   # their names join the table when derived
         self.names = derivation.symbols.latex_names()
 
     def __call__(self, expr: Any) -> str:
@@ -41,7 +42,7 @@ class Formatter:
             return None
         return self(expr)
 
-    def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
+    def matrix(self, name: str, matrix: sympy.Matrix, wide: int = WIDE_MATRIX) -> dict[str, Any]:
         """A matrix as a whole (``wide`` False), as its non-zero entries, or ``too_large``."""
         rows, cols = matrix.shape
         nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
@@ -55,7 +56,7 @@ class Formatter:
                 if matrix[i, j] != 0:
                     index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
                     entries.append({"name": f"{name}_{{{index}}}", "latex": self(matrix[i, j])})
-        return {"latex": whole, "wide": len(whole) > WIDE_MATRIX, "entries": entries,
+        return {"latex": whole, "wide": len(whole) > wide, "entries": entries,
                 "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
 
 
@@ -108,7 +109,13 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else "",
         "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
     } for j in robot.joints]
+    intermediates = [{"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates]
+    # names and short sums: a matrix of them fits the page up to 8 columns
+    named = {"wide": 40 * min(q["M_g"].shape[0], 8) ** 2} if intermediates else {}
     context = {
+        "intermediates": intermediates,
+        "jacobians": [{"index": k, "matrix": fmt.matrix(f"J^b_{k}", q[f"J_b{k}"], **named)}
+                      for k in range(1, len(robot.links) + 1)] if intermediates else [],
         "generator": f"dynderive {_version()}",
         "source": escape_tex(Path(robot.source).name),
         "robot": {"name": escape_tex(robot.name), "title": escape_tex(robot.title),
@@ -124,9 +131,9 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "Y_g": fmt(q["Y_g"]),
         "lagrange": lagrange,
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
-        "M_g": fmt.matrix("M", q["M_g"]),
-        "C_g": fmt.matrix("C", q["C_g"]),
-        "N_g": fmt.matrix("N", q["N_g"]),
+        "M_g": fmt.matrix("M", q["M_g"], **named),
+        "C_g": fmt.matrix("C", q["C_g"], **named),
+        "N_g": fmt.matrix("N", q["N_g"], **named),
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
         "checks": [{"description": escape_tex(c.description), "passed": c.passed,
                     "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks],

@@ -1,0 +1,99 @@
+"""Large robots' generalized quantities in intermediate-variable form.
+
+Expanded, the entries of a generic 7-DOF arm's C_g run to hundreds of thousands of terms:
+minutes to build, unreadable, impossible to typeset. Here, as in OpenSYMORO's customized
+Newton-Euler, every non-atomic sub-expression gets a name: one straight-line program
+(``recursive.generalized_program``: composite rigid bodies for M, its Christoffel symbols
+for C, Newton-Euler at rest for N, the potential, the body Jacobians) is pruned to the lines
+the quantities use and renumbered ``_w1, _w2, ...`` in order. ``M_g`` is then a matrix of
+names and short sums, ``Derivation.intermediates`` defines the names, and the work grows with
+the program (about n^3 lines for C), not with the expanded entries. The inertial parameters
+enter linearly, as mass, first moment ``m c`` and inertia about the link origin.
+
+>>> d = derive(load_robot("panda"))                  # doctest: +SKIP
+>>> d["M_g"][0, 0], d.intermediates[0]                # doctest: +SKIP
+(_w57, (_w1, sin(q2)))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import sympy
+
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
+from .drives import drive_terms
+from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
+from .recursive import generalized_program
+from .tidy import tidy
+
+#: Planar robots with more coordinates than this are derived in intermediate-variable form
+#: (a planar chain of 8 full-precision links took 70 s expanded, 3-D robots: LAGRANGE_DOF_LIMIT).
+PLANAR_EXPLICIT_DOF = 6
+
+
+def intermediate_form(robot: Robot) -> bool:
+    """Whether ``robot``'s generalized quantities are derived in intermediate-variable form:
+    3-D robots beyond LAGRANGE_DOF_LIMIT coordinates, planar ones beyond PLANAR_EXPLICIT_DOF."""
+    return len(robot.coordinates) > (PLANAR_EXPLICIT_DOF if robot.planar else LAGRANGE_DOF_LIMIT)
+
+
+def structured_generalized(robot: Robot, table: SymbolTable,
+                           report: Callable[[str], None] = lambda stage: None
+                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The quantities of ``derive_generalized`` but ``EOM_g1`` (no Lagrange route at this
+    size), over intermediate variables; the steps hold ``intermediates``, the ordered
+    ``(name, definition)`` pairs, for ``Derivation.intermediates``."""
+    n = len(robot.coordinates)
+    built = generalized_program(robot, table, report)
+    report("intermediate variables")
+    trig = {name: expr for name, expr in built.trig}
+    M = sympy.Matrix(n, n, [e for row in built.mass_matrix for e in row])
+    C = sympy.Matrix(n, n, built.coriolis)
+    N = sympy.Matrix(built.gravity)
+    jacobians = [built.jacobians[link.name] for link in robot.links]
+    outputs: list[Any] = [M, C, N, built.potential, *jacobians]
+    # keep the lines the outputs use, in order; names for them, sines and cosines inlined
+    definitions = dict(built.program.lines)
+    needed: set[sympy.Symbol] = set()
+    pending = [s for value in outputs for s in sympy.sympify(value).free_symbols if s in definitions]
+    while pending:
+        symbol = pending.pop()
+        if symbol in needed:
+            continue
+        needed.add(symbol)
+        pending += [s for s in definitions[symbol].free_symbols if s in definitions and s not in needed]
+    rename: dict[sympy.Symbol, sympy.Expr] = dict(trig)
+    intermediates = []
+    for name, expr in built.program.lines:
+        if name in trig or name not in needed:
+            continue
+        value = expr.xreplace(rename)
+        if value.is_Atom:        # a copy: no name of its own
+            rename[name] = value
+            continue
+        symbol = sympy.Symbol(f"_w{len(intermediates) + 1}")
+        rename[name] = symbol
+        intermediates.append((symbol, value))
+    table.intermediates = [s for s, _ in intermediates]
+    M, C, N = (m.xreplace(rename) for m in (M, C, N))
+    V = sympy.sympify(built.potential).xreplace(rename)
+    jacobians = [j.xreplace(rename) for j in jacobians]
+
+    drives = drive_terms(robot, table)
+    qd, qdd = sympy.Matrix(table.qd), sympy.Matrix(table.qdd)
+    T = sympy.expand((qd.T * M * qd)[0, 0] / 2)
+    F = drives.forces.applyfunc(tidy)
+    Y = applied_forces(robot, table)
+    EOM_g2 = (M * qdd + C * qd + N + F - Y).applyfunc(sympy.expand)
+    quantities: dict[str, Any] = {"T_g": T, "V_g": V, "L_g": T - V, "Y_g": Y,
+                                  "M_g": M, "C_g": C, "N_g": N, "EOM_g2": EOM_g2}
+    if robot.dissipative:
+        quantities |= {"D_g": tidy(drives.dissipation), "F_g": F}
+    for k, jacobian in enumerate(jacobians, start=1):
+        quantities[f"J_b{k}"] = jacobian
+    steps = {"links": [], "lagrange": None, "drives": drives, "intermediates": intermediates,
+             "gravity": sympy.Matrix([table.expr(e) for e in robot.gravity])}
+    return quantities, steps
