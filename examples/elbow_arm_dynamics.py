@@ -58,21 +58,6 @@ def generalized_forces(q, u, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, 
     return out
 
 
-def potential_energy(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Potential energy V_g(q), shape (...).
-
-    q: joint coordinates ('q1', 'q2', 'q3'), shape (..., 3)
-    """
-    q = _coordinates("q", q, 3)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    q2 = q[..., 1]
-    q3 = q[..., 2]
-    _t0 = np.sin(q2)
-    out = np.zeros(batch + ())
-    out[...] = g*lc1*m1 + g*m2*(_t0*lc2 + l1) + g*m3*(_t0*(l2 + lc3*np.cos(q3)) + l1 + lc3*np.sin(q3)*np.cos(q2))
-    return out
-
-
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -236,6 +221,30 @@ def _gravity_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4
 
 
 _gravity_body.functions = ("sin", "cos")
+
+
+def _potential_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """V(q): gravity along the tree, and the springs. 13 lines, 31 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = lc1*m1
+    _r5 = lc2*m2
+    _r6 = lc3*m3
+    _r1 = -_r1*g
+    _r0 = -_r0*g
+    _r7 = -g*l1
+    _r0 = _r2*_r1 + _r3*_r0
+    _r3 = _r7 + _r1*l2
+    _r0 = _r4*g - _r3*m3 - _r5*_r1 - _r6*_r0 - _r7*m2
+    return (
+        _r0,
+    )
+
+
+_potential_body.functions = ("sin", "cos")
 
 
 def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
@@ -432,6 +441,15 @@ def kinetic_energy(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1
     """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
     qd = _coordinates("qd", qd, 3)
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, lc1=lc1, lc2=lc2, lc3=lc3, I1=I1, g=g), qd)
+
+
+def potential_energy(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Potential energy V_g(q) of gravity (along the tree) and the springs, shape (...).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3)
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_potential_body, [q], (), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
 
 
 def friction_forces(qd, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):

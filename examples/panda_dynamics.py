@@ -56,46 +56,6 @@ def generalized_forces(q, u, *, g=9.81):
     return out
 
 
-def potential_energy(q, *, g=9.81):
-    """Potential energy V_g(q), shape (...).
-
-    q: joint coordinates ('panda_joint1', 'panda_joint2', 'panda_joint3', 'panda_joint4', 'panda_joint5', 'panda_joint6', 'panda_joint7'), shape (..., 7)
-    """
-    q = _coordinates("q", q, 7)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    panda_joint2 = q[..., 1]
-    panda_joint3 = q[..., 2]
-    panda_joint4 = q[..., 3]
-    panda_joint5 = q[..., 4]
-    panda_joint6 = q[..., 5]
-    panda_joint7 = q[..., 6]
-    _t0 = np.sin(panda_joint2)
-    _t1 = np.cos(panda_joint2)
-    _t2 = np.sin(panda_joint3)
-    _t3 = np.cos(panda_joint3)
-    _t4 = np.sin(panda_joint4)
-    _t5 = np.cos(panda_joint4)
-    _t6 = np.sin(panda_joint5)
-    _t7 = np.cos(panda_joint5)
-    _t8 = -8213/200000*_t6 - 11953/1000000*_t7 - 33/400
-    _t9 = np.sin(panda_joint6)
-    _t10 = np.cos(panda_joint6)
-    _t11 = -14117/1000000*_t10 + (60149/1000000)*_t9 + 48/125
-    _t12 = (14117/1000000)*_t9
-    _t13 = (60149/1000000)*_t10
-    _t14 = -10517/1000000*_t6 + _t7*(_t12 + _t13) - 33/400
-    _t15 = np.sin(panda_joint7)
-    _t16 = np.cos(panda_joint7)
-    _t17 = (1063/250000)*_t15 + (10517/1000000)*_t16 + 11/125
-    _t18 = -61597/1000000*_t10 + _t17*_t9 + 48/125
-    _t19 = -10517/1000000*_t15 + (1063/250000)*_t16
-    _t20 = _t10*_t17 + (61597/1000000)*_t9
-    _t21 = -_t19*_t6 + _t20*_t7 - 33/400
-    out = np.zeros(batch + ())
-    out[...] = (323463/500000)*g*((3141/1000000)*_t0 + (359/12500)*_t1 + 333/1000) + (717579/200000)*g*(-_t0*((13727/500000)*_t2 + _t3*(-104419/1000000*_t4 - 5317/100000*_t5 + 33/400)) - _t1*((5317/100000)*_t4 - 104419/1000000*_t5 - 79/250) + 333/1000) + (612973/500000)*g*(-_t0*(-_t2*(-11953/1000000*_t6 + (8213/200000)*_t7) + _t3*(-345563/1000000*_t4 + _t5*_t8 + 33/400)) - _t1*(-_t4*_t8 - 345563/1000000*_t5 - 79/250) + 333/1000) + (367761/500000)*g*(-_t0*(-_t2*(_t19*_t7 + _t20*_t6) + _t3*(-_t18*_t4 + _t21*_t5 + 33/400)) - _t1*(-_t18*_t5 - _t21*_t4 - 79/250) + 333/1000) + (333311/200000)*g*(-_t0*(-_t2*(_t12*_t6 + _t13*_t6 + (10517/1000000)*_t7) + _t3*(-_t11*_t4 + _t14*_t5 + 33/400)) - _t1*(-_t11*_t5 - _t14*_t4 - 79/250) + 333/1000) + (807151/250000)*g*((9813/250000)*_t0*_t2 - 13759/500000*_t0*_t3 + (124749/500000)*_t1 + 333/1000) + (17731672499/12500000000)*g
-    return out
-
-
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -1095,6 +1055,47 @@ def _gravity_body(q, sin, cos, *, g=9.81):
 _gravity_body.functions = ("sin", "cos")
 
 
+def _potential_body(q, sin, cos, *, g=9.81):
+    """V(q): gravity along the tree, and the springs. 30 lines, 95 operations."""
+    panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
+    _r0 = cos(panda_joint2)
+    _r1 = sin(panda_joint2)
+    _r2 = cos(panda_joint3)
+    _r3 = sin(panda_joint3)
+    _r4 = cos(panda_joint4)
+    _r5 = sin(panda_joint4)
+    _r6 = cos(panda_joint5)
+    _r7 = sin(panda_joint5)
+    _r8 = cos(panda_joint6)
+    _r9 = sin(panda_joint6)
+    _r10 = cos(panda_joint7)
+    _r11 = sin(panda_joint7)
+    _r12 = -0.333*g
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r2 = _r2*_r1
+    _r3 = -_r3*_r1
+    _r13 = _r12 - 0.316*_r0
+    _r14 = _r4*_r2 - _r5*_r0
+    _r5 = -_r4*_r0 - _r5*_r2
+    _r4 = _r13 + 0.0825*_r2
+    _r15 = _r6*_r14 + _r7*_r3
+    _r7 = _r6*_r3 - _r7*_r14
+    _r6 = _r4 - 0.0825*_r14 + 0.384*_r5
+    _r16 = _r8*_r15 + _r9*_r5
+    _r9 = _r8*_r5 - _r9*_r15
+    _r8 = _r10*_r16 - _r11*_r7
+    _r11 = -_r10*_r7 - _r11*_r16
+    _r10 = _r6 + 0.088*_r16
+    _r15 = -0.327522721603*_r5 - 0.196128908488*_r0 - 0.100241616695*_r16 - 0.028227094878*_r3 - 0.088844724872*_r2 - 0.007735484874*_r8 - 0.23670397208*g - 0.067870631425*_r7 - 2.892501*_r6 - 3.228604*_r13 - 3.587895*_r4 - 5.61761*_r12 - 0.735522*_r10 + 0.003127439544*_r11 + 0.002031994566*_r1 + 0.19076837715*_r14 + 0.014653732538*_r15 + 0.068832705569*_r9
+    return (
+        _r15,
+    )
+
+
+_potential_body.functions = ("sin", "cos")
+
+
 def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, g=9.81):
     """M qdd + C qd + N: recursive Newton-Euler. 213 lines, 1125 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
@@ -1797,6 +1798,15 @@ def kinetic_energy(q, qd, *, g=9.81):
     """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
     qd = _coordinates("qd", qd, 7)
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, g=g), qd)
+
+
+def potential_energy(q, *, g=9.81):
+    """Potential energy V_g(q) of gravity (along the tree) and the springs, shape (...).
+
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7)
+    """
+    q = _coordinates("q", q, 7)
+    return _evaluate(_potential_body, [q], (), {"g": g})
 
 
 def friction_forces(qd, *, friction_smoothing=0.0, g=9.81):

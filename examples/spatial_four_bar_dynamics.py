@@ -57,20 +57,6 @@ def generalized_forces(q, u, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, 
     return out
 
 
-def potential_energy(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Potential energy V_g(q), shape (...).
-
-    q: joint coordinates ('q1', 'q2', 'q3', 'q4'), shape (..., 4)
-    """
-    q = _coordinates("q", q, 4)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    q3 = q[..., 2]
-    q4 = q[..., 3]
-    out = np.zeros(batch + ())
-    out[...] = (1/2)*g*(-b*m2*np.sin(q3) + c*m3*(np.cos(q4) - 2))
-    return out
-
-
 def loop_constraints(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Loop constraints a_g(q) (zero when the loops are closed), shape (..., 3).
 
@@ -353,6 +339,25 @@ def _gravity_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05
 _gravity_body.functions = ("sin", "cos")
 
 
+def _potential_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """V(q): gravity along the tree, and the springs. 8 lines, 18 operations."""
+    q1, q2, q3, q4 = q
+    _r0 = cos(q4)
+    _r1 = sin(q3)
+    _r2 = 0.5*(c*m3)
+    _r3 = 0.5*(b*m2)
+    _r0 = -_r0*g
+    _r4 = c*g
+    _r1 = _r1*g
+    _r1 = -_r2*_r0 - _r3*_r1 - _r4*m3
+    return (
+        _r1,
+    )
+
+
+_potential_body.functions = ("sin", "cos")
+
+
 def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """M qdd + C qd + N: recursive Newton-Euler. 55 lines, 162 operations."""
     q1, q2, q3, q4 = q
@@ -457,6 +462,15 @@ def kinetic_energy(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=
     """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
     qd = _coordinates("qd", qd, 4)
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)
+
+
+def potential_energy(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Potential energy V_g(q) of gravity (along the tree) and the springs, shape (...).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
+    """
+    q = _coordinates("q", q, 4)
+    return _evaluate(_potential_body, [q], (), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
 
 
 def friction_forces(qd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):

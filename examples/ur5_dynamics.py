@@ -54,27 +54,6 @@ def generalized_forces(q, u, *, g=9.81):
     return out
 
 
-def potential_energy(q, *, g=9.81):
-    """Potential energy V_g(q), shape (...).
-
-    q: joint coordinates ('shoulder_pan_joint', 'shoulder_lift_joint', 'elbow_joint', 'wrist_1_joint', 'wrist_2_joint', 'wrist_3_joint'), shape (..., 6)
-    """
-    q = _coordinates("q", q, 6)
-    batch = np.broadcast_shapes(q.shape[:-1])
-    shoulder_lift_joint = q[..., 1]
-    elbow_joint = q[..., 2]
-    wrist_1_joint = q[..., 3]
-    _t0 = np.cos(elbow_joint)
-    _t1 = np.cos(shoulder_lift_joint)
-    _t2 = np.cos(wrist_1_joint)
-    _t3 = np.sin(shoulder_lift_joint)
-    _t4 = np.sin(wrist_1_joint)
-    _t5 = (1/200000000)*g
-    out = np.zeros(batch + ())
-    out[...] = -3556947/200000000*_t0*_t1*_t2*g + _t3*_t5*(3556947*_t0*_t4 - 319751855*_t0 - 886584500) + _t5*(3556947*_t1*_t4 - 319751855*_t1 + 3556947*_t2*_t3)*np.sin(elbow_joint) + (15151591301/10000000000)*g
-    return out
-
-
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -637,6 +616,33 @@ def _gravity_body(q, sin, cos, *, g=9.81):
 
 
 _gravity_body.functions = ("sin", "cos")
+
+
+def _potential_body(q, sin, cos, *, g=9.81):
+    """V(q): gravity along the tree, and the springs. 16 lines, 37 operations."""
+    shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
+    _r0 = cos(shoulder_lift_joint)
+    _r1 = sin(shoulder_lift_joint)
+    _r2 = cos(elbow_joint)
+    _r3 = sin(elbow_joint)
+    _r4 = cos(wrist_1_joint)
+    _r5 = sin(wrist_1_joint)
+    _r6 = -0.089159*g
+    _r0 = _r0*g
+    _r1 = _r1*g
+    _r7 = _r2*_r0 - _r3*_r1
+    _r0 = _r2*_r1 + _r3*_r0
+    _r3 = _r6 + 0.425*_r1
+    _r7 = _r4*_r7 - _r5*_r0
+    _r5 = _r3 + 0.39225*_r0
+    _r7 = _r5 + 0.09465*_r7
+    _r5 = -2.35004*_r1 - 12.093*_r6 - 0.1879*_r7 - 2.438*_r5 - 2.275*_r3 - 0.56875*_r0
+    return (
+        _r5,
+    )
+
+
+_potential_body.functions = ("sin", "cos")
 
 
 def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, g=9.81):
@@ -1215,6 +1221,15 @@ def kinetic_energy(q, qd, *, g=9.81):
     """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
     qd = _coordinates("qd", qd, 6)
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, g=g), qd)
+
+
+def potential_energy(q, *, g=9.81):
+    """Potential energy V_g(q) of gravity (along the tree) and the springs, shape (...).
+
+    q: joint coordinates ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"), shape (..., 6)
+    """
+    q = _coordinates("q", q, 6)
+    return _evaluate(_potential_body, [q], (), {"g": g})
 
 
 def friction_forces(qd, *, friction_smoothing=0.0, g=9.81):

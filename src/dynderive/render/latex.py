@@ -222,16 +222,24 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
         "M_m": fmt.matrix("M", q["M_m"]), "C_m": fmt.matrix("C", q["C_m"]),
         "N_m": fmt.matrix("N", q["N_m"]), "EOM_m2": fmt.matrix("\\mathrm{EOM}", q["EOM_m2"]),
         "lambda_symbolic": "lambdaVec" in q, "lambda_entries": lambda_entries,
-        "h": fmt(q["h"]), "H": fmt.matrix("H", q["H"]), "Hdot": fmt.matrix("\\dot{H}", steps["Hdot"]),
+        "h": fmt(q["h"]), "H": fmt.matrix("H", q["H"]),
+        **(_change_of_basis(q, steps, fmt) if "EOM_g3" in q else {"EOM_g3": None}),
+        "F_m": fmt.matrix("F", q["F_m"]) if "F_m" in q else None,
+        "D_m": fmt.maybe(q["D_m"], SCALAR_NODES) if "D_m" in q else None,
+        "drives": not derivation.steps["generalized"]["drives"].empty,
+    }
+
+
+def _change_of_basis(q: Any, steps: dict[str, Any], fmt: Formatter) -> dict[str, Any]:
+    """The maximal model mapped through H (small robots: ``EOM_g3``)."""
+    return {
+        "Hdot": fmt.matrix("\\dot{H}", steps["Hdot"]),
         "M_tilde": fmt.matrix("\\tilde{M}", steps["M_tilde"]),
         "C_tilde": fmt.matrix("\\tilde{C}", steps["C_tilde"]),
         "N_tilde": fmt.matrix("\\tilde{N}", steps["N_tilde"]),
         "Y_tilde": fmt.matrix("\\tilde{\\Upsilon}", steps["Y_tilde"]),
         "EOM_g3": fmt.matrix("\\mathrm{EOM}", q["EOM_g3"]),
-        "F_m": fmt.matrix("F", q["F_m"]) if "F_m" in q else None,
         "F_tilde": fmt.matrix("\\tilde{F}", steps["F_tilde"]) if "F_m" in q else None,
-        "D_m": fmt.maybe(q["D_m"], SCALAR_NODES) if "D_m" in q else None,
-        "drives": not derivation.steps["generalized"]["drives"].empty,
     }
 
 
