@@ -166,7 +166,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="planar 2-12 and 3-D 3, 7; no KanesMethod")
     parser.add_argument("--batch", type=int, default=10_000, help="states per batch for the generated code")
-    parser.add_argument("--kane-timeout", type=float, default=300.0, help="seconds for KanesMethod per robot")
+    parser.add_argument("--kane-timeout", type=float, default=120.0, help="seconds for KanesMethod per robot")
     parser.add_argument("--timeout", type=float, default=900.0, help="seconds for dynderive per robot")
     parser.add_argument("--no-kane", action="store_true", help="skip KanesMethod")
     parser.add_argument("--json", type=Path, default=ROOT / "benchmarks" / "scaling.json")

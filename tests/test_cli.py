@@ -104,7 +104,8 @@ def test_generated_module_imports_only_numpy(tmp_path):
 
 
 def test_json_of_a_6_dof_arm_parses_back(tmp_path):
-    """Entries too large to typeset are printed plainly (fast); they still parse back exactly."""
+    """A 6-DOF arm's JSON: intermediate variables, then quantities over them; read back in
+    order they give the derivation's values."""
     import random
 
     import sympy
@@ -112,14 +113,38 @@ def test_json_of_a_6_dof_arm_parses_back(tmp_path):
     import dynderive
 
     derivation = dynderive.derive(dynderive.load_robot(Path(__file__).parents[1] / "robots" / "ur5.urdf"))
-    dump = json.loads(dynderive.render_json(derivation))["quantities"]
-    names = {str(s): s for s in derivation.symbols.all_symbols()}
+    assert derivation.intermediate_form
+    document = json.loads(dynderive.render_json(derivation))
+    names = derivation.symbols.locals()
     rng = random.Random(3)
-    values = {s: rng.uniform(-1, 1) for s in derivation.symbols.all_symbols()}
-    assert dump["C_g"]["latex"] is None   # too large to typeset: printed plainly
+    values = {s: sympy.Float(rng.uniform(-1, 1)) for s in derivation.symbols.all_symbols()}
+    known = dict(values)
+    for (name, entry), (symbol, definition) in zip(document["intermediates"].items(), derivation.intermediates):
+        assert name == str(symbol)
+        known[symbol] = sympy.sympify(entry["sympy"], locals=names).xreplace(known)
+        expected = float(definition.xreplace(known))
+        assert abs(float(known[symbol]) - expected) <= 1e-12 * max(1.0, abs(expected))
+    assert len(known) > len(values) + 100
     for name in ("M_g", "C_g", "EOM_g2"):
-        back = sympy.sympify(dump[name]["sympy"], locals=names)
+        back = sympy.sympify(document["quantities"][name]["sympy"], locals=names)
+        assert document["quantities"][name]["latex"] is not None   # names and short sums typeset
         original = derivation[name]
         for k in (0, len(original) - 1, len(original) // 2):
-            expected = float(original[k].xreplace(values))
-            assert abs(float(back[k].xreplace(values)) - expected) <= 1e-12 * max(1.0, abs(expected))
+            expected = float(original[k].xreplace(known))
+            assert abs(float(back[k].xreplace(known)) - expected) <= 1e-12 * max(1.0, abs(expected))
+
+
+def test_plain_printing_of_large_entries_parses_back():
+    """Entries too large to typeset are printed plainly (fast, no precedence rules); they
+    still parse back to the same expression."""
+    import sympy
+
+    import dynderive
+    from dynderive.render.json import _plain
+
+    derivation = dynderive.derive(dynderive.load_robot("elbow_arm"))
+    names = derivation.symbols.locals()
+    for name in ("C_g", "EOM_g2", "T_g"):
+        value = derivation[name]
+        for entry in (value if isinstance(value, sympy.MatrixBase) else [value]):
+            assert sympy.expand(sympy.sympify(_plain(entry), locals=names) - entry) == 0

@@ -10,6 +10,7 @@ one state (floats and ``math``), a batch in several chunks (NumPy), array parame
 from __future__ import annotations
 
 import random
+from unittest import mock
 import tempfile
 from pathlib import Path
 
@@ -18,6 +19,7 @@ import pytest
 import sympy
 
 import dynderive
+from dynderive.mechanics import structured
 from dynderive.mechanics.recursive import mass_matrix_program
 from dynderive.mechanics.tidy import fold_constants, operation_count
 
@@ -44,15 +46,19 @@ def case(request, tmp_path_factory):
     else:
         urdf = ROOT / "robots" / f"{request.param}.urdf"
         robot = dynderive.load_robot(urdf if urdf.is_file() else request.param)
-    derivation = dynderive.derive(robot)
-    module = import_code(dynderive.render_code(derivation), folder, f"{robot.name}_programs")
-    table = derivation.symbols
-    values = table.defaults(robot)
-    params = sorted(values, key=str)
-    args = [*table.q, *table.qd, *params]
-    # constants folded to doubles: NumPy has no sqrt of a 30-digit integer (full-precision inputs)
-    reference = {name: sympy.lambdify(args, fold_constants(derivation[name].xreplace(values)), "numpy", cse=True)
-                 for name in ("M_g", "C_g", "N_g")}
+    # the reference: expanded M, C, N from body Jacobians and Christoffel symbols, also for
+    # arms whose sheet uses the intermediate-variable form (built from the same programs)
+    with mock.patch.object(structured, "LAGRANGE_DOF_LIMIT", 99):
+        derivation = dynderive.derive(robot)
+        assert not derivation.intermediate_form
+        module = import_code(dynderive.render_code(derivation), folder, f"{robot.name}_programs")
+        table = derivation.symbols
+        values = table.defaults(robot)
+        params = sorted(values, key=str)
+        args = [*table.q, *table.qd, *params]
+        # constants folded to doubles: NumPy has no sqrt of a 30-digit integer (full-precision inputs)
+        reference = {name: sympy.lambdify(args, fold_constants(derivation[name].xreplace(values)), "numpy", cse=True)
+                     for name in ("M_g", "C_g", "N_g")}
     return robot, derivation, module, reference, [values[p] for p in params]
 
 

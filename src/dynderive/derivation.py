@@ -15,7 +15,7 @@ import sympy
 from .mechanics.planar import planar_kinematics
 from .mechanics.recursive import Program, build_programs
 from .mechanics.regularity import check_mass_matrix
-from .mechanics.tidy import Check, check_zero, is_small, quick_tidy, tidy
+from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
 from .model.robot import Robot
 from .model.symbols import SymbolTable
 
@@ -88,6 +88,8 @@ class _Stages:
             if stage not in self.pending:   # ran meanwhile, as another stage's dependency
                 continue
             provides = stage.steps if space == "steps" else stage.quantities
+            if name is None and provides is not None and not provides:
+                continue   # gives nothing here (kinematics): runs only as another stage's input
             if name is None or (provides is None and name not in declared) or (provides and name in provides):
                 self.pending.remove(stage)
                 stage.run()
@@ -270,6 +272,15 @@ class Derivation:
         if not self.intermediate_form:
             return []
         return list(self.steps["generalized"]["intermediates"])
+
+    def lambdify(self, args: list[Any], value: Any) -> Callable[..., Any]:
+        """``sympy.lambdify(args, value)`` (NumPy) for a quantity of this derivation; for a
+        large robot the intermediate variables are computed first, in order, as its lines."""
+        value = fold_constants(value)
+        if not self.intermediate_form:
+            return sympy.lambdify(args, value, modules="numpy", cse=True)
+        definitions = [(name, fold_constants(e)) for name, e in self.intermediates]
+        return sympy.lambdify(args, value, modules="numpy", cse=lambda exprs: (definitions, exprs))
 
     @property
     def checks(self) -> list[Check]:
