@@ -10,9 +10,9 @@ one state (floats and ``math``), a batch in several chunks (NumPy), array parame
 from __future__ import annotations
 
 import random
-from unittest import mock
 import tempfile
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pytest

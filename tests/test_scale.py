@@ -21,6 +21,7 @@ import dynderive
 from dynderive.mechanics import structured
 from dynderive.render.json import render_json
 from dynderive.verify.checks import generated_module
+
 from random_robots3d import random_spatial_tree
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
