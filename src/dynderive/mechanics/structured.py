@@ -66,7 +66,7 @@ def structured_generalized(robot: Robot, table: SymbolTable,
         needed.add(symbol)
         pending += [s for s in definitions[symbol].free_symbols if s in definitions and s not in needed]
     rename: dict[sympy.Symbol, sympy.Expr] = dict(trig)
-    intermediates = []
+    intermediates: list[tuple[sympy.Symbol, sympy.Expr]] = []
     for name, expr in built.program.lines:
         if name in trig or name not in needed:
             continue
