@@ -65,7 +65,6 @@ def _position(key: str, sequence: int) -> tuple[int, int]:
 class _Stage:
     """A part of the derivation, run the first time one of its results is needed."""
 
-    label: str
     run: Callable[[], None]
     quantities: frozenset[str] | None   # names it provides; None: any name no stage declares
     steps: frozenset[str] = frozenset()
@@ -161,15 +160,15 @@ class Derivation:
         self._checks: list[Check] | None = None
         self._programs: dict[str, Program] | None = None
         add = self._stages.add
-        add(_Stage("kinematics", self._kinematics, frozenset(), frozenset({"kinematics"})))
-        add(_Stage("applied forces", self._applied_forces, frozenset({"Y_g"})))
+        add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
+        add(_Stage(self._applied_forces, frozenset({"Y_g"})))
         if robot.loops:
-            add(_Stage("loop constraints", self._loops, frozenset(_LOOP_KEYS), frozenset({"loops"})))
-        add(_Stage("generalized", self._generalized, None, frozenset({"generalized"})))
+            add(_Stage(self._loops, frozenset(_LOOP_KEYS), frozenset({"loops"})))
+        add(_Stage(self._generalized, None, frozenset({"generalized"})))
         if robot.planar:
-            add(_Stage("maximal model", self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS),
+            add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS),
                        frozenset({"maximal_model"})))
-            add(_Stage("maximal equations", self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS),
+            add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS),
                        frozenset({"maximal"})))
 
     # -- stages ----------------------------------------------------------------------------
@@ -201,11 +200,10 @@ class Derivation:
             links = self.steps["kinematics"]
             self.report("energies")
             quantities, steps = derive_generalized(robot, table, links, self.report)
-        for key, value in quantities.items():
-            self.quantities[key] = value
-        self.steps["generalized"] = steps
         if robot.loops:
-            self._close_loops()
+            self._close_loops(quantities)
+        self.quantities.update(quantities)
+        self.steps["generalized"] = steps
 
     def _loops(self) -> None:
         from .mechanics.loops import derive_loops
@@ -222,14 +220,15 @@ class Derivation:
     def _loop_force(self) -> sympy.Matrix:
         return self.quantities["A_g"].T * self.quantities["lambda_g"]
 
-    def _close_loops(self) -> None:
-        """The multiplier form ``- A_g^T lambda_g`` joins EOM_g1 and EOM_g2; the reduced form
-        on the independent coordinates where it stays readable (``mechanics/loops.py``)."""
+    def _close_loops(self, q: dict[str, Any]) -> None:
+        """The multiplier form ``- A_g^T lambda_g`` joins EOM_g1 and EOM_g2 of the generalized
+        quantities ``q``; the reduced form on the independent coordinates where it stays
+        readable (``mechanics/loops.py``)."""
         from .mechanics.loops import reduced_form
 
-        q, force = self.quantities, self._loop_force()
+        force = self._loop_force()
         clean = sympy.expand if self.intermediate_form else tidy
-        if "EOM_g1" in q._data:
+        if "EOM_g1" in q:
             q["EOM_g1"] = (q["EOM_g1"] - force).applyfunc(clean)
         q["EOM_g2"] = (q["EOM_g2"] - force).applyfunc(clean)
         if not self.intermediate_form:
@@ -247,8 +246,7 @@ class Derivation:
         quantities, steps = maximal_model(robot, table, links, gravity, drive_terms(robot, table),
                                           loops.row_indices if loops else None,
                                           quick_tidy if self.intermediate_form else tidy)
-        for key, value in quantities.items():
-            self.quantities[key] = value
+        self.quantities.update(quantities)
         self.steps["maximal_model"] = steps
 
     def _maximal_equations(self) -> None:
@@ -260,8 +258,7 @@ class Derivation:
         quantities = maximal_equations(self.symbols, model, steps,
                                        self._loop_force() if self.robot.loops else None,
                                        change_of_basis=not self.intermediate_form)
-        for key, value in quantities.items():
-            self.quantities[key] = value
+        self.quantities.update(quantities)
         self.steps["maximal"] = steps
 
     # -- results ---------------------------------------------------------------------------
@@ -364,7 +361,7 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
     check_mass_matrix(robot, table)
     derivation = Derivation(robot, table, progress)
     if robot.loops:   # loop problems are input errors: report them at once
-        derivation.steps["loops"].notes.copy()
+        _ = derivation.steps["loops"]
     return derivation
 
 

@@ -470,8 +470,7 @@ def _body_jacobians(tree: _Tree) -> dict[str, sympy.Matrix]:
         if body.coordinate is not None:
             own[body.coordinate] = (body.axis, zero) if body.revolute else (zero, body.axis)
         columns[body.link] = own
-        link = next(link for link in tree.robot.links if link.name == body.link)
-        com = [tree.table.expr(e) for e in link.com] + ([sympy.Integer(0)] if tree.robot.planar else [])
+        com = [tree.table.expr(e) for e in tree.robot.link(body.link).com] + ([sympy.Integer(0)] if tree.robot.planar else [])
         rows = 3 if tree.robot.planar else 6
         jacobian = sympy.zeros(rows, n)
         for j, (w, v) in own.items():

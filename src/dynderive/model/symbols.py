@@ -35,8 +35,8 @@ class SymbolTable:
     multipliers: list[sympy.Symbol] = field(default_factory=list)
     #: Multipliers of the loop constraints (robots with loops): lambda_g1, lambda_g2, ...
     loop_multipliers: list[sympy.Symbol] = field(default_factory=list)
-    #: Intermediate variables of a large robot's quantities (``_w1, _w2, ...``, LaTeX
-    #: ``w_{1}``): names of sub-expressions, not free symbols, so not in ``all_symbols``.
+    #: Intermediate variables of a large robot's quantities (``_w1, _w2, ...``): names of
+    #: sub-expressions, not free symbols, so not in ``all_symbols``; in ``locals`` for parsing.
     intermediates: list[sympy.Symbol] = field(default_factory=list)
 
     @classmethod
@@ -74,8 +74,6 @@ class SymbolTable:
             for c, r, a in zip(coords, rates, accels):
                 names[r] = latex_name(str(c), 1)
                 names[a] = latex_name(str(c), 2)
-        for s in self.intermediates:
-            names[s] = rf"\mathsf{{w}}_{{{str(s)[2:]}}}"
         return names
 
     def defaults(self, robot: Robot) -> dict[sympy.Symbol, float]:

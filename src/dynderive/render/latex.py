@@ -28,8 +28,8 @@ class Formatter:
     """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``)."""
 
     def __init__(self, derivation: Derivation):
-        self.intermediates = derivation.intermediates   # their names join the table when derived
-        self.names = derivation.symbols.latex_names()
+        self.names = derivation.symbols.latex_names() | {
+            name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
 
     def __call__(self, expr: Any) -> str:
         return sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
