@@ -93,14 +93,25 @@ def test_intermediate_form_equals_expanded(kind, tmp_path, monkeypatch):
             np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-10, err_msg=name)
 
 
+#: A title with Python, LaTeX and YAML specials: it must reach the outputs as inert text.
+HOSTILE_TITLE = "Chain \"\"\"; __import__('os').system('x') #\n \\input{/etc/passwd} 100% & $_^~{}"
+
+
 def test_intermediate_form_sheet_names_every_variable(tmp_path, monkeypatch):
-    robot = _load(tmp_path, planar_chain_yaml(3, seed=1))
+    text = planar_chain_yaml(3, seed=1)
+    title = next(line for line in text.splitlines() if line.startswith("title:"))
+    robot = _load(tmp_path, text.replace(title, "title: " + json.dumps(HOSTILE_TITLE)))
+    assert robot.title == HOSTILE_TITLE
     _, iv = _both_forms(robot, monkeypatch)
-    with monkeypatch.context() as patch:
-        patch.setattr(structured, "PLANAR_EXPLICIT_DOF", 0)
-        tex = dynderive.render_latex(iv)
+    tex = dynderive.render_latex(iv)
     assert "Intermediate variables" in tex and "_w" not in tex
     assert tex.count(r"\mathsf{w}_{") >= len(iv.intermediates)
+    assert "\\input{/etc/passwd}" not in tex and "100%" not in tex
+    with monkeypatch.context() as patch:
+        patch.setattr(structured, "PLANAR_EXPLICIT_DOF", 0)
+        module = generated_module(dynderive.render_code(dynderive.derive(robot)), "hostile_chain")
+    assert HOSTILE_TITLE in module.__doc__
+    assert json.loads(render_json(iv))["intermediates"]
 
 
 def test_structured_module_equals_expanded_module(tmp_path, monkeypatch):
