@@ -13,7 +13,7 @@ from typing import Any
 import sympy
 
 from .mechanics.planar import planar_kinematics
-from .mechanics.recursive import Program, build_programs
+from .mechanics.recursive import GeneralizedProgram, Program, build_programs
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
 from .model.robot import Robot
@@ -159,6 +159,7 @@ class Derivation:
         self.steps = LazyMapping(self._stages, "steps")
         self._checks: list[Check] | None = None
         self._programs: dict[str, Program] | None = None
+        self._generalized_program: GeneralizedProgram | None = None
         add = self._stages.add
         add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
         add(_Stage(self._applied_forces, frozenset({"Y_g"})))
@@ -193,7 +194,7 @@ class Derivation:
             from .mechanics.structured import structured_generalized
 
             self.report(f"generalized quantities in intermediate-variable form ({len(robot.coordinates)} coordinates)")
-            quantities, steps = structured_generalized(robot, table, self.report)
+            quantities, steps = structured_generalized(robot, table, self.generalized_program, self.report)
         else:
             from .mechanics.generalized import derive_generalized
 
@@ -304,8 +305,18 @@ class Derivation:
         writes only code never derives the symbolic matrices."""
         if self._programs is None:
             efforts = list(self.quantities["Y_g"])
-            self._programs = build_programs(self.robot, self.symbols, efforts, self.structured_code, self.report)
+            generalized = self.generalized_program if self.structured_code else None
+            self._programs = build_programs(self.robot, self.symbols, efforts, generalized, self.report)
         return self._programs
+
+    @property
+    def generalized_program(self) -> GeneralizedProgram:
+        """The one straight-line program of M, C, N and V (``recursive.GeneralizedProgram``)
+        that both the generated module and the intermediate-variable form read, built on first
+        use."""
+        if self._generalized_program is None:
+            self._generalized_program = GeneralizedProgram(self.robot, self.symbols, self.report)
+        return self._generalized_program
 
     @property
     def joint_drives(self) -> list[Any]:

@@ -18,12 +18,33 @@ from dataclasses import dataclass
 import sympy
 
 
+def derivative(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
+    """``d expr / d symbol``, zero at once when ``symbol`` does not occur in ``expr``: a
+    maximal model's 36 coordinates each appear in a few entries only, and SymPy's ``diff``
+    costs a tree walk even when the answer is zero."""
+    expr = sympy.sympify(expr)
+    return sympy.diff(expr, symbol) if symbol in expr.free_symbols else sympy.Integer(0)
+
+
+def matrix_derivative(matrix: sympy.Matrix, symbol: sympy.Symbol) -> sympy.Matrix:
+    """``d matrix / d symbol`` entry by entry (``derivative``)."""
+    if symbol not in matrix.free_symbols:
+        return sympy.zeros(*matrix.shape)
+    return matrix.applyfunc(lambda e: derivative(e, symbol))
+
+
+def jacobian(column: sympy.Matrix, variables: Sequence[sympy.Symbol]) -> sympy.Matrix:
+    """``d column / d variables`` (``Matrix.jacobian``), skipping the variables an entry lacks."""
+    entries = list(column)
+    return sympy.Matrix(len(entries), len(variables), [derivative(e, v) for e in entries for v in variables])
+
+
 def time_derivative(expr: sympy.Expr, q: Sequence[sympy.Symbol], qd: Sequence[sympy.Symbol],
                     qdd: Sequence[sympy.Symbol] | None = None) -> sympy.Expr:
     """d/dt of ``expr(q, qd)`` along a trajectory, by the chain rule."""
-    total = sum((sympy.diff(expr, qi) * qdi for qi, qdi in zip(q, qd)), sympy.Integer(0))
+    total = sum((derivative(expr, qi) * qdi for qi, qdi in zip(q, qd)), sympy.Integer(0))
     if qdd is not None:
-        total += sum((sympy.diff(expr, qdi) * qddi for qdi, qddi in zip(qd, qdd)), sympy.Integer(0))
+        total += sum((derivative(expr, qdi) * qddi for qdi, qddi in zip(qd, qdd)), sympy.Integer(0))
     return total
 
 
@@ -43,9 +64,9 @@ class LagrangeSteps:
 
 def lagrange_steps(L: sympy.Expr, q: Sequence[sympy.Symbol], qd: Sequence[sympy.Symbol],
                    qdd: Sequence[sympy.Symbol]) -> LagrangeSteps:
-    dL_dqd = sympy.Matrix([sympy.diff(L, v) for v in qd])
+    dL_dqd = sympy.Matrix([derivative(L, v) for v in qd])
     ddt = sympy.Matrix([time_derivative(e, q, qd, qdd) for e in dL_dqd])
-    dL_dq = sympy.Matrix([sympy.diff(L, c) for c in q])
+    dL_dq = sympy.Matrix([derivative(L, c) for c in q])
     return LagrangeSteps(dL_dqd, ddt, dL_dq)
 
 
@@ -81,8 +102,10 @@ def christoffel_coriolis(M: sympy.Matrix, q: Sequence[sympy.Symbol],
     """
     n = M.shape[0]
     if dM is None:
-        dM = [M.diff(qk) for qk in q]
+        dM = [matrix_derivative(M, qk) for qk in q]
     C = sympy.zeros(n, n)
+    if all(e == 0 for d in dM for e in d):   # M constant (maximal coordinates): C = 0
+        return C
     half = sympy.Rational(1, 2)
     for i in range(n):
         for j in range(n):
@@ -94,13 +117,15 @@ def christoffel_coriolis(M: sympy.Matrix, q: Sequence[sympy.Symbol],
 
 def gravity_vector(V: sympy.Expr, q: Sequence[sympy.Symbol]) -> sympy.Matrix:
     """``N = dV/dq`` as a column."""
-    return sympy.Matrix([sympy.diff(V, c) for c in q])
+    return sympy.Matrix([derivative(V, c) for c in q])
 
 
 def constraint_jacobian_dot(A: sympy.Matrix, q: Sequence[sympy.Symbol],
                             qd: Sequence[sympy.Symbol]) -> sympy.Matrix:
     """``Adot = sum_k dA/dq_k qd_k`` (chain rule, as in the reference's 2.6)."""
     total = sympy.zeros(*A.shape)
+    present = A.free_symbols
     for qk, qdk in zip(q, qd):
-        total += A.diff(qk) * qdk
+        if qk in present:
+            total += matrix_derivative(A, qk) * qdk
     return total

@@ -20,6 +20,7 @@ from .lagrange import (
     christoffel_coriolis,
     constraint_jacobian_dot,
     gravity_vector,
+    jacobian,
     lagrange_steps,
     mass_matrix_from_jacobians,
 )
@@ -228,7 +229,7 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
         origin = "joints"
     K = a.shape[0]
     table.multipliers = [sympy.Symbol(f"lambda{k}") for k in range(1, K + 1)]
-    A = _apply(clean, a.jacobian(qm))
+    A = _apply(clean, jacobian(a, qm))
     Adot = _apply(clean, constraint_jacobian_dot(A, qm, qmd))
 
     # 2.2 energies
@@ -259,7 +260,7 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
 
     # 2.7 change of basis
     h = sympy.Matrix([e for kin in links for e in (*kin.com_world, kin.angle)]).applyfunc(clean)
-    H = _apply(clean, h.jacobian(table.q))
+    H = _apply(clean, jacobian(h, table.q))
     quantities: dict[str, Any] = {
         "q_m": sympy.Matrix(qm), "a_m": a, "A_m": A, "Adot_m": Adot,
         "T_m": T, "V_m": V, "L_m": T - V, "Y_m": Y, "M_m": M, "C_m": C, "N_m": N,

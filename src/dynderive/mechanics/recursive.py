@@ -333,14 +333,6 @@ def inverse_dynamics_program(robot: Robot, table: SymbolTable) -> Program:
     return program
 
 
-def gravity_program(robot: Robot, table: SymbolTable) -> Program:
-    """``N(q)``: recursive Newton-Euler at rest."""
-    program, tree = _start(robot, table)
-    zeros = [sympy.Integer(0)] * len(table.q)
-    program.outputs = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
-    return program
-
-
 def friction_symbols(n: int) -> list[sympy.Symbol]:
     """Inputs of the forward-dynamics body for robots with damping or friction: the dissipative
     forces F_g, computed by the module's ``friction_forces`` (exact or smoothed sign)."""
@@ -384,6 +376,32 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     return program
 
 
+def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
+    """``d expr / d symbol`` for a program line: sums, products and integer powers of names
+    and numbers, by the sum and product rules (SymPy's general ``diff`` costs several times
+    as much per line, and the Coriolis passes differentiate n times every line of the CRBA);
+    anything else by ``diff``."""
+    zero = sympy.S.Zero
+    if expr.is_Symbol:
+        return sympy.S.One if expr == symbol else zero
+    if expr.is_Number:
+        return zero
+    if expr.is_Add:
+        return sympy.Add(*(_partial(a, symbol) for a in expr.args))
+    if expr.is_Mul:
+        args = expr.args
+        terms = []
+        for i, factor in enumerate(args):
+            d = _partial(factor, symbol)
+            if d is not zero:
+                terms.append(sympy.Mul(*args[:i], d, *args[i + 1:]))
+        return sympy.Add(*terms)
+    if expr.is_Pow and expr.exp.is_Integer:
+        d = _partial(expr.base, symbol)
+        return zero if d is zero else expr.exp * expr.base ** (expr.exp - 1) * d
+    return sympy.diff(expr, symbol)
+
+
 def _coriolis(tree: _Tree, M: list[list[sympy.Expr]]) -> list[sympy.Expr]:
     """The Christoffel-symbol Coriolis matrix ``C(q, qd)`` of the CRBA's ``M``, row by row.
 
@@ -393,19 +411,24 @@ def _coriolis(tree: _Tree, M: list[list[sympy.Expr]]) -> list[sympy.Expr]:
     """
     program, table = tree.program, tree.table
     n = len(table.q)
-    lines = list(program.lines)
-    trig = {expr: name for name, expr in lines[:len(tree.trig())]}
+    lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
+    trig = {expr: name for name, expr in program.lines[:len(tree.trig())]}
 
-    def derivative(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr]) -> sympy.Expr:
+    def derivative(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr],
+                   symbols: set[sympy.Symbol] | None = None) -> sympy.Expr:
         expr = sympy.sympify(expr)
-        terms = [sympy.diff(expr, s) * tangent[s] for s in expr.free_symbols if s in tangent]
-        return sympy.Add(*terms).xreplace(trig) if terms else sympy.Integer(0)
+        moving = sorted((s for s in (expr.free_symbols if symbols is None else symbols) if s in tangent), key=str)
+        if not moving:
+            return sympy.Integer(0)
+        if expr.is_Function:   # a sine or cosine of a coordinate: in terms of the trig lines
+            return sympy.Add(*(sympy.diff(expr, s) * tangent[s] for s in moving)).xreplace(trig)
+        return sympy.Add(*(_partial(expr, s) * tangent[s] for s in moving))
 
     dM = []
     for k in range(n):
         tangent: dict[sympy.Symbol, sympy.Expr] = {table.q[k]: sympy.Integer(1)}
-        for name, expr in lines:
-            d = derivative(expr, tangent)
+        for name, expr, symbols in lines:
+            d = derivative(expr, tangent, symbols)
             if d != 0:
                 tangent[name] = program.let(d)
         dM.append([[derivative(M[i][j], tangent) for j in range(n)] for i in range(n)])
@@ -425,13 +448,6 @@ def coriolis_note(n: int, lines: int) -> str:
     return f"Coriolis matrix ({n} forward derivatives of {lines} lines{note})"
 
 
-def coriolis_program(robot: Robot, table: SymbolTable) -> Program:
-    """The Christoffel-symbol Coriolis matrix ``C(q, qd)``, row by row (``_coriolis``)."""
-    program, tree = _start(robot, table)
-    program.outputs = _coriolis(tree, _composite_mass_matrix(tree))
-    return program
-
-
 def _potential(tree: _Tree) -> sympy.Expr:
     """``V(q)``: gravity's potential ``-sum (m_i g.p_i + g.R_i h_i)`` of every link, with gravity
     carried into each link frame (``g_i = R^T g_parent``) and ``s_i = g.p_i`` (link origin)
@@ -448,13 +464,6 @@ def _potential(tree: _Tree) -> sympy.Expr:
         total += body.mass * s + _dot(g, body.first_moment)
     springs = [d.stiffness * (tree.table.q[d.coordinate] - d.rest) ** 2 / 2 for d in tree.drives.values()]
     return let(-total + sum(springs, sympy.Integer(0)))
-
-
-def potential_program(robot: Robot, table: SymbolTable) -> Program:
-    """``V(q)``, the potential energy (gravity and springs), as one output."""
-    program, tree = _start(robot, table)
-    program.outputs = [_potential(tree)]
-    return program
 
 
 def _body_jacobians(tree: _Tree) -> dict[str, sympy.Matrix]:
@@ -482,54 +491,57 @@ def _body_jacobians(tree: _Tree) -> dict[str, sympy.Matrix]:
     return jacobians
 
 
-@dataclass
 class GeneralizedProgram:
-    """One straight-line program for a large robot's generalized quantities: M (CRBA), C
-    (its Christoffel symbols), N (Newton-Euler at rest), V and the body Jacobians, sharing
-    every intermediate (``mechanics/structured.py`` names them for the sheet and JSON)."""
+    """One straight-line program for a robot's generalized quantities: M (CRBA), C (its
+    Christoffel symbols), N (Newton-Euler at rest) and V, sharing every intermediate; the body
+    Jacobians join it on first use. ``mechanics/structured.py`` names its lines for the sheet
+    and JSON of a large robot, and ``build_programs`` prints the lines each quantity reads as
+    the generated module's bodies: one program for both, so the module's bytes do not depend
+    on which other outputs a run writes."""
 
-    program: Program
-    mass_matrix: list[list[sympy.Expr]]
-    coriolis: list[sympy.Expr]            # row by row
-    gravity: list[sympy.Expr]
-    potential: sympy.Expr
-    jacobians: dict[str, sympy.Matrix]    # by link name
-    trig: list[tuple[sympy.Symbol, sympy.Expr]]
+    def __init__(self, robot: Robot, table: SymbolTable, report: Callable[[str], None] = lambda stage: None):
+        program, tree = _start(robot, table)
+        self.program, self._tree = program, tree
+        n = len(table.q)
+        report(f"program: mass matrix (composite rigid bodies, {n} coordinates)")
+        self.mass_matrix = _composite_mass_matrix(tree)
+        report("program: " + coriolis_note(n, len(program.lines)))
+        self.coriolis = _coriolis(tree, self.mass_matrix)        # row by row
+        report("program: gravity vector and potential energy")
+        zeros = [sympy.Integer(0)] * n
+        self.gravity = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
+        self.potential = _potential(tree)
+        self.trig = tree.trig()
+        self._jacobians: dict[str, sympy.Matrix] | None = None
+
+    @property
+    def jacobians(self) -> dict[str, sympy.Matrix]:
+        """Each link's body Jacobian (``_body_jacobians``), by link name, computed on first use
+        with lines appended after those of M, C, N and V."""
+        if self._jacobians is None:
+            self._jacobians = _body_jacobians(self._tree)
+        return self._jacobians
+
+    def part(self, outputs: Sequence[sympy.Expr]) -> Program:
+        """A program computing ``outputs`` from the lines so far (``program_function`` prints
+        only the lines they read)."""
+        return Program(lines=list(self.program.lines), outputs=list(outputs))
 
 
-def generalized_program(robot: Robot, table: SymbolTable,
-                        report: Callable[[str], None] = lambda stage: None) -> GeneralizedProgram:
-    program, tree = _start(robot, table)
-    report("mass matrix (composite rigid bodies)")
-    M = _composite_mass_matrix(tree)
-    report(coriolis_note(len(table.q), len(program.lines)))
-    C = _coriolis(tree, M)
-    report("gravity vector and potential energy")
-    zeros = [sympy.Integer(0)] * len(table.q)
-    N = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
-    V = _potential(tree)
-    report("body Jacobians")
-    jacobians = _body_jacobians(tree)
-    return GeneralizedProgram(program, M, C, N, V, jacobians, tree.trig())
-
-
-def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr], structured: bool,
+def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr],
+                   generalized: GeneralizedProgram | None,
                    report: Callable[[str], None] = lambda stage: None) -> dict[str, Program]:
     """The programs the generated module runs, by name: ``inverse_dynamics`` and
-    ``forward_dynamics`` (``efforts`` is ``Y_g``) for every robot; with ``structured``
+    ``forward_dynamics`` (``efforts`` is ``Y_g``) for every robot; given ``generalized``
     (3-D robots and large planar ones, whose explicit M, C, N are too large to print)
-    ``mass_matrix``, ``coriolis``, ``gravity`` and ``potential`` too; a small planar
+    ``mass_matrix``, ``coriolis``, ``gravity`` and ``potential`` from it; a small planar
     robot's explicit quantities are short and read like the sheet."""
     programs: dict[str, Program] = {}
-    n = len(robot.coordinates)
-    if structured:
-        report(f"program: mass matrix ({n} coordinates)")
-        programs["mass_matrix"] = mass_matrix_program(robot, table)
-        report("program: " + coriolis_note(n, len(programs["mass_matrix"].lines)))
-        programs["coriolis"] = coriolis_program(robot, table)
-        report("program: gravity vector and potential energy")
-        programs["gravity"] = gravity_program(robot, table)
-        programs["potential"] = potential_program(robot, table)
+    if generalized is not None:
+        programs["mass_matrix"] = generalized.part([e for row in generalized.mass_matrix for e in row])
+        programs["coriolis"] = generalized.part(generalized.coriolis)
+        programs["gravity"] = generalized.part(generalized.gravity)
+        programs["potential"] = generalized.part([generalized.potential])
     report("program: inverse dynamics" + (" and forward dynamics" if not robot.loops else ""))
     programs["inverse_dynamics"] = inverse_dynamics_program(robot, table)
     if not robot.loops:   # closed loops solve a KKT system in the module instead

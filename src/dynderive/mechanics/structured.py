@@ -3,7 +3,7 @@
 Expanded, the entries of a generic 7-DOF arm's C_g run to hundreds of thousands of terms:
 minutes to build, unreadable, impossible to typeset. Here, as in OpenSYMORO's customized
 Newton-Euler, every non-atomic sub-expression gets a name: one straight-line program
-(``recursive.generalized_program``: composite rigid bodies for M, its Christoffel symbols
+(``recursive.GeneralizedProgram``: composite rigid bodies for M, its Christoffel symbols
 for C, Newton-Euler at rest for N, the potential, the body Jacobians) is pruned to the lines
 the quantities use and renumbered ``_w1, _w2, ...`` in order. ``M_g`` is then a matrix of
 names and short sums, ``Derivation.intermediates`` defines the names, and the work grows with
@@ -26,7 +26,7 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
 from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
-from .recursive import generalized_program
+from .recursive import GeneralizedProgram
 from .tidy import tidy
 
 #: Planar robots with more coordinates than this are derived in intermediate-variable form
@@ -40,20 +40,19 @@ def intermediate_form(robot: Robot) -> bool:
     return len(robot.coordinates) > (PLANAR_EXPLICIT_DOF if robot.planar else LAGRANGE_DOF_LIMIT)
 
 
-def structured_generalized(robot: Robot, table: SymbolTable,
+def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedProgram,
                            report: Callable[[str], None] = lambda stage: None
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The quantities of ``derive_generalized`` but ``EOM_g1`` (no Lagrange route at this
     size), over intermediate variables; the steps hold ``intermediates``, the ordered
     ``(name, definition)`` pairs, for ``Derivation.intermediates``."""
     n = len(robot.coordinates)
-    built = generalized_program(robot, table, report)
+    jacobians = [built.jacobians[link.name] for link in robot.links]
     report("intermediate variables")
     trig = {name: expr for name, expr in built.trig}
     M = sympy.Matrix(n, n, [e for row in built.mass_matrix for e in row])
     C = sympy.Matrix(n, n, built.coriolis)
     N = sympy.Matrix(built.gravity)
-    jacobians = [built.jacobians[link.name] for link in robot.links]
     outputs: list[Any] = [M, C, N, built.potential, *jacobians]
     # keep the lines the outputs use, in order; names for them, sines and cosines inlined
     definitions = dict(built.program.lines)

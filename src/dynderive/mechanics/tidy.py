@@ -30,26 +30,30 @@ COLLECT_LIMIT = 150
 EXACT_INTEGER = 2**53
 
 
-def fold_constants(expr: Any) -> Any:
+def fold_constants(expr: Any, rationals: bool = True) -> Any:
     """``expr`` with every constant sub-expression that a double cannot hold exactly
     (irrational constants, ``E``, huge rationals, functions of numbers) folded to a
     correctly rounded ``Float``; small integers and rationals stay exact. Code printers and
     numeric checks use it: NumPy has no ``sqrt`` of a 30-digit integer.
+
+    With ``rationals`` False, fractions of any size stay (for a printer that rounds each
+    fraction itself, like the straight-line programs': rebuilding every line of a program
+    with full-precision parameters costs a second per thousand lines).
 
     >>> fold_constants(sympy.sqrt(2) * sympy.Symbol("x") / 2)
     0.707106781186548*x
     """
     if isinstance(expr, sympy.MatrixBase):
         memo: dict[sympy.Basic, sympy.Basic] = {}
-        return expr.applyfunc(lambda e: _fold(sympy.sympify(e), memo))
-    return _fold(sympy.sympify(expr), {})
+        return expr.applyfunc(lambda e: _fold(sympy.sympify(e), memo, rationals))
+    return _fold(sympy.sympify(expr), {}, rationals)
 
 
-def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic]) -> sympy.Basic:
+def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic], rationals: bool = True) -> sympy.Basic:
     if expr.is_Integer:
         return expr if abs(expr.p) <= EXACT_INTEGER else _to_float(expr)
     if expr.is_Rational:
-        return expr if abs(expr.p) <= EXACT_INTEGER and expr.q <= EXACT_INTEGER else _to_float(expr)
+        return expr if not rationals or abs(expr.p) <= EXACT_INTEGER and expr.q <= EXACT_INTEGER else _to_float(expr)
     if expr.is_Float or expr.is_Symbol or not expr.args and expr.free_symbols:
         return expr
     if expr in memo:
@@ -57,7 +61,7 @@ def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic]) -> sympy.Basi
     if not expr.free_symbols:
         result = _to_float(expr)
     else:
-        args = [_fold(a, memo) for a in expr.args]
+        args = [_fold(a, memo, rationals) for a in expr.args]
         result = expr.func(*args) if any(a is not b for a, b in zip(args, expr.args)) else expr
     memo[expr] = result
     return result

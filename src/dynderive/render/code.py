@@ -165,7 +165,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
     count = 0
     lines = []
     for position, (target, expr) in enumerate(body):
-        text = Code(printer.doprint(fold_constants(expr)))
+        text = Code(printer.doprint(fold_constants(expr, rationals=False)))
         for symbol in sorted(expr.free_symbols & targets, key=str):
             if last_use[symbol] == position:
                 free.append(slot[symbol])
@@ -175,7 +175,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             slot[target] = f"_r{count}"
             count += 1
         lines.append((slot[target], text))
-    outputs = [Code(printer.doprint(fold_constants(e))) for e in program.outputs]
+    outputs = [Code(printer.doprint(fold_constants(e, rationals=False))) for e in program.outputs]
     operations = sum(operation_count(e) for _, e in body) + operation_count(sympy.Matrix(program.outputs))
     used = {m.group(1) for text in [*(t for _, t in lines), *outputs] for m in _CALL.finditer(text)}
     functions = tuple(f for f in BODY_FUNCTIONS if f in used)

@@ -26,10 +26,11 @@ from .latex import Formatter
 LATEX_NODES = 2000
 
 
-def _text(expr: sympy.Expr) -> str:
-    """``sstr`` with terms in lexicographic order; entries too large to typeset get the plain
-    printing of ``_plain`` (a 7-DOF arm's C_g: minutes with ``sstr``, seconds so)."""
-    return sympy.sstr(expr, order="lex") if is_small(expr, LATEX_NODES) else _plain(expr)
+def _text(expr: sympy.Expr, order: str = "lex") -> str:
+    """``sstr`` with terms in lexicographic order (a large robot's: SymPy's own order, like its
+    LaTeX); entries too large to typeset get the plain printing of ``_plain`` (a 7-DOF arm's
+    C_g: minutes with ``sstr``, seconds so)."""
+    return sympy.sstr(expr, order=order) if is_small(expr, LATEX_NODES) else _plain(expr)
 
 
 def _plain(expr: sympy.Expr) -> str:
@@ -68,14 +69,15 @@ def _plain(expr: sympy.Expr) -> str:
 
 
 def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict[str, object]:
+    order = fmt.order or "lex"
     if isinstance(value, sympy.MatrixBase):
         shape = [int(value.shape[0]), int(value.shape[1])]
         text = "Matrix([" + ", ".join(
-            "[" + ", ".join(_text(value[i, j]) for j in range(value.shape[1])) + "]"
+            "[" + ", ".join(_text(value[i, j], order) for j in range(value.shape[1])) + "]"
             for i in range(value.shape[0])) + "])"
     else:
         shape = [1, 1]
-        text = _text(value)
+        text = _text(value, order)
     # LaTeX of very large quantities (3-D arms' C_g) takes minutes and nobody reads it.
     latex = fmt.maybe(value, LATEX_NODES)
     entry: dict[str, object] = {"shape": shape, "sympy": text, "latex": latex}
@@ -85,7 +87,7 @@ def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict
 
 
 def render_json(derivation: Derivation) -> str:
-    fmt = Formatter(derivation)
+    fmt = Formatter.of(derivation)
     quantities = {name: quantity_entry(value, fmt, DESCRIPTIONS.get(name, ""))
                   for name, value in derivation.quantities.items()}
     document = {

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from pathlib import Path
 from typing import Any
 
@@ -25,15 +26,38 @@ WIDE_MATRIX = 320
 SHEET_TEMPLATE = "sheet.tex.j2"
 
 class Formatter:
-    """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``)."""
+    """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``).
+
+    One per derivation (``Formatter.of``), remembering what it printed: the sheet and the
+    JSON print the same quantities, and a large robot's thousands of intermediate variables
+    and its maximal model cost seconds to print. A large robot's sums are printed in SymPy's
+    own (canonical, deterministic) order rather than sorted, which takes half the time."""
+
+    _shared: weakref.WeakKeyDictionary[Derivation, Formatter] = weakref.WeakKeyDictionary()
 
     def __init__(self, derivation: Derivation):
         self.names = derivation.symbols.latex_names() | {
             name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
+        self.order = "none" if derivation.intermediate_form else None
+        self._printed: dict[Any, tuple[Any, str]] = {}
+
+    @classmethod
+    def of(cls, derivation: Derivation) -> Formatter:
+        """The derivation's formatter, made on first use."""
+        if derivation not in cls._shared:
+            cls._shared[derivation] = cls(derivation)
+        return cls._shared[derivation]
 
     def __call__(self, expr: Any) -> str:
-        return sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
-                           mul_symbol=None, long_frac_ratio=2)
+        # matrices are mutable, so unhashable: remembered by identity, with the object kept
+        key = id(expr) if isinstance(expr, sympy.MatrixBase) else expr
+        known = self._printed.get(key)
+        if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
+            return known[1]
+        text = sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
+                           mul_symbol=None, long_frac_ratio=2, order=self.order)
+        self._printed[key] = (expr, text)
+        return text
 
     def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> str | None:
         """LaTeX of ``expr``, or None when it is too large to read (or to typeset)."""
@@ -73,7 +97,7 @@ def _nodes_up_to(exprs: list[Any], limit: int) -> int:
 
 def sheet_context(derivation: Derivation) -> dict[str, Any]:
     """Every variable the sheet template can use (documented in docs/templates.md)."""
-    fmt = Formatter(derivation)
+    fmt = Formatter.of(derivation)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
     coordinate_latex = [fmt(s) for s in table.q]
