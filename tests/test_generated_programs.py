@@ -160,3 +160,42 @@ def test_robot_without_efforts_in_a_batch(tmp_path):
     # a pendulum about y: M = I_yy + m c^2 = 0.19, N = dV/dq = -m g c cos(q)
     np.testing.assert_allclose(qdd[:, 0], 9.81 * 0.3 * np.cos(q[:, 0]) / 0.19, rtol=1e-13)
     assert module.mass_matrix(np.zeros((0, 1))).shape == (0, 1, 1)
+
+
+@pytest.mark.parametrize("robot", ["panda", "ur5", "cart_pole_damped", "spatial_four_bar"])
+def test_program_printer_matches_sympys_printer(robot):
+    """The fast printer of program lines (``code._ProgramPrinter``) writes what the SymPy-based
+    ``_LinePrinter`` writes, character for character, on every line of a robot's programs."""
+    from dynderive.render.code import _LinePrinter, _ProgramPrinter
+
+    path = ROOT / "robots" / (f"{robot}.urdf" if robot in ("panda", "ur5") else f"{robot}.yaml")
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    fast, general = _ProgramPrinter({}), _LinePrinter({})
+    lines = [e for program in derivation.programs.values() for _, e in program.lines] + [
+        e for program in derivation.programs.values() for e in program.outputs]
+    assert len(lines) > 50
+    for expr in lines:
+        expr = fold_constants(sympy.sympify(expr), rationals=False)
+        assert fast(expr) == general.doprint(expr)
+
+
+def test_program_printer_keeps_the_meaning_of_every_form():
+    """Signs, fractions, powers, negative exponents and functions: the printed Python evaluates
+    to the expression's value (random points), and the names map to their slots."""
+    from dynderive.render.code import _ProgramPrinter
+
+    x, y, z = sympy.symbols("x y z")
+    forms = [-x, x - y, -x - y, x / y, -x / y, 1 / (x * y), 2 / x, -sympy.Rational(3, 7) * x / y,
+             sympy.Rational(3, 7) * x * y, -sympy.Rational(3, 7) * x * y, x**2 * y**-3, (x + y)**2,
+             -(x + y) * z, sympy.Float(-0.25) + x, sympy.Float(-0.25) * x * y, sympy.sin(x)**2 * sympy.cos(y),
+             x * (y - z) / (x + y), sympy.Rational(-1, 3) + x, 1 / (x + y)**2, (2 * x)**3, -x**2,
+             sympy.Integer(-4), sympy.Rational(5, 8), x**-1, sympy.sqrt(x + y), abs(x - y) * y]
+    printer = _ProgramPrinter({x: "a", y: "b"})
+    rng = random.Random(1)
+    env = {"sin": np.sin, "cos": np.cos, "sqrt": np.sqrt, "abs": abs}
+    for form in forms:
+        text = printer(form)
+        for _ in range(3):
+            values = {"a": rng.uniform(0.5, 2), "b": rng.uniform(0.5, 2), "z": rng.uniform(0.5, 2)}
+            expected = float(form.subs({x: values["a"], y: values["b"], z: values["z"]}))
+            assert eval(text, env, dict(values)) == pytest.approx(expected, rel=1e-12), (form, text)

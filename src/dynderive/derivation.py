@@ -258,7 +258,8 @@ class Derivation:
         self.report("maximal coordinates: equations of motion")
         quantities = maximal_equations(self.symbols, model, steps,
                                        self._loop_force() if self.robot.loops else None,
-                                       change_of_basis=not self.intermediate_form)
+                                       change_of_basis=not self.intermediate_form,
+                                       clean=quick_tidy if self.intermediate_form else tidy)
         self.quantities.update(quantities)
         self.steps["maximal"] = steps
 

@@ -83,8 +83,10 @@ def mass_matrix_from_jacobians(jacobians: Sequence[sympy.Matrix],
     total = sympy.zeros(n, n)
     for jac, inertia in zip(jacobians, inertias):
         weighted = inertia * jac
-        for i in range(n):
-            for j in range(i, n):
+        # only the columns a body moves (a maximal body: its own 3 of 3 n) give entries
+        columns = [i for i in range(n) if any(jac[r, i] != 0 for r in range(jac.shape[0]))]
+        for a, i in enumerate(columns):
+            for j in columns[a:]:
                 entry = sum((jac[r, i] * weighted[r, j] for r in range(jac.shape[0])), sympy.Integer(0))
                 total[i, j] += entry
                 if i != j:
@@ -101,11 +103,11 @@ def christoffel_coriolis(M: sympy.Matrix, q: Sequence[sympy.Symbol],
     ``Mdot - 2C`` is skew-symmetric. Each dM/dq_k is computed once (or passed in ``dM``).
     """
     n = M.shape[0]
-    if dM is None:
-        dM = [matrix_derivative(M, qk) for qk in q]
     C = sympy.zeros(n, n)
-    if all(e == 0 for d in dM for e in d):   # M constant (maximal coordinates): C = 0
-        return C
+    if dM is None:
+        if not M.free_symbols & set(q):   # M constant (maximal coordinates): C = 0
+            return C
+        dM = [matrix_derivative(M, qk) for qk in q]
     half = sympy.Rational(1, 2)
     for i in range(n):
         for j in range(n):

@@ -278,28 +278,30 @@ def _apply(clean: Callable[[sympy.Expr], sympy.Expr], matrix: sympy.Matrix) -> s
 
 def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: dict[str, Any],
                       loop_force: sympy.Matrix | None = None,
-                      change_of_basis: bool = True) -> dict[str, Any]:
+                      change_of_basis: bool = True,
+                      clean: Callable[[sympy.Expr], sympy.Expr] = tidy) -> dict[str, Any]:
     """The equations of motion of Problem 2 on the quantities of ``maximal_model``: the
     constrained Lagrange equations ``EOM_m1`` (2.4), the manipulator form ``EOM_m2`` (2.5),
     ``lambdaVec`` in closed form while it stays small (2.6) and, with ``change_of_basis``,
     the model mapped through H, ``EOM_g3`` (2.7). Fills ``steps``; returns the quantities.
 
     ``loop_force`` is ``A_g^T lambda_g``: the maximal loop multipliers equal ``-lambda_g``,
-    so EOM_g3 carries ``- A_g^T lambda_g`` like EOM_g1."""
+    so EOM_g3 carries ``- A_g^T lambda_g`` like EOM_g1. ``clean`` tidies the equations and
+    Lagrange's steps (a large robot's: ``quick_tidy``, as in ``maximal_model``)."""
     qm, qmd, qmdd = table.qm, table.qmd, table.qmdd
     a, A, Adot, Y, M, C, N = (model[k] for k in ("a_m", "A_m", "Adot_m", "Y_m", "M_m", "C_m", "N_m"))
     F = model.get("F_m", sympy.zeros(len(qm), 1))
     lam = sympy.Matrix(table.multipliers)
     lagrange = lagrange_steps(model["L_m"], qm, qmd, qmdd)
-    EOM_m1 = (lagrange.lhs + F + A.T * lam - Y).applyfunc(tidy)
+    EOM_m1 = (lagrange.lhs + F + A.T * lam - Y).applyfunc(clean)
     qmd_vec = sympy.Matrix(qmd)
-    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + F + A.T * lam - Y).applyfunc(tidy)
+    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + F + A.T * lam - Y).applyfunc(clean)
     lambda_vec = _closed_form_lambda(M, A, Adot, Y - F, C, N, qmd_vec)
     quantities: dict[str, Any] = {"EOM_m1": EOM_m1, "EOM_m2": EOM_m2}
     if lambda_vec is not None:
         quantities["lambdaVec"] = lambda_vec
-    steps |= {"lagrange": {"dL_dqd": tidy_matrix(lagrange.dL_dqd), "ddt_dL_dqd": tidy_matrix(lagrange.ddt_dL_dqd),
-                           "dL_dq": tidy_matrix(lagrange.dL_dq)},
+    steps |= {"lagrange": {"dL_dqd": lagrange.dL_dqd.applyfunc(clean),
+                           "ddt_dL_dqd": lagrange.ddt_dL_dqd.applyfunc(clean), "dL_dq": lagrange.dL_dq.applyfunc(clean)},
               "lambda_symbolic": lambda_vec is not None}
     if not change_of_basis:
         return quantities

@@ -123,6 +123,118 @@ class _LinePrinter(StrPrinter):
         return super()._print_Mul(expr)
 
 
+class _ProgramPrinter:
+    """Python for the lines of a straight-line program, fast: the lines are sums, products
+    and integer powers of names and numbers, and sines and cosines, and SymPy's general
+    printer spends half a millisecond on each (its precedence rules ask the assumptions
+    system about signs): 13 s for a 30-joint chain's Coriolis body. Any other node goes to
+    ``_LinePrinter``, whose output this one matches in meaning (tests compare the two)."""
+
+    def __init__(self, names: dict[sympy.Symbol, str]):
+        self.names = names
+        self.general = _LinePrinter(names)
+
+    def __call__(self, expr: sympy.Basic) -> str:
+        return self._text(expr)
+
+    def _text(self, expr: sympy.Basic) -> str:
+        if expr.is_Symbol:
+            return self.names.get(expr, expr.name)  # type: ignore[call-overload]
+        if expr.is_Number:
+            text = self._number(expr)
+            return f"({text})" if text.startswith("-") else text
+        if expr.is_Add:
+            return self._sum(expr)
+        if expr.is_Mul:
+            text = self._product(expr)
+            return text
+        if expr.is_Pow and expr.exp.is_Integer:
+            return self._power(expr)
+        if expr.is_Function and type(expr).__name__ in BODY_FUNCTIONS:
+            return f"{type(expr).__name__}({', '.join(self._text(a) for a in expr.args)})"
+        return self.general.doprint(expr)
+
+    @staticmethod
+    def _number(expr: sympy.Basic) -> str:
+        if expr.is_Integer:
+            return str(expr.p)   # type: ignore[attr-defined]
+        if expr.is_Rational or expr.is_Float:
+            return repr(float(expr))
+        raise CodeGenerationError(f"unexpected number {expr} in a program line")
+
+    @staticmethod
+    def _negative(expr: sympy.Basic) -> bool:
+        """A negative number, or a product with a negative coefficient (read off the number
+        itself: SymPy's ``is_negative`` consults the assumptions system)."""
+        number = expr if expr.is_Number else expr.args[0] if expr.is_Mul else None
+        if number is None or not number.is_Number:
+            return False
+        return number.p < 0 if number.is_Rational else float(number) < 0
+
+    def _sum(self, expr: sympy.Basic) -> str:
+        parts = []
+        for index, term in enumerate(expr.args):
+            negative = self._negative(term)
+            text = self._product(term, negate=True) if negative and term.is_Mul else (
+                self._number(-term) if negative else self._factor(term, in_sum=True))
+            if index == 0 and negative and term.is_Float:
+                parts.append(f"(-{text})")
+            elif index == 0:
+                parts.append(f"-{text}" if negative else text)
+            else:
+                parts.append(f" - {text}" if negative else f" + {text}")
+        return "".join(parts)
+
+    def _factor(self, expr: sympy.Basic, in_sum: bool = False) -> str:
+        """A factor of a product (a term of a sum with ``in_sum``): sums in parentheses."""
+        if expr.is_Add and not in_sum:
+            return f"({self._sum(expr)})"
+        if expr.is_Mul:
+            return self._product(expr)
+        return self._text(expr)
+
+    def _product(self, expr: sympy.Basic, negate: bool = False) -> str:
+        coefficient, rest = expr.as_coeff_Mul()
+        if negate:
+            coefficient = -coefficient
+        numerator, denominator = [], []
+        for factor in sympy.Mul.make_args(rest):
+            if factor.is_Pow and factor.exp.is_Integer and factor.exp.p < 0:
+                denominator.append(factor.base if factor.exp == -1 else sympy.Pow(factor.base, -factor.exp))
+            else:
+                numerator.append(factor)
+        text = "*".join(self._power_factor(f) for f in numerator) or "1"
+        if denominator:
+            below = "*".join(self._power_factor(f) for f in denominator)
+            text = f"{text}/{below}" if len(denominator) == 1 and not denominator[0].is_Pow else f"{text}/({below})"
+        sign = ""
+        if coefficient is sympy.S.NegativeOne:
+            sign = "-"
+        elif coefficient is not sympy.S.One:
+            number = self._number(coefficient)
+            if number.startswith("-"):
+                sign, number = "-", number[1:]
+            if coefficient.is_Rational and not coefficient.is_Integer and not sign and not negate \
+                    and len(numerator) + len(denominator) > 1:
+                text = f"({text})"   # a positive fraction times the rest, as it was always printed
+            text = f"{number}*{text}" if text != "1" else number
+        return sign + text
+
+    def _power_factor(self, expr: sympy.Basic) -> str:
+        if expr.is_Add:
+            return f"({self._sum(expr)})"
+        return self._text(expr)
+
+    def _power(self, expr: sympy.Basic) -> str:
+        base, exponent = expr.args
+        if exponent.p < 0:
+            return self._product(expr)
+        inner = self._text(base)
+        if not (base.is_Symbol or (base.is_Number and not inner.startswith("("))):
+            inner = f"({inner})"
+        return f"{inner}**{exponent}"
+
+
 @dataclass
 class ProgramFunction:
     """A straight-line body (see ``recursive.py``) printed with reused local names."""
@@ -160,12 +272,12 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             last_use[symbol] = end
     targets = {target for target, _ in body}
     slot: dict[sympy.Symbol, str] = {}
-    printer = _LinePrinter(slot)
+    printer = _ProgramPrinter(slot)
     free: list[str] = []
     count = 0
     lines = []
     for position, (target, expr) in enumerate(body):
-        text = Code(printer.doprint(fold_constants(expr, rationals=False)))
+        text = Code(printer(fold_constants(expr, rationals=False)))
         for symbol in sorted(expr.free_symbols & targets, key=str):
             if last_use[symbol] == position:
                 free.append(slot[symbol])
@@ -175,7 +287,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             slot[target] = f"_r{count}"
             count += 1
         lines.append((slot[target], text))
-    outputs = [Code(printer.doprint(fold_constants(e, rationals=False))) for e in program.outputs]
+    outputs = [Code(printer(fold_constants(e, rationals=False))) for e in program.outputs]
     operations = sum(operation_count(e) for _, e in body) + operation_count(sympy.Matrix(program.outputs))
     used = {m.group(1) for text in [*(t for _, t in lines), *outputs] for m in _CALL.finditer(text)}
     functions = tuple(f for f in BODY_FUNCTIONS if f in used)
