@@ -10,7 +10,8 @@ exporters write it): planar chains of 2, 4, 8, 12, 20, 30 joints and generic 3-D
 Each row runs in its own subprocess (so peak memory is that robot's alone):
 
 1. ``solve --code``: load, derive what the module needs, render and verify it (s, peak MB);
-2. all outputs, ``--latex --code --json`` (s), where the issue sets a goal or it is cheap;
+2. all outputs, ``--latex --code --json`` (s), in a fresh process of its own, where the issue
+   sets a goal or it is cheap;
 3. the generated code per state (a batch of 10 k states): ``mass_matrix`` and
    ``forward_dynamics`` (ns per state); for the Panda also the module generated before issue 17
    (``benchmarks/baseline/panda_dynamics.py``), measured in the same run;
@@ -59,8 +60,8 @@ def _module_timings(module, n: int, batch: int) -> dict:
             "forward_dynamics_ns": _batch_ns(module.forward_dynamics, [q, qd, u])}
 
 
-def measure(robot: str, outputs: bool, batch: int) -> dict:
-    """In a subprocess: one robot's `--code` run, all outputs, and its module's timings."""
+def measure(robot: str, batch: int) -> dict:
+    """In a subprocess: one robot's `--code` run and its module's timings."""
     import dynderive
     from dynderive.verify.checks import generated_module
 
@@ -73,23 +74,27 @@ def measure(robot: str, outputs: bool, batch: int) -> dict:
     row["code_peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     row["dof"] = n = len(model.coordinates)
     row["intermediate_form"] = derivation.intermediate_form
-    if outputs:
-        from dynderive.render.json import render_json
-
-        start = time.perf_counter()
-        model = dynderive.load_robot(robot)
-        derivation = dynderive.derive(model)
-        dynderive.render_latex(derivation)
-        dynderive.render_code(derivation)
-        render_json(derivation)
-        row["all_s"] = time.perf_counter() - start
-        row["all_peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        row["checks_failed"] = [c.name for c in derivation.checks if not c.passed and not c.skipped]
     row.update(_module_timings(generated_module(source, "scaling_module"), n, batch))
     if Path(robot).stem == "panda":
         baseline = generated_module((ROOT / "benchmarks" / "baseline" / "panda_dynamics.py").read_text(), "baseline")
         row.update({f"baseline_{k}": v for k, v in _module_timings(baseline, n, batch).items()})
     return row
+
+
+def measure_outputs(robot: str) -> dict:
+    """In a fresh subprocess (no cache warmed by the `--code` run): every output,
+    ``--latex --code --json``, from loading the file to the last rendered string."""
+    import dynderive
+    from dynderive.render.json import render_json
+
+    start = time.perf_counter()
+    derivation = dynderive.derive(dynderive.load_robot(robot))
+    dynderive.render_latex(derivation)
+    dynderive.render_code(derivation)
+    render_json(derivation)
+    return {"all_s": time.perf_counter() - start,
+            "all_peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+            "checks_failed": [c.name for c in derivation.checks if not c.passed and not c.skipped]}
 
 
 def measure_kane(robot: str) -> dict:
@@ -172,10 +177,13 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=ROOT / "benchmarks" / "scaling.json")
     parser.add_argument("--measure", help=argparse.SUPPRESS)
     parser.add_argument("--kane", help=argparse.SUPPRESS)
-    parser.add_argument("--outputs", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--outputs", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.measure:
-        print(json.dumps(measure(args.measure, args.outputs, args.batch)))
+        print(json.dumps(measure(args.measure, args.batch)))
+        return
+    if args.outputs:
+        print(json.dumps(measure_outputs(args.outputs)))
         return
     if args.kane:
         print(json.dumps(measure_kane(args.kane)))
@@ -197,11 +205,13 @@ def main() -> None:
             paths.append((name, str(path)))
         for name, path in paths:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
-            extra = ["--batch", str(args.batch)] + (["--outputs"] if name in ALL_OUTPUTS else [])
-            row = _child("--measure", path, extra, args.timeout)
+            row = _child("--measure", path, ["--batch", str(args.batch)], args.timeout)
             if row is None:
                 continue
             row["robot"] = name
+            if name in ALL_OUTPUTS:
+                outputs = _child("--outputs", path, [], args.timeout) or {}
+                row.update({"all_timed_out": outputs["timed_out"]} if "timed_out" in outputs else outputs)
             if not args.no_kane and not args.quick and name != "panda":
                 kane = _child("--kane", path, [], args.kane_timeout)
                 if kane is not None and "timed_out" in kane:

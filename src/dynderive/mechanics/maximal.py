@@ -25,7 +25,7 @@ from .lagrange import (
     mass_matrix_from_jacobians,
 )
 from .planar import PlanarLinkKinematics
-from .tidy import tidy, tidy_matrix
+from .tidy import quick_tidy, tidy, tidy_matrix
 
 #: Above this many operations in A M^-1 A^T, lambda is not solved symbolically (the
 #: generated code always solves it numerically).
@@ -260,7 +260,9 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
 
     # 2.7 change of basis
     h = sympy.Matrix([e for kin in links for e in (*kin.com_world, kin.angle)]).applyfunc(clean)
-    H = _apply(clean, jacobian(h, table.q))
+    H = jacobian(h, table.q)
+    if clean is not quick_tidy:   # expanded sines and cosines differentiate to expanded ones
+        H = _apply(clean, H)
     quantities: dict[str, Any] = {
         "q_m": sympy.Matrix(qm), "a_m": a, "A_m": A, "Adot_m": Adot,
         "T_m": T, "V_m": V, "L_m": T - V, "Y_m": Y, "M_m": M, "C_m": C, "N_m": N,

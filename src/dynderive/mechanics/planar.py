@@ -9,6 +9,7 @@ come out compact without any trigonometric simplification.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import sympy
 
@@ -67,17 +68,40 @@ class JointFrame:
 
 @dataclass
 class PlanarLinkKinematics:
-    """Kinematics of one link's COM frame."""
+    """Kinematics of one link's COM frame. The joint point and the body Jacobian are worked
+    out on first use: the maximal model of a large chain needs only the COM poses, and the
+    Jacobians of 30 full-precision links cost seconds."""
 
     name: str
     angle: sympy.Expr                 # world angle of the link (and COM) frame
     com_position: RotatedSum          # world position of the COM, as a rotated sum
-    joint_origin: sympy.Matrix        # world position of the link frame origin (joint point)
-    body_jacobian: sympy.Matrix       # 3 x n: (vx, vy, omega) of the COM frame in its own axes
+    _origin: RotatedSum = field(repr=False)          # world position of the link frame origin
+    _frames: list[JointFrame] = field(repr=False)    # moving joints on the link's path
+    _coordinates: int = field(repr=False)
 
     @property
     def com_world(self) -> sympy.Matrix:
         return self.com_position.in_frame(sympy.Integer(0))
+
+    @cached_property
+    def joint_origin(self) -> sympy.Matrix:
+        """World position of the link frame origin (joint point)."""
+        return self._origin.in_frame(sympy.Integer(0))
+
+    @cached_property
+    def body_jacobian(self) -> sympy.Matrix:
+        """3 x n: (vx, vy, omega) of the COM frame in its own axes, per joint rate."""
+        jacobian = sympy.zeros(3, self._coordinates)
+        for frame in self._frames:
+            vx, vy, omega = frame.twist
+            # velocity of the COM from this joint: the joint's own translation rate, plus
+            # omega z x (COM - joint origin); both rotated into the COM frame.
+            lever = self.com_position.tail(frame.position_index).in_frame(self.angle)
+            own = RotatedSum([(frame.angle, [vx, vy])]).in_frame(self.angle)
+            jacobian[0, frame.coordinate] = own[0] - omega * lever[1]
+            jacobian[1, frame.coordinate] = own[1] + omega * lever[0]
+            jacobian[2, frame.coordinate] = omega
+        return jacobian
 
 
 def planar_kinematics(robot: Robot, table: SymbolTable) -> list[PlanarLinkKinematics]:
@@ -101,18 +125,8 @@ def planar_kinematics(robot: Robot, table: SymbolTable) -> list[PlanarLinkKinema
                 frames.append(JointFrame(index_of[joint.name], len(position.terms), angle, motion.twist))
             position.add(angle, motion.shift)
             angle = angle + motion.angle
-        origin = position.in_frame(sympy.Integer(0))
+        origin = position.copy()
         cx, cy = (table.expr(e) for e in link.com)
         position.add(angle, (cx, cy))
-        jacobian = sympy.zeros(3, n)
-        for frame in frames:
-            vx, vy, omega = frame.twist
-            # velocity of the COM from this joint: the joint's own translation rate, plus
-            # omega z x (COM - joint origin); both rotated into the COM frame.
-            lever = position.tail(frame.position_index).in_frame(angle)
-            own = RotatedSum([(frame.angle, [vx, vy])]).in_frame(angle)
-            jacobian[0, frame.coordinate] = own[0] - omega * lever[1]
-            jacobian[1, frame.coordinate] = own[1] + omega * lever[0]
-            jacobian[2, frame.coordinate] = omega
-        results.append(PlanarLinkKinematics(link.name, angle, position, origin, jacobian))
+        results.append(PlanarLinkKinematics(link.name, angle, position, origin, frames, n))
     return results

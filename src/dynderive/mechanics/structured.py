@@ -29,9 +29,10 @@ from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
 from .recursive import GeneralizedProgram
 from .tidy import tidy
 
-#: Planar robots with more coordinates than this are derived in intermediate-variable form
-#: (a planar chain of 8 full-precision links took 70 s expanded, 3-D robots: LAGRANGE_DOF_LIMIT).
-PLANAR_EXPLICIT_DOF = 6
+#: Planar robots with more coordinates than this are derived in intermediate-variable form, as
+#: 3-D ones beyond LAGRANGE_DOF_LIMIT. Measured, every output of a planar chain of 6 links:
+#: expanded 25 s (round numbers) and 41 s (full precision), in this form 2.3 s and 4.3 s.
+PLANAR_EXPLICIT_DOF = 4
 
 
 def intermediate_form(robot: Robot) -> bool:
