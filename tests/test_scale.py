@@ -64,7 +64,7 @@ def _both_forms(robot, monkeypatch):
     return expanded, iv
 
 
-NAMES = ["T_g", "V_g", "L_g", "M_g", "C_g", "N_g", "EOM_g2"]
+NAMES = ["T_g", "V_g", "L_g", "M_g", "C_g", "N_g", "EOM_g1", "EOM_g2"]
 
 
 @pytest.mark.parametrize("kind", ["planar", "spatial"])
@@ -77,7 +77,7 @@ def test_intermediate_form_equals_expanded(kind, tmp_path, monkeypatch):
     expanded, iv = _both_forms(robot, monkeypatch)
     names = NAMES + [f"J_b{k}" for k in range(1, len(robot.links) + 1)]
     assert set(names) <= set(iv.keys())
-    assert "EOM_g1" not in iv and len(iv.intermediates) > 10
+    assert len(iv.intermediates) > 10
     document = json.loads(render_json(iv))
     scope = iv.symbols.locals()
     intermediates = [(sympy.Symbol(name), sympy.sympify(entry["sympy"], locals=scope))
@@ -91,6 +91,24 @@ def test_intermediate_form_equals_expanded(kind, tmp_path, monkeypatch):
             reference = _numeric(expanded[name], values, [])
             assert ours.shape == reference.shape, name
             np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-10, err_msg=name)
+        for step in ("dL_dqd", "ddt_dL_dqd", "dL_dq"):   # Lagrange's steps, over the names
+            ours = _numeric(iv.steps["generalized"]["lagrange"][step], values, iv.intermediates)
+            reference = _numeric(expanded.steps["generalized"]["lagrange"][step], values, [])
+            np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-10, err_msg=step)
+
+
+def test_lagrange_check_over_intermediates_can_fail(tmp_path, monkeypatch):
+    """EOM_g1 == EOM_g2 of a large robot is evaluated with the intermediates: it passes as
+    derived, and fails when the gravity terms are off by a little."""
+    from dynderive.derivation import _zero_over_intermediates
+
+    _, iv = _both_forms(_load(tmp_path, planar_chain_yaml(3, seed=4)), monkeypatch)
+    check = next(c for c in iv.checks if c.name == "EOM_g1 == EOM_g2")
+    assert check.passed and check.method == "numeric"
+    difference = sympy.Matrix(iv["EOM_g1"]) - iv["EOM_g2"]
+    wrong = difference + sympy.Matrix([1e-6 * sympy.cos(iv.symbols.q[0])] + [0] * (len(iv.symbols.q) - 1))
+    failed = _zero_over_intermediates(iv, "x", "", wrong, iv["EOM_g2"])
+    assert not failed.passed and failed.residual > 1e-7
 
 
 #: A title with Python, LaTeX and YAML specials: it must reach the outputs as inert text.

@@ -136,8 +136,8 @@ def solve(
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     if derivation.intermediate_form and not quiet:
-        typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N and the energies are "
-                   "derived in intermediate-variable form (named sub-expressions; EOM_g1 is not derived)", err=True)
+        typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
+                   "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
     if tests and not code:
         raise InputError(_problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     if not (latex or pdf or code or json_):

@@ -402,8 +402,33 @@ def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
     return sympy.diff(expr, symbol)
 
 
-def _coriolis(tree: _Tree, M: list[list[sympy.Expr]]) -> list[sympy.Expr]:
-    """The Christoffel-symbol Coriolis matrix ``C(q, qd)`` of the CRBA's ``M``, row by row.
+def _forward(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
+             symbols: set[sympy.Symbol] | None = None) -> sympy.Expr:
+    """The tangent of ``expr`` (forward mode): ``sum_s d expr/d s * tangent[s]`` over its names
+    (``symbols``, if known) that have one; sines and cosines of coordinates in terms of the
+    program's trig lines (``trig``)."""
+    expr = sympy.sympify(expr)
+    moving = sorted((s for s in (expr.free_symbols if symbols is None else symbols) if s in tangent), key=str)
+    if not moving:
+        return sympy.Integer(0)
+    if expr.is_Function:   # a sine or cosine of a coordinate: in terms of the trig lines
+        return sympy.Add(*(sympy.diff(expr, s) * tangent[s] for s in moving)).xreplace(trig)
+    return sympy.Add(*(_partial(expr, s) * tangent[s] for s in moving))
+
+
+@dataclass
+class _Passes:
+    """The forward passes of ``_coriolis``: per coordinate k, the tangent (d/dq_k) of every
+    line of the first ``lines`` lines that has one, by name."""
+
+    tangents: list[dict[sympy.Symbol, sympy.Expr]]
+    lines: int
+    trig: dict[sympy.Expr, sympy.Symbol]
+
+
+def _coriolis(tree: _Tree, M: list[list[sympy.Expr]]) -> tuple[list[sympy.Expr], list[list[list[sympy.Expr]]], _Passes]:
+    """The Christoffel-symbol Coriolis matrix ``C(q, qd)`` of the CRBA's ``M``, row by row,
+    with ``dM/dq_k`` (``[k][i][j]``) and the passes that gave it.
 
     ``dM/dq_k`` comes from differentiating the program line by line (forward mode: each
     line's tangent from its own small expression), then
@@ -413,30 +438,22 @@ def _coriolis(tree: _Tree, M: list[list[sympy.Expr]]) -> list[sympy.Expr]:
     n = len(table.q)
     lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
     trig = {expr: name for name, expr in program.lines[:len(tree.trig())]}
-
-    def derivative(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr],
-                   symbols: set[sympy.Symbol] | None = None) -> sympy.Expr:
-        expr = sympy.sympify(expr)
-        moving = sorted((s for s in (expr.free_symbols if symbols is None else symbols) if s in tangent), key=str)
-        if not moving:
-            return sympy.Integer(0)
-        if expr.is_Function:   # a sine or cosine of a coordinate: in terms of the trig lines
-            return sympy.Add(*(sympy.diff(expr, s) * tangent[s] for s in moving)).xreplace(trig)
-        return sympy.Add(*(_partial(expr, s) * tangent[s] for s in moving))
-
     dM = []
+    tangents = []
     for k in range(n):
         tangent: dict[sympy.Symbol, sympy.Expr] = {table.q[k]: sympy.Integer(1)}
         for name, expr, symbols in lines:
-            d = derivative(expr, tangent, symbols)
+            d = _forward(expr, tangent, trig, symbols)
             if d != 0:
                 tangent[name] = program.let(d)
-        dM.append([[derivative(M[i][j], tangent) for j in range(n)] for i in range(n)])
+        dM.append([[program.let(_forward(M[i][j], tangent, trig)) for j in range(n)] for i in range(n)])
+        tangents.append(tangent)
     half = sympy.Rational(1, 2)
     qd = table.qd
-    return [program.let(half * sum((qd[k] * (dM[k][i][j] + dM[j][i][k] - dM[i][j][k]) for k in range(n)),
-                                   sympy.Integer(0)))
-            for i in range(n) for j in range(n)]
+    C = [program.let(half * sum((qd[k] * (dM[k][i][j] + dM[j][i][k] - dM[i][j][k]) for k in range(n)),
+                                sympy.Integer(0)))
+         for i in range(n) for j in range(n)]
+    return C, dM, _Passes(tangents, len(lines), trig)
 
 
 def coriolis_note(n: int, lines: int) -> str:
@@ -507,13 +524,42 @@ class GeneralizedProgram:
         report(f"program: mass matrix (composite rigid bodies, {n} coordinates)")
         self.mass_matrix = _composite_mass_matrix(tree)
         report("program: " + coriolis_note(n, len(program.lines)))
-        self.coriolis = _coriolis(tree, self.mass_matrix)        # row by row
+        self.coriolis, self.mass_matrix_derivatives, self._passes = _coriolis(tree, self.mass_matrix)
         report("program: gravity vector and potential energy")
         zeros = [sympy.Integer(0)] * n
         self.gravity = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
         self.potential = _potential(tree)
         self.trig = tree.trig()
         self._jacobians: dict[str, sympy.Matrix] | None = None
+        self._potential_gradient: list[sympy.Expr] | None = None
+
+    @property
+    def potential_gradient(self) -> list[sympy.Expr]:
+        """``dV/dq_k`` for every k (Lagrange's route to the gravity terms, where ``gravity``
+        is Newton-Euler's): the Coriolis passes carried on over the lines V reads."""
+        if self._potential_gradient is None:
+            self._potential_gradient = self._gradient(self.potential)
+        return self._potential_gradient
+
+    def _gradient(self, expr: sympy.Expr) -> list[sympy.Expr]:
+        definitions = dict(self.program.lines)
+        needed: set[sympy.Symbol] = set()
+        pending = [s for s in sympy.sympify(expr).free_symbols if s in definitions]
+        while pending:
+            symbol = pending.pop()
+            if symbol not in needed:
+                needed.add(symbol)
+                pending += [s for s in definitions[symbol].free_symbols if s in definitions]
+        later = [(name, e, e.free_symbols) for name, e in self.program.lines[self._passes.lines:] if name in needed]
+        gradient = []
+        for passed in self._passes.tangents:
+            tangent = dict(passed)
+            for name, e, symbols in later:
+                d = _forward(e, tangent, self._passes.trig, symbols)
+                if d != 0:
+                    tangent[name] = self.program.let(d)
+            gradient.append(self.program.let(_forward(expr, tangent, self._passes.trig)))
+        return gradient
 
     @property
     def jacobians(self) -> dict[str, sympy.Matrix]:

@@ -44,9 +44,12 @@ def intermediate_form(robot: Robot) -> bool:
 def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedProgram,
                            report: Callable[[str], None] = lambda stage: None
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The quantities of ``derive_generalized`` but ``EOM_g1`` (no Lagrange route at this
-    size), over intermediate variables; the steps hold ``intermediates``, the ordered
-    ``(name, definition)`` pairs, for ``Derivation.intermediates``."""
+    """The quantities of ``derive_generalized`` over intermediate variables; the steps hold
+    ``intermediates``, the ordered ``(name, definition)`` pairs, for ``Derivation.intermediates``,
+    and Lagrange's steps. ``EOM_g1`` takes Lagrange's route over the same names: ``dM/dq_k``
+    from the mass-matrix program differentiated, ``dV/dq`` from the potential program
+    differentiated (where ``N_g`` is Newton-Euler's), so ``EOM_g1 == EOM_g2`` checks the
+    Christoffel assembly of C and the gravity terms."""
     n = len(robot.coordinates)
     jacobians = [built.jacobians[link.name] for link in robot.links]
     report("intermediate variables")
@@ -54,7 +57,16 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
     M = sympy.Matrix(n, n, [e for row in built.mass_matrix for e in row])
     C = sympy.Matrix(n, n, built.coriolis)
     N = sympy.Matrix(built.gravity)
-    outputs: list[Any] = [M, C, N, built.potential, *jacobians]
+    # Lagrange's route over the same names: dL/dqd = M qd, d/dt dL/dqd = M qdd + sum_k dM/dq_k
+    # qd_k qd, dL/dq_i = qd^T dM/dq_i qd / 2 - dV/dq_i (the potential program differentiated)
+    qd, qdd = sympy.Matrix(table.qd), sympy.Matrix(table.qdd)
+    dM = [sympy.Matrix(n, n, [e for row in built.mass_matrix_derivatives[k] for e in row]) for k in range(n)]
+    dV = sympy.Matrix(built.potential_gradient)
+    Mdot = sum((dM[k] * table.qd[k] for k in range(n)), sympy.zeros(n, n))
+    dL_dqd = M * qd
+    ddt_dL_dqd = M * qdd + Mdot * qd
+    dL_dq = sympy.Matrix([(qd.T * dM[i] * qd)[0, 0] / 2 for i in range(n)]) - dV
+    outputs: list[Any] = [M, C, N, built.potential, dL_dqd, ddt_dL_dqd, dL_dq, *jacobians]
     # keep the lines the outputs use, in order; names for them, sines and cosines inlined
     definitions = dict(built.program.lines)
     needed: set[sympy.Symbol] = set()
@@ -81,19 +93,34 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
     M, C, N = (m.xreplace(rename) for m in (M, C, N))
     V = sympy.sympify(built.potential).xreplace(rename)
     jacobians = [j.xreplace(rename) for j in jacobians]
+    rates = set(table.qd) | set(table.qdd)
+    lagrange = {key: value.xreplace(rename).applyfunc(lambda e: _by_rates(e, rates)) for key, value in
+                (("dL_dqd", dL_dqd), ("ddt_dL_dqd", ddt_dL_dqd), ("dL_dq", dL_dq))}
 
     drives = drive_terms(robot, table)
-    qd, qdd = sympy.Matrix(table.qd), sympy.Matrix(table.qdd)
     T = sympy.expand((qd.T * M * qd)[0, 0] / 2)
     F = drives.forces.applyfunc(tidy)
     Y = applied_forces(robot, table)
+    EOM_g1 = (lagrange["ddt_dL_dqd"] - lagrange["dL_dq"] + F - Y).applyfunc(lambda e: _by_rates(e, rates))
     EOM_g2 = (M * qdd + C * qd + N + F - Y).applyfunc(sympy.expand)
-    quantities: dict[str, Any] = {"T_g": T, "V_g": V, "L_g": T - V, "Y_g": Y,
+    quantities: dict[str, Any] = {"T_g": T, "V_g": V, "L_g": T - V, "Y_g": Y, "EOM_g1": EOM_g1,
                                   "M_g": M, "C_g": C, "N_g": N, "EOM_g2": EOM_g2}
     if robot.dissipative:
         quantities |= {"D_g": tidy(drives.dissipation), "F_g": F}
     for k, jacobian in enumerate(jacobians, start=1):
         quantities[f"J_b{k}"] = jacobian
-    steps = {"links": [], "lagrange": None, "drives": drives, "intermediates": intermediates,
+    steps = {"links": [], "lagrange": lagrange, "drives": drives, "intermediates": intermediates,
              "gravity": sympy.Matrix([table.expr(e) for e in robot.gravity])}
     return quantities, steps
+
+
+def _by_rates(expr: sympy.Expr, rates: set[sympy.Symbol]) -> sympy.Expr:
+    """``expr`` expanded, then grouped by its products of joint rates and accelerations:
+    ``(w_151 + w_164) qd_2 qd_3`` rather than two terms (each dM/dq_k entry is a name)."""
+    groups: dict[sympy.Expr, list[sympy.Expr]] = {}
+    for term in sympy.Add.make_args(sympy.expand(expr)):
+        moving, rest = [], []
+        for factor in sympy.Mul.make_args(term):
+            (moving if (factor.base if factor.is_Pow else factor) in rates else rest).append(factor)
+        groups.setdefault(sympy.Mul(*moving), []).append(sympy.Mul(*rest))
+    return sympy.Add(*(sympy.Add(*coefficients) * key for key, coefficients in groups.items()))
