@@ -322,7 +322,7 @@ def _gravity_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05
     _r0 = -_r4*_r0
     _r4 = -_r3*g
     _r6 = _r2*g
-    _r5 = -_r6*_r5
+    _r5 = -_r5*_r6
     _r4 = _r4*m2
     _r6 = _r6*m2
     _r6 = _r2*_r4 + _r3*_r6
@@ -349,9 +349,9 @@ def _potential_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-
     _r0 = -_r0*g
     _r4 = c*g
     _r1 = _r1*g
-    _r1 = -_r2*_r0 - _r3*_r1 - _r4*m3
+    _r3 = -_r0*_r2 - _r4*m3 - _r1*_r3
     return (
-        _r1,
+        _r3,
     )
 
 
