@@ -60,13 +60,10 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
     # Lagrange's route over the same names: dL/dqd = M qd, d/dt dL/dqd = M qdd + sum_k dM/dq_k
     # qd_k qd, dL/dq_i = qd^T dM/dq_i qd / 2 - dV/dq_i (the potential program differentiated)
     qd, qdd = sympy.Matrix(table.qd), sympy.Matrix(table.qdd)
-    dM = [sympy.Matrix(n, n, [e for row in built.mass_matrix_derivatives[k] for e in row]) for k in range(n)]
-    dV = sympy.Matrix(built.potential_gradient)
-    Mdot = sum((dM[k] * table.qd[k] for k in range(n)), sympy.zeros(n, n))
-    dL_dqd = M * qd
-    ddt_dL_dqd = M * qdd + Mdot * qd
-    dL_dq = sympy.Matrix([(qd.T * dM[i] * qd)[0, 0] / 2 for i in range(n)]) - dV
-    outputs: list[Any] = [M, C, N, built.potential, dL_dqd, ddt_dL_dqd, dL_dq, *jacobians]
+    dM = built.mass_matrix_derivatives   # [k][i][j]: names or numbers
+    dV = built.potential_gradient
+    outputs: list[Any] = [M, C, N, built.potential, sympy.Matrix(n * n, n, [e for d in dM for r in d for e in r]),
+                          sympy.Matrix(dV), *jacobians]
     # keep the lines the outputs use, in order; names for them, sines and cosines inlined
     definitions = dict(built.program.lines)
     needed: set[sympy.Symbol] = set()
@@ -93,14 +90,14 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
     M, C, N = (m.xreplace(rename) for m in (M, C, N))
     V = sympy.sympify(built.potential).xreplace(rename)
     jacobians = [j.xreplace(rename) for j in jacobians]
-    rates = set(table.qd) | set(table.qdd)
-    lagrange = {key: value.xreplace(rename).applyfunc(lambda e: _by_rates(e, rates)) for key, value in
-                (("dL_dqd", dL_dqd), ("ddt_dL_dqd", ddt_dL_dqd), ("dL_dq", dL_dq))}
+    lagrange = _lagrange_steps(M, [[[sympy.sympify(e).xreplace(rename) for e in r] for r in d] for d in dM],
+                               [sympy.sympify(e).xreplace(rename) for e in dV], table)
 
     drives = drive_terms(robot, table)
     T = sympy.expand((qd.T * M * qd)[0, 0] / 2)
     F = drives.forces.applyfunc(tidy)
     Y = applied_forces(robot, table)
+    rates = set(table.qd) | set(table.qdd)
     EOM_g1 = (lagrange["ddt_dL_dqd"] - lagrange["dL_dq"] + F - Y).applyfunc(lambda e: _by_rates(e, rates))
     EOM_g2 = (M * qdd + C * qd + N + F - Y).applyfunc(sympy.expand)
     quantities: dict[str, Any] = {"T_g": T, "V_g": V, "L_g": T - V, "Y_g": Y, "EOM_g1": EOM_g1,
@@ -112,6 +109,35 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
     steps = {"links": [], "lagrange": lagrange, "drives": drives, "intermediates": intermediates,
              "gravity": sympy.Matrix([table.expr(e) for e in robot.gravity])}
     return quantities, steps
+
+
+def _lagrange_steps(M: sympy.Matrix, dM: list[list[list[sympy.Expr]]], dV: list[sympy.Expr],
+                    table: SymbolTable) -> dict[str, sympy.Matrix]:
+    """Lagrange's steps over the names, each grouped by products of joint rates:
+    ``dL/dqd_i = sum_j M_ij qd_j``, ``d/dt dL/dqd_i = sum_j M_ij qdd_j + sum_jk dM_ij/dq_k qd_j qd_k``,
+    ``dL/dq_i = 1/2 sum_jk dM_jk/dq_i qd_j qd_k - dV/dq_i`` (``dM[k][i][j]``, M symmetric)."""
+    n = len(table.q)
+    qd, qdd = table.qd, table.qdd
+
+    def grouped(coefficients: dict[tuple[int, int], list[sympy.Expr]]) -> sympy.Expr:
+        return sympy.Add(*(sympy.Add(*terms) * qd[j] * qd[k] for (j, k), terms in coefficients.items()))
+
+    dL_dqd, ddt, dL_dq = [], [], []
+    for i in range(n):
+        dL_dqd.append(sympy.Add(*(M[i, j] * qd[j] for j in range(n))))
+        velocity: dict[tuple[int, int], list[sympy.Expr]] = {}
+        for j in range(n):
+            for k in range(n):
+                if dM[k][i][j] != 0:
+                    velocity.setdefault((min(j, k), max(j, k)), []).append(dM[k][i][j])
+        ddt.append(sympy.Add(*(M[i, j] * qdd[j] for j in range(n))) + grouped(velocity))
+        position: dict[tuple[int, int], list[sympy.Expr]] = {}
+        for j in range(n):
+            for k in range(j, n):
+                if dM[i][j][k] != 0:
+                    position.setdefault((j, k), []).append(dM[i][j][k] / 2 if j == k else dM[i][j][k])
+        dL_dq.append(grouped(position) - dV[i])
+    return {"dL_dqd": sympy.Matrix(dL_dqd), "ddt_dL_dqd": sympy.Matrix(ddt), "dL_dq": sympy.Matrix(dL_dq)}
 
 
 def _by_rates(expr: sympy.Expr, rates: set[sympy.Symbol]) -> sympy.Expr:
