@@ -63,11 +63,13 @@ def load_robot(robot: str | Path) -> Robot:
     return validate(load_document(path))
 
 
-def render_latex(derivation: Derivation, template_dir: str | Path | None = None) -> str:
-    """The LaTeX solution sheet as a string (nothing is written)."""
+def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
+                 sections: tuple[str, ...] | None = None) -> str:
+    """The LaTeX solution sheet as a string (nothing is written): ``sections`` among
+    ``"generalized", "maximal", "checks"`` (default: what the robot's size makes readable)."""
     from .render.latex import render_latex as _render
 
-    return _render(derivation, template_dir)
+    return _render(derivation, template_dir, sections)
 
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:

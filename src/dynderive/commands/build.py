@@ -48,6 +48,8 @@ class Outcome:
     message: str = ""
     outputs: dict[str, str] = field(default_factory=dict)   # file name -> sha256
     problems: list[str] = field(default_factory=list)        # --check: missing/differing files
+    #: the PDF's pages, LaTeX's seconds and its widest overfull line (pt), when a PDF was built
+    sheet: dict[str, float] = field(default_factory=dict)
 
 
 def discover(paths: list[Path]) -> list[Path]:
@@ -141,8 +143,10 @@ def engine_fingerprint() -> str:
     return digest.hexdigest()[:16]
 
 
-def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
-    """Every requested output of one robot file, in memory (runs in a worker process)."""
+def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None,
+                   sheet: dict[str, float] | None = None) -> dict[str, bytes]:
+    """Every requested output of one robot file, in memory (runs in a worker process); with a
+    PDF, ``sheet`` receives its pages, LaTeX's seconds and the widest overfull line (pt)."""
     from .. import derive, load_robot
     from ..render.code import render_code
     from ..render.json import render_json
@@ -155,9 +159,12 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     if "latex" in kinds:
         files[f"{robot.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     if "pdf" in kinds:
-        from ..render.pdf import compile_pdf
+        from ..render.pdf import compile_pdf_report
 
-        files[f"{robot.name}.pdf"] = compile_pdf(tex, robot.name)  # type: ignore[arg-type]
+        start = time.monotonic()
+        files[f"{robot.name}.pdf"], pages, overfull = compile_pdf_report(tex, robot.name)  # type: ignore[arg-type]
+        if sheet is not None:
+            sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
     if "code" in kinds:
         files[f"{robot.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
     if "json" in kinds:
@@ -165,14 +172,18 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     return files
 
 
-def _work(source: str, kinds: tuple[str, ...], template_dir: str | None) -> tuple[dict[str, bytes] | None, str, float]:
+_Result = tuple[dict[str, bytes] | None, str, float, dict[str, float]]
+
+
+def _work(source: str, kinds: tuple[str, ...], template_dir: str | None) -> _Result:
     start = time.monotonic()
+    sheet: dict[str, float] = {}
     try:
-        return render_outputs(source, kinds, template_dir), "", time.monotonic() - start
+        return render_outputs(source, kinds, template_dir, sheet), "", time.monotonic() - start, sheet
     except DynderiveError as exc:
-        return None, str(exc), time.monotonic() - start
+        return None, str(exc), time.monotonic() - start, sheet
     except Exception as exc:  # an internal error in one robot must not stop the others
-        return None, f"internal error: {type(exc).__name__}: {exc}", time.monotonic() - start
+        return None, f"internal error: {type(exc).__name__}: {exc}", time.monotonic() - start, sheet
 
 
 def _sha(data: bytes) -> str:
@@ -239,12 +250,12 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
         record = manifest.get(name)
         if (isinstance(record, dict) and record.get("key") == key
                 and _outputs_match(out, record.get("outputs", {}))):
-            outcomes[name] = Outcome(name, "up to date", outputs=record["outputs"])
+            outcomes[name] = Outcome(name, "up to date", outputs=record["outputs"], sheet=record.get("sheet", {}))
             current[name] = record
         else:
             pending.append((source, key))
     workers = max(1, min(jobs, len(pending)))
-    results: list[tuple[Path, str, tuple[dict[str, bytes] | None, str, float]]] = []
+    results: list[tuple[Path, str, _Result]] = []
     if pending:
         if workers == 1:
             results = [(s, k, _work(str(s), kinds, str(template_dir) if template_dir else None)) for s, k in pending]
@@ -254,7 +265,7 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
                            for s, k in pending]
                 results = [(s, k, f.result()) for s, k, f in futures]
     built: dict[str, dict] = {}
-    for source, key, (files, error, seconds) in results:
+    for source, key, (files, error, seconds, sheet) in results:
         name = str(source)
         if files is None:
             outcomes[name] = Outcome(name, "failed", seconds, error)
@@ -265,11 +276,13 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
                         for file, data in files.items()
                         if not (out / file).is_file() or (out / file).read_bytes() != data]
             outcomes[name] = Outcome(name, "differs" if problems else "current", seconds, outputs=hashes,
-                                     problems=problems)
+                                     problems=problems, sheet=sheet)
         else:
             write_all({out / file: data for file, data in files.items()})
-            outcomes[name] = Outcome(name, "built", seconds, outputs=hashes)
-            built[name] = {"key": key, "outputs": hashes}
+            outcomes[name] = Outcome(name, "built", seconds, outputs=hashes, sheet=sheet)
+            # the manifest keeps what the bytes determine (pages, overfull lines), not the time
+            kept = {k: v for k, v in sheet.items() if k != "seconds"}
+            built[name] = {"key": key, "outputs": hashes, **({"sheet": kept} if kept else {})}
     if not check:
         update_manifest(out, built, current)
     return [outcomes[str(s)] for s in sources]

@@ -117,18 +117,29 @@ def solve(
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("."),
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Directory of templates that override the built-in ones by file name.")] = None,
+    sections: Annotated[str | None, typer.Option("--sections", help="Sections of the sheet, comma-separated: "
+                        "generalized, maximal, checks, or all (default: maximal coordinates only for planar "
+                        "robots of at most 2 links).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
     from ..render.code import render_code
     from ..render.json import render_json
-    from ..render.latex import render_latex
+    from ..render.latex import parse_sections, render_latex
     from ..render.terminal import render_terminal
     from .output import write_all
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(_problem(str(template_dir), "template directory does not exist"))
+    chosen = None
+    if sections is not None:
+        try:
+            chosen = parse_sections(sections)
+        except ValueError as exc:
+            raise InputError(_problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
+        if not (latex or pdf):
+            raise InputError(_problem("--sections", "--sections chooses what the sheet shows: use it with --latex or --pdf"))
     progress = _Progress(quiet)
     progress("loading")
     model = load_robot(robot)
@@ -147,7 +158,7 @@ def solve(
     tex = None
     if latex or pdf:
         progress("rendering LaTeX")
-        tex = render_latex(derivation, template_dir)
+        tex = render_latex(derivation, template_dir, chosen)
     if latex:
         files[out / f"{model.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     skipped: ToolMissingError | None = None
@@ -397,9 +408,14 @@ def build(
         raise InputError(_problem(str(template_dir), "template directory does not exist"))
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir)
     width = max([len(o.source) for o in outcomes] + [5])
-    typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds")
+    sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
+    typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
     for o in outcomes:
-        typer.echo(f"{o.source:<{width}}  {o.status:<10}  {o.seconds:7.1f}")
+        extra = ""
+        if sheets and o.sheet:
+            latex = f"{o.sheet['seconds']:7.1f}" if "seconds" in o.sheet else f"{'-':>7}"
+            extra = f"  {o.sheet.get('pages', 0):5.0f}  {latex}  {o.sheet.get('overfull', 0):11.1f}"
+        typer.echo(f"{o.source:<{width}}  {o.status:<10}  {o.seconds:7.1f}{extra}")
         for line in o.problems:
             typer.echo(f"  {line}")
         if o.message:

@@ -21,9 +21,38 @@ SCALAR_NODES = 500
 INLINE_NODES = 120
 #: Largest matrix (tree nodes in all) the sheet typesets.
 MATRIX_NODES = 6000
-#: A matrix whose LaTeX is longer than this is typeset entry by entry.
-WIDE_MATRIX = 320
+#: The text width in units of a math glyph of the sheet's 11pt type (16.6 cm, about 5.5 pt a
+#: glyph): a matrix whose estimated width (``typeset_width``) exceeds it is typeset entry by entry.
+LINE_UNITS = 80
+#: A matrix up to this factor wider than the line is set in small type with narrow columns.
+TIGHT = 1.15
 SHEET_TEMPLATE = "sheet.tex.j2"
+#: The sheet's sections, in their order; ``--sections`` chooses among them.
+SECTIONS = ("generalized", "maximal", "checks")
+#: Planar robots with at most this many links get the maximal-coordinates section by default:
+#: beyond it the section runs to a dozen pages (a planar 3R arm: 11 of 20) that few read.
+MAXIMAL_DEFAULT_LINKS = 2
+
+
+def default_sections(derivation: Derivation) -> tuple[str, ...]:
+    """What the robot's size makes readable: generalized coordinates and the checks always,
+    maximal coordinates for planar robots of at most MAXIMAL_DEFAULT_LINKS links (the RP arm
+    of the reference)."""
+    robot = derivation.robot
+    maximal = robot.planar and len(robot.links) <= MAXIMAL_DEFAULT_LINKS
+    return tuple(s for s in SECTIONS if s != "maximal" or maximal)
+
+
+def parse_sections(text: str) -> tuple[str, ...]:
+    """``--sections`` text: names from SECTIONS separated by commas, or ``all``; in the
+    sheet's order. Raises ValueError naming an unknown section."""
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    if names == ["all"]:
+        return SECTIONS
+    unknown = [name for name in names if name not in SECTIONS]
+    if unknown or not names:
+        raise ValueError(f"unknown section {unknown[0]!r}" if unknown else "no section given")
+    return tuple(s for s in SECTIONS if s in names)
 
 class Formatter:
     """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``).
@@ -66,12 +95,13 @@ class Formatter:
             return None
         return self(expr)
 
-    def matrix(self, name: str, matrix: sympy.Matrix, wide: int = WIDE_MATRIX) -> dict[str, Any]:
-        """A matrix as a whole (``wide`` False), as its non-zero entries, or ``too_large``."""
+    def matrix(self, name: str, matrix: sympy.Matrix, line: float = LINE_UNITS) -> dict[str, Any]:
+        """A matrix as a whole when its estimated width fits ``line`` (``wide`` False), else as
+        its non-zero entries; ``too_large`` when even those cannot be typeset."""
         rows, cols = matrix.shape
         nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
         if nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix):
-            return {"latex": "", "wide": True, "entries": [], "shape": [rows, cols],
+            return {"latex": "", "wide": True, "tight": False, "entries": [], "shape": [rows, cols],
                     "too_large": True, "nodes": nodes, "zeros": 0}
         whole = self(matrix)
         entries = []
@@ -80,8 +110,75 @@ class Formatter:
                 if matrix[i, j] != 0:
                     index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
                     entries.append({"name": f"{name}_{{{index}}}", "latex": self(matrix[i, j])})
-        return {"latex": whole, "wide": len(whole) > wide, "entries": entries,
+        width = matrix_width(matrix)
+        return {"latex": whole, "wide": width > line * TIGHT, "tight": line < width <= line * TIGHT, "entries": entries,
                 "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+
+
+def typeset_width(expr: sympy.Basic) -> float:
+    """Estimated width of ``expr`` typeset inline, in math glyphs: a symbol is a glyph and its
+    index 0.7 a digit, a sum adds 2.2 per sign, a function its name and parentheses, a
+    fraction its wider part. Rough (within about a fifth on the bundled sheets), and cheap."""
+    if expr.is_Symbol:
+        name = str(expr).lstrip("_")
+        stem = name.rstrip("0123456789")
+        index = len(name) - len(stem)
+        base = stem.rstrip("d") or stem      # qd1, phid1: a dot over the coordinate's letter
+        return (1.0 if base in _GREEK or len(base) == 1 else 0.9 * len(base)) + 0.7 * index
+    if expr.is_Integer:
+        return len(str(expr))
+    if expr.is_Rational:
+        return 0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6
+    if expr.is_Number:
+        return len(sympy.sstr(expr))
+    if expr.is_Add:
+        return sum(typeset_width(a) for a in expr.args) + 2.2 * (len(expr.args) - 1)
+    if expr.is_Mul:
+        coefficient, rest = expr.as_coeff_Mul()
+        factors = sympy.Mul.make_args(rest)
+        width = 1.5 if coefficient.is_negative else 0.0
+        coefficient = abs(coefficient)
+        if coefficient.is_Rational and coefficient.q != 1:   # \frac{p a b}{q} f(x): the wider of p a b and q
+            above = [f for f in factors if not f.is_Function]
+            beside = [f for f in factors if f.is_Function]
+            numerator = sum(typeset_width(f) + (2.0 if f.is_Add else 0.0) for f in above) + len(str(coefficient.p)) * (
+                coefficient.p != 1 or not above)
+            width += max(numerator, 0.8 * len(str(coefficient.q))) + 0.6 + sum(typeset_width(f) for f in beside)
+            return width
+        if coefficient != 1:
+            width += len(sympy.sstr(coefficient))
+        return width + sum(typeset_width(f) + (2.0 if f.is_Add else 0.0) for f in factors) + 0.3 * (len(factors) - 1)
+    if expr.is_Pow:
+        base, exponent = expr.args
+        if exponent == sympy.S.Half:
+            return typeset_width(base) + 1.5
+        if exponent.is_negative:   # a fraction: its wider part
+            return max(1.0, typeset_width(base ** -exponent)) + 0.6
+        return typeset_width(base) + (2.0 if base.is_Add else 0.0) + 0.7 * typeset_width(exponent)
+    if expr.is_Function:
+        return len(type(expr).__name__) + 1.5 + sum(typeset_width(a) for a in expr.args)
+    return len(sympy.sstr(expr))
+
+
+_GREEK = {"alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa", "lambda",
+          "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi", "omega"}
+
+
+def _fits(*values: Any, extra: float = 0.0) -> bool:
+    """Whether ``values`` typeset side by side (plus ``extra`` glyphs of names and spacing)
+    fit the line."""
+    total = extra
+    for value in values:
+        total += matrix_width(value) if isinstance(value, sympy.MatrixBase) else typeset_width(sympy.sympify(value))
+    return total <= LINE_UNITS
+
+
+def matrix_width(matrix: sympy.Matrix) -> float:
+    """Estimated width of ``matrix`` typeset whole: its columns' widest entries, the gaps
+    between columns, the brackets and the name in front."""
+    rows, cols = matrix.shape
+    widest = [max(typeset_width(sympy.sympify(matrix[i, j])) for i in range(rows)) for j in range(cols)]
+    return sum(widest) + 2.0 * (cols - 1) + 6.0
 
 
 def _nodes_up_to(exprs: list[Any], limit: int) -> int:
@@ -95,8 +192,10 @@ def _nodes_up_to(exprs: list[Any], limit: int) -> int:
     return count
 
 
-def sheet_context(derivation: Derivation) -> dict[str, Any]:
-    """Every variable the sheet template can use (documented in docs/templates.md)."""
+def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = None) -> dict[str, Any]:
+    """Every variable the sheet template can use (documented in docs/templates.md); only the
+    ``sections`` asked for (default ``default_sections``) are derived and formatted."""
+    sections = default_sections(derivation) if sections is None else sections
     fmt = Formatter.of(derivation)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
@@ -120,6 +219,13 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
             "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
             "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
             "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
+            # what shares a display line when it fits, else one display each, entry by entry if needed
+            "pose_together": _fits(t.com_position, t.body_velocity, extra=16),
+            "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{t.index}}}\right)", t.body_velocity),
+            "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{t.index}}}\right)", t.orientation)
+            if isinstance(t.orientation, sympy.MatrixBase) else None,
+            "inertia_together": _fits(t.spatial_inertia, t.body_jacobian, extra=14),
+            "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{t.index}}}\right)", t.body_jacobian),
             "kinetic": fmt.maybe(t.kinetic, SCALAR_NODES), "potential": fmt.maybe(t.potential, SCALAR_NODES),
         })
     parameters = [{
@@ -134,11 +240,9 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
     } for j in robot.joints]
     intermediates = [{"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates]
-    # names and short sums: a matrix of them fits the page up to 8 columns
-    named = {"wide": 40 * min(q["M_g"].shape[0], 8) ** 2} if intermediates else {}
     context = {
         "intermediates": intermediates,
-        "jacobians": [{"index": k, "matrix": fmt.matrix(f"J^b_{k}", q[f"J_b{k}"], **named)}
+        "jacobians": [{"index": k, "matrix": fmt.matrix(f"J^b_{k}", q[f"J_b{k}"])}
                       for k in range(1, len(robot.links) + 1)] if intermediates else [],
         "generator": f"dynderive {_version()}",
         "source": escape_tex(Path(robot.source).name),
@@ -155,15 +259,17 @@ def sheet_context(derivation: Derivation) -> dict[str, Any]:
         "Y_g": fmt(q["Y_g"]),
         "lagrange": lagrange,
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
-        "M_g": fmt.matrix("M", q["M_g"], **named),
-        "C_g": fmt.matrix("C", q["C_g"], **named),
-        "N_g": fmt.matrix("N", q["N_g"], **named),
+        "M_g": fmt.matrix("M", q["M_g"]),
+        "C_g": fmt.matrix("C", q["C_g"]),
+        "N_g": fmt.matrix("N", q["N_g"]),
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
         "checks": [{"description": escape_tex(c.description), "passed": c.passed,
-                    "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks],
+                    "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks]
+                  if "checks" in sections else [],
+        "sections": list(sections),
         "drives": drives_context(derivation, fmt),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
-        "maximal": maximal_context(derivation, fmt) if "maximal" in derivation.steps else None,
+        "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
         "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
     }
     return context
@@ -245,8 +351,9 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
         "jacobians": [fmt(j) for j in steps["jacobians"]],
         "M_m": fmt.matrix("M", q["M_m"]), "C_m": fmt.matrix("C", q["C_m"]),
         "N_m": fmt.matrix("N", q["N_m"]), "EOM_m2": fmt.matrix("\\mathrm{EOM}", q["EOM_m2"]),
+        "EOM_m1": fmt.matrix("\\mathrm{EOM}", q["EOM_m1"]),
         "lambda_symbolic": "lambdaVec" in q, "lambda_entries": lambda_entries,
-        "h": fmt(q["h"]), "H": fmt.matrix("H", q["H"]),
+        "h": fmt.matrix("h", q["h"]), "H": fmt.matrix("H", q["H"]),
         **(_change_of_basis(q, steps, fmt) if "EOM_g3" in q else {"EOM_g3": None}),
         "F_m": fmt.matrix("F", q["F_m"]) if "F_m" in q else None,
         "D_m": fmt.maybe(q["D_m"], SCALAR_NODES) if "D_m" in q else None,
@@ -273,5 +380,7 @@ def _version() -> str:
     return __version__
 
 
-def render_latex(derivation: Derivation, template_dir: str | Path | None = None) -> str:
-    return render("latex", SHEET_TEMPLATE, sheet_context(derivation), template_dir)
+def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
+                 sections: tuple[str, ...] | None = None) -> str:
+    """The sheet of ``sections`` (default: ``default_sections``)."""
+    return render("latex", SHEET_TEMPLATE, sheet_context(derivation, sections), template_dir)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import tempfile
@@ -20,6 +21,12 @@ def latex_engine_available() -> bool:
 
 def compile_pdf(tex: str, jobname: str = "sheet", timeout: float = 300) -> bytes:
     """PDF bytes of ``tex``. Works in a private temporary directory; writes nothing else."""
+    return compile_pdf_report(tex, jobname, timeout)[0]
+
+
+def compile_pdf_report(tex: str, jobname: str = "sheet", timeout: float = 300) -> tuple[bytes, int, list[float]]:
+    """``compile_pdf``, with the page count and the widths (pt) of overfull lines that
+    pdflatex's last pass logged (``build`` reports them)."""
     if not latex_engine_available():
         raise ToolMissingError(
             "--pdf needs latexmk and pdflatex, which are not installed (Debian/Ubuntu: "
@@ -42,7 +49,16 @@ def compile_pdf(tex: str, jobname: str = "sheet", timeout: float = 300) -> bytes
             log = Path(work) / f"{jobname}.log"
             detail = _first_error(log.read_text(errors="replace") if log.is_file() else result.stdout)
             raise ExternalToolError(f"LaTeX failed to compile the sheet: {detail}")
-        return pdf.read_bytes()
+        log_path = Path(work) / f"{jobname}.log"
+        log = log_path.read_text(errors="replace") if log_path.is_file() else ""
+        return pdf.read_bytes(), *read_log(log, jobname)
+
+
+def read_log(log: str, jobname: str) -> tuple[int, list[float]]:
+    """Pages written and overfull line widths (pt) from a pdflatex log."""
+    pages = re.search(rf"Output written on {re.escape(jobname)}\.pdf \((\d+) pages?", log)
+    overfull = [float(w) for w in re.findall(r"Overfull \\hbox \(([\d.]+)pt too wide\)", log)]
+    return (int(pages.group(1)) if pages else 0), overfull
 
 
 def _first_error(log: str) -> str:
