@@ -153,6 +153,8 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
         # Lagrange's equations with Rayleigh's dissipation function and Coulomb friction:
         # d/dt dL/dqd - dL/dq + dD/dqd + fc sign(qd) = Y
         EOM_g1 = (steps.lhs + F - Y).applyfunc(tidy)
+        if robot.planar:   # products such as sin(q2 + q3) cos(q3) that cancel in pairs: Fourier form
+            EOM_g1 = EOM_g1.applyfunc(lambda e: fewest_operations(e, trig_linear))
 
     jacobians = [t.body_jacobian for t in terms]
     inertias = [t.spatial_inertia for t in terms]
