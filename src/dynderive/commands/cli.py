@@ -413,8 +413,8 @@ def build(
     for o in outcomes:
         extra = ""
         if sheets and o.sheet:
-            latex = f"{o.sheet['seconds']:7.1f}" if "seconds" in o.sheet else f"{'-':>7}"
-            extra = f"  {o.sheet.get('pages', 0):5.0f}  {latex}  {o.sheet.get('overfull', 0):11.1f}"
+            seconds = f"{o.sheet['seconds']:7.1f}" if "seconds" in o.sheet else f"{'-':>7}"
+            extra = f"  {o.sheet.get('pages', 0):5.0f}  {seconds}  {o.sheet.get('overfull', 0):11.1f}"
         typer.echo(f"{o.source:<{width}}  {o.status:<10}  {o.seconds:7.1f}{extra}")
         for line in o.problems:
             typer.echo(f"  {line}")

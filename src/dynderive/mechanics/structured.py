@@ -145,7 +145,8 @@ def _by_rates(expr: sympy.Expr, rates: set[sympy.Symbol]) -> sympy.Expr:
     ``(w_151 + w_164) qd_2 qd_3`` rather than two terms (each dM/dq_k entry is a name)."""
     groups: dict[sympy.Expr, list[sympy.Expr]] = {}
     for term in sympy.Add.make_args(sympy.expand(expr)):
-        moving, rest = [], []
+        moving: list[sympy.Expr] = []
+        rest: list[sympy.Expr] = []
         for factor in sympy.Mul.make_args(term):
             (moving if (factor.base if factor.is_Pow else factor) in rates else rest).append(factor)
         groups.setdefault(sympy.Mul(*moving), []).append(sympy.Mul(*rest))

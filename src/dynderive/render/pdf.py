@@ -49,9 +49,9 @@ def compile_pdf_report(tex: str, jobname: str = "sheet", timeout: float = 300) -
             log = Path(work) / f"{jobname}.log"
             detail = _first_error(log.read_text(errors="replace") if log.is_file() else result.stdout)
             raise ExternalToolError(f"LaTeX failed to compile the sheet: {detail}")
-        log_path = Path(work) / f"{jobname}.log"
-        log = log_path.read_text(errors="replace") if log_path.is_file() else ""
-        return pdf.read_bytes(), *read_log(log, jobname)
+        log_file = Path(work) / f"{jobname}.log"
+        text = log_file.read_text(errors="replace") if log_file.is_file() else ""
+        return pdf.read_bytes(), *read_log(text, jobname)
 
 
 def read_log(log: str, jobname: str) -> tuple[int, list[float]]:
