@@ -11,8 +11,8 @@ import sympy
 from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from .encode import escape_tex, tex_unit
-from .figure import planar_figure
 from .environment import render
+from .figure import planar_figure
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
