@@ -116,3 +116,38 @@ def test_sheets_fit_the_page(robot, most_pages, tmp_path):
     assert max(boxes, default=0.0) < MARGIN_PT, boxes
     assert pages <= most_pages
     assert seconds < 60
+
+
+def test_planar_robots_are_drawn_at_the_reference_configuration():
+    """The double pendulum at 30 degrees per joint: the first link rises at 30 degrees in the
+    drawing (one scale for x and y), the second at 60; its joints are labelled with their
+    coordinates; the sheet's picture holds every segment."""
+    from dynderive.render.figure import planar_figure
+    from dynderive.render.latex import Formatter
+
+    derivation = _derive("double_pendulum")
+    figure = planar_figure(derivation, Formatter.of(derivation))
+    assert figure["configuration"] == r"q_{1} = 30^\circ, q_{2} = 30^\circ"
+    (x0, y0, _, _, x1, y1), (a0, b0, _, _, a1, b1) = [[float(v) for v in s] for s in figure["segments"]]
+    assert (y1 - y0) / (x1 - x0) == pytest.approx(3 ** -0.5, rel=0.02)
+    assert (b1 - b0) / (a1 - a0) == pytest.approx(3 ** 0.5, rel=0.02)
+    assert [j["label"] for j in figure["joints"]] == ["q_{1}", "q_{2}"]
+    tex = dynderive.render_latex(derivation)
+    assert tex.count(r"\qbezier(") == len(figure["segments"]) and r"\begin{picture}" in tex
+
+
+def test_closed_loops_are_drawn_assembled_and_3d_robots_are_not_drawn():
+    from dynderive.render.figure import planar_figure
+    from dynderive.render.latex import Formatter
+
+    derivation = _derive("four_bar")
+    figure = planar_figure(derivation, Formatter.of(derivation))
+    assembled = derivation.steps["loops"].assembled
+    assert figure["configuration"].startswith(r"q_{1} = " + f"{__import__('math').degrees(assembled[0]):.0f}")
+    assert len(figure["loops"]) == 1
+    loop = [float(v) for v in figure["loops"][0]]
+    ends = [(float(s[4]), float(s[5])) for s in figure["segments"]]
+    assert sum(1 for e in ends if abs(e[0] - loop[0]) < 0.15 and abs(e[1] - loop[1]) < 0.15) == 2  # both sides meet
+    elbow = _derive("elbow_arm")
+    assert planar_figure(elbow, Formatter.of(elbow)) is None
+    assert "A 3-D robot: no drawing" in dynderive.render_latex(elbow)

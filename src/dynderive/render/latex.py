@@ -12,6 +12,7 @@ from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from .encode import escape_tex, tex_unit
 from .environment import render
+from .figure import planar_figure
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -267,6 +268,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
                     "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks]
                   if "checks" in sections else [],
         "sections": list(sections),
+        "figure": planar_figure(derivation, fmt),
         "drives": drives_context(derivation, fmt),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
         "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
