@@ -151,3 +151,26 @@ def test_closed_loops_are_drawn_assembled_and_3d_robots_are_not_drawn():
     elbow = _derive("elbow_arm")
     assert planar_figure(elbow, Formatter.of(elbow)) is None
     assert "A 3-D robot: no drawing" in dynderive.render_latex(elbow)
+
+
+#: The RP arm's quantities in the order the reference problem set shows them (Problems 1 and
+#: 2), each by a string only its display holds.
+REFERENCE_ORDER = [
+    r"T_g = \frac", r"V_g = g m", r"L_g = T_g - V_g = ", r"\frac{\partial L_g}{\partial \dot{q}_{1}} = ",
+    r"\frac{\partial L_g}{\partial q_{2}} = ", r"\Upsilon_g = \left[", r"\mathrm{EOM}_{g1} = \left[",
+    r"The manipulator form $M_g", r"\mathcal{M}_1 = \mathcal{M}_2 = ", r"J^b_{sL_1} = ", r"J^b_{sL_2} = ",
+    r"M_g = \left[", r"C_g = \left[", r"N_g = \left[", r"\mathrm{EOM}_{g2} = \left[",
+    r"q_m = \left[", r"a_m(q_m) = \left[", r"A_m = \frac{\partial a_m}{\partial q_m} = \left[",
+    r"L_m = T_m - V_m = ", r"\Upsilon_m = \left[", r"\mathrm{EOM}_{m1} = \left[",
+    r"The constrained manipulator form", r"M_m = \left[", r"\mathrm{EOM}_{m2} = \left[",
+    r"\lambda = \left(A_m M_m^{-1} A_m^T\right)^{-1}", r"\dot A_m = \left[", r"h(q_g) = \left[",
+    r"H(q_g) = \left[", r"\mathrm{EOM}_{g3} = \left[",
+]
+
+
+def test_rp_arm_sheet_follows_the_reference_order():
+    tex = dynderive.render_latex(_derive("rp_arm"))
+    positions = [tex.find(text) for text in REFERENCE_ORDER]
+    missing = [text for text, at in zip(REFERENCE_ORDER, positions) if at < 0]
+    assert not missing
+    assert positions == sorted(positions), [t for t, a, b in zip(REFERENCE_ORDER[1:], positions, positions[1:]) if b < a]

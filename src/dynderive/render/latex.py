@@ -165,6 +165,14 @@ _GREEK = {"alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", 
           "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi", "omega"}
 
 
+def _groups(items: list[tuple[int, str]]) -> list[dict[str, Any]]:
+    """``(index, latex)`` pairs grouped by equal LaTeX, in order of first appearance."""
+    groups: dict[str, list[int]] = {}
+    for index, latex in items:
+        groups.setdefault(latex, []).append(index)
+    return [{"indices": indices, "latex": latex} for latex, indices in groups.items()]
+
+
 def _fits(*values: Any, extra: float = 0.0) -> bool:
     """Whether ``values`` typeset side by side (plus ``extra`` glyphs of names and spacing)
     fit the line."""
@@ -225,7 +233,6 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
             "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{t.index}}}\right)", t.body_velocity),
             "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{t.index}}}\right)", t.orientation)
             if isinstance(t.orientation, sympy.MatrixBase) else None,
-            "inertia_together": _fits(t.spatial_inertia, t.body_jacobian, extra=14),
             "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{t.index}}}\right)", t.body_jacobian),
             "kinetic": fmt.maybe(t.kinetic, SCALAR_NODES), "potential": fmt.maybe(t.potential, SCALAR_NODES),
         })
@@ -268,6 +275,8 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
                     "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks]
                   if "checks" in sections else [],
         "sections": list(sections),
+        # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
+        "inertia_groups": _groups([(link["index"], link["spatial_inertia"]) for link in links]),
         "figure": planar_figure(derivation, fmt),
         "drives": drives_context(derivation, fmt),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
