@@ -89,8 +89,8 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     for joint in robot.joints:
         if not joint.moves:
             continue
-        x, y = mm(joint_points[joint.child])
-        joints.append({"x": x, "y": y, "label": fmt(moving[joint.child]), "prismatic": joint.type == "prismatic"})
+        at_x, at_y = mm(joint_points[joint.child])
+        joints.append({"x": at_x, "y": at_y, "label": fmt(moving[joint.child]), "prismatic": joint.type == "prismatic"})
     return {
         "width": f"{(right - left) * scale + 2 * margin:.1f}", "height": f"{(top - bottom) * scale + 2 * margin:.1f}",
         "segments": [(*mm(a), *mm(((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)), *mm(b)) for a, b in segments
