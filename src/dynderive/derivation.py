@@ -13,7 +13,7 @@ from typing import Any
 import sympy
 
 from .mechanics.planar import planar_kinematics
-from .mechanics.recursive import GeneralizedProgram, Program, build_programs
+from .mechanics.recursive import GeneralizedProgram, Program, build_programs, lines_read
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
 from .model.robot import Robot
@@ -141,7 +141,7 @@ class Derivation:
     Matrix([[g*m*(l + q2)*cos(q1)], [g*m*sin(q1)]])
 
     Large robots (``mechanics.structured.intermediate_form``) hold M_g, C_g, N_g, T_g, V_g,
-    EOM_g2 and the body Jacobians over named sub-expressions ``_w1, _w2, ...``, defined in
+    EOM_g1, EOM_g2 and the body Jacobians over named sub-expressions ``_w1, _w2, ...``, defined in
     order by ``intermediates``.
     """
 
@@ -279,14 +279,7 @@ class Derivation:
         if not self.intermediate_form:
             return sympy.lambdify(args, value, modules="numpy", cse=True)
         # only the intermediates the value reads (printing all of a 12-joint chain's 2 500 costs seconds)
-        definitions = dict(self.intermediates)
-        needed: set[sympy.Symbol] = set()
-        pending = [s for s in sympy.sympify(value).free_symbols if s in definitions]
-        while pending:
-            symbol = pending.pop()
-            if symbol not in needed:
-                needed.add(symbol)
-                pending += [s for s in definitions[symbol].free_symbols if s in definitions]
+        needed = lines_read([value], dict(self.intermediates))
         lines = [(name, fold_constants(e)) for name, e in self.intermediates if name in needed]
         return sympy.lambdify(args, value, modules="numpy", cse=lambda exprs: (lines, exprs))
 

@@ -229,8 +229,8 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
         origin = "joints"
     K = a.shape[0]
     table.multipliers = [sympy.Symbol(f"lambda{k}") for k in range(1, K + 1)]
-    A = _apply(clean, jacobian(a, qm))
-    Adot = _apply(clean, constraint_jacobian_dot(A, qm, qmd))
+    A = jacobian(a, qm).applyfunc(clean)
+    Adot = constraint_jacobian_dot(A, qm, qmd).applyfunc(clean)
 
     # 2.2 energies
     masses = [table.expr(link.mass) for link in robot.links]
@@ -243,26 +243,26 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
         V += -mass * (gravity.T * sympy.Matrix(qm[3 * k: 3 * k + 2]))[0, 0]
     drive_terms = _maximal_drives(robot, bodies, drives)
     T, V = clean(T + drive_terms["T"]), clean(V + drive_terms["V"])
-    F = _apply(clean, drive_terms["F"])
+    F = drive_terms["F"].applyfunc(clean)
 
     # 2.3 efforts
     Y = sympy.zeros(size, 1)
     for joint in robot.joints:
         Y += joint_efforts(joint, bodies, size)
-    Y = _apply(clean, Y)
+    Y = Y.applyfunc(clean)
 
     # 2.5 manipulator form
     jacobians = [maximal_body_jacobian(k, table) for k in range(len(robot.links))]
     spatial = [sympy.diag(m, m, i) for m, i in zip(masses, inertias)]
-    M = _apply(clean, mass_matrix_from_jacobians(jacobians, spatial) + drive_terms["M"])
-    C = _apply(clean, christoffel_coriolis(M, qm, qmd))
-    N = _apply(clean, gravity_vector(V, qm))
+    M = (mass_matrix_from_jacobians(jacobians, spatial) + drive_terms["M"]).applyfunc(clean)
+    C = christoffel_coriolis(M, qm, qmd).applyfunc(clean)
+    N = gravity_vector(V, qm).applyfunc(clean)
 
     # 2.7 change of basis
     h = sympy.Matrix([e for kin in links for e in (*kin.com_world, kin.angle)]).applyfunc(clean)
     H = jacobian(h, table.q)
     if clean is not quick_tidy:   # expanded sines and cosines differentiate to expanded ones
-        H = _apply(clean, H)
+        H = H.applyfunc(clean)
     quantities: dict[str, Any] = {
         "q_m": sympy.Matrix(qm), "a_m": a, "A_m": A, "Adot_m": Adot,
         "T_m": T, "V_m": V, "L_m": T - V, "Y_m": Y, "M_m": M, "C_m": C, "N_m": N,
@@ -272,10 +272,6 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
         quantities |= {"D_m": tidy(drive_terms["D"]), "F_m": F}
     steps = {"constraint_origin": origin, "jacobians": jacobians}
     return quantities, steps
-
-
-def _apply(clean: Callable[[sympy.Expr], sympy.Expr], matrix: sympy.Matrix) -> sympy.Matrix:
-    return matrix.applyfunc(clean)
 
 
 def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: dict[str, Any],

@@ -72,6 +72,19 @@ class Program:
         return sum(operation_count(e) for _, e in self.lines) + sum(operation_count(e) for e in self.outputs)
 
 
+def lines_read(values: Sequence[object], definitions: dict[sympy.Symbol, sympy.Expr]) -> set[sympy.Symbol]:
+    """The names among ``definitions`` that ``values`` read, directly or through other names:
+    the lines a straight-line program needs to compute them."""
+    needed: set[sympy.Symbol] = set()
+    pending = [s for value in values for s in sympy.sympify(value).free_symbols if s in definitions]
+    while pending:
+        symbol = pending.pop()
+        if symbol not in needed:
+            needed.add(symbol)
+            pending += [s for s in definitions[symbol].free_symbols if s in definitions and s not in needed]
+    return needed
+
+
 def _numeric_constants(expr: sympy.Expr) -> sympy.Expr:
     """Irrational constants (``sqrt(2)/2``, ``cos(0.147)``) as 20-digit floats, so that the
     printed lines call ``sin`` and ``cos`` of coordinates only; rationals stay exact."""
@@ -402,6 +415,16 @@ def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
     return sympy.diff(expr, symbol)
 
 
+def _carry(program: Program, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
+           lines: Sequence[tuple[sympy.Symbol, sympy.Expr, set[sympy.Symbol]]]) -> None:
+    """One forward pass: the tangent of each of ``lines`` (name, expression, its names) that
+    has one joins ``tangent`` under a new name of ``program``."""
+    for name, expr, symbols in lines:
+        d = _forward(expr, tangent, trig, symbols)
+        if d != 0:
+            tangent[name] = program.let(d)
+
+
 def _forward(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
              symbols: set[sympy.Symbol] | None = None) -> sympy.Expr:
     """The tangent of ``expr`` (forward mode): ``sum_s d expr/d s * tangent[s]`` over its names
@@ -442,10 +465,7 @@ def _coriolis(tree: _Tree, M: list[list[sympy.Expr]]) -> tuple[list[sympy.Expr],
     tangents = []
     for k in range(n):
         tangent: dict[sympy.Symbol, sympy.Expr] = {table.q[k]: sympy.Integer(1)}
-        for name, expr, symbols in lines:
-            d = _forward(expr, tangent, trig, symbols)
-            if d != 0:
-                tangent[name] = program.let(d)
+        _carry(program, tangent, trig, lines)
         dM.append([[program.let(_forward(M[i][j], tangent, trig)) for j in range(n)] for i in range(n)])
         tangents.append(tangent)
     half = sympy.Rational(1, 2)
@@ -542,22 +562,12 @@ class GeneralizedProgram:
         return self._potential_gradient
 
     def _gradient(self, expr: sympy.Expr) -> list[sympy.Expr]:
-        definitions = dict(self.program.lines)
-        needed: set[sympy.Symbol] = set()
-        pending = [s for s in sympy.sympify(expr).free_symbols if s in definitions]
-        while pending:
-            symbol = pending.pop()
-            if symbol not in needed:
-                needed.add(symbol)
-                pending += [s for s in definitions[symbol].free_symbols if s in definitions]
+        needed = lines_read([expr], dict(self.program.lines))
         later = [(name, e, e.free_symbols) for name, e in self.program.lines[self._passes.lines:] if name in needed]
         gradient = []
         for passed in self._passes.tangents:
             tangent = dict(passed)
-            for name, e, symbols in later:
-                d = _forward(e, tangent, self._passes.trig, symbols)
-                if d != 0:
-                    tangent[name] = self.program.let(d)
+            _carry(self.program, tangent, self._passes.trig, later)
             gradient.append(self.program.let(_forward(expr, tangent, self._passes.trig)))
         return gradient
 

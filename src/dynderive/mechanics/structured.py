@@ -26,7 +26,7 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
 from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
-from .recursive import GeneralizedProgram
+from .recursive import GeneralizedProgram, lines_read
 from .tidy import tidy
 
 #: Planar robots with more coordinates than this are derived in intermediate-variable form, as
@@ -65,15 +65,7 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
     outputs: list[Any] = [M, C, N, built.potential, sympy.Matrix(n * n, n, [e for d in dM for r in d for e in r]),
                           sympy.Matrix(dV), *jacobians]
     # keep the lines the outputs use, in order; names for them, sines and cosines inlined
-    definitions = dict(built.program.lines)
-    needed: set[sympy.Symbol] = set()
-    pending = [s for value in outputs for s in sympy.sympify(value).free_symbols if s in definitions]
-    while pending:
-        symbol = pending.pop()
-        if symbol in needed:
-            continue
-        needed.add(symbol)
-        pending += [s for s in definitions[symbol].free_symbols if s in definitions and s not in needed]
+    needed = lines_read(outputs, dict(built.program.lines))
     rename: dict[sympy.Symbol, sympy.Expr] = dict(trig)
     intermediates: list[tuple[sympy.Symbol, sympy.Expr]] = []
     for name, expr in built.program.lines:

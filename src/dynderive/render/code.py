@@ -146,8 +146,7 @@ class _ProgramPrinter:
         if expr.is_Add:
             return self._sum(expr)
         if expr.is_Mul:
-            text = self._product(expr)
-            return text
+            return self._product(expr)
         if expr.is_Pow and expr.exp.is_Integer:
             return self._power(expr)
         if expr.is_Function and type(expr).__name__ in BODY_FUNCTIONS:
@@ -176,7 +175,7 @@ class _ProgramPrinter:
         for index, term in enumerate(expr.args):
             negative = self._negative(term)
             text = self._product(term, negate=True) if negative and term.is_Mul else (
-                self._number(-term) if negative else self._factor(term, in_sum=True))
+                self._number(-term) if negative else self._text(term))
             if index == 0 and negative and term.is_Float:
                 parts.append(f"(-{text})")
             elif index == 0:
@@ -184,14 +183,6 @@ class _ProgramPrinter:
             else:
                 parts.append(f" - {text}" if negative else f" + {text}")
         return "".join(parts)
-
-    def _factor(self, expr: sympy.Basic, in_sum: bool = False) -> str:
-        """A factor of a product (a term of a sum with ``in_sum``): sums in parentheses."""
-        if expr.is_Add and not in_sum:
-            return f"({self._sum(expr)})"
-        if expr.is_Mul:
-            return self._product(expr)
-        return self._text(expr)
 
     def _product(self, expr: sympy.Basic, negate: bool = False) -> str:
         coefficient, rest = expr.as_coeff_Mul()

@@ -96,8 +96,8 @@ class Formatter:
             return None
         return self(expr)
 
-    def matrix(self, name: str, matrix: sympy.Matrix, line: float = LINE_UNITS) -> dict[str, Any]:
-        """A matrix as a whole when its estimated width fits ``line`` (``wide`` False), else as
+    def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
+        """A matrix as a whole when its estimated width fits the line (``wide`` False), else as
         its non-zero entries; ``too_large`` when even those cannot be typeset."""
         rows, cols = matrix.shape
         nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
@@ -112,7 +112,8 @@ class Formatter:
                     index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
                     entries.append({"name": f"{name}_{{{index}}}", "latex": self(matrix[i, j])})
         width = matrix_width(matrix)
-        return {"latex": whole, "wide": width > line * TIGHT, "tight": line < width <= line * TIGHT, "entries": entries,
+        return {"latex": whole, "wide": width > LINE_UNITS * TIGHT, "tight": LINE_UNITS < width <= LINE_UNITS * TIGHT,
+                "entries": entries,
                 "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
 
 
