@@ -171,6 +171,11 @@ class Derivation:
                        frozenset({"maximal_model"})))
             add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS),
                        frozenset({"maximal"})))
+        if robot.frames and not self.intermediate_form:
+            from .mechanics.frames import frame_quantity_names
+
+            add(_Stage(self._frames, frozenset(frame_quantity_names(robot))))
+        self._frame_programs: list[Any] | None = None
 
     # -- stages ----------------------------------------------------------------------------
     def _kinematics(self) -> None:
@@ -263,7 +268,31 @@ class Derivation:
         self.quantities.update(quantities)
         self.steps["maximal"] = steps
 
+    def _frames(self) -> None:
+        from .mechanics.frames import frame_quantities
+
+        self.report(f"frames ({len(self.robot.frames)})")
+        self.quantities.update(frame_quantities(self.robot, self.symbols))
+
     # -- results ---------------------------------------------------------------------------
+    def description(self, name: str) -> str:
+        """What quantity ``name`` is (empty if it has no description)."""
+        from .mechanics.frames import describe
+
+        return DESCRIPTIONS.get(name) or describe(name) or ""
+
+    @property
+    def frame_programs(self) -> list[Any]:
+        """Straight-line programs of the frames' poses, Jacobians and ``Jdot qd``
+        (``mechanics.frames.FramePrograms``), for the generated module; built on first use."""
+        if self._frame_programs is None:
+            from .mechanics.frames import frame_programs
+
+            if self.robot.frames:
+                self.report(f"program: frames ({len(self.robot.frames)})")
+            self._frame_programs = frame_programs(self.robot, self.symbols)
+        return self._frame_programs
+
     @property
     def intermediates(self) -> list[tuple[sympy.Symbol, sympy.Expr]]:
         """``(name, definition)`` of the intermediate variables, in order (large robots; else

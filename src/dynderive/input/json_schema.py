@@ -90,6 +90,15 @@ def robot_schema() -> dict[str, Any]:
             "axis": _vector([2, 3], "prismatic axis (planar, 3-D) or revolute axis (3-D), in the loop frame"),
         },
     }
+    frame = {
+        "type": "object", "additionalProperties": False, "required": ["name", "link"],
+        "description": "a named frame fixed on a link (pose, Jacobian, external wrenches)",
+        "properties": {
+            "name": {"type": "string", "pattern": IDENTIFIER},
+            "link": {"type": "string", "description": "the link it is fixed on"},
+            "origin": origin,
+        },
+    }
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://dynderive.invalid/schema/robot-v1.json",
@@ -109,6 +118,7 @@ def robot_schema() -> dict[str, Any]:
             "loops": {"type": "array", "minItems": 1, "items": loop},
             "independent": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern": IDENTIFIER},
                             "description": "robots with loops: coordinates kept independent"},
+            "frames": {"type": "array", "minItems": 1, "items": frame},
             "maximal": {"type": "object", "additionalProperties": False, "properties": {
                 "constraints": {"type": "array", "items": EXPRESSION}}},
         },

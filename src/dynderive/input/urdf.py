@@ -516,11 +516,33 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
                 positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
         for i in range(3):
             positions[path + ("axis", i)] = positions[path + ("axis",)]
+    _welded_frames(data, positions, doc, link_elements, frames)
     if reader.problems:
         raise InputError(reader.problems)
     doc.data, doc.positions = data, positions
     doc.key_positions = dict(positions)
     return doc
+
+
+def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]], doc: SourceDocument,
+                   link_elements: dict[str, _Element], frames: dict[str, tuple[str, Rotation, np.ndarray]]) -> None:
+    """Links welded by fixed joints to a moving link (a tool flange, a hand, a sensor mount)
+    become the robot's ``frames``, named as the link, so their pose and Jacobian stay at hand
+    after their inertia joins the moving link's. Links welded to the world are not frames."""
+    entries = []
+    for name, element in link_elements.items():
+        owner, rotation, p = frames.get(name, (name, None, None))
+        if owner in (name, "world") or rotation is None:
+            continue
+        path = ("frames", len(entries))
+        entries.append({"name": identifier(name), "link": identifier(owner),
+                        "origin": {"xyz": _numbers(p, float(np.max(np.abs(p)))), "rpy": rotation.rpy()}})
+        doc.labels[path] = f"frame '{name}'"
+        for key in ((), ("name",), ("link",), ("origin",)):
+            positions[path + key] = (element.line, element.column)
+    if entries:
+        data["frames"] = entries
+        positions[("frames",)] = positions[()]
 
 
 def _check_tree(reader: _Reader, joints: list[dict[str, Any]],

@@ -347,16 +347,17 @@ def inverse_dynamics_program(robot: Robot, table: SymbolTable) -> Program:
 
 
 def friction_symbols(n: int) -> list[sympy.Symbol]:
-    """Inputs of the forward-dynamics body for robots with damping or friction: the dissipative
-    forces F_g, computed by the module's ``friction_forces`` (exact or smoothed sign)."""
+    """Inputs of the forward-dynamics body for robots with damping, friction or frames: the
+    forces opposing the motion from outside the body, ``F_g - J^T w``, computed by the module
+    (``friction_forces``, exact or smoothed sign, and the frames' wrenches)."""
     return [sympy.Symbol(f"_friction{i}") for i in range(n)]
 
 
 def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr]) -> Program:
     """``qdd`` solving ``M qdd = Y - (C qd + N) - F``: CRBA, Newton-Euler and an LDL^T solve.
 
-    ``efforts`` is ``Y_g`` as expressions of the effort symbols; for a robot with damping or
-    friction, ``F`` comes in as the inputs ``friction_symbols``. M is positive definite, so the
+    ``efforts`` is ``Y_g`` as expressions of the effort symbols; for a robot with damping,
+    friction or frames, ``F - J^T w`` comes in as the inputs ``friction_symbols``. M is positive definite, so the
     factorization needs no pivoting; zeros of M (branches) stay zeros in L.
     """
     program, tree = _start(robot, table)
@@ -364,7 +365,7 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     n = len(table.q)
     M = _composite_mass_matrix(tree)
     bias = _newton_euler(tree, table.qd, [sympy.Integer(0)] * n, _gravity(robot, table))
-    friction = friction_symbols(n) if robot.dissipative else [0] * n
+    friction = friction_symbols(n) if robot.dissipative or robot.frames else [0] * n
     rhs = [let(y - b - f) for y, b, f in zip(efforts, bias, friction)]
     L = [[sympy.Integer(0)] * n for _ in range(n)]
     inverse_d: list[sympy.Expr] = [sympy.Integer(0)] * n
@@ -384,7 +385,7 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     for i in reversed(range(n)):
         x[i] = let(y[i] * inverse_d[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), sympy.Integer(0)))
     program.outputs = x
-    if robot.dissipative:
+    if robot.dissipative or robot.frames:
         program.extra_inputs = friction
     return program
 

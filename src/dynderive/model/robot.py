@@ -101,6 +101,20 @@ class LoopJoint:
 
 
 @dataclass(frozen=True)
+class Frame:
+    """A named frame fixed on a link (a tool flange, a sensor, a contact point), for the
+    kinematics outputs: its pose, Jacobian and the wrenches applied there.
+
+    ``origin`` places it in the link frame: planar ``(x, y, theta)``, spatial
+    ``(x, y, z, roll, pitch, yaw)``.
+    """
+
+    name: str
+    link: str
+    origin: tuple[Expression, ...]
+
+
+@dataclass(frozen=True)
 class Robot:
     """A validated robot description. Links and joints keep the file's order."""
 
@@ -116,6 +130,8 @@ class Robot:
     loops: tuple[LoopJoint, ...] = ()
     #: Coordinates kept independent in the reduced form (robots with loops); None: chosen.
     independent: tuple[str, ...] | None = None
+    #: Named frames fixed on links (kinematics outputs, external wrenches).
+    frames: tuple[Frame, ...] = ()
     source: str = ""
     #: Where each named item was written, for errors found after validation.
     positions: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)

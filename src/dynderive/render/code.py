@@ -388,6 +388,11 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "dissipative": robot.dissipative,
         "maximal_dissipative": robot.planar and robot.dissipative,
         "programs": programs,
+        "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
+        "frames_tuple": _tuple(tuple(f.name for f in robot.frames)),
+        "frame_size": 3 if robot.planar else 4,
+        "twist_size": 3 if robot.planar else 6,
+        "forward_extra": bool(robot.frames) or robot.dissipative,
         "maximal": maximal,
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
         "maximal_size": len(table.qm),
@@ -449,7 +454,9 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
     effort_args = [q, qd, u]
     forward = derivation.programs.get("forward_dynamics")
     if forward is not None and forward.extra_inputs:   # damping, friction: F_g computed outside the body
-        effort_args.append(Argument("_friction", forward.extra_inputs, f"dissipative forces F_g, shape (..., {n})"))
+        opposing = "dissipative forces F_g" if derivation.robot.dissipative else "no dissipative force"
+        external = " minus the external forces J^T w" if derivation.robot.frames else ""
+        effort_args.append(Argument("_friction", forward.extra_inputs, f"{opposing}{external}, shape (..., {n})"))
     specs = {
         "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
         "coriolis": ("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.", [q, qd]),
@@ -458,9 +465,20 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
         "forward_dynamics": ("_forward_dynamics_body",
                              "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N"
-                             + (" - F." if derivation.robot.dissipative else "."), effort_args),
+                             + (" - F" if derivation.robot.dissipative else "")
+                             + (" + J^T w." if derivation.robot.frames else "."), effort_args),
     }
-    return [program_function(*specs[key], program) for key, program in derivation.programs.items()]
+    functions = [program_function(*specs[key], program) for key, program in derivation.programs.items()]
+    for index, frame in enumerate(derivation.frame_programs):
+        functions += [
+            program_function(f"_frame{index}_transform_body", f"Pose of frame {frame.name!r} (homogeneous, row by row).",
+                             [q], frame.transform),
+            program_function(f"_frame{index}_jacobian_body", f"World-frame Jacobian of frame {frame.name!r}, row by row.",
+                             [q], frame.jacobian),
+            program_function(f"_frame{index}_jacobian_dot_qd_body", f"Jdot qd of frame {frame.name!r}.",
+                             [q, qd], frame.jacobian_dot_qd),
+        ]
+    return functions
 
 
 def _tuple(names: tuple[str, ...]) -> Code:

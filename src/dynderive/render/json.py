@@ -17,7 +17,7 @@ import json
 
 import sympy
 
-from ..derivation import DESCRIPTIONS, Derivation
+from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from .latex import Formatter
 
@@ -88,7 +88,7 @@ def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict
 
 def render_json(derivation: Derivation) -> str:
     fmt = Formatter.of(derivation)
-    quantities = {name: quantity_entry(value, fmt, DESCRIPTIONS.get(name, ""))
+    quantities = {name: quantity_entry(value, fmt, derivation.description(name))
                   for name, value in derivation.quantities.items()}
     document = {
         "robot": derivation.robot.name,

@@ -3,7 +3,8 @@
 Used by ``dynderive check`` to compare the generated dynamics with an independent engine.
 Joints are added depth-first (Pinocchio's CRBA assumes each subtree has consecutive joint
 indices), fixed joints append their child's inertia to the parent's Pinocchio joint; the
-returned permutation maps dynderive's coordinate order to Pinocchio's.
+robot's frames become operational frames of the same names. The returned permutation maps
+dynderive's coordinate order to Pinocchio's.
 """
 
 from __future__ import annotations
@@ -76,6 +77,9 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
             visit(joint.child)
 
     visit("world")
+    for frame in robot.frames:   # operational frames, by the robot's frame names
+        joint_id, link_place = frame_of[frame.link]
+        model.addFrame(pin.Frame(frame.name, joint_id, link_place * placement(frame), pin.FrameType.OP_FRAME))
     order = np.array(perm, dtype=int)
     model.armature = PinocchioDrives(robot, values, order).armature   # crba, rnea and aba use it
     return model, order

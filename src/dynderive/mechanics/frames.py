@@ -1,0 +1,237 @@
+"""Named frames fixed on links: pose, world-frame geometric Jacobian and ``Jdot qd``.
+
+Two routes, as for the dynamics. ``frame_quantities`` derives the symbolic quantities of
+DESIGN.md section 4 (``p_<f>``, ``R_<f>`` or planar ``theta_<f>``, ``J_<f>``, ``Jdot_<f>``)
+for the sheet and the JSON by composing the joint transforms along the frame's path.
+``frame_programs`` writes straight-line programs for the generated module (every robot size):
+the links' world poses carried down the tree (``recursive._Tree``), the Jacobian's columns
+from the joint axes, and ``Jdot qd`` as the program's forward derivative along ``qd``.
+
+Conventions: the Jacobian maps ``qd`` to the frame's twist in world axes, rows linear (the
+velocity of the frame's origin) then angular: planar ``(vx, vy, omega)``, 3-D ``(v, omega)``:
+Pinocchio's ``LOCAL_WORLD_ALIGNED``. ``Jdot qd`` is then the frame's classical acceleration
+at ``qdd = 0``.
+
+>>> quantities = frame_quantities(robot, table)   # doctest: +SKIP
+>>> quantities["J_tool"].shape                     # doctest: +SKIP
+(3, 2)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy
+
+from ..model.robot import Frame, Robot
+from ..model.symbols import SymbolTable
+from .joints import unit
+from .recursive import Program, Vector, _add, _carry, _cross, _forward, _rotate, _start, _Tree
+from .spatial import Transform, axis_angle, rpy_matrix
+from .tidy import tidy
+
+#: What the symbolic quantities of a frame are, for the sheet, the terminal and JSON consumers.
+FRAME_DESCRIPTIONS = {
+    "p": "position of frame {name} in the world",
+    "R": "orientation of frame {name} (world axes of its x, y, z)",
+    "theta": "angle of frame {name} in the world",
+    "J": "world-frame geometric Jacobian of frame {name} (rows: linear, then angular)",
+    "Jdot": "time derivative of J_{name} (Jdot qd: the frame's acceleration at qdd = 0)",
+}
+
+
+def frame_quantity_names(robot: Robot) -> list[str]:
+    """The names ``frame_quantities`` gives, in order."""
+    angle = "theta" if robot.planar else "R"
+    return [f"{kind}_{f.name}" for f in robot.frames for kind in ("p", angle, "J", "Jdot")]
+
+
+def describe(key: str) -> str | None:
+    """The description of a frame quantity ``p_tool`` etc., or None for other names."""
+    kind, _, name = key.partition("_")
+    template = FRAME_DESCRIPTIONS.get(kind)
+    return template.format(name=name) if template and name else None
+
+
+def frame_quantities(robot: Robot, table: SymbolTable) -> dict[str, sympy.Matrix]:
+    """Symbolic pose, Jacobian and its time derivative of every frame, tidied entry by entry."""
+    quantities: dict[str, sympy.Matrix] = {}
+    q, qd = sympy.Matrix(table.q), table.qd
+    for frame in robot.frames:
+        if robot.planar:
+            angle, position, angular = _planar_pose(robot, table, frame)
+            orientation: sympy.Matrix = sympy.Matrix([[angle]])
+            linear = position.jacobian(q)
+        else:
+            rotation, position, angular = _spatial_pose(robot, table, frame)
+            orientation = rotation
+            linear = position.jacobian(q)
+        jacobian = sympy.Matrix.vstack(linear, angular).applyfunc(tidy)
+        rate = sum((jacobian.diff(qk) * rk for qk, rk in zip(table.q, qd)), sympy.zeros(*jacobian.shape))
+        angle_key = "theta" if robot.planar else "R"
+        quantities[f"p_{frame.name}"] = position.applyfunc(tidy)
+        quantities[f"{angle_key}_{frame.name}"] = orientation.applyfunc(tidy)
+        quantities[f"J_{frame.name}"] = jacobian
+        quantities[f"Jdot_{frame.name}"] = rate.applyfunc(tidy)
+    return quantities
+
+
+def _planar_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy.Expr, sympy.Matrix, sympy.Matrix]:
+    """World angle and position of a planar frame, and the angular row of its Jacobian."""
+    index = {name: i for i, name in enumerate(robot.coordinates)}
+    angle: sympy.Expr = sympy.Integer(0)
+    x: sympy.Expr = sympy.Integer(0)
+    y: sympy.Expr = sympy.Integer(0)
+    angular = sympy.zeros(1, len(table.q))
+
+    def shift(dx: sympy.Expr, dy: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
+        c, s = sympy.cos(angle), sympy.sin(angle)
+        return x + c * dx - s * dy, y + s * dx + c * dy
+
+    for joint in robot.path_to(frame.link):
+        ox, oy, otheta = (table.expr(e) for e in joint.origin)
+        x, y = shift(ox, oy)
+        angle = angle + otheta
+        if joint.type == "revolute":
+            coordinate = index[joint.name]
+            angle = angle + table.q[coordinate]
+            angular[0, coordinate] = 1
+        elif joint.type == "prismatic":
+            ax, ay = unit(tuple(table.expr(e) for e in joint.axis))
+            qk = table.q[index[joint.name]]
+            x, y = shift(ax * qk, ay * qk)
+    fx, fy, ftheta = (table.expr(e) for e in frame.origin)
+    x, y = shift(fx, fy)
+    return angle + ftheta, sympy.Matrix([x, y]), angular
+
+
+def _spatial_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy.Matrix, sympy.Matrix, sympy.Matrix]:
+    """World rotation and position of a 3-D frame, and the angular rows of its Jacobian (the
+    revolute joints' axes in world axes)."""
+    index = {name: i for i, name in enumerate(robot.coordinates)}
+    pose = Transform.identity()
+    angular = sympy.zeros(3, len(table.q))
+    for joint in robot.path_to(frame.link):
+        x, y, z, roll, pitch, yaw = (table.expr(e) for e in joint.origin)
+        pose = pose * Transform(rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z]))
+        if not joint.moves:
+            continue
+        axis = unit(tuple(table.expr(e) for e in joint.axis))
+        coordinate = index[joint.name]
+        if joint.type == "revolute":
+            angular[:, coordinate] = (pose.R * sympy.Matrix(axis)).applyfunc(tidy)
+            pose = pose * Transform(axis_angle(axis, table.q[coordinate]), sympy.zeros(3, 1))  # type: ignore[arg-type]
+        else:
+            pose = pose * Transform(sympy.eye(3), sympy.Matrix(axis) * table.q[coordinate])
+    x, y, z, roll, pitch, yaw = (table.expr(e) for e in frame.origin)
+    pose = pose * Transform(rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z]))
+    return pose.R, pose.p, angular
+
+
+@dataclass
+class FramePrograms:
+    """Straight-line programs of one frame: ``transform`` (homogeneous matrix, row by row:
+    4 x 4, planar 3 x 3), ``jacobian`` (6 x n, planar 3 x n, row by row) and
+    ``jacobian_dot_qd`` (6, planar 3)."""
+
+    name: str
+    transform: Program
+    jacobian: Program
+    jacobian_dot_qd: Program
+
+
+def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
+    """The programs of every frame, in the file's order; one program shared by all, so the
+    links' world poses are computed once per robot."""
+    if not robot.frames:
+        return []
+    program, tree = _start(robot, table)
+    poses = _world_poses(tree)
+    n = len(table.q)
+    results = []
+    trig_lines = tree.trig()
+    trig = {expr: name for name, expr in trig_lines}
+    for frame in robot.frames:
+        rotation, position = _frame_pose(tree, poses, frame)
+        columns = _jacobian_columns(tree, poses, frame.link, position)
+        if robot.planar:
+            transform = [rotation[0][0], rotation[0][1], position[0], rotation[1][0], rotation[1][1], position[1],
+                         0, 0, 1]
+            rows = [[columns[j][0][0] for j in range(n)], [columns[j][0][1] for j in range(n)],
+                    [columns[j][1][2] for j in range(n)]]
+        else:
+            transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2], 0, 0, 0, 1]
+            rows = [[columns[j][part][axis] for j in range(n)] for part in range(2) for axis in range(3)]
+        jacobian = [program.let(e) for row in rows for e in row]
+        # d/dt along qd: the forward derivative of every line with q_k's tangent qd_k
+        tangent: dict[sympy.Symbol, sympy.Expr] = dict(zip(table.q, table.qd))
+        lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
+        _carry(program, tangent, trig, lines)
+        rate = [_forward(e, tangent, trig) for e in jacobian]
+        width = n
+        jdot_qd = [program.let(sum((rate[r * width + j] * table.qd[j] for j in range(n)), sympy.Integer(0)))
+                   for r in range(len(rows))]
+        results.append(FramePrograms(frame.name, _part(program, transform), _part(program, jacobian),
+                                     _part(program, jdot_qd)))
+    return results
+
+
+def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
+    return Program(lines=list(program.lines), outputs=[sympy.sympify(e) for e in outputs])
+
+
+Pose = tuple[tuple[Vector, Vector, Vector], Vector]
+
+
+def _world_poses(tree: _Tree) -> dict[str, Pose]:
+    """Each link frame's world rotation and origin, carried from parent to child."""
+    let = tree.program.let
+    one, zero = sympy.Integer(1), sympy.Integer(0)
+    identity = ((one, zero, zero), (zero, one, zero), (zero, zero, one))
+    poses: dict[str, Pose] = {"world": (identity, (zero, zero, zero))}   # type: ignore[dict-item]
+    for body in tree.bodies:
+        R_parent, p_parent = poses[body.parent]
+        R = tuple(tuple(let(sum((R_parent[i][k] * body.rotation[k][j] for k in range(3)), zero)) for j in range(3))
+                  for i in range(3))
+        p = tuple(let(e) for e in _add(p_parent, _rotate(R_parent, body.position)))
+        poses[body.link] = (R, p)   # type: ignore[assignment]
+    return poses
+
+
+def _frame_pose(tree: _Tree, poses: dict[str, Pose], frame: Frame) -> Pose:
+    let, expr = tree.program.let, tree.table.expr
+    zero = sympy.Integer(0)
+    if tree.robot.planar:
+        x, y, yaw = (expr(e) for e in frame.origin)
+        z = roll = pitch = zero
+    else:
+        x, y, z, roll, pitch, yaw = (expr(e) for e in frame.origin)
+    offset = rpy_matrix(roll, pitch, yaw)
+    R_link, p_link = poses[frame.link]
+    R = tuple(tuple(let(sum((R_link[i][k] * offset[k, j] for k in range(3)), zero)) for j in range(3))
+              for i in range(3))
+    p = tuple(let(e) for e in _add(p_link, _rotate(R_link, (x, y, z))))
+    return R, p   # type: ignore[return-value]
+
+
+def _jacobian_columns(tree: _Tree, poses: dict[str, Pose], link: str,
+                      position: Vector) -> list[tuple[Vector, Vector]]:
+    """``(linear, angular)`` world-axes columns of a point fixed on ``link`` at world
+    ``position``: a revolute joint gives ``(z x (p - o), z)``, a prismatic one ``(z, 0)``,
+    with ``z`` its axis and ``o`` its origin in the world; joints off the path give zeros."""
+    let = tree.program.let
+    zero = sympy.Integer(0)
+    columns: list[tuple[Vector, Vector]] = [((zero,) * 3, (zero,) * 3)] * len(tree.table.q)   # type: ignore[list-item]
+    path = {j.name for j in tree.robot.path_to(link)}
+    for body in tree.bodies:
+        if body.coordinate is None or body.joint.name not in path:
+            continue
+        R, origin = poses[body.link]
+        axis = tuple(let(e) for e in _rotate(R, body.axis))
+        if body.revolute:
+            lever = tuple(let(a - b) for a, b in zip(position, origin))
+            columns[body.coordinate] = (tuple(let(e) for e in _cross(axis, lever)), axis)   # type: ignore[assignment]
+        else:
+            columns[body.coordinate] = (axis, (zero,) * 3)   # type: ignore[assignment]
+    return columns
