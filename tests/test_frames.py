@@ -18,8 +18,9 @@ import pytest
 import sympy
 
 import dynderive
-from conftest import import_code, text_derivation
 from dynderive.errors import InputError
+
+from conftest import import_code, text_derivation
 from random_robots import random_planar_tree
 from random_robots3d import random_spatial_tree
 
@@ -184,8 +185,8 @@ def test_symbolic_frame_quantities_match_the_generated_functions(directory):
     derivation, module = text_derivation("rp_tool", RP_TOOL, directory)
     table = derivation.symbols
     l, q1, q2 = table.parameters["l"], *table.q
-    # by hand: link 2's frame sits at (l + q2) along link 1's direction; the tool l further
-    # along... no: at (l, 0.1) in link 2's frame, turned by 0.3
+    # by hand: link 2's frame sits q2 along link 1's direction (angle q1), the tool at (l, 0.1)
+    # in link 2's frame, turned by 0.3
     expected = sympy.Matrix([(l + q2) * sympy.cos(q1) - sympy.sin(q1) / 10,
                              (l + q2) * sympy.sin(q1) + sympy.cos(q1) / 10])
     assert sympy.simplify(derivation["p_tool"] - expected) == sympy.zeros(2, 1)
@@ -195,7 +196,7 @@ def test_symbolic_frame_quantities_match_the_generated_functions(directory):
     for q, qd, _ in _states(2):
         point = {**dict(zip(table.q, q)), **dict(zip(table.qd, qd)), **values}
 
-        def number(m):
+        def number(m, point=point):
             return np.array(m.xreplace(point).evalf(), dtype=float)
 
         np.testing.assert_allclose(number(derivation["J_tool"]), module.frame_jacobian(q, "tool"), **TOL)
@@ -211,7 +212,7 @@ def test_symbolic_spatial_frame_matches_the_generated_functions(directory):
     for q, qd, _ in _states(3, count=2):
         point = {**dict(zip(table.q, q)), **dict(zip(table.qd, qd))}
 
-        def number(m):
+        def number(m, point=point):
             return np.array(m.xreplace(point).evalf(), dtype=float)
 
         for name in ("f0", "f1"):
@@ -248,7 +249,7 @@ def test_urdf_welded_links_become_frames(robot, frame, generated):
     fid = model.getFrameId(frame)
     for _ in range(3):
         q, qd = rng.uniform(-2, 2, model.nq), rng.uniform(-2, 2, model.nq)
-        pin.forwardKinematics(model, data, q[perm] * 0 + q[perm], qd[perm], np.zeros(model.nq))
+        pin.forwardKinematics(model, data, q[perm], qd[perm], np.zeros(model.nq))
         pin.computeJointJacobians(model, data, q[perm])
         pin.updateFramePlacements(model, data)
         transform = module.frame_transform(q, frame)
