@@ -17,7 +17,7 @@ from typing import Annotated, Any, TypeVar
 import typer
 
 from .._version import __version__
-from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, Problem, ToolMissingError
 
 app = typer.Typer(
     add_completion=False,
@@ -380,6 +380,47 @@ def simulate(
                   if trajectory.dissipated is not None else ""))
     for path in files:
         typer.echo(f"wrote {path}", err=True)
+
+
+@app.command()
+@handle_errors
+def linearize(
+    robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
+    at: Annotated[list[str] | None, typer.Option("--at", help="The operating point: q=V,V,..,qd=V,..,u=V,.. or "
+                  "NAME=V per coordinate, velocity or effort (repeatable; the rest is 0).")] = None,
+    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value for the "
+                     "numbers (repeatable; parameters without a default take 1.0).")] = None,
+    json_: Annotated[bool, typer.Option("--json", help="Print A and B as JSON.")] = False,
+    latex: Annotated[bool, typer.Option("--latex", help="Print a LaTeX document of A and B.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+) -> None:
+    """Linearize ROBOT's dynamics about a state: xdot = A dx + B du, x = (q, qd).
+
+    Small robots: A and B in closed form over the parameters, and their values; large robots:
+    the values, from the generated module's linearize (Newton-Euler differentiated line by line).
+    """
+    from .. import derive, load_robot
+    from ..render.code import render_code
+    from ..verify.checks import generated_module
+    from .linearize import linearization, parse_at, render_linearization
+
+    progress = _Progress(quiet)
+    model = _with_parameters(load_robot(robot), param or [], required=False)
+    _notes(model, quiet)
+    if model.loops:
+        line, column = model.positions.get("loops", (1, 1))
+        raise InputError(Problem(model.source, line, column, "loops: linearizing robots with closed loops "
+                                 "is not built yet (the constrained dynamics' tangent space is not derived)"))
+    derivation = derive(model, progress=progress)
+    table = derivation.symbols
+    point = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd], list(table.efforts))
+    progress("generating code")
+    module = generated_module(render_code(derivation), model.name)
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
+    progress("linearizing")
+    result = linearization(derivation, module, point, values)
+    typer.echo(render_linearization(derivation, point, values, result, "json" if json_ else "latex" if latex else "text"),
+               nl=False)
 
 
 @app.command()

@@ -463,6 +463,9 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
         "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
         "potential": ("_potential_body", "V(q): gravity along the tree, and the springs.", [q]),
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
+        "inverse_dynamics_derivatives": ("_inverse_dynamics_derivatives_body",
+                                         "dtau/dq, then dtau/dqd, row by row: Newton-Euler differentiated line by line.",
+                                         [q, qd, qdd]),
         "forward_dynamics": ("_forward_dynamics_body",
                              "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N"
                              + (" - F" if derivation.robot.dissipative else "")

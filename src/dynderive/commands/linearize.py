@@ -1,0 +1,174 @@
+"""``dynderive linearize``: A and B of ``xdot = A dx + B du`` about an operating point.
+
+Small robots get A and B in closed form over their parameters (``mechanics.linearization.
+symbolic_linearization``), and their values at the parameters' defaults from the generated
+``linearize``, which must agree (the output says so). Large robots get the numbers only.
+
+``--at`` lists ``KEY=VALUES`` items separated by commas: ``q``, ``qd`` and ``u`` take a vector
+(the values that follow, up to the next ``KEY=``), a coordinate, velocity or effort name one
+value: ``--at q=0,pi`` or ``--at theta=pi,F=0``. Values are numbers or whitelisted
+expressions of numbers (``pi/2``); whatever is not given is 0.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Any
+
+import numpy as np
+import sympy
+
+from ..errors import InputError, Problem
+from ..model.expressions import ExpressionError, parse_expression
+
+_KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$", re.S)
+
+
+def _problem(message: str) -> Problem:
+    return Problem("--at", 1, 1, message)
+
+
+def parse_at(texts: list[str], coordinates: list[str], velocities: list[str], efforts: list[str]) -> dict[str, list[float]]:
+    """``{"q": [...], "qd": [...], "u": [...]}`` from the ``--at`` texts; raises InputError."""
+    sizes = {"q": len(coordinates), "qd": len(velocities), "u": len(efforts)}
+    values = {key: [0.0] * size for key, size in sizes.items()}
+    scalar = {name: ("q", i) for i, name in enumerate(coordinates)}
+    scalar |= {name: ("qd", i) for i, name in enumerate(velocities)}
+    scalar |= {name: ("u", i) for i, name in enumerate(efforts)}
+    problems: list[Problem] = []
+    items: list[tuple[str, list[str]]] = []
+    for text in texts:
+        for part in text.split(","):
+            match = _KEY.match(part)
+            if match:
+                items.append((match.group(1), [match.group(2)]))
+            elif items:
+                items[-1][1].append(part)
+            else:
+                problems.append(_problem(f"expected KEY=VALUE (KEY: q, qd, u or a coordinate, velocity or effort name), "
+                                         f"got {part.strip()!r}"))
+    for key, parts in items:
+        numbers = []
+        for part in parts:
+            try:
+                number = complex(parse_expression(part.strip(), {}).evalf(17))
+            except (ExpressionError, TypeError, ValueError) as exc:
+                problems.append(_problem(f"{key}: {exc}"))
+                break
+            if number.imag or not math.isfinite(number.real):
+                problems.append(_problem(f"{key}: {part.strip()!r} is not a finite real number"))
+                break
+            numbers.append(number.real)
+        else:
+            if key in sizes:
+                if len(numbers) != sizes[key]:
+                    problems.append(_problem(f"{key}: expected {sizes[key]} values, got {len(numbers)}"))
+                else:
+                    values[key] = numbers
+            elif key in scalar:
+                vector, index = scalar[key]
+                if len(numbers) != 1:
+                    problems.append(_problem(f"{key}: expected one value, got {len(numbers)}"))
+                else:
+                    values[vector][index] = numbers[0]
+            else:
+                known = ", ".join(["q", "qd", "u", *coordinates, *velocities, *efforts])
+                problems.append(_problem(f"unknown name {key!r} (known: {known})"))
+    if problems:
+        raise InputError(problems)
+    return values
+
+
+def linearization(derivation: Any, module: Any, at: dict[str, list[float]], values: dict[str, float]) -> dict[str, Any]:
+    """A and B at the point ``at``: symbolic (small robots) and numeric (every robot), with
+    the largest difference between the two routes at the parameters' ``values``."""
+    q, qd, u = (np.array(at[k], dtype=float) for k in ("q", "qd", "u"))
+    A, B = module.linearize(q, qd, u, **values)
+    result: dict[str, Any] = {"A_numeric": A, "B_numeric": B, "symbolic": None}
+    if derivation.intermediate_form:
+        return result
+    from ..mechanics.linearization import symbolic_linearization
+
+    table = derivation.symbols
+    point = {s: sympy.nsimplify(v, [sympy.pi], rational=False) if v else sympy.Integer(0)
+             for s, v in zip([*table.q, *table.qd, *table.efforts.values()], [*at["q"], *at["qd"], *at["u"]])}
+    A_sym, B_sym, qdd0 = symbolic_linearization(derivation.quantities, table, point)
+    numbers = {table.parameters[name]: value for name, value in values.items()}
+    numbers |= {table.parameters[p.name]: p.value for p in derivation.robot.parameters
+                if p.value is not None and p.name not in values}
+
+    def evaluate(matrix: sympy.Matrix) -> np.ndarray:
+        return np.array(matrix.xreplace(numbers).evalf(), dtype=float) if matrix.shape[1] else np.zeros(matrix.shape)
+
+    agreement = max(float(np.max(np.abs(evaluate(A_sym) - A), initial=0.0)),
+                    float(np.max(np.abs(evaluate(B_sym) - B), initial=0.0)))
+    result["symbolic"] = {"A": A_sym, "B": B_sym, "qdd": qdd0, "agreement": agreement}
+    return result
+
+
+def _numbers(matrix: np.ndarray) -> list[list[float]]:
+    return [[float(f"{v:.12g}") for v in row] for row in np.asarray(matrix)]
+
+
+def render_linearization(derivation: Any, at: dict[str, list[float]], values: dict[str, float],
+                         result: dict[str, Any], kind: str) -> str:
+    """The result as terminal text, JSON (``kind`` "json") or a LaTeX document ("latex")."""
+    import json
+
+    robot = derivation.robot
+    symbolic = result["symbolic"]
+    A, B = result["A_numeric"], result["B_numeric"]
+    given = ", ".join(f"{name}={value:g}" for name, value in values.items())
+    if kind == "json":
+        from ..render.json import quantity_entry
+        from ..render.latex import Formatter
+
+        fmt = Formatter.of(derivation)
+        document: dict[str, Any] = {
+            "robot": robot.name, "state": {"coordinates": list(robot.coordinates), **at},
+            "method": "symbolic" if symbolic else "numeric",
+            "parameters": values, "A_numeric": _numbers(A), "B_numeric": _numbers(B),
+        }
+        if symbolic:
+            document["A"] = quantity_entry(symbolic["A"], fmt, "xdot = A dx + B du, x = (q, qd)")
+            document["B"] = quantity_entry(symbolic["B"], fmt, "input matrix")
+            document["agreement"] = symbolic["agreement"]
+        return json.dumps(document, indent=2) + "\n"
+    if kind == "latex":
+        from ..render.encode import escape_tex
+        from ..render.environment import render
+        from ..render.latex import Formatter
+
+        fmt = Formatter.of(derivation)
+        table = derivation.symbols
+
+        def numeric(matrix: np.ndarray) -> str:
+            rows = [" & ".join(f"{v:.6g}" for v in row) for row in np.asarray(matrix)]
+            return r"\begin{bmatrix}" + r" \\ ".join(rows) + r"\end{bmatrix}"
+
+        def vector(values_: list[float]) -> str:
+            return fmt(sympy.Matrix([sympy.nsimplify(v, [sympy.pi], rational=False) if v else 0 for v in values_]).T)
+
+        context = {
+            "generator": "dynderive", "source": escape_tex(robot.source.rsplit("/", 1)[-1]),
+            "title": escape_tex(robot.title), "q": fmt(sympy.Matrix(table.q).T),
+            "dissipative": robot.dissipative, "q0": vector(at["q"]), "qd0": vector(at["qd"]), "u0": vector(at["u"]),
+            "qdd0": fmt(symbolic["qdd"].T) if symbolic else numeric(np.zeros((1, len(table.q)))),
+            "A": fmt(symbolic["A"]) if symbolic else numeric(A), "B": fmt(symbolic["B"]) if symbolic else numeric(B),
+            "values": escape_tex(given) if symbolic else "", "A_numeric": numeric(A), "B_numeric": numeric(B),
+        }
+        return render("latex", "linearization.tex.j2", context, None)
+    lines = [f"{robot.title} ({robot.name}): linearized about q = {at['q']}, qd = {at['qd']}, u = {at['u']}",
+             "x = (q, qd), xdot = A dx + B du", ""]
+    if symbolic:
+        for label, value in (("A", symbolic["A"]), ("B", symbolic["B"])):
+            lines += [f"{label} =", sympy.pretty(value, use_unicode=True, wrap_line=False), ""]
+        lines.append(f"At {given or 'the defaults'} (closed form and generated linearize agree to "
+                     f"{symbolic['agreement']:.1e}):")
+    else:
+        lines.append(f"At {given or 'the defaults'} (from the generated linearize; closed form skipped: "
+                     f"this robot is too large):")
+    with np.printoptions(precision=6, suppress=True, linewidth=120):
+        lines += ["A =", str(np.asarray(A)), "B =", str(np.asarray(B)), ""]
+    return "\n".join(lines)
