@@ -307,6 +307,8 @@ def simulate(
     q0: Annotated[str | None, typer.Option("--q0", help="Initial coordinates, e.g. '0.5,0.1' (default: 0.5 rad / 0.2 m).")] = None,
     qd0: Annotated[str | None, typer.Option("--qd0", help="Initial velocities (default: 0).")] = None,
     effort: Annotated[list[str] | None, typer.Option("--effort", help="NAME=EXPR(t, q, qd), repeatable; others are 0.")] = None,
+    force: Annotated[list[str] | None, typer.Option("--force", help="FRAME=EXPR,EXPR,..(t, q, qd): a wrench at a frame "
+                     "in world axes (planar fx,fy,n; 3-D fx,fy,fz,nx,ny,nz), repeatable.")] = None,
     coordinates: Annotated[str, typer.Option("--coordinates", help="generalized or maximal (planar robots).")] = "generalized",
     plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift).")] = None,
     csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
@@ -328,7 +330,7 @@ def simulate(
     from .. import derive, load_robot
     from ..render.code import render_code
     from .output import write_all
-    from .simulate import animation_gif, csv_text, default_initial, parse_efforts, plot_png
+    from .simulate import animation_gif, csv_text, default_initial, parse_efforts, parse_wrenches, plot_png
     from .simulate import simulate as run
 
     if coordinates not in ("generalized", "maximal"):
@@ -357,11 +359,14 @@ def simulate(
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     efforts = parse_efforts(derivation, effort or [], maximal)
+    if force and maximal:
+        raise InputError(_problem("--force", "wrenches at frames are applied in generalized coordinates only"))
+    wrenches = parse_wrenches(derivation, force or [])
     progress("generating code")
     source = render_code(derivation)
     trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
                      np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
-                     frames, progress, friction_smoothing)
+                     frames, progress, friction_smoothing, wrenches)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")

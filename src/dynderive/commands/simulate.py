@@ -63,6 +63,55 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
     return lambda time, q, qd: np.asarray(function(time, q, qd), dtype=float).reshape(-1)
 
 
+def _split_top_level(text: str) -> list[str]:
+    """``text`` split at the commas outside parentheses (``atan2(y, x)`` stays whole)."""
+    parts, depth, start = [], 0, 0
+    for i, char in enumerate(text):
+        depth += (char == "(") - (char == ")")
+        if char == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    return parts + [text[start:]]
+
+
+def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., dict[str, np.ndarray] | None]:
+    """``FRAME=EXPR,EXPR,..`` options -> w(t, q, qd): the wrench at each named frame, in world
+    axes (planar ``fx, fy, n``; 3-D ``fx, fy, fz, nx, ny, nz``, the moment about the frame's
+    origin), expressions of t, the coordinates, their velocities and the parameters."""
+    table, robot = derivation.symbols, derivation.robot
+    t = sympy.Symbol("t")
+    scope: dict[str, sympy.Expr] = {"t": t, **table.parameters} | {str(s): s for s in (*table.q, *table.qd)}
+    size = 3 if robot.planar else 6
+    frames = [f.name for f in robot.frames]
+    exprs: dict[str, list[sympy.Expr]] = {}
+    for spec in specs:
+        name, sep, text = spec.partition("=")
+        where = f"--force {spec}"
+        if not sep or name.strip() not in frames:
+            raise InputError(Problem(where, 1, 1, "expected FRAME=EXPR,EXPR,.. with FRAME one of "
+                                     + (", ".join(frames) or "(this robot declares no frames)")))
+        parts = _split_top_level(text)
+        if len(parts) != size:
+            what = "fx, fy, n" if robot.planar else "fx, fy, fz, nx, ny, nz"
+            raise InputError(Problem(where, 1, len(name) + 2, f"expected {size} components ({what}), got {len(parts)}"))
+        column = len(name) + 2
+        values = []
+        for part in parts:
+            try:
+                values.append(parse_expression(part, scope))
+            except ExpressionError as exc:
+                raise InputError(Problem(where, 1, column + exc.offset, str(exc))) from None
+            column += len(part) + 1
+        exprs[name.strip()] = values
+    if not exprs:
+        return lambda time, q, qd: None
+    defaults = table.defaults(robot)
+    functions = {name: sympy.lambdify([t, table.q, table.qd], sympy.Matrix(values).xreplace(defaults), modules="numpy")
+                 for name, values in exprs.items()}
+    return lambda time, q, qd: {name: np.asarray(f(time, q, qd), dtype=float).reshape(-1)
+                                for name, f in functions.items()}
+
+
 def default_initial(derivation: Derivation) -> np.ndarray:
     """A meaningful start with no options: revolute joints at 0.5 rad, prismatic at 0.2."""
     kinds = {j.name: j.type for j in derivation.robot.joints}
@@ -72,7 +121,8 @@ def default_initial(derivation: Derivation) -> np.ndarray:
 def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarray, qd0: np.ndarray,
              efforts: Callable[..., np.ndarray], maximal: bool, rtol: float, atol: float,
              baumgarte: float, frames: int, progress: Callable[[str], None],
-             friction_smoothing: float = 0.0) -> Trajectory:
+             friction_smoothing: float = 0.0,
+             wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None) -> Trajectory:
     """Integrate the generated dynamics. Robots with Coulomb friction use the module's smoothed
     sign (``friction_smoothing``, a velocity; 0 = exact) in generalized coordinates."""
     from scipy.integrate import solve_ivp
@@ -90,13 +140,14 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
 
     if derivation.robot.loops and not maximal:
         return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
-                               frames, tick, friction_smoothing)
+                               frames, tick, friction_smoothing, wrenches)
     dissipative = derivation.robot.dissipative and not maximal
     if not maximal:
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
             q, qd = y[:n], y[n:2 * n]
-            qdd = module.forward_dynamics(q, qd, efforts(time, q, qd), friction_smoothing=friction_smoothing, **values)
+            qdd = module.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
+                                          friction_smoothing=friction_smoothing, **values)
             if not dissipative:
                 return np.concatenate([qd, qdd])
             power = qd @ module.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
@@ -136,7 +187,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
 def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float], duration: float,
                     q0: np.ndarray, qd0: np.ndarray, efforts: Callable[..., np.ndarray], rtol: float, atol: float,
                     baumgarte: float, frames: int, tick: Callable[[float], None],
-                    friction_smoothing: float = 0.0) -> Trajectory:
+                    friction_smoothing: float = 0.0,
+                    wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None) -> Trajectory:
     """A closed-loop mechanism: start on the constraints (``assemble`` keeps q0's independent
     coordinates; qd0 projected onto the allowed motions), integrate the constrained dynamics
     (Baumgarte gains ``baumgarte``) from frame to frame, and project the state back onto the
@@ -159,7 +211,8 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)
         q, qd = y[:n], y[n:]
-        return np.concatenate([qd, module.forward_dynamics(q, qd, efforts(time, q, qd), alpha=baumgarte,
+        return np.concatenate([qd, module.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
+                                                           alpha=baumgarte,
                                                            beta=baumgarte, friction_smoothing=friction_smoothing,
                                                            **values)])
 
