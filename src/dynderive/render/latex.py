@@ -283,8 +283,32 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
         "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
         "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
+        "frames": frames_context(derivation, fmt) if robot.frames else None,
     }
     return context
+
+
+def frames_context(derivation: Derivation, fmt: Formatter) -> list[dict[str, Any]]:
+    """Each frame's pose, Jacobian and its derivative (small robots; the names only for large
+    ones, whose frame quantities the generated module computes)."""
+    q, planar = derivation.quantities, derivation.robot.planar
+    items = []
+    for frame in derivation.robot.frames:
+        name = frame.name
+        symbolic = f"J_{name}" in q
+        label = r"\mathrm{" + escape_tex(name) + "}"
+        item: dict[str, Any] = {"name": escape_tex(name), "link": escape_tex(frame.link), "label": label,
+                                "symbolic": symbolic}
+        if symbolic:
+            item |= {
+                "position": fmt.matrix("p", q[f"p_{name}"]),
+                "angle": fmt(q[f"theta_{name}"][0, 0]) if planar else None,
+                "rotation": None if planar else fmt.matrix("R", q[f"R_{name}"]),
+                "jacobian": fmt.matrix("J", q[f"J_{name}"]),
+                "jacobian_dot": fmt.matrix(r"\dot J", q[f"Jdot_{name}"]),
+            }
+        items.append(item)
+    return items
 
 
 def drives_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any] | None:
