@@ -30,8 +30,9 @@ from ..model.expressions import (
 from ..model.naming import (
     maximal_coordinate_names,
 )
-from ..model.robot import Frame, Joint, Link, LoopJoint, Parameter, Robot
+from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from .drives import DRIVE_KEYS, drive_terms
+from .frames import read_frames
 from .loader import SourceDocument
 from .names import check_names
 
@@ -45,7 +46,6 @@ LINK_KEYS = ("name", "mass", "com", "inertia")
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS)
 MAXIMAL_KEYS = ("constraints",)
 LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis")
-FRAME_KEYS = ("name", "link", "origin")
 #: Loop-closing joint types, and how many constraints each imposes.
 LOOP_TYPES = {True: {"revolute": 2, "prismatic": 2}, False: {"revolute": 5, "spherical": 3, "prismatic": 5}}
 ORIGIN_KEYS = ("xyz", "rpy")
@@ -223,7 +223,8 @@ def validate(doc: SourceDocument) -> Robot:
     _check_tree(v, joints, tree.names)
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops)
-    frames = _frames(v, top, planar, symbols, tree)
+    frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
+                         lambda value, path: _origin(v, value, path, planar, symbols))
     check_names(v, parameters, links, joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
     if loops and constraints is not None:
@@ -445,38 +446,6 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         loops.append(LoopJoint(name or f"loop{i + 1}", ltype or "revolute", str(ends[0]), str(ends[1]),
                                origin, child_origin, axis))
     return loops
-
-
-def _frames(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
-            tree: _LinkNames) -> list[Frame]:
-    """The optional ``frames`` list: named frames fixed on links (``link``, ``origin`` in the
-    link frame as a joint's origin). Names are identifiers, unique among the frames (they
-    name quantities ``p_<frame>``, ``J_<frame>`` and the generated functions' ``frame``)."""
-    if "frames" not in top:
-        return []
-    raw = top["frames"]
-    if not isinstance(raw, list) or not raw:
-        v.error(("frames",), f"frames: expected a non-empty list of frames, got {_kind(raw, empty=True)}")
-        return []
-    frames: list[Frame] = []
-    taken: set[str] = set()
-    for i, item_raw in enumerate(raw):
-        path = ("frames", i)
-        item = v.mapping(item_raw, path, FRAME_KEYS, required=("name", "link"))
-        if item is None:
-            continue
-        name = v.identifier(item.get("name"), path + ("name",), "frame name") if "name" in item else None
-        if name is not None and name in taken:
-            v.error(path + ("name",), f"{v.label(path + ('name',))}: duplicate frame name '{name}'")
-        taken.add(name or "")
-        link = item.get("link")
-        if "link" in item and link not in tree.names and not (tree.broken or link in tree.bad):
-            why = " (a frame on the world is fixed: it needs no kinematics)" if link == "world" else ""
-            v.error(path + ("link",), f"{v.label(path + ('link',))}: unknown link {link!r}{why}"
-                    + ("" if why else _did_you_mean(link, list(tree.names))))
-        origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
-        frames.append(Frame(name or f"frame{i + 1}", str(link), origin))
-    return frames
 
 
 def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
