@@ -25,7 +25,7 @@ def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_b
         return []
     raw = top["frames"]
     if not isinstance(raw, list) or not raw:
-        from .schema import _kind   # the validator's wording of values (it imports this module)
+        from .schema import _kind  # the validator's wording of values (it imports this module)
 
         v.error(("frames",), f"frames: expected a non-empty list of frames, got {_kind(raw, empty=True)}")
         return []
