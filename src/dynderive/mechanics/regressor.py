@@ -37,7 +37,6 @@ Conventions (README "Identification"):
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import sympy
@@ -131,7 +130,7 @@ def regressor_program(robot: Robot, table: SymbolTable) -> Program:
     Y: list[list[sympy.Expr]] = [[sympy.Integer(0)] * len(parameters) for _ in range(n)]
     zero = (sympy.Integer(0),) * 3
     motion = {"world": (zero, zero, zero, vec([-g for g in _gravity(robot, table)]))}
-    axes: dict[str, dict[int, tuple[Sequence[sympy.Expr], Sequence[sympy.Expr]]]] = {"world": {}}
+    axes: dict[str, dict[int, tuple[Vector, Vector]]] = {"world": {}}
     for body in tree.bodies:
         motion[body.link] = _advance(tree, body, motion[body.parent], table.qd, table.qdd)
         if body.link in tree.static:       # no joint moves it: zero columns
