@@ -24,6 +24,9 @@ PARAMETERS = {"mc": 1.0, "mp": 0.1, "lp": 1.0, "bc": 0.5, "fc": 0.2, "bp": 0.002
 COORDINATES = ("x", "theta")
 EFFORTS = ("F",)
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
+PARAMETER_VECTOR = ("m_cart", "mcx_cart", "mcy_cart", "Izz_cart", "m_pole", "mcx_pole", "mcy_pole", "Izz_pole", "damping_x", "friction_x", "armature_x", "damping_theta")
 
 
 def _matvec(matrix, vector):
@@ -363,6 +366,22 @@ def maximal_friction_forces(qm, qmd, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, 
     return out
 
 
+def parameter_vector(*, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
+    """
+    batch = np.broadcast_shapes()
+    out = np.zeros(batch + (12,))
+    out[..., 0] = mc
+    out[..., 4] = mp
+    out[..., 5] = (1/2)*lp*mp
+    out[..., 7] = (1/3)*lp**2*mp
+    out[..., 8] = bc
+    out[..., 9] = fc
+    out[..., 10] = Jm
+    out[..., 11] = bp
+    return out
+
+
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -479,6 +498,58 @@ def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, mc=1.0, mp=0.1, lp=
 _forward_dynamics_body.functions = ("sin", "cos")
 
 
+def _regressor_body(q, qd, qdd, _sign, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 15 lines, 44 operations."""
+    x, theta = q
+    xd, thetad = qd
+    xdd, thetadd = qdd
+    _sign0, _sign1 = _sign
+    _r0 = cos(theta)
+    _r1 = sin(theta)
+    _r2 = -_r1*xd
+    _r3 = -_r0*xd
+    _r4 = _r0*g - _r1*xdd
+    _r5 = -_r0*xdd - _r1*g
+    _r4 = _r4 + _r3*thetad
+    _r5 = _r5 - _r2*thetad
+    _r6 = _r4 - _r3*thetad
+    _r5 = _r5 + _r2*thetad
+    _r6 = -_r0*_r5 - _r1*_r6
+    _r2 = -thetad**2
+    _r7 = -_r0*thetadd - _r1*_r2
+    _r4 = -_r4 + _r3*thetad
+    _r2 = _r1*thetadd - _r0*_r2
+    return (
+        xdd,
+        0,
+        0,
+        0,
+        _r6,
+        _r7,
+        _r2,
+        0,
+        xd,
+        _sign0,
+        xdd,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r5,
+        _r4,
+        thetadd,
+        0,
+        0,
+        0,
+        thetad,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
+
+
 def _direction(qd, friction_smoothing):
     """sign(qd), or tanh(qd / friction_smoothing) when it is positive (a smooth Coulomb law)."""
     if friction_smoothing < 0:
@@ -523,6 +594,19 @@ def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, l
         raise ValueError(f"u must have shape (..., 1), got {arrays[2].shape}")
     arrays.append(friction_forces(arrays[1], friction_smoothing=friction_smoothing, mc=mc, mp=mp, lp=lp, bc=bc, fc=fc, bp=bp, Jm=Jm, g=g))
     return _evaluate(_forward_dynamics_body, arrays, (2,), {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g})
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 2, 12): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes); Coulomb friction's column is sign(qd), or tanh(qd / friction_smoothing) when
+    friction_smoothing > 0, as in friction_forces. Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    arrays.append(_direction(arrays[1], friction_smoothing))
+    return _evaluate(_regressor_body, arrays, (2, 12), {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g})
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):

@@ -21,6 +21,9 @@ PARAMETERS = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 COORDINATES = ("q1", "q2")
 EFFORTS = ("tau1", "tau2")
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
+PARAMETER_VECTOR = ("m_upper", "mcx_upper", "mcy_upper", "Izz_upper", "m_lower", "mcx_lower", "mcy_lower", "Izz_lower")
 
 
 def _matvec(matrix, vector):
@@ -367,6 +370,20 @@ def to_maximal_jacobian(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     return out
 
 
+def parameter_vector(*, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (8,).
+    """
+    batch = np.broadcast_shapes()
+    out = np.zeros(batch + (8,))
+    out[..., 0] = m1
+    out[..., 1] = (1/2)*l1*m1
+    out[..., 3] = (1/3)*l1**2*m1
+    out[..., 4] = m2
+    out[..., 5] = (1/2)*l2*m2
+    out[..., 7] = (1/3)*l2**2*m2
+    return out
+
+
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -500,6 +517,57 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0
 _forward_dynamics_body.functions = ("sin", "cos")
 
 
+def _regressor_body(q, qd, qdd, sin, cos, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 23 lines, 53 operations."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    qdd1, qdd2 = qdd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r4 = _r3*l1*qd1
+    _r5 = _r2*l1*qd1
+    _r6 = _r2*_r1 + _r3*(_r0 + l1*qdd1)
+    _r7 = _r2*(_r0 + l1*qdd1) - _r3*_r1
+    _r8 = qd1 + qd2
+    _r9 = qdd1 + qdd2
+    _r6 = _r6 + _r5*qd2
+    _r7 = _r7 - _r4*qd2
+    _r3 = _r3*l1
+    _r2 = _r2*l1
+    _r10 = _r6 - _r5*_r8
+    _r4 = _r7 + _r8*_r4
+    _r10 = _r3*_r10 + _r2*_r4
+    _r7 = -_r8**2
+    _r11 = _r4 + _r9*_r2 + _r3*_r7
+    _r6 = -_r6 + _r5*_r8
+    _r7 = _r6 + _r2*_r7 - _r9*_r3
+    return (
+        0,
+        _r0,
+        -_r1,
+        qdd1,
+        _r10,
+        _r11,
+        _r7,
+        _r9,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r4,
+        _r6,
+        _r9,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
+
+
 def friction_forces(qd, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     """Dissipative forces F_g of the joints, shape (..., 2): zero, this robot declares no
     damping or friction (the signature matches robots that do)."""
@@ -525,6 +593,17 @@ def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 2:
         raise ValueError(f"u must have shape (..., 2), got {arrays[2].shape}")
     return _evaluate(_forward_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 2, 8): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    return _evaluate(_regressor_body, arrays, (2, 8), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):

@@ -26,6 +26,9 @@ import numpy as np
 PARAMETERS = {"m1": 4.0, "m2": 3.0, "m3": 2.0, "l1": 0.4, "l2": 0.5, "l3": 0.4, "lc1": 0.2, "lc2": 0.25, "lc3": 0.2, "I1": 0.02, "g": 9.81}
 COORDINATES = ("q1", "q2", "q3")
 EFFORTS = ("tau1", "tau2", "tau3")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order, then the drives.
+PARAMETER_VECTOR = ("m_waist", "mcx_waist", "mcy_waist", "mcz_waist", "Ixx_waist", "Ixy_waist", "Iyy_waist", "Ixz_waist", "Iyz_waist", "Izz_waist", "m_upper_arm", "mcx_upper_arm", "mcy_upper_arm", "mcz_upper_arm", "Ixx_upper_arm", "Ixy_upper_arm", "Iyy_upper_arm", "Ixz_upper_arm", "Iyz_upper_arm", "Izz_upper_arm", "m_forearm", "mcx_forearm", "mcy_forearm", "mcz_forearm", "Ixx_forearm", "Ixy_forearm", "Iyy_forearm", "Ixz_forearm", "Iyz_forearm", "Izz_forearm")
 
 
 def _matvec(matrix, vector):
@@ -55,6 +58,30 @@ def generalized_forces(q, u, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, 
     out[..., 0] = tau1
     out[..., 1] = tau2
     out[..., 2] = tau3
+    return out
+
+
+def parameter_vector(*, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (30,).
+    """
+    batch = np.broadcast_shapes()
+    _t0 = (1/2)*I1 + lc1**2*m1
+    _t1 = (1/12)*l2**2*m2 + lc2**2*m2
+    _t2 = (1/12)*l3**2*m3 + lc3**2*m3
+    out = np.zeros(batch + (30,))
+    out[..., 0] = m1
+    out[..., 3] = lc1*m1
+    out[..., 4] = _t0
+    out[..., 6] = _t0
+    out[..., 9] = I1
+    out[..., 10] = m2
+    out[..., 11] = lc2*m2
+    out[..., 16] = _t1
+    out[..., 19] = _t1
+    out[..., 20] = m3
+    out[..., 21] = lc3*m3
+    out[..., 26] = _t2
+    out[..., 29] = _t2
     return out
 
 
@@ -408,6 +435,204 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4
 _forward_dynamics_body.functions = ("sin", "cos")
 
 
+def _regressor_body(q, qd, qdd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 96 lines, 291 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    qdd1, qdd2, qdd3 = qdd
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = _r1*qd1
+    _r5 = _r0*qd1
+    _r6 = _r1*qdd1
+    _r7 = _r0*qdd1
+    _r8 = _r1*g
+    _r9 = _r0*g
+    _r6 = _r6 + _r5*qd2
+    _r7 = _r7 - _r4*qd2
+    _r10 = _r7 - _r4*qd2
+    _r11 = _r6 - _r5*qd2
+    _r12 = _r1*_r9 - _r0*_r8
+    _r13 = -qdd2 + _r4*_r5
+    _r14 = _r4*_r5
+    _r15 = _r4*qd2
+    _r15 = _r0*_r15 + _r1*_r6
+    _r16 = -qdd2 - _r4*_r5
+    _r17 = _r4**2 - qd2**2
+    _r17 = _r0*_r17 + _r1*_r16
+    _r16 = _r5*qd2
+    _r18 = -_r4*qd2
+    _r18 = _r0*_r18 + _r1*_r16
+    _r16 = _r5**2 - _r4**2
+    _r19 = _r6 + _r5*qd2
+    _r19 = _r0*_r19 + _r1*_r10
+    _r10 = qd2**2 - _r5**2
+    _r20 = _r7 + _r4*qd2
+    _r10 = _r0*_r13 + _r1*_r10
+    _r13 = -_r5*qd2
+    _r21 = -_r4*_r5
+    _r13 = _r0*_r7 + _r1*_r13
+    _r22 = _r2*_r4 + _r3*_r5
+    _r4 = _r2*_r5 - _r3*_r4
+    _r23 = _r3*l2*qd2
+    _r5 = _r5*l2
+    _r24 = _r2*l2*qd2
+    _r25 = _r2*_r6 + _r3*_r7
+    _r6 = _r2*_r7 - _r3*_r6
+    _r26 = _r2*_r8 + _r3*(_r9 + l2*qdd2)
+    _r7 = _r7*l2
+    _r27 = _r2*(_r9 + l2*qdd2) - _r3*_r8
+    _r28 = -qd2 - qd3
+    _r25 = _r25 + _r4*qd3
+    _r29 = -qdd2 - qdd3
+    _r6 = _r6 - _r22*qd3
+    _r26 = _r26 + _r24*qd3
+    _r27 = _r27 - _r23*qd3
+    _r30 = _r0*_r3 + _r2*_r1
+    _r1 = _r0*_r2 - _r1*_r3
+    _r0 = _r0*l2
+    _r3 = _r3*l2
+    _r2 = _r2*l2
+    _r31 = _r26 + _r24*_r28 - _r4*_r5
+    _r32 = _r7 + _r4*_r23 - _r22*_r24
+    _r33 = _r27 + _r22*_r5 - _r23*_r28
+    _r34 = _r0*_r32
+    _r35 = _r3*_r31 + _r2*_r33
+    _r27 = -_r27 + _r23*_r28 - _r22*_r5
+    _r36 = -_r4**2 - _r28**2
+    _r37 = _r6 + _r22*_r28
+    _r38 = -_r29 + _r22*_r4
+    _r32 = _r1*_r32 + _r0*_r37
+    _r38 = -_r27 + _r3*_r36 + _r2*_r38
+    _r26 = -_r26 + _r4*_r5 - _r24*_r28
+    _r5 = -_r6 + _r22*_r28
+    _r36 = -_r22**2 - _r4**2
+    _r39 = _r25 + _r4*_r28
+    _r36 = _r30*_r33 + _r1*_r26 + _r0*_r36
+    _r5 = _r3*_r5 + _r2*_r39
+    _r7 = -_r7 + _r22*_r24 - _r4*_r23
+    _r24 = _r29 + _r22*_r4
+    _r23 = -_r25 + _r4*_r28
+    _r26 = -_r22**2 - _r28**2
+    _r23 = _r30*_r7 + _r0*_r23
+    _r26 = -_r31 + _r3*_r24 + _r2*_r26
+    _r2 = _r22*_r4
+    _r3 = -_r22*_r28
+    _r3 = _r25*_r30 + _r1*_r3
+    _r7 = _r29 - _r22*_r4
+    _r0 = _r22**2 - _r28**2
+    _r0 = _r30*_r7 + _r1*_r0
+    _r7 = -_r4*_r28
+    _r33 = _r22*_r28
+    _r33 = _r30*_r7 + _r1*_r33
+    _r7 = _r4**2 - _r22**2
+    _r25 = _r25 - _r4*_r28
+    _r25 = _r30*_r37 + _r1*_r25
+    _r37 = _r28**2 - _r4**2
+    _r40 = _r6 - _r22*_r28
+    _r24 = _r37*_r30 + _r1*_r24
+    _r28 = _r4*_r28
+    _r4 = -_r22*_r4
+    _r1 = _r28*_r30 + _r6*_r1
+    return (
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        qdd1,
+        0,
+        0,
+        _r12,
+        0,
+        _r15,
+        _r17,
+        _r18,
+        _r19,
+        _r10,
+        _r13,
+        _r34,
+        _r32,
+        _r36,
+        _r23,
+        _r3,
+        _r0,
+        _r33,
+        _r25,
+        _r24,
+        _r1,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r9,
+        0,
+        -_r8,
+        -_r14,
+        -_r11,
+        qdd2,
+        -_r16,
+        -_r20,
+        -_r21,
+        _r35,
+        _r38,
+        _r5,
+        _r26,
+        -_r2,
+        -_r39,
+        -_r29,
+        -_r7,
+        -_r40,
+        -_r4,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        -_r27,
+        0,
+        -_r31,
+        -_r2,
+        -_r39,
+        -_r29,
+        -_r7,
+        -_r40,
+        -_r4,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
+
+
 def mass_matrix(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 3, 3).
 
@@ -477,3 +702,14 @@ def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 3:
         raise ValueError(f"u must have shape (..., 3), got {arrays[2].shape}")
     return _evaluate(_forward_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 3, 30): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
+    return _evaluate(_regressor_body, arrays, (3, 30), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})

@@ -29,6 +29,9 @@ PARAMETERS = {"a": 0.25, "b": 0.9, "c": 0.6, "d": 0.8, "m1": 0.5, "m2": 1.5, "m3
 COORDINATES = ("q1", "q2", "q3")
 EFFORTS = ("tau1",)
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2", "x3", "y3", "phi3")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
+PARAMETER_VECTOR = ("m_crank", "mcx_crank", "mcy_crank", "Izz_crank", "m_coupler", "mcx_coupler", "mcy_coupler", "Izz_coupler", "m_rocker", "mcx_rocker", "mcy_rocker", "Izz_rocker")
 
 
 def _matvec(matrix, vector):
@@ -513,6 +516,23 @@ def to_maximal_jacobian(q, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.
     return out
 
 
+def parameter_vector(*, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
+    """
+    batch = np.broadcast_shapes()
+    out = np.zeros(batch + (12,))
+    out[..., 0] = m1
+    out[..., 1] = (1/2)*a*m1
+    out[..., 3] = (1/3)*a**2*m1
+    out[..., 4] = m2
+    out[..., 5] = (1/2)*b*m2
+    out[..., 7] = (1/3)*b**2*m2
+    out[..., 8] = m3
+    out[..., 9] = (1/2)*c*m3
+    out[..., 11] = (1/3)*c**2*m3
+    return out
+
+
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -598,6 +618,81 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, a=0.25, b=0.9, c=0.6, d=0.8,
 
 
 _inverse_dynamics_body.functions = ("sin", "cos")
+
+
+def _regressor_body(q, qd, qdd, sin, cos, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 27 lines, 58 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    qdd1, qdd2, qdd3 = qdd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r3 = _r3*g
+    _r2 = _r2*g
+    _r6 = _r5*a*qd1
+    _r7 = _r4*a*qd1
+    _r8 = _r4*_r1 + _r5*(_r0 + a*qdd1)
+    _r9 = _r4*(_r0 + a*qdd1) - _r5*_r1
+    _r10 = qd1 + qd2
+    _r11 = qdd1 + qdd2
+    _r8 = _r8 + _r7*qd2
+    _r9 = _r9 - _r6*qd2
+    _r5 = _r5*a
+    _r4 = _r4*a
+    _r12 = _r8 - _r7*_r10
+    _r9 = _r9 + _r6*_r10
+    _r12 = _r5*_r12 + _r4*_r9
+    _r6 = -_r10**2
+    _r13 = _r9 + _r11*_r4 + _r5*_r6
+    _r8 = -_r8 + _r7*_r10
+    _r6 = _r8 + _r4*_r6 - _r11*_r5
+    return (
+        0,
+        _r0,
+        -_r1,
+        qdd1,
+        _r12,
+        _r13,
+        _r6,
+        _r11,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r9,
+        _r8,
+        _r11,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r2,
+        -_r3,
+        qdd3,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
 
 
 def friction_forces(qd, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
@@ -718,6 +813,17 @@ def assemble(q_guess, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=
     if np.all(np.abs(loop_constraints(_q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
     raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 3, 12): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd) of the open tree (no loop forces), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
+    return _evaluate(_regressor_body, arrays, (3, 12), {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g})
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):

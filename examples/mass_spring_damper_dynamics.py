@@ -24,6 +24,9 @@ PARAMETERS = {"m1": 1.0, "m2": 0.5, "k1": 40.0, "k2": 25.0, "b1": 0.8, "b2": 0.3
 COORDINATES = ("s1", "s2")
 EFFORTS = ("F1",)
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
+PARAMETER_VECTOR = ("m_mass1", "mcx_mass1", "mcy_mass1", "Izz_mass1", "m_mass2", "mcx_mass2", "mcy_mass2", "Izz_mass2", "damping_s1", "stiffness_s1", "damping_s2", "stiffness_s2")
 
 
 def _matvec(matrix, vector):
@@ -397,6 +400,20 @@ def maximal_friction_forces(qm, qmd, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8
     return out
 
 
+def parameter_vector(*, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
+    """
+    batch = np.broadcast_shapes()
+    out = np.zeros(batch + (12,))
+    out[..., 0] = m1
+    out[..., 4] = m2
+    out[..., 8] = b1
+    out[..., 9] = k1
+    out[..., 10] = b2
+    out[..., 11] = k2
+    return out
+
+
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -484,6 +501,43 @@ def _forward_dynamics_body(q, qd, u, _friction, *, m1=1.0, m2=0.5, k1=40.0, k2=2
 _forward_dynamics_body.functions = ()
 
 
+def _regressor_body(q, qd, qdd, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 1 lines, 1 operations."""
+    s1, s2 = q
+    sd1, sd2 = qd
+    sdd1, sdd2 = qdd
+    _r0 = sdd1 + sdd2
+    return (
+        sdd1,
+        0,
+        0,
+        0,
+        _r0,
+        0,
+        0,
+        0,
+        sd1,
+        s1,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        sd2,
+        s2,
+    )
+
+
+_regressor_body.functions = ()
+
+
 def _direction(qd, friction_smoothing):
     """sign(qd), or tanh(qd / friction_smoothing) when it is positive (a smooth Coulomb law)."""
     if friction_smoothing < 0:
@@ -528,6 +582,17 @@ def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k
         raise ValueError(f"u must have shape (..., 1), got {arrays[2].shape}")
     arrays.append(friction_forces(arrays[1], friction_smoothing=friction_smoothing, m1=m1, m2=m2, k1=k1, k2=k2, b1=b1, b2=b2, d=d, g=g))
     return _evaluate(_forward_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g})
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 2, 12): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    return _evaluate(_regressor_body, arrays, (2, 12), {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g})
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):

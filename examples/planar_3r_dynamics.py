@@ -28,6 +28,9 @@ PARAMETERS = {"m1": 2.0, "m2": 1.5, "m3": 0.5, "l1": 0.5, "l2": 0.4, "r1": 0.25,
 COORDINATES = ("th1", "th2", "th3")
 EFFORTS = ("tau1", "tau2", "tau3")
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2", "x3", "y3", "phi3")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
+PARAMETER_VECTOR = ("m_link1", "mcx_link1", "mcy_link1", "Izz_link1", "m_link2", "mcx_link2", "mcy_link2", "Izz_link2", "m_link3", "mcx_link3", "mcy_link3", "Izz_link3")
 
 
 def _matvec(matrix, vector):
@@ -492,6 +495,23 @@ def to_maximal_jacobian(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r
     return out
 
 
+def parameter_vector(*, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
+    """
+    batch = np.broadcast_shapes()
+    out = np.zeros(batch + (12,))
+    out[..., 0] = m1
+    out[..., 1] = m1*r1
+    out[..., 3] = I1 + m1*r1**2
+    out[..., 4] = m2
+    out[..., 5] = m2*r2
+    out[..., 7] = I2 + m2*r2**2
+    out[..., 8] = m3
+    out[..., 9] = m3*r3
+    out[..., 11] = I3 + m3*r3**2
+    return out
+
+
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -689,6 +709,101 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5
 _forward_dynamics_body.functions = ("sin", "cos")
 
 
+def _regressor_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 47 lines, 129 operations."""
+    th1, th2, th3 = q
+    thd1, thd2, thd3 = qd
+    thdd1, thdd2, thdd3 = qdd
+    _r0 = cos(th1)
+    _r1 = sin(th1)
+    _r2 = cos(th2)
+    _r3 = sin(th2)
+    _r4 = cos(th3)
+    _r5 = sin(th3)
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r6 = _r3*l1*thd1
+    _r7 = _r2*l1*thd1
+    _r8 = _r2*_r1 + _r3*(_r0 + l1*thdd1)
+    _r9 = _r2*(_r0 + l1*thdd1) - _r3*_r1
+    _r10 = thd1 + thd2
+    _r11 = thdd1 + thdd2
+    _r8 = _r8 + _r7*thd2
+    _r9 = _r9 - _r6*thd2
+    _r3 = _r3*l1
+    _r2 = _r2*l1
+    _r12 = _r8 - _r7*_r10
+    _r13 = _r9 + _r6*_r10
+    _r12 = _r3*_r12 + _r2*_r13
+    _r14 = -_r10**2
+    _r15 = _r13 + _r11*_r2 + _r3*_r14
+    _r16 = -_r8 + _r7*_r10
+    _r14 = _r16 + _r2*_r14 - _r11*_r3
+    _r17 = _r4*_r6 + _r5*(_r7 + _r10*l2)
+    _r7 = _r4*(_r7 + _r10*l2) - _r5*_r6
+    _r6 = _r4*_r8 + _r5*(_r9 + _r11*l2)
+    _r9 = _r4*(_r9 + _r11*l2) - _r5*_r8
+    _r10 = _r10 + thd3
+    _r8 = _r11 + thdd3
+    _r6 = _r6 + _r7*thd3
+    _r9 = _r9 - _r17*thd3
+    _r18 = _r4*_r3 + _r5*(_r2 + l2)
+    _r2 = _r4*(_r2 + l2) - _r5*_r3
+    _r5 = _r5*l2
+    _r4 = _r4*l2
+    _r3 = _r6 - _r7*_r10
+    _r9 = _r9 + _r17*_r10
+    _r17 = _r18*_r3 + _r2*_r9
+    _r3 = _r5*_r3 + _r4*_r9
+    _r19 = -_r10**2
+    _r20 = _r9 + _r8*_r2 + _r18*_r19
+    _r21 = _r9 + _r8*_r4 + _r5*_r19
+    _r6 = -_r6 + _r7*_r10
+    _r2 = _r6 + _r2*_r19 - _r8*_r18
+    _r19 = _r6 + _r4*_r19 - _r8*_r5
+    return (
+        0,
+        _r0,
+        -_r1,
+        thdd1,
+        _r12,
+        _r15,
+        _r14,
+        _r11,
+        _r17,
+        _r20,
+        _r2,
+        _r8,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r13,
+        _r16,
+        _r11,
+        _r3,
+        _r21,
+        _r19,
+        _r8,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r9,
+        _r6,
+        _r8,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
+
+
 def friction_forces(qd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Dissipative forces F_g of the joints, shape (..., 3): zero, this robot declares no
     damping or friction (the signature matches robots that do)."""
@@ -714,6 +829,17 @@ def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 3:
         raise ValueError(f"u must have shape (..., 3), got {arrays[2].shape}")
     return _evaluate(_forward_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 3, 12): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
+    return _evaluate(_regressor_body, arrays, (3, 12), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):

@@ -28,6 +28,9 @@ PARAMETERS = {"r": 0.1, "l": 0.35, "e": 0.03, "m1": 0.3, "m2": 0.6, "m3": 0.8, "
 COORDINATES = ("q1", "q2", "s")
 EFFORTS = ("tau1",)
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2", "x3", "y3", "phi3")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
+PARAMETER_VECTOR = ("m_crank", "mcx_crank", "mcy_crank", "Izz_crank", "m_rod", "mcx_rod", "mcy_rod", "Izz_rod", "m_slider", "mcx_slider", "mcy_slider", "Izz_slider")
 
 
 def _matvec(matrix, vector):
@@ -471,6 +474,21 @@ def to_maximal_jacobian(q, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9
     return out
 
 
+def parameter_vector(*, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
+    """
+    batch = np.broadcast_shapes()
+    out = np.zeros(batch + (12,))
+    out[..., 0] = m1
+    out[..., 1] = (1/2)*m1*r
+    out[..., 3] = (1/3)*m1*r**2
+    out[..., 4] = m2
+    out[..., 5] = (1/2)*l*m2
+    out[..., 7] = (1/3)*l**2*m2
+    out[..., 8] = m3
+    return out
+
+
 #: States per chunk of a batch: the live values of a chunk stay in the CPU cache.
 _CHUNK = 4096
 #: The functions a straight-line body may call: on floats for one state, on arrays for a batch.
@@ -552,6 +570,77 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, r=0.1, l=0.35, e=0.03, m1=0.
 
 
 _inverse_dynamics_body.functions = ("sin", "cos")
+
+
+def _regressor_body(q, qd, qdd, sin, cos, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 23 lines, 53 operations."""
+    q1, q2, s = q
+    qd1, qd2, sd = qd
+    qdd1, qdd2, sdd = qdd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r4 = _r3*qd1*r
+    _r5 = _r2*qd1*r
+    _r6 = _r2*_r1 + _r3*(_r0 + qdd1*r)
+    _r7 = _r2*(_r0 + qdd1*r) - _r3*_r1
+    _r8 = qd1 + qd2
+    _r9 = qdd1 + qdd2
+    _r6 = _r6 + _r5*qd2
+    _r7 = _r7 - _r4*qd2
+    _r3 = _r3*r
+    _r2 = _r2*r
+    _r10 = _r6 - _r5*_r8
+    _r4 = _r7 + _r8*_r4
+    _r10 = _r3*_r10 + _r2*_r4
+    _r7 = -_r8**2
+    _r11 = _r4 + _r9*_r2 + _r3*_r7
+    _r6 = -_r6 + _r5*_r8
+    _r7 = _r6 + _r2*_r7 - _r9*_r3
+    return (
+        0,
+        _r0,
+        -_r1,
+        qdd1,
+        _r10,
+        _r11,
+        _r7,
+        _r9,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r4,
+        _r6,
+        _r9,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        sdd,
+        0,
+        0,
+        0,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
 
 
 def friction_forces(qd, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
@@ -672,6 +761,17 @@ def assemble(q_guess, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
     if np.all(np.abs(loop_constraints(_q, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
     raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 3, 12): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd) of the open tree (no loop forces), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
+    return _evaluate(_regressor_body, arrays, (3, 12), {"r": r, "l": l, "e": e, "m1": m1, "m2": m2, "m3": m3, "g": g})
 
 
 def _kkt_solve(qm, qmd, u, alpha, beta, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):

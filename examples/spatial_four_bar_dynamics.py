@@ -29,6 +29,9 @@ ASSEMBLED_CONFIGURATION = (0.0, 0.0, 0.0, 0.0)
 PARAMETERS = {"a": 0.1, "b": 0.4, "c": 0.3, "m1": 0.4, "ms": 0.05, "Is": 2e-05, "m2": 0.8, "m3": 0.6, "g": 9.81}
 COORDINATES = ("q1", "q2", "q3", "q4")
 EFFORTS = ("tau1",)
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order, then the drives.
+PARAMETER_VECTOR = ("m_crank", "mcx_crank", "mcy_crank", "mcz_crank", "Ixx_crank", "Ixy_crank", "Iyy_crank", "Ixz_crank", "Iyz_crank", "Izz_crank", "m_spider", "mcx_spider", "mcy_spider", "mcz_spider", "Ixx_spider", "Ixy_spider", "Iyy_spider", "Ixz_spider", "Iyz_spider", "Izz_spider", "m_coupler", "mcx_coupler", "mcy_coupler", "mcz_coupler", "Ixx_coupler", "Ixy_coupler", "Iyy_coupler", "Ixz_coupler", "Iyz_coupler", "Izz_coupler", "m_rocker", "mcx_rocker", "mcy_rocker", "mcz_rocker", "Ixx_rocker", "Ixy_rocker", "Iyy_rocker", "Ixz_rocker", "Iyz_rocker", "Izz_rocker")
 
 
 def _matvec(matrix, vector):
@@ -166,6 +169,33 @@ def loop_jacobian_dot(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, 
     out[..., 1, 3] = _t23*np.sin(q4)
     out[..., 2, 2] = -_t4
     out[..., 2, 3] = -_t23*np.cos(q4)
+    return out
+
+
+def parameter_vector(*, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (40,).
+    """
+    batch = np.broadcast_shapes()
+    _t0 = (1/3)*a**2*m1
+    _t1 = (1/3)*b**2*m2
+    _t2 = (1/3)*c**2*m3
+    out = np.zeros(batch + (40,))
+    out[..., 0] = m1
+    out[..., 1] = (1/2)*a*m1
+    out[..., 6] = _t0
+    out[..., 9] = _t0
+    out[..., 10] = ms
+    out[..., 14] = Is
+    out[..., 16] = Is
+    out[..., 19] = Is
+    out[..., 20] = m2
+    out[..., 21] = (1/2)*b*m2
+    out[..., 26] = _t1
+    out[..., 29] = _t1
+    out[..., 30] = m3
+    out[..., 33] = (1/2)*c*m3
+    out[..., 34] = _t2
+    out[..., 36] = _t2
     return out
 
 
@@ -429,6 +459,257 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4,
 _inverse_dynamics_body.functions = ("sin", "cos")
 
 
+def _regressor_body(q, qd, qdd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 79 lines, 232 operations."""
+    q1, q2, q3, q4 = q
+    qd1, qd2, qd3, qd4 = qd
+    qdd1, qdd2, qdd3, qdd4 = qdd
+    _r0 = cos(q4)
+    _r1 = sin(q4)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r1 = _r1*g
+    _r0 = _r0*g
+    _r6 = _r2*a*qd1
+    _r7 = -_r3*a*qd1
+    _r8 = _r2*a*qdd1
+    _r9 = -_r3*a*qdd1
+    _r10 = qd1 + qd2
+    _r11 = qdd1 + qdd2
+    _r8 = _r8 + _r7*qd2
+    _r9 = _r9 - _r6*qd2
+    _r2 = _r2*a
+    _r3 = -_r3*a
+    _r12 = _r8 - _r7*_r10
+    _r13 = _r9 + _r6*_r10
+    _r12 = _r2*_r12 + _r3*_r13
+    _r14 = -_r10**2
+    _r15 = _r13 + _r11*_r3 + _r2*_r14
+    _r16 = -_r8 + _r7*_r10
+    _r14 = _r16 + _r3*_r14 - _r11*_r2
+    _r17 = -_r5*_r10
+    _r10 = _r4*_r10
+    _r18 = _r4*_r6
+    _r6 = _r5*_r6
+    _r19 = -_r5*_r11
+    _r20 = _r4*_r11
+    _r21 = _r4*_r8 - _r5*g
+    _r8 = _r4*g + _r5*_r8
+    _r19 = _r19 - _r10*qd3
+    _r20 = _r20 + _r17*qd3
+    _r21 = _r21 - _r6*qd3
+    _r8 = _r8 + _r18*qd3
+    _r22 = _r4*_r2
+    _r2 = _r5*_r2
+    _r23 = _r21 + _r6*qd3 - _r7*_r10
+    _r24 = _r9 + _r10*_r18 - _r17*_r6
+    _r25 = _r8 + _r7*_r17 - _r18*qd3
+    _r26 = _r3*_r24 + _r22*_r23 + _r2*_r25
+    _r8 = -_r8 + _r18*qd3 - _r7*_r17
+    _r27 = -_r10**2 - qd3**2
+    _r28 = _r20 + _r17*qd3
+    _r29 = -qdd3 + _r17*_r10
+    _r29 = _r4*_r24 + _r3*_r28 + _r22*_r27 + _r2*_r29
+    _r24 = _r4*_r24
+    _r21 = -_r21 + _r7*_r10 - _r6*qd3
+    _r7 = -_r20 + _r17*qd3
+    _r27 = -_r17**2 - _r10**2
+    _r30 = _r19 + _r10*qd3
+    _r27 = _r4*_r21 + _r3*_r27 + _r22*_r7 + _r2*_r30 - _r5*_r25
+    _r21 = _r4*_r21 - _r5*_r25
+    _r6 = -_r9 + _r17*_r6 - _r10*_r18
+    _r18 = qdd3 + _r17*_r10
+    _r9 = -_r19 + _r10*qd3
+    _r25 = -_r17**2 - qd3**2
+    _r25 = _r3*_r9 + _r22*_r18 + _r2*_r25 - _r5*_r6
+    _r6 = -_r5*_r6
+    _r9 = _r17*_r10
+    _r2 = -_r17*qd3
+    _r2 = _r4*_r2 - _r5*_r19
+    _r22 = qdd3 - _r17*_r10
+    _r3 = _r17**2 - qd3**2
+    _r3 = _r4*_r3 - _r5*_r22
+    _r22 = -_r10*qd3
+    _r7 = _r17*qd3
+    _r7 = _r4*_r7 - _r5*_r22
+    _r22 = _r10**2 - _r17**2
+    _r19 = _r19 - _r10*qd3
+    _r19 = _r4*_r19 - _r5*_r28
+    _r28 = qd3**2 - _r10**2
+    _r31 = _r20 - _r17*qd3
+    _r28 = _r4*_r18 - _r5*_r28
+    _r18 = _r10*qd3
+    _r10 = -_r17*_r10
+    _r18 = _r4*_r20 - _r5*_r18
+    return (
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        qdd1,
+        _r12,
+        _r15,
+        _r14,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r11,
+        _r26,
+        _r29,
+        _r27,
+        _r25,
+        _r2,
+        _r3,
+        _r7,
+        _r19,
+        _r28,
+        _r18,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r13,
+        _r16,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r11,
+        0,
+        _r24,
+        _r21,
+        _r6,
+        _r2,
+        _r3,
+        _r7,
+        _r19,
+        _r28,
+        _r18,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r8,
+        0,
+        _r23,
+        _r9,
+        _r30,
+        qdd3,
+        _r22,
+        _r31,
+        _r10,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r0,
+        -_r1,
+        qdd4,
+        0,
+        0,
+        0,
+        0,
+        0,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
+
+
 def mass_matrix(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 4, 4).
 
@@ -591,3 +872,14 @@ def assemble(q_guess, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8,
     if np.all(np.abs(loop_constraints(_q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
     raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 4, 40): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd) of the open tree (no loop forces), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4), _coordinates("qdd", qdd, 4)]
+    return _evaluate(_regressor_body, arrays, (4, 40), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})

@@ -16,6 +16,9 @@ import numpy as np
 PARAMETERS = {"g": 9.81}
 COORDINATES = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
 EFFORTS = ("tau_shoulder_pan_joint", "tau_shoulder_lift_joint", "tau_elbow_joint", "tau_wrist_1_joint", "tau_wrist_2_joint", "tau_wrist_3_joint")
+#: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
+#: and inertia about the link frame's origin in Pinocchio's order, then the drives.
+PARAMETER_VECTOR = ("m_shoulder_link", "mcx_shoulder_link", "mcy_shoulder_link", "mcz_shoulder_link", "Ixx_shoulder_link", "Ixy_shoulder_link", "Iyy_shoulder_link", "Ixz_shoulder_link", "Iyz_shoulder_link", "Izz_shoulder_link", "m_upper_arm_link", "mcx_upper_arm_link", "mcy_upper_arm_link", "mcz_upper_arm_link", "Ixx_upper_arm_link", "Ixy_upper_arm_link", "Iyy_upper_arm_link", "Ixz_upper_arm_link", "Iyz_upper_arm_link", "Izz_upper_arm_link", "m_forearm_link", "mcx_forearm_link", "mcy_forearm_link", "mcz_forearm_link", "Ixx_forearm_link", "Ixy_forearm_link", "Iyy_forearm_link", "Ixz_forearm_link", "Iyz_forearm_link", "Izz_forearm_link", "m_wrist_1_link", "mcx_wrist_1_link", "mcy_wrist_1_link", "mcz_wrist_1_link", "Ixx_wrist_1_link", "Ixy_wrist_1_link", "Iyy_wrist_1_link", "Ixz_wrist_1_link", "Iyz_wrist_1_link", "Izz_wrist_1_link", "m_wrist_2_link", "mcx_wrist_2_link", "mcy_wrist_2_link", "mcz_wrist_2_link", "Ixx_wrist_2_link", "Ixy_wrist_2_link", "Iyy_wrist_2_link", "Ixz_wrist_2_link", "Iyz_wrist_2_link", "Izz_wrist_2_link", "m_wrist_3_link", "mcx_wrist_3_link", "mcy_wrist_3_link", "mcz_wrist_3_link", "Ixx_wrist_3_link", "Ixy_wrist_3_link", "Iyy_wrist_3_link", "Ixz_wrist_3_link", "Iyz_wrist_3_link", "Izz_wrist_3_link")
 
 
 def _matvec(matrix, vector):
@@ -51,6 +54,40 @@ def generalized_forces(q, u, *, g=9.81):
     out[..., 3] = tau_wrist_1_joint
     out[..., 4] = tau_wrist_2_joint
     out[..., 5] = tau_wrist_3_joint
+    return out
+
+
+def parameter_vector(*, g=9.81):
+    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (60,).
+    """
+    batch = np.broadcast_shapes()
+    out = np.zeros(batch + (60,))
+    out[..., 0] = 37/10
+    out[..., 4] = 10267495893/1000000000000
+    out[..., 6] = 10267495893/1000000000000
+    out[..., 9] = 333/50000
+    out[..., 10] = 8393/1000
+    out[..., 13] = 58751/25000
+    out[..., 14] = 88490187591/100000000000
+    out[..., 16] = 88490187591/100000000000
+    out[..., 19] = 75537/5000000
+    out[..., 20] = 91/40
+    out[..., 23] = 91/160
+    out[..., 24] = 47907703389/250000000000
+    out[..., 26] = 47907703389/250000000000
+    out[..., 29] = 819/200000
+    out[..., 30] = 1219/1000
+    out[..., 34] = 111172755531/1000000000000
+    out[..., 36] = 111172755531/1000000000000
+    out[..., 39] = 10971/50000
+    out[..., 40] = 1219/1000
+    out[..., 44] = 111172755531/1000000000000
+    out[..., 46] = 111172755531/1000000000000
+    out[..., 49] = 10971/50000
+    out[..., 50] = 1879/10000
+    out[..., 54] = 85682365727/5000000000000
+    out[..., 56] = 85682365727/5000000000000
+    out[..., 59] = 16911/500000
     return out
 
 
@@ -1188,6 +1225,746 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, g=9.81):
 _forward_dynamics_body.functions = ("sin", "cos")
 
 
+def _regressor_body(q, qd, qdd, sin, cos, *, g=9.81):
+    """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 368 lines, 1401 operations."""
+    shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
+    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = qd
+    shoulder_pan_jointdd, shoulder_lift_jointdd, elbow_jointdd, wrist_1_jointdd, wrist_2_jointdd, wrist_3_jointdd = qdd
+    _r0 = cos(shoulder_lift_joint)
+    _r1 = sin(shoulder_lift_joint)
+    _r2 = cos(elbow_joint)
+    _r3 = sin(elbow_joint)
+    _r4 = cos(wrist_1_joint)
+    _r5 = sin(wrist_1_joint)
+    _r6 = cos(wrist_2_joint)
+    _r7 = sin(wrist_2_joint)
+    _r8 = cos(wrist_3_joint)
+    _r9 = sin(wrist_3_joint)
+    _r10 = -_r0*shoulder_pan_jointd
+    _r11 = -_r1*shoulder_pan_jointd
+    _r12 = 0.13585*(_r1*shoulder_pan_jointd)
+    _r13 = -0.13585*_r0*shoulder_pan_jointd
+    _r14 = -_r0*shoulder_pan_jointdd
+    _r15 = -_r1*shoulder_pan_jointdd
+    _r16 = -_r0*g + 0.13585*(_r1*shoulder_pan_jointdd)
+    _r17 = -_r1*g - 0.13585*_r0*shoulder_pan_jointdd
+    _r14 = _r14 - _r11*shoulder_lift_jointd
+    _r15 = _r15 + _r10*shoulder_lift_jointd
+    _r16 = _r16 - _r13*shoulder_lift_jointd
+    _r17 = _r17 + _r12*shoulder_lift_jointd
+    _r18 = 0.13585*_r1
+    _r19 = -0.13585*_r0
+    _r20 = _r16 + _r13*shoulder_lift_jointd
+    _r21 = _r11*_r12 - _r10*_r13
+    _r22 = _r17 - _r12*shoulder_lift_jointd
+    _r23 = _r18*_r20 + _r19*_r22
+    _r24 = -_r17 + _r12*shoulder_lift_jointd
+    _r25 = -_r11**2 - shoulder_lift_jointd**2
+    _r26 = _r15 + _r10*shoulder_lift_jointd
+    _r27 = -shoulder_lift_jointdd + _r10*_r11
+    _r27 = _r18*_r25 + _r19*_r27 - _r1*_r21
+    _r25 = -_r16 - _r13*shoulder_lift_jointd
+    _r21 = -_r15 + _r10*shoulder_lift_jointd
+    _r28 = _r14 + _r11*shoulder_lift_jointd
+    _r21 = _r18*_r21 + _r19*_r28 - _r0*_r22 - _r1*_r25
+    _r25 = _r10*_r13 - _r11*_r12
+    _r22 = shoulder_lift_jointdd + _r10*_r11
+    _r29 = -_r10**2 - shoulder_lift_jointd**2
+    _r29 = _r18*_r22 + _r19*_r29 - _r0*_r25
+    _r25 = _r10*_r11
+    _r30 = -_r10*shoulder_lift_jointd
+    _r30 = -_r0*_r14 - _r1*_r30
+    _r31 = shoulder_lift_jointdd - _r10*_r11
+    _r32 = _r10**2 - shoulder_lift_jointd**2
+    _r32 = -_r0*_r31 - _r1*_r32
+    _r31 = -_r11*shoulder_lift_jointd
+    _r33 = _r10*shoulder_lift_jointd
+    _r33 = -_r0*_r31 - _r1*_r33
+    _r31 = _r11**2 - _r10**2
+    _r34 = _r14 - _r11*shoulder_lift_jointd
+    _r34 = -_r0*_r26 - _r1*_r34
+    _r26 = shoulder_lift_jointd**2 - _r11**2
+    _r35 = _r15 - _r10*shoulder_lift_jointd
+    _r26 = -_r0*_r26 - _r1*_r22
+    _r22 = _r11*shoulder_lift_jointd
+    _r36 = -_r10*_r11
+    _r22 = -_r0*_r22 - _r1*_r15
+    _r37 = _r2*_r10 - _r3*_r11
+    _r38 = _r2*_r11 + _r3*_r10
+    _r39 = _r2*(_r12 + 0.425*shoulder_lift_jointd + 0.1197*_r11) - _r3*(_r13 - 0.1197*_r10)
+    _r40 = -0.425*_r10
+    _r13 = _r2*(_r13 - 0.1197*_r10) + _r3*(_r12 + 0.425*shoulder_lift_jointd + 0.1197*_r11)
+    _r12 = _r2*_r14 - _r3*_r15
+    _r11 = _r2*_r15 + _r3*_r14
+    _r10 = _r2*(_r16 + 0.425*shoulder_lift_jointdd + 0.1197*_r15) - _r3*(_r17 - 0.1197*_r14)
+    _r41 = -0.425*_r14
+    _r17 = _r2*(_r17 - 0.1197*_r14) + _r3*(_r16 + 0.425*shoulder_lift_jointdd + 0.1197*_r15)
+    _r16 = elbow_jointd + shoulder_lift_jointd
+    _r12 = _r12 - _r38*elbow_jointd
+    _r15 = elbow_jointdd + shoulder_lift_jointdd
+    _r11 = _r11 + _r37*elbow_jointd
+    _r10 = _r10 - _r13*elbow_jointd
+    _r17 = _r17 + _r39*elbow_jointd
+    _r14 = _r1*_r3 - _r0*_r2
+    _r42 = -_r0*_r3 - _r2*_r1
+    _r43 = _r2*(_r18 - 0.1197*_r1) - _r3*(_r19 + 0.1197*_r0)
+    _r44 = 0.425*_r0
+    _r19 = _r2*(_r19 + 0.1197*_r0) + _r3*(_r18 - 0.1197*_r1)
+    _r2 = 0.425*_r2
+    _r3 = 0.425*_r3
+    _r18 = _r10 + _r13*_r16 - _r38*_r40
+    _r1 = _r41 + _r38*_r39 - _r37*_r13
+    _r0 = _r17 + _r37*_r40 - _r39*_r16
+    _r45 = _r43*_r18 + _r44*_r1 + _r19*_r0
+    _r46 = _r2*_r18 + _r3*_r0
+    _r47 = -_r17 + _r39*_r16 - _r37*_r40
+    _r48 = -_r38**2 - _r16**2
+    _r49 = _r11 + _r37*_r16
+    _r50 = -_r15 + _r37*_r38
+    _r1 = _r42*_r1 + _r43*_r48 + _r44*_r49 + _r19*_r50
+    _r50 = _r47 + _r2*_r48 + _r3*_r50
+    _r48 = -_r10 + _r38*_r40 - _r13*_r16
+    _r51 = -_r11 + _r37*_r16
+    _r52 = -_r37**2 - _r38**2
+    _r53 = _r12 + _r38*_r16
+    _r52 = _r14*_r0 + _r42*_r48 + _r43*_r51 + _r44*_r52 + _r19*_r53
+    _r51 = _r2*_r51 + _r3*_r53
+    _r48 = -_r41 + _r37*_r13 - _r38*_r39
+    _r0 = _r15 + _r37*_r38
+    _r54 = -_r12 + _r38*_r16
+    _r55 = -_r37**2 - _r16**2
+    _r54 = _r14*_r48 + _r43*_r0 + _r44*_r54 + _r19*_r55
+    _r55 = _r18 + _r2*_r0 + _r3*_r55
+    _r48 = _r37*_r38
+    _r56 = -_r37*_r16
+    _r56 = _r56*_r42 + _r12*_r14
+    _r57 = _r15 - _r37*_r38
+    _r58 = _r37**2 - _r16**2
+    _r58 = _r57*_r14 + _r58*_r42
+    _r57 = -_r38*_r16
+    _r59 = _r37*_r16
+    _r59 = _r57*_r14 + _r59*_r42
+    _r57 = _r38**2 - _r37**2
+    _r60 = _r12 - _r38*_r16
+    _r49 = _r60*_r42 + _r14*_r49
+    _r60 = _r16**2 - _r38**2
+    _r61 = _r11 - _r37*_r16
+    _r0 = _r60*_r14 + _r42*_r0
+    _r60 = _r38*_r16
+    _r62 = -_r37*_r38
+    _r60 = _r60*_r14 + _r11*_r42
+    _r63 = -_r4*_r38 - _r5*_r37
+    _r38 = _r4*_r37 - _r5*_r38
+    _r64 = -_r4*_r13 - _r5*(_r39 + 0.39225*_r16)
+    _r40 = _r40 - 0.39225*_r37
+    _r13 = _r4*(_r39 + 0.39225*_r16) - _r5*_r13
+    _r39 = -_r4*_r11 - _r5*_r12
+    _r11 = _r4*_r12 - _r5*_r11
+    _r37 = -_r4*_r17 - _r5*(_r10 + 0.39225*_r15)
+    _r12 = _r41 - 0.39225*_r12
+    _r17 = _r4*(_r10 + 0.39225*_r15) - _r5*_r17
+    _r16 = _r16 + wrist_1_jointd
+    _r39 = _r39 - _r38*wrist_1_jointd
+    _r10 = _r15 + wrist_1_jointdd
+    _r11 = _r11 + _r63*wrist_1_jointd
+    _r37 = _r37 - _r13*wrist_1_jointd
+    _r17 = _r17 + _r64*wrist_1_jointd
+    _r41 = -_r4*_r42 - _r5*_r14
+    _r42 = _r4*_r14 - _r5*_r42
+    _r65 = -_r4*_r19 - _r5*_r43
+    _r44 = _r44 - 0.39225*_r14
+    _r19 = _r4*_r43 - _r5*_r19
+    _r43 = -_r4*_r3 - _r5*(0.39225 + _r2)
+    _r3 = _r4*(0.39225 + _r2) - _r5*_r3
+    _r5 = -0.39225*_r5
+    _r4 = 0.39225*_r4
+    _r2 = _r37 + _r13*_r16 - _r38*_r40
+    _r14 = _r12 + _r38*_r64 - _r63*_r13
+    _r66 = _r17 + _r63*_r40 - _r64*_r16
+    _r67 = _r65*_r2 + _r44*_r14 + _r19*_r66
+    _r68 = _r43*_r2 + _r3*_r66
+    _r69 = _r5*_r2 + _r4*_r66
+    _r70 = -_r17 + _r64*_r16 - _r63*_r40
+    _r71 = -_r38**2 - _r16**2
+    _r72 = _r11 + _r63*_r16
+    _r73 = -_r10 + _r63*_r38
+    _r14 = _r42*_r14 + _r65*_r71 + _r44*_r72 + _r19*_r73
+    _r74 = _r70 + _r43*_r71 + _r3*_r73
+    _r73 = _r70 + _r5*_r71 + _r4*_r73
+    _r71 = -_r37 + _r38*_r40 - _r13*_r16
+    _r75 = -_r11 + _r63*_r16
+    _r76 = -_r63**2 - _r38**2
+    _r77 = _r39 + _r38*_r16
+    _r76 = _r41*_r66 + _r42*_r71 + _r65*_r75 + _r44*_r76 + _r19*_r77
+    _r71 = _r43*_r75 + _r3*_r77
+    _r75 = _r5*_r75 + _r4*_r77
+    _r66 = -_r12 + _r63*_r13 - _r38*_r64
+    _r78 = _r10 + _r63*_r38
+    _r79 = -_r39 + _r38*_r16
+    _r80 = -_r63**2 - _r16**2
+    _r79 = _r41*_r66 + _r65*_r78 + _r44*_r79 + _r19*_r80
+    _r66 = _r2 + _r43*_r78 + _r3*_r80
+    _r80 = _r2 + _r5*_r78 + _r4*_r80
+    _r81 = _r63*_r38
+    _r82 = -_r63*_r16
+    _r82 = _r39*_r41 + _r42*_r82
+    _r83 = _r10 - _r63*_r38
+    _r84 = _r63**2 - _r16**2
+    _r84 = _r41*_r83 + _r42*_r84
+    _r83 = -_r38*_r16
+    _r85 = _r63*_r16
+    _r85 = _r41*_r83 + _r42*_r85
+    _r83 = _r38**2 - _r63**2
+    _r86 = _r39 - _r38*_r16
+    _r86 = _r41*_r72 + _r42*_r86
+    _r72 = _r16**2 - _r38**2
+    _r87 = _r11 - _r63*_r16
+    _r72 = _r41*_r72 + _r42*_r78
+    _r78 = _r38*_r16
+    _r88 = -_r63*_r38
+    _r78 = _r11*_r42 + _r41*_r78
+    _r89 = _r6*_r63 + _r7*_r16
+    _r16 = _r6*_r16 - _r7*_r63
+    _r90 = _r6*(_r64 - 0.093*_r38) + _r7*_r40
+    _r40 = _r6*_r40 - _r7*(_r64 - 0.093*_r38)
+    _r13 = _r13 + 0.093*_r63
+    _r63 = _r6*_r39 + _r7*_r10
+    _r64 = _r6*_r10 - _r7*_r39
+    _r91 = _r6*(_r37 - 0.093*_r11) + _r7*_r12
+    _r37 = _r6*_r12 - _r7*(_r37 - 0.093*_r11)
+    _r17 = _r17 + 0.093*_r39
+    _r38 = _r38 + wrist_2_jointd
+    _r63 = _r63 + _r16*wrist_2_jointd
+    _r64 = _r64 - _r89*wrist_2_jointd
+    _r11 = _r11 + wrist_2_jointdd
+    _r91 = _r91 + _r40*wrist_2_jointd
+    _r37 = _r37 - _r90*wrist_2_jointd
+    _r39 = _r6*_r41
+    _r12 = -_r7*_r41
+    _r92 = _r6*(_r65 - 0.093*_r42) + _r7*_r44
+    _r44 = _r6*_r44 - _r7*(_r65 - 0.093*_r42)
+    _r19 = _r19 + 0.093*_r41
+    _r41 = _r6*_r43
+    _r43 = -_r7*_r43
+    _r65 = _r6*_r5
+    _r5 = -_r7*_r5
+    _r93 = _r91 + _r16*_r13 - _r40*_r38
+    _r94 = _r37 + _r90*_r38 - _r89*_r13
+    _r95 = _r17 + _r89*_r40 - _r16*_r90
+    _r96 = _r92*_r93 + _r44*_r94 + _r19*_r95
+    _r97 = _r3*_r95 + _r41*_r93 + _r43*_r94
+    _r98 = _r4*_r95 + _r65*_r93 + _r5*_r94
+    _r99 = -_r17 + _r16*_r90 - _r89*_r40
+    _r100 = -_r16**2 - _r38**2
+    _r101 = _r11 + _r89*_r16
+    _r102 = -_r64 + _r89*_r38
+    _r103 = _r42*_r94 + _r12*_r99 + _r92*_r100 + _r44*_r101 + _r19*_r102
+    _r104 = _r6*_r99 + _r3*_r102 + _r41*_r100 + _r43*_r101
+    _r102 = _r6*_r99 + _r4*_r102 + _r65*_r100 + _r5*_r101
+    _r99 = _r6*_r99
+    _r100 = -_r91 + _r40*_r38 - _r16*_r13
+    _r105 = -_r11 + _r89*_r16
+    _r106 = -_r89**2 - _r38**2
+    _r107 = _r63 + _r16*_r38
+    _r108 = _r42*_r100 + _r39*_r95 + _r92*_r105 + _r44*_r106 + _r19*_r107
+    _r109 = _r7*_r95 + _r3*_r107 + _r41*_r105 + _r43*_r106
+    _r106 = _r7*_r95 + _r4*_r107 + _r65*_r105 + _r5*_r106
+    _r95 = _r7*_r95
+    _r105 = -_r37 + _r89*_r13 - _r90*_r38
+    _r110 = _r64 + _r89*_r38
+    _r111 = -_r63 + _r16*_r38
+    _r112 = -_r89**2 - _r16**2
+    _r113 = _r39*_r105 + _r12*_r93 + _r92*_r110 + _r44*_r111 + _r19*_r112
+    _r114 = _r6*_r93 + _r7*_r105 + _r3*_r112 + _r41*_r110 + _r43*_r111
+    _r112 = _r6*_r93 + _r7*_r105 + _r4*_r112 + _r65*_r110 + _r5*_r111
+    _r105 = _r6*_r93 + _r7*_r105
+    _r93 = _r89*_r38
+    _r111 = -_r89*_r16
+    _r115 = _r42*_r111 + _r63*_r39 + _r12*_r93
+    _r93 = _r6*_r93 + _r7*_r63
+    _r116 = _r64 - _r89*_r38
+    _r117 = _r89**2 - _r16**2
+    _r118 = _r42*_r117 + _r39*_r116 + _r12*_r107
+    _r116 = _r6*_r107 + _r7*_r116
+    _r107 = -_r16*_r38
+    _r119 = _r89*_r16
+    _r120 = _r42*_r119 + _r64*_r12 + _r39*_r107
+    _r107 = _r6*_r64 + _r7*_r107
+    _r121 = _r38**2 - _r89**2
+    _r122 = _r63 - _r16*_r38
+    _r123 = _r42*_r122 + _r39*_r101 + _r12*_r121
+    _r121 = _r6*_r121 + _r7*_r101
+    _r101 = _r16**2 - _r38**2
+    _r124 = _r11 - _r89*_r16
+    _r125 = _r42*_r110 + _r39*_r101 + _r12*_r124
+    _r124 = _r6*_r124 + _r7*_r101
+    _r101 = _r16*_r38
+    _r126 = -_r89*_r38
+    _r127 = _r42*_r11 + _r39*_r101 + _r12*_r126
+    _r126 = _r6*_r126 + _r7*_r101
+    _r101 = _r8*_r89 - _r9*_r38
+    _r38 = _r8*_r38 + _r9*_r89
+    _r128 = _r8*(_r90 + 0.09465*_r16) - _r9*_r13
+    _r40 = _r40 - 0.09465*_r89
+    _r13 = _r8*_r13 + _r9*(_r90 + 0.09465*_r16)
+    _r90 = _r8*_r63 - _r9*_r11
+    _r89 = _r8*_r11 + _r9*_r63
+    _r129 = _r8*(_r91 + 0.09465*_r64) - _r9*_r17
+    _r37 = _r37 - 0.09465*_r63
+    _r91 = _r8*_r17 + _r9*(_r91 + 0.09465*_r64)
+    _r16 = _r16 + wrist_3_jointd
+    _r90 = _r90 - _r38*wrist_3_jointd
+    _r64 = _r64 + wrist_3_jointdd
+    _r89 = _r89 + _r101*wrist_3_jointd
+    _r129 = _r129 - _r13*wrist_3_jointd
+    _r91 = _r91 + _r128*wrist_3_jointd
+    _r17 = _r8*_r39 - _r9*_r42
+    _r42 = _r8*_r42 + _r9*_r39
+    _r63 = _r8*(_r92 + 0.09465*_r12) - _r9*_r19
+    _r44 = _r44 - 0.09465*_r39
+    _r19 = _r8*_r19 + _r9*(_r92 + 0.09465*_r12)
+    _r92 = _r8*_r7
+    _r39 = _r7*_r9
+    _r130 = _r8*(_r41 + 0.09465*_r6) - _r9*_r3
+    _r43 = _r43 - 0.09465*_r7
+    _r41 = _r8*_r3 + _r9*(_r41 + 0.09465*_r6)
+    _r3 = _r8*(_r65 + 0.09465*_r6) - _r9*_r4
+    _r5 = _r5 - 0.09465*_r7
+    _r65 = _r8*_r4 + _r9*(_r65 + 0.09465*_r6)
+    _r4 = 0.09465*(_r6*_r8)
+    _r7 = -0.09465*_r7
+    _r131 = 0.09465*(_r6*_r9)
+    _r132 = _r129 + _r13*_r16 - _r38*_r40
+    _r133 = _r37 + _r38*_r128 - _r101*_r13
+    _r134 = _r91 + _r101*_r40 - _r128*_r16
+    _r135 = _r63*_r132 + _r44*_r133 + _r19*_r134
+    _r136 = _r130*_r132 + _r43*_r133 + _r41*_r134
+    _r137 = _r3*_r132 + _r5*_r133 + _r65*_r134
+    _r138 = _r4*_r132 + _r7*_r133 + _r131*_r134
+    _r91 = -_r91 + _r128*_r16 - _r101*_r40
+    _r139 = -_r38**2 - _r16**2
+    _r140 = _r89 + _r101*_r16
+    _r141 = -_r64 + _r101*_r38
+    _r142 = _r12*_r91 + _r42*_r133 + _r63*_r139 + _r44*_r140 + _r19*_r141
+    _r143 = _r6*_r91 + _r39*_r133 + _r130*_r139 + _r43*_r140 + _r41*_r141
+    _r144 = _r6*_r91 + _r39*_r133 + _r3*_r139 + _r5*_r140 + _r65*_r141
+    _r141 = _r6*_r91 + _r39*_r133 + _r4*_r139 + _r7*_r140 + _r131*_r141
+    _r133 = _r8*_r133
+    _r129 = -_r129 + _r38*_r40 - _r13*_r16
+    _r40 = -_r89 + _r101*_r16
+    _r139 = -_r101**2 - _r38**2
+    _r145 = _r90 + _r38*_r16
+    _r146 = _r17*_r134 + _r42*_r129 + _r63*_r40 + _r44*_r139 + _r19*_r145
+    _r147 = _r92*_r134 + _r39*_r129 + _r130*_r40 + _r43*_r139 + _r41*_r145
+    _r148 = _r92*_r134 + _r39*_r129 + _r3*_r40 + _r5*_r139 + _r65*_r145
+    _r139 = _r92*_r134 + _r39*_r129 + _r4*_r40 + _r7*_r139 + _r131*_r145
+    _r129 = _r8*_r129 - _r9*_r134
+    _r37 = -_r37 + _r101*_r13 - _r38*_r128
+    _r13 = _r64 + _r101*_r38
+    _r128 = -_r90 + _r38*_r16
+    _r134 = -_r101**2 - _r16**2
+    _r19 = _r12*_r132 + _r17*_r37 + _r63*_r13 + _r44*_r128 + _r19*_r134
+    _r41 = _r6*_r132 + _r92*_r37 + _r130*_r13 + _r43*_r128 + _r41*_r134
+    _r65 = _r6*_r132 + _r92*_r37 + _r3*_r13 + _r5*_r128 + _r65*_r134
+    _r134 = _r6*_r132 + _r92*_r37 + _r4*_r13 + _r7*_r128 + _r131*_r134
+    _r37 = -_r9*_r37
+    _r128 = _r101*_r38
+    _r131 = -_r101*_r16
+    _r7 = _r12*_r128 + _r90*_r17 + _r42*_r131
+    _r4 = _r6*_r128 + _r90*_r92 + _r39*_r131
+    _r131 = _r8*_r131 - _r9*_r90
+    _r5 = _r64 - _r101*_r38
+    _r3 = _r101**2 - _r16**2
+    _r43 = _r12*_r145 + _r17*_r5 + _r42*_r3
+    _r130 = _r6*_r145 + _r92*_r5 + _r39*_r3
+    _r3 = _r8*_r3 - _r9*_r5
+    _r5 = -_r38*_r16
+    _r44 = _r101*_r16
+    _r63 = _r12*_r64 + _r17*_r5 + _r42*_r44
+    _r40 = _r6*_r64 + _r92*_r5 + _r39*_r44
+    _r44 = _r8*_r44 - _r9*_r5
+    _r5 = _r38**2 - _r101**2
+    _r90 = _r90 - _r38*_r16
+    _r149 = _r12*_r5 + _r17*_r140 + _r42*_r90
+    _r150 = _r6*_r5 + _r92*_r140 + _r39*_r90
+    _r90 = _r8*_r90 - _r9*_r140
+    _r140 = _r16**2 - _r38**2
+    _r151 = _r89 - _r101*_r16
+    _r152 = _r12*_r151 + _r17*_r140 + _r42*_r13
+    _r153 = _r6*_r151 + _r92*_r140 + _r39*_r13
+    _r140 = _r8*_r13 - _r9*_r140
+    _r16 = _r38*_r16
+    _r38 = -_r101*_r38
+    _r42 = _r12*_r38 + _r89*_r42 + _r17*_r16
+    _r39 = _r6*_r38 + _r89*_r39 + _r92*_r16
+    _r16 = _r8*_r89 - _r9*_r16
+    return (
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        shoulder_pan_jointdd,
+        _r23,
+        _r27,
+        _r21,
+        _r29,
+        _r30,
+        _r32,
+        _r33,
+        _r34,
+        _r26,
+        _r22,
+        _r45,
+        _r1,
+        _r52,
+        _r54,
+        _r56,
+        _r58,
+        _r59,
+        _r49,
+        _r0,
+        _r60,
+        _r67,
+        _r14,
+        _r76,
+        _r79,
+        _r82,
+        _r84,
+        _r85,
+        _r86,
+        _r72,
+        _r78,
+        _r96,
+        _r103,
+        _r108,
+        _r113,
+        _r115,
+        _r118,
+        _r120,
+        _r123,
+        _r125,
+        _r127,
+        _r135,
+        _r142,
+        _r146,
+        _r19,
+        _r7,
+        _r43,
+        _r63,
+        _r149,
+        _r152,
+        _r42,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r24,
+        0,
+        _r20,
+        _r25,
+        _r28,
+        shoulder_lift_jointdd,
+        _r31,
+        _r35,
+        _r36,
+        _r46,
+        _r50,
+        _r51,
+        _r55,
+        _r48,
+        _r53,
+        _r15,
+        _r57,
+        _r61,
+        _r62,
+        _r68,
+        _r74,
+        _r71,
+        _r66,
+        _r81,
+        _r77,
+        _r10,
+        _r83,
+        _r87,
+        _r88,
+        _r97,
+        _r104,
+        _r109,
+        _r114,
+        _r93,
+        _r116,
+        _r107,
+        _r121,
+        _r124,
+        _r126,
+        _r136,
+        _r143,
+        _r147,
+        _r41,
+        _r4,
+        _r130,
+        _r40,
+        _r150,
+        _r153,
+        _r39,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r47,
+        0,
+        _r18,
+        _r48,
+        _r53,
+        _r15,
+        _r57,
+        _r61,
+        _r62,
+        _r69,
+        _r73,
+        _r75,
+        _r80,
+        _r81,
+        _r77,
+        _r10,
+        _r83,
+        _r87,
+        _r88,
+        _r98,
+        _r102,
+        _r106,
+        _r112,
+        _r93,
+        _r116,
+        _r107,
+        _r121,
+        _r124,
+        _r126,
+        _r137,
+        _r144,
+        _r148,
+        _r65,
+        _r4,
+        _r130,
+        _r40,
+        _r150,
+        _r153,
+        _r39,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r70,
+        0,
+        _r2,
+        _r81,
+        _r77,
+        _r10,
+        _r83,
+        _r87,
+        _r88,
+        0,
+        _r99,
+        _r95,
+        _r105,
+        _r93,
+        _r116,
+        _r107,
+        _r121,
+        _r124,
+        _r126,
+        _r138,
+        _r141,
+        _r139,
+        _r134,
+        _r4,
+        _r130,
+        _r40,
+        _r150,
+        _r153,
+        _r39,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r94,
+        _r100,
+        0,
+        _r111,
+        _r117,
+        _r119,
+        _r122,
+        _r110,
+        _r11,
+        0,
+        _r133,
+        _r129,
+        _r37,
+        _r131,
+        _r3,
+        _r44,
+        _r90,
+        _r140,
+        _r16,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r91,
+        0,
+        _r132,
+        _r128,
+        _r145,
+        _r64,
+        _r5,
+        _r151,
+        _r38,
+    )
+
+
+_regressor_body.functions = ("sin", "cos")
+
+
 def mass_matrix(q, *, g=9.81):
     """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 6, 6).
 
@@ -1257,3 +2034,14 @@ def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 6:
         raise ValueError(f"u must have shape (..., 6), got {arrays[2].shape}")
     return _evaluate(_forward_dynamics_body, arrays, (6,), {"g": g})
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
+    """Regressor Y(q, qd, qdd), shape (..., 6, 60): Y @ parameter_vector() equals
+    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
+
+    Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
+    (link axes). Gravity and the geometry are in Y, not in pi.
+    """
+    arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), _coordinates("qdd", qdd, 6)]
+    return _evaluate(_regressor_body, arrays, (6, 60), {"g": g})

@@ -357,6 +357,14 @@ class Derivation:
         return self._generalized_program
 
     @property
+    def parameter_vector(self) -> list[Any]:
+        """The regressor's parameters ``pi`` (``mechanics.regressor.Parameter``: name, value
+        over the robot's parameters), in the order of ``programs["regressor"]``'s columns."""
+        from .mechanics.regressor import parameter_vector
+
+        return parameter_vector(self.robot, self.symbols)
+
+    @property
     def joint_drives(self) -> list[Any]:
         """The coordinates with drive terms (``mechanics.drives.JointDrive``), from the robot."""
         from .mechanics.drives import joint_drives

@@ -430,6 +430,62 @@ def linearize(
 
 @app.command()
 @handle_errors
+def identify(
+    robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
+    json_: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
+    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
+                     "(repeatable; required for parameters without a default).")] = None,
+    states: Annotated[int, typer.Option("--states", help="Random states sampled (default: 4 per parameter, "
+                                        "at least 100).")] = 0,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+) -> None:
+    """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
+    into the combinations the joint forces determine (Y pi = Y_base pi_base)."""
+    import json
+
+    from .. import derive, load_robot
+    from ..render.code import render_code
+    from ..verify.checks import generated_module
+
+    if states < 0:
+        raise InputError(_problem("--states", f"expected a number of states >= 0, got {states}"))
+    try:
+        import scipy  # noqa: F401
+    except ImportError:
+        raise ToolMissingError('identify needs SciPy: pip install "dynderive[simulate]"') from None
+    from ..verify.identification import base_parameters
+
+    progress = _Progress(quiet)
+    model = _with_parameters(load_robot(robot), param or [], required=True)
+    _notes(model, quiet)
+    derivation = derive(model, progress=progress)
+    progress("generating code")
+    module = generated_module(render_code(derivation), model.name)
+    progress("sampling the regressor")
+    values = {p.name: float(p.value) for p in model.parameters}
+    result = base_parameters(derivation, module, values, states or None)
+    if json_:
+        typer.echo(json.dumps({"robot": model.name, **result.as_dict()}, indent=2))
+        return
+    n = len(model.coordinates)
+    per_link = "4 per link (planar)" if model.planar else "10 per link"
+    typer.echo(f"{model.name}: regressor Y(q, qd, qdd) of shape ({n}, {len(result.names)}), "
+               f"parameters {per_link} then drives\n\nParameter vector pi:")
+    width = max(len(name) for name in result.names)
+    for name, value in zip(result.names, result.values):
+        typer.echo(f"  {name:<{width}}  {value:.10g}")
+    typer.echo(f"\nBase parameters: {result.rank} of {len(result.names)} (rank of Y at {result.states} random "
+               "states; Y pi = Y_base pi_base):")
+    for k, grouping in enumerate(result.groupings, 1):
+        typer.echo(f"  {k:>3}  {grouping.text}  =  {grouping.value:.10g}")
+    if result.unidentifiable:
+        typer.echo("\nNot identifiable (zero columns): " + ", ".join(result.names[i] for i in result.unidentifiable))
+    if model.loops:
+        typer.echo("\nNote: the regressor is the spanning tree's (no loop forces).")
+
+
+@app.command()
+@handle_errors
 def build(
     paths: Annotated[list[Path] | None, typer.Argument(help="Robot files or folders to search (default: .).")] = None,
     out: Annotated[Path, typer.Option("--out", help="Output directory (holds the build manifest).")] = Path("build"),

@@ -277,6 +277,45 @@ def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
     return M
 
 
+def _advance(tree: _Tree, body: _Body, parent: tuple[Vector, Vector, Vector, Vector], qd: Sequence[sympy.Expr],
+             qdd: Sequence[sympy.Expr]) -> tuple[Vector, Vector, Vector, Vector]:
+    """Newton-Euler's outward step: the link's velocity and acceleration ``(w, v, alpha, a)``
+    (at its frame origin, in its axes) from its parent's; a link at rest keeps only its
+    frame's acceleration (gravity)."""
+    vec = tree.program.vector
+    zero = (sympy.Integer(0),) * 3
+    if body.link in tree.static:
+        return (zero, zero, zero, tree.motion_from_parent(body, zero, parent[3])[1])  # type: ignore[return-value]
+    w, v, alpha, acc = parent
+    w, v = tree.motion_from_parent(body, w, v)
+    alpha, acc = tree.motion_from_parent(body, alpha, acc)
+    if body.coordinate is not None:
+        rate, accel = qd[body.coordinate], qdd[body.coordinate]
+        s = body.axis
+        if body.revolute:   # joint motion S qd = (s qd, 0); v x S qd = (w x s, v x s) qd
+            w_new = vec(_add(w, [x * rate for x in s]))
+            alpha = vec(_add(alpha, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
+            acc = vec(_add(acc, [y * rate for y in _cross(v, s)]))
+            w = w_new
+        else:               # S qd = (0, s qd); v x S qd = (0, w x s qd)
+            acc = vec(_add(acc, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
+            v = vec(_add(v, [x * rate for x in s]))
+    return w, v, alpha, acc
+
+
+def body_force(vec: Callable[[Sequence[sympy.Expr]], Vector], m: sympy.Expr, h: Sequence[sympy.Expr],
+               inertia: Sequence[Sequence[sympy.Expr]], w: Sequence[sympy.Expr], v: Sequence[sympy.Expr],
+               alpha: Sequence[sympy.Expr], acc: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+    """The force ``(n, f)`` a link needs for its motion: ``I a + v x* (I v)`` with the spatial
+    inertia of mass ``m``, first moment ``h = m c`` and ``inertia`` about the frame origin, the
+    momentum ``(I w + h x v, m v + w x h)``; linear in ``(m, h, inertia)`` (the regressor)."""
+    momentum_n = vec(_add(_rotate(inertia, w), _cross(h, v)))   # type: ignore[arg-type]
+    momentum_f = vec(_add([m * x for x in v], _cross(w, h)))
+    n = _add(_add(_rotate(inertia, alpha), _cross(h, acc)), _add(_cross(w, momentum_n), _cross(v, momentum_f)))  # type: ignore[arg-type]
+    f = _add(_add([m * x for x in acc], _cross(alpha, h)), _cross(w, momentum_f))
+    return vec(n), vec(f)
+
+
 def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr],
                   gravity: Sequence[sympy.Expr]) -> list[sympy.Expr]:
     """RNEA: the generalized forces M qdd + C qd + N (gravity as an upward base acceleration)."""
@@ -285,31 +324,11 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
     motion = {"world": (zero, zero, zero, vec([-g for g in gravity]))}   # (w, v, alpha, a)
     forces = {}
     for body in tree.bodies:
-        if body.link in tree.static:   # at rest: only its frame's acceleration (gravity) matters
-            motion[body.link] = (zero, zero, zero, tree.motion_from_parent(body, zero, motion[body.parent][3])[1])
+        motion[body.link] = _advance(tree, body, motion[body.parent], qd, qdd)
+        if body.link in tree.static:
             continue
-        w, v, alpha, acc = motion[body.parent]
-        w, v = tree.motion_from_parent(body, w, v)
-        alpha, acc = tree.motion_from_parent(body, alpha, acc)
-        if body.coordinate is not None:
-            rate, accel = qd[body.coordinate], qdd[body.coordinate]
-            s = body.axis
-            if body.revolute:   # joint motion S qd = (s qd, 0); v x S qd = (w x s, v x s) qd
-                w_new = vec(_add(w, [x * rate for x in s]))
-                alpha = vec(_add(alpha, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
-                acc = vec(_add(acc, [y * rate for y in _cross(v, s)]))
-                w = w_new
-            else:               # S qd = (0, s qd); v x S qd = (0, w x s qd)
-                acc = vec(_add(acc, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
-                v = vec(_add(v, [x * rate for x in s]))
-        motion[body.link] = (w, v, alpha, acc)
-        m, h, inertia = body.mass, body.first_moment, body.inertia
-        # momentum (I w + h x v, m v + w x h) and the force I a + v x* momentum
-        momentum_n = vec(_add(_rotate(inertia, w), _cross(h, v)))
-        momentum_f = vec(_add([m * x for x in v], _cross(w, h)))
-        n = _add(_add(_rotate(inertia, alpha), _cross(h, acc)), _add(_cross(w, momentum_n), _cross(v, momentum_f)))
-        f = _add(_add([m * x for x in acc], _cross(alpha, h)), _cross(w, momentum_f))
-        forces[body.link] = (vec(n), vec(f))
+        w, v, alpha, acc = motion[body.link]
+        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, w, v, alpha, acc)
     tau: list[sympy.Expr] = [sympy.Integer(0)] * len(tree.robot.coordinates)
     for body in reversed(tree.bodies):
         if body.link in tree.static:
@@ -589,8 +608,9 @@ class GeneralizedProgram:
 def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr],
                    generalized: GeneralizedProgram | None,
                    report: Callable[[str], None] = lambda stage: None) -> dict[str, Program]:
-    """The programs the generated module runs, by name: ``inverse_dynamics`` and
-    ``forward_dynamics`` (``efforts`` is ``Y_g``) for every robot; given ``generalized``
+    """The programs the generated module runs, by name: ``inverse_dynamics``,
+    ``forward_dynamics`` (``efforts`` is ``Y_g``; not for closed loops) and ``regressor``
+    (``mechanics/regressor.py``) for every robot; given ``generalized``
     (3-D robots and large planar ones, whose explicit M, C, N are too large to print)
     ``mass_matrix``, ``coriolis``, ``gravity`` and ``potential`` from it; a small planar
     robot's explicit quantities are short and read like the sheet."""
@@ -604,4 +624,8 @@ def build_programs(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Exp
     programs["inverse_dynamics"] = inverse_dynamics_program(robot, table)
     if not robot.loops:   # closed loops solve a KKT system in the module instead
         programs["forward_dynamics"] = forward_dynamics_program(robot, table, efforts)
+    from .regressor import regressor_program  # it builds on this module's steps
+
+    report("program: regressor")
+    programs["regressor"] = regressor_program(robot, table)
     return programs

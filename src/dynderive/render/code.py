@@ -364,6 +364,10 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         for name, doc, args, quantity in specs:
             functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
                                                  matrix_result=quantity in MATRICES))
+    identification = derivation.parameter_vector
+    functions.append(expression_function(
+        "parameter_vector", f"The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape ({len(identification)},).",
+        [], sympy.Matrix([p.value for p in identification]), printer, params))
     parameters = []
     for p in robot.parameters:
         parameters.append({"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
@@ -393,6 +397,9 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "frame_size": 3 if robot.planar else 4,
         "twist_size": 3 if robot.planar else 6,
         "forward_extra": bool(robot.frames) or robot.dissipative,
+        "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
+        "parameter_count": len(identification),
+        "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
         "maximal": maximal,
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
         "maximal_size": len(table.qm),
@@ -448,7 +455,7 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
 
 def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) -> list[ProgramFunction]:
     """The straight-line programs the derivation holds (``Derivation.programs``), printed:
-    inverse and forward dynamics for every robot, M, C, N for 3-D robots."""
+    inverse and forward dynamics and the regressor for every robot, M, C, N for 3-D robots."""
     n = len(derivation.symbols.q)
     qdd = Argument("qdd", derivation.symbols.qdd, f"joint accelerations, shape (..., {n})")
     effort_args = [q, qd, u]
@@ -457,6 +464,10 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
         opposing = "dissipative forces F_g" if derivation.robot.dissipative else "no dissipative force"
         external = " minus the external forces J^T w" if derivation.robot.frames else ""
         effort_args.append(Argument("_friction", forward.extra_inputs, f"{opposing}{external}, shape (..., {n})"))
+    regressor = derivation.programs["regressor"]
+    regressor_args = [q, qd, qdd]
+    if regressor.extra_inputs:   # Coulomb friction: sign(qd) (or its smoothed form) computed outside the body
+        regressor_args.append(Argument("_sign", regressor.extra_inputs, f"sign(qd) or tanh(qd / eps), shape (..., {n})"))
     specs = {
         "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
         "coriolis": ("_coriolis_body", "C(q, qd), row by row: Christoffel symbols of the differentiated CRBA.", [q, qd]),
@@ -470,6 +481,8 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
                              "qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N"
                              + (" - F" if derivation.robot.dissipative else "")
                              + (" + J^T w." if derivation.robot.frames else "."), effort_args),
+        "regressor": ("_regressor_body", "Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's "
+                      "axis carried down the tree, dotted with each link's force per unit parameter.", regressor_args),
     }
     functions = [program_function(*specs[key], program) for key, program in derivation.programs.items()]
     for index, frame in enumerate(derivation.frame_programs):
