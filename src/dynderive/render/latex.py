@@ -13,6 +13,7 @@ from ..mechanics.tidy import is_small
 from .encode import escape_tex, tex_unit
 from .environment import render
 from .figure import planar_figure
+from .linebreak import LineBreaker
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -27,6 +28,9 @@ MATRIX_NODES = 6000
 LINE_UNITS = 80
 #: A matrix up to this factor wider than the line is set in small type with narrow columns.
 TIGHT = 1.15
+#: Estimated width (math glyphs) of one line of a displayed expression: the line less room for
+#: the name in front, the continuation lines' indent and the estimate's error (about a fifth).
+DISPLAY_UNITS = 64
 SHEET_TEMPLATE = "sheet.tex.j2"
 #: The sheet's sections, in their order; ``--sections`` chooses among them.
 SECTIONS = ("generalized", "maximal", "checks")
@@ -70,6 +74,7 @@ class Formatter:
             name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
         self.order = "none" if derivation.intermediate_form else None
         self._printed: dict[Any, tuple[Any, str]] = {}
+        self._breaker = LineBreaker(self, typeset_width, self.order)
 
     @classmethod
     def of(cls, derivation: Derivation) -> Formatter:
@@ -96,6 +101,18 @@ class Formatter:
             return None
         return self(expr)
 
+    def display(self, expr: Any, limit: int | None = SCALAR_NODES) -> Display | None:
+        """LaTeX of ``expr`` with the lines it is displayed on (``Display``), or None when it
+        is larger than ``limit`` nodes (no limit: None)."""
+        text = self(expr) if limit is None else self.maybe(expr, limit)
+        if text is None:
+            return None
+        # breqn breaks a sum between its terms by itself; the breaker takes over where a term
+        # is wider than the line (a long product, a fraction, a sum in parentheses)
+        if isinstance(expr, sympy.MatrixBase) or all(typeset_width(t) <= DISPLAY_UNITS for t in sympy.Add.make_args(expr)):
+            return Display(text, [text])
+        return Display(text, self._breaker.lines(expr, DISPLAY_UNITS))
+
     def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
         """A matrix as a whole when its estimated width fits the line (``wide`` False), else as
         its non-zero entries; ``too_large`` when even those cannot be typeset."""
@@ -110,11 +127,25 @@ class Formatter:
             for j in range(cols):
                 if matrix[i, j] != 0:
                     index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
-                    entries.append({"name": f"{name}_{{{index}}}", "latex": self(matrix[i, j])})
+                    entries.append({"name": f"{name}_{{{index}}}", "latex": self.display(matrix[i, j], None)})
         width = matrix_width(matrix)
         return {"latex": whole, "wide": width > LINE_UNITS * TIGHT, "tight": LINE_UNITS < width <= LINE_UNITS * TIGHT,
                 "entries": entries,
                 "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+
+
+class Display(str):
+    """An expression's LaTeX (the string itself) and ``lines``: that LaTeX broken into display
+    lines of at most ``DISPLAY_UNITS`` estimated glyphs at sums and products (``render.linebreak``)
+    when one of its terms is wider than that, else one line. The sheet sets several lines in
+    ``align*``, one in breqn's ``dmath*``, which breaks a sum of terms that fit by itself."""
+
+    lines: list[str]
+
+    def __new__(cls, text: str, lines: list[str]) -> Display:
+        self = super().__new__(cls, text)
+        self.lines = lines
+        return self
 
 
 def typeset_width(expr: sympy.Basic) -> float:
@@ -214,12 +245,12 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
         lagrange.append({
             "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
-            "dL_dqd": fmt.maybe(gen["lagrange"]["dL_dqd"][i], SCALAR_NODES),
-            "ddt_dL_dqd": fmt.maybe(gen["lagrange"]["ddt_dL_dqd"][i], SCALAR_NODES),
-            "dL_dq": fmt.maybe(gen["lagrange"]["dL_dq"][i], SCALAR_NODES),
+            "dL_dqd": fmt.display(gen["lagrange"]["dL_dqd"][i]),
+            "ddt_dL_dqd": fmt.display(gen["lagrange"]["ddt_dL_dqd"][i]),
+            "dL_dq": fmt.display(gen["lagrange"]["dL_dq"][i]),
             "effort": fmt(q["Y_g"][i]),
-            "dissipation": fmt(q["F_g"][i]) if "F_g" in q and q["F_g"][i] != 0 else None,
-            "equation": fmt.maybe(q["EOM_g1"][i], SCALAR_NODES),
+            "dissipation": fmt.display(q["F_g"][i], None) if "F_g" in q and q["F_g"][i] != 0 else None,
+            "equation": fmt.display(q["EOM_g1"][i]),
         })
     links = []
     for t in gen["links"]:
@@ -235,7 +266,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
             "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{t.index}}}\right)", t.orientation)
             if isinstance(t.orientation, sympy.MatrixBase) else None,
             "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{t.index}}}\right)", t.body_jacobian),
-            "kinetic": fmt.maybe(t.kinetic, SCALAR_NODES), "potential": fmt.maybe(t.potential, SCALAR_NODES),
+            "kinetic": fmt.display(t.kinetic), "potential": fmt.display(t.potential),
         })
     parameters = [{
         "symbol": fmt(table.parameters[p.name]),
@@ -263,8 +294,8 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "q_g": fmt(sympy.Matrix(table.q)),
         "qd_g": fmt(sympy.Matrix(table.qd)),
         "links": links,
-        "T_g": fmt.maybe(q["T_g"], SCALAR_NODES), "V_g": fmt.maybe(q["V_g"], SCALAR_NODES),
-        "L_g": fmt.maybe(q["L_g"], SCALAR_NODES),
+        "T_g": fmt.display(q["T_g"]), "V_g": fmt.display(q["V_g"]),
+        "L_g": fmt.display(q["L_g"]),
         "Y_g": fmt(q["Y_g"]),
         "lagrange": lagrange,
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
@@ -326,10 +357,10 @@ def drives_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any] | N
                     "friction": term(d.friction), "stiffness": term(d.stiffness),
                     "rest": term(d.rest) if d.stiffness != 0 else "", "armature": term(d.armature)}
                    for d in drives.joints],
-        "kinetic": fmt(drives.kinetic) if drives.kinetic != 0 else None,
-        "potential": fmt(drives.potential) if drives.potential != 0 else None,
+        "kinetic": fmt.display(drives.kinetic, None) if drives.kinetic != 0 else None,
+        "potential": fmt.display(drives.potential, None) if drives.potential != 0 else None,
         "armature": drives.armature != sympy.zeros(*drives.armature.shape),
-        "D_g": fmt(q["D_g"]) if "D_g" in q else None,
+        "D_g": fmt.display(q["D_g"], None) if "D_g" in q else None,
         "coulomb": any(d.friction != 0 for d in drives.joints),
     }
 
@@ -364,15 +395,19 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
     for i, coordinate in enumerate(table.qm):
         lagrange.append({
             "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
-            "dL_dqd": fmt(steps["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": fmt(steps["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": fmt(steps["lagrange"]["dL_dq"][i]),
-            "equation": fmt(q["EOM_m1"][i]),
+            "dL_dqd": fmt.display(steps["lagrange"]["dL_dqd"][i], None),
+            "ddt_dL_dqd": fmt.display(steps["lagrange"]["ddt_dL_dqd"][i], None),
+            "dL_dq": fmt.display(steps["lagrange"]["dL_dq"][i], None),
+            # the three derivatives share a display line when they fit side by side, else the
+            # first two (short: momenta and their rates) when they do
+            "together": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd", "dL_dq")), extra=24),
+            "pair": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd")), extra=16),
+            "equation": fmt.display(q["EOM_m1"][i], None),
         })
     lambda_entries = None
     if "lambdaVec" in q:
-        lambda_entries = [fmt(e) for e in q["lambdaVec"]]
-        if max(len(e) for e in lambda_entries) > LONGEST_LAMBDA:
+        lambda_entries = [fmt.display(e, None) for e in q["lambdaVec"]]
+        if max(len(e or "") for e in lambda_entries) > LONGEST_LAMBDA:
             lambda_entries = None
     return {
         "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
@@ -381,7 +416,7 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
         "constraints_from_file": steps["constraint_origin"] == "override",
         "a_m": fmt.matrix("a", q["a_m"]), "A_m": fmt.matrix("A", q["A_m"]),
         "Adot_m": fmt.matrix("\\dot{A}", q["Adot_m"]),
-        "T_m": fmt(q["T_m"]), "V_m": fmt(q["V_m"]), "L_m": fmt(q["L_m"]),
+        "T_m": fmt.display(q["T_m"], None), "V_m": fmt.display(q["V_m"], None), "L_m": fmt.display(q["L_m"], None),
         "Y_m": fmt.matrix("\\Upsilon", q["Y_m"]),
         "lagrange": lagrange,
         "jacobians": [fmt(j) for j in steps["jacobians"]],
@@ -392,7 +427,7 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
         "h": fmt.matrix("h", q["h"]), "H": fmt.matrix("H", q["H"]),
         **(_change_of_basis(q, steps, fmt) if "EOM_g3" in q else {"EOM_g3": None}),
         "F_m": fmt.matrix("F", q["F_m"]) if "F_m" in q else None,
-        "D_m": fmt.maybe(q["D_m"], SCALAR_NODES) if "D_m" in q else None,
+        "D_m": fmt.display(q["D_m"]) if "D_m" in q else None,
         "drives": not derivation.steps["generalized"]["drives"].empty,
     }
 
