@@ -111,8 +111,8 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     for c in coms.values():
         sheet.dot(mm(c), 0.8)
     hatches = []
-    for w in world:
-        x, y = mm(w)
+    for base in world:
+        x, y = mm(base)
         sheet.line((x - 5.0, y), (x + 5.0, y))
         for k in range(6):
             hatches.append(((x - 4.5 + 1.8 * k, y), (x - 4.5 + 1.8 * k - 1.5, y - 1.5)))
@@ -252,7 +252,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     return {
         "width": f"{high_x - low_x + 2 * MARGIN_MM:.1f}", "height": f"{high_y - low_y + 2 * MARGIN_MM:.1f}",
         "segments": [bezier(a, b) for a, b in links_mm],
-        "joints": joints, "coms": [text(mm(c)) for c in coms.values()], "bases": [text(mm(w)) for w in world],
+        "joints": joints, "coms": [text(mm(c)) for c in coms.values()], "bases": [text(mm(base)) for base in world],
         "hatches": [bezier(a, b) for a, b in hatches],
         "loops": [text(mm(p)) for p in loop_points],
         "frame": {"origin": text(origin), "x": f"{lengths[0]:.1f}", "y": f"{lengths[1]:.1f}"},
