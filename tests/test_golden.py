@@ -13,7 +13,7 @@ PDFs included, with ``build --check``; this test is the quick one, without TeX.)
 from __future__ import annotations
 
 import difflib
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -27,7 +27,7 @@ UPDATE = "dynderive build robots --out examples --latex --code --pdf"
 ROBOTS = ["rp_arm", "double_pendulum", "planar_3r", "cart_pole_damped"]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _derivation(name: str):
     return dynderive.derive(dynderive.load_robot(ROOT / "robots" / f"{name}.yaml"))
 
