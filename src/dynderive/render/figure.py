@@ -427,12 +427,27 @@ def _configuration(robot: Any, table: Any, links: list[Any], values: dict[sympy.
         return reference
     # the independent coordinates at the reference, the dependent ones assembled from the
     # default assembly (its branch); the default assembly itself where that fails
-    from ..mechanics.loops import _Numeric, assemble
-
-    numeric = _Numeric(loops.constraints, loops.jacobian, table, values)
     start = [reference[i] if i in loops.independent else v for i, v in enumerate(loops.assembled)]
-    found = assemble(numeric, np.array(start), fixed=list(loops.independent))
-    return [float(v) for v in (found if found is not None else loops.assembled)]
+    found = _assemble(loops, table, values, start)
+    return found if found is not None else [float(v) for v in loops.assembled]
+
+
+def _assemble(loops: Any, table: Any, values: dict[sympy.Symbol, float], start: list[float]) -> list[float] | None:
+    """``a_g(q) = 0`` solved for the dependent coordinates from ``start`` (Gauss-Newton, least
+    squares steps), or None when it does not converge."""
+    at = {s: sympy.Float(v) for s, v in values.items()}
+    residual = sympy.lambdify([table.q], loops.constraints.xreplace(at), "numpy")
+    jacobian = sympy.lambdify([table.q], loops.jacobian[:, list(loops.dependent)].xreplace(at), "numpy")
+    q = np.array(start, dtype=float)
+    for _ in range(50):
+        r = np.asarray(residual(q), dtype=float).reshape(-1)
+        if not np.all(np.isfinite(r)):
+            return None
+        if np.max(np.abs(r), initial=0.0) < 1e-12:
+            return [float(v) for v in q]
+        J = np.asarray(jacobian(q), dtype=float).reshape(len(r), -1)
+        q[list(loops.dependent)] -= np.linalg.lstsq(J, r, rcond=None)[0]
+    return None
 
 
 def _value_text(value: float, kind: str) -> str:
