@@ -7,6 +7,7 @@ The compile tests need pdflatex; skipped locally without it, required in CI (CI=
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -143,17 +144,133 @@ def test_planar_robots_are_drawn_at_the_reference_configuration():
     assert (b1 - b0) / (a1 - a0) == pytest.approx(3 ** 0.5, rel=0.02)
     assert [j["label"] for j in figure["joints"]] == ["q_{1}", "q_{2}"]
     tex = dynderive.render_latex(derivation)
-    assert tex.count(r"\qbezier(") == len(figure["segments"]) and r"\begin{picture}" in tex
+    drawn = len(figure["segments"]) + len(figure["hatches"]) + sum(len(c["curves"]) + len(c["lines"])
+                                                                   for c in figure["coordinates"])
+    assert tex.count(r"\qbezier(") == drawn and r"\begin{picture}" in tex
+    for label in ("x_s", "y_s", "q_{1}", "q_{2}"):
+        assert rf"\makebox(0,0){{${label}$}}" in tex, label
+
+
+def _figure(name: str):
+    from dynderive.render.figure import planar_figure
+    from dynderive.render.latex import Formatter
+
+    derivation = _derive(name)
+    return planar_figure(derivation, Formatter.of(derivation))
+
+
+def _pairs(values) -> list[tuple[float, float]]:
+    numbers = [float(v) for v in values]
+    return list(zip(numbers[::2], numbers[1::2]))
+
+
+def _direction(a, b) -> float:
+    return math.degrees(math.atan2(b[1] - a[1], b[0] - a[0]))
+
+
+def _link_direction(figure, at) -> list[float]:
+    """Directions (degrees) of the drawn links leaving the point ``at``."""
+    out = []
+    for segment in figure["segments"]:
+        start, _, end = _pairs(segment)
+        if math.dist(start, at) < 0.15:
+            out.append(_direction(start, end))
+    return out
+
+
+@pytest.mark.parametrize("name, zero, child", [
+    ("double_pendulum", [0.0, 30.0], [30.0, 60.0]),
+    ("planar_3r", [0.0, 30.0, 60.0], [30.0, 60.0, 90.0]),
+    ("cart_pole", [90.0], [120.0]),   # theta from the cart's y-axis (its joint origin turns by pi/2)
+])
+def test_revolute_arcs_run_from_the_zero_direction_to_the_child_link(name, zero, child):
+    """Each angle's arc starts on the joint frame's zero direction (the parent's x-axis, turned
+    by the joint origin) and ends on the child link's drawn direction, 30 degrees further
+    counter-clockwise; the dashed reference line lies along the zero direction; the
+    arrowhead at the end points along the arc's tangent (within LaTeX's slopes)."""
+    figure = _figure(name)
+    arcs = [c for c in figure["coordinates"] if c["kind"] == "revolute"]
+    assert [float(c["start"]) for c in arcs] == zero and [float(c["end"]) for c in arcs] == child
+    for arc, start, end in zip(arcs, zero, child):
+        centre, radius = _pairs(arc["centre"])[0], float(arc["radius"])
+        points = [p for curve in arc["curves"] for p in _pairs(curve)[::2]]   # the curves' ends
+        assert all(math.dist(p, centre) == pytest.approx(radius, abs=0.1) for p in points)
+        assert _direction(centre, points[0]) == pytest.approx(start, abs=1.0)
+        assert _direction(centre, points[-1]) == pytest.approx(end, abs=1.0)
+        assert points[-1] == pytest.approx(_pairs(arc["head"][:2])[0], abs=0.05)
+        assert any(d == pytest.approx(end, abs=1.0) for d in _link_direction(figure, centre)), "child link"
+        ray = (math.cos(math.radians(start)), math.sin(math.radians(start)))
+        for line in arc["lines"]:   # the dashes of the reference line: on the ray at the zero direction
+            for p in _pairs(line)[::2]:
+                along = (p[0] - centre[0]) * ray[0] + (p[1] - centre[1]) * ray[1]
+                assert along >= -0.1 and math.dist(p, (centre[0] + along * ray[0], centre[1] + along * ray[1])) < 0.1
+        head = math.degrees(math.atan2(int(arc["head"][3]), int(arc["head"][2])))
+        assert abs((head - (end + 90) + 180) % 360 - 180) < 8.0
+    # the first joint's zero direction is the world's x-axis, drawn as x_s: no dashes there
+    if name != "cart_pole":
+        assert arcs[0]["lines"] == [] and all(arc["lines"] for arc in arcs[1:])
+
+
+@pytest.mark.parametrize("name", ["rp_arm", "cart_pole", "slider_crank"])
+def test_prismatic_arrows_lie_along_the_axis_over_the_travel(name):
+    """A prismatic coordinate's arrow is parallel to its axis, beside it (not on the links),
+    as long as the travel from the joint frame's origin to the child's, and points along the
+    axis; its ticks meet the axis at both ends."""
+    figure = _figure(name)
+    arrows = [c for c in figure["coordinates"] if c["kind"] == "prismatic"]
+    assert len(arrows) == 1
+    arrow = arrows[0]
+    axis = float(arrow["axis"])
+    tail, tip = _pairs(arrow["tail"])[0], _pairs(arrow["tip"])[0]
+    start, _, end = _pairs(arrow["lines"][0])
+    assert _direction(start, end) == pytest.approx(axis, abs=0.5)
+    assert _direction(tail, tip) == pytest.approx(axis, abs=0.5)
+    assert math.dist(start, end) == pytest.approx(math.dist(tail, tip), abs=0.15)
+    normal = (-math.sin(math.radians(axis)), math.cos(math.radians(axis)))
+    offsets = [(p[0] - q[0]) * normal[0] + (p[1] - q[1]) * normal[1] for p, q in ((start, tail), (end, tip))]
+    assert offsets[0] == pytest.approx(offsets[1], abs=0.15) and abs(offsets[0]) >= 3.0
+    assert end == pytest.approx(_pairs(arrow["head"][:2])[0], abs=0.05)
+    head = math.degrees(math.atan2(int(arrow["head"][3]), int(arrow["head"][2])))
+    assert abs((head - axis + 180) % 360 - 180) < 8.0
+    for tick, at in zip(arrow["lines"][1:], (tail, tip)):
+        a, _, b = _pairs(tick)
+        assert _direction(at, b) == pytest.approx(_direction(at, a), abs=1.0)   # on the normal through at
+    assert [j for j in figure["joints"] if j["prismatic"]][0]["x"] == arrow["tip"][0]
+    if name == "rp_arm":   # from the revolute joint (the prismatic joint's frame origin) to link 2's
+        assert tail == _pairs(figure["coordinates"][0]["centre"])[0] and axis == 30.0
+
+
+def test_labels_clear_the_links_and_the_drawing_is_deterministic():
+    """No label box (estimated) crosses a link; the same robot gives the same figure."""
+    from dynderive.render.figure import _size
+
+    for name in ("rp_arm", "double_pendulum", "planar_3r", "cart_pole", "slider_crank"):
+        figure = _figure(name)
+        assert figure == _figure(name)
+        for x, y, label in figure["labels"]:
+            w, h = _size(label)
+            for segment in figure["segments"]:
+                a, _, b = _pairs(segment)
+                for k in range(101):
+                    p = (a[0] + k / 100 * (b[0] - a[0]), a[1] + k / 100 * (b[1] - a[1]))
+                    assert not (abs(p[0] - float(x)) < w and abs(p[1] - float(y)) < h), (name, label)
 
 
 def test_closed_loops_are_drawn_assembled_and_3d_robots_are_not_drawn():
-    from dynderive.render.figure import planar_figure
+    """The four-bar with its independent coordinate at the reference (30 degrees) and the
+    others assembled on the default assembly's branch: the loop's two sides meet."""
+    from dynderive.render.figure import _configuration, planar_figure
     from dynderive.render.latex import Formatter
 
     derivation = _derive("four_bar")
     figure = planar_figure(derivation, Formatter.of(derivation))
-    assembled = derivation.steps["loops"].assembled
-    assert figure["configuration"].startswith(r"q_{1} = " + f"{__import__('math').degrees(assembled[0]):.0f}")
+    assert figure["configuration"].startswith(r"q_{1} = 30^\circ, ")
+    loops, table = derivation.steps["loops"], derivation.symbols
+    values = {table.parameters[p.name]: p.value for p in derivation.robot.parameters}
+    q = _configuration(derivation.robot, table, derivation.steps["kinematics"], values, loops)
+    at = {s: sympy.Float(v) for s, v in (values | dict(zip(table.q, q))).items()}
+    assert max(abs(float(r.xreplace(at))) for r in loops.constraints) < 1e-9
+    assert abs(q[2] - loops.assembled[2]) < 1.0   # the assembled branch (rocker leaning the same way)
     assert len(figure["loops"]) == 1
     loop = [float(v) for v in figure["loops"][0]]
     ends = [(float(s[4]), float(s[5])) for s in figure["segments"]]
