@@ -26,6 +26,7 @@ import numpy as np
 PARAMETERS = {"m1": 4.0, "m2": 3.0, "m3": 2.0, "l1": 0.4, "l2": 0.5, "l3": 0.4, "lc1": 0.2, "lc2": 0.25, "lc3": 0.2, "I1": 0.02, "g": 9.81}
 COORDINATES = ("q1", "q2", "q3")
 EFFORTS = ("tau1", "tau2", "tau3")
+FRAMES = ("wrist",)
 #: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
 #: and inertia about the link frame's origin in Pinocchio's order, then the drives.
 PARAMETER_VECTOR = ("m_waist", "mcx_waist", "mcy_waist", "mcz_waist", "Ixx_waist", "Ixy_waist", "Iyy_waist", "Ixz_waist", "Iyz_waist", "Izz_waist", "m_upper_arm", "mcx_upper_arm", "mcy_upper_arm", "mcz_upper_arm", "Ixx_upper_arm", "Ixy_upper_arm", "Iyy_upper_arm", "Ixz_upper_arm", "Iyz_upper_arm", "Izz_upper_arm", "m_forearm", "mcx_forearm", "mcy_forearm", "mcz_forearm", "Ixx_forearm", "Ixy_forearm", "Iyy_forearm", "Ixz_forearm", "Iyz_forearm", "Izz_forearm")
@@ -345,11 +346,12 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0
 _inverse_dynamics_body.functions = ("sin", "cos")
 
 
-def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 75 lines, 222 operations."""
+def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 75 lines, 228 operations."""
     q1, q2, q3 = q
     qd1, qd2, qd3 = qd
     tau1, tau2, tau3 = u
+    _friction0, _friction1, _friction2 = _friction
     _r0 = cos(q2)
     _r1 = sin(q2)
     _r2 = cos(q3)
@@ -413,9 +415,9 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4
     _r25 = _r18 + _r25
     _r26 = _r17 + _r26
     _r26 = _r0*_r26 + _r1*_r21
-    _r26 = tau1 - _r26
-    _r25 = _r25 + tau2
-    _r23 = _r23 + tau3
+    _r26 = tau1 - _friction0 - _r26
+    _r25 = _r25 + tau2 - _friction1
+    _r23 = _r23 + tau3 - _friction2
     _r11 = 1/_r11
     _r12 = 1/_r12
     _r21 = -_r12*_r8
@@ -633,6 +635,438 @@ def _regressor_body(q, qd, qdd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=
 _regressor_body.functions = ("sin", "cos")
 
 
+def _inverse_dynamics_derivatives_body(q, qd, qdd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """dtau/dq, then dtau/dqd, row by row: Newton-Euler differentiated line by line. 165 lines, 652 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    qdd1, qdd2, qdd3 = qdd
+    _r0 = cos(q2)
+    _r1 = sin(q2)
+    _r2 = cos(q3)
+    _r3 = sin(q3)
+    _r4 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r5 = lc2*m2
+    _r6 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r7 = lc3*m3
+    _r8 = _r1*qd1
+    _r9 = _r0*qd1
+    _r10 = _r1*qdd1
+    _r11 = _r0*qdd1
+    _r12 = _r1*g
+    _r13 = _r0*g
+    _r10 = _r10 + _r9*qd2
+    _r14 = _r11 - _r8*qd2
+    _r15 = -_r4*qd2
+    _r16 = _r9*_r4
+    _r17 = -_r9*_r15 - _r16*qd2
+    _r18 = _r14*_r4 + _r15*_r8
+    _r19 = _r2*_r8 + _r3*_r9
+    _r20 = _r2*_r9 - _r3*_r8
+    _r21 = _r3*l2*qd2
+    _r22 = _r9*l2
+    _r23 = _r2*l2*qd2
+    _r24 = _r2*_r14 - _r3*_r10
+    _r25 = _r2*_r12 + _r3*(_r13 + l2*qdd2)
+    _r26 = _r14*l2
+    _r27 = _r2*(_r13 + l2*qdd2) - _r3*_r12
+    _r28 = -qd2 - qd3
+    _r29 = -qdd2 - qdd3
+    _r24 = _r24 - _r19*qd3
+    _r25 = _r25 + _r23*qd3
+    _r30 = _r27 - _r21*qd3
+    _r31 = _r28*_r6 - _r23*_r7
+    _r32 = _r20*_r6 + _r22*_r7
+    _r33 = _r21*m3
+    _r34 = _r20*_r7 + _r22*m3
+    _r35 = _r23*m3 - _r28*_r7
+    _r36 = _r22*_r35 + _r28*_r32 - _r20*_r31 - _r23*_r34
+    _r37 = _r19*_r31 + _r21*_r34 + _r26*_r7 + _r6*_r24 - _r22*_r33
+    _r25 = _r28*_r35 + _r25*m3 - _r20*_r34
+    _r24 = _r20*_r33 + _r26*m3 + _r24*_r7 - _r19*_r35
+    _r30 = _r19*_r34 + _r30*m3 - _r28*_r33 - _r29*_r7
+    _r29 = _r2*_r36 - _r3*_r37
+    _r24 = _r2*_r37 + _r3*_r36 + _r24*l2
+    _r29 = _r17 + _r29
+    _r24 = _r18 + _r24
+    _r18 = -_r1*qd1
+    _r17 = -_r1*qdd1
+    _r26 = -_r1*g
+    _r11 = _r11 + _r18*qd2
+    _r17 = _r17 - _r9*qd2
+    _r38 = _r4*_r18
+    _r39 = -_r15*_r18 - _r38*qd2
+    _r38 = -_r9*_r16 - _r5*_r26 - _r38*_r8
+    _r5 = _r9*_r15 + _r4*_r17
+    _r40 = _r2*_r9 + _r3*_r18
+    _r41 = _r2*_r18 - _r3*_r9
+    _r18 = _r18*l2
+    _r11 = _r2*_r17 - _r3*_r11
+    _r42 = _r2*_r13 + _r3*_r26
+    _r17 = _r17*l2
+    _r26 = _r2*_r26 - _r3*_r13
+    _r11 = _r11 - _r40*qd3
+    _r43 = _r6*_r41 + _r7*_r18
+    _r44 = _r7*_r41 + _r18*m3
+    _r45 = _r28*_r43 + _r35*_r18 - _r23*_r44 - _r31*_r41
+    _r43 = -_r19*_r43 - _r32*_r40 - _r7*_r26
+    _r18 = _r21*_r44 + _r6*_r11 + _r31*_r40 + _r7*_r17 - _r33*_r18
+    _r42 = _r42*m3 - _r20*_r44 - _r34*_r41
+    _r11 = _r33*_r41 + _r7*_r11 + _r17*m3 - _r35*_r40
+    _r44 = _r19*_r44 + _r34*_r40 + _r26*m3
+    _r44 = _r2*_r44 + _r3*_r42
+    _r42 = _r2*_r45 - _r3*_r18
+    _r44 = _r43 - _r44*l2
+    _r18 = _r2*_r18 + _r3*_r45 + _r11*l2
+    _r39 = _r42 + _r39
+    _r38 = _r44 + _r38
+    _r5 = _r18 + _r5
+    _r24 = _r0*_r5 + _r0*_r29 + _r1*_r39 - _r1*_r24
+    _r29 = -_r2*_r8 - _r3*_r9
+    _r5 = -_r3*l2*qd2
+    _r14 = -_r2*_r10 - _r3*_r14
+    _r13 = -_r2*_r12 - _r3*(_r13 + l2*qdd2)
+    _r14 = _r14 - _r20*qd3
+    _r27 = _r27 + _r5*qd3
+    _r13 = _r13 - _r23*qd3
+    _r12 = -_r5*_r7
+    _r10 = _r29*_r6
+    _r39 = _r23*m3
+    _r18 = _r29*_r7
+    _r44 = _r5*m3
+    _r42 = _r10*_r28 + _r44*_r22 - _r29*_r31 - _r5*_r34 - _r12*_r20 - _r18*_r23
+    _r10 = _r5*_r33 + _r39*_r23 - _r13*_r7 - _r10*_r19 - _r44*_r21 - _r20*_r32 - _r23*_r35
+    _r12 = _r14*_r6 + _r12*_r19 + _r18*_r21 + _r20*_r31 + _r23*_r34 - _r39*_r22
+    _r27 = _r27*m3 + _r44*_r28 - _r29*_r34 - _r18*_r20
+    _r44 = _r29*_r33 + _r14*_r7 + _r39*_r20 - _r44*_r19 - _r20*_r35
+    _r18 = _r13*m3 + _r18*_r19 + _r20*_r34 - _r39*_r28
+    _r30 = _r2*_r18 + _r2*_r25 + _r3*_r27 - _r3*_r30
+    _r25 = _r2*_r42 - _r2*_r37 - _r3*_r12 - _r3*_r36
+    _r30 = _r10 - _r30*l2
+    _r37 = _r2*_r12 + _r2*_r36 + _r3*_r42 + _r44*l2 - _r3*_r37
+    _r37 = _r0*_r37 + _r1*_r25
+    _r25 = _r0*qd2
+    _r36 = -_r1*qd2
+    _r44 = _r0*_r4
+    _r12 = -_r0*_r15 - _r44*qd2
+    _r44 = -_r1*_r16 - _r44*_r8
+    _r15 = _r1*_r15 + _r36*_r4
+    _r42 = _r0*_r3 + _r2*_r1
+    _r18 = _r0*_r2 - _r1*_r3
+    _r27 = _r0*l2
+    _r25 = _r2*_r36 - _r3*_r25
+    _r36 = _r36*l2
+    _r25 = _r25 - _r42*qd3
+    _r39 = _r18*_r6 + _r27*_r7
+    _r13 = _r18*_r7 + _r27*m3
+    _r14 = _r27*_r35 + _r39*_r28 - _r18*_r31 - _r13*_r23
+    _r39 = -_r42*_r32 - _r39*_r19
+    _r31 = _r42*_r31 + _r36*_r7 + _r25*_r6 + _r13*_r21 - _r27*_r33
+    _r27 = -_r18*_r34 - _r13*_r20
+    _r25 = _r18*_r33 + _r36*m3 + _r25*_r7 - _r42*_r35
+    _r13 = _r42*_r34 + _r13*_r19
+    _r13 = _r2*_r13 + _r3*_r27
+    _r27 = _r2*_r14 - _r3*_r31
+    _r13 = _r39 - _r13*l2
+    _r25 = _r2*_r31 + _r3*_r14 + _r25*l2
+    _r27 = _r12 + _r27
+    _r13 = _r44 + _r13
+    _r25 = _r15 + _r25
+    _r25 = _r0*_r25 + _r1*_r27
+    _r16 = -_r16 + _r9*_r4
+    _r4 = -2*_r4*_r8
+    _r9 = _r3*l2
+    _r27 = _r2*l2
+    _r8 = -_r8*l2
+    _r15 = _r27*qd3
+    _r44 = -_r9*qd3
+    _r12 = -_r6 - _r27*_r7
+    _r31 = _r9*m3
+    _r14 = _r7 + _r27*m3
+    _r42 = -_r32 + _r14*_r22 - _r27*_r34 - _r12*_r20
+    _r27 = _r27*_r33 + _r31*_r23 - _r9*_r35 - _r44*_r7 - _r14*_r21
+    _r34 = _r29*_r6 + _r9*_r34 + _r8*_r7 + _r12*_r19 - _r31*_r22
+    _r15 = -_r35 + _r15*m3 + _r14*_r28
+    _r14 = _r29*_r7 + _r8*m3 + _r31*_r20 - _r14*_r19
+    _r31 = _r33 + _r44*m3 - _r31*_r28
+    _r31 = _r2*_r31 + _r3*_r15
+    _r15 = _r2*_r42 - _r3*_r34
+    _r31 = _r27 - _r31*l2
+    _r14 = _r2*_r34 + _r3*_r42 + _r14*l2
+    _r15 = _r16 + _r15
+    _r14 = _r4 + _r14
+    _r14 = _r0*_r14 + _r1*_r15
+    _r32 = -_r32 + _r20*_r6 + _r22*_r7
+    _r6 = -2*_r19*_r6
+    _r35 = -_r35 + _r23*m3 + _r28*_r7
+    _r7 = -2*_r19*_r7
+    _r33 = _r33 - _r21*m3
+    _r33 = _r2*_r33 + _r3*_r35
+    _r35 = _r2*_r32 - _r3*_r6
+    _r33 = -_r33*l2
+    _r7 = _r2*_r6 + _r3*_r32 + _r7*l2
+    _r7 = _r0*_r7 + _r1*_r35
+    return (
+        0,
+        _r24,
+        _r37,
+        0,
+        -_r38,
+        -_r30,
+        0,
+        -_r43,
+        -_r10,
+        _r25,
+        _r14,
+        _r7,
+        -_r13,
+        -_r31,
+        -_r33,
+        -_r39,
+        -_r27,
+        0,
+    )
+
+
+_inverse_dynamics_derivatives_body.functions = ("sin", "cos")
+
+
+def _frame0_transform_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Pose of frame 'wrist' (homogeneous, row by row). 22 lines, 44 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = _r0*_r2
+    _r7 = -_r0*_r3
+    _r8 = _r2*_r1
+    _r9 = -_r1*_r3
+    _r10 = _r4*_r6 + _r5*_r7
+    _r7 = _r4*_r7 - _r5*_r6
+    _r11 = _r4*_r8 + _r5*_r9
+    _r9 = _r4*_r9 - _r5*_r8
+    _r12 = _r2*_r5 + _r4*_r3
+    _r5 = _r2*_r4 - _r3*_r5
+    _r6 = _r6*l2
+    _r8 = _r8*l2
+    _r3 = l1 + _r3*l2
+    _r6 = _r6 + _r10*l3
+    _r8 = _r8 + _r11*l3
+    _r3 = _r3 + _r12*l3
+    return (
+        _r10,
+        -_r1,
+        _r7,
+        _r6,
+        _r11,
+        _r0,
+        _r9,
+        _r8,
+        _r12,
+        0,
+        _r5,
+        _r3,
+        0,
+        0,
+        0,
+        1,
+    )
+
+
+_frame0_transform_body.functions = ("sin", "cos")
+
+
+def _frame0_jacobian_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """World-frame Jacobian of frame 'wrist', row by row. 29 lines, 56 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = _r0*_r2
+    _r7 = -_r0*_r3
+    _r8 = _r2*_r1
+    _r9 = -_r1*_r3
+    _r7 = _r4*_r6 + _r5*_r7
+    _r9 = _r4*_r8 + _r5*_r9
+    _r5 = _r2*_r5 + _r4*_r3
+    _r6 = _r6*l2
+    _r8 = _r8*l2
+    _r3 = l1 + _r3*l2
+    _r7 = _r6 + _r7*l3
+    _r9 = _r8 + _r9*l3
+    _r5 = _r3 + _r5*l3
+    _r4 = _r5 - l1
+    _r2 = -_r0*_r4
+    _r4 = -_r1*_r4
+    _r10 = _r0*_r7 + _r1*_r9
+    _r6 = _r7 - _r6
+    _r8 = _r9 - _r8
+    _r5 = _r5 - _r3
+    _r3 = -_r0*_r5
+    _r5 = -_r1*_r5
+    _r8 = _r0*_r6 + _r1*_r8
+    return (
+        -_r9,
+        _r2,
+        _r3,
+        _r7,
+        _r4,
+        _r5,
+        0,
+        _r10,
+        _r8,
+        0,
+        _r1,
+        _r1,
+        0,
+        -_r0,
+        -_r0,
+        1,
+        0,
+        0,
+    )
+
+
+_frame0_jacobian_body.functions = ("sin", "cos")
+
+
+def _frame0_jacobian_dot_qd_body(q, qd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Jdot qd of frame 'wrist'. 56 lines, 156 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = _r0*_r2
+    _r7 = -_r0*_r3
+    _r8 = _r2*_r1
+    _r9 = -_r1*_r3
+    _r10 = _r4*_r6 + _r5*_r7
+    _r11 = _r4*_r8 + _r5*_r9
+    _r12 = _r2*_r5 + _r4*_r3
+    _r13 = _r6*l2
+    _r14 = _r8*l2
+    _r15 = l1 + _r3*l2
+    _r10 = _r13 + _r10*l3
+    _r11 = _r14 + _r11*l3
+    _r12 = _r15 + _r12*l3
+    _r16 = _r12 - l1
+    _r13 = _r10 - _r13
+    _r14 = _r11 - _r14
+    _r12 = _r12 - _r15
+    _r15 = -_r1*qd1
+    _r17 = _r0*qd1
+    _r18 = -_r3*qd2
+    _r19 = _r2*qd2
+    _r20 = -_r5*qd3
+    _r21 = _r4*qd3
+    _r22 = _r0*_r18 + _r2*_r15
+    _r23 = -_r0*_r19 - _r3*_r15
+    _r24 = _r2*_r17 + _r1*_r18
+    _r25 = -_r1*_r19 - _r3*_r17
+    _r7 = _r4*_r22 + _r5*_r23 + _r20*_r6 + _r21*_r7
+    _r9 = _r4*_r24 + _r5*_r25 + _r20*_r8 + _r21*_r9
+    _r21 = _r2*_r21 + _r4*_r19 + _r3*_r20 + _r5*_r18
+    _r22 = _r22*l2
+    _r24 = _r24*l2
+    _r19 = _r19*l2
+    _r7 = _r22 + _r7*l3
+    _r9 = _r24 + _r9*l3
+    _r21 = _r19 + _r21*l3
+    _r20 = -_r0*_r21 - _r16*_r15
+    _r16 = -_r1*_r21 - _r16*_r17
+    _r11 = _r0*_r7 + _r1*_r9 + _r10*_r15 + _r11*_r17
+    _r22 = _r7 - _r22
+    _r24 = _r9 - _r24
+    _r21 = _r21 - _r19
+    _r19 = -_r0*_r21 - _r12*_r15
+    _r21 = -_r1*_r21 - _r12*_r17
+    _r24 = _r0*_r22 + _r1*_r24 + _r13*_r15 + _r14*_r17
+    _r19 = _r20*qd2 + _r19*qd3 - _r9*qd1
+    _r21 = _r7*qd1 + _r16*qd2 + _r21*qd3
+    _r24 = _r11*qd2 + _r24*qd3
+    _r17 = _r17*qd2 + _r17*qd3
+    _r15 = -_r15*qd2 - _r15*qd3
+    return (
+        _r19,
+        _r21,
+        _r24,
+        _r17,
+        _r15,
+        0,
+    )
+
+
+_frame0_jacobian_dot_qd_body.functions = ("sin", "cos")
+
+
+
+#: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
+_FRAME_BODIES = {"wrist": (_frame0_transform_body, _frame0_jacobian_body, _frame0_jacobian_dot_qd_body)}
+
+
+def _frame_bodies(frame):
+    if not isinstance(frame, str) or frame not in _FRAME_BODIES:
+        known = ", ".join(FRAMES) if FRAMES else "none: the robot file declares no 'frames'"
+        raise ValueError(f"unknown frame {frame!r} (frames: {known})")
+    return _FRAME_BODIES[frame]
+
+
+def frame_transform(q, frame, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 4, 4).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_frame_bodies(frame)[0], [q], (4, 4), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def frame_jacobian(q, frame, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """World-frame geometric Jacobian of ``frame``, shape (..., 6, 3): rows (vx, vy, vz, wx, wy, wz),
+    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
+    (Pinocchio's LOCAL_WORLD_ALIGNED).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_frame_bodies(frame)[1], [q], (6, 3), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def frame_jacobian_dot_qd(q, qd, frame, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Jdot(q, qd) qd of ``frame``, shape (..., 6): the frame's acceleration at qdd = 0
+    (the origin's classical acceleration, then the angular one), so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
+    return _evaluate(_frame_bodies(frame)[2], arrays, (6,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def _external_forces(q, wrenches, parameters):
+    """sum over frames of J^T w: the generalized forces of wrenches applied at frames, each
+(fx, fy, fz, nx, ny, nz) in world axes, the moment about the frame's origin."""
+    if not wrenches:
+        return 0.0
+    if not isinstance(wrenches, dict):
+        raise ValueError("wrenches must be a dict {frame: wrench}")
+    total = 0.0
+    for frame, wrench in wrenches.items():
+        _frame_bodies(frame)
+        wrench = np.asarray(wrench, dtype=float)
+        if wrench.ndim == 0 or wrench.shape[-1] != 6:
+            raise ValueError(f"the wrench at {frame!r} must have shape (..., 6), got {wrench.shape}")
+        jacobian = frame_jacobian(q, frame, **parameters)
+        total = total + np.einsum("...ij,...i->...j", jacobian, wrench)
+    return total
+
+
 def mass_matrix(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 3, 3).
 
@@ -683,25 +1117,71 @@ def friction_forces(qd, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.
     return np.zeros_like(_coordinates("qd", qd, 3))
 
 
-def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 3).    """
+def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 3).
+
+    wrenches: None, or {frame: w} with w of shape (..., 6), (fx, fy, fz, nx, ny, nz), the wrench the
+    environment applies to the robot at that frame of FRAMES, in world axes (moment about the
+    frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
+    """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
-    return _evaluate(_inverse_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+    _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g}
+    _result = _evaluate(_inverse_dynamics_body, arrays, (3,), _parameters)
+    if wrenches:
+        _result = _result - _external_forces(arrays[0], wrenches, _parameters)
+    return _result
 
 
 
 
-def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 3).
+def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) + sum J^T w, shape (..., 3).
 
     u: efforts ("tau1", "tau2", "tau3"), shape (..., 3); None means no effort.
+    wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     M is factored as L D L^T (it is positive definite), never inverted.    """
     if u is None:
         u = np.zeros(3)
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), np.asarray(u, dtype=float)]
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 3:
         raise ValueError(f"u must have shape (..., 3), got {arrays[2].shape}")
-    return _evaluate(_forward_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+    _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g}
+    _opposing = np.zeros_like(arrays[1])
+    if wrenches:
+        _opposing = _opposing - _external_forces(arrays[0], wrenches, _parameters)
+    arrays.append(_opposing)
+    return _evaluate(_forward_dynamics_body, arrays, (3,), _parameters)
+
+
+def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """(A, B) of the dynamics linearized about the state (q, qd) and efforts u: with
+    x = (q, qd), xdot = A dx + B du to first order. A has shape (..., 6, 6), B (..., 6, 3).
+
+    A = [[0, I], [dqdd/dq, dqdd/dqd]], B = [[0], [dqdd/du]], from the derivatives of recursive
+    Newton-Euler (differentiated line by line) and one solve with M:
+    M dqdd/dx = dY/dx - dtau/dx at the state's own qdd. External wrenches are not linearized.
+    """
+    q = _coordinates("q", q, 3)
+    qd = _coordinates("qd", qd, 3)
+    if u is None:
+        u = np.zeros(3)
+    _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g}
+    _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 3, 3), _parameters)
+    _by_rate = _derivatives[..., 1, :, :]
+    _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(3), **_parameters), -1, -2)
+    _mass = mass_matrix(q, **_parameters)
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _rhs = np.concatenate([np.broadcast_to(-_derivatives[..., 0, :, :], _batch + (3, 3)),
+                           np.broadcast_to(-_by_rate, _batch + (3, 3)),
+                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (3, 3)), _rhs)
+    _A = np.zeros(_batch + (6, 6))
+    _A[..., :3, 3:] = np.eye(3)
+    _A[..., 3:, :] = _solved[..., :6]
+    _B = np.zeros(_batch + (6, 3))
+    _B[..., 3:, :] = _solved[..., 6:]
+    return _A, _B
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):

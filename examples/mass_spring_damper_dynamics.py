@@ -23,6 +23,7 @@ import numpy as np
 PARAMETERS = {"m1": 1.0, "m2": 0.5, "k1": 40.0, "k2": 25.0, "b1": 0.8, "b2": 0.3, "d": 0.5, "g": 9.81}
 COORDINATES = ("s1", "s2")
 EFFORTS = ("F1",)
+FRAMES = ()
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2")
 #: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
 #: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
@@ -538,6 +539,85 @@ def _regressor_body(q, qd, qdd, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=
 _regressor_body.functions = ()
 
 
+def _inverse_dynamics_derivatives_body(q, qd, qdd, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """dtau/dq, then dtau/dqd, row by row: Newton-Euler differentiated line by line. 0 lines, 0 operations."""
+    s1, s2 = q
+    sd1, sd2 = qd
+    sdd1, sdd2 = qdd
+    return (
+        k1,
+        0,
+        0,
+        k2,
+        0,
+        0,
+        0,
+        0,
+    )
+
+
+_inverse_dynamics_derivatives_body.functions = ()
+
+
+
+#: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
+_FRAME_BODIES = {}
+
+
+def _frame_bodies(frame):
+    if not isinstance(frame, str) or frame not in _FRAME_BODIES:
+        known = ", ".join(FRAMES) if FRAMES else "none: the robot file declares no 'frames'"
+        raise ValueError(f"unknown frame {frame!r} (frames: {known})")
+    return _FRAME_BODIES[frame]
+
+
+def frame_transform(q, frame, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 3, 3)    (planar: R the 2 x 2 rotation by the frame's angle).
+
+    q: joint coordinates ("s1", "s2"), shape (..., 2); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 2)
+    return _evaluate(_frame_bodies(frame)[0], [q], (3, 3), {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g})
+
+
+def frame_jacobian(q, frame, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """World-frame geometric Jacobian of ``frame``, shape (..., 3, 2): rows (vx, vy, omega),
+    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
+    (Pinocchio's LOCAL_WORLD_ALIGNED).
+
+    q: joint coordinates ("s1", "s2"), shape (..., 2); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 2)
+    return _evaluate(_frame_bodies(frame)[1], [q], (3, 2), {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g})
+
+
+def frame_jacobian_dot_qd(q, qd, frame, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """Jdot(q, qd) qd of ``frame``, shape (..., 3): the frame's acceleration at qdd = 0
+    (the origin's classical acceleration, then the angular one), so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2)]
+    return _evaluate(_frame_bodies(frame)[2], arrays, (3,), {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g})
+
+
+def _external_forces(q, wrenches, parameters):
+    """sum over frames of J^T w: the generalized forces of wrenches applied at frames, each
+(fx, fy, n) in world axes, the moment about the frame's origin."""
+    if not wrenches:
+        return 0.0
+    if not isinstance(wrenches, dict):
+        raise ValueError("wrenches must be a dict {frame: wrench}")
+    total = 0.0
+    for frame, wrench in wrenches.items():
+        _frame_bodies(frame)
+        wrench = np.asarray(wrench, dtype=float)
+        if wrench.ndim == 0 or wrench.shape[-1] != 3:
+            raise ValueError(f"the wrench at {frame!r} must have shape (..., 3), got {wrench.shape}")
+        jacobian = frame_jacobian(q, frame, **parameters)
+        total = total + np.einsum("...ij,...i->...j", jacobian, wrench)
+    return total
+
+
 def _direction(qd, friction_smoothing):
     """sign(qd), or tanh(qd / friction_smoothing) when it is positive (a smooth Coulomb law)."""
     if friction_smoothing < 0:
@@ -559,20 +639,31 @@ def friction_forces(qd, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=2
     return _damping * qd + _friction * _direction(qd, friction_smoothing)
 
 
-def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) + F(qd) by recursive Newton-Euler, shape (..., 2).
-    F = friction_forces(qd, friction_smoothing=friction_smoothing): viscous damping and Coulomb friction.    """
+def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) + F(qd) - sum J^T w by recursive Newton-Euler, shape (..., 2).
+
+    F = friction_forces(qd, friction_smoothing=friction_smoothing): viscous damping and Coulomb friction.
+
+    wrenches: None, or {frame: w} with w of shape (..., 3), (fx, fy, n), the wrench the
+    environment applies to the robot at that frame of FRAMES (this robot declares none), in world axes (moment about the
+    frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
+    """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
-    return _evaluate(_inverse_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g}) + friction_forces(
-        arrays[1], friction_smoothing=friction_smoothing, m1=m1, m2=m2, k1=k1, k2=k2, b1=b1, b2=b2, d=d, g=g)
+    _parameters = {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g}
+    _result = _evaluate(_inverse_dynamics_body, arrays, (2,), _parameters)
+    _result = _result + friction_forces(arrays[1], friction_smoothing=friction_smoothing, **_parameters)
+    if wrenches:
+        _result = _result - _external_forces(arrays[0], wrenches, _parameters)
+    return _result
 
 
 
 
-def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) - F(qd), shape (..., 2).
+def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) - F(qd) + sum J^T w, shape (..., 2).
 
     u: efforts ("F1",), shape (..., 1); None means no effort.
+    wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     M is factored as L D L^T (it is positive definite), never inverted.    F = friction_forces(qd, friction_smoothing=friction_smoothing): damping and Coulomb friction
     (friction_smoothing > 0 smooths the sign for integrators).    """
     if u is None:
@@ -580,8 +671,50 @@ def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 1:
         raise ValueError(f"u must have shape (..., 1), got {arrays[2].shape}")
-    arrays.append(friction_forces(arrays[1], friction_smoothing=friction_smoothing, m1=m1, m2=m2, k1=k1, k2=k2, b1=b1, b2=b2, d=d, g=g))
-    return _evaluate(_forward_dynamics_body, arrays, (2,), {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g})
+    _parameters = {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g}
+    _opposing = friction_forces(arrays[1], friction_smoothing=friction_smoothing, **_parameters)
+    if wrenches:
+        _opposing = _opposing - _external_forces(arrays[0], wrenches, _parameters)
+    arrays.append(_opposing)
+    return _evaluate(_forward_dynamics_body, arrays, (2,), _parameters)
+
+
+def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
+    """(A, B) of the dynamics linearized about the state (q, qd) and efforts u: with
+    x = (q, qd), xdot = A dx + B du to first order. A has shape (..., 4, 4), B (..., 4, 1).
+
+    A = [[0, I], [dqdd/dq, dqdd/dqd]], B = [[0], [dqdd/du]], from the derivatives of recursive
+    Newton-Euler (differentiated line by line) and one solve with M:
+    M dqdd/dx = dY/dx - dtau/dx at the state's own qdd. Damping adds b to dtau/dqd; Coulomb
+    friction adds fc d sign(qd)/dqd, zero with friction_smoothing = 0 (the exact sign) and
+    fc (1 - tanh(qd/eps)**2)/eps with friction_smoothing = eps > 0. External wrenches are not linearized.
+    """
+    q = _coordinates("q", q, 2)
+    qd = _coordinates("qd", qd, 2)
+    if u is None:
+        u = np.zeros(1)
+    _parameters = {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g}
+    _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 2, 2), _parameters)
+    _by_rate = _derivatives[..., 1, :, :]
+    _slope = _damping_coefficients(qd, **_parameters)
+    if friction_smoothing > 0:
+        _slope = _slope + _friction_coefficients(qd, **_parameters) * (
+            1.0 - np.tanh(qd / friction_smoothing) ** 2) / friction_smoothing
+    _by_rate = _by_rate + _slope[..., None, :] * np.eye(2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(1), **_parameters), -1, -2)
+    _mass = mass_matrix(q, **_parameters)
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _rhs = np.concatenate([np.broadcast_to(-_derivatives[..., 0, :, :], _batch + (2, 2)),
+                           np.broadcast_to(-_by_rate, _batch + (2, 2)),
+                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (2, 2)), _rhs)
+    _A = np.zeros(_batch + (4, 4))
+    _A[..., :2, 2:] = np.eye(2)
+    _A[..., 2:, :] = _solved[..., :4]
+    _B = np.zeros(_batch + (4, 1))
+    _B[..., 2:, :] = _solved[..., 4:]
+    return _A, _B
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):

@@ -11,6 +11,7 @@ with the robot file's defaults (see ``PARAMETERS``):
     m3 [kg]: mass of link 3
     l1 [m]: length of link 1
     l2 [m]: length of link 2
+    l3 [m]: length of link 3 (to the tool point)
     r1 [m]: centre of mass of link 1 along it
     r2 [m]: centre of mass of link 2 along it
     r3 [m]: centre of mass of link 3 along it
@@ -24,9 +25,10 @@ import math
 
 import numpy as np
 
-PARAMETERS = {"m1": 2.0, "m2": 1.5, "m3": 0.5, "l1": 0.5, "l2": 0.4, "r1": 0.25, "r2": 0.2, "r3": 0.1, "I1": 0.04, "I2": 0.02, "I3": 0.002, "g": 9.81}
+PARAMETERS = {"m1": 2.0, "m2": 1.5, "m3": 0.5, "l1": 0.5, "l2": 0.4, "l3": 0.2, "r1": 0.25, "r2": 0.2, "r3": 0.1, "I1": 0.04, "I2": 0.02, "I3": 0.002, "g": 9.81}
 COORDINATES = ("th1", "th2", "th3")
 EFFORTS = ("tau1", "tau2", "tau3")
+FRAMES = ("tool",)
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2", "x3", "y3", "phi3")
 #: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
 #: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
@@ -44,7 +46,7 @@ def _coordinates(name, value, size):
     return array
 
 
-def mass_matrix(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def mass_matrix(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Mass matrix M_g(q), shape (..., 3, 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -81,7 +83,7 @@ def mass_matrix(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r
     return out
 
 
-def coriolis_matrix(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def coriolis_matrix(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., 3, 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -123,7 +125,7 @@ def coriolis_matrix(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r
     return out
 
 
-def gravity_vector(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def gravity_vector(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Gravity vector N_g(q) = dV/dq, shape (..., 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -143,7 +145,7 @@ def gravity_vector(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2
     return out
 
 
-def generalized_forces(q, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def generalized_forces(q, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Applied generalized forces Y_g(u), shape (..., 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -162,7 +164,7 @@ def generalized_forces(q, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25,
     return out
 
 
-def kinetic_energy(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def kinetic_energy(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Kinetic energy T_g(q, qd), shape (...).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -188,7 +190,7 @@ def kinetic_energy(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2
     return out
 
 
-def potential_energy(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def potential_energy(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Potential energy V_g(q), shape (...).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -204,7 +206,7 @@ def potential_energy(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0
     return out
 
 
-def maximal_mass_matrix(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def maximal_mass_matrix(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Mass matrix M_m(qm) in maximal coordinates, shape (..., 9, 9).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -224,7 +226,7 @@ def maximal_mass_matrix(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, 
     return out
 
 
-def maximal_coriolis_matrix(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def maximal_coriolis_matrix(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Coriolis matrix C_m(qm, qmd), shape (..., 9, 9).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -237,7 +239,7 @@ def maximal_coriolis_matrix(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, 
     return out
 
 
-def maximal_gravity_vector(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def maximal_gravity_vector(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Gravity vector N_m(qm), shape (..., 9).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -251,7 +253,7 @@ def maximal_gravity_vector(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.2
     return out
 
 
-def maximal_efforts(qm, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def maximal_efforts(qm, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Joint efforts as forces on the links, Y_m(qm, u), shape (..., 9).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -270,7 +272,7 @@ def maximal_efforts(qm, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r
     return out
 
 
-def constraints(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def constraints(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Holonomic constraints a_m(qm) (zero when they hold), shape (..., 6).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -302,7 +304,7 @@ def constraints(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, 
     return out
 
 
-def constraint_jacobian(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def constraint_jacobian(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Constraint Jacobian A_m(qm) = da/dqm, shape (..., 6, 9).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -342,7 +344,7 @@ def constraint_jacobian(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, 
     return out
 
 
-def constraint_jacobian_dot(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def constraint_jacobian_dot(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Time derivative Adot_m(qm, qmd), shape (..., 6, 9).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -380,7 +382,7 @@ def constraint_jacobian_dot(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, 
     return out
 
 
-def maximal_kinetic_energy(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def maximal_kinetic_energy(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Kinetic energy T_m(qm, qmd), shape (...).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -403,7 +405,7 @@ def maximal_kinetic_energy(qm, qmd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r
     return out
 
 
-def maximal_potential_energy(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def maximal_potential_energy(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Potential energy V_m(qm), shape (...).
 
     qm: maximal coordinates (x, y, phi of each link's COM frame), shape (..., 9)
@@ -418,7 +420,7 @@ def maximal_potential_energy(qm, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0
     return out
 
 
-def to_maximal(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def to_maximal(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Change of basis qm = h(q), shape (..., 9).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -449,7 +451,7 @@ def to_maximal(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3
     return out
 
 
-def to_maximal_jacobian(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def to_maximal_jacobian(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Its Jacobian H(q) = dh/dq (qmd = H qd), shape (..., 9, 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
@@ -495,7 +497,7 @@ def to_maximal_jacobian(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r
     return out
 
 
-def parameter_vector(*, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def parameter_vector(*, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
     """
     batch = np.broadcast_shapes()
@@ -552,7 +554,7 @@ def _evaluate(body, arrays, shape, parameters):
     return out.reshape(batch + shape)
 
 
-def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """M qdd + C qd + N: recursive Newton-Euler. 50 lines, 134 operations."""
     th1, th2, th3 = q
     thd1, thd2, thd3 = qd
@@ -617,11 +619,12 @@ def _inverse_dynamics_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0
 _inverse_dynamics_body.functions = ("sin", "cos")
 
 
-def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 77 lines, 197 operations."""
+def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 77 lines, 203 operations."""
     th1, th2, th3 = q
     thd1, thd2, thd3 = qd
     tau1, tau2, tau3 = u
+    _friction0, _friction1, _friction2 = _friction
     _r0 = cos(th1)
     _r1 = sin(th1)
     _r2 = cos(th2)
@@ -682,9 +685,9 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5
     _r17 = _r2*_r17 + _r3*_r0
     _r17 = _r21 + _r17*l1
     _r17 = _r7 + _r17
-    _r17 = tau1 - _r17
-    _r21 = tau2 - _r21
-    _r11 = tau3 - _r11
+    _r17 = tau1 - _friction0 - _r17
+    _r21 = tau2 - _friction1 - _r21
+    _r11 = tau3 - _friction2 - _r11
     _r14 = 1/_r14
     _r7 = _r15*_r14
     _r0 = _r12*_r14
@@ -709,7 +712,7 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5
 _forward_dynamics_body.functions = ("sin", "cos")
 
 
-def _regressor_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def _regressor_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Y(q, qd, qdd) with Y pi = M qdd + C qd + N (+ F), row by row: each joint's axis carried down the tree, dotted with each link's force per unit parameter. 47 lines, 129 operations."""
     th1, th2, th3 = q
     thd1, thd2, thd3 = qd
@@ -804,34 +807,450 @@ def _regressor_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=
 _regressor_body.functions = ("sin", "cos")
 
 
-def friction_forces(qd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def _inverse_dynamics_derivatives_body(q, qd, qdd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """dtau/dq, then dtau/dqd, row by row: Newton-Euler differentiated line by line. 157 lines, 478 operations."""
+    th1, th2, th3 = q
+    thd1, thd2, thd3 = qd
+    thdd1, thdd2, thdd3 = qdd
+    _r0 = cos(th1)
+    _r1 = sin(th1)
+    _r2 = cos(th2)
+    _r3 = sin(th2)
+    _r4 = cos(th3)
+    _r5 = sin(th3)
+    _r6 = m1*r1
+    _r7 = m2*r2
+    _r8 = m3*r3
+    _r9 = _r1*g
+    _r0 = _r0*g
+    _r10 = _r3*l1*thd1
+    _r11 = _r2*l1*thd1
+    _r12 = _r2*_r9 + _r3*(_r0 + l1*thdd1)
+    _r13 = _r2*(_r0 + l1*thdd1) - _r3*_r9
+    _r14 = thd1 + thd2
+    _r15 = thdd1 + thdd2
+    _r12 = _r12 + _r11*thd2
+    _r16 = _r13 - _r10*thd2
+    _r17 = _r10*m2
+    _r18 = _r11*m2 + _r14*_r7
+    _r19 = _r12*m2 - _r14*_r18
+    _r20 = _r14*_r17 + _r15*_r7 + _r16*m2
+    _r21 = _r4*_r10 + _r5*(_r11 + _r14*l2)
+    _r22 = _r4*(_r11 + _r14*l2) - _r5*_r10
+    _r23 = _r4*_r12 + _r5*(_r16 + _r15*l2)
+    _r24 = _r4*(_r16 + _r15*l2) - _r5*_r12
+    _r25 = _r14 + thd3
+    _r26 = _r15 + thdd3
+    _r23 = _r23 + _r22*thd3
+    _r27 = _r24 - _r21*thd3
+    _r28 = _r21*m3
+    _r29 = _r22*m3 + _r25*_r8
+    _r23 = _r23*m3 - _r25*_r29
+    _r27 = _r25*_r28 + _r26*_r8 + _r27*m3
+    _r26 = _r4*_r23 - _r5*_r27
+    _r30 = _r4*_r27 + _r5*_r23
+    _r26 = _r19 + _r26
+    _r30 = _r20 + _r30
+    _r1 = -_r1*g
+    _r6 = _r6*_r1
+    _r20 = _r2*_r0 + _r3*_r1
+    _r1 = _r2*_r1 - _r3*_r0
+    _r19 = _r7*_r1
+    _r31 = _r20*m2
+    _r32 = _r1*m2
+    _r33 = _r4*_r20 + _r5*_r1
+    _r1 = _r4*_r1 - _r5*_r20
+    _r20 = _r1*_r8
+    _r33 = _r33*m3
+    _r1 = _r1*m3
+    _r34 = _r4*_r33 - _r5*_r1
+    _r1 = _r4*_r1 + _r5*_r33
+    _r33 = _r20 + _r1*l2
+    _r33 = _r19 + _r33
+    _r34 = _r31 + _r34
+    _r1 = _r32 + _r1
+    _r1 = _r2*_r1 + _r3*_r34
+    _r1 = _r33 + _r1*l1
+    _r1 = _r6 + _r1
+    _r6 = -_r3*l1*thd1
+    _r9 = -_r2*_r9 - _r3*(_r0 + l1*thdd1)
+    _r13 = _r13 + _r6*thd2
+    _r9 = _r9 - _r11*thd2
+    _r0 = _r11*m2
+    _r34 = _r6*m2
+    _r32 = _r10*_r34 + _r11*_r18 + _r7*_r9 - _r11*_r0 - _r17*_r6
+    _r34 = _r13*m2 - _r14*_r34
+    _r0 = _r14*_r0 + _r9*m2
+    _r31 = _r4*_r11 + _r5*_r6
+    _r6 = _r4*_r6 - _r5*_r11
+    _r19 = _r4*_r13 + _r5*_r9
+    _r9 = _r4*_r9 - _r5*_r13
+    _r19 = _r19 + _r6*thd3
+    _r9 = _r9 - _r31*thd3
+    _r13 = _r31*m3
+    _r35 = _r6*m3
+    _r6 = _r35*_r21 + _r29*_r31 + _r8*_r9 - _r22*_r13 - _r28*_r6
+    _r19 = _r19*m3 - _r35*_r25
+    _r13 = _r25*_r13 + _r9*m3
+    _r9 = _r4*_r19 - _r5*_r13
+    _r13 = _r4*_r13 + _r5*_r19
+    _r19 = _r6 + _r13*l2
+    _r32 = _r19 + _r32
+    _r34 = _r9 + _r34
+    _r0 = _r13 + _r0
+    _r30 = _r2*_r0 + _r2*_r26 + _r3*_r34 - _r3*_r30
+    _r30 = _r32 + _r30*l1
+    _r26 = -_r4*_r10 - _r5*(_r11 + _r14*l2)
+    _r16 = -_r4*_r12 - _r5*(_r16 + _r15*l2)
+    _r24 = _r24 + _r26*thd3
+    _r16 = _r16 - _r22*thd3
+    _r12 = _r22*m3
+    _r15 = _r26*m3
+    _r26 = _r16*_r8 + _r15*_r21 + _r22*_r29 - _r26*_r28 - _r12*_r22
+    _r15 = _r24*m3 - _r15*_r25
+    _r12 = _r16*m3 + _r12*_r25
+    _r16 = _r4*_r15 - _r4*_r27 - _r5*_r12 - _r5*_r23
+    _r27 = _r4*_r12 + _r4*_r23 + _r5*_r15 - _r5*_r27
+    _r23 = _r26 + _r27*l2
+    _r27 = _r2*_r27 + _r3*_r16
+    _r27 = _r23 + _r27*l1
+    _r16 = _r3*l1
+    _r12 = _r2*l1
+    _r15 = _r12*thd2
+    _r24 = -_r16*thd2
+    _r0 = _r16*m2
+    _r34 = _r7 + _r12*m2
+    _r13 = _r16*_r18 + _r24*_r7 + _r34*_r10 - _r12*_r17 - _r0*_r11
+    _r34 = -_r18 + _r15*m2 - _r34*_r14
+    _r0 = _r17 + _r24*m2 + _r0*_r14
+    _r9 = _r4*_r16 + _r5*_r12 + _r5*l2
+    _r12 = _r4*_r12 + _r4*l2 - _r5*_r16
+    _r16 = _r4*_r15 + _r5*_r24
+    _r24 = _r4*_r24 - _r5*_r15
+    _r16 = _r16 + _r12*thd3
+    _r24 = _r24 - _r9*thd3
+    _r15 = _r9*m3
+    _r19 = _r8 + _r12*m3
+    _r12 = _r9*_r29 + _r24*_r8 + _r19*_r21 - _r12*_r28 - _r15*_r22
+    _r19 = -_r29 + _r16*m3 - _r19*_r25
+    _r15 = _r28 + _r24*m3 + _r15*_r25
+    _r24 = _r4*_r19 - _r5*_r15
+    _r15 = _r4*_r15 + _r5*_r19
+    _r19 = _r12 + _r15*l2
+    _r19 = _r13 + _r19
+    _r24 = _r34 + _r24
+    _r15 = _r0 + _r15
+    _r15 = _r2*_r15 + _r3*_r24
+    _r15 = _r19 + _r15*l1
+    _r7 = -_r18 + _r11*m2 - _r14*_r7
+    _r17 = _r17 - _r10*m2
+    _r18 = _r5*l2
+    _r14 = _r4*l2
+    _r24 = _r4*_r11 - _r5*_r10
+    _r11 = -_r4*_r10 - _r5*_r11
+    _r24 = _r24 + _r14*thd3
+    _r11 = _r11 - _r18*thd3
+    _r10 = _r18*m3
+    _r0 = _r8 + _r14*m3
+    _r14 = _r18*_r29 + _r11*_r8 + _r0*_r21 - _r14*_r28 - _r10*_r22
+    _r0 = -_r29 + _r24*m3 - _r0*_r25
+    _r10 = _r28 + _r11*m3 + _r10*_r25
+    _r11 = _r4*_r0 - _r5*_r10
+    _r10 = _r4*_r10 + _r5*_r0
+    _r0 = _r14 + _r10*l2
+    _r11 = _r7 + _r11
+    _r10 = _r17 + _r10
+    _r10 = _r2*_r10 + _r3*_r11
+    _r10 = _r0 + _r10*l1
+    _r8 = -_r29 + _r22*m3 - _r25*_r8
+    _r28 = _r28 - _r21*m3
+    _r21 = _r4*_r8 - _r5*_r28
+    _r28 = _r4*_r28 + _r5*_r8
+    _r8 = _r28*l2
+    _r28 = _r2*_r28 + _r3*_r21
+    _r28 = _r8 + _r28*l1
+    return (
+        _r1,
+        _r30,
+        _r27,
+        _r33,
+        _r32,
+        _r23,
+        _r20,
+        _r6,
+        _r26,
+        _r15,
+        _r10,
+        _r28,
+        _r19,
+        _r0,
+        _r8,
+        _r12,
+        _r14,
+        0,
+    )
+
+
+_inverse_dynamics_derivatives_body.functions = ("sin", "cos")
+
+
+def _frame0_transform_body(q, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Pose of frame 'tool' (homogeneous, row by row). 19 lines, 42 operations."""
+    th1, th2, th3 = q
+    _r0 = cos(th1)
+    _r1 = sin(th1)
+    _r2 = cos(th2)
+    _r3 = sin(th2)
+    _r4 = cos(th3)
+    _r5 = sin(th3)
+    _r6 = _r0*_r2 - _r1*_r3
+    _r7 = -_r0*_r3 - _r2*_r1
+    _r3 = _r0*_r3 + _r2*_r1
+    _r0 = _r0*l1
+    _r1 = _r1*l1
+    _r2 = _r4*_r6 + _r5*_r7
+    _r7 = _r4*_r7 - _r5*_r6
+    _r8 = _r4*_r3 + _r5*_r6
+    _r5 = _r4*_r6 - _r5*_r3
+    _r6 = _r0 + _r6*l2
+    _r1 = _r1 + _r3*l2
+    _r6 = _r6 + _r2*l3
+    _r1 = _r1 + _r8*l3
+    return (
+        _r2,
+        _r7,
+        _r6,
+        _r8,
+        _r5,
+        _r1,
+        0,
+        0,
+        1,
+    )
+
+
+_frame0_transform_body.functions = ("sin", "cos")
+
+
+def _frame0_jacobian_body(q, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """World-frame Jacobian of frame 'tool', row by row. 21 lines, 45 operations."""
+    th1, th2, th3 = q
+    _r0 = cos(th1)
+    _r1 = sin(th1)
+    _r2 = cos(th2)
+    _r3 = sin(th2)
+    _r4 = cos(th3)
+    _r5 = sin(th3)
+    _r6 = _r0*_r2 - _r1*_r3
+    _r7 = -_r0*_r3 - _r2*_r1
+    _r3 = _r0*_r3 + _r2*_r1
+    _r0 = _r0*l1
+    _r1 = _r1*l1
+    _r7 = _r4*_r6 + _r5*_r7
+    _r5 = _r4*_r3 + _r5*_r6
+    _r6 = _r0 + _r6*l2
+    _r3 = _r1 + _r3*l2
+    _r7 = _r6 + _r7*l3
+    _r5 = _r3 + _r5*l3
+    _r0 = _r7 - _r0
+    _r1 = _r5 - _r1
+    _r6 = _r7 - _r6
+    _r3 = _r5 - _r3
+    return (
+        -_r5,
+        -_r1,
+        -_r3,
+        _r7,
+        _r0,
+        _r6,
+        1,
+        1,
+        1,
+    )
+
+
+_frame0_jacobian_body.functions = ("sin", "cos")
+
+
+def _frame0_jacobian_dot_qd_body(q, qd, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Jdot qd of frame 'tool'. 32 lines, 99 operations."""
+    th1, th2, th3 = q
+    thd1, thd2, thd3 = qd
+    _r0 = cos(th1)
+    _r1 = sin(th1)
+    _r2 = cos(th2)
+    _r3 = sin(th2)
+    _r4 = cos(th3)
+    _r5 = sin(th3)
+    _r6 = _r0*_r2 - _r1*_r3
+    _r7 = -_r0*_r3 - _r2*_r1
+    _r8 = _r0*_r3 + _r2*_r1
+    _r9 = -_r1*thd1
+    _r10 = _r0*thd1
+    _r11 = -_r3*thd2
+    _r12 = _r2*thd2
+    _r13 = -_r5*thd3
+    _r14 = _r4*thd3
+    _r15 = _r0*_r11 + _r2*_r9 - _r1*_r12 - _r3*_r10
+    _r16 = -_r0*_r12 - _r2*_r10 - _r1*_r11 - _r3*_r9
+    _r12 = _r0*_r12 + _r2*_r10 + _r1*_r11 + _r3*_r9
+    _r9 = _r9*l1
+    _r10 = _r10*l1
+    _r16 = _r4*_r15 + _r5*_r16 + _r7*_r14 + _r13*_r6
+    _r6 = _r4*_r12 + _r5*_r15 + _r8*_r13 + _r14*_r6
+    _r15 = _r9 + _r15*l2
+    _r12 = _r10 + _r12*l2
+    _r16 = _r15 + _r16*l3
+    _r6 = _r12 + _r6*l3
+    _r9 = _r16 - _r9
+    _r10 = _r6 - _r10
+    _r15 = _r16 - _r15
+    _r12 = _r6 - _r12
+    _r12 = -_r6*thd1 - _r10*thd2 - _r12*thd3
+    _r15 = _r16*thd1 + _r9*thd2 + _r15*thd3
+    return (
+        _r12,
+        _r15,
+        0,
+    )
+
+
+_frame0_jacobian_dot_qd_body.functions = ("sin", "cos")
+
+
+
+#: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
+_FRAME_BODIES = {"tool": (_frame0_transform_body, _frame0_jacobian_body, _frame0_jacobian_dot_qd_body)}
+
+
+def _frame_bodies(frame):
+    if not isinstance(frame, str) or frame not in _FRAME_BODIES:
+        known = ", ".join(FRAMES) if FRAMES else "none: the robot file declares no 'frames'"
+        raise ValueError(f"unknown frame {frame!r} (frames: {known})")
+    return _FRAME_BODIES[frame]
+
+
+def frame_transform(q, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 3, 3)    (planar: R the 2 x 2 rotation by the frame's angle).
+
+    q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_frame_bodies(frame)[0], [q], (3, 3), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+
+
+def frame_jacobian(q, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """World-frame geometric Jacobian of ``frame``, shape (..., 3, 3): rows (vx, vy, omega),
+    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
+    (Pinocchio's LOCAL_WORLD_ALIGNED).
+
+    q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_frame_bodies(frame)[1], [q], (3, 3), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+
+
+def frame_jacobian_dot_qd(q, qd, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Jdot(q, qd) qd of ``frame``, shape (..., 3): the frame's acceleration at qdd = 0
+    (the origin's classical acceleration, then the angular one), so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
+    return _evaluate(_frame_bodies(frame)[2], arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+
+
+def _external_forces(q, wrenches, parameters):
+    """sum over frames of J^T w: the generalized forces of wrenches applied at frames, each
+(fx, fy, n) in world axes, the moment about the frame's origin."""
+    if not wrenches:
+        return 0.0
+    if not isinstance(wrenches, dict):
+        raise ValueError("wrenches must be a dict {frame: wrench}")
+    total = 0.0
+    for frame, wrench in wrenches.items():
+        _frame_bodies(frame)
+        wrench = np.asarray(wrench, dtype=float)
+        if wrench.ndim == 0 or wrench.shape[-1] != 3:
+            raise ValueError(f"the wrench at {frame!r} must have shape (..., 3), got {wrench.shape}")
+        jacobian = frame_jacobian(q, frame, **parameters)
+        total = total + np.einsum("...ij,...i->...j", jacobian, wrench)
+    return total
+
+
+def friction_forces(qd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Dissipative forces F_g of the joints, shape (..., 3): zero, this robot declares no
     damping or friction (the signature matches robots that do)."""
     return np.zeros_like(_coordinates("qd", qd, 3))
 
 
-def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 3).    """
+def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 3).
+
+    wrenches: None, or {frame: w} with w of shape (..., 3), (fx, fy, n), the wrench the
+    environment applies to the robot at that frame of FRAMES, in world axes (moment about the
+    frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
+    """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
-    return _evaluate(_inverse_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+    _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
+    _result = _evaluate(_inverse_dynamics_body, arrays, (3,), _parameters)
+    if wrenches:
+        _result = _result - _external_forces(arrays[0], wrenches, _parameters)
+    return _result
 
 
 
 
-def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 3).
+def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) + sum J^T w, shape (..., 3).
 
     u: efforts ("tau1", "tau2", "tau3"), shape (..., 3); None means no effort.
+    wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     M is factored as L D L^T (it is positive definite), never inverted.    """
     if u is None:
         u = np.zeros(3)
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), np.asarray(u, dtype=float)]
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 3:
         raise ValueError(f"u must have shape (..., 3), got {arrays[2].shape}")
-    return _evaluate(_forward_dynamics_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+    _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
+    _opposing = np.zeros_like(arrays[1])
+    if wrenches:
+        _opposing = _opposing - _external_forces(arrays[0], wrenches, _parameters)
+    arrays.append(_opposing)
+    return _evaluate(_forward_dynamics_body, arrays, (3,), _parameters)
 
 
-def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """(A, B) of the dynamics linearized about the state (q, qd) and efforts u: with
+    x = (q, qd), xdot = A dx + B du to first order. A has shape (..., 6, 6), B (..., 6, 3).
+
+    A = [[0, I], [dqdd/dq, dqdd/dqd]], B = [[0], [dqdd/du]], from the derivatives of recursive
+    Newton-Euler (differentiated line by line) and one solve with M:
+    M dqdd/dx = dY/dx - dtau/dx at the state's own qdd. External wrenches are not linearized.
+    """
+    q = _coordinates("q", q, 3)
+    qd = _coordinates("qd", qd, 3)
+    if u is None:
+        u = np.zeros(3)
+    _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
+    _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 3, 3), _parameters)
+    _by_rate = _derivatives[..., 1, :, :]
+    _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(3), **_parameters), -1, -2)
+    _mass = mass_matrix(q, **_parameters)
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _rhs = np.concatenate([np.broadcast_to(-_derivatives[..., 0, :, :], _batch + (3, 3)),
+                           np.broadcast_to(-_by_rate, _batch + (3, 3)),
+                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (3, 3)), _rhs)
+    _A = np.zeros(_batch + (6, 6))
+    _A[..., :3, 3:] = np.eye(3)
+    _A[..., 3:, :] = _solved[..., :6]
+    _B = np.zeros(_batch + (6, 3))
+    _B[..., 3:, :] = _solved[..., 6:]
+    return _A, _B
+
+
+def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Regressor Y(q, qd, qdd), shape (..., 3, 12): Y @ parameter_vector() equals
     inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
 
@@ -839,10 +1258,10 @@ def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=
     (link axes). Gravity and the geometry are in Y, not in pi.
     """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
-    return _evaluate(_regressor_body, arrays, (3, 12), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+    return _evaluate(_regressor_body, arrays, (3, 12), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
 
 
-def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Solve [M A^T; A 0] [qmdd; lambda] = [Y - C qmd - N; -Adot qmd - 2 alpha A qmd - beta**2 a].
 
     Regular whenever A has full row rank and M is positive definite on the motions A allows,
@@ -852,17 +1271,17 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.
     qmd = _coordinates("qmd", qmd, 9)
     if u is None:
         u = np.zeros(3)
-    _mass = maximal_mass_matrix(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
-    _jac = constraint_jacobian(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
+    _mass = maximal_mass_matrix(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
+    _jac = constraint_jacobian(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
     _top = (
-        maximal_efforts(qm, u, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
-        - _matvec(maximal_coriolis_matrix(qm, qmd, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g), qmd)
-        - maximal_gravity_vector(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
+        maximal_efforts(qm, u, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
+        - _matvec(maximal_coriolis_matrix(qm, qmd, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g), qmd)
+        - maximal_gravity_vector(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
     )
     _bottom = (
-        -_matvec(constraint_jacobian_dot(qm, qmd, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g), qmd)
+        -_matvec(constraint_jacobian_dot(qm, qmd, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g), qmd)
         - 2 * alpha * _matvec(_jac, qmd)
-        - beta**2 * constraints(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
+        - beta**2 * constraints(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
     )
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _top.shape[:-1], _bottom.shape[:-1])
     _n, _k = 9, 6
@@ -877,16 +1296,16 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.
     return _solution[..., :_n], _solution[..., _n:]
 
 
-def constraint_forces(qm, qmd, u=None, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def constraint_forces(qm, qmd, u=None, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Constraint forces (multipliers) lambda, shape (..., 6).
 
     Equal to (A M^-1 A^T)^-1 (A M^-1 (Y - C qmd - N) + Adot qmd) where M is invertible;
     solved from the constrained equations of motion, never through an inverse.
     """
-    return _kkt_solve(qm, qmd, u, 0.0, 0.0, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)[1]
+    return _kkt_solve(qm, qmd, u, 0.0, 0.0, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)[1]
 
 
-def maximal_forward_dynamics(qm, qmd, u=None, *, alpha=0.0, beta=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+def maximal_forward_dynamics(qm, qmd, u=None, *, alpha=0.0, beta=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Constrained accelerations qmdd, shape (..., 9), from the KKT system
 
         [M  A^T] [qmdd  ]   [Y - C qmd - N                              ]
@@ -894,4 +1313,4 @@ def maximal_forward_dynamics(qm, qmd, u=None, *, alpha=0.0, beta=0.0, m1=2.0, m2
 
     alpha, beta: Baumgarte stabilisation gains (0 = none) against constraint drift.
     """
-    return _kkt_solve(qm, qmd, u, alpha, beta, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)[0]
+    return _kkt_solve(qm, qmd, u, alpha, beta, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)[0]

@@ -18,6 +18,7 @@ import numpy as np
 PARAMETERS = {"m": 1.0, "l": 1.0, "g": 9.81}
 COORDINATES = ("q1", "q2")
 EFFORTS = ("tau1", "F2")
+FRAMES = ()
 MAXIMAL_COORDINATES = ("x1", "y1", "phi1", "x2", "y2", "phi2")
 #: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
 #: and inertia about the link frame's origin in Pinocchio's order (planar: m, mcx, mcy, Izz), then the drives.
@@ -533,31 +534,182 @@ def _regressor_body(q, qd, qdd, sin, cos, *, m=1.0, l=1.0, g=9.81):
 _regressor_body.functions = ("sin", "cos")
 
 
+def _inverse_dynamics_derivatives_body(q, qd, qdd, sin, cos, *, m=1.0, l=1.0, g=9.81):
+    """dtau/dq, then dtau/dqd, row by row: Newton-Euler differentiated line by line. 29 lines, 65 operations."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    qdd1, qdd2 = qdd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = 0.5*(l*m)
+    _r0 = _r0*g
+    _r3 = q2*qd1
+    _r4 = _r0 + q2*qdd1
+    _r4 = _r4 + qd1*qd2
+    _r5 = m*qd2
+    _r6 = _r3*m + _r2*qd1
+    _r4 = _r4*m + _r5*qd1 + _r2*qdd1
+    _r1 = -_r1*g
+    _r7 = _r2*_r1
+    _r0 = _r0*m
+    _r1 = _r1*m
+    _r1 = _r7 + _r1*q2
+    _r1 = _r7 + _r1
+    _r7 = m*qd1
+    _r8 = _r2*qdd1 + _r7*qd2 - _r5*qd1
+    _r7 = -_r7*qd1
+    _r9 = m*qdd1
+    _r9 = _r4 + _r8 + _r9*q2
+    _r8 = _r2 + m*q2
+    _r4 = _r2*qd2 + _r8*qd2 - _r5*q2
+    _r8 = -_r6 - _r8*qd1
+    _r5 = _r5 + m*qd2
+    _r5 = _r4 + _r5*q2
+    _r2 = _r6 + _r2*qd1 - _r3*m
+    _r6 = 2*m*qd1
+    _r6 = _r2 + _r6*q2
+    return (
+        _r1,
+        _r9,
+        _r0,
+        _r7,
+        _r5,
+        _r6,
+        _r8,
+        0,
+    )
+
+
+_inverse_dynamics_derivatives_body.functions = ("sin", "cos")
+
+
+
+#: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
+_FRAME_BODIES = {}
+
+
+def _frame_bodies(frame):
+    if not isinstance(frame, str) or frame not in _FRAME_BODIES:
+        known = ", ".join(FRAMES) if FRAMES else "none: the robot file declares no 'frames'"
+        raise ValueError(f"unknown frame {frame!r} (frames: {known})")
+    return _FRAME_BODIES[frame]
+
+
+def frame_transform(q, frame, *, m=1.0, l=1.0, g=9.81):
+    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 3, 3)    (planar: R the 2 x 2 rotation by the frame's angle).
+
+    q: joint coordinates ("q1", "q2"), shape (..., 2); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 2)
+    return _evaluate(_frame_bodies(frame)[0], [q], (3, 3), {"m": m, "l": l, "g": g})
+
+
+def frame_jacobian(q, frame, *, m=1.0, l=1.0, g=9.81):
+    """World-frame geometric Jacobian of ``frame``, shape (..., 3, 2): rows (vx, vy, omega),
+    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
+    (Pinocchio's LOCAL_WORLD_ALIGNED).
+
+    q: joint coordinates ("q1", "q2"), shape (..., 2); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 2)
+    return _evaluate(_frame_bodies(frame)[1], [q], (3, 2), {"m": m, "l": l, "g": g})
+
+
+def frame_jacobian_dot_qd(q, qd, frame, *, m=1.0, l=1.0, g=9.81):
+    """Jdot(q, qd) qd of ``frame``, shape (..., 3): the frame's acceleration at qdd = 0
+    (the origin's classical acceleration, then the angular one), so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2)]
+    return _evaluate(_frame_bodies(frame)[2], arrays, (3,), {"m": m, "l": l, "g": g})
+
+
+def _external_forces(q, wrenches, parameters):
+    """sum over frames of J^T w: the generalized forces of wrenches applied at frames, each
+(fx, fy, n) in world axes, the moment about the frame's origin."""
+    if not wrenches:
+        return 0.0
+    if not isinstance(wrenches, dict):
+        raise ValueError("wrenches must be a dict {frame: wrench}")
+    total = 0.0
+    for frame, wrench in wrenches.items():
+        _frame_bodies(frame)
+        wrench = np.asarray(wrench, dtype=float)
+        if wrench.ndim == 0 or wrench.shape[-1] != 3:
+            raise ValueError(f"the wrench at {frame!r} must have shape (..., 3), got {wrench.shape}")
+        jacobian = frame_jacobian(q, frame, **parameters)
+        total = total + np.einsum("...ij,...i->...j", jacobian, wrench)
+    return total
+
+
 def friction_forces(qd, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
     """Dissipative forces F_g of the joints, shape (..., 2): zero, this robot declares no
     damping or friction (the signature matches robots that do)."""
     return np.zeros_like(_coordinates("qd", qd, 2))
 
 
-def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 2).    """
+def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 2).
+
+    wrenches: None, or {frame: w} with w of shape (..., 3), (fx, fy, n), the wrench the
+    environment applies to the robot at that frame of FRAMES (this robot declares none), in world axes (moment about the
+    frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
+    """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
-    return _evaluate(_inverse_dynamics_body, arrays, (2,), {"m": m, "l": l, "g": g})
+    _parameters = {"m": m, "l": l, "g": g}
+    _result = _evaluate(_inverse_dynamics_body, arrays, (2,), _parameters)
+    if wrenches:
+        _result = _result - _external_forces(arrays[0], wrenches, _parameters)
+    return _result
 
 
 
 
-def forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q), shape (..., 2).
+def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
+    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) + sum J^T w, shape (..., 2).
 
     u: efforts ("tau1", "F2"), shape (..., 2); None means no effort.
+    wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     M is factored as L D L^T (it is positive definite), never inverted.    """
     if u is None:
         u = np.zeros(2)
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
     if arrays[2].ndim == 0 or arrays[2].shape[-1] != 2:
         raise ValueError(f"u must have shape (..., 2), got {arrays[2].shape}")
-    return _evaluate(_forward_dynamics_body, arrays, (2,), {"m": m, "l": l, "g": g})
+    _parameters = {"m": m, "l": l, "g": g}
+    _external_forces(arrays[0], wrenches, _parameters)   # refuses any wrench: the robot has no frame
+    return _evaluate(_forward_dynamics_body, arrays, (2,), _parameters)
+
+
+def linearize(q, qd, u=None, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
+    """(A, B) of the dynamics linearized about the state (q, qd) and efforts u: with
+    x = (q, qd), xdot = A dx + B du to first order. A has shape (..., 4, 4), B (..., 4, 2).
+
+    A = [[0, I], [dqdd/dq, dqdd/dqd]], B = [[0], [dqdd/du]], from the derivatives of recursive
+    Newton-Euler (differentiated line by line) and one solve with M:
+    M dqdd/dx = dY/dx - dtau/dx at the state's own qdd. External wrenches are not linearized.
+    """
+    q = _coordinates("q", q, 2)
+    qd = _coordinates("qd", qd, 2)
+    if u is None:
+        u = np.zeros(2)
+    _parameters = {"m": m, "l": l, "g": g}
+    _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 2, 2), _parameters)
+    _by_rate = _derivatives[..., 1, :, :]
+    _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(2), **_parameters), -1, -2)
+    _mass = mass_matrix(q, **_parameters)
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _rhs = np.concatenate([np.broadcast_to(-_derivatives[..., 0, :, :], _batch + (2, 2)),
+                           np.broadcast_to(-_by_rate, _batch + (2, 2)),
+                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (2, 2)), _rhs)
+    _A = np.zeros(_batch + (4, 4))
+    _A[..., :2, 2:] = np.eye(2)
+    _A[..., 2:, :] = _solved[..., :4]
+    _B = np.zeros(_batch + (4, 2))
+    _B[..., 2:, :] = _solved[..., 4:]
+    return _A, _B
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):

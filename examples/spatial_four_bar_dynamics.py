@@ -29,6 +29,7 @@ ASSEMBLED_CONFIGURATION = (0.0, 0.0, 0.0, 0.0)
 PARAMETERS = {"a": 0.1, "b": 0.4, "c": 0.3, "m1": 0.4, "ms": 0.05, "Is": 2e-05, "m2": 0.8, "m3": 0.6, "g": 9.81}
 COORDINATES = ("q1", "q2", "q3", "q4")
 EFFORTS = ("tau1",)
+FRAMES = ()
 #: The regressor's parameters pi (``parameter_vector``): per link its mass, first moment m c
 #: and inertia about the link frame's origin in Pinocchio's order, then the drives.
 PARAMETER_VECTOR = ("m_crank", "mcx_crank", "mcy_crank", "mcz_crank", "Ixx_crank", "Ixy_crank", "Iyy_crank", "Ixz_crank", "Iyz_crank", "Izz_crank", "m_spider", "mcx_spider", "mcy_spider", "mcz_spider", "Ixx_spider", "Ixy_spider", "Iyy_spider", "Ixz_spider", "Iyz_spider", "Izz_spider", "m_coupler", "mcx_coupler", "mcy_coupler", "mcz_coupler", "Ixx_coupler", "Ixy_coupler", "Iyy_coupler", "Ixz_coupler", "Iyz_coupler", "Izz_coupler", "m_rocker", "mcx_rocker", "mcy_rocker", "mcz_rocker", "Ixx_rocker", "Ixy_rocker", "Iyy_rocker", "Ixz_rocker", "Iyz_rocker", "Izz_rocker")
@@ -710,6 +711,65 @@ def _regressor_body(q, qd, qdd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.0
 _regressor_body.functions = ("sin", "cos")
 
 
+
+#: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
+_FRAME_BODIES = {}
+
+
+def _frame_bodies(frame):
+    if not isinstance(frame, str) or frame not in _FRAME_BODIES:
+        known = ", ".join(FRAMES) if FRAMES else "none: the robot file declares no 'frames'"
+        raise ValueError(f"unknown frame {frame!r} (frames: {known})")
+    return _FRAME_BODIES[frame]
+
+
+def frame_transform(q, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 4, 4).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 4)
+    return _evaluate(_frame_bodies(frame)[0], [q], (4, 4), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def frame_jacobian(q, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """World-frame geometric Jacobian of ``frame``, shape (..., 6, 4): rows (vx, vy, vz, wx, wy, wz),
+    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
+    (Pinocchio's LOCAL_WORLD_ALIGNED).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); frame: a name of FRAMES
+    """
+    q = _coordinates("q", q, 4)
+    return _evaluate(_frame_bodies(frame)[1], [q], (6, 4), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def frame_jacobian_dot_qd(q, qd, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Jdot(q, qd) qd of ``frame``, shape (..., 6): the frame's acceleration at qdd = 0
+    (the origin's classical acceleration, then the angular one), so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """
+    arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4)]
+    return _evaluate(_frame_bodies(frame)[2], arrays, (6,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def _external_forces(q, wrenches, parameters):
+    """sum over frames of J^T w: the generalized forces of wrenches applied at frames, each
+(fx, fy, fz, nx, ny, nz) in world axes, the moment about the frame's origin."""
+    if not wrenches:
+        return 0.0
+    if not isinstance(wrenches, dict):
+        raise ValueError("wrenches must be a dict {frame: wrench}")
+    total = 0.0
+    for frame, wrench in wrenches.items():
+        _frame_bodies(frame)
+        wrench = np.asarray(wrench, dtype=float)
+        if wrench.ndim == 0 or wrench.shape[-1] != 6:
+            raise ValueError(f"the wrench at {frame!r} must have shape (..., 6), got {wrench.shape}")
+        jacobian = frame_jacobian(q, frame, **parameters)
+        total = total + np.einsum("...ij,...i->...j", jacobian, wrench)
+    return total
+
+
 def mass_matrix(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 4, 4).
 
@@ -760,15 +820,24 @@ def friction_forces(qd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, 
     return np.zeros_like(_coordinates("qd", qd, 4))
 
 
-def inverse_dynamics(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) by recursive Newton-Euler, shape (..., 4).    """
+def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 4).
+
+    wrenches: None, or {frame: w} with w of shape (..., 6), (fx, fy, fz, nx, ny, nz), the wrench the
+    environment applies to the robot at that frame of FRAMES (this robot declares none), in world axes (moment about the
+    frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
+    """
     arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4), _coordinates("qdd", qdd, 4)]
-    return _evaluate(_inverse_dynamics_body, arrays, (4,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+    _parameters = {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g}
+    _result = _evaluate(_inverse_dynamics_body, arrays, (4,), _parameters)
+    if wrenches:
+        _result = _result - _external_forces(arrays[0], wrenches, _parameters)
+    return _result
 
 
 
 
-def _loop_solve(q, qd, u, alpha, beta, friction_smoothing, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Solve [M -A^T; A 0] [qdd; lambda] = [Y - C qd - N; -Adot qd - 2 alpha A qd - beta**2 a]
     for the accelerations and the loop multipliers (A = loop_jacobian, a = loop_constraints)."""
     q = _coordinates("q", q, 4)
@@ -778,7 +847,7 @@ def _loop_solve(q, qd, u, alpha, beta, friction_smoothing, *, a=0.1, b=0.4, c=0.
     _mass = mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
     _jac = loop_jacobian(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
     _top = generalized_forces(q, u, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g) - inverse_dynamics(
-        q, qd, np.zeros(4), friction_smoothing=friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+        q, qd, np.zeros(4), wrenches, friction_smoothing=friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
     _bottom = (
         -_matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)
         - 2 * alpha * _matvec(_jac, qd)
@@ -797,7 +866,7 @@ def _loop_solve(q, qd, u, alpha, beta, friction_smoothing, *, a=0.1, b=0.4, c=0.
     return _solution[..., :_n], _solution[..., _n:]
 
 
-def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+def forward_dynamics(q, qd, u=None, wrenches=None, *, alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Accelerations qdd of the closed-loop mechanism, shape (..., 4), from
 
         [M  -A^T] [qdd     ]   [Y - C qd - N                               ]
@@ -805,15 +874,16 @@ def forward_dynamics(q, qd, u=None, *, alpha=0.0, beta=0.0, friction_smoothing=0
 
     (the multiplier form M qdd + C qd + N - Y - A_g^T lambda_g = 0 with the loop constraints
     differentiated twice). alpha, beta: Baumgarte gains against drift (0 = none); start from a
-    state on the constraints (``assemble``, and qd with loop_jacobian(q) @ qd = 0).
+    state on the constraints (``assemble``, and qd with loop_jacobian(q) @ qd = 0). wrenches: as
+    for ``inverse_dynamics``.
     """
-    return _loop_solve(q, qd, u, alpha, beta, friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[0]
+    return _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[0]
 
 
-def loop_forces(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+def loop_forces(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """Loop multipliers lambda_g, shape (..., 3): A_g^T lambda_g is the generalized force the
     loop joints exert (M qdd + C qd + N - Y - A_g^T lambda_g = 0)."""
-    return _loop_solve(q, qd, u, 0.0, 0.0, friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[1]
+    return _loop_solve(q, qd, u, wrenches, 0.0, 0.0, friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)[1]
 
 
 def reduced_basis(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):

@@ -573,7 +573,11 @@ def _check_tree(reader: _Reader, joints: list[dict[str, Any]],
 
 
 def _combine(a: _Body, b: _Body) -> _Body:
-    """Two rigid bodies welded together (all in one frame): mass, COM, inertia about the COM."""
+    """Two rigid bodies welded together (all in one frame): mass, COM, inertia about the COM.
+    A massless body without inertia (a frame: a tool flange) leaves ``a`` exactly as it was
+    (``(m c + 0) / m`` need not give back ``c`` in floating point)."""
+    if not b.mass and not np.any(b.inertia):
+        return a
     mass = a.mass + b.mass
     com = (a.mass * a.com + b.mass * b.com) / mass if mass > 0 else a.com
     inertia = np.zeros((3, 3))
