@@ -87,7 +87,7 @@ def test_public_api_keeps_working():
     d = dynderive.derive(robot)
     assert d.keys()[:3] == ["T_g", "V_g", "L_g"] and "M_g" in d.keys()
     assert "M(q)" in d._repr_latex_() and d._repr_latex_().startswith("$")
-    assert set(d.programs) == {"inverse_dynamics", "forward_dynamics", "regressor"}
+    assert set(d.programs) == {"inverse_dynamics", "forward_dynamics", "regressor", "inverse_dynamics_derivatives"}
     for name in ("render_latex", "render_code", "render_json", "lagrange_equations", "christoffel_coriolis",
                  "gravity_vector", "constraint_jacobian_dot", "time_derivative", "Robot", "InputError",
                  "__version__"):
