@@ -88,9 +88,30 @@ def test_bad_operating_points_are_refused(at, message):
     assert message in result.output and "Traceback" not in result.output
 
 
-def test_closed_loops_say_it_is_not_built():
-    result = runner.invoke(app, ["linearize", "four_bar", "-q"])
-    assert result.exit_code == 2 and "not built yet" in result.output
+def test_closed_loops_are_linearized_on_their_constraints(generated):
+    """The command puts the state on the loops (independent coordinates kept); the generated
+    function is the tangent of the constrained accelerations (central differences of
+    ``forward_dynamics`` with alpha = beta = 0)."""
+    result = runner.invoke(app, ["linearize", "four_bar", "--at", "q1=0.5,q2=1", "--json"])
+    assert result.exit_code == 0, result.output
+    assert "note: q2 = " in result.stderr and "follows from the loops" in result.stderr
+    document = json.loads(result.stdout)
+    assert document["method"] == "numeric" and document["state"]["q"][0] == 0.5
+    module = generated("four_bar")
+    np.testing.assert_allclose(module.loop_constraints(document["state"]["q"]), 0, atol=1e-10)
+    for name in ("four_bar", "slider_crank", "spatial_four_bar"):
+        module = generated(name)
+        n = len(module.COORDINATES)
+        rng = np.random.default_rng(4)
+        guess = np.array(module.ASSEMBLED_CONFIGURATION) + rng.uniform(-0.2, 0.2, n)
+        q = module.assemble(guess)
+        qd = module.reduced_basis(q) @ rng.uniform(-1, 1, len(module.INDEPENDENT_COORDINATES))
+        u = rng.uniform(-1, 1, len(module.EFFORTS))
+        A, B = module.linearize(q, qd, u)
+        A_fd, B_fd = _finite_differences(module, q, qd, u)
+        scale = max(1.0, float(np.max(np.abs(A))))
+        np.testing.assert_allclose(A, A_fd, rtol=1e-6, atol=1e-6 * scale)
+        np.testing.assert_allclose(B, B_fd, rtol=1e-6, atol=1e-6 * scale)
 
 
 CASES = [("planar", 1, 3), ("planar", 2, 5), ("spatial", 3, 4), ("spatial", 5, 6)]

@@ -339,12 +339,11 @@ class Derivation:
             efforts = list(self.quantities["Y_g"])
             generalized = self.generalized_program if self.structured_code else None
             self._programs = build_programs(self.robot, self.symbols, efforts, generalized, self.report)
-            if not self.robot.loops:
-                from .mechanics.linearization import inverse_dynamics_derivatives_program
+            from .mechanics.linearization import inverse_dynamics_derivatives_program
 
-                self.report("program: derivatives of inverse dynamics (linearization)")
-                self._programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives_program(
-                    self.robot, self.symbols)
+            self.report("program: derivatives of inverse dynamics (linearization)")
+            self._programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives_program(
+                self.robot, self.symbols)
         return self._programs
 
     @property

@@ -401,27 +401,29 @@ def linearize(
 ) -> None:
     """Linearize ROBOT's dynamics about a state: xdot = A dx + B du, x = (q, qd).
 
-    Small robots: A and B in closed form over the parameters, and their values; large robots:
-    the values, from the generated module's linearize (Newton-Euler differentiated line by line).
+    Small robots: A and B in closed form over the parameters, and their values; large robots
+    and closed loops: the values, from the generated module's linearize (Newton-Euler
+    differentiated line by line; with loops, the constrained solve).
     """
     from .. import derive, load_robot
     from ..render.code import render_code
     from ..verify.checks import generated_module
-    from .linearize import linearization, parse_at, render_linearization
+    from .linearize import linearization, on_the_loops, parse_at, render_linearization
 
     progress = _Progress(quiet)
     model = _with_parameters(load_robot(robot), param or [], required=False)
     _notes(model, quiet)
-    if model.loops:
-        line, column = model.positions.get("loops", (1, 1))
-        raise InputError(Problem(model.source, line, column, "loops: linearizing robots with closed loops "
-                                 "is not built yet (the constrained dynamics' tangent space is not derived)"))
     derivation = derive(model, progress=progress)
     table = derivation.symbols
-    point = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd], list(table.efforts))
+    point, given = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd], list(table.efforts))
     progress("generating code")
     module = generated_module(render_code(derivation), model.name)
     values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
+    if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
+        point, loop_notes = on_the_loops(module, point, given, values)
+        if not quiet:
+            for note in loop_notes:
+                typer.echo(f"note: {note}", err=True)
     progress("linearizing")
     result = linearization(derivation, module, point, values)
     typer.echo(render_linearization(derivation, point, values, result, "json" if json_ else "latex" if latex else "text"),

@@ -2,7 +2,8 @@
 
 Small robots get A and B in closed form over their parameters (``mechanics.linearization.
 symbolic_linearization``), and their values at the parameters' defaults from the generated
-``linearize``, which must agree (the output says so). Large robots get the numbers only.
+``linearize``, which must agree (the output says so). Large robots and closed loops get the
+numbers only.
 
 ``--at`` lists ``KEY=VALUES`` items separated by commas: ``q``, ``qd`` and ``u`` take a vector
 (the values that follow, up to the next ``KEY=``), a coordinate, velocity or effort name one
@@ -29,14 +30,17 @@ def _problem(message: str) -> Problem:
     return Problem("--at", 1, 1, message)
 
 
-def parse_at(texts: list[str], coordinates: list[str], velocities: list[str], efforts: list[str]) -> dict[str, list[float]]:
-    """``{"q": [...], "qd": [...], "u": [...]}`` from the ``--at`` texts; raises InputError."""
+def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
+             efforts: list[str]) -> tuple[dict[str, list[float]], set[tuple[str, int]]]:
+    """``{"q": [...], "qd": [...], "u": [...]}`` from the ``--at`` texts, and which entries
+    were given (``("q", 0)``, ...); raises InputError."""
     sizes = {"q": len(coordinates), "qd": len(velocities), "u": len(efforts)}
     values = {key: [0.0] * size for key, size in sizes.items()}
     scalar = {name: ("q", i) for i, name in enumerate(coordinates)}
     scalar |= {name: ("qd", i) for i, name in enumerate(velocities)}
     scalar |= {name: ("u", i) for i, name in enumerate(efforts)}
     problems: list[Problem] = []
+    given: set[tuple[str, int]] = set()
     items: list[tuple[str, list[str]]] = []
     for text in texts:
         for part in text.split(","):
@@ -66,18 +70,44 @@ def parse_at(texts: list[str], coordinates: list[str], velocities: list[str], ef
                     problems.append(_problem(f"{key}: expected {sizes[key]} values, got {len(numbers)}"))
                 else:
                     values[key] = numbers
+                    given.update((key, i) for i in range(sizes[key]))
             elif key in scalar:
                 vector, index = scalar[key]
                 if len(numbers) != 1:
                     problems.append(_problem(f"{key}: expected one value, got {len(numbers)}"))
                 else:
                     values[vector][index] = numbers[0]
+                    given.add((vector, index))
             else:
                 known = ", ".join(["q", "qd", "u", *coordinates, *velocities, *efforts])
                 problems.append(_problem(f"unknown name {key!r} (known: {known})"))
     if problems:
         raise InputError(problems)
-    return values
+    return values, given
+
+
+def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, int]],
+                 values: dict[str, float]) -> tuple[dict[str, list[float]], list[str]]:
+    """A closed-loop robot's operating point on its constraints: the independent coordinates
+    as given (else those of the default assembly), the others assembled; the independent
+    velocities as given, the others those the loops allow. Returns it with notes on what was
+    changed."""
+    independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
+    guess = np.array(module.ASSEMBLED_CONFIGURATION, dtype=float)
+    for i in independent:
+        if ("q", i) in given:
+            guess[i] = at["q"][i]
+    try:
+        q = module.assemble(guess, **values)
+    except (ValueError, np.linalg.LinAlgError):
+        raise InputError(_problem("the loops cannot be closed with " + ", ".join(
+            f"{module.COORDINATES[i]} = {guess[i]:g}" for i in independent))) from None
+    qd = module.reduced_basis(q, **values) @ np.array([at["qd"][i] for i in independent])
+    notes = [f"{module.COORDINATES[i]} = {q[i]:.6g} follows from the loops (given {at['q'][i]:g})"
+             for i in range(len(q)) if ("q", i) in given and i not in independent and abs(q[i] - at["q"][i]) > 1e-9]
+    notes += [f"{module.COORDINATES[i]}' = {qd[i]:.6g} follows from the loops (given {at['qd'][i]:g})"
+              for i in range(len(q)) if ("qd", i) in given and i not in independent and abs(qd[i] - at["qd"][i]) > 1e-9]
+    return {"q": [float(v) for v in q], "qd": [float(v) for v in qd], "u": list(at["u"])}, notes
 
 
 def linearization(derivation: Any, module: Any, at: dict[str, list[float]], values: dict[str, float]) -> dict[str, Any]:
@@ -86,7 +116,7 @@ def linearization(derivation: Any, module: Any, at: dict[str, list[float]], valu
     q, qd, u = (np.array(at[k], dtype=float) for k in ("q", "qd", "u"))
     A, B = module.linearize(q, qd, u, **values)
     result: dict[str, Any] = {"A_numeric": A, "B_numeric": B, "symbolic": None}
-    if derivation.intermediate_form:
+    if derivation.intermediate_form or derivation.robot.loops:
         return result
     from ..mechanics.linearization import symbolic_linearization
 
@@ -167,8 +197,8 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
         lines.append(f"At {given or 'the defaults'} (closed form and generated linearize agree to "
                      f"{symbolic['agreement']:.1e}):")
     else:
-        lines.append(f"At {given or 'the defaults'} (from the generated linearize; closed form skipped: "
-                     f"this robot is too large):")
+        why = "it has closed loops" if robot.loops else "this robot is too large"
+        lines.append(f"At {given or 'the defaults'} (from the generated linearize; closed form skipped: {why}):")
     with np.printoptions(precision=6, suppress=True, linewidth=120):
         lines += ["A =", str(np.asarray(A)), "B =", str(np.asarray(B)), ""]
     return "\n".join(lines)

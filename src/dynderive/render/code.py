@@ -339,6 +339,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         ]:
             functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
                                                  matrix_result=quantity != "a_g"))
+        functions += _loop_derivatives(derivation, q, qd, printer, params)
     maximal = robot.planar
     if maximal:
         m = len(table.qm)
@@ -451,6 +452,28 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
             functions.append(expression_function(name, f"{what} of each coordinate, shape (..., {n}).", [qd],
                                                  value, printer, params))
     return functions
+
+
+def _loop_derivatives(derivation: Derivation, q: Argument, qd: Argument, printer: _Printer,
+                      params: set[sympy.Symbol]) -> list[ExpressionFunction]:
+    """What ``linearize`` of a closed-loop robot needs beyond Newton-Euler's derivatives: the
+    loop force's ``d(A_g^T lambda_g)/dq`` at fixed multipliers and the constraint
+    acceleration's ``d(A_g qdd + Adot_g qd)/dq`` at fixed qdd (``d(Adot_g qd)/dqd`` is
+    ``2 Adot_g``: ``A_g`` is a Hessian's rows)."""
+    table, quantities = derivation.symbols, derivation.quantities
+    n, k = len(table.q), quantities["a_g"].shape[0]
+    qdd = Argument("qdd", table.qdd, f"joint accelerations, shape (..., {n})")
+    multipliers = Argument("_multipliers", table.loop_multipliers, f"loop multipliers lambda_g, shape (..., {k})")
+    coordinates = sympy.Matrix(table.q)
+    force = (quantities["A_g"].T * quantities["lambda_g"]).jacobian(coordinates)
+    acceleration = (quantities["A_g"] * sympy.Matrix(table.qdd)
+                    + quantities["Adot_g"] * sympy.Matrix(table.qd)).jacobian(coordinates)
+    return [
+        expression_function("_loop_force_jacobian", f"d(A_g^T lambda_g)/dq at fixed lambda_g, shape (..., {n}, {n}).",
+                            [q, multipliers], force, printer, params, matrix_result=True),
+        expression_function("_loop_acceleration_jacobian", "d(A_g qdd + Adot_g qd)/dq at fixed qdd, "
+                            f"shape (..., {k}, {n}).", [q, qd, qdd], acceleration, printer, params, matrix_result=True),
+    ]
 
 
 def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) -> list[ProgramFunction]:
