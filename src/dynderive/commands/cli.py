@@ -17,7 +17,7 @@ from typing import Annotated, Any, TypeVar
 import typer
 
 from .._version import __version__
-from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, Problem, ToolMissingError
+from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
 
 app = typer.Typer(
     add_completion=False,
