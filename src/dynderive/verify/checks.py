@@ -84,7 +84,53 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
     if "M_m" in quantities:
         rows += _maximal_checks(module, values, qs, qds, us)
     rows += _code_matches_symbolic(derivation, module, values, qs[:3], qds[:3], us[:3])
+    rows += _derived_functions(module, values, qs[:4], qds[:4], us[:4], rng)
     rows += _pinocchio(derivation, module, values, qs[:5], qds[:5])
+    return rows
+
+
+def _derived_functions(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray, us: np.ndarray,
+                       rng: np.random.Generator) -> list[Row]:
+    """The module's linearization, regressor and frames against what they differentiate or
+    factor: central differences of ``forward_dynamics`` and of the frames' poses, and
+    ``inverse_dynamics`` itself."""
+    n, h = qs.shape[1], 1e-6
+    rows = []
+    worst, scale = 0.0, 1.0
+    for q, qd, u in zip(qs, qds, us):
+        A, B = module.linearize(q, qd, u, **values)
+        x = np.concatenate([q, qd])
+
+        def xdot(state: np.ndarray, effort: np.ndarray) -> np.ndarray:
+            return np.concatenate([state[n:], module.forward_dynamics(state[:n], state[n:], effort, **values)])
+
+        numeric = np.array([(xdot(x + h * e, u) - xdot(x - h * e, u)) / (2 * h) for e in np.eye(2 * n)]).T
+        inputs = np.array([(xdot(x, u + h * e) - xdot(x, u - h * e)) / (2 * h) for e in np.eye(len(u))]).T
+        worst = max(worst, float(np.max(np.abs(A - numeric))), float(np.max(np.abs(B - inputs.reshape(B.shape)),
+                                                                            initial=0.0)))
+        scale = max(scale, float(np.max(np.abs(A))))
+    rows.append(_row("linearize matches central differences of forward_dynamics", worst < 1e-5 * scale,
+                     "numeric (h = 1e-6)", worst))
+    qdds = rng.uniform(-1.0, 1.0, qs.shape)
+    Y = module.regressor(qs, qds, qdds, **values)
+    tau = module.inverse_dynamics(qs, qds, qdds, **values)
+    residual = float(np.max(np.abs(Y @ module.parameter_vector(**values) - tau)))
+    rows.append(_row("regressor(q, qd, qdd) @ parameter_vector() = inverse_dynamics (the tree's)",
+                     residual < 1e-9 * max(1.0, float(np.max(np.abs(tau)))), "numeric", residual))
+    if module.FRAMES:
+        worst, scale = 0.0, 1.0
+        for q, qd in zip(qs, qds):
+            for frame in module.FRAMES:
+                J = module.frame_jacobian(q, frame, **values)
+                ahead, behind = (module.frame_transform(q + s * h * qd, frame, **values) for s in (1, -1))
+                linear = (ahead[:-1, -1] - behind[:-1, -1]) / (2 * h)
+                rate = (module.frame_jacobian(q + h * qd, frame, **values)
+                        - module.frame_jacobian(q - h * qd, frame, **values)) @ qd / (2 * h)
+                worst = max(worst, float(np.max(np.abs(J[: len(linear)] @ qd - linear))),
+                            float(np.max(np.abs(module.frame_jacobian_dot_qd(q, qd, frame, **values) - rate))))
+                scale = max(scale, float(np.max(np.abs(J))))
+        rows.append(_row(f"frames ({len(module.FRAMES)}): J qd = dp/dt and Jdot qd = d(J qd)/dt", worst < 1e-5 * scale,
+                         "numeric (h = 1e-6)", worst))
     return rows
 
 
@@ -282,7 +328,37 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
             diffs.append(module.forward_dynamics(q, qd, module_efforts(module, u), **values)[perm] - acc)
         worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
         scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
-    return [_row(name, worst < 1e-9 * scale, "numeric", worst)]
+    rows = [_row(name, worst < 1e-9 * scale, "numeric", worst)]
+    if module.FRAMES:
+        rows.append(_pinocchio_frames(pin, model, data, perm, module, values, qs, qds))
+    return rows
+
+
+def _pinocchio_frames(pin: Any, model: Any, data: Any, perm: np.ndarray, module: Any, values: dict[str, float],
+                      qs: np.ndarray, qds: np.ndarray) -> Row:
+    """Frame placements, LOCAL_WORLD_ALIGNED Jacobians and classical accelerations at qdd = 0."""
+    planar = module.frame_jacobian(qs[0], module.FRAMES[0], **values).shape[0] == 3
+    rows = [0, 1, 5] if planar else list(range(6))
+    worst = 0.0
+    for q, qd in zip(qs, qds):
+        qp, qdp = q[perm], qd[perm]
+        pin.forwardKinematics(model, data, qp, qdp, np.zeros(len(q)))
+        pin.computeJointJacobians(model, data, qp)
+        pin.updateFramePlacements(model, data)
+        for frame in module.FRAMES:
+            fid = model.getFrameId(frame)
+            T = module.frame_transform(q, frame, **values)
+            placement = data.oMf[fid]
+            k = 2 if planar else 3
+            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[rows]
+            acceleration = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            expected = np.concatenate([acceleration.linear, acceleration.angular])[rows]
+            diffs = [T[:k, :k] - placement.rotation[:k, :k], T[:k, -1] - placement.translation[:k],
+                     module.frame_jacobian(q, frame, **values)[:, perm] - J,
+                     module.frame_jacobian_dot_qd(q, qd, frame, **values) - expected]
+            worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
+    return _row("frames agree with Pinocchio (placement, LOCAL_WORLD_ALIGNED Jacobian, classical acceleration)",
+                worst < 1e-9, "numeric", worst)
 
 
 def module_efforts(module: Any, u: np.ndarray) -> np.ndarray:
