@@ -211,6 +211,25 @@ def test_revolute_arcs_run_from_the_zero_direction_to_the_child_link(name, zero,
         assert arcs[0]["lines"] == [] and all(arc["lines"] for arc in arcs[1:])
 
 
+def test_named_frames_are_drawn_at_the_end_of_their_link():
+    """The 3R arm's tool frame (at l3 along link 3, which points straight up at 30 + 30 + 30
+    degrees): link 3 is drawn out to it, its x axis along the link, y to the left, labelled."""
+    from dynderive.render.figure import FRAME_MM
+
+    figure = _figure("planar_3r")
+    (tool,) = figure["frames"]
+    assert tool["name"] == "tool"
+    (origin, _, x_tip), (origin_y, _, y_tip) = (_pairs(line) for line in tool["lines"])
+    assert origin == origin_y
+    assert _direction(origin, x_tip) == pytest.approx(90.0, abs=0.5)
+    assert _direction(origin, y_tip) == pytest.approx(180.0, abs=0.5)
+    assert math.dist(origin, x_tip) == pytest.approx(FRAME_MM, abs=0.1)
+    assert [(int(h[2]), int(h[3])) for h in tool["heads"]] == [(0, 1), (-1, 0)]
+    assert any(math.dist(_pairs(segment)[2], origin) < 0.15 and _direction(_pairs(segment)[0], origin)
+               == pytest.approx(90.0, abs=0.5) for segment in figure["segments"]), "link 3 drawn out to the tool"
+    assert any(label[2] == r"\mathrm{tool}" for label in figure["labels"])
+
+
 @pytest.mark.parametrize("name", ["rp_arm", "cart_pole", "slider_crank"])
 def test_prismatic_arrows_lie_along_the_axis_over_the_travel(name):
     """A prismatic coordinate's arrow is parallel to its axis, beside it (not on the links),

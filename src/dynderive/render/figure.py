@@ -32,6 +32,8 @@ from typing import Any
 import numpy as np
 import sympy
 
+from .encode import escape_tex
+
 #: Size of the robot in the drawing (mm): it is scaled to fit, keeping its proportions.
 WIDTH_MM, HEIGHT_MM = 75.0, 45.0
 #: Revolute joints' angle in the drawing.
@@ -41,6 +43,8 @@ REFERENCE_TRAVEL = 0.25
 #: Radius of a revolute coordinate's arc, length of the world frame's axes, distance of a
 #: prismatic coordinate's arrow from its axis, blank around the drawing (mm).
 ARC_MM, AXIS_MM, OFFSET_MM, MARGIN_MM = 9.0, 10.0, 3.5, 3.0
+#: Length of a named frame's axes (``frames:``).
+FRAME_MM = 6.0
 #: Dashes of a reference line: on, off (mm).
 DASH_MM = (1.2, 0.8)
 
@@ -92,6 +96,13 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
             ends.append((base[0] + math.cos(phi) * ox - math.sin(phi) * oy, base[1] + math.sin(phi) * ox + math.cos(phi) * oy))
             segments.append((base, ends[-1]))
         loop_points.append(ends[0])
+    named = []   # the robot's frames: (name, origin, angle), the link drawn out to each
+    for frame in robot.frames:
+        base, phi = joint_points[frame.link], angles[frame.link]
+        fx, fy, ftheta = (written(e) for e in frame.origin[:3])
+        point = (base[0] + math.cos(phi) * fx - math.sin(phi) * fy, base[1] + math.sin(phi) * fx + math.cos(phi) * fy)
+        named.append((frame.name, point, phi + ftheta))
+        segments.append((base, point))
     index = {name: i for i, name in enumerate(robot.coordinates)}
     by_name = {j.name: j for j in robot.joints}
     world = [joint_points[j.child] for j in robot.joints if j.parent == "world"]
@@ -131,6 +142,13 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     x_tip, y_tip = (origin[0] + lengths[0], origin[1]), (origin[0], origin[1] + lengths[1])
     sheet.line(origin, x_tip)
     sheet.line(origin, y_tip)
+    frames_drawn = []
+    for name, point, angle in named:   # short axes x, y of each named frame
+        at_mm = mm(point)
+        tips = [_polar(at_mm, FRAME_MM, angle + k * math.pi / 2) for k in (0, 1)]
+        for tip in tips:
+            sheet.line(at_mm, tip)
+        frames_drawn.append({"name": name, "origin": at_mm, "tips": tips, "angle": angle})
     joints = []
     for joint in robot.joints:
         if joint.moves:
@@ -214,6 +232,15 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
         place = sheet.place(candidates, w, h)
         sheet.box(place, w, h)
         labels.append((place, item["label"]))
+    for item in frames_drawn:   # the frame's name in the quadrant its axes leave free
+        label = r"\mathrm{" + escape_tex(item["name"]) + "}"
+        w, h = _size(label)
+        origin_f, angle = item["origin"], item["angle"]
+        candidates = [_polar(origin_f, 1.5 + math.hypot(w, h), angle + turn)
+                      for turn in (-3 * math.pi / 4, math.pi + math.pi / 4, -math.pi / 4, 3 * math.pi / 4)]
+        place = sheet.place(candidates, w, h)
+        sheet.box(place, w, h)
+        labels.append((place, label))
     w, h = _size("x_s")
     place = sheet.place([(x_tip[0] + 0.8 + w, x_tip[1]), (x_tip[0] - w, x_tip[1] - 0.8 - h),
                          (x_tip[0] - w, x_tip[1] + 0.8 + h), (x_tip[0] + 0.8 + w, x_tip[1] - 0.8 - h)], w, h)
@@ -256,6 +283,9 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
         "hatches": [bezier(a, b) for a, b in hatches],
         "loops": [text(mm(p)) for p in loop_points],
         "frame": {"origin": text(origin), "x": f"{lengths[0]:.1f}", "y": f"{lengths[1]:.1f}"},
+        "frames": [{"name": item["name"], "lines": [bezier(item["origin"], tip) for tip in item["tips"]],
+                    "heads": [(*text(tip), *_head(tip, item["angle"] + k * math.pi / 2)[1])
+                              for k, tip in enumerate(item["tips"])]} for item in frames_drawn],
         "coordinates": coordinates,
         "revolute": any(c["kind"] == "revolute" for c in coordinates),
         "prismatic": any(c["kind"] == "prismatic" for c in coordinates),
