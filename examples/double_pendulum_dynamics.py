@@ -758,12 +758,13 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, 
     _parameters = {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 2, 2), _parameters)
-    _by_rate = _derivatives[..., 1, :, :]
+    _by_coordinate = -_derivatives[..., 0, :, :]
+    _by_rate = -_derivatives[..., 1, :, :]
     _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(2), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
-    _rhs = np.concatenate([np.broadcast_to(-_derivatives[..., 0, :, :], _batch + (2, 2)),
-                           np.broadcast_to(-_by_rate, _batch + (2, 2)),
+    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (2, 2)),
+                           np.broadcast_to(_by_rate, _batch + (2, 2)),
                            np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
     _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (2, 2)), _rhs)
     _A = np.zeros(_batch + (4, 4))

@@ -1168,12 +1168,13 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, 
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 3, 3), _parameters)
-    _by_rate = _derivatives[..., 1, :, :]
+    _by_coordinate = -_derivatives[..., 0, :, :]
+    _by_rate = -_derivatives[..., 1, :, :]
     _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(3), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
-    _rhs = np.concatenate([np.broadcast_to(-_derivatives[..., 0, :, :], _batch + (3, 3)),
-                           np.broadcast_to(-_by_rate, _batch + (3, 3)),
+    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (3, 3)),
+                           np.broadcast_to(_by_rate, _batch + (3, 3)),
                            np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
     _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (3, 3)), _rhs)
     _A = np.zeros(_batch + (6, 6))

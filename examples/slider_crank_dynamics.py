@@ -217,6 +217,67 @@ def loop_jacobian_dot(q, qd, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g
     return out
 
 
+def _loop_force_jacobian(q, _multipliers, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
+    """d(A_g^T lambda_g)/dq at fixed lambda_g, shape (..., 3, 3).
+
+    q: joint coordinates ('q1', 'q2', 's'), shape (..., 3)
+    _multipliers: loop multipliers lambda_g, shape (..., 2)
+    """
+    q = _coordinates("q", q, 3)
+    _multipliers = _coordinates("_multipliers", _multipliers, 2)
+    batch = np.broadcast_shapes(q.shape[:-1], _multipliers.shape[:-1])
+    q1 = q[..., 0]
+    q2 = q[..., 1]
+    lambda_g1 = _multipliers[..., 0]
+    lambda_g2 = _multipliers[..., 1]
+    _t0 = q1 + q2
+    _t1 = l*np.cos(_t0)
+    _t2 = l*np.sin(_t0)
+    _t3 = _t1*lambda_g1 + _t2*lambda_g2
+    out = np.zeros(batch + (3, 3))
+    out[..., 0, 0] = lambda_g1*(_t1 + r*np.cos(q1)) - lambda_g2*(-_t2 - r*np.sin(q1))
+    out[..., 0, 1] = _t3
+    out[..., 1, 0] = _t3
+    out[..., 1, 1] = _t3
+    return out
+
+
+def _loop_acceleration_jacobian(q, qd, qdd, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
+    """d(A_g qdd + Adot_g qd)/dq at fixed qdd, shape (..., 2, 3).
+
+    q: joint coordinates ('q1', 'q2', 's'), shape (..., 3)
+    qd: joint velocities, shape (..., 3)
+    qdd: joint accelerations, shape (..., 3)
+    """
+    q = _coordinates("q", q, 3)
+    qd = _coordinates("qd", qd, 3)
+    qdd = _coordinates("qdd", qdd, 3)
+    batch = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
+    q1 = q[..., 0]
+    q2 = q[..., 1]
+    qd1 = qd[..., 0]
+    qd2 = qd[..., 1]
+    qdd1 = qdd[..., 0]
+    qdd2 = qdd[..., 1]
+    _t0 = q1 + q2
+    _t1 = np.cos(_t0)
+    _t2 = _t1*l
+    _t3 = qd1 + qd2
+    _t4 = l*np.sin(_t0)
+    _t5 = _t3*_t4
+    _t6 = _t5*qd2
+    _t7 = r*np.cos(q1)
+    _t8 = r*np.sin(q1)
+    _t9 = _t2*_t3
+    _t10 = _t4*qdd2 + _t9*qd2
+    out = np.zeros(batch + (2, 3))
+    out[..., 0, 0] = _t2*qdd2 - _t6 + qd1*(-_t5 - _t8*qd1) + qdd1*(_t2 + _t7)
+    out[..., 0, 1] = _t1*l*qdd1 + _t1*l*qdd2 - _t5*qd1 - _t6
+    out[..., 1, 0] = _t10 + qd1*(_t7*qd1 + _t9) - qdd1*(-_t4 - _t8)
+    out[..., 1, 1] = _t10 + _t4*qdd1 + _t9*qd1
+    return out
+
+
 def maximal_mass_matrix(qm, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
     """Mass matrix M_m(qm) in maximal coordinates, shape (..., 9, 9).
 
@@ -644,6 +705,92 @@ def _regressor_body(q, qd, qdd, sin, cos, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0
 _regressor_body.functions = ("sin", "cos")
 
 
+def _inverse_dynamics_derivatives_body(q, qd, qdd, sin, cos, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
+    """dtau/dq, then dtau/dqd, row by row: Newton-Euler differentiated line by line. 56 lines, 156 operations."""
+    q1, q2, s = q
+    qd1, qd2, sd = qd
+    qdd1, qdd2, sdd = qdd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = 0.5*(m1*r)
+    _r5 = 0.5*(l*m2)
+    _r6 = _r1*g
+    _r0 = _r0*g
+    _r7 = _r3*qd1*r
+    _r8 = _r2*qd1*r
+    _r9 = _r2*_r6 + _r3*(_r0 + qdd1*r)
+    _r10 = _r2*(_r0 + qdd1*r) - _r3*_r6
+    _r11 = qd1 + qd2
+    _r12 = qdd1 + qdd2
+    _r9 = _r9 + _r8*qd2
+    _r13 = _r10 - _r7*qd2
+    _r14 = _r7*m2
+    _r15 = _r8*m2 + _r11*_r5
+    _r9 = _r9*m2 - _r11*_r15
+    _r13 = _r11*_r14 + _r12*_r5 + _r13*m2
+    _r1 = -_r1*g
+    _r4 = _r4*_r1
+    _r12 = _r2*_r0 + _r3*_r1
+    _r1 = _r2*_r1 - _r3*_r0
+    _r16 = _r1*_r5
+    _r12 = _r12*m2
+    _r1 = _r1*m2
+    _r1 = _r2*_r1 + _r3*_r12
+    _r1 = _r16 + _r1*r
+    _r1 = _r4 + _r1
+    _r4 = -_r3*qd1*r
+    _r0 = -_r2*_r6 - _r3*(_r0 + qdd1*r)
+    _r10 = _r10 + _r4*qd2
+    _r0 = _r0 - _r8*qd2
+    _r6 = _r8*m2
+    _r12 = _r4*m2
+    _r4 = _r7*_r12 + _r8*_r15 + _r5*_r0 - _r8*_r6 - _r14*_r4
+    _r12 = _r10*m2 - _r11*_r12
+    _r6 = _r11*_r6 + _r0*m2
+    _r6 = _r2*_r9 + _r2*_r6 + _r3*_r12 - _r3*_r13
+    _r6 = _r4 + _r6*r
+    _r12 = _r3*r
+    _r13 = _r2*r
+    _r9 = _r13*qd2
+    _r0 = -_r12*qd2
+    _r10 = _r12*m2
+    _r17 = _r5 + _r13*m2
+    _r13 = _r7*_r17 + _r15*_r12 + _r5*_r0 - _r8*_r10 - _r14*_r13
+    _r17 = -_r15 + _r9*m2 - _r11*_r17
+    _r10 = _r14 + _r11*_r10 + _r0*m2
+    _r10 = _r2*_r10 + _r3*_r17
+    _r10 = _r13 + _r10*r
+    _r5 = -_r15 + _r8*m2 - _r11*_r5
+    _r14 = _r14 - _r7*m2
+    _r14 = _r2*_r14 + _r3*_r5
+    _r14 = _r14*r
+    return (
+        _r1,
+        _r6,
+        0,
+        _r16,
+        _r4,
+        0,
+        0,
+        0,
+        0,
+        _r10,
+        _r14,
+        0,
+        _r13,
+        0,
+        0,
+        0,
+        0,
+        0,
+    )
+
+
+_inverse_dynamics_derivatives_body.functions = ("sin", "cos")
+
+
 
 #: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
 _FRAME_BODIES = {}
@@ -831,6 +978,52 @@ def assemble(q_guess, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
     if np.all(np.abs(loop_constraints(_q, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
     raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+
+
+def linearize(q, qd, u=None, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
+    """(A, B) of the dynamics linearized about the state (q, qd) and efforts u: with
+    x = (q, qd), xdot = A dx + B du to first order. A has shape (..., 6, 6), B (..., 6, 1).
+
+    A = [[0, I], [dqdd/dq, dqdd/dqd]], B = [[0], [dqdd/du]], from the derivatives of recursive
+    Newton-Euler (differentiated line by line) and one solve with M:
+    M dqdd/dx = dY/dx - dtau/dx at the state's own qdd. With the loops, the solve is
+    the constrained one, [M -A^T; A 0] [dqdd/dx; dlambda_g/dx] = [dY/dx - dtau/dx + d(A^T lambda_g)/dx;
+    -d(A qdd + Adot qd)/dx] at the state's qdd and lambda_g (``forward_dynamics`` with alpha =
+    beta = 0): the tangent of the accelerations the loops allow, off the constraints too. External wrenches are not linearized.
+    """
+    q = _coordinates("q", q, 3)
+    qd = _coordinates("qd", qd, 3)
+    if u is None:
+        u = np.zeros(1)
+    _parameters = {"r": r, "l": l, "e": e, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 3, 3), _parameters)
+    _by_coordinate = -_derivatives[..., 0, :, :]
+    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(1), **_parameters), -1, -2)
+    _mass = mass_matrix(q, **_parameters)
+    _jac = loop_jacobian(q, **_parameters)
+    _bottom = np.concatenate([-_loop_acceleration_jacobian(q, qd, _qdd, **_parameters),
+                              -2.0 * loop_jacobian_dot(q, qd, **_parameters)], axis=-1)
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _derivatives.shape[:-3], _bottom.shape[:-2])
+    _n, _k, _m = 3, 2, 1
+    _system = np.zeros(_batch + (_n + _k, _n + _k))
+    _system[..., :_n, :_n] = _mass
+    _system[..., :_n, _n:] = -np.swapaxes(_jac, -1, -2)
+    _system[..., _n:, :_n] = _jac
+    _rhs = np.zeros(_batch + (_n + _k, 2 * _n + _m))
+    _rhs[..., :_n, :_n] = _by_coordinate
+    _rhs[..., :_n, _n:2 * _n] = _by_rate
+    _rhs[..., :_n, 2 * _n:] = _inputs
+    _rhs[..., _n:, :2 * _n] = _bottom
+    _solved = np.linalg.solve(_system, _rhs)[..., :_n, :]
+    _A = np.zeros(_batch + (6, 6))
+    _A[..., :3, 3:] = np.eye(3)
+    _A[..., 3:, :] = _solved[..., :6]
+    _B = np.zeros(_batch + (6, 1))
+    _B[..., 3:, :] = _solved[..., 6:]
+    return _A, _B
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):

@@ -173,6 +173,143 @@ def loop_jacobian_dot(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, 
     return out
 
 
+def _loop_force_jacobian(q, _multipliers, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """d(A_g^T lambda_g)/dq at fixed lambda_g, shape (..., 4, 4).
+
+    q: joint coordinates ('q1', 'q2', 'q3', 'q4'), shape (..., 4)
+    _multipliers: loop multipliers lambda_g, shape (..., 3)
+    """
+    q = _coordinates("q", q, 4)
+    _multipliers = _coordinates("_multipliers", _multipliers, 3)
+    batch = np.broadcast_shapes(q.shape[:-1], _multipliers.shape[:-1])
+    q1 = q[..., 0]
+    q2 = q[..., 1]
+    q3 = q[..., 2]
+    q4 = q[..., 3]
+    lambda_g1 = _multipliers[..., 0]
+    lambda_g2 = _multipliers[..., 1]
+    lambda_g3 = _multipliers[..., 2]
+    _t0 = np.sin(q1)
+    _t1 = np.cos(q2)
+    _t2 = _t0*_t1
+    _t3 = np.cos(q3)
+    _t4 = _t3*b
+    _t5 = _t2*_t4
+    _t6 = np.cos(q1)
+    _t7 = np.sin(q2)
+    _t8 = -_t4*_t7 + a
+    _t9 = _t1*_t6
+    _t10 = _t0*_t7
+    _t11 = _t6*_t7
+    _t12 = np.sin(q3)
+    _t13 = _t12*b
+    _t14 = _t1*_t6 - _t10
+    _t15 = _t11 + _t2
+    _t16 = -_t15
+    _t17 = _t4*lambda_g1
+    _t18 = _t14*_t4*lambda_g2 + _t16*_t17
+    _t19 = _t13*_t14*lambda_g1
+    _t20 = _t12*_t16*b*lambda_g2 - _t19
+    out = np.zeros(batch + (4, 4))
+    out[..., 0, 0] = lambda_g1*(-_t5 + _t6*_t8) + lambda_g2*(_t0*_t8 + _t4*_t9)
+    out[..., 0, 1] = lambda_g1*(-_t11*_t4 - _t5) + lambda_g2*(_t1*_t3*_t6*b - _t10*_t4)
+    out[..., 0, 2] = lambda_g1*(_t10*_t13 - _t13*_t9) + lambda_g2*(-_t11*_t13 - _t13*_t2)
+    out[..., 1, 0] = _t18
+    out[..., 1, 1] = _t18
+    out[..., 1, 2] = -_t13*_t15*lambda_g2 - _t19
+    out[..., 2, 0] = _t20
+    out[..., 2, 1] = _t20
+    out[..., 2, 2] = -_t13*lambda_g3 + _t14*_t3*b*lambda_g2 - _t15*_t17
+    out[..., 3, 3] = c*lambda_g2*np.sin(q4) - c*lambda_g3*np.cos(q4)
+    return out
+
+
+def _loop_acceleration_jacobian(q, qd, qdd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """d(A_g qdd + Adot_g qd)/dq at fixed qdd, shape (..., 3, 4).
+
+    q: joint coordinates ('q1', 'q2', 'q3', 'q4'), shape (..., 4)
+    qd: joint velocities, shape (..., 4)
+    qdd: joint accelerations, shape (..., 4)
+    """
+    q = _coordinates("q", q, 4)
+    qd = _coordinates("qd", qd, 4)
+    qdd = _coordinates("qdd", qdd, 4)
+    batch = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
+    q1 = q[..., 0]
+    q2 = q[..., 1]
+    q3 = q[..., 2]
+    q4 = q[..., 3]
+    qd1 = qd[..., 0]
+    qd2 = qd[..., 1]
+    qd3 = qd[..., 2]
+    qd4 = qd[..., 3]
+    qdd1 = qdd[..., 0]
+    qdd2 = qdd[..., 1]
+    qdd3 = qdd[..., 2]
+    qdd4 = qdd[..., 3]
+    _t0 = np.sin(q1)
+    _t1 = np.cos(q2)
+    _t2 = _t0*_t1
+    _t3 = np.sin(q3)
+    _t4 = _t3*qd3
+    _t5 = _t4*b
+    _t6 = qd1 + qd2
+    _t7 = np.sin(q2)
+    _t8 = _t0*_t7
+    _t9 = np.cos(q3)
+    _t10 = _t9*b
+    _t11 = _t10*_t8
+    _t12 = np.cos(q1)
+    _t13 = _t1*_t9
+    _t14 = _t13*qd1
+    _t15 = _t13*qd2
+    _t16 = _t10*_t2
+    _t17 = _t7*_t9
+    _t18 = _t17*b
+    _t19 = -_t18 + a
+    _t20 = _t1*_t12
+    _t21 = -_t20 + _t8
+    _t22 = _t10*_t21
+    _t23 = _t12*_t7
+    _t24 = _t2 + _t23
+    _t25 = -_t24
+    _t26 = -_t21
+    _t27 = _t10*_t26
+    _t28 = _t3*b
+    _t29 = _t25*_t28
+    _t30 = -_t27*qd3 - _t29*qd1 - _t29*qd2
+    _t31 = _t10*_t25
+    _t32 = _t28*qdd3
+    _t33 = -_t26*_t32 + _t30*qd3 + _t31*qdd2 + qd2*(_t22*qd1 + _t22*qd2 - _t25*_t5)
+    _t34 = _t10*_t20
+    _t35 = _t1*_t4
+    _t36 = _t0*b
+    _t37 = _t10*_t23
+    _t38 = _t10*_t24
+    _t39 = _t26*_t28
+    _t40 = _t20*_t28
+    _t41 = _t23*_t28
+    _t42 = _t1*_t3
+    _t43 = -_t26*_t5 + _t31*qd1 + _t31*qd2
+    _t44 = _t21*_t28
+    _t45 = _t25*_t32 + _t27*qdd2 + _t43*qd2 + qd3*(_t31*qd3 + _t44*qd1 + _t44*qd2)
+    _t46 = _t28*_t7
+    _t47 = c*np.sin(q4)
+    _t48 = qd4**2
+    _t49 = c*np.cos(q4)
+    out = np.zeros(batch + (3, 4))
+    out[..., 0, 0] = _t33 + qd1*(-_t0*a*qd1 + _t11*_t6 + _t12*b*(-_t14 - _t15 + _t3*_t7*qd3) + _t2*_t5) + qdd1*(_t12*_t19 - _t16)
+    out[..., 0, 1] = _t33 + qd1*(_t23*_t5 - _t34*_t6 + _t36*(_t17*qd1 + _t17*qd2 + _t35)) + qdd1*(-_t16 - _t37)
+    out[..., 0, 2] = _t30*qd2 - _t38*qdd3 - _t39*qdd2 + qd1*(-_t34*qd3 + _t36*(_t17*qd3 + _t42*qd1 + _t42*qd2) + _t41*_t6) + qd3*(_t24*_t3*b*qd3 - _t27*qd1 - _t27*qd2) + qdd1*(_t28*_t8 - _t40)
+    out[..., 1, 0] = _t45 + qd1*(_t12*(-_t18*qd1 - _t18*qd2 - _t35*b + a*qd1) - _t16*_t6 + _t5*_t8) + qdd1*(_t0*_t19 + _t34)
+    out[..., 1, 1] = _t45 + qd1*(_t0*(-_t14*b - _t15*b + _t3*_t7*b*qd3) - _t20*_t5 - _t37*_t6) + qdd1*(_t1*_t12*_t9*b - _t11)
+    out[..., 1, 2] = -_t24*_t28*qdd2 + _t27*qdd3 + _t43*qd3 + qd1*(_t0*(-_t13*b*qd3 + _t46*qd1 + _t46*qd2) - _t37*qd3 - _t40*_t6) + qd2*(-_t38*qd3 - _t39*qd1 - _t39*qd2) + qdd1*(-_t2*_t28 - _t41)
+    out[..., 1, 3] = _t47*qdd4 + _t48*_t49
+    out[..., 2, 2] = -_t10*qd3**2 - _t32
+    out[..., 2, 3] = _t47*_t48 - _t49*qdd4
+    return out
+
+
 def parameter_vector(*, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
     """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (40,).
     """
@@ -711,6 +848,207 @@ def _regressor_body(q, qd, qdd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.0
 _regressor_body.functions = ("sin", "cos")
 
 
+def _inverse_dynamics_derivatives_body(q, qd, qdd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """dtau/dq, then dtau/dqd, row by row: Newton-Euler differentiated line by line. 157 lines, 598 operations."""
+    q1, q2, q3, q4 = q
+    qd1, qd2, qd3, qd4 = qd
+    qdd1, qdd2, qdd3, qdd4 = qdd
+    _r0 = cos(q4)
+    _r1 = cos(q2)
+    _r2 = sin(q2)
+    _r3 = cos(q3)
+    _r4 = sin(q3)
+    _r5 = 0.5*(c*m3)
+    _r6 = 0.3333333333333333*(m2*b**2)
+    _r7 = 0.5*(b*m2)
+    _r0 = _r0*g
+    _r8 = _r1*a*qd1
+    _r9 = -_r2*a*qd1
+    _r10 = _r1*a*qdd1
+    _r11 = -_r2*a*qdd1
+    _r12 = qd1 + qd2
+    _r13 = qdd1 + qdd2
+    _r10 = _r10 + _r9*qd2
+    _r14 = _r11 - _r8*qd2
+    _r15 = _r8*ms
+    _r16 = _r9*ms
+    _r17 = _r10*ms - _r12*_r16
+    _r18 = _r12*_r15 + _r14*ms
+    _r19 = -_r4*_r12
+    _r20 = _r3*_r12
+    _r21 = _r3*_r8
+    _r22 = _r4*_r8
+    _r23 = -_r4*_r13
+    _r13 = _r3*_r13
+    _r24 = _r3*_r10 - _r4*g
+    _r25 = _r3*g + _r4*_r10
+    _r13 = _r13 + _r19*qd3
+    _r26 = _r24 - _r22*qd3
+    _r25 = _r25 + _r21*qd3
+    _r27 = _r6*qd3 - _r22*_r7
+    _r28 = _r9*_r7 + _r20*_r6
+    _r29 = _r21*m2
+    _r30 = _r9*m2 + _r20*_r7
+    _r31 = _r22*m2 - _r7*qd3
+    _r32 = _r9*_r31 + _r28*qd3 - _r20*_r27 - _r22*_r30
+    _r33 = _r14*_r7 + _r19*_r27 + _r21*_r30 + _r6*_r13 - _r9*_r29
+    _r26 = _r26*m2 + _r31*qd3 - _r20*_r30
+    _r13 = _r14*m2 + _r20*_r29 + _r13*_r7 - _r19*_r31
+    _r25 = _r19*_r30 + _r25*m2 - _r29*qd3 - _r7*qdd3
+    _r14 = _r3*_r26 + _r4*_r25
+    _r14 = _r17 + _r14
+    _r13 = _r18 + _r13
+    _r18 = -_r1*a*qd1
+    _r17 = -_r1*a*qdd1
+    _r11 = _r11 + _r18*qd2
+    _r17 = _r17 - _r9*qd2
+    _r34 = _r18*ms
+    _r35 = _r8*_r34 - _r15*_r18
+    _r34 = _r11*ms - _r12*_r34
+    _r36 = _r12*_r16 + _r17*ms
+    _r37 = _r3*_r9
+    _r38 = _r4*_r9
+    _r39 = _r3*_r11
+    _r11 = _r4*_r11
+    _r39 = _r39 - _r38*qd3
+    _r11 = _r11 + _r37*qd3
+    _r40 = -_r7*_r38
+    _r41 = _r7*_r18
+    _r42 = _r37*m2
+    _r43 = _r18*m2
+    _r44 = _r38*m2
+    _r45 = _r9*_r44 + _r31*_r18 + _r41*qd3 - _r20*_r40 - _r22*_r43 - _r30*_r38
+    _r41 = _r22*_r42 + _r29*_r38 - _r19*_r41 - _r21*_r44 - _r7*_r11 - _r31*_r37
+    _r40 = _r19*_r40 + _r21*_r43 + _r7*_r17 + _r30*_r37 - _r9*_r42 - _r29*_r18
+    _r39 = _r39*m2 + _r44*qd3 - _r20*_r43
+    _r44 = _r20*_r42 + _r17*m2 - _r19*_r44
+    _r43 = _r19*_r43 + _r11*m2 - _r42*qd3
+    _r39 = _r3*_r39 + _r4*_r43
+    _r40 = _r3*_r40 - _r4*_r45
+    _r35 = _r40 + _r35
+    _r34 = _r39 + _r34
+    _r44 = _r36 + _r44
+    _r13 = _r1*_r34 - _r1*_r13 - _r2*_r44 - _r2*_r14
+    _r13 = _r35 + _r13*a
+    _r14 = -_r3*_r12
+    _r44 = -_r4*_r8
+    _r10 = -_r3*g - _r4*_r10
+    _r23 = _r23 + _r14*qd3
+    _r10 = _r10 - _r21*qd3
+    _r24 = _r24 + _r44*qd3
+    _r34 = -_r21*_r7
+    _r36 = _r19*_r6
+    _r39 = _r44*m2
+    _r40 = _r19*_r7
+    _r45 = _r36*qd3 + _r9*_r29 - _r34*_r20 - _r40*_r22 - _r19*_r27 - _r21*_r30
+    _r36 = _r39*_r22 - _r14*_r28 - _r44*_r31 - _r24*_r7 - _r36*_r19
+    _r34 = _r14*_r27 + _r44*_r30 + _r23*_r6 + _r34*_r19 + _r40*_r21 - _r39*_r9
+    _r10 = _r10*m2 + _r29*qd3 - _r40*_r20 - _r19*_r30
+    _r23 = _r23*_r7 + _r39*_r20 - _r14*_r31
+    _r40 = _r14*_r30 + _r24*m2 + _r40*_r19 - _r39*qd3
+    _r25 = _r3*_r10 + _r3*_r25 + _r4*_r40 - _r4*_r26
+    _r33 = _r3*_r34 - _r3*_r32 - _r4*_r45 - _r4*_r33
+    _r25 = _r1*_r25 - _r2*_r23
+    _r25 = _r33 + _r25*a
+    _r5 = -_r0*_r5
+    _r0 = _r1*a
+    _r23 = -_r2*a
+    _r32 = _r23*qd2
+    _r34 = -_r0*qd2
+    _r45 = _r0*ms
+    _r26 = _r23*ms
+    _r40 = _r0*_r16 + _r26*_r8 - _r23*_r15 - _r45*_r9
+    _r26 = -_r16 + _r32*ms - _r26*_r12
+    _r12 = _r15 + _r34*ms + _r45*_r12
+    _r45 = _r3*_r0
+    _r0 = _r4*_r0
+    _r10 = _r3*_r32
+    _r32 = _r4*_r32
+    _r39 = -_r4*qd3
+    _r10 = _r10 - _r0*qd3
+    _r32 = _r32 + _r45*qd3
+    _r24 = -_r0*_r7
+    _r14 = _r3*_r6 + _r23*_r7
+    _r44 = _r45*m2
+    _r43 = _r3*_r7 + _r23*m2
+    _r42 = _r0*m2
+    _r11 = _r23*_r31 + _r14*qd3 + _r42*_r9 - _r3*_r27 - _r0*_r30 - _r24*_r20 - _r43*_r22
+    _r14 = _r4*_r28 + _r0*_r29 + _r44*_r22 - _r45*_r31 - _r32*_r7 - _r14*_r19 - _r42*_r21
+    _r24 = _r34*_r7 + _r45*_r30 + _r39*_r6 + _r24*_r19 + _r43*_r21 - _r4*_r27 - _r23*_r29 - _r44*_r9
+    _r10 = _r10*m2 + _r42*qd3 - _r3*_r30 - _r43*_r20
+    _r42 = _r3*_r29 + _r4*_r31 + _r34*m2 + _r39*_r7 + _r44*_r20 - _r42*_r19
+    _r43 = _r32*m2 + _r43*_r19 - _r4*_r30 - _r44*qd3
+    _r43 = _r3*_r10 + _r4*_r43
+    _r24 = _r3*_r24 - _r4*_r11
+    _r24 = _r40 + _r24
+    _r43 = _r26 + _r43
+    _r42 = _r12 + _r42
+    _r42 = _r1*_r43 - _r2*_r42
+    _r42 = _r24 + _r42*a
+    _r16 = -_r16 + _r9*ms
+    _r15 = _r15 - _r8*ms
+    _r43 = _r3*_r6
+    _r12 = _r3*_r7
+    _r26 = _r43*qd3 - _r3*_r27 - _r12*_r22
+    _r43 = _r4*_r28 - _r43*_r19 - _r7*_r38
+    _r27 = _r39*_r6 + _r12*_r21 - _r4*_r27 - _r8*_r7
+    _r37 = _r37*m2 - _r3*_r30 - _r12*_r20
+    _r8 = _r3*_r29 + _r4*_r31 + _r39*_r7 - _r8*m2
+    _r38 = _r12*_r19 + _r38*m2 - _r4*_r30
+    _r38 = _r3*_r37 + _r4*_r38
+    _r27 = _r3*_r27 - _r4*_r26
+    _r38 = _r16 + _r38
+    _r8 = _r15 + _r8
+    _r8 = _r1*_r38 - _r2*_r8
+    _r8 = _r27 + _r8*a
+    _r28 = _r28 - _r9*_r7 - _r20*_r6
+    _r6 = 2*_r19*_r6
+    _r31 = _r31 - _r22*m2 - _r7*qd3
+    _r7 = 2*_r19*_r7
+    _r29 = -_r29 + _r21*m2
+    _r29 = _r3*_r31 + _r4*_r29
+    _r6 = _r3*_r6 - _r4*_r28
+    _r29 = _r1*_r29 - _r2*_r7
+    _r29 = _r6 + _r29*a
+    return (
+        0,
+        _r13,
+        _r25,
+        0,
+        0,
+        _r35,
+        _r33,
+        0,
+        0,
+        _r41,
+        _r36,
+        0,
+        0,
+        0,
+        0,
+        _r5,
+        _r42,
+        _r8,
+        _r29,
+        0,
+        _r24,
+        _r27,
+        _r6,
+        0,
+        _r14,
+        _r43,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+    )
+
+
+_inverse_dynamics_derivatives_body.functions = ("sin", "cos")
+
+
 
 #: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
 _FRAME_BODIES = {}
@@ -942,6 +1280,52 @@ def assemble(q_guess, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8,
     if np.all(np.abs(loop_constraints(_q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
     raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+
+
+def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """(A, B) of the dynamics linearized about the state (q, qd) and efforts u: with
+    x = (q, qd), xdot = A dx + B du to first order. A has shape (..., 8, 8), B (..., 8, 1).
+
+    A = [[0, I], [dqdd/dq, dqdd/dqd]], B = [[0], [dqdd/du]], from the derivatives of recursive
+    Newton-Euler (differentiated line by line) and one solve with M:
+    M dqdd/dx = dY/dx - dtau/dx at the state's own qdd. With the loops, the solve is
+    the constrained one, [M -A^T; A 0] [dqdd/dx; dlambda_g/dx] = [dY/dx - dtau/dx + d(A^T lambda_g)/dx;
+    -d(A qdd + Adot qd)/dx] at the state's qdd and lambda_g (``forward_dynamics`` with alpha =
+    beta = 0): the tangent of the accelerations the loops allow, off the constraints too. External wrenches are not linearized.
+    """
+    q = _coordinates("q", q, 4)
+    qd = _coordinates("qd", qd, 4)
+    if u is None:
+        u = np.zeros(1)
+    _parameters = {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g}
+    _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 4, 4), _parameters)
+    _by_coordinate = -_derivatives[..., 0, :, :]
+    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(4), np.eye(1), **_parameters), -1, -2)
+    _mass = mass_matrix(q, **_parameters)
+    _jac = loop_jacobian(q, **_parameters)
+    _bottom = np.concatenate([-_loop_acceleration_jacobian(q, qd, _qdd, **_parameters),
+                              -2.0 * loop_jacobian_dot(q, qd, **_parameters)], axis=-1)
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _derivatives.shape[:-3], _bottom.shape[:-2])
+    _n, _k, _m = 4, 3, 1
+    _system = np.zeros(_batch + (_n + _k, _n + _k))
+    _system[..., :_n, :_n] = _mass
+    _system[..., :_n, _n:] = -np.swapaxes(_jac, -1, -2)
+    _system[..., _n:, :_n] = _jac
+    _rhs = np.zeros(_batch + (_n + _k, 2 * _n + _m))
+    _rhs[..., :_n, :_n] = _by_coordinate
+    _rhs[..., :_n, _n:2 * _n] = _by_rate
+    _rhs[..., :_n, 2 * _n:] = _inputs
+    _rhs[..., _n:, :2 * _n] = _bottom
+    _solved = np.linalg.solve(_system, _rhs)[..., :_n, :]
+    _A = np.zeros(_batch + (8, 8))
+    _A[..., :4, 4:] = np.eye(4)
+    _A[..., 4:, :] = _solved[..., :8]
+    _B = np.zeros(_batch + (8, 1))
+    _B[..., 4:, :] = _solved[..., 8:]
+    return _A, _B
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
