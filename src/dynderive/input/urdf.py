@@ -529,10 +529,12 @@ def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]]
     """Links welded by fixed joints to a moving link (a tool flange, a hand, a sensor mount)
     become the robot's ``frames``, named as the link, so their pose and Jacobian stay at hand
     after their inertia joins the moving link's. Links welded to the world are not frames."""
-    entries = []
+    entries: list[dict[str, Any]] = []
     for name, element in link_elements.items():
-        owner, rotation, p = frames.get(name, (name, None, None))
-        if owner in (name, "world") or rotation is None:
+        if name not in frames:
+            continue
+        owner, rotation, p = frames[name]
+        if owner in (name, "world"):
             continue
         path = ("frames", len(entries))
         entries.append({"name": identifier(name), "link": identifier(owner),
