@@ -62,11 +62,9 @@ def frame_quantities(robot: Robot, table: SymbolTable) -> dict[str, sympy.Matrix
         if robot.planar:
             angle, position, angular = _planar_pose(robot, table, frame)
             orientation: sympy.Matrix = sympy.Matrix([[angle]])
-            linear = position.jacobian(q)
         else:
-            rotation, position, angular = _spatial_pose(robot, table, frame)
-            orientation = rotation
-            linear = position.jacobian(q)
+            orientation, position, angular = _spatial_pose(robot, table, frame)
+        linear = position.jacobian(q)
         jacobian = sympy.Matrix.vstack(linear, angular).applyfunc(tidy)
         rate = sum((jacobian.diff(qk) * rk for qk, rk in zip(table.q, qd)), sympy.zeros(*jacobian.shape))
         angle_key = "theta" if robot.planar else "R"
@@ -149,9 +147,8 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
     program, tree = _start(robot, table)
     poses = _world_poses(tree)
     n = len(table.q)
-    results = []
-    trig_lines = tree.trig()
-    trig = {expr: name for name, expr in trig_lines}
+    trig = {expr: name for name, expr in tree.trig()}
+    built = []
     for frame in robot.frames:
         rotation, position = _frame_pose(tree, poses, frame)
         columns = _jacobian_columns(tree, poses, frame.link, position)
@@ -163,16 +160,15 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
         else:
             transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2], 0, 0, 0, 1]
             rows = [[columns[j][part][axis] for j in range(n)] for part in range(2) for axis in range(3)]
-        jacobian = [program.let(e) for row in rows for e in row]
-        # d/dt along qd: the forward derivative of every line with q_k's tangent qd_k
-        tangent: dict[sympy.Symbol, sympy.Expr] = dict(zip(table.q, table.qd))
-        lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
-        _carry(program, tangent, trig, lines)
-        rate = [_forward(e, tangent, trig) for e in jacobian]
-        width = n
-        jdot_qd = [program.let(sum((rate[r * width + j] * table.qd[j] for j in range(n)), sympy.Integer(0)))
-                   for r in range(len(rows))]
-        results.append(FramePrograms(frame.name, _part(program, transform), _part(program, jacobian),
+        built.append((frame.name, transform, [[program.let(e) for e in row] for row in rows]))
+    # d/dt along qd, one forward pass for every frame: each line's tangent with q_k's tangent qd_k
+    tangent: dict[sympy.Symbol, sympy.Expr] = dict(zip(table.q, table.qd))
+    _carry(program, tangent, trig, [(name, expr, expr.free_symbols) for name, expr in program.lines])
+    results = []
+    for name, transform, jacobian in built:
+        jdot_qd = [program.let(sum((_forward(e, tangent, trig) * rate for e, rate in zip(row, table.qd)),
+                                   sympy.Integer(0))) for row in jacobian]
+        results.append(FramePrograms(name, _part(program, transform), _part(program, [e for row in jacobian for e in row]),
                                      _part(program, jdot_qd)))
     return results
 
