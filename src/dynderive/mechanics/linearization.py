@@ -15,8 +15,6 @@ manipulator form's quantities, for the terminal, JSON and LaTeX of ``dynderive l
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import sympy
 
 from ..model.robot import Robot
@@ -44,15 +42,6 @@ def inverse_dynamics_derivatives_program(robot: Robot, table: SymbolTable) -> Pr
     outputs += [by_variable[n + k][i] for i in range(n) for k in range(n)]
     program.outputs = outputs
     return program
-
-
-def parse_operating_point(robot: Robot, table: SymbolTable, values: dict[str, Sequence[float]]) -> dict[sympy.Symbol, float]:
-    """``{symbol: value}`` of q, qd and u at the operating point (missing entries: 0)."""
-    point: dict[sympy.Symbol, float] = {}
-    for key, symbols in (("q", table.q), ("qd", table.qd), ("u", list(table.efforts.values()))):
-        given = list(values.get(key, [0.0] * len(symbols)))
-        point.update(zip(symbols, given))
-    return point
 
 
 def symbolic_linearization(quantities: dict[str, sympy.Matrix], table: SymbolTable,
