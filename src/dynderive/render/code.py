@@ -366,6 +366,7 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
             functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
                                                  matrix_result=quantity in MATRICES))
     identification = derivation.parameter_vector
+    forward = derivation.programs.get("forward_dynamics")
     functions.append(expression_function(
         "parameter_vector", f"The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape ({len(identification)},).",
         [], sympy.Matrix([p.value for p in identification]), printer, params))
@@ -397,7 +398,8 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "frames_tuple": _tuple(tuple(f.name for f in robot.frames)),
         "frame_size": 3 if robot.planar else 4,
         "twist_size": 3 if robot.planar else 6,
-        "forward_extra": bool(robot.frames) or robot.dissipative,
+        # the forward-dynamics body takes F_g - J^T w where its program says so (damping, friction, frames)
+        "forward_extra": forward is not None and bool(forward.extra_inputs),
         "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
         "parameter_count": len(identification),
         "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
