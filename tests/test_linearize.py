@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 
 from dynderive.commands.cli import app
 
-from conftest import text_derivation
+from conftest import ROOT, text_derivation
 from random_robots import random_planar_tree
 from random_robots3d import random_spatial_tree
 
@@ -60,6 +60,26 @@ def test_cart_pole_about_upright_is_the_textbook_one():
     assert numbers[3, 1] == pytest.approx(6 * 9.81 * 1.1 / 4.1)   # upright is unstable
     hanging = json.loads(runner.invoke(app, ["linearize", "cart_pole", "--at", "theta=pi", "--json", "-q"]).stdout)
     assert np.array(hanging["A_numeric"])[3, 1] == pytest.approx(-6 * 9.81 * 1.1 / 4.1)   # hanging is stable
+
+
+HOSTILE = '\x1b[2J\x1b]0;owned\x07 """\\ $x$ \\end{document} %{}#&_^~ \u2603\u202e'
+
+
+def test_hostile_titles_are_encoded_in_every_output(tmp_path):
+    """A title with terminal escapes, quotes, LaTeX commands and bidi controls reaches the
+    terminal with its control characters escaped and the LaTeX document escaped."""
+    text = (ROOT / "robots" / "cart_pole.yaml").read_text().replace("title: Cart-pole", f"title: {json.dumps(HOSTILE)}")
+    path = tmp_path / "hostile.yaml"
+    path.write_text(text)
+    terminal = runner.invoke(app, ["linearize", str(path), "-q"])
+    assert terminal.exit_code == 0, terminal.output
+    assert "\x1b" not in terminal.stdout and "\x07" not in terminal.stdout and "\u202e" not in terminal.stdout
+    latex = runner.invoke(app, ["linearize", str(path), "--latex", "-q"])
+    assert latex.exit_code == 0, latex.output
+    assert r"\end{document}" in latex.stdout and latex.stdout.count(r"\end{document}") == 1
+    assert "\x1b" not in latex.stdout and "$x$" not in latex.stdout
+    document = json.loads(runner.invoke(app, ["linearize", str(path), "--json", "-q"]).stdout)
+    assert document["robot"] == "cart_pole"
 
 
 def test_terminal_and_latex_outputs(tmp_path):

@@ -189,7 +189,9 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
             "values": escape_tex(given) if symbolic else "", "A_numeric": numeric(A), "B_numeric": numeric(B),
         }
         return render("latex", "linearization.tex.j2", context, None)
-    lines = [f"{robot.title} ({robot.name}): linearized about q = {at['q']}, qd = {at['qd']}, u = {at['u']}",
+    from ..render.encode import terminal_text
+
+    lines = [f"{terminal_text(robot.title)} ({robot.name}): linearized about q = {at['q']}, qd = {at['qd']}, u = {at['u']}",
              "x = (q, qd), xdot = A dx + B du", ""]
     if symbolic:
         for label, value in (("A", symbolic["A"]), ("B", symbolic["B"])):
