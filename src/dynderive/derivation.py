@@ -223,6 +223,11 @@ class Derivation:
         self.steps["loops"] = model
         self.notes.extend(model.notes)
 
+    @property
+    def mobility(self) -> int:
+        """Degrees of freedom: the coordinates less the independent loop constraints."""
+        return self.steps["loops"].mobility if self.robot.loops else len(self.robot.coordinates)
+
     def _loop_force(self) -> sympy.Matrix:
         return self.quantities["A_g"].T * self.quantities["lambda_g"]
 

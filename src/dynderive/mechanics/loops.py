@@ -10,13 +10,20 @@ A loop joint between links P and C holds when its two frames (``origin`` on P,
   prismatic: no relative rotation and no offset across the axis (5).
 
 The rows ``a_g(q)`` are written from the links' world poses, so ``A_g = da_g/dq`` and
-``Adot_g`` follow by differentiation. Rows that are identically zero or that depend on others
-(a planar loop described in 3-D) are dropped, with a note. The mechanism is assembled at the
-default parameters (Newton / Levenberg-Marquardt from a few starts): a loop that cannot close
-is bad input. The independent coordinates are the file's ``independent`` list, or chosen:
-actuated coordinates first, then those whose dependent block of ``A_g`` is best conditioned at
-the assembled configuration. With ``qd = R_g qd_i``, ``R_g = P [I; -A_d^-1 A_i]``, the reduced
-equations are ``R_g^T`` times the multiplier form, in which ``A_g^T lambda_g`` drops out.
+``Adot_g`` follow by differentiation. Rows that are identically zero (a planar loop described
+in 3-D) are dropped, with a note; every other row is kept. Rows that are implied by the others
+on the constraint manifold (an over-constrained mechanism such as the Bennett linkage: 5 rows
+of rank 2) are *not* dropped, because the rows that are implied at one configuration are not
+the same everywhere: the rank ``r`` of ``A_g`` on the manifold is recorded instead, the
+mobility is ``n - r``, and the generated code solves with the rank-``r`` row space of ``A_g``
+at each state. The mechanism is assembled at the default parameters (Levenberg-Marquardt from a
+few starts, then the dependent coordinates solved to 40 digits with mpmath, so the written
+configuration has the same bytes on every machine): a loop that cannot close is bad input. The
+independent coordinates are the file's ``independent`` list, or chosen: actuated coordinates
+first, then those whose dependent block of ``A_g`` is best conditioned at the assembled
+configuration. With ``qd = R_g qd_i``, ``R_g = P [I; -A_d^-1 A_i]``, the reduced equations are
+``R_g^T`` times the multiplier form, in which ``A_g^T lambda_g`` drops out (derived symbolically
+only when no row is redundant).
 """
 
 from __future__ import annotations
@@ -38,9 +45,11 @@ from .lagrange import constraint_jacobian_dot
 from .spatial import rpy_matrix
 from .tidy import fold_constants, is_small, tidy, tidy_matrix
 
-#: Rows whose Jacobian is dependent at the assembled configuration to this relative level
-#: are redundant.
+#: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold).
 RANK_TOLERANCE = 1e-9
+#: Decimal places of the independent coordinates of the default assembly: the float solver's
+#: last digits (which depend on the NumPy build) never reach an output.
+ASSEMBLY_DECIMALS = 6
 #: Largest residual |a_g| accepted as assembled.
 ASSEMBLY_TOLERANCE = 1e-10
 #: The reduced form is derived symbolically only for at most this many loop constraints, with
@@ -59,11 +68,22 @@ class LoopModel:
     multipliers: list[sympy.Symbol]           # lambda_g1..k
     rows: list[tuple[str, str]]               # (loop joint, what the row says)
     row_indices: list[int]                    # which rows of ``loop_rows`` were kept
+    rank: int                                 # rank of A_g on the constraint manifold
     independent: list[int]                    # coordinate indices kept independent
     dependent: list[int]
     assembled: list[float] | None             # a configuration on a_g = 0 at the defaults
     notes: list[str] = field(default_factory=list)
     reduced: dict[str, sympy.Matrix] = field(default_factory=dict)   # R_g, M_r, C_r, N_r, Y_r, EOM_r
+
+    @property
+    def mobility(self) -> int:
+        """Degrees of freedom of the closed mechanism: coordinates minus independent constraints."""
+        return len(self.independent)
+
+    @property
+    def redundant(self) -> bool:
+        """Whether some rows are implied by the others on the manifold (over-constrained)."""
+        return self.rank < self.constraints.shape[0]
 
 
 def _planar_frame(link: str, kinematics: dict[str, Any], offset: tuple[sympy.Expr, ...]
@@ -201,9 +221,9 @@ def assemble(numeric: _Numeric, start: np.ndarray, fixed: list[int] | None = Non
     return q if np.max(np.abs(numeric.residual(q)), initial=0.0) < ASSEMBLY_TOLERANCE else None
 
 
-def default_assembly(numeric: _Numeric, robot: Robot) -> np.ndarray | None:
-    """The assembled configuration closest to ``q = 0`` (angles wrapped to (-pi, pi]) among
-    those reached from a few deterministic starts: the branch the sheet and ``assemble`` use."""
+def assemblies(numeric: _Numeric, robot: Robot) -> list[np.ndarray]:
+    """The assembled configurations reached from a few deterministic starts (angles wrapped to
+    (-pi, pi]), the one nearest ``q = 0`` first: the branch the sheet and ``assemble`` use."""
     n = len(robot.coordinates)
     revolute = [j.type == "revolute" for j in robot.joints if j.moves]
     rng = random.Random(15)
@@ -215,69 +235,121 @@ def default_assembly(numeric: _Numeric, robot: Robot) -> np.ndarray | None:
         if q is not None:
             q = np.array([math.remainder(x, 2 * math.pi) if r else x for x, r in zip(q, revolute)])
             found.append(q)
-    return min(found, key=lambda q: float(np.linalg.norm(q))) if found else None
+    return sorted(found, key=lambda q: float(np.linalg.norm(q)))
+
+
+def _rank(J: np.ndarray) -> int:
+    sigma = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
+    return int(np.sum(sigma > RANK_TOLERANCE * max(float(sigma[0]) if len(sigma) else 0.0, 1e-300)))
+
+
+def _vanishing_rows(numeric: _Numeric, n: int) -> list[int]:
+    """Rows that are zero with their gradient at random configurations: identically zero,
+    though not simplified to 0 (a planar loop in 3-D: the axes stay parallel by construction)."""
+    rng = np.random.default_rng(15)
+    points = [rng.uniform(-math.pi, math.pi, n) for _ in range(3)]
+    values = [np.abs(numeric.residual(q)) for q in points]
+    slopes = [np.max(np.abs(numeric.jacobian(q)), axis=1, initial=0.0) for q in points]
+    scale = max(1.0, *(float(np.max(v, initial=0.0)) for v in values + slopes))
+    return [i for i in range(len(values[0]))
+            if all(v[i] < 1e-12 * scale and g[i] < 1e-12 * scale for v, g in zip(values, slopes))]
 
 
 def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopModel:
-    """The loop constraints of ``robot``, without redundant rows, its assembly at the default
-    parameters and the choice of independent coordinates."""
+    """The loop constraints of ``robot`` without identically zero rows, their rank on the
+    manifold, the assembly at the default parameters and the choice of independent coordinates."""
     n = len(table.q)
     every = loop_rows(robot, table, links)
     nonzero = [i for i, row in enumerate(every) if row[2] != 0]
-    rows = [every[i] for i in nonzero]
     notes: list[str] = []
     where = robot.positions.get("loops", (1, 1))
     defaults = table.defaults(robot)
     complete = all(p.value is not None for p in robot.parameters)
-    a = sympy.Matrix([r[2] for r in rows]) if rows else sympy.zeros(0, 1)
-    A = a.jacobian(table.q) if rows else sympy.zeros(0, n)
-    numeric = _Numeric(a, A, table, defaults if complete else {s: 1.0 for s in table.parameters.values()})
-    assembled = default_assembly(numeric, robot)
-    if assembled is None:
+    values = defaults if complete else {s: 1.0 for s in table.parameters.values()}
+
+    def numeric_of(indices: list[int]) -> _Numeric:
+        a = sympy.Matrix([every[i][2] for i in indices]) if indices else sympy.zeros(0, 1)
+        return _Numeric(a, a.jacobian(table.q) if indices else sympy.zeros(0, n), table, values)
+
+    numeric = numeric_of(nonzero)
+    vanishing = set(_vanishing_rows(numeric, n)) if nonzero else set()
+    if vanishing:
+        nonzero = [i for k, i in enumerate(nonzero) if k not in vanishing]
+        numeric = numeric_of(nonzero)
+    dropped = [every[i] for i in range(len(every)) if i not in nonzero]
+    if dropped:
+        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
+                     "identically zero and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
+    rows = [every[i] for i in nonzero]
+    found = assemblies(numeric, robot) if rows else []
+    if not found:
         if complete:
             first = robot.loops[0]
             line, column = robot.positions.get(f"loop:{first.name}", where)
             raise InputError(Problem(robot.source, line, column, f"loops[0] '{first.name}': the mechanism cannot "
                                      "be assembled at the default parameters (the loop constraints have no "
                                      "solution near any tried configuration: check lengths and origins)"))
-        probe = np.random.default_rng(15).uniform(-1, 1, n)
+        probes = [np.random.default_rng(15).uniform(-1, 1, n)]
     else:
-        probe = assembled
-    # redundant rows: keep a maximal independent set of A's rows at the assembled configuration
-    J = numeric.jacobian(probe)
-    keep: list[int] = []
-    basis: list[np.ndarray] = []
-    scale = max(float(np.max(np.abs(J), initial=0.0)), 1e-300)
-    for i, row in enumerate(J):
-        residual = row.copy()
-        for b in basis:
-            residual -= (residual @ b) * b
-        if np.linalg.norm(residual) > RANK_TOLERANCE * scale * math.sqrt(n):
-            keep.append(i)
-            basis.append(residual / np.linalg.norm(residual))
-    dropped = [every[i] for i in range(len(every)) if i not in nonzero]   # identically zero
-    dropped += [rows[i] for i in range(len(rows)) if i not in keep]
-    if dropped:
-        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
-                     "identically zero or implied by the others and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
-    rows = [rows[i] for i in keep]
+        probes = found
+    # the rank on the manifold: the largest over the assembled configurations (the default one
+    # may be a singular configuration of the mechanism)
+    rank = max(_rank(numeric.jacobian(q)) for q in probes)
     k = len(rows)
-    if k >= n:
-        raise InputError(Problem(robot.source, where[0], where[1], f"loops: the loop joints impose {k} independent "
+    if rank >= n:
+        raise InputError(Problem(robot.source, where[0], where[1], f"loops: the loop joints impose {rank} independent "
                                  f"constraints on {n} coordinates, which leaves no degree of freedom"))
+    if rank < k:
+        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: the {k} loop constraint rows have rank {rank} on "
+                     f"the constraint manifold: the mechanism is over-constrained (mobility {n - rank}, where "
+                     f"counting rows would give {n - k}); every row is kept, and the generated code solves with "
+                     "their row space at each state")
     a = sympy.Matrix([r[2] for r in rows])
     A = tidy_matrix(a.jacobian(table.q))
     Adot = tidy_matrix(constraint_jacobian_dot(A, table.q, table.qd))
-    J = J[keep]
-    independent = _independent(robot, J, n, k, notes)
+    J = numeric.jacobian(probes[0])
+    independent = _independent(robot, J, n, rank, notes)
     dependent = [i for i in range(n) if i not in independent]
+    assembled = None
+    if found:
+        assembled = _exact_assembly(a, A, table, values, probes[0], independent, dependent)
     multipliers = [sympy.Symbol(f"lambda_g{i}") for i in range(1, k + 1)]
-    model = LoopModel(a, A, Adot, multipliers, [(r[0], r[1]) for r in rows], [nonzero[i] for i in keep],
-                      independent, dependent,
-                      None if assembled is None else [float(x) for x in assembled], notes)
+    model = LoopModel(a, A, Adot, multipliers, [(r[0], r[1]) for r in rows], nonzero, rank,
+                      independent, dependent, assembled, notes)
     if assembled is not None:
         _singular_partition(robot, model, _Numeric(a, A, table, defaults), notes)
     return model
+
+
+def _exact_assembly(a: sympy.Matrix, A: sympy.Matrix, table: SymbolTable, values: dict[sympy.Symbol, float],
+                    q: np.ndarray, independent: list[int], dependent: list[int]) -> list[float]:
+    """The default assembly with the same bytes on every machine: the independent coordinates
+    of the float solution rounded to ``ASSEMBLY_DECIMALS`` places, the dependent ones solved by
+    Gauss-Newton over every row in 40-digit arithmetic (mpmath, the same on every platform)
+    and rounded to doubles. Falls back to the float solution where that does not converge."""
+    import mpmath
+
+    parameters = sorted(values, key=str)
+    arguments = [table.q, parameters]
+    residual = sympy.lambdify(arguments, a, "mpmath")
+    jacobian = sympy.lambdify(arguments, A.extract(list(range(A.shape[0])), dependent), "mpmath")
+    with mpmath.workdps(40):
+        point = [mpmath.mpf(float(x)) for x in q]
+        for i in independent:
+            point[i] = mpmath.mpf(round(float(q[i]), ASSEMBLY_DECIMALS))
+        numbers = [mpmath.mpf(values[s]) for s in parameters]
+        for _ in range(40):
+            r = mpmath.matrix(residual(point, numbers))
+            J = mpmath.matrix(jacobian(point, numbers))
+            step = mpmath.lu_solve(J.T * J, J.T * r)
+            for row, i in enumerate(dependent):
+                point[i] -= step[row]
+            if mpmath.norm(step) < mpmath.mpf(10) ** -34:
+                break
+        closed = mpmath.norm(mpmath.matrix(residual(point, numbers))) < mpmath.mpf(10) ** -30
+    if not closed:
+        return [float(x) for x in q]
+    return [float(x) for x in point]
 
 
 def _independent(robot: Robot, J: np.ndarray, n: int, k: int, notes: list[str]) -> list[int]:
@@ -289,7 +361,7 @@ def _independent(robot: Robot, J: np.ndarray, n: int, k: int, notes: list[str]) 
         line, column = robot.positions.get("independent", (1, 1))
         if len(chosen) != n - k:
             raise InputError(Problem(robot.source, line, column, f"independent: the mechanism has {n - k} degree(s) "
-                                     f"of freedom ({n} coordinates, {k} loop constraints), so {n - k} independent "
+                                     f"of freedom ({n} coordinates, {k} independent loop constraints), so {n - k} independent "
                                      f"coordinate(s) are needed, got {len(chosen)}"))
         dependent = [i for i in range(n) if i not in chosen]
         if np.linalg.svd(J[:, dependent], compute_uv=False)[-1] < 1e-9 * max(1.0, float(np.max(np.abs(J)))):
@@ -350,7 +422,7 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     otherwise (the generated code solves the multiplier form numerically)."""
     A = model.jacobian
     k = A.shape[0]
-    if k > REDUCED_ROWS or not is_small(sympy.Tuple(*A), REDUCED_NODES * A.shape[0] * A.shape[1]):
+    if model.redundant or k > REDUCED_ROWS or not is_small(sympy.Tuple(*A), REDUCED_NODES * A.shape[0] * A.shape[1]):
         return {}
     A_d = A.extract(list(range(k)), model.dependent)
     A_i = A.extract(list(range(k)), model.independent)

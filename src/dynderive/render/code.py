@@ -409,6 +409,8 @@ def code_context(derivation: Derivation) -> dict[str, Any]:
         "constraint_count": quantities["a_m"].shape[0] if maximal else 0,
         "loops": bool(robot.loops),
         "loop_count": quantities["a_g"].shape[0] if robot.loops else 0,
+        "loop_rank": derivation.steps["loops"].rank if robot.loops else 0,
+        "redundant_loops": bool(robot.loops) and derivation.steps["loops"].redundant,
         "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
         "independent_tuple": _tuple(tuple(robot.coordinates[i] for i in derivation.steps["loops"].independent))
         if robot.loops else Code("()"),

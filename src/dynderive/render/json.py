@@ -14,6 +14,7 @@ order to expand a quantity).
 from __future__ import annotations
 
 import json
+from typing import Any
 
 import sympy
 
@@ -86,6 +87,15 @@ def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict
     return entry
 
 
+def _loops_entry(derivation: Derivation) -> dict[str, Any]:
+    """Size of a closed chain: constraint rows, their rank (the independent constraints), the
+    coordinates kept independent and the default assembly."""
+    model = derivation.steps["loops"]
+    return {"constraint_rows": model.constraints.shape[0], "independent_constraints": model.rank,
+            "independent_coordinates": [derivation.robot.coordinates[i] for i in model.independent],
+            "assembled_configuration": model.assembled}
+
+
 def render_json(derivation: Derivation) -> str:
     fmt = Formatter.of(derivation)
     quantities = {name: quantity_entry(value, fmt, derivation.description(name))
@@ -95,6 +105,8 @@ def render_json(derivation: Derivation) -> str:
         "coordinates": list(derivation.robot.coordinates),
         "efforts": list(derivation.robot.efforts),
         "parameters": {p.name: p.value for p in derivation.robot.parameters},
+        "degrees_of_freedom": derivation.mobility,
+        **({"loops": _loops_entry(derivation)} if derivation.robot.loops else {}),
         "quantities": quantities,
         **({"intermediates": {str(name): quantity_entry(value, fmt) for name, value in derivation.intermediates}}
            if derivation.intermediate_form else {}),

@@ -372,7 +372,7 @@ def loops_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
                for key in ("R_g", "M_r", "C_r", "N_r", "Y_r")}
     return {
         "joints": [escape_tex(lp.name) for lp in derivation.robot.loops],
-        "count": q["a_g"].shape[0],
+        "count": q["a_g"].shape[0], "rank": model.rank, "mobility": model.mobility,
         "rows": [f"{escape_tex(name)}: {escape_tex(what)}" for name, what in model.rows],
         "a_g": fmt.matrix("a", q["a_g"]), "A_g": fmt.matrix("A", q["A_g"]),
         "Adot_g": fmt.matrix("\\dot{A}", q["Adot_g"]),

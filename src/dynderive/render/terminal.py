@@ -16,8 +16,16 @@ def _block(title: str, value: object) -> str:
 def render_terminal(derivation: Derivation) -> str:
     robot, q = derivation.robot, derivation.quantities
     coords = ", ".join(robot.coordinates)
+    if robot.loops:
+        loops = derivation.steps["loops"]
+        rows = q["a_g"].shape[0]
+        constraints = (f"{rows} independent loop constraints" if rows == loops.rank else
+                       f"{rows} loop constraints of rank {loops.rank} (over-constrained)")
+        size = f"{loops.mobility} DOF: coordinates ({coords}), {constraints}"
+    else:
+        size = f"{len(robot.coordinates)} DOF, coordinates ({coords})"
     parts = [
-        f"{terminal_text(robot.title)} ({robot.name}): {len(robot.coordinates)} DOF, coordinates ({coords})",
+        f"{terminal_text(robot.title)} ({robot.name}): {size}",
         "",
         "Equations of motion  M(q) q'' + C(q, q') q' + N(q)" + (" + F(q')" if "F_g" in q else "") + " = Y",
         "",

@@ -163,9 +163,10 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
 
 
 def allowed_velocity(module: Any, q: np.ndarray, qd: np.ndarray, values: dict[str, float]) -> np.ndarray:
-    """``qd`` projected onto the motions the loops allow at ``q`` (the null space of A_g)."""
+    """``qd`` projected onto the motions the loops allow at ``q``: the null space of A_g, of
+    dimension the mobility (the rows of an over-constrained mechanism's A_g are dependent)."""
     A = module.loop_jacobian(q, **values)
-    null = np.linalg.svd(A)[2][A.shape[0]:]
+    null = np.linalg.svd(A)[2][A.shape[1] - len(module.INDEPENDENT_COORDINATES):]
     return null.T @ (null @ qd)
 
 
@@ -176,8 +177,7 @@ def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: 
     worst, scale = 0.0, 1.0
     for q, qd, u in zip(qs, qds, us):
         A = module.loop_jacobian(q, **values)
-        _, sigma, vt = np.linalg.svd(A)
-        R = vt[len(sigma):].T
+        R = np.linalg.svd(A)[2][A.shape[1] - len(module.INDEPENDENT_COORDINATES):].T
         qdd = module.forward_dynamics(q, qd, u, **values)
         worst = max(worst, float(np.max(np.abs(module.reduced_forward_dynamics(q, qd, u, **values) - qdd))))
         forces = module.mass_matrix(q, **values) @ qdd + module.inverse_dynamics(q, qd, np.zeros(len(q)), **values) \
