@@ -43,7 +43,7 @@ from ..model.symbols import SymbolTable
 from .joints import unit
 from .lagrange import constraint_jacobian_dot
 from .spatial import rpy_matrix
-from .tidy import fold_constants, is_small, tidy, tidy_matrix
+from .tidy import fold_constants, is_small, quick_tidy, tidy, tidy_matrix
 
 #: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold).
 RANK_TOLERANCE = 1e-9
@@ -305,8 +305,8 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
                      f"counting rows would give {n - k}); every row is kept, and the generated code solves with "
                      "their row space at each state")
     a = sympy.Matrix([r[2] for r in rows])
-    A = tidy_matrix(a.jacobian(table.q))
-    Adot = tidy_matrix(constraint_jacobian_dot(A, table.q, table.qd))
+    A = a.jacobian(table.q).applyfunc(_tidy_entry)
+    Adot = constraint_jacobian_dot(A, table.q, table.qd).applyfunc(_tidy_entry)
     J = numeric.jacobian(probes[0])
     independent = _independent(robot, J, n, rank, notes)
     dependent = [i for i in range(n) if i not in independent]
@@ -319,6 +319,15 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     if assembled is not None:
         _singular_partition(robot, model, _Numeric(a, A, table, defaults), notes)
     return model
+
+
+#: Entries of A_g and Adot_g up to this many nodes get the full ``tidy``; larger ones (3-D
+#: loops written through every link's pose) the cheap expansion, which costs a fraction.
+TIDY_NODES = 45
+
+
+def _tidy_entry(expr: sympy.Expr) -> sympy.Expr:
+    return tidy(expr) if is_small(expr, TIDY_NODES) else quick_tidy(expr)
 
 
 def _exact_assembly(a: sympy.Matrix, A: sympy.Matrix, table: SymbolTable, values: dict[sympy.Symbol, float],
