@@ -45,8 +45,9 @@ from .lagrange import constraint_jacobian_dot
 from .spatial import rpy_matrix
 from .tidy import fold_constants, is_small, quick_tidy, tidy, tidy_matrix
 
-#: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold).
-RANK_TOLERANCE = 1e-9
+#: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold,
+#: at configurations assembled to ``ASSEMBLY_TOLERANCE``).
+RANK_TOLERANCE = 1e-7
 #: Decimal places of the independent coordinates of the default assembly: the float solver's
 #: last digits (which depend on the NumPy build) never reach an output.
 ASSEMBLY_DECIMALS = 6
@@ -243,6 +244,36 @@ def _rank(J: np.ndarray) -> int:
     return int(np.sum(sigma > RANK_TOLERANCE * max(float(sigma[0]) if len(sigma) else 0.0, 1e-300)))
 
 
+def _neighbours(numeric: _Numeric, q: np.ndarray) -> list[np.ndarray]:
+    """Configurations near ``q`` on its branch: each coordinate in turn moved by +-0.1 and held
+    there while the others are assembled (moves of all coordinates at once would fall back
+    into a singular ``q``, which attracts the least-squares solver)."""
+    found = []
+    for j in range(len(q)):
+        for step in (0.1, -0.1):
+            start = q.copy()
+            start[j] += step
+            moved = assemble(numeric, start, fixed=[j])
+            if moved is not None and np.linalg.norm(moved - q) < 1.0:
+                found.append(moved)
+    return found
+
+
+def _regular(J: np.ndarray, rank: int) -> bool:
+    """Whether ``J`` has rank ``rank``, well away from a lower one."""
+    sigma = np.linalg.svd(J, compute_uv=False)
+    return _rank(J) == rank and (rank == 0 or sigma[rank - 1] > 1e-6 * sigma[0])
+
+
+def _manifold_rank(numeric: _Numeric, q: np.ndarray) -> int:
+    """The rank of A_g on the constraint manifold at ``q``'s branch: the most common rank at
+    configurations assembled near ``q`` (fewest rows on a tie). Not just the rank at ``q``,
+    which may be a singular configuration (a parallelogram folded flat), nor the largest, which
+    a point assembled to 1e-10 beside a bifurcation, or a rigid crossed branch, would raise."""
+    ranks = [_rank(numeric.jacobian(m)) for m in _neighbours(numeric, q)] or [_rank(numeric.jacobian(q))]
+    return min(set(ranks), key=lambda r: (-ranks.count(r), r))
+
+
 def _vanishing_rows(numeric: _Numeric, n: int) -> list[int]:
     """Rows that are zero with their gradient at random configurations: identically zero,
     though not simplified to 0 (a planar loop in 3-D: the axes stay parallel by construction)."""
@@ -290,11 +321,13 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
                                      "be assembled at the default parameters (the loop constraints have no "
                                      "solution near any tried configuration: check lengths and origins)"))
         probes = [np.random.default_rng(15).uniform(-1, 1, n)]
+        rank = _rank(numeric.jacobian(probes[0]))
     else:
-        probes = found
-    # the rank on the manifold: the largest over the assembled configurations (the default one
-    # may be a singular configuration of the mechanism)
-    rank = max(_rank(numeric.jacobian(q)) for q in probes)
+        rank = _manifold_rank(numeric, found[0])
+        # the default: the nearest q = 0 where the rows have their full rank on the manifold (a
+        # singular configuration, such as a parallelogram folded flat, makes a poor default:
+        # the coordinates there are only assembled to the square root of the tolerance)
+        probes = sorted(found, key=lambda q: not _regular(numeric.jacobian(q), rank))
     k = len(rows)
     if rank >= n:
         raise InputError(Problem(robot.source, where[0], where[1], f"loops: the loop joints impose {rank} independent "
@@ -350,7 +383,10 @@ def _exact_assembly(a: sympy.Matrix, A: sympy.Matrix, table: SymbolTable, values
         for _ in range(40):
             r = mpmath.matrix(residual(point, numbers))
             J = mpmath.matrix(jacobian(point, numbers))
-            step = mpmath.lu_solve(J.T * J, J.T * r)
+            try:
+                step = mpmath.lu_solve(J.T * J, J.T * r)
+            except ZeroDivisionError:   # a singular dependent block: keep the float solution
+                return [float(x) for x in q]
             for row, i in enumerate(dependent):
                 point[i] -= step[row]
             if mpmath.norm(step) < mpmath.mpf(10) ** -34:
