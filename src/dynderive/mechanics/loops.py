@@ -394,7 +394,8 @@ def _exact_assembly(a: sympy.Matrix, A: sympy.Matrix, table: SymbolTable, values
         closed = mpmath.norm(mpmath.matrix(residual(point, numbers))) < mpmath.mpf(10) ** -30
     if not closed:
         return [float(x) for x in q]
-    return [float(x) for x in point]
+    # an exact zero comes out of the iteration as a few units of 1e-40: write it as 0
+    return [float(x) if abs(x) > 1e-30 else 0.0 for x in point]
 
 
 def _independent(robot: Robot, J: np.ndarray, n: int, k: int, notes: list[str]) -> list[int]:
