@@ -31,6 +31,7 @@ from ..model.naming import (
     maximal_coordinate_names,
 )
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
+from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
 from .frames import read_frames
 from .loader import SourceDocument
@@ -216,11 +217,12 @@ def validate(doc: SourceDocument) -> Robot:
     if "gravity" in top:
         v.vector(top["gravity"], ("gravity",), (2 if planar else 3,), symbols)
 
-    links, tree = _links(v, top, planar, symbols)
+    links, tree, inertias = _links(v, top, planar, symbols)
     joints = _joints(v, top, planar, symbols, tree)
     if joints and not any(j.moves for j in joints):
         v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, tree.names)
+    links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops)
     frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
@@ -298,7 +300,7 @@ def _parameters(v: _Validator, top: dict[str, Any]) -> list[Parameter]:
 
 
 def _links(v: _Validator, top: dict[str, Any], planar: bool,
-           symbols: dict[str, sympy.Expr]) -> tuple[list[Link], _LinkNames]:
+           symbols: dict[str, sympy.Expr]) -> tuple[list[Link], _LinkNames, list[inertia.Written | None]]:
     """The ``links`` list: names, positive masses, centres of mass, physical inertias."""
     defaults = v.evaluate
     dimension = 2 if planar else 3
@@ -310,6 +312,7 @@ def _links(v: _Validator, top: dict[str, Any], planar: bool,
         raw_links = []
     link_names: dict[str, tuple[Any, ...]] = {}
     bad_link_names: set[Any] = set()  # reported already; joints naming them are not re-reported
+    inertias: list[inertia.Written | None] = []   # judged once the joints are read
     for i, raw in enumerate(raw_links or []):
         path = ("links", i)
         item = v.mapping(raw, path, LINK_KEYS, required=("name", "mass"))
@@ -331,12 +334,13 @@ def _links(v: _Validator, top: dict[str, Any], planar: bool,
             v.error(path + ("mass",), f"{v.label(('links', i, 'mass'))}: must be positive (got {value:g})")
         com = item.get("com", [0] * dimension)
         v.vector(com, path + ("com",), (dimension,), symbols)
-        inertia = _inertia(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
-                           planar, symbols, defaults)
+        entries, written = inertia.read(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
+                                        planar, symbols, lambda e: _numeric(e, defaults))
         links.append(Link(lname or f"link{i + 1}", item.get("mass", 1), tuple(com) if isinstance(com, list) else (),
-                          inertia))
+                          entries))
+        inertias.append(written)
 
-    return links, _LinkNames(link_names, bad_link_names, links_broken)
+    return links, _LinkNames(link_names, bad_link_names, links_broken), inertias
 
 
 def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
@@ -524,52 +528,6 @@ def _looks_planar(top: dict[str, Any]) -> bool:
 def _did_you_mean(value: Any, options: list[str]) -> str:
     close = difflib.get_close_matches(str(value), options, n=1)
     return f" (did you mean '{close[0]}'?)" if close else ""
-
-
-def _inertia(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,
-             symbols: dict[str, sympy.Expr], defaults: Evaluator) -> tuple[Any, ...]:
-    label = v.label(path)
-    if planar:
-        if isinstance(value, list):
-            v.error(path, f"{label}: a planar link takes one scalar inertia about the COM")
-            return (0,)
-        expr = v.expression(value, path, symbols)
-        number = _numeric(expr, defaults)
-        if number is not None and number < 0:
-            v.error(path, f"{label}: must not be negative (got {number:g})")
-        return (value,)
-    if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
-        rows = value
-        if any(len(r) != 3 for r in rows):
-            v.error(path, f"{label}: a 3x3 inertia needs three rows of three entries")
-            return (0,) * 6
-        flat = [rows[0][0], rows[1][1], rows[2][2], rows[0][1], rows[0][2], rows[1][2]]
-        exprs = [v.expression(rows[r][c], path + (r, c), symbols) for r in range(3) for c in range(3)]
-        for (r, c) in ((0, 1), (0, 2), (1, 2)):
-            a, b = exprs[3 * r + c], exprs[3 * c + r]
-            if a is not None and b is not None and sympy.expand(a - b) != 0:
-                v.error(path + (c, r), f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}])")
-        values = [_numeric(e, defaults) for e in (exprs[0], exprs[4], exprs[8], exprs[1], exprs[2], exprs[5])]
-    else:
-        entries = v.vector(value, path, (6,), symbols)
-        if entries is None:
-            return (0,) * 6
-        flat = list(value)
-        values = [_numeric(e, defaults) for e in entries]
-    if all(x is not None for x in values):
-        ixx, iyy, izz, ixy, ixz, iyz = values  # type: ignore[misc]
-        tensor = [[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]
-        import numpy as np
-
-        eig = np.linalg.eigvalsh(np.array(tensor, dtype=float))
-        tol = 1e-12 * max(1.0, float(np.max(np.abs(eig))))
-        if eig[0] < -tol:
-            v.error(path, f"{label}: inertia is not positive semi-definite (smallest "
-                    f"principal moment {eig[0]:g})")
-        elif any(eig[a] + eig[b] < eig[c] - tol for a, b, c in ((0, 1, 2), (0, 2, 1), (1, 2, 0))):
-            v.error(path, f"{label}: principal moments {', '.join(f'{x:g}' for x in eig)} "
-                    "violate the triangle inequality")
-    return tuple(flat)
 
 
 def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,

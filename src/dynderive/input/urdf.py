@@ -15,6 +15,8 @@ Rotations are composed as matrices; a composed ``rpy`` is extracted so that its 
 reproduces the composed one to rounding, also near gimbal lock (``matrix_to_rpy``). Only the
 ``rpy`` numbers written in the file are snapped to exact quarter turns (``snap``), never
 composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``.
+Masses and inertias are judged in ``urdf_bodies`` (with the rounding tolerance of ``inertia``;
+links welded to the world get notes, never errors), which also merges the welded bodies.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy as np
 
 from ..errors import InputError, Problem
 from .loader import SourceDocument
+from .urdf_bodies import Body, check_bodies, finite, merge_bodies
 
 Path_ = tuple[Any, ...]
 
@@ -222,36 +225,9 @@ def _numbers(values: Any, scale: float | None = None) -> list[float | int]:
     return [0 if abs(v) <= 1e-15 * scale else _number(v) for v in values]
 
 
-def _finite(*arrays: Any) -> bool:
-    return all(bool(np.all(np.isfinite(np.asarray(a, dtype=float)))) for a in arrays)
-
-
-@dataclass
-class _Body:
-    mass: float
-    com: np.ndarray        # in the link frame
-    inertia: np.ndarray    # about the COM, link axes
-    element: _Element
-    scale: float = 0.0     # the largest |COM entry| that went into com (for rounding noise)
-
-
 def identifier(name: str) -> str:
     cleaned = re.sub(r"\W", "_", name)
     return cleaned if re.match(r"[A-Za-z_]", cleaned) else f"r_{cleaned}"
-
-
-def _inertia_problem(tensor: np.ndarray) -> str | None:
-    """Why a 3x3 inertia is not physical (same test and words as the YAML validator), or None."""
-    with np.errstate(all="ignore"):
-        eig = [float(x) for x in np.linalg.eigvalsh(tensor)]
-    if not all(math.isfinite(x) for x in eig):
-        return "inertia is too large"
-    tol = 1e-12 * max(1.0, max(abs(x) for x in eig))
-    if eig[0] < -tol:
-        return f"inertia is not positive semi-definite (smallest principal moment {eig[0]:g})"
-    if any(eig[a] + eig[b] < eig[c] - tol for a, b, c in ((0, 1, 2), (0, 2, 1), (1, 2, 0))):
-        return f"principal moments {', '.join(f'{x:g}' for x in eig)} violate the triangle inequality"
-    return None
 
 
 def read_urdf(text: str, file: str) -> SourceDocument:
@@ -268,11 +244,7 @@ def read_urdf(text: str, file: str) -> SourceDocument:
         raise InputError(Problem(file, root.line, root.column, f"expected a <robot> element, got <{root.tag}>"))
     bodies, link_elements = _read_links(root, reader)
     joints = _read_joints(root, reader, doc, link_elements)
-    moving_children = {j["child"] for j in joints if j["type"] != "fixed"}
-    for name, body in bodies.items():
-        if body.mass < 0:  # a moving link needs a positive mass in the end; a welded one may have none
-            rule = "must be positive" if name in moving_children else "must not be negative"
-            reader.error(body.element.find("mass") or body.element, f"link '{name}' mass: {rule} (got {body.mass:g})")
+    check_bodies(reader, doc, bodies, joints)
     if reader.problems:
         raise InputError(reader.problems)
 
@@ -289,14 +261,14 @@ def read_urdf(text: str, file: str) -> SourceDocument:
     base = roots[0]
 
     frames = _fixed_frames(reader, joints, link_elements, by_child, base)
-    merged = _merge_bodies(reader, bodies, link_elements, frames)
+    merged = merge_bodies(reader, bodies, link_elements, frames)
     return _robot_document(root, reader, doc, joints, link_elements, frames, merged)
 
 
-def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, _Body], dict[str, _Element]]:
+def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, Body], dict[str, _Element]]:
     """Every <link>'s element and, where it has an <inertial>, its body (mass, COM, inertia
-    rotated into link axes)."""
-    bodies: dict[str, _Body] = {}
+    rotated into link axes); ``_check_bodies`` judges them once the welds are known."""
+    bodies: dict[str, Body] = {}
     link_elements: dict[str, _Element] = {}
     for link in root.findall("link"):
         name = link.attrib.get("name")
@@ -323,16 +295,10 @@ def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, _Body], dict
                   for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")]
         ixx, ixy, ixz, iyy, iyz, izz = values
         tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        problem = _inertia_problem(tensor)
-        if problem is not None:
-            reader.error(inertia_element, f"link '{name}' inertia: {problem}")
         R = rotation.matrix
         with np.errstate(all="ignore"):
             rotated = R @ tensor @ R.T
-        if problem is None and not _finite(rotated):
-            reader.error(inertia_element, f"link '{name}' inertia: too large (rotating it by the "
-                         "<origin rpy> of <inertial> overflows)")
-        bodies[name] = _Body(mass, np.array(xyz), rotated, inertial, max(map(abs, xyz)))
+        bodies[name] = Body(mass, np.array(xyz), rotated, inertial, max(map(abs, xyz)), tensor, R)
 
     return bodies, link_elements
 
@@ -405,7 +371,7 @@ def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: 
             target, R0, p0 = frames[joint["parent"]]
             with np.errstate(all="ignore"):
                 p = R0.matrix @ joint["xyz"] + p0
-            if not _finite(p):
+            if not finite(p):
                 reader.error(joint["element"], f"joint '{joint['name']}': origin too large (composing it "
                              "with the fixed joints above overflows)")
             frames[joint["child"]] = (target, R0 @ joint["R"], p)
@@ -415,36 +381,9 @@ def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: 
     return frames
 
 
-def _merge_bodies(reader: _Reader, bodies: dict[str, _Body], link_elements: dict[str, _Element],
-                  frames: dict[str, tuple[str, Rotation, np.ndarray]]) -> dict[str, _Body]:
-    """Bodies welded together, combined by the parallel-axis theorem, by moving link."""
-    merged: dict[str, _Body] = {}
-    for name in link_elements:
-        target, rotation, p = frames[name]
-        if target == "world" or name not in bodies:
-            continue
-        body = bodies[name]
-        R = rotation.matrix
-        with np.errstate(all="ignore"):
-            placed = _Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
-                           max(body.scale, float(np.max(np.abs(p)))))
-            combined = placed if target not in merged else _combine(merged[target], placed)
-        if not _finite(combined.mass, combined.com, combined.inertia):
-            what, tag = next((w, t) for w, t, v in (("mass", "mass", combined.mass), ("centre of mass", "origin",
-                              combined.com), ("inertia", "inertia", combined.inertia)) if not _finite(v))
-            reader.error(body.element.find(tag) or body.element, f"link '{name}': merging it into link "
-                         f"'{target}' (fixed joints) makes the {what} overflow")
-            continue
-        merged[target] = combined
-    if reader.problems:
-        raise InputError(reader.problems)
-
-    return merged
-
-
 def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints: list[dict[str, Any]],
                     link_elements: dict[str, _Element], frames: dict[str, tuple[str, Rotation, np.ndarray]],
-                    merged: dict[str, _Body]) -> SourceDocument:
+                    merged: dict[str, Body]) -> SourceDocument:
     """The moving links and joints as robot-file data, with a position for every value."""
     data: dict[str, Any] = {
         "name": identifier(root.attrib.get("name", "robot")),
@@ -487,7 +426,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         rotation = R0 @ joint["R"]
         with np.errstate(all="ignore"):
             xyz = R0.matrix @ joint["xyz"] + p0
-        if not _finite(xyz):
+        if not finite(xyz):
             reader.error(element, f"joint '{joint['name']}': origin too large (composing it with the "
                          "fixed joints above overflows)")
             continue
@@ -572,23 +511,6 @@ def _check_tree(reader: _Reader, joints: list[dict[str, Any]],
             reader.error(joint["element"], f"joint '{joint['name']}': links {' -> '.join(loop)} form a "
                          "cycle not connected to 'world'")
     return by_child
-
-
-def _combine(a: _Body, b: _Body) -> _Body:
-    """Two rigid bodies welded together (all in one frame): mass, COM, inertia about the COM.
-    A massless body without inertia (a frame: a tool flange) leaves ``a`` exactly as it was
-    (``(m c + 0) / m`` need not give back ``c`` in floating point)."""
-    if not b.mass and not np.any(b.inertia):
-        return a
-    mass = a.mass + b.mass
-    com = (a.mass * a.com + b.mass * b.com) / mass if mass > 0 else a.com
-    inertia = np.zeros((3, 3))
-    for body in (a, b):
-        inertia += body.inertia
-        if body.mass:  # a massless body adds no parallel-axis term, however far away it is
-            d = body.com - com
-            inertia += body.mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
-    return _Body(mass, com, inertia, a.element, max(a.scale, b.scale))
 
 
 def to_yaml(data: dict[str, Any], source: str) -> str:

@@ -1,0 +1,141 @@
+"""The rigid bodies of a URDF file: their checks, and welding them into the moving links.
+
+A body is a link's ``<inertial>``: mass, centre of mass and inertia about it in link axes.
+``check_bodies`` judges masses and inertias once the joints are read (a link welded to the
+world never enters the dynamics, so nothing about it is an error); ``merge_bodies`` combines
+the bodies welded by fixed joints into the moving link they ride on (parallel-axis theorem).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import InputError
+from . import inertia
+from .loader import SourceDocument
+
+if TYPE_CHECKING:
+    from .urdf import Rotation, _Element, _Reader
+
+
+def finite(*arrays: Any) -> bool:
+    return all(bool(np.all(np.isfinite(np.asarray(a, dtype=float)))) for a in arrays)
+
+
+@dataclass
+class Body:
+    """A link's <inertial>, and later the merged body of a moving link and what is welded to it."""
+
+    mass: float
+    com: np.ndarray        # in the link frame
+    inertia: np.ndarray    # about the COM, link axes
+    element: _Element
+    scale: float = 0.0     # the largest |COM entry| that went into com (for rounding noise)
+    written: np.ndarray | None = None  # the inertia as written, in the axes of <inertial><origin>
+    axes: np.ndarray | None = None     # those axes in the link frame (written -> inertia)
+
+
+def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
+                  joints: list[dict[str, Any]]) -> None:
+    """Masses not negative (positive for a link that moves) and physical inertias, with the
+    rounding tolerance of ``inertia.judge`` (within it: corrected, with a note). Links welded
+    to the world (fixed joints up to a link without a parent) never enter the dynamics: what
+    is wrong with them is a note, not an error."""
+    moving_children = {j["child"] for j in joints if j["type"] != "fixed"}
+    moved = moved_links(joints)
+    written = {name: body.written for name, body in bodies.items() if body.written is not None}
+    scale = max(map(inertia.size, written.values()), default=0.0)
+    for name, body in bodies.items():
+        welded = name not in moved
+        mass_element = body.element.find("mass") or body.element
+        if body.mass < 0:  # a moving link needs a positive mass in the end; a welded one may have none
+            rule = "must be positive" if name in moving_children else "must not be negative"
+            if welded:
+                _note(reader, doc, mass_element, f"link '{name}' mass: {rule} (got {body.mass:g}); ignored: the "
+                      "link is welded to the world, so its mass never enters the dynamics")
+            else:
+                reader.error(mass_element, f"link '{name}' mass: {rule} (got {body.mass:g})")
+        element = body.element.find("inertia") or body.element
+        verdict = inertia.judge(written[name], scale, welded)
+        if verdict.error is not None:
+            reader.error(element, f"link '{name}' inertia: {verdict.error}")
+        elif not finite(body.inertia) and not welded:
+            reader.error(element, f"link '{name}' inertia: too large (rotating it by the <origin rpy> of "
+                         "<inertial> overflows)")
+        if verdict.note is not None:
+            _note(reader, doc, element, f"link '{name}' inertia: {verdict.note}")
+        if verdict.tensor is not written[name] and body.axes is not None:
+            body.inertia = body.axes @ verdict.tensor @ body.axes.T
+
+
+def moved_links(joints: list[dict[str, Any]]) -> set[str]:
+    """Links below a moving joint; the others are welded to the world (to the root, in a valid
+    tree). Linear time; lenient with a broken tree (reported later)."""
+    parent_joint = {j["child"]: j for j in joints}
+    moved: dict[str, bool] = {}
+    for name in parent_joint:
+        chain: list[str] = []
+        current, answer = name, None
+        while answer is None:
+            if current in moved:
+                answer = moved[current]
+            elif current not in parent_joint or current in chain:  # a root, or a cycle
+                answer = False
+            else:
+                chain.append(current)
+                if parent_joint[current]["type"] != "fixed":
+                    answer = True
+                current = parent_joint[current]["parent"]
+        moved.update(dict.fromkeys(chain, answer))
+    return {name for name, yes in moved.items() if yes}
+
+
+def _note(reader: _Reader, doc: SourceDocument, element: _Element, message: str) -> None:
+    doc.notes.append(f"{reader.file}:{element.line}:{element.column}: note: {message}")
+
+
+def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[str, _Element],
+                  frames: dict[str, tuple[str, Rotation, np.ndarray]]) -> dict[str, Body]:
+    """Bodies welded together, combined by the parallel-axis theorem, by moving link."""
+    merged: dict[str, Body] = {}
+    for name in link_elements:
+        target, rotation, p = frames[name]
+        if target == "world" or name not in bodies:
+            continue
+        body = bodies[name]
+        R = rotation.matrix
+        with np.errstate(all="ignore"):
+            placed = Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
+                           max(body.scale, float(np.max(np.abs(p)))))
+            combined = placed if target not in merged else combine(merged[target], placed)
+        if not finite(combined.mass, combined.com, combined.inertia):
+            what, tag = next((w, t) for w, t, v in (("mass", "mass", combined.mass), ("centre of mass", "origin",
+                              combined.com), ("inertia", "inertia", combined.inertia)) if not finite(v))
+            reader.error(body.element.find(tag) or body.element, f"link '{name}': merging it into link "
+                         f"'{target}' (fixed joints) makes the {what} overflow")
+            continue
+        merged[target] = combined
+    if reader.problems:
+        raise InputError(reader.problems)
+
+    return merged
+
+
+def combine(a: Body, b: Body) -> Body:
+    """Two rigid bodies welded together (all in one frame): mass, COM, inertia about the COM.
+    A massless body without inertia (a frame: a tool flange) leaves ``a`` exactly as it was
+    (``(m c + 0) / m`` need not give back ``c`` in floating point)."""
+    if not b.mass and not np.any(b.inertia):
+        return a
+    mass = a.mass + b.mass
+    com = (a.mass * a.com + b.mass * b.com) / mass if mass > 0 else a.com
+    inertia = np.zeros((3, 3))
+    for body in (a, b):
+        inertia += body.inertia
+        if body.mass:  # a massless body adds no parallel-axis term, however far away it is
+            d = body.com - com
+            inertia += body.mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    return Body(mass, com, inertia, a.element, max(a.scale, b.scale))
