@@ -312,7 +312,7 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
         notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
                      "identically zero and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
     rows = [every[i] for i in nonzero]
-    found = assemblies(numeric, robot) if rows else []
+    found = assemblies(numeric, robot)
     if not found:
         if complete:
             first = robot.loops[0]
