@@ -17,7 +17,7 @@ from typing import Annotated, Any, TypeVar
 import typer
 
 from .._version import __version__
-from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
 
 app = typer.Typer(
     add_completion=False,
@@ -162,14 +162,18 @@ def solve(
     if latex:
         files[out / f"{model.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     skipped: ToolMissingError | None = None
+    not_compiled: LatexError | None = None
     if pdf:
-        from ..render.pdf import compile_pdf
+        from ..render.pdf import compile_pdf, failure_message, failure_outputs
 
         progress("compiling PDF")
         try:
             files[out / f"{model.name}.pdf"] = compile_pdf(tex, model.name)  # type: ignore[arg-type]
         except ToolMissingError as exc:   # the other outputs are still worth writing
             skipped = exc
+        except LatexError as exc:   # so are they, with the .tex and LaTeX's log to look at
+            not_compiled = exc
+            files |= {out / name: data for name, data in failure_outputs(model.name, tex, exc).items()}  # type: ignore[arg-type]
     if code:
         progress("generating code")
         files[out / f"{model.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
@@ -188,6 +192,8 @@ def solve(
             typer.echo(f"warning: check failed: {check.description}", err=True)
     if skipped is not None:
         raise _fail(f"dynderive: {out / (model.name + '.pdf')} skipped: {skipped}", 1)
+    if not_compiled is not None:
+        raise _fail(f"dynderive: {failure_message(out, model.name, not_compiled)}", 1)
 
 
 @app.command()
