@@ -105,6 +105,17 @@ def test_wide_matrix_entries_of_a_subscripted_name(tmp_path):
     assert names[0] == "J^b_{7,1,1}" and names[10] == "J^b_{7,1,11}" and names[-1] == "J^b_{7,6,11}"
 
 
+def test_matrix_wider_than_amsmath_allows_is_set_entry_by_entry(tmp_path):
+    """amsmath's matrix takes MaxMatrixCols (20 in the preamble) columns: a row of 21 short
+    entries fits the line by its width but must not be typeset whole ("Extra alignment tab")."""
+    derivation = _derive(tmp_path, "planar tree", 2, 0)
+    q1 = derivation.symbols.q[0]
+    fmt = Formatter.of(derivation)
+    assert not fmt.matrix("A", sympy.Matrix(1, 20, lambda i, j: q1))["wide"]
+    row = fmt.matrix("A", sympy.Matrix(1, 21, lambda i, j: q1))
+    assert row["wide"] and not row["tight"] and len(row["entries"]) == 21 and row["entries"][-1]["name"] == "A_{1,21}"
+
+
 # ---- the drawing: no curve LaTeX cannot draw ----------------------------------------------
 
 def _curves(figure: dict) -> list[tuple[str, ...]]:

@@ -28,6 +28,9 @@ MATRIX_NODES = 6000
 LINE_UNITS = 80
 #: A matrix up to this factor wider than the line is set in small type with narrow columns.
 TIGHT = 1.15
+#: Most columns a matrix typeset whole may have: the preamble's ``MaxMatrixCols`` (amsmath
+#: stops at more, "Extra alignment tab"); a wider one is typeset entry by entry.
+MATRIX_COLUMNS = 20
 #: Estimated width (math glyphs) of one line of a displayed expression: the line less room for
 #: the name in front, the continuation lines' indent and the estimate's error (about a fifth).
 DISPLAY_UNITS = 64
@@ -129,7 +132,8 @@ class Formatter:
                     entries.append({"name": subscript(name, entry_index(i, j, rows, cols)),
                                     "latex": self.display(matrix[i, j], None)})
         width = matrix_width(matrix)
-        return {"latex": whole, "wide": width > LINE_UNITS * TIGHT, "tight": LINE_UNITS < width <= LINE_UNITS * TIGHT,
+        wide = width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
+        return {"latex": whole, "wide": wide, "tight": not wide and width > LINE_UNITS,
                 "entries": entries,
                 "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
 
@@ -325,6 +329,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
             "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
             # what shares a display line when it fits, else one display each, entry by entry if needed
             "pose_together": _fits(t.com_position, t.body_velocity, extra=16),
+            "com_matrix": fmt.matrix(rf"\left(p_{{sL_{{{t.index}}}}}\right)", t.com_position),
             "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{{{t.index}}}}}\right)", t.body_velocity),
             "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{{{t.index}}}}}\right)", t.orientation)
             if isinstance(t.orientation, sympy.MatrixBase) else None,
@@ -482,7 +487,7 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
         "T_m": fmt.display(q["T_m"], None), "V_m": fmt.display(q["V_m"], None), "L_m": fmt.display(q["L_m"], None),
         "Y_m": fmt.matrix("\\Upsilon", q["Y_m"]),
         "lagrange": lagrange,
-        "jacobians": [fmt(j) for j in steps["jacobians"]],
+        "jacobians": [fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", j) for k, j in enumerate(steps["jacobians"], 1)],
         "M_m": fmt.matrix("M", q["M_m"]), "C_m": fmt.matrix("C", q["C_m"]),
         "N_m": fmt.matrix("N", q["N_m"]), "EOM_m2": fmt.matrix("\\mathrm{EOM}", q["EOM_m2"]),
         "EOM_m1": fmt.matrix("\\mathrm{EOM}", q["EOM_m1"]),
