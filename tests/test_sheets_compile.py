@@ -2,11 +2,13 @@
 
 The random robots of the test suite, planar and 3-D, 2 to 12 links, with full-precision
 numbers, are derived, rendered and compiled by the product's own LaTeX path; a LaTeX error
-fails the test with TeX's first error line. Two of them failed before: the generic 7-DOF arm
-("Double subscript": an entry of ``J^b_7`` named ``J^b_7_{11}``) and a planar tree whose
-drawing held a zero-length ``\\qbezier`` ("Arithmetic overflow"). The subscript composition
-and the drawing's curves are also checked without TeX. When LaTeX fails anyway, ``solve`` and
-``build`` still write the other outputs, keep the .tex and LaTeX's log, and say where (exit 1).
+fails the test with TeX's first error line. Three of them failed before: the generic 7-DOF arm
+("Double subscript": an entry of ``J^b_7`` named ``J^b_7_{11}``), a planar tree whose
+drawing held a zero-length ``\\qbezier`` ("Arithmetic overflow") and a 7-link chain with all
+sections (a 21-column matrix typeset whole: "Extra alignment tab"). The subscript
+composition, the matrices' columns and the drawing's curves are also checked without TeX.
+When LaTeX fails anyway, ``solve`` and ``build`` still write the other outputs, keep the .tex
+and LaTeX's log, and say where (exit 1).
 
 The compile tests need latexmk and pdflatex: skipped locally without them, required in CI
 (CI=true).
@@ -162,25 +164,30 @@ def test_robot_that_cannot_be_evaluated_is_not_drawn(tmp_path):
 
 # ---- the random robots compile --------------------------------------------------------------
 
-#: (kind, moving joints, seed): planar 2 to 12 links, 3-D 2 to 7 joints; about 2 minutes in all.
+#: (kind, moving joints, seed, sections): planar 2 to 12 links, 3-D 2 to 7 joints; about 2
+#: minutes in all. The sections are the default ones (by size) unless given.
 ROBOTS = [
-    ("planar tree", 2, 0),
-    ("planar tree", 3, 3),     # the drawing's zero-length last dash
-    ("planar tree", 5, 1),
-    ("planar chain", 12, 0),   # intermediate-variable form, 12 x 12 matrices entry by entry
-    ("3-D tree", 2, 5),
-    ("3-D tree", 4, 0),
-    ("3-D tree", 7, 1),
-    ("3-D chain", 7, 0),       # the generic 7-DOF arm: "Double subscript" in J^b_7's entries
+    ("planar tree", 2, 0, None),
+    ("planar tree", 3, 3, None),        # the drawing's zero-length last dash
+    ("planar tree", 5, 1, None),
+    ("planar chain", 7, 0, "all"),      # maximal body Jacobians of 21 columns: "Extra alignment tab"
+    ("planar chain", 12, 0, None),      # intermediate-variable form, 12 x 12 matrices entry by entry
+    ("3-D tree", 2, 5, None),
+    ("3-D tree", 4, 0, None),
+    ("3-D tree", 7, 1, None),
+    ("3-D chain", 7, 0, None),          # the generic 7-DOF arm: "Double subscript" in J^b_7's entries
 ]
 
 
 @pytest.mark.pdf
-@pytest.mark.parametrize(("kind", "n", "seed"), ROBOTS, ids=[f"{k.replace(' ', '-')}-{n}-{s}" for k, n, s in ROBOTS])
-def test_random_robot_sheet_compiles(tmp_path, tex, kind, n, seed):
+@pytest.mark.parametrize(("kind", "n", "seed", "sections"), ROBOTS,
+                         ids=[f"{k.replace(' ', '-')}-{n}-{s}" + (f"-{c}" if c else "") for k, n, s, c in ROBOTS])
+def test_random_robot_sheet_compiles(tmp_path, tex, kind, n, seed, sections):
+    from dynderive.render.latex import parse_sections
     from dynderive.render.pdf import compile_pdf_report
 
-    sheet = dynderive.render_latex(_derive(tmp_path, kind, n, seed))
+    chosen = parse_sections(sections) if sections else None
+    sheet = dynderive.render_latex(_derive(tmp_path, kind, n, seed), sections=chosen)
     try:
         pdf, pages, _ = compile_pdf_report(sheet, "sheet")
     except LatexError as exc:
