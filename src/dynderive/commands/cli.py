@@ -109,7 +109,7 @@ class _Progress:
 def solve(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML) or the name of a bundled robot, e.g. rp_arm.")],
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
-    pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk).")] = False,
+    pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
