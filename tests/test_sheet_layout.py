@@ -304,7 +304,7 @@ def test_closed_loops_are_drawn_assembled_and_3d_robots_are_not_drawn():
 REFERENCE_ORDER = [
     r"T_g = \frac", r"V_g = g m", r"L_g = T_g - V_g = ", r"\frac{\partial L_g}{\partial \dot{q}_{1}} = ",
     r"\frac{\partial L_g}{\partial q_{2}} = ", r"\Upsilon_g = \left[", r"\mathrm{EOM}_{g1} = \left[",
-    r"The manipulator form $M_g", r"\mathcal{M}_1 = \mathcal{M}_2 = ", r"J^b_{sL_1} = ", r"J^b_{sL_2} = ",
+    r"The manipulator form $M_g", r"\mathcal{M}_{1} = \mathcal{M}_{2} = ", r"J^b_{sL_{1}} = ", r"J^b_{sL_{2}} = ",
     r"M_g = \left[", r"C_g = \left[", r"N_g = \left[", r"\mathrm{EOM}_{g2} = \left[",
     r"q_m = \left[", r"a_m(q_m) = \left[", r"A_m = \frac{\partial a_m}{\partial q_m} = \left[",
     r"L_m = T_m - V_m = ", r"\Upsilon_m = \left[", r"\mathrm{EOM}_{m1} = \left[",

@@ -46,6 +46,18 @@ class ExternalToolError(DynderiveError):
     """An external program ran and failed, e.g. LaTeX could not compile a sheet (exit 1)."""
 
 
+class LatexError(ExternalToolError):
+    """LaTeX ran and could not compile a sheet: ``detail`` is the log's first error line (or
+    why it stopped), ``log`` the log's text, for the caller to keep beside the ``.tex``."""
+
+    def __init__(self, detail: str, log: str):
+        self.detail, self.log = detail, log
+        super().__init__(f"LaTeX failed to compile the sheet: {detail}")
+
+    def __reduce__(self):   # pickled between build's worker processes
+        return type(self), (self.detail, self.log)
+
+
 class OutputError(DynderiveError):
     """An output could not be written (a file where a folder should be, no permission; exit 1)."""
 

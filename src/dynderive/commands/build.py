@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import DynderiveError, InputError, OutputError, Problem
+from ..errors import DynderiveError, InputError, LatexError, OutputError, Problem
 
 try:
     import fcntl
@@ -144,9 +144,12 @@ def engine_fingerprint() -> str:
 
 
 def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None,
-                   sheet: dict[str, float] | None = None) -> dict[str, bytes]:
+                   sheet: dict[str, float] | None = None) -> tuple[dict[str, bytes], LatexError | None]:
     """Every requested output of one robot file, in memory (runs in a worker process); with a
-    PDF, ``sheet`` receives its pages, LaTeX's seconds and the widest overfull line (pt)."""
+    PDF, ``sheet`` receives its pages, LaTeX's seconds and the widest overfull line (pt).
+
+    When LaTeX cannot compile the sheet, the other outputs, the ``.tex`` and LaTeX's log
+    (``<name>.log``) are returned instead of the PDF, with the error."""
     from .. import derive, load_robot
     from ..render.code import render_code
     from ..render.json import render_json
@@ -155,35 +158,51 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     robot = load_robot(source)
     derivation = derive(robot)
     files: dict[str, bytes] = {}
+    failed: LatexError | None = None
     tex = render_latex(derivation, template_dir) if ("latex" in kinds or "pdf" in kinds) else None
     if "latex" in kinds:
         files[f"{robot.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     if "pdf" in kinds:
-        from ..render.pdf import compile_pdf_report
+        from ..render.pdf import compile_pdf_report, failure_outputs
 
         start = time.monotonic()
-        files[f"{robot.name}.pdf"], pages, overfull = compile_pdf_report(tex, robot.name)  # type: ignore[arg-type]
-        if sheet is not None:
-            sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
+        try:
+            files[f"{robot.name}.pdf"], pages, overfull = compile_pdf_report(tex, robot.name)  # type: ignore[arg-type]
+        except LatexError as exc:
+            failed = exc
+            files |= failure_outputs(robot.name, tex, exc)  # type: ignore[arg-type]
+        else:
+            if sheet is not None:
+                sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
     if "code" in kinds:
         files[f"{robot.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
     if "json" in kinds:
         files[f"{robot.name}.json"] = render_json(derivation).encode()
-    return files
+    return files, failed
 
 
+#: (outputs, or None when nothing could be rendered; the error, if any; seconds; the sheet's numbers)
 _Result = tuple[dict[str, bytes] | None, str, float, dict[str, float]]
 
 
-def _work(source: str, kinds: tuple[str, ...], template_dir: str | None) -> _Result:
+def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: str | None) -> _Result:
+    """``render_outputs`` of one robot, timed, its errors as text; ``out``: where a failed
+    sheet's .tex and log will be (None: they will not be written)."""
     start = time.monotonic()
     sheet: dict[str, float] = {}
     try:
-        return render_outputs(source, kinds, template_dir, sheet), "", time.monotonic() - start, sheet
+        files, failed = render_outputs(source, kinds, template_dir, sheet)
     except DynderiveError as exc:
         return None, str(exc), time.monotonic() - start, sheet
     except Exception as exc:  # an internal error in one robot must not stop the others
         return None, f"internal error: {type(exc).__name__}: {exc}", time.monotonic() - start, sheet
+    if failed is None:
+        return files, "", time.monotonic() - start, sheet
+    from ..render.pdf import failure_message
+
+    name = next(f for f in files if f.endswith(".log"))[: -len(".log")]
+    message = str(failed) if out is None else failure_message(Path(out), name, failed)
+    return files, message, time.monotonic() - start, sheet
 
 
 def _sha(data: bytes) -> str:
@@ -257,17 +276,22 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
     workers = max(1, min(jobs, len(pending)))
     results: list[tuple[Path, str, _Result]] = []
     if pending:
+        templates, folder = str(template_dir) if template_dir else None, None if check else str(out)
         if workers == 1:
-            results = [(s, k, _work(str(s), kinds, str(template_dir) if template_dir else None)) for s, k in pending]
+            results = [(s, k, _work(str(s), kinds, templates, folder)) for s, k in pending]
         else:
             with ProcessPoolExecutor(max_workers=workers) as pool:
-                futures = [(s, k, pool.submit(_work, str(s), kinds, str(template_dir) if template_dir else None))
-                           for s, k in pending]
+                futures = [(s, k, pool.submit(_work, str(s), kinds, templates, folder)) for s, k in pending]
                 results = [(s, k, f.result()) for s, k, f in futures]
     built: dict[str, dict] = {}
     for source, key, (files, error, seconds, sheet) in results:
         name = str(source)
         if files is None:
+            outcomes[name] = Outcome(name, "failed", seconds, error)
+            continue
+        if error:   # LaTeX failed: the other outputs, the .tex and the log are written, not recorded
+            if not check:
+                write_all({out / file: data for file, data in files.items()})
             outcomes[name] = Outcome(name, "failed", seconds, error)
             continue
         hashes = {file: _sha(data) for file, data in files.items()}

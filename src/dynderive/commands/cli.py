@@ -17,7 +17,7 @@ from typing import Annotated, Any, TypeVar
 import typer
 
 from .._version import __version__
-from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
 
 app = typer.Typer(
     add_completion=False,
@@ -109,7 +109,7 @@ class _Progress:
 def solve(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML) or the name of a bundled robot, e.g. rp_arm.")],
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
-    pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk).")] = False,
+    pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
@@ -162,14 +162,18 @@ def solve(
     if latex:
         files[out / f"{model.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     skipped: ToolMissingError | None = None
+    not_compiled: LatexError | None = None
     if pdf:
-        from ..render.pdf import compile_pdf
+        from ..render.pdf import compile_pdf, failure_message, failure_outputs
 
         progress("compiling PDF")
         try:
             files[out / f"{model.name}.pdf"] = compile_pdf(tex, model.name)  # type: ignore[arg-type]
         except ToolMissingError as exc:   # the other outputs are still worth writing
             skipped = exc
+        except LatexError as exc:   # so are they, with the .tex and LaTeX's log to look at
+            not_compiled = exc
+            files |= {out / name: data for name, data in failure_outputs(model.name, tex, exc).items()}  # type: ignore[arg-type]
     if code:
         progress("generating code")
         files[out / f"{model.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
@@ -188,6 +192,8 @@ def solve(
             typer.echo(f"warning: check failed: {check.description}", err=True)
     if skipped is not None:
         raise _fail(f"dynderive: {out / (model.name + '.pdf')} skipped: {skipped}", 1)
+    if not_compiled is not None:
+        raise _fail(f"dynderive: {failure_message(out, model.name, not_compiled)}", 1)
 
 
 @app.command()

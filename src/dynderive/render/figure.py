@@ -47,6 +47,9 @@ ARC_MM, AXIS_MM, OFFSET_MM, MARGIN_MM = 9.0, 10.0, 3.5, 3.0
 FRAME_MM = 6.0
 #: Dashes of a reference line: on, off (mm).
 DASH_MM = (1.2, 0.8)
+#: Largest coordinate (mm) a drawing may reach: the robot is scaled to WIDTH_MM x HEIGHT_MM,
+#: so only a robot that cannot be evaluated sensibly gets near it (it is then not drawn).
+LARGEST_MM = 1000.0
 
 Point = tuple[float, float]
 Segment = tuple[Point, Point]
@@ -67,7 +70,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     at = {s: sympy.Float(v) for s, v in (values | dict(zip(table.q, q))).items()}
 
     def number(expr: Any) -> float:
-        return float(sympy.sympify(expr).xreplace(at).evalf())
+        return _float(expr, at)
 
     def written(entry: Any) -> float:
         return number(table.expr(entry))
@@ -75,6 +78,8 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     joint_points = {link.name: (number(link.joint_origin[0]), number(link.joint_origin[1])) for link in links}
     coms = {link.name: (number(link.com_world[0]), number(link.com_world[1])) for link in links}
     angles = {link.name: number(link.angle) for link in links}
+    if not all(map(math.isfinite, [*q, *angles.values(), *(v for p in [*joint_points.values(), *coms.values()] for v in p)])):
+        return None
     segments: list[Segment] = []
     children: dict[str, list[str]] = {}
     for joint in robot.joints:
@@ -254,6 +259,8 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
 
     # shift everything into the picture: its lower-left corner at (0, 0)
     low_x, low_y, high_x, high_y = sheet.extent()
+    if not all(math.isfinite(v) and abs(v) < LARGEST_MM for v in (low_x, low_y, high_x, high_y)):
+        return None   # a robot that cannot be drawn at this configuration (no picture rather than a broken one)
     dx, dy = MARGIN_MM - low_x, MARGIN_MM - low_y
 
     def text(p: Point) -> tuple[str, str]:
@@ -262,28 +269,33 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     def bezier(a: Point, b: Point) -> tuple[str, ...]:
         return (*text(a), *text(((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)), *text(b))
 
+    def drawable(curves: Iterable[tuple[str, ...]]) -> list[tuple[str, ...]]:
+        """The curves that are not a point at the picture's resolution (0.1 mm): LaTeX's
+        ``\\qbezier`` divides by the curve's extent ("Arithmetic overflow" at zero)."""
+        return [c for c in curves if not c[0:2] == c[2:4] == c[4:6]]
+
     coordinates = []
     for item in drawn:
         out: dict[str, Any] = {"kind": item["kind"], "label": item["label"], "head": (*text(item["head"][0]), *item["head"][1])}
         if item["kind"] == "revolute":
             out.update(centre=text(item["centre"]), radius=f"{item['radius']:.1f}",
                        start=f"{math.degrees(item['start']):.1f}", end=f"{math.degrees(item['end']):.1f}",
-                       curves=[(*text(a), *text(c), *text(b)) for a, c, b in item["pieces"]],
-                       lines=[bezier(a, b) for a, b in item["reference"]])
+                       curves=drawable((*text(a), *text(c), *text(b)) for a, c, b in item["pieces"]),
+                       lines=drawable(bezier(a, b) for a, b in item["reference"]))
         else:
             out.update(tail=text(item["tail"]), tip=text(item["tip"]), axis=f"{math.degrees(item['axis']):.1f}",
-                       curves=[], lines=[bezier(*item["arrow"]), *(bezier(a, b) for a, b in item["ticks"])])
+                       curves=[], lines=drawable([bezier(*item["arrow"]), *(bezier(a, b) for a, b in item["ticks"])]))
         coordinates.append(out)
     for joint in joints:
         joint["x"], joint["y"] = text((float(joint["x"]), float(joint["y"])))
     return {
         "width": f"{high_x - low_x + 2 * MARGIN_MM:.1f}", "height": f"{high_y - low_y + 2 * MARGIN_MM:.1f}",
-        "segments": [bezier(a, b) for a, b in links_mm],
+        "segments": drawable(bezier(a, b) for a, b in links_mm),
         "joints": joints, "coms": [text(mm(c)) for c in coms.values()], "bases": [text(mm(base)) for base in world],
-        "hatches": [bezier(a, b) for a, b in hatches],
+        "hatches": drawable(bezier(a, b) for a, b in hatches),
         "loops": [text(mm(p)) for p in loop_points],
         "frame": {"origin": text(origin), "x": f"{lengths[0]:.1f}", "y": f"{lengths[1]:.1f}"},
-        "frames": [{"name": item["name"], "lines": [bezier(item["origin"], tip) for tip in item["tips"]],
+        "frames": [{"name": item["name"], "lines": drawable(bezier(item["origin"], tip) for tip in item["tips"]),
                     "heads": [(*text(tip), *_head(tip, item["angle"] + k * math.pi / 2)[1])
                               for k, tip in enumerate(item["tips"])]} for item in frames_drawn],
         "coordinates": coordinates,
@@ -406,7 +418,7 @@ def _arc(centre: Point, radius: float, start: float, end: float) -> list[tuple[P
 def _dashes(start: Point, angle: float, length: float) -> list[Segment]:
     on, off = DASH_MM
     out, s = [], 0.0
-    while s < length:
+    while s < length - 0.25 * on:   # no stub of a dash at the end
         out.append((_polar(start, s, angle), _polar(start, min(s + on, length), angle)))
         s += on + off
     return out
@@ -449,8 +461,8 @@ def _configuration(robot: Any, table: Any, links: list[Any], values: dict[sympy.
     revolute joint and a quarter of the robot's size (at q = 0) per prismatic one; for closed
     loops that for the independent coordinates, with the others assembled."""
     at_zero = {s: sympy.Float(v) for s, v in (values | {c: 0.0 for c in table.q}).items()}
-    reach = max([math.hypot(*(float(sympy.sympify(e).xreplace(at_zero).evalf()) for e in link.com_world[:2]))
-                 for link in links] + [1e-3])
+    reach = max([r for r in (math.hypot(*(_float(e, at_zero) for e in link.com_world[:2])) for link in links)
+                 if math.isfinite(r)] + [1e-3])
     kinds = {j.name: j.type for j in robot.joints}
     reference = [REFERENCE_ANGLE if kinds[name] == "revolute" else REFERENCE_TRAVEL * reach for name in robot.coordinates]
     if loops is None or not loops.assembled:
@@ -478,6 +490,14 @@ def _assemble(loops: Any, table: Any, values: dict[sympy.Symbol, float], start: 
         J = np.asarray(jacobian(q), dtype=float).reshape(len(r), -1)
         q[list(loops.dependent)] -= np.linalg.lstsq(J, r, rcond=None)[0]
     return None
+
+
+def _float(expr: Any, at: dict[sympy.Symbol, sympy.Float]) -> float:
+    """``expr`` at ``at``; NaN where it is not a finite real number (nothing to draw there)."""
+    try:
+        return float(sympy.sympify(expr).xreplace(at).evalf())
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def _value_text(value: float, kind: str) -> str:

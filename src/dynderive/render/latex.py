@@ -28,6 +28,9 @@ MATRIX_NODES = 6000
 LINE_UNITS = 80
 #: A matrix up to this factor wider than the line is set in small type with narrow columns.
 TIGHT = 1.15
+#: Most columns a matrix typeset whole may have: the preamble's ``MaxMatrixCols`` (amsmath
+#: stops at more, "Extra alignment tab"); a wider one is typeset entry by entry.
+MATRIX_COLUMNS = 20
 #: Estimated width (math glyphs) of one line of a displayed expression: the line less room for
 #: the name in front, the continuation lines' indent and the estimate's error (about a fifth).
 DISPLAY_UNITS = 64
@@ -126,12 +129,76 @@ class Formatter:
         for i in range(rows):
             for j in range(cols):
                 if matrix[i, j] != 0:
-                    index = f"{i + 1}" if cols == 1 else f"{i + 1}{j + 1}"
-                    entries.append({"name": f"{name}_{{{index}}}", "latex": self.display(matrix[i, j], None)})
+                    entries.append({"name": subscript(name, entry_index(i, j, rows, cols)),
+                                    "latex": self.display(matrix[i, j], None)})
         width = matrix_width(matrix)
-        return {"latex": whole, "wide": width > LINE_UNITS * TIGHT, "tight": LINE_UNITS < width <= LINE_UNITS * TIGHT,
+        wide = width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
+        return {"latex": whole, "wide": wide, "tight": not wide and width > LINE_UNITS,
                 "entries": entries,
                 "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+
+
+def entry_index(i: int, j: int, rows: int, cols: int) -> str:
+    """The subscript of entry (i, j), 0-based, of a ``rows`` x ``cols`` matrix: ``i+1`` for a
+    column, ``i+1`` and ``j+1`` side by side (``12``), or apart (``1,12``) when either can
+    have two digits and ``112`` would be ambiguous."""
+    if cols == 1:
+        return f"{i + 1}"
+    return f"{i + 1},{j + 1}" if max(rows, cols) > 9 else f"{i + 1}{j + 1}"
+
+
+def _tokens(tex: str) -> list[str]:
+    """Top-level tokens of LaTeX math: a control word or symbol, a braced group, a character."""
+    tokens, k = [], 0
+    while k < len(tex):
+        if tex[k] == "\\":
+            end = k + 2 if k + 1 < len(tex) and not tex[k + 1].isalpha() else k + 1
+            while end < len(tex) and tex[end].isalpha() and tex[k + 1].isalpha():
+                end += 1
+        elif tex[k] == "{":
+            depth, end = 0, k
+            while end < len(tex):
+                depth += {"{": 1, "}": -1}.get(tex[end], 0)
+                end += 2 if tex[end] == "\\" else 1
+                if depth == 0:
+                    break
+        else:
+            end = k + 1
+        tokens.append(tex[k:end])
+        k = end
+    return tokens
+
+
+def subscript(name: str, index: str) -> str:
+    """``name`` with the subscript ``index``: ``M`` -> ``M_{11}``; a name whose last atom
+    already has a subscript gets ``index`` added to it, ``J^b_7`` -> ``J^b_{7,11}`` (TeX
+    refuses a second one: "Double subscript"); ``\\left(R\\right)`` -> ``\\left(R\\right)_{11}``."""
+    tokens = _tokens(name)
+    target = None   # position of the last atom's subscript argument
+    k = 0
+    while k < len(tokens):
+        token = tokens[k]
+        if token in ("_", "^") and k + 1 < len(tokens):
+            if token == "_":
+                target = k + 1
+            k += 2
+            continue
+        if token == "\\left":   # \left ... \right<delimiter> is one atom, a fresh nucleus
+            depth = 0
+            while k < len(tokens):
+                depth += {"\\left": 1, "\\right": -1}.get(tokens[k], 0)
+                k += 1
+                if depth == 0:
+                    break
+            k += 1   # the closing delimiter
+            target = None
+            continue
+        target = None
+        k += 1
+    if target is None:
+        return f"{name}_{{{index}}}"
+    inner = tokens[target][1:-1] if tokens[target].startswith("{") else tokens[target]
+    return "".join(tokens[:target]) + f"{{{inner},{index}}}" + "".join(tokens[target + 1:])
 
 
 class Display(str):
@@ -262,10 +329,11 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
             "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
             # what shares a display line when it fits, else one display each, entry by entry if needed
             "pose_together": _fits(t.com_position, t.body_velocity, extra=16),
-            "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{t.index}}}\right)", t.body_velocity),
-            "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{t.index}}}\right)", t.orientation)
+            "com_matrix": fmt.matrix(rf"\left(p_{{sL_{{{t.index}}}}}\right)", t.com_position),
+            "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{{{t.index}}}}}\right)", t.body_velocity),
+            "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{{{t.index}}}}}\right)", t.orientation)
             if isinstance(t.orientation, sympy.MatrixBase) else None,
-            "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{t.index}}}\right)", t.body_jacobian),
+            "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{t.index}}}}}\right)", t.body_jacobian),
             "kinetic": fmt.display(t.kinetic), "potential": fmt.display(t.potential),
         })
     parameters = [{
@@ -282,7 +350,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     intermediates = [{"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates]
     context = {
         "intermediates": intermediates,
-        "jacobians": [{"index": k, "matrix": fmt.matrix(f"J^b_{k}", q[f"J_b{k}"])}
+        "jacobians": [{"index": k, "matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", q[f"J_b{k}"])}
                       for k in range(1, len(robot.links) + 1)] if intermediates else [],
         "generator": f"dynderive {_version()}",
         "source": escape_tex(Path(robot.source).name),
@@ -419,7 +487,7 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
         "T_m": fmt.display(q["T_m"], None), "V_m": fmt.display(q["V_m"], None), "L_m": fmt.display(q["L_m"], None),
         "Y_m": fmt.matrix("\\Upsilon", q["Y_m"]),
         "lagrange": lagrange,
-        "jacobians": [fmt(j) for j in steps["jacobians"]],
+        "jacobians": [fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", j) for k, j in enumerate(steps["jacobians"], 1)],
         "M_m": fmt.matrix("M", q["M_m"]), "C_m": fmt.matrix("C", q["C_m"]),
         "N_m": fmt.matrix("N", q["N_m"]), "EOM_m2": fmt.matrix("\\mathrm{EOM}", q["EOM_m2"]),
         "EOM_m1": fmt.matrix("\\mathrm{EOM}", q["EOM_m1"]),

@@ -9,7 +9,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from ..errors import ExternalToolError, ToolMissingError
+from ..errors import LatexError, ToolMissingError
 
 #: Fixed date for reproducible PDFs (2000-01-01T00:00:00Z).
 SOURCE_DATE_EPOCH = "946684800"
@@ -39,19 +39,27 @@ def compile_pdf_report(tex: str, jobname: str = "sheet", timeout: float = 300) -
         source.write_text(tex, encoding="utf-8")
         command = ["latexmk", "-pdf", "-interaction=nonstopmode", "-halt-on-error",
                    "-no-shell-escape", "-quiet", f"-jobname={jobname}", source.name]
+        log_file = Path(work) / f"{jobname}.log"
         try:
             result = subprocess.run(command, cwd=work, env=env, capture_output=True, text=True,
                                     timeout=timeout, stdin=subprocess.DEVNULL)
-        except subprocess.TimeoutExpired:
-            raise ExternalToolError(f"LaTeX did not finish within {timeout:.0f} s") from None
+        except subprocess.TimeoutExpired as exc:
+            raise LatexError(f"LaTeX did not finish within {timeout:.0f} s",
+                             _read(log_file) or _text(exc.stdout) + _text(exc.stderr)) from None
         pdf = Path(work) / f"{jobname}.pdf"
+        text = _read(log_file)
         if result.returncode != 0 or not pdf.is_file():
-            log = Path(work) / f"{jobname}.log"
-            detail = _first_error(log.read_text(errors="replace") if log.is_file() else result.stdout)
-            raise ExternalToolError(f"LaTeX failed to compile the sheet: {detail}")
-        log_file = Path(work) / f"{jobname}.log"
-        text = log_file.read_text(errors="replace") if log_file.is_file() else ""
+            log = text or result.stdout + result.stderr
+            raise LatexError(_first_error(log), log)
         return pdf.read_bytes(), *read_log(text, jobname)
+
+
+def _read(path: Path) -> str:
+    return path.read_text(errors="replace") if path.is_file() else ""
+
+
+def _text(output: str | bytes | None) -> str:
+    return output.decode(errors="replace") if isinstance(output, bytes) else output or ""
 
 
 def read_log(log: str, jobname: str) -> tuple[int, list[float]]:
@@ -62,7 +70,23 @@ def read_log(log: str, jobname: str) -> tuple[int, list[float]]:
 
 
 def _first_error(log: str) -> str:
-    for line in log.splitlines():
+    """The log's first error line (``! Double subscript.``) and where TeX was in the .tex
+    (the ``l.123`` line that follows it): ``Double subscript. (line 123)``."""
+    lines = log.splitlines()
+    for k, line in enumerate(lines):
         if line.startswith("!"):
-            return line[1:].strip()
-    return "see the LaTeX log (run pdflatex on the .tex file)"
+            where = next((m.group(1) for m in map(re.compile(r"l\.(\d+)\b").match, lines[k + 1:k + 30]) if m), None)
+            return line[1:].strip() + (f" (line {where})" if where else "")
+    return "no error line in the log"
+
+
+def failure_outputs(name: str, tex: str, error: LatexError) -> dict[str, bytes]:
+    """What a sheet that LaTeX could not compile leaves beside the other outputs, by file name:
+    its source and LaTeX's log."""
+    return {f"{name}.tex": tex.encode(), f"{name}.log": error.log.encode()}
+
+
+def failure_message(folder: Path, name: str, error: LatexError) -> str:
+    """One line: which sheet failed, TeX's first error, and where its log is."""
+    return f"LaTeX failed to compile {folder / (name + '.tex')}: {error.detail}; the log is {folder / (name + '.log')}"
+
