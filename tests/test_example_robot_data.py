@@ -55,7 +55,8 @@ ROOT, URDFS = _package_urdfs()
 #: Files Pinocchio loads and dynderive refuses, with (a fragment of) one of the errors.
 REFUSED = {
     # a principal moment negative by far more than rounding (a hip's inertia, moving): not
-    # positive semi-definite, so M(q) could be indefinite; Pinocchio does not check
+    # positive semi-definite, so M(q) could be indefinite; Pinocchio does not check. Its two
+    # gripper joints move links without <inertial> too: Pinocchio's M(q) is singular there
     "romeo_description/urdf/romeo_laas_small.urdf":
         "link 'LHipPitch_link' inertia: inertia is not positive semi-definite (smallest principal moment "
         "-0.00272042; rounding tolerance 9.62829e-07)",
