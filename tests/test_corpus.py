@@ -4,7 +4,7 @@ Each corpus file holds one bad input and starts with the exact stderr it must pr
 line per problem, with the file's path written as ``FILE``::
 
     # expect: FILE:14:11: links[0].mass: must be positive (got -1)        (YAML)
-    <!-- expect: FILE:31:5: joint 'elbow': <mimic> joints are not supported -->   (URDF)
+    <!-- expect: FILE:18:3: joint 'shoulder': floating joints are not supported (...) -->   (URDF)
 
 For every case: exit code 2, stderr equal to those lines, no traceback, no output directory.
 Files that try to run code (``__import__('os').system('touch MARKER')``, ``open('MARKER')``,

@@ -255,3 +255,32 @@ def test_yaml_and_urdf_read_the_same_corrected_inertia(tmp_path):
     np.testing.assert_allclose(np.array(from_urdf.links[0].inertia, dtype=float),
                                np.array(from_yaml.links[0].inertia, dtype=float), rtol=1e-15, atol=1e-19)
     assert len(from_urdf.notes) == len(from_yaml.notes) == 1
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_urdf_triangle_violations_beyond_the_tolerance_are_kept_negative_moments_are_not(seed):
+    """``impossible=True`` (the URDF reader): a random rotated inertia whose largest moment
+    exceeds the sum of the others by far more than the tolerance is kept as written (the same
+    tensor, a note, flagged); with a moment also negative within the tolerance, only that
+    moment is raised to 0; negative beyond the tolerance, still refused; YAML (the default)
+    refuses them all."""
+    rng = np.random.default_rng(100 + seed)
+    R = _rotation(rng)
+    a, b = rng.uniform(0.001, 0.05, 2)
+    excess = rng.uniform(0.01, 0.8) * (a + b)
+    tensor = R @ np.diag([a, b, a + b + excess]) @ R.T
+    kept = inertia.judge(tensor, 0.0, welded=False, impossible=True)
+    assert kept.error is None and kept.impossible and kept.tensor is tensor
+    assert "physically impossible, but kept as written (as Pinocchio does)" in kept.note
+    assert inertia.judge(tensor, 0.0, welded=False).error is not None
+    tol = inertia.tolerance(R @ np.diag([0.0, b, a + b + excess]) @ R.T, 0.0)
+    push = rng.uniform(0.05, 0.95) * tol
+    slightly = R @ np.diag([-push, b, a + b + excess]) @ R.T
+    raised = inertia.judge(slightly, 0.0, welded=False, impossible=True)
+    assert raised.error is None and raised.impossible and raised.note.endswith("; negative moments raised to 0")
+    np.testing.assert_allclose(raised.tensor, R @ np.diag([0.0, b, a + b + excess]) @ R.T, rtol=0, atol=1e-15)
+    negative = R @ np.diag([-10 * tol, b, a + b + excess]) @ R.T
+    refused = inertia.judge(negative, 0.0, welded=False, impossible=True)
+    assert refused.note is None and "not positive semi-definite" in refused.error
+    welded = inertia.judge(negative, 0.0, welded=True, impossible=True)
+    assert welded.error is None and not welded.impossible and "welded to the world" in welded.note

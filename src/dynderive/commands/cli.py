@@ -567,6 +567,11 @@ def import_(
     for note in document.notes:
         typer.echo(note, err=True)
     validate(document)  # the same checks as any robot file, before anything is written
+    if document.impossible_inertias:   # a robot file's inertias must be physical: it would not load
+        raise InputError([document.problem(path + ("inertia",), f"{document.labels[path]} inertia: not imported: it "
+                                           "misses the triangle inequality (see the note), which a YAML robot file "
+                                           "may not; correct it in the URDF, or use the URDF itself")
+                          for path in sorted(document.impossible_inertias)])
     write_all({output: to_yaml(document.data, path.name).encode()})
     typer.echo(f"wrote {output}", err=True)
 

@@ -16,7 +16,10 @@ sphere with a warning. Here (README, "3-D robots and URDF"):
   ``note:`` and corrected (only raised, never lowered, so ``M(q)`` stays positive definite
   and grows by at most the correction): negative moments are raised to 0, then the two
   smaller moments are raised by half of ``c - a - b`` each, about the same principal axes;
-- beyond the tolerance it is refused, with the violation and the tolerance in the message;
+- beyond the tolerance it is refused, with the violation and the tolerance in the message,
+  except a triangle violation in a URDF file (``impossible``): the tensor is still positive
+  semi-definite, so it is kept as written with a note, as Pinocchio reads it (allegro's
+  fingers, romeo's shoulders miss by 1 to 80 %); a robot file's own numbers stay strict;
 - a link welded to the world (by fixed joints only) never enters the dynamics: whatever is
   wrong with its inertia is a note, never an error.
 
@@ -55,6 +58,7 @@ class Verdict:
     error: str | None
     note: str | None
     tensor: np.ndarray
+    impossible: bool = False   # a triangle violation beyond the tolerance, kept as written
 
 
 def moments(tensor: np.ndarray) -> np.ndarray | None:
@@ -79,9 +83,12 @@ def _g(values: np.ndarray | list[float]) -> str:
     return ", ".join(f"{x:g}" for x in values)
 
 
-def judge(tensor: np.ndarray, scale: float, welded: bool, correct: bool = True) -> Verdict:
+def judge(tensor: np.ndarray, scale: float, welded: bool, correct: bool = True, impossible: bool = False) -> Verdict:
     """The verdict on a symmetric 3 x 3 inertia; ``welded``: the link is welded to the world;
-    ``correct``: a violation within the tolerance is corrected (else kept, with a note).
+    ``correct``: a violation within the tolerance is corrected (else kept, with a note);
+    ``impossible``: a triangle violation beyond the tolerance is kept as written, with a note
+    (URDF files, as Pinocchio reads them: the tensor is still positive semi-definite, so M(q)
+    stays positive definite); moments negative beyond the tolerance are still refused.
 
     Messages come without the link's label (callers prefix ``link 'x' inertia: ``).
     """
@@ -102,6 +109,8 @@ def judge(tensor: np.ndarray, scale: float, welded: bool, correct: bool = True) 
     if welded:
         return Verdict(None, _ignored(problem + amount.rstrip()), tensor)
     tol = tolerance(tensor, scale)
+    if impossible and gap > tol and -a <= tol:
+        return _impossible(tensor, eig, gap, tol, silent)
     if violation > tol:
         ending = f"; rounding tolerance {tol:g})" if amount == ")" else f"{amount} (rounding tolerance {tol:g})"
         return Verdict(problem + ending, None, tensor)
@@ -111,13 +120,28 @@ def judge(tensor: np.ndarray, scale: float, welded: bool, correct: bool = True) 
     raised = np.maximum(eig, 0.0)
     if raised[2] > raised[0] + raised[1]:
         raised[:2] += (raised[2] - raised[0] - raised[1]) / 2
-    with np.errstate(all="ignore"):
-        _, axes = np.linalg.eigh(tensor)
-    corrected = axes @ np.diag(raised) @ axes.T
-    corrected = (corrected + corrected.T) / 2
+    corrected = _rebuilt(tensor, raised)
     note = (f"{problem}{amount}, within the rounding tolerance {tol:g}: corrected, principal moments "
             f"raised by {_g(raised - eig)}")
     return Verdict(None, note, corrected)
+
+
+def _impossible(tensor: np.ndarray, eig: np.ndarray, gap: float, tol: float, silent: float) -> Verdict:
+    """A triangle violation beyond the tolerance, kept as written (negative moments within the
+    tolerance still raised to 0, so the tensor stays positive semi-definite)."""
+    note = (f"principal moments {_g(eig)} violate the triangle inequality by {gap:g}, beyond the rounding "
+            f"tolerance {tol:g}: physically impossible, but kept as written (as Pinocchio does)")
+    if eig[0] >= -silent:
+        return Verdict(None, note, tensor, impossible=True)
+    return Verdict(None, f"{note}; negative moments raised to 0", _rebuilt(tensor, np.maximum(eig, 0.0)), True)
+
+
+def _rebuilt(tensor: np.ndarray, moments: np.ndarray) -> np.ndarray:
+    """The tensor with these principal moments about its own principal axes (symmetric)."""
+    with np.errstate(all="ignore"):
+        _, axes = np.linalg.eigh(tensor)
+    rebuilt = axes @ np.diag(moments) @ axes.T
+    return (rebuilt + rebuilt.T) / 2
 
 
 def _ignored(problem: str) -> str:
@@ -211,7 +235,7 @@ def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Wr
     scale = max((size(w.tensor) for w in written if w is not None and w.tensor is not None), default=0.0)
     result = []
     for link, w in zip(links, written):
-        if w is None:
+        if w is None or w.path[:2] in v.doc.impossible_inertias:   # judged by the URDF reader
             result.append(link)
             continue
         label, welded = v.label(w.path), link.name not in moved

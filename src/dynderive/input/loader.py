@@ -53,6 +53,9 @@ class SourceDocument:
     #: Remarks about input that was accepted but changed or ignored (e.g. URDF ``<mimic>`` on
     #: a fixed joint), shown by the CLI as ``note:`` lines.
     notes: list[str] = field(default_factory=list)
+    #: Links (``("links", i)``) whose inertia the reader kept as written although it is not
+    #: physical (a URDF inertia missing the triangle inequality, with a note): not judged again.
+    impossible_inertias: set[Path_] = field(default_factory=set)
 
     def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
         """Position of ``path``, falling back to the nearest enclosing value."""

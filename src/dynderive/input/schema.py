@@ -27,9 +27,7 @@ from ..model.expressions import (
     imaginary_part,
     parse_expression,
 )
-from ..model.naming import (
-    maximal_coordinate_names,
-)
+from ..model.naming import maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
@@ -301,7 +299,7 @@ def _parameters(v: _Validator, top: dict[str, Any]) -> list[Parameter]:
 
 def _links(v: _Validator, top: dict[str, Any], planar: bool,
            symbols: dict[str, sympy.Expr]) -> tuple[list[Link], _LinkNames, list[inertia.Written | None]]:
-    """The ``links`` list: names, positive masses, centres of mass, physical inertias."""
+    """The ``links`` list: names, masses (positive; 3-D: not negative), centres of mass, physical inertias."""
     defaults = v.evaluate
     dimension = 2 if planar else 3
     links: list[Link] = []
@@ -330,8 +328,9 @@ def _links(v: _Validator, top: dict[str, Any], planar: bool,
             link_names.setdefault(lname, path)
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
         value = _numeric(mass, defaults)
-        if value is not None and value <= 0:
-            v.error(path + ("mass",), f"{v.label(('links', i, 'mass'))}: must be positive (got {value:g})")
+        if value is not None and (value <= 0 if planar else value < 0):  # 3-D: massless links (M checked regular)
+            rule = "must be positive" if planar else "must not be negative"
+            v.error(path + ("mass",), f"{v.label(('links', i, 'mass'))}: {rule} (got {value:g})")
         com = item.get("com", [0] * dimension)
         v.vector(com, path + ("com",), (dimension,), symbols)
         entries, written = inertia.read(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),

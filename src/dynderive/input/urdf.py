@@ -14,7 +14,9 @@ inertial frames with ``rpy`` are rotated into the link axes; efforts are named `
 Rotations are composed as matrices; a composed ``rpy`` is extracted so that its matrix
 reproduces the composed one to rounding, also near gimbal lock (``matrix_to_rpy``). Only the
 ``rpy`` numbers written in the file are snapped to exact quarter turns (``snap``), never
-composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``.
+composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``;
+on a moving joint, the joint is an independent coordinate (the coupling is not modelled yet,
+as Pinocchio's ``buildModelFromUrdf`` does by default), with a note.
 Masses and inertias are judged in ``urdf_bodies`` (with the rounding tolerance of ``inertia``;
 links welded to the world get notes, never errors), which also merges the welded bodies.
 """
@@ -315,9 +317,11 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         mimic = joint.find("mimic")
         if mimic is not None and jtype == "fixed":
             doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
-        elif mimic is not None:
-            reader.error(mimic, f"joint '{name}': <mimic> joints are not supported")
-            continue
+        elif mimic is not None and jtype in ("revolute", "continuous", "prismatic"):
+            leader = mimic.attrib.get("joint", "")
+            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{name}': its coupling to "
+                             f"joint '{leader}' (<mimic>) is not modelled yet: '{name}' is an independent "
+                             "coordinate (as in Pinocchio's default, buildModelFromUrdf without mimic)")
         if jtype in ("floating", "planar"):
             reader.error(joint, f"joint '{name}': {jtype} joints are not supported (only revolute, "
                          "continuous, prismatic and fixed)")
@@ -398,22 +402,27 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
     for key in ("name", "title", "planar", "parameters", "gravity", "links", "joints"):
         positions[(key,)] = (root.line, root.column)
     moving = [j for j in joints if j["type"] != "fixed"]
+    carrying = _carrying(moving, frames, merged)
     for index, joint in enumerate(moving):
         name = joint["child"]
         element = link_elements[name]
         body = merged.get(name)
         path = ("links", index)
         positions[path] = (element.line, element.column)
-        if body is None:
-            reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass: "
-                         "give it an <inertial> with a positive mass")
+        if name not in carrying:
+            reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass, nor has any "
+                         "link below it: the joint moves nothing; give the link an <inertial> with a positive mass")
             continue
+        if body is None:   # a massless link between joints (a virtual link of a hip): the ones below it carry
+            body = Body(0.0, np.zeros(3), np.zeros((3, 3)), element)
         t = body.inertia
         entry = {"name": identifier(name), "mass": _number(body.mass),
                  "com": _numbers(body.com, max(body.scale, float(np.max(np.abs(body.com))))),
                  "inertia": _numbers([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])}
         data["links"].append(entry)
         doc.labels[path] = f"link '{name}'"
+        if body.impossible:
+            doc.impossible_inertias.add(path)
         inertial = body.element
         spots = {"name": element, "mass": inertial.find("mass"), "inertia": inertial.find("inertia"),
                  "com": inertial.find("origin")}
@@ -461,6 +470,22 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
     doc.data, doc.positions = data, positions
     doc.key_positions = dict(positions)
     return doc
+
+
+def _carrying(moving: list[dict[str, Any]], frames: dict[str, tuple[str, Rotation, np.ndarray]],
+              merged: dict[str, Body]) -> set[str]:
+    """The moving links that have mass or inertia, or a moving link below them that has:
+    the others' joints move nothing (a massless link with massive links below it is fine, as
+    long as the mass matrix stays regular, which the derivation checks)."""
+    parent = {j["child"]: frames[j["parent"]][0] for j in moving}
+    carrying: set[str] = set()
+    for name, body in merged.items():
+        if body.mass == 0 and not np.any(body.inertia):
+            continue
+        while name in parent and name not in carrying:
+            carrying.add(name)
+            name = parent[name]
+    return carrying
 
 
 def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]], doc: SourceDocument,

@@ -36,30 +36,31 @@ class Body:
     scale: float = 0.0     # the largest |COM entry| that went into com (for rounding noise)
     written: np.ndarray | None = None  # the inertia as written, in the axes of <inertial><origin>
     axes: np.ndarray | None = None     # those axes in the link frame (written -> inertia)
+    impossible: bool = False           # an inertia that misses the triangle inequality, kept as written
 
 
 def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
                   joints: list[dict[str, Any]]) -> None:
-    """Masses not negative (positive for a link that moves) and physical inertias, with the
+    """Masses not negative (a massless moving link is fine when links below it carry mass:
+    ``urdf._carrying``) and physical inertias, with the
     rounding tolerance of ``inertia.judge`` (within it: corrected, with a note). Links welded
     to the world (fixed joints up to a link without a parent) never enter the dynamics: what
     is wrong with them is a note, not an error."""
-    moving_children = {j["child"] for j in joints if j["type"] != "fixed"}
     moved = moved_links(joints)
     written = {name: body.written for name, body in bodies.items() if body.written is not None}
     scale = max(map(inertia.size, written.values()), default=0.0)
     for name, body in bodies.items():
         welded = name not in moved
         mass_element = body.element.find("mass") or body.element
-        if body.mass < 0:  # a moving link needs a positive mass in the end; a welded one may have none
-            rule = "must be positive" if name in moving_children else "must not be negative"
+        if body.mass < 0:  # massless links are fine (virtual links between joints; the robot derives when M is regular)
             if welded:
-                _note(reader, doc, mass_element, f"link '{name}' mass: {rule} (got {body.mass:g}); ignored: the "
-                      "link is welded to the world, so its mass never enters the dynamics")
+                _note(reader, doc, mass_element, f"link '{name}' mass: must not be negative (got {body.mass:g}); "
+                      "ignored: the link is welded to the world, so its mass never enters the dynamics")
             else:
-                reader.error(mass_element, f"link '{name}' mass: {rule} (got {body.mass:g})")
+                reader.error(mass_element, f"link '{name}' mass: must not be negative (got {body.mass:g})")
         element = body.element.find("inertia") or body.element
-        verdict = inertia.judge(written[name], scale, welded)
+        verdict = inertia.judge(written[name], scale, welded, impossible=True)
+        body.impossible = verdict.impossible
         if verdict.error is not None:
             reader.error(element, f"link '{name}' inertia: {verdict.error}")
         elif not finite(body.inertia) and not welded:
@@ -109,7 +110,7 @@ def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[s
         R = rotation.matrix
         with np.errstate(all="ignore"):
             placed = Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
-                           max(body.scale, float(np.max(np.abs(p)))))
+                           max(body.scale, float(np.max(np.abs(p)))), impossible=body.impossible)
             combined = placed if target not in merged else combine(merged[target], placed)
         if not finite(combined.mass, combined.com, combined.inertia):
             what, tag = next((w, t) for w, t, v in (("mass", "mass", combined.mass), ("centre of mass", "origin",
@@ -138,4 +139,4 @@ def combine(a: Body, b: Body) -> Body:
         if body.mass:  # a massless body adds no parallel-axis term, however far away it is
             d = body.com - com
             inertia += body.mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
-    return Body(mass, com, inertia, a.element, max(a.scale, b.scale))
+    return Body(mass, com, inertia, a.element, max(a.scale, b.scale), impossible=a.impossible or b.impossible)
