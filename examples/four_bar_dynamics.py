@@ -24,7 +24,7 @@ import numpy as np
 LOOPS = ("c1",)
 INDEPENDENT_COORDINATES = ("q1",)
 #: A configuration on the loop constraints at the default parameters (a guess for ``assemble``).
-ASSEMBLED_CONFIGURATION = (0.234988638101119, 0.3720877608114523, 1.2620535492692782)
+ASSEMBLED_CONFIGURATION = (0.234989, 0.37208725768124384, 1.2620534592707933)
 PARAMETERS = {"a": 0.25, "b": 0.9, "c": 0.6, "d": 0.8, "m1": 0.5, "m2": 1.5, "m3": 1.0, "g": 9.81}
 COORDINATES = ("q1", "q2", "q3")
 EFFORTS = ("tau1",)
@@ -1009,11 +1009,11 @@ def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b
     if u is None:
         u = np.zeros(1)
     _jac = loop_jacobian(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
+    _drift = _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g), qd)
     _dependent = [1, 2]
     _basis = reduced_basis(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _shift = np.zeros(np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1]) + (3,))
-    _shift[..., _dependent] = -np.linalg.solve(
-        _jac[..., _dependent], _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g), qd)[..., None])[..., 0]
+    _shift[..., _dependent] = -np.linalg.solve(_jac[..., _dependent], _drift[..., None])[..., 0]
     _mass = mass_matrix(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _force = (generalized_forces(q, u, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
               - inverse_dynamics(q, qd, np.zeros(3), friction_smoothing=friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
@@ -1027,7 +1027,9 @@ def assemble(q_guess, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=
     """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method,
     keeping the independent coordinates ("q1",); shape (..., 3).
 
-    Raises ValueError where it does not converge (no assembly for those independent values).
+    Raises ValueError where it does not converge: no assembly for those independent values, or
+    none that Newton reaches from this guess (guess the dependent coordinates nearer, e.g. from
+    a nearby assembled state).
     """
     _q = np.array(_coordinates("q_guess", q_guess, 3), dtype=float)
     _dependent = [1, 2]
@@ -1043,7 +1045,8 @@ def assemble(q_guess, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=
         _q[..., _dependent] -= _step * np.minimum(1.0, 0.5 / np.maximum(_size, 1e-300))
     if np.all(np.abs(loop_constraints(_q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
-    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates "
+                     "from this guess")
 
 
 def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):

@@ -23,7 +23,7 @@ import numpy as np
 LOOPS = ("c1",)
 INDEPENDENT_COORDINATES = ("q1",)
 #: A configuration on the loop constraints at the default parameters (a guess for ``assemble``).
-ASSEMBLED_CONFIGURATION = (0.041573993152157845, 0.032332694031999384, 0.4489581429028788)
+ASSEMBLED_CONFIGURATION = (0.041574, 0.03233268522397047, 0.4489581429250764)
 PARAMETERS = {"r": 0.1, "l": 0.35, "e": 0.03, "m1": 0.3, "m2": 0.6, "m3": 0.8, "g": 9.81}
 COORDINATES = ("q1", "q2", "s")
 EFFORTS = ("tau1",)
@@ -943,11 +943,11 @@ def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, r=0.1, l=
     if u is None:
         u = np.zeros(1)
     _jac = loop_jacobian(q, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)
+    _drift = _matvec(loop_jacobian_dot(q, qd, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g), qd)
     _dependent = [1, 2]
     _basis = reduced_basis(q, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)
     _shift = np.zeros(np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1]) + (3,))
-    _shift[..., _dependent] = -np.linalg.solve(
-        _jac[..., _dependent], _matvec(loop_jacobian_dot(q, qd, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g), qd)[..., None])[..., 0]
+    _shift[..., _dependent] = -np.linalg.solve(_jac[..., _dependent], _drift[..., None])[..., 0]
     _mass = mass_matrix(q, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)
     _force = (generalized_forces(q, u, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)
               - inverse_dynamics(q, qd, np.zeros(3), friction_smoothing=friction_smoothing, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)
@@ -961,7 +961,9 @@ def assemble(q_guess, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
     """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method,
     keeping the independent coordinates ("q1",); shape (..., 3).
 
-    Raises ValueError where it does not converge (no assembly for those independent values).
+    Raises ValueError where it does not converge: no assembly for those independent values, or
+    none that Newton reaches from this guess (guess the dependent coordinates nearer, e.g. from
+    a nearby assembled state).
     """
     _q = np.array(_coordinates("q_guess", q_guess, 3), dtype=float)
     _dependent = [1, 2]
@@ -977,7 +979,8 @@ def assemble(q_guess, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
         _q[..., _dependent] -= _step * np.minimum(1.0, 0.5 / np.maximum(_size, 1e-300))
     if np.all(np.abs(loop_constraints(_q, r=r, l=l, e=e, m1=m1, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
-    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates "
+                     "from this guess")
 
 
 def linearize(q, qd, u=None, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):

@@ -137,39 +137,36 @@ def loop_jacobian_dot(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, 
     qd3 = qd[..., 2]
     qd4 = qd[..., 3]
     _t0 = np.cos(q1)
-    _t1 = np.cos(q2)
-    _t2 = _t0*_t1
-    _t3 = np.sin(q3)
-    _t4 = _t3*b*qd3
-    _t5 = np.sin(q2)
-    _t6 = _t0*_t5
-    _t7 = np.cos(q3)
-    _t8 = _t7*b
-    _t9 = _t8*(qd1 + qd2)
-    _t10 = np.sin(q1)
-    _t11 = _t1*_t7
-    _t12 = b*qd1
-    _t13 = _t1*_t10 + _t6
+    _t1 = np.sin(q1)
+    _t2 = np.cos(q2)
+    _t3 = _t1*_t2
+    _t4 = np.cos(q3)
+    _t5 = _t4*b
+    _t6 = _t5*qd1
+    _t7 = np.sin(q2)
+    _t8 = _t0*_t7
+    _t9 = _t5*qd2
+    _t10 = np.sin(q3)
+    _t11 = _t10*b
+    _t12 = _t11*qd3
+    _t13 = _t3 + _t8
     _t14 = -_t13
-    _t15 = _t14*_t7
-    _t16 = b*qd2
-    _t17 = _t0*_t1 - _t10*_t5
-    _t18 = _t8*qd3
-    _t19 = _t17*_t3
-    _t20 = _t5*_t7
-    _t21 = _t17*_t7
-    _t22 = _t14*_t3
-    _t23 = c*qd4
+    _t15 = _t14*qd1
+    _t16 = _t1*_t7
+    _t17 = _t0*_t2 - _t16
+    _t18 = _t5*qd3
+    _t19 = _t11*_t17
+    _t20 = c*qd4
     out = np.zeros(batch + (3, 4))
-    out[..., 0, 0] = _t0*a*qd1 + _t10*b*(-_t11*qd1 - _t11*qd2 + _t3*_t5*qd3) - _t2*_t4 - _t6*_t9
-    out[..., 0, 1] = _t12*_t15 + _t15*_t16 - _t17*_t4
-    out[..., 0, 2] = -_t12*_t19 - _t13*_t18 - _t16*_t19
-    out[..., 1, 0] = _t10*(-_t1*_t4 - _t12*_t20 - _t16*_t20 + a*qd1) + _t2*_t9 - _t4*_t6
-    out[..., 1, 1] = _t12*_t21 - _t13*_t4 + _t16*_t21
-    out[..., 1, 2] = _t12*_t22 + _t16*_t22 + _t17*_t18
-    out[..., 1, 3] = _t23*np.sin(q4)
-    out[..., 2, 2] = -_t4
-    out[..., 2, 3] = -_t23*np.cos(q4)
+    out[..., 0, 0] = -_t0*_t12*_t2 + _t0*a*qd1 + _t1*_t10*_t7*b*qd3 - _t3*_t6 - _t3*_t9 - _t6*_t8 - _t8*_t9
+    out[..., 0, 1] = -_t12*_t17 + _t14*_t9 + _t15*_t5
+    out[..., 0, 2] = -_t13*_t18 - _t19*qd1 - _t19*qd2
+    out[..., 1, 0] = _t0*_t2*_t4*b*qd1 + _t0*_t2*_t4*b*qd2 + _t1*a*qd1 - _t12*_t3 - _t12*_t8 - _t16*_t6 - _t16*_t9
+    out[..., 1, 1] = -_t12*_t13 + _t17*_t6 + _t17*_t9
+    out[..., 1, 2] = _t11*_t14*qd2 + _t11*_t15 + _t17*_t18
+    out[..., 1, 3] = _t20*np.sin(q4)
+    out[..., 2, 2] = -_t12
+    out[..., 2, 3] = -_t20*np.cos(q4)
     return out
 
 
@@ -248,65 +245,57 @@ def _loop_acceleration_jacobian(q, qd, qdd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0
     qdd3 = qdd[..., 2]
     qdd4 = qdd[..., 3]
     _t0 = np.sin(q1)
-    _t1 = np.cos(q2)
+    _t1 = np.sin(q2)
     _t2 = _t0*_t1
-    _t3 = np.sin(q3)
-    _t4 = _t3*qd3
-    _t5 = _t4*b
-    _t6 = qd1 + qd2
-    _t7 = np.sin(q2)
-    _t8 = _t0*_t7
-    _t9 = np.cos(q3)
-    _t10 = _t9*b
-    _t11 = _t10*_t8
-    _t12 = np.cos(q1)
-    _t13 = _t1*_t9
-    _t14 = _t13*qd1
-    _t15 = _t13*qd2
-    _t16 = _t10*_t2
-    _t17 = _t7*_t9
-    _t18 = _t17*b
-    _t19 = -_t18 + a
-    _t20 = _t1*_t12
-    _t21 = -_t20 + _t8
-    _t22 = _t10*_t21
-    _t23 = _t12*_t7
-    _t24 = _t2 + _t23
-    _t25 = -_t24
-    _t26 = -_t21
-    _t27 = _t10*_t26
-    _t28 = _t3*b
-    _t29 = _t25*_t28
-    _t30 = -_t27*qd3 - _t29*qd1 - _t29*qd2
-    _t31 = _t10*_t25
-    _t32 = _t28*qdd3
-    _t33 = -_t26*_t32 + _t30*qd3 + _t31*qdd2 + qd2*(_t22*qd1 + _t22*qd2 - _t25*_t5)
-    _t34 = _t10*_t20
-    _t35 = _t1*_t4
-    _t36 = _t0*b
-    _t37 = _t10*_t23
-    _t38 = _t10*_t24
-    _t39 = _t26*_t28
-    _t40 = _t20*_t28
-    _t41 = _t23*_t28
-    _t42 = _t1*_t3
-    _t43 = -_t26*_t5 + _t31*qd1 + _t31*qd2
-    _t44 = _t21*_t28
-    _t45 = _t25*_t32 + _t27*qdd2 + _t43*qd2 + qd3*(_t31*qd3 + _t44*qd1 + _t44*qd2)
-    _t46 = _t28*_t7
-    _t47 = c*np.sin(q4)
-    _t48 = qd4**2
-    _t49 = c*np.cos(q4)
+    _t3 = np.cos(q3)
+    _t4 = _t3*b
+    _t5 = _t2*_t4
+    _t6 = np.cos(q2)
+    _t7 = _t0*_t6
+    _t8 = np.sin(q3)
+    _t9 = _t8*b
+    _t10 = _t9*qd3
+    _t11 = np.cos(q1)
+    _t12 = _t1*_t11
+    _t13 = _t11*_t6
+    _t14 = _t13*_t4
+    _t15 = _t10*_t12 + _t10*_t7 - _t14*qd1 - _t14*qd2 + _t5*qd1 + _t5*qd2
+    _t16 = _t4*_t7
+    _t17 = -_t1*_t4 + a
+    _t18 = -_t13 + _t2
+    _t19 = _t18*_t4
+    _t20 = _t12 + _t7
+    _t21 = -_t20
+    _t22 = _t21*_t9
+    _t23 = -_t18
+    _t24 = _t23*_t4
+    _t25 = -_t22*qd1 - _t22*qd2 - _t24*qd3
+    _t26 = _t21*_t4
+    _t27 = _t9*qdd3
+    _t28 = -_t23*_t27 + _t25*qd3 + _t26*qdd2 + qd2*(_t19*qd1 + _t19*qd2 - _t22*qd3)
+    _t29 = _t12*_t4
+    _t30 = _t20*_t4
+    _t31 = _t23*_t9
+    _t32 = _t13*_t9
+    _t33 = _t7*_t9
+    _t34 = _t12*_t9
+    _t35 = -_t0*_t1*_t8*b*qd3 + _t10*_t13 + _t16*qd1 + _t16*qd2 + _t29*qd1 + _t29*qd2
+    _t36 = -_t10*_t23 + _t26*qd1 + _t26*qd2
+    _t37 = _t18*_t9
+    _t38 = _t21*_t27 + _t24*qdd2 + _t36*qd2 + qd3*(_t26*qd3 + _t37*qd1 + _t37*qd2)
+    _t39 = c*np.sin(q4)
+    _t40 = qd4**2
+    _t41 = c*np.cos(q4)
     out = np.zeros(batch + (3, 4))
-    out[..., 0, 0] = _t33 + qd1*(-_t0*a*qd1 + _t11*_t6 + _t12*b*(-_t14 - _t15 + _t3*_t7*qd3) + _t2*_t5) + qdd1*(_t12*_t19 - _t16)
-    out[..., 0, 1] = _t33 + qd1*(_t23*_t5 - _t34*_t6 + _t36*(_t17*qd1 + _t17*qd2 + _t35)) + qdd1*(-_t16 - _t37)
-    out[..., 0, 2] = _t30*qd2 - _t38*qdd3 - _t39*qdd2 + qd1*(-_t34*qd3 + _t36*(_t17*qd3 + _t42*qd1 + _t42*qd2) + _t41*_t6) + qd3*(_t24*_t3*b*qd3 - _t27*qd1 - _t27*qd2) + qdd1*(_t28*_t8 - _t40)
-    out[..., 1, 0] = _t45 + qd1*(_t12*(-_t18*qd1 - _t18*qd2 - _t35*b + a*qd1) - _t16*_t6 + _t5*_t8) + qdd1*(_t0*_t19 + _t34)
-    out[..., 1, 1] = _t45 + qd1*(_t0*(-_t14*b - _t15*b + _t3*_t7*b*qd3) - _t20*_t5 - _t37*_t6) + qdd1*(_t1*_t12*_t9*b - _t11)
-    out[..., 1, 2] = -_t24*_t28*qdd2 + _t27*qdd3 + _t43*qd3 + qd1*(_t0*(-_t13*b*qd3 + _t46*qd1 + _t46*qd2) - _t37*qd3 - _t40*_t6) + qd2*(-_t38*qd3 - _t39*qd1 - _t39*qd2) + qdd1*(-_t2*_t28 - _t41)
-    out[..., 1, 3] = _t47*qdd4 + _t48*_t49
-    out[..., 2, 2] = -_t10*qd3**2 - _t32
-    out[..., 2, 3] = _t47*_t48 - _t49*qdd4
+    out[..., 0, 0] = _t28 + qd1*(-_t0*a*qd1 + _t15) + qdd1*(_t11*_t17 - _t16)
+    out[..., 0, 1] = _t15*qd1 + _t28 + qdd1*(-_t16 - _t29)
+    out[..., 0, 2] = _t25*qd2 - _t30*qdd3 - _t31*qdd2 + qd1*(-_t14*qd3 + _t33*qd1 + _t33*qd2 + _t34*qd1 + _t34*qd2 + _t5*qd3) + qd3*(_t20*_t8*b*qd3 - _t24*qd1 - _t24*qd2) + qdd1*(_t2*_t9 - _t32)
+    out[..., 1, 0] = _t38 + qd1*(_t11*a*qd1 - _t35) + qdd1*(_t0*_t17 + _t14)
+    out[..., 1, 1] = -_t35*qd1 + _t38 + qdd1*(_t11*_t3*_t6*b - _t5)
+    out[..., 1, 2] = -_t20*_t9*qdd2 + _t24*qdd3 + _t36*qd3 + qd1*(_t0*_t1*_t8*b*qd1 + _t0*_t1*_t8*b*qd2 - _t16*qd3 - _t29*qd3 - _t32*qd1 - _t32*qd2) + qd2*(-_t30*qd3 - _t31*qd1 - _t31*qd2) + qdd1*(-_t33 - _t34)
+    out[..., 1, 3] = _t39*qdd4 + _t40*_t41
+    out[..., 2, 2] = -_t27 - _t4*qd3**2
+    out[..., 2, 3] = _t39*_t40 - _t41*qdd4
     return out
 
 
@@ -1245,11 +1234,11 @@ def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=
     if u is None:
         u = np.zeros(1)
     _jac = loop_jacobian(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _drift = _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)
     _dependent = [1, 2, 3]
     _basis = reduced_basis(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
     _shift = np.zeros(np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1]) + (4,))
-    _shift[..., _dependent] = -np.linalg.solve(
-        _jac[..., _dependent], _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)[..., None])[..., 0]
+    _shift[..., _dependent] = -np.linalg.solve(_jac[..., _dependent], _drift[..., None])[..., 0]
     _mass = mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
     _force = (generalized_forces(q, u, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
               - inverse_dynamics(q, qd, np.zeros(4), friction_smoothing=friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
@@ -1263,7 +1252,9 @@ def assemble(q_guess, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8,
     """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method,
     keeping the independent coordinates ("q1",); shape (..., 4).
 
-    Raises ValueError where it does not converge (no assembly for those independent values).
+    Raises ValueError where it does not converge: no assembly for those independent values, or
+    none that Newton reaches from this guess (guess the dependent coordinates nearer, e.g. from
+    a nearby assembled state).
     """
     _q = np.array(_coordinates("q_guess", q_guess, 4), dtype=float)
     _dependent = [1, 2, 3]
@@ -1279,7 +1270,8 @@ def assemble(q_guess, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8,
         _q[..., _dependent] -= _step * np.minimum(1.0, 0.5 / np.maximum(_size, 1e-300))
     if np.all(np.abs(loop_constraints(_q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)) < 1e-9):
         return _q
-    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates")
+    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates "
+                     "from this guess")
 
 
 def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
