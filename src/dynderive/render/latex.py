@@ -405,10 +405,9 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
             "equation": fmt.display(q["EOM_m1"][i], None),
         })
     lambda_entries = None
-    if "lambdaVec" in q:
+    if "lambdaVec" in q and max(len(fmt(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
+        # the LaTeX first: breaking entries too long to show into lines cost seconds
         lambda_entries = [fmt.display(e, None) for e in q["lambdaVec"]]
-        if max(len(e or "") for e in lambda_entries) > LONGEST_LAMBDA:
-            lambda_entries = None
     return {
         "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
         "lambda": fmt(sympy.Matrix(table.multipliers)),
