@@ -155,11 +155,25 @@ class _FactorDict(dict):
     __sympy__ = False
 
 
+class _FactorDefaultDict(defaultdict):
+    """The same for a ``defaultdict`` (its copy keeps this type: turned back afterwards)."""
+
+    __sympy__ = False
+
+
 def _factors_init(self, factors=None, _init=exprtools.Factors.__init__):
     # ``Factors.__init__`` first asks ``factors in (None, S.One)``; for a dict that makes
     # ``S.One == factors`` sympify the whole dictionary into a SymPy ``Dict`` (always unequal,
     # so wasted): a third of ``factor_terms``' time. The same constructor, without that.
-    _init(self, _FactorDict(factors) if type(factors) is dict else factors)
+    kind = type(factors)
+    if kind is dict:
+        _init(self, _FactorDict(factors))
+    elif kind is defaultdict:
+        _init(self, _FactorDefaultDict(factors.default_factory, factors))
+        if type(self.factors) is _FactorDefaultDict:
+            self.factors = defaultdict(self.factors.default_factory, self.factors)
+    else:
+        _init(self, factors)
 
 
 if not getattr(exprtools.Factors.__init__, "dynderive", False):
