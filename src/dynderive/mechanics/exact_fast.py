@@ -17,8 +17,10 @@ import sympy
 from sympy.core import exprtools
 from sympy.core.assumptions import assumptions
 from sympy.core.function import _coeff_isneg
+from sympy.core.mul import _keep_coeff
 from sympy.core.operations import LatticeOp
 from sympy.simplify.radsimp import fraction
+from sympy.utilities.iterables import iterable
 
 #: Memo entries kept before a memo is emptied (bounds memory on large robots).
 MEMO_LIMIT = 200_000
@@ -101,14 +103,54 @@ def _tail(a: sympy.Basic) -> int:
 
 
 def factor_terms(expr: sympy.Expr) -> sympy.Expr:
-    """``sympy.factor_terms(expr)``, remembered: the same sums come back as candidates of
-    several entries (a matrix and the equations built from it)."""
+    """``sympy.factor_terms(expr)`` (its defaults: ``radical=False, clear=False,
+    fraction=False, sign=True``): SymPy's own steps, each sub-expression's result remembered.
+    The candidates of an entry, and the entries of a matrix and of the equations built from
+    it, share most of their terms, and SymPy factors each term (and each sum inside a sine)
+    again every time."""
+    if len(_FACTOR_TERMS) > MEMO_LIMIT:
+        _FACTOR_TERMS.clear()
+    return _do(sympy.sympify(expr))
+
+
+def _do(expr):
+    """``do`` of ``sympy.factor_terms`` (SymPy 1.12-1.14), remembered for SymPy objects."""
+    if not isinstance(expr, sympy.Basic) or expr.is_Atom:
+        if iterable(expr):
+            return type(expr)([_do(i) for i in expr])
+        return expr
     known = _FACTOR_TERMS.get(expr)
-    if known is None:
-        if len(_FACTOR_TERMS) > MEMO_LIMIT:
-            _FACTOR_TERMS.clear()
-        known = _FACTOR_TERMS[expr] = sympy.factor_terms(expr)
-    return known
+    if known is not None:
+        return known
+    if expr.is_Pow or expr.is_Function or iterable(expr) or not hasattr(expr, "args_cnc"):
+        args = expr.args
+        newargs = tuple([_do(i) for i in args])
+        result = expr if newargs == args else expr.func(*newargs)
+    elif isinstance(expr, (sympy.Sum, sympy.Integral)):
+        result = exprtools._factor_sum_int(expr, radical=False, clear=False, fraction=False, sign=True)
+    else:
+        cont, p = expr.as_content_primitive(radical=False, clear=False)
+        if p.is_Add:
+            list_args = [_do(a) for a in sympy.Add.make_args(p)]
+            # get a common negative (if there) which gcd_terms does not remove
+            if not any(a.as_coeff_Mul()[0].extract_multiplicatively(-1) is None for a in list_args):
+                cont = -cont
+                list_args = [-a for a in list_args]
+            # watch out for exp(-(x+2)) which gcd_terms will change to exp(-x-2)
+            special = {}
+            for i, a in enumerate(list_args):
+                b, e = a.as_base_exp()
+                if e.is_Mul and e != sympy.Mul(*e.args):
+                    list_args[i] = sympy.Dummy()
+                    special[list_args[i]] = a
+            # rebuild p not worrying about the order which gcd_terms will fix
+            p = sympy.Add._from_args(list_args)
+            p = exprtools.gcd_terms(p, isprimitive=True, clear=False, fraction=False).xreplace(special)
+        elif p.args:
+            p = p.func(*[_do(a) for a in p.args])
+        result = _keep_coeff(cont, p, clear=False, sign=True)
+    _FACTOR_TERMS[expr] = result
+    return result
 
 
 def collect_trig(expr: sympy.Expr, trig: list[sympy.Expr]) -> sympy.Expr:
