@@ -89,8 +89,14 @@ class Formatter:
         known = self._printed.get(key)
         if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
             return known[1]
-        text = sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
-                           mul_symbol=None, long_frac_ratio=2, order=self.order)
+        if isinstance(expr, sympy.MatrixBase):
+            # SymPy's own matrix LaTeX (mat_str "matrix", delimiter "["), from the entries'
+            # LaTeX: the sheet prints each entry of a matrix too, and the JSON every matrix
+            text = r"\left[\begin{matrix}" + r"\\".join(
+                " & ".join(self(e) for e in expr.row(i)) for i in range(expr.rows)) + r"\end{matrix}\right]"
+        else:
+            text = sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
+                               mul_symbol=None, long_frac_ratio=2, order=self.order)
         self._printed[key] = (expr, text)
         return text
 
