@@ -14,6 +14,7 @@ from .encode import escape_tex, tex_unit
 from .environment import render
 from .figure import planar_figure
 from .linebreak import LineBreaker
+from .printers import RememberingLatexPrinter
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -74,6 +75,9 @@ class Formatter:
             name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
         self.order = "none" if derivation.intermediate_form else None
         self._printed: dict[Any, tuple[Any, str]] = {}
+        self._printer = RememberingLatexPrinter({
+            "symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
+            "long_frac_ratio": 2, "order": self.order})
         self._breaker = LineBreaker(self, typeset_width, self.order)
 
     @classmethod
@@ -95,8 +99,7 @@ class Formatter:
             text = r"\left[\begin{matrix}" + r"\\".join(
                 " & ".join(self(e) for e in expr.row(i)) for i in range(expr.rows)) + r"\end{matrix}\right]"
         else:
-            text = sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
-                               mul_symbol=None, long_frac_ratio=2, order=self.order)
+            text = self._printer.doprint(expr)
         self._printed[key] = (expr, text)
         return text
 
