@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import weakref
 from pathlib import Path
 from typing import Any
@@ -157,10 +158,12 @@ class Display(str):
         return self
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def typeset_width(expr: sympy.Basic) -> float:
     """Estimated width of ``expr`` typeset inline, in math glyphs: a symbol is a glyph and its
     index 0.7 a digit, a sum adds 2.2 per sign, a function its name and parentheses, a
-    fraction its wider part. Rough (within about a fifth on the bundled sheets), and cheap."""
+    fraction its wider part. Rough (within about a fifth on the bundled sheets), and cheap
+    (remembered: the line breaker asks for the same pieces again and again)."""
     if expr.is_Symbol:
         name = str(expr).lstrip("_")
         stem = name.rstrip("0123456789")
