@@ -12,10 +12,12 @@ what made small robots written with CAD numbers slow.
 from __future__ import annotations
 
 from collections import defaultdict
+from typing import Any
 
 import sympy
 from sympy.core import exprtools
 from sympy.core.assumptions import assumptions
+from sympy.core.expr import Expr
 from sympy.core.function import _coeff_isneg
 from sympy.core.mul import _keep_coeff
 from sympy.core.operations import LatticeOp
@@ -221,6 +223,31 @@ def _factors_init(self, factors=None, _init=exprtools.Factors.__init__):
 if not getattr(exprtools.Factors.__init__, "dynderive", False):
     _factors_init.dynderive = True  # type: ignore[attr-defined]
     exprtools.Factors.__init__ = _factors_init  # type: ignore[method-assign]
+
+
+_EXPAND: dict[tuple[Any, ...], tuple[Any, bool]] = {}
+_expand_hint = Expr._expand_hint
+
+
+def _remembered_expand_hint(expr, hint, deep=True, **hints):
+    # ``Expr._expand_hint`` (one pass of ``expand`` over a tree) is a pure function of its
+    # arguments, and ``tidy`` expands sums whose terms it expanded before (the entries of M
+    # inside the equations of motion, an expanded entry with sin^2 replaced): remembered.
+    try:
+        key = (expr, hint, deep, tuple(sorted(hints.items())))
+        known = _EXPAND.get(key)
+    except TypeError:   # an unhashable argument
+        return _expand_hint(expr, hint, deep=deep, **hints)
+    if known is None:
+        if len(_EXPAND) > MEMO_LIMIT:
+            _EXPAND.clear()
+        known = _EXPAND[key] = _expand_hint(expr, hint, deep=deep, **hints)
+    return known
+
+
+if not getattr(_expand_hint, "dynderive", False):
+    _remembered_expand_hint.dynderive = True  # type: ignore[attr-defined]
+    Expr._expand_hint = staticmethod(_remembered_expand_hint)  # type: ignore[method-assign]
 
 
 __all__ = ["collect_trig", "count_ops", "factor_terms"]
