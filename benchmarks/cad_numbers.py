@@ -5,6 +5,8 @@ robot, a 4-joint planar chain and the four-bar, once with round numbers and once
     python benchmarks/cad_numbers.py                # about 3 minutes on 2 cores; prints a table
     python benchmarks/cad_numbers.py --repeats 3    # the fastest of 3 processes per variant
     python benchmarks/cad_numbers.py --only four_bar chain4
+    python benchmarks/cad_numbers.py --baseline /tmp/old/src   # beside an earlier commit's src
+                                                               # (git archive COMMIT src templates)
 
 Variants of each robot, each derived in a fresh process (``scaling.py --outputs``: load,
 derive, ``--latex --code --json`` rendered, no PDF; from loading the file to the last
@@ -27,6 +29,7 @@ and the same chain with two significant digits. Goals: every variant <= 3 s, CAD
 from __future__ import annotations
 
 import argparse
+import os
 import random
 import re
 import sys
@@ -120,12 +123,28 @@ def robots() -> dict[str, dict[str, tuple[str, str]]]:
     return out
 
 
+def _measure(path: Path, repeats: int, timeout: float, source: Path | None = None) -> dict:
+    """The fastest (CPU) of ``repeats`` fresh processes; with ``source``, of the dynderive
+    under that ``src`` folder instead of the installed one."""
+    saved = os.environ.get("PYTHONPATH")
+    if source is not None:
+        os.environ["PYTHONPATH"] = str(source)
+    try:
+        runs = [_child("--outputs", str(path), [], timeout) or {} for _ in range(repeats)]
+    finally:
+        if source is not None:
+            os.environ.pop("PYTHONPATH") if saved is None else os.environ.update(PYTHONPATH=saved)
+    return min(runs, key=lambda r: r.get("all_cpu_s", float("inf")))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--only", nargs="*", help="these robots only (file stems, or chain4)")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per process")
     parser.add_argument("--keep", type=Path, help="also write the generated robot files into this folder")
     parser.add_argument("--repeats", type=int, default=1, help="processes per variant; the fastest counts")
+    parser.add_argument("--baseline", type=Path, help="the src folder of another dynderive (an earlier commit): "
+                        "each variant is measured with it too, alternately, and shown beside")
     args = parser.parse_args()
     started = time.perf_counter()
     rows = []
@@ -139,20 +158,22 @@ def main() -> None:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 path.write_text(text)
                 print(f"measuring {name} ({variant}) ...", file=sys.stderr, flush=True)
-                runs = [_child("--outputs", str(path), [], args.timeout) or {} for _ in range(args.repeats)]
-                result = min(runs, key=lambda r: r.get("all_cpu_s", float("inf")))
+                result = _measure(path, args.repeats, args.timeout)
                 row[variant] = (result["all_cpu_s"], result["all_s"]) if "all_s" in result else None
+                if args.baseline:
+                    before = _measure(path, args.repeats, args.timeout, args.baseline.resolve())
+                    row[f"{variant} before"] = before.get("all_cpu_s")
                 if "timed_out" in result:
                     row["notes"].append(f"{variant} > {args.timeout:.0f} s")
                 if result.get("checks_failed"):
                     row["notes"].append(f"{variant} checks failed: {', '.join(result['checks_failed'])}")
             rows.append(row)
-    print(table(rows))
+    print(table(rows, bool(args.baseline)))
     missed = [r["robot"] for r in rows if verdicts(r) != ("met", "met")]
     print(f"\ngoals: {len(rows) - len(missed)} of {len(rows)} robots meet both"
           + (f" (not: {', '.join(missed)})" if missed else ""))
     print(f"({len(rows)} robots, {time.perf_counter() - started:.0f} s; Python {sys.version.split()[0]}, "
-          f"{time.strftime('%Y-%m-%d')})")
+          f"{time.strftime('%Y-%m-%d')}; load average {os.getloadavg()[0]:.1f} at the end)")
 
 
 def verdicts(row: dict) -> tuple[str, str]:
@@ -168,15 +189,20 @@ def _ratio(row: dict) -> float | None:
     return row["CAD"][0] / row["round"][0] if row.get("CAD") and row.get("round") else None
 
 
-def table(rows: list[dict]) -> str:
-    """One line per robot: CPU seconds (wall seconds in parentheses) of each variant."""
-    def cell(value):
-        return "-" if value is None else f"{value[0]:.2f} ({value[1]:.1f})"
+def table(rows: list[dict], baseline: bool = False) -> str:
+    """One line per robot: CPU seconds (wall seconds in parentheses) of each variant; with
+    ``baseline``, the baseline's CPU seconds after a slash."""
+    def cell(row: dict, variant: str) -> str:
+        value = row.get(variant)
+        text = "-" if value is None else f"{value[0]:.2f} ({value[1]:.1f})"
+        before = row.get(f"{variant} before")
+        return text + (f" / {before:.2f}" if baseline and before is not None else "")
 
-    cells = [["robot", *(f"{v} s" for v in VARIANTS), "CAD/round", f"<= {GOAL_S:g} s", f"<= {GOAL_RATIO:g}x", "notes"]]
+    cells = [["robot", *(f"{v} s" + (" / before" if baseline else "") for v in VARIANTS), "CAD/round",
+              f"<= {GOAL_S:g} s", f"<= {GOAL_RATIO:g}x", "notes"]]
     for row in rows:
-        cells.append([row["robot"], *(cell(row.get(v)) for v in VARIANTS), _cell(_ratio(row), "{:.2f}x"),
-                      *verdicts(row), "; ".join(row["notes"])])
+        cells.append([row["robot"], *(cell(row, v) if v in row else "-" for v in VARIANTS),
+                      _cell(_ratio(row), "{:.2f}x"), *verdicts(row), "; ".join(row["notes"])])
     widths = [max(len(r[i]) for r in cells) for i in range(len(cells[0]))]
     last = len(widths) - 1
     lines = ["  ".join(c.ljust(w) if i in (0, last) else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))).rstrip()
