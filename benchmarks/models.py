@@ -43,31 +43,53 @@ def _full(value: float) -> str:
     return repr(float(value))
 
 
+def _round(value: float) -> str:
+    """A number as a person writes it: two significant digits."""
+    return f"{float(value):.2g}"
+
+
+#: Directions with round components (unit vectors), for the round-number chains' prismatic axes.
+_ROUND_AXES = [(1, 0), (0, 1), (-1, 0), (0, -1)] + [(x * a, y * b) for a, b in ((0.6, 0.8), (0.8, 0.6))
+                                                     for x in (1, -1) for y in (1, -1)]
+
+
 def _vector(values) -> str:
     return "[" + ", ".join(_full(v) for v in values) + "]"
 
 
-def planar_chain_yaml(n: int, seed: int = 0) -> str:
+def planar_chain_yaml(n: int, seed: int = 0, round_numbers: bool = False) -> str:
     """A planar serial chain of ``n`` joints with full-precision random numbers (link lengths,
     masses, COM offsets off the link line, inertias); every fourth joint is prismatic along a
-    random direction, the others revolute. Fixed ``seed``: the same file every run."""
+    random direction, the others revolute. Fixed ``seed``: the same file every run.
+
+    With ``round_numbers``, the same chain written as a person would: every number to two
+    significant digits, each prismatic axis the nearest of a few unit vectors with round
+    components (``[0.6, -0.8]``), so that both files differ only in their digits."""
     import math
     import random
 
     rng = random.Random(seed * 1000 + n)
+    number = _round if round_numbers else _full
+
+    def _vector(values) -> str:
+        return "[" + ", ".join(number(v) for v in values) + "]"
+
     lines = [f"name: chain{n}", f"title: Planar {n}-joint chain (seed {seed})", "planar: true",
-             "gravity: [0, -9.80665]", "links:"]
+             f"gravity: [0, -{number(9.80665)}]", "links:"]
     for k in range(1, n + 1):
         com = (rng.uniform(0.1, 0.6), rng.uniform(-0.1, 0.1))
-        lines.append(f"  - {{name: b{k}, mass: {_full(rng.uniform(0.5, 3.0))}, com: {_vector(com)}, "
-                     f"inertia: {_full(rng.uniform(0.01, 0.3))}}}")
+        lines.append(f"  - {{name: b{k}, mass: {number(rng.uniform(0.5, 3.0))}, com: {_vector(com)}, "
+                     f"inertia: {number(rng.uniform(0.01, 0.3))}}}")
     lines.append("joints:")
     for k in range(1, n + 1):
         parent = "world" if k == 1 else f"b{k - 1}"
         origin = [0.0, 0.0, 0.0] if k == 1 else [rng.uniform(0.3, 1.0), rng.uniform(-0.1, 0.1), rng.uniform(-0.5, 0.5)]
         if k % 4 == 0:
             angle = rng.uniform(-math.pi, math.pi)
-            kind = f"prismatic, axis: {_vector((math.cos(angle), math.sin(angle)))}"
+            axis = (math.cos(angle), math.sin(angle))
+            if round_numbers:
+                axis = min(_ROUND_AXES, key=lambda a: (a[0] - axis[0]) ** 2 + (a[1] - axis[1]) ** 2)
+            kind = f"prismatic, axis: {_vector(axis)}"
         else:
             kind = "revolute"
         lines.append(f"  - {{name: q{k}, type: {kind}, parent: {parent}, child: b{k}, "

@@ -14,6 +14,9 @@ from typing import Any
 
 import sympy
 
+from . import exact_fast
+from .exact_fast import count_ops, factor_terms
+
 #: Entries larger than this are left as built: expanding them costs more than it saves.
 TIDY_LIMIT = 1200  # tree nodes
 #: Entries with more operations than this are only expanded, never factored.
@@ -87,24 +90,38 @@ def is_small(expr: sympy.Expr, limit: int) -> bool:
     return True
 
 
+#: ``tidy``'s results by input: a quantity's entries come back inside the equations built
+#: from them, and the sheet, the JSON and the checks ask for the same entries.
+_TIDIED: dict[sympy.Basic, sympy.Basic] = {}
+
+
 def tidy(expr: sympy.Expr) -> sympy.Expr:
     """A compact equal form of ``expr`` (chosen by operation count, ties to the first)."""
     expr = sympy.sympify(expr)
     if expr.is_Atom or not is_small(expr, TIDY_LIMIT):
         return expr
+    known = _TIDIED.get(expr)
+    if known is None:
+        if len(_TIDIED) > exact_fast.MEMO_LIMIT:
+            _TIDIED.clear()
+        known = _TIDIED[expr] = _tidy(expr)
+    return known
+
+
+def _tidy(expr: sympy.Expr) -> sympy.Expr:
     expanded = sympy.expand(expr)
     candidates = [expr, expanded]
-    size = sympy.count_ops(expanded)
+    size = count_ops(expanded)
     if size <= FACTOR_LIMIT:
-        candidates.append(sympy.factor_terms(expr))
+        candidates.append(factor_terms(expr))
         for base in _pythagoras(expanded):
             candidates.append(base)
-            candidates.append(sympy.factor_terms(base))
+            candidates.append(factor_terms(base))
             if size <= COLLECT_LIMIT:
                 collected = _collect_common(base)
                 if collected is not None:
                     candidates.append(collected)
-    ops = [sympy.count_ops(c) for c in candidates]
+    ops = [count_ops(c) for c in candidates]
     best = min(range(len(candidates)), key=lambda i: ops[i])
     # Keep the form the derivation built (it carries the kinematics' own groupings, such
     # as l/2 + q2) unless a rewriting is clearly shorter.
@@ -175,7 +192,7 @@ def _collect_common(expr: sympy.Expr) -> sympy.Expr | None:
     trig = sorted({f for f in expr.atoms(sympy.sin, sympy.cos)}, key=sympy.default_sort_key)
     if not trig:
         return None
-    return sympy.collect(expr, trig, func=sympy.factor_terms)
+    return exact_fast.collect_trig(expr, trig)
 
 
 #: Entries larger than this (tree nodes) are not put into Fourier form or regrouped.
@@ -223,15 +240,15 @@ def trig_group(expr: sympy.Expr) -> sympy.Expr:
             moves = isinstance(base, (sympy.sin, sympy.cos)) and base.free_symbols
             (trig if moves else rest).append(factor)
         groups.setdefault(sympy.Mul(*trig), []).append(sympy.Mul(*rest))
-    return sympy.Add(*(sympy.factor_terms(sympy.Add(*coefficients)) * key for key, coefficients in groups.items()))
+    return sympy.Add(*(factor_terms(sympy.Add(*coefficients)) * key for key, coefficients in groups.items()))
 
 
 def fewest_operations(expr: sympy.Expr, *rewritings) -> sympy.Expr:
     """``expr`` or the first rewriting with strictly fewer operations than it (and all others)."""
-    best, fewest = expr, sympy.count_ops(expr)
+    best, fewest = expr, count_ops(expr)
     for rewrite in rewritings:
         candidate = rewrite(expr)
-        ops = sympy.count_ops(candidate)
+        ops = count_ops(candidate)
         if ops < fewest:
             best, fewest = candidate, ops
     return best
@@ -293,7 +310,7 @@ def check_zero(name: str, description: str, difference: sympy.Matrix,
         remaining = [e for e in remaining if sympy.expand(e) != 0]
         if not remaining:
             return Check(name, description, True, "symbolic", 0.0)
-        if sum(sympy.count_ops(e) for e in remaining) < CANONICAL_LIMIT:
+        if sum(count_ops(e) for e in remaining) < CANONICAL_LIMIT:
             if all(trig_canonical(sympy.together(e).as_numer_denom()[0]) == 0 for e in remaining):
                 return Check(name, description, True, "symbolic", 0.0)
     remaining = [e for e in remaining if e != 0]

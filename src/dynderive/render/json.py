@@ -21,17 +21,18 @@ import sympy
 from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from .latex import Formatter
+from .printers import RememberingStrPrinter
 
 #: Quantities larger than this (tree nodes per entry, on average) get ``"latex": null``: their
 #: LaTeX would run to pages per entry and costs most of the JSON's time (30 s for the UR5's C_g).
 LATEX_NODES = 2000
 
 
-def _text(expr: sympy.Expr, order: str = "lex") -> str:
-    """``sstr`` with terms in lexicographic order (a large robot's: SymPy's own order, like its
-    LaTeX); entries too large to typeset get the plain printing of ``_plain`` (a 7-DOF arm's
-    C_g: minutes with ``sstr``, seconds so)."""
-    return sympy.sstr(expr, order=order) if is_small(expr, LATEX_NODES) else _plain(expr)
+def _text(expr: sympy.Expr, printer: RememberingStrPrinter) -> str:
+    """``sstr`` with terms in ``printer``'s order (lexicographic; a large robot's: SymPy's own
+    order, like its LaTeX); entries too large to typeset get the plain printing of ``_plain``
+    (a 7-DOF arm's C_g: minutes with ``sstr``, seconds so)."""
+    return printer.doprint(expr) if is_small(expr, LATEX_NODES) else _plain(expr)
 
 
 def _plain(expr: sympy.Expr) -> str:
@@ -69,16 +70,17 @@ def _plain(expr: sympy.Expr) -> str:
     return text(expr)
 
 
-def quantity_entry(value: object, fmt: Formatter, description: str = "") -> dict[str, object]:
-    order = fmt.order or "lex"
+def quantity_entry(value: object, fmt: Formatter, description: str = "",
+                   printer: RememberingStrPrinter | None = None) -> dict[str, object]:
+    printer = printer or RememberingStrPrinter({"order": fmt.order or "lex"})
     if isinstance(value, sympy.MatrixBase):
         shape = [int(value.shape[0]), int(value.shape[1])]
         text = "Matrix([" + ", ".join(
-            "[" + ", ".join(_text(value[i, j], order) for j in range(value.shape[1])) + "]"
+            "[" + ", ".join(_text(value[i, j], printer) for j in range(value.shape[1])) + "]"
             for i in range(value.shape[0])) + "])"
     else:
         shape = [1, 1]
-        text = _text(value, order)
+        text = _text(value, printer)
     # LaTeX of very large quantities (3-D arms' C_g) takes minutes and nobody reads it.
     latex = fmt.maybe(value, LATEX_NODES)
     entry: dict[str, object] = {"shape": shape, "sympy": text, "latex": latex}
@@ -98,7 +100,8 @@ def _loops_entry(derivation: Derivation) -> dict[str, Any]:
 
 def render_json(derivation: Derivation) -> str:
     fmt = Formatter.of(derivation)
-    quantities = {name: quantity_entry(value, fmt, derivation.description(name))
+    printer = RememberingStrPrinter({"order": fmt.order or "lex"})
+    quantities = {name: quantity_entry(value, fmt, derivation.description(name), printer)
                   for name, value in derivation.quantities.items()}
     document = {
         "robot": derivation.robot.name,
@@ -108,7 +111,8 @@ def render_json(derivation: Derivation) -> str:
         "degrees_of_freedom": derivation.mobility,
         **({"loops": _loops_entry(derivation)} if derivation.robot.loops else {}),
         "quantities": quantities,
-        **({"intermediates": {str(name): quantity_entry(value, fmt) for name, value in derivation.intermediates}}
+        **({"intermediates": {str(name): quantity_entry(value, fmt, printer=printer)
+                              for name, value in derivation.intermediates}}
            if derivation.intermediate_form else {}),
         "checks": [{"name": c.name, "description": c.description, "passed": c.passed,
                     "method": c.method, "residual": c.residual} for c in derivation.checks],

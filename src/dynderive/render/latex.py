@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import weakref
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,7 @@ from .encode import escape_tex, tex_unit
 from .environment import render
 from .figure import planar_figure
 from .linebreak import LineBreaker
+from .printers import RememberingLatexPrinter
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -77,6 +79,9 @@ class Formatter:
             name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
         self.order = "none" if derivation.intermediate_form else None
         self._printed: dict[Any, tuple[Any, str]] = {}
+        self._printer = RememberingLatexPrinter({
+            "symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
+            "long_frac_ratio": 2, "order": self.order})
         self._breaker = LineBreaker(self, typeset_width, self.order)
 
     @classmethod
@@ -92,8 +97,13 @@ class Formatter:
         known = self._printed.get(key)
         if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
             return known[1]
-        text = sympy.latex(expr, symbol_names=self.names, mat_delim="[", mat_str="matrix",
-                           mul_symbol=None, long_frac_ratio=2, order=self.order)
+        if isinstance(expr, sympy.MatrixBase):
+            # SymPy's own matrix LaTeX (mat_str "matrix", delimiter "["), from the entries'
+            # LaTeX: the sheet prints each entry of a matrix too, and the JSON every matrix
+            text = r"\left[\begin{matrix}" + r"\\".join(
+                " & ".join(self(e) for e in expr.row(i)) for i in range(expr.rows)) + r"\end{matrix}\right]"
+        else:
+            text = self._printer.doprint(expr)
         self._printed[key] = (expr, text)
         return text
 
@@ -215,10 +225,12 @@ class Display(str):
         return self
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def typeset_width(expr: sympy.Basic) -> float:
     """Estimated width of ``expr`` typeset inline, in math glyphs: a symbol is a glyph and its
     index 0.7 a digit, a sum adds 2.2 per sign, a function its name and parentheses, a
-    fraction its wider part. Rough (within about a fifth on the bundled sheets), and cheap."""
+    fraction its wider part. Rough (within about a fifth on the bundled sheets), and cheap
+    (remembered: the line breaker asks for the same pieces again and again)."""
     if expr.is_Symbol:
         name = str(expr).lstrip("_")
         stem = name.rstrip("0123456789")
@@ -473,10 +485,9 @@ def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
             "equation": fmt.display(q["EOM_m1"][i], None),
         })
     lambda_entries = None
-    if "lambdaVec" in q:
+    if "lambdaVec" in q and max(len(fmt(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
+        # the LaTeX first: breaking entries too long to show into lines cost seconds
         lambda_entries = [fmt.display(e, None) for e in q["lambdaVec"]]
-        if max(len(e or "") for e in lambda_entries) > LONGEST_LAMBDA:
-            lambda_entries = None
     return {
         "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
         "lambda": fmt(sympy.Matrix(table.multipliers)),

@@ -1,0 +1,253 @@
+"""Faster drop-in equivalents of the SymPy functions that ``tidy`` calls for every candidate:
+``count_ops`` and ``collect``, giving exactly SymPy's results (tests compare them on the
+bundled robots' expressions and random ones), and a memo of ``factor_terms``.
+
+SymPy's ``count_ops`` walks the whole tree of each candidate although the candidates of an
+entry share most of their subtrees; ``collect`` by sines and cosines substitutes, pattern-
+matches and rebuilds every term. Both costs grow with the size of the numbers in a tree
+(every ``-a`` and every rebuilt product multiplies full-precision fractions again), which is
+what made small robots written with CAD numbers slow.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Any
+
+import sympy
+from sympy.core import exprtools
+from sympy.core.assumptions import assumptions
+from sympy.core.expr import Expr
+from sympy.core.function import _coeff_isneg
+from sympy.core.mul import _keep_coeff
+from sympy.core.operations import LatticeOp
+from sympy.simplify.radsimp import fraction
+from sympy.utilities.iterables import iterable
+
+#: Memo entries kept before a memo is emptied (bounds memory on large robots).
+MEMO_LIMIT = 200_000
+
+_OPS: dict[sympy.Basic, int] = {}
+_FACTOR_TERMS: dict[sympy.Basic, sympy.Basic] = {}
+
+
+def count_ops(expr: sympy.Expr) -> int:
+    """``sympy.count_ops(expr)`` (visual=False) of an expression, each distinct subtree
+    counted once per process and remembered."""
+    expr = sympy.sympify(expr)
+    if not isinstance(expr, sympy.Expr) or expr.is_Relational:
+        return sympy.count_ops(expr)
+    if len(_OPS) > MEMO_LIMIT:
+        _OPS.clear()
+    return _ops(expr)
+
+
+def _ops(a: sympy.Basic) -> int:
+    """What ``count_ops`` adds for ``a`` when it pops it off its stack, descendants included."""
+    known = _OPS.get(a)
+    if known is not None:
+        return known
+    total = 0
+    node = a
+    if node.is_Rational:
+        if node is not sympy.S.One:
+            total = (node.p < 0) + (node.q != 1)
+            _OPS[a] = total
+            return total
+    elif node.is_Mul:
+        if _coeff_isneg(node):
+            total += 1
+            node = node.as_two_terms()[1] if node.args[0] is sympy.S.NegativeOne else -node
+        n, d = fraction(node)
+        if n.is_Integer:
+            total += 1 + bool(n < 0) + _ops(d)
+            _OPS[a] = total
+            return total
+        if d is not sympy.S.One:
+            total += 1 + _ops(n) + (0 if d.is_Integer else _ops(d))
+            _OPS[a] = total
+            return total
+    elif node.is_Add:
+        args = node.args
+        negative = 0
+        for i, term in enumerate(args):
+            if _coeff_isneg(term):
+                negative += 1
+                total += _ops(-term)
+            else:
+                total += _ops(term)
+            total += i > 0
+        total += negative == len(args)
+        _OPS[a] = total
+        return total
+    total += _tail(node)
+    _OPS[a] = total
+    return total
+
+
+def _tail(a: sympy.Basic) -> int:
+    """``count_ops``' cases after the rational, product and sum branches (``a`` may be the
+    negated product)."""
+    if a.is_Pow and a.exp is sympy.S.NegativeOne:
+        return 1 + _ops(a.base)
+    if a == sympy.S.Exp1:
+        return 1
+    if a.is_Pow and a.base == sympy.S.Exp1:
+        return 1 + _ops(a.exp)
+    total = 0
+    if a.is_Mul or isinstance(a, LatticeOp):
+        total += len(a.args) - 1
+    elif a.args and (a.is_Pow or a.is_Function or isinstance(a, (sympy.Derivative, sympy.Integral, sympy.Sum))):
+        total += 1
+    if not a.is_Symbol:
+        total += sum(_ops(arg) for arg in a.args)
+    return total
+
+
+def factor_terms(expr: sympy.Expr) -> sympy.Expr:
+    """``sympy.factor_terms(expr)`` (its defaults: ``radical=False, clear=False,
+    fraction=False, sign=True``): SymPy's own steps, each sub-expression's result remembered.
+    The candidates of an entry, and the entries of a matrix and of the equations built from
+    it, share most of their terms, and SymPy factors each term (and each sum inside a sine)
+    again every time."""
+    if len(_FACTOR_TERMS) > MEMO_LIMIT:
+        _FACTOR_TERMS.clear()
+    return _do(sympy.sympify(expr))
+
+
+def _do(expr):
+    """``do`` of ``sympy.factor_terms`` (SymPy 1.12-1.14), remembered for SymPy objects."""
+    if not isinstance(expr, sympy.Basic) or expr.is_Atom:
+        if iterable(expr):
+            return type(expr)([_do(i) for i in expr])
+        return expr
+    known = _FACTOR_TERMS.get(expr)
+    if known is not None:
+        return known
+    if expr.is_Pow or expr.is_Function or iterable(expr) or not hasattr(expr, "args_cnc"):
+        args = expr.args
+        newargs = tuple([_do(i) for i in args])
+        result = expr if newargs == args else expr.func(*newargs)
+    elif isinstance(expr, (sympy.Sum, sympy.Integral)):
+        result = exprtools._factor_sum_int(expr, radical=False, clear=False, fraction=False, sign=True)
+    else:
+        cont, p = expr.as_content_primitive(radical=False, clear=False)
+        if p.is_Add:
+            list_args = [_do(a) for a in sympy.Add.make_args(p)]
+            # get a common negative (if there) which gcd_terms does not remove
+            if not any(a.as_coeff_Mul()[0].extract_multiplicatively(-1) is None for a in list_args):
+                cont = -cont
+                list_args = [-a for a in list_args]
+            # watch out for exp(-(x+2)) which gcd_terms will change to exp(-x-2)
+            special = {}
+            for i, a in enumerate(list_args):
+                b, e = a.as_base_exp()
+                if e.is_Mul and e != sympy.Mul(*e.args):
+                    list_args[i] = sympy.Dummy()
+                    special[list_args[i]] = a
+            # rebuild p not worrying about the order which gcd_terms will fix
+            p = sympy.Add._from_args(list_args)
+            p = exprtools.gcd_terms(p, isprimitive=True, clear=False, fraction=False).xreplace(special)
+        elif p.args:
+            p = p.func(*[_do(a) for a in p.args])
+        result = _keep_coeff(cont, p, clear=False, sign=True)
+    _FACTOR_TERMS[expr] = result
+    return result
+
+
+def collect_trig(expr: sympy.Expr, trig: list[sympy.Expr]) -> sympy.Expr:
+    """``sympy.collect(expr, trig, func=sympy.factor_terms)`` of an expanded sum, for
+    ``trig`` a list of distinct sines and cosines: each term goes to the power of the first
+    of ``trig`` it contains (the rest of the term to its coefficient), or stays alone; each
+    coefficient sum is passed through ``factor_terms``. Terms of another shape (a sum or a
+    function of something other than a number or symbol inside) are left to SymPy."""
+    reps = {f: sympy.Dummy(**assumptions(f)) for f in trig}
+    dummies = [reps[f] for f in trig]
+    rank = {d: i for i, d in enumerate(dummies)}
+    replaced = expr.xreplace(reps)
+    collected: dict[sympy.Expr, list[sympy.Expr]] = defaultdict(list)
+    disliked: list[sympy.Expr] = []
+    for term in sympy.Add.make_args(replaced):
+        factors = sympy.Mul.make_args(term)
+        first, where = None, -1
+        for i, factor in enumerate(factors):
+            base, exponent = (factor.base, factor.exp) if factor.is_Pow else (factor, sympy.S.One)
+            if not (base.is_Symbol or base.is_Number) or not exponent.is_Number:
+                return sympy.collect(expr, trig, func=sympy.factor_terms)
+            if not factor.is_commutative:
+                return sympy.collect(expr, trig, func=sympy.factor_terms)
+            if base in rank and (first is None or rank[base] < rank[first]):
+                first, where = base, i
+        if first is None:
+            disliked.append(term)
+            continue
+        rest = sympy.Mul(*(f for i, f in enumerate(factors) if i != where))
+        collected[factors[where]].append(rest)
+    groups = {key: sympy.Add(*values) for key, values in collected.items()}
+    if disliked:
+        groups[sympy.S.One] = sympy.Add(*disliked)
+    back = {d: f for f, d in reps.items()}
+    return sympy.Add(*[key * factor_terms(value) for key, value in groups.items()]).xreplace(back)
+
+
+class _FactorDict(dict):
+    """A plain ``dict`` of factors that SymPy's ``_sympify`` refuses at once: its
+    ``__sympy__`` is neither None nor True, so a comparison with a SymPy number is False
+    without converting the dictionary (``dict.copy`` gives a plain ``dict`` back)."""
+
+    __slots__ = ()
+    __sympy__ = False
+
+
+class _FactorDefaultDict(defaultdict):
+    """The same for a ``defaultdict`` (its copy keeps this type: turned back afterwards)."""
+
+    __sympy__ = False
+
+
+def _factors_init(self, factors=None, _init=exprtools.Factors.__init__):
+    # ``Factors.__init__`` first asks ``factors in (None, S.One)``; for a dict that makes
+    # ``S.One == factors`` sympify the whole dictionary into a SymPy ``Dict`` (always unequal,
+    # so wasted): a third of ``factor_terms``' time. The same constructor, without that.
+    kind = type(factors)
+    if kind is dict:
+        _init(self, _FactorDict(factors))
+    elif kind is defaultdict:
+        _init(self, _FactorDefaultDict(factors.default_factory, factors))
+        if type(self.factors) is _FactorDefaultDict:
+            self.factors = defaultdict(self.factors.default_factory, self.factors)
+    else:
+        _init(self, factors)
+
+
+if not getattr(exprtools.Factors.__init__, "dynderive", False):
+    _factors_init.dynderive = True  # type: ignore[attr-defined]
+    exprtools.Factors.__init__ = _factors_init  # type: ignore[method-assign]
+
+
+_EXPAND: dict[tuple[Any, ...], tuple[Any, bool]] = {}
+_expand_hint = Expr._expand_hint
+
+
+def _remembered_expand_hint(expr, hint, deep=True, **hints):
+    # ``Expr._expand_hint`` (one pass of ``expand`` over a tree) is a pure function of its
+    # arguments, and ``tidy`` expands sums whose terms it expanded before (the entries of M
+    # inside the equations of motion, an expanded entry with sin^2 replaced): remembered.
+    try:
+        key = (expr, hint, deep, tuple(sorted(hints.items())))
+        known = _EXPAND.get(key)
+    except TypeError:   # an unhashable argument
+        return _expand_hint(expr, hint, deep=deep, **hints)
+    if known is None:
+        if len(_EXPAND) > MEMO_LIMIT:
+            _EXPAND.clear()
+        known = _EXPAND[key] = _expand_hint(expr, hint, deep=deep, **hints)
+    return known
+
+
+if not getattr(_expand_hint, "dynderive", False):
+    _remembered_expand_hint.dynderive = True  # type: ignore[attr-defined]
+    Expr._expand_hint = staticmethod(_remembered_expand_hint)  # type: ignore[method-assign]
+
+
+__all__ = ["collect_trig", "count_ops", "factor_terms"]

@@ -1,0 +1,54 @@
+"""SymPy's LaTeX and string printers, remembering what they printed, sub-expressions included.
+
+Printing is a pure function of the expression (and the printer's settings): the entries of
+a robot's matrices share most of their pieces (``\\sin(q_1 + q_2)``, the same products of
+masses and lengths), and SymPy orders and prints every one again for each entry. Each
+printer here keeps the text of every sub-expression it printed, so the text is SymPy's own.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy
+from sympy.printing.latex import LatexPrinter
+from sympy.printing.str import StrPrinter
+
+
+class RememberingLatexPrinter(LatexPrinter):
+    """``sympy.latex(expr, **settings)`` is ``LatexPrinter(settings).doprint(expr)``; this
+    printer gives the same text and remembers it for every sub-expression printed without
+    extra arguments (a function raised to a power passes its exponent: not remembered)."""
+
+    def __init__(self, settings: dict[str, Any]):
+        super().__init__(settings)
+        self._memo: dict[sympy.Basic, str] = {}
+
+    def _print(self, expr: Any, **kwargs: Any) -> str:
+        if kwargs or not isinstance(expr, sympy.Basic):
+            return super()._print(expr, **kwargs)
+        known = self._memo.get(expr)
+        if known is None:
+            known = self._memo[expr] = super()._print(expr)
+        return known
+
+
+class RememberingStrPrinter(StrPrinter):
+    """``sympy.sstr(expr, **settings)`` (``StrPrinter(settings).doprint(expr)``), remembered
+    for every sub-expression except floating-point numbers, whose text depends on whether
+    they are printed at the top (``full_prec="auto"``)."""
+
+    def __init__(self, settings: dict[str, Any]):
+        super().__init__(settings)
+        self._memo: dict[sympy.Basic, str] = {}
+
+    def _print(self, expr: Any, **kwargs: Any) -> str:
+        if kwargs or not isinstance(expr, sympy.Basic) or expr.is_Float:
+            return super()._print(expr, **kwargs)
+        known = self._memo.get(expr)
+        if known is None:
+            known = self._memo[expr] = super()._print(expr)
+        return known
+
+
+__all__ = ["RememberingLatexPrinter", "RememberingStrPrinter"]
