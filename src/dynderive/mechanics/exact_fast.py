@@ -205,7 +205,10 @@ class _FactorDefaultDict(defaultdict):
     __sympy__ = False
 
 
-def _factors_init(self, factors=None, _init=exprtools.Factors.__init__):
+_FACTORS_INIT = getattr(exprtools, "Factors", object).__init__
+
+
+def _factors_init(self, factors=None, _init=_FACTORS_INIT):
     # ``Factors.__init__`` first asks ``factors in (None, S.One)``; for a dict that makes
     # ``S.One == factors`` sympify the whole dictionary into a SymPy ``Dict`` (always unequal,
     # so wasted): a third of ``factor_terms``' time. The same constructor, without that.
@@ -220,13 +223,15 @@ def _factors_init(self, factors=None, _init=exprtools.Factors.__init__):
         _init(self, factors)
 
 
-if not getattr(exprtools.Factors.__init__, "dynderive", False):
+# Only where SymPy still has the pieces this relies on (a later release may not): a speed-up
+# only, the results are SymPy's own either way.
+if hasattr(exprtools, "Factors") and not getattr(exprtools.Factors.__init__, "dynderive", False):
     _factors_init.dynderive = True  # type: ignore[attr-defined]
     exprtools.Factors.__init__ = _factors_init  # type: ignore[method-assign]
 
 
 _EXPAND: dict[tuple[Any, ...], tuple[Any, bool]] = {}
-_expand_hint = Expr._expand_hint
+_expand_hint = getattr(Expr, "_expand_hint", None)
 
 
 def _remembered_expand_hint(expr, hint, deep=True, **hints):
@@ -245,7 +250,7 @@ def _remembered_expand_hint(expr, hint, deep=True, **hints):
     return known
 
 
-if not getattr(_expand_hint, "dynderive", False):
+if _expand_hint is not None and not getattr(_expand_hint, "dynderive", False):
     _remembered_expand_hint.dynderive = True  # type: ignore[attr-defined]
     Expr._expand_hint = staticmethod(_remembered_expand_hint)  # type: ignore[method-assign]
 
