@@ -146,3 +146,12 @@ def test_tidy_is_remembered_and_equal():
         assert tidy(e) is first
         assert sympy.expand(first - e) == 0 or abs(complex(
             (first - e).subs({s: 0.37 + 0.11 * i for i, s in enumerate(sorted(e.free_symbols, key=str))}).evalf())) < 1e-9
+
+
+def test_is_small_counts_the_nodes_preorder_traversal_visits():
+    from dynderive.mechanics.tidy import is_small
+
+    exprs = random_exprs(700, 80) + [sympy.Tuple(*random_exprs(701, 10))]
+    for e in exprs:
+        nodes = sum(1 for _ in sympy.preorder_traversal(e))
+        assert is_small(e, nodes) and not is_small(e, nodes - 1)

@@ -239,7 +239,7 @@ def _remembered_expand_hint(expr, hint, deep=True, **hints):
     # arguments, and ``tidy`` expands sums whose terms it expanded before (the entries of M
     # inside the equations of motion, an expanded entry with sin^2 replaced): remembered.
     try:
-        key = (expr, hint, deep, tuple(sorted(hints.items())))
+        key = (type(expr), expr, hint, deep, tuple(hints.items()))
         known = _EXPAND.get(key)
     except TypeError:   # an unhashable argument
         return _expand_hint(expr, hint, deep=deep, **hints)

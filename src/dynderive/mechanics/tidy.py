@@ -81,12 +81,16 @@ def _to_float(expr: sympy.Expr) -> sympy.Float:
 
 
 def is_small(expr: sympy.Expr, limit: int) -> bool:
-    """Whether ``expr`` has at most ``limit`` nodes; stops early, so it is cheap on big trees."""
-    count = 0
-    for _ in sympy.preorder_traversal(expr):
+    """Whether ``expr`` has at most ``limit`` nodes (those ``sympy.preorder_traversal``
+    visits); stops early, so it is cheap on big trees."""
+    if not isinstance(expr, sympy.Basic):
+        return sum(1 for _ in zip(sympy.preorder_traversal(expr), range(limit + 1))) <= limit
+    count, stack = 0, [expr]
+    while stack:
         count += 1
         if count > limit:
             return False
+        stack.extend(stack.pop().args)
     return True
 
 
