@@ -240,7 +240,11 @@ def assemblies(numeric: _Numeric, robot: Robot) -> list[np.ndarray]:
 
 
 def _rank(J: np.ndarray) -> int:
-    sigma = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
+    return _rank_of(np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0))
+
+
+def _rank_of(sigma: np.ndarray) -> int:
+    """The rank given by singular values in decreasing order."""
     return int(np.sum(sigma > RANK_TOLERANCE * max(float(sigma[0]) if len(sigma) else 0.0, 1e-300)))
 
 
@@ -262,7 +266,7 @@ def _neighbours(numeric: _Numeric, q: np.ndarray) -> list[np.ndarray]:
 def _regular(J: np.ndarray, rank: int) -> bool:
     """Whether ``J`` has rank ``rank``, well away from a lower one."""
     sigma = np.linalg.svd(J, compute_uv=False)
-    return _rank(J) == rank and (rank == 0 or sigma[rank - 1] > 1e-6 * sigma[0])
+    return _rank_of(sigma) == rank and (rank == 0 or sigma[rank - 1] > 1e-6 * sigma[0])
 
 
 def _manifold_rank(numeric: _Numeric, q: np.ndarray) -> int:
@@ -298,15 +302,16 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     complete = all(p.value is not None for p in robot.parameters)
     values = defaults if complete else {s: 1.0 for s in table.parameters.values()}
 
-    def numeric_of(indices: list[int]) -> _Numeric:
+    def numeric_of(indices: list[int]) -> tuple[sympy.Matrix, sympy.Matrix, _Numeric]:
         a = sympy.Matrix([every[i][2] for i in indices]) if indices else sympy.zeros(0, 1)
-        return _Numeric(a, a.jacobian(table.q) if indices else sympy.zeros(0, n), table, values)
+        A = a.jacobian(table.q) if indices else sympy.zeros(0, n)
+        return a, A, _Numeric(a, A, table, values)
 
-    numeric = numeric_of(nonzero)
+    a, A, numeric = numeric_of(nonzero)
     vanishing = set(_vanishing_rows(numeric, n)) if nonzero else set()
     if vanishing:
         nonzero = [i for k, i in enumerate(nonzero) if k not in vanishing]
-        numeric = numeric_of(nonzero)
+        a, A, numeric = numeric_of(nonzero)
     dropped = [every[i] for i in range(len(every)) if i not in nonzero]
     if dropped:
         notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
@@ -320,14 +325,14 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
             raise InputError(Problem(robot.source, line, column, f"loops[0] '{first.name}': the mechanism cannot "
                                      "be assembled at the default parameters (the loop constraints have no "
                                      "solution near any tried configuration: check lengths and origins)"))
-        probes = [np.random.default_rng(15).uniform(-1, 1, n)]
-        rank = _rank(numeric.jacobian(probes[0]))
+        default = np.random.default_rng(15).uniform(-1, 1, n)
+        rank = _rank(numeric.jacobian(default))
     else:
         rank = _manifold_rank(numeric, found[0])
         # the default: the nearest q = 0 where the rows have their full rank on the manifold (a
         # singular configuration, such as a parallelogram folded flat, makes a poor default:
         # the coordinates there are only assembled to the square root of the tolerance)
-        probes = sorted(found, key=lambda q: not _regular(numeric.jacobian(q), rank))
+        default = next((q for q in found if _regular(numeric.jacobian(q), rank)), found[0])
     k = len(rows)
     if rank >= n:
         raise InputError(Problem(robot.source, where[0], where[1], f"loops: the loop joints impose {rank} independent "
@@ -337,20 +342,18 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
                      f"the constraint manifold: the mechanism is over-constrained (mobility {n - rank}, where "
                      f"counting rows would give {n - k}); every row is kept, and the generated code solves with "
                      "their row space at each state")
-    a = sympy.Matrix([r[2] for r in rows])
-    A = a.jacobian(table.q).applyfunc(_tidy_entry)
+    A = A.applyfunc(_tidy_entry)
     Adot = constraint_jacobian_dot(A, table.q, table.qd).applyfunc(_tidy_entry)
-    J = numeric.jacobian(probes[0])
-    independent = _independent(robot, J, n, rank, notes)
+    independent = _independent(robot, numeric.jacobian(default), n, rank, notes)
     dependent = [i for i in range(n) if i not in independent]
     assembled = None
     if found:
-        assembled = _exact_assembly(a, A, table, values, probes[0], independent, dependent)
+        assembled = _exact_assembly(a, A, table, values, default, independent, dependent)
     multipliers = [sympy.Symbol(f"lambda_g{i}") for i in range(1, k + 1)]
     model = LoopModel(a, A, Adot, multipliers, [(r[0], r[1]) for r in rows], nonzero, rank,
                       independent, dependent, assembled, notes)
-    if assembled is not None:
-        _singular_partition(robot, model, _Numeric(a, A, table, defaults), notes)
+    if assembled is not None:   # the rows as lambdified above (same values as the defaults when complete)
+        _singular_partition(robot, model, numeric, notes)
     return model
 
 
