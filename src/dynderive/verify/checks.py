@@ -163,11 +163,16 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
 
 
 def allowed_velocity(module: Any, q: np.ndarray, qd: np.ndarray, values: dict[str, float]) -> np.ndarray:
-    """``qd`` projected onto the motions the loops allow at ``q``: the null space of A_g, of
-    dimension the mobility (the rows of an over-constrained mechanism's A_g are dependent)."""
-    A = module.loop_jacobian(q, **values)
-    null = np.linalg.svd(A)[2][A.shape[1] - len(module.INDEPENDENT_COORDINATES):]
+    """``qd`` projected onto the motions the loops allow at ``q``."""
+    null = _allowed_motions(module, q, values)
     return null.T @ (null @ qd)
+
+
+def _allowed_motions(module: Any, q: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """Orthonormal rows spanning the motions the loops allow at ``q``: the null space of A_g,
+    of dimension the mobility (the rows of an over-constrained mechanism's A_g are dependent)."""
+    A = module.loop_jacobian(q, **values)
+    return np.linalg.svd(A)[2][A.shape[1] - len(module.INDEPENDENT_COORDINATES):]
 
 
 def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
@@ -176,8 +181,7 @@ def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: 
     allow) holds for the constrained accelerations of the multiplier form."""
     worst, scale = 0.0, 1.0
     for q, qd, u in zip(qs, qds, us):
-        A = module.loop_jacobian(q, **values)
-        R = np.linalg.svd(A)[2][A.shape[1] - len(module.INDEPENDENT_COORDINATES):].T
+        R = _allowed_motions(module, q, values).T
         qdd = module.forward_dynamics(q, qd, u, **values)
         worst = max(worst, float(np.max(np.abs(module.reduced_forward_dynamics(q, qd, u, **values) - qdd))))
         forces = module.mass_matrix(q, **values) @ qdd + module.inverse_dynamics(q, qd, np.zeros(len(q)), **values) \
