@@ -51,6 +51,7 @@ def __dir__() -> list[str]:
 
 def load_robot(robot: str | Path) -> Robot:
     """Load and validate a robot file (YAML path) or a bundled robot by name."""
+    from .input.limits import check_size
     from .input.loader import load_document, resolve_robot_path
     from .input.schema import validate
 
@@ -59,8 +60,12 @@ def load_robot(robot: str | Path) -> Robot:
         from .input.loader import read_text
         from .input.urdf import read_urdf
 
-        return validate(read_urdf(read_text(path), str(path)))
-    return validate(load_document(path))
+        document = read_urdf(read_text(path), str(path))
+    else:
+        document = load_document(path)
+    model = validate(document)
+    check_size(model, document)
+    return model
 
 
 def render_latex(derivation: Derivation, template_dir: str | Path | None = None,

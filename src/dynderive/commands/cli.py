@@ -9,7 +9,6 @@ from __future__ import annotations
 import functools
 import os
 import signal
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
@@ -18,6 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
+from .progress import Progress
 
 app = typer.Typer(
     add_completion=False,
@@ -63,6 +63,7 @@ def handle_errors(function: F) -> F:
             raise _fail(f"dynderive: internal error: {type(exc).__name__}: {exc} "
                         "(set DYNDERIVE_DEBUG=1 for a traceback, and please report it)", 1) from None
         finally:
+            Progress.close_all()
             signal.signal(signal.SIGTERM, previous)
 
     return wrapper  # type: ignore[return-value]
@@ -80,28 +81,6 @@ def main(
                                           help="Print the version and exit.")] = False,
 ) -> None:
     """dynderive: equations of motion from a YAML robot description."""
-
-
-class _Progress:
-    """Stage-by-stage progress on stderr, shown only once a derivation has run for 1 s."""
-
-    def __init__(self, quiet: bool):
-        self.quiet = quiet
-        self.start = time.monotonic()
-        self.pending: list[str] = []
-
-    def __call__(self, stage: str) -> None:
-        if self.quiet:
-            return
-        elapsed = time.monotonic() - self.start
-        line = f"  [{elapsed:6.1f} s] {stage}"
-        if elapsed < 1.0:
-            self.pending.append(line)
-            return
-        for earlier in self.pending:
-            typer.echo(earlier, err=True)
-        self.pending.clear()
-        typer.echo(line, err=True)
 
 
 @app.command()
@@ -140,7 +119,7 @@ def solve(
             raise InputError(_problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
         if not (latex or pdf):
             raise InputError(_problem("--sections", "--sections chooses what the sheet shows: use it with --latex or --pdf"))
-    progress = _Progress(quiet)
+    progress = Progress(quiet)
     progress("loading")
     model = load_robot(robot)
     _notes(model, quiet)
@@ -216,7 +195,7 @@ def check(
     from ..render.code import render_code
     from ..verify.checks import run_checks
 
-    progress = _Progress(quiet)
+    progress = Progress(quiet)
     model = _with_parameters(load_robot(robot), param or [], required=False)
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
@@ -351,7 +330,7 @@ def simulate(
     except ImportError as exc:
         raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
                                'pip install "dynderive[simulate]"') from None
-    progress = _Progress(quiet)
+    progress = Progress(quiet)
     model = _with_parameters(load_robot(robot), param or [], required=True)
     _notes(model, quiet)
     maximal = coordinates == "maximal"
@@ -416,7 +395,7 @@ def linearize(
     from ..verify.checks import generated_module
     from .linearize import linearization, on_the_loops, parse_at, render_linearization
 
-    progress = _Progress(quiet)
+    progress = Progress(quiet)
     model = _with_parameters(load_robot(robot), param or [], required=False)
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
@@ -463,7 +442,7 @@ def identify(
         raise ToolMissingError('identify needs SciPy: pip install "dynderive[simulate]"') from None
     from ..verify.identification import base_parameters
 
-    progress = _Progress(quiet)
+    progress = Progress(quiet)
     model = _with_parameters(load_robot(robot), param or [], required=True)
     _notes(model, quiet)
     derivation = derive(model, progress=progress)

@@ -14,6 +14,7 @@ from typing import Any
 
 import sympy
 
+from ..model.size import expanded_terms
 from . import exact_fast
 from .exact_fast import count_ops, factor_terms
 
@@ -27,6 +28,9 @@ SYMBOLIC_CHECK_LIMIT = 6000
 CANONICAL_LIMIT = 20000
 #: Grouping by trigonometric factors is the costliest candidate; only for small entries.
 COLLECT_LIMIT = 150
+#: Entries whose expansion may exceed this many terms (``model.size``) are never expanded:
+#: a small tree such as ``m*(a + b + c)**12`` would expand for minutes.
+EXPAND_LIMIT = 20_000
 
 
 #: Integers (and numerators, denominators) above this are not exact in a double.
@@ -80,6 +84,11 @@ def _to_float(expr: sympy.Expr) -> sympy.Float:
     return sympy.Float(number)
 
 
+def expandable(expr: sympy.Expr) -> bool:
+    """Whether ``sympy.expand(expr)`` stays within ``EXPAND_LIMIT`` terms (estimated)."""
+    return expanded_terms(expr, EXPAND_LIMIT + 1) <= EXPAND_LIMIT
+
+
 def is_small(expr: sympy.Expr, limit: int) -> bool:
     """Whether ``expr`` has at most ``limit`` nodes (those ``sympy.preorder_traversal``
     visits); stops early, so it is cheap on big trees."""
@@ -105,6 +114,8 @@ def tidy(expr: sympy.Expr) -> sympy.Expr:
     if expr.is_Atom or not is_small(expr, TIDY_LIMIT):
         return expr
     known = _TIDIED.get(expr)
+    if known is None and not expandable(expr):
+        return expr
     if known is None:
         if len(_TIDIED) > exact_fast.MEMO_LIMIT:
             _TIDIED.clear()
@@ -159,7 +170,7 @@ def quick_tidy(expr: sympy.Expr) -> sympy.Expr:
     by node count.
     """
     expr = sympy.sympify(expr)
-    if expr.is_Atom or not is_small(expr, TIDY_LIMIT):
+    if expr.is_Atom or not is_small(expr, TIDY_LIMIT) or not expandable(expr):
         return expr
     candidates = _pythagoras(sympy.expand(expr))
     best = min(candidates, key=_nodes)
@@ -220,7 +231,7 @@ def trig_linear(expr: sympy.Expr) -> sympy.Expr:
     """
     from sympy.simplify.fu import TR8
 
-    if not is_small(expr, FOURIER_LIMIT):
+    if not is_small(expr, FOURIER_LIMIT) or not expandable(expr):
         return expr
     constants = _constant_trig(expr)
     linear = trig_group(TR8(sympy.expand(expr.xreplace(constants))))
@@ -231,7 +242,7 @@ def trig_group(expr: sympy.Expr) -> sympy.Expr:
     """``expr`` expanded, then grouped by trigonometric factor (of the coordinates), common
     factors pulled out (``sympy.collect`` does the same, several times slower). Entries over
     FOURIER_LIMIT nodes are returned unchanged."""
-    if not is_small(expr, FOURIER_LIMIT):
+    if not is_small(expr, FOURIER_LIMIT) or not expandable(expr):
         return expr
     expanded = sympy.expand(expr)
     if not expanded.is_Add:
@@ -310,7 +321,7 @@ def check_zero(name: str, description: str, difference: sympy.Matrix,
     """Prove ``difference == 0`` symbolically when cheap, else test it at random points."""
     difference = sympy.Matrix(difference)
     remaining = list(difference)
-    if all(is_small(e, SYMBOLIC_CHECK_LIMIT // len(remaining) + 1) for e in remaining):
+    if all(is_small(e, SYMBOLIC_CHECK_LIMIT // len(remaining) + 1) and expandable(e) for e in remaining):
         remaining = [e for e in remaining if sympy.expand(e) != 0]
         if not remaining:
             return Check(name, description, True, "symbolic", 0.0)

@@ -27,6 +27,8 @@ from decimal import Decimal, InvalidOperation
 
 import sympy
 
+from .size import expanded_terms
+
 #: Functions an expression may call, by name.
 FUNCTIONS: dict[str, object] = {
     "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan,
@@ -44,6 +46,10 @@ MAX_DEPTH = 60
 MAX_EXPONENT = 1000
 #: ``(m + l)**999`` would stall the derivation; physics needs small powers of symbols.
 MAX_SYMBOLIC_EXPONENT = 12
+#: Terms an expression may expand to (``model.size``): ``(a+b+c+d+e+f+h+i+j+k)**12``, 30
+#: characters, has 293 930 and would hold the derivation for many minutes; physical
+#: expressions have a handful.
+MAX_EXPANDED_TERMS = 100
 #: Levels of nesting of an expression's syntax tree (a chain ``a + b - c`` or ``a*b/c`` is one
 #: level, whatever its length); deeper trees would exhaust Python's recursion.
 MAX_NESTING = 100
@@ -254,6 +260,7 @@ class _Builder:
         self.lead = lead
         self.source = source
         self.seen: set[sympy.Expr] = set()  # sub-expressions already checked
+        self.size_memo: dict[sympy.Basic, tuple[int, int]] = {}  # expanded_terms' counts
         self.evaluate = Evaluator()
 
     def fail(self, node: ast.AST, message: str) -> ExpressionError:
@@ -315,6 +322,12 @@ class _Builder:
                 self._check_constant(node, expr)
                 continue
             stack.extend(expr.args)
+        if result.free_symbols and not result.is_Symbol:
+            terms = expanded_terms(result, MAX_EXPANDED_TERMS + 1, self.size_memo)
+            if terms > MAX_EXPANDED_TERMS:
+                raise self.fail(node, f"'{self.segment(node)}' expands to up to {expanded_terms(result)} "
+                                f"terms (limit {MAX_EXPANDED_TERMS}): give the value a parameter of its "
+                                "own, or write it with fewer sums inside powers and products")
         return result
 
     def _check_constant(self, node: ast.AST, expr: sympy.Expr) -> None:
