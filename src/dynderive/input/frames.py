@@ -13,6 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..model.robot import Frame
+from .validator import kind
 
 FRAME_KEYS = ("name", "link", "origin")
 
@@ -25,9 +26,7 @@ def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_b
         return []
     raw = top["frames"]
     if not isinstance(raw, list) or not raw:
-        from .schema import _kind  # the validator's wording of values (it imports this module)
-
-        v.error(("frames",), f"frames: expected a non-empty list of frames, got {_kind(raw, empty=True)}")
+        v.error(("frames",), f"frames: expected a non-empty list of frames, got {kind(raw, empty=True)}")
         return []
     frames: list[Frame] = []
     taken: set[str] = set()
