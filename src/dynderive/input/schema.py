@@ -22,7 +22,7 @@ from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
 from .frames import read_frames
 from .loader import SourceDocument
-from .names import check_names
+from .names import check_names, engine_quantities
 from .validator import Validator as _Validator
 from .validator import kind as _kind
 from .validator import numeric as _numeric
@@ -81,7 +81,8 @@ def validate(doc: SourceDocument) -> Robot:
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops)
     frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
-                         lambda value, path: _origin(v, value, path, planar, symbols))
+                         lambda value, path: _origin(v, value, path, planar, symbols), planar,
+                         engine_quantities(links, planar, "loops" in top))
     check_names(v, parameters, links, joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
     if loops and constraints is not None:

@@ -43,6 +43,11 @@ class Validator:
     def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
         self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
 
+    def at(self, path: tuple[Any, ...], key: bool = False) -> str:
+        """``LINE:COL`` of ``path`` (of its key with ``key``), to point at an earlier value."""
+        line, column = self.doc.where(path, key)
+        return f"{line}:{column}"
+
     def label(self, path: tuple[Any, ...]) -> str:
         for cut in range(len(path), 0, -1):  # a source may name its items (URDF: "joint 'elbow'")
             if tuple(path[:cut]) in self.doc.labels:
