@@ -39,6 +39,9 @@ LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis"
 #: Loop-closing joint types, and how many constraints each imposes.
 LOOP_TYPES = {True: {"revolute": 2, "prismatic": 2}, False: {"revolute": 5, "spherical": 3, "prismatic": 5}}
 ORIGIN_KEYS = ("xyz", "rpy")
+#: Longest robot name: it names the output files (``test_<name>_dynamics.py``, and their
+#: temporary files while written), which the file system limits to 255 bytes.
+MAX_NAME_LENGTH = 100
 
 
 def validate(doc: SourceDocument) -> Robot:
@@ -53,6 +56,10 @@ def validate(doc: SourceDocument) -> Robot:
         raise InputError(v.problems)
 
     name = v.identifier(top.get("name"), ("name",), "robot name") if "name" in top else None
+    if name is not None and len(name) > MAX_NAME_LENGTH:
+        v.error(("name",), f"{v.label(('name',))}: robot name is {len(name)} characters long, at most {MAX_NAME_LENGTH} "
+                f"(it names the output files, e.g. test_<name>_dynamics.py)")
+        name = None
     title = v.text(top.get("title"), ("title",), default=name or "")
     planar = top.get("planar", False)
     if not isinstance(planar, bool):
@@ -143,7 +150,9 @@ def _parameters(v: _Validator, top: dict[str, Any]) -> list[Parameter]:
         else:
             vpath = path
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
-            v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {_kind(value)}")
+            quoted = isinstance(value, str) and _looks_numeric(value)
+            v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {_kind(value)}"
+                    + (f" ({value!r} in quotes: write it without them)" if quoted else ""))
             value = None
         elif value is not None and isinstance(value, int) and abs(value) > 1.7976931348623157e308:
             v.error(vpath, f"{v.label(vpath)}: default value is out of the range of a double")
@@ -182,7 +191,8 @@ def _links(v: _Validator, top: dict[str, Any], planar: bool,
             lname = None
         if lname is not None:
             if lname in link_names:
-                v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: duplicate link name '{lname}'")
+                v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: duplicate link name '{lname}' "
+                        f"(first at {v.at(link_names[lname] + ('name',))})")
             link_names.setdefault(lname, path)
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
         value = _numeric(mass, defaults)
@@ -210,7 +220,7 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
     if "joints" in top and (not isinstance(raw_joints, list) or not raw_joints):
         v.error(("joints",), f"joints: expected a non-empty list of joints, got {_kind(raw_joints, empty=True)}")
         raw_joints = []
-    joint_names: set[str] = set()
+    joint_names: dict[str, tuple[Any, ...]] = {}
     for i, raw in enumerate(raw_joints or []):
         path = ("joints", i)
         item = v.mapping(raw, path, JOINT_KEYS, required=("name", "type", "parent", "child"))
@@ -218,9 +228,10 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             continue
         jname = v.identifier(item.get("name"), path + ("name",), "joint name") if "name" in item else None
         if jname is not None and jname in joint_names:
-            v.error(path + ("name",), f"{v.label(('joints', i, 'name'))}: duplicate joint name '{jname}'")
-        if jname:
-            joint_names.add(jname)
+            v.error(path + ("name",), f"{v.label(('joints', i, 'name'))}: duplicate joint name '{jname}' "
+                    f"(first at {v.at(joint_names[jname])})")
+        elif jname:
+            joint_names[jname] = path + ("name",)
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
             extra = {"continuous": " (write 'revolute')", "floating": "", "planar": ""}.get(str(jtype), "")
@@ -265,7 +276,9 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         v.error(("loops",), f"loops: expected a non-empty list of loop joints, got {_kind(raw, empty=True)}")
         return []
     types = LOOP_TYPES[planar]
-    taken = {j.name for j in joints}
+    raw_joints = top.get("joints") if isinstance(top.get("joints"), list) else []
+    taken = {item["name"]: ("joints", k, "name") for k, item in reversed(list(enumerate(raw_joints)))
+             if isinstance(item, dict) and isinstance(item.get("name"), str)}
     loops: list[LoopJoint] = []
     for i, item_raw in enumerate(raw):
         path = ("loops", i)
@@ -275,8 +288,9 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         name = v.identifier(item.get("name"), path + ("name",), "loop joint name") if "name" in item else None
         if name is not None and name in taken:
             v.error(path + ("name",), f"{v.label(path + ('name',))}: name '{name}' is already used by a joint "
-                    "or another loop joint")
-        taken.add(name or "")
+                    f"or another loop joint (first at {v.at(taken[name])})")
+        elif name is not None:
+            taken[name] = path + ("name",)
         ltype = item.get("type")
         if "type" in item and ltype not in types:
             kind = "planar" if planar else "3-D"
@@ -380,6 +394,13 @@ def _looks_planar(top: dict[str, Any]) -> bool:
             if isinstance(axis, list) and len(axis) != 2:
                 return False
     return True
+
+
+def _looks_numeric(text: str) -> bool:
+    try:
+        return math.isfinite(float(text.strip()))
+    except ValueError:
+        return False
 
 
 def _did_you_mean(value: Any, options: list[str]) -> str:

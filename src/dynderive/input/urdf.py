@@ -53,7 +53,7 @@ class _Reader:
         text = element.attrib[attribute]
         values, bad = numbers_in(text)
         if bad is not None or len(values) != count or not all(math.isfinite(v) for v in values):
-            why = f" ('{bad}' is not one: write numbers as 1, -0.5 or 2.5e-3)" if bad is not None else ""
+            why = f" ({bad!r} is not one: write numbers as 1, -0.5 or 2.5e-3)" if bad is not None else ""
             self.error(element, f"<{element.tag} {attribute}=\"{text}\">: expected "
                        f"{count} finite number{'s' * (count > 1)}{why}")
             return list(default)
@@ -352,6 +352,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
     positions: dict[Path_, tuple[int, int]] = {(): (root.line, root.column)}
     for key in ("name", "title", "planar", "parameters", "gravity", "links", "joints"):
         positions[(key,)] = (root.line, root.column)
+    doc.labels[("name",)] = "<robot name>"
     moving = [j for j in joints if j["type"] != "fixed"]
     carrying = _carrying(moving, frames, merged)
     for index, joint in enumerate(moving):
