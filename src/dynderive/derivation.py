@@ -16,6 +16,7 @@ from .mechanics.planar import planar_kinematics
 from .mechanics.recursive import GeneralizedProgram, Program, build_programs, lines_read
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
+from .model.naming import body_jacobian_index
 from .model.robot import Robot
 from .model.symbols import SymbolTable
 
@@ -284,6 +285,11 @@ class Derivation:
         """What quantity ``name`` is (empty if it has no description)."""
         from .mechanics.frames import describe
 
+        index = body_jacobian_index(name, len(self.robot.links))
+        if index is not None:   # frames may not be named so (input/names.py)
+            rows = "(v_x, v_y, omega)" if self.robot.planar else "(v, omega)"
+            return (f"body Jacobian of link {index} ({self.robot.links[index - 1].name}): the twist of its centre "
+                    f"of mass in the link's own axes per joint rate, rows {rows}")
         return DESCRIPTIONS.get(name) or describe(name) or ""
 
     @property

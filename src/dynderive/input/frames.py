@@ -1,7 +1,8 @@
 """The optional ``frames`` list of a robot file: named frames fixed on links.
 
 Each has a ``name`` (an identifier, unique among the frames: it names the quantities
-``p_<frame>``, ``J_<frame>`` and the generated functions' ``frame`` argument), the ``link`` it
+``p_<frame>``, ``J_<frame>`` and the generated functions' ``frame`` argument, so none of
+those may be a quantity the engine derives), the ``link`` it
 is fixed on and an ``origin`` in that link's frame, written as a joint's origin. Part of
 validation: ``schema.validate`` calls ``read_frames`` and passes it its origin reader.
 """
@@ -13,24 +14,26 @@ from collections.abc import Callable
 from typing import Any
 
 from ..model.robot import Frame
+from .names import EngineQuantities, check_frame
+from .validator import kind
 
 FRAME_KEYS = ("name", "link", "origin")
 
 
 def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_broken: bool, bad_links: set[Any],
-                origin: Callable[[Any, tuple[Any, ...]], tuple[Any, ...]]) -> list[Frame]:
+                origin: Callable[[Any, tuple[Any, ...]], tuple[Any, ...]], planar: bool = False,
+                engine: EngineQuantities | None = None) -> list[Frame]:
     """The frames, every problem reported on the validator ``v`` (a frame naming a link that
-    is already reported as bad is not reported again)."""
+    is already reported as bad is not reported again; a frame whose quantities would be named
+    as one of ``engine``'s, ``names.engine_quantities``, is refused)."""
     if "frames" not in top:
         return []
     raw = top["frames"]
     if not isinstance(raw, list) or not raw:
-        from .schema import _kind  # the validator's wording of values (it imports this module)
-
-        v.error(("frames",), f"frames: expected a non-empty list of frames, got {_kind(raw, empty=True)}")
+        v.error(("frames",), f"frames: expected a non-empty list of frames, got {kind(raw, empty=True)}")
         return []
     frames: list[Frame] = []
-    taken: set[str] = set()
+    taken: dict[str, tuple[Any, ...]] = {}
     for i, item_raw in enumerate(raw):
         path = ("frames", i)
         item = v.mapping(item_raw, path, FRAME_KEYS, required=("name", "link"))
@@ -38,8 +41,11 @@ def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_b
             continue
         name = v.identifier(item.get("name"), path + ("name",), "frame name") if "name" in item else None
         if name is not None and name in taken:
-            v.error(path + ("name",), f"{v.label(path + ('name',))}: duplicate frame name '{name}'")
-        taken.add(name or "")
+            v.error(path + ("name",), f"{v.label(path + ('name',))}: duplicate frame name '{name}' "
+                    f"(first at {v.at(taken[name])})")
+        elif name is not None:
+            taken[name] = path + ("name",)
+            check_frame(v, name, path + ("name",), planar, engine or {})
         link = item.get("link")
         if "link" in item and link not in link_names and not (links_broken or link in bad_links):
             if link == "world":

@@ -9,6 +9,7 @@ the validator can point at the exact spot of a problem long after parsing.
 from __future__ import annotations
 
 import os
+import re
 import stat
 from dataclasses import dataclass, field
 from importlib import resources
@@ -153,7 +154,18 @@ def _file_kind(mode: int) -> str:
 
 
 class _Composer(yaml.SafeLoader):
-    """Safe loader used only to compose nodes; values are built by ``_build``."""
+    """Safe loader used only to compose nodes; values are built by ``_build``.
+
+    Plain scalars in decimal notation with an exponent (``1e-3``, ``2E5``, ``1.5e3``) are
+    numbers, as in YAML 1.2 and as users mean them: YAML 1.1, which PyYAML follows, reads them
+    as text unless they have a dot and a signed exponent. Quoted, they stay text."""
+
+
+_Composer.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
 
 
 def parse_yaml(text: str, file: str) -> SourceDocument:

@@ -1,6 +1,8 @@
 """Which names a robot's symbols may take: none that the generated module uses (its
 functions, arguments, ``np``, every Python built-in), none that clash, none that typeset
-alike on the sheet. Part of validation (``schema.validate`` calls ``check_names``)."""
+alike on the sheet; and which names its frames may take: none whose quantities (``J_<frame>``...)
+would be one the engine derives (``J_b1``, ``R_g``). Part of validation (``schema.validate``
+calls ``check_names`` and ``engine_quantities``, ``frames.read_frames`` calls ``check_frame``)."""
 
 from __future__ import annotations
 
@@ -8,7 +10,18 @@ import builtins
 from typing import Any
 
 from ..model.expressions import RESERVED
-from ..model.naming import acceleration_name, latex_name, maximal_coordinate_names, velocity_name
+from ..model.naming import (
+    FRAME_KINDS,
+    GENERALIZED_QUANTITIES,
+    LOOP_QUANTITIES,
+    MAXIMAL_QUANTITIES,
+    acceleration_name,
+    body_jacobian_name,
+    frame_quantity_names,
+    latex_name,
+    maximal_coordinate_names,
+    velocity_name,
+)
 from ..model.robot import Joint, Link, Parameter
 
 #: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
@@ -49,6 +62,7 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
     typeset differently from every other symbol (``l1`` and ``l_1`` both print as l_{1})."""
     owners: dict[str, str] = {}
     typeset: dict[str, tuple[str, str]] = {}  # LaTeX -> (name, owner)
+    first: dict[str, str] = {}   # name -> " (first at LINE:COL)" of a name the file gives
 
     def other(name: str, owner: str) -> str:
         return owner if owner.startswith("the ") else f"'{name}' ({owner})"
@@ -65,14 +79,15 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
         elif name in RESERVED:
             v.error(path, f"{owner}: name '{name}' is a built-in function or constant", key=key)
         elif name in owners:
-            v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}", key=key)
+            v.error(path, f"{owner}: name '{name}' clashes with {owners[name]}{first.get(name, '')}", key=key)
         elif latex in typeset:
-            first, first_owner = typeset[latex]
+            earlier, earlier_owner = typeset[latex]
             v.error(path, f"{owner}: name '{name}' is typeset as {latex}, the same as "
-                    f"{other(first, first_owner)}", key=key)
+                    f"{other(earlier, earlier_owner)}{first.get(earlier, '')}", key=key)
         else:
             owners[name] = owner
             typeset[latex] = (name, owner)
+            first[name] = f" (first at {v.at(path, key)})"
             return True
         return False
 
@@ -105,3 +120,35 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
               ("joints", i, "name"), dots=2, base=joint.name)
         if joint.effort:
             claim(joint.effort, f"joints[{i}].effort", ("joints", i, "effort"))
+
+
+#: A quantity name the engine derives -> (what it is, the path in the file of what brings it, or None).
+EngineQuantities = dict[str, tuple[str, "tuple[Any, ...] | None"]]
+
+
+def engine_quantities(links: list[Link], planar: bool, loops: bool) -> EngineQuantities:
+    """The quantity names the engine derives for a robot of these links (in the file's order),
+    whether planar and whether with loops: what each is, and where the file brings it in."""
+    names: EngineQuantities = {name: ("a quantity of the equations of motion", None) for name in GENERALIZED_QUANTITIES}
+    for k, link in enumerate(links, start=1):
+        names[body_jacobian_name(k)] = (f"the body Jacobian of link {k} ('{link.name}')", ("links", k - 1, "name"))
+    if loops:
+        names |= {name: ("a quantity of the loops' equations", ("loops",)) for name in LOOP_QUANTITIES}
+    if planar:
+        names |= {name: ("a quantity of the maximal-coordinate equations", None) for name in MAXIMAL_QUANTITIES}
+    return names
+
+
+def check_frame(v: Any, name: str, path: tuple[Any, ...], planar: bool, engine: EngineQuantities) -> bool:
+    """Refuse a frame name one of whose quantities is a quantity the engine derives (a frame
+    ``b1`` would replace link 1's body Jacobian ``J_b1`` in the JSON; a 3-D frame ``g`` would
+    be ``R_g``, the loops' reduced basis). False when refused."""
+    for quantity in frame_quantity_names(name, planar):
+        if quantity in engine:
+            what, origin = engine[quantity]
+            kind = FRAME_KINDS[quantity.partition("_")[0]]
+            where = f" (first at {v.at(origin, key=origin == ('loops',))})" if origin is not None else ""
+            v.error(path, f"{v.label(path)}: frame '{name}' would name its {kind} '{quantity}', {what}; "
+                    f"rename the frame{where}")
+            return False
+    return True

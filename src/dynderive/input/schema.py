@@ -8,34 +8,25 @@ the kinematics parses them again from the texts kept in ``Robot``.
 from __future__ import annotations
 
 import difflib
-import keyword
 import math
-import re
-from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
 import sympy
 
-from ..errors import InputError, Problem
-from ..model.expressions import (
-    RESERVED,
-    Evaluator,
-    ExpressionError,
-    NotFiniteError,
-    describe_number,
-    imaginary_part,
-    parse_expression,
-)
+from ..errors import InputError
+from ..model.expressions import RESERVED, Evaluator
 from ..model.naming import maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
 from .frames import read_frames
 from .loader import SourceDocument
-from .names import check_names
+from .names import check_names, engine_quantities
+from .validator import Validator as _Validator
+from .validator import kind as _kind
+from .validator import numeric as _numeric
 
-IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
 
 TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "loops", "independent",
@@ -48,140 +39,9 @@ LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis"
 #: Loop-closing joint types, and how many constraints each imposes.
 LOOP_TYPES = {True: {"revolute": 2, "prismatic": 2}, False: {"revolute": 5, "spherical": 3, "prismatic": 5}}
 ORIGIN_KEYS = ("xyz", "rpy")
-
-class _Validator:
-    def __init__(self, doc: SourceDocument):
-        self.doc = doc
-        self.problems: list[Problem] = []
-        self.parameters_broken = False
-        #: Values at the parameter defaults (set once the parameters are read).
-        self.evaluate = Evaluator()
-
-    # -- reporting -------------------------------------------------------------------
-    def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
-        self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
-
-    def label(self, path: tuple[Any, ...]) -> str:
-        for cut in range(len(path), 0, -1):  # a source may name its items (URDF: "joint 'elbow'")
-            if tuple(path[:cut]) in self.doc.labels:
-                rest = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path[cut:])
-                return self.doc.labels[tuple(path[:cut])] + (f" {rest[1:]}" if rest else "")
-        text = ""
-        for part in path:
-            text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
-        return text or "document"
-
-    # -- generic checks ----------------------------------------------------------------
-    def mapping(self, value: Any, path: tuple[Any, ...], allowed: Iterable[str],
-                required: Iterable[str] = ()) -> dict[str, Any] | None:
-        if not isinstance(value, dict):
-            self.error(path, f"{self.label(path)}: expected a mapping, got {_kind(value)}")
-            return None
-        allowed = tuple(allowed)
-        for key in value:
-            if key not in allowed:
-                close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
-                hint = f" (did you mean '{close[0]}'?)" if close else f" (allowed: {', '.join(allowed)})"
-                self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}",
-                           key=True)
-        for key in required:
-            if key not in value:
-                self.error(path, f"{self.label(path)}: missing required key '{key}'")
-        return value
-
-    def identifier(self, value: Any, path: tuple[Any, ...], what: str, key: bool = False) -> str | None:
-        if not isinstance(value, str) or not IDENTIFIER.match(value):
-            self.error(path, f"{self.label(path)}: {what} must be an identifier "
-                       f"(letters, digits, '_'), got {value!r}", key=key)
-            return None
-        if keyword.iskeyword(value):
-            self.error(path, f"{self.label(path)}: {what} '{value}' is a Python keyword", key=key)
-            return None
-        return value
-
-    def text(self, value: Any, path: tuple[Any, ...], default: str = "") -> str:
-        if value is None:
-            return default
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            return str(value)
-        if not isinstance(value, str):
-            self.error(path, f"{self.label(path)}: expected text, got {_kind(value)}")
-            return default
-        return value
-
-    def expression(self, value: Any, path: tuple[Any, ...], symbols: dict[str, sympy.Expr]) -> sympy.Expr | None:
-        try:
-            expr = parse_expression(value, symbols)
-        except ExpressionError as exc:
-            if self.parameters_broken and str(exc).startswith("undeclared symbol"):
-                return None  # the broken parameters block is already reported
-            offset = 0
-            style = self.doc.scalar_style.get(path)
-            if isinstance(value, str) and "\n" not in value and path not in self.doc.multiline:
-                offset = exc.offset + (1 if style in ("'", '"') else 0)
-                if style == '"' and "\\" in value:
-                    offset = 0
-            self.error(path, f"{self.label(path)}: {exc}", offset=offset)
-            return None
-        return expr if self.at_defaults(expr, value, path) else None
-
-    def at_defaults(self, expr: sympy.Expr, value: Any, path: tuple[Any, ...]) -> bool:
-        """Refuse an expression that is not finite or not real at the parameter defaults."""
-        if not expr.free_symbols or expr.free_symbols - set(self.evaluate.values):
-            return True  # a constant (checked by the parser) or not every symbol has a default
-        detail = ""
-        try:
-            number = self.evaluate(expr)
-        except NotFiniteError as exc:
-            what = "out of the range of a double" if exc.reason == "out of range" else exc.reason
-        else:
-            if number is None or not imaginary_part(number):
-                return True
-            what, detail = "not a real number", f" (its value is {describe_number(number)})"
-        text = str(value) if len(str(value)) <= 40 else str(value)[:37] + "..."
-        names = ", ".join(f"{s} = {float(self.evaluate.values[s]):g}"
-                          for s in sorted(expr.free_symbols, key=str))
-        self.error(path, f"{self.label(path)}: '{text}' is {what} at the default parameter values "
-                   f"{names}{detail}")
-        return False
-
-    def vector(self, value: Any, path: tuple[Any, ...], lengths: tuple[int, ...],
-               symbols: dict[str, sympy.Expr]) -> list[sympy.Expr | None] | None:
-        if not isinstance(value, list):
-            self.error(path, f"{self.label(path)}: expected a list of {_lengths(lengths)} "
-                       f"entries, got {_kind(value)}")
-            return None
-        if len(value) not in lengths:
-            self.error(path, f"{self.label(path)}: expected {_lengths(lengths)} entries, "
-                       f"got {len(value)}")
-            return None
-        return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
-
-
-def _kind(value: Any, empty: bool = False) -> str:
-    if value is None:
-        return "nothing"
-    if empty and value in ([], {}):
-        return f"an empty {'list' if value == [] else 'mapping'}"
-    return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
-            dict: "a mapping"}.get(type(value), type(value).__name__)
-
-
-def _lengths(lengths: tuple[int, ...]) -> str:
-    return " or ".join(str(n) for n in lengths)
-
-
-def _numeric(expr: sympy.Expr | None, defaults: Evaluator) -> float | None:
-    """Value of ``expr`` with the parameter defaults, or None if it is not a real number."""
-    if expr is None:
-        return None
-    try:
-        value = defaults(expr)
-    except NotFiniteError:
-        return None
-    if value is None or imaginary_part(value):
-        return None
-    return float(sympy.re(value))
+#: Longest robot name: it names the output files (``test_<name>_dynamics.py``, and their
+#: temporary files while written), which the file system limits to 255 bytes.
+MAX_NAME_LENGTH = 100
 
 
 def validate(doc: SourceDocument) -> Robot:
@@ -196,6 +56,10 @@ def validate(doc: SourceDocument) -> Robot:
         raise InputError(v.problems)
 
     name = v.identifier(top.get("name"), ("name",), "robot name") if "name" in top else None
+    if name is not None and len(name) > MAX_NAME_LENGTH:
+        v.error(("name",), f"{v.label(('name',))}: robot name is {len(name)} characters long, at most {MAX_NAME_LENGTH} "
+                f"(it names the output files, e.g. test_<name>_dynamics.py)")
+        name = None
     title = v.text(top.get("title"), ("title",), default=name or "")
     planar = top.get("planar", False)
     if not isinstance(planar, bool):
@@ -224,7 +88,8 @@ def validate(doc: SourceDocument) -> Robot:
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops)
     frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
-                         lambda value, path: _origin(v, value, path, planar, symbols))
+                         lambda value, path: _origin(v, value, path, planar, symbols), planar,
+                         engine_quantities(links, planar, "loops" in top))
     check_names(v, parameters, links, joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
     if loops and constraints is not None:
@@ -285,7 +150,9 @@ def _parameters(v: _Validator, top: dict[str, Any]) -> list[Parameter]:
         else:
             vpath = path
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
-            v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {_kind(value)}")
+            quoted = isinstance(value, str) and _looks_numeric(value)
+            v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {_kind(value)}"
+                    + (f" ({value!r} in quotes: write it without them)" if quoted else ""))
             value = None
         elif value is not None and isinstance(value, int) and abs(value) > 1.7976931348623157e308:
             v.error(vpath, f"{v.label(vpath)}: default value is out of the range of a double")
@@ -324,7 +191,8 @@ def _links(v: _Validator, top: dict[str, Any], planar: bool,
             lname = None
         if lname is not None:
             if lname in link_names:
-                v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: duplicate link name '{lname}'")
+                v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: duplicate link name '{lname}' "
+                        f"(first at {v.at(link_names[lname] + ('name',))})")
             link_names.setdefault(lname, path)
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
         value = _numeric(mass, defaults)
@@ -352,7 +220,7 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
     if "joints" in top and (not isinstance(raw_joints, list) or not raw_joints):
         v.error(("joints",), f"joints: expected a non-empty list of joints, got {_kind(raw_joints, empty=True)}")
         raw_joints = []
-    joint_names: set[str] = set()
+    joint_names: dict[str, tuple[Any, ...]] = {}
     for i, raw in enumerate(raw_joints or []):
         path = ("joints", i)
         item = v.mapping(raw, path, JOINT_KEYS, required=("name", "type", "parent", "child"))
@@ -360,9 +228,10 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             continue
         jname = v.identifier(item.get("name"), path + ("name",), "joint name") if "name" in item else None
         if jname is not None and jname in joint_names:
-            v.error(path + ("name",), f"{v.label(('joints', i, 'name'))}: duplicate joint name '{jname}'")
-        if jname:
-            joint_names.add(jname)
+            v.error(path + ("name",), f"{v.label(('joints', i, 'name'))}: duplicate joint name '{jname}' "
+                    f"(first at {v.at(joint_names[jname])})")
+        elif jname:
+            joint_names[jname] = path + ("name",)
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
             extra = {"continuous": " (write 'revolute')", "floating": "", "planar": ""}.get(str(jtype), "")
@@ -407,7 +276,9 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         v.error(("loops",), f"loops: expected a non-empty list of loop joints, got {_kind(raw, empty=True)}")
         return []
     types = LOOP_TYPES[planar]
-    taken = {j.name for j in joints}
+    raw_joints = top.get("joints") if isinstance(top.get("joints"), list) else []
+    taken = {item["name"]: ("joints", k, "name") for k, item in reversed(list(enumerate(raw_joints)))
+             if isinstance(item, dict) and isinstance(item.get("name"), str)}
     loops: list[LoopJoint] = []
     for i, item_raw in enumerate(raw):
         path = ("loops", i)
@@ -417,8 +288,9 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         name = v.identifier(item.get("name"), path + ("name",), "loop joint name") if "name" in item else None
         if name is not None and name in taken:
             v.error(path + ("name",), f"{v.label(path + ('name',))}: name '{name}' is already used by a joint "
-                    "or another loop joint")
-        taken.add(name or "")
+                    f"or another loop joint (first at {v.at(taken[name])})")
+        elif name is not None:
+            taken[name] = path + ("name",)
         ltype = item.get("type")
         if "type" in item and ltype not in types:
             kind = "planar" if planar else "3-D"
@@ -522,6 +394,13 @@ def _looks_planar(top: dict[str, Any]) -> bool:
             if isinstance(axis, list) and len(axis) != 2:
                 return False
     return True
+
+
+def _looks_numeric(text: str) -> bool:
+    try:
+        return math.isfinite(float(text.strip()))
+    except ValueError:
+        return False
 
 
 def _did_you_mean(value: Any, options: list[str]) -> str:

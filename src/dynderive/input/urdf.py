@@ -25,65 +25,18 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
-from xml.parsers import expat
 
 import numpy as np
 
 from ..errors import InputError, Problem
+from ..model.naming import body_jacobian_index, frame_quantity_names
 from .loader import SourceDocument
 from .urdf_bodies import Body, check_bodies, finite, merge_bodies
+from .urdf_xml import _Element, _parse_xml, numbers_in
 
 Path_ = tuple[Any, ...]
-
-
-@dataclass
-class _Element:
-    tag: str
-    attrib: dict[str, str]
-    line: int
-    column: int
-    children: list[_Element] = field(default_factory=list)
-
-    def find(self, tag: str) -> _Element | None:
-        return next((c for c in self.children if c.tag == tag), None)
-
-    def findall(self, tag: str) -> list[_Element]:
-        return [c for c in self.children if c.tag == tag]
-
-
-def _parse_xml(text: str, file: str) -> _Element:
-    """Parse XML with expat, keeping each element's line and column; no DTDs or entities."""
-    parser = expat.ParserCreate()
-    stack: list[_Element] = []
-    roots: list[_Element] = []
-
-    def start(tag: str, attrs: dict[str, str]) -> None:
-        element = _Element(tag, dict(attrs), parser.CurrentLineNumber, parser.CurrentColumnNumber + 1)
-        (stack[-1].children if stack else roots).append(element)
-        stack.append(element)
-
-    def end(tag: str) -> None:
-        stack.pop()
-
-    def refuse(*_: Any) -> None:
-        raise ValueError("DTDs and entities are not allowed in URDF files")
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    parser.StartDoctypeDeclHandler = refuse
-    parser.EntityDeclHandler = refuse
-    try:
-        parser.Parse(text, True)
-    except expat.ExpatError as exc:
-        message = expat.ErrorString(exc.code)
-        raise InputError(Problem(file, exc.lineno, exc.offset + 1, f"malformed XML: {message}")) from None
-    except ValueError as exc:
-        raise InputError(Problem(file, parser.CurrentLineNumber, 1, str(exc))) from None
-    if not roots:
-        raise InputError(Problem(file, 1, 1, "empty XML document"))
-    return roots[0]
 
 
 class _Reader:
@@ -97,14 +50,12 @@ class _Reader:
     def numbers(self, element: _Element | None, attribute: str, count: int, default: list[float]) -> list[float]:
         if element is None or attribute not in element.attrib:
             return list(default)
-        parts = element.attrib[attribute].split()
-        try:
-            values = [float(p) for p in parts]
-        except ValueError:
-            values = []
-        if len(values) != count or not all(math.isfinite(v) for v in values):
-            self.error(element, f"<{element.tag} {attribute}=\"{element.attrib[attribute]}\">: expected "
-                       f"{count} finite number{'s' * (count > 1)}")
+        text = element.attrib[attribute]
+        values, bad = numbers_in(text)
+        if bad is not None or len(values) != count or not all(math.isfinite(v) for v in values):
+            why = f" ({bad!r} is not one: write numbers as 1, -0.5 or 2.5e-3)" if bad is not None else ""
+            self.error(element, f"<{element.tag} {attribute}=\"{text}\">: expected "
+                       f"{count} finite number{'s' * (count > 1)}{why}")
             return list(default)
         return values
 
@@ -401,6 +352,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
     positions: dict[Path_, tuple[int, int]] = {(): (root.line, root.column)}
     for key in ("name", "title", "planar", "parameters", "gravity", "links", "joints"):
         positions[(key,)] = (root.line, root.column)
+    doc.labels[("name",)] = "<robot name>"
     moving = [j for j in joints if j["type"] != "fixed"]
     carrying = _carrying(moving, frames, merged)
     for index, joint in enumerate(moving):
@@ -494,14 +446,23 @@ def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]]
     become the robot's ``frames``, named as the link, so their pose and Jacobian stay at hand
     after their inertia joins the moving link's. Links welded to the world are not frames."""
     entries: list[dict[str, Any]] = []
+    taken: set[str] = set()
     for name, element in link_elements.items():
         if name not in frames:
             continue
         owner, rotation, p = frames[name]
         if owner in (name, "world"):
             continue
+        frame = identifier(name)
+        clash = next((q for q in frame_quantity_names(frame, False) if body_jacobian_index(q, len(data["links"]))), None)
+        if clash or frame in taken:   # the frame is a convenience: left out rather than refuse the URDF
+            why = f"its Jacobian would be {clash}, link {clash[3:]}'s body Jacobian" if clash else "another frame has its name"
+            doc.notes.append(f"{doc.file}:{element.line}:{element.column}: note: link '{name}' (welded to "
+                             f"'{owner}') is not made a frame: {why}")
+            continue
+        taken.add(frame)
         path = ("frames", len(entries))
-        entries.append({"name": identifier(name), "link": identifier(owner),
+        entries.append({"name": frame, "link": identifier(owner),
                         "origin": {"xyz": _numbers(p, float(np.max(np.abs(p)))), "rpy": rotation.rpy()}})
         doc.labels[path] = f"frame '{name}'"
         for key in ((), ("name",), ("link",), ("origin",)):

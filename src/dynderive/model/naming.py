@@ -28,20 +28,51 @@ def split_index(name: str) -> tuple[str, str]:
 
 
 def velocity_name(name: str) -> str:
-    """``q1`` -> ``qd1``; ``phi2`` -> ``phid2``; ``x`` -> ``xd``."""
+    """``q1`` -> ``qd1``; ``phi2`` -> ``phid2``; ``x`` -> ``xd``.
+
+    A name whose stem (the part before its trailing digits) ends in ``d`` gets ``_d`` after
+    the whole name instead: ``d`` -> ``d_d``, ``d2`` -> ``d2_d`` (not ``dd``, ``dd2``, which
+    read as accelerations of a coordinate without the ``d``)."""
     stem, digits = split_index(name)
-    return f"{stem}d{digits}"
+    return f"{name}_d" if stem.endswith("d") else f"{stem}d{digits}"
 
 
 def acceleration_name(name: str) -> str:
-    """``q1`` -> ``qdd1``; ``phi2`` -> ``phidd2``; ``x`` -> ``xdd``."""
+    """``q1`` -> ``qdd1``; ``phi2`` -> ``phidd2``; ``x`` -> ``xdd``; ``d2`` -> ``d2_dd``."""
     stem, digits = split_index(name)
-    return f"{stem}dd{digits}"
+    return f"{name}_dd" if stem.endswith("d") else f"{stem}dd{digits}"
 
 
 def maximal_coordinate_names(link_count: int) -> list[str]:
     """Planar maximal coordinates: ``x<k>, y<k>, phi<k>`` of each link's COM frame."""
     return [f"{v}{k}" for k in range(1, link_count + 1) for v in ("x", "y", "phi")]
+
+
+#: The engine's own quantity names (DESIGN.md section 4): what each is, by where it comes from.
+GENERALIZED_QUANTITIES = ("T_g", "V_g", "L_g", "Y_g", "EOM_g1", "M_g", "C_g", "N_g", "EOM_g2", "D_g", "F_g")
+#: Loop constraints and the reduced form (robots with ``loops``).
+LOOP_QUANTITIES = ("a_g", "A_g", "Adot_g", "lambda_g", "R_g", "M_r", "C_r", "N_r", "Y_r", "EOM_r")
+#: Maximal coordinates (planar robots).
+MAXIMAL_QUANTITIES = ("q_m", "a_m", "A_m", "Adot_m", "T_m", "V_m", "L_m", "Y_m", "EOM_m1", "M_m", "C_m",
+                      "N_m", "EOM_m2", "D_m", "F_m", "lambdaVec", "h", "H", "EOM_g3")
+#: What a frame's quantities are, by the prefix of their names.
+FRAME_KINDS = {"p": "position", "R": "rotation", "theta": "angle", "J": "Jacobian", "Jdot": "Jacobian's derivative"}
+
+
+def body_jacobian_name(index: int) -> str:
+    """The body Jacobian of the ``index``-th link (1-based, in the file's order): ``J_b1``."""
+    return f"J_b{index}"
+
+
+def body_jacobian_index(name: str, link_count: int) -> int | None:
+    """``J_b2`` -> 2 when the robot has at least 2 links; None for any other name."""
+    match = re.fullmatch(r"J_b([1-9][0-9]*)", name)
+    return int(match.group(1)) if match and int(match.group(1)) <= link_count else None
+
+
+def frame_quantity_names(frame: str, planar: bool) -> list[str]:
+    """The quantities of a named frame: ``p_<f>``, ``theta_<f>`` (planar) or ``R_<f>``, ``J_<f>``, ``Jdot_<f>``."""
+    return [f"{kind}_{frame}" for kind in ("p", "theta" if planar else "R", "J", "Jdot")]
 
 
 def latex_name(name: str, dots: int = 0) -> str:

@@ -1,0 +1,171 @@
+"""The validator's reporting and generic checks: every problem is collected with its position
+(``Validator.error``), and the generic value checks (mappings, identifiers, texts,
+expressions at the parameter defaults, vectors) word their messages alike. The robot file's
+structure is checked by ``schema``, which drives a ``Validator``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import keyword
+import re
+from collections.abc import Iterable
+from typing import Any
+
+import sympy
+
+from ..errors import Problem
+from ..model.expressions import (
+    Evaluator,
+    ExpressionError,
+    NotFiniteError,
+    describe_number,
+    imaginary_part,
+    parse_expression,
+)
+from .loader import SourceDocument
+
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+class Validator:
+    """Collects positioned problems and checks generic values (mappings, identifiers, texts,
+    expressions, vectors) of one parsed robot file."""
+
+    def __init__(self, doc: SourceDocument):
+        self.doc = doc
+        self.problems: list[Problem] = []
+        self.parameters_broken = False
+        #: Values at the parameter defaults (set once the parameters are read).
+        self.evaluate = Evaluator()
+
+    # -- reporting -------------------------------------------------------------------
+    def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
+        self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
+
+    def at(self, path: tuple[Any, ...], key: bool = False) -> str:
+        """``LINE:COL`` of ``path`` (of its key with ``key``), to point at an earlier value."""
+        line, column = self.doc.where(path, key)
+        return f"{line}:{column}"
+
+    def label(self, path: tuple[Any, ...]) -> str:
+        for cut in range(len(path), 0, -1):  # a source may name its items (URDF: "joint 'elbow'")
+            if tuple(path[:cut]) in self.doc.labels:
+                rest = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path[cut:])
+                return self.doc.labels[tuple(path[:cut])] + (f" {rest[1:]}" if rest else "")
+        text = ""
+        for part in path:
+            text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+        return text or "document"
+
+    # -- generic checks ----------------------------------------------------------------
+    def mapping(self, value: Any, path: tuple[Any, ...], allowed: Iterable[str],
+                required: Iterable[str] = ()) -> dict[str, Any] | None:
+        if not isinstance(value, dict):
+            self.error(path, f"{self.label(path)}: expected a mapping, got {kind(value)}")
+            return None
+        allowed = tuple(allowed)
+        for key in value:
+            if key not in allowed:
+                close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+                hint = f" (did you mean '{close[0]}'?)" if close else f" (allowed: {', '.join(allowed)})"
+                self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}",
+                           key=True)
+        for key in required:
+            if key not in value:
+                self.error(path, f"{self.label(path)}: missing required key '{key}'")
+        return value
+
+    def identifier(self, value: Any, path: tuple[Any, ...], what: str, key: bool = False) -> str | None:
+        if not isinstance(value, str) or not IDENTIFIER.match(value):
+            self.error(path, f"{self.label(path)}: {what} must be an identifier "
+                       f"(letters, digits, '_'), got {value!r}", key=key)
+            return None
+        if keyword.iskeyword(value):
+            self.error(path, f"{self.label(path)}: {what} '{value}' is a Python keyword", key=key)
+            return None
+        return value
+
+    def text(self, value: Any, path: tuple[Any, ...], default: str = "") -> str:
+        if value is None:
+            return default
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return str(value)
+        if not isinstance(value, str):
+            self.error(path, f"{self.label(path)}: expected text, got {kind(value)}")
+            return default
+        return value
+
+    def expression(self, value: Any, path: tuple[Any, ...], symbols: dict[str, sympy.Expr]) -> sympy.Expr | None:
+        try:
+            expr = parse_expression(value, symbols)
+        except ExpressionError as exc:
+            if self.parameters_broken and str(exc).startswith("undeclared symbol"):
+                return None  # the broken parameters block is already reported
+            offset = 0
+            style = self.doc.scalar_style.get(path)
+            if isinstance(value, str) and "\n" not in value and path not in self.doc.multiline:
+                offset = exc.offset + (1 if style in ("'", '"') else 0)
+                if style == '"' and "\\" in value:
+                    offset = 0
+            self.error(path, f"{self.label(path)}: {exc}", offset=offset)
+            return None
+        return expr if self.at_defaults(expr, value, path) else None
+
+    def at_defaults(self, expr: sympy.Expr, value: Any, path: tuple[Any, ...]) -> bool:
+        """Refuse an expression that is not finite or not real at the parameter defaults."""
+        if not expr.free_symbols or expr.free_symbols - set(self.evaluate.values):
+            return True  # a constant (checked by the parser) or not every symbol has a default
+        detail = ""
+        try:
+            number = self.evaluate(expr)
+        except NotFiniteError as exc:
+            what = "out of the range of a double" if exc.reason == "out of range" else exc.reason
+        else:
+            if number is None or not imaginary_part(number):
+                return True
+            what, detail = "not a real number", f" (its value is {describe_number(number)})"
+        text = str(value) if len(str(value)) <= 40 else str(value)[:37] + "..."
+        names = ", ".join(f"{s} = {float(self.evaluate.values[s]):g}"
+                          for s in sorted(expr.free_symbols, key=str))
+        self.error(path, f"{self.label(path)}: '{text}' is {what} at the default parameter values "
+                   f"{names}{detail}")
+        return False
+
+    def vector(self, value: Any, path: tuple[Any, ...], lengths: tuple[int, ...],
+               symbols: dict[str, sympy.Expr]) -> list[sympy.Expr | None] | None:
+        if not isinstance(value, list):
+            self.error(path, f"{self.label(path)}: expected a list of {_lengths(lengths)} "
+                       f"entries, got {kind(value)}")
+            return None
+        if len(value) not in lengths:
+            self.error(path, f"{self.label(path)}: expected {_lengths(lengths)} entries, "
+                       f"got {len(value)}")
+            return None
+        return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
+
+
+def kind(value: Any, empty: bool = False) -> str:
+    if value is None:
+        return "nothing"
+    if empty and value in ([], {}):
+        return f"an empty {'list' if value == [] else 'mapping'}"
+    return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
+            dict: "a mapping"}.get(type(value), type(value).__name__)
+
+
+def _lengths(lengths: tuple[int, ...]) -> str:
+    return " or ".join(str(n) for n in lengths)
+
+
+def numeric(expr: sympy.Expr | None, defaults: Evaluator) -> float | None:
+    """Value of ``expr`` with the parameter defaults, or None if it is not a real number."""
+    if expr is None:
+        return None
+    try:
+        value = defaults(expr)
+    except NotFiniteError:
+        return None
+    if value is None or imaginary_part(value):
+        return None
+    return float(sympy.re(value))
