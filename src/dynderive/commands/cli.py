@@ -15,32 +15,12 @@ from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
 import typer
-from typer.core import TyperCommand, TyperGroup
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
+from .help import Command as _Command
+from .help import Group as _Group
 from .options import finite, tolerances, vector, with_parameters
-
-
-class _FlagsTakeNoValue:
-    """Boolean flags shown as ``--latex`` in the help, not ``--latex <bool>`` (they take no
-    value: ``--latex true`` is an error)."""
-
-    def get_params(self, ctx: Any) -> Any:
-        params = super().get_params(ctx)  # type: ignore[misc]
-        for param in params:
-            if getattr(param, "is_flag", False) and param.metavar is None:
-                param.metavar = ""
-        return params
-
-
-class _Command(_FlagsTakeNoValue, TyperCommand):
-    pass
-
-
-class _Group(_FlagsTakeNoValue, TyperGroup):
-    pass
-
 
 app = typer.Typer(
     cls=_Group,
@@ -374,7 +354,8 @@ def simulate(
 def linearize(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
     at: Annotated[list[str] | None, typer.Option("--at", help="The operating point: q=V,V,..,qd=V,..,u=V,.. or "
-                  "NAME=V per coordinate, velocity or effort (repeatable; the rest is 0).")] = None,
+                  "NAME=V per coordinate, velocity or effort (repeatable; the rest is 0); u=equilibrium: the "
+                  "efforts that hold the state.")] = None,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value for the "
                      "numbers (repeatable; parameters without a default take 1.0).")] = None,
     json_: Annotated[bool, typer.Option("--json", help="Print A and B as JSON.")] = False,
@@ -390,14 +371,22 @@ def linearize(
     from .. import derive, load_robot
     from ..render.code import render_code
     from ..verify.checks import generated_module
-    from .linearize import linearization, on_the_loops, parse_at, render_linearization
+    from .linearize import (
+        equilibrium_efforts,
+        equilibrium_note,
+        linearization,
+        on_the_loops,
+        parse_at,
+        render_linearization,
+    )
 
     progress = _Progress(quiet)
     model = with_parameters(load_robot(robot), robot, param or [], required=False, command="linearize")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     table = derivation.symbols
-    point, given = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd], list(table.efforts))
+    point, given, equilibrium = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd],
+                                         list(table.efforts))
     progress("generating code")
     module = generated_module(render_code(derivation), model.name)
     values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
@@ -406,8 +395,14 @@ def linearize(
         if not quiet:
             for note in loop_notes:
                 typer.echo(f"note: {note}", err=True)
+    note = None
+    if equilibrium:
+        point["u"], note = equilibrium_efforts(module, point, values)
+    note = note or equilibrium_note(module, point, values)
+    if note is not None and not quiet:
+        typer.echo(f"note: {note}", err=True)
     progress("linearizing")
-    result = linearization(derivation, module, point, values)
+    result = linearization(derivation, module, point, values, equilibrium)
     typer.echo(render_linearization(derivation, point, values, result, "json" if json_ else "latex" if latex else "text"),
                nl=False)
 

@@ -65,6 +65,17 @@ def vector(text: str | None, size: int, option: str) -> np.ndarray | None:
     raise InputError(problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
 
 
+def split_top_level(text: str) -> list[str]:
+    """``text`` split at the commas outside parentheses (``atan2(y, x)`` stays whole)."""
+    parts, depth, start = [], 0, 0
+    for i, char in enumerate(text):
+        depth += (char == "(") - (char == ")")
+        if char == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    return parts + [text[start:]]
+
+
 def with_parameters(model: Any, robot: str, assignments: list[str], required: bool,
                     command: str = "this command") -> Any:
     """``model`` with the values of ``--param NAME=VALUE`` (VALUE: a number or a whitelisted

@@ -23,6 +23,7 @@ from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError, parse_expression
 from ..verify.checks import allowed_velocity, generated_module
 from .integrate import DEFAULT_METHOD, Integrator, checked
+from .options import split_top_level
 
 
 @dataclass
@@ -72,17 +73,6 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
     return efforts
 
 
-def _split_top_level(text: str) -> list[str]:
-    """``text`` split at the commas outside parentheses (``atan2(y, x)`` stays whole)."""
-    parts, depth, start = [], 0, 0
-    for i, char in enumerate(text):
-        depth += (char == "(") - (char == ")")
-        if char == "," and depth == 0:
-            parts.append(text[start:i])
-            start = i + 1
-    return parts + [text[start:]]
-
-
 def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., dict[str, np.ndarray] | None]:
     """``FRAME=EXPR,EXPR,..`` options -> w(t, q, qd): the wrench at each named frame, in world
     axes (planar ``fx, fy, n``; 3-D ``fx, fy, fz, nx, ny, nz``, the moment about the frame's
@@ -99,7 +89,7 @@ def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., di
         if not sep or name.strip() not in frames:
             raise InputError(Problem(where, 1, 1, "expected FRAME=EXPR,EXPR,.. with FRAME one of "
                                      + (", ".join(frames) or "(this robot declares no frames)")))
-        parts = _split_top_level(text)
+        parts = split_top_level(text)
         if len(parts) != size:
             what = "fx, fy, n" if robot.planar else "fx, fy, fz, nx, ny, nz"
             raise InputError(Problem(where, 1, len(name) + 2, f"expected {size} components ({what}), got {len(parts)}"))
