@@ -173,7 +173,7 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
         document = read_urdf(read_text(path), str(path))
     else:
         document = load_document(path)
-    block = document.data.get("parameters")
+    block = document.data.get("parameters") or {}
     for name, value in values.items():
         if isinstance(block.get(name), dict):
             block[name]["value"] = value
