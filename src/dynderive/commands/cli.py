@@ -17,9 +17,13 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
+from .help import Command as _Command
+from .help import Group as _Group
+from .options import finite, tolerances, vector, with_parameters
 from .progress import Progress
 
 app = typer.Typer(
+    cls=_Group,
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
@@ -83,10 +87,10 @@ def main(
     """dynderive: equations of motion from a YAML robot description."""
 
 
-@app.command()
+@app.command(cls=_Command)
 @handle_errors
 def solve(
-    robot: Annotated[str, typer.Argument(help="Robot file (YAML) or the name of a bundled robot, e.g. rp_arm.")],
+    robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot, e.g. rp_arm.")],
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
@@ -175,7 +179,7 @@ def solve(
         raise _fail(f"dynderive: {failure_message(out, model.name, not_compiled)}", 1)
 
 
-@app.command()
+@app.command(cls=_Command)
 @handle_errors
 def check(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
@@ -195,8 +199,10 @@ def check(
     from ..render.code import render_code
     from ..verify.checks import run_checks
 
+    if states < 1:
+        raise InputError(_problem("--states", f"expected a number of random states >= 1, got {states}"))
     progress = Progress(quiet)
-    model = _with_parameters(load_robot(robot), param or [], required=False)
+    model = with_parameters(load_robot(robot), robot, param or [], required=False, command="check")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
@@ -207,7 +213,7 @@ def check(
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,
-                               "checks": [r.as_dict() for r in rows]}, indent=2))
+                               "checks": [r.as_dict() for r in rows]}, indent=2, allow_nan=False))
     else:
         width = max(len(r.name) for r in rows)
         typer.echo(f"{'check':<{width}}  result  {'worst residual':>14}  method")
@@ -221,70 +227,13 @@ def check(
         raise typer.Exit(1)
 
 
-def _with_parameters(model: Any, assignments: list[str], required: bool) -> Any:
-    """``model`` with the defaults of ``--param NAME=VALUE`` (VALUE: a number or a whitelisted
-    expression of numbers, e.g. ``pi/4``); ``required``: every parameter must then have a value."""
-    import dataclasses
-    import math
-
-    from ..errors import Problem
-    from ..model.expressions import ExpressionError, parse_expression
-
-    known = {p.name: p for p in model.parameters}
-    given: dict[str, float] = {}
-    problems = []
-    for text in assignments:
-        name, sep, value = text.partition("=")
-        name = name.strip()
-        if not sep or not name:
-            problems.append(_problem("--param", f"expected NAME=VALUE, got {text!r}"))
-            continue
-        if name not in known:
-            names = ", ".join(known) or "none"
-            problems.append(_problem("--param", f"unknown parameter {name!r} (parameters of {model.name}: {names})"))
-            continue
-        try:
-            number = complex(parse_expression(value, {}).evalf(17))
-        except (ExpressionError, TypeError, ValueError) as exc:
-            problems.append(_problem("--param", f"{name}: {exc}"))
-            continue
-        if number.imag or not math.isfinite(number.real):
-            problems.append(_problem("--param", f"{name}: {value!r} is not a finite real number"))
-            continue
-        given[name] = number.real
-    parameters = tuple(dataclasses.replace(p, value=given.get(p.name, p.value)) for p in model.parameters)
-    if required:
-        for p in parameters:
-            if p.value is None:
-                line, column = model.positions.get(f"parameter:{p.name}", (1, 1))
-                problems.append(Problem(model.source, line, column, f"parameter '{p.name}' has no default value: "
-                                        f"give one with --param {p.name}=VALUE"))
-    if problems:
-        raise InputError(problems)
-    return dataclasses.replace(model, parameters=parameters) if given else model
-
-
 def _notes(model: Any, quiet: bool) -> None:
     if not quiet:
         for note in model.notes:
             typer.echo(note, err=True)
 
 
-def _vector(text: str | None, size: int, option: str) -> Any:
-    import numpy as np
-
-    if text is None:
-        return None
-    try:
-        values = [float(v) for v in text.replace(",", " ").split()]
-    except ValueError:
-        values = []
-    if len(values) != size:
-        raise InputError(_problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
-    return np.array(values)
-
-
-@app.command()
+@app.command(cls=_Command)
 @handle_errors
 def simulate(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
@@ -298,15 +247,17 @@ def simulate(
     plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift).")] = None,
     csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
     animate: Annotated[Path | None, typer.Option("--animate", help="GIF animation (planar robots).")] = None,
-    rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of solve_ivp (DOP853).")] = 1e-9,
-    atol: Annotated[float, typer.Option("--atol", help="Absolute tolerance of solve_ivp.")] = 1e-9,
+    method: Annotated[str, typer.Option("--method", help="SciPy integrator: LSODA (switches to a stiff method "
+                      "when needed), Radau, BDF (stiff), RK45, DOP853 (explicit: slow on stiff robots).")] = "LSODA",
+    rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator.")] = 1e-9,
+    atol: Annotated[float, typer.Option("--atol", help="Absolute tolerance of the integrator.")] = 1e-9,
     baumgarte: Annotated[float, typer.Option("--baumgarte", help="Baumgarte gain (alpha = beta) for maximal runs.")] = 10.0,
     frames: Annotated[int, typer.Option("--frames", help="Output samples (and animation frames).")] = 101,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                      "(repeatable; required for parameters without a default).")] = None,
     friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
-                                  "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, hard for "
-                                  "integrators).")] = 1e-3,
+                                  "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, as the generated "
+                                  "module's default, which integrators cannot step through).")] = 1e-3,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
@@ -314,16 +265,20 @@ def simulate(
 
     from .. import derive, load_robot
     from ..render.code import render_code
+    from .integrate import method_name
     from .output import write_all
     from .simulate import animation_gif, csv_text, default_initial, parse_efforts, parse_wrenches, plot_png
     from .simulate import simulate as run
 
     if coordinates not in ("generalized", "maximal"):
         raise InputError(_problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
-    if duration <= 0 or frames < 2:
-        raise InputError(_problem("--duration", "duration must be positive and frames at least 2"))
-    if not friction_smoothing >= 0 or friction_smoothing == float("inf"):
-        raise InputError(_problem("--friction-smoothing", f"expected a finite velocity >= 0, got {friction_smoothing:g}"))
+    finite(duration, "--duration", "a duration in seconds", 0.0, strict=True)
+    if frames < 2:
+        raise InputError(_problem("--frames", f"expected at least 2 frames, got {frames}"))
+    finite(friction_smoothing, "--friction-smoothing", "a velocity", 0.0)
+    finite(baumgarte, "--baumgarte", "a gain", 0.0)
+    tolerances(rtol, atol)
+    method = method_name(method)
     try:
         import matplotlib  # noqa: F401
         import scipy  # noqa: F401
@@ -331,7 +286,7 @@ def simulate(
         raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
                                'pip install "dynderive[simulate]"') from None
     progress = Progress(quiet)
-    model = _with_parameters(load_robot(robot), param or [], required=True)
+    model = with_parameters(load_robot(robot), robot, param or [], required=True)
     _notes(model, quiet)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
@@ -339,8 +294,8 @@ def simulate(
     if animate is not None and not model.planar:
         raise InputError(_problem(model.source, "--animate draws planar robots only"))
     n = len(model.coordinates)
-    start_q = _vector(q0, n, "--q0")
-    start_qd = _vector(qd0, n, "--qd0")
+    start_q = vector(q0, n, "--q0")
+    start_qd = vector(qd0, n, "--qd0")
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     efforts = parse_efforts(derivation, effort or [], maximal)
@@ -351,7 +306,8 @@ def simulate(
     source = render_code(derivation)
     trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
                      np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
-                     frames, progress, friction_smoothing, wrenches)
+                     frames, progress, friction_smoothing, wrenches, method,
+                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True))
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
@@ -372,12 +328,13 @@ def simulate(
         typer.echo(f"wrote {path}", err=True)
 
 
-@app.command()
+@app.command(cls=_Command)
 @handle_errors
 def linearize(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
     at: Annotated[list[str] | None, typer.Option("--at", help="The operating point: q=V,V,..,qd=V,..,u=V,.. or "
-                  "NAME=V per coordinate, velocity or effort (repeatable; the rest is 0).")] = None,
+                  "NAME=V per coordinate, velocity or effort (repeatable; the rest is 0); u=equilibrium: the "
+                  "efforts that hold the state.")] = None,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value for the "
                      "numbers (repeatable; parameters without a default take 1.0).")] = None,
     json_: Annotated[bool, typer.Option("--json", help="Print A and B as JSON.")] = False,
@@ -393,14 +350,22 @@ def linearize(
     from .. import derive, load_robot
     from ..render.code import render_code
     from ..verify.checks import generated_module
-    from .linearize import linearization, on_the_loops, parse_at, render_linearization
+    from .linearize import (
+        equilibrium_efforts,
+        equilibrium_note,
+        linearization,
+        on_the_loops,
+        parse_at,
+        render_linearization,
+    )
 
     progress = Progress(quiet)
-    model = _with_parameters(load_robot(robot), param or [], required=False)
+    model = with_parameters(load_robot(robot), robot, param or [], required=False, command="linearize")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     table = derivation.symbols
-    point, given = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd], list(table.efforts))
+    point, given, equilibrium = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd],
+                                         list(table.efforts))
     progress("generating code")
     module = generated_module(render_code(derivation), model.name)
     values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
@@ -409,21 +374,28 @@ def linearize(
         if not quiet:
             for note in loop_notes:
                 typer.echo(f"note: {note}", err=True)
+    note = None
+    if equilibrium:
+        point["u"], note = equilibrium_efforts(module, point, values)
+    note = note or equilibrium_note(module, point, values)
+    if note is not None and not quiet:
+        typer.echo(f"note: {note}", err=True)
     progress("linearizing")
-    result = linearization(derivation, module, point, values)
+    result = linearization(derivation, module, point, values, equilibrium)
     typer.echo(render_linearization(derivation, point, values, result, "json" if json_ else "latex" if latex else "text"),
                nl=False)
 
 
-@app.command()
+@app.command(cls=_Command)
 @handle_errors
 def identify(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
     json_: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                      "(repeatable; required for parameters without a default).")] = None,
-    states: Annotated[int, typer.Option("--states", help="Random states sampled (default: 4 per parameter, "
-                                        "at least 100).")] = 0,
+    states: Annotated[int | None, typer.Option("--states", help="Random states sampled (at least the number of "
+                                               "regressor parameters).", show_default="4 per parameter, at least "
+                                               "100")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
@@ -434,25 +406,29 @@ def identify(
     from ..render.code import render_code
     from ..verify.checks import generated_module
 
-    if states < 0:
-        raise InputError(_problem("--states", f"expected a number of states >= 0, got {states}"))
     try:
         import scipy  # noqa: F401
     except ImportError:
         raise ToolMissingError('identify needs SciPy: pip install "dynderive[simulate]"') from None
-    from ..verify.identification import base_parameters
+    from ..verify.identification import base_parameters, fewest_states
 
     progress = Progress(quiet)
-    model = _with_parameters(load_robot(robot), param or [], required=True)
+    model = with_parameters(load_robot(robot), robot, param or [], required=True)
     _notes(model, quiet)
+    if states is not None:
+        least = fewest_states(model)
+        if states < least:
+            raise InputError(_problem("--states", f"expected at least {least} states for {model.name} (one per "
+                                      "regressor parameter: fewer can make the rank, and so the base parameters, "
+                                      f"come out too small), got {states}"))
     derivation = derive(model, progress=progress)
     progress("generating code")
     module = generated_module(render_code(derivation), model.name)
     progress("sampling the regressor")
     values = {p.name: float(p.value) for p in model.parameters}
-    result = base_parameters(derivation, module, values, states or None)
+    result = base_parameters(derivation, module, values, states)
     if json_:
-        typer.echo(json.dumps({"robot": model.name, **result.as_dict()}, indent=2))
+        typer.echo(json.dumps({"robot": model.name, **result.as_dict()}, indent=2, allow_nan=False))
         return
     n = len(model.coordinates)
     per_link = "4 per link (planar)" if model.planar else "10 per link"
@@ -471,7 +447,7 @@ def identify(
         typer.echo("\nNote: the regressor is the spanning tree's (no loop forces).")
 
 
-@app.command()
+@app.command(cls=_Command)
 @handle_errors
 def build(
     paths: Annotated[list[Path] | None, typer.Argument(help="Robot files or folders to search (default: .).")] = None,
@@ -516,7 +492,7 @@ def build(
         raise typer.Exit(1)
 
 
-@app.command()
+@app.command(cls=_Command)
 @handle_errors
 def schema() -> None:
     """Print the JSON Schema of the robot file format (for editors such as VS Code's YAML extension)."""
@@ -527,7 +503,7 @@ def schema() -> None:
     typer.echo(json.dumps(robot_schema(), indent=2))
 
 
-@app.command("import")
+@app.command("import", cls=_Command)
 @handle_errors
 def import_(
     urdf: Annotated[str, typer.Argument(help="URDF file to convert, or a bundled URDF robot (ur5, panda).")],

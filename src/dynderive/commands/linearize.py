@@ -8,7 +8,9 @@ numbers only.
 ``--at`` lists ``KEY=VALUES`` items separated by commas: ``q``, ``qd`` and ``u`` take a vector
 (the values that follow, up to the next ``KEY=``), a coordinate, velocity or effort name one
 value: ``--at q=0,pi`` or ``--at theta=pi,F=0``. Values are numbers or whitelisted
-expressions of numbers (``pi/2``); whatever is not given is 0.
+expressions of numbers (``pi/2``, ``atan2(1, 1)``: commas inside a call's parentheses do not
+separate items); whatever is not given is 0. ``u=equilibrium`` asks for the efforts that hold
+the state (``qdd = 0``), where the actuation allows it.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import sympy
 
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError, parse_expression
+from .options import split_top_level
 
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$", re.S)
 
@@ -31,9 +34,10 @@ def _problem(message: str) -> Problem:
 
 
 def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
-             efforts: list[str]) -> tuple[dict[str, list[float]], set[tuple[str, int]]]:
-    """``{"q": [...], "qd": [...], "u": [...]}`` from the ``--at`` texts, and which entries
-    were given (``("q", 0)``, ...); raises InputError."""
+             efforts: list[str]) -> tuple[dict[str, list[float]], set[tuple[str, int]], bool]:
+    """``{"q": [...], "qd": [...], "u": [...]}`` from the ``--at`` texts, which entries
+    were given (``("q", 0)``, ...), and whether ``u=equilibrium`` asks for the efforts that
+    hold the state; raises InputError."""
     sizes = {"q": len(coordinates), "qd": len(velocities), "u": len(efforts)}
     values = {key: [0.0] * size for key, size in sizes.items()}
     scalar = {name: ("q", i) for i, name in enumerate(coordinates)}
@@ -42,8 +46,9 @@ def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
     problems: list[Problem] = []
     given: set[tuple[str, int]] = set()
     items: list[tuple[str, list[str]]] = []
+    equilibrium = False
     for text in texts:
-        for part in text.split(","):
+        for part in split_top_level(text):
             match = _KEY.match(part)
             if match:
                 items.append((match.group(1), [match.group(2)]))
@@ -53,6 +58,9 @@ def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
                 problems.append(_problem(f"expected KEY=VALUE (KEY: q, qd, u or a coordinate, velocity or effort name), "
                                          f"got {part.strip()!r}"))
     for key, parts in items:
+        if key == "u" and [p.strip() for p in parts] == ["equilibrium"]:
+            equilibrium = True
+            continue
         numbers = []
         for part in parts:
             try:
@@ -81,9 +89,48 @@ def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
             else:
                 known = ", ".join(["q", "qd", "u", *coordinates, *velocities, *efforts])
                 problems.append(_problem(f"unknown name {key!r} (known: {known})"))
+    if equilibrium and any(vector == "u" for vector, _ in given):
+        problems.append(_problem("u=equilibrium chooses every effort: give no other value of u"))
     if problems:
         raise InputError(problems)
-    return values, given
+    return values, given, equilibrium
+
+
+def equilibrium_efforts(module: Any, at: dict[str, list[float]], values: dict[str, float]) -> tuple[list[float], str | None]:
+    """The efforts that hold the state ``at`` (``qdd = 0``; with ``qd = 0`` an equilibrium),
+    and a note when the actuation cannot: then the least-squares choice. ``qdd`` is affine in
+    ``u`` (``M qdd = B u - ...``; with loops the constrained solve), so one call per effort
+    gives it exactly."""
+    q, qd = (np.array(at[k], dtype=float) for k in ("q", "qd"))
+    size = len(module.EFFORTS)
+    with np.errstate(all="ignore"):
+        free = module.forward_dynamics(q, qd, np.zeros(size), **values)
+        G = np.array([module.forward_dynamics(q, qd, e, **values) - free for e in np.eye(size)]).reshape(size, -1).T
+    u = np.linalg.lstsq(G, -free, rcond=None)[0] if size else np.zeros(0)
+    left = free + G @ u
+    if np.max(np.abs(left), initial=0.0) <= 1e-9 * max(1.0, float(np.max(np.abs(free), initial=0.0))):
+        return [float(v) for v in u], None
+    held = "no efforts" if not size else "the efforts"
+    return [float(v) for v in u], (f"u=equilibrium: {held} cannot hold this state (the actuation does not reach "
+                                   f"every coordinate); u is the least-squares choice, leaving qdd = {_vector(left)}")
+
+
+def equilibrium_note(module: Any, at: dict[str, list[float]], values: dict[str, float]) -> str | None:
+    """A note when the operating point is not an equilibrium: the velocities are not zero, or
+    the efforts do not hold the state (``qdd`` not 0)."""
+    q, qd, u = (np.array(at[k], dtype=float) for k in ("q", "qd", "u"))
+    with np.errstate(all="ignore"):
+        qdd = module.forward_dynamics(q, qd, u, **values)
+    moving = bool(np.any(qd))
+    if not moving and np.max(np.abs(qdd), initial=0.0) <= 1e-9:
+        return None
+    why = "qd is not 0" if moving else "the efforts do not hold the state"
+    advice = "" if moving else "; --at u=equilibrium gives the efforts that do, where the actuation allows"
+    return f"the operating point is not an equilibrium ({why}): qdd = {_vector(qdd)} there{advice}"
+
+
+def _vector(values: np.ndarray) -> str:
+    return "[" + ", ".join(f"{v:.6g}" for v in np.asarray(values, dtype=float).reshape(-1)) + "]"
 
 
 def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, int]],
@@ -110,9 +157,12 @@ def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, 
     return {"q": [float(v) for v in q], "qd": [float(v) for v in qd], "u": list(at["u"])}, notes
 
 
-def linearization(derivation: Any, module: Any, at: dict[str, list[float]], values: dict[str, float]) -> dict[str, Any]:
+def linearization(derivation: Any, module: Any, at: dict[str, list[float]], values: dict[str, float],
+                  equilibrium: bool = False) -> dict[str, Any]:
     """A and B at the point ``at``: symbolic (small robots) and numeric (every robot), with
-    the largest difference between the two routes at the parameters' ``values``."""
+    the largest difference between the two routes at the parameters' ``values``. With
+    ``equilibrium`` the closed form takes the efforts that hold the state over the parameters
+    (where they are unique), not their numbers at ``values``."""
     q, qd, u = (np.array(at[k], dtype=float) for k in ("q", "qd", "u"))
     A, B = module.linearize(q, qd, u, **values)
     result: dict[str, Any] = {"A_numeric": A, "B_numeric": B, "symbolic": None}
@@ -123,6 +173,8 @@ def linearization(derivation: Any, module: Any, at: dict[str, list[float]], valu
     table = derivation.symbols
     point = {s: sympy.nsimplify(v, [sympy.pi], rational=False) if v else sympy.Integer(0)
              for s, v in zip([*table.q, *table.qd, *table.efforts.values()], [*at["q"], *at["qd"], *at["u"]])}
+    if equilibrium:
+        point |= _holding_efforts(derivation, point)
     A_sym, B_sym, qdd0 = symbolic_linearization(derivation.quantities, table, point)
     numbers = {table.parameters[name]: value for name, value in values.items()}
     numbers |= {table.parameters[p.name]: p.value for p in derivation.robot.parameters
@@ -135,6 +187,23 @@ def linearization(derivation: Any, module: Any, at: dict[str, list[float]], valu
                     float(np.max(np.abs(evaluate(B_sym) - B), initial=0.0)))
     result["symbolic"] = {"A": A_sym, "B": B_sym, "qdd": qdd0, "agreement": agreement}
     return result
+
+
+def _holding_efforts(derivation: Any, point: dict[sympy.Symbol, sympy.Expr]) -> dict[sympy.Symbol, sympy.Expr]:
+    """The efforts that hold the state in ``point`` in closed form (``Y = C qd + N + F`` at
+    ``qdd = 0``, linear in u), or {} when they are not unique or do not exist (then the
+    numbers stand)."""
+    from ..mechanics.tidy import tidy
+
+    table, quantities = derivation.symbols, derivation.quantities
+    efforts, n = list(table.efforts.values()), len(table.q)
+    F = quantities.get("F_g", sympy.zeros(n, 1))
+    state = {s: v for s, v in point.items() if s in set(table.q) | set(table.qd)}
+    residual = (quantities["Y_g"] - quantities["C_g"] * sympy.Matrix(table.qd) - quantities["N_g"] - F).xreplace(state)
+    solutions = list(sympy.linsolve(list(residual), efforts)) if efforts else []
+    if len(solutions) != 1 or any(e.free_symbols & set(efforts) for e in solutions[0]):
+        return {}
+    return {u: tidy(sympy.cancel(e)) for u, e in zip(efforts, solutions[0])}
 
 
 def _numbers(matrix: np.ndarray) -> list[list[float]]:

@@ -22,6 +22,8 @@ from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError, parse_expression
 from ..verify.checks import allowed_velocity, generated_module
+from .integrate import DEFAULT_METHOD, Integrator, checked
+from .options import split_top_level
 
 
 @dataclass
@@ -45,7 +47,7 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
     scope: dict[str, sympy.Expr] = {"t": t, **table.parameters}
     if not maximal:
         scope |= {str(s): s for s in (*table.q, *table.qd)}
-    exprs: dict[str, sympy.Expr] = {}
+    exprs: dict[str, tuple[sympy.Expr, str, int]] = {}
     for spec in specs:
         name, sep, text = spec.partition("=")
         where = f"--effort {spec}"
@@ -53,25 +55,22 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
             raise InputError(Problem(where, 1, 1, f"expected NAME=EXPR with NAME one of "
                                      f"{', '.join(robot.efforts) or '(this robot has no efforts)'}"))
         try:
-            exprs[name.strip()] = parse_expression(text, scope)
+            exprs[name.strip()] = (parse_expression(text, scope), where, len(name) + 2)
         except ExpressionError as exc:
             hint = " (maximal runs take efforts of t only)" if maximal else ""
             raise InputError(Problem(where, 1, len(name) + 2 + exc.offset, f"{exc}{hint}")) from None
     values = table.defaults(robot)
-    vector = sympy.Matrix([exprs.get(e, sympy.Integer(0)) for e in robot.efforts]).xreplace(values)
-    function = sympy.lambdify([t, table.q, table.qd], vector, modules="numpy")
-    return lambda time, q, qd: np.asarray(function(time, q, qd), dtype=float).reshape(-1)
+    functions = {name: checked(sympy.lambdify([t, table.q, table.qd], expr.xreplace(values), modules="numpy"),
+                               where, column, f"effort {name}") for name, (expr, where, column) in exprs.items()}
+    indices = [(robot.efforts.index(name), function) for name, function in functions.items()]
+    size = len(robot.efforts)
 
-
-def _split_top_level(text: str) -> list[str]:
-    """``text`` split at the commas outside parentheses (``atan2(y, x)`` stays whole)."""
-    parts, depth, start = [], 0, 0
-    for i, char in enumerate(text):
-        depth += (char == "(") - (char == ")")
-        if char == "," and depth == 0:
-            parts.append(text[start:i])
-            start = i + 1
-    return parts + [text[start:]]
+    def efforts(time: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        u = np.zeros(size)
+        for index, function in indices:
+            u[index] = function(time, q, qd).reshape(-1)[0]
+        return u
+    return efforts
 
 
 def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., dict[str, np.ndarray] | None]:
@@ -83,14 +82,14 @@ def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., di
     scope: dict[str, sympy.Expr] = {"t": t, **table.parameters} | {str(s): s for s in (*table.q, *table.qd)}
     size = 3 if robot.planar else 6
     frames = [f.name for f in robot.frames]
-    exprs: dict[str, list[sympy.Expr]] = {}
+    exprs: dict[str, list[tuple[sympy.Expr, str, int]]] = {}
     for spec in specs:
         name, sep, text = spec.partition("=")
         where = f"--force {spec}"
         if not sep or name.strip() not in frames:
             raise InputError(Problem(where, 1, 1, "expected FRAME=EXPR,EXPR,.. with FRAME one of "
                                      + (", ".join(frames) or "(this robot declares no frames)")))
-        parts = _split_top_level(text)
+        parts = split_top_level(text)
         if len(parts) != size:
             what = "fx, fy, n" if robot.planar else "fx, fy, fz, nx, ny, nz"
             raise InputError(Problem(where, 1, len(name) + 2, f"expected {size} components ({what}), got {len(parts)}"))
@@ -98,7 +97,7 @@ def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., di
         values = []
         for part in parts:
             try:
-                values.append(parse_expression(part, scope))
+                values.append((parse_expression(part, scope), where, column))
             except ExpressionError as exc:
                 raise InputError(Problem(where, 1, column + exc.offset, str(exc))) from None
             column += len(part) + 1
@@ -106,10 +105,11 @@ def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., di
     if not exprs:
         return lambda time, q, qd: None
     defaults = table.defaults(robot)
-    functions = {name: sympy.lambdify([t, table.q, table.qd], sympy.Matrix(values).xreplace(defaults), modules="numpy")
+    functions = {name: [checked(sympy.lambdify([t, table.q, table.qd], expr.xreplace(defaults), modules="numpy"),
+                                where, column, f"the force at {name}") for expr, where, column in values]
                  for name, values in exprs.items()}
-    return lambda time, q, qd: {name: np.asarray(f(time, q, qd), dtype=float).reshape(-1)
-                                for name, f in functions.items()}
+    return lambda time, q, qd: {name: np.array([f(time, q, qd).reshape(-1)[0] for f in parts])
+                                for name, parts in functions.items()}
 
 
 def default_initial(derivation: Derivation) -> np.ndarray:
@@ -122,11 +122,12 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
              efforts: Callable[..., np.ndarray], maximal: bool, rtol: float, atol: float,
              baumgarte: float, frames: int, progress: Callable[[str], None],
              friction_smoothing: float = 0.0,
-             wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None) -> Trajectory:
-    """Integrate the generated dynamics. Robots with Coulomb friction use the module's smoothed
-    sign (``friction_smoothing``, a velocity; 0 = exact) in generalized coordinates."""
-    from scipy.integrate import solve_ivp
-
+             wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
+             method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None) -> Trajectory:
+    """Integrate the generated dynamics with SciPy's ``method`` (see ``integrate``). Robots
+    with Coulomb friction use the module's smoothed sign (``friction_smoothing``, a velocity;
+    0 = exact) in generalized coordinates. ``note`` receives one line if the integrator
+    struggles; a state or an effort that stops being finite stops the run (InputError)."""
     module = generated_module(source, derivation.robot.name)
     values = {p.name: p.value for p in derivation.robot.parameters if p.value is not None}
     n = len(q0)
@@ -138,9 +139,12 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
             reported[0] = percent
             progress(f"simulated {percent:3d} % of {duration:g} s")
 
+    friction = any(j.friction is not None for j in derivation.robot.joints if j.moves)
+    hint = ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"
+            if friction and friction_smoothing == 0 and not maximal else "")
     if derivation.robot.loops and not maximal:
         return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
-                               frames, tick, friction_smoothing, wrenches)
+                               frames, tick, friction_smoothing, wrenches, method, note, hint)
     dissipative = derivation.robot.dissipative and not maximal
     if not maximal:
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
@@ -155,8 +159,9 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
         names = list(derivation.robot.coordinates)
     else:
-        qm0 = module.to_maximal(q0, **values)
-        y0 = np.concatenate([qm0, module.to_maximal_jacobian(q0, **values) @ qd0])
+        with np.errstate(all="ignore"):
+            qm0 = module.to_maximal(q0, **values)
+            y0 = np.concatenate([qm0, module.to_maximal_jacobian(q0, **values) @ qd0])
         n = len(qm0)
         zero_q = np.zeros(len(q0))
 
@@ -167,34 +172,54 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
             return np.concatenate([qmd, module.maximal_forward_dynamics(qm, qmd, u, alpha=baumgarte,
                                                                          beta=baumgarte, **values)])
         names = [str(s) for s in derivation.symbols.qm]
+    _finite_start(rhs, y0, n, q0, qd0)
     times = np.linspace(0.0, duration, frames)
-    solution = solve_ivp(rhs, (0.0, duration), y0, method="DOP853", t_eval=times, rtol=rtol, atol=atol)
-    if not solution.success:
-        raise InputError(Problem("--duration", 1, 1, f"integration failed: {solution.message}"))
+    states = Integrator(rhs, method, rtol, atol, duration, note, hint).run(0.0, duration, y0, times)
     tick(duration)
-    position, velocity = solution.y[:n].T, solution.y[n:2 * n].T
-    dissipated = solution.y[2 * n] if dissipative else None
+    position, velocity = states[:, :n], states[:, n:2 * n]
+    dissipated = states[:, 2 * n] if dissipative else None
     if maximal:
         energy = module.maximal_kinetic_energy(position, velocity, **values) + module.maximal_potential_energy(position, **values)
         drift = np.max(np.abs(module.constraints(position, **values)), axis=-1)
     else:
         energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
         drift = None
-    return Trajectory(names, solution.t, position, velocity, np.asarray(energy), drift,
+    return Trajectory(names, times, position, velocity, np.asarray(energy), drift,
                       _link_poses(derivation, maximal) if derivation.robot.planar else None, dissipated)
+
+
+def _finite_start(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray, n: int, q0: np.ndarray,
+                  qd0: np.ndarray) -> None:
+    """Refuse an initial state whose accelerations are not finite (``--qd0 1e200`` overflows
+    the velocity products), at the option to blame: ``--qd0`` if the same coordinates at rest
+    are fine, else ``--q0``."""
+    def finite(y: np.ndarray) -> bool:
+        with np.errstate(all="ignore"):
+            return bool(np.all(np.isfinite(y)) and np.all(np.isfinite(rhs(0.0, y))))
+
+    if finite(y0):
+        return
+    at_rest = y0.copy()
+    at_rest[n:2 * n] = 0.0
+    if np.any(qd0) and len(y0) >= 2 * n and finite(at_rest):
+        raise InputError(Problem("--qd0", 1, 1, "the accelerations at the initial velocities "
+                                 f"{', '.join(f'{v:g}' for v in qd0)} are not finite (they overflow a double)"))
+    raise InputError(Problem("--q0", 1, 1, "the accelerations at the initial coordinates "
+                             f"{', '.join(f'{v:g}' for v in q0)} are not finite (they overflow a double, or the "
+                             "robot is singular there)"))
 
 
 def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float], duration: float,
                     q0: np.ndarray, qd0: np.ndarray, efforts: Callable[..., np.ndarray], rtol: float, atol: float,
                     baumgarte: float, frames: int, tick: Callable[[float], None],
                     friction_smoothing: float = 0.0,
-                    wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None) -> Trajectory:
+                    wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
+                    method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
+                    hint: str = "") -> Trajectory:
     """A closed-loop mechanism: start on the constraints (``assemble`` keeps q0's independent
     coordinates; qd0 projected onto the allowed motions), integrate the constrained dynamics
     (Baumgarte gains ``baumgarte``) from frame to frame, and project the state back onto the
     constraints at every frame; ``drift`` is the largest |a_g| before each projection."""
-    from scipy.integrate import solve_ivp
-
     n = len(q0)
     independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
 
@@ -202,7 +227,8 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
         guess = np.array(module.ASSEMBLED_CONFIGURATION) if q is q0 else q.copy()
         guess[independent] = q[independent]
         try:
-            q = module.assemble(guess, **values)
+            with np.errstate(all="ignore"):
+                q = module.assemble(guess, **values)
         except (ValueError, np.linalg.LinAlgError):
             raise InputError(Problem("--q0", 1, 1, "the loops cannot be closed with independent coordinates "
                                      + ", ".join(f"{module.COORDINATES[i]} = {q[i]:g}" for i in independent))) from None
@@ -218,12 +244,12 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
 
     times = np.linspace(0.0, duration, frames)
     q, qd = project(q0, qd0)
+    _finite_start(rhs, np.concatenate([q, qd]), n, q0, qd0)
+    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint)
     positions, velocities, drift = [q], [qd], [float(np.max(np.abs(module.loop_constraints(q, **values))))]
     for start, end in zip(times[:-1], times[1:]):
-        step = solve_ivp(rhs, (start, end), np.concatenate([q, qd]), method="DOP853", rtol=rtol, atol=atol)
-        if not step.success:
-            raise InputError(Problem("--duration", 1, 1, f"integration failed: {step.message}"))
-        q, qd = step.y[:n, -1], step.y[n:, -1]
+        state = integrator.run(start, end, np.concatenate([q, qd]), np.array([end]))[-1]
+        q, qd = state[:n], state[n:]
         drift.append(float(np.max(np.abs(module.loop_constraints(q, **values)))))
         q, qd = project(q, qd)
         positions.append(q)

@@ -30,7 +30,10 @@ class Row:
     residual: float
 
     def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        """The row for JSON: a residual that is not a number (a skipped check) is null."""
+        row = asdict(self)
+        row["residual"] = self.residual if np.isfinite(self.residual) else None
+        return row
 
 
 def generated_module(source: str, name: str) -> types.ModuleType:

@@ -55,8 +55,8 @@ class Grouping:
         return " ".join(parts)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "grouping": self.text, "value": self.value,
-                "terms": [{"parameter": name, "coefficient": number,
+        return {"name": self.name, "grouping": self.text, "value": json_number(self.value),
+                "terms": [{"parameter": name, "coefficient": json_number(number),
                            "symbolic": None if symbolic is None else str(symbolic)}
                           for name, number, symbolic in self.terms]}
 
@@ -79,9 +79,27 @@ class BaseParameters:
         return self.values[self.base] + self.beta @ self.values[self.dependent]
 
     def as_dict(self) -> dict[str, Any]:
-        return {"parameters": [{"name": n, "value": float(v)} for n, v in zip(self.names, self.values)],
+        return {"parameters": [{"name": n, "value": json_number(v)} for n, v in zip(self.names, self.values)],
                 "rank": self.rank, "states": self.states, "base": [g.as_dict() for g in self.groupings],
                 "unidentifiable": [self.names[i] for i in self.unidentifiable]}
+
+
+def json_number(value: float) -> float | None:
+    """``value`` for JSON: null where it is not finite (JSON has no NaN or Infinity)."""
+    number = float(value)
+    return number if np.isfinite(number) else None
+
+
+def fewest_states(robot: Any) -> int:
+    """The fewest random states ``base_parameters`` accepts: one per entry of ``pi``. Each
+    joint's row of ``Y`` adds at most one direction per state, and the first joint's row alone
+    can span as many directions as there are base parameters, so fewer states can make the
+    rank come out too small (and below ``len(pi) / n`` the stacked ``Y`` has fewer rows than
+    columns)."""
+    from ..mechanics.regressor import parameter_vector
+    from ..model.symbols import SymbolTable
+
+    return len(parameter_vector(robot, SymbolTable.for_robot(robot)))
 
 
 def random_states(n: int, count: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -195,4 +213,4 @@ def _recognise(derivation: Derivation, module: Any, sample: tuple[np.ndarray, ..
     return found
 
 
-__all__ = ["BaseParameters", "Grouping", "base_parameters", "random_states"]
+__all__ = ["BaseParameters", "Grouping", "base_parameters", "fewest_states", "json_number", "random_states"]

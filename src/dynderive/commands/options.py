@@ -1,0 +1,186 @@
+"""Command-line values checked before any work: numbers, vectors and ``--param`` values.
+
+Every problem is an ``InputError`` positioned at the option (``--rtol:1:1: ...``), so the
+command exits 2 with one line per problem. ``--param`` values get exactly the checks a
+robot file's own values get: the file is validated again with them (``validate``), and
+what fails is reported at the option, with the place in the file it concerns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, Problem
+
+#: The smallest relative tolerance an integrator can honour in double precision (SciPy
+#: raises smaller ones to this, with a warning).
+SMALLEST_RTOL = 100 * float(np.finfo(float).eps)
+
+
+def problem(option: str, message: str, column: int = 1) -> Problem:
+    return Problem(option, 1, column, message)
+
+
+def finite(value: float, option: str, what: str, low: float = -math.inf, strict: bool = False) -> None:
+    """Refuse ``value`` unless it is finite and above ``low`` (``strict``) or at least ``low``."""
+    if not math.isfinite(value) or (value <= low if strict else value < low):
+        bound = "" if low == -math.inf else f" {'>' if strict else '>='} {low:g}"
+        raise InputError(problem(option, f"expected {what}: a finite number{bound}, got {value:g}"))
+
+
+def tolerances(rtol: float, atol: float) -> None:
+    """``--rtol`` and ``--atol`` an adaptive integrator can work with."""
+    problems = []
+    if not (math.isfinite(rtol) and SMALLEST_RTOL <= rtol < 1):
+        problems.append(problem("--rtol", f"expected a relative tolerance from {SMALLEST_RTOL:.3g} (the smallest a "
+                                          f"double can honour) to below 1, got {rtol:g}"))
+    if not (math.isfinite(atol) and atol >= 0):
+        problems.append(problem("--atol", f"expected an absolute tolerance: a finite number >= 0, got {atol:g}"))
+    if problems:
+        raise InputError(problems)
+
+
+def vector(text: str | None, size: int, option: str) -> np.ndarray | None:
+    """``a,b,..`` (or spaces) -> ``size`` finite numbers; None when the option is absent."""
+    if text is None:
+        return None
+    column, values = 1, []
+    for part in text.replace(" ", ",").split(","):
+        if part:
+            try:
+                number = float(part)
+            except ValueError:
+                break
+            if not math.isfinite(number):
+                raise InputError(problem(option, f"{part!r} is not a finite number", column))
+            values.append(number)
+        column += len(part) + 1
+    else:
+        if len(values) == size:
+            return np.array(values)
+    raise InputError(problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
+
+
+def split_top_level(text: str) -> list[str]:
+    """``text`` split at the commas outside parentheses (``atan2(y, x)`` stays whole)."""
+    parts, depth, start = [], 0, 0
+    for i, char in enumerate(text):
+        depth += (char == "(") - (char == ")")
+        if char == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    return parts + [text[start:]]
+
+
+def with_parameters(model: Any, robot: str, assignments: list[str], required: bool,
+                    command: str = "this command") -> Any:
+    """``model`` with the values of ``--param NAME=VALUE`` (VALUE: a number or a whitelisted
+    expression of numbers, e.g. ``pi/4``); ``required``: every parameter must then have a
+    value (otherwise those without one take 1.0, as ``command`` does). The robot file ``robot``
+    is validated again with the values used, so a negative mass or an expression that is not
+    real at them is refused as it would be in the file."""
+    from ..model.expressions import ExpressionError, parse_expression
+
+    known = {p.name: p for p in model.parameters}
+    given: dict[str, float] = {}
+    texts: dict[str, tuple[str, int]] = {}   # name -> (the option's text, the column of its value)
+    problems = []
+    for text in assignments:
+        name, sep, value = text.partition("=")
+        column = len(name) + 2
+        name = name.strip()
+        if not sep or not name:
+            problems.append(problem("--param", f"expected NAME=VALUE, got {text!r}"))
+            continue
+        if name not in known:
+            names = ", ".join(known) or "none"
+            problems.append(problem("--param", f"unknown parameter {name!r} (parameters of {model.name}: {names})"))
+            continue
+        try:
+            number = complex(parse_expression(value, {}).evalf(17))
+        except (ExpressionError, TypeError, ValueError, OverflowError) as exc:
+            offset = getattr(exc, "offset", 0)
+            problems.append(problem("--param", f"{name}: {exc}", column + offset))
+            continue
+        if number.imag or not math.isfinite(number.real):
+            problems.append(problem("--param", f"{name}: {value!r} is not a finite real number", column))
+            continue
+        given[name] = number.real
+        texts[name] = (text.strip(), column)
+    parameters = tuple(dataclasses.replace(p, value=given.get(p.name, p.value)) for p in model.parameters)
+    filled: dict[str, float] = {}
+    for p in parameters:
+        if p.value is None and required:
+            line, column = model.positions.get(f"parameter:{p.name}", (1, 1))
+            problems.append(Problem(model.source, line, column, f"parameter '{p.name}' has no default value: "
+                                    f"give one with --param {p.name}=VALUE"))
+        elif p.value is None:
+            filled[p.name] = 1.0
+    if problems:
+        raise InputError(problems)
+    if given or filled:
+        _check_values(robot, given, filled, texts, command)
+    return dataclasses.replace(model, parameters=parameters) if given else model
+
+
+def _check_values(robot: str, given: dict[str, float], filled: dict[str, float],
+                  texts: dict[str, tuple[str, int]], command: str) -> None:
+    """Validate the robot file again with the parameter values used; report what fails at the
+    ``--param`` option responsible (alone, else those given together), or, for a parameter
+    without a default, at the file with the value taken."""
+    found = _revalidate(robot, given | filled)
+    if not found:
+        return
+    owner: dict[tuple[str, int, int], list[str]] = {}
+    if len(given) > 1 or (given and filled):
+        for name, value in given.items():
+            for p in _revalidate(robot, {name: value}):
+                owner.setdefault((p.file, p.line, p.column), []).append(name)
+    elif given:
+        owner = {(p.file, p.line, p.column): list(given) for p in found}
+    problems = []
+    for p in found:
+        message = p.message.replace("at the default parameter values", "at the parameter values")
+        names = owner.get((p.file, p.line, p.column)) or list(given)
+        if len(names) == 1 and (p.file, p.line, p.column) in owner:
+            text, column = texts[names[0]]
+            problems.append(Problem("--param", 1, column, f"{text}: {message} ({p.file}:{p.line}:{p.column})"))
+        elif given and not filled:
+            together = ", ".join(texts[n][0] for n in names)
+            problems.append(Problem("--param", 1, 1, f"{together} together: {message} ({p.file}:{p.line}:{p.column})"))
+        else:
+            taken = ", ".join(f"{n} = {v:g}" for n, v in filled.items())
+            also = f" and --param {', '.join(texts[n][0] for n in given)}" if given else ""
+            problems.append(dataclasses.replace(p, message=f"{message} (with {taken}, the value {command} takes for a "
+                                                           f"parameter without a default{also}: give one with "
+                                                           "--param NAME=VALUE)"))
+    raise InputError(problems)
+
+
+def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
+    """The problems of the robot file ``robot`` read again with the parameter ``values``."""
+    from ..input.loader import load_document, read_text, resolve_robot_path
+    from ..input.schema import validate
+
+    path = resolve_robot_path(robot)
+    if path.suffix.lower() == ".urdf":
+        from ..input.urdf import read_urdf
+
+        document = read_urdf(read_text(path), str(path))
+    else:
+        document = load_document(path)
+    block = document.data.get("parameters") or {}
+    for name, value in values.items():
+        if isinstance(block.get(name), dict):
+            block[name]["value"] = value
+        else:
+            block[name] = value
+    try:
+        validate(document)
+    except InputError as exc:
+        return exc.problems
+    return []
