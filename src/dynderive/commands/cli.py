@@ -18,6 +18,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
+from .output import interrupted_message
 
 app = typer.Typer(
     add_completion=False,
@@ -54,7 +55,7 @@ def handle_errors(function: F) -> F:
         except DynderiveError as exc:
             raise _fail(f"dynderive: {exc}", 1) from None
         except (KeyboardInterrupt, Interrupted):
-            raise _fail("dynderive: interrupted; no output was changed", 130) from None
+            raise _fail(interrupted_message(), 130) from None
         except typer.Exit:
             raise
         except Exception as exc:  # an internal error: say so plainly, traceback on request
@@ -335,10 +336,12 @@ def simulate(
 
     from .. import derive, load_robot
     from ..render.code import render_code
-    from .output import write_all
+    from .output import check_frames, check_output_paths, write_all
     from .simulate import animation_gif, csv_text, default_initial, parse_efforts, parse_wrenches, plot_png
     from .simulate import simulate as run
 
+    check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
+    check_frames(frames, animate is not None)
     if coordinates not in ("generalized", "maximal"):
         raise InputError(_problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
     if duration <= 0 or frames < 2:
@@ -516,7 +519,8 @@ def build(
         kinds = ("latex", "code")
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(_problem(str(template_dir), "template directory does not exist"))
-    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir)
+    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
+                         lambda text: typer.echo(text, err=True))
     width = max([len(o.source) for o in outcomes] + [5])
     sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
     typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
@@ -558,9 +562,10 @@ def import_(
     from ..input.loader import read_text, resolve_robot_path
     from ..input.schema import validate
     from ..input.urdf import read_urdf, to_yaml
-    from .output import write_all
+    from .output import check_output_paths, write_all
 
     path = resolve_robot_path(urdf)
+    check_output_paths({"--output": output}, (path,))
     if path.suffix.lower() in (".yaml", ".yml"):
         raise InputError(_problem(str(path), "is already a YAML robot file (import converts URDF files)"))
     document = read_urdf(read_text(path), str(path))

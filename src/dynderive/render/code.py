@@ -22,13 +22,20 @@ from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
+from ..errors import Problem
 from ..mechanics.tidy import fold_constants, operation_count
 from .encode import Code, python_literal
-from .environment import render
+from .environment import TemplateProblem, locate_output_line, render
 
 
 class CodeGenerationError(ValueError):
-    """The generated module would not be what the engine meant (an internal error)."""
+    """The generated module would not be what the engine meant (an internal error, unless a
+    user's template made it: then ``user_template_error`` turns it into bad input).
+    ``line``: the line of the generated module at fault, when known."""
+
+    def __init__(self, message: str, line: int | None = None):
+        super().__init__(message)
+        self.line = line
 
 
 #: Functions the printed code may call, as the straight-line bodies receive them: from
@@ -531,8 +538,25 @@ def _tuple(names: tuple[str, ...]) -> Code:
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     text = render("code", CODE_TEMPLATE, code_context(derivation), template_dir)
-    verify_module(text, derivation.robot.title if template_dir is None else None)
+    try:
+        verify_module(text, derivation.robot.title if template_dir is None else None)
+    except CodeGenerationError as exc:
+        raise user_template_error(exc, text, CODE_TEMPLATE, template_dir) from None
     return text
+
+
+def user_template_error(exc: CodeGenerationError, text: str, name: str,
+                        template_dir: str | Path | None) -> Exception:
+    """``exc`` as bad input at the line of the user's template that made the module wrong
+    (exit 2), or ``exc`` itself when only built-in templates are in use (an internal error)."""
+    lines = text.split("\n")
+    line = exc.line if exc.line is not None and 1 <= exc.line <= len(lines) else None
+    where = locate_output_line([name], template_dir, lines[line - 1] if line else "")
+    if where is None:
+        return exc
+    file, row, column = where
+    shown = f" (line {line} of the module: {lines[line - 1].strip()[:60]!r})" if line else ""
+    return TemplateProblem(Problem(file, row, column, f"template error: {exc}{shown}"))
 
 
 #: What the top level of a generated module may hold: its docstring, imports of these
@@ -551,15 +575,17 @@ def verify_module(text: str, title: str | None = None) -> None:
     try:
         tree = ast.parse(text)
     except (SyntaxError, ValueError) as exc:
-        raise CodeGenerationError(f"the generated module does not parse: {exc}") from None
+        line = exc.lineno if isinstance(exc, SyntaxError) else None
+        raise CodeGenerationError(f"the generated module does not parse: {getattr(exc, 'msg', exc)}", line) from None
     body = tree.body[1:] if ast.get_docstring(tree, clean=False) is not None else tree.body
     for node in body:
         if not isinstance(node, _TOP_LEVEL):
-            raise CodeGenerationError(f"unexpected {type(node).__name__} at line {node.lineno} of the generated module")
+            raise CodeGenerationError(f"unexpected {type(node).__name__} at line {node.lineno} of the generated module",
+                                      node.lineno)
         if isinstance(node, ast.Import | ast.ImportFrom):
             names = [node.module or ""] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
             if any(n.split(".")[0] not in _IMPORTS for n in names):
-                raise CodeGenerationError(f"unexpected import at line {node.lineno} of the generated module")
+                raise CodeGenerationError(f"unexpected import at line {node.lineno} of the generated module", node.lineno)
     if title is not None and title not in (ast.get_docstring(tree, clean=False) or ""):
         raise CodeGenerationError("the generated module's docstring does not read back the robot's title")
 
@@ -575,5 +601,7 @@ def render_code_tests(derivation: Derivation, template_dir: str | Path | None = 
     try:
         ast.parse(text)
     except (SyntaxError, ValueError) as exc:
-        raise CodeGenerationError(f"the generated test module does not parse: {exc}") from None
+        error = CodeGenerationError(f"the generated test module does not parse: {getattr(exc, 'msg', exc)}",
+                                    exc.lineno if isinstance(exc, SyntaxError) else None)
+        raise user_template_error(error, text, "dynamics_test.py.j2", template_dir) from None
     return text
