@@ -70,7 +70,7 @@ def _kind(path: Path) -> tuple[str, Path]:
     """("file", where to write atomically) or ("stream", what to write to directly)."""
     try:
         mode = os.stat(path).st_mode   # follows links
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):   # a file in the way is reported when writing
         return "file", Path(os.path.realpath(path)) if path.is_symlink() else path
     except OSError as exc:
         raise _Failed(path, exc) from None

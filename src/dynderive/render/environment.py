@@ -69,10 +69,16 @@ class TemplateSandbox(SandboxedEnvironment):
             return False
         if isinstance(obj, (jinja2.runtime.Macro, jinja2.runtime.BlockReference, jinja2.runtime.LoopContext)):
             return True
-        if any(obj is value for value in self.globals.values()):
+        if any(obj is value for value in self.globals.values()) or getattr(obj, "_sandboxed_format", False):
             return True
         owner = getattr(obj, "__self__", None)
         return owner is not None and type(owner) in self.SAFE_OWNERS
+
+    def wrap_str_format(self, value: object) -> object:
+        wrapped = super().wrap_str_format(value)   # str.format, made to refuse "{0.__class__}"
+        if wrapped is not None:
+            wrapped._sandboxed_format = True  # type: ignore[attr-defined]
+        return wrapped
 
     def call_binop(self, context: jinja2.runtime.Context, operator: str, left: object, right: object) -> object:
         if operator == "**" and _integers(left, right) and abs(left) > 1 and right > 0:  # type: ignore[operator, arg-type]
