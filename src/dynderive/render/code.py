@@ -22,15 +22,14 @@ from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
-from ..errors import Problem
 from ..mechanics.tidy import fold_constants, operation_count
 from .encode import Code, python_literal
-from .environment import TemplateProblem, locate_output_line, render
+from .environment import render, template_fault
 
 
 class CodeGenerationError(ValueError):
     """The generated module would not be what the engine meant (an internal error, unless a
-    user's template made it: then ``user_template_error`` turns it into bad input).
+    user's template made it: then ``template_fault`` turns it into bad input).
     ``line``: the line of the generated module at fault, when known."""
 
     def __init__(self, message: str, line: int | None = None):
@@ -540,23 +539,9 @@ def render_code(derivation: Derivation, template_dir: str | Path | None = None) 
     text = render("code", CODE_TEMPLATE, code_context(derivation), template_dir)
     try:
         verify_module(text, derivation.robot.title if template_dir is None else None)
-    except CodeGenerationError as exc:
-        raise user_template_error(exc, text, CODE_TEMPLATE, template_dir) from None
+    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
+        raise template_fault(exc, exc.line, text, CODE_TEMPLATE, template_dir) or exc from None
     return text
-
-
-def user_template_error(exc: CodeGenerationError, text: str, name: str,
-                        template_dir: str | Path | None) -> Exception:
-    """``exc`` as bad input at the line of the user's template that made the module wrong
-    (exit 2), or ``exc`` itself when only built-in templates are in use (an internal error)."""
-    lines = text.split("\n")
-    line = exc.line if exc.line is not None and 1 <= exc.line <= len(lines) else None
-    where = locate_output_line([name], template_dir, lines[line - 1] if line else "")
-    if where is None:
-        return exc
-    file, row, column = where
-    shown = f" (line {line} of the module: {lines[line - 1].strip()[:60]!r})" if line else ""
-    return TemplateProblem(Problem(file, row, column, f"template error: {exc}{shown}"))
 
 
 #: What the top level of a generated module may hold: its docstring, imports of these
@@ -603,5 +588,5 @@ def render_code_tests(derivation: Derivation, template_dir: str | Path | None = 
     except (SyntaxError, ValueError) as exc:
         error = CodeGenerationError(f"the generated test module does not parse: {getattr(exc, 'msg', exc)}",
                                     exc.lineno if isinstance(exc, SyntaxError) else None)
-        raise user_template_error(error, text, "dynamics_test.py.j2", template_dir) from None
+        raise template_fault(error, error.line, text, "dynamics_test.py.j2", template_dir) or error from None
     return text

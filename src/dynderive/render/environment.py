@@ -17,13 +17,14 @@ from __future__ import annotations
 import math
 import re
 import traceback
+from collections.abc import Callable
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
 import jinja2
 import markupsafe
-from jinja2 import meta, nodes
+from jinja2 import meta
 from jinja2.sandbox import SandboxedEnvironment, SecurityError
 
 from ..errors import InputError, Problem
@@ -74,7 +75,7 @@ class TemplateSandbox(SandboxedEnvironment):
         owner = getattr(obj, "__self__", None)
         return owner is not None and type(owner) in self.SAFE_OWNERS
 
-    def wrap_str_format(self, value: object) -> object:
+    def wrap_str_format(self, value: object) -> Callable[..., str] | None:
         wrapped = super().wrap_str_format(value)   # str.format, made to refuse "{0.__class__}"
         if wrapped is not None:
             wrapped._sandboxed_format = True  # type: ignore[attr-defined]
@@ -213,8 +214,8 @@ def templates_in_use(names: list[str], template_dir: str | Path | None) -> list[
         env = environment(kind, directory)
         try:
             source, filename, _ = env.loader.get_source(env, name)  # type: ignore[union-attr]
-        except jinja2.TemplateNotFound:
-            continue
+        except (jinja2.TemplateNotFound, OSError, UnicodeDecodeError):
+            continue   # rendering will report it
         found[(kind, name)] = Path(filename)  # type: ignore[arg-type]
         try:
             tree = env.parse(source)
@@ -225,8 +226,6 @@ def templates_in_use(names: list[str], template_dir: str | Path | None) -> list[
                 dynamic = True
             else:
                 todo.append((kind, reference))
-        dynamic = dynamic or any(not isinstance(n.template, nodes.Const) for n in tree.find_all(
-            (nodes.Include, nodes.Extends, nodes.Import, nodes.FromImport)))
     used = {(name, path) for (_, name), path in found.items()}
     if dynamic and directory:
         base = Path(directory)
@@ -266,3 +265,18 @@ def locate_output_line(names: list[str], template_dir: str | Path | None, text: 
 
 
 _TAG = re.compile(r"(\{\{.*?\}\}|\{%.*?%\}|\{#.*?#\})")
+
+
+def template_fault(error: Exception, line: int | None, text: str, name: str,
+                   template_dir: str | Path | None) -> TemplateProblem | None:
+    """``error`` in the output ``text`` of template ``name`` (at its ``line``, if known) as bad
+    input at the line of the user's template that made it; ``None`` when only built-in
+    templates are in use (then it is an internal error)."""
+    lines = text.split("\n")
+    line = line if line is not None and 1 <= line <= len(lines) else None
+    where = locate_output_line([name], template_dir, lines[line - 1] if line else "")
+    if where is None:
+        return None
+    file, row, column = where
+    shown = f" (line {line} of the output: {lines[line - 1].strip()[:60]!r})" if line else ""
+    return TemplateProblem(Problem(file, row, column, f"template error: {error}{shown}"))
