@@ -462,3 +462,18 @@ def test_what_templates_may_still_do(tmp_path):
     assert result.exit_code == 0, result.output
     last = (tmp_path / "out" / "rp_arm.tex").read_text().splitlines()[-1]
     assert last == "% RP\\_ARM q_{1}, q_{2} [('a', 1)] 3 2-4 xy 2!"
+
+
+def test_an_interrupt_names_only_this_commands_outputs(tmp_path, monkeypatch):
+    import dynderive
+
+    assert _run("solve", "rp_arm", "--json", "--out", tmp_path, "-q").exit_code == 0
+    assert output.WRITTEN == [tmp_path / "rp_arm.json"]
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(dynderive, "load_robot", interrupted)
+    result = _run("solve", "rp_arm", "--json", "--out", tmp_path, "-q")
+    assert result.exit_code == 130
+    assert result.stderr.strip() == "dynderive: interrupted; no output was changed"

@@ -18,7 +18,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
-from .output import interrupted_message
+from .output import WRITTEN, interrupted_message
 
 app = typer.Typer(
     add_completion=False,
@@ -46,6 +46,7 @@ def handle_errors(function: F) -> F:
     @functools.wraps(function)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         previous = signal.signal(signal.SIGTERM, _terminate)
+        WRITTEN.clear()   # the outputs of this command, for the message of an interrupt
         try:
             return function(*args, **kwargs)
         except InputError as exc:
