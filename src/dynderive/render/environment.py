@@ -218,10 +218,10 @@ def templates_in_use(names: list[str], template_dir: str | Path | None) -> list[
             continue   # rendering will report it
         found[(kind, name)] = Path(filename)  # type: ignore[arg-type]
         try:
-            tree = env.parse(source)
+            references = _references(kind, directory, source)
         except jinja2.TemplateSyntaxError:
             continue   # rendering will report it
-        for reference in meta.find_referenced_templates(tree):
+        for reference in references:
             if reference is None:
                 dynamic = True
             else:
@@ -231,6 +231,12 @@ def templates_in_use(names: list[str], template_dir: str | Path | None) -> list[
         base = Path(directory)
         used |= {(p.relative_to(base).as_posix(), p) for p in base.rglob("*") if p.is_file()}
     return sorted(used)
+
+
+@lru_cache(maxsize=64)
+def _references(kind: str, directory: str | None, source: str) -> tuple[str | None, ...]:
+    """The templates ``source`` names (``None``: one named by a variable); parsed once per text."""
+    return tuple(meta.find_referenced_templates(environment(kind, directory).parse(source)))
 
 
 def locate_output_line(names: list[str], template_dir: str | Path | None, text: str) -> tuple[str, int, int] | None:
