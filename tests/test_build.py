@@ -126,7 +126,7 @@ def test_check_compares_bytes_not_the_manifest(tmp_path):
     tampered = out / "rp_arm_dynamics.py"
     tampered.write_text(tampered.read_text() + "# tampered\n")
     document = json.loads(manifest.read_text())
-    document["robots"][str(folder / "rp_arm.yaml")]["outputs"]["rp_arm_dynamics.py"] = (
+    document["robots"]["../robots/rp_arm.yaml"]["outputs"]["rp_arm_dynamics.py"] = (   # keyed from out/
         hashlib.sha256(tampered.read_bytes()).hexdigest())
     manifest.write_text(json.dumps(document, indent=2) + "\n")
     before = {p.name: p.read_bytes() for p in out.iterdir()}
@@ -156,7 +156,7 @@ def test_concurrent_builds_into_one_directory_keep_every_record(tmp_path):
         stdout, stderr = process.communicate(timeout=300)
         assert process.returncode == 0, stdout + stderr
     records = json.loads((out / ".dynderive-build.json").read_text())["robots"]
-    assert sorted(records) == sorted(map(str, sources))
+    assert sorted(records) == [f"../{name}/{name}.yaml" for name in ("double_pendulum", "rp_arm")]
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
     # both records are real: a second build of both is up to date
     again = _build(*sources, "--out", out, "--code", "-j", "1")

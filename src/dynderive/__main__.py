@@ -2,6 +2,10 @@
 
 Signals are taken over before anything heavy is imported (Typer, SymPy), so Ctrl-C or
 SIGTERM at any moment ends the run with exit code 130 and one line, never a traceback.
+Once the command has finished (its outputs written, its messages printed), SIGINT and SIGTERM
+are ignored for the interpreter's shutdown, where Python no longer handles them: a signal
+then changes nothing, and the exit code is the command's. An interrupt after some outputs
+were written says which (each is complete).
 """
 
 from __future__ import annotations
@@ -16,17 +20,42 @@ def _interrupt(signum: int, frame: object) -> None:
     raise Interrupted
 
 
+def _interrupted() -> int:
+    output = sys.modules.get("dynderive.commands.output")   # not imported: nothing was written
+    message = output.interrupted_message() if output is not None else "dynderive: interrupted; no output was changed"
+    sys.stderr.write(message + "\n")
+    return 130
+
+
 def run() -> None:
     """Console-script entry point."""
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
+    code: int | str | None = 0
     try:
-        from .commands.cli import app
+        try:
+            from .commands.cli import app
 
-        app(prog_name="dynderive")
+            app(prog_name="dynderive")
+        except SystemExit as exc:
+            code = exc.code
     except Interrupted:
-        sys.stderr.write("dynderive: interrupted; no output was changed\n")
-        sys.exit(130)
+        code = _interrupted()
+    sys.exit(_finish(code))
+
+
+def _finish(code: int | str | None) -> int | str | None:
+    """Ignore SIGINT and SIGTERM for the rest of the process: during the interpreter's
+    shutdown Python would hand them back to the default action (killed, status -15), yet an
+    ignored signal it leaves ignored. One that arrives before this is an interrupt."""
+    while True:
+        try:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            return code
+        except Interrupted:
+            if code != 130:
+                code = _interrupted()
 
 
 if __name__ == "__main__":

@@ -37,6 +37,9 @@ class InputError(DynderiveError):
         self.problems = [problems] if isinstance(problems, Problem) else list(problems)
         super().__init__("\n".join(str(p) for p in self.problems))
 
+    def __reduce__(self):   # pickled between build's worker processes
+        return type(self), (self.problems,)
+
 
 class ToolMissingError(DynderiveError):
     """An external program (a TeX engine) is needed but not installed (exit code 1)."""

@@ -6,8 +6,13 @@ and of each output it produced. A robot whose inputs and outputs match is up to 
 not derived again. ``--check`` writes nothing and trusts no manifest: it regenerates every
 output in memory and reports each one that is missing or whose bytes differ from the file.
 
-Two robot files with the same robot name (hence the same output files) are refused before
-anything is built. The manifest is read, merged and replaced under an exclusive lock
+Records are keyed by the robot file's real path relative to the output directory, so the
+same files are up to date however the folder is named on the command line (``robots``,
+``./robots``, an absolute path, ``.`` from inside it). Two robot files with the same robot
+name (hence the same output files) are refused before anything is built: in one run, or
+across runs when the manifest says another file that still has that name wrote them. A
+manifest or record that is not what dynderive writes (a merge conflict, a hand edit) counts
+as absent, with a note. The manifest is read, merged and replaced under an exclusive lock
 (``flock`` on a lock file beside it), so concurrent builds into one directory keep every
 record.
 """
@@ -19,7 +24,7 @@ import json
 import os
 import re
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -36,6 +41,8 @@ MANIFEST = ".dynderive-build.json"
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf")
 KINDS = ("latex", "pdf", "code", "json")
+#: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not compile)
+OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}.json", "{}.log")
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
              "code": ["dynamics.py.j2"], "json": []}
 
@@ -53,11 +60,12 @@ class Outcome:
 
 
 def discover(paths: list[Path]) -> list[Path]:
-    """Robot files under ``paths`` (files as given, folders searched), in a stable order."""
+    """Robot files under ``paths`` (files as given, folders searched; extensions in any case,
+    ``ARM.URDF`` too), in a stable order."""
     found: list[Path] = []
     for path in paths:
         if path.is_dir():
-            found += sorted(p for p in path.rglob("*") if p.suffix in SUFFIXES and p.is_file())
+            found += sorted(p for p in path.rglob("*") if p.suffix.lower() in SUFFIXES and p.is_file())
         elif path.is_file():
             found.append(path)
         else:
@@ -103,14 +111,17 @@ def _urdf_name_position(text: str, line: int, column: int) -> tuple[int, int]:
     return text.count("\n", 0, offset) + 1, offset - before
 
 
-def check_names(sources: list[Path]) -> None:
-    """Refuse robot files whose outputs would overwrite each other's: one problem per later file."""
+def check_names(sources: list[Path]) -> dict[Path, tuple[str, int, int]]:
+    """Refuse robot files whose outputs would overwrite each other's: one problem per later
+    file. Returns each readable file's robot name and its position."""
     owners: dict[str, Path] = {}
+    names: dict[Path, tuple[str, int, int]] = {}
     problems: list[Problem] = []
     for source in sources:
         found = robot_name(source)
         if found is None:
             continue
+        names[source] = found
         name, line, column = found
         if name in owners:
             problems.append(Problem(str(source), line, column, f"robot name '{name}' is also used by "
@@ -119,6 +130,33 @@ def check_names(sources: list[Path]) -> None:
             owners[name] = source
     if problems:
         raise InputError(problems)
+    return names
+
+
+def check_previous_owners(names: dict[Path, tuple[str, int, int]], out: Path, manifest: dict[str, dict]) -> None:
+    """Refuse a robot file whose outputs another robot file wrote into ``out`` in an earlier
+    run (the manifest says which), while that file still exists and still has that name."""
+    problems: list[Problem] = []
+    for source, (name, line, column) in names.items():
+        key = manifest_key(source, out)
+        files = {pattern.format(name) for pattern in OUTPUT_NAMES}
+        for other, record in manifest.items():
+            if other == key or not files & set(record["outputs"]):
+                continue
+            previous = out.resolve() / other
+            if previous.is_file() and (robot_name(previous) or ("",))[0] == name:
+                shown = os.path.relpath(previous.resolve())
+                problems.append(Problem(str(source), line, column, f"robot name '{name}' is also used by {shown}, "
+                                        f"whose outputs are in {out} (outputs would overwrite each other; rename "
+                                        "one robot or build it into another --out)"))
+                break
+    if problems:
+        raise InputError(problems)
+
+
+def manifest_key(source: Path, out: Path) -> str:
+    """The manifest's name for ``source``: its real path relative to the output directory's."""
+    return Path(os.path.relpath(source.resolve(), out.resolve())).as_posix()
 
 
 def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -> str:
@@ -127,10 +165,16 @@ def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -
 
     digest = hashlib.sha256()
     digest.update(f"dynderive {__version__} {engine_fingerprint()}\n{','.join(kinds)}\n".encode())
-    digest.update(source.read_bytes())
+    try:
+        digest.update(source.read_bytes())
+    except OSError:
+        return ""   # never up to date: building it reports why it cannot be read
     names = sorted({name for kind in kinds for name in TEMPLATES[kind]})
-    for template in templates_in_use(names, template_dir):
-        digest.update(template.name.encode() + b"\0" + template.read_bytes())
+    for name, template in templates_in_use(names, template_dir):   # with what they include
+        try:
+            digest.update(name.encode() + b"\0" + template.read_bytes() + b"\0")
+        except OSError:
+            return ""
     return digest.hexdigest()
 
 
@@ -188,10 +232,14 @@ _Result = tuple[dict[str, bytes] | None, str, float, dict[str, float]]
 def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: str | None) -> _Result:
     """``render_outputs`` of one robot, timed, its errors as text; ``out``: where a failed
     sheet's .tex and log will be (None: they will not be written)."""
+    from ..render.environment import TemplateProblem
+
     start = time.monotonic()
     sheet: dict[str, float] = {}
     try:
         files, failed = render_outputs(source, kinds, template_dir, sheet)
+    except TemplateProblem:
+        raise   # a user's template is at fault: every robot would fail alike (exit 2)
     except DynderiveError as exc:
         return None, str(exc), time.monotonic() - start, sheet
     except Exception as exc:  # an internal error in one robot must not stop the others
@@ -209,12 +257,37 @@ def _sha(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def load_manifest(out: Path) -> dict[str, dict]:
+def load_manifest(out: Path, note: Callable[[str], None] | None = None) -> dict[str, dict]:
+    """The manifest's well-formed records; anything else counts as absent (``note`` says so)."""
+    path = out / MANIFEST
+    say = note or (lambda text: None)
     try:
-        robots = json.loads((out / MANIFEST).read_text())["robots"]
-    except (FileNotFoundError, ValueError, KeyError, TypeError):
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
         return {}
-    return robots if isinstance(robots, dict) else {}
+    except (OSError, ValueError) as exc:
+        say(f"note: {path} is not a build manifest ({exc}); every robot is built again and the manifest replaced")
+        return {}
+    robots = document.get("robots") if isinstance(document, dict) else None
+    if not isinstance(robots, dict):
+        say(f"note: {path} is not a build manifest (no 'robots' mapping); every robot is built again "
+            "and the manifest replaced")
+        return {}
+    kept = {name: record for name, record in robots.items() if _well_formed(record)}
+    for name in robots.keys() - kept.keys():
+        say(f"note: {path}: the record of {name} is malformed and ignored (it is built again)")
+    return kept
+
+
+def _well_formed(record: object) -> bool:
+    """A record as ``build`` writes it: a key, the outputs' file names and hashes, the sheet's numbers."""
+    if not isinstance(record, dict) or not isinstance(record.get("key"), str):
+        return False
+    outputs, sheet = record.get("outputs"), record.get("sheet", {})
+    return (isinstance(outputs, dict) and bool(outputs) and isinstance(sheet, dict)
+            and all(isinstance(f, str) and isinstance(h, str) and f not in ("", ".", "..") and f == Path(f).name
+                    for f, h in outputs.items())
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in sheet.values()))
 
 
 @contextmanager
@@ -247,30 +320,34 @@ def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict])
         for name, record in current.items():
             manifest.setdefault(name, record)
         for name in list(manifest):
-            if name not in built and name not in current and not Path(name).exists():
+            if name not in built and name not in current and not (out.resolve() / name).exists():
                 del manifest[name]
         document = {"version": 1, "robots": dict(sorted(manifest.items()))}
         write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()})
 
 
 def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check: bool,
-          template_dir: Path | None) -> list[Outcome]:
+          template_dir: Path | None, note: Callable[[str], None] | None = None) -> list[Outcome]:
+    """Build (or with ``check`` compare) every robot file under ``paths``; ``note`` receives
+    remarks for the user (a malformed manifest)."""
+    from ..render.environment import TemplateProblem
     from .output import write_all
 
     sources = discover(paths)
-    check_names(sources)
-    manifest = {} if check else load_manifest(out)   # --check compares bytes, never the manifest
+    names = check_names(sources)
+    manifest = {} if check else load_manifest(out, note)   # --check compares bytes, never the manifest
+    if not check:
+        check_previous_owners(names, out, manifest)
     outcomes: dict[str, Outcome] = {}
     pending: list[tuple[Path, str]] = []
     current: dict[str, dict] = {}
     for source in sources:
         name = str(source)
         key = "" if check else input_key(source, kinds, template_dir)
-        record = manifest.get(name)
-        if (isinstance(record, dict) and record.get("key") == key
-                and _outputs_match(out, record.get("outputs", {}))):
+        record = manifest.get(manifest_key(source, out))
+        if record is not None and key and record["key"] == key and _outputs_match(out, record["outputs"]):
             outcomes[name] = Outcome(name, "up to date", outputs=record["outputs"], sheet=record.get("sheet", {}))
-            current[name] = record
+            current[manifest_key(source, out)] = record
         else:
             pending.append((source, key))
     workers = max(1, min(jobs, len(pending)))
@@ -282,7 +359,11 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
         else:
             with ProcessPoolExecutor(max_workers=workers) as pool:
                 futures = [(s, k, pool.submit(_work, str(s), kinds, templates, folder)) for s, k in pending]
-                results = [(s, k, f.result()) for s, k, f in futures]
+                try:
+                    results = [(s, k, f.result()) for s, k, f in futures]
+                except TemplateProblem:
+                    pool.shutdown(wait=False, cancel_futures=True)
+                    raise
     built: dict[str, dict] = {}
     for source, key, (files, error, seconds, sheet) in results:
         name = str(source)
@@ -306,7 +387,7 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
             outcomes[name] = Outcome(name, "built", seconds, outputs=hashes, sheet=sheet)
             # the manifest keeps what the bytes determine (pages, overfull lines), not the time
             kept = {k: v for k, v in sheet.items() if k != "seconds"}
-            built[name] = {"key": key, "outputs": hashes, **({"sheet": kept} if kept else {})}
+            built[manifest_key(source, out)] = {"key": key, "outputs": hashes, **({"sheet": kept} if kept else {})}
     if not check:
         update_manifest(out, built, current)
     return [outcomes[str(s)] for s in sources]
@@ -317,7 +398,10 @@ def _outputs_match(out: Path, outputs: dict[str, str]) -> bool:
         return False
     for file, digest in outputs.items():
         path = out / file
-        if not path.is_file() or _sha(path.read_bytes()) != digest:
+        try:
+            if not path.is_file() or _sha(path.read_bytes()) != digest:
+                return False
+        except OSError:
             return False
     return True
 

@@ -20,6 +20,7 @@ from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted,
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import finite, tolerances, vector, with_parameters
+from .output import WRITTEN, interrupted_message
 from .progress import Progress
 
 app = typer.Typer(
@@ -49,6 +50,7 @@ def handle_errors(function: F) -> F:
     @functools.wraps(function)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         previous = signal.signal(signal.SIGTERM, _terminate)
+        WRITTEN.clear()   # the outputs of this command, for the message of an interrupt
         try:
             return function(*args, **kwargs)
         except InputError as exc:
@@ -58,7 +60,7 @@ def handle_errors(function: F) -> F:
         except DynderiveError as exc:
             raise _fail(f"dynderive: {exc}", 1) from None
         except (KeyboardInterrupt, Interrupted):
-            raise _fail("dynderive: interrupted; no output was changed", 130) from None
+            raise _fail(interrupted_message(), 130) from None
         except typer.Exit:
             raise
         except Exception as exc:  # an internal error: say so plainly, traceback on request
@@ -266,10 +268,12 @@ def simulate(
     from .. import derive, load_robot
     from ..render.code import render_code
     from .integrate import method_name
-    from .output import write_all
+    from .output import check_frames, check_output_paths, write_all
     from .simulate import animation_gif, csv_text, default_initial, parse_efforts, parse_wrenches, plot_png
     from .simulate import simulate as run
 
+    check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
+    check_frames(frames, animate is not None)
     if coordinates not in ("generalized", "maximal"):
         raise InputError(_problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
     finite(duration, "--duration", "a duration in seconds", 0.0, strict=True)
@@ -471,7 +475,8 @@ def build(
         kinds = ("latex", "code")
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(_problem(str(template_dir), "template directory does not exist"))
-    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir)
+    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
+                         lambda text: typer.echo(text, err=True))
     width = max([len(o.source) for o in outcomes] + [5])
     sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
     typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
@@ -513,9 +518,10 @@ def import_(
     from ..input.loader import read_text, resolve_robot_path
     from ..input.schema import validate
     from ..input.urdf import read_urdf, to_yaml
-    from .output import write_all
+    from .output import check_output_paths, write_all
 
     path = resolve_robot_path(urdf)
+    check_output_paths({"--output": output}, (path,))
     if path.suffix.lower() in (".yaml", ".yml"):
         raise InputError(_problem(str(path), "is already a YAML robot file (import converts URDF files)"))
     document = read_urdf(read_text(path), str(path))

@@ -4,63 +4,171 @@ All outputs of a run are rendered in memory first; ``write_all`` then writes eac
 temporary file, keeps a hard link to every output it will replace, and renames the new files
 into place only once all are written. If a rename fails or the run is interrupted, the files
 already replaced are put back from those links: a run changes all of its outputs or none.
+SIGINT and SIGTERM are held back while the renames run, so a signal lands before them
+(nothing changed) or after (all changed), and the message says which.
+
+An output that is a symbolic link is written through: the file it points to is replaced
+(atomically, in the link target's folder) and the link is kept. An output that is not a
+regular file (``/dev/null``, a pipe, a terminal, ``/proc/self/fd/1`` behind a link) is
+written to directly, after the regular files are in place; it cannot be put back.
+
+Also here: the checks on output paths the commands share (one path given for two outputs,
+an output that is an input) and the limits on output sizes (``--frames``).
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+import signal
+import stat
 import tempfile
 import uuid
 from pathlib import Path
 
-from ..errors import OutputError
+from ..errors import InputError, OutputError, Problem
+
+#: ``simulate --frames``: samples of the trajectory (CSV rows, plot points), and of them
+#: frames of an ``--animate`` GIF (each one drawn by matplotlib).
+MAX_FRAMES = 100_000
+MAX_ANIMATION_FRAMES = 2_000
+
+#: The outputs this process has finished writing (for the message of a later interrupt).
+WRITTEN: list[Path] = []
+
+_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+class _Failed(Exception):
+    """An OS error while writing ``path`` (the output as the caller named it)."""
+
+    def __init__(self, path: Path, error: OSError, detail: str = ""):
+        super().__init__(str(path))
+        self.path, self.error, self.detail = path, error, detail
 
 
 def write_all(files: dict[Path, bytes]) -> None:
-    """Write every file or none; an OS failure becomes ``OutputError`` (nothing replaced)."""
+    """Write every file or none; an OS failure becomes ``OutputError`` naming the output
+    that failed (nothing replaced)."""
     try:
         _write_all(files)
+    except _Failed as failed:
+        reason = failed.detail or failed.error.strerror or str(failed.error)
+        raise OutputError(f"cannot write {failed.path}: {reason}") from None
+    WRITTEN.extend(files)
+
+
+def interrupted_message() -> str:
+    """What an interrupt did to the outputs: nothing, or which were written (each complete)."""
+    if not WRITTEN:
+        return "dynderive: interrupted; no output was changed"
+    shown = ", ".join(str(p) for p in WRITTEN[:3]) + (f" and {len(WRITTEN) - 3} more" if len(WRITTEN) > 3 else "")
+    return f"dynderive: interrupted; the outputs written before it are complete ({shown})"
+
+
+def _kind(path: Path) -> tuple[str, Path]:
+    """("file", where to write atomically) or ("stream", what to write to directly)."""
+    try:
+        mode = os.stat(path).st_mode   # follows links
+    except (FileNotFoundError, NotADirectoryError):   # a file in the way is reported when writing
+        return "file", Path(os.path.realpath(path)) if path.is_symlink() else path
     except OSError as exc:
-        where = exc.filename or next(iter(files), "")
-        raise OutputError(f"cannot write {where}: {exc.strerror or exc}") from None
+        raise _Failed(path, exc) from None
+    if stat.S_ISDIR(mode):
+        raise _Failed(path, IsADirectoryError(21, os.strerror(21)), "it is a folder")
+    if stat.S_ISREG(mode):
+        return "file", Path(os.path.realpath(path)) if path.is_symlink() else path
+    return "stream", path
 
 
 def _write_all(files: dict[Path, bytes]) -> None:
-    staged: list[tuple[str, Path]] = []
+    regular: dict[Path, tuple[Path, bytes]] = {}   # target -> (the output as named, data)
+    streams: list[tuple[Path, bytes]] = []
+    for path, data in files.items():
+        kind, target = _kind(path)
+        if kind == "stream":
+            streams.append((path, data))
+        elif target in regular and regular[target][1] != data:
+            raise _Failed(path, OSError(17, "same file"), f"it is the same file as {regular[target][0]}")
+        else:
+            regular[target] = (path, data)
+    staged: list[tuple[str, Path, Path]] = []
     backups: dict[Path, str] = {}
     done: list[Path] = []
     try:
-        for path, data in files.items():
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-            staged.append((temp, path))
-            with os.fdopen(fd, "wb") as handle:
-                handle.write(data)
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.chmod(temp, 0o644)
-        for _, path in staged:   # keep the current outputs until every new one is in place
-            if path.is_file():
-                backup = str(path.parent / f".{path.name}.{uuid.uuid4().hex}.old")
+        for target, (path, data) in regular.items():
+            _stage(target, path, data, staged)
+        for _, target, path in staged:   # keep the current outputs until every new one is in place
+            if target.is_file():
+                backup = str(target.parent / f".{target.name}.{uuid.uuid4().hex}.old")
                 try:
-                    os.link(path, backup)
-                except OSError:   # a file system without hard links
-                    shutil.copy2(path, backup)
-                backups[path] = backup
+                    try:
+                        os.link(target, backup)
+                    except OSError:   # a file system without hard links
+                        shutil.copy2(target, backup)
+                except OSError as exc:
+                    raise _Failed(path, exc) from None
+                backups[target] = backup
         try:
-            for temp, path in staged:
-                os.replace(temp, path)
-                done.append(path)
+            held = _hold_signals()
+            try:
+                for temp, target, path in staged:
+                    try:
+                        os.replace(temp, target)
+                    except OSError as exc:
+                        raise _Failed(path, exc) from None
+                    done.append(target)
+            finally:
+                _release_signals(held)
+            staged.clear()
+            for path, data in streams:   # not under the hold: a pipe may block until its reader reads
+                try:
+                    with open(path, "wb") as handle:
+                        handle.write(data)
+                except OSError as exc:
+                    raise _Failed(path, exc) from None
         except BaseException:
             _restore(done, backups)
             raise
-        staged.clear()
     finally:
-        for temp, _ in staged:
+        for temp, _, _ in staged:
             _unlink(temp)
         for backup in backups.values():
             _unlink(backup)
+
+
+def _stage(target: Path, path: Path, data: bytes, staged: list[tuple[str, Path, Path]]) -> None:
+    """Write ``data`` to a temporary file beside ``target``; ``path``: the output as named."""
+    blocker = next((p for p in target.parents if p.exists() or p.is_symlink()), None)
+    if blocker is not None and not blocker.is_dir():
+        raise _Failed(path, NotADirectoryError(20, os.strerror(20)), f"{blocker} is a file, not a folder")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, temp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as exc:
+        raise _Failed(path, exc) from None
+    staged.append((temp, target, path))
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.chmod(temp, 0o644)
+    except OSError as exc:
+        raise _Failed(path, exc) from None
+
+
+def _hold_signals() -> set[int] | None:
+    """Block SIGINT and SIGTERM (they stay pending) while outputs are replaced."""
+    try:
+        return signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+    except (AttributeError, OSError, ValueError):   # not POSIX
+        return None
+
+
+def _release_signals(previous: set[int] | None) -> None:
+    if previous is not None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _restore(done: list[Path], backups: dict[Path, str]) -> None:
@@ -77,3 +185,43 @@ def _unlink(name: str) -> None:
         os.unlink(name)
     except FileNotFoundError:
         pass
+
+
+def _same(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return Path(os.path.realpath(a)) == Path(os.path.realpath(b))
+
+
+def check_output_paths(outputs: dict[str, Path | None], inputs: tuple[Path, ...] = ()) -> None:
+    """Refuse one path given for two outputs (``--plot run.png --csv run.png``, or
+    ``run.png`` and ``./run.png``) and an output that is an input file (``import a.urdf -o
+    a.urdf``): ``--option:1:1: message``, exit 2, before any work."""
+    problems: list[Problem] = []
+    seen: list[tuple[str, Path]] = []
+    inputs = tuple(i for i in inputs if i.is_file())   # a bundled robot's name is no file here
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        other = next((o for o, p in seen if _same(p, path)), None)
+        source = next((i for i in inputs if _same(i, path)), None)
+        if other is not None:
+            problems.append(Problem(option, 1, 1, f"{path} is also the {other} output: one file cannot "
+                                    "hold both (give each its own path)"))
+        elif source is not None:
+            problems.append(Problem(option, 1, 1, f"{path} is the input file {source}: writing it would "
+                                    "replace it (give the output another path)"))
+        seen.append((option, path))
+    if problems:
+        raise InputError(problems)
+
+
+def check_frames(frames: int, animate: bool) -> None:
+    """``--frames`` within the documented limits (``MAX_FRAMES``; with ``--animate``,
+    ``MAX_ANIMATION_FRAMES``): exit 2 before any work."""
+    limit = MAX_ANIMATION_FRAMES if animate else MAX_FRAMES
+    if frames > limit:
+        what = "frames of an --animate GIF" if animate else "output samples"
+        raise InputError(Problem("--frames", 1, 1, f"{frames} {what} exceed the limit of {limit}: "
+                                 "ask for fewer"))

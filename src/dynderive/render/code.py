@@ -24,11 +24,17 @@ from sympy.printing.str import StrPrinter
 from ..derivation import Derivation
 from ..mechanics.tidy import fold_constants, operation_count
 from .encode import Code, python_literal
-from .environment import render
+from .environment import render, template_fault
 
 
 class CodeGenerationError(ValueError):
-    """The generated module would not be what the engine meant (an internal error)."""
+    """The generated module would not be what the engine meant (an internal error, unless a
+    user's template made it: then ``template_fault`` turns it into bad input).
+    ``line``: the line of the generated module at fault, when known."""
+
+    def __init__(self, message: str, line: int | None = None):
+        super().__init__(message)
+        self.line = line
 
 
 #: Functions the printed code may call, as the straight-line bodies receive them: from
@@ -531,7 +537,10 @@ def _tuple(names: tuple[str, ...]) -> Code:
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     text = render("code", CODE_TEMPLATE, code_context(derivation), template_dir)
-    verify_module(text, derivation.robot.title if template_dir is None else None)
+    try:
+        verify_module(text, derivation.robot.title if template_dir is None else None)
+    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
+        raise template_fault(exc, exc.line, text, CODE_TEMPLATE, template_dir) or exc from None
     return text
 
 
@@ -551,15 +560,17 @@ def verify_module(text: str, title: str | None = None) -> None:
     try:
         tree = ast.parse(text)
     except (SyntaxError, ValueError) as exc:
-        raise CodeGenerationError(f"the generated module does not parse: {exc}") from None
+        line = exc.lineno if isinstance(exc, SyntaxError) else None
+        raise CodeGenerationError(f"the generated module does not parse: {getattr(exc, 'msg', exc)}", line) from None
     body = tree.body[1:] if ast.get_docstring(tree, clean=False) is not None else tree.body
     for node in body:
         if not isinstance(node, _TOP_LEVEL):
-            raise CodeGenerationError(f"unexpected {type(node).__name__} at line {node.lineno} of the generated module")
+            raise CodeGenerationError(f"unexpected {type(node).__name__} at line {node.lineno} of the generated module",
+                                      node.lineno)
         if isinstance(node, ast.Import | ast.ImportFrom):
             names = [node.module or ""] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
             if any(n.split(".")[0] not in _IMPORTS for n in names):
-                raise CodeGenerationError(f"unexpected import at line {node.lineno} of the generated module")
+                raise CodeGenerationError(f"unexpected import at line {node.lineno} of the generated module", node.lineno)
     if title is not None and title not in (ast.get_docstring(tree, clean=False) or ""):
         raise CodeGenerationError("the generated module's docstring does not read back the robot's title")
 
@@ -575,5 +586,7 @@ def render_code_tests(derivation: Derivation, template_dir: str | Path | None = 
     try:
         ast.parse(text)
     except (SyntaxError, ValueError) as exc:
-        raise CodeGenerationError(f"the generated test module does not parse: {exc}") from None
+        error = CodeGenerationError(f"the generated test module does not parse: {getattr(exc, 'msg', exc)}",
+                                    exc.lineno if isinstance(exc, SyntaxError) else None)
+        raise template_fault(error, error.line, text, "dynamics_test.py.j2", template_dir) or error from None
     return text
