@@ -13,7 +13,9 @@ from typing import Any
 import sympy
 
 from .mechanics.planar import planar_kinematics
-from .mechanics.recursive import GeneralizedProgram, Program, build_programs, lines_read
+from .mechanics.program import Program, lines_read
+from .mechanics.programs import build_programs
+from .mechanics.recursive import GeneralizedProgram
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
 from .model.naming import body_jacobian_index

@@ -541,14 +541,3 @@ def _problem(file: str, message: str) -> Any:
     from ..errors import Problem
 
     return Problem(file, 1, 1, message)
-
-
-def run() -> None:
-    """Console-script entry point (``dynderive.__main__.run``, which takes over signals first)."""
-    from ..__main__ import run as main_run
-
-    main_run()
-
-
-if __name__ == "__main__":  # pragma: no cover
-    run()

@@ -27,7 +27,8 @@ import sympy
 from ..model.robot import Frame, Robot
 from ..model.symbols import SymbolTable
 from .joints import unit
-from .recursive import Program, Vector, _add, _carry, _cross, _forward, _rotate, _start, _Tree
+from .program import Program, Vector, _add, _cross, _rotate
+from .recursive import _carry, _forward, _start, _Tree
 from .spatial import Transform, axis_angle, rpy_matrix
 from .tidy import tidy
 

@@ -19,7 +19,8 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
-from .recursive import Program, _carry, _forward, _gravity, _newton_euler, _start
+from .program import Program
+from .recursive import _carry, _forward, _gravity, _newton_euler, _start
 from .tidy import tidy
 
 

@@ -26,7 +26,8 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
 from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
-from .recursive import GeneralizedProgram, lines_read
+from .program import lines_read
+from .recursive import GeneralizedProgram
 from .tidy import tidy
 
 #: Planar robots with more coordinates than this are derived in intermediate-variable form, as

@@ -1,0 +1,100 @@
+"""A straight-line program (``name = expression`` assignments in order) and the 3-vector
+algebra the recursive algorithms write their lines with.
+
+``Program.let`` names every value that costs something to repeat, once: the same value
+computed twice gets one name, so lines never grow. Every target's printer (NumPy today) reads
+``lines`` and ``outputs``; ``lines_read`` prunes a program to what some outputs need.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import sympy
+
+from .tidy import operation_count
+
+Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+Matrix3 = tuple[Vector, Vector, Vector]
+
+
+@dataclass
+class Program:
+    """Assignments ``name = expression`` in order; ``outputs`` are expressions of the names."""
+
+    lines: list[tuple[sympy.Symbol, sympy.Expr]] = field(default_factory=list)
+    outputs: list[sympy.Expr] = field(default_factory=list)
+    #: Symbols the body takes besides q, qd, qdd and u (forward dynamics of a robot with
+    #: damping or friction: the dissipative forces, computed outside the body).
+    extra_inputs: list[sympy.Symbol] = field(default_factory=list)
+    _count: int = 0
+    _known: dict[sympy.Expr, sympy.Symbol] = field(default_factory=dict)
+
+    def let(self, expr: sympy.Expr) -> sympy.Expr:
+        """``expr`` itself if it costs nothing to repeat (a number, a name, minus a name),
+        else a new name bound to it."""
+        expr = _numeric_constants(sympy.sympify(expr))
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
+                            and expr.args[1].is_Atom):
+            return expr
+        if expr in self._known:       # the same value computed twice: one name
+            return self._known[expr]
+        name = sympy.Symbol(f"_t{self._count}")
+        self._count += 1
+        self._known[expr] = name
+        self.lines.append((name, expr))
+        return name
+
+    def vector(self, values: Sequence[sympy.Expr]) -> Vector:
+        return tuple(self.let(v) for v in values)  # type: ignore[return-value]
+
+    @property
+    def operations(self) -> int:
+        """Arithmetic operations and function calls of the program."""
+        return sum(operation_count(e) for _, e in self.lines) + sum(operation_count(e) for e in self.outputs)
+
+
+def lines_read(values: Sequence[object], definitions: dict[sympy.Symbol, sympy.Expr]) -> set[sympy.Symbol]:
+    """The names among ``definitions`` that ``values`` read, directly or through other names:
+    the lines a straight-line program needs to compute them."""
+    needed: set[sympy.Symbol] = set()
+    pending = [s for value in values for s in sympy.sympify(value).free_symbols if s in definitions]
+    while pending:
+        symbol = pending.pop()
+        if symbol not in needed:
+            needed.add(symbol)
+            pending += [s for s in definitions[symbol].free_symbols if s in definitions and s not in needed]
+    return needed
+
+
+def _numeric_constants(expr: sympy.Expr) -> sympy.Expr:
+    """Irrational constants (``sqrt(2)/2``, ``cos(0.147)``) as 20-digit floats, so that the
+    printed lines call ``sin`` and ``cos`` of coordinates only; rationals stay exact."""
+    if expr.is_Atom:
+        return expr
+    if not expr.free_symbols:
+        return expr if expr.is_Rational else sympy.Float(expr.evalf(20), 20)
+    args = [_numeric_constants(a) for a in expr.args]
+    return expr.func(*args) if any(a is not b for a, b in zip(args, expr.args)) else expr
+
+
+def _dot(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> sympy.Expr:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _add(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    return tuple(x + y for x, y in zip(a, b))
+
+
+def _rotate(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    return tuple(_dot(row, v) for row in R)
+
+
+def _rotate_back(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+    """``R^T v``."""
+    return tuple(R[0][k] * v[0] + R[1][k] * v[1] + R[2][k] * v[2] for k in range(3))
