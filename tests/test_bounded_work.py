@@ -126,3 +126,18 @@ def test_a_quiet_or_quick_run_prints_no_progress():
     progress_module.Progress.close_all()
     time.sleep(1.3)
     assert stream.getvalue() == ""
+
+
+def test_yaml_nested_too_deep_is_refused_at_once_in_either_style(tmp_path):
+    """Flow style is caught by one pass over the text (PyYAML's scanner would look ahead over
+    every open bracket), block style as it is composed; brackets in quotes and comments do not
+    count."""
+    block = "name: arm\ntitle:\n" + "".join("  " * k + "-\n" for k in range(1, 150))
+    (tmp_path / "block.yaml").write_text(block)
+    result = runner.invoke(app, ["solve", str(tmp_path / "block.yaml")])
+    assert result.exit_code == 2 and result.stderr.strip().endswith("YAML nesting is too deep")
+    assert result.stderr.count("\n") == 1
+    text = (ROBOTS / "rp_arm.yaml").read_text().replace(
+        "title: Two-link RP arm (revolute + prismatic)\n", "title: \"" + "[" * 300 + "\"  # " + "{" * 300 + "\n")
+    (tmp_path / "quoted.yaml").write_text(text)
+    assert runner.invoke(app, ["solve", str(tmp_path / "quoted.yaml"), "-q"]).exit_code == 0

@@ -26,6 +26,8 @@ Path_ = tuple[Any, ...]
 MAX_FILE_BYTES = 2_000_000
 #: Most values a document may expand to (YAML aliases can expand exponentially).
 MAX_VALUES = 50_000
+#: Deepest nesting of YAML collections (a robot file needs about 5 levels).
+MAX_YAML_DEPTH = 100
 
 
 class _TooLarge(Exception):
@@ -158,7 +160,26 @@ class _Composer(yaml.SafeLoader):
 
     Plain scalars in decimal notation with an exponent (``1e-3``, ``2E5``, ``1.5e3``) are
     numbers, as in YAML 1.2 and as users mean them: YAML 1.1, which PyYAML follows, reads them
-    as text unless they have a dot and a signed exponent. Quoted, they stay text."""
+    as text unless they have a dot and a signed exponent. Quoted, they stay text.
+
+    Nesting deeper than ``MAX_YAML_DEPTH`` stops the composition at once (``_TooDeep``): PyYAML's
+    parser slows down with depth, and 500 levels of ``[`` took seconds before Python's
+    recursion limit ended them."""
+
+    depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self.depth += 1
+        try:
+            if self.depth > MAX_YAML_DEPTH:
+                raise _TooDeep
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+
+
+class _TooDeep(Exception):
+    pass
 
 
 _Composer.add_implicit_resolver(
@@ -170,6 +191,9 @@ _Composer.add_implicit_resolver(
 
 def parse_yaml(text: str, file: str) -> SourceDocument:
     """Parse YAML text, keeping positions and rejecting duplicate keys."""
+    deep = _flow_too_deep(text, MAX_YAML_DEPTH)
+    if deep is not None:
+        raise InputError(Problem(file, *deep, "YAML nesting is too deep"))
     try:
         loader = _Composer(text)
         try:
@@ -185,8 +209,8 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
                                  "is not allowed in YAML")) from None
     except yaml.YAMLError as exc:  # pragma: no cover - defensive, PyYAML marks nearly all
         raise InputError(Problem(file, 1, 1, f"YAML syntax error: {exc}")) from None
-    except RecursionError:
-        line, column = _deep_nesting_start(text)
+    except (RecursionError, _TooDeep):
+        line, column = _deep_nesting_start(text, MAX_YAML_DEPTH)
         raise InputError(Problem(file, line, column, "YAML nesting is too deep")) from None
 
     document = SourceDocument(file=file, data=None)
@@ -219,6 +243,44 @@ def _yaml_position(text: str, index: int) -> tuple[int, int]:
             line, start = line + 1, i + 1
         i += 1
     return line, index - start + 1
+
+
+def _flow_too_deep(text: str, limit: int) -> tuple[int, int] | None:
+    """Where a run of brackets nested deeper than ``limit`` opens, found in one pass before
+    parsing (PyYAML's scanner looks ahead over every open bracket: 1000 of them take seconds),
+    or None. Brackets in comments and quoted scalars do not count."""
+    depth, line, column, start = 0, 1, 0, (1, 1)
+    quote, previous, i = "", "\n", 0
+    while i < len(text):
+        char = text[i]
+        i += 1
+        column += 1
+        if char == "\n":
+            line, column = line + 1, 0
+        elif quote:
+            if char == quote:
+                if quote == "'" and text[i:i + 1] == "'":   # '' inside single quotes
+                    i, column = i + 1, column + 1
+                else:
+                    quote = ""
+            elif char == "\\" and quote == '"':
+                i, column = i + 1, column + 1
+        elif char in "'\"" and previous in " \t\n[{,:-?":
+            quote = char
+        elif char == "#" and previous in " \t\n":
+            end = text.find("\n", i)
+            column += (len(text) if end < 0 else end) - i
+            i = len(text) if end < 0 else end
+        elif char in "[{":
+            if depth == 0:
+                start = (line, column)
+            depth += 1
+            if depth > limit:
+                return start
+        elif char in "]}" and depth:
+            depth -= 1
+        previous = char
+    return None
 
 
 def _deep_nesting_start(text: str, limit: int = 100) -> tuple[int, int]:
