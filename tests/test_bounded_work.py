@@ -141,3 +141,32 @@ def test_yaml_nested_too_deep_is_refused_at_once_in_either_style(tmp_path):
         "title: Two-link RP arm (revolute + prismatic)\n", "title: \"" + "[" * 300 + "\"  # " + "{" * 300 + "\n")
     (tmp_path / "quoted.yaml").write_text(text)
     assert runner.invoke(app, ["solve", str(tmp_path / "quoted.yaml"), "-q"]).exit_code == 0
+
+
+def _planar_chain(n: int) -> str:
+    links = "".join(f"  - {{name: b{k}, mass: 1.2345678901234567, com: [0.4321987654321, 0.0123456789], "
+                    f"inertia: 0.087654321}}\n" for k in range(1, n + 1))
+    joints = "".join(f"  - {{name: q{k}, type: revolute, parent: {'world' if k == 1 else f'b{k - 1}'}, "
+                     f"child: b{k}, origin: [{0 if k == 1 else 0.9876543210987}, 0]}}\n" for k in range(1, n + 1))
+    return f"name: chain\nplanar: true\ngravity: [0, -9.81]\nlinks:\n{links}joints:\n{joints}"
+
+
+def test_a_robot_over_the_coordinate_limit_is_refused_by_the_commands_before_any_work(tmp_path):
+    import dynderive
+    from dynderive.input.limits import MAX_PLANAR_COORDINATES
+
+    path = tmp_path / "chain.yaml"
+    path.write_text(_planar_chain(MAX_PLANAR_COORDINATES + 1))
+    line = path.read_text().splitlines().index("joints:") + 1
+    for command in (["solve", "--code", "--out", str(tmp_path / "out")], ["check"], ["simulate"], ["linearize"]):
+        result = runner.invoke(app, [command[0], str(path), *command[1:]])
+        assert result.exit_code == 2, (command, result.output)
+        message = result.stderr.strip()
+        assert message.startswith(f"{path}:{line}:1: joints: {MAX_PLANAR_COORDINATES + 1} coordinates exceed "
+                                  f"the limit of {MAX_PLANAR_COORDINATES} for a planar robot"), message
+        assert "\n" not in message and "weld the joints" in message
+    assert not (tmp_path / "out").exists()
+    # the library leaves it to the caller (the programs alone do not grow like n^3)
+    assert len(dynderive.load_robot(path).coordinates) == MAX_PLANAR_COORDINATES + 1
+    path.write_text(_planar_chain(MAX_PLANAR_COORDINATES))
+    assert len(dynderive.load_robot(path, size_limits=True).coordinates) == MAX_PLANAR_COORDINATES

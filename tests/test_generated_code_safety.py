@@ -109,13 +109,16 @@ def test_hostile_text_in_every_field_runs_nothing_and_reads_back(index, tmp_path
     ast.parse((out / "test_hostile_dynamics.py").read_text(encoding="utf-8"))
 
 
-def test_hostile_file_name_and_urdf_robot_name(tmp_path):
-    """The file's own name reaches the module's docstring; a URDF's <robot name> is its title."""
+def test_hostile_file_name_and_urdf_robot_name(tmp_path, monkeypatch):
+    """The file's own name reaches the module's docstring; a URDF's <robot name> is its title
+    (the marker's path is relative, so that the name stays within the 100 characters a robot
+    name may have)."""
+    monkeypatch.chdir(tmp_path)
     odd = tmp_path / 'a"""b\\c.yaml'
     odd.write_text(_robot_yaml("plain title", "kg", "mass"), encoding="utf-8")
     urdf = tmp_path / "arm.urdf"
     urdf.write_text(textwrap.dedent(f"""\
-        <robot name='x&quot;&quot;&quot;; __import__(&quot;pathlib&quot;).Path(r&quot;{tmp_path}/{MARKER}&quot;).touch(); &quot;&quot;&quot;'>
+        <robot name='x&quot;&quot;&quot;; __import__(&quot;pathlib&quot;).Path(r&quot;{MARKER}&quot;).touch(); &quot;&quot;&quot;'>
           <link name="base"/>
           <link name="l1"><inertial><mass value="1.5"/><origin xyz="0.1 0 0"/>
             <inertia ixx="0.01" iyy="0.02" izz="0.03" ixy="0" ixz="0" iyz="0"/></inertial></link>

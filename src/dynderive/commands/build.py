@@ -199,7 +199,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     from ..render.json import render_json
     from ..render.latex import render_latex
 
-    robot = load_robot(source)
+    robot = load_robot(source, size_limits=True)
     derivation = derive(robot)
     files: dict[str, bytes] = {}
     failed: LatexError | None = None

@@ -127,7 +127,7 @@ def solve(
             raise InputError(_problem("--sections", "--sections chooses what the sheet shows: use it with --latex or --pdf"))
     progress = Progress(quiet)
     progress("loading")
-    model = load_robot(robot)
+    model = load_robot(robot, size_limits=True)
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
@@ -204,7 +204,7 @@ def check(
     if states < 1:
         raise InputError(_problem("--states", f"expected a number of random states >= 1, got {states}"))
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot), robot, param or [], required=False, command="check")
+    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
@@ -290,7 +290,7 @@ def simulate(
         raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
                                'pip install "dynderive[simulate]"') from None
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot), robot, param or [], required=True)
+    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=True)
     _notes(model, quiet)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
@@ -364,7 +364,7 @@ def linearize(
     )
 
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot), robot, param or [], required=False, command="linearize")
+    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="linearize")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     table = derivation.symbols
@@ -417,7 +417,7 @@ def identify(
     from ..verify.identification import base_parameters, fewest_states
 
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot), robot, param or [], required=True)
+    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=True)
     _notes(model, quiet)
     if states is not None:
         least = fewest_states(model)
