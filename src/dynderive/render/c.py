@@ -1,0 +1,333 @@
+"""The C99 target (``solve --c``): ``<name>_dynamics.h`` and ``<name>_dynamics.c``.
+
+The same straight-line programs as the NumPy module (``Derivation.programs``; a small planar
+robot's explicit M, C, N, V with common subexpressions eliminated), printed by SymPy's
+``C99CodePrinter`` with three changes (``CPrinter``): integer powers as multiplications,
+every fraction and float as a double literal of 17 significant digits, and each symbol as its
+place in the generated function (``q[0]``, ``P->m1``, a temporary ``t12``). Forward dynamics
+solves ``M qdd = Y - (C qd + N)`` with an ``L D L^T`` factorization unrolled for this robot's
+size and sparsity, and returns 1 (``qdd`` untouched) if a pivot is not positive.
+
+What is not built yet is refused (``unsupported``), never printed half: closed loops, damping
+and friction, frames. Names must be C names (``c_names.py``); free text appears only in
+encoded comments.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import sympy
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.precedence import precedence
+
+from ..derivation import Derivation
+from ..errors import InputError, Problem
+from ..mechanics.tidy import fold_constants
+from .c_names import c_comment, check_c_names
+from .code import CodeGenerationError
+from .encode import Code
+from .environment import render
+
+HEADER_TEMPLATE = "c/dynamics.h.j2"
+SOURCE_TEMPLATE = "c/dynamics.c.j2"
+
+#: Powers up to this exponent are written as products (``x*x*x``); higher ones call ``pow``.
+MAX_PRODUCT_POWER = 8
+
+
+def double_literal(value: float) -> str:
+    """A C double literal that reads back as ``value`` exactly (17 significant digits)."""
+    text = format(value, ".17g")
+    if text in ("inf", "-inf", "nan"):
+        raise CodeGenerationError(f"no C literal for the number {value}")
+    return text if any(c in text for c in ".en") else text + ".0"
+
+
+class CPrinter(C99CodePrinter):
+    """``C99CodePrinter`` for the generated functions: symbols by ``names`` (anything else is
+    an internal error), numbers as exact double literals, integer powers as products."""
+
+    def __init__(self, names: dict[sympy.Symbol, str]):
+        super().__init__({"strict": True, "contract": False})
+        self.names = names
+
+    def _print_Symbol(self, expr: sympy.Symbol) -> str:
+        try:
+            return self.names[expr]
+        except KeyError:
+            raise CodeGenerationError(f"the C code has no value for the symbol {expr}") from None
+
+    def _print_Rational(self, expr: sympy.Rational) -> str:
+        text = double_literal(float(expr))
+        return f"({text})" if text.startswith("-") else text
+
+    def _print_Integer(self, expr: sympy.Integer) -> str:
+        text = double_literal(float(expr)) if abs(expr.p) >= 2 ** 53 else str(expr.p)
+        return f"({text})" if text.startswith("-") else text
+
+    def _print_Float(self, expr: sympy.Float) -> str:
+        return self._print_Rational(expr)
+
+    def _print_NumberSymbol(self, expr: sympy.Expr) -> str:   # pi, E: no M_PI (not C99)
+        return double_literal(float(expr))
+
+    _print_Exp1 = _print_Pi = _print_NumberSymbol
+
+    def parenthesize(self, item: Any, level: int, strict: bool = False) -> str:
+        if isinstance(item, sympy.Basic) and (item.is_Rational or item.is_Float) and item >= 0:
+            return self._print(item)   # a positive literal needs no parentheses
+        return super().parenthesize(item, level, strict)
+
+    def _print_Pow(self, expr: sympy.Pow, rational: bool = False) -> str:
+        base, exponent = expr.args
+        if exponent.is_Integer and 0 < abs(exponent.p) <= MAX_PRODUCT_POWER:
+            factor = self.parenthesize(base, precedence(sympy.Mul(base, base, evaluate=False)))
+            product = "*".join([factor] * abs(exponent.p))
+            if exponent.p > 0:
+                return product
+            return f"1.0/{product}" if abs(exponent.p) == 1 else f"1.0/({product})"
+        return super()._print_Pow(expr)
+
+
+@dataclass
+class CFunction:
+    """One generated function: its prototype (without ``;``), a one-line comment, its body."""
+
+    prototype: str
+    comment: str
+    body: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.prototype = Code(self.prototype)
+        self.comment = c_comment(self.comment)
+        self.body = [Code(line) for line in self.body]
+
+
+def unsupported(derivation: Derivation) -> list[Problem]:
+    """What of this robot the C target cannot print yet, each at its place in the robot file."""
+    robot = derivation.robot
+    problems = []
+    if robot.loops:
+        line, column = robot.positions.get("loops", (1, 1))
+        problems.append(Problem(robot.source, line, column, "--c: closed loops are not built yet for the C target "
+                                "(loop constraints and constrained forward dynamics); use --code"))
+    if robot.dissipative:
+        joint = next(j for j in robot.joints if j.moves and j.dissipates)
+        line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
+        problems.append(Problem(robot.source, line, column, "--c: joint damping and friction are not built yet "
+                                "for the C target; use --code"))
+    return problems
+
+
+class _Names:
+    """The C text of each symbol in one function: arguments, parameters, temporaries."""
+
+    def __init__(self, derivation: Derivation):
+        table = derivation.symbols
+        self.base: dict[sympy.Symbol, str] = {s: f"P->{s.name}" for s in table.parameters.values()}
+        for array, symbols in (("q", table.q), ("qd", table.qd), ("qdd", table.qdd),
+                               ("u", list(table.efforts.values()))):
+            self.base |= {s: f"{array}[{i}]" for i, s in enumerate(symbols)}
+
+    def printer(self) -> CPrinter:
+        return CPrinter(dict(self.base))
+
+
+def _program_body(names: _Names, program: Any, targets: list[str]) -> list[str]:
+    """The C lines of a straight-line program: ``const double tN = ...;`` for each value the
+    outputs need (in order), then ``target = output;`` for each output."""
+    outputs = [sympy.sympify(e) for e in program.outputs]
+    needed = set().union(*(e.free_symbols for e in outputs))
+    kept = []
+    for target, expr in reversed(program.lines):
+        if target in needed:
+            kept.append((target, expr))
+            needed |= expr.free_symbols
+    return _lines(names, kept[::-1], list(zip(targets, outputs)))
+
+
+def _lines(names: _Names, lines: list[tuple[sympy.Symbol, sympy.Expr]],
+           stores: list[tuple[str, sympy.Expr]]) -> list[str]:
+    printer = names.printer()
+    text = []
+    for index, (target, expr) in enumerate(lines):
+        printer.names[target] = f"t{index}"
+        text.append(f"const double t{index} = {printer.doprint(fold_constants(expr, rationals=False))};")
+    for target, expr in stores:
+        text.append(f"{target} = {printer.doprint(fold_constants(expr, rationals=False))};")
+    return text
+
+
+def _expression_body(names: _Names, values: list[sympy.Expr], targets: list[str]) -> list[str]:
+    """C lines of explicit expressions (a small planar robot's M, C, N, V), with common
+    subexpressions eliminated."""
+    folded = [fold_constants(sympy.sympify(v)) for v in values]
+    temporaries, reduced = sympy.cse(folded, symbols=sympy.numbered_symbols("_c"), order="canonical")
+    return _lines(names, temporaries, list(zip(targets, reduced)))
+
+
+def _void(*arguments: str) -> list[str]:
+    """Casts that mark every argument used (``-Wextra -Werror``: a constant M reads no ``q``)."""
+    return [f"(void){a};" for a in arguments]
+
+
+def c_context(derivation: Derivation) -> dict[str, Any]:
+    """Every variable the C templates can use."""
+    problems = unsupported(derivation)
+    if problems:
+        raise InputError(problems)
+    check_c_names(derivation.robot)
+    robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
+    name, n, nu = robot.name, len(table.q), len(table.efforts)
+    names = _Names(derivation)
+    programs = derivation.programs
+    structured = derivation.structured_code
+    pp = f"const {name}_parameters *p"
+    start = f"const {name}_parameters *const P = p ? p : &{name}_default_parameters;"
+    square = [f"M[{i * n + j}]" for i in range(n) for j in range(n)]
+
+    def body(program: str, quantity: str, targets: list[str]) -> list[str]:
+        if structured:
+            return _program_body(names, programs[program], targets)
+        value = quantities[quantity]
+        entries = list(value) if isinstance(value, sympy.MatrixBase) else [value]
+        return _expression_body(names, entries, targets)
+
+    coriolis = [f"C[{k}]" for k in range(n * n)]
+    functions = [
+        CFunction(f"void {name}_mass_matrix(const double *q, {pp}, double *M)",
+                  f"Mass matrix M_g(q), {n} x {n}, row-major.",
+                  [start, *_void("q", "P"), *body("mass_matrix", "M_g", square)]),
+        CFunction(f"void {name}_coriolis_matrix(const double *q, const double *qd, {pp}, double *C)",
+                  f"Coriolis matrix C_g(q, qd) (Christoffel symbols), {n} x {n}, row-major.",
+                  [start, *_void("q", "qd", "P"), *body("coriolis", "C_g", coriolis)]),
+        CFunction(f"void {name}_gravity_vector(const double *q, {pp}, double *N)",
+                  f"Gravity vector N_g(q) = dV/dq, {n} entries.",
+                  [start, *_void("q", "P"), *body("gravity", "N_g", [f"N[{i}]" for i in range(n)])]),
+        CFunction(f"void {name}_inverse_dynamics(const double *q, const double *qd, const double *qdd, {pp}, "
+                  "double *tau)", f"Y_g = M qdd + C qd + N by recursive Newton-Euler, {n} entries.",
+                  [start, *_void("q", "qd", "qdd", "P"),
+                   *_program_body(names, programs["inverse_dynamics"], [f"tau[{i}]" for i in range(n)])]),
+        CFunction(f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {pp}, "
+                  "double *qdd)", "qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 "
+                  "(qdd untouched) if M is not positive definite.",
+                  _forward_body(derivation, names, start)),
+        CFunction(f"double {name}_kinetic_energy(const double *q, const double *qd, {pp})",
+                  "Kinetic energy T_g = 1/2 qd^T M(q) qd.",
+                  [f"double M[{n * n}];", f"{name}_mass_matrix(q, p, M);",
+                   "return 0.5 * (" + " + ".join(f"qd[{i}]*({' + '.join(f'M[{i * n + j}]*qd[{j}]' for j in range(n))})"
+                                                 for i in range(n)) + ");"]),
+        CFunction(f"double {name}_potential_energy(const double *q, {pp})",
+                  "Potential energy V_g(q) of gravity and the springs.",
+                  [start, "double V;", *_void("q", "P"), *body("potential", "V_g", ["V"]), "return V;"]),
+        *_frame_functions(derivation, names, start, pp),
+    ]
+    parameters = [{"name": p.name, "default": Code("NAN") if p.value is None else Code(double_literal(float(p.value))),
+                   "comment": c_comment(_parameter_note(p))} for p in robot.parameters]
+    from .._version import __version__
+
+    return {
+        "name": name,
+        "macro": name.upper(),
+        "title": c_comment(robot.title),
+        "source": c_comment(Path(robot.source).name),
+        "generator": c_comment(f"dynderive {__version__}"),
+        "nq": n, "nv": n, "nu": nu,
+        "coordinates": c_comment(", ".join(robot.coordinates)),
+        "efforts": c_comment(", ".join(robot.efforts)),
+        "parameters": parameters,
+        "frames": [{"index": i, "name": c_comment(f.name)} for i, f in enumerate(robot.frames)],
+        "functions": functions,
+    }
+
+
+def _frame_functions(derivation: Derivation, names: _Names, start: str, pp: str) -> list[CFunction]:
+    """Pose, Jacobian and Jdot qd of the frame numbered ``frame`` (the order of the robot
+    file's frames); each returns 0, or 1 (output untouched) for a number that is no frame."""
+    robot, n = derivation.robot, len(derivation.symbols.q)
+    size, twist = (3, 3) if robot.planar else (4, 6)
+    name = robot.name
+    specs = [
+        ("transform", "const double *q", ("q",), "T", size * size,
+         f"Pose of frame number `frame` in the world, [[R, p], [0, 1]], {size} x {size}, row-major."),
+        ("jacobian", "const double *q", ("q",), "J", twist * n,
+         f"World-frame Jacobian of frame number `frame`, {twist} x {n}, row-major: linear rows, then angular."),
+        ("jacobian_dot_qd", "const double *q, const double *qd", ("q", "qd"), "a", twist,
+         f"Jdot(q, qd) qd of frame number `frame`, {twist} entries (its acceleration at qdd = 0)."),
+    ]
+    functions = []
+    for kind, arguments, used, out, count, comment in specs:
+        body = [start, *_void(*used, "frame", "P", out)]
+        for index, frame in enumerate(derivation.frame_programs):
+            program = getattr(frame, kind)
+            lines = _program_body(names, program, [f"{out}[{k}]" for k in range(count)])
+            body += [f"if (frame == {index}) {{", *(f"    {line}" for line in lines), "    return 0;", "}"]
+        body.append("return 1;")
+        functions.append(CFunction(f"int {name}_frame_{kind}({arguments}, int frame, {pp}, double *{out})",
+                                   comment + " Returns 0, or 1 if there is no such frame.", body))
+    return functions
+
+
+def _parameter_note(parameter: Any) -> str:
+    parts = [parameter.description or ""]
+    if parameter.unit:
+        parts.append(f"[{parameter.unit}]")
+    if parameter.value is None:
+        parts.append("(no default in the robot file: NaN)")
+    return " ".join(p for p in parts if p)
+
+
+def _forward_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
+    """M and C qd + N from the functions above, Y_g(u), then L D L^T unrolled: the strictly
+    lower entries that are zero in M for every q (a branching tree) stay out of it."""
+    robot, quantities = derivation.robot, derivation.quantities
+    name, n = robot.name, len(derivation.symbols.q)
+    mass = _structural_pattern(derivation, n)
+    lines = [start, *_void("P"), f"double M[{n * n}];", f"double b[{n}];", f"double r[{n}];",
+             f"const double zero[{n}] = {{0.0}};",
+             f"{name}_mass_matrix(q, p, M);", f"{name}_inverse_dynamics(q, qd, zero, p, b);   /* C qd + N */"]
+    effort_lines = _expression_body(names, list(quantities["Y_g"]), [f"r[{i}]" for i in range(n)])
+    lines += effort_lines
+    lines += [f"r[{i}] -= b[{i}];" for i in range(n)]
+    # L D L^T: d_j = M_jj - sum_k L_jk^2 d_k; L_ij = (M_ij - sum_k L_ik L_jk d_k) / d_j
+    nonzero = [[mass[i][j] for j in range(n)] for i in range(n)]
+    for j in range(n):   # fill-in: L_ij is nonzero if M_ij is, or if L_ik and L_jk are for some k < j
+        for i in range(j + 1, n):
+            nonzero[i][j] = nonzero[i][j] or any(nonzero[i][k] and nonzero[j][k] for k in range(j))
+    for j in range(n):
+        terms = "".join(f" - L{j}_{k}*L{j}_{k}*d{k}" for k in range(j) if nonzero[j][k])
+        lines += [f"const double d{j} = M[{j * n + j}]{terms};",
+                  f"if (!(d{j} > 0.0)) return 1;"]
+        for i in range(j + 1, n):
+            if nonzero[i][j]:
+                terms = "".join(f" - L{i}_{k}*L{j}_{k}*d{k}" for k in range(j) if nonzero[i][k] and nonzero[j][k])
+                lines.append(f"const double L{i}_{j} = (M[{i * n + j}]{terms}) / d{j};")
+    for i in range(n):   # L y = r
+        terms = "".join(f" - L{i}_{k}*y{k}" for k in range(i) if nonzero[i][k])
+        lines.append(f"const double y{i} = r[{i}]{terms};")
+    for i in reversed(range(n)):   # D L^T x = y
+        terms = "".join(f" - L{k}_{i}*x{k}" for k in range(i + 1, n) if nonzero[k][i])
+        lines.append(f"const double x{i} = y{i} / d{i}{terms};")
+    lines += [f"qdd[{i}] = x{i};" for i in range(n)]
+    lines.append("return 0;")
+    return lines
+
+
+def _structural_pattern(derivation: Derivation, n: int) -> list[list[bool]]:
+    """Which entries of M can be nonzero: the mass-matrix program's outputs (or the explicit
+    M_g) that are not the number zero."""
+    if derivation.structured_code:
+        outputs = [sympy.sympify(e) for e in derivation.programs["mass_matrix"].outputs]
+    else:
+        outputs = list(derivation.quantities["M_g"])
+    return [[outputs[i * n + j] != 0 for j in range(n)] for i in range(n)]
+
+
+def render_c(derivation: Derivation, template_dir: str | Path | None = None) -> tuple[str, str]:
+    """The header and the source of the C target, as text (nothing written)."""
+    context = c_context(derivation)
+    return (render("code", HEADER_TEMPLATE, context, template_dir),
+            render("code", SOURCE_TEMPLATE, context, template_dir))
