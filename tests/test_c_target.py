@@ -298,6 +298,16 @@ def test_parameter_names_that_are_not_c_names_are_refused(tmp_path, name):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("name", ["_arm", "my__arm"])
+def test_robot_names_that_are_not_c_prefixes_are_refused(tmp_path, name):
+    path = tmp_path / "arm.yaml"
+    path.write_text((ROBOTS / "rp_arm.yaml").read_text().replace("name: rp_arm", f"name: {name}"))
+    result = CliRunner().invoke(app, ["solve", str(path), "--c", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert f"arm.yaml:4:7: --c: robot name '{name}' is not a C identifier" in result.output
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize("robot, what", [("four_bar", "closed loops"), ("cart_pole_damped", "damping and friction")])
 def test_unbuilt_features_are_refused(robot, what, tmp_path):
     result = CliRunner().invoke(app, ["solve", robot, "--c", "--code", "--out", str(tmp_path)])
