@@ -151,10 +151,27 @@ def test_parameters_struct_is_read(tmp_path, code_dir):
     _agree(library, module, seed=3, states=2, parameters=values)
 
 
-@pytest.mark.parametrize("seed", [11, 12])
-def test_random_planar_tree(seed, tmp_path, code_dir):
-    derivation, module = random_tree_derivation(seed, 4, str(code_dir))
+@pytest.mark.parametrize("seed, joints", [(11, 3), (12, 4), (13, 5)])
+def test_random_planar_tree(seed, joints, tmp_path, code_dir):
+    """Small trees print the explicit M, C, N, V; five coordinates print the programs."""
+    derivation, module = random_tree_derivation(seed, joints, str(code_dir))
+    assert derivation.structured_code == (len(derivation.symbols.q) > 4)
     _agree(Library(derivation, tmp_path), module, seed=seed)
+
+
+def test_parameter_without_default_is_nan(tmp_path, code_dir):
+    """A parameter the file gives no value is NaN in the defaults (every result NaN, none
+    silently made up), and the struct passed in is used."""
+    path = tmp_path / "rp_arm.yaml"
+    path.write_text((ROBOTS / "rp_arm.yaml").read_text().replace("m: {value: 1.0, unit: kg,", "m: {unit: kg,"))
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert derivation.robot.parameters[0].value is None
+    library = Library(derivation, tmp_path / "c")
+    _, M = library.call("mass_matrix", [[0.3, 0.2]], 4)
+    assert np.isnan(M[0]) and np.isnan(M[3])
+    module = module_of("rp_arm", str(code_dir))
+    _, M = library.call("mass_matrix", [[0.3, 0.2]], 4, [1.0, 1.0, 9.81])
+    _close(M.reshape(2, 2), module.mass_matrix([0.3, 0.2]), "mass_matrix")
 
 
 @pytest.mark.parametrize("seed", [21, 22])
