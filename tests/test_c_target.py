@@ -116,6 +116,8 @@ def _agree(library: Library, module, seed: int, states: int = 4, parameters: dic
         _close(C.reshape(n, n), module.coriolis_matrix(q, qd, **kwargs), "coriolis_matrix")
         _, N = library.call("gravity_vector", [q], n, p)
         _close(N, module.gravity_vector(q, **kwargs), "gravity_vector")
+        _, F = library.call("friction_forces", [qd], n, p)
+        _close(F, module.friction_forces(qd, **kwargs), "friction_forces")
         _, tau = library.call("inverse_dynamics", [q, qd, qdd], n, p)
         _close(tau, module.inverse_dynamics(q, qd, qdd, **kwargs), "inverse_dynamics")
         status, acc = library.call("forward_dynamics", [q, qd, u], n, p)
@@ -325,7 +327,24 @@ def test_robot_names_that_are_not_c_prefixes_are_refused(tmp_path, name):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("robot, what", [("four_bar", "closed loops"), ("cart_pole_damped", "damping and friction")])
+def test_smoothed_friction_from_the_struct(tmp_path, code_dir):
+    """friction_smoothing (the struct's last member for a robot with drives) reaches the
+    friction, inverse and forward dynamics as the NumPy module's keyword does."""
+    library = Library(derivation_of("cart_pole_damped"), tmp_path)
+    module = module_of("cart_pole_damped", str(code_dir))
+    p = [*map(float, module.PARAMETERS.values()), 0.05]
+    q, qd, u = np.array([0.3, -0.7]), np.array([0.02, -0.04]), np.array([1.5])
+    for eps, struct in ((0.05, p), (0.0, None)):
+        _, F = library.call("friction_forces", [qd], 2, struct)
+        _close(F, module.friction_forces(qd, friction_smoothing=eps), "friction_forces")
+        _, acc = library.call("forward_dynamics", [q, qd, u], 2, struct)
+        _close(acc, module.forward_dynamics(q, qd, u, friction_smoothing=eps), "forward_dynamics")
+        _, tau = library.call("inverse_dynamics", [q, qd, acc], 2, struct)
+        _close(tau, module.inverse_dynamics(q, qd, acc, friction_smoothing=eps), "inverse_dynamics")
+    assert abs(F[0]) > 1e-3   # the exact sign: the full Coulomb force at 0.02 m/s
+
+
+@pytest.mark.parametrize("robot, what", [("four_bar", "closed loops"), ("spatial_four_bar", "closed loops")])
 def test_unbuilt_features_are_refused(robot, what, tmp_path):
     result = CliRunner().invoke(app, ["solve", robot, "--c", "--code", "--out", str(tmp_path)])
     assert result.exit_code == 2 and f"{what} are not built yet for the C target" in result.output

@@ -96,8 +96,8 @@ def solve(
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
-    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99 (open chains without "
-                                    "drives or frames for now).")] = False,
+    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99 (open chains; "
+                                    "closed loops not yet).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
                                         "pytest property checks of the generated module.")] = False,

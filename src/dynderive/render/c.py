@@ -8,8 +8,10 @@ place in the generated function (``q[0]``, ``P->m1``, a temporary ``t12``). Forw
 solves ``M qdd = Y - (C qd + N)`` with an ``L D L^T`` factorization unrolled for this robot's
 size and sparsity, and returns 1 (``qdd`` untouched) if a pivot is not positive.
 
-What is not built yet is refused (``unsupported``), never printed half: closed loops, damping
-and friction, frames. Names must be C names (``c_names.py``); free text appears only in
+Damping and Coulomb friction are ``friction_forces``, added to inverse dynamics and taken from
+the right-hand side of forward dynamics as the NumPy module does; the struct carries
+``friction_smoothing`` (0: the exact sign; eps > 0: ``tanh(qd / eps)``). What is not built yet
+is refused (``unsupported``), never printed half: closed loops. Names must be C names (``c_names.py``); free text appears only in
 encoded comments.
 """
 
@@ -114,11 +116,6 @@ def unsupported(derivation: Derivation) -> list[Problem]:
         line, column = robot.positions.get("loops", (1, 1))
         problems.append(Problem(robot.source, line, column, "--c: closed loops are not built yet for the C target "
                                 "(loop constraints and constrained forward dynamics); use --code"))
-    if robot.dissipative:
-        joint = next(j for j in robot.joints if j.moves and j.dissipates)
-        line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
-        problems.append(Problem(robot.source, line, column, "--c: joint damping and friction are not built yet "
-                                "for the C target; use --code"))
     return problems
 
 
@@ -210,7 +207,8 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         CFunction(f"void {name}_inverse_dynamics(const double *q, const double *qd, const double *qdd, {pp}, "
                   "double *tau)", f"Y_g = M qdd + C qd + N by recursive Newton-Euler, {n} entries.",
                   [start, *_void("q", "qd", "qdd", "P"),
-                   *_program_body(names, programs["inverse_dynamics"], [f"tau[{i}]" for i in range(n)])]),
+                   *_program_body(names, programs["inverse_dynamics"], [f"tau[{i}]" for i in range(n)]),
+                   *_add_friction(derivation, "tau", "+=")]),
         CFunction(f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {pp}, "
                   "double *qdd)", "qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 "
                   "(qdd untouched) if M is not positive definite.",
@@ -223,10 +221,18 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         CFunction(f"double {name}_potential_energy(const double *q, {pp})",
                   "Potential energy V_g(q) of gravity and the springs.",
                   [start, "double V;", *_void("q", "P"), *body("potential", "V_g", ["V"]), "return V;"]),
+        CFunction(f"void {name}_friction_forces(const double *qd, {pp}, double *F)",
+                  f"Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) when it is "
+                  f"positive), {n} entries." if robot.dissipative else
+                  f"Dissipative forces F_g: zero, the robot declares no damping or friction, {n} entries.",
+                  _friction_body(derivation, names, start)),
         *_frame_functions(derivation, names, start, pp),
     ]
     parameters = [{"name": p.name, "default": Code("NAN") if p.value is None else Code(double_literal(float(p.value))),
                    "comment": c_comment(_parameter_note(p))} for p in robot.parameters]
+    if robot.dissipative:
+        parameters.append({"name": "friction_smoothing", "default": Code("0.0"), "comment": c_comment(
+            "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)")})
     from .._version import __version__
 
     return {
@@ -271,6 +277,35 @@ def _frame_functions(derivation: Derivation, names: _Names, start: str, pp: str)
     return functions
 
 
+def _friction_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
+    """F_g = b qd + fc direction(qd) per coordinate with a drive (the NumPy module's order of
+    operations); zero elsewhere."""
+    n = len(derivation.symbols.q)
+    lines = [start, *_void("qd", "P")]
+    drives = {d.coordinate: d for d in derivation.joint_drives} if derivation.robot.dissipative else {}
+    printer = names.printer()
+    for i in range(n):
+        drive = drives.get(i)
+        if drive is None or (drive.damping == 0 and drive.friction == 0):
+            lines.append(f"F[{i}] = 0.0;")
+            continue
+        direction = (f"(P->friction_smoothing > 0.0 ? tanh(qd[{i}] / P->friction_smoothing)"
+                     f" : (double)((qd[{i}] > 0.0) - (qd[{i}] < 0.0)))")
+        terms = ([f"({printer.doprint(fold_constants(drive.damping))})*qd[{i}]"] if drive.damping != 0 else []) + \
+            ([f"({printer.doprint(fold_constants(drive.friction))})*{direction}"] if drive.friction != 0 else [])
+        lines.append(f"F[{i}] = {' + '.join(terms)};")
+    return lines
+
+
+def _add_friction(derivation: Derivation, target: str, operator: str) -> list[str]:
+    """``target operator F`` with F from ``friction_forces`` (nothing for a robot without drives)."""
+    if not derivation.robot.dissipative:
+        return []
+    n, name = len(derivation.symbols.q), derivation.robot.name
+    return [f"double F[{n}];", f"{name}_friction_forces(qd, p, F);",
+            *(f"{target}[{i}] {operator} F[{i}];" for i in range(n))]
+
+
 def _parameter_note(parameter: Any) -> str:
     parts = [parameter.description or ""]
     if parameter.unit:
@@ -281,14 +316,15 @@ def _parameter_note(parameter: Any) -> str:
 
 
 def _forward_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
-    """M and C qd + N from the functions above, Y_g(u), then L D L^T unrolled: the strictly
+    """M and C qd + N (+ F) from the functions above, Y_g(u), then L D L^T unrolled: the strictly
     lower entries that are zero in M for every q (a branching tree) stay out of it."""
     robot, quantities = derivation.robot, derivation.quantities
     name, n = robot.name, len(derivation.symbols.q)
     mass = _structural_pattern(derivation, n)
     lines = [start, *_void("P"), f"double M[{n * n}];", f"double b[{n}];", f"double r[{n}];",
              f"const double zero[{n}] = {{0.0}};",
-             f"{name}_mass_matrix(q, p, M);", f"{name}_inverse_dynamics(q, qd, zero, p, b);   /* C qd + N */"]
+             f"{name}_mass_matrix(q, p, M);", f"{name}_inverse_dynamics(q, qd, zero, p, b);   /* C qd + N"
+             + (" + F */" if robot.dissipative else " */")]
     effort_lines = _expression_body(names, list(quantities["Y_g"]), [f"r[{i}]" for i in range(n)])
     lines += effort_lines
     lines += [f"r[{i}] -= b[{i}];" for i in range(n)]
