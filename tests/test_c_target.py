@@ -76,16 +76,18 @@ class Library:
         for function, restype in (("kinetic_energy", ctypes.c_double), ("potential_energy", ctypes.c_double)):
             getattr(self.lib, f"{self.name}_{function}").restype = restype
 
-    def call(self, function: str, inputs: list, out_size: int, p=None, frame: int | None = None):
+    def call(self, function: str, inputs: list, out_size: int | tuple[int, ...], p=None, frame: int | None = None):
+        """``function(*inputs, [frame,] p, *outputs)``: its return value and its outputs
+        (concatenated when there are several), pre-filled with NaN."""
         arrays = [np.ascontiguousarray(a, dtype=float) for a in inputs]
-        out = np.full(out_size, np.nan)
+        outs = [np.full(size, np.nan) for size in (out_size if isinstance(out_size, tuple) else (out_size,))]
         args = [a.ctypes.data_as(P) for a in arrays]
         if frame is not None:
             args.append(ctypes.c_int(frame))
         params = None if p is None else np.ascontiguousarray(p, dtype=float)
         args.append(None if params is None else params.ctypes.data_as(P))
-        result = getattr(self.lib, f"{self.name}_{function}")(*args, out.ctypes.data_as(P))
-        return result, out
+        result = getattr(self.lib, f"{self.name}_{function}")(*args, *(o.ctypes.data_as(P) for o in outs))
+        return result, np.concatenate(outs)
 
     def value(self, function: str, inputs: list, p=None) -> float:
         arrays = [np.ascontiguousarray(a, dtype=float) for a in inputs]
@@ -123,6 +125,16 @@ def _agree(library: Library, module, seed: int, states: int = 4, parameters: dic
         status, acc = library.call("forward_dynamics", [q, qd, u], n, p)
         assert status == 0
         _close(acc, module.forward_dynamics(q, qd, u, **kwargs), "forward_dynamics")
+        status, AB = library.call("linearize", [q, qd, u], (4 * n * n, 2 * n * nu), p)
+        A, B = module.linearize(q, qd, u, **kwargs)
+        assert status == 0
+        _close(AB[:4 * n * n].reshape(2 * n, 2 * n), A, "linearize A")
+        _close(AB[4 * n * n:].reshape(2 * n, nu), B, "linearize B")
+        count = len(module.PARAMETER_VECTOR)
+        _, Y = library.call("regressor", [q, qd, qdd], n * count, p)
+        _close(Y.reshape(n, count), module.regressor(q, qd, qdd, **kwargs), "regressor")
+        _, pi = library.call("parameter_vector", [], count, p)
+        _close(pi, module.parameter_vector(**kwargs), "parameter_vector")
         _close(library.value("kinetic_energy", [q, qd], p), module.kinetic_energy(q, qd, **kwargs), "kinetic_energy")
         _close(library.value("potential_energy", [q], p), module.potential_energy(q, **kwargs), "potential_energy")
         size, twist = (3, 3) if library.planar else (4, 6)
@@ -224,14 +236,17 @@ def test_sanitizers(tmp_path, code_dir):
 int main(void)
 {{
     const double q[] = {literal(q)}, qd[] = {literal(qd)}, qdd[] = {literal(qdd)}, u[] = {literal(u)};
-    double M[{n * n}], C[{n * n}], N[{n}], tau[{n}], acc[{n}], J[{6 * n}];
+    double M[{n * n}], C[{n * n}], N[{n}], tau[{n}], acc[{n}], J[{6 * n}], A[{4 * n * n}], B[{2 * n * n}], Y[{n * len(module.PARAMETER_VECTOR)}];
     int i, status;
     ur5_mass_matrix(q, 0, M); ur5_coriolis_matrix(q, qd, 0, C); ur5_gravity_vector(q, 0, N);
     ur5_inverse_dynamics(q, qd, qdd, 0, tau); status = ur5_forward_dynamics(q, qd, u, 0, acc);
     ur5_frame_jacobian(q, 0, 0, J);
+    if (ur5_linearize(q, qd, u, 0, A, B) != 0) return 2;
+    ur5_regressor(q, qd, qdd, 0, Y);
     for (i = 0; i < {n * n}; i++) printf("%.17g %.17g\\n", M[i], C[i]);
     for (i = 0; i < {n}; i++) printf("%.17g %.17g %.17g\\n", N[i], tau[i], acc[i]);
     for (i = 0; i < {6 * n}; i++) printf("%.17g\\n", J[i]);
+    for (i = 0; i < {4 * n * n}; i++) printf("%.17g\\n", A[i]);
     printf("%d %.17g\\n", status, ur5_kinetic_energy(q, qd, 0) + ur5_potential_energy(q, 0));
     return 0;
 }}
@@ -256,6 +271,8 @@ int main(void)
     _close(rest[:, 2], module.forward_dynamics(q, qd, u), "forward_dynamics")
     J = np.array(numbers[k + 3 * n:k + 3 * n + 6 * n]).reshape(6, n)
     _close(J, module.frame_jacobian(q, module.FRAMES[0]), "frame_jacobian")
+    A = np.array(numbers[k + 9 * n:k + 9 * n + 4 * n * n]).reshape(2 * n, 2 * n)
+    _close(A, module.linearize(q, qd, u)[0], "linearize A")
     status, energy = numbers[-2:]
     assert status == 0
     _close(energy, module.kinetic_energy(q, qd) + module.potential_energy(q), "energy")
@@ -341,6 +358,10 @@ def test_smoothed_friction_from_the_struct(tmp_path, code_dir):
         _close(acc, module.forward_dynamics(q, qd, u, friction_smoothing=eps), "forward_dynamics")
         _, tau = library.call("inverse_dynamics", [q, qd, acc], 2, struct)
         _close(tau, module.inverse_dynamics(q, qd, acc, friction_smoothing=eps), "inverse_dynamics")
+        _, AB = library.call("linearize", [q, qd, u], (16, 4), struct)
+        A, B = module.linearize(q, qd, u, friction_smoothing=eps)
+        _close(AB[:16].reshape(4, 4), A, "linearize A")
+        _close(AB[16:].reshape(4, 1), B, "linearize B")
     assert abs(F[0]) > 1e-3   # the exact sign: the full Coulomb force at 0.02 m/s
 
 

@@ -6,7 +6,8 @@ robot's explicit M, C, N, V with common subexpressions eliminated), printed by S
 every fraction and float as a double literal of 17 significant digits, and each symbol as its
 place in the generated function (``q[0]``, ``P->m1``, a temporary ``t12``). Forward dynamics
 solves ``M qdd = Y - (C qd + N)`` with an ``L D L^T`` factorization unrolled for this robot's
-size and sparsity, and returns 1 (``qdd`` untouched) if a pivot is not positive.
+size and sparsity, and returns 1 (``qdd`` untouched) if a pivot is not positive; ``linearize``
+solves its columns with the same factorization.
 
 Damping and Coulomb friction are ``friction_forces``, added to inverse dynamics and taken from
 the right-hand side of forward dynamics as the NumPy module does; the struct carries
@@ -137,13 +138,18 @@ def _program_body(names: _Names, program: Any, targets: list[str]) -> list[str]:
     """The C lines of a straight-line program: ``const double tN = ...;`` for each value the
     outputs need (in order), then ``target = output;`` for each output."""
     outputs = [sympy.sympify(e) for e in program.outputs]
-    needed = set().union(*(e.free_symbols for e in outputs))
+    return _lines(names, _kept(program)[0], list(zip(targets, outputs)))
+
+
+def _kept(program: Any) -> tuple[list[tuple[sympy.Symbol, sympy.Expr]], set[sympy.Symbol]]:
+    """The lines of ``program`` its outputs need, in order, and every symbol they read."""
+    needed = set().union(*(sympy.sympify(e).free_symbols for e in program.outputs))
     kept = []
     for target, expr in reversed(program.lines):
         if target in needed:
             kept.append((target, expr))
             needed |= expr.free_symbols
-    return _lines(names, kept[::-1], list(zip(targets, outputs)))
+    return kept[::-1], needed
 
 
 def _lines(names: _Names, lines: list[tuple[sympy.Symbol, sympy.Expr]],
@@ -226,6 +232,18 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
                   f"positive), {n} entries." if robot.dissipative else
                   f"Dissipative forces F_g: zero, the robot declares no damping or friction, {n} entries.",
                   _friction_body(derivation, names, start)),
+        CFunction(f"int {name}_linearize(const double *q, const double *qd, const double *u, {pp}, double *A, "
+                  "double *B)", f"(A, B) of xdot = A dx + B du about x = (q, qd) and u: A {2 * n} x {2 * n}, B {2 * n} x "
+                  f"{nu}, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 "
+                  "(A, B untouched) if M is not positive definite.", _linearize_body(derivation, names, start)),
+        CFunction(f"void {name}_regressor(const double *q, const double *qd, const double *qdd, {pp}, double *Y)",
+                  f"Regressor Y(q, qd, qdd), {n} x {len(derivation.parameter_vector)}, row-major: Y pi = "
+                  "inverse_dynamics (pi from parameter_vector).", _regressor_body(derivation, names, start)),
+        CFunction(f"void {name}_parameter_vector({pp}, double *pi)",
+                  f"The regressor's parameters pi, {len(derivation.parameter_vector)} entries.",
+                  [start, *_void("P"), *_expression_body(
+                      names, [v.value for v in derivation.parameter_vector],
+                      [f"pi[{i}]" for i in range(len(derivation.parameter_vector))])]),
         *_frame_functions(derivation, names, start, pp),
     ]
     parameters = [{"name": p.name, "default": Code("NAN") if p.value is None else Code(double_literal(float(p.value))),
@@ -289,8 +307,7 @@ def _friction_body(derivation: Derivation, names: _Names, start: str) -> list[st
         if drive is None or (drive.damping == 0 and drive.friction == 0):
             lines.append(f"F[{i}] = 0.0;")
             continue
-        direction = (f"(P->friction_smoothing > 0.0 ? tanh(qd[{i}] / P->friction_smoothing)"
-                     f" : (double)((qd[{i}] > 0.0) - (qd[{i}] < 0.0)))")
+        direction = _direction(i)
         terms = ([f"({printer.doprint(fold_constants(drive.damping))})*qd[{i}]"] if drive.damping != 0 else []) + \
             ([f"({printer.doprint(fold_constants(drive.friction))})*{direction}"] if drive.friction != 0 else [])
         lines.append(f"F[{i}] = {' + '.join(terms)};")
@@ -328,27 +345,114 @@ def _forward_body(derivation: Derivation, names: _Names, start: str) -> list[str
     effort_lines = _expression_body(names, list(quantities["Y_g"]), [f"r[{i}]" for i in range(n)])
     lines += effort_lines
     lines += [f"r[{i}] -= b[{i}];" for i in range(n)]
-    # L D L^T: d_j = M_jj - sum_k L_jk^2 d_k; L_ij = (M_ij - sum_k L_ik L_jk d_k) / d_j
+    nonzero = _fill_in(mass, n)
+    lines += _factor_lines(nonzero, n)
+    lines += _solve_lines(nonzero, n, [f"r[{i}]" for i in range(n)])
+    lines += [f"qdd[{i}] = x{i};" for i in range(n)]
+    lines.append("return 0;")
+    return lines
+
+
+def _direction(i: int) -> str:
+    """sign(qd_i), or tanh(qd_i / friction_smoothing) when that is positive (as the NumPy module)."""
+    return (f"(P->friction_smoothing > 0.0 ? tanh(qd[{i}] / P->friction_smoothing)"
+            f" : (double)((qd[{i}] > 0.0) - (qd[{i}] < 0.0)))")
+
+
+def _regressor_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
+    program = derivation.programs["regressor"]
+    n, count = len(derivation.symbols.q), len(derivation.parameter_vector)
+    lines = [start, *_void("q", "qd", "qdd", "P")]
+    local = _Names.__new__(_Names)
+    local.base = dict(names.base)
+    if program.extra_inputs:   # Coulomb friction's columns: the direction of each velocity
+        read = _kept(program)[1]
+        lines += [f"const double s{i} = {_direction(i)};" for i, symbol in enumerate(program.extra_inputs)
+                  if symbol in read]
+        local.base |= {symbol: f"s{i}" for i, symbol in enumerate(program.extra_inputs)}
+    return lines + _program_body(local, program, [f"Y[{k}]" for k in range(n * count)])
+
+
+def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
+    """qdd from forward dynamics; R = [-dtau/dq, -dtau/dqd - dF/dqd, dY/du] from the
+    differentiated Newton-Euler program; M X = R column by column (L D L^T); A = [[0, I], X_q,
+    X_qd], B = [[0], X_u]."""
+    robot, table = derivation.robot, derivation.symbols
+    name, n, nu = robot.name, len(table.q), len(table.efforts)
+    width = 2 * n + nu
+    lines = [start, *_void("P", "B"), f"double qdd[{n}];", f"double M[{n * n}];", f"double D[{2 * n * n}];",
+             f"double R[{n * width}];",
+             f"if ({name}_forward_dynamics(q, qd, u, p, qdd) != 0) return 1;", f"{name}_mass_matrix(q, p, M);"]
+    derivatives = derivation.programs["inverse_dynamics_derivatives"]
+    local = _Names.__new__(_Names)
+    local.base = dict(names.base) | {s: f"qdd[{i}]" for i, s in enumerate(table.qdd)}
+    lines += _program_body(local, derivatives, [f"D[{k}]" for k in range(2 * n * n)])
+    lines += [f"for (int i = 0; i < {n}; ++i) {{",
+              f"    for (int k = 0; k < {2 * n}; ++k) R[i * {width} + k] = -D[(k / {n}) * {n * n} + i * {n} + k % {n}];",
+              "}"]
+    if robot.dissipative:   # dF/dqd: b + fc (1 - tanh(qd/eps)^2)/eps (zero for the exact sign)
+        printer = names.printer()
+        for drive in derivation.joint_drives:
+            i = drive.coordinate
+            terms = []
+            if drive.damping != 0:
+                terms.append(f"({printer.doprint(fold_constants(drive.damping))})")
+            if drive.friction != 0:
+                fc = printer.doprint(fold_constants(drive.friction))
+                terms.append(f"(P->friction_smoothing > 0.0 ? ({fc})*(1.0 - tanh(qd[{i}] / P->friction_smoothing)"
+                             f"*tanh(qd[{i}] / P->friction_smoothing)) / P->friction_smoothing : 0.0)")
+            if terms:
+                lines.append(f"R[{i * width + n + i}] -= {' + '.join(terms)};")
+    inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
+    lines += _expression_body(names, list(inputs), [f"R[{i * width + 2 * n + k}]" for i in range(n) for k in range(nu)])
+    nonzero = _fill_in(_structural_pattern(derivation, n), n)
+    lines += _factor_lines(nonzero, n)
+    lines += [f"for (int i = 0; i < {4 * n * n}; ++i) A[i] = 0.0;",
+              *(f"A[{i * 2 * n + n + i}] = 1.0;" for i in range(n)),
+              *([f"for (int i = 0; i < {n * nu}; ++i) B[i] = 0.0;"] if nu else []),
+              f"for (int c = 0; c < {width}; ++c) {{"]
+    solve = _solve_lines(nonzero, n, [f"R[{i * width} + c]" for i in range(n)])
+    lines += [f"    {line}" for line in solve]
+    lines += [f"    if (c < {2 * n}) {{", *(f"        A[{(n + i) * 2 * n} + c] = x{i};" for i in range(n))]
+    if nu:
+        lines += ["    } else {", *(f"        B[{(n + i) * nu} + c - {2 * n}] = x{i};" for i in range(n))]
+    lines += ["    }", "}", "return 0;"]
+    return lines
+
+
+def _fill_in(mass: list[list[bool]], n: int) -> list[list[bool]]:
+    """Which entries of L can be nonzero: those of M, and the fill-in (L_ij where L_ik and
+    L_jk are for some k < j)."""
     nonzero = [[mass[i][j] for j in range(n)] for i in range(n)]
-    for j in range(n):   # fill-in: L_ij is nonzero if M_ij is, or if L_ik and L_jk are for some k < j
+    for j in range(n):
         for i in range(j + 1, n):
             nonzero[i][j] = nonzero[i][j] or any(nonzero[i][k] and nonzero[j][k] for k in range(j))
-    for j in range(n):
+    return nonzero
+
+
+def _factor_lines(nonzero: list[list[bool]], n: int) -> list[str]:
+    """M = L D L^T unrolled (M a row-major local array ``M``): ``d<j>`` and ``L<i>_<j>``;
+    ``return 1`` at a pivot that is not positive (or NaN)."""
+    lines = []
+    for j in range(n):   # d_j = M_jj - sum_k L_jk^2 d_k; L_ij = (M_ij - sum_k L_ik L_jk d_k) / d_j
         terms = "".join(f" - L{j}_{k}*L{j}_{k}*d{k}" for k in range(j) if nonzero[j][k])
-        lines += [f"const double d{j} = M[{j * n + j}]{terms};",
-                  f"if (!(d{j} > 0.0)) return 1;"]
+        lines += [f"const double d{j} = M[{j * n + j}]{terms};", f"if (!(d{j} > 0.0)) return 1;"]
         for i in range(j + 1, n):
             if nonzero[i][j]:
                 terms = "".join(f" - L{i}_{k}*L{j}_{k}*d{k}" for k in range(j) if nonzero[i][k] and nonzero[j][k])
                 lines.append(f"const double L{i}_{j} = (M[{i * n + j}]{terms}) / d{j};")
-    for i in range(n):   # L y = r
+    return lines
+
+
+def _solve_lines(nonzero: list[list[bool]], n: int, rhs: list[str]) -> list[str]:
+    """``x<i>`` solving L D L^T x = rhs (C expressions), by ``y<i>`` (L y = rhs)."""
+    lines = []
+    for i in range(n):
         terms = "".join(f" - L{i}_{k}*y{k}" for k in range(i) if nonzero[i][k])
-        lines.append(f"const double y{i} = r[{i}]{terms};")
+        lines.append(f"const double y{i} = {rhs[i]}{terms};")
     for i in reversed(range(n)):   # D L^T x = y
         terms = "".join(f" - L{k}_{i}*x{k}" for k in range(i + 1, n) if nonzero[k][i])
         lines.append(f"const double x{i} = y{i} / d{i}{terms};")
-    lines += [f"qdd[{i}] = x{i};" for i in range(n)]
-    lines.append("return 0;")
     return lines
 
 
