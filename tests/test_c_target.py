@@ -385,3 +385,20 @@ def test_solve_writes_header_and_source(tmp_path):
         ["#include <math.h>", '#include "rp_arm_dynamics.h"']
     assert "malloc" not in source and "static double" not in source
     _compile(tmp_path / "rp_arm_dynamics.c")
+
+
+def test_user_c_template(tmp_path):
+    """--template-dir overrides templates/c/ by file name; a fault in it is the user's (exit 2
+    at its file and line), and a correct one may encode text with |c_comment."""
+    folder = tmp_path / "templates" / "c"
+    folder.mkdir(parents=True)
+    (folder / "dynamics.h.j2").write_text("/* {{ 'a */ b' | c_comment }} */\n/* {{ name }} {{ nq }} */\n")
+    result = CliRunner().invoke(app, ["solve", "rp_arm", "--c", "--out", str(tmp_path / "out"),
+                                      "--template-dir", str(tmp_path / "templates")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "rp_arm_dynamics.h").read_text() == "/* a *\\/ b */\n/* rp_arm 2 */\n"
+    (folder / "dynamics.h.j2").write_text("/* ok */\n{{ no_such_variable }}\n")
+    result = CliRunner().invoke(app, ["solve", "rp_arm", "--c", "--out", str(tmp_path / "again"),
+                                      "--template-dir", str(tmp_path / "templates")])
+    assert result.exit_code == 2 and "dynamics.h.j2:2:" in result.output and "no_such_variable" in result.output
+    assert not (tmp_path / "again").exists()
