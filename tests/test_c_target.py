@@ -402,3 +402,15 @@ def test_user_c_template(tmp_path):
                                       "--template-dir", str(tmp_path / "templates")])
     assert result.exit_code == 2 and "dynamics.h.j2:2:" in result.output and "no_such_variable" in result.output
     assert not (tmp_path / "again").exists()
+
+
+def test_robot_without_efforts(tmp_path):
+    """NU = 0 (a passive pendulum): no unused argument or empty array breaks -Werror."""
+    path = tmp_path / "double_pendulum.yaml"
+    path.write_text("\n".join(ln for ln in (ROBOTS / "double_pendulum.yaml").read_text().splitlines()
+                              if "effort:" not in ln) + "\n")
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert not derivation.robot.efforts
+    module = import_code(dynderive.render_code(derivation), tmp_path, "passive_pendulum_dynamics")
+    _agree(Library(derivation, tmp_path / "c"), module, seed=9, states=2)
+    assert "#define DOUBLE_PENDULUM_NU 0" in (tmp_path / "c" / "double_pendulum_dynamics.h").read_text()

@@ -338,7 +338,7 @@ def _forward_body(derivation: Derivation, names: _Names, start: str) -> list[str
     robot, quantities = derivation.robot, derivation.quantities
     name, n = robot.name, len(derivation.symbols.q)
     mass = _structural_pattern(derivation, n)
-    lines = [start, *_void("P"), f"double M[{n * n}];", f"double b[{n}];", f"double r[{n}];",
+    lines = [start, *_void("u", "P"), f"double M[{n * n}];", f"double b[{n}];", f"double r[{n}];",
              f"const double zero[{n}] = {{0.0}};",
              f"{name}_mass_matrix(q, p, M);", f"{name}_inverse_dynamics(q, qd, zero, p, b);   /* C qd + N"
              + (" + F */" if robot.dissipative else " */")]
@@ -403,8 +403,10 @@ def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[s
                              f"*tanh(qd[{i}] / P->friction_smoothing)) / P->friction_smoothing : 0.0)")
             if terms:
                 lines.append(f"R[{i * width + n + i}] -= {' + '.join(terms)};")
-    inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
-    lines += _expression_body(names, list(inputs), [f"R[{i * width + 2 * n + k}]" for i in range(n) for k in range(nu)])
+    if nu:
+        inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
+        lines += _expression_body(names, list(inputs),
+                                  [f"R[{i * width + 2 * n + k}]" for i in range(n) for k in range(nu)])
     nonzero = _fill_in(_structural_pattern(derivation, n), n)
     lines += _factor_lines(nonzero, n)
     lines += [f"for (int i = 0; i < {4 * n * n}; ++i) A[i] = 0.0;",
