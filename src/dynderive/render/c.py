@@ -4,7 +4,8 @@ The same straight-line programs as the NumPy module (``Derivation.programs``; a 
 robot's explicit M, C, N, V with common subexpressions eliminated), printed by SymPy's
 ``C99CodePrinter`` with three changes (``CPrinter``): integer powers as multiplications,
 every fraction and float as a double literal of 17 significant digits, and each symbol as its
-place in the generated function (``q[0]``, ``P->m1``, a temporary ``t12``). Forward dynamics
+place in the generated function (``q[0]``, ``P->m1``, a temporary ``t12``); ``FastCPrinter``
+prints the common nodes of program lines the same way without SymPy's slow precedence rules. Forward dynamics
 solves ``M qdd = Y - (C qd + N)`` with an ``L D L^T`` factorization unrolled for this robot's
 size and sparsity, and returns 1 (``qdd`` untouched) if a pivot is not positive; ``linearize``
 solves its columns with the same factorization.
