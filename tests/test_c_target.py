@@ -414,3 +414,42 @@ def test_robot_without_efforts(tmp_path):
     module = import_code(dynderive.render_code(derivation), tmp_path, "passive_pendulum_dynamics")
     _agree(Library(derivation, tmp_path / "c"), module, seed=9, states=2)
     assert "#define DOUBLE_PENDULUM_NU 0" in (tmp_path / "c" / "double_pendulum_dynamics.h").read_text()
+
+
+def test_fast_printer_means_what_the_sympy_printer_means(tmp_path):
+    """FastCPrinter (program lines) and CPrinter (SymPy's C99CodePrinter) compiled side by
+    side give the same values on expressions with signs, fractions, powers and functions."""
+    import sympy
+
+    from dynderive.render.c import CPrinter, FastCPrinter
+
+    x, y, z = sympy.symbols("x y z")
+    names = {x: "v[0]", y: "v[1]", z: "v[2]"}
+    half, third = sympy.Rational(1, 2), sympy.Rational(-1, 3)
+    expressions = [
+        -x * y + half * z, third * x / (y * z), (x + y) ** 2 - (y - z) ** 3, x ** -2 + (y + 1) ** -3,
+        -sympy.Float("0.1") * x - 2 * y ** 9, sympy.sin(x + y) * sympy.cos(z) ** 2 / (1 + x ** 2),
+        sympy.sqrt(x ** 2 + y ** 2) - sympy.Abs(z), sympy.exp(-x) * third, -(x - y) * (y - z) / 7,
+        sympy.Float("-1.25") + x * y * z, 1 / (x + y) - half / z, (-x) ** 3 * third * y,
+        sympy.Mul(-1, x, sympy.Pow(y + z, -1, evaluate=False), evaluate=False),
+    ]
+    lines = ["#include <math.h>"]
+    for index, expr in enumerate(expressions):
+        for kind, printer in (("fast", FastCPrinter(dict(names))), ("general", CPrinter(dict(names)))):
+            lines.append(f"double {kind}{index}(const double *v) {{ return {printer.doprint(expr)}; }}")
+    source = tmp_path / "printers.c"
+    source.write_text("\n".join(lines) + "\n")
+    shared = tmp_path / "printers.so"
+    subprocess.run([CC, *STRICT, "-Wno-missing-prototypes", "-shared", "-fPIC", str(source), "-o", str(shared), "-lm"],
+                   check=True)
+    lib = ctypes.CDLL(str(shared))
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        v = np.ascontiguousarray(rng.uniform(0.2, 2.0, 3) * rng.choice([-1, 1], 3))
+        for index, expr in enumerate(expressions):
+            fast, general = (getattr(lib, f"{kind}{index}") for kind in ("fast", "general"))
+            fast.restype = general.restype = ctypes.c_double
+            a, b = fast(v.ctypes.data_as(P)), general(v.ctypes.data_as(P))
+            exact = float(expr.subs({x: v[0], y: v[1], z: v[2]}))
+            assert abs(a - exact) <= 1e-13 * max(1.0, abs(exact)) and abs(b - exact) <= 1e-13 * max(1.0, abs(exact)), \
+                (index, a, b, exact)
