@@ -108,7 +108,7 @@ def _agree(library: Library, module, seed: int, states: int = 4, parameters: dic
     rng = np.random.default_rng(seed)
     n, nu = library.n, library.nu
     kwargs = parameters or {}
-    p = None if parameters is None else [parameters[k] for k in module.PARAMETERS]
+    p = None if parameters is None else [*(parameters[k] for k in module.PARAMETERS), 0.0]   # + friction_smoothing
     for _ in range(states):
         q, qd, qdd = rng.uniform(-1.5, 1.5, n), rng.normal(size=n), rng.normal(size=n)
         u = rng.normal(size=nu)
@@ -184,7 +184,7 @@ def test_parameter_without_default_is_nan(tmp_path, code_dir):
     _, M = library.call("mass_matrix", [[0.3, 0.2]], 4)
     assert np.isnan(M[0]) and np.isnan(M[3])
     module = module_of("rp_arm", str(code_dir))
-    _, M = library.call("mass_matrix", [[0.3, 0.2]], 4, [1.0, 1.0, 9.81])
+    _, M = library.call("mass_matrix", [[0.3, 0.2]], 4, [1.0, 1.0, 9.81, 0.0])
     _close(M.reshape(2, 2), module.mass_matrix([0.3, 0.2]), "mass_matrix")
 
 
@@ -204,7 +204,7 @@ def test_random_spatial_tree(seed, tmp_path):
 def test_forward_dynamics_refuses_a_mass_matrix_that_is_not_positive_definite(tmp_path, code_dir):
     library = Library(derivation_of("rp_arm"), tmp_path)
     module = module_of("rp_arm", str(code_dir))
-    p = [-1.0 if k == "m" else float(v) for k, v in module.PARAMETERS.items()]   # a negative mass
+    p = [*(-1.0 if k == "m" else float(v) for k, v in module.PARAMETERS.items()), 0.0]   # a negative mass
     status, qdd = library.call("forward_dynamics", [[0.3, 0.2], [0.1, 0.0], [1.0, 2.0]], 2, p)
     assert status == 1 and np.all(np.isnan(qdd))
 
@@ -345,7 +345,7 @@ def test_robot_names_that_are_not_c_prefixes_are_refused(tmp_path, name):
 
 
 def test_smoothed_friction_from_the_struct(tmp_path, code_dir):
-    """friction_smoothing (the struct's last member for a robot with drives) reaches the
+    """friction_smoothing (the struct's last member) reaches the
     friction, inverse and forward dynamics as the NumPy module's keyword does."""
     library = Library(derivation_of("cart_pole_damped"), tmp_path)
     module = module_of("cart_pole_damped", str(code_dir))

@@ -288,9 +288,9 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
     ]
     parameters = [{"name": p.name, "default": Code("NAN") if p.value is None else Code(double_literal(float(p.value))),
                    "comment": c_comment(_parameter_note(p))} for p in robot.parameters]
-    if robot.dissipative:
-        parameters.append({"name": "friction_smoothing", "default": Code("0.0"), "comment": c_comment(
-            "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)")})
+    parameters.append({"name": "friction_smoothing", "default": Code("0.0"), "comment": c_comment(
+        "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)"
+        if robot.dissipative else "unused: the robot has no Coulomb friction (every robot's struct ends with it)")})
     from .._version import __version__
 
     return {
