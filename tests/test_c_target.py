@@ -50,9 +50,10 @@ def _write(derivation, directory: Path) -> Path:
 
 
 def _compile(path: Path, *flags: str) -> None:
-    """Compile ``path`` as strict C99 (and as C++ when g++ exists); assert no diagnostic."""
-    for command in ([CC, *STRICT, "-c", str(path), "-o", str(path.with_suffix(".o"))],
-                    *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-c", str(path),
+    """Compile ``path`` as strict C99 (and as C++ when g++ exists); assert no diagnostic.
+    ``-Wshadow`` too: no local may hide a function of <math.h> (POSIX's ``y0``, ``j1``)."""
+    for command in ([CC, *STRICT, "-Wshadow", "-c", str(path), "-o", str(path.with_suffix(".o"))],
+                    *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-c", str(path),
                         "-o", str(path.with_suffix(".cpp.o"))]] if CXX else [])):
         run = subprocess.run(command + list(flags), capture_output=True, text=True)
         assert run.returncode == 0 and not run.stderr, f"{' '.join(command)}:\n{run.stderr}"

@@ -487,14 +487,15 @@ def _factor_lines(nonzero: list[list[bool]], n: int) -> list[str]:
 
 
 def _solve_lines(nonzero: list[list[bool]], n: int, rhs: list[str]) -> list[str]:
-    """``x<i>`` solving L D L^T x = rhs (C expressions), by ``y<i>`` (L y = rhs)."""
+    """``x<i>`` solving L D L^T x = rhs (C expressions), by ``w<i>`` (L w = rhs; not ``y0``,
+    ``y1``: Bessel functions of POSIX's ``<math.h>``, which a local would shadow)."""
     lines = []
     for i in range(n):
-        terms = "".join(f" - L{i}_{k}*y{k}" for k in range(i) if nonzero[i][k])
-        lines.append(f"const double y{i} = {rhs[i]}{terms};")
-    for i in reversed(range(n)):   # D L^T x = y
+        terms = "".join(f" - L{i}_{k}*w{k}" for k in range(i) if nonzero[i][k])
+        lines.append(f"const double w{i} = {rhs[i]}{terms};")
+    for i in reversed(range(n)):   # D L^T x = w
         terms = "".join(f" - L{k}_{i}*x{k}" for k in range(i + 1, n) if nonzero[k][i])
-        lines.append(f"const double x{i} = y{i} / d{i}{terms};")
+        lines.append(f"const double x{i} = w{i} / d{i}{terms};")
     return lines
 
 
