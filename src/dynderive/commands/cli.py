@@ -96,6 +96,8 @@ def solve(
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
+    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99 (open chains; "
+                                    "closed loops not yet).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
                                         "pytest property checks of the generated module.")] = False,
@@ -136,10 +138,17 @@ def solve(
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
     if tests and not code:
         raise InputError(_problem("--tests", "--tests writes checks of the generated module: use it with --code"))
-    if not (latex or pdf or code or json_):
+    if not (latex or pdf or code or c or json_):
         typer.echo(render_terminal(derivation), nl=False)
         return
     files: dict[Path, bytes] = {}
+    if c:   # first: a robot the C target refuses stops the run before any work or output
+        from ..render.c import render_c
+
+        progress("generating C")
+        header, source = render_c(derivation, template_dir)
+        files[out / f"{model.name}_dynamics.h"] = header.encode()
+        files[out / f"{model.name}_dynamics.c"] = source.encode()
     tex = None
     if latex or pdf:
         progress("rendering LaTeX")

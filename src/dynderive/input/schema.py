@@ -105,6 +105,7 @@ def validate(doc: SourceDocument) -> Robot:
     positions |= {f"loop:{lp.name}": doc.where(("loops", i)) for i, lp in enumerate(loops)}
     positions["loops"] = doc.where(("loops",))
     positions["independent"] = doc.where(("independent",))
+    positions["name"] = doc.where(("name",))
     positions |= {f"frame:{f.name}": doc.where(("frames", i)) for i, f in enumerate(frames)}
     return Robot(
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),

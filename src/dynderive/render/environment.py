@@ -28,6 +28,7 @@ from jinja2 import meta
 from jinja2.sandbox import SandboxedEnvironment, SecurityError
 
 from ..errors import InputError, Problem
+from .c_names import c_comment
 from .encode import Code, docstring, escape_tex, is_plain, python_literal, tex_unit
 
 LATEX_DELIMITERS = {
@@ -111,7 +112,8 @@ def environment(kind: str, template_dir: str | None = None) -> jinja2.Environmen
         lstrip_blocks=True,
         **options,  # type: ignore[arg-type]
     )
-    env.filters.update({"docstring": docstring, "py": python_literal, "tex": escape_tex, "tex_unit": tex_unit})
+    env.filters.update({"docstring": docstring, "py": python_literal, "tex": escape_tex, "tex_unit": tex_unit,
+                        "c_comment": c_comment})
     return env
 
 

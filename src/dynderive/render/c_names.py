@@ -1,0 +1,104 @@
+"""What the C target needs of a robot's names and text: names that are valid C99 and C++
+identifiers and clash with nothing the generated files use, and free text encoded for a
+C comment.
+
+Names are refused, not mangled: a parameter ``new`` would be the struct member ``p->new``,
+which C++ cannot compile, and a silently renamed member (``new_``) would be a trap for the
+programmer who fills the struct. The refusal names the robot file's line and column.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from ..errors import InputError, Problem
+from .encode import Code
+
+#: C99 keywords, C11/C23 keywords, and C++ keywords and alternative operator names (the files
+#: compile as C++ too).
+C_KEYWORDS = frozenset("""
+auto break case char const continue default do double else enum extern float for goto if inline int long
+register restrict return short signed sizeof static struct switch typedef union unsigned void volatile while
+_Bool _Complex _Imaginary _Alignas _Alignof _Atomic _Generic _Noreturn _Static_assert _Thread_local
+alignas alignof bool constexpr false nullptr static_assert thread_local true typeof typeof_unqual
+and and_eq asm bitand bitor catch char8_t char16_t char32_t class compl concept consteval constinit
+const_cast co_await co_return co_yield decltype delete dynamic_cast explicit export friend mutable
+namespace new noexcept not not_eq operator or or_eq private protected public reinterpret_cast requires
+static_cast template this throw try typeid typename using virtual wchar_t xor xor_eq
+""".split())
+
+#: Object-like macros that ``<math.h>`` defines (C99, POSIX, glibc): a struct member of that
+#: name would be replaced by the preprocessor. ``NULL`` too (other headers of a user's file).
+MATH_MACROS = frozenset("""
+HUGE_VAL HUGE_VALF HUGE_VALL INFINITY NAN FP_INFINITE FP_NAN FP_NORMAL FP_SUBNORMAL FP_ZERO
+FP_FAST_FMA FP_FAST_FMAF FP_FAST_FMAL FP_ILOGB0 FP_ILOGBNAN MATH_ERRNO MATH_ERREXCEPT math_errhandling
+M_E M_LOG2E M_LOG10E M_LN2 M_LN10 M_PI M_PI_2 M_PI_4 M_1_PI M_2_PI M_2_SQRTPI M_SQRT2 M_SQRT1_2
+MAXFLOAT NULL EDOM ERANGE EILSEQ errno signgam
+""".split())
+
+_ASCII_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+
+
+def c_problems(robot: Any) -> list[Problem]:
+    """Why the robot's names cannot be C names (empty when they can), each at its place."""
+    problems = []
+    name = robot.name
+    line, column = robot.positions.get("name", (1, 1))
+    if not _ASCII_IDENTIFIER.match(name) or "__" in name:
+        problems.append(Problem(robot.source, line, column,
+                                f"--c: robot name '{name}' is not a C identifier of ASCII letters, digits and "
+                                "single '_' starting with a letter (it prefixes every C name)"))
+        return problems
+    ours = {f"{name.upper()}_{suffix}" for suffix in ("NQ", "NV", "NU", "NFRAMES", "DYNAMICS_H")}
+    for parameter in robot.parameters:
+        where = robot.positions.get(f"parameter:{parameter.name}", (1, 1))
+        why = None
+        if not _ASCII_IDENTIFIER.match(parameter.name) or "__" in parameter.name:
+            why = "is not a C identifier of ASCII letters, digits and single '_' starting with a letter"
+        elif parameter.name in C_KEYWORDS:
+            why = "is a C or C++ keyword"
+        elif parameter.name in MATH_MACROS or parameter.name in ours:
+            why = "is a macro of <math.h> or of the generated header"
+        if why:
+            problems.append(Problem(robot.source, where[0], where[1],
+                                    f"--c: parameter name '{parameter.name}' {why}: it would be a member "
+                                    "of the C parameters struct; rename it"))
+    return problems
+
+
+def check_c_names(robot: Any) -> None:
+    """Raise ``InputError`` (exit 2) if any name cannot be used in the C files."""
+    problems = c_problems(robot)
+    if problems:
+        raise InputError(problems)
+
+
+def c_comment(text: object) -> Code:
+    """``text`` for the inside of a ``/* ... */`` comment on one line, reversibly: printable
+    ASCII stays except ``\\`` (``\\\\``), ``*/`` (``*\\/``), ``/*`` (``/\\*``), ``//`` and
+    ``??`` (a trigraph; ``?\\?``), which could end the comment, warn, or change meaning;
+    every other character (newlines, controls, non-ASCII) becomes ``\\xNN``, ``\\uNNNN`` or
+    ``\\UNNNNNNNN`` text."""
+    out: list[str] = []
+    for char in str(text):
+        previous = out[-1][-1:] if out else ""
+        if char == "\\":
+            out.append("\\\\")
+        elif char == "/" and previous == "*":
+            out.append("\\/")
+        elif char == "*" and previous == "/":
+            out.append("\\*")
+        elif char == "/" and previous == "/":
+            out.append("\\/")
+        elif char == "?" and previous == "?":
+            out.append("\\?")
+        elif " " <= char <= "~":
+            out.append(char)
+        elif ord(char) < 0x100:
+            out.append(f"\\x{ord(char):02x}")
+        elif ord(char) < 0x10000:
+            out.append(f"\\u{ord(char):04x}")
+        else:
+            out.append(f"\\U{ord(char):08x}")
+    return Code("".join(out))
