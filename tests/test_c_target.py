@@ -33,6 +33,8 @@ if CC is None:
     if os.environ.get("CI"):
         raise RuntimeError("CI must run the C target tests, but no C compiler (gcc or cc) was found")
     pytest.skip("no C compiler", allow_module_level=True)
+if CXX is None and os.environ.get("CI"):
+    raise RuntimeError("CI must compile the C target as C++ too, but g++ was not found")
 
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"]
 RTOL = 1e-12
