@@ -339,8 +339,13 @@ def _numeric_residual(exprs: list[sympy.Expr], seed: int, samples: int,
     """Largest |expr| at random points, evaluated with 30 significant digits."""
     import mpmath
 
+    from .evaluate import Unsupported, evaluator
+
     free = sorted(set().union(*(e.free_symbols for e in exprs)), key=lambda s: s.name)
-    function = sympy.lambdify(free, exprs, modules="mpmath", cse=True)
+    try:   # a walk over the tree per point: lambdify's code generation costs far more here
+        function = evaluator(exprs, free)
+    except Unsupported:
+        function = sympy.lambdify(free, exprs, modules="mpmath", cse=True)
     rng = random.Random(seed)
     worst = 0.0
     with mpmath.workdps(30):
