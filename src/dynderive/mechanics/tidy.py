@@ -233,9 +233,18 @@ def trig_linear(expr: sympy.Expr) -> sympy.Expr:
 
     if not is_small(expr, FOURIER_LIMIT) or not expandable(expr):
         return expr
-    constants = _constant_trig(expr)
-    linear = trig_group(TR8(sympy.expand(expr.xreplace(constants))))
-    return linear.xreplace({d: f for f, d in constants.items()})
+    known = _LINEAR.get(expr)   # a symmetric M's entries come twice
+    if known is None:
+        if len(_LINEAR) > exact_fast.MEMO_LIMIT:
+            _LINEAR.clear()
+        constants = _constant_trig(expr)
+        linear = trig_group(TR8(sympy.expand(expr.xreplace(constants))))
+        known = _LINEAR[expr] = linear.xreplace({d: f for f, d in constants.items()})
+    return known
+
+
+#: ``trig_linear``'s results by input.
+_LINEAR: dict[sympy.Basic, sympy.Basic] = {}
 
 
 def trig_group(expr: sympy.Expr) -> sympy.Expr:
