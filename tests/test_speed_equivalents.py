@@ -105,3 +105,30 @@ def test_diff_is_sympys(seed):
     for e in exprs:
         for s in (*Q, QD[0], P[0], P[2]):
             assert sympy.srepr(diff(e, s)) == sympy.srepr(sympy.diff(e, s)), (e, s)
+
+
+def test_template_cache_is_transparent(monkeypatch, tmp_path):
+    """Compiled templates come from Jinja's bytecode cache; a corrupt cache file is compiled
+    afresh, and DYNDERIVE_NO_TEMPLATE_CACHE turns the cache off; the text is the same."""
+    import jinja2.bccache
+
+    from dynderive.render import environment as env_module
+
+    (tmp_path / "t.py.j2").write_text("x = {{ 1 + 2 }}\n")
+    ours = env_module._BytecodeCache
+    monkeypatch.setattr(env_module, "_BytecodeCache", lambda pattern: ours(str(tmp_path / "cache"), pattern))
+    (tmp_path / "cache").mkdir()
+    texts = []
+    for corrupt in (False, True):
+        env_module.environment.cache_clear()
+        if corrupt:
+            for f in (tmp_path / "cache").iterdir():
+                f.write_bytes(jinja2.bccache.bc_magic + b"not a pickle")   # past Jinja's own check
+        texts.append(env_module.render("code", "t.py.j2", {}, tmp_path))
+    assert len(list((tmp_path / "cache").iterdir())) >= 1
+    monkeypatch.setenv("DYNDERIVE_NO_TEMPLATE_CACHE", "1")
+    env_module.environment.cache_clear()
+    assert env_module.environment("code", str(tmp_path)).bytecode_cache is None
+    texts.append(env_module.render("code", "t.py.j2", {}, tmp_path))
+    env_module.environment.cache_clear()
+    assert texts == ["x = 3\n"] * 3
