@@ -21,6 +21,7 @@ from sympy.core.expr import Expr
 from sympy.core.function import _coeff_isneg
 from sympy.core.mul import _keep_coeff
 from sympy.core.operations import LatticeOp
+from sympy.ntheory.multinomial import multinomial_coefficients_iterator
 from sympy.simplify.radsimp import fraction
 from sympy.utilities.iterables import iterable
 
@@ -230,6 +231,54 @@ if hasattr(exprtools, "Factors") and not getattr(exprtools.Factors.__init__, "dy
     exprtools.Factors.__init__ = _factors_init  # type: ignore[method-assign]
 
 
+_DIFF: dict[tuple[sympy.Basic, sympy.Symbol], sympy.Basic] = {}
+
+
+def diff(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
+    """``sympy.diff(expr, symbol)``, the same tree, for a symbol. SymPy builds a
+    ``Derivative`` for every node it differentiates (the chain and product rules call
+    ``diff`` on each argument) and walks each result for unevaluated derivatives, which
+    makes differentiating a tree cost far more than the tree's size; here the same rules are
+    applied directly: sums term by term, products by SymPy's Leibniz rule (its order of
+    terms), powers and sines and cosines by their own formulas; anything else by SymPy.
+    Each (node, symbol) is differentiated once per process."""
+    if len(_DIFF) > MEMO_LIMIT:
+        _DIFF.clear()
+    return _diff(sympy.sympify(expr), symbol)
+
+
+def _diff(expr: sympy.Basic, s: sympy.Symbol) -> sympy.Basic:
+    if s not in expr.free_symbols:
+        return sympy.S.Zero
+    if expr.is_Symbol:
+        return sympy.S.One   # expr is s
+    key = (expr, s)
+    known = _DIFF.get(key)
+    if known is not None:
+        return known
+    if expr.is_Add:
+        result = expr.func(*[_diff(a, s) for a in expr.args])
+    elif expr.is_Mul and expr.is_commutative:
+        # Mul._eval_derivative_n_times(s, 1): the general Leibniz rule's terms in its order
+        args = expr.args
+        terms = []
+        for orders, c in multinomial_coefficients_iterator(len(args), 1):
+            terms.append(c * sympy.Mul(*[_diff(a, s) if k else a for k, a in zip(orders, args)]))
+        result = sympy.Add(*terms)
+    elif expr.is_Pow:
+        # Pow._eval_derivative
+        dbase, dexp = _diff(expr.base, s), _diff(expr.exp, s)
+        result = expr * (dexp * sympy.log(expr.base) + dbase * expr.exp / expr.base)
+    elif isinstance(expr, (sympy.sin, sympy.cos)):
+        # Function._eval_derivative
+        da = _diff(expr.args[0], s)
+        result = sympy.Add(*([] if da.is_zero else [expr.fdiff(1) * da]))
+    else:
+        result = sympy.diff(expr, s)
+    _DIFF[key] = result
+    return result
+
+
 _EXPAND: dict[tuple[Any, ...], tuple[Any, bool]] = {}
 _expand_hint = getattr(Expr, "_expand_hint", None)
 
@@ -255,4 +304,4 @@ if _expand_hint is not None and not getattr(_expand_hint, "dynderive", False):
     Expr._expand_hint = staticmethod(_remembered_expand_hint)  # type: ignore[method-assign]
 
 
-__all__ = ["collect_trig", "count_ops", "factor_terms"]
+__all__ = ["collect_trig", "count_ops", "diff", "factor_terms"]

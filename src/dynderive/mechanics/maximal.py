@@ -342,11 +342,25 @@ def _closed_form_lambda(M: sympy.Matrix, A: sympy.Matrix, Adot: sympy.Matrix, Y:
     if sum(sympy.count_ops(e) for e in W) > LAMBDA_SYMBOLIC_LIMIT:
         return None
     rhs = (A * M_inv * (Y - C * qmd - N) + Adot * qmd).applyfunc(tidy)
-    det = tidy(W.det(method="berkowitz"))
+    adjugate = _symmetric_adjugate(W)
+    # expanded along the first row: the cofactors are at hand
+    det = tidy(sympy.Add(*(W[0, j] * adjugate[j, 0] for j in range(W.shape[0]))))
     if det == 0:
         return None
-    numerator = (W.adjugate(method="berkowitz").applyfunc(tidy) * rhs).applyfunc(tidy)
+    numerator = (adjugate * rhs).applyfunc(tidy)
     return numerator.applyfunc(lambda e: tidy(e / det))
+
+
+def _symmetric_adjugate(W: sympy.Matrix) -> sympy.Matrix:
+    """The adjugate of the symmetric matrix ``W``, each entry tidied: the Berkowitz
+    cofactors of the upper triangle only (the adjugate is symmetric too; SymPy's
+    ``adjugate`` computes and simplifies all of them, the costliest step of lambda)."""
+    n = W.shape[0]
+    adjugate = sympy.zeros(n, n)
+    for i in range(n):
+        for j in range(i, n):
+            adjugate[i, j] = adjugate[j, i] = tidy(W.cofactor(j, i, method="berkowitz"))
+    return adjugate
 
 
 __all__ = ["maximal_equations", "maximal_model", "joint_constraints", "joint_coordinate", "joint_efforts"]

@@ -233,9 +233,18 @@ def trig_linear(expr: sympy.Expr) -> sympy.Expr:
 
     if not is_small(expr, FOURIER_LIMIT) or not expandable(expr):
         return expr
-    constants = _constant_trig(expr)
-    linear = trig_group(TR8(sympy.expand(expr.xreplace(constants))))
-    return linear.xreplace({d: f for f, d in constants.items()})
+    known = _LINEAR.get(expr)   # a symmetric M's entries come twice
+    if known is None:
+        if len(_LINEAR) > exact_fast.MEMO_LIMIT:
+            _LINEAR.clear()
+        constants = _constant_trig(expr)
+        linear = trig_group(TR8(sympy.expand(expr.xreplace(constants))))
+        known = _LINEAR[expr] = linear.xreplace({d: f for f, d in constants.items()})
+    return known
+
+
+#: ``trig_linear``'s results by input.
+_LINEAR: dict[sympy.Basic, sympy.Basic] = {}
 
 
 def trig_group(expr: sympy.Expr) -> sympy.Expr:
@@ -301,7 +310,7 @@ def trig_canonical(expr: sympy.Expr) -> sympy.Expr:
     Angle sums are expanded (``sin(a + b)``), then every ``sin(x)**2`` becomes
     ``1 - cos(x)**2``, leaving a polynomial at most linear in each ``sin(x)``.
     """
-    expr = sympy.expand(sympy.expand_trig(expr))
+    expr = sympy.expand(_expand_angles(expr))
     for _ in range(4):
         angles = {f.args[0] for f in expr.atoms(sympy.sin)}
         if not angles:
@@ -315,6 +324,49 @@ def trig_canonical(expr: sympy.Expr) -> sympy.Expr:
     return expr
 
 
+def _fourier_zero(expr: sympy.Expr) -> bool:
+    """Whether ``expr`` is zero once expanded with products of sines and cosines turned into
+    sums (``TR8``), each of an angle combination in SymPy's canonical order. Every step is an
+    identity, so True proves ``expr == 0``; False proves nothing (nor is it tried where a
+    sine or cosine stands in a denominator)."""
+    from sympy.simplify.fu import TR8
+
+    expanded = sympy.expand(expr)
+    if any(p.exp.is_negative and p.base.has(sympy.sin, sympy.cos) for p in expanded.atoms(sympy.Pow)):
+        return False   # a quotient of trigonometric sums (R_g): TR8 grows it for minutes
+    return sympy.expand(TR8(expanded)) == 0
+
+
+def _expand_angles(expr: sympy.Expr) -> sympy.Expr:
+    """``sympy.expand_trig(expr)`` for sines and cosines: each of an angle sum or an integer
+    multiple replaced by its expansion in the single angles (SymPy's rules), the rest of the
+    tree untouched (``expand_trig`` rebuilds every node, several times slower)."""
+    if any(f.func not in (sympy.sin, sympy.cos) and hasattr(f, "_eval_expand_trig")
+           for f in expr.atoms(sympy.Function)):   # tan, sinh, ...: SymPy's
+        return sympy.expand_trig(expr)
+    memo: dict[sympy.Expr, sympy.Expr] = {}
+    replacements = {f: _expanded_trig(f, memo) for f in expr.atoms(sympy.sin, sympy.cos)}
+    return expr.xreplace({f: e for f, e in replacements.items() if e != f})
+
+
+def _expanded_trig(f: sympy.Expr, memo: dict[sympy.Expr, sympy.Expr]) -> sympy.Expr:
+    """``f._eval_expand_trig()`` of a sine or cosine, remembered: ``sin(x + y)`` by the
+    addition theorems (x the first term), ``sin(n x)`` by Chebyshev polynomials."""
+    known = memo.get(f)
+    if known is not None:
+        return known
+    arg = f.args[0]
+    if arg.is_Add:
+        x, y = arg.as_two_terms()
+        sx, sy = _expanded_trig(sympy.sin(x, evaluate=False), memo), _expanded_trig(sympy.sin(y, evaluate=False), memo)
+        cx, cy = _expanded_trig(sympy.cos(x, evaluate=False), memo), _expanded_trig(sympy.cos(y, evaluate=False), memo)
+        result = sx * cy + cx * sy if f.func is sympy.sin else cx * cy - sx * sy
+    else:
+        result = f._eval_expand_trig()
+    memo[f] = result
+    return result
+
+
 def check_zero(name: str, description: str, difference: sympy.Matrix,
                symbols: Iterable[sympy.Symbol], seed: int = 0, samples: int = 4,
                tolerance: float = 1e-9) -> Check:
@@ -326,7 +378,10 @@ def check_zero(name: str, description: str, difference: sympy.Matrix,
         if not remaining:
             return Check(name, description, True, "symbolic", 0.0)
         if sum(count_ops(e) for e in remaining) < CANONICAL_LIMIT:
-            if all(trig_canonical(sympy.together(e).as_numer_denom()[0]) == 0 for e in remaining):
+            # products to sums first (cheap, and enough when both sides are trigonometric
+            # polynomials), the canonical form for what that leaves
+            if all(_fourier_zero(e) or trig_canonical(sympy.together(e).as_numer_denom()[0]) == 0
+                   for e in remaining):
                 return Check(name, description, True, "symbolic", 0.0)
     remaining = [e for e in remaining if e != 0]
     if not remaining:
@@ -339,8 +394,13 @@ def _numeric_residual(exprs: list[sympy.Expr], seed: int, samples: int,
     """Largest |expr| at random points, evaluated with 30 significant digits."""
     import mpmath
 
+    from .evaluate import Unsupported, evaluator
+
     free = sorted(set().union(*(e.free_symbols for e in exprs)), key=lambda s: s.name)
-    function = sympy.lambdify(free, exprs, modules="mpmath", cse=True)
+    try:   # a walk over the tree per point: lambdify's code generation costs far more here
+        function = evaluator(exprs, free)
+    except Unsupported:
+        function = sympy.lambdify(free, exprs, modules="mpmath", cse=True)
     rng = random.Random(seed)
     worst = 0.0
     with mpmath.workdps(30):
