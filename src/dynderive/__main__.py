@@ -15,9 +15,13 @@ import sys
 
 from .errors import Interrupted
 
+#: Set once the command has finished (or been interrupted): a signal after it changes nothing.
+_finishing = False
+
 
 def _interrupt(signum: int, frame: object) -> None:
-    raise Interrupted
+    if not _finishing:
+        raise Interrupted
 
 
 def _interrupted() -> int:
@@ -29,6 +33,7 @@ def _interrupted() -> int:
 
 def run() -> None:
     """Console-script entry point."""
+    global _finishing
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
     code: int | str | None = 0
@@ -39,23 +44,15 @@ def run() -> None:
             app(prog_name="dynderive")
         except SystemExit as exc:
             code = exc.code
+        _finishing = True
     except Interrupted:
+        _finishing = True
         code = _interrupted()
-    sys.exit(_finish(code))
-
-
-def _finish(code: int | str | None) -> int | str | None:
-    """Ignore SIGINT and SIGTERM for the rest of the process: during the interpreter's
-    shutdown Python would hand them back to the default action (killed, status -15), yet an
-    ignored signal it leaves ignored. One that arrives before this is an interrupt."""
-    while True:
-        try:
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-            signal.signal(signal.SIGTERM, signal.SIG_IGN)
-            return code
-        except Interrupted:
-            if code != 130:
-                code = _interrupted()
+    # During the interpreter's shutdown Python hands signals back to the default action
+    # (killed, status -15), yet an ignored signal it leaves ignored.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    sys.exit(code)
 
 
 if __name__ == "__main__":
