@@ -384,7 +384,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "N_g": fmt.matrix("N", q["N_g"]),
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
         "checks": [{"description": escape_tex(c.description), "passed": c.passed,
-                    "method": c.method, "residual": f"{c.residual:.2g}"} for c in derivation.checks]
+                    "method": c.method, "residual": _residual_text(c.residual)} for c in derivation.checks]
                   if "checks" in sections else [],
         "sections": list(sections),
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
@@ -534,3 +534,12 @@ def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
                  sections: tuple[str, ...] | None = None) -> str:
     """The sheet of ``sections`` (default: ``default_sections``)."""
     return render("latex", SHEET_TEMPLATE, sheet_context(derivation, sections), template_dir)
+
+
+#: Residuals below this print as "below 1e-12": their digits are rounding noise (double or
+#: 30-digit arithmetic) that a library version or machine may change, and the sheet must not.
+RESIDUAL_FLOOR = 1e-12
+
+
+def _residual_text(residual: float) -> str:
+    return "below 1e-12" if residual < RESIDUAL_FLOOR else f"{residual:.2g}"
