@@ -172,14 +172,19 @@ class _Composer(yaml.SafeLoader):
         self.depth += 1
         try:
             if self.depth > MAX_YAML_DEPTH:
-                raise _TooDeep
+                raise _TooDeep(_mark_of(self.peek_event().start_mark))
             return super().compose_node(parent, index)
         finally:
             self.depth -= 1
 
 
 class _TooDeep(Exception):
-    pass
+    def __init__(self, where: tuple[int, int]):
+        self.where = where
+
+
+def _mark_of(mark: yaml.Mark) -> tuple[int, int]:
+    return mark.line + 1, mark.column + 1
 
 
 _Composer.add_implicit_resolver(
@@ -209,9 +214,10 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
                                  "is not allowed in YAML")) from None
     except yaml.YAMLError as exc:  # pragma: no cover - defensive, PyYAML marks nearly all
         raise InputError(Problem(file, 1, 1, f"YAML syntax error: {exc}")) from None
-    except (RecursionError, _TooDeep):
-        line, column = _deep_nesting_start(text, MAX_YAML_DEPTH)
-        raise InputError(Problem(file, line, column, "YAML nesting is too deep")) from None
+    except _TooDeep as exc:
+        raise InputError(Problem(file, *exc.where, "YAML nesting is too deep")) from None
+    except RecursionError:   # pragma: no cover - the depth limit comes first
+        raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
 
     document = SourceDocument(file=file, data=None)
     if node is None:
@@ -281,24 +287,6 @@ def _flow_too_deep(text: str, limit: int) -> tuple[int, int] | None:
             depth -= 1
         previous = char
     return None
-
-
-def _deep_nesting_start(text: str, limit: int = 100) -> tuple[int, int]:
-    """Where the first run of brackets nested deeper than ``limit`` opens (1-based)."""
-    depth, line, column, start = 0, 1, 0, (1, 1)
-    for char in text:
-        column += 1
-        if char == "\n":
-            line, column = line + 1, 0
-        elif char in "[{":
-            if depth == 0:
-                start = (line, column)
-            depth += 1
-            if depth > limit:
-                return start
-        elif char in "]}" and depth:
-            depth -= 1
-    return start
 
 
 def _syntax_problem(exc: yaml.MarkedYAMLError, file: str) -> Problem:
