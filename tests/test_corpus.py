@@ -37,7 +37,7 @@ CASES = sorted(p for p in CORPUS.iterdir() if p.suffix in {".yaml", ".urdf"})
 #: Cases whose current output is wrong or imprecise: file name -> what is wrong now.
 KNOWN_GAPS: dict[str, str] = {}
 
-#: Per-case budget (seconds): resource attacks must be refused fast.
+#: Per-case budget (CPU seconds): resource attacks must be refused fast.
 CASE_SECONDS = 2.0
 #: Budget for the whole corpus (seconds).
 CORPUS_SECONDS = 60.0
@@ -120,15 +120,17 @@ def test_bad_input_is_refused_with_positioned_message(case, tmp_path):
 
 
 def test_every_case_is_refused_fast(tmp_path):
-    """Resource attacks must be refused fast: each case under 2 s, the corpus under 60 s."""
+    """Resource attacks must be refused fast: each case under 2 s, the corpus under 60 s, of
+    this process's CPU time (the cases run in-process; wall time would count the other jobs
+    of a loaded machine: the hard stop above still bounds the wall time)."""
     solve(CASES[0], tmp_path / "warm-up")  # imports (SymPy, NumPy) are not the cases' cost
     times = {}
     for index, case in enumerate(CASES):
         (tmp_path / f"case{index}").mkdir()
         path, _ = prepare(case, tmp_path / f"case{index}")
-        start = time.perf_counter()
+        start = time.process_time()
         solve(path, tmp_path / f"out{index}")
-        times[case.name] = time.perf_counter() - start
+        times[case.name] = time.process_time() - start
     slow = {name: round(t, 2) for name, t in times.items() if t >= CASE_SECONDS}
     assert not slow, f"cases taking {CASE_SECONDS} s or more: {slow}"
     assert sum(times.values()) < CORPUS_SECONDS

@@ -304,7 +304,7 @@ def test_long_chain_of_fixed_joints_is_merged_quickly(tmp_path):
     chain += '  <joint name="f0" type="fixed"><parent link="a"/><child link="x0"/></joint>\n'
     chain += "".join(f'  <joint name="f{i}" type="fixed"><parent link="x{i - 1}"/><child link="x{i}"/>'
                      '<origin rpy="0 0 0.1"/></joint>\n' for i in range(1, 3000))
-    start = time.perf_counter()
+    start = time.process_time()   # CPU time: the work is in-process, a loaded machine's other jobs are not
     _, doc = _read(LINK + JOINT.format(type="revolute", extra="") + chain, tmp_path)
-    assert time.perf_counter() - start < 2
+    assert time.process_time() - start < 2
     assert len(doc.data["joints"]) == 1
