@@ -19,7 +19,7 @@ from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
 from .help import Command as _Command
 from .help import Group as _Group
-from .options import finite, tolerances, vector, with_parameters
+from .options import finite, problem, tolerances, vector, with_parameters
 from .output import WRITTEN, interrupted_message
 from .progress import Progress
 
@@ -118,15 +118,15 @@ def solve(
     from .output import write_all
 
     if template_dir is not None and not template_dir.is_dir():
-        raise InputError(_problem(str(template_dir), "template directory does not exist"))
+        raise InputError(problem(str(template_dir), "template directory does not exist"))
     chosen = None
     if sections is not None:
         try:
             chosen = parse_sections(sections)
         except ValueError as exc:
-            raise InputError(_problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
+            raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
         if not (latex or pdf):
-            raise InputError(_problem("--sections", "--sections chooses what the sheet shows: use it with --latex or --pdf"))
+            raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or --pdf"))
     progress = Progress(quiet)
     progress("loading")
     model = load_robot(robot, size_limits=True)
@@ -137,7 +137,7 @@ def solve(
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
     if tests and not code:
-        raise InputError(_problem("--tests", "--tests writes checks of the generated module: use it with --code"))
+        raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     if not (latex or pdf or code or c or json_):
         typer.echo(render_terminal(derivation), nl=False)
         return
@@ -211,7 +211,7 @@ def check(
     from ..verify.checks import run_checks
 
     if states < 1:
-        raise InputError(_problem("--states", f"expected a number of random states >= 1, got {states}"))
+        raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
     progress = Progress(quiet)
     model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
     _notes(model, quiet)
@@ -284,10 +284,8 @@ def simulate(
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
     check_frames(frames, animate is not None)
     if coordinates not in ("generalized", "maximal"):
-        raise InputError(_problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
+        raise InputError(problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
     finite(duration, "--duration", "a duration in seconds", 0.0, strict=True)
-    if frames < 2:
-        raise InputError(_problem("--frames", f"expected at least 2 frames, got {frames}"))
     finite(friction_smoothing, "--friction-smoothing", "a velocity", 0.0)
     finite(baumgarte, "--baumgarte", "a gain", 0.0)
     tolerances(rtol, atol)
@@ -303,9 +301,9 @@ def simulate(
     _notes(model, quiet)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
-        raise InputError(_problem(model.source, "maximal coordinates are planar-only for now"))
+        raise InputError(problem(model.source, "maximal coordinates are planar-only for now"))
     if animate is not None and not model.planar:
-        raise InputError(_problem(model.source, "--animate draws planar robots only"))
+        raise InputError(problem(model.source, "--animate draws planar robots only"))
     n = len(model.coordinates)
     start_q = vector(q0, n, "--q0")
     start_qd = vector(qd0, n, "--qd0")
@@ -313,7 +311,7 @@ def simulate(
     _notes(derivation, quiet)
     efforts = parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
-        raise InputError(_problem("--force", "wrenches at frames are applied in generalized coordinates only"))
+        raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code")
     source = render_code(derivation)
@@ -431,7 +429,7 @@ def identify(
     if states is not None:
         least = fewest_states(model)
         if states < least:
-            raise InputError(_problem("--states", f"expected at least {least} states for {model.name} (one per "
+            raise InputError(problem("--states", f"expected at least {least} states for {model.name} (one per "
                                       "regressor parameter: fewer can make the rank, and so the base parameters, "
                                       f"come out too small), got {states}"))
     derivation = derive(model, progress=progress)
@@ -483,7 +481,7 @@ def build(
     if not kinds:
         kinds = ("latex", "code")
     if template_dir is not None and not template_dir.is_dir():
-        raise InputError(_problem(str(template_dir), "template directory does not exist"))
+        raise InputError(problem(str(template_dir), "template directory does not exist"))
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
                          lambda text: typer.echo(text, err=True))
     width = max([len(o.source) for o in outcomes] + [5])
@@ -532,7 +530,7 @@ def import_(
     path = resolve_robot_path(urdf)
     check_output_paths({"--output": output}, (path,))
     if path.suffix.lower() in (".yaml", ".yml"):
-        raise InputError(_problem(str(path), "is already a YAML robot file (import converts URDF files)"))
+        raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF files)"))
     document = read_urdf(read_text(path), str(path))
     for note in document.notes:
         typer.echo(note, err=True)
@@ -544,9 +542,3 @@ def import_(
                           for path in sorted(document.impossible_inertias)])
     write_all({output: to_yaml(document.data, path.name).encode()})
     typer.echo(f"wrote {output}", err=True)
-
-
-def _problem(file: str, message: str) -> Any:
-    from ..errors import Problem
-
-    return Problem(file, 1, 1, message)

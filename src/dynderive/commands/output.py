@@ -218,8 +218,10 @@ def check_output_paths(outputs: dict[str, Path | None], inputs: tuple[Path, ...]
 
 
 def check_frames(frames: int, animate: bool) -> None:
-    """``--frames`` within the documented limits (``MAX_FRAMES``; with ``--animate``,
-    ``MAX_ANIMATION_FRAMES``): exit 2 before any work."""
+    """``--frames`` within the documented limits (at least 2; at most ``MAX_FRAMES``, with
+    ``--animate`` ``MAX_ANIMATION_FRAMES``): exit 2 before any work."""
+    if frames < 2:
+        raise InputError(Problem("--frames", 1, 1, f"expected at least 2 frames, got {frames}"))
     limit = MAX_ANIMATION_FRAMES if animate else MAX_FRAMES
     if frames > limit:
         what = "frames of an --animate GIF" if animate else "output samples"
