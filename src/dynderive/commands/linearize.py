@@ -15,7 +15,6 @@ the state (``qdd = 0``), where the actuation allows it.
 
 from __future__ import annotations
 
-import math
 import re
 from typing import Any
 
@@ -23,8 +22,8 @@ import numpy as np
 import sympy
 
 from ..errors import InputError, Problem
-from ..model.expressions import ExpressionError, parse_expression
-from .options import split_top_level
+from ..model.expressions import ExpressionError
+from .options import real_number, split_top_level
 
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$", re.S)
 
@@ -64,14 +63,14 @@ def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
         numbers = []
         for part in parts:
             try:
-                number = complex(parse_expression(part.strip(), {}).evalf(17))
+                number = real_number(part.strip())
             except (ExpressionError, TypeError, ValueError) as exc:
                 problems.append(_problem(f"{key}: {exc}"))
                 break
-            if number.imag or not math.isfinite(number.real):
+            if number is None:
                 problems.append(_problem(f"{key}: {part.strip()!r} is not a finite real number"))
                 break
-            numbers.append(number.real)
+            numbers.append(number)
         else:
             if key in sizes:
                 if len(numbers) != sizes[key]:

@@ -25,6 +25,15 @@ def problem(option: str, message: str, column: int = 1) -> Problem:
     return Problem(option, 1, column, message)
 
 
+def real_number(text: str) -> float | None:
+    """``text``, an expression of numbers (``atan2(1,1)``, ``1e-3``), as a float; None when its
+    value is not a finite real number. Raises the parser's errors (``ExpressionError``...)."""
+    from ..model.expressions import parse_expression  # SymPy: loaded when an option needs it
+
+    number = complex(parse_expression(text, {}).evalf(17))
+    return None if number.imag or not math.isfinite(number.real) else number.real
+
+
 def finite(value: float, option: str, what: str, low: float = -math.inf, strict: bool = False) -> None:
     """Refuse ``value`` unless it is finite and above ``low`` (``strict``) or at least ``low``."""
     if not math.isfinite(value) or (value <= low if strict else value < low):
@@ -83,7 +92,7 @@ def with_parameters(model: Any, robot: str, assignments: list[str], required: bo
     value (otherwise those without one take 1.0, as ``command`` does). The robot file ``robot``
     is validated again with the values used, so a negative mass or an expression that is not
     real at them is refused as it would be in the file."""
-    from ..model.expressions import ExpressionError, parse_expression
+    from ..model.expressions import ExpressionError
 
     known = {p.name: p for p in model.parameters}
     given: dict[str, float] = {}
@@ -101,15 +110,15 @@ def with_parameters(model: Any, robot: str, assignments: list[str], required: bo
             problems.append(problem("--param", f"unknown parameter {name!r} (parameters of {model.name}: {names})"))
             continue
         try:
-            number = complex(parse_expression(value, {}).evalf(17))
+            number = real_number(value)
         except (ExpressionError, TypeError, ValueError, OverflowError) as exc:
             offset = getattr(exc, "offset", 0)
             problems.append(problem("--param", f"{name}: {exc}", column + offset))
             continue
-        if number.imag or not math.isfinite(number.real):
+        if number is None:
             problems.append(problem("--param", f"{name}: {value!r} is not a finite real number", column))
             continue
-        given[name] = number.real
+        given[name] = number
         texts[name] = (text.strip(), column)
     parameters = tuple(dataclasses.replace(p, value=given.get(p.name, p.value)) for p in model.parameters)
     filled: dict[str, float] = {}
