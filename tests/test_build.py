@@ -201,3 +201,33 @@ def test_committed_examples_are_current(monkeypatch):
     result = runner.invoke(app, ["build", "robots", "--out", "examples", "--latex", "--code", "--pdf", "--check"])
     assert result.exit_code == 0, result.stdout + (
         "\nregenerate with: dynderive build robots --out examples --latex --code --pdf")
+
+
+def test_build_c_writes_the_c_target_and_tracks_its_templates(robots, tmp_path):
+    """``build --c`` writes what ``solve --c`` writes, is up to date the second time, and a C
+    template edit makes ``--check`` report the C files (not the others)."""
+    from dynderive.render.c import render_c
+
+    from conftest import derivation_of
+
+    out = tmp_path / "out"
+    templates = tmp_path / "templates"
+    (templates / "c").mkdir(parents=True)
+    shutil.copy(ROOT / "templates" / "c" / "dynamics.c.j2", templates / "c")
+    first = _build(robots, "--out", out, "--c", "--code", "--template-dir", templates, "-j", "1")
+    assert first.exit_code == 0, first.output
+    header, source = render_c(derivation_of("rp_arm"))
+    assert (out / "rp_arm_dynamics.h").read_text() == header
+    assert (out / "rp_arm_dynamics.c").read_text() == source
+    assert (out / "cart_pole_dynamics.c").is_file() and (out / "cart_pole_dynamics.py").is_file()
+    second = _build(robots, "--out", out, "--c", "--code", "--template-dir", templates, "-j", "1")
+    assert "2 up to date" in second.stdout
+    edited = templates / "c" / "dynamics.c.j2"
+    edited.write_text(edited.read_text() + "/* edited */\n")
+    check = _build(robots, "--out", out, "--c", "--code", "--template-dir", templates, "--check")
+    assert check.exit_code == 1
+    assert f"{out / 'rp_arm_dynamics.c'}: differs" in check.stdout
+    assert "rp_arm_dynamics.h" not in check.stdout and "rp_arm_dynamics.py" not in check.stdout
+    rebuilt = _build(robots, "--out", out, "--c", "--code", "--template-dir", templates, "-j", "1")
+    assert "2 built" in rebuilt.stdout
+    assert (out / "rp_arm_dynamics.c").read_text().endswith("/* edited */\n")

@@ -40,11 +40,11 @@ except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
 MANIFEST = ".dynderive-build.json"
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf")
-KINDS = ("latex", "pdf", "code", "json")
+KINDS = ("latex", "pdf", "code", "c", "json")
 #: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not compile)
-OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}.json", "{}.log")
+OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynamics.c", "{}.json", "{}.log")
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
-             "code": ["dynamics.py.j2"], "json": []}
+             "code": ["dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"], "json": []}
 
 
 @dataclass
@@ -220,6 +220,11 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
                 sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
     if "code" in kinds:
         files[f"{robot.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
+    if "c" in kinds:
+        from ..render.c import render_c
+
+        header, code = render_c(derivation, template_dir)
+        files[f"{robot.name}_dynamics.h"], files[f"{robot.name}_dynamics.c"] = header.encode(), code.encode()
     if "json" in kinds:
         files[f"{robot.name}.json"] = render_json(derivation).encode()
     return files, failed

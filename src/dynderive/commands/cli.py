@@ -466,6 +466,7 @@ def build(
     latex: Annotated[bool, typer.Option("--latex", help="Write <name>.tex.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write <name>.pdf.")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write <name>_dynamics.py.")] = False,
+    c: Annotated[bool, typer.Option("--c", help="Write <name>_dynamics.h and .c (C99).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
     check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "
@@ -477,7 +478,8 @@ def build(
     from .build import build as run_build
     from .build import default_jobs
 
-    kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("json", json_)) if wanted)
+    kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
+                                                        ("json", json_)) if wanted)
     if not kinds:
         kinds = ("latex", "code")
     if template_dir is not None and not template_dir.is_dir():
