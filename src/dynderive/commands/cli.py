@@ -19,7 +19,7 @@ from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
 from .help import Command as _Command
 from .help import Group as _Group
-from .options import finite, problem, tolerances, vector, with_parameters
+from .options import backend_name, finite, problem, tolerances, vector, with_parameters
 from .output import WRITTEN, interrupted_message
 from .progress import Progress
 
@@ -198,6 +198,9 @@ def check(
     states: Annotated[int, typer.Option("--states", help="Random states for the numeric checks.")] = 12,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                      "(repeatable; parameters without a default take 1.0).")] = None,
+    backend: Annotated[str, typer.Option("--backend", help="numpy: check the generated NumPy module; c: also "
+                       "compile the C extension (--c-extension) and compare each of its functions with the "
+                       "NumPy module.")] = "numpy",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
@@ -212,6 +215,7 @@ def check(
 
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
+    backend = backend_name(backend)
     progress = Progress(quiet)
     model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
     _notes(model, quiet)
@@ -221,6 +225,13 @@ def check(
     source = render_code(derivation)
     progress("checking")
     rows = run_checks(derivation, source, states=states)
+    if backend == "c":
+        from ..verify.compiled import compiled_checks
+        from .compile import compiled_module
+
+        compiled = compiled_module(derivation, progress=progress)
+        progress("checking the compiled module")
+        rows += compiled_checks(derivation, source, compiled, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,
@@ -269,6 +280,8 @@ def simulate(
     friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
                                   "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, as the generated "
                                   "module's default, which integrators cannot step through).")] = 1e-3,
+    backend: Annotated[str, typer.Option("--backend", help="numpy: the generated NumPy module; c: the C "
+                       "extension (--c-extension), compiled for this run (generalized coordinates).")] = "numpy",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
@@ -290,6 +303,10 @@ def simulate(
     finite(baumgarte, "--baumgarte", "a gain", 0.0)
     tolerances(rtol, atol)
     method = method_name(method)
+    backend = backend_name(backend)
+    if backend == "c" and coordinates == "maximal":
+        raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
+                                 "use --backend numpy with --coordinates maximal"))
     try:
         import matplotlib  # noqa: F401
         import scipy  # noqa: F401
@@ -315,10 +332,15 @@ def simulate(
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code")
     source = render_code(derivation)
+    compiled = None
+    if backend == "c":
+        from .compile import compiled_module
+
+        compiled = compiled_module(derivation, progress=progress)
     trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
                      np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
                      frames, progress, friction_smoothing, wrenches, method,
-                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True))
+                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")

@@ -193,3 +193,15 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
     except InputError as exc:
         return exc.problems
     return []
+
+
+#: ``--backend`` of ``check`` and ``simulate``: the generated NumPy module, or the compiled C
+#: extension (``--c-extension``).
+BACKENDS = ("numpy", "c")
+
+
+def backend_name(text: str) -> str:
+    """``--backend`` in lower case, or an InputError listing the choices."""
+    if text.lower() in BACKENDS:
+        return text.lower()
+    raise InputError(problem("--backend", f"expected one of {', '.join(BACKENDS)}, got {text!r}"))

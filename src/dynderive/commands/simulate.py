@@ -123,12 +123,16 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
              baumgarte: float, frames: int, progress: Callable[[str], None],
              friction_smoothing: float = 0.0,
              wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
-             method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None) -> Trajectory:
+             method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
+             compiled: Any = None) -> Trajectory:
     """Integrate the generated dynamics with SciPy's ``method`` (see ``integrate``). Robots
     with Coulomb friction use the module's smoothed sign (``friction_smoothing``, a velocity;
     0 = exact) in generalized coordinates. ``note`` receives one line if the integrator
-    struggles; a state or an effort that stops being finite stops the run (InputError)."""
+    struggles; a state or an effort that stops being finite stops the run (InputError).
+    ``compiled``: the C extension (``--backend c``), whose forward dynamics and friction the
+    integrator calls instead of the NumPy module's (generalized coordinates only)."""
     module = generated_module(source, derivation.robot.name)
+    fast = compiled if compiled is not None else module
     values = {p.name: p.value for p in derivation.robot.parameters if p.value is not None}
     n = len(q0)
     reported = [-1]
@@ -144,17 +148,17 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
             if friction and friction_smoothing == 0 and not maximal else "")
     if derivation.robot.loops and not maximal:
         return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
-                               frames, tick, friction_smoothing, wrenches, method, note, hint)
+                               frames, tick, friction_smoothing, wrenches, method, note, hint, fast)
     dissipative = derivation.robot.dissipative and not maximal
     if not maximal:
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
             q, qd = y[:n], y[n:2 * n]
-            qdd = module.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
-                                          friction_smoothing=friction_smoothing, **values)
+            qdd = fast.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
+                                        friction_smoothing=friction_smoothing, **values)
             if not dissipative:
                 return np.concatenate([qd, qdd])
-            power = qd @ module.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
+            power = qd @ fast.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
             return np.concatenate([qd, qdd, [power]])   # the dissipated work W rides along
         y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
         names = list(derivation.robot.coordinates)
@@ -215,12 +219,13 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
                     friction_smoothing: float = 0.0,
                     wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
                     method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
-                    hint: str = "") -> Trajectory:
+                    hint: str = "", fast: Any = None) -> Trajectory:
     """A closed-loop mechanism: start on the constraints (``assemble`` keeps q0's independent
     coordinates; qd0 projected onto the allowed motions), integrate the constrained dynamics
     (Baumgarte gains ``baumgarte``) from frame to frame, and project the state back onto the
     constraints at every frame; ``drift`` is the largest |a_g| before each projection."""
     n = len(q0)
+    dynamics = fast if fast is not None else module
     independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
 
     def project(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -237,10 +242,9 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)
         q, qd = y[:n], y[n:]
-        return np.concatenate([qd, module.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
-                                                           alpha=baumgarte,
-                                                           beta=baumgarte, friction_smoothing=friction_smoothing,
-                                                           **values)])
+        return np.concatenate([qd, dynamics.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
+                                                             alpha=baumgarte, beta=baumgarte,
+                                                             friction_smoothing=friction_smoothing, **values)])
 
     times = np.linspace(0.0, duration, frames)
     q, qd = project(q0, qd0)

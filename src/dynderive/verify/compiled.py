@@ -1,0 +1,121 @@
+"""``check --backend c``: the compiled extension against the NumPy module, function by function.
+
+The NumPy module is what every other check holds to the symbolic quantities, Pinocchio and
+the reference closed forms, so the compiled code inherits that trust once each of its
+functions gives the NumPy module's numbers at the same states: for a batch (the loop in C)
+and for one state (the fast path), to 1e-12 relative to the result's largest entry (section
+9 of the design).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .checks import Row
+
+#: Agreement required of the compiled functions, relative to the result's largest entry.
+RTOL = 1e-12
+
+#: The functions compared, with the arrays they take (``p``: keyword parameters only).
+FUNCTIONS = (
+    ("mass_matrix", "q"), ("coriolis_matrix", "q qd"), ("gravity_vector", "q"),
+    ("inverse_dynamics", "q qd qdd"), ("forward_dynamics", "q qd u"), ("kinetic_energy", "q qd"),
+    ("potential_energy", "q"), ("friction_forces", "qd"), ("linearize", "q qd u"),
+    ("regressor", "q qd qdd"), ("parameter_vector", ""),
+    ("loop_constraints", "q"), ("loop_jacobian", "q"), ("loop_jacobian_dot", "q qd"), ("loop_forces", "q qd u"),
+)
+FRAME_FUNCTIONS = (("frame_transform", "q"), ("frame_jacobian", "q"), ("frame_jacobian_dot_qd", "q qd"))
+
+
+def _difference(expected: Any, got: Any) -> float:
+    """Largest difference relative to the largest entry (at least 1); tuples entry by entry."""
+    if isinstance(expected, tuple):
+        return max(_difference(e, g) for e, g in zip(expected, got, strict=True))
+    expected, got = np.asarray(expected, dtype=float), np.asarray(got, dtype=float)
+    if expected.shape != got.shape:
+        return float("inf")
+    if not expected.size:
+        return 0.0
+    scale = max(1.0, float(np.max(np.abs(expected))))
+    return float(np.max(np.abs(expected - got))) / scale
+
+
+def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: dict[str, np.ndarray],
+                  friction_smoothing: float = 0.0) -> list[Row]:
+    """One row per function of the NumPy ``module`` that ``compiled`` offers, at ``states``
+    (arrays ``q``, ``qd``, ``qdd``, ``u`` of one shape ``(count, size)``), and one row listing
+    the functions it does not offer."""
+    rows: list[Row] = []
+    missing = []
+    count = len(states["q"])
+    friction = {"friction_smoothing": friction_smoothing}
+    cases = [(name, args, ()) for name, args in FUNCTIONS]
+    cases += [(name, args, (frame,)) for frame in getattr(module, "FRAMES", ()) for name, args in FRAME_FUNCTIONS]
+    for name, args, extra in cases:
+        if not hasattr(module, name):
+            continue
+        if not hasattr(compiled, name):
+            missing.append(name)
+            continue
+        arrays = [states[a] for a in args.split()]
+        keywords = dict(values, **(friction if name in ("inverse_dynamics", "forward_dynamics", "friction_forces",
+                                                         "linearize", "loop_forces") else {}))
+        try:
+            worst = _difference(getattr(module, name)(*arrays, *extra, **keywords),
+                                getattr(compiled, name)(*arrays, *extra, **keywords))
+            if arrays:   # one state: the fast path
+                worst = max(worst, _difference(getattr(module, name)(*(a[0] for a in arrays), *extra, **keywords),
+                                               getattr(compiled, name)(*(a[0] for a in arrays), *extra, **keywords)))
+        except (ValueError, TypeError, np.linalg.LinAlgError) as exc:
+            rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module", "FAIL", f"raised {type(exc).__name__}: "
+                            f"{exc}", float("nan")))
+            continue
+        rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module", "pass" if worst <= RTOL else "FAIL",
+                        f"numeric, {count} states and one, relative", worst))
+    frames = getattr(module, "FRAMES", ())
+    if frames and hasattr(compiled, "inverse_dynamics"):
+        rng = np.random.default_rng(1)
+        size = module.frame_jacobian(states["q"][0], frames[0], **values).shape[0]
+        wrenches = {frame: rng.uniform(-1.0, 1.0, (count, size)) for frame in frames}
+        arrays = [states[a] for a in ("q", "qd", "qdd")]
+        worst = _difference(module.inverse_dynamics(*arrays, wrenches, **values),
+                            compiled.inverse_dynamics(*arrays, wrenches, **values))
+        rows.append(Row("compiled inverse_dynamics with wrenches at every frame == NumPy module",
+                        "pass" if worst <= RTOL else "FAIL", f"numeric, {count} states, relative", worst))
+    missing += sorted(name for name, value in vars(module).items() if callable(value) and not name.startswith("_")
+                      and not hasattr(compiled, name) and name not in missing and not isinstance(value, type))
+    if missing:
+        rows.append(Row("compiled module offers every function", "skip", "not compiled yet: " + ", ".join(missing),
+                        float("nan")))
+    return rows
+
+
+def _frame(extra: tuple, smoothing: float = 0.0) -> str:
+    return (f" (frame {extra[0]})" if extra else "") + (f" (friction_smoothing {smoothing:g})" if smoothing else "")
+
+
+def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0) -> list[Row]:
+    """``compiled_rows`` at random states of ``derivation``'s robot (on the loops, for a robot
+    with closed loops), with the parameters' defaults (1.0 where a parameter has none)."""
+    from .checks import _loop_states, generated_module
+
+    robot = derivation.robot
+    module = generated_module(source, robot.name)
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
+    rng = np.random.default_rng(seed + 7)
+    n = len(robot.coordinates)
+    sample = {"q": rng.uniform(-1.5, 1.5, (states, n)), "qd": rng.uniform(-1.0, 1.0, (states, n)),
+              "qdd": rng.uniform(-1.0, 1.0, (states, n)), "u": rng.uniform(-1.0, 1.0, (states, len(robot.efforts)))}
+    if robot.loops:
+        sample["q"], sample["qd"], _ = _loop_states(derivation, module, values, sample["q"], sample["qd"])
+        if not len(sample["q"]):
+            return [Row("compiled module == NumPy module", "FAIL", "no random state could be assembled",
+                        float("nan"))]
+        sample = {k: v[: len(sample["q"])] for k, v in sample.items()}
+    friction = 1e-3 if any(j.friction is not None for j in robot.joints if j.moves) else 0.0
+    rows = compiled_rows(module, compiled, values, sample)
+    if friction:   # the smoothed sign too (what simulate integrates), for the functions that take it
+        rows += [r for r in compiled_rows(module, compiled, values, sample, friction) if "smoothing" in r.name]
+    return rows
