@@ -19,9 +19,9 @@ import pytest
 
 import dynderive
 from dynderive.render.c import render_c
+from test_c_target import CC, STRICT, Library, _close, _write
 
 from conftest import ROBOTS, derivation_of, import_code, module_of
-from test_c_target import CC, STRICT, Library, _close, _write
 
 HERE = Path(__file__).parent / "loops"
 LOOP_ROBOTS = ["four_bar", "slider_crank", "bennett", "spatial_four_bar",
@@ -48,6 +48,10 @@ def _call(library: Library, function: str, inputs: list, sizes: tuple[int, ...],
         *(None if a is None else a.ctypes.data_as(P) for a in arrays),
         None if params is None else params.ctypes.data_as(P), *(o.ctypes.data_as(P) for o in outs))
     return result, np.concatenate(outs)
+
+
+def _dependent_mask(module) -> np.ndarray:
+    return np.array([0.0 if c in module.INDEPENDENT_COORDINATES else 1.0 for c in module.COORDINATES])
 
 
 def _states(module, rng, count: int):
@@ -104,6 +108,17 @@ def test_loop_robot_agrees_with_numpy(robot, tmp_path, code_dir):
         status, lam = _call(library, "loop_forces", [q, qd, u], (k,), None)
         assert status == 0
         _close(lam, module.loop_forces(q, qd, u), "loop_forces")
+        m = len(module.INDEPENDENT_COORDINATES)
+        status, R = _call(library, "reduced_basis", [q], (n * m,), None)
+        assert status == 0
+        _close(R.reshape(n, m), module.reduced_basis(q), "reduced_basis")
+        status, qdd = _call(library, "reduced_forward_dynamics", [q, qd, u], (n,), None)
+        assert status == 0
+        _close(qdd, module.reduced_forward_dynamics(q, qd, u), "reduced_forward_dynamics")
+        guess = q + 0.05 * _dependent_mask(module)   # the dependent coordinates moved
+        status, assembled = _call(library, "assemble", [guess], (n,), None)
+        assert status == 0
+        _close(assembled, module.assemble(guess), "assemble")
         status, AB = _call(library, "linearize", [q, qd, u], (4 * n * n, 2 * n * library.nu), None)
         assert status == 0
         A_lin, B_lin = module.linearize(q, qd, u)
@@ -125,6 +140,22 @@ def test_singular_loop_configuration_is_reported(tmp_path, code_dir):
     assert status == 2 and np.all(np.isnan(qdd))
     status, lam = _call(library, "loop_forces", [q, qd, u], (2,), None)
     assert status == 2 and np.all(np.isnan(lam))
+
+
+def test_assemble_reports_no_assembly(tmp_path, code_dir):
+    """A four-bar whose ground link is longer than the other three together cannot close:
+    the NumPy module raises, the C function returns 1 and leaves q untouched."""
+    library = Library(derivation_of("four_bar"), tmp_path)
+    module = module_of("four_bar", str(code_dir))
+    values = {**module.PARAMETERS, "d": 5.0}
+    guess = np.array(module.ASSEMBLED_CONFIGURATION)
+    with pytest.raises(ValueError):
+        module.assemble(guess, **values)
+    status, q = _call(library, "assemble", [guess], (3,), [*values.values(), 0.0, 0.0, 0.0])
+    assert status == 1 and np.all(np.isnan(q))
+    status, q = _call(library, "assemble", [guess], (3,), None)
+    assert status == 0
+    _close(q, module.assemble(guess), "assemble")
 
 
 def _framed_loop(tmp_path: Path) -> Path:

@@ -37,7 +37,7 @@ import sympy
 
 from ..derivation import Derivation
 from .c_names import c_comment
-from .c_solve import dense, ldl_factor, ldl_solve, row_space_lines
+from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
 from .encode import Code
 
 
@@ -156,7 +156,7 @@ def _sizes(derivation: Derivation) -> tuple[int, int, int]:
     return (len(derivation.symbols.q), derivation.quantities["a_g"].shape[0], derivation.steps["loops"].rank)
 
 
-def _constraint_rows(derivation: Derivation, bottom: str, columns: int) -> tuple[list[str], str, str]:
+def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -> tuple[list[str], str, str | None]:
     """Lines that give the rows the solve uses: the loop Jacobian ``Aj`` itself, or
     (over-constrained) ``Ar = U_r^T Aj`` with ``U_r`` (``Ur``) from the row space, and ``bottom``
     (NC x columns) projected to ``<bottom>_r``; returns (lines, rows array, bottom array)."""
@@ -164,6 +164,8 @@ def _constraint_rows(derivation: Derivation, bottom: str, columns: int) -> tuple
     if rank == k:
         return [], "Aj", bottom
     lines = row_space_lines(k, n, rank, "Aj", "Ar", "Ur", "return 2;")
+    if bottom is None:
+        return lines + ["(void)Ur;"], "Ar", None
     lines += [f"double {bottom}_r[{rank * columns}];",
               f"for (int m = 0; m < {rank}; ++m) {{", f"    for (int c = 0; c < {columns}; ++c) {{",
               "        double sum = 0.0;",
@@ -276,6 +278,106 @@ def _loop_functions(derivation: Derivation, kit: CKit) -> list[Any]:
                      f"joints (forward_dynamics' system with alpha = beta = 0, no wrench).{rows} Returns as "
                      "forward_dynamics (lambda untouched unless 0).",
                      _loop_solve(derivation, kit, "0", False, None, "lambda") + ["return 0;"]),
+        *_reduced_functions(derivation, kit),
+    ]
+
+
+def _partition(derivation: Derivation, rows: str, extra: str | None) -> list[str]:
+    """``Dd`` (the dependent columns of ``rows``, r x r) and ``Di`` (its independent columns,
+    and the column ``extra`` when given: r x (m + 1)), then ``Di = Dd^-1 Di`` (``return 2``
+    when Dd is singular, as ``numpy.linalg.solve`` raises)."""
+    loops = derivation.steps["loops"]
+    n, _, r = _sizes(derivation)
+    m = len(loops.independent)
+    width = m + (1 if extra else 0)
+    lines = [f"double Dd[{r * r}];", f"double Di[{r * width}];"]
+    for a in range(r):
+        lines += [f"Dd[{a * r + b}] = {rows}[{a * n + j}];" for b, j in enumerate(loops.dependent)]
+        lines += [f"Di[{a * width + b}] = {rows}[{a * n + j}];" for b, j in enumerate(loops.independent)]
+        if extra:
+            lines.append(f"Di[{a * width + m}] = {extra}[{a}];")
+    return lines + gauss_lines(r, "Dd", "Di", width, "return 2;")
+
+
+def _basis(derivation: Derivation, target: str, width: int) -> list[str]:
+    """``target`` (n x m) = R_g: the identity on the independent rows, -Dd^-1 Di on the others."""
+    loops = derivation.steps["loops"]
+    m = len(loops.independent)
+    lines = []
+    for b, i in enumerate(loops.independent):
+        lines += [f"{target}[{i * m + c}] = {1.0 if b == c else 0.0};" for c in range(m)]
+    for a, i in enumerate(loops.dependent):
+        lines += [f"{target}[{i * m + c}] = -Di[{a * width + c}];" for c in range(m)]
+    return lines
+
+
+def _reduced_functions(derivation: Derivation, kit: CKit) -> list[Any]:
+    """reduced_basis, reduced_forward_dynamics and assemble, as the NumPy module's."""
+    name, loops = derivation.robot.name, derivation.steps["loops"]
+    n, k, r = _sizes(derivation)
+    m, independent = len(loops.independent), ", ".join(derivation.robot.coordinates[i] for i in loops.independent)
+    jacobian = [f"double Aj[{k * n}];", f"{name}_loop_jacobian(q, p, Aj);"]
+    rows_lines, rows, _ = _constraint_rows(derivation, None, 1)
+    basis = [kit.start, "(void)P;", *jacobian, *rows_lines, *_partition(derivation, rows, None),
+             *_basis(derivation, "R", m), "return 0;"]
+    drift = [f"double Ad[{k * n}];", f"double e[{k}];", f"{name}_loop_jacobian_dot(q, qd, p, Ad);",
+             *(f"e[{i}] = " + " + ".join(f"Ad[{i * n + j}]*qd[{j}]" for j in range(n)) + ";" for i in range(k))]
+    rows_lines, rows, bottom = _constraint_rows(derivation, "e", 1)
+    reduced = [*_applied(derivation, kit, "f", "0"), *jacobian, *drift, *rows_lines,
+               *_partition(derivation, rows, bottom), f"double Rb[{n * m}];", f"double sh[{n}];",
+               *_basis(derivation, "Rb", m + 1), *(f"sh[{i}] = 0.0;" for i in loops.independent),
+               *(f"sh[{i}] = -Di[{a * (m + 1) + m}];" for a, i in enumerate(loops.dependent)),
+               *(f"f[{i}] -= " + " + ".join(f"M[{i * n + j}]*sh[{j}]" for j in range(n)) + ";" for i in range(n)),
+               f"double Mr[{m * m}];", f"double g[{m}];",
+               f"for (int r1 = 0; r1 < {m}; ++r1) {{", "    g[r1] = 0.0;",
+               f"    for (int i = 0; i < {n}; ++i) g[r1] += Rb[i * {m} + r1]*f[i];",
+               f"    for (int r2 = 0; r2 < {m}; ++r2) {{", "        double sum = 0.0;",
+               f"        for (int i = 0; i < {n}; ++i) {{",
+               f"            for (int j = 0; j < {n}; ++j) sum += Rb[i * {m} + r1]*M[i * {n} + j]*Rb[j * {m} + r2];",
+               "        }", f"        Mr[r1 * {m} + r2] = sum;", "    }", "}",
+               *ldl_factor(lambda i, j: f"Mr[{i * m + j}]", m, dense(m), "r", "return 1;"),
+               *ldl_solve(m, dense(m), "r", [f"g[{c}]" for c in range(m)]),
+               *(f"qdd[{i}] = " + "".join(f"Rb[{i * m + c}]*rx{c} + " for c in range(m)) + f"sh[{i}];"
+                 for i in range(n)), "return 0;"]
+    dependent = loops.dependent
+    d = len(dependent)
+    assemble = [f"double x[{n}];", f"double a[{k}];", f"double Aj[{k * n}];",
+                f"for (int i = 0; i < {n}; ++i) x[i] = q_guess[i];",
+                "for (int iteration = 0; iteration < 100; ++iteration) {   /* Newton, steps limited to 0.5 */",
+                "    int closed = 1;", f"    {name}_loop_constraints(x, p, a);",
+                f"    for (int i = 0; i < {k}; ++i) closed = closed && fabs(a[i]) < 1e-12;",
+                "    if (closed) {", f"        for (int i = 0; i < {n}; ++i) q[i] = x[i];", "        return 0;", "    }",
+                f"    {name}_loop_jacobian(x, p, Aj);", f"    double Nm[{d * d}];", f"    double h[{d}];",
+                "    double trace = 0.0;"]
+    for a, i in enumerate(dependent):
+        assemble.append(f"    h[{a}] = " + " + ".join(f"Aj[{row * n + i}]*a[{row}]" for row in range(k)) + ";")
+        for b, j in enumerate(dependent):
+            assemble.append(f"    Nm[{a * d + b}] = " + " + ".join(f"Aj[{row * n + i}]*Aj[{row * n + j}]"
+                                                                for row in range(k)) + ";")
+        assemble.append(f"    trace += Nm[{a * d + a}];")
+    assemble += [f"    Nm[{a * d + a}] += 1e-14*(1.0 + trace);" for a in range(d)]
+    assemble += ["    " + line for line in ldl_factor(lambda i, j: f"Nm[{i * d + j}]", d, dense(d), "n", "return 1;")]
+    assemble += ["    " + line for line in ldl_solve(d, dense(d), "n", [f"h[{a}]" for a in range(d)])]
+    assemble += ["    double size = 0.0;", *(f"    size = fmax(size, fabs(nx{a}));" for a in range(d)),
+                 "    const double scale = fmin(1.0, 0.5 / fmax(size, 1e-300));",
+                 *(f"    x[{i}] -= nx{a}*scale;" for a, i in enumerate(dependent)), "}",
+                 f"{name}_loop_constraints(x, p, a);",
+                 f"for (int i = 0; i < {k}; ++i) {{", "    if (!(fabs(a[i]) < 1e-9)) return 1;", "}",
+                 f"for (int i = 0; i < {n}; ++i) q[i] = x[i];", "return 0;"]
+    return [
+        kit.function(f"int {name}_reduced_basis(const double *q, {kit.pp}, double *R)",
+                     f"R_g(q), {n} x {m}, row-major: the motions the loops allow, qd = R_g qd_i with qd_i the "
+                     f"velocities of {independent}; returns 0, or 2 (R untouched) where the dependent block of A_g "
+                     "is singular.", basis),
+        kit.function(f"int {name}_reduced_forward_dynamics(const double *q, const double *qd, const double *u, "
+                     f"{kit.pp}, double *qdd)",
+                     "qdd by the reduced form R_g^T M R_g qdd_i = R_g^T (Y - C qd - N - F - M s), qdd = R_g qdd_i + s "
+                     "(no multipliers; forward_dynamics with alpha = beta = 0 on the constraints); returns 0, 1 if "
+                     "R_g^T M R_g is not positive definite, 2 as reduced_basis (qdd untouched).", reduced),
+        kit.function(f"int {name}_assemble(const double *q_guess, {kit.pp}, double *q)",
+                     f"The configuration on a_g(q) = 0 nearest q_guess by Newton's method (at most 100 steps, each "
+                     f"at most 0.5), keeping {independent}; returns 0, or 1 (q untouched) where it does not "
+                     "converge (the NumPy module raises ValueError).", assemble),
     ]
 
 

@@ -115,3 +115,43 @@ def row_space_lines(k: int, n: int, rank: int, jacobian: str, rows: str, space: 
         f"    for (int i = 0; i < {k}; ++i) {space}[i * {rank} + m] = U_[i * {k} + best];",
         "}",
     ]
+
+
+def gauss_lines(size: int, matrix: str, rhs: str, columns: int, failure: str) -> list[str]:
+    """``rhs`` (a local ``size x columns`` array) overwritten by ``matrix^-1 rhs`` (``matrix`` a
+    local ``size x size`` array, destroyed): Gaussian elimination with partial pivoting, as
+    LAPACK's ``gesv`` behind ``numpy.linalg.solve``; ``failure`` at a zero pivot (singular)."""
+    s, c = size, columns
+    return [
+        f"for (int j = 0; j < {s}; ++j) {{",
+        "    int pivot = j;",
+        f"    for (int i = j + 1; i < {s}; ++i) {{",
+        f"        if (fabs({matrix}[i * {s} + j]) > fabs({matrix}[pivot * {s} + j])) pivot = i;",
+        "    }",
+        f"    if (!(fabs({matrix}[pivot * {s} + j]) > 0.0)) {failure}",
+        "    if (pivot != j) {",
+        f"        for (int c = 0; c < {s}; ++c) {{",
+        f"            const double swap = {matrix}[j * {s} + c];",
+        f"            {matrix}[j * {s} + c] = {matrix}[pivot * {s} + c];",
+        f"            {matrix}[pivot * {s} + c] = swap;",
+        "        }",
+        f"        for (int c = 0; c < {c}; ++c) {{",
+        f"            const double swap = {rhs}[j * {c} + c];",
+        f"            {rhs}[j * {c} + c] = {rhs}[pivot * {c} + c];",
+        f"            {rhs}[pivot * {c} + c] = swap;",
+        "        }",
+        "    }",
+        f"    for (int i = j + 1; i < {s}; ++i) {{",
+        f"        const double factor = {matrix}[i * {s} + j] / {matrix}[j * {s} + j];",
+        f"        for (int c = j; c < {s}; ++c) {matrix}[i * {s} + c] -= factor*{matrix}[j * {s} + c];",
+        f"        for (int c = 0; c < {c}; ++c) {rhs}[i * {c} + c] -= factor*{rhs}[j * {c} + c];",
+        "    }",
+        "}",
+        f"for (int j = {s - 1}; j >= 0; --j) {{",
+        f"    for (int c = 0; c < {c}; ++c) {{",
+        f"        double sum = {rhs}[j * {c} + c];",
+        f"        for (int i = j + 1; i < {s}; ++i) sum -= {matrix}[j * {s} + i]*{rhs}[i * {c} + c];",
+        f"        {rhs}[j * {c} + c] = sum / {matrix}[j * {s} + j];",
+        "    }",
+        "}",
+    ]
