@@ -84,7 +84,7 @@ def test_loop_robot_agrees_with_numpy(robot, tmp_path, code_dir):
         assert np.max(np.abs(module.loop_jacobian(q) @ qd)) < 1e-9 * max(1.0, np.max(np.abs(qd)))
         _, a = _call(library, "loop_constraints", [q], (k,), None)
         assert np.max(np.abs(a)) < 1e-11   # assembled: zero, up to rounding (no relative test)
-        off = q + rng.normal(scale=1e-3, size=n)
+        off = q + rng.normal(scale=2e-2, size=n)
         _, a = _call(library, "loop_constraints", [off], (k,), None)
         _close(a, module.loop_constraints(off), "loop_constraints")
         _, A = _call(library, "loop_jacobian", [q], (k * n,), None)
@@ -162,9 +162,35 @@ def _framed_loop(tmp_path: Path) -> Path:
     """The four-bar with a frame at the coupler's far end (a loop robot with a frame)."""
     text = (ROBOTS / "four_bar.yaml").read_text()
     assert "\nframes:" not in text
+    text = text.replace("    effort: tau1\n", "    effort: tau1\n    damping: 0.3\n    friction: 0.2\n")
     path = tmp_path / "four_bar.yaml"
-    path.write_text(text.rstrip("\n") + "\nframes:\n  - {name: tip, link: coupler, origin: [b/2, 0.1, 0.3]}\n")
+    path.write_text(text.rstrip("\n") + "\nframes:\n  - {name: tip, link: coupler, origin: [b/2, 0.1]}\n")
     return path
+
+
+def test_dissipative_loop_robot(tmp_path):
+    """Damping and Coulomb friction (friction_smoothing from the struct) in the constrained
+    forward dynamics, the loop forces and linearize of a loop robot."""
+    derivation = dynderive.derive(dynderive.load_robot(_framed_loop(tmp_path)))
+    assert derivation.robot.dissipative
+    module = import_code(dynderive.render_code(derivation), tmp_path, "damped_four_bar_dynamics")
+    library = Library(derivation, tmp_path / "c")
+    n, k = 3, 2
+    for q, qd, u in _states(module, np.random.default_rng(8), 2):
+        for eps in (0.0, 0.05):
+            p = [*map(float, module.PARAMETERS.values()), eps, 0.0, 0.0]
+            status, qdd = _call(library, "forward_dynamics", [q, qd, u], (n,), p)
+            assert status == 0
+            _close(qdd, module.forward_dynamics(q, qd, u, friction_smoothing=eps), "forward_dynamics")
+            status, lam = _call(library, "loop_forces", [q, qd, u], (k,), p)
+            _close(lam, module.loop_forces(q, qd, u, friction_smoothing=eps), "loop_forces")
+            status, qdd = _call(library, "reduced_forward_dynamics", [q, qd, u], (n,), p)
+            _close(qdd, module.reduced_forward_dynamics(q, qd, u, friction_smoothing=eps), "reduced_forward_dynamics")
+            status, AB = _call(library, "linearize", [q, qd, u], (4 * n * n, 2 * n), p)
+            assert status == 0
+            A, B = module.linearize(q, qd, u, friction_smoothing=eps)
+            _close(AB[:4 * n * n].reshape(2 * n, 2 * n), A, "linearize A")
+            _close(AB[4 * n * n:].reshape(2 * n, 1), B, "linearize B")
 
 
 @pytest.mark.parametrize("robot", ["planar_3r", "elbow_arm", "framed_four_bar"])
