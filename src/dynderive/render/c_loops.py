@@ -18,6 +18,9 @@ vectors) and the multipliers of least norm ``lambda = U_r lambda_r``. The Baumga
 positive definite; 2 if ``S`` is singular (a pivot not above 1e-12 of its diagonal entry: the
 loop rows are dependent beyond the rank at this configuration); outputs untouched unless 0.
 ``linearize`` of a loop robot solves the same system for its columns (the NumPy module's).
+``reduced_basis`` and ``reduced_forward_dynamics`` solve the dependent block by Gaussian
+elimination with partial pivoting (``numpy.linalg.solve``'s); ``assemble`` is the NumPy
+module's Newton iteration (1 where it raises).
 
 External wrenches (every robot): ``inverse_dynamics_wrenches`` and
 ``forward_dynamics_wrenches`` take ``wrenches``, NFRAMES x 6 (planar x 3) row-major, one per
