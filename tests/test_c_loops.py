@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -19,7 +20,7 @@ import pytest
 
 import dynderive
 from dynderive.render.c import render_c
-from test_c_target import CC, STRICT, Library, _close, _write
+from test_c_target import CC, STRICT, Library, _close, _compile, _write
 
 from conftest import ROBOTS, derivation_of, import_code, module_of
 
@@ -277,6 +278,18 @@ int main(void)
     _close(numbers[:n], module.forward_dynamics(q, qd, u), "forward_dynamics")
     _close(numbers[n:n + k], module.loop_forces(q, qd, u), "loop_forces")
     _close(numbers[n + k:].reshape(2 * n, 2 * n), module.linearize(q, qd, u)[0], "linearize A")
+
+
+def test_loop_code_has_no_mutable_globals(tmp_path):
+    """The Jacobi row space, the eliminations and Newton's iteration keep their arrays on the
+    stack: the object file holds code and read-only data only (thread-safe)."""
+    if shutil.which("nm") is None:
+        pytest.skip("no nm")
+    path = _write(derivation_of("bennett"), tmp_path)
+    _compile(path)
+    symbols = subprocess.run(["nm", str(path.with_suffix(".o"))], capture_output=True, text=True, check=True).stdout
+    kinds = {line.split()[-2] for line in symbols.splitlines() if len(line.split()) >= 2}
+    assert "R" in kinds and not kinds & set("BbDdCGgSs"), symbols
 
 
 def test_header_declares_the_loop_functions(tmp_path):

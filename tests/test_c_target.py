@@ -323,7 +323,7 @@ def test_hostile_text_compiles_as_c_and_cpp(tmp_path):
     assert _decode(header.splitlines()[0].split("equations of motion of ", 1)[1][:-3]) == HOSTILE
 
 
-@pytest.mark.parametrize("name", ["new", "NAN", "double", "RP_ARM_NQ"])
+@pytest.mark.parametrize("name", ["new", "NAN", "double", "RP_ARM_NQ", "RP_ARM_NC"])
 def test_parameter_names_that_are_not_c_names_are_refused(tmp_path, name):
     path = _hostile_robot(tmp_path, name)
     robot = dynderive.load_robot(path)
