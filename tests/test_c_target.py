@@ -21,7 +21,6 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.errors import InputError
 from dynderive.render.c import render_c, unsupported
 from dynderive.render.c_names import c_comment
 
@@ -324,7 +323,7 @@ def test_hostile_text_compiles_as_c_and_cpp(tmp_path):
     assert _decode(header.splitlines()[0].split("equations of motion of ", 1)[1][:-3]) == HOSTILE
 
 
-@pytest.mark.parametrize("name", ["new", "NAN", "double", "RP_ARM_NQ"])
+@pytest.mark.parametrize("name", ["new", "NAN", "double", "RP_ARM_NQ", "RP_ARM_NC"])
 def test_parameter_names_that_are_not_c_names_are_refused(tmp_path, name):
     path = _hostile_robot(tmp_path, name)
     robot = dynderive.load_robot(path)
@@ -368,14 +367,14 @@ def test_smoothed_friction_from_the_struct(tmp_path, code_dir):
     assert abs(F[0]) > 1e-3   # the exact sign: the full Coulomb force at 0.02 m/s
 
 
-@pytest.mark.parametrize("robot, what", [("four_bar", "closed loops"), ("spatial_four_bar", "closed loops")])
-def test_unbuilt_features_are_refused(robot, what, tmp_path):
+@pytest.mark.parametrize("robot", ["four_bar", "spatial_four_bar"])
+def test_loop_robots_are_built(robot, tmp_path):
+    """Closed loops are no longer refused (``tests/test_c_loops.py`` checks their functions)."""
+    assert unsupported(derivation_of(robot)) == []
     result = CliRunner().invoke(app, ["solve", robot, "--c", "--code", "--out", str(tmp_path)])
-    assert result.exit_code == 2 and f"{what} are not built yet for the C target" in result.output
-    assert f"{robot}.yaml:" in result.output and "Traceback" not in result.output
-    assert list(tmp_path.iterdir()) == []   # nothing written, not even the NumPy module
-    with pytest.raises(InputError):
-        render_c(derivation_of(robot))
+    assert result.exit_code == 0, result.output
+    assert f"{robot}_loop_forces(" in (tmp_path / f"{robot}_dynamics.h").read_text()
+    assert (tmp_path / f"{robot}_dynamics.py").exists()
 
 
 def test_solve_writes_header_and_source(tmp_path):

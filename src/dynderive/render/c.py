@@ -12,9 +12,10 @@ solves its columns with the same factorization.
 
 Damping and Coulomb friction are ``friction_forces``, added to inverse dynamics and taken from
 the right-hand side of forward dynamics as the NumPy module does; the struct carries
-``friction_smoothing`` (0: the exact sign; eps > 0: ``tanh(qd / eps)``). What is not built yet
-is refused (``unsupported``), never printed half: closed loops. Names must be C names (``c_names.py``); free text appears only in
-encoded comments.
+``friction_smoothing`` (0: the exact sign; eps > 0: ``tanh(qd / eps)``). Closed loops and the
+wrench variants are ``c_loops.py`` (``amend``); what a target cannot build is refused
+(``unsupported``), never printed half. Names must be C names (``c_names.py``); free text
+appears only in encoded comments.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from sympy.printing.precedence import precedence
 from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..mechanics.tidy import fold_constants
+from .c_loops import CKit, amend, loop_context
 from .c_names import c_comment, check_c_names
 from .code import CodeGenerationError, _ProgramPrinter
 from .encode import Code
@@ -150,14 +152,11 @@ class CFunction:
 
 
 def unsupported(derivation: Derivation) -> list[Problem]:
-    """What of this robot the C target cannot print yet, each at its place in the robot file."""
-    robot = derivation.robot
-    problems = []
-    if robot.loops:
-        line, column = robot.positions.get("loops", (1, 1))
-        problems.append(Problem(robot.source, line, column, "--c: closed loops are not built yet for the C target "
-                                "(loop constraints and constrained forward dynamics); use --code"))
-    return problems
+    """What of this robot the C target cannot print yet, each at its place in the robot file:
+    nothing today (closed loops and wrenches are ``c_loops.py``; what is not built for any
+    robot is listed in the README)."""
+    del derivation
+    return []
 
 
 class _Names:
@@ -169,6 +168,12 @@ class _Names:
         for array, symbols in (("q", table.q), ("qd", table.qd), ("qdd", table.qdd),
                                ("u", list(table.efforts.values()))):
             self.base |= {s: f"{array}[{i}]" for i, s in enumerate(symbols)}
+
+    def extended(self, extra: dict[sympy.Symbol, str] | None) -> _Names:
+        """These names and ``extra`` (locals of one function: ``qdd[i]``, ``lambda[i]``)."""
+        local = _Names.__new__(_Names)
+        local.base = dict(self.base) | dict(extra or {})
+        return local
 
     def printer(self) -> FastCPrinter:
         return FastCPrinter(dict(self.base))
@@ -286,11 +291,18 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
                       [f"pi[{i}]" for i in range(len(derivation.parameter_vector))])]),
         *_frame_functions(derivation, names, start, pp),
     ]
+    functions = amend(derivation, CKit(
+        start, pp, CFunction, lambda values, targets, extra=None: _expression_body(names.extended(extra), values, targets),
+        lambda program, targets, extra=None: _program_body(names.extended(extra), program, targets),
+        _fill_in(_structural_pattern(derivation, n), n), lambda: _friction_slope(derivation, names, 2 * n + nu)),
+        functions)
+    loops = loop_context(derivation)
     parameters = [{"name": p.name, "default": Code("NAN") if p.value is None else Code(double_literal(float(p.value))),
                    "comment": c_comment(_parameter_note(p))} for p in robot.parameters]
     parameters.append({"name": "friction_smoothing", "default": Code("0.0"), "comment": c_comment(
         "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)"
         if robot.dissipative else "unused: the robot has no Coulomb friction (every robot's struct ends with it)")})
+    parameters += loops["members"]
     from .._version import __version__
 
     return {
@@ -299,7 +311,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         "title": c_comment(robot.title),
         "source": c_comment(Path(robot.source).name),
         "generator": c_comment(f"dynderive {__version__}"),
-        "nq": n, "nv": n, "nu": nu,
+        "nq": n, "nv": n, "nu": nu, "nc": loops["nc"],
         "coordinates": c_comment(", ".join(robot.coordinates)),
         "efforts": c_comment(", ".join(robot.efforts)),
         "parameters": parameters,
@@ -430,19 +442,7 @@ def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[s
     lines += [f"for (int i = 0; i < {n}; ++i) {{",
               f"    for (int k = 0; k < {2 * n}; ++k) R[i * {width} + k] = -D[(k / {n}) * {n * n} + i * {n} + k % {n}];",
               "}"]
-    if robot.dissipative:   # dF/dqd: b + fc (1 - tanh(qd/eps)^2)/eps (zero for the exact sign)
-        printer = names.printer()
-        for drive in derivation.joint_drives:
-            i = drive.coordinate
-            terms = []
-            if drive.damping != 0:
-                terms.append(f"({printer.doprint(fold_constants(drive.damping))})")
-            if drive.friction != 0:
-                fc = printer.doprint(fold_constants(drive.friction))
-                terms.append(f"(P->friction_smoothing > 0.0 ? ({fc})*(1.0 - tanh(qd[{i}] / P->friction_smoothing)"
-                             f"*tanh(qd[{i}] / P->friction_smoothing)) / P->friction_smoothing : 0.0)")
-            if terms:
-                lines.append(f"R[{i * width + n + i}] -= {' + '.join(terms)};")
+    lines += _friction_slope(derivation, names, width)
     if nu:
         inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
         lines += _expression_body(names, list(inputs),
@@ -459,6 +459,26 @@ def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[s
     if nu:
         lines += ["    } else {", *(f"        B[{(n + i) * nu} + c - {2 * n}] = x{i};" for i in range(n))]
     lines += ["    }", "}", "return 0;"]
+    return lines
+
+
+def _friction_slope(derivation: Derivation, names: _Names, width: int) -> list[str]:
+    """``R[i, n + i] -= dF_i/dqd_i`` in linearize's right-hand side R (``width`` columns):
+    b + fc (1 - tanh(qd/eps)^2)/eps (zero for the exact sign)."""
+    if not derivation.robot.dissipative:
+        return []
+    n, printer, lines = len(derivation.symbols.q), names.printer(), []
+    for drive in derivation.joint_drives:
+        i = drive.coordinate
+        terms = []
+        if drive.damping != 0:
+            terms.append(f"({printer.doprint(fold_constants(drive.damping))})")
+        if drive.friction != 0:
+            fc = printer.doprint(fold_constants(drive.friction))
+            terms.append(f"(P->friction_smoothing > 0.0 ? ({fc})*(1.0 - tanh(qd[{i}] / P->friction_smoothing)"
+                         f"*tanh(qd[{i}] / P->friction_smoothing)) / P->friction_smoothing : 0.0)")
+        if terms:
+            lines.append(f"R[{i * width + n + i}] -= {' + '.join(terms)};")
     return lines
 
 

@@ -50,7 +50,7 @@ def c_problems(robot: Any) -> list[Problem]:
                                 f"--c: robot name '{name}' is not a C identifier of ASCII letters, digits and "
                                 "single '_' starting with a letter (it prefixes every C name)"))
         return problems
-    ours = {f"{name.upper()}_{suffix}" for suffix in ("NQ", "NV", "NU", "NFRAMES", "DYNAMICS_H")}
+    ours = {f"{name.upper()}_{suffix}" for suffix in ("NQ", "NV", "NU", "NC", "NFRAMES", "DYNAMICS_H")}
     for parameter in robot.parameters:
         where = robot.positions.get(f"parameter:{parameter.name}", (1, 1))
         why = None

@@ -1,0 +1,157 @@
+"""Dense linear algebra printed as C for one robot's sizes: an ``L D L^T`` factorization
+unrolled (with the sparsity the caller knows), its forward and back substitution, and the
+row space of a loop Jacobian by one-sided Jacobi rotations (an SVD's left singular vectors).
+
+Every local is named with a prefix the caller chooses, so that two factorizations can live in
+one C function (the mass matrix ``m``, the loops' Schur complement ``s``); no local is named
+like a function of ``<math.h>`` (``y0``, ``j1``, ``gamma``), which ``-Wshadow`` would refuse.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+#: A pivot of the loops' Schur complement below this fraction of its diagonal entry means the
+#: loop rows are dependent beyond the rank the derivation found (a singular configuration).
+RELATIVE_PIVOT = "1e-12"
+
+#: Largest number of Jacobi sweeps (each rotates every pair of rows once); it converges
+#: quadratically, in 5 to 10 sweeps for the loop Jacobians of mechanisms.
+JACOBI_SWEEPS = 60
+
+
+def ldl_factor(entry: Callable[[int, int], str], n: int, nonzero: list[list[bool]], prefix: str,
+               failure: str, relative: bool = False) -> list[str]:
+    """``A = L D L^T`` unrolled, with ``entry(i, j)`` the C text of ``A_ij`` (lower triangle
+    read): ``<prefix>d<j>`` and ``<prefix>L<i>_<j>``; ``failure`` (a statement) at a pivot
+    that is not positive, or (``relative``) not above ``RELATIVE_PIVOT`` times ``A_jj``."""
+    lines = []
+    for j in range(n):
+        terms = "".join(f" - {prefix}L{j}_{k}*{prefix}L{j}_{k}*{prefix}d{k}" for k in range(j) if nonzero[j][k])
+        lines.append(f"const double {prefix}d{j} = {entry(j, j)}{terms};")
+        bound = f"{RELATIVE_PIVOT}*{entry(j, j)}" if relative else "0.0"
+        lines.append(f"if (!({prefix}d{j} > {bound})) {failure}")
+        for i in range(j + 1, n):
+            if nonzero[i][j]:
+                terms = "".join(f" - {prefix}L{i}_{k}*{prefix}L{j}_{k}*{prefix}d{k}" for k in range(j)
+                                if nonzero[i][k] and nonzero[j][k])
+                lines.append(f"const double {prefix}L{i}_{j} = ({entry(i, j)}{terms}) / {prefix}d{j};")
+    return lines
+
+
+def ldl_solve(n: int, nonzero: list[list[bool]], prefix: str, rhs: list[str]) -> list[str]:
+    """``<prefix>x<i>`` solving ``L D L^T x = rhs`` (C expressions) by ``<prefix>w<i>``."""
+    lines = []
+    for i in range(n):
+        terms = "".join(f" - {prefix}L{i}_{k}*{prefix}w{k}" for k in range(i) if nonzero[i][k])
+        lines.append(f"const double {prefix}w{i} = {rhs[i]}{terms};")
+    for i in reversed(range(n)):
+        terms = "".join(f" - {prefix}L{k}_{i}*{prefix}x{k}" for k in range(i + 1, n) if nonzero[k][i])
+        lines.append(f"const double {prefix}x{i} = {prefix}w{i} / {prefix}d{i}{terms};")
+    return lines
+
+
+def dense(n: int) -> list[list[bool]]:
+    """The pattern of a full matrix."""
+    return [[True] * n for _ in range(n)]
+
+
+def row_space_lines(k: int, n: int, rank: int, jacobian: str, rows: str, space: str, failure: str) -> list[str]:
+    """The ``rank`` largest directions of the row space of the ``k x n`` matrix ``jacobian``
+    (a local array), as the NumPy module's ``_row_space`` takes them from an SVD: declares
+    ``space`` (``U_r``, ``k x rank``) and ``rows`` (``U_r^T A``, ``rank x n``), row-major.
+
+    One-sided Jacobi: rotations of pairs of rows of ``G = A`` until they are orthogonal
+    (``G = U^T A = S V^T``, ``U`` accumulated), then the ``rank`` rows of largest norm."""
+    return [
+        f"double G_[{k * n}], U_[{k * k}], norm_[{k}];",
+        f"int taken_[{k}] = {{0}};",
+        f"double {rows}[{rank * n}], {space}[{k * rank}];",
+        f"for (int i = 0; i < {k * n}; ++i) G_[i] = {jacobian}[i];",
+        f"for (int i = 0; i < {k * k}; ++i) U_[i] = (i % {k + 1} == 0) ? 1.0 : 0.0;",
+        f"for (int sweep = 0; sweep < {JACOBI_SWEEPS}; ++sweep) {{",
+        "    int rotated = 0;",
+        f"    for (int i = 0; i < {k - 1}; ++i) {{",
+        f"        for (int j = i + 1; j < {k}; ++j) {{",
+        "            double gii = 0.0, gjj = 0.0, gij = 0.0;",
+        f"            for (int c = 0; c < {n}; ++c) {{",
+        f"                gii += G_[i * {n} + c]*G_[i * {n} + c];",
+        f"                gjj += G_[j * {n} + c]*G_[j * {n} + c];",
+        f"                gij += G_[i * {n} + c]*G_[j * {n} + c];",
+        "            }",
+        "            if (gij != 0.0 && fabs(gij) > 2.220446049250313e-16*sqrt(gii*gjj)) {",
+        "                const double zeta = (gjj - gii) / (2.0*gij);",
+        "                const double t = (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta*zeta));",
+        "                const double cs = 1.0 / sqrt(1.0 + t*t);",
+        "                const double sn = cs*t;",
+        f"                for (int c = 0; c < {n}; ++c) {{",
+        f"                    const double gi = G_[i * {n} + c], gj = G_[j * {n} + c];",
+        f"                    G_[i * {n} + c] = cs*gi - sn*gj;",
+        f"                    G_[j * {n} + c] = sn*gi + cs*gj;",
+        "                }",
+        f"                for (int c = 0; c < {k}; ++c) {{",
+        f"                    const double ui = U_[c * {k} + i], uj = U_[c * {k} + j];",
+        f"                    U_[c * {k} + i] = cs*ui - sn*uj;",
+        f"                    U_[c * {k} + j] = sn*ui + cs*uj;",
+        "                }",
+        "                rotated = 1;",
+        "            }",
+        "        }",
+        "    }",
+        "    if (!rotated) break;",
+        "}",
+        f"for (int i = 0; i < {k}; ++i) {{",
+        "    norm_[i] = 0.0;",
+        f"    for (int c = 0; c < {n}; ++c) norm_[i] += G_[i * {n} + c]*G_[i * {n} + c];",
+        "}",
+        f"for (int m = 0; m < {rank}; ++m) {{   /* the rows of largest norm (singular value), in order */",
+        "    int best = -1;",
+        f"    for (int i = 0; i < {k}; ++i) {{",
+        "        if (!taken_[i] && (best < 0 || norm_[i] > norm_[best])) best = i;",
+        "    }",
+        f"    if (best < 0) {failure}",
+        "    taken_[best] = 1;",
+        f"    for (int c = 0; c < {n}; ++c) {rows}[m * {n} + c] = G_[best * {n} + c];",
+        f"    for (int i = 0; i < {k}; ++i) {space}[i * {rank} + m] = U_[i * {k} + best];",
+        "}",
+    ]
+
+
+def gauss_lines(size: int, matrix: str, rhs: str, columns: int, failure: str) -> list[str]:
+    """``rhs`` (a local ``size x columns`` array) overwritten by ``matrix^-1 rhs`` (``matrix`` a
+    local ``size x size`` array, destroyed): Gaussian elimination with partial pivoting, as
+    LAPACK's ``gesv`` behind ``numpy.linalg.solve``; ``failure`` at a zero pivot (singular)."""
+    s, c = size, columns
+    return [
+        f"for (int j = 0; j < {s}; ++j) {{",
+        "    int pivot = j;",
+        f"    for (int i = j + 1; i < {s}; ++i) {{",
+        f"        if (fabs({matrix}[i * {s} + j]) > fabs({matrix}[pivot * {s} + j])) pivot = i;",
+        "    }",
+        f"    if (!(fabs({matrix}[pivot * {s} + j]) > 0.0)) {failure}",
+        "    if (pivot != j) {",
+        f"        for (int c = 0; c < {s}; ++c) {{",
+        f"            const double swap = {matrix}[j * {s} + c];",
+        f"            {matrix}[j * {s} + c] = {matrix}[pivot * {s} + c];",
+        f"            {matrix}[pivot * {s} + c] = swap;",
+        "        }",
+        f"        for (int c = 0; c < {c}; ++c) {{",
+        f"            const double swap = {rhs}[j * {c} + c];",
+        f"            {rhs}[j * {c} + c] = {rhs}[pivot * {c} + c];",
+        f"            {rhs}[pivot * {c} + c] = swap;",
+        "        }",
+        "    }",
+        f"    for (int i = j + 1; i < {s}; ++i) {{",
+        f"        const double factor = {matrix}[i * {s} + j] / {matrix}[j * {s} + j];",
+        f"        for (int c = j; c < {s}; ++c) {matrix}[i * {s} + c] -= factor*{matrix}[j * {s} + c];",
+        f"        for (int c = 0; c < {c}; ++c) {rhs}[i * {c} + c] -= factor*{rhs}[j * {c} + c];",
+        "    }",
+        "}",
+        f"for (int j = {s - 1}; j >= 0; --j) {{",
+        f"    for (int c = 0; c < {c}; ++c) {{",
+        f"        double sum = {rhs}[j * {c} + c];",
+        f"        for (int i = j + 1; i < {s}; ++i) sum -= {matrix}[j * {s} + i]*{rhs}[i * {c} + c];",
+        f"        {rhs}[j * {c} + c] = sum / {matrix}[j * {s} + j];",
+        "    }",
+        "}",
+    ]
