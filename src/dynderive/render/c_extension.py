@@ -22,11 +22,11 @@ from pathlib import Path
 from typing import Any
 
 from ..derivation import Derivation
+from ..errors import InputError
 from .c import double_literal, unsupported
 from .c_names import check_c_names
 from .encode import Code, python_literal
 from .environment import render
-from ..errors import InputError
 
 TEMPLATE = "c/extension.c.j2"
 
