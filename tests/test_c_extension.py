@@ -136,6 +136,18 @@ def test_constants_and_signatures_are_the_numpy_modules(compiled):
             assert str(inspect.signature(getattr(ext, name))) == str(inspect.signature(getattr(module, name))), name
 
 
+def test_large_batch_split_among_threads(compiled):
+    """A batch large enough for the threaded loop (each part starts mid-way through a
+    broadcast batch index), with wrenches, against the NumPy module."""
+    ext, module = compiled("planar_3r")
+    rng = np.random.default_rng(8)
+    q, qd = rng.uniform(-1.5, 1.5, (101, 1, 3)), rng.normal(size=(97, 3))
+    _close(ext.coriolis_matrix(q, qd), module.coriolis_matrix(q, qd), "coriolis_matrix (101, 97)")
+    wrenches = {"tool": rng.normal(size=(97, 3))}
+    _close(ext.forward_dynamics(q, qd, wrenches=wrenches), module.forward_dynamics(q, qd, wrenches=wrenches),
+           "forward_dynamics (101, 97) with wrenches")
+
+
 def test_keyword_parameters_and_smoothing(compiled):
     ext, module = compiled("cart_pole_damped")
     rng = np.random.default_rng(4)

@@ -101,7 +101,7 @@ def build_extension(derivation: Derivation, template_dir: str | Path | None = No
         (work / f"{name}_dynamics.h").write_text(header)
         (work / f"{name}_dynamics.c").write_text(source)
         (work / f"{module_name(name)}.c").write_text(binding)
-        command = [*compiler, optimization, "-fno-math-errno", "-shared", "-fPIC", "-Ulinux", "-Uunix",
+        command = [*compiler, optimization, "-fno-math-errno", "-shared", "-fPIC", "-pthread", "-Ulinux", "-Uunix",
                    *(f"-I{d}" for d in includes), f"{name}_dynamics.c", f"{module_name(name)}.c",
                    "-o", filename, "-lm"]
         if sys.platform == "darwin":
