@@ -314,3 +314,34 @@ def test_closed_loops_are_refused(robot, tmp_path):
     result = CliRunner().invoke(app, ["solve", robot, "--c-extension", "--code", "--out", str(tmp_path)])
     assert result.exit_code == 2 and "--c-extension: closed loops are not built yet" in result.output
     assert list(tmp_path.iterdir()) == []
+
+
+def test_robot_without_efforts_and_parameter_without_default(tmp_path):
+    """NU = 0 (u omitted, B of shape (2n, 0)); a parameter without a default is a required
+    keyword (TypeError without it, as in the NumPy module) and not in PARAMETERS."""
+    path = tmp_path / "double_pendulum.yaml"
+    path.write_text("\n".join(ln for ln in (ROBOTS / "double_pendulum.yaml").read_text().splitlines()
+                              if "effort:" not in ln) + "\n")
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert not derivation.robot.efforts
+    module = import_code(dynderive.render_code(derivation), tmp_path, "passive_pendulum_dynamics")
+    _agree(_load(derivation, tmp_path / "passive"), module, seed=9)
+    path = tmp_path / "rp_arm.yaml"
+    path.write_text((ROBOTS / "rp_arm.yaml").read_text().replace("m: {value: 1.0, unit: kg,", "m: {unit: kg,"))
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    ext = _load(derivation, tmp_path / "no_default")
+    module = import_code(dynderive.render_code(derivation), tmp_path, "no_default_dynamics")
+    assert ext.PARAMETERS == module.PARAMETERS and "m" not in ext.PARAMETERS
+    for m in (module, ext):
+        with pytest.raises(TypeError, match="missing 1 required keyword-only argument: 'm'"):
+            m.mass_matrix(np.zeros(2))
+    _agree(ext, module, seed=10, parameters={"m": 2.5})
+
+
+def test_no_python_headers_is_exit_2(tmp_path, monkeypatch):
+    import dynderive.commands.compile as compile_module
+
+    monkeypatch.setattr(compile_module.sysconfig, "get_paths", lambda: {"include": str(tmp_path)})
+    result = CliRunner().invoke(app, ["solve", "rp_arm", "--c-extension", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and result.output.startswith("--c-extension:1:1: Python's C headers (Python.h)")
+    assert not (tmp_path / "out").exists()
