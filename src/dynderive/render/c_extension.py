@@ -147,11 +147,11 @@ def _kernel(robot_name: str, binding: Binding) -> list[str]:
     return [f"{call};", "return 0;"]
 
 
-def _wrench_kernel(binding: Binding) -> list[str]:
-    """The kernel with wrenches: the C function (today the binding's own ``ext_...`` helper,
-    with the signature of the C target's ``<name>_..._wrenches``) called for one state."""
+def _wrench_kernel(binding: Binding, function: str) -> list[str]:
+    """The kernel with wrenches: ``function`` (the C target's ``<name>_..._wrenches``, or the
+    binding's own ``ext_...`` helper of the same signature) called for one state."""
     arguments = [f"in[{i}]" for i in range(len(binding.inputs))]
-    call = f"ext_{binding.wrenches}({', '.join([*arguments, 'w', 'p', 'out[0]'])})"
+    call = f"{function}({', '.join([*arguments, 'w', 'p', 'out[0]'])})"
     return [f"return {call};"] if binding.returns == "status" else [f"{call};", "return 0;"]
 
 
@@ -171,8 +171,15 @@ def _signature(binding: Binding, parameters: list[dict[str, Any]]) -> str:
     return f"{binding.name}({', '.join(['$module', *positional])})"
 
 
-def extension_context(derivation: Derivation) -> dict[str, Any]:
-    """Every variable ``extension.c.j2`` uses."""
+def _native(robot_name: str, function: str, header: str | None) -> bool:
+    """Whether the C target's header declares ``<name>_<function>`` (then the binding calls it)."""
+    return header is not None and f" {robot_name}_{function}(" in header
+
+
+def extension_context(derivation: Derivation, header: str | None = None) -> dict[str, Any]:
+    """Every variable ``extension.c.j2`` uses; ``header``: the C target's header, whose
+    ``<name>_..._wrenches`` functions the binding calls where it declares them (else its own
+    helpers, from ``frame_jacobian``)."""
     problems = unsupported(derivation)
     if problems:
         raise InputError([type(p)(p.file, p.line, p.column, p.message.replace("--c:", "--c-extension:", 1))
@@ -185,15 +192,18 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
                    "python_default": None if p.value is None else python_literal(float(p.value))}
                   for p in robot.parameters]
     table = bindings(derivation)
-    functions = []
+    functions, own_wrenches = [], False
     for binding in table:
+        native = bool(binding.wrenches) and _native(name, binding.wrenches or "", header)
+        own_wrenches |= bool(binding.wrenches) and not native
         text = f"{_signature(binding, parameters)}\n--\n\n{binding.doc}"
         functions.append({
             "name": binding.name,
             "c_name": c_string(binding.name),
             "doc": c_string(text),
             "kernel": [Code(line) for line in _kernel(name, binding)],
-            "wrench_kernel": [Code(line) for line in _wrench_kernel(binding)] if binding.wrenches else [],
+            "wrench_kernel": [Code(line) for line in _wrench_kernel(
+                binding, f"{name if native else 'ext'}_{binding.wrenches}")] if binding.wrenches else [],
             "inputs": [{"name": c_string(n), "size": s} for n, s in binding.inputs],
             "outputs": [{"ndim": len(shape), "dims": list(shape) + [0] * (2 - len(shape))} for shape in binding.outputs],
             "status": int(binding.returns == "status"),
@@ -221,11 +231,13 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
         "frames": strings([f.name for f in robot.frames]),
         "parameter_vector": strings([p.name for p in derivation.parameter_vector]),
         "functions": functions,
+        "own_wrenches": own_wrenches,
         "max_inputs": max(max(len(b.inputs) for b in table), 1),
         "max_outputs": max(len(b.outputs) for b in table),
     }
 
 
-def render_extension(derivation: Derivation, template_dir: str | Path | None = None) -> str:
-    """The C source of the binding (it includes ``<name>_dynamics.h``), as text."""
-    return render("code", TEMPLATE, extension_context(derivation), template_dir)
+def render_extension(derivation: Derivation, template_dir: str | Path | None = None, header: str | None = None) -> str:
+    """The C source of the binding (it includes ``<name>_dynamics.h``, given as ``header``
+    when the caller has it), as text."""
+    return render("code", TEMPLATE, extension_context(derivation, header), template_dir)
