@@ -98,6 +98,9 @@ def solve(
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
     c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99 (open chains; "
                                     "closed loops not yet).")] = False,
+    c_extension: Annotated[bool, typer.Option("--c-extension", help="Write DIR/<name>_dynamics_c.*.so, the C code "
+                                              "compiled into a Python extension with the NumPy module's API (needs a C "
+                                              "compiler: CC, cc or gcc).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
                                         "pytest property checks of the generated module.")] = False,
@@ -138,7 +141,12 @@ def solve(
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
     if tests and not code:
         raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
-    if not (latex or pdf or code or c or json_):
+    if c_extension:   # no compiler: stop before the derivation
+        from .compile import find_compiler, include_dirs
+
+        find_compiler()
+        include_dirs()
+    if not (latex or pdf or code or c or c_extension or json_):
         typer.echo(render_terminal(derivation), nl=False)
         return
     files: dict[Path, bytes] = {}
@@ -149,6 +157,17 @@ def solve(
         header, source = render_c(derivation, template_dir)
         files[out / f"{model.name}_dynamics.h"] = header.encode()
         files[out / f"{model.name}_dynamics.c"] = source.encode()
+    not_built = None
+    if c_extension:
+        from .compile import ExtensionCompileError, build_extension, failure_outputs
+
+        try:
+            name, data = build_extension(derivation, template_dir, c_files=(header, source) if c else None,
+                                         progress=progress)
+            files[out / name] = data
+        except ExtensionCompileError as exc:   # the other outputs are still written, with the compiler's log
+            not_built = exc
+            files |= {out / name: data for name, data in failure_outputs(model.name, exc).items()}
     tex = None
     if latex or pdf:
         progress("rendering LaTeX")
@@ -188,6 +207,10 @@ def solve(
         raise _fail(f"dynderive: {out / (model.name + '.pdf')} skipped: {skipped}", 1)
     if not_compiled is not None:
         raise _fail(f"dynderive: {failure_message(out, model.name, not_compiled)}", 1)
+    if not_built is not None:
+        from .compile import failure_message as build_failure
+
+        raise _fail(f"dynderive: {build_failure(out, model.name, not_built)}", 1)
 
 
 @app.command(cls=_Command)

@@ -1,0 +1,137 @@
+"""Compiling the C target into a CPython extension (``solve --c-extension``).
+
+The compiler is ``$CC`` when set (a command with options, e.g. ``"clang -march=native"``),
+else the one Python was built with (sysconfig's ``CC``) when it is on this machine, else
+``cc`` or ``gcc`` on ``PATH``. It compiles ``<name>_dynamics.c`` and the binding
+(``render/c_extension.py``) in a temporary folder with ``-O2 -shared -fPIC`` against Python's
+and NumPy's headers (no setuptools); the caller writes the bytes (all or nothing). No compiler
+or no ``Python.h``: ``InputError`` at ``--c-extension`` (exit 2). A compiler that fails on the
+generated code (a bug of ours) is ``ExtensionCompileError``, with its log to keep.
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+from ..derivation import Derivation
+from ..errors import ExternalToolError, InputError
+from .options import problem
+
+OPTION = "--c-extension"
+#: Seconds a compilation may take (the Panda takes about 10 s at -O2).
+TIMEOUT = 600
+
+
+class ExtensionCompileError(ExternalToolError):
+    """The C compiler ran and failed: ``detail`` is its first error line, ``log`` the command
+    and its whole output."""
+
+    def __init__(self, detail: str, log: str):
+        self.detail, self.log = detail, log
+        super().__init__(f"the C compiler failed to build the extension: {detail}")
+
+    def __reduce__(self):   # pickled between build's worker processes
+        return type(self), (self.detail, self.log)
+
+
+def find_compiler() -> list[str]:
+    """The compiler command (program and options); ``InputError`` at ``--c-extension`` when
+    there is none."""
+    given = os.environ.get("CC", "").strip()
+    if given:
+        command = shlex.split(given)
+        if not shutil.which(command[0]):
+            raise InputError(problem(OPTION, f"the C compiler CC={given!r} was not found (set CC to a C compiler, "
+                                             "or unset it to use cc or gcc)"))
+        return command
+    configured = shlex.split(sysconfig.get_config_var("CC") or "")
+    if configured and shutil.which(configured[0]):
+        return configured
+    for name in ("cc", "gcc"):
+        if shutil.which(name):
+            return [name]
+    raise InputError(problem(OPTION, "no C compiler found (cc or gcc on PATH, or CC): the extension is compiled on "
+                                     "this machine; install one (e.g. apt install gcc) or use --c or --code"))
+
+
+def include_dirs() -> list[str]:
+    """Python's and NumPy's C headers; ``InputError`` when ``Python.h`` is not installed."""
+    import numpy
+
+    python = sysconfig.get_paths()["include"]
+    if not (Path(python) / "Python.h").is_file():
+        raise InputError(problem(OPTION, f"Python's C headers (Python.h) are not in {python}: install them (e.g. apt "
+                                         "install python3-dev) to compile the extension"))
+    return [python, numpy.get_include()]
+
+
+def extension_filename(robot_name: str) -> str:
+    """``<name>_dynamics_c`` with this Python's suffix for extensions (``.cpython-311-x86_64-linux-gnu.so``)."""
+    from ..render.c_extension import module_name
+
+    return module_name(robot_name) + (sysconfig.get_config_var("EXT_SUFFIX") or ".so")
+
+
+def build_extension(derivation: Derivation, template_dir: str | Path | None = None, *,
+                    c_files: tuple[str, str] | None = None, optimization: str = "-O2",
+                    progress: Callable[[str], None] | None = None) -> tuple[str, bytes]:
+    """(file name, bytes) of the compiled extension ``<name>_dynamics_c``; ``c_files`` are
+    ``render_c``'s header and source when the caller has them already."""
+    from ..render.c import render_c
+    from ..render.c_extension import module_name, render_extension
+
+    compiler = find_compiler()
+    includes = include_dirs()
+    render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
+    header, source = c_files if c_files is not None else render_c(derivation, template_dir)
+    binding = render_extension(derivation, template_dir, header)
+    name = derivation.robot.name
+    filename = extension_filename(name)
+    if progress is not None:
+        progress(f"compiling the C extension ({Path(compiler[0]).name} {optimization})")
+    with tempfile.TemporaryDirectory(prefix="dynderive-ext-") as folder:
+        work = Path(folder)
+        (work / f"{name}_dynamics.h").write_text(header)
+        (work / f"{name}_dynamics.c").write_text(source)
+        (work / f"{module_name(name)}.c").write_text(binding)
+        command = [*compiler, optimization, "-fno-math-errno", "-shared", "-fPIC", "-pthread", "-Ulinux", "-Uunix",
+                   *(f"-I{d}" for d in includes), f"{name}_dynamics.c", f"{module_name(name)}.c",
+                   "-o", filename, "-lm"]
+        if sys.platform == "darwin":
+            command[1:1] = ["-undefined", "dynamic_lookup"]
+        try:
+            run = subprocess.run(command, cwd=work, capture_output=True, text=True, timeout=TIMEOUT)
+        except subprocess.TimeoutExpired:
+            raise ExtensionCompileError(f"no result after {TIMEOUT} s", shlex.join(command) + "\n") from None
+        except OSError as exc:
+            raise ExtensionCompileError(str(exc), shlex.join(command) + "\n") from None
+        output = work / filename
+        if run.returncode != 0 or not output.is_file():
+            log = f"{shlex.join(command)}\n(in a temporary folder; exit status {run.returncode})\n{run.stdout}{run.stderr}"
+            raise ExtensionCompileError(_first_error(run.stderr or run.stdout), log)
+        return filename, output.read_bytes()
+
+
+def _first_error(text: str) -> str:
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    errors = [line for line in lines if "error" in line.lower()]
+    return (errors or lines or ["no message"])[0][:300]
+
+
+def failure_outputs(robot_name: str, error: ExtensionCompileError) -> dict[str, bytes]:
+    """What a failed compilation leaves beside the other outputs, by file name: the log."""
+    return {f"{robot_name}_dynamics_c.log": error.log.encode()}
+
+
+def failure_message(folder: Path, robot_name: str, error: ExtensionCompileError) -> str:
+    """One line: which extension failed, the compiler's first error, and where its log is."""
+    return (f"{folder / extension_filename(robot_name)} not made: the C compiler failed: {error.detail}; the log is "
+            f"{folder / (robot_name + '_dynamics_c.log')} (please report it: the generated code should always compile)")

@@ -1,0 +1,243 @@
+"""The CPython binding of the C target (``solve --c-extension``): the C source of the module
+``<name>_dynamics_c``, which wraps ``<name>_dynamics.c`` in the NumPy module's API.
+
+The binding is driven by one table (``bindings``): each row names a Python function, the C
+function it calls, its array inputs and their sizes, its outputs and their shapes, and what
+the C function's return value means. The template (``templates/c/extension.c.j2``) turns each
+row into a small kernel that calls the C function for one state and an entry of a spec table
+that one generic dispatcher reads: argument parsing (positional or keyword, the robot's
+parameters and ``friction_smoothing`` as keywords), shape checks with the NumPy module's
+messages, broadcasting of the batch dimensions, and the batch loop in C (without the GIL).
+Adding a C function to the module is one row.
+
+Free text reaches the binding only as encoded C string literals (``c_string``): names of
+coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
+(``c_names.check_c_names``). Nothing is compiled here (``commands/compile.py`` does that).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..derivation import Derivation
+from ..errors import InputError
+from .c import double_literal, unsupported
+from .c_names import check_c_names
+from .encode import Code, python_literal
+from .environment import render
+
+TEMPLATE = "c/extension.c.j2"
+
+
+def module_name(robot_name: str) -> str:
+    """The extension's import name."""
+    return f"{robot_name}_dynamics_c"
+
+
+def c_string(text: str) -> Code:
+    """``text`` as a C string literal of printable ASCII: its UTF-8 bytes, with ``\\``, ``"``
+    and ``?`` (trigraphs) escaped and every other byte as a three-digit octal escape (which,
+    unlike ``\\x``, cannot swallow the characters after it)."""
+    out = []
+    for byte in text.encode("utf-8"):
+        char = chr(byte)
+        if char in '\\"?':
+            out.append("\\" + char)
+        elif 0x20 <= byte < 0x7F:
+            out.append(char)
+        else:
+            out.append(f"\\{byte:03o}")
+    return Code('"' + "".join(out) + '"')
+
+
+@dataclass(frozen=True)
+class Binding:
+    """One Python function of the extension and the C function it calls for each state.
+
+    ``inputs``: the array arguments in order, each (name, size of its last axis); ``outputs``:
+    the shape of each result for one state (several: a tuple is returned). ``returns``:
+    "void", "status" (nonzero: the state could not be computed, its results are NaN) or
+    "value" (the C function returns the one scalar result). ``optional``: the last input may
+    be omitted or None (zeros, as ``u``). ``frame``: a frame name follows the arrays.
+    ``wrenches``: the C function (without the robot's prefix) that takes the inputs, then the
+    wrenches (NFRAMES x twist, row-major, zero for a frame without one), then the parameters
+    and outputs; the Python function takes ``wrenches=None`` after the arrays. ``smoothing``:
+    takes ``friction_smoothing``; ``refuses_negative``: a negative one is a ValueError (where
+    the NumPy module's ``_direction`` raises). ``scalar``: one state gives a NumPy scalar, not
+    a 0-d array (as the NumPy module's ``kinetic_energy`` of a program-built robot)."""
+
+    name: str
+    function: str
+    inputs: tuple[tuple[str, int], ...]
+    outputs: tuple[tuple[int, ...], ...]
+    doc: str
+    returns: str = "void"
+    optional: bool = False
+    frame: bool = False
+    wrenches: str | None = None
+    smoothing: bool = False
+    refuses_negative: bool = False
+    scalar: bool = False
+
+
+def bindings(derivation: Derivation) -> list[Binding]:
+    """The extension's functions, in the order of the NumPy module's API."""
+    robot = derivation.robot
+    n, nu = len(derivation.symbols.q), len(derivation.symbols.efforts)
+    count = len(derivation.parameter_vector)
+    size, twist = (3, 3) if robot.planar else (4, 6)
+    dissipative = robot.dissipative
+    sign = dissipative and bool(derivation.programs["regressor"].extra_inputs)
+    q, qd, qdd, u = ("q", n), ("qd", n), ("qdd", n), ("u", nu)
+    return [
+        Binding("mass_matrix", "mass_matrix", (q,), ((n, n),), "Mass matrix M_g(q), shape (..., n, n)."),
+        Binding("coriolis_matrix", "coriolis_matrix", (q, qd), ((n, n),),
+                "Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., n, n)."),
+        Binding("gravity_vector", "gravity_vector", (q,), ((n,),), "Gravity vector N_g(q) = dV/dq, shape (..., n)."),
+        Binding("inverse_dynamics", "inverse_dynamics", (q, qd, qdd), ((n,),),
+                "Generalized forces Y_g = M qdd + C qd + N + F - sum J^T w, shape (..., n); wrenches: None or "
+                "{frame: w} in world axes.", wrenches="inverse_dynamics_wrenches", smoothing=True,
+                refuses_negative=dissipative),
+        Binding("forward_dynamics", "forward_dynamics", (q, qd, u), ((n,),),
+                "Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F + sum J^T w, shape (..., n); u=None: no "
+                "effort. NaN where M is not positive definite.", returns="status", optional=True,
+                wrenches="forward_dynamics_wrenches", smoothing=True, refuses_negative=dissipative),
+        Binding("kinetic_energy", "kinetic_energy", (q, qd), ((),), "Kinetic energy T_g = 1/2 qd^T M qd, shape (...).",
+                returns="value", scalar=derivation.structured_code),
+        Binding("potential_energy", "potential_energy", (q,), ((),),
+                "Potential energy V_g(q) of gravity and the springs, shape (...).", returns="value"),
+        Binding("friction_forces", "friction_forces", (qd,), ((n,),),
+                "Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) when it is positive), "
+                "shape (..., n).", smoothing=True, refuses_negative=dissipative),
+        Binding("linearize", "linearize", (q, qd, u), ((2 * n, 2 * n), (2 * n, nu)),
+                "(A, B) of xdot = A dx + B du about x = (q, qd) and u, shapes (..., 2n, 2n) and (..., 2n, nu); NaN "
+                "where M is not positive definite.", returns="status", optional=True, smoothing=True,
+                refuses_negative=dissipative),
+        Binding("regressor", "regressor", (q, qd, qdd), ((n, count),),
+                "Regressor Y(q, qd, qdd), shape (..., n, len(PARAMETER_VECTOR)): Y @ parameter_vector() equals "
+                "inverse_dynamics(q, qd, qdd).", smoothing=True, refuses_negative=sign),
+        Binding("parameter_vector", "parameter_vector", (), ((count,),),
+                "The regressor's parameters pi (PARAMETER_VECTOR), shape (len(PARAMETER_VECTOR),)."),
+        Binding("frame_transform", "frame_transform", (q,), ((size, size),),
+                "Pose of frame (a name of FRAMES) in the world, [[R, p], [0, 1]], shape (..., s, s).",
+                returns="status", frame=True),
+        Binding("frame_jacobian", "frame_jacobian", (q,), ((twist, n),),
+                "World-frame Jacobian of frame (a name of FRAMES): linear rows, then angular, shape (..., t, n).",
+                returns="status", frame=True),
+        Binding("frame_jacobian_dot_qd", "frame_jacobian_dot_qd", (q, qd), ((twist,),),
+                "Jdot(q, qd) qd of frame (a name of FRAMES), shape (..., t).", returns="status", frame=True),
+    ]
+
+
+def _call(prefix: str, function: str, arguments: list[str]) -> str:
+    return f"{prefix}_{function}({', '.join(arguments)})"
+
+
+def _kernel(robot_name: str, binding: Binding) -> list[str]:
+    """The C lines of the kernel: the C function called for one state."""
+    arguments = [f"in[{i}]" for i in range(len(binding.inputs))] + (["frame"] if binding.frame else [])
+    outputs = [f"out[{k}]" for k in range(len(binding.outputs))]
+    if binding.returns == "value":
+        return [f"out[0][0] = {_call(robot_name, binding.function, [*arguments, 'p'])};", "return 0;"]
+    call = _call(robot_name, binding.function, [*arguments, "p", *outputs])
+    if binding.returns == "status":
+        return [f"return {call};"]
+    return [f"{call};", "return 0;"]
+
+
+def _wrench_kernel(binding: Binding, function: str) -> list[str]:
+    """The kernel with wrenches: ``function`` (the C target's ``<name>_..._wrenches``, or the
+    binding's own ``ext_...`` helper of the same signature) called for one state."""
+    arguments = [f"in[{i}]" for i in range(len(binding.inputs))]
+    call = f"{function}({', '.join([*arguments, 'w', 'p', 'out[0]'])})"
+    return [f"return {call};"] if binding.returns == "status" else [f"{call};", "return 0;"]
+
+
+def _signature(binding: Binding, parameters: list[dict[str, Any]]) -> str:
+    """The Python signature (``__text_signature__``, for ``inspect.signature`` and ``help``)."""
+    positional = [name for name, _ in binding.inputs]
+    if binding.optional:
+        positional[-1] += "=None"
+    if binding.frame:
+        positional.append("frame")
+    if binding.wrenches:
+        positional.append("wrenches=None")
+    keywords = (["friction_smoothing=0.0"] if binding.smoothing else []) + \
+        [p["name"] if p["default"] is None else f"{p['name']}={p['python_default']}" for p in parameters]
+    if keywords:
+        positional += ["*", *keywords]
+    return f"{binding.name}({', '.join(['$module', *positional])})"
+
+
+def _native(robot_name: str, function: str, header: str | None) -> bool:
+    """Whether the C target's header declares ``<name>_<function>`` (then the binding calls it)."""
+    return header is not None and f" {robot_name}_{function}(" in header
+
+
+def extension_context(derivation: Derivation, header: str | None = None) -> dict[str, Any]:
+    """Every variable ``extension.c.j2`` uses; ``header``: the C target's header, whose
+    ``<name>_..._wrenches`` functions the binding calls where it declares them (else its own
+    helpers, from ``frame_jacobian``)."""
+    problems = unsupported(derivation)
+    if problems:
+        raise InputError([type(p)(p.file, p.line, p.column, p.message.replace("--c:", "--c-extension:", 1))
+                          for p in problems])
+    check_c_names(derivation.robot)
+    robot = derivation.robot
+    name = robot.name
+    parameters = [{"name": p.name, "c_name": c_string(p.name),
+                   "default": None if p.value is None else Code(double_literal(float(p.value))),
+                   "python_default": None if p.value is None else python_literal(float(p.value))}
+                  for p in robot.parameters]
+    table = bindings(derivation)
+    functions, own_wrenches = [], False
+    for binding in table:
+        native = bool(binding.wrenches) and _native(name, binding.wrenches or "", header)
+        own_wrenches |= bool(binding.wrenches) and not native
+        text = f"{_signature(binding, parameters)}\n--\n\n{binding.doc}"
+        functions.append({
+            "name": binding.name,
+            "c_name": c_string(binding.name),
+            "doc": c_string(text),
+            "kernel": [Code(line) for line in _kernel(name, binding)],
+            "wrench_kernel": [Code(line) for line in _wrench_kernel(
+                binding, f"{name if native else 'ext'}_{binding.wrenches}")] if binding.wrenches else [],
+            "inputs": [{"name": c_string(n), "size": s} for n, s in binding.inputs],
+            "outputs": [{"ndim": len(shape), "dims": list(shape) + [0] * (2 - len(shape))} for shape in binding.outputs],
+            "status": int(binding.returns == "status"),
+            "optional": int(binding.optional),
+            "frame": int(binding.frame),
+            "smoothing": int(binding.smoothing),
+            "refuses_negative": int(binding.refuses_negative),
+            "scalar": int(binding.scalar),
+        })
+    strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
+    from .._version import __version__
+
+    return {
+        "name": name,
+        "macro": name.upper(),
+        "module": module_name(name),
+        "generator": c_string(f"dynderive {__version__}"),
+        "n": len(derivation.symbols.q),
+        "nu": len(derivation.symbols.efforts),
+        "twist": 3 if robot.planar else 6,
+        "parameters": parameters,
+        "all_defaults": int(all(p["default"] is not None for p in parameters)),
+        "coordinates": strings(robot.coordinates),
+        "efforts": strings(robot.efforts),
+        "frames": strings([f.name for f in robot.frames]),
+        "parameter_vector": strings([p.name for p in derivation.parameter_vector]),
+        "functions": functions,
+        "own_wrenches": own_wrenches,
+        "max_inputs": max(max(len(b.inputs) for b in table), 1),
+        "max_outputs": max(len(b.outputs) for b in table),
+    }
+
+
+def render_extension(derivation: Derivation, template_dir: str | Path | None = None, header: str | None = None) -> str:
+    """The C source of the binding (it includes ``<name>_dynamics.h``, given as ``header``
+    when the caller has it), as text."""
+    return render("code", TEMPLATE, extension_context(derivation, header), template_dir)
