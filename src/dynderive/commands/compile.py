@@ -18,6 +18,7 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
+import types
 from collections.abc import Callable
 from pathlib import Path
 
@@ -42,14 +43,14 @@ class ExtensionCompileError(ExternalToolError):
         return type(self), (self.detail, self.log)
 
 
-def find_compiler() -> list[str]:
-    """The compiler command (program and options); ``InputError`` at ``--c-extension`` when
-    there is none."""
+def find_compiler(option: str = OPTION) -> list[str]:
+    """The compiler command (program and options); ``InputError`` at ``option`` when there is
+    none."""
     given = os.environ.get("CC", "").strip()
     if given:
         command = shlex.split(given)
         if not shutil.which(command[0]):
-            raise InputError(problem(OPTION, f"the C compiler CC={given!r} was not found (set CC to a C compiler, "
+            raise InputError(problem(option, f"the C compiler CC={given!r} was not found (set CC to a C compiler, "
                                              "or unset it to use cc or gcc)"))
         return command
     configured = shlex.split(sysconfig.get_config_var("CC") or "")
@@ -58,17 +59,17 @@ def find_compiler() -> list[str]:
     for name in ("cc", "gcc"):
         if shutil.which(name):
             return [name]
-    raise InputError(problem(OPTION, "no C compiler found (cc or gcc on PATH, or CC): the extension is compiled on "
+    raise InputError(problem(option, "no C compiler found (cc or gcc on PATH, or CC): the extension is compiled on "
                                      "this machine; install one (e.g. apt install gcc) or use --c or --code"))
 
 
-def include_dirs() -> list[str]:
+def include_dirs(option: str = OPTION) -> list[str]:
     """Python's and NumPy's C headers; ``InputError`` when ``Python.h`` is not installed."""
     import numpy
 
     python = sysconfig.get_paths()["include"]
     if not (Path(python) / "Python.h").is_file():
-        raise InputError(problem(OPTION, f"Python's C headers (Python.h) are not in {python}: install them (e.g. apt "
+        raise InputError(problem(option, f"Python's C headers (Python.h) are not in {python}: install them (e.g. apt "
                                          "install python3-dev) to compile the extension"))
     return [python, numpy.get_include()]
 
@@ -82,14 +83,14 @@ def extension_filename(robot_name: str) -> str:
 
 def build_extension(derivation: Derivation, template_dir: str | Path | None = None, *,
                     c_files: tuple[str, str] | None = None, optimization: str = "-O2",
-                    progress: Callable[[str], None] | None = None) -> tuple[str, bytes]:
+                    progress: Callable[[str], None] | None = None, option: str = OPTION) -> tuple[str, bytes]:
     """(file name, bytes) of the compiled extension ``<name>_dynamics_c``; ``c_files`` are
     ``render_c``'s header and source when the caller has them already."""
     from ..render.c import render_c
     from ..render.c_extension import module_name, render_extension
 
-    compiler = find_compiler()
-    includes = include_dirs()
+    compiler = find_compiler(option)
+    includes = include_dirs(option)
     render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
     header, source = c_files if c_files is not None else render_c(derivation, template_dir)
     binding = render_extension(derivation, template_dir, header)
@@ -135,3 +136,23 @@ def failure_message(folder: Path, robot_name: str, error: ExtensionCompileError)
     """One line: which extension failed, the compiler's first error, and where its log is."""
     return (f"{folder / extension_filename(robot_name)} not made: the C compiler failed: {error.detail}; the log is "
             f"{folder / (robot_name + '_dynamics_c.log')} (please report it: the generated code should always compile)")
+
+
+def compiled_module(derivation: Derivation, progress: Callable[[str], None] | None = None,
+                    option: str = "--backend") -> types.ModuleType:
+    """The extension of ``derivation``'s robot, compiled for this process and imported (for
+    ``check --backend c`` and ``simulate --backend c``); its file is removed once loaded."""
+    import importlib.util
+
+    from ..render.c_extension import module_name
+
+    filename, data = build_extension(derivation, progress=progress, option=option)
+    with tempfile.TemporaryDirectory(prefix="dynderive-ext-") as folder:
+        path = Path(folder) / filename
+        path.write_bytes(data)
+        spec = importlib.util.spec_from_file_location(module_name(derivation.robot.name), path)
+        if spec is None or spec.loader is None:   # pragma: no cover - a file with the extension suffix always has one
+            raise ExtensionCompileError(f"{filename} cannot be imported", "")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    return module
