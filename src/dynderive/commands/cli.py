@@ -16,7 +16,7 @@ from typing import Annotated, Any, TypeVar
 import typer
 
 from .._version import __version__
-from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, LatexError, ToolMissingError
+from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import backend_name, finite, problem, tolerances, vector, with_parameters
@@ -96,8 +96,7 @@ def solve(
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
-    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99 (open chains; "
-                                    "closed loops not yet).")] = False,
+    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99.")] = False,
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write DIR/<name>_dynamics_c.*.so, the C code "
                                               "compiled into a Python extension with the NumPy module's API (needs a C "
                                               "compiler: CC, cc or gcc).")] = False,
@@ -114,9 +113,7 @@ def solve(
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
-    from ..render.code import render_code
-    from ..render.json import render_json
-    from ..render.latex import parse_sections, render_latex
+    from ..render.latex import parse_sections
     from ..render.terminal import render_terminal
     from .output import write_all
 
@@ -130,6 +127,12 @@ def solve(
             raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
         if not (latex or pdf):
             raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or --pdf"))
+    if tests and not code:
+        raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
+    if c_extension:   # no compiler: stop before any work
+        from .compile import require_compiler
+
+        require_compiler()
     progress = Progress(quiet)
     progress("loading")
     model = load_robot(robot, size_limits=True)
@@ -139,63 +142,13 @@ def solve(
     if derivation.intermediate_form and not quiet:
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
-    if tests and not code:
-        raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
-    if c_extension:   # no compiler: stop before the derivation
-        from .compile import find_compiler, include_dirs
-
-        find_compiler()
-        include_dirs()
     if not (latex or pdf or code or c or c_extension or json_):
         typer.echo(render_terminal(derivation), nl=False)
         return
-    files: dict[Path, bytes] = {}
-    if c:   # first: a robot the C target refuses stops the run before any work or output
-        from ..render.c import render_c
+    from .solve import Wanted, solve_outputs
 
-        progress("generating C")
-        header, source = render_c(derivation, template_dir)
-        files[out / f"{model.name}_dynamics.h"] = header.encode()
-        files[out / f"{model.name}_dynamics.c"] = source.encode()
-    not_built = None
-    if c_extension:
-        from .compile import ExtensionCompileError, build_extension, failure_outputs
-
-        try:
-            name, data = build_extension(derivation, template_dir, c_files=(header, source) if c else None,
-                                         progress=progress)
-            files[out / name] = data
-        except ExtensionCompileError as exc:   # the other outputs are still written, with the compiler's log
-            not_built = exc
-            files |= {out / name: data for name, data in failure_outputs(model.name, exc).items()}
-    tex = None
-    if latex or pdf:
-        progress("rendering LaTeX")
-        tex = render_latex(derivation, template_dir, chosen)
-    if latex:
-        files[out / f"{model.name}.tex"] = tex.encode()  # type: ignore[union-attr]
-    skipped: ToolMissingError | None = None
-    not_compiled: LatexError | None = None
-    if pdf:
-        from ..render.pdf import compile_pdf, failure_message, failure_outputs
-
-        progress("compiling PDF")
-        try:
-            files[out / f"{model.name}.pdf"] = compile_pdf(tex, model.name)  # type: ignore[arg-type]
-        except ToolMissingError as exc:   # the other outputs are still worth writing
-            skipped = exc
-        except LatexError as exc:   # so are they, with the .tex and LaTeX's log to look at
-            not_compiled = exc
-            files |= {out / name: data for name, data in failure_outputs(model.name, tex, exc).items()}  # type: ignore[arg-type]
-    if code:
-        progress("generating code")
-        files[out / f"{model.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
-        if tests:
-            from ..render.code import render_code_tests
-
-            files[out / f"test_{model.name}_dynamics.py"] = render_code_tests(derivation, template_dir).encode()
-    if json_:
-        files[out / f"{model.name}.json"] = render_json(derivation).encode()
+    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, json=json_, tests=tests)
+    files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress)
     write_all(files)
     if not quiet:
         for path in files:
@@ -203,14 +156,10 @@ def solve(
         failed = [c for c in derivation.checks_run if not c.passed and not c.skipped]
         for check in failed:
             typer.echo(f"warning: check failed: {check.description}", err=True)
-    if skipped is not None:
-        raise _fail(f"dynderive: {out / (model.name + '.pdf')} skipped: {skipped}", 1)
-    if not_compiled is not None:
-        raise _fail(f"dynderive: {failure_message(out, model.name, not_compiled)}", 1)
-    if not_built is not None:
-        from .compile import failure_message as build_failure
-
-        raise _fail(f"dynderive: {build_failure(out, model.name, not_built)}", 1)
+    for message in failures:   # outputs that could not be made (the others are written)
+        typer.echo(f"dynderive: {message}", err=True)
+    if failures:
+        raise typer.Exit(1)
 
 
 @app.command(cls=_Command)
@@ -239,6 +188,10 @@ def check(
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
     backend = backend_name(backend)
+    if backend == "c":   # no compiler: stop before any work
+        from .compile import require_compiler
+
+        require_compiler("--backend")
     progress = Progress(quiet)
     model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
     _notes(model, quiet)
@@ -327,6 +280,10 @@ def simulate(
     tolerances(rtol, atol)
     method = method_name(method)
     backend = backend_name(backend)
+    if backend == "c":   # no compiler: stop before any work
+        from .compile import require_compiler
+
+        require_compiler("--backend")
     if backend == "c" and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))

@@ -74,6 +74,13 @@ def include_dirs(option: str = OPTION) -> list[str]:
     return [python, numpy.get_include()]
 
 
+def require_compiler(option: str = OPTION) -> None:
+    """``InputError`` at ``option``, before any work, when this machine cannot compile the
+    extension (no compiler, or no Python headers)."""
+    find_compiler(option)
+    include_dirs(option)
+
+
 def extension_filename(robot_name: str) -> str:
     """``<name>_dynamics_c`` with this Python's suffix for extensions (``.cpython-311-x86_64-linux-gnu.so``)."""
     from ..render.c_extension import module_name
