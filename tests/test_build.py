@@ -231,3 +231,45 @@ def test_build_c_writes_the_c_target_and_tracks_its_templates(robots, tmp_path):
     rebuilt = _build(robots, "--out", out, "--c", "--code", "--template-dir", templates, "-j", "1")
     assert "2 built" in rebuilt.stdout
     assert (out / "rp_arm_dynamics.c").read_text().endswith("/* edited */\n")
+
+
+def test_build_c_extension_compiles_imports_and_is_tracked(robots, tmp_path, monkeypatch):
+    """``build --c-extension`` writes an extension that imports and agrees with the NumPy
+    module; the second build is up to date; ``--check`` compiles it but does not compare its
+    machine-specific bytes (the C sources are compared with ``--c``)."""
+    import importlib.util
+    import os
+
+    import numpy as np
+
+    from dynderive.commands.build import EXTENSION_SUFFIX
+
+    from conftest import module_of
+
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        if os.environ.get("CI"):
+            raise RuntimeError("CI must build the C extension, but no C compiler was found")
+        pytest.skip("no C compiler")
+    out = tmp_path / "out"
+    first = _build(robots, "--out", out, "--c-extension", "--c", "-j", "1")
+    assert first.exit_code == 0, first.output
+    path = out / f"rp_arm_dynamics_c{EXTENSION_SUFFIX}"
+    spec = importlib.util.spec_from_file_location("rp_arm_dynamics_c", path)
+    compiled = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(compiled)
+    (tmp_path / "numpy").mkdir()
+    reference = module_of("rp_arm", tmp_path / "numpy")
+    q, qd, u = np.array([0.3, 0.7]), np.array([-0.4, 0.25]), np.array([0.5, -1.5])
+    assert np.allclose(compiled.forward_dynamics(q, qd, u), reference.forward_dynamics(q, qd, u), rtol=1e-12, atol=0)
+    second = _build(robots, "--out", out, "--c-extension", "--c", "-j", "1")
+    assert "2 up to date" in second.stdout, second.output
+    check = _build(robots, "--out", out, "--c-extension", "--c", "--check")
+    assert check.exit_code == 0 and "2 current" in check.stdout, check.output
+    (out / "rp_arm_dynamics.c").write_text("/* edited */\n")
+    check = _build(robots, "--out", out, "--c-extension", "--c", "--check")
+    assert check.exit_code == 1 and f"{out / 'rp_arm_dynamics.c'}: differs" in check.stdout
+    # no compiler: exit 2 at the option, before any work
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    refused = _build(robots, "--out", tmp_path / "other", "--c-extension")
+    assert refused.exit_code == 2 and "--c-extension:1:1:" in refused.output
+    assert not (tmp_path / "other").exists()

@@ -23,6 +23,7 @@ import hashlib
 import json
 import os
 import re
+import sysconfig
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -40,11 +41,16 @@ except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
 MANIFEST = ".dynderive-build.json"
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf")
-KINDS = ("latex", "pdf", "code", "c", "json")
-#: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not compile)
-OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynamics.c", "{}.json", "{}.log")
+KINDS = ("latex", "pdf", "code", "c", "c_extension", "json")
+#: The compiled extension's file name ends with this Python's suffix for extensions.
+EXTENSION_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+#: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not
+#: compile; ``_dynamics_c.log``: an extension the compiler rejected)
+OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynamics.c",
+                "{}_dynamics_c" + EXTENSION_SUFFIX, "{}_dynamics_c.log", "{}.json", "{}.log")
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
-             "code": ["dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"], "json": []}
+             "code": ["dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
+             "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"], "json": []}
 
 
 @dataclass
@@ -165,6 +171,10 @@ def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -
 
     digest = hashlib.sha256()
     digest.update(f"dynderive {__version__} {engine_fingerprint()}\n{','.join(kinds)}\n".encode())
+    if "c_extension" in kinds:   # the compiled bytes depend on the compiler, Python and NumPy too
+        from .compile import toolchain
+
+        digest.update(toolchain().encode())
     try:
         digest.update(source.read_bytes())
     except OSError:
@@ -220,11 +230,17 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
                 sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
     if "code" in kinds:
         files[f"{robot.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
-    if "c" in kinds:
+    if "c" in kinds or "c_extension" in kinds:
         from ..render.c import render_c
 
         header, code = render_c(derivation, template_dir)
-        files[f"{robot.name}_dynamics.h"], files[f"{robot.name}_dynamics.c"] = header.encode(), code.encode()
+        if "c" in kinds:
+            files[f"{robot.name}_dynamics.h"], files[f"{robot.name}_dynamics.c"] = header.encode(), code.encode()
+        if "c_extension" in kinds:
+            from .compile import build_extension
+
+            filename, data = build_extension(derivation, template_dir, c_files=(header, code))
+            files[filename] = data
     if "json" in kinds:
         files[f"{robot.name}.json"] = render_json(derivation).encode()
     return files, failed
@@ -383,8 +399,8 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
         hashes = {file: _sha(data) for file, data in files.items()}
         if check:
             problems = [f"{out / file}: missing" if not (out / file).is_file() else f"{out / file}: differs"
-                        for file, data in files.items()
-                        if not (out / file).is_file() or (out / file).read_bytes() != data]
+                        for file, data in files.items() if not file.endswith(EXTENSION_SUFFIX)   # compiled: built, not compared
+                        and (not (out / file).is_file() or (out / file).read_bytes() != data)]
             outcomes[name] = Outcome(name, "differs" if problems else "current", seconds, outputs=hashes,
                                      problems=problems, sheet=sheet)
         else:

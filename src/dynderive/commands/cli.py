@@ -469,6 +469,8 @@ def build(
     pdf: Annotated[bool, typer.Option("--pdf", help="Write <name>.pdf.")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write <name>_dynamics.py.")] = False,
     c: Annotated[bool, typer.Option("--c", help="Write <name>_dynamics.h and .c (C99).")] = False,
+    c_extension: Annotated[bool, typer.Option("--c-extension", help="Write <name>_dynamics_c.*.so, the compiled "
+                                              "extension (--check: compiled, not compared).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
     check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "
@@ -481,7 +483,11 @@ def build(
     from .build import default_jobs
 
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
-                                                        ("json", json_)) if wanted)
+                                                        ("c_extension", c_extension), ("json", json_)) if wanted)
+    if c_extension:   # no compiler: stop before any work
+        from .compile import require_compiler
+
+        require_compiler()
     if not kinds:
         kinds = ("latex", "code")
     if template_dir is not None and not template_dir.is_dir():

@@ -11,6 +11,7 @@ generated code (a bug of ours) is ``ExtensionCompileError``, with its log to kee
 
 from __future__ import annotations
 
+import functools
 import os
 import shlex
 import shutil
@@ -72,6 +73,22 @@ def include_dirs(option: str = OPTION) -> list[str]:
         raise InputError(problem(option, f"Python's C headers (Python.h) are not in {python}: install them (e.g. apt "
                                          "install python3-dev) to compile the extension"))
     return [python, numpy.get_include()]
+
+
+@functools.lru_cache(maxsize=1)
+def toolchain() -> str:
+    """What the compiled bytes depend on besides the sources: the compiler (its command and
+    the first line of its ``--version``), Python's extension suffix and NumPy's version (a
+    build's manifest key)."""
+    import numpy
+
+    compiler = find_compiler()
+    try:
+        version = subprocess.run([*compiler, "--version"], capture_output=True, text=True, timeout=60).stdout
+    except (OSError, subprocess.TimeoutExpired):
+        version = ""
+    return "\n".join([shlex.join(compiler), (version.splitlines() or [""])[0],
+                      sysconfig.get_config_var("EXT_SUFFIX") or "", numpy.__version__])
 
 
 def require_compiler(option: str = OPTION) -> None:
