@@ -96,8 +96,7 @@ def solve(
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
     code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
-    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99 (open chains; "
-                                    "closed loops not yet).")] = False,
+    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99.")] = False,
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write DIR/<name>_dynamics_c.*.so, the C code "
                                               "compiled into a Python extension with the NumPy module's API (needs a C "
                                               "compiler: CC, cc or gcc).")] = False,
