@@ -62,9 +62,13 @@ def compiled(tmp_path_factory):
     cache = {}
 
     def get(robot):
+        """``robot``: a bundled robot's name, or a robot file's path (``tests/loops``)."""
         if robot not in cache:
-            folder = tmp_path_factory.mktemp(f"ext_{robot}")
-            cache[robot] = (_load(derivation_of(robot), folder), module_of(robot, str(folder)))
+            folder = tmp_path_factory.mktemp(f"ext_{Path(robot).stem}")
+            derivation = derivation_of(robot)
+            module = module_of(robot, str(folder)) if "/" not in robot else import_code(
+                dynderive.render_code(derivation), folder, f"{Path(robot).stem}_file_dynamics")
+            cache[robot] = (_load(derivation, folder), module)
         return cache[robot]
 
     return get
@@ -309,13 +313,6 @@ def test_failing_compiler_keeps_the_other_outputs_and_the_log(tmp_path, monkeypa
     assert str(log) in result.output
 
 
-@pytest.mark.parametrize("robot", ["four_bar"])
-def test_closed_loops_are_refused(robot, tmp_path):
-    result = CliRunner().invoke(app, ["solve", robot, "--c-extension", "--code", "--out", str(tmp_path)])
-    assert result.exit_code == 2 and "--c-extension: closed loops are not built yet" in result.output
-    assert list(tmp_path.iterdir()) == []
-
-
 def test_robot_without_efforts_and_parameter_without_default(tmp_path):
     """NU = 0 (u omitted, B of shape (2n, 0)); a parameter without a default is a required
     keyword (TypeError without it, as in the NumPy module) and not in PARAMETERS."""
@@ -359,3 +356,142 @@ def test_wrench_kernels_call_the_c_targets_wrench_functions_once_it_has_them():
     assert "planar_3r_inverse_dynamics_wrenches(in[0], in[1], in[2], w, p, out[0]);" in native
     assert "return planar_3r_forward_dynamics_wrenches(in[0], in[1], in[2], w, p, out[0]);" in native
     assert "ext_inverse_dynamics_wrenches" not in native and "ext_solve" not in native
+
+
+LOOP_FUNCTIONS = ["loop_constraints", "loop_jacobian", "loop_jacobian_dot", "loop_forces", "reduced_basis",
+                  "reduced_forward_dynamics", "assemble"]
+LOOP_ROBOTS = ["four_bar", "slider_crank", "bennett", "spatial_four_bar",
+               *(str(p) for p in sorted((Path(__file__).parent / "loops").glob("*.yaml")))]
+
+
+def _loop_states(module, seed: int, count: int):
+    """``count`` assembled states (q, qd with A_g qd = 0, u) stacked, and q moved off the loops."""
+    from test_c_loops import _states
+
+    rng = np.random.default_rng(seed)
+    q, qd, u = (np.array(a) for a in zip(*_states(module, rng, count), strict=True))
+    return q, qd, u, q + rng.normal(scale=2e-2, size=q.shape)
+
+
+def _agree_on_loops(ext, module, seed: int, parameters: dict | None = None, smoothing: float | None = None) -> None:
+    """Every function of a loop robot's extension against the NumPy module at assembled
+    states: one state, a batch of three, and a batch whose arguments broadcast."""
+    kwargs = dict(parameters or {})
+    friction = {} if smoothing is None else {"friction_smoothing": smoothing}
+    q, qd, u, off = _loop_states(module, seed, 3)
+    dependent = np.array([c not in module.INDEPENDENT_COORDINATES for c in module.COORDINATES], dtype=float)
+    qdd = np.random.default_rng(seed).normal(size=q.shape[-1])
+    for pick in (0, slice(None)):
+        s, sd, su, so = q[pick], qd[pick], u[pick], off[pick]
+        calls = [
+            ("mass_matrix", (s,), {}), ("coriolis_matrix", (s, sd), {}), ("gravity_vector", (s,), {}),
+            ("inverse_dynamics", (s, sd, qdd), friction), ("kinetic_energy", (s, sd), {}),
+            ("potential_energy", (s,), {}), ("friction_forces", (sd,), friction), ("regressor", (s, sd, qdd), friction),
+            ("loop_constraints", (so,), {}), ("loop_jacobian", (s,), {}), ("loop_jacobian_dot", (s, sd), {}),
+            ("forward_dynamics", (s, sd, su), friction), ("forward_dynamics", (s, sd), friction),
+            ("forward_dynamics", (s, sd, u[0]), friction),   # u broadcast over the batch
+            ("forward_dynamics", (so, sd, su), dict(friction, alpha=2.0, beta=7.0)),   # off the loops: the gains act
+            ("forward_dynamics", (s, sd, su), dict(friction, alpha=3.7)),
+            ("loop_forces", (s, sd, su), friction), ("loop_forces", (s, sd), friction),
+            ("reduced_basis", (s,), {}), ("reduced_forward_dynamics", (s, sd, su), friction),
+            ("assemble", (s + 0.05 * dependent,), {}), ("linearize", (s, sd, su), friction),
+        ]
+        calls += [(f, (s, frame), {}) for frame in module.FRAMES for f in ("frame_transform", "frame_jacobian")]
+        for name, args, extra in calls:
+            got = getattr(ext, name)(*args, **extra, **kwargs)
+            want = getattr(module, name)(*args, **extra, **kwargs)
+            for k, (g, w) in enumerate(zip(got, want, strict=True) if name == "linearize" else [(got, want)]):
+                _close(g, w, f"{name}[{k}] {extra} {np.shape(args[0])}")
+    gains = ext.forward_dynamics(off, qd, u, alpha=2.0, beta=7.0, **friction, **kwargs)
+    assert np.max(np.abs(gains - ext.forward_dynamics(off, qd, u, **friction, **kwargs))) > 1e-6
+
+
+@pytest.mark.parametrize("robot", LOOP_ROBOTS, ids=lambda r: Path(r).stem)
+def test_loop_robot_agrees_with_numpy(robot, compiled):
+    ext, module = compiled(robot)
+    _agree_on_loops(ext, module, seed=len(robot))
+    for constant in ("LOOPS", "INDEPENDENT_COORDINATES", "ASSEMBLED_CONFIGURATION", "PARAMETERS", "COORDINATES",
+                     "EFFORTS", "FRAMES", "PARAMETER_VECTOR"):
+        assert getattr(ext, constant) == getattr(module, constant), constant
+        assert type(getattr(ext, constant)) is type(getattr(module, constant)), constant
+    assert [type(x) for x in ext.ASSEMBLED_CONFIGURATION] == [type(x) for x in module.ASSEMBLED_CONFIGURATION]
+    for name in FUNCTIONS + LOOP_FUNCTIONS:
+        assert str(inspect.signature(getattr(ext, name))) == str(inspect.signature(getattr(module, name))), name
+
+
+def test_loop_robot_with_keyword_parameters(compiled):
+    ext, module = compiled("four_bar")
+    _agree_on_loops(ext, module, seed=3, parameters={"m2": 2.5, "g": 3.0})
+
+
+def test_dissipative_loop_robot_with_a_frame(tmp_path):
+    """Damping, Coulomb friction (friction_smoothing, a negative one refused) and wrenches
+    at a frame in forward_dynamics and loop_forces of a loop robot."""
+    from test_c_loops import _framed_loop
+
+    derivation = dynderive.derive(dynderive.load_robot(_framed_loop(tmp_path)))
+    module = import_code(dynderive.render_code(derivation), tmp_path, "framed_damped_four_bar_dynamics")
+    ext = _load(derivation, tmp_path / "ext")
+    _agree_on_loops(ext, module, seed=12, smoothing=0.05)
+    q, qd, u, _ = _loop_states(module, 13, 3)
+    for w in (np.array([0.7, -1.1, 0.4]), np.random.default_rng(14).normal(size=(3, 3))):
+        for name in ("forward_dynamics", "loop_forces"):
+            with_wrench = getattr(ext, name)(q, qd, u, {"tip": w}, friction_smoothing=0.05)
+            _close(with_wrench, getattr(module, name)(q, qd, u, {"tip": w}, friction_smoothing=0.05), f"{name} w")
+            one = {"tip": w if w.ndim == 1 else w[0]}
+            _close(getattr(ext, name)(q[0], qd[0], u[0], wrenches=one),
+                   getattr(module, name)(q[0], qd[0], u[0], wrenches=one), f"{name} one state w")
+            assert np.max(np.abs(with_wrench - getattr(ext, name)(q, qd, u, friction_smoothing=0.05))) > 1e-3
+    for name in ("forward_dynamics", "loop_forces", "reduced_forward_dynamics"):
+        for m in (module, ext):
+            with pytest.raises(ValueError, match="friction_smoothing must not be negative, got -0.5"):
+                getattr(m, name)(q, qd, friction_smoothing=-0.5)
+
+
+def test_loop_keywords_and_failures(compiled):
+    """alpha and beta only where the NumPy module takes them; assemble's failure is the NumPy
+    module's ValueError (one state, or any state of a batch); a singular loop system is NaN for
+    that state (the NumPy module raises LinAlgError for the whole call)."""
+    ext, module = compiled("four_bar")
+    tree, _ = compiled("rp_arm")
+    q = np.array(module.ASSEMBLED_CONFIGURATION)
+    for case in (lambda m: m.loop_forces(q, q, alpha=1.0), lambda m: m.reduced_forward_dynamics(q, q, beta=1.0),
+                 lambda m: m.assemble(q, alpha=1.0), lambda m: m.linearize(q, q, alpha=1.0)):
+        for m in (module, ext):
+            with pytest.raises(TypeError, match="unexpected keyword argument"):
+                case(m)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'alpha'"):
+        tree.forward_dynamics(np.zeros(2), np.zeros(2), alpha=1.0)
+    message = "assemble: the loop constraints could not be solved for these independent coordinates from this guess"
+    guesses = np.array([q, q + 0.1, [0.3, np.nan, 1.0]])
+    for m in (module, ext):
+        with pytest.raises(ValueError, match=message):
+            m.assemble(q, d=5.0)   # the ground link longer than the other three together
+        with pytest.raises(ValueError, match=message):
+            m.assemble(guesses)
+    _close(ext.assemble(guesses[:2]), module.assemble(guesses[:2]), "assemble batch")
+    singular, qd, u = np.zeros(3), np.array([0.2, -0.1, 0.3]), np.ones(1)   # all links along x: rank 1
+    with pytest.raises(np.linalg.LinAlgError):
+        module.forward_dynamics(singular, qd, u)
+    states = np.array([singular, q])
+    for name, size in (("forward_dynamics", 3), ("loop_forces", 2), ("reduced_forward_dynamics", 3)):
+        got = getattr(ext, name)(states, qd, u)
+        assert got.shape == (2, size) and np.all(np.isnan(got[0])), name
+        _close(got[1], getattr(module, name)(q, qd, u), name)
+    assert np.all(np.isnan(ext.reduced_basis(singular))) and np.all(np.isnan(ext.linearize(singular, qd)[0]))
+
+
+def test_loop_table_rows_and_the_cli(tmp_path):
+    derivation = derivation_of("four_bar")
+    table = {b.name: b for b in bindings(derivation)}
+    assert sorted(table) == sorted(FUNCTIONS + LOOP_FUNCTIONS)
+    assert table["forward_dynamics"].members == ("alpha", "beta") and table["assemble"].error
+    assert all(not b.members for b in bindings(derivation_of("rp_arm")))
+    result = CliRunner().invoke(app, ["solve", "four_bar", "--c-extension", "--out", str(tmp_path), "-q"])
+    assert result.exit_code == 0, result.output
+    run = subprocess.run([sys.executable, "-c", "import four_bar_dynamics_c as m; print(m.LOOPS, "
+                          "m.loop_constraints(m.assemble(m.ASSEMBLED_CONFIGURATION)).tolist())"],
+                         cwd=tmp_path, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    loops, residual = run.stdout.split(" [")
+    assert loops == "('c1',)" and max(abs(float(x)) for x in residual.strip("]\n").split(",")) < 1e-11

@@ -294,7 +294,7 @@ def test_loop_code_has_no_mutable_globals(tmp_path):
 
 def test_header_declares_the_loop_functions(tmp_path):
     header, source = render_c(derivation_of("spatial_four_bar"))
-    for function in ("loop_constraints", "loop_jacobian", "loop_jacobian_dot", "loop_forces",
+    for function in ("loop_constraints", "loop_jacobian", "loop_jacobian_dot", "loop_forces", "loop_forces_wrenches",
                      "forward_dynamics", "forward_dynamics_wrenches", "inverse_dynamics_wrenches", "linearize"):
         assert f" spatial_four_bar_{function}(" in header
     assert "double alpha;" in header and "double beta;" in header

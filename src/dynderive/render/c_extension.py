@@ -24,6 +24,7 @@ from typing import Any
 from ..derivation import Derivation
 from ..errors import InputError
 from .c import double_literal, unsupported
+from .c_loops import loop_context
 from .c_names import check_c_names
 from .encode import Code, python_literal
 from .environment import render
@@ -66,7 +67,12 @@ class Binding:
     and outputs; the Python function takes ``wrenches=None`` after the arrays. ``smoothing``:
     takes ``friction_smoothing``; ``refuses_negative``: a negative one is a ValueError (where
     the NumPy module's ``_direction`` raises). ``scalar``: one state gives a NumPy scalar, not
-    a 0-d array (as the NumPy module's ``kinetic_energy`` of a program-built robot)."""
+    a 0-d array (as the NumPy module's ``kinetic_energy`` of a program-built robot).
+    ``members``: members of the C parameters struct after ``friction_smoothing`` (a loop
+    robot's Baumgarte gains ``alpha``, ``beta``) that the function takes as keywords, before
+    ``friction_smoothing`` (their default: the C target's). ``error``: the C function's nonzero
+    return raises ``ValueError(error)`` (where the NumPy module raises it), for any state of a
+    batch; it implies ``returns`` "status"."""
 
     name: str
     function: str
@@ -80,6 +86,8 @@ class Binding:
     smoothing: bool = False
     refuses_negative: bool = False
     scalar: bool = False
+    members: tuple[str, ...] = ()
+    error: str | None = None
 
 
 def bindings(derivation: Derivation) -> list[Binding]:
@@ -91,7 +99,14 @@ def bindings(derivation: Derivation) -> list[Binding]:
     dissipative = robot.dissipative
     sign = dissipative and bool(derivation.programs["regressor"].extra_inputs)
     q, qd, qdd, u = ("q", n), ("qd", n), ("qdd", n), ("u", nu)
-    return [
+    loops = bool(robot.loops)
+    forward = (("Accelerations qdd of the closed-loop mechanism from [M -A^T; A 0] [qdd; lambda_g] = [Y - C qd - N - F "
+                "+ sum J^T w; -Adot qd - 2 alpha A qd - beta**2 a_g(q)], shape (..., n); alpha, beta: Baumgarte gains "
+                "(0: none); u=None: no effort. NaN where the system cannot be solved (M not positive definite, or the "
+                "loop rows singular).") if loops else
+               ("Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F + sum J^T w, shape (..., n); u=None: no "
+                "effort. NaN where M is not positive definite."))
+    table = [
         Binding("mass_matrix", "mass_matrix", (q,), ((n, n),), "Mass matrix M_g(q), shape (..., n, n)."),
         Binding("coriolis_matrix", "coriolis_matrix", (q, qd), ((n, n),),
                 "Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., n, n)."),
@@ -100,10 +115,9 @@ def bindings(derivation: Derivation) -> list[Binding]:
                 "Generalized forces Y_g = M qdd + C qd + N + F - sum J^T w, shape (..., n); wrenches: None or "
                 "{frame: w} in world axes.", wrenches="inverse_dynamics_wrenches", smoothing=True,
                 refuses_negative=dissipative),
-        Binding("forward_dynamics", "forward_dynamics", (q, qd, u), ((n,),),
-                "Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F + sum J^T w, shape (..., n); u=None: no "
-                "effort. NaN where M is not positive definite.", returns="status", optional=True,
-                wrenches="forward_dynamics_wrenches", smoothing=True, refuses_negative=dissipative),
+        Binding("forward_dynamics", "forward_dynamics", (q, qd, u), ((n,),), forward, returns="status", optional=True,
+                wrenches="forward_dynamics_wrenches", smoothing=True, refuses_negative=dissipative,
+                members=("alpha", "beta") if loops else ()),
         Binding("kinetic_energy", "kinetic_energy", (q, qd), ((),), "Kinetic energy T_g = 1/2 qd^T M qd, shape (...).",
                 returns="value", scalar=derivation.structured_code),
         Binding("potential_energy", "potential_energy", (q,), ((),),
@@ -128,6 +142,40 @@ def bindings(derivation: Derivation) -> list[Binding]:
                 returns="status", frame=True),
         Binding("frame_jacobian_dot_qd", "frame_jacobian_dot_qd", (q, qd), ((twist,),),
                 "Jdot(q, qd) qd of frame (a name of FRAMES), shape (..., t).", returns="status", frame=True),
+    ]
+    return table + (_loop_bindings(derivation) if loops else [])
+
+
+def _loop_bindings(derivation: Derivation) -> list[Binding]:
+    """A closed-loop robot's functions (``render/c_loops.py``'s C functions)."""
+    n, nu = len(derivation.symbols.q), len(derivation.symbols.efforts)
+    k, m = derivation.quantities["a_g"].shape[0], len(derivation.steps["loops"].independent)
+    dissipative = derivation.robot.dissipative
+    q, qd, u = ("q", n), ("qd", n), ("u", nu)
+    return [
+        Binding("loop_constraints", "loop_constraints", (q,), ((k,),),
+                "Loop constraints a_g(q) (zero when the loops are closed), shape (..., k)."),
+        Binding("loop_jacobian", "loop_jacobian", (q,), ((k, n),),
+                "Loop constraint Jacobian A_g(q) = da_g/dq, shape (..., k, n)."),
+        Binding("loop_jacobian_dot", "loop_jacobian_dot", (q, qd), ((k, n),),
+                "Its time derivative Adot_g(q, qd), shape (..., k, n)."),
+        Binding("loop_forces", "loop_forces", (q, qd, u), ((k,),),
+                "Loop multipliers lambda_g, shape (..., k): A_g^T lambda_g is the generalized force the loop joints "
+                "exert (forward_dynamics' system with alpha = beta = 0). NaN where it cannot be solved.",
+                returns="status", optional=True, wrenches="loop_forces_wrenches", smoothing=True,
+                refuses_negative=dissipative),
+        Binding("reduced_basis", "reduced_basis", (q,), ((n, m),),
+                "R_g(q), shape (..., n, m): the motions the loops allow, qd = R_g qd_i with qd_i the velocities of "
+                "INDEPENDENT_COORDINATES. NaN where the dependent block of A_g is singular.", returns="status"),
+        Binding("reduced_forward_dynamics", "reduced_forward_dynamics", (q, qd, u), ((n,),),
+                "Accelerations qdd, shape (..., n), by the reduced form R_g^T M R_g qdd_i = R_g^T (Y - C qd - N - F - "
+                "M s), qdd = R_g qdd_i + s (forward_dynamics with alpha = beta = 0 on the constraints). NaN where it "
+                "cannot be solved.", returns="status", optional=True, smoothing=True, refuses_negative=dissipative),
+        Binding("assemble", "assemble", (("q_guess", n),), ((n,),),
+                "The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method, keeping "
+                "INDEPENDENT_COORDINATES, shape (..., n). Raises ValueError where it does not converge.",
+                returns="status", error="assemble: the loop constraints could not be solved for these independent "
+                "coordinates from this guess"),
     ]
 
 
@@ -155,8 +203,9 @@ def _wrench_kernel(binding: Binding, function: str) -> list[str]:
     return [f"return {call};"] if binding.returns == "status" else [f"{call};", "return 0;"]
 
 
-def _signature(binding: Binding, parameters: list[dict[str, Any]]) -> str:
-    """The Python signature (``__text_signature__``, for ``inspect.signature`` and ``help``)."""
+def _signature(binding: Binding, parameters: list[dict[str, Any]], members: dict[str, Any]) -> str:
+    """The Python signature (``__text_signature__``, for ``inspect.signature`` and ``help``);
+    ``members``: the struct members' Python defaults by name."""
     positional = [name for name, _ in binding.inputs]
     if binding.optional:
         positional[-1] += "=None"
@@ -164,7 +213,8 @@ def _signature(binding: Binding, parameters: list[dict[str, Any]]) -> str:
         positional.append("frame")
     if binding.wrenches:
         positional.append("wrenches=None")
-    keywords = (["friction_smoothing=0.0"] if binding.smoothing else []) + \
+    keywords = [f"{member}={members[member]}" for member in binding.members] + \
+        (["friction_smoothing=0.0"] if binding.smoothing else []) + \
         [p["name"] if p["default"] is None else f"{p['name']}={p['python_default']}" for p in parameters]
     if keywords:
         positional += ["*", *keywords]
@@ -179,7 +229,7 @@ def _native(robot_name: str, function: str, header: str | None) -> bool:
 def extension_context(derivation: Derivation, header: str | None = None) -> dict[str, Any]:
     """Every variable ``extension.c.j2`` uses; ``header``: the C target's header, whose
     ``<name>_..._wrenches`` functions the binding calls where it declares them (else its own
-    helpers, from ``frame_jacobian``)."""
+    helpers, from ``frame_jacobian``; a loop robot's are always the C target's, which has them)."""
     problems = unsupported(derivation)
     if problems:
         raise InputError([type(p)(p.file, p.line, p.column, p.message.replace("--c:", "--c-extension:", 1))
@@ -192,11 +242,14 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
                    "python_default": None if p.value is None else python_literal(float(p.value))}
                   for p in robot.parameters]
     table = bindings(derivation)
+    members = [{"name": m["name"], "default": m["default"], "python_default": python_literal(float(m["default"]))}
+               for m in loop_context(derivation)["members"]]
+    python_defaults = {m["name"]: m["python_default"] for m in members}
     functions, own_wrenches = [], False
     for binding in table:
-        native = bool(binding.wrenches) and _native(name, binding.wrenches or "", header)
+        native = bool(binding.wrenches) and (bool(robot.loops) or _native(name, binding.wrenches or "", header))
         own_wrenches |= bool(binding.wrenches) and not native
-        text = f"{_signature(binding, parameters)}\n--\n\n{binding.doc}"
+        text = f"{_signature(binding, parameters, python_defaults)}\n--\n\n{binding.doc}"
         functions.append({
             "name": binding.name,
             "c_name": c_string(binding.name),
@@ -207,6 +260,8 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
             "inputs": [{"name": c_string(n), "size": s} for n, s in binding.inputs],
             "outputs": [{"ndim": len(shape), "dims": list(shape) + [0] * (2 - len(shape))} for shape in binding.outputs],
             "status": int(binding.returns == "status"),
+            "error": c_string(binding.error) if binding.error else Code("NULL"),
+            "members": sum(1 << [m["name"] for m in members].index(member) for member in binding.members),
             "optional": int(binding.optional),
             "frame": int(binding.frame),
             "smoothing": int(binding.smoothing),
@@ -215,6 +270,8 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         })
     strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
     from .._version import __version__
+
+    loops = derivation.steps["loops"] if robot.loops else None
 
     return {
         "name": name,
@@ -229,6 +286,10 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "coordinates": strings(robot.coordinates),
         "efforts": strings(robot.efforts),
         "frames": strings([f.name for f in robot.frames]),
+        "members": members,
+        "loops": strings([lp.name for lp in robot.loops]) if loops else None,
+        "independent": strings([robot.coordinates[i] for i in loops.independent]) if loops else [],
+        "assembled": [Code(double_literal(float(x))) for x in loops.assembled or ()] if loops else [],
         "parameter_vector": strings([p.name for p in derivation.parameter_vector]),
         "functions": functions,
         "own_wrenches": own_wrenches,

@@ -280,7 +280,11 @@ def _loop_functions(derivation: Derivation, kit: CKit) -> list[Any]:
                      f"Loop multipliers lambda_g, {k} entries: A_g^T lambda_g is the generalized force of the loop "
                      f"joints (forward_dynamics' system with alpha = beta = 0, no wrench).{rows} Returns as "
                      "forward_dynamics (lambda untouched unless 0).",
-                     _loop_solve(derivation, kit, "0", False, None, "lambda") + ["return 0;"]),
+                     [f"return {name}_loop_forces_wrenches(q, qd, u, 0, p, lambda);"]),
+        kit.function(f"int {name}_loop_forces_wrenches(const double *q, const double *qd, const double *u, "
+                     f"const double *wrenches, {kit.pp}, double *lambda)",
+                     "loop_forces with wrenches as inverse_dynamics_wrenches (NULL: none).",
+                     _loop_solve(derivation, kit, "wrenches", False, None, "lambda") + ["return 0;"]),
         *_reduced_functions(derivation, kit),
     ]
 

@@ -25,6 +25,7 @@ FUNCTIONS = (
     ("potential_energy", "q"), ("friction_forces", "qd"), ("linearize", "q qd u"),
     ("regressor", "q qd qdd"), ("parameter_vector", ""),
     ("loop_constraints", "q"), ("loop_jacobian", "q"), ("loop_jacobian_dot", "q qd"), ("loop_forces", "q qd u"),
+    ("reduced_basis", "q"), ("reduced_forward_dynamics", "q qd u"), ("assemble", "q"),
 )
 FRAME_FUNCTIONS = (("frame_transform", "q"), ("frame_jacobian", "q"), ("frame_jacobian_dot_qd", "q qd"))
 
@@ -61,7 +62,8 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
             continue
         arrays = [states[a] for a in args.split()]
         keywords = dict(values, **(friction if name in ("inverse_dynamics", "forward_dynamics", "friction_forces",
-                                                         "linearize", "loop_forces") else {}))
+                                                         "linearize", "loop_forces",
+                                                         "reduced_forward_dynamics") else {}))
         try:
             worst = _difference(getattr(module, name)(*arrays, *extra, **keywords),
                                 getattr(compiled, name)(*arrays, *extra, **keywords))
