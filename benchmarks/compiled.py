@@ -1,23 +1,26 @@
 """Compiled code (issue 28): the generated C beside Pinocchio C++, and the generated Python
 (NumPy module, compiled extension) beside ``pin`` from Python, for the UR5 and the Panda.
 
-    python benchmarks/compiled.py [--repeats 7] [--batch 100000]   # about 3-4 minutes; prints tables
+    python benchmarks/compiled.py [--repeats 7] [--rounds 3] [--batch 100000] [--build-dir DIR]
 
 From C: ``<name>_dynamics.c`` (``render_c``) and a small C loop over ``--states`` pre-generated
 random states (full precision), against a C++ program built on the ``pin`` wheel's
 libpinocchio (``pinocchio::urdf::buildModel`` of the same URDF, the same gravity, the same
 states; ``crba``, ``rnea``, ``aba``, ``computeABADerivatives``). Both loops sum an entry of each
-result so that no call is optimised away. Before any timing, both programs write their results
-at the first states and the script checks that they agree (M, tau, qdd and dqdd/dq to 1e-9
-relative): the comparison is of the same computation. Times are per state, the median of
-``--repeats`` runs of the loop. The Pinocchio program is built twice: against
+result so that no call is optimised away. Before timing, each program writes its results at
+the first 20 states, and after the first round the script stops unless both sides agree (M,
+tau, qdd and dqdd/dq to 1e-9 relative): the comparison is of the same computation. Times are per state, the best of
+``--repeats`` runs of the loop (each at least 20 ms) in each of ``--rounds`` rounds, the
+programs taking turns (on a shared machine the best run is the least disturbed one). The
+Pinocchio program is built twice (1-5 minutes; ``--build-dir`` keeps it for the next run): against
 libpinocchio_default.so (the algorithms as the wheel compiled them: ``extern template``
 instantiations) and header-only (the algorithms compiled here with the table's flags).
 
-From Python: one state (median of ``--repeats`` runs of 200 calls) and a batch of ``--batch``
-states (one call; ``pin`` in a Python loop, having no batch call). The compiled extension
-``<name>_dynamics_c`` (``dynderive.commands.compile.build_extension``) has its own rows
-(``extension_rows``), skipped with a note while that module does not exist.
+From Python: one state (the best of ``--repeats`` runs of 200 calls) and a batch of
+``--batch`` states (one call, the best of 3; ``pin`` in a Python loop, having no batch
+call). The compiled extension ``<name>_dynamics_c``
+(``dynderive.commands.compile.build_extension``) has its own rows (``extension_rows``),
+skipped with a note while that module does not exist.
 
 Needs gcc and g++, and the C++ headers of Eigen and urdfdom: ``pip install cmeel-eigen
 cmeel-urdfdom-headers`` (the ``bench`` extra); without them the Pinocchio C++ columns say why
@@ -30,7 +33,6 @@ import argparse
 import importlib.machinery
 import importlib.util
 import shutil
-import statistics
 import subprocess
 import sys
 import sysconfig
@@ -80,7 +82,7 @@ static double *read_states(const char *path, long count) {
     return data;
 }
 static volatile double sink;
-/* median over `repeats` runs of `passes` loops over the N states; ns per state */
+/* the best of `repeats` runs of `passes` loops over the N states (each run >= 20 ms); ns per state */
 #define TIME(kind, call, value) do { \
     double runs[64], total = 0.0; long passes = 1; \
     for (;;) { double t = now_ns(); \
@@ -90,7 +92,7 @@ static volatile double sink;
         for (long pass = 0; pass < passes; ++pass) for (long i = 0; i < N; ++i) { call; total += (value); } \
         runs[r] = (now_ns() - t) / (double)(passes * N); } \
     qsort(runs, (size_t)(repeats < 64 ? repeats : 64), sizeof(double), by_value); \
-    sink = total; printf("%s %.3f\n", kind, runs[(repeats < 64 ? repeats : 64) / 2]); } while (0)
+    sink = total; printf("%s %.3f\n", kind, runs[0]); } while (0)
 """
 
 OURS = TIMING + r"""
@@ -251,8 +253,9 @@ class Robot:
         self.states = states
 
 
-def c_side(robot: Robot, work: Path, repeats: int, pin_binaries: dict[str, Path | str]) -> dict:
-    """Compile ours (-O3 and -O2), run ours and both Pinocchio programs, check agreement."""
+def c_side(robot: Robot, work: Path, repeats: int, rounds: int, pin_binaries: dict[str, Path | str]) -> dict:
+    """Compile ours (-O3 and -O2); run ours and both Pinocchio programs in turn, ``rounds``
+    times (the best time of each); check that both sides agree."""
     header, source = render_c(robot.derivation)
     name, n, nu, N = robot.name, robot.n, robot.nu, robot.states
     (work / f"{name}_dynamics.h").write_text(header)
@@ -274,41 +277,53 @@ def c_side(robot: Robot, work: Path, repeats: int, pin_binaries: dict[str, Path 
         subprocess.run(["gcc", "-std=c99", *flags, f"-DROBOT={name}_", f'-DROBOT_HEADER="{name}_dynamics.h"',
                         f"-DCHECKED={CHECKED}", f"-I{work}", str(work / f"{name}_bench.c"), str(objects),
                         "-o", str(binary), "-lm"], check=True)
-        check = work / f"{name}_ours{flags[0]}.check"
-        result[f"ours{flags[0]}"] = run_program([str(binary), str(ours_states), str(N), str(n), str(nu),
-                                                 str(repeats), str(check)], f"{name} C {flags[0]}")
+    runs = [(f"ours{flags}", [str(work / f"{name}_ours{flags}"), str(ours_states), str(N), str(n), str(nu),
+                              str(repeats), str(work / f"{name}_ours{flags}.check")]) for flags in ("-O3", "-O2")]
+    runs += [(kind, [str(binary), str(pin_states), str(N), str(n), str(nu), str(repeats),
+                     str(work / f"{name}_{kind}.check"), str(robot.urdf)])
+             for kind, binary in pin_binaries.items() if not isinstance(binary, str)]
+    result |= {kind: binary for kind, binary in pin_binaries.items() if isinstance(binary, str)}
+    for round_ in range(max(1, rounds)):
+        for kind, command in runs:
+            times = run_program(command, f"{name} {kind}")
+            result[kind] = {k: min(v, result.get(kind, times)[k]) for k, v in times.items()}
+        if round_ == 0:   # each program wrote its results before timing: compare them now
+            result |= _agreement(robot, work, [kind for kind, _ in runs[2:]])
+    return result
+
+
+def _agreement(robot: Robot, work: Path, kinds: list[str]) -> dict:
+    """The largest relative differences of M, tau, qdd and dqdd/dq between ours and each
+    Pinocchio program at the first states; an error above ``AGREE``."""
+    name, n = robot.name, robot.n
     ours = np.fromfile(work / f"{name}_ours-O3.check").reshape(-1, 2 * n * n + 2 * n)
     back = np.argsort(robot.perm)   # Pinocchio's order -> ours
-    for kind, binary in pin_binaries.items():
-        if isinstance(binary, str):
-            result[kind] = binary
-            continue
-        check = work / f"{name}_{kind}.check"
-        result[kind] = run_program([str(binary), str(pin_states), str(N), str(n), str(nu), str(repeats), str(check),
-                                    str(robot.urdf)], f"{name} Pinocchio {kind}")
-        theirs = np.fromfile(check).reshape(-1, 2 * n * n + 2 * n)
+    square = np.ix_(back, back)
+    result = {}
+    for kind in kinds:
+        theirs = np.fromfile(work / f"{name}_{kind}.check").reshape(-1, 2 * n * n + 2 * n)
         diffs = []
         for a, b in zip(ours, theirs):
             pieces_a = np.split(a, [n * n, n * n + n, n * n + 2 * n])
             pieces_b = np.split(b, [n * n, n * n + n, n * n + 2 * n])
-            square = np.ix_(back, back)
             pieces_b = [pieces_b[0].reshape(n, n)[square].ravel(), pieces_b[1][back], pieces_b[2][back],
                         pieces_b[3].reshape(n, n)[square].ravel()]
             diffs.append([relative(x, y) for x, y in zip(pieces_a, pieces_b)])
         worst = np.max(np.array(diffs), axis=0)
         result[f"{kind} diff"] = dict(zip(["M", "ID", "FD", "lin"], worst.tolist()))
-        if np.max(worst) > AGREE:
+        if len(diffs) < min(CHECKED, robot.states) or np.max(worst) > AGREE:
             raise RuntimeError(f"{name}: the C code and Pinocchio ({kind}) disagree: {result[f'{kind} diff']}")
     return result
 
 
-def _median_us(run, calls: int, repeats: int) -> float:
+def _best_us(run, calls: int, repeats: int) -> float:
+    """The best of ``repeats`` runs, in us per call (on a shared machine, the least disturbed)."""
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
         run()
         times.append((time.perf_counter() - start) / calls)
-    return statistics.median(times) * 1e6
+    return min(times) * 1e6
 
 
 def module_rows(module, robot: Robot, repeats: int, batch: int, label: str) -> dict:
@@ -321,8 +336,8 @@ def module_rows(module, robot: Robot, repeats: int, batch: int, label: str) -> d
     row = {"label": label}
     for kind, call in calls.items():
         call(0, 2)   # warm: first calls import and allocate
-        row[kind] = _median_us(lambda call=call: [call(k, None) for k in range(200)], 200, repeats)
-        row[f"{kind} batch"] = _median_us(lambda call=call: call(0, batch), batch, max(1, min(3, repeats))) * 1e3
+        row[kind] = _best_us(lambda call=call: [call(k, None) for k in range(200)], 200, repeats)
+        row[f"{kind} batch"] = _best_us(lambda call=call: call(0, batch), batch, max(1, min(3, repeats))) * 1e3
     return row
 
 
@@ -337,8 +352,9 @@ def pin_rows(robot: Robot, repeats: int, batch: int) -> dict:
              "lin": lambda k: pin.computeABADerivatives(model, data, q[k], qd[k], u[k])}
     row = {"label": "pin from Python"}
     for kind, call in calls.items():
-        row[kind] = _median_us(lambda call=call: [call(k) for k in range(200)], 200, repeats)
-        row[f"{kind} batch"] = _median_us(lambda call=call: [call(k) for k in range(batch)], batch, 1) * 1e3
+        row[kind] = _best_us(lambda call=call: [call(k) for k in range(200)], 200, repeats)
+        row[f"{kind} batch"] = _best_us(lambda call=call: [call(k) for k in range(batch)], batch,
+                                        max(1, min(3, repeats))) * 1e3
     return row
 
 
@@ -447,7 +463,8 @@ def goals(c_results: dict, py_results: dict) -> list[tuple[str, str, str]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--repeats", type=int, default=7, help="runs of each loop (the best counts)")
+    parser.add_argument("--rounds", type=int, default=3, help="times each C program runs, in turn with the others")
     parser.add_argument("--batch", type=int, default=100_000, help="states in one batch call from Python")
     parser.add_argument("--states", type=int, default=1000, help="states in the C loops")
     parser.add_argument("--build-dir", type=Path, help="keep the programs here; reuse its Pinocchio programs "
@@ -479,15 +496,15 @@ def main() -> None:
         c_results, py_results = {}, {}
         for name in ROBOTS:
             robot = Robot(name, args.states, args.batch)
-            c_results[robot.name] = c_side(robot, work, args.repeats, pin_binaries)
+            c_results[robot.name] = c_side(robot, work, args.repeats, args.rounds, pin_binaries)
             py_results[robot.name] = [module_rows(robot.module, robot, args.repeats, args.batch,
                                                   "NumPy module"),
                                       pin_rows(robot, args.repeats, args.batch),
                                       extension_rows(robot, work, args.repeats, args.batch)]
-    print(f"1. From C: ns per state, median of {args.repeats} runs over {args.states} random states "
+    print(f"1. From C: ns per state, the best of {args.rounds} x {args.repeats} runs over {args.states} random states "
           f"(gcc/g++ {' '.join(FLAGS)} unless said; the check: both sides' results at {CHECKED} states)\n")
     print(c_table(c_results))
-    print(f"\n2. From Python: one call in us (median of {args.repeats} x 200 calls); a batch of "
+    print(f"\n2. From Python: one call in us (the best of {args.repeats} x 200 calls); a batch of "
           f"{args.batch} states in ns per state (pin: a Python loop)\n")
     print(python_table(py_results, args.batch))
     print("\n3. Goals (issue 28)\n")
