@@ -455,3 +455,15 @@ def test_fast_printer_means_what_the_sympy_printer_means(tmp_path):
             exact = float(expr.subs({x: v[0], y: v[1], z: v[2]}))
             assert abs(a - exact) <= 1e-13 * max(1.0, abs(exact)) and abs(b - exact) <= 1e-13 * max(1.0, abs(exact)), \
                 (index, a, b, exact)
+
+
+def test_forward_dynamics_and_linearize_are_one_body_each_sine_once():
+    """forward_dynamics and linearize compute M and Newton-Euler in their own body (issue 28's
+    speed): no call of mass_matrix or inverse_dynamics, and each sin(q[k]) / cos(q[k]) once
+    (two calls of sin are never merged by a C compiler: they may set errno)."""
+    _, source = render_c(derivation_of("panda"))
+    for function in ("forward_dynamics", "linearize"):
+        body = source.split(f"int panda_{function}(", 1)[1].split("\n}\n", 1)[0]
+        assert "panda_mass_matrix(" not in body and "panda_inverse_dynamics(" not in body, function
+        calls = re.findall(r"\b(?:sin|cos)\(q\[\d\]\)", body)
+        assert calls and len(calls) == len(set(calls)), (function, sorted(calls))

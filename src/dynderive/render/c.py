@@ -31,6 +31,8 @@ from sympy.printing.precedence import precedence
 from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..mechanics.tidy import fold_constants
+from .c_join import joined_program as _joined
+from .c_join import print_body as _print_body
 from .c_loops import CKit, amend, loop_context
 from .c_names import c_comment, check_c_names
 from .code import CodeGenerationError, _ProgramPrinter
@@ -263,7 +265,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         CFunction(f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {pp}, "
                   "double *qdd)", "qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 "
                   "(qdd untouched) if M is not positive definite.",
-                  _forward_body(derivation, names, start)),
+                  [] if robot.loops else _forward_body(derivation, names, start)),   # loops: c_loops.amend
         CFunction(f"double {name}_kinetic_energy(const double *q, const double *qd, {pp})",
                   "Kinetic energy T_g = 1/2 qd^T M(q) qd.",
                   [f"double M[{n * n}];", f"{name}_mass_matrix(q, p, M);",
@@ -280,7 +282,8 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         CFunction(f"int {name}_linearize(const double *q, const double *qd, const double *u, {pp}, double *A, "
                   "double *B)", f"(A, B) of xdot = A dx + B du about x = (q, qd) and u: A {2 * n} x {2 * n}, B {2 * n} x "
                   f"{nu}, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 "
-                  "(A, B untouched) if M is not positive definite.", _linearize_body(derivation, names, start)),
+                  "(A, B untouched) if M is not positive definite.",
+                  [] if robot.loops else _linearize_body(derivation, names, start)),
         CFunction(f"void {name}_regressor(const double *q, const double *qd, const double *qdd, {pp}, double *Y)",
                   f"Regressor Y(q, qd, qdd), {n} x {len(derivation.parameter_vector)}, row-major: Y pi = "
                   "inverse_dynamics (pi from parameter_vector).", _regressor_body(derivation, names, start)),
@@ -385,24 +388,42 @@ def _parameter_note(parameter: Any) -> str:
 
 
 def _forward_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
-    """M and C qd + N (+ F) from the functions above, Y_g(u), then L D L^T unrolled: the strictly
-    lower entries that are zero in M for every q (a branching tree) stay out of it."""
-    robot, quantities = derivation.robot, derivation.quantities
-    name, n = robot.name, len(derivation.symbols.q)
-    mass = _structural_pattern(derivation, n)
-    lines = [start, *_void("u", "P"), f"double M[{n * n}];", f"double b[{n}];", f"double r[{n}];",
-             f"const double zero[{n}] = {{0.0}};",
-             f"{name}_mass_matrix(q, p, M);", f"{name}_inverse_dynamics(q, qd, zero, p, b);   /* C qd + N"
-             + (" + F */" if robot.dissipative else " */")]
-    effort_lines = _expression_body(names, list(quantities["Y_g"]), [f"r[{i}]" for i in range(n)])
-    lines += effort_lines
-    lines += [f"r[{i}] -= b[{i}];" for i in range(n)]
-    nonzero = _fill_in(mass, n)
-    lines += _factor_lines(nonzero, n)
-    lines += _solve_lines(nonzero, n, [f"r[{i}]" for i in range(n)])
-    lines += [f"qdd[{i}] = x{i};" for i in range(n)]
-    lines.append("return 0;")
-    return lines
+    """The forward-dynamics program (CRBA, Newton-Euler at qdd = 0 on the same kinematics,
+    Y_g(u) and an L D L^T solve: the NumPy module's ``_forward_dynamics_body``) as one body;
+    ``return 1`` before any store if a pivot is not positive."""
+    local, friction = _forward_names(derivation, names)
+    lines, (outputs,), pivots = _joined([_forward_part(derivation)])
+    return [start, *_void("q", "qd", "u", "P"), *friction,
+            *_print_body(local, lines, [(f"qdd[{i}]", e) for i, e in enumerate(outputs)], pivots), "return 0;"]
+
+
+def _forward_part(derivation: Derivation) -> tuple[list, list, dict, bool]:
+    """The forward-dynamics program as a part of ``_joined``: its extra inputs (F - J^T w)
+    are zero for a robot without damping or friction (the C functions take no wrenches)."""
+    program = derivation.programs["forward_dynamics"]
+    zero = {} if derivation.robot.dissipative else {s: sympy.S.Zero for s in program.extra_inputs}
+    return program.lines, [sympy.sympify(e) for e in program.outputs], zero, True
+
+
+def _mass_part(derivation: Derivation) -> tuple[list, list]:
+    """M's lines and entries: the mass-matrix program, or the explicit M_g with common
+    subexpressions eliminated (a small planar robot)."""
+    if derivation.structured_code:
+        program = derivation.programs["mass_matrix"]
+        return program.lines, [sympy.sympify(e) for e in program.outputs]
+    folded = [fold_constants(sympy.sympify(v)) for v in derivation.quantities["M_g"]]
+    return sympy.cse(folded, symbols=sympy.numbered_symbols("_c"), order="canonical")
+
+
+def _forward_names(derivation: Derivation, names: _Names) -> tuple[_Names, list[str]]:
+    """Names with the forward program's extra inputs as ``F[i]``, and the lines computing F."""
+    local = _Names.__new__(_Names)
+    local.base = dict(names.base)
+    if not derivation.robot.dissipative:
+        return local, []
+    program, n = derivation.programs["forward_dynamics"], len(derivation.symbols.q)
+    local.base |= {symbol: f"F[{i}]" for i, symbol in enumerate(program.extra_inputs)}
+    return local, [f"double F[{n}];", f"{derivation.robot.name}_friction_forces(qd, p, F);"]
 
 
 def _direction(i: int) -> str:
@@ -426,19 +447,22 @@ def _regressor_body(derivation: Derivation, names: _Names, start: str) -> list[s
 
 
 def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
-    """qdd from forward dynamics; R = [-dtau/dq, -dtau/dqd - dF/dqd, dY/du] from the
-    differentiated Newton-Euler program; M X = R column by column (L D L^T); A = [[0, I], X_q,
-    X_qd], B = [[0], X_u]."""
-    robot, table = derivation.robot, derivation.symbols
-    name, n, nu = robot.name, len(table.q), len(table.efforts)
+    """One body: qdd from the forward-dynamics program, M, and the differentiated Newton-Euler
+    program at that qdd (their sines, cosines and common values computed once); R = [-dtau/dq,
+    -dtau/dqd - dF/dqd, dY/du]; M X = R column by column (L D L^T); A = [[0, I], X_q, X_qd],
+    B = [[0], X_u]."""
+    table = derivation.symbols
+    n, nu = len(table.q), len(table.efforts)
     width = 2 * n + nu
-    lines = [start, *_void("P", "B"), f"double qdd[{n}];", f"double M[{n * n}];", f"double D[{2 * n * n}];",
-             f"double R[{n * width}];",
-             f"if ({name}_forward_dynamics(q, qd, u, p, qdd) != 0) return 1;", f"{name}_mass_matrix(q, p, M);"]
+    local, friction = _forward_names(derivation, names)
+    lines = [start, *_void("q", "qd", "u", "P", "B"), f"double M[{n * n}];", f"double D[{2 * n * n}];",
+             f"double R[{n * width}];", *friction]
     derivatives = derivation.programs["inverse_dynamics_derivatives"]
-    local = _Names.__new__(_Names)
-    local.base = dict(names.base) | {s: f"qdd[{i}]" for i, s in enumerate(table.qdd)}
-    lines += _program_body(local, derivatives, [f"D[{k}]" for k in range(2 * n * n)])
+    joined, (_, mass, derived), pivots = _joined([
+        _forward_part(derivation), (*_mass_part(derivation), {}, False),
+        (derivatives.lines, derivatives.outputs, lambda outputs: dict(zip(table.qdd, outputs[0])), False)])
+    lines += _print_body(local, joined, [*((f"M[{k}]", e) for k, e in enumerate(mass)),
+                                         *((f"D[{k}]", e) for k, e in enumerate(derived))], pivots)
     lines += [f"for (int i = 0; i < {n}; ++i) {{",
               f"    for (int k = 0; k < {2 * n}; ++k) R[i * {width} + k] = -D[(k / {n}) * {n * n} + i * {n} + k % {n}];",
               "}"]
