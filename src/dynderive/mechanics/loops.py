@@ -317,6 +317,11 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
         notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
                      "identically zero and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
     rows = [every[i] for i in nonzero]
+    if not rows:   # a loop joint on a tree joint's own axis: nothing to close
+        raise InputError(Problem(robot.source, where[0], where[1], "loops: every loop constraint row is identically "
+                                 "zero (" + "; ".join(f"{name}: {what}" for name, what, _ in dropped) + "), so the "
+                                 "loops constrain nothing: remove them, or move the loop joint off the tree joint's "
+                                 "axis"))
     found = assemblies(numeric, robot)
     if not found:
         if complete:
