@@ -17,7 +17,7 @@ libpinocchio_default.so (the algorithms as the wheel compiled them: ``extern tem
 instantiations) and header-only (the algorithms compiled here with the table's flags).
 
 From Python: one state (the best of ``--repeats`` runs of 200 calls) and a batch of
-``--batch`` states (one call, the best of 3; ``pin`` in a Python loop, having no batch
+``--batch`` states (one call, the best of ``--repeats``; ``pin`` in a Python loop, having no batch
 call). The compiled extension ``<name>_dynamics_c``
 (``dynderive.commands.compile.build_extension``) has its own rows (``extension_rows``),
 skipped with a note while that module does not exist.
@@ -329,15 +329,21 @@ def _best_us(run, calls: int, repeats: int) -> float:
 def module_rows(module, robot: Robot, repeats: int, batch: int, label: str) -> dict:
     """One state and a batch of ``batch`` states through a module with the NumPy module's API."""
     q, qd, qdd, u = robot.q, robot.qd, robot.qdd, robot.u
-    calls = {"M": lambda a, k: module.mass_matrix(q[a:k] if k else q[a]),
-             "ID": lambda a, k: module.inverse_dynamics(*(x[a:k] if k else x[a] for x in (q, qd, qdd))),
-             "FD": lambda a, k: module.forward_dynamics(*(x[a:k] if k else x[a] for x in (q, qd, u))),
-             "lin": lambda a, k: module.linearize(*(x[a:k] if k else x[a] for x in (q, qd, u)))}
+    # one state: called exactly as pin is below (the arguments indexed in the call, nothing else)
+    calls = {"M": lambda k: module.mass_matrix(q[k]),
+             "ID": lambda k: module.inverse_dynamics(q[k], qd[k], qdd[k]),
+             "FD": lambda k: module.forward_dynamics(q[k], qd[k], u[k]),
+             "lin": lambda k: module.linearize(q[k], qd[k], u[k])}
+    batches = {"M": lambda k: module.mass_matrix(q[:k]),
+               "ID": lambda k: module.inverse_dynamics(q[:k], qd[:k], qdd[:k]),
+               "FD": lambda k: module.forward_dynamics(q[:k], qd[:k], u[:k]),
+               "lin": lambda k: module.linearize(q[:k], qd[:k], u[:k])}
     row = {"label": label}
     for kind, call in calls.items():
-        call(0, 2)   # warm: first calls import and allocate
-        row[kind] = _best_us(lambda call=call: [call(k, None) for k in range(200)], 200, repeats)
-        row[f"{kind} batch"] = _best_us(lambda call=call: call(0, batch), batch, max(1, min(3, repeats))) * 1e3
+        call(0)   # warm: first calls import and allocate
+        batches[kind](2)
+        row[kind] = _best_us(lambda call=call: [call(k) for k in range(200)], 200, repeats)
+        row[f"{kind} batch"] = _best_us(lambda call=batches[kind]: call(batch), batch, repeats) * 1e3
     return row
 
 
@@ -354,7 +360,7 @@ def pin_rows(robot: Robot, repeats: int, batch: int) -> dict:
     for kind, call in calls.items():
         row[kind] = _best_us(lambda call=call: [call(k) for k in range(200)], 200, repeats)
         row[f"{kind} batch"] = _best_us(lambda call=call: [call(k) for k in range(batch)], batch,
-                                        max(1, min(3, repeats))) * 1e3
+                                        repeats) * 1e3
     return row
 
 
