@@ -198,9 +198,9 @@ def test_committed_examples_are_current(monkeypatch):
     if shutil.which("latexmk") is None:
         pytest.skip("no TeX engine")
     monkeypatch.chdir(ROOT)  # the manifest records paths as given: robots/<file>
-    result = runner.invoke(app, ["build", "robots", "--out", "examples", "--latex", "--code", "--pdf", "--check"])
+    result = runner.invoke(app, ["build", "robots", "--out", "examples", "--latex", "--code", "--pdf", "--c", "--check"])
     assert result.exit_code == 0, result.stdout + (
-        "\nregenerate with: dynderive build robots --out examples --latex --code --pdf")
+        "\nregenerate with: dynderive build robots --out examples --latex --code --pdf --c")
 
 
 def test_build_c_writes_the_c_target_and_tracks_its_templates(robots, tmp_path):

@@ -21,7 +21,7 @@ import pytest
 import dynderive
 
 ROOT = Path(__file__).resolve().parents[1]
-UPDATE = "dynderive build robots --out examples --latex --code --pdf"
+UPDATE = "dynderive build robots --out examples --latex --code --pdf --c"
 #: Small robots, about 60 s together: revolute + prismatic, two and three revolute joints,
 #: a cart-pole with damping and friction (drives).
 ROBOTS = ["rp_arm", "double_pendulum", "planar_3r", "cart_pole_damped"]
@@ -53,3 +53,12 @@ def test_sheet_matches_the_committed_example(name):
 @pytest.mark.parametrize("name", ROBOTS)
 def test_generated_module_matches_the_committed_example(name):
     _compare(dynderive.render_code(_derivation(name)), ROOT / "examples" / f"{name}_dynamics.py")
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_c_target_matches_the_committed_example(name):
+    from dynderive.render.c import render_c
+
+    header, source = render_c(_derivation(name))
+    _compare(header, ROOT / "examples" / f"{name}_dynamics.h")
+    _compare(source, ROOT / "examples" / f"{name}_dynamics.c")
