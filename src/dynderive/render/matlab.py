@@ -226,11 +226,9 @@ def prologue(derivation: Derivation, vectors: list[str], count: int, optional: d
     return lines + [f"if nargin < {count} || isempty(p)", f"    p = {name}.parameters();", "end"]
 
 
-def direction_lines(derivation: Derivation) -> list[str]:
-    """``s``: sign(qd), or tanh(qd / friction_smoothing) when that is positive."""
-    del derivation
-    return ["if p.friction_smoothing > 0", "    s = tanh(qd / p.friction_smoothing);", "else",
-            "    s = sign(qd);", "end"]
+#: ``s``: sign(qd), or tanh(qd / friction_smoothing) when that is positive (the NumPy module's).
+DIRECTION_LINES = ["if p.friction_smoothing > 0", "    s = tanh(qd / p.friction_smoothing);", "else",
+                   "    s = sign(qd);", "end"]
 
 
 def _friction_body(derivation: Derivation, names: Names) -> list[str]:
@@ -238,7 +236,7 @@ def _friction_body(derivation: Derivation, names: Names) -> list[str]:
     lines = prologue(derivation, ["qd"], 2) + [f"F = zeros({n}, 1);"]
     drives = {d.coordinate: d for d in derivation.joint_drives} if derivation.robot.dissipative else {}
     if any(d.friction != 0 for d in drives.values()):
-        lines += direction_lines(derivation)
+        lines += DIRECTION_LINES
     printer = names.printer()
     for i, drive in sorted(drives.items()):
         terms = ([f"({printer.doprint(fold_constants(drive.damping))})*qd({i + 1})"] if drive.damping != 0 else []) + \
@@ -294,7 +292,6 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         return expression_body(names, list(value) if isinstance(value, sympy.MatrixBase) else [value], targets)
 
     friction = ([f"tau = tau + {name}.friction_forces(qd, p);"] if robot.dissipative else [])
-    zeros_u = f"zeros({nu}, 1)"
     regressor = programs["regressor"]
     regressor_names = names.extended({s: f"s({i + 1})" for i, s in enumerate(regressor.extra_inputs)})
     functions = [
@@ -335,7 +332,7 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
                   [f"REGRESSOR  Regressor Y(q, qd, qdd), {n} x {count}: Y * parameter_vector(p) equals "
                    "inverse_dynamics" + (" of the open tree (no loop forces)." if robot.loops else ".")],
                   [*prologue(derivation, ["q", "qd", "qdd"], 4),
-                   *(direction_lines(derivation) if regressor.extra_inputs else []), f"Y = zeros({n}, {count});",
+                   *(DIRECTION_LINES if regressor.extra_inputs else []), f"Y = zeros({n}, {count});",
                    *program_body(regressor_names, regressor, matrix_targets("Y", n, count))]),
         MFunction("parameter_vector", "pi_", ["p"],
                   [f"PARAMETER_VECTOR  The regressor's parameters, {count} x 1: per link mass, first moment m c, "

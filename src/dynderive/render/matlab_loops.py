@@ -18,8 +18,7 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
-from .matlab import (MFunction, Names, expression_body, linearize_rhs, matrix_targets, prologue,
-                     vector_targets)
+from .matlab import MFunction, Names, expression_body, linearize_rhs, matrix_targets, prologue, vector_targets
 
 
 def _sizes(derivation: Derivation) -> tuple[int, int, int]:
@@ -32,7 +31,7 @@ def _rows(derivation: Derivation, bottom: str) -> list[str]:
     _, k, r = _sizes(derivation)
     if r == k:
         return ["Ur = eye(" + str(k) + ");"]
-    return ["[Ub, Sv, Vv] = svd(Aj);", f"Ur = Ub(:, 1:{r});", "Aj = Ur' * Aj;", f"{bottom} = Ur' * {bottom};"]
+    return ["[Ub, ~, ~] = svd(Aj);", f"Ur = Ub(:, 1:{r});", "Aj = Ur' * Aj;", f"{bottom} = Ur' * {bottom};"]
 
 
 def _solve_function(derivation: Derivation) -> MFunction:
@@ -52,7 +51,7 @@ def _solve_function(derivation: Derivation) -> MFunction:
 
 def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
     """The loop functions, and the constrained forward dynamics and linearize."""
-    name, quantities, table = derivation.robot.name, derivation.quantities, derivation.symbols
+    quantities, table = derivation.quantities, derivation.symbols
     n, k, r = _sizes(derivation)
     nu = len(table.efforts)
     least = (f" The {k} rows of A_g have rank {r} (over-constrained): the multipliers of least norm."
