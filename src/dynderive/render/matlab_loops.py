@@ -18,7 +18,15 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
-from .matlab import MFunction, Names, expression_body, linearize_rhs, matrix_targets, prologue, vector_targets
+from .matlab_print import (
+    MFunction,
+    Names,
+    expression_body,
+    linearize_rhs,
+    matrix_targets,
+    prologue,
+    vector_targets,
+)
 
 
 def _sizes(derivation: Derivation) -> tuple[int, int, int]:
