@@ -291,6 +291,27 @@ def test_a_matlab_keyword_is_refused_at_its_place(tmp_path, keyword):
     assert "Traceback" not in result.stderr and not (tmp_path / "out").exists()
 
 
+def test_every_name_the_files_use_is_refused_as_a_package_name():
+    """The refusal list covers every function and local variable the generated code names (a
+    package of that name would be shadowed inside the functions)."""
+    from dynderive.render.matlab_names import GENERATED_NAMES, MATLAB_KEYWORDS
+
+    used, packages, functions = set(), set(), set()
+    for robot in ["rp_arm", "bennett", "cart_pole_damped", "planar_3r", "slider_crank"]:
+        files = render_matlab(derivation_of(robot))
+        packages.add(robot)
+        functions |= {path.split("/")[1][:-2] for path in files}
+        for text in files.values():
+            for line in text.splitlines():
+                if line.lstrip().startswith("%"):
+                    continue
+                if "error(" in line or "strcmp(" in line:   # character vectors: not names
+                    line = re.sub(r"'[^']*'", "''", line)
+                used |= set(re.findall(r"(?<![.\w])([A-Za-z]\w*)", line))
+    missing = used - GENERATED_NAMES - MATLAB_KEYWORDS - packages - functions
+    assert not {m for m in missing if not re.fullmatch(r"t[0-9]+", m)}, missing
+
+
 def test_a_robot_name_matlab_cannot_call_is_refused(tmp_path):
     source = (ROOT / "robots" / "rp_arm.yaml").read_text().replace("name: rp_arm", "name: p")
     path = tmp_path / "p.yaml"

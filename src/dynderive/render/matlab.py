@@ -167,7 +167,7 @@ def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
     size, twist = (3, 3) if robot.planar else (4, 6)
     pkg = robot.name
     listing = ", ".join(f.name for f in robot.frames)
-    lookup = ["if ischar(frame)", "    index = 0;"]
+    lookup = ["if ischar(frame) || isstring(frame)", "    index = 0;"]
     for i, f in enumerate(robot.frames):
         lookup += [f"    if strcmp(frame, {matlab_string(f.name)})", f"        index = {i + 1};", "    end"]
     lookup += ["else", "    index = frame;", "end"]

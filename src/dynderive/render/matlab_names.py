@@ -33,7 +33,7 @@ GENERATED_NAMES = frozenset("""
 abs acos asin atan atan2 cos cosh exp log sin sinh sqrt tan tanh sign zeros eye isempty nargin svd
 error ischar strcmp isnumeric numel struct nan NaN pi size reshape max min any all isfinite floor
 q qd qdd u p frame M C N V F Y A B R X K E D G T J W x s r top bottom rhs solution lambda tau n index
-Ur Ar Ub ans
+Ur Ar Ub ans Adot Aj a alpha beta pi_ qdd0 loop_solve isstring isequal tanh
 """.split())
 
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
