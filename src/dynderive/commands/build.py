@@ -41,16 +41,18 @@ except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
 MANIFEST = ".dynderive-build.json"
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf")
-KINDS = ("latex", "pdf", "code", "c", "c_extension", "json")
+KINDS = ("latex", "pdf", "code", "c", "c_extension", "matlab", "json")
 #: The compiled extension's file name ends with this Python's suffix for extensions.
 EXTENSION_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 #: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not
 #: compile; ``_dynamics_c.log``: an extension the compiler rejected)
 OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynamics.c",
-                "{}_dynamics_c" + EXTENSION_SUFFIX, "{}_dynamics_c.log", "{}.json", "{}.log")
+                "{}_dynamics_c" + EXTENSION_SUFFIX, "{}_dynamics_c.log", "{}.json", "{}.log",
+                "+{}/parameters.m")   # --matlab: the package +<name>/ (every one has parameters.m)
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
              "code": ["dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
-             "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"], "json": []}
+             "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
+             "matlab": ["matlab/function.m.j2"], "json": []}
 
 
 @dataclass
@@ -241,6 +243,10 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
 
             filename, data = build_extension(derivation, template_dir, c_files=(header, code))
             files[filename] = data
+    if "matlab" in kinds:   # the package +<name>/: paths relative to the output folder
+        from ..render.matlab import render_matlab
+
+        files |= {path: text.encode() for path, text in render_matlab(derivation, template_dir).items()}
     if "json" in kinds:
         files[f"{robot.name}.json"] = render_json(derivation).encode()
     return files, failed

@@ -100,6 +100,8 @@ def solve(
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write DIR/<name>_dynamics_c.*.so, the C code "
                                               "compiled into a Python extension with the NumPy module's API (needs a C "
                                               "compiler: CC, cc or gcc).")] = False,
+    matlab: Annotated[bool, typer.Option("--matlab", help="Write DIR/+<name>/, MATLAB/Octave functions (one per "
+                                         "file: mass_matrix, forward_dynamics, ...).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
                                         "pytest property checks of the generated module.")] = False,
@@ -142,12 +144,13 @@ def solve(
     if derivation.intermediate_form and not quiet:
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
-    if not (latex or pdf or code or c or c_extension or json_):
+    if not (latex or pdf or code or c or c_extension or matlab or json_):
         typer.echo(render_terminal(derivation), nl=False)
         return
     from .solve import Wanted, solve_outputs
 
-    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, json=json_, tests=tests)
+    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, json=json_,
+                    tests=tests)
     files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress)
     write_all(files)
     if not quiet:
@@ -471,6 +474,7 @@ def build(
     c: Annotated[bool, typer.Option("--c", help="Write <name>_dynamics.h and .c (C99).")] = False,
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write <name>_dynamics_c.*.so, the compiled "
                                               "extension (--check: compiled, not compared).")] = False,
+    matlab: Annotated[bool, typer.Option("--matlab", help="Write +<name>/, MATLAB/Octave functions.")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
     check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "
@@ -483,7 +487,8 @@ def build(
     from .build import default_jobs
 
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
-                                                        ("c_extension", c_extension), ("json", json_)) if wanted)
+                                                        ("c_extension", c_extension), ("matlab", matlab),
+                                                        ("json", json_)) if wanted)
     if c_extension:   # no compiler: stop before any work
         from .compile import require_compiler
 

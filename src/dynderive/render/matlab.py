@@ -1,0 +1,228 @@
+"""The MATLAB/Octave target's numeric functions (``solve --matlab``): ``+<name>/``, one function
+per file.
+
+The same straight-line programs as the NumPy and C targets (``Derivation.programs``,
+``frame_programs``; a small planar robot's explicit M, C, N, V with common subexpressions
+eliminated), printed for MATLAB by ``matlab_print.py``'s ``MatlabPrinter`` (SymPy's ``OctaveCodePrinter``, with
+numbers as exact double literals of 17 significant digits, integer powers as products and
+``~`` for negation) and ``FastMatlabPrinter`` (the project's fast line printer with the same
+numbers and powers). Every value is a scalar: ``*``, ``/`` and products print the same in
+MATLAB as in C. Arrays are column vectors and matrices indexed from 1; parameters are fields
+of the struct ``p`` (``p.m``).
+
+Dense linear algebra is MATLAB's: forward dynamics solves ``M qdd = Y(u) - (C qd + N + F)``
+with ``\\`` (M symmetric positive definite: MATLAB factors it by Cholesky), ``linearize``
+solves its columns the same way, and a loop robot solves the NumPy module's constrained system
+(``matlab_loops.py``). Free text appears only in ``%`` comments (``matlab_comment``); names must
+be MATLAB names (``matlab_names.py``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import sympy
+
+from ..derivation import Derivation
+from ..mechanics.tidy import fold_constants
+from .c import double_literal
+from .encode import Code
+from .environment import render
+from .matlab_loops import loop_functions
+from .matlab_names import check_matlab_names, matlab_comment, matlab_string
+from .matlab_print import (
+    DIRECTION_LINES,
+    MFunction,
+    Names,
+    expression_body,
+    linearize_rhs,
+    matrix_targets,
+    program_body,
+    prologue,
+    vector_targets,
+)
+
+FUNCTION_TEMPLATE = "matlab/function.m.j2"
+
+
+def _friction_body(derivation: Derivation, names: Names) -> list[str]:
+    n = len(derivation.symbols.q)
+    lines = prologue(derivation, ["qd"], 2) + [f"F = zeros({n}, 1);"]
+    drives = {d.coordinate: d for d in derivation.joint_drives} if derivation.robot.dissipative else {}
+    if any(d.friction != 0 for d in drives.values()):
+        lines += DIRECTION_LINES
+    printer = names.printer()
+    for i, drive in sorted(drives.items()):
+        terms = ([f"({printer.doprint(fold_constants(drive.damping))})*qd({i + 1})"] if drive.damping != 0 else []) + \
+            ([f"({printer.doprint(fold_constants(drive.friction))})*s({i + 1})"] if drive.friction != 0 else [])
+        if terms:
+            lines.append(f"F({i + 1}) = {' + '.join(terms)};")
+    return lines
+
+
+def numeric_functions(derivation: Derivation) -> list[MFunction]:
+    """Every function of ``+<name>/`` (the loop functions from ``matlab_loops``)."""
+    robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
+    name, n, nu = robot.name, len(table.q), len(table.efforts)
+    names = Names(derivation)
+    programs, structured = derivation.programs, derivation.structured_code
+    count = len(derivation.parameter_vector)
+
+    def body(program: str, quantity: str, targets: list[str]) -> list[str]:
+        if structured:
+            return program_body(names, programs[program], targets)
+        value = quantities[quantity]
+        return expression_body(names, list(value) if isinstance(value, sympy.MatrixBase) else [value], targets)
+
+    friction = ([f"tau = tau + {name}.friction_forces(qd, p);"] if robot.dissipative else [])
+    regressor = programs["regressor"]
+    regressor_names = names.extended({s: f"s({i + 1})" for i, s in enumerate(regressor.extra_inputs)})
+    functions = [
+        MFunction("mass_matrix", "M", ["q", "p"],
+                  [f"MASS_MATRIX  Mass matrix M_g(q), {n} x {n}.", "", "   M = " + name + ".mass_matrix(q)",
+                   "   M = " + name + ".mass_matrix(q, p)   (p: a struct as from parameters())"],
+                  [*prologue(derivation, ["q"], 2), f"M = zeros({n}, {n});", *body("mass_matrix", "M_g",
+                                                                                   matrix_targets("M", n, n))]),
+        MFunction("coriolis_matrix", "C", ["q", "qd", "p"],
+                  [f"CORIOLIS_MATRIX  Coriolis matrix C_g(q, qd) (Christoffel symbols), {n} x {n}.", "",
+                   f"   C = {name}.coriolis_matrix(q, qd, p): C*qd are the velocity terms of the equations."],
+                  [*prologue(derivation, ["q", "qd"], 3), f"C = zeros({n}, {n});",
+                   *body("coriolis", "C_g", matrix_targets("C", n, n))]),
+        MFunction("gravity_vector", "N", ["q", "p"],
+                  [f"GRAVITY_VECTOR  Gravity vector N_g(q) = dV/dq, {n} x 1."],
+                  [*prologue(derivation, ["q"], 2), f"N = zeros({n}, 1);",
+                   *body("gravity", "N_g", vector_targets("N", n))]),
+        MFunction("inverse_dynamics", "tau", ["q", "qd", "qdd", "p"],
+                  [f"INVERSE_DYNAMICS  Y_g = M qdd + C qd + N (+ friction_forces) by recursive Newton-Euler, {n} x 1."
+                   + (" The open tree's: no loop forces." if robot.loops else "")],
+                  [*prologue(derivation, ["q", "qd", "qdd"], 4), f"tau = zeros({n}, 1);",
+                   *program_body(names, programs["inverse_dynamics"], vector_targets("tau", n)), *friction]),
+        MFunction("generalized_forces", "Y", ["q", "u", "p"],
+                  [f"GENERALIZED_FORCES  Y_g(q, u): the generalized forces of the efforts u ({nu} x 1), {n} x 1."],
+                  [*prologue(derivation, ["q", "u"], 3), f"Y = zeros({n}, 1);",
+                   *expression_body(names, list(quantities["Y_g"]), vector_targets("Y", n))]),
+        MFunction("kinetic_energy", "T", ["q", "qd", "p"], ["KINETIC_ENERGY  Kinetic energy T_g = 1/2 qd' M(q) qd."],
+                  [*prologue(derivation, ["q", "qd"], 3), f"T = 0.5*(qd' * ({name}.mass_matrix(q, p) * qd));"]),
+        MFunction("potential_energy", "V", ["q", "p"],
+                  ["POTENTIAL_ENERGY  Potential energy V_g(q) of gravity and the springs."],
+                  [*prologue(derivation, ["q"], 2), "V = 0;", *body("potential", "V_g", ["V"])]),
+        MFunction("friction_forces", "F", ["qd", "p"],
+                  [f"FRICTION_FORCES  Dissipative forces F_g = b qd + fc sign(qd), {n} x 1 (tanh(qd / "
+                   "p.friction_smoothing) for sign(qd) when friction_smoothing > 0)." if robot.dissipative else
+                   f"FRICTION_FORCES  Dissipative forces F_g: zero, the robot declares no damping or friction, {n} x 1."],
+                  _friction_body(derivation, names)),
+        MFunction("regressor", "Y", ["q", "qd", "qdd", "p"],
+                  [f"REGRESSOR  Regressor Y(q, qd, qdd), {n} x {count}: Y * parameter_vector(p) equals "
+                   "inverse_dynamics" + (" of the open tree (no loop forces)." if robot.loops else ".")],
+                  [*prologue(derivation, ["q", "qd", "qdd"], 4),
+                   *(DIRECTION_LINES if regressor.extra_inputs else []), f"Y = zeros({n}, {count});",
+                   *program_body(regressor_names, regressor, matrix_targets("Y", n, count))]),
+        MFunction("parameter_vector", "pi_", ["p"],
+                  [f"PARAMETER_VECTOR  The regressor's parameters, {count} x 1: per link mass, first moment m c, "
+                   "inertia about the link frame's origin; then the drives."],
+                  ["if nargin < 1 || isempty(p)", f"    p = {name}.parameters();", "end", f"pi_ = zeros({count}, 1);",
+                   *expression_body(names, [v.value for v in derivation.parameter_vector], vector_targets("pi_", count))]),
+        *_frame_functions(derivation, names),
+    ]
+    if not robot.loops:
+        functions += [_forward_dynamics(derivation), _linearize(derivation, names)]
+    else:
+        functions += loop_functions(derivation, names)
+    return functions
+
+
+def _forward_dynamics(derivation: Derivation) -> MFunction:
+    name, n, nu = derivation.robot.name, len(derivation.symbols.q), len(derivation.symbols.efforts)
+    return MFunction(
+        "forward_dynamics", "qdd", ["q", "qd", "u", "p"],
+        [f"FORWARD_DYNAMICS  Accelerations qdd solving M(q) qdd = Y_g(u) - C qd - N - F, {n} x 1.", "",
+         f"   qdd = {name}.forward_dynamics(q, qd, u, p); u ({nu} x 1) may be [] (no effort).",
+         "   M is solved with MATLAB's \\ (Cholesky: M is symmetric positive definite).",
+         f"   ode45(@(t, x) [x({n + 1}:{2 * n}); {name}.forward_dynamics(x(1:{n}), x({n + 1}:{2 * n}), u, p)], tspan, x0)"],
+        [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
+         f"M = {name}.mass_matrix(q, p);",
+         f"rhs = {name}.generalized_forces(q, u, p) - {name}.inverse_dynamics(q, qd, zeros({n}, 1), p);",
+         "qdd = M \\ rhs;"])
+
+
+def _linearize(derivation: Derivation, names: Names) -> MFunction:
+    name, n, nu = derivation.robot.name, len(derivation.symbols.q), len(derivation.symbols.efforts)
+    return MFunction(
+        "linearize", "[A, B]", ["q", "qd", "u", "p"],
+        [f"LINEARIZE  (A, B) of xdot = A dx + B du about x = [q; qd] and u: A {2 * n} x {2 * n}, B {2 * n} x {nu}.", "",
+         "   A = [0, I; dqdd/dq, dqdd/dqd], B = [0; dqdd/du], from Newton-Euler differentiated line by line",
+         "   and one solve with M (M dqdd/dx = dY/dx - dtau/dx at the state's own qdd)."],
+        [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
+         f"qdd0 = {name}.forward_dynamics(q, qd, u, p);", *linearize_rhs(derivation, names, "qdd0"),
+         f"X = {name}.mass_matrix(q, p) \\ R;",
+         f"A = [zeros({n}, {n}), eye({n}); X(:, 1:{2 * n})];", f"B = [zeros({n}, {nu}); X(:, {2 * n + 1}:end)];"])
+
+
+def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
+    """Pose, Jacobian and Jdot qd of a frame: ``frame`` its name (a character vector) or its
+    1-based number in the robot file's order; anything else is an error."""
+    robot, n = derivation.robot, len(derivation.symbols.q)
+    if not robot.frames:
+        return []
+    size, twist = (3, 3) if robot.planar else (4, 6)
+    pkg = robot.name
+    listing = ", ".join(f.name for f in robot.frames)
+    lookup = ["if ischar(frame) || isstring(frame)", "    index = 0;"]
+    for i, f in enumerate(robot.frames):
+        lookup += [f"    if strcmp(frame, {matlab_string(f.name)})", f"        index = {i + 1};", "    end"]
+    lookup += ["else", "    index = frame;", "end"]
+    rows = "(vx, vy, omega)" if twist == 3 else "(vx, vy, vz, wx, wy, wz)"
+    specs = [
+        ("transform", "T", ["q"], matrix_targets("T", size, size), f"zeros({size}, {size})",
+         f"FRAME_TRANSFORM  Pose of a frame in the world, [R, p; 0, 1], {size} x {size}."),
+        ("jacobian", "J", ["q"], matrix_targets("J", twist, n), f"zeros({twist}, {n})",
+         f"FRAME_JACOBIAN  World-frame geometric Jacobian of a frame, {twist} x {n}: rows {rows}."),
+        ("jacobian_dot_qd", "a", ["q", "qd"], vector_targets("a", twist), f"zeros({twist}, 1)",
+         f"FRAME_JACOBIAN_DOT_QD  Jdot(q, qd) qd of a frame, {twist} x 1 (its acceleration at qdd = 0)."),
+    ]
+    functions = []
+    for kind, out, vectors, targets, empty, summary in specs:
+        body = [*prologue(derivation, vectors, len(vectors) + 2), *lookup, f"{out} = {empty};"]
+        for index, frame in enumerate(derivation.frame_programs):
+            lines = program_body(names, getattr(frame, kind), targets)
+            body += [f"{'if' if index == 0 else 'elseif'} isequal(index, {index + 1})", *("    " + x for x in lines)]
+        body += ["else", f"    error('{pkg}:frame', 'no such frame: give its name or a number from 1 to {len(robot.frames)}');",
+                 "end"]
+        functions.append(MFunction(f"frame_{kind}", out, [*vectors, "frame", "p"],
+                                   [summary, "", f"   frame: its name, or its number in the robot file's order: {listing}"],
+                                   body))
+    return functions
+
+
+def parameters_function(derivation: Derivation) -> MFunction:
+    """``parameters()``: the struct of the robot file's defaults (NaN where it gives none)."""
+    robot = derivation.robot
+    help_lines = [f"PARAMETERS  The parameters of {robot.title}: a struct of the robot file's defaults.", ""]
+    body = ["p = struct();"]
+    for parameter in robot.parameters:
+        value = "NaN" if parameter.value is None else double_literal(float(parameter.value))
+        note = " ".join(x for x in [parameter.description or "", f"[{parameter.unit}]" if parameter.unit else "",
+                                    "(no default in the robot file: NaN)" if parameter.value is None else ""] if x)
+        help_lines.append(f"   {parameter.name}: {note}" if note else f"   {parameter.name}")
+        body.append(f"p.{parameter.name} = {value};")
+    help_lines.append("   friction_smoothing: 0 for sign(qd) in Coulomb friction, eps > 0 for tanh(qd / eps)")
+    body.append("p.friction_smoothing = 0;")
+    if robot.loops:
+        help_lines += ["   alpha, beta: Baumgarte gains of forward_dynamics (0: none)"]
+        body += ["p.alpha = 0;", "p.beta = 0;"]
+    return MFunction("parameters", "p", [], help_lines, body)
+
+
+def render_matlab(derivation: Derivation, template_dir: str | Path | None = None) -> dict[str, str]:
+    """The package ``+<name>/``: {relative path: text}, nothing written."""
+    check_matlab_names(derivation.robot)
+    from .._version import __version__
+
+    robot = derivation.robot
+    context = {"title": matlab_comment(robot.title), "source": matlab_comment(Path(robot.source).name),
+               "generator": matlab_comment(f"dynderive {__version__}"), "name": Code(robot.name)}
+    files = {}
+    for function in [parameters_function(derivation), *numeric_functions(derivation)]:
+        files[f"+{robot.name}/{function.name}.m"] = render("code", FUNCTION_TEMPLATE, context | {"f": function},
+                                                            template_dir)
+    return dict(sorted(files.items()))

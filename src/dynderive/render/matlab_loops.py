@@ -1,0 +1,125 @@
+"""The MATLAB/Octave target's closed loops: ``loop_constraints``, ``loop_jacobian``,
+``loop_jacobian_dot`` (the NumPy module's expressions, printed), and ``forward_dynamics``,
+``loop_forces`` and ``linearize`` solving the NumPy module's constrained system
+
+    [M  -A^T] [qdd   ]   [Y - C qd - N - F                     ]
+    [A    0 ] [lambda] = [-Adot qd - 2 alpha A qd - beta^2 a(q)]
+
+with MATLAB's ``\\`` (``alpha`` and ``beta`` are fields of the parameters struct, default 0).
+Over-constrained loops (the rows of A have rank r < NC on the constraints) use, as the NumPy
+module does, the r left singular vectors U_r of A with the largest singular values and the
+multipliers of least norm ``lambda = U_r lambda_r``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy
+
+from ..derivation import Derivation
+from .matlab_print import (
+    MFunction,
+    Names,
+    expression_body,
+    linearize_rhs,
+    matrix_targets,
+    prologue,
+    vector_targets,
+)
+
+
+def _sizes(derivation: Derivation) -> tuple[int, int, int]:
+    """(NV, NC, rank of the loop rows)."""
+    return (len(derivation.symbols.q), derivation.quantities["a_g"].shape[0], derivation.steps["loops"].rank)
+
+
+def _rows(derivation: Derivation, bottom: str) -> list[str]:
+    """``Aj`` and ``bottom`` projected on U_r when the loops are over-constrained (``Ur``)."""
+    _, k, r = _sizes(derivation)
+    if r == k:
+        return ["Ur = eye(" + str(k) + ");"]
+    return ["[Ub, ~, ~] = svd(Aj);", f"Ur = Ub(:, 1:{r});", "Aj = Ur' * Aj;", f"{bottom} = Ur' * {bottom};"]
+
+
+def _solve_function(derivation: Derivation) -> MFunction:
+    """The local function ``loop_solve(q, qd, u, p, alpha, beta)`` -> [qdd, lambda]."""
+    name = derivation.robot.name
+    n, _, r = _sizes(derivation)
+    return MFunction("loop_solve", "[qdd, lambda]", ["q", "qd", "u", "p", "alpha", "beta"],
+                     ["LOOP_SOLVE  The constrained system at one state (alpha, beta: Baumgarte gains)."],
+                     [f"M = {name}.mass_matrix(q, p);", f"Aj = {name}.loop_jacobian(q, p);",
+                      f"top = {name}.generalized_forces(q, u, p) - {name}.inverse_dynamics(q, qd, zeros({n}, 1), p);",
+                      f"bottom = -({name}.loop_jacobian_dot(q, qd, p) * qd) - 2*alpha*(Aj * qd) "
+                      f"- beta*beta*{name}.loop_constraints(q, p);",
+                      *_rows(derivation, "bottom"),
+                      f"solution = [M, -Aj'; Aj, zeros({r}, {r})] \\ [top; bottom];",
+                      f"qdd = solution(1:{n});", f"lambda = Ur * solution({n + 1}:end);"])
+
+
+def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
+    """The loop functions, and the constrained forward dynamics and linearize."""
+    quantities, table = derivation.quantities, derivation.symbols
+    n, k, r = _sizes(derivation)
+    nu = len(table.efforts)
+    least = (f" The {k} rows of A_g have rank {r} (over-constrained): the multipliers of least norm."
+             if r < k else "")
+    optional_u = {"u": f"zeros({nu}, 1)"}
+    return [
+        MFunction("loop_constraints", "a", ["q", "p"],
+                  [f"LOOP_CONSTRAINTS  Loop constraints a_g(q), {k} x 1 (zero when the loops are closed)."],
+                  [*prologue(derivation, ["q"], 2), f"a = zeros({k}, 1);",
+                   *expression_body(names, list(quantities["a_g"]), vector_targets("a", k))]),
+        MFunction("loop_jacobian", "A", ["q", "p"],
+                  [f"LOOP_JACOBIAN  Loop constraint Jacobian A_g(q) = da_g/dq, {k} x {n}."],
+                  [*prologue(derivation, ["q"], 2), f"A = zeros({k}, {n});",
+                   *expression_body(names, list(quantities["A_g"]), matrix_targets("A", k, n))]),
+        MFunction("loop_jacobian_dot", "Adot", ["q", "qd", "p"],
+                  [f"LOOP_JACOBIAN_DOT  Its time derivative Adot_g(q, qd), {k} x {n}."],
+                  [*prologue(derivation, ["q", "qd"], 3), f"Adot = zeros({k}, {n});",
+                   *expression_body(names, list(quantities["Adot_g"]), matrix_targets("Adot", k, n))]),
+        MFunction("forward_dynamics", "qdd", ["q", "qd", "u", "p"],
+                  [f"FORWARD_DYNAMICS  Accelerations qdd of the closed-loop mechanism, {n} x 1, from", "",
+                   "   [M, -A'; A, 0] [qdd; lambda] = [Y - C qd - N - F; -Adot qd - 2 alpha A qd - beta^2 a(q)]", "",
+                   "   (alpha = p.alpha, beta = p.beta: Baumgarte gains, 0 = none); start from a state on the",
+                   "   constraints (A qd = 0). u may be [] (no effort)." + least],
+                  [*prologue(derivation, ["q", "qd"], 4, optional_u),
+                   "qdd = loop_solve(q, qd, u, p, p.alpha, p.beta);"], [_solve_function(derivation)]),
+        MFunction("loop_forces", "lambda", ["q", "qd", "u", "p"],
+                  [f"LOOP_FORCES  Loop multipliers lambda_g, {k} x 1: A_g' lambda_g is the generalized force the loop "
+                   "joints exert (forward_dynamics' system with alpha = beta = 0)." + least],
+                  [*prologue(derivation, ["q", "qd"], 4, optional_u),
+                   "[qdd, lambda] = loop_solve(q, qd, u, p, 0, 0);"], [_solve_function(derivation)]),
+        _linearize(derivation, names),
+    ]
+
+
+def _linearize(derivation: Derivation, names: Names) -> Any:
+    table, quantities = derivation.symbols, derivation.quantities
+    name = derivation.robot.name
+    n, k, r = _sizes(derivation)
+    nu = len(table.efforts)
+    width = 2 * n + nu
+    coordinates = sympy.Matrix(table.q)
+    force = (quantities["A_g"].T * quantities["lambda_g"]).jacobian(coordinates)
+    multipliers = names.extended({s: f"lambda({i + 1})" for i, s in enumerate(table.loop_multipliers)})
+    acceleration = (quantities["A_g"] * sympy.Matrix(table.qdd)
+                    + quantities["Adot_g"] * sympy.Matrix(table.qd)).jacobian(coordinates)
+    accelerations = names.extended({s: f"qdd0({i + 1})" for i, s in enumerate(table.qdd)})
+    body = [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
+            "[qdd0, lambda] = loop_solve(q, qd, u, p, 0, 0);", *linearize_rhs(derivation, names, "qdd0"),
+            f"K = zeros({n}, {n});", *expression_body(multipliers, list(force), matrix_targets("K", n, n)),
+            f"R(:, 1:{n}) = R(:, 1:{n}) + K;",
+            f"E = zeros({k}, {width});", f"G = zeros({k}, {n});",
+            *expression_body(accelerations, list(acceleration), matrix_targets("G", k, n)),
+            f"E(:, 1:{n}) = -G;", f"E(:, {n + 1}:{2 * n}) = -2*{name}.loop_jacobian_dot(q, qd, p);",
+            f"M = {name}.mass_matrix(q, p);", f"Aj = {name}.loop_jacobian(q, p);", *_rows(derivation, "E"),
+            f"X = [M, -Aj'; Aj, zeros({r}, {r})] \\ [R; E];",
+            f"A = [zeros({n}, {n}), eye({n}); X(1:{n}, 1:{2 * n})];",
+            f"B = [zeros({n}, {nu}); X(1:{n}, {2 * n + 1}:end)];"]
+    return MFunction(
+        "linearize", "[A, B]", ["q", "qd", "u", "p"],
+        [f"LINEARIZE  (A, B) of xdot = A dx + B du about x = [q; qd] and u: A {2 * n} x {2 * n}, B {2 * n} x {nu}.", "",
+         "   The constrained solve [M, -A_g'; A_g, 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g' lambda)/dx;",
+         "   -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0, as the NumPy module)."],
+        body, [_solve_function(derivation)])

@@ -1,0 +1,115 @@
+"""What the MATLAB/Octave target needs of a robot's names and text: a robot name that can be a
+package folder ``+<name>`` and a parameter name that can be a field of the parameters struct
+(MATLAB identifiers, no keyword of MATLAB or Octave), and free text encoded for a ``%`` comment
+or a character-vector literal.
+
+Names are refused, not mangled, at their place in the robot file (as ``c_names.py`` does for
+C): a renamed field would be a trap for the user who fills the struct. The robot's name is the
+package's, which the generated functions call (``rp_arm.mass_matrix(q, p)``): it must not be a
+local variable of theirs (``p.mass_matrix`` would read a field) or a function they call.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from ..errors import InputError, Problem
+from .encode import Code
+
+#: MATLAB's keywords (``iskeyword``) and Octave's (``iskeyword`` of GNU Octave 7): a field or
+#: package of that name cannot be written with a dot.
+MATLAB_KEYWORDS = frozenset("""
+break case catch classdef continue else elseif end for function global if otherwise parfor persistent
+return spmd switch try while arguments enumeration events methods properties
+do end_try_catch end_unwind_protect endclassdef endenumeration endevents endfor endfunction endif
+endmethods endparfor endproperties endspmd endswitch endwhile unwind_protect unwind_protect_cleanup until
+__FILE__ __LINE__
+""".split())
+
+#: The functions and local variables of the generated files: a package of that name would be
+#: shadowed by them (or shadow them).
+GENERATED_NAMES = frozenset("""
+abs acos asin atan atan2 cos cosh exp log sin sinh sqrt tan tanh sign zeros eye isempty nargin svd
+error ischar strcmp isnumeric numel struct nan NaN pi size reshape max min any all isfinite floor
+q qd qdd u p frame M C N V F Y A B R X K E D G T J W x s r top bottom rhs solution lambda tau n index
+Ur Ar Ub ans Adot Aj a alpha beta pi_ qdd0 loop_solve isstring isequal tanh
+""".split())
+
+_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+#: ``namelengthmax`` of MATLAB and Octave.
+MAX_NAME = 63
+#: The fields the parameters struct adds to the robot's parameters.
+ADDED_FIELDS = ("friction_smoothing", "alpha", "beta")
+
+
+def matlab_problems(robot: Any) -> list[Problem]:
+    """Why the robot's names cannot be MATLAB names (empty when they can), each at its place."""
+    problems = []
+    name = robot.name
+    line, column = robot.positions.get("name", (1, 1))
+    why = _why(name)
+    if why is None and (name in GENERATED_NAMES or re.fullmatch(r"t[0-9]+", name)):
+        why = "is a function or a local variable of the generated files"
+    if why:
+        problems.append(Problem(robot.source, line, column,
+                                f"--matlab: robot name '{name}' {why}: it names the package +{name}; rename it"))
+    added = ADDED_FIELDS if robot.loops else ADDED_FIELDS[:1]
+    for parameter in robot.parameters:
+        where = robot.positions.get(f"parameter:{parameter.name}", (1, 1))
+        why = _why(parameter.name)
+        if why is None and parameter.name in added:
+            why = "is a field the generated parameters struct adds"
+        if why:
+            problems.append(Problem(robot.source, where[0], where[1],
+                                    f"--matlab: parameter name '{parameter.name}' {why}: it would be a field of "
+                                    "the MATLAB parameters struct; rename it"))
+    return problems
+
+
+def _why(name: str) -> str | None:
+    if not _IDENTIFIER.match(name):
+        return "is not a MATLAB identifier of ASCII letters, digits and '_' starting with a letter"
+    if len(name) > MAX_NAME:
+        return f"is longer than MATLAB's {MAX_NAME} characters"
+    if name in MATLAB_KEYWORDS:
+        return "is a MATLAB or Octave keyword"
+    return None
+
+
+def check_matlab_names(robot: Any) -> None:
+    """Raise ``InputError`` (exit 2) if any name cannot be used in the MATLAB files."""
+    problems = matlab_problems(robot)
+    if problems:
+        raise InputError(problems)
+
+
+def matlab_comment(text: object) -> Code:
+    """``text`` for a ``%`` comment line, reversibly: printable ASCII stays except ``\\``
+    (``\\\\``), ``{`` and ``}`` (``\\{``, ``\\}``: no ``%{`` or ``%}`` block-comment marker)
+    and ``#`` (``\\#``: Octave's comment character, kept out of the files); every other
+    character (newlines, controls, non-ASCII) becomes ``\\xNN``, ``\\uNNNN`` or
+    ``\\UNNNNNNNN`` text."""
+    out: list[str] = []
+    for char in str(text):
+        if char in "\\{}#":
+            out.append("\\" + char)
+        elif " " <= char <= "~":
+            out.append(char)
+        elif ord(char) < 0x100:
+            out.append(f"\\x{ord(char):02x}")
+        elif ord(char) < 0x10000:
+            out.append(f"\\u{ord(char):04x}")
+        else:
+            out.append(f"\\U{ord(char):08x}")
+    return Code("".join(out))
+
+
+def matlab_string(text: str) -> Code:
+    """A MATLAB expression whose value is the character vector ``text``: ``'...'`` with ``'``
+    doubled when ``text`` is printable ASCII without ``#``, ``%``, ``{`` or ``}`` (nothing a
+    scanner of comments or block markers could misread), else ``char([...])`` of its code
+    points."""
+    if all(" " <= c <= "~" and c not in "#%{}\"" for c in text):
+        return Code("'" + text.replace("'", "''") + "'")
+    return Code("char([" + " ".join(str(ord(c)) for c in text) + "])")

@@ -1,0 +1,258 @@
+"""The MATLAB/Octave target's printing (``matlab.py``, ``matlab_loops.py``): SymPy's
+``OctaveCodePrinter`` with numbers as exact double literals of 17 significant digits, integer
+powers as products and ``~`` for negation (``MatlabPrinter``), the project's fast line printer
+with the same numbers and powers (``FastMatlabPrinter``), one function file's parts
+(``MFunction``), the names of symbols (``q(1)``, ``p.m``), and the bodies shared by the open
+tree's and the loops' functions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import sympy
+from sympy.printing.octave import OctaveCodePrinter
+from sympy.printing.precedence import precedence
+
+from ..derivation import Derivation
+from ..mechanics.tidy import fold_constants
+from .c import MAX_PRODUCT_POWER, double_literal
+from .code import CodeGenerationError, _ProgramPrinter
+from .encode import Code
+from .matlab_names import matlab_comment
+
+
+class MatlabPrinter(OctaveCodePrinter):
+    """``OctaveCodePrinter`` for the generated functions: symbols by ``names`` (anything else
+    is an internal error), numbers as exact double literals, integer powers as products, and
+    MATLAB's ``~`` (not Octave's ``!``) for negation."""
+
+    _operators = {"and": "&&", "or": "||", "not": "~"}
+
+    def __init__(self, names: dict[sympy.Symbol, str]):
+        super().__init__({"strict": True, "inline": True})
+        self.names = names
+
+    def _print_Symbol(self, expr: sympy.Symbol) -> str:
+        try:
+            return self.names[expr]
+        except KeyError:
+            raise CodeGenerationError(f"the MATLAB code has no value for the symbol {expr}") from None
+
+    def _print_Rational(self, expr: sympy.Rational) -> str:
+        text = double_literal(float(expr))
+        return f"({text})" if text.startswith("-") else text
+
+    def _print_Integer(self, expr: sympy.Integer) -> str:
+        text = double_literal(float(expr)) if abs(expr.p) >= 2 ** 53 else str(expr.p)
+        return f"({text})" if text.startswith("-") else text
+
+    def _print_Float(self, expr: sympy.Float) -> str:
+        return self._print_Rational(expr)
+
+    def _print_NumberSymbol(self, expr: sympy.Expr) -> str:
+        return double_literal(float(expr))
+
+    _print_Exp1 = _print_Pi = _print_NumberSymbol
+
+    def _print_Not(self, expr: sympy.Basic) -> str:
+        return f"~({self._print(expr.args[0])})"
+
+    def _print_Relational(self, expr: sympy.Basic) -> str:
+        operator = {"==": "==", "!=": "~=", "<": "<", "<=": "<=", ">": ">", ">=": ">="}[expr.rel_op]
+        return f"({self._print(expr.lhs)} {operator} {self._print(expr.rhs)})"
+
+    def parenthesize(self, item: Any, level: int, strict: bool = False) -> str:
+        if isinstance(item, sympy.Basic) and (item.is_Rational or item.is_Float) and item >= 0:
+            return self._print(item)
+        return super().parenthesize(item, level, strict)
+
+    def _print_Pow(self, expr: sympy.Pow) -> str:
+        base, exponent = expr.args
+        if exponent.is_Integer and 0 < abs(exponent.p) <= MAX_PRODUCT_POWER:
+            factor = self.parenthesize(base, precedence(sympy.Mul(base, base, evaluate=False)))
+            product = "*".join([factor] * abs(exponent.p))
+            if exponent.p > 0:
+                return product
+            return f"1.0/{product}" if abs(exponent.p) == 1 else f"1.0/({product})"
+        return super()._print_Pow(expr)
+
+
+class FastMatlabPrinter(_ProgramPrinter):
+    """``MatlabPrinter``'s text for program lines, fast (as ``c.FastCPrinter`` for C): sums,
+    products, integer powers, numbers, names, sines and cosines by the project's line printer;
+    any other node goes to ``MatlabPrinter``."""
+
+    def __init__(self, names: dict[sympy.Symbol, str]):
+        self.general = MatlabPrinter(names)
+        self.names = self.general.names
+
+    def doprint(self, expr: sympy.Basic) -> str:
+        return self._text(expr)
+
+    def _text(self, expr: sympy.Basic) -> str:
+        if expr.is_Symbol:
+            return self.general._print_Symbol(expr)  # type: ignore[arg-type]
+        return super()._text(expr)
+
+    @staticmethod
+    def _number(expr: sympy.Basic) -> str:
+        if expr.is_Integer and abs(expr.p) < 2 ** 53:   # type: ignore[attr-defined]
+            return str(expr.p)   # type: ignore[attr-defined]
+        if expr.is_Rational or expr.is_Float:
+            return double_literal(float(expr))   # type: ignore[arg-type]
+        raise CodeGenerationError(f"unexpected number {expr} in a program line")
+
+    def _power(self, expr: sympy.Basic) -> str:
+        base, exponent = expr.args
+        if exponent.p < 0:   # type: ignore[attr-defined]
+            return self._product(expr)
+        if exponent.p > MAX_PRODUCT_POWER:   # type: ignore[attr-defined]
+            return self.general.doprint(expr)
+        inner = self._text(base)
+        if not (base.is_Symbol or (base.is_Number and not inner.startswith("("))):
+            inner = f"({inner})"
+        return "*".join([inner] * exponent.p)   # type: ignore[attr-defined]
+
+
+@dataclass
+class MFunction:
+    """One function file: ``function outputs = name(arguments)``, its help text (the first
+    line is MATLAB's H1 line), its body, and local functions after it (same fields)."""
+
+    name: str
+    outputs: str
+    arguments: list[str]
+    help: list[str]
+    body: list[str] = field(default_factory=list)
+    local: list[MFunction] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.help = [matlab_comment(line) for line in self.help]
+        self.body = [Code(line) for line in self.body]
+        self.signature = Code(f"function {self.outputs} = {self.name}({', '.join(self.arguments)})"
+                              if self.outputs else f"function {self.name}({', '.join(self.arguments)})")
+
+
+class Names:
+    """The MATLAB text of each symbol: ``q(i)``, ``p.m``, and locals of one function."""
+
+    def __init__(self, derivation: Derivation, extra: dict[sympy.Symbol, str] | None = None):
+        table = derivation.symbols
+        self.base: dict[sympy.Symbol, str] = {s: f"p.{s.name}" for s in table.parameters.values()}
+        for array, symbols in (("q", table.q), ("qd", table.qd), ("qdd", table.qdd),
+                               ("u", list(table.efforts.values()))):
+            self.base |= {s: f"{array}({i + 1})" for i, s in enumerate(symbols)}
+        self.base |= dict(extra or {})
+
+    def extended(self, extra: dict[sympy.Symbol, str] | None) -> Names:
+        local = Names.__new__(Names)
+        local.base = dict(self.base) | dict(extra or {})
+        return local
+
+    def printer(self) -> FastMatlabPrinter:
+        return FastMatlabPrinter(dict(self.base))
+
+
+def kept_lines(program: Any) -> list[tuple[sympy.Symbol, sympy.Expr]]:
+    """The lines of ``program`` its outputs need, in order."""
+    needed = set().union(*(sympy.sympify(e).free_symbols for e in program.outputs))
+    kept = []
+    for target, expr in reversed(program.lines):
+        if target in needed:
+            kept.append((target, expr))
+            needed |= expr.free_symbols
+    return kept[::-1]
+
+
+def _lines(names: Names, lines: list[tuple[sympy.Symbol, sympy.Expr]], stores: list[tuple[str, sympy.Expr]]) -> list[str]:
+    printer = names.printer()
+    text = []
+    for index, (target, expr) in enumerate(lines):
+        printer.names[target] = f"t{index}"
+        text.append(f"t{index} = {printer.doprint(fold_constants(expr, rationals=False))};")
+    for target, expr in stores:
+        text.append(f"{target} = {printer.doprint(fold_constants(expr, rationals=False))};")
+    return text
+
+
+def program_body(names: Names, program: Any, targets: list[str]) -> list[str]:
+    """MATLAB lines of a straight-line program: ``tN = ...;`` per value the outputs need, then
+    ``target = output;`` per output."""
+    outputs = [sympy.sympify(e) for e in program.outputs]
+    return _lines(names, kept_lines(program), list(zip(targets, outputs)))
+
+
+def expression_body(names: Names, values: list[sympy.Expr], targets: list[str]) -> list[str]:
+    """MATLAB lines of explicit expressions, common subexpressions eliminated."""
+    folded = [fold_constants(sympy.sympify(v)) for v in values]
+    temporaries, reduced = sympy.cse(folded, symbols=sympy.numbered_symbols("_c"), order="canonical")
+    return _lines(names, temporaries, list(zip(targets, reduced)))
+
+
+def matrix_targets(out: str, rows: int, columns: int) -> list[str]:
+    """``out(i, j)`` for row-major entries."""
+    return [f"{out}({i + 1}, {j + 1})" for i in range(rows) for j in range(columns)]
+
+
+def vector_targets(out: str, size: int) -> list[str]:
+    return [f"{out}({i + 1})" for i in range(size)]
+
+
+def prologue(derivation: Derivation, vectors: list[str], count: int, optional: dict[str, str] | None = None) -> list[str]:
+    """Column vectors of the arguments ``vectors``; ``p`` (argument number ``count``) the
+    defaults when absent or empty; other optional arguments by ``optional``."""
+    name = derivation.robot.name
+    lines = [f"{v} = {v}(:);" for v in vectors if v not in (optional or {})]
+    for position, (argument, default) in enumerate((optional or {}).items(), start=count - len(optional or {})):
+        lines += [f"if nargin < {position} || isempty({argument})", f"    {argument} = {default};", "end",
+                  f"{argument} = {argument}(:);"]
+    return lines + [f"if nargin < {count} || isempty(p)", f"    p = {name}.parameters();", "end"]
+
+
+#: ``s``: sign(qd), or tanh(qd / friction_smoothing) when that is positive (the NumPy module's).
+DIRECTION_LINES = ["if p.friction_smoothing > 0", "    s = tanh(qd / p.friction_smoothing);", "else",
+                   "    s = sign(qd);", "end"]
+
+
+def friction_slope(derivation: Derivation, names: Names, target: str) -> list[str]:
+    """``target(i, n + i) -= dF_i/dqd_i``: b + fc (1 - tanh(qd/eps)^2)/eps (0 for the exact sign)."""
+    if not derivation.robot.dissipative:
+        return []
+    n, printer, lines = len(derivation.symbols.q), names.printer(), []
+    for drive in derivation.joint_drives:
+        i = drive.coordinate
+        entry = f"{target}({i + 1}, {n + i + 1})"
+        if drive.damping != 0:
+            lines.append(f"{entry} = {entry} - ({printer.doprint(fold_constants(drive.damping))});")
+        if drive.friction != 0:
+            fc = printer.doprint(fold_constants(drive.friction))
+            lines += ["if p.friction_smoothing > 0",
+                      f"    {entry} = {entry} - ({fc})*(1.0 - tanh(qd({i + 1}) / p.friction_smoothing)"
+                      f"*tanh(qd({i + 1}) / p.friction_smoothing)) / p.friction_smoothing;", "end"]
+    return lines
+
+
+def input_matrix_lines(derivation: Derivation, names: Names, target: str, rows: int, offset: int) -> list[str]:
+    """``target(i, offset + k) = dY_i/du_k`` (the efforts' generalized forces)."""
+    table = derivation.symbols
+    if not table.efforts:
+        return []
+    inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
+    nu = len(table.efforts)
+    return expression_body(names, list(inputs), [f"{target}({i + 1}, {offset + k + 1})"
+                                                 for i in range(rows) for k in range(nu)])
+
+
+def linearize_rhs(derivation: Derivation, names: Names, qdd: str) -> list[str]:
+    """``R = [-dtau/dq, -dtau/dqd - dF/dqd, dY/du]`` (n x 2n+nu) at accelerations ``qdd``."""
+    table = derivation.symbols
+    n, nu = len(table.q), len(table.efforts)
+    local = names.extended({s: f"{qdd}({i + 1})" for i, s in enumerate(table.qdd)})
+    lines = [f"D = zeros({2 * n * n}, 1);",
+             *program_body(local, derivation.programs["inverse_dynamics_derivatives"], vector_targets("D", 2 * n * n)),
+             f"R = zeros({n}, {2 * n + nu});",
+             f"R(:, 1:{n}) = -reshape(D(1:{n * n}), {n}, {n})';",
+             f"R(:, {n + 1}:{2 * n}) = -reshape(D({n * n + 1}:{2 * n * n}), {n}, {n})';"]
+    return lines + friction_slope(derivation, names, "R") + input_matrix_lines(derivation, names, "R", n, 2 * n)

@@ -1,0 +1,345 @@
+"""The MATLAB/Octave target's numeric package (``solve --matlab``, ``render/matlab.py``): every
+function of every bundled robot agrees with the NumPy module at random states (loop robots at
+assembled states, non-default parameters and friction smoothing included) to 1e-10 relative,
+run in GNU Octave (one process per robot); ``ode45`` on the double pendulum conserves energy;
+the README's ``ode45`` example runs; the files hold MATLAB syntax only; hostile free text stays
+inside its comments; a name MATLAB cannot take is refused at its place in the robot file.
+
+Needs GNU Octave: skipped locally without it, required in CI (CI=true).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dynderive
+from dynderive.render.matlab import render_matlab
+
+from conftest import derivation_of, import_code, module_of
+
+OCTAVE = shutil.which("octave-cli") or shutil.which("octave")
+if OCTAVE is None and os.environ.get("CI"):
+    raise RuntimeError("CI must run the MATLAB/Octave target tests, but GNU Octave (octave) was not found")
+needs_octave = pytest.mark.skipif(OCTAVE is None, reason="GNU Octave is not installed")
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = sorted(p.stem for p in (ROOT / "robots").glob("*.yaml")) + ["panda", "ur5"]
+#: An over-constrained loop beside the bundled bennett (4 rows of rank 3).
+EXTRA = [str(ROOT / "tests" / "loops" / "double_parallelogram.yaml")]
+LOOP_ROBOTS = {"four_bar", "slider_crank", "bennett", "spatial_four_bar", *EXTRA}
+TOLERANCE = 1e-10
+
+
+def _write(derivation, directory: Path) -> dict[str, str]:
+    files = render_matlab(derivation)
+    for path, text in files.items():
+        (directory / path).parent.mkdir(parents=True, exist_ok=True)
+        (directory / path).write_text(text)
+    return files
+
+
+def _octave(directory: Path, script: str) -> str:
+    (directory / "run_checks.m").write_text(script)
+    result = subprocess.run([OCTAVE, "--no-gui", "--quiet", "--no-window-system", "--eval", "run_checks"],
+                            cwd=directory, capture_output=True, text=True, timeout=300)
+    assert "error:" not in result.stdout, result.stdout
+    assert result.returncode == 0 and "error: " not in result.stderr.replace(
+        "error: ignoring const execution_exception& while preparing to exit", ""), result.stderr
+    return result.stdout
+
+
+def _vector(values) -> str:
+    return "[" + "; ".join(format(float(v), ".17g") for v in np.ravel(values)) + "]"
+
+
+def _states(module, robot: str, rng, count: int):
+    n, nu = len(module.COORDINATES), len(module.EFFORTS)
+    if robot not in LOOP_ROBOTS:
+        return [(rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), rng.uniform(-1, 1, nu))
+                for _ in range(count)]
+    base = np.array(module.ASSEMBLED_CONFIGURATION)
+    states = []
+    while len(states) < count:
+        try:
+            q = module.assemble(base + rng.normal(scale=0.15, size=n))
+        except ValueError:
+            continue
+        qd = module.reduced_basis(q) @ rng.normal(size=len(module.INDEPENDENT_COORDINATES))
+        states.append((q, qd, rng.normal(size=n), rng.normal(size=nu)))
+    return states
+
+
+class _Calls:
+    """Octave lines that print each result as ``label rows cols v1 v2 ...`` (row-major, %.17g),
+    and the NumPy module's value of each label."""
+
+    def __init__(self, package: str):
+        self.package, self.lines, self.expected = package, [], {}
+
+    def add(self, label: str, call: str, expected, outputs: int = 1) -> None:
+        if outputs == 1:
+            self.lines.append(f"x = {self.package}.{call};")
+            self.lines.append(f"fprintf('{label} %d %d', size(x, 1), size(x, 2)); fprintf(' %.17g', x.'); fprintf('\\n');")
+            self.expected[label] = np.atleast_2d(np.asarray(expected, dtype=float))
+            return
+        self.lines.append(f"[x, y] = {self.package}.{call};")
+        for suffix, name, value in (("A", "x", expected[0]), ("B", "y", expected[1])):
+            self.lines.append(f"fprintf('{label}{suffix} %d %d', size({name}, 1), size({name}, 2)); "
+                              f"fprintf(' %.17g', {name}.'); fprintf('\\n');")
+            self.expected[label + suffix] = np.atleast_2d(np.asarray(value, dtype=float))
+
+    def check(self, output: str) -> None:
+        seen = set()
+        for line in output.splitlines():
+            parts = line.split()
+            if not parts or parts[0] not in self.expected:
+                continue
+            label, rows, columns = parts[0], int(parts[1]), int(parts[2])
+            got = np.array([float(v) for v in parts[3:]]).reshape(rows, columns)
+            want = self.expected[label]
+            if want.shape != got.shape:   # a vector: MATLAB's column, NumPy's 1-D
+                want = want.reshape(got.shape)
+            scale = max(1.0, float(np.max(np.abs(want)))) if want.size else 1.0
+            error = float(np.max(np.abs(got - want))) if want.size else 0.0
+            assert error <= TOLERANCE * scale, f"{label}: {error:.3g} off (scale {scale:.3g})\n{got}\n{want}"
+            seen.add(label)
+        assert seen == set(self.expected), f"missing from Octave's output: {sorted(set(self.expected) - seen)}"
+
+
+@needs_octave
+@pytest.mark.parametrize("robot", ROBOTS + EXTRA, ids=lambda r: Path(r).stem)
+def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
+    if "/" in robot:
+        derivation = dynderive.derive(dynderive.load_robot(robot))
+        module = import_code(dynderive.render_code(derivation), Path(code_dir), f"{derivation.robot.name}_m_dynamics")
+    else:
+        derivation, module = derivation_of(robot), module_of(robot, str(code_dir))
+    name = derivation.robot.name
+    files = _write(derivation, tmp_path)
+    rng = np.random.default_rng(29)
+    loops = robot in LOOP_ROBOTS
+    calls = _Calls(name)
+    calls.lines.append(f"p0 = {name}.parameters();")
+    changed = {k: v * rng.uniform(0.8, 1.2) for k, v in module.PARAMETERS.items()}
+    frames = list(getattr(module, "FRAMES", ()))
+    for index, (q, qd, qdd, u) in enumerate(_states(module, robot, rng, 3)):
+        kwargs = dict(changed) if index == 1 else {}
+        smoothing = {"friction_smoothing": 0.05} if index == 2 and derivation.robot.dissipative else {}
+        fields = "".join(f"p.{k} = {format(v, '.17g')}; " for k, v in kwargs.items())
+        fields += "".join(f"p.{k} = {v}; " for k, v in smoothing.items())
+        gains = {"alpha": 0.7, "beta": 1.3} if loops and index == 2 else {}
+        fields += "".join(f"p.{k} = {v}; " for k, v in gains.items())
+        calls.lines.append(f"p = p0; {fields}q = {_vector(q)}; qd = {_vector(qd)}; qdd = {_vector(qdd)}; "
+                           f"u = {_vector(u)};")
+        both = kwargs | smoothing
+        tag = f"s{index}_"
+        calls.add(tag + "M", "mass_matrix(q, p)", module.mass_matrix(q, **kwargs))
+        calls.add(tag + "C", "coriolis_matrix(q, qd, p)", module.coriolis_matrix(q, qd, **kwargs))
+        calls.add(tag + "N", "gravity_vector(q, p)", module.gravity_vector(q, **kwargs))
+        calls.add(tag + "tau", "inverse_dynamics(q, qd, qdd, p)", module.inverse_dynamics(q, qd, qdd, **both))
+        calls.add(tag + "Y", "generalized_forces(q, u, p)", module.generalized_forces(q, u, **kwargs))
+        calls.add(tag + "qdd", "forward_dynamics(q, qd, u, p)", module.forward_dynamics(q, qd, u, **both, **gains))
+        calls.add(tag + "T", "kinetic_energy(q, qd, p)", module.kinetic_energy(q, qd, **kwargs))
+        calls.add(tag + "V", "potential_energy(q, p)", module.potential_energy(q, **kwargs))
+        calls.add(tag + "F", "friction_forces(qd, p)", module.friction_forces(qd, **both))
+        calls.add(tag + "lin", "linearize(q, qd, u, p)", module.linearize(q, qd, u, **both), outputs=2)
+        calls.add(tag + "reg", "regressor(q, qd, qdd, p)", module.regressor(q, qd, qdd, **both))
+        calls.add(tag + "pi", "parameter_vector(p)", module.parameter_vector(**kwargs))
+        for number, frame in enumerate(frames, start=1):
+            which = f"'{frame}'" if number % 2 else str(number)   # by name and by number
+            calls.add(f"{tag}T{number}", f"frame_transform(q, {which}, p)", module.frame_transform(q, frame, **kwargs))
+            calls.add(f"{tag}J{number}", f"frame_jacobian(q, {which}, p)", module.frame_jacobian(q, frame, **kwargs))
+            calls.add(f"{tag}a{number}", f"frame_jacobian_dot_qd(q, qd, {which}, p)",
+                      module.frame_jacobian_dot_qd(q, qd, frame, **kwargs))
+        if loops:
+            calls.add(tag + "lc", "loop_constraints(q, p)", module.loop_constraints(q, **kwargs))
+            calls.add(tag + "lj", "loop_jacobian(q, p)", module.loop_jacobian(q, **kwargs))
+            calls.add(tag + "ljd", "loop_jacobian_dot(q, qd, p)", module.loop_jacobian_dot(q, qd, **kwargs))
+            calls.add(tag + "lf", "loop_forces(q, qd, u, p)", module.loop_forces(q, qd, u, **both))
+    calls.add("default_M", f"mass_matrix({_vector(np.zeros(len(module.COORDINATES)))})",
+              module.mass_matrix(np.zeros(len(module.COORDINATES))))
+    calls.check(_octave(tmp_path, "\n".join(calls.lines) + "\n"))
+    assert f"+{name}/parameters.m" in files
+
+
+def _double_pendulum_energy(tmp_path: Path) -> list[float]:
+    _write(derivation_of("double_pendulum"), tmp_path)
+    script = "\n".join([
+        "p = double_pendulum.parameters();",
+        "x0 = [0.9; -0.4; 0.3; -0.2];",
+        "options = odeset('RelTol', 1e-8, 'AbsTol', 1e-10);",
+        "[t, x] = ode45(@(t, x) [x(3:4); double_pendulum.forward_dynamics(x(1:2), x(3:4), [], p)], [0 5], x0, options);",
+        "E = zeros(size(t));",
+        "for k = 1:numel(t)",
+        "    E(k) = double_pendulum.kinetic_energy(x(k, 1:2)', x(k, 3:4)', p) + double_pendulum.potential_energy(x(k, 1:2)', p);",
+        "end",
+        "fprintf('energy %.17g\\n', E);", ""])
+    return [float(line.split()[1]) for line in _octave(tmp_path, script).splitlines() if line.startswith("energy")]
+
+
+@needs_octave
+def test_ode45_conserves_the_double_pendulums_energy(tmp_path):
+    energies = _double_pendulum_energy(tmp_path)
+    assert len(energies) > 20
+    drift = max(abs(e - energies[0]) for e in energies) / abs(energies[0])
+    assert drift < 1e-6, drift
+    assert drift > 0   # the integrator's own error: the energies came from a real integration
+
+
+def _readme_example() -> str:
+    text = (ROOT / "README.md").read_text()
+    section = text[text.index("## MATLAB/Octave (`--matlab`)"):]
+    return re.search(r"```matlab\n(.*?)```", section, re.S).group(1)
+
+
+@needs_octave
+def test_readme_ode45_example_runs(tmp_path):
+    _write(derivation_of("rp_arm"), tmp_path)
+    output = _octave(tmp_path, _readme_example() + "\nfprintf('final %.17g\\n', x(end, :));\n")
+    final = [float(v) for line in output.splitlines() if line.startswith("final") for v in line.split()[1:]]
+    (drift,) = [float(line.split()[-1]) for line in output.splitlines() if line.startswith("energy drift")]
+    assert len(final) == 4 and np.all(np.isfinite(final))
+    assert abs(final[0] - 0.5) > 1e-2   # the arm swung
+    assert drift < 1e-5   # J: the energy is of order 10
+
+
+#: Octave-only syntax, outside character-vector literals: comments by ``#``, ``!=``, ``!``,
+#: ``++``, ``+=`` (and kin), ``end<keyword>``, ``printf``, double-quoted strings.
+OCTAVE_ONLY = [re.compile(p) for p in (r"#", r"!=", r"!", r"\+\+", r"--", r"[-+*/^]=(?!=)", r"\bend(function|if|for|while|switch|_try_catch)\b",
+                                       r"\bprintf\b", r"\"", r"\bunwind_protect\b", r"\*\*")]
+
+
+def _code_part(line: str) -> str:
+    """The part of a line before its ``%`` comment, with character-vector literals removed."""
+    code = re.sub(r"'(?:[^'\n]|'')*'", "''", line) if "'" in line and "=" in line else line
+    return code.split("%", 1)[0]
+
+
+@pytest.mark.parametrize("robot", ["rp_arm", "four_bar", "cart_pole_damped", "bennett", "planar_3r"])
+def test_files_hold_matlab_syntax_only(robot):
+    files = render_matlab(derivation_of(robot))
+    for path, text in files.items():
+        assert text.isascii(), path
+        for number, line in enumerate(text.splitlines(), start=1):
+            stripped = line.strip()
+            assert stripped not in ("%{", "%}"), (path, number)
+            if stripped.startswith("%"):
+                continue
+            code = _code_part(line)
+            for pattern in OCTAVE_ONLY:
+                if pattern.pattern == r"[-+*/^]=(?!=)":
+                    bad = re.search(r"(?<![=<>~])[-+*/^]=(?!=)", code)
+                else:
+                    bad = pattern.search(code)
+                assert not bad, f"{path}:{number}: {line!r} ({pattern.pattern})"
+        assert text.rstrip().endswith("end"), path
+        assert re.match(r"function ", text), path
+
+
+HOSTILE = "Arm %}\n%{\nerror('x') # \u00e9\u202e\r\n}"
+
+
+def _robot_file(tmp_path: Path, title: str = "A two-link arm", gravity: str = "g") -> Path:
+    """rp_arm.yaml with another title (also the description of ``m``) and name of ``g``."""
+    source = (ROOT / "robots" / "rp_arm.yaml").read_text()
+    text = source.replace("title: Two-link RP arm (revolute + prismatic)", "title: " + json.dumps(title))
+    text = text.replace("description: mass of each link", "description: " + json.dumps(title))
+    text = text.replace("  g: {value", f"  {gravity}: {{value").replace("[0, -g]", f"[0, -{gravity}]")
+    path = tmp_path / "arm.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_hostile_title_stays_in_its_comments(tmp_path):
+    robot = dynderive.load_robot(str(_robot_file(tmp_path, HOSTILE)))
+    assert robot.title == HOSTILE
+    files = render_matlab(dynderive.derive(robot))
+    for path, text in files.items():
+        assert text.isascii()
+        lines = text.splitlines()
+        assert not any(line.strip().startswith(("%{", "%}")) for line in lines), path
+        (title_line,) = [line for line in lines if "equations of motion of" in line]
+        assert title_line.startswith("%   Package rp_arm: ")
+        assert "\\x0a" in title_line and "\\u202e" in title_line and "%\\}" in title_line
+        code = "\n".join(line for line in lines if not line.lstrip().startswith("%"))
+        assert "error('x')" not in code
+    assert "%   m: Arm %\\}\\x0a%\\{" in files["+rp_arm/parameters.m"]
+
+
+@needs_octave
+def test_hostile_title_runs_and_reads_back_in_help(tmp_path):
+    _write(dynderive.derive(dynderive.load_robot(str(_robot_file(tmp_path, HOSTILE)))), tmp_path)
+    output = _octave(tmp_path, "M = rp_arm.mass_matrix([0.1; 0.2]);\nfprintf('ok %d\\n', numel(M));\n"
+                     "help rp_arm.mass_matrix\n")
+    assert "ok 4" in output and "MASS_MATRIX" in output and "Arm %\\}\\x0a%\\{" in output
+
+
+@pytest.mark.parametrize("keyword", ["end", "function", "endif"])
+def test_a_matlab_keyword_is_refused_at_its_place(tmp_path, keyword):
+    path = _robot_file(tmp_path, gravity=keyword)
+    line = next(n for n, t in enumerate(path.read_text().splitlines(), start=1) if t.startswith(f"  {keyword}:"))
+    result = subprocess.run([sys.executable, "-m", "dynderive", "solve", str(path), "--matlab", "--out",
+                             str(tmp_path / "out")], capture_output=True, text=True)
+    assert result.returncode == 2, result.stderr
+    assert re.fullmatch(rf"\S*arm\.yaml:{line}:3: --matlab: parameter name '{keyword}' is a MATLAB or Octave "
+                        r"keyword: it would be a field of the MATLAB parameters struct; rename it\n", result.stderr), \
+        result.stderr
+    assert "Traceback" not in result.stderr and not (tmp_path / "out").exists()
+
+
+def test_every_name_the_files_use_is_refused_as_a_package_name():
+    """The refusal list covers every function and local variable the generated code names (a
+    package of that name would be shadowed inside the functions)."""
+    from dynderive.render.matlab_names import GENERATED_NAMES, MATLAB_KEYWORDS
+
+    used, packages, functions = set(), set(), set()
+    for robot in ["rp_arm", "bennett", "cart_pole_damped", "planar_3r", "slider_crank"]:
+        files = render_matlab(derivation_of(robot))
+        packages.add(robot)
+        functions |= {path.split("/")[1][:-2] for path in files}
+        for text in files.values():
+            for line in text.splitlines():
+                if line.lstrip().startswith("%"):
+                    continue
+                if "error(" in line or "strcmp(" in line:   # character vectors: not names
+                    line = re.sub(r"'[^']*'", "''", line)
+                used |= set(re.findall(r"(?<![.\w])([A-Za-z]\w*)", line))
+    missing = used - GENERATED_NAMES - MATLAB_KEYWORDS - packages - functions
+    assert not {m for m in missing if not re.fullmatch(r"t[0-9]+", m)}, missing
+
+
+def test_a_robot_name_matlab_cannot_call_is_refused(tmp_path):
+    source = (ROOT / "robots" / "rp_arm.yaml").read_text().replace("name: rp_arm", "name: p")
+    path = tmp_path / "p.yaml"
+    path.write_text(source)
+    result = subprocess.run([sys.executable, "-m", "dynderive", "solve", str(path), "--matlab", "--out",
+                             str(tmp_path / "out")], capture_output=True, text=True)
+    assert result.returncode == 2
+    assert re.search(r"p\.yaml:4:7: --matlab: robot name 'p' is a function or a local variable", result.stderr), \
+        result.stderr
+
+
+def test_solve_and_build_write_the_package_folder(tmp_path):
+    run = [sys.executable, "-m", "dynderive"]
+    solved = subprocess.run([*run, "solve", "rp_arm", "--matlab", "--out", str(tmp_path / "solve"), "-q"],
+                            capture_output=True, text=True)
+    assert solved.returncode == 0, solved.stderr
+    written = sorted(p.relative_to(tmp_path / "solve").as_posix() for p in (tmp_path / "solve").rglob("*.m"))
+    assert written == sorted(render_matlab(derivation_of("rp_arm")))
+    build = [*run, "build", str(ROOT / "robots" / "rp_arm.yaml"), "--matlab", "--out", str(tmp_path / "b"), "-j", "1"]
+    assert subprocess.run(build, capture_output=True, text=True).returncode == 0
+    assert (tmp_path / "b" / "+rp_arm" / "forward_dynamics.m").read_text() == \
+        (tmp_path / "solve" / "+rp_arm" / "forward_dynamics.m").read_text()
+    assert subprocess.run([*build, "--check"], capture_output=True, text=True).returncode == 0
+    (tmp_path / "b" / "+rp_arm" / "mass_matrix.m").write_text("% edited\n")
+    checked = subprocess.run([*build, "--check"], capture_output=True, text=True)
+    assert checked.returncode == 1 and "+rp_arm/mass_matrix.m: differs" in checked.stdout + checked.stderr
