@@ -74,12 +74,12 @@ def compiled(tmp_path_factory):
     return get
 
 
-def _close(actual, expected, what: str) -> None:
+def _close(actual, expected, what: str, rtol: float = RTOL) -> None:
     actual, expected = np.asarray(actual, dtype=float), np.asarray(expected, dtype=float)
     assert actual.shape == expected.shape, f"{what}: shape {actual.shape} != {expected.shape}"
     scale = max(float(np.max(np.abs(expected), initial=0.0)), 1e-300)
     error = float(np.max(np.abs(actual - expected), initial=0.0))
-    assert np.all(np.isfinite(actual)) and error <= RTOL * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
+    assert np.all(np.isfinite(actual)) and error <= rtol * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
 
 
 def _agree(ext, module, seed: int, parameters: dict | None = None, smoothing: float | None = None) -> None:
@@ -400,6 +400,11 @@ def _agree_on_loops(ext, module, seed: int, parameters: dict | None = None, smoo
         for name, args, extra in calls:
             got = getattr(ext, name)(*args, **extra, **kwargs)
             want = getattr(module, name)(*args, **extra, **kwargs)
+            if name == "assemble":   # Newton's method stops at |a_g| < 1e-12: both roots are that close, and
+                # the NumPy module's batch takes further steps on states that have converged (until all have)
+                _close(got, want, f"assemble {np.shape(args[0])}", rtol=1e-10)
+                assert np.max(np.abs(module.loop_constraints(got, **kwargs))) < 1e-12
+                continue
             for k, (g, w) in enumerate(zip(got, want, strict=True) if name == "linearize" else [(got, want)]):
                 _close(g, w, f"{name}[{k}] {extra} {np.shape(args[0])}")
     gains = ext.forward_dynamics(off, qd, u, alpha=2.0, beta=7.0, **friction, **kwargs)
@@ -469,7 +474,7 @@ def test_loop_keywords_and_failures(compiled):
             m.assemble(q, d=5.0)   # the ground link longer than the other three together
         with pytest.raises(ValueError, match=message):
             m.assemble(guesses)
-    _close(ext.assemble(guesses[:2]), module.assemble(guesses[:2]), "assemble batch")
+    _close(ext.assemble(guesses[:2]), module.assemble(guesses[:2]), "assemble batch", rtol=1e-10)
     singular, qd, u = np.zeros(3), np.array([0.2, -0.1, 0.3]), np.ones(1)   # all links along x: rank 1
     with pytest.raises(np.linalg.LinAlgError):
         module.forward_dynamics(singular, qd, u)

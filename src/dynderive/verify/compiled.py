@@ -17,6 +17,9 @@ from .checks import Row
 
 #: Agreement required of the compiled functions, relative to the result's largest entry.
 RTOL = 1e-12
+#: ...except ``assemble``, an iteration that stops once |a_g| < 1e-12: two roots that close
+#: (the NumPy module's batch takes further steps on states that have converged, until all have).
+RTOLS = {"assemble": 1e-10}
 
 #: The functions compared, with the arrays they take (``p``: keyword parameters only).
 FUNCTIONS = (
@@ -71,11 +74,13 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
                 worst = max(worst, _difference(getattr(module, name)(*(a[0] for a in arrays), *extra, **keywords),
                                                getattr(compiled, name)(*(a[0] for a in arrays), *extra, **keywords)))
         except (ValueError, TypeError, np.linalg.LinAlgError) as exc:
-            rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module", "FAIL", f"raised {type(exc).__name__}: "
-                            f"{exc}", float("nan")))
+            rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module", "FAIL",
+                            f"raised {type(exc).__name__}: {exc}", float("nan")))
             continue
-        rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module", "pass" if worst <= RTOL else "FAIL",
-                        f"numeric, {count} states and one, relative", worst))
+        tolerance = RTOLS.get(name, RTOL)
+        rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module",
+                        "pass" if worst <= tolerance else "FAIL",
+                        f"numeric, {count} states and one, relative (at most {tolerance:g})", worst))
     frames = getattr(module, "FRAMES", ())
     if frames and hasattr(compiled, "inverse_dynamics"):
         rng = np.random.default_rng(1)
