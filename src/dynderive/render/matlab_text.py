@@ -1,0 +1,121 @@
+"""What the MATLAB derivation script needs of text and expressions: free text encoded for a
+``%`` comment or a single-quoted string, and SymPy expressions printed as exact Symbolic
+Math Toolbox code.
+
+Comments and strings hold printable ASCII only: every other character (newlines, controls,
+non-ASCII) becomes ``\\xNN``, ``\\uNNNN`` or ``\\UNNNNNNNN`` text, and ``\\`` becomes ``\\\\``,
+so nothing can end a comment line or open a block comment (``%{``, Octave's ``#{``).
+
+Numbers stay exact: a rational is ``sym(p)/sym(q)``, a float its shortest decimal written as
+such a rational (``9.81`` -> ``sym(981)/sym(100)``, exact, so the script's ``isAlways`` checks
+are exact too), and a constant sub-expression (``sqrt(2)``, ``pi``) is built from ``sym``
+integers rather than evaluated in double precision.
+"""
+
+from __future__ import annotations
+
+from decimal import Decimal
+from fractions import Fraction
+from typing import Any
+
+import sympy
+from sympy.printing.octave import OctaveCodePrinter
+
+from .encode import Code
+
+#: Integers beyond this are written as digit strings (``sym('...')``): a double cannot hold them.
+_EXACT_DOUBLE = 2**53
+
+
+def _ascii(char: str) -> str:
+    if char == "\\":
+        return "\\\\"
+    if " " <= char <= "~":
+        return char
+    if ord(char) < 0x100:
+        return f"\\x{ord(char):02x}"
+    if ord(char) < 0x10000:
+        return f"\\u{ord(char):04x}"
+    return f"\\U{ord(char):08x}"
+
+
+def matlab_comment(text: object) -> Code:
+    """``text`` for the rest of a ``% `` comment line, reversibly: printable ASCII stays except
+    ``\\`` (``\\\\``) and the braces of ``%{``, ``%}``, ``#{``, ``#}`` (a backslash put between);
+    every other character is written as an escape."""
+    out: list[str] = []
+    for char in str(text):
+        previous = out[-1][-1:] if out else ""
+        if char in "{}" and previous in ("%", "#"):
+            out.append("\\" + char)
+        else:
+            out.append(_ascii(char))
+    return Code("".join(out))
+
+
+def matlab_string(text: object) -> Code:
+    """``text`` as a single-quoted MATLAB string literal (quotes included): ``'`` doubled, and
+    non-printable or non-ASCII characters escaped as in ``matlab_comment``."""
+    return Code("'" + "".join("''" if c == "'" else _ascii(c) for c in str(text)) + "'")
+
+
+def _rational(numerator: int, denominator: int) -> str:
+    def whole(n: int) -> str:
+        return f"sym({n})" if abs(n) < _EXACT_DOUBLE else f"sym('{n}')"
+    if denominator == 1:
+        return whole(numerator)
+    return f"({whole(numerator)}/{whole(denominator)})"
+
+
+class MatlabPrinter(OctaveCodePrinter):
+    """SymPy to Symbolic Math Toolbox code: exact numbers, matrices with explicit commas."""
+
+    def __init__(self, settings: dict[str, Any] | None = None):
+        super().__init__({"inline": True, **(settings or {})})
+        self._exact = False
+
+    def _print(self, expr: Any, **kwargs: Any) -> str:
+        constant = (isinstance(expr, sympy.Expr) and not self._exact and expr.is_number
+                    and not isinstance(expr, (sympy.Integer, sympy.Rational, sympy.Float)))
+        if not constant:
+            return super()._print(expr, **kwargs)
+        self._exact = True
+        try:
+            return super()._print(expr, **kwargs)
+        finally:
+            self._exact = False
+
+    def _print_Integer(self, expr: sympy.Integer) -> str:
+        n = int(expr)
+        if self._exact or abs(n) >= _EXACT_DOUBLE:
+            return _rational(n, 1)
+        return str(n)
+
+    def _print_Rational(self, expr: sympy.Rational) -> str:
+        return _rational(int(expr.p), int(expr.q))
+
+    def _print_Float(self, expr: sympy.Float) -> str:
+        value = Fraction(Decimal(repr(float(expr))))
+        return _rational(value.numerator, value.denominator)
+
+    def _print_Pi(self, expr: Any) -> str:
+        return "sym(pi)"
+
+    def _print_Exp1(self, expr: Any) -> str:
+        return "exp(sym(1))"
+
+    def _print_MatrixBase(self, expr: Any) -> str:
+        rows = [", ".join(self._print(expr[i, j]) for j in range(expr.cols)) for i in range(expr.rows)]
+        return "[" + "; ".join(rows) + "]"
+
+    _print_Matrix = _print_DenseMatrix = _print_MutableDenseMatrix = _print_ImmutableDenseMatrix = _print_MatrixBase
+
+
+_PRINTER = MatlabPrinter()
+
+
+def matlab_code(expr: Any) -> Code:
+    """``expr`` (a SymPy expression or matrix) as MATLAB Symbolic Math Toolbox code."""
+    if isinstance(expr, sympy.MatrixBase):
+        return Code(_PRINTER._print_MatrixBase(expr))
+    return Code(_PRINTER.doprint(sympy.sympify(expr)))
