@@ -20,8 +20,8 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
-from .environment import render
 from .encode import Code
+from .environment import render
 from .matlab_text import matlab_code, matlab_comment, matlab_string
 
 SCRIPT_TEMPLATE = "matlab/derivation.m.j2"
@@ -133,6 +133,9 @@ def matlab_script_context(derivation: Derivation) -> dict[str, Any]:
     if loops:
         omitted.append("the reduced form of the closed loops (R_g, M_r, C_r, N_r): the multiplier form "
                        "(EOM_g1, EOM_g2 with A_g.'*lambda_g) is derived instead")
+    if maximal and "lambdaVec" not in q:
+        omitted.append("lambdaVec in closed form: at this size it is not formed symbolically (the numeric "
+                       "package evaluates it)")
     if large and robot.frames:
         omitted.append("the frames' poses and Jacobians (too large to expand)")
     frames = _frames(derivation, omitted) if robot.frames and not large else []
