@@ -62,6 +62,12 @@ def _check_lines(output: str) -> list[str]:
 def test_script_runs_and_its_checks_pass(robot, tmp_path):
     derivation = derivation_of(robot)
     script = render_matlab_script(derivation)
+    # the closed-form multipliers (the double pendulum's) take Octave minutes and no check
+    # reads them: run without that block (the RP arm's test runs it and compares lambdaVec)
+    start, end = script.find("%% Constraint forces"), script.find("%% Change of basis")
+    if "lambdaVec = " in script:
+        assert 0 < start < end
+        script = script[:start] + script[end:]
     checks = _check_lines(_run(script, tmp_path, f"{robot}_derivation"))
     assert checks and all(line.startswith("pass: ") for line in checks), checks
     assert len(checks) == script.count("isAlways(")
@@ -201,3 +207,6 @@ def test_numbers_are_exact():
     assert matlab_code(sympy.pi * x) == "sym(pi)*x"
     assert matlab_code(sympy.Integer(2**60) * x) == f"sym('{2**60}')*x"
     assert matlab_code(sympy.Matrix([[x, -x]])) == "[x, -x]"
+    assert matlab_code(sympy.Integer(0)) == "sym(0)"   # never a double
+    assert matlab_code(sympy.Matrix([0, 1])) == "[sym(0); sym(1)]"
+    assert matlab_code(sympy.Matrix([[x, 0], [0, 0]])) == "[x, 0; sym(0), sym(0)]"

@@ -105,7 +105,17 @@ class MatlabPrinter(OctaveCodePrinter):
         return "exp(sym(1))"
 
     def _print_MatrixBase(self, expr: Any) -> str:
-        rows = [", ".join(self._print(expr[i, j]) for j in range(expr.cols)) for i in range(expr.rows)]
+        rows = []
+        for i in range(expr.rows):
+            row = [expr[i, j] for j in range(expr.cols)]
+            # a row of numbers only is written in sym numbers: Octave's symbolic package (3.0)
+            # fails on [x, 0; 0, 0] (a sym row joined to a double row)
+            constant = not any(sympy.sympify(e).free_symbols for e in row)
+            previous, self._exact = self._exact, self._exact or constant
+            try:
+                rows.append(", ".join(self._print(e) for e in row))
+            finally:
+                self._exact = previous
         return "[" + "; ".join(rows) + "]"
 
     _print_Matrix = _print_DenseMatrix = _print_MutableDenseMatrix = _print_ImmutableDenseMatrix = _print_MatrixBase
@@ -115,7 +125,10 @@ _PRINTER = MatlabPrinter()
 
 
 def matlab_code(expr: Any) -> Code:
-    """``expr`` (a SymPy expression or matrix) as MATLAB Symbolic Math Toolbox code."""
-    if isinstance(expr, sympy.MatrixBase):
-        return Code(_PRINTER._print_MatrixBase(expr))
-    return Code(_PRINTER.doprint(sympy.sympify(expr)))
+    """``expr`` (a SymPy expression or matrix) as MATLAB Symbolic Math Toolbox code, always a
+    ``sym`` value."""
+    expr = expr if isinstance(expr, sympy.MatrixBase) else sympy.sympify(expr)
+    text = _PRINTER._print_MatrixBase(expr) if isinstance(expr, sympy.MatrixBase) else _PRINTER.doprint(expr)
+    # a value without symbols would be a double (``phi_1 = 0``): symbolic, so that
+    # ``jacobian`` and ``diff`` take it
+    return Code(f"sym({text})" if not expr.free_symbols and not isinstance(expr, sympy.MatrixBase) else text)
