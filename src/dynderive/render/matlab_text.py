@@ -131,4 +131,5 @@ def matlab_code(expr: Any) -> Code:
     text = _PRINTER._print_MatrixBase(expr) if isinstance(expr, sympy.MatrixBase) else _PRINTER.doprint(expr)
     # a value without symbols would be a double (``phi_1 = 0``): symbolic, so that
     # ``jacobian`` and ``diff`` take it
-    return Code(f"sym({text})" if not expr.free_symbols and not isinstance(expr, sympy.MatrixBase) else text)
+    scalar_number = not isinstance(expr, sympy.MatrixBase) and not expr.free_symbols and "sym(" not in text
+    return Code(f"sym({text})" if scalar_number else text)
