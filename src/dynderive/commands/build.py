@@ -48,11 +48,12 @@ EXTENSION_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 #: compile; ``_dynamics_c.log``: an extension the compiler rejected)
 OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynamics.c",
                 "{}_dynamics_c" + EXTENSION_SUFFIX, "{}_dynamics_c.log", "{}.json", "{}.log",
-                "+{}/parameters.m")   # --matlab: the package +<name>/ (every one has parameters.m)
+                "+{}/parameters.m", "{}_derivation.m")   # --matlab: the package +<name>/ (every one has
+                                                          # parameters.m) and the derivation script
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
              "code": ["dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
              "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
-             "matlab": ["matlab/function.m.j2"], "json": []}
+             "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"], "json": []}
 
 
 @dataclass
@@ -247,6 +248,9 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
         from ..render.matlab import render_matlab
 
         files |= {path: text.encode() for path, text in render_matlab(derivation, template_dir).items()}
+        from ..render.matlab_script import render_matlab_script
+
+        files[f"{robot.name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
     if "json" in kinds:
         files[f"{robot.name}.json"] = render_json(derivation).encode()
     return files, failed

@@ -100,8 +100,9 @@ def solve(
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write DIR/<name>_dynamics_c.*.so, the C code "
                                               "compiled into a Python extension with the NumPy module's API (needs a C "
                                               "compiler: CC, cc or gcc).")] = False,
-    matlab: Annotated[bool, typer.Option("--matlab", help="Write DIR/+<name>/, MATLAB/Octave functions (one per "
-                                         "file: mass_matrix, forward_dynamics, ...).")] = False,
+    matlab: Annotated[bool, typer.Option("--matlab", help="Write DIR/<name>_derivation.m, the derivation as a "
+                                         "Symbolic Math Toolbox script, and DIR/+<name>/, numeric MATLAB/Octave "
+                                         "functions (one per file: mass_matrix, forward_dynamics, ...).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
                                         "pytest property checks of the generated module.")] = False,
@@ -474,7 +475,7 @@ def build(
     c: Annotated[bool, typer.Option("--c", help="Write <name>_dynamics.h and .c (C99).")] = False,
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write <name>_dynamics_c.*.so, the compiled "
                                               "extension (--check: compiled, not compared).")] = False,
-    matlab: Annotated[bool, typer.Option("--matlab", help="Write +<name>/, MATLAB/Octave functions.")] = False,
+    matlab: Annotated[bool, typer.Option("--matlab", help="Write <name>_derivation.m and +<name>/ (MATLAB/Octave).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
     check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "

@@ -52,8 +52,9 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
 
         progress("generating MATLAB")
         files |= {out / path: text.encode() for path, text in render_matlab(derivation, template_dir).items()}
-        # <name>_derivation.m (issue 29's derivation script, render/matlab_script.py of another branch):
-        # the lead adds it here when merging, as files[out / f"{name}_derivation.m"].
+        from ..render.matlab_script import render_matlab_script
+
+        files[out / f"{name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
     if wanted.c_extension:
         from .compile import ExtensionCompileError, build_extension
         from .compile import failure_message as build_failure
