@@ -107,8 +107,12 @@ class FastCPrinter(_ProgramPrinter):
     goes to ``CPrinter``. The project's fast line printer (``code._ProgramPrinter``), with C's
     numbers and powers."""
 
+    #: The SymPy printer of anything else (a subclass for a language of C's expression syntax,
+    #: as MATLAB's scalars, names its own: ``matlab_print.FastMatlabPrinter``).
+    general_printer: type = CPrinter
+
     def __init__(self, names: dict[sympy.Symbol, str]):
-        self.general = CPrinter(names)
+        self.general = self.general_printer(names)
         self.names = self.general.names   # one dictionary: temporaries added as they are printed
 
     def doprint(self, expr: sympy.Basic) -> str:

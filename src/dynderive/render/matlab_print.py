@@ -17,8 +17,8 @@ from sympy.printing.precedence import precedence
 
 from ..derivation import Derivation
 from ..mechanics.tidy import fold_constants
-from .c import MAX_PRODUCT_POWER, double_literal
-from .code import CodeGenerationError, _ProgramPrinter
+from .c import MAX_PRODUCT_POWER, FastCPrinter, double_literal
+from .code import CodeGenerationError
 from .encode import Code
 from .matlab_names import matlab_comment
 
@@ -79,41 +79,12 @@ class MatlabPrinter(OctaveCodePrinter):
         return super()._print_Pow(expr)
 
 
-class FastMatlabPrinter(_ProgramPrinter):
-    """``MatlabPrinter``'s text for program lines, fast (as ``c.FastCPrinter`` for C): sums,
-    products, integer powers, numbers, names, sines and cosines by the project's line printer;
-    any other node goes to ``MatlabPrinter``."""
+class FastMatlabPrinter(FastCPrinter):
+    """``MatlabPrinter``'s text for program lines, fast: ``c.FastCPrinter`` (sums, products,
+    integer powers, numbers, names, sines and cosines by the project's line printer; MATLAB's
+    scalar expressions are C's), with ``MatlabPrinter`` for any other node."""
 
-    def __init__(self, names: dict[sympy.Symbol, str]):
-        self.general = MatlabPrinter(names)
-        self.names = self.general.names
-
-    def doprint(self, expr: sympy.Basic) -> str:
-        return self._text(expr)
-
-    def _text(self, expr: sympy.Basic) -> str:
-        if expr.is_Symbol:
-            return self.general._print_Symbol(expr)  # type: ignore[arg-type]
-        return super()._text(expr)
-
-    @staticmethod
-    def _number(expr: sympy.Basic) -> str:
-        if expr.is_Integer and abs(expr.p) < 2 ** 53:   # type: ignore[attr-defined]
-            return str(expr.p)   # type: ignore[attr-defined]
-        if expr.is_Rational or expr.is_Float:
-            return double_literal(float(expr))   # type: ignore[arg-type]
-        raise CodeGenerationError(f"unexpected number {expr} in a program line")
-
-    def _power(self, expr: sympy.Basic) -> str:
-        base, exponent = expr.args
-        if exponent.p < 0:   # type: ignore[attr-defined]
-            return self._product(expr)
-        if exponent.p > MAX_PRODUCT_POWER:   # type: ignore[attr-defined]
-            return self.general.doprint(expr)
-        inner = self._text(base)
-        if not (base.is_Symbol or (base.is_Number and not inner.startswith("("))):
-            inner = f"({inner})"
-        return "*".join([inner] * exponent.p)   # type: ignore[attr-defined]
+    general_printer = MatlabPrinter
 
 
 @dataclass
