@@ -54,19 +54,21 @@ def double_literal(value: float) -> str:
     return text if any(c in text for c in ".en") else text + ".0"
 
 
-class CPrinter(C99CodePrinter):
-    """``C99CodePrinter`` for the generated functions: symbols by ``names`` (anything else is
-    an internal error), numbers as exact double literals, integer powers as products."""
+class DoublePrinting:
+    """The number and symbol rules of every compiled target's SymPy printer, mixed in before
+    the language's own printer (``CPrinter``; ``matlab_print.MatlabPrinter``): symbols by
+    ``names`` (anything else is an internal error), numbers as exact double literals,
+    integer powers as products."""
 
-    def __init__(self, names: dict[sympy.Symbol, str]):
-        super().__init__({"strict": True, "contract": False})
-        self.names = names
+    #: the language named in the internal error of a symbol without a value
+    language = "C"
+    names: dict[sympy.Symbol, str]
 
     def _print_Symbol(self, expr: sympy.Symbol) -> str:
         try:
             return self.names[expr]
         except KeyError:
-            raise CodeGenerationError(f"the C code has no value for the symbol {expr}") from None
+            raise CodeGenerationError(f"the {self.language} code has no value for the symbol {expr}") from None
 
     def _print_Rational(self, expr: sympy.Rational) -> str:
         text = double_literal(float(expr))
@@ -86,8 +88,8 @@ class CPrinter(C99CodePrinter):
 
     def parenthesize(self, item: Any, level: int, strict: bool = False) -> str:
         if isinstance(item, sympy.Basic) and (item.is_Rational or item.is_Float) and item >= 0:
-            return self._print(item)   # a positive literal needs no parentheses
-        return super().parenthesize(item, level, strict)
+            return self._print(item)  # type: ignore[attr-defined]   # a positive literal needs no parentheses
+        return super().parenthesize(item, level, strict)  # type: ignore[misc]
 
     def _print_Pow(self, expr: sympy.Pow, rational: bool = False) -> str:
         base, exponent = expr.args
@@ -97,7 +99,15 @@ class CPrinter(C99CodePrinter):
             if exponent.p > 0:
                 return product
             return f"1.0/{product}" if abs(exponent.p) == 1 else f"1.0/({product})"
-        return super()._print_Pow(expr)
+        return super()._print_Pow(expr)  # type: ignore[misc]
+
+
+class CPrinter(DoublePrinting, C99CodePrinter):
+    """``C99CodePrinter`` with ``DoublePrinting``'s symbols, numbers and powers."""
+
+    def __init__(self, names: dict[sympy.Symbol, str]):
+        super().__init__({"strict": True, "contract": False})
+        self.names = names
 
 
 class FastCPrinter(_ProgramPrinter):

@@ -13,48 +13,24 @@ from typing import Any
 
 import sympy
 from sympy.printing.octave import OctaveCodePrinter
-from sympy.printing.precedence import precedence
 
 from ..derivation import Derivation
 from ..mechanics.tidy import fold_constants
-from .c import MAX_PRODUCT_POWER, FastCPrinter, double_literal
-from .code import CodeGenerationError
+from .c import DoublePrinting, FastCPrinter
 from .encode import Code
 from .matlab_names import matlab_comment
 
 
-class MatlabPrinter(OctaveCodePrinter):
-    """``OctaveCodePrinter`` for the generated functions: symbols by ``names`` (anything else
-    is an internal error), numbers as exact double literals, integer powers as products, and
+class MatlabPrinter(DoublePrinting, OctaveCodePrinter):
+    """``OctaveCodePrinter`` with ``DoublePrinting``'s symbols, numbers and powers, and
     MATLAB's ``~`` (not Octave's ``!``) for negation."""
 
+    language = "MATLAB"
     _operators = {"and": "&&", "or": "||", "not": "~"}
 
     def __init__(self, names: dict[sympy.Symbol, str]):
         super().__init__({"strict": True, "inline": True})
         self.names = names
-
-    def _print_Symbol(self, expr: sympy.Symbol) -> str:
-        try:
-            return self.names[expr]
-        except KeyError:
-            raise CodeGenerationError(f"the MATLAB code has no value for the symbol {expr}") from None
-
-    def _print_Rational(self, expr: sympy.Rational) -> str:
-        text = double_literal(float(expr))
-        return f"({text})" if text.startswith("-") else text
-
-    def _print_Integer(self, expr: sympy.Integer) -> str:
-        text = double_literal(float(expr)) if abs(expr.p) >= 2 ** 53 else str(expr.p)
-        return f"({text})" if text.startswith("-") else text
-
-    def _print_Float(self, expr: sympy.Float) -> str:
-        return self._print_Rational(expr)
-
-    def _print_NumberSymbol(self, expr: sympy.Expr) -> str:
-        return double_literal(float(expr))
-
-    _print_Exp1 = _print_Pi = _print_NumberSymbol
 
     def _print_Not(self, expr: sympy.Basic) -> str:
         return f"~({self._print(expr.args[0])})"
@@ -62,21 +38,6 @@ class MatlabPrinter(OctaveCodePrinter):
     def _print_Relational(self, expr: sympy.Basic) -> str:
         operator = {"==": "==", "!=": "~=", "<": "<", "<=": "<=", ">": ">", ">=": ">="}[expr.rel_op]
         return f"({self._print(expr.lhs)} {operator} {self._print(expr.rhs)})"
-
-    def parenthesize(self, item: Any, level: int, strict: bool = False) -> str:
-        if isinstance(item, sympy.Basic) and (item.is_Rational or item.is_Float) and item >= 0:
-            return self._print(item)
-        return super().parenthesize(item, level, strict)
-
-    def _print_Pow(self, expr: sympy.Pow) -> str:
-        base, exponent = expr.args
-        if exponent.is_Integer and 0 < abs(exponent.p) <= MAX_PRODUCT_POWER:
-            factor = self.parenthesize(base, precedence(sympy.Mul(base, base, evaluate=False)))
-            product = "*".join([factor] * abs(exponent.p))
-            if exponent.p > 0:
-                return product
-            return f"1.0/{product}" if abs(exponent.p) == 1 else f"1.0/({product})"
-        return super()._print_Pow(expr)
 
 
 class FastMatlabPrinter(FastCPrinter):
