@@ -13,7 +13,7 @@ import re
 from typing import Any
 
 from ..errors import InputError, Problem
-from .encode import Code
+from .encode import Code, code_point
 
 #: C99 keywords, C11/C23 keywords, and C++ keywords and alternative operator names (the files
 #: compile as C++ too).
@@ -95,10 +95,6 @@ def c_comment(text: object) -> Code:
             out.append("\\?")
         elif " " <= char <= "~":
             out.append(char)
-        elif ord(char) < 0x100:
-            out.append(f"\\x{ord(char):02x}")
-        elif ord(char) < 0x10000:
-            out.append(f"\\u{ord(char):04x}")
         else:
-            out.append(f"\\U{ord(char):08x}")
+            out.append(code_point(char))
     return Code("".join(out))

@@ -21,8 +21,12 @@ _NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
 
 
 def _escape(char: str) -> str:
-    if char in _NAMED:
-        return _NAMED[char]
+    return _NAMED.get(char) or code_point(char)
+
+
+def code_point(char: str) -> str:
+    """``char`` as ``\\xNN``, ``\\uNNNN`` or ``\\UNNNNNNNN`` text: how every target's encoder
+    writes a character it keeps out of its output (a newline in a C or MATLAB comment)."""
     code = ord(char)
     if code < 0x100:
         return f"\\x{code:02x}"

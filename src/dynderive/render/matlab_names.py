@@ -15,7 +15,7 @@ import re
 from typing import Any
 
 from ..errors import InputError, Problem
-from .encode import Code
+from .encode import Code, code_point
 
 #: MATLAB's keywords (``iskeyword``) and Octave's (``iskeyword`` of GNU Octave 7): a field or
 #: package of that name cannot be written with a dot.
@@ -96,12 +96,8 @@ def matlab_comment(text: object) -> Code:
             out.append("\\" + char)
         elif " " <= char <= "~":
             out.append(char)
-        elif ord(char) < 0x100:
-            out.append(f"\\x{ord(char):02x}")
-        elif ord(char) < 0x10000:
-            out.append(f"\\u{ord(char):04x}")
         else:
-            out.append(f"\\U{ord(char):08x}")
+            out.append(code_point(char))
     return Code("".join(out))
 
 
