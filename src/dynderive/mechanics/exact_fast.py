@@ -18,7 +18,6 @@ import sympy
 from sympy.core import exprtools
 from sympy.core.assumptions import assumptions
 from sympy.core.expr import Expr
-from sympy.core.function import _coeff_isneg
 from sympy.core.mul import _keep_coeff
 from sympy.core.operations import LatticeOp
 from sympy.ntheory.multinomial import multinomial_coefficients_iterator
@@ -56,9 +55,13 @@ def _ops(a: sympy.Basic) -> int:
             _OPS[a] = total
             return total
     elif node.is_Mul:
-        if _coeff_isneg(node):
+        if _negative_coefficient(node):
             total += 1
-            node = node.as_two_terms()[1] if node.args[0] is sympy.S.NegativeOne else -node
+            node = node.as_two_terms()[1] if node.args[0] is sympy.S.NegativeOne else _negated(node)
+        if _numerator_only(node):   # what fraction(node) gives as (node, 1), without rebuilding it
+            total += _tail(node)
+            _OPS[a] = total
+            return total
         n, d = fraction(node)
         if n.is_Integer:
             total += 1 + bool(n < 0) + _ops(d)
@@ -72,9 +75,9 @@ def _ops(a: sympy.Basic) -> int:
         args = node.args
         negative = 0
         for i, term in enumerate(args):
-            if _coeff_isneg(term):
+            if _negative_coefficient(term):
                 negative += 1
-                total += _ops(-term)
+                total += _ops(_negated(term))
             else:
                 total += _ops(term)
             total += i > 0
@@ -84,6 +87,45 @@ def _ops(a: sympy.Basic) -> int:
     total += _tail(node)
     _OPS[a] = total
     return total
+
+
+def _negative_coefficient(a: sympy.Basic) -> bool:
+    """``sympy.core.function._coeff_isneg(a)`` without asking a new number's assumptions
+    (each 17-digit coefficient is a new number, whose first question deduces all its facts)."""
+    if a.is_Mul:
+        a = a.args[0]
+    if a.is_Rational:
+        return a.p < 0
+    return a.is_Number and bool(a.is_extended_negative)
+
+
+_NEGATED: dict[sympy.Basic, sympy.Basic] = {}
+
+
+def _negated(a: sympy.Basic) -> sympy.Basic:
+    """``-a``, remembered (``count_ops`` negates every negative term of every sum it meets)."""
+    known = _NEGATED.get(a)
+    if known is None:
+        if len(_NEGATED) > MEMO_LIMIT:
+            _NEGATED.clear()
+        known = _NEGATED[a] = -a
+    return known
+
+
+def _numerator_only(mul: sympy.Mul) -> bool:
+    """Whether ``fraction(mul)`` is ``(mul, 1)``: no factor with a negative or unknown
+    exponent and no fraction among its numbers."""
+    for factor in mul.args:
+        if factor.is_Pow:
+            exponent = factor.exp
+            if not (exponent.is_Rational and exponent.p > 0) or not factor.is_commutative:
+                return False
+        elif factor.is_Rational:
+            if factor.q != 1:
+                return False
+        elif isinstance(factor, sympy.exp) or not factor.is_commutative:
+            return False
+    return True
 
 
 def _tail(a: sympy.Basic) -> int:
@@ -279,6 +321,24 @@ def _diff(expr: sympy.Basic, s: sympy.Symbol) -> sympy.Basic:
     return result
 
 
+def matmul(*factors: sympy.MatrixBase) -> sympy.Matrix:
+    """The product of SymPy matrices, entry for entry what ``A * B`` gives (each entry the
+    ``Add`` of the products of non-zero pairs). SymPy's sparse product also asks whether
+    ``0 * a_ik == 0`` for every non-zero entry, a walk of the assumptions over the whole
+    entry: the change of basis ``H^T M H`` spent most of its time there."""
+    result = factors[0]
+    for factor in factors[1:]:
+        if result.cols != factor.rows:
+            raise sympy.ShapeError(f"matrix size mismatch: {result.shape} * {factor.shape}")
+        columns = [[(k, x) for k, x in enumerate(column) if x != 0] for column in factor.T.tolist()]
+        entries = []
+        for row in result.tolist():
+            for column in columns:
+                entries.append(sympy.Add(*[row[k] * x for k, x in column if row[k] != 0]))
+        result = sympy.Matrix(result.rows, factor.cols, entries)
+    return result
+
+
 _EXPAND: dict[tuple[Any, ...], tuple[Any, bool]] = {}
 _expand_hint = getattr(Expr, "_expand_hint", None)
 
@@ -304,4 +364,4 @@ if _expand_hint is not None and not getattr(_expand_hint, "dynderive", False):
     Expr._expand_hint = staticmethod(_remembered_expand_hint)  # type: ignore[method-assign]
 
 
-__all__ = ["collect_trig", "count_ops", "diff", "factor_terms"]
+__all__ = ["collect_trig", "count_ops", "diff", "factor_terms", "matmul"]

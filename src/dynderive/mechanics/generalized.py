@@ -16,6 +16,7 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
+from .exact_fast import matmul
 from .lagrange import (
     christoffel_coriolis,
     gravity_vector,
@@ -185,7 +186,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     if small and not robot.planar:
         N = N.applyfunc(lambda e: fewest_operations(e, trig_linear))
     report("equations of motion")
-    EOM_g2 = (M * sympy.Matrix(qdd) + C * qd_vec + N + F - Y).applyfunc(clean)
+    EOM_g2 = (matmul(M, sympy.Matrix(qdd)) + matmul(C, qd_vec) + N + F - Y).applyfunc(clean)
 
     quantities: dict[str, Any] = {
         "T_g": T, "V_g": V, "L_g": L, "Y_g": Y, "EOM_g1": EOM_g1,

@@ -15,6 +15,7 @@ import sympy
 
 from ..model.robot import Joint, LoopJoint, Robot
 from ..model.symbols import SymbolTable
+from .exact_fast import matmul
 from .joints import unit
 from .lagrange import (
     christoffel_coriolis,
@@ -309,12 +310,13 @@ def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: dict[str
     on_h = dict(zip(qm, h))
     on_hd = dict(zip(qmd, H * sympy.Matrix(qd)))
     M_h = M.xreplace(on_h)
-    M_tilde = tidy_matrix(H.T * M_h * H)
-    C_tilde = tidy_matrix(H.T * C.xreplace(on_h).xreplace(on_hd) * H + H.T * M_h * Hdot)
-    N_tilde = tidy_matrix(H.T * N.xreplace(on_h))
-    Y_tilde = tidy_matrix(H.T * Y.xreplace(on_h))
-    F_tilde = tidy_matrix(H.T * F.xreplace(on_h).xreplace(on_hd).applyfunc(_tidy_sign))
-    EOM_g3 = M_tilde * sympy.Matrix(qdd) + C_tilde * sympy.Matrix(qd) + N_tilde + F_tilde - Y_tilde
+    M_tilde = tidy_matrix(matmul(H.T, M_h, H))
+    C_tilde = tidy_matrix(matmul(H.T, C.xreplace(on_h).xreplace(on_hd), H) + matmul(H.T, M_h, Hdot))
+    N_tilde = tidy_matrix(matmul(H.T, N.xreplace(on_h)))
+    Y_tilde = tidy_matrix(matmul(H.T, Y.xreplace(on_h)))
+    F_tilde = tidy_matrix(matmul(H.T, F.xreplace(on_h).xreplace(on_hd).applyfunc(_tidy_sign)))
+    EOM_g3 = (matmul(M_tilde, sympy.Matrix(qdd)) + matmul(C_tilde, sympy.Matrix(qd))
+              + N_tilde + F_tilde - Y_tilde)
     if loop_force is not None:
         EOM_g3 = EOM_g3 - loop_force
     quantities["EOM_g3"] = EOM_g3.applyfunc(tidy)

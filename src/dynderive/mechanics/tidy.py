@@ -17,6 +17,7 @@ import sympy
 from ..model.size import expanded_terms
 from . import exact_fast
 from .exact_fast import count_ops, factor_terms
+from .polynomial import expand
 
 #: Entries larger than this are left as built: expanding them costs more than it saves.
 TIDY_LIMIT = 1200  # tree nodes
@@ -124,7 +125,7 @@ def tidy(expr: sympy.Expr) -> sympy.Expr:
 
 
 def _tidy(expr: sympy.Expr) -> sympy.Expr:
-    expanded = sympy.expand(expr)
+    expanded = expand(expr)
     candidates = [expr, expanded]
     size = count_ops(expanded)
     if size <= FACTOR_LIMIT:
@@ -172,7 +173,7 @@ def quick_tidy(expr: sympy.Expr) -> sympy.Expr:
     expr = sympy.sympify(expr)
     if expr.is_Atom or not is_small(expr, TIDY_LIMIT) or not expandable(expr):
         return expr
-    candidates = _pythagoras(sympy.expand(expr))
+    candidates = _pythagoras(expand(expr))
     best = min(candidates, key=_nodes)
     return best if _nodes(best) < _nodes(expr) else expr
 
@@ -196,7 +197,7 @@ def _pythagoras(expanded: sympy.Expr) -> list[sympy.Expr]:
     out = [expanded]
     for candidate in (sin_first, cos_first):
         if candidate != expanded:
-            out.append(sympy.expand(candidate))
+            out.append(expand(candidate))
     return out
 
 
@@ -238,7 +239,7 @@ def trig_linear(expr: sympy.Expr) -> sympy.Expr:
         if len(_LINEAR) > exact_fast.MEMO_LIMIT:
             _LINEAR.clear()
         constants = _constant_trig(expr)
-        linear = trig_group(TR8(sympy.expand(expr.xreplace(constants))))
+        linear = trig_group(TR8(expand(expr.xreplace(constants))))
         known = _LINEAR[expr] = linear.xreplace({d: f for f, d in constants.items()})
     return known
 
@@ -253,7 +254,7 @@ def trig_group(expr: sympy.Expr) -> sympy.Expr:
     FOURIER_LIMIT nodes are returned unchanged."""
     if not is_small(expr, FOURIER_LIMIT) or not expandable(expr):
         return expr
-    expanded = sympy.expand(expr)
+    expanded = expand(expr)
     if not expanded.is_Add:
         return expanded
     groups: dict[sympy.Expr, list[sympy.Expr]] = {}
@@ -310,12 +311,12 @@ def trig_canonical(expr: sympy.Expr) -> sympy.Expr:
     Angle sums are expanded (``sin(a + b)``), then every ``sin(x)**2`` becomes
     ``1 - cos(x)**2``, leaving a polynomial at most linear in each ``sin(x)``.
     """
-    expr = sympy.expand(_expand_angles(expr))
+    expr = expand(_expand_angles(expr))
     for _ in range(4):
         angles = {f.args[0] for f in expr.atoms(sympy.sin)}
         if not angles:
             break
-        reduced = sympy.expand(expr.replace(
+        reduced = expand(expr.replace(
             lambda e: e.is_Pow and isinstance(e.base, sympy.sin) and e.exp.is_Integer and e.exp >= 2,
             lambda e: (1 - sympy.cos(e.base.args[0]) ** 2) ** (e.exp // 2) * e.base ** (e.exp % 2)))
         if reduced == expr:
@@ -331,10 +332,10 @@ def _fourier_zero(expr: sympy.Expr) -> bool:
     sine or cosine stands in a denominator)."""
     from sympy.simplify.fu import TR8
 
-    expanded = sympy.expand(expr)
+    expanded = expand(expr)
     if any(p.exp.is_negative and p.base.has(sympy.sin, sympy.cos) for p in expanded.atoms(sympy.Pow)):
         return False   # a quotient of trigonometric sums (R_g): TR8 grows it for minutes
-    return sympy.expand(TR8(expanded)) == 0
+    return expand(TR8(expanded)) == 0
 
 
 def _expand_angles(expr: sympy.Expr) -> sympy.Expr:
@@ -374,7 +375,7 @@ def check_zero(name: str, description: str, difference: sympy.Matrix,
     difference = sympy.Matrix(difference)
     remaining = list(difference)
     if all(is_small(e, SYMBOLIC_CHECK_LIMIT // len(remaining) + 1) and expandable(e) for e in remaining):
-        remaining = [e for e in remaining if sympy.expand(e) != 0]
+        remaining = [e for e in remaining if expand(e) != 0]
         if not remaining:
             return Check(name, description, True, "symbolic", 0.0)
         if sum(count_ops(e) for e in remaining) < CANONICAL_LIMIT:
