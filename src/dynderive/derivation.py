@@ -13,6 +13,7 @@ from typing import Any
 import sympy
 
 from .mechanics.planar import planar_kinematics
+from .mechanics.polynomial import expand
 from .mechanics.program import Program, lines_read
 from .mechanics.programs import build_programs
 from .mechanics.recursive import GeneralizedProgram
@@ -241,7 +242,7 @@ class Derivation:
         from .mechanics.loops import reduced_form
 
         force = self._loop_force()
-        clean = sympy.expand if self.intermediate_form else tidy
+        clean = expand if self.intermediate_form else tidy
         if "EOM_g1" in q:
             q["EOM_g1"] = (q["EOM_g1"] - force).applyfunc(clean)
         q["EOM_g2"] = (q["EOM_g2"] - force).applyfunc(clean)
@@ -496,7 +497,7 @@ def _zero_over_intermediates(derivation: Derivation, name: str, description: str
     EOM_g1 - EOM_g2, the gravity vector)."""
     import numpy as np
 
-    difference = sympy.Matrix(difference).applyfunc(sympy.expand)
+    difference = sympy.Matrix(difference).applyfunc(expand)
     if all(e == 0 for e in difference):
         return Check(name, description, True, "symbolic", 0.0)
     table, robot = derivation.symbols, derivation.robot

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import sympy
 
 from .exact_fast import diff as exact_diff
+from .polynomial import expand
 
 
 def derivative(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
@@ -78,7 +79,7 @@ def lagrange_steps(L: sympy.Expr, q: Sequence[sympy.Symbol], qd: Sequence[sympy.
 def lagrange_equations(L: sympy.Expr, q: Sequence[sympy.Symbol], qd: Sequence[sympy.Symbol],
                        qdd: Sequence[sympy.Symbol]) -> sympy.Matrix:
     """Left side of Lagrange's equations, ``d/dt dL/dqd - dL/dq``, as a column."""
-    return lagrange_steps(L, q, qd, qdd).lhs.applyfunc(sympy.expand)
+    return lagrange_steps(L, q, qd, qdd).lhs.applyfunc(expand)
 
 
 def mass_matrix_from_jacobians(jacobians: Sequence[sympy.Matrix],

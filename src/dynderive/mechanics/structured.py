@@ -26,6 +26,7 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
 from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
+from .polynomial import expand
 from .program import lines_read
 from .recursive import GeneralizedProgram
 from .tidy import tidy
@@ -87,12 +88,12 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
                                [sympy.sympify(e).xreplace(rename) for e in dV], table)
 
     drives = drive_terms(robot, table)
-    T = sympy.expand((qd.T * M * qd)[0, 0] / 2)
+    T = expand((qd.T * M * qd)[0, 0] / 2)
     F = drives.forces.applyfunc(tidy)
     Y = applied_forces(robot, table)
     rates = set(table.qd) | set(table.qdd)
     EOM_g1 = (lagrange["ddt_dL_dqd"] - lagrange["dL_dq"] + F - Y).applyfunc(lambda e: _by_rates(e, rates))
-    EOM_g2 = (M * qdd + C * qd + N + F - Y).applyfunc(sympy.expand)
+    EOM_g2 = (M * qdd + C * qd + N + F - Y).applyfunc(expand)
     quantities: dict[str, Any] = {"T_g": T, "V_g": V, "L_g": T - V, "Y_g": Y, "EOM_g1": EOM_g1,
                                   "M_g": M, "C_g": C, "N_g": N, "EOM_g2": EOM_g2}
     if robot.dissipative:
@@ -137,7 +138,7 @@ def _by_rates(expr: sympy.Expr, rates: set[sympy.Symbol]) -> sympy.Expr:
     """``expr`` expanded, then grouped by its products of joint rates and accelerations:
     ``(w_151 + w_164) qd_2 qd_3`` rather than two terms (each dM/dq_k entry is a name)."""
     groups: dict[sympy.Expr, list[sympy.Expr]] = {}
-    for term in sympy.Add.make_args(sympy.expand(expr)):
+    for term in sympy.Add.make_args(expand(expr)):
         moving: list[sympy.Expr] = []
         rest: list[sympy.Expr] = []
         for factor in sympy.Mul.make_args(term):
