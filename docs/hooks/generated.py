@@ -63,7 +63,7 @@ def cli_markdown() -> str:
             if record is None:
                 continue
             opts, help_text = record
-            if isinstance(param, click.Argument):
+            if param.param_type_name == "argument":
                 opts = param.name.upper()
             lines.append(f"| `{opts}` | {escape(help_text)} |")
         lines.append("")
@@ -75,11 +75,9 @@ def _first_line(text: str) -> str:
 
 
 def _usage(name: str, command: Any, context: Any) -> str:
-    import click
-
     pieces = ["dynderive", name, "[OPTIONS]"]
     for param in command.get_params(context):
-        if isinstance(param, click.Argument):
+        if param.param_type_name == "argument":
             word = param.name.upper() + ("..." if param.nargs == -1 else "")
             pieces.append(word if param.required else f"[{word}]")
     return " ".join(pieces)
@@ -102,7 +100,8 @@ def _object(node: dict[str, Any], title: str, path: str, lines: list[str]) -> No
     nested: list[tuple[dict[str, Any], str, str]] = []
     lines += [f"### {title}", ""]
     if node.get("description"):
-        lines += [escape(node["description"]).capitalize() + ".", ""]
+        text = escape(node["description"])
+        lines += [text[:1].upper() + text[1:] + ".", ""]
     lines += ["| Key | Required | Value | Description |", "|---|---|---|---|"]
     for key, value in node.get("properties", {}).items():
         where = f"{path}.{key}" if path else key
@@ -138,34 +137,38 @@ def _object(node: dict[str, Any], title: str, path: str, lines: list[str]) -> No
             lines.append("")
 
 
-def _kind(value: dict[str, Any]) -> str:
-    """A short description of a schema node's values."""
+def _kind(value: dict[str, Any], plural: bool = False) -> str:
+    """A short description of a schema node's values (``plural``: of several of them)."""
+    s = "s" if plural else ""
     if "enum" in value:
         return " \\| ".join(f"`{v}`" for v in value["enum"])
     if "oneOf" in value:
-        kinds = [_kind(v) for v in value["oneOf"]]
-        if kinds == ["number", "text"]:
-            return "expression"
+        kinds = [_kind(v, plural) for v in value["oneOf"]]
+        if kinds in (["number", "text"], ["numbers", "texts"]):
+            return "expression" + s
         return " or ".join(kinds)
     kind = value.get("type")
     if isinstance(kind, list):
-        return " or ".join(_kind({"type": k}) for k in kind)
+        return " or ".join(_kind({"type": k}, plural) for k in kind)
     if kind == "array":
-        items = _kind(value.get("items", {}))
         low, high = value.get("minItems"), value.get("maxItems")
+        items = value.get("items", {})
+        if items.get("type") == "array":   # a matrix
+            return f"{low} x {items.get('minItems')} list{s} of {_kind(items.get('items', {}), True)}"
+        inner = _kind(items, True)
         if low is not None and high is not None:
             count = str(low) if low == high else f"{low} or {high}" if high - low == 1 else f"{low} to {high}"
-            return f"list of {count} {items}s"
+            return f"list{s} of {count} {inner}"
         if low:
-            return f"list of {items}s (at least {low})"
-        return f"list of {items}s"
+            return f"list{s} of {inner} (at least {low})"
+        return f"list{s} of {inner}"
     if kind == "string":
-        return f"identifier (`{value['pattern']}`)" if "pattern" in value else "text"
+        return f"identifier{s} (`{value['pattern']}`)" if "pattern" in value else "text" + s
     if kind == "boolean":
         return "true or false" + (f" (default {str(value['default']).lower()})" if "default" in value else "")
     if kind == "null":
         return "`~` (no default)"
-    return {"number": "number", "object": "mapping"}.get(kind, "any")
+    return {"number": "number", "object": "mapping"}.get(kind, "any") + s
 
 
 # ----------------------------------------------------------------------------- the hook
