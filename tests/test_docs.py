@@ -175,6 +175,17 @@ def test_block_conventions_are_read():
     assert commands == [("dynderive solve a \\\n    --code", ["wrote x"]), ("ls", [])]
 
 
+def test_readme_keeps_the_two_set_up_commands():
+    """The README's install-and-run and install-and-test commands, byte for byte; .ci/run runs
+    the second literally."""
+    readme = (ROOT / "README.md").read_text()
+    test_command = 'python -m pip install ".[test]" && python -m pytest'
+    assert f"```sh\n{test_command}\n```" in readme
+    assert f"\n{test_command}\n" in (ROOT / ".ci" / "run").read_text()
+    assert "```sh\npython -m pip install . && dynderive solve rp_arm --latex --code --json --out out\n```" in readme
+    assert len(readme.splitlines()) <= 200
+
+
 def test_every_tutorial_is_in_the_navigation():
     config = (ROOT / "mkdocs.yml").read_text()
     for page in TUTORIALS:
