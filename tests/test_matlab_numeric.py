@@ -2,7 +2,7 @@
 function of every bundled robot agrees with the NumPy module at random states (loop robots at
 assembled states, non-default parameters and friction smoothing included) to 1e-10 relative,
 run in GNU Octave (one process per robot); ``ode45`` on the double pendulum conserves energy;
-the README's ``ode45`` example runs; the files hold MATLAB syntax only; hostile free text stays
+the documentation's ``ode45`` example runs; the files hold MATLAB syntax only; hostile free text stays
 inside its comments; a name MATLAB cannot take is refused at its place in the robot file.
 
 Needs GNU Octave: skipped locally without it, required in CI (CI=true).
@@ -196,8 +196,9 @@ def test_ode45_conserves_the_double_pendulums_energy(tmp_path):
 
 
 def _readme_example() -> str:
-    text = (ROOT / "README.md").read_text()
-    section = text[text.index("## MATLAB/Octave (`--matlab`)"):]
+    """The ``ode45`` example of the MATLAB/Octave reference page (docs/reference/matlab.md)."""
+    text = (ROOT / "docs" / "reference" / "matlab.md").read_text()
+    section = text[text.index("# MATLAB/Octave (`--matlab`)"):]
     return re.search(r"```matlab\n(.*?)```", section, re.S).group(1)
 
 

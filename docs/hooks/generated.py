@@ -1,0 +1,181 @@
+"""MkDocs hook: the reference pages' generated parts, made at build time so they cannot drift.
+
+A page holds a marker line, replaced before the page is converted:
+
+- ``<!-- generated: cli -->``: every command of ``dynderive`` with its usage and options, read
+  from the Typer/click application itself (``dynderive.commands.cli.app``);
+- ``<!-- generated: robot-schema -->``: every key of the robot file, read from the JSON Schema
+  (``dynderive.input.json_schema.robot_schema``, what ``dynderive schema`` prints).
+
+The functions are plain and importable (``tests/test_docs.py`` uses them too). The checkout's
+``src/`` comes first on ``sys.path``: the documentation describes this checkout.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT / "src") not in sys.path:
+    sys.path.insert(0, str(ROOT / "src"))
+
+MARKERS = {
+    "<!-- generated: cli -->": lambda: cli_markdown(),
+    "<!-- generated: robot-schema -->": lambda: schema_markdown(),
+}
+
+
+def escape(text: str) -> str:
+    """Plain text for a Markdown table cell: no HTML, emphasis, links or cell breaks."""
+    text = " ".join(text.split())
+    for char in "\\`*_[]|":
+        text = text.replace(char, "\\" + char)
+    return text.replace("<", "&lt;").replace(">", "&gt;")
+
+
+# ----------------------------------------------------------------------------- command line
+
+
+def cli_markdown() -> str:
+    import click
+    import typer
+
+    from dynderive.commands.cli import app
+
+    group = typer.main.get_command(app)
+    root = click.Context(group, info_name="dynderive")
+    names = group.list_commands(root)
+    lines = ["| Command | What it does |", "|---|---|"]
+    for name in names:
+        command = group.get_command(root, name)
+        lines.append(f"| [`{name}`](#dynderive-{name}) | {escape(_first_line(command.help or ''))} |")
+    lines.append("")
+    for name in names:
+        command = group.get_command(root, name)
+        context = click.Context(command, info_name=name, parent=root)
+        lines += [f"### `dynderive {name}`", "", escape(command.help or "").replace("\\_", "_"), "",
+                  "```", _usage(name, command, context), "```", "",
+                  "| Argument or option | Description |", "|---|---|"]
+        for param in command.get_params(context):
+            record = param.get_help_record(context)
+            if record is None:
+                continue
+            opts, help_text = record
+            if param.param_type_name == "argument":
+                opts = param.name.upper()
+            lines.append(f"| `{opts}` | {escape(help_text)} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _first_line(text: str) -> str:
+    return " ".join(text.split("\n\n")[0].split())
+
+
+def _usage(name: str, command: Any, context: Any) -> str:
+    pieces = ["dynderive", name, "[OPTIONS]"]
+    for param in command.get_params(context):
+        if param.param_type_name == "argument":
+            word = param.name.upper() + ("..." if param.nargs == -1 else "")
+            pieces.append(word if param.required else f"[{word}]")
+    return " ".join(pieces)
+
+
+# ----------------------------------------------------------------------------- robot format
+
+
+def schema_markdown() -> str:
+    from dynderive.input.json_schema import robot_schema
+
+    schema = robot_schema()
+    lines: list[str] = []
+    _object(schema, "Top level", "", lines)
+    return "\n".join(lines)
+
+
+def _object(node: dict[str, Any], title: str, path: str, lines: list[str]) -> None:
+    required = set(node.get("required", []))
+    nested: list[tuple[dict[str, Any], str, str]] = []
+    lines += [f"### {title}", ""]
+    if node.get("description"):
+        text = escape(node["description"])
+        lines += [text[:1].upper() + text[1:] + ".", ""]
+    lines += ["| Key | Required | Value | Description |", "|---|---|---|---|"]
+    for key, value in node.get("properties", {}).items():
+        where = f"{path}.{key}" if path else key
+        if value.get("type") == "object" and "properties" in value:
+            nested.append((value, f"`{where}`", where))
+            kind = "mapping (below)"
+        elif value.get("type") == "array" and isinstance(value.get("items"), dict) \
+                and value["items"].get("type") == "object":
+            nested.append((value["items"], f"Each entry of `{where}`", where + "[]"))
+            kind = "list of mappings (below)"
+        elif value.get("type") == "object" and "additionalProperties" in value:
+            nested.append((value, f"Each entry of `{where}`", where + ".NAME"))
+            kind = "mapping of names (below)"
+        else:
+            kind = _kind(value)
+        lines.append(f"| `{key}` | {'yes' if key in required else 'no'} | {kind} | "
+                     f"{escape(value.get('description', ''))} |")
+    lines.append("")
+    for child, child_title, child_path in nested:
+        if "properties" in child:
+            _object(child, child_title, child_path, lines)
+        else:   # a mapping of names to values: parameters
+            names = child.get("propertyNames", {}).get("pattern")
+            lines += [f"### {child_title}", ""]
+            if names:
+                lines += [f"Names match `{names}`. Each value is one of:", ""]
+            for option in child["additionalProperties"].get("oneOf", []):
+                if option.get("type") == "object":
+                    keys = ", ".join(f"`{k}` ({_kind(v)})" for k, v in option["properties"].items())
+                    lines.append(f"- a mapping with the keys {keys}")
+                else:
+                    lines.append(f"- {_kind(option)}: {escape(option.get('description', ''))}")
+            lines.append("")
+
+
+def _kind(value: dict[str, Any], plural: bool = False) -> str:
+    """A short description of a schema node's values (``plural``: of several of them)."""
+    s = "s" if plural else ""
+    if "enum" in value:
+        return " \\| ".join(f"`{v}`" for v in value["enum"])
+    if "oneOf" in value:
+        kinds = [_kind(v, plural) for v in value["oneOf"]]
+        if kinds in (["number", "text"], ["numbers", "texts"]):
+            return "expression" + s
+        return " or ".join(kinds)
+    kind = value.get("type")
+    if isinstance(kind, list):
+        return " or ".join(_kind({"type": k}, plural) for k in kind)
+    if kind == "array":
+        low, high = value.get("minItems"), value.get("maxItems")
+        items = value.get("items", {})
+        if items.get("type") == "array":   # a matrix
+            return f"{low} x {items.get('minItems')} list{s} of {_kind(items.get('items', {}), True)}"
+        inner = _kind(items, True)
+        if low is not None and high is not None:
+            count = str(low) if low == high else f"{low} or {high}" if high - low == 1 else f"{low} to {high}"
+            return f"list{s} of {count} {inner}"
+        if low:
+            return f"list{s} of {inner} (at least {low})"
+        return f"list{s} of {inner}"
+    if kind == "string":
+        return f"identifier{s} (`{value['pattern']}`)" if "pattern" in value else "text" + s
+    if kind == "boolean":
+        return "true or false" + (f" (default {str(value['default']).lower()})" if "default" in value else "")
+    if kind == "null":
+        return "`~` (no default)"
+    return {"number": "number", "object": "mapping"}.get(kind, "any") + s
+
+
+# ----------------------------------------------------------------------------- the hook
+
+
+def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
+    for marker, make in MARKERS.items():
+        if marker in markdown:
+            markdown = markdown.replace(marker, make())
+    return markdown

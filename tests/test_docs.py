@@ -1,0 +1,268 @@
+"""The documentation cannot rot: every tutorial's commands and Python snippets run, the site
+builds with ``mkdocs build --strict``, and the generated reference parts are complete.
+
+Conventions of the tutorial pages (docs/tutorials/*.md and the README's tour), documented in
+docs/development/index.md ("Documentation"):
+
+- a fenced block with a title (```` ```yaml title="arm.yaml" ````) is a file: it is written
+  into the page's working folder, where the later blocks run;
+- ```` ```console ````: each line starting with ``$ `` is a command (a trailing ``\\``
+  continues it); the lines after it, up to the next command, are output that must appear in
+  what the command printed (stdout and stderr, line by line, stripped; ``...`` lines skip);
+  the command must exit 0 (write ``cmd || echo "exit $?"`` to show a failure);
+- ```` ```bash ````: the block runs as one script (``set -euo pipefail``);
+- ```` ```python ````: the block runs as a script of its own;
+- other blocks without a title are not run;
+- an HTML comment on the line before a block qualifies it: ``<!-- docs-test: skip -->``
+  (never run: e.g. installing), ``<!-- docs-test: needs latexmk gcc -->`` (run when every
+  program is on PATH, ``python-headers`` meaning Python's C headers; skipped otherwise, and a
+  failure when ``CI=true``, as for the other PDF and compiler tests).
+
+Every page's blocks run in order in one temporary folder, with ``dynderive`` the checkout's
+(``python -m dynderive`` with ``src/`` on ``PYTHONPATH``) and ``python`` this interpreter.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import sysconfig
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+TUTORIALS = sorted((DOCS / "tutorials").glob("*.md"))
+PAGES = [p for p in TUTORIALS if p.name != "index.md"] + [ROOT / "README.md"]
+IN_CI = bool(os.environ.get("CI"))
+
+FENCE = re.compile(r"^(?:<!-- docs-test: (?P<directive>[^>]*?) -->\n)?```(?P<info>[^\n]*)\n(?P<body>.*?)^```$",
+                   re.S | re.M)
+
+
+@dataclass
+class Block:
+    language: str
+    body: str
+    line: int
+    title: str | None = None
+    skip: bool = False
+    needs: list[str] = field(default_factory=list)
+
+
+def blocks(page: Path) -> list[Block]:
+    text = page.read_text()
+    found = []
+    for match in FENCE.finditer(text):
+        info = match["info"].strip()
+        language = info.split()[0] if info else ""
+        title = re.search(r'title="([^"]+)"', info)
+        directive = (match["directive"] or "").split()
+        block = Block(language, match["body"], text.count("\n", 0, match.start()) + 1,
+                      title[1] if title else None)
+        if directive[:1] == ["skip"]:
+            block.skip = True
+        elif directive[:1] == ["needs"]:
+            block.needs = directive[1:]
+        elif directive:
+            raise AssertionError(f"{page}:{block.line}: unknown docs-test directive {directive}")
+        found.append(block)
+    return found
+
+
+def _missing(needs: list[str]) -> list[str]:
+    missing = []
+    for need in needs:
+        if need == "python-headers":
+            if not (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file():
+                missing.append(need)
+        elif shutil.which(need) is None:
+            missing.append(need)
+    return missing
+
+
+def _environment(tmp_path: Path) -> dict[str, str]:
+    shims = tmp_path / ".shims"
+    shims.mkdir()
+    for name, command in (("dynderive", f'"{sys.executable}" -m dynderive'), ("python", f'"{sys.executable}"')):
+        shim = shims / name
+        shim.write_text(f'#!/bin/sh\nexec {command} "$@"\n')
+        shim.chmod(0o755)
+    env = dict(os.environ)
+    env["PATH"] = f"{shims}{os.pathsep}{env.get('PATH', '')}"
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env.get("PYTHONPATH")) if p)
+    env["MPLBACKEND"] = "Agg"
+    return env
+
+
+def _commands(body: str) -> list[tuple[str, list[str]]]:
+    """A console block's commands, each with the output lines shown after it."""
+    commands: list[tuple[str, list[str]]] = []
+    continued = False
+    for line in body.splitlines():
+        if continued:
+            commands[-1] = (commands[-1][0] + "\n" + line, [])
+            continued = line.endswith("\\")
+        elif line.startswith("$ "):
+            commands.append((line[2:], []))
+            continued = line.endswith("\\")
+        elif commands and line.strip() and line.strip() != "...":
+            commands[-1][1].append(line.strip())
+    return commands
+
+
+def _run(script: list[str], where: str, cwd: Path, env: dict[str, str]) -> str:
+    result = subprocess.run(script, cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, f"{where}: exit {result.returncode}\n{output[-3000:]}"
+    return output
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[p.stem for p in PAGES])
+def test_tutorial_blocks_run(page, tmp_path):
+    env = _environment(tmp_path)
+    work = tmp_path / "work"
+    work.mkdir()
+    ran = skipped = 0
+    for block in blocks(page):
+        where = f"{page.relative_to(ROOT)}:{block.line}"
+        if block.skip:
+            continue
+        missing = _missing(block.needs)
+        if missing:
+            assert not IN_CI, f"{where}: needs {', '.join(missing)} (required when CI=true)"
+            skipped += 1
+            continue
+        if block.title:
+            target = work / block.title
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_text(block.body)
+        elif block.language == "console":
+            commands = _commands(block.body)
+            assert commands, f"{where}: a console block without a '$ ' command"
+            for command, expected in commands:
+                output = _run(["bash", "-euo", "pipefail", "-c", command], f"{where}: {command}", work, env)
+                lines = [line.strip() for line in output.splitlines()]
+                for line in expected:
+                    assert any(line in got for got in lines), f"{where}: {command}: {line!r} not in:\n{output}"
+            ran += 1
+        elif block.language == "bash":
+            _run(["bash", "-euo", "pipefail", "-c", block.body], where, work, env)
+            ran += 1
+        elif block.language == "python":
+            script = work / f".block_{block.line}.py"
+            script.write_text(block.body)
+            _run([sys.executable, str(script)], where, work, env)
+            ran += 1
+    if skipped and not ran:
+        pytest.skip(f"every block of {page.name} needs a missing program")
+    assert ran, f"{page}: no block ran"
+
+
+def test_block_conventions_are_read():
+    """The extraction itself: titled files, commands with continuations and expected output,
+    and directives are found where the pages put them."""
+    page = DOCS / "tutorials" / "first-robot.md"
+    found = blocks(page)
+    assert any(b.title == "arm.yaml" and b.language == "yaml" for b in found)
+    assert any(b.needs == ["latexmk"] for b in found)
+    commands = _commands("$ dynderive solve a \\\n    --code\nwrote x\n...\n$ ls\n")
+    assert commands == [("dynderive solve a \\\n    --code", ["wrote x"]), ("ls", [])]
+
+
+def test_readme_keeps_the_two_set_up_commands():
+    """The README's install-and-run and install-and-test commands, byte for byte; .ci/run runs
+    the second literally."""
+    readme = (ROOT / "README.md").read_text()
+    test_command = 'python -m pip install ".[test]" && python -m pytest'
+    assert f"```sh\n{test_command}\n```" in readme
+    assert f"\n{test_command}\n" in (ROOT / ".ci" / "run").read_text()
+    assert "```sh\npython -m pip install . && dynderive solve rp_arm --latex --code --json --out out\n```" in readme
+    assert len(readme.splitlines()) <= 200
+
+
+def test_every_tutorial_is_in_the_navigation():
+    config = (ROOT / "mkdocs.yml").read_text()
+    for page in TUTORIALS:
+        assert f"tutorials/{page.name}" in config, page
+
+
+# ----------------------------------------------------------------------------- the site
+
+
+def _hooks():
+    sys.path.insert(0, str(DOCS / "hooks"))
+    try:
+        import generated
+    finally:
+        sys.path.remove(str(DOCS / "hooks"))
+    return generated
+
+
+def test_cli_reference_lists_every_command_and_option():
+    import click
+    import typer
+
+    from dynderive.commands.cli import app
+
+    text = _hooks().cli_markdown()
+    group = typer.main.get_command(app)
+    context = click.Context(group, info_name="dynderive")
+    for name in group.list_commands(context):
+        assert f"### `dynderive {name}`" in text
+        options = [p for p in group.get_command(context, name).params if p.param_type_name == "option"]
+        assert options or name == "schema", name
+        for param in options:
+            assert any(f"`{opt}" in text or f", {opt}" in text for opt in param.opts), (name, param.opts)
+    assert "--friction-smoothing" in text and "`ROBOT`" in text
+    assert "<name>" not in text   # escaped: it would be an HTML tag
+
+
+def test_robot_format_reference_lists_every_key():
+    from dynderive.input.json_schema import robot_schema
+
+    text = _hooks().schema_markdown()
+
+    def keys(node, path):
+        for key, value in node.get("properties", {}).items():
+            yield key, path
+            items = value.get("items") if value.get("type") == "array" else None
+            if isinstance(items, dict) and "properties" in items:
+                yield from keys(items, f"{path}.{key}[]")
+            elif "properties" in value:
+                yield from keys(value, f"{path}.{key}")
+
+    listed = list(keys(robot_schema(), ""))
+    assert len(listed) == text.count(" | yes | ") + text.count(" | no | ")   # one row per key
+    for key, path in listed:
+        assert f"| `{key}` |" in text, (path, key)
+    for section in ("Each entry of `joints`", "Each entry of `loops`", "Each entry of `frames`", "`maximal`",
+                    "Each entry of `parameters`"):
+        assert section in text
+    assert "`revolute` \\| `prismatic` \\| `fixed`" in text
+
+
+def test_mkdocs_build_strict(tmp_path):
+    try:
+        import material  # noqa: F401
+        import mkdocs  # noqa: F401
+    except ImportError:
+        if IN_CI:
+            raise
+        pytest.skip("mkdocs and mkdocs-material are not installed (pip install '.[test]')")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env.get("PYTHONPATH")) if p)
+    result = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(ROOT / "mkdocs.yml"),
+                             "-d", str(tmp_path / "site")], cwd=ROOT, env=env, capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, result.stderr[-4000:]
+    cli = (tmp_path / "site" / "reference" / "cli" / "index.html").read_text()
+    assert "dynderive simulate" in cli and "--friction-smoothing" in cli
+    robot = (tmp_path / "site" / "reference" / "robot-format" / "index.html").read_text()
+    assert "child_origin" in robot and "armature" in robot
+    assert "generated: " not in cli + robot   # every marker was replaced
