@@ -339,6 +339,12 @@ def matmul(*factors: sympy.MatrixBase) -> sympy.Matrix:
     return result
 
 
+def jacobian(vector: sympy.MatrixBase, variables: list[sympy.Symbol]) -> sympy.Matrix:
+    """``vector.jacobian(variables)``, the same entries, by ``diff`` (a column or row vector)."""
+    entries = list(vector)
+    return sympy.Matrix(len(entries), len(variables), [diff(e, v) for e in entries for v in variables])
+
+
 _EXPAND: dict[tuple[Any, ...], tuple[Any, bool]] = {}
 _expand_hint = getattr(Expr, "_expand_hint", None)
 
@@ -364,4 +370,4 @@ if _expand_hint is not None and not getattr(_expand_hint, "dynderive", False):
     Expr._expand_hint = staticmethod(_remembered_expand_hint)  # type: ignore[method-assign]
 
 
-__all__ = ["collect_trig", "count_ops", "diff", "factor_terms", "matmul"]
+__all__ = ["collect_trig", "count_ops", "diff", "factor_terms", "jacobian", "matmul"]

@@ -19,6 +19,7 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
+from .exact_fast import jacobian, matmul
 from .program import Program
 from .recursive import _carry, _forward, _gravity, _newton_euler, _start
 from .tidy import tidy
@@ -43,6 +44,19 @@ def inverse_dynamics_derivatives_program(robot: Robot, table: SymbolTable) -> Pr
     outputs += [by_variable[n + k][i] for i in range(n) for k in range(n)]
     program.outputs = outputs
     return program
+
+
+def loop_linearization_terms(quantities: dict[str, sympy.Matrix],
+                             table: SymbolTable) -> tuple[sympy.Matrix, sympy.Matrix]:
+    """What ``linearize`` of a closed-loop robot needs beyond Newton-Euler's derivatives, for
+    every target: the loop force's ``d(A_g^T lambda_g)/dq`` at fixed multipliers (n x n) and
+    the constraint acceleration's ``d(A_g qdd + Adot_g qd)/dq`` at fixed qdd (k x n);
+    ``d(Adot_g qd)/dqd`` is ``2 Adot_g`` (``A_g`` is a Hessian's rows)."""
+    coordinates = list(table.q)
+    A, Adot = quantities["A_g"], quantities["Adot_g"]
+    force = jacobian(matmul(A.T, quantities["lambda_g"]), coordinates)
+    acceleration = jacobian(matmul(A, sympy.Matrix(table.qdd)) + matmul(Adot, sympy.Matrix(table.qd)), coordinates)
+    return force, acceleration
 
 
 def symbolic_linearization(quantities: dict[str, sympy.Matrix], table: SymbolTable,

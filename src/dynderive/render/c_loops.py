@@ -39,6 +39,7 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
+from ..mechanics.linearization import loop_linearization_terms
 from .c_names import c_comment
 from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
 from .encode import Code
@@ -409,13 +410,10 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
     if nu:
         inputs = quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
         lines += _block(kit.expressions, list(inputs), [f"R[{i * width + 2 * n + c}]" for i in range(n) for c in range(nu)])
-    coordinates = sympy.Matrix(table.q)
-    force = (quantities["A_g"].T * quantities["lambda_g"]).jacobian(coordinates)
+    force, acceleration = loop_linearization_terms(quantities, table)
     multipliers = {s: f"lambda[{i}]" for i, s in enumerate(table.loop_multipliers)}
     lines += [f"double K[{n * n}];", *_block(kit.expressions, list(force), [f"K[{i}]" for i in range(n * n)], multipliers),
               *(f"R[{i * width + j}] += K[{i * n + j}];" for i in range(n) for j in range(n))]
-    acceleration = (quantities["A_g"] * sympy.Matrix(table.qdd)
-                    + quantities["Adot_g"] * sympy.Matrix(table.qd)).jacobian(coordinates)
     name = derivation.robot.name
     lines += [f"double Ad[{k * n}];", f"{name}_loop_jacobian_dot(q, qd, p, Ad);",
               f"for (int i = 0; i < {k * width}; ++i) E[i] = 0.0;",

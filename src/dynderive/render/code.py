@@ -22,6 +22,7 @@ from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
+from ..mechanics.linearization import loop_linearization_terms
 from ..mechanics.tidy import fold_constants, operation_count
 from .encode import Code, python_literal
 from .environment import render, template_fault
@@ -474,10 +475,7 @@ def _loop_derivatives(derivation: Derivation, q: Argument, qd: Argument, printer
     n, k = len(table.q), quantities["a_g"].shape[0]
     qdd = Argument("qdd", table.qdd, f"joint accelerations, shape (..., {n})")
     multipliers = Argument("_multipliers", table.loop_multipliers, f"loop multipliers lambda_g, shape (..., {k})")
-    coordinates = sympy.Matrix(table.q)
-    force = (quantities["A_g"].T * quantities["lambda_g"]).jacobian(coordinates)
-    acceleration = (quantities["A_g"] * sympy.Matrix(table.qdd)
-                    + quantities["Adot_g"] * sympy.Matrix(table.qd)).jacobian(coordinates)
+    force, acceleration = loop_linearization_terms(quantities, table)
     return [
         expression_function("_loop_force_jacobian", f"d(A_g^T lambda_g)/dq at fixed lambda_g, shape (..., {n}, {n}).",
                             [q, multipliers], force, printer, params, matrix_result=True),

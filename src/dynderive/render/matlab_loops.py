@@ -15,9 +15,8 @@ from __future__ import annotations
 
 from typing import Any
 
-import sympy
-
 from ..derivation import Derivation
+from ..mechanics.linearization import loop_linearization_terms
 from .matlab_print import (
     MFunction,
     Names,
@@ -100,11 +99,8 @@ def _linearize(derivation: Derivation, names: Names) -> Any:
     n, k, r = _sizes(derivation)
     nu = len(table.efforts)
     width = 2 * n + nu
-    coordinates = sympy.Matrix(table.q)
-    force = (quantities["A_g"].T * quantities["lambda_g"]).jacobian(coordinates)
+    force, acceleration = loop_linearization_terms(quantities, table)
     multipliers = names.extended({s: f"lambda({i + 1})" for i, s in enumerate(table.loop_multipliers)})
-    acceleration = (quantities["A_g"] * sympy.Matrix(table.qdd)
-                    + quantities["Adot_g"] * sympy.Matrix(table.qd)).jacobian(coordinates)
     accelerations = names.extended({s: f"qdd0({i + 1})" for i, s in enumerate(table.qdd)})
     body = [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
             "[qdd0, lambda] = loop_solve(q, qd, u, p, 0, 0);", *linearize_rhs(derivation, names, "qdd0"),
