@@ -51,10 +51,17 @@ def fold_constants(expr: Any, rationals: bool = True) -> Any:
     >>> fold_constants(sympy.sqrt(2) * sympy.Symbol("x") / 2)
     0.707106781186548*x
     """
+    memo = _FOLDED[rationals]
+    if len(memo) > exact_fast.MEMO_LIMIT:
+        memo.clear()
     if isinstance(expr, sympy.MatrixBase):
-        memo: dict[sympy.Basic, sympy.Basic] = {}
         return expr.applyfunc(lambda e: _fold(sympy.sympify(e), memo, rationals))
-    return _fold(sympy.sympify(expr), {}, rationals)
+    return _fold(sympy.sympify(expr), memo, rationals)
+
+
+#: ``fold_constants``' results by sub-expression, with and without folding fractions: every
+#: generated function and check folds the same entries of M, C and N again.
+_FOLDED: dict[bool, dict[sympy.Basic, sympy.Basic]] = {True: {}, False: {}}
 
 
 def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic], rationals: bool = True) -> sympy.Basic:
