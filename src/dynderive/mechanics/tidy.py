@@ -77,7 +77,9 @@ def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic], rationals: bo
         result = _to_float(expr)
     else:
         args = [_fold(a, memo, rationals) for a in expr.args]
-        result = expr.func(*args) if any(a is not b for a, b in zip(args, expr.args)) else expr
+        # equal is enough: a remembered argument may be an equal copy, and rebuilding would
+        # distribute a number over a sum (Mul(1/2, x + y) is x/2 + y/2)
+        result = expr.func(*args) if any(a is not b and a != b for a, b in zip(args, expr.args)) else expr
     memo[expr] = result
     return result
 
