@@ -40,6 +40,7 @@ import sympy
 from ..errors import InputError, Problem
 from ..model.robot import LoopJoint, Robot
 from ..model.symbols import SymbolTable
+from .exact_fast import jacobian, matmul
 from .joints import unit
 from .lagrange import constraint_jacobian_dot
 from .spatial import rpy_matrix
@@ -304,7 +305,7 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
 
     def numeric_of(indices: list[int]) -> tuple[sympy.Matrix, sympy.Matrix, _Numeric]:
         a = sympy.Matrix([every[i][2] for i in indices]) if indices else sympy.zeros(0, 1)
-        A = a.jacobian(table.q) if indices else sympy.zeros(0, n)
+        A = jacobian(a, table.q) if indices else sympy.zeros(0, n)
         return a, A, _Numeric(a, A, table, values)
 
     a, A, numeric = numeric_of(nonzero)
@@ -483,7 +484,7 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     det = tidy(A_d.det(method="berkowitz"))
     if det == 0:
         return {}
-    solution = (A_d.adjugate(method="berkowitz") * A_i).applyfunc(lambda e: tidy(-e / det))
+    solution = matmul(A_d.adjugate(method="berkowitz"), A_i).applyfunc(lambda e: tidy(-e / det))
     n, m = len(table.q), len(model.independent)
     R = sympy.zeros(n, m)
     for column, i in enumerate(model.independent):
@@ -494,13 +495,14 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     Rdot = tidy_matrix(constraint_jacobian_dot(R, table.q, table.qd))
     qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
     qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
-    M_r = tidy_matrix(R.T * M * R)
+    M_r = tidy_matrix(matmul(R.T, M, R))
     if not is_small(sympy.Tuple(*M_r), 4000 * m * m):
         return {"R_g": R}
     # on the manifold qd = R qd_i: Rdot's qd are written through R as well
-    Rdot = Rdot.xreplace(dict(zip(table.qd, R * qd_i)))
-    C_r = tidy_matrix(R.T * (M * Rdot + C.xreplace(dict(zip(table.qd, R * qd_i))) * R))
-    N_r = tidy_matrix(R.T * N)
-    Y_r = tidy_matrix(R.T * Y)
-    EOM_r = (M_r * qdd_i + C_r * qd_i + N_r - Y_r).applyfunc(tidy)
+    on_manifold = dict(zip(table.qd, matmul(R, qd_i)))
+    Rdot = Rdot.xreplace(on_manifold)
+    C_r = tidy_matrix(matmul(R.T, matmul(M, Rdot) + matmul(C.xreplace(on_manifold), R)))
+    N_r = tidy_matrix(matmul(R.T, N))
+    Y_r = tidy_matrix(matmul(R.T, Y))
+    EOM_r = (matmul(M_r, qdd_i) + matmul(C_r, qd_i) + N_r - Y_r).applyfunc(tidy)
     return {"R_g": R, "M_r": M_r, "C_r": C_r, "N_r": N_r, "Y_r": Y_r, "EOM_r": EOM_r}
