@@ -164,6 +164,7 @@ class Derivation:
         self._checks: list[Check] | None = None
         self._programs: dict[str, Program] | None = None
         self._generalized_program: GeneralizedProgram | None = None
+        self._loop_linearization: tuple[sympy.Matrix, sympy.Matrix] | None = None
         add = self._stages.add
         add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
         add(_Stage(self._applied_forces, frozenset({"Y_g"})))
@@ -359,6 +360,17 @@ class Derivation:
             self._programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives_program(
                 self.robot, self.symbols)
         return self._programs
+
+    @property
+    def loop_linearization(self) -> tuple[sympy.Matrix, sympy.Matrix]:
+        """What ``linearize`` of a closed-loop robot needs beyond Newton-Euler's derivatives
+        (``mechanics.linearization.loop_linearization_terms``: ``d(A_g^T lambda_g)/dq`` and
+        ``d(A_g qdd + Adot_g qd)/dq``), built once for every code target."""
+        if self._loop_linearization is None:
+            from .mechanics.linearization import loop_linearization_terms
+
+            self._loop_linearization = loop_linearization_terms(self.quantities, self.symbols)
+        return self._loop_linearization
 
     @property
     def generalized_program(self) -> GeneralizedProgram:

@@ -39,7 +39,6 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
-from ..mechanics.linearization import loop_linearization_terms
 from .c_names import c_comment
 from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
 from .encode import Code
@@ -410,7 +409,7 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
     if nu:
         inputs = quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
         lines += _block(kit.expressions, list(inputs), [f"R[{i * width + 2 * n + c}]" for i in range(n) for c in range(nu)])
-    force, acceleration = loop_linearization_terms(quantities, table)
+    force, acceleration = derivation.loop_linearization
     multipliers = {s: f"lambda[{i}]" for i, s in enumerate(table.loop_multipliers)}
     lines += [f"double K[{n * n}];", *_block(kit.expressions, list(force), [f"K[{i}]" for i in range(n * n)], multipliers),
               *(f"R[{i * width + j}] += K[{i * n + j}];" for i in range(n) for j in range(n))]

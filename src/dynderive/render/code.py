@@ -22,7 +22,6 @@ from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
 from ..derivation import Derivation
-from ..mechanics.linearization import loop_linearization_terms
 from ..mechanics.tidy import fold_constants, operation_count
 from .encode import Code, python_literal
 from .environment import render, template_fault
@@ -475,7 +474,7 @@ def _loop_derivatives(derivation: Derivation, q: Argument, qd: Argument, printer
     n, k = len(table.q), quantities["a_g"].shape[0]
     qdd = Argument("qdd", table.qdd, f"joint accelerations, shape (..., {n})")
     multipliers = Argument("_multipliers", table.loop_multipliers, f"loop multipliers lambda_g, shape (..., {k})")
-    force, acceleration = loop_linearization_terms(quantities, table)
+    force, acceleration = derivation.loop_linearization
     return [
         expression_function("_loop_force_jacobian", f"d(A_g^T lambda_g)/dq at fixed lambda_g, shape (..., {n}, {n}).",
                             [q, multipliers], force, printer, params, matrix_result=True),

@@ -16,7 +16,6 @@ from __future__ import annotations
 from typing import Any
 
 from ..derivation import Derivation
-from ..mechanics.linearization import loop_linearization_terms
 from .matlab_print import (
     MFunction,
     Names,
@@ -94,12 +93,12 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
 
 
 def _linearize(derivation: Derivation, names: Names) -> Any:
-    table, quantities = derivation.symbols, derivation.quantities
+    table = derivation.symbols
     name = derivation.robot.name
     n, k, r = _sizes(derivation)
     nu = len(table.efforts)
     width = 2 * n + nu
-    force, acceleration = loop_linearization_terms(quantities, table)
+    force, acceleration = derivation.loop_linearization
     multipliers = names.extended({s: f"lambda({i + 1})" for i, s in enumerate(table.loop_multipliers)})
     accelerations = names.extended({s: f"qdd0({i + 1})" for i, s in enumerate(table.qdd)})
     body = [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
