@@ -131,8 +131,8 @@ def solve(
         except ValueError as exc:
             raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
         if not (latex or pdf or html):
-            raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex, "
-                                                   "--pdf or --html"))
+            raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or "
+                                                   "--pdf (or --html)"))
     if tests and not code:
         raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     if c_extension:   # no compiler: stop before any work

@@ -10,11 +10,12 @@ the page only through the HTML environment's autoescaping.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
 import sympy
-from markupsafe import Markup
+from markupsafe import Markup, escape
 
 from ..derivation import Derivation
 from .environment import render
@@ -41,6 +42,14 @@ def _upright(text: str) -> Markup:
 def _named(letter: str, index: str) -> Markup:
     """``M_g``, ``EOM_{g2}`` (several letters upright)."""
     return sub(_upright(letter) if len(letter) > 1 else letter, _upright(index) if not index.isdigit() else index)
+
+
+def html_unit(unit: str) -> Markup:
+    """A unit with powers raised, as the sheet's ``tex_unit``: ``m/s^2`` -> m/s<sup>2</sup>,
+    ``kg*m**2`` -> kg m<sup>2</sup>; the rest escaped."""
+    parts = re.split(r"\^\(?([+-]?\d+(?:\.\d+)?)\)?", unit.replace("**", "^"))
+    return Markup("").join(Markup("<sup>{}</sup>").format(part.replace("-", "\u2212")) if index % 2
+                           else escape(part.replace("*", "\u2009")) for index, part in enumerate(parts))
 
 
 def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None) -> dict[str, Any]:
@@ -80,7 +89,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "frame": link_frame(k),
         })
     parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else f"{p.value:g}",
-                   "unit": p.unit or "", "description": p.description or ""} for p in robot.parameters]
+                   "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else None,
                "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]

@@ -199,7 +199,10 @@ class MathFormatter:
         known = self._printed.get(key)
         if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
             return known[1]
-        text = self._printer.doprint(sympy.sympify(expr)).replace("&InvisibleTimes;", "&#x2062;")
+        text = self._printer.doprint(sympy.sympify(expr))
+        # the invisible times as a character reference (XML knows no named entities), the
+        # minus as the minus sign (SymPy writes the hyphen)
+        text = text.replace("&InvisibleTimes;", "&#x2062;").replace("<mo>-</mo>", "<mo>&#x2212;</mo>")
         markup = Markup(text)
         self._printed[key] = (expr, markup)
         return markup
