@@ -96,6 +96,31 @@ def test_sections_quantities_and_checks_of_the_sheet():
     assert ">Maximal coordinates<" not in render_html(derivation, sections=("generalized", "checks"))
 
 
+def test_wide_matrices_entry_by_entry_as_on_the_sheet():
+    from dynderive.render.latex import sheet_context
+
+    derivation = derivation_of("double_pendulum")
+    sections = ("generalized", "maximal", "checks")
+    sheet, page = sheet_context(derivation, sections), html_context(derivation, sections)
+    pairs = [(sheet[k], page[k]) for k in ("M_g", "C_g", "EOM_g1", "EOM_g2")]
+    pairs += [(sheet["maximal"][k], page["maximal"][k]) for k in ("A_m", "Adot_m", "M_m", "M_tilde", "EOM_g3")]
+    for latex, html in pairs:
+        assert (html["wide"], html["too_large"], len(html["entries"])) == (
+            latex["wide"], latex["too_large"], len(latex["entries"]))
+    assert page["EOM_g2"]["wide"] and not page["M_g"]["wide"]   # a wide one listed entry by entry
+    shown = render_html(derivation, sections=sections)
+    assert all(str(e["name"]) in shown and str(e["math"]) in shown for e in page["EOM_g2"]["entries"])
+
+
+@pytest.mark.parametrize("robot", ALL_ROBOTS)
+def test_every_bundled_page_is_escaped_markup_without_latex(robot):
+    page = render_html(derivation_of(robot.rsplit(".", 1)[0]))
+    tags = parse(page)
+    assert tags.problems == [] and tags.stack == []
+    assert "\\" not in page and "<script" not in page   # no LaTeX leaked into the page (labels, names)
+    assert ("<svg" in page) == derivation_of(robot.rsplit(".", 1)[0]).robot.planar
+
+
 def test_deterministic_bytes():
     first = render_html(dynderive.derive(dynderive.load_robot("double_pendulum")))
     second = render_html(dynderive.derive(dynderive.load_robot("double_pendulum")))
