@@ -80,6 +80,9 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "index": k, "name": t.name, "mass": fmt(t.mass), "inertia": fmt(t.inertia),
             "spatial_inertia": fmt(t.spatial_inertia),
             "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES) is not None,
+            # shown where the sheet shows them: both small enough to read
+            "pose": all(fmt.maybe(x, INLINE_NODES) is not None for x in (t.com_position, t.body_velocity)),
+            "oriented": fmt.maybe(t.orientation, INLINE_NODES) is not None,
             "com": fmt.matrix(fenced(sub("p", link_frame(k))), t.com_position, sub("p", link_frame(k))),
             "velocity": fmt.matrix(fenced(sub("V", link_frame(k), "b")), t.body_velocity, sub("V", link_frame(k), "b")),
             "angle": (fmt.maybe(t.orientation, INLINE_NODES) if robot.planar else
