@@ -104,6 +104,8 @@ def solve(
                                          "Symbolic Math Toolbox script, and DIR/+<name>/, numeric MATLAB/Octave "
                                          "functions (one per file: mass_matrix, forward_dynamics, ...).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
+    html: Annotated[bool, typer.Option("--html", help="Write DIR/<name>.html, the solution sheet as one self-contained "
+                                       "web page (MathML equations, SVG drawing, no script).")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
                                         "pytest property checks of the generated module.")] = False,
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("."),
@@ -128,8 +130,9 @@ def solve(
             chosen = parse_sections(sections)
         except ValueError as exc:
             raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
-        if not (latex or pdf):
-            raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or --pdf"))
+        if not (latex or pdf or html):
+            raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or "
+                                                   "--pdf (or --html)"))
     if tests and not code:
         raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     if c_extension:   # no compiler: stop before any work
@@ -145,13 +148,13 @@ def solve(
     if derivation.intermediate_form and not quiet:
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
-    if not (latex or pdf or code or c or c_extension or matlab or json_):
+    if not (latex or pdf or code or c or c_extension or matlab or json_ or html):
         typer.echo(render_terminal(derivation), nl=False)
         return
     from .solve import Wanted, solve_outputs
 
     wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, json=json_,
-                    tests=tests)
+                    tests=tests, html=html)
     files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress)
     write_all(files)
     if not quiet:
@@ -477,6 +480,7 @@ def build(
                                               "extension (--check: compiled, not compared).")] = False,
     matlab: Annotated[bool, typer.Option("--matlab", help="Write <name>_derivation.m and +<name>/ (MATLAB/Octave).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
+    html: Annotated[bool, typer.Option("--html", help="Write <name>.html, the sheet as a web page.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
     check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "
                                              "missing or differ from what would be generated.")] = False,
@@ -489,7 +493,7 @@ def build(
 
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
                                                         ("c_extension", c_extension), ("matlab", matlab),
-                                                        ("json", json_)) if wanted)
+                                                        ("json", json_), ("html", html)) if wanted)
     if c_extension:   # no compiler: stop before any work
         from .compile import require_compiler
 

@@ -26,6 +26,7 @@ class Wanted:
     matlab: bool = False
     json: bool = False
     tests: bool = False
+    html: bool = False
 
 
 def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_dir: Path | None,
@@ -83,6 +84,11 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
         except LatexError as exc:   # so are they, with the .tex and LaTeX's log to look at
             files |= {out / log: text for log, text in failure_outputs(name, tex, exc).items()}  # type: ignore[arg-type]
             failures.append(failure_message(out, name, exc))
+    if wanted.html:
+        from ..render.html import render_html
+
+        progress("rendering HTML")
+        files[out / f"{name}.html"] = render_html(derivation, template_dir, sections).encode()
     if wanted.code:
         progress("generating code")
         files[out / f"{name}_dynamics.py"] = render_code(derivation, template_dir).encode()

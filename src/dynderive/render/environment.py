@@ -128,14 +128,16 @@ def _bytecode_cache() -> jinja2.BytecodeCache | None:
 
 @lru_cache(maxsize=16)
 def environment(kind: str, template_dir: str | None = None) -> jinja2.Environment:
-    """The environment for ``kind`` ("latex" or "code"); ``template_dir`` overrides by file name."""
+    """The environment for ``kind`` ("latex", "html" or "code"); ``template_dir`` overrides by
+    file name. HTML templates autoescape: only Markup (MathML, SVG) is printed as it is."""
     search = [str(template_dir)] if template_dir else []
     search.append(str(builtin_templates_dir()))
-    options: dict[str, object] = dict(LATEX_DELIMITERS) if kind == "latex" else {"finalize": _python_source}
+    options: dict[str, object] = (dict(LATEX_DELIMITERS) if kind == "latex" else {} if kind == "html"
+                                  else {"finalize": _python_source})
     env = TemplateSandbox(
         loader=jinja2.FileSystemLoader(search),
         undefined=jinja2.StrictUndefined,
-        autoescape=False,
+        autoescape=kind == "html",
         keep_trailing_newline=True,
         trim_blocks=True,
         lstrip_blocks=True,
@@ -170,7 +172,7 @@ class TemplateProblem(InputError):
 
 def kind_of(name: str) -> str:
     """The environment a template is rendered in, by its file name."""
-    return "latex" if name.endswith(".tex.j2") else "code"
+    return "latex" if name.endswith(".tex.j2") else "html" if name.endswith(".html.j2") else "code"
 
 
 def render(kind: str, name: str, context: dict[str, object], template_dir: str | Path | None) -> str:

@@ -1,0 +1,232 @@
+"""MathML for the HTML sheet: SymPy's presentation printer with the sheet's symbol names.
+
+The LaTeX sheet names ``qd1`` as ``\\dot{q}_{1}`` and ``m_link`` as ``m_{\\mathrm{link}}``
+(``model.naming.latex_name``); here the same names are MathML elements (a dot accent over
+the letter, the index as a subscript). The printer's output is Markup (MathML fragments
+without the ``<math>`` element), so the HTML environment's autoescaping leaves it as it is;
+every text it holds went through the XML writer, which escapes ``<``, ``&`` and quotes.
+"""
+
+from __future__ import annotations
+
+import weakref
+from typing import Any
+from xml.dom import minidom
+
+import sympy
+from markupsafe import Markup, escape
+from sympy.printing.mathml import MathMLPresentationPrinter
+from sympy.printing.pretty.pretty_symbology import greek_unicode
+
+from ..derivation import Derivation
+from ..mechanics.tidy import is_small
+from ..model.naming import GREEK, split_index
+from .latex import (
+    ENTRY_NODES,
+    LINE_UNITS,
+    MATRIX_COLUMNS,
+    MATRIX_NODES,
+    TIGHT,
+    _nodes_up_to,
+    entry_index,
+    matrix_width,
+)
+
+#: A name: (letters, mathvariant or "", dots over it, subscript text or "").
+Name = tuple[str, str, int, str]
+
+_DOTS = {1: "\u02d9", 2: "\u00a8"}
+
+
+def name_of(name: str, dots: int = 0) -> Name:
+    """What ``latex_name`` typesets, as a ``Name``: ``q1`` -> q with subscript 1; ``phi2`` ->
+    the Greek letter; ``m_link`` -> m with the upright subscript ``link``."""
+    head, _, rest = name.partition("_")
+    if not head:
+        head, rest = name, ""
+    stem, digits = (head, "") if rest else split_index(head)
+    sub = digits or rest
+    letters = greek_unicode.get(stem, stem) if stem in GREEK else stem
+    return letters, "", dots, sub
+
+
+def name_element(dom: minidom.Document, name: Name) -> minidom.Element:
+    """The MathML element of ``name`` in ``dom``."""
+    letters, variant, dots, sub = name
+    base = _element(dom, "mi", letters)
+    if variant:
+        base.setAttribute("mathvariant", variant)
+    if dots:
+        over = dom.createElement("mover")
+        over.setAttribute("accent", "true")
+        over.appendChild(base)
+        over.appendChild(_element(dom, "mo", _DOTS[dots]))
+        base = over
+    if not sub:
+        return base
+    script = dom.createElement("msub")
+    script.appendChild(base)
+    if sub.isdigit():
+        script.appendChild(_element(dom, "mn", sub))
+    else:
+        index = _element(dom, "mi", sub)
+        index.setAttribute("mathvariant", "normal")
+        script.appendChild(index)
+    return script
+
+
+def _element(dom: minidom.Document, tag: str, text: str) -> minidom.Element:
+    element = dom.createElement(tag)
+    element.appendChild(dom.createTextNode(text))
+    return element
+
+
+_DOM = minidom.Document()
+
+
+def name_markup(name: Name) -> Markup:
+    """``name`` as a MathML fragment."""
+    return Markup(name_element(_DOM, name).toxml())
+
+
+# Small builders of MathML fragments for the sheet's labels (M_g, J^b_{sL_1}, ...): text is
+# escaped, fragments (Markup) are kept.
+
+def mi(text: str, normal: bool = False) -> Markup:
+    variant = ' mathvariant="normal"' if normal else ""
+    return Markup(f"<mi{variant}>{escape(text)}</mi>")
+
+
+def mn(text: str | int) -> Markup:
+    return Markup(f"<mn>{escape(str(text))}</mn>")
+
+
+def mo(text: str) -> Markup:
+    return Markup(f"<mo>{escape(text)}</mo>")
+
+
+def mrow(*parts: Any) -> Markup:
+    return Markup("<mrow>" + "".join(str(_atom(p)) for p in parts) + "</mrow>")
+
+
+def sub(base: Any, index: Any, sup: Any = None) -> Markup:
+    """``base`` with a subscript (and a superscript)."""
+    if sup is None:
+        return Markup(f"<msub>{_atom(base)}{_atom(index)}</msub>")
+    return Markup(f"<msubsup>{_atom(base)}{_atom(index)}{_atom(sup)}</msubsup>")
+
+
+def accent(base: Any, mark: str) -> Markup:
+    """``base`` with an accent above: ``\u02d9`` (dot), ``~`` (tilde)."""
+    return Markup(f'<mover accent="true">{_atom(base)}<mo>{escape(mark)}</mo></mover>')
+
+
+def _atom(part: Any) -> Markup:
+    """Markup as it is; other text as an identifier (a digit string as a number)."""
+    if isinstance(part, Markup):
+        return part
+    text = str(part)
+    return mn(text) if text.isdigit() else mi(text)
+
+
+def link_frame(index: int) -> Markup:
+    """``sL_i``: the centre-of-mass frame of link ``i`` seen from the world frame."""
+    return mrow(mi("s"), sub("L", str(index)))
+
+
+def body_jacobian(index: int) -> Markup:
+    """``J^b_{sL_i}``."""
+    return sub("J", link_frame(index), "b")
+
+
+def fenced(body: Markup) -> Markup:
+    return mrow(mo("("), body, mo(")"))
+
+
+class _Printer(MathMLPresentationPrinter):
+    """The presentation printer with the robot's names for its symbols, remembering the
+    elements it printed (cloned on reuse: a DOM node has one parent)."""
+
+    def __init__(self, settings: dict[str, Any], names: dict[sympy.Symbol, Name]):
+        super().__init__(settings)
+        self._names = names
+        self._memo: dict[sympy.Basic, minidom.Element] = {}
+
+    def _print(self, expr: Any, **kwargs: Any) -> Any:
+        if kwargs or not isinstance(expr, sympy.Basic) or isinstance(expr, sympy.MatrixBase):
+            return super()._print(expr, **kwargs)
+        known = self._memo.get(expr)
+        if known is None:
+            known = self._memo[expr] = super()._print(expr)
+        return known.cloneNode(True)
+
+    def _print_Symbol(self, sym: sympy.Symbol, style: str = "plain") -> Any:
+        name = self._names.get(sym)
+        if name is None:
+            return super()._print_Symbol(sym, style)
+        return name_element(self.dom, name)
+
+
+class MathFormatter:
+    """MathML of SymPy objects with the robot's symbol names; one per derivation (``of``),
+    remembering what it printed, with the LaTeX ``Formatter``'s size rules (``maybe``,
+    ``matrix``: the same limits, so the page shows what the sheet shows)."""
+
+    _shared: weakref.WeakKeyDictionary[Derivation, MathFormatter] = weakref.WeakKeyDictionary()
+
+    def __init__(self, derivation: Derivation):
+        table = derivation.symbols
+        names = {s: name_of(str(s)) for s in table.all_symbols()}
+        for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
+            for c, r, a in zip(coords, rates, accels):
+                names[r] = name_of(str(c), 1)
+                names[a] = name_of(str(c), 2)
+        for name, _ in derivation.intermediates:
+            names[name] = ("w", "sans-serif", 0, str(name)[2:])
+        self.names = names
+        order = "none" if derivation.intermediate_form else None
+        self._printer = _Printer({"order": order, "mat_delim": "["}, names)
+        self._printed: dict[Any, tuple[Any, Markup]] = {}
+
+    @classmethod
+    def of(cls, derivation: Derivation) -> MathFormatter:
+        if derivation not in cls._shared:
+            cls._shared[derivation] = cls(derivation)
+        return cls._shared[derivation]
+
+    def __call__(self, expr: Any) -> Markup:
+        key = id(expr) if isinstance(expr, sympy.MatrixBase) else expr
+        known = self._printed.get(key)
+        if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
+            return known[1]
+        text = self._printer.doprint(sympy.sympify(expr))
+        # the invisible times as a character reference (XML knows no named entities), the
+        # minus as the minus sign (SymPy writes the hyphen)
+        text = text.replace("&InvisibleTimes;", "&#x2062;").replace("<mo>-</mo>", "<mo>&#x2212;</mo>")
+        markup = Markup(text)
+        self._printed[key] = (expr, markup)
+        return markup
+
+    def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> Markup | None:
+        """MathML of ``expr``, or None when the sheet finds it too large (``Formatter.maybe``)."""
+        entries = list(expr) if isinstance(expr, sympy.MatrixBase) else [expr]
+        if not is_small(sympy.Tuple(*entries), limit * max(1, len(entries))):
+            return None
+        return self(expr)
+
+    def matrix(self, base: Markup | str, matrix: sympy.Matrix, label: Markup | str | None = None) -> dict[str, Any]:
+        """A matrix shown whole, or entry by entry (``wide``: as the sheet's too wide a
+        matrix, named ``base`` with the entry's index), or ``too_large`` (the sheet's limits).
+        ``label``: its name in front (default ``base``)."""
+        rows, cols = matrix.shape
+        shown = _atom(label if label is not None else base)
+        nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
+        if nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix):
+            return {"label": shown, "math": None, "wide": True, "entries": [], "shape": [rows, cols],
+                    "too_large": True, "nodes": nodes, "zeros": 0}
+        entries = [{"name": sub(base, entry_index(i, j, rows, cols).replace(",", "\u2009")),
+                    "math": self(matrix[i, j])}
+                   for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
+        wide = matrix_width(matrix) > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
+        return {"label": shown, "math": self(matrix), "wide": wide, "entries": entries, "shape": [rows, cols],
+                "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
