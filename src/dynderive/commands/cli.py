@@ -103,6 +103,8 @@ def solve(
     matlab: Annotated[bool, typer.Option("--matlab", help="Write DIR/<name>_derivation.m, the derivation as a "
                                          "Symbolic Math Toolbox script, and DIR/+<name>/, numeric MATLAB/Octave "
                                          "functions (one per file: mass_matrix, forward_dynamics, ...).")] = False,
+    jax: Annotated[bool, typer.Option("--jax", help="Write DIR/<name>_dynamics_jax.py, the NumPy module's API on "
+                                      "jax.numpy (jit, vmap, grad; float32 and float64).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
                                         "pytest property checks of the generated module.")] = False,
@@ -145,13 +147,13 @@ def solve(
     if derivation.intermediate_form and not quiet:
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
-    if not (latex or pdf or code or c or c_extension or matlab or json_):
+    if not (latex or pdf or code or c or c_extension or matlab or jax or json_):
         typer.echo(render_terminal(derivation), nl=False)
         return
     from .solve import Wanted, solve_outputs
 
-    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, json=json_,
-                    tests=tests)
+    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, jax=jax,
+                    json=json_, tests=tests)
     files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress)
     write_all(files)
     if not quiet:
@@ -476,6 +478,7 @@ def build(
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write <name>_dynamics_c.*.so, the compiled "
                                               "extension (--check: compiled, not compared).")] = False,
     matlab: Annotated[bool, typer.Option("--matlab", help="Write <name>_derivation.m and +<name>/ (MATLAB/Octave).")] = False,
+    jax: Annotated[bool, typer.Option("--jax", help="Write <name>_dynamics_jax.py (JAX).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
     check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "
@@ -489,7 +492,7 @@ def build(
 
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
                                                         ("c_extension", c_extension), ("matlab", matlab),
-                                                        ("json", json_)) if wanted)
+                                                        ("jax", jax), ("json", json_)) if wanted)
     if c_extension:   # no compiler: stop before any work
         from .compile import require_compiler
 
