@@ -4,7 +4,9 @@
 The same straight-line programs as the NumPy module (``code.program_function``: plain Python
 text whose functions, ``sin``, ``cos``..., are the body's parameters) run here on
 ``jax.numpy`` arrays; the explicit expressions (a planar robot's M, C, N, the loop and
-maximal-coordinate functions) are printed by SymPy's own ``JaxPrinter`` (``jnp.sin``). Every
+maximal-coordinate functions) are printed by SymPy's own ``JaxPrinter`` (``_jnp.sin``: the
+module imports ``jax`` as ``_jax`` and ``jax.numpy`` as ``_jnp``, names no robot symbol can
+take, since they start with ``_``). Every
 function is pure: results are stacked from their entries (``jnp.stack``), blocks joined with
 ``jnp.concatenate``, never written in place; no Python ``if`` or loop depends on a value
 (friction's sign and its smooth form are chosen by ``jnp.where``; ``assemble`` runs a fixed
@@ -35,12 +37,12 @@ JAX_IMPORTS = frozenset({"jax", "__future__"})
 
 
 class _JaxPrinter(JaxPrinter):
-    """SymPy's JAX printer writing ``jnp.sin`` rather than ``jax.numpy.sin``, floats as exact
+    """SymPy's JAX printer writing ``_jnp.sin`` rather than ``jax.numpy.sin``, floats as exact
     ``repr`` literals (17 significant digits, weakly typed: they keep float32 float32)."""
 
     def _module_format(self, fqn: str, register: bool = True) -> str:
         text = super()._module_format(fqn, register)
-        return "jnp." + text[len("jax.numpy."):] if text.startswith("jax.numpy.") else text
+        return "_jnp." + text[len("jax.numpy."):] if text.startswith("jax.numpy.") else text
 
     def _print_Float(self, expr: sympy.Float) -> str:
         return repr(float(expr))
