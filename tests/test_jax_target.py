@@ -154,15 +154,19 @@ def test_jit_and_vmap(robot, code_dir):
 def test_jacfwd_of_forward_dynamics_is_linearize(robot, smoothing, code_dir):
     numpy_module, jax_module = module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir))
     q, qd, _, u = _states(numpy_module, np.random.default_rng(4), 2)
-    n = q.shape[1]
-    for k in range(len(q)):
-        A, B = jax_module.linearize(q[k], qd[k], u[k], friction_smoothing=smoothing)
-        by_state = jax.jacfwd(lambda x: jax_module.forward_dynamics(x[:n], x[n:], u[k], friction_smoothing=smoothing))(
-            jnp.concatenate([q[k], qd[k]]))
-        by_effort = jax.jacrev(lambda v: jax_module.forward_dynamics(q[k], qd[k], v, friction_smoothing=smoothing))(u[k])
-        _close(by_state, A[n:], "jacfwd(forward_dynamics) vs linearize A", 1e-9)
-        _close(by_effort, B[n:], "jacrev(forward_dynamics) vs linearize B", 1e-9)
-        assert np.any(np.abs(np.asarray(A[n:])) > 1e-6)
+    for state in zip(q, qd, u):
+        _jacobians_agree(jax_module, *state, smoothing)
+
+
+def _jacobians_agree(jax_module, q, qd, u, smoothing: float) -> None:
+    n = len(q)
+    A, B = jax_module.linearize(q, qd, u, friction_smoothing=smoothing)
+    by_state = jax.jacfwd(lambda x: jax_module.forward_dynamics(x[:n], x[n:], u, friction_smoothing=smoothing))(
+        jnp.concatenate([q, qd]))
+    by_effort = jax.jacrev(lambda v: jax_module.forward_dynamics(q, qd, v, friction_smoothing=smoothing))(u)
+    _close(by_state, A[n:], "jacfwd(forward_dynamics) vs linearize A", 1e-9)
+    _close(by_effort, B[n:], "jacrev(forward_dynamics) vs linearize B", 1e-9)
+    assert np.any(np.abs(np.asarray(A[n:])) > 1e-6)
 
 
 @pytest.mark.parametrize("robot", ["rp_arm", "cart_pole_damped", "slider_crank", "ur5"])
@@ -175,25 +179,26 @@ def test_parameter_gradient_of_inverse_dynamics_is_the_regressor(robot, code_dir
     q, qd, qdd, _ = _states(module_of(robot, str(code_dir)), np.random.default_rng(6), 2)
     smoothing = 0.05   # friction's sign smoothed: its column then has a derivative
 
+    for state in zip(q, qd, qdd):
+        _parameter_derivatives_agree(module, names, values, *state, smoothing)
+
+
+def _parameter_derivatives_agree(module, names, values, q, qd, qdd, smoothing: float) -> None:
     def keywords(p):
         return dict(zip(names, p))
 
-    for k in range(len(q)):
-        tau = jax.jacfwd(lambda p: module.inverse_dynamics(q[k], qd[k], qdd[k], friction_smoothing=smoothing,
-                                                           **keywords(p)))(values)
-        Y = module.regressor(q[k], qd[k], qdd[k], friction_smoothing=smoothing, **keywords(values))
-        dY = jax.jacfwd(lambda p: module.regressor(q[k], qd[k], qdd[k], friction_smoothing=smoothing,
-                                                   **keywords(p)))(values)
-        pi = module.parameter_vector(**keywords(values))
-        dpi = jax.jacfwd(lambda p: module.parameter_vector(**keywords(p)))(values)
-        _close(tau, jnp.einsum("ijp,j->ip", dY, pi) + Y @ dpi, "d tau/dp", 1e-9)
-        inertial = [j for j in range(len(names)) if not np.any(np.asarray(dY[..., j]))]
-        assert inertial or names == ["g"], "some parameter enters only through pi"   # a URDF: only g
-        _close(tau[:, inertial], (Y @ dpi)[:, inertial], "d tau/dp of the inertial parameters", 1e-9)
-        # the gradient with respect to the parameter vector itself: tau = Y pi is linear in pi
-        _close(jax.jacfwd(lambda v: Y @ v)(pi), Y, "d tau/d pi")
-        _close(Y @ pi, module.inverse_dynamics(q[k], qd[k], qdd[k], friction_smoothing=smoothing, **keywords(values)),
-               "Y pi = tau")
+    tau = jax.jacfwd(lambda p: module.inverse_dynamics(q, qd, qdd, friction_smoothing=smoothing, **keywords(p)))(values)
+    Y = module.regressor(q, qd, qdd, friction_smoothing=smoothing, **keywords(values))
+    dY = jax.jacfwd(lambda p: module.regressor(q, qd, qdd, friction_smoothing=smoothing, **keywords(p)))(values)
+    pi = module.parameter_vector(**keywords(values))
+    dpi = jax.jacfwd(lambda p: module.parameter_vector(**keywords(p)))(values)
+    _close(tau, jnp.einsum("ijp,j->ip", dY, pi) + Y @ dpi, "d tau/dp", 1e-9)
+    inertial = [j for j in range(len(names)) if not np.any(np.asarray(dY[..., j]))]
+    assert inertial or names == ["g"], "some parameter enters only through pi"   # a URDF: only g
+    _close(tau[:, inertial], (Y @ dpi)[:, inertial], "d tau/dp of the inertial parameters", 1e-9)
+    # the gradient with respect to the parameter vector itself: tau = Y pi is linear in pi
+    _close(jax.jacfwd(lambda v: Y @ v)(pi), Y, "d tau/d pi")
+    _close(Y @ pi, module.inverse_dynamics(q, qd, qdd, friction_smoothing=smoothing, **keywords(values)), "Y pi = tau")
 
 
 @pytest.mark.parametrize("robot", ["rp_arm", "cart_pole_damped", "four_bar", "ur5"])
@@ -280,3 +285,17 @@ def test_solve_and_build_write_the_module(tmp_path):
     assert result.exit_code == 0 and (tmp_path / "b" / "rp_arm_dynamics_jax.py").is_file(), result.output
     result = CliRunner().invoke(app, ["build", str(ROBOTS / "rp_arm.yaml"), "--jax", "--out", str(tmp_path / "b"), "--check"])
     assert result.exit_code == 0 and "current" in result.output, result.output
+
+
+def test_check_backend_jax_and_simulate_refuses_it():
+    from typer.testing import CliRunner
+
+    from dynderive.commands.cli import app
+
+    result = CliRunner().invoke(app, ["check", "cart_pole_damped", "--backend", "jax", "--states", "3", "--quiet"])
+    assert result.exit_code == 0, result.output
+    rows = [line for line in result.output.splitlines() if line.startswith("JAX ")]
+    assert len(rows) >= 11 and all(" pass " in line for line in rows)
+    assert any("friction_smoothing" in line for line in rows)
+    result = CliRunner().invoke(app, ["simulate", "rp_arm", "--backend", "jax", "--quiet"])
+    assert result.exit_code == 2 and result.output.startswith("--backend:1:1: ")

@@ -178,7 +178,7 @@ def check(
                      "(repeatable; parameters without a default take 1.0).")] = None,
     backend: Annotated[str, typer.Option("--backend", help="numpy: check the generated NumPy module; c: also "
                        "compile the C extension (--c-extension) and compare each of its functions with the "
-                       "NumPy module.")] = "numpy",
+                       "NumPy module; jax: the same for the JAX module (--jax; needs jax).")] = "numpy",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
@@ -198,6 +198,10 @@ def check(
         from .compile import require_compiler
 
         require_compiler("--backend")
+    if backend == "jax":   # no jax: stop before any work
+        from ..verify.jax_backend import require_jax
+
+        require_jax()
     progress = Progress(quiet)
     model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
     _notes(model, quiet)
@@ -214,6 +218,11 @@ def check(
         compiled = compiled_module(derivation, progress=progress)
         progress("checking the compiled module")
         rows += compiled_checks(derivation, source, compiled, states=states)
+    if backend == "jax":
+        from ..verify.jax_backend import jax_checks
+
+        progress("checking the JAX module")
+        rows += jax_checks(derivation, source, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,
@@ -290,6 +299,9 @@ def simulate(
         from .compile import require_compiler
 
         require_compiler("--backend")
+    if backend == "jax":
+        raise InputError(problem("--backend", "simulate integrates with numpy or c; the JAX module is checked by "
+                                 "'check --backend jax'"))
     if backend == "c" and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))

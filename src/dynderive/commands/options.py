@@ -197,7 +197,7 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
 
 #: ``--backend`` of ``check`` and ``simulate``: the generated NumPy module, or the compiled C
 #: extension (``--c-extension``).
-BACKENDS = ("numpy", "c")
+BACKENDS = ("numpy", "c", "jax")
 
 
 def backend_name(text: str) -> str:
