@@ -19,7 +19,7 @@ from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
 from .help import Command as _Command
 from .help import Group as _Group
-from .options import backend_name, finite, problem, tolerances, vector, with_parameters
+from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
 from .output import WRITTEN, interrupted_message
 from .progress import Progress
 
@@ -193,7 +193,7 @@ def check(
 
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
-    backend = backend_name(backend)
+    backend = backend_name(backend, CHECK_BACKENDS)
     if backend == "c":   # no compiler: stop before any work
         from .compile import require_compiler
 
@@ -299,9 +299,6 @@ def simulate(
         from .compile import require_compiler
 
         require_compiler("--backend")
-    if backend == "jax":
-        raise InputError(problem("--backend", "simulate integrates with numpy or c; the JAX module is checked by "
-                                 "'check --backend jax'"))
     if backend == "c" and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
