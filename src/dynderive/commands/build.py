@@ -41,20 +41,21 @@ except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
 MANIFEST = ".dynderive-build.json"
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf")
-KINDS = ("latex", "pdf", "code", "c", "c_extension", "matlab", "json", "html")
+KINDS = ("latex", "pdf", "code", "c", "c_extension", "matlab", "jax", "json", "html")
 #: The compiled extension's file name ends with this Python's suffix for extensions.
 EXTENSION_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 #: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not
 #: compile; ``_dynamics_c.log``: an extension the compiler rejected)
 OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynamics.c",
-                "{}_dynamics_c" + EXTENSION_SUFFIX, "{}_dynamics_c.log", "{}.json", "{}.log", "{}.html",
+                "{}_dynamics_c" + EXTENSION_SUFFIX, "{}_dynamics_c.log", "{}_dynamics_jax.py", "{}.json", "{}.log",
+                "{}.html",
                 "+{}/parameters.m", "{}_derivation.m")   # --matlab: the package +<name>/ (every one has
                                                           # parameters.m) and the derivation script
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
              "code": ["dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
              "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
-             "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"], "json": [],
-             "html": ["html/sheet.html.j2"]}
+             "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"],
+             "jax": ["jax/dynamics.py.j2"], "json": [], "html": ["html/sheet.html.j2"]}
 
 
 @dataclass
@@ -252,6 +253,10 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
         from ..render.matlab_script import render_matlab_script
 
         files[f"{robot.name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
+    if "jax" in kinds:
+        from ..render.jax import render_jax
+
+        files[f"{robot.name}_dynamics_jax.py"] = render_jax(derivation, template_dir).encode()
     if "json" in kinds:
         files[f"{robot.name}.json"] = render_json(derivation).encode()
     if "html" in kinds:

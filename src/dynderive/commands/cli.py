@@ -19,7 +19,7 @@ from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
 from .help import Command as _Command
 from .help import Group as _Group
-from .options import backend_name, finite, problem, tolerances, vector, with_parameters
+from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
 from .output import WRITTEN, interrupted_message
 from .progress import Progress
 
@@ -103,6 +103,8 @@ def solve(
     matlab: Annotated[bool, typer.Option("--matlab", help="Write DIR/<name>_derivation.m, the derivation as a "
                                          "Symbolic Math Toolbox script, and DIR/+<name>/, numeric MATLAB/Octave "
                                          "functions (one per file: mass_matrix, forward_dynamics, ...).")] = False,
+    jax: Annotated[bool, typer.Option("--jax", help="Write DIR/<name>_dynamics_jax.py, the NumPy module's API on "
+                                      "jax.numpy (jit, vmap, grad; float32 and float64).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write DIR/<name>.html, the solution sheet as one self-contained "
                                        "web page (MathML equations, SVG drawing, no script).")] = False,
@@ -148,13 +150,13 @@ def solve(
     if derivation.intermediate_form and not quiet:
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
-    if not (latex or pdf or code or c or c_extension or matlab or json_ or html):
+    if not (latex or pdf or code or c or c_extension or matlab or jax or json_ or html):
         typer.echo(render_terminal(derivation), nl=False)
         return
     from .solve import Wanted, solve_outputs
 
-    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, json=json_,
-                    tests=tests, html=html)
+    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, jax=jax,
+                    json=json_, tests=tests, html=html)
     files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress)
     write_all(files)
     if not quiet:
@@ -179,7 +181,7 @@ def check(
                      "(repeatable; parameters without a default take 1.0).")] = None,
     backend: Annotated[str, typer.Option("--backend", help="numpy: check the generated NumPy module; c: also "
                        "compile the C extension (--c-extension) and compare each of its functions with the "
-                       "NumPy module.")] = "numpy",
+                       "NumPy module; jax: the same for the JAX module (--jax; needs jax).")] = "numpy",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
@@ -194,11 +196,15 @@ def check(
 
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
-    backend = backend_name(backend)
+    backend = backend_name(backend, CHECK_BACKENDS)
     if backend == "c":   # no compiler: stop before any work
         from .compile import require_compiler
 
         require_compiler("--backend")
+    if backend == "jax":   # no jax: stop before any work
+        from ..verify.jax_backend import require_jax
+
+        require_jax()
     progress = Progress(quiet)
     model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
     _notes(model, quiet)
@@ -215,6 +221,11 @@ def check(
         compiled = compiled_module(derivation, progress=progress)
         progress("checking the compiled module")
         rows += compiled_checks(derivation, source, compiled, states=states)
+    if backend == "jax":
+        from ..verify.jax_backend import jax_checks
+
+        progress("checking the JAX module")
+        rows += jax_checks(derivation, source, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,
@@ -479,6 +490,7 @@ def build(
     c_extension: Annotated[bool, typer.Option("--c-extension", help="Write <name>_dynamics_c.*.so, the compiled "
                                               "extension (--check: compiled, not compared).")] = False,
     matlab: Annotated[bool, typer.Option("--matlab", help="Write <name>_derivation.m and +<name>/ (MATLAB/Octave).")] = False,
+    jax: Annotated[bool, typer.Option("--jax", help="Write <name>_dynamics_jax.py (JAX).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write <name>.html, the sheet as a web page.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
@@ -493,7 +505,7 @@ def build(
 
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
                                                         ("c_extension", c_extension), ("matlab", matlab),
-                                                        ("json", json_), ("html", html)) if wanted)
+                                                        ("jax", jax), ("json", json_), ("html", html)) if wanted)
     if c_extension:   # no compiler: stop before any work
         from .compile import require_compiler
 

@@ -196,12 +196,13 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
 
 
 #: ``--backend`` of ``check`` and ``simulate``: the generated NumPy module, or the compiled C
-#: extension (``--c-extension``).
+#: extension (``--c-extension``); ``check`` also compares the JAX module (``--jax``).
 BACKENDS = ("numpy", "c")
+CHECK_BACKENDS = (*BACKENDS, "jax")
 
 
-def backend_name(text: str) -> str:
+def backend_name(text: str, choices: tuple[str, ...] = BACKENDS) -> str:
     """``--backend`` in lower case, or an InputError listing the choices."""
-    if text.lower() in BACKENDS:
+    if text.lower() in choices:
         return text.lower()
-    raise InputError(problem("--backend", f"expected one of {', '.join(BACKENDS)}, got {text!r}"))
+    raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"))

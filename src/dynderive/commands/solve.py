@@ -24,6 +24,7 @@ class Wanted:
     c: bool = False
     c_extension: bool = False
     matlab: bool = False
+    jax: bool = False
     json: bool = False
     tests: bool = False
     html: bool = False
@@ -56,6 +57,11 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
         from ..render.matlab_script import render_matlab_script
 
         files[out / f"{name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
+    if wanted.jax:
+        from ..render.jax import render_jax
+
+        progress("generating JAX")
+        files[out / f"{name}_dynamics_jax.py"] = render_jax(derivation, template_dir).encode()
     if wanted.c_extension:
         from .compile import ExtensionCompileError, build_extension
         from .compile import failure_message as build_failure

@@ -296,7 +296,7 @@ MATRICES = {"M_g", "C_g", "M_m", "C_m", "A_m", "Adot_m", "H"}
 
 
 def expression_function(name: str, doc: str, arguments: list[Argument], value: Any,
-                        printer: _Printer, parameters: set[sympy.Symbol],
+                        printer: NumPyPrinter, parameters: set[sympy.Symbol],
                         matrix_result: bool = False) -> ExpressionFunction:
     """Eliminate common subexpressions of ``value`` and print it as NumPy code.
 
@@ -324,10 +324,11 @@ def expression_function(name: str, doc: str, arguments: list[Argument], value: A
     return ExpressionFunction(name, Code(doc), arguments, shape, unpack, lines, entries)
 
 
-def code_context(derivation: Derivation) -> dict[str, Any]:
-    """Every variable the code template can use (documented in docs/templates.md)."""
+def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -> dict[str, Any]:
+    """Every variable the code template can use (documented in docs/templates.md); ``printer``
+    prints the expression functions (default: NumPy's, ``np.sin``; the JAX target passes its own)."""
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
-    printer = _Printer({"fully_qualified_modules": True, "strict": False})
+    printer = printer or _Printer({"fully_qualified_modules": True, "strict": False})
     params = set(table.parameters.values())
     n = len(table.q)
     q = Argument("q", table.q, f"joint coordinates {tuple(robot.coordinates)}, shape (..., {n})")
@@ -547,7 +548,7 @@ _TOP_LEVEL = (ast.Import, ast.ImportFrom, ast.Assign, ast.AnnAssign, ast.Functio
 _IMPORTS = {"math", "numpy", "pytest", "__future__"}
 
 
-def verify_module(text: str, title: str | None = None) -> None:
+def verify_module(text: str, title: str | None = None, imports: frozenset[str] | set[str] = _IMPORTS) -> None:
     """Parse the rendered module and check that it is only what the generator meant: no
     statement at the top level but imports, constants and functions, and (built-in template)
     a docstring that reads back the robot's title exactly, so no free text changed the program.
@@ -566,7 +567,7 @@ def verify_module(text: str, title: str | None = None) -> None:
                                       node.lineno)
         if isinstance(node, ast.Import | ast.ImportFrom):
             names = [node.module or ""] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
-            if any(n.split(".")[0] not in _IMPORTS for n in names):
+            if any(n.split(".")[0] not in imports for n in names):
                 raise CodeGenerationError(f"unexpected import at line {node.lineno} of the generated module", node.lineno)
     if title is not None and title not in (ast.get_docstring(tree, clean=False) or ""):
         raise CodeGenerationError("the generated module's docstring does not read back the robot's title")

@@ -47,7 +47,7 @@ def _difference(expected: Any, got: Any) -> float:
 
 
 def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: dict[str, np.ndarray],
-                  friction_smoothing: float = 0.0) -> list[Row]:
+                  friction_smoothing: float = 0.0, label: str = "compiled") -> list[Row]:
     """One row per function of the NumPy ``module`` that ``compiled`` offers, at ``states``
     (arrays ``q``, ``qd``, ``qdd``, ``u`` of one shape ``(count, size)``), and one row listing
     the functions it does not offer."""
@@ -74,11 +74,11 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
                 worst = max(worst, _difference(getattr(module, name)(*(a[0] for a in arrays), *extra, **keywords),
                                                getattr(compiled, name)(*(a[0] for a in arrays), *extra, **keywords)))
         except (ValueError, TypeError, np.linalg.LinAlgError) as exc:
-            rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module", "FAIL",
+            rows.append(Row(f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module", "FAIL",
                             f"raised {type(exc).__name__}: {exc}", float("nan")))
             continue
         tolerance = RTOLS.get(name, RTOL)
-        rows.append(Row(f"compiled {name}{_frame(extra, friction_smoothing)} == NumPy module",
+        rows.append(Row(f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module",
                         "pass" if worst <= tolerance else "FAIL",
                         f"numeric, {count} states and one, relative (at most {tolerance:g})", worst))
     frames = getattr(module, "FRAMES", ())
@@ -89,12 +89,12 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
         arrays = [states[a] for a in ("q", "qd", "qdd")]
         worst = _difference(module.inverse_dynamics(*arrays, wrenches, **values),
                             compiled.inverse_dynamics(*arrays, wrenches, **values))
-        rows.append(Row("compiled inverse_dynamics with wrenches at every frame == NumPy module",
+        rows.append(Row(f"{label} inverse_dynamics with wrenches at every frame == NumPy module",
                         "pass" if worst <= RTOL else "FAIL", f"numeric, {count} states, relative", worst))
     missing += sorted(name for name, value in vars(module).items() if callable(value) and not name.startswith("_")
                       and not hasattr(compiled, name) and name not in missing and not isinstance(value, type))
     if missing:
-        rows.append(Row("compiled module offers every function", "skip", "not compiled yet: " + ", ".join(missing),
+        rows.append(Row(f"{label} module offers every function", "skip", "not compiled yet: " + ", ".join(missing),
                         float("nan")))
     return rows
 
@@ -103,7 +103,8 @@ def _frame(extra: tuple, smoothing: float = 0.0) -> str:
     return (f" (frame {extra[0]})" if extra else "") + (f" (friction_smoothing {smoothing:g})" if smoothing else "")
 
 
-def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0) -> list[Row]:
+def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0,
+                    label: str = "compiled") -> list[Row]:
     """``compiled_rows`` at random states of ``derivation``'s robot (on the loops, for a robot
     with closed loops), with the parameters' defaults (1.0 where a parameter has none)."""
     from .checks import _loop_states, generated_module
@@ -122,7 +123,7 @@ def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 1
                         float("nan"))]
         sample = {k: v[: len(sample["q"])] for k, v in sample.items()}
     friction = 1e-3 if any(j.friction is not None for j in robot.joints if j.moves) else 0.0
-    rows = compiled_rows(module, compiled, values, sample)
+    rows = compiled_rows(module, compiled, values, sample, label=label)
     if friction:   # the smoothed sign too (what simulate integrates), for the functions that take it
-        rows += [r for r in compiled_rows(module, compiled, values, sample, friction) if "smoothing" in r.name]
+        rows += [r for r in compiled_rows(module, compiled, values, sample, friction, label) if "smoothing" in r.name]
     return rows

@@ -1,0 +1,90 @@
+"""The JAX target (``solve --jax``): ``<name>_dynamics_jax.py``, the NumPy module's API on
+``jax.numpy``.
+
+The same straight-line programs as the NumPy module (``code.program_function``: plain Python
+text whose functions, ``sin``, ``cos``..., are the body's parameters) run here on
+``jax.numpy`` arrays; the explicit expressions (a planar robot's M, C, N, the loop and
+maximal-coordinate functions) are printed by SymPy's own ``JaxPrinter`` (``_jnp.sin``: the
+module imports ``jax`` as ``_jax`` and ``jax.numpy`` as ``_jnp``, names no robot symbol can
+take, since they start with ``_``). Every
+function is pure: results are stacked from their entries (``jnp.stack``), blocks joined with
+``jnp.concatenate``, never written in place; no Python ``if`` or loop depends on a value
+(friction's sign and its smooth form are chosen by ``jnp.where``; ``assemble`` runs a fixed
+number of Newton steps in ``jax.lax.fori_loop``), so every function works under ``jax.jit``,
+``vmap``, ``grad`` and ``jacfwd``/``jacrev``, parameters included (keyword arguments, or a
+dict passed as ``**p``), in float32 and float64.
+
+Free text reaches the module only through the code environment's encoders (``|docstring``,
+``|py``), as in the NumPy module; the rendered module is parsed back and checked (only
+``jax`` is imported) before anyone can write or import it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import sympy
+from sympy.printing.numpy import JaxPrinter
+
+from ..derivation import Derivation
+from .code import CodeGenerationError, ExpressionFunction, code_context, verify_module
+from .environment import render, template_fault
+
+JAX_TEMPLATE = "jax/dynamics.py.j2"
+#: Modules the generated JAX module may import.
+JAX_IMPORTS = frozenset({"jax", "__future__"})
+
+
+class _JaxPrinter(JaxPrinter):
+    """SymPy's JAX printer writing ``_jnp.sin`` rather than ``jax.numpy.sin``, floats as exact
+    ``repr`` literals (17 significant digits, weakly typed: they keep float32 float32)."""
+
+    def _module_format(self, fqn: str, register: bool = True) -> str:
+        text = super()._module_format(fqn, register)
+        return "_jnp." + text[len("jax.numpy."):] if text.startswith("jax.numpy.") else text
+
+    def _print_Float(self, expr: sympy.Float) -> str:
+        return repr(float(expr))
+
+    def _print_Function(self, expr: sympy.Function) -> str:   # anything jax.numpy has no name for
+        raise CodeGenerationError(f"no jax.numpy function for {type(expr).__name__}")
+
+
+def _flat_entries(function: ExpressionFunction) -> list[tuple[int, str]]:
+    """The entries of an expression function by their flat (row-major) index."""
+    columns = function.shape[1] if len(function.shape) == 2 else 1
+    flat = []
+    for index, expr in function.entries:
+        parts = [int(p) for p in index.split(",")] if index else [0]
+        flat.append((parts[0] * columns + parts[1] if len(parts) == 2 else parts[0], expr))
+    return flat
+
+
+def jax_context(derivation: Derivation) -> dict[str, Any]:
+    """The NumPy module's context (``code.code_context``) with the expressions printed for
+    ``jax.numpy`` and each expression function's entries by flat index."""
+    context = code_context(derivation, _JaxPrinter({"fully_qualified_modules": True, "strict": False}))
+    sizes = {}
+    for function in context["functions"]:
+        size = 1
+        for extent in function.shape:
+            size *= extent
+        sizes[function.name] = (size, _flat_entries(function))
+    context["sizes"] = sizes
+    context["module"] = f"{derivation.robot.name}_dynamics_jax"
+    return context
+
+
+def render_jax(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    """The text of ``<name>_dynamics_jax.py``, checked (it parses, imports only ``jax``, and its
+    docstring reads back the robot's title) before it is returned."""
+    text = render("code", JAX_TEMPLATE, jax_context(derivation), template_dir)
+    try:
+        verify_module(text, derivation.robot.title if template_dir is None else None, JAX_IMPORTS)
+    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
+        raise template_fault(exc, exc.line, text, JAX_TEMPLATE, template_dir) or exc from None
+    return text
+
+
+__all__ = ["JAX_IMPORTS", "JAX_TEMPLATE", "jax_context", "render_jax"]

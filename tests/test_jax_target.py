@@ -1,0 +1,301 @@
+"""The JAX target (``solve --jax``): every function of the NumPy module exists in the JAX module
+and agrees with it to 1e-12 relative in float64 (bundled robots, random planar and spatial
+trees with full-precision numbers); the functions work under ``jax.jit`` and ``jax.vmap``;
+``jax.jacfwd(forward_dynamics)`` equals the generated ``linearize``; the derivative of inverse
+dynamics with respect to the parameters is the regressor's (product rule through
+``parameter_vector``); float32 stays float32 and close; hostile text and names.
+
+Skipped without ``jax`` (it is in the ``test`` extra). Compile times are measured by
+``benchmarks/jax_batch.py``, never here.
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import random
+import re
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+jax = pytest.importorskip("jax")
+jax.config.update("jax_enable_x64", True)
+jnp = jax.numpy
+
+import dynderive  # noqa: E402
+from dynderive.render.jax import render_jax  # noqa: E402
+
+from conftest import ROBOTS, derivation_of, import_code, module_of, on_loops, random_tree_derivation  # noqa: E402
+
+RTOL = 1e-12
+BUNDLED = sorted(p.stem for p in ROBOTS.glob("*.yaml")) + ["ur5"]
+
+
+@cache
+def jax_module_of(robot: str, directory: str):
+    return import_code(render_jax(derivation_of(robot)), Path(directory), f"{robot}_dynamics_jax")
+
+
+def _close(actual, expected, what: str, rtol: float = RTOL) -> None:
+    actual, expected = np.asarray(actual, dtype=float), np.asarray(expected, dtype=float)
+    assert actual.shape == expected.shape, f"{what}: shape {actual.shape} != {expected.shape}"
+    scale = max(float(np.max(np.abs(expected), initial=0.0)), 1.0)
+    error = float(np.max(np.abs(actual - expected), initial=0.0))
+    assert np.all(np.isfinite(actual)) and error <= rtol * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
+
+
+def _public(module) -> list[str]:
+    return sorted(name for name, value in vars(module).items()
+                  if callable(value) and not name.startswith("_") and inspect.isfunction(value)
+                  and value.__module__ == module.__name__)
+
+
+def _states(module, rng, count: int):
+    n, nu = len(module.COORDINATES), len(module.EFFORTS)
+    q, qd = rng.uniform(-1.2, 1.2, (count, n)), rng.normal(size=(count, n))
+    q, qd = on_loops(module, q, qd)
+    return q, qd, rng.normal(size=(count, n)), rng.normal(size=(count, nu))
+
+
+def _arguments(module, name: str, state: dict) -> list[dict]:
+    """The calls of ``name`` to compare: positional arguments by their names in the signature."""
+    parameters = inspect.signature(getattr(module, name)).parameters.values()
+    positional = [p.name for p in parameters if p.kind is p.POSITIONAL_OR_KEYWORD and p.default is p.empty]
+    if "frame" in positional:
+        return [{"args": [state[a] for a in positional if a != "frame"] + [frame]} for frame in module.FRAMES]
+    return [{"args": [state[a] for a in positional]}]
+
+
+def _agree(numpy_module, jax_module, seed: int, count: int = 3, **kwargs) -> None:
+    """Every public function of the NumPy module, called on a batch of states, against the JAX one."""
+    assert _public(numpy_module) == _public(jax_module)
+    for constant in ("PARAMETERS", "COORDINATES", "EFFORTS", "FRAMES", "PARAMETER_VECTOR"):
+        assert getattr(numpy_module, constant) == getattr(jax_module, constant)
+    rng = np.random.default_rng(seed)
+    q, qd, qdd, u = _states(numpy_module, rng, count)
+    state = {"q": q, "qd": qd, "qdd": qdd, "u": u, "q_guess": q + 1e-3 * rng.normal(size=q.shape)}
+    if hasattr(numpy_module, "MAXIMAL_COORDINATES"):
+        size = len(numpy_module.MAXIMAL_COORDINATES)
+        state |= {"qm": rng.uniform(-1, 1, (count, size)), "qmd": rng.normal(size=(count, size))}
+    compared = 0
+    for name in _public(numpy_module):
+        for call in _arguments(numpy_module, name, state):
+            extra = {k: v for k, v in kwargs.items() if k in inspect.signature(getattr(numpy_module, name)).parameters}
+            expected = getattr(numpy_module, name)(*call["args"], **extra)
+            actual = getattr(jax_module, name)(*call["args"], **extra)
+            expected, actual = (expected, actual) if isinstance(expected, tuple) else ((expected,), (actual,))
+            for e, a in zip(expected, actual):
+                frames = [a for a in call["args"] if isinstance(a, str)]
+                _close(a, e, f"{name} {frames}", 1e-10 if name == "assemble" else RTOL)
+            compared += 1
+    assert compared >= 12
+    for frame in numpy_module.FRAMES:   # external wrenches, through J^T w
+        wrench = rng.normal(size=(count, 3 if hasattr(numpy_module, "MAXIMAL_COORDINATES") else 6))
+        for name, args in (("inverse_dynamics", (q, qd, qdd)), ("forward_dynamics", (q, qd, u))):
+            _close(getattr(jax_module, name)(*args, {frame: wrench}), getattr(numpy_module, name)(*args, {frame: wrench}),
+                   f"{name} with a wrench at {frame}")
+
+
+@pytest.mark.parametrize("robot", BUNDLED)
+def test_bundled_robot_agrees_with_numpy(robot, code_dir):
+    _agree(module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir)), seed=len(robot))
+
+
+def test_smoothed_friction_and_other_parameters_agree(code_dir):
+    numpy_module, jax_module = module_of("cart_pole_damped", str(code_dir)), jax_module_of("cart_pole_damped", str(code_dir))
+    values = {k: v * 1.3 for k, v in numpy_module.PARAMETERS.items()}
+    _agree(numpy_module, jax_module, seed=5, friction_smoothing=0.05, **values)
+
+
+@pytest.mark.parametrize("seed, joints", [(11, 3), (13, 5)])
+def test_random_planar_tree(seed, joints, code_dir):
+    derivation, module = random_tree_derivation(seed, joints, str(code_dir))
+    folder = code_dir / f"random_tree_{seed}_{joints}"
+    _agree(module, import_code(render_jax(derivation), folder, f"random_tree_{seed}_{joints}_dynamics_jax"), seed)
+
+
+@pytest.mark.parametrize("seed", [21])
+def test_random_spatial_tree(seed, tmp_path):
+    from random_robots3d import random_spatial_tree
+
+    tree = random_spatial_tree(random.Random(seed), 4)
+    path = tmp_path / "random_spatial.yaml"
+    path.write_text(tree.yaml_text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    module = import_code(dynderive.render_code(derivation), tmp_path, f"random_spatial_{seed}_dynamics")
+    _agree(module, import_code(render_jax(derivation), tmp_path, f"random_spatial_{seed}_dynamics_jax"), seed)
+
+
+TRANSFORMS = ["rp_arm", "cart_pole_damped", "four_bar", "ur5"]
+
+
+@pytest.mark.parametrize("robot", TRANSFORMS)
+def test_jit_and_vmap(robot, code_dir):
+    numpy_module, jax_module = module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir))
+    q, qd, qdd, u = _states(numpy_module, np.random.default_rng(3), 4)
+    forward = jax.jit(jax_module.forward_dynamics)
+    _close(forward(q, qd, u), numpy_module.forward_dynamics(q, qd, u), "jit forward_dynamics")
+    _close(jax.vmap(jax_module.inverse_dynamics)(q, qd, qdd), numpy_module.inverse_dynamics(q, qd, qdd),
+           "vmap inverse_dynamics")
+    A, B = jax.jit(jax.vmap(jax_module.linearize))(q, qd, u)
+    expected = numpy_module.linearize(q, qd, u)
+    _close(A, expected[0], "jit vmap linearize A")
+    _close(B, expected[1], "jit vmap linearize B")
+    parameters = {k: jnp.asarray(v) for k, v in numpy_module.PARAMETERS.items()}   # a pytree, traced
+    _close(jax.jit(lambda p: jax_module.mass_matrix(q, **p))(parameters), numpy_module.mass_matrix(q),
+           "jit over parameters")
+
+
+@pytest.mark.parametrize("robot", TRANSFORMS)
+@pytest.mark.parametrize("smoothing", [0.0, 0.05])
+def test_jacfwd_of_forward_dynamics_is_linearize(robot, smoothing, code_dir):
+    numpy_module, jax_module = module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir))
+    q, qd, _, u = _states(numpy_module, np.random.default_rng(4), 2)
+    for state in zip(q, qd, u):
+        _jacobians_agree(jax_module, *state, smoothing)
+
+
+def _jacobians_agree(jax_module, q, qd, u, smoothing: float) -> None:
+    n = len(q)
+    A, B = jax_module.linearize(q, qd, u, friction_smoothing=smoothing)
+    by_state = jax.jacfwd(lambda x: jax_module.forward_dynamics(x[:n], x[n:], u, friction_smoothing=smoothing))(
+        jnp.concatenate([q, qd]))
+    by_effort = jax.jacrev(lambda v: jax_module.forward_dynamics(q, qd, v, friction_smoothing=smoothing))(u)
+    _close(by_state, A[n:], "jacfwd(forward_dynamics) vs linearize A", 1e-9)
+    _close(by_effort, B[n:], "jacrev(forward_dynamics) vs linearize B", 1e-9)
+    assert np.any(np.abs(np.asarray(A[n:])) > 1e-6)
+
+
+@pytest.mark.parametrize("robot", ["rp_arm", "cart_pole_damped", "slider_crank", "ur5"])
+def test_parameter_gradient_of_inverse_dynamics_is_the_regressor(robot, code_dir):
+    """tau(p) = Y(q, qd, qdd; p) pi(p): d tau/dp = dY/dp pi + Y dpi/dp, every parameter; and
+    where Y does not depend on a parameter (masses, inertias, friction), d tau/dp = Y dpi/dp."""
+    module = jax_module_of(robot, str(code_dir))
+    names = list(module.PARAMETERS)
+    values = jnp.asarray([module.PARAMETERS[k] for k in names]) * 1.1
+    q, qd, qdd, _ = _states(module_of(robot, str(code_dir)), np.random.default_rng(6), 2)
+    smoothing = 0.05   # friction's sign smoothed: its column then has a derivative
+
+    for state in zip(q, qd, qdd):
+        _parameter_derivatives_agree(module, names, values, *state, smoothing)
+
+
+def _parameter_derivatives_agree(module, names, values, q, qd, qdd, smoothing: float) -> None:
+    def keywords(p):
+        return dict(zip(names, p))
+
+    tau = jax.jacfwd(lambda p: module.inverse_dynamics(q, qd, qdd, friction_smoothing=smoothing, **keywords(p)))(values)
+    Y = module.regressor(q, qd, qdd, friction_smoothing=smoothing, **keywords(values))
+    dY = jax.jacfwd(lambda p: module.regressor(q, qd, qdd, friction_smoothing=smoothing, **keywords(p)))(values)
+    pi = module.parameter_vector(**keywords(values))
+    dpi = jax.jacfwd(lambda p: module.parameter_vector(**keywords(p)))(values)
+    _close(tau, jnp.einsum("ijp,j->ip", dY, pi) + Y @ dpi, "d tau/dp", 1e-9)
+    inertial = [j for j in range(len(names)) if not np.any(np.asarray(dY[..., j]))]
+    assert inertial or names == ["g"], "some parameter enters only through pi"   # a URDF: only g
+    _close(tau[:, inertial], (Y @ dpi)[:, inertial], "d tau/dp of the inertial parameters", 1e-9)
+    # the gradient with respect to the parameter vector itself: tau = Y pi is linear in pi
+    _close(jax.jacfwd(lambda v: Y @ v)(pi), Y, "d tau/d pi")
+    _close(Y @ pi, module.inverse_dynamics(q, qd, qdd, friction_smoothing=smoothing, **keywords(values)), "Y pi = tau")
+
+
+@pytest.mark.parametrize("robot", ["rp_arm", "cart_pole_damped", "four_bar", "ur5"])
+def test_float32(robot, code_dir):
+    numpy_module, jax_module = module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir))
+    q, qd, qdd, u = _states(numpy_module, np.random.default_rng(8), 4)
+    single = [a.astype(np.float32) for a in (q, qd, qdd, u)]
+    for name, args, expected in (
+            ("mass_matrix", single[:1], numpy_module.mass_matrix(q)),
+            ("inverse_dynamics", single[:3], numpy_module.inverse_dynamics(q, qd, qdd)),
+            ("forward_dynamics", [single[0], single[1], single[3]], numpy_module.forward_dynamics(q, qd, u)),
+            ("regressor", single[:3], numpy_module.regressor(q, qd, qdd))):
+        actual = jax.jit(getattr(jax_module, name))(*args)
+        assert actual.dtype == jnp.float32, name
+        _close(actual, expected, f"float32 {name}", 1e-3)
+    A, _ = jax_module.linearize(single[0][0], single[1][0], single[3][0])
+    assert A.dtype == jnp.float32
+
+
+def test_assemble_is_traced_and_marks_failure_with_nan(code_dir):
+    module = jax_module_of("four_bar", str(code_dir))
+    guess = jnp.asarray(module.ASSEMBLED_CONFIGURATION) + 0.05
+    assembled = jax.jit(module.assemble)(guess)
+    _close(module.loop_constraints(assembled), np.zeros(len(module.LOOPS) * 2), "a_g(assembled)")
+    sensitivity = jax.jacfwd(module.assemble)(guess)   # d(assembled)/d(guess): only the independent columns
+    dependent = [i for i, c in enumerate(module.COORDINATES) if c not in module.INDEPENDENT_COORDINATES]
+    assert np.all(np.isfinite(sensitivity)) and np.allclose(np.asarray(sensitivity)[:, dependent], 0.0, atol=1e-9)
+    numpy_module = module_of("four_bar", str(code_dir))
+    apart = {"d": 5.0}   # the ground link longer than the other three together: no assembly
+    with pytest.raises(ValueError):
+        numpy_module.assemble(np.asarray(guess), **apart)
+    assert np.all(np.isnan(jax.jit(lambda g: module.assemble(g, **apart))(guess)))
+
+
+def test_module_is_pure_and_imports_only_jax(code_dir):
+    """No subscript is assigned (no in-place write), the only imports are jax's."""
+    for robot in ("four_bar", "cart_pole_damped", "ur5", "bennett"):
+        tree = ast.parse(render_jax(derivation_of(robot)))
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Assign, ast.AugAssign, ast.AnnAssign)):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                assert not any(isinstance(t, ast.Subscript) for t in targets), ast.unparse(node)
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                names = [node.module] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
+                assert all(n.split(".")[0] == "jax" for n in names), ast.unparse(node)
+
+
+HOSTILE = 'a """ b\n import os\r\\ \' # c \u202e\x00 \U0001f600 "q'
+
+
+def test_hostile_text_and_names(tmp_path):
+    """A title and a description that would end the docstring, and parameters named like the
+    module's imports (``jax``, ``jnp``): encoded, read back exactly, and the module works."""
+    text = (ROBOTS / "rp_arm.yaml").read_text()
+    title = HOSTILE.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r") \
+        .replace("\x00", "\\0").replace("\u202e", "\\u202e").replace("\U0001f600", "\\U0001f600")
+    lines = [f'title: "{title}"' if line.startswith("title:") else line for line in text.splitlines()]
+    text = "\n".join(lines).replace("description: mass of each link", f'description: "{title}"') + "\n"
+    head, body = text.split("\ngravity:")
+    head = head.replace("\n  m:", "\n  jnp:").replace("\n  l:", "\n  jax:")
+    text = head + "\ngravity:" + re.sub(r"\bl\b", "jax", re.sub(r"\bm\b", "jnp", body))
+    path = tmp_path / "rp_arm.yaml"
+    path.write_text(text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert derivation.robot.title == HOSTILE and [p.name for p in derivation.robot.parameters][:2] == ["jnp", "jax"]
+    source = render_jax(derivation)
+    assert ast.get_docstring(ast.parse(source), clean=False).startswith(f"Equations of motion of {HOSTILE} ")
+    module = import_code(source, tmp_path, "hostile_dynamics_jax")
+    numpy_module = import_code(dynderive.render_code(derivation), tmp_path, "hostile_dynamics")
+    assert "jnp" in module.PARAMETERS and "jax" in module.PARAMETERS
+    _agree(numpy_module, module, seed=2, jnp=1.7, jax=0.8)
+
+
+def test_solve_and_build_write_the_module(tmp_path):
+    from typer.testing import CliRunner
+
+    from dynderive.commands.cli import app
+
+    result = CliRunner().invoke(app, ["solve", "rp_arm", "--jax", "--out", str(tmp_path), "--quiet"])
+    assert result.exit_code == 0, result.output
+    written = tmp_path / "rp_arm_dynamics_jax.py"
+    assert written.read_text() == render_jax(derivation_of("rp_arm"))
+    result = CliRunner().invoke(app, ["build", str(ROBOTS / "rp_arm.yaml"), "--jax", "--out", str(tmp_path / "b")])
+    assert result.exit_code == 0 and (tmp_path / "b" / "rp_arm_dynamics_jax.py").is_file(), result.output
+    result = CliRunner().invoke(app, ["build", str(ROBOTS / "rp_arm.yaml"), "--jax", "--out", str(tmp_path / "b"), "--check"])
+    assert result.exit_code == 0 and "current" in result.output, result.output
+
+
+def test_check_backend_jax_and_simulate_refuses_it():
+    from typer.testing import CliRunner
+
+    from dynderive.commands.cli import app
+
+    result = CliRunner().invoke(app, ["check", "cart_pole_damped", "--backend", "jax", "--states", "3", "--quiet"])
+    assert result.exit_code == 0, result.output
+    rows = [line for line in result.output.splitlines() if line.startswith("JAX ")]
+    assert len(rows) >= 11 and all(" pass " in line for line in rows)
+    assert any("friction_smoothing" in line for line in rows)
+    result = CliRunner().invoke(app, ["simulate", "rp_arm", "--backend", "jax", "--quiet"])
+    assert result.exit_code == 2 and result.output.startswith("--backend:1:1: ")
