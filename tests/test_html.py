@@ -245,3 +245,16 @@ def test_page_loads_in_chromium(robot, tmp_path):
     empty = [k for k, (w, h) in enumerate(sizes["math"]) if not (w > 0 and h > 0)]
     assert empty == [], f"{len(empty)} <math> elements without size in {robot}"
     assert len(sizes["svg"]) == page.count("<svg") and all(w > 50 and h > 50 for w, h in sizes["svg"])
+
+
+@pytest.mark.parametrize("robot", ["rp_arm", "four_bar"])
+def test_page_does_not_depend_on_what_was_derived_before(robot):
+    """The same bytes whether the page comes first or after the code (which derives the
+    maximal model, and its multipliers' symbols, before the page's formatter exists)."""
+    def fresh():
+        return dynderive.derive(dynderive.load_robot(str(ROBOTS / f"{robot}.yaml")))
+
+    first = render_html(fresh())
+    after_code = fresh()
+    dynderive.render_code(after_code)
+    assert render_html(after_code) == first

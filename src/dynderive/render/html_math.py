@@ -161,9 +161,10 @@ class _Printer(MathMLPresentationPrinter):
         return known.cloneNode(True)
 
     def _print_Symbol(self, sym: sympy.Symbol, style: str = "plain") -> Any:
-        name = self._names.get(sym)
-        if name is None:
-            return super()._print_Symbol(sym, style)
+        # a symbol made after the formatter (the maximal model's multipliers, derived on first
+        # use) is named as the table would have named it: the page must not depend on the
+        # order in which the derivation's stages ran
+        name = self._names.get(sym) or name_of(str(sym))
         return name_element(self.dom, name)
 
 
