@@ -1,0 +1,280 @@
+"""Straight-line programs of a floating-base robot (issue 30, DESIGN.md section 10): the
+composite-rigid-body algorithm (M), recursive Newton-Euler (inverse dynamics, gravity) and an
+LDL^T solve (forward dynamics), as in ``recursive.py`` but with a free-flyer root.
+
+The ``floating`` joint's configuration is ``[x, y, z, qx, qy, qz, qw]`` (Pinocchio's): the
+joint frame's position in its parent (after the joint's ``origin``) and a unit quaternion, whose
+rotation matrix is a polynomial in ``qx..qw`` (Eigen's ``Quaternion::toRotationMatrix``: no
+trigonometry, no normalization). Its velocity ``[vx, vy, vz, wx, wy, wz]`` is the link frame's
+linear and angular velocity in the link frame (local), so its motion subspace is the 6 x 6
+identity and its joint acceleration the spatial acceleration ``qdd`` itself. Every other joint
+is revolute, prismatic or fixed as in ``recursive.py``; a joint's coordinate is an index into
+``q`` (NQ entries), its column an index into ``qd`` (NV entries).
+
+Not built here (the notes of ``commands/floating.py`` say so): the Coriolis matrix, the
+regressor, frames and wrenches, damping and friction, linearization.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy
+
+from ..model.robot import Joint, Robot
+from ..model.symbols import SymbolTable
+from .joints import unit
+from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back
+from .recursive import _gravity, body_force
+from .spatial import axis_angle, inertia_tensor, rpy_matrix
+
+_ZERO = sympy.Integer(0)
+
+
+def quaternion_matrix(qx: sympy.Expr, qy: sympy.Expr, qz: sympy.Expr, qw: sympy.Expr) -> sympy.Matrix:
+    """The rotation matrix of the quaternion ``qw + qx i + qy j + qz k`` (unit; as Eigen's)."""
+    return sympy.Matrix([
+        [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+        [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+        [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)],
+    ])
+
+
+@dataclass
+class _Body:
+    """One link: its parent joint's transform, and the joint's motion columns ``(index of qd,
+    angular part, linear part)`` in the link frame (none for a fixed joint)."""
+
+    link: str
+    parent: str
+    columns: list[tuple[int, Vector, Vector]]
+    rotation: Matrix3            # link axes in the parent frame, with the joint's motion
+    position: Vector             # link origin in the parent frame
+    mass: sympy.Expr
+    first_moment: Vector         # h = m c, link frame
+    inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
+
+
+@dataclass(frozen=True)
+class Offsets:
+    """Where each moving joint's entries start in ``q`` and in ``qd`` (by joint name)."""
+
+    q: dict[str, int]
+    v: dict[str, int]
+
+
+def offsets(robot: Robot) -> Offsets:
+    q, v, i, j = {}, {}, 0, 0
+    for joint in (j for j in robot.joints if j.moves):
+        q[joint.name], v[joint.name] = i, j
+        i, j = (i + 7, j + 6) if joint.type == "floating" else (i + 1, j + 1)
+    return Offsets(q, v)
+
+
+class FloatingTree:
+    """The links of a floating-base robot, parents first, with their transforms."""
+
+    def __init__(self, robot: Robot, table: SymbolTable):
+        self.robot, self.table, self.program = robot, table, Program()
+        self.offsets = offsets(robot)
+        self.trig: list[tuple[sympy.Symbol, sympy.Expr]] = []
+        depth = {link.name: len(robot.path_to(link.name)) for link in robot.links}
+        order = sorted(robot.links, key=lambda link: depth[link.name])
+        self.bodies = [self._body(link, robot.parent_joint(link.name)) for link in order]
+        self.program.lines[0:0] = self.trig   # sines and cosines first
+        #: armature (joins M[j, j]) and springs ``k (q - rest)`` (join the joint force) by column
+        self.drives = {self.offsets.v[j.name]: (self._value(j.armature), self._value(j.stiffness),
+                                                self._value(j.rest), self.table.q[self.offsets.q[j.name]])
+                       for j in robot.joints if j.moves and j.type != "floating" and j.driven}
+
+    def _value(self, text: object) -> sympy.Expr:
+        return _ZERO if text is None else self.table.expr(text)
+
+    def _body(self, link, joint: Joint) -> _Body:
+        expr, let = self.table.expr, self.program.let
+        x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
+        origin = rpy_matrix(roll, pitch, yaw)
+        position = sympy.Matrix([x, y, z])
+        motion = sympy.eye(3)
+        columns: list[tuple[int, Vector, Vector]] = []
+        zero: Vector = (_ZERO, _ZERO, _ZERO)
+        if joint.type == "floating":
+            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+            q = self.table.q[qi:qi + 7]
+            position = position + origin * sympy.Matrix(q[:3])
+            motion = quaternion_matrix(*q[3:])
+            basis = [tuple(sympy.Integer(int(i == k)) for i in range(3)) for k in range(3)]
+            columns = [(vi + k, zero, basis[k]) for k in range(3)] + [(vi + 3 + k, basis[k], zero) for k in range(3)]
+        elif joint.moves:
+            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+            axis = unit(tuple(expr(e) for e in joint.axis))
+            q = self.table.q[qi]
+            if joint.type == "revolute":
+                cos, sin = sympy.Symbol(f"_cos{vi}"), sympy.Symbol(f"_sin{vi}")
+                self.trig += [(cos, sympy.cos(q)), (sin, sympy.sin(q))]
+                motion = axis_angle(axis, q).subs({sympy.cos(q): cos, sympy.sin(q): sin})
+                columns = [(vi, axis, zero)]   # type: ignore[list-item]
+            else:
+                position = position + origin * sympy.Matrix(axis) * q
+                columns = [(vi, zero, axis)]   # type: ignore[list-item]
+        rotation = origin * motion
+        R = tuple(tuple(let(rotation[i, j]) for j in range(3)) for i in range(3))
+        mass = let(expr(link.mass))
+        com = [expr(e) for e in link.com]
+        about_com = inertia_tensor(tuple(expr(e) for e in link.inertia))
+        square = sum(c * c for c in com)
+        inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]))
+                              for j in range(3)) for i in range(3))
+        return _Body(link.name, joint.parent, columns, R, self.program.vector(list(position)),  # type: ignore[arg-type]
+                     mass, self.program.vector([mass * c for c in com]), inertia)
+
+    def force_to_parent(self, body: _Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+        """A force (moment about the link origin, force) in the parent's frame."""
+        vec = self.program.vector
+        f_parent = vec(_rotate(body.rotation, f))
+        return vec(_add(_rotate(body.rotation, n), _cross(body.position, f_parent))), f_parent
+
+    def motion_from_parent(self, body: _Body, w: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+        """A motion vector of the parent's frame seen in this link's frame."""
+        vec = self.program.vector
+        return vec(_rotate_back(body.rotation, w)), vec(_rotate_back(body.rotation, _add(v, _cross(w, body.position))))
+
+
+def _times(vector: Sequence[sympy.Expr], scalar: sympy.Expr) -> tuple[sympy.Expr, ...]:
+    return tuple(x * scalar for x in vector)
+
+
+def mass_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
+    """CRBA: composite inertias from the leaves up, then ``M_ij = S_i . (X^* I^c_j S_j)``."""
+    let, vec = tree.program.let, tree.program.vector
+    n = tree.robot.velocity_count
+    composite = {b.link: (b.mass, b.first_moment, b.inertia) for b in tree.bodies}
+    by_link = {b.link: b for b in tree.bodies}
+    for body in reversed(tree.bodies):
+        if body.parent == "world":
+            continue
+        mass, h, inertia = composite[body.link]
+        R, p = body.rotation, body.position
+        h_r = vec(_rotate(R, h))
+        inertia_rt = [[let(_dot(inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
+        rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
+        ph, pp = _dot(p, h_r), _dot(p, p)
+        moved = [[rotated[a][b] + mass * ((pp if a == b else 0) - p[a] * p[b])
+                  + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
+        p_mass, p_h, p_inertia = composite[body.parent]
+        total = [[_ZERO] * 3 for _ in range(3)]
+        for a in range(3):
+            for b in range(a, 3):
+                total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b])
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, [mass * x for x in p]))),
+                                  tuple(tuple(row) for row in total))
+    M = [[_ZERO] * n for _ in range(n)]
+    for body in tree.bodies:
+        mass, h, inertia = composite[body.link]
+        for j, sw, sv in body.columns:
+            # the composite body's momentum per unit rate of column j: (I sw + h x sv, m sv + sw x h)
+            nm = vec(_add(_rotate(inertia, sw), _cross(h, sv)))   # type: ignore[arg-type]
+            f = vec(_add(_times(sv, mass), _cross(sw, h)))
+            for i, tw, tv in body.columns:
+                if i <= j:
+                    M[i][j] = M[j][i] = let(_dot(tw, nm) + _dot(tv, f) + (tree.drives[j][0] if i == j and j in tree.drives
+                                                                          else 0))
+            current = body
+            while current.parent != "world":
+                nm, f = tree.force_to_parent(current, nm, f)
+                current = by_link[current.parent]
+                for i, tw, tv in current.columns:
+                    M[i][j] = M[j][i] = let(_dot(tw, nm) + _dot(tv, f))
+    return M
+
+
+def newton_euler(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr]) -> list[sympy.Expr]:
+    """RNEA: ``M qdd + C qd + N`` (gravity as an upward acceleration of the world)."""
+    vec = tree.program.vector
+    zero = (_ZERO,) * 3
+    motion = {"world": (zero, zero, zero, vec([-g for g in _gravity(tree.robot, tree.table)]))}
+    forces = {}
+    for body in tree.bodies:
+        w, v, alpha, acc = motion[body.parent]
+        w, v = tree.motion_from_parent(body, w, v)
+        alpha, acc = tree.motion_from_parent(body, alpha, acc)
+        if body.columns:   # joint velocity S qd = (wj, vj); a = X a_p + S qdd + (X v_p) x S qd
+            wj = [sum((sw[k] * qd[j] for j, sw, _ in body.columns), _ZERO) for k in range(3)]
+            vj = [sum((sv[k] * qd[j] for j, _, sv in body.columns), _ZERO) for k in range(3)]
+            aw = [sum((sw[k] * qdd[j] for j, sw, _ in body.columns), _ZERO) for k in range(3)]
+            av = [sum((sv[k] * qdd[j] for j, _, sv in body.columns), _ZERO) for k in range(3)]
+            alpha = vec(_add(alpha, _add(aw, _cross(w, wj))))
+            acc = vec(_add(acc, _add(av, _add(_cross(w, vj), _cross(v, wj)))))
+            w, v = vec(_add(w, wj)), vec(_add(v, vj))
+        motion[body.link] = (w, v, alpha, acc)
+        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, w, v, alpha, acc)
+    tau: list[sympy.Expr] = [_ZERO] * tree.robot.velocity_count
+    for body in reversed(tree.bodies):
+        n, f = forces[body.link]
+        for j, sw, sv in body.columns:
+            armature, stiffness, rest, q = tree.drives.get(j, (0, 0, 0, 0))
+            tau[j] = tree.program.let(_dot(sw, n) + _dot(sv, f) + armature * qdd[j] + stiffness * (q - rest))
+        if body.parent != "world":
+            n_p, f_p = tree.force_to_parent(body, n, f)
+            parent_n, parent_f = forces[body.parent]
+            forces[body.parent] = (vec(_add(parent_n, n_p)), vec(_add(parent_f, f_p)))
+    return tau
+
+
+def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
+    """``Y``: each actuated joint's effort symbol at its column, zero elsewhere (the floating
+    joint is unactuated: no external wrench on the base)."""
+    columns = offsets(robot).v
+    Y: list[sympy.Expr] = [_ZERO] * robot.velocity_count
+    for joint in robot.joints:
+        if joint.moves and joint.effort:
+            Y[columns[joint.name]] = table.efforts[joint.effort]
+    return Y
+
+
+def ldl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> list[sympy.Expr]:   # noqa: ANN001
+    """``x`` solving ``M x = rhs`` by ``L D L^T`` (M positive definite: no pivoting; zeros of
+    M stay zeros in L)."""
+    n = len(rhs)
+    L = [[_ZERO] * n for _ in range(n)]
+    inverse_d: list[sympy.Expr] = [_ZERO] * n
+    scaled = [[_ZERO] * n for _ in range(n)]   # L_jk D_k
+    for j in range(n):
+        d = let(M[j][j] - sum((L[j][k] * scaled[j][k] for k in range(j)), _ZERO))
+        inverse_d[j] = let(1 / d)
+        for i in range(j + 1, n):
+            residual = M[i][j] - sum((L[i][k] * scaled[j][k] for k in range(j)), _ZERO)
+            if residual != 0:
+                L[i][j] = let(residual * inverse_d[j])
+                scaled[i][j] = let(residual)
+    y: list[sympy.Expr] = []
+    for i in range(n):
+        y.append(let(rhs[i] - sum((L[i][k] * y[k] for k in range(i)), _ZERO)))
+    x: list[sympy.Expr] = [_ZERO] * n
+    for i in reversed(range(n)):
+        x[i] = let(y[i] * inverse_d[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), _ZERO))
+    return x
+
+
+def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
+    """The programs of a floating-base robot's module, by name: ``mass_matrix`` (row by row),
+    ``gravity``, ``inverse_dynamics`` and ``forward_dynamics``."""
+    programs = {}
+    zeros = [_ZERO] * robot.velocity_count
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
+    programs["mass_matrix"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = newton_euler(tree, zeros, zeros)
+    programs["gravity"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = newton_euler(tree, table.qd, table.qdd)
+    programs["inverse_dynamics"] = tree.program
+    tree = FloatingTree(robot, table)
+    M = mass_matrix(tree)
+    bias = newton_euler(tree, table.qd, zeros)
+    rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
+    tree.program.outputs = ldl_solve(tree.program.let, M, rhs)
+    programs["forward_dynamics"] = tree.program
+    return programs
