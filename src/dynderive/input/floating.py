@@ -41,7 +41,8 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
                         f"world; make '{other.child}' hang from a link of the robot")
     if "loops" in top:
         v.error(("loops",), "loops: closed loops on a floating-base robot are not built yet (issue 30)", key=True)
-    for name, item in (top.get("parameters") or {}).items() if isinstance(top.get("parameters"), dict) else ():
+    parameters = top.get("parameters")
+    for name in parameters if isinstance(parameters, dict) else ():
         if name in FLOATING_MODULE_NAMES:
             v.error(("parameters", name), f"parameters.{name}: name '{name}' is reserved by the generated module "
                     "of a floating-base robot", key=True)
