@@ -1,0 +1,78 @@
+"""The NumPy module of a floating-base robot (issue 30): ``mass_matrix``, ``gravity_vector``,
+``inverse_dynamics``, ``forward_dynamics`` from the programs of ``mechanics/floating.py``, and
+``NQ``, ``NV``, ``neutral_configuration``, ``integrate``, ``difference`` (Pinocchio's
+conventions). What the module of a fixed-base robot has beyond these is not built yet for
+floating-base robots and is left out (``NOT_BUILT``), never stubbed."""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+from typing import Any
+
+from ..mechanics.floating import floating_programs, offsets
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
+from .code import Argument, CodeGenerationError, program_function, verify_module
+from .encode import Code, python_literal
+from .environment import render, template_fault
+
+TEMPLATE = "floating_dynamics.py.j2"
+
+#: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
+NOT_BUILT = ("coriolis_matrix", "kinetic_energy", "potential_energy", "linearize", "regressor",
+             "parameter_vector", "friction_forces (damping and Coulomb friction are left out)",
+             "frames (frame_transform, frame_jacobian, wrenches)")
+
+
+def floating_context(robot: Robot, table: SymbolTable) -> dict[str, Any]:
+    """Every variable the floating-base module template uses."""
+    from .._version import __version__
+
+    nq, nv = len(table.q), len(table.qd)
+    q = Argument("q", table.q, f"coordinates, shape (..., {nq})")
+    qd = Argument("qd", table.qd, f"velocities, shape (..., {nv})")
+    qdd = Argument("qdd", table.qdd, f"accelerations, shape (..., {nv})")
+    u = Argument("u", list(table.efforts.values()), f"efforts, shape (..., {len(table.efforts)})")
+    programs = floating_programs(robot, table)
+    specs = {
+        "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
+        "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
+        "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
+        "forward_dynamics": ("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an LDL^T solve of "
+                             "M qdd = Y - C qd - N.", [q, qd, u]),
+    }
+    bodies = [program_function(*specs[key], program) for key, program in programs.items()]
+    where = offsets(robot)
+    floating = [j.name for j in robot.joints if j.type == "floating"]
+    scalar = [j.name for j in robot.joints if j.moves and j.type != "floating"]
+    parameters = [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
+                   "unit": p.unit, "description": p.description} for p in robot.parameters]
+    return {
+        "generator": f"dynderive {__version__}",
+        "source": Path(robot.source).name,
+        "robot": {"name": robot.name, "title": robot.title},
+        "parameters": parameters,
+        "coordinates_tuple": python_literal(tuple(str(s) for s in table.q)),
+        "velocities_tuple": python_literal(tuple(str(s) for s in table.qd)),
+        "efforts": list(robot.efforts),
+        "efforts_tuple": python_literal(tuple(robot.efforts)),
+        "nq": nq,
+        "nv": nv,
+        "floating_offsets": python_literal(tuple((where.q[n], where.v[n]) for n in floating)),
+        "scalar_q": Code(repr([where.q[n] for n in scalar])),
+        "scalar_v": Code(repr([where.v[n] for n in scalar])),
+        "programs": bodies,
+        "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
+                                   width=96, break_on_hyphens=False),
+    }
+
+
+def render_floating_code(robot: Robot, table: SymbolTable, template_dir: str | Path | None = None) -> str:
+    """The module's text, checked as ``render_code`` checks a fixed-base robot's."""
+    text = render("code", TEMPLATE, floating_context(robot, table), template_dir)
+    try:
+        verify_module(text, robot.title if template_dir is None else None)
+    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
+        raise template_fault(exc, exc.line, text, TEMPLATE, template_dir) or exc from None
+    return text
