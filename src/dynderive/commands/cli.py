@@ -17,6 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from .floating import refuse_floating
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import backend_name, finite, problem, tolerances, vector, with_parameters
@@ -112,6 +113,8 @@ def solve(
     sections: Annotated[str | None, typer.Option("--sections", help="Sections of the sheet, comma-separated: "
                         "generalized, maximal, checks, or all (default: maximal coordinates only for planar "
                         "robots of at most 2 links).")] = None,
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
+                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
@@ -138,8 +141,15 @@ def solve(
         require_compiler()
     progress = Progress(quiet)
     progress("loading")
-    model = load_robot(robot, size_limits=True)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
     _notes(model, quiet)
+    if model.floating:
+        from .floating import solve_floating
+
+        flags = {"latex": latex, "pdf": pdf, "c": c, "c_extension": c_extension, "matlab": matlab, "json": json_,
+                 "tests": tests}
+        return solve_floating(model, robot, flags, code, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
+                              progress)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     if derivation.intermediate_form and not quiet:
@@ -177,6 +187,8 @@ def check(
     backend: Annotated[str, typer.Option("--backend", help="numpy: check the generated NumPy module; c: also "
                        "compile the C extension (--c-extension) and compare each of its functions with the "
                        "NumPy module.")] = "numpy",
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
+                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
@@ -197,7 +209,9 @@ def check(
 
         require_compiler("--backend")
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    refuse_floating(model, robot, "check")
+    model = with_parameters(model, robot, param or [], required=False, command="check")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
@@ -298,7 +312,9 @@ def simulate(
         raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
                                'pip install "dynderive[simulate]"') from None
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=True)
+    model = load_robot(robot, size_limits=True)
+    refuse_floating(model, robot, "simulate")
+    model = with_parameters(model, robot, param or [], required=True)
     _notes(model, quiet)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
@@ -377,7 +393,9 @@ def linearize(
     )
 
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="linearize")
+    model = load_robot(robot, size_limits=True)
+    refuse_floating(model, robot, "linearize")
+    model = with_parameters(model, robot, param or [], required=False, command="linearize")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     table = derivation.symbols
@@ -430,7 +448,9 @@ def identify(
     from ..verify.identification import base_parameters, fewest_states
 
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=True)
+    model = load_robot(robot, size_limits=True)
+    refuse_floating(model, robot, "identify")
+    model = with_parameters(model, robot, param or [], required=True)
     _notes(model, quiet)
     if states is not None:
         least = fewest_states(model)
@@ -536,6 +556,8 @@ def schema() -> None:
 def import_(
     urdf: Annotated[str, typer.Argument(help="URDF file to convert, or a bundled URDF robot (ur5, panda).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")],
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="Join the world to the root link by a "
+                             "floating joint 'root_joint'.")] = False,
 ) -> None:
     """Convert a URDF file into the equivalent dynderive YAML robot file."""
     from ..input.loader import read_text, resolve_robot_path
@@ -547,7 +569,7 @@ def import_(
     check_output_paths({"--output": output}, (path,))
     if path.suffix.lower() in (".yaml", ".yml"):
         raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF files)"))
-    document = read_urdf(read_text(path), str(path))
+    document = read_urdf(read_text(path), str(path), floating_base)
     for note in document.notes:
         typer.echo(note, err=True)
     validate(document)  # the same checks as any robot file, before anything is written

@@ -23,6 +23,10 @@ def float_root(reader: Any, joints: list[dict[str, Any]], link_elements: dict[st
                robot: _Element, identity: Any) -> str:
     """Add the joint ``root_joint`` (type floating) from a new world link to ``base``, first
     (its coordinates come first, as in Pinocchio); returns the new root link's name."""
+    floating = next((j for j in joints if j["type"] == "floating"), None)
+    if floating is not None:
+        reader.error(floating["element"], f"joint '{floating['name']}' is floating already: leave out --floating-base")
+        return base
     clash = next((j for j in joints if j["name"] == ROOT_JOINT), None)
     if clash is not None:
         reader.error(clash["element"], f"joint '{ROOT_JOINT}': --floating-base names its joint '{ROOT_JOINT}', "

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import sympy
 
+from ..errors import InputError, Problem
 from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
 from .joints import unit
@@ -30,6 +31,15 @@ from .recursive import _gravity, body_force
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 
 _ZERO = sympy.Integer(0)
+
+
+def not_built(robot: Robot, what: str) -> InputError:
+    """The error for a part of the derivation not built yet for floating-base robots (exit
+    2), at the floating joint."""
+    joint = next(j for j in robot.joints if j.type == "floating")
+    line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
+    return InputError(Problem(robot.source, line, column, f"{what}: not built yet for floating-base robots "
+                              f"(issue 30; joint '{joint.name}' is floating)"))
 
 
 def quaternion_matrix(qx: sympy.Expr, qy: sympy.Expr, qz: sympy.Expr, qw: sympy.Expr) -> sympy.Matrix:

@@ -1,0 +1,57 @@
+"""``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
+(``render/floating_code.py``) and one note saying what is not built yet; every other output
+is refused (exit 2) before any work."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from ..errors import InputError
+from ..model.robot import Robot
+from .options import problem
+
+#: The message of an output or command not built yet for floating-base robots.
+NOT_BUILT = "not built yet for floating-base robots (issue 30)"
+
+
+def floating_note(robot: Robot) -> str:
+    """The note ``solve`` prints for a floating-base robot: what its module has and what not."""
+    from ..render.floating_code import NOT_BUILT as MISSING
+
+    return (f"note: {robot.name} has a floating base (NQ = {len(robot.configuration_names)} coordinates, NV = "
+            f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, gravity_vector, "
+            "inverse_dynamics, forward_dynamics, neutral_configuration, integrate and difference; not built yet "
+            f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf), --json, --c, "
+            "--c-extension, --matlab, --tests, and the commands check, simulate, linearize and identify")
+
+
+def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
+                   template_dir: Path | None, quiet: bool, echo: Callable[[str], None],
+                   progress: Callable[[str], None]) -> None:
+    """Write ``<name>_dynamics.py`` (``--code``); refuse every other output flag, and a run
+    without ``--code`` (printing the equations needs the symbolic derivation)."""
+    from ..model.symbols import SymbolTable
+    from ..render.floating_code import render_floating_code
+    from .output import write_all
+
+    if not quiet:
+        echo(floating_note(robot))
+    refused = [problem(f"--{flag.replace('_', '-')}", f"--{flag.replace('_', '-')}: {NOT_BUILT}")
+               for flag, wanted in flags.items() if wanted]
+    if refused:
+        raise InputError(refused)
+    if not code:
+        raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
+                                           "NumPy module"))
+    progress("generating code (floating base)")
+    path = out / f"{robot.name}_dynamics.py"
+    write_all({path: render_floating_code(robot, SymbolTable.for_robot(robot), template_dir).encode()})
+    if not quiet:
+        echo(f"wrote {path}")
+
+
+def refuse_floating(robot: Robot, argument: str, command: str) -> None:
+    """``check``, ``simulate``, ``linearize``, ``identify`` of a floating-base robot: exit 2."""
+    if robot.floating:
+        raise InputError(problem(argument, f"dynderive {command}: {NOT_BUILT}; solve --code writes its NumPy module"))
