@@ -336,3 +336,19 @@ def test_urdf_floating_base_option_and_note(tmp_path):
     result = runner.invoke(app, ["solve", str(path), "--floating-base", "--code", "--out", str(tmp_path / "o")])
     assert result.exit_code == 2
     assert f"{path}:4:3: joint 'free' is floating already: leave out --floating-base" in result.stderr
+
+
+def test_build_writes_the_module_of_a_floating_robot_and_refuses_the_rest(tmp_path):
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    (folder / "box.yaml").write_text(BOX)
+    (folder / "legs.urdf").write_text(URDF)
+    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "a"), "--code", "--floating-base",
+                                 "-j", "1"])
+    assert result.exit_code == 0, result.output
+    assert "root_joint_qw" in (tmp_path / "a" / "legs_dynamics.py").read_text()
+    assert "root_qw" in (tmp_path / "a" / "box_dynamics.py").read_text()
+    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1"])   # latex and code
+    assert result.exit_code == 1
+    assert "box.yaml:1:1: latex: not built yet for floating-base robots (issue 30)" in result.output + result.stderr
+    assert not (tmp_path / "b" / "box_dynamics.py").exists() and (tmp_path / "b" / "legs_dynamics.py").exists()

@@ -502,6 +502,7 @@ def build(
                                              "missing or differ from what would be generated.")] = False,
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Templates that override the built-in ones by file name.")] = None,
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
@@ -516,6 +517,7 @@ def build(
         require_compiler()
     if not kinds:
         kinds = ("latex", "code")
+    kinds += ("floating_base",) if floating_base else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,

@@ -55,3 +55,14 @@ def refuse_floating(robot: Robot, argument: str, command: str) -> None:
     """``check``, ``simulate``, ``linearize``, ``identify`` of a floating-base robot: exit 2."""
     if robot.floating:
         raise InputError(problem(argument, f"dynderive {command}: {NOT_BUILT}; solve --code writes its NumPy module"))
+
+
+def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
+    """``build``'s outputs of a floating-base robot: its NumPy module; any other kind refused."""
+    from ..model.symbols import SymbolTable
+    from ..render.floating_code import render_floating_code
+
+    refused = [kind for kind in kinds if kind not in ("code", "floating_base")]
+    if refused:
+        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module"))
+    return {f"{robot.name}_dynamics.py": render_floating_code(robot, SymbolTable.for_robot(robot), template_dir).encode()}
