@@ -34,7 +34,7 @@ runner = CliRunner()
 
 def _module(robot, tmp_path: Path):
     path = tmp_path / f"{robot.name}_dynamics.py"
-    path.write_text(render_floating_code(robot, SymbolTable.for_robot(robot)))
+    path.write_text(render_floating_code(dynderive.derive(robot)))
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -352,3 +352,12 @@ def test_build_writes_the_module_of_a_floating_robot_and_refuses_the_rest(tmp_pa
     assert result.exit_code == 1
     assert "box.yaml:1:1: latex: not built yet for floating-base robots (issue 30)" in result.output + result.stderr
     assert not (tmp_path / "b" / "box_dynamics.py").exists() and (tmp_path / "b" / "legs_dynamics.py").exists()
+
+
+def test_a_singular_mass_matrix_is_refused(tmp_path):
+    """A massless base under a one-link arm: the arm's joint motion is the base's (M singular)."""
+    massless = BOX.replace("{name: base, mass: m, com: [0.01, 0.02, 0.1], inertia: [0.02, 0.03, 0.025, 0.001, 0.002, "
+                           "0.003]}", "{name: base, mass: 0}")
+    [line] = [line for line in _bad(tmp_path, massless) if not line.startswith("note:")]
+    assert line.startswith("12:5: joints[0] 'root': the mass matrix is singular at the default parameters: the motion ")
+    assert "'root_wy'" in line and "'qd2'" in line

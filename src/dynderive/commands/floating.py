@@ -31,7 +31,7 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
                    progress: Callable[[str], None]) -> None:
     """Write ``<name>_dynamics.py`` (``--code``); refuse every other output flag, and a run
     without ``--code`` (printing the equations needs the symbolic derivation)."""
-    from ..model.symbols import SymbolTable
+    from .. import derive
     from ..render.floating_code import render_floating_code
     from .output import write_all
 
@@ -44,9 +44,10 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
     if not code:
         raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
                                            "NumPy module"))
+    derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
     progress("generating code (floating base)")
     path = out / f"{robot.name}_dynamics.py"
-    write_all({path: render_floating_code(robot, SymbolTable.for_robot(robot), template_dir).encode()})
+    write_all({path: render_floating_code(derivation, template_dir).encode()})
     if not quiet:
         echo(f"wrote {path}")
 
@@ -59,10 +60,10 @@ def refuse_floating(robot: Robot, argument: str, command: str) -> None:
 
 def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
     """``build``'s outputs of a floating-base robot: its NumPy module; any other kind refused."""
-    from ..model.symbols import SymbolTable
+    from .. import derive
     from ..render.floating_code import render_floating_code
 
     refused = [kind for kind in kinds if kind not in ("code", "floating_base")]
     if refused:
         raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module"))
-    return {f"{robot.name}_dynamics.py": render_floating_code(robot, SymbolTable.for_robot(robot), template_dir).encode()}
+    return {f"{robot.name}_dynamics.py": render_floating_code(derive(robot), template_dir).encode()}

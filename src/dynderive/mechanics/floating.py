@@ -75,11 +75,7 @@ class Offsets:
 
 
 def offsets(robot: Robot) -> Offsets:
-    q, v, i, j = {}, {}, 0, 0
-    for joint in (j for j in robot.joints if j.moves):
-        q[joint.name], v[joint.name] = i, j
-        i, j = (i + 7, j + 6) if joint.type == "floating" else (i + 1, j + 1)
-    return Offsets(q, v)
+    return Offsets(*robot.offsets())
 
 
 class FloatingTree:

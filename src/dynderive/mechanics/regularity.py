@@ -54,9 +54,10 @@ def check_mass_matrix(robot: Robot, table: SymbolTable) -> None:
     rng = random.Random(20261123)
     q = [rng.uniform(0.3, 1.2) * rng.choice((-1, 1)) for _ in table.q]
     # a floating joint's entries (a unit quaternion) at its neutral pose; columns by joint
-    coordinates = list(robot.coordinates)
+    coordinates = labels = list(robot.coordinates)
     if robot.floating:
         q, coordinates = _floating_neutral(robot, table, q)
+        labels = [str(s) for s in table.qd]   # the velocities: a floating joint has six
     try:
         M = numeric_mass_matrix(robot, table, q, defaults)
     except (TypeError, ValueError, ZeroDivisionError, OverflowError):
@@ -69,15 +70,15 @@ def check_mass_matrix(robot: Robot, table: SymbolTable) -> None:
         return
     null = vectors[:, 0] / np.max(np.abs(vectors[:, 0]))
     involved = [i for i in np.argsort(-np.abs(null)) if abs(null[i]) > 0.1]
-    names = [coordinates[i] for i in involved]
-    first = names[0]
+    names = list(dict.fromkeys(labels[i] for i in involved))
+    first = coordinates[involved[0]]
     line, column = robot.positions.get(f"joint:{first}", (1, 1))
     index = next(i for i, j in enumerate(robot.joints) if j.name == first)
     if len(names) == 1:
-        what = (f"coordinate '{first}' moves no mass or inertia (a point mass on its own joint axis, "
+        what = (f"coordinate '{names[0]}' moves no mass or inertia (a point mass on its own joint axis, "
                 "or a link without inertia turning about its centre of mass?)")
     else:
-        combination = " + ".join(f"{_coefficient(null[i])}{coordinates[i]}" for i in involved)
+        combination = " + ".join(f"{_coefficient(null[i])}{labels[i]}" for i in involved)
         what = (f"the motion {combination} of coordinates {', '.join(repr(n) for n in names)} moves no "
                 "mass or inertia (coaxial joints in a row?)")
     raise InputError(Problem(robot.source, line, column,

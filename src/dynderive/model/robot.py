@@ -173,6 +173,14 @@ class Robot:
         """NV: the entries of ``qd``, ``qdd`` (a floating joint's six, one per other moving joint)."""
         return sum(6 if j.type == "floating" else 1 for j in self.joints if j.moves)
 
+    def offsets(self) -> tuple[dict[str, int], dict[str, int]]:
+        """Where each moving joint's entries start in ``q`` and in ``qd``, by joint name."""
+        q, v, i, k = {}, {}, 0, 0
+        for joint in (j for j in self.joints if j.moves):
+            q[joint.name], v[joint.name] = i, k
+            i, k = (i + 7, k + 6) if joint.type == "floating" else (i + 1, k + 1)
+        return q, v
+
     @property
     def dissipative(self) -> bool:
         """Whether some joint has damping or friction (the robot has ``D_g`` and ``F_g``)."""

@@ -10,9 +10,7 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
-from ..mechanics.floating import floating_programs, offsets
-from ..model.robot import Robot
-from ..model.symbols import SymbolTable
+from ..derivation import Derivation
 from .code import Argument, CodeGenerationError, program_function, verify_module
 from .encode import Code, python_literal
 from .environment import render, template_fault
@@ -25,16 +23,17 @@ NOT_BUILT = ("coriolis_matrix", "kinetic_energy", "potential_energy", "linearize
              "frames (frame_transform, frame_jacobian, wrenches)")
 
 
-def floating_context(robot: Robot, table: SymbolTable) -> dict[str, Any]:
+def floating_context(derivation: Derivation) -> dict[str, Any]:
     """Every variable the floating-base module template uses."""
     from .._version import __version__
 
+    robot, table = derivation.robot, derivation.symbols
     nq, nv = len(table.q), len(table.qd)
     q = Argument("q", table.q, f"coordinates, shape (..., {nq})")
     qd = Argument("qd", table.qd, f"velocities, shape (..., {nv})")
     qdd = Argument("qdd", table.qdd, f"accelerations, shape (..., {nv})")
     u = Argument("u", list(table.efforts.values()), f"efforts, shape (..., {len(table.efforts)})")
-    programs = floating_programs(robot, table)
+    programs = derivation.programs   # the free-flyer programs (mechanics/floating.py)
     specs = {
         "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
         "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
@@ -43,7 +42,7 @@ def floating_context(robot: Robot, table: SymbolTable) -> dict[str, Any]:
                              "M qdd = Y - C qd - N.", [q, qd, u]),
     }
     bodies = [program_function(*specs[key], program) for key, program in programs.items()]
-    where = offsets(robot)
+    where_q, where_v = robot.offsets()
     floating = [j.name for j in robot.joints if j.type == "floating"]
     scalar = [j.name for j in robot.joints if j.moves and j.type != "floating"]
     parameters = [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
@@ -59,20 +58,20 @@ def floating_context(robot: Robot, table: SymbolTable) -> dict[str, Any]:
         "efforts_tuple": python_literal(tuple(robot.efforts)),
         "nq": nq,
         "nv": nv,
-        "floating_offsets": python_literal(tuple((where.q[n], where.v[n]) for n in floating)),
-        "scalar_q": Code(repr([where.q[n] for n in scalar])),
-        "scalar_v": Code(repr([where.v[n] for n in scalar])),
+        "floating_offsets": python_literal(tuple((where_q[n], where_v[n]) for n in floating)),
+        "scalar_q": Code(repr([where_q[n] for n in scalar])),
+        "scalar_v": Code(repr([where_v[n] for n in scalar])),
         "programs": bodies,
         "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
                                    width=96, break_on_hyphens=False),
     }
 
 
-def render_floating_code(robot: Robot, table: SymbolTable, template_dir: str | Path | None = None) -> str:
+def render_floating_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The module's text, checked as ``render_code`` checks a fixed-base robot's."""
-    text = render("code", TEMPLATE, floating_context(robot, table), template_dir)
+    text = render("code", TEMPLATE, floating_context(derivation), template_dir)
     try:
-        verify_module(text, robot.title if template_dir is None else None)
+        verify_module(text, derivation.robot.title if template_dir is None else None)
     except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
         raise template_fault(exc, exc.line, text, TEMPLATE, template_dir) or exc from None
     return text
