@@ -8,6 +8,7 @@ Then the input checks: where a floating joint may stand, and what is not built y
 from __future__ import annotations
 
 import importlib.metadata
+import json
 import importlib.util
 import random
 from pathlib import Path
@@ -25,6 +26,7 @@ from dynderive.input.urdf import identifier
 from dynderive.mechanics.floating import offsets
 from dynderive.model.symbols import SymbolTable
 from dynderive.render.floating_code import render_floating_code
+from dynderive.verify.floating_checks import POWER_BALANCE, run_floating_checks
 
 from random_robots3d import _random_inertia, random_spatial_tree
 
@@ -120,6 +122,10 @@ def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
                                    atol=1e-9 * max(1.0, np.max(np.abs(tau))))
         g = pin.computeGeneralizedGravity(model, data, q_pin)
         np.testing.assert_allclose(module.gravity_vector(q)[vp], g, rtol=0, atol=1e-9 * max(1.0, np.max(np.abs(g))))
+        assert module.kinetic_energy(q, v) == pytest.approx(pin.computeKineticEnergy(model, data, q_pin, v_pin),
+                                                            rel=1e-9, abs=1e-9)
+        assert module.potential_energy(q) == pytest.approx(pin.computePotentialEnergy(model, data, q_pin),
+                                                           rel=1e-9, abs=1e-9)
         qdd = pin.aba(model, data, q_pin, v_pin, tau_pin)
         np.testing.assert_allclose(module.forward_dynamics(q, v, u)[vp], qdd, rtol=0,
                                    atol=1e-9 * max(1.0, np.max(np.abs(qdd))))
@@ -227,7 +233,7 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert "not built yet for floating-base robots (issue 30): coriolis_matrix" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
-    for absent in ("def coriolis_matrix", "def linearize", "def regressor", "def frame_", "def kinetic_energy"):
+    for absent in ("def coriolis_matrix", "def linearize", "def regressor", "def frame_", "def friction_forces"):
         assert absent not in text   # left out, never stubbed
     # the same bytes each run
     _, again = _solve(tmp_path, BOX, "--code")
@@ -247,7 +253,7 @@ def test_printing_and_other_commands_are_refused(tmp_path):
     path, result = _solve(tmp_path, BOX)
     assert result.exit_code == 2
     assert f"{path}:1:1: printing the equations is not built yet for floating-base robots" in result.stderr
-    for command in (["check"], ["linearize"], ["identify"]):
+    for command in (["simulate"], ["linearize"], ["identify"]):
         result = runner.invoke(app, [*command, str(path)])
         assert result.exit_code == 2, (command, result.output)
         assert f"dynderive {command[0]}: not built yet for floating-base robots (issue 30)" in result.stderr
@@ -256,7 +262,7 @@ def test_printing_and_other_commands_are_refused(tmp_path):
 def test_the_library_never_takes_lagranges_path(tmp_path):
     (tmp_path / "box.yaml").write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(tmp_path / "box.yaml"))
-    assert sorted(derivation.programs) == ["forward_dynamics", "gravity", "inverse_dynamics", "mass_matrix"]
+    assert sorted(derivation.programs) == ["forward_dynamics", "gravity", "inverse_dynamics", "mass_matrix", "potential"]
     with pytest.raises(InputError, match=r"box\.yaml:\d+:\d+: .*not built yet for floating-base robots"):
         derivation["M_g"]
 
@@ -361,3 +367,38 @@ def test_a_singular_mass_matrix_is_refused(tmp_path):
     [line] = [line for line in _bad(tmp_path, massless) if not line.startswith("note:")]
     assert line.startswith("12:5: joints[0] 'root': the mass matrix is singular at the default parameters: the motion ")
     assert "'root_wy'" in line and "'qd2'" in line
+
+
+def test_check_runs_the_floating_rows(tmp_path):
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    result = runner.invoke(app, ["check", str(path), "--json", "-q"])
+    assert result.exit_code == 0, result.output
+    rows = {row["name"]: row["status"] for row in json.loads(result.stdout)["checks"]}
+    assert rows[POWER_BALANCE] == "pass"
+    assert rows["agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
+                "difference)"] == "pass"
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 8
+    result = runner.invoke(app, ["check", str(path), "--backend", "c"])
+    assert result.exit_code == 2
+    assert "--backend:1:1: --backend c: not built yet for floating-base robots (issue 30)" in result.stderr
+
+
+@pytest.mark.parametrize("right,wrong", [
+    ("out[..., start : start + 3] = q[..., start : start + 3] + _rotate(quaternion, translation)",
+     "out[..., start : start + 3] = q[..., start : start + 3] + translation"),   # linear velocity in world axes
+    ("moved = _multiply(quaternion, step)", "moved = _multiply(step, quaternion)"),   # angular velocity in world axes
+])
+def test_the_energy_balance_catches_a_velocity_in_the_wrong_frame(tmp_path, right, wrong):
+    """A module whose integrate moves the base along v in world axes (not its own) fails the
+    energy balance and Pinocchio: the row ties integrate to the dynamics without Pinocchio."""
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    source = render_floating_code(derivation)
+    broken = source.replace(right, wrong)
+    assert broken != source
+    failed = {row.name for row in run_floating_checks(derivation, broken) if row.status == "FAIL"}
+    assert failed == {POWER_BALANCE,
+                      "agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
+                      "difference)", "difference(q, integrate(q, v, dt)) = v dt"}

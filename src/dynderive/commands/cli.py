@@ -17,7 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
-from .floating import refuse_floating
+from .floating import NOT_BUILT, refuse_floating
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import backend_name, finite, problem, tolerances, vector, with_parameters
@@ -210,15 +210,22 @@ def check(
         require_compiler("--backend")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    refuse_floating(model, robot, "check")
+    if model.floating and backend == "c":
+        raise InputError(problem("--backend", f"--backend c: {NOT_BUILT}"))
     model = with_parameters(model, robot, param or [], required=False, command="check")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     progress("generating code")
-    source = render_code(derivation)
-    progress("checking")
-    rows = run_checks(derivation, source, states=states)
+    if model.floating:   # the module's functions against each other and Pinocchio's free flyer
+        from ..render.floating_code import render_floating_code
+        from ..verify.floating_checks import run_floating_checks
+
+        rows = run_floating_checks(derivation, render_floating_code(derivation), states=states)
+    else:
+        source = render_code(derivation)
+        progress("checking")
+        rows = run_checks(derivation, source, states=states)
     if backend == "c":
         from ..verify.compiled import compiled_checks
         from .compile import compiled_module

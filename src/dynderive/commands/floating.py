@@ -23,7 +23,7 @@ def floating_note(robot: Robot) -> str:
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, gravity_vector, "
             "inverse_dynamics, forward_dynamics, neutral_configuration, integrate and difference; not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf), --json, --c, "
-            "--c-extension, --matlab, --tests, and the commands check, simulate, linearize and identify")
+            "--c-extension, --matlab, --tests, and the commands simulate, linearize and identify")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
@@ -53,7 +53,7 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
 
 
 def refuse_floating(robot: Robot, argument: str, command: str) -> None:
-    """``check``, ``simulate``, ``linearize``, ``identify`` of a floating-base robot: exit 2."""
+    """``simulate``, ``linearize``, ``identify`` of a floating-base robot: exit 2."""
     if robot.floating:
         raise InputError(problem(argument, f"dynderive {command}: {NOT_BUILT}; solve --code writes its NumPy module"))
 

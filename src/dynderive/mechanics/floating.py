@@ -228,6 +228,21 @@ def newton_euler(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sym
     return tau
 
 
+def potential(tree: FloatingTree) -> sympy.Expr:
+    """``V(q)``: gravity's potential ``-sum (m_i g.p_i + g.R_i h_i)`` with gravity carried into
+    each link frame and ``g.p`` accumulated along the tree, plus the springs ``k (q - rest)**2 / 2``."""
+    let, vec = tree.program.let, tree.program.vector
+    frames: dict[str, tuple[Vector, sympy.Expr]] = {"world": (vec(_gravity(tree.robot, tree.table)), _ZERO)}
+    total = _ZERO
+    for body in tree.bodies:
+        g_parent, s_parent = frames[body.parent]
+        g, s = vec(_rotate_back(body.rotation, g_parent)), let(s_parent + _dot(g_parent, body.position))
+        frames[body.link] = (g, s)
+        total += body.mass * s + _dot(g, body.first_moment)
+    springs = [stiffness * (q - rest) ** 2 / 2 for _, stiffness, rest, q in tree.drives.values()]
+    return let(-total + sum(springs, _ZERO))
+
+
 def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
     """``Y``: each actuated joint's effort symbol at its column, zero elsewhere (the floating
     joint is unactuated: no external wrench on the base)."""
@@ -265,7 +280,7 @@ def ldl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> list
 
 def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     """The programs of a floating-base robot's module, by name: ``mass_matrix`` (row by row),
-    ``gravity``, ``inverse_dynamics`` and ``forward_dynamics``."""
+    ``gravity``, ``potential``, ``inverse_dynamics`` and ``forward_dynamics``."""
     programs = {}
     zeros = [_ZERO] * robot.velocity_count
     tree = FloatingTree(robot, table)
@@ -274,6 +289,9 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     tree = FloatingTree(robot, table)
     tree.program.outputs = newton_euler(tree, zeros, zeros)
     programs["gravity"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [potential(tree)]
+    programs["potential"] = tree.program
     tree = FloatingTree(robot, table)
     tree.program.outputs = newton_euler(tree, table.qd, table.qdd)
     programs["inverse_dynamics"] = tree.program

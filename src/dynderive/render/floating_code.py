@@ -18,7 +18,7 @@ from .environment import render, template_fault
 TEMPLATE = "floating_dynamics.py.j2"
 
 #: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
-NOT_BUILT = ("coriolis_matrix", "kinetic_energy", "potential_energy", "linearize", "regressor",
+NOT_BUILT = ("coriolis_matrix", "linearize", "regressor",
              "parameter_vector", "friction_forces (damping and Coulomb friction are left out)",
              "frames (frame_transform, frame_jacobian, wrenches)")
 
@@ -37,6 +37,7 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
     specs = {
         "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
         "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
+        "potential": ("_potential_body", "V(q): gravity along the tree, and the springs.", [q]),
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
         "forward_dynamics": ("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an LDL^T solve of "
                              "M qdd = Y - C qd - N.", [q, qd, u]),
