@@ -8,8 +8,8 @@ Then the input checks: where a floating joint may stand, and what is not built y
 from __future__ import annotations
 
 import importlib.metadata
-import json
 import importlib.util
+import json
 import random
 from pathlib import Path
 

@@ -15,7 +15,6 @@ from ..derivation import Derivation
 from ..model.symbols import SymbolTable
 from .checks import Row, _row, generated_module
 
-
 POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . inverse_dynamics(q, qd, qdd)"
 
 
