@@ -402,3 +402,17 @@ def test_the_energy_balance_catches_a_velocity_in_the_wrong_frame(tmp_path, righ
     assert failed == {POWER_BALANCE,
                       "agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
                       "difference)", "difference(q, integrate(q, v, dt)) = v dt"}
+
+
+def test_the_size_limit_of_a_floating_robot_is_its_own(tmp_path):
+    """No Coriolis stage: a floating-base robot may have 60 coordinates (n^2 work), a fixed 3-D one 30."""
+    links = "".join(f"  - {{name: l{k}, mass: 1, inertia: [0.1, 0.1, 0.1, 0, 0, 0]}}\n" for k in range(36))
+    chain = "".join(f"  - {{name: j{k}, type: revolute, parent: l{k - 1}, child: l{k}, axis: [0, 1, 0]}}\n"
+                    for k in range(1, 36))
+    text = f"name: chain\nplanar: false\ngravity: [0, 0, -9.81]\nlinks:\n{links}joints:\n"
+    path = tmp_path / "chain.yaml"
+    path.write_text(text + "  - {name: root, type: floating, parent: world, child: l0}\n" + chain)
+    assert dynderive.load_robot(path, size_limits=True).velocity_count == 41
+    path.write_text(text + "  - {name: root, type: revolute, parent: world, child: l0}\n" + chain)
+    with pytest.raises(InputError, match="36 coordinates exceed the limit of 30 for a 3-D robot"):
+        dynderive.load_robot(path, size_limits=True)
