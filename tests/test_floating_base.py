@@ -240,7 +240,7 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
 
 
-@pytest.mark.parametrize("flag", ["--latex", "--json", "--c", "--matlab", "--pdf"])
+@pytest.mark.parametrize("flag", ["--latex", "--json", "--c", "--matlab", "--pdf", "--c-extension"])
 def test_other_outputs_are_refused(tmp_path, flag):
     _, result = _solve(tmp_path, BOX, "--code", flag)
     assert result.exit_code == 2
@@ -416,3 +416,22 @@ def test_the_size_limit_of_a_floating_robot_is_its_own(tmp_path):
     path.write_text(text + "  - {name: root, type: revolute, parent: world, child: l0}\n" + chain)
     with pytest.raises(InputError, match="36 coordinates exceed the limit of 30 for a 3-D robot"):
         dynderive.load_robot(path, size_limits=True)
+
+
+def test_generated_property_checks_pass_and_catch_a_wrong_module(tmp_path):
+    """``--code --tests``: the module's own checks pass; with the base's velocity taken in world
+    axes by integrate, the energy balance and the integrate/difference checks fail."""
+    import subprocess
+    import sys
+
+    _, result = _solve(tmp_path, BOX, "--code", "--tests")
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
+                         cwd=out, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and "32 passed" in run.stdout, run.stdout + run.stderr
+    module = out / "box_dynamics.py"
+    module.write_text(module.read_text().replace("moved = _multiply(quaternion, step)", "moved = _multiply(step, quaternion)"))
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
+                         cwd=out, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 1 and "test_energy_balance_along_integrate" in run.stdout, run.stdout

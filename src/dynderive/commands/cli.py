@@ -146,10 +146,9 @@ def solve(
     if model.floating:
         from .floating import solve_floating
 
-        flags = {"latex": latex, "pdf": pdf, "c": c, "c_extension": c_extension, "matlab": matlab, "json": json_,
-                 "tests": tests}
+        flags = {"latex": latex, "pdf": pdf, "c": c, "c_extension": c_extension, "matlab": matlab, "json": json_}
         return solve_floating(model, robot, flags, code, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
-                              progress)
+                              progress, tests)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     if derivation.intermediate_form and not quiet:

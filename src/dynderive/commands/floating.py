@@ -23,16 +23,17 @@ def floating_note(robot: Robot) -> str:
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, gravity_vector, "
             "inverse_dynamics, forward_dynamics, neutral_configuration, integrate and difference; not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf), --json, --c, "
-            "--c-extension, --matlab, --tests, and the commands simulate, linearize and identify")
+            "--c-extension, --matlab, and the commands simulate, linearize and identify")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
                    template_dir: Path | None, quiet: bool, echo: Callable[[str], None],
-                   progress: Callable[[str], None]) -> None:
-    """Write ``<name>_dynamics.py`` (``--code``); refuse every other output flag, and a run
-    without ``--code`` (printing the equations needs the symbolic derivation)."""
+                   progress: Callable[[str], None], tests: bool = False) -> None:
+    """Write ``<name>_dynamics.py`` (``--code``) and its checks (``--tests``); refuse every
+    other output flag, and a run without ``--code`` (printing the equations needs the symbolic
+    derivation)."""
     from .. import derive
-    from ..render.floating_code import render_floating_code
+    from ..render.floating_code import render_floating_code, render_floating_code_tests
     from .output import write_all
 
     if not quiet:
@@ -46,10 +47,13 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
                                            "NumPy module"))
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
     progress("generating code (floating base)")
-    path = out / f"{robot.name}_dynamics.py"
-    write_all({path: render_floating_code(derivation, template_dir).encode()})
+    files = {out / f"{robot.name}_dynamics.py": render_floating_code(derivation, template_dir).encode()}
+    if tests:
+        files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
+    write_all(files)
     if not quiet:
-        echo(f"wrote {path}")
+        for path in files:
+            echo(f"wrote {path}")
 
 
 def refuse_floating(robot: Robot, argument: str, command: str) -> None:

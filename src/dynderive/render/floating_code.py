@@ -6,6 +6,7 @@ floating-base robots and is left out (``NOT_BUILT``), never stubbed."""
 
 from __future__ import annotations
 
+import ast
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -16,6 +17,7 @@ from .encode import Code, python_literal
 from .environment import render, template_fault
 
 TEMPLATE = "floating_dynamics.py.j2"
+TEST_TEMPLATE = "floating_dynamics_test.py.j2"
 
 #: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
 NOT_BUILT = ("coriolis_matrix", "linearize", "regressor",
@@ -62,10 +64,27 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "floating_offsets": python_literal(tuple((where_q[n], where_v[n]) for n in floating)),
         "scalar_q": Code(repr([where_q[n] for n in scalar])),
         "scalar_v": Code(repr([where_v[n] for n in scalar])),
+        "effort_columns": python_literal(tuple(where_v[j.name] for j in robot.joints if j.moves and j.effort)),
         "programs": bodies,
         "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
                                    width=96, break_on_hyphens=False),
     }
+
+
+def render_floating_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    """The pytest file of property checks of a floating-base robot's module (``--tests``)."""
+    from .._version import __version__
+
+    context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
+               "source": Path(derivation.robot.source).name}
+    text = render("code", TEST_TEMPLATE, context, template_dir)
+    try:
+        ast.parse(text)
+    except (SyntaxError, ValueError) as exc:
+        error = CodeGenerationError(f"the generated test module does not parse: {getattr(exc, 'msg', exc)}",
+                                    exc.lineno if isinstance(exc, SyntaxError) else None)
+        raise template_fault(error, error.line, text, TEST_TEMPLATE, template_dir) or error from None
+    return text
 
 
 def render_floating_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
