@@ -20,7 +20,7 @@ MAX_PLANAR_COORDINATES = 40
 MAX_SPATIAL_COORDINATES = 30
 #: Most coordinates (moving joints, the floating one counted once) of a floating-base robot:
 #: its module builds no Coriolis stage, so its work grows like n^2 (talos_reduced floating, 33
-#: joints and 38 velocities: 34 s and 0.2 GB).
+#: joints and 38 velocities: 12 s and 0.15 GB).
 MAX_FLOATING_COORDINATES = 60
 #: Seconds of ``--code`` at the limits' reference sizes (planar 30, 3-D 20), for the estimate.
 _REFERENCE = {True: (30, 40.0), False: (20, 29.0)}
@@ -35,7 +35,7 @@ def coordinate_limit(robot: Robot) -> int:
 def estimated_seconds(robot: Robot) -> float:
     """Rough time of the symbolic work for ``--code`` on the reference machine (n^3)."""
     if robot.floating:   # n^2, measured on talos_reduced
-        return 34.0 * (len(robot.coordinates) / 33) ** 2
+        return 12.0 * (len(robot.coordinates) / 33) ** 2
     size, seconds = _REFERENCE[robot.planar]
     return seconds * (len(robot.coordinates) / size) ** 3
 

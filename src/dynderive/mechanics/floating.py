@@ -1,6 +1,6 @@
 """Straight-line programs of a floating-base robot (issue 30, DESIGN.md section 10): the
 composite-rigid-body algorithm (M), recursive Newton-Euler (inverse dynamics, gravity) and an
-LDL^T solve (forward dynamics), as in ``recursive.py`` but with a free-flyer root.
+L^T D L solve (forward dynamics), as in ``recursive.py`` but with a free-flyer root.
 
 The ``floating`` joint's configuration is ``[x, y, z, qx, qy, qz, qw]`` (Pinocchio's): the
 joint frame's position in its parent (after the joint's ``origin``) and a unit quaternion, whose
@@ -254,27 +254,34 @@ def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
     return Y
 
 
-def ldl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> list[sympy.Expr]:   # noqa: ANN001
-    """``x`` solving ``M x = rhs`` by ``L D L^T`` (M positive definite: no pivoting; zeros of
-    M stay zeros in L)."""
+def ltdl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> list[sympy.Expr]:   # noqa: ANN001
+    """``x`` solving ``M x = rhs`` by ``M = L^T D L`` (Featherstone's LTDL, 2008, sec. 6.3):
+    eliminating from the last column to the first, a tree's M (nonzero only between a joint and
+    its ancestors, parents before children) fills in nothing, where L D L^T from the first
+    column (the floating base, coupled to every joint) would fill in all of it. M is positive
+    definite: no pivoting. Structural zeros stay zeros."""
     n = len(rhs)
-    L = [[_ZERO] * n for _ in range(n)]
-    inverse_d: list[sympy.Expr] = [_ZERO] * n
-    scaled = [[_ZERO] * n for _ in range(n)]   # L_jk D_k
-    for j in range(n):
-        d = let(M[j][j] - sum((L[j][k] * scaled[j][k] for k in range(j)), _ZERO))
-        inverse_d[j] = let(1 / d)
-        for i in range(j + 1, n):
-            residual = M[i][j] - sum((L[i][k] * scaled[j][k] for k in range(j)), _ZERO)
-            if residual != 0:
-                L[i][j] = let(residual * inverse_d[j])
-                scaled[i][j] = let(residual)
-    y: list[sympy.Expr] = []
-    for i in range(n):
-        y.append(let(rhs[i] - sum((L[i][k] * y[k] for k in range(i)), _ZERO)))
-    x: list[sympy.Expr] = [_ZERO] * n
-    for i in reversed(range(n)):
-        x[i] = let(y[i] * inverse_d[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), _ZERO))
+    H = [list(row) for row in M]
+    for k in reversed(range(n)):
+        inverse = let(1 / H[k][k])
+        H[k][k] = inverse
+        below = [i for i in reversed(range(k)) if H[k][i] != 0]
+        for i in below:   # from the nearest ancestor up: H[k][j], j <= i, not yet replaced by L
+            a = let(H[k][i] * inverse)
+            for j in below:
+                if j <= i:
+                    H[i][j] = let(H[i][j] - a * H[k][j])
+                    H[j][i] = H[i][j]
+            H[k][i] = a
+    y = list(rhs)   # L^T y = rhs: from the last entry
+    for k in reversed(range(n)):
+        y[k] = let(y[k])
+        for i in range(k):
+            if H[k][i] != 0:
+                y[i] = y[i] - H[k][i] * y[k]
+    x: list[sympy.Expr] = [_ZERO] * n   # D^-1 y, then L x = D^-1 y from the first entry
+    for k in range(n):
+        x[k] = let(y[k] * H[k][k] - sum((H[k][j] * x[j] for j in range(k) if H[k][j] != 0), _ZERO))
     return x
 
 
@@ -299,6 +306,6 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     M = mass_matrix(tree)
     bias = newton_euler(tree, table.qd, zeros)
     rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
-    tree.program.outputs = ldl_solve(tree.program.let, M, rhs)
+    tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
     programs["forward_dynamics"] = tree.program
     return programs

@@ -41,7 +41,7 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
         "potential": ("_potential_body", "V(q): gravity along the tree, and the springs.", [q]),
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
-        "forward_dynamics": ("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an LDL^T solve of "
+        "forward_dynamics": ("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an L^T D L solve of "
                              "M qdd = Y - C qd - N.", [q, qd, u]),
     }
     bodies = [program_function(*specs[key], program) for key, program in programs.items()]
