@@ -233,7 +233,7 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert "not built yet for floating-base robots (issue 30): coriolis_matrix" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
-    for absent in ("def coriolis_matrix", "def linearize", "def regressor", "def frame_", "def friction_forces"):
+    for absent in ("def coriolis_matrix", "def linearize", "def regressor", "def frame_jacobian_dot_qd", "def friction_forces"):
         assert absent not in text   # left out, never stubbed
     # the same bytes each run
     _, again = _solve(tmp_path, BOX, "--code")
@@ -435,3 +435,36 @@ def test_generated_property_checks_pass_and_catch_a_wrong_module(tmp_path):
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
                          cwd=out, capture_output=True, text=True, timeout=300)
     assert run.returncode == 1 and "test_energy_balance_along_integrate" in run.stdout, run.stdout
+
+
+@pytest.mark.pinocchio
+def test_frames_of_a_legged_robot_equal_pinocchio(tmp_path):
+    """solo12's feet (links welded to the shanks, frames of the same names): pose and
+    LOCAL_WORLD_ALIGNED Jacobian, against Pinocchio's free flyer."""
+    path = _example_robot("solo_description/robots/solo12.urdf")
+    robot = dynderive.load_robot(path, floating_base=True)
+    module = _module(robot, tmp_path)
+    assert "FL_FOOT" in module.FRAMES
+    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    data = model.createData()
+    where_q, where_v = robot.offsets()
+    qp, vp = [], []
+    for name, joint in zip(model.names[1:], model.joints[1:]):
+        qp.extend(range(where_q[identifier(name)], where_q[identifier(name)] + joint.nq))
+        vp.extend(range(where_v[identifier(name)], where_v[identifier(name)] + joint.nv))
+    pin.seed(7)
+    for _ in range(3):
+        q_pin = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
+        q = np.empty(model.nq)
+        q[qp] = q_pin
+        pin.computeJointJacobians(model, data, q_pin)
+        pin.updateFramePlacements(model, data)
+        for frame in module.FRAMES:
+            fid = model.getFrameId(frame)
+            T = module.frame_transform(q, frame)
+            np.testing.assert_allclose(T[:3, :3], data.oMf[fid].rotation, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(T[:3, 3], data.oMf[fid].translation, rtol=0, atol=1e-12)
+            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            np.testing.assert_allclose(module.frame_jacobian(q, frame)[:, vp], J, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="unknown frame 'hand'"):
+        module.frame_jacobian(q, "hand")

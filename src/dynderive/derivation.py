@@ -311,8 +311,12 @@ class Derivation:
     def frame_programs(self) -> list[Any]:
         """Straight-line programs of the frames' poses, Jacobians and ``Jdot qd``
         (``mechanics.frames.FramePrograms``), for the generated module; built on first use."""
+        if self._frame_programs is None and self.robot.floating:   # (name, pose, Jacobian) programs
+            from .mechanics.floating import frame_programs as floating_frames
+
+            self._frame_programs = [(name, *programs) for name, programs in
+                                    floating_frames(self.robot, self.symbols).items()]
         if self._frame_programs is None:
-            self._symbolic("the frames' programs")
             from .mechanics.frames import frame_programs
 
             if self.robot.frames:

@@ -285,6 +285,54 @@ def ltdl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> lis
     return x
 
 
+def _matmul(let, A: Sequence[Sequence[sympy.Expr]], B: Sequence[Sequence[sympy.Expr]]) -> Matrix3:  # noqa: ANN001
+    return tuple(tuple(let(sum((A[i][k] * B[k][j] for k in range(3)), _ZERO)) for j in range(3))  # type: ignore[return-value]
+                 for i in range(3))
+
+
+def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program, Program]]:
+    """Each frame's pose (homogeneous, row by row) and world-aligned Jacobian (rows ``(v, w)``:
+    the velocity of the frame's origin and the angular velocity in world axes, per velocity
+    column, Pinocchio's LOCAL_WORLD_ALIGNED), by frame name; one program shared by all."""
+    if not robot.frames:
+        return {}
+    tree = FloatingTree(robot, table)
+    let, vec, expr = tree.program.let, tree.program.vector, table.expr
+    by_link = {b.link: b for b in tree.bodies}
+    one = sympy.Integer(1)
+    poses: dict[str, tuple[Matrix3, Vector]] = {
+        "world": (((one, _ZERO, _ZERO), (_ZERO, one, _ZERO), (_ZERO, _ZERO, one)), (_ZERO, _ZERO, _ZERO))}
+    for body in tree.bodies:   # parents first
+        R, p = poses[body.parent]
+        poses[body.link] = (_matmul(let, R, body.rotation), vec(_add(p, _rotate(R, body.position))))
+    n = robot.velocity_count
+    built: dict[str, tuple[list[sympy.Expr], list[sympy.Expr]]] = {}
+    for frame in robot.frames:
+        x, y, z, roll, pitch, yaw = (expr(e) for e in frame.origin)
+        R_link, p_link = poses[frame.link]
+        offset = rpy_matrix(roll, pitch, yaw)
+        rotation = _matmul(let, R_link, tuple(tuple(offset[i, j] for j in range(3)) for i in range(3)))
+        position = vec(_add(p_link, _rotate(R_link, (x, y, z))))
+        rows: list[list[sympy.Expr]] = [[_ZERO] * n for _ in range(6)]
+        link = frame.link
+        while link != "world":
+            body = by_link[link]
+            R, p = poses[link]
+            lever = vec([a - b for a, b in zip(position, p)])
+            for j, sw, sv in body.columns:
+                w = vec(_rotate(R, sw))
+                v = vec(_add(_rotate(R, sv), _cross(w, lever)))
+                for r, value in enumerate((*v, *w)):
+                    rows[r][j] = value
+            link = body.parent
+        transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2],
+                     _ZERO, _ZERO, _ZERO, one]
+        built[frame.name] = (transform, [e for row in rows for e in row])
+    return {name: (Program(lines=list(tree.program.lines), outputs=list(pose)),
+                   Program(lines=list(tree.program.lines), outputs=list(jacobian)))
+            for name, (pose, jacobian) in built.items()}
+
+
 def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     """The programs of a floating-base robot's module, by name: ``mass_matrix`` (row by row),
     ``gravity``, ``potential``, ``inverse_dynamics`` and ``forward_dynamics``."""

@@ -22,7 +22,7 @@ TEST_TEMPLATE = "floating_dynamics_test.py.j2"
 #: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
 NOT_BUILT = ("coriolis_matrix", "linearize", "regressor",
              "parameter_vector", "friction_forces (damping and Coulomb friction are left out)",
-             "frames (frame_transform, frame_jacobian, wrenches)")
+             "frame_jacobian_dot_qd", "wrenches")
 
 
 def floating_context(derivation: Derivation) -> dict[str, Any]:
@@ -45,6 +45,11 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
                              "M qdd = Y - C qd - N.", [q, qd, u]),
     }
     bodies = [program_function(*specs[key], program) for key, program in programs.items()]
+    for index, (name, pose, jacobian) in enumerate(derivation.frame_programs):
+        bodies += [program_function(f"_frame{index}_transform_body", f"Pose of frame {name!r} (homogeneous, row by row).",
+                                    [q], pose),
+                   program_function(f"_frame{index}_jacobian_body", f"World-aligned Jacobian of frame {name!r}, "
+                                    "row by row.", [q], jacobian)]
     where_q, where_v = robot.offsets()
     floating = [j.name for j in robot.joints if j.type == "floating"]
     scalar = [j.name for j in robot.joints if j.moves and j.type != "floating"]
@@ -66,6 +71,8 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "scalar_v": Code(repr([where_v[n] for n in scalar])),
         "effort_columns": python_literal(tuple(where_v[j.name] for j in robot.joints if j.moves and j.effort)),
         "programs": bodies,
+        "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
+        "frames_tuple": python_literal(tuple(f.name for f in robot.frames)),
         "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
                                    width=96, break_on_hyphens=False),
     }

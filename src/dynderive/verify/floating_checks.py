@@ -69,6 +69,8 @@ def run_floating_checks(derivation: Derivation, source: str, states: int = 12, s
         np.abs(bias)))), "numeric", gravity))
     rows.append(_power_balance(module, values, qs, vs, rng))
     rows += _manifold(module, robot, qs, vs)
+    if module.FRAMES:
+        rows.append(_frames(module, values, qs[:4], vs[:4]))
     rows.append(_pinocchio(derivation, module, values, qs[:5], vs[:5], us[:5]))
     return rows
 
@@ -90,6 +92,21 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np
         power = float(v @ module.inverse_dynamics(q, v, a, **values))
         worst, scale = max(worst, abs(rate - power)), max(scale, abs(power))
     return _row(POWER_BALANCE, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
+
+
+def _frames(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray) -> Row:
+    """Each frame's Jacobian times qd against the central difference of its position and
+    rotation along ``integrate`` (the angular part from ``dR/dt R^T``)."""
+    h, worst, scale = 1e-6, 0.0, 1.0
+    for q, v in zip(qs, vs):
+        for frame in module.FRAMES:
+            ahead, behind = (module.frame_transform(module.integrate(q, v, s * h), frame, **values) for s in (1, -1))
+            twist = module.frame_jacobian(q, frame, **values) @ v
+            spin = (ahead[:3, :3] - behind[:3, :3]) / (2 * h) @ module.frame_transform(q, frame, **values)[:3, :3].T
+            numeric = np.concatenate([(ahead[:3, 3] - behind[:3, 3]) / (2 * h), [spin[2, 1], spin[0, 2], spin[1, 0]]])
+            worst, scale = max(worst, float(np.max(np.abs(twist - numeric)))), max(scale, float(np.max(np.abs(twist))))
+    return _row(f"frames ({len(module.FRAMES)}): frame_jacobian qd = d(pose)/dt along integrate", worst < 1e-5 * scale,
+                f"numeric (h = {h:g})", worst)
 
 
 def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[Row]:
