@@ -49,12 +49,13 @@ def __dir__() -> list[str]:
     return sorted(__all__)
 
 
-def load_robot(robot: str | Path, size_limits: bool = False) -> Robot:
+def load_robot(robot: str | Path, size_limits: bool = False, floating_base: bool = False) -> Robot:
     """Load and validate a robot file (YAML or URDF path) or a bundled robot by name.
 
     With ``size_limits`` (the command line's), a robot beyond the documented limits of the
     whole derivation (``input/limits.py``) is refused before any work; the library leaves it
-    to the caller, who may want only the programs that do not grow like n^3."""
+    to the caller, who may want only the programs that do not grow like n^3. With
+    ``floating_base`` a URDF's root link floats (a ``floating`` joint ``root_joint``)."""
     from .input.limits import check_size
     from .input.loader import load_document, resolve_robot_path
     from .input.schema import validate
@@ -64,8 +65,13 @@ def load_robot(robot: str | Path, size_limits: bool = False) -> Robot:
         from .input.loader import read_text
         from .input.urdf import read_urdf
 
-        document = read_urdf(read_text(path), str(path))
+        document = read_urdf(read_text(path), str(path), floating_base)
     else:
+        if floating_base:
+            from .errors import InputError, Problem
+
+            raise InputError(Problem("--floating-base", 1, 1, "--floating-base floats a URDF's root link; a YAML "
+                                     "robot file declares its floating joint itself (type: floating)"))
         document = load_document(path)
     model = validate(document)
     if size_limits:

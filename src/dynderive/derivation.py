@@ -183,7 +183,16 @@ class Derivation:
         self._frame_programs: list[Any] | None = None
 
     # -- stages ----------------------------------------------------------------------------
+    def _symbolic(self, what: str) -> None:
+        """Refuse the symbolic derivation (Lagrange's path) of a floating-base robot: its
+        quaternion coordinates are not generalized coordinates of that path (issue 30)."""
+        if self.robot.floating:
+            from .mechanics.floating import not_built
+
+            raise not_built(self.robot, what)
+
     def _kinematics(self) -> None:
+        self._symbolic("the symbolic kinematics")
         self.report(f"kinematics ({len(self.robot.links)} links)")
         if self.robot.planar:
             links: list[Any] = planar_kinematics(self.robot, self.symbols)
@@ -194,11 +203,13 @@ class Derivation:
         self.steps["kinematics"] = links
 
     def _applied_forces(self) -> None:
+        self._symbolic("the symbolic applied forces Y_g")
         from .mechanics.generalized import applied_forces
 
         self.quantities["Y_g"] = applied_forces(self.robot, self.symbols)
 
     def _generalized(self) -> None:
+        self._symbolic("the symbolic equations of motion (M_g, C_g, N_g, Lagrange's equations)")
         robot, table = self.robot, self.symbols
         if self.intermediate_form:
             from .mechanics.structured import structured_generalized
@@ -281,6 +292,7 @@ class Derivation:
     def _frames(self) -> None:
         from .mechanics.frames import frame_quantities
 
+        self._symbolic("the frames' quantities")
         self.report(f"frames ({len(self.robot.frames)})")
         self.quantities.update(frame_quantities(self.robot, self.symbols))
 
@@ -300,6 +312,11 @@ class Derivation:
     def frame_programs(self) -> list[Any]:
         """Straight-line programs of the frames' poses, Jacobians and ``Jdot qd``
         (``mechanics.frames.FramePrograms``), for the generated module; built on first use."""
+        if self._frame_programs is None and self.robot.floating:   # (name, pose, Jacobian) programs
+            from .mechanics.floating import frame_programs as floating_frames
+
+            self._frame_programs = [(name, *programs) for name, programs in
+                                    floating_frames(self.robot, self.symbols).items()]
         if self._frame_programs is None:
             from .mechanics.frames import frame_programs
 
@@ -350,6 +367,10 @@ class Derivation:
         ``mass_matrix``, ``coriolis``, ``gravity``, ``potential`` where the code is structured
         (``structured_code``). Built once, on first use, straight from the robot: a run that
         writes only code never derives the symbolic matrices."""
+        if self._programs is None and self.robot.floating:   # the free-flyer programs, never Lagrange's
+            from .mechanics.floating import floating_programs
+
+            self._programs = floating_programs(self.robot, self.symbols)
         if self._programs is None:
             efforts = list(self.quantities["Y_g"])
             generalized = self.generalized_program if self.structured_code else None
@@ -378,6 +399,7 @@ class Derivation:
         that both the generated module and the intermediate-variable form read, built on first
         use."""
         if self._generalized_program is None:
+            self._symbolic("the generalized program (M, C, N, V)")
             self._generalized_program = GeneralizedProgram(self.robot, self.symbols, self.report)
         return self._generalized_program
 

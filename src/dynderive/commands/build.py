@@ -52,10 +52,11 @@ OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynam
                 "+{}/parameters.m", "{}_derivation.m")   # --matlab: the package +<name>/ (every one has
                                                           # parameters.m) and the derivation script
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
-             "code": ["dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
+             "code": ["dynamics.py.j2", "floating_dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
              "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
              "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"],
-             "jax": ["jax/dynamics.py.j2"], "json": [], "html": ["html/sheet.html.j2"]}
+             "jax": ["jax/dynamics.py.j2"], "json": [], "html": ["html/sheet.html.j2"],
+             "floating_base": []}   # not an output: --floating-base, part of the inputs
 
 
 @dataclass
@@ -214,7 +215,12 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     from ..render.json import render_json
     from ..render.latex import render_latex
 
-    robot = load_robot(source, size_limits=True)
+    floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")
+    robot = load_robot(source, size_limits=True, floating_base=floating_base)
+    if robot.floating:   # the NumPy module only (issue 30)
+        from .floating import floating_outputs
+
+        return floating_outputs(robot, source, kinds, template_dir), None
     derivation = derive(robot)
     files: dict[str, bytes] = {}
     failed: LatexError | None = None

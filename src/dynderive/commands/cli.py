@@ -17,6 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from .floating import NOT_BUILT, refuse_floating
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
@@ -116,6 +117,8 @@ def solve(
     sections: Annotated[str | None, typer.Option("--sections", help="Sections of the sheet, comma-separated: "
                         "generalized, maximal, checks, or all (default: maximal coordinates only for planar "
                         "robots of at most 2 links).")] = None,
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
+                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
@@ -143,8 +146,15 @@ def solve(
         require_compiler()
     progress = Progress(quiet)
     progress("loading")
-    model = load_robot(robot, size_limits=True)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
     _notes(model, quiet)
+    if model.floating:
+        from .floating import solve_floating
+
+        flags = {"latex": latex, "pdf": pdf, "c": c, "c_extension": c_extension, "matlab": matlab, "jax": jax,
+                 "json": json_, "html": html}
+        return solve_floating(model, robot, flags, code, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
+                              progress, tests)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     if derivation.intermediate_form and not quiet:
@@ -182,6 +192,8 @@ def check(
     backend: Annotated[str, typer.Option("--backend", help="numpy: check the generated NumPy module; c: also "
                        "compile the C extension (--c-extension) and compare each of its functions with the "
                        "NumPy module; jax: the same for the JAX module (--jax; needs jax).")] = "numpy",
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
+                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
@@ -206,14 +218,23 @@ def check(
 
         require_jax()
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="check")
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    if model.floating and backend != "numpy":
+        raise InputError(problem("--backend", f"--backend {backend}: {NOT_BUILT}"))
+    model = with_parameters(model, robot, param or [], required=False, command="check")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     _notes(derivation, quiet)
     progress("generating code")
-    source = render_code(derivation)
-    progress("checking")
-    rows = run_checks(derivation, source, states=states)
+    if model.floating:   # the module's functions against each other and Pinocchio's free flyer
+        from ..render.floating_code import render_floating_code
+        from ..verify.floating_checks import run_floating_checks
+
+        rows = run_floating_checks(derivation, render_floating_code(derivation), states=states)
+    else:
+        source = render_code(derivation)
+        progress("checking")
+        rows = run_checks(derivation, source, states=states)
     if backend == "c":
         from ..verify.compiled import compiled_checks
         from .compile import compiled_module
@@ -312,7 +333,9 @@ def simulate(
         raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
                                'pip install "dynderive[simulate]"') from None
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=True)
+    model = load_robot(robot, size_limits=True)
+    refuse_floating(model, robot, "simulate")
+    model = with_parameters(model, robot, param or [], required=True)
     _notes(model, quiet)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
@@ -391,7 +414,9 @@ def linearize(
     )
 
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=False, command="linearize")
+    model = load_robot(robot, size_limits=True)
+    refuse_floating(model, robot, "linearize")
+    model = with_parameters(model, robot, param or [], required=False, command="linearize")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
     table = derivation.symbols
@@ -444,7 +469,9 @@ def identify(
     from ..verify.identification import base_parameters, fewest_states
 
     progress = Progress(quiet)
-    model = with_parameters(load_robot(robot, size_limits=True), robot, param or [], required=True)
+    model = load_robot(robot, size_limits=True)
+    refuse_floating(model, robot, "identify")
+    model = with_parameters(model, robot, param or [], required=True)
     _notes(model, quiet)
     if states is not None:
         least = fewest_states(model)
@@ -498,6 +525,7 @@ def build(
                                              "missing or differ from what would be generated.")] = False,
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Templates that override the built-in ones by file name.")] = None,
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
@@ -512,6 +540,7 @@ def build(
         require_compiler()
     if not kinds:
         kinds = ("latex", "code")
+    kinds += ("floating_base",) if floating_base else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
@@ -552,25 +581,10 @@ def schema() -> None:
 def import_(
     urdf: Annotated[str, typer.Argument(help="URDF file to convert, or a bundled URDF robot (ur5, panda).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")],
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="Join the world to the root link by a "
+                             "floating joint 'root_joint'.")] = False,
 ) -> None:
     """Convert a URDF file into the equivalent dynderive YAML robot file."""
-    from ..input.loader import read_text, resolve_robot_path
-    from ..input.schema import validate
-    from ..input.urdf import read_urdf, to_yaml
-    from .output import check_output_paths, write_all
+    from .convert import import_urdf
 
-    path = resolve_robot_path(urdf)
-    check_output_paths({"--output": output}, (path,))
-    if path.suffix.lower() in (".yaml", ".yml"):
-        raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF files)"))
-    document = read_urdf(read_text(path), str(path))
-    for note in document.notes:
-        typer.echo(note, err=True)
-    validate(document)  # the same checks as any robot file, before anything is written
-    if document.impossible_inertias:   # a robot file's inertias must be physical: it would not load
-        raise InputError([document.problem(path + ("inertia",), f"{document.labels[path]} inertia: not imported: it "
-                                           "misses the triangle inequality (see the note), which a YAML robot file "
-                                           "may not; correct it in the URDF, or use the URDF itself")
-                          for path in sorted(document.impossible_inertias)])
-    write_all({output: to_yaml(document.data, path.name).encode()})
-    typer.echo(f"wrote {output}", err=True)
+    import_urdf(urdf, output, floating_base, lambda text: typer.echo(text, err=True))

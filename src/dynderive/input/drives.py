@@ -37,6 +37,10 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
             v.error(kpath, f"{v.label(kpath)}: a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}",
                     key=True)
             continue
+        if jtype == "floating":
+            v.error(kpath, f"{v.label(kpath)}: drive terms on a floating joint are not built yet (issue 30)",
+                    key=True)
+            continue
         if item[key] is None or isinstance(item[key], (bool, list, dict)):
             kind = "nothing" if item[key] is None else type(item[key]).__name__
             v.error(kpath, f"{v.label(kpath)}: expected a number or an expression, got {kind}")

@@ -62,7 +62,8 @@ def robot_schema() -> dict[str, Any]:
         "type": "object", "additionalProperties": False, "required": ["name", "type", "parent", "child"],
         "properties": {
             "name": {"type": "string", "pattern": IDENTIFIER, "description": "also the coordinate's symbol"},
-            "type": {"enum": ["revolute", "prismatic", "fixed"]},
+            "type": {"enum": ["revolute", "prismatic", "fixed", "floating"],
+                     "description": "floating (3-D only): the joint between the world and the root link"},
             "parent": {"type": "string", "description": "a link name or world"},
             "child": {"type": "string"},
             "origin": origin,

@@ -18,16 +18,24 @@ from .loader import SourceDocument
 MAX_PLANAR_COORDINATES = 40
 #: Most coordinates of a 3-D robot (each link's kinematics carries a rotation matrix).
 MAX_SPATIAL_COORDINATES = 30
+#: Most coordinates (moving joints, the floating one counted once) of a floating-base robot:
+#: its module builds no Coriolis stage, so its work grows like n^2 (talos_reduced floating, 33
+#: joints and 38 velocities: 12 s and 0.15 GB).
+MAX_FLOATING_COORDINATES = 60
 #: Seconds of ``--code`` at the limits' reference sizes (planar 30, 3-D 20), for the estimate.
 _REFERENCE = {True: (30, 40.0), False: (20, 29.0)}
 
 
 def coordinate_limit(robot: Robot) -> int:
+    if robot.floating:
+        return MAX_FLOATING_COORDINATES
     return MAX_PLANAR_COORDINATES if robot.planar else MAX_SPATIAL_COORDINATES
 
 
 def estimated_seconds(robot: Robot) -> float:
     """Rough time of the symbolic work for ``--code`` on the reference machine (n^3)."""
+    if robot.floating:   # n^2, measured on talos_reduced
+        return 12.0 * (len(robot.coordinates) / 33) ** 2
     size, seconds = _REFERENCE[robot.planar]
     return seconds * (len(robot.coordinates) / size) ** 3
 
@@ -37,7 +45,7 @@ def check_size(robot: Robot, doc: SourceDocument) -> None:
     n, limit = len(robot.coordinates), coordinate_limit(robot)
     if n <= limit:
         return
-    kind = "planar" if robot.planar else "3-D"
+    kind = "floating-base" if robot.floating else "planar" if robot.planar else "3-D"
     minutes = estimated_seconds(robot) / 60
     raise InputError([doc.problem(
         ("joints",), f"joints: {n} coordinates exceed the limit of {limit} for a {kind} robot "

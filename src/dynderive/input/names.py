@@ -22,7 +22,7 @@ from ..model.naming import (
     maximal_coordinate_names,
     velocity_name,
 )
-from ..model.robot import Joint, Link, Parameter
+from ..model.robot import Joint, Link, Parameter, floating_names
 
 #: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
 #: of that name would shadow them in the generated module. The names ``site`` adds are listed
@@ -112,6 +112,10 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
             continue
         seen_joints.add(joint.name)
         label = v.label(("joints", i, "name"))
+        if joint.type == "floating":   # its configuration, velocity and acceleration entries
+            for name in (n for names in floating_names(joint.name) for n in names):
+                claim(name, f"{label} (coordinate '{name}')", ("joints", i, "name"))
+            continue
         if not claim(joint.name, label, ("joints", i, "name")):
             continue
         claim(velocity_name(joint.name), f"{label} (velocity '{velocity_name(joint.name)}')",

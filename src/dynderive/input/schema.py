@@ -20,6 +20,7 @@ from ..model.naming import maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
+from .floating import check_floating
 from .frames import read_frames
 from .loader import SourceDocument
 from .names import check_names, engine_quantities
@@ -27,7 +28,7 @@ from .validator import Validator as _Validator
 from .validator import kind as _kind
 from .validator import numeric as _numeric
 
-JOINT_TYPES = ("revolute", "prismatic", "fixed")
+JOINT_TYPES = ("revolute", "prismatic", "fixed", "floating")
 
 TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "loops", "independent",
             "frames", "maximal")
@@ -84,6 +85,7 @@ def validate(doc: SourceDocument) -> Robot:
     if joints and not any(j.moves for j in joints):
         v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, tree.names)
+    check_floating(v, top, joints, planar)
     links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops)
@@ -235,7 +237,7 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             joint_names[jname] = path + ("name",)
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
-            extra = {"continuous": " (write 'revolute')", "floating": "", "planar": ""}.get(str(jtype), "")
+            extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype), "")
             v.error(path + ("type",), f"{v.label(('joints', i, 'type'))}: unsupported joint type {jtype!r}; "
                     f"expected one of {', '.join(JOINT_TYPES)}{extra}")
             jtype = None
@@ -257,6 +259,10 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             effort = v.identifier(effort, path + ("effort",), "effort name")
             if effort is not None and jtype == "fixed":
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
+                effort = None
+            elif effort is not None and jtype == "floating":
+                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: efforts on a floating joint "
+                        "are not built yet (issue 30): it is unactuated")
                 effort = None
         drives = drive_terms(v, item, path, jtype, symbols, lambda e: _numeric(e, defaults))
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
@@ -439,8 +445,8 @@ def _axis(v: _Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str
         v.error(apath, f"{v.label(apath)}: a planar {jtype} joint takes no axis "
                 "(planar revolute joints turn about z)")
         return default
-    if jtype == "fixed":
-        v.error(apath, f"{v.label(apath)}: a fixed joint takes no axis")
+    if jtype in ("fixed", "floating"):
+        v.error(apath, f"{v.label(apath)}: a {jtype} joint takes no axis")
         return default
     entries = v.vector(item["axis"], apath, (2,) if planar else (3,), symbols)
     if entries is None:

@@ -34,6 +34,7 @@ from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from .loader import SourceDocument
 from .urdf_bodies import Body, check_bodies, finite, merge_bodies
+from .urdf_floating import float_root, note_fixed_base
 from .urdf_xml import _Element, _parse_xml, numbers_in
 
 Path_ = tuple[Any, ...]
@@ -183,12 +184,13 @@ def identifier(name: str) -> str:
     return cleaned if re.match(r"[A-Za-z_]", cleaned) else f"r_{cleaned}"
 
 
-def read_urdf(text: str, file: str) -> SourceDocument:
+def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocument:
     """URDF text -> the data of an equivalent robot file, with positions for every value.
 
     Steps: read the links' inertials and the joints, check the tree, place every link in the
     moving link it is welded to (fixed joints composed as rotation matrices), merge welded
-    bodies, and write the moving links and joints as robot-file data.
+    bodies, and write the moving links and joints as robot-file data. With ``floating_base``
+    a ``floating`` joint ``root_joint`` joins the world to the root link (``--floating-base``).
     """
     root = _parse_xml(text, file)
     reader = _Reader(file)
@@ -212,9 +214,16 @@ def read_urdf(text: str, file: str) -> SourceDocument:
                                  f"a URDF robot needs exactly one root link, found {len(roots)}"
                                  + (f" ({', '.join(roots)})" if roots else "")))
     base = roots[0]
+    if floating_base:
+        base = float_root(reader, joints, link_elements, base, root, IDENTITY)
+        if reader.problems:
+            raise InputError(reader.problems)
+        by_child[roots[0]] = joints[0]
 
     frames = _fixed_frames(reader, joints, link_elements, by_child, base)
     merged = merge_bodies(reader, bodies, link_elements, frames)
+    if not floating_base:
+        note_fixed_base(doc, joints, frames, base, link_elements[base])
     return _robot_document(root, reader, doc, joints, link_elements, frames, merged)
 
 
@@ -273,11 +282,11 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{name}': its coupling to "
                              f"joint '{leader}' (<mimic>) is not modelled yet: '{name}' is an independent "
                              "coordinate (as in Pinocchio's default, buildModelFromUrdf without mimic)")
-        if jtype in ("floating", "planar"):
-            reader.error(joint, f"joint '{name}': {jtype} joints are not supported (only revolute, "
-                         "continuous, prismatic and fixed)")
+        if jtype == "planar":
+            reader.error(joint, f"joint '{name}': planar joints are not supported (only revolute, "
+                         "continuous, prismatic, fixed and floating)")
             continue
-        if jtype not in ("revolute", "continuous", "prismatic", "fixed"):
+        if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating"):
             reader.error(joint, f"joint '{name}': unknown joint type '{jtype}'")
             continue
         if not parent or not child:
@@ -401,6 +410,8 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
             "axis": [_number(v) for v in joint["axis"]],
             "effort": ("tau_" if joint["type"] == "revolute" else "f_") + jname,
         }
+        if joint["type"] == "floating":   # unactuated, no axis (its origin places its frame)
+            del entry["axis"], entry["effort"]
         for key in ("damping", "friction"):   # validated as joint keys: finite, not negative
             if joint[key] != 0:
                 entry[key] = _number(joint[key])
@@ -410,11 +421,12 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         positions[path] = (element.line, element.column)
         for key in entry:
             positions[path + (key,)] = (element.line, element.column)
-        positions[path + ("axis",)] = (joint["axis_element"].line, joint["axis_element"].column)
+        if "axis" in entry:
+            positions[path + ("axis",)] = (joint["axis_element"].line, joint["axis_element"].column)
         if joint["dynamics"] is not None:
             for key in ("damping", "friction"):
                 positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
-        for i in range(3):
+        for i in range(3 if "axis" in entry else 0):
             positions[path + ("axis", i)] = positions[path + ("axis",)]
     _welded_frames(data, positions, doc, link_elements, frames)
     if reader.problems:

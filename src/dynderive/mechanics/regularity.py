@@ -28,12 +28,19 @@ RELATIVE_TOLERANCE = 1e-10
 def numeric_mass_matrix(robot: Robot, table: SymbolTable, q: list[float],
                         parameters: dict[sympy.Symbol, float]) -> np.ndarray:
     """``M(q)`` at numbers, line by line through the CRBA program (no large expression)."""
-    program = mass_matrix_program(robot, table)
+    if robot.floating:   # NV x NV, by the free-flyer CRBA
+        from .floating import FloatingTree, mass_matrix
+
+        tree = FloatingTree(robot, table)
+        tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
+        program = tree.program
+    else:
+        program = mass_matrix_program(robot, table)
     values: dict[sympy.Basic, sympy.Basic] = {s: sympy.Float(v) for s, v in parameters.items()}
     values |= {s: sympy.Float(v) for s, v in zip(table.q, q)}
     for target, expr in program.lines:
         values[target] = sympy.Float(expr.xreplace(values).evalf(17))
-    n = len(table.q)
+    n = len(table.qd)
     flat = [float(sympy.sympify(e).xreplace(values).evalf(17)) for e in program.outputs]
     return np.array(flat, dtype=float).reshape(n, n)
 
@@ -46,6 +53,11 @@ def check_mass_matrix(robot: Robot, table: SymbolTable) -> None:
         return
     rng = random.Random(20261123)
     q = [rng.uniform(0.3, 1.2) * rng.choice((-1, 1)) for _ in table.q]
+    # a floating joint's entries (a unit quaternion) at its neutral pose; columns by joint
+    coordinates = labels = list(robot.coordinates)
+    if robot.floating:
+        q, coordinates = _floating_neutral(robot, table, q)
+        labels = [str(s) for s in table.qd]   # the velocities: a floating joint has six
     try:
         M = numeric_mass_matrix(robot, table, q, defaults)
     except (TypeError, ValueError, ZeroDivisionError, OverflowError):
@@ -58,20 +70,37 @@ def check_mass_matrix(robot: Robot, table: SymbolTable) -> None:
         return
     null = vectors[:, 0] / np.max(np.abs(vectors[:, 0]))
     involved = [i for i in np.argsort(-np.abs(null)) if abs(null[i]) > 0.1]
-    names = [robot.coordinates[i] for i in involved]
-    first = names[0]
+    names = list(dict.fromkeys(labels[i] for i in involved))
+    first = coordinates[involved[0]]
     line, column = robot.positions.get(f"joint:{first}", (1, 1))
     index = next(i for i, j in enumerate(robot.joints) if j.name == first)
     if len(names) == 1:
-        what = (f"coordinate '{first}' moves no mass or inertia (a point mass on its own joint axis, "
+        what = (f"coordinate '{names[0]}' moves no mass or inertia (a point mass on its own joint axis, "
                 "or a link without inertia turning about its centre of mass?)")
     else:
-        combination = " + ".join(f"{_coefficient(null[i])}{robot.coordinates[i]}" for i in involved)
+        combination = " + ".join(f"{_coefficient(null[i])}{labels[i]}" for i in involved)
         what = (f"the motion {combination} of coordinates {', '.join(repr(n) for n in names)} moves no "
                 "mass or inertia (coaxial joints in a row?)")
     raise InputError(Problem(robot.source, line, column,
                              f"joints[{index}] '{first}': the mass matrix is singular at the default "
                              f"parameters: {what}"))
+
+
+def _floating_neutral(robot: Robot, table: SymbolTable, q: list[float]) -> tuple[list[float], list[str]]:
+    """``q`` with each floating joint's seven entries at (0, 0, 0, 0, 0, 0, 1), and the joint
+    of each velocity column (a floating joint owns six)."""
+    from .floating import offsets
+
+    where = offsets(robot)
+    columns: list[str] = []
+    for joint in (j for j in robot.joints if j.moves):
+        if joint.type == "floating":
+            start = where.q[joint.name]
+            q[start:start + 7] = [0.0] * 6 + [1.0]
+            columns += [joint.name] * 6
+        else:
+            columns.append(joint.name)
+    return q, columns
 
 
 def _coefficient(value: float) -> str:

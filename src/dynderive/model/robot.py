@@ -10,7 +10,21 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-JointType = Literal["revolute", "prismatic", "fixed"]
+JointType = Literal["revolute", "prismatic", "fixed", "floating"]
+
+#: A 3-D floating joint's configuration (position, unit quaternion) and velocity (local twist)
+#: entries, Pinocchio's order: coordinates ``<joint>_x ... <joint>_qw``, velocities
+#: ``<joint>_vx ... <joint>_wz`` (DESIGN.md section 10).
+FLOATING_CONFIGURATION = ("x", "y", "z", "qx", "qy", "qz", "qw")
+FLOATING_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
+#: ... and acceleration entries ``<joint>_dvx ... <joint>_dwz``.
+FLOATING_ACCELERATION = ("dvx", "dvy", "dvz", "dwx", "dwy", "dwz")
+
+
+def floating_names(joint: str) -> tuple[list[str], list[str], list[str]]:
+    """A floating joint's coordinate, velocity and acceleration names."""
+    return ([f"{joint}_{s}" for s in FLOATING_CONFIGURATION], [f"{joint}_{s}" for s in FLOATING_VELOCITY],
+            [f"{joint}_{s}" for s in FLOATING_ACCELERATION])
 Expression = str | int | float
 
 
@@ -142,6 +156,30 @@ class Robot:
     def coordinates(self) -> tuple[str, ...]:
         """Names of the generalized coordinates: the moving joints, in file order."""
         return tuple(j.name for j in self.joints if j.moves)
+
+    @property
+    def floating(self) -> bool:
+        """Whether the root link floats (a ``floating`` joint to the world)."""
+        return any(j.type == "floating" for j in self.joints)
+
+    @property
+    def configuration_names(self) -> tuple[str, ...]:
+        """The entries of ``q`` (NQ): a floating joint's seven, every other moving joint's name."""
+        return tuple(name for j in self.joints if j.moves
+                     for name in (floating_names(j.name)[0] if j.type == "floating" else [j.name]))
+
+    @property
+    def velocity_count(self) -> int:
+        """NV: the entries of ``qd``, ``qdd`` (a floating joint's six, one per other moving joint)."""
+        return sum(6 if j.type == "floating" else 1 for j in self.joints if j.moves)
+
+    def offsets(self) -> tuple[dict[str, int], dict[str, int]]:
+        """Where each moving joint's entries start in ``q`` and in ``qd``, by joint name."""
+        q, v, i, k = {}, {}, 0, 0
+        for joint in (j for j in self.joints if j.moves):
+            q[joint.name], v[joint.name] = i, k
+            i, k = (i + 7, k + 6) if joint.type == "floating" else (i + 1, k + 1)
+        return q, v
 
     @property
     def dissipative(self) -> bool:

@@ -17,7 +17,7 @@ from .naming import (
     maximal_coordinate_names,
     velocity_name,
 )
-from .robot import Robot
+from .robot import Robot, floating_names
 
 
 @dataclass
@@ -49,6 +49,16 @@ class SymbolTable:
             qdd=[sympy.Symbol(acceleration_name(n)) for n in coords],
             efforts={e: sympy.Symbol(e) for e in robot.efforts},
         )
+        if robot.floating:   # NQ coordinates, NV velocities and accelerations (DESIGN.md section 10)
+            table.q, table.qd, table.qdd = [], [], []
+            for joint in (j for j in robot.joints if j.moves):
+                if joint.type == "floating":
+                    q, v, a = floating_names(joint.name)
+                else:
+                    q, v, a = [joint.name], [velocity_name(joint.name)], [acceleration_name(joint.name)]
+                table.q += [sympy.Symbol(n) for n in q]
+                table.qd += [sympy.Symbol(n) for n in v]
+                table.qdd += [sympy.Symbol(n) for n in a]
         if robot.planar:
             names = maximal_coordinate_names(len(robot.links))
             table.qm = [sympy.Symbol(n) for n in names]

@@ -1,0 +1,74 @@
+"""``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
+(``render/floating_code.py``) and one note saying what is not built yet; every other output
+is refused (exit 2) before any work."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from ..errors import InputError
+from ..model.robot import Robot
+from .options import problem
+
+#: The message of an output or command not built yet for floating-base robots.
+NOT_BUILT = "not built yet for floating-base robots (issue 30)"
+
+
+def floating_note(robot: Robot) -> str:
+    """The note ``solve`` prints for a floating-base robot: what its module has and what not."""
+    from ..render.floating_code import NOT_BUILT as MISSING
+
+    return (f"note: {robot.name} has a floating base (NQ = {len(robot.configuration_names)} coordinates, NV = "
+            f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, gravity_vector, "
+            "inverse_dynamics, forward_dynamics, kinetic_energy, potential_energy, frame_transform, frame_jacobian, "
+            "neutral_configuration, integrate and difference (check runs its rows); not built yet "
+            f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
+            "--c, --c-extension, --matlab, --jax, and the commands simulate, linearize and identify")
+
+
+def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
+                   template_dir: Path | None, quiet: bool, echo: Callable[[str], None],
+                   progress: Callable[[str], None], tests: bool = False) -> None:
+    """Write ``<name>_dynamics.py`` (``--code``) and its checks (``--tests``); refuse every
+    other output flag, and a run without ``--code`` (printing the equations needs the symbolic
+    derivation)."""
+    from .. import derive
+    from ..render.floating_code import render_floating_code, render_floating_code_tests
+    from .output import write_all
+
+    if not quiet:
+        echo(floating_note(robot))
+    refused = [problem(f"--{flag.replace('_', '-')}", f"--{flag.replace('_', '-')}: {NOT_BUILT}")
+               for flag, wanted in flags.items() if wanted]
+    if refused:
+        raise InputError(refused)
+    if not code:
+        raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
+                                           "NumPy module"))
+    derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
+    progress("generating code (floating base)")
+    files = {out / f"{robot.name}_dynamics.py": render_floating_code(derivation, template_dir).encode()}
+    if tests:
+        files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
+    write_all(files)
+    if not quiet:
+        for path in files:
+            echo(f"wrote {path}")
+
+
+def refuse_floating(robot: Robot, argument: str, command: str) -> None:
+    """``simulate``, ``linearize``, ``identify`` of a floating-base robot: exit 2."""
+    if robot.floating:
+        raise InputError(problem(argument, f"dynderive {command}: {NOT_BUILT}; solve --code writes its NumPy module"))
+
+
+def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
+    """``build``'s outputs of a floating-base robot: its NumPy module; any other kind refused."""
+    from .. import derive
+    from ..render.floating_code import render_floating_code
+
+    refused = [kind for kind in kinds if kind not in ("code", "floating_base")]
+    if refused:
+        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module"))
+    return {f"{robot.name}_dynamics.py": render_floating_code(derive(robot), template_dir).encode()}

@@ -1,0 +1,53 @@
+"""Where a ``floating`` joint may stand (part of validation: ``schema.validate`` calls
+``check_floating``): only between the world and the root link of a 3-D tree (issue 30 builds
+the rest later: planar floating joints, floating joints elsewhere, loops on a floating base).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..model.robot import Joint
+
+#: Names the generated module of a floating-base robot defines or takes as arguments (besides
+#: those of every module, ``names.MODULE_NAMES``): robot symbols may not take them.
+FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "neutral_configuration", "integrate", "difference",
+                                   "v", "dt", "q_from", "q_to"})
+
+
+def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool) -> None:
+    """Every ``floating`` joint joins ``world`` to the one root link, in a 3-D robot without loops."""
+    floating = [(i, j) for i, j in enumerate(joints) if j.type == "floating"]
+    if not floating:
+        return
+    if planar:
+        for i, _ in floating:
+            v.error(("joints", i, "type"), f"{v.label(('joints', i, 'type'))}: planar floating joints are not "
+                    "built yet (issue 30)")
+        return
+    for i, joint in floating:
+        if joint.parent != "world":
+            v.error(("joints", i, "parent"), f"{v.label(('joints', i, 'parent'))}: a floating joint joins the world "
+                    f"to the robot's root link: its parent must be 'world', got '{joint.parent}' (floating joints "
+                    "elsewhere in the tree are not built yet, issue 30)")
+    roots = [(i, j) for i, j in enumerate(joints) if j.parent == "world"]
+    first = next(((i, j) for i, j in floating if j.parent == "world"), None)
+    if first is not None and len(roots) > 1:
+        index, joint = first
+        for i, other in roots:
+            if i != index:
+                v.error(("joints", i, "parent"), f"{v.label(('joints', i, 'parent'))}: the root link "
+                        f"'{joint.child}' floats (joint '{joint.name}'), so no other joint may hang from the "
+                        f"world; make '{other.child}' hang from a link of the robot")
+    if "loops" in top:
+        v.error(("loops",), "loops: closed loops on a floating-base robot are not built yet (issue 30)", key=True)
+    parameters = top.get("parameters")
+    for name in parameters if isinstance(parameters, dict) else ():
+        if name in FLOATING_MODULE_NAMES:
+            v.error(("parameters", name), f"parameters.{name}: name '{name}' is reserved by the generated module "
+                    "of a floating-base robot", key=True)
+    for i, joint in enumerate(joints):
+        if (joint.moves and joint.type != "floating" and joint.name in FLOATING_MODULE_NAMES) or (joint.effort or "") in FLOATING_MODULE_NAMES:
+            what, key = ("name", joint.name) if joint.name in FLOATING_MODULE_NAMES else ("effort", joint.effort)
+            v.error(("joints", i, what), f"{v.label(('joints', i, what))}: name '{key}' is reserved by the "
+                    "generated module of a floating-base robot")

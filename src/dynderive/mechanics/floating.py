@@ -1,0 +1,359 @@
+"""Straight-line programs of a floating-base robot (issue 30, DESIGN.md section 10): the
+composite-rigid-body algorithm (M), recursive Newton-Euler (inverse dynamics, gravity) and an
+L^T D L solve (forward dynamics), as in ``recursive.py`` but with a free-flyer root.
+
+The ``floating`` joint's configuration is ``[x, y, z, qx, qy, qz, qw]`` (Pinocchio's): the
+joint frame's position in its parent (after the joint's ``origin``) and a unit quaternion, whose
+rotation matrix is a polynomial in ``qx..qw`` (Eigen's ``Quaternion::toRotationMatrix``: no
+trigonometry, no normalization). Its velocity ``[vx, vy, vz, wx, wy, wz]`` is the link frame's
+linear and angular velocity in the link frame (local), so its motion subspace is the 6 x 6
+identity and its joint acceleration the spatial acceleration ``qdd`` itself. Every other joint
+is revolute, prismatic or fixed as in ``recursive.py``; a joint's coordinate is an index into
+``q`` (NQ entries), its column an index into ``qd`` (NV entries).
+
+Not built here (the notes of ``commands/floating.py`` say so): the Coriolis matrix, the
+regressor, frames and wrenches, damping and friction, linearization.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy
+
+from ..errors import InputError, Problem
+from ..model.robot import Joint, Robot
+from ..model.symbols import SymbolTable
+from .joints import unit
+from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back
+from .recursive import _gravity, body_force
+from .spatial import axis_angle, inertia_tensor, rpy_matrix
+
+_ZERO = sympy.Integer(0)
+
+
+def not_built(robot: Robot, what: str) -> InputError:
+    """The error for a part of the derivation not built yet for floating-base robots (exit
+    2), at the floating joint."""
+    joint = next(j for j in robot.joints if j.type == "floating")
+    line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
+    return InputError(Problem(robot.source, line, column, f"{what}: not built yet for floating-base robots "
+                              f"(issue 30; joint '{joint.name}' is floating)"))
+
+
+def quaternion_matrix(qx: sympy.Expr, qy: sympy.Expr, qz: sympy.Expr, qw: sympy.Expr) -> sympy.Matrix:
+    """The rotation matrix of the quaternion ``qw + qx i + qy j + qz k`` (unit; as Eigen's)."""
+    return sympy.Matrix([
+        [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+        [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+        [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)],
+    ])
+
+
+@dataclass
+class _Body:
+    """One link: its parent joint's transform, and the joint's motion columns ``(index of qd,
+    angular part, linear part)`` in the link frame (none for a fixed joint)."""
+
+    link: str
+    parent: str
+    columns: list[tuple[int, Vector, Vector]]
+    rotation: Matrix3            # link axes in the parent frame, with the joint's motion
+    position: Vector             # link origin in the parent frame
+    mass: sympy.Expr
+    first_moment: Vector         # h = m c, link frame
+    inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
+
+
+@dataclass(frozen=True)
+class Offsets:
+    """Where each moving joint's entries start in ``q`` and in ``qd`` (by joint name)."""
+
+    q: dict[str, int]
+    v: dict[str, int]
+
+
+def offsets(robot: Robot) -> Offsets:
+    return Offsets(*robot.offsets())
+
+
+class FloatingTree:
+    """The links of a floating-base robot, parents first, with their transforms."""
+
+    def __init__(self, robot: Robot, table: SymbolTable):
+        self.robot, self.table, self.program = robot, table, Program()
+        self.offsets = offsets(robot)
+        self.trig: list[tuple[sympy.Symbol, sympy.Expr]] = []
+        depth = {link.name: len(robot.path_to(link.name)) for link in robot.links}
+        order = sorted(robot.links, key=lambda link: depth[link.name])
+        self.bodies = [self._body(link, robot.parent_joint(link.name)) for link in order]
+        self.program.lines[0:0] = self.trig   # sines and cosines first
+        #: armature (joins M[j, j]) and springs ``k (q - rest)`` (join the joint force) by column
+        self.drives = {self.offsets.v[j.name]: (self._value(j.armature), self._value(j.stiffness),
+                                                self._value(j.rest), self.table.q[self.offsets.q[j.name]])
+                       for j in robot.joints if j.moves and j.type != "floating" and j.driven}
+
+    def _value(self, text: object) -> sympy.Expr:
+        return _ZERO if text is None else self.table.expr(text)
+
+    def _body(self, link, joint: Joint) -> _Body:
+        expr, let = self.table.expr, self.program.let
+        x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
+        origin = rpy_matrix(roll, pitch, yaw)
+        position = sympy.Matrix([x, y, z])
+        motion = sympy.eye(3)
+        columns: list[tuple[int, Vector, Vector]] = []
+        zero: Vector = (_ZERO, _ZERO, _ZERO)
+        if joint.type == "floating":
+            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+            q = self.table.q[qi:qi + 7]
+            position = position + origin * sympy.Matrix(q[:3])
+            motion = quaternion_matrix(*q[3:])
+            basis = [tuple(sympy.Integer(int(i == k)) for i in range(3)) for k in range(3)]
+            columns = [(vi + k, zero, basis[k]) for k in range(3)] + [(vi + 3 + k, basis[k], zero) for k in range(3)]
+        elif joint.moves:
+            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+            axis = unit(tuple(expr(e) for e in joint.axis))
+            q = self.table.q[qi]
+            if joint.type == "revolute":
+                cos, sin = sympy.Symbol(f"_cos{vi}"), sympy.Symbol(f"_sin{vi}")
+                self.trig += [(cos, sympy.cos(q)), (sin, sympy.sin(q))]
+                motion = axis_angle(axis, q).subs({sympy.cos(q): cos, sympy.sin(q): sin})
+                columns = [(vi, axis, zero)]   # type: ignore[list-item]
+            else:
+                position = position + origin * sympy.Matrix(axis) * q
+                columns = [(vi, zero, axis)]   # type: ignore[list-item]
+        rotation = origin * motion
+        R = tuple(tuple(let(rotation[i, j]) for j in range(3)) for i in range(3))
+        mass = let(expr(link.mass))
+        com = [expr(e) for e in link.com]
+        about_com = inertia_tensor(tuple(expr(e) for e in link.inertia))
+        square = sum(c * c for c in com)
+        inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]))
+                              for j in range(3)) for i in range(3))
+        return _Body(link.name, joint.parent, columns, R, self.program.vector(list(position)),  # type: ignore[arg-type]
+                     mass, self.program.vector([mass * c for c in com]), inertia)
+
+    def force_to_parent(self, body: _Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+        """A force (moment about the link origin, force) in the parent's frame."""
+        vec = self.program.vector
+        f_parent = vec(_rotate(body.rotation, f))
+        return vec(_add(_rotate(body.rotation, n), _cross(body.position, f_parent))), f_parent
+
+    def motion_from_parent(self, body: _Body, w: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+        """A motion vector of the parent's frame seen in this link's frame."""
+        vec = self.program.vector
+        return vec(_rotate_back(body.rotation, w)), vec(_rotate_back(body.rotation, _add(v, _cross(w, body.position))))
+
+
+def _times(vector: Sequence[sympy.Expr], scalar: sympy.Expr) -> tuple[sympy.Expr, ...]:
+    return tuple(x * scalar for x in vector)
+
+
+def mass_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
+    """CRBA: composite inertias from the leaves up, then ``M_ij = S_i . (X^* I^c_j S_j)``."""
+    let, vec = tree.program.let, tree.program.vector
+    n = tree.robot.velocity_count
+    composite = {b.link: (b.mass, b.first_moment, b.inertia) for b in tree.bodies}
+    by_link = {b.link: b for b in tree.bodies}
+    for body in reversed(tree.bodies):
+        if body.parent == "world":
+            continue
+        mass, h, inertia = composite[body.link]
+        R, p = body.rotation, body.position
+        h_r = vec(_rotate(R, h))
+        inertia_rt = [[let(_dot(inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
+        rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
+        ph, pp = _dot(p, h_r), _dot(p, p)
+        moved = [[rotated[a][b] + mass * ((pp if a == b else 0) - p[a] * p[b])
+                  + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
+        p_mass, p_h, p_inertia = composite[body.parent]
+        total = [[_ZERO] * 3 for _ in range(3)]
+        for a in range(3):
+            for b in range(a, 3):
+                total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b])
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, [mass * x for x in p]))),
+                                  tuple(tuple(row) for row in total))
+    M = [[_ZERO] * n for _ in range(n)]
+    for body in tree.bodies:
+        mass, h, inertia = composite[body.link]
+        for j, sw, sv in body.columns:
+            # the composite body's momentum per unit rate of column j: (I sw + h x sv, m sv + sw x h)
+            nm = vec(_add(_rotate(inertia, sw), _cross(h, sv)))   # type: ignore[arg-type]
+            f = vec(_add(_times(sv, mass), _cross(sw, h)))
+            for i, tw, tv in body.columns:
+                if i <= j:
+                    M[i][j] = M[j][i] = let(_dot(tw, nm) + _dot(tv, f) + (tree.drives[j][0] if i == j and j in tree.drives
+                                                                          else 0))
+            current = body
+            while current.parent != "world":
+                nm, f = tree.force_to_parent(current, nm, f)
+                current = by_link[current.parent]
+                for i, tw, tv in current.columns:
+                    M[i][j] = M[j][i] = let(_dot(tw, nm) + _dot(tv, f))
+    return M
+
+
+def newton_euler(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr]) -> list[sympy.Expr]:
+    """RNEA: ``M qdd + C qd + N`` (gravity as an upward acceleration of the world)."""
+    vec = tree.program.vector
+    zero = (_ZERO,) * 3
+    motion = {"world": (zero, zero, zero, vec([-g for g in _gravity(tree.robot, tree.table)]))}
+    forces = {}
+    for body in tree.bodies:
+        w, v, alpha, acc = motion[body.parent]
+        w, v = tree.motion_from_parent(body, w, v)
+        alpha, acc = tree.motion_from_parent(body, alpha, acc)
+        if body.columns:   # joint velocity S qd = (wj, vj); a = X a_p + S qdd + (X v_p) x S qd
+            wj = [sum((sw[k] * qd[j] for j, sw, _ in body.columns), _ZERO) for k in range(3)]
+            vj = [sum((sv[k] * qd[j] for j, _, sv in body.columns), _ZERO) for k in range(3)]
+            aw = [sum((sw[k] * qdd[j] for j, sw, _ in body.columns), _ZERO) for k in range(3)]
+            av = [sum((sv[k] * qdd[j] for j, _, sv in body.columns), _ZERO) for k in range(3)]
+            alpha = vec(_add(alpha, _add(aw, _cross(w, wj))))
+            acc = vec(_add(acc, _add(av, _add(_cross(w, vj), _cross(v, wj)))))
+            w, v = vec(_add(w, wj)), vec(_add(v, vj))
+        motion[body.link] = (w, v, alpha, acc)
+        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, w, v, alpha, acc)
+    tau: list[sympy.Expr] = [_ZERO] * tree.robot.velocity_count
+    for body in reversed(tree.bodies):
+        n, f = forces[body.link]
+        for j, sw, sv in body.columns:
+            armature, stiffness, rest, q = tree.drives.get(j, (0, 0, 0, 0))
+            tau[j] = tree.program.let(_dot(sw, n) + _dot(sv, f) + armature * qdd[j] + stiffness * (q - rest))
+        if body.parent != "world":
+            n_p, f_p = tree.force_to_parent(body, n, f)
+            parent_n, parent_f = forces[body.parent]
+            forces[body.parent] = (vec(_add(parent_n, n_p)), vec(_add(parent_f, f_p)))
+    return tau
+
+
+def potential(tree: FloatingTree) -> sympy.Expr:
+    """``V(q)``: gravity's potential ``-sum (m_i g.p_i + g.R_i h_i)`` with gravity carried into
+    each link frame and ``g.p`` accumulated along the tree, plus the springs ``k (q - rest)**2 / 2``."""
+    let, vec = tree.program.let, tree.program.vector
+    frames: dict[str, tuple[Vector, sympy.Expr]] = {"world": (vec(_gravity(tree.robot, tree.table)), _ZERO)}
+    total = _ZERO
+    for body in tree.bodies:
+        g_parent, s_parent = frames[body.parent]
+        g, s = vec(_rotate_back(body.rotation, g_parent)), let(s_parent + _dot(g_parent, body.position))
+        frames[body.link] = (g, s)
+        total += body.mass * s + _dot(g, body.first_moment)
+    springs = [stiffness * (q - rest) ** 2 / 2 for _, stiffness, rest, q in tree.drives.values()]
+    return let(-total + sum(springs, _ZERO))
+
+
+def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
+    """``Y``: each actuated joint's effort symbol at its column, zero elsewhere (the floating
+    joint is unactuated: no external wrench on the base)."""
+    columns = offsets(robot).v
+    Y: list[sympy.Expr] = [_ZERO] * robot.velocity_count
+    for joint in robot.joints:
+        if joint.moves and joint.effort:
+            Y[columns[joint.name]] = table.efforts[joint.effort]
+    return Y
+
+
+def ltdl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> list[sympy.Expr]:   # noqa: ANN001
+    """``x`` solving ``M x = rhs`` by ``M = L^T D L`` (Featherstone's LTDL, 2008, sec. 6.3):
+    eliminating from the last column to the first, a tree's M (nonzero only between a joint and
+    its ancestors, parents before children) fills in nothing, where L D L^T from the first
+    column (the floating base, coupled to every joint) would fill in all of it. M is positive
+    definite: no pivoting. Structural zeros stay zeros."""
+    n = len(rhs)
+    H = [list(row) for row in M]
+    for k in reversed(range(n)):
+        inverse = let(1 / H[k][k])
+        H[k][k] = inverse
+        below = [i for i in reversed(range(k)) if H[k][i] != 0]
+        for i in below:   # from the nearest ancestor up: H[k][j], j <= i, not yet replaced by L
+            a = let(H[k][i] * inverse)
+            for j in below:
+                if j <= i:
+                    H[i][j] = let(H[i][j] - a * H[k][j])
+                    H[j][i] = H[i][j]
+            H[k][i] = a
+    y = list(rhs)   # L^T y = rhs: from the last entry
+    for k in reversed(range(n)):
+        y[k] = let(y[k])
+        for i in range(k):
+            if H[k][i] != 0:
+                y[i] = y[i] - H[k][i] * y[k]
+    x: list[sympy.Expr] = [_ZERO] * n   # D^-1 y, then L x = D^-1 y from the first entry
+    for k in range(n):
+        x[k] = let(y[k] * H[k][k] - sum((H[k][j] * x[j] for j in range(k) if H[k][j] != 0), _ZERO))
+    return x
+
+
+def _matmul(let, A: Sequence[Sequence[sympy.Expr]], B: Sequence[Sequence[sympy.Expr]]) -> Matrix3:  # noqa: ANN001
+    return tuple(tuple(let(sum((A[i][k] * B[k][j] for k in range(3)), _ZERO)) for j in range(3))  # type: ignore[return-value]
+                 for i in range(3))
+
+
+def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program, Program]]:
+    """Each frame's pose (homogeneous, row by row) and world-aligned Jacobian (rows ``(v, w)``:
+    the velocity of the frame's origin and the angular velocity in world axes, per velocity
+    column, Pinocchio's LOCAL_WORLD_ALIGNED), by frame name; one program shared by all."""
+    if not robot.frames:
+        return {}
+    tree = FloatingTree(robot, table)
+    let, vec, expr = tree.program.let, tree.program.vector, table.expr
+    by_link = {b.link: b for b in tree.bodies}
+    one = sympy.Integer(1)
+    poses: dict[str, tuple[Matrix3, Vector]] = {
+        "world": (((one, _ZERO, _ZERO), (_ZERO, one, _ZERO), (_ZERO, _ZERO, one)), (_ZERO, _ZERO, _ZERO))}
+    for body in tree.bodies:   # parents first
+        R, p = poses[body.parent]
+        poses[body.link] = (_matmul(let, R, body.rotation), vec(_add(p, _rotate(R, body.position))))
+    n = robot.velocity_count
+    built: dict[str, tuple[list[sympy.Expr], list[sympy.Expr]]] = {}
+    for frame in robot.frames:
+        x, y, z, roll, pitch, yaw = (expr(e) for e in frame.origin)
+        R_link, p_link = poses[frame.link]
+        offset = rpy_matrix(roll, pitch, yaw)
+        rotation = _matmul(let, R_link, tuple(tuple(offset[i, j] for j in range(3)) for i in range(3)))
+        position = vec(_add(p_link, _rotate(R_link, (x, y, z))))
+        rows: list[list[sympy.Expr]] = [[_ZERO] * n for _ in range(6)]
+        link = frame.link
+        while link != "world":
+            body = by_link[link]
+            R, p = poses[link]
+            lever = vec([a - b for a, b in zip(position, p)])
+            for j, sw, sv in body.columns:
+                w = vec(_rotate(R, sw))
+                v = vec(_add(_rotate(R, sv), _cross(w, lever)))
+                for r, value in enumerate((*v, *w)):
+                    rows[r][j] = value
+            link = body.parent
+        transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2],
+                     _ZERO, _ZERO, _ZERO, one]
+        built[frame.name] = (transform, [e for row in rows for e in row])
+    return {name: (Program(lines=list(tree.program.lines), outputs=list(pose)),
+                   Program(lines=list(tree.program.lines), outputs=list(jacobian)))
+            for name, (pose, jacobian) in built.items()}
+
+
+def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
+    """The programs of a floating-base robot's module, by name: ``mass_matrix`` (row by row),
+    ``gravity``, ``potential``, ``inverse_dynamics`` and ``forward_dynamics``."""
+    programs = {}
+    zeros = [_ZERO] * robot.velocity_count
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
+    programs["mass_matrix"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = newton_euler(tree, zeros, zeros)
+    programs["gravity"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [potential(tree)]
+    programs["potential"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = newton_euler(tree, table.qd, table.qdd)
+    programs["inverse_dynamics"] = tree.program
+    tree = FloatingTree(robot, table)
+    M = mass_matrix(tree)
+    bias = newton_euler(tree, table.qd, zeros)
+    rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
+    tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
+    programs["forward_dynamics"] = tree.program
+    return programs

@@ -1,0 +1,104 @@
+"""The NumPy module of a floating-base robot (issue 30): ``mass_matrix``, ``gravity_vector``,
+``inverse_dynamics``, ``forward_dynamics`` from the programs of ``mechanics/floating.py``, and
+``NQ``, ``NV``, ``neutral_configuration``, ``integrate``, ``difference`` (Pinocchio's
+conventions). What the module of a fixed-base robot has beyond these is not built yet for
+floating-base robots and is left out (``NOT_BUILT``), never stubbed."""
+
+from __future__ import annotations
+
+import ast
+import textwrap
+from pathlib import Path
+from typing import Any
+
+from ..derivation import Derivation
+from .code import Argument, CodeGenerationError, program_function, verify_module
+from .encode import Code, python_literal
+from .environment import render, template_fault
+
+TEMPLATE = "floating_dynamics.py.j2"
+TEST_TEMPLATE = "floating_dynamics_test.py.j2"
+
+#: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
+NOT_BUILT = ("coriolis_matrix", "linearize", "regressor",
+             "parameter_vector", "friction_forces (damping and Coulomb friction are left out)",
+             "frame_jacobian_dot_qd", "wrenches")
+
+
+def floating_context(derivation: Derivation) -> dict[str, Any]:
+    """Every variable the floating-base module template uses."""
+    from .._version import __version__
+
+    robot, table = derivation.robot, derivation.symbols
+    nq, nv = len(table.q), len(table.qd)
+    q = Argument("q", table.q, f"coordinates, shape (..., {nq})")
+    qd = Argument("qd", table.qd, f"velocities, shape (..., {nv})")
+    qdd = Argument("qdd", table.qdd, f"accelerations, shape (..., {nv})")
+    u = Argument("u", list(table.efforts.values()), f"efforts, shape (..., {len(table.efforts)})")
+    programs = derivation.programs   # the free-flyer programs (mechanics/floating.py)
+    specs = {
+        "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
+        "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
+        "potential": ("_potential_body", "V(q): gravity along the tree, and the springs.", [q]),
+        "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
+        "forward_dynamics": ("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an L^T D L solve of "
+                             "M qdd = Y - C qd - N.", [q, qd, u]),
+    }
+    bodies = [program_function(*specs[key], program) for key, program in programs.items()]
+    for index, (name, pose, jacobian) in enumerate(derivation.frame_programs):
+        bodies += [program_function(f"_frame{index}_transform_body", f"Pose of frame {name!r} (homogeneous, row by row).",
+                                    [q], pose),
+                   program_function(f"_frame{index}_jacobian_body", f"World-aligned Jacobian of frame {name!r}, "
+                                    "row by row.", [q], jacobian)]
+    where_q, where_v = robot.offsets()
+    floating = [j.name for j in robot.joints if j.type == "floating"]
+    scalar = [j.name for j in robot.joints if j.moves and j.type != "floating"]
+    parameters = [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
+                   "unit": p.unit, "description": p.description} for p in robot.parameters]
+    return {
+        "generator": f"dynderive {__version__}",
+        "source": Path(robot.source).name,
+        "robot": {"name": robot.name, "title": robot.title},
+        "parameters": parameters,
+        "coordinates_tuple": python_literal(tuple(str(s) for s in table.q)),
+        "velocities_tuple": python_literal(tuple(str(s) for s in table.qd)),
+        "efforts": list(robot.efforts),
+        "efforts_tuple": python_literal(tuple(robot.efforts)),
+        "nq": nq,
+        "nv": nv,
+        "floating_offsets": python_literal(tuple((where_q[n], where_v[n]) for n in floating)),
+        "scalar_q": Code(repr([where_q[n] for n in scalar])),
+        "scalar_v": Code(repr([where_v[n] for n in scalar])),
+        "effort_columns": python_literal(tuple(where_v[j.name] for j in robot.joints if j.moves and j.effort)),
+        "programs": bodies,
+        "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
+        "frames_tuple": python_literal(tuple(f.name for f in robot.frames)),
+        "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
+                                   width=96, break_on_hyphens=False),
+    }
+
+
+def render_floating_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    """The pytest file of property checks of a floating-base robot's module (``--tests``)."""
+    from .._version import __version__
+
+    context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
+               "source": Path(derivation.robot.source).name}
+    text = render("code", TEST_TEMPLATE, context, template_dir)
+    try:
+        ast.parse(text)
+    except (SyntaxError, ValueError) as exc:
+        error = CodeGenerationError(f"the generated test module does not parse: {getattr(exc, 'msg', exc)}",
+                                    exc.lineno if isinstance(exc, SyntaxError) else None)
+        raise template_fault(error, error.line, text, TEST_TEMPLATE, template_dir) or error from None
+    return text
+
+
+def render_floating_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    """The module's text, checked as ``render_code`` checks a fixed-base robot's."""
+    text = render("code", TEMPLATE, floating_context(derivation), template_dir)
+    try:
+        verify_module(text, derivation.robot.title if template_dir is None else None)
+    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
+        raise template_fault(exc, exc.line, text, TEMPLATE, template_dir) or exc from None
+    return text

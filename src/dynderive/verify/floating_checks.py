@@ -1,0 +1,205 @@
+"""``dynderive check`` of a floating-base robot (issue 30): the generated module's functions
+against each other, against the power balance along ``integrate`` (which ties the velocity
+convention of the dynamics to the configuration's), and against Pinocchio with a
+``JointModelFreeFlyer`` root when ``pin`` is installed. Random states: random unit
+quaternions, positions and joint coordinates, velocities and efforts."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sympy
+
+from ..derivation import Derivation
+from ..model.symbols import SymbolTable
+from .checks import Row, _row, generated_module
+
+POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . inverse_dynamics(q, qd, qdd)"
+
+
+def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> np.ndarray:
+    """``states`` configurations: floating joints at random positions with random unit
+    quaternions, every other coordinate uniform in [-1.5, 1.5]."""
+    where_q, _ = robot.offsets()
+    qs = rng.uniform(-1.5, 1.5, (states, len(robot.configuration_names)))
+    for joint in (j for j in robot.joints if j.type == "floating"):
+        start = where_q[joint.name]
+        quaternion = rng.normal(size=(states, 4))
+        qs[:, start + 3:start + 7] = quaternion / np.linalg.norm(quaternion, axis=1, keepdims=True)
+    return qs
+
+
+def _applied(robot: Any, u: np.ndarray) -> np.ndarray:
+    """The efforts ``u`` at their joints' velocity columns (the floating joint unactuated)."""
+    _, where_v = robot.offsets()
+    Y = np.zeros(robot.velocity_count)
+    Y[[where_v[j.name] for j in robot.joints if j.moves and j.effort]] = u
+    return Y
+
+
+def run_floating_checks(derivation: Derivation, source: str, states: int = 12, seed: int = 0) -> list[Row]:
+    robot = derivation.robot
+    module = generated_module(source, robot.name)
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
+    rng = np.random.default_rng(seed)
+    nv = robot.velocity_count
+    qs = random_configurations(robot, rng, states)
+    vs = rng.uniform(-1.0, 1.0, (states, nv))
+    us = rng.uniform(-1.0, 1.0, (states, len(robot.efforts)))
+    M = module.mass_matrix(qs, **values)
+    scale = max(1.0, float(np.max(np.abs(M))))
+    rows = [_row("M symmetric", (worst := float(np.max(np.abs(M - np.swapaxes(M, -1, -2))))) < 1e-12 * scale,
+                 "numeric", worst)]
+    eig = np.linalg.eigvalsh(M)
+    rows.append(_row(f"M positive definite ({states} random states)", bool(np.all(eig[..., 0] > 0)),
+                     "numeric, smallest eigenvalue", float(np.min(eig[..., 0]))))
+    zero = np.zeros_like(vs)
+    bias = module.inverse_dynamics(qs, vs, zero, **values)
+    qdds = module.forward_dynamics(qs, vs, us, **values)
+    Y = np.array([_applied(robot, u) for u in us])
+    forces = np.einsum("...ij,...j->...i", M, qdds) + bias
+    worst = float(np.max(np.abs(module.inverse_dynamics(qs, vs, qdds, **values) - forces)))
+    worst = max(worst, float(np.max(np.abs(forces - Y))))
+    rows.append(_row("inverse_dynamics = M qdd + inverse_dynamics(q, qd, 0), and = Y at forward_dynamics' qdd",
+                     worst < 1e-9 * max(scale, float(np.max(np.abs(forces)))), "numeric", worst))
+    gravity = float(np.max(np.abs(module.gravity_vector(qs, **values) - module.inverse_dynamics(qs, zero, zero,
+                                                                                                 **values))))
+    rows.append(_row("gravity_vector = inverse_dynamics(q, 0, 0)", gravity < 1e-12 * max(1.0, float(np.max(
+        np.abs(bias)))), "numeric", gravity))
+    rows.append(_power_balance(module, values, qs, vs, rng))
+    rows += _manifold(module, robot, qs, vs)
+    if module.FRAMES:
+        rows.append(_frames(module, values, qs[:4], vs[:4]))
+    rows.append(_pinocchio(derivation, module, values, qs[:5], vs[:5], us[:5]))
+    return rows
+
+
+def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
+                   rng: np.random.Generator) -> Row:
+    """Along ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``: ``d(T + V)/dt = v . tau`` with
+    ``tau`` the inverse dynamics at ``a``, by central differences: ties the module's velocity
+    convention (integrate) to its dynamics, and gravity_vector to potential_energy."""
+    h, worst, scale = 1e-5, 0.0, 1.0
+    for q, v in zip(qs, vs):
+        a = rng.uniform(-1.0, 1.0, v.shape)
+
+        def energy(t: float, q: np.ndarray = q, v: np.ndarray = v, a: np.ndarray = a) -> float:
+            moved = module.integrate(q, v, t)
+            return float(module.kinetic_energy(moved, v + t * a, **values) + module.potential_energy(moved, **values))
+
+        rate = (energy(h) - energy(-h)) / (2 * h)
+        power = float(v @ module.inverse_dynamics(q, v, a, **values))
+        worst, scale = max(worst, abs(rate - power)), max(scale, abs(power))
+    return _row(POWER_BALANCE, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
+
+
+def _frames(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray) -> Row:
+    """Each frame's Jacobian times qd against the central difference of its position and
+    rotation along ``integrate`` (the angular part from ``dR/dt R^T``)."""
+    h, worst, scale = 1e-6, 0.0, 1.0
+    for q, v in zip(qs, vs):
+        for frame in module.FRAMES:
+            ahead, behind = (module.frame_transform(module.integrate(q, v, s * h), frame, **values) for s in (1, -1))
+            twist = module.frame_jacobian(q, frame, **values) @ v
+            spin = (ahead[:3, :3] - behind[:3, :3]) / (2 * h) @ module.frame_transform(q, frame, **values)[:3, :3].T
+            numeric = np.concatenate([(ahead[:3, 3] - behind[:3, 3]) / (2 * h), [spin[2, 1], spin[0, 2], spin[1, 0]]])
+            worst, scale = max(worst, float(np.max(np.abs(twist - numeric)))), max(scale, float(np.max(np.abs(twist))))
+    return _row(f"frames ({len(module.FRAMES)}): frame_jacobian qd = d(pose)/dt along integrate", worst < 1e-5 * scale,
+                f"numeric (h = {h:g})", worst)
+
+
+def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[Row]:
+    """``integrate`` keeps quaternions unit; ``difference`` inverts it."""
+    where_q, _ = robot.offsets()
+    moved = module.integrate(qs, vs, 0.7)
+    norms = [np.linalg.norm(moved[:, where_q[j.name] + 3:where_q[j.name] + 7], axis=1)
+             for j in robot.joints if j.type == "floating"]
+    unit = float(np.max(np.abs(np.array(norms) - 1.0)))
+    back = float(np.max(np.abs(module.difference(qs, moved) - 0.7 * vs)))
+    return [_row("integrate keeps the quaternions unit", unit < 1e-12, "numeric", unit),
+            _row("difference(q, integrate(q, v, dt)) = v dt", back < 1e-9, "numeric", back)]
+
+
+def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any, np.ndarray, np.ndarray]:
+    """Pinocchio's model of a floating-base robot (depth first, a floating joint as a
+    ``JointModelFreeFlyer``), with where its q and v entries are in ours (``q_pin = q[qp]``)."""
+    import pinocchio as pin
+
+    table = SymbolTable.for_robot(robot)
+    numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}
+
+    def num(text: object) -> float:
+        return float(table.expr(text).xreplace(numbers).evalf(17))
+
+    model = pin.Model()
+    model.gravity.linear = np.array([num(e) for e in robot.gravity])
+    where_q, where_v = robot.offsets()
+    frame_of: dict[str, tuple[int, Any]] = {"world": (0, pin.SE3.Identity())}
+    qp: list[int] = []
+    vp: list[int] = []
+
+    def inertia(name: str) -> Any:
+        link = robot.link(name)
+        ixx, iyy, izz, ixy, ixz, iyz = (num(e) for e in link.inertia)
+        return pin.Inertia(num(link.mass), np.array([num(e) for e in link.com]),
+                           np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
+
+    def visit(parent: str) -> None:
+        for joint in (j for j in robot.joints if j.parent == parent):
+            parent_id, parent_frame = frame_of[parent]
+            x, y, z, roll, pitch, yaw = (num(e) for e in joint.origin)
+            place = parent_frame * pin.SE3(pin.rpy.rpyToMatrix(roll, pitch, yaw), np.array([x, y, z]))
+            if not joint.moves:
+                frame_of[joint.child] = (parent_id, place)
+                model.appendBodyToJoint(parent_id, inertia(joint.child), place)
+            else:
+                if joint.type == "floating":
+                    kind, nq, nv = pin.JointModelFreeFlyer(), 7, 6
+                else:
+                    axis = np.array([num(e) for e in joint.axis])
+                    axis = axis / np.linalg.norm(axis)
+                    kind = (pin.JointModelRevoluteUnaligned(axis) if joint.type == "revolute"
+                            else pin.JointModelPrismaticUnaligned(axis))
+                    nq = nv = 1
+                qp.extend(range(where_q[joint.name], where_q[joint.name] + nq))
+                vp.extend(range(where_v[joint.name], where_v[joint.name] + nv))
+                joint_id = model.addJoint(parent_id, kind, place, joint.name)
+                model.appendBodyToJoint(joint_id, inertia(joint.child), pin.SE3.Identity())
+                frame_of[joint.child] = (joint_id, pin.SE3.Identity())
+            visit(joint.child)
+
+    visit("world")
+    return model, np.array(qp, dtype=int), np.array(vp, dtype=int)
+
+
+def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
+               us: np.ndarray) -> Row:
+    name = "agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, " \
+        "difference)"
+    try:
+        import pinocchio as pin
+    except ImportError:
+        return Row(name, "skip", "pin is not installed", float("nan"))
+    robot = derivation.robot
+    if robot.dissipative or any(j.driven for j in robot.joints):
+        return Row(name, "skip", "drive terms (Pinocchio models none but armature)", float("nan"))
+    model, qp, vp = pinocchio_floating_model(robot, values)
+    data = model.createData()
+    worst, scale = 0.0, 1.0
+    for q, v, u, q1 in zip(qs, vs, us, qs[::-1]):
+        a = np.linspace(-1.0, 1.0, len(v))
+        M = pin.crba(model, data, q[qp])
+        M = np.triu(M) + np.triu(M, 1).T
+        acc = pin.aba(model, data, q[qp], v[vp], _applied(robot, u)[vp])
+        diffs = [module.mass_matrix(q, **values)[np.ix_(vp, vp)] - M,
+                 module.inverse_dynamics(q, v, a, **values)[vp] - pin.rnea(model, data, q[qp], v[vp], a[vp]),
+                 module.gravity_vector(q, **values)[vp] - pin.computeGeneralizedGravity(model, data, q[qp]),
+                 module.forward_dynamics(q, v, u, **values)[vp] - acc,
+                 module.integrate(q, v, 0.3)[qp] - pin.integrate(model, q[qp], 0.3 * v[vp]),
+                 module.difference(q, q1)[vp] - pin.difference(model, q[qp], q1[qp]),
+                 module.kinetic_energy(q, v, **values) - pin.computeKineticEnergy(model, data, q[qp], v[vp]),
+                 module.potential_energy(q, **values) - pin.computePotentialEnergy(model, data, q[qp])]
+        worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
+        scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
+    return _row(name, worst < 1e-9 * scale, "numeric", worst)

@@ -1,0 +1,470 @@
+"""Floating-base robots (issue 30, DESIGN.md section 10): the generated NumPy module of a
+robot whose root floats equals Pinocchio with a ``JointModelFreeFlyer`` root (crba, rnea,
+computeGeneralizedGravity, aba, integrate, difference, neutral) to 1e-9, at random unit
+quaternions and velocities: solo12 and a1 from example-robot-data (``--floating-base``), and
+random floating trees with full-precision numbers, generic axes and full inertia tensors.
+Then the input checks: where a floating joint may stand, and what is not built yet."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import importlib.util
+import json
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy
+import yaml
+from typer.testing import CliRunner
+
+import dynderive
+from dynderive.commands.cli import app
+from dynderive.errors import InputError
+from dynderive.input.urdf import identifier
+from dynderive.mechanics.floating import offsets
+from dynderive.model.symbols import SymbolTable
+from dynderive.render.floating_code import render_floating_code
+from dynderive.verify.floating_checks import POWER_BALANCE, run_floating_checks
+
+from random_robots3d import _random_inertia, random_spatial_tree
+
+pin = pytest.importorskip("pinocchio")
+runner = CliRunner()
+
+
+def _module(robot, tmp_path: Path):
+    path = tmp_path / f"{robot.name}_dynamics.py"
+    path.write_text(render_floating_code(dynderive.derive(robot)))
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _pinocchio(robot):
+    """Pinocchio's model of a floating-base ``Robot`` (depth first; a floating joint as a
+    ``JointModelFreeFlyer``), and where its q and v entries are in ours: ``q_pin = q[qp]``."""
+    table = SymbolTable.for_robot(robot)
+    numbers = {table.parameters[p.name]: sympy.Float(p.value) for p in robot.parameters if p.value is not None}
+
+    def num(text):
+        return float(table.expr(text).xreplace(numbers).evalf(17))
+
+    model = pin.Model()
+    model.gravity.linear = np.array([num(e) for e in robot.gravity])
+    where = offsets(robot)
+    frame_of = {"world": (0, pin.SE3.Identity())}
+    qp: list[int] = []
+    vp: list[int] = []
+
+    def inertia(name):
+        link = robot.link(name)
+        ixx, iyy, izz, ixy, ixz, iyz = (num(e) for e in link.inertia)
+        return pin.Inertia(num(link.mass), np.array([num(e) for e in link.com]),
+                           np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
+
+    def visit(parent):
+        for joint in (j for j in robot.joints if j.parent == parent):
+            parent_id, parent_frame = frame_of[parent]
+            x, y, z, roll, pitch, yaw = (num(e) for e in joint.origin)
+            place = parent_frame * pin.SE3(pin.rpy.rpyToMatrix(roll, pitch, yaw), np.array([x, y, z]))
+            if not joint.moves:
+                frame_of[joint.child] = (parent_id, place)
+                model.appendBodyToJoint(parent_id, inertia(joint.child), place)
+            else:
+                if joint.type == "floating":
+                    kind, nq, nv = pin.JointModelFreeFlyer(), 7, 6
+                else:
+                    axis = np.array([num(e) for e in joint.axis])
+                    axis = axis / np.linalg.norm(axis)
+                    kind = (pin.JointModelRevoluteUnaligned(axis) if joint.type == "revolute"
+                            else pin.JointModelPrismaticUnaligned(axis))
+                    nq = nv = 1
+                qp.extend(range(where.q[joint.name], where.q[joint.name] + nq))
+                vp.extend(range(where.v[joint.name], where.v[joint.name] + nv))
+                joint_id = model.addJoint(parent_id, kind, place, joint.name)
+                model.appendBodyToJoint(joint_id, inertia(joint.child), pin.SE3.Identity())
+                frame_of[joint.child] = (joint_id, pin.SE3.Identity())
+            visit(joint.child)
+
+    visit("world")
+    return model, np.array(qp), np.array(vp)
+
+
+def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
+    """Every function of the module against Pinocchio's, at random states (q from Pinocchio's
+    ``randomConfiguration``: random unit quaternions)."""
+    data = model.createData()
+    rng = np.random.default_rng(seed)
+    pin.seed(seed)
+    nq, nv = model.nq, model.nv
+    assert (module.NQ, module.NV) == (nq, nv)
+    np.testing.assert_array_equal(module.neutral_configuration()[qp], pin.neutral(model))
+    efforts = len(module.EFFORTS)
+    for k in range(states):
+        q_pin = pin.randomConfiguration(model, -np.ones(nq), np.ones(nq))
+        q1_pin = pin.randomConfiguration(model, -np.ones(nq), np.ones(nq))
+        v_pin, a_pin = rng.normal(size=nv), rng.normal(size=nv)
+        q, q1, v, a = np.empty(nq), np.empty(nq), np.empty(nv), np.empty(nv)
+        q[qp], q1[qp], v[vp], a[vp] = q_pin, q1_pin, v_pin, a_pin
+        u = rng.normal(size=efforts)
+        applied = np.zeros(nv)   # the efforts at their joints' columns; the base unactuated
+        applied[[offsets(robot).v[j.name] for j in robot.joints if j.effort]] = u
+        tau_pin = applied[vp]
+        M_pin = pin.crba(model, data, q_pin)
+        M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
+        scale = max(1.0, np.max(np.abs(M_pin)))
+        np.testing.assert_allclose(module.mass_matrix(q)[np.ix_(vp, vp)], M_pin, rtol=0, atol=1e-9 * scale)
+        tau = pin.rnea(model, data, q_pin, v_pin, a_pin)
+        np.testing.assert_allclose(module.inverse_dynamics(q, v, a)[vp], tau, rtol=0,
+                                   atol=1e-9 * max(1.0, np.max(np.abs(tau))))
+        g = pin.computeGeneralizedGravity(model, data, q_pin)
+        np.testing.assert_allclose(module.gravity_vector(q)[vp], g, rtol=0, atol=1e-9 * max(1.0, np.max(np.abs(g))))
+        assert module.kinetic_energy(q, v) == pytest.approx(pin.computeKineticEnergy(model, data, q_pin, v_pin),
+                                                            rel=1e-9, abs=1e-9)
+        assert module.potential_energy(q) == pytest.approx(pin.computePotentialEnergy(model, data, q_pin),
+                                                           rel=1e-9, abs=1e-9)
+        qdd = pin.aba(model, data, q_pin, v_pin, tau_pin)
+        np.testing.assert_allclose(module.forward_dynamics(q, v, u)[vp], qdd, rtol=0,
+                                   atol=1e-9 * max(1.0, np.max(np.abs(qdd))))
+        dt = [0.37, 1e-7, 2.5][k % 3]   # a small step: the series of exp near zero
+        np.testing.assert_allclose(module.integrate(q, v, dt)[qp], pin.integrate(model, q_pin, v_pin * dt),
+                                   rtol=0, atol=1e-9)
+        np.testing.assert_allclose(module.difference(q, q1)[vp], pin.difference(model, q_pin, q1_pin),
+                                   rtol=0, atol=1e-9)
+        near = pin.integrate(model, q_pin, v_pin * 1e-6)
+        q_near = np.empty(nq)
+        q_near[qp] = near
+        np.testing.assert_allclose(module.difference(q, q_near)[vp], pin.difference(model, q_pin, near),
+                                   rtol=0, atol=1e-12)
+    # a batch of states gives each state's result
+    Q = np.stack([q, q1])
+    np.testing.assert_allclose(module.mass_matrix(Q)[1], module.mass_matrix(q1), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(module.difference(Q, module.integrate(Q, v, 0.5)), np.stack([v, v]) * 0.5,
+                               rtol=0, atol=1e-9)
+
+
+def _example_robot(relative: str) -> Path:
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    paths = [Path(str(dist.locate_file(f))) for f in dist.files or () if str(f).endswith(relative)]
+    if not paths:
+        pytest.skip(f"{relative} is not in example-robot-data")
+    return paths[0]
+
+
+@pytest.mark.pinocchio
+@pytest.mark.parametrize("relative", ["solo_description/robots/solo12.urdf", "a1_description/urdf/a1.urdf"])
+def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
+    """``--floating-base``: Pinocchio's ``buildModelFromUrdf(path, JointModelFreeFlyer())``."""
+    path = _example_robot(relative)
+    robot = dynderive.load_robot(path, floating_base=True)
+    assert robot.joints[0].name == "root_joint" and robot.joints[0].type == "floating"
+    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    where = offsets(robot)
+    qp, vp = [], []
+    for name, joint in zip(model.names[1:], model.joints[1:]):
+        ours = identifier(name)
+        qp.extend(range(where.q[ours], where.q[ours] + joint.nq))
+        vp.extend(range(where.v[ours], where.v[ours] + joint.nv))
+    _compare(robot, _module(robot, tmp_path), model, np.array(qp), np.array(vp), seed=len(relative))
+
+
+def _floating_tree(seed: int) -> str:
+    """A random spatial tree (``random_robots3d``) hung from a floating base link of random
+    mass and full inertia, reached by a floating joint with a random origin."""
+    rng = random.Random(seed)
+    data = yaml.safe_load(random_spatial_tree(rng, rng.randint(2, 5)).yaml_text)
+    for joint in data["joints"]:
+        if joint["parent"] == "world":
+            joint["parent"] = "base"
+    inertia = _random_inertia(rng)
+    data["links"].insert(0, {"name": "base", "mass": rng.uniform(0.5, 3.0),
+                             "com": [rng.uniform(-0.3, 0.3) for _ in range(3)],
+                             "inertia": [inertia[0][0], inertia[1][1], inertia[2][2], inertia[0][1], inertia[0][2],
+                                         inertia[1][2]]})
+    origin = {"xyz": [rng.uniform(-1, 1) for _ in range(3)], "rpy": [rng.uniform(-3, 3) for _ in range(3)]}
+    data["joints"].insert(rng.randrange(len(data["joints"]) + 1),   # anywhere in the file: its offsets follow
+                          {"name": "free", "type": "floating", "parent": "world", "child": "base", "origin": origin})
+    data["name"] = "floating_tree"
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+@pytest.mark.pinocchio
+@pytest.mark.parametrize("seed", range(6))
+def test_random_floating_trees_equal_pinocchio(seed, tmp_path):
+    path = tmp_path / "floating_tree.yaml"
+    path.write_text(_floating_tree(seed))
+    robot = dynderive.load_robot(path)
+    model, qp, vp = _pinocchio(robot)
+    _compare(robot, _module(robot, tmp_path), model, qp, vp, seed)
+
+
+BOX = """name: box
+title: A free box with an arm
+planar: false
+parameters:
+  m: {value: 2.0, unit: kg}
+  g: 9.81
+gravity: [0, 0, -g]
+links:
+  - {name: base, mass: m, com: [0.01, 0.02, 0.1], inertia: [0.02, 0.03, 0.025, 0.001, 0.002, 0.003]}
+  - {name: arm, mass: m, com: [0.2, 0, 0], inertia: [0.001, 0.03, 0.03, 0, 0, 0]}
+joints:
+  - {name: root, type: floating, parent: world, child: base}
+  - {name: q2, type: revolute, parent: base, child: arm, origin: {xyz: [0, 0, 0.4]}, axis: [0, 1, 0], effort: tau2}
+"""
+
+
+def _solve(tmp_path: Path, text: str, *args: str):
+    path = tmp_path / "robot.yaml"
+    path.write_text(text)
+    return path, runner.invoke(app, ["solve", str(path), *args, "--out", str(tmp_path / "out")])
+
+
+def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
+    path, result = _solve(tmp_path, BOX, "--code")
+    assert result.exit_code == 0, result.output
+    assert "note: box has a floating base (NQ = 8 coordinates, NV = 7 velocities)" in result.stderr
+    assert "not built yet for floating-base robots (issue 30): coriolis_matrix" in result.stderr
+    text = (tmp_path / "out" / "box_dynamics.py").read_text()
+    assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
+    for absent in ("def coriolis_matrix", "def linearize", "def regressor", "def frame_jacobian_dot_qd", "def friction_forces"):
+        assert absent not in text   # left out, never stubbed
+    # the same bytes each run
+    _, again = _solve(tmp_path, BOX, "--code")
+    assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
+
+
+@pytest.mark.parametrize("flag", ["--latex", "--json", "--c", "--matlab", "--pdf", "--c-extension"])
+def test_other_outputs_are_refused(tmp_path, flag):
+    _, result = _solve(tmp_path, BOX, "--code", flag)
+    assert result.exit_code == 2
+    assert f"{flag}:1:1: {flag}: not built yet for floating-base robots (issue 30)" in result.stderr
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_printing_and_other_commands_are_refused(tmp_path):
+    path, result = _solve(tmp_path, BOX)
+    assert result.exit_code == 2
+    assert f"{path}:1:1: printing the equations is not built yet for floating-base robots" in result.stderr
+    for command in (["simulate"], ["linearize"], ["identify"]):
+        result = runner.invoke(app, [*command, str(path)])
+        assert result.exit_code == 2, (command, result.output)
+        assert f"dynderive {command[0]}: not built yet for floating-base robots (issue 30)" in result.stderr
+
+
+def test_the_library_never_takes_lagranges_path(tmp_path):
+    (tmp_path / "box.yaml").write_text(BOX)
+    derivation = dynderive.derive(dynderive.load_robot(tmp_path / "box.yaml"))
+    assert sorted(derivation.programs) == ["forward_dynamics", "gravity", "inverse_dynamics", "mass_matrix", "potential"]
+    with pytest.raises(InputError, match=r"box\.yaml:\d+:\d+: .*not built yet for floating-base robots"):
+        derivation["M_g"]
+
+
+def _bad(tmp_path: Path, text: str) -> list[str]:
+    path, result = _solve(tmp_path, text, "--code")
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "out").exists()
+    return [line.removeprefix(f"{path}:") for line in result.stderr.splitlines()]
+
+
+def test_a_floating_joint_only_joins_the_world_to_the_root(tmp_path):
+    inner = BOX.replace("{name: q2, type: revolute", "{name: q2, type: floating").replace(", axis: [0, 1, 0], effort: tau2",
+                                                                                        "")
+    assert _bad(tmp_path, inner) == ["13:40: joints[1].parent: a floating joint joins the world to the robot's root "
+                                     "link: its parent must be 'world', got 'base' (floating joints elsewhere in the "
+                                     "tree are not built yet, issue 30)"]
+    two_roots = BOX.replace("parent: base, child: arm", "parent: world, child: arm")
+    assert _bad(tmp_path, two_roots) == ["13:40: joints[1].parent: the root link 'base' floats (joint 'root'), so no "
+                                         "other joint may hang from the world; make 'arm' hang from a link of the robot"]
+
+
+def test_floating_joint_fields_that_are_not_built(tmp_path):
+    lines = _bad(tmp_path, BOX.replace("child: base}", "child: base, axis: [0, 0, 1], effort: f, damping: 0.1}"))
+    assert any("joints[0].axis: a floating joint takes no axis" in line for line in lines)
+    assert any("joints[0].effort: efforts on a floating joint are not built yet (issue 30)" in line for line in lines)
+    assert any("joints[0].damping: drive terms on a floating joint are not built yet (issue 30)" in line
+               for line in lines)
+    planar = ("name: p\nplanar: true\ngravity: [0, -9.81]\nlinks:\n  - {name: a, mass: 1, inertia: 0.1}\n"
+              "joints:\n  - {name: free, type: floating, parent: world, child: a}\n")
+    assert _bad(tmp_path, planar) == ["7:24: joints[0].type: planar floating joints are not built yet (issue 30)"]
+
+
+def test_floating_names_clash_with_the_modules_and_each_other(tmp_path):
+    lines = _bad(tmp_path, BOX.replace("  g: 9.81", "  g: 9.81\n  dt: 0.1\n  root_qw: 1"))
+    assert any("parameters.dt: name 'dt' is reserved by the generated module of a floating-base robot" in line
+               for line in lines)
+    assert any("name 'root_qw' clashes with parameters.root_qw" in line for line in lines)
+
+
+URDF = """<?xml version="1.0"?>
+<robot name="legs">
+  <link name="trunk"><inertial><mass value="2"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <link name="a"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <link name="b"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <joint name="ja" type="revolute"><parent link="trunk"/><child link="a"/><axis xyz="0 1 0"/></joint>
+  <joint name="jb" type="revolute"><parent link="trunk"/><child link="b"/><axis xyz="0 1 0"/></joint>
+</robot>
+"""
+
+
+def test_urdf_floating_base_option_and_note(tmp_path):
+    path = tmp_path / "legs.urdf"
+    path.write_text(URDF)
+    fixed = dynderive.load_robot(path)
+    assert not fixed.floating
+    assert f"{path}:3:3: note: the root link 'trunk' carries 2 moving subtrees and is welded to the world (a fixed " \
+           "base); for a floating base (legged robots, humanoids) pass --floating-base" in fixed.notes
+    floating = dynderive.load_robot(path, floating_base=True)
+    assert [(j.name, j.type, j.parent, j.child) for j in floating.joints][0] == ("root_joint", "floating", "world",
+                                                                                 "trunk")
+    assert not any("--floating-base" in note for note in floating.notes)
+    out = tmp_path / "legs.yaml"
+    result = runner.invoke(app, ["import", str(path), "--floating-base", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert dynderive.load_robot(out).joints == floating.joints
+    result = runner.invoke(app, ["solve", str(out), "--floating-base", "--code", "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2
+    assert "--floating-base:1:1: --floating-base floats a URDF's root link" in result.stderr
+    # a URDF floating joint is imported as floating; --floating-base on it is refused
+    own = URDF.replace("<robot name=\"legs\">", "<robot name=\"legs\">\n  <link name=\"world\"/>\n  <joint "
+                       "name=\"free\" type=\"floating\"><parent link=\"world\"/><child link=\"trunk\"/></joint>")
+    path.write_text(own)
+    robot = dynderive.load_robot(path)
+    assert robot.joints[0].type == "floating" and robot.floating
+    result = runner.invoke(app, ["solve", str(path), "--floating-base", "--code", "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2
+    assert f"{path}:4:3: joint 'free' is floating already: leave out --floating-base" in result.stderr
+
+
+def test_build_writes_the_module_of_a_floating_robot_and_refuses_the_rest(tmp_path):
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    (folder / "box.yaml").write_text(BOX)
+    (folder / "legs.urdf").write_text(URDF)
+    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "a"), "--code", "--floating-base",
+                                 "-j", "1"])
+    assert result.exit_code == 0, result.output
+    assert "root_joint_qw" in (tmp_path / "a" / "legs_dynamics.py").read_text()
+    assert "root_qw" in (tmp_path / "a" / "box_dynamics.py").read_text()
+    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1"])   # latex and code
+    assert result.exit_code == 1
+    assert "box.yaml:1:1: latex: not built yet for floating-base robots (issue 30)" in result.output + result.stderr
+    assert not (tmp_path / "b" / "box_dynamics.py").exists() and (tmp_path / "b" / "legs_dynamics.py").exists()
+
+
+def test_a_singular_mass_matrix_is_refused(tmp_path):
+    """A massless base under a one-link arm: the arm's joint motion is the base's (M singular)."""
+    massless = BOX.replace("{name: base, mass: m, com: [0.01, 0.02, 0.1], inertia: [0.02, 0.03, 0.025, 0.001, 0.002, "
+                           "0.003]}", "{name: base, mass: 0}")
+    [line] = [line for line in _bad(tmp_path, massless) if not line.startswith("note:")]
+    assert line.startswith("12:5: joints[0] 'root': the mass matrix is singular at the default parameters: the motion ")
+    assert "'root_wy'" in line and "'qd2'" in line
+
+
+def test_check_runs_the_floating_rows(tmp_path):
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    result = runner.invoke(app, ["check", str(path), "--json", "-q"])
+    assert result.exit_code == 0, result.output
+    rows = {row["name"]: row["status"] for row in json.loads(result.stdout)["checks"]}
+    assert rows[POWER_BALANCE] == "pass"
+    assert rows["agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
+                "difference)"] == "pass"
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 8
+    result = runner.invoke(app, ["check", str(path), "--backend", "c"])
+    assert result.exit_code == 2
+    assert "--backend:1:1: --backend c: not built yet for floating-base robots (issue 30)" in result.stderr
+
+
+@pytest.mark.parametrize("right,wrong", [
+    ("out[..., start : start + 3] = q[..., start : start + 3] + _rotate(quaternion, translation)",
+     "out[..., start : start + 3] = q[..., start : start + 3] + translation"),   # linear velocity in world axes
+    ("moved = _multiply(quaternion, step)", "moved = _multiply(step, quaternion)"),   # angular velocity in world axes
+])
+def test_the_energy_balance_catches_a_velocity_in_the_wrong_frame(tmp_path, right, wrong):
+    """A module whose integrate moves the base along v in world axes (not its own) fails the
+    energy balance and Pinocchio: the row ties integrate to the dynamics without Pinocchio."""
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    source = render_floating_code(derivation)
+    broken = source.replace(right, wrong)
+    assert broken != source
+    failed = {row.name for row in run_floating_checks(derivation, broken) if row.status == "FAIL"}
+    assert failed == {POWER_BALANCE,
+                      "agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
+                      "difference)", "difference(q, integrate(q, v, dt)) = v dt"}
+
+
+def test_the_size_limit_of_a_floating_robot_is_its_own(tmp_path):
+    """No Coriolis stage: a floating-base robot may have 60 coordinates (n^2 work), a fixed 3-D one 30."""
+    links = "".join(f"  - {{name: l{k}, mass: 1, inertia: [0.1, 0.1, 0.1, 0, 0, 0]}}\n" for k in range(36))
+    chain = "".join(f"  - {{name: j{k}, type: revolute, parent: l{k - 1}, child: l{k}, axis: [0, 1, 0]}}\n"
+                    for k in range(1, 36))
+    text = f"name: chain\nplanar: false\ngravity: [0, 0, -9.81]\nlinks:\n{links}joints:\n"
+    path = tmp_path / "chain.yaml"
+    path.write_text(text + "  - {name: root, type: floating, parent: world, child: l0}\n" + chain)
+    assert dynderive.load_robot(path, size_limits=True).velocity_count == 41
+    path.write_text(text + "  - {name: root, type: revolute, parent: world, child: l0}\n" + chain)
+    with pytest.raises(InputError, match="36 coordinates exceed the limit of 30 for a 3-D robot"):
+        dynderive.load_robot(path, size_limits=True)
+
+
+def test_generated_property_checks_pass_and_catch_a_wrong_module(tmp_path):
+    """``--code --tests``: the module's own checks pass; with the base's velocity taken in world
+    axes by integrate, the energy balance and the integrate/difference checks fail."""
+    import subprocess
+    import sys
+
+    _, result = _solve(tmp_path, BOX, "--code", "--tests")
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
+                         cwd=out, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and "32 passed" in run.stdout, run.stdout + run.stderr
+    module = out / "box_dynamics.py"
+    module.write_text(module.read_text().replace("moved = _multiply(quaternion, step)", "moved = _multiply(step, quaternion)"))
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
+                         cwd=out, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 1 and "test_energy_balance_along_integrate" in run.stdout, run.stdout
+
+
+@pytest.mark.pinocchio
+def test_frames_of_a_legged_robot_equal_pinocchio(tmp_path):
+    """solo12's feet (links welded to the shanks, frames of the same names): pose and
+    LOCAL_WORLD_ALIGNED Jacobian, against Pinocchio's free flyer."""
+    path = _example_robot("solo_description/robots/solo12.urdf")
+    robot = dynderive.load_robot(path, floating_base=True)
+    module = _module(robot, tmp_path)
+    assert "FL_FOOT" in module.FRAMES
+    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    data = model.createData()
+    where_q, where_v = robot.offsets()
+    qp, vp = [], []
+    for name, joint in zip(model.names[1:], model.joints[1:]):
+        qp.extend(range(where_q[identifier(name)], where_q[identifier(name)] + joint.nq))
+        vp.extend(range(where_v[identifier(name)], where_v[identifier(name)] + joint.nv))
+    pin.seed(7)
+    for _ in range(3):
+        q_pin = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
+        q = np.empty(model.nq)
+        q[qp] = q_pin
+        pin.computeJointJacobians(model, data, q_pin)
+        pin.updateFramePlacements(model, data)
+        for frame in module.FRAMES:
+            fid = model.getFrameId(frame)
+            T = module.frame_transform(q, frame)
+            np.testing.assert_allclose(T[:3, :3], data.oMf[fid].rotation, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(T[:3, 3], data.oMf[fid].translation, rtol=0, atol=1e-12)
+            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            np.testing.assert_allclose(module.frame_jacobian(q, frame)[:, vp], J, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="unknown frame 'hand'"):
+        module.frame_jacobian(q, "hand")
