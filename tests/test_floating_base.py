@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import sympy
 import yaml
 from typer.testing import CliRunner
 
@@ -24,9 +23,8 @@ from dynderive.commands.cli import app
 from dynderive.errors import InputError
 from dynderive.input.urdf import identifier
 from dynderive.mechanics.floating import offsets
-from dynderive.model.symbols import SymbolTable
 from dynderive.render.floating_code import render_floating_code
-from dynderive.verify.floating_checks import POWER_BALANCE, run_floating_checks
+from dynderive.verify.floating_checks import POWER_BALANCE, pinocchio_floating_model, run_floating_checks
 
 from random_robots3d import _random_inertia, random_spatial_tree
 
@@ -44,53 +42,9 @@ def _module(robot, tmp_path: Path):
 
 
 def _pinocchio(robot):
-    """Pinocchio's model of a floating-base ``Robot`` (depth first; a floating joint as a
-    ``JointModelFreeFlyer``), and where its q and v entries are in ours: ``q_pin = q[qp]``."""
-    table = SymbolTable.for_robot(robot)
-    numbers = {table.parameters[p.name]: sympy.Float(p.value) for p in robot.parameters if p.value is not None}
-
-    def num(text):
-        return float(table.expr(text).xreplace(numbers).evalf(17))
-
-    model = pin.Model()
-    model.gravity.linear = np.array([num(e) for e in robot.gravity])
-    where = offsets(robot)
-    frame_of = {"world": (0, pin.SE3.Identity())}
-    qp: list[int] = []
-    vp: list[int] = []
-
-    def inertia(name):
-        link = robot.link(name)
-        ixx, iyy, izz, ixy, ixz, iyz = (num(e) for e in link.inertia)
-        return pin.Inertia(num(link.mass), np.array([num(e) for e in link.com]),
-                           np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
-
-    def visit(parent):
-        for joint in (j for j in robot.joints if j.parent == parent):
-            parent_id, parent_frame = frame_of[parent]
-            x, y, z, roll, pitch, yaw = (num(e) for e in joint.origin)
-            place = parent_frame * pin.SE3(pin.rpy.rpyToMatrix(roll, pitch, yaw), np.array([x, y, z]))
-            if not joint.moves:
-                frame_of[joint.child] = (parent_id, place)
-                model.appendBodyToJoint(parent_id, inertia(joint.child), place)
-            else:
-                if joint.type == "floating":
-                    kind, nq, nv = pin.JointModelFreeFlyer(), 7, 6
-                else:
-                    axis = np.array([num(e) for e in joint.axis])
-                    axis = axis / np.linalg.norm(axis)
-                    kind = (pin.JointModelRevoluteUnaligned(axis) if joint.type == "revolute"
-                            else pin.JointModelPrismaticUnaligned(axis))
-                    nq = nv = 1
-                qp.extend(range(where.q[joint.name], where.q[joint.name] + nq))
-                vp.extend(range(where.v[joint.name], where.v[joint.name] + nv))
-                joint_id = model.addJoint(parent_id, kind, place, joint.name)
-                model.appendBodyToJoint(joint_id, inertia(joint.child), pin.SE3.Identity())
-                frame_of[joint.child] = (joint_id, pin.SE3.Identity())
-            visit(joint.child)
-
-    visit("world")
-    return model, np.array(qp), np.array(vp)
+    """Pinocchio's model of a floating-base ``Robot`` (``pinocchio_floating_model``: a floating
+    joint as a ``JointModelFreeFlyer``) and where its q and v entries are in ours."""
+    return pinocchio_floating_model(robot, {p.name: p.value for p in robot.parameters if p.value is not None})
 
 
 def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
