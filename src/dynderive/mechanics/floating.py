@@ -27,7 +27,7 @@ from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
 from .joints import unit
 from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back
-from .recursive import _gravity, body_force
+from .recursive import _gravity, add_to_parent, body_force
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 
 _ZERO = sympy.Integer(0)
@@ -160,21 +160,7 @@ def mass_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
     for body in reversed(tree.bodies):
         if body.parent == "world":
             continue
-        mass, h, inertia = composite[body.link]
-        R, p = body.rotation, body.position
-        h_r = vec(_rotate(R, h))
-        inertia_rt = [[let(_dot(inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
-        rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
-        ph, pp = _dot(p, h_r), _dot(p, p)
-        moved = [[rotated[a][b] + mass * ((pp if a == b else 0) - p[a] * p[b])
-                  + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
-        p_mass, p_h, p_inertia = composite[body.parent]
-        total = [[_ZERO] * 3 for _ in range(3)]
-        for a in range(3):
-            for b in range(a, 3):
-                total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b])
-        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, [mass * x for x in p]))),
-                                  tuple(tuple(row) for row in total))
+        add_to_parent(tree.program, composite, body)
     M = [[_ZERO] * n for _ in range(n)]
     for body in tree.bodies:
         mass, h, inertia = composite[body.link]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import sympy
 
@@ -146,6 +147,29 @@ def _start(robot: Robot, table: SymbolTable) -> tuple[Program, _Tree]:
     return program, tree
 
 
+def add_to_parent(program: Program, composite: dict[str, Any], body: Any) -> None:
+    """CRBA's upward step: ``body``'s composite inertia (mass, first moment, rotational inertia
+    about its frame) expressed in its parent's frame and added to the parent's, as program
+    lines (the fixed-base and the floating-base CRBA share it)."""
+    let, vec = program.let, program.vector
+    mass, h, inertia = composite[body.link]
+    R, p = body.rotation, body.position
+    h_r = vec(_rotate(R, h))
+    inertia_rt = [[let(_dot(inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
+    rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
+    ph = _dot(p, h_r)
+    pp = _dot(p, p)
+    moved = [[rotated[a][b] + mass * ((pp if a == b else 0) - p[a] * p[b])
+              + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
+    p_mass, p_h, p_inertia = composite[body.parent]
+    total = [[None] * 3 for _ in range(3)]
+    for a in range(3):
+        for b in range(a, 3):
+            total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b])
+    composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, [mass * x for x in p]))),
+                              tuple(tuple(row) for row in total))
+
+
 def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
     """CRBA: composite inertias from the leaves up, then M_ij = S_i . (X^* I^c_j S_j)."""
     let, vec = tree.program.let, tree.program.vector
@@ -154,22 +178,7 @@ def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
     for body in reversed(tree.bodies):
         if body.parent in tree.static:
             continue
-        mass, h, inertia = composite[body.link]
-        R, p = body.rotation, body.position
-        h_r = vec(_rotate(R, h))
-        inertia_rt = [[let(_dot(inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
-        rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
-        ph = _dot(p, h_r)
-        pp = _dot(p, p)
-        moved = [[rotated[a][b] + mass * ((pp if a == b else 0) - p[a] * p[b])
-                  + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
-        p_mass, p_h, p_inertia = composite[body.parent]
-        total = [[None] * 3 for _ in range(3)]
-        for a in range(3):
-            for b in range(a, 3):
-                total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b])
-        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, [mass * x for x in p]))),
-                                  tuple(tuple(row) for row in total))
+        add_to_parent(tree.program, composite, body)
     M = [[sympy.Integer(0)] * n for _ in range(n)]
     for body in tree.bodies:
         if body.coordinate is None:
