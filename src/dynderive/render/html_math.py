@@ -9,7 +9,6 @@ every text it holds went through the XML writer, which escapes ``<``, ``&`` and 
 
 from __future__ import annotations
 
-import weakref
 from typing import Any
 from xml.dom import minidom
 
@@ -31,6 +30,7 @@ from .latex import (
     entry_index,
     matrix_width,
 )
+from .printers import DerivationFormatter
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -168,14 +168,13 @@ class _Printer(MathMLPresentationPrinter):
         return name_element(self.dom, name)
 
 
-class MathFormatter:
+class MathFormatter(DerivationFormatter):
     """MathML of SymPy objects with the robot's symbol names; one per derivation (``of``),
     remembering what it printed, with the LaTeX ``Formatter``'s size rules (``maybe``,
     ``matrix``: the same limits, so the page shows what the sheet shows)."""
 
-    _shared: weakref.WeakKeyDictionary[Derivation, MathFormatter] = weakref.WeakKeyDictionary()
-
     def __init__(self, derivation: Derivation):
+        super().__init__()
         table = derivation.symbols
         names = {s: name_of(str(s)) for s in table.all_symbols()}
         for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
@@ -187,26 +186,12 @@ class MathFormatter:
         self.names = names
         order = "none" if derivation.intermediate_form else None
         self._printer = _Printer({"order": order, "mat_delim": "["}, names)
-        self._printed: dict[Any, tuple[Any, Markup]] = {}
 
-    @classmethod
-    def of(cls, derivation: Derivation) -> MathFormatter:
-        if derivation not in cls._shared:
-            cls._shared[derivation] = cls(derivation)
-        return cls._shared[derivation]
-
-    def __call__(self, expr: Any) -> Markup:
-        key = id(expr) if isinstance(expr, sympy.MatrixBase) else expr
-        known = self._printed.get(key)
-        if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
-            return known[1]
+    def _text(self, expr: Any) -> Markup:
         text = self._printer.doprint(sympy.sympify(expr))
         # the invisible times as a character reference (XML knows no named entities), the
         # minus as the minus sign (SymPy writes the hyphen)
-        text = text.replace("&InvisibleTimes;", "&#x2062;").replace("<mo>-</mo>", "<mo>&#x2212;</mo>")
-        markup = Markup(text)
-        self._printed[key] = (expr, markup)
-        return markup
+        return Markup(text.replace("&InvisibleTimes;", "&#x2062;").replace("<mo>-</mo>", "<mo>&#x2212;</mo>"))
 
     def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> Markup | None:
         """MathML of ``expr``, or None when the sheet finds it too large (``Formatter.maybe``)."""

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import functools
-import weakref
 from pathlib import Path
 from typing import Any
 
@@ -15,7 +14,7 @@ from .encode import escape_tex, tex_unit
 from .environment import render
 from .figure import planar_figure
 from .linebreak import LineBreaker
-from .printers import RememberingLatexPrinter
+from .printers import DerivationFormatter, RememberingLatexPrinter
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -64,7 +63,7 @@ def parse_sections(text: str) -> tuple[str, ...]:
         raise ValueError(f"unknown section {unknown[0]!r}" if unknown else "no section given")
     return tuple(s for s in SECTIONS if s in names)
 
-class Formatter:
+class Formatter(DerivationFormatter):
     """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``).
 
     One per derivation (``Formatter.of``), remembering what it printed: the sheet and the
@@ -72,40 +71,23 @@ class Formatter:
     and its maximal model cost seconds to print. A large robot's sums are printed in SymPy's
     own (canonical, deterministic) order rather than sorted, which takes half the time."""
 
-    _shared: weakref.WeakKeyDictionary[Derivation, Formatter] = weakref.WeakKeyDictionary()
-
     def __init__(self, derivation: Derivation):
+        super().__init__()
         self.names = derivation.symbols.latex_names() | {
             name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
         self.order = "none" if derivation.intermediate_form else None
-        self._printed: dict[Any, tuple[Any, str]] = {}
         self._printer = RememberingLatexPrinter({
             "symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
             "long_frac_ratio": 2, "order": self.order})
         self._breaker = LineBreaker(self, typeset_width, self.order)
 
-    @classmethod
-    def of(cls, derivation: Derivation) -> Formatter:
-        """The derivation's formatter, made on first use."""
-        if derivation not in cls._shared:
-            cls._shared[derivation] = cls(derivation)
-        return cls._shared[derivation]
-
-    def __call__(self, expr: Any) -> str:
-        # matrices are mutable, so unhashable: remembered by identity, with the object kept
-        key = id(expr) if isinstance(expr, sympy.MatrixBase) else expr
-        known = self._printed.get(key)
-        if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
-            return known[1]
+    def _text(self, expr: Any) -> str:
         if isinstance(expr, sympy.MatrixBase):
             # SymPy's own matrix LaTeX (mat_str "matrix", delimiter "["), from the entries'
             # LaTeX: the sheet prints each entry of a matrix too, and the JSON every matrix
-            text = r"\left[\begin{matrix}" + r"\\".join(
+            return r"\left[\begin{matrix}" + r"\\".join(
                 " & ".join(self(e) for e in expr.row(i)) for i in range(expr.rows)) + r"\end{matrix}\right]"
-        else:
-            text = self._printer.doprint(expr)
-        self._printed[key] = (expr, text)
-        return text
+        return self._printer.doprint(expr)
 
     def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> str | None:
         """LaTeX of ``expr``, or None when it is too large to read (or to typeset)."""

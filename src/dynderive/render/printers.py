@@ -8,7 +8,8 @@ printer here keeps the text of every sub-expression it printed, so the text is S
 
 from __future__ import annotations
 
-from typing import Any
+import weakref
+from typing import Any, ClassVar
 
 import sympy
 from sympy.printing.latex import LatexPrinter
@@ -51,4 +52,39 @@ class RememberingStrPrinter(StrPrinter):
         return known
 
 
-__all__ = ["RememberingLatexPrinter", "RememberingStrPrinter"]
+class DerivationFormatter:
+    """The text of a derivation's SymPy objects (LaTeX, MathML): one formatter per derivation
+    (``of``), remembering what it printed, since the sheet, the page and the JSON print the same
+    quantities again. A subclass gives ``_text(expr)`` and calls ``super().__init__()``.
+    Matrices are mutable, so unhashable: remembered by identity, with the object kept."""
+
+    _shared: ClassVar[weakref.WeakKeyDictionary[Any, DerivationFormatter]]
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls._shared = weakref.WeakKeyDictionary()   # each kind of formatter its own
+
+    def __init__(self) -> None:
+        self._printed: dict[Any, tuple[Any, Any]] = {}
+
+    @classmethod
+    def of(cls, derivation: Any) -> Any:
+        """The derivation's formatter, made on first use."""
+        if derivation not in cls._shared:
+            cls._shared[derivation] = cls(derivation)   # type: ignore[call-arg]
+        return cls._shared[derivation]
+
+    def __call__(self, expr: Any) -> Any:
+        key = id(expr) if isinstance(expr, sympy.MatrixBase) else expr
+        known = self._printed.get(key)
+        if known is not None and (known[0] is expr or not isinstance(expr, sympy.MatrixBase)):
+            return known[1]
+        text = self._text(expr)
+        self._printed[key] = (expr, text)
+        return text
+
+    def _text(self, expr: Any) -> Any:
+        raise NotImplementedError
+
+
+__all__ = ["DerivationFormatter", "RememberingLatexPrinter", "RememberingStrPrinter"]
