@@ -10,7 +10,6 @@ can write or import it.
 
 from __future__ import annotations
 
-import ast
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,18 +23,7 @@ from sympy.printing.str import StrPrinter
 from ..derivation import Derivation
 from ..mechanics.tidy import fold_constants, operation_count
 from .encode import Code, python_literal
-from .environment import render, template_fault
-
-
-class CodeGenerationError(ValueError):
-    """The generated module would not be what the engine meant (an internal error, unless a
-    user's template made it: then ``template_fault`` turns it into bad input).
-    ``line``: the line of the generated module at fault, when known."""
-
-    def __init__(self, message: str, line: int | None = None):
-        super().__init__(message)
-        self.line = line
-
+from .python_module import CodeGenerationError, render_module, render_test_module
 
 #: Functions the printed code may call, as the straight-line bodies receive them: from
 #: ``math`` (one state on floats) or NumPy (a batch). SymPy's ``Abs`` prints as ``abs``.
@@ -534,57 +522,10 @@ def _tuple(names: tuple[str, ...]) -> Code:
 
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
-    text = render("code", CODE_TEMPLATE, code_context(derivation), template_dir)
-    try:
-        verify_module(text, derivation.robot.title if template_dir is None else None)
-    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
-        raise template_fault(exc, exc.line, text, CODE_TEMPLATE, template_dir) or exc from None
-    return text
-
-
-#: What the top level of a generated module may hold: its docstring, imports of these
-#: modules, constants and functions. Anything else (a call, an ``if``) is not ours.
-_TOP_LEVEL = (ast.Import, ast.ImportFrom, ast.Assign, ast.AnnAssign, ast.FunctionDef)
-_IMPORTS = {"math", "numpy", "pytest", "__future__"}
-
-
-def verify_module(text: str, title: str | None = None, imports: frozenset[str] | set[str] = _IMPORTS) -> None:
-    """Parse the rendered module and check that it is only what the generator meant: no
-    statement at the top level but imports, constants and functions, and (built-in template)
-    a docstring that reads back the robot's title exactly, so no free text changed the program.
-
-    Raises ``CodeGenerationError`` (an internal error, exit 1) before anything is written.
-    """
-    try:
-        tree = ast.parse(text)
-    except (SyntaxError, ValueError) as exc:
-        line = exc.lineno if isinstance(exc, SyntaxError) else None
-        raise CodeGenerationError(f"the generated module does not parse: {getattr(exc, 'msg', exc)}", line) from None
-    body = tree.body[1:] if ast.get_docstring(tree, clean=False) is not None else tree.body
-    for node in body:
-        if not isinstance(node, _TOP_LEVEL):
-            raise CodeGenerationError(f"unexpected {type(node).__name__} at line {node.lineno} of the generated module",
-                                      node.lineno)
-        if isinstance(node, ast.Import | ast.ImportFrom):
-            names = [node.module or ""] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
-            if any(n.split(".")[0] not in imports for n in names):
-                raise CodeGenerationError(f"unexpected import at line {node.lineno} of the generated module", node.lineno)
-    if title is not None and title not in (ast.get_docstring(tree, clean=False) or ""):
-        raise CodeGenerationError("the generated module's docstring does not read back the robot's title")
+    return render_module(derivation, CODE_TEMPLATE, code_context(derivation), template_dir)
 
 
 def render_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """A pytest file of property checks for the generated module (``solve --code --tests``)."""
-    from .._version import __version__
-
-    context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
-               "source": Path(derivation.robot.source).name, "maximal": derivation.robot.planar,
-               "loops": bool(derivation.robot.loops)}
-    text = render("code", "dynamics_test.py.j2", context, template_dir)
-    try:
-        ast.parse(text)
-    except (SyntaxError, ValueError) as exc:
-        error = CodeGenerationError(f"the generated test module does not parse: {getattr(exc, 'msg', exc)}",
-                                    exc.lineno if isinstance(exc, SyntaxError) else None)
-        raise template_fault(error, error.line, text, "dynamics_test.py.j2", template_dir) or error from None
-    return text
+    return render_test_module(derivation, "dynamics_test.py.j2", template_dir,
+                              maximal=derivation.robot.planar, loops=bool(derivation.robot.loops))

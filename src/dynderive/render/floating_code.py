@@ -6,15 +6,14 @@ floating-base robots and is left out (``NOT_BUILT``), never stubbed."""
 
 from __future__ import annotations
 
-import ast
 import textwrap
 from pathlib import Path
 from typing import Any
 
 from ..derivation import Derivation
-from .code import Argument, CodeGenerationError, program_function, verify_module
+from .code import Argument, program_function
 from .encode import Code, python_literal
-from .environment import render, template_fault
+from .python_module import render_module, render_test_module
 
 TEMPLATE = "floating_dynamics.py.j2"
 TEST_TEMPLATE = "floating_dynamics_test.py.j2"
@@ -80,25 +79,9 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
 
 def render_floating_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The pytest file of property checks of a floating-base robot's module (``--tests``)."""
-    from .._version import __version__
-
-    context = {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",
-               "source": Path(derivation.robot.source).name}
-    text = render("code", TEST_TEMPLATE, context, template_dir)
-    try:
-        ast.parse(text)
-    except (SyntaxError, ValueError) as exc:
-        error = CodeGenerationError(f"the generated test module does not parse: {getattr(exc, 'msg', exc)}",
-                                    exc.lineno if isinstance(exc, SyntaxError) else None)
-        raise template_fault(error, error.line, text, TEST_TEMPLATE, template_dir) or error from None
-    return text
+    return render_test_module(derivation, TEST_TEMPLATE, template_dir)
 
 
 def render_floating_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The module's text, checked as ``render_code`` checks a fixed-base robot's."""
-    text = render("code", TEMPLATE, floating_context(derivation), template_dir)
-    try:
-        verify_module(text, derivation.robot.title if template_dir is None else None)
-    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
-        raise template_fault(exc, exc.line, text, TEMPLATE, template_dir) or exc from None
-    return text
+    return render_module(derivation, TEMPLATE, floating_context(derivation), template_dir)

@@ -28,8 +28,8 @@ import sympy
 from sympy.printing.numpy import JaxPrinter
 
 from ..derivation import Derivation
-from .code import CodeGenerationError, ExpressionFunction, code_context, verify_module
-from .environment import render, template_fault
+from .code import ExpressionFunction, code_context
+from .python_module import CodeGenerationError, render_module
 
 JAX_TEMPLATE = "jax/dynamics.py.j2"
 #: Modules the generated JAX module may import.
@@ -79,12 +79,7 @@ def jax_context(derivation: Derivation) -> dict[str, Any]:
 def render_jax(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The text of ``<name>_dynamics_jax.py``, checked (it parses, imports only ``jax``, and its
     docstring reads back the robot's title) before it is returned."""
-    text = render("code", JAX_TEMPLATE, jax_context(derivation), template_dir)
-    try:
-        verify_module(text, derivation.robot.title if template_dir is None else None, JAX_IMPORTS)
-    except CodeGenerationError as exc:   # a user's template at fault is bad input (exit 2)
-        raise template_fault(exc, exc.line, text, JAX_TEMPLATE, template_dir) or exc from None
-    return text
+    return render_module(derivation, JAX_TEMPLATE, jax_context(derivation), template_dir, JAX_IMPORTS)
 
 
 __all__ = ["JAX_IMPORTS", "JAX_TEMPLATE", "jax_context", "render_jax"]
