@@ -123,6 +123,24 @@ def applied_forces(robot: Robot, table: SymbolTable) -> sympy.Matrix:
     return sympy.Matrix([table.efforts[efforts[n]] if efforts[n] else 0 for n in robot.coordinates])
 
 
+def _trig_squares(expr: sympy.Expr) -> bool:
+    """Whether ``expr`` squares a sine or cosine, or a sum holding one (``m2 (l1 cos q2 + l2)^2``)."""
+    return any(p.exp.is_Integer and p.exp > 1 and p.base.has(sympy.sin, sympy.cos) for p in expr.atoms(sympy.Pow))
+
+
+def _textbook(built: sympy.Expr, fourier: sympy.Expr) -> bool:
+    """Whether a mass-matrix entry is shown in its Fourier form (``trig_linear``): when that is
+    shorter, or when it removes the squares the built form has and is at most half as long
+    again: ``(m1 + m2) l1^2 + 2 m2 l1 l2 cos q2 + m2 l2^2``, as textbooks write the point-mass
+    double pendulum's M11, not ``m1 l1^2 + m2 (l2 + l1 cos q2)^2 + m2 l1^2 sin^2 q2``."""
+    if not built.has(sympy.sin, sympy.cos):
+        return False
+    built_ops, fourier_ops = sympy.count_ops(built), sympy.count_ops(fourier)
+    if fourier_ops < built_ops:
+        return True
+    return _trig_squares(built) and not _trig_squares(fourier) and 2 * fourier_ops <= 3 * built_ops
+
+
 def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
                        report: Callable[[str], None] = lambda stage: None) -> tuple[dict[str, Any], dict[str, Any]]:
     """Quantities (by the reference's names) and intermediate steps, generalized coordinates.
@@ -169,8 +187,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
         # Fourier form where shorter: trig products of different angles combine, and C (from
         # dM/dq) then has single sines instead of products that cancel in pairs
         fourier = M.applyfunc(trig_linear)
-        M = sympy.Matrix(n, n, [f if e.has(sympy.sin, sympy.cos) and sympy.count_ops(f) < sympy.count_ops(e) else e
-                                for e, f in zip(M, fourier)])
+        M = sympy.Matrix(n, n, [f if _textbook(e, f) else e for e, f in zip(M, fourier)])
         C = christoffel_coriolis(fourier, q, qd).applyfunc(
             lambda e: fewest_operations(trig_group(e), *([tidy] if is_small(e, PLANAR_TIDY_LIMIT) else [])))
     else:

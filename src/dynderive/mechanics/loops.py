@@ -40,11 +40,20 @@ import sympy
 from ..errors import InputError, Problem
 from ..model.robot import LoopJoint, Robot
 from ..model.symbols import SymbolTable
-from .exact_fast import jacobian, matmul
+from .exact_fast import factor_terms, jacobian, matmul
 from .joints import unit
 from .lagrange import constraint_jacobian_dot
 from .spatial import rpy_matrix
-from .tidy import fold_constants, is_small, quick_tidy, tidy, tidy_matrix
+from .tidy import (
+    count_ops,
+    fewest_operations,
+    fold_constants,
+    is_small,
+    quick_tidy,
+    tidy,
+    tidy_matrix,
+    trig_linear,
+)
 
 #: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold,
 #: at configurations assembled to ``ASSEMBLY_TOLERANCE``).
@@ -484,8 +493,13 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     det = tidy(A_d.det(method="berkowitz"))
     if det == 0:
         return {}
-    solution = matmul(A_d.adjugate(method="berkowitz"), A_i).applyfunc(lambda e: tidy(-e / det))
     n, m = len(table.q), len(model.independent)
+    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
+    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
+    fourier = factor_terms(trig_linear(det))
+    if count_ops(fourier) <= count_ops(det):   # planar loops: det is one sine or cosine of an angle sum
+        return _reduced_over_determinant(model, table, fourier, (A_d, A_i), (M, C, N, Y))
+    solution = matmul(A_d.adjugate(method="berkowitz"), A_i).applyfunc(lambda e: tidy(-e / det))
     R = sympy.zeros(n, m)
     for column, i in enumerate(model.independent):
         R[i, column] = 1
@@ -493,8 +507,6 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
         for column in range(m):
             R[d, column] = solution[row, column]
     Rdot = tidy_matrix(constraint_jacobian_dot(R, table.q, table.qd))
-    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
-    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
     M_r = tidy_matrix(matmul(R.T, M, R))
     if not is_small(sympy.Tuple(*M_r), 4000 * m * m):
         return {"R_g": R}
@@ -505,4 +517,48 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     N_r = tidy_matrix(matmul(R.T, N))
     Y_r = tidy_matrix(matmul(R.T, Y))
     EOM_r = (matmul(M_r, qdd_i) + matmul(C_r, qd_i) + N_r - Y_r).applyfunc(tidy)
+    return {"R_g": R, "M_r": M_r, "C_r": C_r, "N_r": N_r, "Y_r": Y_r, "EOM_r": EOM_r}
+
+
+def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.Expr,
+                              blocks: tuple[sympy.Matrix, sympy.Matrix],
+                              generalized: tuple[sympy.Matrix, ...]) -> dict[str, sympy.Matrix]:
+    """The reduced form as numerators over powers of ``det = det A_d``, each numerator in
+    Fourier form (``trig_linear``): for planar loops ``det`` is one sine of an angle sum
+    (``b c sin(q1 + q2 - q3)`` for the four-bar) and the numerators short sums of sines and
+    cosines of angle sums, where the quotients expanded together are pages long.
+
+    With ``R = R_n / det`` (``R_n``: ``det`` on the independent rows, ``-adj(A_d) A_i`` on the
+    dependent ones) and, on the manifold, ``det qd = R_n qd_i``, the time derivatives are
+    ``det Rdot_n = D(R_n)`` and ``det detdot = D(det)`` for ``D(x) = sum_k dx/dq_k (R_n qd_i)_k``,
+    so ``M_r = R_n^T M R_n / det^2``, ``N_r = R_n^T N / det``, ``Y_r = R_n^T Y / det`` and
+    ``C_r = R_n^T (M (D(R_n) det - R_n D(det)) + C(R_n qd_i) R_n det) / det^4`` (C is linear in qd).
+    Common factors of symbols cancel against the determinant's (SymPy's products merge powers).
+    """
+    A_d, A_i = blocks
+    M, C, N, Y = generalized
+    n, m = len(table.q), len(model.independent)
+    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
+    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
+    adjugate = matmul(A_d.adjugate(method="berkowitz"), A_i)
+    R_n = sympy.zeros(n, m)
+    for column, i in enumerate(model.independent):
+        R_n[i, column] = det
+    for row, d in enumerate(model.dependent):
+        for column in range(m):
+            R_n[d, column] = fewest_operations(tidy(-adjugate[row, column]), trig_linear)
+    velocity = matmul(R_n, qd_i)   # det * qd on the manifold
+
+    def over(numerator: sympy.Expr, power: int) -> sympy.Expr:
+        return factor_terms(trig_linear(numerator)) / det ** power
+
+    R = R_n.applyfunc(lambda e: over(e, 1))
+    M_r = matmul(R_n.T, M, R_n).applyfunc(lambda e: over(e, 2))
+    D_R = constraint_jacobian_dot(R_n, table.q, velocity)
+    D_det = constraint_jacobian_dot(sympy.Matrix([det]), table.q, velocity)[0]
+    inner = matmul(M, D_R * det - R_n * D_det) + matmul(C.xreplace(dict(zip(table.qd, velocity))), R_n) * det
+    C_r = matmul(R_n.T, inner).applyfunc(lambda e: over(e, 4))
+    N_r = matmul(R_n.T, N).applyfunc(lambda e: over(e, 1))
+    Y_r = matmul(R_n.T, Y).applyfunc(lambda e: over(e, 1))
+    EOM_r = matmul(M_r, qdd_i) + matmul(C_r, qd_i) + N_r - Y_r
     return {"R_g": R, "M_r": M_r, "C_r": C_r, "N_r": N_r, "Y_r": Y_r, "EOM_r": EOM_r}

@@ -21,6 +21,7 @@ from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from ..model.naming import GREEK, split_index
 from .latex import (
+    BROKEN_NODES,
     ENTRY_NODES,
     LINE_UNITS,
     MATRIX_COLUMNS,
@@ -206,13 +207,15 @@ class MathFormatter(DerivationFormatter):
         ``label``: its name in front (default ``base``)."""
         rows, cols = matrix.shape
         shown = _atom(label if label is not None else base)
-        nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
-        if nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix):
+        nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
+        if nodes > BROKEN_NODES:
             return {"label": shown, "math": None, "wide": True, "entries": [], "shape": [rows, cols],
                     "too_large": True, "nodes": nodes, "zeros": 0}
-        entries = [{"name": sub(base, entry_index(i, j, rows, cols).replace(",", "\u2009")),
+        large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
+        single = rows == cols == 1 and label is not None   # a named 1 x 1 matrix (M_r) is its entry
+        entries = [{"name": shown if single else sub(base, entry_index(i, j, rows, cols).replace(",", "\u2009")),
                     "math": self(matrix[i, j])}
                    for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
-        wide = matrix_width(matrix) > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
-        return {"label": shown, "math": self(matrix), "wide": wide, "entries": entries, "shape": [rows, cols],
+        wide = large or matrix_width(matrix) > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
+        return {"label": shown, "math": None if large else self(matrix), "wide": wide, "entries": entries, "shape": [rows, cols],
                 "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}

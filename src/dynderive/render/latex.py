@@ -22,8 +22,11 @@ ENTRY_NODES = 400
 SCALAR_NODES = 500
 #: Largest entry of a matrix typeset inline on one line (positions, Jacobians, rotations).
 INLINE_NODES = 120
-#: Largest matrix (tree nodes in all) the sheet typesets.
+#: Largest matrix (tree nodes in all) the sheet typesets whole or entry by entry as built.
 MATRIX_NODES = 6000
+#: Largest matrix (tree nodes in all) the sheet typesets at all: one with more nodes than
+#: MATRIX_NODES, or an entry over ENTRY_NODES, is set entry by entry, each broken over lines.
+BROKEN_NODES = 12000
 #: The text width in units of a math glyph of the sheet's 11pt type (16.6 cm, about 5.5 pt a
 #: glyph): a matrix whose estimated width (``typeset_width``) exceeds it is typeset entry by entry.
 LINE_UNITS = 80
@@ -112,19 +115,22 @@ class Formatter(DerivationFormatter):
         """A matrix as a whole when its estimated width fits the line (``wide`` False), else as
         its non-zero entries; ``too_large`` when even those cannot be typeset."""
         rows, cols = matrix.shape
-        nodes = _nodes_up_to(list(matrix), MATRIX_NODES)
-        if nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix):
+        nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
+        if nodes > BROKEN_NODES:
             return {"latex": "", "wide": True, "tight": False, "entries": [], "shape": [rows, cols],
                     "too_large": True, "nodes": nodes, "zeros": 0}
-        whole = self(matrix)
+        large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
+        whole = "" if large else self(matrix)
         entries = []
         for i in range(rows):
             for j in range(cols):
                 if matrix[i, j] != 0:
-                    entries.append({"name": subscript(name, entry_index(i, j, rows, cols)),
+                    # a named 1 x 1 matrix (the reduced M_r of a one-DOF loop) is its entry
+                    single = rows == cols == 1 and "_" in name
+                    entries.append({"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
                                     "latex": self.display(matrix[i, j], None)})
-        width = matrix_width(matrix)
-        wide = width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
+        width = 0 if large else matrix_width(matrix)
+        wide = large or width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
         return {"latex": whole, "wide": wide, "tight": not wide and width > LINE_UNITS,
                 "entries": entries,
                 "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
@@ -430,8 +436,8 @@ def drives_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any] | N
 def loops_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
     """The closed-loop section: constraints, multiplier form, reduced form (where derived)."""
     q, model, table = derivation.quantities, derivation.steps["loops"], derivation.symbols
-    reduced = {key: fmt.matrix(key.split("_")[0], q[key]) if key in q else None
-               for key in ("R_g", "M_r", "C_r", "N_r", "Y_r")}
+    names = {"R_g": "R_g", "M_r": "M_r", "C_r": "C_r", "N_r": "N_r", "Y_r": "\\Upsilon_r"}
+    reduced = {key: fmt.matrix(name, q[key]) if key in q else None for key, name in names.items()}
     return {
         "joints": [escape_tex(lp.name) for lp in derivation.robot.loops],
         "count": q["a_g"].shape[0], "rank": model.rank, "mobility": model.mobility,
