@@ -351,7 +351,12 @@ def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
         terms = []
         for i, factor in enumerate(args):
             d = _partial(factor, symbol)
-            if d is not zero:
+            rest = args[:i] + args[i + 1:]
+            if d is sympy.S.One and (len(rest) > 2 or not (rest[0].is_Number and rest[-1].is_Add)):
+                # the other factors of a product, in SymPy's order, are a product already (but
+                # for a number times a sum, which SymPy distributes)
+                terms.append(rest[0] if len(rest) == 1 else sympy.Mul._from_args(rest, True))
+            elif d is not zero:
                 terms.append(sympy.Mul(*args[:i], d, *args[i + 1:]))
         return sympy.Add(*terms)
     if expr.is_Pow and expr.exp.is_Integer:
@@ -376,12 +381,14 @@ def _forward(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr], trig: di
     (``symbols``, if known) that have one; sines and cosines of coordinates in terms of the
     program's trig lines (``trig``)."""
     expr = sympy.sympify(expr)
-    moving = sorted((s for s in (expr.free_symbols if symbols is None else symbols) if s in tangent), key=str)
+    moving = sorted((s for s in (expr.free_symbols if symbols is None else symbols) if s in tangent),
+                    key=lambda s: s.name)
     if not moving:
         return sympy.Integer(0)
     if expr.is_Function:   # a sine or cosine of a coordinate: in terms of the trig lines
         return sympy.Add(*(sympy.diff(expr, s) * tangent[s] for s in moving)).xreplace(trig)
-    return sympy.Add(*(_partial(expr, s) * tangent[s] for s in moving))
+    return sympy.Add(*(_partial(expr, s) if tangent[s] is sympy.S.One else _partial(expr, s) * tangent[s]
+                       for s in moving))
 
 
 @dataclass
