@@ -184,10 +184,12 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     path, result = _solve(tmp_path, BOX, "--code")
     assert result.exit_code == 0, result.output
     assert "note: box has a floating base (NQ = 8 coordinates, NV = 7 velocities)" in result.stderr
-    assert "not built yet for floating-base robots (issue 30): coriolis_matrix" in result.stderr
+    assert "not built yet for floating-base robots (issue 30): friction_forces" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
-    for absent in ("def coriolis_matrix", "def linearize", "def regressor", "def frame_jacobian_dot_qd", "def friction_forces"):
+    for present in ("def coriolis_matrix", "def linearize", "def regressor", "def parameter_vector"):
+        assert present in text
+    for absent in ("def friction_forces", "wrenches="):
         assert absent not in text   # left out, never stubbed
     # the same bytes each run
     _, again = _solve(tmp_path, BOX, "--code")
@@ -216,7 +218,8 @@ def test_printing_and_other_commands_are_refused(tmp_path):
 def test_the_library_never_takes_lagranges_path(tmp_path):
     (tmp_path / "box.yaml").write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(tmp_path / "box.yaml"))
-    assert sorted(derivation.programs) == ["forward_dynamics", "gravity", "inverse_dynamics", "mass_matrix", "potential"]
+    assert sorted(derivation.programs) == ["coriolis", "forward_dynamics", "gravity", "inverse_dynamics",
+                                           "inverse_dynamics_derivatives", "mass_matrix", "potential", "regressor"]
     with pytest.raises(InputError, match=r"box\.yaml:\d+:\d+: .*not built yet for floating-base robots"):
         derivation["M_g"]
 
