@@ -121,6 +121,28 @@ def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[R
             _row("difference(q, integrate(q, v, dt)) = v dt", back < 1e-9, "numeric", back)]
 
 
+def _rotate(quaternion: np.ndarray, vector: np.ndarray) -> np.ndarray:
+    """The vector rotated by the unit quaternion (x, y, z, w)."""
+    u, w = quaternion[..., :3], quaternion[..., 3:]
+    t = 2.0 * np.cross(u, vector)
+    return vector + w * t + np.cross(u, t)
+
+
+def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """The whole robot's momentum ``(linear, angular about the origin)``, shape (..., 6), in the
+    axes of the floating joint's placement in the world (its ``origin``: a fixed frame, so
+    conservation there is conservation in the world). The floating joint's rows of ``M v`` are
+    the momentum in the base's own frame, about its origin; rotated and moved by the base's pose."""
+    where_q, where_v = robot.offsets()
+    joint = next(j for j in robot.joints if j.type == "floating")
+    qi, vi = where_q[joint.name], where_v[joint.name]
+    local = np.einsum("...ij,...j->...i", module.mass_matrix(q, **values)[..., vi:vi + 6, :], v)
+    quaternion, position = q[..., qi + 3:qi + 7], q[..., qi:qi + 3]
+    linear = _rotate(quaternion, local[..., :3])
+    angular = _rotate(quaternion, local[..., 3:]) + np.cross(position, linear)
+    return np.concatenate([linear, angular], axis=-1)
+
+
 def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any, np.ndarray, np.ndarray]:
     """Pinocchio's model of a floating-base robot (depth first, a floating joint as a
     ``JointModelFreeFlyer``), with where its q and v entries are in ours (``q_pin = q[qp]``)."""
