@@ -16,7 +16,7 @@ from dynderive.commands.simulate import parse_efforts
 from dynderive.commands.simulate_floating import floating_initial, simulate_floating
 from dynderive.render.floating_code import render_floating_code
 from dynderive.verify.checks import generated_module
-from dynderive.verify.floating_checks import system_momentum
+from dynderive.verify.floating_checks import ENERGY_RUN, MOMENTUM, run_floating_checks, system_momentum
 from test_floating_base import BOX
 
 pytest.importorskip("scipy")
@@ -125,3 +125,21 @@ def test_simulate_options_a_floating_run_refuses(tmp_path, args, message):
     assert result.exit_code == 2, result.output
     assert message in result.stderr and "Traceback" not in result.output
     assert not (tmp_path / "run.csv").exists()
+
+
+@pytest.mark.parametrize("right,wrong,row", [
+    # the quaternion turned by the angular velocity in world axes: the run's energy drifts
+    ("out[..., start + 3 : start + 7] = 0.5 * _multiply(quaternion, spin)",
+     "out[..., start + 3 : start + 7] = 0.5 * _multiply(spin, quaternion)", ENERGY_RUN),
+    # gravity left out of gravity_vector: the gravity-free accelerations push the whole robot
+    ("return _evaluate(_gravity_body, [q], (NV,)", "return 0.0 * _evaluate(_gravity_body, [q], (NV,)", MOMENTUM),
+])
+def test_the_check_rows_catch_a_wrong_module(tmp_path, right, wrong, row):
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    source = render_floating_code(derivation)
+    assert {r.name: r.status for r in run_floating_checks(derivation, source)}[row] == "pass"
+    broken = source.replace(right, wrong)
+    assert broken != source
+    assert {r.name: r.status for r in run_floating_checks(derivation, broken)}[row] == "FAIL"

@@ -25,7 +25,8 @@ def floating_note(robot: Robot) -> str:
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
             "difference (check runs its rows); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c, --c-extension, --matlab, --jax, and the commands simulate, linearize and identify")
+            "--c, --c-extension, --matlab, --jax, and the commands linearize and identify (simulate integrates its "
+            "module on the manifold)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,

@@ -77,12 +77,15 @@ def floating_initial(robot: Any, q0: np.ndarray | None) -> np.ndarray:
 def simulate_floating(derivation: Derivation, source: str, duration: float, q0: np.ndarray, v0: np.ndarray,
                       efforts: Callable[..., np.ndarray], rtol: float, atol: float, frames: int,
                       progress: Callable[[str], None], method: str = DEFAULT_METHOD,
-                      note: Callable[[str], None] = lambda text: None) -> Trajectory:
+                      note: Callable[[str], None] = lambda text: None,
+                      values: dict[str, float] | None = None) -> Trajectory:
     """Integrate the floating-base module's forward dynamics on the manifold (module docstring);
-    ``Trajectory.position`` holds q (NQ columns), ``velocity`` v (NV columns)."""
+    ``Trajectory.position`` holds q (NQ columns), ``velocity`` v (NV columns). ``values``: the
+    parameters (default: the robot's)."""
     robot = derivation.robot
     module = generated_module(source, robot.name)
-    values = {p.name: p.value for p in robot.parameters if p.value is not None}
+    if values is None:
+        values = {p.name: p.value for p in robot.parameters if p.value is not None}
     starts = floating_quaternions(robot)
     nq = len(q0)
     reported = [-1]
