@@ -118,6 +118,18 @@ def test_box_regressor_columns_are_pinocchios(tmp_path):
     model, qp, vp = _pinocchio(robot)
     module = _module(robot, tmp_path)
     assert module.PARAMETER_VECTOR[:3] == ("m_base", "mcx_base", "mcy_base") and len(module.PARAMETER_VECTOR) == 20
+    assert tuple(p.name for p in dynderive.derive(robot).parameter_vector) == module.PARAMETER_VECTOR
+    driven = BOX.replace("effort: tau2}", "effort: tau2, armature: 0.01, stiffness: 2, damping: 0.3}")
+    path.write_text(driven)
+    assert [p.name for p in dynderive.derive(dynderive.load_robot(path)).parameter_vector][-2:] == [
+        "armature_q2", "stiffness_q2"]   # no damping column: damping is not in the floating dynamics
+    (tmp_path / "driven").mkdir()
+    springy = _module(dynderive.load_robot(path), tmp_path / "driven")
+    q = springy.integrate(springy.neutral_configuration(), np.linspace(-1.0, 1.0, 7))
+    v, a = np.linspace(0.5, -0.7, 7), np.linspace(-0.3, 0.9, 7)
+    np.testing.assert_allclose(springy.regressor(q, v, a) @ springy.parameter_vector(), springy.inverse_dynamics(q, v, a),
+                               rtol=0, atol=1e-12)
+    path.write_text(BOX)
     _check(robot, module, model, qp, vp, 3)
     _joint_regressor(robot, module, model, qp, vp, 3)
 

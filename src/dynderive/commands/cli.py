@@ -337,14 +337,12 @@ def simulate(
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     if model.floating:
-        from .simulate_floating import floating_options
+        from .simulate_floating import floating_options, run_floating
 
         floating_options(model, coordinates, animate, force, backend)
     model = with_parameters(model, robot, param or [], required=True)
     _notes(model, quiet)
     if model.floating:
-        from .simulate_floating import run_floating
-
         return run_floating(model, duration, q0, qd0, effort or [], plot, csv, method, rtol, atol, frames, quiet,
                             progress)
     maximal = coordinates == "maximal"

@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Any
 
 from ..derivation import Derivation
-from ..mechanics.floating_derivatives import floating_parameter_vector
 from ..mechanics.program import Program
 from .code import Argument, program_function
 from .encode import Code, python_literal
@@ -50,7 +49,7 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "regressor": ("_regressor_body", "Y(q, qd, qdd) with Y pi = inverse_dynamics, row by row.", [q, qd, qdd]),
     }
     bodies = [program_function(*specs[key], program) for key, program in programs.items()]
-    identification = floating_parameter_vector(robot, table)
+    identification = derivation.parameter_vector
     bodies.append(program_function("_parameter_vector_body", "The parameter vector pi of regressor.", [],
                                    Program(outputs=[p.value for p in identification])))
     for index, (name, pose, jacobian, bias) in enumerate(derivation.frame_programs):
