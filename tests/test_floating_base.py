@@ -24,7 +24,13 @@ from dynderive.errors import InputError
 from dynderive.input.urdf import identifier
 from dynderive.mechanics.floating import offsets
 from dynderive.render.floating_code import render_floating_code
-from dynderive.verify.floating_checks import POWER_BALANCE, pinocchio_floating_model, run_floating_checks
+from dynderive.verify.floating_checks import (
+    ENERGY_RUN,
+    MOMENTUM,
+    POWER_BALANCE,
+    pinocchio_floating_model,
+    run_floating_checks,
+)
 
 from random_robots3d import _random_inertia, random_spatial_tree
 
@@ -184,10 +190,12 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     path, result = _solve(tmp_path, BOX, "--code")
     assert result.exit_code == 0, result.output
     assert "note: box has a floating base (NQ = 8 coordinates, NV = 7 velocities)" in result.stderr
-    assert "not built yet for floating-base robots (issue 30): coriolis_matrix" in result.stderr
+    assert "not built yet for floating-base robots (issue 30): friction_forces" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
-    for absent in ("def coriolis_matrix", "def linearize", "def regressor", "def frame_jacobian_dot_qd", "def friction_forces"):
+    for present in ("def coriolis_matrix", "def linearize", "def regressor", "def parameter_vector"):
+        assert present in text
+    for absent in ("def friction_forces", "wrenches="):
         assert absent not in text   # left out, never stubbed
     # the same bytes each run
     _, again = _solve(tmp_path, BOX, "--code")
@@ -207,7 +215,7 @@ def test_printing_and_other_commands_are_refused(tmp_path):
     path, result = _solve(tmp_path, BOX)
     assert result.exit_code == 2
     assert f"{path}:1:1: printing the equations is not built yet for floating-base robots" in result.stderr
-    for command in (["simulate"], ["linearize"], ["identify"]):
+    for command in (["linearize"], ["identify"]):
         result = runner.invoke(app, [*command, str(path)])
         assert result.exit_code == 2, (command, result.output)
         assert f"dynderive {command[0]}: not built yet for floating-base robots (issue 30)" in result.stderr
@@ -216,7 +224,8 @@ def test_printing_and_other_commands_are_refused(tmp_path):
 def test_the_library_never_takes_lagranges_path(tmp_path):
     (tmp_path / "box.yaml").write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(tmp_path / "box.yaml"))
-    assert sorted(derivation.programs) == ["forward_dynamics", "gravity", "inverse_dynamics", "mass_matrix", "potential"]
+    assert sorted(derivation.programs) == ["coriolis", "forward_dynamics", "gravity", "inverse_dynamics",
+                                           "inverse_dynamics_derivatives", "mass_matrix", "potential", "regressor"]
     with pytest.raises(InputError, match=r"box\.yaml:\d+:\d+: .*not built yet for floating-base robots"):
         derivation["M_g"]
 
@@ -332,7 +341,8 @@ def test_check_runs_the_floating_rows(tmp_path):
     assert rows[POWER_BALANCE] == "pass"
     assert rows["agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
                 "difference)"] == "pass"
-    assert all(status == "pass" for status in rows.values()) and len(rows) == 8
+    assert rows[MOMENTUM] == "pass" and rows[ENERGY_RUN] == "pass"
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 10
     result = runner.invoke(app, ["check", str(path), "--backend", "c"])
     assert result.exit_code == 2
     assert "--backend:1:1: --backend c: not built yet for floating-base robots (issue 30)" in result.stderr
@@ -353,7 +363,7 @@ def test_the_energy_balance_catches_a_velocity_in_the_wrong_frame(tmp_path, righ
     broken = source.replace(right, wrong)
     assert broken != source
     failed = {row.name for row in run_floating_checks(derivation, broken) if row.status == "FAIL"}
-    assert failed == {POWER_BALANCE,
+    assert failed - {MOMENTUM} == {POWER_BALANCE,
                       "agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
                       "difference)", "difference(q, integrate(q, v, dt)) = v dt"}
 
@@ -383,7 +393,7 @@ def test_generated_property_checks_pass_and_catch_a_wrong_module(tmp_path):
     out = tmp_path / "out"
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
                          cwd=out, capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0 and "32 passed" in run.stdout, run.stdout + run.stderr
+    assert run.returncode == 0 and "42 passed" in run.stdout, run.stdout + run.stderr
     module = out / "box_dynamics.py"
     module.write_text(module.read_text().replace("moved = _multiply(quaternion, step)", "moved = _multiply(step, quaternion)"))
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],

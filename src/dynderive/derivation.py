@@ -409,6 +409,8 @@ class Derivation:
         over the robot's parameters), in the order of ``programs["regressor"]``'s columns."""
         from .mechanics.regressor import parameter_vector
 
+        if self.robot.floating:   # no damping or friction columns (mechanics/floating_derivatives.py)
+            from .mechanics.floating_derivatives import floating_parameter_vector as parameter_vector
         return parameter_vector(self.robot, self.symbols)
 
     @property

@@ -297,6 +297,8 @@ def simulate(
                                   "module's default, which integrators cannot step through).")] = 1e-3,
     backend: Annotated[str, typer.Option("--backend", help="numpy: the generated NumPy module; c: the C "
                        "extension (--c-extension), compiled for this run (generalized coordinates).")] = "numpy",
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
+                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
@@ -333,10 +335,16 @@ def simulate(
         raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
                                'pip install "dynderive[simulate]"') from None
     progress = Progress(quiet)
-    model = load_robot(robot, size_limits=True)
-    refuse_floating(model, robot, "simulate")
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    if model.floating:
+        from .simulate_floating import floating_options, run_floating
+
+        floating_options(model, coordinates, animate, force, backend)
     model = with_parameters(model, robot, param or [], required=True)
     _notes(model, quiet)
+    if model.floating:
+        return run_floating(model, duration, q0, qd0, effort or [], plot, csv, method, rtol, atol, frames, quiet,
+                            progress)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
         raise InputError(problem(model.source, "maximal coordinates are planar-only for now"))

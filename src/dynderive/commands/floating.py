@@ -20,11 +20,13 @@ def floating_note(robot: Robot) -> str:
     from ..render.floating_code import NOT_BUILT as MISSING
 
     return (f"note: {robot.name} has a floating base (NQ = {len(robot.configuration_names)} coordinates, NV = "
-            f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, gravity_vector, "
-            "inverse_dynamics, forward_dynamics, kinetic_energy, potential_energy, frame_transform, frame_jacobian, "
-            "neutral_configuration, integrate and difference (check runs its rows); not built yet "
+            f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
+            "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
+            "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
+            "difference (check runs its rows); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c, --c-extension, --matlab, --jax, and the commands simulate, linearize and identify")
+            "--c, --c-extension, --matlab, --jax, and the commands linearize and identify (simulate integrates its "
+            "module on the manifold)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,

@@ -11,8 +11,9 @@ identity and its joint acceleration the spatial acceleration ``qdd`` itself. Eve
 is revolute, prismatic or fixed as in ``recursive.py``; a joint's coordinate is an index into
 ``q`` (NQ entries), its column an index into ``qd`` (NV entries).
 
-Not built here (the notes of ``commands/floating.py`` say so): the Coriolis matrix, the
-regressor, frames and wrenches, damping and friction, linearization.
+The Coriolis matrix, the derivatives of inverse dynamics and the regressor are in
+``floating_derivatives.py``. Not built (the notes of ``commands/floating.py`` say so):
+wrenches at frames, damping and friction.
 """
 
 from __future__ import annotations
@@ -181,12 +182,14 @@ def mass_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
     return M
 
 
-def newton_euler(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr]) -> list[sympy.Expr]:
-    """RNEA: ``M qdd + C qd + N`` (gravity as an upward acceleration of the world)."""
+def motions(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr],
+            gravity: bool = True) -> dict[str, tuple[Vector, Vector, Vector, Vector]]:
+    """Newton-Euler's outward pass: each link's ``(w, v, alpha, a)`` in its own frame, by link
+    name (gravity as an upward acceleration of the world, unless ``gravity`` is false)."""
     vec = tree.program.vector
     zero = (_ZERO,) * 3
-    motion = {"world": (zero, zero, zero, vec([-g for g in _gravity(tree.robot, tree.table)]))}
-    forces = {}
+    lift = vec([-g for g in _gravity(tree.robot, tree.table)]) if gravity else zero
+    motion = {"world": (zero, zero, zero, lift)}
     for body in tree.bodies:
         w, v, alpha, acc = motion[body.parent]
         w, v = tree.motion_from_parent(body, w, v)
@@ -200,7 +203,14 @@ def newton_euler(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sym
             acc = vec(_add(acc, _add(av, _add(_cross(w, vj), _cross(v, wj)))))
             w, v = vec(_add(w, wj)), vec(_add(v, vj))
         motion[body.link] = (w, v, alpha, acc)
-        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, w, v, alpha, acc)
+    return motion
+
+
+def newton_euler(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr]) -> list[sympy.Expr]:
+    """RNEA: ``M qdd + C qd + N`` (gravity as an upward acceleration of the world)."""
+    vec = tree.program.vector
+    motion = motions(tree, qd, qdd)
+    forces = {b.link: body_force(vec, b.mass, b.first_moment, b.inertia, *motion[b.link]) for b in tree.bodies}
     tau: list[sympy.Expr] = [_ZERO] * tree.robot.velocity_count
     for body in reversed(tree.bodies):
         n, f = forces[body.link]
@@ -276,10 +286,12 @@ def _matmul(let, A: Sequence[Sequence[sympy.Expr]], B: Sequence[Sequence[sympy.E
                  for i in range(3))
 
 
-def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program, Program]]:
-    """Each frame's pose (homogeneous, row by row) and world-aligned Jacobian (rows ``(v, w)``:
+def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program, Program, Program]]:
+    """Each frame's pose (homogeneous, row by row), world-aligned Jacobian (rows ``(v, w)``:
     the velocity of the frame's origin and the angular velocity in world axes, per velocity
-    column, Pinocchio's LOCAL_WORLD_ALIGNED), by frame name; one program shared by all."""
+    column, Pinocchio's LOCAL_WORLD_ALIGNED) and ``Jdot qd`` (the origin's classical
+    acceleration and the angular acceleration at qdd = 0, world axes), by frame name; one
+    program shared by all."""
     if not robot.frames:
         return {}
     tree = FloatingTree(robot, table)
@@ -292,7 +304,8 @@ def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program,
         R, p = poses[body.parent]
         poses[body.link] = (_matmul(let, R, body.rotation), vec(_add(p, _rotate(R, body.position))))
     n = robot.velocity_count
-    built: dict[str, tuple[list[sympy.Expr], list[sympy.Expr]]] = {}
+    moving = motions(tree, table.qd, [_ZERO] * n, gravity=False)
+    built: dict[str, tuple[list[sympy.Expr], list[sympy.Expr], list[sympy.Expr]]] = {}
     for frame in robot.frames:
         x, y, z, roll, pitch, yaw = (expr(e) for e in frame.origin)
         R_link, p_link = poses[frame.link]
@@ -313,15 +326,19 @@ def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program,
             link = body.parent
         transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2],
                      _ZERO, _ZERO, _ZERO, one]
-        built[frame.name] = (transform, [e for row in rows for e in row])
-    return {name: (Program(lines=list(tree.program.lines), outputs=list(pose)),
-                   Program(lines=list(tree.program.lines), outputs=list(jacobian)))
-            for name, (pose, jacobian) in built.items()}
+        w, v, alpha, acc = moving[frame.link]   # at qdd = 0, no gravity; r: the frame's origin in link axes
+        velocity = vec(_add(v, _cross(w, (x, y, z))))
+        classical = vec(_add(_add(acc, _cross(alpha, (x, y, z))), _cross(w, velocity)))
+        bias = [*_rotate(R_link, classical), *_rotate(R_link, alpha)]
+        built[frame.name] = (transform, [e for row in rows for e in row], [let(e) for e in bias])
+    return {name: tuple(Program(lines=list(tree.program.lines), outputs=list(outputs)) for outputs in programs)
+            for name, programs in built.items()}
 
 
 def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     """The programs of a floating-base robot's module, by name: ``mass_matrix`` (row by row),
-    ``gravity``, ``potential``, ``inverse_dynamics`` and ``forward_dynamics``."""
+    ``gravity``, ``potential``, ``inverse_dynamics``, ``forward_dynamics``, and from
+    ``floating_derivatives.py`` ``coriolis``, ``inverse_dynamics_derivatives`` and ``regressor``."""
     programs = {}
     zeros = [_ZERO] * robot.velocity_count
     tree = FloatingTree(robot, table)
@@ -342,4 +359,11 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
     tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
     programs["forward_dynamics"] = tree.program
+    from .floating_derivatives import coriolis_matrix, inverse_dynamics_derivatives, regressor
+
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [e for row in coriolis_matrix(tree) for e in row]
+    programs["coriolis"] = tree.program
+    programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives(robot, table)
+    programs["regressor"] = regressor(robot, table)
     return programs

@@ -1,5 +1,6 @@
-"""The NumPy module of a floating-base robot (issue 30): ``mass_matrix``, ``gravity_vector``,
-``inverse_dynamics``, ``forward_dynamics`` from the programs of ``mechanics/floating.py``, and
+"""The NumPy module of a floating-base robot (issue 30): ``mass_matrix``, ``coriolis_matrix``,
+``gravity_vector``, ``inverse_dynamics``, ``forward_dynamics``, ``linearize``, ``regressor``
+from the programs of ``mechanics/floating.py`` and ``floating_derivatives.py``, and
 ``NQ``, ``NV``, ``neutral_configuration``, ``integrate``, ``difference`` (Pinocchio's
 conventions). What the module of a fixed-base robot has beyond these is not built yet for
 floating-base robots and is left out (``NOT_BUILT``), never stubbed."""
@@ -11,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..derivation import Derivation
+from ..mechanics.program import Program
 from .code import Argument, program_function
 from .encode import Code, python_literal
 from .python_module import render_module, render_test_module
@@ -19,9 +21,7 @@ TEMPLATE = "floating_dynamics.py.j2"
 TEST_TEMPLATE = "floating_dynamics_test.py.j2"
 
 #: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
-NOT_BUILT = ("coriolis_matrix", "linearize", "regressor",
-             "parameter_vector", "friction_forces (damping and Coulomb friction are left out)",
-             "frame_jacobian_dot_qd", "wrenches")
+NOT_BUILT = ("friction_forces (damping and Coulomb friction are left out)", "wrenches")
 
 
 def floating_context(derivation: Derivation) -> dict[str, Any]:
@@ -42,13 +42,23 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
         "forward_dynamics": ("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an L^T D L solve of "
                              "M qdd = Y - C qd - N.", [q, qd, u]),
+        "coriolis": ("_coriolis_body", "C(q, qd), row by row: Pinocchio's computeCoriolisMatrix.", [q, qd]),
+        "inverse_dynamics_derivatives": ("_inverse_dynamics_derivatives_body", "dtau/dq (along integrate), then "
+                                         "dtau/dqd, row by row: Newton-Euler differentiated line by line.",
+                                         [q, qd, qdd]),
+        "regressor": ("_regressor_body", "Y(q, qd, qdd) with Y pi = inverse_dynamics, row by row.", [q, qd, qdd]),
     }
     bodies = [program_function(*specs[key], program) for key, program in programs.items()]
-    for index, (name, pose, jacobian) in enumerate(derivation.frame_programs):
+    identification = derivation.parameter_vector
+    bodies.append(program_function("_parameter_vector_body", "The parameter vector pi of regressor.", [],
+                                   Program(outputs=[p.value for p in identification])))
+    for index, (name, pose, jacobian, bias) in enumerate(derivation.frame_programs):
         bodies += [program_function(f"_frame{index}_transform_body", f"Pose of frame {name!r} (homogeneous, row by row).",
                                     [q], pose),
                    program_function(f"_frame{index}_jacobian_body", f"World-aligned Jacobian of frame {name!r}, "
-                                    "row by row.", [q], jacobian)]
+                                    "row by row.", [q], jacobian),
+                   program_function(f"_frame{index}_jacobian_dot_qd_body", f"Jdot qd of frame {name!r}, world axes.",
+                                    [q, qd], bias)]
     where_q, where_v = robot.offsets()
     floating = [j.name for j in robot.joints if j.type == "floating"]
     scalar = [j.name for j in robot.joints if j.moves and j.type != "floating"]
@@ -72,6 +82,8 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "programs": bodies,
         "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
         "frames_tuple": python_literal(tuple(f.name for f in robot.frames)),
+        "parameter_vector_tuple": python_literal(tuple(p.name for p in identification)),
+        "parameter_count": len(identification),
         "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
                                    width=96, break_on_hyphens=False),
     }

@@ -16,6 +16,8 @@ from ..model.symbols import SymbolTable
 from .checks import Row, _row, generated_module
 
 POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . inverse_dynamics(q, qd, qdd)"
+MOMENTUM = "momentum conserved without gravity: d(linear, angular momentum)/dt = 0 under the joints' efforts"
+ENERGY_RUN = "energy conserved without efforts (simulate on the manifold)"
 
 
 def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> np.ndarray:
@@ -68,6 +70,8 @@ def run_floating_checks(derivation: Derivation, source: str, states: int = 12, s
     rows.append(_row("gravity_vector = inverse_dynamics(q, 0, 0)", gravity < 1e-12 * max(1.0, float(np.max(
         np.abs(bias)))), "numeric", gravity))
     rows.append(_power_balance(module, values, qs, vs, rng))
+    rows.append(_momentum(module, robot, values, qs[:6], vs[:6], us[:6]))
+    rows.append(_energy_along_a_run(derivation, source, values, qs[0], vs[0]))
     rows += _manifold(module, robot, qs, vs)
     if module.FRAMES:
         rows.append(_frames(module, values, qs[:4], vs[:4]))
@@ -92,6 +96,44 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np
         power = float(v @ module.inverse_dynamics(q, v, a, **values))
         worst, scale = max(worst, abs(rate - power)), max(scale, abs(power))
     return _row(POWER_BALANCE, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
+
+
+def _momentum(module: Any, robot: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
+              us: np.ndarray) -> Row:
+    """Without gravity the efforts are internal (the base is unactuated): the whole robot's
+    linear and angular momentum (``system_momentum``) stays constant. Its rate along
+    ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``, with ``a`` the accelerations the efforts
+    give without gravity (``M a = Y - (inverse_dynamics(q, v, 0) - gravity_vector(q))``), by
+    central differences, against the size of the gravity-free accelerations' momentum change."""
+    h, worst, scale = 1e-5, 0.0, 1.0
+    for q, v, u in zip(qs, vs, us):
+        bias = module.inverse_dynamics(q, v, np.zeros_like(v), **values) - module.gravity_vector(q, **values)
+        mass = module.mass_matrix(q, **values)
+        a = np.linalg.solve(mass, _applied(robot, u) - bias)
+        ahead, behind = (system_momentum(module, robot, module.integrate(q, v, s * h), v + s * h * a, values)
+                         for s in (1, -1))
+        worst = max(worst, float(np.max(np.abs(ahead - behind))) / (2 * h))
+        scale = max(scale, float(np.max(np.abs(mass @ a))), float(np.max(np.abs(ahead))))
+    return _row(MOMENTUM, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
+
+
+def _energy_along_a_run(derivation: Derivation, source: str, values: dict[str, float], q: np.ndarray,
+                        v: np.ndarray, duration: float = 0.5) -> Row:
+    """``simulate``'s integration on the manifold, without efforts, from a random state: the
+    energy T + V stays what it was (tolerance 1e-10 of the integrator)."""
+    try:
+        import scipy  # noqa: F401
+    except ImportError:
+        return Row(ENERGY_RUN, "skip", "SciPy is not installed", float("nan"))
+    from ..commands.simulate_floating import simulate_floating
+
+    robot = derivation.robot
+    trajectory = simulate_floating(derivation, source, duration, q, v, lambda time, q, qd: np.zeros(len(robot.efforts)),
+                                   1e-10, 1e-10, 3, lambda text: None, values=values)
+    potential = float(generated_module(source, robot.name).potential_energy(q, **values))
+    scale = max(1.0, abs(trajectory.energy[0] - potential) + abs(potential))
+    worst = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])))
+    return _row(ENERGY_RUN, worst < 1e-6 * scale, f"numeric ({duration:g} s simulated)", worst)
 
 
 def _frames(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray) -> Row:
@@ -119,6 +161,28 @@ def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[R
     back = float(np.max(np.abs(module.difference(qs, moved) - 0.7 * vs)))
     return [_row("integrate keeps the quaternions unit", unit < 1e-12, "numeric", unit),
             _row("difference(q, integrate(q, v, dt)) = v dt", back < 1e-9, "numeric", back)]
+
+
+def _rotate(quaternion: np.ndarray, vector: np.ndarray) -> np.ndarray:
+    """The vector rotated by the unit quaternion (x, y, z, w)."""
+    u, w = quaternion[..., :3], quaternion[..., 3:]
+    t = 2.0 * np.cross(u, vector)
+    return vector + w * t + np.cross(u, t)
+
+
+def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """The whole robot's momentum ``(linear, angular about the origin)``, shape (..., 6), in the
+    axes of the floating joint's placement in the world (its ``origin``: a fixed frame, so
+    conservation there is conservation in the world). The floating joint's rows of ``M v`` are
+    the momentum in the base's own frame, about its origin; rotated and moved by the base's pose."""
+    where_q, where_v = robot.offsets()
+    joint = next(j for j in robot.joints if j.type == "floating")
+    qi, vi = where_q[joint.name], where_v[joint.name]
+    local = np.einsum("...ij,...j->...i", module.mass_matrix(q, **values)[..., vi:vi + 6, :], v)
+    quaternion, position = q[..., qi + 3:qi + 7], q[..., qi:qi + 3]
+    linear = _rotate(quaternion, local[..., :3])
+    angular = _rotate(quaternion, local[..., 3:]) + np.cross(position, linear)
+    return np.concatenate([linear, angular], axis=-1)
 
 
 def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any, np.ndarray, np.ndarray]:

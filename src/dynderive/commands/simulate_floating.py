@@ -1,0 +1,164 @@
+"""``dynderive simulate`` of a floating-base robot (issue 30): SciPy's integrator on the state
+``(q, v)`` (NQ + NV entries) with ``dq/dt`` from the module's ``configuration_rate`` (the
+base's quaternion moves by ``1/2 quaternion * (w, 0)``, tangent to the unit sphere), run
+from output frame to output frame; at each frame the quaternions are normalized (the
+integrator's own error moves them off the sphere by about its tolerance) and the run goes on
+from there, as closed loops are projected back onto their constraints. The right-hand side
+evaluates the dynamics at normalized quaternions too. Outputs: the plot and the CSV of
+fixed-base runs, the coordinates of ``q`` and the velocities of ``v``."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..derivation import Derivation
+from ..errors import InputError
+from ..verify.checks import generated_module
+from .integrate import DEFAULT_METHOD, Integrator
+from .options import problem, vector
+from .simulate import Trajectory, _finite_start
+
+#: How far from unit a quaternion of ``--q0`` may be (then normalized): four decimals typed.
+QUATERNION_TOLERANCE = 1e-3
+
+
+def floating_options(robot: Any, coordinates: str, animate: object, force: list[str] | None, backend: str) -> None:
+    """Refuse what a floating-base run does not do (exit 2, before any work)."""
+    if coordinates != "generalized":
+        raise InputError(problem("--coordinates", "a floating-base robot is simulated in its coordinates (q, v) only"))
+    if animate is not None:
+        raise InputError(problem("--animate", "--animate draws planar robots only"))
+    if force:
+        raise InputError(problem("--force", "wrenches at frames: not built yet for floating-base robots (issue 30)"))
+    if backend != "numpy":
+        raise InputError(problem("--backend", f"--backend {backend}: not built yet for floating-base robots (issue 30)"))
+
+
+def floating_quaternions(robot: Any) -> list[int]:
+    """Where each floating joint's quaternion starts in q."""
+    where_q, _ = robot.offsets()
+    return [where_q[j.name] + 3 for j in robot.joints if j.type == "floating"]
+
+
+def normalized(q: np.ndarray, starts: list[int]) -> np.ndarray:
+    q = np.array(q, dtype=float)
+    for start in starts:
+        q[..., start:start + 4] /= np.linalg.norm(q[..., start:start + 4], axis=-1, keepdims=True)
+    return q
+
+
+def floating_initial(robot: Any, q0: np.ndarray | None) -> np.ndarray:
+    """``--q0`` with its quaternions normalized (refused if one is off unit by more than
+    QUATERNION_TOLERANCE); without it the neutral configuration (base at the origin of its
+    parent, identity quaternion) with revolute joints at 0.5 rad and prismatic at 0.2 m."""
+    starts = floating_quaternions(robot)
+    if q0 is None:
+        where_q, _ = robot.offsets()
+        q0 = np.zeros(len(robot.configuration_names))
+        for joint in (j for j in robot.joints if j.moves):
+            if joint.type == "floating":
+                q0[where_q[joint.name] + 6] = 1.0
+            else:
+                q0[where_q[joint.name]] = 0.5 if joint.type == "revolute" else 0.2
+        return q0
+    names = robot.configuration_names
+    for start in starts:
+        norm = float(np.linalg.norm(q0[start:start + 4]))
+        if abs(norm - 1.0) > QUATERNION_TOLERANCE:
+            raise InputError(problem("--q0", f"the quaternion {', '.join(names[start:start + 4])} must be unit "
+                                             f"(within {QUATERNION_TOLERANCE:g}), its norm is {norm:.6g}"))
+    return normalized(q0, starts)
+
+
+def simulate_floating(derivation: Derivation, source: str, duration: float, q0: np.ndarray, v0: np.ndarray,
+                      efforts: Callable[..., np.ndarray], rtol: float, atol: float, frames: int,
+                      progress: Callable[[str], None], method: str = DEFAULT_METHOD,
+                      note: Callable[[str], None] = lambda text: None,
+                      values: dict[str, float] | None = None) -> Trajectory:
+    """Integrate the floating-base module's forward dynamics on the manifold (module docstring);
+    ``Trajectory.position`` holds q (NQ columns), ``velocity`` v (NV columns). ``values``: the
+    parameters (default: the robot's)."""
+    robot = derivation.robot
+    module = generated_module(source, robot.name)
+    if values is None:
+        values = {p.name: p.value for p in robot.parameters if p.value is not None}
+    starts = floating_quaternions(robot)
+    nq = len(q0)
+    reported = [-1]
+
+    def tick(time: float) -> None:
+        percent = int(100 * time / duration) // 10 * 10
+        if percent > reported[0]:
+            reported[0] = percent
+            progress(f"simulated {percent:3d} % of {duration:g} s")
+
+    def rhs(time: float, y: np.ndarray) -> np.ndarray:
+        tick(time)
+        q, v = normalized(y[:nq], starts), y[nq:]
+        qdd = module.forward_dynamics(q, v, efforts(time, q, v), **values)
+        return np.concatenate([module.configuration_rate(q, v), qdd])
+
+    y = np.concatenate([q0, v0])
+    _finite_start(rhs, y, nq, q0, v0)
+    times = np.linspace(0.0, duration, frames)
+    integrator = Integrator(rhs, method, rtol, atol, duration, note, "")
+    states = [y]
+    for start, end in zip(times[:-1], times[1:]):
+        y = integrator.run(start, end, y, np.array([end]))[-1]
+        y = np.concatenate([normalized(y[:nq], starts), y[nq:]])
+        states.append(y)
+    tick(duration)
+    states_array = np.array(states)
+    position, velocity = states_array[:, :nq], states_array[:, nq:]
+    energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
+    return Trajectory(list(robot.configuration_names), times, position, velocity, np.asarray(energy), None, None)
+
+
+def floating_csv(derivation: Derivation, source: str, trajectory: Trajectory) -> str:
+    """The CSV of a floating-base run: t, the NQ coordinates, the NV velocities, the energy."""
+    module = generated_module(source, derivation.robot.name)
+    header = ["t", *module.COORDINATES, *module.VELOCITIES, "energy"]
+    table = np.hstack([trajectory.times[:, None], trajectory.position, trajectory.velocity, trajectory.energy[:, None]])
+    return "\n".join([",".join(header)] + [",".join(f"{v:.12g}" for v in row) for row in table]) + "\n"
+
+
+
+def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, effort: list[str],
+                 plot: Path | None, csv: Path | None, method: str, rtol: float, atol: float, frames: int,
+                 quiet: bool, progress: Callable[[str], None]) -> None:
+    """``dynderive simulate`` of a floating-base robot, after the options common to every run
+    are checked: ``--q0`` takes NQ numbers, ``--qd0`` NV; writes ``--plot`` and ``--csv``."""
+    import typer
+
+    from .. import derive
+    from ..render.floating_code import render_floating_code
+    from .output import write_all
+    from .simulate import parse_efforts, plot_png
+
+    start_q = vector(q0, len(model.configuration_names), "--q0")
+    start_v = vector(qd0, model.velocity_count, "--qd0")
+    start_q = floating_initial(model, start_q)
+    derivation = derive(model, progress=progress)
+    efforts = parse_efforts(derivation, effort, False)
+    progress("generating code (floating base)")
+    source = render_floating_code(derivation)
+    trajectory = simulate_floating(derivation, source, duration, start_q,
+                                   np.zeros(model.velocity_count) if start_v is None else start_v, efforts, rtol,
+                                   atol, frames, progress, method,
+                                   lambda text: None if quiet else typer.echo(f"note: {text}", err=True))
+    files: dict[Path, bytes] = {}
+    if plot is not None:
+        progress("plotting")
+        files[plot] = plot_png(derivation, trajectory)
+    if csv is not None:
+        files[csv] = floating_csv(derivation, source, trajectory).encode()
+    write_all(files)
+    relative = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])) / max(abs(trajectory.energy[0]), 1e-12))
+    typer.echo(f"simulated {duration:g} s of {model.name} (floating base, on the manifold): "
+               f"largest relative energy change {relative:.3g}")
+    for path in files:
+        typer.echo(f"wrote {path}", err=True)

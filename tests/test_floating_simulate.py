@@ -1,0 +1,145 @@
+"""``dynderive simulate`` of floating-base robots (issue 30): a free rigid body without
+gravity keeps its energy and momentum and its quaternion unit; a body under gravity falls as
+z0 - g t^2 / 2; the options a floating run does not take are refused (exit 2, no output)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import dynderive
+from dynderive.commands.cli import app
+from dynderive.commands.simulate import parse_efforts
+from dynderive.commands.simulate_floating import floating_initial, simulate_floating
+from dynderive.render.floating_code import render_floating_code
+from dynderive.verify.checks import generated_module
+from dynderive.verify.floating_checks import ENERGY_RUN, MOMENTUM, run_floating_checks, system_momentum
+from test_floating_base import BOX
+
+pytest.importorskip("scipy")
+runner = CliRunner()
+
+FREE = """name: free
+planar: false
+parameters:
+  g: 0
+gravity: [0, 0, -g]
+links:
+  - {name: body, mass: 2.0, com: [0.05, -0.02, 0.1], inertia: [0.02, 0.03, 0.04, 0.001, 0.002, 0.003]}
+joints:
+  - {name: root, type: floating, parent: world, child: body, origin: {xyz: [0.1, 0.2, 0.3], rpy: [0.4, -0.2, 1.0]}}
+"""
+
+
+def _run(tmp_path: Path, text: str, q0: list[float] | None, v0: list[float], duration: float, frames: int = 41):
+    path = tmp_path / "robot.yaml"
+    path.write_text(text)
+    robot = dynderive.load_robot(path)
+    derivation = dynderive.derive(robot)
+    source = render_floating_code(derivation)
+    q0 = floating_initial(robot, None if q0 is None else np.array(q0))
+    trajectory = simulate_floating(derivation, source, duration, q0, np.array(v0), parse_efforts(derivation, [], False),
+                                   1e-10, 1e-10, frames, lambda text: None)
+    return robot, generated_module(source, robot.name), trajectory
+
+
+def test_a_free_body_keeps_energy_momentum_and_unit_quaternion(tmp_path):
+    q0 = [0.3, -0.1, 0.2, 0.1, 0.2, -0.3, 0.927]   # normalized by floating_initial
+    robot, module, trajectory = _run(tmp_path, FREE, q0, [0.3, -0.2, 0.1, 1.5, -2.0, 0.7], 4.0)
+    assert trajectory.position.shape == (41, 7) and trajectory.velocity.shape == (41, 6)
+    np.testing.assert_allclose(np.linalg.norm(trajectory.position[:, 3:7], axis=1), 1.0, rtol=0, atol=1e-12)
+    energy = trajectory.energy
+    assert energy[0] > 0.1 and np.max(np.abs(energy - energy[0])) < 1e-7 * energy[0]
+    momentum = system_momentum(module, robot, trajectory.position, trajectory.velocity, {"g": 0.0})
+    assert np.max(np.abs(momentum[0])) > 0.1
+    np.testing.assert_allclose(momentum, np.broadcast_to(momentum[0], momentum.shape), rtol=0, atol=1e-7)
+    # the body tumbles: its angular velocity in its own frame changes (Euler's equations)
+    assert np.max(np.abs(trajectory.velocity[:, 3:] - trajectory.velocity[0, 3:])) > 0.1
+
+
+def test_momentum_is_pinocchios(tmp_path):
+    """The momentum of the box with its arm (about the world origin): Pinocchio's centroidal
+    momentum moved from the centre of mass to the origin."""
+    pin = pytest.importorskip("pinocchio")
+    from dynderive.verify.floating_checks import pinocchio_floating_model
+
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    robot = dynderive.load_robot(path)
+    values = {p.name: p.value for p in robot.parameters if p.value is not None}
+    module = generated_module(render_floating_code(dynderive.derive(robot)), robot.name)
+    model, qp, vp = pinocchio_floating_model(robot, values)
+    data = model.createData()
+    pin.seed(3)
+    rng = np.random.default_rng(3)
+    q, v = np.empty(model.nq), np.empty(model.nv)
+    q[qp], v[vp] = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq)), rng.normal(size=model.nv)
+    hg = pin.computeCentroidalMomentum(model, data, q[qp], v[vp])
+    com = pin.centerOfMass(model, data, q[qp])
+    expected = np.concatenate([hg.linear, hg.angular + np.cross(com, hg.linear)])
+    np.testing.assert_allclose(system_momentum(module, robot, q, v, values), expected, rtol=0, atol=1e-12)
+
+
+def test_a_body_falls_as_it_should(tmp_path):
+    text = FREE.replace("g: 0", "g: 9.81").replace(", origin: {xyz: [0.1, 0.2, 0.3], rpy: [0.4, -0.2, 1.0]}", "")
+    _, _, trajectory = _run(tmp_path, text, [0.5, -1.0, 2.0, 0, 0, 0, 1], [0.0] * 6, 1.5, frames=16)
+    t = trajectory.times
+    np.testing.assert_allclose(trajectory.position[:, 2], 2.0 - 9.81 * t**2 / 2, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(trajectory.position[:, :2], np.broadcast_to([0.5, -1.0], (16, 2)), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(trajectory.velocity[:, 2], -9.81 * t, rtol=0, atol=1e-8)   # base axes = world axes
+    np.testing.assert_allclose(trajectory.energy, trajectory.energy[0], rtol=0, atol=1e-7)
+
+
+def test_simulate_command_of_a_floating_robot(tmp_path):
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    csv, plot = tmp_path / "run.csv", tmp_path / "run.png"
+    result = runner.invoke(app, ["simulate", str(path), "--duration", "0.5", "--frames", "11", "--effort",
+                                 "tau2=0.1*sin(t)", "--csv", str(csv), "--plot", str(plot), "-q"])
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith("simulated 0.5 s of box (floating base, on the manifold): largest relative energy")
+    lines = csv.read_text().splitlines()
+    assert lines[0] == ("t,root_x,root_y,root_z,root_qx,root_qy,root_qz,root_qw,q2,root_vx,root_vy,root_vz,root_wx,"
+                        "root_wy,root_wz,qd2,energy")
+    assert len(lines) == 12 and plot.read_bytes().startswith(b"\x89PNG")
+    first = [float(x) for x in lines[1].split(",")]
+    assert first[1:9] == [0, 0, 0, 0, 0, 0, 1, 0.5]   # the default start: neutral base, revolute joints at 0.5
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--q0", "0,0,0,0,0,0,0.9,0"], "--q0:1:1: the quaternion root_qx, root_qy, root_qz, root_qw must be unit "
+                                     "(within 0.001), its norm is 0.9"),
+    (["--q0", "0,0,0,0,0,0,1"], "--q0:1:1: expected 8 numbers separated by commas"),
+    (["--qd0", "0,0,0,0,0,0,0,0"], "--qd0:1:1: expected 7 numbers separated by commas"),
+    (["--coordinates", "maximal"], "--coordinates:1:1: a floating-base robot is simulated in its coordinates"),
+    (["--animate", "a.gif"], "--animate:1:1: --animate draws planar robots only"),
+    (["--force", "x=0,0,0,0,0,0"], "--force:1:1: wrenches at frames: not built yet for floating-base robots"),
+])
+def test_simulate_options_a_floating_run_refuses(tmp_path, args, message):
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    result = runner.invoke(app, ["simulate", str(path), "--csv", str(tmp_path / "run.csv"), *args])
+    assert result.exit_code == 2, result.output
+    assert message in result.stderr and "Traceback" not in result.output
+    assert not (tmp_path / "run.csv").exists()
+
+
+@pytest.mark.parametrize("right,wrong,row", [
+    # the quaternion turned by the angular velocity in world axes: the run's energy drifts
+    ("out[..., start + 3 : start + 7] = 0.5 * _multiply(quaternion, spin)",
+     "out[..., start + 3 : start + 7] = 0.5 * _multiply(spin, quaternion)", ENERGY_RUN),
+    # gravity left out of gravity_vector: the gravity-free accelerations push the whole robot
+    ("return _evaluate(_gravity_body, [q], (NV,)", "return 0.0 * _evaluate(_gravity_body, [q], (NV,)", MOMENTUM),
+])
+def test_the_check_rows_catch_a_wrong_module(tmp_path, right, wrong, row):
+    path = tmp_path / "box.yaml"
+    path.write_text(BOX)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    source = render_floating_code(derivation)
+    assert {r.name: r.status for r in run_floating_checks(derivation, source)}[row] == "pass"
+    broken = source.replace(right, wrong)
+    assert broken != source
+    assert {r.name: r.status for r in run_floating_checks(derivation, broken)}[row] == "FAIL"
