@@ -69,10 +69,10 @@ class Drawing:
         self.items.append({"kind": "circle", "style": style, "centre": centre, "radius": radius, "tag": tag})
         self._cover(centre, centre, radius + HALF_WIDTH[style])
 
-    def arc(self, centre: Point, radius: float, start: float, end: float, style: str = "thin") -> None:
+    def arc(self, centre: Point, radius: float, start: float, end: float, style: str = "thin", tag: str = "") -> None:
         """An arc (angles in radians) with an arrowhead at ``end``."""
         self.items.append({"kind": "arc", "style": style, "centre": centre, "radius": radius,
-                           "start": start, "end": end})
+                           "start": start, "end": end, "tag": tag})
         steps = max(2, int(abs(end - start) * radius / 0.3))
         for k in range(steps):
             t0, t1 = start + (end - start) * k / steps, start + (end - start) * (k + 1) / steps
@@ -82,14 +82,14 @@ class Drawing:
         self.items.append({"kind": "com", "style": "joint", "centre": centre, "radius": radius, "tag": tag})
         self._cover(centre, centre, radius)
 
-    def label(self, candidates: list[Point], text: str, clear: float = 0.5) -> None:
+    def label(self, candidates: list[Point], text: str, clear: float = 0.5, tag: str = "") -> None:
         """``text`` (math) at the first candidate clear of everything by ``clear``, else the clearest."""
         w, h = label_size(text)
         room = self._clearances(np.array(candidates), w, h)
         good = np.nonzero(room >= clear)[0]
         at = candidates[int(good[0]) if len(good) else int(np.argmax(room))]
         self.boxes.append((at, w, h))
-        self.items.append({"kind": "label", "style": "label", "at": at, "text": text, "half": (w, h)})
+        self.items.append({"kind": "label", "style": "label", "at": at, "text": text, "tag": tag})
 
     # -- what is covered -----------------------------------------------------------------------
     def _cover(self, a: Point, b: Point, half: float) -> None:
@@ -178,9 +178,10 @@ def number(value: float) -> str:
     return "0.00" if text == "-0.00" else text
 
 
-def finish(drawing: Drawing, caption: str, **extra: Any) -> dict[str, Any] | None:
+def finish(drawing: Drawing, caption: str, anchors: dict[str, Point], **extra: Any) -> dict[str, Any] | None:
     """The drawing as text for the templates (see the module's docstring), or None when it
-    reaches beyond ``LARGEST_MM`` or holds something not finite (nothing sensible to draw)."""
+    reaches beyond ``LARGEST_MM`` or holds something not finite (nothing sensible to draw).
+    ``anchors`` (named points: joints, centres of mass) are shifted with the drawing."""
     low_x, low_y, high_x, high_y = drawing.extent()
     if not all(math.isfinite(v) and abs(v) < LARGEST_MM for v in (low_x, low_y, high_x, high_y)):
         return None
@@ -216,4 +217,4 @@ def finish(drawing: Drawing, caption: str, **extra: Any) -> dict[str, Any] | Non
             out |= {"at": at(item["at"]), "text": item["text"]}
         items.append(out)
     return {"width": number(high_x - low_x + 2 * MARGIN_MM), "height": number(high_y - low_y + 2 * MARGIN_MM),
-            "items": items, "caption": caption, **extra}
+            "items": items, "caption": caption, "anchors": {k: at(p) for k, p in anchors.items()}, **extra}

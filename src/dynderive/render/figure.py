@@ -140,7 +140,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
         travel = q[index[joint.name]] * scale
         tail = (tip[0] - travel * math.cos(phi), tip[1] - travel * math.sin(phi))
         slides.append((joint, phi, tail, tip))
-    for joint, phi, tail, tip in slides:
+    for joint, phi, _, tip in slides:
         if joint.parent == "world":   # the guide around the block
             a, b = polar(tip, -BLOCK_MM[0] - 6.0, phi), polar(tip, BLOCK_MM[0] + 6.0, phi)
             _ground(sheet, a, b, phi - math.pi / 2, BLOCK_MM[1])
@@ -154,7 +154,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
         if len(hull) >= 2:
             sheet.path(hull, "edge", closed=True, tag=link.name)
             sheet.path(hull, "body", closed=True, tag=link.name)
-    for joint, phi, tail, tip in slides:
+    for joint, phi, tail, _ in slides:
         if joint.parent != "world":
             low, high = sorted((0.0, q[index[joint.name]] * scale))
             sheet.path([polar(tail, low - 1.0, phi), polar(tail, high + BLOCK_MM[0] + 1.5, phi)], "rail")
@@ -186,7 +186,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     for name, point, angle in named:   # short axes x, y of each named frame
         at_mm = mm(point)
         for k in (0, 1):
-            sheet.path([at_mm, polar(at_mm, FRAME_MM, angle + k * math.pi / 2)], "axis", arrow=True)
+            sheet.path([at_mm, polar(at_mm, FRAME_MM, angle + k * math.pi / 2)], "axis", arrow=True, tag=name)
         frames_drawn.append((name, at_mm, angle))
 
     # the coordinates (arcs, reference lines, arrows), then their labels
@@ -194,7 +194,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     children: dict[str, list[str]] = {}
     for joint in robot.joints:
         children.setdefault(joint.parent, []).append(joint.child)
-    places: list[tuple[list[Point], str]] = []
+    places: list[tuple[list[Point], str, str]] = []
     for joint in robot.joints:
         if not joint.moves:
             continue
@@ -207,11 +207,11 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
             start = end - value
             first = _first_segment(centre, [mm(p) for p in body[joint.child][1:]])
             radius = max(min(ARC_MM, 0.45 * first) if first > 0 else ARC_MM, 4.0)
-            sheet.arc(centre, radius, start, end)
+            sheet.arc(centre, radius, start, end, tag=joint.name)
             length = radius + 4.0
             if not _covered(centre, start, length, links_mm + [(origin, x_tip), (origin, y_tip)]):
                 for dash in _dashes(centre, start, length):
-                    sheet.path(list(dash), "dashed")
+                    sheet.path(list(dash), "dashed", tag=joint.name)
             sign = 1.0 if end >= start else -1.0
             mid = (start + end) / 2
             # in the wedge beyond the arc, else beside it, else opposite
@@ -219,7 +219,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
                      mid + math.pi, end + sign * 1.2, start - sign * 1.2]
             tries = [(mid, extra) for extra in (0.6, 2.0, 3.5)] + [(t, extra) for extra in (0.6, 2.0) for t in turns]
             places.append(([polar(centre, radius + extra + abs(w * math.cos(t)) + abs(h * math.sin(t)), t)
-                            for t, extra in tries], label))
+                            for t, extra in tries], label, joint.name))
         else:
             _, phi, tail, tip = next(s for s in slides if s[0] is joint)
             # beside the axis: the nearest offset on either side that clears what is drawn
@@ -232,21 +232,22 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
             _, offset, side, arrow = next((c for c in sides if c[0] >= 1.2), max(sides, key=lambda c: c[0]))
             nx, ny = -math.sin(phi) * side, math.cos(phi) * side
             if math.hypot(arrow[1][0] - arrow[0][0], arrow[1][1] - arrow[0][1]) > 1.0:
-                sheet.path(list(arrow), "thin", arrow=True)
+                sheet.path(list(arrow), "thin", arrow=True, tag=joint.name)
             for p in (tail, tip):
                 sheet.path([(p[0] + (BLOCK_MM[1] + 0.5) * nx, p[1] + (BLOCK_MM[1] + 0.5) * ny),
-                            (p[0] + (offset + 1.0) * nx, p[1] + (offset + 1.0) * ny)], "thin")
+                            (p[0] + (offset + 1.0) * nx, p[1] + (offset + 1.0) * ny)], "thin", tag=joint.name)
             reach = offset + 1.0 + abs(w * nx) + abs(h * ny)
             places.append(([(tail[0] + f * (tip[0] - tail[0]) + (reach + extra) * nx,
                              tail[1] + f * (tip[1] - tail[1]) + (reach + extra) * ny)
-                            for extra in (0.0, 2.5) for f in (0.5, 0.3, 0.7)], label))
-    for candidates, label in places:
-        sheet.label(candidates, label)
+                            for extra in (0.0, 2.5) for f in (0.5, 0.3, 0.7)], label, joint.name))
+    for candidates, label, tag in places:
+        sheet.label(candidates, label, tag=tag)
     for name, origin_f, angle in frames_drawn:   # the frame's name in the quadrant its axes leave free
         label = r"\mathrm{" + escape_tex(name) + "}"
         w, h = label_size(label)
         sheet.label([polar(origin_f, 1.5 + math.hypot(w, h), angle + turn)
-                     for turn in (-3 * math.pi / 4, math.pi + math.pi / 4, -math.pi / 4, 3 * math.pi / 4)], label)
+                     for turn in (-3 * math.pi / 4, math.pi + math.pi / 4, -math.pi / 4, 3 * math.pi / 4)], label,
+                    tag=name)
     w, h = label_size("x_s")
     sheet.label([(x_tip[0] + 0.8 + w, x_tip[1]), (x_tip[0] - w, x_tip[1] - 0.8 - h),
                  (x_tip[0] - w, x_tip[1] + 0.8 + h), (x_tip[0] + 0.8 + w, x_tip[1] - 0.8 - h)], "x_s")
@@ -254,8 +255,11 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
                  (y_tip[0] + 0.8 + w, y_tip[1] - h)], "y_s")
     configuration = ", ".join(f"{fmt(c)} = {_value_text(v, j.type)}"
                               for c, v, j in zip(table.q, q, (by_name[n] for n in robot.coordinates)))
+    anchors = {"world": origin} | {f"joint:{j.name}": mm(joint_points[j.child]) for j in robot.joints}
+    anchors |= {f"com:{link.name}": mm(coms[link.name]) for link in links}
+    anchors |= {f"loop:{loop.name}": mm(p) for loop, (p, _) in zip(robot.loops, loop_points)}
     return finish(sheet, f"The robot at ${configuration}$" + (", its loops closed." if robot.loops else "."),
-                  configuration=configuration, scale=scale)
+                  anchors, configuration=configuration, scale=scale, q=q)
 
 
 def _ground(sheet: Drawing, a: Point, b: Point, down: float, gap: float) -> None:

@@ -201,17 +201,17 @@ def spatial_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any]
         tip = at(np.eye(3)[k] * AXIS_MM / scale)
         sheet.path([at(np.zeros(3)), tip], "axis", arrow=True)
         tips.append((tip, f"{name}_s"))
-    for _, p, R in named:
+    for name, p, R in named:
         for k in range(3):
-            sheet.path([at(p), at(p + R[:, k] * FRAME_MM / scale)], "axis", arrow=True)
+            sheet.path([at(p), at(p + R[:, k] * FRAME_MM / scale)], "axis", arrow=True, tag=name)
     # labels: the coordinates beside their joints, the frames' names beside their origins
     index = {name: i for i, name in enumerate(robot.coordinates)}
     for joint in robot.joints:
         if joint.moves:
             label = fmt(table.q[index[joint.name]])
-            _label(sheet, at(joints[joint.name][1]), CYLINDER_MM[1] + 0.8, label)
+            _label(sheet, at(joints[joint.name][1]), CYLINDER_MM[1] + 0.8, label, joint.name)
     for name, p, _ in named:
-        _label(sheet, at(p), 1.5, r"\mathrm{" + escape_tex(name) + "}")
+        _label(sheet, at(p), 1.5, r"\mathrm{" + escape_tex(name) + "}", name)
     origin = at(np.zeros(3))
     for tip, label in tips:
         w, h = label_size(label)
@@ -225,9 +225,12 @@ def spatial_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any]
     configuration = ("q = 0" if zero else ", ".join(
         f"{fmt(c)} = {_value_text(v, j)}" for c, v, j in
         zip(table.q, q, ({j.name: j for j in robot.joints}[n].type for n in robot.coordinates))))
-    what = "its zero configuration $q = 0$" if zero else f"its default assembly ${configuration}$"
+    what = f"its {'default assembly' if robot.loops else 'zero configuration'} ${configuration}$"
     view_text = f"azimuth ${math.degrees(AZIMUTH):.0f}^\\circ$, elevation ${math.degrees(ELEVATION):.0f}^\\circ$"
-    return finish(sheet, f"The robot at {what}, seen from {view_text}.", configuration=configuration, scale=scale,
+    anchors = {"world": at(np.zeros(3))} | {f"joint:{j.name}": at(joints[j.name][1]) for j in robot.joints}
+    anchors |= {f"com:{name}": at(p) for name, p in coms.items()}
+    return finish(sheet, f"The robot at {what}, seen from {view_text}.", anchors, configuration=configuration,
+                  scale=scale, q=q,
                   view=(f"{math.degrees(AZIMUTH):.0f}", f"{math.degrees(ELEVATION):.0f}"))
 
 
@@ -285,11 +288,11 @@ def _plate(sheet: Drawing, at: Callable[[Vector], Point], scale: float) -> None:
         sheet.path([at(np.array([u, v, 0.0])) for u, v in ends], "hatch")
 
 
-def _label(sheet: Drawing, centre: Point, gap: float, label: str) -> None:
+def _label(sheet: Drawing, centre: Point, gap: float, label: str, tag: str) -> None:
     w, h = label_size(label)
     candidates = []
     for extra in (0.0, 2.5, 5.0):
         for turn in (30, 150, -30, -150, 90, -90, 0, 180):
             t = math.radians(turn)
             candidates.append((centre[0] + (gap + extra + w) * math.cos(t), centre[1] + (gap + extra + h) * math.sin(t)))
-    sheet.label(candidates, label)
+    sheet.label(candidates, label, tag=tag)

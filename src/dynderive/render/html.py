@@ -142,7 +142,8 @@ def _figure(derivation: Derivation) -> dict[str, Any] | None:
     return {"svg": svg_figure(figure, figure_labels(derivation, latex)),
             "configuration": [(name_markup(n), value) for n, value in
                               configuration_text(derivation, figure["configuration"], latex)],
-            "loops": bool(robot.loops), "spatial": not robot.planar, "zero": figure["configuration"] == "q = 0",
+            "loops": bool(robot.loops), "spatial": not robot.planar,
+            "what": "" if robot.planar else "its default assembly" if robot.loops else "its zero configuration",
             "view": figure.get("view", ("", ""))}
 
 
