@@ -1,5 +1,6 @@
-"""Draw the README's and the docs' pictures of robots: each bundled planar robot's drawing and
-the Panda's kinematic diagram, as on their sheets, to ``docs/images/drawing_<robot>.png``.
+"""Draw the README's and the docs' pictures of robots: each bundled planar robot's drawing
+(``cart_pole_damped`` is drawn as ``cart_pole``) and the UR5's kinematic diagram, as on their
+sheets, to ``docs/images/drawing_<robot>.png``.
 
     python docs/make_images.py            # from the checkout, with dynderive importable
 
@@ -24,8 +25,8 @@ from dynderive.render.latex import Formatter
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images"
 #: The robots drawn: every bundled planar robot, and one 3-D diagram.
-ROBOTS = ["double_pendulum", "planar_3r", "rp_arm", "cart_pole", "cart_pole_damped", "mass_spring_damper", "four_bar",
-          "slider_crank", "panda"]
+ROBOTS = ["double_pendulum", "planar_3r", "rp_arm", "cart_pole", "mass_spring_damper", "four_bar",
+          "slider_crank", "ur5"]
 
 PAGE = r"""\documentclass{article}
 \usepackage[paperwidth=%(width)smm, paperheight=%(height)smm, margin=0mm]{geometry}
