@@ -30,7 +30,7 @@ from .encode import escape_tex
 #: The view: azimuth of the viewer from the x axis (towards y) and elevation above the xy-plane.
 AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
 #: Size of the robot in the drawing (mm): it is scaled to fit, keeping its proportions.
-WIDTH_MM, HEIGHT_MM = 85.0, 75.0
+WIDTH_MM, HEIGHT_MM = 85.0, 60.0
 #: A revolute joint's cylinder: radius and half length; a prismatic joint's box: half
 #: length and half width; a ball joint's radius; the axes of the world frame and of a named
 #: frame; the world's plate's half size (mm on the paper).
