@@ -427,3 +427,15 @@ def test_convex_hull_of_a_link():
     assert convex_hull([(0.0, 0.0), (2.0, 0.0), (1.0, 0.5), (2.0, 2.0), (0.0, 2.0)]) == [
         (0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)]
     assert convex_hull([(1.0, 1.0)]) == [(1.0, 1.0)]
+
+
+def test_every_style_is_drawn_by_tikz_and_svg():
+    """The styles the drawings use are defined in the TikZ picture and in the HTML's SVG."""
+    from dynderive.render.drawing import HALF_WIDTH
+    from dynderive.render.html_svg import STYLES
+
+    template = (ROOT / "templates" / "drawing.tex.j2").read_text()
+    assert all(f"  {style}/.style={{" in template for style in HALF_WIDTH)
+    assert set(STYLES) == set(HALF_WIDTH)
+    used = {i["style"] for name in ("rp_arm", "four_bar", "cart_pole", "ur5") for i in _figure(derivation_of(name))["items"]}
+    assert used - {"label"} <= set(HALF_WIDTH) and {"edge", "body", "joint", "shade", "ground", "hatch"} <= used

@@ -10,7 +10,7 @@ A drawing is a list of items in millimetres (y up), each of one kind and one sty
 - ``com``: the centre-of-mass symbol (a circle with two black quarters),
 - ``label``: math text (LaTeX) centred at a point.
 
-The styles (``STYLES``) are named by what they draw: ``edge`` and ``body`` (a link: its
+The styles (the keys of ``HALF_WIDTH``) are named by what they draw: ``edge`` and ``body`` (a link: its
 outline, then its fill, each a thick stroke with round joins, so that two points give a
 rounded bar and more a rounded plate), ``joint`` (a joint's symbol, white with a black
 outline), ``shade`` (a 3-D joint's body), ``thin``, ``dashed``, ``axis`` (a frame's axis, an
