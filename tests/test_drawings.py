@@ -439,3 +439,22 @@ def test_every_style_is_drawn_by_tikz_and_svg():
     assert set(STYLES) == set(HALF_WIDTH)
     used = {i["style"] for name in ("rp_arm", "four_bar", "cart_pole", "ur5") for i in _figure(derivation_of(name))["items"]}
     assert used - {"label"} <= set(HALF_WIDTH) and {"edge", "body", "joint", "shade", "ground", "hatch"} <= used
+
+
+def test_no_zero_length_item_in_large_and_3d_drawings(tmp_path):
+    """A 12-link planar chain (its picture-mode drawing overflowed before) and random 3-D
+    trees: no path with a repeated point, no arc without sweep, everything inside the drawing."""
+    derivations = [_derive_text(tmp_path, planar_chain_yaml(12, seed=0))]
+    derivations += [_derive_text(tmp_path, random_spatial_tree(random.Random(seed), n).yaml_text)
+                    for seed, n in ((0, 2), (1, 4), (5, 6))]
+    for derivation in derivations:
+        figure = _figure(derivation)
+        width, height = float(figure["width"]), float(figure["height"])
+        for item in figure["items"]:
+            if item["kind"] == "path":
+                points = item["points"] + (item["points"][:1] if item["closed"] else [])
+                assert len(item["points"]) >= 2 and all(a != b for a, b in zip(points, points[1:])), item
+            if item["kind"] == "arc":
+                assert abs(float(item["end"]) - float(item["start"])) >= 1.0 and float(item["radius"]) > 0
+            for x, y in item.get("points", [item.get("centre") or item.get("at")]):
+                assert 0.0 <= float(x) <= width and 0.0 <= float(y) <= height, item
