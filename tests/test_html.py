@@ -118,7 +118,7 @@ def test_every_bundled_page_is_escaped_markup_without_latex(robot):
     tags = parse(page)
     assert tags.problems == [] and tags.stack == []
     assert "\\" not in page and "<script" not in page   # no LaTeX leaked into the page (labels, names)
-    assert ("<svg" in page) == derivation_of(robot.rsplit(".", 1)[0]).robot.planar
+    assert page.count("<svg") == 1   # every bundled robot is drawn: planar, or a 3-D kinematic diagram
 
 
 def test_deterministic_bytes():
@@ -127,13 +127,15 @@ def test_deterministic_bytes():
     assert first == second
 
 
-def test_planar_drawing_is_svg_and_3d_says_not_built():
+def test_drawings_are_svg_planar_and_3d():
     planar = render_html(derivation_of("double_pendulum"))
     svg = re.search(r"<svg .*?</svg>", planar, re.S).group(0)
     assert svg.count("<circle") >= 2 and "<path" in svg and "<text" in svg   # joints, links, labels
     assert ">q<" in svg or "italic\">q" in svg
     spatial = render_html(derivation_of("bennett"))
-    assert "<svg" not in spatial and "no drawing is built yet" in spatial
+    svg = re.search(r"<svg .*?</svg>", spatial, re.S).group(0)
+    assert svg.count("<path") > 20 and ">z<" in svg.replace('<tspan font-style="italic">', ">")   # axes, z_s
+    assert "default assembly" in spatial and "azimuth 30" in spatial
 
 
 HOSTILE = '<script>alert("x")</script> & \'quoted\' </math><b>'

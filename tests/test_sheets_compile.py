@@ -118,15 +118,19 @@ def test_matrix_wider_than_amsmath_allows_is_set_entry_by_entry(tmp_path):
     assert row["wide"] and not row["tight"] and len(row["entries"]) == 21 and row["entries"][-1]["name"] == "A_{1,21}"
 
 
-# ---- the drawing: no curve LaTeX cannot draw ----------------------------------------------
+# ---- the drawing: nothing TikZ cannot draw ---------------------------------------------------
 
-def _curves(figure: dict) -> list[tuple[str, ...]]:
-    found = [*figure["segments"], *figure["hatches"]]
-    for c in figure["coordinates"]:
-        found += [*c["curves"], *c["lines"]]
-    for f in figure["frames"]:
-        found += f["lines"]
-    return found
+def _degenerate(figure: dict) -> list[dict]:
+    """Items of zero length: a path with a repeated point or one point, an arc without sweep."""
+    bad = []
+    for item in figure["items"]:
+        if item["kind"] == "path":
+            points = item["points"] + (item["points"][:1] if item["closed"] else [])
+            if len(item["points"]) < 2 or any(a == b for a, b in zip(points, points[1:])):
+                bad.append(item)
+        elif item["kind"] == "arc" and (abs(float(item["end"]) - float(item["start"])) < 1.0 or float(item["radius"]) <= 0):
+            bad.append(item)
+    return bad
 
 
 def test_dashes_end_without_a_stub():
@@ -136,18 +140,19 @@ def test_dashes_end_without_a_stub():
 
 
 @pytest.mark.parametrize(("n", "seeds"), [(2, range(6)), (3, range(8)), (4, range(6)), (5, range(4))])
-def test_drawings_hold_no_degenerate_curve(tmp_path, n, seeds):
-    """Every \\qbezier spans at least the picture's resolution (0.1 mm): LaTeX divides by the
-    extent (a point is "Arithmetic overflow"); coordinates stay within the picture's size.
-    Seed 3 of the 3-joint trees drew a last dash of 0.0 mm before."""
+def test_drawings_hold_no_degenerate_path(tmp_path, n, seeds):
+    """Every path spans at least the drawing's resolution (0.01 mm) between its points (the
+    picture mode's \\qbezier divided by the extent: "Arithmetic overflow" at zero; TikZ draws
+    a zero-length path as a dot); coordinates stay within the drawing's size. Seed 3 of the
+    3-joint trees drew a last dash of 0.0 mm before."""
     for seed in seeds:
         derivation = _derive(tmp_path, "planar tree", n, seed)
         figure = planar_figure(derivation, Formatter.of(derivation))
-        curves = _curves(figure)
-        assert curves and not [c for c in curves if c[0:2] == c[2:4] == c[4:6]], seed
+        assert figure["items"] and not _degenerate(figure), seed
         width, height = float(figure["width"]), float(figure["height"])
         assert 0 < width < 200 and 0 < height < 200, (seed, width, height)
-        assert all(0.0 <= float(v) <= max(width, height) for c in curves for v in c), seed
+        points = [p for i in figure["items"] for p in i.get("points", [i.get("centre", i.get("at"))])]
+        assert all(0.0 <= float(x) <= width and 0.0 <= float(y) <= height for x, y in points), seed
 
 
 def test_robot_that_cannot_be_evaluated_is_not_drawn(tmp_path):

@@ -1,7 +1,7 @@
 """The HTML sheet: the LaTeX sheet's sections and quantities as one self-contained page.
 
 Equations are MathML (``html_math``), the drawing of a planar robot inline SVG
-(``html_svg``, the LaTeX picture's geometry), the style an inline ``<style>``: no script,
+(``html_svg``, the TikZ picture's geometry), the style an inline ``<style>``: no script,
 no network, no external file. The quantities, the sections and the size rules (what is
 too large to typeset) are the sheet's: the derivation's quantities, the sheet's
 ``default_sections`` and the LaTeX ``Formatter``'s limits. Text from the robot file reaches
@@ -19,7 +19,7 @@ from markupsafe import Markup, escape
 
 from ..derivation import Derivation
 from .environment import render
-from .figure import planar_figure
+from .figure import sheet_figure
 from .html_math import MathFormatter, body_jacobian, fenced, link_frame, mi, mrow, name_markup, sub
 from .html_svg import configuration_text, figure_labels, svg_figure
 from .latex import (
@@ -133,16 +133,18 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
 
 
 def _figure(derivation: Derivation) -> dict[str, Any] | None:
-    """The LaTeX picture's geometry as SVG, and the configuration drawn."""
+    """The TikZ picture's geometry as SVG, and the configuration drawn."""
     latex = Formatter.of(derivation)
-    figure = planar_figure(derivation, latex)
+    figure = sheet_figure(derivation, latex)
     if figure is None:
         return None
+    robot = derivation.robot
     return {"svg": svg_figure(figure, figure_labels(derivation, latex)),
             "configuration": [(name_markup(n), value) for n, value in
                               configuration_text(derivation, figure["configuration"], latex)],
-            "loops": bool(figure["loops"]), "frames": bool(figure["frames"]),
-            "revolute": figure["revolute"], "prismatic": figure["prismatic"]}
+            "loops": bool(robot.loops), "spatial": not robot.planar,
+            "what": "" if robot.planar else "its default assembly" if robot.loops else "its zero configuration",
+            "view": figure.get("view", ("", ""))}
 
 
 def _drives(derivation: Derivation, fmt: MathFormatter) -> dict[str, Any] | None:

@@ -1,8 +1,8 @@
-"""The sheet's drawing of a planar robot as inline SVG, for the HTML sheet.
+"""The sheet's drawing as inline SVG, for the HTML sheet.
 
-The geometry is the LaTeX picture's (``figure.planar_figure``: millimetres, y up, lines and
-arcs as quadratic beziers, arrowheads as directions, labels placed clear of the lines); here
-each piece becomes an SVG element, y turned down. Labels are SVG text (the coordinate's
+The geometry is the TikZ picture's (``drawing``: items in millimetres, y up, each of one
+kind and one style); here each item becomes an SVG element, y turned down, each style the
+same strokes and fills as the TikZ style of its name. Labels are SVG text (the coordinate's
 letter in italic with its index as a subscript), built from the robot's names, never from
 the LaTeX strings.
 """
@@ -21,69 +21,68 @@ from .html_math import Name, name_of
 PIXELS_PER_MM = 5.0
 #: Size of the labels' letters (mm).
 FONT_MM = 3.6
+#: Each style's SVG attributes (the TikZ styles of ``templates/drawing.tex.j2``; widths in mm).
+STYLES = {
+    "edge": 'fill="#000" stroke="#000" stroke-width="2.2"',
+    "body": 'fill="#e0e0e0" stroke="#e0e0e0" stroke-width="1.5"',
+    "joint": 'fill="#fff" stroke="#000" stroke-width="0.18"',
+    "shade": 'fill="#e6e6e6" stroke="#000" stroke-width="0.18"',
+    "thin": 'fill="none" stroke="#000" stroke-width="0.12"',
+    "dashed": 'fill="none" stroke="#000" stroke-width="0.12"',
+    "axis": 'fill="none" stroke="#000" stroke-width="0.18"',
+    "rail": 'fill="none" stroke="#737373" stroke-width="0.8"',
+    "ground": 'fill="#fff" stroke="#000" stroke-width="0.21"',
+    "hatch": 'fill="none" stroke="#000" stroke-width="0.12"',
+}
 
 
 def figure_labels(derivation: Any, latex: Any) -> dict[str, Name]:
-    """The drawing's labels (the LaTeX strings ``planar_figure`` placed) -> the names they show."""
+    """The drawing's labels (the LaTeX strings the drawing placed) -> the names they show."""
     table = derivation.symbols
     labels: dict[str, Name] = {latex(q): name_of(str(q)) for q in table.q}
     for frame in derivation.robot.frames:
         labels[r"\mathrm{" + escape_tex(frame.name) + "}"] = (frame.name, "normal", 0, "")
-    labels |= {"x_s": ("x", "", 0, "s"), "y_s": ("y", "", 0, "s")}
+    labels |= {f"{axis}_s": (axis, "", 0, "s") for axis in "xyz"}
     return labels
 
 
 def svg_figure(figure: dict[str, Any], labels: dict[str, Name]) -> Markup:
-    """``figure`` (``planar_figure``'s dict) as an ``<svg>`` element."""
+    """``figure`` (``drawing.finish``'s dict) as an ``<svg>`` element."""
     width, height = float(figure["width"]), float(figure["height"])
 
-    def point(x: str, y: str) -> str:
-        return f"{float(x):.1f} {height - float(y):.1f}"
-
-    def path(curves: list[tuple[str, ...]]) -> str:
-        return " ".join(f"M{point(c[0], c[1])} Q{point(c[2], c[3])} {point(c[4], c[5])}" for c in curves)
+    def point(p: tuple[str, str]) -> str:
+        return f"{float(p[0]):.2f} {height - float(p[1]):.2f}"
 
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" role="img" class="drawing" '
              f'width="{width * PIXELS_PER_MM:.0f}" height="{height * PIXELS_PER_MM:.0f}" '
-             f'viewBox="0 0 {width:.1f} {height:.1f}">']
-    thin = 'fill="none" stroke="#000" stroke-width="0.2"'
-    for b in figure["bases"]:
-        x, y = float(b[0]), height - float(b[1])
-        parts.append(f'<line x1="{x - 5:.1f}" y1="{y:.1f}" x2="{x + 5:.1f}" y2="{y:.1f}" stroke="#000" stroke-width="0.2"/>')
-    if figure["hatches"]:
-        parts.append(f'<path d="{path(figure["hatches"])}" {thin}/>')
-    frame = figure["frame"]
-    ox, oy = float(frame["origin"][0]), float(frame["origin"][1])
-    for dx, dy in ((float(frame["x"]), 0.0), (0.0, float(frame["y"]))):
-        tip = (f"{ox + dx:.1f}", f"{oy + dy:.1f}")
-        parts.append(f'<path d="M{point(*frame["origin"])} L{point(*tip)}" {thin}/>')
-        parts.append(_head(point(*tip), dx, dy))
-    for f in figure["frames"]:
-        if f["lines"]:
-            parts.append(f'<path d="{path(f["lines"])}" {thin}/>')
-        parts += [_head(point(h[0], h[1]), float(h[2]), float(h[3])) for h in f["heads"]]
-    for c in figure["coordinates"]:
-        if c["curves"] or c["lines"]:
-            parts.append(f'<path d="{path(c["curves"] + c["lines"])}" {thin}/>')
-        h = c["head"]
-        parts.append(_head(point(h[0], h[1]), float(h[2]), float(h[3])))
-    if figure["segments"]:
-        parts.append(f'<path d="{path(figure["segments"])}" fill="none" stroke="#000" stroke-width="0.5" '
-                     'stroke-linecap="round"/>')
-    for c in figure["coms"]:
-        parts.append(f'<circle cx="{float(c[0]):.1f}" cy="{height - float(c[1]):.1f}" r="0.8" fill="#000"/>')
-    for j in figure["joints"]:
-        x, y = float(j["x"]), height - float(j["y"])
-        if j["prismatic"]:
-            parts.append(f'<rect x="{x - 1.2:.1f}" y="{y - 1.2:.1f}" width="2.4" height="2.4" fill="#fff" '
-                         'stroke="#000" stroke-width="0.3"/>')
+             f'viewBox="0 0 {width:.2f} {height:.2f}" stroke-linecap="round" stroke-linejoin="round">']
+    for item in figure["items"]:
+        kind, style = item["kind"], STYLES.get(item["style"], "")
+        if kind == "path":
+            d = "M" + " L".join(point(p) for p in item["points"]) + (" Z" if item["closed"] else "")
+            parts.append(f'<path d="{d}" {style}/>')
+            if item["arrow"]:
+                (x0, y0), (x1, y1) = [(float(a), float(b)) for a, b in item["points"][-2:]]
+                parts.append(_head(point(item["points"][-1]), x1 - x0, y1 - y0))
+        elif kind == "circle":
+            parts.append(f'<circle cx="{float(item["centre"][0]):.2f}" cy="{height - float(item["centre"][1]):.2f}" '
+                         f'r="{item["radius"]}" {style}/>')
+        elif kind == "com":
+            x, y, r = float(item["centre"][0]), height - float(item["centre"][1]), float(item["radius"])
+            parts.append(f'<circle cx="{x:.2f}" cy="{y:.2f}" r="{r:.2f}" {STYLES["joint"]}/>')
+            parts.append(f'<path d="M{x:.2f} {y:.2f} L{x + r:.2f} {y:.2f} A{r:.2f} {r:.2f} 0 0 0 {x:.2f} {y - r:.2f} Z '
+                         f'M{x:.2f} {y:.2f} L{x - r:.2f} {y:.2f} A{r:.2f} {r:.2f} 0 0 0 {x:.2f} {y + r:.2f} Z" fill="#000"/>')
+        elif kind == "arc":
+            start, end, r = float(item["start"]), float(item["end"]), float(item["radius"])
+            large = 1 if abs(end - start) > 180 else 0
+            sweep = 0 if end > start else 1   # counter-clockwise with y up is clockwise with y down
+            parts.append(f'<path d="M{point(item["from"])} A{r:.2f} {r:.2f} 0 {large} {sweep} {point(item["to"])}" '
+                         f'{STYLES["thin"]}/>')
+            tangent = math.radians(end) + math.copysign(math.pi / 2, end - start)
+            parts.append(_head(point(item["to"]), math.cos(tangent), math.sin(tangent)))
         else:
-            parts.append(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="1.2" fill="#fff" stroke="#000" stroke-width="0.3"/>')
-    for c in figure["loops"]:
-        parts.append(f'<circle cx="{float(c[0]):.1f}" cy="{height - float(c[1]):.1f}" r="1.2" fill="#fff" '
-                     'stroke="#000" stroke-width="0.3"/>')
-    for x, y, label in figure["labels"]:
-        parts.append(_label(float(x), height - float(y), labels.get(label, (label, "normal", 0, ""))))
+            x, y = float(item["at"][0]), height - float(item["at"][1])
+            parts.append(_label(x, y, labels.get(item["text"], (item["text"], "normal", 0, ""))))
     parts.append("</svg>")
     return Markup("".join(parts))
 
@@ -92,7 +91,7 @@ def _head(tip: str, dx: float, dy: float) -> str:
     """A filled arrowhead at ``tip`` (SVG coordinates) pointing along (dx, dy) (y up)."""
     angle = math.degrees(math.atan2(-dy, dx))
     x, y = tip.split()
-    return (f'<path d="M0 0 L-1.6 -0.6 L-1.6 0.6 Z" fill="#000" '
+    return (f'<path d="M0 0 L-1.6 -0.55 L-1.6 0.55 Z" fill="#000" '
             f'transform="translate({x} {y}) rotate({angle:.1f})"/>')
 
 

@@ -12,7 +12,7 @@ from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from .encode import escape_tex, tex_unit
 from .environment import render
-from .figure import planar_figure
+from .figure import sheet_figure
 from .linebreak import LineBreaker
 from .printers import DerivationFormatter, RememberingLatexPrinter
 
@@ -377,7 +377,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "sections": list(sections),
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
         "inertia_groups": _groups([(link["index"], link["spatial_inertia"]) for link in links]),
-        "figure": planar_figure(derivation, fmt),
+        "figure": sheet_figure(derivation, fmt),
         "drives": drives_context(derivation, fmt),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
         "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,

@@ -31,7 +31,7 @@ def compile_pdf_report(tex: str, jobname: str = "sheet", timeout: float = 300) -
         raise ToolMissingError(
             "--pdf needs latexmk and pdflatex, which are not installed (Debian/Ubuntu: "
             "apt-get install latexmk texlive-latex-base texlive-latex-recommended "
-            "texlive-fonts-recommended); --latex alone writes the .tex file")
+            "texlive-fonts-recommended texlive-pictures); --latex alone writes the .tex file")
     env = dict(os.environ, SOURCE_DATE_EPOCH=SOURCE_DATE_EPOCH, FORCE_SOURCE_DATE="1",
                openout_any="p", shell_escape="f")
     with tempfile.TemporaryDirectory(prefix="dynderive-tex-") as work:
