@@ -71,10 +71,10 @@ class Formatter(DerivationFormatter):
     and its maximal model cost seconds to print. A large robot's sums are printed in SymPy's
     own (canonical, deterministic) order rather than sorted, which takes half the time."""
 
-    def __init__(self, derivation: Derivation):
+    def __init__(self, derivation: Derivation, extra_names: dict[sympy.Symbol, str] | None = None):
         super().__init__()
         self.names = derivation.symbols.latex_names() | {
-            name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
+            name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates} | (extra_names or {})
         self.order = "none" if derivation.intermediate_form else None
         self._printer = RememberingLatexPrinter({
             "symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
@@ -377,8 +377,15 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
         "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
         "frames": frames_context(derivation, fmt) if robot.frames else None,
+        "recursion": _recursion(derivation) if intermediates and "generalized" in sections else None,
     }
     return context
+
+
+def _recursion(derivation: Derivation) -> dict[str, Any]:
+    from .recursion import recursion_context   # it formats with this module's Formatter
+
+    return recursion_context(derivation)
 
 
 def frames_context(derivation: Derivation, fmt: Formatter) -> list[dict[str, Any]]:
