@@ -383,7 +383,8 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
 
 
 def _recursion(derivation: Derivation) -> dict[str, Any]:
-    from .recursion import recursion_context   # it formats with this module's Formatter
+    # a module of its own, which formats with this module's Formatter
+    from .recursion import recursion_context
 
     return recursion_context(derivation)
 
