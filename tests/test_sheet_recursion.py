@@ -17,7 +17,7 @@ import sympy
 
 import dynderive
 from dynderive.render.latex import sheet_context
-from dynderive.render.recursion import NAMES, exact_decimals, recursion_context
+from dynderive.render.recursion import NAMES, exact_decimals
 
 from conftest import derivation_of, module_of
 
@@ -26,7 +26,7 @@ LARGE = ["panda", "ur5"]
 
 def _printed_lines(derivation) -> list[tuple[sympy.Symbol, sympy.Expr]]:
     """The program lines the sheet defines, in the order it prints them."""
-    context = recursion_context(derivation)
+    context = sheet_context(derivation)["recursion"]
     definitions = dict(derivation.recursion.program.lines)
     return [(line["symbol"], definitions[line["symbol"]])
             for part in ("forward", "backward", "composite", "columns") for block in context[part]
@@ -74,7 +74,7 @@ def test_printed_recursion_gives_the_modules_dynamics(robot, tmp_path):
 
 
 def test_lines_are_named_by_meaning_not_numbered():
-    context = recursion_context(derivation_of("panda"))
+    context = sheet_context(derivation_of("panda"))["recursion"]
     names = [line["name"] for part in ("forward", "backward", "composite", "columns")
              for block in context[part] for line in block["lines"] if line["name"]]
     assert not any(r"\mathsf{w}" in name or "_t" in name for name in names)
@@ -98,7 +98,7 @@ def test_names_are_valid_latex():
         assert depth == 0, quantity
     robot_text = (Path(__file__).parent.parent / "robots" / "ur5.urdf").read_text()
     assert "wrist_1_link" in robot_text
-    context = recursion_context(derivation_of("ur5"))
+    context = sheet_context(derivation_of("ur5"))["recursion"]
     assert all("_" not in re.sub(r"\\_", "", b["title"].split("texttt")[1]) for b in context["forward"])
 
 

@@ -16,7 +16,6 @@ import sympy
 
 from ..derivation import Derivation
 from .encode import escape_tex
-from .latex import Formatter, entry_index, typeset_width
 
 AXES = "xyz"
 #: LaTeX of each quantity (``recursion.MEANINGS``): ``{i}`` the link's index, ``{p}`` its
@@ -40,19 +39,6 @@ FORWARD = ("R", "p", "m", "h", "I", "omega_in", "v_in", "alpha_in", "a_in", "ome
 BACKWARD = ("tau", "f_up", "n_up", "f", "n")
 COMPOSITE = ("hc_up", "IRt", "Ic", "mc", "hc")
 COLUMNS = ("Fcol", "Ncol", "M")
-
-
-class RecursionFormatter(Formatter):
-    """The sheet's formatter with the recursion's names: each line by its meaning, the sines
-    and cosines of the coordinates as ``s_k``, ``c_k``."""
-
-    def __init__(self, derivation: Derivation):
-        super().__init__(derivation, extra_names=recursion_names(derivation))
-
-    def _text(self, expr: Any) -> str:
-        if isinstance(expr, sympy.Basic) and not isinstance(expr, sympy.MatrixBase):
-            expr = exact_decimals(expr)
-        return super()._text(expr)
 
 
 def exact_decimals(expr: sympy.Basic) -> sympy.Basic:
@@ -82,8 +68,8 @@ def exact_decimals(expr: sympy.Basic) -> sympy.Basic:
 
 
 def _component(quantity: str, index: tuple[int, ...], n: int) -> str:
-    if quantity == "M":
-        return entry_index(index[0], index[1], n, n)
+    if quantity == "M":   # as the sheet's entries: M_{12}, M_{1,12} beyond 9 coordinates
+        return f"{index[0] + 1},{index[1] + 1}" if n > 9 else f"{index[0] + 1}{index[1] + 1}"
     if quantity in ("R", "IRt"):
         return f"{index[0] + 1}{index[1] + 1}"
     return "".join(AXES[k] for k in index)
@@ -109,6 +95,8 @@ def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
         if meaning is None:
             continue
         text = _name(meaning, index, r.parents, robot, len(robot.coordinates))
+        if "^" in text:   # a group, so that a power or a prime is not a second superscript
+            text = "{" + text + "}"
         while text in seen:
             text += "'"
         seen.add(text)
@@ -124,13 +112,14 @@ def _name(meaning: Any, index: dict[str, int], parents: dict[str, str], robot: A
                                           c=_component(meaning.quantity, meaning.index, n))
 
 
-def recursion_context(derivation: Derivation) -> dict[str, Any]:
+def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) -> dict[str, Any]:
     """What ``recursion.tex.j2`` shows (documented in docs/templates.md): ``links`` (the
     kinematic data), ``forward``, ``backward``, ``composite``, ``columns`` (blocks of
     ``title`` and ``lines``, each line ``name``, ``value``, ``symbol``: the program's name or
-    None for a value shown as it is), ``trig``, ``tau`` and ``M_g``."""
+    None for a value shown as it is), ``coordinates``, ``tau``, ``M_g`` and ``lines`` (how many).
+    ``fmt`` formats the recursion (``latex.RecursionFormatter``), ``plain`` the robot's data
+    (the sheet's formatter), ``width`` estimates a value's width in glyphs."""
     robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
-    fmt = RecursionFormatter.of(derivation)
     index = {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
     n = len(robot.coordinates)
     definitions = dict(r.program.lines)
@@ -143,7 +132,7 @@ def recursion_context(derivation: Derivation) -> dict[str, Any]:
         if value == 0 or meaning.quantity in ONLY_LINES or meaning.quantity == "R":
             return None
         return {"name": _name(meaning, index, r.parents, robot, n), "value": fmt.display(value, None),
-                "symbol": None, "width": typeset_width(value) + 4}
+                "symbol": None, "width": width(value) + 4}
 
     def blocks(quantities: tuple[str, ...], key: Any, title: Any, together: bool = False) -> list[dict[str, Any]]:
         """The records of ``quantities`` shown, in blocks of consecutive equal ``key`` (all
@@ -179,8 +168,8 @@ def recursion_context(derivation: Derivation) -> dict[str, Any]:
     composite = blocks(COMPOSITE, lambda m: m.link, link_title)
     columns = blocks(COLUMNS, lambda m: m.column, lambda m: f"Column {m.column + 1}")
     return {
-        "links": _kinematic_data(derivation, index, Formatter.of(derivation)),
-        "coordinates": [{"index": k, "name": Formatter.of(derivation)(q)} for k, q in enumerate(table.q, 1)],
+        "links": _kinematic_data(derivation, index, plain),
+        "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
         "forward": forward, "backward": backward, "composite": composite, "columns": columns,
         "tau": fmt(sympy.Matrix(r.tau)),
         "M_g": fmt.matrix("M", sympy.Matrix(n, n, [e for row in r.mass_matrix for e in row])),
@@ -216,14 +205,14 @@ def _link_title(link: str, index: dict[str, int], robot: Any) -> str:
     return f"Link {index[link]} (\\texttt{{{escape_tex(link)}}})"
 
 
-def _rotation(link: str, r: Any, fmt: Formatter, index: dict[str, int]) -> str | None:
+def _rotation(link: str, r: Any, fmt: Any, index: dict[str, int]) -> str | None:
     """``R_i = ...``, the matrix of its entries (names where they are lines), None if it is 1."""
     entries = {m.index: v for m, v in r.program.records if m.quantity == "R" and m.link == link}
     matrix = sympy.Matrix(3, 3, lambda a, b: entries.get((a, b), 0))
     return None if matrix == sympy.eye(3) else f"R_{{{index[link]}}} = {fmt(matrix)}"
 
 
-def _kinematic_data(derivation: Derivation, index: dict[str, int], fmt: Formatter) -> list[dict[str, Any]]:
+def _kinematic_data(derivation: Derivation, index: dict[str, int], fmt: Any) -> list[dict[str, Any]]:
     """Per link: joint (name, type, coordinate), parent's index, origin, axis, mass, centre of
     mass and inertia about it, as the robot file gives them."""
     robot, table = derivation.robot, derivation.symbols
