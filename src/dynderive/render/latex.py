@@ -15,7 +15,7 @@ from .environment import render
 from .figure import planar_figure
 from .linebreak import LineBreaker
 from .printers import DerivationFormatter, RememberingLatexPrinter
-from .recursion import exact_decimals, recursion_context, recursion_names
+from .recursion import recursion_context, recursion_names
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -385,15 +385,10 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
 
 class RecursionFormatter(Formatter):
     """The sheet's formatter with the recursion's names (``recursion.recursion_names``: each
-    line by its meaning, ``s_k``, ``c_k``) and fractions of powers of ten as exact decimals."""
+    line by its meaning, ``q_k``, ``s_k``, ``c_k``)."""
 
     def __init__(self, derivation: Derivation):
         super().__init__(derivation, extra_names=recursion_names(derivation))
-
-    def _text(self, expr: Any) -> str:
-        if isinstance(expr, sympy.Basic) and not isinstance(expr, sympy.MatrixBase):
-            expr = exact_decimals(expr)
-        return super()._text(expr)
 
 
 def _recursion(derivation: Derivation) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """A large robot's sheet as a recursion a reader can follow (OpenSYMORO's customized
 Newton-Euler, better named): the links' kinematic data, then every line of the program
 ``Derivation.recursion`` named by what it means and by its link (``\\omega_{3x}``, the
-x-component of link 3's angular velocity, in link 3's axes), grouped link by link.
+x-component of link 3's angular velocity, in link 3's axes; ``\\bar\\omega_{3x}``, the
+parent's, in link 3's axes), grouped link by link.
 
 Names come from the lines' recorded meanings (``program.Meaning``); values that cost nothing
 to repeat (``\\dot q_1``, ``-s_2``) are printed as they are, zero components left out. The
@@ -18,17 +19,19 @@ from ..derivation import Derivation
 from .encode import escape_tex
 
 AXES = "xyz"
-#: LaTeX of each quantity (``recursion.MEANINGS``): ``{i}`` the link's index, ``{p}`` its
-#: parent's (0: the world), ``{j}`` the mass matrix's column, ``{c}`` the component.
+#: LaTeX of each quantity (``recursion.MEANINGS``): ``{i}`` the link's index, ``{j}`` the mass
+#: matrix's column, ``{k}`` the coordinate's, ``{c}`` the component. A bar marks a vector carried
+#: across joint i into the other link's axes (the parent's motion into link i's, link i's
+#: forces into the parent's): no left superscript next to a coefficient.
 NAMES = {
     "R": "R_{{{i},{c}}}", "p": "p_{{{i}{c}}}", "m": "m_{{{i}}}", "h": "h_{{{i}{c}}}", "I": "I_{{{i},{c}}}",
-    "omega_in": "{{}}^{{{i}}}\\omega_{{{p}{c}}}", "v_in": "{{}}^{{{i}}}v_{{{p}{c}}}",
-    "alpha_in": "{{}}^{{{i}}}\\dot\\omega_{{{p}{c}}}", "a_in": "{{}}^{{{i}}}a_{{{p}{c}}}",
+    "omega_in": "\\bar\\omega_{{{i}{c}}}", "v_in": "\\bar v_{{{i}{c}}}",
+    "alpha_in": "\\bar{{\\dot\\omega}}_{{{i}{c}}}", "a_in": "\\bar a_{{{i}{c}}}",
     "omega": "\\omega_{{{i}{c}}}", "v": "v_{{{i}{c}}}", "alpha": "\\dot\\omega_{{{i}{c}}}", "a": "a_{{{i}{c}}}",
     "k": "k_{{{i}{c}}}", "l": "\\ell_{{{i}{c}}}", "F": "F_{{{i}{c}}}", "N": "N_{{{i}{c}}}",
-    "f_up": "{{}}^{{{p}}}f_{{{i}{c}}}", "n_up": "{{}}^{{{p}}}n_{{{i}{c}}}", "f": "f_{{{i}{c}}}", "n": "n_{{{i}{c}}}",
+    "f_up": "\\bar f_{{{i}{c}}}", "n_up": "\\bar n_{{{i}{c}}}", "f": "f_{{{i}{c}}}", "n": "n_{{{i}{c}}}",
     "tau": "\\tau_{{{k}}}", "mc": "m^c_{{{i}}}", "hc": "h^c_{{{i}{c}}}", "Ic": "I^c_{{{i},{c}}}",
-    "hc_up": "{{}}^{{{p}}}h^c_{{{i}{c}}}", "IRt": "U_{{{i},{c}}}",
+    "hc_up": "\\bar h^c_{{{i}{c}}}", "IRt": "U_{{{i},{c}}}",
     "Fcol": "f^{{({j})}}_{{{i}{c}}}", "Ncol": "n^{{({j})}}_{{{i}{c}}}", "M": "M_{{{c}}}",
 }
 #: Quantities shown only where they are lines: the rest (numbers, the robot's parameters) are
@@ -39,32 +42,6 @@ FORWARD = ("R", "p", "m", "h", "I", "omega_in", "v_in", "alpha_in", "a_in", "ome
 BACKWARD = ("tau", "f_up", "n_up", "f", "n")
 COMPOSITE = ("hc_up", "IRt", "Ic", "mc", "hc")
 COLUMNS = ("Fcol", "Ncol", "M")
-
-
-def exact_decimals(expr: sympy.Basic) -> sympy.Basic:
-    """``expr`` with every fraction whose denominator divides a power of ten (a number the
-    robot file wrote as a decimal, and its products) as that decimal, exactly: one line high
-    in a narrow column, where ``\\frac`` of 16-digit integers takes three."""
-    mapping = {}
-    for atom in expr.atoms(sympy.Rational):
-        if atom.is_Integer:
-            continue
-        q, twos, fives = int(atom.q), 0, 0
-        while q % 2 == 0:
-            q, twos = q // 2, twos + 1
-        while q % 5 == 0:
-            q, fives = q // 5, fives + 1
-        if q != 1:
-            continue
-        places = max(twos, fives)
-        scaled = abs(int(atom.p)) * 10 ** places // int(atom.q)
-        digits = str(scaled).rjust(places + 1, "0")
-        text = ("-" if atom < 0 else "") + digits[:-places] + "." + digits[-places:]
-        mapping[atom] = sympy.Float(text, len(digits))
-    if not mapping:
-        return expr
-    with sympy.evaluate(False):
-        return expr.xreplace(mapping)
 
 
 def _component(quantity: str, index: tuple[int, ...], n: int) -> str:
@@ -94,7 +71,7 @@ def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
         meaning = r.program.labels.get(symbol)
         if meaning is None:
             continue
-        text = _name(meaning, index, r.parents, robot, len(robot.coordinates))
+        text = _name(meaning, index, robot, len(robot.coordinates))
         if "^" in text:   # a group, so that a power or a prime is not a second superscript
             text = "{" + text + "}"
         while text in seen:
@@ -104,11 +81,10 @@ def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
     return names
 
 
-def _name(meaning: Any, index: dict[str, int], parents: dict[str, str], robot: Any, n: int) -> str:
+def _name(meaning: Any, index: dict[str, int], robot: Any, n: int) -> str:
     joint = robot.parent_joint(meaning.link)
     k = robot.coordinates.index(joint.name) + 1 if joint.name in robot.coordinates else 0
-    return NAMES[meaning.quantity].format(i=index[meaning.link], p=index[parents.get(meaning.link, "world")],
-                                          j=meaning.column + 1, k=k,
+    return NAMES[meaning.quantity].format(i=index[meaning.link], j=meaning.column + 1, k=k,
                                           c=_component(meaning.quantity, meaning.index, n))
 
 
@@ -131,7 +107,7 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
             return {"name": fmt(value), "value": fmt.display(definitions[value], None), "symbol": value}
         if value == 0 or meaning.quantity in ONLY_LINES or meaning.quantity == "R":
             return None
-        return {"name": _name(meaning, index, r.parents, robot, n), "value": fmt.display(value, None),
+        return {"name": _name(meaning, index, robot, n), "value": fmt.display(value, None),
                 "symbol": None, "width": width(value) + 4}
 
     def blocks(quantities: tuple[str, ...], key: Any, title: Any, together: bool = False) -> list[dict[str, Any]]:
@@ -225,11 +201,14 @@ def _kinematic_data(derivation: Derivation, index: dict[str, int], fmt: Any) -> 
         joint = robot.parent_joint(link.name)
         origin = list(joint.origin)
         xyz, rpy = (origin[:2] + [0], [0, 0, origin[2] if len(origin) > 2 else 0]) if robot.planar else (origin[:3], origin[3:])
+        axis = list(joint.axis)
+        if robot.planar:   # the plane z = 0 of a 3-D model: revolute about z, prismatic in the plane
+            axis = [0, 0, 1] if joint.type == "revolute" else axis[:2] + [0]
         rows.append({
             "index": index[link.name], "name": escape_tex(link.name), "joint": escape_tex(joint.name),
             "type": joint.type, "parent": index[joint.parent],
             "coordinate": fmt(table.q[robot.coordinates.index(joint.name)]) if joint.moves else "",
-            "xyz": vector(xyz), "rpy": vector(rpy), "axis": vector(joint.axis) if joint.moves else "",
-            "mass": fmt(table.expr(link.mass)), "com": vector(link.com), "inertia": vector(link.inertia),
+            "xyz": vector(xyz), "rpy": vector(rpy), "axis": vector(axis) if joint.moves else "",
+            "mass": fmt(table.expr(link.mass)), "com": vector(link.com), "inertia": fmt(table.expr(link.inertia[0])) if robot.planar else vector(link.inertia),
         })
     return rows
