@@ -97,17 +97,17 @@ class Formatter(DerivationFormatter):
             return None
         return self(expr)
 
-    def display(self, expr: Any, limit: int | None = SCALAR_NODES) -> Display | None:
-        """LaTeX of ``expr`` with the lines it is displayed on (``Display``), or None when it
-        is larger than ``limit`` nodes (no limit: None)."""
+    def display(self, expr: Any, limit: int | None = SCALAR_NODES, units: float = DISPLAY_UNITS) -> Display | None:
+        """LaTeX of ``expr`` with the lines it is displayed on (``Display``, lines of at most
+        ``units`` glyphs), or None when it is larger than ``limit`` nodes (no limit: None)."""
         text = self(expr) if limit is None else self.maybe(expr, limit)
         if text is None:
             return None
         # breqn breaks a sum between its terms by itself; the breaker takes over where a term
         # is wider than the line (a long product, a fraction, a sum in parentheses)
-        if isinstance(expr, sympy.MatrixBase) or all(typeset_width(t) <= DISPLAY_UNITS for t in sympy.Add.make_args(expr)):
+        if isinstance(expr, sympy.MatrixBase) or all(typeset_width(t) <= units for t in sympy.Add.make_args(expr)):
             return Display(text, [text])
-        return Display(text, self._breaker.lines(expr, DISPLAY_UNITS))
+        return Display(text, self._breaker.lines(expr, units))
 
     def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
         """A matrix as a whole when its estimated width fits the line (``wide`` False), else as

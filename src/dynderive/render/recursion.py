@@ -34,6 +34,10 @@ NAMES = {
     "hc_up": "\\bar h^c_{{{i}{c}}}", "IRt": "U_{{{i},{c}}}",
     "Fcol": "f^{{({j})}}_{{{i}{c}}}", "Ncol": "n^{{({j})}}_{{{i}{c}}}", "M": "M_{{{c}}}",
 }
+#: Estimated width (math glyphs) of a line in one of the sheet's two columns of small type,
+#: less the name in front, the indent of continuation lines and the estimate's error: a term
+#: wider than this (a product with a sum in parentheses) is broken by ``render.linebreak``.
+COLUMN_UNITS = 30
 #: Quantities shown only where they are lines: the rest (numbers, the robot's parameters) are
 #: in the kinematic data table, or the matrices M_g and tau at the end.
 ONLY_LINES = {"p", "m", "h", "I", "mc", "hc", "Ic", "hc_up", "IRt", "M", "tau"}
@@ -100,14 +104,19 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
     n = len(robot.coordinates)
     definitions = dict(r.program.lines)
     shown: set[sympy.Symbol] = set()
+    rotations = {link: _rotation(link, r) for link in r.order}
+    # a rotation too wide for the column (a CAD frame's irrational entries) entry by entry
+    wide = {link for link, R in rotations.items() if R is not None and _matrix_width(R, width) > COLUMN_UNITS}
 
     def line(meaning: Any, value: sympy.Expr) -> dict[str, Any] | None:
         if value.is_Symbol and r.program.labels.get(value) == meaning and value not in shown:
             shown.add(value)
-            return {"name": fmt(value), "value": fmt.display(definitions[value], None), "symbol": value}
-        if value == 0 or meaning.quantity in ONLY_LINES or meaning.quantity == "R":
+            shown_value = fmt.display(definitions[value], None, COLUMN_UNITS)
+            return {"name": fmt(value), "value": shown_value, "parts": shown_value.lines, "symbol": value}
+        if value == 0 or meaning.quantity in ONLY_LINES or (meaning.quantity == "R" and meaning.link not in wide):
             return None
-        return {"name": _name(meaning, index, robot, n), "value": fmt.display(value, None),
+        shown_value = fmt.display(value, None, COLUMN_UNITS)
+        return {"name": _name(meaning, index, robot, n), "value": shown_value, "parts": shown_value.lines,
                 "symbol": None, "width": width(value) + 4}
 
     def blocks(quantities: tuple[str, ...], key: Any, title: Any, together: bool = False) -> list[dict[str, Any]]:
@@ -139,7 +148,8 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
 
     forward = sorted(blocks(FORWARD, lambda m: m.link, link_title, together=True), key=lambda b: r.order.index(b["key"]))
     for block in forward:
-        block["rotation"] = _rotation(block["key"], r, fmt, index)
+        R = rotations[block["key"]]
+        block["rotation"] = None if R is None or block["key"] in wide else f"R_{{{index[block['key']]}}} = {fmt(R)}"
     backward = blocks(BACKWARD, lambda m: m.link, link_title)
     composite = blocks(COMPOSITE, lambda m: m.link, link_title)
     columns = blocks(COLUMNS, lambda m: m.column, lambda m: f"Column {m.column + 1}")
@@ -164,8 +174,8 @@ def _merge_aliases(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
     width = 0.0
     for item in lines:
         if item["symbol"] is None and merged and merged[-1]["symbol"] is None and width + item["width"] <= ALIAS_UNITS:
-            merged[-1] = {"name": None, "symbol": None,
-                          "value": _equation(merged[-1]) + ",\\quad " + _equation(item)}
+            text = _equation(merged[-1]) + ",\\quad " + _equation(item)
+            merged[-1] = {"name": None, "symbol": None, "value": text, "parts": [text]}
             width += item["width"]
             continue
         merged.append(item)
@@ -181,11 +191,16 @@ def _link_title(link: str, index: dict[str, int], robot: Any) -> str:
     return f"Link {index[link]} (\\texttt{{{escape_tex(link)}}})"
 
 
-def _rotation(link: str, r: Any, fmt: Any, index: dict[str, int]) -> str | None:
-    """``R_i = ...``, the matrix of its entries (names where they are lines), None if it is 1."""
+def _rotation(link: str, r: Any) -> sympy.Matrix | None:
+    """``R_i``, the matrix of its entries (names where they are lines), None if it is 1."""
     entries = {m.index: v for m, v in r.program.records if m.quantity == "R" and m.link == link}
     matrix = sympy.Matrix(3, 3, lambda a, b: entries.get((a, b), 0))
-    return None if matrix == sympy.eye(3) else f"R_{{{index[link]}}} = {fmt(matrix)}"
+    return None if matrix == sympy.eye(3) else matrix
+
+
+def _matrix_width(matrix: sympy.Matrix, width: Any) -> float:
+    """Estimated width of ``matrix`` typeset whole (widest entry per column, gaps, name)."""
+    return sum(max(width(matrix[i, j]) for i in range(3)) for j in range(3)) + 10.0
 
 
 def _kinematic_data(derivation: Derivation, index: dict[str, int], fmt: Any) -> list[dict[str, Any]]:
