@@ -6,6 +6,7 @@ every name is valid LaTeX; the Panda's sheet fits 15 pages without a line over t
 from __future__ import annotations
 
 import os
+import random
 import re
 import shutil
 import subprocess
@@ -19,7 +20,8 @@ import dynderive
 from dynderive.render.latex import sheet_context
 from dynderive.render.recursion import NAMES
 
-from conftest import derivation_of, module_of
+from conftest import derivation_of, module_of, text_derivation
+from random_robots3d import random_spatial_tree
 
 LARGE = ["panda", "ur5"]
 
@@ -52,10 +54,14 @@ def _evaluate(derivation, printed, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
             np.array([[number(e) for e in row] for row in r.mass_matrix]))
 
 
-@pytest.mark.parametrize("robot", LARGE)
+@pytest.mark.parametrize("robot", [*LARGE, "random tree"])
 def test_printed_recursion_gives_the_modules_dynamics(robot, tmp_path):
-    derivation = derivation_of(robot)
-    module = module_of(robot, str(tmp_path))
+    if robot == "random tree":   # branches: a link's force summed over two children
+        derivation, module = text_derivation("tree7", random_spatial_tree(random.Random(1), 7).yaml_text, str(tmp_path))
+        parents = list(derivation.recursion.parents.values())
+        assert any(parents.count(p) > 1 for p in set(parents) - {"world"})
+    else:
+        derivation, module = derivation_of(robot), module_of(robot, str(tmp_path))
     printed = _printed_lines(derivation)
     labelled = {s for s, _ in derivation.recursion.program.lines if s in derivation.recursion.program.labels}
     assert {s for s, _ in printed} == labelled   # every line named, each once
@@ -112,17 +118,35 @@ needs_tex = pytest.mark.skipif(shutil.which("pdflatex") is None and not os.envir
 MOST_PAGES = {"panda": 15, "ur5": 11}
 
 
+def _compile(tex: str, folder: Path) -> tuple[int, list[float]]:
+    """(pages, overfull box widths in pt) of ``tex`` compiled twice (the columns settle)."""
+    (folder / "sheet.tex").write_text(tex)
+    for _ in range(2):
+        subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "-no-shell-escape", "sheet.tex"],
+                       cwd=folder, capture_output=True, text=True, timeout=600)
+    log = (folder / "sheet.log").read_text(errors="replace")
+    pages = re.search(r"Output written on sheet\.pdf \((\d+) pages?", log)
+    assert pages, log[-2000:]
+    return int(pages.group(1)), [float(w) for w in re.findall(r"Overfull \\hbox \(([\d.]+)pt too wide\)", log)]
+
+
 @pytest.mark.pdf
 @needs_tex
 @pytest.mark.parametrize("robot", LARGE)
 def test_large_sheet_is_short_and_fits_the_margin(robot, tmp_path):
-    (tmp_path / "sheet.tex").write_text(dynderive.render_latex(derivation_of(robot)))
-    for _ in range(2):   # twice: the multicolumn balance settles
-        subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "-no-shell-escape", "sheet.tex"],
-                       cwd=tmp_path, capture_output=True, text=True, timeout=600)
-    log = (tmp_path / "sheet.log").read_text(errors="replace")
-    pages = re.search(r"Output written on sheet\.pdf \((\d+) pages?", log)
-    assert pages, log[-2000:]
-    assert int(pages.group(1)) <= MOST_PAGES[robot]
-    boxes = [float(w) for w in re.findall(r"Overfull \\hbox \(([\d.]+)pt too wide\)", log)]
+    pages, boxes = _compile(dynderive.render_latex(derivation_of(robot)), tmp_path)
+    assert pages <= MOST_PAGES[robot]
+    assert max(boxes, default=0.0) < 1.0, boxes
+
+
+@pytest.mark.pdf
+@needs_tex
+def test_random_tree_recursion_fits_the_columns(tmp_path):
+    """A random 7-joint 3-D tree (branches: partial sums primed; rotations of CAD frames with
+    20-digit entries): before the column-width breaking, lines stuck out by up to 140 pt."""
+    path = tmp_path / "robot.yaml"
+    path.write_text(random_spatial_tree(random.Random(1), 7).yaml_text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert derivation.intermediate_form
+    _, boxes = _compile(dynderive.render_latex(derivation, sections=("generalized",)), tmp_path)
     assert max(boxes, default=0.0) < 1.0, boxes
