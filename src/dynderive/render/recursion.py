@@ -157,7 +157,7 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
         "links": _kinematic_data(derivation, index, plain),
         "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
         "forward": forward, "backward": backward, "composite": composite, "columns": columns,
-        "tau": fmt(sympy.Matrix(r.tau)),
+        "tau": fmt(sympy.Matrix(r.tau).T),   # a row: the template transposes it
         "M_g": fmt.matrix("M", sympy.Matrix(n, n, [e for row in r.mass_matrix for e in row])),
         "lines": sum(len(b["lines"]) for part in (forward, backward, composite, columns) for b in part),
     }
