@@ -122,8 +122,9 @@ def test_intermediate_form_sheet_names_every_variable(tmp_path, monkeypatch):
     assert robot.title == HOSTILE_TITLE
     _, iv = _both_forms(robot, monkeypatch)
     tex = dynderive.render_latex(iv)
-    assert "Intermediate variables" in tex and "_w" not in tex
-    assert tex.count(r"\mathsf{w}_{") >= len(iv.intermediates)
+    # the recursion line by line, named by meaning (issue 32), no numbered variables
+    assert "Forward pass" in tex and "_w" not in tex and r"\mathsf{w}" not in tex
+    assert tex.count(r"\omega_{") >= len(iv.symbols.q)
     assert "\\input{/etc/passwd}" not in tex and "100%" not in tex
     with monkeypatch.context() as patch:
         patch.setattr(structured, "PLANAR_EXPLICIT_DOF", 0)

@@ -164,6 +164,7 @@ class Derivation:
         self._checks: list[Check] | None = None
         self._programs: dict[str, Program] | None = None
         self._generalized_program: GeneralizedProgram | None = None
+        self._recursion: Any = None
         self._loop_linearization: tuple[sympy.Matrix, sympy.Matrix] | None = None
         add = self._stages.add
         add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
@@ -402,6 +403,17 @@ class Derivation:
             self._symbolic("the generalized program (M, C, N, V)")
             self._generalized_program = GeneralizedProgram(self.robot, self.symbols, self.report)
         return self._generalized_program
+
+    @property
+    def recursion(self) -> Any:
+        """Newton-Euler and CRBA as one program whose lines record their meaning
+        (``mechanics.recursion.Recursion``), for a large robot's sheet; built on first use."""
+        if self._recursion is None:
+            from .mechanics.recursion import newton_euler_recursion
+
+            self._symbolic("the recursion of the sheet")
+            self._recursion = newton_euler_recursion(self.robot, self.symbols)
+        return self._recursion
 
     @property
     def parameter_vector(self) -> list[Any]:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import sympy
 
@@ -17,6 +18,18 @@ from .tidy import operation_count
 
 Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
 Matrix3 = tuple[Vector, Vector, Vector]
+
+
+class Meaning(NamedTuple):
+    """What a program line computes, recorded where the recursion builds it (the sheet names
+    the line by it): ``quantity`` a key of ``recursion.MEANINGS`` (``omega``: the link's
+    angular velocity), ``link`` the link's name, ``index`` the component (0-2, or row and
+    column), ``column`` the mass matrix's column ``j`` for CRBA's force columns, else -1."""
+
+    quantity: str
+    link: str
+    index: tuple[int, ...] = ()
+    column: int = -1
 
 
 @dataclass
@@ -28,12 +41,24 @@ class Program:
     #: Symbols the body takes besides q, qd, qdd and u (forward dynamics of a robot with
     #: damping or friction: the dissipative forces, computed outside the body).
     extra_inputs: list[sympy.Symbol] = field(default_factory=list)
+    #: What the lines mean (``Meaning``), by name, where the recursion recorded it.
+    labels: dict[sympy.Symbol, Meaning] = field(default_factory=dict)
+    #: Every value given a meaning, in order: ``(meaning, value)``, the value a line's name
+    #: or, where it costs nothing to repeat (``q_1``, ``0``), the value itself.
+    records: list[tuple[Meaning, sympy.Expr]] = field(default_factory=list)
     _count: int = 0
     _known: dict[sympy.Expr, sympy.Symbol] = field(default_factory=dict)
 
-    def let(self, expr: sympy.Expr) -> sympy.Expr:
+    def let(self, expr: sympy.Expr, meaning: Meaning | None = None) -> sympy.Expr:
         """``expr`` itself if it costs nothing to repeat (a number, a name, minus a name),
-        else a new name bound to it."""
+        else a new name bound to it, with ``meaning`` recorded for a new line (a value
+        computed before keeps its first meaning)."""
+        value = self._let(expr, meaning)
+        if meaning is not None:
+            self.records.append((meaning, value))
+        return value
+
+    def _let(self, expr: sympy.Expr, meaning: Meaning | None) -> sympy.Expr:
         expr = _numeric_constants(sympy.sympify(expr))
         if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
                             and expr.args[1].is_Atom):
@@ -44,10 +69,15 @@ class Program:
         self._count += 1
         self._known[expr] = name
         self.lines.append((name, expr))
+        if meaning is not None:
+            self.labels[name] = meaning
         return name
 
-    def vector(self, values: Sequence[sympy.Expr]) -> Vector:
-        return tuple(self.let(v) for v in values)  # type: ignore[return-value]
+    def vector(self, values: Sequence[sympy.Expr], meaning: Meaning | None = None) -> Vector:
+        """Each component ``let``; ``meaning`` (without index) gives component k index (k,)."""
+        if meaning is None:
+            return tuple(self.let(v) for v in values)  # type: ignore[return-value]
+        return tuple(self.let(v, meaning._replace(index=(k,))) for k, v in enumerate(values))  # type: ignore[return-value]
 
     @property
     def operations(self) -> int:

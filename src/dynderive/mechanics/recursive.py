@@ -16,6 +16,9 @@ treated as 3-D ones moving in the plane z = 0.
 Conventions: link frames as in the robot file (the joint frame after its motion); spatial
 vectors as pairs of 3-vectors, motion ``(omega, v)`` with ``v`` the velocity of the body point
 at the frame origin, force ``(n, f)`` with the moment about that origin.
+
+Each line records what it means (``program.Meaning``, keys in ``recursion.MEANINGS``) where it is built,
+for the sheet of a large robot.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
 from .drives import joint_drives
 from .joints import unit
-from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back, lines_read
+from .program import Matrix3, Meaning, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back, lines_read
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 
 
@@ -97,8 +100,9 @@ class _Tree:
             else:
                 position = [p + d * q for p, d in zip(position, origin * sympy.Matrix(axis))]
         rotation = origin * motion
-        R = tuple(tuple(let(rotation[i, j]) for j in range(3)) for i in range(3))
-        mass = let(expr(link.mass))
+        name = link.name
+        R = tuple(tuple(let(rotation[i, j], Meaning("R", name, (i, j))) for j in range(3)) for i in range(3))
+        mass = let(expr(link.mass), Meaning("m", name))
         com = [expr(e) for e in link.com]
         if self.robot.planar:   # only the inertia about z enters planar motion
             com.append(zero)
@@ -108,10 +112,11 @@ class _Tree:
             ixx, iyy, izz, ixy, ixz, iyz = (expr(e) for e in link.inertia)
         about_com = inertia_tensor((ixx, iyy, izz, ixy, ixz, iyz))
         square = sum(c * c for c in com)
-        inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]))
-                              for j in range(3)) for i in range(3))
+        inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]),
+                                  Meaning("I", name, (i, j))) for j in range(3)) for i in range(3))
         return _Body(link.name, joint.parent, joint, coordinate, revolute, axis, R,  # type: ignore[arg-type]
-                     self.program.vector(position), mass, self.program.vector([mass * c for c in com]), inertia)
+                     self.program.vector(position, Meaning("p", name)), mass,
+                     self.program.vector([mass * c for c in com], Meaning("h", name)), inertia)
 
     def trig(self) -> list[tuple[sympy.Symbol, sympy.Expr]]:
         """The sines and cosines the transforms use, to compute first."""
@@ -123,18 +128,27 @@ class _Tree:
                           (sympy.Symbol(f"_sin{body.coordinate}"), sympy.sin(q))]
         return lines
 
-    def force_to_parent(self, body: _Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
-        """A force (moment about the link origin, force) in the parent's frame."""
+    def force_to_parent(self, body: _Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr],
+                        column: int = -1) -> tuple[Vector, Vector]:
+        """A force (moment about the link origin, force) in the parent's frame: the joint's
+        force (``f_up``, ``n_up``), or CRBA's ``column`` at the parent (``Fcol``, ``Ncol``)."""
         let = self.program.vector
-        f_parent = let(_rotate(body.rotation, f))
-        n_parent = let(_add(_rotate(body.rotation, n), _cross(body.position, f_parent)))
+        if column < 0:
+            force, moment = Meaning("f_up", body.link), Meaning("n_up", body.link)
+        else:
+            force, moment = Meaning("Fcol", body.parent, column=column), Meaning("Ncol", body.parent, column=column)
+        f_parent = let(_rotate(body.rotation, f), force)
+        n_parent = let(_add(_rotate(body.rotation, n), _cross(body.position, f_parent)), moment)
         return n_parent, f_parent
 
-    def motion_from_parent(self, body: _Body, w: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
-        """A motion vector of the parent's frame seen in this link's frame."""
+    def motion_from_parent(self, body: _Body, w: Sequence[sympy.Expr], v: Sequence[sympy.Expr],
+                           meaning: tuple[str, str] | None = None) -> tuple[Vector, Vector]:
+        """A motion vector of the parent's frame seen in this link's frame (``meaning``: the
+        quantities of its angular and linear parts, ``MEANINGS``)."""
         let = self.program.vector
-        return (let(_rotate_back(body.rotation, w)),
-                let(_rotate_back(body.rotation, _add(v, _cross(w, body.position)))))
+        angular, linear = (None, None) if meaning is None else (Meaning(meaning[0], body.link), Meaning(meaning[1], body.link))
+        return (let(_rotate_back(body.rotation, w), angular),
+                let(_rotate_back(body.rotation, _add(v, _cross(w, body.position))), linear))
 
 
 def _start(robot: Robot, table: SymbolTable) -> tuple[Program, _Tree]:
@@ -154,8 +168,9 @@ def add_to_parent(program: Program, composite: dict[str, Any], body: Any) -> Non
     let, vec = program.let, program.vector
     mass, h, inertia = composite[body.link]
     R, p = body.rotation, body.position
-    h_r = vec(_rotate(R, h))
-    inertia_rt = [[let(_dot(inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
+    h_r = vec(_rotate(R, h), Meaning("hc_up", body.link))
+    inertia_rt = [[let(_dot(inertia[k], R[b]), Meaning("IRt", body.link, (k, b))) for b in range(3)]
+                  for k in range(3)]   # I R^T
     rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
     ph = _dot(p, h_r)
     pp = _dot(p, p)
@@ -165,8 +180,9 @@ def add_to_parent(program: Program, composite: dict[str, Any], body: Any) -> Non
     total = [[None] * 3 for _ in range(3)]
     for a in range(3):
         for b in range(a, 3):
-            total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b])
-    composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, [mass * x for x in p]))),
+            total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b], Meaning("Ic", body.parent, (a, b)))
+    composite[body.parent] = (let(p_mass + mass, Meaning("mc", body.parent)),
+                              vec(_add(p_h, _add(h_r, [mass * x for x in p])), Meaning("hc", body.parent)),
                               tuple(tuple(row) for row in total))
 
 
@@ -185,20 +201,22 @@ def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
             continue
         mass, h, inertia = composite[body.link]
         a = body.axis
-        if body.revolute:
-            f, nm = vec(_cross(a, h)), vec(_rotate(inertia, a))
-        else:
-            f, nm = vec([mass * x for x in a]), vec(_cross(h, a))
         j = body.coordinate
+        force, moment = Meaning("Fcol", body.link, column=j), Meaning("Ncol", body.link, column=j)
+        if body.revolute:
+            f, nm = vec(_cross(a, h), force), vec(_rotate(inertia, a), moment)
+        else:
+            f, nm = vec([mass * x for x in a], force), vec(_cross(h, a), moment)
         armature = tree.drives[j].armature if j in tree.drives else 0
-        M[j][j] = let(_dot(a, nm if body.revolute else f) + armature)
+        M[j][j] = let(_dot(a, nm if body.revolute else f) + armature, Meaning("M", body.link, (j, j)))
         current = body
         while current.parent not in tree.static:
-            nm, f = tree.force_to_parent(current, nm, f)
+            nm, f = tree.force_to_parent(current, nm, f, j)
             current = tree.by_link[current.parent]
             if current.coordinate is not None:
                 i = current.coordinate
-                M[i][j] = M[j][i] = let(_dot(current.axis, nm if current.revolute else f))
+                M[i][j] = M[j][i] = let(_dot(current.axis, nm if current.revolute else f),
+                                        Meaning("M", current.link, (i, j)))
     return M
 
 
@@ -210,35 +228,45 @@ def _advance(tree: _Tree, body: _Body, parent: tuple[Vector, Vector, Vector, Vec
     vec = tree.program.vector
     zero = (sympy.Integer(0),) * 3
     if body.link in tree.static:
-        return (zero, zero, zero, tree.motion_from_parent(body, zero, parent[3])[1])  # type: ignore[return-value]
+        return (zero, zero, zero, tree.motion_from_parent(body, zero, parent[3], ("omega", "a"))[1])  # type: ignore[return-value]
     w, v, alpha, acc = parent
-    w, v = tree.motion_from_parent(body, w, v)
-    alpha, acc = tree.motion_from_parent(body, alpha, acc)
+    # what the lines carried from the parent mean: the link's own values where the joint adds nothing
+    moves, revolute = body.coordinate is not None, body.revolute
+    w, v = tree.motion_from_parent(body, w, v, ("omega_in" if moves and revolute else "omega",
+                                               "v_in" if moves and not revolute else "v"))
+    alpha, acc = tree.motion_from_parent(body, alpha, acc, ("alpha_in" if moves and revolute else "alpha",
+                                                           "a_in" if moves else "a"))
     if body.coordinate is not None:
         rate, accel = qd[body.coordinate], qdd[body.coordinate]
         s = body.axis
+        meaning = {q: Meaning(q, body.link) for q in ("omega", "v", "alpha", "a")}
         if body.revolute:   # joint motion S qd = (s qd, 0); v x S qd = (w x s, v x s) qd
-            w_new = vec(_add(w, [x * rate for x in s]))
-            alpha = vec(_add(alpha, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
-            acc = vec(_add(acc, [y * rate for y in _cross(v, s)]))
+            w_new = vec(_add(w, [x * rate for x in s]), meaning["omega"])
+            alpha = vec(_add(alpha, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]), meaning["alpha"])
+            acc = vec(_add(acc, [y * rate for y in _cross(v, s)]), meaning["a"])
             w = w_new
         else:               # S qd = (0, s qd); v x S qd = (0, w x s qd)
-            acc = vec(_add(acc, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]))
-            v = vec(_add(v, [x * rate for x in s]))
+            acc = vec(_add(acc, [x * accel + y * rate for x, y in zip(s, _cross(w, s))]), meaning["a"])
+            v = vec(_add(v, [x * rate for x in s]), meaning["v"])
     return w, v, alpha, acc
 
 
-def body_force(vec: Callable[[Sequence[sympy.Expr]], Vector], m: sympy.Expr, h: Sequence[sympy.Expr],
+def body_force(vec: Callable[..., Vector], m: sympy.Expr, h: Sequence[sympy.Expr],
                inertia: Sequence[Sequence[sympy.Expr]], w: Sequence[sympy.Expr], v: Sequence[sympy.Expr],
-               alpha: Sequence[sympy.Expr], acc: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
+               alpha: Sequence[sympy.Expr], acc: Sequence[sympy.Expr], link: str | None = None) -> tuple[Vector, Vector]:
     """The force ``(n, f)`` a link needs for its motion: ``I a + v x* (I v)`` with the spatial
     inertia of mass ``m``, first moment ``h = m c`` and ``inertia`` about the frame origin, the
-    momentum ``(I w + h x v, m v + w x h)``; linear in ``(m, h, inertia)`` (the regressor)."""
-    momentum_n = vec(_add(_rotate(inertia, w), _cross(h, v)))   # type: ignore[arg-type]
-    momentum_f = vec(_add([m * x for x in v], _cross(w, h)))
+    momentum ``(I w + h x v, m v + w x h)``; linear in ``(m, h, inertia)`` (the regressor).
+    ``link`` (with ``vec`` a ``Program.vector``): record the lines' meanings (``k``, ``l``,
+    ``N``, ``F``)."""
+    def named(values: Sequence[sympy.Expr], quantity: str) -> Vector:
+        return vec(values) if link is None else vec(values, Meaning(quantity, link))
+
+    momentum_n = named(_add(_rotate(inertia, w), _cross(h, v)), "k")   # type: ignore[arg-type]
+    momentum_f = named(_add([m * x for x in v], _cross(w, h)), "l")
     n = _add(_add(_rotate(inertia, alpha), _cross(h, acc)), _add(_cross(w, momentum_n), _cross(v, momentum_f)))  # type: ignore[arg-type]
     f = _add(_add([m * x for x in acc], _cross(alpha, h)), _cross(w, momentum_f))
-    return vec(n), vec(f)
+    return named(n, "N"), named(f, "F")
 
 
 def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr],
@@ -253,7 +281,7 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
         if body.link in tree.static:
             continue
         w, v, alpha, acc = motion[body.link]
-        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, w, v, alpha, acc)
+        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, w, v, alpha, acc, body.link)
     tau: list[sympy.Expr] = [sympy.Integer(0)] * len(tree.robot.coordinates)
     for body in reversed(tree.bodies):
         if body.link in tree.static:
@@ -264,11 +292,12 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
             drive = tree.drives.get(j)
             extra = 0 if drive is None else (drive.armature * qdd[j]
                                              + drive.stiffness * (tree.table.q[j] - drive.rest))
-            tau[j] = tree.program.let(_dot(body.axis, n if body.revolute else f) + extra)
+            tau[j] = tree.program.let(_dot(body.axis, n if body.revolute else f) + extra, Meaning("tau", body.link))
         if body.parent not in tree.static:
             n_p, f_p = tree.force_to_parent(body, n, f)
             parent_n, parent_f = forces[body.parent]
-            forces[body.parent] = (vec(_add(parent_n, n_p)), vec(_add(parent_f, f_p)))
+            forces[body.parent] = (vec(_add(parent_n, n_p), Meaning("n", body.parent)),
+                                   vec(_add(parent_f, f_p), Meaning("f", body.parent)))
     return tau
 
 

@@ -15,6 +15,7 @@ from .environment import render
 from .figure import sheet_figure
 from .linebreak import LineBreaker
 from .printers import DerivationFormatter, RememberingLatexPrinter
+from .recursion import recursion_context, recursion_names
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -74,10 +75,10 @@ class Formatter(DerivationFormatter):
     and its maximal model cost seconds to print. A large robot's sums are printed in SymPy's
     own (canonical, deterministic) order rather than sorted, which takes half the time."""
 
-    def __init__(self, derivation: Derivation):
+    def __init__(self, derivation: Derivation, extra_names: dict[sympy.Symbol, str] | None = None):
         super().__init__()
         self.names = derivation.symbols.latex_names() | {
-            name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
+            name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates} | (extra_names or {})
         self.order = "none" if derivation.intermediate_form else None
         self._printer = RememberingLatexPrinter({
             "symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
@@ -99,17 +100,17 @@ class Formatter(DerivationFormatter):
             return None
         return self(expr)
 
-    def display(self, expr: Any, limit: int | None = SCALAR_NODES) -> Display | None:
-        """LaTeX of ``expr`` with the lines it is displayed on (``Display``), or None when it
-        is larger than ``limit`` nodes (no limit: None)."""
+    def display(self, expr: Any, limit: int | None = SCALAR_NODES, units: float = DISPLAY_UNITS) -> Display | None:
+        """LaTeX of ``expr`` with the lines it is displayed on (``Display``, lines of at most
+        ``units`` glyphs), or None when it is larger than ``limit`` nodes (no limit: None)."""
         text = self(expr) if limit is None else self.maybe(expr, limit)
         if text is None:
             return None
         # breqn breaks a sum between its terms by itself; the breaker takes over where a term
         # is wider than the line (a long product, a fraction, a sum in parentheses)
-        if isinstance(expr, sympy.MatrixBase) or all(typeset_width(t) <= DISPLAY_UNITS for t in sympy.Add.make_args(expr)):
+        if isinstance(expr, sympy.MatrixBase) or all(typeset_width(t) <= units for t in sympy.Add.make_args(expr)):
             return Display(text, [text])
-        return Display(text, self._breaker.lines(expr, DISPLAY_UNITS))
+        return Display(text, self._breaker.lines(expr, units))
 
     def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
         """A matrix as a whole when its estimated width fits the line (``wide`` False), else as
@@ -383,8 +384,21 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
         "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
         "frames": frames_context(derivation, fmt) if robot.frames else None,
+        "recursion": _recursion(derivation) if intermediates and "generalized" in sections else None,
     }
     return context
+
+
+class RecursionFormatter(Formatter):
+    """The sheet's formatter with the recursion's names (``recursion.recursion_names``: each
+    line by its meaning, ``q_k``, ``s_k``, ``c_k``)."""
+
+    def __init__(self, derivation: Derivation):
+        super().__init__(derivation, extra_names=recursion_names(derivation))
+
+
+def _recursion(derivation: Derivation) -> dict[str, Any]:
+    return recursion_context(derivation, RecursionFormatter.of(derivation), Formatter.of(derivation), typeset_width)
 
 
 def frames_context(derivation: Derivation, fmt: Formatter) -> list[dict[str, Any]]:

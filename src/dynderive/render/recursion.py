@@ -1,0 +1,229 @@
+"""A large robot's sheet as a recursion a reader can follow (OpenSYMORO's customized
+Newton-Euler, better named): the links' kinematic data, then every line of the program
+``Derivation.recursion`` named by what it means and by its link (``\\omega_{3x}``, the
+x-component of link 3's angular velocity, in link 3's axes; ``\\bar\\omega_{3x}``, the
+parent's, in link 3's axes), grouped link by link.
+
+Names come from the lines' recorded meanings (``program.Meaning``); values that cost nothing
+to repeat (``\\dot q_1``, ``-s_2``) are printed as they are, zero components left out. The
+sheet's ``recursion.tex.j2`` states the recursion in symbols around these lines.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy
+
+from ..derivation import Derivation
+from .encode import escape_tex
+
+AXES = "xyz"
+#: LaTeX of each quantity (``recursion.MEANINGS``): ``{i}`` the link's index, ``{j}`` the mass
+#: matrix's column, ``{k}`` the coordinate's, ``{c}`` the component. A bar marks a vector carried
+#: across joint i into the other link's axes (the parent's motion into link i's, link i's
+#: forces into the parent's): no left superscript next to a coefficient.
+NAMES = {
+    "R": "R_{{{i},{c}}}", "p": "p_{{{i}{c}}}", "m": "m_{{{i}}}", "h": "h_{{{i}{c}}}", "I": "I_{{{i},{c}}}",
+    "omega_in": "\\bar\\omega_{{{i}{c}}}", "v_in": "\\bar v_{{{i}{c}}}",
+    "alpha_in": "\\bar{{\\dot\\omega}}_{{{i}{c}}}", "a_in": "\\bar a_{{{i}{c}}}",
+    "omega": "\\omega_{{{i}{c}}}", "v": "v_{{{i}{c}}}", "alpha": "\\dot\\omega_{{{i}{c}}}", "a": "a_{{{i}{c}}}",
+    "k": "k_{{{i}{c}}}", "l": "\\ell_{{{i}{c}}}", "F": "F_{{{i}{c}}}", "N": "N_{{{i}{c}}}",
+    "f_up": "\\bar f_{{{i}{c}}}", "n_up": "\\bar n_{{{i}{c}}}", "f": "f_{{{i}{c}}}", "n": "n_{{{i}{c}}}",
+    "tau": "\\tau_{{{k}}}", "mc": "m^c_{{{i}}}", "hc": "h^c_{{{i}{c}}}", "Ic": "I^c_{{{i},{c}}}",
+    "hc_up": "\\bar h^c_{{{i}{c}}}", "IRt": "U_{{{i},{c}}}",
+    "Fcol": "f^{{({j})}}_{{{i}{c}}}", "Ncol": "n^{{({j})}}_{{{i}{c}}}", "M": "M_{{{c}}}",
+}
+#: Estimated width (math glyphs) of a line in one of the sheet's two columns of small type,
+#: less the name in front, the indent of continuation lines and the estimate's error: a term
+#: wider than this (a product with a sum in parentheses) is broken by ``render.linebreak``.
+COLUMN_UNITS = 30
+#: Quantities shown only where they are lines: the rest (numbers, the robot's parameters) are
+#: in the kinematic data table, or the matrices M_g and tau at the end.
+ONLY_LINES = {"p", "m", "h", "I", "mc", "hc", "Ic", "hc_up", "IRt", "M", "tau"}
+FORWARD = ("R", "p", "m", "h", "I", "omega_in", "v_in", "alpha_in", "a_in", "omega", "v", "alpha", "a",
+           "k", "l", "N", "F")
+BACKWARD = ("tau", "f_up", "n_up", "f", "n")
+COMPOSITE = ("hc_up", "IRt", "Ic", "mc", "hc")
+COLUMNS = ("Fcol", "Ncol", "M")
+
+
+def _component(quantity: str, index: tuple[int, ...], n: int) -> str:
+    if quantity == "M":   # as the sheet's entries: M_{12}, M_{1,12} beyond 9 coordinates
+        return f"{index[0] + 1},{index[1] + 1}" if n > 9 else f"{index[0] + 1}{index[1] + 1}"
+    if quantity in ("R", "IRt"):
+        return f"{index[0] + 1}{index[1] + 1}"
+    return "".join(AXES[k] for k in index)
+
+
+def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
+    """LaTeX of every name of the recursion's program: its lines by meaning (a meaning met
+    again, as a partial sum over a link's children, primed), ``s_k``/``c_k`` for the sines and
+    cosines of coordinate k."""
+    robot, r = derivation.robot, derivation.recursion
+    index = {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
+    table = derivation.symbols
+    names: dict[sympy.Symbol, str] = {}
+    for k in range(len(table.q)):   # OpenSYMORO's short names: q_k the coordinate of joint k
+        names |= {table.q[k]: f"q_{{{k + 1}}}", table.qd[k]: f"\\dot q_{{{k + 1}}}",
+                  table.qdd[k]: f"\\ddot q_{{{k + 1}}}"}
+    for symbol, value in r.trig:
+        k = 1 + derivation.symbols.q.index(value.args[0])
+        names[symbol] = f"{'c' if isinstance(value, sympy.cos) else 's'}_{{{k}}}"
+    seen: set[str] = set()
+    for symbol, _ in r.program.lines:
+        meaning = r.program.labels.get(symbol)
+        if meaning is None:
+            continue
+        text = _name(meaning, index, robot, len(robot.coordinates))
+        if "^" in text:   # a group, so that a power or a prime is not a second superscript
+            text = "{" + text + "}"
+        while text in seen:
+            text += "'"
+        seen.add(text)
+        names[symbol] = text
+    return names
+
+
+def _name(meaning: Any, index: dict[str, int], robot: Any, n: int) -> str:
+    joint = robot.parent_joint(meaning.link)
+    k = robot.coordinates.index(joint.name) + 1 if joint.name in robot.coordinates else 0
+    return NAMES[meaning.quantity].format(i=index[meaning.link], j=meaning.column + 1, k=k,
+                                          c=_component(meaning.quantity, meaning.index, n))
+
+
+def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) -> dict[str, Any]:
+    """What ``recursion.tex.j2`` shows (documented in docs/templates.md): ``links`` (the
+    kinematic data), ``forward``, ``backward``, ``composite``, ``columns`` (blocks of
+    ``title`` and ``lines``, each line ``name``, ``value``, ``symbol``: the program's name or
+    None for a value shown as it is), ``coordinates``, ``tau``, ``M_g`` and ``lines`` (how many).
+    ``fmt`` formats the recursion (``latex.RecursionFormatter``), ``plain`` the robot's data
+    (the sheet's formatter), ``width`` estimates a value's width in glyphs."""
+    robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
+    index = {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
+    n = len(robot.coordinates)
+    definitions = dict(r.program.lines)
+    shown: set[sympy.Symbol] = set()
+    rotations = {link: _rotation(link, r) for link in r.order}
+    # a rotation too wide for the column (a CAD frame's irrational entries) entry by entry
+    wide = {link for link, R in rotations.items() if R is not None and _matrix_width(R, width) > COLUMN_UNITS}
+
+    def line(meaning: Any, value: sympy.Expr) -> dict[str, Any] | None:
+        if value.is_Symbol and r.program.labels.get(value) == meaning and value not in shown:
+            shown.add(value)
+            shown_value = fmt.display(definitions[value], None, COLUMN_UNITS)
+            return {"name": fmt(value), "value": shown_value, "parts": shown_value.lines, "symbol": value}
+        if value == 0 or meaning.quantity in ONLY_LINES or (meaning.quantity == "R" and meaning.link not in wide):
+            return None
+        shown_value = fmt.display(value, None, COLUMN_UNITS)
+        return {"name": _name(meaning, index, robot, n), "value": shown_value, "parts": shown_value.lines,
+                "symbol": None, "width": width(value) + 4}
+
+    def blocks(quantities: tuple[str, ...], key: Any, title: Any, together: bool = False) -> list[dict[str, Any]]:
+        """The records of ``quantities`` shown, in blocks of consecutive equal ``key`` (all
+        of one key in one block, ``together``)."""
+        found: list[dict[str, Any]] = []
+        by_key: dict[Any, dict[str, Any]] = {}
+        for meaning, value in r.program.records:
+            if meaning.quantity not in quantities:
+                continue
+            item = line(meaning, value)
+            if item is None and not (together and key(meaning) not in by_key):
+                continue
+            if together and key(meaning) in by_key:
+                block = by_key[key(meaning)]
+            elif not together and found and found[-1]["key"] == key(meaning):
+                block = found[-1]
+            else:
+                block = by_key[key(meaning)] = {"key": key(meaning), "title": title(meaning), "lines": [], "rotation": None}
+                found.append(block)
+            if item is not None:
+                block["lines"].append(item)
+        for block in found:
+            block["lines"] = _merge_aliases(block["lines"])
+        return found
+
+    def link_title(meaning: Any) -> str:
+        return _link_title(meaning.link, index, robot)
+
+    forward = sorted(blocks(FORWARD, lambda m: m.link, link_title, together=True), key=lambda b: r.order.index(b["key"]))
+    for block in forward:
+        R = rotations[block["key"]]
+        block["rotation"] = None if R is None or block["key"] in wide else f"R_{{{index[block['key']]}}} = {fmt(R)}"
+    backward = blocks(BACKWARD, lambda m: m.link, link_title)
+    composite = blocks(COMPOSITE, lambda m: m.link, link_title)
+    columns = blocks(COLUMNS, lambda m: m.column, lambda m: f"Column {m.column + 1}")
+    return {
+        "links": _kinematic_data(derivation, index, plain),
+        "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
+        "forward": forward, "backward": backward, "composite": composite, "columns": columns,
+        "tau": fmt(sympy.Matrix(r.tau).T),   # a row: the template transposes it
+        "M_g": fmt.matrix("M", sympy.Matrix(n, n, [e for row in r.mass_matrix for e in row])),
+        "lines": sum(len(b["lines"]) for part in (forward, backward, composite, columns) for b in part),
+    }
+
+
+#: Estimated width (math glyphs) of values shown as they are that share one display line.
+ALIAS_UNITS = 30
+
+
+def _merge_aliases(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Consecutive values shown as they are (``\\omega_{2z} = \\dot q_2``) side by side, as many
+    as fit in ALIAS_UNITS: ``name`` None and ``value`` the equations separated by commas."""
+    merged: list[dict[str, Any]] = []
+    width = 0.0
+    for item in lines:
+        if item["symbol"] is None and merged and merged[-1]["symbol"] is None and width + item["width"] <= ALIAS_UNITS:
+            text = _equation(merged[-1]) + ",\\quad " + _equation(item)
+            merged[-1] = {"name": None, "symbol": None, "value": text, "parts": [text]}
+            width += item["width"]
+            continue
+        merged.append(item)
+        width = item.get("width", 0.0)
+    return merged
+
+
+def _equation(item: dict[str, Any]) -> str:
+    return item["value"] if item["name"] is None else f"{item['name']} = {item['value']}"
+
+
+def _link_title(link: str, index: dict[str, int], robot: Any) -> str:
+    return f"Link {index[link]} (\\texttt{{{escape_tex(link)}}})"
+
+
+def _rotation(link: str, r: Any) -> sympy.Matrix | None:
+    """``R_i``, the matrix of its entries (names where they are lines), None if it is 1."""
+    entries = {m.index: v for m, v in r.program.records if m.quantity == "R" and m.link == link}
+    matrix = sympy.Matrix(3, 3, lambda a, b: entries.get((a, b), 0))
+    return None if matrix == sympy.eye(3) else matrix
+
+
+def _matrix_width(matrix: sympy.Matrix, width: Any) -> float:
+    """Estimated width of ``matrix`` typeset whole (widest entry per column, gaps, name)."""
+    return sum(max(width(matrix[i, j]) for i in range(3)) for j in range(3)) + 10.0
+
+
+def _kinematic_data(derivation: Derivation, index: dict[str, int], fmt: Any) -> list[dict[str, Any]]:
+    """Per link: joint (name, type, coordinate), parent's index, origin, axis, mass, centre of
+    mass and inertia about it, as the robot file gives them."""
+    robot, table = derivation.robot, derivation.symbols
+
+    def vector(values: Any) -> str:
+        return "(" + ", ".join(fmt(table.expr(v)) for v in values) + ")"
+
+    rows = []
+    for link in robot.links:
+        joint = robot.parent_joint(link.name)
+        origin = list(joint.origin)
+        xyz, rpy = (origin[:2] + [0], [0, 0, origin[2] if len(origin) > 2 else 0]) if robot.planar else (origin[:3], origin[3:])
+        axis = list(joint.axis)
+        if robot.planar:   # the plane z = 0 of a 3-D model: revolute about z, prismatic in the plane
+            axis = [0, 0, 1] if joint.type == "revolute" else axis[:2] + [0]
+        rows.append({
+            "index": index[link.name], "name": escape_tex(link.name), "joint": escape_tex(joint.name),
+            "type": joint.type, "parent": index[joint.parent],
+            "coordinate": fmt(table.q[robot.coordinates.index(joint.name)]) if joint.moves else "",
+            "xyz": vector(xyz), "rpy": vector(rpy), "axis": vector(axis) if joint.moves else "",
+            "mass": fmt(table.expr(link.mass)), "com": vector(link.com), "inertia": fmt(table.expr(link.inertia[0])) if robot.planar else vector(link.inertia),
+        })
+    return rows
