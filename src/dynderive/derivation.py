@@ -369,7 +369,7 @@ class Derivation:
         (``structured_code``). Built once, on first use, straight from the robot: a run that
         writes only code never derives the symbolic matrices."""
         if self._programs is None and self.robot.floating:   # the free-flyer programs, never Lagrange's
-            from .mechanics.floating import floating_programs
+            from .mechanics.floating_derivatives import floating_programs
 
             self._programs = floating_programs(self.robot, self.symbols)
         if self._programs is None:

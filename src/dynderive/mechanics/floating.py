@@ -333,37 +333,3 @@ def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program,
         built[frame.name] = (transform, [e for row in rows for e in row], [let(e) for e in bias])
     return {name: tuple(Program(lines=list(tree.program.lines), outputs=list(outputs)) for outputs in programs)
             for name, programs in built.items()}
-
-
-def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
-    """The programs of a floating-base robot's module, by name: ``mass_matrix`` (row by row),
-    ``gravity``, ``potential``, ``inverse_dynamics``, ``forward_dynamics``, and from
-    ``floating_derivatives.py`` ``coriolis``, ``inverse_dynamics_derivatives`` and ``regressor``."""
-    programs = {}
-    zeros = [_ZERO] * robot.velocity_count
-    tree = FloatingTree(robot, table)
-    tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
-    programs["mass_matrix"] = tree.program
-    tree = FloatingTree(robot, table)
-    tree.program.outputs = newton_euler(tree, zeros, zeros)
-    programs["gravity"] = tree.program
-    tree = FloatingTree(robot, table)
-    tree.program.outputs = [potential(tree)]
-    programs["potential"] = tree.program
-    tree = FloatingTree(robot, table)
-    tree.program.outputs = newton_euler(tree, table.qd, table.qdd)
-    programs["inverse_dynamics"] = tree.program
-    tree = FloatingTree(robot, table)
-    M = mass_matrix(tree)
-    bias = newton_euler(tree, table.qd, zeros)
-    rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
-    tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
-    programs["forward_dynamics"] = tree.program
-    from .floating_derivatives import coriolis_matrix, inverse_dynamics_derivatives, regressor
-
-    tree = FloatingTree(robot, table)
-    tree.program.outputs = [e for row in coriolis_matrix(tree) for e in row]
-    programs["coriolis"] = tree.program
-    programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives(robot, table)
-    programs["regressor"] = regressor(robot, table)
-    return programs

@@ -33,7 +33,17 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
-from .floating import FloatingTree, _times, motions, newton_euler, quaternion_matrix
+from .floating import (
+    FloatingTree,
+    _times,
+    efforts,
+    ltdl_solve,
+    mass_matrix,
+    motions,
+    newton_euler,
+    potential,
+    quaternion_matrix,
+)
 from .program import Program, Vector, _add, _cross, _dot, _rotate
 from .recursive import _carry, _forward, body_force
 from .regressor import _ENTRY, SPATIAL_KINDS, Parameter, _unit_parameters
@@ -192,3 +202,35 @@ def regressor(robot: Robot, table: SymbolTable) -> Program:
             Y[i][column[f"stiffness_{joint.name}"]] = program.let(tree.drives[i][3] - tree.drives[i][2])
     program.outputs = [e for row in Y for e in row]
     return program
+
+
+def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
+    """The programs of a floating-base robot's module, by name: ``mass_matrix`` (row by row),
+    ``gravity``, ``potential``, ``inverse_dynamics``, ``forward_dynamics`` (``floating.py``'s
+    recursions), ``coriolis``, ``inverse_dynamics_derivatives`` and ``regressor`` (this module's)."""
+    programs = {}
+    zeros = [_ZERO] * robot.velocity_count
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
+    programs["mass_matrix"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = newton_euler(tree, zeros, zeros)
+    programs["gravity"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [potential(tree)]
+    programs["potential"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = newton_euler(tree, table.qd, table.qdd)
+    programs["inverse_dynamics"] = tree.program
+    tree = FloatingTree(robot, table)
+    M = mass_matrix(tree)
+    bias = newton_euler(tree, table.qd, zeros)
+    rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
+    tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
+    programs["forward_dynamics"] = tree.program
+    tree = FloatingTree(robot, table)
+    tree.program.outputs = [e for row in coriolis_matrix(tree) for e in row]
+    programs["coriolis"] = tree.program
+    programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives(robot, table)
+    programs["regressor"] = regressor(robot, table)
+    return programs

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import textwrap
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from ..derivation import Derivation
-from ..mechanics.program import Program
 from .code import Argument, program_function
 from .encode import Code, python_literal
 from .python_module import render_module, render_test_module
@@ -51,7 +51,7 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
     bodies = [program_function(*specs[key], program) for key, program in programs.items()]
     identification = derivation.parameter_vector
     bodies.append(program_function("_parameter_vector_body", "The parameter vector pi of regressor.", [],
-                                   Program(outputs=[p.value for p in identification])))
+                                   SimpleNamespace(lines=[], outputs=[p.value for p in identification])))
     for index, (name, pose, jacobian, bias) in enumerate(derivation.frame_programs):
         bodies += [program_function(f"_frame{index}_transform_body", f"Pose of frame {name!r} (homogeneous, row by row).",
                                     [q], pose),
