@@ -95,6 +95,15 @@ class FloatingTree:
                                                 self._value(j.rest), self.table.q[self.offsets.q[j.name]])
                        for j in robot.joints if j.moves and j.type != "floating" and j.driven}
 
+    def copy(self) -> FloatingTree:
+        """The same links, with a program of the links' lines only: each program of the module
+        starts from it (building the links once, not once per program; the same lines)."""
+        other = object.__new__(FloatingTree)
+        other.__dict__.update(self.__dict__)
+        other.program = Program(lines=list(self.program.lines), _count=self.program._count,
+                                _known=dict(self.program._known))
+        return other
+
     def _value(self, text: object) -> sympy.Expr:
         return _ZERO if text is None else self.table.expr(text)
 
@@ -341,19 +350,20 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     ``floating_derivatives.py`` ``coriolis``, ``inverse_dynamics_derivatives`` and ``regressor``."""
     programs = {}
     zeros = [_ZERO] * robot.velocity_count
-    tree = FloatingTree(robot, table)
+    base = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
     programs["mass_matrix"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = newton_euler(tree, zeros, zeros)
     programs["gravity"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = [potential(tree)]
     programs["potential"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = newton_euler(tree, table.qd, table.qdd)
     programs["inverse_dynamics"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     M = mass_matrix(tree)
     bias = newton_euler(tree, table.qd, zeros)
     rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
@@ -361,9 +371,9 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     programs["forward_dynamics"] = tree.program
     from .floating_derivatives import coriolis_matrix, inverse_dynamics_derivatives, regressor
 
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = [e for row in coriolis_matrix(tree) for e in row]
     programs["coriolis"] = tree.program
-    programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives(robot, table)
-    programs["regressor"] = regressor(robot, table)
+    programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives(base.copy())
+    programs["regressor"] = regressor(base.copy())
     return programs

@@ -35,7 +35,7 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .floating import FloatingTree, _times, motions, newton_euler, quaternion_matrix
 from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate
-from .recursive import _carry, _forward, body_force
+from .recursive import _forward, _partial, body_force
 from .regressor import _ENTRY, SPATIAL_KINDS, Parameter, _unit_parameters
 from .spatial import inertia_tensor
 
@@ -186,18 +186,44 @@ def _tangent_seeds(tree: FloatingTree) -> list[dict[sympy.Symbol, sympy.Expr]]:
     return seeds
 
 
-def inverse_dynamics_derivatives(robot: Robot, table: SymbolTable) -> Program:
-    """``dtau/dq`` (along ``integrate``, n x n) then ``dtau/dqd``, row by row."""
-    tree = FloatingTree(robot, table)
+def _carry_shared(program: Program, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
+                  lines: Sequence[tuple[sympy.Symbol, sympy.Expr, set[sympy.Symbol]]],
+                  partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr]) -> None:
+    """``recursive._carry`` (the same lines) with each line's partial derivatives kept in
+    ``partials`` across the passes: the 2 n passes of the linearization differentiate the same
+    lines by the same names, and only the tangents they multiply differ."""
+    one = sympy.S.One
+    for name, expr, symbols in lines:
+        moving = sorted((s for s in symbols if s in tangent), key=lambda s: s.name)
+        if not moving:
+            continue
+        if expr.is_Function:
+            d = _forward(expr, tangent, trig, symbols)
+        else:
+            terms = []
+            for s in moving:
+                partial = partials.get((name, s))
+                if partial is None:
+                    partial = partials[name, s] = _partial(expr, s)
+                terms.append(partial if tangent[s] is one else partial * tangent[s])
+            d = sympy.Add(*terms)
+        if d != 0:
+            tangent[name] = program.let(d)
+
+
+def inverse_dynamics_derivatives(tree: FloatingTree) -> Program:
+    """``dtau/dq`` (along ``integrate``, n x n) then ``dtau/dqd``, row by row, in ``tree``'s program."""
+    robot, table = tree.robot, tree.table
     tau = newton_euler(tree, table.qd, table.qdd)
     program = tree.program
     trig = {expr: name for name, expr in tree.trig}
     lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
     seeds = _tangent_seeds(tree) + [{rate: sympy.Integer(1)} for rate in table.qd]
     by_variable = []
+    partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr] = {}
     for seed in seeds:
         tangent = dict(seed)
-        _carry(program, tangent, trig, lines)
+        _carry_shared(program, tangent, trig, lines, partials)
         by_variable.append([program.let(_forward(t, tangent, trig)) for t in tau])
     n = robot.velocity_count
     program.outputs = [by_variable[k][i] for i in range(n) for k in range(n)]
@@ -226,9 +252,9 @@ def floating_parameter_vector(robot: Robot, table: SymbolTable) -> list[Paramete
     return entries
 
 
-def regressor(robot: Robot, table: SymbolTable) -> Program:
-    """``Y(q, qd, qdd)`` with ``Y pi = inverse_dynamics``, row by row (NV rows)."""
-    tree = FloatingTree(robot, table)
+def regressor(tree: FloatingTree) -> Program:
+    """``Y(q, qd, qdd)`` with ``Y pi = inverse_dynamics``, row by row (NV rows), in ``tree``'s program."""
+    robot, table = tree.robot, tree.table
     program, vec = tree.program, tree.program.vector
     n = robot.velocity_count
     parameters = floating_parameter_vector(robot, table)
