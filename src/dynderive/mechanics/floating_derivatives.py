@@ -6,17 +6,18 @@ and the regressor, as straight-line programs over ``floating.FloatingTree``.
 be the derivative of ``q``; a free flyer's velocity is a local twist, so its Christoffel
 symbols would take the structure constants of SE(3) as well. The program follows Pinocchio's
 ``computeCoriolisMatrix`` instead (the same C, compared to 1e-9):
-``C = sum_k J_k^T (I_k Jdot_k + B_k J_k)`` over the links ``k``, with ``J_k`` the link's
-Jacobian in its own frame, ``Jdot_k``'s column of joint ``j`` the motion vector
-``v_j x S_j`` (``v_j`` the velocity of joint j's link) carried into link k's frame, and
+``C = sum_k J_k^T (I_k Jdot_k + B_k J_k)`` over the links ``k``, with
 ``B_k = 1/2 (v_k x* I_k - I_k v_k x + (I_k v_k) xbar*)`` (``f xbar* m = m x* f``); then
-``C qd`` is the bias ``C qd + N - N`` and ``Mdot - 2 C`` is skew-symmetric.
-``C_ij = S_i . sum_{k below i and j} F_jk``, ``F_jk = I_k Jdot_k e_j + B_k J_k e_j``: per
-column j the forces ``F_jk`` of the links below joint j, summed from the leaves up.
+``C qd`` is the bias ``C qd + N - N`` and ``Mdot - 2 C`` is skew-symmetric. As Pinocchio,
+in world axes (about the world origin): a joint's column ``S_j`` and its rate ``v_j x S_j``
+(``v_j`` the velocity of joint j's link) are then the same in every link's Jacobian below
+it, so ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` with ``k`` the deeper link of the
+two joints and ``I^c``, ``B^c`` summed from the leaves up: one pose, inertia and ``B`` per
+link, no frame change per column.
 
-*Derivatives.* Newton-Euler differentiated line by line (``recursive._carry``) along each
-velocity direction: a scalar joint's coordinate, and for the floating joint the
-configuration's tangent of ``integrate(q, e_k h)`` at h = 0 (``dp = R e_lin``,
+*Derivatives.* Newton-Euler differentiated line by line (``recursive._carry``, each line's
+partial derivatives kept across the passes) along each velocity direction: a scalar joint's
+coordinate, and for the floating joint the configuration's tangent of ``integrate(q, e_k h)`` at h = 0 (``dp = R e_lin``,
 ``dquat = 1/2 quat * (e_ang, 0)``), Pinocchio's convention in ``computeABADerivatives``.
 
 *Regressor.* ``recursive``/``regressor.py``'s construction: each joint's axis carried down
