@@ -95,6 +95,15 @@ class FloatingTree:
                                                 self._value(j.rest), self.table.q[self.offsets.q[j.name]])
                        for j in robot.joints if j.moves and j.type != "floating" and j.driven}
 
+    def copy(self) -> FloatingTree:
+        """The same links, with a program of the links' lines only: each program of the module
+        starts from it (building the links once, not once per program; the same lines)."""
+        other = object.__new__(FloatingTree)
+        other.__dict__.update(self.__dict__)
+        other.program = Program(lines=list(self.program.lines), _count=self.program._count,
+                                _known=dict(self.program._known))
+        return other
+
     def _value(self, text: object) -> sympy.Expr:
         return _ZERO if text is None else self.table.expr(text)
 

@@ -6,17 +6,18 @@ and the regressor, as straight-line programs over ``floating.FloatingTree``.
 be the derivative of ``q``; a free flyer's velocity is a local twist, so its Christoffel
 symbols would take the structure constants of SE(3) as well. The program follows Pinocchio's
 ``computeCoriolisMatrix`` instead (the same C, compared to 1e-9):
-``C = sum_k J_k^T (I_k Jdot_k + B_k J_k)`` over the links ``k``, with ``J_k`` the link's
-Jacobian in its own frame, ``Jdot_k``'s column of joint ``j`` the motion vector
-``v_j x S_j`` (``v_j`` the velocity of joint j's link) carried into link k's frame, and
+``C = sum_k J_k^T (I_k Jdot_k + B_k J_k)`` over the links ``k``, with
 ``B_k = 1/2 (v_k x* I_k - I_k v_k x + (I_k v_k) xbar*)`` (``f xbar* m = m x* f``); then
-``C qd`` is the bias ``C qd + N - N`` and ``Mdot - 2 C`` is skew-symmetric.
-``C_ij = S_i . sum_{k below i and j} F_jk``, ``F_jk = I_k Jdot_k e_j + B_k J_k e_j``: per
-column j the forces ``F_jk`` of the links below joint j, summed from the leaves up.
+``C qd`` is the bias ``C qd + N - N`` and ``Mdot - 2 C`` is skew-symmetric. As Pinocchio,
+in world axes (about the world origin): a joint's column ``S_j`` and its rate ``v_j x S_j``
+(``v_j`` the velocity of joint j's link) are then the same in every link's Jacobian below
+it, so ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` with ``k`` the deeper link of the
+two joints and ``I^c``, ``B^c`` summed from the leaves up: one pose, inertia and ``B`` per
+link, no frame change per column.
 
-*Derivatives.* Newton-Euler differentiated line by line (``recursive._carry``) along each
-velocity direction: a scalar joint's coordinate, and for the floating joint the
-configuration's tangent of ``integrate(q, e_k h)`` at h = 0 (``dp = R e_lin``,
+*Derivatives.* Newton-Euler differentiated line by line (``recursive._carry``, each line's
+partial derivatives kept across the passes) along each velocity direction: a scalar joint's
+coordinate, and for the floating joint the configuration's tangent of ``integrate(q, e_k h)`` at h = 0 (``dp = R e_lin``,
 ``dquat = 1/2 quat * (e_ang, 0)``), Pinocchio's convention in ``computeABADerivatives``.
 
 *Regressor.* ``recursive``/``regressor.py``'s construction: each joint's axis carried down
@@ -44,14 +45,15 @@ from .floating import (
     potential,
     quaternion_matrix,
 )
-from .program import Program, Vector, _add, _cross, _dot, _rotate
-from .recursive import _carry, _forward, body_force
+from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate
+from .recursive import _forward, _partial, body_force
 from .regressor import _ENTRY, SPATIAL_KINDS, Parameter, _unit_parameters
 from .spatial import inertia_tensor
 
 _ZERO = sympy.Integer(0)
 _HALF = sympy.Rational(1, 2)
 Motion = tuple[Vector, Vector]
+Inertia = tuple[sympy.Expr, Vector, Matrix3]   # (m, h, I about the origin)
 
 
 def _motion_cross(a: Motion, b: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
@@ -64,54 +66,113 @@ def _force_cross(m: Motion, f: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sy
     return _add(_cross(m[0], f[0]), _cross(m[1], f[1])), _cross(m[0], f[1])
 
 
-def _inertia_times(body, m: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:  # noqa: ANN001
-    """The link's spatial inertia times a motion vector: ``(I w + h x v, m v + w x h)``."""
-    return (_add(_rotate(body.inertia, m[0]), _cross(body.first_moment, m[1])),
-            _add(_times(m[1], body.mass), _cross(m[0], body.first_moment)))
+def _world_inertia(let, vec, body, R: Matrix3, p: Vector) -> Inertia:  # noqa: ANN001
+    """The link's spatial inertia ``(m, h, I)`` about the world origin in world axes (the
+    link frame at rotation ``R``, origin ``p``)."""
+    h_r = vec(_rotate(R, body.first_moment))
+    inertia_rt = [[let(_dot(body.inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
+    ph, pp, mass = _dot(p, h_r), _dot(p, p), body.mass
+    inertia = [[None] * 3 for _ in range(3)]
+    for a in range(3):
+        for b in range(a, 3):
+            inertia[a][b] = inertia[b][a] = let(
+                _dot(R[a], [inertia_rt[k][b] for k in range(3)]) + mass * ((pp if a == b else 0) - p[a] * p[b])
+                + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b])
+    return mass, vec(_add(h_r, _times(p, mass))), tuple(tuple(row) for row in inertia)  # type: ignore[return-value]
+
+
+def _apply(inertia: Inertia, m: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
+    """A spatial inertia ``(m, h, I)`` times a motion ``(w, v)``: ``(I w + h x v, m v + w x h)``."""
+    mass, h, J = inertia
+    return _add(_rotate(J, m[0]), _cross(h, m[1])), _add(_times(m[1], mass), _cross(m[0], h))
+
+
+def _pair(m: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> sympy.Expr:
+    """A motion and a force (six entries each, angular part first): ``w . n + v . f``."""
+    return sum((a * b for a, b in zip(m, f)), _ZERO)
 
 
 def coriolis_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
-    """Pinocchio's Coriolis matrix ``C(q, qd)`` (module docstring), n x n."""
+    """Pinocchio's Coriolis matrix ``C(q, qd)`` (module docstring), n x n, in world axes as
+    ``computeCoriolisMatrix`` builds it: with every quantity about the world origin, a joint's
+    column ``S_j`` and its rate ``v_j x S_j`` are the same for every link below it, so
+    ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` with ``k`` the deeper of the two joints'
+    links and ``I^c``, ``B^c`` summed over the links below ``k`` (no frame changes)."""
     let, vec = tree.program.let, tree.program.vector
     n = tree.robot.velocity_count
-    velocity = {link: (w, v) for link, (w, v, _, _) in motions(tree, tree.table.qd, [_ZERO] * n).items()}
-    momentum = {b.link: tuple(vec(x) for x in _inertia_times(b, velocity[b.link])) for b in tree.bodies}
+    qd = tree.table.qd
+    one = sympy.Integer(1)
+    identity: Matrix3 = ((one, _ZERO, _ZERO), (_ZERO, one, _ZERO), (_ZERO, _ZERO, one))
+    zero: Vector = (_ZERO, _ZERO, _ZERO)
+    poses: dict[str, tuple[Matrix3, Vector]] = {"world": (identity, zero)}
+    velocity: dict[str, Motion] = {"world": (zero, zero)}
+    columns: dict[int, tuple[str, Motion, Motion]] = {}   # j: (link, S_j, v_j x S_j), world axes
+    composite: dict[str, Inertia] = {}
+    B: dict[str, list[list[sympy.Expr]]] = {}
+    units = [tuple(tuple(one if 3 * part + k == r else _ZERO for k in range(3)) for part in range(2)) for r in range(6)]
+    for body in tree.bodies:   # parents first
+        R_p, p_p = poses[body.parent]
+        R = tuple(tuple(let(_dot(R_p[a], [body.rotation[k][b] for k in range(3)])) for b in range(3)) for a in range(3))
+        p = vec(_add(p_p, _rotate(R_p, body.position)))
+        poses[body.link] = (R, p)   # type: ignore[assignment]
+        own = []
+        for j, sw, sv in body.columns:
+            w = vec(_rotate(R, sw))   # type: ignore[arg-type]
+            own.append((j, (w, vec(_add(_rotate(R, sv), _cross(p, w))))))   # type: ignore[arg-type]
+        w, v = velocity[body.parent]
+        if own:
+            w = vec([w[k] + sum((s[0][k] * qd[j] for j, s in own), _ZERO) for k in range(3)])
+            v = vec([v[k] + sum((s[1][k] * qd[j] for j, s in own), _ZERO) for k in range(3)])
+        velocity[body.link] = (w, v)
+        for j, s in own:
+            columns[j] = (body.link, s, tuple(vec(x) for x in _motion_cross((w, v), s)))  # type: ignore[assignment]
+        inertia = _world_inertia(let, vec, body, R, p)   # type: ignore[arg-type]
+        composite[body.link] = inertia
+        momentum = tuple(vec(x) for x in _apply(inertia, (w, v)))
+        B_columns = []   # B e_r = (v x* I e_r - I (v x e_r) + e_r x* I v) / 2
+        for e in units:
+            first = _force_cross((w, v), _apply(inertia, e))
+            second = _apply(inertia, _motion_cross((w, v), e))
+            third = _force_cross(e, momentum)
+            B_columns.append([let(_HALF * (a - b + c)) for part in zip(first, second, third)
+                              for a, b, c in zip(*part)])
+        B[body.link] = [[B_columns[c][r] for c in range(6)] for r in range(6)]
+    for body in reversed(tree.bodies):   # composites from the leaves up
+        if body.parent == "world":
+            continue
+        mass, h, J = composite[body.link]
+        p_mass, p_h, p_J = composite[body.parent]
+        total = [[None] * 3 for _ in range(3)]
+        for a in range(3):
+            for b in range(a, 3):
+                total[a][b] = total[b][a] = let(p_J[a][b] + J[a][b])
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)), tuple(tuple(row) for row in total))  # type: ignore[assignment]
+        B[body.parent] = [[let(x + y) for x, y in zip(row_p, row)] for row_p, row in zip(B[body.parent], B[body.link])]
     by_link = {b.link: b for b in tree.bodies}
     C = [[_ZERO] * n for _ in range(n)]
-    for body in tree.bodies:
-        for j, sw, sv in body.columns:
-            column: Motion = (sw, sv)
-            carried = {body.link: (column, tuple(vec(x) for x in _motion_cross(velocity[body.link], column)))}
-            below = [body]
-            for other in tree.bodies:   # parents first: the links below joint j, the column in their frames
-                if other.parent in carried and other.link not in carried:
-                    s, ds = carried[other.parent]
-                    carried[other.link] = (tree.motion_from_parent(other, *s), tree.motion_from_parent(other, *ds))
-                    below.append(other)
-            forces = {}
-            for link in below:
-                s, ds = carried[link.link]
-                v = velocity[link.link]
-                half_ds = [[d - x / 2 for d, x in zip(part, cross)]   # I (dS - v x S / 2) + (v x* I S + S x* I v) / 2
-                           for part, cross in zip(ds, _motion_cross(v, s))]
-                first = _inertia_times(link, half_ds)
-                second = _force_cross(v, _inertia_times(link, s))
-                third = _force_cross(s, momentum[link.link])
-                forces[link.link] = tuple(vec([a + _HALF * (b + c) for a, b, c in zip(*parts)])
-                                          for parts in zip(first, second, third))
-            for link in reversed(below[1:]):   # from the leaves up to joint j's link
-                n_p, f_p = tree.force_to_parent(link, *forces[link.link])
-                parent_n, parent_f = forces[link.parent]
-                forces[link.parent] = (vec(_add(parent_n, n_p)), vec(_add(parent_f, f_p)))
-            for link in below:
-                for i, tw, tv in link.columns:
-                    C[i][j] = let(_dot(tw, forces[link.link][0]) + _dot(tv, forces[link.link][1]))
-            current, force = body, forces[body.link]
-            while current.parent != "world":   # the joints above j
-                force = tree.force_to_parent(current, *force)
-                current = by_link[current.parent]
-                for i, tw, tv in current.columns:
-                    C[i][j] = let(_dot(tw, force[0]) + _dot(tv, force[1]))
+    rows: dict[int, tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]] = {}   # i: (S_i^T B^c, I^c S_i)
+    for j, (link, s, ds) in columns.items():
+        flat = (*s[0], *s[1])
+        spin = _apply(composite[link], ds)
+        turn = [sum((B[link][r][c] * flat[c] for c in range(6)), _ZERO) for r in range(6)]
+        force = vec([a + b for a, b in zip((*spin[0], *spin[1]), turn)])   # I^c_k dS_j + B^c_k S_j
+        rows[j] = (vec([sum((flat[r] * B[link][r][c] for r in range(6)), _ZERO) for c in range(6)]),
+                   vec([x for part in _apply(composite[link], s) for x in part]))
+        current = by_link[link]
+        while True:   # rows of joint j's link and of the joints above it
+            for i, _, _ in current.columns:
+                t = columns[i][1]
+                C[i][j] = let(_pair((*t[0], *t[1]), force))
+            if current.parent == "world":
+                break
+            current = by_link[current.parent]
+    for i, (link, _, _) in columns.items():   # the joints strictly above joint i's link
+        current = by_link[link]
+        while current.parent != "world":
+            current = by_link[current.parent]
+            for j, _, _ in current.columns:
+                t, dt = columns[j][1], columns[j][2]
+                C[i][j] = let(_pair((*t[0], *t[1]), rows[i][0]) + _pair((*dt[0], *dt[1]), rows[i][1]))
     return C
 
 
@@ -136,18 +197,44 @@ def _tangent_seeds(tree: FloatingTree) -> list[dict[sympy.Symbol, sympy.Expr]]:
     return seeds
 
 
-def inverse_dynamics_derivatives(robot: Robot, table: SymbolTable) -> Program:
-    """``dtau/dq`` (along ``integrate``, n x n) then ``dtau/dqd``, row by row."""
-    tree = FloatingTree(robot, table)
+def _carry_shared(program: Program, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
+                  lines: Sequence[tuple[sympy.Symbol, sympy.Expr, set[sympy.Symbol]]],
+                  partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr]) -> None:
+    """``recursive._carry`` (the same lines) with each line's partial derivatives kept in
+    ``partials`` across the passes: the 2 n passes of the linearization differentiate the same
+    lines by the same names, and only the tangents they multiply differ."""
+    one = sympy.S.One
+    for name, expr, symbols in lines:
+        moving = sorted((s for s in symbols if s in tangent), key=lambda s: s.name)
+        if not moving:
+            continue
+        if expr.is_Function:
+            d = _forward(expr, tangent, trig, symbols)
+        else:
+            terms = []
+            for s in moving:
+                partial = partials.get((name, s))
+                if partial is None:
+                    partial = partials[name, s] = _partial(expr, s)
+                terms.append(partial if tangent[s] is one else partial * tangent[s])
+            d = sympy.Add(*terms)
+        if d != 0:
+            tangent[name] = program.let(d)
+
+
+def inverse_dynamics_derivatives(tree: FloatingTree) -> Program:
+    """``dtau/dq`` (along ``integrate``, n x n) then ``dtau/dqd``, row by row, in ``tree``'s program."""
+    robot, table = tree.robot, tree.table
     tau = newton_euler(tree, table.qd, table.qdd)
     program = tree.program
     trig = {expr: name for name, expr in tree.trig}
     lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
     seeds = _tangent_seeds(tree) + [{rate: sympy.Integer(1)} for rate in table.qd]
     by_variable = []
+    partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr] = {}
     for seed in seeds:
         tangent = dict(seed)
-        _carry(program, tangent, trig, lines)
+        _carry_shared(program, tangent, trig, lines, partials)
         by_variable.append([program.let(_forward(t, tangent, trig)) for t in tau])
     n = robot.velocity_count
     program.outputs = [by_variable[k][i] for i in range(n) for k in range(n)]
@@ -176,9 +263,9 @@ def floating_parameter_vector(robot: Robot, table: SymbolTable) -> list[Paramete
     return entries
 
 
-def regressor(robot: Robot, table: SymbolTable) -> Program:
-    """``Y(q, qd, qdd)`` with ``Y pi = inverse_dynamics``, row by row (NV rows)."""
-    tree = FloatingTree(robot, table)
+def regressor(tree: FloatingTree) -> Program:
+    """``Y(q, qd, qdd)`` with ``Y pi = inverse_dynamics``, row by row (NV rows), in ``tree``'s program."""
+    robot, table = tree.robot, tree.table
     program, vec = tree.program, tree.program.vector
     n = robot.velocity_count
     parameters = floating_parameter_vector(robot, table)
@@ -210,27 +297,28 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     recursions), ``coriolis``, ``inverse_dynamics_derivatives`` and ``regressor`` (this module's)."""
     programs = {}
     zeros = [_ZERO] * robot.velocity_count
-    tree = FloatingTree(robot, table)
+    base = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
     programs["mass_matrix"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = newton_euler(tree, zeros, zeros)
     programs["gravity"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = [potential(tree)]
     programs["potential"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = newton_euler(tree, table.qd, table.qdd)
     programs["inverse_dynamics"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     M = mass_matrix(tree)
     bias = newton_euler(tree, table.qd, zeros)
     rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
     tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
     programs["forward_dynamics"] = tree.program
-    tree = FloatingTree(robot, table)
+    tree = base.copy()
     tree.program.outputs = [e for row in coriolis_matrix(tree) for e in row]
     programs["coriolis"] = tree.program
-    programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives(robot, table)
-    programs["regressor"] = regressor(robot, table)
+    programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives(base.copy())
+    programs["regressor"] = regressor(base.copy())
     return programs
