@@ -51,8 +51,10 @@ class LineBreaker:
     estimated by ``width``; ``order`` is the printer's term order (as ``sympy.latex``)."""
 
     def __init__(self, latex: Callable[[sympy.Basic], str], width: Callable[[sympy.Basic], float],
-                 order: str | None = None):
+                 order: str | None = None, numbers: Callable[[sympy.Basic], sympy.Basic] | None = None):
         self.latex, self.width = latex, width
+        #: a product with its coefficient as the printer shows it (``Numbers.mul``: a decimal)
+        self.numbers = numbers or (lambda expr: expr)
         self._printer = LatexPrinter({"order": order})
 
     def lines(self, expr: sympy.Basic, budget: float) -> list[str]:
@@ -93,7 +95,10 @@ class LineBreaker:
         denominator factor too wide for the fraction as ``(...)^{-1}`` after it. Short leading
         factors (``- b_{2}``) stay on the line of the first wide one."""
         out: list[_Piece | _Break] = []
-        coefficient, rest = expr.as_coeff_Mul()
+        shown = self.numbers(expr)
+        if shown is not expr and not shown.is_Mul:   # a decimal folded into a sum, or the whole product
+            return self._tokens(shown, budget)
+        coefficient, rest = shown.as_coeff_Mul()
         lead = 0.0
         if coefficient.is_negative:
             out.append(_Piece("- ", _SIGN))
