@@ -20,7 +20,8 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.errors import LatexError
-from dynderive.render.numbers import Numbers, significant_digits, written_digits
+from dynderive.model.written import significant_digits, written_digits
+from dynderive.render.numbers import Numbers
 from test_sheets_compile import tex  # noqa: F401  (the fixture: skip without TeX, fail in CI)
 
 runner = CliRunner()

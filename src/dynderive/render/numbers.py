@@ -22,7 +22,6 @@ below 1e-4 and at or above 10^D. Exact constants (``\\sqrt{2}/2``, ``\\pi/4``) s
 
 from __future__ import annotations
 
-import re
 from decimal import ROUND_HALF_EVEN, Context, Decimal
 from typing import Any
 
@@ -30,45 +29,7 @@ import sympy
 from mpmath.libmp import to_str
 from sympy.core.numbers import Float, Rational, prec_to_dps
 
-#: A number literal in an expression's text (not the digits of a name such as ``m1``).
-_LITERAL = re.compile(r"(?<![\w.])(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-
-
-def significant_digits(literal: str) -> int:
-    """Significant digits of a written number, trailing zeros not counted: ``0.00120`` -> 2,
-    ``1500`` -> 2, ``0.1234567890123456`` -> 16."""
-    value = Decimal(literal.strip().lstrip("+-"))
-    return len(value.normalize().as_tuple().digits) if value else 1
-
-
-def written_in(value: object) -> int:
-    """The most significant digits of a number written in ``value``: a YAML number (a float as
-    read, its shortest form) or the literals of an expression's text."""
-    if isinstance(value, bool) or value is None:
-        return 0
-    if isinstance(value, int):
-        return significant_digits(str(value))
-    if isinstance(value, float):
-        return significant_digits(repr(value)) if value == value and abs(value) != float("inf") else 0
-    if isinstance(value, str):
-        return max((significant_digits(m) for m in _LITERAL.findall(value)), default=0)
-    if isinstance(value, (tuple, list)):
-        return max((written_in(v) for v in value), default=0)
-    return 0
-
-
-def written_digits(robot: Any) -> int:
-    """The most significant digits of a number the robot's file wrote: ``robot.digits`` when
-    the reader counted them (URDF: its attributes), else those of the robot's expressions."""
-    if getattr(robot, "digits", None) is not None:
-        return robot.digits
-    values: list[object] = [robot.gravity, robot.maximal_constraints or ()]
-    values += [p.value for p in robot.parameters]
-    values += [(lk.mass, lk.com, lk.inertia) for lk in robot.links]
-    values += [(j.origin, j.axis, j.damping, j.friction, j.stiffness, j.rest, j.armature) for j in robot.joints]
-    values += [(lp.origin, lp.child_origin, lp.axis) for lp in robot.loops]
-    values += [f.origin for f in robot.frames]
-    return written_in(values)
+from ..model.written import written_digits
 
 
 def sheet_digits(robot: Any, limit: int | None = None) -> int:
@@ -102,6 +63,7 @@ class Numbers:
         self.digits = digits
         self.short = max(2, min(3, digits))
         self._exact: dict[sympy.Basic, bool] = {}
+        self._shown: dict[sympy.Basic, sympy.Basic] = {}   # products as ``mul`` shows them
 
     # --- rationals -----------------------------------------------------------------------
     def _kind(self, r: Rational) -> tuple[str, Decimal | None]:
@@ -161,14 +123,14 @@ class Numbers:
             return None
         return self.marker(self.rounded(Decimal(to_str(value._mpf_, self.digits + 10))))
 
-    def split(self, term: sympy.Basic) -> tuple[sympy.Basic, list[sympy.Basic]]:
-        """A term as (its constant part, exact: coefficient and constant factors; the others)."""
+    def split(self, term: sympy.Basic) -> tuple[sympy.Basic, sympy.Basic]:
+        """A term as (its constant part, exact: coefficient and constant factors; the rest)."""
         coefficient, rest = term.as_coeff_Mul()
         factors = sympy.Mul.make_args(rest)
         constants = [f for f in factors if f.is_number]
         if not constants:
-            return coefficient, list(factors) if rest != 1 else []
-        return coefficient * sympy.Mul(*constants), [f for f in factors if not f.is_number]
+            return coefficient, rest
+        return coefficient * sympy.Mul(*constants), sympy.Mul(*(f for f in factors if not f.is_number))
 
     def shown(self, value: sympy.Basic) -> Float | None:
         """The marker of a term's constant part when it prints as a decimal, else None."""
@@ -181,7 +143,14 @@ class Numbers:
         ``1.8e-49 (5.3e47 x + ...)`` (a CAD robot's exact factoring). Others as they are."""
         if not isinstance(expr, sympy.Mul):
             return expr
-        value, others = self.split(expr)
+        known = self._shown.get(expr)
+        if known is None:
+            known = self._shown[expr] = self._mul(expr)
+        return known
+
+    def _mul(self, expr: sympy.Mul) -> sympy.Basic:
+        value, symbolic = self.split(expr)
+        others = [f for f in sympy.Mul.make_args(symbolic) if f != 1]
         sums = [f for f in others if f.is_Add and any(self.shown(self.split(t)[0]) is not None for t in f.args)]
         if sums:
             # each such sum scaled to its largest constant (1.3e16 x + 2e15 -> 1.3e16 (x + 0.15)),
@@ -211,8 +180,8 @@ class Numbers:
             args += shown.args if shown.is_Add else [term]
         groups: dict[sympy.Basic, list[tuple[sympy.Basic, sympy.Basic]]] = {}
         for term in args:
-            value, others = self.split(term)
-            groups.setdefault(sympy.Mul(*others), []).append((value, term))
+            value, symbolic = self.split(term)
+            groups.setdefault(symbolic, []).append((value, term))
         terms, changed = [], len(args) != len(expr.args)
         for symbolic, group in groups.items():
             if len(group) > 1 and any(self.shown(value) is not None for value, _ in group):
@@ -295,4 +264,4 @@ def latex_decimal(mantissa: str, exponent: int | None) -> str:
     return mantissa if exponent is None else rf"{mantissa} \cdot 10^{{{exponent}}}"
 
 
-__all__ = ["DecimalNumbers", "Numbers", "latex_decimal", "sheet_digits", "significant_digits", "written_digits"]
+__all__ = ["DecimalNumbers", "Numbers", "latex_decimal", "sheet_digits"]
