@@ -231,3 +231,33 @@ def test_bad_digits_are_one_line_input_errors(tmp_path, command, value, message)
     assert result.output.startswith(message)
     assert result.output.count("\n") == 1 and "Traceback" not in result.output
     assert not out.exists()
+
+
+URDF_ROBOT = """\
+<robot name="urdf_arm">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><origin xyz="0.125 0 0.05" rpy="0 0 0"/><mass value="2.345"/>
+      <inertia ixx="0.0123" iyy="0.0234" izz="0.0345" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="tool">
+    <inertial><origin xyz="0.01 0.02 0" rpy="0 0 0"/><mass value="0.5"/>
+      <inertia ixx="0.001" iyy="0.002" izz="0.003" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="q1" type="revolute"><parent link="base"/><child link="arm"/>
+    <origin xyz="0 0 0.1" rpy="1.5707963267948966 0 0"/><axis xyz="0 0 1"/>
+    <limit effort="10" velocity="1" lower="-1" upper="1"/></joint>
+  <joint name="weld" type="fixed"><parent link="arm"/><child link="tool"/>
+    <origin xyz="0.25 0 0" rpy="0 0 0.3"/></joint>
+</robot>
+"""
+
+
+def test_urdf_precision_is_what_its_attributes_wrote(tmp_path):
+    path = tmp_path / "urdf_arm.urdf"
+    path.write_text(URDF_ROBOT)
+    robot = dynderive.load_robot(str(path))
+    assert robot.digits == 4   # 2.345, 0.0123 ...; not pi/2's 17 digits, nor the welded body's sums
+    sheet = body(dynderive.render_latex(dynderive.derive(robot)))
+    digits, number = most_digits(sheet)
+    assert digits <= 4, number
