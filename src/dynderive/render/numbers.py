@@ -14,7 +14,9 @@ significant digits among the numbers its file wrote, or ``--digits N`` if fewer)
   (exactly the number the file wrote);
 * every other number, and every constant with such a number or a surd of a long number in
   it (a normalised CAD axis ``17573222896111212*sqrt(408...)/408...``), as a decimal rounded
-  to D significant digits; the constant factors of a product fold into one decimal.
+  to D significant digits; the constant factors of a product fold into one decimal, a
+  decimal times a sum of decimal terms is multiplied out (no ``1.8e-49 (5.3e47 x + ...)``)
+  and terms that differ only in such constants are collected.
 
 Decimals print as ``printf("%.Dg")`` does: trailing zeros dropped, ``1.2 \\cdot 10^{-5}``
 below 1e-4 and at or above 10^D. Exact constants (``\\sqrt{2}/2``, ``\\pi/4``) stay exact.
