@@ -66,10 +66,18 @@ class Numbers:
         self.short = max(2, min(3, digits))
         self._exact: dict[sympy.Basic, bool] = {}
         self._shown: dict[sympy.Basic, sympy.Basic] = {}   # products as ``mul`` shows them
+        self._kinds: dict[Rational, tuple[str, Decimal | None]] = {}
+        self._split: dict[sympy.Basic, tuple[sympy.Basic, sympy.Basic]] = {}
 
     # --- rationals -----------------------------------------------------------------------
     def _kind(self, r: Rational) -> tuple[str, Decimal | None]:
         """("fraction", None): SymPy prints it; ("exact", d) / ("rounded", d): the decimal d."""
+        known = self._kinds.get(r)
+        if known is None:
+            known = self._kinds[r] = self._classify(r)
+        return known
+
+    def _classify(self, r: Rational) -> tuple[str, Decimal | None]:
         p, q = int(r.p), int(r.q)
         if q == 1:
             if len(str(abs(p)).rstrip("0")) <= max(self.digits, 3):
@@ -127,6 +135,12 @@ class Numbers:
 
     def split(self, term: sympy.Basic) -> tuple[sympy.Basic, sympy.Basic]:
         """A term as (its constant part, exact: coefficient and constant factors; the rest)."""
+        known = self._split.get(term)
+        if known is None:
+            known = self._split[term] = self._split_term(term)
+        return known
+
+    def _split_term(self, term: sympy.Basic) -> tuple[sympy.Basic, sympy.Basic]:
         coefficient, rest = term.as_coeff_Mul()
         factors = sympy.Mul.make_args(rest)
         constants = [f for f in factors if f.is_number]
