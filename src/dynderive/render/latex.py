@@ -225,10 +225,11 @@ def typeset_width(expr: sympy.Basic) -> float:
         index = len(name) - len(stem)
         base = stem.rstrip("d") or stem      # qd1, phid1: a dot over the coordinate's letter
         return (1.0 if base in _GREEK or len(base) == 1 else 0.9 * len(base)) + 0.7 * index
+    # the sheet prints a long number as a decimal of at most 17 digits (render.numbers)
     if expr.is_Integer:
-        return len(str(expr))
+        return min(len(str(expr)), 24)
     if expr.is_Rational:
-        return 0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6
+        return min(0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6, 19)
     if expr.is_Number:
         return len(sympy.sstr(expr))
     if expr.is_Add:
