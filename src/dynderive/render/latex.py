@@ -85,7 +85,7 @@ class Formatter(DerivationFormatter):
         self.numbers = None if exact else Numbers(sheet_digits(derivation.robot, digits))
         self._printer = (RememberingLatexPrinter(settings) if self.numbers is None
                          else SheetLatexPrinter(settings, self.numbers))
-        self._breaker = LineBreaker(self, typeset_width, self.order, self.numbers and self.numbers.mul)
+        self._breaker = LineBreaker(self, typeset_width, self.order, self.numbers)
 
     def _text(self, expr: Any) -> str:
         if isinstance(expr, sympy.MatrixBase):

@@ -167,7 +167,15 @@ class Numbers:
     def _mul(self, expr: sympy.Mul) -> sympy.Basic:
         value, symbolic = self.split(expr)
         others = [f for f in sympy.Mul.make_args(symbolic) if f != 1]
-        sums = [f for f in others if f.is_Add and any(self.shown(self.split(t)[0]) is not None for t in f.args)]
+        powers = [f for f in others if f.is_Pow and f.exp.is_Integer and f.exp > 0 and self._decimal_sum(f.base)]
+        if powers:   # (1.6e32 x + ...)^2 as 2.4e64 (0.15 x + ...)^2
+            scaled_powers = []
+            for power in powers:
+                scale = max((self.split(t)[0] for t in power.base.args), key=_magnitude)
+                scaled_powers.append(sympy.Add(*(t / scale for t in power.base.args)) ** power.exp)
+                value *= scale ** power.exp
+            others = [f for f in others if all(f is not p for p in powers)] + scaled_powers
+        sums = [f for f in others if f.is_Add and self._decimal_sum(f)]
         if sums:
             # each such sum scaled to its largest constant (1.3e16 x + 2e15 -> 1.3e16 (x + 0.15)),
             # the scales and the coefficient multiplied into the first
@@ -181,13 +189,29 @@ class Numbers:
         marker = self.shown(value)
         if marker is None:
             return expr
+        nested = [f for f in others if f.is_Add and any(self._decimal_sums(t) for t in f.args)]
+        if len(nested) == 1:
+            # c (A B + 5 C D) with sums A ... D of decimal terms: c A B + 5 c C D, each product
+            # then scaled as above (no 7.3e-50 ((6.2e48 x + ...) (...) + ...))
+            rest = [f for f in others if f is not nested[0]]
+            inner = sympy.Add(*(value * t for t in nested[0].args))
+            return sympy.Mul(*rest, inner) if rest else inner
         return sympy.Mul(marker, *others, evaluate=False) if others else marker
 
+    def _decimal_sum(self, expr: sympy.Basic) -> bool:
+        """Whether ``expr`` is a sum with a term whose constant prints as a decimal."""
+        return expr.is_Add and any(self.shown(self.split(t)[0]) is not None for t in expr.args)
+
+    def _decimal_sums(self, term: sympy.Basic) -> bool:
+        """Whether a term has a sum among its factors with a decimal term."""
+        return any(self._decimal_sum(f) for f in sympy.Mul.make_args(self.split(term)[1]))
+
     def add(self, expr: sympy.Basic) -> sympy.Basic:
-        """A sum with terms that differ only in constants printing as decimals, those terms
-        collected (``2.1 x + 0.3 x`` as ``2.4 x``: SymPy keeps ``sin(0.12) x`` and ``cos(0.12) x``
-        apart), and a term whose constant is a negative decimal SymPy cannot see the sign of
-        (``(sin(c) - 1) x``) written with that decimal; others as they are."""
+        """A sum with terms that differ only in constants printing as rounded decimals, those
+        terms collected (``2.1 x + 0.3 x`` as ``2.4 x``: SymPy keeps ``sin(0.12) x`` and
+        ``cos(0.12) x`` apart), and every term whose constant prints as a rounded decimal
+        written with that decimal in front, so that its sign is the decimal's (SymPy sees none in ``(sin(c) - 1) x`` and a
+        wrong one in ``-(1 - 2 sin(c)) x``); others as they are."""
         if not isinstance(expr, sympy.Add):
             return expr
         args: list[sympy.Basic] = []
@@ -200,15 +224,15 @@ class Numbers:
             groups.setdefault(symbolic, []).append((value, term))
         terms, changed = [], len(args) != len(expr.args)
         for symbolic, group in groups.items():
-            if len(group) > 1 and any(self.shown(value) is not None for value, _ in group):
+            if len(group) > 1 and any(not self.exact(value) for value, _ in group):
                 total = sympy.Add(*(value for value, _ in group))
                 marker = self.shown(total)   # the sum as one decimal, its sign in front
                 terms.append((total if marker is None else marker) * symbolic)
                 changed = True
                 continue
-            for value, term in group:
-                marker = None if value.is_Float or term.could_extract_minus_sign() else self.shown(value)
-                if marker is not None and marker.is_negative:
+            for value, term in group:   # the decimal in front: its sign is the term's sign
+                marker = None if value.is_Float or self.exact(value) else self.shown(value)
+                if marker is not None:
                     terms.append(marker * symbolic)
                     changed = True
                 else:
