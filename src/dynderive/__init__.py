@@ -80,12 +80,13 @@ def load_robot(robot: str | Path, size_limits: bool = False, floating_base: bool
 
 
 def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
-                 sections: tuple[str, ...] | None = None) -> str:
+                 sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
     """The LaTeX solution sheet as a string (nothing is written): ``sections`` among
-    ``"generalized", "maximal", "checks"`` (default: what the robot's size makes readable)."""
+    ``"generalized", "maximal", "checks"`` (default: what the robot's size makes readable);
+    numbers to ``digits`` significant digits at most (default: as many as the file wrote)."""
     from .render.latex import render_latex as _render
 
-    return _render(derivation, template_dir, sections)
+    return _render(derivation, template_dir, sections, digits)
 
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:

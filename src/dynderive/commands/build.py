@@ -56,7 +56,7 @@ TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2
              "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
              "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"],
              "jax": ["jax/dynamics.py.j2"], "json": [], "html": ["html/sheet.html.j2"],
-             "floating_base": []}   # not an output: --floating-base, part of the inputs
+             "floating_base": []}   # not an output: --floating-base, part of the inputs (so is digits:N, --digits)
 
 
 @dataclass
@@ -185,7 +185,7 @@ def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -
         digest.update(source.read_bytes())
     except OSError:
         return ""   # never up to date: building it reports why it cannot be read
-    names = sorted({name for kind in kinds for name in TEMPLATES[kind]})
+    names = sorted({name for kind in kinds for name in TEMPLATES.get(kind, [])})   # digits:N: none
     for name, template in templates_in_use(names, template_dir):   # with what they include
         try:
             digest.update(name.encode() + b"\0" + template.read_bytes() + b"\0")
@@ -216,6 +216,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     from ..render.latex import render_latex
 
     floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")
+    digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
     robot = load_robot(source, size_limits=True, floating_base=floating_base)
     if robot.floating:   # the NumPy module only (issue 30)
         from .floating import floating_outputs
@@ -224,7 +225,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     derivation = derive(robot)
     files: dict[str, bytes] = {}
     failed: LatexError | None = None
-    tex = render_latex(derivation, template_dir) if ("latex" in kinds or "pdf" in kinds) else None
+    tex = render_latex(derivation, template_dir, digits=digits) if ("latex" in kinds or "pdf" in kinds) else None
     if "latex" in kinds:
         files[f"{robot.name}.tex"] = tex.encode()  # type: ignore[union-attr]
     if "pdf" in kinds:
@@ -268,7 +269,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     if "html" in kinds:
         from ..render.html import render_html
 
-        files[f"{robot.name}.html"] = render_html(derivation, template_dir).encode()
+        files[f"{robot.name}.html"] = render_html(derivation, template_dir, digits=digits).encode()
     return files, failed
 
 

@@ -119,25 +119,21 @@ def solve(
                         "robots of at most 2 links).")] = None,
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
                              "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
+    digits: Annotated[str | None, typer.Option("--digits", help="N: the sheet's numbers (and the printed equations') "
+                      "to at most N significant digits (default: as many as the robot file wrote).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
-    from ..render.latex import parse_sections
     from ..render.terminal import render_terminal
+    from .options import sheet_digits_option, sheet_sections_option
     from .output import write_all
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
-    chosen = None
-    if sections is not None:
-        try:
-            chosen = parse_sections(sections)
-        except ValueError as exc:
-            raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
-        if not (latex or pdf or html):
-            raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or "
-                                                   "--pdf (or --html)"))
+    chosen = sheet_sections_option(sections, latex or pdf or html)
+    printed = not (latex or pdf or code or c or c_extension or matlab or jax or json_ or html)
+    shortened = sheet_digits_option(digits, latex or pdf or html or printed)
     if tests and not code:
         raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     if c_extension:   # no compiler: stop before any work
@@ -160,14 +156,14 @@ def solve(
     if derivation.intermediate_form and not quiet:
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
-    if not (latex or pdf or code or c or c_extension or matlab or jax or json_ or html):
-        typer.echo(render_terminal(derivation), nl=False)
+    if printed:
+        typer.echo(render_terminal(derivation, shortened), nl=False)
         return
     from .solve import Wanted, solve_outputs
 
     wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, jax=jax,
                     json=json_, tests=tests, html=html)
-    files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress)
+    files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
     write_all(files)
     if not quiet:
         for path in files:
@@ -534,21 +530,26 @@ def build(
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Templates that override the built-in ones by file name.")] = None,
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
+    digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to at most N significant "
+                      "digits (default: as many as each robot file wrote).")] = None,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
     from .build import default_jobs
+    from .options import sheet_digits_option
 
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
                                                         ("c_extension", c_extension), ("matlab", matlab),
                                                         ("jax", jax), ("json", json_), ("html", html)) if wanted)
+    if not kinds:
+        kinds = ("latex", "code")
+    shortened = sheet_digits_option(digits, any(kind in kinds for kind in ("latex", "pdf", "html")))
     if c_extension:   # no compiler: stop before any work
         from .compile import require_compiler
 
         require_compiler()
-    if not kinds:
-        kinds = ("latex", "code")
     kinds += ("floating_base",) if floating_base else ()
+    kinds += (f"digits:{shortened}",) if shortened else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,

@@ -70,7 +70,7 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
     from .. import derive
     from ..render.floating_code import render_floating_code
 
-    refused = [kind for kind in kinds if kind not in ("code", "floating_base")]
+    refused = [kind for kind in kinds if kind not in ("code", "floating_base") and not kind.startswith("digits:")]
     if refused:
         raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module"))
     return {f"{robot.name}_dynamics.py": render_floating_code(derive(robot), template_dir).encode()}

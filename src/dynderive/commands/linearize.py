@@ -222,7 +222,7 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
         from ..render.json import quantity_entry
         from ..render.latex import Formatter
 
-        fmt = Formatter.of(derivation)
+        fmt = Formatter.of(derivation, exact=True)   # JSON: exact numbers
         document: dict[str, Any] = {
             "robot": robot.name, "state": {"coordinates": list(robot.coordinates), **at},
             "method": "symbolic" if symbolic else "numeric",

@@ -206,3 +206,38 @@ def backend_name(text: str, choices: tuple[str, ...] = BACKENDS) -> str:
     if text.lower() in choices:
         return text.lower()
     raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"))
+
+
+#: Most significant digits ``--digits`` accepts (a double has 17; a file may write more).
+MOST_DIGITS = 100
+
+
+def sheet_digits_option(text: str | None, sheet: bool) -> int | None:
+    """``--digits N``: the sheet's numbers to at most N significant digits (1 to MOST_DIGITS);
+    ``sheet``: whether an output it applies to (the sheet, the page, the printed equations) is made."""
+    if text is None:
+        return None
+    stripped = text.strip()
+    if not (stripped.isascii() and stripped.isdigit()) or not 1 <= int(stripped) <= MOST_DIGITS:
+        raise InputError(problem("--digits", f"expected a whole number of significant digits from 1 to "
+                                             f"{MOST_DIGITS}, got {text!r}"))
+    if not sheet:
+        raise InputError(problem("--digits", "--digits shortens the numbers of the sheet: use it with --latex, "
+                                             "--pdf or --html (or no output flag: the printed equations)"))
+    return int(stripped)
+
+
+def sheet_sections_option(text: str | None, sheet: bool) -> tuple[str, ...] | None:
+    """``--sections``: the sheet's sections (``render.latex.parse_sections``), with a sheet only."""
+    from ..render.latex import parse_sections
+
+    if text is None:
+        return None
+    try:
+        chosen = parse_sections(text)
+    except ValueError as exc:
+        raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
+    if not sheet:
+        raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or "
+                                               "--pdf (or --html)"))
+    return chosen

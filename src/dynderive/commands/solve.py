@@ -31,9 +31,10 @@ class Wanted:
 
 
 def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_dir: Path | None,
-                  sections: object, progress: Callable[[str], None]) -> tuple[dict[Path, bytes], list[str]]:
+                  sections: object, progress: Callable[[str], None],
+                  digits: int | None = None) -> tuple[dict[Path, bytes], list[str]]:
     """Every requested file by path, and one message per output that could not be made (its
-    log, if any, is among the files)."""
+    log, if any, is among the files); the sheet's numbers to ``digits`` at most (``--digits``)."""
     from ..render.code import render_code
     from ..render.json import render_json
     from ..render.latex import render_latex
@@ -76,7 +77,7 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
     tex = None
     if wanted.latex or wanted.pdf:
         progress("rendering LaTeX")
-        tex = render_latex(derivation, template_dir, sections)
+        tex = render_latex(derivation, template_dir, sections, digits)
     if wanted.latex:
         files[out / f"{name}.tex"] = tex.encode()  # type: ignore[union-attr]
     if wanted.pdf:
@@ -94,7 +95,7 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
         from ..render.html import render_html
 
         progress("rendering HTML")
-        files[out / f"{name}.html"] = render_html(derivation, template_dir, sections).encode()
+        files[out / f"{name}.html"] = render_html(derivation, template_dir, sections, digits).encode()
     if wanted.code:
         progress("generating code")
         files[out / f"{name}_dynamics.py"] = render_code(derivation, template_dir).encode()

@@ -59,6 +59,8 @@ class SourceDocument:
     #: Links (``("links", i)``) whose inertia the reader kept as written although it is not
     #: physical (a URDF inertia missing the triangle inequality, with a note): not judged again.
     impossible_inertias: set[Path_] = field(default_factory=set)
+    #: The most significant digits of a number the source wrote (URDF; None: count the data's).
+    digits: int | None = None
 
     def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
         """Position of ``path``, falling back to the nearest enclosing value."""

@@ -113,7 +113,7 @@ def validate(doc: SourceDocument) -> Robot:
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
         gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
         maximal_constraints=constraints, source=doc.file, positions=positions, notes=tuple(doc.notes),
-        loops=tuple(loops), independent=independent, frames=tuple(frames),
+        loops=tuple(loops), independent=independent, frames=tuple(frames), digits=doc.digits,
     )
 
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
+from ..model.written import significant_digits
 from .loader import SourceDocument
 from .urdf_bodies import Body, check_bodies, finite, merge_bodies
 from .urdf_floating import float_root, note_fixed_base
@@ -44,11 +45,16 @@ class _Reader:
     def __init__(self, file: str):
         self.file = file
         self.problems: list[Problem] = []
+        #: the most significant digits of a number read (the sheet's precision)
+        self.digits = 0
 
     def error(self, element: _Element, message: str) -> None:
         self.problems.append(Problem(self.file, element.line, element.column, message))
 
-    def numbers(self, element: _Element | None, attribute: str, count: int, default: list[float]) -> list[float]:
+    def numbers(self, element: _Element | None, attribute: str, count: int, default: list[float],
+                angles: bool = False) -> list[float]:
+        """``count`` numbers of an attribute; ``angles``: an angle of whole quarter turns
+        (1.5707963267948966, exactly pi/2 then) does not count among the digits written."""
         if element is None or attribute not in element.attrib:
             return list(default)
         text = element.attrib[attribute]
@@ -58,6 +64,9 @@ class _Reader:
             self.error(element, f"<{element.tag} {attribute}=\"{text}\">: expected "
                        f"{count} finite number{'s' * (count > 1)}{why}")
             return list(default)
+        for word, value in zip(text.split(), values):
+            if not (angles and snap(value)[1] is not None):
+                self.digits = max(self.digits, significant_digits(word))
         return values
 
 
@@ -224,6 +233,7 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
     merged = merge_bodies(reader, bodies, link_elements, frames)
     if not floating_base:
         note_fixed_base(doc, joints, frames, base, link_elements[base])
+    doc.digits = max(reader.digits, 1)   # the sheet's precision: as written, not as composed
     return _robot_document(root, reader, doc, joints, link_elements, frames, merged)
 
 
@@ -246,7 +256,7 @@ def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, Body], dict[
             continue
         origin = inertial.find("origin")
         xyz = reader.numbers(origin, "xyz", 3, [0, 0, 0])
-        rotation = Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0]))
+        rotation = Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0], angles=True))
         mass_element = inertial.find("mass")
         inertia_element = inertial.find("inertia")
         if mass_element is None or inertia_element is None:
@@ -305,7 +315,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             "element": joint, "name": name, "type": "revolute" if jtype == "continuous" else jtype,
             "parent": parent, "child": child,
             "xyz": np.array(reader.numbers(origin, "xyz", 3, [0, 0, 0])),
-            "R": Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0])),
+            "R": Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0], angles=True)),
             "axis": reader.numbers(joint.find("axis"), "xyz", 3, [1, 0, 0]),
             "axis_element": joint.find("axis") or joint,
             "dynamics": dynamics,

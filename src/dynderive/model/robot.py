@@ -151,6 +151,10 @@ class Robot:
     positions: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)
     #: Remarks from the reader about input accepted but changed or ignored (``note:`` lines).
     notes: tuple[str, ...] = field(default=(), compare=False)
+    #: The most significant digits of a number the source file wrote, when the reader counted
+    #: them (URDF: its attributes, angles of whole quarter turns aside); None: those of the
+    #: expressions above (the sheet's precision, ``render.numbers``).
+    digits: int | None = field(default=None, compare=False)
 
     @property
     def coordinates(self) -> tuple[str, ...]:

@@ -52,11 +52,12 @@ def html_unit(unit: str) -> Markup:
                            else escape(part.replace("*", "\u2009")) for index, part in enumerate(parts))
 
 
-def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None) -> dict[str, Any]:
+def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None,
+                 digits: int | None = None) -> dict[str, Any]:
     """Every variable the HTML template uses; only the ``sections`` asked for (default the
-    sheet's ``default_sections``)."""
+    sheet's ``default_sections``); numbers to ``digits`` at most (``--digits``)."""
     sections = default_sections(derivation) if sections is None else sections
-    fmt = MathFormatter.of(derivation)
+    fmt = MathFormatter.of(derivation, digits=digits)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
 
@@ -91,7 +92,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "kinetic": display(t.kinetic), "potential": display(t.potential),
             "frame": link_frame(k),
         })
-    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else f"{p.value:g}",
+    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value_markup(p.value, fmt),
                    "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else None,
@@ -224,7 +225,8 @@ def _maximal(derivation: Derivation, fmt: MathFormatter) -> dict[str, Any]:
                  "dL_dq": fmt(steps["lagrange"]["dL_dq"][i]), "equation": fmt(q["EOM_m1"][i])}
                 for i, c in enumerate(table.qm)]
     lambda_entries = None
-    if "lambdaVec" in q and max(len(Formatter.of(derivation)(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
+    latex = Formatter.of(derivation, digits=fmt.digits)
+    if "lambdaVec" in q and max(len(latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
         lambda_entries = [fmt(e) for e in q["lambdaVec"]]
     tilde = {}
     if "EOM_g3" in q:
@@ -272,6 +274,15 @@ def _version() -> str:
 
 
 def render_html(derivation: Derivation, template_dir: str | Path | None = None,
-                sections: tuple[str, ...] | None = None) -> str:
-    """The HTML sheet of ``sections`` (default: the LaTeX sheet's ``default_sections``)."""
-    return render("html", HTML_TEMPLATE, html_context(derivation, sections), template_dir)
+                sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
+    """The HTML sheet of ``sections`` (default: the LaTeX sheet's ``default_sections``), numbers
+    to ``digits`` significant digits at most (default: as the robot file wrote them)."""
+    return render("html", HTML_TEMPLATE, html_context(derivation, sections, digits), template_dir)
+
+
+def value_markup(value: float, fmt: MathFormatter) -> Markup:
+    """A parameter's default in the page's table: as written, to the page's digits."""
+    mantissa, exponent = fmt.numbers.value_parts(value)
+    if exponent is None:
+        return Markup(escape(mantissa))
+    return Markup("{}\u00d710<sup>{}</sup>").format(mantissa, str(exponent).replace("-", "\u2212"))

@@ -31,6 +31,7 @@ from .latex import (
     entry_index,
     matrix_width,
 )
+from .numbers import DecimalNumbers, Numbers, sheet_digits
 from .printers import DerivationFormatter
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
@@ -144,14 +145,27 @@ def fenced(body: Markup) -> Markup:
     return mrow(mo("("), body, mo(")"))
 
 
-class _Printer(MathMLPresentationPrinter):
-    """The presentation printer with the robot's names for its symbols, remembering the
-    elements it printed (cloned on reuse: a DOM node has one parent)."""
+class _Printer(DecimalNumbers, MathMLPresentationPrinter):
+    """The presentation printer with the robot's names for its symbols and the sheet's
+    numbers (``render.numbers``), remembering the elements it printed (cloned on reuse: a DOM
+    node has one parent)."""
 
-    def __init__(self, settings: dict[str, Any], names: dict[sympy.Symbol, Name]):
+    def __init__(self, settings: dict[str, Any], names: dict[sympy.Symbol, Name], numbers: Numbers):
         super().__init__(settings)
         self._names = names
+        self.numbers = numbers
         self._memo: dict[sympy.Basic, minidom.Element] = {}
+
+    def _decimal(self, mantissa: str, exponent: int | None) -> minidom.Element:
+        number = _element(self.dom, "mn", mantissa.replace("-", "\u2212"))
+        if exponent is None:
+            return number
+        row, power = self.dom.createElement("mrow"), self.dom.createElement("msup")
+        power.appendChild(_element(self.dom, "mn", "10"))
+        power.appendChild(_element(self.dom, "mn", str(exponent).replace("-", "\u2212")))
+        for part in (number, _element(self.dom, "mo", "\u00b7"), power):
+            row.appendChild(part)
+        return row
 
     def _print(self, expr: Any, **kwargs: Any) -> Any:
         if kwargs or not isinstance(expr, sympy.Basic) or isinstance(expr, sympy.MatrixBase):
@@ -170,12 +184,15 @@ class _Printer(MathMLPresentationPrinter):
 
 
 class MathFormatter(DerivationFormatter):
-    """MathML of SymPy objects with the robot's symbol names; one per derivation (``of``),
+    """MathML of SymPy objects with the robot's symbol names, numbers as the file wrote them
+    (to ``digits`` at most: ``--digits``); one per derivation and digits (``of``),
     remembering what it printed, with the LaTeX ``Formatter``'s size rules (``maybe``,
     ``matrix``: the same limits, so the page shows what the sheet shows)."""
 
-    def __init__(self, derivation: Derivation):
+    def __init__(self, derivation: Derivation, digits: int | None = None):
         super().__init__()
+        self.digits = digits   # --digits, for the LaTeX formatter's decisions the page repeats
+        self.numbers = Numbers(sheet_digits(derivation.robot, digits))
         table = derivation.symbols
         names = {s: name_of(str(s)) for s in table.all_symbols()}
         for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
@@ -186,7 +203,7 @@ class MathFormatter(DerivationFormatter):
             names[name] = ("w", "sans-serif", 0, str(name)[2:])
         self.names = names
         order = "none" if derivation.intermediate_form else None
-        self._printer = _Printer({"order": order, "mat_delim": "["}, names)
+        self._printer = _Printer({"order": order, "mat_delim": "["}, names, self.numbers)
 
     def _text(self, expr: Any) -> Markup:
         text = self._printer.doprint(sympy.sympify(expr))

@@ -99,7 +99,7 @@ def _loops_entry(derivation: Derivation) -> dict[str, Any]:
 
 
 def render_json(derivation: Derivation) -> str:
-    fmt = Formatter.of(derivation)
+    fmt = Formatter.of(derivation, exact=True)   # the JSON keeps SymPy's exact numbers
     printer = RememberingStrPrinter({"order": fmt.order or "lex"})
     quantities = {name: quantity_entry(value, fmt, derivation.description(name), printer)
                   for name, value in derivation.quantities.items()}

@@ -14,7 +14,8 @@ from .encode import escape_tex, tex_unit
 from .environment import render
 from .figure import sheet_figure
 from .linebreak import LineBreaker
-from .printers import DerivationFormatter, RememberingLatexPrinter
+from .numbers import Numbers, latex_decimal, sheet_digits
+from .printers import DerivationFormatter, RememberingLatexPrinter, SheetLatexPrinter
 from .recursion import recursion_context, recursion_names
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
@@ -68,22 +69,28 @@ def parse_sections(text: str) -> tuple[str, ...]:
     return tuple(s for s in SECTIONS if s in names)
 
 class Formatter(DerivationFormatter):
-    """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``).
+    """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``) and
+    numbers as the file wrote them, to ``digits`` (``--digits``) at most; ``exact``: as SymPy
+    prints them (the JSON).
 
-    One per derivation (``Formatter.of``), remembering what it printed: the sheet and the
-    JSON print the same quantities, and a large robot's thousands of intermediate variables
+    One per derivation and options (``Formatter.of``), remembering what it printed: the sheet
+    prints the same quantities again (entries, matrices, the HTML's figure), and a large robot's thousands of intermediate variables
     and its maximal model cost seconds to print. A large robot's sums are printed in SymPy's
     own (canonical, deterministic) order rather than sorted, which takes half the time."""
 
-    def __init__(self, derivation: Derivation, extra_names: dict[sympy.Symbol, str] | None = None):
+    def __init__(self, derivation: Derivation, digits: int | None = None, exact: bool = False,
+                 extra_names: dict[sympy.Symbol, str] | None = None):
         super().__init__()
         self.names = derivation.symbols.latex_names() | {
             name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates} | (extra_names or {})
         self.order = "none" if derivation.intermediate_form else None
-        self._printer = RememberingLatexPrinter({
-            "symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
-            "long_frac_ratio": 2, "order": self.order})
-        self._breaker = LineBreaker(self, typeset_width, self.order)
+        settings = {"symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
+                    "long_frac_ratio": 2, "order": self.order}
+        # the sheet's numbers as the file wrote them (render.numbers); exact: SymPy's (the JSON)
+        self.numbers = None if exact else Numbers(sheet_digits(derivation.robot, digits))
+        self._printer = (RememberingLatexPrinter(settings) if self.numbers is None
+                         else SheetLatexPrinter(settings, self.numbers))
+        self._breaker = LineBreaker(self, typeset_width, self.order, self.numbers)
 
     def _text(self, expr: Any) -> str:
         if isinstance(expr, sympy.MatrixBase):
@@ -226,10 +233,11 @@ def typeset_width(expr: sympy.Basic) -> float:
         index = len(name) - len(stem)
         base = stem.rstrip("d") or stem      # qd1, phid1: a dot over the coordinate's letter
         return (1.0 if base in _GREEK or len(base) == 1 else 0.9 * len(base)) + 0.7 * index
+    # the sheet prints a long number as a decimal of at most 17 digits (render.numbers)
     if expr.is_Integer:
-        return len(str(expr))
+        return min(len(str(expr)), 24)
     if expr.is_Rational:
-        return 0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6
+        return min(0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6, 19)
     if expr.is_Number:
         return len(sympy.sstr(expr))
     if expr.is_Add:
@@ -301,11 +309,13 @@ def _nodes_up_to(exprs: list[Any], limit: int) -> int:
     return count
 
 
-def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = None) -> dict[str, Any]:
+def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = None,
+                  digits: int | None = None) -> dict[str, Any]:
     """Every variable the sheet template can use (documented in docs/templates.md); only the
-    ``sections`` asked for (default ``default_sections``) are derived and formatted."""
+    ``sections`` asked for (default ``default_sections``) are derived and formatted; numbers
+    to ``digits`` significant digits at most (``--digits``)."""
     sections = default_sections(derivation) if sections is None else sections
-    fmt = Formatter.of(derivation)
+    fmt = Formatter.of(derivation, digits=digits)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
     coordinate_latex = [fmt(s) for s in table.q]
@@ -339,7 +349,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         })
     parameters = [{
         "symbol": fmt(table.parameters[p.name]),
-        "value": "" if p.value is None else f"{p.value:g}",
+        "value": "" if p.value is None else parameter_value(p.value, fmt.numbers),
         "unit": tex_unit(p.unit), "description": escape_tex(p.description),
     } for p in robot.parameters]
     joints = [{
@@ -384,7 +394,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
         "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
         "frames": frames_context(derivation, fmt) if robot.frames else None,
-        "recursion": _recursion(derivation) if intermediates and "generalized" in sections else None,
+        "recursion": _recursion(derivation, digits) if intermediates and "generalized" in sections else None,
     }
     return context
 
@@ -393,12 +403,13 @@ class RecursionFormatter(Formatter):
     """The sheet's formatter with the recursion's names (``recursion.recursion_names``: each
     line by its meaning, ``q_k``, ``s_k``, ``c_k``)."""
 
-    def __init__(self, derivation: Derivation):
-        super().__init__(derivation, extra_names=recursion_names(derivation))
+    def __init__(self, derivation: Derivation, digits: int | None = None):
+        super().__init__(derivation, digits=digits, extra_names=recursion_names(derivation))
 
 
-def _recursion(derivation: Derivation) -> dict[str, Any]:
-    return recursion_context(derivation, RecursionFormatter.of(derivation), Formatter.of(derivation), typeset_width)
+def _recursion(derivation: Derivation, digits: int | None) -> dict[str, Any]:
+    return recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits),
+                             Formatter.of(derivation, digits=digits), typeset_width)
 
 
 def frames_context(derivation: Derivation, fmt: Formatter) -> list[dict[str, Any]]:
@@ -533,9 +544,18 @@ def _version() -> str:
 
 
 def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
-                 sections: tuple[str, ...] | None = None) -> str:
-    """The sheet of ``sections`` (default: ``default_sections``)."""
-    return render("latex", SHEET_TEMPLATE, sheet_context(derivation, sections), template_dir)
+                 sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
+    """The sheet of ``sections`` (default: ``default_sections``), numbers to ``digits``
+    significant digits at most (default: as the robot file wrote them)."""
+    return render("latex", SHEET_TEMPLATE, sheet_context(derivation, sections, digits), template_dir)
+
+
+def parameter_value(value: float, numbers: Numbers | None) -> str:
+    """A parameter's default in the sheet's table (text mode): as written, to D digits."""
+    if numbers is None:
+        return f"{value:g}"
+    mantissa, exponent = numbers.value_parts(value)
+    return mantissa if exponent is None else f"${latex_decimal(mantissa, exponent)}$"
 
 
 #: Residuals below this print as "below 1e-12": their digits are rounding noise (double or

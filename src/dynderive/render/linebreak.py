@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from typing import Any
 
 import sympy
 from sympy.printing.latex import LatexPrinter
@@ -51,8 +52,11 @@ class LineBreaker:
     estimated by ``width``; ``order`` is the printer's term order (as ``sympy.latex``)."""
 
     def __init__(self, latex: Callable[[sympy.Basic], str], width: Callable[[sympy.Basic], float],
-                 order: str | None = None):
+                 order: str | None = None, numbers: Any = None):
         self.latex, self.width = latex, width
+        #: sums and products with their numbers as the printer shows them (``render.numbers.Numbers``:
+        #: ``add`` and ``mul``), None: as they are
+        self.numbers = numbers
         self._printer = LatexPrinter({"order": order})
 
     def lines(self, expr: sympy.Basic, budget: float) -> list[str]:
@@ -75,6 +79,9 @@ class LineBreaker:
         return [_Piece(self.latex(expr), self.width(expr))]
 
     def _sum(self, expr: sympy.Add, budget: float) -> list[_Piece | _Break]:
+        shown = self.numbers.add(expr) if self.numbers is not None else expr
+        if shown is not expr:   # decimals collected or put in front (their signs)
+            return self._tokens(shown, budget)
         out: list[_Piece | _Break] = []
         for i, term in enumerate(self._printer._as_ordered_terms(expr)):
             negative = term.could_extract_minus_sign()
@@ -93,7 +100,10 @@ class LineBreaker:
         denominator factor too wide for the fraction as ``(...)^{-1}`` after it. Short leading
         factors (``- b_{2}``) stay on the line of the first wide one."""
         out: list[_Piece | _Break] = []
-        coefficient, rest = expr.as_coeff_Mul()
+        shown = self.numbers.mul(expr) if self.numbers is not None else expr
+        if shown is not expr and not shown.is_Mul:   # a decimal folded into a sum, or the whole product
+            return self._tokens(shown, budget)
+        coefficient, rest = shown.as_coeff_Mul()
         lead = 0.0
         if coefficient.is_negative:
             out.append(_Piece("- ", _SIGN))

@@ -15,6 +15,8 @@ import sympy
 from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
+from .numbers import DecimalNumbers, Numbers, latex_decimal
+
 
 class RememberingLatexPrinter(LatexPrinter):
     """``sympy.latex(expr, **settings)`` is ``LatexPrinter(settings).doprint(expr)``; this
@@ -32,6 +34,17 @@ class RememberingLatexPrinter(LatexPrinter):
         if known is None:
             known = self._memo[expr] = super()._print(expr)
         return known
+
+
+class SheetLatexPrinter(DecimalNumbers, RememberingLatexPrinter):
+    """The sheet's LaTeX printer: numbers as the robot file wrote them (``render.numbers``)."""
+
+    def __init__(self, settings: dict[str, Any], numbers: Numbers):
+        super().__init__(settings)
+        self.numbers = numbers
+
+    def _decimal(self, mantissa: str, exponent: int | None) -> str:
+        return latex_decimal(mantissa, exponent)
 
 
 class RememberingStrPrinter(StrPrinter):
@@ -58,7 +71,7 @@ class DerivationFormatter:
     quantities again. A subclass gives ``_text(expr)`` and calls ``super().__init__()``.
     Matrices are mutable, so unhashable: remembered by identity, with the object kept."""
 
-    _shared: ClassVar[weakref.WeakKeyDictionary[Any, DerivationFormatter]]
+    _shared: ClassVar[weakref.WeakKeyDictionary[Any, dict[tuple[Any, ...], DerivationFormatter]]]
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -68,11 +81,15 @@ class DerivationFormatter:
         self._printed: dict[Any, tuple[Any, Any]] = {}
 
     @classmethod
-    def of(cls, derivation: Any) -> Any:
-        """The derivation's formatter, made on first use."""
-        if derivation not in cls._shared:
-            cls._shared[derivation] = cls(derivation)   # type: ignore[call-arg]
-        return cls._shared[derivation]
+    def of(cls, derivation: Any, **options: Any) -> Any:
+        """The derivation's formatter with ``options`` (those None or False left out, so
+        ``of(d)`` and ``of(d, digits=None)`` are one), made on first use."""
+        options = {k: v for k, v in options.items() if v is not None and v is not False}
+        made = cls._shared.setdefault(derivation, {})
+        key = tuple(sorted(options.items()))
+        if key not in made:
+            made[key] = cls(derivation, **options)   # type: ignore[call-arg]
+        return made[key]
 
     def __call__(self, expr: Any) -> Any:
         key = id(expr) if isinstance(expr, sympy.MatrixBase) else expr
@@ -87,4 +104,4 @@ class DerivationFormatter:
         raise NotImplementedError
 
 
-__all__ = ["DerivationFormatter", "RememberingLatexPrinter", "RememberingStrPrinter"]
+__all__ = ["DerivationFormatter", "RememberingLatexPrinter", "RememberingStrPrinter", "SheetLatexPrinter"]

@@ -2,18 +2,34 @@
 
 from __future__ import annotations
 
-import sympy
+from typing import Any
+
+from sympy.printing.pretty.pretty import PrettyPrinter
+from sympy.printing.pretty.stringpict import prettyForm
 
 from ..derivation import Derivation
 from .encode import terminal_text
+from .numbers import DecimalNumbers, Numbers, sheet_digits
 
 
-def _block(title: str, value: object) -> str:
-    art = sympy.pretty(value, use_unicode=True, wrap_line=False, order="none")
-    return f"{title}\n{art}\n"
+class _Printer(DecimalNumbers, PrettyPrinter):
+    """``sympy.pretty`` with the sheet's numbers (``render.numbers``): 0.1234, 1.2e-5."""
+
+    def __init__(self, numbers: Numbers):
+        super().__init__({"use_unicode": True, "wrap_line": False, "order": "none"})
+        self.numbers = numbers
+
+    def _decimal(self, mantissa: str, exponent: int | None) -> Any:
+        return prettyForm(mantissa if exponent is None else f"{mantissa}e{exponent}")
 
 
-def render_terminal(derivation: Derivation) -> str:
+def _block(title: str, value: object, printer: _Printer) -> str:
+    return f"{title}\n{printer.doprint(value)}\n"
+
+
+def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
+    """The equations of motion as text, numbers as the robot file wrote them (to ``digits``)."""
+    printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)))
     robot, q = derivation.robot, derivation.quantities
     coords = ", ".join(robot.coordinates)
     if robot.loops:
@@ -29,11 +45,11 @@ def render_terminal(derivation: Derivation) -> str:
         "",
         "Equations of motion  M(q) q'' + C(q, q') q' + N(q)" + (" + F(q')" if "F_g" in q else "") + " = Y",
         "",
-        _block("M(q) =", q["M_g"]),
-        _block("C(q, q') =", q["C_g"]),
-        _block("N(q) =", q["N_g"]),
-        *([_block("F(q') = (damping and friction)", q["F_g"])] if "F_g" in q else []),
-        _block("Y =", q["Y_g"]),
+        _block("M(q) =", q["M_g"], printer),
+        _block("C(q, q') =", q["C_g"], printer),
+        _block("N(q) =", q["N_g"], printer),
+        *([_block("F(q') = (damping and friction)", q["F_g"], printer)] if "F_g" in q else []),
+        _block("Y =", q["Y_g"], printer),
         "Checks:",
     ]
     parts += [f"  {c.summary()}" for c in derivation.checks]
