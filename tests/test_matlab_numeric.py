@@ -288,7 +288,8 @@ def test_hostile_title_runs_and_reads_back_in_help(tmp_path):
 def test_a_matlab_keyword_is_refused_at_its_place(tmp_path, keyword):
     path = _robot_file(tmp_path, gravity=keyword)
     line = next(n for n, t in enumerate(path.read_text().splitlines(), start=1) if t.startswith(f"  {keyword}:"))
-    result = subprocess.run([sys.executable, "-m", "dynderive", "solve", str(path), "--matlab", "--out",
+    # -q: on a slow machine the progress lines ("[ 1.0 s] generating MATLAB") come first
+    result = subprocess.run([sys.executable, "-m", "dynderive", "solve", str(path), "--matlab", "-q", "--out",
                              str(tmp_path / "out")], capture_output=True, text=True)
     assert result.returncode == 2, result.stderr
     assert re.fullmatch(rf"\S*arm\.yaml:{line}:3: --matlab: parameter name '{keyword}' is a MATLAB or Octave "
