@@ -61,7 +61,7 @@ def named_lines(derivation: Derivation) -> dict[sympy.Symbol, tuple[Any, int]]:
     takes (a meaning met again, as a partial sum over a link's children: one more each time).
     Format-neutral: the LaTeX and the MathML names both follow it."""
     robot, r = derivation.robot, derivation.recursion
-    index = _indices(robot)
+    index = link_indices(robot)
     found: dict[sympy.Symbol, tuple[Any, int]] = {}
     seen: dict[str, int] = {}
     for symbol, _ in r.program.lines:
@@ -83,7 +83,7 @@ def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
     """LaTeX of every name of the recursion's program: its lines by meaning (primed as
     ``named_lines`` says), ``s_k``/``c_k`` for the sines and cosines of coordinate k."""
     robot, r = derivation.robot, derivation.recursion
-    index = _indices(robot)
+    index = link_indices(robot)
     table = derivation.symbols
     names: dict[sympy.Symbol, str] = {}
     for k in range(len(table.q)):   # OpenSYMORO's short names: q_k the coordinate of joint k
@@ -99,16 +99,21 @@ def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
     return names
 
 
-def _indices(robot: Any) -> dict[str, int]:
+def link_indices(robot: Any) -> dict[str, int]:
     """Each link's index from 1 (the world 0)."""
     return {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
 
 
-def _name(meaning: Any, index: dict[str, int], robot: Any, n: int) -> str:
+def name_fields(meaning: Any, index: dict[str, int], robot: Any, n: int) -> dict[str, Any]:
+    """What a line's name shows (NAMES' fields): ``i`` the link's index, ``j`` the column's,
+    ``k`` the coordinate's (0 for a fixed joint), ``c`` the component's text."""
     joint = robot.parent_joint(meaning.link)
     k = robot.coordinates.index(joint.name) + 1 if joint.name in robot.coordinates else 0
-    return NAMES[meaning.quantity].format(i=index[meaning.link], j=meaning.column + 1, k=k,
-                                          c=_component(meaning.quantity, meaning.index, n))
+    return {"i": index[meaning.link], "j": meaning.column + 1, "k": k, "c": _component(meaning.quantity, meaning.index, n)}
+
+
+def _name(meaning: Any, index: dict[str, int], robot: Any, n: int) -> str:
+    return NAMES[meaning.quantity].format(**name_fields(meaning, index, robot, n))
 
 
 def recursion_parts(derivation: Derivation, width: Any) -> dict[str, Any]:
@@ -122,7 +127,7 @@ def recursion_parts(derivation: Derivation, width: Any) -> dict[str, Any]:
     ``links`` (the kinematic data, ``_kinematic_rows``) and ``link_index``. ``width``
     estimates a value's width in glyphs."""
     robot, r = derivation.robot, derivation.recursion
-    index = _indices(robot)
+    index = link_indices(robot)
     definitions = dict(r.program.lines)
     shown: set[sympy.Symbol] = set()
     rotations = {link: _rotation(link, r) for link in r.order}
