@@ -59,7 +59,11 @@ def meaning_markup(quantity: str, fields: dict[str, Any], primes: int = 0) -> Ma
     if bar:
         base = accent(base, "\u00af")
     name = sub(base, _tokens(script.format(**fields)), _tokens(sup.format(**fields)) if sup else None)
-    return Markup(f"<msup>{name}<mo>{chr(0x2032) * primes}</mo></msup>") if primes else name
+    if primes:
+        name = Markup(f"<msup>{name}<mo>{chr(0x2032) * primes}</mo></msup>")
+    # as SymPy's printer writes it (non-ASCII as character references): the same bytes in a
+    # line's name and among values shown as they are
+    return Markup(str(name).encode("ascii", "xmlcharrefreplace").decode())
 
 
 def recursion_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | Markup]:
