@@ -21,6 +21,7 @@ from ..derivation import Derivation
 from .environment import render
 from .figure import sheet_figure
 from .html_math import MathFormatter, body_jacobian, fenced, link_frame, mi, mrow, name_markup, sub
+from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
 from .latex import (
     INLINE_NODES,
@@ -97,7 +98,6 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else None,
                "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]
-    intermediates = [{"name": fmt(name), "math": fmt(value)} for name, value in derivation.intermediates]
     context = {
         "generator": f"dynderive {_version()}",
         "source": Path(robot.source).name,
@@ -105,9 +105,9 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
                   "joints": joints, "gravity": fmt(gen["gravity"])},
         "dof": len(robot.coordinates),
         "q_g": fmt(sympy.Matrix(table.q)), "qd_g": fmt(sympy.Matrix(table.qd)),
-        "intermediates": intermediates,
-        "jacobians": [{"index": k, "matrix": fmt.matrix(fenced(body_jacobian(k)), q[f"J_b{k}"], body_jacobian(k))}
-                      for k in range(1, len(robot.links) + 1)] if intermediates else [],
+        # a large robot's equations as the recursion that computes them, as on the LaTeX sheet
+        "recursion": (html_recursion(derivation, fmt.digits)
+                      if derivation.intermediates and "generalized" in sections else None),
         "links": links,
         "T_g": display(q["T_g"]), "V_g": display(q["V_g"]), "L_g": display(q["L_g"]),
         "Y_g": fmt(q["Y_g"]),

@@ -150,7 +150,7 @@ class _Printer(DecimalNumbers, MathMLPresentationPrinter):
     numbers (``render.numbers``), remembering the elements it printed (cloned on reuse: a DOM
     node has one parent)."""
 
-    def __init__(self, settings: dict[str, Any], names: dict[sympy.Symbol, Name], numbers: Numbers):
+    def __init__(self, settings: dict[str, Any], names: dict[sympy.Symbol, Name | Markup], numbers: Numbers):
         super().__init__(settings)
         self._names = names
         self.numbers = numbers
@@ -180,6 +180,8 @@ class _Printer(DecimalNumbers, MathMLPresentationPrinter):
         # use) is named as the table would have named it: the page must not depend on the
         # order in which the derivation's stages ran
         name = self._names.get(sym) or name_of(str(sym))
+        if isinstance(name, Markup):   # a ready fragment (the recursion's names)
+            return minidom.parseString(name).documentElement
         return name_element(self.dom, name)
 
 
@@ -189,21 +191,22 @@ class MathFormatter(DerivationFormatter):
     remembering what it printed, with the LaTeX ``Formatter``'s size rules (``maybe``,
     ``matrix``: the same limits, so the page shows what the sheet shows)."""
 
-    def __init__(self, derivation: Derivation, digits: int | None = None):
+    def __init__(self, derivation: Derivation, digits: int | None = None,
+                 extra_names: dict[sympy.Symbol, Name | Markup] | None = None):
         super().__init__()
         self.digits = digits   # --digits, for the LaTeX formatter's decisions the page repeats
         self.numbers = Numbers(sheet_digits(derivation.robot, digits))
         table = derivation.symbols
-        names = {s: name_of(str(s)) for s in table.all_symbols()}
+        names: dict[sympy.Symbol, Name | Markup] = {s: name_of(str(s)) for s in table.all_symbols()}
         for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
             for c, r, a in zip(coords, rates, accels):
                 names[r] = name_of(str(c), 1)
                 names[a] = name_of(str(c), 2)
         for name, _ in derivation.intermediates:
             names[name] = ("w", "sans-serif", 0, str(name)[2:])
-        self.names = names
+        self.names = names | (extra_names or {})
         order = "none" if derivation.intermediate_form else None
-        self._printer = _Printer({"order": order, "mat_delim": "["}, names, self.numbers)
+        self._printer = _Printer({"order": order, "mat_delim": "["}, self.names, self.numbers)
 
     def _text(self, expr: Any) -> Markup:
         text = self._printer.doprint(sympy.sympify(expr))

@@ -56,52 +56,78 @@ def _component(quantity: str, index: tuple[int, ...], n: int) -> str:
     return "".join(AXES[k] for k in index)
 
 
-def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
-    """LaTeX of every name of the recursion's program: its lines by meaning (a meaning met
-    again, as a partial sum over a link's children, primed), ``s_k``/``c_k`` for the sines and
-    cosines of coordinate k."""
+def named_lines(derivation: Derivation) -> dict[sympy.Symbol, tuple[Any, int]]:
+    """Each labelled line of the recursion's program: its meaning and how many primes its name
+    takes (a meaning met again, as a partial sum over a link's children: one more each time).
+    Format-neutral: the LaTeX and the MathML names both follow it."""
     robot, r = derivation.robot, derivation.recursion
-    index = {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
+    index = link_indices(robot)
+    found: dict[sympy.Symbol, tuple[Any, int]] = {}
+    seen: dict[str, int] = {}
+    for symbol, _ in r.program.lines:
+        meaning = r.program.labels.get(symbol)
+        if meaning is None:
+            continue
+        text = _name(meaning, index, robot, len(robot.coordinates))
+        found[symbol] = (meaning, seen.get(text, 0))
+        seen[text] = seen.get(text, 0) + 1
+    return found
+
+
+def coordinate_index(derivation: Derivation, value: sympy.Expr) -> int:
+    """k of a sine or cosine of the recursion (``s_k``, ``c_k``): its coordinate's index from 1."""
+    return 1 + derivation.symbols.q.index(value.args[0])
+
+
+def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
+    """LaTeX of every name of the recursion's program: its lines by meaning (primed as
+    ``named_lines`` says), ``s_k``/``c_k`` for the sines and cosines of coordinate k."""
+    robot, r = derivation.robot, derivation.recursion
+    index = link_indices(robot)
     table = derivation.symbols
     names: dict[sympy.Symbol, str] = {}
     for k in range(len(table.q)):   # OpenSYMORO's short names: q_k the coordinate of joint k
         names |= {table.q[k]: f"q_{{{k + 1}}}", table.qd[k]: f"\\dot q_{{{k + 1}}}",
                   table.qdd[k]: f"\\ddot q_{{{k + 1}}}"}
     for symbol, value in r.trig:
-        k = 1 + derivation.symbols.q.index(value.args[0])
-        names[symbol] = f"{'c' if isinstance(value, sympy.cos) else 's'}_{{{k}}}"
-    seen: set[str] = set()
-    for symbol, _ in r.program.lines:
-        meaning = r.program.labels.get(symbol)
-        if meaning is None:
-            continue
+        names[symbol] = f"{'c' if isinstance(value, sympy.cos) else 's'}_{{{coordinate_index(derivation, value)}}}"
+    for symbol, (meaning, primes) in named_lines(derivation).items():
         text = _name(meaning, index, robot, len(robot.coordinates))
         if "^" in text:   # a group, so that a power or a prime is not a second superscript
             text = "{" + text + "}"
-        while text in seen:
-            text += "'"
-        seen.add(text)
-        names[symbol] = text
+        names[symbol] = text + "'" * primes
     return names
 
 
-def _name(meaning: Any, index: dict[str, int], robot: Any, n: int) -> str:
+def link_indices(robot: Any) -> dict[str, int]:
+    """Each link's index from 1 (the world 0)."""
+    return {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
+
+
+def name_fields(meaning: Any, index: dict[str, int], robot: Any, n: int) -> dict[str, Any]:
+    """What a line's name shows (NAMES' fields): ``i`` the link's index, ``j`` the column's,
+    ``k`` the coordinate's (0 for a fixed joint), ``c`` the component's text."""
     joint = robot.parent_joint(meaning.link)
     k = robot.coordinates.index(joint.name) + 1 if joint.name in robot.coordinates else 0
-    return NAMES[meaning.quantity].format(i=index[meaning.link], j=meaning.column + 1, k=k,
-                                          c=_component(meaning.quantity, meaning.index, n))
+    return {"i": index[meaning.link], "j": meaning.column + 1, "k": k, "c": _component(meaning.quantity, meaning.index, n)}
 
 
-def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) -> dict[str, Any]:
-    """What ``recursion.tex.j2`` shows (documented in docs/templates.md): ``links`` (the
-    kinematic data), ``forward``, ``backward``, ``composite``, ``columns`` (blocks of
-    ``title`` and ``lines``, each line ``name``, ``value``, ``symbol``: the program's name or
-    None for a value shown as it is), ``coordinates``, ``tau``, ``M_g`` and ``lines`` (how many).
-    ``fmt`` formats the recursion (``latex.RecursionFormatter``), ``plain`` the robot's data
-    (the sheet's formatter), ``width`` estimates a value's width in glyphs."""
-    robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
-    index = {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
-    n = len(robot.coordinates)
+def _name(meaning: Any, index: dict[str, int], robot: Any, n: int) -> str:
+    return NAMES[meaning.quantity].format(**name_fields(meaning, index, robot, n))
+
+
+def recursion_parts(derivation: Derivation, width: Any) -> dict[str, Any]:
+    """What a large robot's sheet shows of the recursion, format-neutral (SymPy values; the
+    LaTeX ``recursion_context`` and the HTML page's print them): ``forward``, ``backward``,
+    ``composite``, ``columns`` (blocks of ``link`` (or None), ``index`` (the link's, or the
+    column's from 1), ``rotation`` (``R_i`` shown whole, or None: 1, or too wide for the
+    column, whose entries are then lines) and ``lines``: each a line of the program
+    (``symbol``, ``meaning``, ``value`` its definition) or, ``symbol`` None, ``aliases``: values
+    shown as they are (``meaning``, ``value``), as many side by side as fit ALIAS_UNITS),
+    ``links`` (the kinematic data, ``_kinematic_rows``) and ``link_index``. ``width``
+    estimates a value's width in glyphs."""
+    robot, r = derivation.robot, derivation.recursion
+    index = link_indices(robot)
     definitions = dict(r.program.lines)
     shown: set[sympy.Symbol] = set()
     rotations = {link: _rotation(link, r) for link in r.order}
@@ -111,15 +137,12 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
     def line(meaning: Any, value: sympy.Expr) -> dict[str, Any] | None:
         if value.is_Symbol and r.program.labels.get(value) == meaning and value not in shown:
             shown.add(value)
-            shown_value = fmt.display(definitions[value], None, COLUMN_UNITS)
-            return {"name": fmt(value), "value": shown_value, "parts": shown_value.lines, "symbol": value}
+            return {"symbol": value, "meaning": meaning, "value": definitions[value]}
         if value == 0 or meaning.quantity in ONLY_LINES or (meaning.quantity == "R" and meaning.link not in wide):
             return None
-        shown_value = fmt.display(value, None, COLUMN_UNITS)
-        return {"name": _name(meaning, index, robot, n), "value": shown_value, "parts": shown_value.lines,
-                "symbol": None, "width": width(value) + 4}
+        return {"symbol": None, "meaning": meaning, "value": value}
 
-    def blocks(quantities: tuple[str, ...], key: Any, title: Any, together: bool = False) -> list[dict[str, Any]]:
+    def blocks(quantities: tuple[str, ...], key: Any, together: bool = False) -> list[dict[str, Any]]:
         """The records of ``quantities`` shown, in blocks of consecutive equal ``key`` (all
         of one key in one block, ``together``)."""
         found: list[dict[str, Any]] = []
@@ -135,26 +158,76 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
             elif not together and found and found[-1]["key"] == key(meaning):
                 block = found[-1]
             else:
-                block = by_key[key(meaning)] = {"key": key(meaning), "title": title(meaning), "lines": [], "rotation": None}
+                column = meaning.quantity in COLUMNS
+                block = by_key[key(meaning)] = {
+                    "key": key(meaning), "link": None if column else meaning.link,
+                    "index": meaning.column + 1 if column else index[meaning.link], "lines": [], "rotation": None}
                 found.append(block)
             if item is not None:
                 block["lines"].append(item)
         for block in found:
-            block["lines"] = _merge_aliases(block["lines"])
+            block["lines"] = _group_aliases(block["lines"], width)
         return found
 
-    def link_title(meaning: Any) -> str:
-        return _link_title(meaning.link, index, robot)
-
-    forward = sorted(blocks(FORWARD, lambda m: m.link, link_title, together=True), key=lambda b: r.order.index(b["key"]))
+    forward = sorted(blocks(FORWARD, lambda m: m.link, together=True), key=lambda b: r.order.index(b["key"]))
     for block in forward:
-        R = rotations[block["key"]]
-        block["rotation"] = None if R is None or block["key"] in wide else f"R_{{{index[block['key']]}}} = {fmt(R)}"
-    backward = blocks(BACKWARD, lambda m: m.link, link_title)
-    composite = blocks(COMPOSITE, lambda m: m.link, link_title)
-    columns = blocks(COLUMNS, lambda m: m.column, lambda m: f"Column {m.column + 1}")
+        block["rotation"] = None if block["key"] in wide else rotations[block["key"]]
     return {
-        "links": _kinematic_data(derivation, index, plain),
+        "forward": forward, "backward": blocks(BACKWARD, lambda m: m.link),
+        "composite": blocks(COMPOSITE, lambda m: m.link), "columns": blocks(COLUMNS, lambda m: m.column),
+        "links": _kinematic_rows(derivation, index), "link_index": index,
+    }
+
+
+def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) -> dict[str, Any]:
+    """What ``recursion.tex.j2`` shows (documented in docs/templates.md): ``links`` (the
+    kinematic data), ``forward``, ``backward``, ``composite``, ``columns`` (blocks of
+    ``title`` and ``lines``, each line ``name``, ``value``, ``symbol``: the program's name or
+    None for a value shown as it is), ``coordinates``, ``tau``, ``M_g`` and ``lines`` (how many).
+    ``fmt`` formats the recursion (``latex.RecursionFormatter``), ``plain`` the robot's data
+    (the sheet's formatter), ``width`` estimates a value's width in glyphs."""
+    robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
+    parts = recursion_parts(derivation, width)
+    index = parts["link_index"]
+    n = len(robot.coordinates)
+
+    def alias(item: dict[str, Any]) -> dict[str, Any]:
+        shown_value = fmt.display(item["value"], None, COLUMN_UNITS)
+        return {"name": _name(item["meaning"], index, robot, n), "value": shown_value, "parts": shown_value.lines,
+                "symbol": None}
+
+    def line(item: dict[str, Any]) -> dict[str, Any]:
+        if item["symbol"] is not None:
+            shown_value = fmt.display(item["value"], None, COLUMN_UNITS)
+            return {"name": fmt(item["symbol"]), "value": shown_value, "parts": shown_value.lines, "symbol": item["symbol"]}
+        aliases = [alias(a) for a in item["aliases"]]
+        if len(aliases) == 1:
+            return aliases[0]
+        text = ",\\quad ".join(_equation(a) for a in aliases)
+        return {"name": None, "symbol": None, "value": text, "parts": [text]}
+
+    def latex(blocks: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return [{"key": b["key"], "lines": [line(item) for item in b["lines"]],
+                 "title": f"Column {b['index']}" if b["link"] is None else _link_title(b["link"], index, robot),
+                 "rotation": None if b["rotation"] is None else f"R_{{{b['index']}}} = {fmt(b['rotation'])}"}
+                for b in blocks]
+
+    forward, backward = latex(parts["forward"]), latex(parts["backward"])
+    composite, columns = latex(parts["composite"]), latex(parts["columns"])
+
+    def vector(values: list[sympy.Expr]) -> str:
+        return "(" + ", ".join(plain(v) for v in values) + ")"
+
+    links = [{
+        "index": row["index"], "name": escape_tex(row["name"]), "joint": escape_tex(row["joint"]),
+        "type": row["type"], "parent": row["parent"],
+        "coordinate": plain(row["coordinate"]) if row["coordinate"] is not None else "",
+        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]), "axis": vector(row["axis"]) if row["axis"] else "",
+        "mass": plain(row["mass"]), "com": vector(row["com"]),
+        "inertia": plain(row["inertia"][0]) if robot.planar else vector(row["inertia"]),
+    } for row in parts["links"]]
+    return {
+        "links": links,
         "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
         "forward": forward, "backward": backward, "composite": composite, "columns": columns,
         "tau": fmt(sympy.Matrix(r.tau).T),   # a row: the template transposes it
@@ -167,20 +240,25 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
 ALIAS_UNITS = 30
 
 
-def _merge_aliases(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Consecutive values shown as they are (``\\omega_{2z} = \\dot q_2``) side by side, as many
-    as fit in ALIAS_UNITS: ``name`` None and ``value`` the equations separated by commas."""
-    merged: list[dict[str, Any]] = []
-    width = 0.0
+def _group_aliases(lines: list[dict[str, Any]], width: Any) -> list[dict[str, Any]]:
+    """Consecutive values shown as they are (``\\omega_{2z} = \\dot q_2``) in groups
+    (``symbol`` None, ``aliases``) that fit side by side in ALIAS_UNITS, each taking its
+    value's width and 4 more (the name, the sign)."""
+    grouped: list[dict[str, Any]] = []
+    used = 0.0
     for item in lines:
-        if item["symbol"] is None and merged and merged[-1]["symbol"] is None and width + item["width"] <= ALIAS_UNITS:
-            text = _equation(merged[-1]) + ",\\quad " + _equation(item)
-            merged[-1] = {"name": None, "symbol": None, "value": text, "parts": [text]}
-            width += item["width"]
+        if item["symbol"] is not None:
+            grouped.append(item)
+            used = 0.0
             continue
-        merged.append(item)
-        width = item.get("width", 0.0)
-    return merged
+        extent = width(item["value"]) + 4
+        if grouped and grouped[-1]["symbol"] is None and used + extent <= ALIAS_UNITS:
+            grouped[-1]["aliases"].append(item)
+            used += extent
+        else:
+            grouped.append({"symbol": None, "aliases": [item]})
+            used = extent
+    return grouped
 
 
 def _equation(item: dict[str, Any]) -> str:
@@ -203,14 +281,13 @@ def _matrix_width(matrix: sympy.Matrix, width: Any) -> float:
     return sum(max(width(matrix[i, j]) for i in range(3)) for j in range(3)) + 10.0
 
 
-def _kinematic_data(derivation: Derivation, index: dict[str, int], fmt: Any) -> list[dict[str, Any]]:
-    """Per link: joint (name, type, coordinate), parent's index, origin, axis, mass, centre of
-    mass and inertia about it, as the robot file gives them."""
+def _kinematic_rows(derivation: Derivation, index: dict[str, int]) -> list[dict[str, Any]]:
+    """Per link, as the robot file gives them (names as written, values as SymPy): ``index``,
+    ``name``, ``joint`` (its name), ``type``, ``parent`` (the parent's index), ``coordinate``
+    (or None for a fixed joint), the origin's offset ``xyz`` and angles ``rpy``, ``axis`` (or
+    None), ``mass``, centre of mass ``com`` and ``inertia`` about it (six values; planar: the
+    one planar motion reads first)."""
     robot, table = derivation.robot, derivation.symbols
-
-    def vector(values: Any) -> str:
-        return "(" + ", ".join(fmt(table.expr(v)) for v in values) + ")"
-
     rows = []
     for link in robot.links:
         joint = robot.parent_joint(link.name)
@@ -220,10 +297,12 @@ def _kinematic_data(derivation: Derivation, index: dict[str, int], fmt: Any) -> 
         if robot.planar:   # the plane z = 0 of a 3-D model: revolute about z, prismatic in the plane
             axis = [0, 0, 1] if joint.type == "revolute" else axis[:2] + [0]
         rows.append({
-            "index": index[link.name], "name": escape_tex(link.name), "joint": escape_tex(joint.name),
-            "type": joint.type, "parent": index[joint.parent],
-            "coordinate": fmt(table.q[robot.coordinates.index(joint.name)]) if joint.moves else "",
-            "xyz": vector(xyz), "rpy": vector(rpy), "axis": vector(axis) if joint.moves else "",
-            "mass": fmt(table.expr(link.mass)), "com": vector(link.com), "inertia": fmt(table.expr(link.inertia[0])) if robot.planar else vector(link.inertia),
+            "index": index[link.name], "name": link.name, "joint": joint.name, "type": joint.type,
+            "parent": index[joint.parent],
+            "coordinate": table.q[robot.coordinates.index(joint.name)] if joint.moves else None,
+            "xyz": [table.expr(v) for v in xyz], "rpy": [table.expr(v) for v in rpy],
+            "axis": [table.expr(v) for v in axis] if joint.moves else None,
+            "mass": table.expr(link.mass), "com": [table.expr(v) for v in link.com],
+            "inertia": [table.expr(v) for v in link.inertia],
         })
     return rows
