@@ -101,7 +101,10 @@ def file_digits(text: str) -> int:
 
 
 def body(tex_text: str) -> str:
-    return tex_text[tex_text.index(r"\begin{document}"):]
+    """The sheet's text after the preamble, without the drawing (TikZ coordinates in mm and
+    its ``--`` path operator are not numbers or signs of the equations)."""
+    text = tex_text[tex_text.index(r"\begin{document}"):]
+    return re.sub(r"\\begin\{tikzpicture\}.*?\\end\{tikzpicture\}", "", text, flags=re.S)
 
 
 @pytest.fixture(scope="module")
