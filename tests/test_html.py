@@ -163,7 +163,10 @@ def test_too_large_quantities_follow_the_sheets_rules():
     q1, q2 = derivation.symbols.q[:2]
     big = sum(sympy.sin(k * q1 + q2) * sympy.cos(q2 + k) for k in range(1, 60))
     matrix = fmt.matrix("M", sympy.Matrix([[big, 0], [0, 1]]))
-    assert matrix["too_large"] and matrix["math"] is None
+    # an entry over ENTRY_NODES: shown entry by entry (scrolling sideways), not dropped
+    assert not matrix["too_large"] and matrix["wide"] and matrix["math"] is None and len(matrix["entries"]) == 2
+    huge = sum(sympy.sin(k * q1 + q2) * sympy.cos(q2 + k) for k in range(1, 1500))
+    assert fmt.matrix("M", sympy.Matrix([[huge]]))["too_large"]   # over BROKEN_NODES: left to the JSON
     assert fmt.maybe(big) is None and fmt.maybe(q1 + q2) is not None
     small = fmt.matrix("M", sympy.Matrix([[q1, 0], [0, q2]]))
     assert not small["too_large"] and not small["wide"] and small["zeros"] == 2

@@ -24,6 +24,8 @@ ENTRY_NODES = 400
 SCALAR_NODES = 500
 #: Largest entry of a matrix typeset inline on one line (positions, Jacobians, rotations).
 INLINE_NODES = 120
+#: Widest (estimated math glyphs) a matrix set inline in a sentence may be (a link's inertia).
+INLINE_UNITS = 40
 #: Largest matrix (tree nodes in all) the sheet typesets whole or entry by entry as built.
 MATRIX_NODES = 6000
 #: Largest matrix (tree nodes in all) the sheet typesets at all: one with more nodes than
@@ -237,6 +239,12 @@ def typeset_width(expr: sympy.Basic) -> float:
     if expr.is_Integer:
         return min(len(str(expr)), 24)
     if expr.is_Rational:
+        p, q = abs(int(expr.p)), int(expr.q)
+        if len(str(q)) > 3 and q == 2 ** _factor_count(q, 2) * 5 ** _factor_count(q, 5):
+            # a terminating decimal, printed as one (render.numbers): its characters (at most
+            # 17 digits, the point and a leading zero)
+            shift = max(_factor_count(q, 2), _factor_count(q, 5))   # digits after the point
+            return float(min(max(len(str(p)), shift) + 2, 19))
         return min(0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6, 19)
     if expr.is_Number:
         return len(sympy.sstr(expr))
@@ -290,6 +298,15 @@ def _fits(*values: Any, extra: float = 0.0) -> bool:
     return total <= LINE_UNITS
 
 
+def _factor_count(n: int, prime: int) -> int:
+    """How many times ``prime`` divides ``n`` (n > 0)."""
+    count = 0
+    while n % prime == 0:
+        n //= prime
+        count += 1
+    return count
+
+
 def matrix_width(matrix: sympy.Matrix) -> float:
     """Estimated width of ``matrix`` typeset whole: its columns' widest entries, the gaps
     between columns, the brackets and the name in front."""
@@ -335,6 +352,11 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         links.append({
             "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
             "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
+            # an inertia tensor of long decimals (CAD) is displayed, entry by entry if too wide
+            "inertia_matrix": (fmt.matrix(rf"I_{{{t.index}}}", t.inertia)
+                               if isinstance(t.inertia, sympy.MatrixBase) and matrix_width(t.inertia) > INLINE_UNITS
+                               else None),
+            "spatial_fits": matrix_width(t.spatial_inertia) <= LINE_UNITS * TIGHT,
             "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
             "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
             "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
@@ -387,7 +409,9 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
                   if "checks" in sections else [],
         "sections": list(sections),
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
-        "inertia_groups": _groups([(link["index"], link["spatial_inertia"]) for link in links]),
+        # the generalized inertias as matrices while they fit the line (else diag(m_i, ..., I_i) says it)
+        "inertia_groups": (_groups([(link["index"], link["spatial_inertia"]) for link in links])
+                           if all(link["spatial_fits"] for link in links) else []),
         "figure": sheet_figure(derivation, fmt),
         "drives": drives_context(derivation, fmt),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,

@@ -188,7 +188,11 @@ class Numbers:
             return sympy.Mul(*rest, first, *scaled[1:])
         marker = self.shown(value)
         if marker is None:
-            return expr
+            # the constants print exactly, but a decimal coefficient must print as one (SymPy's
+            # product would set p/q as a fraction: 2029996247402721/50000000000000000 cos(1.1))
+            coefficient, rest = expr.as_coeff_Mul()
+            decimal = self.decimal(coefficient) if coefficient.is_Rational and coefficient != 1 else None
+            return expr if decimal is None else sympy.Mul(decimal, *sympy.Mul.make_args(rest), evaluate=False)
         nested = [f for f in others if f.is_Add and any(self._decimal_sums(t) for t in f.args)]
         if len(nested) == 1:
             # c (A B + 5 C D) with sums A ... D of decimal terms: c A B + 5 c C D, each product
