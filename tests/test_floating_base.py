@@ -1,7 +1,8 @@
 """Floating-base robots (issue 30, DESIGN.md section 10): the generated NumPy module of a
 robot whose root floats equals Pinocchio with a ``JointModelFreeFlyer`` root (crba, rnea,
 computeGeneralizedGravity, aba, integrate, difference, neutral) to 1e-9, at random unit
-quaternions and velocities: solo12 and a1 from example-robot-data (``--floating-base``), and
+quaternions and velocities: solo12, a1, go1, anymal_c, bolt, simple_humanoid and talos_reduced
+from example-robot-data (``--floating-base``), and
 random floating trees with full-precision numbers, generic axes and full inertia tensors.
 Then the input checks: where a floating joint may stand, and what is not built yet."""
 
@@ -118,7 +119,11 @@ def _example_robot(relative: str) -> Path:
 
 
 @pytest.mark.pinocchio
-@pytest.mark.parametrize("relative", ["solo_description/robots/solo12.urdf", "a1_description/urdf/a1.urdf"])
+@pytest.mark.parametrize("relative", ["solo_description/robots/solo12.urdf", "a1_description/urdf/a1.urdf",
+                                      "go1_description/urdf/go1.urdf", "anymal_c_simple_description/urdf/anymal.urdf",
+                                      "bolt_description/robots/bolt.urdf",
+                                      "simple_humanoid_description/urdf/simple_humanoid.urdf",
+                                      "talos_data/robots/talos_reduced.urdf"])
 def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
     """``--floating-base``: Pinocchio's ``buildModelFromUrdf(path, JointModelFreeFlyer())``."""
     path = _example_robot(relative)
