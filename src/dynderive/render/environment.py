@@ -18,10 +18,11 @@ import math
 import os
 import re
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import jinja2
 import jinja2.bccache
@@ -320,3 +321,19 @@ def template_fault(error: Exception, line: int | None, text: str, name: str,
     file, row, column = where
     shown = f" (line {line} of the output: {lines[line - 1].strip()[:60]!r})" if line else ""
     return TemplateProblem(Problem(file, row, column, f"template error: {error}{shown}"))
+
+
+class LazyList(Sequence):
+    """A template variable's list, made on first use (its length known before): the sheet's
+    context offers quantities a custom template may show and the default one does not."""
+
+    def __init__(self, size: int, make: Callable[[], list[Any]]):
+        self._size, self._make, self._items = size, make, None
+
+    def __len__(self) -> int:
+        return self._size
+
+    def __getitem__(self, index: Any) -> Any:
+        if self._items is None:
+            self._items = self._make()
+        return self._items[index]

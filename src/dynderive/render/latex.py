@@ -11,7 +11,7 @@ import sympy
 from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from .encode import escape_tex, tex_unit
-from .environment import render
+from .environment import LazyList, render
 from .figure import sheet_figure
 from .linebreak import LineBreaker
 from .numbers import Numbers, latex_decimal, sheet_digits
@@ -380,7 +380,9 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else "",
         "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
     } for j in robot.joints]
-    intermediates = [{"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates]
+    # the default sheet shows the named recursion instead: printed only if a template reads them
+    intermediates = LazyList(len(derivation.intermediates), lambda: [
+        {"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates])
     context = {
         "intermediates": intermediates,
         "jacobians": [{"index": k, "matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", q[f"J_b{k}"])}
