@@ -118,6 +118,19 @@ def default_initial(derivation: Derivation) -> np.ndarray:
     return np.array([0.5 if kinds[name] == "revolute" else 0.2 for name in derivation.robot.coordinates])
 
 
+def progress_ticker(duration: float, progress: Callable[[str], None]) -> Callable[[float], None]:
+    """A right-hand side's clock: reports "simulated 10 % ..." each tenth of ``duration`` once."""
+    reported = [-1]
+
+    def tick(time: float) -> None:
+        percent = int(100 * time / duration) // 10 * 10
+        if percent > reported[0]:
+            reported[0] = percent
+            progress(f"simulated {percent:3d} % of {duration:g} s")
+
+    return tick
+
+
 def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarray, qd0: np.ndarray,
              efforts: Callable[..., np.ndarray], maximal: bool, rtol: float, atol: float,
              baumgarte: float, frames: int, progress: Callable[[str], None],
@@ -135,13 +148,7 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     fast = compiled if compiled is not None else module
     values = {p.name: p.value for p in derivation.robot.parameters if p.value is not None}
     n = len(q0)
-    reported = [-1]
-
-    def tick(time: float) -> None:
-        percent = int(100 * time / duration) // 10 * 10
-        if percent > reported[0]:
-            reported[0] = percent
-            progress(f"simulated {percent:3d} % of {duration:g} s")
+    tick = progress_ticker(duration, progress)
 
     friction = any(j.friction is not None for j in derivation.robot.joints if j.moves)
     hint = ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"

@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..verify.checks import generated_module
 from .integrate import DEFAULT_METHOD, Integrator
 from .options import problem, vector
-from .simulate import Trajectory, _finite_start
+from .simulate import Trajectory, _finite_start, progress_ticker
 
 #: How far from unit a quaternion of ``--q0`` may be (then normalized): four decimals typed.
 QUATERNION_TOLERANCE = 1e-3
@@ -88,13 +88,7 @@ def simulate_floating(derivation: Derivation, source: str, duration: float, q0: 
         values = {p.name: p.value for p in robot.parameters if p.value is not None}
     starts = floating_quaternions(robot)
     nq = len(q0)
-    reported = [-1]
-
-    def tick(time: float) -> None:
-        percent = int(100 * time / duration) // 10 * 10
-        if percent > reported[0]:
-            reported[0] = percent
-            progress(f"simulated {percent:3d} % of {duration:g} s")
+    tick = progress_ticker(duration, progress)
 
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)
