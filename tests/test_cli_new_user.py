@@ -74,6 +74,20 @@ def test_pdf_without_tex_still_writes_the_other_outputs(tmp_path, monkeypatch):
     assert "rp_arm.pdf skipped: --pdf needs latexmk" in result.stderr
 
 
+def test_pdf_without_tikz_says_which_package(tmp_path, monkeypatch):
+    """TeX without texlive-pictures: the drawing's TikZ is named before LaTeX fails on it."""
+    import dynderive.render.pdf as pdf
+
+    monkeypatch.setattr(pdf, "latex_engine_available", lambda: True)
+    monkeypatch.setattr(pdf, "tikz_available", lambda: False)
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["solve", "rp_arm", "--pdf", "--code", "--out", str(out), "-q"])
+    assert result.exit_code == 1
+    assert "rp_arm.pdf skipped: --pdf: the sheet's drawing needs TikZ" in result.stderr
+    assert "apt-get install texlive-pictures" in result.stderr
+    assert "rp_arm_dynamics.py" in [p.name for p in out.iterdir()]
+
+
 def test_import_accepts_bundled_names(tmp_path):
     result = runner.invoke(app, ["import", "ur5", "-o", str(tmp_path / "ur5.yaml")])
     assert result.exit_code == 0, result.output

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import shutil
@@ -19,6 +20,15 @@ def latex_engine_available() -> bool:
     return shutil.which("latexmk") is not None and shutil.which("pdflatex") is not None
 
 
+@functools.lru_cache(maxsize=1)
+def tikz_available() -> bool:
+    """Whether TeX finds TikZ (Debian's texlive-pictures), which the sheets' drawings use."""
+    if shutil.which("kpsewhich") is None:
+        return False
+    found = subprocess.run(["kpsewhich", "tikz.sty"], capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    return found.returncode == 0 and bool(found.stdout.strip())
+
+
 def compile_pdf(tex: str, jobname: str = "sheet", timeout: float = 300) -> bytes:
     """PDF bytes of ``tex``. Works in a private temporary directory; writes nothing else."""
     return compile_pdf_report(tex, jobname, timeout)[0]
@@ -32,6 +42,10 @@ def compile_pdf_report(tex: str, jobname: str = "sheet", timeout: float = 300) -
             "--pdf needs latexmk and pdflatex, which are not installed (Debian/Ubuntu: "
             "apt-get install latexmk texlive-latex-base texlive-latex-recommended "
             "texlive-fonts-recommended texlive-pictures); --latex alone writes the .tex file")
+    if "\\usepackage{tikz}" in tex and not tikz_available():
+        raise ToolMissingError(
+            "--pdf: the sheet's drawing needs TikZ, which TeX does not find (Debian/Ubuntu: apt-get install "
+            "texlive-pictures); --latex alone writes the .tex file")
     env = dict(os.environ, SOURCE_DATE_EPOCH=SOURCE_DATE_EPOCH, FORCE_SOURCE_DATE="1",
                openout_any="p", shell_escape="f")
     with tempfile.TemporaryDirectory(prefix="dynderive-tex-") as work:
