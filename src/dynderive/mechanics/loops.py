@@ -493,20 +493,15 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     det = tidy(A_d.det(method="berkowitz"))
     if det == 0:
         return {}
-    n, m = len(table.q), len(model.independent)
-    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
-    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
+    adjugate = matmul(A_d.adjugate(method="berkowitz"), A_i)
     fourier = factor_terms(trig_linear(det))
     if count_ops(fourier) <= count_ops(det):   # planar loops: det is one sine or cosine of an angle sum
-        return _reduced_over_determinant(model, table, fourier, (A_d, A_i), (M, C, N, Y))
-    solution = matmul(A_d.adjugate(method="berkowitz"), A_i).applyfunc(lambda e: tidy(-e / det))
-    R = sympy.zeros(n, m)
-    for column, i in enumerate(model.independent):
-        R[i, column] = 1
-    for row, d in enumerate(model.dependent):
-        for column in range(m):
-            R[d, column] = solution[row, column]
+        return _reduced_over_determinant(model, table, fourier, adjugate, (M, C, N, Y))
+    m = len(model.independent)
+    R = _stacked(model, len(table.q), sympy.S.One, adjugate.applyfunc(lambda e: tidy(-e / det)))
     Rdot = tidy_matrix(constraint_jacobian_dot(R, table.q, table.qd))
+    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
+    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
     M_r = tidy_matrix(matmul(R.T, M, R))
     if not is_small(sympy.Tuple(*M_r), 4000 * m * m):
         return {"R_g": R}
@@ -520,8 +515,19 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     return {"R_g": R, "M_r": M_r, "C_r": C_r, "N_r": N_r, "Y_r": Y_r, "EOM_r": EOM_r}
 
 
-def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.Expr,
-                              blocks: tuple[sympy.Matrix, sympy.Matrix],
+def _stacked(model: LoopModel, n: int, identity: sympy.Expr, dependent: sympy.Matrix) -> sympy.Matrix:
+    """The n x m velocity basis: ``identity`` times I on the independent coordinates' rows,
+    ``dependent``'s rows on the dependent coordinates' (``R_g``, or ``det R_g``)."""
+    R = sympy.zeros(n, len(model.independent))
+    for column, i in enumerate(model.independent):
+        R[i, column] = identity
+    for row, d in enumerate(model.dependent):
+        for column in range(R.shape[1]):
+            R[d, column] = dependent[row, column]
+    return R
+
+
+def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.Expr, adjugate: sympy.Matrix,
                               generalized: tuple[sympy.Matrix, ...]) -> dict[str, sympy.Matrix]:
     """The reduced form as numerators over powers of ``det = det A_d``, each numerator in
     Fourier form (``trig_linear``): for planar loops ``det`` is one sine of an angle sum
@@ -535,18 +541,10 @@ def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.E
     ``C_r = R_n^T (M (D(R_n) det - R_n D(det)) + C(R_n qd_i) R_n det) / det^4`` (C is linear in qd).
     Common factors of symbols cancel against the determinant's (SymPy's products merge powers).
     """
-    A_d, A_i = blocks
     M, C, N, Y = generalized
-    n, m = len(table.q), len(model.independent)
     qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
     qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
-    adjugate = matmul(A_d.adjugate(method="berkowitz"), A_i)
-    R_n = sympy.zeros(n, m)
-    for column, i in enumerate(model.independent):
-        R_n[i, column] = det
-    for row, d in enumerate(model.dependent):
-        for column in range(m):
-            R_n[d, column] = fewest_operations(tidy(-adjugate[row, column]), trig_linear)
+    R_n = _stacked(model, len(table.q), det, adjugate.applyfunc(lambda e: fewest_operations(tidy(-e), trig_linear)))
     velocity = matmul(R_n, qd_i)   # det * qd on the manifold
 
     def over(numerator: sympy.Expr, power: int) -> sympy.Expr:

@@ -132,11 +132,10 @@ class Formatter(DerivationFormatter):
         large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
         whole = "" if large else self(matrix)
         entries = []
+        single = rows == cols == 1 and "_" in name   # a named 1 x 1 matrix (a one-DOF loop's M_r) is its entry
         for i in range(rows):
             for j in range(cols):
                 if matrix[i, j] != 0:
-                    # a named 1 x 1 matrix (the reduced M_r of a one-DOF loop) is its entry
-                    single = rows == cols == 1 and "_" in name
                     entries.append({"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
                                     "latex": self.display(matrix[i, j], None)})
         width = 0 if large else matrix_width(matrix)
