@@ -29,6 +29,7 @@ from dynderive.render.drawing import BAR_MM, OUTLINE_MM, convex_hull, label_size
 from dynderive.render.figure import FRAME_MM, _configuration, planar_figure, sheet_figure
 from dynderive.render.figure_3d import spatial_figure, view
 from dynderive.render.latex import Formatter
+from dynderive.render.pdf import tikz_available
 
 from conftest import derivation_of
 from random_robots import random_planar_tree
@@ -389,6 +390,8 @@ def test_names_from_the_robot_file_are_escaped(tmp_path):
 @pytest.fixture
 def tex():
     missing = [t for t in ("latexmk", "pdflatex") if shutil.which(t) is None]
+    if not missing and not tikz_available():
+        missing = ["TikZ (texlive-pictures)"]   # the sheets' drawings
     if missing:
         if os.environ.get("CI"):
             raise RuntimeError(f"CI must run the PDF tests, but these tools are missing: {missing}")

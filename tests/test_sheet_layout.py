@@ -21,6 +21,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.latex import LINE_UNITS, default_sections, matrix_width, parse_sections, typeset_width
+from dynderive.render.pdf import tikz_available
 
 ROOT = Path(__file__).resolve().parents[1]
 runner = CliRunner()
@@ -88,8 +89,8 @@ def test_width_estimate_orders_what_fits():
     assert matrix_width(wide) > LINE_UNITS
 
 
-needs_tex = pytest.mark.skipif(shutil.which("pdflatex") is None and not os.environ.get("CI"),
-                               reason="no pdflatex")
+needs_tex = pytest.mark.skipif((shutil.which("pdflatex") is None or not tikz_available()) and not os.environ.get("CI"),
+                               reason="no pdflatex or no TikZ")
 
 
 def _compile(tex: str, folder: Path) -> tuple[float, list[float], int]:

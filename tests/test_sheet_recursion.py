@@ -18,6 +18,7 @@ import sympy
 
 import dynderive
 from dynderive.render.latex import sheet_context
+from dynderive.render.pdf import tikz_available
 from dynderive.render.recursion import NAMES
 
 from conftest import derivation_of, module_of, text_derivation
@@ -113,7 +114,8 @@ def test_small_robots_keep_their_derivation():
     assert context["recursion"] is None and context["lagrange"]
 
 
-needs_tex = pytest.mark.skipif(shutil.which("pdflatex") is None and not os.environ.get("CI"), reason="no pdflatex")
+needs_tex = pytest.mark.skipif((shutil.which("pdflatex") is None or not tikz_available()) and not os.environ.get("CI"),
+                               reason="no pdflatex or no TikZ")
 #: Most pages of a large robot's sheet (issue 32: the Panda's was 38, the UR5's 20).
 MOST_PAGES = {"panda": 15, "ur5": 11}
 

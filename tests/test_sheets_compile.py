@@ -33,7 +33,7 @@ from dynderive.commands.cli import app
 from dynderive.errors import LatexError
 from dynderive.render.figure import _dashes, planar_figure
 from dynderive.render.latex import Formatter, entry_index, subscript
-from dynderive.render.pdf import _first_error
+from dynderive.render.pdf import _first_error, tikz_available
 
 from random_robots import random_planar_tree
 from random_robots3d import random_spatial_tree
@@ -51,6 +51,8 @@ MARGIN_PT = 2.2 / 2.54 * 72.27
 @pytest.fixture
 def tex():
     missing = [t for t in TOOLS if shutil.which(t) is None]
+    if not missing and not tikz_available():
+        missing = ["TikZ (texlive-pictures)"]   # the sheets' drawings
     if missing:
         if os.environ.get("CI"):
             raise RuntimeError(f"CI must run the PDF tests, but these tools are missing: {missing}")
