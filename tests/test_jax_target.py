@@ -73,8 +73,20 @@ def _arguments(module, name: str, state: dict) -> list[dict]:
     return [{"args": [state[a] for a in positional]}]
 
 
-def _agree(numpy_module, jax_module, seed: int, count: int = 3, **kwargs) -> None:
-    """Every public function of the NumPy module, called on a batch of states, against the JAX one."""
+def _traced(function, args: list, extra: dict):
+    """``function(*args, **extra)`` under ``jax.jit``, its strings (frame names) closed over."""
+    arrays = [a for a in args if not isinstance(a, str)]
+
+    def call(*values):
+        given = iter(values)
+        return function(*(a if isinstance(a, str) else next(given) for a in args), **extra)
+
+    return jax.jit(call)(*arrays)
+
+
+def _agree(numpy_module, jax_module, seed: int, count: int = 3, traced: bool = False, **kwargs) -> None:
+    """Every public function of the NumPy module, called on a batch of states, against the JAX
+    one (under ``jax.jit`` when ``traced``)."""
     assert _public(numpy_module) == _public(jax_module)
     for constant in ("PARAMETERS", "COORDINATES", "EFFORTS", "FRAMES", "PARAMETER_VECTOR"):
         assert getattr(numpy_module, constant) == getattr(jax_module, constant)
@@ -89,7 +101,8 @@ def _agree(numpy_module, jax_module, seed: int, count: int = 3, **kwargs) -> Non
         for call in _arguments(numpy_module, name, state):
             extra = {k: v for k, v in kwargs.items() if k in inspect.signature(getattr(numpy_module, name)).parameters}
             expected = getattr(numpy_module, name)(*call["args"], **extra)
-            actual = getattr(jax_module, name)(*call["args"], **extra)
+            actual = (_traced(getattr(jax_module, name), call["args"], extra) if traced
+                      else getattr(jax_module, name)(*call["args"], **extra))
             expected, actual = (expected, actual) if isinstance(expected, tuple) else ((expected,), (actual,))
             for e, a in zip(expected, actual):
                 frames = [a for a in call["args"] if isinstance(a, str)]
@@ -171,6 +184,46 @@ def _jacobians_agree(jax_module, q, qd, u, smoothing: float) -> None:
     _close(by_state, A[n:], "jacfwd(forward_dynamics) vs linearize A", 1e-9)
     _close(by_effort, B[n:], "jacrev(forward_dynamics) vs linearize B", 1e-9)
     assert np.any(np.abs(np.asarray(A[n:])) > 1e-6)
+
+
+@pytest.mark.parametrize("robot", ["ur5", "four_bar"])
+def test_large_batches_hold_values_and_agree(robot, code_dir, monkeypatch):
+    """A traced batch of at least ``HOLD_STATES`` states runs the bodies with ``_hold`` (loops in
+    the program XLA compiles; none for a small batch or a vmapped state): every function still
+    agrees with the NumPy module, and so do forward- and reverse-mode derivatives through the
+    holds (against the generated ``linearize``) and float32."""
+    numpy_module, jax_module = module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir))
+    count = jax_module.HOLD_STATES + 3
+    q, qd, qdd, u = _states(numpy_module, np.random.default_rng(9), count)
+    forward = jax_module.forward_dynamics
+    def loops(function, *arguments) -> int:
+        return jax.jit(function).lower(*arguments).as_text().count("stablehlo.while")
+
+    small = loops(forward, q[:4], qd[:4], u[:4])   # the loops' Newton steps and solves have loops of their own
+    held = loops(forward, q, qd, u)
+    assert held > small
+    assert loops(jax.vmap(forward), q, qd, u) == small
+    _agree(numpy_module, jax_module, seed=9, count=count, traced=True)
+    n = len(numpy_module.COORDINATES)
+    A, _ = numpy_module.linearize(q, qd, u)
+    dq = np.random.default_rng(10).normal(size=(count, n))
+    _, tangent = jax.jit(lambda x, v: jax.jvp(lambda y: forward(y, v, u), (x,), (dq,)))(q, qd)
+    _close(tangent, np.einsum("sij,sj->si", A[:, n:, :n], dq), "jvp of a held batch", 1e-9)
+    weights = np.random.default_rng(11).normal(size=(count, n))
+    gradient = jax.jit(jax.grad(lambda v: jnp.sum(weights * forward(q, v, u))))(qd)
+    _close(gradient, np.einsum("si,sij->sj", weights, A[:, n:, n:]), "grad of a held batch", 1e-9)
+    single = jax.jit(forward)(*(a.astype(np.float32) for a in (q, qd, u)))
+    assert single.dtype == jnp.float32
+    _close(single, numpy_module.forward_dynamics(q, qd, u), "float32 held batch", 1e-3)
+    # over CHUNK_STATES states: chunks run by a scan, the last one padded (a new function: a new trace)
+    monkeypatch.setattr(jax_module, "CHUNK_STATES", 50)
+    chunked = jax.jit(lambda *a: forward(*a))
+    assert loops(lambda *a: forward(*a), q, qd, u) > held   # the chunks' scan
+    _close(chunked(q, qd, u), numpy_module.forward_dynamics(q, qd, u), "chunked batch")
+    gradient = jax.jit(jax.grad(lambda v: jnp.sum(weights * forward(q, v, u))))(qd)
+    _close(gradient, np.einsum("si,sij->sj", weights, A[:, n:, n:]), "grad of a chunked batch", 1e-9)
+    wide = jax.jit(lambda x, v, w: forward(x, v, w))(q.reshape(1, count, n), qd, u)
+    _close(wide[0], numpy_module.forward_dynamics(q, qd, u), "chunked batch of two batch axes")
 
 
 @pytest.mark.parametrize("robot", ["rp_arm", "cart_pole_damped", "slider_crank", "ur5"])

@@ -21,6 +21,7 @@ Free text reaches the module only through the code environment's encoders (``|do
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +35,11 @@ from .python_module import CodeGenerationError, render_module
 JAX_TEMPLATE = "jax/dynamics.py.j2"
 #: Modules the generated JAX module may import.
 JAX_IMPORTS = frozenset({"jax", "__future__"})
+#: Lines of a straight-line body between two holds (``_hold`` in the module): fewer means
+#: fewer repeated operations and more loops. 3-6 were within 10 % of each other for the
+#: Panda's forward dynamics on CPU (``benchmarks/jax_batch.py``); no hold was 3x slower.
+HOLD_EVERY = 4
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 class _JaxPrinter(JaxPrinter):
@@ -61,6 +67,41 @@ def _flat_entries(function: ExpressionFunction) -> list[tuple[int, str]]:
     return flat
 
 
+def holds(lines: list[tuple[str, str]], outputs: list[str], every: int = HOLD_EVERY) -> dict[int, str]:
+    """Where a body holds its values (``_hold``) and which: after every ``every`` lines, the
+    values those lines assigned that are read later, before they are assigned again (names are
+    reused once dead, see ``code.program_function``), as ``{line index: "a, b"}``.
+
+    On CPU, XLA fuses each use of a value with the arithmetic that makes it, and so repeats
+    that arithmetic for every use: the Panda's forward dynamics ran 5x its operations and 20x
+    its sines. A value passed through ``_hold`` is computed once and kept in memory.
+    """
+    targets = {name for name, _ in lines}
+    reads = [set(_NAME.findall(expr)) & targets for _, expr in lines]
+    read_at_end = set().union(*(_NAME.findall(expr) for expr in outputs)) & targets if outputs else set()
+    found: dict[int, str] = {}
+    assigned: dict[str, None] = {}
+    for index, (name, _) in enumerate(lines):
+        assigned[name] = None
+        if (index + 1) % every or index + 1 >= len(lines):
+            continue
+        alive = []
+        for candidate in assigned:
+            for later in range(index + 1, len(lines)):
+                if candidate in reads[later]:
+                    alive.append(candidate)
+                    break
+                if lines[later][0] == candidate:
+                    break
+            else:
+                if candidate in read_at_end:
+                    alive.append(candidate)
+        if alive:
+            found[index] = ", ".join(alive)
+        assigned = {}
+    return found
+
+
 def jax_context(derivation: Derivation) -> dict[str, Any]:
     """The NumPy module's context (``code.code_context``) with the expressions printed for
     ``jax.numpy`` and each expression function's entries by flat index."""
@@ -72,6 +113,9 @@ def jax_context(derivation: Derivation) -> dict[str, Any]:
             size *= extent
         sizes[function.name] = (size, _flat_entries(function))
     context["sizes"] = sizes
+    context["holds"] = {p.name: holds(p.lines, p.outputs) for p in context["programs"]}
+    context["body_functions"] = {p.name: tuple(p.functions) + (("_hold",) if context["holds"][p.name] else ())
+                                 for p in context["programs"]}
     context["module"] = f"{derivation.robot.name}_dynamics_jax"
     return context
 
@@ -82,4 +126,4 @@ def render_jax(derivation: Derivation, template_dir: str | Path | None = None) -
     return render_module(derivation, JAX_TEMPLATE, jax_context(derivation), template_dir, JAX_IMPORTS)
 
 
-__all__ = ["JAX_IMPORTS", "JAX_TEMPLATE", "jax_context", "render_jax"]
+__all__ = ["HOLD_EVERY", "JAX_IMPORTS", "JAX_TEMPLATE", "holds", "jax_context", "render_jax"]
