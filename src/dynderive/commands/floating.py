@@ -13,6 +13,8 @@ from .options import problem
 
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots (issue 30)"
+#: The output flags (besides --code) a floating-base robot has.
+BUILT = ("c",)
 
 
 def floating_note(robot: Robot) -> str:
@@ -23,9 +25,9 @@ def floating_note(robot: Robot) -> str:
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
-            "difference (check runs its rows); not built yet "
+            "difference (check runs its rows), and so has its C (--c); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c, --c-extension, --matlab, --jax, and the commands linearize and identify (simulate integrates its "
+            "--c-extension, --matlab, --jax, and the commands linearize and identify (simulate integrates its "
             "module on the manifold)")
 
 
@@ -42,15 +44,23 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
     if not quiet:
         echo(floating_note(robot))
     refused = [problem(f"--{flag.replace('_', '-')}", f"--{flag.replace('_', '-')}: {NOT_BUILT}")
-               for flag, wanted in flags.items() if wanted]
+               for flag, wanted in flags.items() if wanted and flag not in BUILT]
     if refused:
         raise InputError(refused)
-    if not code:
+    if not (code or any(flags.get(flag) for flag in BUILT)):
         raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
-                                           "NumPy module"))
+                                           "NumPy module, --c its C"))
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
     progress("generating code (floating base)")
-    files = {out / f"{robot.name}_dynamics.py": render_floating_code(derivation, template_dir).encode()}
+    files = {}
+    if code:
+        files[out / f"{robot.name}_dynamics.py"] = render_floating_code(derivation, template_dir).encode()
+    if flags.get("c"):
+        from ..render.c_floating import render_floating_c
+
+        header, source = render_floating_c(derivation, template_dir)
+        files[out / f"{robot.name}_dynamics.h"] = header.encode()
+        files[out / f"{robot.name}_dynamics.c"] = source.encode()
     if tests:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
     write_all(files)
@@ -70,7 +80,17 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
     from .. import derive
     from ..render.floating_code import render_floating_code
 
-    refused = [kind for kind in kinds if kind not in ("code", "floating_base") and not kind.startswith("digits:")]
+    refused = [kind for kind in kinds if kind not in ("code", "floating_base", *BUILT) and not kind.startswith("digits:")]
     if refused:
-        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module"))
-    return {f"{robot.name}_dynamics.py": render_floating_code(derive(robot), template_dir).encode()}
+        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module, "
+                                         "--c its C"))
+    derivation = derive(robot)
+    files = {}
+    if "code" in kinds:
+        files[f"{robot.name}_dynamics.py"] = render_floating_code(derivation, template_dir).encode()
+    if "c" in kinds:
+        from ..render.c_floating import render_floating_c
+
+        header, source_text = render_floating_c(derivation, template_dir)
+        files |= {f"{robot.name}_dynamics.h": header.encode(), f"{robot.name}_dynamics.c": source_text.encode()}
+    return files

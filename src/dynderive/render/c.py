@@ -337,10 +337,13 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
     }
 
 
-def _frame_functions(derivation: Derivation, names: _Names, start: str, pp: str) -> list[CFunction]:
+def _frame_functions(derivation: Derivation, names: _Names, start: str, pp: str,
+                     columns: int | None = None) -> list[CFunction]:
     """Pose, Jacobian and Jdot qd of the frame numbered ``frame`` (the order of the robot
-    file's frames); each returns 0, or 1 (output untouched) for a number that is no frame."""
-    robot, n = derivation.robot, len(derivation.symbols.q)
+    file's frames); each returns 0, or 1 (output untouched) for a number that is no frame.
+    ``columns``: the Jacobian's (NV of a floating-base robot, whose frames are tuples
+    ``(name, pose, Jacobian, Jdot qd)``; else the coordinates)."""
+    robot, n = derivation.robot, columns or len(derivation.symbols.q)
     size, twist = (3, 3) if robot.planar else (4, 6)
     name = robot.name
     specs = [
@@ -355,7 +358,7 @@ def _frame_functions(derivation: Derivation, names: _Names, start: str, pp: str)
     for kind, arguments, used, out, count, comment in specs:
         body = [start, *_void(*used, "frame", "P", out)]
         for index, frame in enumerate(derivation.frame_programs):
-            program = getattr(frame, kind)
+            program = frame[1 + [s[0] for s in specs].index(kind)] if isinstance(frame, tuple) else getattr(frame, kind)
             lines = _program_body(names, program, [f"{out}[{k}]" for k in range(count)])
             body += [f"if (frame == {index}) {{", *(f"    {line}" for line in lines), "    return 0;", "}"]
         body.append("return 1;")
