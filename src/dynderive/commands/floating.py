@@ -14,7 +14,7 @@ from .options import problem
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots (issue 30)"
 #: The output flags (besides --code) a floating-base robot has.
-BUILT = ("c",)
+BUILT = ("c", "matlab")
 
 
 def floating_note(robot: Robot) -> str:
@@ -25,9 +25,9 @@ def floating_note(robot: Robot) -> str:
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
-            "difference (check runs its rows), and so has its C (--c); not built yet "
+            "difference (check runs its rows), and so have its C (--c) and its MATLAB/Octave package (--matlab); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c-extension, --matlab, --jax, and the commands linearize and identify (simulate integrates its "
+            "--c-extension, --jax, the MATLAB derivation script, and the commands linearize and identify (simulate integrates its "
             "module on the manifold)")
 
 
@@ -49,7 +49,7 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         raise InputError(refused)
     if not (code or any(flags.get(flag) for flag in BUILT)):
         raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
-                                           "NumPy module, --c its C"))
+                                           "NumPy module, --c its C, --matlab its MATLAB/Octave package"))
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
     progress("generating code (floating base)")
     files = {}
@@ -61,6 +61,10 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         header, source = render_floating_c(derivation, template_dir)
         files[out / f"{robot.name}_dynamics.h"] = header.encode()
         files[out / f"{robot.name}_dynamics.c"] = source.encode()
+    if flags.get("matlab"):
+        from ..render.matlab_floating import render_floating_matlab
+
+        files |= {out / path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
     if tests:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
     write_all(files)
@@ -93,4 +97,8 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
 
         header, source_text = render_floating_c(derivation, template_dir)
         files |= {f"{robot.name}_dynamics.h": header.encode(), f"{robot.name}_dynamics.c": source_text.encode()}
+    if "matlab" in kinds:
+        from ..render.matlab_floating import render_floating_matlab
+
+        files |= {path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
     return files
