@@ -217,6 +217,7 @@ def test_simulate_keeps_the_ball_joints_quaternion_unit(tmp_path):
     result = runner.invoke(app, ["simulate", str(path), "--duration", "0.3", "--qd0", "1, -2, 0.5, 1", "--csv",
                                  str(csv)])
     assert result.exit_code == 0, result.output
+    assert result.stdout.startswith("simulated 0.3 s of ball_arm (spherical joints, on the manifold)")
     rows = np.loadtxt(csv, delimiter=",", skiprows=1)
     norms = np.linalg.norm(rows[:, 1:5], axis=1)
     np.testing.assert_allclose(norms, 1.0, atol=1e-9)
