@@ -91,8 +91,9 @@ def _pinocchio(robot):
 
 
 def _compare_more(robot, module, model, qp, vp, seed: int) -> None:
-    """What ``_compare`` does not: the Coriolis matrix, linearize (computeABADerivatives) and
-    the frames' placements and LOCAL_WORLD_ALIGNED Jacobians."""
+    """What ``_compare`` does not: the Coriolis matrix, linearize (computeABADerivatives), the
+    regressor (against inverse dynamics) and the frames' placements and LOCAL_WORLD_ALIGNED
+    Jacobians."""
     data = model.createData()
     rng = np.random.default_rng(seed)
     pin.seed(seed)
@@ -119,6 +120,10 @@ def _compare_more(robot, module, model, qp, vp, seed: int) -> None:
         Minv = np.triu(Minv) + np.triu(Minv, 1).T
         np.testing.assert_allclose(B[nv:][vp], Minv[:, [list(vp).index(c) for c in columns]], rtol=0,
                                    atol=1e-9 * max(1.0, np.max(np.abs(Minv))))
+        a = rng.normal(size=nv)
+        tau = module.inverse_dynamics(q, v, a)
+        np.testing.assert_allclose(module.regressor(q, v, a) @ module.parameter_vector(), tau, rtol=0,
+                                   atol=1e-9 * max(1.0, np.max(np.abs(tau))))
         pin.computeJointJacobians(model, data, q_pin)
         pin.updateFramePlacements(model, data)
         for frame in module.FRAMES:
