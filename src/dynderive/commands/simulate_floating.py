@@ -39,9 +39,8 @@ def floating_options(robot: Any, coordinates: str, animate: object, force: list[
 
 
 def floating_quaternions(robot: Any) -> list[int]:
-    """Where each floating joint's quaternion starts in q."""
-    where_q, _ = robot.offsets()
-    return [where_q[j.name] + 3 for j in robot.joints if j.type == "floating"]
+    """Where each floating or spherical joint's quaternion starts in q."""
+    return list(robot.quaternion_starts)
 
 
 def normalized(q: np.ndarray, starts: list[int]) -> np.ndarray:
@@ -54,14 +53,14 @@ def normalized(q: np.ndarray, starts: list[int]) -> np.ndarray:
 def floating_initial(robot: Any, q0: np.ndarray | None) -> np.ndarray:
     """``--q0`` with its quaternions normalized (refused if one is off unit by more than
     QUATERNION_TOLERANCE); without it the neutral configuration (base at the origin of its
-    parent, identity quaternion) with revolute joints at 0.5 rad and prismatic at 0.2 m."""
+    parent, identity quaternions) with revolute joints at 0.5 rad and prismatic at 0.2 m."""
     starts = floating_quaternions(robot)
     if q0 is None:
         where_q, _ = robot.offsets()
         q0 = np.zeros(len(robot.configuration_names))
         for joint in (j for j in robot.joints if j.moves):
-            if joint.type == "floating":
-                q0[where_q[joint.name] + 6] = 1.0
+            if joint.multi:   # the identity quaternion
+                q0[where_q[joint.name] + joint.sizes[0] - 1] = 1.0
             else:
                 q0[where_q[joint.name]] = 0.5 if joint.type == "revolute" else 0.2
         return q0
@@ -152,7 +151,8 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
         files[csv] = floating_csv(derivation, source, trajectory).encode()
     write_all(files)
     relative = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])) / max(abs(trajectory.energy[0]), 1e-12))
-    typer.echo(f"simulated {duration:g} s of {model.name} (floating base, on the manifold): "
+    kind = "floating base" if model.floating_base else "spherical joints"
+    typer.echo(f"simulated {duration:g} s of {model.name} ({kind}, on the manifold): "
                f"largest relative energy change {relative:.3g}")
     for path in files:
         typer.echo(f"wrote {path}", err=True)

@@ -37,8 +37,8 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
             v.error(kpath, f"{v.label(kpath)}: a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}",
                     key=True)
             continue
-        if jtype == "floating":
-            v.error(kpath, f"{v.label(kpath)}: drive terms on a floating joint are not built yet (issue 30)",
+        if jtype in ("floating", "spherical"):
+            v.error(kpath, f"{v.label(kpath)}: drive terms on a {jtype} joint are not built yet (issue 30)",
                     key=True)
             continue
         if item[key] is None or isinstance(item[key], (bool, list, dict)):

@@ -1,6 +1,7 @@
-"""Where a ``floating`` joint may stand (part of validation: ``schema.validate`` calls
-``check_floating``): only between the world and the root link of a 3-D tree (issue 30 builds
-the rest later: planar floating joints, floating joints elsewhere, loops on a floating base).
+"""Where a ``floating`` or ``spherical`` joint may stand (part of validation: ``schema.validate``
+calls ``check_floating``): a floating joint only between the world and the root link of a 3-D
+tree, a spherical joint anywhere in a 3-D tree (issue 30 builds the rest later: planar floating
+joints, floating joints elsewhere, loops on a robot with either).
 """
 
 from __future__ import annotations
@@ -17,9 +18,18 @@ FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "
 
 
 def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool) -> None:
-    """Every ``floating`` joint joins ``world`` to the one root link, in a 3-D robot without loops."""
+    """Every ``floating`` joint joins ``world`` to the one root link, and ``spherical`` joints
+    stand anywhere, in a 3-D robot without loops (both take the floating-base module)."""
+    spherical = [(i, j) for i, j in enumerate(joints) if j.type == "spherical"]
+    if spherical and planar:
+        for i, _ in spherical:
+            v.error(("joints", i, "type"), f"{v.label(('joints', i, 'type'))}: a spherical joint turns in 3-D: "
+                    "a planar robot has none (give the robot 3-D origins, inertias and axes)")
+        return
     floating = [(i, j) for i, j in enumerate(joints) if j.type == "floating"]
     if not floating:
+        if spherical:
+            _reserved(v, top, joints, "a robot with spherical joints")
         return
     if planar:
         for i, _ in floating:
@@ -40,15 +50,20 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
                 v.error(("joints", i, "parent"), f"{v.label(('joints', i, 'parent'))}: the root link "
                         f"'{joint.child}' floats (joint '{joint.name}'), so no other joint may hang from the "
                         f"world; make '{other.child}' hang from a link of the robot")
+    _reserved(v, top, joints, "a floating-base robot")
+
+
+def _reserved(v: Any, top: dict[str, Any], joints: list[Joint], kind: str) -> None:
+    """No loops, and no name the floating-base module defines, on a robot with quaternions."""
     if "loops" in top:
-        v.error(("loops",), "loops: closed loops on a floating-base robot are not built yet (issue 30)", key=True)
+        v.error(("loops",), f"loops: closed loops on {kind} are not built yet (issue 30)", key=True)
     parameters = top.get("parameters")
     for name in parameters if isinstance(parameters, dict) else ():
         if name in FLOATING_MODULE_NAMES:
             v.error(("parameters", name), f"parameters.{name}: name '{name}' is reserved by the generated module "
-                    "of a floating-base robot", key=True)
+                    f"of {kind}", key=True)
     for i, joint in enumerate(joints):
-        if (joint.moves and joint.type != "floating" and joint.name in FLOATING_MODULE_NAMES) or (joint.effort or "") in FLOATING_MODULE_NAMES:
+        if (joint.moves and not joint.multi and joint.name in FLOATING_MODULE_NAMES) or (joint.effort or "") in FLOATING_MODULE_NAMES:
             what, key = ("name", joint.name) if joint.name in FLOATING_MODULE_NAMES else ("effort", joint.effort)
             v.error(("joints", i, what), f"{v.label(('joints', i, what))}: name '{key}' is reserved by the "
-                    "generated module of a floating-base robot")
+                    f"generated module of {kind}")

@@ -62,8 +62,9 @@ def robot_schema() -> dict[str, Any]:
         "type": "object", "additionalProperties": False, "required": ["name", "type", "parent", "child"],
         "properties": {
             "name": {"type": "string", "pattern": IDENTIFIER, "description": "also the coordinate's symbol"},
-            "type": {"enum": ["revolute", "prismatic", "fixed", "floating"],
-                     "description": "floating (3-D only): the joint between the world and the root link"},
+            "type": {"enum": ["revolute", "prismatic", "fixed", "floating", "spherical"],
+                     "description": "floating (3-D only): the joint between the world and the root link; "
+                                    "spherical (3-D only): a ball joint (unit quaternion), unactuated"},
             "parent": {"type": "string", "description": "a link name or world"},
             "child": {"type": "string"},
             "origin": origin,

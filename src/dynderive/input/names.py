@@ -112,8 +112,8 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
             continue
         seen_joints.add(joint.name)
         label = v.label(("joints", i, "name"))
-        if joint.type == "floating":   # its configuration, velocity and acceleration entries
-            for name in (n for names in floating_names(joint.name) for n in names):
+        if joint.multi:   # a floating or spherical joint: its configuration, velocity and acceleration entries
+            for name in (n for names in floating_names(joint.name, joint.type) for n in names):
                 claim(name, f"{label} (coordinate '{name}')", ("joints", i, "name"))
             continue
         if not claim(joint.name, label, ("joints", i, "name")):

@@ -28,7 +28,7 @@ from .validator import Validator as _Validator
 from .validator import kind as _kind
 from .validator import numeric as _numeric
 
-JOINT_TYPES = ("revolute", "prismatic", "fixed", "floating")
+JOINT_TYPES = ("revolute", "prismatic", "fixed", "floating", "spherical")
 
 TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "loops", "independent",
             "frames", "maximal")
@@ -260,8 +260,8 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             if effort is not None and jtype == "fixed":
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
                 effort = None
-            elif effort is not None and jtype == "floating":
-                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: efforts on a floating joint "
+            elif effort is not None and jtype in ("floating", "spherical"):
+                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: efforts on a {jtype} joint "
                         "are not built yet (issue 30): it is unactuated")
                 effort = None
         drives = drive_terms(v, item, path, jtype, symbols, lambda e: _numeric(e, defaults))
@@ -445,8 +445,9 @@ def _axis(v: _Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str
         v.error(apath, f"{v.label(apath)}: a planar {jtype} joint takes no axis "
                 "(planar revolute joints turn about z)")
         return default
-    if jtype in ("fixed", "floating"):
-        v.error(apath, f"{v.label(apath)}: a {jtype} joint takes no axis")
+    if jtype in ("fixed", "floating", "spherical"):
+        v.error(apath, f"{v.label(apath)}: a {jtype} joint takes no axis"
+                + (" (it turns about all three)" if jtype == "spherical" else ""))
         return default
     entries = v.vector(item["axis"], apath, (2,) if planar else (3,), symbols)
     if entries is None:

@@ -7,7 +7,10 @@ joint frame's position in its parent (after the joint's ``origin``) and a unit q
 rotation matrix is a polynomial in ``qx..qw`` (Eigen's ``Quaternion::toRotationMatrix``: no
 trigonometry, no normalization). Its velocity ``[vx, vy, vz, wx, wy, wz]`` is the link frame's
 linear and angular velocity in the link frame (local), so its motion subspace is the 6 x 6
-identity and its joint acceleration the spatial acceleration ``qdd`` itself. Every other joint
+identity and its joint acceleration the spatial acceleration ``qdd`` itself. A ``spherical``
+joint (anywhere in the tree) is its rotational part: configuration ``[qx, qy, qz, qw]``, velocity
+the local angular velocity ``[wx, wy, wz]``, motion subspace the three angular unit columns
+(Pinocchio's ``JointModelSpherical``). Every other joint
 is revolute, prismatic or fixed as in ``recursive.py``; a joint's coordinate is an index into
 ``q`` (NQ entries), its column an index into ``qd`` (NV entries).
 
@@ -37,10 +40,10 @@ _ZERO = sympy.Integer(0)
 def not_built(robot: Robot, what: str) -> InputError:
     """The error for a part of the derivation not built yet for floating-base robots (exit
     2), at the floating joint."""
-    joint = next(j for j in robot.joints if j.type == "floating")
+    joint = next(j for j in robot.joints if j.multi)
     line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
     return InputError(Problem(robot.source, line, column, f"{what}: not built yet for floating-base robots "
-                              f"(issue 30; joint '{joint.name}' is floating)"))
+                              f"(issue 30; joint '{joint.name}' is {joint.type})"))
 
 
 def quaternion_matrix(qx: sympy.Expr, qy: sympy.Expr, qz: sympy.Expr, qw: sympy.Expr) -> sympy.Matrix:
@@ -93,7 +96,7 @@ class FloatingTree:
         #: armature (joins M[j, j]) and springs ``k (q - rest)`` (join the joint force) by column
         self.drives = {self.offsets.v[j.name]: (self._value(j.armature), self._value(j.stiffness),
                                                 self._value(j.rest), self.table.q[self.offsets.q[j.name]])
-                       for j in robot.joints if j.moves and j.type != "floating" and j.driven}
+                       for j in robot.joints if j.moves and not j.multi and j.driven}
 
     def copy(self) -> FloatingTree:
         """The same links, with a program of the links' lines only: each program of the module
@@ -122,6 +125,11 @@ class FloatingTree:
             motion = quaternion_matrix(*q[3:])
             basis = [tuple(sympy.Integer(int(i == k)) for i in range(3)) for k in range(3)]
             columns = [(vi + k, zero, basis[k]) for k in range(3)] + [(vi + 3 + k, basis[k], zero) for k in range(3)]
+        elif joint.type == "spherical":   # the floating joint's rotational part (JointModelSpherical)
+            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+            motion = quaternion_matrix(*self.table.q[qi:qi + 4])
+            basis = [tuple(sympy.Integer(int(i == k)) for i in range(3)) for k in range(3)]
+            columns = [(vi + k, basis[k], zero) for k in range(3)]
         elif joint.moves:
             qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
             axis = unit(tuple(expr(e) for e in joint.axis))
@@ -249,8 +257,8 @@ def potential(tree: FloatingTree) -> sympy.Expr:
 
 
 def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
-    """``Y``: each actuated joint's effort symbol at its column, zero elsewhere (the floating
-    joint is unactuated: no external wrench on the base)."""
+    """``Y``: each actuated joint's effort symbol at its column, zero elsewhere (floating and
+    spherical joints are unactuated: no external wrench on the base)."""
     columns = offsets(robot).v
     Y: list[sympy.Expr] = [_ZERO] * robot.velocity_count
     for joint in robot.joints:

@@ -18,7 +18,8 @@ link, no frame change per column.
 *Derivatives.* Newton-Euler differentiated line by line (``recursive._carry``, each line's
 partial derivatives kept across the passes) along each velocity direction: a scalar joint's
 coordinate, and for the floating joint the configuration's tangent of ``integrate(q, e_k h)`` at h = 0 (``dp = R e_lin``,
-``dquat = 1/2 quat * (e_ang, 0)``), Pinocchio's convention in ``computeABADerivatives``.
+``dquat = 1/2 quat * (e_ang, 0)``; a spherical joint's quaternion likewise), Pinocchio's
+convention in ``computeABADerivatives``.
 
 *Regressor.* ``recursive``/``regressor.py``'s construction: each joint's axis carried down
 into the frames of the links below it, dotted with each link's force per unit parameter
@@ -178,22 +179,27 @@ def coriolis_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
 
 def _tangent_seeds(tree: FloatingTree) -> list[dict[sympy.Symbol, sympy.Expr]]:
     """Per velocity column, the tangent of the configuration along it: ``q_i = 1`` for a
-    scalar joint; for the floating joint, that of ``integrate(q, e_k h)`` at h = 0."""
+    scalar joint; for a floating or spherical joint, that of ``integrate(q, e_k h)`` at h = 0."""
     let, table, where = tree.program.let, tree.table, tree.offsets
     seeds: list[dict[sympy.Symbol, sympy.Expr]] = [{} for _ in range(tree.robot.velocity_count)]
     for joint in (j for j in tree.robot.joints if j.moves):
         qi, vi = where.q[joint.name], where.v[joint.name]
-        if joint.type != "floating":
+        if not joint.multi:
             seeds[vi] = {table.q[qi]: sympy.Integer(1)}
             continue
-        q = table.q[qi:qi + 7]
-        R = quaternion_matrix(*q[3:])
-        u, s = q[3:6], q[6]
+        if joint.type == "floating":
+            q = table.q[qi:qi + 7]
+            R = quaternion_matrix(*q[3:])
+            for k in range(3):
+                seeds[vi + k] = {q[r]: let(R[r, k]) for r in range(3)}
+            qi, vi = qi + 3, vi + 3
+        quaternion = table.q[qi:qi + 4]   # the floating joint's rotational part, or a spherical joint
+        u, s = quaternion[:3], quaternion[3]
         for k in range(3):
-            seeds[vi + k] = {q[r]: let(R[r, k]) for r in range(3)}
             axis = [sympy.Integer(int(r == k)) for r in range(3)]
             spin = _add([s * a for a in axis], _cross(u, axis))   # 1/2 quat * (axis, 0)
-            seeds[vi + 3 + k] = {**{q[3 + r]: let(_HALF * spin[r]) for r in range(3)}, q[6]: let(-_HALF * u[k])}
+            seeds[vi + k] = {**{quaternion[r]: let(_HALF * spin[r]) for r in range(3)},
+                             quaternion[3]: let(-_HALF * u[k])}
     return seeds
 
 
@@ -255,7 +261,7 @@ def floating_parameter_vector(robot: Robot, table: SymbolTable) -> list[Paramete
         for kind, (a, b) in _ENTRY.items():
             values[kind] = about_com[a, b] + mass * ((square if a == b else 0) - com[a] * com[b])
         entries += [Parameter(f"{kind}_{link.name}", kind, link.name, values[kind]) for kind in SPATIAL_KINDS]
-    for joint in (j for j in robot.joints if j.moves and j.type != "floating" and j.driven):
+    for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
         for kind in ("armature", "stiffness"):
             text = getattr(joint, kind)
             if text is not None and table.expr(text) != 0:
@@ -281,7 +287,7 @@ def regressor(tree: FloatingTree) -> Program:
             n_k, f_k = body_force(vec, *_unit_parameters(kind), *motion[body.link])
             for j, (s_w, s_v) in sorted(own.items()):
                 Y[j][column[f"{kind}_{body.link}"]] = program.let(_dot(s_w, n_k) + _dot(s_v, f_k))
-    for joint in (j for j in robot.joints if j.moves and j.type != "floating"):
+    for joint in (j for j in robot.joints if j.moves and not j.multi):
         i = tree.offsets.v[joint.name]
         if f"armature_{joint.name}" in column:
             Y[i][column[f"armature_{joint.name}"]] = table.qdd[i]

@@ -87,17 +87,18 @@ def check_mass_matrix(robot: Robot, table: SymbolTable) -> None:
 
 
 def _floating_neutral(robot: Robot, table: SymbolTable, q: list[float]) -> tuple[list[float], list[str]]:
-    """``q`` with each floating joint's seven entries at (0, 0, 0, 0, 0, 0, 1), and the joint
-    of each velocity column (a floating joint owns six)."""
+    """``q`` with each floating joint's seven entries at (0, 0, 0, 0, 0, 0, 1) and each
+    spherical joint's four at (0, 0, 0, 1), and the joint of each velocity column (a floating
+    joint owns six, a spherical joint three)."""
     from .floating import offsets
 
     where = offsets(robot)
     columns: list[str] = []
     for joint in (j for j in robot.joints if j.moves):
-        if joint.type == "floating":
-            start = where.q[joint.name]
-            q[start:start + 7] = [0.0] * 6 + [1.0]
-            columns += [joint.name] * 6
+        if joint.multi:   # floating: (0, 0, 0, 0, 0, 0, 1); spherical: (0, 0, 0, 1)
+            start, (nq, nv) = where.q[joint.name], joint.sizes
+            q[start:start + nq] = [0.0] * (nq - 1) + [1.0]
+            columns += [joint.name] * nv
         else:
             columns.append(joint.name)
     return q, columns

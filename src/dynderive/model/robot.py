@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-JointType = Literal["revolute", "prismatic", "fixed", "floating"]
+JointType = Literal["revolute", "prismatic", "fixed", "floating", "spherical"]
 
 #: A 3-D floating joint's configuration (position, unit quaternion) and velocity (local twist)
 #: entries, Pinocchio's order: coordinates ``<joint>_x ... <joint>_qw``, velocities
@@ -21,10 +21,23 @@ FLOATING_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
 FLOATING_ACCELERATION = ("dvx", "dvy", "dvz", "dwx", "dwy", "dwz")
 
 
-def floating_names(joint: str) -> tuple[list[str], list[str], list[str]]:
-    """A floating joint's coordinate, velocity and acceleration names."""
-    return ([f"{joint}_{s}" for s in FLOATING_CONFIGURATION], [f"{joint}_{s}" for s in FLOATING_VELOCITY],
-            [f"{joint}_{s}" for s in FLOATING_ACCELERATION])
+#: A spherical joint's configuration (unit quaternion), velocity (local angular velocity) and
+#: acceleration entries, Pinocchio's ``JointModelSpherical``: ``<joint>_qx ... <joint>_qw``,
+#: ``<joint>_wx ... <joint>_wz``, ``<joint>_dwx ... <joint>_dwz``.
+SPHERICAL_CONFIGURATION = FLOATING_CONFIGURATION[3:]
+SPHERICAL_VELOCITY = FLOATING_VELOCITY[3:]
+SPHERICAL_ACCELERATION = FLOATING_ACCELERATION[3:]
+#: The joint types whose configuration holds a unit quaternion, and where it starts in the
+#: joint's own entries of ``q``.
+QUATERNION_START = {"floating": 3, "spherical": 0}
+
+
+def floating_names(joint: str, kind: str = "floating") -> tuple[list[str], list[str], list[str]]:
+    """A floating (or, with ``kind="spherical"``, a spherical) joint's coordinate, velocity and
+    acceleration names."""
+    entries = ((FLOATING_CONFIGURATION, FLOATING_VELOCITY, FLOATING_ACCELERATION) if kind == "floating" else
+               (SPHERICAL_CONFIGURATION, SPHERICAL_VELOCITY, SPHERICAL_ACCELERATION))
+    return tuple([f"{joint}_{s}" for s in part] for part in entries)  # type: ignore[return-value]
 Expression = str | int | float
 
 
@@ -82,6 +95,16 @@ class Joint:
     def moves(self) -> bool:
         """Whether the joint has a coordinate (fixed joints do not)."""
         return self.type != "fixed"
+
+    @property
+    def sizes(self) -> tuple[int, int]:
+        """How many entries the joint has in ``q`` (NQ) and in ``qd`` (NV)."""
+        return {"fixed": (0, 0), "floating": (7, 6), "spherical": (4, 3)}.get(self.type, (1, 1))
+
+    @property
+    def multi(self) -> bool:
+        """Whether the joint has several coordinates (a floating or spherical joint: a quaternion)."""
+        return self.type in QUATERNION_START
 
     @property
     def dissipates(self) -> bool:
@@ -163,26 +186,41 @@ class Robot:
 
     @property
     def floating(self) -> bool:
+        """Whether the robot takes the floating-base path (DESIGN.md section 10): some joint's
+        configuration holds a unit quaternion (a ``floating`` joint, or a ``spherical`` joint
+        anywhere, even on a fixed base), so NQ != NV and the free-flyer programs derive it."""
+        return any(j.multi for j in self.joints)
+
+    @property
+    def floating_base(self) -> bool:
         """Whether the root link floats (a ``floating`` joint to the world)."""
         return any(j.type == "floating" for j in self.joints)
 
     @property
+    def quaternion_starts(self) -> tuple[int, ...]:
+        """Where each quaternion (of a floating or spherical joint) starts in ``q``, joint order."""
+        where_q, _ = self.offsets()
+        return tuple(where_q[j.name] + QUATERNION_START[j.type] for j in self.joints if j.multi)
+
+    @property
     def configuration_names(self) -> tuple[str, ...]:
-        """The entries of ``q`` (NQ): a floating joint's seven, every other moving joint's name."""
+        """The entries of ``q`` (NQ): a floating joint's seven, a spherical joint's four, every
+        other moving joint's name."""
         return tuple(name for j in self.joints if j.moves
-                     for name in (floating_names(j.name)[0] if j.type == "floating" else [j.name]))
+                     for name in (floating_names(j.name, j.type)[0] if j.multi else [j.name]))
 
     @property
     def velocity_count(self) -> int:
-        """NV: the entries of ``qd``, ``qdd`` (a floating joint's six, one per other moving joint)."""
-        return sum(6 if j.type == "floating" else 1 for j in self.joints if j.moves)
+        """NV: the entries of ``qd``, ``qdd`` (a floating joint's six, a spherical joint's three,
+        one per other moving joint)."""
+        return sum(j.sizes[1] for j in self.joints)
 
     def offsets(self) -> tuple[dict[str, int], dict[str, int]]:
         """Where each moving joint's entries start in ``q`` and in ``qd``, by joint name."""
         q, v, i, k = {}, {}, 0, 0
         for joint in (j for j in self.joints if j.moves):
             q[joint.name], v[joint.name] = i, k
-            i, k = (i + 7, k + 6) if joint.type == "floating" else (i + 1, k + 1)
+            i, k = i + joint.sizes[0], k + joint.sizes[1]
         return q, v
 
     @property

@@ -52,8 +52,8 @@ class SymbolTable:
         if robot.floating:   # NQ coordinates, NV velocities and accelerations (DESIGN.md section 10)
             table.q, table.qd, table.qdd = [], [], []
             for joint in (j for j in robot.joints if j.moves):
-                if joint.type == "floating":
-                    q, v, a = floating_names(joint.name)
+                if joint.multi:
+                    q, v, a = floating_names(joint.name, joint.type)
                 else:
                     q, v, a = [joint.name], [velocity_name(joint.name)], [acceleration_name(joint.name)]
                 table.q += [sympy.Symbol(n) for n in q]

@@ -2,7 +2,7 @@
 ``gravity_vector``, ``inverse_dynamics``, ``forward_dynamics``, ``linearize``, ``regressor``
 from the programs of ``mechanics/floating.py`` and ``floating_derivatives.py``, and
 ``NQ``, ``NV``, ``neutral_configuration``, ``integrate``, ``difference`` (Pinocchio's
-conventions). What the module of a fixed-base robot has beyond these is not built yet for
+conventions; also the module of a fixed-base robot with spherical joints). What the module of a fixed-base robot has beyond these is not built yet for
 floating-base robots and is left out (``NOT_BUILT``), never stubbed."""
 
 from __future__ import annotations
@@ -61,7 +61,8 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
                                     [q, qd], bias)]
     where_q, where_v = robot.offsets()
     floating = [j.name for j in robot.joints if j.type == "floating"]
-    scalar = [j.name for j in robot.joints if j.moves and j.type != "floating"]
+    spherical = [j.name for j in robot.joints if j.type == "spherical"]
+    scalar = [j.name for j in robot.joints if j.moves and not j.multi]
     parameters = [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
                    "unit": p.unit, "description": p.description} for p in robot.parameters]
     return {
@@ -76,6 +77,9 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "nq": nq,
         "nv": nv,
         "floating_offsets": python_literal(tuple((where_q[n], where_v[n]) for n in floating)),
+        "spherical_offsets": python_literal(tuple((where_q[n], where_v[n]) for n in spherical)),
+        "spherical": bool(spherical),
+        "floating_base": robot.floating_base,
         "scalar_q": Code(repr([where_q[n] for n in scalar])),
         "scalar_v": Code(repr([where_v[n] for n in scalar])),
         "effort_columns": python_literal(tuple(where_v[j.name] for j in robot.joints if j.moves and j.effort)),

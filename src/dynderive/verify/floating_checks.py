@@ -21,14 +21,12 @@ ENERGY_RUN = "energy conserved without efforts (simulate on the manifold)"
 
 
 def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> np.ndarray:
-    """``states`` configurations: floating joints at random positions with random unit
-    quaternions, every other coordinate uniform in [-1.5, 1.5]."""
-    where_q, _ = robot.offsets()
+    """``states`` configurations: floating joints at random positions, random unit quaternions
+    (floating and spherical joints), every other coordinate uniform in [-1.5, 1.5]."""
     qs = rng.uniform(-1.5, 1.5, (states, len(robot.configuration_names)))
-    for joint in (j for j in robot.joints if j.type == "floating"):
-        start = where_q[joint.name]
+    for start in robot.quaternion_starts:
         quaternion = rng.normal(size=(states, 4))
-        qs[:, start + 3:start + 7] = quaternion / np.linalg.norm(quaternion, axis=1, keepdims=True)
+        qs[:, start:start + 4] = quaternion / np.linalg.norm(quaternion, axis=1, keepdims=True)
     return qs
 
 
@@ -70,7 +68,8 @@ def run_floating_checks(derivation: Derivation, source: str, states: int = 12, s
     rows.append(_row("gravity_vector = inverse_dynamics(q, 0, 0)", gravity < 1e-12 * max(1.0, float(np.max(
         np.abs(bias)))), "numeric", gravity))
     rows.append(_power_balance(module, values, qs, vs, rng))
-    rows.append(_momentum(module, robot, values, qs[:6], vs[:6], us[:6]))
+    if robot.floating_base:   # a fixed base (spherical joints only) takes the world's reaction
+        rows.append(_momentum(module, robot, values, qs[:6], vs[:6], us[:6]))
     rows.append(_energy_along_a_run(derivation, source, values, qs[0], vs[0]))
     rows += _manifold(module, robot, qs, vs)
     if module.FRAMES:
@@ -162,10 +161,8 @@ def _frames(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarra
 
 def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[Row]:
     """``integrate`` keeps quaternions unit; ``difference`` inverts it."""
-    where_q, _ = robot.offsets()
     moved = module.integrate(qs, vs, 0.7)
-    norms = [np.linalg.norm(moved[:, where_q[j.name] + 3:where_q[j.name] + 7], axis=1)
-             for j in robot.joints if j.type == "floating"]
+    norms = [np.linalg.norm(moved[:, start:start + 4], axis=1) for start in robot.quaternion_starts]
     unit = float(np.max(np.abs(np.array(norms) - 1.0)))
     back = float(np.max(np.abs(module.difference(qs, moved) - 0.7 * vs)))
     return [_row("integrate keeps the quaternions unit", unit < 1e-12, "numeric", unit),
@@ -196,7 +193,7 @@ def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, value
 
 def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any, np.ndarray, np.ndarray]:
     """Pinocchio's model of a floating-base robot (depth first, a floating joint as a
-    ``JointModelFreeFlyer``), with where its q and v entries are in ours (``q_pin = q[qp]``)."""
+    ``JointModelFreeFlyer``, a spherical joint as a ``JointModelSpherical``), with where its q and v entries are in ours (``q_pin = q[qp]``)."""
     import pinocchio as pin
 
     table = SymbolTable.for_robot(robot)
@@ -227,8 +224,9 @@ def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any,
                 frame_of[joint.child] = (parent_id, place)
                 model.appendBodyToJoint(parent_id, inertia(joint.child), place)
             else:
-                if joint.type == "floating":
-                    kind, nq, nv = pin.JointModelFreeFlyer(), 7, 6
+                if joint.multi:
+                    kind = pin.JointModelFreeFlyer() if joint.type == "floating" else pin.JointModelSpherical()
+                    nq, nv = joint.sizes
                 else:
                     axis = np.array([num(e) for e in joint.axis])
                     axis = axis / np.linalg.norm(axis)
