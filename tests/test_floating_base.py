@@ -207,7 +207,7 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
 
 
-@pytest.mark.parametrize("flag", ["--latex", "--json", "--matlab", "--pdf", "--c-extension"])
+@pytest.mark.parametrize("flag", ["--latex", "--json", "--pdf", "--c-extension"])
 def test_other_outputs_are_refused(tmp_path, flag):
     _, result = _solve(tmp_path, BOX, "--code", flag)
     assert result.exit_code == 2

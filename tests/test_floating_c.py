@@ -34,6 +34,7 @@ if CC is None:
     pytest.skip("no C compiler", allow_module_level=True)
 
 from test_floating_base import BOX, _example_robot, _floating_tree  # noqa: E402
+from test_spherical import _tree as _spherical_tree  # noqa: E402
 
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wshadow"]
 RTOL = 1e-12
@@ -99,9 +100,9 @@ def _close(actual, expected, what: str) -> None:
 def _configuration(module, rng) -> np.ndarray:
     """A random configuration: uniform entries, each quaternion a random unit quaternion."""
     q = module.neutral_configuration() + rng.uniform(-1.2, 1.2, module.NQ)
-    for start, _ in module._FLOATING:
+    for start in [s + 3 for s, _ in module._FLOATING] + [s for s, _ in module._SPHERICAL]:
         quaternion = rng.normal(size=4)
-        q[start + 3 : start + 7] = quaternion / np.linalg.norm(quaternion)
+        q[start : start + 4] = quaternion / np.linalg.norm(quaternion)
     return q
 
 
@@ -166,6 +167,15 @@ def test_random_floating_trees_agree_with_the_numpy_module(seed, tmp_path):
     path.write_text(_floating_tree(seed))
     derivation = dynderive.derive(dynderive.load_robot(path))
     _agree(Library(derivation, tmp_path), _module(derivation, tmp_path), seed=seed)
+
+
+@pytest.mark.parametrize("floating", [False, True])
+def test_random_trees_with_spherical_joints_agree_with_the_numpy_module(floating, tmp_path):
+    path = tmp_path / "spherical_tree.yaml"
+    path.write_text(_spherical_tree(7, floating))
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert any(j.type == "spherical" for j in derivation.robot.joints)
+    _agree(Library(derivation, tmp_path), _module(derivation, tmp_path), seed=7)
 
 
 def test_parameters_struct_and_a_mass_matrix_that_is_not_positive_definite(tmp_path):

@@ -19,9 +19,9 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.floating_code import render_floating_code
 from dynderive.render.matlab_floating import render_floating_matlab
-
 from test_floating_base import BOX, _floating_tree
 from test_matlab_numeric import _Calls, _octave, _vector, needs_octave
+from test_spherical import _tree as _spherical_tree
 
 
 def _module(derivation, directory: Path):
@@ -35,9 +35,9 @@ def _module(derivation, directory: Path):
 
 def _configuration(module, rng) -> np.ndarray:
     q = module.neutral_configuration() + rng.uniform(-1.2, 1.2, module.NQ)
-    for start, _ in module._FLOATING:
+    for start in [s + 3 for s, _ in module._FLOATING] + [s for s, _ in module._SPHERICAL]:
         quaternion = rng.normal(size=4)
-        q[start + 3 : start + 7] = quaternion / np.linalg.norm(quaternion)
+        q[start : start + 4] = quaternion / np.linalg.norm(quaternion)
     return q
 
 
@@ -83,6 +83,16 @@ def test_random_floating_tree_agrees_with_the_numpy_module(tmp_path):
     path = tmp_path / "floating_tree.yaml"
     path.write_text(_floating_tree(2))
     _agree(dynderive.derive(dynderive.load_robot(path)), tmp_path, seed=2)
+
+
+@needs_octave
+@pytest.mark.parametrize("floating", [False, True])
+def test_random_trees_with_spherical_joints_agree_with_the_numpy_module(floating, tmp_path):
+    path = tmp_path / "spherical_tree.yaml"
+    path.write_text(_spherical_tree(7, floating))
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert any(j.type == "spherical" for j in derivation.robot.joints)
+    _agree(derivation, tmp_path, seed=7)
 
 
 @needs_octave

@@ -160,8 +160,9 @@ def floating_c_context(derivation: Derivation) -> dict[str, Any]:
                   neutral_lines(joints, nq)),
         CFunction(f"void {name}_integrate(const double *q, const double *v, double dt, double *out)",
                   f"The configuration reached from q moving at v for dt, {nq} entries (Pinocchio's integrate(q, v dt)): "
-                  "q + v dt, a floating joint's pose times exp(v dt) on SE(3), a spherical joint's quaternion "
-                  "times exp(w dt); quaternions normalized, in the hemisphere of q's.", integrate_lines(joints)),
+                  "q + v dt, a floating joint's pose times exp(v dt) on SE(3) (its quaternion normalized in the "
+                  "hemisphere of q's), a spherical joint's quaternion times exp(w dt), normalized.",
+                  integrate_lines(joints)),
         CFunction(f"void {name}_difference(const double *q0, const double *q1, double *v)",
                   f"The velocity v, {nv} entries, that integrate turns q0 into q1 in unit time (Pinocchio's "
                   "difference).", difference_lines(joints)),

@@ -2,7 +2,8 @@
 configuration, ``integrate``, ``difference`` and ``configuration_rate`` on Pinocchio's
 conventions, the same formulas as the NumPy module's (``templates/floating_dynamics.py.j2``):
 a floating joint's pose times the exponential of its twist (SE(3)), a spherical joint's
-quaternion times the exponential of its angular velocity, ``q + v dt`` for the others.
+quaternion times the exponential of its angular velocity (SO(3): no change of hemisphere, as
+Pinocchio), ``q + v dt`` for the others.
 
 Each joint's lines are a block (``{ ... }``) of constants, unrolled for its place in ``q``
 and ``v``: no helper function (an unused static function is a warning), no loop.
@@ -68,13 +69,16 @@ def _exp_rotation(w: tuple[str, str, str]) -> list[str]:
             "const double ew = cos(theta/2.0);"]
 
 
-def _moved(q: str, start: int, out: str) -> list[str]:
-    """``m = q_quaternion * e``, normalized, in the hemisphere of q's, written to ``out``."""
+def _moved(q: str, start: int, out: str, hemisphere: bool) -> list[str]:
+    """``m = q_quaternion * e``, normalized (in the hemisphere of q's for a floating joint, as
+    Pinocchio's SE(3); a spherical joint's, as its SO(3), keeps its sign), written to ``out``."""
     quaternion = _quaternion(q, start)
     lines = _multiply("m", quaternion, ("ex", "ey", "ez", "ew"))
-    lines += ["const double norm = sqrt(mx*mx + my*my + mz*mz + mw*mw);",
-              f"const double sign = (mx*{quaternion[0]} + my*{quaternion[1]} + mz*{quaternion[2]} + "
-              f"mw*{quaternion[3]}) < 0.0 ? -1.0 : 1.0;"]
+    lines.append("const double norm = sqrt(mx*mx + my*my + mz*mz + mw*mw);")
+    if not hemisphere:
+        return lines + [f"{out}[{start + k}] = m{c}/norm;" for k, c in enumerate("xyzw")]
+    lines.append(f"const double sign = (mx*{quaternion[0]} + my*{quaternion[1]} + mz*{quaternion[2]} + "
+                 f"mw*{quaternion[3]}) < 0.0 ? -1.0 : 1.0;")
     return lines + [f"{out}[{start + k}] = sign*m{c}/norm;" for k, c in enumerate("xyzw")]
 
 
@@ -97,11 +101,11 @@ def integrate_lines(joints: list[ManifoldJoint]) -> list[str]:
             block += [f"const double p{c} = l{c} + a*wv{c} + b*wwv{c};" for c in "xyz"]
             block += _rotate("s", _quaternion("q", joint.q + 3), _vec("p"))
             block += [f"out[{joint.q + k}] = q[{joint.q + k}] + s{c};" for k, c in enumerate("xyz")]
-            block += _moved("q", joint.q + 3, "out")
+            block += _moved("q", joint.q + 3, "out", hemisphere=True)
         else:
             block += [f"const double r{c} = v[{joint.v + k}]*dt;" for k, c in enumerate("xyz")]
             block += _exp_rotation(_vec("r"))
-            block += _moved("q", joint.q, "out")
+            block += _moved("q", joint.q, "out", hemisphere=False)
         lines += ["{", *(f"    {line}" for line in block), "}"]
     return lines
 

@@ -19,7 +19,15 @@ from .encode import Code
 from .environment import render
 from .matlab import FUNCTION_TEMPLATE, parameters_function
 from .matlab_names import check_matlab_names, matlab_comment, matlab_string
-from .matlab_print import MFunction, Names, expression_body, matrix_targets, program_body, prologue, vector_targets
+from .matlab_print import (
+    MFunction,
+    Names,
+    expression_body,
+    matrix_targets,
+    program_body,
+    prologue,
+    vector_targets,
+)
 
 #: Below this angle the exponentials and logarithms use their series (as the NumPy module).
 SMALL = "1e-4"
@@ -40,7 +48,7 @@ def _local_functions() -> list[MFunction]:
                   ["if r(4) < 0", "    r = -r;", "end", "s = norm(r(1:3));", "theta = 2*atan2(s, r(4));",
                    "if theta < " + SMALL, "    w = (2 + theta^2/12)*r(1:3);", "elseif s == 0",
                    "    w = theta*r(1:3);", "else", "    w = (theta/s)*r(1:3);", "end"]),
-        MFunction("moved", "m", ["a", "e"], ["a e normalized, in the hemisphere of a."],
+        MFunction("moved", "m", ["a", "e"], ["a e normalized, in the hemisphere of a (SE(3), as Pinocchio)."],
                   ["m = quaternion_multiply(a, e);", "m = m / norm(m);", "if dot(m, a) < 0", "    m = -m;", "end"]),
         MFunction("se3_exp", "[e, translation]", ["twist"], ["The rotation and translation of exp(twist), "
                                                              "twist = (v; w) in the moving frame."],
@@ -84,7 +92,8 @@ def _manifold_functions(derivation: Derivation) -> list[MFunction]:
                      f"out({qi + 3}:{qi + 6}) = 0.5*quaternion_multiply({quaternion}, [v({vi + 3}:{vi + 5}); 0]);"]
         else:   # spherical
             quaternion = f"q({qi}:{qi + 3})"
-            integrate += [f"out({qi}:{qi + 3}) = moved({quaternion}, rotation_exp(v({vi}:{vi + 2})*dt));"]
+            integrate += [f"m = quaternion_multiply({quaternion}, rotation_exp(v({vi}:{vi + 2})*dt));",
+                          f"out({qi}:{qi + 3}) = m / norm(m);   % SO(3): no change of hemisphere, as Pinocchio"]
             difference += [f"inverse = [-q0({qi}:{qi + 2}); q0({qi + 3})] / sum(q0({qi}:{qi + 3}).^2);",
                            f"r = quaternion_multiply(inverse, q1({qi}:{qi + 3}));", "r = r / norm(r);",
                            f"v({vi}:{vi + 2}) = rotation_log(r);"]
