@@ -243,15 +243,46 @@ def _bad(tmp_path: Path, text: str) -> list[str]:
     return [line.removeprefix(f"{path}:") for line in result.stderr.splitlines()]
 
 
-def test_a_floating_joint_only_joins_the_world_to_the_root(tmp_path):
-    inner = BOX.replace("{name: q2, type: revolute", "{name: q2, type: floating").replace(", axis: [0, 1, 0], effort: tau2",
-                                                                                        "")
-    assert _bad(tmp_path, inner) == ["13:40: joints[1].parent: a floating joint joins the world to the robot's root "
-                                     "link: its parent must be 'world', got 'base' (floating joints elsewhere in the "
-                                     "tree are not built yet, issue 30)"]
-    two_roots = BOX.replace("parent: base, child: arm", "parent: world, child: arm")
-    assert _bad(tmp_path, two_roots) == ["13:40: joints[1].parent: the root link 'base' floats (joint 'root'), so no "
-                                         "other joint may hang from the world; make 'arm' hang from a link of the robot"]
+BELOW = BOX.replace("  - {name: root, type: floating, parent: world, child: base}\n",
+                    "  - {name: root, type: revolute, parent: world, child: base, axis: [0.3, 0.2, 0.9], effort: tau1}\n") \
+    .replace("{name: q2, type: revolute", "{name: q2, type: floating").replace(", axis: [0, 1, 0], effort: tau2", "")
+TWO_BODIES = BOX.replace("parent: base, child: arm, origin: {xyz: [0, 0, 0.4]}, axis: [0, 1, 0], effort: tau2}",
+                         "parent: world, child: arm, origin: {xyz: [0, 0, 0.4]}}").replace("{name: q2, type: revolute",
+                                                                                          "{name: q2, type: floating")
+
+
+@pytest.mark.pinocchio
+@pytest.mark.parametrize("text", [BELOW, TWO_BODIES], ids=["below_a_link", "two_free_bodies"])
+def test_floating_joints_anywhere_as_in_pinocchio(text, tmp_path):
+    """A floating joint below a revolute joint (a body free relative to a turning link), and
+    two free bodies hanging from the world: as Pinocchio's free flyers there; neither floats as
+    a whole (no momentum row), and solve's note says so."""
+    path = tmp_path / "robot.yaml"
+    path.write_text(text)
+    robot = dynderive.load_robot(path)
+    assert not robot.floating_base and robot.floating
+    model, qp, vp = _pinocchio(robot)
+    _compare(robot, _module(robot, tmp_path), model, qp, vp, seed=3)
+    _, result = _solve(tmp_path, text, "--code")
+    assert result.exit_code == 0 and "note: box has floating joints (NQ = " in result.stderr, result.output
+    rows = [row.name for row in run_floating_checks(dynderive.derive(robot), render_floating_code(dynderive.derive(robot)),
+                                                      states=6)]
+    assert MOMENTUM not in rows and POWER_BALANCE in rows
+
+
+@pytest.mark.pinocchio
+def test_a_urdf_floating_joint_below_a_link_as_in_pinocchio(tmp_path):
+    """``<joint type="floating">`` between two links: Pinocchio's URDF parser makes it a free flyer too."""
+    path = Path(__file__).parent / "floating_elbow.urdf"
+    robot = dynderive.load_robot(path)
+    model = pin.buildModelFromUrdf(str(path))
+    where = offsets(robot)
+    qp, vp = [], []
+    for name, joint in zip(model.names[1:], model.joints[1:]):
+        qp.extend(range(where.q[name], where.q[name] + joint.nq))
+        vp.extend(range(where.v[name], where.v[name] + joint.nv))
+    assert [j.shortname() for j in model.joints[1:]] == ["JointModelRY", "JointModelFreeFlyer"]
+    _compare(robot, _module(robot, tmp_path), model, np.array(qp), np.array(vp), seed=8)
 
 
 def test_floating_joint_fields_that_are_not_built(tmp_path):

@@ -21,7 +21,8 @@ def floating_note(robot: Robot) -> str:
     """The note ``solve`` prints for a floating-base robot: what its module has and what not."""
     from ..render.floating_code import NOT_BUILT as MISSING
 
-    what = "has a floating base" if robot.floating_base else "has spherical joints"
+    what = ("has a floating base" if robot.floating_base else "has floating joints"
+            if any(j.type == "floating" for j in robot.joints) else "has spherical joints")
     return (f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)} coordinates, NV = "
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "

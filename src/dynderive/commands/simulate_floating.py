@@ -151,7 +151,8 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
         files[csv] = floating_csv(derivation, source, trajectory).encode()
     write_all(files)
     relative = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])) / max(abs(trajectory.energy[0]), 1e-12))
-    kind = "floating base" if model.floating_base else "spherical joints"
+    kind = ("floating base" if model.floating_base else "floating joints"
+            if any(j.type == "floating" for j in model.joints) else "spherical joints")
     typer.echo(f"simulated {duration:g} s of {model.name} ({kind}, on the manifold): "
                f"largest relative energy change {relative:.3g}")
     for path in files:

@@ -1,7 +1,8 @@
 """Where a ``floating`` or ``spherical`` joint may stand (part of validation: ``schema.validate``
-calls ``check_floating``): a floating joint only between the world and the root link of a 3-D
-tree, a spherical joint anywhere in a 3-D tree (issue 30 builds the rest later: planar floating
-joints, floating joints elsewhere, loops on a robot with either).
+calls ``check_floating``): anywhere in a 3-D tree, as in Pinocchio (a floating joint between
+the world and the root link floats the robot's base; one from the world to each of several
+links, several free bodies; one below a link, a body free relative to it); not in a planar
+robot, nor on a robot with loops (issue 30 builds those later).
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "
 
 
 def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool) -> None:
-    """Every ``floating`` joint joins ``world`` to the one root link, and ``spherical`` joints
-    stand anywhere, in a 3-D robot without loops (both take the floating-base module)."""
+    """``floating`` and ``spherical`` joints stand anywhere in a 3-D robot without loops (both
+    take the floating-base module)."""
     spherical = [(i, j) for i, j in enumerate(joints) if j.type == "spherical"]
     if spherical and planar:
         for i, _ in spherical:
@@ -36,20 +37,6 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
             v.error(("joints", i, "type"), f"{v.label(('joints', i, 'type'))}: planar floating joints are not "
                     "built yet (issue 30)")
         return
-    for i, joint in floating:
-        if joint.parent != "world":
-            v.error(("joints", i, "parent"), f"{v.label(('joints', i, 'parent'))}: a floating joint joins the world "
-                    f"to the robot's root link: its parent must be 'world', got '{joint.parent}' (floating joints "
-                    "elsewhere in the tree are not built yet, issue 30)")
-    roots = [(i, j) for i, j in enumerate(joints) if j.parent == "world"]
-    first = next(((i, j) for i, j in floating if j.parent == "world"), None)
-    if first is not None and len(roots) > 1:
-        index, joint = first
-        for i, other in roots:
-            if i != index:
-                v.error(("joints", i, "parent"), f"{v.label(('joints', i, 'parent'))}: the root link "
-                        f"'{joint.child}' floats (joint '{joint.name}'), so no other joint may hang from the "
-                        f"world; make '{other.child}' hang from a link of the robot")
     _reserved(v, top, joints, "a floating-base robot")
 
 

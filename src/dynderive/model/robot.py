@@ -193,8 +193,10 @@ class Robot:
 
     @property
     def floating_base(self) -> bool:
-        """Whether the root link floats (a ``floating`` joint to the world)."""
-        return any(j.type == "floating" for j in self.joints)
+        """Whether the robot floats as a whole: its one joint to the world is ``floating``
+        (then, without gravity, its momentum is conserved)."""
+        roots = [j for j in self.joints if j.parent == "world"]
+        return len(roots) == 1 and roots[0].type == "floating"
 
     @property
     def quaternion_starts(self) -> tuple[int, ...]:

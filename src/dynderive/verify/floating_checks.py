@@ -182,7 +182,7 @@ def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, value
     conservation there is conservation in the world). The floating joint's rows of ``M v`` are
     the momentum in the base's own frame, about its origin; rotated and moved by the base's pose."""
     where_q, where_v = robot.offsets()
-    joint = next(j for j in robot.joints if j.type == "floating")
+    joint = next(j for j in robot.joints if j.parent == "world")   # the robot's one joint to the world
     qi, vi = where_q[joint.name], where_v[joint.name]
     local = np.einsum("...ij,...j->...i", module.mass_matrix(q, **values)[..., vi:vi + 6, :], v)
     quaternion, position = q[..., qi + 3:qi + 7], q[..., qi:qi + 3]
