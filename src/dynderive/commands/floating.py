@@ -1,6 +1,6 @@
 """``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
-(``render/floating_code.py``) and one note saying what is not built yet; every other output
-is refused (exit 2) before any work."""
+(``render/floating_code.py``), its JAX module (``render/floating_jax.py``) and one note saying
+what is not built yet; every other output is refused (exit 2) before any work."""
 
 from __future__ import annotations
 
@@ -23,18 +23,18 @@ def floating_note(robot: Robot) -> str:
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
-            "difference (check runs its rows); not built yet "
+            "difference (check runs its rows), and so has its JAX module (--jax); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c, --c-extension, --matlab, --jax, and the commands linearize and identify (simulate integrates its "
+            "--c, --c-extension, --matlab, and the commands linearize and identify (simulate integrates its "
             "module on the manifold)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
                    template_dir: Path | None, quiet: bool, echo: Callable[[str], None],
                    progress: Callable[[str], None], tests: bool = False) -> None:
-    """Write ``<name>_dynamics.py`` (``--code``) and its checks (``--tests``); refuse every
-    other output flag, and a run without ``--code`` (printing the equations needs the symbolic
-    derivation)."""
+    """Write ``<name>_dynamics.py`` (``--code``), its checks (``--tests``) and
+    ``<name>_dynamics_jax.py`` (``--jax``); refuse every other output flag, and a run without
+    ``--code`` or ``--jax`` (printing the equations needs the symbolic derivation)."""
     from .. import derive
     from ..render.floating_code import render_floating_code, render_floating_code_tests
     from .output import write_all
@@ -42,16 +42,23 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
     if not quiet:
         echo(floating_note(robot))
     refused = [problem(f"--{flag.replace('_', '-')}", f"--{flag.replace('_', '-')}: {NOT_BUILT}")
-               for flag, wanted in flags.items() if wanted]
+               for flag, wanted in flags.items() if wanted and flag != "jax"]
     if refused:
         raise InputError(refused)
-    if not code:
+    if not (code or flags.get("jax")):
         raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
-                                           "NumPy module"))
+                                           "NumPy module, --jax its JAX module"))
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
-    progress("generating code (floating base)")
-    files = {out / f"{robot.name}_dynamics.py": render_floating_code(derivation, template_dir).encode()}
-    if tests:
+    files = {}
+    if flags.get("jax"):
+        from ..render.floating_jax import render_floating_jax
+
+        progress("generating JAX (floating base)")
+        files[out / f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
+    if code:
+        progress("generating code (floating base)")
+        files[out / f"{robot.name}_dynamics.py"] = render_floating_code(derivation, template_dir).encode()
+    if tests and code:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
     write_all(files)
     if not quiet:
@@ -66,11 +73,20 @@ def refuse_floating(robot: Robot, argument: str, command: str) -> None:
 
 
 def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
-    """``build``'s outputs of a floating-base robot: its NumPy module; any other kind refused."""
+    """``build``'s outputs of a floating-base robot: its NumPy module and its JAX module; any
+    other kind refused."""
     from .. import derive
     from ..render.floating_code import render_floating_code
+    from ..render.floating_jax import render_floating_jax
 
-    refused = [kind for kind in kinds if kind not in ("code", "floating_base") and not kind.startswith("digits:")]
+    refused = [kind for kind in kinds if kind not in ("code", "jax", "floating_base") and not kind.startswith("digits:")]
     if refused:
-        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module"))
-    return {f"{robot.name}_dynamics.py": render_floating_code(derive(robot), template_dir).encode()}
+        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module, "
+                                         "--jax its JAX module"))
+    derivation = derive(robot)
+    files = {}
+    if "code" in kinds:
+        files[f"{robot.name}_dynamics.py"] = render_floating_code(derivation, template_dir).encode()
+    if "jax" in kinds:
+        files[f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
+    return files
