@@ -226,8 +226,7 @@ def check(
         from ..render.floating_code import render_floating_code
         from ..verify.floating_checks import run_floating_checks
 
-        source = render_floating_code(derivation)
-        rows = run_floating_checks(derivation, source, states=states)
+        rows = run_floating_checks(derivation, source := render_floating_code(derivation), states=states)
     else:
         source = render_code(derivation)
         progress("checking")
