@@ -362,3 +362,27 @@ def test_solve_build_and_check_write_and_check_the_module(tmp_path):
     jax_rows = [name for name in rows if name.startswith("JAX ")]
     assert len(jax_rows) == 17 and all(rows[name] == "pass" for name in jax_rows)
     assert "JAX frame_jacobian (frame tip) == NumPy module" in rows and "JAX integrate == NumPy module" in rows
+
+
+HOSTILE = 'a """ b\n import os\r\\ \' # c \u202e\x00 \U0001f600 "q'
+
+
+def test_hostile_title_and_parameters_named_like_the_imports(tmp_path):
+    """A title that would end the docstring, and a parameter named ``jnp`` (the module imports
+    ``jax.numpy`` as ``_jnp``): encoded, read back exactly, and the module agrees."""
+    title = HOSTILE.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r") \
+        .replace("\x00", "\\0").replace("\u202e", "\\u202e").replace("\U0001f600", "\\U0001f600")
+    text = BOX.replace("title: A free box with an arm", f'title: "{title}"').replace("  m: {", "  jnp: {") \
+        .replace("mass: m,", "mass: jnp,")
+    path = tmp_path / "box.yaml"
+    path.write_text(text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert derivation.robot.title == HOSTILE
+    source = render_floating_jax(derivation)
+    assert ast.get_docstring(ast.parse(source), clean=False).startswith(f"Equations of motion of {HOSTILE} ")
+    module = import_code(source, tmp_path, "hostile_floating_dynamics_jax")
+    numpy_module = import_code(render_floating_code(derivation), tmp_path, "hostile_floating_dynamics")
+    q = numpy_module.integrate(numpy_module.neutral_configuration(), np.linspace(-1, 1, numpy_module.NV))
+    _close(module.mass_matrix(q, jnp=1.7), numpy_module.mass_matrix(q, jnp=1.7), "mass_matrix with jnp = 1.7")
+    _close(module.parameter_vector(jnp=1.7), numpy_module.parameter_vector(jnp=1.7), "parameter_vector")
+    assert not np.allclose(module.mass_matrix(q, jnp=1.7), module.mass_matrix(q))
