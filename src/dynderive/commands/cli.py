@@ -215,7 +215,7 @@ def check(
         require_jax()
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    if model.floating and backend != "numpy":
+    if model.floating and backend == "c":
         raise InputError(problem("--backend", f"--backend {backend}: {NOT_BUILT}"))
     model = with_parameters(model, robot, param or [], required=False, command="check")
     _notes(model, quiet)
@@ -226,7 +226,7 @@ def check(
         from ..render.floating_code import render_floating_code
         from ..verify.floating_checks import run_floating_checks
 
-        rows = run_floating_checks(derivation, render_floating_code(derivation), states=states)
+        rows = run_floating_checks(derivation, source := render_floating_code(derivation), states=states)
     else:
         source = render_code(derivation)
         progress("checking")
@@ -239,10 +239,11 @@ def check(
         progress("checking the compiled module")
         rows += compiled_checks(derivation, source, compiled, states=states)
     if backend == "jax":
+        from ..verify.floating_jax import floating_jax_checks
         from ..verify.jax_backend import jax_checks
 
         progress("checking the JAX module")
-        rows += jax_checks(derivation, source, states=states)
+        rows += (floating_jax_checks if model.floating else jax_checks)(derivation, source, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,

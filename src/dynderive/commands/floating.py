@@ -1,6 +1,6 @@
 """``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
-(``render/floating_code.py``) and one note saying what is not built yet; every other output
-is refused (exit 2) before any work."""
+(``render/floating_code.py``), its JAX module (``render/floating_jax.py``) and one note saying
+what is not built yet; every other output is refused (exit 2) before any work."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from .options import problem
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots (issue 30)"
 #: The output flags (besides --code) a floating-base robot has.
-BUILT = ("c", "matlab")
+BUILT = ("c", "matlab", "jax")
 
 
 def floating_note(robot: Robot) -> str:
@@ -27,18 +27,19 @@ def floating_note(robot: Robot) -> str:
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
-            "difference (check runs its rows), and so have its C (--c) and its MATLAB/Octave package (--matlab); not built yet "
+            "difference (check runs its rows), and so have its C (--c), its MATLAB/Octave package (--matlab) and its "
+            "JAX module (--jax); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c-extension, --jax, the MATLAB derivation script, and the commands linearize and identify (simulate integrates its "
+            "--c-extension, the MATLAB derivation script, and the commands linearize and identify (simulate integrates its "
             "module on the manifold)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
                    template_dir: Path | None, quiet: bool, echo: Callable[[str], None],
                    progress: Callable[[str], None], tests: bool = False) -> None:
-    """Write ``<name>_dynamics.py`` (``--code``) and its checks (``--tests``); refuse every
-    other output flag, and a run without ``--code`` (printing the equations needs the symbolic
-    derivation)."""
+    """Write ``<name>_dynamics.py`` (``--code``), its checks (``--tests``) and
+    ``<name>_dynamics_jax.py`` (``--jax``); refuse every other output flag, and a run without
+    ``--code`` or ``--jax`` (printing the equations needs the symbolic derivation)."""
     from .. import derive
     from ..render.floating_code import render_floating_code, render_floating_code_tests
     from .output import write_all
@@ -51,10 +52,16 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         raise InputError(refused)
     if not (code or any(flags.get(flag) for flag in BUILT)):
         raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
-                                           "NumPy module, --c its C, --matlab its MATLAB/Octave package"))
+                                           "NumPy module, --c its C, --matlab its MATLAB/Octave package, --jax its "
+                                           "JAX module"))
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
-    progress("generating code (floating base)")
     files = {}
+    if flags.get("jax"):
+        from ..render.floating_jax import render_floating_jax
+
+        progress("generating JAX (floating base)")
+        files[out / f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
+    progress("generating code (floating base)")
     if code:
         files[out / f"{robot.name}_dynamics.py"] = render_floating_code(derivation, template_dir).encode()
     if flags.get("c"):
@@ -67,7 +74,7 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         from ..render.matlab_floating import render_floating_matlab
 
         files |= {out / path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
-    if tests:
+    if tests and code:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
     write_all(files)
     if not quiet:
@@ -82,14 +89,16 @@ def refuse_floating(robot: Robot, argument: str, command: str) -> None:
 
 
 def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
-    """``build``'s outputs of a floating-base robot: its NumPy module; any other kind refused."""
+    """``build``'s outputs of a floating-base robot: its NumPy module and its JAX module; any
+    other kind refused."""
     from .. import derive
     from ..render.floating_code import render_floating_code
+    from ..render.floating_jax import render_floating_jax
 
     refused = [kind for kind in kinds if kind not in ("code", "floating_base", *BUILT) and not kind.startswith("digits:")]
     if refused:
         raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module, "
-                                         "--c its C"))
+                                         "--c its C, --matlab its MATLAB/Octave package, --jax its JAX module"))
     derivation = derive(robot)
     files = {}
     if "code" in kinds:
@@ -103,4 +112,6 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
         from ..render.matlab_floating import render_floating_matlab
 
         files |= {path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
+    if "jax" in kinds:
+        files[f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
     return files
