@@ -96,13 +96,17 @@ def _solo12() -> Path:
 
 @cache
 def _modules(robot: str, directory: str):
-    """(NumPy module, JAX module) of ``robot``: "box", "tree" or "solo12"."""
+    """(NumPy module, JAX module) of ``robot``: "box", "tree", "spherical" (random spherical
+    joints below a floating base: ``test_spherical``'s trees) or "solo12"."""
     folder = Path(directory)
     if robot == "solo12":
         loaded = dynderive.load_robot(_solo12(), floating_base=True)
     else:
+        from test_spherical import _tree as spherical_tree
+
         path = folder / f"{robot}.yaml"
-        path.write_text(BOX if robot == "box" else _floating_tree(7, 3))
+        path.write_text({"box": BOX, "tree": None, "spherical": None}[robot] or
+                        (_floating_tree(7, 3) if robot == "tree" else spherical_tree(5, True)))
         loaded = dynderive.load_robot(path)
     derivation = dynderive.derive(loaded)
     name = loaded.name
@@ -184,7 +188,7 @@ def test_solo12_agrees_with_numpy(folder):
     assert _agree(numpy_module, jax_module, seed=12) >= 17 + 3 * (len(jax_module.FRAMES) - 1)
 
 
-@pytest.mark.parametrize("robot", ["tree", "box"])
+@pytest.mark.parametrize("robot", ["tree", "box", "spherical"])
 def test_small_robots_agree_with_numpy(robot, folder):
     """Eagerly here; under ``jax.jit`` in ``test_large_traced_batch_holds_values_and_agrees``."""
     numpy_module, jax_module = _modules(robot, folder)
@@ -212,7 +216,7 @@ def test_jit_vmap_and_parameters(folder):
            "jit over parameters")
 
 
-@pytest.mark.parametrize("robot", ["box", "tree"])
+@pytest.mark.parametrize("robot", ["box", "tree", "spherical"])
 def test_jacfwd_through_integrate_is_linearize(robot, folder):
     """A (2 NV x 2 NV) on the tangent space: d forward_dynamics(integrate(q, dq), qd + dqd)/d(dq, dqd)
     at 0 is its lower half; d forward_dynamics/du is B's."""
