@@ -94,7 +94,7 @@ def test_expression_attack_in_robot_file_runs_nothing(tmp_path):
     result = runner.invoke(app, ["solve", str(path), "--code", "--out", str(tmp_path / "out")])
     assert result.exit_code == 2
     assert "only calls of plain function names are allowed" in result.stderr
-    assert time.perf_counter() - start < 5
+    assert time.perf_counter() - start < 30   # a bound on runaway work, not a speed test
     assert not marker.exists() and not (tmp_path / "out").exists()
 
 
@@ -108,7 +108,7 @@ def test_yaml_alias_bomb_is_refused_fast(tmp_path):
     result = runner.invoke(app, ["solve", str(path)])
     assert result.exit_code == 2
     assert "document expands to more than 50000 values" in result.stderr
-    assert time.perf_counter() - start < 5
+    assert time.perf_counter() - start < 30   # a bound on runaway work, not a speed test
 
 
 def test_outputs_are_written_atomically_without_temporaries(tmp_path):

@@ -296,15 +296,20 @@ def test_urdf_graph_errors_are_positioned(tmp_path, body, expected):
     assert result.stderr.strip() == f"{path}:{expected}"
 
 
-def test_long_chain_of_fixed_joints_is_merged_quickly(tmp_path):
-    """3000 fixed joints in series (no recursion, linear-time cycle check)."""
-    import time
+def test_long_chain_of_fixed_joints_is_merged_without_recursion(tmp_path):
+    """3000 fixed joints in series, read with Python's recursion limit at 300: nothing recurses
+    along the chain (merging, the cycle check). Its speed is not timed here (a loaded machine
+    makes a timed test flaky: benchmarks measure speed)."""
+    import sys
 
     chain = "".join(f'  <link name="x{i}"/>\n' for i in range(3000))
     chain += '  <joint name="f0" type="fixed"><parent link="a"/><child link="x0"/></joint>\n'
     chain += "".join(f'  <joint name="f{i}" type="fixed"><parent link="x{i - 1}"/><child link="x{i}"/>'
                      '<origin rpy="0 0 0.1"/></joint>\n' for i in range(1, 3000))
-    start = time.process_time()   # CPU time: the work is in-process, a loaded machine's other jobs are not
-    _, doc = _read(LINK + JOINT.format(type="revolute", extra="") + chain, tmp_path)
-    assert time.process_time() - start < 2
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(300)
+    try:
+        _, doc = _read(LINK + JOINT.format(type="revolute", extra="") + chain, tmp_path)
+    finally:
+        sys.setrecursionlimit(limit)
     assert len(doc.data["joints"]) == 1
