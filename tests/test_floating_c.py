@@ -11,7 +11,6 @@ Skipped without a C compiler, required when CI is set (as ``test_c_target.py``).
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -24,7 +23,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.c_floating import render_floating_c
-from dynderive.render.floating_code import render_floating_code
+from dynderive.verify.floating_checks import random_configurations
 
 CC = shutil.which("gcc") or shutil.which("cc")
 CXX = shutil.which("g++")
@@ -33,7 +32,7 @@ if CC is None:
         raise RuntimeError("CI must run the C target tests, but no C compiler (gcc or cc) was found")
     pytest.skip("no C compiler", allow_module_level=True)
 
-from test_floating_base import BOX, _example_robot, _floating_tree  # noqa: E402
+from test_floating_base import BOX, _example_robot, _floating_tree, _module  # noqa: E402
 from test_spherical import _tree as _spherical_tree  # noqa: E402
 
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wshadow"]
@@ -80,15 +79,6 @@ class Library:
         return result, outs
 
 
-def _module(derivation, directory: Path):
-    path = directory / f"{derivation.robot.name}_dynamics.py"
-    path.write_text(render_floating_code(derivation))
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def _close(actual, expected, what: str) -> None:
     actual, expected = np.asarray(actual, dtype=float).ravel(), np.asarray(expected, dtype=float).ravel()
     assert actual.shape == expected.shape, what
@@ -97,17 +87,9 @@ def _close(actual, expected, what: str) -> None:
     assert np.all(np.isfinite(actual)) and error <= RTOL * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
 
 
-def _configuration(module, rng) -> np.ndarray:
-    """A random configuration: uniform entries, each quaternion a random unit quaternion."""
-    q = module.neutral_configuration() + rng.uniform(-1.2, 1.2, module.NQ)
-    for start in [s + 3 for s, _ in module._FLOATING] + [s for s, _ in module._SPHERICAL]:
-        quaternion = rng.normal(size=4)
-        q[start : start + 4] = quaternion / np.linalg.norm(quaternion)
-    return q
-
-
-def _agree(library: Library, module, seed: int, states: int = 3, p=None, values: dict | None = None) -> None:
-    """Every C function against the NumPy module at random full-precision states."""
+def _agree(library: Library, module, robot, seed: int, states: int = 3, p=None, values: dict | None = None) -> None:
+    """Every C function against the NumPy module at random full-precision states (random unit
+    quaternions)."""
     rng = np.random.default_rng(seed)
     nq, nv, nu = module.NQ, module.NV, len(module.EFFORTS)
     values = values or {}
@@ -117,7 +99,7 @@ def _agree(library: Library, module, seed: int, states: int = 3, p=None, values:
     _, (pi,) = library.call("parameter_vector", [], (count,), p)
     _close(pi, module.parameter_vector(**values), "parameter_vector")
     for _ in range(states):
-        q, q1 = _configuration(module, rng), _configuration(module, rng)
+        q, q1 = random_configurations(robot, rng, 2)
         qd, qdd, u = rng.normal(size=nv), rng.normal(size=nv), rng.normal(size=nu)
         for function, inputs, sizes, expected in (
                 ("mass_matrix", [q], (nv * nv,), module.mass_matrix(q, **values)),
@@ -158,7 +140,7 @@ def _agree(library: Library, module, seed: int, states: int = 3, p=None, values:
 def test_solo12_agrees_with_the_numpy_module(tmp_path):
     robot = dynderive.load_robot(_example_robot("solo_description/robots/solo12.urdf"), floating_base=True)
     derivation = dynderive.derive(robot)
-    _agree(Library(derivation, tmp_path), _module(derivation, tmp_path), seed=1)
+    _agree(Library(derivation, tmp_path), _module(derivation.robot, tmp_path), derivation.robot, seed=1)
 
 
 @pytest.mark.parametrize("seed", [0, 3])
@@ -166,7 +148,7 @@ def test_random_floating_trees_agree_with_the_numpy_module(seed, tmp_path):
     path = tmp_path / "floating_tree.yaml"
     path.write_text(_floating_tree(seed))
     derivation = dynderive.derive(dynderive.load_robot(path))
-    _agree(Library(derivation, tmp_path), _module(derivation, tmp_path), seed=seed)
+    _agree(Library(derivation, tmp_path), _module(derivation.robot, tmp_path), derivation.robot, seed=seed)
 
 
 @pytest.mark.parametrize("floating", [False, True])
@@ -175,14 +157,14 @@ def test_random_trees_with_spherical_joints_agree_with_the_numpy_module(floating
     path.write_text(_spherical_tree(7, floating))
     derivation = dynderive.derive(dynderive.load_robot(path))
     assert any(j.type == "spherical" for j in derivation.robot.joints)
-    _agree(Library(derivation, tmp_path), _module(derivation, tmp_path), seed=7)
+    _agree(Library(derivation, tmp_path), _module(derivation.robot, tmp_path), derivation.robot, seed=7)
 
 
 def test_parameters_struct_and_a_mass_matrix_that_is_not_positive_definite(tmp_path):
     (tmp_path / "box.yaml").write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(tmp_path / "box.yaml"))
-    library, module = Library(derivation, tmp_path, cxx=True), _module(derivation, tmp_path)
-    _agree(library, module, seed=5, p=[2.5, 9.7, 0.0], values={"m": 2.5, "g": 9.7})
+    library, module = Library(derivation, tmp_path, cxx=True), _module(derivation.robot, tmp_path)
+    _agree(library, module, derivation.robot, seed=5, p=[2.5, 9.7, 0.0], values={"m": 2.5, "g": 9.7})
     q, nv = module.neutral_configuration(), module.NV
     for function, sizes in (("forward_dynamics", (nv,)), ("linearize", (4 * nv * nv, 2 * nv))):
         result, outs = library.call(function, [q, np.zeros(nv), np.zeros(1)], sizes, p=[-1.0, 9.81, 0.0])

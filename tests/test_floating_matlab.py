@@ -8,7 +8,6 @@ Needs GNU Octave: skipped locally without it, required in CI (CI=true)."""
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -17,35 +16,18 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.floating_code import render_floating_code
 from dynderive.render.matlab_floating import render_floating_matlab
-from test_floating_base import BOX, _floating_tree
+from dynderive.verify.floating_checks import random_configurations
+from test_floating_base import BOX, _floating_tree, _module
 from test_matlab_numeric import _Calls, _octave, _vector, needs_octave
 from test_spherical import _tree as _spherical_tree
-
-
-def _module(derivation, directory: Path):
-    path = directory / f"{derivation.robot.name}_dynamics.py"
-    path.write_text(render_floating_code(derivation))
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def _configuration(module, rng) -> np.ndarray:
-    q = module.neutral_configuration() + rng.uniform(-1.2, 1.2, module.NQ)
-    for start in [s + 3 for s, _ in module._FLOATING] + [s for s, _ in module._SPHERICAL]:
-        quaternion = rng.normal(size=4)
-        q[start : start + 4] = quaternion / np.linalg.norm(quaternion)
-    return q
 
 
 def _agree(derivation, directory: Path, seed: int, values: dict | None = None) -> None:
     for path, text in render_floating_matlab(derivation).items():
         (directory / path).parent.mkdir(parents=True, exist_ok=True)
         (directory / path).write_text(text)
-    module, name = _module(derivation, directory), derivation.robot.name
+    module, name = _module(derivation.robot, directory), derivation.robot.name
     values = values or {}
     calls = _Calls(name)
     calls.lines.append(f"p = {name}.parameters();")
@@ -55,7 +37,7 @@ def _agree(derivation, directory: Path, seed: int, values: dict | None = None) -
     rng = np.random.default_rng(seed)
     nv, nu = module.NV, len(module.EFFORTS)
     for k in range(2):
-        q, q1 = _configuration(module, rng), _configuration(module, rng)
+        q, q1 = random_configurations(derivation.robot, rng, 2)
         qd, qdd, u = rng.normal(size=nv), rng.normal(size=nv), rng.normal(size=nu)
         Q, Q1, QD, QDD, U = (_vector(a) for a in (q, q1, qd, qdd, u))
         calls.add(f"M{k}", f"mass_matrix({Q}, p)", module.mass_matrix(q, **values))

@@ -213,8 +213,11 @@ def parameters_function(derivation: Derivation) -> MFunction:
     return MFunction("parameters", "p", [], help_lines, body)
 
 
-def render_matlab(derivation: Derivation, template_dir: str | Path | None = None) -> dict[str, str]:
-    """The package ``+<name>/``: {relative path: text}, nothing written."""
+def render_matlab(derivation: Derivation, template_dir: str | Path | None = None,
+                  functions: list[MFunction] | None = None) -> dict[str, str]:
+    """The package ``+<name>/``: {relative path: text}, nothing written. ``functions``: the
+    numeric functions (default ``numeric_functions``; a floating-base robot's are
+    ``matlab_floating.floating_numeric_functions``)."""
     check_matlab_names(derivation.robot)
     from .._version import __version__
 
@@ -222,7 +225,8 @@ def render_matlab(derivation: Derivation, template_dir: str | Path | None = None
     context = {"title": matlab_comment(robot.title), "source": matlab_comment(Path(robot.source).name),
                "generator": matlab_comment(f"dynderive {__version__}"), "name": Code(robot.name)}
     files = {}
-    for function in [parameters_function(derivation), *numeric_functions(derivation)]:
+    numeric = numeric_functions(derivation) if functions is None else functions
+    for function in [parameters_function(derivation), *numeric]:
         files[f"+{robot.name}/{function.name}.m"] = render("code", FUNCTION_TEMPLATE, context | {"f": function},
                                                             template_dir)
     return dict(sorted(files.items()))

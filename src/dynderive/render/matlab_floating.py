@@ -15,10 +15,8 @@ from pathlib import Path
 
 from ..derivation import Derivation
 from .c_floating import manifold_joints
-from .encode import Code
-from .environment import render
-from .matlab import FUNCTION_TEMPLATE, parameters_function
-from .matlab_names import check_matlab_names, matlab_comment, matlab_string
+from .matlab import render_matlab
+from .matlab_names import matlab_string
 from .matlab_print import (
     MFunction,
     Names,
@@ -218,17 +216,7 @@ def floating_numeric_functions(derivation: Derivation) -> list[MFunction]:
 
 def render_floating_matlab(derivation: Derivation, template_dir: str | Path | None = None) -> dict[str, str]:
     """A floating-base robot's package ``+<name>/``: {relative path: text}, nothing written."""
-    check_matlab_names(derivation.robot)
-    from .._version import __version__
-
-    robot = derivation.robot
-    context = {"title": matlab_comment(robot.title), "source": matlab_comment(Path(robot.source).name),
-               "generator": matlab_comment(f"dynderive {__version__}"), "name": Code(robot.name)}
-    files = {}
-    for function in [parameters_function(derivation), *floating_numeric_functions(derivation)]:
-        files[f"+{robot.name}/{function.name}.m"] = render("code", FUNCTION_TEMPLATE, context | {"f": function},
-                                                            template_dir)
-    return dict(sorted(files.items()))
+    return render_matlab(derivation, template_dir, floating_numeric_functions(derivation))
 
 
 __all__ = ["floating_numeric_functions", "render_floating_matlab"]
