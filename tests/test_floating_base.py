@@ -139,11 +139,12 @@ def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
     _compare(robot, _module(robot, tmp_path), model, np.array(qp), np.array(vp), seed=len(relative))
 
 
-def _floating_tree(seed: int) -> str:
-    """A random spatial tree (``random_robots3d``) hung from a floating base link of random
-    mass and full inertia, reached by a floating joint with a random origin."""
+def _floating_tree(seed: int, joints: int | None = None) -> str:
+    """A random spatial tree (``random_robots3d``, of ``joints`` joints: 2 to 5 at random when
+    not given) hung from a floating base link of random mass and full inertia, reached by a
+    floating joint with a random origin."""
     rng = random.Random(seed)
-    data = yaml.safe_load(random_spatial_tree(rng, rng.randint(2, 5)).yaml_text)
+    data = yaml.safe_load(random_spatial_tree(rng, joints or rng.randint(2, 5)).yaml_text)
     for joint in data["joints"]:
         if joint["parent"] == "world":
             joint["parent"] = "base"

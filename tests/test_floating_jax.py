@@ -17,13 +17,11 @@ import ast
 import importlib.metadata
 import inspect
 import os
-import random
 from functools import cache
 from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from typer.testing import CliRunner
 
 if os.environ.get("CI"):   # the JAX target's tests are required in CI (jax is in the test extra)
@@ -37,9 +35,9 @@ import dynderive  # noqa: E402
 from dynderive.commands.cli import app  # noqa: E402
 from dynderive.render.floating_code import render_floating_code  # noqa: E402
 from dynderive.render.floating_jax import render_floating_jax  # noqa: E402
+from test_floating_base import _floating_tree as _base_tree  # noqa: E402
 
 from conftest import import_code  # noqa: E402
-from random_robots3d import _random_inertia, random_spatial_tree  # noqa: E402
 
 RTOL = 1e-12
 runner = CliRunner()
@@ -63,24 +61,8 @@ frames:
 
 
 def _floating_tree(seed: int, joints: int) -> str:
-    """A random spatial tree (``random_robots3d``) hung from a floating base link of random
-    mass and full inertia, reached by a floating joint with a random origin (as in
-    ``test_floating_base.py``)."""
-    rng = random.Random(seed)
-    data = yaml.safe_load(random_spatial_tree(rng, joints).yaml_text)
-    for joint in data["joints"]:
-        if joint["parent"] == "world":
-            joint["parent"] = "base"
-    inertia = _random_inertia(rng)
-    data["links"].insert(0, {"name": "base", "mass": rng.uniform(0.5, 3.0),
-                             "com": [rng.uniform(-0.3, 0.3) for _ in range(3)],
-                             "inertia": [inertia[0][0], inertia[1][1], inertia[2][2], inertia[0][1], inertia[0][2],
-                                         inertia[1][2]]})
-    origin = {"xyz": [rng.uniform(-1, 1) for _ in range(3)], "rpy": [rng.uniform(-3, 3) for _ in range(3)]}
-    data["joints"].insert(rng.randrange(len(data["joints"]) + 1),
-                          {"name": "free", "type": "floating", "parent": "world", "child": "base", "origin": origin})
-    data["name"] = f"floating_tree_{seed}"
-    return yaml.safe_dump(data, sort_keys=False)
+    """``test_floating_base``'s random floating tree of ``joints`` joints, named by its seed."""
+    return _base_tree(seed, joints).replace("name: floating_tree\n", f"name: floating_tree_{seed}\n", 1)
 
 
 def _solo12() -> Path:

@@ -21,21 +21,12 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.floating_code import render_floating_code
 from dynderive.verify.floating_checks import MOMENTUM, pinocchio_floating_model, run_floating_checks
-from test_floating_base import _compare, _floating_tree
+from test_floating_base import _compare, _floating_tree, _module
 
 from random_robots3d import random_spatial_tree
 
 pin = pytest.importorskip("pinocchio")
 runner = CliRunner()
-
-
-def _module(robot, tmp_path: Path):
-    path = tmp_path / f"{robot.name}_dynamics.py"
-    path.write_text(render_floating_code(dynderive.derive(robot)))
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _spherical(data: dict, rng: random.Random, count: int) -> dict:
