@@ -160,8 +160,10 @@ def _linearize(derivation: Derivation, names: Names) -> MFunction:
 
 def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
     """Pose, Jacobian and Jdot qd of a frame: ``frame`` its name (a character vector) or its
-    1-based number in the robot file's order; anything else is an error."""
-    robot, n = derivation.robot, len(derivation.symbols.q)
+    1-based number in the robot file's order; anything else is an error. A floating-base
+    robot's frame programs are tuples ``(name, transform, jacobian, jacobian_dot_qd)`` and its
+    Jacobians have one column per velocity (NV), like a fixed-base robot's (n = NV)."""
+    robot, n = derivation.robot, len(derivation.symbols.qd)
     if not robot.frames:
         return []
     size, twist = (3, 3) if robot.planar else (4, 6)
@@ -181,10 +183,11 @@ def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
          f"FRAME_JACOBIAN_DOT_QD  Jdot(q, qd) qd of a frame, {twist} x 1 (its acceleration at qdd = 0)."),
     ]
     functions = []
-    for kind, out, vectors, targets, empty, summary in specs:
+    for position, (kind, out, vectors, targets, empty, summary) in enumerate(specs):
         body = [*prologue(derivation, vectors, len(vectors) + 2), *lookup, f"{out} = {empty};"]
         for index, frame in enumerate(derivation.frame_programs):
-            lines = program_body(names, getattr(frame, kind), targets)
+            program = frame[1 + position] if isinstance(frame, tuple) else getattr(frame, kind)
+            lines = program_body(names, program, targets)
             body += [f"{'if' if index == 0 else 'elseif'} isequal(index, {index + 1})", *("    " + x for x in lines)]
         body += ["else", f"    error('{pkg}:frame', 'no such frame: give its name or a number from 1 to {len(robot.frames)}');",
                  "end"]

@@ -15,8 +15,7 @@ from pathlib import Path
 
 from ..derivation import Derivation
 from .c_floating import manifold_joints
-from .matlab import render_matlab
-from .matlab_names import matlab_string
+from .matlab import _frame_functions, render_matlab
 from .matlab_print import (
     MFunction,
     Names,
@@ -114,35 +113,6 @@ def _manifold_functions(derivation: Derivation) -> list[MFunction]:
                    "at t = 0.", "", f"   ode45(@(t, x) [{name}.configuration_rate(x(1:{nq}), x({nq + 1}:end)); "
                    f"{name}.forward_dynamics(x(1:{nq}), x({nq + 1}:end), u, p)], tspan, x0)"], rate, local),
     ]
-
-
-def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
-    robot, nv = derivation.robot, len(derivation.symbols.qd)
-    if not robot.frames:
-        return []
-    listing = ", ".join(f.name for f in robot.frames)
-    lookup = ["if ischar(frame) || isstring(frame)", "    index = 0;"]
-    for i, f in enumerate(robot.frames):
-        lookup += [f"    if strcmp(frame, {matlab_string(f.name)})", f"        index = {i + 1};", "    end"]
-    lookup += ["else", "    index = frame;", "end"]
-    specs = [("transform", "T", ["q"], matrix_targets("T", 4, 4), "zeros(4, 4)",
-              "FRAME_TRANSFORM  Pose of a frame in the world, [R, p; 0, 1], 4 x 4."),
-             ("jacobian", "J", ["q"], matrix_targets("J", 6, nv), f"zeros(6, {nv})",
-              f"FRAME_JACOBIAN  World-aligned Jacobian of a frame, 6 x {nv}: rows (vx, vy, vz, wx, wy, wz)."),
-             ("jacobian_dot_qd", "a", ["q", "qd"], vector_targets("a", 6), "zeros(6, 1)",
-              "FRAME_JACOBIAN_DOT_QD  Jdot(q, qd) qd of a frame, 6 x 1 (its acceleration at qdd = 0).")]
-    functions = []
-    for position, (kind, out, vectors, targets, empty, summary) in enumerate(specs):
-        body = [*prologue(derivation, vectors, len(vectors) + 2), *lookup, f"{out} = {empty};"]
-        for index, frame in enumerate(derivation.frame_programs):
-            lines = program_body(names, frame[1 + position], targets)
-            body += [f"{'if' if index == 0 else 'elseif'} isequal(index, {index + 1})", *("    " + x for x in lines)]
-        body += ["else", f"    error('{robot.name}:frame', 'no such frame: give its name or a number from 1 to "
-                         f"{len(robot.frames)}');", "end"]
-        functions.append(MFunction(f"frame_{kind}", out, [*vectors, "frame", "p"],
-                                   [summary, "", f"   frame: its name, or its number in the robot file's order: {listing}"],
-                                   body))
-    return functions
 
 
 def floating_numeric_functions(derivation: Derivation) -> list[MFunction]:

@@ -68,6 +68,8 @@ class Numbers:
         self._shown: dict[sympy.Basic, sympy.Basic] = {}   # products as ``mul`` shows them
         self._kinds: dict[Rational, tuple[str, Decimal | None]] = {}
         self._split: dict[sympy.Basic, tuple[sympy.Basic, sympy.Basic]] = {}
+        self._added: dict[sympy.Basic, sympy.Basic | None] = {}   # sums as ``add`` shows them
+        self._constants: dict[sympy.Basic, Float | None] = {}
 
     # --- rationals -----------------------------------------------------------------------
     def _kind(self, r: Rational) -> tuple[str, Decimal | None]:
@@ -126,6 +128,12 @@ class Numbers:
 
     def constant(self, expr: sympy.Basic) -> Float | None:
         """The marker of a constant that does not print exactly (its value to D digits), or None."""
+        if expr in self._constants:
+            return self._constants[expr]
+        marker = self._constants[expr] = self._constant(expr)
+        return marker
+
+    def _constant(self, expr: sympy.Basic) -> Float | None:
         if not expr.is_number or self.exact(expr):
             return None
         value = expr.evalf(self.digits + 10)  # type: ignore[union-attr]
@@ -218,6 +226,12 @@ class Numbers:
         wrong one in ``-(1 - 2 sin(c)) x``); others as they are."""
         if not isinstance(expr, sympy.Add):
             return expr
+        if expr not in self._added:
+            collected = self._add(expr)
+            self._added[expr] = None if collected is expr else collected   # None: as it is
+        return self._added[expr] or expr
+
+    def _add(self, expr: sympy.Add) -> sympy.Basic:
         args: list[sympy.Basic] = []
         for term in expr.args:   # a term that prints as a sum (``mul``) joins this one
             shown = self.mul(term)
