@@ -199,6 +199,8 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert "not built yet for floating-base robots (issue 30): friction_forces" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
+    docstring = text.split('"""')[1]
+    assert "Not built yet for floating-base robots" in docstring and "\\n" not in docstring
     for present in ("def coriolis_matrix", "def linearize", "def regressor", "def parameter_vector"):
         assert present in text
     for absent in ("def friction_forces", "wrenches="):
