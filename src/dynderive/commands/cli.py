@@ -17,7 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
-from .floating import NOT_BUILT, refuse_floating
+from .floating import NOT_BUILT
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
@@ -398,6 +398,8 @@ def linearize(
                      "numbers (repeatable; parameters without a default take 1.0).")] = None,
     json_: Annotated[bool, typer.Option("--json", help="Print A and B as JSON.")] = False,
     latex: Annotated[bool, typer.Option("--latex", help="Print a LaTeX document of A and B.")] = False,
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
+                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """Linearize ROBOT's dynamics about a state: xdot = A dx + B du, x = (q, qd).
@@ -406,45 +408,9 @@ def linearize(
     and closed loops: the values, from the generated module's linearize (Newton-Euler
     differentiated line by line; with loops, the constrained solve).
     """
-    from .. import derive, load_robot
-    from ..render.code import render_code
-    from ..verify.checks import generated_module
-    from .linearize import (
-        equilibrium_efforts,
-        equilibrium_note,
-        linearization,
-        on_the_loops,
-        parse_at,
-        render_linearization,
-    )
+    from .linearize import run_linearize
 
-    progress = Progress(quiet)
-    model = load_robot(robot, size_limits=True)
-    refuse_floating(model, robot, "linearize")
-    model = with_parameters(model, robot, param or [], required=False, command="linearize")
-    _notes(model, quiet)
-    derivation = derive(model, progress=progress)
-    table = derivation.symbols
-    point, given, equilibrium = parse_at(at or [], [str(s) for s in table.q], [str(s) for s in table.qd],
-                                         list(table.efforts))
-    progress("generating code")
-    module = generated_module(render_code(derivation), model.name)
-    values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
-    if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
-        point, loop_notes = on_the_loops(module, point, given, values)
-        if not quiet:
-            for note in loop_notes:
-                typer.echo(f"note: {note}", err=True)
-    note = None
-    if equilibrium:
-        point["u"], note = equilibrium_efforts(module, point, values)
-    note = note or equilibrium_note(module, point, values)
-    if note is not None and not quiet:
-        typer.echo(f"note: {note}", err=True)
-    progress("linearizing")
-    result = linearization(derivation, module, point, values, equilibrium)
-    typer.echo(render_linearization(derivation, point, values, result, "json" if json_ else "latex" if latex else "text"),
-               nl=False)
+    run_linearize(robot, at or [], param or [], "json" if json_ else "latex" if latex else "text", quiet, floating_base)
 
 
 @app.command(cls=_Command)
@@ -457,57 +423,15 @@ def identify(
     states: Annotated[int | None, typer.Option("--states", help="Random states sampled (at least the number of "
                                                "regressor parameters).", show_default="4 per parameter, at least "
                                                "100")] = None,
+    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
+                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
     into the combinations the joint forces determine (Y pi = Y_base pi_base)."""
-    import json
+    from .identify import run_identify
 
-    from .. import derive, load_robot
-    from ..render.code import render_code
-    from ..verify.checks import generated_module
-
-    try:
-        import scipy  # noqa: F401
-    except ImportError:
-        raise ToolMissingError('identify needs SciPy: pip install "dynderive[simulate]"') from None
-    from ..verify.identification import base_parameters, fewest_states
-
-    progress = Progress(quiet)
-    model = load_robot(robot, size_limits=True)
-    refuse_floating(model, robot, "identify")
-    model = with_parameters(model, robot, param or [], required=True)
-    _notes(model, quiet)
-    if states is not None:
-        least = fewest_states(model)
-        if states < least:
-            raise InputError(problem("--states", f"expected at least {least} states for {model.name} (one per "
-                                      "regressor parameter: fewer can make the rank, and so the base parameters, "
-                                      f"come out too small), got {states}"))
-    derivation = derive(model, progress=progress)
-    progress("generating code")
-    module = generated_module(render_code(derivation), model.name)
-    progress("sampling the regressor")
-    values = {p.name: float(p.value) for p in model.parameters}
-    result = base_parameters(derivation, module, values, states)
-    if json_:
-        typer.echo(json.dumps({"robot": model.name, **result.as_dict()}, indent=2, allow_nan=False))
-        return
-    n = len(model.coordinates)
-    per_link = "4 per link (planar)" if model.planar else "10 per link"
-    typer.echo(f"{model.name}: regressor Y(q, qd, qdd) of shape ({n}, {len(result.names)}), "
-               f"parameters {per_link} then drives\n\nParameter vector pi:")
-    width = max(len(name) for name in result.names)
-    for name, value in zip(result.names, result.values):
-        typer.echo(f"  {name:<{width}}  {value:.10g}")
-    typer.echo(f"\nBase parameters: {result.rank} of {len(result.names)} (rank of Y at {result.states} random "
-               "states; Y pi = Y_base pi_base):")
-    for k, grouping in enumerate(result.groupings, 1):
-        typer.echo(f"  {k:>3}  {grouping.text}  =  {grouping.value:.10g}")
-    if result.unidentifiable:
-        typer.echo("\nNot identifiable (zero columns): " + ", ".join(result.names[i] for i in result.unidentifiable))
-    if model.loops:
-        typer.echo("\nNote: the regressor is the spanning tree's (no loop forces).")
+    run_identify(robot, param or [], states, json_, quiet, floating_base)
 
 
 @app.command(cls=_Command)

@@ -30,8 +30,8 @@ def floating_note(robot: Robot) -> str:
             "difference (check runs its rows), and so have its C (--c), its MATLAB/Octave package (--matlab) and its "
             "JAX module (--jax); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c-extension, the MATLAB derivation script, and the commands linearize and identify (simulate integrates its "
-            "module on the manifold)")
+            "--c-extension and the MATLAB derivation script (simulate integrates its module on the manifold; "
+            "linearize and identify use it too)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
@@ -80,12 +80,6 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
     if not quiet:
         for path in files:
             echo(f"wrote {path}")
-
-
-def refuse_floating(robot: Robot, argument: str, command: str) -> None:
-    """``simulate``, ``linearize``, ``identify`` of a floating-base robot: exit 2."""
-    if robot.floating:
-        raise InputError(problem(argument, f"dynderive {command}: {NOT_BUILT}; solve --code writes its NumPy module"))
 
 
 def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:

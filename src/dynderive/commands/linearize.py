@@ -5,6 +5,11 @@ symbolic_linearization``), and their values at the parameters' defaults from the
 ``linearize``, which must agree (the output says so). Large robots and closed loops get the
 numbers only.
 
+Floating-base robots (a quaternion in ``q``) get the numbers of their generated module's
+``linearize`` on the tangent space (A is 2 NV x 2 NV); entries of ``q`` that ``--at`` does not
+give are the neutral configuration's, and a quaternion given off the unit sphere is normalized
+with a note.
+
 ``--at`` lists ``KEY=VALUES`` items separated by commas: ``q``, ``qd`` and ``u`` take a vector
 (the values that follow, up to the next ``KEY=``), a coordinate, velocity or effort name one
 value: ``--at q=0,pi`` or ``--at theta=pi,F=0``. Values are numbers or whitelisted
@@ -23,6 +28,7 @@ import sympy
 
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError
+from ..model.robot import QUATERNION_START
 from .options import real_number, split_top_level
 
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$", re.S)
@@ -165,7 +171,7 @@ def linearization(derivation: Any, module: Any, at: dict[str, list[float]], valu
     q, qd, u = (np.array(at[k], dtype=float) for k in ("q", "qd", "u"))
     A, B = module.linearize(q, qd, u, **values)
     result: dict[str, Any] = {"A_numeric": A, "B_numeric": B, "symbolic": None}
-    if derivation.intermediate_form or derivation.robot.loops:
+    if derivation.intermediate_form or derivation.robot.loops or derivation.robot.floating:
         return result
     from ..mechanics.linearization import symbolic_linearization
 
@@ -224,7 +230,9 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
 
         fmt = Formatter.of(derivation, exact=True)   # JSON: exact numbers
         document: dict[str, Any] = {
-            "robot": robot.name, "state": {"coordinates": list(robot.coordinates), **at},
+            "robot": robot.name, "state": {"coordinates": [str(s) for s in derivation.symbols.q],
+                                           **({"velocities": [str(s) for s in derivation.symbols.qd]}
+                                              if robot.floating else {}), **at},
             "method": "symbolic" if symbolic else "numeric",
             "parameters": values, "A_numeric": _numbers(A), "B_numeric": _numbers(B),
         }
@@ -252,7 +260,8 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
             "generator": "dynderive", "source": escape_tex(robot.source.rsplit("/", 1)[-1]),
             "title": escape_tex(robot.title), "q": fmt(sympy.Matrix(table.q).T),
             "dissipative": robot.dissipative, "q0": vector(at["q"]), "qd0": vector(at["qd"]), "u0": vector(at["u"]),
-            "qdd0": fmt(symbolic["qdd"].T) if symbolic else numeric(np.zeros((1, len(table.q)))),
+            "qdd0": fmt(symbolic["qdd"].T) if symbolic else numeric(np.zeros((1, len(table.qd)))),
+            "floating": robot.floating, "qd": fmt(sympy.Matrix(table.qd).T), "nq": len(table.q), "nv": len(table.qd),
             "A": fmt(symbolic["A"]) if symbolic else numeric(A), "B": fmt(symbolic["B"]) if symbolic else numeric(B),
             "values": escape_tex(given) if symbolic else "", "A_numeric": numeric(A), "B_numeric": numeric(B),
         }
@@ -260,15 +269,93 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
     from ..render.encode import terminal_text
 
     lines = [f"{terminal_text(robot.title)} ({robot.name}): linearized about q = {at['q']}, qd = {at['qd']}, u = {at['u']}",
-             "x = (q, qd), xdot = A dx + B du", ""]
+             f"x = (dq, qd) on the tangent space (q perturbed as integrate(q, dq), dq of NV = {len(at['qd'])} entries), "
+             "xdot = A dx + B du" if robot.floating else "x = (q, qd), xdot = A dx + B du", ""]
     if symbolic:
         for label, value in (("A", symbolic["A"]), ("B", symbolic["B"])):
             lines += [f"{label} =", sympy.pretty(value, use_unicode=True, wrap_line=False), ""]
         lines.append(f"At {given or 'the defaults'} (closed form and generated linearize agree to "
                      f"{symbolic['agreement']:.1e}):")
     else:
-        why = "it has closed loops" if robot.loops else "this robot is too large"
+        why = ("not built for floating-base robots" if robot.floating else "it has closed loops" if robot.loops
+               else "this robot is too large")
         lines.append(f"At {given or 'the defaults'} (from the generated linearize; closed form skipped: {why}):")
     with np.printoptions(precision=6, suppress=True, linewidth=120):
         lines += ["A =", str(np.asarray(A)), "B =", str(np.asarray(B)), ""]
     return "\n".join(lines)
+
+
+def on_the_manifold(robot: Any, module: Any, q: list[float], given: set[tuple[str, int]]) -> tuple[list[float], list[str]]:
+    """A floating-base robot's configuration from ``--at``: the neutral configuration's entries
+    where none is given, each quaternion normalized (with a note when it was not unit); a zero
+    quaternion is refused."""
+    q = [value if ("q", i) in given else float(neutral) for i, (value, neutral)
+         in enumerate(zip(q, module.neutral_configuration()))]
+    where_q = robot.offsets()[0]
+    notes, problems = [], []
+    for joint in (j for j in robot.joints if j.moves and j.sizes[0] > j.sizes[1]):   # a quaternion in q
+        start = where_q[joint.name] + QUATERNION_START[joint.type]
+        quaternion = np.array(q[start:start + 4])
+        norm = float(np.linalg.norm(quaternion))
+        if norm < 1e-12:
+            problems.append(_problem(f"joint {joint.name!r}: its quaternion (qx, qy, qz, qw) is zero; give a unit quaternion"))
+        elif abs(norm - 1.0) > 1e-12:
+            q[start:start + 4] = [float(v) for v in quaternion / norm]
+            notes.append(f"joint {joint.name!r}: its quaternion (norm {norm:.6g}) normalized to "
+                         f"{_vector(quaternion / norm)}")
+    if problems:
+        raise InputError(problems)
+    return q, notes
+
+
+def run_linearize(argument: str, at: list[str], assignments: list[str], kind: str, quiet: bool,
+                  floating_base: bool) -> None:
+    """``dynderive linearize``: load, derive, generate the module, solve for the operating point
+    and print A and B (``kind``: "text", "json" or "latex")."""
+    import typer
+
+    from .. import derive, load_robot
+    from ..verify.checks import generated_module
+    from .options import with_parameters
+    from .progress import Progress
+
+    def note(text: str) -> None:
+        if not quiet:
+            typer.echo(f"note: {text}", err=True)
+
+    progress = Progress(quiet)
+    model = load_robot(argument, size_limits=True, floating_base=floating_base)
+    model = with_parameters(model, argument, assignments, required=False, command="linearize")
+    if not quiet:
+        for text in model.notes:
+            typer.echo(text, err=True)
+    derivation = derive(model, progress=progress)
+    table = derivation.symbols
+    point, given, equilibrium = parse_at(at, [str(s) for s in table.q], [str(s) for s in table.qd],
+                                         list(table.efforts))
+    progress("generating code")
+    if model.floating:
+        from ..render.floating_code import render_floating_code
+
+        module = generated_module(render_floating_code(derivation), model.name)
+        point["q"], manifold_notes = on_the_manifold(model, module, point["q"], given)
+        for text in manifold_notes:
+            note(text)
+    else:
+        from ..render.code import render_code
+
+        module = generated_module(render_code(derivation), model.name)
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
+    if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
+        point, loop_notes = on_the_loops(module, point, given, values)
+        for text in loop_notes:
+            note(text)
+    remark = None
+    if equilibrium:
+        point["u"], remark = equilibrium_efforts(module, point, values)
+    remark = remark or equilibrium_note(module, point, values)
+    if remark is not None:
+        note(remark)
+    progress("linearizing")
+    result = linearization(derivation, module, point, values, equilibrium)
+    typer.echo(render_linearization(derivation, point, values, result, kind), nl=False)

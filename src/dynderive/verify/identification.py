@@ -102,9 +102,15 @@ def fewest_states(robot: Any) -> int:
     return len(parameter_vector(robot, SymbolTable.for_robot(robot)))
 
 
-def random_states(n: int, count: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``count`` states (q, qd, qdd) from a fixed seed: angles over a full turn, rates normal."""
+def random_states(n: int, count: int, seed: int, module: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``count`` states (q, qd, qdd) from a fixed seed: angles over a full turn, rates normal.
+    With the generated ``module`` of a floating-base robot (it has ``integrate``), ``n`` is its
+    number of velocities and the configurations are ``integrate(neutral, v)`` for v uniform over
+    a full turn in every entry: positions within pi, rotations of every size and axis."""
     rng = np.random.default_rng(seed)
+    if module is not None and hasattr(module, "integrate"):
+        q = module.integrate(module.neutral_configuration(), rng.uniform(-np.pi, np.pi, (count, n)))
+        return q, rng.normal(size=(count, n)), rng.normal(size=(count, n))
     return rng.uniform(-np.pi, np.pi, (count, n)), rng.normal(size=(count, n)), rng.normal(size=(count, n))
 
 
@@ -120,9 +126,9 @@ def base_parameters(derivation: Derivation, module: Any, values: dict[str, float
     from scipy.linalg import qr
 
     names = tuple(module.PARAMETER_VECTOR)
-    size, n = len(names), len(derivation.robot.coordinates)
+    size, n = len(names), len(derivation.symbols.qd)
     count = states or max(100, 4 * size)
-    sample = random_states(n, count, seed)
+    sample = random_states(n, count, seed, module)
     W = _stack(module, sample, values)
     norms = np.linalg.norm(W, axis=0)
     zero = [int(i) for i in np.flatnonzero(norms <= 1e-12 * max(norms.max(), 1.0))]
