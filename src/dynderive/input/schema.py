@@ -20,7 +20,7 @@ from ..model.naming import maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
-from .floating import check_floating
+from .floating import check_floating, expand_planar_floating, virtual_links
 from .frames import read_frames
 from .loader import SourceDocument
 from .names import check_names, engine_quantities
@@ -85,14 +85,14 @@ def validate(doc: SourceDocument) -> Robot:
     if joints and not any(j.moves for j in joints):
         v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, tree.names)
-    check_floating(v, top, joints, planar)
+    check_floating(v, top, joints, planar, links)
     links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops)
     frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
                          lambda value, path: _origin(v, value, path, planar, symbols), planar,
-                         engine_quantities(links, planar, "loops" in top))
-    check_names(v, parameters, links, joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
+                         engine_quantities(links + virtual_links(joints, planar), planar, "loops" in top))
+    check_names(v, parameters, links + virtual_links(joints, planar), joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
     if loops and constraints is not None:
         v.error(("maximal", "constraints"), "maximal.constraints: a robot with loops derives its maximal "
@@ -109,6 +109,8 @@ def validate(doc: SourceDocument) -> Robot:
     positions["independent"] = doc.where(("independent",))
     positions["name"] = doc.where(("name",))
     positions |= {f"frame:{f.name}": doc.where(("frames", i)) for i, f in enumerate(frames)}
+    if planar:   # a floating joint: prismatic x, prismatic y, revolute theta and two massless links
+        joints, links = expand_planar_floating(joints, links, positions)
     return Robot(
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
         gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
@@ -259,6 +261,10 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             effort = v.identifier(effort, path + ("effort",), "effort name")
             if effort is not None and jtype == "fixed":
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
+                effort = None
+            elif effort is not None and jtype == "floating" and planar:
+                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a planar floating joint is "
+                        "unactuated (push its body with a wrench at a frame)")
                 effort = None
             elif effort is not None and jtype in ("floating", "spherical"):
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: efforts on a {jtype} joint "
