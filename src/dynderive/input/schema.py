@@ -20,7 +20,7 @@ from ..model.naming import maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
-from .floating import check_floating, expand_planar_floating, virtual_links
+from .floating import check_floating, expand_planar_floating, planar_floating_names, virtual_links
 from .frames import read_frames
 from .loader import SourceDocument
 from .names import check_names, engine_quantities
@@ -88,7 +88,7 @@ def validate(doc: SourceDocument) -> Robot:
     check_floating(v, top, joints, planar, links)
     links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
-    independent = _independent(v, top, joints, loops)
+    independent = _independent(v, top, joints, loops, planar)
     frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
                          lambda value, path: _origin(v, value, path, planar, symbols), planar,
                          engine_quantities(links + virtual_links(joints, planar), planar, "loops" in top))
@@ -337,7 +337,7 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
 
 
 def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
-                 loops: list[LoopJoint]) -> tuple[str, ...] | None:
+                 loops: list[LoopJoint], planar: bool) -> tuple[str, ...] | None:
     """The optional ``independent`` list: coordinates kept in the reduced form (loops only)."""
     if "independent" not in top:
         return None
@@ -349,7 +349,8 @@ def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
         v.error(("independent",), f"independent: expected a non-empty list of coordinate names, got "
                 f"{_kind(raw, empty=True)}")
         return None
-    coordinates = [j.name for j in joints if j.moves]
+    coordinates = [n for j in joints if j.moves
+                   for n in (planar_floating_names(j.name) if planar and j.type == "floating" else [j.name])]
     names: list[str] = []
     for k, name in enumerate(raw):
         if name not in coordinates:
