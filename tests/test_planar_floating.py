@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import random
+import re
 import shutil
 from pathlib import Path
 
@@ -348,3 +349,7 @@ def test_bad_urdf_planar_joints(tmp_path):
     assert _bad(tmp_path, clash, ".urdf") == [
         "11:3: joint 'slide': a planar joint is read as the joints slide_x, slide_y, slide_theta and the massless "
         "links slide_x_link, slide_y_link; the URDF has a joint 'slide_theta' already"]
+    empty = re.sub(r'<link name="(body|arm)">.*?</link>', r'<link name="\1"/>', URDF.format(rpy="0 0 0", axis=""), flags=re.S)
+    lines = _bad(tmp_path, empty, ".urdf")   # the child's error only, not its massless links'
+    assert [line.split(": ")[1] for line in lines] == ["link 'body' moves (joint 'slide_theta') but has no mass, nor has any link below it",
+                                                       "link 'arm' moves (joint 'elbow') but has no mass, nor has any link below it"]

@@ -379,7 +379,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         body = merged.get(name)
         path = ("links", index)
         positions[path] = (element.line, element.column)
-        if name not in carrying:
+        if name not in carrying and not joint.get("virtual"):   # a planar joint's own links: its child's error
             reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass, nor has any "
                          "link below it: the joint moves nothing; give the link an <inertial> with a positive mass")
             continue
