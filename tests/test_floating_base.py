@@ -293,9 +293,6 @@ def test_floating_joint_fields_that_are_not_built(tmp_path):
     assert any("joints[0].effort: efforts on a floating joint are not built yet (issue 30)" in line for line in lines)
     assert any("joints[0].damping: drive terms on a floating joint are not built yet (issue 30)" in line
                for line in lines)
-    planar = ("name: p\nplanar: true\ngravity: [0, -9.81]\nlinks:\n  - {name: a, mass: 1, inertia: 0.1}\n"
-              "joints:\n  - {name: free, type: floating, parent: world, child: a}\n")
-    assert _bad(tmp_path, planar) == ["7:24: joints[0].type: planar floating joints are not built yet (issue 30)"]
 
 
 def test_floating_names_clash_with_the_modules_and_each_other(tmp_path):

@@ -1,15 +1,22 @@
 """Where a ``floating`` or ``spherical`` joint may stand (part of validation: ``schema.validate``
 calls ``check_floating``): anywhere in a 3-D tree, as in Pinocchio (a floating joint between
 the world and the root link floats the robot's base; one from the world to each of several
-links, several free bodies; one below a link, a body free relative to it); not in a planar
-robot, nor on a robot with loops (issue 30 builds those later).
+links, several free bodies; one below a link, a body free relative to it); not on a 3-D robot
+with loops (issue 30 builds those later).
+
+A planar robot's ``floating`` joint (x, y, theta) is three joints in a row once validated
+(``expand_planar_floating``): prismatic ``<joint>_x`` along the joint frame's x axis,
+prismatic ``<joint>_y`` along its y axis and revolute ``<joint>_theta``, joined by two massless
+links ``<joint>_x_link`` and ``<joint>_y_link``; the fixed-base planar engine then derives it
+as any other tree (loops included).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
-from ..model.robot import Joint
+from ..model.robot import Joint, Link
 
 #: Names the generated module of a floating-base robot defines or takes as arguments (besides
 #: those of every module, ``names.MODULE_NAMES``): robot symbols may not take them.
@@ -17,10 +24,25 @@ FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "
                                    "configuration_rate",
                                    "v", "dt", "q_from", "q_to"})
 
+#: A planar floating joint's coordinates, ``<joint>_x``, ``<joint>_y``, ``<joint>_theta``.
+PLANAR_FLOATING = ("x", "y", "theta")
 
-def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool) -> None:
+
+def planar_floating_names(joint: str) -> list[str]:
+    """The coordinates (and joints, once expanded) of a planar floating joint."""
+    return [f"{joint}_{s}" for s in PLANAR_FLOATING]
+
+
+def planar_floating_links(joint: str) -> list[str]:
+    """The two massless links between a planar floating joint's three joints."""
+    return [f"{joint}_x_link", f"{joint}_y_link"]
+
+
+def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool,
+                   links: list[Link] | None = None) -> None:
     """``floating`` and ``spherical`` joints stand anywhere in a 3-D robot without loops (both
-    take the floating-base module)."""
+    take the floating-base module); a planar ``floating`` joint anywhere in a planar robot,
+    its coordinates' and massless links' names free."""
     spherical = [(i, j) for i, j in enumerate(joints) if j.type == "spherical"]
     if spherical and planar:
         for i, _ in spherical:
@@ -33,11 +55,55 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
             _reserved(v, top, joints, "a robot with spherical joints")
         return
     if planar:
-        for i, _ in floating:
-            v.error(("joints", i, "type"), f"{v.label(('joints', i, 'type'))}: planar floating joints are not "
-                    "built yet (issue 30)")
+        _planar_names(v, floating, joints, links or [])
         return
     _reserved(v, top, joints, "a floating-base robot")
+
+
+def _planar_names(v: Any, floating: list[tuple[int, Joint]], joints: list[Joint], links: list[Link]) -> None:
+    """A planar floating joint's three joints and two links take names no other joint or link has."""
+    joint_names = {j.name: k for k, j in enumerate(joints)}
+    link_names = {lk.name: k for k, lk in enumerate(links)}
+    taken: dict[str, int] = {}
+    for i, joint in floating:
+        path = ("joints", i, "name")
+        for name, kind, others in ([(n, "joint", joint_names) for n in planar_floating_names(joint.name)]
+                                   + [(n, "link", link_names) for n in planar_floating_links(joint.name)]):
+            where = (f"{kind} '{name}' at {v.at((kind + 's', others[name]))}" if name in others else
+                     f"the floating joint at {v.at(('joints', taken[name]))}" if name in taken else None)
+            if where is not None:
+                v.error(path, f"{v.label(path)}: a planar floating joint is the joints {', '.join(planar_floating_names(joint.name))} "
+                        f"and the massless links {', '.join(planar_floating_links(joint.name))}; '{name}' is taken by {where}")
+            taken.setdefault(name, i)
+
+
+def virtual_links(joints: list[Joint], planar: bool) -> list[Link]:
+    """The massless links a planar robot's floating joints add (none in 3-D)."""
+    return [Link(name, 0, (0, 0), (0,)) for j in joints if planar and j.type == "floating"
+            for name in planar_floating_links(j.name)]
+
+
+def expand_planar_floating(joints: list[Joint], links: list[Link],
+                           positions: dict[str, tuple[int, int]]) -> tuple[list[Joint], list[Link]]:
+    """A planar robot's joints and links with each floating joint written as prismatic x,
+    prismatic y and revolute theta in a row (in the joint's place, so its coordinates keep its
+    place in ``q``), its two massless links after the file's links (which keep their numbers).
+    ``positions`` gains the new joints' and links' (the floating joint's)."""
+    expanded: list[Joint] = []
+    added: list[Link] = []
+    for joint in joints:
+        if joint.type != "floating":
+            expanded.append(joint)
+            continue
+        x, y, theta = planar_floating_names(joint.name)
+        x_link, y_link = planar_floating_links(joint.name)
+        expanded += [replace(joint, name=x, type="prismatic", child=x_link, axis=(1, 0), effort=None),
+                     Joint(y, "prismatic", x_link, y_link, (0, 0, 0), (0, 1)),
+                     Joint(theta, "revolute", y_link, joint.child, (0, 0, 0), (1, 0))]
+        added += [Link(x_link, 0, (0, 0), (0,)), Link(y_link, 0, (0, 0), (0,))]
+        where = positions.get(f"joint:{joint.name}", (1, 1))
+        positions |= {f"joint:{n}": where for n in (x, y, theta)} | {f"link:{n}": where for n in (x_link, y_link)}
+    return expanded, links + added
 
 
 def _reserved(v: Any, top: dict[str, Any], joints: list[Joint], kind: str) -> None:

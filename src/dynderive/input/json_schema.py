@@ -63,7 +63,8 @@ def robot_schema() -> dict[str, Any]:
         "properties": {
             "name": {"type": "string", "pattern": IDENTIFIER, "description": "also the coordinate's symbol"},
             "type": {"enum": ["revolute", "prismatic", "fixed", "floating", "spherical"],
-                     "description": "floating (3-D only): the joint between the world and the root link; "
+                     "description": "floating: a free joint (3-D: position and unit quaternion; planar: "
+                                    "coordinates <name>_x, <name>_y, <name>_theta), unactuated; "
                                     "spherical (3-D only): a ball joint (unit quaternion), unactuated"},
             "parent": {"type": "string", "description": "a link name or world"},
             "child": {"type": "string"},

@@ -112,6 +112,14 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
             continue
         seen_joints.add(joint.name)
         label = v.label(("joints", i, "name"))
+        if planar and joint.type == "floating":   # three coordinates <joint>_x, _y, _theta
+            for name in (f"{joint.name}_{s}" for s in ("x", "y", "theta")):
+                if claim(name, f"{label} (coordinate '{name}')", ("joints", i, "name")):
+                    claim(velocity_name(name), f"{label} (velocity '{velocity_name(name)}')", ("joints", i, "name"),
+                          dots=1, base=name)
+                    claim(acceleration_name(name), f"{label} (acceleration '{acceleration_name(name)}')",
+                          ("joints", i, "name"), dots=2, base=name)
+            continue
         if joint.multi:   # a floating or spherical joint: its configuration, velocity and acceleration entries
             for name in (n for names in floating_names(joint.name, joint.type) for n in names):
                 claim(name, f"{label} (coordinate '{name}')", ("joints", i, "name"))

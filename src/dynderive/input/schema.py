@@ -20,7 +20,7 @@ from ..model.naming import maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
-from .floating import check_floating
+from .floating import check_floating, expand_planar_floating, planar_floating_names, virtual_links
 from .frames import read_frames
 from .loader import SourceDocument
 from .names import check_names, engine_quantities
@@ -85,14 +85,14 @@ def validate(doc: SourceDocument) -> Robot:
     if joints and not any(j.moves for j in joints):
         v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, tree.names)
-    check_floating(v, top, joints, planar)
+    check_floating(v, top, joints, planar, links)
     links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
-    independent = _independent(v, top, joints, loops)
+    independent = _independent(v, top, joints, loops, planar)
     frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
                          lambda value, path: _origin(v, value, path, planar, symbols), planar,
-                         engine_quantities(links, planar, "loops" in top))
-    check_names(v, parameters, links, joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
+                         engine_quantities(links + virtual_links(joints, planar), planar, "loops" in top))
+    check_names(v, parameters, links + virtual_links(joints, planar), joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
     if loops and constraints is not None:
         v.error(("maximal", "constraints"), "maximal.constraints: a robot with loops derives its maximal "
@@ -109,6 +109,8 @@ def validate(doc: SourceDocument) -> Robot:
     positions["independent"] = doc.where(("independent",))
     positions["name"] = doc.where(("name",))
     positions |= {f"frame:{f.name}": doc.where(("frames", i)) for i, f in enumerate(frames)}
+    if planar:   # a floating joint: prismatic x, prismatic y, revolute theta and two massless links
+        joints, links = expand_planar_floating(joints, links, positions)
     return Robot(
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
         gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
@@ -260,6 +262,10 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
             if effort is not None and jtype == "fixed":
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
                 effort = None
+            elif effort is not None and jtype == "floating" and planar:
+                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a planar floating joint is "
+                        "unactuated (push its body with a wrench at a frame)")
+                effort = None
             elif effort is not None and jtype in ("floating", "spherical"):
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: efforts on a {jtype} joint "
                         "are not built yet (issue 30): it is unactuated")
@@ -331,7 +337,7 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
 
 
 def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
-                 loops: list[LoopJoint]) -> tuple[str, ...] | None:
+                 loops: list[LoopJoint], planar: bool) -> tuple[str, ...] | None:
     """The optional ``independent`` list: coordinates kept in the reduced form (loops only)."""
     if "independent" not in top:
         return None
@@ -343,7 +349,8 @@ def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
         v.error(("independent",), f"independent: expected a non-empty list of coordinate names, got "
                 f"{_kind(raw, empty=True)}")
         return None
-    coordinates = [j.name for j in joints if j.moves]
+    coordinates = [n for j in joints if j.moves
+                   for n in (planar_floating_names(j.name) if planar and j.type == "floating" else [j.name])]
     names: list[str] = []
     for k, name in enumerate(raw):
         if name not in coordinates:

@@ -35,7 +35,7 @@ from ..model.naming import body_jacobian_index, frame_quantity_names
 from ..model.written import significant_digits
 from .loader import SourceDocument
 from .urdf_bodies import Body, check_bodies, finite, merge_bodies
-from .urdf_floating import float_root, note_fixed_base
+from .urdf_floating import float_root, note_fixed_base, split_planar
 from .urdf_xml import _Element, _parse_xml, numbers_in
 
 Path_ = tuple[Any, ...]
@@ -231,6 +231,9 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
 
     frames = _fixed_frames(reader, joints, link_elements, by_child, base)
     merged = merge_bodies(reader, bodies, link_elements, frames)
+    split_planar(reader, doc, joints, link_elements, frames, IDENTITY)   # x, y, theta joints in a row
+    if reader.problems:
+        raise InputError(reader.problems)
     if not floating_base:
         note_fixed_base(doc, joints, frames, base, link_elements[base])
     doc.digits = max(reader.digits, 1)   # the sheet's precision: as written, not as composed
@@ -292,11 +295,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{name}': its coupling to "
                              f"joint '{leader}' (<mimic>) is not modelled yet: '{name}' is an independent "
                              "coordinate (as in Pinocchio's default, buildModelFromUrdf without mimic)")
-        if jtype == "planar":
-            reader.error(joint, f"joint '{name}': planar joints are not supported (only revolute, "
-                         "continuous, prismatic, fixed and floating)")
-            continue
-        if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating"):
+        if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
             reader.error(joint, f"joint '{name}': unknown joint type '{jtype}'")
             continue
         if not parent or not child:
@@ -380,7 +379,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         body = merged.get(name)
         path = ("links", index)
         positions[path] = (element.line, element.column)
-        if name not in carrying:
+        if name not in carrying and not joint.get("virtual"):   # a planar joint's own links: its child's error
             reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass, nor has any "
                          "link below it: the joint moves nothing; give the link an <inertial> with a positive mass")
             continue
