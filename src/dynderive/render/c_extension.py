@@ -72,7 +72,10 @@ class Binding:
     robot's Baumgarte gains ``alpha``, ``beta``) that the function takes as keywords, before
     ``friction_smoothing`` (their default: the C target's). ``error``: the C function's nonzero
     return raises ``ValueError(error)`` (where the NumPy module raises it), for any state of a
-    batch; it implies ``returns`` "status"."""
+    batch; it implies ``returns`` "status". ``parameters``: False where the C function takes no
+    parameters struct and the Python function no parameter keywords (a floating-base robot's
+    configuration space, ``c_extension_floating.py``). ``number``: the last input is a number per
+    state (shape (...), as ``integrate``'s ``dt``), this C literal when omitted."""
 
     name: str
     function: str
@@ -88,11 +91,17 @@ class Binding:
     scalar: bool = False
     members: tuple[str, ...] = ()
     error: str | None = None
+    parameters: bool = True
+    number: str | None = None
 
 
 def bindings(derivation: Derivation) -> list[Binding]:
     """The extension's functions, in the order of the NumPy module's API."""
     robot = derivation.robot
+    if robot.floating:
+        from .c_extension_floating import floating_bindings
+
+        return floating_bindings(derivation)
     n, nu = len(derivation.symbols.q), len(derivation.symbols.efforts)
     count = len(derivation.parameter_vector)
     size, twist = (3, 3) if robot.planar else (4, 6)
@@ -186,10 +195,13 @@ def _call(prefix: str, function: str, arguments: list[str]) -> str:
 def _kernel(robot_name: str, binding: Binding) -> list[str]:
     """The C lines of the kernel: the C function called for one state."""
     arguments = [f"in[{i}]" for i in range(len(binding.inputs))] + (["frame"] if binding.frame else [])
+    if binding.number is not None:
+        arguments[len(binding.inputs) - 1] += "[0]"
+    p = ["p"] if binding.parameters else []
     outputs = [f"out[{k}]" for k in range(len(binding.outputs))]
     if binding.returns == "value":
-        return [f"out[0][0] = {_call(robot_name, binding.function, [*arguments, 'p'])};", "return 0;"]
-    call = _call(robot_name, binding.function, [*arguments, "p", *outputs])
+        return [f"out[0][0] = {_call(robot_name, binding.function, [*arguments, *p])};", "return 0;"]
+    call = _call(robot_name, binding.function, [*arguments, *p, *outputs])
     if binding.returns == "status":
         return [f"return {call};"]
     return [f"{call};", "return 0;"]
@@ -209,13 +221,16 @@ def _signature(binding: Binding, parameters: list[dict[str, Any]], members: dict
     positional = [name for name, _ in binding.inputs]
     if binding.optional:
         positional[-1] += "=None"
+    if binding.number is not None:
+        positional[-1] += f"={binding.number}"
     if binding.frame:
         positional.append("frame")
     if binding.wrenches:
         positional.append("wrenches=None")
     keywords = [f"{member}={members[member]}" for member in binding.members] + \
         (["friction_smoothing=0.0"] if binding.smoothing else []) + \
-        [p["name"] if p["default"] is None else f"{p['name']}={p['python_default']}" for p in parameters]
+        [p["name"] if p["default"] is None else f"{p['name']}={p['python_default']}" for p in parameters
+         if binding.parameters]
     if keywords:
         positional += ["*", *keywords]
     return f"{binding.name}({', '.join(['$module', *positional])})"
@@ -267,6 +282,9 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
             "smoothing": int(binding.smoothing),
             "refuses_negative": int(binding.refuses_negative),
             "scalar": int(binding.scalar),
+            "parameters": int(binding.parameters),
+            "number": int(binding.number is not None),
+            "fill": Code(binding.number or "0.0"),
         })
     strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
     from .._version import __version__
@@ -279,11 +297,12 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "module": module_name(name),
         "generator": c_string(f"dynderive {__version__}"),
         "n": len(derivation.symbols.q),
+        "velocities": strings([str(s) for s in derivation.symbols.qd]) if robot.floating else None,
         "nu": len(derivation.symbols.efforts),
         "twist": 3 if robot.planar else 6,
         "parameters": parameters,
         "all_defaults": int(all(p["default"] is not None for p in parameters)),
-        "coordinates": strings(robot.coordinates),
+        "coordinates": strings([str(s) for s in derivation.symbols.q] if robot.floating else robot.coordinates),
         "efforts": strings(robot.efforts),
         "frames": strings([f.name for f in robot.frames]),
         "members": members,
