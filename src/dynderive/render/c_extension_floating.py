@@ -10,7 +10,7 @@ friction and no wrenches: the floating module has neither.
 from __future__ import annotations
 
 from ..derivation import Derivation
-from .c_extension import Binding
+from .c_binding import Binding
 
 
 def floating_bindings(derivation: Derivation) -> list[Binding]:
