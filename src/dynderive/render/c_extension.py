@@ -8,7 +8,9 @@ row into a small kernel that calls the C function for one state and an entry of 
 that one generic dispatcher reads: argument parsing (positional or keyword, the robot's
 parameters and ``friction_smoothing`` as keywords), shape checks with the NumPy module's
 messages, broadcasting of the batch dimensions, and the batch loop in C (without the GIL).
-Adding a C function to the module is one row.
+Adding a C function to the module is one row. A floating-base robot's rows
+(``c_extension_floating.py``) take their sizes from NQ and NV; the row itself is
+``c_binding.Binding``.
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
