@@ -3,6 +3,7 @@ free-flyer root (``--floating-base``), beside Pinocchio.
 
     python benchmarks/floating.py                 # both robots (about 2 minutes on 2 cores)
     python benchmarks/floating.py --batch 1000    # fewer states per batch
+    python benchmarks/floating.py --c-extension solo12 talos_reduced   # both compiled (talos: long)
 
 Per robot:
 
@@ -14,7 +15,14 @@ Per robot:
    state, beside ``pin.aba`` called in a Python loop over the same states (the model built by
    ``pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())``), their ratio, and the largest
    difference between the two accelerations (over the first 200 states, relative to the
-   state's largest acceleration).
+   state's largest acceleration);
+3. ``solve <urdf> --floating-base --c-extension`` (wall seconds, the -O2 compile included) and,
+   in the process of 2., the compiled ``forward_dynamics`` on the same batch (one thread:
+   ``DYNDERIVE_THREADS=1``), ns per state and its ratio to ``pin.aba``'s loop, and its largest
+   difference from the NumPy module's accelerations (relative, as above), for the robots
+   named by ``--c-extension`` (default solo12: talos_reduced's 4.4 MB of C did not compile
+   within the compiler's 600 s limit at -O2 on the shared 2-core machine; ``--c-extension``
+   alone: none).
 
 Then the goals of issue 30, each with its measured figure, met or not. No figure is typed in.
 """
@@ -61,6 +69,19 @@ def measure_code(urdf: Path, out: Path) -> dict:
     return {"code_cpu_s": usage.ru_utime + usage.ru_stime, "code_wall_s": wall, "code_peak_mb": usage.ru_maxrss / 1024}
 
 
+def measure_extension(urdf: Path, out: Path) -> dict:
+    """``solve --c-extension --floating-base`` in a fresh process: its wall seconds and the file."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT / "src"), os.environ.get("PYTHONPATH")])))
+    command = [sys.executable, "-m", "dynderive", "solve", str(urdf), "--floating-base", "--c-extension", "--out",
+               str(out), "-q"]
+    start = time.perf_counter()
+    result = subprocess.run(command, env=env, capture_output=True, text=True)
+    if result.returncode != 0:
+        print(f"{urdf.name}: solve --c-extension failed\n{result.stderr[-2000:]}", file=sys.stderr)
+        return {}
+    return {"ext_build_s": time.perf_counter() - start}
+
+
 def _best(function, repeats: int = 3) -> float:
     samples = []
     for _ in range(repeats):
@@ -70,9 +91,9 @@ def _best(function, repeats: int = 3) -> float:
     return min(samples)
 
 
-def measure_forward_dynamics(urdf: str, module_path: str, batch: int) -> dict:
+def measure_forward_dynamics(urdf: str, module_path: str, batch: int, extension: str | None = None) -> dict:
     """In a fresh process: the generated ``forward_dynamics`` on a batch, and ``pin.aba`` in a
-    Python loop over the same states."""
+    Python loop over the same states; the compiled extension's at ``extension`` too, if given."""
     import numpy as np
     import pinocchio as pin
 
@@ -115,8 +136,17 @@ def measure_forward_dynamics(urdf: str, module_path: str, batch: int) -> dict:
     qdd = ours()
     difference = max(float(np.abs(pin.aba(model, data, Q_pin[k], V_pin[k], T_pin[k]) - qdd[k][vp]).max()
                            / np.abs(qdd[k]).max()) for k in range(min(batch, 200)))
-    return {"fd_ns": ours_s / batch * 1e9, "pin_aba_ns": pin_s / batch * 1e9, "fd_max_diff": difference,
-            "nq": module.NQ, "nv": module.NV}
+    row = {"fd_ns": ours_s / batch * 1e9, "pin_aba_ns": pin_s / batch * 1e9, "fd_max_diff": difference,
+           "nq": module.NQ, "nv": module.NV}
+    if extension:
+        spec = importlib.util.spec_from_file_location(Path(extension).name.split(".")[0], extension)
+        compiled = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(compiled)
+        ext_s = _best(lambda: compiled.forward_dynamics(Q, V, U))
+        got = compiled.forward_dynamics(Q, V, U)
+        row |= {"ext_fd_ns": ext_s / batch * 1e9,
+                "ext_max_diff": float(np.max(np.abs(got - qdd).max(axis=1) / np.abs(qdd).max(axis=1)))}
+    return row
 
 
 def _cell(value, fmt: str) -> str:
@@ -128,10 +158,13 @@ def table(rows: list[dict]) -> str:
                ("--code CPU s", "{:.1f}", "code_cpu_s"), ("wall s", "{:.1f}", "code_wall_s"),
                ("peak MB", "{:.0f}", "code_peak_mb"), ("FD ns/state", "{:.0f}", "fd_ns"),
                ("pin.aba loop ns/state", "{:.0f}", "pin_aba_ns"), ("ratio", "{:.2f}", "ratio"),
-               ("largest relative difference", "{:.0e}", "fd_max_diff")]
+               ("largest relative difference", "{:.0e}", "fd_max_diff"), ("--c-extension s", "{:.0f}", "ext_build_s"),
+               ("C ext FD ns/state", "{:.0f}", "ext_fd_ns"), ("C ratio", "{:.2f}", "ext_ratio"),
+               ("C vs NumPy", "{:.0e}", "ext_max_diff")]
     cells = [[c[0] for c in columns]]
     for row in rows:
-        row = dict(row, ratio=row["fd_ns"] / row["pin_aba_ns"] if "fd_ns" in row else None)
+        row = dict(row, ratio=row["fd_ns"] / row["pin_aba_ns"] if "fd_ns" in row else None,
+                   ext_ratio=row["ext_fd_ns"] / row["pin_aba_ns"] if "ext_fd_ns" in row else None)
         cells.append([_cell(row.get(key), fmt) for _, fmt, key in columns])
     widths = [max(len(r[i]) for r in cells) for i in range(len(columns))]
     lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in cells]
@@ -157,6 +190,10 @@ def goals(rows: list[dict]) -> list[tuple[str, str, bool | None]]:
                         f"{row['fd_ns']:.0f} vs {row['pin_aba_ns']:.0f} ns ({ratio:.2f}x)", ratio <= 2))
         else:
             out.append((f"{name} forward_dynamics per state within 2x of pin.aba (Python loop)", "not measured", None))
+        if "ext_fd_ns" in row:
+            ratio = row["ext_fd_ns"] / row["pin_aba_ns"]
+            out.append((f"{name} forward_dynamics per state within 2x of pin.aba (C extension)",
+                        f"{row['ext_fd_ns']:.0f} vs {row['pin_aba_ns']:.0f} ns ({ratio:.2f}x)", ratio <= 2))
     return out
 
 
@@ -164,10 +201,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--batch", type=int, default=10_000, help="states per batch")
     parser.add_argument("--json", type=Path, help="also write the rows and goals here")
+    parser.add_argument("--c-extension", nargs="*", default=["solo12"], choices=list(ROBOTS), metavar="ROBOT",
+                        help="the robots whose compiled extension is measured too (default: solo12)")
     parser.add_argument("--forward-dynamics", nargs=2, help=argparse.SUPPRESS)
+    parser.add_argument("--extension", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.forward_dynamics:
-        print(json.dumps(measure_forward_dynamics(*args.forward_dynamics, args.batch)))
+        print(json.dumps(measure_forward_dynamics(*args.forward_dynamics, args.batch, args.extension)))
         return
     started = time.perf_counter()
     rows = []
@@ -181,10 +221,14 @@ def main() -> None:
             out = Path(folder) / name
             row = {"robot": name, **measure_code(urdf, out)}
             written = sorted(out.glob("*_dynamics.py"))
+            if name in args.c_extension:
+                row |= measure_extension(urdf, out)
+            extension = sorted(out.glob("*_dynamics_c.*"))
             if written:
                 result = subprocess.run([sys.executable, __file__, "--forward-dynamics", str(urdf), str(written[0]),
-                                         "--batch", str(args.batch)], capture_output=True, text=True,
-                                        env=dict(os.environ, PYTHONPATH=str(ROOT / "src")))
+                                         "--batch", str(args.batch), *(["--extension", str(extension[0])] if extension
+                                                                       else [])], capture_output=True, text=True,
+                                        env=dict(os.environ, PYTHONPATH=str(ROOT / "src"), DYNDERIVE_THREADS="1"))
                 if result.returncode == 0:
                     row.update(json.loads(result.stdout.strip().splitlines()[-1]))
                 else:

@@ -210,7 +210,7 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
 
 
-@pytest.mark.parametrize("flag", ["--latex", "--json", "--pdf", "--c-extension"])
+@pytest.mark.parametrize("flag", ["--latex", "--json", "--pdf"])
 def test_other_outputs_are_refused(tmp_path, flag):
     _, result = _solve(tmp_path, BOX, "--code", flag)
     assert result.exit_code == 2
@@ -378,9 +378,6 @@ def test_check_runs_the_floating_rows(tmp_path):
                 "difference)"] == "pass"
     assert rows[MOMENTUM] == "pass" and rows[ENERGY_RUN] == "pass"
     assert all(status == "pass" for status in rows.values()) and len(rows) == 10
-    result = runner.invoke(app, ["check", str(path), "--backend", "c"])
-    assert result.exit_code == 2
-    assert "--backend:1:1: --backend c: not built yet for floating-base robots (issue 30)" in result.stderr
 
 
 @pytest.mark.parametrize("right,wrong", [

@@ -332,9 +332,6 @@ def test_solve_build_and_check_write_and_check_the_module(tmp_path):
     result = runner.invoke(app, ["solve", str(path), "--jax", "--code", "--out", str(tmp_path / "b"), "-q"])
     assert result.exit_code == 0 and sorted(p.name for p in (tmp_path / "b").iterdir()) == [
         "box_dynamics.py", "box_dynamics_jax.py"], result.output
-    result = runner.invoke(app, ["solve", str(path), "--jax", "--c-extension", "--out", str(tmp_path / "c")])
-    assert result.exit_code == 2 and "--c-extension:1:1: --c-extension: not built yet for floating-base robots" in result.stderr
-    assert not (tmp_path / "c").exists()
     result = runner.invoke(app, ["build", str(path), "--jax", "--out", str(tmp_path / "d"), "-j", "1"])
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in (tmp_path / "d").iterdir() if not p.name.startswith(".")) == ["box_dynamics_jax.py"]

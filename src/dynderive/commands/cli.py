@@ -17,7 +17,6 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
-from .floating import NOT_BUILT
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
@@ -215,8 +214,6 @@ def check(
         require_jax()
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    if model.floating and backend == "c":
-        raise InputError(problem("--backend", f"--backend {backend}: {NOT_BUILT}"))
     model = with_parameters(model, robot, param or [], required=False, command="check")
     _notes(model, quiet)
     derivation = derive(model, progress=progress)
@@ -233,11 +230,12 @@ def check(
         rows = run_checks(derivation, source, states=states)
     if backend == "c":
         from ..verify.compiled import compiled_checks
+        from ..verify.floating_c import floating_c_checks
         from .compile import compiled_module
 
         compiled = compiled_module(derivation, progress=progress)
         progress("checking the compiled module")
-        rows += compiled_checks(derivation, source, compiled, states=states)
+        rows += (floating_c_checks if model.floating else compiled_checks)(derivation, source, compiled, states=states)
     if backend == "jax":
         from ..verify.floating_jax import floating_jax_checks
         from ..verify.jax_backend import jax_checks

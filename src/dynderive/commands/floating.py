@@ -1,6 +1,7 @@
 """``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
-(``render/floating_code.py``), its JAX module (``render/floating_jax.py``) and one note saying
-what is not built yet; every other output is refused (exit 2) before any work."""
+(``render/floating_code.py``), its C, compiled extension, MATLAB package and JAX module
+(``render/floating_jax.py``) and one note saying what is not built yet; every other output is
+refused (exit 2) before any work."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from .options import problem
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots (issue 30)"
 #: The output flags (besides --code) a floating-base robot has.
-BUILT = ("c", "matlab", "jax")
+BUILT = ("c", "c_extension", "matlab", "jax")
 
 
 def floating_note(robot: Robot) -> str:
@@ -27,11 +28,11 @@ def floating_note(robot: Robot) -> str:
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
-            "difference (check runs its rows), and so have its C (--c), its MATLAB/Octave package (--matlab) and its "
-            "JAX module (--jax); not built yet "
+            "difference (check runs its rows), and so have its C (--c), its compiled Python extension (--c-extension), "
+            "its MATLAB/Octave package (--matlab) and its JAX module (--jax); not built yet "
             f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "--c-extension and the MATLAB derivation script (simulate integrates its module on the manifold; "
-            "linearize and identify use it too)")
+            "the MATLAB derivation script (simulate integrates its module on the manifold; linearize and identify "
+            "use it too)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
@@ -76,10 +77,35 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         files |= {out / path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
     if tests and code:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
+    failures = _extension(derivation, flags, out, template_dir, files, progress) if flags.get("c_extension") else []
     write_all(files)
     if not quiet:
         for path in files:
             echo(f"wrote {path}")
+    for message in failures:   # the extension the compiler rejected (the other outputs are written)
+        echo(f"dynderive: {message}")
+    if failures:
+        import typer
+
+        raise typer.Exit(1)
+
+
+def _extension(derivation, flags: dict[str, bool], out: Path, template_dir: Path | None, files: dict[Path, bytes],
+               progress: Callable[[str], None]) -> list[str]:
+    """``--c-extension``: the compiled extension into ``files`` (on the C files ``--c`` wrote),
+    or its compiler's log and the failure message (``commands/compile.py``)."""
+    from .compile import ExtensionCompileError, build_extension, failure_message, failure_outputs
+
+    name = derivation.robot.name
+    c_files = (files[out / f"{name}_dynamics.h"].decode(), files[out / f"{name}_dynamics.c"].decode()) \
+        if flags.get("c") else None
+    try:
+        filename, data = build_extension(derivation, template_dir, c_files=c_files, progress=progress)
+    except ExtensionCompileError as exc:
+        files |= {out / log: text for log, text in failure_outputs(name, exc).items()}
+        return [failure_message(out, name, exc)]
+    files[out / filename] = data
+    return []
 
 
 def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
@@ -92,7 +118,8 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
     refused = [kind for kind in kinds if kind not in ("code", "floating_base", *BUILT) and not kind.startswith("digits:")]
     if refused:
         raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module, "
-                                         "--c its C, --matlab its MATLAB/Octave package, --jax its JAX module"))
+                                         "--c its C, --c-extension its compiled extension, --matlab its MATLAB/Octave package, "
+                                         "--jax its JAX module"))
     derivation = derive(robot)
     files = {}
     if "code" in kinds:
@@ -106,6 +133,13 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
         from ..render.matlab_floating import render_floating_matlab
 
         files |= {path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
+    if "c_extension" in kinds:
+        from .compile import build_extension
+
+        c_files = (files[f"{robot.name}_dynamics.h"].decode(), files[f"{robot.name}_dynamics.c"].decode()) \
+            if "c" in kinds else None
+        filename, data = build_extension(derivation, template_dir, c_files=c_files)
+        files[filename] = data
     if "jax" in kinds:
         files[f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
     return files

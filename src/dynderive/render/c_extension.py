@@ -8,7 +8,9 @@ row into a small kernel that calls the C function for one state and an entry of 
 that one generic dispatcher reads: argument parsing (positional or keyword, the robot's
 parameters and ``friction_smoothing`` as keywords), shape checks with the NumPy module's
 messages, broadcasting of the batch dimensions, and the batch loop in C (without the GIL).
-Adding a C function to the module is one row.
+Adding a C function to the module is one row. A floating-base robot's rows
+(``c_extension_floating.py``) take their sizes from NQ and NV; the row itself is
+``c_binding.Binding``.
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
@@ -17,13 +19,13 @@ coordinates, efforts, frames and regressor parameters; parameter names are C ide
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ..derivation import Derivation
 from ..errors import InputError
 from .c import double_literal, unsupported
+from .c_binding import Binding
 from .c_loops import loop_context
 from .c_names import check_c_names
 from .encode import Code, python_literal
@@ -53,46 +55,13 @@ def c_string(text: str) -> Code:
     return Code('"' + "".join(out) + '"')
 
 
-@dataclass(frozen=True)
-class Binding:
-    """One Python function of the extension and the C function it calls for each state.
-
-    ``inputs``: the array arguments in order, each (name, size of its last axis); ``outputs``:
-    the shape of each result for one state (several: a tuple is returned). ``returns``:
-    "void", "status" (nonzero: the state could not be computed, its results are NaN) or
-    "value" (the C function returns the one scalar result). ``optional``: the last input may
-    be omitted or None (zeros, as ``u``). ``frame``: a frame name follows the arrays.
-    ``wrenches``: the C function (without the robot's prefix) that takes the inputs, then the
-    wrenches (NFRAMES x twist, row-major, zero for a frame without one), then the parameters
-    and outputs; the Python function takes ``wrenches=None`` after the arrays. ``smoothing``:
-    takes ``friction_smoothing``; ``refuses_negative``: a negative one is a ValueError (where
-    the NumPy module's ``_direction`` raises). ``scalar``: one state gives a NumPy scalar, not
-    a 0-d array (as the NumPy module's ``kinetic_energy`` of a program-built robot).
-    ``members``: members of the C parameters struct after ``friction_smoothing`` (a loop
-    robot's Baumgarte gains ``alpha``, ``beta``) that the function takes as keywords, before
-    ``friction_smoothing`` (their default: the C target's). ``error``: the C function's nonzero
-    return raises ``ValueError(error)`` (where the NumPy module raises it), for any state of a
-    batch; it implies ``returns`` "status"."""
-
-    name: str
-    function: str
-    inputs: tuple[tuple[str, int], ...]
-    outputs: tuple[tuple[int, ...], ...]
-    doc: str
-    returns: str = "void"
-    optional: bool = False
-    frame: bool = False
-    wrenches: str | None = None
-    smoothing: bool = False
-    refuses_negative: bool = False
-    scalar: bool = False
-    members: tuple[str, ...] = ()
-    error: str | None = None
-
-
 def bindings(derivation: Derivation) -> list[Binding]:
     """The extension's functions, in the order of the NumPy module's API."""
     robot = derivation.robot
+    if robot.floating:
+        from .c_extension_floating import floating_bindings
+
+        return floating_bindings(derivation)
     n, nu = len(derivation.symbols.q), len(derivation.symbols.efforts)
     count = len(derivation.parameter_vector)
     size, twist = (3, 3) if robot.planar else (4, 6)
@@ -186,10 +155,13 @@ def _call(prefix: str, function: str, arguments: list[str]) -> str:
 def _kernel(robot_name: str, binding: Binding) -> list[str]:
     """The C lines of the kernel: the C function called for one state."""
     arguments = [f"in[{i}]" for i in range(len(binding.inputs))] + (["frame"] if binding.frame else [])
+    if binding.number is not None:
+        arguments[len(binding.inputs) - 1] += "[0]"
+    p = ["p"] if binding.parameters else []
     outputs = [f"out[{k}]" for k in range(len(binding.outputs))]
     if binding.returns == "value":
-        return [f"out[0][0] = {_call(robot_name, binding.function, [*arguments, 'p'])};", "return 0;"]
-    call = _call(robot_name, binding.function, [*arguments, "p", *outputs])
+        return [f"out[0][0] = {_call(robot_name, binding.function, [*arguments, *p])};", "return 0;"]
+    call = _call(robot_name, binding.function, [*arguments, *p, *outputs])
     if binding.returns == "status":
         return [f"return {call};"]
     return [f"{call};", "return 0;"]
@@ -209,13 +181,16 @@ def _signature(binding: Binding, parameters: list[dict[str, Any]], members: dict
     positional = [name for name, _ in binding.inputs]
     if binding.optional:
         positional[-1] += "=None"
+    if binding.number is not None:
+        positional[-1] += f"={binding.number}"
     if binding.frame:
         positional.append("frame")
     if binding.wrenches:
         positional.append("wrenches=None")
     keywords = [f"{member}={members[member]}" for member in binding.members] + \
         (["friction_smoothing=0.0"] if binding.smoothing else []) + \
-        [p["name"] if p["default"] is None else f"{p['name']}={p['python_default']}" for p in parameters]
+        [p["name"] if p["default"] is None else f"{p['name']}={p['python_default']}" for p in parameters
+         if binding.parameters]
     if keywords:
         positional += ["*", *keywords]
     return f"{binding.name}({', '.join(['$module', *positional])})"
@@ -267,6 +242,9 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
             "smoothing": int(binding.smoothing),
             "refuses_negative": int(binding.refuses_negative),
             "scalar": int(binding.scalar),
+            "parameters": int(binding.parameters),
+            "number": int(binding.number is not None),
+            "fill": Code(binding.number or "0.0"),
         })
     strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
     from .._version import __version__
@@ -279,11 +257,12 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "module": module_name(name),
         "generator": c_string(f"dynderive {__version__}"),
         "n": len(derivation.symbols.q),
+        "velocities": strings([str(s) for s in derivation.symbols.qd]) if robot.floating else None,
         "nu": len(derivation.symbols.efforts),
         "twist": 3 if robot.planar else 6,
         "parameters": parameters,
         "all_defaults": int(all(p["default"] is not None for p in parameters)),
-        "coordinates": strings(robot.coordinates),
+        "coordinates": strings([str(s) for s in derivation.symbols.q] if robot.floating else robot.coordinates),
         "efforts": strings(robot.efforts),
         "frames": strings([f.name for f in robot.frames]),
         "members": members,
