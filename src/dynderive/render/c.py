@@ -480,16 +480,30 @@ def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[s
         (derivatives.lines, derivatives.outputs, lambda outputs: dict(zip(table.qdd, outputs[0])), False)])
     lines += _print_body(local, joined, [*((f"M[{k}]", e) for k, e in enumerate(mass)),
                                          *((f"D[{k}]", e) for k, e in enumerate(derived))], pivots)
-    lines += [f"for (int i = 0; i < {n}; ++i) {{",
-              f"    for (int k = 0; k < {2 * n}; ++k) R[i * {width} + k] = -D[(k / {n}) * {n * n} + i * {n} + k % {n}];",
-              "}"]
+    lines += negated_derivatives(n, width)
     lines += _friction_slope(derivation, names, width)
     if nu:
         inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
         lines += _expression_body(names, list(inputs),
                                   [f"R[{i * width + 2 * n + k}]" for i in range(n) for k in range(nu)])
-    nonzero = _fill_in(_structural_pattern(derivation, n), n)
-    lines += _factor_lines(nonzero, n)
+    return lines + solved_into_a_and_b(_structural_pattern(derivation, n), n, nu)
+
+
+def negated_derivatives(n: int, width: int, inputs: bool = False) -> list[str]:
+    """``R``'s first 2 n columns (of ``width``) as ``-D``, the derivatives of inverse dynamics
+    by q and by qd; with ``inputs``, its effort columns zeroed too (filled afterwards)."""
+    return [f"for (int i = 0; i < {n}; ++i) {{",
+            f"    for (int k = 0; k < {2 * n}; ++k) R[i * {width} + k] = -D[(k / {n}) * {n * n} + i * {n} + k % {n}];",
+            *([f"    for (int k = {2 * n}; k < {width}; ++k) R[i * {width} + k] = 0.0;"] if inputs else []),
+            "}"]
+
+
+def solved_into_a_and_b(pattern: list[list[bool]], n: int, nu: int) -> list[str]:
+    """``M X = R`` column by column (L D L^T on ``pattern``'s fill-in), then A = [[0, I], X_q,
+    X_qd] and B = [[0], X_u]: the end of ``linearize`` (fixed and floating base, n = NV)."""
+    width = 2 * n + nu
+    nonzero = _fill_in(pattern, n)
+    lines = _factor_lines(nonzero, n)
     lines += [f"for (int i = 0; i < {4 * n * n}; ++i) A[i] = 0.0;",
               *(f"A[{i * 2 * n + n + i}] = 1.0;" for i in range(n)),
               *([f"for (int i = 0; i < {n * nu}; ++i) B[i] = 0.0;"] if nu else []),
@@ -499,8 +513,7 @@ def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[s
     lines += [f"    if (c < {2 * n}) {{", *(f"        A[{(n + i) * 2 * n} + c] = x{i};" for i in range(n))]
     if nu:
         lines += ["    } else {", *(f"        B[{(n + i) * nu} + c - {2 * n}] = x{i};" for i in range(n))]
-    lines += ["    }", "}", "return 0;"]
-    return lines
+    return lines + ["    }", "}", "return 0;"]
 
 
 def _friction_slope(derivation: Derivation, names: _Names, width: int) -> list[str]:

@@ -21,15 +21,14 @@ from ..derivation import Derivation
 from .c import (
     CFunction,
     _expression_body,
-    _factor_lines,
-    _fill_in,
     _frame_functions,
     _Names,
     _parameter_note,
     _program_body,
-    _solve_lines,
     _void,
     double_literal,
+    negated_derivatives,
+    solved_into_a_and_b,
 )
 from .c_join import joined_program, print_body
 from .c_manifold import ManifoldJoint, difference_lines, integrate_lines, neutral_lines, rate_lines
@@ -82,22 +81,9 @@ def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[s
              f"double R[{nv * width}];"]
     lines += print_body(names, joined, [*((f"M[{k}]", e) for k, e in enumerate(mass_entries)),
                                         *((f"D[{k}]", e) for k, e in enumerate(derived))], pivots)
-    lines += [f"for (int i = 0; i < {nv}; ++i) {{",
-              f"    for (int k = 0; k < {2 * nv}; ++k) R[i * {width} + k] = -D[(k / {nv}) * {nv * nv} + i * {nv} + k % {nv}];",
-              *([f"    for (int k = {2 * nv}; k < {width}; ++k) R[i * {width} + k] = 0.0;"] if nu else []),
-              "}"]
+    lines += negated_derivatives(nv, width, inputs=bool(nu))
     lines += [f"R[{column * width + 2 * nv + k}] = 1.0;" for k, column in enumerate(_effort_columns(derivation))]
-    nonzero = _fill_in(_mass_pattern(derivation, nv), nv)
-    lines += _factor_lines(nonzero, nv)
-    lines += [f"for (int i = 0; i < {4 * nv * nv}; ++i) A[i] = 0.0;",
-              *(f"A[{i * 2 * nv + nv + i}] = 1.0;" for i in range(nv)),
-              *([f"for (int i = 0; i < {nv * nu}; ++i) B[i] = 0.0;"] if nu else []),
-              f"for (int c = 0; c < {width}; ++c) {{"]
-    lines += [f"    {line}" for line in _solve_lines(nonzero, nv, [f"R[{i * width} + c]" for i in range(nv)])]
-    lines += [f"    if (c < {2 * nv}) {{", *(f"        A[{(nv + i) * 2 * nv} + c] = x{i};" for i in range(nv))]
-    if nu:
-        lines += ["    } else {", *(f"        B[{(nv + i) * nu} + c - {2 * nv}] = x{i};" for i in range(nv))]
-    return lines + ["    }", "}", "return 0;"]
+    return lines + solved_into_a_and_b(_mass_pattern(derivation, nv), nv, nu)
 
 
 def floating_c_context(derivation: Derivation) -> dict[str, Any]:
