@@ -71,8 +71,8 @@ def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
         q, q1, v, a = np.empty(nq), np.empty(nq), np.empty(nv), np.empty(nv)
         q[qp], q1[qp], v[vp], a[vp] = q_pin, q1_pin, v_pin, a_pin
         u = rng.normal(size=efforts)
-        applied = np.zeros(nv)   # the efforts at their joints' columns; the base unactuated
-        applied[[offsets(robot).v[j.name] for j in robot.joints if j.effort]] = u
+        applied = np.zeros(nv)   # the efforts at their joints' columns
+        applied[list(robot.effort_columns())] = u   # a floating or spherical joint's several
         tau_pin = applied[vp]
         M_pin = pin.crba(model, data, q_pin)
         M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
@@ -142,7 +142,7 @@ def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
 def _floating_tree(seed: int, joints: int | None = None) -> str:
     """A random spatial tree (``random_robots3d``, of ``joints`` joints: 2 to 5 at random when
     not given) hung from a floating base link of random mass and full inertia, reached by a
-    floating joint with a random origin."""
+    floating joint with a random origin (actuated for even seeds: six efforts)."""
     rng = random.Random(seed)
     data = yaml.safe_load(random_spatial_tree(rng, joints or rng.randint(2, 5)).yaml_text)
     for joint in data["joints"]:
@@ -154,8 +154,10 @@ def _floating_tree(seed: int, joints: int | None = None) -> str:
                              "inertia": [inertia[0][0], inertia[1][1], inertia[2][2], inertia[0][1], inertia[0][2],
                                          inertia[1][2]]})
     origin = {"xyz": [rng.uniform(-1, 1) for _ in range(3)], "rpy": [rng.uniform(-3, 3) for _ in range(3)]}
-    data["joints"].insert(rng.randrange(len(data["joints"]) + 1),   # anywhere in the file: its offsets follow
-                          {"name": "free", "type": "floating", "parent": "world", "child": "base", "origin": origin})
+    free = {"name": "free", "type": "floating", "parent": "world", "child": "base", "origin": origin}
+    if seed % 2 == 0:   # a base pushed by a wrench from the world (a drone's thrust): thrust_fx ... thrust_tz
+        free["effort"] = "thrust"
+    data["joints"].insert(rng.randrange(len(data["joints"]) + 1), free)   # anywhere in the file: its offsets follow
     data["name"] = "floating_tree"
     return yaml.safe_dump(data, sort_keys=False)
 
@@ -290,7 +292,6 @@ def test_a_urdf_floating_joint_below_a_link_as_in_pinocchio(tmp_path):
 def test_floating_joint_fields_that_are_not_built(tmp_path):
     lines = _bad(tmp_path, BOX.replace("child: base}", "child: base, axis: [0, 0, 1], effort: f, damping: 0.1}"))
     assert any("joints[0].axis: a floating joint takes no axis" in line for line in lines)
-    assert any("joints[0].effort: efforts on a floating joint are not built yet (issue 30)" in line for line in lines)
     assert any("joints[0].damping: drive terms on a floating joint are not built yet (issue 30)" in line
                for line in lines)
 

@@ -64,8 +64,9 @@ def robot_schema() -> dict[str, Any]:
             "name": {"type": "string", "pattern": IDENTIFIER, "description": "also the coordinate's symbol"},
             "type": {"enum": ["revolute", "prismatic", "fixed", "floating", "spherical"],
                      "description": "floating: a free joint (3-D: position and unit quaternion; planar: "
-                                    "coordinates <name>_x, <name>_y, <name>_theta), unactuated; "
-                                    "spherical (3-D only): a ball joint (unit quaternion), unactuated"},
+                                    "coordinates <name>_x, <name>_y, <name>_theta, unactuated); 3-D effort e: "
+                                    "e_fx ... e_tz; spherical (3-D only): a ball joint (unit quaternion), "
+                                    "effort e: e_tx, e_ty, e_tz"},
             "parent": {"type": "string", "description": "a link name or world"},
             "child": {"type": "string"},
             "origin": origin,

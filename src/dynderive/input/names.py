@@ -123,6 +123,8 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
         if joint.multi:   # a floating or spherical joint: its configuration, velocity and acceleration entries
             for name in (n for names in floating_names(joint.name, joint.type) for n in names):
                 claim(name, f"{label} (coordinate '{name}')", ("joints", i, "name"))
+            for name in joint.effort_names:   # e_fx ... e_tz
+                claim(name, f"joints[{i}].effort ('{name}')", ("joints", i, "effort"))
             continue
         if not claim(joint.name, label, ("joints", i, "name")):
             continue

@@ -266,10 +266,6 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
                 v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a planar floating joint is "
                         "unactuated (push its body with a wrench at a frame)")
                 effort = None
-            elif effort is not None and jtype in ("floating", "spherical"):
-                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: efforts on a {jtype} joint "
-                        "are not built yet (issue 30): it is unactuated")
-                effort = None
         drives = drive_terms(v, item, path, jtype, symbols, lambda e: _numeric(e, defaults))
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
                             origin, axis, effort, **drives))

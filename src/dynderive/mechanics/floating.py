@@ -257,13 +257,11 @@ def potential(tree: FloatingTree) -> sympy.Expr:
 
 
 def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
-    """``Y``: each actuated joint's effort symbol at its column, zero elsewhere (floating and
-    spherical joints are unactuated: no external wrench on the base)."""
-    columns = offsets(robot).v
+    """``Y``: each effort symbol at its column of ``qd``, zero elsewhere (an actuated floating
+    joint's six, the wrench on its child in its frame; a spherical joint's three)."""
     Y: list[sympy.Expr] = [_ZERO] * robot.velocity_count
-    for joint in robot.joints:
-        if joint.moves and joint.effort:
-            Y[columns[joint.name]] = table.efforts[joint.effort]
+    for name, column in zip(robot.efforts, robot.effort_columns()):
+        Y[column] = table.efforts[name]
     return Y
 
 

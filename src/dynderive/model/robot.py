@@ -27,6 +27,11 @@ FLOATING_ACCELERATION = ("dvx", "dvy", "dvz", "dwx", "dwy", "dwz")
 SPHERICAL_CONFIGURATION = FLOATING_CONFIGURATION[3:]
 SPHERICAL_VELOCITY = FLOATING_VELOCITY[3:]
 SPHERICAL_ACCELERATION = FLOATING_ACCELERATION[3:]
+#: The efforts of an actuated floating joint (effort ``e``: ``e_fx ... e_tz``, the force and
+#: torque on its child in the joint frame, the wrench dual to its local twist, as Pinocchio's
+#: tau of a free flyer) and of a spherical joint (``e_tx, e_ty, e_tz``, a torque in the joint frame).
+FLOATING_EFFORT = ("fx", "fy", "fz", "tx", "ty", "tz")
+SPHERICAL_EFFORT = FLOATING_EFFORT[3:]
 #: The joint types whose configuration holds a unit quaternion, and where it starts in the
 #: joint's own entries of ``q``.
 QUATERNION_START = {"floating": 3, "spherical": 0}
@@ -95,6 +100,16 @@ class Joint:
     def moves(self) -> bool:
         """Whether the joint has a coordinate (fixed joints do not)."""
         return self.type != "fixed"
+
+    @property
+    def effort_names(self) -> tuple[str, ...]:
+        """The joint's efforts, one per velocity entry it drives: its ``effort`` name, or for a
+        floating or spherical joint that name with the suffixes of FLOATING_EFFORT or
+        SPHERICAL_EFFORT (velocity entries in the same order); none when unactuated."""
+        if not self.effort or not self.moves:
+            return ()
+        suffixes = {"floating": FLOATING_EFFORT, "spherical": SPHERICAL_EFFORT}.get(self.type)
+        return (self.effort,) if suffixes is None else tuple(f"{self.effort}_{s}" for s in suffixes)
 
     @property
     def sizes(self) -> tuple[int, int]:
@@ -232,8 +247,14 @@ class Robot:
 
     @property
     def efforts(self) -> tuple[str, ...]:
-        """Names of the actuator efforts, in joint order (unactuated joints give none)."""
-        return tuple(j.effort for j in self.joints if j.moves and j.effort)
+        """Names of the actuator efforts, in joint order (unactuated joints give none; a floating
+        or spherical joint's several, ``Joint.effort_names``)."""
+        return tuple(name for j in self.joints for name in j.effort_names)
+
+    def effort_columns(self) -> tuple[int, ...]:
+        """The entry of ``qd`` each effort (``efforts``' order) acts on."""
+        where_v = self.offsets()[1]
+        return tuple(where_v[j.name] + k for j in self.joints for k in range(len(j.effort_names)))
 
     def link(self, name: str) -> Link:
         return next(link for link in self.links if link.name == name)

@@ -48,8 +48,7 @@ def manifold_joints(derivation: Derivation) -> list[ManifoldJoint]:
 
 
 def _effort_columns(derivation: Derivation) -> list[int]:
-    where_v = derivation.robot.offsets()[1]
-    return [where_v[j.name] for j in derivation.robot.joints if j.moves and j.effort]
+    return list(derivation.robot.effort_columns())
 
 
 def _forward_part(derivation: Derivation) -> tuple[list, list, dict, bool]:
@@ -116,7 +115,7 @@ def floating_c_context(derivation: Derivation) -> dict[str, Any]:
                   "the floating joint's entries are the wrench the base would need.",
                   [start, *_void("q", "qd", "qdd", "P"), *program("inverse_dynamics", [f"tau[{i}]" for i in range(nv)])]),
         CFunction(f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {pp}, double *qdd)",
-                  "qdd solving M qdd = Y(u) - C qd - N by L^T D L (the floating joint unactuated); returns 0, "
+                  "qdd solving M qdd = Y(u) - C qd - N by L^T D L (each effort at its velocity column); returns 0, "
                   "or 1 (qdd untouched) if M is not positive definite.",
                   [start, *_void("q", "qd", "u", "P"),
                    *print_body(names, forward_lines, [(f"qdd[{i}]", e) for i, e in enumerate(forward_outputs)], pivots),

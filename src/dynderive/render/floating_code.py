@@ -82,7 +82,7 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "floating_base": robot.floating_base,
         "scalar_q": Code(repr([where_q[n] for n in scalar])),
         "scalar_v": Code(repr([where_v[n] for n in scalar])),
-        "effort_columns": python_literal(tuple(where_v[j.name] for j in robot.joints if j.moves and j.effort)),
+        "effort_columns": python_literal(robot.effort_columns()),
         "programs": bodies,
         "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
         "frames_tuple": python_literal(tuple(f.name for f in robot.frames)),

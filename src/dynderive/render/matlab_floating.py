@@ -121,8 +121,7 @@ def floating_numeric_functions(derivation: Derivation) -> list[MFunction]:
     name, nv, nu = robot.name, len(table.qd), len(table.efforts)
     names = Names(derivation)
     count = len(derivation.parameter_vector)
-    where_v = robot.offsets()[1]
-    columns = [where_v[j.name] for j in robot.joints if j.moves and j.effort]
+    columns = robot.effort_columns()
     applied = [f"Y = zeros({nv}, 1);", *(f"Y({c + 1}) = u({k + 1});" for k, c in enumerate(columns))]
     return [
         MFunction("mass_matrix", "M", ["q", "p"], [f"MASS_MATRIX  Mass matrix M(q), {nv} x {nv} (Pinocchio's crba)."],
@@ -142,7 +141,7 @@ def floating_numeric_functions(derivation: Derivation) -> list[MFunction]:
                    *program_body(names, programs["inverse_dynamics"], vector_targets("tau", nv))]),
         MFunction("generalized_forces", "Y", ["q", "u", "p"],
                   [f"GENERALIZED_FORCES  Y(u): each effort at its joint's velocity column ({nu} efforts), {nv} x 1; "
-                   "the floating joint is unactuated."],
+                   "a floating joint's six are the wrench on its child in its frame."],
                   [*prologue(derivation, ["q", "u"], 3), *applied]),
         MFunction("forward_dynamics", "qdd", ["q", "qd", "u", "p"],
                   [f"FORWARD_DYNAMICS  Accelerations qdd solving M(q) qdd = Y(u) - C qd - N, {nv} x 1 (Pinocchio's "

@@ -31,10 +31,9 @@ def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> 
 
 
 def _applied(robot: Any, u: np.ndarray) -> np.ndarray:
-    """The efforts ``u`` at their joints' velocity columns (the floating joint unactuated)."""
-    _, where_v = robot.offsets()
+    """The efforts ``u`` at their velocity columns (``Robot.effort_columns``)."""
     Y = np.zeros(robot.velocity_count)
-    Y[[where_v[j.name] for j in robot.joints if j.moves and j.effort]] = u
+    Y[list(robot.effort_columns())] = u
     return Y
 
 
@@ -99,13 +98,18 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np
 
 def _momentum(module: Any, robot: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
               us: np.ndarray) -> Row:
-    """Without gravity the efforts are internal (the base is unactuated): the whole robot's
+    """Without gravity and without the efforts of the floating base's own joint (a wrench from
+    the world, zeroed here) the efforts are internal: the whole robot's
     linear and angular momentum (``system_momentum``) stays constant. Its rate along
     ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``, with ``a`` the accelerations the efforts
     give without gravity (``M a = Y - (inverse_dynamics(q, v, 0) - gravity_vector(q))``), by
     central differences, against the size of the gravity-free accelerations' momentum change."""
     h, worst, scale = 1e-5, 0.0, 1.0
+    external = [k for k, name in enumerate(robot.efforts)
+                for j in robot.joints if j.parent == "world" and name in j.effort_names]
     for q, v, u in zip(qs, vs, us):
+        u = np.array(u, dtype=float)
+        u[external] = 0.0
         bias = module.inverse_dynamics(q, v, np.zeros_like(v), **values) - module.gravity_vector(q, **values)
         mass = module.mass_matrix(q, **values)
         a = np.linalg.solve(mass, _applied(robot, u) - bias)
