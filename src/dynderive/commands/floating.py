@@ -7,14 +7,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, LatexError
 from ..model.robot import Robot
 from .options import problem
 
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots (issue 30)"
 #: The output flags (besides --code) a floating-base robot has.
-BUILT = ("c", "matlab", "jax")
+BUILT = ("c", "matlab", "jax", "latex", "pdf", "json")
 
 
 def floating_note(robot: Robot) -> str:
@@ -28,8 +28,8 @@ def floating_note(robot: Robot) -> str:
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
             "difference (check runs its rows), and so have its C (--c), its MATLAB/Octave package (--matlab) and its "
-            "JAX module (--jax); not built yet "
-            f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
+            "JAX module (--jax), its sheet (--latex, --pdf) and JSON dump (--json); not built yet "
+            f"for floating-base robots (issue 30): {', '.join(MISSING)}; the HTML sheet (--html), "
             "--c-extension, the MATLAB derivation script, and the commands linearize and identify (simulate integrates its "
             "module on the manifold)")
 
@@ -46,6 +46,8 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
 
     if not quiet:
         echo(floating_note(robot))
+    flags = dict(flags)
+    digits = flags.pop("digits", None)   # --digits: the sheet's numbers
     refused = [problem(f"--{flag.replace('_', '-')}", f"--{flag.replace('_', '-')}: {NOT_BUILT}")
                for flag, wanted in flags.items() if wanted and flag not in BUILT]
     if refused:
@@ -76,10 +78,20 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         files |= {out / path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
     if tests and code:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
+    from .floating_outputs import SHEET_KINDS, failure_text, floating_sheet_files
+
+    sheets, failure = floating_sheet_files(derivation, {k for k in SHEET_KINDS if flags.get(k)}, template_dir, digits,
+                                           progress)
+    files |= {out / name: data for name, data in sheets.items()}
     write_all(files)
     if not quiet:
         for path in files:
             echo(f"wrote {path}")
+    if failure is not None:   # the other outputs are written
+        import typer
+
+        echo(f"dynderive: {failure_text(out, robot.name, failure)}")
+        raise typer.Exit(1)
 
 
 def refuse_floating(robot: Robot, argument: str, command: str) -> None:
@@ -88,9 +100,10 @@ def refuse_floating(robot: Robot, argument: str, command: str) -> None:
         raise InputError(problem(argument, f"dynderive {command}: {NOT_BUILT}; solve --code writes its NumPy module"))
 
 
-def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
-    """``build``'s outputs of a floating-base robot: its NumPy module and its JAX module; any
-    other kind refused."""
+def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None,
+                     ) -> tuple[dict[str, bytes], Exception | None]:
+    """``build``'s outputs of a floating-base robot (its modules, sheet and JSON dump) and the
+    PDF's failure, if any; any other kind refused."""
     from .. import derive
     from ..render.floating_code import render_floating_code
     from ..render.floating_jax import render_floating_jax
@@ -114,4 +127,10 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
         files |= {path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
     if "jax" in kinds:
         files[f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
-    return files
+    from .floating_outputs import floating_sheet_files
+
+    digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
+    sheets, failure = floating_sheet_files(derivation, kinds, template_dir, digits)
+    if failure is not None and not isinstance(failure, LatexError):
+        raise failure   # no LaTeX: as for a fixed-base robot's sheet
+    return files | sheets, failure
