@@ -35,8 +35,9 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .floating import efforts, offsets, quaternion_matrix
 from .joints import unit
+from .polynomial import expand
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
-from .tidy import quick_tidy
+from .tidy import fold_constants, quick_tidy
 
 #: Most scalar (revolute, prismatic) joints of a robot whose quantities the sheet expands;
 #: larger ones get the intermediate-variable form (the module's programs, line by line).
@@ -62,7 +63,14 @@ def skew(a: sympy.Matrix) -> sympy.Matrix:
 
 
 def _clean(matrix: sympy.Matrix) -> sympy.Matrix:
-    return matrix.applyfunc(lambda e: quick_tidy(sympy.expand(e)))
+    return matrix.applyfunc(lambda e: quick_tidy(expand(e)))
+
+
+def _constant(matrix: sympy.Matrix) -> sympy.Matrix:
+    """A joint's constant transform or axis with its irrational numbers (``cos(0.3)``, a
+    normalized axis's square roots) as doubles: exact, they would multiply out into sums of
+    products of them in every entry below."""
+    return fold_constants(matrix)
 
 
 @dataclass
@@ -121,25 +129,91 @@ def quaternion_rate(quaternion: list[sympy.Symbol]) -> sympy.Matrix:
     return sympy.Matrix([[w, -z, y], [z, w, -x], [-y, x, w], [-x, -y, -z]]) / 2
 
 
+class _Ring:
+    """Exact (or, with a double among the robot's numbers, floating-point) polynomial
+    arithmetic over the robot's symbols, ``sin q_k`` and ``cos q_k`` as variables: SymPy's
+    ``expand`` of the sheet's products of 6 x 6 matrices takes minutes with CAD numbers,
+    sparse polynomials a second. Matrices are lists of rows."""
+
+    def __init__(self, table: SymbolTable, revolute: list[sympy.Symbol], values: list[sympy.Basic]):
+        self.trig = {}
+        for q in revolute:
+            self.trig[sympy.sin(q)] = sympy.Symbol(f"_sin_{q}")
+            self.trig[sympy.cos(q)] = sympy.Symbol(f"_cos_{q}")
+        self.back = {v: k for k, v in self.trig.items()}
+        found = set()
+        for value in values:
+            found |= sympy.sympify(value).xreplace(self.trig).free_symbols
+        found |= set(table.q) | set(table.qd) | set(table.qdd)
+        sines = [self.trig[sympy.sin(q)] for q in revolute]
+        cosines = [self.trig[sympy.cos(q)] for q in revolute]
+        rest = sorted(found - set(sines) - set(cosines), key=lambda s: s.name)
+        floats = any(a.is_Float for value in values for a in sympy.sympify(value).atoms(sympy.Number))
+        self.domain = (sympy.RR if floats else sympy.QQ)[tuple(sines + cosines + rest)]
+        self.circles = [self.domain.from_sympy(a ** 2 + b ** 2 - 1) for a, b in zip(sines, cosines)]
+        self.derivatives = {q: (self.domain.from_sympy(self.trig[sympy.sin(q)]), self.domain.from_sympy(self.trig[sympy.cos(q)]))
+                            for q in revolute}
+
+    def of(self, matrix: sympy.Matrix) -> list[list]:
+        return [[self.domain.from_sympy(sympy.sympify(matrix[i, j]).xreplace(self.trig)) for j in range(matrix.cols)]
+                for i in range(matrix.rows)]
+
+    def expr(self, element) -> sympy.Expr:   # noqa: ANN001
+        for circle in self.circles:   # sin^2 -> 1 - cos^2
+            element = element.rem(circle)
+        value = self.domain.to_sympy(element).xreplace(self.back)
+        return value.xreplace({f: _number(f) for f in value.atoms(sympy.Float)})
+
+    def matrix(self, rows: list[list]) -> sympy.Matrix:
+        return sympy.Matrix([[self.expr(e) for e in row] for row in rows])
+
+    def diff(self, element, symbol: sympy.Symbol):   # noqa: ANN001
+        """d element / d symbol, a revolute coordinate through its sine and cosine."""
+        if symbol in self.derivatives:
+            sin, cos = self.derivatives[symbol]
+            return element.diff(sin) * cos - element.diff(cos) * sin
+        return element.diff(self.domain.from_sympy(symbol))
+
+
+def _number(value: sympy.Float) -> sympy.Number:
+    """A double that is an integer or a fraction of a small power of two, exactly."""
+    exact = sympy.Rational(float(value))
+    return exact if exact.q <= 64 else value
+
+
+def _mul(A: list[list], B: list[list], zero) -> list[list]:   # noqa: ANN001
+    return [[sum((A[i][k] * B[k][j] for k in range(len(B))), zero) for j in range(len(B[0]))] for i in range(len(A))]
+
+
+def _add(*matrices: list[list]) -> list[list]:
+    return [[sum(entries[1:], entries[0]) for entries in zip(*rows)] for rows in zip(*matrices)]
+
+
+def _scale(A: list[list], factor) -> list[list]:   # noqa: ANN001
+    return [[e * factor for e in row] for row in A]
+
+
+def _t(A: list[list]) -> list[list]:
+    return [list(column) for column in zip(*A)]
+
+
 def floating_sheet(robot: Robot, table: SymbolTable) -> FloatingSheet:
-    """The quantities of the module docstring, entries expanded and tidied."""
+    """The quantities of the module docstring, entries expanded (polynomials in the
+    coordinates, velocities, sines and cosines and the robot's symbols)."""
     expr = table.expr
     where = offsets(robot)
     nq, nv = len(table.q), len(table.qd)
-    v = sympy.Matrix(table.qd)
     rate = sympy.zeros(nq, nv)
     joints: list[FloatingJointSheet] = []
     gravity = sympy.Matrix([expr(e) for e in robot.gravity])
-    poses: dict[str, tuple[sympy.Matrix, sympy.Matrix, sympy.Matrix]] = {
-        "world": (sympy.eye(3), sympy.zeros(3, 1), sympy.zeros(6, nv))}
     depth = {link.name: len(robot.path_to(link.name)) for link in robot.links}
     order = sorted(robot.links, key=lambda link: depth[link.name])
     index = {link.name: k for k, link in enumerate(robot.links, 1)}
-    links: dict[str, LinkSheet] = {}
+    pieces = {}   # link: (R, p, S) of its joint, mass, com, inertia (SymPy)
     for link in order:
         joint = robot.parent_joint(link.name)
         x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
-        R, p = rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z])
+        R, p = _constant(rpy_matrix(roll, pitch, yaw)), _constant(sympy.Matrix([x, y, z]))
         S = sympy.zeros(6, nv)
         if joint.moves:
             qi, vi = where.q[joint.name], where.v[joint.name]
@@ -159,72 +233,118 @@ def floating_sheet(robot: Robot, table: SymbolTable) -> FloatingSheet:
                                              table.qd[vi:vi + start + 3], Rq, block))
             R = R * Rq
         elif joint.type == "revolute":
-            axis = sympy.Matrix(unit(tuple(expr(e) for e in joint.axis)))
+            axis = _constant(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
             R = R * axis_angle(tuple(axis), table.q[qi])
             S[3:, vi] = axis
             rate[qi, vi] = 1
         elif joint.type == "prismatic":
-            axis = sympy.Matrix(unit(tuple(expr(e) for e in joint.axis)))
+            axis = _constant(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
             p = p + R * axis * table.q[qi]
             S[:3, vi] = axis
             rate[qi, vi] = 1
-        R_parent, p_parent, J_parent = poses[joint.parent]
-        # the link origin's twist (v, w) in link axes: X(parent -> link) J_parent + S
-        X = sympy.zeros(6, 6)
-        X[:3, :3], X[:3, 3:], X[3:, 3:] = R.T, -R.T * skew(p), R.T
-        J = _clean(X * J_parent + S)
-        R_world, p_world = _clean(R_parent * R), _clean(p_parent + R_parent * p)
-        poses[link.name] = (R_world, p_world, J)
         com = sympy.Matrix([expr(e) for e in link.com])
-        shift = sympy.eye(6)
-        shift[:3, 3:] = -skew(com)
-        Jc = _clean(shift * J)
-        mass, inertia = expr(link.mass), inertia_tensor(tuple(expr(e) for e in link.inertia))
-        twist = _clean(Jc * v)
-        g_link = _clean(R_world.T * gravity)
-        kinetic = quick_tidy(sympy.expand((mass * twist[:3, 0].dot(twist[:3, 0])
-                                           + (twist[3:, 0].T * inertia * twist[3:, 0])[0, 0]) / 2))
-        position = _clean(p_world + R_world * com)
-        links[link.name] = LinkSheet(index[link.name], link.name, mass, com, inertia, R_world, position, Jc, twist,
-                                     g_link, kinetic, quick_tidy(sympy.expand(-mass * gravity.dot(position))))
-    qdot = rate * v
-    rates = {s: qdot[k] for k, s in enumerate(table.q)}
-    M, N, Cv, C = (sympy.zeros(nv, nv), sympy.zeros(nv, 1), sympy.zeros(nv, 1), sympy.zeros(nv, nv))
-    for item in links.values():
-        G = sympy.diag(item.mass * sympy.eye(3), item.inertia)
-        Jc = item.jacobian
-        moving = sorted(Jc.free_symbols & set(table.q), key=lambda s: s.name)
-        Jdot = sympy.zeros(6, nv)
-        for s in moving:
-            Jdot += Jc.diff(s) * rates[s]
-        item.jacobian_dot = _clean(Jdot)
-        lin, ang = item.twist[:3, 0], item.twist[3:, 0]
-        bias = sympy.Matrix([*(item.mass * ang.cross(lin)), *ang.cross(inertia_times(item.inertia, ang))])
-        M += Jc.T * G * Jc
-        N -= Jc.T * sympy.Matrix([*(item.mass * item.gravity), 0, 0, 0])
-        Cv += Jc.T * (G * item.jacobian_dot * v + bias)
-        cross = sympy.zeros(6, 6)   # V x, (v, w) order
-        cross[:3, :3], cross[:3, 3:], cross[3:, 3:] = skew(ang), skew(lin), skew(ang)
-        momentum = G * item.twist
-        star = sympy.zeros(6, 6)    # (G V) xbar*: m -> m x* (G V)
-        star[:3, 3:], star[3:, :3], star[3:, 3:] = -skew(momentum[:3, 0]), -skew(momentum[:3, 0]), -skew(momentum[3:, 0])
-        B = (-cross.T * G - G * cross + star) / 2
-        C += Jc.T * (G * item.jacobian_dot + G * cross * Jc + B * Jc)
-    potential = sum((item.potential for item in links.values()), sympy.Integer(0))
+        pieces[link.name] = (R, p, S, expr(link.mass), com, inertia_tensor(tuple(expr(e) for e in link.inertia)))
+    revolute = [table.q[where.q[j.name]] for j in robot.joints if j.type == "revolute"]
+    ring = _Ring(table, revolute, [*gravity, *(e for piece in pieces.values() for part in piece
+                                               for e in (part if isinstance(part, sympy.MatrixBase) else [part]))])
+    K = ring.domain
+    zero, one = K.zero, K.one
+    v = ring.of(sympy.Matrix(table.qd))
+    g = ring.of(gravity)
+    poses = {"world": ([[one if i == j else zero for j in range(3)] for i in range(3)], [[zero]] * 3,
+                       [[zero] * nv for _ in range(6)])}
+    rates = {s: ring.of(sympy.Matrix([e]))[0][0] for s, e in zip(table.q, rate * sympy.Matrix(table.qd))}
+    links: dict[str, LinkSheet] = {}
+    numeric: dict[str, tuple] = {}
+    for link in order:
+        joint = robot.parent_joint(link.name)
+        R_s, p_s, S_s, mass_s, com_s, inertia_s = pieces[link.name]
+        R, p, S = ring.of(R_s), ring.of(p_s), ring.of(S_s)
+        mass, com, inertia = ring.of(sympy.Matrix([mass_s]))[0][0], ring.of(com_s), ring.of(inertia_s)
+        R_parent, p_parent, J_parent = poses[joint.parent]
+        Rt = _t(R)
+        X = [[zero] * 6 for _ in range(6)]   # the link origin's twist (v, w) in link axes: X J_parent + S
+        lever = _mul(Rt, _scale(ring.of(skew(p_s)), -one), zero)
+        for i in range(3):
+            for j in range(3):
+                X[i][j], X[i][3 + j], X[3 + i][3 + j] = Rt[i][j], lever[i][j], Rt[i][j]
+        J = _add(_mul(X, J_parent, zero), S)
+        R_world = _mul(R_parent, R, zero)
+        p_world = _add(p_parent, _mul(R_parent, p, zero))
+        poses[link.name] = (R_world, p_world, J)
+        shift = ring.of(sympy.eye(6))
+        com_skew = ring.of(-skew(com_s))
+        for i in range(3):
+            for j in range(3):
+                shift[i][3 + j] = com_skew[i][j]
+        Jc = _mul(shift, J, zero)
+        twist = _mul(Jc, v, zero)
+        g_link = _mul(_t(R_world), g, zero)
+        lin, ang = [row[0] for row in twist[:3]], [row[0] for row in twist[3:]]
+        I_w = [row[0] for row in _mul(inertia, [[a] for a in ang], zero)]
+        kinetic = (mass * sum((a * a for a in lin), zero) + sum((a * b for a, b in zip(ang, I_w)), zero)) * K.convert(sympy.Rational(1, 2))
+        position = _add(p_world, _mul(R_world, com, zero))
+        potential = -mass * sum((a[0] * b[0] for a, b in zip(g, position)), zero)
+        numeric[link.name] = (mass, inertia, Jc, twist, lin, ang, I_w, g_link)
+        links[link.name] = LinkSheet(index[link.name], link.name, mass_s, com_s, inertia_s, ring.matrix(R_world),
+                                     ring.matrix(position), ring.matrix(Jc), ring.matrix(twist), ring.matrix(g_link),
+                                     ring.expr(kinetic), ring.expr(potential))
+    M = [[zero] * nv for _ in range(nv)]
+    N, Cv = [[zero] for _ in range(nv)], [[zero] for _ in range(nv)]
+    C = [[zero] * nv for _ in range(nv)]
+    half = K.convert(sympy.Rational(1, 2))
+    for name, (mass, inertia, Jc, twist, lin, ang, I_w, g_link) in numeric.items():
+        G = [[zero] * 6 for _ in range(6)]
+        for i in range(3):
+            G[i][i] = mass
+            for j in range(3):
+                G[3 + i][3 + j] = inertia[i][j]
+        Jdot = [[zero] * nv for _ in range(6)]
+        for s in table.q:
+            if s in rates and rates[s] != zero:
+                Jdot = _add(Jdot, [[ring.diff(e, s) * rates[s] for e in row] for row in Jc])
+        links[name].jacobian_dot = ring.matrix(Jdot)
+        JcT = _t(Jc)
+        bias = [[mass * e] for e in _cross3(ang, lin)] + [[e] for e in _cross3(ang, I_w)]
+        M = _add(M, _mul(JcT, _mul(G, Jc, zero), zero))
+        N = _add(N, _mul(JcT, [[-mass * row[0]] for row in g_link] + [[zero]] * 3, zero))
+        Cv = _add(Cv, _mul(JcT, _add(_mul(G, _mul(Jdot, v, zero), zero), bias), zero))
+        cross = [[zero] * 6 for _ in range(6)]   # V x, (v, w) order
+        momentum = [row[0] for row in _mul(G, twist, zero)]
+        star = [[zero] * 6 for _ in range(6)]    # (G V) xbar*: m -> m x* (G V)
+        wx, vx = _skew3(ang, zero), _skew3(lin, zero)
+        px, Lx = _skew3(momentum[:3], zero), _skew3(momentum[3:], zero)
+        for i in range(3):
+            for j in range(3):
+                cross[i][j], cross[i][3 + j], cross[3 + i][3 + j] = wx[i][j], vx[i][j], wx[i][j]
+                star[i][3 + j], star[3 + i][j], star[3 + i][3 + j] = -px[i][j], -px[i][j], -Lx[i][j]
+        B = _scale(_add(_scale(_mul(_t(cross), G, zero), -one), _scale(_mul(G, cross, zero), -one), star), half)
+        C = _add(C, _mul(JcT, _add(_mul(G, Jdot, zero), _mul(_mul(G, cross, zero), Jc, zero), _mul(B, Jc, zero)), zero))
+    potential_s = sum((item.potential for item in links.values()), sympy.Integer(0))
+    M_s, N_s = ring.matrix(M), ring.matrix(N)
     for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
         qi, vi = where.q[joint.name], where.v[joint.name]
         armature = expr(joint.armature) if joint.armature is not None else 0
         stiffness = expr(joint.stiffness) if joint.stiffness is not None else 0
         rest = expr(joint.rest) if joint.rest is not None else 0
-        M[vi, vi] += armature
-        N[vi] += stiffness * (table.q[qi] - rest)
-        potential += stiffness * (table.q[qi] - rest) ** 2 / 2
-    M, N, Cv, C = _clean(M), _clean(N), _clean(Cv), _clean(C)
-    T = quick_tidy(sympy.expand((v.T * M * v)[0, 0] / 2))
+        M_s[vi, vi] += armature
+        N_s[vi] = expand(N_s[vi] + stiffness * (table.q[qi] - rest))
+        potential_s += stiffness * (table.q[qi] - rest) ** 2 / 2
+    v_s = sympy.Matrix(table.qd)
+    T = expand((v_s.T * M_s * v_s)[0, 0] / 2)
     Y = sympy.Matrix(efforts(robot, table))
-    EOM = _clean(M * sympy.Matrix(table.qdd) + Cv + N - Y)
-    return FloatingSheet(joints, [links[link.name] for link in robot.links], rate, M, N, Cv, C, T,
-                         quick_tidy(sympy.expand(potential)), Y, EOM)
+    Cv_s = ring.matrix(Cv)
+    EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s - Y).applyfunc(expand)
+    return FloatingSheet(joints, [links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,
+                         expand(potential_s), Y, EOM)
+
+
+def _cross3(a: list, b: list) -> list:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _skew3(a: list, zero) -> list[list]:   # noqa: ANN001
+    return [[zero, -a[2], a[1]], [a[2], zero, -a[0]], [-a[1], a[0], zero]]
 
 
 def inertia_times(inertia: sympy.Matrix, w: sympy.Matrix) -> sympy.Matrix:
