@@ -195,12 +195,16 @@ def _json_values(document: dict, derivation, q, v, a) -> dict[str, np.ndarray]:
     evaluated in order."""
     table = derivation.symbols
     names = table.locals() | {name: sympy.Symbol(name) for name in document.get("intermediates", {})}
+    keys = ("M_g", "N_g", "EOM_g2", "Y_g")
+    if "intermediates" not in document:   # expanded: NumPy
+        return {key: _numeric(derivation, sympy.Matrix(sympy.sympify(document["quantities"][key]["sympy"],
+                                                                     locals=names)))(q, v, a) for key in keys}
     known = (table.defaults(derivation.robot) | {u: 0 for u in table.efforts.values()}
              | dict(zip(table.q, q)) | dict(zip(table.qd, v)) | dict(zip(table.qdd, a)))
     for name, entry in document.get("intermediates", {}).items():
         known[names[name]] = sympy.sympify(entry["sympy"], locals=names).xreplace(known)
     return {key: np.array(sympy.Matrix(sympy.sympify(document["quantities"][key]["sympy"], locals=names))
-                          .xreplace(known), dtype=float) for key in ("M_g", "N_g", "EOM_g2", "Y_g")}
+                          .xreplace(known), dtype=float) for key in keys}
 
 
 @pytest.mark.parametrize(("seed", "scalar"), [(5, 2), (6, 3)])   # small: expanded; large: intermediates

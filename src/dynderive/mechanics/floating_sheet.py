@@ -129,6 +129,11 @@ def quaternion_rate(quaternion: list[sympy.Symbol]) -> sympy.Matrix:
     return sympy.Matrix([[w, -z, y], [z, w, -x], [-y, x, w], [-x, -y, -z]]) / 2
 
 
+#: With a double among the robot's numbers, a term whose coefficient is below this fraction of
+#: its entry's largest is rounding noise (terms that cancel exactly in exact arithmetic).
+NOISE = 1e-14
+
+
 class _Ring:
     """Exact (or, with a double among the robot's numbers, floating-point) polynomial
     arithmetic over the robot's symbols, ``sin q_k`` and ``cos q_k`` as variables: SymPy's
@@ -161,6 +166,9 @@ class _Ring:
     def expr(self, element) -> sympy.Expr:   # noqa: ANN001
         for circle in self.circles:   # sin^2 -> 1 - cos^2
             element = element.rem(circle)
+        if self.domain.domain == sympy.RR and element:   # rounding noise of cancelled terms: dropped
+            largest = max(abs(float(c)) for c in element.values())
+            element = element.ring({m: c for m, c in element.items() if abs(float(c)) > NOISE * largest})
         value = self.domain.to_sympy(element).xreplace(self.back)
         return value.xreplace({f: _number(f) for f in value.atoms(sympy.Float)})
 

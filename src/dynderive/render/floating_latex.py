@@ -12,6 +12,7 @@ import sympy
 
 from ..derivation import Derivation
 from ..mechanics.floating_sheet import FloatingSheet, floating_sheet, is_small_floating
+from ..mechanics.tidy import is_small
 from ..model.naming import latex_name
 from .encode import escape_tex, tex_unit
 from .environment import render
@@ -185,25 +186,45 @@ def _multi_joint(joint: Any, fmt: Formatter, table: Any, where_q: dict[str, int]
             "rotation": fmt(quaternion_matrix(*quat)), "rate": fmt(quaternion_rate(quat))}
 
 
+#: Largest entry (tree nodes, then LaTeX characters: about a page) the floating sheet
+#: typesets: breqn cannot break a display over pages; a longer one is in the JSON dump.
+ENTRY_LIMIT = 1500
+LATEX_LIMIT = 5000
+
+
+def _matrix(fmt: Formatter, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
+    """``Formatter.matrix`` with the entries over ENTRY_LIMIT nodes or LATEX_LIMIT characters
+    left out (the template says they are too long)."""
+    small = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
+    shown = fmt.matrix(name, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
+    long = [not fits or len(entry["latex"]) > LATEX_LIMIT for fits, entry in zip(small, shown["entries"])]
+    if any(long):
+        shown["wide"], shown["latex"] = True, ""
+        for entry, too_long in zip(shown["entries"], long):
+            if too_long:
+                entry["latex"] = None
+    return shown
+
+
 def _small_context(sheet: FloatingSheet, fmt: Formatter) -> dict[str, Any]:
     links = [{
         "index": item.index, "name": escape_tex(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
-        "inertia": fmt.matrix(f"I_{{{item.index}}}", item.inertia),
-        "rotation": fmt.matrix(f"R_{{{item.index}}}", item.rotation),
-        "position": fmt.matrix(f"p_{{{item.index}}}", item.com_position),
-        "jacobian": fmt.matrix(f"J_{{{item.index}}}", item.jacobian),
-        "jacobian_dot": fmt.matrix(f"\\dot J_{{{item.index}}}", item.jacobian_dot)
+        "inertia": _matrix(fmt, f"I_{{{item.index}}}", item.inertia),
+        "rotation": _matrix(fmt, f"R_{{{item.index}}}", item.rotation),
+        "position": _matrix(fmt, f"p_{{{item.index}}}", item.com_position),
+        "jacobian": _matrix(fmt, f"J_{{{item.index}}}", item.jacobian),
+        "jacobian_dot": _matrix(fmt, f"\\dot J_{{{item.index}}}", item.jacobian_dot)
         if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
-        "twist": fmt.matrix(f"\\mathcal{{V}}_{{{item.index}}}", item.twist),
-        "gravity": fmt.matrix(f"\\left(R_{{{item.index}}}^T \\vec g\\right)", item.gravity),
+        "twist": _matrix(fmt, f"\\mathcal{{V}}_{{{item.index}}}", item.twist),
+        "gravity": _matrix(fmt, f"\\left(R_{{{item.index}}}^T \\vec g\\right)", item.gravity),
         "kinetic": fmt.display(item.kinetic), "potential": fmt.display(item.potential),
     } for item in sheet.links]
     return {
         "links": links, "single": len(sheet.links) == 1,
-        "rate": fmt.matrix("Q", sheet.rate),
+        "rate": _matrix(fmt, "Q", sheet.rate),
         "T": fmt.display(sheet.T), "V": fmt.display(sheet.V),
-        "M": fmt.matrix("M", sheet.M), "N": fmt.matrix("N", sheet.N), "Cv": fmt.matrix("\\left(C v\\right)", sheet.Cv),
-        "C": fmt.matrix("C", sheet.C), "EOM": fmt.matrix("\\mathrm{EOM}", sheet.EOM),
+        "M": _matrix(fmt, "M", sheet.M), "N": _matrix(fmt, "N", sheet.N), "Cv": _matrix(fmt, "\\left(C v\\right)", sheet.Cv),
+        "C": _matrix(fmt, "C", sheet.C), "EOM": _matrix(fmt, "\\mathrm{EOM}", sheet.EOM),
     }
 
 
