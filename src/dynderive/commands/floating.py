@@ -1,6 +1,7 @@
 """``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
-(``render/floating_code.py``), its JAX module (``render/floating_jax.py``) and one note saying
-what is not built yet; every other output is refused (exit 2) before any work."""
+(``render/floating_code.py``), its C, MATLAB and JAX modules, its sheet and JSON dump
+(``floating_outputs.py``) and one note saying what is not built yet; every other output is
+refused (exit 2) before any work."""
 
 from __future__ import annotations
 
