@@ -163,17 +163,23 @@ class _Ring:
         return [[self.domain.from_sympy(sympy.sympify(matrix[i, j]).xreplace(self.trig)) for j in range(matrix.cols)]
                 for i in range(matrix.rows)]
 
-    def expr(self, element) -> sympy.Expr:   # noqa: ANN001
+    def expr(self, element, scale: float | None = None) -> sympy.Expr:   # noqa: ANN001
+        """SymPy's expression of ``element``; with doubles, its terms below NOISE times
+        ``scale`` (default: its own largest coefficient) dropped as rounding noise."""
         for circle in self.circles:   # sin^2 -> 1 - cos^2
             element = element.rem(circle)
-        if self.domain.domain == sympy.RR and element:   # rounding noise of cancelled terms: dropped
-            largest = max(abs(float(c)) for c in element.values())
+        if self.domain.domain == sympy.RR and element:
+            largest = scale if scale is not None else _largest(element)
             element = element.ring({m: c for m, c in element.items() if abs(float(c)) > NOISE * largest})
         value = self.domain.to_sympy(element).xreplace(self.back)
         return value.xreplace({f: _number(f) for f in value.atoms(sympy.Float)})
 
     def matrix(self, rows: list[list]) -> sympy.Matrix:
-        return sympy.Matrix([[self.expr(e) for e in row] for row in rows])
+        """The matrix, noise measured against its largest coefficient (an entry that is zero in
+        exact arithmetic comes out as noise alone)."""
+        scale = max((_largest(e) for row in rows for e in row if e), default=0.0)
+        return sympy.Matrix([[self.expr(e, scale) for e in row] for row in rows])
+
 
     def diff(self, element, symbol: sympy.Symbol):   # noqa: ANN001
         """d element / d symbol, a revolute coordinate through its sine and cosine."""
@@ -181,6 +187,10 @@ class _Ring:
             sin, cos = self.derivatives[symbol]
             return element.diff(sin) * cos - element.diff(cos) * sin
         return element.diff(self.domain.from_sympy(symbol))
+
+
+def _largest(element) -> float:   # noqa: ANN001
+    return max(abs(float(c)) for c in element.values())
 
 
 def _number(value: sympy.Float) -> sympy.Number:
