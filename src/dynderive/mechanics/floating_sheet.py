@@ -37,7 +37,7 @@ from .floating import efforts, offsets, quaternion_matrix
 from .joints import unit
 from .polynomial import expand
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
-from .tidy import fold_constants, quick_tidy
+from .tidy import fold_constants
 
 #: Most scalar (revolute, prismatic) joints of a robot whose quantities the sheet expands;
 #: larger ones get the intermediate-variable form (the module's programs, line by line).
@@ -60,10 +60,6 @@ def is_small_floating(robot: Robot) -> bool:
 def skew(a: sympy.Matrix) -> sympy.Matrix:
     """``[a]x``: ``skew(a) * b == a x b``."""
     return sympy.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-
-
-def _clean(matrix: sympy.Matrix) -> sympy.Matrix:
-    return matrix.applyfunc(lambda e: quick_tidy(expand(e)))
 
 
 def _constant(matrix: sympy.Matrix) -> sympy.Matrix:
@@ -363,7 +359,3 @@ def _cross3(a: list, b: list) -> list:
 
 def _skew3(a: list, zero) -> list[list]:   # noqa: ANN001
     return [[zero, -a[2], a[1]], [a[2], zero, -a[0]], [-a[1], a[0], zero]]
-
-
-def inertia_times(inertia: sympy.Matrix, w: sympy.Matrix) -> sympy.Matrix:
-    return inertia * w
