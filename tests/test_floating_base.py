@@ -212,7 +212,7 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
 
 
-@pytest.mark.parametrize("flag", ["--latex", "--json", "--pdf"])
+@pytest.mark.parametrize("flag", ["--html"])   # --latex, --pdf, --json: test_floating_sheet
 def test_other_outputs_are_refused(tmp_path, flag):
     _, result = _solve(tmp_path, BOX, "--code", flag)
     assert result.exit_code == 2
@@ -353,9 +353,9 @@ def test_build_writes_the_module_of_a_floating_robot_and_refuses_the_rest(tmp_pa
     assert result.exit_code == 0, result.output
     assert "root_joint_qw" in (tmp_path / "a" / "legs_dynamics.py").read_text()
     assert "root_qw" in (tmp_path / "a" / "box_dynamics.py").read_text()
-    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1"])   # latex and code
+    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1", "--html", "--code"])
     assert result.exit_code == 1
-    assert "box.yaml:1:1: latex: not built yet for floating-base robots (issue 30)" in result.output + result.stderr
+    assert "box.yaml:1:1: html: not built yet for floating-base robots (issue 30)" in result.output + result.stderr
     assert not (tmp_path / "b" / "box_dynamics.py").exists() and (tmp_path / "b" / "legs_dynamics.py").exists()
 
 

@@ -51,7 +51,8 @@ OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynam
                 "{}.html",
                 "+{}/parameters.m", "{}_derivation.m")   # --matlab: the package +<name>/ (every one has
                                                           # parameters.m) and the derivation script
-TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"], "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
+TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2", "floating_sheet.tex.j2"],
+             "pdf": ["sheet.tex.j2", "preamble.tex.j2", "floating_sheet.tex.j2"],
              "code": ["dynamics.py.j2", "floating_dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
              "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
              "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"],
@@ -221,7 +222,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     if robot.floating:   # the NumPy module only (issue 30)
         from .floating import floating_outputs
 
-        return floating_outputs(robot, source, kinds, template_dir), None
+        return floating_outputs(robot, source, kinds, template_dir)  # type: ignore[return-value]
     derivation = derive(robot)
     files: dict[str, bytes] = {}
     failed: LatexError | None = None

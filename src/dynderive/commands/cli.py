@@ -147,7 +147,7 @@ def solve(
         from .floating import solve_floating
 
         flags = {"latex": latex, "pdf": pdf, "c": c, "c_extension": c_extension, "matlab": matlab, "jax": jax,
-                 "json": json_, "html": html}
+                 "json": json_, "html": html, "digits": shortened}
         return solve_floating(model, robot, flags, code, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
                               progress, tests)
     derivation = derive(model, progress=progress)

@@ -1,6 +1,7 @@
 """``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
 (``render/floating_code.py``), its C, compiled extension, MATLAB package and JAX module
-(``render/floating_jax.py``) and one note saying what is not built yet; every other output is
+(``render/floating_jax.py``), its sheet and JSON dump (``floating_outputs.py``) and one note
+saying what is not built yet; every other output is
 refused (exit 2) before any work."""
 
 from __future__ import annotations
@@ -8,14 +9,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, LatexError
 from ..model.robot import Robot
 from .options import problem
 
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots (issue 30)"
 #: The output flags (besides --code) a floating-base robot has.
-BUILT = ("c", "c_extension", "matlab", "jax")
+BUILT = ("c", "c_extension", "matlab", "jax", "latex", "pdf", "json")
 
 
 def floating_note(robot: Robot) -> str:
@@ -29,10 +30,10 @@ def floating_note(robot: Robot) -> str:
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
             "difference (check runs its rows), and so have its C (--c), its compiled Python extension (--c-extension), "
-            "its MATLAB/Octave package (--matlab) and its JAX module (--jax); not built yet "
-            f"for floating-base robots (issue 30): {', '.join(MISSING)}; the sheet (--latex, --pdf, --html), --json, "
-            "the MATLAB derivation script (simulate integrates its module on the manifold; linearize and identify "
-            "use it too)")
+            "its MATLAB/Octave package (--matlab) and its JAX module (--jax), its sheet (--latex, --pdf) and JSON dump "
+            f"(--json); not built yet for floating-base robots (issue 30): {', '.join(MISSING)}; the HTML sheet "
+            "(--html) and the MATLAB derivation script (simulate integrates its module on the manifold; linearize "
+            "and identify use it too)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
@@ -47,6 +48,8 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
 
     if not quiet:
         echo(floating_note(robot))
+    flags = dict(flags)
+    digits = flags.pop("digits", None)   # --digits: the sheet's numbers
     refused = [problem(f"--{flag.replace('_', '-')}", f"--{flag.replace('_', '-')}: {NOT_BUILT}")
                for flag, wanted in flags.items() if wanted and flag not in BUILT]
     if refused:
@@ -78,12 +81,19 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
     if tests and code:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
     failures = _extension(derivation, flags, out, template_dir, files, progress) if flags.get("c_extension") else []
+    from .floating_outputs import SHEET_KINDS, failure_text, floating_sheet_files
+
+    sheets, failure = floating_sheet_files(derivation, {k for k in SHEET_KINDS if flags.get(k)}, template_dir, digits,
+                                           progress)
+    files |= {out / name: data for name, data in sheets.items()}
+    if failure is not None:
+        failures.append(failure_text(out, robot.name, failure))
     write_all(files)
     if not quiet:
         for path in files:
             echo(f"wrote {path}")
-    for message in failures:   # the extension the compiler rejected (the other outputs are written)
-        echo(f"dynderive: {message}")
+    for message in failures:   # the extension the compiler rejected, the PDF LaTeX did not make
+        echo(f"dynderive: {message}")   # (the other outputs are written)
     if failures:
         import typer
 
@@ -108,9 +118,10 @@ def _extension(derivation, flags: dict[str, bool], out: Path, template_dir: Path
     return []
 
 
-def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None) -> dict[str, bytes]:
-    """``build``'s outputs of a floating-base robot: its NumPy module and its JAX module; any
-    other kind refused."""
+def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None,
+                     ) -> tuple[dict[str, bytes], Exception | None]:
+    """``build``'s outputs of a floating-base robot (its modules, sheet and JSON dump) and the
+    PDF's failure, if any; any other kind refused."""
     from .. import derive
     from ..render.floating_code import render_floating_code
     from ..render.floating_jax import render_floating_jax
@@ -142,4 +153,10 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
         files[filename] = data
     if "jax" in kinds:
         files[f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
-    return files
+    from .floating_outputs import floating_sheet_files
+
+    digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
+    sheets, failure = floating_sheet_files(derivation, kinds, template_dir, digits)
+    if failure is not None and not isinstance(failure, LatexError):
+        raise failure   # no LaTeX: as for a fixed-base robot's sheet
+    return files | sheets, failure
