@@ -290,3 +290,20 @@ def test_latex_direct_render_is_deterministic(tmp_path):
     first = render_floating_latex(derivation)
     _, again = _load(tmp_path, FREE, "again.yaml")
     assert render_floating_latex(again).replace("again.yaml", "robot.yaml") == first
+
+
+@pytest.mark.parametrize("root, suffixes", [("floating", ("fx", "fy", "fz", "tx", "ty", "tz")),
+                                            ("spherical", ("tx", "ty", "tz"))])
+def test_an_actuated_root_takes_its_efforts_at_its_velocity_columns(root, suffixes, tmp_path):
+    """``effort: w`` on a floating (spherical) root: Y holds w_fx ... w_tz (w_tx ... w_tz) at the
+    root's velocity columns, the sheet's joint table names them, the JSON lists them."""
+    text = _chain(7, 1, root).replace("child: l0", "child: l0, effort: w", 1)
+    robot, derivation = _load(tmp_path, text)
+    efforts = derivation.symbols.efforts
+    assert robot.efforts == (*(f"w_{s}" for s in suffixes), "u1")
+    assert list(derivation.floating_steps.sheet.Y) == [efforts[f"w_{s}"] for s in suffixes] + [efforts["u1"]]
+    document = json.loads(render_floating_json(derivation))
+    assert document["efforts"] == list(robot.efforts)
+    latex = render_floating_latex(derivation)
+    assert all(rf"w_{{\mathrm{{{s}}}}}" in latex for s in suffixes)
+    assert "unactuated" not in latex

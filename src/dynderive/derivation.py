@@ -182,6 +182,7 @@ class Derivation:
 
             add(_Stage(self._frames, frozenset(frame_quantity_names(robot))))
         self._frame_programs: list[Any] | None = None
+        self._floating_steps: Any = None
 
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
@@ -360,6 +361,16 @@ class Derivation:
         """The checks if an output already needed them (the sheet, the JSON), else none: a
         run that writes only code reports no checks rather than deriving everything for them."""
         return self._checks or []
+
+    @property
+    def floating_steps(self) -> Any:
+        """A floating-base robot's sheet quantities (``mechanics.floating_sheet.FloatingSteps``:
+        step by step when small, Y, the joints' rotations), derived once on first use."""
+        if self._floating_steps is None:
+            from .mechanics.floating_sheet import floating_steps
+
+            self._floating_steps = floating_steps(self.robot, self.symbols)
+        return self._floating_steps
 
     @property
     def programs(self) -> dict[str, Program]:

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import sympy
 
-from ..model.robot import Robot
+from ..model.robot import QUATERNION_START, Robot
 from ..model.symbols import SymbolTable
 from .floating import efforts, offsets, quaternion_matrix
 from .joints import unit
@@ -55,6 +55,28 @@ def is_small_floating(robot: Robot) -> bool:
     scalar = [j for j in robot.joints if j.moves and not j.multi]
     return (len(multi) == 1 and multi[0].parent == "world" and len(scalar) <= SMALL_SCALAR_JOINTS
             and len(robot.links) <= SMALL_LINKS)
+
+
+@dataclass
+class FloatingSteps:
+    """What the floating sheet and JSON show (``Derivation.floating_steps``): a small robot's
+    step-by-step quantities (None for a large one, shown as the module's programs), the applied
+    forces Y, and each floating or spherical joint's rotation matrix and configuration rate."""
+
+    sheet: FloatingSheet | None
+    efforts: list[sympy.Expr]
+    rotations: dict[str, tuple[sympy.Matrix, sympy.Matrix]]
+
+
+def floating_steps(robot: Robot, table: SymbolTable) -> FloatingSteps:
+    where_q = robot.offsets()[0]
+    rotations = {}
+    for joint in (j for j in robot.joints if j.multi):
+        start = where_q[joint.name] + QUATERNION_START[joint.type]
+        quaternion = table.q[start:start + 4]
+        rotations[joint.name] = (quaternion_matrix(*quaternion), quaternion_rate(quaternion))
+    sheet = floating_sheet(robot, table) if is_small_floating(robot) else None
+    return FloatingSteps(sheet, efforts(robot, table), rotations)
 
 
 def skew(a: sympy.Matrix) -> sympy.Matrix:

@@ -19,16 +19,14 @@ import json
 import sympy
 
 from ..derivation import Derivation
-from ..mechanics.floating import offsets
-from ..mechanics.floating_sheet import floating_sheet, is_small_floating
-from .floating_latex import FloatingFormatter, _efforts, _names_of, program_listing
+from .floating_latex import FloatingFormatter, _names_of, program_listing
 from .json import quantity_entry
 from .printers import RememberingStrPrinter
 
 DESCRIPTIONS = {
     "T_g": "kinetic energy 1/2 v^T M v",
     "V_g": "potential energy (gravity and springs)",
-    "Y_g": "applied generalized forces (the floating base is unactuated)",
+    "Y_g": "applied generalized forces (each effort at its velocity column)",
     "M_g": "mass matrix in the velocity coordinates v (NV x NV)",
     "C_g": "Coriolis matrix (Pinocchio's computeCoriolisMatrix; Mdot - 2 C skew-symmetric)",
     "N_g": "generalized gravity and spring forces (NV)",
@@ -39,19 +37,20 @@ DESCRIPTIONS = {
 
 def render_floating_json(derivation: Derivation) -> str:
     robot, table = derivation.robot, derivation.symbols
-    small = is_small_floating(robot)
+    steps = derivation.floating_steps
+    small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
     fmt = FloatingFormatter.of(derivation, exact=True, lines=_names_of(groups))
     printer = RememberingStrPrinter({"order": fmt.order or "lex"})
     nv = len(table.qd)
     values: dict[str, object] = {}
     if small:
-        sheet = floating_sheet(robot, table)
+        sheet = steps.sheet
         values = {"T_g": sheet.T, "V_g": sheet.V, "Y_g": sheet.Y, "M_g": sheet.M, "C_g": sheet.C, "N_g": sheet.N,
                   "EOM_g2": sheet.EOM, "Q_g": sheet.rate}
         values |= {f"J_b{link.index}": link.jacobian for link in sheet.links}
     else:
-        Y = sympy.Matrix(_efforts(derivation))
+        Y = sympy.Matrix(steps.efforts)
         values = {"Y_g": Y, "M_g": sympy.Matrix(nv, nv, outputs["M"]), "N_g": sympy.Matrix(outputs["N"]),
                   "EOM_g2": sympy.Matrix(outputs["tau"]) - Y}
 
@@ -62,7 +61,7 @@ def render_floating_json(derivation: Derivation) -> str:
                     "the link's own axes per velocity coordinate")
         return DESCRIPTIONS[name]
 
-    where_q, where_v = offsets(robot).q, offsets(robot).v
+    where_q, where_v = robot.offsets()
     document = {
         "robot": robot.name,
         "floating": True,

@@ -11,7 +11,6 @@ from typing import Any
 import sympy
 
 from ..derivation import Derivation
-from ..mechanics.floating_sheet import FloatingSheet, floating_sheet, is_small_floating
 from ..mechanics.tidy import is_small
 from ..model.naming import latex_name
 from .encode import escape_tex, tex_unit
@@ -129,7 +128,8 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
     from .._version import __version__
 
     robot, table = derivation.robot, derivation.symbols
-    small = is_small_floating(robot)
+    steps = derivation.floating_steps
+    small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
     fmt = FloatingFormatter.of(derivation, digits=digits, lines=_names_of(groups))
     where_q, where_v = robot.offsets()
@@ -139,7 +139,7 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
     joints = []
     for j in robot.joints:
         entry = {"name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent), "child": escape_tex(j.child),
-                 "coordinates": "", "velocities": "", "effort": fmt(table.efforts[j.effort]) if j.effort else ""}
+                 "coordinates": "", "velocities": "", "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
         if j.moves:
             size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
             entry["coordinates"] = ", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]])
@@ -153,28 +153,22 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
         "nq": len(table.q), "nv": len(table.qd), "small": small,
         "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
         "floating_base": robot.floating_base,
-        "multi": [_multi_joint(j, fmt, table, where_q, where_v) for j in robot.joints if j.multi],
-        "Y": fmt(sympy.Matrix(_efforts(derivation))),
+        "multi": [_multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name])
+                  for j in robot.joints if j.multi],
+        "Y": fmt(sympy.Matrix(steps.efforts)),
+        "actuated_multi": any(j.multi and j.effort for j in robot.joints),
         "intermediates": bool(groups), "figure": None,
     }
     if small:
-        context |= _small_context(floating_sheet(robot, table), fmt)
+        context |= _small_context(steps.sheet, fmt)
     else:
         context |= _large_context(groups, outputs, fmt, len(table.qd))
     return context
 
 
-def _efforts(derivation: Derivation) -> list[sympy.Expr]:
-    from ..mechanics.floating import efforts
-
-    return efforts(derivation.robot, derivation.symbols)
-
-
-def _multi_joint(joint: Any, fmt: Formatter, table: Any, where_q: dict[str, int], where_v: dict[str, int]) -> dict[str, Any]:
+def _multi_joint(joint: Any, fmt: Formatter, table: Any, where_q: dict[str, int], where_v: dict[str, int],
+                 rotation: tuple[sympy.Matrix, sympy.Matrix]) -> dict[str, Any]:
     """A floating or spherical joint: its quaternion's rotation matrix and configuration rate."""
-    from ..mechanics.floating import quaternion_matrix
-    from ..mechanics.floating_sheet import quaternion_rate
-
     start = 3 if joint.type == "floating" else 0
     qi, vi = where_q[joint.name], where_v[joint.name]
     quat = table.q[qi + start:qi + start + 4]
@@ -183,7 +177,7 @@ def _multi_joint(joint: Any, fmt: Formatter, table: Any, where_q: dict[str, int]
             "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else "",
             "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else "",
             "angular": fmt(sympy.Matrix(table.qd[vi + start:vi + start + 3])),
-            "rotation": fmt(quaternion_matrix(*quat)), "rate": fmt(quaternion_rate(quat))}
+            "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
 
 
 #: Largest entry (tree nodes, then LaTeX characters: about a page) the floating sheet
@@ -206,7 +200,7 @@ def _matrix(fmt: Formatter, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
     return shown
 
 
-def _small_context(sheet: FloatingSheet, fmt: Formatter) -> dict[str, Any]:
+def _small_context(sheet: Any, fmt: Formatter) -> dict[str, Any]:
     links = [{
         "index": item.index, "name": escape_tex(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
         "inertia": _matrix(fmt, f"I_{{{item.index}}}", item.inertia),
