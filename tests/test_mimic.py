@@ -16,11 +16,11 @@ on another branch.
 
 from __future__ import annotations
 
-import copy
 import importlib.metadata
 from pathlib import Path
 
 import numpy as np
+import sympy
 import pytest
 import yaml
 from typer.testing import CliRunner
@@ -370,3 +370,129 @@ def test_drive_terms_of_followers_map_through_the_coupling(coupled):
         u = rng.uniform(-1, 1, 2)
         expected = np.linalg.solve(M, module.generalized_forces(q, u) - G.T @ free_module.inverse_dynamics(qf, vf, 0 * vf))
         np.testing.assert_allclose(module.forward_dynamics(q, qd, u), expected, rtol=0, atol=1e-10)
+
+
+def _mutated(tmp_path, change, tag: str) -> Path:
+    data = yaml.safe_load(GRIPPER_YAML)
+    change(data)
+    path = tmp_path / f"{tag}.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def _joint(index: int, **keys):
+    return lambda data: data["joints"][index].update(keys)
+
+
+def _mimic(index: int, **keys):
+    return lambda data: data["joints"][index]["mimic"].update(keys)
+
+
+def _floating(data):
+    data["links"].insert(0, {"name": "b0", "mass": 1, "inertia": [0.1, 0.1, 0.1, 0, 0, 0]})
+    data["joints"].insert(0, {"name": "base", "type": "floating", "parent": "world", "child": "b0"})
+    data["joints"][1]["parent"] = "b0"
+
+
+REFUSED = [
+    ("unknown", _mimic(1, joint="shouldr"), "joints[1].mimic.joint: unknown joint 'shouldr' (did you mean 'shoulder'?)"),
+    ("self", _mimic(1, joint="elbow"), "joints[1].mimic.joint: a joint cannot mimic itself"),
+    ("chain", _mimic(3, joint="elbow"), "joints[3].mimic.joint: joint 'elbow' mimics joint 'shoulder' itself: a joint "
+     "can only mimic a joint with a coordinate of its own (mimic the first one, multipliers and offsets composed)"),
+    ("cycle", lambda d: (_mimic(1, joint="twin")(d), _mimic(3, joint="elbow")(d)),
+     "joints[1].mimic.joint: joint 'twin' mimics joint 'elbow' itself"),
+    ("infinite", _mimic(1, multiplier=float("inf")), "joints[1].mimic.multiplier: expected a finite number, got inf"),
+    ("text", _mimic(1, offset="x"), "joints[1].mimic.offset: expected a finite number, got 'x'"),
+    ("zero", _mimic(1, multiplier=0), "joints[1].mimic.multiplier: multiplier 0 does not move the joint (make it "
+     "type: fixed)"),
+    ("key", _mimic(1, factor=2), "joints[1].mimic.factor: unknown key 'factor' (allowed: joint, multiplier, offset)"),
+    ("effort", _joint(1, effort="tau2"), "joints[1].effort: a mimic joint has no effort of its own (its drive acts on "
+     "its leader's coordinate, through the multiplier): put the effort on joint 'shoulder'"),
+    ("springs", _joint(0, stiffness=1.0), "joints[1].stiffness: coordinate 'shoulder' already has a spring (on joint "
+     "'shoulder'): one spring per coordinate, on a leader or on one of its mimic joints"),
+    ("fixed", _joint(1, type="fixed"), "joints[1].mimic: a fixed joint cannot mimic another (only revolute and "
+     "prismatic joints can)"),
+    ("leader", _joint(0, type="fixed"), "joints[1].mimic.joint: joint 'shoulder' is fixed: only revolute and prismatic "
+     "joints can be mimicked"),
+    ("floating", _floating, "joints[2].mimic: mimic joints in a robot with a floating or spherical joint are not built "
+     "yet (issue 30)"),
+]
+
+
+@pytest.mark.parametrize(("tag", "change", "message"), REFUSED, ids=[r[0] for r in REFUSED])
+def test_refused_with_a_positioned_error(tmp_path, tag, change, message):
+    path = _mutated(tmp_path, change, tag)
+    with pytest.raises(InputError) as refused:
+        dynderive.load_robot(path)
+    problems = refused.value.problems
+    assert any(message in p.message for p in problems), str(refused.value)
+    assert all(p.file == str(path) and p.line > 1 and p.column >= 1 for p in problems)
+    result = runner.invoke(app, ["solve", str(path)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+
+
+def test_urdf_refusals_point_at_the_mimic_element(tmp_path):
+    """An unknown leader, and a leader the reader welds (a fixed joint): at <mimic>."""
+    for leader, message in (("nowhere", "joint 'f2' <mimic> joint: unknown joint 'nowhere'"),
+                            ("flange", "joint 'f2': <mimic joint=\"flange\">: a fixed joint has no coordinate to follow")):
+        path = tmp_path / f"{leader}.urdf"
+        path.write_text(ARM.replace('<mimic joint="f1"', f'<mimic joint="{leader}"'))
+        with pytest.raises(InputError) as refused:
+            dynderive.load_robot(path)
+        line = 1 + ARM[:ARM.index('<mimic joint="f1"')].count("\n")
+        assert [(p.line, p.column) for p in refused.value.problems] == [(line, 5)], str(refused.value)
+        assert message in refused.value.problems[0].message
+
+
+def test_import_writes_the_mimic_and_reloads_the_same_robot(arm, tmp_path):
+    path, robot, _ = arm
+    out = tmp_path / "mimic_arm.yaml"
+    result = runner.invoke(app, ["import", str(path), "--output", str(out)])
+    assert result.exit_code == 0, result.output
+    joints = {j["name"]: j for j in yaml.safe_load(out.read_text())["joints"]}
+    assert joints["f2"]["mimic"] == {"joint": "f1", "multiplier": -1.1234567890123456, "offset": 0.0123456789012345}
+    assert "effort" not in joints["f2"] and joints["f2"]["damping"] == 0.3123456789012345
+    reloaded = dynderive.load_robot(out)
+    assert reloaded.joints == robot.joints and reloaded.coordinates == robot.coordinates
+
+
+def _panda() -> Path:
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    return next(Path(str(dist.locate_file(f))) for f in dist.files or ()
+                if str(f).endswith("panda_description/urdf/panda.urdf"))
+
+
+def test_the_pandas_second_finger_mimics_the_first():
+    """example-robot-data's Panda: panda_finger_joint2 follows panda_finger_joint1 (multiplier 1,
+    offset 0), so 8 coordinates (Pinocchio's nv with mimic=True); its damping 0.3 joins the
+    leader's (0.6 in all); M (crba) and rnea by the programs equal Pinocchio's mimic model."""
+    from dynderive.mechanics.drives import joint_drives
+    from dynderive.mechanics.recursive import inverse_dynamics_program, mass_matrix_program
+    from dynderive.model.symbols import SymbolTable
+
+    path = _panda()
+    robot = dynderive.load_robot(path)
+    follower = next(j for j in robot.joints if j.name == "panda_finger_joint2")
+    assert follower.mimic == dynderive.model.robot.Mimic("panda_finger_joint1", 1, 0) and follower.effort is None
+    assert len(robot.coordinates) == 8 and "panda_finger_joint2" not in robot.coordinates
+    assert not any("mimic" in note for note in robot.notes)
+    table = SymbolTable.for_robot(robot)
+    assert [float(d.damping) for d in joint_drives(robot, table)][7] == pytest.approx(0.6, rel=1e-15)
+    model, order = _pinocchio(path, robot)
+    assert model.nv == 8
+    data = model.createData()
+    arguments = [*table.parameters.values(), *table.q, *table.qd, *table.qdd]
+    programs = [sympy.lambdify(arguments, p.outputs, modules="math", cse=lambda out, p=p: (p.lines, out))
+                for p in (mass_matrix_program(robot, table), inverse_dynamics_program(robot, table))]
+    values = [p.value for p in robot.parameters]
+    for q, qd, qdd in np.random.default_rng(36).uniform(-1.5, 1.5, (2, 3, 8)):
+        M = np.reshape(programs[0](*values, *q, *qd, *qdd), (8, 8))
+        tau = np.array(programs[1](*values, *q, *qd, *qdd))
+        M_pin = pin.crba(model, data, _ours(order, q))
+        M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
+        np.testing.assert_allclose(_ours(order, M), M_pin, rtol=0, atol=1e-9 * np.max(np.abs(M_pin)))
+        tau_pin = pin.rnea(model, data, _ours(order, q), _ours(order, qd), _ours(order, qdd))
+        np.testing.assert_allclose(_ours(order, tau), tau_pin, rtol=0, atol=1e-9 * np.max(np.abs(tau_pin)))

@@ -51,9 +51,8 @@ def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str |
         numbers.append(value)
     if "effort" in item:
         epath = path + ("effort",)
-        v.error(epath, f"{v.label(epath)}: a mimic joint has no effort of its own: an effort on it acts on "
-                f"its leader's coordinate (multiplied by the multiplier): put it on joint {block['joint']!r}",
-                key=True)
+        v.error(epath, f"{v.label(epath)}: a mimic joint has no effort of its own (its drive acts on its "
+                f"leader's coordinate, through the multiplier): put the effort on joint {block['joint']!r}", key=True)
     if leader is None or None in numbers:
         return None
     return Mimic(leader, numbers[0], numbers[1])

@@ -447,6 +447,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
                 positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
         if joint["mimic"] is not None:
             spot = (joint["mimic"][0].line, joint["mimic"][0].column)
+            doc.labels[path + ("mimic",)] = f"joint '{joint['name']}' <mimic>"
             for key in ((), ("joint",), ("multiplier",), ("offset",)):
                 positions[path + ("mimic",) + key] = spot
         for i in range(3 if "axis" in entry else 0):
