@@ -20,8 +20,8 @@ import importlib.metadata
 from pathlib import Path
 
 import numpy as np
-import sympy
 import pytest
+import sympy
 import yaml
 from typer.testing import CliRunner
 
@@ -431,17 +431,18 @@ def test_refused_with_a_positioned_error(tmp_path, tag, change, message):
     assert result.exit_code == 2 and "Traceback" not in result.output
 
 
-def test_urdf_refusals_point_at_the_mimic_element(tmp_path):
-    """An unknown leader, and a leader the reader welds (a fixed joint): at <mimic>."""
-    for leader, message in (("nowhere", "joint 'f2' <mimic> joint: unknown joint 'nowhere'"),
-                            ("flange", "joint 'f2': <mimic joint=\"flange\">: a fixed joint has no coordinate to follow")):
+def test_urdf_mimic_of_a_missing_or_fixed_joint_is_ignored_with_a_note(tmp_path):
+    """A <mimic> naming a joint the file does not have (alex_psyonic_hands.urdf), or a fixed
+    one: the joint is an independent coordinate, as in Pinocchio's default, with a note there."""
+    line = 1 + ARM[:ARM.index('<mimic joint="f1"')].count("\n")
+    for leader, why in (("nowhere", "which the file does not have"), ("flange", "a fixed joint, which has no coordinate")):
         path = tmp_path / f"{leader}.urdf"
         path.write_text(ARM.replace('<mimic joint="f1"', f'<mimic joint="{leader}"'))
-        with pytest.raises(InputError) as refused:
-            dynderive.load_robot(path)
-        line = 1 + ARM[:ARM.index('<mimic joint="f1"')].count("\n")
-        assert [(p.line, p.column) for p in refused.value.problems] == [(line, 5)], str(refused.value)
-        assert message in refused.value.problems[0].message
+        robot = dynderive.load_robot(path)
+        assert robot.coordinates == ("j1", "j2", "f1", "f2")
+        assert robot.notes == (f"{path}:{line}:5: note: joint 'f2': its <mimic> names joint '{leader}', {why}: 'f2' "
+                               "is an independent coordinate (as in Pinocchio's default, buildModelFromUrdf without "
+                               "mimic)",)
 
 
 def test_import_writes_the_mimic_and_reloads_the_same_robot(arm, tmp_path):

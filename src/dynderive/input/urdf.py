@@ -17,7 +17,10 @@ reproduces the composed one to rounding, also near gimbal lock (``matrix_to_rpy`
 composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``;
 on a moving joint it becomes the joint's ``mimic`` (no coordinate of its own, no effort: its
 variable is ``multiplier * q_leader + offset``, as ``pin.buildModelFromUrdf(..., mimic=True)``
-models it), checked by the validator like a YAML file's (``input/mimic.py``).
+models it), checked by the validator like a YAML file's (``input/mimic.py``); one naming a
+joint the file does not have, or a fixed one, is ignored with a note (the joint an independent
+coordinate, as in Pinocchio's default: alex_psyonic_hands.urdf names ``index_q1`` for
+``Left_index_q1``).
 Masses and inertias are judged in ``urdf_bodies`` (with the rounding tolerance of ``inertia``;
 links welded to the world get notes, never errors), which also merges the welded bodies.
 """
@@ -401,7 +404,8 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         for key in entry:
             spot = spots.get(key) or inertial
             positions[path + (key,)] = (spot.line, spot.column)
-    fixed = {j["name"] for j in joints if j["type"] == "fixed"}
+    all_names = {j["name"] for j in joints}
+    moving_names = {j["name"] for j in moving}
     for index, joint in enumerate(moving):
         element = joint["element"]
         parent_owner, R0, p0 = frames[joint["parent"]]
@@ -424,12 +428,16 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         }
         if joint["type"] == "floating":   # unactuated, no axis (its origin places its frame)
             del entry["axis"], entry["effort"]
+        if joint["mimic"] is not None and joint["mimic"][1] not in moving_names:
+            mimic, leader = joint["mimic"][:2]
+            why = "a fixed joint, which has no coordinate" if leader in all_names else "which the file does not have"
+            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{joint['name']}': its <mimic> "
+                             f"names joint '{leader}', {why}: '{joint['name']}' is an independent coordinate (as in "
+                             "Pinocchio's default, buildModelFromUrdf without mimic)")
+            joint["mimic"] = None
         if joint["mimic"] is not None:   # no coordinate, no effort of its own: its leader's
             entry.pop("effort", None)
-            mimic, leader, multiplier, offset = joint["mimic"]
-            if leader in fixed:
-                reader.error(mimic, f"joint '{joint['name']}': <mimic joint=\"{leader}\">: a fixed joint has no "
-                             "coordinate to follow")
+            _, leader, multiplier, offset = joint["mimic"]
             entry["mimic"] = {"joint": identifier(leader), "multiplier": _number(multiplier), "offset": _number(offset)}
         for key in ("damping", "friction"):   # validated as joint keys: finite, not negative
             if joint[key] != 0:
