@@ -33,7 +33,19 @@ from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
 from .drives import joint_drives
 from .joints import couplings, unit
-from .program import Matrix3, Meaning, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back, lines_read
+from .program import (
+    Matrix3,
+    Meaning,
+    Program,
+    Vector,
+    _add,
+    _cross,
+    _dot,
+    _rotate,
+    _rotate_back,
+    add_column,
+    lines_read,
+)
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 
 
@@ -52,14 +64,12 @@ class _Body:
     mass: sympy.Expr
     first_moment: Vector         # h = m c, link frame
     inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
-    #: the cosine and sine names of a revolute joint, and the joint's variable (a coordinate,
-    #: or ``multiplier * q_leader + offset`` for a <mimic> joint)
+    #: a revolute joint's cosine and sine names and angle (a <mimic> joint: multiplier * q + offset)
     trig: tuple[sympy.Symbol, sympy.Symbol, sympy.Expr] | None = None
 
     @property
     def leads(self) -> bool:
-        """Whether the body's joint owns its coordinate (a <mimic> joint shares its leader's):
-        drive terms, merged per coordinate (``drives.joint_drives``), enter once, there."""
+        """Whether the joint owns its coordinate (drive terms, merged per coordinate, enter there)."""
         return self.coordinate is not None and self.joint.mimic is None
 
 
@@ -111,8 +121,7 @@ class _Tree:
                 trig = (cos, sin, q)
             elif revolute:   # a <mimic> joint: the sine and cosine of its own variable
                 cos, sin = (sympy.Symbol(f"_{f}{coordinate}_{len(self.bodies)}") for f in ("cos", "sin"))
-                # turning by q about the axis is turning by -q about its opposite: the angle is
-                # taken with the sign SymPy keeps inside sin(), so that the line sin(q) stays one
+                # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
                 turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
                 angle = sympy.Dummy("angle")
                 motion = axis_angle(about, angle).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})  # type: ignore[arg-type]
@@ -237,11 +246,8 @@ def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
             current = tree.by_link[current.parent]
             if current.coordinate is not None:
                 i = current.coordinate
-                entry = _dot(current.axis, nm if current.revolute else f)
-                if i == j:   # a leader above its follower: both (i, j) and (j, i) of the joints' M
-                    entry = 2 * entry
-                M[i][j] = let(M[i][j] + entry, Meaning("M", current.link, (i, j)))
-                M[j][i] = M[i][j]
+                entry = _dot(current.axis, nm if current.revolute else f)   # i == j: a leader above its follower
+                M[i][j] = M[j][i] = let(M[i][j] + (2 * entry if i == j else entry), Meaning("M", current.link, (i, j)))
     return M
 
 
@@ -315,8 +321,7 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
         if body.coordinate is not None:
             j = body.coordinate
             drive = tree.drives.get(j) if body.leads else None
-            extra = 0 if drive is None else (drive.armature * qdd[j]
-                                             + drive.stiffness * (tree.table.q[j] - drive.rest))
+            extra = 0 if drive is None else drive.armature * qdd[j] + drive.stiffness * (tree.table.q[j] - drive.rest)
             # a coordinate moving several joints (<mimic>) sums their forces: G^T tau_joints
             tau[j] = tree.program.let(tau[j] + _dot(body.axis, n if body.revolute else f) + extra,
                                       Meaning("tau", body.link))
@@ -326,16 +331,6 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
             forces[body.parent] = (vec(_add(parent_n, n_p), Meaning("n", body.parent)),
                                    vec(_add(parent_f, f_p), Meaning("f", body.parent)))
     return tau
-
-
-def add_column(vec: Callable[..., Vector], present: tuple[Vector, Vector] | None,
-               column: tuple[Vector, Vector]) -> tuple[Vector, Vector]:
-    """A joint's motion axis ``(w, v)`` added to its coordinate's column carried from above:
-    the column itself for a joint with a coordinate of its own, the sum for a <mimic> joint
-    below its leader."""
-    if present is None:
-        return column
-    return vec(_add(present[0], column[0])), vec(_add(present[1], column[1]))
 
 
 def _gravity(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:

@@ -44,8 +44,8 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import joint_drives
-from .program import Program, Vector, _dot
-from .recursive import _advance, _gravity, _start, add_column, body_force
+from .program import Program, Vector, _dot, add_column
+from .recursive import _advance, _gravity, _start, body_force
 from .spatial import inertia_tensor
 
 #: Pinocchio's order of a link's standard parameters (``Inertia.toDynamicParameters``).

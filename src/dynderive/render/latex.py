@@ -16,7 +16,7 @@ from .figure import sheet_figure
 from .linebreak import LineBreaker
 from .numbers import Numbers, latex_decimal, sheet_digits
 from .printers import DerivationFormatter, RememberingLatexPrinter, SheetLatexPrinter
-from .recursion import recursion_context, recursion_names
+from .recursion import joint_variable, recursion_context, recursion_names
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -376,7 +376,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     joints = [{
         "name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),
         "child": escape_tex(j.child),
-        "coordinate": fmt(_joint_variable(robot, table, j)) if j.moves else "",
+        "coordinate": fmt(joint_variable(robot, table, j)) if j.moves else "",
         "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
     } for j in robot.joints]
     # the default sheet shows the named recursion instead: printed only if a template reads them
@@ -566,15 +566,6 @@ def _version() -> str:
     from .._version import __version__
 
     return __version__
-
-
-def _joint_variable(robot: Any, table: Any, joint: Any) -> sympy.Expr:
-    """A moving joint's variable in the joint table: its coordinate (a floating or spherical
-    joint's name), or ``multiplier * q_leader + offset`` for a <mimic> joint."""
-    if joint.mimic is None:
-        return sympy.Symbol(joint.name)
-    leader, multiplier, offset = robot.driver(joint)
-    return table.expr(multiplier) * sympy.Symbol(leader) + table.expr(offset)
 
 
 def render_latex(derivation: Derivation, template_dir: str | Path | None = None,

@@ -317,7 +317,7 @@ def _kinematic_rows(derivation: Derivation, index: dict[str, int]) -> list[dict[
         rows.append({
             "index": index[link.name], "name": link.name, "joint": joint.name, "type": joint.type,
             "parent": index[joint.parent],
-            "coordinate": _variable(robot, table, joint) if joint.moves else None,
+            "coordinate": joint_variable(robot, table, joint) if joint.moves else None,
             "xyz": [table.expr(v) for v in xyz], "rpy": [table.expr(v) for v in rpy],
             "axis": [table.expr(v) for v in axis] if joint.moves else None,
             "mass": table.expr(link.mass), "com": [table.expr(v) for v in link.com],
@@ -326,7 +326,8 @@ def _kinematic_rows(derivation: Derivation, index: dict[str, int]) -> list[dict[
     return rows
 
 
-def _variable(robot: Any, table: Any, joint: Any) -> sympy.Expr:
-    """A moving joint's variable: its coordinate, or ``multiplier * q_leader + offset``."""
+def joint_variable(robot: Any, table: Any, joint: Any) -> sympy.Expr:
+    """A moving joint's variable: its coordinate (a floating or spherical joint's name), or
+    ``multiplier * q_leader + offset`` for a <mimic> joint."""
     leader, multiplier, offset = robot.driver(joint)
-    return table.expr(multiplier) * table.q[robot.coordinates.index(leader)] + table.expr(offset)
+    return table.expr(multiplier) * sympy.Symbol(leader) + table.expr(offset)
