@@ -497,3 +497,20 @@ def test_the_pandas_second_finger_mimics_the_first():
         np.testing.assert_allclose(_ours(order, M), M_pin, rtol=0, atol=1e-9 * np.max(np.abs(M_pin)))
         tau_pin = pin.rnea(model, data, _ours(order, q), _ours(order, qd), _ours(order, qdd))
         np.testing.assert_allclose(_ours(order, tau), tau_pin, rtol=0, atol=1e-9 * np.max(np.abs(tau_pin)))
+
+
+def test_sheet_html_and_json_show_the_coupling(arm, tmp_path):
+    """The recursion names a revolute follower's sine and cosine and gives its variable; the
+    HTML's joint table shows it; the JSON has three coordinates and efforts."""
+    path, _, _ = arm
+    result = runner.invoke(app, ["solve", str(path), "--latex", "--html", "--json", "--out", str(tmp_path), "-q"])
+    assert result.exit_code == 0, result.output
+    tex = (tmp_path / "mimic_arm.tex").read_text()
+    assert "the mimic joint of link 3" in tex and "c_{1,3}" in tex
+    assert "0.7312345678901234" in tex and "mimic joint of link 5" not in tex   # prismatic: no sine
+    html = (tmp_path / "mimic_arm.html").read_text()
+    assert "0.7312345678901234" in html
+    import json
+
+    data = json.loads((tmp_path / "mimic_arm.json").read_text())
+    assert data["coordinates"] == ["j1", "j2", "f1"] and data["efforts"] == ["tau_j1", "tau_j2", "f_f1"]
