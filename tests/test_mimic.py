@@ -402,6 +402,7 @@ REFUSED = [
     ("cycle", lambda d: (_mimic(1, joint="twin")(d), _mimic(3, joint="elbow")(d)),
      "joints[1].mimic.joint: joint 'twin' mimics joint 'elbow' itself"),
     ("infinite", _mimic(1, multiplier=float("inf")), "joints[1].mimic.multiplier: expected a finite number, got inf"),
+    ("huge", _mimic(1, multiplier=10**400), "joints[1].mimic.multiplier: expected a finite number, got 1000"),
     ("text", _mimic(1, offset="x"), "joints[1].mimic.offset: expected a finite number, got 'x'"),
     ("zero", _mimic(1, multiplier=0), "joints[1].mimic.multiplier: multiplier 0 does not move the joint (make it "
      "type: fixed)"),

@@ -42,7 +42,7 @@ def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str |
     for key, default in (("multiplier", 1), ("offset", 0)):
         value = block.get(key, default)
         kpath = mpath + (key,)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
             v.error(kpath, f"{v.label(kpath)}: expected a finite number, got {value!r}")
             value = None
         elif key == "multiplier" and value == 0:
@@ -56,6 +56,13 @@ def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str |
     if leader is None or None in numbers:
         return None
     return Mimic(leader, numbers[0], numbers[1])
+
+
+def _finite(value: float) -> bool:
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:   # an integer beyond a double
+        return False
 
 
 def check_mimics(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool) -> None:
