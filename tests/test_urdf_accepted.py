@@ -1,6 +1,6 @@
 """URDF input that Pinocchio loads and dynderive accepts as Pinocchio does, each against
-Pinocchio's own parser (``buildModelFromXML``, its default: ``<mimic>`` joints independent):
-moving ``<mimic>`` joints as independent coordinates (a note), massless links between joints
+Pinocchio's own parser (``buildModelFromXML``; with ``mimic=True`` for ``<mimic>`` joints):
+moving ``<mimic>`` joints following their leaders (one coordinate), massless links between joints
 (the whole pipeline: sheet, PDF, code, JSON, import), and inertias that miss the triangle
 inequality by far more than rounding, kept as written (a note; refused by ``import`` and in a
 YAML file). The errors that remain are in ``tests/corpus`` (``urdf_inertia_not_psd``,
@@ -79,28 +79,33 @@ GRIPPER = f"""\
 """
 
 
-def test_mimic_joint_is_an_independent_coordinate_with_a_note(tmp_path):
-    """Panda's second finger mimics the first: loaded as a coordinate of its own, as Pinocchio's
-    default does (``pin.buildModelFromXML`` without ``mimic=True``), with a note at <mimic>."""
+def test_mimic_joint_follows_its_leader(tmp_path):
+    """Panda's second finger mimics the first: one coordinate for both, no note, as Pinocchio's
+    ``buildModelFromXML(..., mimic=True)`` models it (tests/test_mimic.py compares in depth)."""
     path = tmp_path / "gripper.urdf"
     path.write_text(GRIPPER)
     robot = dynderive.load_robot(path)
-    assert robot.coordinates == ("wrist", "finger_left_joint", "finger_right_joint")
-    assert robot.notes == (
-        f"{path}:25:5: note: joint 'finger_right_joint': its coupling to joint 'finger_left_joint' (<mimic>) is "
-        "not modelled yet: 'finger_right_joint' is an independent coordinate (as in Pinocchio's default, "
-        "buildModelFromUrdf without mimic)",)
+    assert robot.coordinates == ("wrist", "finger_left_joint")
+    assert robot.notes == ()
     module = generated_module(dynderive.render_code(dynderive.derive(robot)), "gripper")
-    _agrees_with_pinocchio(module, GRIPPER, seed=11)
+    model = pin.buildModelFromXML(GRIPPER, mimic=True)
+    data = model.createData()
+    for q, qd, qdd in np.random.default_rng(11).uniform(-1.5, 1.5, (3, 3, model.nq)):
+        M = pin.crba(model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        np.testing.assert_allclose(module.mass_matrix(q), M, rtol=0, atol=1e-11 * np.max(np.abs(M)))
+        tau = pin.rnea(model, data, q, qd, qdd)
+        np.testing.assert_allclose(module.inverse_dynamics(q, qd, qdd), tau, rtol=0, atol=1e-11 * np.max(np.abs(tau)))
 
 
-def test_mimic_note_reaches_the_terminal(tmp_path):
+def test_mimic_joint_reaches_the_module(tmp_path):
     path = tmp_path / "gripper.urdf"
     path.write_text(GRIPPER)
     result = runner.invoke(app, ["solve", str(path), "--code", "--out", str(tmp_path / "out")])
     assert result.exit_code == 0, result.output
-    assert f"{path}:25:5: note: joint 'finger_right_joint': its coupling" in result.stderr
-    assert (tmp_path / "out" / "gripper_dynamics.py").is_file()
+    assert "<mimic>" not in result.stderr
+    text = (tmp_path / "out" / "gripper_dynamics.py").read_text()
+    assert 'COORDINATES = ("wrist", "finger_left_joint")' in text
 
 
 # -- massless links between joints ----------------------------------------------------------

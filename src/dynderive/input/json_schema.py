@@ -78,6 +78,13 @@ def robot_schema() -> dict[str, Any]:
             "rest": {**EXPRESSION, "description": "spring rest position (default 0; needs stiffness)"},
             "armature": {**EXPRESSION, "description": "reflected rotor inertia (gear ratio**2 * rotor "
                          "inertia): added to M[i, i]"},
+            "mimic": {"type": "object", "additionalProperties": False, "required": ["joint"],
+                      "description": "3-D revolute or prismatic joint following another (URDF <mimic>): its "
+                                     "variable is multiplier * leader + offset; no coordinate, no effort",
+                      "properties": {"joint": {"type": "string", "pattern": IDENTIFIER,
+                                               "description": "the leader: a revolute or prismatic joint"},
+                                     "multiplier": {"type": "number", "description": "default 1, not 0"},
+                                     "offset": {"type": "number", "description": "default 0"}}},
         },
     }
     loop = {

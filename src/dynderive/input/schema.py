@@ -23,6 +23,7 @@ from .drives import DRIVE_KEYS, drive_terms
 from .floating import check_floating, expand_planar_floating, planar_floating_names, virtual_links
 from .frames import read_frames
 from .loader import SourceDocument
+from .mimic import check_mimics, read_mimic
 from .names import check_names, engine_quantities
 from .validator import Validator as _Validator
 from .validator import kind as _kind
@@ -34,7 +35,7 @@ TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints
             "frames", "maximal")
 PARAMETER_KEYS = ("value", "unit", "description")
 LINK_KEYS = ("name", "mass", "com", "inertia")
-JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS)
+JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS, "mimic")
 MAXIMAL_KEYS = ("constraints",)
 LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis")
 #: Loop-closing joint types, and how many constraints each imposes.
@@ -86,6 +87,7 @@ def validate(doc: SourceDocument) -> Robot:
         v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, tree.names)
     check_floating(v, top, joints, planar, links)
+    check_mimics(v, top, joints, planar)
     links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops, planar)
@@ -267,8 +269,9 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
                         "unactuated (push its body with a wrench at a frame)")
                 effort = None
         drives = drive_terms(v, item, path, jtype, symbols, lambda e: _numeric(e, defaults))
+        mimic = read_mimic(v, item, path, jtype)
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
-                            origin, axis, effort, **drives))
+                            origin, axis, None if mimic else effort, **drives, mimic=mimic))
 
     return joints
 
@@ -345,7 +348,7 @@ def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
         v.error(("independent",), f"independent: expected a non-empty list of coordinate names, got "
                 f"{_kind(raw, empty=True)}")
         return None
-    coordinates = [n for j in joints if j.moves
+    coordinates = [n for j in joints if j.owns
                    for n in (planar_floating_names(j.name) if planar and j.type == "floating" else [j.name])]
     names: list[str] = []
     for k, name in enumerate(raw):

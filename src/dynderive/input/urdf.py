@@ -15,8 +15,12 @@ Rotations are composed as matrices; a composed ``rpy`` is extracted so that its 
 reproduces the composed one to rounding, also near gimbal lock (``matrix_to_rpy``). Only the
 ``rpy`` numbers written in the file are snapped to exact quarter turns (``snap``), never
 composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``;
-on a moving joint, the joint is an independent coordinate (the coupling is not modelled yet,
-as Pinocchio's ``buildModelFromUrdf`` does by default), with a note.
+on a moving joint it becomes the joint's ``mimic`` (no coordinate of its own, no effort: its
+variable is ``multiplier * q_leader + offset``, as ``pin.buildModelFromUrdf(..., mimic=True)``
+models it), checked by the validator like a YAML file's (``input/mimic.py``); one naming a
+joint the file does not have, or a fixed one, is ignored with a note (the joint an independent
+coordinate, as in Pinocchio's default: alex_psyonic_hands.urdf names ``index_q1`` for
+``Left_index_q1``).
 Masses and inertias are judged in ``urdf_bodies`` (with the rounding tolerance of ``inertia``;
 links welded to the world get notes, never errors), which also merges the welded bodies.
 """
@@ -290,11 +294,10 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         mimic = joint.find("mimic")
         if mimic is not None and jtype == "fixed":
             doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
-        elif mimic is not None and jtype in ("revolute", "continuous", "prismatic"):
-            leader = mimic.attrib.get("joint", "")
-            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{name}': its coupling to "
-                             f"joint '{leader}' (<mimic>) is not modelled yet: '{name}' is an independent "
-                             "coordinate (as in Pinocchio's default, buildModelFromUrdf without mimic)")
+        follows = None
+        if mimic is not None and jtype != "fixed":   # checked by the validator (input/mimic.py)
+            follows = (mimic, mimic.attrib.get("joint", ""), reader.numbers(mimic, "multiplier", 1, [1.0])[0],
+                       reader.numbers(mimic, "offset", 1, [0.0])[0])
         if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
             reader.error(joint, f"joint '{name}': unknown joint type '{jtype}'")
             continue
@@ -318,6 +321,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             "axis": reader.numbers(joint.find("axis"), "xyz", 3, [1, 0, 0]),
             "axis_element": joint.find("axis") or joint,
             "dynamics": dynamics,
+            "mimic": follows,
             # <dynamics damping friction>: viscous damping and Coulomb friction (0 = none)
             "damping": reader.numbers(dynamics, "damping", 1, [0.0])[0] if dynamics is not None else 0.0,
             "friction": reader.numbers(dynamics, "friction", 1, [0.0])[0] if dynamics is not None else 0.0,
@@ -399,6 +403,8 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         for key in entry:
             spot = spots.get(key) or inertial
             positions[path + (key,)] = (spot.line, spot.column)
+    all_names = {j["name"] for j in joints}
+    moving_names = {j["name"] for j in moving}
     for index, joint in enumerate(moving):
         element = joint["element"]
         parent_owner, R0, p0 = frames[joint["parent"]]
@@ -421,6 +427,17 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         }
         if joint["type"] == "floating":   # unactuated, no axis (its origin places its frame)
             del entry["axis"], entry["effort"]
+        if joint["mimic"] is not None and joint["mimic"][1] not in moving_names:
+            mimic, leader = joint["mimic"][:2]
+            why = "a fixed joint, which has no coordinate" if leader in all_names else "which the file does not have"
+            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{joint['name']}': its <mimic> "
+                             f"names joint '{leader}', {why}: '{joint['name']}' is an independent coordinate (as in "
+                             "Pinocchio's default, buildModelFromUrdf without mimic)")
+            joint["mimic"] = None
+        if joint["mimic"] is not None:   # no coordinate, no effort of its own: its leader's
+            entry.pop("effort", None)
+            _, leader, multiplier, offset = joint["mimic"]
+            entry["mimic"] = {"joint": identifier(leader), "multiplier": _number(multiplier), "offset": _number(offset)}
         for key in ("damping", "friction"):   # validated as joint keys: finite, not negative
             if joint[key] != 0:
                 entry[key] = _number(joint[key])
@@ -435,6 +452,11 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         if joint["dynamics"] is not None:
             for key in ("damping", "friction"):
                 positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
+        if joint["mimic"] is not None:
+            spot = (joint["mimic"][0].line, joint["mimic"][0].column)
+            doc.labels[path + ("mimic",)] = f"joint '{joint['name']}' <mimic>"
+            for key in ((), ("joint",), ("multiplier",), ("offset",)):
+                positions[path + ("mimic",) + key] = spot
         for i in range(3 if "axis" in entry else 0):
             positions[path + ("axis", i)] = positions[path + ("axis",)]
     _welded_frames(data, positions, doc, link_elements, frames)

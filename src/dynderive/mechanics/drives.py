@@ -56,14 +56,28 @@ def dissipative_force(damping: sympy.Expr, friction: sympy.Expr, rate: sympy.Exp
 
 
 def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
-    """The coordinates whose joints declare drive terms, each with its terms (absent ones 0)."""
+    """The coordinates whose joints declare drive terms, each with its terms (absent ones 0).
+
+    A ``<mimic>`` joint's terms act on its leader's coordinate: with its rate ``m qd`` (``m``
+    the multiplier) its damper gives the generalized force ``m (b m qd)``, its friction
+    ``m fc sign(m qd) = |m| fc sign(qd)``, its armature ``m^2 Ia qdd``, and its spring
+    ``k (m q + o - rest)^2 / 2 = m^2 k (q - (rest - o)/m)^2 / 2``: so the coordinate's terms
+    are ``b + m^2 b_f``, ``fc + |m| fc_f``, ``Ia + m^2 Ia_f`` and (one spring per coordinate,
+    the validator's rule) ``m^2 k_f`` about ``(rest_f - o)/m``."""
 
     def value(text: object) -> sympy.Expr:
         return sympy.Integer(0) if text is None else table.expr(text)
 
-    moving = [j for j in robot.joints if j.moves]
-    return [JointDrive(i, value(j.damping), value(j.friction), value(j.stiffness), value(j.rest), value(j.armature))
-            for i, j in enumerate(moving) if j.driven]
+    index = {name: i for i, name in enumerate(robot.coordinates)}
+    terms: dict[int, list[sympy.Expr]] = {}
+    for joint in (j for j in robot.joints if j.moves and j.driven):
+        leader, multiplier, offset = robot.driver(joint)
+        m, o = table.expr(multiplier), table.expr(offset)
+        damping, friction, stiffness, rest, armature = terms.setdefault(index[leader], [sympy.Integer(0)] * 5)
+        terms[index[leader]] = [damping + m**2 * value(joint.damping), friction + abs(m) * value(joint.friction),
+                                stiffness + m**2 * value(joint.stiffness), (value(joint.rest) - o) / m if joint.stiffness is not None else rest,
+                                armature + m**2 * value(joint.armature)]
+    return [JointDrive(i, *terms[i]) for i in sorted(terms)]
 
 
 def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:

@@ -26,7 +26,7 @@ import sympy
 
 from ..model.robot import Frame, Robot
 from ..model.symbols import SymbolTable
-from .joints import unit
+from .joints import couplings, unit
 from .program import Program, Vector, _add, _cross, _rotate
 from .recursive import _carry, _forward, _start, _Tree
 from .spatial import Transform, axis_angle, rpy_matrix
@@ -108,7 +108,7 @@ def _planar_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy.
 def _spatial_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy.Matrix, sympy.Matrix, sympy.Matrix]:
     """World rotation and position of a 3-D frame, and the angular rows of its Jacobian (the
     revolute joints' axes in world axes)."""
-    index = {name: i for i, name in enumerate(robot.coordinates)}
+    coupling = couplings(robot, table)
     pose = Transform.identity()
     angular = sympy.zeros(3, len(table.q))
     for joint in robot.path_to(frame.link):
@@ -117,12 +117,14 @@ def _spatial_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy
         if not joint.moves:
             continue
         axis = unit(tuple(table.expr(e) for e in joint.axis))
-        coordinate = index[joint.name]
+        c = coupling[joint.name]   # a <mimic> joint: multiplier * q_leader + offset
         if joint.type == "revolute":
-            angular[:, coordinate] = (pose.R * sympy.Matrix(axis)).applyfunc(tidy)
-            pose = pose * Transform(axis_angle(axis, table.q[coordinate]), sympy.zeros(3, 1))  # type: ignore[arg-type]
+            column = (pose.R * sympy.Matrix(axis) * c.multiplier).applyfunc(tidy)
+            present = angular[:, c.coordinate]
+            angular[:, c.coordinate] = column if present.is_zero_matrix else (present + column).applyfunc(tidy)
+            pose = pose * Transform(axis_angle(axis, c.variable), sympy.zeros(3, 1))  # type: ignore[arg-type]
         else:
-            pose = pose * Transform(sympy.eye(3), sympy.Matrix(axis) * table.q[coordinate])
+            pose = pose * Transform(sympy.eye(3), sympy.Matrix(axis) * c.variable)
     x, y, z, roll, pitch, yaw = (table.expr(e) for e in frame.origin)
     pose = pose * Transform(rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z]))
     return pose.R, pose.p, angular
@@ -221,6 +223,7 @@ def _jacobian_columns(tree: _Tree, poses: dict[str, Pose], link: str,
     zero = sympy.Integer(0)
     columns: list[tuple[Vector, Vector]] = [((zero,) * 3, (zero,) * 3)] * len(tree.table.q)   # type: ignore[list-item]
     path = {j.name for j in tree.robot.path_to(link)}
+    added: set[int] = set()
     for body in tree.bodies:
         if body.coordinate is None or body.joint.name not in path:
             continue
@@ -228,7 +231,11 @@ def _jacobian_columns(tree: _Tree, poses: dict[str, Pose], link: str,
         axis = tuple(let(e) for e in _rotate(R, body.axis))
         if body.revolute:
             lever = tuple(let(a - b) for a, b in zip(position, origin))
-            columns[body.coordinate] = (tuple(let(e) for e in _cross(axis, lever)), axis)   # type: ignore[assignment]
+            column = (tuple(let(e) for e in _cross(axis, lever)), axis)
         else:
-            columns[body.coordinate] = (axis, (zero,) * 3)   # type: ignore[assignment]
+            column = (axis, (zero,) * 3)
+        if body.coordinate in added:   # a <mimic> joint on the path of its leader: the sum
+            column = tuple(tuple(let(a + b) for a, b in zip(*pair)) for pair in zip(columns[body.coordinate], column))
+        added.add(body.coordinate)
+        columns[body.coordinate] = column   # type: ignore[assignment]
     return columns

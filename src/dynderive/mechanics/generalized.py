@@ -65,7 +65,7 @@ def tidier(robot: Robot) -> Callable[[sympy.Expr], sympy.Expr]:
     entries for 4 % fewer operations)."""
     if robot.planar:
         return tidy
-    return _spatial_tidy if len(robot.coordinates) <= LAGRANGE_DOF_LIMIT else _spatial_quick_tidy
+    return _spatial_tidy if robot.kinematic_size <= LAGRANGE_DOF_LIMIT else _spatial_quick_tidy
 
 
 @dataclass
@@ -161,7 +161,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
 
     steps_tidy = None
     EOM_g1 = None
-    if robot.planar or (len(q) <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
+    if robot.planar or (robot.kinematic_size <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
         report("Lagrange's equations")
         steps = lagrange_steps(L, q, qd, qdd)
         steps_tidy = {
@@ -182,8 +182,13 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     report("mass matrix")
     M = (mass_matrix_from_jacobians(jacobians, inertias) + drives.armature).applyfunc(clean)
     report("Coriolis matrix")
-    small = robot.planar or (n <= LAGRANGE_DOF_LIMIT and all(is_small(e, FOURIER_LIMIT) for e in M))
-    if small:
+    # a <mimic> joint's angle (multiplier * q + offset) makes the Fourier forms long (products
+    # of sines of several multiples of one coordinate): such robots keep M as built
+    small = robot.planar or (n <= LAGRANGE_DOF_LIMIT and not robot.mimics
+                             and all(is_small(e, FOURIER_LIMIT) for e in M))
+    if robot.mimics:   # coupled columns: dM/dq_k by differentiation, not by twist brackets
+        C = christoffel_coriolis(M, q, qd).applyfunc(clean)
+    elif small:
         # Fourier form where shorter: trig products of different angles combine, and C (from
         # dM/dq) then has single sines instead of products that cancel in pairs
         fourier = M.applyfunc(trig_linear)

@@ -8,6 +8,7 @@ twist in the joint frame. A new kind is one new class registered in ``KINDS``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import sympy
 
@@ -53,6 +54,32 @@ class Fixed(JointKind):
 
 
 KINDS: dict[str, JointKind] = {"revolute": Revolute(), "prismatic": Prismatic(), "fixed": Fixed()}
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """How a moving joint's variable depends on the coordinates: ``multiplier * q[coordinate]
+    + offset`` (1 and 0 for a joint with a coordinate of its own; a URDF ``<mimic>`` joint
+    follows its leader's coordinate). The joint's motion per unit rate of that coordinate is
+    its unit twist times ``multiplier``."""
+
+    coordinate: int
+    multiplier: sympy.Expr
+    variable: sympy.Expr
+
+
+def couplings(robot: Any, table: Any) -> dict[str, Coupling]:
+    """The ``Coupling`` of every moving joint with a single coordinate, by joint name."""
+    index = {name: i for i, name in enumerate(robot.coordinates)}
+    found = {}
+    for joint in robot.joints:
+        if not joint.moves or joint.multi:
+            continue
+        leader, multiplier, offset = robot.driver(joint)
+        k = index[leader]
+        m, o = table.expr(multiplier), table.expr(offset)
+        found[joint.name] = Coupling(k, m, m * table.q[k] + o)
+    return found
 
 
 def unit(axis: tuple[sympy.Expr, ...]) -> tuple[sympy.Expr, ...]:

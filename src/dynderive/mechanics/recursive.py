@@ -32,8 +32,20 @@ import sympy
 from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
 from .drives import joint_drives
-from .joints import unit
-from .program import Matrix3, Meaning, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back, lines_read
+from .joints import couplings, unit
+from .program import (
+    Matrix3,
+    Meaning,
+    Program,
+    Vector,
+    _add,
+    _cross,
+    _dot,
+    _rotate,
+    _rotate_back,
+    add_column,
+    lines_read,
+)
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 
 
@@ -46,12 +58,19 @@ class _Body:
     joint: Joint
     coordinate: int | None       # index of the joint's coordinate, None for fixed joints
     revolute: bool
-    axis: Vector                 # motion axis in the link frame
+    axis: Vector                 # motion axis in the link frame (times a <mimic> multiplier)
     rotation: Matrix3            # link axes in the parent frame (R), with the joint's motion
     position: Vector             # link origin in the parent frame
     mass: sympy.Expr
     first_moment: Vector         # h = m c, link frame
     inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
+    #: a revolute joint's cosine and sine names and angle (a <mimic> joint: multiplier * q + offset)
+    trig: tuple[sympy.Symbol, sympy.Symbol, sympy.Expr] | None = None
+
+    @property
+    def leads(self) -> bool:
+        """Whether the joint owns its coordinate (drive terms, merged per coordinate, enter there)."""
+        return self.coordinate is not None and self.joint.mimic is None
 
 
 class _Tree:
@@ -59,13 +78,13 @@ class _Tree:
 
     def __init__(self, robot: Robot, table: SymbolTable, program: Program):
         self.robot, self.table, self.program = robot, table, program
-        index = {name: i for i, name in enumerate(robot.coordinates)}
+        self.couplings = couplings(robot, table)
         depth = {link.name: len(robot.path_to(link.name)) for link in robot.links}
         order = sorted(robot.links, key=lambda link: depth[link.name])  # stable: file order per depth
         self.bodies: list[_Body] = []
         for link in order:
             joint = robot.parent_joint(link.name)
-            coordinate = index.get(joint.name) if joint.moves else None
+            coordinate = self.couplings[joint.name].coordinate if joint.moves else None
             self.bodies.append(self._body(link, joint, coordinate))
         self.by_link = {b.link: b for b in self.bodies}
         #: drive terms by coordinate: armature joins M[i, i] (CRBA) and Ia qdd_i the joint
@@ -88,17 +107,29 @@ class _Tree:
         axis: Vector = (zero,) * 3  # type: ignore[assignment]
         motion = sympy.eye(3)
         revolute = joint.type == "revolute"
+        trig = None
         if coordinate is not None:
             if self.robot.planar:
                 axis = (zero, zero, sympy.Integer(1)) if revolute else (*unit(tuple(expr(e) for e in joint.axis)), zero)
             else:
                 axis = unit(tuple(expr(e) for e in joint.axis))  # type: ignore[assignment]
-            q = self.table.q[coordinate]
-            if revolute:
+            coupling = self.couplings[joint.name]
+            q = coupling.variable
+            if revolute and joint.mimic is None:
                 cos, sin = sympy.Symbol(f"_cos{coordinate}"), sympy.Symbol(f"_sin{coordinate}")
                 motion = axis_angle(axis, q).subs({sympy.cos(q): cos, sympy.sin(q): sin})
+                trig = (cos, sin, q)
+            elif revolute:   # a <mimic> joint: the sine and cosine of its own variable
+                cos, sin = (sympy.Symbol(f"_{f}{coordinate}_{len(self.bodies)}") for f in ("cos", "sin"))
+                # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
+                turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
+                angle = sympy.Dummy("angle")
+                motion = axis_angle(about, angle).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})  # type: ignore[arg-type]
+                trig = (cos, sin, turn)
             else:
                 position = [p + d * q for p, d in zip(position, origin * sympy.Matrix(axis))]
+            if coupling.multiplier != 1:   # motion per unit rate of the leader's coordinate
+                axis = tuple(coupling.multiplier * a for a in axis)  # type: ignore[assignment]
         rotation = origin * motion
         name = link.name
         R = tuple(tuple(let(rotation[i, j], Meaning("R", name, (i, j))) for j in range(3)) for i in range(3))
@@ -116,16 +147,15 @@ class _Tree:
                                   Meaning("I", name, (i, j))) for j in range(3)) for i in range(3))
         return _Body(link.name, joint.parent, joint, coordinate, revolute, axis, R,  # type: ignore[arg-type]
                      self.program.vector(position, Meaning("p", name)), mass,
-                     self.program.vector([mass * c for c in com], Meaning("h", name)), inertia)
+                     self.program.vector([mass * c for c in com], Meaning("h", name)), inertia, trig)
 
     def trig(self) -> list[tuple[sympy.Symbol, sympy.Expr]]:
         """The sines and cosines the transforms use, to compute first."""
         lines = []
         for body in self.bodies:
-            if body.coordinate is not None and body.revolute:
-                q = self.table.q[body.coordinate]
-                lines += [(sympy.Symbol(f"_cos{body.coordinate}"), sympy.cos(q)),
-                          (sympy.Symbol(f"_sin{body.coordinate}"), sympy.sin(q))]
+            if body.trig is not None:
+                cos, sin, q = body.trig
+                lines += [(cos, sympy.cos(q)), (sin, sympy.sin(q))]
         return lines
 
     def force_to_parent(self, body: _Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr],
@@ -207,16 +237,17 @@ def _composite_mass_matrix(tree: _Tree) -> list[list[sympy.Expr]]:
             f, nm = vec(_cross(a, h), force), vec(_rotate(inertia, a), moment)
         else:
             f, nm = vec([mass * x for x in a], force), vec(_cross(h, a), moment)
-        armature = tree.drives[j].armature if j in tree.drives else 0
-        M[j][j] = let(_dot(a, nm if body.revolute else f) + armature, Meaning("M", body.link, (j, j)))
+        armature = tree.drives[j].armature if j in tree.drives and body.leads else 0
+        # a coordinate moving several joints (<mimic>) sums their entries: M = G^T M_joints G
+        M[j][j] = let(M[j][j] + _dot(a, nm if body.revolute else f) + armature, Meaning("M", body.link, (j, j)))
         current = body
         while current.parent not in tree.static:
             nm, f = tree.force_to_parent(current, nm, f, j)
             current = tree.by_link[current.parent]
             if current.coordinate is not None:
                 i = current.coordinate
-                M[i][j] = M[j][i] = let(_dot(current.axis, nm if current.revolute else f),
-                                        Meaning("M", current.link, (i, j)))
+                entry = _dot(current.axis, nm if current.revolute else f)   # i == j: a leader above its follower
+                M[i][j] = M[j][i] = let(M[i][j] + (2 * entry if i == j else entry), Meaning("M", current.link, (i, j)))
     return M
 
 
@@ -289,10 +320,11 @@ def _newton_euler(tree: _Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Exp
         n, f = forces[body.link]
         if body.coordinate is not None:
             j = body.coordinate
-            drive = tree.drives.get(j)
-            extra = 0 if drive is None else (drive.armature * qdd[j]
-                                             + drive.stiffness * (tree.table.q[j] - drive.rest))
-            tau[j] = tree.program.let(_dot(body.axis, n if body.revolute else f) + extra, Meaning("tau", body.link))
+            drive = tree.drives.get(j) if body.leads else None
+            extra = 0 if drive is None else drive.armature * qdd[j] + drive.stiffness * (tree.table.q[j] - drive.rest)
+            # a coordinate moving several joints (<mimic>) sums their forces: G^T tau_joints
+            tau[j] = tree.program.let(tau[j] + _dot(body.axis, n if body.revolute else f) + extra,
+                                      Meaning("tau", body.link))
         if body.parent not in tree.static:
             n_p, f_p = tree.force_to_parent(body, n, f)
             parent_n, parent_f = forces[body.parent]
@@ -496,7 +528,8 @@ def _body_jacobians(tree: _Tree) -> dict[str, sympy.Matrix]:
     for body in tree.bodies:
         own = {j: tree.motion_from_parent(body, w, v) for j, (w, v) in columns[body.parent].items()}
         if body.coordinate is not None:
-            own[body.coordinate] = (body.axis, zero) if body.revolute else (zero, body.axis)
+            own[body.coordinate] = add_column(vec, own.get(body.coordinate),
+                                              (body.axis, zero) if body.revolute else (zero, body.axis))
         columns[body.link] = own
         com = [tree.table.expr(e) for e in tree.robot.link(body.link).com] + ([sympy.Integer(0)] if tree.robot.planar else [])
         rows = 3 if tree.robot.planar else 6

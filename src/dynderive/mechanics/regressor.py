@@ -44,7 +44,7 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import joint_drives
-from .program import Program, Vector, _dot
+from .program import Program, Vector, _dot, add_column
 from .recursive import _advance, _gravity, _start, body_force
 from .spatial import inertia_tensor
 
@@ -140,7 +140,8 @@ def regressor_program(robot: Robot, table: SymbolTable) -> Program:
         # the axes of the joints above, as motion vectors in this link's frame
         own = {j: tree.motion_from_parent(body, w, v) for j, (w, v) in axes[body.parent].items()}
         if body.coordinate is not None:
-            own[body.coordinate] = (body.axis, zero) if body.revolute else (zero, body.axis)
+            own[body.coordinate] = add_column(vec, own.get(body.coordinate),
+                                              (body.axis, zero) if body.revolute else (zero, body.axis))
         axes[body.link] = own
         w, v, alpha, acc = motion[body.link]
         for kind in (PLANAR_KINDS if robot.planar else SPATIAL_KINDS):

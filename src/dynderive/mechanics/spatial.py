@@ -14,7 +14,7 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
-from .joints import unit
+from .joints import couplings, unit
 from .tidy import is_small, quick_tidy
 
 #: Pieces larger than this (operations) are composed without tidying.
@@ -86,7 +86,7 @@ class SpatialLinkKinematics:
 
 def spatial_kinematics(robot: Robot, table: SymbolTable) -> list[SpatialLinkKinematics]:
     """COM poses and body Jacobians of every link, in the file's link order."""
-    index_of = {name: i for i, name in enumerate(robot.coordinates)}
+    coupling = couplings(robot, table)
     n = len(robot.coordinates)
     results = []
     for link in robot.links:
@@ -99,14 +99,15 @@ def spatial_kinematics(robot: Robot, table: SymbolTable) -> list[SpatialLinkKine
             if not joint.moves:
                 continue
             axis = unit(tuple(table.expr(e) for e in joint.axis))
-            q = table.q[index_of[joint.name]]
+            c = coupling[joint.name]   # a <mimic> joint: multiplier * q_leader + offset
+            q, twist = c.variable, sympy.Matrix(axis) * c.multiplier
             zero = sympy.zeros(3, 1)
             if joint.type == "revolute":
                 local.append(Transform(axis_angle(axis, q), zero))  # type: ignore[arg-type]
-                twists.append((index_of[joint.name], len(local), zero, sympy.Matrix(axis)))
+                twists.append((c.coordinate, len(local), zero, twist))
             else:
                 local.append(Transform(sympy.eye(3), sympy.Matrix(axis) * q))
-                twists.append((index_of[joint.name], len(local), sympy.Matrix(axis), zero))
+                twists.append((c.coordinate, len(local), twist, zero))
         local.append(Transform(sympy.eye(3), sympy.Matrix([table.expr(e) for e in link.com])))
         # suffix[i] = local[i] * ... * local[-1]: the COM seen from the frame before local[i]
         suffix = [Transform.identity()] * (len(local) + 1)
@@ -117,8 +118,9 @@ def spatial_kinematics(robot: Robot, table: SymbolTable) -> list[SpatialLinkKine
             to_com = suffix[position].inverse()  # joint frame (after motion) seen from the COM
             omega = _tidy(to_com.R * w)
             velocity = _tidy(to_com.R * v + to_com.p.cross(omega))
-            jacobian[0:3, coordinate] = velocity
-            jacobian[3:6, coordinate] = omega
+            # a leader's column sums its followers' twists on the path (G of q = G q_c + offset)
+            jacobian[0:3, coordinate] = jacobian[0:3, coordinate] + velocity
+            jacobian[3:6, coordinate] = jacobian[3:6, coordinate] + omega
         world = suffix[0]
         results.append(SpatialLinkKinematics(link.name, world.R, world.p, jacobian))
     return results

@@ -39,8 +39,9 @@ PLANAR_EXPLICIT_DOF = 4
 
 def intermediate_form(robot: Robot) -> bool:
     """Whether ``robot``'s generalized quantities are derived in intermediate-variable form:
-    3-D robots beyond LAGRANGE_DOF_LIMIT coordinates, planar ones beyond PLANAR_EXPLICIT_DOF."""
-    return len(robot.coordinates) > (PLANAR_EXPLICIT_DOF if robot.planar else LAGRANGE_DOF_LIMIT)
+    3-D robots beyond LAGRANGE_DOF_LIMIT joint variables (coordinates and ``<mimic>`` joints),
+    planar ones beyond PLANAR_EXPLICIT_DOF coordinates."""
+    return robot.kinematic_size > (PLANAR_EXPLICIT_DOF if robot.planar else LAGRANGE_DOF_LIMIT)
 
 
 def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedProgram,

@@ -47,6 +47,16 @@ Expression = str | int | float
 
 
 @dataclass(frozen=True)
+class Mimic:
+    """A joint coupled to another (URDF ``<mimic>``): its variable is ``multiplier *
+    q_leader + offset``, so it has no coordinate of its own (DESIGN.md section 10)."""
+
+    joint: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
 class Parameter:
     """A free symbol of the robot, with an optional default value."""
 
@@ -95,25 +105,36 @@ class Joint:
     stiffness: Expression | None = None
     rest: Expression | None = None
     armature: Expression | None = None
+    #: The joint this one follows (None: it has a coordinate of its own, or is fixed).
+    mimic: Mimic | None = None
 
     @property
     def moves(self) -> bool:
-        """Whether the joint has a coordinate (fixed joints do not)."""
+        """Whether the joint moves (fixed joints do not). A ``mimic`` joint moves without a
+        coordinate of its own: ``owns`` tells those apart."""
         return self.type != "fixed"
 
     @property
     def effort_names(self) -> tuple[str, ...]:
         """The joint's efforts, one per velocity entry it drives: its ``effort`` name, or for a
         floating or spherical joint that name with the suffixes of FLOATING_EFFORT or
-        SPHERICAL_EFFORT (velocity entries in the same order); none when unactuated."""
-        if not self.effort or not self.moves:
+        SPHERICAL_EFFORT (velocity entries in the same order); none when unactuated (or a
+        ``<mimic>`` follower, driven through its leader)."""
+        if not self.effort or not self.owns:
             return ()
         suffixes = {"floating": FLOATING_EFFORT, "spherical": SPHERICAL_EFFORT}.get(self.type)
         return (self.effort,) if suffixes is None else tuple(f"{self.effort}_{s}" for s in suffixes)
 
     @property
+    def owns(self) -> bool:
+        """Whether the joint has a coordinate of its own (it moves and follows no other)."""
+        return self.moves and self.mimic is None
+
+    @property
     def sizes(self) -> tuple[int, int]:
         """How many entries the joint has in ``q`` (NQ) and in ``qd`` (NV)."""
+        if self.mimic is not None:
+            return (0, 0)
         return {"fixed": (0, 0), "floating": (7, 6), "spherical": (4, 3)}.get(self.type, (1, 1))
 
     @property
@@ -196,8 +217,9 @@ class Robot:
 
     @property
     def coordinates(self) -> tuple[str, ...]:
-        """Names of the generalized coordinates: the moving joints, in file order."""
-        return tuple(j.name for j in self.joints if j.moves)
+        """Names of the generalized coordinates: the moving joints, in file order (a ``mimic``
+        joint has none: it follows its leader's)."""
+        return tuple(j.name for j in self.joints if j.owns)
 
     @property
     def floating(self) -> bool:
@@ -223,7 +245,7 @@ class Robot:
     def configuration_names(self) -> tuple[str, ...]:
         """The entries of ``q`` (NQ): a floating joint's seven, a spherical joint's four, every
         other moving joint's name."""
-        return tuple(name for j in self.joints if j.moves
+        return tuple(name for j in self.joints if j.owns
                      for name in (floating_names(j.name, j.type)[0] if j.multi else [j.name]))
 
     @property
@@ -235,7 +257,7 @@ class Robot:
     def offsets(self) -> tuple[dict[str, int], dict[str, int]]:
         """Where each moving joint's entries start in ``q`` and in ``qd``, by joint name."""
         q, v, i, k = {}, {}, 0, 0
-        for joint in (j for j in self.joints if j.moves):
+        for joint in (j for j in self.joints if j.owns):
             q[joint.name], v[joint.name] = i, k
             i, k = i + joint.sizes[0], k + joint.sizes[1]
         return q, v
@@ -255,6 +277,25 @@ class Robot:
         """The entry of ``qd`` each effort (``efforts``' order) acts on."""
         where_v = self.offsets()[1]
         return tuple(where_v[j.name] + k for j in self.joints for k in range(len(j.effort_names)))
+
+    @property
+    def kinematic_size(self) -> int:
+        """How many joint variables the kinematics composes: the coordinates and the ``<mimic>``
+        joints that follow them (what the cost of the symbolic route grows with)."""
+        return len(self.coordinates) + sum(1 for j in self.joints if j.mimic is not None)
+
+    @property
+    def mimics(self) -> bool:
+        """Whether some joint follows another (URDF ``<mimic>``)."""
+        return any(j.mimic is not None for j in self.joints)
+
+    def driver(self, joint: Joint) -> tuple[str, float, float]:
+        """The coordinate that moves a moving joint and how: ``(name, multiplier, offset)``,
+        the joint's variable being ``multiplier * name + offset`` (``(joint, 1, 0)`` for a
+        joint with a coordinate of its own)."""
+        if joint.mimic is None:
+            return joint.name, 1.0, 0.0
+        return joint.mimic.joint, joint.mimic.multiplier, joint.mimic.offset
 
     def link(self, name: str) -> Link:
         return next(link for link in self.links if link.name == name)

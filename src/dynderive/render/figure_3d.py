@@ -77,7 +77,11 @@ def spatial_kinematics(robot: Any, table: Any, q: list[float]) -> dict[str, Any]
             R0, p0 = R @ rpy(roll, pitch, yaw), p + R @ np.array([x, y, z])
             axis = np.array([num(e) for e in joint.axis]) if joint.moves else np.array([0.0, 0.0, 1.0])
             axis = axis / (np.linalg.norm(axis) or 1.0)
-            value = q[index[joint.name]] if joint.moves else 0.0
+            if joint.moves:   # a <mimic> joint: multiplier * q_leader + offset
+                leader, multiplier, offset = robot.driver(joint)
+                value = multiplier * q[index[leader]] + offset
+            else:
+                value = 0.0
             if joint.type == "revolute":
                 frames[joint.child] = (R0 @ axis_angle(axis, value), p0)
             elif joint.type == "prismatic":
@@ -208,7 +212,8 @@ def spatial_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any]
     index = {name: i for i, name in enumerate(robot.coordinates)}
     for joint in robot.joints:
         if joint.moves:
-            label = fmt(table.q[index[joint.name]])
+            leader, multiplier, offset = robot.driver(joint)
+            label = fmt(table.expr(multiplier) * table.q[index[leader]] + table.expr(offset))
             _label(sheet, at(joints[joint.name][1]), CYLINDER_MM[1] + 0.8, label, joint.name)
     for name, p, _ in named:
         _label(sheet, at(p), 1.5, r"\mathrm{" + escape_tex(name) + "}", name)

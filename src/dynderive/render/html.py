@@ -32,6 +32,7 @@ from .latex import (
     _residual_text,
     default_sections,
 )
+from .recursion import joint_variable
 
 HTML_TEMPLATE = "html/sheet.html.j2"
 
@@ -96,7 +97,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
     parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value_markup(p.value, fmt),
                    "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
-               "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else None,
+               "coordinate": fmt(joint_variable(robot, table, j)) if j.moves else None,
                "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]
     context = {
         "generator": f"dynderive {_version()}",

@@ -16,7 +16,7 @@ from .figure import sheet_figure
 from .linebreak import LineBreaker
 from .numbers import Numbers, latex_decimal, sheet_digits
 from .printers import DerivationFormatter, RememberingLatexPrinter, SheetLatexPrinter
-from .recursion import recursion_context, recursion_names
+from .recursion import joint_variable, recursion_context, recursion_names
 
 #: Largest entry (tree nodes) the sheet typesets; larger ones are named but not printed.
 ENTRY_NODES = 400
@@ -376,7 +376,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     joints = [{
         "name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),
         "child": escape_tex(j.child),
-        "coordinate": fmt(sympy.Symbol(j.name)) if j.moves else "",
+        "coordinate": fmt(joint_variable(robot, table, j)) if j.moves else "",
         "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
     } for j in robot.joints]
     # the default sheet shows the named recursion instead: printed only if a template reads them

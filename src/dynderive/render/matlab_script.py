@@ -186,7 +186,7 @@ def _clashes(derivation: Derivation, text: str) -> list[Problem]:
             assigned |= set(re.findall(r"[A-Za-z]\w*", match.group(1)))
     robot, table = derivation.robot, derivation.symbols
     where = {p.name: robot.positions.get(f"parameter:{p.name}", (1, 1)) for p in robot.parameters}
-    joints = [j for j in robot.joints if j.moves]
+    joints = [j for j in robot.joints if j.owns]
     for symbols in (table.q, table.qd, table.qdd):
         where |= {str(s): robot.positions.get(f"joint:{j.name}", (1, 1)) for s, j in zip(symbols, joints)}
     where |= {str(s): robot.positions.get("joints", (1, 1)) for s in table.efforts.values() if str(s) not in where}

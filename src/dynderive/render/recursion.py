@@ -74,9 +74,26 @@ def named_lines(derivation: Derivation) -> dict[sympy.Symbol, tuple[Any, int]]:
     return found
 
 
-def coordinate_index(derivation: Derivation, value: sympy.Expr) -> int:
-    """k of a sine or cosine of the recursion (``s_k``, ``c_k``): its coordinate's index from 1."""
-    return 1 + derivation.symbols.q.index(value.args[0])
+def coordinate_index(derivation: Derivation, value: sympy.Expr) -> str:
+    """k of a sine or cosine of the recursion (``s_k``, ``c_k``): its coordinate's index from 1;
+    ``k,i`` for a <mimic> joint's (link i's joint, following coordinate k)."""
+    q = derivation.symbols.q
+    if value.args[0] in q:
+        return str(1 + q.index(value.args[0]))
+    return next(f"{k},{i}" for k, i, variable in mimic_variables(derivation) if value.args[0] in (variable, -variable))
+
+
+def mimic_variables(derivation: Derivation) -> list[tuple[int, int, sympy.Expr]]:
+    """Each revolute <mimic> joint's leader coordinate k (from 1), link index i and variable
+    (the ones with sines and cosines of their own)."""
+    robot, table = derivation.robot, derivation.symbols
+    index = link_indices(robot)
+    found = []
+    for joint in (j for j in robot.joints if j.mimic is not None and j.type == "revolute"):
+        leader, multiplier, offset = robot.driver(joint)
+        k = robot.coordinates.index(leader)
+        found.append((k + 1, index[joint.child], table.expr(multiplier) * table.q[k] + table.expr(offset)))
+    return found
 
 
 def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
@@ -108,7 +125,7 @@ def name_fields(meaning: Any, index: dict[str, int], robot: Any, n: int) -> dict
     """What a line's name shows (NAMES' fields): ``i`` the link's index, ``j`` the column's,
     ``k`` the coordinate's (0 for a fixed joint), ``c`` the component's text."""
     joint = robot.parent_joint(meaning.link)
-    k = robot.coordinates.index(joint.name) + 1 if joint.name in robot.coordinates else 0
+    k = robot.coordinates.index(robot.driver(joint)[0]) + 1 if joint.moves else 0
     return {"i": index[meaning.link], "j": meaning.column + 1, "k": k, "c": _component(meaning.quantity, meaning.index, n)}
 
 
@@ -229,6 +246,7 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
     return {
         "links": links,
         "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
+        "mimics": [{"k": k, "i": i, "variable": fmt(v)} for k, i, v in mimic_variables(derivation)],
         "forward": forward, "backward": backward, "composite": composite, "columns": columns,
         "tau": fmt(sympy.Matrix(r.tau).T),   # a row: the template transposes it
         "M_g": fmt.matrix("M", sympy.Matrix(n, n, [e for row in r.mass_matrix for e in row])),
@@ -299,10 +317,17 @@ def _kinematic_rows(derivation: Derivation, index: dict[str, int]) -> list[dict[
         rows.append({
             "index": index[link.name], "name": link.name, "joint": joint.name, "type": joint.type,
             "parent": index[joint.parent],
-            "coordinate": table.q[robot.coordinates.index(joint.name)] if joint.moves else None,
+            "coordinate": joint_variable(robot, table, joint) if joint.moves else None,
             "xyz": [table.expr(v) for v in xyz], "rpy": [table.expr(v) for v in rpy],
             "axis": [table.expr(v) for v in axis] if joint.moves else None,
             "mass": table.expr(link.mass), "com": [table.expr(v) for v in link.com],
             "inertia": [table.expr(v) for v in link.inertia],
         })
     return rows
+
+
+def joint_variable(robot: Any, table: Any, joint: Any) -> sympy.Expr:
+    """A moving joint's variable: its coordinate (a floating or spherical joint's name), or
+    ``multiplier * q_leader + offset`` for a <mimic> joint."""
+    leader, multiplier, offset = robot.driver(joint)
+    return table.expr(multiplier) * sympy.Symbol(leader) + table.expr(offset)

@@ -321,14 +321,15 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
     for q, qd in zip(qs, qds):
         u = np.linspace(-1, 1, len(q))
         qp, qdp = q[perm], qd[perm]
-        M = pin.crba(model, data, qp)
-        M = np.triu(M) + np.triu(M, 1).T
+        M = _pinocchio_mass_matrix(pin, model, data, qp)
         ours = module.mass_matrix(q, **values)[np.ix_(perm, perm)]
         # Pinocchio has the armature (model.armature); springs and dissipation are added here
         g = pin.computeGeneralizedGravity(model, data, qp) + drives.spring(qp)
         bias = pin.rnea(model, data, qp, qdp, np.zeros(len(q))) - pin.computeGeneralizedGravity(model, data, qp)
         Y = module.generalized_forces(q, module_efforts(module, u), **values)
-        acc = pin.aba(model, data, qp, qdp, Y[perm] - drives.spring(qp) - drives.dissipative(qdp))
+        rhs = Y[perm] - drives.spring(qp) - drives.dissipative(qdp)
+        acc = (np.linalg.solve(M, rhs - pin.nonLinearEffects(model, data, qp, qdp)) if derivation.robot.mimics
+               else pin.aba(model, data, qp, qdp, rhs))   # Pinocchio's aba refuses mimic joints
         diffs = [ours - M, module.gravity_vector(q, **values)[perm] - g,
                  (module.coriolis_matrix(q, qd, **values) @ qd)[perm] - bias]
         if not derivation.robot.loops:   # with loops forward_dynamics is the constrained one
@@ -339,6 +340,17 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
     if module.FRAMES:
         rows.append(_pinocchio_frames(pin, model, data, perm, module, values, qs, qds))
     return rows
+
+
+def _pinocchio_mass_matrix(pin: Any, model: Any, data: Any, q: np.ndarray) -> np.ndarray:
+    """Pinocchio's M(q): its crba; with mimic joints, column by column from its rnea (Pinocchio
+    4.1's crba is wrong for a mimic joint below its leader with a joint between them)."""
+    if not model.mimicking_joints:
+        M = pin.crba(model, data, q)
+        return np.triu(M) + np.triu(M, 1).T
+    zero = np.zeros(model.nv)
+    base = pin.rnea(model, data, q, zero, zero)
+    return np.array([pin.rnea(model, data, q, zero, e) - base for e in np.eye(model.nv)]).T
 
 
 def _pinocchio_frames(pin: Any, model: Any, data: Any, perm: np.ndarray, module: Any, values: dict[str, float],

@@ -3,7 +3,8 @@
 Used by ``dynderive check`` to compare the generated dynamics with an independent engine.
 Joints are added depth-first (Pinocchio's CRBA assumes each subtree has consecutive joint
 indices), fixed joints append their child's inertia to the parent's Pinocchio joint; the
-robot's frames become operational frames of the same names. The returned permutation maps
+robot's frames become operational frames of the same names; ``<mimic>`` joints become
+Pinocchio's mimic joints (``transformJointIntoMimic``). The returned permutation maps
 dynderive's coordinate order to Pinocchio's.
 """
 
@@ -33,7 +34,6 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
     coordinate = {name: i for i, name in enumerate(robot.coordinates)}
     # where each link lives: (pinocchio joint id, placement of the link frame in that joint)
     frame_of: dict[str, tuple[int, Any]] = {"world": (0, pin.SE3.Identity())}
-    perm: list[int] = []
 
     def placement(joint: Any) -> Any:
         if robot.planar:
@@ -73,10 +73,16 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
                 joint_id = model.addJoint(parent_id, kind, place, joint.name)
                 model.appendBodyToJoint(joint_id, inertia(joint.child), pin.SE3.Identity())
                 frame_of[joint.child] = (joint_id, pin.SE3.Identity())
-                perm.append(coordinate[joint.name])
             visit(joint.child)
 
     visit("world")
+    for joint in (j for j in robot.joints if j.mimic is not None):
+        model = pin.transformJointIntoMimic(model, model.getJointId(joint.mimic.joint), model.getJointId(joint.name),
+                                            float(joint.mimic.multiplier), float(joint.mimic.offset))
+    perm = [0] * len(robot.coordinates)
+    for name, jmodel in zip(model.names[1:], model.joints[1:]):
+        if name in coordinate:
+            perm[jmodel.idx_v] = coordinate[name]
     for frame in robot.frames:   # operational frames, by the robot's frame names
         joint_id, link_place = frame_of[frame.link]
         model.addFrame(pin.Frame(frame.name, joint_id, link_place * placement(frame), pin.FrameType.OP_FRAME))
@@ -88,16 +94,19 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
 class PinocchioDrives:
     """The joints' springs, damping and friction in Pinocchio's coordinate order, which Pinocchio
     does not model (its ``armature`` it does): ``spring(q)`` = k (q - rest), ``dissipative(v)``
-    = b v + fc sign(v)."""
+    = b v + fc sign(v); per coordinate, a ``<mimic>`` joint's terms mapped onto its leader's
+    (``mechanics.drives.joint_drives``)."""
 
     def __init__(self, robot: Robot, values: dict[str, float], perm: np.ndarray):
+        from ..mechanics.drives import joint_drives
+
         table = SymbolTable.for_robot(robot)
         numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}
-        moving = [j for j in robot.joints if j.moves]
+        drives = {d.coordinate: d for d in joint_drives(robot, table)}
 
         def column(key: str) -> np.ndarray:
-            return np.array([float(table.expr(getattr(moving[i], key) or 0).xreplace(numbers).evalf())
-                             for i in perm])
+            return np.array([float(sympy.sympify(getattr(drives[i], key)).xreplace(numbers).evalf()) if i in drives
+                             else 0.0 for i in perm])
 
         self.armature, self.damping, self.friction = column("armature"), column("damping"), column("friction")
         self.stiffness, self.rest = column("stiffness"), column("rest")
