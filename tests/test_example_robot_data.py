@@ -34,6 +34,7 @@ from dynderive.errors import InputError
 from dynderive.input.urdf import identifier
 from dynderive.mechanics.recursive import inverse_dynamics_program, mass_matrix_program
 from dynderive.model.symbols import SymbolTable
+from dynderive.verify.checks import _pinocchio_mass_matrix
 
 pytestmark = pytest.mark.pinocchio
 pin = pytest.importorskip("pinocchio")
@@ -136,14 +137,10 @@ def _coordinates(model) -> list[str]:
 
 
 def _mass_matrix(model, data, q: np.ndarray) -> np.ndarray:
-    """Pinocchio's M(q): its crba; with mimic joints, column by column from its rnea (Pinocchio
-    4.1's crba is wrong for some mimic joints below their leaders: tests/test_mimic.py)."""
-    if not model.mimicking_joints:
-        M = pin.crba(model, data, q)
-        return np.triu(M) + np.triu(M, 1).T
-    zero = np.zeros(model.nv)
-    base = pin.rnea(model, data, q, zero, zero)
-    return np.array([pin.rnea(model, data, q, zero, e) - base for e in np.eye(model.nv)]).T
+    """Pinocchio's M(q) as ``dynderive check`` takes it: its crba; with mimic joints, column by
+    column from its rnea (Pinocchio 4.1's crba is wrong for some mimic joints below their
+    leaders: tests/test_mimic.py)."""
+    return _pinocchio_mass_matrix(pin, model, data, q)
 
 
 def _program(program, table: SymbolTable):
