@@ -353,3 +353,21 @@ def test_bad_urdf_planar_joints(tmp_path):
     lines = _bad(tmp_path, empty, ".urdf")   # the child's error only, not its massless links'
     assert [line.split(": ")[1] for line in lines] == ["link 'body' moves (joint 'slide_theta') but has no mass, nor has any link below it",
                                                        "link 'arm' moves (joint 'elbow') but has no mass, nor has any link below it"]
+
+
+def test_a_mimic_on_a_urdf_planar_joint_is_refused(tmp_path):
+    """A planar joint is three coordinates: it cannot follow one leader (positioned error)."""
+    inertial = ('<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/>'
+                '</inertial>')
+    text = (f'<robot name="pm">\n<link name="base">{inertial}</link>\n<link name="a">{inertial}</link>\n'
+            f'<link name="b">{inertial}</link>\n'
+            '<joint name="j1" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/></joint>\n'
+            '<joint name="p" type="planar"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+            '<mimic joint="j1"/></joint>\n</robot>\n')
+    path = tmp_path / "pm.urdf"
+    path.write_text(text)
+    result = runner.invoke(app, ["solve", str(path), "--code", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert result.stderr.strip() == (f"{path}:6:85: joint 'p': <mimic> on a planar joint is not supported (only "
+                                     "revolute, continuous and prismatic joints follow a leader)")
+    assert not (tmp_path / "out").exists()

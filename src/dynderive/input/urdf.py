@@ -295,7 +295,10 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         if mimic is not None and jtype == "fixed":
             doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
         follows = None
-        if mimic is not None and jtype != "fixed":   # checked by the validator (input/mimic.py)
+        if mimic is not None and jtype == "planar":
+            reader.error(mimic, f"joint '{name}': <mimic> on a planar joint is not supported (only revolute, "
+                         "continuous and prismatic joints follow a leader)")
+        elif mimic is not None and jtype != "fixed":   # checked by the validator (input/mimic.py)
             follows = (mimic, mimic.attrib.get("joint", ""), reader.numbers(mimic, "multiplier", 1, [1.0])[0],
                        reader.numbers(mimic, "offset", 1, [0.0])[0])
         if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
@@ -427,14 +430,14 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         }
         if joint["type"] == "floating":   # unactuated, no axis (its origin places its frame)
             del entry["axis"], entry["effort"]
-        if joint["mimic"] is not None and joint["mimic"][1] not in moving_names:
+        if joint.get("mimic") is not None and joint["mimic"][1] not in moving_names:
             mimic, leader = joint["mimic"][:2]
             why = "a fixed joint, which has no coordinate" if leader in all_names else "which the file does not have"
             doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{joint['name']}': its <mimic> "
                              f"names joint '{leader}', {why}: '{joint['name']}' is an independent coordinate (as in "
                              "Pinocchio's default, buildModelFromUrdf without mimic)")
             joint["mimic"] = None
-        if joint["mimic"] is not None:   # no coordinate, no effort of its own: its leader's
+        if joint.get("mimic") is not None:   # no coordinate, no effort of its own: its leader's
             entry.pop("effort", None)
             _, leader, multiplier, offset = joint["mimic"]
             entry["mimic"] = {"joint": identifier(leader), "multiplier": _number(multiplier), "offset": _number(offset)}
@@ -452,7 +455,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         if joint["dynamics"] is not None:
             for key in ("damping", "friction"):
                 positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
-        if joint["mimic"] is not None:
+        if joint.get("mimic") is not None:
             spot = (joint["mimic"][0].line, joint["mimic"][0].column)
             doc.labels[path + ("mimic",)] = f"joint '{joint['name']}' <mimic>"
             for key in ((), ("joint",), ("multiplier",), ("offset",)):

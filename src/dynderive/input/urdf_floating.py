@@ -94,7 +94,7 @@ def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]],
         parts = []
         for k, (name, kind) in enumerate(zip((x, y, theta), ("prismatic", "prismatic", "revolute"))):
             parts.append(joint | {"name": name, "type": kind, "parent": ends[k], "child": ends[k + 1],
-                                  "axis": axes[k], "dynamics": None, "damping": 0.0, "friction": 0.0,
+                                  "axis": axes[k], "dynamics": None, "damping": 0.0, "friction": 0.0, "mimic": None,
                                   "virtual": k < 2}   # its child is a massless link of the split
                          | ({} if k == 0 else {"xyz": np.zeros(3), "R": identity}))
         joints[index:index + 1] = parts
