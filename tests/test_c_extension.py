@@ -43,11 +43,11 @@ FUNCTIONS = ["mass_matrix", "coriolis_matrix", "gravity_vector", "inverse_dynami
              "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd"]
 
 
-def _load(derivation, folder: Path):
+def _load(derivation, folder: Path, optimization: str = "-O1"):
     """Compile ``derivation``'s extension into ``folder`` and import it (not into sys.modules:
     several robots of one name can be loaded side by side)."""
     folder.mkdir(parents=True, exist_ok=True)
-    filename, data = build_extension(derivation, optimization="-O1")
+    filename, data = build_extension(derivation, optimization=optimization)
     path = folder / filename
     path.write_bytes(data)
     spec = importlib.util.spec_from_file_location(f"{derivation.robot.name}_dynamics_c", path)

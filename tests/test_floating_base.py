@@ -275,9 +275,9 @@ def test_floating_joints_anywhere_as_in_pinocchio(text, tmp_path):
 
 
 @pytest.mark.pinocchio
-def test_a_urdf_floating_joint_below_a_link_as_in_pinocchio(tmp_path):
-    """``<joint type="floating">`` between two links: Pinocchio's URDF parser makes it a free flyer too."""
-    path = Path(__file__).parent / "floating_elbow.urdf"
+def urdf_in_pinocchio(path: Path):
+    """The robot of a URDF, Pinocchio's model of it (its own URDF parser) and where Pinocchio's
+    q and v entries are in ours."""
     robot = dynderive.load_robot(path)
     model = pin.buildModelFromUrdf(str(path))
     where = offsets(robot)
@@ -285,8 +285,14 @@ def test_a_urdf_floating_joint_below_a_link_as_in_pinocchio(tmp_path):
     for name, joint in zip(model.names[1:], model.joints[1:]):
         qp.extend(range(where.q[name], where.q[name] + joint.nq))
         vp.extend(range(where.v[name], where.v[name] + joint.nv))
+    return robot, model, np.array(qp), np.array(vp)
+
+
+def test_a_urdf_floating_joint_below_a_link_as_in_pinocchio(tmp_path):
+    """``<joint type="floating">`` between two links: Pinocchio's URDF parser makes it a free flyer too."""
+    robot, model, qp, vp = urdf_in_pinocchio(Path(__file__).parent / "floating_elbow.urdf")
     assert [j.shortname() for j in model.joints[1:]] == ["JointModelRY", "JointModelFreeFlyer"]
-    _compare(robot, _module(robot, tmp_path), model, np.array(qp), np.array(vp), seed=8)
+    _compare(robot, _module(robot, tmp_path), model, qp, vp, seed=8)
 
 
 def test_floating_joint_fields_that_are_not_built(tmp_path):

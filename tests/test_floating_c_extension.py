@@ -13,7 +13,6 @@ Each robot is compiled once per session, at -O0 (solo12's 0.9 MB of C: 8 s; the 
 
 from __future__ import annotations
 
-import importlib.util
 import inspect
 import json
 import os
@@ -29,7 +28,6 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.commands.compile import build_extension
 from dynderive.render.c_extension import bindings, render_extension
 from dynderive.verify.floating_checks import random_configurations
 
@@ -39,6 +37,7 @@ if not (shutil.which("gcc") or shutil.which("cc")) or not HEADERS:
         raise RuntimeError("CI must run the C extension tests, but no C compiler or no Python.h was found")
     pytest.skip("no C compiler or no Python.h", allow_module_level=True)
 
+from test_c_extension import _load as _load_extension  # noqa: E402
 from test_floating_base import BOX, _example_robot, _module  # noqa: E402
 from test_spherical import _tree as _spherical_tree  # noqa: E402
 
@@ -49,16 +48,8 @@ FRAMED = BOX + "frames:\n  - {name: tip, link: arm, origin: {xyz: [0.4, 0, 0]}}\
 
 
 def _load(derivation, folder: Path):
-    """Compile ``derivation``'s extension at -O0 into ``folder`` and import it (not into
-    sys.modules: robots of one name side by side)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    filename, data = build_extension(derivation, optimization="-O0")
-    path = folder / filename
-    path.write_bytes(data)
-    spec = importlib.util.spec_from_file_location(f"{derivation.robot.name}_dynamics_c", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    """The extension compiled at -O0 (solo12's C takes minutes at -O1) and imported."""
+    return _load_extension(derivation, folder, "-O0")
 
 
 @pytest.fixture(scope="session")

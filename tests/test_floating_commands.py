@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.mechanics.floating import offsets
+from test_floating_base import urdf_in_pinocchio
 
 pin = pytest.importorskip("pinocchio")
 runner = CliRunner()
@@ -22,16 +22,8 @@ ELBOW = Path(__file__).parent / "floating_elbow.urdf"
 
 
 def _pinocchio_order():
-    """Pinocchio's model of the floating elbow (a revolute shoulder, a free body below it) and
-    where its q and v entries are in ours."""
-    robot = dynderive.load_robot(ELBOW)
-    model = pin.buildModelFromUrdf(str(ELBOW))
-    where = offsets(robot)
-    qp, vp = [], []
-    for name, joint in zip(model.names[1:], model.joints[1:]):
-        qp.extend(range(where.q[name], where.q[name] + joint.nq))
-        vp.extend(range(where.v[name], where.v[name] + joint.nv))
-    return robot, model, np.array(qp), np.array(vp)
+    """The floating elbow (a revolute shoulder, a free body below it) and Pinocchio's model of it."""
+    return urdf_in_pinocchio(ELBOW)
 
 
 def _at(names, values):

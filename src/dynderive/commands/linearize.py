@@ -28,7 +28,6 @@ import sympy
 
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError
-from ..model.robot import QUATERNION_START
 from .options import real_number, split_top_level
 
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$", re.S)
@@ -291,10 +290,8 @@ def on_the_manifold(robot: Any, module: Any, q: list[float], given: set[tuple[st
     quaternion is refused."""
     q = [value if ("q", i) in given else float(neutral) for i, (value, neutral)
          in enumerate(zip(q, module.neutral_configuration()))]
-    where_q = robot.offsets()[0]
     notes, problems = [], []
-    for joint in (j for j in robot.joints if j.moves and j.sizes[0] > j.sizes[1]):   # a quaternion in q
-        start = where_q[joint.name] + QUATERNION_START[joint.type]
+    for joint, start in zip((j for j in robot.joints if j.multi), robot.quaternion_starts):
         quaternion = np.array(q[start:start + 4])
         norm = float(np.linalg.norm(quaternion))
         if norm < 1e-12:
