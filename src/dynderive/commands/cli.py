@@ -20,7 +20,7 @@ from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted,
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
-from .output import WRITTEN, interrupted_message
+from .output import WRITTEN, echo_notes, interrupted_message
 from .progress import Progress
 
 app = typer.Typer(
@@ -142,7 +142,7 @@ def solve(
     progress = Progress(quiet)
     progress("loading")
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    _notes(model, quiet)
+    echo_notes(model, quiet)
     if model.floating:
         from .floating import solve_floating
 
@@ -151,7 +151,7 @@ def solve(
         return solve_floating(model, robot, flags, code, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
                               progress, tests)
     derivation = derive(model, progress=progress)
-    _notes(derivation, quiet)
+    echo_notes(derivation, quiet)
     if derivation.intermediate_form and not quiet:
         typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
                    "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
@@ -215,9 +215,9 @@ def check(
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=False, command="check")
-    _notes(model, quiet)
+    echo_notes(model, quiet)
     derivation = derive(model, progress=progress)
-    _notes(derivation, quiet)
+    echo_notes(derivation, quiet)
     progress("generating code")
     if model.floating:   # the module's functions against each other and Pinocchio's free flyer
         from ..render.floating_code import render_floating_code
@@ -257,12 +257,6 @@ def check(
         typer.echo(f"\n{passed} passed, {len(failed)} failed, {skipped} skipped")
     if failed:
         raise typer.Exit(1)
-
-
-def _notes(model: Any, quiet: bool) -> None:
-    if not quiet:
-        for note in model.notes:
-            typer.echo(note, err=True)
 
 
 @app.command(cls=_Command)
@@ -336,7 +330,7 @@ def simulate(
 
         floating_options(model, coordinates, animate, force, backend)
     model = with_parameters(model, robot, param or [], required=True)
-    _notes(model, quiet)
+    echo_notes(model, quiet)
     if model.floating:
         return run_floating(model, duration, q0, qd0, effort or [], plot, csv, method, rtol, atol, frames, quiet,
                             progress)
@@ -349,7 +343,7 @@ def simulate(
     start_q = vector(q0, n, "--q0")
     start_qd = vector(qd0, n, "--qd0")
     derivation = derive(model, progress=progress)
-    _notes(derivation, quiet)
+    echo_notes(derivation, quiet)
     efforts = parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
         raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))

@@ -10,6 +10,7 @@ import typer
 
 from ..errors import InputError, ToolMissingError
 from .options import problem, with_parameters
+from .output import echo_notes
 from .progress import Progress
 
 
@@ -27,9 +28,7 @@ def run_identify(argument: str, assignments: list[str], states: int | None, json
     progress = Progress(quiet)
     model = load_robot(argument, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, argument, assignments, required=True)
-    if not quiet:
-        for note in model.notes:
-            typer.echo(note, err=True)
+    echo_notes(model, quiet)
     if states is not None:
         least = fewest_states(model)
         if states < least:

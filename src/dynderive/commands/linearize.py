@@ -314,6 +314,7 @@ def run_linearize(argument: str, at: list[str], assignments: list[str], kind: st
     from .. import derive, load_robot
     from ..verify.checks import generated_module
     from .options import with_parameters
+    from .output import echo_notes
     from .progress import Progress
 
     def note(text: str) -> None:
@@ -323,9 +324,7 @@ def run_linearize(argument: str, at: list[str], assignments: list[str], kind: st
     progress = Progress(quiet)
     model = load_robot(argument, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, argument, assignments, required=False, command="linearize")
-    if not quiet:
-        for text in model.notes:
-            typer.echo(text, err=True)
+    echo_notes(model, quiet)
     derivation = derive(model, progress=progress)
     table = derivation.symbols
     point, given, equilibrium = parse_at(at, [str(s) for s in table.q], [str(s) for s in table.qd],

@@ -25,6 +25,7 @@ import stat
 import tempfile
 import uuid
 from pathlib import Path
+from typing import Any
 
 from ..errors import InputError, OutputError, Problem
 
@@ -227,3 +228,13 @@ def check_frames(frames: int, animate: bool) -> None:
         what = "frames of an --animate GIF" if animate else "output samples"
         raise InputError(Problem("--frames", 1, 1, f"{frames} {what} exceed the limit of {limit}: "
                                  "ask for fewer"))
+
+
+def echo_notes(model: Any, quiet: bool) -> None:
+    """The notes of a loaded robot or a derivation (accepted input that was changed or
+    ignored) on stderr, unless ``quiet``."""
+    if not quiet:
+        import typer
+
+        for note in model.notes:
+            typer.echo(note, err=True)
