@@ -124,7 +124,7 @@ def _states(robot, derivation, seed: int, count: int = 3):
 def _numeric(derivation, value):
     """``value`` (a matrix of the sheet) as a function of q, v, vdot at the defaults."""
     table = derivation.symbols
-    value = value.subs(table.defaults(derivation.robot) | {u: 0 for u in table.efforts.values()})
+    value = value.xreplace(table.defaults(derivation.robot) | {u: 0 for u in table.efforts.values()})
     f = sympy.lambdify([table.q, table.qd, table.qdd], value, modules="numpy")
     return lambda q, v, a: np.array(f(q, v, a), dtype=float)
 
@@ -190,15 +190,19 @@ def test_sheet_quantities_equal_the_module(seed, scalar, root, tmp_path):
     assert list(sheet.Y) == [0] * (6 if root == "floating" else 3) + [efforts[f"u{k}"] for k in range(1, scalar + 1)]
 
 
-def _json_values(document: dict, derivation, q, v, a) -> dict[str, np.ndarray]:
+def _json_values(document: dict, derivation, q, v, a, printed: dict | None = None) -> dict[str, np.ndarray]:
     """M_g, N_g, EOM_g2 and Y_g of a JSON dump at one state (efforts zero), its intermediates
-    evaluated in order."""
+    evaluated in order; an expanded dump's quantities are printed once into ``printed``."""
     table = derivation.symbols
     names = table.locals() | {name: sympy.Symbol(name) for name in document.get("intermediates", {})}
     keys = ("M_g", "N_g", "EOM_g2", "Y_g")
     if "intermediates" not in document:   # expanded: NumPy
-        return {key: _numeric(derivation, sympy.Matrix(sympy.sympify(document["quantities"][key]["sympy"],
-                                                                     locals=names)))(q, v, a) for key in keys}
+        printed = {} if printed is None else printed
+        for key in keys:
+            if key not in printed:
+                printed[key] = _numeric(derivation, sympy.Matrix(sympy.sympify(document["quantities"][key]["sympy"],
+                                                                               locals=names)))
+        return {key: printed[key](q, v, a) for key in keys}
     known = (table.defaults(derivation.robot) | {u: 0 for u in table.efforts.values()}
              | dict(zip(table.q, q)) | dict(zip(table.qd, v)) | dict(zip(table.qdd, a)))
     for name, entry in document.get("intermediates", {}).items():
@@ -207,7 +211,7 @@ def _json_values(document: dict, derivation, q, v, a) -> dict[str, np.ndarray]:
                           .xreplace(known), dtype=float) for key in keys}
 
 
-@pytest.mark.parametrize(("seed", "scalar"), [(5, 2), (6, 3)])   # small: expanded; large: intermediates
+@pytest.mark.parametrize(("seed", "scalar"), [(5, 1), (6, 3)])   # small: expanded; large: intermediates
 def test_json_round_trips_and_agrees_with_the_module(seed, scalar, tmp_path):
     robot, derivation = _load(tmp_path, _chain(seed, scalar))
     document = json.loads(render_floating_json(derivation))
@@ -217,8 +221,9 @@ def test_json_round_trips_and_agrees_with_the_module(seed, scalar, tmp_path):
     assert ("intermediates" in document) == (not is_small_floating(robot))
     assert document["quantities"]["M_g"]["shape"] == [6 + scalar, 6 + scalar]
     module = _module(derivation, tmp_path)
+    printed: dict = {}
     for q, v, a in _states(robot, derivation, seed, count=2):
-        values = _json_values(document, derivation, q, v, a)
+        values = _json_values(document, derivation, q, v, a, printed)
         _close(values["M_g"], module.mass_matrix(q))
         _close(values["N_g"].ravel(), module.gravity_vector(q))
         _close(values["EOM_g2"].ravel() + values["Y_g"].ravel(), module.inverse_dynamics(q, v, a))

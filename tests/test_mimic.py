@@ -249,11 +249,14 @@ def _quantities_agree_with_module(derivation, module, seed: int, frames: tuple[s
     args = [table.q, table.qd, table.qdd, list(table.efforts.values()), list(table.parameters.values())]
     n = len(table.q)
     rng = np.random.default_rng(seed)
+    functions: dict[str, object] = {}   # each quantity printed once (lambdify is most of the time)
     for q, qd, qdd in rng.uniform(-1.5, 1.5, (2, 3, n)):
         u = rng.uniform(-1, 1, len(table.efforts))
 
         def at(name, state=(q, qd, qdd, u)):
-            return np.asarray(derivation.lambdify(args, derivation[name])(*state, values), dtype=float)
+            if name not in functions:
+                functions[name] = derivation.lambdify(args, derivation[name])
+            return np.asarray(functions[name](*state, values), dtype=float)
 
         np.testing.assert_allclose(at("M_g"), module.mass_matrix(q), rtol=0, atol=1e-12)
         np.testing.assert_allclose(at("C_g"), module.coriolis_matrix(q, qd), rtol=0, atol=1e-12)
