@@ -22,7 +22,8 @@ from ..model.naming import latex_name
 from .environment import render
 from .floating_latex import ENTRY_LIMIT, FLOATING_Q, FLOATING_V, program_listing
 from .html import html_unit, value_markup
-from .html_math import MathFormatter, Name, _Printer, accent, mi, mo, mrow, name_of, sub
+from .html_math import MathFormatter, Name, _atom, _Printer, accent, mi, mn, mo, mrow, name_of, sub
+from .latex import entry_index
 from .numbers import Numbers, sheet_digits
 from .printers import DerivationFormatter
 
@@ -90,16 +91,21 @@ class FloatingMathFormatter(MathFormatter):
         self._printer = _Printer({"order": "none" if lines else None, "mat_delim": "["}, names, self.numbers)
 
 
-def _named(letter: str, index: Any) -> Markup:
-    return sub(letter, index)
-
-
-def _matrix(fmt: MathFormatter, label: Markup, matrix: sympy.Matrix) -> dict[str, Any]:
-    """``MathFormatter.matrix`` with the entries the LaTeX sheet leaves out (over
-    ``floating_latex.ENTRY_LIMIT`` nodes) left out here too: their ``math`` None (the page says
-    they are too long and in the JSON dump)."""
+def _matrix(fmt: MathFormatter, letter: Any, index: int | None, matrix: sympy.Matrix,
+            label: Markup | None = None) -> dict[str, Any]:
+    """``MathFormatter.matrix`` of ``letter`` (with the link's ``index``, entries named as the
+    LaTeX sheet's: ``I_{1,23}``), ``label`` in front of the whole matrix (default the name),
+    with the entries the LaTeX sheet leaves out (over ``floating_latex.ENTRY_LIMIT`` nodes) left
+    out here too: their ``math`` None (the page says they are too long and in the JSON dump)."""
+    name = _atom(letter) if index is None else sub(letter, str(index))
     fits = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
-    shown = fmt.matrix(label, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)), label)
+    shown = fmt.matrix(name, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)),
+                       label if label is not None else name)
+    rows, cols = matrix.shape
+    places = [(i, j) for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
+    for entry, (i, j) in zip(shown["entries"], places):
+        at = mn(entry_index(i, j, rows, cols).replace(",", "\u2009"))
+        entry["name"] = sub(letter, at if index is None else mrow(str(index), mo(","), at))
     if not all(fits) and not shown["too_large"]:
         shown["wide"], shown["math"] = True, None
         for entry, small in zip(shown["entries"], fits):
@@ -173,28 +179,28 @@ def _small_context(sheet: Any, fmt: MathFormatter) -> dict[str, Any]:
     cal_v = mi("\U0001d4b1")   # script V: a link's twist
     links = []
     for item in sheet.links:
-        k = str(item.index)
+        k = item.index
         gravity = mrow(mo("("), Markup(f"<msubsup><mi>R</mi><mn>{k}</mn><mi>T</mi></msubsup>"),
                        Markup('<mover><mi>g</mi><mo>&#x2192;</mo></mover>'), mo(")"))
         links.append({
             "index": item.index, "name": item.name, "mass": fmt(item.mass), "com": fmt(item.com),
-            "inertia": _matrix(fmt, _named("I", k), item.inertia),
-            "rotation": _matrix(fmt, _named("R", k), item.rotation),
-            "position": _matrix(fmt, _named("p", k), item.com_position),
-            "jacobian": _matrix(fmt, _named("J", k), item.jacobian),
-            "jacobian_dot": _matrix(fmt, _named(accent("J", "\u02d9"), k), item.jacobian_dot)
+            "inertia": _matrix(fmt, "I", k, item.inertia),
+            "rotation": _matrix(fmt, "R", k, item.rotation),
+            "position": _matrix(fmt, "p", k, item.com_position),
+            "jacobian": _matrix(fmt, "J", k, item.jacobian),
+            "jacobian_dot": _matrix(fmt, accent("J", "\u02d9"), k, item.jacobian_dot)
             if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
-            "twist": _matrix(fmt, mrow(_named(cal_v, k), mo("="), _named("J", k), mi("v")), item.twist),
-            "gravity": _matrix(fmt, gravity, item.gravity),
+            "twist": _matrix(fmt, cal_v, k, item.twist, mrow(sub(cal_v, k), mo("="), sub("J", k), mi("v"))),
+            "gravity": _matrix(fmt, gravity, None, item.gravity),
             "kinetic": fmt.maybe(item.kinetic, ENTRY_LIMIT), "potential": fmt.maybe(item.potential, ENTRY_LIMIT),
         })
     return {
         "links": links, "single": len(sheet.links) == 1,
-        "rate": _matrix(fmt, mi("Q"), sheet.rate),
+        "rate": _matrix(fmt, "Q", None, sheet.rate),
         "T": fmt.maybe(sheet.T, ENTRY_LIMIT), "V": fmt.maybe(sheet.V, ENTRY_LIMIT),
-        "M": _matrix(fmt, mi("M"), sheet.M), "N": _matrix(fmt, mi("N"), sheet.N),
-        "Cv": _matrix(fmt, mrow(mo("("), mi("C"), mi("v"), mo(")")), sheet.Cv),
-        "C": _matrix(fmt, mi("C"), sheet.C), "EOM": _matrix(fmt, mi("EOM", normal=True), sheet.EOM),
+        "M": _matrix(fmt, "M", None, sheet.M), "N": _matrix(fmt, "N", None, sheet.N),
+        "Cv": _matrix(fmt, mrow(mo("("), mi("C"), mi("v"), mo(")")), None, sheet.Cv),
+        "C": _matrix(fmt, "C", None, sheet.C), "EOM": _matrix(fmt, mi("EOM", normal=True), None, sheet.EOM),
     }
 
 
