@@ -212,15 +212,6 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
 
 
-@pytest.mark.parametrize("flag", ["--html"])   # --latex, --pdf, --json: test_floating_sheet
-def test_other_outputs_are_refused(tmp_path, flag):
-    _, result = _solve(tmp_path, BOX, "--code", flag)
-    assert result.exit_code == 2
-    assert f"{flag}:1:1: {flag}: not built yet for floating-base robots (issue 30)" in result.stderr
-    assert "Traceback" not in result.output
-    assert not (tmp_path / "out").exists()
-
-
 def test_printing_and_other_commands_are_refused(tmp_path):
     path, result = _solve(tmp_path, BOX)
     assert result.exit_code == 2
@@ -349,7 +340,7 @@ def test_urdf_floating_base_option_and_note(tmp_path):
     assert f"{path}:4:3: joint 'free' is floating already: leave out --floating-base" in result.stderr
 
 
-def test_build_writes_the_module_of_a_floating_robot_and_refuses_the_rest(tmp_path):
+def test_build_writes_the_module_of_a_floating_robot(tmp_path):   # its sheets: test_floating_sheet, _html
     folder = tmp_path / "robots"
     folder.mkdir()
     (folder / "box.yaml").write_text(BOX)
@@ -359,10 +350,6 @@ def test_build_writes_the_module_of_a_floating_robot_and_refuses_the_rest(tmp_pa
     assert result.exit_code == 0, result.output
     assert "root_joint_qw" in (tmp_path / "a" / "legs_dynamics.py").read_text()
     assert "root_qw" in (tmp_path / "a" / "box_dynamics.py").read_text()
-    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1", "--html", "--code"])
-    assert result.exit_code == 1
-    assert "box.yaml:1:1: html: not built yet for floating-base robots (issue 30)" in result.output + result.stderr
-    assert not (tmp_path / "b" / "box_dynamics.py").exists() and (tmp_path / "b" / "legs_dynamics.py").exists()
 
 
 def test_a_singular_mass_matrix_is_refused(tmp_path):

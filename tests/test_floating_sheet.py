@@ -271,15 +271,6 @@ def test_same_input_same_bytes(tmp_path):
     assert outputs[0] == outputs[1]
 
 
-def test_html_is_still_refused(tmp_path):
-    path = tmp_path / "robot.yaml"
-    path.write_text(FREE)
-    result = runner.invoke(app, ["solve", str(path), "--html", "--latex", "--out", str(tmp_path / "out")])
-    assert result.exit_code == 2
-    assert "--html:1:1: --html: not built yet for floating-base robots (issue 30)" in result.stderr
-    assert not (tmp_path / "out").exists()
-
-
 def test_build_writes_the_sheet_and_json(tmp_path):
     folder = tmp_path / "robots"
     folder.mkdir()

@@ -56,7 +56,7 @@ TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2", "floating_sheet.tex.j2
              "code": ["dynamics.py.j2", "floating_dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
              "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
              "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"],
-             "jax": ["jax/dynamics.py.j2", "jax/floating_dynamics.py.j2"], "json": [], "html": ["html/sheet.html.j2"],
+             "jax": ["jax/dynamics.py.j2", "jax/floating_dynamics.py.j2"], "json": [], "html": ["html/sheet.html.j2", "html/floating_sheet.html.j2"],
              "floating_base": []}   # not an output: --floating-base, part of the inputs (so is digits:N, --digits)
 
 

@@ -1,6 +1,6 @@
 """``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
 (``render/floating_code.py``), its C, compiled extension, MATLAB package and JAX module
-(``render/floating_jax.py``), its sheet and JSON dump (``floating_outputs.py``) and one note
+(``render/floating_jax.py``), its sheet (LaTeX, PDF, HTML) and JSON dump (``floating_outputs.py``) and one note
 saying what is not built yet; every other output is
 refused (exit 2) before any work."""
 
@@ -16,7 +16,7 @@ from .options import problem
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots (issue 30)"
 #: The output flags (besides --code) a floating-base robot has.
-BUILT = ("c", "c_extension", "matlab", "jax", "latex", "pdf", "json")
+BUILT = ("c", "c_extension", "matlab", "jax", "latex", "pdf", "json", "html")
 
 
 def floating_note(robot: Robot) -> str:
@@ -30,9 +30,9 @@ def floating_note(robot: Robot) -> str:
             "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
             "difference (check runs its rows), and so have its C (--c), its compiled Python extension (--c-extension), "
-            "its MATLAB/Octave package (--matlab) and its JAX module (--jax), its sheet (--latex, --pdf) and JSON dump "
-            f"(--json); not built yet for floating-base robots (issue 30): {', '.join(MISSING)}; the HTML sheet "
-            "(--html) and the MATLAB derivation script (simulate integrates its module on the manifold; linearize "
+            "its MATLAB/Octave package (--matlab) and its JAX module (--jax), its sheet (--latex, --pdf, --html) and "
+            f"JSON dump (--json); not built yet for floating-base robots (issue 30): {', '.join(MISSING)}; the MATLAB "
+            "derivation script (simulate integrates its module on the manifold; linearize "
             "and identify use it too)")
 
 

@@ -1,4 +1,4 @@
-"""The sheet (``--latex``, ``--pdf``) and the JSON dump of a floating-base robot (issue 30),
+"""The sheet (``--latex``, ``--pdf``, ``--html``) and the JSON dump of a floating-base robot (issue 30),
 for ``solve`` and ``build`` (``commands/floating.py``): file name -> bytes, and the PDF that
 could not be made, if any (the other outputs are still written)."""
 
@@ -10,8 +10,8 @@ from pathlib import Path
 from ..derivation import Derivation
 from ..errors import LatexError, ToolMissingError
 
-#: The outputs of this module (``--latex``, ``--pdf``, ``--json``).
-SHEET_KINDS = ("latex", "pdf", "json")
+#: The outputs of this module (``--latex``, ``--pdf``, ``--json``, ``--html``).
+SHEET_KINDS = ("latex", "pdf", "json", "html")
 
 
 def floating_sheet_files(derivation: Derivation, kinds: set[str] | tuple[str, ...], template_dir: str | Path | None,
@@ -40,6 +40,11 @@ def floating_sheet_files(derivation: Derivation, kinds: set[str] | tuple[str, ..
             except LatexError as exc:
                 failure = exc
                 files |= failure_outputs(name, tex, exc)
+    if "html" in kinds:
+        from ..render.html_floating import render_floating_html
+
+        progress("rendering HTML (floating base)")
+        files[f"{name}.html"] = render_floating_html(derivation, template_dir, digits).encode()
     if "json" in kinds:
         from ..render.floating_json import render_floating_json
 

@@ -1,0 +1,264 @@
+"""The HTML sheet of a floating-base robot (``--html``, issue 30): one self-contained page
+with the floating LaTeX sheet's content in MathML. A free body's page (its M and equations
+of motion read back from the MathML and evaluated) and a floating chain's program form (its
+lines evaluated in order) against the generated NumPy module at random states; robot-file
+text escaped; the same bytes from another process; loaded in a real browser (skipped
+locally without chromium, required in CI)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from xml.dom import minidom
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import dynderive
+from dynderive.commands.cli import app
+from dynderive.render.floating_code import render_floating_code
+from dynderive.render.html_floating import FloatingMathFormatter, floating_html_context, render_floating_html
+from test_floating_sheet import FREE, _chain
+from test_html import HOSTILE, PROBE, _chromium, parse
+
+from conftest import ROOT, import_code
+
+runner = CliRunner()
+#: The free body with hostile text where a robot file holds free text.
+HOSTILE_FREE = (FREE.replace("title: A free rigid body", f"title: {json.dumps(HOSTILE)}")
+                .replace("m: {value: 2.5, unit: kg}", f'm: {{value: 2.5, unit: "kg</td><script>", '
+                                                      f"description: {json.dumps(HOSTILE)}}}"))
+
+
+def _robot(folder: Path, text: str, name: str):
+    path = folder / f"{name}.yaml"
+    path.write_text(text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    module = import_code(render_floating_code(derivation), folder, f"{name}_floating_html")
+    return path, derivation, render_floating_html(derivation), module
+
+
+@pytest.fixture(scope="module")
+def free(tmp_path_factory):
+    """(path, derivation, page, module) of the free body, hostile text included."""
+    return _robot(tmp_path_factory.mktemp("free"), HOSTILE_FREE, "free")
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory):
+    """A floating base and three scalar joints: the program form (``is_small_floating`` False)."""
+    return _robot(tmp_path_factory.mktemp("chain"), _chain(8, 3), "chain")
+
+
+# --- MathML read back -------------------------------------------------------------------
+
+_OPERATORS = {"+": "+", "\u2212": "-", "-": "-", "\u2062": "*", "\u00b7": "*", "(": "(", ")": ")", ",": ","}
+
+
+def _key(node: minidom.Element) -> str:
+    return node.toxml().encode("ascii", "xmlcharrefreplace").decode()
+
+
+def _python(node: minidom.Element, names: dict[str, str]) -> str:
+    """A MathML presentation tree (SymPy's printer's) as Python: names by ``names`` (element's
+    XML -> variable), numbers, + - times, fractions, powers, sin/cos and matrices."""
+    key = _key(node)
+    if key in names:
+        return names[key]
+    kids = [c for c in node.childNodes if c.nodeType == c.ELEMENT_NODE]
+    text = "".join(c.data for c in node.childNodes if c.nodeType == c.TEXT_NODE).strip()
+    tag = node.tagName
+    if tag == "mn":
+        return "(" + text.replace("\u2212", "-") + ")"
+    if tag == "mo":
+        return _OPERATORS[text]
+    if tag == "mi" and text in ("sin", "cos", "sqrt"):
+        return text
+    if tag == "mfrac":
+        return f"(({_python(kids[0], names)})/({_python(kids[1], names)}))"
+    if tag == "msup":
+        return f"(({_python(kids[0], names)})**({_python(kids[1], names)}))"
+    if tag == "msqrt":
+        return f"sqrt({''.join(_python(k, names) for k in kids)})"
+    if tag == "mtable":
+        return "[" + ",".join("[" + ",".join(_python(td, names) for td in tr.getElementsByTagName("mtd")) + "]"
+                              for tr in kids) + "]"
+    if tag in ("mrow", "mtd", "math"):
+        if any(k.tagName == "mtable" for k in kids):   # [ table ]
+            return _python(next(k for k in kids if k.tagName == "mtable"), names)
+        return "".join(_python(k, names) for k in kids)
+    raise AssertionError(f"unexpected MathML {key[:200]}")
+
+
+def _value(markup: str, names: dict[str, str], values: dict[str, float]) -> np.ndarray:
+    node = minidom.parseString(f"<math>{markup}</math>").documentElement
+    return np.array(eval(_python(node, names), {"__builtins__": {}, "sin": math.sin, "cos": math.cos,   # noqa: S307
+                                                 "sqrt": math.sqrt}, values), dtype=float)
+
+
+def _symbols(derivation, q, v, a) -> tuple[dict[str, str], dict[str, float]]:
+    """Names (each symbol's MathML -> a variable) and values: the state, parameter defaults,
+    efforts zero."""
+    table, robot = derivation.symbols, derivation.robot
+    fmt = FloatingMathFormatter(derivation)
+    values = {str(table.parameters[p.name]): p.value for p in robot.parameters} | {str(u): 0.0 for u in table.efforts.values()}
+    values |= {str(s): float(x) for s, x in [*zip(table.q, q), *zip(table.qd, v), *zip(table.qdd, a)]}
+    names, variables = {}, {}
+    for k, s in enumerate([*table.q, *table.qd, *table.qdd, *table.parameters.values(), *table.efforts.values()]):
+        names[_key(minidom.parseString(str(fmt(s))).documentElement)] = f"s{k}"
+        variables[f"s{k}"] = values[str(s)]
+    return names, variables
+
+
+def _states(derivation, seed: int, count: int = 2):
+    rng = np.random.default_rng(seed)
+    nq, nv = len(derivation.symbols.q), len(derivation.symbols.qd)
+    for _ in range(count):
+        q = rng.normal(size=nq)
+        q[3:7] /= np.linalg.norm(q[3:7])   # the root's quaternion
+        yield q, rng.normal(size=nv), rng.normal(size=nv)
+
+
+def _close(actual, expected, tolerance: float = 1e-11) -> None:
+    scale = max(1.0, float(np.max(np.abs(expected))))
+    np.testing.assert_allclose(actual, expected, rtol=0, atol=tolerance * scale)
+
+
+def _matrix(shown: dict, page: str, names: dict[str, str], values: dict[str, float], quantity) -> np.ndarray:
+    """A matrix of the page, whole or entry by entry (``wide``: each entry at the place of the
+    sheet's quantity's next nonzero entry, row by row)."""
+    if not shown["wide"]:
+        assert str(shown["math"]) in page
+        return _value(str(shown["math"]), names, values).reshape(quantity.shape)
+    places = [(i, j) for i in range(quantity.rows) for j in range(quantity.cols) if quantity[i, j] != 0]
+    assert len(places) == len(shown["entries"]) > 0
+    matrix = np.zeros(quantity.shape)
+    for (i, j), entry in zip(places, shown["entries"]):
+        assert f'<math display="block">{entry["name"]}<mo>=</mo>{entry["math"]}</math>' in page
+        matrix[i, j] = _value(str(entry["math"]), names, values)
+    return matrix
+
+
+# --- tests ------------------------------------------------------------------------------
+
+def test_page_is_self_contained_and_well_nested(free):
+    _, _, page, _ = free
+    tags = parse(page)
+    assert tags.problems == [] and tags.stack == []
+    names = {tag for tag, _ in tags.tags}
+    assert {"math", "table", "mtable"} <= names
+    assert not names & {"script", "link", "img", "iframe", "object", "embed", "base", "form", "b"}
+    for tag, attrs in tags.tags:
+        assert not any(name.startswith("on") for name in attrs) and "src" not in attrs, (tag, attrs)
+    assert "\\" not in page and not re.search(r"url\(|@import|https?://", page)
+    for heading in ("The robot", "Configuration and quasi-velocities", "Kinematics and energies", "Equations of motion"):
+        assert f">{heading}<" in page, heading
+    assert "Kane's" in page and "Euler's equations in body" in page and "intermediate-variable form" not in page
+
+
+def test_robot_text_is_escaped(free):
+    _, _, page, _ = free
+    tags = parse(page)
+    assert page.count("&lt;script&gt;alert(&#34;x&#34;)&lt;/script&gt; &amp; &#39;quoted&#39; &lt;/math&gt;&lt;b&gt;") == 3   # <title>, <h1>, the description
+    assert "kg&lt;/td&gt;&lt;script&gt;" in page   # the unit
+    assert HOSTILE in "".join(tags.text)
+
+
+def test_free_body_mathml_agrees_with_the_module(free):
+    """M and the equations of motion (EOM = M vdot + C v + N, no efforts) read from the page's
+    MathML equal the module's mass matrix and inverse dynamics; so do N and C v."""
+    _, derivation, page, module = free
+    context, sheet = floating_html_context(derivation), derivation.floating_steps.sheet
+    assert not context["M"]["wide"] and context["EOM"]["wide"]   # both forms read
+    for q, v, a in _states(derivation, 1):
+        names, values = _symbols(derivation, q, v, a)
+        _close(_matrix(context["M"], page, names, values, sheet.M), module.mass_matrix(q))
+        _close(_matrix(context["EOM"], page, names, values, sheet.EOM).ravel(), module.inverse_dynamics(q, v, a))
+        _close(_matrix(context["N"], page, names, values, sheet.N).ravel(), module.gravity_vector(q))
+        _close(_matrix(context["Cv"], page, names, values, sheet.Cv).ravel(),
+               module.inverse_dynamics(q, v, 0 * a) - module.gravity_vector(q))
+    # the floating names: q_w, omega_x, a dotted v_x
+    assert "<msub><mi>q</mi><mi>w</mi></msub>" in page and "<msub><mi>&#969;</mi><mi>x</mi></msub>" in page
+    assert '<msub><mover accent="true"><mi>v</mi><mo>&#729;</mo></mover><mi>x</mi></msub>' in page
+
+
+def test_same_bytes_from_another_process(free, tmp_path):
+    """``solve --html`` in a process with another hash seed writes the page rendered here."""
+    path, derivation, page, _ = free
+    out = tmp_path / "out"
+    subprocess.run([sys.executable, "-m", "dynderive", "solve", str(path), "--html", "--out", str(out), "-q"],
+                   check=True, env=os.environ | {"PYTHONHASHSEED": "7", "PYTHONPATH": str(ROOT / "src")})
+    assert sorted(p.name for p in out.iterdir()) == ["free_body.html"]
+    assert (out / "free_body.html").read_text(encoding="utf-8") == page
+    assert render_floating_html(derivation) == page   # and again in this one
+
+
+def test_large_robot_as_the_programs_lines(chain):
+    """The program form: every line shown once, named w_k; evaluated in order from the
+    page's MathML, its tau, M and N equal the module's."""
+    _, derivation, page, module = chain
+    assert derivation.floating_steps.sheet is None
+    tags = parse(page)
+    assert tags.problems == [] and tags.stack == []
+    assert "intermediate-variable form" in page and "Kane's" not in page
+    context = floating_html_context(derivation)
+    lines = [line for group in context["groups"] for line in group["lines"]]
+    assert len(lines) == context["line_count"] > 50 and f"In all, {len(lines)} lines." in page
+    assert [g["key"] for g in context["groups"]] == ["shared", "tau", "M", "N"]
+    nv = len(derivation.symbols.qd)
+    for q, v, a in _states(derivation, 2):
+        names, values = _symbols(derivation, q, v, a)
+        for k, line in enumerate(lines):
+            shown = str(line["name"]) + "<mo>=</mo>" + str(line["math"])
+            assert shown in page
+            names[_key(minidom.parseString(str(line["name"])).documentElement)] = f"w{k}"
+            values[f"w{k}"] = float(_value(str(line["math"]), names, values))
+        tau = [float(_value(str(t["math"]), names, values)) for t in context["tau"]]
+        _close(tau, module.inverse_dynamics(q, v, a), 1e-10)
+        _close([float(_value(str(n["math"]), names, values)) for n in context["N"]], module.gravity_vector(q), 1e-10)
+        M = module.mass_matrix(q)
+        upper = [M[i, j] for i in range(nv) for j in range(i, nv) if M[i, j] != 0]
+        _close([float(_value(str(m["math"]), names, values)) for m in context["M"]], upper, 1e-10)
+    assert 'mathvariant="sans-serif"' in page   # the lines' names, as the LaTeX sheet's \mathsf{w}_k
+
+
+def test_build_writes_the_page_and_the_refusal_is_gone(free, tmp_path):
+    path, _, page, _ = free
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    (folder / "free.yaml").write_text(path.read_text())
+    result = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1", "--html"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "b" / "free_body.html").read_text(encoding="utf-8") == page
+    checked = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1", "--html", "--check"])
+    assert checked.exit_code == 0, checked.output
+    from dynderive.commands.floating import floating_note
+
+    built, _, missing = floating_note(dynderive.load_robot(path)).partition("not built yet")
+    assert "--html" in built and "--html" not in missing and "HTML" not in missing
+
+
+@pytest.mark.parametrize("which", ["free", "chain"])
+def test_page_loads_in_chromium(which, request, tmp_path):
+    chromium = _chromium()
+    page = request.getfixturevalue(which)[2]
+    probe = tmp_path / "probe.html"
+    probe.write_text(page.replace("</body>", PROBE + "</body>"), encoding="utf-8")
+    run = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0",
+                          "--window-size=1000,1400", f"--user-data-dir={tmp_path / 'profile'}", "--dump-dom",
+                          probe.as_uri()], capture_output=True, text=True, timeout=180)
+    assert run.returncode == 0, run.stderr[-2000:]
+    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
+    assert len(console) == 1 and '"probe-done"' in console[0], console   # the page's own: none
+    found = re.search(r'<pre id="probe-sizes">(.*?)</pre>', run.stdout, re.S)
+    assert found, run.stdout[-500:]
+    sizes = json.loads(found.group(1).replace("&quot;", '"'))
+    assert len(sizes["math"]) == page.count("<math") > 10
+    empty = [k for k, (w, h) in enumerate(sizes["math"]) if not (w > 0 and h > 0)]
+    assert empty == [], f"{len(empty)} <math> elements without size"
