@@ -132,3 +132,41 @@ def test_template_cache_is_transparent(monkeypatch, tmp_path):
     texts.append(env_module.render("code", "t.py.j2", {}, tmp_path))
     env_module.environment.cache_clear()
     assert texts == ["x = 3\n"] * 3
+
+
+def _fold_by_free_symbols(expr):
+    """``fold_constants`` as first written: a sub-tree is constant when it has no free symbols."""
+    if expr.is_Rational:
+        return expr if abs(expr.p) <= tidy_module.EXACT_INTEGER and expr.q <= tidy_module.EXACT_INTEGER \
+            else tidy_module._to_float(expr)
+    if expr.is_Float or expr.is_Symbol:
+        return expr
+    if not expr.free_symbols:
+        return tidy_module._to_float(expr)
+    args = [_fold_by_free_symbols(a) for a in expr.args]
+    return expr.func(*args) if any(a is not b and a != b for a, b in zip(args, expr.args)) else expr
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_fold_constants_equals_the_free_symbols_fold(seed):
+    """The one-walk test of constant sub-trees folds what ``free_symbols`` says is constant:
+    the same trees, remembered or not (a constant met again, inside a larger constant)."""
+    rng = random.Random(seed)
+    constants = [sympy.sqrt(2), sympy.sin(sympy.Rational(6061728394506173, 5000000000000000)), sympy.pi / 7,
+                 sympy.Rational(2**60 + 1, 3), sympy.cos(sympy.sqrt(3)) * sympy.exp(sympy.Rational(1, 9))]
+    exprs = []
+    for e in random_exprs(seed, 30):
+        c = rng.choice(constants)
+        exprs += [e * c + rng.choice(constants) * c, sympy.sin(e + c) * (c + 1), (c * rng.choice(constants)) ** 2 * e]
+    tidy_module._FOLDED[True].clear()
+    folded = 0
+    for e in exprs + exprs[::-1]:
+        try:
+            expected = _fold_by_free_symbols(e)
+        except ValueError:   # a complex constant (the square root of a negative number)
+            with pytest.raises(ValueError):
+                tidy_module.fold_constants(e)
+            continue
+        assert tidy_module.fold_constants(e) == expected, e
+        folded += expected != e
+    assert folded > len(exprs)

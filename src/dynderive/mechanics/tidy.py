@@ -73,7 +73,7 @@ def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic], rationals: bo
         return expr
     if expr in memo:
         return memo[expr]
-    if not expr.free_symbols:
+    if _constant(expr, memo):
         result = _to_float(expr)
     else:
         args = [_fold(a, memo, rationals) for a in expr.args]
@@ -82,6 +82,17 @@ def _fold(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic], rationals: bo
         result = expr.func(*args) if any(a is not b and a != b for a, b in zip(args, expr.args)) else expr
     memo[expr] = result
     return result
+
+
+def _constant(expr: sympy.Basic, memo: dict[sympy.Basic, sympy.Basic]) -> bool:
+    """``not expr.free_symbols``, in one walk: ``free_symbols`` walks the whole sub-tree at
+    every node ``_fold`` visits, quadratic in a deep entry of C. A sub-tree ``_fold`` has
+    remembered is constant exactly when it was folded to a number, so the walk stops there."""
+    if not expr.args or isinstance(expr, (sympy.Lambda, sympy.Derivative, sympy.Integral, sympy.Subs)):
+        return not expr.free_symbols   # atoms, and bound variables
+    if expr in memo:
+        return memo[expr].is_Number
+    return all(_constant(a, memo) for a in expr.args)
 
 
 def _to_float(expr: sympy.Expr) -> sympy.Float:
