@@ -125,7 +125,8 @@ def _example_robot(relative: str) -> Path:
                                       "simple_humanoid_description/urdf/simple_humanoid.urdf",
                                       "talos_data/robots/talos_reduced.urdf"])
 def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
-    """``--floating-base``: Pinocchio's ``buildModelFromUrdf(path, JointModelFreeFlyer())``."""
+    """``--floating-base``: Pinocchio's ``buildModelFromUrdf(path, JointModelFreeFlyer())``, its
+    Coriolis matrix and ``computeABADerivatives`` included."""
     path = _example_robot(relative)
     robot = dynderive.load_robot(path, floating_base=True)
     assert robot.joints[0].name == "root_joint" and robot.joints[0].type == "floating"
@@ -136,7 +137,36 @@ def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
         ours = identifier(name)
         qp.extend(range(where.q[ours], where.q[ours] + joint.nq))
         vp.extend(range(where.v[ours], where.v[ours] + joint.nv))
-    _compare(robot, _module(robot, tmp_path), model, np.array(qp), np.array(vp), seed=len(relative))
+    module = _module(robot, tmp_path)
+    _compare(robot, module, model, np.array(qp), np.array(vp), seed=len(relative))
+    _coriolis_and_derivatives(module, model, np.array(qp), np.array(vp), seed=len(relative))
+
+
+def _coriolis_and_derivatives(module, model, qp, vp, seed: int) -> None:
+    """At one random state: the Coriolis matrix against ``computeCoriolisMatrix`` and
+    ``linearize`` against ``computeABADerivatives`` (tangent space, efforts at their columns)."""
+    data = model.createData()
+    rng = np.random.default_rng(seed)
+    pin.seed(seed + 1)
+    nv = model.nv
+    q_pin, v_pin = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq)), rng.normal(size=nv)
+    q, v = np.empty(model.nq), np.empty(nv)
+    q[qp], v[vp] = q_pin, v_pin
+    u = rng.normal(size=len(module.EFFORTS))
+    tau = np.zeros(nv)
+    tau[list(module.EFFORT_COLUMNS)] = u
+    C_pin = pin.computeCoriolisMatrix(model, data, q_pin, v_pin)
+    np.testing.assert_allclose(module.coriolis_matrix(q, v)[np.ix_(vp, vp)], C_pin, rtol=0,
+                               atol=1e-9 * max(1.0, np.max(np.abs(C_pin))))
+    A, B = module.linearize(q, v, u)
+    pin.computeABADerivatives(model, data, q_pin, v_pin, tau[vp])
+    scale = max(1.0, np.max(np.abs(data.ddq_dq)), np.max(np.abs(data.ddq_dv)))
+    np.testing.assert_allclose(A[nv:, :nv][np.ix_(vp, vp)], data.ddq_dq, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(A[nv:, nv:][np.ix_(vp, vp)], data.ddq_dv, rtol=0, atol=1e-9 * scale)
+    Minv = np.triu(data.Minv) + np.triu(data.Minv, 1).T
+    order = list(vp)
+    np.testing.assert_allclose(B[nv:][vp], Minv[:, [order.index(c) for c in module.EFFORT_COLUMNS]], rtol=0,
+                               atol=1e-9 * max(1.0, np.max(np.abs(Minv))))
 
 
 def _floating_tree(seed: int, joints: int | None = None) -> str:
