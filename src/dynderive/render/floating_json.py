@@ -71,7 +71,7 @@ def render_floating_json(derivation: Derivation) -> str:
         "velocities": [str(s) for s in table.qd],
         "accelerations": [str(s) for s in table.qdd],
         "joints": {j.name: {"type": j.type, "q": where_q[j.name], "v": where_v[j.name]}
-                   for j in robot.joints if j.moves},
+                   for j in robot.joints if j.owns},
         "efforts": list(robot.efforts),
         "parameters": {p.name: p.value for p in robot.parameters},
         "degrees_of_freedom": nv,
