@@ -70,8 +70,10 @@ def render_floating_json(derivation: Derivation) -> str:
         "coordinates": [str(s) for s in table.q],
         "velocities": [str(s) for s in table.qd],
         "accelerations": [str(s) for s in table.qdd],
-        "joints": {j.name: {"type": j.type, "q": where_q[j.name], "v": where_v[j.name]}
-                   for j in robot.joints if j.owns},
+        "joints": {j.name: ({"type": j.type, "q": where_q[j.name], "v": where_v[j.name]} if j.owns else
+                            {"type": j.type, "mimic": {"joint": j.mimic.joint, "multiplier": j.mimic.multiplier,
+                                                       "offset": j.mimic.offset}})
+                   for j in robot.joints if j.moves},
         "efforts": list(robot.efforts),
         "parameters": {p.name: p.value for p in robot.parameters},
         "degrees_of_freedom": nv,

@@ -144,6 +144,11 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
             size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
             entry["coordinates"] = ", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]])
             entry["velocities"] = ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])
+        elif j.moves:   # a <mimic> joint: its variable and rate follow its leader's coordinate
+            leader, multiplier, offset = robot.driver(j)
+            m = table.expr(multiplier)
+            entry["coordinates"] = fmt(m * table.q[where_q[leader]] + table.expr(offset))
+            entry["velocities"] = fmt(m * table.qd[where_v[leader]])
         joints.append(entry)
     context: dict[str, Any] = {
         "generator": f"dynderive {__version__}",
