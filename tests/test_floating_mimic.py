@@ -32,9 +32,9 @@ from dynderive.mechanics.floating_sheet import is_small_floating
 from dynderive.render.floating_code import render_floating_code
 from dynderive.verify.checks import generated_module
 from dynderive.verify.floating_checks import run_floating_checks
+from test_mimic import ARM, _link
 
 from random_robots3d import _random_axis, _random_inertia
-from test_mimic import ARM, _link
 
 pin = pytest.importorskip("pinocchio")
 

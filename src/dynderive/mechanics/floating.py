@@ -12,7 +12,10 @@ joint (anywhere in the tree) is its rotational part: configuration ``[qx, qy, qz
 the local angular velocity ``[wx, wy, wz]``, motion subspace the three angular unit columns
 (Pinocchio's ``JointModelSpherical``). Every other joint
 is revolute, prismatic or fixed as in ``recursive.py``; a joint's coordinate is an index into
-``q`` (NQ entries), its column an index into ``qd`` (NV entries).
+``q`` (NQ entries), its column an index into ``qd`` (NV entries). A ``<mimic>`` joint has
+neither: its variable is ``multiplier * q_leader + offset``, its column its leader's with its
+axis times the multiplier, and what several joints put on one column sums (``M = G^T
+M_joints G``, ``tau = G^T tau_joints``), as in ``recursive.py``.
 
 The Coriolis matrix, the derivatives of inverse dynamics and the regressor are in
 ``floating_derivatives.py``. Not built (the notes of ``commands/floating.py`` say so):

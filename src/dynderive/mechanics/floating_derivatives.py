@@ -296,7 +296,9 @@ def regressor(tree: FloatingTree) -> Program:
                 c = column[f"{kind}_{body.link}"]
                 Y[j][c] = program.let(Y[j][c] + _dot(s_w, n_k) + _dot(s_v, f_k))
     joint_of = {j.child: j for j in robot.joints}
-    for body in (b for b in tree.bodies if b.drive is not None):
+    for body in tree.bodies:
+        if body.drive is None:
+            continue
         m, _, _, rest, variable = body.drive
         name, [(i, _, _)] = joint_of[body.link].name, body.columns
         if f"armature_{name}" in column:
