@@ -391,12 +391,6 @@ def _mimic(index: int, **keys):
     return lambda data: data["joints"][index]["mimic"].update(keys)
 
 
-def _floating(data):
-    data["links"].insert(0, {"name": "b0", "mass": 1, "inertia": [0.1, 0.1, 0.1, 0, 0, 0]})
-    data["joints"].insert(0, {"name": "base", "type": "floating", "parent": "world", "child": "b0"})
-    data["joints"][1]["parent"] = "b0"
-
-
 REFUSED = [
     ("unknown", _mimic(1, joint="shouldr"), "joints[1].mimic.joint: unknown joint 'shouldr' (did you mean 'shoulder'?)"),
     ("self", _mimic(1, joint="elbow"), "joints[1].mimic.joint: a joint cannot mimic itself"),
@@ -418,8 +412,6 @@ REFUSED = [
      "prismatic joints can)"),
     ("leader", _joint(0, type="fixed"), "joints[1].mimic.joint: joint 'shoulder' is fixed: only revolute and prismatic "
      "joints can be mimicked"),
-    ("floating", _floating, "joints[2].mimic: mimic joints in a robot with a floating or spherical joint are not built "
-     "yet (issue 30)"),
 ]
 
 

@@ -58,7 +58,7 @@ def floating_initial(robot: Any, q0: np.ndarray | None) -> np.ndarray:
     if q0 is None:
         where_q, _ = robot.offsets()
         q0 = np.zeros(len(robot.configuration_names))
-        for joint in (j for j in robot.joints if j.moves):
+        for joint in (j for j in robot.joints if j.owns):
             if joint.multi:   # the identity quaternion
                 q0[where_q[joint.name] + joint.sizes[0] - 1] = 1.0
             else:

@@ -7,9 +7,10 @@ Rules: only a revolute or prismatic joint follows, a revolute or prismatic joint
 coordinate of its own (not fixed, floating, spherical, nor itself a follower: so no chain and
 no cycle of followers); the multiplier is a finite non-zero number, the offset a finite
 number; a follower has no effort of its own (its drive acts on its leader's coordinate, through
-the multiplier); one spring per coordinate (on the leader or on one of its followers). Not
-built yet (refused): followers in planar robots, in robots with loops, and in robots that
-take the floating-base path (a floating or spherical joint).
+the multiplier); one spring per coordinate (on the leader or on one of its followers). Built
+on fixed-base 3-D robots and on the floating-base path (a floating or spherical joint:
+``mechanics/floating.py``). Not built yet (refused): followers in planar robots and in robots
+with loops.
 """
 
 from __future__ import annotations
@@ -82,10 +83,6 @@ def check_mimics(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool)
         if "loops" in top:
             v.error(mpath, f"{v.label(mpath)}: mimic joints in a robot with loops are not built yet (issue 30)",
                     key=True)
-            continue
-        if any(j.multi for j in joints):
-            v.error(mpath, f"{v.label(mpath)}: mimic joints in a robot with a floating or spherical joint are not "
-                    "built yet (issue 30)", key=True)
             continue
         name = joint.mimic.joint
         leader = by_name.get(name)

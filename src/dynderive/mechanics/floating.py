@@ -12,7 +12,10 @@ joint (anywhere in the tree) is its rotational part: configuration ``[qx, qy, qz
 the local angular velocity ``[wx, wy, wz]``, motion subspace the three angular unit columns
 (Pinocchio's ``JointModelSpherical``). Every other joint
 is revolute, prismatic or fixed as in ``recursive.py``; a joint's coordinate is an index into
-``q`` (NQ entries), its column an index into ``qd`` (NV entries).
+``q`` (NQ entries), its column an index into ``qd`` (NV entries). A ``<mimic>`` joint has
+neither: its variable is ``multiplier * q_leader + offset``, its column its leader's with its
+axis times the multiplier, and what several joints put on one column sums (``M = G^T
+M_joints G``, ``tau = G^T tau_joints``), as in ``recursive.py``.
 
 The Coriolis matrix, the derivatives of inverse dynamics and the regressor are in
 ``floating_derivatives.py``. Not built (the notes of ``commands/floating.py`` say so):
@@ -68,6 +71,10 @@ class _Body:
     mass: sympy.Expr
     first_moment: Vector         # h = m c, link frame
     inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
+    #: a scalar joint's drive terms ``(multiplier, armature, stiffness, rest, variable)``, the
+    #: joint's variable being ``multiplier * q_leader + offset`` (1 and ``q`` for a joint with a
+    #: coordinate of its own); None: the joint declares none
+    drive: tuple[sympy.Expr, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -93,10 +100,6 @@ class FloatingTree:
         order = sorted(robot.links, key=lambda link: depth[link.name])
         self.bodies = [self._body(link, robot.parent_joint(link.name)) for link in order]
         self.program.lines[0:0] = self.trig   # sines and cosines first
-        #: armature (joins M[j, j]) and springs ``k (q - rest)`` (join the joint force) by column
-        self.drives = {self.offsets.v[j.name]: (self._value(j.armature), self._value(j.stiffness),
-                                                self._value(j.rest), self.table.q[self.offsets.q[j.name]])
-                       for j in robot.joints if j.moves and not j.multi and j.driven}
 
     def copy(self) -> FloatingTree:
         """The same links, with a program of the links' lines only: each program of the module
@@ -118,6 +121,7 @@ class FloatingTree:
         motion = sympy.eye(3)
         columns: list[tuple[int, Vector, Vector]] = []
         zero: Vector = (_ZERO, _ZERO, _ZERO)
+        drive = None
         if joint.type == "floating":
             qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
             q = self.table.q[qi:qi + 7]
@@ -130,18 +134,29 @@ class FloatingTree:
             motion = quaternion_matrix(*self.table.q[qi:qi + 4])
             basis = [tuple(sympy.Integer(int(i == k)) for i in range(3)) for k in range(3)]
             columns = [(vi + k, basis[k], zero) for k in range(3)]
-        elif joint.moves:
-            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+        elif joint.moves:   # a <mimic> joint: variable multiplier * q_leader + offset, column the leader's
+            leader, multiplier, offset = self.robot.driver(joint)
+            qi, vi = self.offsets.q[leader], self.offsets.v[leader]
             axis = unit(tuple(expr(e) for e in joint.axis))
-            q = self.table.q[qi]
-            if joint.type == "revolute":
+            m = expr(multiplier)
+            q = m * self.table.q[qi] + expr(offset)
+            if joint.type == "revolute" and joint.mimic is None:
                 cos, sin = sympy.Symbol(f"_cos{vi}"), sympy.Symbol(f"_sin{vi}")
                 self.trig += [(cos, sympy.cos(q)), (sin, sympy.sin(q))]
                 motion = axis_angle(axis, q).subs({sympy.cos(q): cos, sympy.sin(q): sin})
-                columns = [(vi, axis, zero)]   # type: ignore[list-item]
+            elif joint.type == "revolute":   # the sine and cosine of the follower's own variable
+                cos, sin = (sympy.Symbol(f"_{f}{vi}_{len(self.trig)}") for f in ("cos", "sin"))
+                # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
+                turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
+                self.trig += [(cos, sympy.cos(turn)), (sin, sympy.sin(turn))]
+                angle = sympy.Dummy("angle")
+                motion = axis_angle(about, angle).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})  # type: ignore[arg-type]
             else:
                 position = position + origin * sympy.Matrix(axis) * q
-                columns = [(vi, zero, axis)]   # type: ignore[list-item]
+            scaled = tuple(m * a for a in axis) if m != 1 else axis   # motion per unit rate of the leader
+            columns = [(vi, scaled, zero) if joint.type == "revolute" else (vi, zero, scaled)]   # type: ignore[list-item]
+            if joint.driven:
+                drive = (m, self._value(joint.armature), self._value(joint.stiffness), self._value(joint.rest), q)
         rotation = origin * motion
         R = tuple(tuple(let(rotation[i, j]) for j in range(3)) for i in range(3))
         mass = let(expr(link.mass))
@@ -151,7 +166,7 @@ class FloatingTree:
         inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]))
                               for j in range(3)) for i in range(3))
         return _Body(link.name, joint.parent, columns, R, self.program.vector(list(position)),  # type: ignore[arg-type]
-                     mass, self.program.vector([mass * c for c in com]), inertia)
+                     mass, self.program.vector([mass * c for c in com]), inertia, drive)
 
     def force_to_parent(self, body: _Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> tuple[Vector, Vector]:
         """A force (moment about the link origin, force) in the parent's frame."""
@@ -186,16 +201,17 @@ def mass_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
             # the composite body's momentum per unit rate of column j: (I sw + h x sv, m sv + sw x h)
             nm = vec(_add(_rotate(inertia, sw), _cross(h, sv)))   # type: ignore[arg-type]
             f = vec(_add(_times(sv, mass), _cross(sw, h)))
+            armature = body.drive[0] ** 2 * body.drive[1] if body.drive is not None else 0
             for i, tw, tv in body.columns:
-                if i <= j:
-                    M[i][j] = M[j][i] = let(_dot(tw, nm) + _dot(tv, f) + (tree.drives[j][0] if i == j and j in tree.drives
-                                                                          else 0))
+                if i <= j:   # a coordinate moving several joints (<mimic>) sums their entries: G^T M_joints G
+                    M[i][j] = M[j][i] = let(M[i][j] + _dot(tw, nm) + _dot(tv, f) + (armature if i == j else 0))
             current = body
             while current.parent != "world":
                 nm, f = tree.force_to_parent(current, nm, f)
                 current = by_link[current.parent]
                 for i, tw, tv in current.columns:
-                    M[i][j] = M[j][i] = let(_dot(tw, nm) + _dot(tv, f))
+                    entry = _dot(tw, nm) + _dot(tv, f)   # i == j: a leader above its follower
+                    M[i][j] = M[j][i] = let(M[i][j] + (2 * entry if i == j else entry))
     return M
 
 
@@ -231,9 +247,10 @@ def newton_euler(tree: FloatingTree, qd: Sequence[sympy.Expr], qdd: Sequence[sym
     tau: list[sympy.Expr] = [_ZERO] * tree.robot.velocity_count
     for body in reversed(tree.bodies):
         n, f = forces[body.link]
-        for j, sw, sv in body.columns:
-            armature, stiffness, rest, q = tree.drives.get(j, (0, 0, 0, 0))
-            tau[j] = tree.program.let(_dot(sw, n) + _dot(sv, f) + armature * qdd[j] + stiffness * (q - rest))
+        for j, sw, sv in body.columns:   # a <mimic> joint's force joins its leader's: G^T tau_joints
+            m, armature, stiffness, rest, q = body.drive if body.drive is not None else (0, 0, 0, 0, 0)
+            tau[j] = tree.program.let(tau[j] + _dot(sw, n) + _dot(sv, f) + m * m * armature * qdd[j]
+                                      + m * stiffness * (q - rest))
         if body.parent != "world":
             n_p, f_p = tree.force_to_parent(body, n, f)
             parent_n, parent_f = forces[body.parent]
@@ -252,7 +269,7 @@ def potential(tree: FloatingTree) -> sympy.Expr:
         g, s = vec(_rotate_back(body.rotation, g_parent)), let(s_parent + _dot(g_parent, body.position))
         frames[body.link] = (g, s)
         total += body.mass * s + _dot(g, body.first_moment)
-    springs = [stiffness * (q - rest) ** 2 / 2 for _, stiffness, rest, q in tree.drives.values()]
+    springs = [b.drive[2] * (b.drive[4] - b.drive[3]) ** 2 / 2 for b in tree.bodies if b.drive is not None]
     return let(-total + sum(springs, _ZERO))
 
 
@@ -336,8 +353,8 @@ def frame_programs(robot: Robot, table: SymbolTable) -> dict[str, tuple[Program,
             for j, sw, sv in body.columns:
                 w = vec(_rotate(R, sw))
                 v = vec(_add(_rotate(R, sv), _cross(w, lever)))
-                for r, value in enumerate((*v, *w)):
-                    rows[r][j] = value
+                for r, value in enumerate((*v, *w)):   # a <mimic> joint's column joins its leader's
+                    rows[r][j] = rows[r][j] + value
             link = body.parent
         transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2],
                      _ZERO, _ZERO, _ZERO, one]

@@ -107,7 +107,9 @@ def coriolis_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
     zero: Vector = (_ZERO, _ZERO, _ZERO)
     poses: dict[str, tuple[Matrix3, Vector]] = {"world": (identity, zero)}
     velocity: dict[str, Motion] = {"world": (zero, zero)}
-    columns: dict[int, tuple[str, Motion, Motion]] = {}   # j: (link, S_j, v_j x S_j), world axes
+    # (link, j): (link, S_j, v_j x S_j), world axes; keyed by link too, as a <mimic> joint shares
+    # its leader's column j, and its entries join the leader's (C = G^T C_joints G)
+    columns: dict[tuple[str, int], tuple[str, Motion, Motion]] = {}
     composite: dict[str, Inertia] = {}
     B: dict[str, list[list[sympy.Expr]]] = {}
     units = [tuple(tuple(one if 3 * part + k == r else _ZERO for k in range(3)) for part in range(2)) for r in range(6)]
@@ -126,7 +128,7 @@ def coriolis_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
             v = vec([v[k] + sum((s[1][k] * qd[j] for j, s in own), _ZERO) for k in range(3)])
         velocity[body.link] = (w, v)
         for j, s in own:
-            columns[j] = (body.link, s, tuple(vec(x) for x in _motion_cross((w, v), s)))  # type: ignore[assignment]
+            columns[body.link, j] = (body.link, s, tuple(vec(x) for x in _motion_cross((w, v), s)))  # type: ignore[assignment]
         inertia = _world_inertia(let, vec, body, R, p)   # type: ignore[arg-type]
         composite[body.link] = inertia
         momentum = tuple(vec(x) for x in _apply(inertia, (w, v)))
@@ -151,29 +153,31 @@ def coriolis_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
         B[body.parent] = [[let(x + y) for x, y in zip(row_p, row)] for row_p, row in zip(B[body.parent], B[body.link])]
     by_link = {b.link: b for b in tree.bodies}
     C = [[_ZERO] * n for _ in range(n)]
-    rows: dict[int, tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]] = {}   # i: (S_i^T B^c, I^c S_i)
-    for j, (link, s, ds) in columns.items():
+    rows: dict[tuple[str, int], tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]] = {}   # (S_i^T B^c, I^c S_i)
+    for key, (link, s, ds) in columns.items():
+        j = key[1]
         flat = (*s[0], *s[1])
         spin = _apply(composite[link], ds)
         turn = [sum((B[link][r][c] * flat[c] for c in range(6)), _ZERO) for r in range(6)]
         force = vec([a + b for a, b in zip((*spin[0], *spin[1]), turn)])   # I^c_k dS_j + B^c_k S_j
-        rows[j] = (vec([sum((flat[r] * B[link][r][c] for r in range(6)), _ZERO) for c in range(6)]),
-                   vec([x for part in _apply(composite[link], s) for x in part]))
+        rows[key] = (vec([sum((flat[r] * B[link][r][c] for r in range(6)), _ZERO) for c in range(6)]),
+                     vec([x for part in _apply(composite[link], s) for x in part]))
         current = by_link[link]
         while True:   # rows of joint j's link and of the joints above it
             for i, _, _ in current.columns:
-                t = columns[i][1]
-                C[i][j] = let(_pair((*t[0], *t[1]), force))
+                t = columns[current.link, i][1]
+                C[i][j] = let(C[i][j] + _pair((*t[0], *t[1]), force))
             if current.parent == "world":
                 break
             current = by_link[current.parent]
-    for i, (link, _, _) in columns.items():   # the joints strictly above joint i's link
+    for key, (link, _, _) in columns.items():   # the joints strictly above joint i's link
+        i = key[1]
         current = by_link[link]
         while current.parent != "world":
             current = by_link[current.parent]
             for j, _, _ in current.columns:
-                t, dt = columns[j][1], columns[j][2]
-                C[i][j] = let(_pair((*t[0], *t[1]), rows[i][0]) + _pair((*dt[0], *dt[1]), rows[i][1]))
+                t, dt = columns[current.link, j][1], columns[current.link, j][2]
+                C[i][j] = let(C[i][j] + _pair((*t[0], *t[1]), rows[key][0]) + _pair((*dt[0], *dt[1]), rows[key][1]))
     return C
 
 
@@ -182,7 +186,7 @@ def _tangent_seeds(tree: FloatingTree) -> list[dict[sympy.Symbol, sympy.Expr]]:
     scalar joint; for a floating or spherical joint, that of ``integrate(q, e_k h)`` at h = 0."""
     let, table, where = tree.program.let, tree.table, tree.offsets
     seeds: list[dict[sympy.Symbol, sympy.Expr]] = [{} for _ in range(tree.robot.velocity_count)]
-    for joint in (j for j in tree.robot.joints if j.moves):
+    for joint in (j for j in tree.robot.joints if j.owns):   # a <mimic> joint moves with its leader's
         qi, vi = where.q[joint.name], where.v[joint.name]
         if not joint.multi:
             seeds[vi] = {table.q[qi]: sympy.Integer(1)}
@@ -278,21 +282,29 @@ def regressor(tree: FloatingTree) -> Program:
     column = {p.name: i for i, p in enumerate(parameters)}
     Y = [[_ZERO] * len(parameters) for _ in range(n)]
     motion = motions(tree, table.qd, table.qdd)
-    axes: dict[str, dict[int, Motion]] = {"world": {}}
+    # each joint column carried down, by (depth of its link, column): a <mimic> joint's sums into
+    # its leader's row (G^T Y_joints)
+    depth = {b.link: k for k, b in enumerate(tree.bodies)}
+    axes: dict[str, dict[tuple[int, int], Motion]] = {"world": {}}
     for body in tree.bodies:
-        own = {j: tree.motion_from_parent(body, w, v) for j, (w, v) in axes[body.parent].items()}
-        own.update({j: (sw, sv) for j, sw, sv in body.columns})
+        own = {key: tree.motion_from_parent(body, w, v) for key, (w, v) in axes[body.parent].items()}
+        own.update({(depth[body.link], j): (sw, sv) for j, sw, sv in body.columns})
         axes[body.link] = own
         for kind in SPATIAL_KINDS:
             n_k, f_k = body_force(vec, *_unit_parameters(kind), *motion[body.link])
-            for j, (s_w, s_v) in sorted(own.items()):
-                Y[j][column[f"{kind}_{body.link}"]] = program.let(_dot(s_w, n_k) + _dot(s_v, f_k))
-    for joint in (j for j in robot.joints if j.moves and not j.multi):
-        i = tree.offsets.v[joint.name]
-        if f"armature_{joint.name}" in column:
-            Y[i][column[f"armature_{joint.name}"]] = table.qdd[i]
-        if f"stiffness_{joint.name}" in column:
-            Y[i][column[f"stiffness_{joint.name}"]] = program.let(tree.drives[i][3] - tree.drives[i][2])
+            for (_, j), (s_w, s_v) in sorted(own.items(), key=lambda item: (item[0][1], item[0][0])):
+                c = column[f"{kind}_{body.link}"]
+                Y[j][c] = program.let(Y[j][c] + _dot(s_w, n_k) + _dot(s_v, f_k))
+    joint_of = {j.child: j for j in robot.joints}
+    for body in tree.bodies:
+        if body.drive is None:
+            continue
+        m, _, _, rest, variable = body.drive
+        name, [(i, _, _)] = joint_of[body.link].name, body.columns
+        if f"armature_{name}" in column:
+            Y[i][column[f"armature_{name}"]] = m * m * table.qdd[i]
+        if f"stiffness_{name}" in column:
+            Y[i][column[f"stiffness_{name}"]] = program.let(m * (variable - rest))
     program.outputs = [e for row in Y for e in row]
     return program
 

@@ -50,10 +50,11 @@ def is_small_floating(robot: Robot) -> bool:
     """Whether the sheet expands the robot's quantities: one floating or spherical joint, at
     the world, and at most SMALL_SCALAR_JOINTS joints below it (a quaternion below another
     joint makes every entry a polynomial of high degree in it: a floating base, a spherical
-    joint and an elbow take a minute and give a C of 230 000 operations)."""
+    joint and an elbow take a minute and give a C of 230 000 operations). A robot with
+    ``<mimic>`` joints gets the programs' form (the steps here give each joint a coordinate)."""
     multi = [j for j in robot.joints if j.multi]
     scalar = [j for j in robot.joints if j.moves and not j.multi]
-    return (len(multi) == 1 and multi[0].parent == "world" and len(scalar) <= SMALL_SCALAR_JOINTS
+    return (not robot.mimics and len(multi) == 1 and multi[0].parent == "world" and len(scalar) <= SMALL_SCALAR_JOINTS
             and len(robot.links) <= SMALL_LINKS)
 
 

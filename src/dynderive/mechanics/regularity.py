@@ -94,7 +94,7 @@ def _floating_neutral(robot: Robot, table: SymbolTable, q: list[float]) -> tuple
 
     where = offsets(robot)
     columns: list[str] = []
-    for joint in (j for j in robot.joints if j.moves):
+    for joint in (j for j in robot.joints if j.owns):
         if joint.multi:   # floating: (0, 0, 0, 0, 0, 0, 1); spherical: (0, 0, 0, 1)
             start, (nq, nv) = where.q[joint.name], joint.sizes
             q[start:start + nq] = [0.0] * (nq - 1) + [1.0]

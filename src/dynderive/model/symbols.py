@@ -51,7 +51,7 @@ class SymbolTable:
         )
         if robot.floating:   # NQ coordinates, NV velocities and accelerations (DESIGN.md section 10)
             table.q, table.qd, table.qdd = [], [], []
-            for joint in (j for j in robot.joints if j.moves):
+            for joint in (j for j in robot.joints if j.owns):
                 if joint.multi:
                     q, v, a = floating_names(joint.name, joint.type)
                 else:

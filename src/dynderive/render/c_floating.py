@@ -44,7 +44,7 @@ def manifold_joints(derivation: Derivation) -> list[ManifoldJoint]:
     """The moving joints in file order: their kind and where they start in q and v."""
     where_q, where_v = derivation.robot.offsets()
     return [ManifoldJoint(j.type if j.type in ("floating", "spherical") else "scalar", where_q[j.name], where_v[j.name])
-            for j in derivation.robot.joints if j.moves]
+            for j in derivation.robot.joints if j.owns]
 
 
 def _effort_columns(derivation: Derivation) -> list[int]:

@@ -62,7 +62,7 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
     where_q, where_v = robot.offsets()
     floating = [j.name for j in robot.joints if j.type == "floating"]
     spherical = [j.name for j in robot.joints if j.type == "spherical"]
-    scalar = [j.name for j in robot.joints if j.moves and not j.multi]
+    scalar = [j.name for j in robot.joints if j.owns and not j.multi]
     parameters = [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
                    "unit": p.unit, "description": p.description} for p in robot.parameters]
     return {

@@ -70,7 +70,8 @@ def render_floating_json(derivation: Derivation) -> str:
         "coordinates": [str(s) for s in table.q],
         "velocities": [str(s) for s in table.qd],
         "accelerations": [str(s) for s in table.qdd],
-        "joints": {j.name: {"type": j.type, "q": where_q[j.name], "v": where_v[j.name]}
+        "joints": {j.name: ({"type": j.type, "q": where_q[j.name], "v": where_v[j.name]} if j.owns else
+                            {"type": j.type, "mimic": dict(zip(("joint", "multiplier", "offset"), robot.driver(j)))})
                    for j in robot.joints if j.moves},
         "efforts": list(robot.efforts),
         "parameters": {p.name: p.value for p in robot.parameters},

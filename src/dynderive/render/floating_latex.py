@@ -48,7 +48,7 @@ def coordinate_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
     where_q, where_v = robot.offsets()
     multi = [j for j in robot.joints if j.multi]
     others = {latex_name(str(s)) for s in [*table.parameters.values(), *table.efforts.values()]}
-    others |= {latex_name(j.name) for j in robot.joints if j.moves and not j.multi}
+    others |= {latex_name(j.name) for j in robot.joints if j.owns and not j.multi}
     plain = set(FLOATING_Q) | set(FLOATING_V)
     names: dict[sympy.Symbol, str] = {}
     for joint in multi:
@@ -60,7 +60,7 @@ def coordinate_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
         for k, text in enumerate(vs):
             names[table.qd[vi + k]] = _tagged(text, tag)
             names[table.qdd[vi + k]] = _tagged(_dotted(text), tag)
-    for joint in (j for j in robot.joints if j.moves and not j.multi):
+    for joint in (j for j in robot.joints if j.owns and not j.multi):
         qi, vi = where_q[joint.name], where_v[joint.name]
         names |= {table.q[qi]: latex_name(joint.name), table.qd[vi]: latex_name(joint.name, 1),
                   table.qdd[vi]: latex_name(joint.name, 2)}
@@ -140,10 +140,15 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
     for j in robot.joints:
         entry = {"name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent), "child": escape_tex(j.child),
                  "coordinates": "", "velocities": "", "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
-        if j.moves:
+        if j.owns:
             size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
             entry["coordinates"] = ", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]])
             entry["velocities"] = ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])
+        elif j.moves:   # a <mimic> joint: its variable and rate follow its leader's coordinate
+            leader, multiplier, offset = robot.driver(j)
+            m = table.expr(multiplier)
+            entry["coordinates"] = fmt(m * table.q[where_q[leader]] + table.expr(offset))
+            entry["velocities"] = fmt(m * table.qd[where_v[leader]])
         joints.append(entry)
     context: dict[str, Any] = {
         "generator": f"dynderive {__version__}",

@@ -13,7 +13,7 @@ import sympy
 
 from ..derivation import Derivation
 from ..model.symbols import SymbolTable
-from .checks import Row, _row, generated_module
+from .checks import Row, _pinocchio_mass_matrix, _row, generated_module
 
 POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . inverse_dynamics(q, qd, qdd)"
 MOMENTUM = "momentum conserved without gravity: d(linear, angular momentum)/dt = 0 under the joints' efforts"
@@ -197,7 +197,9 @@ def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, value
 
 def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any, np.ndarray, np.ndarray]:
     """Pinocchio's model of a floating-base robot (depth first, a floating joint as a
-    ``JointModelFreeFlyer``, a spherical joint as a ``JointModelSpherical``), with where its q and v entries are in ours (``q_pin = q[qp]``)."""
+    ``JointModelFreeFlyer``, a spherical joint as a ``JointModelSpherical``, a ``<mimic>`` joint
+    as Pinocchio's mimic joint: ``transformJointIntoMimic``), with where its q and v entries are
+    in ours (``q_pin = q[qp]``)."""
     import pinocchio as pin
 
     table = SymbolTable.for_robot(robot)
@@ -210,8 +212,6 @@ def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any,
     model.gravity.linear = np.array([num(e) for e in robot.gravity])
     where_q, where_v = robot.offsets()
     frame_of: dict[str, tuple[int, Any]] = {"world": (0, pin.SE3.Identity())}
-    qp: list[int] = []
-    vp: list[int] = []
 
     def inertia(name: str) -> Any:
         link = robot.link(name)
@@ -230,22 +230,26 @@ def pinocchio_floating_model(robot: Any, values: dict[str, float]) -> tuple[Any,
             else:
                 if joint.multi:
                     kind = pin.JointModelFreeFlyer() if joint.type == "floating" else pin.JointModelSpherical()
-                    nq, nv = joint.sizes
                 else:
                     axis = np.array([num(e) for e in joint.axis])
                     axis = axis / np.linalg.norm(axis)
                     kind = (pin.JointModelRevoluteUnaligned(axis) if joint.type == "revolute"
                             else pin.JointModelPrismaticUnaligned(axis))
-                    nq = nv = 1
-                qp.extend(range(where_q[joint.name], where_q[joint.name] + nq))
-                vp.extend(range(where_v[joint.name], where_v[joint.name] + nv))
                 joint_id = model.addJoint(parent_id, kind, place, joint.name)
                 model.appendBodyToJoint(joint_id, inertia(joint.child), pin.SE3.Identity())
                 frame_of[joint.child] = (joint_id, pin.SE3.Identity())
             visit(joint.child)
 
     visit("world")
-    return model, np.array(qp, dtype=int), np.array(vp, dtype=int)
+    for joint in (j for j in robot.joints if j.mimic is not None):
+        model = pin.transformJointIntoMimic(model, model.getJointId(joint.mimic.joint), model.getJointId(joint.name),
+                                            float(joint.mimic.multiplier), float(joint.mimic.offset))
+    qp, vp = np.zeros(model.nq, dtype=int), np.zeros(model.nv, dtype=int)
+    for index, (name, jmodel) in enumerate(zip(model.names, model.joints)):
+        if index > 0 and index not in model.mimicking_joints:
+            qp[jmodel.idx_q:jmodel.idx_q + jmodel.nq] = range(where_q[name], where_q[name] + jmodel.nq)
+            vp[jmodel.idx_v:jmodel.idx_v + jmodel.nv] = range(where_v[name], where_v[name] + jmodel.nv)
+    return model, qp, vp
 
 
 def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
@@ -264,17 +268,30 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
     worst, scale = 0.0, 1.0
     for q, v, u, q1 in zip(qs, vs, us, qs[::-1]):
         a = np.linspace(-1.0, 1.0, len(v))
-        M = pin.crba(model, data, q[qp])
-        M = np.triu(M) + np.triu(M, 1).T
-        acc = pin.aba(model, data, q[qp], v[vp], _applied(robot, u)[vp])
+        M = _pinocchio_mass_matrix(pin, model, data, q[qp])
+        if model.mimicking_joints:   # Pinocchio 4.1's aba and energies refuse mimic joints
+            acc = np.linalg.solve(M, _applied(robot, u)[vp] - pin.nonLinearEffects(model, data, q[qp], v[vp]))
+            kinetic, potential = 0.5 * v[vp] @ M @ v[vp], _pinocchio_potential(pin, model, data, q[qp])
+        else:
+            acc = pin.aba(model, data, q[qp], v[vp], _applied(robot, u)[vp])
+            kinetic = pin.computeKineticEnergy(model, data, q[qp], v[vp])
+            potential = pin.computePotentialEnergy(model, data, q[qp])
         diffs = [module.mass_matrix(q, **values)[np.ix_(vp, vp)] - M,
                  module.inverse_dynamics(q, v, a, **values)[vp] - pin.rnea(model, data, q[qp], v[vp], a[vp]),
                  module.gravity_vector(q, **values)[vp] - pin.computeGeneralizedGravity(model, data, q[qp]),
                  module.forward_dynamics(q, v, u, **values)[vp] - acc,
                  module.integrate(q, v, 0.3)[qp] - pin.integrate(model, q[qp], 0.3 * v[vp]),
                  module.difference(q, q1)[vp] - pin.difference(model, q[qp], q1[qp]),
-                 module.kinetic_energy(q, v, **values) - pin.computeKineticEnergy(model, data, q[qp], v[vp]),
-                 module.potential_energy(q, **values) - pin.computePotentialEnergy(model, data, q[qp])]
+                 module.kinetic_energy(q, v, **values) - kinetic, module.potential_energy(q, **values) - potential]
         worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
         scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
-    return _row(name, worst < 1e-9 * scale, "numeric", worst)
+    return _row(name, worst < 1e-9 * scale, "numeric (mimic joints: M from rnea, aba as M^-1 (tau - nle))"
+                if model.mimicking_joints else "numeric", worst)
+
+
+def _pinocchio_potential(pin: Any, model: Any, data: Any, q: np.ndarray) -> float:
+    """Gravity's potential ``-sum m_i g . c_i`` from Pinocchio's placements (what its
+    ``computePotentialEnergy`` sums; it refuses mimic joints)."""
+    pin.forwardKinematics(model, data, q)
+    return -sum(inertia.mass * float(model.gravity.linear @ placement.act(inertia.lever))
+                for inertia, placement in zip(model.inertias[1:], data.oMi[1:]))
