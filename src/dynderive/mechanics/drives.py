@@ -80,6 +80,20 @@ def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
     return [JointDrive(i, *terms[i]) for i in sorted(terms)]
 
 
+def floating_joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
+    """A floating-base robot's drives (DESIGN.md section 10): its scalar joints' terms, each
+    ``coordinate`` being the joint's column in the velocity ``qd`` (NV entries; such a robot has
+    no ``<mimic>``, and floating and spherical joints take no drive term)."""
+
+    def value(text: object) -> sympy.Expr:
+        return sympy.Integer(0) if text is None else table.expr(text)
+
+    where_v = robot.offsets()[1]
+    return sorted((JointDrive(where_v[j.name], value(j.damping), value(j.friction), value(j.stiffness),
+                              value(j.rest), value(j.armature))
+                   for j in robot.joints if j.owns and not j.multi and j.driven), key=lambda d: d.coordinate)
+
+
 def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
     """The drive terms of ``robot``'s moving joints, in coordinate order."""
     half = sympy.Rational(1, 2)
@@ -97,4 +111,4 @@ def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
     return DriveTerms(drives, kinetic, potential, dissipation, forces, armature)
 
 
-__all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "joint_drives"]
+__all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "floating_joint_drives", "joint_drives"]

@@ -15,8 +15,9 @@ is revolute, prismatic or fixed as in ``recursive.py``; a joint's coordinate is 
 ``q`` (NQ entries), its column an index into ``qd`` (NV entries).
 
 The Coriolis matrix, the derivatives of inverse dynamics and the regressor are in
-``floating_derivatives.py``. Not built (the notes of ``commands/floating.py`` say so):
-wrenches at frames, damping and friction.
+``floating_derivatives.py``. Damping and Coulomb friction of the scalar joints and wrenches
+at frames are not in these programs: the module computes ``F - sum J^T w`` and the forward
+dynamics takes it as inputs (``recursive.friction_symbols``), as a fixed-base robot's.
 """
 
 from __future__ import annotations

@@ -23,8 +23,9 @@ convention in ``computeABADerivatives``.
 
 *Regressor.* ``recursive``/``regressor.py``'s construction: each joint's axis carried down
 into the frames of the links below it, dotted with each link's force per unit parameter
-(Pinocchio's order, about the link frame's origin); then armature and stiffness per driven
-joint. Damping and friction are not in a floating-base robot's dynamics, nor here.
+(Pinocchio's order, about the link frame's origin); then per driven scalar joint its
+damping ``b`` (column ``qd_i``), Coulomb friction ``fc`` (``sign(qd_i)``, an input of the
+body as in ``regressor.py``), armature and stiffness (``regressor.DRIVE_KINDS``' order).
 """
 
 from __future__ import annotations
@@ -47,8 +48,8 @@ from .floating import (
     quaternion_matrix,
 )
 from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate
-from .recursive import _forward, _partial, body_force
-from .regressor import _ENTRY, SPATIAL_KINDS, Parameter, _unit_parameters
+from .recursive import _forward, _partial, body_force, friction_symbols
+from .regressor import _ENTRY, DRIVE_KINDS, SPATIAL_KINDS, Parameter, _unit_parameters, sign_symbols
 from .spatial import inertia_tensor
 
 _ZERO = sympy.Integer(0)
@@ -250,7 +251,8 @@ def inverse_dynamics_derivatives(tree: FloatingTree) -> Program:
 
 def floating_parameter_vector(robot: Robot, table: SymbolTable) -> list[Parameter]:
     """``pi``: per link (file order) its ten standard parameters in Pinocchio's order, about
-    the link frame's origin; then armature and stiffness per driven joint (nonzero ones)."""
+    the link frame's origin; then damping, friction, armature and stiffness per driven scalar
+    joint (nonzero ones, ``regressor.DRIVE_KINDS``' order, as a fixed-base robot's)."""
     entries = []
     for link in robot.links:
         mass = table.expr(link.mass)
@@ -262,7 +264,7 @@ def floating_parameter_vector(robot: Robot, table: SymbolTable) -> list[Paramete
             values[kind] = about_com[a, b] + mass * ((square if a == b else 0) - com[a] * com[b])
         entries += [Parameter(f"{kind}_{link.name}", kind, link.name, values[kind]) for kind in SPATIAL_KINDS]
     for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
-        for kind in ("armature", "stiffness"):
+        for kind in DRIVE_KINDS:
             text = getattr(joint, kind)
             if text is not None and table.expr(text) != 0:
                 entries.append(Parameter(f"{kind}_{joint.name}", kind, joint.name, table.expr(text)))
@@ -287,13 +289,20 @@ def regressor(tree: FloatingTree) -> Program:
             n_k, f_k = body_force(vec, *_unit_parameters(kind), *motion[body.link])
             for j, (s_w, s_v) in sorted(own.items()):
                 Y[j][column[f"{kind}_{body.link}"]] = program.let(_dot(s_w, n_k) + _dot(s_v, f_k))
+    signs = sign_symbols(n)
     for joint in (j for j in robot.joints if j.moves and not j.multi):
         i = tree.offsets.v[joint.name]
+        if f"damping_{joint.name}" in column:
+            Y[i][column[f"damping_{joint.name}"]] = table.qd[i]
+        if f"friction_{joint.name}" in column:
+            Y[i][column[f"friction_{joint.name}"]] = signs[i]
         if f"armature_{joint.name}" in column:
             Y[i][column[f"armature_{joint.name}"]] = table.qdd[i]
         if f"stiffness_{joint.name}" in column:
             Y[i][column[f"stiffness_{joint.name}"]] = program.let(tree.drives[i][3] - tree.drives[i][2])
     program.outputs = [e for row in Y for e in row]
+    if any(p.kind == "friction" for p in parameters):
+        program.extra_inputs = signs
     return program
 
 
@@ -319,8 +328,12 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     tree = base.copy()
     M = mass_matrix(tree)
     bias = newton_euler(tree, table.qd, zeros)
-    rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
+    # damping, friction, frames: F - J^T w comes in as inputs (recursive.forward_dynamics_program's)
+    opposing = friction_symbols(len(zeros)) if robot.dissipative or robot.frames else zeros
+    rhs = [tree.program.let(y - b - f) for y, b, f in zip(efforts(robot, table), bias, opposing)]
     tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
+    if robot.dissipative or robot.frames:
+        tree.program.extra_inputs = list(opposing)
     programs["forward_dynamics"] = tree.program
     tree = base.copy()
     tree.program.outputs = [e for row in coriolis_matrix(tree) for e in row]
