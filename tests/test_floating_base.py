@@ -198,15 +198,15 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     path, result = _solve(tmp_path, BOX, "--code")
     assert result.exit_code == 0, result.output
     assert "note: box has a floating base (NQ = 8 coordinates, NV = 7 velocities)" in result.stderr
-    assert "not built yet for floating-base robots (issue 30): friction_forces" in result.stderr
+    assert "not built yet for floating-base robots (issue 30): the HTML sheet (--html)" in result.stderr
+    assert "friction_forces (damping and Coulomb friction" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
     docstring = text.split('"""')[1]
-    assert "Not built yet for floating-base robots" in docstring and "\\n" not in docstring
-    for present in ("def coriolis_matrix", "def linearize", "def regressor", "def parameter_vector"):
-        assert present in text
-    for absent in ("def friction_forces", "wrenches="):
-        assert absent not in text   # left out, never stubbed
+    assert "Not built yet" not in docstring and "\\n" not in docstring
+    for present in ("def coriolis_matrix", "def linearize", "def regressor", "def parameter_vector",
+                    "def friction_forces(qd, *, friction_smoothing=0.0", "def forward_dynamics(q, qd, u=None, wrenches=None"):
+        assert present in text   # the box has no damping: friction_forces is zero, its signature the same
     # the same bytes each run
     _, again = _solve(tmp_path, BOX, "--code")
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
