@@ -252,3 +252,18 @@ def test_simulate_force_pushes_a_free_body_as_f_over_m(tmp_path):
     np.testing.assert_allclose(rows[:, 8:11], np.outer(t, force / 2.5), rtol=0, atol=1e-7)   # v in the body frame
     result = runner.invoke(app, ["simulate", str(path), "--force", "hand=0,0,0,0,0,0", "--csv", str(csv)])
     assert result.exit_code == 2 and "expected FRAME=EXPR,EXPR,.. with FRAME one of com" in result.stderr
+
+
+def test_generated_property_checks_take_the_friction_out(tree, tmp_path):
+    """``--code --tests`` of the rough tree: the energy balance and C qd hold with F taken out."""
+    import subprocess
+    import sys
+
+    from dynderive.render.floating_code import render_floating_code_tests
+
+    _, derivation, *_ = tree
+    (tmp_path / "rough_tree_dynamics.py").write_text(render_floating_code(derivation))
+    (tmp_path / "test_rough_tree_dynamics.py").write_text(render_floating_code_tests(derivation))
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_rough_tree_dynamics.py"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and " passed" in run.stdout and "failed" not in run.stdout, run.stdout + run.stderr
