@@ -11,6 +11,7 @@ passes its rows; ``simulate --force`` pushes a free body along its centre of mas
 
 from __future__ import annotations
 
+import json
 import os
 import random
 
@@ -267,3 +268,32 @@ def test_generated_property_checks_take_the_friction_out(tree, tmp_path):
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_rough_tree_dynamics.py"],
                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and " passed" in run.stdout and "failed" not in run.stdout, run.stdout + run.stderr
+
+
+def test_sheet_and_json_carry_the_friction(tree):
+    """The JSON dump's F_g and EOM_g2 = M vdot + C v + N + F - Y agree with the module's
+    inverse_dynamics at a random state (the sheet shows the same F)."""
+    import sympy
+
+    from dynderive.render.floating_json import render_floating_json
+    from dynderive.render.floating_latex import render_floating_latex
+
+    _, derivation, module, *_ = tree
+    dump = json.loads(render_floating_json(derivation))
+    quantities = dump["quantities"]
+    table = derivation.symbols
+    rng = np.random.default_rng(11)
+    q = random_configurations(derivation.robot, rng, 1)[0]
+    v, a, u = rng.normal(size=module.NV), rng.normal(size=module.NV), rng.normal(size=len(module.EFFORTS))
+    at = dict(zip(table.q, q)) | dict(zip(table.qd, v)) | dict(zip(table.qdd, a)) | dict(zip(table.efforts.values(), u))
+    names = {str(s): s for s in (*table.q, *table.qd, *table.qdd, *table.efforts.values())}
+    for name, entry in dump.get("intermediates", {}).items():   # a larger robot's lines, in order
+        at[sympy.Symbol(name)] = sympy.sympify(entry["sympy"], locals=names).xreplace(at).evalf(30)
+    values = {name: np.array(sympy.sympify(quantities[name]["sympy"], locals=names).xreplace(at), dtype=float).ravel()
+              for name in ("F_g", "EOM_g2")}
+    applied = np.zeros(module.NV)
+    applied[list(derivation.robot.effort_columns())] = u
+    np.testing.assert_allclose(values["F_g"], module.friction_forces(v), rtol=1e-12)
+    expected = module.inverse_dynamics(q, v, a) - applied
+    np.testing.assert_allclose(values["EOM_g2"], expected, rtol=0, atol=1e-9 * max(1.0, np.max(np.abs(expected))))
+    assert "the joints' damping and Coulomb friction $F = " in render_floating_latex(derivation)
