@@ -64,6 +64,11 @@ def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
     assert (module.NQ, module.NV) == (nq, nv)
     np.testing.assert_array_equal(module.neutral_configuration()[qp], pin.neutral(model))
     efforts = len(module.EFFORTS)
+    where_v = robot.offsets()[1]   # URDF <dynamics damping friction> (go1, talos): taken from tau, as for a fixed base
+    damping, friction = np.zeros(nv), np.zeros(nv)
+    for joint in (j for j in robot.joints if j.owns and not j.multi):
+        damping[where_v[joint.name]] = float(joint.damping or 0)
+        friction[where_v[joint.name]] = float(joint.friction or 0)
     for k in range(states):
         q_pin = pin.randomConfiguration(model, -np.ones(nq), np.ones(nq))
         q1_pin = pin.randomConfiguration(model, -np.ones(nq), np.ones(nq))
@@ -73,12 +78,13 @@ def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
         u = rng.normal(size=efforts)
         applied = np.zeros(nv)   # the efforts at their joints' columns
         applied[list(robot.effort_columns())] = u   # a floating or spherical joint's several
-        tau_pin = applied[vp]
+        dissipation = damping * v + friction * np.sign(v)
+        tau_pin = (applied - dissipation)[vp]
         M_pin = pin.crba(model, data, q_pin)
         M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
         scale = max(1.0, np.max(np.abs(M_pin)))
         np.testing.assert_allclose(module.mass_matrix(q)[np.ix_(vp, vp)], M_pin, rtol=0, atol=1e-9 * scale)
-        tau = pin.rnea(model, data, q_pin, v_pin, a_pin)
+        tau = pin.rnea(model, data, q_pin, v_pin, a_pin) + dissipation[vp]
         np.testing.assert_allclose(module.inverse_dynamics(q, v, a)[vp], tau, rtol=0,
                                    atol=1e-9 * max(1.0, np.max(np.abs(tau))))
         g = pin.computeGeneralizedGravity(model, data, q_pin)
