@@ -64,6 +64,11 @@ def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
     assert (module.NQ, module.NV) == (nq, nv)
     np.testing.assert_array_equal(module.neutral_configuration()[qp], pin.neutral(model))
     efforts = len(module.EFFORTS)
+    where_v = robot.offsets()[1]   # URDF <dynamics damping friction> (go1, talos): taken from tau, as for a fixed base
+    damping, friction = np.zeros(nv), np.zeros(nv)
+    for joint in (j for j in robot.joints if j.owns and not j.multi):
+        damping[where_v[joint.name]] = float(joint.damping or 0)
+        friction[where_v[joint.name]] = float(joint.friction or 0)
     for k in range(states):
         q_pin = pin.randomConfiguration(model, -np.ones(nq), np.ones(nq))
         q1_pin = pin.randomConfiguration(model, -np.ones(nq), np.ones(nq))
@@ -73,12 +78,13 @@ def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
         u = rng.normal(size=efforts)
         applied = np.zeros(nv)   # the efforts at their joints' columns
         applied[list(robot.effort_columns())] = u   # a floating or spherical joint's several
-        tau_pin = applied[vp]
+        dissipation = damping * v + friction * np.sign(v)
+        tau_pin = (applied - dissipation)[vp]
         M_pin = pin.crba(model, data, q_pin)
         M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
         scale = max(1.0, np.max(np.abs(M_pin)))
         np.testing.assert_allclose(module.mass_matrix(q)[np.ix_(vp, vp)], M_pin, rtol=0, atol=1e-9 * scale)
-        tau = pin.rnea(model, data, q_pin, v_pin, a_pin)
+        tau = pin.rnea(model, data, q_pin, v_pin, a_pin) + dissipation[vp]
         np.testing.assert_allclose(module.inverse_dynamics(q, v, a)[vp], tau, rtol=0,
                                    atol=1e-9 * max(1.0, np.max(np.abs(tau))))
         g = pin.computeGeneralizedGravity(model, data, q_pin)
@@ -228,15 +234,15 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     path, result = _solve(tmp_path, BOX, "--code")
     assert result.exit_code == 0, result.output
     assert "note: box has a floating base (NQ = 8 coordinates, NV = 7 velocities)" in result.stderr
-    assert "not built yet for floating-base robots (issue 30): friction_forces" in result.stderr
+    assert "not built yet for floating-base robots (issue 30): the HTML sheet (--html)" in result.stderr
+    assert "friction_forces (damping and Coulomb friction" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text
     docstring = text.split('"""')[1]
-    assert "Not built yet for floating-base robots" in docstring and "\\n" not in docstring
-    for present in ("def coriolis_matrix", "def linearize", "def regressor", "def parameter_vector"):
-        assert present in text
-    for absent in ("def friction_forces", "wrenches="):
-        assert absent not in text   # left out, never stubbed
+    assert "Not built yet" not in docstring and "\\n" not in docstring
+    for present in ("def coriolis_matrix", "def linearize", "def regressor", "def parameter_vector",
+                    "def friction_forces(qd, *, friction_smoothing=0.0", "def forward_dynamics(q, qd, u=None, wrenches=None"):
+        assert present in text   # the box has no damping: friction_forces is zero, its signature the same
     # the same bytes each run
     _, again = _solve(tmp_path, BOX, "--code")
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text

@@ -116,7 +116,8 @@ def test_simulate_command_of_a_floating_robot(tmp_path):
     (["--qd0", "0,0,0,0,0,0,0,0"], "--qd0:1:1: expected 7 numbers separated by commas"),
     (["--coordinates", "maximal"], "--coordinates:1:1: a floating-base robot is simulated in its coordinates"),
     (["--animate", "a.gif"], "--animate:1:1: --animate draws planar robots only"),
-    (["--force", "x=0,0,0,0,0,0"], "--force:1:1: wrenches at frames: not built yet for floating-base robots"),
+    (["--force", "x=0,0,0,0,0,0"], "--force x=0,0,0,0,0,0:1:1: expected FRAME=EXPR,EXPR,.. with FRAME one of "
+                                   "(this robot declares no frames)"),
 ])
 def test_simulate_options_a_floating_run_refuses(tmp_path, args, message):
     path = tmp_path / "box.yaml"

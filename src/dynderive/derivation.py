@@ -432,15 +432,18 @@ class Derivation:
         over the robot's parameters), in the order of ``programs["regressor"]``'s columns."""
         from .mechanics.regressor import parameter_vector
 
-        if self.robot.floating:   # no damping or friction columns (mechanics/floating_derivatives.py)
+        if self.robot.floating:   # per link, then each scalar joint's drives (mechanics/floating_derivatives.py)
             from .mechanics.floating_derivatives import floating_parameter_vector as parameter_vector
         return parameter_vector(self.robot, self.symbols)
 
     @property
     def joint_drives(self) -> list[Any]:
-        """The coordinates with drive terms (``mechanics.drives.JointDrive``), from the robot."""
-        from .mechanics.drives import joint_drives
+        """The coordinates with drive terms (``mechanics.drives.JointDrive``), from the robot; a
+        floating-base robot's by velocity column (``floating_joint_drives``)."""
+        from .mechanics.drives import floating_joint_drives, joint_drives
 
+        if self.robot.floating:
+            return floating_joint_drives(self.robot, self.symbols)
         return joint_drives(self.robot, self.symbols)
 
     @property

@@ -328,12 +328,12 @@ def simulate(
     if model.floating:
         from .simulate_floating import floating_options, run_floating
 
-        floating_options(model, coordinates, animate, force, backend)
+        floating_options(model, coordinates, animate, backend)
     model = with_parameters(model, robot, param or [], required=True)
     echo_notes(model, quiet)
     if model.floating:
         return run_floating(model, duration, q0, qd0, effort or [], plot, csv, method, rtol, atol, frames, quiet,
-                            progress)
+                            progress, force, friction_smoothing)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
         raise InputError(problem(model.source, "maximal coordinates are planar-only for now"))

@@ -25,15 +25,17 @@ def floating_note(robot: Robot) -> str:
 
     what = ("has a floating base" if robot.floating_base else "has floating joints"
             if any(j.type == "floating" for j in robot.joints) else "has spherical joints")
+    missing = f"{', '.join(MISSING)}, " if MISSING else ""
     return (f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)} coordinates, NV = "
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
-            "gravity_vector, inverse_dynamics, forward_dynamics, linearize, regressor, parameter_vector, "
+            "gravity_vector, friction_forces (damping and Coulomb friction of the revolute and prismatic joints), "
+            "inverse_dynamics and forward_dynamics (with wrenches at frames), linearize, regressor, parameter_vector, "
             "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
             "difference (check runs its rows), and so have its C (--c), its compiled Python extension (--c-extension), "
-            "its MATLAB/Octave package (--matlab) and its JAX module (--jax), its sheet (--latex, --pdf, --html) and "
-            f"JSON dump (--json); not built yet for floating-base robots (issue 30): {', '.join(MISSING)}; the MATLAB "
-            "derivation script (simulate integrates its module on the manifold; linearize "
-            "and identify use it too)")
+            "its MATLAB/Octave package (--matlab; no wrenches, as a fixed-base robot's) and its JAX module (--jax), "
+            "its sheet (--latex, --pdf, --html) and JSON dump (--json); not built yet for floating-base robots "
+            f"(issue 30): {missing}the MATLAB derivation script (simulate integrates its module on the manifold, "
+            "--force included; linearize and identify use it too)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,

@@ -4,8 +4,10 @@ base's quaternion moves by ``1/2 quaternion * (w, 0)``, tangent to the unit sphe
 from output frame to output frame; at each frame the quaternions are normalized (the
 integrator's own error moves them off the sphere by about its tolerance) and the run goes on
 from there, as closed loops are projected back onto their constraints. The right-hand side
-evaluates the dynamics at normalized quaternions too. Outputs: the plot and the CSV of
-fixed-base runs, the coordinates of ``q`` and the velocities of ``v``."""
+evaluates the dynamics at normalized quaternions too. ``--force`` applies wrenches at frames
+and ``--friction-smoothing`` smooths Coulomb friction as for a fixed-base run; with damping or
+friction the work they dissipate rides along (``Trajectory.dissipated``). Outputs: the plot and
+the CSV of fixed-base runs, the coordinates of ``q`` and the velocities of ``v``."""
 
 from __future__ import annotations
 
@@ -26,14 +28,12 @@ from .simulate import Trajectory, _finite_start, progress_ticker
 QUATERNION_TOLERANCE = 1e-3
 
 
-def floating_options(robot: Any, coordinates: str, animate: object, force: list[str] | None, backend: str) -> None:
+def floating_options(robot: Any, coordinates: str, animate: object, backend: str) -> None:
     """Refuse what a floating-base run does not do (exit 2, before any work)."""
     if coordinates != "generalized":
         raise InputError(problem("--coordinates", "a floating-base robot is simulated in its coordinates (q, v) only"))
     if animate is not None:
         raise InputError(problem("--animate", "--animate draws planar robots only"))
-    if force:
-        raise InputError(problem("--force", "wrenches at frames: not built yet for floating-base robots (issue 30)"))
     if backend != "numpy":
         raise InputError(problem("--backend", f"--backend {backend}: not built yet for floating-base robots (issue 30)"))
 
@@ -77,28 +77,37 @@ def simulate_floating(derivation: Derivation, source: str, duration: float, q0: 
                       efforts: Callable[..., np.ndarray], rtol: float, atol: float, frames: int,
                       progress: Callable[[str], None], method: str = DEFAULT_METHOD,
                       note: Callable[[str], None] = lambda text: None,
-                      values: dict[str, float] | None = None) -> Trajectory:
+                      values: dict[str, float] | None = None, friction_smoothing: float = 0.0,
+                      wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, v: None) -> Trajectory:
     """Integrate the floating-base module's forward dynamics on the manifold (module docstring);
     ``Trajectory.position`` holds q (NQ columns), ``velocity`` v (NV columns). ``values``: the
-    parameters (default: the robot's)."""
+    parameters (default: the robot's); ``wrenches(t, q, v)``: the wrenches at frames (``--force``)."""
     robot = derivation.robot
     module = generated_module(source, robot.name)
     if values is None:
         values = {p.name: p.value for p in robot.parameters if p.value is not None}
     starts = floating_quaternions(robot)
-    nq = len(q0)
+    nq, nv = len(q0), len(v0)
     tick = progress_ticker(duration, progress)
+    dissipative = robot.dissipative
+    friction = any(j.friction is not None for j in robot.joints if j.moves)
+    hint = "Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3" \
+        if friction and friction_smoothing == 0 else ""
 
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)
-        q, v = normalized(y[:nq], starts), y[nq:]
-        qdd = module.forward_dynamics(q, v, efforts(time, q, v), **values)
-        return np.concatenate([module.configuration_rate(q, v), qdd])
+        q, v = normalized(y[:nq], starts), y[nq:nq + nv]
+        qdd = module.forward_dynamics(q, v, efforts(time, q, v), wrenches(time, q, v),
+                                      friction_smoothing=friction_smoothing, **values)
+        rates = [module.configuration_rate(q, v), qdd]
+        if dissipative:   # the dissipated work W rides along
+            rates.append([v @ module.friction_forces(v, friction_smoothing=friction_smoothing, **values)])
+        return np.concatenate(rates)
 
-    y = np.concatenate([q0, v0])
+    y = np.concatenate([q0, v0] + ([[0.0]] if dissipative else []))
     _finite_start(rhs, y, nq, q0, v0)
     times = np.linspace(0.0, duration, frames)
-    integrator = Integrator(rhs, method, rtol, atol, duration, note, "")
+    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint)
     states = [y]
     for start, end in zip(times[:-1], times[1:]):
         y = integrator.run(start, end, y, np.array([end]))[-1]
@@ -106,23 +115,30 @@ def simulate_floating(derivation: Derivation, source: str, duration: float, q0: 
         states.append(y)
     tick(duration)
     states_array = np.array(states)
-    position, velocity = states_array[:, :nq], states_array[:, nq:]
+    position, velocity = states_array[:, :nq], states_array[:, nq:nq + nv]
     energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
-    return Trajectory(list(robot.configuration_names), times, position, velocity, np.asarray(energy), None, None)
+    return Trajectory(list(robot.configuration_names), times, position, velocity, np.asarray(energy), None, None,
+                      states_array[:, nq + nv] if dissipative else None)
 
 
 def floating_csv(derivation: Derivation, source: str, trajectory: Trajectory) -> str:
-    """The CSV of a floating-base run: t, the NQ coordinates, the NV velocities, the energy."""
+    """The CSV of a floating-base run: t, the NQ coordinates, the NV velocities, the energy (and
+    the work dissipated by damping and friction, as a fixed-base run's)."""
     module = generated_module(source, derivation.robot.name)
     header = ["t", *module.COORDINATES, *module.VELOCITIES, "energy"]
-    table = np.hstack([trajectory.times[:, None], trajectory.position, trajectory.velocity, trajectory.energy[:, None]])
+    columns = [trajectory.times[:, None], trajectory.position, trajectory.velocity, trajectory.energy[:, None]]
+    if trajectory.dissipated is not None:
+        header.append("dissipated")
+        columns.append(trajectory.dissipated[:, None])
+    table = np.hstack(columns)
     return "\n".join([",".join(header)] + [",".join(f"{v:.12g}" for v in row) for row in table]) + "\n"
 
 
 
 def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, effort: list[str],
                  plot: Path | None, csv: Path | None, method: str, rtol: float, atol: float, frames: int,
-                 quiet: bool, progress: Callable[[str], None]) -> None:
+                 quiet: bool, progress: Callable[[str], None], force: list[str] | None = None,
+                 friction_smoothing: float = 0.0) -> None:
     """``dynderive simulate`` of a floating-base robot, after the options common to every run
     are checked: ``--q0`` takes NQ numbers, ``--qd0`` NV; writes ``--plot`` and ``--csv``."""
     import typer
@@ -130,19 +146,21 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
     from .. import derive
     from ..render.floating_code import render_floating_code
     from .output import write_all
-    from .simulate import parse_efforts, plot_png
+    from .simulate import parse_efforts, parse_wrenches, plot_png
 
     start_q = vector(q0, len(model.configuration_names), "--q0")
     start_v = vector(qd0, model.velocity_count, "--qd0")
     start_q = floating_initial(model, start_q)
     derivation = derive(model, progress=progress)
     efforts = parse_efforts(derivation, effort, False)
+    wrenches = parse_wrenches(derivation, force or [])
     progress("generating code (floating base)")
     source = render_floating_code(derivation)
     trajectory = simulate_floating(derivation, source, duration, start_q,
                                    np.zeros(model.velocity_count) if start_v is None else start_v, efforts, rtol,
                                    atol, frames, progress, method,
-                                   lambda text: None if quiet else typer.echo(f"note: {text}", err=True))
+                                   lambda text: None if quiet else typer.echo(f"note: {text}", err=True),
+                                   friction_smoothing=friction_smoothing, wrenches=wrenches)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
@@ -154,6 +172,8 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
     kind = ("floating base" if model.floating_base else "floating joints"
             if any(j.type == "floating" for j in model.joints) else "spherical joints")
     typer.echo(f"simulated {duration:g} s of {model.name} ({kind}, on the manifold): "
-               f"largest relative energy change {relative:.3g}")
+               f"largest relative energy change {relative:.3g}"
+               + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"
+                  if trajectory.dissipated is not None else ""))
     for path in files:
         typer.echo(f"wrote {path}", err=True)

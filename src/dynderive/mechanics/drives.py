@@ -64,13 +64,23 @@ def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
     ``k (m q + o - rest)^2 / 2 = m^2 k (q - (rest - o)/m)^2 / 2``: so the coordinate's terms
     are ``b + m^2 b_f``, ``fc + |m| fc_f``, ``Ia + m^2 Ia_f`` and (one spring per coordinate,
     the validator's rule) ``m^2 k_f`` about ``(rest_f - o)/m``."""
+    return _drives(robot, table, {name: i for i, name in enumerate(robot.coordinates)})
 
+
+def floating_joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
+    """A floating-base robot's drives (DESIGN.md section 10): its scalar joints' terms, each
+    ``coordinate`` being the leader's column in the velocity ``qd`` (NV entries; a follower's
+    terms mapped onto it as in ``joint_drives``; floating and spherical joints take no drive term)."""
+    where_v = robot.offsets()[1]
+    return _drives(robot, table, {j.name: where_v[j.name] for j in robot.joints if j.owns and not j.multi})
+
+
+def _drives(robot: Robot, table: SymbolTable, index: dict[str, int]) -> list[JointDrive]:
     def value(text: object) -> sympy.Expr:
         return sympy.Integer(0) if text is None else table.expr(text)
 
-    index = {name: i for i, name in enumerate(robot.coordinates)}
     terms: dict[int, list[sympy.Expr]] = {}
-    for joint in (j for j in robot.joints if j.moves and j.driven):
+    for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
         leader, multiplier, offset = robot.driver(joint)
         m, o = table.expr(multiplier), table.expr(offset)
         damping, friction, stiffness, rest, armature = terms.setdefault(index[leader], [sympy.Integer(0)] * 5)
@@ -97,4 +107,4 @@ def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
     return DriveTerms(drives, kinetic, potential, dissipation, forces, armature)
 
 
-__all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "joint_drives"]
+__all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "floating_joint_drives", "joint_drives"]

@@ -18,8 +18,9 @@ axis times the multiplier, and what several joints put on one column sums (``M =
 M_joints G``, ``tau = G^T tau_joints``), as in ``recursive.py``.
 
 The Coriolis matrix, the derivatives of inverse dynamics and the regressor are in
-``floating_derivatives.py``. Not built (the notes of ``commands/floating.py`` say so):
-wrenches at frames, damping and friction.
+``floating_derivatives.py``. Damping and Coulomb friction of the scalar joints and wrenches
+at frames are not in these programs: the module computes ``F - sum J^T w`` and the forward
+dynamics takes it as inputs (``recursive.friction_symbols``), as a fixed-base robot's.
 """
 
 from __future__ import annotations

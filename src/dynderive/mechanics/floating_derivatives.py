@@ -23,8 +23,9 @@ convention in ``computeABADerivatives``.
 
 *Regressor.* ``recursive``/``regressor.py``'s construction: each joint's axis carried down
 into the frames of the links below it, dotted with each link's force per unit parameter
-(Pinocchio's order, about the link frame's origin); then armature and stiffness per driven
-joint. Damping and friction are not in a floating-base robot's dynamics, nor here.
+(Pinocchio's order, about the link frame's origin); then per driven scalar joint its
+damping ``b`` (column ``qd_i``), Coulomb friction ``fc`` (``sign(qd_i)``, an input of the
+body as in ``regressor.py``), armature and stiffness (``regressor.DRIVE_KINDS``' order).
 """
 
 from __future__ import annotations
@@ -47,8 +48,8 @@ from .floating import (
     quaternion_matrix,
 )
 from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate
-from .recursive import _forward, _partial, body_force
-from .regressor import _ENTRY, SPATIAL_KINDS, Parameter, _unit_parameters
+from .recursive import _forward, _partial, body_force, friction_symbols
+from .regressor import _ENTRY, DRIVE_KINDS, SPATIAL_KINDS, Parameter, _unit_parameters, sign_symbols
 from .spatial import inertia_tensor
 
 _ZERO = sympy.Integer(0)
@@ -254,7 +255,8 @@ def inverse_dynamics_derivatives(tree: FloatingTree) -> Program:
 
 def floating_parameter_vector(robot: Robot, table: SymbolTable) -> list[Parameter]:
     """``pi``: per link (file order) its ten standard parameters in Pinocchio's order, about
-    the link frame's origin; then armature and stiffness per driven joint (nonzero ones)."""
+    the link frame's origin; then damping, friction, armature and stiffness per driven scalar
+    joint (nonzero ones, ``regressor.DRIVE_KINDS``' order, as a fixed-base robot's)."""
     entries = []
     for link in robot.links:
         mass = table.expr(link.mass)
@@ -266,7 +268,7 @@ def floating_parameter_vector(robot: Robot, table: SymbolTable) -> list[Paramete
             values[kind] = about_com[a, b] + mass * ((square if a == b else 0) - com[a] * com[b])
         entries += [Parameter(f"{kind}_{link.name}", kind, link.name, values[kind]) for kind in SPATIAL_KINDS]
     for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
-        for kind in ("armature", "stiffness"):
+        for kind in DRIVE_KINDS:
             text = getattr(joint, kind)
             if text is not None and table.expr(text) != 0:
                 entries.append(Parameter(f"{kind}_{joint.name}", kind, joint.name, table.expr(text)))
@@ -295,17 +297,24 @@ def regressor(tree: FloatingTree) -> Program:
             for (_, j), (s_w, s_v) in sorted(own.items(), key=lambda item: (item[0][1], item[0][0])):
                 c = column[f"{kind}_{body.link}"]
                 Y[j][c] = program.let(Y[j][c] + _dot(s_w, n_k) + _dot(s_v, f_k))
+    signs = sign_symbols(n)
     joint_of = {j.child: j for j in robot.joints}
-    for body in tree.bodies:
+    for body in tree.bodies:   # a follower's terms on its leader's column: m^2 b qd, |m| fc sign(qd), m^2 Ia qdd
         if body.drive is None:
             continue
         m, _, _, rest, variable = body.drive
         name, [(i, _, _)] = joint_of[body.link].name, body.columns
+        if f"damping_{name}" in column:
+            Y[i][column[f"damping_{name}"]] = m * m * table.qd[i]
+        if f"friction_{name}" in column:
+            Y[i][column[f"friction_{name}"]] = abs(m) * signs[i]
         if f"armature_{name}" in column:
             Y[i][column[f"armature_{name}"]] = m * m * table.qdd[i]
         if f"stiffness_{name}" in column:
             Y[i][column[f"stiffness_{name}"]] = program.let(m * (variable - rest))
     program.outputs = [e for row in Y for e in row]
+    if any(p.kind == "friction" for p in parameters):
+        program.extra_inputs = signs
     return program
 
 
@@ -331,8 +340,12 @@ def floating_programs(robot: Robot, table: SymbolTable) -> dict[str, Program]:
     tree = base.copy()
     M = mass_matrix(tree)
     bias = newton_euler(tree, table.qd, zeros)
-    rhs = [tree.program.let(y - b) for y, b in zip(efforts(robot, table), bias)]
+    # damping, friction, frames: F - J^T w comes in as inputs (recursive.forward_dynamics_program's)
+    opposing = friction_symbols(len(zeros)) if robot.dissipative or robot.frames else zeros
+    rhs = [tree.program.let(y - b - f) for y, b, f in zip(efforts(robot, table), bias, opposing)]
     tree.program.outputs = ltdl_solve(tree.program.let, M, rhs)
+    if robot.dissipative or robot.frames:
+        tree.program.extra_inputs = list(opposing)
     programs["forward_dynamics"] = tree.program
     tree = base.copy()
     tree.program.outputs = [e for row in coriolis_matrix(tree) for e in row]

@@ -20,7 +20,8 @@ twist is invariant under the base's motion). Then
   as ``computeCoriolisMatrix``'s in world axes), with ``C v`` the bias above and
   ``Mdot - 2 C`` skew-symmetric.
 
-Drives as in the module: armature on M's diagonal, springs ``k (q - rest)`` in N and V.
+Drives as in the module: armature on M's diagonal, springs ``k (q - rest)`` in N and V,
+damping and Coulomb friction ``F = b v + fc sign(v)`` in the equations of motion.
 These are derived afresh here, not read from ``floating.py``'s programs: the tests compare
 the two.
 """
@@ -33,6 +34,7 @@ import sympy
 
 from ..model.robot import QUATERNION_START, Robot
 from ..model.symbols import SymbolTable
+from .drives import dissipative_force, floating_joint_drives
 from .floating import efforts, offsets, quaternion_matrix
 from .joints import unit
 from .polynomial import expand
@@ -139,7 +141,7 @@ class FloatingSheet:
     T: sympy.Expr
     V: sympy.Expr
     Y: sympy.Matrix
-    EOM: sympy.Matrix              # M vdot + C v + N - Y
+    EOM: sympy.Matrix              # M vdot + C v + N + F - Y (F: damping and Coulomb friction)
 
 
 def quaternion_rate(quaternion: list[sympy.Symbol]) -> sympy.Matrix:
@@ -371,7 +373,10 @@ def floating_sheet(robot: Robot, table: SymbolTable) -> FloatingSheet:
     T = expand((v_s.T * M_s * v_s)[0, 0] / 2)
     Y = sympy.Matrix(efforts(robot, table))
     Cv_s = ring.matrix(Cv)
-    EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s - Y).applyfunc(expand)
+    F = sympy.zeros(len(table.qd), 1)   # damping and Coulomb friction of the scalar joints
+    for drive in floating_joint_drives(robot, table):
+        F[drive.coordinate] = dissipative_force(drive.damping, drive.friction, table.qd[drive.coordinate])
+    EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s + F - Y).applyfunc(expand)
     return FloatingSheet(joints, [links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,
                          expand(potential_s), Y, EOM)
 

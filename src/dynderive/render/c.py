@@ -370,7 +370,7 @@ def _frame_functions(derivation: Derivation, names: _Names, start: str, pp: str,
 def _friction_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
     """F_g = b qd + fc direction(qd) per coordinate with a drive (the NumPy module's order of
     operations); zero elsewhere."""
-    n = len(derivation.symbols.q)
+    n = len(derivation.symbols.qd)
     lines = [start, *_void("qd", "P")]
     drives = {d.coordinate: d for d in derivation.joint_drives} if derivation.robot.dissipative else {}
     printer = names.printer()
@@ -390,7 +390,7 @@ def _add_friction(derivation: Derivation, target: str, operator: str) -> list[st
     """``target operator F`` with F from ``friction_forces`` (nothing for a robot without drives)."""
     if not derivation.robot.dissipative:
         return []
-    n, name = len(derivation.symbols.q), derivation.robot.name
+    n, name = len(derivation.symbols.qd), derivation.robot.name
     return [f"double F[{n}];", f"{name}_friction_forces(qd, p, F);",
             *(f"{target}[{i}] {operator} F[{i}];" for i in range(n))]
 
@@ -438,7 +438,7 @@ def _forward_names(derivation: Derivation, names: _Names) -> tuple[_Names, list[
     local.base = dict(names.base)
     if not derivation.robot.dissipative:
         return local, []
-    program, n = derivation.programs["forward_dynamics"], len(derivation.symbols.q)
+    program, n = derivation.programs["forward_dynamics"], len(derivation.symbols.qd)
     local.base |= {symbol: f"F[{i}]" for i, symbol in enumerate(program.extra_inputs)}
     return local, [f"double F[{n}];", f"{derivation.robot.name}_friction_forces(qd, p, F);"]
 
@@ -451,7 +451,7 @@ def _direction(i: int) -> str:
 
 def _regressor_body(derivation: Derivation, names: _Names, start: str) -> list[str]:
     program = derivation.programs["regressor"]
-    n, count = len(derivation.symbols.q), len(derivation.parameter_vector)
+    n, count = len(derivation.symbols.qd), len(derivation.parameter_vector)
     lines = [start, *_void("q", "qd", "qdd", "P")]
     local = _Names.__new__(_Names)
     local.base = dict(names.base)
@@ -521,7 +521,7 @@ def _friction_slope(derivation: Derivation, names: _Names, width: int) -> list[s
     b + fc (1 - tanh(qd/eps)^2)/eps (zero for the exact sign)."""
     if not derivation.robot.dissipative:
         return []
-    n, printer, lines = len(derivation.symbols.q), names.printer(), []
+    n, printer, lines = len(derivation.symbols.qd), names.printer(), []
     for drive in derivation.joint_drives:
         i = drive.coordinate
         terms = []

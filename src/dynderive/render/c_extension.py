@@ -222,7 +222,7 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
     python_defaults = {m["name"]: m["python_default"] for m in members}
     functions, own_wrenches = [], False
     for binding in table:
-        native = bool(binding.wrenches) and (bool(robot.loops) or _native(name, binding.wrenches or "", header))
+        native = bool(binding.wrenches) and (bool(robot.loops) or robot.floating or _native(name, binding.wrenches or "", header))
         own_wrenches |= bool(binding.wrenches) and not native
         text = f"{_signature(binding, parameters, python_defaults)}\n--\n\n{binding.doc}"
         functions.append({

@@ -6,8 +6,10 @@ frames) printed by ``c.py``'s printer, and the configuration space (``c_manifold
 
 The functions are the NumPy floating module's, on Pinocchio's conventions: ``q`` has NQ
 entries, ``qd``, ``qdd`` and ``v`` NV, ``u`` the efforts (none on the floating joint);
-``linearize`` works on the tangent space (A is 2 NV x 2 NV). Not built here: the wrench
-variants and ``friction_forces`` (the floating module has neither), the Python extension.
+``linearize`` works on the tangent space (A is 2 NV x 2 NV). Damping and Coulomb friction
+(``friction_forces``, NV entries, zero on a floating or spherical joint's) and the wrench
+variants (``inverse_dynamics_wrenches``, ``forward_dynamics_wrenches``: ``c_loops.amend``) are
+the fixed-base target's functions, with NV for n.
 """
 
 from __future__ import annotations
@@ -20,17 +22,24 @@ import sympy
 from ..derivation import Derivation
 from .c import (
     CFunction,
+    _add_friction,
     _expression_body,
+    _fill_in,
+    _forward_names,
     _frame_functions,
+    _friction_body,
+    _friction_slope,
     _Names,
     _parameter_note,
     _program_body,
+    _regressor_body,
     _void,
     double_literal,
     negated_derivatives,
     solved_into_a_and_b,
 )
 from .c_join import joined_program, print_body
+from .c_loops import CKit, amend
 from .c_manifold import ManifoldJoint, difference_lines, integrate_lines, neutral_lines, rate_lines
 from .c_names import c_comment, check_c_names
 from .encode import Code
@@ -52,8 +61,10 @@ def _effort_columns(derivation: Derivation) -> list[int]:
 
 
 def _forward_part(derivation: Derivation) -> tuple[list, list, dict, bool]:
+    """Its extra inputs (F - J^T w) are ``friction_forces``' F (``_forward_names``) for a robot
+    with damping or friction, else zero (the C functions take wrenches in their own variants)."""
     program = derivation.programs["forward_dynamics"]
-    zero = {s: sympy.S.Zero for s in getattr(program, "extra_inputs", ())}
+    zero = {} if derivation.robot.dissipative else {s: sympy.S.Zero for s in program.extra_inputs}
     return program.lines, [sympy.sympify(e) for e in program.outputs], zero, True
 
 
@@ -76,12 +87,14 @@ def _linearize_body(derivation: Derivation, names: _Names, start: str) -> list[s
         (mass.lines, [sympy.sympify(e) for e in mass.outputs], {}, False),
         (derivatives.lines, [sympy.sympify(e) for e in derivatives.outputs],
          lambda outputs: dict(zip(table.qdd, outputs[0])), False)])
+    local, friction = _forward_names(derivation, names)
     lines = [start, *_void("q", "qd", "u", "P", "B"), f"double M[{nv * nv}];", f"double D[{2 * nv * nv}];",
-             f"double R[{nv * width}];"]
-    lines += print_body(names, joined, [*((f"M[{k}]", e) for k, e in enumerate(mass_entries)),
+             f"double R[{nv * width}];", *friction]
+    lines += print_body(local, joined, [*((f"M[{k}]", e) for k, e in enumerate(mass_entries)),
                                         *((f"D[{k}]", e) for k, e in enumerate(derived))], pivots)
     lines += negated_derivatives(nv, width, inputs=bool(nu))
     lines += [f"R[{column * width + 2 * nv + k}] = 1.0;" for k, column in enumerate(_effort_columns(derivation))]
+    lines += _friction_slope(derivation, names, width)
     return lines + solved_into_a_and_b(_mass_pattern(derivation, nv), nv, nu)
 
 
@@ -96,6 +109,7 @@ def floating_c_context(derivation: Derivation) -> dict[str, Any]:
     count = len(derivation.parameter_vector)
     joints = manifold_joints(derivation)
     forward_lines, (forward_outputs,), pivots = joined_program([_forward_part(derivation)])
+    forward_names, friction = _forward_names(derivation, names)
 
     def program(key: str, targets: list[str]) -> list[str]:
         return _program_body(names, programs[key], targets)
@@ -111,15 +125,22 @@ def floating_c_context(derivation: Derivation) -> dict[str, Any]:
                   f"Gravity vector N(q) (Newton-Euler at rest), {nv} entries.",
                   [start, *_void("q", "P"), *program("gravity", [f"N[{i}]" for i in range(nv)])]),
         CFunction(f"void {name}_inverse_dynamics(const double *q, const double *qd, const double *qdd, {pp}, "
-                  "double *tau)", f"M qdd + C qd + N by recursive Newton-Euler, {nv} entries (Pinocchio's rnea); "
+                  "double *tau)", f"M qdd + C qd + N + F by recursive Newton-Euler, {nv} entries (Pinocchio's rnea); "
                   "the floating joint's entries are the wrench the base would need.",
-                  [start, *_void("q", "qd", "qdd", "P"), *program("inverse_dynamics", [f"tau[{i}]" for i in range(nv)])]),
+                  [start, *_void("q", "qd", "qdd", "P"), *program("inverse_dynamics", [f"tau[{i}]" for i in range(nv)]),
+                   *_add_friction(derivation, "tau", "+=")]),
         CFunction(f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {pp}, double *qdd)",
-                  "qdd solving M qdd = Y(u) - C qd - N by L^T D L (each effort at its velocity column); returns 0, "
+                  "qdd solving M qdd = Y(u) - C qd - N - F by L^T D L (each effort at its velocity column); returns 0, "
                   "or 1 (qdd untouched) if M is not positive definite.",
-                  [start, *_void("q", "qd", "u", "P"),
-                   *print_body(names, forward_lines, [(f"qdd[{i}]", e) for i, e in enumerate(forward_outputs)], pivots),
+                  [start, *_void("q", "qd", "u", "P"), *friction,
+                   *print_body(forward_names, forward_lines, [(f"qdd[{i}]", e) for i, e in enumerate(forward_outputs)],
+                               pivots),
                    "return 0;"]),
+        CFunction(f"void {name}_friction_forces(const double *qd, {pp}, double *F)",
+                  f"Dissipative forces F = b qd + fc sign(qd) (tanh(qd / friction_smoothing) when it is positive), "
+                  f"{nv} entries, zero on a floating or spherical joint's." if robot.dissipative else
+                  f"Dissipative forces F: zero, the robot declares no damping or friction, {nv} entries.",
+                  _friction_body(derivation, names, start)),
         CFunction(f"double {name}_kinetic_energy(const double *q, const double *qd, {pp})",
                   "Kinetic energy T = 1/2 qd^T M(q) qd.",
                   [f"double M[{nv * nv}];", f"{name}_mass_matrix(q, p, M);",
@@ -135,7 +156,7 @@ def floating_c_context(derivation: Derivation) -> dict[str, Any]:
                   "(A, B untouched) if M is not positive definite.", _linearize_body(derivation, names, start)),
         CFunction(f"void {name}_regressor(const double *q, const double *qd, const double *qdd, {pp}, double *Y)",
                   f"Regressor Y(q, qd, qdd), {nv} x {count}, row-major: Y pi = inverse_dynamics.",
-                  [start, *_void("q", "qd", "qdd", "P"), *program("regressor", [f"Y[{k}]" for k in range(nv * count)])]),
+                  _regressor_body(derivation, names, start)),
         CFunction(f"void {name}_parameter_vector({pp}, double *pi)", f"The regressor's parameters pi, {count} entries.",
                   [start, *_void("P"), *_expression_body(names, [v.value for v in derivation.parameter_vector],
                                                          [f"pi[{i}]" for i in range(count)])]),
@@ -155,10 +176,16 @@ def floating_c_context(derivation: Derivation) -> dict[str, Any]:
                   f"dq/dt of q moving at v, {nq} entries: the derivative of integrate(q, v, t) at t = 0.",
                   rate_lines(joints)),
     ]
+    functions = amend(derivation, CKit(
+        start, pp, CFunction, lambda values, targets, extra=None: _expression_body(names.extended(extra), values, targets),
+        lambda program, targets, extra=None: _program_body(names.extended(extra), program, targets),
+        _fill_in(_mass_pattern(derivation, nv), nv), lambda: _friction_slope(derivation, names, 2 * nv + nu)),
+        functions)
     parameters = [{"name": p.name, "default": Code("NAN") if p.value is None else Code(double_literal(float(p.value))),
                    "comment": c_comment(_parameter_note(p))} for p in robot.parameters]
     parameters.append({"name": "friction_smoothing", "default": Code("0.0"), "comment": c_comment(
-        "unused: a floating-base robot's module has no friction yet (every robot's struct ends with it)")})
+        "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)"
+        if robot.dissipative else "unused: the robot has no Coulomb friction (every robot's struct ends with it)")})
     from .._version import __version__
 
     return {

@@ -22,7 +22,7 @@ loop rows are dependent beyond the rank at this configuration); outputs untouche
 elimination with partial pivoting (``numpy.linalg.solve``'s); ``assemble`` is the NumPy
 module's Newton iteration (1 where it raises).
 
-External wrenches (every robot): ``inverse_dynamics_wrenches`` and
+External wrenches (every robot, floating-base ones included, NV = their velocity size): ``inverse_dynamics_wrenches`` and
 ``forward_dynamics_wrenches`` take ``wrenches``, NFRAMES x 6 (planar x 3) row-major, one per
 frame in FRAMES order, entering as ``sum_f J_f^T w_f`` (the NumPy module's
 ``_external_forces``); NULL means none. A robot without frames takes NULL (nothing is read).
@@ -108,7 +108,7 @@ def _twist(derivation: Derivation) -> int:
 
 
 def _inverse_wrenches(derivation: Derivation, kit: CKit) -> Any:
-    name, n = derivation.robot.name, len(derivation.symbols.q)
+    name, n = derivation.robot.name, len(derivation.symbols.qd)
     frames, twist = len(derivation.robot.frames), _twist(derivation)
     body = [f"{name}_inverse_dynamics(q, qd, qdd, p, tau);"]
     if frames:
@@ -130,16 +130,20 @@ def _inverse_wrenches(derivation: Derivation, kit: CKit) -> Any:
 
 def _applied(derivation: Derivation, kit: CKit, target: str, wrenches: str) -> list[str]:
     """``target = Y_g(u) - (C qd + N + F - sum J^T w)`` and M (``M``), as locals."""
-    name, n = derivation.robot.name, len(derivation.symbols.q)
+    name, n = derivation.robot.name, len(derivation.symbols.qd)
     lines = [kit.start, "(void)P;", "(void)u;", f"double M[{n * n}];", f"double b[{n}];", f"double {target}[{n}];",
              f"const double zero[{n}] = {{0.0}};", f"{name}_mass_matrix(q, p, M);",
              f"{name}_inverse_dynamics_wrenches(q, qd, zero, {wrenches}, p, b);   /* C qd + N + F - sum J^T w */"]
-    lines += _block(kit.expressions, list(derivation.quantities["Y_g"]), [f"{target}[{i}]" for i in range(n)])
+    if derivation.robot.floating:   # each effort at its velocity column (no symbolic Y_g)
+        columns = dict(zip(derivation.robot.effort_columns(), range(len(derivation.robot.efforts))))
+        lines += [f"{target}[{i}] = {f'u[{columns[i]}]' if i in columns else '0.0'};" for i in range(n)]
+    else:
+        lines += _block(kit.expressions, list(derivation.quantities["Y_g"]), [f"{target}[{i}]" for i in range(n)])
     return lines + [f"{target}[{i}] -= b[{i}];" for i in range(n)]
 
 
 def _tree_forward_wrenches(derivation: Derivation, kit: CKit) -> Any:
-    name, n = derivation.robot.name, len(derivation.symbols.q)
+    name, n = derivation.robot.name, len(derivation.symbols.qd)
     prototype = (f"int {name}_forward_dynamics_wrenches(const double *q, const double *qd, const double *u, "
                  f"const double *wrenches, {kit.pp}, double *qdd)")
     comment = ("forward_dynamics with wrenches (as inverse_dynamics_wrenches; NULL: none): M qdd = Y_g(u) - C qd "

@@ -2,8 +2,12 @@
 ``gravity_vector``, ``inverse_dynamics``, ``forward_dynamics``, ``linearize``, ``regressor``
 from the programs of ``mechanics/floating.py`` and ``floating_derivatives.py``, and
 ``NQ``, ``NV``, ``neutral_configuration``, ``integrate``, ``difference`` (Pinocchio's
-conventions; also the module of a fixed-base robot with spherical joints). What the module of a fixed-base robot has beyond these is not built yet for
-floating-base robots and is left out (``NOT_BUILT``), never stubbed."""
+conventions; also the module of a fixed-base robot with spherical joints), with the fixed-base
+module's ``friction_forces`` (damping and Coulomb friction of the scalar joints, zero on the
+floating and spherical joints' rows) and ``wrenches=`` (``sum J_f^T w_f`` over frames, world
+axes, moment about the frame's origin) in ``inverse_dynamics`` and ``forward_dynamics``. What
+the module of a fixed-base robot has beyond these is not built yet for floating-base robots
+and is left out (``NOT_BUILT``), never stubbed."""
 
 from __future__ import annotations
 
@@ -11,6 +15,8 @@ import textwrap
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
+
+import sympy
 
 from ..derivation import Derivation
 from .code import Argument, program_function
@@ -21,7 +27,7 @@ TEMPLATE = "floating_dynamics.py.j2"
 TEST_TEMPLATE = "floating_dynamics_test.py.j2"
 
 #: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
-NOT_BUILT = ("friction_forces (damping and Coulomb friction are left out)", "wrenches")
+NOT_BUILT: tuple[str, ...] = ()
 
 
 def floating_context(derivation: Derivation) -> dict[str, Any]:
@@ -35,23 +41,38 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
     qdd = Argument("qdd", table.qdd, f"accelerations, shape (..., {nv})")
     u = Argument("u", list(table.efforts.values()), f"efforts, shape (..., {len(table.efforts)})")
     programs = derivation.programs   # the free-flyer programs (mechanics/floating.py)
+    forward_args = [q, qd, u]
+    if programs["forward_dynamics"].extra_inputs:   # damping, friction, frames: F - J^T w from the module
+        forward_args.append(Argument("_friction", programs["forward_dynamics"].extra_inputs,
+                                     f"friction_forces minus the frames' J^T w, shape (..., {nv})"))
+    regressor_args = [q, qd, qdd]
+    if programs["regressor"].extra_inputs:   # Coulomb friction's columns: sign(qd) or tanh(qd / eps)
+        regressor_args.append(Argument("_sign", programs["regressor"].extra_inputs,
+                                       f"sign(qd) or tanh(qd / eps), shape (..., {nv})"))
     specs = {
         "mass_matrix": ("_mass_matrix_body", "M(q), row by row: composite-rigid-body algorithm.", [q]),
         "gravity": ("_gravity_body", "N(q): Newton-Euler at rest.", [q]),
         "potential": ("_potential_body", "V(q): gravity along the tree, and the springs.", [q]),
         "inverse_dynamics": ("_inverse_dynamics_body", "M qdd + C qd + N: recursive Newton-Euler.", [q, qd, qdd]),
         "forward_dynamics": ("_forward_dynamics_body", "qdd: CRBA, Newton-Euler and an L^T D L solve of "
-                             "M qdd = Y - C qd - N.", [q, qd, u]),
+                             "M qdd = Y - C qd - N - F + sum J^T w.", forward_args),
         "coriolis": ("_coriolis_body", "C(q, qd), row by row: Pinocchio's computeCoriolisMatrix.", [q, qd]),
         "inverse_dynamics_derivatives": ("_inverse_dynamics_derivatives_body", "dtau/dq (along integrate), then "
                                          "dtau/dqd, row by row: Newton-Euler differentiated line by line.",
                                          [q, qd, qdd]),
-        "regressor": ("_regressor_body", "Y(q, qd, qdd) with Y pi = inverse_dynamics, row by row.", [q, qd, qdd]),
+        "regressor": ("_regressor_body", "Y(q, qd, qdd) with Y pi = inverse_dynamics, row by row.", regressor_args),
     }
     bodies = [program_function(*specs[key], program) for key, program in programs.items()]
     identification = derivation.parameter_vector
     bodies.append(program_function("_parameter_vector_body", "The parameter vector pi of regressor.", [],
                                    SimpleNamespace(lines=[], outputs=[p.value for p in identification])))
+    if robot.dissipative:   # F = b qd + fc sign(qd): the coefficients per velocity column (0 on a quaternion's)
+        for name, what in (("damping", "Viscous damping b"), ("friction", "Coulomb friction fc")):
+            values = [sympy.Integer(0)] * nv
+            for drive in derivation.joint_drives:
+                values[drive.coordinate] = getattr(drive, name)
+            bodies.append(program_function(f"_{name}_coefficients_body", f"{what} of each velocity entry.", [],
+                                           SimpleNamespace(lines=[], outputs=values)))
     for index, (name, pose, jacobian, bias) in enumerate(derivation.frame_programs):
         bodies += [program_function(f"_frame{index}_transform_body", f"Pose of frame {name!r} (homogeneous, row by row).",
                                     [q], pose),
@@ -88,8 +109,11 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "frames_tuple": python_literal(tuple(f.name for f in robot.frames)),
         "parameter_vector_tuple": python_literal(tuple(p.name for p in identification)),
         "parameter_count": len(identification),
+        "dissipative": robot.dissipative,
+        "forward_extra": bool(programs["forward_dynamics"].extra_inputs),
+        "regressor_sign": bool(programs["regressor"].extra_inputs),
         "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
-                                   width=96, break_on_hyphens=False),
+                                   width=96, break_on_hyphens=False) if NOT_BUILT else "",
     }
 
 

@@ -19,7 +19,7 @@ import json
 import sympy
 
 from ..derivation import Derivation
-from .floating_latex import FloatingFormatter, _names_of, program_listing
+from .floating_latex import FloatingFormatter, _names_of, dissipative_forces, program_listing
 from .json import quantity_entry
 from .printers import RememberingStrPrinter
 
@@ -30,7 +30,8 @@ DESCRIPTIONS = {
     "M_g": "mass matrix in the velocity coordinates v (NV x NV)",
     "C_g": "Coriolis matrix (Pinocchio's computeCoriolisMatrix; Mdot - 2 C skew-symmetric)",
     "N_g": "generalized gravity and spring forces (NV)",
-    "EOM_g2": "equations of motion M vdot + C v + N - Y (= 0)",
+    "EOM_g2": "equations of motion M vdot + C v + N + F - Y (= 0)",
+    "F_g": "dissipative forces b v + fc sign(v) of the joints' damping and Coulomb friction (NV)",
     "Q_g": "configuration rate: qdot = Q_g v (NQ x NV)",
 }
 
@@ -52,7 +53,9 @@ def render_floating_json(derivation: Derivation) -> str:
     else:
         Y = sympy.Matrix(steps.efforts)
         values = {"Y_g": Y, "M_g": sympy.Matrix(nv, nv, outputs["M"]), "N_g": sympy.Matrix(outputs["N"]),
-                  "EOM_g2": sympy.Matrix(outputs["tau"]) - Y}
+                  "EOM_g2": sympy.Matrix(outputs["tau"]) + dissipative_forces(derivation) - Y}
+    if robot.dissipative:
+        values["F_g"] = dissipative_forces(derivation)
 
     def description(name: str) -> str:
         if name.startswith("J_b"):

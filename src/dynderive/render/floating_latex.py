@@ -163,12 +163,23 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
         "Y": fmt(sympy.Matrix(steps.efforts)),
         "actuated_multi": any(j.multi and j.effort for j in robot.joints),
         "intermediates": bool(groups), "figure": None,
+        "F": fmt(dissipative_forces(derivation)) if robot.dissipative else None,
     }
     if small:
         context |= _small_context(steps.sheet, fmt)
     else:
         context |= _large_context(groups, outputs, fmt, len(table.qd))
     return context
+
+
+def dissipative_forces(derivation: Derivation) -> sympy.Matrix:
+    """``F = b v + fc sign(v)``, NV x 1: the damping and Coulomb friction of the scalar joints
+    (``Derivation.joint_drives``, by velocity column), as the module's ``friction_forces``."""
+    qd = derivation.symbols.qd
+    F = sympy.zeros(len(qd), 1)
+    for drive in derivation.joint_drives:
+        F[drive.coordinate] = drive.damping * qd[drive.coordinate] + drive.friction * sympy.sign(qd[drive.coordinate])
+    return F
 
 
 def _multi_joint(joint: Any, fmt: Formatter, table: Any, where_q: dict[str, int], where_v: dict[str, int],

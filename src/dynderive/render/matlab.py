@@ -46,7 +46,7 @@ FUNCTION_TEMPLATE = "matlab/function.m.j2"
 
 
 def _friction_body(derivation: Derivation, names: Names) -> list[str]:
-    n = len(derivation.symbols.q)
+    n = len(derivation.symbols.qd)
     lines = prologue(derivation, ["qd"], 2) + [f"F = zeros({n}, 1);"]
     drives = {d.coordinate: d for d in derivation.joint_drives} if derivation.robot.dissipative else {}
     if any(d.friction != 0 for d in drives.values()):

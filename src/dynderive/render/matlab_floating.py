@@ -5,8 +5,11 @@ issue 30): ``+<name>/``, the NumPy floating module's functions on Pinocchio's co
 with ``\\`` (Cholesky). The configuration space (``neutral_configuration``, ``integrate``,
 ``difference``, ``configuration_rate``) is written per joint with local functions for the
 quaternion algebra and the exponential and logarithm of SE(3) and of rotations, the same
-formulas as the NumPy module's. Not built: the derivation script (the symbolic path does not
-apply to quaternion coordinates), friction and wrenches (the NumPy floating module has neither).
+formulas as the NumPy module's. Damping and Coulomb friction are the fixed-base package's
+``friction_forces`` (NV x 1, zero on a floating or spherical joint's rows), in
+``inverse_dynamics``, ``forward_dynamics``, ``linearize`` and the regressor's columns. Not
+built: the derivation script (the symbolic path does not apply to quaternion coordinates), and
+wrenches at frames (as for a fixed-base robot's package).
 """
 
 from __future__ import annotations
@@ -15,11 +18,13 @@ from pathlib import Path
 
 from ..derivation import Derivation
 from .c_floating import manifold_joints
-from .matlab import _frame_functions, render_matlab
+from .matlab import _frame_functions, _friction_body, render_matlab
 from .matlab_print import (
+    DIRECTION_LINES,
     MFunction,
     Names,
     expression_body,
+    friction_slope,
     matrix_targets,
     program_body,
     prologue,
@@ -123,6 +128,9 @@ def floating_numeric_functions(derivation: Derivation) -> list[MFunction]:
     count = len(derivation.parameter_vector)
     columns = robot.effort_columns()
     applied = [f"Y = zeros({nv}, 1);", *(f"Y({c + 1}) = u({k + 1});" for k, c in enumerate(columns))]
+    friction = [f"tau = tau + {name}.friction_forces(qd, p);"] if robot.dissipative else []
+    regressor = programs["regressor"]
+    regressor_names = names.extended({s: f"s({i + 1})" for i, s in enumerate(regressor.extra_inputs)})
     return [
         MFunction("mass_matrix", "M", ["q", "p"], [f"MASS_MATRIX  Mass matrix M(q), {nv} x {nv} (Pinocchio's crba)."],
                   [*prologue(derivation, ["q"], 2), f"M = zeros({nv}, {nv});",
@@ -135,16 +143,22 @@ def floating_numeric_functions(derivation: Derivation) -> list[MFunction]:
                   [*prologue(derivation, ["q"], 2), f"N = zeros({nv}, 1);",
                    *program_body(names, programs["gravity"], vector_targets("N", nv))]),
         MFunction("inverse_dynamics", "tau", ["q", "qd", "qdd", "p"],
-                  [f"INVERSE_DYNAMICS  M qdd + C qd + N by recursive Newton-Euler, {nv} x 1 (Pinocchio's rnea): "
-                   "the floating joint's rows are the wrench the base would need."],
+                  [f"INVERSE_DYNAMICS  M qdd + C qd + N (+ friction_forces) by recursive Newton-Euler, {nv} x 1 "
+                   "(Pinocchio's rnea): the floating joint's rows are the wrench the base would need."],
                   [*prologue(derivation, ["q", "qd", "qdd"], 4), f"tau = zeros({nv}, 1);",
-                   *program_body(names, programs["inverse_dynamics"], vector_targets("tau", nv))]),
+                   *program_body(names, programs["inverse_dynamics"], vector_targets("tau", nv)), *friction]),
+        MFunction("friction_forces", "F", ["qd", "p"],
+                  [f"FRICTION_FORCES  Dissipative forces F = b qd + fc sign(qd), {nv} x 1, zero on a floating or "
+                   "spherical joint's rows (tanh(qd / p.friction_smoothing) for sign(qd) when friction_smoothing > 0)."
+                   if robot.dissipative else
+                   f"FRICTION_FORCES  Dissipative forces F: zero, the robot declares no damping or friction, {nv} x 1."],
+                  _friction_body(derivation, names)),
         MFunction("generalized_forces", "Y", ["q", "u", "p"],
                   [f"GENERALIZED_FORCES  Y(u): each effort at its joint's velocity column ({nu} efforts), {nv} x 1; "
                    "a floating joint's six are the wrench on its child in its frame."],
                   [*prologue(derivation, ["q", "u"], 3), *applied]),
         MFunction("forward_dynamics", "qdd", ["q", "qd", "u", "p"],
-                  [f"FORWARD_DYNAMICS  Accelerations qdd solving M(q) qdd = Y(u) - C qd - N, {nv} x 1 (Pinocchio's "
+                  [f"FORWARD_DYNAMICS  Accelerations qdd solving M(q) qdd = Y(u) - C qd - N - F, {nv} x 1 (Pinocchio's "
                    "aba); u may be [] (no effort)."],
                   [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
                    f"rhs = {name}.generalized_forces(q, u, p) - {name}.inverse_dynamics(q, qd, zeros({nv}, 1), p);",
@@ -166,13 +180,15 @@ def floating_numeric_functions(derivation: Derivation) -> list[MFunction]:
                    f"R(:, 1:{nv}) = -reshape(D(1:{nv * nv}), {nv}, {nv})';",
                    f"R(:, {nv + 1}:{2 * nv}) = -reshape(D({nv * nv + 1}:{2 * nv * nv}), {nv}, {nv})';",
                    *(f"R({c + 1}, {2 * nv + k + 1}) = 1;" for k, c in enumerate(columns)),
+                   *friction_slope(derivation, names, "R"),
                    f"X = {name}.mass_matrix(q, p) \\ R;",
                    f"A = [zeros({nv}, {nv}), eye({nv}); X(:, 1:{2 * nv})];",
                    f"B = [zeros({nv}, {nu}); X(:, {2 * nv + 1}:end)];"]),
         MFunction("regressor", "Y", ["q", "qd", "qdd", "p"],
                   [f"REGRESSOR  Regressor Y(q, qd, qdd), {nv} x {count}: Y * parameter_vector(p) equals inverse_dynamics."],
-                  [*prologue(derivation, ["q", "qd", "qdd"], 4), f"Y = zeros({nv}, {count});",
-                   *program_body(names, programs["regressor"], matrix_targets("Y", nv, count))]),
+                  [*prologue(derivation, ["q", "qd", "qdd"], 4),
+                   *(DIRECTION_LINES if regressor.extra_inputs else []), f"Y = zeros({nv}, {count});",
+                   *program_body(regressor_names, regressor, matrix_targets("Y", nv, count))]),
         MFunction("parameter_vector", "pi_", ["p"],
                   [f"PARAMETER_VECTOR  The regressor's parameters, {count} x 1: per link mass, first moment m c, "
                    "inertia about the link frame's origin; then the drives."],

@@ -152,7 +152,7 @@ def friction_slope(derivation: Derivation, names: Names, target: str) -> list[st
     """``target(i, n + i) -= dF_i/dqd_i``: b + fc (1 - tanh(qd/eps)^2)/eps (0 for the exact sign)."""
     if not derivation.robot.dissipative:
         return []
-    n, printer, lines = len(derivation.symbols.q), names.printer(), []
+    n, printer, lines = len(derivation.symbols.qd), names.printer(), []
     for drive in derivation.joint_drives:
         i = drive.coordinate
         entry = f"{target}({i + 1}, {n + i + 1})"

@@ -15,7 +15,8 @@ from .compiled import RTOL, _difference
 
 #: The functions compared, with the arrays they take (``frame``: once per frame of FRAMES).
 FUNCTIONS = (
-    ("mass_matrix", "q"), ("coriolis_matrix", "q qd"), ("gravity_vector", "q"), ("inverse_dynamics", "q qd qdd"),
+    ("mass_matrix", "q"), ("coriolis_matrix", "q qd"), ("gravity_vector", "q"), ("friction_forces", "qd"),
+    ("inverse_dynamics", "q qd qdd"),
     ("forward_dynamics", "q qd u"), ("kinetic_energy", "q qd"), ("potential_energy", "q"), ("linearize", "q qd u"),
     ("regressor", "q qd qdd"), ("parameter_vector", ""), ("neutral_configuration", ""), ("integrate", "q qd"),
     ("configuration_rate", "q qd"), ("difference", "q q1"),

@@ -15,9 +15,9 @@ from ..derivation import Derivation
 from ..model.symbols import SymbolTable
 from .checks import Row, _pinocchio_mass_matrix, _row, generated_module
 
-POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . inverse_dynamics(q, qd, qdd)"
+POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . (inverse_dynamics(q, qd, qdd) - friction_forces(qd))"
 MOMENTUM = "momentum conserved without gravity: d(linear, angular momentum)/dt = 0 under the joints' efforts"
-ENERGY_RUN = "energy conserved without efforts (simulate on the manifold)"
+ENERGY_RUN = "energy conserved without efforts (simulate on the manifold; with damping or friction, energy + dissipated work)"
 
 
 def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> np.ndarray:
@@ -79,9 +79,10 @@ def run_floating_checks(derivation: Derivation, source: str, states: int = 12, s
 
 def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
                    rng: np.random.Generator) -> Row:
-    """Along ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``: ``d(T + V)/dt = v . tau`` with
-    ``tau`` the inverse dynamics at ``a``, by central differences: ties the module's velocity
-    convention (integrate) to its dynamics, and gravity_vector to potential_energy."""
+    """Along ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``: ``d(T + V)/dt = v . (tau - F)`` with
+    ``tau`` the inverse dynamics at ``a`` and ``F`` the joints' damping and friction, by central
+    differences: ties the module's velocity convention (integrate) to its dynamics, and
+    gravity_vector to potential_energy."""
     h, worst, scale = 1e-5, 0.0, 1.0
     for q, v in zip(qs, vs):
         a = rng.uniform(-1.0, 1.0, v.shape)
@@ -90,8 +91,8 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np
             moved = module.integrate(q, v, t)
             return float(module.kinetic_energy(moved, v + t * a, **values) + module.potential_energy(moved, **values))
 
-        rate = (energy(h) - energy(-h)) / (2 * h)
-        power = float(v @ module.inverse_dynamics(q, v, a, **values))
+        rate = (energy(h) - energy(-h)) / (2 * h)   # damping and friction take power out: F is not in d(T + V)/dt
+        power = float(v @ (module.inverse_dynamics(q, v, a, **values) - module.friction_forces(v, **values)))
         worst, scale = max(worst, abs(rate - power)), max(scale, abs(power))
     return _row(POWER_BALANCE, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
 
@@ -124,7 +125,9 @@ def _energy_along_a_run(derivation: Derivation, source: str, values: dict[str, f
                         v: np.ndarray, duration: float = 0.5) -> Row:
     """The module's rates (``configuration_rate``, ``forward_dynamics``) integrated without
     efforts from a random state, as ``simulate`` does: the energy T + V stays what it was
-    (tolerance 1e-10 of the integrator)."""
+    (tolerance 1e-10 of the integrator); with damping or friction T + V + W does, W the work
+    they dissipate riding along (Coulomb friction smoothed, ``friction_smoothing`` 0.01, so
+    that the integrator meets no jump)."""
     try:
         import scipy  # noqa: F401
     except ImportError:
@@ -134,14 +137,18 @@ def _energy_along_a_run(derivation: Derivation, source: str, values: dict[str, f
     module = generated_module(source, derivation.robot.name)
     nq, zero = len(q), np.zeros(len(derivation.robot.efforts))
 
-    def rhs(time: float, y: np.ndarray) -> np.ndarray:   # the module's own rates: quaternions stay unit
-        return np.concatenate([module.configuration_rate(y[:nq], y[nq:]),
-                               module.forward_dynamics(y[:nq], y[nq:], zero, **values)])
+    nv, smoothing = len(v), 0.01
 
-    run = solve_ivp(rhs, (0.0, duration), np.concatenate([q, v]), method="DOP853", rtol=1e-10, atol=1e-10,
+    def rhs(time: float, y: np.ndarray) -> np.ndarray:   # the module's own rates: quaternions stay unit
+        qd = y[nq:nq + nv]
+        return np.concatenate([module.configuration_rate(y[:nq], qd),
+                               module.forward_dynamics(y[:nq], qd, zero, friction_smoothing=smoothing, **values),
+                               [qd @ module.friction_forces(qd, friction_smoothing=smoothing, **values)]])
+
+    run = solve_ivp(rhs, (0.0, duration), np.concatenate([q, v, [0.0]]), method="DOP853", rtol=1e-10, atol=1e-10,
                     t_eval=np.linspace(0.0, duration, 3))
-    position, velocity = run.y[:nq].T, run.y[nq:].T
-    energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
+    position, velocity, work = run.y[:nq].T, run.y[nq:nq + nv].T, run.y[nq + nv]
+    energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values) + work
     potential = float(module.potential_energy(q, **values))
     scale = max(1.0, abs(energy[0] - potential) + abs(potential))
     worst = float(np.max(np.abs(energy - energy[0])))
@@ -261,23 +268,25 @@ def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs
     except ImportError:
         return Row(name, "skip", "pin is not installed", float("nan"))
     robot = derivation.robot
-    if robot.dissipative or any(j.driven for j in robot.joints):
-        return Row(name, "skip", "drive terms (Pinocchio models none but armature)", float("nan"))
+    if any(j.stiffness is not None or j.armature is not None for j in robot.joints):
+        return Row(name, "skip", "springs or armature (Pinocchio's free flyer here has neither)", float("nan"))
     model, qp, vp = pinocchio_floating_model(robot, values)
     data = model.createData()
     worst, scale = 0.0, 1.0
     for q, v, u, q1 in zip(qs, vs, us, qs[::-1]):
         a = np.linspace(-1.0, 1.0, len(v))
         M = _pinocchio_mass_matrix(pin, model, data, q[qp])
+        friction = module.friction_forces(v, **values)   # damping and friction: joint torques taken from tau
         if model.mimicking_joints:   # Pinocchio 4.1's aba and energies refuse mimic joints
-            acc = np.linalg.solve(M, _applied(robot, u)[vp] - pin.nonLinearEffects(model, data, q[qp], v[vp]))
+            acc = np.linalg.solve(M, (_applied(robot, u) - friction)[vp] - pin.nonLinearEffects(model, data, q[qp], v[vp]))
             kinetic, potential = 0.5 * v[vp] @ M @ v[vp], _pinocchio_potential(pin, model, data, q[qp])
         else:
-            acc = pin.aba(model, data, q[qp], v[vp], _applied(robot, u)[vp])
+            acc = pin.aba(model, data, q[qp], v[vp], (_applied(robot, u) - friction)[vp])
             kinetic = pin.computeKineticEnergy(model, data, q[qp], v[vp])
             potential = pin.computePotentialEnergy(model, data, q[qp])
         diffs = [module.mass_matrix(q, **values)[np.ix_(vp, vp)] - M,
-                 module.inverse_dynamics(q, v, a, **values)[vp] - pin.rnea(model, data, q[qp], v[vp], a[vp]),
+                 module.inverse_dynamics(q, v, a, **values)[vp] - pin.rnea(model, data, q[qp], v[vp], a[vp])
+                 - friction[vp],
                  module.gravity_vector(q, **values)[vp] - pin.computeGeneralizedGravity(model, data, q[qp]),
                  module.forward_dynamics(q, v, u, **values)[vp] - acc,
                  module.integrate(q, v, 0.3)[qp] - pin.integrate(model, q[qp], 0.3 * v[vp]),
