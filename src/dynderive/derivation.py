@@ -12,6 +12,7 @@ from typing import Any
 
 import sympy
 
+from .mechanics.exact_fast import matmul
 from .mechanics.planar import planar_kinematics
 from .mechanics.polynomial import expand
 from .mechanics.program import Program, lines_read
@@ -522,11 +523,11 @@ def run_checks(derivation: Derivation) -> list[Check]:
     loops = derivation.steps.get("loops")
     if loops is not None and "R_g" in q:
         checks.append(check_zero("A_g R_g == 0", "A_g R_g = 0: the reduced velocities qd = R_g qd_i satisfy the "
-                                 "loop constraints", q["A_g"] * q["R_g"], symbols))
+                                 "loop constraints", matmul(q["A_g"], q["R_g"]), symbols))
     if "maximal" not in derivation.steps:
         return checks
     on_h = dict(zip(table.qm, q["h"]))
-    a_on_h, AH = q["a_m"].xreplace(on_h), q["A_m"].xreplace(on_h) * q["H"]
+    a_on_h, AH = q["a_m"].xreplace(on_h), matmul(q["A_m"].xreplace(on_h), q["H"])
     if loops is not None:   # the loop rows of a_m become a_g on h(q): compare with them
         tree = a_on_h.shape[0] - loops.constraints.shape[0]
         a_on_h = a_on_h - sympy.Matrix.vstack(sympy.zeros(tree, 1), loops.constraints)

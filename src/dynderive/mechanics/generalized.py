@@ -97,9 +97,9 @@ def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
     terms = []
     for k, (link, kin) in enumerate(zip(robot.links, links), start=1):
         mass = table.expr(link.mass)
-        velocity = (kin.body_jacobian * qd_vec).applyfunc(clean)
+        velocity = matmul(kin.body_jacobian, qd_vec).applyfunc(clean)
         com = kin.com_world.applyfunc(clean)
-        potential = clean(-mass * (gravity.T * com)[0, 0])
+        potential = clean(-mass * matmul(gravity.T, com)[0, 0])
         if robot.planar:
             inertia = table.expr(link.inertia[0])
             G = spatial_inertia_planar(mass, inertia)

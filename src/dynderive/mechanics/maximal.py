@@ -292,9 +292,9 @@ def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: dict[str
     F = model.get("F_m", sympy.zeros(len(qm), 1))
     lam = sympy.Matrix(table.multipliers)
     lagrange = lagrange_steps(model["L_m"], qm, qmd, qmdd)
-    EOM_m1 = (lagrange.lhs + F + A.T * lam - Y).applyfunc(clean)
+    EOM_m1 = (lagrange.lhs + F + matmul(A.T, lam) - Y).applyfunc(clean)
     qmd_vec = sympy.Matrix(qmd)
-    EOM_m2 = (M * sympy.Matrix(qmdd) + C * qmd_vec + N + F + A.T * lam - Y).applyfunc(clean)
+    EOM_m2 = (matmul(M, sympy.Matrix(qmdd)) + matmul(C, qmd_vec) + N + F + matmul(A.T, lam) - Y).applyfunc(clean)
     lambda_vec = _closed_form_lambda(M, A, Adot, Y - F, C, N, qmd_vec)
     quantities: dict[str, Any] = {"EOM_m1": EOM_m1, "EOM_m2": EOM_m2}
     if lambda_vec is not None:
@@ -308,7 +308,7 @@ def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: dict[str
     h, H = model["h"], model["H"]
     Hdot = constraint_jacobian_dot(H, q, qd)
     on_h = dict(zip(qm, h))
-    on_hd = dict(zip(qmd, H * sympy.Matrix(qd)))
+    on_hd = dict(zip(qmd, matmul(H, sympy.Matrix(qd))))
     M_h = M.xreplace(on_h)
     M_tilde = tidy_matrix(matmul(H.T, M_h, H))
     C_tilde = tidy_matrix(matmul(H.T, C.xreplace(on_h).xreplace(on_hd), H) + matmul(H.T, M_h, Hdot))
