@@ -165,11 +165,15 @@ def _coriolis_and_derivatives(module, model, qp, vp, seed: int) -> None:
     np.testing.assert_allclose(module.coriolis_matrix(q, v)[np.ix_(vp, vp)], C_pin, rtol=0,
                                atol=1e-9 * max(1.0, np.max(np.abs(C_pin))))
     A, B = module.linearize(q, v, u)
-    pin.computeABADerivatives(model, data, q_pin, v_pin, tau[vp])
-    scale = max(1.0, np.max(np.abs(data.ddq_dq)), np.max(np.abs(data.ddq_dv)))
-    np.testing.assert_allclose(A[nv:, :nv][np.ix_(vp, vp)], data.ddq_dq, rtol=0, atol=1e-9 * scale)
-    np.testing.assert_allclose(A[nv:, nv:][np.ix_(vp, vp)], data.ddq_dv, rtol=0, atol=1e-9 * scale)
+    friction = module.friction_forces(v)   # the URDF's <dynamics> (go1, talos): taken out of tau for Pinocchio
+    damping = np.diag([(module.friction_forces(v + 1e-6 * e) - module.friction_forces(v - 1e-6 * e))[k] / 2e-6
+                       for k, e in enumerate(np.eye(nv))])
+    pin.computeABADerivatives(model, data, q_pin, v_pin, (tau - friction)[vp])
     Minv = np.triu(data.Minv) + np.triu(data.Minv, 1).T
+    ddq_dv = data.ddq_dv - Minv @ damping[np.ix_(vp, vp)]   # d/dv of M^-1 (tau - b v - ...)
+    scale = max(1.0, np.max(np.abs(data.ddq_dq)), np.max(np.abs(ddq_dv)))
+    np.testing.assert_allclose(A[nv:, :nv][np.ix_(vp, vp)], data.ddq_dq, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(A[nv:, nv:][np.ix_(vp, vp)], ddq_dv, rtol=0, atol=1e-9 * scale)
     order = list(vp)
     np.testing.assert_allclose(B[nv:][vp], Minv[:, [order.index(c) for c in module.EFFORT_COLUMNS]], rtol=0,
                                atol=1e-9 * max(1.0, np.max(np.abs(Minv))))
@@ -248,10 +252,18 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     assert again.exit_code == 0 and (tmp_path / "out" / "box_dynamics.py").read_text() == text
 
 
-def test_printing_and_other_commands_are_refused(tmp_path):
-    path, result = _solve(tmp_path, BOX)
-    assert result.exit_code == 2
-    assert f"{path}:1:1: printing the equations is not built yet for floating-base robots" in result.stderr
+def test_printing_and_other_commands(tmp_path):
+    """``solve`` with no output flag prints a small robot's equations (the floating sheet's
+    M, C, N and Y, tested against the module in test_floating_sheet.py); nothing is written."""
+    path, result = _solve(tmp_path, BOX.replace("effort: tau2}", "effort: tau2, damping: 0.27123}"))
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith("A free box with an arm (box): NQ = 8 coordinates (root_x, root_y, root_z, "
+                                    "root_qx, root_qy, root_qz, root_qw, q2), NV = 7 velocities")
+    assert "M(q) v' + C(q, v) v + N(q) + F(v) = Y" in result.stdout
+    for block in ("M(q) =", "C(q, v) =", "N(q) =", "F(v) = (damping and friction)", "Y ="):
+        assert f"\n{block}\n" in result.stdout
+    assert "0.27123⋅qd₂" in result.stdout and "τ₂" in result.stdout
+    assert not (tmp_path / "out").exists()
     for command in (["linearize", "-q"], ["identify", "-q"]):   # built: tests/test_floating_commands.py
         result = runner.invoke(app, [*command, str(path)])
         assert result.exit_code == 0, (command, result.output)

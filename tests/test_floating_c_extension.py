@@ -249,3 +249,43 @@ def test_failing_compiler_keeps_the_other_outputs_and_the_log(tmp_path, monkeypa
     assert "the C compiler failed: x.c:1:1: error: something broke" in result.output
     log = tmp_path / "out" / "box_dynamics_c.log"
     assert (tmp_path / "out" / "box_dynamics.py").is_file() and "something broke" in log.read_text()
+
+
+def test_simulate_with_the_c_backend_follows_the_numpy_run(tmp_path, monkeypatch):
+    """``simulate --backend c`` of a floating robot (damping, smoothed Coulomb friction, a
+    wrench at a frame, an effort): the compiled forward dynamics, configuration rate and
+    friction give the NumPy run's trajectory and dissipated work."""
+    from dynderive.commands import compile as compile_command
+
+    called: dict[str, int] = {}
+    build = compile_command.compiled_module
+
+    class Counted:   # the extension, counting the integrator's calls
+        def __init__(self, module):
+            self.module = module
+
+        def __getattr__(self, name):
+            def call(*args, **kwargs):
+                called[name] = called.get(name, 0) + 1
+                return getattr(self.module, name)(*args, **kwargs)
+            return call
+
+    monkeypatch.setattr(compile_command, "compiled_module", lambda *a, **k: Counted(build(*a, **k)))
+    text = BOX.replace("effort: tau2}", "effort: tau2, damping: 0.0712345678901234, friction: 0.0312345678901234}") \
+        + "frames:\n  - {name: tip, link: arm, origin: {xyz: [0.3, 0.01, -0.02]}}\n"
+    path = tmp_path / "box.yaml"
+    path.write_text(text)
+    runs = {}
+    for backend in ("numpy", "c"):
+        csv = tmp_path / f"{backend}.csv"
+        result = runner.invoke(app, ["simulate", str(path), "--backend", backend, "--duration", "0.4", "--frames", "5",
+                                     "--effort", "tau2=0.3*sin(3*t)", "--force", "tip=0.5,0,1.5*t,0,0.1,0",
+                                     "--friction-smoothing", "0.01", "--qd0", "0.1,0,0.2,0.3,-0.2,0.1,1.0",
+                                     "--csv", str(csv), "-q"])
+        assert result.exit_code == 0, result.output + result.stderr
+        lines = csv.read_text().splitlines()
+        assert lines[0].endswith(",energy,dissipated")
+        runs[backend] = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
+    assert np.max(np.abs(runs["numpy"][-1] - runs["numpy"][0])) > 0.05   # it moved
+    np.testing.assert_allclose(runs["c"], runs["numpy"], rtol=0, atol=1e-8)
+    assert min(called.get(name, 0) for name in ("forward_dynamics", "configuration_rate", "friction_forces")) > 10

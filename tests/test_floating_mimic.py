@@ -41,12 +41,9 @@ pin = pytest.importorskip("pinocchio")
 BASE = _link("base", "2.3456789012345678", "0.0212345678901234 -0.0312345678901234 0.0412345678901234",
              ("0.0412345678901234", "0.0023456789012345", "-0.0034567890123456", "0.0387654321098765",
               "0.0019876543210987", "0.0298765432109876"))
-#: test_mimic's arm with a massive base (a massless one under j1 would make M singular) and
-#: without its <dynamics> (a floating robot's module leaves damping and friction out)
+#: test_mimic's arm with a massive base (a massless one under j1 would make M singular), its
+#: <dynamics> (damping and friction) kept
 FLOATING_ARM = ARM.replace('  <link name="base"/>\n', BASE)
-for _tag in ('\n    <dynamics damping="0.2123456789012345" friction="0.0312345678901234"/>',
-             '\n    <dynamics damping="0.3123456789012345"/>'):
-    FLOATING_ARM = FLOATING_ARM.replace(_tag, "")
 
 
 @pytest.fixture(scope="module")
@@ -109,8 +106,14 @@ def test_agrees_with_pinocchio_free_flyer_with_mimic_joints(arm):
         np.testing.assert_allclose(module.mass_matrix(q)[np.ix_(vp, vp)], M, rtol=0, atol=1e-9 * scale)
         crba = pin.crba(model, data, qq)
         crba_wrong = max(crba_wrong, np.max(np.abs(np.triu(crba) + np.triu(crba, 1).T - M)))
+        friction = module.friction_forces(v)   # damping and friction, which Pinocchio's rnea and aba leave out
+        f1 = offsets(robot).v["f1"]   # f1's <dynamics>, and its follower f2's damping through m = -1.123...
+        expected_f1 = (0.2123456789012345 + 1.1234567890123456**2 * 0.3123456789012345) * v[f1] \
+            + 0.0312345678901234 * np.sign(v[f1])
+        assert friction[f1] == pytest.approx(expected_f1, rel=1e-13) and np.count_nonzero(friction) == 1
         tau = pin.rnea(model, data, qq, vv, a[vp])
-        np.testing.assert_allclose(module.inverse_dynamics(q, v, a)[vp], tau, rtol=0, atol=1e-9 * np.max(np.abs(tau)))
+        np.testing.assert_allclose((module.inverse_dynamics(q, v, a) - friction)[vp], tau, rtol=0,
+                                   atol=1e-9 * np.max(np.abs(tau)))
         h = pin.nonLinearEffects(model, data, qq, vv)
         ours = module.coriolis_matrix(q, v) @ v + module.gravity_vector(q)
         np.testing.assert_allclose(ours[vp], h, rtol=0, atol=1e-9 * np.max(np.abs(h)))
@@ -118,7 +121,7 @@ def test_agrees_with_pinocchio_free_flyer_with_mimic_joints(arm):
         np.testing.assert_allclose(module.gravity_vector(q)[vp], g, rtol=0, atol=1e-9 * np.max(np.abs(g)))
         applied = np.zeros(9)
         applied[list(robot.effort_columns())] = u
-        expected = np.linalg.solve(M, applied[vp] - h)   # Pinocchio's aba refuses mimic joints
+        expected = np.linalg.solve(M, (applied - friction)[vp] - h)   # Pinocchio's aba refuses mimic joints
         np.testing.assert_allclose(module.forward_dynamics(q, v, u)[vp], expected, rtol=0,
                                    atol=1e-9 * np.max(np.abs(expected)))
         assert module.kinetic_energy(q, v) == pytest.approx(0.5 * vv @ M @ vv, rel=1e-12)
@@ -188,8 +191,8 @@ def _r(value: float) -> float:
 def _spherical_tree(drives: bool) -> str:
     """A floating base; a spherical joint below it; revolute j1, and j3 following j1 below it;
     a prismatic finger f2 on the base following j1 too; a frame on j3's link. Random
-    full-precision numbers, generic axes, full inertias. ``drives``: armature on j1, armature
-    and springs on the followers."""
+    full-precision numbers, generic axes, full inertias. ``drives``: armature and damping on j1,
+    armature, springs, damping and friction on the followers."""
     rng = random.Random(30)
     links = []
     for name in ("base", "l1", "l2", "l3", "fa"):
@@ -212,9 +215,10 @@ def _spherical_tree(drives: bool) -> str:
                "axis": list(_random_axis(rng)), "mimic": {"joint": "j1", "multiplier": 0.1234567890123456,
                                                           "offset": -0.0123456789012345}}]
     if drives:
-        joints[2]["armature"] = 0.0412345678901234
-        joints[3].update(armature=0.0312345678901234, stiffness=1.2345678901234567, rest=0.2123456789012345)
-        joints[4]["armature"] = 0.0212345678901234
+        joints[2].update(armature=0.0412345678901234, damping=0.1712345678901234)
+        joints[3].update(armature=0.0312345678901234, stiffness=1.2345678901234567, rest=0.2123456789012345,
+                         damping=0.0912345678901234, friction=0.0412345678901234)
+        joints[4].update(armature=0.0212345678901234, friction=0.2312345678901234)
     return yaml.safe_dump({"name": "spherical_mimic", "title": "floating base, spherical joint, mimic joints",
                            "planar": False, "parameters": {"g": 9.81}, "gravity": [0, 0, "-g"], "links": links,
                            "joints": joints, "frames": [{"name": "tip", "link": "l3", "origin": origin()}]},
@@ -237,8 +241,9 @@ def driven(tmp_path_factory):
 
 def test_the_uncoupled_robot_mapped_by_the_coupling(driven):
     """``q_free = (q, G q + offset)``, ``v_free = G v``: ``M = G^T M_free G``, ``inverse_dynamics =
-    G^T inverse_dynamics_free``, gravity, energies, forward dynamics; the followers' armature
-    and springs act on their leaders through the multiplier."""
+    G^T inverse_dynamics_free``, gravity, energies, forward dynamics, ``friction_forces = G^T
+    friction_forces_free(G v)``; the followers' armature, springs, damping and friction act on
+    their leaders through the multiplier."""
     robot, free, _, _, coupled, uncoupled = driven
     assert (coupled.NQ, coupled.NV, uncoupled.NQ, uncoupled.NV) == (12, 10, 14, 12)
     where, where_free = offsets(robot), offsets(free)
@@ -277,8 +282,10 @@ def test_the_uncoupled_robot_mapped_by_the_coupling(driven):
         np.testing.assert_allclose(coupled.frame_transform(q, "tip"), T, rtol=0, atol=1e-13)
         np.testing.assert_allclose(coupled.frame_jacobian(q, "tip"), uncoupled.frame_jacobian(qf, "tip") @ G,
                                    rtol=0, atol=1e-12)
-    armature = [p for p in coupled.PARAMETER_VECTOR if p.startswith(("armature", "stiffness"))]
-    assert armature == ["armature_j1", "armature_j3", "stiffness_j3", "armature_f2"]
+        np.testing.assert_allclose(coupled.friction_forces(v), G.T @ uncoupled.friction_forces(vf), rtol=0, atol=1e-12)
+    drives = [p for p in coupled.PARAMETER_VECTOR if p.startswith(("damping", "friction", "armature", "stiffness"))]
+    assert drives == ["damping_j1", "armature_j1", "damping_j3", "friction_j3", "armature_j3", "stiffness_j3",
+                      "friction_f2", "armature_f2"]
 
 
 def test_check_passes(arm, driven):

@@ -333,7 +333,7 @@ def simulate(
     echo_notes(model, quiet)
     if model.floating:
         return run_floating(model, duration, q0, qd0, effort or [], plot, csv, method, rtol, atol, frames, quiet,
-                            progress, force, friction_smoothing)
+                            progress, force, friction_smoothing, backend)
     maximal = coordinates == "maximal"
     if maximal and not model.planar:
         raise InputError(problem(model.source, "maximal coordinates are planar-only for now"))

@@ -41,9 +41,9 @@ def floating_note(robot: Robot) -> str:
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
                    template_dir: Path | None, quiet: bool, echo: Callable[[str], None],
                    progress: Callable[[str], None], tests: bool = False) -> None:
-    """Write ``<name>_dynamics.py`` (``--code``), its checks (``--tests``) and
-    ``<name>_dynamics_jax.py`` (``--jax``); refuse every other output flag, and a run without
-    ``--code`` or ``--jax`` (printing the equations needs the symbolic derivation)."""
+    """Write the outputs the flags ask for (``--code`` the module, ``--tests`` its checks, the
+    other targets, the sheets and the JSON), or, with none, print the equations
+    (``render_floating_terminal``)."""
     from .. import derive
     from ..render.floating_code import render_floating_code, render_floating_code_tests
     from .output import write_all
@@ -56,11 +56,14 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
                for flag, wanted in flags.items() if wanted and flag not in BUILT]
     if refused:
         raise InputError(refused)
-    if not (code or any(flags.get(flag) for flag in BUILT)):
-        raise InputError(problem(argument, f"printing the equations is {NOT_BUILT}; --code writes the robot's "
-                                           "NumPy module, --c its C, --matlab its MATLAB/Octave package, --jax its "
-                                           "JAX module"))
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
+    if not (code or any(flags.get(flag) for flag in BUILT)):   # no output flag: print the equations
+        from ..render.terminal import render_floating_terminal
+
+        import typer
+
+        typer.echo(render_floating_terminal(derivation, digits), nl=False)
+        return
     files = {}
     if flags.get("jax"):
         from ..render.floating_jax import render_floating_jax

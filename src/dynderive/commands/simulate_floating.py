@@ -34,8 +34,8 @@ def floating_options(robot: Any, coordinates: str, animate: object, backend: str
         raise InputError(problem("--coordinates", "a floating-base robot is simulated in its coordinates (q, v) only"))
     if animate is not None:
         raise InputError(problem("--animate", "--animate draws planar robots only"))
-    if backend != "numpy":
-        raise InputError(problem("--backend", f"--backend {backend}: not built yet for floating-base robots (issue 30)"))
+    if backend not in ("numpy", "c"):
+        raise InputError(problem("--backend", f"--backend {backend}: not built for simulate"))
 
 
 def floating_quaternions(robot: Any) -> list[int]:
@@ -78,12 +78,16 @@ def simulate_floating(derivation: Derivation, source: str, duration: float, q0: 
                       progress: Callable[[str], None], method: str = DEFAULT_METHOD,
                       note: Callable[[str], None] = lambda text: None,
                       values: dict[str, float] | None = None, friction_smoothing: float = 0.0,
-                      wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, v: None) -> Trajectory:
+                      wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, v: None,
+                      compiled: Any = None) -> Trajectory:
     """Integrate the floating-base module's forward dynamics on the manifold (module docstring);
     ``Trajectory.position`` holds q (NQ columns), ``velocity`` v (NV columns). ``values``: the
-    parameters (default: the robot's); ``wrenches(t, q, v)``: the wrenches at frames (``--force``)."""
+    parameters (default: the robot's); ``wrenches(t, q, v)``: the wrenches at frames (``--force``);
+    ``compiled``: the C extension (``--backend c``), whose ``forward_dynamics``,
+    ``configuration_rate`` and ``friction_forces`` the integrator calls instead of the module's."""
     robot = derivation.robot
     module = generated_module(source, robot.name)
+    fast = compiled if compiled is not None else module
     if values is None:
         values = {p.name: p.value for p in robot.parameters if p.value is not None}
     starts = floating_quaternions(robot)
@@ -97,11 +101,11 @@ def simulate_floating(derivation: Derivation, source: str, duration: float, q0: 
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)
         q, v = normalized(y[:nq], starts), y[nq:nq + nv]
-        qdd = module.forward_dynamics(q, v, efforts(time, q, v), wrenches(time, q, v),
-                                      friction_smoothing=friction_smoothing, **values)
-        rates = [module.configuration_rate(q, v), qdd]
+        qdd = fast.forward_dynamics(q, v, efforts(time, q, v), wrenches(time, q, v),
+                                    friction_smoothing=friction_smoothing, **values)
+        rates = [fast.configuration_rate(q, v), qdd]
         if dissipative:   # the dissipated work W rides along
-            rates.append([v @ module.friction_forces(v, friction_smoothing=friction_smoothing, **values)])
+            rates.append([v @ fast.friction_forces(v, friction_smoothing=friction_smoothing, **values)])
         return np.concatenate(rates)
 
     y = np.concatenate([q0, v0] + ([[0.0]] if dissipative else []))
@@ -138,7 +142,7 @@ def floating_csv(derivation: Derivation, source: str, trajectory: Trajectory) ->
 def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, effort: list[str],
                  plot: Path | None, csv: Path | None, method: str, rtol: float, atol: float, frames: int,
                  quiet: bool, progress: Callable[[str], None], force: list[str] | None = None,
-                 friction_smoothing: float = 0.0) -> None:
+                 friction_smoothing: float = 0.0, backend: str = "numpy") -> None:
     """``dynderive simulate`` of a floating-base robot, after the options common to every run
     are checked: ``--q0`` takes NQ numbers, ``--qd0`` NV; writes ``--plot`` and ``--csv``."""
     import typer
@@ -156,11 +160,16 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code (floating base)")
     source = render_floating_code(derivation)
+    compiled = None
+    if backend == "c":
+        from .compile import compiled_module
+
+        compiled = compiled_module(derivation, progress=progress)
     trajectory = simulate_floating(derivation, source, duration, start_q,
                                    np.zeros(model.velocity_count) if start_v is None else start_v, efforts, rtol,
                                    atol, frames, progress, method,
                                    lambda text: None if quiet else typer.echo(f"note: {text}", err=True),
-                                   friction_smoothing=friction_smoothing, wrenches=wrenches)
+                                   friction_smoothing=friction_smoothing, wrenches=wrenches, compiled=compiled)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")

@@ -54,3 +54,36 @@ def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
     ]
     parts += [f"  {c.summary()}" for c in derivation.checks]
     return "\n".join(parts) + "\n"
+
+
+def render_floating_terminal(derivation: Derivation, digits: int | None = None) -> str:
+    """A floating-base robot's equations as text: a small robot's (the floating sheet's M, C,
+    N, F and Y in quasi-velocities), or, for a larger one, where its programs are written."""
+    import sympy
+
+    printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)))
+    robot, table = derivation.robot, derivation.symbols
+    steps = derivation.floating_steps
+    head = (f"{terminal_text(robot.title)} ({robot.name}): NQ = {len(table.q)} coordinates "
+            f"({', '.join(robot.configuration_names)}), NV = {len(table.qd)} velocities "
+            f"({', '.join(str(v) for v in table.qd)})")
+    drives = [d for d in derivation.joint_drives if d.damping != 0 or d.friction != 0]
+    equation = "M(q) v' + C(q, v) v + N(q)" + (" + F(v)" if drives else "") + " = Y"
+    parts = [head, "", f"Equations of motion  {equation}  (v: the velocities; q' = Q(q) v, the quaternions' rate)", ""]
+    if steps.sheet is None:
+        lines = sum(len(p.lines) for p in derivation.programs.values())
+        parts += [f"This robot's M, C and N are computed by recursive algorithms ({lines} lines of intermediate "
+                  "variables in its programs), too large to print: --latex, --pdf or --html show them line by line, "
+                  "--json holds them, --code writes its module.", ""]
+    else:
+        sheet = steps.sheet
+        parts += [_block("M(q) =", sheet.M, printer), _block("C(q, v) =", sheet.C, printer),
+                  _block("N(q) =", sheet.N, printer)]
+        if drives:
+            F = sympy.zeros(len(table.qd), 1)
+            for d in drives:
+                F[d.coordinate] = d.damping * table.qd[d.coordinate] + d.friction * sympy.sign(table.qd[d.coordinate])
+            parts.append(_block("F(v) = (damping and friction)", F, printer))
+    parts += [_block("Y =", sympy.Matrix(steps.efforts), printer),
+              "dynderive check runs this robot's numeric checks (and Pinocchio's, when installed)."]
+    return "\n".join(parts) + "\n"
