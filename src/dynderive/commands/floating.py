@@ -58,9 +58,9 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         raise InputError(refused)
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
     if not (code or any(flags.get(flag) for flag in BUILT)):   # no output flag: print the equations
-        from ..render.terminal import render_floating_terminal
-
         import typer
+
+        from ..render.terminal import render_floating_terminal
 
         typer.echo(render_floating_terminal(derivation, digits), nl=False)
         return
