@@ -238,7 +238,7 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
     path, result = _solve(tmp_path, BOX, "--code")
     assert result.exit_code == 0, result.output
     assert "note: box has a floating base (NQ = 8 coordinates, NV = 7 velocities)" in result.stderr
-    assert "not built yet for floating-base robots (issue 30): the HTML sheet (--html)" in result.stderr
+    assert "not built yet for floating-base robots (issue 30): the MATLAB derivation script" in result.stderr
     assert "friction_forces (damping and Coulomb friction" in result.stderr
     text = (tmp_path / "out" / "box_dynamics.py").read_text()
     assert "root_qw" in text and "NQ = 8" in text and "NV = 7" in text

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing
 import os
 import re
 import sysconfig
@@ -406,7 +407,9 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
         if workers == 1:
             results = [(s, k, _work(str(s), kinds, templates, folder)) for s, k in pending]
         else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
+            # forkserver: fresh workers, never a fork of a process whose threads (JAX's, a
+            # caller's) hold locks; Python 3.14's default on Linux
+            with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("forkserver")) as pool:
                 futures = [(s, k, pool.submit(_work, str(s), kinds, templates, folder)) for s, k in pending]
                 try:
                     results = [(s, k, f.result()) for s, k, f in futures]
