@@ -25,7 +25,7 @@ from dynderive.commands.cli import app
 from dynderive.render.floating_code import render_floating_code
 from dynderive.render.html_floating import FloatingMathFormatter, floating_html_context, render_floating_html
 from test_floating_sheet import FREE, _chain
-from test_html import HOSTILE, PROBE, _chromium, parse
+from test_html import HOSTILE, parse, sizes_in_chromium
 
 from conftest import ROOT, import_code
 
@@ -188,6 +188,20 @@ def test_free_body_mathml_agrees_with_the_module(free):
     assert '<msub><mover accent="true"><mi>v</mi><mo>&#729;</mo></mover><mi>x</mi></msub>' in page
 
 
+def test_damping_is_on_the_page_and_in_the_equations(tmp_path):
+    """A damped joint: F read back from the page equals the module's ``friction_forces``, the
+    EOM (which holds it) its inverse dynamics, and both equations name F."""
+    text = _chain(11, 1).replace("rest: 0.3}", "rest: 0.3, damping: 0.1712345678901234}")
+    _, derivation, page, module = _robot(tmp_path, text, "damped")
+    context, sheet = floating_html_context(derivation), derivation.floating_steps.sheet
+    assert context["F"] is not None and "<mo>+</mo><mi>N</mi><mo>+</mo><mi>F</mi>" in page
+    for q, v, a in _states(derivation, 2):
+        names, values = _symbols(derivation, q, v, a)
+        _close(_value(str(context["F"]), names, values).ravel(), module.friction_forces(v))
+        assert np.count_nonzero(module.friction_forces(v)) == 1
+        _close(_matrix(context["EOM"], page, names, values, sheet.EOM).ravel(), module.inverse_dynamics(q, v, a))
+
+
 def test_same_bytes_from_another_process(free, tmp_path):
     """``solve --html`` in a process with another hash seed writes the page rendered here."""
     path, derivation, page, _ = free
@@ -246,19 +260,8 @@ def test_build_writes_the_page_and_the_refusal_is_gone(free, tmp_path):
 
 @pytest.mark.parametrize("which", ["free", "chain"])
 def test_page_loads_in_chromium(which, request, tmp_path):
-    chromium = _chromium()
     page = request.getfixturevalue(which)[2]
-    probe = tmp_path / "probe.html"
-    probe.write_text(page.replace("</body>", PROBE + "</body>"), encoding="utf-8")
-    run = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0",
-                          "--window-size=1000,1400", f"--user-data-dir={tmp_path / 'profile'}", "--dump-dom",
-                          probe.as_uri()], capture_output=True, text=True, timeout=180)
-    assert run.returncode == 0, run.stderr[-2000:]
-    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
-    assert len(console) == 1 and '"probe-done"' in console[0], console   # the page's own: none
-    found = re.search(r'<pre id="probe-sizes">(.*?)</pre>', run.stdout, re.S)
-    assert found, run.stdout[-500:]
-    sizes = json.loads(found.group(1).replace("&quot;", '"'))
+    sizes = sizes_in_chromium(page, tmp_path)
     assert len(sizes["math"]) == page.count("<math") > 10
     empty = [k for k, (w, h) in enumerate(sizes["math"]) if not (w > 0 and h > 0)]
     assert empty == [], f"{len(empty)} <math> elements without size"

@@ -230,11 +230,10 @@ def _chromium() -> str:
     return found
 
 
-@pytest.mark.parametrize("robot", ALL_ROBOTS)
-def test_page_loads_in_chromium(robot, tmp_path):
+def sizes_in_chromium(page: str, tmp_path) -> dict:
+    """Load ``page`` (with PROBE) in headless Chromium: no console message of its own, and
+    the laid-out sizes of its ``<math>`` and ``<svg>`` elements (``{"math": [[w, h], ...], "svg": ...}``)."""
     chromium = _chromium()
-    page = render_html(derivation_of(robot.rsplit(".", 1)[0]))
-    assert "<script" not in page
     probe = tmp_path / "probe.html"
     probe.write_text(page.replace("</body>", PROBE + "</body>"), encoding="utf-8")
     run = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0",
@@ -246,6 +245,14 @@ def test_page_loads_in_chromium(robot, tmp_path):
     found = re.search(r'<pre id="probe-sizes">(.*?)</pre>', run.stdout, re.S)
     assert found, run.stdout[-500:]
     sizes = json.loads(found.group(1).replace("&quot;", '"'))
+    return sizes
+
+
+@pytest.mark.parametrize("robot", ALL_ROBOTS)
+def test_page_loads_in_chromium(robot, tmp_path):
+    page = render_html(derivation_of(robot.rsplit(".", 1)[0]))
+    assert "<script" not in page
+    sizes = sizes_in_chromium(page, tmp_path)
     assert len(sizes["math"]) == page.count("<math") > 10
     empty = [k for k, (w, h) in enumerate(sizes["math"]) if not (w > 0 and h > 0)]
     assert empty == [], f"{len(empty)} <math> elements without size in {robot}"

@@ -6,9 +6,7 @@ escaped; the page loads in a real browser (skipped locally without chromium, req
 
 from __future__ import annotations
 
-import json
 import re
-import subprocess
 from xml.dom import minidom
 
 import pytest
@@ -18,7 +16,7 @@ from dynderive.render.html import html_context, render_html
 from dynderive.render.html_recursion import MATH_NAMES, meaning_markup
 from dynderive.render.latex import sheet_context
 from dynderive.render.recursion import NAMES
-from test_html import PROBE, _chromium, parse
+from test_html import parse, sizes_in_chromium
 
 from conftest import ROBOTS, derivation_of
 
@@ -109,19 +107,8 @@ def test_robot_file_names_are_escaped(hostile_panda):
 
 
 def test_hostile_page_loads_in_chromium(hostile_panda, tmp_path):
-    chromium = _chromium()
     _, page = hostile_panda
-    probe = tmp_path / "probe.html"
-    probe.write_text(page.replace("</body>", PROBE + "</body>"), encoding="utf-8")
-    run = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0",
-                          "--window-size=1000,1400", f"--user-data-dir={tmp_path / 'profile'}", "--dump-dom",
-                          probe.as_uri()], capture_output=True, text=True, timeout=180)
-    assert run.returncode == 0, run.stderr[-2000:]
-    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
-    assert len(console) == 1 and '"probe-done"' in console[0], console   # the page's own: none
-    found = re.search(r'<pre id="probe-sizes">(.*?)</pre>', run.stdout, re.S)
-    assert found, run.stdout[-500:]
-    sizes = json.loads(found.group(1).replace("&quot;", '"'))
+    sizes = sizes_in_chromium(page, tmp_path)
     assert len(sizes["math"]) == page.count("<math") > 500
     empty = [k for k, (w, h) in enumerate(sizes["math"]) if not (w > 0 and h > 0)]
     assert empty == [], f"{len(empty)} <math> elements without size"

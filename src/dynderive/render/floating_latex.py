@@ -158,7 +158,7 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
         "nq": len(table.q), "nv": len(table.qd), "small": small,
         "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
         "floating_base": robot.floating_base,
-        "multi": [_multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name])
+        "multi": [multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name])
                   for j in robot.joints if j.multi],
         "Y": fmt(sympy.Matrix(steps.efforts)),
         "actuated_multi": any(j.multi and j.effort for j in robot.joints),
@@ -182,16 +182,18 @@ def dissipative_forces(derivation: Derivation) -> sympy.Matrix:
     return F
 
 
-def _multi_joint(joint: Any, fmt: Formatter, table: Any, where_q: dict[str, int], where_v: dict[str, int],
-                 rotation: tuple[sympy.Matrix, sympy.Matrix]) -> dict[str, Any]:
-    """A floating or spherical joint: its quaternion's rotation matrix and configuration rate."""
+def multi_joint(joint: Any, fmt: Any, table: Any, where_q: dict[str, int], where_v: dict[str, int],
+                rotation: tuple[sympy.Matrix, sympy.Matrix], name: Any = escape_tex, absent: Any = "") -> dict[str, Any]:
+    """A floating or spherical joint: its quaternion's rotation matrix and configuration rate,
+    formatted by ``fmt`` (the LaTeX sheet's, or the HTML page's with ``name`` and ``absent``
+    its own: a spherical joint has no position)."""
     start = 3 if joint.type == "floating" else 0
     qi, vi = where_q[joint.name], where_v[joint.name]
     quat = table.q[qi + start:qi + start + 4]
-    return {"name": escape_tex(joint.name), "type": joint.type,
+    return {"name": name(joint.name), "type": joint.type,
             "quaternion": fmt(sympy.Matrix(quat)),
-            "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else "",
-            "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else "",
+            "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else absent,
+            "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else absent,
             "angular": fmt(sympy.Matrix(table.qd[vi + start:vi + start + 3])),
             "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
 

@@ -20,7 +20,14 @@ from ..derivation import Derivation
 from ..mechanics.tidy import is_small
 from ..model.naming import latex_name
 from .environment import render
-from .floating_latex import ENTRY_LIMIT, FLOATING_Q, FLOATING_V, program_listing
+from .floating_latex import (
+    ENTRY_LIMIT,
+    FLOATING_Q,
+    FLOATING_V,
+    dissipative_forces,
+    multi_joint,
+    program_listing,
+)
 from .html import html_unit, value_markup
 from .html_math import MathFormatter, Name, _atom, _Printer, accent, mi, mn, mo, mrow, name_of, sub
 from .latex import entry_index
@@ -149,9 +156,10 @@ def floating_html_context(derivation: Derivation, digits: int | None = None) -> 
         "nq": len(table.q), "nv": len(table.qd), "small": small,
         "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
         "floating_base": robot.floating_base,
-        "multi": [_multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name])
+        "multi": [multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name], str, None)
                   for j in robot.joints if j.multi],
         "Y": fmt(sympy.Matrix(steps.efforts)),
+        "F": fmt(dissipative_forces(derivation)) if robot.dissipative else None,
         "actuated_multi": any(j.multi and j.effort for j in robot.joints),
         "figure": None,
     }
@@ -160,19 +168,6 @@ def floating_html_context(derivation: Derivation, digits: int | None = None) -> 
     else:
         context |= _large_context(groups, outputs, fmt, len(table.qd))
     return context
-
-
-def _multi_joint(joint: Any, fmt: MathFormatter, table: Any, where_q: dict[str, int], where_v: dict[str, int],
-                 rotation: tuple[sympy.Matrix, sympy.Matrix]) -> dict[str, Any]:
-    """A floating or spherical joint: its quaternion's rotation matrix and configuration rate."""
-    start = 3 if joint.type == "floating" else 0
-    qi, vi = where_q[joint.name], where_v[joint.name]
-    quat = table.q[qi + start:qi + start + 4]
-    return {"name": joint.name, "type": joint.type, "quaternion": fmt(sympy.Matrix(quat)),
-            "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else None,
-            "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else None,
-            "angular": fmt(sympy.Matrix(table.qd[vi + start:vi + start + 3])),
-            "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
 
 
 def _small_context(sheet: Any, fmt: MathFormatter) -> dict[str, Any]:

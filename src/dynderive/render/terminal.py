@@ -80,10 +80,9 @@ def render_floating_terminal(derivation: Derivation, digits: int | None = None) 
         parts += [_block("M(q) =", sheet.M, printer), _block("C(q, v) =", sheet.C, printer),
                   _block("N(q) =", sheet.N, printer)]
         if drives:
-            F = sympy.zeros(len(table.qd), 1)
-            for d in drives:
-                F[d.coordinate] = d.damping * table.qd[d.coordinate] + d.friction * sympy.sign(table.qd[d.coordinate])
-            parts.append(_block("F(v) = (damping and friction)", F, printer))
+            from .floating_latex import dissipative_forces
+
+            parts.append(_block("F(v) = (damping and friction)", dissipative_forces(derivation), printer))
     parts += [_block("Y =", sympy.Matrix(steps.efforts), printer),
               "dynderive check runs this robot's numeric checks (and Pinocchio's, when installed)."]
     return "\n".join(parts) + "\n"
