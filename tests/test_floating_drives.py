@@ -168,24 +168,21 @@ def test_jax_and_c_extension_agree_with_numpy(tree, tmp_path):
     qs = random_configurations(derivation.robot, rng, 3)
     vs, us = rng.normal(size=(3, module.NV)), rng.normal(size=(3, len(module.EFFORTS)))
     wrenches = {"tool": rng.normal(size=(3, 6)), "hull": rng.normal(size=6)}
-    for smoothing in (0.0, EPS):
-        expected = {
-            "friction_forces": module.friction_forces(vs, friction_smoothing=smoothing),
-            "forward_dynamics": module.forward_dynamics(qs, vs, us, wrenches, friction_smoothing=smoothing),
-            "inverse_dynamics": module.inverse_dynamics(qs, vs, vs, wrenches, friction_smoothing=smoothing),
-            "regressor": module.regressor(qs, vs, vs, friction_smoothing=smoothing),
-            "linearize": module.linearize(qs[0], vs[0], us[0], friction_smoothing=smoothing)[0],
+    def outputs(target, smoothing: float) -> dict:
+        return {
+            "friction_forces": target.friction_forces(vs, friction_smoothing=smoothing),
+            "forward_dynamics": target.forward_dynamics(qs, vs, us, wrenches, friction_smoothing=smoothing),
+            "inverse_dynamics": target.inverse_dynamics(qs, vs, vs, wrenches, friction_smoothing=smoothing),
+            "regressor": target.regressor(qs, vs, vs, friction_smoothing=smoothing),
+            "linearize": target.linearize(qs[0], vs[0], us[0], friction_smoothing=smoothing)[0],
         }
+
+    for smoothing in (0.0, EPS):
+        expected = outputs(module, smoothing)
         for target in (jx, extension):
             if target is None:
                 continue
-            got = {
-                "friction_forces": target.friction_forces(vs, friction_smoothing=smoothing),
-                "forward_dynamics": target.forward_dynamics(qs, vs, us, wrenches, friction_smoothing=smoothing),
-                "inverse_dynamics": target.inverse_dynamics(qs, vs, vs, wrenches, friction_smoothing=smoothing),
-                "regressor": target.regressor(qs, vs, vs, friction_smoothing=smoothing),
-                "linearize": target.linearize(qs[0], vs[0], us[0], friction_smoothing=smoothing)[0],
-            }
+            got = outputs(target, smoothing)
             for name, value in expected.items():
                 np.testing.assert_allclose(np.asarray(got[name]), value, rtol=1e-12,
                                            atol=1e-12 * max(1.0, np.max(np.abs(value))), err_msg=f"{target}: {name}")
