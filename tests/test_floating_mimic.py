@@ -30,6 +30,8 @@ from dynderive.errors import InputError
 from dynderive.mechanics.floating import offsets
 from dynderive.mechanics.floating_sheet import is_small_floating
 from dynderive.render.floating_code import render_floating_code
+from dynderive.render.floating_latex import coordinate_names
+from dynderive.render.html_floating import coordinate_math_names, render_floating_html
 from dynderive.verify.checks import generated_module
 from dynderive.verify.floating_checks import run_floating_checks
 from test_mimic import ARM, _link
@@ -141,6 +143,18 @@ def test_agrees_with_pinocchio_free_flyer_with_mimic_joints(arm):
         Y = module.regressor(q, v, a)
         np.testing.assert_allclose(Y @ module.parameter_vector(), module.inverse_dynamics(q, v, a), rtol=0, atol=1e-12)
     assert crba_wrong > 1e-3   # why M is read from rnea: Pinocchio 4.1's crba with j3 below j1, j2 between
+
+
+def test_sheets_name_only_the_leaders_coordinates(arm):
+    """The LaTeX sheet and the HTML page of a floating robot with followers: a name for each
+    entry of q, v and vdot (the followers have none), the same symbols on both; the page renders."""
+    _, robot, derivation, _ = arm
+    table = derivation.symbols
+    latex, math = coordinate_names(derivation), coordinate_math_names(derivation)
+    assert set(latex) == set(math) == {*table.q, *table.qd, *table.qdd}
+    assert "j3" not in " ".join(latex.values()) and "\\dot{v}_{x}" in latex.values()
+    page = render_floating_html(derivation)
+    assert page.startswith("<!DOCTYPE html>") and page.count("<math") > 10
 
 
 def test_linearize_along_integrate(arm):

@@ -39,32 +39,41 @@ def _dotted(name: str) -> str:
     return "\\dot{" + head + "}" + ("_" + tail if tail else "")
 
 
-def coordinate_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
-    """LaTeX of every coordinate, velocity and acceleration: a floating joint's
-    ``x, y, z, q_x, q_y, q_z, q_w`` and ``v_x .. omega_z`` (tagged with the joint's name when
-    the robot has several such joints or another symbol would read the same), a spherical
-    joint's quaternion and ``omega``, a scalar joint's as on the fixed-base sheet."""
+def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str | None, str, int]]:
+    """Every coordinate, velocity and acceleration as ``(symbol, text, name, dots)``: a floating
+    or spherical joint's entry has its ``FLOATING_Q``/``FLOATING_V`` text and, as ``name``, the
+    joint's name when it must be tagged (the robot has several such joints, or another symbol
+    would read the same; else ""); a scalar joint's has ``text`` None and its joint's name. The
+    LaTeX sheet and the HTML page each spell these (``coordinate_names``,
+    ``html_floating.coordinate_math_names``)."""
     robot, table = derivation.robot, derivation.symbols
     where_q, where_v = robot.offsets()
     multi = [j for j in robot.joints if j.multi]
     others = {latex_name(str(s)) for s in [*table.parameters.values(), *table.efforts.values()]}
     others |= {latex_name(j.name) for j in robot.joints if j.owns and not j.multi}
     plain = set(FLOATING_Q) | set(FLOATING_V)
-    names: dict[sympy.Symbol, str] = {}
+    entries: list[tuple[sympy.Symbol, str | None, str, int]] = []
     for joint in multi:
-        tag = "" if len(multi) == 1 and not plain & others else "\\mathrm{" + escape_tex(joint.name) + "}"
+        tag = "" if len(multi) == 1 and not plain & others else joint.name
         qs, vs = (FLOATING_Q, FLOATING_V) if joint.type == "floating" else (FLOATING_Q[3:], FLOATING_V[3:])
         qi, vi = where_q[joint.name], where_v[joint.name]
-        for k, text in enumerate(qs):
-            names[table.q[qi + k]] = _tagged(text, tag)
+        entries += [(table.q[qi + k], text, tag, 0) for k, text in enumerate(qs)]
         for k, text in enumerate(vs):
-            names[table.qd[vi + k]] = _tagged(text, tag)
-            names[table.qdd[vi + k]] = _tagged(_dotted(text), tag)
+            entries += [(table.qd[vi + k], text, tag, 0), (table.qdd[vi + k], text, tag, 1)]
     for joint in (j for j in robot.joints if j.owns and not j.multi):
         qi, vi = where_q[joint.name], where_v[joint.name]
-        names |= {table.q[qi]: latex_name(joint.name), table.qd[vi]: latex_name(joint.name, 1),
-                  table.qdd[vi]: latex_name(joint.name, 2)}
-    return names
+        entries += [(table.q[qi], None, joint.name, 0), (table.qd[vi], None, joint.name, 1),
+                    (table.qdd[vi], None, joint.name, 2)]
+    return entries
+
+
+def coordinate_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
+    """LaTeX of every coordinate, velocity and acceleration (``coordinate_entries``): a floating
+    joint's ``x, y, z, q_x, q_y, q_z, q_w`` and ``v_x .. omega_z`` (tagged ``q_{x,\\mathrm{name}}``),
+    a spherical joint's quaternion and ``omega``, a scalar joint's as on the fixed-base sheet."""
+    return {symbol: latex_name(name, dots) if text is None
+            else _tagged(_dotted(text) if dots else text, "\\mathrm{" + escape_tex(name) + "}" if name else "")
+            for symbol, text, name, dots in coordinate_entries(derivation)}
 
 
 class FloatingFormatter(Formatter):

@@ -18,12 +18,10 @@ from markupsafe import Markup
 
 from ..derivation import Derivation
 from ..mechanics.tidy import is_small
-from ..model.naming import latex_name
 from .environment import render
 from .floating_latex import (
     ENTRY_LIMIT,
-    FLOATING_Q,
-    FLOATING_V,
+    coordinate_entries,
     dissipative_forces,
     multi_joint,
     program_listing,
@@ -55,30 +53,10 @@ def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
 
 
 def coordinate_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | Markup]:
-    """MathML names of every coordinate, velocity and acceleration, as the LaTeX sheet's
-    ``floating_latex.coordinate_names``: tagged with the joint's name when the robot has several
-    floating or spherical joints or another symbol would read the same."""
-    robot, table = derivation.robot, derivation.symbols
-    where_q, where_v = robot.offsets()
-    multi = [j for j in robot.joints if j.multi]
-    others = {latex_name(str(s)) for s in [*table.parameters.values(), *table.efforts.values()]}
-    others |= {latex_name(j.name) for j in robot.joints if j.moves and not j.multi}
-    plain = set(FLOATING_Q) | set(FLOATING_V)
-    names: dict[sympy.Symbol, Name | Markup] = {}
-    for joint in multi:
-        tag = "" if len(multi) == 1 and not plain & others else joint.name
-        qs, vs = (FLOATING_Q, FLOATING_V) if joint.type == "floating" else (FLOATING_Q[3:], FLOATING_V[3:])
-        qi, vi = where_q[joint.name], where_v[joint.name]
-        for k, text in enumerate(qs):
-            names[table.q[qi + k]] = _coordinate(text, tag)
-        for k, text in enumerate(vs):
-            names[table.qd[vi + k]] = _coordinate(text, tag)
-            names[table.qdd[vi + k]] = _coordinate(text, tag, 1)
-    for joint in (j for j in robot.joints if j.moves and not j.multi):
-        qi, vi = where_q[joint.name], where_v[joint.name]
-        names |= {table.q[qi]: name_of(joint.name), table.qd[vi]: name_of(joint.name, 1),
-                  table.qdd[vi]: name_of(joint.name, 2)}
-    return names
+    """MathML names of every coordinate, velocity and acceleration, those of the LaTeX sheet
+    (``floating_latex.coordinate_entries``)."""
+    return {symbol: name_of(name, dots) if text is None else _coordinate(text, name, dots)
+            for symbol, text, name, dots in coordinate_entries(derivation)}
 
 
 class FloatingMathFormatter(MathFormatter):
