@@ -21,11 +21,8 @@ BUILT = ("c", "c_extension", "matlab", "jax", "latex", "pdf", "json", "html")
 
 def floating_note(robot: Robot) -> str:
     """The note ``solve`` prints for a floating-base robot: what its module has and what not."""
-    from ..render.floating_code import NOT_BUILT as MISSING
-
     what = ("has a floating base" if robot.floating_base else "has floating joints"
             if any(j.type == "floating" for j in robot.joints) else "has spherical joints")
-    missing = f"{', '.join(MISSING)}, " if MISSING else ""
     return (f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)} coordinates, NV = "
             f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
             "gravity_vector, friction_forces (damping and Coulomb friction of the revolute and prismatic joints), "
@@ -34,7 +31,7 @@ def floating_note(robot: Robot) -> str:
             "difference (check runs its rows), and so have its C (--c), its compiled Python extension (--c-extension), "
             "its MATLAB/Octave package (--matlab; no wrenches, as a fixed-base robot's) and its JAX module (--jax), "
             "its sheet (--latex, --pdf, --html) and JSON dump (--json); not built yet for floating-base robots "
-            f"(issue 30): {missing}the MATLAB derivation script (simulate integrates its module on the manifold, "
+            "(issue 30): the MATLAB derivation script (simulate integrates its module on the manifold, "
             "--force included; linearize and identify use it too)")
 
 

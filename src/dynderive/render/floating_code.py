@@ -5,13 +5,10 @@ from the programs of ``mechanics/floating.py`` and ``floating_derivatives.py``, 
 conventions; also the module of a fixed-base robot with spherical joints), with the fixed-base
 module's ``friction_forces`` (damping and Coulomb friction of the scalar joints, zero on the
 floating and spherical joints' rows) and ``wrenches=`` (``sum J_f^T w_f`` over frames, world
-axes, moment about the frame's origin) in ``inverse_dynamics`` and ``forward_dynamics``. What
-the module of a fixed-base robot has beyond these is not built yet for floating-base robots
-and is left out (``NOT_BUILT``), never stubbed."""
+axes, moment about the frame's origin) in ``inverse_dynamics`` and ``forward_dynamics``."""
 
 from __future__ import annotations
 
-import textwrap
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -26,8 +23,6 @@ from .python_module import render_module, render_test_module
 TEMPLATE = "floating_dynamics.py.j2"
 TEST_TEMPLATE = "floating_dynamics_test.py.j2"
 
-#: What the module of a fixed-base robot offers and a floating-base robot's does not, yet.
-NOT_BUILT: tuple[str, ...] = ()
 
 
 def floating_context(derivation: Derivation) -> dict[str, Any]:
@@ -112,8 +107,6 @@ def floating_context(derivation: Derivation) -> dict[str, Any]:
         "dissipative": robot.dissipative,
         "forward_extra": bool(programs["forward_dynamics"].extra_inputs),
         "regressor_sign": bool(programs["regressor"].extra_inputs),
-        "not_built": textwrap.fill("Not built yet for floating-base robots (issue 30): " + ", ".join(NOT_BUILT) + ".",
-                                   width=96, break_on_hyphens=False) if NOT_BUILT else "",
     }
 
 

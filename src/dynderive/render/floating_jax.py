@@ -33,7 +33,6 @@ def floating_jax_context(derivation: Derivation) -> dict[str, Any]:
     context["body_functions"] = {p.name: tuple(p.functions) + (("_hold",) if context["holds"][p.name] else ())
                                  for p in context["programs"]}
     context["module"] = f"{derivation.robot.name}_dynamics_jax"
-    context["not_built_lines"] = context["not_built"].splitlines()   # one docstring line each
     return context
 
 
