@@ -264,6 +264,12 @@ def test_printing_and_other_commands(tmp_path):
         assert f"\n{block}\n" in result.stdout
     assert "0.27123⋅qd₂" in result.stdout and "τ₂" in result.stdout
     assert not (tmp_path / "out").exists()
+    from test_floating_sheet import _chain  # a larger robot: where its programs are written instead
+
+    path, result = _solve(tmp_path, _chain(8, 3))
+    assert result.exit_code == 0, result.output
+    assert "M, C and N are computed by recursive algorithms" in result.stdout and "\nM(q) =" not in result.stdout
+    assert not (tmp_path / "out").exists()
     for command in (["linearize", "-q"], ["identify", "-q"]):   # built: tests/test_floating_commands.py
         result = runner.invoke(app, [*command, str(path)])
         assert result.exit_code == 0, (command, result.output)

@@ -71,9 +71,8 @@ def render_floating_terminal(derivation: Derivation, digits: int | None = None) 
     equation = "M(q) v' + C(q, v) v + N(q)" + (" + F(v)" if drives else "") + " = Y"
     parts = [head, "", f"Equations of motion  {equation}  (v: the velocities; q' = Q(q) v, the quaternions' rate)", ""]
     if steps.sheet is None:
-        lines = sum(len(p.lines) for p in derivation.programs.values())
-        parts += [f"This robot's M, C and N are computed by recursive algorithms ({lines} lines of intermediate "
-                  "variables in its programs), too large to print: --latex, --pdf or --html show them line by line, "
+        parts += ["This robot's M, C and N are computed by recursive algorithms (programs of intermediate "
+                  "variables), too large to print: --latex, --pdf or --html show them line by line, "
                   "--json holds them, --code writes its module.", ""]
     else:
         sheet = steps.sheet
