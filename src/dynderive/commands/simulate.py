@@ -118,6 +118,13 @@ def default_initial(derivation: Derivation) -> np.ndarray:
     return np.array([0.5 if kinds[name] == "revolute" else 0.2 for name in derivation.robot.coordinates])
 
 
+def friction_hint(robot: Any, friction_smoothing: float) -> str:
+    """What the integrator's note adds when it struggles on a robot with exact Coulomb friction."""
+    friction = any(j.friction is not None for j in robot.joints if j.moves)
+    return ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"
+            if friction and friction_smoothing == 0 else "")
+
+
 def progress_ticker(duration: float, progress: Callable[[str], None]) -> Callable[[float], None]:
     """A right-hand side's clock: reports "simulated 10 % ..." each tenth of ``duration`` once."""
     reported = [-1]
@@ -150,9 +157,7 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     n = len(q0)
     tick = progress_ticker(duration, progress)
 
-    friction = any(j.friction is not None for j in derivation.robot.joints if j.moves)
-    hint = ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"
-            if friction and friction_smoothing == 0 and not maximal else "")
+    hint = "" if maximal else friction_hint(derivation.robot, friction_smoothing)
     if derivation.robot.loops and not maximal:
         return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
                                frames, tick, friction_smoothing, wrenches, method, note, hint, fast)

@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..verify.checks import generated_module
 from .integrate import DEFAULT_METHOD, Integrator
 from .options import problem, vector
-from .simulate import Trajectory, _finite_start, progress_ticker
+from .simulate import Trajectory, _finite_start, friction_hint, progress_ticker
 
 #: How far from unit a quaternion of ``--q0`` may be (then normalized): four decimals typed.
 QUATERNION_TOLERANCE = 1e-3
@@ -94,9 +94,7 @@ def simulate_floating(derivation: Derivation, source: str, duration: float, q0: 
     nq, nv = len(q0), len(v0)
     tick = progress_ticker(duration, progress)
     dissipative = robot.dissipative
-    friction = any(j.friction is not None for j in robot.joints if j.moves)
-    hint = "Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3" \
-        if friction and friction_smoothing == 0 else ""
+    hint = friction_hint(robot, friction_smoothing)
 
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)
