@@ -255,16 +255,19 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
 def test_printing_and_other_commands(tmp_path):
     """``solve`` with no output flag prints a small robot's equations (the floating sheet's
     M, C, N and Y, tested against the module in test_floating_sheet.py); nothing is written."""
-    path, result = _solve(tmp_path, BOX.replace("effort: tau2}", "effort: tau2, damping: 0.27123}"))
+    from test_floating_sheet import _chain  # full-precision numbers, generic axes, full inertias
+
+    text = _chain(13, 1, title="'A floating arm <b>&amp;'").replace("rest: 0.3}", "rest: 0.3, damping: 0.27123}")
+    path, result = _solve(tmp_path, text)
     assert result.exit_code == 0, result.output
-    assert result.stdout.startswith("A free box with an arm (box): NQ = 8 coordinates (root_x, root_y, root_z, "
-                                    "root_qx, root_qy, root_qz, root_qw, q2), NV = 7 velocities")
+    assert result.stdout.startswith("A floating arm <b>&amp; (chain13): NQ = 8 coordinates (root_x, root_y, "
+                                    "root_z, root_qx, root_qy, root_qz, root_qw, q1), NV = 7 velocities")
     assert "M(q) v' + C(q, v) v + N(q) + F(v) = Y" in result.stdout
     for block in ("M(q) =", "C(q, v) =", "N(q) =", "F(v) = (damping and friction)", "Y ="):
         assert f"\n{block}\n" in result.stdout
-    assert "0.27123⋅qd₂" in result.stdout and "τ₂" in result.stdout
+    assert "0.27123⋅qd₁" in result.stdout and "u₁" in result.stdout
     assert not (tmp_path / "out").exists()
-    from test_floating_sheet import _chain  # a larger robot: where its programs are written instead
+    # a larger robot: where its programs are written instead
 
     path, result = _solve(tmp_path, _chain(8, 3))
     assert result.exit_code == 0, result.output

@@ -271,16 +271,19 @@ def test_simulate_with_the_c_backend_follows_the_numpy_run(tmp_path, monkeypatch
             return call
 
     monkeypatch.setattr(compile_command, "compiled_module", lambda *a, **k: Counted(build(*a, **k)))
-    text = BOX.replace("effort: tau2}", "effort: tau2, damping: 0.0712345678901234, friction: 0.0312345678901234}") \
-        + "frames:\n  - {name: tip, link: arm, origin: {xyz: [0.3, 0.01, -0.02]}}\n"
-    path = tmp_path / "box.yaml"
+    from test_floating_sheet import _chain  # full-precision numbers, generic axes, full inertias
+
+    text = _chain(12, 2).replace("effort: u2}", "effort: u2, damping: 0.0712345678901234, friction: 0.0312345678901234}") \
+        + "frames:\n  - {name: tip, link: l2, origin: {xyz: [0.3123456789012345, 0.0123456789012345, -0.0234567890123456]}}\n"
+    assert "damping: 0.0712345678901234" in text
+    path = tmp_path / "chain.yaml"
     path.write_text(text)
     runs = {}
     for backend in ("numpy", "c"):
         csv = tmp_path / f"{backend}.csv"
         result = runner.invoke(app, ["simulate", str(path), "--backend", backend, "--duration", "0.4", "--frames", "5",
-                                     "--effort", "tau2=0.3*sin(3*t)", "--force", "tip=0.5,0,1.5*t,0,0.1,0",
-                                     "--friction-smoothing", "0.01", "--qd0", "0.1,0,0.2,0.3,-0.2,0.1,1.0",
+                                     "--effort", "u2=0.3*sin(3*t)", "--force", "tip=0.5,0,1.5*t,0,0.1,0",
+                                     "--friction-smoothing", "0.01", "--qd0", "0.1,0,0.2,0.3,-0.2,0.1,1.0,-0.4",
                                      "--csv", str(csv), "-q"])
         assert result.exit_code == 0, result.output + result.stderr
         lines = csv.read_text().splitlines()
