@@ -84,7 +84,8 @@ def measure(robot: str, batch: int) -> dict:
 def measure_outputs(robot: str) -> dict:
     """In a fresh subprocess (no cache warmed by the `--code` run): every output,
     ``--latex --code --json``, from loading the file to the last rendered string (wall and
-    CPU seconds: on a shared machine the CPU time is the steadier figure)."""
+    CPU seconds: on a shared machine the CPU time is the steadier figure), with the command
+    line's SymPy cache (``main``)."""
     import dynderive
     from dynderive.render.json import render_json
 
@@ -180,6 +181,13 @@ def main() -> None:
     parser.add_argument("--kane", help=argparse.SUPPRESS)
     parser.add_argument("--outputs", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.measure or args.outputs:   # a child measures what the command line runs: its SymPy cache
+        try:
+            from dynderive.__main__ import use_command_line_sympy_cache
+        except ImportError:   # an earlier dynderive (--baseline) left SymPy's default
+            pass
+        else:
+            use_command_line_sympy_cache()
     if args.measure:
         print(json.dumps(measure(args.measure, args.batch)))
         return

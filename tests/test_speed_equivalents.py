@@ -170,3 +170,24 @@ def test_fold_constants_equals_the_free_symbols_fold(seed):
         assert tidy_module.fold_constants(e) == expected, e
         folded += expected != e
     assert folded > len(exprs)
+
+
+def _cache_size(prelude: str, **environment: str) -> str:
+    import os
+    import subprocess
+    import sys
+
+    code = (f"{prelude}import dynderive.__main__ as m; m.use_command_line_sympy_cache(); "
+            "import sympy.core.cache as c; print(c.SYMPY_CACHE_SIZE)")
+    env = {k: v for k, v in os.environ.items() if k != "SYMPY_CACHE_SIZE"} | environment
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.strip()
+
+
+def test_the_command_line_gives_sympy_a_larger_cache_unless_told_otherwise():
+    """The command line's SymPy cache (``__main__.SYMPY_CACHE_SIZE``) is set before SymPy is
+    imported; a user's ``SYMPY_CACHE_SIZE`` wins, and a SymPy imported before keeps its own."""
+    from dynderive.__main__ import SYMPY_CACHE_SIZE
+
+    assert _cache_size("") == SYMPY_CACHE_SIZE != "1000"
+    assert _cache_size("", SYMPY_CACHE_SIZE="500") == "500"
+    assert _cache_size("import sympy; ") == "1000"
