@@ -240,30 +240,33 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
     Reuse keeps the live arrays few (a batch chunk stays in cache); the same body then runs
     on floats for one state.
     """
-    needed = set().union(*(sympy.sympify(e).free_symbols for e in program.outputs))
+    # each line's names, found once (SymPy walks the whole tree for every free_symbols)
+    output_names = [sympy.sympify(e).free_symbols for e in program.outputs]
+    needed = set().union(*output_names)
     kept = []
     for target, expr in reversed(program.lines):   # drop values nothing reads
         if target in needed:
-            kept.append((target, expr))
-            needed |= expr.free_symbols
+            names = expr.free_symbols
+            kept.append((target, expr, names))
+            needed |= names
     body = kept[::-1]
     last_use: dict[sympy.Symbol, int] = {}
-    for position, (_, expr) in enumerate(body):
-        for symbol in expr.free_symbols:
+    for position, (_, _, names) in enumerate(body):
+        for symbol in names:
             last_use[symbol] = position
     end = len(body)
-    for expr in program.outputs:
-        for symbol in sympy.sympify(expr).free_symbols:
+    for names in output_names:
+        for symbol in names:
             last_use[symbol] = end
-    targets = {target for target, _ in body}
+    targets = {target for target, _, _ in body}
     slot: dict[sympy.Symbol, str] = {}
     printer = _ProgramPrinter(slot)
     free: list[str] = []
     count = 0
     lines = []
-    for position, (target, expr) in enumerate(body):
+    for position, (target, expr, names) in enumerate(body):
         text = Code(printer(fold_constants(expr, rationals=False)))
-        for symbol in sorted(expr.free_symbols & targets, key=str):
+        for symbol in sorted(names & targets, key=lambda s: s.name):
             if last_use[symbol] == position:
                 free.append(slot[symbol])
         if free:
@@ -273,7 +276,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             count += 1
         lines.append((slot[target], text))
     outputs = [Code(printer(fold_constants(e, rationals=False))) for e in program.outputs]
-    operations = sum(operation_count(e) for _, e in body) + operation_count(sympy.Matrix(program.outputs))
+    operations = sum(operation_count(e) for _, e, _ in body) + operation_count(sympy.Matrix(program.outputs))
     used = {m.group(1) for text in [*(t for _, t in lines), *outputs] for m in _CALL.finditer(text)}
     functions = tuple(f for f in BODY_FUNCTIONS if f in used)
     return ProgramFunction(name, Code(doc), arguments, lines, outputs, operations, functions)
