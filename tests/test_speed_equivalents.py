@@ -173,12 +173,12 @@ def test_fold_constants_equals_the_free_symbols_fold(seed):
 
 
 def _cache_size(prelude: str, **environment: str) -> str:
+    """SymPy's cache size in a fresh interpreter that runs ``prelude`` first."""
     import os
     import subprocess
     import sys
 
-    code = (f"{prelude}import dynderive.__main__ as m; m.use_command_line_sympy_cache(); "
-            "import sympy.core.cache as c; print(c.SYMPY_CACHE_SIZE)")
+    code = f"{prelude}import sympy.core.cache as c; print(c.SYMPY_CACHE_SIZE)"
     env = {k: v for k, v in os.environ.items() if k != "SYMPY_CACHE_SIZE"} | environment
     return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.strip()
 
@@ -188,6 +188,8 @@ def test_the_command_line_gives_sympy_a_larger_cache_unless_told_otherwise():
     imported; a user's ``SYMPY_CACHE_SIZE`` wins, and a SymPy imported before keeps its own."""
     from dynderive.__main__ import SYMPY_CACHE_SIZE
 
-    assert _cache_size("") == SYMPY_CACHE_SIZE != "1000"
-    assert _cache_size("", SYMPY_CACHE_SIZE="500") == "500"
-    assert _cache_size("import sympy; ") == "1000"
+    ours = "import dynderive.__main__ as m; m.use_command_line_sympy_cache(); "
+    default = _cache_size("")
+    assert _cache_size(ours) == SYMPY_CACHE_SIZE != default
+    assert _cache_size(ours, SYMPY_CACHE_SIZE="500") == "500"
+    assert _cache_size("import sympy; " + ours) == default

@@ -18,8 +18,8 @@ from .errors import Interrupted
 
 #: Results SymPy keeps per cached function (its default: 1000). A derivation asks for the same
 #: products, sums and powers again across Lagrange's equations, the checks and the printers, and
-#: 1000 is too few to keep them: 16384 takes about 5-10 % off a small robot's run, for a few MB
-#: (docs/development/benchmarks.md). SymPy reads it once, when it is imported.
+#: 1000 is too few to keep them: 16384 takes a few per cent off a run (about 5 % on the Panda),
+#: for a few MB (docs/development/benchmarks.md). SymPy reads it once, when it is imported.
 SYMPY_CACHE_SIZE = "16384"
 
 #: Set once the command has finished (or been interrupted): a signal after it changes nothing.
