@@ -34,7 +34,7 @@ from dynderive.render.floating_latex import coordinate_names
 from dynderive.render.html_floating import coordinate_math_names, render_floating_html
 from dynderive.verify.checks import generated_module
 from dynderive.verify.floating_checks import run_floating_checks
-from test_mimic import ARM, _link
+from test_mimic import ARM, _link, frame_agrees_with_pinocchio
 
 from random_robots3d import _random_axis, _random_inertia
 
@@ -94,7 +94,6 @@ def test_agrees_with_pinocchio_free_flyer_with_mimic_joints(arm):
     data = model.createData()
     rng = np.random.default_rng(30)
     pin.seed(30)
-    fid = model.getFrameId("tool")
     crba_wrong = 0.0
     for _ in range(3):
         q, q1 = (np.empty(10) for _ in range(2))
@@ -129,17 +128,7 @@ def test_agrees_with_pinocchio_free_flyer_with_mimic_joints(arm):
         assert module.kinetic_energy(q, v) == pytest.approx(0.5 * vv @ M @ vv, rel=1e-12)
         np.testing.assert_allclose(module.integrate(q, v, 0.37)[qp], pin.integrate(model, qq, 0.37 * vv), atol=1e-12)
         np.testing.assert_allclose(module.difference(q, q1)[vp], pin.difference(model, qq, q1[qp]), atol=1e-9)
-        pin.forwardKinematics(model, data, qq, vv, np.zeros(9))
-        pin.computeJointJacobians(model, data, qq)
-        pin.updateFramePlacements(model, data)
-        T = module.frame_transform(q, "tool")
-        np.testing.assert_allclose(T[:3, :3], data.oMf[fid].rotation, rtol=0, atol=1e-12)
-        np.testing.assert_allclose(T[:3, 3], data.oMf[fid].translation, rtol=0, atol=1e-12)
-        J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-        np.testing.assert_allclose(module.frame_jacobian(q, "tool")[:, vp], J, rtol=0, atol=1e-12)
-        acc = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-        np.testing.assert_allclose(module.frame_jacobian_dot_qd(q, v, "tool"), np.concatenate([acc.linear, acc.angular]),
-                                   rtol=0, atol=1e-11)
+        frame_agrees_with_pinocchio(module, model, data, "tool", (q, v), (qq, vv), vp)
         Y = module.regressor(q, v, a)
         np.testing.assert_allclose(Y @ module.parameter_vector(), module.inverse_dynamics(q, v, a), rtol=0, atol=1e-12)
     assert crba_wrong > 1e-3   # why M is read from rnea: Pinocchio 4.1's crba with j3 below j1, j2 between

@@ -225,20 +225,29 @@ def test_frames_agree_with_pinocchio(arm):
     assert module.FRAMES == ("tool",)
     model, order = _pinocchio(path, robot)
     data = model.createData()
-    fid = model.getFrameId("tool")
     for q, qd in np.random.default_rng(32).uniform(-1.5, 1.5, (4, 2, 3)):
-        qp, vp = _ours(order, q), _ours(order, qd)
-        pin.forwardKinematics(model, data, qp, vp, np.zeros(3))
-        pin.computeJointJacobians(model, data, qp)
-        pin.updateFramePlacements(model, data)
-        T = module.frame_transform(q, "tool")
-        np.testing.assert_allclose(T[:3, :3], data.oMf[fid].rotation, rtol=0, atol=1e-12)
-        np.testing.assert_allclose(T[:3, 3], data.oMf[fid].translation, rtol=0, atol=1e-12)
-        J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-        np.testing.assert_allclose(module.frame_jacobian(q, "tool")[:, np.argsort(order)], J, rtol=0, atol=1e-12)
-        a = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-        np.testing.assert_allclose(module.frame_jacobian_dot_qd(q, qd, "tool"), np.concatenate([a.linear, a.angular]),
-                                   rtol=0, atol=1e-11)
+        frame_agrees_with_pinocchio(module, model, data, "tool", (q, qd), (_ours(order, q), _ours(order, qd)),
+                                    np.argsort(order))
+
+
+def frame_agrees_with_pinocchio(module, model, data, frame: str, state: tuple, pinocchio_state: tuple,
+                                columns) -> None:
+    """``frame``'s placement, LOCAL_WORLD_ALIGNED Jacobian (``columns``: our velocity columns in
+    Pinocchio's order) and classical acceleration at ``state`` (q, qd), Pinocchio's at
+    ``pinocchio_state`` (the same state in its order)."""
+    q, qd = state
+    fid = model.getFrameId(frame)
+    pin.forwardKinematics(model, data, *pinocchio_state, np.zeros(model.nv))
+    pin.computeJointJacobians(model, data, pinocchio_state[0])
+    pin.updateFramePlacements(model, data)
+    T = module.frame_transform(q, frame)
+    np.testing.assert_allclose(T[:3, :3], data.oMf[fid].rotation, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(T[:3, 3], data.oMf[fid].translation, rtol=0, atol=1e-12)
+    J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+    np.testing.assert_allclose(module.frame_jacobian(q, frame)[:, columns], J, rtol=0, atol=1e-12)
+    a = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+    np.testing.assert_allclose(module.frame_jacobian_dot_qd(q, qd, frame), np.concatenate([a.linear, a.angular]),
+                               rtol=0, atol=1e-11)
 
 
 def _quantities_agree_with_module(derivation, module, seed: int, frames: tuple[str, ...] = ()) -> None:
