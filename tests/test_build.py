@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -273,3 +274,36 @@ def test_build_c_extension_compiles_imports_and_is_tracked(robots, tmp_path, mon
     refused = _build(robots, "--out", tmp_path / "other", "--c-extension")
     assert refused.exit_code == 2 and "--c-extension:1:1:" in refused.output
     assert not (tmp_path / "other").exists()
+
+
+def _apt_packages(text: str) -> set[str]:
+    """The packages of every ``apt-get install`` in a shell script or a Markdown page's code
+    span (continued lines joined; options and redirections left out)."""
+    packages: set[str] = set()
+    joined = re.sub(r"\\\n", " ", text)
+    for command in re.findall(r"apt-get install\b([^`;&|>]*)", joined):
+        if "`" not in joined:   # a script: the command ends with its line
+            command = command.split("\n")[0]
+        packages |= {word for word in command.split() if not word.startswith("-")}
+    return packages
+
+
+def _tex(packages: set[str]) -> set[str]:
+    return {p for p in packages if p == "latexmk" or p.startswith("texlive-")}
+
+
+def test_the_sample_workflow_installs_the_tex_that_ci_and_the_install_guide_install():
+    """The sample CI workflow, ``.ci/run``, docs/install.md and the missing-TeX message name
+    the same TeX packages (TikZ's ``texlive-pictures`` among them: every sheet draws);
+    ``.ci/run`` and docs/install.md both install Chromium for the HTML tests."""
+    import yaml
+
+    from dynderive.render.pdf import TEX_PACKAGES
+
+    workflow = yaml.safe_load((ROOT / "examples" / "ci" / "regenerate-sheets.yml").read_text())
+    steps = "\n".join(step.get("run", "") for job in workflow["jobs"].values() for step in job["steps"])
+    ci = _apt_packages((ROOT / ".ci" / "run").read_text())
+    install = _apt_packages((ROOT / "docs" / "install.md").read_text())
+    assert "texlive-pictures" in _tex(ci)
+    assert _tex(_apt_packages(steps)) == _tex(ci) == _tex(install) == set(TEX_PACKAGES.split())
+    assert "chromium" in ci and ci == install   # docs/install.md lists what .ci/run installs

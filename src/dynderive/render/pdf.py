@@ -14,6 +14,9 @@ from ..errors import LatexError, ToolMissingError
 
 #: Fixed date for reproducible PDFs (2000-01-01T00:00:00Z).
 SOURCE_DATE_EPOCH = "946684800"
+#: The Debian/Ubuntu packages of the TeX that ``--pdf`` needs (TikZ: texlive-pictures); the
+#: sample CI workflow, ``.ci/run`` and docs/install.md install the same (a test checks).
+TEX_PACKAGES = "latexmk texlive-latex-base texlive-latex-recommended texlive-fonts-recommended texlive-pictures"
 
 
 def latex_engine_available() -> bool:
@@ -39,9 +42,8 @@ def compile_pdf_report(tex: str, jobname: str = "sheet", timeout: float = 300) -
     pdflatex's last pass logged (``build`` reports them)."""
     if not latex_engine_available():
         raise ToolMissingError(
-            "--pdf needs latexmk and pdflatex, which are not installed (Debian/Ubuntu: "
-            "apt-get install latexmk texlive-latex-base texlive-latex-recommended "
-            "texlive-fonts-recommended texlive-pictures); --latex alone writes the .tex file")
+            f"--pdf needs latexmk and pdflatex, which are not installed (Debian/Ubuntu: "
+            f"apt-get install {TEX_PACKAGES}); --latex alone writes the .tex file")
     if "\\usepackage{tikz}" in tex and not tikz_available():
         raise ToolMissingError(
             "--pdf: the sheet's drawing needs TikZ, which TeX does not find (Debian/Ubuntu: apt-get install "
