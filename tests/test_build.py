@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -307,3 +308,154 @@ def test_the_sample_workflow_installs_the_tex_that_ci_and_the_install_guide_inst
     assert "texlive-pictures" in _tex(ci)
     assert _tex(_apt_packages(steps)) == _tex(ci) == _tex(install) == set(TEX_PACKAGES.split())
     assert "chromium" in ci and ci == install   # docs/install.md lists what .ci/run installs
+
+
+# ---- the outputs of a robot agree after every run ---------------------------------------------
+
+@pytest.fixture()
+def fake_latex(monkeypatch):
+    """LaTeX replaced by a switch: ``fake_latex["fail"] = True`` makes every sheet fail, as
+    a sheet TeX rejects does (no TeX needed; build runs in this process with -j 1)."""
+    from dynderive.errors import LatexError
+    from dynderive.render import pdf
+
+    state = {"fail": False}
+
+    def compile_pdf_report(tex, jobname="sheet", timeout=300):
+        if state["fail"]:
+            raise LatexError("Double subscript. (line 3)", "! Double subscript.\nl.3 $x_1_\n")
+        return b"%PDF-1.5 " + hashlib.sha256(tex.encode()).hexdigest().encode(), 2, []
+
+    monkeypatch.setattr(pdf, "compile_pdf_report", compile_pdf_report)
+    return state
+
+
+def test_a_failed_pdf_removes_the_older_pdf_and_a_built_one_the_failures_log(robots, tmp_path, fake_latex):
+    out = tmp_path / "out"
+    args = (robots, "--out", out, "--latex", "--pdf", "--code", "-j", "1")
+    assert _build(*args).exit_code == 0
+    assert (out / "rp_arm.pdf").is_file() and not (out / "rp_arm.log").exists()
+    # the robot changes and LaTeX fails: the new .tex is written, the older PDF removed (said so)
+    path = robots / "rp_arm.yaml"
+    path.write_text(path.read_text().replace("title: Two-link RP arm", "title: An RP arm"))
+    fake_latex["fail"] = True
+    failed = _build(*args)
+    assert failed.exit_code == 1
+    assert "1 up to date, 1 failed" in failed.stdout
+    assert (f"{path}: LaTeX failed to compile {out / 'rp_arm.tex'}: Double subscript. (line 3); the log is "
+            f"{out / 'rp_arm.log'}; {out / 'rp_arm.pdf'} from an earlier run was removed (it would not match "
+            "the new sheet)") in failed.stderr
+    assert "An RP arm" in (out / "rp_arm.tex").read_text()
+    assert not (out / "rp_arm.pdf").exists() and (out / "rp_arm.log").is_file()
+    assert (out / "cart_pole.pdf").is_file()   # the robot that was up to date keeps its PDF
+    # LaTeX works again: the PDF is built and the failure's log removed
+    fake_latex["fail"] = False
+    again = _build(*args)
+    assert again.exit_code == 0 and "1 built, 1 up to date" in again.stdout, again.output
+    assert (out / "rp_arm.pdf").is_file() and not (out / "rp_arm.log").exists()
+    # a log left beside current outputs (by hand, or a solve) is what --check reports, and a build removes
+    (out / "rp_arm.log").write_text("left over\n")
+    check = _build(*args, "--check")
+    assert check.exit_code == 1
+    assert f"{out / 'rp_arm.log'}: the log of a failed build (a build removes it)" in check.stdout
+    assert "1 current, 1 differs" in check.stdout
+
+
+def test_solve_pdf_follows_the_same_rule(tmp_path, fake_latex):
+    out = tmp_path / "out"
+    args = ["solve", "rp_arm", "--latex", "--pdf", "--out", str(out)]
+    assert runner.invoke(app, args).exit_code == 0
+    fake_latex["fail"] = True
+    failed = runner.invoke(app, args)
+    assert failed.exit_code == 1
+    assert sorted(p.name for p in out.iterdir()) == ["rp_arm.log", "rp_arm.tex"]
+    assert f"removed {out / 'rp_arm.pdf'}" in failed.stderr
+    assert failed.stderr.strip().splitlines()[-1].endswith(
+        f"the log is {out / 'rp_arm.log'}; {out / 'rp_arm.pdf'} from an earlier run was removed "
+        "(it would not match the new sheet)")
+    fake_latex["fail"] = False
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0 and f"removed {out / 'rp_arm.log'}" in result.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["rp_arm.pdf", "rp_arm.tex"]
+
+
+def test_missing_tikz_names_each_robot_and_writes_its_other_outputs(robots, tmp_path, monkeypatch):
+    from dynderive.render import pdf
+
+    monkeypatch.setattr(pdf, "latex_engine_available", lambda: True)
+    monkeypatch.setattr(pdf, "tikz_available", lambda: False)
+    out = tmp_path / "out"
+    result = _build(robots, "--out", out, "--pdf", "--code", "-j", "1")
+    assert result.exit_code == 1 and "2 failed" in result.stdout
+    for name in ("cart_pole", "rp_arm"):
+        assert (f"{robots / (name + '.yaml')}: {out / (name + '.pdf')} skipped: --pdf: the sheet's drawing needs "
+                "TikZ") in result.stderr
+        assert (out / f"{name}_dynamics.py").is_file()
+    assert not list(out.glob("*.pdf"))
+
+
+def test_orphaned_outputs_are_reported_checked_and_pruned(robots, tmp_path):
+    out = tmp_path / "out"
+    assert _build(robots, "--out", out, "--latex", "--code", "--matlab", "-j", "1").exit_code == 0
+    again = _build(robots, "--out", out, "--latex", "--code", "--matlab", "-j", "1")
+    assert "2 up to date" in again.stdout, again.output   # MATLAB's +<name>/ files are recorded
+    # a renamed robot file (same robot name) owns its outputs: nothing is orphaned
+    (robots / "rp_arm.yaml").rename(robots / "arm.yaml")
+    renamed = _build(robots, "--out", out, "--latex", "--code", "--matlab", "-j", "1")
+    assert renamed.exit_code == 0 and "orphaned" not in renamed.stdout.split() and not renamed.stderr
+    # a deleted robot file: its outputs are reported by build, fail --check, and --prune removes them
+    (robots / "cart_pole.yaml").unlink()
+    orphans = [out / "cart_pole.tex", out / "cart_pole_dynamics.py", out / "cart_pole_derivation.m",
+               out / "+cart_pole" / "parameters.m"]
+    result = _build(robots, "--out", out, "--latex", "--code", "--matlab", "-j", "1")
+    assert result.exit_code == 0, result.output
+    assert "1 up to date, 1 orphaned" in result.stdout
+    row = next(line.split() for line in result.stdout.splitlines() if line.split()[1:2] == ["orphaned"])
+    assert row == [os.path.relpath(robots / "cart_pole.yaml"), "orphaned", "-"]   # the robot file, as from here
+    for path in orphans:
+        assert f"  {path}: orphaned" in result.stdout
+    assert f"build --prune --out {out} removes them" in result.stderr
+    for extra in ((), ("--check",)):   # the record stays: a later run reports them again
+        check = _build(robots, "--out", out, "--latex", "--code", "--matlab", "-j", "1", *extra)
+        assert f"{out / 'cart_pole.tex'}: orphaned" in check.stdout
+        assert check.exit_code == (1 if extra else 0)
+    refused = _build(robots, "--out", out, "--check", "--prune")
+    assert refused.exit_code == 2 and refused.output.startswith("--prune:1:1: ")
+    pruned = _build(robots, "--out", out, "--latex", "--code", "--matlab", "-j", "1", "--prune")
+    assert pruned.exit_code == 0 and "1 up to date, 1 pruned" in pruned.stdout, pruned.output
+    assert f"  {out / 'cart_pole.tex'}: removed" in pruned.stdout
+    assert not any(path.exists() for path in orphans) and not (out / "+cart_pole").exists()
+    assert (out / "rp_arm.tex").is_file() and (out / "+rp_arm" / "parameters.m").is_file()
+    records = json.loads((out / ".dynderive-build.json").read_text())["robots"]
+    assert list(records) == ["../robots/arm.yaml"]
+    check = _build(robots, "--out", out, "--latex", "--code", "--matlab", "--check")
+    assert check.exit_code == 0 and "1 current" in check.stdout and "orphaned" not in check.stdout.split()
+
+
+def test_a_record_cannot_make_prune_remove_a_file_outside_the_output_folder(robots, tmp_path):
+    out = tmp_path / "out"
+    assert _build(robots, "--out", out, "--code", "-j", "1").exit_code == 0
+    keep = tmp_path / "keep.txt"
+    keep.write_text("mine\n")
+    manifest = out / ".dynderive-build.json"
+    document = json.loads(manifest.read_text())
+    document["robots"]["../robots/gone.yaml"] = {"key": "x", "outputs": {"../keep.txt": "0" * 64}}
+    manifest.write_text(json.dumps(document))
+    result = _build(robots, "--out", out, "--code", "-j", "1", "--prune")
+    assert result.exit_code == 0 and "malformed" in result.stderr and "pruned" not in result.stdout
+    assert keep.read_text() == "mine\n"
+
+
+def test_write_all_removes_nothing_when_a_write_fails(tmp_path):
+    from dynderive.commands.output import write_all
+    from dynderive.errors import OutputError
+
+    stale = tmp_path / "old.pdf"
+    stale.write_bytes(b"old")
+    (tmp_path / "blocker").write_text("a file where a folder should be\n")
+    with pytest.raises(OutputError, match="blocker is a file"):
+        write_all({tmp_path / "new.tex": b"new", tmp_path / "blocker" / "x": b"x"}, remove=[stale])
+    assert stale.read_bytes() == b"old" and not (tmp_path / "new.tex").exists()
+    write_all({tmp_path / "new.tex": b"new"}, remove=[stale, tmp_path / "absent.log"])
+    assert not stale.exists() and (tmp_path / "new.tex").read_bytes() == b"new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker", "new.tex"]

@@ -15,6 +15,12 @@ manifest or record that is not what dynderive writes (a merge conflict, a hand e
 as absent, with a note. The manifest is read, merged and replaced under an exclusive lock
 (``flock`` on a lock file beside it), so concurrent builds into one directory keep every
 record.
+
+A robot's outputs agree after every run: a PDF that could not be made removes the robot's
+earlier PDF (the new ``.tex`` and LaTeX's log are written), a PDF or extension that is made
+removes the log of an earlier failure. Records of robot files that no longer exist are kept
+while their outputs are in the output directory: those outputs are reported as orphaned
+(``--check`` fails on them) until ``prune`` removes them with the record.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import DynderiveError, InputError, LatexError, OutputError, Problem
+from ..errors import DynderiveError, InputError, LatexError, OutputError, Problem, ToolMissingError
 
 try:
     import fcntl
@@ -206,12 +212,15 @@ def engine_fingerprint() -> str:
 
 
 def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None,
-                   sheet: dict[str, float] | None = None) -> tuple[dict[str, bytes], LatexError | None]:
-    """Every requested output of one robot file, in memory (runs in a worker process); with a
-    PDF, ``sheet`` receives its pages, LaTeX's seconds and the widest overfull line (pt).
+                   sheet: dict[str, float] | None = None,
+                   ) -> tuple[dict[str, bytes], LatexError | ToolMissingError | None, str]:
+    """Every requested output of one robot file, in memory (runs in a worker process), the
+    PDF's failure if any, and the robot's name; with a PDF, ``sheet`` receives its pages,
+    LaTeX's seconds and the widest overfull line (pt).
 
     When LaTeX cannot compile the sheet, the other outputs, the ``.tex`` and LaTeX's log
-    (``<name>.log``) are returned instead of the PDF, with the error."""
+    (``<name>.log``) are returned instead of the PDF, with the error; when TeX (or TikZ) is
+    missing, the other outputs and the error."""
     from .. import derive, load_robot
     from ..render.code import render_code
     from ..render.json import render_json
@@ -223,10 +232,10 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     if robot.floating:   # the NumPy module only (issue 30)
         from .floating import floating_outputs
 
-        return floating_outputs(robot, source, kinds, template_dir)  # type: ignore[return-value]
+        return (*floating_outputs(robot, source, kinds, template_dir), robot.name)  # type: ignore[return-value]
     derivation = derive(robot)
     files: dict[str, bytes] = {}
-    failed: LatexError | None = None
+    failed: LatexError | ToolMissingError | None = None
     tex = render_latex(derivation, template_dir, digits=digits) if ("latex" in kinds or "pdf" in kinds) else None
     if "latex" in kinds:
         files[f"{robot.name}.tex"] = tex.encode()  # type: ignore[union-attr]
@@ -239,6 +248,8 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
         except LatexError as exc:
             failed = exc
             files |= failure_outputs(robot.name, tex, exc)  # type: ignore[arg-type]
+        except ToolMissingError as exc:   # no TeX, no TikZ: the other outputs are still made
+            failed = exc
         else:
             if sheet is not None:
                 sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
@@ -272,35 +283,43 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
         from ..render.html import render_html
 
         files[f"{robot.name}.html"] = render_html(derivation, template_dir, digits=digits).encode()
-    return files, failed
+    return files, failed, robot.name
 
 
-#: (outputs, or None when nothing could be rendered; the error, if any; seconds; the sheet's numbers)
-_Result = tuple[dict[str, bytes] | None, str, float, dict[str, float]]
+#: (outputs, or None when nothing could be rendered; the error, if any, naming the robot file;
+#: seconds; the sheet's numbers; the robot's name, "" when not known)
+_Result = tuple[dict[str, bytes] | None, str, float, dict[str, float], str]
 
 
 def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: str | None) -> _Result:
-    """``render_outputs`` of one robot, timed, its errors as text; ``out``: where a failed
-    sheet's .tex and log will be (None: they will not be written)."""
+    """``render_outputs`` of one robot, timed, its errors as text that names the robot file
+    (a positioned input error names it already); ``out``: where a failed sheet's .tex and
+    log will be (None: they will not be written)."""
     from ..render.environment import TemplateProblem
 
     start = time.monotonic()
     sheet: dict[str, float] = {}
     try:
-        files, failed = render_outputs(source, kinds, template_dir, sheet)
+        files, failed, name = render_outputs(source, kinds, template_dir, sheet)
     except TemplateProblem:
         raise   # a user's template is at fault: every robot would fail alike (exit 2)
+    except InputError as exc:
+        return None, str(exc), time.monotonic() - start, sheet, ""
     except DynderiveError as exc:
-        return None, str(exc), time.monotonic() - start, sheet
+        return None, f"{source}: {exc}", time.monotonic() - start, sheet, ""
     except Exception as exc:  # an internal error in one robot must not stop the others
-        return None, f"internal error: {type(exc).__name__}: {exc}", time.monotonic() - start, sheet
+        return None, f"{source}: internal error: {type(exc).__name__}: {exc}", time.monotonic() - start, sheet, ""
     if failed is None:
-        return files, "", time.monotonic() - start, sheet
+        return files, "", time.monotonic() - start, sheet, name
     from ..render.pdf import failure_message
 
-    name = next(f for f in files if f.endswith(".log"))[: -len(".log")]
-    message = str(failed) if out is None else failure_message(Path(out), name, failed)
-    return files, message, time.monotonic() - start, sheet
+    if out is None:
+        message = str(failed)
+    elif isinstance(failed, LatexError):
+        message = failure_message(Path(out), name, failed)
+    else:
+        message = f"{Path(out) / (name + '.pdf')} skipped: {failed}"
+    return files, f"{source}: {message}", time.monotonic() - start, sheet, name
 
 
 def _sha(data: bytes) -> str:
@@ -335,9 +354,16 @@ def _well_formed(record: object) -> bool:
         return False
     outputs, sheet = record.get("outputs"), record.get("sheet", {})
     return (isinstance(outputs, dict) and bool(outputs) and isinstance(sheet, dict)
-            and all(isinstance(f, str) and isinstance(h, str) and f not in ("", ".", "..") and f == Path(f).name
-                    for f, h in outputs.items())
+            and all(isinstance(f, str) and isinstance(h, str) and _output_name(f) for f, h in outputs.items())
             and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in sheet.values()))
+
+
+def _output_name(file: str) -> bool:
+    """A name ``build`` gives an output: a file in the output folder, or in a MATLAB package
+    folder ``+<name>/`` there (never a path out of it: ``--prune`` removes what records name)."""
+    parts = file.split("/")
+    return (0 < len(parts) <= 2 and all(part not in ("", ".", "..") and "\\" not in part for part in parts)
+            and (len(parts) == 1 or parts[0].startswith("+")))
 
 
 @contextmanager
@@ -355,12 +381,17 @@ def manifest_lock(out: Path) -> Iterator[None]:
         yield
 
 
-def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict]) -> None:
-    """Merge this run's records into the manifest on disk, under the lock, and replace it atomically.
+def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict], claimed: set[str],
+                    prune: bool) -> dict[str, list[str]]:
+    """Merge this run's records into the manifest on disk, under the lock, and replace it
+    atomically; returns the orphaned outputs (``orphaned``), removed with their records when
+    ``prune``.
 
     ``built`` records replace what is on disk; ``current`` (up-to-date) records are only put
     back if missing, so a newer record written meanwhile by a concurrent build is kept.
-    Records of robot files that no longer exist are dropped.
+    Records of robot files that no longer exist are kept while outputs of theirs are in
+    ``out`` (nobody else's, nor among ``claimed``, the files this run made), so later runs
+    still report them; ``prune`` removes those files and the records.
     """
     from .output import write_all
 
@@ -369,23 +400,61 @@ def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict])
         manifest.update(built)
         for name, record in current.items():
             manifest.setdefault(name, record)
-        for name in list(manifest):
-            if name not in built and name not in current and not (out.resolve() / name).exists():
+        orphans = orphaned(out, manifest, claimed)
+        for name, files in orphans.items():
+            if prune or not files:
                 del manifest[name]
+        removed = [out / file for files in orphans.values() for file in files] if prune else []
         document = {"version": 1, "robots": dict(sorted(manifest.items()))}
-        write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()})
+        write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()}, remove=removed)
+        for folder in sorted({path.parent for path in removed} - {out}, reverse=True):   # +<name>/, if empty now
+            try:
+                folder.rmdir()
+            except OSError:
+                pass
+    return {name: files for name, files in orphans.items() if files}
+
+
+def orphaned(out: Path, manifest: dict[str, dict], claimed: set[str]) -> dict[str, list[str]]:
+    """Per record of a robot file that no longer exists, its outputs still in ``out`` that no
+    record of an existing robot file lists and that are not among ``claimed`` (a renamed
+    robot file's outputs belong to its new name)."""
+    root = out.resolve()
+    gone = {name for name in manifest if not (root / name).exists()}
+    live = {file for name, record in manifest.items() if name not in gone for file in record["outputs"]}
+    return {name: sorted(file for file in manifest[name]["outputs"]
+                         if file not in live and file not in claimed and os.path.lexists(out / file))
+            for name in sorted(gone)}
+
+
+def shown_source(out: Path, name: str) -> str:
+    """A manifest key (relative to ``out``) as a path relative to the working directory."""
+    return os.path.relpath(os.path.normpath(out.resolve() / name))
+
+
+def leftover_logs(out: Path, name: str, files: dict[str, bytes]) -> list[Path]:
+    """The logs of failures that this run's outputs of robot ``name`` make stale: ``<name>.log``
+    once its PDF is built, ``<name>_dynamics_c.log`` once its extension is."""
+    logs = []
+    if f"{name}.pdf" in files:
+        logs.append(out / f"{name}.log")
+    if f"{name}_dynamics_c{EXTENSION_SUFFIX}" in files:
+        logs.append(out / f"{name}_dynamics_c.log")
+    return logs
 
 
 def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check: bool,
-          template_dir: Path | None, note: Callable[[str], None] | None = None) -> list[Outcome]:
+          template_dir: Path | None, note: Callable[[str], None] | None = None, prune: bool = False) -> list[Outcome]:
     """Build (or with ``check`` compare) every robot file under ``paths``; ``note`` receives
-    remarks for the user (a malformed manifest)."""
+    remarks for the user (a malformed manifest). Outputs of robot files that no longer exist
+    are reported after the others (``orphaned``), and with ``prune`` removed (``pruned``)."""
     from ..render.environment import TemplateProblem
     from .output import write_all
 
     sources = discover(paths)
     names = check_names(sources)
-    manifest = {} if check else load_manifest(out, note)   # --check compares bytes, never the manifest
+    # --check compares bytes, never the manifest (it reads it for orphaned outputs only)
+    manifest = load_manifest(out, note)
     if not check:
         check_previous_owners(names, out, manifest)
     outcomes: dict[str, Outcome] = {}
@@ -417,14 +486,21 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
                     pool.shutdown(wait=False, cancel_futures=True)
                     raise
     built: dict[str, dict] = {}
-    for source, key, (files, error, seconds, sheet) in results:
+    claimed = {file for record in current.values() for file in record["outputs"]}   # this run's outputs
+    for source, key, (files, error, seconds, sheet, robot) in results:
         name = str(source)
         if files is None:
             outcomes[name] = Outcome(name, "failed", seconds, error)
             continue
-        if error:   # LaTeX failed: the other outputs, the .tex and the log are written, not recorded
-            if not check:
-                write_all({out / file: data for file, data in files.items()})
+        claimed |= files.keys()
+        logs = leftover_logs(out, robot, files)
+        if error:   # no PDF: the other outputs, the .tex and the log are written, not recorded
+            if not check:   # an older PDF would disagree with the new .tex: it goes, as the message says
+                from ..render.pdf import stale_beside
+
+                stale, said = stale_beside(out, robot, made=False)
+                write_all({out / file: data for file, data in files.items()}, remove=logs + stale)
+                error += said
             outcomes[name] = Outcome(name, "failed", seconds, error)
             continue
         hashes = {file: _sha(data) for file, data in files.items()}
@@ -432,17 +508,24 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
             problems = [f"{out / file}: missing" if not (out / file).is_file() else f"{out / file}: differs"
                         for file, data in files.items() if not file.endswith(EXTENSION_SUFFIX)   # compiled: built, not compared
                         and (not (out / file).is_file() or (out / file).read_bytes() != data)]
+            problems += [f"{log}: the log of a failed build (a build removes it)" for log in logs if os.path.lexists(log)]
             outcomes[name] = Outcome(name, "differs" if problems else "current", seconds, outputs=hashes,
                                      problems=problems, sheet=sheet)
         else:
-            write_all({out / file: data for file, data in files.items()})
+            write_all({out / file: data for file, data in files.items()}, remove=logs)
             outcomes[name] = Outcome(name, "built", seconds, outputs=hashes, sheet=sheet)
             # the manifest keeps what the bytes determine (pages, overfull lines), not the time
             kept = {k: v for k, v in sheet.items() if k != "seconds"}
             built[manifest_key(source, out)] = {"key": key, "outputs": hashes, **({"sheet": kept} if kept else {})}
-    if not check:
-        update_manifest(out, built, current)
-    return [outcomes[str(s)] for s in sources]
+    if check:
+        orphans = {k: files for k, files in orphaned(out, manifest, claimed).items() if files}
+    else:
+        orphans = update_manifest(out, built, current, claimed, prune)
+    status = "pruned" if prune and not check else "orphaned"
+    done = "removed" if status == "pruned" else status
+    extra = [Outcome(shown_source(out, key), status, problems=[f"{out / file}: {done}" for file in files])
+             for key, files in orphans.items()]
+    return [outcomes[str(s)] for s in sources] + extra
 
 
 def _outputs_match(out: Path, outputs: dict[str, str]) -> bool:

@@ -162,11 +162,14 @@ def solve(
 
     wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, jax=jax,
                     json=json_, tests=tests, html=html)
-    files, failures = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
-    write_all(files)
+    files, failures, stale = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
+    removed = [path for path in stale if os.path.lexists(path)]
+    write_all(files, remove=removed)
     if not quiet:
         for path in files:
             typer.echo(f"wrote {path}", err=True)
+        for path in removed:
+            typer.echo(f"removed {path}", err=True)
         failed = [c for c in derivation.checks_run if not c.passed and not c.skipped]
         for check in failed:
             typer.echo(f"warning: check failed: {check.description}", err=True)
@@ -443,7 +446,10 @@ def build(
     html: Annotated[bool, typer.Option("--html", help="Write <name>.html, the sheet as a web page.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
     check_only: Annotated[bool, typer.Option("--check", help="Write nothing; exit 1 listing outputs that are "
-                                             "missing or differ from what would be generated.")] = False,
+                                             "missing or differ from what would be generated, and orphaned "
+                                             "outputs.")] = False,
+    prune: Annotated[bool, typer.Option("--prune", help="Remove orphaned outputs: those the manifest records for "
+                                        "robot files that no longer exist.")] = False,
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Templates that override the built-in ones by file name.")] = None,
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
@@ -460,6 +466,9 @@ def build(
                                                         ("jax", jax), ("json", json_), ("html", html)) if wanted)
     if not kinds:
         kinds = ("latex", "code")
+    if prune and check_only:
+        raise InputError(problem("--prune", "--check writes nothing, so it cannot prune: run build --prune "
+                                 "without --check"))
     shortened = sheet_digits_option(digits, any(kind in kinds for kind in ("latex", "pdf", "html")))
     if c_extension:   # no compiler: stop before any work
         from .compile import require_compiler
@@ -470,7 +479,7 @@ def build(
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
-                         lambda text: typer.echo(text, err=True))
+                         lambda text: typer.echo(text, err=True), prune)
     width = max([len(o.source) for o in outcomes] + [5])
     sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
     typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
@@ -479,15 +488,22 @@ def build(
         if sheets and o.sheet:
             seconds = f"{o.sheet['seconds']:7.1f}" if "seconds" in o.sheet else f"{'-':>7}"
             extra = f"  {o.sheet.get('pages', 0):5.0f}  {seconds}  {o.sheet.get('overfull', 0):11.1f}"
-        typer.echo(f"{o.source:<{width}}  {o.status:<10}  {o.seconds:7.1f}{extra}")
+        seconds = f"{'-':>7}" if o.status in ("orphaned", "pruned") else f"{o.seconds:7.1f}"   # nothing was built
+        typer.echo(f"{o.source:<{width}}  {o.status:<10}  {seconds}{extra}")
         for line in o.problems:
             typer.echo(f"  {line}")
         if o.message:
             for line in o.message.splitlines():
                 typer.echo(f"  {line}", err=True)
-    counts = {s: sum(o.status == s for o in outcomes) for s in ("built", "up to date", "current", "differs", "failed")}
+    counts = {s: sum(o.status == s for o in outcomes)
+              for s in ("built", "up to date", "current", "differs", "failed", "orphaned", "pruned")}
     typer.echo(", ".join(f"{n} {s}" for s, n in counts.items() if n) or "no robot files found")
-    if counts["failed"] or counts["differs"]:
+    if counts["orphaned"]:
+        n = counts["orphaned"]
+        typer.echo(f"note: {n} robot file{'s' if n > 1 else ''} whose outputs are in {out} no longer "
+                   f"exist{'' if n > 1 else 's'} (their outputs are listed as orphaned): "
+                   f"build --prune --out {out} removes them", err=True)
+    if counts["failed"] or counts["differs"] or (check_only and counts["orphaned"]):
         raise typer.Exit(1)
 
 

@@ -6,10 +6,11 @@ refused (exit 2) before any work."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
-from ..errors import InputError, LatexError
+from ..errors import InputError
 from ..model.robot import Robot
 from .options import problem
 
@@ -83,6 +84,8 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
     if tests and code:
         files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
     failures = _extension(derivation, flags, out, template_dir, files, progress) if flags.get("c_extension") else []
+    # the extension built: an earlier failure's compiler log is stale
+    removed = [out / f"{robot.name}_dynamics_c.log"] if flags.get("c_extension") and not failures else []
     from .floating_outputs import SHEET_KINDS, failure_text, floating_sheet_files
 
     sheets, failure = floating_sheet_files(derivation, {k for k in SHEET_KINDS if flags.get(k)}, template_dir, digits,
@@ -90,10 +93,19 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
     files |= {out / name: data for name, data in sheets.items()}
     if failure is not None:
         failures.append(failure_text(out, robot.name, failure))
-    write_all(files)
+    if flags.get("pdf"):   # an earlier failure's log, or an earlier PDF beside a new sheet (as solve_outputs)
+        from ..render.pdf import stale_beside
+
+        stale, said = stale_beside(out, robot.name, made=out / f"{robot.name}.pdf" in files)
+        removed += stale
+        failures[-1:] = [failures[-1] + said] if said else failures[-1:]
+    removed = [path for path in removed if os.path.lexists(path)]
+    write_all(files, remove=removed)
     if not quiet:
         for path in files:
             echo(f"wrote {path}")
+        for path in removed:
+            echo(f"removed {path}")
     for message in failures:   # the extension the compiler rejected, the PDF LaTeX did not make
         echo(f"dynderive: {message}")   # (the other outputs are written)
     if failures:
@@ -159,6 +171,4 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
 
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
     sheets, failure = floating_sheet_files(derivation, kinds, template_dir, digits)
-    if failure is not None and not isinstance(failure, LatexError):
-        raise failure   # no LaTeX: as for a fixed-base robot's sheet
-    return files | sheets, failure
+    return files | sheets, failure   # no TeX, or LaTeX failed: the other outputs are still made

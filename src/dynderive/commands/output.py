@@ -48,14 +48,17 @@ class _Failed(Exception):
         self.path, self.error, self.detail = path, error, detail
 
 
-def write_all(files: dict[Path, bytes]) -> None:
-    """Write every file or none; an OS failure becomes ``OutputError`` naming the output
-    that failed (nothing replaced)."""
+def write_all(files: dict[Path, bytes], remove: tuple[Path, ...] | list[Path] = ()) -> None:
+    """Write every file or none, and remove the files ``remove`` names that exist (outputs that
+    no longer hold: a PDF older than its sheet, a log of a failure since fixed), in the same
+    step; an OS failure becomes ``OutputError`` naming the output that failed (nothing
+    replaced, nothing removed)."""
     try:
-        _write_all(files)
+        _write_all(files, [path for path in remove if path not in files and os.path.lexists(path) and not path.is_dir()])
     except _Failed as failed:
         reason = failed.detail or failed.error.strerror or str(failed.error)
-        raise OutputError(f"cannot write {failed.path}: {reason}") from None
+        what = "remove" if failed.path in remove and failed.path not in files else "write"
+        raise OutputError(f"cannot {what} {failed.path}: {reason}") from None
     WRITTEN.extend(files)
 
 
@@ -82,7 +85,7 @@ def _kind(path: Path) -> tuple[str, Path]:
     return "stream", path
 
 
-def _write_all(files: dict[Path, bytes]) -> None:
+def _write_all(files: dict[Path, bytes], remove: list[Path]) -> None:
     regular: dict[Path, tuple[Path, bytes]] = {}   # target -> (the output as named, data)
     streams: list[tuple[Path, bytes]] = []
     for path, data in files.items():
@@ -119,6 +122,14 @@ def _write_all(files: dict[Path, bytes]) -> None:
                     except OSError as exc:
                         raise _Failed(path, exc) from None
                     done.append(target)
+                for path in remove:   # moved aside (put back on failure), deleted at the end
+                    backup = str(path.parent / f".{path.name}.{uuid.uuid4().hex}.old")
+                    try:
+                        os.rename(path, backup)
+                    except OSError as exc:
+                        raise _Failed(path, exc) from None
+                    backups[path] = backup
+                    done.append(path)
             finally:
                 _release_signals(held)
             staged.clear()

@@ -1,7 +1,9 @@
 """``dynderive solve``'s output files, in memory: what the command line asked for, made from
 one derivation, and the outputs that could not be made (a PDF without LaTeX, a sheet LaTeX
 rejects, an extension the compiler rejects) as messages, so that the command writes all the
-others at once (``output.write_all``) and then exits 1 naming each failure.
+others at once (``output.write_all``) and then exits 1 naming each failure; and the files the
+run makes stale, removed in the same step: an earlier PDF when this one could not be made, the
+log of an earlier failure when the PDF or the extension is made.
 """
 
 from __future__ import annotations
@@ -32,9 +34,10 @@ class Wanted:
 
 def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_dir: Path | None,
                   sections: object, progress: Callable[[str], None],
-                  digits: int | None = None) -> tuple[dict[Path, bytes], list[str]]:
-    """Every requested file by path, and one message per output that could not be made (its
-    log, if any, is among the files); the sheet's numbers to ``digits`` at most (``--digits``)."""
+                  digits: int | None = None) -> tuple[dict[Path, bytes], list[str], list[Path]]:
+    """Every requested file by path, one message per output that could not be made (its log,
+    if any, is among the files) and the files to remove (``stale_beside``); the sheet's
+    numbers to ``digits`` at most (``--digits``)."""
     from ..render.code import render_code
     from ..render.json import render_json
     from ..render.latex import render_latex
@@ -42,6 +45,7 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
     name = derivation.robot.name
     files: dict[Path, bytes] = {}
     failures: list[str] = []
+    removed: list[Path] = []
     c_files = None
     if wanted.c:   # first: a robot the C target refuses stops the run before any work or output
         from ..render.c import render_c
@@ -71,6 +75,7 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
         try:
             filename, data = build_extension(derivation, template_dir, c_files=c_files, progress=progress)
             files[out / filename] = data
+            removed.append(out / f"{name}_dynamics_c.log")   # an earlier failure's
         except ExtensionCompileError as exc:   # the other outputs are still written, with the compiler's log
             files |= {out / log: text for log, text in build_logs(name, exc).items()}
             failures.append(build_failure(out, name, exc))
@@ -81,7 +86,7 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
     if wanted.latex:
         files[out / f"{name}.tex"] = tex.encode()  # type: ignore[union-attr]
     if wanted.pdf:
-        from ..render.pdf import compile_pdf, failure_message, failure_outputs
+        from ..render.pdf import compile_pdf, failure_message, failure_outputs, stale_beside
 
         progress("compiling PDF")
         try:
@@ -91,6 +96,10 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
         except LatexError as exc:   # so are they, with the .tex and LaTeX's log to look at
             files |= {out / log: text for log, text in failure_outputs(name, tex, exc).items()}  # type: ignore[arg-type]
             failures.append(failure_message(out, name, exc))
+        stale, said = stale_beside(out, name, made=out / f"{name}.pdf" in files)
+        removed += stale
+        if said:
+            failures[-1] += said
     if wanted.html:
         from ..render.html import render_html
 
@@ -105,4 +114,4 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
             files[out / f"test_{name}_dynamics.py"] = render_code_tests(derivation, template_dir).encode()
     if wanted.json:
         files[out / f"{name}.json"] = render_json(derivation).encode()
-    return files, failures
+    return files, failures, removed

@@ -102,6 +102,19 @@ def failure_outputs(name: str, tex: str, error: LatexError) -> dict[str, bytes]:
     return {f"{name}.tex": tex.encode(), f"{name}.log": error.log.encode()}
 
 
+def stale_beside(folder: Path, name: str, made: bool) -> tuple[list[Path], str]:
+    """What a run that asked for ``name``'s PDF leaves no longer true in ``folder``, to remove
+    with its outputs: once the PDF is made, the log of an earlier failure (``<name>.log``);
+    once it could not be, an earlier PDF (it would disagree with the new ``.tex``). And the
+    words the failure's message ends with ("" when nothing is removed or the PDF was made)."""
+    log, pdf = folder / f"{name}.log", folder / f"{name}.pdf"
+    if made:
+        return [log], ""
+    if os.path.lexists(pdf):
+        return [pdf], f"; {pdf} from an earlier run was removed (it would not match the new sheet)"
+    return [], ""
+
+
 def failure_message(folder: Path, name: str, error: LatexError) -> str:
     """One line: which sheet failed, TeX's first error, and where its log is."""
     return f"LaTeX failed to compile {folder / (name + '.tex')}: {error.detail}; the log is {folder / (name + '.log')}"
