@@ -459,3 +459,14 @@ def test_write_all_removes_nothing_when_a_write_fails(tmp_path):
     write_all({tmp_path / "new.tex": b"new"}, remove=[stale, tmp_path / "absent.log"])
     assert not stale.exists() and (tmp_path / "new.tex").read_bytes() == b"new"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker", "new.tex"]
+
+
+def test_prune_keeps_the_outputs_of_a_renamed_robot_file_that_fails(robots, tmp_path):
+    """The outputs' robot still has a file (renamed, now failing to build): they are not orphans."""
+    out = tmp_path / "out"
+    assert _build(robots, "--out", out, "--code", "-j", "1").exit_code == 0
+    (robots / "cart_pole.yaml").unlink()
+    (robots / "cp.yaml").write_text("name: cart_pole\nplanar: true\n")   # no links: it fails
+    result = _build(robots, "--out", out, "--code", "-j", "1", "--prune")
+    assert result.exit_code == 1 and "1 up to date, 1 failed" in result.stdout.splitlines()[-1], result.output
+    assert (out / "cart_pole_dynamics.py").is_file()

@@ -422,8 +422,10 @@ def orphaned(out: Path, manifest: dict[str, dict], claimed: set[str]) -> dict[st
     root = out.resolve()
     gone = {name for name in manifest if not (root / name).exists()}
     live = {file for name, record in manifest.items() if name not in gone for file in record["outputs"]}
+    taken = live | claimed
+    taken |= {file.split("/")[0] for file in taken if "/" in file}   # a MATLAB package +<name>/ as a whole
     return {name: sorted(file for file in manifest[name]["outputs"]
-                         if file not in live and file not in claimed and os.path.lexists(out / file))
+                         if file not in taken and file.split("/")[0] not in taken and os.path.lexists(out / file))
             for name in sorted(gone)}
 
 
@@ -486,7 +488,9 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
                     pool.shutdown(wait=False, cancel_futures=True)
                     raise
     built: dict[str, dict] = {}
-    claimed = {file for record in current.values() for file in record["outputs"]}   # this run's outputs
+    # this run's outputs, and every output name of a robot it reads (one that fails keeps its files)
+    claimed = {file for record in current.values() for file in record["outputs"]}
+    claimed |= {pattern.format(robot) for robot, _, _ in names.values() for pattern in OUTPUT_NAMES}
     for source, key, (files, error, seconds, sheet, robot) in results:
         name = str(source)
         if files is None:
