@@ -27,10 +27,10 @@ Every page's blocks run in order in one temporary folder, with ``dynderive`` the
 
 from __future__ import annotations
 
+import difflib
 import os
 import re
 import shutil
-import difflib
 import subprocess
 import sys
 import sysconfig

@@ -224,16 +224,19 @@ def stale_pages(write: bool = False) -> list[str]:
 
 
 def main(argv: list[str]) -> int:
+    """``--write``: rewrite the stale pages; ``--check``: name them. Exit 1 when a page is
+    stale (``--check``) or has no region (either), else 0."""
     if argv not in (["--write"], ["--check"]):
         print("usage: python docs/hooks/generated.py --write | --check", file=sys.stderr)
         return 2
     write = argv == ["--write"]
     stale = stale_pages(write=write)
+    missing = [page for page in stale if page.endswith("region)")]
     for page in stale:
-        print(f"{page}: {'rewritten' if write and 'region)' not in page else 'not current'}")
-    if not write and stale:
+        print(f"{page}: {'rewritten' if write and page not in missing else 'not current'}")
+    if stale and not write:
         print(f"update with: {UPDATE}")
-    return 1 if stale and (not write or any("region)" in p for p in stale)) else 0
+    return 1 if missing or (stale and not write) else 0
 
 
 # ----------------------------------------------------------------------------- the hook
