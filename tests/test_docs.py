@@ -7,8 +7,11 @@ docs/development/index.md ("Documentation"):
 - a fenced block with a title (```` ```yaml title="arm.yaml" ````) is a file: it is written
   into the page's working folder, where the later blocks run;
 - ```` ```console ````: each line starting with ``$ `` is a command (a trailing ``\\``
-  continues it); the lines after it, up to the next command, are output that must appear in
-  what the command printed (stdout and stderr, line by line, stripped; ``...`` lines skip);
+  continues it); the lines after it, up to the next command, are what the command prints
+  (stdout and stderr together, as a terminal shows them), whole: compared line by line,
+  trailing spaces and trailing blank lines aside, where a line ``...`` stands for any run
+  of lines (none included) and ``...`` within a line for any text: what varies by machine
+  (timings, paths) or is too long to show;
   the command must exit 0 (write ``cmd || echo "exit $?"`` to show a failure);
 - ```` ```bash ````: the block runs as one script (``set -euo pipefail``);
 - ```` ```python ````: the block runs as a script of its own;
@@ -24,6 +27,7 @@ Every page's blocks run in order in one temporary folder, with ``dynderive`` the
 
 from __future__ import annotations
 
+import difflib
 import os
 import re
 import shutil
@@ -31,6 +35,7 @@ import subprocess
 import sys
 import sysconfig
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -97,6 +102,8 @@ def _environment(tmp_path: Path) -> dict[str, str]:
     env["PATH"] = f"{shims}{os.pathsep}{env.get('PATH', '')}"
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env.get("PYTHONPATH")) if p)
     env["MPLBACKEND"] = "Agg"
+    env["PYTHONUNBUFFERED"] = "1"   # stdout and stderr in the order printed
+    env["COLUMNS"] = "80"           # line wrapping as in an 80-column terminal
     return env
 
 
@@ -111,14 +118,54 @@ def _commands(body: str) -> list[tuple[str, list[str]]]:
         elif line.startswith("$ "):
             commands.append((line[2:], []))
             continued = line.endswith("\\")
-        elif commands and line.strip() and line.strip() != "...":
-            commands[-1][1].append(line.strip())
+        elif commands:
+            commands[-1][1].append(line.rstrip())
+    for _, expected in commands:
+        while expected and not expected[-1]:
+            expected.pop()
     return commands
 
 
+ELISION = "..."
+
+
+def output_matches(expected: list[str], got: list[str]) -> bool:
+    """Whether the printed lines ``got`` are the ``expected`` ones, where an ``ELISION`` line
+    stands for any run of lines (none included). Lines compare without trailing spaces;
+    trailing blank lines do not count."""
+    got = [line.rstrip() for line in got]
+    while got and not got[-1]:
+        got.pop()
+
+    @cache
+    def match(i: int, j: int) -> bool:   # expected[i:] against got[j:]
+        if i == len(expected):
+            return j == len(got)
+        if expected[i] == ELISION:
+            return any(match(i + 1, k) for k in range(j, len(got) + 1))
+        return j < len(got) and _line_matches(expected[i], got[j]) and match(i + 1, j + 1)
+
+    return match(0, 0)
+
+
+def _line_matches(expected: str, got: str) -> bool:
+    """One line: equal, or with each ``...`` inside it standing for any text (a timing)."""
+    if ELISION not in expected:
+        return expected == got
+    return re.fullmatch(".*".join(map(re.escape, expected.split(ELISION))), got) is not None
+
+
+def _difference(expected: list[str], output: str) -> str:
+    diff = difflib.unified_diff(expected, [line.rstrip() for line in output.splitlines()],
+                                "the page", "printed", lineterm="", n=2)
+    return "\n".join(diff) + f"\n\nprinted:\n{output}"
+
+
 def _run(script: list[str], where: str, cwd: Path, env: dict[str, str]) -> str:
-    result = subprocess.run(script, cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
-    output = result.stdout + result.stderr
+    """Run ``script``; its stdout and stderr interleaved as a terminal shows them."""
+    result = subprocess.run(script, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, timeout=600)
+    output = result.stdout
     assert result.returncode == 0, f"{where}: exit {result.returncode}\n{output[-3000:]}"
     return output
 
@@ -147,9 +194,8 @@ def test_tutorial_blocks_run(page, tmp_path):
             assert commands, f"{where}: a console block without a '$ ' command"
             for command, expected in commands:
                 output = _run(["bash", "-euo", "pipefail", "-c", command], f"{where}: {command}", work, env)
-                lines = [line.strip() for line in output.splitlines()]
-                for line in expected:
-                    assert any(line in got for got in lines), f"{where}: {command}: {line!r} not in:\n{output}"
+                assert output_matches(expected, output.splitlines()), \
+                    f"{where}: {command}: the output differs ('...' lines elide):\n{_difference(expected, output)}"
             ran += 1
         elif block.language == "bash":
             _run(["bash", "-euo", "pipefail", "-c", block.body], where, work, env)
@@ -171,8 +217,26 @@ def test_block_conventions_are_read():
     found = blocks(page)
     assert any(b.title == "arm.yaml" and b.language == "yaml" for b in found)
     assert any(b.needs == ["latexmk"] for b in found)
-    commands = _commands("$ dynderive solve a \\\n    --code\nwrote x\n...\n$ ls\n")
-    assert commands == [("dynderive solve a \\\n    --code", ["wrote x"]), ("ls", [])]
+    commands = _commands("$ dynderive solve a \\\n    --code\n  wrote x  \n...\n\n$ ls\n")
+    assert commands == [("dynderive solve a \\\n    --code", ["  wrote x", "..."]), ("ls", [])]
+
+
+def test_console_output_is_compared_whole_with_elisions():
+    printed = ["a", "b", "c", "", "d  ", ""]
+    assert output_matches(["a", "b", "c", "", "d"], printed)
+    assert output_matches(["a", "...", "d"], printed)
+    assert output_matches(["...", "c", "...", "d"], printed)
+    assert output_matches(["a", "b", "...", "c", "", "d", "..."], printed)   # a run of none
+    assert output_matches(["..."], []) and output_matches([], ["", ""])
+    assert not output_matches(["a", "b", "c"], printed)        # a line left out
+    assert not output_matches(["b", "...", "d"], printed)      # the first line differs
+    assert not output_matches(["a", "...", "x", "d"], printed)
+    assert not output_matches([" a", "..."], printed)          # leading spaces count
+    assert not output_matches([], ["a"])
+    timed = ["robots/arm.yaml  built  1.3  9", "1 built"]
+    assert output_matches(["robots/arm.yaml  built  ...  9", "1 built"], timed)   # within a line
+    assert not output_matches(["robots/arm.yaml  current  ...", "1 built"], timed)
+    assert not output_matches(["robots/arm.yaml  built  ...  8", "1 built"], timed)
 
 
 def test_readme_keeps_the_two_set_up_commands():
@@ -247,6 +311,25 @@ def test_robot_format_reference_lists_every_key():
     assert "`revolute` \\| `prismatic` \\| `fixed`" in text
 
 
+def test_generated_references_are_current():
+    """The committed reference pages hold the generated tables as the code makes them now."""
+    hooks = _hooks()
+    stale = hooks.stale_pages()
+    assert not stale, f"not current: {', '.join(stale)}; update with: {hooks.UPDATE}"
+
+
+def test_a_stale_generated_region_is_found_and_rewritten():
+    hooks = _hooks()
+    page = "intro\n<!-- generated: robot-schema -->\nold table\n<!-- end generated -->\nafter\n"
+    new = hooks.regenerate(page)
+    assert new != page and "old table" not in new
+    assert new.startswith("intro\n<!-- generated: robot-schema -->\n### Top level\n")
+    assert new.endswith("\n<!-- end generated -->\nafter\n")
+    assert hooks.regenerate(new) == new
+    with pytest.raises(ValueError, match="unknown generated region 'bogus'"):
+        hooks.regenerate("<!-- generated: bogus -->\n<!-- end generated -->\n")
+
+
 def test_mkdocs_build_strict(tmp_path):
     try:
         import material  # noqa: F401
@@ -265,4 +348,4 @@ def test_mkdocs_build_strict(tmp_path):
     assert "dynderive simulate" in cli and "--friction-smoothing" in cli
     robot = (tmp_path / "site" / "reference" / "robot-format" / "index.html").read_text()
     assert "child_origin" in robot and "armature" in robot
-    assert "generated: " not in cli + robot   # every marker was replaced
+    assert "generated: " not in cli + robot and "end generated" not in cli + robot   # markers dropped

@@ -20,6 +20,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
+from dynderive.render.html import render_html
 from dynderive.render.latex import LINE_UNITS, default_sections, matrix_width, parse_sections, typeset_width
 from dynderive.render.pdf import tikz_available
 
@@ -57,6 +58,23 @@ def test_sections_choose_what_the_sheet_shows():
     only_maximal = dynderive.render_latex(derivation, sections=("maximal",))
     assert "Generalized coordinates" not in only_maximal and "Checks" not in only_maximal
     assert r"\section{Maximal coordinates}" in only_maximal
+
+
+def test_the_default_sheet_says_when_it_leaves_maximal_coordinates_out():
+    """A planar robot past MAXIMAL_DEFAULT_LINKS: the default sheet (LaTeX and HTML) names the
+    left-out section and the option that adds it; asked-for sections, a small robot and a
+    3-D robot (no maximal model) say nothing."""
+    note = "leaves out the derivation in maximal coordinates"
+    arm, small, spatial = _derive("planar_3r"), _derive("rp_arm"), _derive("elbow_arm")
+    latex, html = dynderive.render_latex(arm), render_html(arm)
+    assert note in latex and r"\texttt{-{}-sections all} adds it" in latex
+    assert note in " ".join(html.split()) and "<code>--sections all</code> adds it" in html
+    for derivation in (small, spatial):
+        assert note not in dynderive.render_latex(derivation)
+        assert note not in " ".join(render_html(derivation).split())
+    for sections in (("generalized", "checks"), ("generalized", "maximal", "checks")):
+        assert note not in dynderive.render_latex(arm, sections=sections)
+        assert note not in " ".join(render_html(arm, sections=sections).split())
 
 
 def test_bad_sections_are_input_errors(tmp_path):

@@ -1,11 +1,20 @@
-"""MkDocs hook: the reference pages' generated parts, made at build time so they cannot drift.
+"""The reference pages' generated parts: written into the committed Markdown, so that they read
+on GitHub too, and checked to be current, so that they cannot drift.
 
-A page holds a marker line, replaced before the page is converted:
+A page holds a region between two marker lines, generated from the code:
 
 - ``<!-- generated: cli -->``: every command of ``dynderive`` with its usage and options, read
   from the Typer/click application itself (``dynderive.commands.cli.app``);
 - ``<!-- generated: robot-schema -->``: every key of the robot file, read from the JSON Schema
-  (``dynderive.input.json_schema.robot_schema``, what ``dynderive schema`` prints).
+  (``dynderive.input.json_schema.robot_schema``, what ``dynderive schema`` prints);
+
+each region ending at ``<!-- end generated -->``. Update them from the repository root with::
+
+    python docs/hooks/generated.py --write
+
+and check them with ``--check`` (exit 1 naming the stale pages; ``tests/test_docs.py`` does
+the same). As an MkDocs hook the module puts the freshly generated text into the site and
+warns about a stale page, which fails ``mkdocs build --strict``.
 
 The functions are plain and importable (``tests/test_docs.py`` uses them too). The checkout's
 ``src/`` comes first on ``sys.path``: the documentation describes this checkout.
@@ -13,6 +22,8 @@ The functions are plain and importable (``tests/test_docs.py`` uses them too). T
 
 from __future__ import annotations
 
+import logging
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -21,10 +32,15 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT / "src") not in sys.path:
     sys.path.insert(0, str(ROOT / "src"))
 
-MARKERS = {
-    "<!-- generated: cli -->": lambda: cli_markdown(),
-    "<!-- generated: robot-schema -->": lambda: schema_markdown(),
+#: The generated regions: their name, the page holding them (under docs/) and their maker.
+REGIONS = {
+    "cli": ("reference/cli.md", lambda: cli_markdown()),
+    "robot-schema": ("reference/robot-format.md", lambda: schema_markdown()),
 }
+END = "<!-- end generated -->"
+UPDATE = "python docs/hooks/generated.py --write"
+REGION = re.compile(r"^<!-- generated: (?P<name>[a-z-]+) -->\n(?P<body>.*?)^" + re.escape(END) + r"$",
+                    re.S | re.M)
 
 
 def escape(text: str) -> str:
@@ -171,11 +187,70 @@ def _kind(value: dict[str, Any], plural: bool = False) -> str:
     return {"number": "number", "object": "mapping"}.get(kind, "any") + s
 
 
+# ----------------------------------------------------------------------------- the pages
+
+
+def regenerate(markdown: str, made: dict[str, str] | None = None) -> str:
+    """``markdown`` with every generated region's text made afresh (markers kept)."""
+    made = {} if made is None else made
+
+    def fresh(match: re.Match[str]) -> str:
+        name = match["name"]
+        if name not in REGIONS:
+            raise ValueError(f"unknown generated region {name!r} (known: {', '.join(REGIONS)})")
+        if name not in made:
+            made[name] = REGIONS[name][1]()
+        return f"<!-- generated: {name} -->\n{made[name].rstrip()}\n{END}"
+
+    return REGION.sub(fresh, markdown)
+
+
+def stale_pages(write: bool = False) -> list[str]:
+    """The pages (relative to the repository) whose generated regions are not current; with
+    ``write``, rewrites them. A page without its region counts as stale (and is not fixed)."""
+    stale, made = [], {}
+    for name, (page, _) in REGIONS.items():
+        path = ROOT / "docs" / page
+        text = path.read_text(encoding="utf-8")
+        if f"<!-- generated: {name} -->" not in text:
+            stale.append(f"docs/{page} (no '<!-- generated: {name} -->' ... '{END}' region)")
+            continue
+        new = regenerate(text, made)
+        if new != text:
+            stale.append(f"docs/{page}")
+            if write:
+                path.write_text(new, encoding="utf-8")
+    return stale
+
+
+def main(argv: list[str]) -> int:
+    """``--write``: rewrite the stale pages; ``--check``: name them. Exit 1 when a page is
+    stale (``--check``) or has no region (either), else 0."""
+    if argv not in (["--write"], ["--check"]):
+        print("usage: python docs/hooks/generated.py --write | --check", file=sys.stderr)
+        return 2
+    write = argv == ["--write"]
+    stale = stale_pages(write=write)
+    missing = [page for page in stale if page.endswith("region)")]
+    for page in stale:
+        print(f"{page}: {'rewritten' if write and page not in missing else 'not current'}")
+    if stale and not write:
+        print(f"update with: {UPDATE}")
+    return 1 if missing or (stale and not write) else 0
+
+
 # ----------------------------------------------------------------------------- the hook
 
 
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
-    for marker, make in MARKERS.items():
-        if marker in markdown:
-            markdown = markdown.replace(marker, make())
-    return markdown
+    """The site shows the generated text as made now, without the marker comments; a page
+    whose committed text is stale is a warning (an error under ``--strict``)."""
+    new = regenerate(markdown)
+    if new != markdown:
+        logging.getLogger("mkdocs.hooks.generated").warning(
+            "%s: its generated reference is not current; update with: %s", page.file.src_path, UPDATE)
+    return REGION.sub(lambda match: match["body"], new)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -31,6 +31,7 @@ from .latex import (
     _groups,
     _residual_text,
     default_sections,
+    maximal_left_out,
 )
 from .recursion import joint_variable
 
@@ -58,6 +59,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
                  digits: int | None = None) -> dict[str, Any]:
     """Every variable the HTML template uses; only the ``sections`` asked for (default the
     sheet's ``default_sections``); numbers to ``digits`` at most (``--digits``)."""
+    left_out = maximal_left_out(derivation, sections)
     sections = default_sections(derivation) if sections is None else sections
     fmt = MathFormatter.of(derivation, digits=digits)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
@@ -125,6 +127,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
                     "residual": _residual_text(c.residual)} for c in derivation.checks]
                   if "checks" in sections else [],
         "sections": list(sections),
+        "maximal_left_out": left_out,
         "figure": _figure(derivation),
         "drives": _drives(derivation, fmt),
         "loops": _loops(derivation, fmt) if "loops" in derivation.steps else None,

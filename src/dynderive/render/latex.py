@@ -59,6 +59,12 @@ def default_sections(derivation: Derivation) -> tuple[str, ...]:
     return tuple(s for s in SECTIONS if s != "maximal" or maximal)
 
 
+def maximal_left_out(derivation: Derivation, sections: tuple[str, ...] | None) -> bool:
+    """Whether the default sections (``sections`` None) leave out a maximal-coordinates
+    section the robot has: the sheet then says so and how to get it (``--sections all``)."""
+    return sections is None and derivation.robot.planar and "maximal" not in default_sections(derivation)
+
+
 def parse_sections(text: str) -> tuple[str, ...]:
     """``--sections`` text: names from SECTIONS separated by commas, or ``all``; in the
     sheet's order. Raises ValueError naming an unknown section."""
@@ -330,6 +336,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     """Every variable the sheet template can use (documented in docs/templates.md); only the
     ``sections`` asked for (default ``default_sections``) are derived and formatted; numbers
     to ``digits`` significant digits at most (``--digits``)."""
+    left_out = maximal_left_out(derivation, sections)
     sections = default_sections(derivation) if sections is None else sections
     fmt = Formatter.of(derivation, digits=digits)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
@@ -409,6 +416,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
                     "method": c.method, "residual": _residual_text(c.residual)} for c in derivation.checks]
                   if "checks" in sections else [],
         "sections": list(sections),
+        "maximal_left_out": left_out,
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
         # the generalized inertias as matrices while they fit the line (else diag(m_i, ..., I_i) says it)
         "inertia_groups": (_groups([(link["index"], link["spatial_inertia"]) for link in links])
