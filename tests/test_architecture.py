@@ -133,3 +133,21 @@ def test_public_api_keeps_working():
                  "gravity_vector", "constraint_jacobian_dot", "time_derivative", "Robot", "InputError",
                  "__version__"):
         assert getattr(dynderive, name) is not None
+
+
+def test_nothing_user_facing_names_the_internal_tracker():
+    """Users cannot see the project's issue numbers: messages, docstrings, templates, docs and
+    the README say what is built and what is not, never "issue N"."""
+    root = Path(__file__).resolve().parents[1]   # the checkout (the installed package has no docs)
+    places = [root / "src", root / "templates", root / "docs", root / "README.md", root / "examples" / "ci"]
+    pattern = __import__("re").compile(r"\bissues? #?[0-9]+", __import__("re").IGNORECASE)
+    found = []
+    assert all(place.exists() for place in places)
+    for place in places:
+        files = [place] if place.is_file() else sorted(p for p in place.rglob("*") if p.is_file()
+                                                         and p.suffix in {".py", ".j2", ".md", ".yml", ".yaml"})
+        for path in files:
+            for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+                if pattern.search(line):
+                    found.append(f"{path.relative_to(root)}:{number}: {line.strip()[:80]}")
+    assert found == []

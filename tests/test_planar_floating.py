@@ -329,7 +329,7 @@ def test_bad_planar_floating_joints(tmp_path):
     assert _bad(tmp_path, FREE.replace("child: a}", "child: a, effort: F}")) == [
         "7:67: joints[0].effort: a planar floating joint is unactuated (push its body with a wrench at a frame)"]
     assert _bad(tmp_path, FREE.replace("child: a}", "child: a, damping: 0.1}")) == [
-        "7:59: joints[0].damping: drive terms on a floating joint are not built yet (issue 30)"]
+        "7:59: joints[0].damping: drive terms on a floating joint are not built yet"]
     clash = FREE.replace("  - {name: a, mass: 1, inertia: 0.1}\n",
                          "  - {name: a, mass: 1, inertia: 0.1}\n  - {name: free_x_link, mass: 1}\n") \
         + "  - {name: free_theta, type: revolute, parent: a, child: free_x_link}\n"

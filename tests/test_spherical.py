@@ -235,7 +235,7 @@ def test_spherical_joint_fields_that_are_refused(tmp_path):
     assert _bad(tmp_path, PENDULUM.replace(ball, ball + ", axis: [0, 0, 1]")) == [
         "13:94: joints[0].axis: a spherical joint takes no axis (it turns about all three)"]
     assert _bad(tmp_path, PENDULUM.replace(ball, ball + ", stiffness: 2")) == [
-        "13:88: joints[0].stiffness: drive terms on a spherical joint are not built yet (issue 30)"]
+        "13:88: joints[0].stiffness: drive terms on a spherical joint are not built yet"]
     assert _bad(tmp_path, PENDULUM.replace("  g: 9.81", "  g: 9.81\n  integrate: 1")) == [
         "8:3: parameters.integrate: name 'integrate' is reserved by the generated module of a robot with "
         "spherical joints"]

@@ -188,7 +188,7 @@ class Derivation:
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
         """Refuse the symbolic derivation (Lagrange's path) of a floating-base robot: its
-        quaternion coordinates are not generalized coordinates of that path (issue 30)."""
+        quaternion coordinates are not generalized coordinates of that path."""
         if self.robot.floating:
             from .mechanics.floating import not_built
 

@@ -229,7 +229,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
     robot = load_robot(source, size_limits=True, floating_base=floating_base)
-    if robot.floating:   # the NumPy module only (issue 30)
+    if robot.floating:   # the NumPy module only
         from .floating import floating_outputs
 
         return (*floating_outputs(robot, source, kinds, template_dir), robot.name)  # type: ignore[return-value]

@@ -1,4 +1,4 @@
-"""``dynderive solve`` for a floating-base robot (issue 30): the NumPy module
+"""``dynderive solve`` for a floating-base robot: the NumPy module
 (``render/floating_code.py``), its C, compiled extension, MATLAB package and JAX module
 (``render/floating_jax.py``), its sheet (LaTeX, PDF, HTML) and JSON dump (``floating_outputs.py``) and one note
 saying what is not built yet; every other output is
@@ -15,7 +15,7 @@ from ..model.robot import Robot
 from .options import problem
 
 #: The message of an output or command not built yet for floating-base robots.
-NOT_BUILT = "not built yet for floating-base robots (issue 30)"
+NOT_BUILT = "not built yet for floating-base robots"
 #: The output flags (besides --code) a floating-base robot has.
 BUILT = ("c", "c_extension", "matlab", "jax", "latex", "pdf", "json", "html")
 
@@ -24,16 +24,8 @@ def floating_note(robot: Robot) -> str:
     """The note ``solve`` prints for a floating-base robot: what its module has and what not."""
     what = ("has a floating base" if robot.floating_base else "has floating joints"
             if any(j.type == "floating" for j in robot.joints) else "has spherical joints")
-    return (f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)} coordinates, NV = "
-            f"{robot.velocity_count} velocities): its NumPy module (--code) has mass_matrix, coriolis_matrix, "
-            "gravity_vector, friction_forces (damping and Coulomb friction of the revolute and prismatic joints), "
-            "inverse_dynamics and forward_dynamics (with wrenches at frames), linearize, regressor, parameter_vector, "
-            "kinetic_energy, potential_energy, frame_transform, frame_jacobian, neutral_configuration, integrate and "
-            "difference (check runs its rows), and so have its C (--c), its compiled Python extension (--c-extension), "
-            "its MATLAB/Octave package (--matlab; no wrenches, as a fixed-base robot's) and its JAX module (--jax), "
-            "its sheet (--latex, --pdf, --html) and JSON dump (--json); not built yet for floating-base robots "
-            "(issue 30): the MATLAB derivation script (simulate integrates its module on the manifold, "
-            "--force included; linearize and identify use it too)")
+    return (f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)}, NV = {robot.velocity_count}): "
+            "every output is built except the MATLAB derivation script (--matlab writes its +package only)")
 
 
 def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,

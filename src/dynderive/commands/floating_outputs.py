@@ -1,4 +1,4 @@
-"""The sheet (``--latex``, ``--pdf``, ``--html``) and the JSON dump of a floating-base robot (issue 30),
+"""The sheet (``--latex``, ``--pdf``, ``--html``) and the JSON dump of a floating-base robot,
 for ``solve`` and ``build`` (``commands/floating.py``): file name -> bytes, and the PDF that
 could not be made, if any (the other outputs are still written)."""
 

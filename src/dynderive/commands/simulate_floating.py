@@ -1,4 +1,4 @@
-"""``dynderive simulate`` of a floating-base robot (issue 30): SciPy's integrator on the state
+"""``dynderive simulate`` of a floating-base robot: SciPy's integrator on the state
 ``(q, v)`` (NQ + NV entries) with ``dq/dt`` from the module's ``configuration_rate`` (the
 base's quaternion moves by ``1/2 quaternion * (w, 0)``, tangent to the unit sphere), run
 from output frame to output frame; at each frame the quaternions are normalized (the

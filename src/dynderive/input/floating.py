@@ -2,7 +2,7 @@
 calls ``check_floating``): anywhere in a 3-D tree, as in Pinocchio (a floating joint between
 the world and the root link floats the robot's base; one from the world to each of several
 links, several free bodies; one below a link, a body free relative to it); not on a 3-D robot
-with loops (issue 30 builds those later).
+with loops (not built yet).
 
 A planar robot's ``floating`` joint (x, y, theta) is three joints in a row once validated
 (``expand_planar_floating``): prismatic ``<joint>_x`` along the joint frame's x axis,
@@ -109,7 +109,7 @@ def expand_planar_floating(joints: list[Joint], links: list[Link],
 def _reserved(v: Any, top: dict[str, Any], joints: list[Joint], kind: str) -> None:
     """No loops, and no name the floating-base module defines, on a robot with quaternions."""
     if "loops" in top:
-        v.error(("loops",), f"loops: closed loops on {kind} are not built yet (issue 30)", key=True)
+        v.error(("loops",), f"loops: closed loops on {kind} are not built yet", key=True)
     parameters = top.get("parameters")
     for name in parameters if isinstance(parameters, dict) else ():
         if name in FLOATING_MODULE_NAMES:

@@ -81,7 +81,7 @@ def check_mimics(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool)
             v.error(mpath, f"{v.label(mpath)}: mimic joints are built for 3-D robots only", key=True)
             continue
         if "loops" in top:
-            v.error(mpath, f"{v.label(mpath)}: mimic joints in a robot with loops are not built yet (issue 30)",
+            v.error(mpath, f"{v.label(mpath)}: mimic joints in a robot with loops are not built yet",
                     key=True)
             continue
         name = joint.mimic.joint

@@ -1,4 +1,4 @@
-"""Straight-line programs of a floating-base robot (issue 30, DESIGN.md section 10): the
+"""Straight-line programs of a floating-base robot (DESIGN.md section 10): the
 composite-rigid-body algorithm (M), recursive Newton-Euler (inverse dynamics, gravity) and an
 L^T D L solve (forward dynamics), as in ``recursive.py`` but with a free-flyer root.
 
@@ -47,7 +47,7 @@ def not_built(robot: Robot, what: str) -> InputError:
     joint = next(j for j in robot.joints if j.multi)
     line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
     return InputError(Problem(robot.source, line, column, f"{what}: not built yet for floating-base robots "
-                              f"(issue 30; joint '{joint.name}' is {joint.type})"))
+                              f"(joint '{joint.name}' is {joint.type})"))
 
 
 def quaternion_matrix(qx: sympy.Expr, qy: sympy.Expr, qz: sympy.Expr, qw: sympy.Expr) -> sympy.Matrix:

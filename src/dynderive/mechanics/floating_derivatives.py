@@ -1,4 +1,4 @@
-"""What a floating-base robot's module has beyond M, N and the dynamics (issue 30): the
+"""What a floating-base robot's module has beyond M, N and the dynamics: the
 Coriolis matrix, the derivatives of inverse dynamics on the tangent space (``linearize``)
 and the regressor, as straight-line programs over ``floating.FloatingTree``.
 

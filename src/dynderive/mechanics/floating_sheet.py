@@ -1,4 +1,4 @@
-"""The sheet's quantities of a small floating-base robot (issue 30), derived step by step in
+"""The sheet's quantities of a small floating-base robot, derived step by step in
 quasi-velocities: Kane's (Boltzmann-Hamel's) projection of each link's Newton-Euler equations
 onto its partial velocities, the columns of its body Jacobian.
 

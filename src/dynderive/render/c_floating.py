@@ -1,4 +1,4 @@
-"""The C99 target of a floating-base robot (``solve --floating-base --c``, issue 30): the same
+"""The C99 target of a floating-base robot (``solve --floating-base --c``): the same
 header and source templates as a fixed-base robot's (``c/dynamics.h.j2``, ``c/dynamics.c.j2``),
 with NQ != NV, the free-flyer programs (``mechanics/floating.py``: CRBA, Newton-Euler, the
 L^T D L solve, the Coriolis matrix, the derivatives of Newton-Euler, the regressor, the

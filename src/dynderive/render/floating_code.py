@@ -1,4 +1,4 @@
-"""The NumPy module of a floating-base robot (issue 30): ``mass_matrix``, ``coriolis_matrix``,
+"""The NumPy module of a floating-base robot: ``mass_matrix``, ``coriolis_matrix``,
 ``gravity_vector``, ``inverse_dynamics``, ``forward_dynamics``, ``linearize``, ``regressor``
 from the programs of ``mechanics/floating.py`` and ``floating_derivatives.py``, and
 ``NQ``, ``NV``, ``neutral_configuration``, ``integrate``, ``difference`` (Pinocchio's

@@ -1,4 +1,4 @@
-"""The JAX target of a floating-base robot (``solve --floating-base --jax``, issue 30):
+"""The JAX target of a floating-base robot (``solve --floating-base --jax``):
 ``<name>_dynamics_jax.py``, the floating-base NumPy module's API (``floating_code.py``) on
 ``jax.numpy``.
 

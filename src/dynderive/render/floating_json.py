@@ -1,4 +1,4 @@
-"""The JSON dump of a floating-base robot (issue 30): the fixed-base dump's layout and names
+"""The JSON dump of a floating-base robot: the fixed-base dump's layout and names
 (``render/json.py``) where they apply, in quasi-velocities.
 
 ``NQ`` and ``NV``, ``coordinates`` (NQ names), ``velocities`` and ``accelerations`` (NV names)

@@ -1,4 +1,4 @@
-"""The LaTeX sheet of a floating-base robot (issue 30): a small robot's equations derived step
+"""The LaTeX sheet of a floating-base robot: a small robot's equations derived step
 by step in quasi-velocities (``mechanics/floating_sheet.py``), a large one's as the
 intermediate-variable form of its module's programs (Newton-Euler and composite rigid
 bodies, line by line), laid out by ``floating_sheet.tex.j2``."""

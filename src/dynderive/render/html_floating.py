@@ -1,4 +1,4 @@
-"""The HTML sheet of a floating-base robot (issue 30): the floating LaTeX sheet's content
+"""The HTML sheet of a floating-base robot: the floating LaTeX sheet's content
 (``render/floating_latex.py``: a small robot's equations step by step in quasi-velocities, a
 large one's as the module's programs line by line) as one self-contained page, rendered as
 the fixed-base page is (``render/html.py``): MathML from the same SymPy quantities

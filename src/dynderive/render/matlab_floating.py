@@ -1,5 +1,5 @@
-"""The MATLAB/Octave package of a floating-base robot (``solve --floating-base --matlab``,
-issue 30): ``+<name>/``, the NumPy floating module's functions on Pinocchio's conventions
+"""The MATLAB/Octave package of a floating-base robot (``solve --floating-base --matlab``):
+``+<name>/``, the NumPy floating module's functions on Pinocchio's conventions
 (``q`` NQ x 1, ``qd``, ``qdd``, ``v`` NV x 1), printed from the free-flyer programs
 (``mechanics/floating.py``) by ``matlab_print.py`` as the fixed-base package is; M is solved
 with ``\\`` (Cholesky). The configuration space (``neutral_configuration``, ``integrate``,

@@ -1,4 +1,4 @@
-"""``dynderive check`` of a floating-base robot (issue 30): the generated module's functions
+"""``dynderive check`` of a floating-base robot: the generated module's functions
 against each other, against the power balance along ``integrate`` (which ties the velocity
 convention of the dynamics to the configuration's), and against Pinocchio with a
 ``JointModelFreeFlyer`` root when ``pin`` is installed. Random states: random unit
