@@ -1,8 +1,9 @@
 """``dynderive simulate``: integrate the generated dynamics, plot, tabulate and animate.
 
-Needs SciPy and matplotlib (``pip install "dynderive[simulate]"``). Efforts are expressions
-of ``t``, the coordinates, their velocities and the parameters, parsed by the same whitelist
-as robot files. Maximal-coordinate runs use Baumgarte stabilisation and accept efforts of
+Integrates with SciPy (a dependency); ``--plot`` and ``--animate`` draw with matplotlib, the
+``plot`` extra (``pip install "dynderive[plot]"``), imported only when they are asked for.
+Efforts are expressions of ``t``, the coordinates, their velocities and the parameters, parsed
+by the same whitelist as robot files. Maximal-coordinate runs use Baumgarte stabilisation and accept efforts of
 ``t`` only (the generalized coordinates are not state there).
 """
 
