@@ -41,23 +41,56 @@ def test_imported_urdf_validates_against_schema(tmp_path):
     assert not list(jsonschema.Draft202012Validator(schema).iter_errors(yaml.safe_load((tmp_path / "ur5.yaml").read_text())))
 
 
+#: ``dynderive`` run with its derivation held once done: the function ``solve`` calls derives
+#: the robot, then prints PAUSED to stdout and waits for a signal (nothing is rendered or
+#: written yet). The test sends SIGTERM once it has read that line, so the signal lands in the
+#: middle of the run however fast the machine is; no hook in the program itself.
+PAUSED_RUN = """\
+import signal, sys
+import dynderive
+from dynderive.__main__ import run
+
+derive = dynderive.derive
+
+def held(*args, **kwargs):
+    derivation = derive(*args, **kwargs)
+    sys.__stdout__.write("PAUSED\\n")
+    sys.__stdout__.flush()
+    while True:
+        signal.pause()   # the SIGTERM handler raises; a signal before this line raises too
+    return derivation
+
+dynderive.derive = held
+sys.argv = ["dynderive", *sys.argv[1:]]
+run()
+"""
+
+
 def test_sigterm_midway_leaves_previous_outputs_untouched(tmp_path):
+    """SIGTERM after the derivation, before any output is made: the outputs of the run
+    before are kept, byte for byte, and nothing else is left in the directory."""
     out = tmp_path / "out"
     first = runner.invoke(app, ["solve", "rp_arm", "--latex", "--code", "--out", str(out), "-q"])
     assert first.exit_code == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
-    # a slower robot (a 5-link pendulum, several seconds) named rp_arm: it would overwrite them
+    # another robot (a 3-link pendulum) named rp_arm: it would overwrite them
     robot = tmp_path / "slow" / "rp_arm.yaml"
     robot.parent.mkdir()
-    links = "".join(f"  - {{name: b{k}, mass: 1, com: [0.5, 0], inertia: 0.1}}\n" for k in range(1, 6))
+    links = "".join(f"  - {{name: b{k}, mass: 1, com: [0.5, 0], inertia: 0.1}}\n" for k in range(1, 4))
     joints = "".join(f"  - {{name: q{k}, type: revolute, parent: {'world' if k == 1 else f'b{k - 1}'}, "
-                     f"child: b{k}, origin: [{0 if k == 1 else 1}, 0]}}\n" for k in range(1, 6))
+                     f"child: b{k}, origin: [{0 if k == 1 else 1}, 0]}}\n" for k in range(1, 4))
     robot.write_text(f"name: rp_arm\nplanar: true\ngravity: [0, -9.81]\nlinks:\n{links}joints:\n{joints}")
-    process = subprocess.Popen([sys.executable, "-m", "dynderive", "solve", str(robot), "--latex", "--code",
+    process = subprocess.Popen([sys.executable, "-c", PAUSED_RUN, "solve", str(robot), "--latex", "--code",
                                 "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.5)  # loading done, derivation under way
-    process.send_signal(signal.SIGTERM)
-    _, stderr = process.communicate(timeout=30)
+    try:
+        line = process.stdout.readline()   # blocks until the derivation is done and held
+        assert line == "PAUSED\n", (line, process.stderr.read() if process.poll() is not None else "")
+        process.send_signal(signal.SIGTERM)
+        _, stderr = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
     assert process.returncode == 130, stderr
     assert stderr.strip().endswith("dynderive: interrupted; no output was changed")
     assert "Traceback" not in stderr

@@ -7,6 +7,8 @@ from __future__ import annotations
 import json
 import math
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +19,7 @@ import dynderive
 from dynderive.commands import integrate
 from dynderive.commands.cli import app
 from dynderive.commands.simulate import default_initial, parse_efforts, simulate
+from dynderive.errors import InputError
 from dynderive.render.code import render_code
 from dynderive.verify.checks import generated_module
 
@@ -84,7 +87,9 @@ def test_identify_at_the_fewest_states_finds_the_base_parameters():
 @pytest.mark.parametrize("option, prefix, time", [
     ("tau1=log(t)", "--effort tau1=log(t):1:6: effort tau1 is not finite at t = 0 s", 0.0),
     ("tau1=1/t", "--effort tau1=1/t:1:6: effort tau1 is not finite at t = 0 s", 0.0),
-    ("tau1=exp(1000*t)", "--effort tau1=exp(1000*t):1:6: effort tau1 is not finite at t = ", math.log(np.finfo(float).max) / 1000),
+    # the RP arm's slider flies off: its state passes 1e150 (where products overflow) at 0.69 s,
+    # before the effort itself overflows (at log(max double) / 1000 = 0.7098 s)
+    ("tau1=exp(1000*t)", "--effort tau1=exp(1000*t):1:6: effort tau1 reaches ", 0.6915),
     ("F2=sqrt(t-0.25)", "--effort F2=sqrt(t-0.25):1:4: effort F2 is not finite at t = 0 s", 0.0),
 ])
 def test_efforts_not_finite_on_the_run_stop_it(option, prefix, time):
@@ -273,3 +278,67 @@ def test_linearize_equilibrium_on_closed_loops():
     module = generated_module(render_code(dynderive.derive(dynderive.load_robot("four_bar"))), "four_bar")
     qdd = module.forward_dynamics(np.array(state["q"]), np.zeros(3), np.array(state["u"]))
     np.testing.assert_allclose(qdd, 0, atol=1e-9)
+
+
+def _hostile_run(tmp_path, *args: str) -> subprocess.CompletedProcess[str]:
+    """``dynderive simulate ARGS --csv`` in a subprocess: refused (exit 2, one positioned
+    line, no traceback) with nothing written. The runs stop by counting steps, not seconds;
+    the 10 s timeout is a ceiling far above what they take (about 2 s here, SymPy's import
+    and the derivation included)."""
+    csv = tmp_path / "run.csv"
+    result = subprocess.run([sys.executable, "-m", "dynderive", "simulate", *args, "-q", "--csv", str(csv)],
+                            capture_output=True, text=True, timeout=10)
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.splitlines()) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert list(tmp_path.iterdir()) == []
+    return result
+
+
+@pytest.mark.parametrize("robot, effort", [
+    ("double_pendulum", "tau1"), ("cart_pole", "F"), ("slider_crank", "tau1"), ("elbow_arm", "tau1"),
+])
+def test_an_effort_growing_without_bound_stops_the_run(tmp_path, robot, effort):
+    """exp(1000*t) spins the robot ever faster: every number stays finite, the integrator's
+    steps shrink (these ran for minutes); the run stops once its state has grown 1e4-fold and
+    the rest would take more than 1e6 steps, blaming the effort."""
+    option = f"{effort}=exp(1000*t)"
+    line = _hostile_run(tmp_path, robot, "--duration", "1", "--effort", option).stderr
+    assert line.startswith(f"--effort {option}:1:{len(effort) + 2}: effort {effort} reaches "), line
+    assert "the motion runs away: at t = " in line and line.rstrip().endswith("; the run stops there")
+    assert 0.005 < float(re.search(r"at t = (\S+) s", line).group(1)) < 0.05
+
+
+@pytest.mark.parametrize("args", [["--coordinates", "maximal"], []])
+def test_an_effort_overflowing_the_state_stops_the_run(tmp_path, args):
+    """A state past 1e150 (its products overflow; the generated module's math.sin of it used to
+    end in 'math domain error'): stopped at the effort."""
+    line = _hostile_run(tmp_path, "rp_arm", *args, "--duration", "1", "--effort", "tau1=exp(1000*t)").stderr
+    assert line.startswith("--effort tau1=exp(1000*t):1:6: effort tau1 reaches "), line
+    assert "the motion overflows (the state passed 1e+150" in line or "the motion runs away" in line, line
+
+
+@pytest.mark.parametrize("robot, q0, names, size", [
+    ("four_bar", "0,0,0", "q1 = 0, q2 = 0, q3 = 0", "8 x 9"),
+    ("slider_crank", "1.5707963267948966,0,0", "q1 = 1.5708, q2 = 0, s = 0", "8 x 9"),
+])
+def test_a_singular_maximal_start_is_refused(tmp_path, robot, q0, names, size):
+    """Every link on one line: the constraint Jacobian's rows are dependent, so the KKT system
+    is singular (numpy's solve raised LinAlgError where LAPACK found the pivot exactly 0)."""
+    line = _hostile_run(tmp_path, robot, "--coordinates", "maximal", "--q0", q0, "--duration", "1").stderr
+    assert line == (f"--q0:1:1: the configuration {names} is singular: the maximal coordinates' constraint "
+                    f"Jacobian A(qm) ({size}) has rank 7, not 8 (its rows are dependent there), so the constrained "
+                    "accelerations cannot be solved for; choose another --q0\n")
+
+
+def test_the_runaway_stop_counts_steps():
+    """The same run stops at the same step whatever the machine's speed: the integrator's
+    own count, not a clock."""
+    d = dynderive.derive(dynderive.load_robot("double_pendulum"))
+    efforts = parse_efforts(d, ["tau1=exp(1000*t)"], False)
+    stops = []
+    for _ in range(2):
+        with pytest.raises(InputError) as caught:
+            simulate(d, render_code(d), 1.0, default_initial(d), np.zeros(2), efforts, False, 1e-9, 1e-9, 10.0, 11,
+                     lambda s: None)
+        stops.append(str(caught.value))
+    assert stops[0] == stops[1] and "the motion runs away" in stops[0]

@@ -148,7 +148,7 @@ def test_urdf_notes_name_the_link_and_the_correction(tmp_path):
     robot = dynderive.load_robot(path)
     welded = "ignored: the link is welded to the world, so its {} never enters the dynamics"
     assert robot.notes == (
-        f"{path}:4:7: note: link 'base' inertia: principal moments -2.45944e-22, 3.41858e-23, 3e-06 violate the "
+        f"{path}:4:7: note: link 'base' inertia: principal moments 0, 0, 3e-06 violate the "
         f"triangle inequality by 3e-06; {welded.format('inertia')}",
         f"{path}:13:15: note: link 'antenna' mass: must not be negative (got -1e-06); {welded.format('mass')}",
         f"{path}:14:7: note: link 'antenna' inertia: inertia is not positive semi-definite (smallest principal "
@@ -156,11 +156,37 @@ def test_urdf_notes_name_the_link_and_the_correction(tmp_path):
         f"{path}:20:7: note: link 'leg' inertia: principal moments 0.0123456, 0.0234567, 0.0358024 violate the "
         "triangle inequality by 1e-07, within the rounding tolerance 1.92697e-05: corrected, principal moments "
         "raised by 5e-08, 5e-08, 0",
-        f"{path}:25:7: note: link 'foot' inertia: principal moments -2.45944e-22, 3.41858e-23, 3e-06 violate the "
+        f"{path}:25:7: note: link 'foot' inertia: principal moments 0, 0, 3e-06 violate the "
         "triangle inequality by 3e-06, within the rounding tolerance 1.92697e-05: corrected, principal moments "
         "raised by 1.5e-06, 1.5e-06, 0",
     )
     assert [link.name for link in robot.links] == ["leg"]
+
+
+def test_notes_print_no_digits_of_the_eigensolvers_rounding():
+    """The placeholder inertia (all six entries 1e-6: moments 0, 0, 3e-6) turned about many
+    axes: the eigensolver's last bits differ with each turn (as they differ between CPUs and
+    BLAS builds: -2.5e-22 on one, -2e-22 on another), the note does not."""
+    tensor = np.full((3, 3), 1e-6)
+    rng = np.random.default_rng(7)
+    notes, noise = set(), set()
+    for _ in range(50):
+        axes, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        turned = axes @ tensor @ axes.T
+        turned = (turned + turned.T) / 2
+        noise.add(float(np.linalg.eigvalsh(turned)[0]))
+        notes.add(inertia.judge(turned, 20.0, welded=False).note)
+    assert len(noise) > 1   # the rounding the notes must hide is there
+    assert notes == {"principal moments 0, 0, 3e-06 violate the triangle inequality by 3e-06, within the rounding "
+                     "tolerance 2e-05: corrected, principal moments raised by 1.5e-06, 1.5e-06, 0"}
+
+
+def test_a_small_moment_keeps_only_the_digits_above_the_rounding():
+    """Against a largest moment of 1, a moment of 1.23456789e-11 keeps one digit (the
+    eigensolver's rounding is about 1e-16 there, shown digits stop at 1e-12); a negative one
+    of -1e-13 prints as 0."""
+    assert inertia._g([-1e-13, 1.23456789e-11, 0.5, 1.0], 1.0) == "0, 1e-11, 0.5, 1"
+    assert inertia._g([1.23456789e-3, -0.0], 1.0) == "0.00123457, 0"
 
 
 def test_import_writes_the_corrected_numbers(tmp_path):

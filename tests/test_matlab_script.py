@@ -92,8 +92,11 @@ def test_rp_arm_script_reproduces_every_quantity(tmp_path):
         values = ", ".join(f"sym({v.p})/sym({v.q})" for v in point.values())
         lines.append(f"vars = {{{variables}}};\nvals = {{{values}}};")
         for name in names:
-            lines.append(f"fprintf(1, 'VALUE {k} {name}'); fprintf(1, ' %.17g', double(subs({name}, vars, vals))); "
-                         "fprintf(1, '\\n');")
+            # evaluated before anything of its line is printed: a slow evaluation (lambdaVec's,
+            # under load) makes the symbolic package print "Waiting....." and a newline into
+            # stdout, which would otherwise split the line between its name and its numbers
+            lines.append(f"value_ = double(subs({name}, vars, vals)); "
+                         f"fprintf(1, 'VALUE {k} {name}%s\\n', sprintf(' %.17g', value_));")
     output = _run("\n".join(lines), tmp_path, "rp_arm_derivation")
     assert all(line.startswith("pass: ") for line in _check_lines(output)) and len(_check_lines(output)) == 5
     printed = {}

@@ -75,6 +75,31 @@ def handle_errors(function: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
+def require_matplotlib(option: str) -> None:
+    """``--plot`` and ``--animate`` draw with matplotlib, an optional dependency (the ``plot``
+    extra): refused at the option when it is not installed, before any work."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise InputError(problem(option, 'needs matplotlib, which is not installed: pip install "dynderive[plot]" '
+                                 "(or leave out the option: --csv needs no matplotlib)")) from None
+
+
+def jax_note() -> None:
+    """``--jax`` writes the module whether or not JAX is installed (it is generated text); the
+    module imports JAX, an optional dependency (the ``jax`` extra): one note when it is not
+    importable here."""
+    import importlib.util
+
+    try:
+        found = importlib.util.find_spec("jax") is not None
+    except (ImportError, ValueError):
+        found = False
+    if not found:
+        typer.echo('note: --jax: JAX is not installed here; the JAX module is written, and imports once JAX is '
+                   'installed: pip install "dynderive[jax]"', err=True)
+
+
 def _version(value: bool) -> None:
     if value:
         typer.echo(f"dynderive {__version__}")
@@ -104,7 +129,8 @@ def solve(
                                          "Symbolic Math Toolbox script, and DIR/+<name>/, numeric MATLAB/Octave "
                                          "functions (one per file: mass_matrix, forward_dynamics, ...).")] = False,
     jax: Annotated[bool, typer.Option("--jax", help="Write DIR/<name>_dynamics_jax.py, the NumPy module's API on "
-                                      "jax.numpy (jit, vmap, grad; float32 and float64).")] = False,
+                                      "jax.numpy (jit, vmap, grad; float32 and float64); importing it needs JAX (the "
+                                      "jax extra).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write DIR/<name>.html, the solution sheet as one self-contained "
                                        "web page (MathML equations, SVG drawing, no script).")] = False,
@@ -143,6 +169,8 @@ def solve(
     progress("loading")
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     echo_notes(model, quiet)
+    if jax and not quiet:
+        jax_note()
     if model.floating:
         from .floating import solve_floating
 
@@ -273,9 +301,11 @@ def simulate(
     force: Annotated[list[str] | None, typer.Option("--force", help="FRAME=EXPR,EXPR,..(t, q, qd): a wrench at a frame "
                      "in world axes (planar fx,fy,n; 3-D fx,fy,fz,nx,ny,nz), repeatable.")] = None,
     coordinates: Annotated[str, typer.Option("--coordinates", help="generalized or maximal (planar robots).")] = "generalized",
-    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift).")] = None,
+    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift); "
+                                  "needs matplotlib (the plot extra).")] = None,
     csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
-    animate: Annotated[Path | None, typer.Option("--animate", help="GIF animation (planar robots).")] = None,
+    animate: Annotated[Path | None, typer.Option("--animate", help="GIF animation (planar robots); needs matplotlib "
+                                     "(the plot extra).")] = None,
     method: Annotated[str, typer.Option("--method", help="SciPy integrator: LSODA (switches to a stiff method "
                       "when needed), Radau, BDF (stiff), RK45, DOP853 (explicit: slow on stiff robots).")] = "LSODA",
     rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator.")] = 1e-9,
@@ -320,12 +350,14 @@ def simulate(
     if backend == "c" and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
+    for option, path in (("--plot", plot), ("--animate", animate)):
+        if path is not None:
+            require_matplotlib(option)
     try:
-        import matplotlib  # noqa: F401
         import scipy  # noqa: F401
-    except ImportError as exc:
-        raise ToolMissingError(f"simulate needs SciPy and matplotlib ({exc.name} is missing): "
-                               'pip install "dynderive[simulate]"') from None
+    except ImportError:
+        raise ToolMissingError("simulate needs SciPy, a dependency of dynderive that is missing here: "
+                               "pip install scipy") from None
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     if model.floating:
@@ -478,6 +510,8 @@ def build(
     kinds += (f"digits:{shortened}",) if shortened else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
+    if jax:
+        jax_note()
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
                          lambda text: typer.echo(text, err=True), prune)
     width = max([len(o.source) for o in outcomes] + [5])

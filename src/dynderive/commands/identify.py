@@ -22,7 +22,8 @@ def run_identify(argument: str, assignments: list[str], states: int | None, json
     try:
         import scipy  # noqa: F401
     except ImportError:
-        raise ToolMissingError('identify needs SciPy: pip install "dynderive[simulate]"') from None
+        raise ToolMissingError("identify needs SciPy, a dependency of dynderive that is missing here: "
+                               "pip install scipy") from None
     from ..verify.identification import base_parameters, fewest_states
 
     progress = Progress(quiet)

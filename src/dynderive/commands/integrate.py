@@ -16,7 +16,9 @@ machine, rtol = atol = 1e-9).
 
 from __future__ import annotations
 
+import math
 import warnings
+from collections import deque
 from collections.abc import Callable
 
 import numpy as np
@@ -37,6 +39,41 @@ STRUGGLE_PROJECTED = 300_000
 #: duration (LSODA can go on taking steps of size 0 at a singular force for ever).
 STALL_STEPS = 100
 STALL = 1e-12
+#: A run *runs away* (an effort growing without bound, ``exp(1000*t)``: the robot spins ever
+#: faster and the integrator's steps shrink with it, so the run would go on for hours with
+#: every number finite) when both hold: the state is ``RUNAWAY_GROWTH`` times larger than at
+#: the start (or than 1, if it started smaller), and at the pace of its last ``PACE_STEPS``
+#: steps the rest of the run would take more than ``RUNAWAY_STEPS`` steps. Counted in steps,
+#: not seconds, so the run stops at the same step on any machine. An unforced double pendulum
+#: for 1000 s takes about 1e6 steps in all at rtol = 1e-9, with its state below 20; a stiff
+#: arm's steps are small, but its state stays where it started.
+RUNAWAY_GROWTH = 1e4
+RUNAWAY_STEPS = 1e6
+PACE_STEPS = 100
+#: A state beyond this (in any unit) is overflowing: its products leave a double's range.
+OVERFLOW = 1e150
+
+#: culprit(time, state, body) -> the positioned problem for a motion that stopped being
+#: computable (``body`` says how): the option to blame, an effort for instance.
+Culprit = Callable[[float, np.ndarray, str], Problem]
+
+
+def at_duration(time: float, state: np.ndarray, body: str) -> Problem:
+    """The default culprit: no effort or force to blame, so the run's length."""
+    return Problem("--duration", 1, 1, body)
+
+
+def singular_problem(body: str) -> Problem:
+    """A configuration where the dynamics cannot be solved, blamed on the start (``--q0``)."""
+    return Problem("--q0", 1, 1, body)
+
+
+class _Stop(Exception):
+    """Raised by the right-hand side at a state that cannot be computed with (caught by ``run``)."""
+
+    def __init__(self, time: float, state: np.ndarray, body: str, singular: bool = False):
+        super().__init__(body)
+        self.time, self.state, self.body, self.singular = time, state, body, singular
 
 
 def method_name(text: str) -> str:
@@ -52,16 +89,32 @@ class Integrator:
     are projected onto their constraints at every frame); counts steps over the whole run."""
 
     def __init__(self, rhs: Callable[[float, np.ndarray], np.ndarray], method: str, rtol: float, atol: float,
-                 duration: float, note: Callable[[str], None], hint: str = ""):
+                 duration: float, note: Callable[[str], None], hint: str = "", culprit: Culprit = at_duration):
         from scipy import integrate
 
         self.method, self.rtol, self.atol = method, rtol, atol
         self.evaluations = 0
+        self.culprit = culprit
 
         def counted(time: float, y: np.ndarray) -> np.ndarray:
             self.evaluations += 1
-            return rhs(time, y)
+            if not np.all(np.isfinite(y)):
+                raise _Stop(time, y, "the motion stopped being finite (the state left the range of a double)")
+            if float(np.max(np.abs(y), initial=0.0)) > OVERFLOW:
+                raise _Stop(time, y, f"the motion overflows (the state passed {OVERFLOW:.0e}, beyond which a "
+                                     "double cannot hold its products)")
+            try:
+                return rhs(time, y)
+            except np.linalg.LinAlgError:
+                raise _Stop(time, y, "the configuration reached is singular (the mass matrix or the constraint "
+                                     "Jacobian cannot be inverted there)", singular=True) from None
+            except (ArithmeticError, ValueError) as exc:   # math.sin(1e300) in the generated module...
+                raise _Stop(time, y, f"the dynamics cannot be evaluated at the state reached "
+                                     f"({str(exc) or type(exc).__name__})") from None
         self.rhs = counted
+        self.start = 0.0                  # the largest entry of the state at the start of the run
+        self.scale: float | None = None   # ... or 1 if that is more
+        self.pace: deque[float] = deque(maxlen=PACE_STEPS + 1)   # the times of the last steps
         self.solver_class = getattr(integrate, method)
         self.duration, self.note, self.hint = duration, note, hint
         self.steps = 0
@@ -75,34 +128,65 @@ class Integrator:
         while filled < len(times) and times[filled] <= start:
             out[filled] = y0
             filled += 1
+        if self.scale is None:
+            self.start = float(np.max(np.abs(y0), initial=0.0))
+            self.scale = max(1.0, self.start)
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")   # SciPy's warnings become the messages below
-            solver = self.solver_class(self.rhs, start, y0, end, rtol=self.rtol, atol=self.atol)
-            while solver.status == "running":
-                before = solver.t
-                message = solver.step()
-                if solver.status == "failed":
-                    raise InputError(Problem("--method", 1, 1, f"the integrator ({self.method}) failed at "
-                                             f"t = {before:.6g} s: {message}{self._advice()}"))
-                if not np.all(np.isfinite(solver.y)):
-                    raise InputError(Problem("--duration", 1, 1, f"the motion stopped being finite between "
-                                             f"t = {before:.6g} s and {solver.t:.6g} s (the state left the range "
-                                             "of a double); the run stops there"))
-                self.steps += 1
-                self.stalled = self.stalled + 1 if solver.t - before <= STALL * self.duration else 0
-                if self.stalled >= STALL_STEPS:
-                    raise InputError(Problem("--method", 1, 1, f"the integrator ({self.method}) cannot advance "
-                                             f"past t = {solver.t:.12g} s ({STALL_STEPS} steps in a row of "
-                                             f"less than {STALL:g} of the run): an effort, a force or the "
-                                             "motion may be singular there; the run stops there"))
-                self._watch(solver.t, solver.step_size)
-                if filled < len(times) and times[filled] <= solver.t:
-                    dense = solver.dense_output()
-                    while filled < len(times) and times[filled] <= solver.t:
-                        out[filled] = dense(times[filled])
-                        filled += 1
+            try:
+                return self._run(start, end, y0, times, out, filled)
+            except _Stop as stop:
+                body = f"{stop.body}, at t = {stop.time:.6g} s; the run stops there"
+                raise InputError(singular_problem(body) if stop.singular
+                                 else self.culprit(stop.time, stop.state, body)) from None
+
+    def _run(self, start: float, end: float, y0: np.ndarray, times: np.ndarray, out: np.ndarray,
+             filled: int) -> np.ndarray:
+        solver = self.solver_class(self.rhs, start, y0, end, rtol=self.rtol, atol=self.atol)
+        while solver.status == "running":
+            before = solver.t
+            message = solver.step()
+            if solver.status == "failed":
+                raise InputError(Problem("--method", 1, 1, f"the integrator ({self.method}) failed at "
+                                         f"t = {before:.6g} s: {message}{self._advice()}"))
+            if not np.all(np.isfinite(solver.y)):
+                raise InputError(self.culprit(solver.t, solver.y, f"the motion stopped being finite between "
+                                              f"t = {before:.6g} s and {solver.t:.6g} s (the state left the "
+                                              "range of a double); the run stops there"))
+            self.steps += 1
+            self._runaway(solver.t, solver.y)
+            self.stalled = self.stalled + 1 if solver.t - before <= STALL * self.duration else 0
+            if self.stalled >= STALL_STEPS:
+                raise InputError(Problem("--method", 1, 1, f"the integrator ({self.method}) cannot advance "
+                                         f"past t = {solver.t:.12g} s ({STALL_STEPS} steps in a row of "
+                                         f"less than {STALL:g} of the run): an effort, a force or the "
+                                         "motion may be singular there; the run stops there"))
+            self._watch(solver.t, solver.step_size)
+            if filled < len(times) and times[filled] <= solver.t:
+                dense = solver.dense_output()
+                while filled < len(times) and times[filled] <= solver.t:
+                    out[filled] = dense(times[filled])
+                    filled += 1
         out[filled:] = solver.y
         return out
+
+    def _runaway(self, time: float, y: np.ndarray) -> None:
+        """Stop a run whose state has grown RUNAWAY_GROWTH-fold while its steps shrank so much
+        that the rest of it would take more than RUNAWAY_STEPS steps (constants above)."""
+        self.pace.append(time)
+        if len(self.pace) <= PACE_STEPS:
+            return
+        size = float(np.max(np.abs(y), initial=0.0))
+        assert self.scale is not None
+        if size <= RUNAWAY_GROWTH * self.scale:
+            return
+        step = (self.pace[-1] - self.pace[0]) / PACE_STEPS
+        ahead = (self.duration - time) / step if step > 0 else math.inf
+        if ahead > RUNAWAY_STEPS:
+            raise InputError(self.culprit(time, y, f"the motion runs away: at t = {time:.3g} s its state has "
+                                          f"grown from {self.start:.2g} to {size:.2g} and its last {PACE_STEPS} "
+                                          f"steps took {step:.2g} s each, so the rest of the run would take "
+                                          f"{ahead:.2g} more steps; the run stops there"))
 
     def _watch(self, time: float, step: float | None) -> None:
         if self.noted or self.evaluations < STRUGGLE_EVALUATIONS or time <= 0:

@@ -1,14 +1,16 @@
 """``dynderive simulate``: integrate the generated dynamics, plot, tabulate and animate.
 
-Needs SciPy and matplotlib (``pip install "dynderive[simulate]"``). Efforts are expressions
-of ``t``, the coordinates, their velocities and the parameters, parsed by the same whitelist
-as robot files. Maximal-coordinate runs use Baumgarte stabilisation and accept efforts of
+Integrates with SciPy (a dependency); ``--plot`` and ``--animate`` draw with matplotlib, the
+``plot`` extra (``pip install "dynderive[plot]"``), imported only when they are asked for.
+Efforts are expressions of ``t``, the coordinates, their velocities and the parameters, parsed
+by the same whitelist as robot files. Maximal-coordinate runs use Baumgarte stabilisation and accept efforts of
 ``t`` only (the generalized coordinates are not state there).
 """
 
 from __future__ import annotations
 
 import io
+import math
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -22,8 +24,12 @@ from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError, parse_expression
 from ..verify.checks import allowed_velocity, generated_module
-from .integrate import DEFAULT_METHOD, Integrator, checked
+from .integrate import DEFAULT_METHOD, Culprit, Integrator, at_duration, checked, singular_problem
 from .options import split_top_level
+
+#: Singular values below this fraction of the largest count as zero in ``singular_start``
+#: (a configuration that close to singular makes the integrator stall).
+SINGULAR = 1e-9
 
 
 @dataclass
@@ -70,7 +76,48 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
         for index, function in indices:
             u[index] = function(time, q, qd).reshape(-1)[0]
         return u
+    efforts.options = [(name, where, column, sympy.lambdify([t, table.q, table.qd], expr.xreplace(values),  # type: ignore[attr-defined]
+                                                            modules="numpy"))
+                       for name, (expr, where, column) in exprs.items()]
     return efforts
+
+
+def culprit(efforts: Callable[..., np.ndarray], n: int, maximal: bool = False) -> Culprit:
+    """The option to blame for a motion that stops being computable at (time, state): the
+    ``--effort`` whose value is largest there (the state's first ``n`` entries are q, the next
+    ``n`` qd; maximal runs' efforts are of t only), else ``--duration``."""
+    options = getattr(efforts, "options", [])
+
+    def blame(time: float, state: np.ndarray, body: str) -> Problem:
+        q, qd = (np.zeros(n), np.zeros(n)) if maximal else (state[:n], state[n:2 * n])
+        sizes = []
+        for name, where, column, function in options:
+            try:
+                with np.errstate(all="ignore"):
+                    value = float(np.asarray(function(time, q, qd), dtype=float).reshape(-1)[0])
+            except (ArithmeticError, ValueError, TypeError):
+                value = math.inf
+            sizes.append((abs(value) if not math.isnan(value) else math.inf, name, where, column, value))
+        if not sizes:
+            return at_duration(time, state, body)
+        _, name, where, column, value = max(sizes, key=lambda item: item[0])
+        return Problem(where, 1, column, f"effort {name} reaches {value:.3g}: {body}")
+    return blame
+
+
+def singular_start(matrix: np.ndarray, rank: int, what: str, names: list[str] | tuple[str, ...],
+                   q: np.ndarray) -> None:
+    """Refuse a start where ``matrix`` (a constraint Jacobian) has fewer than ``rank``
+    independent rows: the constrained dynamics cannot be solved there (at --q0)."""
+    with np.errstate(all="ignore"):
+        values = np.linalg.svd(matrix, compute_uv=False) if np.all(np.isfinite(matrix)) else None
+    found = 0 if values is None or not len(values) else int(np.sum(values > SINGULAR * values[0]))
+    if found < rank:
+        shown = ", ".join(f"{name} = {value:.6g}" for name, value in zip(names, q))
+        raise InputError(singular_problem(
+            f"the configuration {shown} is singular: {what} ({matrix.shape[0]} x {matrix.shape[1]}) has rank "
+            f"{found}, not {rank} (its rows are dependent there), so the constrained accelerations cannot be "
+            "solved for; choose another --q0"))
 
 
 def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., dict[str, np.ndarray] | None]:
@@ -177,6 +224,9 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     else:
         with np.errstate(all="ignore"):
             qm0 = module.to_maximal(q0, **values)
+            singular_start(module.constraint_jacobian(qm0, **values),
+                           len(qm0) - len(getattr(module, "INDEPENDENT_COORDINATES", q0)),
+                           "the maximal coordinates' constraint Jacobian A(qm)", derivation.robot.coordinates, q0)
             y0 = np.concatenate([qm0, module.to_maximal_jacobian(q0, **values) @ qd0])
         n = len(qm0)
         zero_q = np.zeros(len(q0))
@@ -190,7 +240,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         names = [str(s) for s in derivation.symbols.qm]
     _finite_start(rhs, y0, n, q0, qd0)
     times = np.linspace(0.0, duration, frames)
-    states = Integrator(rhs, method, rtol, atol, duration, note, hint).run(0.0, duration, y0, times)
+    states = Integrator(rhs, method, rtol, atol, duration, note, hint,
+                        culprit(efforts, len(q0), maximal)).run(0.0, duration, y0, times)
     tick(duration)
     position, velocity = states[:, :n], states[:, n:2 * n]
     dissipated = states[:, 2 * n] if dissipative else None
@@ -210,8 +261,15 @@ def _finite_start(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray
     the velocity products), at the option to blame: ``--qd0`` if the same coordinates at rest
     are fine, else ``--q0``."""
     def finite(y: np.ndarray) -> bool:
-        with np.errstate(all="ignore"):
-            return bool(np.all(np.isfinite(y)) and np.all(np.isfinite(rhs(0.0, y))))
+        try:
+            with np.errstate(all="ignore"):
+                return bool(np.all(np.isfinite(y)) and np.all(np.isfinite(rhs(0.0, y))))
+        except np.linalg.LinAlgError:
+            raise InputError(singular_problem(
+                f"the configuration {', '.join(f'{v:g}' for v in q0)} is singular: the mass matrix (or the "
+                "constraint Jacobian) cannot be inverted there; choose another --q0")) from None
+        except (ArithmeticError, ValueError):
+            return False
 
     if finite(y0):
         return
@@ -249,7 +307,13 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
         except (ValueError, np.linalg.LinAlgError):
             raise InputError(Problem("--q0", 1, 1, "the loops cannot be closed with independent coordinates "
                                      + ", ".join(f"{module.COORDINATES[i]} = {q[i]:g}" for i in independent))) from None
-        return q, allowed_velocity(module, q, qd, values)
+        try:
+            with np.errstate(all="ignore"):
+                return q, allowed_velocity(module, q, qd, values)
+        except (ValueError, np.linalg.LinAlgError):
+            raise InputError(singular_problem("the configuration " + ", ".join(
+                f"{name} = {value:.6g}" for name, value in zip(module.COORDINATES, q)) + " is singular: the loop "
+                "constraint Jacobian A_g(q) cannot be decomposed there; the run stops there")) from None
 
     def rhs(time: float, y: np.ndarray) -> np.ndarray:
         tick(time)
@@ -260,8 +324,11 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
 
     times = np.linspace(0.0, duration, frames)
     q, qd = project(q0, qd0)
+    with np.errstate(all="ignore"):
+        singular_start(module.loop_jacobian(q, **values), n - len(independent),
+                       "the loop constraint Jacobian A_g(q)", module.COORDINATES, q)
     _finite_start(rhs, np.concatenate([q, qd]), n, q0, qd0)
-    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint)
+    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint, culprit(efforts, n))
     positions, velocities, drift = [q], [qd], [float(np.max(np.abs(module.loop_constraints(q, **values))))]
     for start, end in zip(times[:-1], times[1:]):
         state = integrator.run(start, end, np.concatenate([q, qd]), np.array([end]))[-1]

@@ -79,8 +79,26 @@ def tolerance(tensor: np.ndarray, scale: float) -> float:
     return max(ROUNDING * size(tensor), FLOOR * scale)
 
 
-def _g(values: np.ndarray | list[float]) -> str:
-    return ", ".join(f"{x:g}" for x in values)
+#: Principal moments come from an eigensolver whose last bits differ between CPUs and BLAS
+#: builds (a few ``eps`` of the largest moment); digits below this fraction of the largest
+#: moment are not printed, so a note reads the same on any machine.
+SHOWN = 1e-12
+
+
+def _num(x: float, top: float) -> str:
+    """``x`` with six significant digits at most, none below ``SHOWN * top`` (the rounding
+    of the eigensolver on a tensor whose largest moment is ``top``): 0 when ``x`` is smaller."""
+    quantum = SHOWN * top
+    if not math.isfinite(x) or quantum <= 0:
+        return f"{x:g}"
+    if abs(x) <= quantum:
+        return "0"
+    digits = min(6, max(1, math.floor(math.log10(abs(x))) - math.floor(math.log10(quantum))))
+    return f"{x:.{digits}g}"
+
+
+def _g(values: np.ndarray | list[float], top: float) -> str:
+    return ", ".join(_num(float(x), top) for x in values)
 
 
 def judge(tensor: np.ndarray, scale: float, welded: bool, correct: bool = True, impossible: bool = False) -> Verdict:
@@ -99,13 +117,14 @@ def judge(tensor: np.ndarray, scale: float, welded: bool, correct: bool = True, 
     a, b, c = (float(x) for x in eig)
     gap = c - max(a, 0.0) - max(b, 0.0)
     violation = max(0.0, -a, gap)
-    silent = SILENT * max(1.0, float(np.max(np.abs(eig))))
+    top = float(np.max(np.abs(eig)))
+    silent = SILENT * max(1.0, top)
     if violation <= silent:
         return Verdict(None, None, tensor)
     if a < -silent:
-        problem, amount = f"inertia is not positive semi-definite (smallest principal moment {a:g}", ")"
+        problem, amount = f"inertia is not positive semi-definite (smallest principal moment {_num(a, top)}", ")"
     else:
-        problem, amount = f"principal moments {_g(eig)} violate the triangle inequality", f" by {gap:g}"
+        problem, amount = f"principal moments {_g(eig, top)} violate the triangle inequality", f" by {_num(gap, top)}"
     if welded:
         return Verdict(None, _ignored(problem + amount.rstrip()), tensor)
     tol = tolerance(tensor, scale)
@@ -122,14 +141,15 @@ def judge(tensor: np.ndarray, scale: float, welded: bool, correct: bool = True, 
         raised[:2] += (raised[2] - raised[0] - raised[1]) / 2
     corrected = _rebuilt(tensor, raised)
     note = (f"{problem}{amount}, within the rounding tolerance {tol:g}: corrected, principal moments "
-            f"raised by {_g(raised - eig)}")
+            f"raised by {_g(raised - eig, top)}")
     return Verdict(None, note, corrected)
 
 
 def _impossible(tensor: np.ndarray, eig: np.ndarray, gap: float, tol: float, silent: float) -> Verdict:
     """A triangle violation beyond the tolerance, kept as written (negative moments within the
     tolerance still raised to 0, so the tensor stays positive semi-definite)."""
-    note = (f"principal moments {_g(eig)} violate the triangle inequality by {gap:g}, beyond the rounding "
+    top = float(np.max(np.abs(eig)))
+    note = (f"principal moments {_g(eig, top)} violate the triangle inequality by {_num(gap, top)}, beyond the rounding "
             f"tolerance {tol:g}: physically impossible, but kept as written (as Pinocchio does)")
     if eig[0] >= -silent:
         return Verdict(None, note, tensor, impossible=True)
