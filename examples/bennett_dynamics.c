@@ -225,6 +225,18 @@ void bennett_gravity_vector(const double *q, const bennett_parameters *p, double
     N[2] = t25;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void bennett_generalized_forces(const double *q, const double *u, const bennett_parameters *p, double *Y)
+{
+    const bennett_parameters *const P = p ? p : &bennett_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = 0;
+    Y[2] = 0;
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void bennett_inverse_dynamics(const double *q, const double *qd, const double *qdd, const bennett_parameters *p, double *tau)
 {

@@ -52,6 +52,17 @@ void cart_pole_damped_gravity_vector(const double *q, const cart_pole_damped_par
     N[1] = -0.5*P->g*P->lp*P->mp*sin(q[1]);
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
+void cart_pole_damped_generalized_forces(const double *q, const double *u, const cart_pole_damped_parameters *p, double *Y)
+{
+    const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = 0;
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
 void cart_pole_damped_inverse_dynamics(const double *q, const double *qd, const double *qdd, const cart_pole_damped_parameters *p, double *tau)
 {

@@ -30,6 +30,8 @@ void cart_pole_mass_matrix(const double *q, const cart_pole_parameters *p, doubl
 void cart_pole_coriolis_matrix(const double *q, const double *qd, const cart_pole_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 2 entries. */
 void cart_pole_gravity_vector(const double *q, const cart_pole_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
+void cart_pole_generalized_forces(const double *q, const double *u, const cart_pole_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
 void cart_pole_inverse_dynamics(const double *q, const double *qd, const double *qdd, const cart_pole_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */

@@ -55,6 +55,17 @@ void double_pendulum_gravity_vector(const double *q, const double_pendulum_param
     N[1] = t0;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
+void double_pendulum_generalized_forces(const double *q, const double *u, const double_pendulum_parameters *p, double *Y)
+{
+    const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = u[1];
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *tau)
 {

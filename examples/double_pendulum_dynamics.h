@@ -31,6 +31,8 @@ void double_pendulum_mass_matrix(const double *q, const double_pendulum_paramete
 void double_pendulum_coriolis_matrix(const double *q, const double *qd, const double_pendulum_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 2 entries. */
 void double_pendulum_gravity_vector(const double *q, const double_pendulum_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
+void double_pendulum_generalized_forces(const double *q, const double *u, const double_pendulum_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */

@@ -138,6 +138,18 @@ void elbow_arm_gravity_vector(const double *q, const elbow_arm_parameters *p, do
     N[2] = -t11;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void elbow_arm_generalized_forces(const double *q, const double *u, const elbow_arm_parameters *p, double *Y)
+{
+    const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = u[1];
+    Y[2] = u[2];
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void elbow_arm_inverse_dynamics(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *tau)
 {

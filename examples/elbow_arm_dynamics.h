@@ -38,6 +38,8 @@ void elbow_arm_mass_matrix(const double *q, const elbow_arm_parameters *p, doubl
 void elbow_arm_coriolis_matrix(const double *q, const double *qd, const elbow_arm_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 3 entries. */
 void elbow_arm_gravity_vector(const double *q, const elbow_arm_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void elbow_arm_generalized_forces(const double *q, const double *u, const elbow_arm_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void elbow_arm_inverse_dynamics(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 6 row-major, (fx, fy, fz, nx, ny, nz) per frame in world axes (moment about the frame's origin), or NULL for none. */

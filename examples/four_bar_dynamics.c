@@ -73,6 +73,18 @@ void four_bar_gravity_vector(const double *q, const four_bar_parameters *p, doub
     N[2] = t2*P->c*P->m3*cos(q[2]);
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void four_bar_generalized_forces(const double *q, const double *u, const four_bar_parameters *p, double *Y)
+{
+    const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = 0;
+    Y[2] = 0;
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void four_bar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *tau)
 {

@@ -37,6 +37,8 @@ void four_bar_mass_matrix(const double *q, const four_bar_parameters *p, double 
 void four_bar_coriolis_matrix(const double *q, const double *qd, const four_bar_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 3 entries. */
 void four_bar_gravity_vector(const double *q, const four_bar_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void four_bar_generalized_forces(const double *q, const double *u, const four_bar_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void four_bar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */

@@ -51,6 +51,17 @@ void mass_spring_damper_gravity_vector(const double *q, const mass_spring_damper
     N[1] = P->k2*q[1];
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
+void mass_spring_damper_generalized_forces(const double *q, const double *u, const mass_spring_damper_parameters *p, double *Y)
+{
+    const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = 0;
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
 void mass_spring_damper_inverse_dynamics(const double *q, const double *qd, const double *qdd, const mass_spring_damper_parameters *p, double *tau)
 {

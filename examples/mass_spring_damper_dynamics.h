@@ -34,6 +34,8 @@ void mass_spring_damper_mass_matrix(const double *q, const mass_spring_damper_pa
 void mass_spring_damper_coriolis_matrix(const double *q, const double *qd, const mass_spring_damper_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 2 entries. */
 void mass_spring_damper_gravity_vector(const double *q, const mass_spring_damper_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
+void mass_spring_damper_generalized_forces(const double *q, const double *u, const mass_spring_damper_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
 void mass_spring_damper_inverse_dynamics(const double *q, const double *qd, const double *qdd, const mass_spring_damper_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */

@@ -962,6 +962,22 @@ void panda_gravity_vector(const double *q, const panda_parameters *p, double *N)
     N[6] = t52;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 7 entries. */
+void panda_generalized_forces(const double *q, const double *u, const panda_parameters *p, double *Y)
+{
+    const panda_parameters *const P = p ? p : &panda_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = u[1];
+    Y[2] = u[2];
+    Y[3] = u[3];
+    Y[4] = u[4];
+    Y[5] = u[5];
+    Y[6] = u[6];
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 7 entries. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *tau)
 {

@@ -28,6 +28,8 @@ void panda_mass_matrix(const double *q, const panda_parameters *p, double *M);
 void panda_coriolis_matrix(const double *q, const double *qd, const panda_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 7 entries. */
 void panda_gravity_vector(const double *q, const panda_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 7 entries. */
+void panda_generalized_forces(const double *q, const double *u, const panda_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 7 entries. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 6 row-major, (fx, fy, fz, nx, ny, nz) per frame in world axes (moment about the frame's origin), or NULL for none. */

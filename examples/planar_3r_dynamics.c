@@ -99,6 +99,18 @@ void planar_3r_gravity_vector(const double *q, const planar_3r_parameters *p, do
     N[2] = t1;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void planar_3r_generalized_forces(const double *q, const double *u, const planar_3r_parameters *p, double *Y)
+{
+    const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = u[1];
+    Y[2] = u[2];
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void planar_3r_inverse_dynamics(const double *q, const double *qd, const double *qdd, const planar_3r_parameters *p, double *tau)
 {

@@ -40,6 +40,8 @@ void planar_3r_mass_matrix(const double *q, const planar_3r_parameters *p, doubl
 void planar_3r_coriolis_matrix(const double *q, const double *qd, const planar_3r_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 3 entries. */
 void planar_3r_gravity_vector(const double *q, const planar_3r_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void planar_3r_generalized_forces(const double *q, const double *u, const planar_3r_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void planar_3r_inverse_dynamics(const double *q, const double *qd, const double *qdd, const planar_3r_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */

@@ -49,6 +49,17 @@ void rp_arm_gravity_vector(const double *q, const rp_arm_parameters *p, double *
     N[1] = t0*sin(q[0]);
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
+void rp_arm_generalized_forces(const double *q, const double *u, const rp_arm_parameters *p, double *Y)
+{
+    const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = u[1];
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
 void rp_arm_inverse_dynamics(const double *q, const double *qd, const double *qdd, const rp_arm_parameters *p, double *tau)
 {

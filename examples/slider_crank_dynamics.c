@@ -70,6 +70,18 @@ void slider_crank_gravity_vector(const double *q, const slider_crank_parameters 
     N[2] = 0;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void slider_crank_generalized_forces(const double *q, const double *u, const slider_crank_parameters *p, double *Y)
+{
+    const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = 0;
+    Y[2] = 0;
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void slider_crank_inverse_dynamics(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *tau)
 {

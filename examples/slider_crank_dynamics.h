@@ -36,6 +36,8 @@ void slider_crank_mass_matrix(const double *q, const slider_crank_parameters *p,
 void slider_crank_coriolis_matrix(const double *q, const double *qd, const slider_crank_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 3 entries. */
 void slider_crank_gravity_vector(const double *q, const slider_crank_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
+void slider_crank_generalized_forces(const double *q, const double *u, const slider_crank_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
 void slider_crank_inverse_dynamics(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */

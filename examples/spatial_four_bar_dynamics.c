@@ -143,6 +143,19 @@ void spatial_four_bar_gravity_vector(const double *q, const spatial_four_bar_par
     N[3] = t7;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 4 entries. */
+void spatial_four_bar_generalized_forces(const double *q, const double *u, const spatial_four_bar_parameters *p, double *Y)
+{
+    const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = 0;
+    Y[2] = 0;
+    Y[3] = 0;
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 4 entries. */
 void spatial_four_bar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const spatial_four_bar_parameters *p, double *tau)
 {

@@ -38,6 +38,8 @@ void spatial_four_bar_mass_matrix(const double *q, const spatial_four_bar_parame
 void spatial_four_bar_coriolis_matrix(const double *q, const double *qd, const spatial_four_bar_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 4 entries. */
 void spatial_four_bar_gravity_vector(const double *q, const spatial_four_bar_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 4 entries. */
+void spatial_four_bar_generalized_forces(const double *q, const double *u, const spatial_four_bar_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 4 entries. */
 void spatial_four_bar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const spatial_four_bar_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 6 row-major, (fx, fy, fz, nx, ny, nz) per frame in world axes (moment about the frame's origin), or NULL for none. */

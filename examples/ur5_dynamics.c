@@ -527,6 +527,21 @@ void ur5_gravity_vector(const double *q, const ur5_parameters *p, double *N)
     N[5] = 0;
 }
 
+/* Applied generalized forces Y_g(q, u) of the efforts, 6 entries. */
+void ur5_generalized_forces(const double *q, const double *u, const ur5_parameters *p, double *Y)
+{
+    const ur5_parameters *const P = p ? p : &ur5_default_parameters;
+    (void)q;
+    (void)u;
+    (void)P;
+    Y[0] = u[0];
+    Y[1] = u[1];
+    Y[2] = u[2];
+    Y[3] = u[3];
+    Y[4] = u[4];
+    Y[5] = u[5];
+}
+
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 6 entries. */
 void ur5_inverse_dynamics(const double *q, const double *qd, const double *qdd, const ur5_parameters *p, double *tau)
 {

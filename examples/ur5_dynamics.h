@@ -28,6 +28,8 @@ void ur5_mass_matrix(const double *q, const ur5_parameters *p, double *M);
 void ur5_coriolis_matrix(const double *q, const double *qd, const ur5_parameters *p, double *C);
 /* Gravity vector N_g(q) = dV/dq, 6 entries. */
 void ur5_gravity_vector(const double *q, const ur5_parameters *p, double *N);
+/* Applied generalized forces Y_g(q, u) of the efforts, 6 entries. */
+void ur5_generalized_forces(const double *q, const double *u, const ur5_parameters *p, double *Y);
 /* Y_g = M qdd + C qd + N by recursive Newton-Euler, 6 entries. */
 void ur5_inverse_dynamics(const double *q, const double *qd, const double *qdd, const ur5_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 6 row-major, (fx, fy, fz, nx, ny, nz) per frame in world axes (moment about the frame's origin), or NULL for none. */

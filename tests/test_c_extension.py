@@ -38,7 +38,7 @@ if not (shutil.which("gcc") or shutil.which("cc")) or not HEADERS:
     pytest.skip("no C compiler or no Python.h", allow_module_level=True)
 
 RTOL = 1e-12
-FUNCTIONS = ["mass_matrix", "coriolis_matrix", "gravity_vector", "inverse_dynamics", "forward_dynamics",
+FUNCTIONS = ["mass_matrix", "coriolis_matrix", "gravity_vector", "generalized_forces", "inverse_dynamics", "forward_dynamics",
              "kinetic_energy", "potential_energy", "friction_forces", "linearize", "regressor", "parameter_vector",
              "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd"]
 
@@ -94,6 +94,7 @@ def _agree(ext, module, seed: int, parameters: dict | None = None, smoothing: fl
         qd, qdd, u = rng.normal(size=batch[1:] + (n,)), rng.normal(size=(n,)), rng.normal(size=batch + (nu,))
         calls = [
             ("mass_matrix", (q,), {}), ("coriolis_matrix", (q, qd), {}), ("gravity_vector", (q,), {}),
+            ("generalized_forces", (q, u), {}),
             ("inverse_dynamics", (q, qd, qdd), friction), ("forward_dynamics", (q, qd, u), friction),
             ("forward_dynamics", (q, qd), friction), ("kinetic_energy", (q, qd), {}), ("potential_energy", (q,), {}),
             ("friction_forces", (qd,), friction), ("regressor", (q, qd, qdd), friction), ("parameter_vector", (), {}),
@@ -500,3 +501,4 @@ def test_loop_table_rows_and_the_cli(tmp_path):
     assert run.returncode == 0, run.stderr
     loops, residual = run.stdout.split(" [")
     assert loops == "('c1',)" and max(abs(float(x)) for x in residual.strip("]\n").split(",")) < 1e-11
+

@@ -90,6 +90,8 @@ def test_loop_robot_agrees_with_numpy(robot, tmp_path, code_dir):
         _close(a, module.loop_constraints(off), "loop_constraints")
         _, A = _call(library, "loop_jacobian", [q], (k * n,), None)
         _close(A.reshape(k, n), module.loop_jacobian(q), "loop_jacobian")
+        _, Y = _call(library, "generalized_forces", [q, u], (n,), None)
+        _close(Y, module.generalized_forces(q, u), "generalized_forces")
         _, Adot = _call(library, "loop_jacobian_dot", [q, qd], (k * n,), None)
         _close(Adot.reshape(k, n), module.loop_jacobian_dot(q, qd), "loop_jacobian_dot")
         for alpha, beta in ((0.0, 0.0), (3.7, 5.3)):

@@ -122,6 +122,8 @@ def _agree(library: Library, module, seed: int, states: int = 4, parameters: dic
         _close(N, module.gravity_vector(q, **kwargs), "gravity_vector")
         _, F = library.call("friction_forces", [qd], n, p)
         _close(F, module.friction_forces(qd, **kwargs), "friction_forces")
+        _, Y = library.call("generalized_forces", [q, u], n, p)
+        _close(Y, module.generalized_forces(q, u, **kwargs), "generalized_forces")
         _, tau = library.call("inverse_dynamics", [q, qd, qdd], n, p)
         _close(tau, module.inverse_dynamics(q, qd, qdd, **kwargs), "inverse_dynamics")
         status, acc = library.call("forward_dynamics", [q, qd, u], n, p)

@@ -271,6 +271,10 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         CFunction(f"void {name}_gravity_vector(const double *q, {pp}, double *N)",
                   f"Gravity vector N_g(q) = dV/dq, {n} entries.",
                   [start, *_void("q", "P"), *body("gravity", "N_g", [f"N[{i}]" for i in range(n)])]),
+        CFunction(f"void {name}_generalized_forces(const double *q, const double *u, {pp}, double *Y)",
+                  f"Applied generalized forces Y_g(q, u) of the efforts, {n} entries.",
+                  [start, *_void("q", "u", "P"), *_expression_body(
+                      names, list(quantities["Y_g"]), [f"Y[{i}]" for i in range(n)])]),
         CFunction(f"void {name}_inverse_dynamics(const double *q, const double *qd, const double *qdd, {pp}, "
                   "double *tau)", f"Y_g = M qdd + C qd + N by recursive Newton-Euler, {n} entries.",
                   [start, *_void("q", "qd", "qdd", "P"),

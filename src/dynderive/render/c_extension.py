@@ -80,6 +80,8 @@ def bindings(derivation: Derivation) -> list[Binding]:
         Binding("coriolis_matrix", "coriolis_matrix", (q, qd), ((n, n),),
                 "Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., n, n)."),
         Binding("gravity_vector", "gravity_vector", (q,), ((n,),), "Gravity vector N_g(q) = dV/dq, shape (..., n)."),
+        Binding("generalized_forces", "generalized_forces", (q, u), ((n,),),
+                "Applied generalized forces Y_g(q, u) of the efforts, shape (..., n)."),
         Binding("inverse_dynamics", "inverse_dynamics", (q, qd, qdd), ((n,),),
                 "Generalized forces Y_g = M qdd + C qd + N + F - sum J^T w, shape (..., n); wrenches: None or "
                 "{frame: w} in world axes.", wrenches="inverse_dynamics_wrenches", smoothing=True,

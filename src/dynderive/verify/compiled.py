@@ -24,7 +24,8 @@ RTOLS = {"assemble": 1e-10}
 #: The functions compared, with the arrays they take (``p``: keyword parameters only).
 FUNCTIONS = (
     ("mass_matrix", "q"), ("coriolis_matrix", "q qd"), ("gravity_vector", "q"),
-    ("inverse_dynamics", "q qd qdd"), ("forward_dynamics", "q qd u"), ("kinetic_energy", "q qd"),
+    ("generalized_forces", "q u"), ("inverse_dynamics", "q qd qdd"), ("forward_dynamics", "q qd u"),
+    ("kinetic_energy", "q qd"),
     ("potential_energy", "q"), ("friction_forces", "qd"), ("linearize", "q qd u"),
     ("regressor", "q qd qdd"), ("parameter_vector", ""),
     ("loop_constraints", "q"), ("loop_jacobian", "q"), ("loop_jacobian_dot", "q qd"), ("loop_forces", "q qd u"),
@@ -47,10 +48,10 @@ def _difference(expected: Any, got: Any) -> float:
 
 
 def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: dict[str, np.ndarray],
-                  friction_smoothing: float = 0.0, label: str = "compiled") -> list[Row]:
-    """One row per function of the NumPy ``module`` that ``compiled`` offers, at ``states``
-    (arrays ``q``, ``qd``, ``qdd``, ``u`` of one shape ``(count, size)``), and one row listing
-    the functions it does not offer."""
+                  friction_smoothing: float = 0.0, label: str = "compiled", target: str = "c-extension") -> list[Row]:
+    """One row per function of the NumPy ``module`` that ``compiled`` (the ``target`` of
+    ``render/offered.py``) offers, at ``states`` (arrays ``q``, ``qd``, ``qdd``, ``u`` of one
+    shape ``(count, size)``), and ``missing_rows`` of the functions it does not offer."""
     rows: list[Row] = []
     missing = []
     count = len(states["q"])
@@ -93,9 +94,24 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
                         "pass" if worst <= RTOL else "FAIL", f"numeric, {count} states, relative", worst))
     missing += sorted(name for name, value in vars(module).items() if callable(value) and not name.startswith("_")
                       and not hasattr(compiled, name) and name not in missing and not isinstance(value, type))
-    if missing:
-        rows.append(Row(f"{label} module offers every function", "skip", "not compiled yet: " + ", ".join(missing),
-                        float("nan")))
+    return rows + missing_rows(missing, target, label, frames=bool(frames))
+
+
+def missing_rows(missing: list[str], target: str, label: str, floating: bool = False, frames: bool = True) -> list[Row]:
+    """The NumPy module's functions ``target`` lacks: one "skip" row per reason the table of
+    what is not built (``render/offered.py``) gives, "not built" and the functions; a FAIL row
+    for any it does not list."""
+    from ..render.offered import not_built
+
+    reasons: dict[str | None, list[str]] = {}
+    for name in missing:
+        reasons.setdefault(not_built(target, name, floating, frames), []).append(name)
+    rows = [Row(f"{label} not built: {names[0]}" + (f" and {len(names) - 1} more" if len(names) > 1 else ""), "skip",
+                f"{reason}: {', '.join(names)}", float("nan"))
+            for reason, names in reasons.items() if reason is not None]
+    if None in reasons:
+        rows.append(Row(f"{label} module offers every function", "FAIL",
+                        "missing, and not listed as not built: " + ", ".join(reasons[None]), float("nan")))
     return rows
 
 
@@ -104,7 +120,7 @@ def _frame(extra: tuple, smoothing: float = 0.0) -> str:
 
 
 def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0,
-                    label: str = "compiled") -> list[Row]:
+                    label: str = "compiled", target: str = "c-extension") -> list[Row]:
     """``compiled_rows`` at random states of ``derivation``'s robot (on the loops, for a robot
     with closed loops), with the parameters' defaults (1.0 where a parameter has none)."""
     from .checks import _loop_states, generated_module
@@ -123,7 +139,8 @@ def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 1
                         float("nan"))]
         sample = {k: v[: len(sample["q"])] for k, v in sample.items()}
     friction = 1e-3 if any(j.friction is not None for j in robot.joints if j.moves) else 0.0
-    rows = compiled_rows(module, compiled, values, sample, label=label)
+    rows = compiled_rows(module, compiled, values, sample, label=label, target=target)
     if friction:   # the smoothed sign too (what simulate integrates), for the functions that take it
-        rows += [r for r in compiled_rows(module, compiled, values, sample, friction, label) if "smoothing" in r.name]
+        rows += [r for r in compiled_rows(module, compiled, values, sample, friction, label, target)
+                 if "smoothing" in r.name]
     return rows

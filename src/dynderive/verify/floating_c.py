@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .checks import Row
-from .compiled import RTOL, _difference
+from .compiled import RTOL, _difference, missing_rows
 
 #: The functions compared, with the arrays they take (``frame``: once per frame of FRAMES).
 FUNCTIONS = (
@@ -57,7 +57,7 @@ def floating_rows(module: Any, other: Any, robot: Any, label: str, states: int =
 
 def floating_c_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0) -> list[Row]:
     """``floating_rows`` of the compiled extension ``compiled`` against the NumPy module
-    ``source``, and a failing row naming the module's functions the extension lacks, if any."""
+    ``source``, and ``missing_rows`` of the module's functions the extension lacks."""
     from .checks import generated_module
 
     robot = derivation.robot
@@ -65,7 +65,4 @@ def floating_c_checks(derivation: Any, source: str, compiled: Any, states: int =
     rows = floating_rows(module, compiled, robot, "compiled", states, seed)
     missing = sorted(name for name, value in vars(module).items() if callable(value) and not name.startswith("_")
                      and not isinstance(value, type) and not hasattr(compiled, name))
-    if missing:
-        rows.append(Row("compiled module offers every function", "FAIL", "missing: " + ", ".join(missing),
-                        float("nan")))
-    return rows
+    return rows + missing_rows(missing, "c-extension", "compiled", floating=True, frames=bool(robot.frames))

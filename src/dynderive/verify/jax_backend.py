@@ -29,4 +29,4 @@ def jax_checks(derivation: Any, source: str, states: int = 12) -> list[Row]:
 
     jax.config.update("jax_enable_x64", True)
     module = generated_module(render_jax(derivation), f"{derivation.robot.name}_jax")
-    return compiled_checks(derivation, source, module, states=states, label="JAX")
+    return compiled_checks(derivation, source, module, states=states, label="JAX", target="jax")

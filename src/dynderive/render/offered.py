@@ -1,0 +1,158 @@
+"""Which functions of the generated API each code target offers, read from the targets' own
+code, and the functions a target does not build, each with its reason (``NOT_BUILT``).
+
+The NumPy module's API is the reference: every other target (the C99 target, its compiled
+Python extension, MATLAB/Octave, JAX) offers each of its functions or lists it in
+``NOT_BUILT``. ``offered`` reads a target's functions from what it generates (the public
+functions of the rendered Python modules, the C target's prototypes, the extension's binding
+table, the MATLAB function files), so the table in the documentation (``markdown_table``) and
+``check --backend c`` / ``--backend jax`` (``not_built``) cannot drift from the code.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from typing import Any
+
+TARGETS = ("numpy", "c", "c-extension", "matlab", "jax")
+TITLES = {"numpy": "NumPy", "c": "C", "c-extension": "C extension", "matlab": "MATLAB", "jax": "JAX"}
+
+MAXIMAL = ("maximal_mass_matrix", "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts",
+           "maximal_kinetic_energy", "maximal_potential_energy", "maximal_friction_forces", "maximal_forward_dynamics",
+           "constraints", "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
+           "to_maximal_jacobian")
+FRAME_FUNCTIONS = ("frame_transform", "frame_jacobian", "frame_jacobian_dot_qd")
+
+#: What a target does not build: (targets, functions, robots it concerns, reason). Robots:
+#: "fixed" (fixed base), "floating" (floating base, or spherical joints), "frameless" (a
+#: robot that declares no frames).
+NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
+    (("c", "c-extension", "matlab"), MAXIMAL, "fixed",
+     "the maximal-coordinate form of a planar robot is printed for NumPy and JAX only"),
+    (("matlab",), ("assemble", "reduced_basis", "reduced_forward_dynamics"), "fixed",
+     "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
+    (("matlab",), FRAME_FUNCTIONS, "frameless",
+     "a robot without frames: MATLAB writes no frame functions (the NumPy module's raise for any frame name)"),
+    (("numpy", "c", "c-extension", "jax"), ("generalized_forces",), "floating",
+     "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
+)
+
+
+def not_built(target: str, function: str, floating: bool = False, frames: bool = True) -> str | None:
+    """Why ``target`` does not build ``function`` for a robot with a ``floating`` base (or not)
+    and ``frames`` (or none), or None if it should."""
+    for targets, functions, kind, reason in NOT_BUILT:
+        applies = {"fixed": not floating, "floating": floating, "frameless": not frames}[kind]
+        if target in targets and function in functions and applies:
+            return reason
+    return None
+
+
+def _why(derivation: Any, target: str, function: str) -> str | None:
+    robot = derivation.robot
+    return not_built(target, function, bool(robot.floating), bool(robot.frames))
+
+
+def _public(source: str) -> set[str]:
+    """The public functions a Python module's source defines at its top level."""
+    return {node.name for node in ast.parse(source).body
+            if isinstance(node, ast.FunctionDef) and not node.name.startswith("_")}
+
+
+def offered(derivation: Any, target: str) -> set[str]:
+    """The API functions ``target`` generates for ``derivation``'s robot (extra C variants
+    such as ``inverse_dynamics_wrenches`` included)."""
+    floating = derivation.robot.floating
+    name = derivation.robot.name
+    if target == "numpy":
+        if floating:
+            from .floating_code import render_floating_code
+
+            return _public(render_floating_code(derivation))
+        from .code import render_code
+
+        return _public(render_code(derivation))
+    if target == "jax":
+        if floating:
+            from .floating_jax import render_floating_jax
+
+            return _public(render_floating_jax(derivation))
+        from .jax import render_jax
+
+        return _public(render_jax(derivation))
+    if target == "c":
+        if floating:
+            from .c_floating import floating_c_context as context
+        else:
+            from .c import c_context as context
+        pattern = re.compile(rf"\b{re.escape(name)}_(\w+)\(")
+        return {pattern.search(str(f.prototype)).group(1) for f in context(derivation)["functions"]}
+    if target == "c-extension":
+        from .c_extension import bindings
+
+        return {b.name for b in bindings(derivation)}
+    if target == "matlab":
+        if floating:
+            from .matlab_floating import floating_numeric_functions as functions
+        else:
+            from .matlab import numeric_functions as functions
+        return {f.name for f in functions(derivation)}
+    raise ValueError(f"unknown target {target!r}")
+
+
+def api(derivation: Any) -> set[str]:
+    """The functions of the generated API that concern this robot: the NumPy module's, and
+    those NOT_BUILT lists for the NumPy module of such a robot."""
+    listed = {f for targets, functions, _, _ in NOT_BUILT if "numpy" in targets for f in functions}
+    return offered(derivation, "numpy") | {f for f in listed if _why(derivation, "numpy", f)}
+
+
+def gaps(derivation: Any, target: str) -> dict[str, str | None]:
+    """The API functions ``target`` does not offer for this robot, each with its reason from
+    NOT_BUILT (None: not listed there, an omission)."""
+    missing = api(derivation) - offered(derivation, target)
+    return {f: _why(derivation, target, f) for f in sorted(missing)}
+
+
+def markdown_table(derivations: list[Any]) -> str:
+    """One Markdown table of the API functions of ``derivations``' robots (rows, in the order
+    first met) against the targets: "yes" where each robot's target offers it, else the
+    NOT_BUILT reason's letter; the reasons, lettered, after the table."""
+    order: list[str] = []
+    cells: dict[tuple[str, str], set[str]] = {}
+    robots: dict[str, list[str]] = {}
+    reasons: list[str] = []
+    for derivation in derivations:
+        wanted = api(derivation)
+        numpy = offered(derivation, "numpy")
+        order += sorted(wanted - set(order), key=lambda f: (f not in numpy, f))
+        for function in wanted:
+            robots.setdefault(function, []).append(derivation.robot.name + (" (floating base)"
+                                                                           if derivation.robot.floating else ""))
+        for target in TARGETS:
+            have = offered(derivation, target)
+            for function in wanted:
+                reason = None if function in have else _why(derivation, target, function)
+                if function not in have and reason is None:
+                    raise ValueError(f"{target} lacks {function} for {derivation.robot.name}, not listed in NOT_BUILT")
+                if reason is not None and reason not in reasons:
+                    reasons.append(reason)
+                cells.setdefault((function, target), set()).add("yes" if reason is None else reason)
+    every = len(derivations)
+    order.sort(key=lambda f: len(robots[f]) != every)   # stable: the functions of every robot first
+    lines = ["| Function | Robots | " + " | ".join(TITLES[t] for t in TARGETS) + " |",
+             "| --- | --- |" + " --- |" * len(TARGETS)]
+    for function in order:
+        row = [f"`{function}`", "all" if len(robots[function]) == every else ", ".join(robots[function])]
+        for target in TARGETS:
+            values = cells[(function, target)]
+            marks = [f"not built ({chr(97 + reasons.index(v))})" for v in sorted(values - {"yes"}, key=reasons.index)]
+            row.append(", ".join((["yes"] if "yes" in values else []) + marks))
+        lines.append("| " + " | ".join(row) + " |")
+    lines += [""] + [f"- ({chr(97 + i)}) {reason}." for i, reason in enumerate(reasons)]
+    return "\n".join(lines) + "\n"
+
+
+__all__ = ["FRAME_FUNCTIONS", "MAXIMAL", "NOT_BUILT", "TARGETS", "api", "gaps", "markdown_table", "not_built",
+           "offered"]
