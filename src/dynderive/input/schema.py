@@ -380,10 +380,11 @@ def _maximal_constraints(v: _Validator, top: dict[str, Any], planar: bool, symbo
                 scope = dict(symbols) | {n: sympy.Symbol(n) for n in names}
                 for k, expr in enumerate(raw_constraints):
                     v.expression(expr, cpath + (k,), scope)
-                needed = 3 * len(links) - sum(1 for j in joints if j.moves)
+                moving = sum(1 for j in joints if j.moves)
+                needed = 3 * len(links) - moving
                 if len(raw_constraints) != needed:
-                    v.error(cpath, f"maximal.constraints: expected {needed} constraints "
-                            f"(3 per link minus {sum(1 for j in joints if j.moves)} degrees of "
+                    v.error(cpath, f"maximal.constraints: expected {needed} constraint{'s' * (needed != 1)} "
+                            f"(3 per link minus {moving} degree{'s' * (moving != 1)} of "
                             f"freedom), got {len(raw_constraints)}")
                 constraints = tuple(raw_constraints)
 
