@@ -80,7 +80,7 @@ def test_the_default_sheet_says_when_it_leaves_maximal_coordinates_out():
 def test_bad_sections_are_input_errors(tmp_path):
     result = runner.invoke(app, ["solve", "rp_arm", "--latex", "--sections", "generalized,bogus", "--out", str(tmp_path)])
     assert result.exit_code == 2
-    assert "--sections:1:1: unknown section 'bogus'" in result.output
+    assert "--sections:1:13: unknown section 'bogus'" in result.output   # at the name in the value
     assert not list(tmp_path.iterdir())
     result = runner.invoke(app, ["solve", "rp_arm", "--code", "--sections", "maximal", "--out", str(tmp_path)])
     assert result.exit_code == 2 and "use it with --latex or --pdf" in result.output

@@ -151,7 +151,7 @@ def solve(
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
     from ..render.terminal import render_terminal
-    from .options import sheet_digits_option, sheet_sections_option
+    from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
     from .output import write_all
 
     if template_dir is not None and not template_dir.is_dir():
@@ -168,6 +168,7 @@ def solve(
     progress = Progress(quiet)
     progress("loading")
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    maximal_section_applies(sections, model.planar, model.floating)
     echo_notes(model, quiet)
     if jax and not quiet:
         jax_note()

@@ -236,8 +236,40 @@ def sheet_sections_option(text: str | None, sheet: bool) -> tuple[str, ...] | No
     try:
         chosen = parse_sections(text)
     except ValueError as exc:
-        raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)")) from None
+        raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)",
+                                 _unknown_section_column(text))) from None
     if not sheet:
         raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or "
                                                "--pdf (or --html)"))
     return chosen
+
+
+def maximal_section_applies(text: str | None, planar: bool, floating: bool) -> None:
+    """Refuse ``--sections`` naming ``maximal`` for a robot that has no maximal model (3-D or
+    floating-base: the sheet would show the robot alone); ``all`` takes what applies."""
+    column = _section_column(text or "", lambda name: name == "maximal")
+    if column is None or (planar and not floating):
+        return
+    kind = "a floating-base robot" if floating else "a 3-D robot"
+    raise InputError(problem("--sections", f"maximal coordinates are built for planar robots only (this is {kind}): "
+                                           "leave 'maximal' out", column))
+
+
+def _unknown_section_column(text: str) -> int:
+    """1-based column in ``--sections``'s value of the first name that is no section (1 when
+    none is: an empty list)."""
+    from ..render.latex import SECTIONS
+
+    column = _section_column(text, lambda name: name not in SECTIONS)
+    return 1 if column is None else column
+
+
+def _section_column(text: str, wanted) -> int | None:
+    """1-based column in ``--sections``'s value of the first name ``wanted`` accepts, or None."""
+    start = 0
+    for part in text.split(","):
+        name = part.strip()
+        if name and wanted(name):
+            return start + len(part) - len(part.lstrip()) + 1
+        start += len(part) + 1
+    return None

@@ -9,10 +9,10 @@ validation: ``schema.validate`` calls ``read_frames`` and passes it its origin r
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Callable
 from typing import Any
 
+from ..model.naming import did_you_mean
 from ..model.robot import Frame
 from .names import EngineQuantities, check_frame
 from .validator import kind
@@ -51,8 +51,7 @@ def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_b
             if link == "world":
                 hint = " (a frame on the world is fixed: it needs no kinematics)"
             else:
-                close = difflib.get_close_matches(str(link), list(link_names), n=1)
-                hint = f" (did you mean '{close[0]}'?)" if close else ""
+                hint = did_you_mean(str(link), link_names)
             v.error(path + ("link",), f"{v.label(path + ('link',))}: unknown link {link!r}{hint}")
         frames.append(Frame(name or f"frame{i + 1}", str(link), origin(item.get("origin"), path + ("origin",))))
     return frames

@@ -19,6 +19,7 @@ from typing import Any
 import yaml
 
 from ..errors import InputError, Problem
+from .yaml_messages import student_problem
 
 Path_ = tuple[Any, ...]
 
@@ -208,7 +209,7 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
         finally:
             loader.dispose()
     except yaml.MarkedYAMLError as exc:
-        raise InputError(_syntax_problem(exc, file)) from None
+        raise InputError(student_problem(exc, text, file) or _syntax_problem(exc, file)) from None
     except yaml.reader.ReaderError as exc:
         line, column = _yaml_position(text, exc.position)
         character = exc.character if isinstance(exc.character, str) else chr(exc.character or 0)

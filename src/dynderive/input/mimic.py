@@ -15,10 +15,10 @@ with loops.
 
 from __future__ import annotations
 
-import difflib
 import math
 from typing import Any
 
+from ..model.naming import did_you_mean
 from ..model.robot import Joint, Mimic
 
 MIMIC_KEYS = ("joint", "multiplier", "offset")
@@ -87,8 +87,7 @@ def check_mimics(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool)
         name = joint.mimic.joint
         leader = by_name.get(name)
         if leader is None:
-            close = difflib.get_close_matches(name, list(by_name), n=1)
-            v.error(lpath, f"{v.label(lpath)}: unknown joint {name!r}" + (f" (did you mean '{close[0]}'?)" if close else ""))
+            v.error(lpath, f"{v.label(lpath)}: unknown joint {name!r}" + did_you_mean(name, by_name))
         elif leader is joint:
             v.error(lpath, f"{v.label(lpath)}: a joint cannot mimic itself")
         elif leader.mimic is not None:

@@ -7,7 +7,6 @@ the kinematics parses them again from the texts kept in ``Robot``.
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -16,7 +15,7 @@ import sympy
 
 from ..errors import InputError
 from ..model.expressions import RESERVED, Evaluator
-from ..model.naming import maximal_coordinate_names
+from ..model.naming import did_you_mean, maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
@@ -381,10 +380,11 @@ def _maximal_constraints(v: _Validator, top: dict[str, Any], planar: bool, symbo
                 scope = dict(symbols) | {n: sympy.Symbol(n) for n in names}
                 for k, expr in enumerate(raw_constraints):
                     v.expression(expr, cpath + (k,), scope)
-                needed = 3 * len(links) - sum(1 for j in joints if j.moves)
+                moving = sum(1 for j in joints if j.moves)
+                needed = 3 * len(links) - moving
                 if len(raw_constraints) != needed:
-                    v.error(cpath, f"maximal.constraints: expected {needed} constraints "
-                            f"(3 per link minus {sum(1 for j in joints if j.moves)} degrees of "
+                    v.error(cpath, f"maximal.constraints: expected {needed} constraint{'s' * (needed != 1)} "
+                            f"(3 per link minus {moving} degree{'s' * (moving != 1)} of "
                             f"freedom), got {len(raw_constraints)}")
                 constraints = tuple(raw_constraints)
 
@@ -417,8 +417,7 @@ def _looks_numeric(text: str) -> bool:
 
 
 def _did_you_mean(value: Any, options: list[str]) -> str:
-    close = difflib.get_close_matches(str(value), options, n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+    return did_you_mean(str(value), options)
 
 
 def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,

@@ -212,7 +212,7 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
         raise InputError(Problem(file, root.line, root.column, f"expected a <robot> element, got <{root.tag}>"))
     bodies, link_elements = _read_links(root, reader)
     joints = _read_joints(root, reader, doc, link_elements)
-    check_bodies(reader, doc, bodies, joints)
+    check_bodies(reader, doc, bodies, joints, floating_base)
     if reader.problems:
         raise InputError(reader.problems)
 

@@ -40,13 +40,14 @@ class Body:
 
 
 def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
-                  joints: list[dict[str, Any]]) -> None:
+                  joints: list[dict[str, Any]], floating_base: bool = False) -> None:
     """Masses not negative (a massless moving link is fine when links below it carry mass:
     ``urdf._carrying``) and physical inertias, with the
     rounding tolerance of ``inertia.judge`` (within it: corrected, with a note). Links welded
     to the world (fixed joints up to a link without a parent) never enter the dynamics: what
-    is wrong with them is a note, not an error."""
-    moved = moved_links(joints)
+    is wrong with them is a note, not an error. With ``floating_base`` (``--floating-base``)
+    the root floats, so no link is welded to the world: every body is judged as a moving one."""
+    moved = set(bodies) if floating_base else moved_links(joints)
     written = {name: body.written for name, body in bodies.items() if body.written is not None}
     scale = max(map(inertia.size, written.values()), default=0.0)
     for name, body in bodies.items():

@@ -6,7 +6,6 @@ structure is checked by ``schema``, which drives a ``Validator``.
 
 from __future__ import annotations
 
-import difflib
 import keyword
 import re
 from collections.abc import Iterable
@@ -23,6 +22,7 @@ from ..model.expressions import (
     imaginary_part,
     parse_expression,
 )
+from ..model.naming import did_you_mean
 from .loader import SourceDocument
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -67,8 +67,7 @@ class Validator:
         allowed = tuple(allowed)
         for key in value:
             if key not in allowed:
-                close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
-                hint = f" (did you mean '{close[0]}'?)" if close else f" (allowed: {', '.join(allowed)})"
+                hint = did_you_mean(str(key), allowed) or f" (allowed: {', '.join(allowed)})"
                 self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}",
                            key=True)
         for key in required:

@@ -324,8 +324,9 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
         a, A, numeric = numeric_of(nonzero)
     dropped = [every[i] for i in range(len(every)) if i not in nonzero]
     if dropped:
-        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint row(s) are "
-                     "identically zero and were dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
+        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint "
+                     f"{'rows are' if len(dropped) != 1 else 'row is'} identically zero and "
+                     f"{'were' if len(dropped) != 1 else 'was'} dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
     rows = [every[i] for i in nonzero]
     if not rows:   # a loop joint on a tree joint's own axis: nothing to close
         raise InputError(Problem(robot.source, where[0], where[1], "loops: every loop constraint row is identically "
@@ -424,9 +425,11 @@ def _independent(robot: Robot, J: np.ndarray, n: int, k: int, notes: list[str]) 
         chosen = [names.index(c) for c in robot.independent]
         line, column = robot.positions.get("independent", (1, 1))
         if len(chosen) != n - k:
-            raise InputError(Problem(robot.source, line, column, f"independent: the mechanism has {n - k} degree(s) "
-                                     f"of freedom ({n} coordinates, {k} independent loop constraints), so {n - k} independent "
-                                     f"coordinate(s) are needed, got {len(chosen)}"))
+            plural = "s" * (n - k != 1)
+            raise InputError(Problem(robot.source, line, column, f"independent: the mechanism has {n - k} degree{plural} "
+                                     f"of freedom ({n} coordinates, {k} independent loop constraint{'s' * (k != 1)}), so "
+                                     f"{n - k} independent coordinate{plural} {'are' if plural else 'is'} needed, "
+                                     f"got {len(chosen)}"))
         dependent = [i for i in range(n) if i not in chosen]
         if np.linalg.svd(J[:, dependent], compute_uv=False)[-1] < 1e-9 * max(1.0, float(np.max(np.abs(J)))):
             raise InputError(Problem(robot.source, line, column, "independent: with these independent coordinates "

@@ -27,6 +27,7 @@ from decimal import Decimal, InvalidOperation
 
 import sympy
 
+from .naming import did_you_mean
 from .size import expanded_terms
 
 #: Functions an expression may call, by name.
@@ -406,10 +407,7 @@ class _Builder:
         return self.checked(node, FUNCTIONS[name](*args))  # type: ignore[operator]
 
     def _suggest(self, name: str) -> str:
-        import difflib
-
-        close = difflib.get_close_matches(name, list(self.symbols) + list(RESERVED), n=1)
-        return f" (did you mean '{close[0]}'?)" if close else ""
+        return did_you_mean(name, list(self.symbols) + list(RESERVED))
 
 
 def _describe(node: ast.AST) -> str:

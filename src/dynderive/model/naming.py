@@ -90,3 +90,29 @@ def latex_name(name: str, dots: int = 0) -> str:
     if dots:
         body = "\\" + ("dot", "ddot")[dots - 1] + "{" + body + "}"
     return body + (f"_{{{sub}}}" if sub else "")
+
+
+def closest_name(name: str, candidates) -> str | None:
+    """The candidate a misspelt ``name`` most likely means, or None: one that differs only in
+    case first (``L3`` -> ``l3``, which difflib alone rates too far apart), then difflib's
+    closest match, compared case-insensitively."""
+    import difflib
+
+    options = [str(c) for c in candidates]
+    same = [c for c in options if c.lower() == name.lower() and c != name]
+    if same:
+        return same[0]
+    close = difflib.get_close_matches(name, options, n=1)
+    if close:
+        return close[0]
+    lowered: dict[str, str] = {}
+    for option in options:
+        lowered.setdefault(option.lower(), option)
+    close = difflib.get_close_matches(name.lower(), list(lowered), n=1)
+    return lowered[close[0]] if close else None
+
+
+def did_you_mean(name: str, candidates) -> str:
+    """`` (did you mean 'x'?)`` for the closest candidate (``closest_name``), or ``""``."""
+    close = closest_name(str(name), candidates)
+    return f" (did you mean '{close}'?)" if close is not None else ""

@@ -218,3 +218,15 @@ def finish(drawing: Drawing, caption: str, anchors: dict[str, Point], **extra: A
         items.append(out)
     return {"width": number(high_x - low_x + 2 * MARGIN_MM), "height": number(high_y - low_y + 2 * MARGIN_MM),
             "items": items, "caption": caption, "anchors": {k: at(p) for k, p in anchors.items()}, **extra}
+
+
+def joint_value_text(value: float, kind: str) -> str:
+    """A joint coordinate in a drawing's caption (LaTeX): a revolute angle in whole degrees,
+    wrapped to (-180, 180] (an assembled loop may sit at -314 degrees: shown as 46), a travel
+    to 3 significant digits."""
+    if kind != "revolute":
+        return f"{value:.3g}"
+    if not math.isfinite(value):
+        return f"{math.degrees(value):.0f}^\\circ"
+    degrees = (round(math.degrees(value)) + 180) % 360 - 180
+    return f"{180 if degrees == -180 else degrees}^\\circ"

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import sympy
 
-from .drawing import Drawing, Point, Segment, convex_hull, finish, label_size, polar
+from .drawing import Drawing, Point, Segment, convex_hull, finish, joint_value_text, label_size, polar
 from .encode import escape_tex
 from .figure_3d import spatial_figure
 
@@ -253,7 +253,7 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
                  (x_tip[0] - w, x_tip[1] + 0.8 + h), (x_tip[0] + 0.8 + w, x_tip[1] - 0.8 - h)], "x_s")
     sheet.label([(y_tip[0], y_tip[1] + 0.8 + h), (y_tip[0] - 0.8 - w, y_tip[1] - h),
                  (y_tip[0] + 0.8 + w, y_tip[1] - h)], "y_s")
-    configuration = ", ".join(f"{fmt(c)} = {_value_text(v, j.type)}"
+    configuration = ", ".join(f"{fmt(c)} = {joint_value_text(v, j.type)}"
                               for c, v, j in zip(table.q, q, (by_name[n] for n in robot.coordinates)))
     anchors = {"world": origin} | {f"joint:{j.name}": mm(joint_points[j.child]) for j in robot.joints}
     anchors |= {f"com:{link.name}": mm(coms[link.name]) for link in links}
@@ -349,6 +349,3 @@ def _float(expr: Any, at: dict[sympy.Symbol, sympy.Float]) -> float:
     except (TypeError, ValueError):
         return math.nan
 
-
-def _value_text(value: float, kind: str) -> str:
-    return f"{math.degrees(value):.0f}^\\circ" if kind == "revolute" else f"{value:.3g}"

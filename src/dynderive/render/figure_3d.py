@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import sympy
 
-from .drawing import Drawing, Point, convex_hull, finish, label_size
+from .drawing import Drawing, Point, convex_hull, finish, joint_value_text, label_size
 from .encode import escape_tex
 
 #: The view: azimuth of the viewer from the x axis (towards y) and elevation above the xy-plane.
@@ -228,7 +228,7 @@ def spatial_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any]
                      (tip[0] + uy * (w + 0.8), tip[1] - ux * (h + 0.8))], label)
     zero = all(v == 0 for v in q)
     configuration = ("q = 0" if zero else ", ".join(
-        f"{fmt(c)} = {_value_text(v, j)}" for c, v, j in
+        f"{fmt(c)} = {joint_value_text(v, j)}" for c, v, j in
         zip(table.q, q, ({j.name: j for j in robot.joints}[n].type for n in robot.coordinates))))
     what = f"its {'default assembly' if robot.loops else 'zero configuration'} ${configuration}$"
     view_text = f"azimuth ${math.degrees(AZIMUTH):.0f}^\\circ$, elevation ${math.degrees(ELEVATION):.0f}^\\circ$"
@@ -238,9 +238,6 @@ def spatial_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any]
                   scale=scale, q=q,
                   view=(f"{math.degrees(AZIMUTH):.0f}", f"{math.degrees(ELEVATION):.0f}"))
 
-
-def _value_text(value: float, kind: str) -> str:
-    return f"{math.degrees(value):.0f}^\\circ" if kind == "revolute" else f"{value:.3g}"
 
 
 def _basis(axis: Vector) -> tuple[Vector, Vector]:

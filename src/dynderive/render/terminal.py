@@ -13,11 +13,21 @@ from .numbers import DecimalNumbers, Numbers, sheet_digits
 
 
 class _Printer(DecimalNumbers, PrettyPrinter):
-    """``sympy.pretty`` with the sheet's numbers (``render.numbers``): 0.1234, 1.2e-5."""
+    """``sympy.pretty`` with the sheet's numbers (``render.numbers``): 0.1234, 1.2e-5; the
+    velocity of each coordinate in ``primes`` printed as its coordinate with a prime, ``q₁'``
+    and ``d₂'``, as the header's ``q'`` (SymPy's own reading of the name ``d2_d``, the velocity
+    of a coordinate ``d2``, is ``d_2_d``)."""
 
-    def __init__(self, numbers: Numbers):
+    def __init__(self, numbers: Numbers, primes: dict[Any, Any] | None = None):
         super().__init__({"use_unicode": True, "wrap_line": False, "order": "none"})
         self.numbers = numbers
+        self.primes = primes or {}
+
+    def _print_Symbol(self, e: Any, bold_name: bool = False) -> Any:
+        coordinate = self.primes.get(e)
+        if coordinate is None:
+            return super()._print_Symbol(e, bold_name)
+        return prettyForm(*super()._print_Symbol(coordinate, bold_name).right("'"))
 
     def _decimal(self, mantissa: str, exponent: int | None) -> Any:
         return prettyForm(mantissa if exponent is None else f"{mantissa}e{exponent}")
@@ -28,8 +38,10 @@ def _block(title: str, value: object, printer: _Printer) -> str:
 
 
 def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
-    """The equations of motion as text, numbers as the robot file wrote them (to ``digits``)."""
-    printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)))
+    """The equations of motion as text, numbers as the robot file wrote them (to ``digits``);
+    velocities as ``q₁'``."""
+    table = derivation.symbols
+    printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)), dict(zip(table.qd, table.q)))
     robot, q = derivation.robot, derivation.quantities
     coords = ", ".join(robot.coordinates)
     if robot.loops:
