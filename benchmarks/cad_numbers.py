@@ -1,6 +1,6 @@
-"""Small robots written with CAD numbers (issue 26, item 6): every output of each bundled
+"""Small robots written with CAD numbers: every output of each bundled
 robot, a 4-joint planar chain and the four-bar, once with round numbers and once with
-17-significant-digit numbers, against the issue's goals.
+17-significant-digit numbers, against the goals.
 
     python benchmarks/cad_numbers.py                # about 3 minutes on 2 cores; prints a table
     python benchmarks/cad_numbers.py --repeats 3    # the fastest of 3 processes per variant

@@ -1,4 +1,4 @@
-"""Compiled code (issue 28): the generated C beside Pinocchio C++, and the generated Python
+"""Compiled code: the generated C beside Pinocchio C++, and the generated Python
 (NumPy module, compiled extension) beside ``pin`` from Python, for the UR5 and the Panda.
 
     python benchmarks/compiled.py [--repeats 7] [--rounds 3] [--batch 100000] [--build-dir DIR]
@@ -364,7 +364,7 @@ def pin_rows(robot: Robot, repeats: int, batch: int) -> dict:
     return row
 
 
-# --- The compiled extension <name>_dynamics_c (issue 28's --c-extension, built by another item) ---
+# --- The compiled extension <name>_dynamics_c (--c-extension) ---
 
 def extension_rows(robot: Robot, work: Path, repeats: int, batch: int) -> dict | str:
     """The rows of the compiled extension, or why there are none: it is built by
@@ -513,7 +513,7 @@ def main() -> None:
     print(f"\n2. From Python: one call in us (the best of {args.repeats} x 200 calls); a batch of "
           f"{args.batch} states in ns per state (pin: a Python loop)\n")
     print(python_table(py_results, args.batch))
-    print("\n3. Goals (issue 28)\n")
+    print("\n3. Goals\n")
     print(_format([["goal", "measured", ""], *[list(g) for g in goals(c_results, py_results)]]))
     compiled = ", ".join(f"{k} {v:.0f} s" for k, v in pin_compile.items())
     import pinocchio as pin

@@ -1,4 +1,4 @@
-"""Floating-base robots (issue 30): solo12 and talos_reduced from example-robot-data with a
+"""Floating-base robots: solo12 and talos_reduced from example-robot-data with a
 free-flyer root (``--floating-base``), beside Pinocchio.
 
     python benchmarks/floating.py                 # both robots (about 2 minutes on 2 cores)
@@ -24,7 +24,7 @@ Per robot:
    within the compiler's 600 s limit at -O2 on the shared 2-core machine; ``--c-extension``
    alone: none).
 
-Then the goals of issue 30, each with its measured figure, met or not. No figure is typed in.
+Then the goals, each with its measured figure, met or not. No figure is typed in.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The JAX target (issue 31): forward dynamics of the Panda for 10^3 ... 10^6 states, jit-compiled,
+"""The JAX target: forward dynamics of the Panda for 10^3 ... 10^6 states, jit-compiled,
 beside the NumPy module and the compiled C extension.
 
     python benchmarks/jax_batch.py [--max 1000000] [--repeats 3] [--no-extension]

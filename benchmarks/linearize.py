@@ -1,4 +1,4 @@
-"""Linearization and frames (issue 19): the generated ``linearize`` against Pinocchio's
+"""Linearization and frames: the generated ``linearize`` against Pinocchio's
 ``computeABADerivatives`` called from Python, and ``frame_jacobian`` against
 ``computeFrameJacobian``, for the UR5 and the Panda.
 

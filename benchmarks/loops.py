@@ -1,5 +1,5 @@
-"""Closed-loop mechanisms (issue 15): derivation time of the sheet, the module and the JSON,
-and the constrained forward dynamics of the generated code, against the issue's goals.
+"""Closed-loop mechanisms: derivation time of the sheet, the module and the JSON,
+and the constrained forward dynamics of the generated code, against the goals.
 
     python benchmarks/loops.py          # about 30 s; prints a table
 
@@ -13,8 +13,8 @@ import subprocess
 import sys
 import time
 
-GOALS = {"four_bar": 10.0, "slider_crank": 10.0, "spatial_four_bar": 30.0,   # seconds, issue 15
-         "bennett": 30.0}                                                # issue 26 (over-constrained)
+GOALS = {"four_bar": 10.0, "slider_crank": 10.0, "spatial_four_bar": 30.0,   # seconds
+         "bennett": 30.0}                                                # over-constrained
 
 CHILD = r"""
 import json, sys, time

@@ -1,7 +1,7 @@
-"""Where a small robot's run goes (issue 26, item 6): CPU seconds of each phase of ``solve
+"""Where a small robot's run goes: CPU seconds of each phase of ``solve
 --latex --code --json`` in a fresh process, beside two anchors that produce less.
 
-    python benchmarks/phases.py                          # the issue's three slowest: bennett, panda, chain4
+    python benchmarks/phases.py                          # the three slowest: bennett, panda, chain4
     python benchmarks/phases.py four_bar robots/ur5.urdf --repeats 3
 
 Phases, in order, each in the same process (the command line's SymPy cache, as ``solve``):

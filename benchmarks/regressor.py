@@ -1,4 +1,4 @@
-"""The identification regressor (issue 19): the generated ``regressor`` against Pinocchio's
+"""The identification regressor: the generated ``regressor`` against Pinocchio's
 ``computeJointTorqueRegressor`` called from Python, and the time to build the program.
 
     python benchmarks/regressor.py [--repeats 5]      # about 30 s; prints a table

@@ -16,7 +16,7 @@ is that robot's alone), the anchors in subprocesses of their own:
    Python, once and in a Python loop over the batch;
 4. peak memory (RSS) of the derivation;
 
-then the goals of issue 8 with their measured figures, met or not. Times are medians over
+then the goals with their measured figures, met or not. Times are medians over
 ``--repeats``. Operations are counted by one function for both tools (``dynderive.mechanics.tidy.operation_count``).
 """
 
@@ -261,7 +261,7 @@ def code_table(rows: list[dict], batch: int) -> str:
 
 
 def goals(rows: list[dict]) -> list[dict]:
-    """Issue 8's goals, each with the measured figure and whether it is met."""
+    """The goals, each with the measured figure and whether it is met."""
     by_name = {r["robot"]: r for r in rows}
     out = []
 
@@ -306,7 +306,7 @@ def goals(rows: list[dict]) -> list[dict]:
 
 def goals_table(items: list[dict]) -> str:
     verdict = {True: "met", False: "NOT MET", None: "undecided"}
-    return _table("4. Goals (issue 8)", [("goal", "{}", "goal"), ("measured", "{}", "measured"),
+    return _table("4. Goals", [("goal", "{}", "goal"), ("measured", "{}", "measured"),
                                          ("", "{}", lambda g: verdict[g["met"]])], items)
 
 

@@ -1,4 +1,4 @@
-"""How dynderive scales with the robot's size (issue 17), beside sympy.physics.mechanics.
+"""How dynderive scales with the robot's size, beside sympy.physics.mechanics.
 
     python benchmarks/scaling.py                # every row (about 15 minutes on 2 cores)
     python benchmarks/scaling.py --quick        # planar 2-12, 3-D 3 and 7, no KanesMethod
@@ -10,14 +10,14 @@ exporters write it): planar chains of 2, 4, 8, 12, 20, 30 joints and generic 3-D
 Each row runs in its own subprocess (so peak memory is that robot's alone):
 
 1. ``solve --code``: load, derive what the module needs, render and verify it (s, peak MB);
-2. all outputs, ``--latex --code --json`` (s), in a fresh process of its own, where the issue
-   sets a goal or it is cheap;
+2. all outputs, ``--latex --code --json`` (s), in a fresh process of its own, where a goal
+   is set or it is cheap;
 3. the generated code per state (a batch of 10 k states): ``mass_matrix`` and
-   ``forward_dynamics`` (ns per state); for the Panda also the module generated before issue 17
+   ``forward_dynamics`` (ns per state); for the Panda also the module generated before the scaling work
    (``benchmarks/baseline/panda_dynamics.py``), measured in the same run;
 4. KanesMethod (``kanes_equations``, unsimplified) on the same model, within ``--kane-timeout``.
 
-Then the goals of issue 17, each with its measured figure, met or not. No figure is typed in.
+Then the goals, each with its measured figure, met or not. No figure is typed in.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from models import planar_chain_yaml, spatial_chain_yaml  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 PLANAR = [2, 4, 8, 12, 20, 30]
 SPATIAL = [3, 7, 12, 20]
-#: Rows that also render every output (the issue's goals: 12-DOF planar, 7-DOF 3-D).
+#: Rows that also render every output (the goals: 12-DOF planar, 7-DOF 3-D).
 ALL_OUTPUTS = {"chain2", "chain4", "chain8", "chain12", "spatial_chain3", "spatial_chain7", "panda"}
 
 
@@ -164,7 +164,7 @@ def goals(rows: list[dict]) -> list[tuple[str, str, bool | None]]:
     for key, label in (("mass_matrix_ns", "mass_matrix"), ("forward_dynamics_ns", "forward_dynamics")):
         if key in panda and f"baseline_{key}" in panda:
             ratio = panda[key] / panda[f"baseline_{key}"]
-            out.append((f"Panda {label} per state within 1.5x of the pre-issue module",
+            out.append((f"Panda {label} per state within 1.5x of the module before the scaling work",
                         f"{panda[key]:.0f} vs {panda[f'baseline_{key}']:.0f} ns ({ratio:.2f}x)", ratio <= 1.5))
     return out
 
