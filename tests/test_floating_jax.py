@@ -326,7 +326,7 @@ def test_solve_build_and_check_write_and_check_the_module(tmp_path):
     derivation = dynderive.derive(dynderive.load_robot(path))
     result = runner.invoke(app, ["solve", str(path), "--jax", "--out", str(tmp_path / "a")])
     assert result.exit_code == 0, result.output
-    assert "its JAX module (--jax)" in result.stderr
+    assert "every output is built except the MATLAB derivation script" in result.stderr
     assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["box_dynamics_jax.py"]
     assert (tmp_path / "a" / "box_dynamics_jax.py").read_text() == render_floating_jax(derivation)
     result = runner.invoke(app, ["solve", str(path), "--jax", "--code", "--out", str(tmp_path / "b"), "-q"])
