@@ -35,7 +35,8 @@ import sympy
 from ..model.robot import QUATERNION_START, Robot
 from ..model.symbols import SymbolTable
 from .drives import dissipative_force, floating_joint_drives
-from .floating import efforts, offsets, quaternion_matrix
+from .floating import efforts, offsets
+from .joint_types.quaternion import quaternion_matrix
 from .joints import unit
 from .polynomial import expand
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
