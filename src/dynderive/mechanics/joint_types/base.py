@@ -41,7 +41,8 @@ def basis(k: int) -> Vector:
     return tuple(sympy.Integer(int(i == k)) for i in range(3))  # type: ignore[return-value]
 
 
-def _keep(expr: sympy.Expr) -> sympy.Expr:
+def keep(expr: sympy.Expr) -> sympy.Expr:
+    """A ``Let`` that names nothing: the expression itself (maps and seeds outside a program)."""
     return expr
 
 
@@ -54,7 +55,7 @@ class JointType:
     nq: ClassVar[int] = 1
     nv: ClassVar[int] = 1
     #: The names of its entries of ``q``, ``v`` and of its efforts are ``<joint>_<suffix>``
-    #: (``model.robot``'s tuples); none: the joint's own name (its velocity ``qd_<joint>``).
+    #: (``model.robot``'s tuples); none: the joint's own name (velocity: ``naming.velocity_name``).
     configuration_suffixes: ClassVar[tuple[str, ...]] = ()
     velocity_suffixes: ClassVar[tuple[str, ...]] = ()
     effort_suffixes: ClassVar[tuple[str, ...]] = ()
@@ -91,7 +92,7 @@ class JointType:
         return KINDS[self.name].planar(q, axis)
 
     # --- configuration space -------------------------------------------------------------
-    def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = _keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
+    def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
         """Per velocity entry ``k``, the tangent of the configuration along it, ``d/dh
         integrate(q, e_k h)`` at h = 0, by entry of ``q`` (the derivatives of
         ``floating_derivatives.py`` start from it): ``q_k = 1`` for a vector-space joint. It

@@ -20,7 +20,7 @@ import sympy
 
 from ...model.robot import FLOATING_CONFIGURATION, FLOATING_EFFORT, FLOATING_VELOCITY
 from ..program import _dot
-from .base import ONE, ZERO, ZERO3, Column, JointType, Let, _keep, basis
+from .base import ONE, ZERO, ZERO3, Column, JointType, Let, basis, keep
 from .quaternion import (
     exp3,
     exp6_translation,
@@ -56,7 +56,7 @@ class Floating(JointType):
         """The 6 x 6 identity: three linear unit columns, then three angular ones."""
         return [(ZERO3, basis(k)) for k in range(3)] + [(basis(k), ZERO3) for k in range(3)]
 
-    def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = _keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
+    def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
         """The position's tangent ``R(quaternion) e_k``, then the quaternion's."""
         R = quaternion_matrix(*q[3:7])
         return [{q[r]: let(R[r, k]) for r in range(3)} for k in range(3)] + quaternion_seeds(let, q[3:7])

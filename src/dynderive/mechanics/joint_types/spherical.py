@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import sympy
 
 from ...model.robot import SPHERICAL_CONFIGURATION, SPHERICAL_EFFORT, SPHERICAL_VELOCITY
-from .base import ONE, ZERO, ZERO3, Column, JointType, Let, _keep, basis
+from .base import ONE, ZERO, ZERO3, Column, JointType, Let, basis, keep
 from .quaternion import (
     exp3,
     inverse,
@@ -42,7 +42,7 @@ class Spherical(JointType):
         """The three angular unit columns."""
         return [(basis(k), ZERO3) for k in range(3)]
 
-    def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = _keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
+    def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
         return quaternion_seeds(let, q)
 
     def neutral(self) -> list[sympy.Expr]:
