@@ -33,10 +33,12 @@ import sympy
 from ..errors import InputError, Problem
 from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
+from . import joint_types
+from .joint_types.quaternion import quaternion_matrix as quaternion_matrix  # its home before joint types
 from .joints import unit
 from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate, _rotate_back
 from .recursive import _gravity, add_to_parent, body_force
-from .spatial import axis_angle, inertia_tensor, rpy_matrix
+from .spatial import inertia_tensor, rpy_matrix
 
 _ZERO = sympy.Integer(0)
 
@@ -48,15 +50,6 @@ def not_built(robot: Robot, what: str) -> InputError:
     line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
     return InputError(Problem(robot.source, line, column, f"{what}: not built yet for floating-base robots "
                               f"(joint '{joint.name}' is {joint.type})"))
-
-
-def quaternion_matrix(qx: sympy.Expr, qy: sympy.Expr, qz: sympy.Expr, qw: sympy.Expr) -> sympy.Matrix:
-    """The rotation matrix of the quaternion ``qw + qx i + qy j + qz k`` (unit; as Eigen's)."""
-    return sympy.Matrix([
-        [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-        [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-        [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)],
-    ])
 
 
 @dataclass
@@ -121,41 +114,36 @@ class FloatingTree:
         position = sympy.Matrix([x, y, z])
         motion = sympy.eye(3)
         columns: list[tuple[int, Vector, Vector]] = []
-        zero: Vector = (_ZERO, _ZERO, _ZERO)
         drive = None
-        if joint.type == "floating":
+        kind = joint_types.of(joint)
+        if kind.nv > 1:   # floating, spherical: entries of their own (<mimic> couples scalar joints only)
             qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
-            q = self.table.q[qi:qi + 7]
-            position = position + origin * sympy.Matrix(q[:3])
-            motion = quaternion_matrix(*q[3:])
-            basis = [tuple(sympy.Integer(int(i == k)) for i in range(3)) for k in range(3)]
-            columns = [(vi + k, zero, basis[k]) for k in range(3)] + [(vi + 3 + k, basis[k], zero) for k in range(3)]
-        elif joint.type == "spherical":   # the floating joint's rotational part (JointModelSpherical)
-            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
-            motion = quaternion_matrix(*self.table.q[qi:qi + 4])
-            basis = [tuple(sympy.Integer(int(i == k)) for i in range(3)) for k in range(3)]
-            columns = [(vi + k, basis[k], zero) for k in range(3)]
+            q = self.table.q[qi:qi + kind.nq]
+            shift = kind.displacement(origin, q, ())
+            position = position if shift is None else position + shift
+            motion = kind.rotation(q, ())
+            columns = [(vi + k, w, v) for k, (w, v) in enumerate(kind.columns(()))]
         elif joint.moves:   # a <mimic> joint: variable multiplier * q_leader + offset, column the leader's
             leader, multiplier, offset = self.robot.driver(joint)
             qi, vi = self.offsets.q[leader], self.offsets.v[leader]
             axis = unit(tuple(expr(e) for e in joint.axis))
             m = expr(multiplier)
             q = m * self.table.q[qi] + expr(offset)
-            if joint.type == "revolute" and joint.mimic is None:
+            if kind.turns and joint.mimic is None:
                 cos, sin = sympy.Symbol(f"_cos{vi}"), sympy.Symbol(f"_sin{vi}")
                 self.trig += [(cos, sympy.cos(q)), (sin, sympy.sin(q))]
-                motion = axis_angle(axis, q).subs({sympy.cos(q): cos, sympy.sin(q): sin})
-            elif joint.type == "revolute":   # the sine and cosine of the follower's own variable
+                motion = kind.rotation([q], axis).subs({sympy.cos(q): cos, sympy.sin(q): sin})
+            elif kind.turns:   # the sine and cosine of the follower's own variable
                 cos, sin = (sympy.Symbol(f"_{f}{vi}_{len(self.trig)}") for f in ("cos", "sin"))
                 # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
                 turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
                 self.trig += [(cos, sympy.cos(turn)), (sin, sympy.sin(turn))]
                 angle = sympy.Dummy("angle")
-                motion = axis_angle(about, angle).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})  # type: ignore[arg-type]
-            else:
-                position = position + origin * sympy.Matrix(axis) * q
+                motion = kind.rotation([angle], about).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})
+            else:   # (origin axis) q
+                position = position + kind.displacement(origin, [q], axis)
             scaled = tuple(m * a for a in axis) if m != 1 else axis   # motion per unit rate of the leader
-            columns = [(vi, scaled, zero) if joint.type == "revolute" else (vi, zero, scaled)]   # type: ignore[list-item]
+            columns = [(vi, *kind.columns(scaled)[0])]
             if joint.driven:
                 drive = (m, self._value(joint.armature), self._value(joint.stiffness), self._value(joint.rest), q)
         rotation = origin * motion

@@ -36,6 +36,7 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
+from . import joint_types
 from .floating import (
     FloatingTree,
     _times,
@@ -45,7 +46,6 @@ from .floating import (
     motions,
     newton_euler,
     potential,
-    quaternion_matrix,
 )
 from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate
 from .recursive import _forward, _partial, body_force, friction_symbols
@@ -183,28 +183,15 @@ def coriolis_matrix(tree: FloatingTree) -> list[list[sympy.Expr]]:
 
 
 def _tangent_seeds(tree: FloatingTree) -> list[dict[sympy.Symbol, sympy.Expr]]:
-    """Per velocity column, the tangent of the configuration along it: ``q_i = 1`` for a
-    scalar joint; for a floating or spherical joint, that of ``integrate(q, e_k h)`` at h = 0."""
+    """Per velocity column, the tangent of the configuration along it, its joint type's
+    ``tangent_seed``: ``q_i = 1`` for a scalar joint; for a floating or spherical joint, that
+    of ``integrate(q, e_k h)`` at h = 0."""
     let, table, where = tree.program.let, tree.table, tree.offsets
     seeds: list[dict[sympy.Symbol, sympy.Expr]] = [{} for _ in range(tree.robot.velocity_count)]
     for joint in (j for j in tree.robot.joints if j.owns):   # a <mimic> joint moves with its leader's
+        kind = joint_types.of(joint)
         qi, vi = where.q[joint.name], where.v[joint.name]
-        if not joint.multi:
-            seeds[vi] = {table.q[qi]: sympy.Integer(1)}
-            continue
-        if joint.type == "floating":
-            q = table.q[qi:qi + 7]
-            R = quaternion_matrix(*q[3:])
-            for k in range(3):
-                seeds[vi + k] = {q[r]: let(R[r, k]) for r in range(3)}
-            qi, vi = qi + 3, vi + 3
-        quaternion = table.q[qi:qi + 4]   # the floating joint's rotational part, or a spherical joint
-        u, s = quaternion[:3], quaternion[3]
-        for k in range(3):
-            axis = [sympy.Integer(int(r == k)) for r in range(3)]
-            spin = _add([s * a for a in axis], _cross(u, axis))   # 1/2 quat * (axis, 0)
-            seeds[vi + k] = {**{quaternion[r]: let(_HALF * spin[r]) for r in range(3)},
-                             quaternion[3]: let(-_HALF * u[k])}
+        seeds[vi:vi + kind.nv] = kind.tangent_seed(table.q[qi:qi + kind.nq], let)
     return seeds
 
 

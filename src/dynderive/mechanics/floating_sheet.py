@@ -32,10 +32,12 @@ from dataclasses import dataclass, field
 
 import sympy
 
-from ..model.robot import QUATERNION_START, Robot
+from ..model.robot import Robot
 from ..model.symbols import SymbolTable
+from . import joint_types
 from .drives import dissipative_force, floating_joint_drives
-from .floating import efforts, offsets, quaternion_matrix
+from .floating import efforts, offsets
+from .joint_types.quaternion import quaternion_matrix
 from .joints import unit
 from .polynomial import expand
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
@@ -75,7 +77,7 @@ def floating_steps(robot: Robot, table: SymbolTable) -> FloatingSteps:
     where_q = robot.offsets()[0]
     rotations = {}
     for joint in (j for j in robot.joints if j.multi):
-        start = where_q[joint.name] + QUATERNION_START[joint.type]
+        start = where_q[joint.name] + joint_types.of(joint).quaternion_start  # type: ignore[operator]
         quaternion = table.q[start:start + 4]
         rotations[joint.name] = (quaternion_matrix(*quaternion), quaternion_rate(quaternion))
     sheet = floating_sheet(robot, table) if is_small_floating(robot) else None
@@ -256,8 +258,9 @@ def floating_sheet(robot: Robot, table: SymbolTable) -> FloatingSheet:
         S = sympy.zeros(6, nv)
         if joint.moves:
             qi, vi = where.q[joint.name], where.v[joint.name]
-        if joint.type in ("floating", "spherical"):
-            start = 3 if joint.type == "floating" else 0
+        kind = joint_types.of(joint)
+        if kind.quaternion_start is not None:   # floating (position, then quaternion), spherical
+            start = kind.quaternion_start
             quat = table.q[qi + start:qi + start + 4]
             Rq = quaternion_matrix(*quat)
             block = sympy.zeros(start + 4, start + 3)
@@ -271,12 +274,12 @@ def floating_sheet(robot: Robot, table: SymbolTable) -> FloatingSheet:
             joints.append(FloatingJointSheet(joint.name, joint.type, table.q[qi:qi + start + 4],
                                              table.qd[vi:vi + start + 3], Rq, block))
             R = R * Rq
-        elif joint.type == "revolute":
+        elif kind.turns:
             axis = _constant(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
             R = R * axis_angle(tuple(axis), table.q[qi])
             S[3:, vi] = axis
             rate[qi, vi] = 1
-        elif joint.type == "prismatic":
+        elif kind.moves:   # prismatic
             axis = _constant(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
             p = p + R * axis * table.q[qi]
             S[:3, vi] = axis

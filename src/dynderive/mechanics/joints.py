@@ -1,8 +1,10 @@
-"""Joint kinds, one small class each.
+"""The planar motion of the scalar joint kinds, and how a joint's variable depends on the
+coordinates (``Coupling``: a URDF ``<mimic>`` joint follows its leader's).
 
 A kind answers the few questions the planar kinematics asks: how the joint moves its child
 frame for a coordinate value (rotation and translation in the joint frame), and its unit
-twist in the joint frame. A new kind is one new class registered in ``KINDS``.
+twist in the joint frame. The joint types (``joint_types/``, which own everything else about
+a joint: nq, nv, 3-D motion, configuration maps) answer ``planar`` from ``KINDS``.
 """
 
 from __future__ import annotations

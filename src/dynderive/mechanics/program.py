@@ -103,7 +103,7 @@ def _numeric_constants(expr: sympy.Expr) -> sympy.Expr:
     printed lines call ``sin`` and ``cos`` of coordinates only; rationals stay exact."""
     if expr.is_Atom:
         return expr
-    if not expr.free_symbols:
+    if not expr.free_symbols and isinstance(expr, sympy.Expr):   # not a branch's (value, condition)
         return expr if expr.is_Rational else sympy.Float(expr.evalf(20), 20)
     args = [_numeric_constants(a) for a in expr.args]
     return expr.func(*args) if any(a is not b for a, b in zip(args, expr.args)) else expr

@@ -31,6 +31,7 @@ import sympy
 
 from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
+from . import joint_types
 from .drives import joint_drives
 from .joints import couplings, unit
 from .program import (
@@ -46,7 +47,7 @@ from .program import (
     add_column,
     lines_read,
 )
-from .spatial import axis_angle, inertia_tensor, rpy_matrix
+from .spatial import inertia_tensor, rpy_matrix
 
 
 @dataclass
@@ -105,29 +106,29 @@ class _Tree:
         origin = rpy_matrix(roll, pitch, yaw)
         position = [x, y, z]
         axis: Vector = (zero,) * 3  # type: ignore[assignment]
-        motion = sympy.eye(3)
-        revolute = joint.type == "revolute"
-        trig = None
+        motion, kind = sympy.eye(3), joint_types.of(joint)   # revolute, prismatic or fixed (floating.py: others)
+        revolute, trig = kind.turns, None
         if coordinate is not None:
-            if self.robot.planar:
-                axis = (zero, zero, sympy.Integer(1)) if revolute else (*unit(tuple(expr(e) for e in joint.axis)), zero)
+            if self.robot.planar:   # the planar unit twist (vx, vy, omega) as a 3-D axis
+                vx, vy, w = kind.planar(zero, tuple(expr(e) for e in joint.axis)).twist  # type: ignore[arg-type]
+                axis = (zero, zero, w) if revolute else (vx, vy, zero)
             else:
                 axis = unit(tuple(expr(e) for e in joint.axis))  # type: ignore[assignment]
             coupling = self.couplings[joint.name]
             q = coupling.variable
             if revolute and joint.mimic is None:
                 cos, sin = sympy.Symbol(f"_cos{coordinate}"), sympy.Symbol(f"_sin{coordinate}")
-                motion = axis_angle(axis, q).subs({sympy.cos(q): cos, sympy.sin(q): sin})
+                motion = kind.rotation([q], axis).subs({sympy.cos(q): cos, sympy.sin(q): sin})
                 trig = (cos, sin, q)
             elif revolute:   # a <mimic> joint: the sine and cosine of its own variable
                 cos, sin = (sympy.Symbol(f"_{f}{coordinate}_{len(self.bodies)}") for f in ("cos", "sin"))
                 # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
                 turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
                 angle = sympy.Dummy("angle")
-                motion = axis_angle(about, angle).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})  # type: ignore[arg-type]
+                motion = kind.rotation([angle], about).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})
                 trig = (cos, sin, turn)
-            else:
-                position = [p + d * q for p, d in zip(position, origin * sympy.Matrix(axis))]
+            else:   # (origin axis) q
+                position = [p + d for p, d in zip(position, kind.displacement(origin, [q], axis))]  # type: ignore[arg-type]
             if coupling.multiplier != 1:   # motion per unit rate of the leader's coordinate
                 axis = tuple(coupling.multiplier * a for a in axis)  # type: ignore[assignment]
         rotation = origin * motion

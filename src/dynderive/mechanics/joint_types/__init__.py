@@ -1,0 +1,101 @@
+"""Joint types, one module each, owning their configuration space (DESIGN.md sections 2 and
+10): ``revolute``, ``prismatic``, ``fixed``, ``spherical`` and ``floating`` (3-D free flyer),
+each a ``base.JointType`` answering nq, nv, its entries' names, how it moves its child frame,
+its motion columns, the tangent seed of the derivatives and its configuration maps (neutral,
+integrate, difference, configuration rate) as target-neutral program lines. Vector-space
+joints take ``base.py``'s defaults; the quaternion joints override them (``quaternion.py``).
+
+Not types of their own: a URDF ``<mimic>`` joint is its scalar type coupled to its leader's
+coordinate (``joints.Coupling``: no entries in ``q`` or ``v``, its column its leader's times
+the multiplier), and a planar robot's ``floating`` joint is three scalar joints once loaded
+(``input/floating.py``, ``expand_planar_floating``).
+
+>>> joint_type("floating").nq, joint_type("floating").nv
+(7, 6)
+
+``configuration_programs`` runs the maps joint by joint over a robot's ``q`` and ``v``
+(Pinocchio's ``algorithm/joint-configuration.hxx``), giving the programs a target prints as
+``neutral_configuration``, ``integrate``, ``difference`` and ``configuration_rate``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy
+
+from ...model.robot import Joint, Robot
+from ..program import Program
+from .base import JointType
+from .fixed import Fixed
+from .floating import Floating
+from .prismatic import Prismatic
+from .revolute import Revolute
+from .spherical import Spherical
+
+#: Every joint type, by the name the robot file gives it.
+JOINT_TYPES: dict[str, JointType] = {t.name: t for t in (Revolute(), Prismatic(), Fixed(), Floating(), Spherical())}
+
+
+def joint_type(name: str) -> JointType:
+    """The joint type of that name (``joints[i].type`` in the robot file)."""
+    try:
+        return JOINT_TYPES[name]
+    except KeyError:
+        raise ValueError(f"unknown joint type {name!r} (known: {', '.join(JOINT_TYPES)})") from None
+
+
+def of(joint: Joint) -> JointType:
+    """A joint's type."""
+    return joint_type(joint.type)
+
+
+@dataclass
+class ConfigurationProgram:
+    """One configuration map of a whole robot: its program (outputs: the result's entries)
+    and its arguments, by name in the generated function's signature, each the symbols of
+    its entries in order (``dt`` a single symbol)."""
+
+    program: Program
+    arguments: dict[str, list[sympy.Symbol]] = field(default_factory=dict)
+
+
+def configuration_symbols(robot: Robot, name: str) -> list[sympy.Symbol]:
+    """Symbols for the entries of a second configuration (``difference``'s ``q_from`` and
+    ``q_to``): ``_<name><i>``, names no robot symbol takes."""
+    return [sympy.Symbol(f"_{name}{i}") for i in range(len(robot.configuration_names))]
+
+
+def configuration_programs(robot: Robot, table: object) -> dict[str, ConfigurationProgram]:
+    """The robot's configuration maps, joint by joint over its moving joints with entries
+    (``Robot.offsets``): ``neutral_configuration`` (no arguments, NQ outputs), ``integrate``
+    (``q``, ``v``, ``dt``; NQ), ``difference`` (``q_from``, ``q_to``; NV) and
+    ``configuration_rate`` (``q``, ``v``; NQ). ``q`` and ``v`` are the symbol table's
+    ``q`` and ``qd``."""
+    where_q, where_v = robot.offsets()
+    q, v = list(table.q), list(table.qd)   # type: ignore[attr-defined]
+    dt = sympy.Symbol("_dt")
+    q_from, q_to = configuration_symbols(robot, "q_from"), configuration_symbols(robot, "q_to")
+    nq, nv = len(q), len(v)
+    programs = {"neutral_configuration": ConfigurationProgram(Program(), {}),
+                "integrate": ConfigurationProgram(Program(), {"q": q, "v": v, "dt": [dt]}),
+                "difference": ConfigurationProgram(Program(), {"q_from": q_from, "q_to": q_to}),
+                "configuration_rate": ConfigurationProgram(Program(), {"q": q, "v": v})}
+    outputs: dict[str, list[sympy.Expr]] = {"neutral_configuration": [sympy.Integer(0)] * nq,
+                                            "integrate": [sympy.Integer(0)] * nq,
+                                            "difference": [sympy.Integer(0)] * nv,
+                                            "configuration_rate": [sympy.Integer(0)] * nq}
+    for joint in (j for j in robot.joints if j.owns):
+        kind = of(joint)
+        i, k = where_q[joint.name], where_v[joint.name]
+        qs, vs = slice(i, i + kind.nq), slice(k, k + kind.nv)
+        outputs["neutral_configuration"][qs] = kind.neutral()
+        outputs["integrate"][qs] = kind.integrate(programs["integrate"].program.let, q[qs], v[vs], dt)
+        outputs["difference"][vs] = kind.difference(programs["difference"].program.let, q_from[qs], q_to[qs])
+        outputs["configuration_rate"][qs] = kind.rate(programs["configuration_rate"].program.let, q[qs], v[vs])
+    for name, entry in programs.items():
+        entry.program.outputs = outputs[name]
+    return programs
+
+
+__all__ = ["JOINT_TYPES", "ConfigurationProgram", "JointType", "configuration_programs", "joint_type", "of"]

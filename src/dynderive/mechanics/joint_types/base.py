@@ -1,0 +1,122 @@
+"""What every joint type answers, with the defaults of a vector-space joint (DESIGN.md
+section 10; Pinocchio's ``JointModelBase`` and ``liegroup/vector-space.hpp``,
+RigidBodyDynamics.jl's ``joint_types/joint_types.jl``).
+
+A joint type says how many entries it has in ``q`` (``nq``) and in ``v`` (``nv``), what they
+are called, how it moves its child frame (a rotation and a translation in its joint frame),
+its motion subspace ``S`` (one ``(angular, linear)`` column per velocity entry, in the child
+frame), the configuration's tangent per velocity entry (the seed of the derivatives along
+``integrate``) and its configuration maps: ``neutral``, ``integrate(q, v, dt)``,
+``difference(q0, q1)`` and the configuration rate ``qdot = rate(q, v)``. The maps are
+target-neutral: they write straight-line program lines (``program.Program.let``) of SymPy
+expressions, branches as ``sympy.Piecewise``, which every target's printer can print.
+
+A vector-space joint (revolute, prismatic; ``nq == nv``) takes the defaults: neutral 0,
+``q + v dt``, ``q1 - q0``, rate ``v``. The quaternion joints (``floating``, ``spherical``)
+override them (``quaternion.py``: SO(3) and SE(3) as Pinocchio's).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import ClassVar
+
+import sympy
+
+from ..joints import KINDS, PlanarMotion
+
+Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+Vector2 = tuple[sympy.Expr, sympy.Expr]
+#: A motion column ``(angular, linear)`` in the child frame.
+Column = tuple[Vector, Vector]
+#: ``Program.let``: names an expression (or returns it, if cheap), for the program's lines.
+Let = Callable[[sympy.Expr], sympy.Expr]
+
+ZERO, ONE = sympy.Integer(0), sympy.Integer(1)
+ZERO3: Vector = (ZERO, ZERO, ZERO)
+
+
+def basis(k: int) -> Vector:
+    """The unit vector ``e_k`` of 3-D space."""
+    return tuple(sympy.Integer(int(i == k)) for i in range(3))  # type: ignore[return-value]
+
+
+def keep(expr: sympy.Expr) -> sympy.Expr:
+    """A ``Let`` that names nothing: the expression itself (maps and seeds outside a program)."""
+    return expr
+
+
+class JointType:
+    """A joint type's answers; the defaults are a one-coordinate vector-space joint's."""
+
+    #: The name in the robot file (``joints[i].type``).
+    name: ClassVar[str] = ""
+    #: Entries in ``q`` and in ``v`` (Pinocchio's NQ, NV).
+    nq: ClassVar[int] = 1
+    nv: ClassVar[int] = 1
+    #: The names of its entries of ``q``, ``v`` and of its efforts are ``<joint>_<suffix>``
+    #: (``model.robot``'s tuples); none: the joint's own name (velocity: ``naming.velocity_name``).
+    configuration_suffixes: ClassVar[tuple[str, ...]] = ()
+    velocity_suffixes: ClassVar[tuple[str, ...]] = ()
+    effort_suffixes: ClassVar[tuple[str, ...]] = ()
+    #: Where its unit quaternion starts among its entries of ``q`` (None: it has none).
+    quaternion_start: ClassVar[int | None] = None
+    #: Whether its child frame moves relative to its joint frame (a fixed joint's does not).
+    moves: ClassVar[bool] = True
+    #: Whether its motion is a turn about its axis (revolute): its column is angular.
+    turns: ClassVar[bool] = False
+
+    # --- how it moves its child frame -------------------------------------------------
+    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr]) -> sympy.Matrix:
+        """The child frame's axes in the joint frame at configuration ``q`` (its entries, or
+        for a scalar joint the one variable, ``[multiplier * q_leader + offset]`` if it
+        follows another). ``axis``: the unit axis, for the types that have one."""
+        return sympy.eye(3)
+
+    def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],
+                     axis: Sequence[sympy.Expr]) -> sympy.Matrix | None:
+        """The child frame's origin relative to the joint frame's, in the parent's axes
+        (``origin``: the joint frame's rotation in the parent), or None for none."""
+        return None
+
+    def columns(self, axis: Sequence[sympy.Expr]) -> list[Column]:
+        """The motion subspace ``S``: per velocity entry, the child frame's ``(angular,
+        linear)`` velocity per unit rate, in the child frame (Pinocchio's ``S``, local)."""
+        raise NotImplementedError
+
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        """The motion in the plane z = 0 of a planar robot (``joints.py``'s kind of the same
+        name, which ``planar.py`` reads)."""
+        if self.name not in KINDS:
+            raise NotImplementedError(f"a {self.name} joint is not a planar robot's joint")
+        return KINDS[self.name].planar(q, axis)
+
+    # --- configuration space -------------------------------------------------------------
+    def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
+        """Per velocity entry ``k``, the tangent of the configuration along it, ``d/dh
+        integrate(q, e_k h)`` at h = 0, by entry of ``q`` (the derivatives of
+        ``floating_derivatives.py`` start from it): ``q_k = 1`` for a vector-space joint. It
+        is the rate's derivative by ``v_k`` (``tests/test_joint_types.py``)."""
+        return [{q[k]: ONE} for k in range(self.nv)]
+
+    def neutral(self) -> list[sympy.Expr]:
+        """Pinocchio's ``neutral``: zeros (identity quaternions)."""
+        return [ZERO] * self.nq
+
+    def integrate(self, let: Let, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr],
+                  dt: sympy.Expr) -> list[sympy.Expr]:
+        """The configuration reached from ``q`` moving at ``v`` for ``dt`` (Pinocchio's
+        ``integrate(q, v dt)``): ``q + v dt``."""
+        return [let(a + b * dt) for a, b in zip(q, v)]
+
+    def difference(self, let: Let, q0: Sequence[sympy.Expr], q1: Sequence[sympy.Expr]) -> list[sympy.Expr]:
+        """The velocity ``v`` with ``integrate(q0, v, 1) = q1`` (Pinocchio's ``difference``):
+        ``q1 - q0``."""
+        return [let(b - a) for a, b in zip(q0, q1)]
+
+    def rate(self, let: Let, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> list[sympy.Expr]:
+        """``dq/dt`` at velocity ``v``: the derivative of ``integrate(q, v, t)`` at t = 0; ``v``."""
+        return list(v)
+
+    def __repr__(self) -> str:
+        return f"<joint type {self.name}: nq={self.nq}, nv={self.nv}>"

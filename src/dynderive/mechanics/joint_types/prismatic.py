@@ -1,0 +1,24 @@
+"""The prismatic joint: one displacement along its unit axis (Pinocchio's
+``JointModelPrismaticUnaligned``, RigidBodyDynamics.jl's ``Prismatic``). A vector-space joint:
+the defaults' configuration maps."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import sympy
+
+from .base import ZERO3, Column, JointType
+
+
+class Prismatic(JointType):
+    name = "prismatic"
+
+    def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],
+                     axis: Sequence[sympy.Expr]) -> sympy.Matrix:
+        """``(origin axis) q``: the axis in the parent's axes times the displacement."""
+        return origin * sympy.Matrix(axis) * q[0]
+
+    def columns(self, axis: Sequence[sympy.Expr]) -> list[Column]:
+        """The axis, linear."""
+        return [(ZERO3, tuple(axis))]  # type: ignore[list-item]

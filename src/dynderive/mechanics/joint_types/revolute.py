@@ -1,0 +1,24 @@
+"""The revolute joint: one angle about its unit axis (Pinocchio's ``JointModelRevoluteUnaligned``,
+RigidBodyDynamics.jl's ``Revolute``). A vector-space joint: the defaults' configuration maps."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import sympy
+
+from ..spatial import axis_angle
+from .base import ZERO3, Column, JointType
+
+
+class Revolute(JointType):
+    name = "revolute"
+    turns = True
+
+    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr]) -> sympy.Matrix:
+        """Rodrigues' rotation by ``q[0]`` about ``axis`` (``spatial.axis_angle``)."""
+        return axis_angle(tuple(axis), q[0])  # type: ignore[arg-type]
+
+    def columns(self, axis: Sequence[sympy.Expr]) -> list[Column]:
+        """The axis, angular (the axis is the same in the joint and the child frame)."""
+        return [(tuple(axis), ZERO3)]  # type: ignore[list-item]

@@ -1,0 +1,263 @@
+"""Joint types own their configuration space (``mechanics/joint_types/``, DESIGN.md section
+10): each type's nq, nv and names agree with the robot model, and its configuration maps,
+target-neutral program lines, hold the Lie-group properties at random full-precision states
+(``difference(q, integrate(q, v, 1)) == v``, ``integrate(q, 0) == q``, the rate the time
+derivative of ``integrate`` at 0, the derivatives' tangent seed the rate's derivative by
+``v``) and equal Pinocchio's ``neutral``, ``integrate`` and ``difference`` on a one-joint
+model. A robot's maps, joint by joint, equal its generated NumPy module's."""
+
+from __future__ import annotations
+
+import importlib.util
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy
+
+import dynderive
+from dynderive.mechanics.joint_types import JOINT_TYPES, configuration_programs, joint_type
+from dynderive.mechanics.joint_types.quaternion import quaternion_matrix
+from dynderive.mechanics.program import Program
+from dynderive.model.robot import Joint, floating_names
+from dynderive.render.floating_code import render_floating_code
+
+pin = pytest.importorskip("pinocchio")
+
+TESTS = Path(__file__).parent
+MOVING = ["revolute", "prismatic", "floating", "spherical"]
+
+
+class Compiled:
+    """A program's lines compiled once (``lambdify`` with ``math``, line by line), run at many
+    points: ``run({symbol: value})`` gives the outputs as an array."""
+
+    def __init__(self, program: Program):
+        self.lines = []
+        for name, expr in program.lines:
+            symbols = sorted(expr.free_symbols, key=lambda s: s.name)
+            self.lines.append((name, symbols, sympy.lambdify(symbols, expr, "math")))
+        self.outputs = [(sorted(sympy.sympify(e).free_symbols, key=lambda s: s.name), e) for e in program.outputs]
+        self.compiled = [(symbols, sympy.lambdify(symbols, e, "math")) for symbols, e in self.outputs]
+
+    def run(self, values: dict[sympy.Symbol, float]) -> np.ndarray:
+        env = dict(values)
+        for name, symbols, function in self.lines:
+            env[name] = function(*(env[s] for s in symbols))
+        return np.array([float(f(*(env[s] for s in symbols))) for symbols, f in self.compiled])
+
+
+def _symbols(prefix: str, n: int) -> list[sympy.Symbol]:
+    return [sympy.Symbol(f"{prefix}{i}") for i in range(n)]
+
+
+class Maps:
+    """A joint type's four maps compiled over symbols ``q``, ``v``, ``dt``, ``q0``, ``q1``."""
+
+    def __init__(self, name: str):
+        kind = self.kind = joint_type(name)
+        self.q, self.v, self.q0, self.q1 = (_symbols(p, n) for p, n in
+                                            (("q", kind.nq), ("v", kind.nv), ("a", kind.nq), ("b", kind.nq)))
+        self.dt = sympy.Symbol("dt")
+        built = {}
+        for map_name, build in (("integrate", lambda let: kind.integrate(let, self.q, self.v, self.dt)),
+                                ("difference", lambda let: kind.difference(let, self.q0, self.q1)),
+                                ("rate", lambda let: kind.rate(let, self.q, self.v))):
+            program = Program()
+            program.outputs = build(program.let)
+            built[map_name] = Compiled(program)
+        self.built = built
+        program = Program()
+        seeds = kind.tangent_seed(self.q, program.let)
+        program.outputs = [seed.get(s, 0) for seed in seeds for s in self.q]   # nv x nq, row by row
+        self.seed = Compiled(program)
+
+    def integrate(self, q, v, dt=1.0) -> np.ndarray:
+        return self.built["integrate"].run({**dict(zip(self.q, q)), **dict(zip(self.v, v)), self.dt: dt})
+
+    def difference(self, q0, q1) -> np.ndarray:
+        return self.built["difference"].run({**dict(zip(self.q0, q0)), **dict(zip(self.q1, q1))})
+
+    def rate(self, q, v) -> np.ndarray:
+        return self.built["rate"].run({**dict(zip(self.q, q)), **dict(zip(self.v, v))})
+
+    def tangent_seed(self, q) -> np.ndarray:
+        return self.seed.run(dict(zip(self.q, q))).reshape(self.kind.nv, self.kind.nq)
+
+
+@pytest.fixture(scope="module")
+def maps() -> dict[str, Maps]:
+    return {name: Maps(name) for name in MOVING}
+
+
+def _random_configuration(name: str, rng: np.random.Generator) -> np.ndarray:
+    """Full-precision entries; the quaternion unit (either hemisphere)."""
+    kind = joint_type(name)
+    q = rng.uniform(-2.0, 2.0, kind.nq)
+    if kind.quaternion_start is not None:
+        s = kind.quaternion_start
+        quaternion = rng.normal(size=4)
+        q[s:s + 4] = quaternion / np.linalg.norm(quaternion)
+    return q
+
+
+def _random_velocity(name: str, rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
+    """Angular parts below pi in norm (the logarithm's principal branch)."""
+    return rng.uniform(-1.0, 1.0, joint_type(name).nv) * scale
+
+
+STATES = 8
+
+
+@pytest.mark.parametrize("name", list(JOINT_TYPES))
+def test_sizes_and_names_agree_with_the_robot_model(name):
+    kind = joint_type(name)
+    joint = Joint("j", name, "world", "link", (0,) * 6, (1, 0, 0) if name in ("revolute", "prismatic") else ())
+    assert joint.sizes == (kind.nq, kind.nv)
+    assert joint.moves == kind.moves
+    assert len(kind.columns((sympy.Integer(1), sympy.Integer(0), sympy.Integer(0)))) == kind.nv
+    assert len(kind.neutral()) == kind.nq
+    if kind.configuration_suffixes:
+        q, v, _ = floating_names("j", name)
+        assert q == [f"j_{s}" for s in kind.configuration_suffixes]
+        assert v == [f"j_{s}" for s in kind.velocity_suffixes]
+        assert len(kind.configuration_suffixes) == kind.nq and len(kind.velocity_suffixes) == kind.nv
+    assert (kind.quaternion_start is not None) == joint.multi
+
+
+def test_lookup_refuses_an_unknown_type():
+    with pytest.raises(ValueError, match="unknown joint type 'ball'"):
+        joint_type("ball")
+
+
+@pytest.mark.parametrize("name", MOVING)
+def test_neutral_integrate_zero_and_difference_inverts_integrate(maps, name):
+    m, rng = maps[name], np.random.default_rng(7)
+    neutral = np.array([float(x) for x in m.kind.neutral()])
+    if m.kind.quaternion_start is not None:
+        s = m.kind.quaternion_start
+        assert np.linalg.norm(neutral[s:s + 4]) == 1.0 and neutral[s + 3] == 1.0
+    for scale in (1.0, 1e-7):   # the closed forms and the series below SMALL
+        for _ in range(STATES):
+            q, v = _random_configuration(name, rng), _random_velocity(name, rng, scale)
+            np.testing.assert_allclose(m.integrate(q, np.zeros(m.kind.nv)), q, rtol=0, atol=1e-15)
+            np.testing.assert_allclose(m.difference(q, q), np.zeros(m.kind.nv), rtol=0, atol=1e-15)
+            np.testing.assert_allclose(m.difference(q, m.integrate(q, v, 1.0)), v, rtol=0, atol=1e-12)
+            dt = rng.uniform(0.1, 1.0)
+            np.testing.assert_allclose(m.difference(q, m.integrate(q, v, dt)), v * dt, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", MOVING)
+def test_rate_is_the_derivative_of_integrate_and_the_seed_its_derivative_by_v(maps, name):
+    m, rng = maps[name], np.random.default_rng(11)
+    h = 1e-6
+    for _ in range(STATES):
+        q, v = _random_configuration(name, rng), _random_velocity(name, rng)
+        central = (m.integrate(q, v, h) - m.integrate(q, v, -h)) / (2 * h)
+        np.testing.assert_allclose(m.rate(q, v), central, rtol=0, atol=1e-8)
+        seed = m.tangent_seed(q)
+        for k in range(m.kind.nv):   # the rate is linear in v: its derivative by v_k is rate(q, e_k)
+            np.testing.assert_allclose(seed[k], m.rate(q, np.eye(m.kind.nv)[k]), rtol=0, atol=1e-15)
+
+
+def _pinocchio_model(name: str):
+    model = pin.Model()
+    joint = {"revolute": pin.JointModelRX, "prismatic": pin.JointModelPX, "floating": pin.JointModelFreeFlyer,
+             "spherical": pin.JointModelSpherical}[name]()
+    model.addJoint(0, joint, pin.SE3.Identity(), "j")
+    return model
+
+
+@pytest.mark.parametrize("name", MOVING)
+def test_maps_equal_pinocchio_on_a_one_joint_model(maps, name):
+    m, rng, model = maps[name], np.random.default_rng(13), _pinocchio_model(name)
+    assert (model.nq, model.nv) == (m.kind.nq, m.kind.nv)
+    np.testing.assert_array_equal(pin.neutral(model), [float(x) for x in m.kind.neutral()])
+    for scale in (1.0, None, 1e-7):   # None: turns by 3.5 to 6 (a floating joint's quaternion changes hemisphere)
+        for _ in range(STATES):
+            q0, v = _random_configuration(name, rng), _random_velocity(name, rng, scale or 1.0)
+            dt = rng.uniform(0.1, 1.0)
+            if scale is None and m.kind.quaternion_start is not None:
+                v[-3:] *= rng.uniform(3.5, 6.0) / (dt * np.linalg.norm(v[-3:]))
+            q1 = m.integrate(q0, v, dt)
+            np.testing.assert_allclose(q1, pin.integrate(model, q0, v * dt), rtol=0, atol=1e-12)
+            other = _random_configuration(name, rng)
+            np.testing.assert_allclose(m.difference(q0, other), pin.difference(model, q0, other), rtol=0, atol=1e-10)
+
+
+def test_revolute_and_prismatic_move_along_their_axis():
+    axis = (sympy.Rational(3, 5), sympy.Integer(0), sympy.Rational(4, 5))
+    q = sympy.Symbol("q")
+    revolute, prismatic = joint_type("revolute"), joint_type("prismatic")
+    assert revolute.rotation([q], axis) * sympy.Matrix(axis) == sympy.Matrix(axis)
+    assert revolute.columns(axis) == [(axis, (0, 0, 0))] and prismatic.columns(axis) == [((0, 0, 0), axis)]
+    assert prismatic.displacement(sympy.eye(3), [q], axis) == sympy.Matrix(axis) * q
+    assert prismatic.rotation([q], axis) == sympy.eye(3) and revolute.displacement(sympy.eye(3), [q], axis) is None
+    floating = joint_type("floating")
+    symbols = sympy.symbols("x y z qx qy qz qw")
+    assert floating.rotation(symbols) == quaternion_matrix(*symbols[3:])
+    assert floating.displacement(sympy.eye(3), symbols) == sympy.Matrix(symbols[:3])
+    assert joint_type("fixed").columns(()) == [] and joint_type("fixed").neutral() == []
+
+
+def _module(robot, tmp_path: Path):
+    path = tmp_path / f"{robot.name}_dynamics.py"
+    path.write_text(render_floating_code(dynderive.derive(robot)))
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+BALL_ARM = """\
+name: ball_arm
+planar: false
+gravity: [0, 0, -9.81]
+links:
+- {name: base, mass: 2.1234567890123456, com: [0.1, 0.02, -0.03], inertia: [0.3, 0.2, 0.25, 0.01, 0.0, 0.02]}
+- {name: arm, mass: 1.3, com: [0.2, 0.0, 0.01], inertia: [0.1, 0.12, 0.09, 0.0, 0.01, 0.0]}
+- {name: hand, mass: 0.7, com: [0.05, 0.01, 0.0], inertia: [0.02, 0.03, 0.025, 0.0, 0.0, 0.001]}
+- {name: slide, mass: 0.4, com: [0.0, 0.0, 0.1], inertia: [0.01, 0.01, 0.01, 0.0, 0.0, 0.0]}
+joints:
+- {name: free, type: floating, parent: world, child: base, origin: {xyz: [0.1, -0.2, 0.3], rpy: [0.3, -0.2, 0.1]}}
+- {name: ball, type: spherical, parent: base, child: arm, origin: {xyz: [0.2, 0.1, 0.0], rpy: [0.0, 0.4, 0.0]}}
+- {name: wrist, type: revolute, parent: arm, child: hand, origin: {xyz: [0.4, 0.0, 0.0], rpy: [0, 0, 0]}, axis: [0, 0.6, 0.8]}
+- {name: drawer, type: prismatic, parent: base, child: slide, origin: {xyz: [0, 0, 0.1], rpy: [0, 0, 0]}, axis: [1, 0, 0]}
+"""
+
+
+@pytest.mark.parametrize("source", ["floating_elbow.urdf", "ball_arm.yaml"])
+def test_a_robots_maps_equal_its_generated_module(source, tmp_path):
+    """``configuration_programs`` (the joints' maps, joint by joint) gives the generated NumPy
+    module's ``neutral_configuration``, ``integrate``, ``difference`` and ``configuration_rate``
+    (hand-written in its template today)."""
+    path = TESTS / source
+    if source == "ball_arm.yaml":
+        path = tmp_path / source
+        path.write_text(BALL_ARM)
+    robot = dynderive.load_robot(path)
+    module = _module(robot, tmp_path)
+    table = dynderive.derive(robot).symbols
+    programs = configuration_programs(robot, table)
+    compiled = {name: Compiled(entry.program) for name, entry in programs.items()}
+    arguments = {name: entry.arguments for name, entry in programs.items()}
+    np.testing.assert_array_equal(compiled["neutral_configuration"].run({}), module.neutral_configuration())
+    rng, starts = random.Random(5), robot.quaternion_starts
+    for _ in range(4):
+        q0, q1 = (np.array([rng.uniform(-1.5, 1.5) for _ in range(module.NQ)]) for _ in range(2))
+        for q in (q0, q1):
+            for s in starts:
+                q[s:s + 4] /= np.linalg.norm(q[s:s + 4])
+        v = np.array([rng.uniform(-1.0, 1.0) for _ in range(module.NV)])
+        dt = rng.uniform(0.1, 1.0)
+
+        def bind(name, **values):
+            return {s: x for key, value in values.items() for s, x in zip(arguments[name][key], np.atleast_1d(value))}
+
+        np.testing.assert_allclose(compiled["integrate"].run(bind("integrate", q=q0, v=v, dt=dt)),
+                                   module.integrate(q0, v, dt), rtol=0, atol=1e-13)
+        np.testing.assert_allclose(compiled["difference"].run(bind("difference", q_from=q0, q_to=q1)),
+                                   module.difference(q0, q1), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(compiled["configuration_rate"].run(bind("configuration_rate", q=q0, v=v)),
+                                   module.configuration_rate(q0, v), rtol=0, atol=1e-13)
