@@ -37,9 +37,9 @@ void elbow_arm_mass_matrix(const double *q, const elbow_arm_parameters *p, doubl
     const double t9 = -t3*t5;
     const double t10 = t2*t5;
     const double t11 = -t3*t9;
-    const double t12 = -t3*t10 - t8*P->l2;
+    const double t12 = -t10*t3 - t8*P->l2;
     const double t13 = t4 + t5 + P->m3*P->l2*P->l2 + 2*t7*P->l2;
-    const double t14 = t4 + t2*t10 + P->m3*P->l2*P->l2 + 2*t7*P->l2;
+    const double t14 = t4 + t10*t2 + P->m3*P->l2*P->l2 + 2*t7*P->l2;
     const double t15 = t0*t12 + t1*t11;
     const double t16 = t0*t14 + t1*t12;
     const double t17 = P->I1 + t0*t16 + t1*t15;
@@ -74,8 +74,8 @@ void elbow_arm_coriolis_matrix(const double *q, const double *qd, const elbow_ar
     const double t9 = -t3*t5;
     const double t10 = t2*t5;
     const double t11 = -t3*t9;
-    const double t12 = -t3*t10 - t8*P->l2;
-    const double t13 = t4 + t2*t10 + P->m3*P->l2*P->l2 + 2*t7*P->l2;
+    const double t12 = -t10*t3 - t8*P->l2;
+    const double t13 = t4 + t10*t2 + P->m3*P->l2*P->l2 + 2*t7*P->l2;
     const double t14 = t0*t11 - t1*t12;
     const double t15 = t0*t12 + t1*t11;
     const double t16 = t0*t12 - t1*t13;
@@ -83,10 +83,10 @@ void elbow_arm_coriolis_matrix(const double *q, const double *qd, const elbow_ar
     const double t18 = -t3*t6;
     const double t19 = t0*t15 + t0*t16 + t1*t14 - t1*t17;
     const double t20 = -t2*t5;
-    const double t21 = -t2*t9 - t3*t20;
-    const double t22 = -t2*t10 - t3*t9 - t7*P->l2;
+    const double t21 = -t2*t9 - t20*t3;
+    const double t22 = -t10*t2 - t3*t9 - t7*P->l2;
     const double t23 = 2*t18*P->l2;
-    const double t24 = t2*t9 - t3*t10 + 2*t18*P->l2;
+    const double t24 = t2*t9 - t10*t3 + 2*t18*P->l2;
     const double t25 = t0*t22 + t1*t21;
     const double t26 = t0*t24 + t1*t22;
     const double t27 = t0*t26 + t1*t25;
@@ -127,12 +127,12 @@ void elbow_arm_gravity_vector(const double *q, const elbow_arm_parameters *p, do
     const double t8 = -t4*t7;
     const double t9 = t2*t6 + t3*t7;
     const double t10 = t2*t7 - t3*t6;
-    const double t11 = -t5*t10;
+    const double t11 = -t10*t5;
     const double t12 = t9*P->m3;
     const double t13 = t10*P->m3;
-    const double t14 = t2*t13 + t3*t12;
+    const double t14 = t12*t3 + t13*t2;
     const double t15 = t11 - t14*P->l2;
-    const double t16 = t8 + t15;
+    const double t16 = t15 + t8;
     N[0] = 0;
     N[1] = -t16;
     N[2] = -t11;
@@ -393,7 +393,7 @@ double elbow_arm_potential_energy(const double *q, const elbow_arm_parameters *p
     const double t9 = -P->g*P->l1;
     const double t10 = t2*t7 + t3*t8;
     const double t11 = t9 + t7*P->l2;
-    const double t12 = t4*P->g - t5*t7 - t6*t10 - t9*P->m2 - t11*P->m3;
+    const double t12 = t4*P->g - t10*t6 - t11*P->m3 - t5*t7 - t9*P->m2;
     V = t12;
     return V;
 }
@@ -496,9 +496,9 @@ int elbow_arm_linearize(const double *q, const double *qd, const double *u, cons
     const double t72 = t70*t71;
     const double t73 = t67*t64 - t68*t72;
     const double t74 = t63*t66;
-    const double t75 = -P->l2*t9 - t3*t11;
+    const double t75 = -P->l2*t9 - t11*t3;
     const double t76 = P->m3*P->l2*P->l2 + 2*P->l2*t8 + t4 + t6;
-    const double t77 = P->m3*P->l2*P->l2 + t2*t11 + 2*P->l2*t8 + t4;
+    const double t77 = P->m3*P->l2*P->l2 + t11*t2 + 2*P->l2*t8 + t4;
     const double t78 = t0*t75 + t1*t12;
     const double t79 = t0*t77 + t1*t75;
     const double t80 = P->I1 + t0*t79 + t1*t78;

@@ -36,10 +36,10 @@ void spatial_four_bar_mass_matrix(const double *q, const spatial_four_bar_parame
     const double t8 = t2*t7;
     const double t9 = -t3*t7;
     const double t10 = t2*t6;
-    const double t11 = P->Is + t2*t10;
+    const double t11 = P->Is + t10*t2;
     const double t12 = P->m2 + P->ms;
     const double t13 = -t1*t8;
-    const double t14 = t4 + t11 + t12*P->a*P->a + 2*t13*P->a;
+    const double t14 = t11 + t4 + t12*P->a*P->a + 2*t13*P->a;
     const double t15 = t11 + t13*P->a;
     const double t16 = t0*t9;
     const double t17 = t16*P->a;
@@ -84,7 +84,7 @@ void spatial_four_bar_coriolis_matrix(const double *q, const double *qd, const s
     const double t13 = t9*P->a;
     const double t14 = t11*P->a;
     const double t15 = -t3*t4;
-    const double t16 = t2*t15 - t3*t8;
+    const double t16 = t15*t2 - t3*t8;
     const double t17 = t16 + 2*t11*P->a;
     const double t18 = t16 + t11*P->a;
     const double t19 = t0*t10;
@@ -134,7 +134,7 @@ void spatial_four_bar_gravity_vector(const double *q, const spatial_four_bar_par
     const double t10 = -t5*t9;
     const double t11 = t8*P->m2;
     const double t12 = t9*P->m2;
-    const double t13 = t2*t11 + t3*t12;
+    const double t13 = t11*t2 + t12*t3;
     const double t14 = t1*t13;
     const double t15 = t14*P->a;
     N[0] = t15;
@@ -363,7 +363,7 @@ double spatial_four_bar_potential_energy(const double *q, const spatial_four_bar
     const double t4 = -t0*P->g;
     const double t5 = P->c*P->g;
     const double t6 = t1*P->g;
-    const double t7 = -t4*t2 - t5*P->m3 - t6*t3;
+    const double t7 = -t2*t4 - t3*t6 - t5*P->m3;
     V = t7;
     return V;
 }

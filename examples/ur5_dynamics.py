@@ -149,70 +149,70 @@ def _mass_matrix_body(q, sin, cos, *, g=9.81):
     _r11 = -0.0171364731454*_r9
     _r12 = 0.033822*_r9
     _r13 = 0.033822*_r8
-    _r12 = 0.11285608069875 + _r8*_r10 + _r9*_r12
-    _r10 = _r8*_r11 + _r9*_r13
-    _r13 = 0.21942 + _r8*_r13 - _r9*_r11
-    _r11 = _r6*_r12
-    _r12 = _r7*_r12
-    _r9 = -0.12999255384415*_r7
-    _r8 = 0.12999255384415*_r6
-    _r14 = _r6*_r10
-    _r15 = _r7*_r10
-    _r9 = 0.123341033631 + _r6*_r11 - _r7*_r9
-    _r11 = _r6*_r12 - _r7*_r8
-    _r12 = 0.111172755531 + _r6*_r8 + _r7*_r12
-    _r10 = -0.001653980355 + _r7*_r10
-    _r8 = 0.2315882781 + _r13
+    _r12 = 0.11285608069875 + _r10*_r8 + _r12*_r9
+    _r10 = _r11*_r8 + _r13*_r9
+    _r9 = 0.21942 + _r13*_r8 - _r11*_r9
+    _r8 = _r12*_r6
+    _r12 = _r12*_r7
+    _r13 = -0.12999255384415*_r7
+    _r11 = 0.12999255384415*_r6
+    _r14 = _r10*_r6
+    _r15 = _r10*_r7
+    _r13 = 0.123341033631 + _r8*_r6 - _r13*_r7
+    _r8 = _r12*_r6 - _r11*_r7
+    _r11 = 0.111172755531 + _r12*_r7 + _r11*_r6
+    _r10 = -0.001653980355 + _r10*_r7
+    _r12 = 0.2315882781 + _r9
     _r16 = 0.017784735*_r4
     _r17 = -0.017784735*_r5
-    _r18 = _r4*_r14 - _r5*_r9
-    _r9 = -_r4*_r9 - _r5*_r14
-    _r19 = _r4*_r10 - _r5*_r11
-    _r10 = -_r4*_r11 - _r5*_r10
-    _r11 = _r4*_r8 - _r5*_r14
-    _r8 = -_r4*_r14 - _r5*_r8
-    _r11 = 0.59565195167475 + 0.7845*_r17 + _r4*_r11 - _r5*_r18
-    _r18 = -0.39225*_r16 + _r4*_r8 - _r5*_r9
-    _r20 = 0.59565195167475 + _r12 + 0.7845*_r17
+    _r18 = _r14*_r4 - _r13*_r5
+    _r13 = -_r14*_r5 - _r13*_r4
+    _r19 = _r10*_r4 - _r8*_r5
+    _r10 = -_r8*_r4 - _r10*_r5
+    _r8 = _r12*_r4 - _r14*_r5
+    _r12 = -_r14*_r4 - _r12*_r5
+    _r8 = 0.59565195167475 + 0.7845*_r17 + _r8*_r4 - _r18*_r5
+    _r18 = -0.39225*_r16 + _r12*_r4 - _r13*_r5
+    _r20 = 0.59565195167475 + _r11 + 0.7845*_r17
     _r21 = -0.051322656825 + _r10
-    _r8 = 0.004095 - _r4*_r9 - _r5*_r8
-    _r9 = 1.598759275 + _r17
-    _r22 = _r2*_r16 + _r3*_r9
-    _r23 = _r2*_r9 - _r3*_r16
-    _r24 = _r2*_r11 + _r3*_r18
-    _r11 = _r2*_r18 - _r3*_r11
+    _r12 = 0.004095 - _r13*_r4 - _r12*_r5
+    _r13 = 1.598759275 + _r17
+    _r22 = _r2*_r16 + _r3*_r13
+    _r23 = _r2*_r13 - _r16*_r3
+    _r24 = _r2*_r8 + _r3*_r18
+    _r8 = _r2*_r18 - _r3*_r8
     _r25 = _r2*_r21 - _r3*_r19
-    _r26 = _r2*_r18 + _r3*_r8
-    _r8 = _r2*_r8 - _r3*_r18
+    _r26 = _r2*_r18 + _r3*_r12
+    _r12 = _r2*_r12 - _r3*_r18
     _r26 = 1.809023971711 + 0.85*_r23 + _r2*_r24 + _r3*_r26
     _r24 = 0.1197*_r22 + _r2*_r19 + _r3*_r21
-    _r18 = -0.425*_r22 + _r2*_r11 + _r3*_r8
+    _r18 = -0.425*_r22 + _r2*_r8 + _r3*_r12
     _r27 = 1.77012693841 + _r20 + 0.85*_r23
     _r25 = 0.19371331275 + _r25 + 0.1197*_r23
-    _r8 = 0.054004433301 + _r2*_r8 - _r3*_r11
-    _r11 = 4.4329225 + _r23
-    _r11 = -_r0*_r22 - _r1*_r11
+    _r12 = 0.054004433301 + _r2*_r12 - _r3*_r8
+    _r8 = 4.4329225 + _r23
+    _r8 = -_r0*_r22 - _r1*_r8
     _r26 = -_r0*_r26 - _r1*_r18
-    _r8 = -_r0*_r18 - _r1*_r8
-    _r8 = 0.12816210104175 - _r0*_r26 - _r1*_r8
-    _r11 = -0.13585*_r11 - _r0*_r24 - _r1*_r25
-    _r9 = -_r2*_r16 - _r3*_r9
-    _r16 = -0.1197*_r9 + _r2*_r19 + _r3*_r21
+    _r12 = -_r0*_r18 - _r1*_r12
+    _r12 = 0.12816210104175 - _r0*_r26 - _r1*_r12
+    _r8 = -0.13585*_r8 - _r0*_r24 - _r1*_r25
+    _r13 = -_r2*_r16 - _r3*_r13
+    _r16 = -0.1197*_r13 + _r2*_r19 + _r3*_r21
     _r25 = _r20 + 0.425*_r23
     _r21 = 0.1197*_r23 + _r2*_r21 - _r3*_r19
-    _r9 = _r0*_r9 - _r1*_r23
-    _r9 = -0.13585*_r9 - _r0*_r16 - _r1*_r21
+    _r13 = _r0*_r13 - _r1*_r23
+    _r13 = -0.13585*_r13 - _r0*_r16 - _r1*_r21
     _r21 = -0.017784735*_r4
-    _r16 = _r12 + 0.39225*_r17
+    _r16 = _r11 + 0.39225*_r17
     _r23 = _r2*_r17 + _r3*_r21
-    _r21 = _r2*_r21 - _r3*_r17
+    _r21 = _r2*_r21 - _r17*_r3
     _r17 = -0.1197*_r21 + _r2*_r19 + _r3*_r10
     _r24 = _r16 + 0.425*_r23
     _r10 = 0.1197*_r23 + _r2*_r10 - _r3*_r19
     _r21 = _r0*_r21 - _r1*_r23
     _r21 = -0.13585*_r21 - _r0*_r17 - _r1*_r10
-    _r10 = _r4*_r13 - _r5*_r14
-    _r14 = -_r4*_r14 - _r5*_r13
+    _r10 = _r9*_r4 - _r14*_r5
+    _r14 = -_r9*_r5 - _r14*_r4
     _r17 = _r2*_r10 + _r3*_r14
     _r14 = _r2*_r14 - _r3*_r10
     _r14 = -_r0*_r17 - _r1*_r14
@@ -224,19 +224,19 @@ def _mass_matrix_body(q, sin, cos, *, g=9.81):
     _r7 = _r2*_r7 - _r3*_r5
     _r7 = -_r0*_r4 - _r1*_r7
     return (
+        _r12,
         _r8,
-        _r11,
-        _r9,
+        _r13,
         _r21,
         _r14,
         _r7,
-        _r11,
+        _r8,
         _r27,
         _r25,
         _r24,
         _r15,
         _r6,
-        _r9,
+        _r13,
         _r25,
         _r20,
         _r16,
@@ -245,14 +245,14 @@ def _mass_matrix_body(q, sin, cos, *, g=9.81):
         _r21,
         _r24,
         _r16,
-        _r12,
+        _r11,
         _r15,
         _r6,
         _r14,
         _r15,
         _r15,
         _r15,
-        _r13,
+        _r9,
         0,
         _r7,
         _r6,
@@ -284,33 +284,33 @@ def _coriolis_body(q, qd, sin, cos, *, g=9.81):
     _r11 = -0.0171364731454*_r9
     _r12 = 0.033822*_r9
     _r13 = 0.033822*_r8
-    _r14 = 0.11285608069875 + _r8*_r10 + _r9*_r12
-    _r15 = _r8*_r11 + _r9*_r13
-    _r16 = 0.21942 + _r8*_r13 - _r9*_r11
-    _r17 = _r6*_r14
-    _r18 = _r7*_r14
+    _r14 = 0.11285608069875 + _r10*_r8 + _r12*_r9
+    _r15 = _r11*_r8 + _r13*_r9
+    _r16 = 0.21942 + _r13*_r8 - _r11*_r9
+    _r17 = _r14*_r6
+    _r18 = _r14*_r7
     _r19 = -0.12999255384415*_r7
     _r20 = 0.12999255384415*_r6
-    _r21 = _r6*_r15
-    _r22 = 0.123341033631 + _r6*_r17 - _r7*_r19
-    _r23 = _r6*_r18 - _r7*_r20
-    _r24 = -0.001653980355 + _r7*_r15
+    _r21 = _r15*_r6
+    _r22 = 0.123341033631 + _r17*_r6 - _r19*_r7
+    _r23 = _r18*_r6 - _r20*_r7
+    _r24 = -0.001653980355 + _r15*_r7
     _r25 = 0.2315882781 + _r16
     _r26 = 0.017784735*_r4
     _r27 = -0.017784735*_r5
-    _r28 = _r4*_r21 - _r5*_r22
-    _r29 = -_r4*_r22 - _r5*_r21
-    _r30 = _r4*_r24 - _r5*_r23
-    _r31 = -_r4*_r23 - _r5*_r24
-    _r32 = _r4*_r25 - _r5*_r21
-    _r33 = -_r4*_r21 - _r5*_r25
-    _r34 = 0.59565195167475 + 0.7845*_r27 + _r4*_r32 - _r5*_r28
-    _r35 = -0.39225*_r26 + _r4*_r33 - _r5*_r29
+    _r28 = _r21*_r4 - _r22*_r5
+    _r29 = -_r21*_r5 - _r22*_r4
+    _r30 = _r24*_r4 - _r23*_r5
+    _r31 = -_r23*_r4 - _r24*_r5
+    _r32 = _r25*_r4 - _r21*_r5
+    _r33 = -_r21*_r4 - _r25*_r5
+    _r34 = 0.59565195167475 + 0.7845*_r27 + _r32*_r4 - _r28*_r5
+    _r35 = -0.39225*_r26 + _r33*_r4 - _r29*_r5
     _r36 = -0.051322656825 + _r31
-    _r37 = 0.004095 - _r4*_r29 - _r5*_r33
+    _r37 = 0.004095 - _r29*_r4 - _r33*_r5
     _r38 = 1.598759275 + _r27
     _r39 = _r2*_r26 + _r3*_r38
-    _r40 = _r2*_r38 - _r3*_r26
+    _r40 = _r2*_r38 - _r26*_r3
     _r41 = _r2*_r34 + _r3*_r35
     _r42 = _r2*_r35 - _r3*_r34
     _r43 = _r2*_r36 - _r3*_r30
@@ -331,12 +331,12 @@ def _coriolis_body(q, qd, sin, cos, *, g=9.81):
     _r55 = -_r0*_r40 - _r1*_r39
     _r56 = -0.017784735*_r4
     _r57 = _r2*_r27 + _r3*_r56
-    _r58 = _r2*_r56 - _r3*_r27
+    _r58 = _r2*_r56 - _r27*_r3
     _r59 = -0.1197*_r58 + _r2*_r30 + _r3*_r31
     _r60 = 0.1197*_r57 + _r2*_r31 - _r3*_r30
     _r61 = -_r0*_r57 - _r1*_r58
-    _r62 = _r4*_r16 - _r5*_r21
-    _r63 = -_r4*_r21 - _r5*_r16
+    _r62 = _r16*_r4 - _r21*_r5
+    _r63 = -_r16*_r5 - _r21*_r4
     _r64 = _r2*_r62 + _r3*_r63
     _r65 = _r2*_r63 - _r3*_r62
     _r66 = -0.0171364731454*_r7
@@ -356,203 +356,203 @@ def _coriolis_body(q, qd, sin, cos, *, g=9.81):
     _r59 = -_r2*_r30 - _r3*_r36
     _r37 = -_r2*_r35 - _r3*_r37
     _r44 = 0.85*_r39 + _r2*_r42 + _r2*_r44 + _r3*_r45 - _r3*_r41
-    _r40 = -0.425*_r40 + _r2*_r34 + _r2*_r45 + _r3*_r37 - _r3*_r42
+    _r40 = -0.425*_r40 + _r2*_r45 + _r2*_r34 + _r3*_r37 - _r3*_r42
     _r41 = 0.85*_r39
     _r59 = _r59 + 0.1197*_r39
-    _r45 = _r2*_r37 - _r2*_r42 - _r3*_r34 - _r3*_r45
+    _r37 = _r2*_r37 - _r2*_r42 - _r3*_r45 - _r3*_r34
     _r44 = -_r0*_r44 - _r1*_r40
-    _r45 = -_r0*_r40 - _r1*_r45
-    _r45 = -_r0*_r44 - _r1*_r45
-    _r55 = -0.13585*_r55 - _r0*_r54 - _r1*_r59
-    _r38 = _r3*_r26 - _r2*_r38
+    _r37 = -_r0*_r40 - _r1*_r37
+    _r37 = -_r0*_r44 - _r1*_r37
+    _r59 = -0.13585*_r55 - _r0*_r54 - _r1*_r59
+    _r38 = _r26*_r3 - _r2*_r38
     _r26 = -0.1197*_r38 + _r2*_r36 - _r3*_r30
-    _r54 = 0.425*_r39
+    _r55 = 0.425*_r39
     _r36 = 0.1197*_r39 - _r2*_r30 - _r3*_r36
-    _r39 = _r0*_r38 - _r1*_r39
-    _r39 = -0.13585*_r39 - _r0*_r26 - _r1*_r36
+    _r38 = _r0*_r38 - _r1*_r39
+    _r38 = -0.13585*_r38 - _r0*_r26 - _r1*_r36
     _r36 = -_r2*_r27 - _r3*_r56
     _r26 = -0.1197*_r36 + _r2*_r31 - _r3*_r30
-    _r38 = 0.425*_r58
+    _r39 = 0.425*_r58
     _r30 = 0.1197*_r58 - _r2*_r30 - _r3*_r31
-    _r59 = _r0*_r36 - _r1*_r58
-    _r30 = -0.13585*_r59 - _r0*_r26 - _r1*_r30
+    _r54 = _r0*_r36 - _r1*_r58
+    _r30 = -0.13585*_r54 - _r0*_r26 - _r1*_r30
     _r62 = -_r2*_r62 - _r3*_r63
     _r65 = -_r0*_r65 - _r1*_r62
     _r67 = -_r2*_r67 - _r3*_r68
     _r70 = -_r0*_r70 - _r1*_r67
-    _r22 = _r5*_r22 - _r4*_r21
-    _r24 = _r5*_r23 - _r4*_r24
-    _r25 = _r5*_r21 - _r4*_r25
-    _r32 = 0.7845*_r56 + _r4*_r33 - _r4*_r28 - _r5*_r29 - _r5*_r32
-    _r27 = -0.39225*_r27 + _r4*_r25 - _r4*_r29 - _r5*_r22 - _r5*_r33
+    _r22 = _r22*_r5 - _r21*_r4
+    _r24 = _r23*_r5 - _r24*_r4
+    _r25 = _r21*_r5 - _r25*_r4
+    _r32 = 0.7845*_r56 + _r33*_r4 - _r28*_r4 - _r29*_r5 - _r32*_r5
+    _r27 = -0.39225*_r27 + _r25*_r4 - _r22*_r5 - _r29*_r4 - _r33*_r5
     _r28 = 0.7845*_r56
-    _r33 = _r5*_r29 - _r4*_r22 - _r4*_r33 - _r5*_r25
-    _r29 = _r2*_r32 + _r3*_r27
-    _r32 = _r2*_r27 - _r3*_r32
-    _r25 = _r2*_r24 - _r3*_r31
-    _r22 = _r2*_r27 + _r3*_r33
-    _r33 = _r2*_r33 - _r3*_r27
-    _r22 = 0.85*_r58 + _r2*_r29 + _r3*_r22
-    _r29 = 0.1197*_r57 + _r2*_r31 + _r3*_r24
-    _r57 = -0.425*_r57 + _r2*_r32 + _r3*_r33
+    _r33 = _r29*_r5 - _r22*_r4 - _r25*_r5 - _r33*_r4
+    _r29 = _r32*_r2 + _r27*_r3
+    _r32 = _r27*_r2 - _r32*_r3
+    _r25 = _r24*_r2 - _r3*_r31
+    _r22 = _r27*_r2 + _r33*_r3
+    _r33 = _r33*_r2 - _r27*_r3
+    _r22 = 0.85*_r58 + _r29*_r2 + _r22*_r3
+    _r29 = 0.1197*_r57 + _r24*_r3 + _r2*_r31
+    _r57 = -0.425*_r57 + _r32*_r2 + _r33*_r3
     _r27 = _r28 + 0.85*_r58
     _r25 = _r25 + 0.1197*_r58
-    _r33 = _r2*_r33 - _r3*_r32
+    _r33 = _r33*_r2 - _r32*_r3
     _r22 = -_r0*_r22 - _r1*_r57
     _r33 = -_r0*_r57 - _r1*_r33
     _r33 = -_r0*_r22 - _r1*_r33
     _r61 = -0.13585*_r61 - _r0*_r29 - _r1*_r25
-    _r36 = -0.1197*_r36 + _r2*_r31 + _r3*_r24
+    _r36 = -0.1197*_r36 + _r24*_r3 + _r2*_r31
     _r25 = _r28 + 0.425*_r58
-    _r58 = 0.1197*_r58 + _r2*_r24 - _r3*_r31
-    _r58 = -0.13585*_r59 - _r0*_r36 - _r1*_r58
+    _r58 = 0.1197*_r58 + _r24*_r2 - _r3*_r31
+    _r58 = -0.13585*_r54 - _r0*_r36 - _r1*_r58
     _r36 = 0.017784735*_r5
-    _r59 = 0.39225*_r56
-    _r29 = _r2*_r56 + _r3*_r36
-    _r56 = _r2*_r36 - _r3*_r56
-    _r36 = -0.1197*_r56 + _r2*_r31 + _r3*_r24
-    _r22 = _r59 + 0.425*_r29
-    _r31 = 0.1197*_r29 + _r2*_r24 - _r3*_r31
+    _r54 = 0.39225*_r56
+    _r29 = _r36*_r3 + _r2*_r56
+    _r56 = _r36*_r2 - _r3*_r56
+    _r36 = -0.1197*_r56 + _r24*_r3 + _r2*_r31
+    _r22 = _r54 + 0.425*_r29
+    _r31 = 0.1197*_r29 + _r24*_r2 - _r3*_r31
     _r56 = _r0*_r56 - _r1*_r29
     _r56 = -0.13585*_r56 - _r0*_r36 - _r1*_r31
-    _r16 = _r5*_r21 - _r4*_r16
-    _r31 = _r2*_r63 + _r3*_r16
-    _r63 = _r2*_r16 - _r3*_r63
+    _r16 = _r21*_r5 - _r16*_r4
+    _r31 = _r16*_r3 + _r2*_r63
+    _r63 = _r16*_r2 - _r3*_r63
     _r63 = -_r0*_r31 - _r1*_r63
     _r31 = _r5*_r66
-    _r16 = _r2*_r68 + _r3*_r31
-    _r68 = _r2*_r31 - _r3*_r68
+    _r16 = _r31*_r3 + _r2*_r68
+    _r68 = _r31*_r2 - _r3*_r68
     _r68 = -_r0*_r16 - _r1*_r68
-    _r14 = -_r7*_r14
+    _r14 = -_r14*_r7
     _r16 = -0.12999255384415*_r6
-    _r15 = -_r7*_r15
-    _r16 = _r6*_r14 - _r6*_r19 - _r7*_r16 - _r7*_r17
-    _r14 = _r6*_r17 - _r6*_r20 - _r7*_r18 - _r7*_r19
-    _r19 = _r6*_r18 + _r6*_r19 + _r7*_r17 - _r7*_r20
-    _r18 = _r4*_r15 - _r5*_r16
-    _r16 = -_r4*_r16 - _r5*_r15
-    _r17 = _r4*_r21 - _r5*_r14
-    _r14 = -_r4*_r14 - _r5*_r21
-    _r20 = -_r5*_r15
-    _r15 = -_r4*_r15
-    _r18 = _r4*_r20 - _r5*_r18
-    _r31 = _r4*_r15 - _r5*_r16
-    _r16 = -_r4*_r16 - _r5*_r15
-    _r36 = _r2*_r18 + _r3*_r31
-    _r18 = _r2*_r31 - _r3*_r18
-    _r29 = _r2*_r17 + _r3*_r14
-    _r14 = _r2*_r14 - _r3*_r17
-    _r17 = _r2*_r31 + _r3*_r16
-    _r16 = _r2*_r16 - _r3*_r31
-    _r17 = _r2*_r36 + _r3*_r17
-    _r36 = _r2*_r18 + _r3*_r16
-    _r16 = _r2*_r16 - _r3*_r18
-    _r17 = -_r0*_r17 - _r1*_r36
+    _r15 = -_r15*_r7
+    _r16 = _r14*_r6 - _r16*_r7 - _r17*_r7 - _r19*_r6
+    _r14 = _r17*_r6 - _r18*_r7 - _r19*_r7 - _r20*_r6
+    _r20 = _r17*_r7 + _r18*_r6 + _r19*_r6 - _r20*_r7
+    _r19 = _r15*_r4 - _r16*_r5
+    _r16 = -_r15*_r5 - _r16*_r4
+    _r18 = _r21*_r4 - _r14*_r5
+    _r14 = -_r14*_r4 - _r21*_r5
+    _r17 = -_r15*_r5
+    _r15 = -_r15*_r4
+    _r19 = _r17*_r4 - _r19*_r5
+    _r31 = _r15*_r4 - _r16*_r5
+    _r16 = -_r16*_r4 - _r15*_r5
+    _r36 = _r19*_r2 + _r31*_r3
+    _r19 = _r31*_r2 - _r19*_r3
+    _r29 = _r18*_r2 + _r14*_r3
+    _r14 = _r14*_r2 - _r18*_r3
+    _r18 = _r31*_r2 + _r16*_r3
+    _r16 = _r16*_r2 - _r31*_r3
+    _r18 = _r36*_r2 + _r18*_r3
+    _r36 = _r19*_r2 + _r16*_r3
+    _r16 = _r16*_r2 - _r19*_r3
+    _r18 = -_r0*_r18 - _r1*_r36
     _r14 = -_r0*_r29 - _r1*_r14
     _r16 = -_r0*_r36 - _r1*_r16
-    _r16 = -_r0*_r17 - _r1*_r16
-    _r17 = _r2*_r20 + _r3*_r15
-    _r15 = _r2*_r15 - _r3*_r20
-    _r15 = -_r0*_r17 - _r1*_r15
-    _r17 = -0.0171364731454*_r6
-    _r20 = -_r5*_r17
-    _r17 = -_r4*_r17
-    _r36 = _r2*_r20 + _r3*_r17
-    _r17 = _r2*_r17 - _r3*_r20
-    _r17 = -_r0*_r36 - _r1*_r17
+    _r16 = -_r0*_r18 - _r1*_r16
+    _r18 = _r17*_r2 + _r15*_r3
+    _r15 = _r15*_r2 - _r17*_r3
+    _r15 = -_r0*_r18 - _r1*_r15
+    _r18 = -0.0171364731454*_r6
+    _r17 = -_r18*_r5
+    _r18 = -_r18*_r4
+    _r36 = _r17*_r2 + _r18*_r3
+    _r18 = _r18*_r2 - _r17*_r3
+    _r18 = -_r0*_r36 - _r1*_r18
     _r36 = -0.0171364731454*_r8
-    _r20 = -0.033822*_r9
-    _r12 = _r8*_r11 + _r8*_r12 + _r9*_r13 - _r9*_r10
-    _r10 = _r8*_r36 + _r8*_r13 + _r9*_r20 - _r9*_r11
-    _r13 = _r8*_r20 - _r8*_r11 - _r9*_r36 - _r9*_r13
-    _r20 = _r6*_r12
-    _r12 = _r7*_r12
-    _r36 = _r6*_r10
-    _r10 = _r7*_r10
-    _r20 = _r6*_r20
-    _r6 = _r6*_r12
-    _r12 = _r7*_r12
-    _r7 = _r4*_r36 - _r5*_r20
-    _r20 = -_r4*_r20 - _r5*_r36
-    _r11 = _r4*_r10 - _r5*_r6
-    _r6 = -_r4*_r6 - _r5*_r10
-    _r9 = _r4*_r13 - _r5*_r36
-    _r36 = -_r4*_r36 - _r5*_r13
-    _r7 = _r4*_r9 - _r5*_r7
-    _r8 = _r4*_r36 - _r5*_r20
-    _r20 = -_r4*_r20 - _r5*_r36
-    _r5 = _r2*_r7 + _r3*_r8
-    _r7 = _r2*_r8 - _r3*_r7
-    _r4 = _r2*_r11 + _r3*_r6
-    _r6 = _r2*_r6 - _r3*_r11
-    _r11 = _r2*_r8 + _r3*_r20
-    _r20 = _r2*_r20 - _r3*_r8
-    _r11 = _r2*_r5 + _r3*_r11
-    _r5 = _r2*_r7 + _r3*_r20
-    _r20 = _r2*_r20 - _r3*_r7
-    _r11 = -_r0*_r11 - _r1*_r5
-    _r6 = -_r0*_r4 - _r1*_r6
-    _r20 = -_r0*_r5 - _r1*_r20
-    _r20 = -_r0*_r11 - _r1*_r20
-    _r11 = _r2*_r9 + _r3*_r36
-    _r36 = _r2*_r36 - _r3*_r9
-    _r36 = -_r0*_r11 - _r1*_r36
-    _r11 = 0.5*(_r49*shoulder_lift_jointd) + 0.5*(_r45*elbow_jointd) + 0.5*(_r33*wrist_1_jointd) + 0.5*(_r16*wrist_2_jointd) + 0.5*(_r20*wrist_3_jointd)
-    _r50 = _r50*shoulder_lift_jointd + 0.5*(_r49*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r53 + _r55)) + 0.5*(wrist_1_jointd*(_r60 + _r61)) + 0.5*(wrist_2_jointd*(_r64 + _r14)) + 0.5*(wrist_3_jointd*(_r69 + _r6))
-    _r39 = _r39*elbow_jointd + 0.5*(_r45*shoulder_pan_jointd) + 0.5*(shoulder_lift_jointd*(_r53 + _r55)) + 0.5*(wrist_1_jointd*(_r30 + _r58)) + 0.5*(wrist_2_jointd*(_r65 + _r14)) + 0.5*(wrist_3_jointd*(_r70 + _r6))
-    _r56 = _r56*wrist_1_jointd + 0.5*(_r33*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r30 + _r58)) + 0.5*(shoulder_lift_jointd*(_r60 + _r61)) + 0.5*(wrist_2_jointd*(_r63 + _r14)) + 0.5*(wrist_3_jointd*(_r68 + _r6))
-    _r15 = _r15*wrist_2_jointd + 0.5*(_r16*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r65 + _r14)) + 0.5*(shoulder_lift_jointd*(_r64 + _r14)) + 0.5*(wrist_1_jointd*(_r63 + _r14)) + 0.5*(wrist_3_jointd*(_r17 + _r36))
-    _r1 = 0.5*(_r20*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r70 + _r6)) + 0.5*(shoulder_lift_jointd*(_r69 + _r6)) + 0.5*(wrist_1_jointd*(_r68 + _r6)) + 0.5*(wrist_2_jointd*(_r17 + _r36))
-    _r49 = 0.5*(elbow_jointd*(_r55 - _r53)) + 0.5*(wrist_1_jointd*(_r61 - _r60)) + 0.5*(wrist_2_jointd*(_r14 - _r64)) + 0.5*(wrist_3_jointd*(_r6 - _r69)) - 0.5*_r49*shoulder_pan_jointd
-    _r0 = 0.5*(_r41*elbow_jointd) + 0.5*(_r27*wrist_1_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd)
-    _r54 = _r54*elbow_jointd + 0.5*(_r41*shoulder_lift_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_pan_jointd*(_r55 - _r53)) + 0.5*(wrist_1_jointd*(_r38 + _r25))
-    _r22 = _r22*wrist_1_jointd + 0.5*(_r27*shoulder_lift_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(elbow_jointd*(_r38 + _r25)) + 0.5*(shoulder_pan_jointd*(_r61 - _r60))
-    _r9 = _r21*wrist_2_jointd + 0.5*(_r19*elbow_jointd) + 0.5*(_r19*shoulder_lift_jointd) + 0.5*(_r19*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r64)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
-    _r3 = 0.5*(_r12*elbow_jointd) + 0.5*(_r12*shoulder_lift_jointd) + 0.5*(_r12*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r69)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
-    _r45 = 0.5*(shoulder_lift_jointd*(_r53 - _r55)) + 0.5*(wrist_1_jointd*(_r58 - _r30)) + 0.5*(wrist_2_jointd*(_r14 - _r65)) + 0.5*(wrist_3_jointd*(_r6 - _r70)) - 0.5*_r45*shoulder_pan_jointd
-    _r55 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_pan_jointd*(_r53 - _r55)) + 0.5*(wrist_1_jointd*(_r25 - _r38)) - 0.5*_r41*shoulder_lift_jointd
-    _r41 = 0.5*(_r28*wrist_1_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd)
-    _r59 = _r59*wrist_1_jointd + 0.5*(_r28*elbow_jointd) + 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_lift_jointd*(_r25 - _r38)) + 0.5*(shoulder_pan_jointd*(_r58 - _r30))
-    _r53 = _r21*wrist_2_jointd + 0.5*(_r19*elbow_jointd) + 0.5*(_r19*shoulder_lift_jointd) + 0.5*(_r19*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r65)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
-    _r2 = 0.5*(_r12*elbow_jointd) + 0.5*(_r12*shoulder_lift_jointd) + 0.5*(_r12*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r70)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
+    _r17 = -0.033822*_r9
+    _r12 = _r11*_r8 + _r12*_r8 + _r13*_r9 - _r10*_r9
+    _r10 = _r13*_r8 + _r36*_r8 + _r17*_r9 - _r11*_r9
+    _r9 = _r17*_r8 - _r11*_r8 - _r13*_r9 - _r36*_r9
+    _r8 = _r12*_r6
+    _r12 = _r12*_r7
+    _r17 = _r10*_r6
+    _r10 = _r10*_r7
+    _r8 = _r8*_r6
+    _r6 = _r12*_r6
+    _r7 = _r12*_r7
+    _r12 = _r17*_r4 - _r8*_r5
+    _r8 = -_r17*_r5 - _r8*_r4
+    _r36 = _r10*_r4 - _r6*_r5
+    _r6 = -_r10*_r5 - _r6*_r4
+    _r13 = _r9*_r4 - _r17*_r5
+    _r17 = -_r9*_r5 - _r17*_r4
+    _r12 = _r13*_r4 - _r12*_r5
+    _r11 = _r17*_r4 - _r8*_r5
+    _r5 = -_r8*_r4 - _r17*_r5
+    _r4 = _r2*_r12 + _r11*_r3
+    _r12 = _r2*_r11 - _r12*_r3
+    _r8 = _r2*_r36 + _r6*_r3
+    _r6 = _r2*_r6 - _r36*_r3
+    _r36 = _r2*_r11 + _r5*_r3
+    _r5 = _r2*_r5 - _r11*_r3
+    _r36 = _r2*_r4 + _r36*_r3
+    _r4 = _r2*_r12 + _r5*_r3
+    _r5 = _r2*_r5 - _r12*_r3
+    _r36 = -_r0*_r36 - _r1*_r4
+    _r6 = -_r0*_r8 - _r1*_r6
+    _r5 = -_r0*_r4 - _r1*_r5
+    _r5 = -_r0*_r36 - _r1*_r5
+    _r36 = _r2*_r13 + _r17*_r3
+    _r3 = _r2*_r17 - _r13*_r3
+    _r3 = -_r0*_r36 - _r1*_r3
+    _r36 = 0.5*(_r33*wrist_1_jointd) + 0.5*(_r16*wrist_2_jointd) + 0.5*(_r5*wrist_3_jointd) + 0.5*(_r49*shoulder_lift_jointd) + 0.5*(_r37*elbow_jointd)
+    _r50 = _r50*shoulder_lift_jointd + 0.5*(_r49*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r53 + _r59)) + 0.5*(wrist_1_jointd*(_r61 + _r60)) + 0.5*(wrist_2_jointd*(_r14 + _r64)) + 0.5*(wrist_3_jointd*(_r6 + _r69))
+    _r38 = _r38*elbow_jointd + 0.5*(_r37*shoulder_pan_jointd) + 0.5*(shoulder_lift_jointd*(_r53 + _r59)) + 0.5*(wrist_1_jointd*(_r30 + _r58)) + 0.5*(wrist_2_jointd*(_r65 + _r14)) + 0.5*(wrist_3_jointd*(_r70 + _r6))
+    _r56 = _r56*wrist_1_jointd + 0.5*(_r33*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r30 + _r58)) + 0.5*(shoulder_lift_jointd*(_r61 + _r60)) + 0.5*(wrist_2_jointd*(_r63 + _r14)) + 0.5*(wrist_3_jointd*(_r68 + _r6))
+    _r15 = _r15*wrist_2_jointd + 0.5*(_r16*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r65 + _r14)) + 0.5*(shoulder_lift_jointd*(_r14 + _r64)) + 0.5*(wrist_1_jointd*(_r63 + _r14)) + 0.5*(wrist_3_jointd*(_r18 + _r3))
+    _r1 = 0.5*(_r5*shoulder_pan_jointd) + 0.5*(elbow_jointd*(_r70 + _r6)) + 0.5*(shoulder_lift_jointd*(_r6 + _r69)) + 0.5*(wrist_1_jointd*(_r68 + _r6)) + 0.5*(wrist_2_jointd*(_r18 + _r3))
+    _r49 = 0.5*(elbow_jointd*(_r59 - _r53)) + 0.5*(wrist_1_jointd*(_r61 - _r60)) + 0.5*(wrist_2_jointd*(_r14 - _r64)) + 0.5*(wrist_3_jointd*(_r6 - _r69)) - 0.5*_r49*shoulder_pan_jointd
+    _r0 = 0.5*(_r27*wrist_1_jointd) + 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd) + 0.5*(_r41*elbow_jointd)
+    _r55 = _r55*elbow_jointd + 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd) + 0.5*(_r41*shoulder_lift_jointd) + 0.5*(shoulder_pan_jointd*(_r59 - _r53)) + 0.5*(wrist_1_jointd*(_r39 + _r25))
+    _r22 = _r22*wrist_1_jointd + 0.5*(_r27*shoulder_lift_jointd) + 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd) + 0.5*(elbow_jointd*(_r39 + _r25)) + 0.5*(shoulder_pan_jointd*(_r61 - _r60))
+    _r17 = _r21*wrist_2_jointd + 0.5*(_r20*elbow_jointd) + 0.5*(_r20*shoulder_lift_jointd) + 0.5*(_r20*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r64)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
+    _r13 = 0.5*(_r7*elbow_jointd) + 0.5*(_r7*shoulder_lift_jointd) + 0.5*(_r7*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r69)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
+    _r37 = 0.5*(shoulder_lift_jointd*(_r53 - _r59)) + 0.5*(wrist_1_jointd*(_r58 - _r30)) + 0.5*(wrist_2_jointd*(_r14 - _r65)) + 0.5*(wrist_3_jointd*(_r6 - _r70)) - 0.5*_r37*shoulder_pan_jointd
+    _r59 = 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd) + 0.5*(shoulder_pan_jointd*(_r53 - _r59)) + 0.5*(wrist_1_jointd*(_r25 - _r39)) - 0.5*_r41*shoulder_lift_jointd
+    _r41 = 0.5*(_r28*wrist_1_jointd) + 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd)
+    _r54 = _r54*wrist_1_jointd + 0.5*(_r28*elbow_jointd) + 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd) + 0.5*(shoulder_lift_jointd*(_r25 - _r39)) + 0.5*(shoulder_pan_jointd*(_r58 - _r30))
+    _r53 = _r21*wrist_2_jointd + 0.5*(_r20*elbow_jointd) + 0.5*(_r20*shoulder_lift_jointd) + 0.5*(_r20*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r65)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
+    _r2 = 0.5*(_r7*elbow_jointd) + 0.5*(_r7*shoulder_lift_jointd) + 0.5*(_r7*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r70)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
     _r33 = 0.5*(elbow_jointd*(_r30 - _r58)) + 0.5*(shoulder_lift_jointd*(_r60 - _r61)) + 0.5*(wrist_2_jointd*(_r14 - _r63)) + 0.5*(wrist_3_jointd*(_r6 - _r68)) - 0.5*_r33*shoulder_pan_jointd
-    _r61 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(elbow_jointd*(_r38 - _r25)) + 0.5*(shoulder_pan_jointd*(_r60 - _r61)) - 0.5*_r27*shoulder_lift_jointd
-    _r58 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd) + 0.5*(shoulder_lift_jointd*(_r38 - _r25)) + 0.5*(shoulder_pan_jointd*(_r30 - _r58)) - 0.5*_r28*elbow_jointd
-    _r25 = 0.5*(_r19*wrist_2_jointd) + 0.5*(_r12*wrist_3_jointd)
-    _r21 = _r21*wrist_2_jointd + 0.5*(_r19*elbow_jointd) + 0.5*(_r19*shoulder_lift_jointd) + 0.5*(_r19*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r63)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
-    _r28 = 0.5*(_r12*elbow_jointd) + 0.5*(_r12*shoulder_lift_jointd) + 0.5*(_r12*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r68)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
-    _r16 = 0.5*(elbow_jointd*(_r65 - _r14)) + 0.5*(shoulder_lift_jointd*(_r64 - _r14)) + 0.5*(wrist_1_jointd*(_r63 - _r14)) + 0.5*(wrist_3_jointd*(_r36 - _r17)) - 0.5*_r16*shoulder_pan_jointd
-    _r64 = 0.5*(shoulder_pan_jointd*(_r64 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r19*elbow_jointd - 0.5*_r19*shoulder_lift_jointd - 0.5*_r19*wrist_1_jointd
-    _r65 = 0.5*(shoulder_pan_jointd*(_r65 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r19*elbow_jointd - 0.5*_r19*shoulder_lift_jointd - 0.5*_r19*wrist_1_jointd
-    _r14 = 0.5*(shoulder_pan_jointd*(_r63 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r19*elbow_jointd - 0.5*_r19*shoulder_lift_jointd - 0.5*_r19*wrist_1_jointd
-    _r19 = 0.5*(_r13*wrist_3_jointd)
-    _r63 = 0.5*(_r13*wrist_2_jointd) + 0.5*(elbow_jointd*(_r10 - _r66)) + 0.5*(shoulder_lift_jointd*(_r10 - _r66)) + 0.5*(shoulder_pan_jointd*(_r36 - _r17)) + 0.5*(wrist_1_jointd*(_r10 - _r66))
-    _r20 = 0.5*(elbow_jointd*(_r70 - _r6)) + 0.5*(shoulder_lift_jointd*(_r69 - _r6)) + 0.5*(wrist_1_jointd*(_r68 - _r6)) + 0.5*(wrist_2_jointd*(_r17 - _r36)) - 0.5*_r20*shoulder_pan_jointd
-    _r69 = 0.5*(shoulder_pan_jointd*(_r69 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r12*elbow_jointd - 0.5*_r12*shoulder_lift_jointd - 0.5*_r12*wrist_1_jointd
-    _r70 = 0.5*(shoulder_pan_jointd*(_r70 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r12*elbow_jointd - 0.5*_r12*shoulder_lift_jointd - 0.5*_r12*wrist_1_jointd
-    _r6 = 0.5*(shoulder_pan_jointd*(_r68 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r12*elbow_jointd - 0.5*_r12*shoulder_lift_jointd - 0.5*_r12*wrist_1_jointd
-    _r66 = 0.5*(elbow_jointd*(_r66 - _r10)) + 0.5*(shoulder_lift_jointd*(_r66 - _r10)) + 0.5*(shoulder_pan_jointd*(_r17 - _r36)) + 0.5*(wrist_1_jointd*(_r66 - _r10)) - 0.5*_r13*wrist_2_jointd
+    _r60 = 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd) + 0.5*(elbow_jointd*(_r39 - _r25)) + 0.5*(shoulder_pan_jointd*(_r60 - _r61)) - 0.5*_r27*shoulder_lift_jointd
+    _r58 = 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd) + 0.5*(shoulder_lift_jointd*(_r39 - _r25)) + 0.5*(shoulder_pan_jointd*(_r30 - _r58)) - 0.5*_r28*elbow_jointd
+    _r25 = 0.5*(_r20*wrist_2_jointd) + 0.5*(_r7*wrist_3_jointd)
+    _r21 = _r21*wrist_2_jointd + 0.5*(_r20*elbow_jointd) + 0.5*(_r20*shoulder_lift_jointd) + 0.5*(_r20*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r14 - _r63)) + 0.5*(wrist_3_jointd*(_r10 + _r66))
+    _r28 = 0.5*(_r7*elbow_jointd) + 0.5*(_r7*shoulder_lift_jointd) + 0.5*(_r7*wrist_1_jointd) + 0.5*(shoulder_pan_jointd*(_r6 - _r68)) + 0.5*(wrist_2_jointd*(_r10 + _r66))
+    _r16 = 0.5*(elbow_jointd*(_r65 - _r14)) + 0.5*(shoulder_lift_jointd*(_r64 - _r14)) + 0.5*(wrist_1_jointd*(_r63 - _r14)) + 0.5*(wrist_3_jointd*(_r3 - _r18)) - 0.5*_r16*shoulder_pan_jointd
+    _r64 = 0.5*(shoulder_pan_jointd*(_r64 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r20*elbow_jointd - 0.5*_r20*shoulder_lift_jointd - 0.5*_r20*wrist_1_jointd
+    _r65 = 0.5*(shoulder_pan_jointd*(_r65 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r20*elbow_jointd - 0.5*_r20*shoulder_lift_jointd - 0.5*_r20*wrist_1_jointd
+    _r14 = 0.5*(shoulder_pan_jointd*(_r63 - _r14)) + 0.5*(wrist_3_jointd*(_r10 - _r66)) - 0.5*_r20*elbow_jointd - 0.5*_r20*shoulder_lift_jointd - 0.5*_r20*wrist_1_jointd
+    _r20 = 0.5*(_r9*wrist_3_jointd)
+    _r63 = 0.5*(_r9*wrist_2_jointd) + 0.5*(elbow_jointd*(_r10 - _r66)) + 0.5*(shoulder_lift_jointd*(_r10 - _r66)) + 0.5*(shoulder_pan_jointd*(_r3 - _r18)) + 0.5*(wrist_1_jointd*(_r10 - _r66))
+    _r5 = 0.5*(elbow_jointd*(_r70 - _r6)) + 0.5*(shoulder_lift_jointd*(_r69 - _r6)) + 0.5*(wrist_1_jointd*(_r68 - _r6)) + 0.5*(wrist_2_jointd*(_r18 - _r3)) - 0.5*_r5*shoulder_pan_jointd
+    _r69 = 0.5*(shoulder_pan_jointd*(_r69 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r7*elbow_jointd - 0.5*_r7*shoulder_lift_jointd - 0.5*_r7*wrist_1_jointd
+    _r70 = 0.5*(shoulder_pan_jointd*(_r70 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r7*elbow_jointd - 0.5*_r7*shoulder_lift_jointd - 0.5*_r7*wrist_1_jointd
+    _r6 = 0.5*(shoulder_pan_jointd*(_r68 - _r6)) + 0.5*(wrist_2_jointd*(_r66 - _r10)) - 0.5*_r7*elbow_jointd - 0.5*_r7*shoulder_lift_jointd - 0.5*_r7*wrist_1_jointd
+    _r66 = 0.5*(elbow_jointd*(_r66 - _r10)) + 0.5*(shoulder_lift_jointd*(_r66 - _r10)) + 0.5*(shoulder_pan_jointd*(_r18 - _r3)) + 0.5*(wrist_1_jointd*(_r66 - _r10)) - 0.5*_r9*wrist_2_jointd
     return (
-        _r11,
+        _r36,
         _r50,
-        _r39,
+        _r38,
         _r56,
         _r15,
         _r1,
         _r49,
         _r0,
-        _r54,
-        _r22,
-        _r9,
-        _r3,
-        _r45,
         _r55,
-        _r41,
+        _r22,
+        _r17,
+        _r13,
+        _r37,
         _r59,
+        _r41,
+        _r54,
         _r53,
         _r2,
         _r33,
-        _r61,
+        _r60,
         _r58,
         _r25,
         _r21,
@@ -561,9 +561,9 @@ def _coriolis_body(q, qd, sin, cos, *, g=9.81):
         _r64,
         _r65,
         _r14,
-        _r19,
-        _r63,
         _r20,
+        _r63,
+        _r5,
         _r69,
         _r70,
         _r6,
@@ -593,61 +593,61 @@ def _gravity_body(q, sin, cos, *, g=9.81):
     _r12 = 2.35004*_r10
     _r13 = 8.393*_r10
     _r14 = 8.393*_r11
-    _r15 = _r2*_r10 - _r3*_r11
-    _r11 = _r2*_r11 + _r3*_r10
+    _r15 = _r10*_r2 - _r11*_r3
+    _r11 = _r10*_r3 + _r11*_r2
     _r10 = 0.56875*_r15
     _r16 = 2.275*_r15
     _r17 = 2.275*_r11
-    _r18 = -_r4*_r11 - _r5*_r15
-    _r11 = _r4*_r15 - _r5*_r11
+    _r18 = -_r15*_r5 - _r11*_r4
+    _r11 = _r15*_r4 - _r11*_r5
     _r15 = 1.219*_r18
     _r19 = 1.219*_r11
-    _r20 = _r6*_r18
-    _r18 = -_r7*_r18
+    _r20 = _r18*_r6
+    _r18 = -_r18*_r7
     _r21 = 1.219*_r20
     _r22 = 1.219*_r18
-    _r23 = _r8*_r20 - _r9*_r11
-    _r20 = _r8*_r11 + _r9*_r20
+    _r23 = _r20*_r8 - _r11*_r9
+    _r20 = _r11*_r8 + _r20*_r9
     _r23 = 0.1879*_r23
     _r18 = 0.1879*_r18
     _r20 = 0.1879*_r20
-    _r11 = _r8*_r23 + _r9*_r20
-    _r20 = _r8*_r20 - _r9*_r23
-    _r23 = -0.09465*_r18
-    _r9 = 0.09465*_r11
+    _r11 = _r23*_r8 + _r20*_r9
+    _r9 = _r20*_r8 - _r23*_r9
+    _r8 = -0.09465*_r18
+    _r20 = 0.09465*_r11
     _r11 = _r21 + _r11
     _r18 = _r22 + _r18
-    _r20 = _r19 + _r20
-    _r22 = _r6*_r11 - _r7*_r18
-    _r18 = _r6*_r18 + _r7*_r11
-    _r11 = 0.093*_r20 + _r6*_r23 - _r7*_r9
-    _r9 = _r6*_r9 + _r7*_r23
-    _r23 = -0.093*_r22
+    _r9 = _r19 + _r9
+    _r22 = _r11*_r6 - _r18*_r7
+    _r18 = _r11*_r7 + _r18*_r6
+    _r11 = 0.093*_r9 + _r8*_r6 - _r20*_r7
+    _r7 = _r8*_r7 + _r20*_r6
+    _r6 = -0.093*_r22
     _r22 = _r15 + _r22
-    _r20 = _r19 + _r20
-    _r19 = _r4*_r20 - _r5*_r22
-    _r20 = -_r4*_r22 - _r5*_r20
-    _r22 = -0.39225*_r18 + _r4*_r23 - _r5*_r11
-    _r15 = _r9 + 0.39225*_r19
-    _r23 = -_r4*_r11 - _r5*_r23
+    _r9 = _r19 + _r9
+    _r19 = _r4*_r9 - _r22*_r5
+    _r9 = -_r4*_r22 - _r9*_r5
+    _r22 = -0.39225*_r18 + _r4*_r6 - _r11*_r5
+    _r15 = _r7 + 0.39225*_r19
+    _r5 = -_r4*_r11 - _r6*_r5
     _r15 = _r10 + _r15
     _r19 = _r16 + _r19
-    _r20 = _r17 + _r20
-    _r17 = _r2*_r19 + _r3*_r20
-    _r20 = _r2*_r20 - _r3*_r19
-    _r18 = -0.1197*_r20 - 0.425*_r18 + _r2*_r22 + _r3*_r23
+    _r9 = _r17 + _r9
+    _r17 = _r2*_r19 + _r3*_r9
+    _r9 = _r2*_r9 - _r3*_r19
+    _r18 = -0.1197*_r9 - 0.425*_r18 + _r2*_r22 + _r3*_r5
     _r19 = _r15 + 0.425*_r17
-    _r23 = 0.1197*_r17 + _r2*_r23 - _r3*_r22
+    _r5 = 0.1197*_r17 + _r2*_r5 - _r3*_r22
     _r19 = _r12 + _r19
     _r17 = _r13 + _r17
-    _r20 = _r14 + _r20
-    _r20 = _r0*_r20 - _r1*_r17
-    _r20 = -0.13585*_r20 - _r0*_r18 - _r1*_r23
+    _r9 = _r14 + _r9
+    _r9 = _r0*_r9 - _r1*_r17
+    _r9 = -0.13585*_r9 - _r0*_r18 - _r1*_r5
     return (
-        _r20,
+        _r9,
         _r19,
         _r15,
-        _r9,
+        _r7,
         0,
         0,
     )
@@ -671,12 +671,12 @@ def _potential_body(q, sin, cos, *, g=9.81):
     _r7 = _r2*_r0 - _r3*_r1
     _r0 = _r2*_r1 + _r3*_r0
     _r3 = _r6 + 0.425*_r1
-    _r7 = _r4*_r7 - _r5*_r0
+    _r7 = _r4*_r7 - _r0*_r5
     _r5 = _r3 + 0.39225*_r0
     _r7 = _r5 + 0.09465*_r7
-    _r7 = -2.35004*_r1 - 12.093*_r6 - 0.1879*_r7 - 2.438*_r5 - 2.275*_r3 - 0.56875*_r0
+    _r1 = -2.35004*_r1 - 12.093*_r6 - 0.1879*_r7 - 2.438*_r5 - 2.275*_r3 - 0.56875*_r0
     return (
-        _r7,
+        _r1,
     )
 
 

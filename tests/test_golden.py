@@ -62,3 +62,17 @@ def test_c_target_matches_the_committed_example(name):
     header, source = render_c(_derivation(name))
     _compare(header, ROOT / "examples" / f"{name}_dynamics.h")
     _compare(source, ROOT / "examples" / f"{name}_dynamics.c")
+
+
+def test_a_module_does_not_depend_on_the_other_outputs_of_its_run(tmp_path):
+    """``solve ur5 --c --code`` alone writes the bytes ``build`` wrote beside the sheet: the
+    3-D robots' M, C, N program grows with what a run asks for first (the sheet's Jacobians),
+    and the module must not show it (same input, same bytes)."""
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-m", "dynderive", "solve", "ur5", "--c", "--code", "--out",
+                          str(tmp_path), "-q"], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    for name in ("ur5_dynamics.c", "ur5_dynamics.py"):
+        assert (tmp_path / name).read_bytes() == (ROOT / "examples" / name).read_bytes(), name
