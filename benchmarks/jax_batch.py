@@ -60,7 +60,7 @@ def extension(derivation, work: Path):
     """The compiled extension's module, or why there is none."""
     if not (shutil.which("gcc") or shutil.which("cc")):
         return "no C compiler"
-    from dynderive.commands.compile import build_extension
+    from dynderive.render.targets.c_extension.compile import build_extension
 
     filename, content = build_extension(derivation)
     path = work / filename

@@ -255,7 +255,7 @@ def test_simulate_with_the_c_backend_follows_the_numpy_run(tmp_path, monkeypatch
     """``simulate --backend c`` of a floating robot (damping, smoothed Coulomb friction, a
     wrench at a frame, an effort): the compiled forward dynamics, configuration rate and
     friction give the NumPy run's trajectory and dissipated work."""
-    from dynderive.commands import compile as compile_command
+    from dynderive.render.targets.c_extension import compile as compile_command
 
     called: dict[str, int] = {}
     build = compile_command.compiled_module
