@@ -46,7 +46,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 import dynderive  # noqa: E402
-from dynderive.render.c import render_c  # noqa: E402
+from dynderive.render.targets.c.c import render_c  # noqa: E402
 from dynderive.verify.checks import generated_module  # noqa: E402
 
 ROBOTS = ["ur5", "panda"]

@@ -26,8 +26,8 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
+from dynderive.render.targets.c_extension.c_extension import bindings, c_string, render_extension
 from dynderive.render.targets.c_extension.compile import build_extension
-from dynderive.render.c_extension import bindings, c_string, render_extension
 
 from conftest import ROBOTS, derivation_of, import_code, module_of, random_tree_derivation
 

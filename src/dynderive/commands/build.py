@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import DynderiveError, InputError, LatexError, OutputError, Problem, ToolMissingError
-from ..render.targets import COLUMNS as _TARGETS   # the code targets, in the order of their options
+from ..render.targets import COLUMNS as _TARGETS  # the code targets, in the order of their options
 from ..render.targets import resolve
 
 try:

@@ -25,7 +25,6 @@ import sympy
 
 from ..derivation import Derivation
 from ..mechanics.tidy import fold_constants
-from .c import double_literal
 from .encode import Code
 from .environment import render
 from .matlab_loops import loop_functions
@@ -41,6 +40,7 @@ from .matlab_print import (
     prologue,
     vector_targets,
 )
+from .targets.c.c import double_literal
 
 FUNCTION_TEMPLATE = "matlab/function.m.j2"
 

@@ -16,9 +16,9 @@ from sympy.printing.octave import OctaveCodePrinter
 
 from ..derivation import Derivation
 from ..mechanics.tidy import fold_constants
-from .c import DoublePrinting, FastCPrinter
 from .encode import Code
 from .matlab_names import matlab_comment
+from .targets.c.c import DoublePrinting, FastCPrinter
 
 
 class MatlabPrinter(DoublePrinting, OctaveCodePrinter):

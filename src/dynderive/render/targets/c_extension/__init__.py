@@ -12,7 +12,7 @@ from ..target import Target
 
 def offered(derivation: Any) -> set[str]:
     """The functions of the binding's table."""
-    from ...c_extension import bindings
+    from .c_extension import bindings
 
     return {b.name for b in bindings(derivation)}
 

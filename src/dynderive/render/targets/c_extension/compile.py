@@ -4,7 +4,7 @@
 The compiler is ``$CC`` when set (a command with options, e.g. ``"clang -march=native"``),
 else the one Python was built with (sysconfig's ``CC``) when it is on this machine, else
 ``cc`` or ``gcc`` on ``PATH``. It compiles ``<name>_dynamics.c`` and the binding
-(``render/c_extension.py``) in a temporary folder with ``-O2 -shared -fPIC`` against Python's
+(``render/targets/c_extension/c_extension.py``) in a temporary folder with ``-O2 -shared -fPIC`` against Python's
 and NumPy's headers (no setuptools); the caller writes the bytes (all or nothing). No compiler
 or no ``Python.h``: ``InputError`` at ``--c-extension`` (exit 2). A compiler that fails on the
 generated code (a bug of ours) is ``ExtensionCompileError``, with its log to keep.
@@ -109,7 +109,7 @@ def require_backend() -> None:
 
 def extension_filename(robot_name: str) -> str:
     """``<name>_dynamics_c`` with this Python's suffix for extensions (``.cpython-311-x86_64-linux-gnu.so``)."""
-    from ...c_extension import module_name
+    from .c_extension import module_name
 
     return module_name(robot_name) + (sysconfig.get_config_var("EXT_SUFFIX") or ".so")
 
@@ -119,14 +119,14 @@ def build_extension(derivation: Derivation, template_dir: str | Path | None = No
                     progress: Callable[[str], None] | None = None, option: str = OPTION) -> tuple[str, bytes]:
     """(file name, bytes) of the compiled extension ``<name>_dynamics_c``; ``c_files`` are
     ``render_c``'s header and source when the caller has them already."""
-    from ...c import render_c
-    from ...c_extension import module_name, render_extension
+    from ..c.c import render_c
+    from .c_extension import module_name, render_extension
 
     compiler = find_compiler(option)
     includes = include_dirs(option)
     render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
     if c_files is None and derivation.robot.floating:   # the floating-base C target
-        from ...c_floating import render_floating_c as render_c
+        from ..c.c_floating import render_floating_c as render_c
     header, source = c_files if c_files is not None else render_c(derivation, template_dir)
     binding = render_extension(derivation, template_dir, header)
     name = derivation.robot.name
@@ -179,7 +179,7 @@ def compiled_module(derivation: Derivation, progress: Callable[[str], None] | No
     ``check --backend c`` and ``simulate --backend c``); its file is removed once loaded."""
     import importlib.util
 
-    from ...c_extension import module_name
+    from .c_extension import module_name
 
     filename, data = build_extension(derivation, progress=progress, option=option)
     with tempfile.TemporaryDirectory(prefix="dynderive-ext-") as folder:

@@ -10,8 +10,8 @@ False), and ``integrate``'s ``dt`` is a number per state (``number``, default 1.
 
 from __future__ import annotations
 
-from ..derivation import Derivation
-from .c_binding import Binding
+from ....derivation import Derivation
+from ..c.c_binding import Binding
 
 
 def floating_bindings(derivation: Derivation) -> list[Binding]:
