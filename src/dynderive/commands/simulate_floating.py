@@ -146,7 +146,7 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
     import typer
 
     from .. import derive
-    from ..render.floating_code import render_floating_code
+    from ..render.targets import reference
     from .output import write_all
     from .simulate import parse_efforts, parse_wrenches, plot_png
 
@@ -157,7 +157,7 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
     efforts = parse_efforts(derivation, effort, False)
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code (floating base)")
-    source = render_floating_code(derivation)
+    source = reference(derivation)   # the NumPy module (floating base)
     compiled = None
     if backend != "numpy":   # a target simulate can load (the C extension)
         from ..render.targets import by_name, resolve

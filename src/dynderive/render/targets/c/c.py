@@ -31,9 +31,9 @@ from sympy.printing.precedence import precedence
 from ....derivation import Derivation
 from ....errors import InputError, Problem
 from ....mechanics.tidy import fold_constants
-from ...code import CodeGenerationError, _ProgramPrinter
 from ...encode import Code
 from ...environment import render
+from ..numpy.code import CodeGenerationError, _ProgramPrinter
 from .c_join import joined_program as _joined
 from .c_join import print_body as _print_body
 from .c_loops import CKit, amend, loop_context

@@ -1,5 +1,5 @@
 """The rows of the CPython binding (``c_extension.py``) for a floating-base robot:
-the floating NumPy module's API (``render/floating_code.py``) on the C functions of
+the floating NumPy module's API (``render/targets/numpy/floating_code.py``) on the C functions of
 ``c_floating.py``. ``q`` has NQ entries, ``qd``, ``qdd`` and ``v`` NV; ``linearize`` works on
 the tangent space (2 NV x 2 NV). The configuration-space functions (``neutral_configuration``,
 ``integrate``, ``difference``, ``configuration_rate``) take no parameters (``parameters``

@@ -10,9 +10,9 @@ from ..target import Target
 
 def _source(derivation: Any, template_dir: Any = None) -> str:
     if derivation.robot.floating:
-        from ...floating_jax import render_floating_jax as render_jax
+        from .floating_jax import render_floating_jax as render_jax
     else:
-        from ...jax import render_jax
+        from .jax import render_jax
     return render_jax(derivation, template_dir)
 
 

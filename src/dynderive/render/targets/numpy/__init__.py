@@ -11,9 +11,9 @@ from ..target import Target
 def source(derivation: Any, template_dir: Any = None) -> str:
     """The module's text, for a fixed or a floating base (``check`` and ``simulate`` run it)."""
     if derivation.robot.floating:
-        from ...floating_code import render_floating_code as render_code
+        from .floating_code import render_floating_code as render_code
     else:
-        from ...code import render_code
+        from .code import render_code
     return render_code(derivation, template_dir)
 
 
@@ -24,9 +24,9 @@ def render(derivation: Any, template_dir: Any, made: dict[str, bytes], tests: bo
     files = {f"{name}_dynamics.py": source(derivation, template_dir).encode()}
     if tests:
         if derivation.robot.floating:
-            from ...floating_code import render_floating_code_tests as render_tests
+            from .floating_code import render_floating_code_tests as render_tests
         else:
-            from ...code import render_code_tests as render_tests
+            from .code import render_code_tests as render_tests
         files[f"test_{name}_dynamics.py"] = render_tests(derivation, template_dir).encode()
     return files
 

@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..derivation import Derivation
+from ....derivation import Derivation
+from ..c.c_floating import manifold_joints
 from .matlab import _frame_functions, _friction_body, render_matlab
 from .matlab_print import (
     DIRECTION_LINES,
@@ -29,7 +30,6 @@ from .matlab_print import (
     prologue,
     vector_targets,
 )
-from .targets.c.c_floating import manifold_joints
 
 #: Below this angle the exponentials and logarithms use their series (as the NumPy module).
 SMALL = "1e-4"

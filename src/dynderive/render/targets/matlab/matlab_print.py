@@ -14,11 +14,11 @@ from typing import Any
 import sympy
 from sympy.printing.octave import OctaveCodePrinter
 
-from ..derivation import Derivation
-from ..mechanics.tidy import fold_constants
-from .encode import Code
+from ....derivation import Derivation
+from ....mechanics.tidy import fold_constants
+from ...encode import Code
+from ..c.c import DoublePrinting, FastCPrinter
 from .matlab_names import matlab_comment
-from .targets.c.c import DoublePrinting, FastCPrinter
 
 
 class MatlabPrinter(DoublePrinting, OctaveCodePrinter):
