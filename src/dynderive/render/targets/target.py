@@ -60,7 +60,7 @@ class Target:
     render: str
     #: ``"module:function"``: (derivation) -> the API functions it generates.
     offered: str
-    #: Said before it renders.
+    #: Said before it renders ("": nothing).
     progress: str
     #: ``"module:function"`` raising an InputError before any work when it cannot be made here
     #: (no compiler), or None.
@@ -83,6 +83,11 @@ class Target:
     fingerprint: str | None = None
     #: Files of an earlier failure that a successful run removes (``{}``: the robot's name).
     stale: tuple[str, ...] = ()
+
+    @property
+    def folder(self) -> str:
+        """Its folder under ``render/targets/`` (its name as a Python identifier)."""
+        return self.name.replace("-", "_")
 
     def files(self, derivation: Any, template_dir: Any, made: dict[str, bytes] | None = None,
               **options: Any) -> dict[str, bytes]:

@@ -26,7 +26,7 @@ TARGET = Target(
     outputs=("{}_dynamics_c" + (sysconfig.get_config_var("EXT_SUFFIX") or ".so"), "{}_dynamics_c.log"),
     templates=("c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"),
     render=f"{__name__}.compile:extension_files", offered=f"{__name__}:offered",
-    progress="generating the C extension",
+    progress="",   # build_extension says "compiling the C extension (...)" itself
     needs=f"{__name__}.compile:require_compiler",
     failure=f"{__name__}.compile:failure_files", fingerprint=f"{__name__}.compile:toolchain",
     stale=("{}_dynamics_c.log",),

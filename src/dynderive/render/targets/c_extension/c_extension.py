@@ -14,7 +14,7 @@ Adding a C function to the module is one row. A floating-base robot's rows
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
-(``c_names.check_c_names``). Nothing is compiled here (``commands/compile.py`` does that).
+(``c_names.check_c_names``). Nothing is compiled here (``compile.py`` beside it does that).
 """
 
 from __future__ import annotations
