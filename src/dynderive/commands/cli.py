@@ -86,16 +86,29 @@ def require_matplotlib(option: str) -> None:
                                  "(or leave out the option: --csv needs no matplotlib)")) from None
 
 
-#: The help of each code target's option of ``solve`` and ``build``, from its registry entry.
-SOLVE_HELP = {target.kind: target.help for target in COLUMNS}
-BUILD_HELP = {target.kind: target.build_help for target in COLUMNS}
+def target_options(after: str, build: bool = False) -> Callable[[F], F]:
+    """One boolean option per code target (``--code``, ``--c``, ... from the registry, in its
+    column order, with its entry's help), inserted after the parameter ``after`` of the
+    command's signature; the function receives them by kind in ``**targets``."""
+    import inspect
+
+    def decorate(function: F) -> F:
+        signature = inspect.signature(function, eval_str=True)
+        parameters = [p for p in signature.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+        at = [p.name for p in parameters].index(after) + 1
+        options = [inspect.Parameter(target.kind, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=False,
+                                     annotation=Annotated[bool, typer.Option(target.flag, help=target.build_help
+                                                                             if build else target.help)])
+                   for target in COLUMNS]
+        function.__signature__ = signature.replace(parameters=parameters[:at] + options + parameters[at:])  # type: ignore[attr-defined]
+        return function
+
+    return decorate
 
 
-def target_flags(**flags: bool) -> dict[str, bool]:
-    """The code targets' options of ``solve`` and ``build`` by kind (``c_extension``), in
-    the registry's order; every one is a target's."""
-    assert set(flags) == {target.kind for target in TARGETS}, flags
-    return {target.kind: flags[target.kind] for target in TARGETS}
+def target_flags(targets: dict[str, bool]) -> dict[str, bool]:
+    """The code targets' options by kind (``c_extension``), in the registry's order."""
+    return {target.kind: bool(targets.get(target.kind)) for target in TARGETS}
 
 
 def target_needs(targets: dict[str, bool]) -> None:
@@ -127,17 +140,12 @@ def main(
 
 
 @app.command(cls=_Command)
+@target_options(after="pdf")   # --code, --c, --c-extension, --matlab, --jax (render/targets)
 @handle_errors
 def solve(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot, e.g. rp_arm.")],
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
-    # the code targets' options (render/targets): their help is their registry entry's
-    code: Annotated[bool, typer.Option("--code", help=SOLVE_HELP["code"])] = False,
-    c: Annotated[bool, typer.Option("--c", help=SOLVE_HELP["c"])] = False,
-    c_extension: Annotated[bool, typer.Option("--c-extension", help=SOLVE_HELP["c_extension"])] = False,
-    matlab: Annotated[bool, typer.Option("--matlab", help=SOLVE_HELP["matlab"])] = False,
-    jax: Annotated[bool, typer.Option("--jax", help=SOLVE_HELP["jax"])] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write DIR/<name>.html, the solution sheet as one self-contained "
                                        "web page (MathML equations, SVG drawing, no script).")] = False,
@@ -154,6 +162,7 @@ def solve(
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheet's numbers (and the printed equations') "
                       "to at most N significant digits (default: as many as the robot file wrote).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
+    **targets: bool,
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
@@ -163,11 +172,11 @@ def solve(
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
-    targets = target_flags(code=code, c=c, c_extension=c_extension, matlab=matlab, jax=jax)
+    targets = target_flags(targets)
     chosen = sheet_sections_option(sections, latex or pdf or html)
     printed = not (latex or pdf or any(targets.values()) or json_ or html)
     shortened = sheet_digits_option(digits, latex or pdf or html or printed)
-    if tests and not code:
+    if tests and not targets["code"]:   # the NumPy module's checks
         raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
     target_needs(targets)   # no compiler: stop before any work
     progress = Progress(quiet)
@@ -444,18 +453,13 @@ def identify(
 
 
 @app.command(cls=_Command)
+@target_options(after="pdf", build=True)   # --code, --c, --c-extension, --matlab, --jax (render/targets)
 @handle_errors
 def build(
     paths: Annotated[list[Path] | None, typer.Argument(help="Robot files or folders to search (default: .).")] = None,
     out: Annotated[Path, typer.Option("--out", help="Output directory (holds the build manifest).")] = Path("build"),
     latex: Annotated[bool, typer.Option("--latex", help="Write <name>.tex.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write <name>.pdf.")] = False,
-    # the code targets' options (render/targets): their help is their registry entry's
-    code: Annotated[bool, typer.Option("--code", help=BUILD_HELP["code"])] = False,
-    c: Annotated[bool, typer.Option("--c", help=BUILD_HELP["c"])] = False,
-    c_extension: Annotated[bool, typer.Option("--c-extension", help=BUILD_HELP["c_extension"])] = False,
-    matlab: Annotated[bool, typer.Option("--matlab", help=BUILD_HELP["matlab"])] = False,
-    jax: Annotated[bool, typer.Option("--jax", help=BUILD_HELP["jax"])] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write <name>.html, the sheet as a web page.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
@@ -469,13 +473,14 @@ def build(
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to at most N significant "
                       "digits (default: as many as each robot file wrote).")] = None,
+    **targets: bool,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
     from .build import default_jobs
     from .options import sheet_digits_option
 
-    targets = target_flags(code=code, c=c, c_extension=c_extension, matlab=matlab, jax=jax)
+    targets = target_flags(targets)
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf),
                                             *((t.kind, targets[t.kind]) for t in COLUMNS),
                                             ("json", json_), ("html", html)) if wanted)
