@@ -100,9 +100,11 @@ def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template
 
     refused = [kind for kind in kinds if kind not in ("floating_base", *built()) and not kind.startswith("digits:")]
     if refused:
-        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module, "
-                                         "--c its C, --c-extension its compiled extension, --matlab its MATLAB/Octave package, "
-                                         "--jax its JAX module"))
+        from ..render.targets import COLUMNS
+
+        flags = ", ".join(target.flag for target in COLUMNS)
+        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build writes its code ({flags}), "
+                                         "sheets and JSON"))
     derivation = derive(robot)
     files, _, _ = target_files(derivation, kinds, template_dir)
     from .floating_outputs import floating_sheet_files
