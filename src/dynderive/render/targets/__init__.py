@@ -1,7 +1,7 @@
 """The code targets' registry: one folder per target (``numpy/``, ``c/``, ``c_extension/``,
 ``matlab/``, ``jax/``), whose ``__init__.py`` holds its entry (``TARGET``, a ``Target``),
-listed here in the order the commands render them: C first and MATLAB next (a robot either
-refuses stops the run before any other work), the extension after the C (it compiles the C
+listed here in the order the commands render them: C first and MATLAB next (a robot that either
+refuses stops the run before the others' work), the extension after the C (it compiles the C
 files this run made), the NumPy module last. Adding a target: a folder with its entry, its
 templates and its tests, and one line here.
 """

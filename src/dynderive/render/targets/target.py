@@ -1,5 +1,5 @@
 """What a code target is to the commands: one frozen ``Target`` per target, its registry entry
-(``render/targets/<kind>/__init__.py``), listed in ``render/targets/__init__.py``.
+(``render/targets/<folder>/__init__.py``), listed in ``render/targets/__init__.py``.
 
 The commands loop over the registry and name no target: ``solve`` and ``build`` render each
 requested target (``render``), ``build`` hashes the templates it reads (``templates``) and
