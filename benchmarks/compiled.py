@@ -19,7 +19,7 @@ instantiations) and header-only (the algorithms compiled here with the table's f
 From Python: one state (the best of ``--repeats`` runs of 200 calls) and a batch of
 ``--batch`` states (one call, the best of ``--repeats``; ``pin`` in a Python loop, having no batch
 call). The compiled extension ``<name>_dynamics_c``
-(``dynderive.commands.compile.build_extension``) has its own rows (``extension_rows``),
+(``dynderive.render.targets.c_extension.compile.build_extension``) has its own rows (``extension_rows``),
 skipped with a note while that module does not exist.
 
 Needs gcc and g++, and the C++ headers of Eigen and urdfdom: ``pip install cmeel-eigen
@@ -46,7 +46,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 import dynderive  # noqa: E402
-from dynderive.render.c import render_c  # noqa: E402
+from dynderive.render.targets.c.c import render_c  # noqa: E402
 from dynderive.verify.checks import generated_module  # noqa: E402
 
 ROBOTS = ["ur5", "panda"]
@@ -368,12 +368,12 @@ def pin_rows(robot: Robot, repeats: int, batch: int) -> dict:
 
 def extension_rows(robot: Robot, work: Path, repeats: int, batch: int) -> dict | str:
     """The rows of the compiled extension, or why there are none: it is built by
-    ``dynderive.commands.compile.build_extension(derivation) -> (filename, bytes)`` and has the
+    ``dynderive.render.targets.c_extension.compile.build_extension(derivation) -> (filename, bytes)`` and has the
     NumPy module's API (one state or a batch)."""
     try:
-        from dynderive.commands.compile import build_extension
+        from dynderive.render.targets.c_extension.compile import build_extension
     except ImportError:
-        return "extension not built (dynderive.commands.compile does not exist yet)"
+        return "extension not built (dynderive.render.targets.c_extension.compile does not exist yet)"
     filename, content = build_extension(robot.derivation)
     path = work / filename
     path.write_bytes(content)

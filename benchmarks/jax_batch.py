@@ -35,7 +35,7 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import dynderive  # noqa: E402
-from dynderive.render.jax import render_jax  # noqa: E402
+from dynderive.render.targets.jax.jax import render_jax  # noqa: E402
 from dynderive.verify.checks import generated_module  # noqa: E402
 
 ROBOT = "panda"
@@ -60,7 +60,7 @@ def extension(derivation, work: Path):
     """The compiled extension's module, or why there is none."""
     if not (shutil.which("gcc") or shutil.which("cc")):
         return "no C compiler"
-    from dynderive.commands.compile import build_extension
+    from dynderive.render.targets.c_extension.compile import build_extension
 
     filename, content = build_extension(derivation)
     path = work / filename

@@ -27,7 +27,7 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 import dynderive  # noqa: E402
-from dynderive.render.jax import render_jax  # noqa: E402
+from dynderive.render.targets.jax.jax import render_jax  # noqa: E402
 from dynderive.verify.checks import generated_module  # noqa: E402
 
 CHECKED = 100

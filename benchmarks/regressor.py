@@ -29,7 +29,7 @@ import pinocchio as pin
 import dynderive
 from dynderive.mechanics.regressor import regressor_program
 from dynderive.model.symbols import SymbolTable
-from dynderive.render.code import program_function
+from dynderive.render.targets.numpy.code import program_function
 from dynderive.verify.checks import generated_module
 
 path, repeats = sys.argv[1], int(sys.argv[2])

@@ -57,7 +57,7 @@ def measure_dynderive(robot: str, repeats: int, batch: int, loop: int) -> dict:
 
     import dynderive
     from dynderive.mechanics.tidy import operation_count
-    from dynderive.render.code import render_code
+    from dynderive.render.targets.numpy.code import render_code
     from dynderive.verify.checks import generated_module
 
     row: dict = {}

@@ -5,6 +5,7 @@ the size a reader takes in at once. Checked on the source's own import statement
 from __future__ import annotations
 
 import ast
+import importlib
 from pathlib import Path
 
 import pytest
@@ -150,4 +151,38 @@ def test_nothing_user_facing_names_the_internal_tracker():
             for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
                 if pattern.search(line):
                     found.append(f"{path.relative_to(root)}:{number}: {line.strip()[:80]}")
+    assert found == []
+
+
+def test_every_registered_target_has_its_folder():
+    """A code target is a folder of ``render/targets/`` whose ``__init__.py`` holds its
+    registry entry (``TARGET``), named by the target (``c_extension`` for ``c-extension``);
+    every such folder is registered."""
+    from dynderive.render import targets
+
+    folder = PACKAGE / "render" / "targets"
+    registered = {target.folder for target in targets.TARGETS}
+    assert len(registered) == len(targets.TARGETS)
+    folders = {path.parent.name for path in folder.glob("*/__init__.py")}
+    assert folders == registered
+    for target in targets.TARGETS:
+        module = importlib.import_module(f"dynderive.render.targets.{target.folder}")
+        assert module.TARGET is target
+        for field in ("render", "offered", "needs", "note", "check", "check_needs", "load", "failure", "fingerprint"):
+            reference = getattr(target, field)
+            assert reference is None or callable(targets.resolve(reference)), (target.name, field, reference)
+
+
+def test_no_command_names_a_target():
+    """The commands loop over the registry (``render.targets``): none imports a target's
+    modules, lazily or not, nor names one in a ``"module:function"`` string."""
+    found = []
+    for relative, module, package in MODULES:
+        if _layer(module) != "commands":
+            continue
+        for target in _imports(PACKAGE / relative, package):
+            if target.startswith("render.targets."):
+                found.append(f"{relative}: imports {target}")
+        if "render.targets." in (PACKAGE / relative).read_text():
+            found.append(f"{relative}: names a module of render.targets")
     assert found == []

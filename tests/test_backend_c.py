@@ -17,7 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 from dynderive.commands.cli import app
-from dynderive.render.code import render_code
+from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import generated_module
 from dynderive.verify.compiled import compiled_rows
 

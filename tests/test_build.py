@@ -208,7 +208,7 @@ def test_committed_examples_are_current(monkeypatch):
 def test_build_c_writes_the_c_target_and_tracks_its_templates(robots, tmp_path):
     """``build --c`` writes what ``solve --c`` writes, is up to date the second time, and a C
     template edit makes ``--check`` report the C files (not the others)."""
-    from dynderive.render.c import render_c
+    from dynderive.render.targets.c.c import render_c
 
     from conftest import derivation_of
 

@@ -26,8 +26,8 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.commands.compile import build_extension
-from dynderive.render.c_extension import bindings, c_string, render_extension
+from dynderive.render.targets.c_extension.c_extension import bindings, c_string, render_extension
+from dynderive.render.targets.c_extension.compile import build_extension
 
 from conftest import ROBOTS, derivation_of, import_code, module_of, random_tree_derivation
 
@@ -337,7 +337,7 @@ def test_robot_without_efforts_and_parameter_without_default(tmp_path):
 
 
 def test_no_python_headers_is_exit_2(tmp_path, monkeypatch):
-    import dynderive.commands.compile as compile_module
+    import dynderive.render.targets.c_extension.compile as compile_module
 
     monkeypatch.setattr(compile_module.sysconfig, "get_paths", lambda: {"include": str(tmp_path)})
     result = CliRunner().invoke(app, ["solve", "rp_arm", "--c-extension", "--out", str(tmp_path / "out")])

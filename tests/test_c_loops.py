@@ -1,4 +1,4 @@
-"""The C target's closed loops and external wrenches (``render/c_loops.py``): every bundled
+"""The C target's closed loops and external wrenches (``render/targets/c/c_loops.py``): every bundled
 loop robot and the over-constrained loops of ``tests/loops`` compile with strict warnings as
 C99 and C++, and their loop functions, constrained forward dynamics (Baumgarte gains from the
 struct), loop forces and linearize agree with the NumPy module at random assembled states
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import dynderive
-from dynderive.render.c import render_c
+from dynderive.render.targets.c.c import render_c
 from test_c_target import CC, STRICT, Library, _close, _compile, _write
 
 from conftest import ROBOTS, derivation_of, import_code, module_of

@@ -1,4 +1,4 @@
-"""The C target of floating-base robots (issue 30, ``render/c_floating.py``): the header and
+"""The C target of floating-base robots (issue 30, ``render/targets/c/c_floating.py``): the header and
 source compile as strict C99 and as C++ with no diagnostic, and every function agrees with the
 NumPy floating module (which agrees with Pinocchio's free flyer: ``test_floating_base.py``) to
 1e-12 relative at random unit quaternions and full-precision states: solo12 from
@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.c_floating import render_floating_c
+from dynderive.render.targets.c.c_floating import render_floating_c
 from dynderive.verify.floating_checks import random_configurations
 
 CC = shutil.which("gcc") or shutil.which("cc")

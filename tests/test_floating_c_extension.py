@@ -1,5 +1,5 @@
 """The Python extension of a floating-base robot's C target (issue 30, ``solve --c-extension``,
-``render/c_extension_floating.py``): every function agrees with the floating NumPy module
+``render/targets/c_extension/c_extension_floating.py``): every function agrees with the floating NumPy module
 (which agrees with Pinocchio's free flyer: ``test_floating_base.py``) to 1e-12 relative at
 random unit quaternions, one state and a broadcast batch: solo12 from example-robot-data,
 random trees with spherical joints on a fixed and a floating base, a
@@ -28,7 +28,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.c_extension import bindings, render_extension
+from dynderive.render.targets.c_extension.c_extension import bindings, render_extension
 from dynderive.verify.floating_checks import random_configurations
 
 HEADERS = (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file()
@@ -192,7 +192,7 @@ def test_hostile_text_stays_out_of_the_binding_and_the_c(tmp_path, compiled):
     assert "stdlib" not in source and all(ord(c) < 128 for c in source)
     plain = render_extension(dynderive.derive(dynderive.load_robot(_write(tmp_path / "plain", FRAMED))))
     assert source == plain   # the title and the descriptions never reach the binding
-    from dynderive.render.c_floating import render_floating_c
+    from dynderive.render.targets.c.c_floating import render_floating_c
 
     for c_text in render_floating_c(derivation):   # in the C target: comments, printable ASCII
         assert all(ord(c) < 128 for c in c_text) and not any(line.lstrip().startswith("#include <stdlib")
@@ -255,7 +255,7 @@ def test_simulate_with_the_c_backend_follows_the_numpy_run(tmp_path, monkeypatch
     """``simulate --backend c`` of a floating robot (damping, smoothed Coulomb friction, a
     wrench at a frame, an effort): the compiled forward dynamics, configuration rate and
     friction give the NumPy run's trajectory and dissipated work."""
-    from dynderive.commands import compile as compile_command
+    from dynderive.render.targets.c_extension import compile as compile_command
 
     called: dict[str, int] = {}
     build = compile_command.compiled_module

@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.floating_code import render_floating_code
+from dynderive.render.targets.numpy.floating_code import render_floating_code
 from dynderive.verify.floating_checks import (
     ENERGY_RUN,
     MOMENTUM,
@@ -151,7 +151,7 @@ def test_jax_and_c_extension_agree_with_numpy(tree, tmp_path):
     """One compile: the extension and the JAX module at one state and a batch, wrenches and smoothing."""
     jax = pytest.importorskip("jax")
     jax.config.update("jax_enable_x64", True)
-    from dynderive.render.floating_jax import render_floating_jax
+    from dynderive.render.targets.jax.floating_jax import render_floating_jax
 
     _, derivation, module, *_ = tree
     jx = import_code(render_floating_jax(derivation), tmp_path)
@@ -193,7 +193,7 @@ def test_jax_and_c_extension_agree_with_numpy(tree, tmp_path):
 
 @needs_octave
 def test_matlab_friction_agrees_with_numpy(tree, tmp_path):
-    from dynderive.render.matlab_floating import render_floating_matlab
+    from dynderive.render.targets.matlab.matlab_floating import render_floating_matlab
 
     _, derivation, module, *_ = tree
     for path, text in render_floating_matlab(derivation).items():
@@ -257,7 +257,7 @@ def test_generated_property_checks_take_the_friction_out(tree, tmp_path):
     import subprocess
     import sys
 
-    from dynderive.render.floating_code import render_floating_code_tests
+    from dynderive.render.targets.numpy.floating_code import render_floating_code_tests
 
     _, derivation, *_ = tree
     (tmp_path / "rough_tree_dynamics.py").write_text(render_floating_code(derivation))

@@ -22,8 +22,8 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.floating_code import render_floating_code
 from dynderive.render.html_floating import FloatingMathFormatter, floating_html_context, render_floating_html
+from dynderive.render.targets.numpy.floating_code import render_floating_code
 from test_floating_sheet import FREE, _chain
 from test_html import HOSTILE, parse, sizes_in_chromium
 

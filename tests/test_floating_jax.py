@@ -33,8 +33,8 @@ jnp = jax.numpy
 
 import dynderive  # noqa: E402
 from dynderive.commands.cli import app  # noqa: E402
-from dynderive.render.floating_code import render_floating_code  # noqa: E402
-from dynderive.render.floating_jax import render_floating_jax  # noqa: E402
+from dynderive.render.targets.jax.floating_jax import render_floating_jax  # noqa: E402
+from dynderive.render.targets.numpy.floating_code import render_floating_code  # noqa: E402
 from test_floating_base import _floating_tree as _base_tree  # noqa: E402
 
 from conftest import import_code  # noqa: E402

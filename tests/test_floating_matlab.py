@@ -1,4 +1,4 @@
-"""The MATLAB/Octave package of floating-base robots (issue 30, ``render/matlab_floating.py``):
+"""The MATLAB/Octave package of floating-base robots (issue 30, ``render/targets/matlab/matlab_floating.py``):
 every function, run in GNU Octave, agrees with the NumPy floating module (which agrees with
 Pinocchio's free flyer) to 1e-10 relative at random unit quaternions, for a random floating
 tree with full-precision numbers and a free box with a non-default parameter; ``solve
@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.matlab_floating import render_floating_matlab
+from dynderive.render.targets.matlab.matlab_floating import render_floating_matlab
 from dynderive.verify.floating_checks import random_configurations
 from test_floating_base import BOX, _floating_tree, _module
 from test_matlab_numeric import _Calls, _octave, _vector, needs_octave

@@ -29,9 +29,9 @@ import dynderive
 from dynderive.errors import InputError
 from dynderive.mechanics.floating import offsets
 from dynderive.mechanics.floating_sheet import is_small_floating
-from dynderive.render.floating_code import render_floating_code
 from dynderive.render.floating_latex import coordinate_names
 from dynderive.render.html_floating import coordinate_math_names, render_floating_html
+from dynderive.render.targets.numpy.floating_code import render_floating_code
 from dynderive.verify.checks import generated_module
 from dynderive.verify.floating_checks import run_floating_checks
 from test_mimic import ARM, _link, frame_agrees_with_pinocchio
@@ -171,7 +171,7 @@ def test_the_jax_module_agrees_with_numpy(arm):
     NumPy module's (float64, a batch of states; the followers' columns summed alike). Eager JAX
     runs a straight-line program op by op: four functions, not all of ``check --backend jax``."""
     jax = pytest.importorskip("jax")
-    from dynderive.render.floating_jax import render_floating_jax
+    from dynderive.render.targets.jax.floating_jax import render_floating_jax
 
     jax.config.update("jax_enable_x64", True)
     _, robot, derivation, module = arm

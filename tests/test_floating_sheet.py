@@ -24,9 +24,9 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.mechanics.floating import quaternion_matrix
 from dynderive.mechanics.floating_sheet import floating_sheet, is_small_floating, skew
-from dynderive.render.floating_code import render_floating_code
 from dynderive.render.floating_json import render_floating_json
 from dynderive.render.floating_latex import render_floating_latex
+from dynderive.render.targets.numpy.floating_code import render_floating_code
 
 runner = CliRunner()
 ROOT = Path(__file__).resolve().parents[1]

@@ -14,7 +14,7 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.commands.simulate import parse_efforts
 from dynderive.commands.simulate_floating import floating_initial, simulate_floating
-from dynderive.render.floating_code import render_floating_code
+from dynderive.render.targets.numpy.floating_code import render_floating_code
 from dynderive.verify.checks import generated_module
 from dynderive.verify.floating_checks import ENERGY_RUN, MOMENTUM, run_floating_checks, system_momentum
 from test_floating_base import BOX

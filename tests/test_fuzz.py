@@ -350,7 +350,7 @@ joints:
 
 @pytest.mark.parametrize("robot", sorted(ONE_DOF_PLANAR))
 def test_planar_one_dof_generated_code(robot, work_dir):
-    """Bug 1: render/code.py printed every n x 1 matrix as a vector, so a 1-DOF planar robot's
+    """Bug 1: render/targets/numpy/code.py printed every n x 1 matrix as a vector, so a 1-DOF planar robot's
     mass_matrix had shape (..., 1), not (..., 1, 1), and forward_dynamics raised ValueError
     in numpy.einsum ('too many subscripts for operand 0')."""
     _check_valid_robot(ONE_DOF_PLANAR[robot], {}, 0, work_dir)

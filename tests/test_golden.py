@@ -57,7 +57,7 @@ def test_generated_module_matches_the_committed_example(name):
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_c_target_matches_the_committed_example(name):
-    from dynderive.render.c import render_c
+    from dynderive.render.targets.c.c import render_c
 
     header, source = render_c(_derivation(name))
     _compare(header, ROOT / "examples" / f"{name}_dynamics.h")

@@ -20,7 +20,7 @@ from dynderive.commands import integrate
 from dynderive.commands.cli import app
 from dynderive.commands.simulate import default_initial, parse_efforts, simulate
 from dynderive.errors import InputError
-from dynderive.render.code import render_code
+from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import generated_module
 
 pytest.importorskip("scipy")

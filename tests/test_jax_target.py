@@ -30,7 +30,7 @@ jax.config.update("jax_enable_x64", True)
 jnp = jax.numpy
 
 import dynderive  # noqa: E402
-from dynderive.render.jax import render_jax  # noqa: E402
+from dynderive.render.targets.jax.jax import render_jax  # noqa: E402
 
 from conftest import ROBOTS, derivation_of, import_code, module_of, on_loops, random_tree_derivation  # noqa: E402
 

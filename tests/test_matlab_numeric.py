@@ -1,4 +1,4 @@
-"""The MATLAB/Octave target's numeric package (``solve --matlab``, ``render/matlab.py``): every
+"""The MATLAB/Octave target's numeric package (``solve --matlab``, ``render/targets/matlab/matlab.py``): every
 function of every bundled robot agrees with the NumPy module at random states (loop robots at
 assembled states, non-default parameters and friction smoothing included) to 1e-10 relative,
 run in GNU Octave (one process per robot); ``ode45`` on the double pendulum conserves energy;
@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import dynderive
-from dynderive.render.matlab import render_matlab
+from dynderive.render.targets.matlab.matlab import render_matlab
 
 from conftest import derivation_of, import_code, module_of
 
@@ -301,7 +301,7 @@ def test_a_matlab_keyword_is_refused_at_its_place(tmp_path, keyword):
 def test_every_name_the_files_use_is_refused_as_a_package_name():
     """The refusal list covers every function and local variable the generated code names (a
     package of that name would be shadowed inside the functions)."""
-    from dynderive.render.matlab_names import GENERATED_NAMES, MATLAB_KEYWORDS
+    from dynderive.render.targets.matlab.matlab_names import GENERATED_NAMES, MATLAB_KEYWORDS
 
     used, packages, functions = set(), set(), set()
     for robot in ["rp_arm", "bennett", "cart_pole_damped", "planar_3r", "slider_crank"]:

@@ -1,4 +1,4 @@
-"""The MATLAB derivation script ``<name>_derivation.m`` (render/matlab_script.py).
+"""The MATLAB derivation script ``<name>_derivation.m`` (render/targets/matlab/matlab_script.py).
 
 Running it needs GNU Octave with the symbolic package: skipped locally without ``octave-cli``,
 required in CI (CI=true). Octave's symbolic package is slow (each operation a round trip to
@@ -20,8 +20,8 @@ import pytest
 import sympy
 
 import dynderive
-from dynderive.render.matlab_script import render_matlab_script
-from dynderive.render.matlab_text import matlab_code, matlab_comment, matlab_string
+from dynderive.render.targets.matlab.matlab_script import render_matlab_script
+from dynderive.render.targets.matlab.matlab_text import matlab_code, matlab_comment, matlab_string
 
 from conftest import BUNDLED, ROBOTS, derivation_of
 

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.commands.simulate import simulate
-from dynderive.render.code import render_code
+from dynderive.render.targets.numpy.code import render_code
 
 pytest.importorskip("scipy")
 pytest.importorskip("matplotlib")

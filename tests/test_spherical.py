@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.floating_code import render_floating_code
+from dynderive.render.targets.numpy.floating_code import render_floating_code
 from dynderive.verify.floating_checks import MOMENTUM, pinocchio_floating_model, run_floating_checks
 from test_floating_base import _compare, _floating_tree, _module
 

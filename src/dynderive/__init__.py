@@ -91,7 +91,7 @@ def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
 
 def render_code(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The generated NumPy module as a string (nothing is written)."""
-    from .render.code import render_code as _render
+    from .render.targets.numpy.code import render_code as _render
 
     return _render(derivation, template_dir)
 

@@ -39,6 +39,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import DynderiveError, InputError, LatexError, OutputError, Problem, ToolMissingError
+from ..render.targets import COLUMNS as _TARGETS  # the code targets, in the order of their options
+from ..render.targets import resolve
 
 try:
     import fcntl
@@ -48,22 +50,18 @@ except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
 MANIFEST = ".dynderive-build.json"
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf")
-KINDS = ("latex", "pdf", "code", "c", "c_extension", "matlab", "jax", "json", "html")
+#: The output kinds: the sheets, the code targets', the JSON and the web page.
+KINDS = ("latex", "pdf", *(target.kind for target in _TARGETS), "json", "html")
 #: The compiled extension's file name ends with this Python's suffix for extensions.
 EXTENSION_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 #: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not
-#: compile; ``_dynamics_c.log``: an extension the compiler rejected)
-OUTPUT_NAMES = ("{}.tex", "{}.pdf", "{}_dynamics.py", "{}_dynamics.h", "{}_dynamics.c",
-                "{}_dynamics_c" + EXTENSION_SUFFIX, "{}_dynamics_c.log", "{}_dynamics_jax.py", "{}.json", "{}.log",
-                "{}.html",
-                "+{}/parameters.m", "{}_derivation.m")   # --matlab: the package +<name>/ (every one has
-                                                          # parameters.m) and the derivation script
+#: compile), the code targets' among them (a MATLAB package ``+<name>/``: its parameters.m)
+OUTPUT_NAMES = ("{}.tex", "{}.pdf", *(pattern for target in _TARGETS for pattern in target.outputs), "{}.json",
+                "{}.log", "{}.html")
 TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2", "floating_sheet.tex.j2"],
              "pdf": ["sheet.tex.j2", "preamble.tex.j2", "floating_sheet.tex.j2"],
-             "code": ["dynamics.py.j2", "floating_dynamics.py.j2"], "c": ["c/dynamics.h.j2", "c/dynamics.c.j2"],
-             "c_extension": ["c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"],
-             "matlab": ["matlab/function.m.j2", "matlab/derivation.m.j2"],
-             "jax": ["jax/dynamics.py.j2", "jax/floating_dynamics.py.j2"], "json": [], "html": ["html/sheet.html.j2", "html/floating_sheet.html.j2"],
+             **{target.kind: list(target.templates) for target in _TARGETS},
+             "json": [], "html": ["html/sheet.html.j2", "html/floating_sheet.html.j2"],
              "floating_base": []}   # not an output: --floating-base, part of the inputs (so is digits:N, --digits)
 
 
@@ -185,10 +183,9 @@ def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -
 
     digest = hashlib.sha256()
     digest.update(f"dynderive {__version__} {engine_fingerprint()}\n{','.join(kinds)}\n".encode())
-    if "c_extension" in kinds:   # the compiled bytes depend on the compiler, Python and NumPy too
-        from .compile import toolchain
-
-        digest.update(toolchain().encode())
+    for target in _TARGETS:   # the compiled bytes depend on the compiler, Python and NumPy too
+        if target.kind in kinds and target.fingerprint:
+            digest.update(resolve(target.fingerprint)().encode())
     try:
         digest.update(source.read_bytes())
     except OSError:
@@ -222,9 +219,9 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     (``<name>.log``) are returned instead of the PDF, with the error; when TeX (or TikZ) is
     missing, the other outputs and the error."""
     from .. import derive, load_robot
-    from ..render.code import render_code
     from ..render.json import render_json
     from ..render.latex import render_latex
+    from .solve import target_files
 
     floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
@@ -253,30 +250,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
         else:
             if sheet is not None:
                 sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
-    if "code" in kinds:
-        files[f"{robot.name}_dynamics.py"] = render_code(derivation, template_dir).encode()
-    if "c" in kinds or "c_extension" in kinds:
-        from ..render.c import render_c
-
-        header, code = render_c(derivation, template_dir)
-        if "c" in kinds:
-            files[f"{robot.name}_dynamics.h"], files[f"{robot.name}_dynamics.c"] = header.encode(), code.encode()
-        if "c_extension" in kinds:
-            from .compile import build_extension
-
-            filename, data = build_extension(derivation, template_dir, c_files=(header, code))
-            files[filename] = data
-    if "matlab" in kinds:   # the package +<name>/: paths relative to the output folder
-        from ..render.matlab import render_matlab
-
-        files |= {path: text.encode() for path, text in render_matlab(derivation, template_dir).items()}
-        from ..render.matlab_script import render_matlab_script
-
-        files[f"{robot.name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
-    if "jax" in kinds:
-        from ..render.jax import render_jax
-
-        files[f"{robot.name}_dynamics_jax.py"] = render_jax(derivation, template_dir).encode()
+    files |= target_files(derivation, kinds, template_dir)[0]
     if "json" in kinds:
         files[f"{robot.name}.json"] = render_json(derivation).encode()
     if "html" in kinds:
@@ -436,12 +410,13 @@ def shown_source(out: Path, name: str) -> str:
 
 def leftover_logs(out: Path, name: str, files: dict[str, bytes]) -> list[Path]:
     """The logs of failures that this run's outputs of robot ``name`` make stale: ``<name>.log``
-    once its PDF is built, ``<name>_dynamics_c.log`` once its extension is."""
+    once its PDF is built, a target's (the extension's compiler log) once its first file is."""
     logs = []
     if f"{name}.pdf" in files:
         logs.append(out / f"{name}.log")
-    if f"{name}_dynamics_c{EXTENSION_SUFFIX}" in files:
-        logs.append(out / f"{name}_dynamics_c.log")
+    for target in _TARGETS:
+        if target.stale and target.outputs[0].format(name) in files:
+            logs += [out / pattern.format(name) for pattern in target.stale]
     return logs
 
 

@@ -17,6 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from ..render.targets import COLUMNS, TARGETS, by_name, resolve
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
@@ -85,19 +86,43 @@ def require_matplotlib(option: str) -> None:
                                  "(or leave out the option: --csv needs no matplotlib)")) from None
 
 
-def jax_note() -> None:
-    """``--jax`` writes the module whether or not JAX is installed (it is generated text); the
-    module imports JAX, an optional dependency (the ``jax`` extra): one note when it is not
-    importable here."""
-    import importlib.util
+def target_options(after: str, build: bool = False) -> Callable[[F], F]:
+    """One boolean option per code target (``--code``, ``--c``, ... from the registry, in its
+    column order, with its entry's help), inserted after the parameter ``after`` of the
+    command's signature; the function receives them by kind in ``**targets``."""
+    import inspect
 
-    try:
-        found = importlib.util.find_spec("jax") is not None
-    except (ImportError, ValueError):
-        found = False
-    if not found:
-        typer.echo('note: --jax: JAX is not installed here; the JAX module is written, and imports once JAX is '
-                   'installed: pip install "dynderive[jax]"', err=True)
+    def decorate(function: F) -> F:
+        signature = inspect.signature(function, eval_str=True)
+        parameters = [p for p in signature.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+        at = [p.name for p in parameters].index(after) + 1
+        options = [inspect.Parameter(target.kind, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=False,
+                                     annotation=Annotated[bool, typer.Option(target.flag, help=target.build_help
+                                                                             if build else target.help)])
+                   for target in COLUMNS]
+        function.__signature__ = signature.replace(parameters=parameters[:at] + options + parameters[at:])  # type: ignore[attr-defined]
+        return function
+
+    return decorate
+
+
+def target_flags(targets: dict[str, bool]) -> dict[str, bool]:
+    """The code targets' options by kind (``c_extension``), in the registry's order."""
+    return {target.kind: bool(targets.get(target.kind)) for target in TARGETS}
+
+
+def target_needs(targets: dict[str, bool]) -> None:
+    """What the asked targets need, before any work: a refusal (no C compiler) stops the run."""
+    for target in TARGETS:
+        if targets[target.kind] and target.needs:
+            resolve(target.needs)()
+
+
+def target_notes(targets: dict[str, bool]) -> None:
+    """The asked targets' notes (the JAX module is written without JAX installed here)."""
+    for target in TARGETS:
+        if targets[target.kind] and target.note and (text := resolve(target.note)()):
+            typer.echo(text, err=True)
 
 
 def _version(value: bool) -> None:
@@ -115,22 +140,12 @@ def main(
 
 
 @app.command(cls=_Command)
+@target_options(after="pdf")   # --code, --c, --c-extension, --matlab, --jax (render/targets)
 @handle_errors
 def solve(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot, e.g. rp_arm.")],
     latex: Annotated[bool, typer.Option("--latex", help="Write DIR/<name>.tex, the solution sheet.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write DIR/<name>.pdf (needs latexmk; if LaTeX fails, DIR/<name>.tex and .log instead).")] = False,
-    code: Annotated[bool, typer.Option("--code", help="Write DIR/<name>_dynamics.py, a NumPy module.")] = False,
-    c: Annotated[bool, typer.Option("--c", help="Write DIR/<name>_dynamics.h and .c, C99.")] = False,
-    c_extension: Annotated[bool, typer.Option("--c-extension", help="Write DIR/<name>_dynamics_c.*.so, the C code "
-                                              "compiled into a Python extension with the NumPy module's API (needs a C "
-                                              "compiler: CC, cc or gcc).")] = False,
-    matlab: Annotated[bool, typer.Option("--matlab", help="Write DIR/<name>_derivation.m, the derivation as a "
-                                         "Symbolic Math Toolbox script, and DIR/+<name>/, numeric MATLAB/Octave "
-                                         "functions (one per file: mass_matrix, forward_dynamics, ...).")] = False,
-    jax: Annotated[bool, typer.Option("--jax", help="Write DIR/<name>_dynamics_jax.py, the NumPy module's API on "
-                                      "jax.numpy (jit, vmap, grad; float32 and float64); importing it needs JAX (the "
-                                      "jax extra).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write DIR/<name>.html, the solution sheet as one self-contained "
                                        "web page (MathML equations, SVG drawing, no script).")] = False,
@@ -147,6 +162,7 @@ def solve(
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheet's numbers (and the printed equations') "
                       "to at most N significant digits (default: as many as the robot file wrote).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
+    **targets: bool,
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
@@ -156,28 +172,25 @@ def solve(
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
+    targets = target_flags(targets)
     chosen = sheet_sections_option(sections, latex or pdf or html)
-    printed = not (latex or pdf or code or c or c_extension or matlab or jax or json_ or html)
+    printed = not (latex or pdf or any(targets.values()) or json_ or html)
     shortened = sheet_digits_option(digits, latex or pdf or html or printed)
-    if tests and not code:
+    if tests and not targets["code"]:   # the NumPy module's checks
         raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
-    if c_extension:   # no compiler: stop before any work
-        from .compile import require_compiler
-
-        require_compiler()
+    target_needs(targets)   # no compiler: stop before any work
     progress = Progress(quiet)
     progress("loading")
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     maximal_section_applies(sections, model.planar, model.floating)
     echo_notes(model, quiet)
-    if jax and not quiet:
-        jax_note()
+    if not quiet:
+        target_notes(targets)
     if model.floating:
         from .floating import solve_floating
 
-        flags = {"latex": latex, "pdf": pdf, "c": c, "c_extension": c_extension, "matlab": matlab, "jax": jax,
-                 "json": json_, "html": html, "digits": shortened}
-        return solve_floating(model, robot, flags, code, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
+        flags = {"latex": latex, "pdf": pdf, **targets, "json": json_, "html": html, "digits": shortened}
+        return solve_floating(model, robot, flags, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
                               progress, tests)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
@@ -189,8 +202,8 @@ def solve(
         return
     from .solve import Wanted, solve_outputs
 
-    wanted = Wanted(latex=latex, pdf=pdf, code=code, c=c, c_extension=c_extension, matlab=matlab, jax=jax,
-                    json=json_, tests=tests, html=html)
+    wanted = Wanted(latex=latex, pdf=pdf, json=json_, tests=tests, html=html,
+                    targets=frozenset(kind for kind, asked in targets.items() if asked))
     files, failures, stale = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
     removed = [path for path in stale if os.path.lexists(path)]
     write_all(files, remove=removed)
@@ -230,20 +243,15 @@ def check(
     import json
 
     from .. import derive, load_robot
-    from ..render.code import render_code
+    from ..render.targets import reference
     from ..verify.checks import run_checks
 
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
     backend = backend_name(backend, CHECK_BACKENDS)
-    if backend == "c":   # no compiler: stop before any work
-        from .compile import require_compiler
-
-        require_compiler("--backend")
-    if backend == "jax":   # no jax: stop before any work
-        from ..verify.jax_backend import require_jax
-
-        require_jax()
+    harness = None if backend == "numpy" else by_name(backend)   # numpy: the module's own checks only
+    if harness is not None and harness.check_needs:   # no compiler, no jax: stop before any work
+        resolve(harness.check_needs)()
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=False, command="check")
@@ -251,29 +259,16 @@ def check(
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
     progress("generating code")
+    source = reference(derivation)
     if model.floating:   # the module's functions against each other and Pinocchio's free flyer
-        from ..render.floating_code import render_floating_code
         from ..verify.floating_checks import run_floating_checks
 
-        rows = run_floating_checks(derivation, source := render_floating_code(derivation), states=states)
+        rows = run_floating_checks(derivation, source, states=states)
     else:
-        source = render_code(derivation)
         progress("checking")
         rows = run_checks(derivation, source, states=states)
-    if backend == "c":
-        from ..verify.compiled import compiled_checks
-        from ..verify.floating_c import floating_c_checks
-        from .compile import compiled_module
-
-        compiled = compiled_module(derivation, progress=progress)
-        progress("checking the compiled module")
-        rows += (floating_c_checks if model.floating else compiled_checks)(derivation, source, compiled, states=states)
-    if backend == "jax":
-        from ..verify.floating_jax import floating_jax_checks
-        from ..verify.jax_backend import jax_checks
-
-        progress("checking the JAX module")
-        rows += (floating_jax_checks if model.floating else jax_checks)(derivation, source, states=states)
+    if harness is not None and harness.check:   # the target's harness, against the NumPy module
+        rows += resolve(harness.check)(derivation, source, progress, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,
@@ -328,7 +323,7 @@ def simulate(
     import numpy as np
 
     from .. import derive, load_robot
-    from ..render.code import render_code
+    from ..render.targets import reference
     from .integrate import method_name
     from .output import check_frames, check_output_paths, write_all
     from .simulate import animation_gif, csv_text, default_initial, parse_efforts, parse_wrenches, plot_png
@@ -344,11 +339,10 @@ def simulate(
     tolerances(rtol, atol)
     method = method_name(method)
     backend = backend_name(backend)
-    if backend == "c":   # no compiler: stop before any work
-        from .compile import require_compiler
-
-        require_compiler("--backend")
-    if backend == "c" and coordinates == "maximal":
+    loaded = None if backend == "numpy" else by_name(backend)   # a target simulate loads (the C extension)
+    if loaded is not None and loaded.check_needs:   # no compiler: stop before any work
+        resolve(loaded.check_needs)()
+    if loaded is not None and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
     for option, path in (("--plot", plot), ("--animate", animate)):
@@ -385,12 +379,8 @@ def simulate(
         raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code")
-    source = render_code(derivation)
-    compiled = None
-    if backend == "c":
-        from .compile import compiled_module
-
-        compiled = compiled_module(derivation, progress=progress)
+    source = reference(derivation)
+    compiled = None if loaded is None else resolve(loaded.load)(derivation, progress=progress)
     trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
                      np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
                      frames, progress, friction_smoothing, wrenches, method,
@@ -463,18 +453,13 @@ def identify(
 
 
 @app.command(cls=_Command)
+@target_options(after="pdf", build=True)   # --code, --c, --c-extension, --matlab, --jax (render/targets)
 @handle_errors
 def build(
     paths: Annotated[list[Path] | None, typer.Argument(help="Robot files or folders to search (default: .).")] = None,
     out: Annotated[Path, typer.Option("--out", help="Output directory (holds the build manifest).")] = Path("build"),
     latex: Annotated[bool, typer.Option("--latex", help="Write <name>.tex.")] = False,
     pdf: Annotated[bool, typer.Option("--pdf", help="Write <name>.pdf.")] = False,
-    code: Annotated[bool, typer.Option("--code", help="Write <name>_dynamics.py.")] = False,
-    c: Annotated[bool, typer.Option("--c", help="Write <name>_dynamics.h and .c (C99).")] = False,
-    c_extension: Annotated[bool, typer.Option("--c-extension", help="Write <name>_dynamics_c.*.so, the compiled "
-                                              "extension (--check: compiled, not compared).")] = False,
-    matlab: Annotated[bool, typer.Option("--matlab", help="Write <name>_derivation.m and +<name>/ (MATLAB/Octave).")] = False,
-    jax: Annotated[bool, typer.Option("--jax", help="Write <name>_dynamics_jax.py (JAX).")] = False,
     json_: Annotated[bool, typer.Option("--json", help="Write <name>.json.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write <name>.html, the sheet as a web page.")] = False,
     jobs: Annotated[int | None, typer.Option("-j", "--jobs", help="Robots built in parallel (default: CPUs).")] = None,
@@ -488,31 +473,29 @@ def build(
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to at most N significant "
                       "digits (default: as many as each robot file wrote).")] = None,
+    **targets: bool,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
     from .build import default_jobs
     from .options import sheet_digits_option
 
-    kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf), ("code", code), ("c", c),
-                                                        ("c_extension", c_extension), ("matlab", matlab),
-                                                        ("jax", jax), ("json", json_), ("html", html)) if wanted)
+    targets = target_flags(targets)
+    kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf),
+                                            *((t.kind, targets[t.kind]) for t in COLUMNS),
+                                            ("json", json_), ("html", html)) if wanted)
     if not kinds:
         kinds = ("latex", "code")
     if prune and check_only:
         raise InputError(problem("--prune", "--check writes nothing, so it cannot prune: run build --prune "
                                  "without --check"))
     shortened = sheet_digits_option(digits, any(kind in kinds for kind in ("latex", "pdf", "html")))
-    if c_extension:   # no compiler: stop before any work
-        from .compile import require_compiler
-
-        require_compiler()
+    target_needs(targets)   # no compiler: stop before any work
     kinds += ("floating_base",) if floating_base else ()
     kinds += (f"digits:{shortened}",) if shortened else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
-    if jax:
-        jax_note()
+    target_notes(targets)
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
                          lambda text: typer.echo(text, err=True), prune)
     width = max([len(o.source) for o in outcomes] + [5])

@@ -1,8 +1,7 @@
-"""``dynderive solve`` for a floating-base robot: the NumPy module
-(``render/floating_code.py``), its C, compiled extension, MATLAB package and JAX module
-(``render/floating_jax.py``), its sheet (LaTeX, PDF, HTML) and JSON dump (``floating_outputs.py``) and one note
-saying what is not built yet; every other output is
-refused (exit 2) before any work."""
+"""``dynderive solve`` and ``build`` for a floating-base robot: the code targets
+(``render/targets``, each printing a floating base itself), its sheet (LaTeX, PDF, HTML) and
+JSON dump (``floating_outputs.py``) and one note saying what is not built yet; every other
+output is refused (exit 2) before any work."""
 
 from __future__ import annotations
 
@@ -16,8 +15,14 @@ from .options import problem
 
 #: The message of an output or command not built yet for floating-base robots.
 NOT_BUILT = "not built yet for floating-base robots"
-#: The output flags (besides --code) a floating-base robot has.
-BUILT = ("c", "c_extension", "matlab", "jax", "latex", "pdf", "json", "html")
+
+
+def built() -> tuple[str, ...]:
+    """The output kinds a floating-base robot has: every code target's, the sheets and the JSON."""
+    from ..render.targets import TARGETS
+    from .floating_outputs import SHEET_KINDS
+
+    return (*(target.kind for target in TARGETS), *SHEET_KINDS)
 
 
 def floating_note(robot: Robot) -> str:
@@ -28,56 +33,36 @@ def floating_note(robot: Robot) -> str:
             "every output is built except the MATLAB derivation script (--matlab writes its +package only)")
 
 
-def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bool, out: Path,
-                   template_dir: Path | None, quiet: bool, echo: Callable[[str], None],
-                   progress: Callable[[str], None], tests: bool = False) -> None:
-    """Write the outputs the flags ask for (``--code`` the module, ``--tests`` its checks, the
-    other targets, the sheets and the JSON), or, with none, print the equations
+def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], out: Path, template_dir: Path | None,
+                   quiet: bool, echo: Callable[[str], None], progress: Callable[[str], None],
+                   tests: bool = False) -> None:
+    """Write the outputs the flags ask for (the code targets by kind, ``--tests`` the NumPy
+    module's checks, the sheets and the JSON), or, with none, print the equations
     (``render_floating_terminal``)."""
     from .. import derive
-    from ..render.floating_code import render_floating_code, render_floating_code_tests
     from .output import write_all
+    from .solve import target_files
 
     if not quiet:
         echo(floating_note(robot))
     flags = dict(flags)
     digits = flags.pop("digits", None)   # --digits: the sheet's numbers
     refused = [problem(f"--{flag.replace('_', '-')}", f"--{flag.replace('_', '-')}: {NOT_BUILT}")
-               for flag, wanted in flags.items() if wanted and flag not in BUILT]
+               for flag, wanted in flags.items() if wanted and flag not in built()]
     if refused:
         raise InputError(refused)
     derivation = derive(robot, progress)   # M(q) regular at the defaults; the programs, never Lagrange's
-    if not (code or any(flags.get(flag) for flag in BUILT)):   # no output flag: print the equations
+    if not any(flags.get(flag) for flag in built()):   # no output flag: print the equations
         import typer
 
         from ..render.terminal import render_floating_terminal
 
         typer.echo(render_floating_terminal(derivation, digits), nl=False)
         return
-    files = {}
-    if flags.get("jax"):
-        from ..render.floating_jax import render_floating_jax
-
-        progress("generating JAX (floating base)")
-        files[out / f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
-    progress("generating code (floating base)")
-    if code:
-        files[out / f"{robot.name}_dynamics.py"] = render_floating_code(derivation, template_dir).encode()
-    if flags.get("c"):
-        from ..render.c_floating import render_floating_c
-
-        header, source = render_floating_c(derivation, template_dir)
-        files[out / f"{robot.name}_dynamics.h"] = header.encode()
-        files[out / f"{robot.name}_dynamics.c"] = source.encode()
-    if flags.get("matlab"):
-        from ..render.matlab_floating import render_floating_matlab
-
-        files |= {out / path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
-    if tests and code:
-        files[out / f"test_{robot.name}_dynamics.py"] = render_floating_code_tests(derivation, template_dir).encode()
-    failures = _extension(derivation, flags, out, template_dir, files, progress) if flags.get("c_extension") else []
-    # the extension built: an earlier failure's compiler log is stale
-    removed = [out / f"{robot.name}_dynamics_c.log"] if flags.get("c_extension") and not failures else []
+    made, failures, stale = target_files(derivation, {kind for kind, wanted in flags.items() if wanted}, template_dir,
+                                         progress, out, tests)
+    files = {out / name: data for name, data in made.items()}
+    removed = [out / name for name in stale]   # the extension built: an earlier failure's compiler log
     from .floating_outputs import SHEET_KINDS, failure_text, floating_sheet_files
 
     sheets, failure = floating_sheet_files(derivation, {k for k in SHEET_KINDS if flags.get(k)}, template_dir, digits,
@@ -106,59 +91,22 @@ def solve_floating(robot: Robot, argument: str, flags: dict[str, bool], code: bo
         raise typer.Exit(1)
 
 
-def _extension(derivation, flags: dict[str, bool], out: Path, template_dir: Path | None, files: dict[Path, bytes],
-               progress: Callable[[str], None]) -> list[str]:
-    """``--c-extension``: the compiled extension into ``files`` (on the C files ``--c`` wrote),
-    or its compiler's log and the failure message (``commands/compile.py``)."""
-    from .compile import ExtensionCompileError, build_extension, failure_message, failure_outputs
-
-    name = derivation.robot.name
-    c_files = (files[out / f"{name}_dynamics.h"].decode(), files[out / f"{name}_dynamics.c"].decode()) \
-        if flags.get("c") else None
-    try:
-        filename, data = build_extension(derivation, template_dir, c_files=c_files, progress=progress)
-    except ExtensionCompileError as exc:
-        files |= {out / log: text for log, text in failure_outputs(name, exc).items()}
-        return [failure_message(out, name, exc)]
-    files[out / filename] = data
-    return []
-
-
 def floating_outputs(robot: Robot, source: str, kinds: tuple[str, ...], template_dir: str | None,
                      ) -> tuple[dict[str, bytes], Exception | None]:
     """``build``'s outputs of a floating-base robot (its modules, sheet and JSON dump) and the
     PDF's failure, if any; any other kind refused."""
     from .. import derive
-    from ..render.floating_code import render_floating_code
-    from ..render.floating_jax import render_floating_jax
+    from .solve import target_files
 
-    refused = [kind for kind in kinds if kind not in ("code", "floating_base", *BUILT) and not kind.startswith("digits:")]
+    refused = [kind for kind in kinds if kind not in ("floating_base", *built()) and not kind.startswith("digits:")]
     if refused:
-        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build --code writes its NumPy module, "
-                                         "--c its C, --c-extension its compiled extension, --matlab its MATLAB/Octave package, "
-                                         "--jax its JAX module"))
+        from ..render.targets import COLUMNS
+
+        flags = ", ".join(target.flag for target in COLUMNS)
+        raise InputError(problem(source, f"{', '.join(refused)}: {NOT_BUILT}; build writes its code ({flags}), "
+                                         "sheets and JSON"))
     derivation = derive(robot)
-    files = {}
-    if "code" in kinds:
-        files[f"{robot.name}_dynamics.py"] = render_floating_code(derivation, template_dir).encode()
-    if "c" in kinds:
-        from ..render.c_floating import render_floating_c
-
-        header, source_text = render_floating_c(derivation, template_dir)
-        files |= {f"{robot.name}_dynamics.h": header.encode(), f"{robot.name}_dynamics.c": source_text.encode()}
-    if "matlab" in kinds:
-        from ..render.matlab_floating import render_floating_matlab
-
-        files |= {path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
-    if "c_extension" in kinds:
-        from .compile import build_extension
-
-        c_files = (files[f"{robot.name}_dynamics.h"].decode(), files[f"{robot.name}_dynamics.c"].decode()) \
-            if "c" in kinds else None
-        filename, data = build_extension(derivation, template_dir, c_files=c_files)
-        files[filename] = data
-    if "jax" in kinds:
-        files[f"{robot.name}_dynamics_jax.py"] = render_floating_jax(derivation, template_dir).encode()
+    files, _, _ = target_files(derivation, kinds, template_dir)
     from .floating_outputs import floating_sheet_files
 
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits

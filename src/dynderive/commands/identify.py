@@ -38,14 +38,9 @@ def run_identify(argument: str, assignments: list[str], states: int | None, json
                                       f"come out too small), got {states}"))
     derivation = derive(model, progress=progress)
     progress("generating code")
-    if model.floating:
-        from ..render.floating_code import render_floating_code
+    from ..render.targets import reference  # the NumPy module, for a fixed or a floating base
 
-        source = render_floating_code(derivation)
-    else:
-        from ..render.code import render_code
-
-        source = render_code(derivation)
+    source = reference(derivation)
     module = generated_module(source, model.name)
     progress("sampling the regressor")
     values = {p.name: float(p.value) for p in model.parameters}

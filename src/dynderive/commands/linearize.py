@@ -330,17 +330,13 @@ def run_linearize(argument: str, at: list[str], assignments: list[str], kind: st
     point, given, equilibrium = parse_at(at, [str(s) for s in table.q], [str(s) for s in table.qd],
                                          list(table.efforts))
     progress("generating code")
-    if model.floating:
-        from ..render.floating_code import render_floating_code
+    from ..render.targets import reference  # the NumPy module, for a fixed or a floating base
 
-        module = generated_module(render_floating_code(derivation), model.name)
+    module = generated_module(reference(derivation), model.name)
+    if model.floating:
         point["q"], manifold_notes = on_the_manifold(model, module, point["q"], given)
         for text in manifold_notes:
             note(text)
-    else:
-        from ..render.code import render_code
-
-        module = generated_module(render_code(derivation), model.name)
     values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
     if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
         point, loop_notes = on_the_loops(module, point, given, values)

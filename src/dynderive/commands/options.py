@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, Problem
+from ..render.targets import check_backends, simulate_backends
 
 #: The smallest relative tolerance an integrator can honour in double precision (SciPy
 #: raises smaller ones to this, with a warning).
@@ -195,10 +196,11 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
     return []
 
 
-#: ``--backend`` of ``check`` and ``simulate``: the generated NumPy module, or the compiled C
-#: extension (``--c-extension``); ``check`` also compares the JAX module (``--jax``).
-BACKENDS = ("numpy", "c")
-CHECK_BACKENDS = (*BACKENDS, "jax")
+#: ``--backend`` of ``simulate`` and ``check``, from the target registry (``render/targets``):
+#: the generated NumPy module, or a target ``simulate`` can load (the compiled C extension);
+#: ``check`` also every target with a harness (the C extension, the JAX module).
+BACKENDS = simulate_backends()
+CHECK_BACKENDS = check_backends()
 
 
 def backend_name(text: str, choices: tuple[str, ...] = BACKENDS) -> str:

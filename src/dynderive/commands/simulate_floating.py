@@ -21,7 +21,7 @@ from ..derivation import Derivation
 from ..errors import InputError
 from ..verify.checks import generated_module
 from .integrate import DEFAULT_METHOD, Integrator
-from .options import problem, vector
+from .options import BACKENDS, problem, vector
 from .simulate import Trajectory, _finite_start, friction_hint, progress_ticker
 
 #: How far from unit a quaternion of ``--q0`` may be (then normalized): four decimals typed.
@@ -34,7 +34,7 @@ def floating_options(robot: Any, coordinates: str, animate: object, backend: str
         raise InputError(problem("--coordinates", "a floating-base robot is simulated in its coordinates (q, v) only"))
     if animate is not None:
         raise InputError(problem("--animate", "--animate draws planar robots only"))
-    if backend not in ("numpy", "c"):
+    if backend not in BACKENDS:
         raise InputError(problem("--backend", f"--backend {backend}: not built for simulate"))
 
 
@@ -146,7 +146,7 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
     import typer
 
     from .. import derive
-    from ..render.floating_code import render_floating_code
+    from ..render.targets import reference
     from .output import write_all
     from .simulate import parse_efforts, parse_wrenches, plot_png
 
@@ -157,12 +157,12 @@ def run_floating(model: Any, duration: float, q0: str | None, qd0: str | None, e
     efforts = parse_efforts(derivation, effort, False)
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code (floating base)")
-    source = render_floating_code(derivation)
+    source = reference(derivation)   # the NumPy module (floating base)
     compiled = None
-    if backend == "c":
-        from .compile import compiled_module
+    if backend != "numpy":   # a target simulate can load (the C extension)
+        from ..render.targets import by_name, resolve
 
-        compiled = compiled_module(derivation, progress=progress)
+        compiled = resolve(by_name(backend).load)(derivation, progress=progress)
     trajectory = simulate_floating(derivation, source, duration, start_q,
                                    np.zeros(model.velocity_count) if start_v is None else start_v, efforts, rtol,
                                    atol, frames, progress, method,

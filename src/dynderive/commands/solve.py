@@ -8,7 +8,7 @@ log of an earlier failure when the PDF or the extension is made.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,18 +18,48 @@ from ..errors import LatexError, ToolMissingError
 
 @dataclass(frozen=True)
 class Wanted:
-    """The output flags of ``solve``."""
+    """The output flags of ``solve``; ``targets``: the code targets asked for, by ``build``
+    kind (``render/targets``: ``code``, ``c``, ``c_extension``, ...)."""
 
     latex: bool = False
     pdf: bool = False
-    code: bool = False
-    c: bool = False
-    c_extension: bool = False
-    matlab: bool = False
-    jax: bool = False
     json: bool = False
     tests: bool = False
     html: bool = False
+    targets: frozenset[str] = frozenset()
+
+
+def target_files(derivation: Derivation, kinds: Collection[str], template_dir: str | Path | None,
+                 progress: Callable[[str], None] = lambda stage: None, folder: Path | None = None,
+                 tests: bool = False) -> tuple[dict[str, bytes], list[str], list[str]]:
+    """The files of the code targets among ``kinds`` by name, in the registry's order (a
+    target that refuses the robot stops the run before the later ones' work), for a fixed or
+    a floating base; ``tests``: the NumPy module's checks too. With ``folder`` (``solve``), a
+    target that could not be made (the extension a compiler rejected) leaves its log and a
+    message (the other outputs are still written) and one that was made names the files of an
+    earlier failure it makes stale; without, its error stops the robot (``build``)."""
+    from ..render.targets import TARGETS, resolve
+
+    name = derivation.robot.name
+    files: dict[str, bytes] = {}
+    failures: list[str] = []
+    stale: list[str] = []
+    for target in TARGETS:
+        if target.kind not in kinds:
+            continue
+        if target.progress:
+            progress(target.progress + (" (floating base)" if derivation.robot.floating else ""))
+        try:
+            files |= target.files(derivation, template_dir, files, tests=tests, progress=progress)
+        except Exception as exc:
+            if folder is None or target.failure is None:
+                raise
+            logs, message = resolve(target.failure)(exc, folder, name)   # raises what is not its failure
+            files |= logs
+            failures.append(message)
+        else:
+            stale += [pattern.format(name) for pattern in target.stale]
+    return files, failures, stale
 
 
 def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_dir: Path | None,
@@ -38,47 +68,13 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
     """Every requested file by path, one message per output that could not be made (its log,
     if any, is among the files) and the files to remove (``stale_beside``); the sheet's
     numbers to ``digits`` at most (``--digits``)."""
-    from ..render.code import render_code
     from ..render.json import render_json
     from ..render.latex import render_latex
 
     name = derivation.robot.name
-    files: dict[Path, bytes] = {}
-    failures: list[str] = []
-    removed: list[Path] = []
-    c_files = None
-    if wanted.c:   # first: a robot the C target refuses stops the run before any work or output
-        from ..render.c import render_c
-
-        progress("generating C")
-        c_files = render_c(derivation, template_dir)
-        files[out / f"{name}_dynamics.h"] = c_files[0].encode()
-        files[out / f"{name}_dynamics.c"] = c_files[1].encode()
-    if wanted.matlab:   # next: a robot whose names MATLAB refuses stops the run before more work
-        from ..render.matlab import render_matlab
-
-        progress("generating MATLAB")
-        files |= {out / path: text.encode() for path, text in render_matlab(derivation, template_dir).items()}
-        from ..render.matlab_script import render_matlab_script
-
-        files[out / f"{name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
-    if wanted.jax:
-        from ..render.jax import render_jax
-
-        progress("generating JAX")
-        files[out / f"{name}_dynamics_jax.py"] = render_jax(derivation, template_dir).encode()
-    if wanted.c_extension:
-        from .compile import ExtensionCompileError, build_extension
-        from .compile import failure_message as build_failure
-        from .compile import failure_outputs as build_logs
-
-        try:
-            filename, data = build_extension(derivation, template_dir, c_files=c_files, progress=progress)
-            files[out / filename] = data
-            removed.append(out / f"{name}_dynamics_c.log")   # an earlier failure's
-        except ExtensionCompileError as exc:   # the other outputs are still written, with the compiler's log
-            files |= {out / log: text for log, text in build_logs(name, exc).items()}
-            failures.append(build_failure(out, name, exc))
+    made, failures, stale = target_files(derivation, wanted.targets, template_dir, progress, out, wanted.tests)
+    files = {out / path: data for path, data in made.items()}
+    removed = [out / path for path in stale]
     tex = None
     if wanted.latex or wanted.pdf:
         progress("rendering LaTeX")
@@ -105,13 +101,6 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
 
         progress("rendering HTML")
         files[out / f"{name}.html"] = render_html(derivation, template_dir, sections, digits).encode()
-    if wanted.code:
-        progress("generating code")
-        files[out / f"{name}_dynamics.py"] = render_code(derivation, template_dir).encode()
-        if wanted.tests:
-            from ..render.code import render_code_tests
-
-            files[out / f"test_{name}_dynamics.py"] = render_code_tests(derivation, template_dir).encode()
     if wanted.json:
         files[out / f"{name}.json"] = render_json(derivation).encode()
     return files, failures, removed

@@ -11,12 +11,14 @@ table, the MATLAB function files), so the table in the documentation (``markdown
 
 from __future__ import annotations
 
-import ast
-import re
 from typing import Any
 
-TARGETS = ("numpy", "c", "c-extension", "matlab", "jax")
-TITLES = {"numpy": "NumPy", "c": "C", "c-extension": "C extension", "matlab": "MATLAB", "jax": "JAX"}
+from .targets import COLUMNS, by_name, resolve
+from .targets.target import public
+
+#: The targets by name, in the table's column order (the registry's, ``render/targets``).
+TARGETS = tuple(target.name for target in COLUMNS)
+TITLES = {target.name: target.title for target in COLUMNS}
 
 MAXIMAL = ("maximal_mass_matrix", "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts",
            "maximal_kinetic_energy", "maximal_potential_energy", "maximal_friction_forces", "maximal_forward_dynamics",
@@ -54,51 +56,15 @@ def _why(derivation: Any, target: str, function: str) -> str | None:
     return not_built(target, function, bool(robot.floating), bool(robot.frames))
 
 
-def _public(source: str) -> set[str]:
-    """The public functions a Python module's source defines at its top level."""
-    return {node.name for node in ast.parse(source).body
-            if isinstance(node, ast.FunctionDef) and not node.name.startswith("_")}
-
-
 def offered(derivation: Any, target: str) -> set[str]:
     """The API functions ``target`` generates for ``derivation``'s robot (extra C variants
-    such as ``inverse_dynamics_wrenches`` included)."""
-    floating = derivation.robot.floating
-    name = derivation.robot.name
-    if target == "numpy":
-        if floating:
-            from .floating_code import render_floating_code
-
-            return _public(render_floating_code(derivation))
-        from .code import render_code
-
-        return _public(render_code(derivation))
-    if target == "jax":
-        if floating:
-            from .floating_jax import render_floating_jax
-
-            return _public(render_floating_jax(derivation))
-        from .jax import render_jax
-
-        return _public(render_jax(derivation))
-    if target == "c":
-        if floating:
-            from .c_floating import floating_c_context as context
-        else:
-            from .c import c_context as context
-        pattern = re.compile(rf"\b{re.escape(name)}_(\w+)\(")
-        return {pattern.search(str(f.prototype)).group(1) for f in context(derivation)["functions"]}
-    if target == "c-extension":
-        from .c_extension import bindings
-
-        return {b.name for b in bindings(derivation)}
-    if target == "matlab":
-        if floating:
-            from .matlab_floating import floating_numeric_functions as functions
-        else:
-            from .matlab import numeric_functions as functions
-        return {f.name for f in functions(derivation)}
-    raise ValueError(f"unknown target {target!r}")
+    such as ``inverse_dynamics_wrenches`` included): its registry entry reads them from its
+    own code."""
+    try:
+        entry = by_name(target)
+    except StopIteration:
+        raise ValueError(f"unknown target {target!r}") from None
+    return resolve(entry.offered)(derivation)
 
 
 def api(derivation: Any) -> set[str]:
@@ -155,4 +121,4 @@ def markdown_table(derivations: list[Any]) -> str:
 
 
 __all__ = ["FRAME_FUNCTIONS", "MAXIMAL", "NOT_BUILT", "TARGETS", "api", "gaps", "markdown_table", "not_built",
-           "offered"]
+           "offered", "public"]

@@ -1,5 +1,5 @@
 """``check --backend c`` of a floating-base robot: its compiled extension (``solve
---c-extension``, ``render/c_extension_floating.py``) against its NumPy module, function by
+--c-extension``, ``render/targets/c_extension/c_extension_floating.py``) against its NumPy module, function by
 function, at random states on the manifold (random unit quaternions), for a batch (the loop in
 C) and for one state (the fast path), to 1e-12 relative to the result's largest entry; the
 comparison ``floating_rows`` is also ``check --backend jax``'s (``floating_jax.py``)."""

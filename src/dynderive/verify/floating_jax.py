@@ -19,7 +19,7 @@ def floating_jax_checks(derivation: Any, source: str, states: int = 12, seed: in
     on for this process."""
     import jax
 
-    from ..render.floating_jax import render_floating_jax
+    from ..render.targets.jax.floating_jax import render_floating_jax
     from .checks import generated_module
 
     jax.config.update("jax_enable_x64", True)

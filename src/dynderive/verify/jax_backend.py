@@ -23,7 +23,7 @@ def jax_checks(derivation: Any, source: str, states: int = 12) -> list[Row]:
     float64 (``jax_enable_x64`` is switched on for this process)."""
     import jax
 
-    from ..render.jax import render_jax
+    from ..render.targets.jax.jax import render_jax
     from .checks import generated_module
     from .compiled import compiled_checks
 

@@ -28,9 +28,9 @@ from typing import Any
 import sympy
 from sympy.printing.numpy import JaxPrinter
 
-from ..derivation import Derivation
-from .code import ExpressionFunction, code_context
-from .python_module import CodeGenerationError, render_module
+from ....derivation import Derivation
+from ...python_module import CodeGenerationError, render_module
+from ..numpy.code import ExpressionFunction, code_context
 
 JAX_TEMPLATE = "jax/dynamics.py.j2"
 #: Modules the generated JAX module may import.

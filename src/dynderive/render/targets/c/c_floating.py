@@ -19,7 +19,9 @@ from typing import Any
 
 import sympy
 
-from ..derivation import Derivation
+from ....derivation import Derivation
+from ...encode import Code
+from ...environment import render
 from .c import (
     CFunction,
     _add_friction,
@@ -42,8 +44,6 @@ from .c_join import joined_program, print_body
 from .c_loops import CKit, amend
 from .c_manifold import ManifoldJoint, difference_lines, integrate_lines, neutral_lines, rate_lines
 from .c_names import c_comment, check_c_names
-from .encode import Code
-from .environment import render
 
 HEADER_TEMPLATE = "c/dynamics.h.j2"
 SOURCE_TEMPLATE = "c/dynamics.c.j2"
@@ -186,7 +186,7 @@ def floating_c_context(derivation: Derivation) -> dict[str, Any]:
     parameters.append({"name": "friction_smoothing", "default": Code("0.0"), "comment": c_comment(
         "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)"
         if robot.dissipative else "unused: the robot has no Coulomb friction (every robot's struct ends with it)")})
-    from .._version import __version__
+    from ...._version import __version__
 
     return {
         "name": name, "macro": name.upper(), "title": c_comment(robot.title),

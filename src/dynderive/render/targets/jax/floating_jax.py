@@ -3,7 +3,7 @@
 ``jax.numpy``.
 
 The same straight-line programs (``floating_context``'s bodies) run on the columns of
-``jax.numpy`` arrays through ``render/jax.py``'s machinery, shared by template includes
+``jax.numpy`` arrays through ``render/targets/jax/jax.py``'s machinery, shared by template includes
 (``jax/arrays.py.j2``: ``_coordinates``, ``_stack``, ``_blocks``; ``jax/bodies.py.j2``:
 ``_evaluate``, ``_hold`` at the lines ``holds`` picks, the bodies); the manifold functions
 (``integrate``, ``difference``, ``configuration_rate``, ``neutral_configuration``) are written
@@ -17,10 +17,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..derivation import Derivation
-from .floating_code import floating_context
+from ....derivation import Derivation
+from ...python_module import render_module
+from ..numpy.floating_code import floating_context
 from .jax import JAX_IMPORTS, holds
-from .python_module import render_module
 
 FLOATING_JAX_TEMPLATE = "jax/floating_dynamics.py.j2"
 

@@ -1,9 +1,10 @@
-"""Compiling the C target into a CPython extension (``solve --c-extension``).
+"""Compiling the C target into a CPython extension (``solve --c-extension``, ``check`` and
+``simulate --backend c``).
 
 The compiler is ``$CC`` when set (a command with options, e.g. ``"clang -march=native"``),
 else the one Python was built with (sysconfig's ``CC``) when it is on this machine, else
 ``cc`` or ``gcc`` on ``PATH``. It compiles ``<name>_dynamics.c`` and the binding
-(``render/c_extension.py``) in a temporary folder with ``-O2 -shared -fPIC`` against Python's
+(``render/targets/c_extension/c_extension.py``) in a temporary folder with ``-O2 -shared -fPIC`` against Python's
 and NumPy's headers (no setuptools); the caller writes the bytes (all or nothing). No compiler
 or no ``Python.h``: ``InputError`` at ``--c-extension`` (exit 2). A compiler that fails on the
 generated code (a bug of ours) is ``ExtensionCompileError``, with its log to keep.
@@ -23,13 +24,16 @@ import types
 from collections.abc import Callable
 from pathlib import Path
 
-from ..derivation import Derivation
-from ..errors import ExternalToolError, InputError
-from .options import problem
+from ....derivation import Derivation
+from ....errors import ExternalToolError, InputError, Problem
 
 OPTION = "--c-extension"
 #: Seconds a compilation may take (the Panda takes about 10 s at -O2).
 TIMEOUT = 600
+
+
+def _problem(option: str, message: str) -> Problem:
+    return Problem(option, 1, 1, message)
 
 
 class ExtensionCompileError(ExternalToolError):
@@ -51,7 +55,7 @@ def find_compiler(option: str = OPTION) -> list[str]:
     if given:
         command = shlex.split(given)
         if not shutil.which(command[0]):
-            raise InputError(problem(option, f"the C compiler CC={given!r} was not found (set CC to a C compiler, "
+            raise InputError(_problem(option, f"the C compiler CC={given!r} was not found (set CC to a C compiler, "
                                              "or unset it to use cc or gcc)"))
         return command
     configured = shlex.split(sysconfig.get_config_var("CC") or "")
@@ -60,7 +64,7 @@ def find_compiler(option: str = OPTION) -> list[str]:
     for name in ("cc", "gcc"):
         if shutil.which(name):
             return [name]
-    raise InputError(problem(option, "no C compiler found (cc or gcc on PATH, or CC): the extension is compiled on "
+    raise InputError(_problem(option, "no C compiler found (cc or gcc on PATH, or CC): the extension is compiled on "
                                      "this machine; install one (e.g. apt install gcc) or use --c or --code"))
 
 
@@ -70,7 +74,7 @@ def include_dirs(option: str = OPTION) -> list[str]:
 
     python = sysconfig.get_paths()["include"]
     if not (Path(python) / "Python.h").is_file():
-        raise InputError(problem(option, f"Python's C headers (Python.h) are not in {python}: install them (e.g. apt "
+        raise InputError(_problem(option, f"Python's C headers (Python.h) are not in {python}: install them (e.g. apt "
                                          "install python3-dev) to compile the extension"))
     return [python, numpy.get_include()]
 
@@ -98,9 +102,14 @@ def require_compiler(option: str = OPTION) -> None:
     include_dirs(option)
 
 
+def require_backend() -> None:
+    """``check --backend c``: ``require_compiler`` at ``--backend``."""
+    require_compiler("--backend")
+
+
 def extension_filename(robot_name: str) -> str:
     """``<name>_dynamics_c`` with this Python's suffix for extensions (``.cpython-311-x86_64-linux-gnu.so``)."""
-    from ..render.c_extension import module_name
+    from .c_extension import module_name
 
     return module_name(robot_name) + (sysconfig.get_config_var("EXT_SUFFIX") or ".so")
 
@@ -110,14 +119,14 @@ def build_extension(derivation: Derivation, template_dir: str | Path | None = No
                     progress: Callable[[str], None] | None = None, option: str = OPTION) -> tuple[str, bytes]:
     """(file name, bytes) of the compiled extension ``<name>_dynamics_c``; ``c_files`` are
     ``render_c``'s header and source when the caller has them already."""
-    from ..render.c import render_c
-    from ..render.c_extension import module_name, render_extension
+    from ..c.c import render_c
+    from .c_extension import module_name, render_extension
 
     compiler = find_compiler(option)
     includes = include_dirs(option)
     render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
     if c_files is None and derivation.robot.floating:   # the floating-base C target
-        from ..render.c_floating import render_floating_c as render_c
+        from ..c.c_floating import render_floating_c as render_c
     header, source = c_files if c_files is not None else render_c(derivation, template_dir)
     binding = render_extension(derivation, template_dir, header)
     name = derivation.robot.name
@@ -170,7 +179,7 @@ def compiled_module(derivation: Derivation, progress: Callable[[str], None] | No
     ``check --backend c`` and ``simulate --backend c``); its file is removed once loaded."""
     import importlib.util
 
-    from ..render.c_extension import module_name
+    from .c_extension import module_name
 
     filename, data = build_extension(derivation, progress=progress, option=option)
     with tempfile.TemporaryDirectory(prefix="dynderive-ext-") as folder:
@@ -182,3 +191,21 @@ def compiled_module(derivation: Derivation, progress: Callable[[str], None] | No
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
     return module
+
+
+def extension_files(derivation: Derivation, template_dir: str | Path | None, made: dict[str, bytes],
+                    progress: Callable[[str], None] | None = None, **options: object) -> dict[str, bytes]:
+    """The target's render (``render/targets/c_extension``): the compiled extension by file
+    name, on the C files this run made (``made``) when ``--c`` is asked too."""
+    name = derivation.robot.name
+    header, source = f"{name}_dynamics.h", f"{name}_dynamics.c"
+    c_files = (made[header].decode(), made[source].decode()) if header in made and source in made else None
+    filename, data = build_extension(derivation, template_dir, c_files=c_files, progress=progress)
+    return {filename: data}
+
+
+def failure_files(error: Exception, folder: Path, robot_name: str) -> tuple[dict[str, bytes], str]:
+    """A compiler that failed: its log (by file name) and the message; any other error raised again."""
+    if not isinstance(error, ExtensionCompileError):
+        raise error
+    return failure_outputs(robot_name, error), failure_message(folder, robot_name, error)

@@ -10,7 +10,7 @@ from typing import Any
 
 import sympy
 
-from ..mechanics.tidy import fold_constants
+from ....mechanics.tidy import fold_constants
 
 
 def joined_program(parts: list[tuple[Any, ...]]) -> tuple[list, list[list[sympy.Expr]], list[sympy.Symbol]]:

@@ -20,10 +20,10 @@ from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
-from ..derivation import Derivation
-from ..mechanics.tidy import fold_constants, operation_count
-from .encode import Code, python_literal
-from .python_module import CodeGenerationError, render_module, render_test_module
+from ....derivation import Derivation
+from ....mechanics.tidy import fold_constants, operation_count
+from ...encode import Code, python_literal
+from ...python_module import CodeGenerationError, render_module, render_test_module
 
 #: Functions the printed code may call, as the straight-line bodies receive them: from
 #: ``math`` (one state on floats) or NumPy (a batch). SymPy's ``Abs`` prints as ``abs``.
@@ -372,7 +372,7 @@ def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) ->
     for p in robot.parameters:
         parameters.append({"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
                            "unit": p.unit, "description": p.description})
-    from .._version import __version__
+    from ...._version import __version__
 
     keywords = [p["name"] if p["default"] is None else f"{p['name']}={p['default']}" for p in parameters]
     return {

@@ -1,5 +1,5 @@
 """The rows of the CPython binding (``c_extension.py``) for a floating-base robot:
-the floating NumPy module's API (``render/floating_code.py``) on the C functions of
+the floating NumPy module's API (``render/targets/numpy/floating_code.py``) on the C functions of
 ``c_floating.py``. ``q`` has NQ entries, ``qd``, ``qdd`` and ``v`` NV; ``linearize`` works on
 the tangent space (2 NV x 2 NV). The configuration-space functions (``neutral_configuration``,
 ``integrate``, ``difference``, ``configuration_rate``) take no parameters (``parameters``
@@ -10,8 +10,8 @@ False), and ``integrate``'s ``dt`` is a number per state (``number``, default 1.
 
 from __future__ import annotations
 
-from ..derivation import Derivation
-from .c_binding import Binding
+from ....derivation import Derivation
+from ..c.c_binding import Binding
 
 
 def floating_bindings(derivation: Derivation) -> list[Binding]:

@@ -15,10 +15,10 @@ from typing import Any
 
 import sympy
 
-from ..derivation import Derivation
+from ....derivation import Derivation
+from ...encode import Code, python_literal
+from ...python_module import render_module, render_test_module
 from .code import Argument, program_function
-from .encode import Code, python_literal
-from .python_module import render_module, render_test_module
 
 TEMPLATE = "floating_dynamics.py.j2"
 TEST_TEMPLATE = "floating_dynamics_test.py.j2"
@@ -27,7 +27,7 @@ TEST_TEMPLATE = "floating_dynamics_test.py.j2"
 
 def floating_context(derivation: Derivation) -> dict[str, Any]:
     """Every variable the floating-base module template uses."""
-    from .._version import __version__
+    from ...._version import __version__
 
     robot, table = derivation.robot, derivation.symbols
     nq, nv = len(table.q), len(table.qd)

@@ -23,11 +23,11 @@ from pathlib import Path
 
 import sympy
 
-from ..derivation import Derivation
-from ..mechanics.tidy import fold_constants
-from .c import double_literal
-from .encode import Code
-from .environment import render
+from ....derivation import Derivation
+from ....mechanics.tidy import fold_constants
+from ...encode import Code
+from ...environment import render
+from ..c.c import double_literal
 from .matlab_loops import loop_functions
 from .matlab_names import check_matlab_names, matlab_comment, matlab_string
 from .matlab_print import (
@@ -222,7 +222,7 @@ def render_matlab(derivation: Derivation, template_dir: str | Path | None = None
     numeric functions (default ``numeric_functions``; a floating-base robot's are
     ``matlab_floating.floating_numeric_functions``)."""
     check_matlab_names(derivation.robot)
-    from .._version import __version__
+    from ...._version import __version__
 
     robot = derivation.robot
     context = {"title": matlab_comment(robot.title), "source": matlab_comment(Path(robot.source).name),

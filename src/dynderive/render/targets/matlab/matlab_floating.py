@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..derivation import Derivation
-from .c_floating import manifold_joints
+from ....derivation import Derivation
+from ..c.c_floating import manifold_joints
 from .matlab import _frame_functions, _friction_body, render_matlab
 from .matlab_print import (
     DIRECTION_LINES,

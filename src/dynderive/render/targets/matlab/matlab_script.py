@@ -19,10 +19,10 @@ from typing import Any
 
 import sympy
 
-from ..derivation import Derivation
-from ..errors import InputError, Problem
-from .encode import Code
-from .environment import render
+from ....derivation import Derivation
+from ....errors import InputError, Problem
+from ...encode import Code
+from ...environment import render
 from .matlab_names import check_matlab_names
 from .matlab_text import matlab_code, matlab_comment, matlab_string
 

@@ -14,10 +14,10 @@ from typing import Any
 import sympy
 from sympy.printing.octave import OctaveCodePrinter
 
-from ..derivation import Derivation
-from ..mechanics.tidy import fold_constants
-from .c import DoublePrinting, FastCPrinter
-from .encode import Code
+from ....derivation import Derivation
+from ....mechanics.tidy import fold_constants
+from ...encode import Code
+from ..c.c import DoublePrinting, FastCPrinter
 from .matlab_names import matlab_comment
 
 

@@ -14,7 +14,7 @@ Adding a C function to the module is one row. A floating-base robot's rows
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
-(``c_names.check_c_names``). Nothing is compiled here (``commands/compile.py`` does that).
+(``c_names.check_c_names``). Nothing is compiled here (``compile.py`` beside it does that).
 """
 
 from __future__ import annotations
@@ -22,14 +22,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..derivation import Derivation
-from ..errors import InputError
-from .c import double_literal, unsupported
-from .c_binding import Binding
-from .c_loops import loop_context
-from .c_names import check_c_names
-from .encode import Code, python_literal
-from .environment import render
+from ....derivation import Derivation
+from ....errors import InputError
+from ...encode import Code, python_literal
+from ...environment import render
+from ..c.c import double_literal, unsupported
+from ..c.c_binding import Binding
+from ..c.c_loops import loop_context
+from ..c.c_names import check_c_names
 
 TEMPLATE = "c/extension.c.j2"
 
@@ -118,7 +118,7 @@ def bindings(derivation: Derivation) -> list[Binding]:
 
 
 def _loop_bindings(derivation: Derivation) -> list[Binding]:
-    """A closed-loop robot's functions (``render/c_loops.py``'s C functions)."""
+    """A closed-loop robot's functions (``render/targets/c/c_loops.py``'s C functions)."""
     n, nu = len(derivation.symbols.q), len(derivation.symbols.efforts)
     k, m = derivation.quantities["a_g"].shape[0], len(derivation.steps["loops"].independent)
     dissipative = derivation.robot.dissipative
@@ -249,7 +249,7 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
             "fill": Code(binding.number or "0.0"),
         })
     strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
-    from .._version import __version__
+    from ...._version import __version__
 
     loops = derivation.steps["loops"] if robot.loops else None
 

@@ -20,7 +20,7 @@ from typing import Any
 import sympy
 from sympy.printing.octave import OctaveCodePrinter
 
-from .encode import Code
+from ...encode import Code
 from .matlab_names import matlab_comment, matlab_string
 
 #: Integers beyond this are written as digit strings (``sym('...')``): a double cannot hold them.

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..derivation import Derivation
+from ....derivation import Derivation
 from .matlab_print import (
     MFunction,
     Names,

@@ -14,8 +14,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ..errors import InputError, Problem
-from .encode import Code, code_point
+from ....errors import InputError, Problem
+from ...encode import Code, code_point
 
 #: MATLAB's keywords (``iskeyword``) and Octave's (``iskeyword`` of GNU Octave 7): a field or
 #: package of that name cannot be written with a dot.

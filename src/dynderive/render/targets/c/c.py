@@ -28,16 +28,16 @@ import sympy
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import precedence
 
-from ..derivation import Derivation
-from ..errors import InputError, Problem
-from ..mechanics.tidy import fold_constants
+from ....derivation import Derivation
+from ....errors import InputError, Problem
+from ....mechanics.tidy import fold_constants
+from ...encode import Code
+from ...environment import render
+from ..numpy.code import CodeGenerationError, _ProgramPrinter
 from .c_join import joined_program as _joined
 from .c_join import print_body as _print_body
 from .c_loops import CKit, amend, loop_context
 from .c_names import c_comment, check_c_names
-from .code import CodeGenerationError, _ProgramPrinter
-from .encode import Code
-from .environment import render
 
 HEADER_TEMPLATE = "c/dynamics.h.j2"
 SOURCE_TEMPLATE = "c/dynamics.c.j2"
@@ -324,7 +324,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)"
         if robot.dissipative else "unused: the robot has no Coulomb friction (every robot's struct ends with it)")})
     parameters += loops["members"]
-    from .._version import __version__
+    from ...._version import __version__
 
     return {
         "name": name,

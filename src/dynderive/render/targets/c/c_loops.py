@@ -38,10 +38,10 @@ from typing import Any
 
 import sympy
 
-from ..derivation import Derivation
+from ....derivation import Derivation
+from ...encode import Code
 from .c_names import c_comment
 from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
-from .encode import Code
 
 
 @dataclass

@@ -1,0 +1,43 @@
+"""The C99 target (``--c``): ``<name>_dynamics.h`` and ``.c`` (DESIGN.md section 9); its check
+harness compiles the extension and compares each function with the NumPy module."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..target import Target
+
+
+def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+    """The header and the source, for a fixed or a floating base."""
+    if derivation.robot.floating:
+        from .c_floating import render_floating_c as render_c
+    else:
+        from .c import render_c
+    header, source = render_c(derivation, template_dir)
+    name = derivation.robot.name
+    return {f"{name}_dynamics.h": header.encode(), f"{name}_dynamics.c": source.encode()}
+
+
+def offered(derivation: Any) -> set[str]:
+    """The functions whose prototypes the header declares (extra variants included)."""
+    import re
+
+    if derivation.robot.floating:
+        from .c_floating import floating_c_context as context
+    else:
+        from .c import c_context as context
+    pattern = re.compile(rf"\b{re.escape(derivation.robot.name)}_(\w+)\(")
+    return {pattern.search(str(f.prototype)).group(1) for f in context(derivation)["functions"]}  # type: ignore[union-attr]
+
+
+TARGET = Target(
+    name="c", flag="--c", kind="c", title="C", column=1,
+    help="Write DIR/<name>_dynamics.h and .c, C99.",
+    build_help="Write <name>_dynamics.h and .c (C99).",
+    outputs=("{}_dynamics.h", "{}_dynamics.c"),
+    templates=("c/dynamics.h.j2", "c/dynamics.c.j2"),
+    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating C",
+    check="dynderive.verify.backends:compiled_backend", check_needs="dynderive.render.targets.c_extension.compile:require_backend",
+    load="dynderive.render.targets.c_extension.compile:compiled_module",
+)

@@ -1,0 +1,33 @@
+"""The C target compiled into a CPython extension (``--c-extension``): ``<name>_dynamics_c.*``,
+the NumPy module's API (DESIGN.md section 9). Needs a C compiler; a compiler that fails leaves
+its log beside the other outputs."""
+
+from __future__ import annotations
+
+import sysconfig
+from typing import Any
+
+from ..target import Target
+
+
+def offered(derivation: Any) -> set[str]:
+    """The functions of the binding's table."""
+    from .c_extension import bindings
+
+    return {b.name for b in bindings(derivation)}
+
+
+TARGET = Target(
+    name="c-extension", flag="--c-extension", kind="c_extension", title="C extension", column=2,
+    help="Write DIR/<name>_dynamics_c.*.so, the C code compiled into a Python extension with the NumPy module's API "
+         "(needs a C compiler: CC, cc or gcc).",
+    build_help="Write <name>_dynamics_c.*.so, the compiled extension (--check: compiled, not compared).",
+    # the extension (this Python's suffix for extensions) and the log of a compiler that failed
+    outputs=("{}_dynamics_c" + (sysconfig.get_config_var("EXT_SUFFIX") or ".so"), "{}_dynamics_c.log"),
+    templates=("c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2"),
+    render=f"{__name__}.compile:extension_files", offered=f"{__name__}:offered",
+    progress="",   # build_extension says "compiling the C extension (...)" itself
+    needs=f"{__name__}.compile:require_compiler",
+    failure=f"{__name__}.compile:failure_files", fingerprint=f"{__name__}.compile:toolchain",
+    stale=("{}_dynamics_c.log",),
+)

@@ -1,0 +1,56 @@
+"""The JAX target (``--jax``): ``<name>_dynamics_jax.py``, the NumPy module's API on
+``jax.numpy`` (DESIGN.md section 9); its check harness compares it with the NumPy module."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..target import Target
+
+
+def _source(derivation: Any, template_dir: Any = None) -> str:
+    if derivation.robot.floating:
+        from .floating_jax import render_floating_jax as render_jax
+    else:
+        from .jax import render_jax
+    return render_jax(derivation, template_dir)
+
+
+def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+    """The module, for a fixed or a floating base."""
+    return {f"{derivation.robot.name}_dynamics_jax.py": _source(derivation, template_dir).encode()}
+
+
+def offered(derivation: Any) -> set[str]:
+    """The module's public functions."""
+    from ..target import public
+
+    return public(_source(derivation))
+
+
+def missing_note() -> str | None:
+    """The module is written whether or not JAX is installed (it is generated text); it imports
+    JAX, an optional dependency (the ``jax`` extra): a note when it is not importable here."""
+    import importlib.util
+
+    try:
+        found = importlib.util.find_spec("jax") is not None
+    except (ImportError, ValueError):
+        found = False
+    if found:
+        return None
+    return ('note: --jax: JAX is not installed here; the JAX module is written, and imports once JAX is installed: '
+            'pip install "dynderive[jax]"')
+
+
+TARGET = Target(
+    name="jax", flag="--jax", kind="jax", title="JAX", column=4,
+    help="Write DIR/<name>_dynamics_jax.py, the NumPy module's API on jax.numpy (jit, vmap, grad; float32 and "
+         "float64); importing it needs JAX (the jax extra).",
+    build_help="Write <name>_dynamics_jax.py (JAX).",
+    outputs=("{}_dynamics_jax.py",),
+    templates=("jax/dynamics.py.j2", "jax/floating_dynamics.py.j2"),
+    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
+    note=f"{__name__}:missing_note",
+    check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",
+)

@@ -1,0 +1,48 @@
+"""The NumPy target (``--code``): ``<name>_dynamics.py``, the reference module every other
+target is compared with (DESIGN.md section 6), and with ``--tests`` its pytest checks."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..target import Target
+
+
+def source(derivation: Any, template_dir: Any = None) -> str:
+    """The module's text, for a fixed or a floating base (``check`` and ``simulate`` run it)."""
+    if derivation.robot.floating:
+        from .floating_code import render_floating_code as render_code
+    else:
+        from .code import render_code
+    return render_code(derivation, template_dir)
+
+
+def render(derivation: Any, template_dir: Any, made: dict[str, bytes], tests: bool = False,
+           **options: Any) -> dict[str, bytes]:
+    """The module and, with ``tests``, its checks."""
+    name = derivation.robot.name
+    files = {f"{name}_dynamics.py": source(derivation, template_dir).encode()}
+    if tests:
+        if derivation.robot.floating:
+            from .floating_code import render_floating_code_tests as render_tests
+        else:
+            from .code import render_code_tests as render_tests
+        files[f"test_{name}_dynamics.py"] = render_tests(derivation, template_dir).encode()
+    return files
+
+
+def offered(derivation: Any) -> set[str]:
+    """The module's public functions."""
+    from ..target import public
+
+    return public(source(derivation))
+
+
+TARGET = Target(
+    name="numpy", flag="--code", kind="code", title="NumPy", column=0,
+    help="Write DIR/<name>_dynamics.py, a NumPy module.",
+    build_help="Write <name>_dynamics.py.",
+    outputs=("{}_dynamics.py",),
+    templates=("dynamics.py.j2", "floating_dynamics.py.j2"),
+    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating code",
+)

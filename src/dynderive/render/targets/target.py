@@ -1,0 +1,95 @@
+"""What a code target is to the commands: one frozen ``Target`` per target, its registry entry
+(``render/targets/<folder>/__init__.py``), listed in ``render/targets/__init__.py``.
+
+The commands loop over the registry and name no target: ``solve`` and ``build`` render each
+requested target (``render``), ``build`` hashes the templates it reads (``templates``) and
+knows its files by name (``outputs``), ``check --backend`` runs its harness (``check``),
+``render/offered.py`` reads which functions it generates (``offered``). A target renders a
+fixed-base and a floating-base robot alike: it picks its printer inside.
+
+Callables of later layers (a check harness in ``verify/``, the compiler) are named by a
+``"module:function"`` string and imported when called (``resolve``), so the registry, in
+``render/``, imports nothing after it.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+from dataclasses import dataclass
+from typing import Any
+
+
+def resolve(reference: str) -> Any:
+    """The function a ``"package.module:function"`` string names, imported now."""
+    module, _, name = reference.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def public(source: str) -> set[str]:
+    """The public functions a Python module's source defines at its top level (what a Python
+    target offers)."""
+    return {node.name for node in ast.parse(source).body
+            if isinstance(node, ast.FunctionDef) and not node.name.startswith("_")}
+
+
+@dataclass(frozen=True)
+class Target:
+    """One code target's registry entry."""
+
+    #: The target's name: ``--backend`` of ``check`` (if it has a harness) and the column of
+    #: the table of offered functions (``render/offered.py``).
+    name: str
+    #: The option of ``solve`` and ``build`` that asks for it.
+    flag: str
+    #: The key of ``build``'s output kinds (and of the manifest's input key): the flag's name.
+    kind: str
+    #: The column's heading in the table of offered functions.
+    title: str
+    #: The table's column order (the NumPy module, the reference, first).
+    column: int
+    #: The help of ``solve``'s option and of ``build``'s.
+    help: str
+    build_help: str
+    #: Its output files, ``{}`` for the robot's name (``+{}/parameters.m``: a MATLAB package).
+    outputs: tuple[str, ...]
+    #: The templates it reads (a change invalidates ``build``'s records).
+    templates: tuple[str, ...]
+    #: ``"module:function"``: (derivation, template_dir, made, **options) -> {file name: bytes};
+    #: ``made``: the files of the targets before it in this run (the extension reuses the C).
+    render: str
+    #: ``"module:function"``: (derivation) -> the API functions it generates.
+    offered: str
+    #: Said before it renders ("": nothing).
+    progress: str
+    #: ``"module:function"`` raising an InputError before any work when it cannot be made here
+    #: (no compiler), or None.
+    needs: str | None = None
+    #: ``"module:function"`` -> a note (str) or None, printed when it is asked for (JAX not
+    #: installed: the module is written all the same).
+    note: str | None = None
+    #: ``check --backend NAME``: ``"module:function"`` (derivation, source, progress, states)
+    #: -> rows, and what it needs before any work (called with the option's name), or None.
+    check: str | None = None
+    check_needs: str | None = None
+    #: ``simulate --backend NAME``: ``"module:function"`` (derivation, progress) -> a module
+    #: with the NumPy module's API built for this process, or None.
+    load: str | None = None
+    #: ``"module:function"`` (exception, folder, robot name) -> (log files, message) for an
+    #: output that could not be made while the others are written, or None (the error stops).
+    failure: str | None = None
+    #: ``"module:function"`` -> text: what its bytes depend on besides the sources (the
+    #: compiler), part of ``build``'s input key, or None.
+    fingerprint: str | None = None
+    #: Files of an earlier failure that a successful run removes (``{}``: the robot's name).
+    stale: tuple[str, ...] = ()
+
+    @property
+    def folder(self) -> str:
+        """Its folder under ``render/targets/`` (its name as a Python identifier)."""
+        return self.name.replace("-", "_")
+
+    def files(self, derivation: Any, template_dir: Any, made: dict[str, bytes] | None = None,
+              **options: Any) -> dict[str, bytes]:
+        """Its output files for ``derivation``'s robot (fixed or floating base), by name."""
+        return resolve(self.render)(derivation, template_dir, made or {}, **options)
