@@ -138,3 +138,15 @@ def add_column(vec: Callable[..., Vector], present: tuple[Vector, Vector] | None
     if present is None:
         return column
     return vec(_add(present[0], column[0])), vec(_add(present[1], column[1]))
+
+
+def part_of(lines: Sequence[tuple[sympy.Symbol, sympy.Expr]], outputs: Sequence[sympy.Expr]) -> Program:
+    """The program of ``outputs``: the ``lines`` they read, renamed in their order. A shared
+    program grows with what a run asks for first (the sheet's body Jacobians, V's gradient of
+    the checks), and SymPy orders a sum's terms by their names: without the renaming a
+    module's bytes would depend on which other outputs its run writes."""
+    needed = lines_read(outputs, dict(lines))
+    kept = [(name, expr) for name, expr in lines if name in needed]
+    names = {name: sympy.Symbol(f"_t{k}") for k, (name, _) in enumerate(kept)}
+    return Program(lines=[(names[name], expr.xreplace(names)) for name, expr in kept],
+                   outputs=[sympy.sympify(e).xreplace(names) for e in outputs])

@@ -46,6 +46,7 @@ from .program import (
     _rotate_back,
     add_column,
     lines_read,
+    part_of,
 )
 from .spatial import inertia_tensor, rpy_matrix
 
@@ -595,13 +596,5 @@ class GeneralizedProgram:
         return self._jacobians
 
     def part(self, outputs: Sequence[sympy.Expr]) -> Program:
-        """A program computing ``outputs``: the lines they read, renamed in their order. Parts
-        of this program join it on first use (the body Jacobians of the sheet, V's gradient of
-        the checks), so a line's name depends on what a run asked for first; the names of SymPy's
-        canonical order of a sum's terms must not, or the module's bytes would depend on which
-        other outputs a run writes."""
-        needed = lines_read(outputs, dict(self.program.lines))
-        kept = [(name, expr) for name, expr in self.program.lines if name in needed]
-        names = {name: sympy.Symbol(f"_t{k}") for k, (name, _) in enumerate(kept)}
-        return Program(lines=[(names[name], expr.xreplace(names)) for name, expr in kept],
-                       outputs=[sympy.sympify(e).xreplace(names) for e in outputs])
+        """A program computing ``outputs``, whatever joined this one first (``part_of``)."""
+        return part_of(self.program.lines, outputs)
