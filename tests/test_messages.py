@@ -166,7 +166,7 @@ def test_a_floating_root_link_is_not_said_to_be_welded(tmp_path):
     inertia enters the dynamics as written (as Pinocchio reads it)."""
     path = tmp_path / "legged.urdf"
     path.write_text(LEGGED)
-    triangle = "link 'base' inertia: principal moments -2.45944e-22, 3.41858e-23, 3e-06 violate the triangle inequality"
+    triangle = "link 'base' inertia: principal moments 0, 0, 3e-06 violate the triangle inequality"
     fixed = dynderive.load_robot(path)
     assert f"{path}:4:7: note: {triangle} by 3e-06; ignored: the link is welded to the world, so its inertia never " \
            "enters the dynamics" in fixed.notes
