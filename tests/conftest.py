@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import itertools
+import os
 import sys
 from functools import cache
 from pathlib import Path
@@ -18,6 +19,14 @@ REFERENCE = ROOT.parent / "shared" / "reference" / "hw6_lagrangian_dynamics.md"
 BUNDLED = sorted(p.stem for p in ROBOTS.glob("*.yaml"))
 
 _counter = itertools.count()
+
+# XLA compiles the JAX tests' programs with LLVM's cheap passes: the UR5's traced batch of
+# ``linearize`` compiles in 10 s instead of 35 s and runs in milliseconds either way. The tests
+# compare values, never speed (benchmarks/ measure that, with XLA's defaults). Set before any
+# test imports jax, and inherited by the commands the tests run; flags already given are kept.
+os.environ["XLA_FLAGS"] = " ".join(filter(None, (
+    "--xla_backend_optimization_level=0 --xla_llvm_disable_expensive_passes=true",
+    os.environ.get("XLA_FLAGS", ""))))
 
 
 def on_loops(module, qs, qds, spread: float = 0.3):

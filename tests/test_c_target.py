@@ -52,8 +52,9 @@ def _write(derivation, directory: Path) -> Path:
 
 def _compile(path: Path, *flags: str) -> None:
     """Compile ``path`` as strict C99 (and as C++ when g++ exists); assert no diagnostic.
-    ``-Wshadow`` too: no local may hide a function of <math.h> (POSIX's ``y0``, ``j1``)."""
-    for command in ([CC, *STRICT, "-Wshadow", "-c", str(path), "-o", str(path.with_suffix(".o"))],
+    ``-Wshadow`` too: no local may hide a function of <math.h> (POSIX's ``y0``, ``j1``).
+    ``-fPIC``: ``Library`` links this object into its shared library (no second compile)."""
+    for command in ([CC, *STRICT, "-Wshadow", "-fPIC", "-c", str(path), "-o", str(path.with_suffix(".o"))],
                     *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-c", str(path),
                         "-o", str(path.with_suffix(".cpp.o"))]] if CXX else [])):
         run = subprocess.run(command + list(flags), capture_output=True, text=True)
@@ -67,8 +68,8 @@ class Library:
         directory.mkdir(parents=True, exist_ok=True)
         path = _write(derivation, directory)
         _compile(path)
-        shared = path.with_suffix(".so")
-        subprocess.run([CC, *STRICT, "-shared", "-fPIC", str(path), "-o", str(shared), "-lm"], check=True)
+        shared = path.with_suffix(".so")   # the object _compile checked, at the same -O1
+        subprocess.run([CC, "-shared", str(path.with_suffix(".o")), "-o", str(shared), "-lm"], check=True)
         self.lib = ctypes.CDLL(str(shared))
         self.name = derivation.robot.name
         self.n = len(derivation.symbols.q)
