@@ -21,7 +21,7 @@ from dynderive.mechanics.joint_types import JOINT_TYPES, configuration_programs,
 from dynderive.mechanics.joint_types.quaternion import quaternion_matrix
 from dynderive.mechanics.program import Program
 from dynderive.model.robot import Joint, floating_names
-from dynderive.render.floating_code import render_floating_code
+from dynderive.render.targets.numpy.floating_code import render_floating_code
 
 pin = pytest.importorskip("pinocchio")
 
