@@ -184,6 +184,7 @@ class Derivation:
             add(_Stage(self._frames, frozenset(frame_quantity_names(robot))))
         self._frame_programs: list[Any] | None = None
         self._floating_steps: Any = None
+        self._configuration_programs: dict[str, Any] | None = None
 
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
@@ -362,6 +363,17 @@ class Derivation:
         """The checks if an output already needed them (the sheet, the JSON), else none: a
         run that writes only code reports no checks rather than deriving everything for them."""
         return self._checks or []
+
+    @property
+    def configuration_programs(self) -> dict[str, Any]:
+        """The configuration maps ``neutral_configuration``, ``integrate``, ``difference`` and
+        ``configuration_rate`` as target-neutral programs, joint by joint from the joint types
+        (``mechanics.joint_types.configuration_programs``); built on first use."""
+        if self._configuration_programs is None:
+            from .mechanics.joint_types import configuration_programs
+
+            self._configuration_programs = configuration_programs(self.robot, self.symbols)
+        return self._configuration_programs
 
     @property
     def floating_steps(self) -> Any:
