@@ -23,7 +23,7 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.errors import InputError
 from dynderive.input.urdf import identifier
-from dynderive.mechanics.floating import offsets
+from dynderive.mechanics.tree import offsets
 from dynderive.render.targets.numpy.floating_code import render_floating_code
 from dynderive.verify.floating_checks import (
     ENERGY_RUN,

@@ -27,7 +27,7 @@ import yaml
 
 import dynderive
 from dynderive.errors import InputError
-from dynderive.mechanics.floating import offsets
+from dynderive.mechanics.tree import offsets
 from dynderive.mechanics.floating_sheet import is_small_floating
 from dynderive.render.floating_latex import coordinate_names
 from dynderive.render.html_floating import coordinate_math_names, render_floating_html
@@ -287,8 +287,15 @@ def test_the_uncoupled_robot_mapped_by_the_coupling(driven):
                                    rtol=0, atol=1e-12)
         np.testing.assert_allclose(coupled.friction_forces(v), G.T @ uncoupled.friction_forces(vf), rtol=0, atol=1e-12)
     drives = [p for p in coupled.PARAMETER_VECTOR if p.startswith(("damping", "friction", "armature", "stiffness"))]
-    assert drives == ["damping_j1", "armature_j1", "damping_j3", "friction_j3", "armature_j3", "stiffness_j3",
-                      "friction_f2", "armature_f2"]
+    # one parameter per coordinate (Pinocchio's per-velocity damping, friction, armature): the
+    # followers' terms folded into their leader's, b + m^2 b_f, fc + |m| fc_f, Ia + m^2 Ia_f
+    assert drives == ["damping_j1", "friction_j1", "armature_j1", "stiffness_j1"]
+    m3, m2 = -0.7312345678901234, 0.1234567890123456
+    values = dict(zip(coupled.PARAMETER_VECTOR, coupled.parameter_vector()))
+    assert values["damping_j1"] == pytest.approx(0.1712345678901234 + m3**2 * 0.0912345678901234, rel=1e-14)
+    assert values["friction_j1"] == pytest.approx(abs(m3) * 0.0412345678901234 + abs(m2) * 0.2312345678901234, rel=1e-14)
+    assert values["armature_j1"] == pytest.approx(0.0412345678901234 + m3**2 * 0.0312345678901234
+                                                  + m2**2 * 0.0212345678901234, rel=1e-14)
 
 
 def test_check_passes(arm, driven):

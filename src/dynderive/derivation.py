@@ -191,7 +191,7 @@ class Derivation:
         """Refuse the symbolic derivation (Lagrange's path) of a floating-base robot: its
         quaternion coordinates are not generalized coordinates of that path."""
         if self.robot.floating:
-            from .mechanics.floating import not_built
+            from .mechanics.tree import not_built
 
             raise not_built(self.robot, what)
 
@@ -315,12 +315,8 @@ class Derivation:
     @property
     def frame_programs(self) -> list[Any]:
         """Straight-line programs of the frames' poses, Jacobians and ``Jdot qd``
-        (``mechanics.frames.FramePrograms``), for the generated module; built on first use."""
-        if self._frame_programs is None and self.robot.floating:   # (name, pose, Jacobian) programs
-            from .mechanics.floating import frame_programs as floating_frames
-
-            self._frame_programs = [(name, *programs) for name, programs in
-                                    floating_frames(self.robot, self.symbols).items()]
+        (``mechanics.frames.FramePrograms``, also a tuple ``(name, transform, jacobian,
+        jacobian_dot_qd)``), for the generated module; built on first use."""
         if self._frame_programs is None:
             from .mechanics.frames import frame_programs
 
@@ -387,24 +383,15 @@ class Derivation:
 
     @property
     def programs(self) -> dict[str, Program]:
-        """Straight-line programs of the recursive algorithms (``mechanics/recursive.py``), by
-        what they compute: ``inverse_dynamics`` and ``forward_dynamics`` for every robot, and
-        ``mass_matrix``, ``coriolis``, ``gravity``, ``potential`` where the code is structured
-        (``structured_code``). Built once, on first use, straight from the robot: a run that
-        writes only code never derives the symbolic matrices."""
-        if self._programs is None and self.robot.floating:   # the free-flyer programs, never Lagrange's
-            from .mechanics.floating_derivatives import floating_programs
-
-            self._programs = floating_programs(self.robot, self.symbols)
+        """Straight-line programs of the recursive algorithms over the robot's one tree
+        (``mechanics/programs.py``), by what they compute: ``inverse_dynamics``,
+        ``forward_dynamics``, ``regressor`` and ``inverse_dynamics_derivatives`` for every
+        robot, and ``mass_matrix``, ``coriolis``, ``gravity``, ``potential`` where the code is
+        structured (``structured_code``). Built once, on first use, straight from the robot: a
+        run that writes only code never derives the symbolic matrices."""
         if self._programs is None:
-            efforts = list(self.quantities["Y_g"])
-            generalized = self.generalized_program if self.structured_code else None
-            self._programs = build_programs(self.robot, self.symbols, efforts, generalized, self.report)
-            from .mechanics.linearization import inverse_dynamics_derivatives_program
-
-            self.report("program: derivatives of inverse dynamics (linearization)")
-            self._programs["inverse_dynamics_derivatives"] = inverse_dynamics_derivatives_program(
-                self.robot, self.symbols)
+            generalized = (lambda: self.generalized_program) if self.structured_code else None
+            self._programs = build_programs(self.robot, self.symbols, generalized, self.report)
         return self._programs
 
     @property
@@ -445,18 +432,13 @@ class Derivation:
         over the robot's parameters), in the order of ``programs["regressor"]``'s columns."""
         from .mechanics.regressor import parameter_vector
 
-        if self.robot.floating:   # per link, then each scalar joint's drives (mechanics/floating_derivatives.py)
-            from .mechanics.floating_derivatives import floating_parameter_vector as parameter_vector
         return parameter_vector(self.robot, self.symbols)
 
     @property
     def joint_drives(self) -> list[Any]:
-        """The coordinates with drive terms (``mechanics.drives.JointDrive``), from the robot; a
-        floating-base robot's by velocity column (``floating_joint_drives``)."""
-        from .mechanics.drives import floating_joint_drives, joint_drives
+        """The velocity columns with drive terms (``mechanics.drives.JointDrive``), from the robot."""
+        from .mechanics.drives import joint_drives
 
-        if self.robot.floating:
-            return floating_joint_drives(self.robot, self.symbols)
         return joint_drives(self.robot, self.symbols)
 
     @property

@@ -56,7 +56,9 @@ def dissipative_force(damping: sympy.Expr, friction: sympy.Expr, rate: sympy.Exp
 
 
 def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
-    """The coordinates whose joints declare drive terms, each with its terms (absent ones 0).
+    """The velocity columns whose joints declare drive terms, each with its terms (absent ones
+    0); ``coordinate`` is the leader's column in ``qd`` (its coordinate's index for a robot
+    without quaternions; floating and spherical joints take no drive term).
 
     A ``<mimic>`` joint's terms act on its leader's coordinate: with its rate ``m qd`` (``m``
     the multiplier) its damper gives the generalized force ``m (b m qd)``, its friction
@@ -64,13 +66,6 @@ def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
     ``k (m q + o - rest)^2 / 2 = m^2 k (q - (rest - o)/m)^2 / 2``: so the coordinate's terms
     are ``b + m^2 b_f``, ``fc + |m| fc_f``, ``Ia + m^2 Ia_f`` and (one spring per coordinate,
     the validator's rule) ``m^2 k_f`` about ``(rest_f - o)/m``."""
-    return _drives(robot, table, {name: i for i, name in enumerate(robot.coordinates)})
-
-
-def floating_joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
-    """A floating-base robot's drives (DESIGN.md section 10): its scalar joints' terms, each
-    ``coordinate`` being the leader's column in the velocity ``qd`` (NV entries; a follower's
-    terms mapped onto it as in ``joint_drives``; floating and spherical joints take no drive term)."""
     where_v = robot.offsets()[1]
     return _drives(robot, table, {j.name: where_v[j.name] for j in robot.joints if j.owns and not j.multi})
 
@@ -107,4 +102,7 @@ def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
     return DriveTerms(drives, kinetic, potential, dissipation, forces, armature)
 
 
-__all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "floating_joint_drives", "joint_drives"]
+__all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "joint_drives"]
+
+#: compatibility name for ``floating_sheet.py`` (remove at merge): every robot's drives are by velocity column
+floating_joint_drives = joint_drives

@@ -20,7 +20,7 @@ at ``qdd = 0``.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import sympy
 
@@ -28,9 +28,10 @@ from ..model.robot import Frame, Robot
 from ..model.symbols import SymbolTable
 from .joints import couplings, unit
 from .program import Program, Vector, _add, _cross, _rotate
-from .recursive import _carry, _forward, _start, _Tree
+from .recursive import _carry, _forward
 from .spatial import Transform, axis_angle, rpy_matrix
 from .tidy import tidy
+from .tree import Tree
 
 #: What the symbolic quantities of a frame are, for the sheet, the terminal and JSON consumers.
 FRAME_DESCRIPTIONS = {
@@ -130,11 +131,11 @@ def _spatial_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy
     return pose.R, pose.p, angular
 
 
-@dataclass
-class FramePrograms:
+class FramePrograms(NamedTuple):
     """Straight-line programs of one frame: ``transform`` (homogeneous matrix, row by row:
-    4 x 4, planar 3 x 3), ``jacobian`` (6 x n, planar 3 x n, row by row) and
-    ``jacobian_dot_qd`` (6, planar 3)."""
+    4 x 4, planar 3 x 3), ``jacobian`` (6 x NV, planar 3 x n, row by row) and
+    ``jacobian_dot_qd`` (6, planar 3); a tuple ``(name, transform, jacobian,
+    jacobian_dot_qd)`` as well."""
 
     name: str
     transform: Program
@@ -144,13 +145,16 @@ class FramePrograms:
 
 def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
     """The programs of every frame, in the file's order; one program shared by all, so the
-    links' world poses are computed once per robot."""
+    links' world poses are computed once per robot. ``Jdot qd`` is the forward derivative of
+    the Jacobian along the motion (each configuration entry's rate: ``qd_k`` for a scalar
+    joint, a quaternion's from ``Tree.tangent_seeds``) times ``qd``."""
     if not robot.frames:
         return []
-    program, tree = _start(robot, table)
+    tree = Tree(robot, table)
+    program = tree.program
     poses = _world_poses(tree)
-    n = len(table.q)
-    trig = {expr: name for name, expr in tree.trig()}
+    n = tree.size
+    trig = {expr: name for name, expr in tree.trig}
     built = []
     for frame in robot.frames:
         rotation, position = _frame_pose(tree, poses, frame)
@@ -164,8 +168,12 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
             transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2], 0, 0, 0, 1]
             rows = [[columns[j][part][axis] for j in range(n)] for part in range(2) for axis in range(3)]
         built.append((frame.name, transform, [[program.let(e) for e in row] for row in rows]))
-    # d/dt along qd, one forward pass for every frame: each line's tangent with q_k's tangent qd_k
-    tangent: dict[sympy.Symbol, sympy.Expr] = dict(zip(table.q, table.qd))
+    # d/dt along the motion, one forward pass for every frame: each line's tangent
+    tangent: dict[sympy.Symbol, sympy.Expr] = {}
+    for seed, rate in zip(tree.tangent_seeds(), table.qd):
+        for symbol, value in seed.items():
+            tangent[symbol] = tangent.get(symbol, 0) + (rate if value is sympy.S.One else program.let(value * rate))
+    tangent = {s: program.let(t) for s, t in tangent.items()}
     _carry(program, tangent, trig, [(name, expr, expr.free_symbols) for name, expr in program.lines])
     results = []
     for name, transform, jacobian in built:
@@ -183,7 +191,7 @@ def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
 Pose = tuple[tuple[Vector, Vector, Vector], Vector]
 
 
-def _world_poses(tree: _Tree) -> dict[str, Pose]:
+def _world_poses(tree: Tree) -> dict[str, Pose]:
     """Each link frame's world rotation and origin, carried from parent to child."""
     let = tree.program.let
     one, zero = sympy.Integer(1), sympy.Integer(0)
@@ -198,7 +206,7 @@ def _world_poses(tree: _Tree) -> dict[str, Pose]:
     return poses
 
 
-def _frame_pose(tree: _Tree, poses: dict[str, Pose], frame: Frame) -> Pose:
+def _frame_pose(tree: Tree, poses: dict[str, Pose], frame: Frame) -> Pose:
     let, expr = tree.program.let, tree.table.expr
     zero = sympy.Integer(0)
     if tree.robot.planar:
@@ -214,28 +222,30 @@ def _frame_pose(tree: _Tree, poses: dict[str, Pose], frame: Frame) -> Pose:
     return R, p   # type: ignore[return-value]
 
 
-def _jacobian_columns(tree: _Tree, poses: dict[str, Pose], link: str,
+def _jacobian_columns(tree: Tree, poses: dict[str, Pose], link: str,
                       position: Vector) -> list[tuple[Vector, Vector]]:
     """``(linear, angular)`` world-axes columns of a point fixed on ``link`` at world
-    ``position``: a revolute joint gives ``(z x (p - o), z)``, a prismatic one ``(z, 0)``,
-    with ``z`` its axis and ``o`` its origin in the world; joints off the path give zeros."""
+    ``position``: a joint column ``(s_w, s_v)`` gives ``(R s_v + w x (p - o), w = R s_w)``
+    (a revolute joint ``(z x (p - o), z)``, a prismatic one ``(z, 0)``), with ``R``, ``o``
+    its link's world pose; joints off the path give zeros."""
     let = tree.program.let
     zero = sympy.Integer(0)
-    columns: list[tuple[Vector, Vector]] = [((zero,) * 3, (zero,) * 3)] * len(tree.table.q)   # type: ignore[list-item]
+    columns: list[tuple[Vector, Vector]] = [((zero,) * 3, (zero,) * 3)] * tree.size   # type: ignore[list-item]
     path = {j.name for j in tree.robot.path_to(link)}
     added: set[int] = set()
     for body in tree.bodies:
-        if body.coordinate is None or body.joint.name not in path:
+        if not body.columns or body.joint.name not in path:
             continue
         R, origin = poses[body.link]
-        axis = tuple(let(e) for e in _rotate(R, body.axis))
-        if body.revolute:
-            lever = tuple(let(a - b) for a, b in zip(position, origin))
-            column = (tuple(let(e) for e in _cross(axis, lever)), axis)
-        else:
-            column = (axis, (zero,) * 3)
-        if body.coordinate in added:   # a <mimic> joint on the path of its leader: the sum
-            column = tuple(tuple(let(a + b) for a, b in zip(*pair)) for pair in zip(columns[body.coordinate], column))
-        added.add(body.coordinate)
-        columns[body.coordinate] = column   # type: ignore[assignment]
+        lever = None
+        for j, sw, sv in body.columns:
+            w = tuple(let(e) for e in _rotate(R, sw))
+            if any(e != 0 for e in w) and lever is None:
+                lever = tuple(let(a - b) for a, b in zip(position, origin))
+            v = _rotate(R, sv) if lever is None else _add(_rotate(R, sv), _cross(w, lever))
+            column = (tuple(let(e) for e in v), w)
+            if j in added:   # a <mimic> joint on the path of its leader: the sum
+                column = tuple(tuple(let(a + b) for a, b in zip(*pair)) for pair in zip(columns[j], column))
+            added.add(j)
+            columns[j] = column   # type: ignore[assignment]
     return columns

@@ -21,23 +21,30 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .exact_fast import jacobian, matmul
 from .program import Program
-from .recursive import _carry, _forward, _gravity, _newton_euler, _start
+from .recursive import _carry, _forward, _newton_euler
 from .tidy import tidy
+from .tree import Tree
 
 
-def inverse_dynamics_derivatives_program(robot: Robot, table: SymbolTable) -> Program:
+def inverse_dynamics_derivatives_program(robot: Robot, table: SymbolTable, tree: Tree | None = None) -> Program:
     """``dtau/dq`` then ``dtau/dqd`` (each n x n, row i = tau_i, column k = the variable),
     row by row, of ``tau = M qdd + C qd + N`` (armature and springs included; damping and
-    friction are added by the module)."""
-    program, tree = _start(robot, table)
-    tau = _newton_euler(tree, table.qd, table.qdd, _gravity(robot, table))
-    trig = {expr: name for name, expr in tree.trig()}
+    friction are added by the module). ``dtau/dq`` is along each velocity column's tangent of
+    the configuration (``Tree.tangent_seeds``: ``q_k`` itself for a scalar joint, the tangent
+    of ``integrate(q, e_k h)`` for a quaternion's, Pinocchio's convention in
+    ``computeABADerivatives``)."""
+    tree = tree or Tree(robot, table)
+    program = tree.program
+    tau = _newton_euler(tree, table.qd, table.qdd)
+    trig = {expr: name for name, expr in tree.trig}
     lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
-    n = len(table.q)
+    n = tree.size
+    seeds = tree.tangent_seeds() + [{rate: sympy.Integer(1)} for rate in table.qd]
     by_variable: list[list[sympy.Expr]] = []
-    for variable in [*table.q, *table.qd]:
-        tangent: dict[sympy.Symbol, sympy.Expr] = {variable: sympy.Integer(1)}
-        _carry(program, tangent, trig, lines)
+    partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr] = {}
+    for seed in seeds:
+        tangent = dict(seed)
+        _carry(program, tangent, trig, lines, partials)
         by_variable.append([program.let(_forward(t, tangent, trig)) for t in tau])
     # row by row: d tau_i / d q_k, then d tau_i / d qd_k
     outputs = [by_variable[k][i] for i in range(n) for k in range(n)]

@@ -23,7 +23,8 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .program import Program
-from .recursive import _composite_mass_matrix, _gravity, _newton_euler, _start
+from .recursive import _composite_mass_matrix, _newton_euler
+from .tree import Tree, gravity
 
 #: The quantities a line may mean (``Meaning.quantity``), each of link i unless said, in link
 #: i's axes; λ(i) is i's parent.
@@ -67,9 +68,9 @@ class Recursion:
 
 def newton_euler_recursion(robot: Robot, table: SymbolTable) -> Recursion:
     """Newton-Euler (symbolic q, qd, qdd) and CRBA over one labelled program (module doc)."""
-    program, tree = _start(robot, table)
-    trig = tree.trig()
-    tau = _newton_euler(tree, table.qd, table.qdd, _gravity(robot, table))
+    tree = Tree(robot, table)
+    program, trig = tree.program, tree.trig
+    tau = _newton_euler(tree, table.qd, table.qdd, gravity(robot, table))
     mass_matrix = _composite_mass_matrix(tree)
     return Recursion(program, trig, tau, mass_matrix, {b.link: b.parent for b in tree.bodies},
                      [b.link for b in tree.bodies])

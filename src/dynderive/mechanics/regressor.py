@@ -32,7 +32,13 @@ Conventions (README "Identification"):
   zero, and a planar file does not define their values);
 * then the joints' declared drive terms, per coordinate: viscous damping ``b`` (column
   ``qd_i``), Coulomb friction ``fc`` (``sign(qd_i)``), armature ``Ia`` (``qdd_i``) and a
-  spring's stiffness ``k`` (``q_i - rest_i``, the rest position taken as known geometry).
+  spring's stiffness ``k`` (``q_i - rest_i``, the rest position taken as known geometry);
+  a floating or spherical joint takes none. A ``<mimic>`` follower has no parameter of its
+  own: its terms are folded into its leader's coordinate (``drives.joint_drives``: ``b +
+  m^2 b_f``, ``fc + |m| fc_f``, ``Ia + m^2 Ia_f``), as Pinocchio keeps ``damping``,
+  ``friction`` and ``armature`` per velocity entry, and as identification needs: the
+  follower's column would be ``m^2`` times its leader's, so the two are never identifiable
+  apart. Every robot class (fixed or floating base, spherical joints) follows these rules.
 """
 
 from __future__ import annotations
@@ -45,8 +51,9 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import joint_drives
 from .program import Program, Vector, _dot, add_column
-from .recursive import _advance, _gravity, _start, body_force
+from .recursive import _advance, body_force
 from .spatial import inertia_tensor
+from .tree import ZERO, Tree, gravity
 
 #: Pinocchio's order of a link's standard parameters (``Inertia.toDynamicParameters``).
 SPATIAL_KINDS = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
@@ -95,7 +102,7 @@ def parameter_vector(robot: Robot, table: SymbolTable) -> list[Parameter]:
 def _drive_parameters(robot: Robot, table: SymbolTable) -> list[Parameter]:
     entries = []
     for drive in joint_drives(robot, table):
-        joint = robot.coordinates[drive.coordinate]
+        joint = _leader_name(robot, drive.coordinate)
         for kind in DRIVE_KINDS:
             value = getattr(drive, kind)
             if value != 0:
@@ -121,27 +128,26 @@ def _unit_parameters(kind: str) -> tuple[sympy.Expr, Vector, tuple[Vector, Vecto
     return mass, h, tuple(tuple(row) for row in inertia)  # type: ignore[return-value]
 
 
-def regressor_program(robot: Robot, table: SymbolTable) -> Program:
-    """``Y(q, qd, qdd)``, outputs row by row (``n`` rows of ``len(parameter_vector)``)."""
-    program, tree = _start(robot, table)
-    vec = program.vector
-    n = len(table.q)
+def regressor_program(robot: Robot, table: SymbolTable, tree: Tree | None = None) -> Program:
+    """``Y(q, qd, qdd)``, outputs row by row (NV rows of ``len(parameter_vector)``)."""
+    tree = tree or Tree(robot, table)
+    program, vec, n = tree.program, tree.program.vector, tree.size
     parameters = parameter_vector(robot, table)
     column = {p.name: i for i, p in enumerate(parameters)}
-    Y: list[list[sympy.Expr]] = [[sympy.Integer(0)] * len(parameters) for _ in range(n)]
-    zero = (sympy.Integer(0),) * 3
-    motion = {"world": (zero, zero, zero, vec([-g for g in _gravity(robot, table)]))}
+    Y: list[list[sympy.Expr]] = [[ZERO] * len(parameters) for _ in range(n)]
+    zero = (ZERO,) * 3
+    motion = {"world": (zero, zero, zero, vec([-g for g in gravity(robot, table)]))}
     axes: dict[str, dict[int, tuple[Vector, Vector]]] = {"world": {}}
     for body in tree.bodies:
         motion[body.link] = _advance(tree, body, motion[body.parent], table.qd, table.qdd)
         if body.link in tree.static:       # no joint moves it: zero columns
             axes[body.link] = {}
             continue
-        # the axes of the joints above, as motion vectors in this link's frame
+        # the columns of the joints above, as motion vectors in this link's frame; a <mimic>
+        # joint's joins its leader's (G^T Y_joints)
         own = {j: tree.motion_from_parent(body, w, v) for j, (w, v) in axes[body.parent].items()}
-        if body.coordinate is not None:
-            own[body.coordinate] = add_column(vec, own.get(body.coordinate),
-                                              (body.axis, zero) if body.revolute else (zero, body.axis))
+        for j, sw, sv in body.columns:
+            own[j] = add_column(vec, own.get(j), (sw, sv))
         axes[body.link] = own
         w, v, alpha, acc = motion[body.link]
         for kind in (PLANAR_KINDS if robot.planar else SPATIAL_KINDS):
@@ -152,15 +158,21 @@ def regressor_program(robot: Robot, table: SymbolTable) -> Program:
     signs = sign_symbols(n)
     rates = {"damping": table.qd, "friction": signs, "armature": table.qdd}
     for drive in joint_drives(robot, table):
-        i, joint = drive.coordinate, robot.coordinates[drive.coordinate]
+        i, joint = drive.coordinate, _leader_name(robot, drive.coordinate)
         for kind in DRIVE_KINDS:
             if f"{kind}_{joint}" in column:
-                value = table.q[i] - drive.rest if kind == "stiffness" else rates[kind][i]
+                value = tree.coordinate[i] - drive.rest if kind == "stiffness" else rates[kind][i]
                 Y[i][column[f"{kind}_{joint}"]] = program.let(value)
     program.outputs = [e for row in Y for e in row]
     if any(p.kind == "friction" for p in parameters):
         program.extra_inputs = signs
     return program
+
+
+def _leader_name(robot: Robot, column: int) -> str:
+    """The joint owning velocity column ``column`` (a scalar joint: its coordinate's name)."""
+    where_v = robot.offsets()[1]
+    return next(name for name, start in where_v.items() if start == column)
 
 
 __all__ = ["DRIVE_KINDS", "PLANAR_KINDS", "SPATIAL_KINDS", "Parameter", "parameter_vector", "regressor_program",

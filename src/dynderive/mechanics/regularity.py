@@ -28,14 +28,7 @@ RELATIVE_TOLERANCE = 1e-10
 def numeric_mass_matrix(robot: Robot, table: SymbolTable, q: list[float],
                         parameters: dict[sympy.Symbol, float]) -> np.ndarray:
     """``M(q)`` at numbers, line by line through the CRBA program (no large expression)."""
-    if robot.floating:   # NV x NV, by the free-flyer CRBA
-        from .floating import FloatingTree, mass_matrix
-
-        tree = FloatingTree(robot, table)
-        tree.program.outputs = [e for row in mass_matrix(tree) for e in row]
-        program = tree.program
-    else:
-        program = mass_matrix_program(robot, table)
+    program = mass_matrix_program(robot, table)   # NV x NV
     values: dict[sympy.Basic, sympy.Basic] = {s: sympy.Float(v) for s, v in parameters.items()}
     values |= {s: sympy.Float(v) for s, v in zip(table.q, q)}
     for target, expr in program.lines:
@@ -90,7 +83,7 @@ def _floating_neutral(robot: Robot, table: SymbolTable, q: list[float]) -> tuple
     """``q`` with each floating joint's seven entries at (0, 0, 0, 0, 0, 0, 1) and each
     spherical joint's four at (0, 0, 0, 1), and the joint of each velocity column (a floating
     joint owns six, a spherical joint three)."""
-    from .floating import offsets
+    from .tree import offsets
 
     where = offsets(robot)
     columns: list[str] = []

@@ -8,7 +8,7 @@ joints take ``base.py``'s defaults; the quaternion joints override them (``quate
 Not types of their own: a URDF ``<mimic>`` joint is its scalar type coupled to its leader's
 coordinate (``joints.Coupling``: no entries in ``q`` or ``v``, its column its leader's times
 the multiplier), and a planar robot's ``floating`` joint is three scalar joints once loaded
-(``input/floating.py``, ``expand_planar_floating``).
+(``input/free_joints.py``, ``expand_planar_floating``).
 
 >>> joint_type("floating").nq, joint_type("floating").nv
 (7, 6)
@@ -28,7 +28,7 @@ from ...model.robot import Joint, Robot
 from ..program import Program
 from .base import JointType
 from .fixed import Fixed
-from .floating import Floating
+from .free_flyer import Floating
 from .prismatic import Prismatic
 from .revolute import Revolute
 from .spherical import Spherical

@@ -95,7 +95,7 @@ class JointType:
     def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
         """Per velocity entry ``k``, the tangent of the configuration along it, ``d/dh
         integrate(q, e_k h)`` at h = 0, by entry of ``q`` (the derivatives of
-        ``floating_derivatives.py`` start from it): ``q_k = 1`` for a vector-space joint. It
+        ``linearization.py`` and ``frames.py`` start from it): ``q_k = 1`` for a vector-space joint. It
         is the rate's derivative by ``v_k`` (``tests/test_joint_types.py``)."""
         return [{q[k]: ONE} for k in range(self.nv)]
 

@@ -8,7 +8,7 @@ normalized and kept in the hemisphere of q's, as Pinocchio's SE(3)), ``differenc
 logarithm of ``M0^-1 M1``, the rate ``(R(q) v_linear, 1/2 q * (w, 0))``.
 
 A planar robot's ``floating`` joint (x, y, theta) is not this type: the loader expands it
-into a prismatic, a prismatic and a revolute joint (``input/floating.py``,
+into a prismatic, a prismatic and a revolute joint (``input/free_joints.py``,
 ``expand_planar_floating``), vector-space joints, before any mechanics runs.
 """
 

@@ -1,0 +1,241 @@
+"""The one tree the recursive algorithms run on (``recursive.py``, ``regressor.py``,
+``frames.py``, ``coriolis.py``), for every robot class: fixed or floating base, revolute,
+prismatic, fixed, spherical and floating joints, ``<mimic>`` followers, planar robots.
+
+Each link is a ``Body``: its parent joint's transform (``rotation``, ``position``: the joint's
+``origin`` then its motion) and the joint's motion ``columns`` ``(index of qd, angular part,
+linear part)`` in the link frame, from the joint type (``joint_types``). A scalar joint has one
+column, a spherical joint three, a floating joint six (the link's local twist, Pinocchio's
+``JointModelFreeFlyer``). A ``<mimic>`` joint has no entry of its own: its variable is
+``multiplier * q_leader + offset``, its column its leader's with the axis times the multiplier,
+and what several joints put on one column sums (``M = G^T M_joints G``, ``tau = G^T tau_joints``).
+A planar robot is a 3-D one moving in the plane z = 0 (rotations about z only).
+
+Conventions: link frames as in the robot file (the joint frame after its motion); spatial
+vectors as pairs of 3-vectors, motion ``(omega, v)`` with ``v`` the velocity of the body point
+at the frame origin, force ``(n, f)`` with the moment about that origin. Each line records what
+it means (``program.Meaning``, keys in ``recursion.MEANINGS``) where it is built, for the sheet
+of a large robot.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy
+
+from ..errors import InputError, Problem
+from ..model.robot import Joint, Robot
+from ..model.symbols import SymbolTable
+from . import joint_types
+from .drives import JointDrive, joint_drives
+from .joint_types.quaternion import quaternion_matrix as quaternion_matrix  # noqa: F401  (re-exported)
+from .joints import unit
+from .program import Matrix3, Meaning, Program, Vector, _add, _cross, _rotate, _rotate_back
+from .spatial import inertia_tensor, rpy_matrix
+
+ZERO = sympy.Integer(0)
+Column = tuple[int, Vector, Vector]
+
+
+@dataclass
+class Body:
+    """One link as the algorithms see it: its parent joint's transform and motion columns."""
+
+    link: str
+    parent: str
+    joint: Joint
+    columns: list[Column]        # (index of qd, angular, linear), link frame; none for a fixed joint
+    rotation: Matrix3            # link axes in the parent frame (R), with the joint's motion
+    position: Vector             # link origin in the parent frame
+    mass: sympy.Expr
+    first_moment: Vector         # h = m c, link frame
+    inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
+    #: a revolute joint's cosine and sine names and angle (a <mimic> joint: multiplier * q + offset)
+    trig: tuple[sympy.Symbol, sympy.Symbol, sympy.Expr] | None = None
+
+    @property
+    def leads(self) -> bool:
+        """Whether the joint owns its entries (drive terms, merged per column, enter there)."""
+        return bool(self.columns) and self.joint.mimic is None
+
+    @property
+    def turns(self) -> bool:
+        """Whether some column rotates the link (a revolute, spherical or floating joint)."""
+        return any(any(x != 0 for x in w) for _, w, _ in self.columns)
+
+    @property
+    def slides(self) -> bool:
+        """Whether some column translates the link (a prismatic or floating joint)."""
+        return any(any(x != 0 for x in v) for _, _, v in self.columns)
+
+
+@dataclass(frozen=True)
+class Offsets:
+    """Where each moving joint's entries start in ``q`` and in ``qd`` (by joint name)."""
+
+    q: dict[str, int]
+    v: dict[str, int]
+
+
+def offsets(robot: Robot) -> Offsets:
+    return Offsets(*robot.offsets())
+
+
+def not_built(robot: Robot, what: str) -> InputError:
+    """The error for a part of the derivation not built for robots with a quaternion in their
+    configuration (exit 2), at the first such joint."""
+    joint = next(j for j in robot.joints if j.multi)
+    line, column = robot.positions.get(f"joint:{joint.name}", (1, 1))
+    return InputError(Problem(robot.source, line, column, f"{what}: not built yet for floating-base robots "
+                              f"(joint '{joint.name}' is {joint.type})"))
+
+
+def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
+    """``Y``: each effort symbol at its column of ``qd``, zero elsewhere (an actuated floating
+    joint's six, the wrench on its child in its frame; a spherical joint's three)."""
+    Y: list[sympy.Expr] = [ZERO] * robot.velocity_count
+    for name, column in zip(robot.efforts, robot.effort_columns()):
+        Y[column] = table.efforts[name]
+    return Y
+
+
+def gravity(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
+    """The world's gravity as a 3-vector (a planar robot's with z = 0)."""
+    return [table.expr(e) for e in robot.gravity] + ([ZERO] if robot.planar else [])
+
+
+class Tree:
+    """The robot's links in an order where parents come first, with their transforms, in a
+    program of their own lines (sines and cosines first)."""
+
+    def __init__(self, robot: Robot, table: SymbolTable):
+        self.robot, self.table, self.program = robot, table, Program()
+        self.offsets = offsets(robot)
+        self.size = robot.velocity_count
+        depth = {link.name: len(robot.path_to(link.name)) for link in robot.links}
+        order = sorted(robot.links, key=lambda link: depth[link.name])  # stable: file order per depth
+        self.bodies: list[Body] = []
+        for link in order:
+            self.bodies.append(self._body(link, robot.parent_joint(link.name)))
+        self.by_link = {b.link: b for b in self.bodies}
+        #: drive terms by column: armature joins M[i, i] (CRBA) and Ia qdd_i the joint force
+        #: (Newton-Euler), springs k (q_i - rest) the joint force
+        self.drives: dict[int, JointDrive] = {d.coordinate: d for d in joint_drives(robot, table)}
+        #: each scalar column's coordinate in q (its leader's)
+        self.coordinate = {self.offsets.v[j.name]: table.q[self.offsets.q[j.name]]
+                           for j in robot.joints if j.owns and not j.multi}
+        #: links welded to the world (no moving joint above them): they carry no dynamics
+        self.static = {"world"} | {link.name for link in robot.links
+                                   if not any(j.moves for j in robot.path_to(link.name))}
+        self.trig = [line for b in self.bodies if b.trig is not None
+                     for line in ((b.trig[0], sympy.cos(b.trig[2])), (b.trig[1], sympy.sin(b.trig[2])))]
+        # the bodies' constant lines were recorded while building the tree; sines and cosines
+        # are inputs to them only through the rotation entries, which come later in the list
+        self.program.lines[0:0] = self.trig
+
+    def copy(self) -> Tree:
+        """The same links, with a program of the links' lines only: each program of the module
+        starts from it (building the links once, not once per program; the same lines)."""
+        other = object.__new__(Tree)
+        other.__dict__.update(self.__dict__)
+        p = self.program
+        other.program = Program(lines=list(p.lines), _count=p._count, _known=dict(p._known),
+                                labels=dict(p.labels), records=list(p.records))
+        return other
+
+    def _body(self, link, joint: Joint) -> Body:   # noqa: ANN001
+        expr, let, planar = self.table.expr, self.program.let, self.robot.planar
+        if planar:   # the plane z = 0 of a 3-D model: rotations about z only
+            x, y, yaw = (expr(e) for e in joint.origin)
+            z = roll = pitch = ZERO
+        else:
+            x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
+        origin = rpy_matrix(roll, pitch, yaw)
+        position = [x, y, z]
+        motion, kind = sympy.eye(3), joint_types.of(joint)
+        columns: list[Column] = []
+        trig = None
+        if joint.multi:   # floating, spherical: entries of their own (<mimic> couples scalar joints only)
+            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+            q = self.table.q[qi:qi + kind.nq]
+            shift = kind.displacement(origin, q, ())
+            position = position if shift is None else [p + d for p, d in zip(position, shift)]
+            motion = kind.rotation(q, ())
+            columns = [(vi + k, w, v) for k, (w, v) in enumerate(kind.columns(()))]
+        elif joint.moves:   # variable multiplier * q_leader + offset (1 and 0 for a leader), column the leader's
+            leader, multiplier, offset = self.robot.driver(joint)
+            coordinate = self.offsets.v[leader]
+            m = expr(multiplier)
+            q = m * self.table.q[self.offsets.q[leader]] + expr(offset)
+            if planar:   # the planar unit twist (vx, vy, omega) as a 3-D axis
+                vx, vy, w = kind.planar(ZERO, tuple(expr(e) for e in joint.axis)).twist  # type: ignore[arg-type]
+                axis = (ZERO, ZERO, w) if kind.turns else (vx, vy, ZERO)
+            else:
+                axis = unit(tuple(expr(e) for e in joint.axis))
+            if kind.turns and joint.mimic is None:
+                cos, sin = sympy.Symbol(f"_cos{coordinate}"), sympy.Symbol(f"_sin{coordinate}")
+                motion = kind.rotation([q], axis).subs({sympy.cos(q): cos, sympy.sin(q): sin})
+                trig = (cos, sin, q)
+            elif kind.turns:   # a <mimic> joint: the sine and cosine of its own variable
+                cos, sin = (sympy.Symbol(f"_{f}{coordinate}_{len(self.bodies)}") for f in ("cos", "sin"))
+                # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
+                turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
+                angle = sympy.Dummy("angle")
+                motion = kind.rotation([angle], about).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})
+                trig = (cos, sin, turn)
+            else:   # (origin axis) q
+                position = [p + d for p, d in zip(position, kind.displacement(origin, [q], axis))]
+            scaled = tuple(m * a for a in axis) if m != 1 else axis   # motion per unit rate of the leader
+            columns = [(coordinate, *kind.columns(scaled)[0])]
+        rotation = origin * motion
+        name = link.name
+        R = tuple(tuple(let(rotation[i, j], Meaning("R", name, (i, j))) for j in range(3)) for i in range(3))
+        mass = let(expr(link.mass), Meaning("m", name))
+        com = [expr(e) for e in link.com]
+        if planar:   # only the inertia about z enters planar motion
+            com.append(ZERO)
+            moments = (ZERO, ZERO, expr(link.inertia[0]), ZERO, ZERO, ZERO)
+        else:
+            moments = tuple(expr(e) for e in link.inertia)
+        about_com = inertia_tensor(moments)
+        square = sum(c * c for c in com)
+        inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]),
+                                  Meaning("I", name, (i, j))) for j in range(3)) for i in range(3))
+        return Body(link.name, joint.parent, joint, columns, R,  # type: ignore[arg-type]
+                    self.program.vector(position, Meaning("p", name)), mass,
+                    self.program.vector([mass * c for c in com], Meaning("h", name)), inertia, trig)
+
+    def force_to_parent(self, body: Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr],
+                        column: int = -1) -> tuple[Vector, Vector]:
+        """A force (moment about the link origin, force) in the parent's frame: the joint's
+        force (``f_up``, ``n_up``), or CRBA's ``column`` at the parent (``Fcol``, ``Ncol``)."""
+        let = self.program.vector
+        if column < 0:
+            force, moment = Meaning("f_up", body.link), Meaning("n_up", body.link)
+        else:
+            force, moment = Meaning("Fcol", body.parent, column=column), Meaning("Ncol", body.parent, column=column)
+        f_parent = let(_rotate(body.rotation, f), force)
+        n_parent = let(_add(_rotate(body.rotation, n), _cross(body.position, f_parent)), moment)
+        return n_parent, f_parent
+
+    def motion_from_parent(self, body: Body, w: Sequence[sympy.Expr], v: Sequence[sympy.Expr],
+                           meaning: tuple[str, str] | None = None) -> tuple[Vector, Vector]:
+        """A motion vector of the parent's frame seen in this link's frame (``meaning``: the
+        quantities of its angular and linear parts, ``MEANINGS``)."""
+        let = self.program.vector
+        angular, linear = (None, None) if meaning is None else (Meaning(meaning[0], body.link), Meaning(meaning[1], body.link))
+        return (let(_rotate_back(body.rotation, w), angular),
+                let(_rotate_back(body.rotation, _add(v, _cross(w, body.position))), linear))
+
+    def tangent_seeds(self) -> list[dict[sympy.Symbol, sympy.Expr]]:
+        """Per velocity column, the tangent of the configuration along it, its joint type's
+        ``tangent_seed``: ``q_i = 1`` for a scalar joint; for a floating or spherical joint,
+        that of ``integrate(q, e_k h)`` at h = 0 (lines of this tree's program)."""
+        seeds: list[dict[sympy.Symbol, sympy.Expr]] = [{} for _ in range(self.size)]
+        for joint in (j for j in self.robot.joints if j.owns):   # a <mimic> joint moves with its leader's
+            kind = joint_types.of(joint)
+            qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
+            seeds[vi:vi + kind.nv] = kind.tangent_seed(self.table.q[qi:qi + kind.nq], self.program.let)
+        return seeds
