@@ -123,7 +123,7 @@ def _random_rotation(rng) -> np.ndarray:
 
 def _near_gimbal_lock(rng) -> np.ndarray:
     """A rotation whose pitch is within 1e-17..1e-6 of +-pi/2 (or exactly +-pi/2 in floats)."""
-    from dynderive.input.urdf import rpy_matrix
+    from dynderive.input.urdf_values import rpy_matrix
 
     sign = rng.choice([-1.0, 1.0])
     pitch = sign * (np.pi / 2 - (10.0 ** rng.uniform(-17, -6) if rng.uniform() < 0.9 else 0.0))
@@ -135,7 +135,7 @@ def _near_gimbal_lock(rng) -> np.ndarray:
 def test_rpy_extraction_reproduces_the_matrix(kind):
     """``rpy_matrix(matrix_to_rpy(R))`` is ``R`` to 1e-15, also within 1e-11 of gimbal lock
     (the classic ``roll = atan2(r21, r22)`` loses ~5 digits there)."""
-    from dynderive.input.urdf import matrix_to_rpy, rpy_matrix
+    from dynderive.input.urdf_values import matrix_to_rpy, rpy_matrix
 
     rng = np.random.default_rng(11)
     make = _random_rotation if kind == "random" else _near_gimbal_lock
@@ -152,7 +152,7 @@ def test_rpy_extraction_reproduces_the_matrix(kind):
 def test_composed_quarter_turns_stay_exact():
     """Rotations of whole quarter turns compose to an exact matrix, written as exact angles;
     near-quarter composed angles are not snapped."""
-    from dynderive.input.urdf import Rotation, rpy_matrix
+    from dynderive.input.urdf_values import Rotation, rpy_matrix
 
     quarter = Rotation.from_rpy([0, 0, 1.57079632679])
     assert quarter.rpy() == [0, 0, "pi/2"]

@@ -8,8 +8,8 @@ coordinate of its own (not fixed, floating, spherical, nor itself a follower: so
 no cycle of followers); the multiplier is a finite non-zero number, the offset a finite
 number; a follower has no effort of its own (its drive acts on its leader's coordinate, through
 the multiplier); one spring per coordinate (on the leader or on one of its followers). Built
-on fixed-base 3-D robots and on the floating-base path (a floating or spherical joint:
-``mechanics/floating.py``). Not built yet (refused): followers in planar robots and in robots
+on fixed-base 3-D robots and on robots with floating or spherical joints (the one tree of
+``mechanics/tree.py``). Not built yet (refused): followers in planar robots and in robots
 with loops.
 """
 

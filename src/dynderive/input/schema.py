@@ -19,8 +19,8 @@ from ..model.naming import did_you_mean, maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
 from .drives import DRIVE_KEYS, drive_terms
-from .floating import check_floating, expand_planar_floating, planar_floating_names, virtual_links
 from .frames import read_frames
+from .free_joints import check_floating, expand_planar_floating, planar_floating_names, virtual_links
 from .loader import SourceDocument
 from .mimic import check_mimics, read_mimic
 from .names import check_names, engine_quantities

@@ -9,16 +9,15 @@ the bodies welded by fixed joints into the moving link they ride on (parallel-ax
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
 from . import inertia
 from .loader import SourceDocument
-
-if TYPE_CHECKING:
-    from .urdf import Rotation, _Element, _Reader
+from .urdf_values import Rotation, _Reader
+from .urdf_xml import _Element
 
 
 def finite(*arrays: Any) -> bool:
