@@ -77,12 +77,11 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
     ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` with ``k`` the deeper of the two joints'
     links and ``I^c``, ``B^c`` summed over the links below ``k`` (no frame changes)."""
     let, vec = tree.program.let, tree.program.vector
-    n = tree.robot.velocity_count
+    n = tree.size
     qd = tree.table.qd
     one = sympy.Integer(1)
-    identity: Matrix3 = ((one, _ZERO, _ZERO), (_ZERO, one, _ZERO), (_ZERO, _ZERO, one))
     zero: Vector = (_ZERO, _ZERO, _ZERO)
-    poses: dict[str, tuple[Matrix3, Vector]] = {"world": (identity, zero)}
+    poses = tree.world_poses()
     velocity: dict[str, Motion] = {"world": (zero, zero)}
     # (link, j): (link, S_j, v_j x S_j), world axes; keyed by link too, as a <mimic> joint shares
     # its leader's column j, and its entries join the leader's (C = G^T C_joints G)
@@ -91,10 +90,7 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
     B: dict[str, list[list[sympy.Expr]]] = {}
     units = [tuple(tuple(one if 3 * part + k == r else _ZERO for k in range(3)) for part in range(2)) for r in range(6)]
     for body in tree.bodies:   # parents first
-        R_p, p_p = poses[body.parent]
-        R = tuple(tuple(let(_dot(R_p[a], [body.rotation[k][b] for k in range(3)])) for b in range(3)) for a in range(3))
-        p = vec(_add(p_p, _rotate(R_p, body.position)))
-        poses[body.link] = (R, p)   # type: ignore[assignment]
+        R, p = poses[body.link]
         own = []
         for j, sw, sv in body.columns:
             w = vec(_rotate(R, sw))   # type: ignore[arg-type]

@@ -152,7 +152,7 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
         return []
     tree = Tree(robot, table)
     program = tree.program
-    poses = _world_poses(tree)
+    poses = tree.world_poses()
     n = tree.size
     trig = {expr: name for name, expr in tree.trig}
     built = []
@@ -189,21 +189,6 @@ def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
 
 
 Pose = tuple[tuple[Vector, Vector, Vector], Vector]
-
-
-def _world_poses(tree: Tree) -> dict[str, Pose]:
-    """Each link frame's world rotation and origin, carried from parent to child."""
-    let = tree.program.let
-    one, zero = sympy.Integer(1), sympy.Integer(0)
-    identity = ((one, zero, zero), (zero, one, zero), (zero, zero, one))
-    poses: dict[str, Pose] = {"world": (identity, (zero, zero, zero))}   # type: ignore[dict-item]
-    for body in tree.bodies:
-        R_parent, p_parent = poses[body.parent]
-        R = tuple(tuple(let(sum((R_parent[i][k] * body.rotation[k][j] for k in range(3)), zero)) for j in range(3))
-                  for i in range(3))
-        p = tuple(let(e) for e in _add(p_parent, _rotate(R_parent, body.position)))
-        poses[body.link] = (R, p)   # type: ignore[assignment]
-    return poses
 
 
 def _frame_pose(tree: Tree, poses: dict[str, Pose], frame: Frame) -> Pose:

@@ -24,7 +24,7 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .program import Program
 from .recursive import _composite_mass_matrix, _newton_euler
-from .tree import Tree, gravity
+from .tree import Tree
 
 #: The quantities a line may mean (``Meaning.quantity``), each of link i unless said, in link
 #: i's axes; λ(i) is i's parent.
@@ -70,7 +70,7 @@ def newton_euler_recursion(robot: Robot, table: SymbolTable) -> Recursion:
     """Newton-Euler (symbolic q, qd, qdd) and CRBA over one labelled program (module doc)."""
     tree = Tree(robot, table)
     program, trig = tree.program, tree.trig
-    tau = _newton_euler(tree, table.qd, table.qdd, gravity(robot, table))
+    tau = _newton_euler(tree, table.qd, table.qdd)
     mass_matrix = _composite_mass_matrix(tree)
     return Recursion(program, trig, tau, mass_matrix, {b.link: b.parent for b in tree.bodies},
                      [b.link for b in tree.bodies])

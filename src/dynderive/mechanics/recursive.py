@@ -46,8 +46,6 @@ from .program import (
 )
 from .tree import ZERO, Body, Tree, gravity
 
-_gravity = gravity   # the name the sheet's recursion and older callers read
-
 
 def _start(robot: Robot, table: SymbolTable) -> tuple[Program, Tree]:
     tree = Tree(robot, table)
@@ -172,24 +170,10 @@ def body_force(vec: Callable[..., Vector], m: sympy.Expr, h: Sequence[sympy.Expr
     return named(n, "N"), named(f, "F")
 
 
-def motions(tree: Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr],
-            lift: Sequence[sympy.Expr] | None = None) -> dict[str, tuple[Vector, Vector, Vector, Vector]]:
-    """Newton-Euler's outward pass: each link's ``(w, v, alpha, a)`` in its own frame, by link
-    name (gravity as an upward acceleration of the world, unless ``lift`` says otherwise)."""
-    zero = (ZERO,) * 3
-    if lift is None:
-        lift = tree.program.vector([-g for g in gravity(tree.robot, tree.table)])
-    motion = {"world": (zero, zero, zero, tuple(lift))}   # (w, v, alpha, a)
-    for body in tree.bodies:
-        motion[body.link] = _advance(tree, body, motion[body.parent], qd, qdd)   # type: ignore[arg-type]
-    return motion   # type: ignore[return-value]
-
-
-def _newton_euler(tree: Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr],
-                  gravity_: Sequence[sympy.Expr] | None = None) -> list[sympy.Expr]:
+def _newton_euler(tree: Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr]) -> list[sympy.Expr]:
     """RNEA: the generalized forces M qdd + C qd + N (gravity as an upward base acceleration)."""
     vec = tree.program.vector
-    lift = vec([-g for g in (gravity_ if gravity_ is not None else gravity(tree.robot, tree.table))])
+    lift = vec([-g for g in gravity(tree.robot, tree.table)])
     zero = (ZERO,) * 3
     motion = {"world": (zero, zero, zero, lift)}
     forces = {}
@@ -419,8 +403,7 @@ def _potential(tree: Tree) -> sympy.Expr:
     carried into each link frame (``g_i = R^T g_parent``) and ``s_i = g.p_i`` (link origin)
     accumulated along the tree, plus the joints' springs ``k (q - rest)**2 / 2``."""
     let, vec = tree.program.let, tree.program.vector
-    gravity = _gravity(tree.robot, tree.table)
-    frames: dict[str, tuple[Vector, sympy.Expr]] = {"world": (vec(gravity), sympy.Integer(0))}
+    frames: dict[str, tuple[Vector, sympy.Expr]] = {"world": (vec(gravity(tree.robot, tree.table)), ZERO)}
     total = sympy.Integer(0)
     for body in tree.bodies:
         g_parent, s_parent = frames[body.parent]
@@ -474,7 +457,7 @@ class GeneralizedProgram:
         self.coriolis, self.mass_matrix_derivatives, self._passes = _coriolis(tree, self.mass_matrix)
         report("program: gravity vector and potential energy")
         zeros = [sympy.Integer(0)] * n
-        self.gravity = _newton_euler(tree, zeros, zeros, _gravity(robot, table))
+        self.gravity = _newton_euler(tree, zeros, zeros)
         self.potential = _potential(tree)
         self.trig = tree.trig
         self._jacobians: dict[str, sympy.Matrix] | None = None

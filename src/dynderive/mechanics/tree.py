@@ -229,6 +229,21 @@ class Tree:
         return (let(_rotate_back(body.rotation, w), angular),
                 let(_rotate_back(body.rotation, _add(v, _cross(w, body.position))), linear))
 
+    def world_poses(self) -> dict[str, tuple[Matrix3, Vector]]:
+        """Each link frame's world rotation and origin, carried from parent to child (lines of
+        this tree's program)."""
+        let = self.program.let
+        one = sympy.Integer(1)
+        identity = ((one, ZERO, ZERO), (ZERO, one, ZERO), (ZERO, ZERO, one))
+        poses: dict[str, tuple[Matrix3, Vector]] = {"world": (identity, (ZERO, ZERO, ZERO))}  # type: ignore[dict-item]
+        for body in self.bodies:
+            R_parent, p_parent = poses[body.parent]
+            R = tuple(tuple(let(sum((R_parent[i][k] * body.rotation[k][j] for k in range(3)), ZERO)) for j in range(3))
+                      for i in range(3))
+            p = tuple(let(e) for e in _add(p_parent, _rotate(R_parent, body.position)))
+            poses[body.link] = (R, p)   # type: ignore[assignment]
+        return poses
+
     def tangent_seeds(self) -> list[dict[sympy.Symbol, sympy.Expr]]:
         """Per velocity column, the tangent of the configuration along it, its joint type's
         ``tangent_seed``: ``q_i = 1`` for a scalar joint; for a floating or spherical joint,
