@@ -124,14 +124,14 @@ int rp_arm_forward_dynamics(const double *q, const double *qd, const double *u, 
     const double t16 = t7 + t15;
     const double t17 = u[0] - t16;
     const double t18 = u[1] - t13;
-    const double t19 = 1/t4;
-    const double t20 = 1/P->m;
-    const double t21 = t18*t20;
-    const double t22 = t17*t19;
-    if (!(t4 > 0.0)) return 1;
+    const double t19 = 1/P->m;
+    const double t20 = 1/t4;
+    const double t21 = t17*t20;
+    const double t22 = t18*t19;
     if (!(P->m > 0.0)) return 1;
-    qdd[0] = t22;
-    qdd[1] = t21;
+    if (!(t4 > 0.0)) return 1;
+    qdd[0] = t21;
+    qdd[1] = t22;
     return 0;
 }
 
@@ -225,8 +225,8 @@ int rp_arm_linearize(const double *q, const double *qd, const double *u, const r
     const double t39 = qd[0]*t2 - P->m*t6 + t21;
     const double t40 = 2*P->m*qd[0];
     const double t41 = t39 + t40*q[1];
-    if (!(t3 > 0.0)) return 1;
     if (!(P->m > 0.0)) return 1;
+    if (!(t3 > 0.0)) return 1;
     M[0] = P->m*(q[1] + 0.5*P->l)*(q[1] + 0.5*P->l) + 0.41666666666666669*(P->m*P->l*P->l);
     M[1] = 0;
     M[2] = 0;

@@ -478,10 +478,10 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m=1.0, l=1.0, g=9.81):
     _r6 = _r4 + _r6
     _r6 = tau1 - _r6
     _r1 = F2 - _r1
-    _r2 = 1/_r2
     _r4 = 1/m
-    _r4 = _r1*_r4
+    _r2 = 1/_r2
     _r2 = _r6*_r2
+    _r4 = _r1*_r4
     return (
         _r2,
         _r4,

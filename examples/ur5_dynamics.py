@@ -894,7 +894,7 @@ _inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 315 lines, 1224 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 299 lines, 1139 operations."""
     shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
     shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = qd
     tau_shoulder_pan_joint, tau_shoulder_lift_joint, tau_elbow_joint, tau_wrist_1_joint, tau_wrist_2_joint, tau_wrist_3_joint = u
@@ -1167,60 +1167,44 @@ def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, g=9.81):
     _r55 = tau_wrist_1_joint - _friction3 - _r55
     _r44 = tau_wrist_2_joint - _friction4 - _r44
     _r62 = tau_wrist_3_joint - _friction5 - _r62
-    _r15 = 1/_r15
-    _r50 = _r15*_r11
-    _r65 = _r15*_r14
-    _r1 = _r15*_r23
-    _r0 = _r15*_r16
-    _r45 = _r15*_r19
-    _r29 = _r29 - _r50*_r11
-    _r29 = 1/_r29
-    _r37 = _r29*(_r27 - _r65*_r11)
-    _r27 = _r27 - _r65*_r11
-    _r38 = _r29*(_r26 - _r1*_r11)
-    _r26 = _r26 - _r1*_r11
-    _r34 = _r29*(_r17 - _r0*_r11)
-    _r35 = _r17 - _r0*_r11
-    _r39 = _r29*(_r10 - _r45*_r11)
-    _r11 = _r10 - _r45*_r11
-    _r22 = _r22 - _r65*_r14 - _r37*_r27
-    _r22 = 1/_r22
-    _r58 = _r22*(_r18 - _r1*_r14 - _r27*_r38)
-    _r18 = _r18 - _r1*_r14 - _r27*_r38
-    _r3 = _r22*(_r17 - _r0*_r14 - _r27*_r34)
-    _r2 = _r17 - _r0*_r14 - _r27*_r34
-    _r46 = _r22*(_r10 - _r45*_r14 - _r27*_r39)
-    _r14 = _r10 - _r45*_r14 - _r27*_r39
-    _r12 = _r12 - _r1*_r23 - _r38*_r26 - _r58*_r18
-    _r12 = 1/_r12
-    _r27 = _r12*(_r17 - _r0*_r23 - _r26*_r34 - _r18*_r3)
-    _r17 = _r17 - _r0*_r23 - _r26*_r34 - _r18*_r3
-    _r32 = _r12*(_r10 - _r45*_r23 - _r26*_r39 - _r18*_r46)
-    _r10 = _r10 - _r45*_r23 - _r26*_r39 - _r18*_r46
-    _r13 = _r13 - _r0*_r16 - _r34*_r35 - _r3*_r2 - _r27*_r17
+    _r50 = 58.355064750790525*_r10
+    _r65 = 58.355064750790525*_r19
     _r13 = 1/_r13
-    _r23 = _r13*(-_r45*_r16 - _r35*_r39 - _r2*_r46 - _r17*_r32)
-    _r16 = -_r45*_r16 - _r35*_r39 - _r2*_r46 - _r17*_r32
-    _r19 = 0.0171364731454 - _r45*_r19 - _r39*_r11 - _r46*_r14 - _r32*_r10 - _r23*_r16
-    _r19 = 1/_r19
-    _r51 = _r51 - _r64*_r50
-    _r52 = _r52 - _r64*_r65 - _r37*_r51
-    _r55 = _r55 - _r64*_r1 - _r38*_r51 - _r58*_r52
-    _r44 = _r44 - _r64*_r0 - _r34*_r51 - _r3*_r52 - _r27*_r55
-    _r62 = _r62 - _r64*_r45 - _r39*_r51 - _r46*_r52 - _r32*_r55 - _r23*_r44
-    _r62 = _r19*_r62
-    _r44 = _r13*_r44 - _r23*_r62
-    _r55 = _r12*_r55 - _r27*_r44 - _r32*_r62
-    _r52 = _r22*_r52 - _r58*_r55 - _r3*_r44 - _r46*_r62
-    _r51 = _r29*_r51 - _r37*_r52 - _r38*_r55 - _r34*_r44 - _r39*_r62
-    _r45 = _r64*_r15 - _r50*_r51 - _r65*_r52 - _r1*_r55 - _r0*_r44 - _r45*_r62
+    _r1 = _r17*_r13
+    _r0 = _r13*_r16
+    _r12 = 1/(_r12 - _r17*_r1 - _r50*_r10)
+    _r18 = _r18 - _r17*_r1 - _r50*_r10
+    _r26 = _r26 - _r17*_r1 - _r50*_r10
+    _r23 = _r23 - _r50*_r19 - _r1*_r16
+    _r45 = _r12*_r18
+    _r37 = _r12*_r26
+    _r38 = _r12*_r23
+    _r18 = 1/(_r22 - _r17*_r1 - _r50*_r10 - _r18*_r45)
+    _r27 = _r27 - _r17*_r1 - _r50*_r10 - _r26*_r45
+    _r14 = _r14 - _r50*_r19 - _r1*_r16 - _r23*_r45
+    _r22 = _r18*_r27
+    _r34 = _r18*_r14
+    _r10 = 1/(_r29 - _r17*_r1 - _r50*_r10 - _r26*_r37 - _r27*_r22)
+    _r11 = _r11 - _r50*_r19 - _r1*_r16 - _r23*_r37 - _r14*_r22
+    _r29 = _r10*_r11
+    _r19 = 1/(_r15 - _r65*_r19 - _r0*_r16 - _r23*_r38 - _r14*_r34 - _r11*_r29)
+    _r55 = _r55 - _r44*_r1 - _r62*_r50
+    _r52 = _r52 - _r44*_r1 - _r62*_r50 - _r45*_r55
+    _r51 = _r51 - _r44*_r1 - _r62*_r50 - _r37*_r55 - _r22*_r52
+    _r64 = _r64 - _r44*_r0 - _r62*_r65 - _r38*_r55 - _r34*_r52 - _r29*_r51
+    _r64 = _r19*_r64
+    _r51 = _r10*_r51 - _r29*_r64
+    _r52 = _r18*_r52 - _r22*_r51 - _r34*_r64
+    _r55 = _r12*_r55 - _r45*_r52 - _r37*_r51 - _r38*_r64
+    _r0 = _r44*_r13 - _r1*_r51 - _r1*_r52 - _r1*_r55 - _r0*_r64
+    _r65 = 58.355064750790525*_r62 - _r50*_r51 - _r50*_r52 - _r50*_r55 - _r65*_r64
     return (
-        _r45,
+        _r64,
         _r51,
         _r52,
         _r55,
-        _r44,
-        _r62,
+        _r0,
+        _r65,
     )
 
 
