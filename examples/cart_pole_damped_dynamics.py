@@ -457,7 +457,7 @@ _inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N - F. 27 lines, 66 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N - F. 28 lines, 66 operations."""
     x, theta = q
     xd, thetad = qd
     F, = u
@@ -485,7 +485,8 @@ def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, mc=1.0, mp=0.1, lp=
     _r3 = -_friction1 - _r3
     _r2 = 1/_r2
     _r11 = _r5*_r2
-    _r5 = 1/(_r4 - _r5*_r11)
+    _r5 = _r4 - _r5*_r11
+    _r5 = 1/_r5
     _r10 = _r10 - _r3*_r11
     _r10 = _r5*_r10
     _r11 = _r3*_r2 - _r11*_r10

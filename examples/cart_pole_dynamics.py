@@ -401,7 +401,7 @@ _inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 25 lines, 60 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 26 lines, 60 operations."""
     x, theta = q
     xd, thetad = qd
     F, = u
@@ -426,7 +426,8 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, mc=1.0, mp=0.1, lp=1.0, g=9.81
     _r10 = F - _r10
     _r2 = 1/_r2
     _r11 = _r5*_r2
-    _r5 = 1/(_r4 - _r5*_r11)
+    _r5 = _r4 - _r5*_r11
+    _r5 = 1/_r5
     _r10 = _r10 + _r3*_r11
     _r10 = _r5*_r10
     _r11 = -_r3*_r2 - _r11*_r10

@@ -467,7 +467,7 @@ _inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 37 lines, 85 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N. 38 lines, 85 operations."""
     q1, q2 = q
     qd1, qd2 = qd
     tau1, tau2 = u
@@ -504,7 +504,8 @@ def _forward_dynamics_body(q, qd, u, sin, cos, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0
     _r7 = tau2 - _r7
     _r6 = 1/_r6
     _r5 = _r8*_r6
-    _r8 = 1/(_r4 - _r8*_r5)
+    _r8 = _r4 - _r8*_r5
+    _r8 = 1/_r8
     _r12 = _r12 - _r7*_r5
     _r12 = _r8*_r12
     _r5 = _r7*_r6 - _r5*_r12

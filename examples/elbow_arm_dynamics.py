@@ -347,7 +347,7 @@ _inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 74 lines, 228 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 75 lines, 228 operations."""
     q1, q2, q3 = q
     qd1, qd2, qd3 = qd
     tau1, tau2, tau3 = u
@@ -420,7 +420,8 @@ def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, m1=4.0, m2=3.0, m3=
     _r23 = _r23 + tau3 - _friction2
     _r6 = 1/_r6
     _r21 = -_r8*_r6
-    _r8 = 1/(_r12 + _r21*_r8)
+    _r8 = _r12 + _r21*_r8
+    _r8 = 1/_r8
     _r11 = 1/_r11
     _r25 = _r25 - _r21*_r23
     _r26 = _r11*_r26

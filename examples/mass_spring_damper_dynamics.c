@@ -108,13 +108,15 @@ int mass_spring_damper_forward_dynamics(const double *q, const double *qd, const
     const double t4 = -F[1] - t1;
     const double t5 = 1/P->m2;
     const double t6 = t5*P->m2;
-    const double t7 = 1/(t0 - t6*P->m2);
-    const double t8 = t3 - t4*t6;
-    const double t9 = t7*t8;
-    const double t10 = t4*t5 - t6*t9;
+    const double t7 = t0 - t6*P->m2;
+    const double t8 = 1/t7;
+    const double t9 = t3 - t4*t6;
+    const double t10 = t8*t9;
+    const double t11 = t4*t5 - t6*t10;
     if (!(P->m2 > 0.0)) return 1;
-    qdd[0] = t9;
-    qdd[1] = t10;
+    if (!(t7 > 0.0)) return 1;
+    qdd[0] = t10;
+    qdd[1] = t11;
     return 0;
 }
 
@@ -168,7 +170,12 @@ int mass_spring_damper_linearize(const double *q, const double *qd, const double
     double R[10];
     double F[2];
     mass_spring_damper_friction_forces(qd, p, F);
+    const double t0 = P->m1 + P->m2;
+    const double t1 = 1/P->m2;
+    const double t2 = t1*P->m2;
+    const double t3 = t0 - t2*P->m2;
     if (!(P->m2 > 0.0)) return 1;
+    if (!(t3 > 0.0)) return 1;
     M[0] = P->m1 + P->m2;
     M[1] = P->m2;
     M[2] = P->m2;

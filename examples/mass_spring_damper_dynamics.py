@@ -476,7 +476,7 @@ _inverse_dynamics_body.functions = ()
 
 
 def _forward_dynamics_body(q, qd, u, _friction, *, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N - F. 11 lines, 24 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N - F. 12 lines, 24 operations."""
     s1, s2 = q
     sd1, sd2 = qd
     F1, = u
@@ -488,7 +488,8 @@ def _forward_dynamics_body(q, qd, u, _friction, *, m1=1.0, m2=0.5, k1=40.0, k2=2
     _r1 = -_friction1 - _r1
     _r3 = 1/m2
     _r4 = _r3*m2
-    _r0 = 1/(_r0 - _r4*m2)
+    _r0 = _r0 - _r4*m2
+    _r0 = 1/_r0
     _r2 = _r2 - _r1*_r4
     _r2 = _r0*_r2
     _r4 = _r1*_r3 - _r4*_r2

@@ -618,7 +618,7 @@ _inverse_dynamics_body.functions = ("sin", "cos")
 
 
 def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 75 lines, 200 operations."""
+    """qdd: CRBA, Newton-Euler and an LDL^T solve of M qdd = Y - C qd - N + J^T w. 77 lines, 200 operations."""
     th1, th2, th3 = q
     thd1, thd2, thd3 = qd
     tau1, tau2, tau3 = u
@@ -689,10 +689,12 @@ def _forward_dynamics_body(q, qd, u, _friction, sin, cos, *, m1=2.0, m2=1.5, m3=
     _r10 = 1/_r10
     _r7 = _r13*_r10
     _r0 = _r12*_r10
-    _r13 = 1/(_r8 - _r13*_r7)
+    _r13 = _r8 - _r13*_r7
+    _r13 = 1/_r13
     _r15 = _r15 - _r12*_r7
     _r8 = _r13*_r15
-    _r15 = 1/(_r14 - _r12*_r0 - _r15*_r8)
+    _r15 = _r14 - _r12*_r0 - _r15*_r8
+    _r15 = 1/_r15
     _r21 = _r21 - _r11*_r7
     _r17 = _r17 - _r11*_r0 - _r8*_r21
     _r17 = _r15*_r17
