@@ -196,7 +196,7 @@ def _configuration_functions(derivation: Derivation) -> list[CFunction]:
     functions = []
     for kind, arguments, out, size, arrays, comment in CONFIGURATION_FUNCTIONS:
         entry = derivation.configuration_programs[kind]
-        names = Names(base={symbol: array if key == "dt" else f"{array}[{i}]"
+        names = Names(extra={symbol: array if key == "dt" else f"{array}[{i}]"
                             for key, array in arrays.items() for i, symbol in enumerate(entry.arguments[key])})
         functions.append(CFunction(f"void {derivation.robot.name}_{kind}({arguments})", comment.format(**sizes),
                                    program_body(names, entry.program, [f"{out}[{i}]" for i in range(sizes[size])])))

@@ -174,30 +174,35 @@ class CFunction:
 
 
 class Names:
-    """The C text of each symbol in one function: arguments, parameters, temporaries (``base``:
-    more, or all of them without a derivation)."""
+    """The C text of each symbol in one function: arguments, parameters, temporaries (``extra``:
+    more, or all of them without a derivation). A language of C's expressions (MATLAB's
+    ``matlab_print.Names``) changes the class attributes."""
 
-    def __init__(self, derivation: Derivation | None = None, base: dict[sympy.Symbol, str] | None = None):
+    #: a parameter's text, an array entry's, the first index, a temporary's declaration, the printer
+    parameter, entry, first, declaration = "P->{}", "{}[{}]", 0, "const double "
+    fast_printer: type = FastCPrinter
+
+    def __init__(self, derivation: Derivation | None = None, extra: dict[sympy.Symbol, str] | None = None):
         self.base: dict[sympy.Symbol, str] = {}
         if derivation is not None:
             table = derivation.symbols
-            self.base |= {s: f"P->{s.name}" for s in table.parameters.values()}
+            self.base |= {s: self.parameter.format(s.name) for s in table.parameters.values()}
             for array, symbols in (("q", table.q), ("qd", table.qd), ("qdd", table.qdd),
                                    ("u", list(table.efforts.values()))):
-                self.base |= {s: f"{array}[{i}]" for i, s in enumerate(symbols)}
-        self.base |= dict(base or {})
+                self.base |= {s: self.entry.format(array, i + self.first) for i, s in enumerate(symbols)}
+        self.base |= dict(extra or {})
 
     def extended(self, extra: dict[sympy.Symbol, str] | None) -> Names:
         """These names and ``extra`` (locals of one function: ``qdd[i]``, ``lambda[i]``)."""
-        return Names(base=self.base | dict(extra or {}))
+        return type(self)(extra=self.base | dict(extra or {}))
 
     def printer(self) -> FastCPrinter:
-        return FastCPrinter(dict(self.base))
+        return self.fast_printer(dict(self.base))
 
 
 def program_body(names: Names, program: Any, targets: list[str]) -> list[str]:
-    """The C lines of a straight-line program: ``const double tN = ...;`` for each value the
-    outputs need (in order), then ``target = output;`` for each output."""
+    """The lines of a straight-line program: ``const double tN = ...;`` (MATLAB: ``tN = ...;``)
+    for each value the outputs need (in order), then ``target = output;`` for each output."""
     outputs = [sympy.sympify(e) for e in program.outputs]
     return _lines(names, kept(program)[0], list(zip(targets, outputs)))
 
@@ -225,14 +230,14 @@ def _lines(names: Names, lines: list[tuple[sympy.Symbol, sympy.Expr]],
     text = []
     for index, (target, expr) in enumerate(lines):
         printer.names[target] = f"t{index}"
-        text.append(f"const double t{index} = {printer.doprint(folded(expr))};")
+        text.append(f"{names.declaration}t{index} = {printer.doprint(folded(expr))};")
     for target, expr in stores:
         text.append(f"{target} = {printer.doprint(folded(expr))};")
     return text
 
 
 def expression_body(names: Names, values: list[sympy.Expr], targets: list[str]) -> list[str]:
-    """C lines of explicit expressions (a small planar robot's M, C, N, V), with common
+    """The lines of explicit expressions (a small planar robot's M, C, N, V), with common
     subexpressions eliminated."""
     simple = [fold_constants(sympy.sympify(v)) for v in values]
     temporaries, reduced = sympy.cse(simple, symbols=sympy.numbered_symbols("_c"), order="canonical")

@@ -9,7 +9,6 @@ tree's and the loops' functions.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import sympy
 from sympy.printing.octave import OctaveCodePrinter
@@ -17,7 +16,8 @@ from sympy.printing.octave import OctaveCodePrinter
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
 from ...encode import Code
-from ..c.c_print import DoublePrinting, FastCPrinter, folded
+from ..c.c_print import DoublePrinting, FastCPrinter, expression_body, program_body
+from ..c.c_print import Names as CNames
 from .matlab_names import matlab_comment
 
 
@@ -72,61 +72,12 @@ class MFunction:
                               if self.outputs else f"function {self.name}({', '.join(self.arguments)})")
 
 
-class Names:
+class Names(CNames):
     """The MATLAB text of each symbol: ``q(i)``, ``p.m``, and locals of one function (``extra``:
     more, or all of them without a derivation)."""
 
-    def __init__(self, derivation: Derivation | None = None, extra: dict[sympy.Symbol, str] | None = None):
-        self.base: dict[sympy.Symbol, str] = {}
-        if derivation is not None:
-            table = derivation.symbols
-            self.base |= {s: f"p.{s.name}" for s in table.parameters.values()}
-            for array, symbols in (("q", table.q), ("qd", table.qd), ("qdd", table.qdd),
-                                   ("u", list(table.efforts.values()))):
-                self.base |= {s: f"{array}({i + 1})" for i, s in enumerate(symbols)}
-        self.base |= dict(extra or {})
-
-    def extended(self, extra: dict[sympy.Symbol, str] | None) -> Names:
-        return Names(extra=self.base | dict(extra or {}))
-
-    def printer(self) -> FastMatlabPrinter:
-        return FastMatlabPrinter(dict(self.base))
-
-
-def kept_lines(program: Any) -> list[tuple[sympy.Symbol, sympy.Expr]]:
-    """The lines of ``program`` its outputs need, in order."""
-    needed = set().union(*(sympy.sympify(e).free_symbols for e in program.outputs))
-    kept = []
-    for target, expr in reversed(program.lines):
-        if target in needed:
-            kept.append((target, expr))
-            needed |= expr.free_symbols
-    return kept[::-1]
-
-
-def _lines(names: Names, lines: list[tuple[sympy.Symbol, sympy.Expr]], stores: list[tuple[str, sympy.Expr]]) -> list[str]:
-    printer = names.printer()
-    text = []
-    for index, (target, expr) in enumerate(lines):
-        printer.names[target] = f"t{index}"
-        text.append(f"t{index} = {printer.doprint(folded(expr))};")
-    for target, expr in stores:
-        text.append(f"{target} = {printer.doprint(folded(expr))};")
-    return text
-
-
-def program_body(names: Names, program: Any, targets: list[str]) -> list[str]:
-    """MATLAB lines of a straight-line program: ``tN = ...;`` per value the outputs need, then
-    ``target = output;`` per output."""
-    outputs = [sympy.sympify(e) for e in program.outputs]
-    return _lines(names, kept_lines(program), list(zip(targets, outputs)))
-
-
-def expression_body(names: Names, values: list[sympy.Expr], targets: list[str]) -> list[str]:
-    """MATLAB lines of explicit expressions, common subexpressions eliminated."""
-    simple = [fold_constants(sympy.sympify(v)) for v in values]
-    temporaries, reduced = sympy.cse(simple, symbols=sympy.numbered_symbols("_c"), order="canonical")
-    return _lines(names, temporaries, list(zip(targets, reduced)))
+    parameter, entry, first, declaration = "p.{}", "{}({})", 1, ""
+    fast_printer = FastMatlabPrinter
 
 
 def matrix_targets(out: str, rows: int, columns: int) -> list[str]:
