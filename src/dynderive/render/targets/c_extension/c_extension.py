@@ -280,7 +280,7 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "twist": 3 if robot.planar else 6,
         "parameters": parameters,
         "all_defaults": int(all(p["default"] is not None for p in parameters)),
-        "coordinates": strings([str(s) for s in derivation.symbols.q] if robot.floating else robot.coordinates),
+        "coordinates": strings(robot.configuration_names),
         "efforts": strings(robot.efforts),
         "frames": strings([f.name for f in robot.frames]),
         "members": members,
