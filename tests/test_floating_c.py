@@ -1,4 +1,4 @@
-"""The C target of floating-base robots (issue 30, ``render/targets/c/c_floating.py``): the header and
+"""The C target of floating-base robots (``render/targets/c/c.py``): the header and
 source compile as strict C99 and as C++ with no diagnostic, and every function agrees with the
 NumPy floating module (which agrees with Pinocchio's free flyer: ``test_floating_base.py``) to
 1e-12 relative at random unit quaternions and full-precision states: solo12 from
@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.targets.c.c_floating import render_floating_c
+from dynderive.render.targets.c.c import render_c
 from dynderive.verify.floating_checks import random_configurations
 
 CC = shutil.which("gcc") or shutil.which("cc")
@@ -45,7 +45,7 @@ class Library:
     diagnostic) and loaded. Unoptimized: solo12's 0.9 MB of C takes 30 s at -O1."""
 
     def __init__(self, derivation, directory: Path, cxx: bool = False):
-        header, source = render_floating_c(derivation)
+        header, source = render_c(derivation)
         self.name = name = derivation.robot.name
         (directory / f"{name}_dynamics.h").write_text(header)
         path = directory / f"{name}_dynamics.c"

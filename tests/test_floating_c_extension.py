@@ -1,5 +1,5 @@
-"""The Python extension of a floating-base robot's C target (issue 30, ``solve --c-extension``,
-``render/targets/c_extension/c_extension_floating.py``): every function agrees with the floating NumPy module
+"""The Python extension of a floating-base robot's C target (``solve --c-extension``,
+``render/targets/c_extension/c_extension.py``): every function agrees with the floating NumPy module
 (which agrees with Pinocchio's free flyer: ``test_floating_base.py``) to 1e-12 relative at
 random unit quaternions, one state and a broadcast batch: solo12 from example-robot-data,
 random trees with spherical joints on a fixed and a floating base, a
@@ -192,9 +192,9 @@ def test_hostile_text_stays_out_of_the_binding_and_the_c(tmp_path, compiled):
     assert "stdlib" not in source and all(ord(c) < 128 for c in source)
     plain = render_extension(dynderive.derive(dynderive.load_robot(_write(tmp_path / "plain", FRAMED))))
     assert source == plain   # the title and the descriptions never reach the binding
-    from dynderive.render.targets.c.c_floating import render_floating_c
+    from dynderive.render.targets.c.c import render_c
 
-    for c_text in render_floating_c(derivation):   # in the C target: comments, printable ASCII
+    for c_text in render_c(derivation):   # in the C target: comments, printable ASCII
         assert all(ord(c) < 128 for c in c_text) and not any(line.lstrip().startswith("#include <stdlib")
                                                              for line in c_text.splitlines())
     ext = _load(derivation, tmp_path / "ext")
@@ -235,7 +235,7 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
     compiled_rows = [n for n in rows if n.startswith("compiled ")]
-    assert len(compiled_rows) == 18 and all(rows[n] == "pass" for n in compiled_rows)
+    assert len(compiled_rows) == 19 and all(rows[n] == "pass" for n in compiled_rows)
 
 
 def test_failing_compiler_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):

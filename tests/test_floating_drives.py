@@ -193,10 +193,10 @@ def test_jax_and_c_extension_agree_with_numpy(tree, tmp_path):
 
 @needs_octave
 def test_matlab_friction_agrees_with_numpy(tree, tmp_path):
-    from dynderive.render.targets.matlab.matlab_floating import render_floating_matlab
+    from dynderive.render.targets.matlab.matlab import render_matlab
 
     _, derivation, module, *_ = tree
-    for path, text in render_floating_matlab(derivation).items():
+    for path, text in render_matlab(derivation).items():
         (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / path).write_text(text)
     name = derivation.robot.name

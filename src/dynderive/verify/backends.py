@@ -17,10 +17,6 @@ def compiled_backend(derivation: Any, source: str, progress: Callable[[str], Non
 
     compiled = compiled_module(derivation, progress=progress)
     progress("checking the compiled module")
-    if derivation.robot.floating:
-        from .floating_c import floating_c_checks
-
-        return floating_c_checks(derivation, source, compiled, states=states)
     from .compiled import compiled_checks
 
     return compiled_checks(derivation, source, compiled, states=states)

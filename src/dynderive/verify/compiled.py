@@ -4,7 +4,9 @@ The NumPy module is what every other check holds to the symbolic quantities, Pin
 the reference closed forms, so the compiled code inherits that trust once each of its
 functions gives the NumPy module's numbers at the same states: for a batch (the loop in C)
 and for one state (the fast path), to 1e-12 relative to the result's largest entry (section
-9 of the design).
+9 of the design). A robot with quaternions (a floating or spherical joint) is compared at
+random states on its manifold (random unit quaternions), its configuration maps too; the
+comparison is also ``check --backend jax``'s (``floating_rows``).
 """
 
 from __future__ import annotations
@@ -30,7 +32,10 @@ FUNCTIONS = (
     ("regressor", "q qd qdd"), ("parameter_vector", ""),
     ("loop_constraints", "q"), ("loop_jacobian", "q"), ("loop_jacobian_dot", "q qd"), ("loop_forces", "q qd u"),
     ("reduced_basis", "q"), ("reduced_forward_dynamics", "q qd u"), ("assemble", "q"),
+    ("neutral_configuration", ""), ("integrate", "q qd"), ("configuration_rate", "q qd"), ("difference", "q q1"),
 )
+#: The functions that take no parameters (a robot with quaternions: its configuration maps).
+GEOMETRY = {"neutral_configuration", "integrate", "configuration_rate", "difference"}
 FRAME_FUNCTIONS = (("frame_transform", "q"), ("frame_jacobian", "q"), ("frame_jacobian_dot_qd", "q qd"))
 
 
@@ -47,11 +52,9 @@ def _difference(expected: Any, got: Any) -> float:
     return float(np.max(np.abs(expected - got))) / scale
 
 
-def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: dict[str, np.ndarray],
-                  friction_smoothing: float = 0.0, label: str = "compiled", target: str = "c-extension") -> list[Row]:
-    """One row per function of the NumPy ``module`` that ``compiled`` (the ``target`` of
-    ``render/offered.py``) offers, at ``states`` (arrays ``q``, ``qd``, ``qdd``, ``u`` of one
-    shape ``(count, size)``), and ``missing_rows`` of the functions it does not offer."""
+def _compared(module: Any, other: Any, values: dict[str, float], states: dict[str, np.ndarray],
+              friction_smoothing: float, label: str) -> tuple[list[Row], list[str]]:
+    """The rows of the functions of ``module`` that ``other`` has too, and those it lacks."""
     rows: list[Row] = []
     missing = []
     count = len(states["q"])
@@ -61,19 +64,19 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
     for name, args, extra in cases:
         if not hasattr(module, name):
             continue
-        if not hasattr(compiled, name):
+        if not hasattr(other, name):
             missing.append(name)
             continue
         arrays = [states[a] for a in args.split()]
-        keywords = dict(values, **(friction if name in ("inverse_dynamics", "forward_dynamics", "friction_forces",
-                                                         "linearize", "loop_forces",
-                                                         "reduced_forward_dynamics") else {}))
+        keywords = {} if name in GEOMETRY else dict(
+            values, **(friction if name in ("inverse_dynamics", "forward_dynamics", "friction_forces", "linearize",
+                                            "loop_forces", "reduced_forward_dynamics") else {}))
         try:
             worst = _difference(getattr(module, name)(*arrays, *extra, **keywords),
-                                getattr(compiled, name)(*arrays, *extra, **keywords))
+                                getattr(other, name)(*arrays, *extra, **keywords))
             if arrays:   # one state: the fast path
                 worst = max(worst, _difference(getattr(module, name)(*(a[0] for a in arrays), *extra, **keywords),
-                                               getattr(compiled, name)(*(a[0] for a in arrays), *extra, **keywords)))
+                                               getattr(other, name)(*(a[0] for a in arrays), *extra, **keywords)))
         except (ValueError, TypeError, np.linalg.LinAlgError) as exc:
             rows.append(Row(f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module", "FAIL",
                             f"raised {type(exc).__name__}: {exc}", float("nan")))
@@ -82,6 +85,18 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
         rows.append(Row(f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module",
                         "pass" if worst <= tolerance else "FAIL",
                         f"numeric, {count} states and one, relative (at most {tolerance:g})", worst))
+    return rows, missing
+
+
+def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: dict[str, np.ndarray],
+                  friction_smoothing: float = 0.0, label: str = "compiled", target: str = "c-extension",
+                  floating: bool = False) -> list[Row]:
+    """One row per function of the NumPy ``module`` that ``compiled`` (the ``target`` of
+    ``render/offered.py``) offers, at ``states`` (arrays ``q``, ``qd``, ``qdd``, ``u`` of one
+    shape ``(count, size)``; ``q1``, a second configuration, for ``difference``), and
+    ``missing_rows`` of the functions it does not offer (``floating``: a robot with quaternions)."""
+    rows, missing = _compared(module, compiled, values, states, friction_smoothing, label)
+    count = len(states["q"])
     frames = getattr(module, "FRAMES", ())
     if frames and hasattr(compiled, "inverse_dynamics"):
         rng = np.random.default_rng(1)
@@ -94,7 +109,7 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
                         "pass" if worst <= RTOL else "FAIL", f"numeric, {count} states, relative", worst))
     missing += sorted(name for name, value in vars(module).items() if callable(value) and not name.startswith("_")
                       and not hasattr(compiled, name) and name not in missing and not isinstance(value, type))
-    return rows + missing_rows(missing, target, label, frames=bool(frames))
+    return rows + missing_rows(missing, target, label, floating, frames=bool(frames))
 
 
 def missing_rows(missing: list[str], target: str, label: str, floating: bool = False, frames: bool = True) -> list[Row]:
@@ -119,6 +134,26 @@ def _frame(extra: tuple, smoothing: float = 0.0) -> str:
     return (f" (frame {extra[0]})" if extra else "") + (f" (friction_smoothing {smoothing:g})" if smoothing else "")
 
 
+def _states(robot: Any, rng: np.random.Generator, states: int) -> dict[str, np.ndarray]:
+    """Random states: ``q`` (and ``q1``) on the robot's manifold (unit quaternions), the rest uniform."""
+    from .floating_checks import random_configurations
+
+    nv, nu = robot.velocity_count if robot.floating else len(robot.coordinates), len(robot.efforts)
+    if robot.floating:
+        sample = {"q": random_configurations(robot, rng, states), "q1": random_configurations(robot, rng, states)}
+    else:
+        sample = {"q": rng.uniform(-1.5, 1.5, (states, nv))}
+    return sample | {"qd": rng.uniform(-1.0, 1.0, (states, nv)), "qdd": rng.uniform(-1.0, 1.0, (states, nv)),
+                     "u": rng.uniform(-1.0, 1.0, (states, nu))}
+
+
+def floating_rows(module: Any, other: Any, robot: Any, label: str, states: int = 12, seed: int = 0) -> list[Row]:
+    """The rows comparing ``other`` (the JAX module) with the NumPy ``module`` of a robot with
+    quaternions, at random states on its manifold (``check --backend jax``)."""
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
+    return _compared(module, other, values, _states(robot, np.random.default_rng(seed + 7), states), 0.0, label)[0]
+
+
 def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0,
                     label: str = "compiled", target: str = "c-extension") -> list[Row]:
     """``compiled_rows`` at random states of ``derivation``'s robot (on the loops, for a robot
@@ -128,10 +163,7 @@ def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 1
     robot = derivation.robot
     module = generated_module(source, robot.name)
     values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
-    rng = np.random.default_rng(seed + 7)
-    n = len(robot.coordinates)
-    sample = {"q": rng.uniform(-1.5, 1.5, (states, n)), "qd": rng.uniform(-1.0, 1.0, (states, n)),
-              "qdd": rng.uniform(-1.0, 1.0, (states, n)), "u": rng.uniform(-1.0, 1.0, (states, len(robot.efforts)))}
+    sample = _states(robot, np.random.default_rng(seed + 7), states)
     if robot.loops:
         sample["q"], sample["qd"], _ = _loop_states(derivation, module, values, sample["q"], sample["qd"])
         if not len(sample["q"]):
@@ -139,8 +171,8 @@ def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 1
                         float("nan"))]
         sample = {k: v[: len(sample["q"])] for k, v in sample.items()}
     friction = 1e-3 if any(j.friction is not None for j in robot.joints if j.moves) else 0.0
-    rows = compiled_rows(module, compiled, values, sample, label=label, target=target)
+    rows = compiled_rows(module, compiled, values, sample, label=label, target=target, floating=robot.floating)
     if friction:   # the smoothed sign too (what simulate integrates), for the functions that take it
-        rows += [r for r in compiled_rows(module, compiled, values, sample, friction, label, target)
+        rows += [r for r in compiled_rows(module, compiled, values, sample, friction, label, target, robot.floating)
                  if "smoothing" in r.name]
     return rows

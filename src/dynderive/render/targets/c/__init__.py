@@ -9,11 +9,9 @@ from ..target import Target
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
-    """The header and the source, for a fixed or a floating base."""
-    if derivation.robot.floating:
-        from .c_floating import render_floating_c as render_c
-    else:
-        from .c import render_c
+    """The header and the source."""
+    from .c import render_c
+
     header, source = render_c(derivation, template_dir)
     name = derivation.robot.name
     return {f"{name}_dynamics.h": header.encode(), f"{name}_dynamics.c": source.encode()}
@@ -23,10 +21,8 @@ def offered(derivation: Any) -> set[str]:
     """The functions whose prototypes the header declares (extra variants included)."""
     import re
 
-    if derivation.robot.floating:
-        from .c_floating import floating_c_context as context
-    else:
-        from .c import c_context as context
+    from .c import c_context as context
+
     pattern = re.compile(rf"\b{re.escape(derivation.robot.name)}_(\w+)\(")
     return {pattern.search(str(f.prototype)).group(1) for f in context(derivation)["functions"]}  # type: ignore[union-attr]
 

@@ -1,6 +1,5 @@
 """One row of the CPython binding's table (``c_extension.py``): a Python function of the
-extension and the C function it calls for each state; the rows of a fixed-base robot are
-``c_extension.bindings``, those of a floating-base robot ``c_extension_floating.py``."""
+extension and the C function it calls for each state; the rows are ``c_extension.bindings``."""
 
 from __future__ import annotations
 
@@ -27,8 +26,8 @@ class Binding:
     ``friction_smoothing`` (their default: the C target's). ``error``: the C function's nonzero
     return raises ``ValueError(error)`` (where the NumPy module raises it), for any state of a
     batch; it implies ``returns`` "status". ``parameters``: False where the C function takes no
-    parameters struct and the Python function no parameter keywords (a floating-base robot's
-    configuration space, ``c_extension_floating.py``). ``number``: the last input is a number per
+    parameters struct and the Python function no parameter keywords (the configuration maps of a
+    robot with quaternions). ``number``: the last input is a number per
     state (shape (...), as ``integrate``'s ``dt``), this C literal when omitted."""
 
     name: str

@@ -51,6 +51,16 @@ def ldl_solve(n: int, nonzero: list[list[bool]], prefix: str, rhs: list[str]) ->
     return lines
 
 
+def fill_in(mass: list[list[bool]], n: int) -> list[list[bool]]:
+    """Which entries of L can be nonzero: those of M, and the fill-in (L_ij where L_ik and
+    L_jk are for some k < j)."""
+    nonzero = [[mass[i][j] for j in range(n)] for i in range(n)]
+    for j in range(n):
+        for i in range(j + 1, n):
+            nonzero[i][j] = nonzero[i][j] or any(nonzero[i][k] and nonzero[j][k] for k in range(j))
+    return nonzero
+
+
 def dense(n: int) -> list[list[bool]]:
     """The pattern of a full matrix."""
     return [[True] * n for _ in range(n)]

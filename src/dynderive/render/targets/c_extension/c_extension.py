@@ -8,9 +8,10 @@ row into a small kernel that calls the C function for one state and an entry of 
 that one generic dispatcher reads: argument parsing (positional or keyword, the robot's
 parameters and ``friction_smoothing`` as keywords), shape checks with the NumPy module's
 messages, broadcasting of the batch dimensions, and the batch loop in C (without the GIL).
-Adding a C function to the module is one row. A floating-base robot's rows
-(``c_extension_floating.py``) take their sizes from NQ and NV; the row itself is
-``c_binding.Binding``.
+Adding a C function to the module is one row (``c_binding.Binding``). A robot with
+quaternions (a floating or spherical joint) takes ``q`` of NQ entries and ``qd``, ``qdd`` of NV,
+has no ``generalized_forces`` and adds the configuration maps (``neutral_configuration``,
+``integrate``, ``difference``, ``configuration_rate``).
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
@@ -58,16 +59,12 @@ def c_string(text: str) -> Code:
 def bindings(derivation: Derivation) -> list[Binding]:
     """The extension's functions, in the order of the NumPy module's API."""
     robot = derivation.robot
-    if robot.floating:
-        from .c_extension_floating import floating_bindings
-
-        return floating_bindings(derivation)
-    n, nu = len(derivation.symbols.q), len(derivation.symbols.efforts)
+    nq, n, nu = len(derivation.symbols.q), len(derivation.symbols.qd), len(derivation.symbols.efforts)
     count = len(derivation.parameter_vector)
     size, twist = (3, 3) if robot.planar else (4, 6)
     dissipative = robot.dissipative
     sign = dissipative and bool(derivation.programs["regressor"].extra_inputs)
-    q, qd, qdd, u = ("q", n), ("qd", n), ("qdd", n), ("u", nu)
+    q, qd, qdd, u = ("q", nq), ("qd", n), ("qdd", n), ("u", nu)
     loops = bool(robot.loops)
     forward = (("Accelerations qdd of the closed-loop mechanism from [M -A^T; A 0] [qdd; lambda_g] = [Y - C qd - N - F "
                 "+ sum J^T w; -Adot qd - 2 alpha A qd - beta**2 a_g(q)], shape (..., n); alpha, beta: Baumgarte gains "
@@ -80,8 +77,8 @@ def bindings(derivation: Derivation) -> list[Binding]:
         Binding("coriolis_matrix", "coriolis_matrix", (q, qd), ((n, n),),
                 "Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., n, n)."),
         Binding("gravity_vector", "gravity_vector", (q,), ((n,),), "Gravity vector N_g(q) = dV/dq, shape (..., n)."),
-        Binding("generalized_forces", "generalized_forces", (q, u), ((n,),),
-                "Applied generalized forces Y_g(q, u) of the efforts, shape (..., n)."),
+        *([] if nq != n else [Binding("generalized_forces", "generalized_forces", (q, u), ((n,),),
+                                      "Applied generalized forces Y_g(q, u) of the efforts, shape (..., n).")]),
         Binding("inverse_dynamics", "inverse_dynamics", (q, qd, qdd), ((n,),),
                 "Generalized forces Y_g = M qdd + C qd + N + F - sum J^T w, shape (..., n); wrenches: None or "
                 "{frame: w} in world axes.", wrenches="inverse_dynamics_wrenches", smoothing=True,
@@ -114,7 +111,26 @@ def bindings(derivation: Derivation) -> list[Binding]:
         Binding("frame_jacobian_dot_qd", "frame_jacobian_dot_qd", (q, qd), ((twist,),),
                 "Jdot(q, qd) qd of frame (a name of FRAMES), shape (..., t).", returns="status", frame=True),
     ]
-    return table + (_loop_bindings(derivation) if loops else [])
+    return table + (_loop_bindings(derivation) if loops else []) + (_configuration_bindings(nq, n) if nq != n else [])
+
+
+def _configuration_bindings(nq: int, nv: int) -> list[Binding]:
+    """The configuration maps of a robot with quaternions (NQ != NV): no parameters;
+    ``integrate``'s ``dt`` a number per state (default 1.0)."""
+    q, v = ("q", nq), ("v", nv)
+    return [
+        Binding("neutral_configuration", "neutral_configuration", (), ((nq,),),
+                "The neutral configuration (Pinocchio's neutral): zeros, and identity quaternions, shape (NQ,).",
+                parameters=False),
+        Binding("integrate", "integrate", (q, v, ("dt", 1)), ((nq,),),
+                "The configuration reached from q moving at v for dt (Pinocchio's integrate(q, v dt)), shape "
+                "(..., NQ); dt: a number or an array of them (batch dimensions).", parameters=False, number="1.0"),
+        Binding("configuration_rate", "configuration_rate", (q, v), ((nq,),),
+                "dq/dt of the configuration q moving at velocity v, shape (..., NQ).", parameters=False),
+        Binding("difference", "difference", (("q_from", nq), ("q_to", nq)), ((nv,),),
+                "The velocity v that integrate turns q_from into q_to in unit time (Pinocchio's difference), shape "
+                "(..., NV).", parameters=False),
+    ]
 
 
 def _loop_bindings(derivation: Derivation) -> list[Binding]:
@@ -264,7 +280,7 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "twist": 3 if robot.planar else 6,
         "parameters": parameters,
         "all_defaults": int(all(p["default"] is not None for p in parameters)),
-        "coordinates": strings([str(s) for s in derivation.symbols.q] if robot.floating else robot.coordinates),
+        "coordinates": strings(robot.configuration_names),
         "efforts": strings(robot.efforts),
         "frames": strings([f.name for f in robot.frames]),
         "members": members,

@@ -125,8 +125,6 @@ def build_extension(derivation: Derivation, template_dir: str | Path | None = No
     compiler = find_compiler(option)
     includes = include_dirs(option)
     render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
-    if c_files is None and derivation.robot.floating:   # the floating-base C target
-        from ..c.c_floating import render_floating_c as render_c
     header, source = c_files if c_files is not None else render_c(derivation, template_dir)
     binding = render_extension(derivation, template_dir, header)
     name = derivation.robot.name

@@ -11,24 +11,19 @@ from ..target import Target
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The package's files (paths relative to the output folder) and, for a fixed base, the script."""
-    if derivation.robot.floating:
-        from .matlab_floating import render_floating_matlab
-
-        return {path: text.encode() for path, text in render_floating_matlab(derivation, template_dir).items()}
     from .matlab import render_matlab
     from .matlab_script import render_matlab_script
 
     files = {path: text.encode() for path, text in render_matlab(derivation, template_dir).items()}
-    files[f"{derivation.robot.name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
+    if not derivation.robot.floating:   # the symbolic path does not apply to quaternion coordinates
+        files[f"{derivation.robot.name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
     return files
 
 
 def offered(derivation: Any) -> set[str]:
     """The package's numeric functions."""
-    if derivation.robot.floating:
-        from .matlab_floating import floating_numeric_functions as functions
-    else:
-        from .matlab import numeric_functions as functions
+    from .matlab import numeric_functions as functions
+
     return {f.name for f in functions(derivation)}
 
 

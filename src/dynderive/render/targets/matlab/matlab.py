@@ -61,9 +61,10 @@ def _friction_body(derivation: Derivation, names: Names) -> list[str]:
 
 
 def numeric_functions(derivation: Derivation) -> list[MFunction]:
-    """Every function of ``+<name>/`` (the loop functions from ``matlab_loops``)."""
+    """Every function of ``+<name>/`` (the loop functions from ``matlab_loops``; the
+    configuration maps of a robot with quaternions)."""
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
-    name, n, nu = robot.name, len(table.q), len(table.efforts)
+    name, nq, n, nu = robot.name, len(table.q), len(table.qd), len(table.efforts)
     names = Names(derivation)
     programs, structured = derivation.programs, derivation.structured_code
     count = len(derivation.parameter_vector)
@@ -100,7 +101,8 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         MFunction("generalized_forces", "Y", ["q", "u", "p"],
                   [f"GENERALIZED_FORCES  Y_g(q, u): the generalized forces of the efforts u ({nu} x 1), {n} x 1."],
                   [*prologue(derivation, ["q", "u"], 3), f"Y = zeros({n}, 1);",
-                   *expression_body(names, list(quantities["Y_g"]), vector_targets("Y", n))]),
+                   *(expression_body(names, list(quantities["Y_g"]), vector_targets("Y", n)) if nq == n else
+                     (f"Y({c + 1}) = u({k + 1});" for k, c in enumerate(robot.effort_columns())))]),
         MFunction("kinetic_energy", "T", ["q", "qd", "p"], ["KINETIC_ENERGY  Kinetic energy T_g = 1/2 qd' M(q) qd."],
                   [*prologue(derivation, ["q", "qd"], 3), f"T = 0.5*(qd' * ({name}.mass_matrix(q, p) * qd));"]),
         MFunction("potential_energy", "V", ["q", "p"],
@@ -128,11 +130,11 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         functions += [_forward_dynamics(derivation), _linearize(derivation, names)]
     else:
         functions += loop_functions(derivation, names)
-    return functions
+    return functions + (_configuration_functions(derivation) if nq != n else [])
 
 
 def _forward_dynamics(derivation: Derivation) -> MFunction:
-    name, n, nu = derivation.robot.name, len(derivation.symbols.q), len(derivation.symbols.efforts)
+    name, n, nu = derivation.robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
     return MFunction(
         "forward_dynamics", "qdd", ["q", "qd", "u", "p"],
         [f"FORWARD_DYNAMICS  Accelerations qdd solving M(q) qdd = Y_g(u) - C qd - N - F, {n} x 1.", "",
@@ -146,7 +148,7 @@ def _forward_dynamics(derivation: Derivation) -> MFunction:
 
 
 def _linearize(derivation: Derivation, names: Names) -> MFunction:
-    name, n, nu = derivation.robot.name, len(derivation.symbols.q), len(derivation.symbols.efforts)
+    name, n, nu = derivation.robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
     return MFunction(
         "linearize", "[A, B]", ["q", "qd", "u", "p"],
         [f"LINEARIZE  (A, B) of xdot = A dx + B du about x = [q; qd] and u: A {2 * n} x {2 * n}, B {2 * n} x {nu}.", "",
@@ -156,6 +158,50 @@ def _linearize(derivation: Derivation, names: Names) -> MFunction:
          f"qdd0 = {name}.forward_dynamics(q, qd, u, p);", *linearize_rhs(derivation, names, "qdd0"),
          f"X = {name}.mass_matrix(q, p) \\ R;",
          f"A = [zeros({n}, {n}), eye({n}); X(:, 1:{2 * n})];", f"B = [zeros({n}, {nu}); X(:, {2 * n + 1}:end)];"])
+
+
+#: The configuration maps: output, arguments, the MATLAB array of each argument of the program
+#: (``Derivation.configuration_programs``), the output's size (NQ or NV), help text.
+CONFIGURATION_FUNCTIONS = (
+    ("neutral_configuration", "q", [], {}, "nq",
+     ["NEUTRAL_CONFIGURATION  The neutral configuration, {nq} x 1: zeros, and identity quaternions (Pinocchio's "
+      "neutral)."]),
+    ("integrate", "out", ["q", "v", "dt"], {"q": "q", "v": "v", "dt": "dt"}, "nq",
+     ["INTEGRATE  The configuration reached from q ({nq} x 1) moving at v ({nv} x 1) for dt (default 1), "
+      "Pinocchio's integrate(q, v dt).", "",
+      "   q + v dt for the joints, a floating joint's pose times exp(v dt) on SE(3), a spherical joint's",
+      "   quaternion times exp(w dt); quaternions normalized, in the hemisphere of q's.",
+      "   q1 = {name}.integrate(q, v, dt)"]),
+    ("difference", "v", ["q0", "q1"], {"q_from": "q0", "q_to": "q1"}, "nv",
+     ["DIFFERENCE  The velocity v ({nv} x 1) that integrate turns q0 into q1 in unit time (Pinocchio's difference)."]),
+    ("configuration_rate", "out", ["q", "v"], {"q": "q", "v": "v"}, "nq",
+     ["CONFIGURATION_RATE  dq/dt ({nq} x 1) of q moving at v: the derivative of integrate(q, v, t) at t = 0.", "",
+      "   ode45(@(t, x) [{name}.configuration_rate(x(1:{nq}), x({nq1}:end)); "
+      "{name}.forward_dynamics(x(1:{nq}), x({nq1}:end), u, p)], tspan, x0)"]),
+)
+
+#: The local function of a file whose program branches (``MatlabPrinter._choice``).
+IF_ELSE = MFunction("if_else", "y", ["condition", "yes", "no"],
+                    ["IF_ELSE  yes if condition, else no (a branch of the program)."],
+                    ["if condition", "    y = yes;", "else", "    y = no;", "end"])
+
+
+def _configuration_functions(derivation: Derivation) -> list[MFunction]:
+    """The configuration maps, each its joint types' program printed (no parameters)."""
+    sizes = {"nq": len(derivation.symbols.q), "nv": len(derivation.symbols.qd)}
+    text = sizes | {"name": derivation.robot.name, "nq1": sizes["nq"] + 1}
+    functions = []
+    for kind, out, arguments, arrays, size, help_lines in CONFIGURATION_FUNCTIONS:
+        entry = derivation.configuration_programs[kind]
+        names = Names(extra={symbol: array if key == "dt" else f"{array}({i + 1})"
+                             for key, array in arrays.items() for i, symbol in enumerate(entry.arguments[key])})
+        body = [f"{a} = {a}(:);" for a in arguments if a != "dt"]
+        body += ["if nargin < 3", "    dt = 1;", "end"] if "dt" in arguments else []
+        body += [f"{out} = zeros({sizes[size]}, 1);", *program_body(names, entry.program, vector_targets(out, sizes[size]))]
+        branches = any("if_else(" in line for line in body)
+        functions.append(MFunction(kind, out, arguments, [line.format(**text) for line in help_lines], body,
+                                   [IF_ELSE] if branches else []))
+    return functions
 
 
 def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
@@ -219,8 +265,7 @@ def parameters_function(derivation: Derivation) -> MFunction:
 def render_matlab(derivation: Derivation, template_dir: str | Path | None = None,
                   functions: list[MFunction] | None = None) -> dict[str, str]:
     """The package ``+<name>/``: {relative path: text}, nothing written. ``functions``: the
-    numeric functions (default ``numeric_functions``; a floating-base robot's are
-    ``matlab_floating.floating_numeric_functions``)."""
+    numeric functions (default ``numeric_functions``)."""
     check_matlab_names(derivation.robot)
     from ...._version import __version__
 

@@ -9,7 +9,6 @@ tree's and the loops' functions.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import sympy
 from sympy.printing.octave import OctaveCodePrinter
@@ -17,7 +16,8 @@ from sympy.printing.octave import OctaveCodePrinter
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
 from ...encode import Code
-from ..c.c import DoublePrinting, FastCPrinter
+from ..c.c_print import DoublePrinting, FastCPrinter, expression_body, program_body
+from ..c.c_print import Names as CNames
 from .matlab_names import matlab_comment
 
 
@@ -37,7 +37,12 @@ class MatlabPrinter(DoublePrinting, OctaveCodePrinter):
 
     def _print_Relational(self, expr: sympy.Basic) -> str:
         operator = {"==": "==", "!=": "~=", "<": "<", "<=": "<=", ">": ">", ">=": ">="}[expr.rel_op]
-        return f"({self._print(expr.lhs)} {operator} {self._print(expr.rhs)})"
+        return f"({self._part(expr.lhs)} {operator} {self._part(expr.rhs)})"
+
+    def _choice(self, condition: str, value: str, otherwise: str) -> str:
+        """A branch (``Piecewise``): the local function ``IF_ELSE`` of the file, which returns
+        one of its arguments (arithmetic on the condition would turn 0 * Inf into NaN)."""
+        return f"if_else({condition}, {value}, {otherwise})"
 
 
 class FastMatlabPrinter(FastCPrinter):
@@ -67,60 +72,12 @@ class MFunction:
                               if self.outputs else f"function {self.name}({', '.join(self.arguments)})")
 
 
-class Names:
-    """The MATLAB text of each symbol: ``q(i)``, ``p.m``, and locals of one function."""
+class Names(CNames):
+    """The MATLAB text of each symbol: ``q(i)``, ``p.m``, and locals of one function (``extra``:
+    more, or all of them without a derivation)."""
 
-    def __init__(self, derivation: Derivation, extra: dict[sympy.Symbol, str] | None = None):
-        table = derivation.symbols
-        self.base: dict[sympy.Symbol, str] = {s: f"p.{s.name}" for s in table.parameters.values()}
-        for array, symbols in (("q", table.q), ("qd", table.qd), ("qdd", table.qdd),
-                               ("u", list(table.efforts.values()))):
-            self.base |= {s: f"{array}({i + 1})" for i, s in enumerate(symbols)}
-        self.base |= dict(extra or {})
-
-    def extended(self, extra: dict[sympy.Symbol, str] | None) -> Names:
-        local = Names.__new__(Names)
-        local.base = dict(self.base) | dict(extra or {})
-        return local
-
-    def printer(self) -> FastMatlabPrinter:
-        return FastMatlabPrinter(dict(self.base))
-
-
-def kept_lines(program: Any) -> list[tuple[sympy.Symbol, sympy.Expr]]:
-    """The lines of ``program`` its outputs need, in order."""
-    needed = set().union(*(sympy.sympify(e).free_symbols for e in program.outputs))
-    kept = []
-    for target, expr in reversed(program.lines):
-        if target in needed:
-            kept.append((target, expr))
-            needed |= expr.free_symbols
-    return kept[::-1]
-
-
-def _lines(names: Names, lines: list[tuple[sympy.Symbol, sympy.Expr]], stores: list[tuple[str, sympy.Expr]]) -> list[str]:
-    printer = names.printer()
-    text = []
-    for index, (target, expr) in enumerate(lines):
-        printer.names[target] = f"t{index}"
-        text.append(f"t{index} = {printer.doprint(fold_constants(expr, rationals=False))};")
-    for target, expr in stores:
-        text.append(f"{target} = {printer.doprint(fold_constants(expr, rationals=False))};")
-    return text
-
-
-def program_body(names: Names, program: Any, targets: list[str]) -> list[str]:
-    """MATLAB lines of a straight-line program: ``tN = ...;`` per value the outputs need, then
-    ``target = output;`` per output."""
-    outputs = [sympy.sympify(e) for e in program.outputs]
-    return _lines(names, kept_lines(program), list(zip(targets, outputs)))
-
-
-def expression_body(names: Names, values: list[sympy.Expr], targets: list[str]) -> list[str]:
-    """MATLAB lines of explicit expressions, common subexpressions eliminated."""
-    folded = [fold_constants(sympy.sympify(v)) for v in values]
-    temporaries, reduced = sympy.cse(folded, symbols=sympy.numbered_symbols("_c"), order="canonical")
-    return _lines(names, temporaries, list(zip(targets, reduced)))
+    parameter, entry, first, declaration = "p.{}", "{}({})", 1, ""
+    fast_printer = FastMatlabPrinter
 
 
 def matrix_targets(out: str, rows: int, columns: int) -> list[str]:
@@ -167,10 +124,13 @@ def friction_slope(derivation: Derivation, names: Names, target: str) -> list[st
 
 
 def input_matrix_lines(derivation: Derivation, names: Names, target: str, rows: int, offset: int) -> list[str]:
-    """``target(i, offset + k) = dY_i/du_k`` (the efforts' generalized forces)."""
+    """``target(i, offset + k) = dY_i/du_k`` (the efforts' generalized forces; with quaternions
+    each effort is 1 at its velocity column)."""
     table = derivation.symbols
     if not table.efforts:
         return []
+    if len(table.q) != len(table.qd):
+        return [f"{target}({c + 1}, {offset + k + 1}) = 1;" for k, c in enumerate(derivation.robot.effort_columns())]
     inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
     nu = len(table.efforts)
     return expression_body(names, list(inputs), [f"{target}({i + 1}, {offset + k + 1})"
@@ -180,7 +140,7 @@ def input_matrix_lines(derivation: Derivation, names: Names, target: str, rows: 
 def linearize_rhs(derivation: Derivation, names: Names, qdd: str) -> list[str]:
     """``R = [-dtau/dq, -dtau/dqd - dF/dqd, dY/du]`` (n x 2n+nu) at accelerations ``qdd``."""
     table = derivation.symbols
-    n, nu = len(table.q), len(table.efforts)
+    n, nu = len(table.qd), len(table.efforts)
     local = names.extended({s: f"{qdd}({i + 1})" for i, s in enumerate(table.qdd)})
     lines = [f"D = zeros({2 * n * n}, 1);",
              *program_body(local, derivation.programs["inverse_dynamics_derivatives"], vector_targets("D", 2 * n * n)),
