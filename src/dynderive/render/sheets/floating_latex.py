@@ -1,0 +1,272 @@
+"""The LaTeX sheet of a floating-base robot: a small robot's equations derived step
+by step in quasi-velocities (``mechanics/floating_sheet.py``), a large one's as the
+intermediate-variable form of its module's programs (Newton-Euler and composite rigid
+bodies, line by line), laid out by ``floating_sheet.tex.j2``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import sympy
+
+from ...derivation import Derivation
+from ...mechanics.tidy import is_small
+from ...model.naming import latex_name
+from ..encode import escape_tex, tex_unit
+from ..environment import render
+from .latex import Formatter, parameter_value, typeset_width
+from .linebreak import LineBreaker
+from ..numbers import Numbers, sheet_digits
+from ..printers import RememberingLatexPrinter, SheetLatexPrinter
+from .recursion import COLUMN_UNITS
+
+TEMPLATE = "floating_sheet.tex.j2"
+#: Coordinate and velocity LaTeX of a floating joint's entries (DESIGN.md section 10 order).
+FLOATING_Q = ("x", "y", "z", "q_{x}", "q_{y}", "q_{z}", "q_{w}")
+FLOATING_V = ("v_{x}", "v_{y}", "v_{z}", "\\omega_{x}", "\\omega_{y}", "\\omega_{z}")
+
+
+def _tagged(name: str, tag: str) -> str:
+    """``q_{x}`` -> ``q_{x,tag}``, ``x`` -> ``x_{tag}`` (no tag: unchanged)."""
+    if not tag:
+        return name
+    return name[:-1] + "," + tag + "}" if name.endswith("}") else f"{name}_{{{tag}}}"
+
+
+def _dotted(name: str) -> str:
+    head, _, tail = name.partition("_")
+    return "\\dot{" + head + "}" + ("_" + tail if tail else "")
+
+
+def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str | None, str, int]]:
+    """Every coordinate, velocity and acceleration as ``(symbol, text, name, dots)``: a floating
+    or spherical joint's entry has its ``FLOATING_Q``/``FLOATING_V`` text and, as ``name``, the
+    joint's name when it must be tagged (the robot has several such joints, or another symbol
+    would read the same; else ""); a scalar joint's has ``text`` None and its joint's name. The
+    LaTeX sheet and the HTML page each spell these (``coordinate_names``,
+    ``html_floating.coordinate_math_names``)."""
+    robot, table = derivation.robot, derivation.symbols
+    where_q, where_v = robot.offsets()
+    multi = [j for j in robot.joints if j.multi]
+    others = {latex_name(str(s)) for s in [*table.parameters.values(), *table.efforts.values()]}
+    others |= {latex_name(j.name) for j in robot.joints if j.owns and not j.multi}
+    plain = set(FLOATING_Q) | set(FLOATING_V)
+    entries: list[tuple[sympy.Symbol, str | None, str, int]] = []
+    for joint in multi:
+        tag = "" if len(multi) == 1 and not plain & others else joint.name
+        qs, vs = (FLOATING_Q, FLOATING_V) if joint.type == "floating" else (FLOATING_Q[3:], FLOATING_V[3:])
+        qi, vi = where_q[joint.name], where_v[joint.name]
+        entries += [(table.q[qi + k], text, tag, 0) for k, text in enumerate(qs)]
+        for k, text in enumerate(vs):
+            entries += [(table.qd[vi + k], text, tag, 0), (table.qdd[vi + k], text, tag, 1)]
+    for joint in (j for j in robot.joints if j.owns and not j.multi):
+        qi, vi = where_q[joint.name], where_v[joint.name]
+        entries += [(table.q[qi], None, joint.name, 0), (table.qd[vi], None, joint.name, 1),
+                    (table.qdd[vi], None, joint.name, 2)]
+    return entries
+
+
+def coordinate_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
+    """LaTeX of every coordinate, velocity and acceleration (``coordinate_entries``): a floating
+    joint's ``x, y, z, q_x, q_y, q_z, q_w`` and ``v_x .. omega_z`` (tagged ``q_{x,\\mathrm{name}}``),
+    a spherical joint's quaternion and ``omega``, a scalar joint's as on the fixed-base sheet."""
+    return {symbol: latex_name(name, dots) if text is None
+            else _tagged(_dotted(text) if dots else text, "\\mathrm{" + escape_tex(name) + "}" if name else "")
+            for symbol, text, name, dots in coordinate_entries(derivation)}
+
+
+class FloatingFormatter(Formatter):
+    """The sheet's formatter with the floating names (``coordinate_names``) and, for a large
+    robot, the programs' lines named ``\\mathsf{w}_k`` (``lines``: symbol -> LaTeX)."""
+
+    def __init__(self, derivation: Derivation, digits: int | None = None, exact: bool = False,
+                 lines: tuple[tuple[sympy.Symbol, str], ...] = ()):
+        # Formatter.__init__ less the fixed-base intermediates (never derived for this robot)
+        self.names = derivation.symbols.latex_names() | coordinate_names(derivation) | dict(lines)
+        self.order = "none" if lines else None
+        settings = {"symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
+                    "long_frac_ratio": 2, "order": self.order}
+        self._printed = {}
+        self.numbers = None if exact else Numbers(sheet_digits(derivation.robot, digits))
+        self._printer = (RememberingLatexPrinter(settings) if self.numbers is None
+                         else SheetLatexPrinter(settings, self.numbers))
+        self._breaker = LineBreaker(self, typeset_width, self.order, self.numbers)
+
+
+def program_listing(derivation: Derivation) -> tuple[list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]],
+                                                     dict[str, list[sympy.Expr]]]:
+    """A large robot's intermediate-variable form: the lines the module's programs share
+    (the links' transforms), then those of Newton-Euler (``tau``), then those of the
+    composite rigid bodies (``M``), each line renamed ``_wk`` in one sequence; and the
+    outputs over those names (``tau`` = M vdot + C v + N, ``M`` row by row, ``N``)."""
+    programs = derivation.programs
+    parts = {"tau": programs["inverse_dynamics"], "M": programs["mass_matrix"], "N": programs["gravity"]}
+    shared = 0
+    first, second = parts["tau"].lines, parts["M"].lines
+    while shared < min(len(first), len(second)) and first[shared] == second[shared]:
+        shared += 1
+    count = 0
+    groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]] = []
+    outputs: dict[str, list[sympy.Expr]] = {}
+    renamed_shared: dict[sympy.Symbol, sympy.Symbol] = {}
+    for key, program in parts.items():
+        renames = dict(renamed_shared)
+        lines = []
+        for k, (name, value) in enumerate(program.lines):
+            if k < shared and name in renamed_shared:
+                continue
+            count += 1
+            renames[name] = sympy.Symbol(f"_w{count}")
+            lines.append((renames[name], value.xreplace(renames)))
+        if not renamed_shared:   # the first program: its first lines are the shared ones
+            renamed_shared = {name: renames[name] for name, _ in program.lines[:shared]}
+            groups.append(("shared", lines[:shared]))
+            lines = lines[shared:]
+        groups.append((key, lines))
+        outputs[key] = [e.xreplace(renames) for e in program.outputs]
+    return groups, outputs
+
+
+def _names_of(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]]) -> tuple[tuple[sympy.Symbol, str], ...]:
+    return tuple((name, f"\\mathsf{{w}}_{{{str(name)[2:]}}}") for _, lines in groups for name, _ in lines)
+
+
+def floating_sheet_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
+    """Every variable ``floating_sheet.tex.j2`` uses (docs/reference/outputs.md)."""
+    from ..._version import __version__
+
+    robot, table = derivation.robot, derivation.symbols
+    steps = derivation.floating_steps
+    small = steps.sheet is not None
+    groups, outputs = ([], {}) if small else program_listing(derivation)
+    fmt = FloatingFormatter.of(derivation, digits=digits, lines=_names_of(groups))
+    where_q, where_v = robot.offsets()
+    parameters = [{"symbol": fmt(table.parameters[p.name]),
+                   "value": "" if p.value is None else parameter_value(p.value, fmt.numbers),
+                   "unit": tex_unit(p.unit), "description": escape_tex(p.description)} for p in robot.parameters]
+    joints = []
+    for j in robot.joints:
+        entry = {"name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent), "child": escape_tex(j.child),
+                 "coordinates": "", "velocities": "", "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
+        if j.owns:
+            size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
+            entry["coordinates"] = ", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]])
+            entry["velocities"] = ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])
+        elif j.moves:   # a <mimic> joint: its variable and rate follow its leader's coordinate
+            leader, multiplier, offset = robot.driver(j)
+            m = table.expr(multiplier)
+            entry["coordinates"] = fmt(m * table.q[where_q[leader]] + table.expr(offset))
+            entry["velocities"] = fmt(m * table.qd[where_v[leader]])
+        joints.append(entry)
+    context: dict[str, Any] = {
+        "generator": f"dynderive {__version__}",
+        "source": escape_tex(Path(robot.source).name),
+        "robot": {"name": escape_tex(robot.name), "title": escape_tex(robot.title), "parameters": parameters,
+                  "joints": joints, "gravity": fmt(sympy.Matrix([table.expr(e) for e in robot.gravity]))},
+        "nq": len(table.q), "nv": len(table.qd), "small": small,
+        "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
+        "floating_base": robot.floating_base,
+        "multi": [multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name])
+                  for j in robot.joints if j.multi],
+        "Y": fmt(sympy.Matrix(steps.efforts)),
+        "actuated_multi": any(j.multi and j.effort for j in robot.joints),
+        "intermediates": bool(groups), "figure": None,
+        "F": fmt(dissipative_forces(derivation)) if robot.dissipative else None,
+    }
+    if small:
+        context |= _small_context(steps.sheet, fmt)
+    else:
+        context |= _large_context(groups, outputs, fmt, len(table.qd))
+    return context
+
+
+def dissipative_forces(derivation: Derivation) -> sympy.Matrix:
+    """``F = b v + fc sign(v)``, NV x 1: the damping and Coulomb friction of the scalar joints
+    (``Derivation.joint_drives``, by velocity column), as the module's ``friction_forces``."""
+    qd = derivation.symbols.qd
+    F = sympy.zeros(len(qd), 1)
+    for drive in derivation.joint_drives:
+        F[drive.coordinate] = drive.damping * qd[drive.coordinate] + drive.friction * sympy.sign(qd[drive.coordinate])
+    return F
+
+
+def multi_joint(joint: Any, fmt: Any, table: Any, where_q: dict[str, int], where_v: dict[str, int],
+                rotation: tuple[sympy.Matrix, sympy.Matrix], name: Any = escape_tex, absent: Any = "") -> dict[str, Any]:
+    """A floating or spherical joint: its quaternion's rotation matrix and configuration rate,
+    formatted by ``fmt`` (the LaTeX sheet's, or the HTML page's with ``name`` and ``absent``
+    its own: a spherical joint has no position)."""
+    start = 3 if joint.type == "floating" else 0
+    qi, vi = where_q[joint.name], where_v[joint.name]
+    quat = table.q[qi + start:qi + start + 4]
+    return {"name": name(joint.name), "type": joint.type,
+            "quaternion": fmt(sympy.Matrix(quat)),
+            "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else absent,
+            "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else absent,
+            "angular": fmt(sympy.Matrix(table.qd[vi + start:vi + start + 3])),
+            "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
+
+
+#: Largest entry (tree nodes, then LaTeX characters: about a page) the floating sheet
+#: typesets: breqn cannot break a display over pages; a longer one is in the JSON dump.
+ENTRY_LIMIT = 1500
+LATEX_LIMIT = 5000
+
+
+def _matrix(fmt: Formatter, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
+    """``Formatter.matrix`` with the entries over ENTRY_LIMIT nodes or LATEX_LIMIT characters
+    left out (the template says they are too long)."""
+    small = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
+    shown = fmt.matrix(name, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
+    long = [not fits or len(entry["latex"]) > LATEX_LIMIT for fits, entry in zip(small, shown["entries"])]
+    if any(long):
+        shown["wide"], shown["latex"] = True, ""
+        for entry, too_long in zip(shown["entries"], long):
+            if too_long:
+                entry["latex"] = None
+    return shown
+
+
+def _small_context(sheet: Any, fmt: Formatter) -> dict[str, Any]:
+    links = [{
+        "index": item.index, "name": escape_tex(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
+        "inertia": _matrix(fmt, f"I_{{{item.index}}}", item.inertia),
+        "rotation": _matrix(fmt, f"R_{{{item.index}}}", item.rotation),
+        "position": _matrix(fmt, f"p_{{{item.index}}}", item.com_position),
+        "jacobian": _matrix(fmt, f"J_{{{item.index}}}", item.jacobian),
+        "jacobian_dot": _matrix(fmt, f"\\dot J_{{{item.index}}}", item.jacobian_dot)
+        if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
+        "twist": _matrix(fmt, f"\\mathcal{{V}}_{{{item.index}}}", item.twist),
+        "gravity": _matrix(fmt, f"\\left(R_{{{item.index}}}^T \\vec g\\right)", item.gravity),
+        "kinetic": fmt.display(item.kinetic), "potential": fmt.display(item.potential),
+    } for item in sheet.links]
+    return {
+        "links": links, "single": len(sheet.links) == 1,
+        "rate": _matrix(fmt, "Q", sheet.rate),
+        "T": fmt.display(sheet.T), "V": fmt.display(sheet.V),
+        "M": _matrix(fmt, "M", sheet.M), "N": _matrix(fmt, "N", sheet.N), "Cv": _matrix(fmt, "\\left(C v\\right)", sheet.Cv),
+        "C": _matrix(fmt, "C", sheet.C), "EOM": _matrix(fmt, "\\mathrm{EOM}", sheet.EOM),
+    }
+
+
+def _large_context(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]], outputs: dict[str, list[sympy.Expr]],
+                   fmt: Formatter, nv: int) -> dict[str, Any]:
+    def line(name: sympy.Symbol, value: sympy.Expr) -> dict[str, Any]:
+        shown = fmt.display(value, None, COLUMN_UNITS)
+        return {"name": fmt(name), "parts": shown.lines}
+
+    titles = {"shared": "The links' transforms and inertias", "tau": "Newton--Euler",
+              "M": "Composite rigid bodies", "N": "Gravity (Newton--Euler at rest)"}
+    return {
+        "groups": [{"title": titles[key], "key": key, "lines": [line(n, v) for n, v in lines]} for key, lines in groups],
+        "line_count": sum(len(lines) for _, lines in groups),
+        "tau": [fmt(e) for e in outputs["tau"]], "N": [fmt(e) for e in outputs["N"]],
+        "M": [{"row": i + 1, "column": j + 1, "latex": fmt(outputs["M"][i * nv + j])}
+              for i in range(nv) for j in range(i, nv) if outputs["M"][i * nv + j] != 0],
+    }
+
+
+def render_floating_latex(derivation: Derivation, template_dir: str | Path | None = None,
+                          digits: int | None = None) -> str:
+    """The floating-base sheet, numbers to ``digits`` significant digits at most."""
+    return render("latex", TEMPLATE, floating_sheet_context(derivation, digits), template_dir)
