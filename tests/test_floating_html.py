@@ -52,7 +52,7 @@ def free(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def chain(tmp_path_factory):
-    """A floating base and three scalar joints: the program form (``is_small_floating`` False)."""
+    """A floating base and three scalar joints: the program form (``is_step_by_step`` False)."""
     return _robot(tmp_path_factory.mktemp("chain"), _chain(8, 3), "chain")
 
 
@@ -174,7 +174,7 @@ def test_free_body_mathml_agrees_with_the_module(free):
     """M and the equations of motion (EOM = M vdot + C v + N, no efforts) read from the page's
     MathML equal the module's mass matrix and inverse dynamics; so do N and C v."""
     _, derivation, page, module = free
-    context, sheet = floating_html_context(derivation), derivation.floating_steps.sheet
+    context, sheet = floating_html_context(derivation), derivation.quasi_velocity_steps.sheet
     assert not context["M"]["wide"] and context["EOM"]["wide"]   # both forms read
     for q, v, a in _states(derivation, 1):
         names, values = _symbols(derivation, q, v, a)
@@ -193,7 +193,7 @@ def test_damping_is_on_the_page_and_in_the_equations(tmp_path):
     EOM (which holds it) its inverse dynamics, and both equations name F."""
     text = _chain(11, 1).replace("rest: 0.3}", "rest: 0.3, damping: 0.1712345678901234}")
     _, derivation, page, module = _robot(tmp_path, text, "damped")
-    context, sheet = floating_html_context(derivation), derivation.floating_steps.sheet
+    context, sheet = floating_html_context(derivation), derivation.quasi_velocity_steps.sheet
     assert context["F"] is not None and "<mo>+</mo><mi>N</mi><mo>+</mo><mi>F</mi>" in page
     for q, v, a in _states(derivation, 2):
         names, values = _symbols(derivation, q, v, a)
@@ -217,7 +217,7 @@ def test_large_robot_as_the_programs_lines(chain):
     """The program form: every line shown once, named w_k; evaluated in order from the
     page's MathML, its tau, M and N equal the module's."""
     _, derivation, page, module = chain
-    assert derivation.floating_steps.sheet is None
+    assert derivation.quasi_velocity_steps.sheet is None
     tags = parse(page)
     assert tags.problems == [] and tags.stack == []
     assert "intermediate-variable form" in page and "Kane's" not in page

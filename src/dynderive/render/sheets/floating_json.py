@@ -2,7 +2,7 @@
 (``render/json.py``) where they apply, in quasi-velocities.
 
 ``NQ`` and ``NV``, ``coordinates`` (NQ names), ``velocities`` and ``accelerations`` (NV names)
-join the fixed-base keys. A small robot's ``quantities`` (``mechanics/floating_sheet.py``):
+join the fixed-base keys. A small robot's ``quantities`` (``mechanics/quasi_velocity.py``):
 ``T_g``, ``V_g``, ``Y_g``, ``M_g``, ``C_g`` (Pinocchio's Coriolis matrix), ``N_g`` (gravity
 and springs: not ``dV/dq``, the velocities being quasi-velocities), ``EOM_g2``
 (``M vdot + C v + N - Y``), ``Q_g`` (``qdot = Q_g v``) and the body Jacobians ``J_b1, ...``.
@@ -38,7 +38,7 @@ DESCRIPTIONS = {
 
 def render_floating_json(derivation: Derivation) -> str:
     robot, table = derivation.robot, derivation.symbols
-    steps = derivation.floating_steps
+    steps = derivation.quasi_velocity_steps
     small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
     fmt = FloatingFormatter.of(derivation, exact=True, lines=_names_of(groups))

@@ -1,5 +1,5 @@
 """The LaTeX sheet of a floating-base robot: a small robot's equations derived step
-by step in quasi-velocities (``mechanics/floating_sheet.py``), a large one's as the
+by step in quasi-velocities (``mechanics/quasi_velocity.py``), a large one's as the
 intermediate-variable form of its module's programs (Newton-Euler and composite rigid
 bodies, line by line), laid out by ``floating_sheet.tex.j2``."""
 
@@ -137,7 +137,7 @@ def floating_sheet_context(derivation: Derivation, digits: int | None = None) ->
     from ..._version import __version__
 
     robot, table = derivation.robot, derivation.symbols
-    steps = derivation.floating_steps
+    steps = derivation.quasi_velocity_steps
     small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
     fmt = FloatingFormatter.of(derivation, digits=digits, lines=_names_of(groups))

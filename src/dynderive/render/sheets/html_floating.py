@@ -106,7 +106,7 @@ def floating_html_context(derivation: Derivation, digits: int | None = None) -> 
     from ..._version import __version__
 
     robot, table = derivation.robot, derivation.symbols
-    steps = derivation.floating_steps
+    steps = derivation.quasi_velocity_steps
     small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
     lines = tuple(name for _, group in groups for name, _ in group)

@@ -75,7 +75,7 @@ def render_floating_terminal(derivation: Derivation, digits: int | None = None) 
 
     printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)))
     robot, table = derivation.robot, derivation.symbols
-    steps = derivation.floating_steps
+    steps = derivation.quasi_velocity_steps
     head = (f"{terminal_text(robot.title)} ({robot.name}): NQ = {len(table.q)} coordinates "
             f"({', '.join(robot.configuration_names)}), NV = {len(table.qd)} velocities "
             f"({', '.join(str(v) for v in table.qd)})")
