@@ -23,7 +23,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.mechanics.floating import quaternion_matrix
-from dynderive.mechanics.quasi_velocity import floating_sheet, is_step_by_step, skew
+from dynderive.mechanics.quasi_velocity import is_step_by_step, quasi_velocity_sheet, skew
 from dynderive.render.floating_json import render_floating_json
 from dynderive.render.floating_latex import render_floating_latex
 from dynderive.render.targets.numpy.floating_code import render_floating_code
