@@ -24,8 +24,8 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.mechanics.floating import quaternion_matrix
 from dynderive.mechanics.quasi_velocity import is_step_by_step, quasi_velocity_sheet, skew
-from dynderive.render.floating_json import render_floating_json
-from dynderive.render.floating_latex import render_floating_latex
+from dynderive.render.sheets.json import render_json
+from dynderive.render.sheets.latex import render_latex
 from dynderive.render.targets.numpy.floating_code import render_floating_code
 
 runner = CliRunner()
@@ -214,7 +214,7 @@ def _json_values(document: dict, derivation, q, v, a, printed: dict | None = Non
 @pytest.mark.parametrize(("seed", "scalar"), [(5, 1), (6, 3)])   # small: expanded; large: intermediates
 def test_json_round_trips_and_agrees_with_the_module(seed, scalar, tmp_path):
     robot, derivation = _load(tmp_path, _chain(seed, scalar))
-    document = json.loads(render_floating_json(derivation))
+    document = json.loads(render_json(derivation))
     assert document["NQ"] == 7 + scalar and document["NV"] == 6 + scalar and document["floating"] is True
     assert document["coordinates"][:7] == [f"root_{s}" for s in ("x", "y", "z", "qx", "qy", "qz", "qw")]
     assert document["velocities"][:6] == [f"root_{s}" for s in ("vx", "vy", "vz", "wx", "wy", "wz")]
@@ -283,9 +283,9 @@ def test_build_writes_the_sheet_and_json(tmp_path):
 
 def test_latex_direct_render_is_deterministic(tmp_path):
     robot, derivation = _load(tmp_path, FREE)
-    first = render_floating_latex(derivation)
+    first = render_latex(derivation)
     _, again = _load(tmp_path, FREE, "again.yaml")
-    assert render_floating_latex(again).replace("again.yaml", "robot.yaml") == first
+    assert render_latex(again).replace("again.yaml", "robot.yaml") == first
 
 
 @pytest.mark.parametrize("root, suffixes", [("floating", ("fx", "fy", "fz", "tx", "ty", "tz")),
@@ -298,8 +298,8 @@ def test_an_actuated_root_takes_its_efforts_at_its_velocity_columns(root, suffix
     efforts = derivation.symbols.efforts
     assert robot.efforts == (*(f"w_{s}" for s in suffixes), "u1")
     assert list(derivation.quasi_velocity_steps.sheet.Y) == [efforts[f"w_{s}"] for s in suffixes] + [efforts["u1"]]
-    document = json.loads(render_floating_json(derivation))
+    document = json.loads(render_json(derivation))
     assert document["efforts"] == list(robot.efforts)
-    latex = render_floating_latex(derivation)
+    latex = render_latex(derivation)
     assert all(rf"w_{{\mathrm{{{s}}}}}" in latex for s in suffixes)
     assert "unactuated" not in latex

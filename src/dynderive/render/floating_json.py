@@ -1,7 +1,4 @@
-"""Old import path of ``render.sheets.floating_json`` (removed once every importer uses the new one)."""
+"""Old import path of the quasi-velocity JSON dump (now ``render_json`` for every robot), kept for
+imports outside the sheets until they use ``render.sheets``."""
 
-import sys
-
-from .sheets import floating_json
-
-sys.modules[__name__] = floating_json
+from .sheets.json import render_json as render_floating_json  # noqa: F401

@@ -1,7 +1,9 @@
-"""Old import path of ``render.sheets.floating_latex`` (removed once every importer uses the new one)."""
+"""Old import path of the quasi-velocity sheet (now ``render_latex`` for every robot), kept for
+imports outside the sheets until they use ``render.sheets``."""
 
-import sys
+from .sheets.latex import render_latex
+from .sheets.quasi_velocity import coordinate_names, dissipative_forces  # noqa: F401
 
-from .sheets import floating_latex
 
-sys.modules[__name__] = floating_latex
+def render_floating_latex(derivation, template_dir=None, digits=None):  # noqa: ANN001, ANN201
+    return render_latex(derivation, template_dir, digits=digits)

@@ -1,7 +1,9 @@
-"""Old import path of ``render.sheets.html_floating`` (removed once every importer uses the new one)."""
+"""Old import path of the quasi-velocity HTML page (now ``render_html`` for every robot), kept for
+imports outside the sheets until they use ``render.sheets``."""
 
-import sys
+from .sheets.html import render_html
+from .sheets.html_quasi_velocity import coordinate_math_names  # noqa: F401
 
-from .sheets import html_floating
 
-sys.modules[__name__] = html_floating
+def render_floating_html(derivation, template_dir=None, digits=None):  # noqa: ANN001, ANN201
+    return render_html(derivation, template_dir, digits=digits)

@@ -10,29 +10,31 @@ the page only through the HTML environment's autoescaping.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Any
 
 import sympy
-from markupsafe import Markup, escape
+from markupsafe import Markup
 
 from ...derivation import Derivation
 from ..environment import render
 from .figure import sheet_figure
-from .html_math import MathFormatter, body_jacobian, fenced, link_frame, mi, mrow, name_markup, sub
+from .html_math import (
+    MathFormatter,
+    body_jacobian,
+    fenced,
+    html_unit,
+    link_frame,
+    mi,
+    mrow,
+    name_markup,
+    sub,
+    value_markup,
+)
 from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
-from .latex import (
-    INLINE_NODES,
-    LONGEST_LAMBDA,
-    SCALAR_NODES,
-    Formatter,
-    _groups,
-    _residual_text,
-    default_sections,
-    maximal_left_out,
-)
+from .latex import LONGEST_LAMBDA, _residual_text, default_sections, maximal_left_out
+from .latex_format import INLINE_NODES, SCALAR_NODES, Formatter, _groups
 from .recursion import joint_variable
 
 HTML_TEMPLATE = "html/sheet.html.j2"
@@ -45,14 +47,6 @@ def _upright(text: str) -> Markup:
 def _named(letter: str, index: str) -> Markup:
     """``M_g``, ``EOM_{g2}`` (several letters upright)."""
     return sub(_upright(letter) if len(letter) > 1 else letter, _upright(index) if not index.isdigit() else index)
-
-
-def html_unit(unit: str) -> Markup:
-    """A unit with powers raised, as the sheet's ``tex_unit``: ``m/s^2`` -> m/s<sup>2</sup>,
-    ``kg*m**2`` -> kg m<sup>2</sup>; the rest escaped."""
-    parts = re.split(r"\^\(?([+-]?\d+(?:\.\d+)?)\)?", unit.replace("**", "^"))
-    return Markup("").join(Markup("<sup>{}</sup>").format(part.replace("-", "\u2212")) if index % 2
-                           else escape(part.replace("*", "\u2009")) for index, part in enumerate(parts))
 
 
 def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None,
@@ -280,13 +274,10 @@ def _version() -> str:
 def render_html(derivation: Derivation, template_dir: str | Path | None = None,
                 sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
     """The HTML sheet of ``sections`` (default: the LaTeX sheet's ``default_sections``), numbers
-    to ``digits`` significant digits at most (default: as the robot file wrote them)."""
+    to ``digits`` significant digits at most (default: as the robot file wrote them). A robot
+    with quaternion joints gets the quasi-velocity page (``html_quasi_velocity``)."""
+    if derivation.robot.floating:
+        from .html_quasi_velocity import QUASI_VELOCITY_TEMPLATE, quasi_velocity_html_context
+
+        return render("html", QUASI_VELOCITY_TEMPLATE, quasi_velocity_html_context(derivation, digits), template_dir)
     return render("html", HTML_TEMPLATE, html_context(derivation, sections, digits), template_dir)
-
-
-def value_markup(value: float, fmt: MathFormatter) -> Markup:
-    """A parameter's default in the page's table: as written, to the page's digits."""
-    mantissa, exponent = fmt.numbers.value_parts(value)
-    if exponent is None:
-        return Markup(escape(mantissa))
-    return Markup("{}\u00d710<sup>{}</sup>").format(mantissa, str(exponent).replace("-", "\u2212"))

@@ -9,6 +9,7 @@ every text it holds went through the XML writer, which escapes ``<``, ``&`` and 
 
 from __future__ import annotations
 
+import re
 from typing import Any
 from xml.dom import minidom
 
@@ -20,7 +21,9 @@ from sympy.printing.pretty.pretty_symbology import greek_unicode
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
 from ...model.naming import GREEK, split_index
-from .latex import (
+from ..numbers import DecimalNumbers, Numbers, sheet_digits
+from ..printers import DerivationFormatter
+from .latex_format import (
     BROKEN_NODES,
     ENTRY_NODES,
     LINE_UNITS,
@@ -31,8 +34,6 @@ from .latex import (
     entry_index,
     matrix_width,
 )
-from ..numbers import DecimalNumbers, Numbers, sheet_digits
-from ..printers import DerivationFormatter
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -239,3 +240,19 @@ class MathFormatter(DerivationFormatter):
         wide = large or matrix_width(matrix) > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
         return {"label": shown, "math": None if large else self(matrix), "wide": wide, "entries": entries, "shape": [rows, cols],
                 "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+
+
+def html_unit(unit: str) -> Markup:
+    """A unit with powers raised, as the sheet's ``tex_unit``: ``m/s^2`` -> m/s<sup>2</sup>,
+    ``kg*m**2`` -> kg m<sup>2</sup>; the rest escaped."""
+    parts = re.split(r"\^\(?([+-]?\d+(?:\.\d+)?)\)?", unit.replace("**", "^"))
+    return Markup("").join(Markup("<sup>{}</sup>").format(part.replace("-", "\u2212")) if index % 2
+                           else escape(part.replace("*", "\u2009")) for index, part in enumerate(parts))
+
+
+def value_markup(value: float, fmt: MathFormatter) -> Markup:
+    """A parameter's default in the page's table: as written, to the page's digits."""
+    mantissa, exponent = fmt.numbers.value_parts(value)
+    if exponent is None:
+        return Markup(escape(mantissa))
+    return Markup("{}\u00d710<sup>{}</sup>").format(mantissa, str(exponent).replace("-", "\u2212"))

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
+import sympy
 from sympy.printing.pretty.pretty import PrettyPrinter
 from sympy.printing.pretty.stringpict import prettyForm
 
 from ...derivation import Derivation
 from ..encode import terminal_text
 from ..numbers import DecimalNumbers, Numbers, sheet_digits
+from .quasi_velocity import dissipative_forces
 
 
 class _Printer(DecimalNumbers, PrettyPrinter):
@@ -39,7 +41,9 @@ def _block(title: str, value: object, printer: _Printer) -> str:
 
 def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
     """The equations of motion as text, numbers as the robot file wrote them (to ``digits``);
-    velocities as ``q₁'``."""
+    velocities as ``q₁'``; a robot with quaternion joints: in quasi-velocities (``_quasi_velocity``)."""
+    if derivation.robot.floating:
+        return _quasi_velocity(derivation, digits)
     table = derivation.symbols
     printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)), dict(zip(table.qd, table.q)))
     robot, q = derivation.robot, derivation.quantities
@@ -68,11 +72,9 @@ def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
     return "\n".join(parts) + "\n"
 
 
-def render_floating_terminal(derivation: Derivation, digits: int | None = None) -> str:
-    """A floating-base robot's equations as text: a small robot's (the floating sheet's M, C,
+def _quasi_velocity(derivation: Derivation, digits: int | None = None) -> str:
+    """A robot with quaternion joints: its equations as text: a small robot's (the quasi-velocity sections' M, C,
     N, F and Y in quasi-velocities), or, for a larger one, where its programs are written."""
-    import sympy
-
     printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)))
     robot, table = derivation.robot, derivation.symbols
     steps = derivation.quasi_velocity_steps
@@ -91,9 +93,13 @@ def render_floating_terminal(derivation: Derivation, digits: int | None = None) 
         parts += [_block("M(q) =", sheet.M, printer), _block("C(q, v) =", sheet.C, printer),
                   _block("N(q) =", sheet.N, printer)]
         if drives:
-            from .floating_latex import dissipative_forces
-
             parts.append(_block("F(v) = (damping and friction)", dissipative_forces(derivation), printer))
     parts += [_block("Y =", sympy.Matrix(steps.efforts), printer),
               "dynderive check runs this robot's numeric checks (and Pinocchio's, when installed)."]
     return "\n".join(parts) + "\n"
+
+
+def render_floating_terminal(derivation: Derivation, digits: int | None = None) -> str:
+    """Old name of ``render_terminal`` for a robot with quaternion joints (the commands'
+    import; removed once they call ``render_terminal``)."""
+    return render_terminal(derivation, digits)

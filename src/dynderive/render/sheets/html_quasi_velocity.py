@@ -1,11 +1,11 @@
-"""The HTML sheet of a floating-base robot: the floating LaTeX sheet's content
-(``render/floating_latex.py``: a small robot's equations step by step in quasi-velocities, a
-large one's as the module's programs line by line) as one self-contained page, rendered as
-the fixed-base page is (``render/html.py``): MathML from the same SymPy quantities
-(``html_math``), the sheet's names for the floating coordinates (``x, y, z, q_x .. q_w``,
-``v_x .. omega_z``), the programs' lines named ``w_k``, text from the robot file escaped by
-the HTML environment. No drawing: the 3-D kinematic diagram (``figure_3d``) is not drawn for a
-floating-base robot, as on the LaTeX sheet.
+"""The HTML page's quasi-velocity content, what ``render_html`` gives a robot with quaternion
+joints: the LaTeX sheet's quasi-velocity sections (``quasi_velocity``: a small robot's
+equations step by step in quasi-velocities, a large one's as the module's programs line by
+line) as one self-contained page, rendered as the other robots' page is (``html``): MathML
+from the same SymPy quantities (``html_math``), the sheet's names for the quaternion joints'
+entries (``x, y, z, q_x .. q_w``, ``v_x .. omega_z``), the programs' lines named ``w_k``, text
+from the robot file escaped by the HTML environment. No drawing: the 3-D kinematic diagram
+(``figure_3d``) is not drawn for such a robot, as on the LaTeX sheet.
 """
 
 from __future__ import annotations
@@ -18,29 +18,41 @@ from markupsafe import Markup
 
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
-from ..environment import render
-from .floating_latex import (
+from ..numbers import Numbers, sheet_digits
+from ..printers import DerivationFormatter
+from .html_math import (
+    MathFormatter,
+    Name,
+    _atom,
+    _Printer,
+    accent,
+    html_unit,
+    mi,
+    mn,
+    mo,
+    mrow,
+    name_of,
+    sub,
+    value_markup,
+)
+from .latex_format import entry_index
+from .quasi_velocity import (
     ENTRY_LIMIT,
     coordinate_entries,
     dissipative_forces,
     multi_joint,
     program_listing,
 )
-from .html import html_unit, value_markup
-from .html_math import MathFormatter, Name, _atom, _Printer, accent, mi, mn, mo, mrow, name_of, sub
-from .latex import entry_index
-from ..numbers import Numbers, sheet_digits
-from ..printers import DerivationFormatter
 
-TEMPLATE = "html/floating_sheet.html.j2"
-#: MathML letters of FLOATING_Q / FLOATING_V: (letter, subscript or "").
+QUASI_VELOCITY_TEMPLATE = "html/floating_sheet.html.j2"
+#: MathML letters of FREE_FLYER_Q / FREE_FLYER_V: (letter, subscript or "").
 _LETTERS = {"x": ("x", ""), "y": ("y", ""), "z": ("z", ""), "q_{x}": ("q", "x"), "q_{y}": ("q", "y"),
             "q_{z}": ("q", "z"), "q_{w}": ("q", "w"), "v_{x}": ("v", "x"), "v_{y}": ("v", "y"), "v_{z}": ("v", "z"),
             "\\omega_{x}": ("\u03c9", "x"), "\\omega_{y}": ("\u03c9", "y"), "\\omega_{z}": ("\u03c9", "z")}
 
 
 def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
-    """A floating joint's entry (``FLOATING_Q``/``FLOATING_V`` text) in MathML: the letter
+    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text) in MathML: the letter
     (dotted), its subscript, the joint's name upright after a comma when tagged."""
     letter, index = _LETTERS[text]
     base = accent(mi(letter), "\u02d9") if dots else mi(letter)
@@ -54,13 +66,13 @@ def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
 
 def coordinate_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | Markup]:
     """MathML names of every coordinate, velocity and acceleration, those of the LaTeX sheet
-    (``floating_latex.coordinate_entries``)."""
+    (``quasi_velocity.coordinate_entries``)."""
     return {symbol: name_of(name, dots) if text is None else _coordinate(text, name, dots)
             for symbol, text, name, dots in coordinate_entries(derivation)}
 
 
-class FloatingMathFormatter(MathFormatter):
-    """The page's formatter with the floating names (``coordinate_math_names``) and, for a large
+class QuasiVelocityMathFormatter(MathFormatter):
+    """The page's formatter with the quaternion joints' names (``coordinate_math_names``) and, for a large
     robot, the programs' lines (``lines``) named ``w_k`` in sans-serif, as on the LaTeX sheet."""
 
     def __init__(self, derivation: Derivation, digits: int | None = None, lines: tuple[sympy.Symbol, ...] = ()):
@@ -80,7 +92,7 @@ def _matrix(fmt: MathFormatter, letter: Any, index: int | None, matrix: sympy.Ma
             label: Markup | None = None) -> dict[str, Any]:
     """``MathFormatter.matrix`` of ``letter`` (with the link's ``index``, entries named as the
     LaTeX sheet's: ``I_{1,23}``), ``label`` in front of the whole matrix (default the name),
-    with the entries the LaTeX sheet leaves out (over ``floating_latex.ENTRY_LIMIT`` nodes) left
+    with the entries the LaTeX sheet leaves out (over ``quasi_velocity.ENTRY_LIMIT`` nodes) left
     out here too: their ``math`` None (the page says they are too long and in the JSON dump)."""
     name = _atom(letter) if index is None else sub(letter, str(index))
     fits = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
@@ -99,9 +111,9 @@ def _matrix(fmt: MathFormatter, letter: Any, index: int | None, matrix: sympy.Ma
     return shown
 
 
-def floating_html_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
+def quasi_velocity_html_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
     """Every variable ``html/floating_sheet.html.j2`` uses: the LaTeX sheet's
-    (``floating_latex.floating_sheet_context``) in MathML; names and free text as written
+    (``quasi_velocity.quasi_velocity_context``) in MathML; names and free text as written
     (the environment escapes them)."""
     from ..._version import __version__
 
@@ -110,7 +122,7 @@ def floating_html_context(derivation: Derivation, digits: int | None = None) -> 
     small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
     lines = tuple(name for _, group in groups for name, _ in group)
-    fmt = FloatingMathFormatter.of(derivation, digits=digits, lines=lines)
+    fmt = QuasiVelocityMathFormatter.of(derivation, digits=digits, lines=lines)
     where_q, where_v = robot.offsets()
     parameters = [{"symbol": fmt(table.parameters[p.name]),
                    "value": "" if p.value is None else value_markup(p.value, fmt),
@@ -190,9 +202,3 @@ def _large_context(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]
         "M": [{"name": sub("M", mrow(str(i + 1), mo(","), str(j + 1))), "math": fmt(outputs["M"][i * nv + j])}
               for i in range(nv) for j in range(i, nv) if outputs["M"][i * nv + j] != 0],
     }
-
-
-def render_floating_html(derivation: Derivation, template_dir: str | Path | None = None,
-                         digits: int | None = None) -> str:
-    """The floating-base HTML sheet, numbers to ``digits`` significant digits at most."""
-    return render("html", TEMPLATE, floating_html_context(derivation, digits), template_dir)

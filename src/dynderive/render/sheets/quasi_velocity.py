@@ -1,11 +1,13 @@
-"""The LaTeX sheet of a floating-base robot: a small robot's equations derived step
-by step in quasi-velocities (``mechanics/quasi_velocity.py``), a large one's as the
-intermediate-variable form of its module's programs (Newton-Euler and composite rigid
-bodies, line by line), laid out by ``floating_sheet.tex.j2``."""
+"""The sheet's quasi-velocity sections, what a robot with quaternion joints (a floating base,
+spherical joints) gets in ``sheet.tex.j2`` (``sections/quasi_velocity.tex.j2``): a small
+robot's equations derived step by step in quasi-velocities (``mechanics/quasi_velocity.py``),
+a large one's as the intermediate-variable form of its module's programs (Newton-Euler and
+composite rigid bodies, line by line). The names of the quaternion joints' entries, the
+program listing and the dissipative forces serve the HTML page, the JSON dump and the
+terminal too."""
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import sympy
@@ -13,18 +15,16 @@ import sympy
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
 from ...model.naming import latex_name
-from ..encode import escape_tex, tex_unit
-from ..environment import render
-from .latex import Formatter, parameter_value, typeset_width
-from .linebreak import LineBreaker
+from ..encode import escape_tex
 from ..numbers import Numbers, sheet_digits
 from ..printers import RememberingLatexPrinter, SheetLatexPrinter
+from .latex_format import Formatter, sheet_header, typeset_width
+from .linebreak import LineBreaker
 from .recursion import COLUMN_UNITS
 
-TEMPLATE = "floating_sheet.tex.j2"
 #: Coordinate and velocity LaTeX of a floating joint's entries (DESIGN.md section 10 order).
-FLOATING_Q = ("x", "y", "z", "q_{x}", "q_{y}", "q_{z}", "q_{w}")
-FLOATING_V = ("v_{x}", "v_{y}", "v_{z}", "\\omega_{x}", "\\omega_{y}", "\\omega_{z}")
+FREE_FLYER_Q = ("x", "y", "z", "q_{x}", "q_{y}", "q_{z}", "q_{w}")
+FREE_FLYER_V = ("v_{x}", "v_{y}", "v_{z}", "\\omega_{x}", "\\omega_{y}", "\\omega_{z}")
 
 
 def _tagged(name: str, tag: str) -> str:
@@ -41,21 +41,21 @@ def _dotted(name: str) -> str:
 
 def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str | None, str, int]]:
     """Every coordinate, velocity and acceleration as ``(symbol, text, name, dots)``: a floating
-    or spherical joint's entry has its ``FLOATING_Q``/``FLOATING_V`` text and, as ``name``, the
+    or spherical joint's entry has its ``FREE_FLYER_Q``/``FREE_FLYER_V`` text and, as ``name``, the
     joint's name when it must be tagged (the robot has several such joints, or another symbol
     would read the same; else ""); a scalar joint's has ``text`` None and its joint's name. The
     LaTeX sheet and the HTML page each spell these (``coordinate_names``,
-    ``html_floating.coordinate_math_names``)."""
+    ``html_quasi_velocity.coordinate_math_names``)."""
     robot, table = derivation.robot, derivation.symbols
     where_q, where_v = robot.offsets()
     multi = [j for j in robot.joints if j.multi]
     others = {latex_name(str(s)) for s in [*table.parameters.values(), *table.efforts.values()]}
     others |= {latex_name(j.name) for j in robot.joints if j.owns and not j.multi}
-    plain = set(FLOATING_Q) | set(FLOATING_V)
+    plain = set(FREE_FLYER_Q) | set(FREE_FLYER_V)
     entries: list[tuple[sympy.Symbol, str | None, str, int]] = []
     for joint in multi:
         tag = "" if len(multi) == 1 and not plain & others else joint.name
-        qs, vs = (FLOATING_Q, FLOATING_V) if joint.type == "floating" else (FLOATING_Q[3:], FLOATING_V[3:])
+        qs, vs = (FREE_FLYER_Q, FREE_FLYER_V) if joint.type == "floating" else (FREE_FLYER_Q[3:], FREE_FLYER_V[3:])
         qi, vi = where_q[joint.name], where_v[joint.name]
         entries += [(table.q[qi + k], text, tag, 0) for k, text in enumerate(qs)]
         for k, text in enumerate(vs):
@@ -76,8 +76,8 @@ def coordinate_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
             for symbol, text, name, dots in coordinate_entries(derivation)}
 
 
-class FloatingFormatter(Formatter):
-    """The sheet's formatter with the floating names (``coordinate_names``) and, for a large
+class QuasiVelocityFormatter(Formatter):
+    """The sheet's formatter with the quaternion joints' names (``coordinate_names``) and, for a large
     robot, the programs' lines named ``\\mathsf{w}_k`` (``lines``: symbol -> LaTeX)."""
 
     def __init__(self, derivation: Derivation, digits: int | None = None, exact: bool = False,
@@ -132,38 +132,32 @@ def _names_of(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]]) -
     return tuple((name, f"\\mathsf{{w}}_{{{str(name)[2:]}}}") for _, lines in groups for name, _ in lines)
 
 
-def floating_sheet_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
-    """Every variable ``floating_sheet.tex.j2`` uses (docs/reference/outputs.md)."""
-    from ..._version import __version__
-
+def quasi_velocity_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
+    """Every variable ``sheet.tex.j2`` uses for a robot with quaternion joints
+    (docs/reference/outputs.md)."""
     robot, table = derivation.robot, derivation.symbols
     steps = derivation.quasi_velocity_steps
     small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
-    fmt = FloatingFormatter.of(derivation, digits=digits, lines=_names_of(groups))
+    fmt = QuasiVelocityFormatter.of(derivation, digits=digits, lines=_names_of(groups))
     where_q, where_v = robot.offsets()
-    parameters = [{"symbol": fmt(table.parameters[p.name]),
-                   "value": "" if p.value is None else parameter_value(p.value, fmt.numbers),
-                   "unit": tex_unit(p.unit), "description": escape_tex(p.description)} for p in robot.parameters]
     joints = []
     for j in robot.joints:
         entry = {"name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent), "child": escape_tex(j.child),
-                 "coordinates": "", "velocities": "", "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
+                 "variables": ["", ""], "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
         if j.owns:
             size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
-            entry["coordinates"] = ", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]])
-            entry["velocities"] = ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])
+            entry["variables"] = [", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]]),
+                                  ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])]
         elif j.moves:   # a <mimic> joint: its variable and rate follow its leader's coordinate
             leader, multiplier, offset = robot.driver(j)
             m = table.expr(multiplier)
-            entry["coordinates"] = fmt(m * table.q[where_q[leader]] + table.expr(offset))
-            entry["velocities"] = fmt(m * table.qd[where_v[leader]])
+            entry["variables"] = [fmt(m * table.q[where_q[leader]] + table.expr(offset)),
+                                  fmt(m * table.qd[where_v[leader]])]
         joints.append(entry)
-    context: dict[str, Any] = {
-        "generator": f"dynderive {__version__}",
-        "source": escape_tex(Path(robot.source).name),
-        "robot": {"name": escape_tex(robot.name), "title": escape_tex(robot.title), "parameters": parameters,
-                  "joints": joints, "gravity": fmt(sympy.Matrix([table.expr(e) for e in robot.gravity]))},
+    gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
+    context = sheet_header(derivation, fmt, gravity, ["Coordinates", "Velocities"], joints) | {
+        "quasi_velocity": True, "maximal_left_out": False,
         "nq": len(table.q), "nv": len(table.qd), "small": small,
         "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
         "floating_base": robot.floating_base,
@@ -207,7 +201,7 @@ def multi_joint(joint: Any, fmt: Any, table: Any, where_q: dict[str, int], where
             "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
 
 
-#: Largest entry (tree nodes, then LaTeX characters: about a page) the floating sheet
+#: Largest entry (tree nodes, then LaTeX characters: about a page) sheet
 #: typesets: breqn cannot break a display over pages; a longer one is in the JSON dump.
 ENTRY_LIMIT = 1500
 LATEX_LIMIT = 5000
@@ -264,9 +258,3 @@ def _large_context(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]
         "M": [{"row": i + 1, "column": j + 1, "latex": fmt(outputs["M"][i * nv + j])}
               for i in range(nv) for j in range(i, nv) if outputs["M"][i * nv + j] != 0],
     }
-
-
-def render_floating_latex(derivation: Derivation, template_dir: str | Path | None = None,
-                          digits: int | None = None) -> str:
-    """The floating-base sheet, numbers to ``digits`` significant digits at most."""
-    return render("latex", TEMPLATE, floating_sheet_context(derivation, digits), template_dir)
