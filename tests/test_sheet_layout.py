@@ -21,8 +21,9 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.html import render_html
-from dynderive.render.latex import LINE_UNITS, default_sections, matrix_width, parse_sections, typeset_width
 from dynderive.render.pdf import tikz_available
+from dynderive.render.sheets.latex import default_sections, parse_sections
+from dynderive.render.sheets.latex_format import LINE_UNITS, matrix_width, typeset_width
 
 ROOT = Path(__file__).resolve().parents[1]
 runner = CliRunner()

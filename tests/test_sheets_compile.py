@@ -32,8 +32,8 @@ from dynderive.commands.build import MANIFEST, load_manifest
 from dynderive.commands.cli import app
 from dynderive.errors import LatexError
 from dynderive.render.figure import _dashes, planar_figure
-from dynderive.render.latex import Formatter, entry_index, subscript
 from dynderive.render.pdf import _first_error, tikz_available
+from dynderive.render.sheets.latex_format import Formatter, entry_index, subscript
 
 from random_robots import random_planar_tree
 from random_robots3d import random_spatial_tree
