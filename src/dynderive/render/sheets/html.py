@@ -122,7 +122,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
                   if "checks" in sections else [],
         "sections": list(sections),
         "maximal_left_out": left_out,
-        "figure": _figure(derivation),
+        "figure": _figure(derivation), "quasi_velocity": False,
         "drives": _drives(derivation, fmt),
         "loops": _loops(derivation, fmt) if "loops" in derivation.steps else None,
         "frames": _frames(derivation, fmt) if robot.frames else None,
@@ -277,7 +277,7 @@ def render_html(derivation: Derivation, template_dir: str | Path | None = None,
     to ``digits`` significant digits at most (default: as the robot file wrote them). A robot
     with quaternion joints gets the quasi-velocity page (``html_quasi_velocity``)."""
     if derivation.robot.floating:
-        from .html_quasi_velocity import QUASI_VELOCITY_TEMPLATE, quasi_velocity_html_context
+        from .html_quasi_velocity import quasi_velocity_html_context
 
-        return render("html", QUASI_VELOCITY_TEMPLATE, quasi_velocity_html_context(derivation, digits), template_dir)
+        return render("html", HTML_TEMPLATE, quasi_velocity_html_context(derivation, digits), template_dir)
     return render("html", HTML_TEMPLATE, html_context(derivation, sections, digits), template_dir)

@@ -44,7 +44,6 @@ from .quasi_velocity import (
     program_listing,
 )
 
-QUASI_VELOCITY_TEMPLATE = "html/floating_sheet.html.j2"
 #: MathML letters of FREE_FLYER_Q / FREE_FLYER_V: (letter, subscript or "").
 _LETTERS = {"x": ("x", ""), "y": ("y", ""), "z": ("z", ""), "q_{x}": ("q", "x"), "q_{y}": ("q", "y"),
             "q_{z}": ("q", "z"), "q_{w}": ("q", "w"), "v_{x}": ("v", "x"), "v_{y}": ("v", "y"), "v_{z}": ("v", "z"),
@@ -112,7 +111,7 @@ def _matrix(fmt: MathFormatter, letter: Any, index: int | None, matrix: sympy.Ma
 
 
 def quasi_velocity_html_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
-    """Every variable ``html/floating_sheet.html.j2`` uses: the LaTeX sheet's
+    """Every variable ``html/sheet.html.j2`` uses for a robot with quaternion joints: the LaTeX sheet's
     (``quasi_velocity.quasi_velocity_context``) in MathML; names and free text as written
     (the environment escapes them)."""
     from ..._version import __version__
@@ -151,7 +150,7 @@ def quasi_velocity_html_context(derivation: Derivation, digits: int | None = Non
         "Y": fmt(sympy.Matrix(steps.efforts)),
         "F": fmt(dissipative_forces(derivation)) if robot.dissipative else None,
         "actuated_multi": any(j.multi and j.effort for j in robot.joints),
-        "figure": None,
+        "figure": None, "quasi_velocity": True,
     }
     if small:
         context |= _small_context(steps.sheet, fmt)
