@@ -23,13 +23,12 @@ from .html_math import (
     MathFormatter,
     body_jacobian,
     fenced,
-    html_unit,
     link_frame,
     mi,
     mrow,
     name_markup,
+    page_header,
     sub,
-    value_markup,
 )
 from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
@@ -90,16 +89,10 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "kinetic": display(t.kinetic), "potential": display(t.potential),
             "frame": link_frame(k),
         })
-    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value_markup(p.value, fmt),
-                   "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                "coordinate": fmt(joint_variable(robot, table, j)) if j.moves else None,
                "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]
-    context = {
-        "generator": f"dynderive {_version()}",
-        "source": Path(robot.source).name,
-        "robot": {"name": robot.name, "title": robot.title, "planar": robot.planar, "parameters": parameters,
-                  "joints": joints, "gravity": fmt(gen["gravity"])},
+    context = page_header(derivation, fmt, gen["gravity"], joints) | {
         "dof": len(robot.coordinates),
         "q_g": fmt(sympy.Matrix(table.q)), "qd_g": fmt(sympy.Matrix(table.qd)),
         # a large robot's equations as the recursion that computes them, as on the LaTeX sheet
@@ -263,12 +256,6 @@ def _tilde(letter: str) -> Markup:
     from .html_math import accent
 
     return accent(letter, "~")
-
-
-def _version() -> str:
-    from ..._version import __version__
-
-    return __version__
 
 
 def render_html(derivation: Derivation, template_dir: str | Path | None = None,

@@ -10,6 +10,7 @@ every text it holds went through the XML writer, which escapes ``<``, ``&`` and 
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from typing import Any
 from xml.dom import minidom
 
@@ -256,3 +257,21 @@ def value_markup(value: float, fmt: MathFormatter) -> Markup:
     if exponent is None:
         return Markup(escape(mantissa))
     return Markup("{}\u00d710<sup>{}</sup>").format(mantissa, str(exponent).replace("-", "\u2212"))
+
+
+def page_header(derivation: Derivation, fmt: MathFormatter, gravity: sympy.Matrix,
+                joints: list[dict[str, Any]]) -> dict[str, Any]:
+    """What every page opens with (as the LaTeX sheet's ``sheet_header``): who made it from
+    which file, the robot's name, title, gravity, parameter table and ``joints``; names and
+    free text as written (the environment escapes them)."""
+    from ..._version import __version__
+
+    robot, table = derivation.robot, derivation.symbols
+    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value_markup(p.value, fmt),
+                   "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
+    return {
+        "generator": f"dynderive {__version__}",
+        "source": Path(robot.source).name,
+        "robot": {"name": robot.name, "title": robot.title, "planar": robot.planar, "parameters": parameters,
+                  "joints": joints, "gravity": fmt(gravity)},
+    }

@@ -10,7 +10,6 @@ from the robot file escaped by the HTML environment. No drawing: the 3-D kinemat
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import sympy
@@ -26,14 +25,13 @@ from .html_math import (
     _atom,
     _Printer,
     accent,
-    html_unit,
     mi,
     mn,
     mo,
     mrow,
     name_of,
+    page_header,
     sub,
-    value_markup,
 )
 from .latex_format import entry_index
 from .quasi_velocity import (
@@ -111,11 +109,9 @@ def _matrix(fmt: MathFormatter, letter: Any, index: int | None, matrix: sympy.Ma
 
 
 def quasi_velocity_html_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
-    """Every variable ``html/sheet.html.j2`` uses for a robot with quaternion joints: the LaTeX sheet's
-    (``quasi_velocity.quasi_velocity_context``) in MathML; names and free text as written
+    """Every variable ``html/sheet.html.j2`` uses for a robot with quaternion joints: the LaTeX
+    sheet's (``quasi_velocity.quasi_velocity_context``) in MathML; names and free text as written
     (the environment escapes them)."""
-    from ..._version import __version__
-
     robot, table = derivation.robot, derivation.symbols
     steps = derivation.quasi_velocity_steps
     small = steps.sheet is not None
@@ -123,9 +119,6 @@ def quasi_velocity_html_context(derivation: Derivation, digits: int | None = Non
     lines = tuple(name for _, group in groups for name, _ in group)
     fmt = QuasiVelocityMathFormatter.of(derivation, digits=digits, lines=lines)
     where_q, where_v = robot.offsets()
-    parameters = [{"symbol": fmt(table.parameters[p.name]),
-                   "value": "" if p.value is None else value_markup(p.value, fmt),
-                   "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
 
     def listed(symbols: list[sympy.Symbol]) -> Markup | None:
         return Markup("<mo>,</mo>").join(fmt(s) for s in symbols) if symbols else None
@@ -137,11 +130,8 @@ def quasi_velocity_html_context(derivation: Derivation, digits: int | None = Non
         joints.append({"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                        "coordinates": listed(table.q[qi:qi + size[0]]), "velocities": listed(table.qd[vi:vi + size[1]]),
                        "effort": listed([table.efforts[n] for n in j.effort_names])})
-    context: dict[str, Any] = {
-        "generator": f"dynderive {__version__}",
-        "source": Path(robot.source).name,
-        "robot": {"name": robot.name, "title": robot.title, "parameters": parameters, "joints": joints,
-                  "gravity": fmt(sympy.Matrix([table.expr(e) for e in robot.gravity]))},
+    gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
+    context = page_header(derivation, fmt, gravity, joints) | {
         "nq": len(table.q), "nv": len(table.qd), "small": small,
         "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
         "floating_base": robot.floating_base,
