@@ -42,10 +42,18 @@ def _block(title: str, value: object, printer: _Printer) -> str:
 def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
     """The equations of motion as text, numbers as the robot file wrote them (to ``digits``);
     velocities as ``q₁'``; a robot with quaternion joints: in quasi-velocities (``_quasi_velocity``)."""
-    if derivation.robot.floating:
-        return _quasi_velocity(derivation, digits)
+    robot = derivation.robot
+    numbers = Numbers(sheet_digits(robot, digits))
+    size, equation, blocks, tail = (_quasi_velocity if robot.floating else _generalized)(derivation, numbers)
+    parts = [f"{terminal_text(robot.title)} ({robot.name}): {size}", "", f"Equations of motion  {equation}", "",
+             *blocks, *tail]
+    return "\n".join(parts) + "\n"
+
+
+def _generalized(derivation: Derivation, numbers: Numbers) -> tuple[str, str, list[str], list[str]]:
+    """The robot's size, its equation, M, C, N, F and Y, and its checks."""
     table = derivation.symbols
-    printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)), dict(zip(table.qd, table.q)))
+    printer = _Printer(numbers, dict(zip(table.qd, table.q)))
     robot, q = derivation.robot, derivation.quantities
     coords = ", ".join(robot.coordinates)
     if robot.loops:
@@ -56,47 +64,40 @@ def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
         size = f"{loops.mobility} DOF: coordinates ({coords}), {constraints}"
     else:
         size = f"{len(robot.coordinates)} DOF, coordinates ({coords})"
-    parts = [
-        f"{terminal_text(robot.title)} ({robot.name}): {size}",
-        "",
-        "Equations of motion  M(q) q'' + C(q, q') q' + N(q)" + (" + F(q')" if "F_g" in q else "") + " = Y",
-        "",
+    equation = "M(q) q'' + C(q, q') q' + N(q)" + (" + F(q')" if "F_g" in q else "") + " = Y"
+    blocks = [
         _block("M(q) =", q["M_g"], printer),
         _block("C(q, q') =", q["C_g"], printer),
         _block("N(q) =", q["N_g"], printer),
         *([_block("F(q') = (damping and friction)", q["F_g"], printer)] if "F_g" in q else []),
         _block("Y =", q["Y_g"], printer),
-        "Checks:",
     ]
-    parts += [f"  {c.summary()}" for c in derivation.checks]
-    return "\n".join(parts) + "\n"
+    return size, equation, blocks, ["Checks:", *(f"  {c.summary()}" for c in derivation.checks)]
 
 
-def _quasi_velocity(derivation: Derivation, digits: int | None = None) -> str:
-    """A robot with quaternion joints: its equations as text: a small robot's (the quasi-velocity sections' M, C,
-    N, F and Y in quasi-velocities), or, for a larger one, where its programs are written."""
-    printer = _Printer(Numbers(sheet_digits(derivation.robot, digits)))
+def _quasi_velocity(derivation: Derivation, numbers: Numbers) -> tuple[str, str, list[str], list[str]]:
+    """A robot with quaternion joints: its size, its equation in quasi-velocities, a small
+    robot's M, C, N and F (the quasi-velocity sections'), or where a larger one's programs are
+    written, and Y."""
+    printer = _Printer(numbers)
     robot, table = derivation.robot, derivation.symbols
     steps = derivation.quasi_velocity_steps
-    head = (f"{terminal_text(robot.title)} ({robot.name}): NQ = {len(table.q)} coordinates "
-            f"({', '.join(robot.configuration_names)}), NV = {len(table.qd)} velocities "
-            f"({', '.join(str(v) for v in table.qd)})")
+    size = (f"NQ = {len(table.q)} coordinates ({', '.join(robot.configuration_names)}), NV = {len(table.qd)} "
+            f"velocities ({', '.join(str(v) for v in table.qd)})")
     drives = [d for d in derivation.joint_drives if d.damping != 0 or d.friction != 0]
-    equation = "M(q) v' + C(q, v) v + N(q)" + (" + F(v)" if drives else "") + " = Y"
-    parts = [head, "", f"Equations of motion  {equation}  (v: the velocities; q' = Q(q) v, the quaternions' rate)", ""]
+    equation = ("M(q) v' + C(q, v) v + N(q)" + (" + F(v)" if drives else "")
+                + " = Y  (v: the velocities; q' = Q(q) v, the quaternions' rate)")
     if steps.sheet is None:
-        parts += ["This robot's M, C and N are computed by recursive algorithms (programs of intermediate "
+        blocks = ["This robot's M, C and N are computed by recursive algorithms (programs of intermediate "
                   "variables), too large to print: --latex, --pdf or --html show them line by line, "
                   "--json holds them, --code writes its module.", ""]
     else:
-        sheet = steps.sheet
-        parts += [_block("M(q) =", sheet.M, printer), _block("C(q, v) =", sheet.C, printer),
-                  _block("N(q) =", sheet.N, printer)]
+        blocks = [_block("M(q) =", steps.sheet.M, printer), _block("C(q, v) =", steps.sheet.C, printer),
+                  _block("N(q) =", steps.sheet.N, printer)]
         if drives:
-            parts.append(_block("F(v) = (damping and friction)", dissipative_forces(derivation), printer))
-    parts += [_block("Y =", sympy.Matrix(steps.efforts), printer),
-              "dynderive check runs this robot's numeric checks (and Pinocchio's, when installed)."]
-    return "\n".join(parts) + "\n"
+            blocks.append(_block("F(v) = (damping and friction)", dissipative_forces(derivation), printer))
+    blocks.append(_block("Y =", sympy.Matrix(steps.efforts), printer))
+    return size, equation, blocks, ["dynderive check runs this robot's numeric checks (and Pinocchio's, when installed)."]
 
 
 def render_floating_terminal(derivation: Derivation, digits: int | None = None) -> str:
