@@ -1,7 +1,8 @@
-"""Old import path of ``render.sheets.terminal`` (removed once every importer uses the new one)."""
+"""Old import path of ``render.sheets.terminal``, kept for imports outside the sheets until they
+use the new one; ``render_floating_terminal`` is ``render_terminal`` now."""
 
-import sys
+from .sheets.terminal import render_terminal
 
-from .sheets import terminal
 
-sys.modules[__name__] = terminal
+def render_floating_terminal(derivation, digits=None):  # noqa: ANN001, ANN201
+    return render_terminal(derivation, digits)

@@ -99,8 +99,3 @@ def _quasi_velocity(derivation: Derivation, numbers: Numbers) -> tuple[str, str,
     blocks.append(_block("Y =", sympy.Matrix(steps.efforts), printer))
     return size, equation, blocks, ["dynderive check runs this robot's numeric checks (and Pinocchio's, when installed)."]
 
-
-def render_floating_terminal(derivation: Derivation, digits: int | None = None) -> str:
-    """Old name of ``render_terminal`` for a robot with quaternion joints (the commands'
-    import; removed once they call ``render_terminal``)."""
-    return render_terminal(derivation, digits)
