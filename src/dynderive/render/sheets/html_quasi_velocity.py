@@ -33,10 +33,9 @@ from .html_math import (
     page_header,
     sub,
 )
-from .latex_format import entry_index
+from .latex_format import coordinate_entries, entry_index
 from .quasi_velocity import (
     ENTRY_LIMIT,
-    coordinate_entries,
     dissipative_forces,
     multi_joint,
     program_listing,

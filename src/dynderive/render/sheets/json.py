@@ -35,7 +35,7 @@ from ...derivation import Derivation
 from ...mechanics.tidy import is_small
 from ..printers import RememberingStrPrinter
 from .latex_format import Formatter
-from .quasi_velocity import QuasiVelocityFormatter, _names_of, dissipative_forces, program_listing
+from .quasi_velocity import _names_of, dissipative_forces, program_listing
 
 #: Quantities larger than this (tree nodes per entry, on average) get ``"latex": null``: their
 #: LaTeX would run to pages per entry and costs most of the JSON's time (30 s for the UR5's C_g).
@@ -164,7 +164,7 @@ def _quasi_velocity(derivation: Derivation) -> tuple[dict[str, Any], dict[str, A
     steps = derivation.quasi_velocity_steps
     small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
-    fmt = QuasiVelocityFormatter.of(derivation, exact=True, lines=_names_of(groups))
+    fmt = Formatter.of(derivation, exact=True, lines=_names_of(groups))
     printer = RememberingStrPrinter({"order": fmt.order or "lex"})
     nv = len(table.qd)
     values: dict[str, object] = {}

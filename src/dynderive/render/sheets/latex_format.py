@@ -12,6 +12,7 @@ import sympy
 
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
+from ...model.naming import latex_name
 from ..encode import escape_tex, tex_unit
 from ..numbers import Numbers, latex_decimal, sheet_digits
 from ..printers import DerivationFormatter, RememberingLatexPrinter, SheetLatexPrinter
@@ -43,6 +44,60 @@ MATRIX_COLUMNS = 20
 DISPLAY_UNITS = 64
 
 
+#: Coordinate and velocity LaTeX of a floating joint's entries (DESIGN.md section 10 order).
+FREE_FLYER_Q = ("x", "y", "z", "q_{x}", "q_{y}", "q_{z}", "q_{w}")
+FREE_FLYER_V = ("v_{x}", "v_{y}", "v_{z}", "\\omega_{x}", "\\omega_{y}", "\\omega_{z}")
+
+
+def _tagged(name: str, tag: str) -> str:
+    """``q_{x}`` -> ``q_{x,tag}``, ``x`` -> ``x_{tag}`` (no tag: unchanged)."""
+    if not tag:
+        return name
+    return name[:-1] + "," + tag + "}" if name.endswith("}") else f"{name}_{{{tag}}}"
+
+
+def _dotted(name: str) -> str:
+    head, _, tail = name.partition("_")
+    return "\\dot{" + head + "}" + ("_" + tail if tail else "")
+
+
+def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str | None, str, int]]:
+    """Every coordinate, velocity and acceleration as ``(symbol, text, name, dots)``: a floating
+    or spherical joint's entry has its ``FREE_FLYER_Q``/``FREE_FLYER_V`` text and, as ``name``, the
+    joint's name when it must be tagged (the robot has several such joints, or another symbol
+    would read the same; else ""); a scalar joint's has ``text`` None and its joint's name. The
+    LaTeX sheet and the HTML page each spell these (``coordinate_names``,
+    ``html_quasi_velocity.coordinate_math_names``)."""
+    robot, table = derivation.robot, derivation.symbols
+    where_q, where_v = robot.offsets()
+    multi = [j for j in robot.joints if j.multi]
+    others = {latex_name(str(s)) for s in [*table.parameters.values(), *table.efforts.values()]}
+    others |= {latex_name(j.name) for j in robot.joints if j.owns and not j.multi}
+    plain = set(FREE_FLYER_Q) | set(FREE_FLYER_V)
+    entries: list[tuple[sympy.Symbol, str | None, str, int]] = []
+    for joint in multi:
+        tag = "" if len(multi) == 1 and not plain & others else joint.name
+        qs, vs = (FREE_FLYER_Q, FREE_FLYER_V) if joint.type == "floating" else (FREE_FLYER_Q[3:], FREE_FLYER_V[3:])
+        qi, vi = where_q[joint.name], where_v[joint.name]
+        entries += [(table.q[qi + k], text, tag, 0) for k, text in enumerate(qs)]
+        for k, text in enumerate(vs):
+            entries += [(table.qd[vi + k], text, tag, 0), (table.qdd[vi + k], text, tag, 1)]
+    for joint in (j for j in robot.joints if j.owns and not j.multi):
+        qi, vi = where_q[joint.name], where_v[joint.name]
+        entries += [(table.q[qi], None, joint.name, 0), (table.qd[vi], None, joint.name, 1),
+                    (table.qdd[vi], None, joint.name, 2)]
+    return entries
+
+
+def coordinate_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
+    """LaTeX of every coordinate, velocity and acceleration (``coordinate_entries``): a floating
+    joint's ``x, y, z, q_x, q_y, q_z, q_w`` and ``v_x .. omega_z`` (tagged ``q_{x,\\mathrm{name}}``),
+    a spherical joint's quaternion and ``omega``, a scalar joint's as on the fixed-base sheet."""
+    return {symbol: latex_name(name, dots) if text is None
+            else _tagged(_dotted(text) if dots else text, "\\mathrm{" + escape_tex(name) + "}" if name else "")
+            for symbol, text, name, dots in coordinate_entries(derivation)}
+
+
 class Formatter(DerivationFormatter):
     """LaTeX of SymPy objects with the robot's symbol names (``qd1`` -> ``\\dot{q}_{1}``) and
     numbers as the file wrote them, to ``digits`` (``--digits``) at most; ``exact``: as SymPy
@@ -54,11 +109,16 @@ class Formatter(DerivationFormatter):
     own (canonical, deterministic) order rather than sorted, which takes half the time."""
 
     def __init__(self, derivation: Derivation, digits: int | None = None, exact: bool = False,
-                 extra_names: dict[sympy.Symbol, str] | None = None):
+                 extra_names: dict[sympy.Symbol, str] | None = None, lines: tuple[tuple[sympy.Symbol, str], ...] = ()):
         super().__init__()
-        self.names = derivation.symbols.latex_names() | {
-            name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates} | (extra_names or {})
-        self.order = "none" if derivation.intermediate_form else None
+        if derivation.robot.floating:
+            # quaternion joints: their entries' names (``coordinate_names``) and, for
+            # a large robot, its programs' ``lines`` (symbol -> LaTeX); never the intermediates
+            names, self.order = coordinate_names(derivation) | dict(lines), "none" if lines else None
+        else:
+            names = {name: rf"\mathsf{{w}}_{{{str(name)[2:]}}}" for name, _ in derivation.intermediates}
+            self.order = "none" if derivation.intermediate_form else None
+        self.names = derivation.symbols.latex_names() | names | (extra_names or {})
         settings = {"symbol_names": self.names, "mat_delim": "[", "mat_str": "matrix", "mul_symbol": None,
                     "long_frac_ratio": 2, "order": self.order}
         # the sheet's numbers as the file wrote them (render.numbers); exact: SymPy's (the JSON)
