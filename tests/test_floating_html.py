@@ -23,10 +23,8 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.sheets.html import render_html
-from dynderive.render.sheets.html_quasi_velocity import (
-    QuasiVelocityMathFormatter,
-    quasi_velocity_html_context,
-)
+from dynderive.render.sheets.html_math import MathFormatter
+from dynderive.render.sheets.html_quasi_velocity import quasi_velocity_html_context
 from dynderive.render.targets.numpy.floating_code import render_floating_code
 from test_floating_sheet import FREE, _chain
 from test_html import HOSTILE, parse, sizes_in_chromium
@@ -110,7 +108,7 @@ def _symbols(derivation, q, v, a) -> tuple[dict[str, str], dict[str, float]]:
     """Names (each symbol's MathML -> a variable) and values: the state, parameter defaults,
     efforts zero."""
     table, robot = derivation.symbols, derivation.robot
-    fmt = QuasiVelocityMathFormatter(derivation)
+    fmt = MathFormatter(derivation)
     values = {str(table.parameters[p.name]): p.value for p in robot.parameters} | {str(u): 0.0 for u in table.efforts.values()}
     values |= {str(s): float(x) for s, x in [*zip(table.q, q), *zip(table.qd, v), *zip(table.qdd, a)]}
     names, variables = {}, {}

@@ -2,7 +2,7 @@
 imports outside the sheets until they use ``render.sheets``."""
 
 from .sheets.html import render_html
-from .sheets.html_quasi_velocity import coordinate_math_names  # noqa: F401
+from .sheets.html_math import coordinate_math_names  # noqa: F401
 
 
 def render_floating_html(derivation, template_dir=None, digits=None):  # noqa: ANN001, ANN201

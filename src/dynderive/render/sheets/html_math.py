@@ -32,6 +32,7 @@ from .latex_format import (
     MATRIX_NODES,
     TIGHT,
     _nodes_up_to,
+    coordinate_entries,
     entry_index,
     matrix_width,
 )
@@ -187,6 +188,32 @@ class _Printer(DecimalNumbers, MathMLPresentationPrinter):
         return name_element(self.dom, name)
 
 
+#: MathML letters of FREE_FLYER_Q / FREE_FLYER_V: (letter, subscript or "").
+_LETTERS = {"x": ("x", ""), "y": ("y", ""), "z": ("z", ""), "q_{x}": ("q", "x"), "q_{y}": ("q", "y"),
+            "q_{z}": ("q", "z"), "q_{w}": ("q", "w"), "v_{x}": ("v", "x"), "v_{y}": ("v", "y"), "v_{z}": ("v", "z"),
+            "\\omega_{x}": ("\u03c9", "x"), "\\omega_{y}": ("\u03c9", "y"), "\\omega_{z}": ("\u03c9", "z")}
+
+
+def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
+    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text) in MathML: the letter
+    (dotted), its subscript, the joint's name upright after a comma when tagged."""
+    letter, index = _LETTERS[text]
+    base = accent(mi(letter), "\u02d9") if dots else mi(letter)
+    parts = [mi(index)] if index else []
+    if tag:
+        parts += [mo(","), mi(tag, normal=True)] if parts else [mi(tag, normal=True)]
+    if not parts:
+        return base
+    return sub(base, parts[0] if len(parts) == 1 else mrow(*parts))
+
+
+def coordinate_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | Markup]:
+    """MathML names of every coordinate, velocity and acceleration, those of the LaTeX sheet
+    (``latex_format.coordinate_entries``)."""
+    return {symbol: name_of(name, dots) if text is None else _coordinate(text, name, dots)
+            for symbol, text, name, dots in coordinate_entries(derivation)}
+
+
 class MathFormatter(DerivationFormatter):
     """MathML of SymPy objects with the robot's symbol names, numbers as the file wrote them
     (to ``digits`` at most: ``--digits``); one per derivation and digits (``of``),
@@ -194,20 +221,27 @@ class MathFormatter(DerivationFormatter):
     ``matrix``: the same limits, so the page shows what the sheet shows)."""
 
     def __init__(self, derivation: Derivation, digits: int | None = None,
-                 extra_names: dict[sympy.Symbol, Name | Markup] | None = None):
+                 extra_names: dict[sympy.Symbol, Name | Markup] | None = None, lines: tuple[sympy.Symbol, ...] = ()):
         super().__init__()
         self.digits = digits   # --digits, for the LaTeX formatter's decisions the page repeats
         self.numbers = Numbers(sheet_digits(derivation.robot, digits))
         table = derivation.symbols
         names: dict[sympy.Symbol, Name | Markup] = {s: name_of(str(s)) for s in table.all_symbols()}
-        for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
-            for c, r, a in zip(coords, rates, accels):
-                names[r] = name_of(str(c), 1)
-                names[a] = name_of(str(c), 2)
-        for name, _ in derivation.intermediates:
-            names[name] = ("w", "sans-serif", 0, str(name)[2:])
+        if derivation.robot.floating:
+            # quaternion joints: their entries' names (``coordinate_math_names``) and, for a large
+            # robot, its programs' ``lines`` named ``w_k`` in sans-serif; never the intermediates
+            names |= coordinate_math_names(derivation)
+            names |= {name: ("w", "sans-serif", 0, str(name)[2:]) for name in lines}
+            order = "none" if lines else None
+        else:
+            for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
+                for c, r, a in zip(coords, rates, accels):
+                    names[r] = name_of(str(c), 1)
+                    names[a] = name_of(str(c), 2)
+            for name, _ in derivation.intermediates:
+                names[name] = ("w", "sans-serif", 0, str(name)[2:])
+            order = "none" if derivation.intermediate_form else None
         self.names = names | (extra_names or {})
-        order = "none" if derivation.intermediate_form else None
         self._printer = _Printer({"order": order, "mat_delim": "["}, self.names, self.numbers)
 
     def _text(self, expr: Any) -> Markup:

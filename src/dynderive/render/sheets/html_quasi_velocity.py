@@ -17,71 +17,24 @@ from markupsafe import Markup
 
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
-from ..numbers import Numbers, sheet_digits
-from ..printers import DerivationFormatter
 from .html_math import (
     MathFormatter,
-    Name,
     _atom,
-    _Printer,
     accent,
     mi,
     mn,
     mo,
     mrow,
-    name_of,
     page_header,
     sub,
 )
-from .latex_format import coordinate_entries, entry_index
+from .latex_format import entry_index
 from .quasi_velocity import (
     ENTRY_LIMIT,
     dissipative_forces,
     multi_joint,
     program_listing,
 )
-
-#: MathML letters of FREE_FLYER_Q / FREE_FLYER_V: (letter, subscript or "").
-_LETTERS = {"x": ("x", ""), "y": ("y", ""), "z": ("z", ""), "q_{x}": ("q", "x"), "q_{y}": ("q", "y"),
-            "q_{z}": ("q", "z"), "q_{w}": ("q", "w"), "v_{x}": ("v", "x"), "v_{y}": ("v", "y"), "v_{z}": ("v", "z"),
-            "\\omega_{x}": ("\u03c9", "x"), "\\omega_{y}": ("\u03c9", "y"), "\\omega_{z}": ("\u03c9", "z")}
-
-
-def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
-    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text) in MathML: the letter
-    (dotted), its subscript, the joint's name upright after a comma when tagged."""
-    letter, index = _LETTERS[text]
-    base = accent(mi(letter), "\u02d9") if dots else mi(letter)
-    parts = [mi(index)] if index else []
-    if tag:
-        parts += [mo(","), mi(tag, normal=True)] if parts else [mi(tag, normal=True)]
-    if not parts:
-        return base
-    return sub(base, parts[0] if len(parts) == 1 else mrow(*parts))
-
-
-def coordinate_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | Markup]:
-    """MathML names of every coordinate, velocity and acceleration, those of the LaTeX sheet
-    (``quasi_velocity.coordinate_entries``)."""
-    return {symbol: name_of(name, dots) if text is None else _coordinate(text, name, dots)
-            for symbol, text, name, dots in coordinate_entries(derivation)}
-
-
-class QuasiVelocityMathFormatter(MathFormatter):
-    """The page's formatter with the quaternion joints' names (``coordinate_math_names``) and, for a large
-    robot, the programs' lines (``lines``) named ``w_k`` in sans-serif, as on the LaTeX sheet."""
-
-    def __init__(self, derivation: Derivation, digits: int | None = None, lines: tuple[sympy.Symbol, ...] = ()):
-        # MathFormatter.__init__ less the fixed-base intermediates (never derived for this robot)
-        DerivationFormatter.__init__(self)
-        self.digits = digits
-        self.numbers = Numbers(sheet_digits(derivation.robot, digits))
-        table = derivation.symbols
-        names: dict[sympy.Symbol, Name | Markup] = {s: name_of(str(s)) for s in table.all_symbols()}
-        names |= coordinate_math_names(derivation)
-        names |= {name: ("w", "sans-serif", 0, str(name)[2:]) for name in lines}
-        self.names = names
-        self._printer = _Printer({"order": "none" if lines else None, "mat_delim": "["}, names, self.numbers)
 
 
 def _matrix(fmt: MathFormatter, letter: Any, index: int | None, matrix: sympy.Matrix,
@@ -116,7 +69,7 @@ def quasi_velocity_html_context(derivation: Derivation, digits: int | None = Non
     small = steps.sheet is not None
     groups, outputs = ([], {}) if small else program_listing(derivation)
     lines = tuple(name for _, group in groups for name, _ in group)
-    fmt = QuasiVelocityMathFormatter.of(derivation, digits=digits, lines=lines)
+    fmt = MathFormatter.of(derivation, digits=digits, lines=lines)
     where_q, where_v = robot.offsets()
 
     def listed(symbols: list[sympy.Symbol]) -> Markup | None:
