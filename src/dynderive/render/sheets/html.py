@@ -90,7 +90,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "frame": link_frame(k),
         })
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
-               "coordinate": fmt(joint_variable(robot, table, j)) if j.moves else None,
+               "variables": [fmt(joint_variable(robot, table, j)) if j.moves else None],
                "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]
     context = page_header(derivation, fmt, gen["gravity"], joints) | {
         "dof": len(robot.coordinates),

@@ -80,7 +80,7 @@ def quasi_velocity_html_context(derivation: Derivation, digits: int | None = Non
         size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1)) if j.moves else (0, 0)
         qi, vi = where_q.get(j.name, 0), where_v.get(j.name, 0)
         joints.append({"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
-                       "coordinates": listed(table.q[qi:qi + size[0]]), "velocities": listed(table.qd[vi:vi + size[1]]),
+                       "variables": [listed(table.q[qi:qi + size[0]]), listed(table.qd[vi:vi + size[1]])],
                        "effort": listed([table.efforts[n] for n in j.effort_names])})
     gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
     context = page_header(derivation, fmt, gravity, joints) | {
