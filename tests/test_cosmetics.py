@@ -15,9 +15,9 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render import figure
-from dynderive.render.drawing import joint_value_text
-from dynderive.render.pdf import tikz_available
+from dynderive.render.sheets import figure
+from dynderive.render.sheets.drawing import joint_value_text
+from dynderive.render.sheets.pdf import tikz_available
 
 from conftest import derivation_of
 
@@ -57,7 +57,7 @@ def test_travel_is_not_wrapped():
 def test_sheet_caption_shows_the_wrapped_angle(monkeypatch):
     derivation = derivation_of("rp_arm")
     monkeypatch.setattr(figure, "_configuration", lambda *args: [math.radians(-314), 0.125])
-    from dynderive.render.latex import Formatter
+    from dynderive.render.sheets.latex_format import Formatter
 
     drawn = figure.planar_figure(derivation, Formatter.of(derivation))
     assert drawn["caption"] == r"The robot at $q_{1} = 46^\circ, q_{2} = 0.125$."
@@ -72,7 +72,7 @@ def test_one_degree_of_freedom_is_singular(tmp_path):
     tex = " ".join(dynderive.render_latex(derivation).split())
     assert "with 1 degree of freedom and generalized coordinate \\[" in tex
     assert "degrees of freedom" not in tex
-    from dynderive.render.html import render_html
+    from dynderive.render.sheets.html import render_html
 
     html = render_html(derivation)
     assert "with 1 degree of freedom and generalized coordinate</p>" in html and "1 degrees" not in html
@@ -128,7 +128,7 @@ def _pages(pdf: bytes, tmp_path: Path) -> list[str]:
 def test_text_fills_page_one_when_the_drawing_moves_on(tmp_path, pdf_tools):
     """cart_pole_damped's drawing does not fit below its tables: it floats to the top of page
     2, and the first section starts on page 1 (it used to leave the lower half of page 1 blank)."""
-    from dynderive.render.pdf import compile_pdf_report
+    from dynderive.render.sheets.pdf import compile_pdf_report
 
     pdf, _, _ = compile_pdf_report(dynderive.render_latex(derivation_of("cart_pole_damped")), "sheet")
     pages = _pages(pdf, tmp_path)
@@ -138,7 +138,7 @@ def test_text_fills_page_one_when_the_drawing_moves_on(tmp_path, pdf_tools):
 
 @pytest.mark.pdf
 def test_drawing_stays_on_page_one_where_it_fits(tmp_path, pdf_tools):
-    from dynderive.render.pdf import compile_pdf_report
+    from dynderive.render.sheets.pdf import compile_pdf_report
 
     pdf, _, _ = compile_pdf_report(dynderive.render_latex(derivation_of("rp_arm")), "sheet")
     first = _pages(pdf, tmp_path)[0]

@@ -25,11 +25,11 @@ import sympy
 
 import dynderive
 from dynderive.errors import LatexError
-from dynderive.render.drawing import BAR_MM, OUTLINE_MM, convex_hull, label_size
-from dynderive.render.figure import FRAME_MM, _configuration, planar_figure, sheet_figure
-from dynderive.render.figure_3d import spatial_figure, view
-from dynderive.render.latex import Formatter
-from dynderive.render.pdf import tikz_available
+from dynderive.render.sheets.drawing import BAR_MM, OUTLINE_MM, convex_hull, label_size
+from dynderive.render.sheets.figure import FRAME_MM, _configuration, planar_figure, sheet_figure
+from dynderive.render.sheets.figure_3d import spatial_figure, view
+from dynderive.render.sheets.latex_format import Formatter
+from dynderive.render.sheets.pdf import tikz_available
 
 from conftest import derivation_of
 from random_robots import random_planar_tree
@@ -405,7 +405,7 @@ SHEETS = [("bundled", "four_bar"), ("bundled", "slider_crank"), ("bundled", "elb
 @pytest.mark.pdf
 @pytest.mark.parametrize(("kind", "which"), SHEETS, ids=[f"{k.replace(' ', '-')}-{w}" for k, w in SHEETS])
 def test_sheets_with_drawings_compile(tmp_path, tex, kind, which):
-    from dynderive.render.pdf import compile_pdf_report
+    from dynderive.render.sheets.pdf import compile_pdf_report
 
     if kind == "bundled":
         derivation = derivation_of(which)
@@ -434,8 +434,8 @@ def test_convex_hull_of_a_link():
 
 def test_every_style_is_drawn_by_tikz_and_svg():
     """The styles the drawings use are defined in the TikZ picture and in the HTML's SVG."""
-    from dynderive.render.drawing import HALF_WIDTH
-    from dynderive.render.html_svg import STYLES
+    from dynderive.render.sheets.drawing import HALF_WIDTH
+    from dynderive.render.sheets.html_svg import STYLES
 
     template = (ROOT / "templates" / "drawing.tex.j2").read_text()
     assert all(f"  {style}/.style={{" in template for style in HALF_WIDTH)

@@ -22,7 +22,9 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.html_floating import FloatingMathFormatter, floating_html_context, render_floating_html
+from dynderive.render.sheets.html import render_html
+from dynderive.render.sheets.html_math import MathFormatter
+from dynderive.render.sheets.html_quasi_velocity import quasi_velocity_html_context
 from dynderive.render.targets.numpy.floating_code import render_floating_code
 from test_floating_sheet import FREE, _chain
 from test_html import HOSTILE, parse, sizes_in_chromium
@@ -41,7 +43,7 @@ def _robot(folder: Path, text: str, name: str):
     path.write_text(text)
     derivation = dynderive.derive(dynderive.load_robot(path))
     module = import_code(render_floating_code(derivation), folder, f"{name}_floating_html")
-    return path, derivation, render_floating_html(derivation), module
+    return path, derivation, render_html(derivation), module
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +54,7 @@ def free(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def chain(tmp_path_factory):
-    """A floating base and three scalar joints: the program form (``is_small_floating`` False)."""
+    """A floating base and three scalar joints: the program form (``is_step_by_step`` False)."""
     return _robot(tmp_path_factory.mktemp("chain"), _chain(8, 3), "chain")
 
 
@@ -106,7 +108,7 @@ def _symbols(derivation, q, v, a) -> tuple[dict[str, str], dict[str, float]]:
     """Names (each symbol's MathML -> a variable) and values: the state, parameter defaults,
     efforts zero."""
     table, robot = derivation.symbols, derivation.robot
-    fmt = FloatingMathFormatter(derivation)
+    fmt = MathFormatter(derivation)
     values = {str(table.parameters[p.name]): p.value for p in robot.parameters} | {str(u): 0.0 for u in table.efforts.values()}
     values |= {str(s): float(x) for s, x in [*zip(table.q, q), *zip(table.qd, v), *zip(table.qdd, a)]}
     names, variables = {}, {}
@@ -174,7 +176,7 @@ def test_free_body_mathml_agrees_with_the_module(free):
     """M and the equations of motion (EOM = M vdot + C v + N, no efforts) read from the page's
     MathML equal the module's mass matrix and inverse dynamics; so do N and C v."""
     _, derivation, page, module = free
-    context, sheet = floating_html_context(derivation), derivation.floating_steps.sheet
+    context, sheet = quasi_velocity_html_context(derivation), derivation.quasi_velocity_steps.sheet
     assert not context["M"]["wide"] and context["EOM"]["wide"]   # both forms read
     for q, v, a in _states(derivation, 1):
         names, values = _symbols(derivation, q, v, a)
@@ -193,7 +195,7 @@ def test_damping_is_on_the_page_and_in_the_equations(tmp_path):
     EOM (which holds it) its inverse dynamics, and both equations name F."""
     text = _chain(11, 1).replace("rest: 0.3}", "rest: 0.3, damping: 0.1712345678901234}")
     _, derivation, page, module = _robot(tmp_path, text, "damped")
-    context, sheet = floating_html_context(derivation), derivation.floating_steps.sheet
+    context, sheet = quasi_velocity_html_context(derivation), derivation.quasi_velocity_steps.sheet
     assert context["F"] is not None and "<mo>+</mo><mi>N</mi><mo>+</mo><mi>F</mi>" in page
     for q, v, a in _states(derivation, 2):
         names, values = _symbols(derivation, q, v, a)
@@ -210,18 +212,18 @@ def test_same_bytes_from_another_process(free, tmp_path):
                    check=True, env=os.environ | {"PYTHONHASHSEED": "7", "PYTHONPATH": str(ROOT / "src")})
     assert sorted(p.name for p in out.iterdir()) == ["free_body.html"]
     assert (out / "free_body.html").read_text(encoding="utf-8") == page
-    assert render_floating_html(derivation) == page   # and again in this one
+    assert render_html(derivation) == page   # and again in this one
 
 
 def test_large_robot_as_the_programs_lines(chain):
     """The program form: every line shown once, named w_k; evaluated in order from the
     page's MathML, its tau, M and N equal the module's."""
     _, derivation, page, module = chain
-    assert derivation.floating_steps.sheet is None
+    assert derivation.quasi_velocity_steps.sheet is None
     tags = parse(page)
     assert tags.problems == [] and tags.stack == []
     assert "intermediate-variable form" in page and "Kane's" not in page
-    context = floating_html_context(derivation)
+    context = quasi_velocity_html_context(derivation)
     lines = [line for group in context["groups"] for line in group["lines"]]
     assert len(lines) == context["line_count"] > 50 and f"In all, {len(lines)} lines." in page
     assert [g["key"] for g in context["groups"]] == ["shared", "tau", "M", "N"]

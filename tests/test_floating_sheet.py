@@ -23,9 +23,9 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.mechanics.floating import quaternion_matrix
-from dynderive.mechanics.floating_sheet import floating_sheet, is_small_floating, skew
-from dynderive.render.floating_json import render_floating_json
-from dynderive.render.floating_latex import render_floating_latex
+from dynderive.mechanics.quasi_velocity import is_step_by_step, quasi_velocity_sheet, skew
+from dynderive.render.sheets.json import render_json
+from dynderive.render.sheets.latex import render_latex
 from dynderive.render.targets.numpy.floating_code import render_floating_code
 
 runner = CliRunner()
@@ -138,7 +138,7 @@ def test_free_body_closed_form(tmp_path):
     """M = [[m 1, -m [c]x], [m [c]x, I_c - m [c]x^2]] (the com offset terms), N the weight in
     body axes R^T g at the centre of mass, C v Euler's terms, all exactly."""
     robot, derivation = _load(tmp_path, FREE)
-    sheet = floating_sheet(robot, derivation.symbols)
+    sheet = quasi_velocity_sheet(robot, derivation.symbols)
     p = derivation.symbols.parameters
     m, c = p["m"], sympy.Matrix([p["cx"], p["cy"], p["cz"]])
     inertia = sympy.Matrix([[p["Ixx"], p["Ixy"], p["Ixz"]], [p["Ixy"], p["Iyy"], p["Iyz"]],
@@ -161,7 +161,7 @@ def test_free_body_closed_form(tmp_path):
     assert sympy.expand(sheet.T - (v.T * expected * v)[0, 0] / 2) == 0
     # the frame at the centre of mass: Euler's m (vdot + w x v) = m R^T g, I wdot + w x I w = 0
     robot, derivation = _load(tmp_path, FREE.replace("com: [cx, cy, cz]", "com: [0, 0, 0]"), "centred.yaml")
-    centred = floating_sheet(robot, derivation.symbols)
+    centred = quasi_velocity_sheet(robot, derivation.symbols)
     assert (centred.Cv - sympy.Matrix([*(m * ang.cross(lin)), *ang.cross(inertia * ang)])).applyfunc(
         sympy.expand) == sympy.zeros(6, 1)
     assert (centred.N - sympy.Matrix([*(-weight), 0, 0, 0])).applyfunc(sympy.expand) == sympy.zeros(6, 1)
@@ -172,8 +172,8 @@ def test_free_body_closed_form(tmp_path):
                                                        (4, 1, "spherical")])
 def test_sheet_quantities_equal_the_module(seed, scalar, root, tmp_path):
     robot, derivation = _load(tmp_path, _chain(seed, scalar, root))
-    assert is_small_floating(robot)
-    sheet = floating_sheet(robot, derivation.symbols)
+    assert is_step_by_step(robot)
+    sheet = quasi_velocity_sheet(robot, derivation.symbols)
     module = _module(derivation, tmp_path)
     M, N, Cv, C = (_numeric(derivation, x) for x in (sheet.M, sheet.N, sheet.Cv, sheet.C))
     T, V, EOM = (_numeric(derivation, sympy.Matrix([x]) if not isinstance(x, sympy.MatrixBase) else x)
@@ -214,11 +214,11 @@ def _json_values(document: dict, derivation, q, v, a, printed: dict | None = Non
 @pytest.mark.parametrize(("seed", "scalar"), [(5, 1), (6, 3)])   # small: expanded; large: intermediates
 def test_json_round_trips_and_agrees_with_the_module(seed, scalar, tmp_path):
     robot, derivation = _load(tmp_path, _chain(seed, scalar))
-    document = json.loads(render_floating_json(derivation))
+    document = json.loads(render_json(derivation))
     assert document["NQ"] == 7 + scalar and document["NV"] == 6 + scalar and document["floating"] is True
     assert document["coordinates"][:7] == [f"root_{s}" for s in ("x", "y", "z", "qx", "qy", "qz", "qw")]
     assert document["velocities"][:6] == [f"root_{s}" for s in ("vx", "vy", "vz", "wx", "wy", "wz")]
-    assert ("intermediates" in document) == (not is_small_floating(robot))
+    assert ("intermediates" in document) == (not is_step_by_step(robot))
     assert document["quantities"]["M_g"]["shape"] == [6 + scalar, 6 + scalar]
     module = _module(derivation, tmp_path)
     printed: dict = {}
@@ -248,7 +248,7 @@ def test_sheet_compiles(text, small, tex, tmp_path):
     path = tmp_path / "robot.yaml"
     path.write_text(text)
     robot = dynderive.load_robot(path)
-    assert is_small_floating(robot) == small
+    assert is_step_by_step(robot) == small
     result = runner.invoke(app, ["solve", str(path), "--pdf", "--latex", "--out", str(tmp_path / "out"), "-q"])
     assert result.exit_code == 0, result.output + result.stderr
     sheet = (tmp_path / "out" / f"{robot.name}.tex").read_text()
@@ -283,9 +283,9 @@ def test_build_writes_the_sheet_and_json(tmp_path):
 
 def test_latex_direct_render_is_deterministic(tmp_path):
     robot, derivation = _load(tmp_path, FREE)
-    first = render_floating_latex(derivation)
+    first = render_latex(derivation)
     _, again = _load(tmp_path, FREE, "again.yaml")
-    assert render_floating_latex(again).replace("again.yaml", "robot.yaml") == first
+    assert render_latex(again).replace("again.yaml", "robot.yaml") == first
 
 
 @pytest.mark.parametrize("root, suffixes", [("floating", ("fx", "fy", "fz", "tx", "ty", "tz")),
@@ -297,9 +297,9 @@ def test_an_actuated_root_takes_its_efforts_at_its_velocity_columns(root, suffix
     robot, derivation = _load(tmp_path, text)
     efforts = derivation.symbols.efforts
     assert robot.efforts == (*(f"w_{s}" for s in suffixes), "u1")
-    assert list(derivation.floating_steps.sheet.Y) == [efforts[f"w_{s}"] for s in suffixes] + [efforts["u1"]]
-    document = json.loads(render_floating_json(derivation))
+    assert list(derivation.quasi_velocity_steps.sheet.Y) == [efforts[f"w_{s}"] for s in suffixes] + [efforts["u1"]]
+    document = json.loads(render_json(derivation))
     assert document["efforts"] == list(robot.efforts)
-    latex = render_floating_latex(derivation)
+    latex = render_latex(derivation)
     assert all(rf"w_{{\mathrm{{{s}}}}}" in latex for s in suffixes)
     assert "unactuated" not in latex

@@ -18,8 +18,8 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.html import html_context, render_html
-from dynderive.render.html_math import MathFormatter
+from dynderive.render.sheets.html import html_context, render_html
+from dynderive.render.sheets.html_math import MathFormatter
 
 from conftest import ROBOTS, derivation_of
 
@@ -97,7 +97,7 @@ def test_sections_quantities_and_checks_of_the_sheet():
 
 
 def test_wide_matrices_entry_by_entry_as_on_the_sheet():
-    from dynderive.render.latex import sheet_context
+    from dynderive.render.sheets.latex import sheet_context
 
     derivation = derivation_of("double_pendulum")
     sections = ("generalized", "maximal", "checks")

@@ -12,10 +12,10 @@ from xml.dom import minidom
 import pytest
 
 import dynderive
-from dynderive.render.html import html_context, render_html
-from dynderive.render.html_recursion import MATH_NAMES, meaning_markup
-from dynderive.render.latex import sheet_context
-from dynderive.render.recursion import NAMES
+from dynderive.render.sheets.html import html_context, render_html
+from dynderive.render.sheets.html_recursion import MATH_NAMES, meaning_markup
+from dynderive.render.sheets.latex import sheet_context
+from dynderive.render.sheets.recursion import NAMES
 from test_html import parse, sizes_in_chromium
 
 from conftest import ROBOTS, derivation_of

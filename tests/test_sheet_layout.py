@@ -20,9 +20,10 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.html import render_html
-from dynderive.render.latex import LINE_UNITS, default_sections, matrix_width, parse_sections, typeset_width
-from dynderive.render.pdf import tikz_available
+from dynderive.render.sheets.html import render_html
+from dynderive.render.sheets.latex import default_sections, parse_sections
+from dynderive.render.sheets.latex_format import LINE_UNITS, matrix_width, typeset_width
+from dynderive.render.sheets.pdf import tikz_available
 
 ROOT = Path(__file__).resolve().parents[1]
 runner = CliRunner()
@@ -200,7 +201,7 @@ def _read_latex(lines: list[str]) -> sympy.Expr:
 
 
 def _breaker():
-    from dynderive.render.linebreak import LineBreaker
+    from dynderive.render.sheets.linebreak import LineBreaker
 
     return LineBreaker(sympy.latex, typeset_width)
 

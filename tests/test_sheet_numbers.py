@@ -177,7 +177,7 @@ def test_the_rule_on_single_numbers():
 
 @pytest.mark.pdf
 def test_cad_sheets_compile(cad_derivation, tex):  # noqa: F811
-    from dynderive.render.pdf import compile_pdf_report
+    from dynderive.render.sheets.pdf import compile_pdf_report
 
     for digits in (None, 4):
         try:
@@ -188,7 +188,7 @@ def test_cad_sheets_compile(cad_derivation, tex):  # noqa: F811
 
 
 def test_html_page_obeys_the_rule(cad_derivation):
-    from dynderive.render.html import render_html
+    from dynderive.render.sheets.html import render_html
 
     page = html.unescape(render_html(cad_derivation))   # the minus sign is a character reference
     numbers = " ".join(re.findall(r"<mn>([^<]*)</mn>", page))

@@ -17,9 +17,9 @@ import pytest
 import sympy
 
 import dynderive
-from dynderive.render.latex import sheet_context
-from dynderive.render.pdf import tikz_available
-from dynderive.render.recursion import NAMES
+from dynderive.render.sheets.latex import sheet_context
+from dynderive.render.sheets.pdf import tikz_available
+from dynderive.render.sheets.recursion import NAMES
 
 from conftest import derivation_of, module_of, text_derivation
 from random_robots3d import random_spatial_tree

@@ -31,9 +31,9 @@ import dynderive
 from dynderive.commands.build import MANIFEST, load_manifest
 from dynderive.commands.cli import app
 from dynderive.errors import LatexError
-from dynderive.render.figure import _dashes, planar_figure
-from dynderive.render.latex import Formatter, entry_index, subscript
-from dynderive.render.pdf import _first_error, tikz_available
+from dynderive.render.sheets.figure import _dashes, planar_figure
+from dynderive.render.sheets.latex_format import Formatter, entry_index, subscript
+from dynderive.render.sheets.pdf import _first_error, tikz_available
 
 from random_robots import random_planar_tree
 from random_robots3d import random_spatial_tree
@@ -192,8 +192,8 @@ ROBOTS = [
 @pytest.mark.parametrize(("kind", "n", "seed", "sections"), ROBOTS,
                          ids=[f"{k.replace(' ', '-')}-{n}-{s}" + (f"-{c}" if c else "") for k, n, s, c in ROBOTS])
 def test_random_robot_sheet_compiles(tmp_path, tex, kind, n, seed, sections):
-    from dynderive.render.latex import parse_sections
-    from dynderive.render.pdf import compile_pdf_report
+    from dynderive.render.sheets.latex import parse_sections
+    from dynderive.render.sheets.pdf import compile_pdf_report
 
     chosen = parse_sections(sections) if sections else None
     sheet = dynderive.render_latex(_derive(tmp_path, kind, n, seed), sections=chosen)

@@ -372,14 +372,15 @@ class Derivation:
         return self._configuration_programs
 
     @property
-    def floating_steps(self) -> Any:
-        """A floating-base robot's sheet quantities (``mechanics.floating_sheet.FloatingSteps``:
-        step by step when small, Y, the joints' rotations), derived once on first use."""
-        if self._floating_steps is None:
-            from .mechanics.floating_sheet import floating_steps
+    def quasi_velocity_steps(self) -> Any:
+        """A robot with quaternion joints: its sheet quantities in quasi-velocities
+        (``mechanics.quasi_velocity.QuasiVelocitySteps``: step by step when small, Y, the
+        joints' rotations), derived once on first use."""
+        if getattr(self, "_quasi_velocity_steps", None) is None:
+            from .mechanics.quasi_velocity import quasi_velocity_steps
 
-            self._floating_steps = floating_steps(self.robot, self.symbols)
-        return self._floating_steps
+            self._quasi_velocity_steps = quasi_velocity_steps(self.robot, self.symbols)
+        return self._quasi_velocity_steps
 
     @property
     def programs(self) -> dict[str, Program]:

@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 import sympy
 
+from ..encode import escape_tex
 from .drawing import Drawing, Point, convex_hull, finish, joint_value_text, label_size
-from .encode import escape_tex
 
 #: The view: azimuth of the viewer from the x axis (towards y) and elevation above the xy-plane.
 AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)

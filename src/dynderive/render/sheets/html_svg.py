@@ -14,7 +14,7 @@ from typing import Any
 
 from markupsafe import Markup, escape
 
-from .encode import escape_tex
+from ..encode import escape_tex
 from .html_math import Name, name_of
 
 #: Pixels per millimetre of the picture.

@@ -15,8 +15,8 @@ from typing import Any
 
 import sympy
 
-from ..derivation import Derivation
-from .encode import escape_tex
+from ...derivation import Derivation
+from ..encode import escape_tex
 
 AXES = "xyz"
 #: LaTeX of each quantity (``recursion.MEANINGS``): ``{i}`` the link's index, ``{j}`` the mass

@@ -13,9 +13,9 @@ from typing import Any
 import sympy
 from markupsafe import Markup
 
-from ..derivation import Derivation
+from ...derivation import Derivation
 from .html_math import MathFormatter, Name, accent, mi, mn, mo, mrow, sub
-from .latex import typeset_width
+from .latex_format import typeset_width
 from .recursion import coordinate_index, link_indices, name_fields, named_lines, recursion_parts
 
 #: MathML of each quantity (``recursion.NAMES``, ``mechanics.recursion.MEANINGS``): the letter,

@@ -9,6 +9,8 @@ every text it holds went through the XML writer, which escapes ``<``, ``&`` and 
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
 from typing import Any
 from xml.dom import minidom
 
@@ -17,10 +19,12 @@ from markupsafe import Markup, escape
 from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
-from ..derivation import Derivation
-from ..mechanics.tidy import is_small
-from ..model.naming import GREEK, split_index
-from .latex import (
+from ...derivation import Derivation
+from ...mechanics.tidy import is_small
+from ...model.naming import GREEK, split_index
+from ..numbers import DecimalNumbers, Numbers, sheet_digits
+from ..printers import DerivationFormatter
+from .latex_format import (
     BROKEN_NODES,
     ENTRY_NODES,
     LINE_UNITS,
@@ -28,11 +32,10 @@ from .latex import (
     MATRIX_NODES,
     TIGHT,
     _nodes_up_to,
+    coordinate_entries,
     entry_index,
     matrix_width,
 )
-from .numbers import DecimalNumbers, Numbers, sheet_digits
-from .printers import DerivationFormatter
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -185,6 +188,32 @@ class _Printer(DecimalNumbers, MathMLPresentationPrinter):
         return name_element(self.dom, name)
 
 
+#: MathML letters of FREE_FLYER_Q / FREE_FLYER_V: (letter, subscript or "").
+_LETTERS = {"x": ("x", ""), "y": ("y", ""), "z": ("z", ""), "q_{x}": ("q", "x"), "q_{y}": ("q", "y"),
+            "q_{z}": ("q", "z"), "q_{w}": ("q", "w"), "v_{x}": ("v", "x"), "v_{y}": ("v", "y"), "v_{z}": ("v", "z"),
+            "\\omega_{x}": ("\u03c9", "x"), "\\omega_{y}": ("\u03c9", "y"), "\\omega_{z}": ("\u03c9", "z")}
+
+
+def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
+    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text) in MathML: the letter
+    (dotted), its subscript, the joint's name upright after a comma when tagged."""
+    letter, index = _LETTERS[text]
+    base = accent(mi(letter), "\u02d9") if dots else mi(letter)
+    parts = [mi(index)] if index else []
+    if tag:
+        parts += [mo(","), mi(tag, normal=True)] if parts else [mi(tag, normal=True)]
+    if not parts:
+        return base
+    return sub(base, parts[0] if len(parts) == 1 else mrow(*parts))
+
+
+def coordinate_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | Markup]:
+    """MathML names of every coordinate, velocity and acceleration, those of the LaTeX sheet
+    (``latex_format.coordinate_entries``)."""
+    return {symbol: name_of(name, dots) if text is None else _coordinate(text, name, dots)
+            for symbol, text, name, dots in coordinate_entries(derivation)}
+
+
 class MathFormatter(DerivationFormatter):
     """MathML of SymPy objects with the robot's symbol names, numbers as the file wrote them
     (to ``digits`` at most: ``--digits``); one per derivation and digits (``of``),
@@ -192,20 +221,27 @@ class MathFormatter(DerivationFormatter):
     ``matrix``: the same limits, so the page shows what the sheet shows)."""
 
     def __init__(self, derivation: Derivation, digits: int | None = None,
-                 extra_names: dict[sympy.Symbol, Name | Markup] | None = None):
+                 extra_names: dict[sympy.Symbol, Name | Markup] | None = None, lines: tuple[sympy.Symbol, ...] = ()):
         super().__init__()
         self.digits = digits   # --digits, for the LaTeX formatter's decisions the page repeats
         self.numbers = Numbers(sheet_digits(derivation.robot, digits))
         table = derivation.symbols
         names: dict[sympy.Symbol, Name | Markup] = {s: name_of(str(s)) for s in table.all_symbols()}
-        for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
-            for c, r, a in zip(coords, rates, accels):
-                names[r] = name_of(str(c), 1)
-                names[a] = name_of(str(c), 2)
-        for name, _ in derivation.intermediates:
-            names[name] = ("w", "sans-serif", 0, str(name)[2:])
+        if derivation.robot.floating:
+            # quaternion joints: their entries' names (``coordinate_math_names``) and, for a large
+            # robot, its programs' ``lines`` named ``w_k`` in sans-serif; never the intermediates
+            names |= coordinate_math_names(derivation)
+            names |= {name: ("w", "sans-serif", 0, str(name)[2:]) for name in lines}
+            order = "none" if lines else None
+        else:
+            for coords, rates, accels in ((table.q, table.qd, table.qdd), (table.qm, table.qmd, table.qmdd)):
+                for c, r, a in zip(coords, rates, accels):
+                    names[r] = name_of(str(c), 1)
+                    names[a] = name_of(str(c), 2)
+            for name, _ in derivation.intermediates:
+                names[name] = ("w", "sans-serif", 0, str(name)[2:])
+            order = "none" if derivation.intermediate_form else None
         self.names = names | (extra_names or {})
-        order = "none" if derivation.intermediate_form else None
         self._printer = _Printer({"order": order, "mat_delim": "["}, self.names, self.numbers)
 
     def _text(self, expr: Any) -> Markup:
@@ -239,3 +275,37 @@ class MathFormatter(DerivationFormatter):
         wide = large or matrix_width(matrix) > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
         return {"label": shown, "math": None if large else self(matrix), "wide": wide, "entries": entries, "shape": [rows, cols],
                 "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+
+
+def html_unit(unit: str) -> Markup:
+    """A unit with powers raised, as the sheet's ``tex_unit``: ``m/s^2`` -> m/s<sup>2</sup>,
+    ``kg*m**2`` -> kg m<sup>2</sup>; the rest escaped."""
+    parts = re.split(r"\^\(?([+-]?\d+(?:\.\d+)?)\)?", unit.replace("**", "^"))
+    return Markup("").join(Markup("<sup>{}</sup>").format(part.replace("-", "\u2212")) if index % 2
+                           else escape(part.replace("*", "\u2009")) for index, part in enumerate(parts))
+
+
+def value_markup(value: float, fmt: MathFormatter) -> Markup:
+    """A parameter's default in the page's table: as written, to the page's digits."""
+    mantissa, exponent = fmt.numbers.value_parts(value)
+    if exponent is None:
+        return Markup(escape(mantissa))
+    return Markup("{}\u00d710<sup>{}</sup>").format(mantissa, str(exponent).replace("-", "\u2212"))
+
+
+def page_header(derivation: Derivation, fmt: MathFormatter, gravity: sympy.Matrix,
+                joints: list[dict[str, Any]]) -> dict[str, Any]:
+    """What every page opens with (as the LaTeX sheet's ``sheet_header``): who made it from
+    which file, the robot's name, title, gravity, parameter table and ``joints``; names and
+    free text as written (the environment escapes them)."""
+    from ..._version import __version__
+
+    robot, table = derivation.robot, derivation.symbols
+    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value_markup(p.value, fmt),
+                   "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
+    return {
+        "generator": f"dynderive {__version__}",
+        "source": Path(robot.source).name,
+        "robot": {"name": robot.name, "title": robot.title, "planar": robot.planar, "parameters": parameters,
+                  "joints": joints, "gravity": fmt(gravity)},
+    }

@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 import sympy
 
+from ..encode import escape_tex
 from .drawing import Drawing, Point, Segment, convex_hull, finish, joint_value_text, label_size, polar
-from .encode import escape_tex
 from .figure_3d import spatial_figure
 
 #: Size of the robot in the drawing (mm): it is scaled to fit, keeping its proportions.

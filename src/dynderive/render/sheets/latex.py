@@ -1,0 +1,311 @@
+"""The LaTeX solution sheet: quantities turned into LaTeX strings (``latex_format``), laid out
+by ``sheet.tex.j2``; a robot with quaternion joints gets its quasi-velocity sections
+(``quasi_velocity``) in the same sheet."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import sympy
+
+from ...derivation import Derivation
+from ..encode import escape_tex
+from ..environment import LazyList, render
+from .figure import sheet_figure
+from .latex_format import (
+    INLINE_NODES,
+    INLINE_UNITS,
+    LINE_UNITS,
+    TIGHT,
+    Formatter,
+    _fits,
+    _groups,
+    matrix_width,
+    sheet_header,
+    typeset_width,
+)
+from .quasi_velocity import quasi_velocity_context
+from .recursion import joint_variable, recursion_context, recursion_names
+
+SHEET_TEMPLATE = "sheet.tex.j2"
+#: The sheet's sections, in their order; ``--sections`` chooses among them.
+SECTIONS = ("generalized", "maximal", "checks")
+#: Planar robots with at most this many links get the maximal-coordinates section by default:
+#: beyond it the section runs to a dozen pages (a planar 3R arm: 11 of 20) that few read.
+MAXIMAL_DEFAULT_LINKS = 2
+
+
+def default_sections(derivation: Derivation) -> tuple[str, ...]:
+    """What the robot's size makes readable: generalized coordinates and the checks always,
+    maximal coordinates for planar robots of at most MAXIMAL_DEFAULT_LINKS links (the RP arm
+    of the reference)."""
+    robot = derivation.robot
+    maximal = robot.planar and len(robot.links) <= MAXIMAL_DEFAULT_LINKS
+    return tuple(s for s in SECTIONS if s != "maximal" or maximal)
+
+
+def maximal_left_out(derivation: Derivation, sections: tuple[str, ...] | None) -> bool:
+    """Whether the default sections (``sections`` None) leave out a maximal-coordinates
+    section the robot has: the sheet then says so and how to get it (``--sections all``)."""
+    return sections is None and derivation.robot.planar and "maximal" not in default_sections(derivation)
+
+
+def parse_sections(text: str) -> tuple[str, ...]:
+    """``--sections`` text: names from SECTIONS separated by commas, or ``all``; in the
+    sheet's order. Raises ValueError naming an unknown section."""
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    if names == ["all"]:
+        return SECTIONS
+    unknown = [name for name in names if name not in SECTIONS]
+    if unknown or not names:
+        raise ValueError(f"unknown section {unknown[0]!r}" if unknown else "no section given")
+    return tuple(s for s in SECTIONS if s in names)
+
+def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = None,
+                  digits: int | None = None) -> dict[str, Any]:
+    """Every variable the sheet template can use (documented in docs/templates.md); only the
+    ``sections`` asked for (default ``default_sections``) are derived and formatted; numbers
+    to ``digits`` significant digits at most (``--digits``)."""
+    left_out = maximal_left_out(derivation, sections)
+    sections = default_sections(derivation) if sections is None else sections
+    fmt = Formatter.of(derivation, digits=digits)
+    robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
+    gen = derivation.steps["generalized"]
+    coordinate_latex = [fmt(s) for s in table.q]
+    lagrange = []
+    for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
+        lagrange.append({
+            "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
+            "dL_dqd": fmt.display(gen["lagrange"]["dL_dqd"][i]),
+            "ddt_dL_dqd": fmt.display(gen["lagrange"]["ddt_dL_dqd"][i]),
+            "dL_dq": fmt.display(gen["lagrange"]["dL_dq"][i]),
+            "effort": fmt(q["Y_g"][i]),
+            "dissipation": fmt.display(q["F_g"][i], None) if "F_g" in q and q["F_g"][i] != 0 else None,
+            "equation": fmt.display(q["EOM_g1"][i]),
+        })
+    links = []
+    for t in gen["links"]:
+        links.append({
+            "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
+            "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
+            # an inertia tensor of long decimals (CAD) is displayed, entry by entry if too wide
+            "inertia_matrix": (fmt.matrix(rf"I_{{{t.index}}}", t.inertia)
+                               if isinstance(t.inertia, sympy.MatrixBase) and matrix_width(t.inertia) > INLINE_UNITS
+                               else None),
+            "spatial_fits": matrix_width(t.spatial_inertia) <= LINE_UNITS * TIGHT,
+            "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
+            "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
+            "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
+            # what shares a display line when it fits, else one display each, entry by entry if needed
+            "pose_together": _fits(t.com_position, t.body_velocity, extra=16),
+            "com_matrix": fmt.matrix(rf"\left(p_{{sL_{{{t.index}}}}}\right)", t.com_position),
+            "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{{{t.index}}}}}\right)", t.body_velocity),
+            "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{{{t.index}}}}}\right)", t.orientation)
+            if isinstance(t.orientation, sympy.MatrixBase) else None,
+            "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{t.index}}}}}\right)", t.body_jacobian),
+            "kinetic": fmt.display(t.kinetic), "potential": fmt.display(t.potential),
+        })
+    joints = [{
+        "name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),
+        "child": escape_tex(j.child),
+        "variables": [fmt(joint_variable(robot, table, j)) if j.moves else ""],
+        "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
+    } for j in robot.joints]
+    # the default sheet shows the named recursion instead: printed only if a template reads them
+    intermediates = LazyList(len(derivation.intermediates), lambda: [
+        {"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates])
+    context = sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | {
+        "quasi_velocity": False,
+        "intermediates": intermediates,
+        "jacobians": [{"index": k, "matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", q[f"J_b{k}"])}
+                      for k in range(1, len(robot.links) + 1)] if intermediates else [],
+        "dof": len(robot.coordinates),
+        "coordinates": coordinate_latex,
+        "q_g": fmt(sympy.Matrix(table.q)),
+        "qd_g": fmt(sympy.Matrix(table.qd)),
+        "links": links,
+        "T_g": fmt.display(q["T_g"]), "V_g": fmt.display(q["V_g"]),
+        "L_g": fmt.display(q["L_g"]),
+        "Y_g": fmt(q["Y_g"]),
+        "lagrange": lagrange,
+        "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
+        "M_g": fmt.matrix("M", q["M_g"]),
+        "C_g": fmt.matrix("C", q["C_g"]),
+        "N_g": fmt.matrix("N", q["N_g"]),
+        "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
+        "checks": [{"description": escape_tex(c.description), "passed": c.passed,
+                    "method": c.method, "residual": _residual_text(c.residual)} for c in derivation.checks]
+                  if "checks" in sections else [],
+        "sections": list(sections),
+        "maximal_left_out": left_out,
+        # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
+        # the generalized inertias as matrices while they fit the line (else diag(m_i, ..., I_i) says it)
+        "inertia_groups": (_groups([(link["index"], link["spatial_inertia"]) for link in links])
+                           if all(link["spatial_fits"] for link in links) else []),
+        "figure": sheet_figure(derivation, fmt),
+        "drives": drives_context(derivation, fmt),
+        "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
+        "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
+        "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
+        "frames": frames_context(derivation, fmt) if robot.frames else None,
+        "recursion": _recursion(derivation, digits) if intermediates and "generalized" in sections else None,
+    }
+    return context
+
+
+class RecursionFormatter(Formatter):
+    """The sheet's formatter with the recursion's names (``recursion.recursion_names``: each
+    line by its meaning, ``q_k``, ``s_k``, ``c_k``)."""
+
+    def __init__(self, derivation: Derivation, digits: int | None = None):
+        super().__init__(derivation, digits=digits, extra_names=recursion_names(derivation))
+
+
+def _recursion(derivation: Derivation, digits: int | None) -> dict[str, Any]:
+    return recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits),
+                             Formatter.of(derivation, digits=digits), typeset_width)
+
+
+def frames_context(derivation: Derivation, fmt: Formatter) -> list[dict[str, Any]]:
+    """Each frame's pose, Jacobian and its derivative (small robots; the names only for large
+    ones, whose frame quantities the generated module computes)."""
+    q, planar = derivation.quantities, derivation.robot.planar
+    items = []
+    for frame in derivation.robot.frames:
+        name = frame.name
+        symbolic = f"J_{name}" in q
+        label = r"\mathrm{" + escape_tex(name) + "}"
+        item: dict[str, Any] = {"name": escape_tex(name), "link": escape_tex(frame.link), "label": label,
+                                "symbolic": symbolic}
+        if symbolic:
+            item |= {
+                "position": fmt.matrix("p", q[f"p_{name}"]),
+                "angle": fmt(q[f"theta_{name}"][0, 0]) if planar else None,
+                "rotation": None if planar else fmt.matrix("R", q[f"R_{name}"]),
+                "jacobian": fmt.matrix("J", q[f"J_{name}"]),
+                "jacobian_dot": fmt.matrix(r"\dot J", q[f"Jdot_{name}"]),
+            }
+        items.append(item)
+    return items
+
+
+def drives_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any] | None:
+    """The joints' drive terms and where each enters Lagrange's equations (None: no drives)."""
+    drives = derivation.steps["generalized"]["drives"]
+    if drives.empty:
+        return None
+    table, q = derivation.symbols, derivation.quantities
+
+    def term(value: sympy.Expr) -> str:
+        return fmt(value) if value != 0 else ""
+
+    return {
+        "joints": [{"coordinate": fmt(table.q[d.coordinate]), "damping": term(d.damping),
+                    "friction": term(d.friction), "stiffness": term(d.stiffness),
+                    "rest": term(d.rest) if d.stiffness != 0 else "", "armature": term(d.armature)}
+                   for d in drives.joints],
+        "kinetic": fmt.display(drives.kinetic, None) if drives.kinetic != 0 else None,
+        "potential": fmt.display(drives.potential, None) if drives.potential != 0 else None,
+        "armature": drives.armature != sympy.zeros(*drives.armature.shape),
+        "D_g": fmt.display(q["D_g"], None) if "D_g" in q else None,
+        "coulomb": any(d.friction != 0 for d in drives.joints),
+    }
+
+
+def loops_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
+    """The closed-loop section: constraints, multiplier form, reduced form (where derived)."""
+    q, model, table = derivation.quantities, derivation.steps["loops"], derivation.symbols
+    names = {"R_g": "R_g", "M_r": "M_r", "C_r": "C_r", "N_r": "N_r", "Y_r": "\\Upsilon_r"}
+    reduced = {key: fmt.matrix(name, q[key]) if key in q else None for key, name in names.items()}
+    return {
+        "joints": [escape_tex(lp.name) for lp in derivation.robot.loops],
+        "count": q["a_g"].shape[0], "rank": model.rank, "mobility": model.mobility,
+        "rows": [f"{escape_tex(name)}: {escape_tex(what)}" for name, what in model.rows],
+        "a_g": fmt.matrix("a", q["a_g"]), "A_g": fmt.matrix("A", q["A_g"]),
+        "Adot_g": fmt.matrix("\\dot{A}", q["Adot_g"]),
+        "multipliers": fmt(q["lambda_g"]),
+        "independent": fmt(sympy.Matrix([table.q[i] for i in model.independent])),
+        "dependent": fmt(sympy.Matrix([table.q[i] for i in model.dependent])),
+        "assembled": fmt(sympy.Matrix([sympy.Float(x, 4) for x in model.assembled])) if model.assembled else "?",
+        "notes": [escape_tex(n.split(": note: ", 1)[-1]) for n in model.notes],
+        **reduced,
+    }
+
+
+#: Longest LaTeX of one lambda entry that the sheet still prints.
+LONGEST_LAMBDA = 1800
+
+
+def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
+    q, steps, table = derivation.quantities, derivation.steps["maximal"], derivation.symbols
+    lagrange = []
+    for i, coordinate in enumerate(table.qm):
+        lagrange.append({
+            "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
+            "dL_dqd": fmt.display(steps["lagrange"]["dL_dqd"][i], None),
+            "ddt_dL_dqd": fmt.display(steps["lagrange"]["ddt_dL_dqd"][i], None),
+            "dL_dq": fmt.display(steps["lagrange"]["dL_dq"][i], None),
+            # the three derivatives share a display line when they fit side by side, else the
+            # first two (short: momenta and their rates) when they do
+            "together": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd", "dL_dq")), extra=24),
+            "pair": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd")), extra=16),
+            "equation": fmt.display(q["EOM_m1"][i], None),
+        })
+    lambda_entries = None
+    if "lambdaVec" in q and max(len(fmt(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
+        # the LaTeX first: breaking entries too long to show into lines cost seconds
+        lambda_entries = [fmt.display(e, None) for e in q["lambdaVec"]]
+    return {
+        "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
+        "lambda": fmt(sympy.Matrix(table.multipliers)),
+        "constraint_count": q["a_m"].shape[0],
+        "constraints_from_file": steps["constraint_origin"] == "override",
+        "a_m": fmt.matrix("a", q["a_m"]), "A_m": fmt.matrix("A", q["A_m"]),
+        "Adot_m": fmt.matrix("\\dot{A}", q["Adot_m"]),
+        "T_m": fmt.display(q["T_m"], None), "V_m": fmt.display(q["V_m"], None), "L_m": fmt.display(q["L_m"], None),
+        "Y_m": fmt.matrix("\\Upsilon", q["Y_m"]),
+        "lagrange": lagrange,
+        "jacobians": [fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", j) for k, j in enumerate(steps["jacobians"], 1)],
+        "M_m": fmt.matrix("M", q["M_m"]), "C_m": fmt.matrix("C", q["C_m"]),
+        "N_m": fmt.matrix("N", q["N_m"]), "EOM_m2": fmt.matrix("\\mathrm{EOM}", q["EOM_m2"]),
+        "EOM_m1": fmt.matrix("\\mathrm{EOM}", q["EOM_m1"]),
+        "lambda_symbolic": "lambdaVec" in q, "lambda_entries": lambda_entries,
+        "h": fmt.matrix("h", q["h"]), "H": fmt.matrix("H", q["H"]),
+        **(_change_of_basis(q, steps, fmt) if "EOM_g3" in q else {"EOM_g3": None}),
+        "F_m": fmt.matrix("F", q["F_m"]) if "F_m" in q else None,
+        "D_m": fmt.display(q["D_m"]) if "D_m" in q else None,
+        "drives": not derivation.steps["generalized"]["drives"].empty,
+    }
+
+
+def _change_of_basis(q: Any, steps: dict[str, Any], fmt: Formatter) -> dict[str, Any]:
+    """The maximal model mapped through H (small robots: ``EOM_g3``)."""
+    return {
+        "Hdot": fmt.matrix("\\dot{H}", steps["Hdot"]),
+        "M_tilde": fmt.matrix("\\tilde{M}", steps["M_tilde"]),
+        "C_tilde": fmt.matrix("\\tilde{C}", steps["C_tilde"]),
+        "N_tilde": fmt.matrix("\\tilde{N}", steps["N_tilde"]),
+        "Y_tilde": fmt.matrix("\\tilde{\\Upsilon}", steps["Y_tilde"]),
+        "EOM_g3": fmt.matrix("\\mathrm{EOM}", q["EOM_g3"]),
+        "F_tilde": fmt.matrix("\\tilde{F}", steps["F_tilde"]) if "F_m" in q else None,
+    }
+
+
+def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
+                 sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
+    """The sheet of ``sections`` (default: ``default_sections``), numbers to ``digits``
+    significant digits at most (default: as the robot file wrote them). A robot with
+    quaternion joints gets the quasi-velocity sections (``quasi_velocity``) instead."""
+    context = (quasi_velocity_context(derivation, digits) if derivation.robot.floating
+               else sheet_context(derivation, sections, digits))
+    return render("latex", SHEET_TEMPLATE, context, template_dir)
+
+
+#: Residuals below this print as "below 1e-12": their digits are rounding noise (double or
+#: 30-digit arithmetic) that a library version or machine may change, and the sheet must not.
+RESIDUAL_FLOOR = 1e-12
+
+
+def _residual_text(residual: float) -> str:
+    return "below 1e-12" if residual < RESIDUAL_FLOOR else f"{residual:.2g}"

@@ -1,0 +1,185 @@
+"""The sheet's quasi-velocity sections, what a robot with quaternion joints (a floating base,
+spherical joints) gets in ``sheet.tex.j2`` (``sections/quasi_velocity.tex.j2``): a small
+robot's equations derived step by step in quasi-velocities (``mechanics/quasi_velocity.py``),
+a large one's as the intermediate-variable form of its module's programs (Newton-Euler and
+composite rigid bodies, line by line). The names of the quaternion joints' entries, the
+program listing and the dissipative forces serve the HTML page, the JSON dump and the
+terminal too."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy
+
+from ...derivation import Derivation
+from ...mechanics.tidy import is_small
+from ..encode import escape_tex
+from .latex_format import Formatter, sheet_header
+from .recursion import COLUMN_UNITS
+
+
+def program_listing(derivation: Derivation) -> tuple[list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]],
+                                                     dict[str, list[sympy.Expr]]]:
+    """A large robot's intermediate-variable form: the lines the module's programs share
+    (the links' transforms), then those of Newton-Euler (``tau``), then those of the
+    composite rigid bodies (``M``), each line renamed ``_wk`` in one sequence; and the
+    outputs over those names (``tau`` = M vdot + C v + N, ``M`` row by row, ``N``)."""
+    programs = derivation.programs
+    parts = {"tau": programs["inverse_dynamics"], "M": programs["mass_matrix"], "N": programs["gravity"]}
+    shared = 0
+    first, second = parts["tau"].lines, parts["M"].lines
+    while shared < min(len(first), len(second)) and first[shared] == second[shared]:
+        shared += 1
+    count = 0
+    groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]] = []
+    outputs: dict[str, list[sympy.Expr]] = {}
+    renamed_shared: dict[sympy.Symbol, sympy.Symbol] = {}
+    for key, program in parts.items():
+        renames = dict(renamed_shared)
+        lines = []
+        for k, (name, value) in enumerate(program.lines):
+            if k < shared and name in renamed_shared:
+                continue
+            count += 1
+            renames[name] = sympy.Symbol(f"_w{count}")
+            lines.append((renames[name], value.xreplace(renames)))
+        if not renamed_shared:   # the first program: its first lines are the shared ones
+            renamed_shared = {name: renames[name] for name, _ in program.lines[:shared]}
+            groups.append(("shared", lines[:shared]))
+            lines = lines[shared:]
+        groups.append((key, lines))
+        outputs[key] = [e.xreplace(renames) for e in program.outputs]
+    return groups, outputs
+
+
+def _names_of(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]]) -> tuple[tuple[sympy.Symbol, str], ...]:
+    return tuple((name, f"\\mathsf{{w}}_{{{str(name)[2:]}}}") for _, lines in groups for name, _ in lines)
+
+
+def quasi_velocity_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
+    """Every variable ``sheet.tex.j2`` uses for a robot with quaternion joints
+    (docs/reference/outputs.md)."""
+    robot, table = derivation.robot, derivation.symbols
+    steps = derivation.quasi_velocity_steps
+    small = steps.sheet is not None
+    groups, outputs = ([], {}) if small else program_listing(derivation)
+    fmt = Formatter.of(derivation, digits=digits, lines=_names_of(groups))
+    where_q, where_v = robot.offsets()
+    joints = []
+    for j in robot.joints:
+        entry = {"name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent), "child": escape_tex(j.child),
+                 "variables": ["", ""], "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
+        if j.owns:
+            size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
+            entry["variables"] = [", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]]),
+                                  ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])]
+        elif j.moves:   # a <mimic> joint: its variable and rate follow its leader's coordinate
+            leader, multiplier, offset = robot.driver(j)
+            m = table.expr(multiplier)
+            entry["variables"] = [fmt(m * table.q[where_q[leader]] + table.expr(offset)),
+                                  fmt(m * table.qd[where_v[leader]])]
+        joints.append(entry)
+    gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
+    context = sheet_header(derivation, fmt, gravity, ["Coordinates", "Velocities"], joints) | {
+        "quasi_velocity": True, "maximal_left_out": False,
+        "nq": len(table.q), "nv": len(table.qd), "small": small,
+        "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
+        "floating_base": robot.floating_base,
+        "multi": [multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name])
+                  for j in robot.joints if j.multi],
+        "Y": fmt(sympy.Matrix(steps.efforts)),
+        "actuated_multi": any(j.multi and j.effort for j in robot.joints),
+        "intermediates": bool(groups), "figure": None,
+        "F": fmt(dissipative_forces(derivation)) if robot.dissipative else None,
+    }
+    if small:
+        context |= _small_context(steps.sheet, fmt)
+    else:
+        context |= _large_context(groups, outputs, fmt, len(table.qd))
+    return context
+
+
+def dissipative_forces(derivation: Derivation) -> sympy.Matrix:
+    """``F = b v + fc sign(v)``, NV x 1: the damping and Coulomb friction of the scalar joints
+    (``Derivation.joint_drives``, by velocity column), as the module's ``friction_forces``."""
+    qd = derivation.symbols.qd
+    F = sympy.zeros(len(qd), 1)
+    for drive in derivation.joint_drives:
+        F[drive.coordinate] = drive.damping * qd[drive.coordinate] + drive.friction * sympy.sign(qd[drive.coordinate])
+    return F
+
+
+def multi_joint(joint: Any, fmt: Any, table: Any, where_q: dict[str, int], where_v: dict[str, int],
+                rotation: tuple[sympy.Matrix, sympy.Matrix], name: Any = escape_tex, absent: Any = "") -> dict[str, Any]:
+    """A floating or spherical joint: its quaternion's rotation matrix and configuration rate,
+    formatted by ``fmt`` (the LaTeX sheet's, or the HTML page's with ``name`` and ``absent``
+    its own: a spherical joint has no position)."""
+    start = 3 if joint.type == "floating" else 0
+    qi, vi = where_q[joint.name], where_v[joint.name]
+    quat = table.q[qi + start:qi + start + 4]
+    return {"name": name(joint.name), "type": joint.type,
+            "quaternion": fmt(sympy.Matrix(quat)),
+            "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else absent,
+            "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else absent,
+            "angular": fmt(sympy.Matrix(table.qd[vi + start:vi + start + 3])),
+            "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
+
+
+#: Largest entry (tree nodes, then LaTeX characters: about a page) sheet
+#: typesets: breqn cannot break a display over pages; a longer one is in the JSON dump.
+ENTRY_LIMIT = 1500
+LATEX_LIMIT = 5000
+
+
+def _matrix(fmt: Formatter, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
+    """``Formatter.matrix`` with the entries over ENTRY_LIMIT nodes or LATEX_LIMIT characters
+    left out (the template says they are too long)."""
+    small = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
+    shown = fmt.matrix(name, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
+    long = [not fits or len(entry["latex"]) > LATEX_LIMIT for fits, entry in zip(small, shown["entries"])]
+    if any(long):
+        shown["wide"], shown["latex"] = True, ""
+        for entry, too_long in zip(shown["entries"], long):
+            if too_long:
+                entry["latex"] = None
+    return shown
+
+
+def _small_context(sheet: Any, fmt: Formatter) -> dict[str, Any]:
+    links = [{
+        "index": item.index, "name": escape_tex(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
+        "inertia": _matrix(fmt, f"I_{{{item.index}}}", item.inertia),
+        "rotation": _matrix(fmt, f"R_{{{item.index}}}", item.rotation),
+        "position": _matrix(fmt, f"p_{{{item.index}}}", item.com_position),
+        "jacobian": _matrix(fmt, f"J_{{{item.index}}}", item.jacobian),
+        "jacobian_dot": _matrix(fmt, f"\\dot J_{{{item.index}}}", item.jacobian_dot)
+        if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
+        "twist": _matrix(fmt, f"\\mathcal{{V}}_{{{item.index}}}", item.twist),
+        "gravity": _matrix(fmt, f"\\left(R_{{{item.index}}}^T \\vec g\\right)", item.gravity),
+        "kinetic": fmt.display(item.kinetic), "potential": fmt.display(item.potential),
+    } for item in sheet.links]
+    return {
+        "links": links, "single": len(sheet.links) == 1,
+        "rate": _matrix(fmt, "Q", sheet.rate),
+        "T": fmt.display(sheet.T), "V": fmt.display(sheet.V),
+        "M": _matrix(fmt, "M", sheet.M), "N": _matrix(fmt, "N", sheet.N), "Cv": _matrix(fmt, "\\left(C v\\right)", sheet.Cv),
+        "C": _matrix(fmt, "C", sheet.C), "EOM": _matrix(fmt, "\\mathrm{EOM}", sheet.EOM),
+    }
+
+
+def _large_context(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]], outputs: dict[str, list[sympy.Expr]],
+                   fmt: Formatter, nv: int) -> dict[str, Any]:
+    def line(name: sympy.Symbol, value: sympy.Expr) -> dict[str, Any]:
+        shown = fmt.display(value, None, COLUMN_UNITS)
+        return {"name": fmt(name), "parts": shown.lines}
+
+    titles = {"shared": "The links' transforms and inertias", "tau": "Newton--Euler",
+              "M": "Composite rigid bodies", "N": "Gravity (Newton--Euler at rest)"}
+    return {
+        "groups": [{"title": titles[key], "key": key, "lines": [line(n, v) for n, v in lines]} for key, lines in groups],
+        "line_count": sum(len(lines) for _, lines in groups),
+        "tau": [fmt(e) for e in outputs["tau"]], "N": [fmt(e) for e in outputs["N"]],
+        "M": [{"row": i + 1, "column": j + 1, "latex": fmt(outputs["M"][i * nv + j])}
+              for i in range(nv) for j in range(i, nv) if outputs["M"][i * nv + j] != 0],
+    }
