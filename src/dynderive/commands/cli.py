@@ -17,7 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
-from ..render.targets import COLUMNS, TARGETS, by_name, resolve
+from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, resolve, simulate_backends
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
@@ -106,6 +106,17 @@ def target_options(after: str, build: bool = False) -> Callable[[F], F]:
     return decorate
 
 
+def option_help(option: str) -> str:
+    """The help of an option whose choices are code targets, from the registry's entries
+    (``Target.option_help``): ``--tests`` says which target's option it goes with, ``--backend``
+    lists each choice, ``check``'s and ``simulate``'s in their order."""
+    if option == "--tests":
+        target = next(target for target in TARGETS if target.help_for(option))
+        return f"With {target.flag}: {target.help_for(option)}."
+    choices = check_backends() if option.startswith("check") else simulate_backends()
+    return "; ".join(f"{name}: {by_name(name).help_for(option)}" for name in choices) + "."
+
+
 def target_flags(targets: dict[str, bool]) -> dict[str, bool]:
     """The code targets' options by kind (``c_extension``), in the registry's order."""
     return {target.kind: bool(targets.get(target.kind)) for target in TARGETS}
@@ -149,8 +160,7 @@ def solve(
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write DIR/<name>.html, the solution sheet as one self-contained "
                                        "web page (MathML equations, SVG drawing, no script).")] = False,
-    tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
-                                        "pytest property checks of the generated module.")] = False,
+    tests: Annotated[bool, typer.Option("--tests", help=option_help("--tests"))] = False,
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("."),
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Directory of templates that override the built-in ones by file name.")] = None,
@@ -166,9 +176,9 @@ def solve(
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
-    from ..render.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
     from .output import write_all
+    from .solve import Wanted, form_note, renderers, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
@@ -176,8 +186,9 @@ def solve(
     chosen = sheet_sections_option(sections, latex or pdf or html)
     printed = not (latex or pdf or any(targets.values()) or json_ or html)
     shortened = sheet_digits_option(digits, latex or pdf or html or printed)
-    if tests and not targets["code"]:   # the NumPy module's checks
-        raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
+    tested = next(target for target in TARGETS if target.help_for("--tests"))   # the module --tests checks
+    if tests and not targets[tested.kind]:
+        raise InputError(problem("--tests", f"--tests writes checks of the generated module: use it with {tested.flag}"))
     target_needs(targets)   # no compiler: stop before any work
     progress = Progress(quiet)
     progress("loading")
@@ -186,22 +197,13 @@ def solve(
     echo_notes(model, quiet)
     if not quiet:
         target_notes(targets)
-    if model.floating:
-        from .floating import solve_floating
-
-        flags = {"latex": latex, "pdf": pdf, **targets, "json": json_, "html": html, "digits": shortened}
-        return solve_floating(model, robot, flags, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
-                              progress, tests)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
-    if derivation.intermediate_form and not quiet:
-        typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
-                   "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
+    if (note := form_note(model)) and not quiet:
+        typer.echo(note, err=True)
     if printed:
-        typer.echo(render_terminal(derivation, shortened), nl=False)
+        typer.echo(renderers(derivation)["terminal"](derivation, shortened), nl=False)
         return
-    from .solve import Wanted, solve_outputs
-
     wanted = Wanted(latex=latex, pdf=pdf, json=json_, tests=tests, html=html,
                     targets=frozenset(kind for kind, asked in targets.items() if asked))
     files, failures, stale = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
@@ -229,9 +231,7 @@ def check(
     states: Annotated[int, typer.Option("--states", help="Random states for the numeric checks.")] = 12,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                      "(repeatable; parameters without a default take 1.0).")] = None,
-    backend: Annotated[str, typer.Option("--backend", help="numpy: check the generated NumPy module; c: also "
-                       "compile the C extension (--c-extension) and compare each of its functions with the "
-                       "NumPy module; jax: the same for the JAX module (--jax; needs jax).")] = "numpy",
+    backend: Annotated[str, typer.Option("--backend", help=option_help("check --backend"))] = "numpy",
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
                              "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
@@ -313,8 +313,7 @@ def simulate(
     friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
                                   "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, as the generated "
                                   "module's default, which integrators cannot step through).")] = 1e-3,
-    backend: Annotated[str, typer.Option("--backend", help="numpy: the generated NumPy module; c: the C "
-                       "extension (--c-extension), compiled for this run (generalized coordinates).")] = "numpy",
+    backend: Annotated[str, typer.Option("--backend", help=option_help("simulate --backend"))] = "numpy",
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
                              "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
