@@ -325,7 +325,8 @@ def simulate(
     from ..render.targets import reference
     from .integrate import method_name
     from .output import check_frames, check_output_paths, write_all
-    from .simulate import animation_gif, csv_text, default_initial, parse_efforts, parse_wrenches, plot_png
+    from .simulate import (animation_gif, csv_text, initial_configuration, parse_efforts, parse_wrenches, plot_png,
+                           refuse_options, run_summary)
     from .simulate import simulate as run
 
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
@@ -354,23 +355,13 @@ def simulate(
                                "pip install scipy") from None
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    if model.floating:
-        from .simulate_floating import floating_options, run_floating
-
-        floating_options(model, coordinates, animate, backend)
     model = with_parameters(model, robot, param or [], required=True)
     echo_notes(model, quiet)
-    if model.floating:
-        return run_floating(model, duration, q0, qd0, effort or [], plot, csv, method, rtol, atol, frames, quiet,
-                            progress, force, friction_smoothing, backend)
+    refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
-    if maximal and not model.planar:
-        raise InputError(problem(model.source, "maximal coordinates are planar-only for now"))
-    if animate is not None and not model.planar:
-        raise InputError(problem(model.source, "--animate draws planar robots only"))
-    n = len(model.coordinates)
-    start_q = vector(q0, n, "--q0")
-    start_qd = vector(qd0, n, "--qd0")
+    start_q = vector(q0, len(model.configuration_names), "--q0")
+    start_qd = vector(qd0, model.velocity_count, "--qd0")
+    start_q = initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
     efforts = parse_efforts(derivation, effort or [], maximal)
@@ -380,9 +371,9 @@ def simulate(
     progress("generating code")
     source = reference(derivation)
     compiled = None if loaded is None else resolve(loaded.load)(derivation, progress=progress)
-    trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
-                     np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
-                     frames, progress, friction_smoothing, wrenches, method,
+    trajectory = run(derivation, source, duration, start_q,
+                     np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
+                     baumgarte, frames, progress, friction_smoothing, wrenches, method,
                      lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled)
     files: dict[Path, bytes] = {}
     if plot is not None:
@@ -394,12 +385,7 @@ def simulate(
         progress("animating")
         files[animate] = animation_gif(derivation, trajectory)
     write_all(files)
-    relative = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])) / max(abs(trajectory.energy[0]), 1e-12))
-    typer.echo(f"simulated {duration:g} s of {model.name} in {coordinates} coordinates: "
-               f"largest relative energy change {relative:.3g}"
-               + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else "")
-               + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"
-                  if trajectory.dissipated is not None else ""))
+    typer.echo(run_summary(model, coordinates, duration, trajectory))
     for path in files:
         typer.echo(f"wrote {path}", err=True)
 
