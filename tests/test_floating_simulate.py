@@ -14,8 +14,7 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.commands.simulate import initial_configuration, parse_efforts, simulate
 from dynderive.render.targets.numpy.floating_code import render_floating_code
-from dynderive.verify.checks import generated_module
-from dynderive.verify.floating_checks import ENERGY_RUN, MOMENTUM, run_floating_checks, system_momentum
+from dynderive.verify.checks import ENERGY_RUN, MOMENTUM, generated_module, run_checks, system_momentum
 from test_floating_base import BOX
 
 pytest.importorskip("scipy")
@@ -63,14 +62,14 @@ def test_momentum_is_pinocchios(tmp_path):
     """The momentum of the box with its arm (about the world origin): Pinocchio's centroidal
     momentum moved from the centre of mass to the origin."""
     pin = pytest.importorskip("pinocchio")
-    from dynderive.verify.floating_checks import pinocchio_floating_model
+    from dynderive.verify.pinocchio_model import pinocchio_maps
 
     path = tmp_path / "box.yaml"
     path.write_text(BOX)
     robot = dynderive.load_robot(path)
     values = {p.name: p.value for p in robot.parameters if p.value is not None}
     module = generated_module(render_floating_code(dynderive.derive(robot)), robot.name)
-    model, qp, vp = pinocchio_floating_model(robot, values)
+    model, qp, vp = pinocchio_maps(robot, values)
     data = model.createData()
     pin.seed(3)
     rng = np.random.default_rng(3)
@@ -139,7 +138,7 @@ def test_the_check_rows_catch_a_wrong_module(tmp_path, right, wrong, row):
     path.write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(path))
     source = render_floating_code(derivation)
-    assert {r.name: r.status for r in run_floating_checks(derivation, source)}[row] == "pass"
+    assert {r.name: r.status for r in run_checks(derivation, source)}[row] == "pass"
     broken = source.replace(right, wrong)
     assert broken != source
-    assert {r.name: r.status for r in run_floating_checks(derivation, broken)}[row] == "FAIL"
+    assert {r.name: r.status for r in run_checks(derivation, broken)}[row] == "FAIL"

@@ -260,13 +260,8 @@ def check(
     echo_notes(derivation, quiet)
     progress("generating code")
     source = reference(derivation)
-    if model.floating:   # the module's functions against each other and Pinocchio's free flyer
-        from ..verify.floating_checks import run_floating_checks
-
-        rows = run_floating_checks(derivation, source, states=states)
-    else:
-        progress("checking")
-        rows = run_checks(derivation, source, states=states)
+    progress("checking")
+    rows = run_checks(derivation, source, states=states)
     if harness is not None and harness.check:   # the target's harness, against the NumPy module
         rows += resolve(harness.check)(derivation, source, progress, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
