@@ -34,6 +34,10 @@ app = typer.Typer(
 )
 
 F = TypeVar("F", bound=Callable[..., Any])
+#: Options several commands share.
+FloatingBase = Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by a "
+                                            "floating joint 'root_joint' (legged robots, humanoids).")]
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")]
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -167,8 +171,7 @@ def solve(
     sections: Annotated[str | None, typer.Option("--sections", help="Sections of the sheet, comma-separated: "
                         "generalized, maximal, checks, or all (default: maximal coordinates only for planar "
                         "robots of at most 2 links).")] = None,
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
+    floating_base: FloatingBase = False,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheet's numbers (and the printed equations') "
                       "to at most N significant digits (default: as many as the robot file wrote).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
@@ -232,9 +235,8 @@ def check(
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                      "(repeatable; parameters without a default take 1.0).")] = None,
     backend: Annotated[str, typer.Option("--backend", help=option_help("check --backend"))] = "numpy",
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
 
@@ -309,9 +311,8 @@ def simulate(
                                   "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, as the generated "
                                   "module's default, which integrators cannot step through).")] = 1e-3,
     backend: Annotated[str, typer.Option("--backend", help=option_help("simulate --backend"))] = "numpy",
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
     import numpy as np
@@ -396,9 +397,8 @@ def linearize(
                      "numbers (repeatable; parameters without a default take 1.0).")] = None,
     json_: Annotated[bool, typer.Option("--json", help="Print A and B as JSON.")] = False,
     latex: Annotated[bool, typer.Option("--latex", help="Print a LaTeX document of A and B.")] = False,
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """Linearize ROBOT's dynamics about a state: xdot = A dx + B du, x = (q, qd).
 
@@ -421,9 +421,8 @@ def identify(
     states: Annotated[int | None, typer.Option("--states", help="Random states sampled (at least the number of "
                                                "regressor parameters).", show_default="4 per parameter, at least "
                                                "100")] = None,
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
     into the combinations the joint forces determine (Y pi = Y_base pi_base)."""

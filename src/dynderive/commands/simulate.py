@@ -221,12 +221,9 @@ def run_summary(robot: Any, coordinates: str, duration: float, trajectory: Traje
     constraint drift and the work of damping and friction where they apply."""
     energy = trajectory.energy
     relative = float(np.max(np.abs(energy - energy[0])) / max(abs(energy[0]), 1e-12))
-    if robot.floating:
-        kind = ("floating base" if robot.floating_base else "floating joints"
-                if any(j.type == "floating" for j in robot.joints) else "spherical joints")
-        where = f"({kind}, on the manifold)"
-    else:
-        where = f"in {coordinates} coordinates"
+    from .output import quaternion_kind
+
+    where = f"({quaternion_kind(robot)}, on the manifold)" if robot.floating else f"in {coordinates} coordinates"
     return (f"simulated {duration:g} s of {robot.name} {where}: largest relative energy change {relative:.3g}"
             + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else "")
             + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"

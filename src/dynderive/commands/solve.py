@@ -41,10 +41,10 @@ def form_note(robot: Robot) -> str | None:
     quaternions (NQ != NV) has every output but the MATLAB derivation script; a large one's
     symbolic quantities are in intermediate-variable form."""
     from ..mechanics.structured import intermediate_form
+    from .output import quaternion_kind
 
     if robot.floating:
-        what = ("has a floating base" if robot.floating_base else "has floating joints"
-                if any(j.type == "floating" for j in robot.joints) else "has spherical joints")
+        what = "has a floating base" if robot.floating_base else f"has {quaternion_kind(robot)}"
         return (f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)}, NV = {robot.velocity_count}): "
                 "every output is built except the MATLAB derivation script (--matlab writes its +package only)")
     if intermediate_form(robot):
