@@ -321,8 +321,16 @@ def simulate(
     from ..render.targets import reference
     from .integrate import method_name
     from .output import check_frames, check_output_paths, write_all
-    from .simulate import (animation_gif, csv_text, initial_configuration, parse_efforts, parse_wrenches, plot_png,
-                           refuse_options, run_summary)
+    from .simulate import (
+        animation_gif,
+        csv_text,
+        initial_configuration,
+        parse_efforts,
+        parse_wrenches,
+        plot_png,
+        refuse_options,
+        run_summary,
+    )
     from .simulate import simulate as run
 
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
