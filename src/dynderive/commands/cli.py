@@ -251,8 +251,8 @@ def check(
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
     backend = backend_name(backend, CHECK_BACKENDS)
-    harness = None if backend == "numpy" else by_name(backend)   # numpy: the module's own checks only
-    if harness is not None and harness.check_needs:   # no compiler, no jax: stop before any work
+    harness = by_name(backend)   # the NumPy module: its own checks only (no harness)
+    if harness.check_needs:   # no compiler, no jax: stop before any work
         resolve(harness.check_needs)()
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
@@ -264,7 +264,7 @@ def check(
     source = reference(derivation)
     progress("checking")
     rows = run_checks(derivation, source, states=states)
-    if harness is not None and harness.check:   # the target's harness, against the NumPy module
+    if harness.check:   # the target's harness, against the NumPy module
         rows += resolve(harness.check)(derivation, source, progress, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
@@ -343,10 +343,10 @@ def simulate(
     tolerances(rtol, atol)
     method = method_name(method)
     backend = backend_name(backend)
-    loaded = None if backend == "numpy" else by_name(backend)   # a target simulate loads (the C extension)
-    if loaded is not None and loaded.check_needs:   # no compiler: stop before any work
+    loaded = by_name(backend)   # the NumPy module, or a target simulate loads (the C extension)
+    if loaded.check_needs:   # no compiler: stop before any work
         resolve(loaded.check_needs)()
-    if loaded is not None and coordinates == "maximal":
+    if loaded.load and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
     for option, path in (("--plot", plot), ("--animate", animate)):
@@ -374,7 +374,7 @@ def simulate(
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code")
     source = reference(derivation)
-    compiled = None if loaded is None else resolve(loaded.load)(derivation, progress=progress)
+    compiled = resolve(loaded.load)(derivation, progress=progress) if loaded.load else None
     trajectory = run(derivation, source, duration, start_q,
                      np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
                      baumgarte, frames, progress, friction_smoothing, wrenches, method,
