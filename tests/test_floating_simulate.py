@@ -12,11 +12,9 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.commands.simulate import parse_efforts
-from dynderive.commands.simulate_floating import floating_initial, simulate_floating
+from dynderive.commands.simulate import initial_configuration, parse_efforts, simulate
 from dynderive.render.targets.numpy.floating_code import render_floating_code
-from dynderive.verify.checks import generated_module
-from dynderive.verify.floating_checks import ENERGY_RUN, MOMENTUM, run_floating_checks, system_momentum
+from dynderive.verify.checks import ENERGY_RUN, MOMENTUM, generated_module, run_checks, system_momentum
 from test_floating_base import BOX
 
 pytest.importorskip("scipy")
@@ -40,14 +38,14 @@ def _run(tmp_path: Path, text: str, q0: list[float] | None, v0: list[float], dur
     robot = dynderive.load_robot(path)
     derivation = dynderive.derive(robot)
     source = render_floating_code(derivation)
-    q0 = floating_initial(robot, None if q0 is None else np.array(q0))
-    trajectory = simulate_floating(derivation, source, duration, q0, np.array(v0), parse_efforts(derivation, [], False),
-                                   1e-10, 1e-10, frames, lambda text: None)
+    q0 = initial_configuration(robot, None if q0 is None else np.array(q0))
+    trajectory = simulate(derivation, source, duration, q0, np.array(v0), parse_efforts(derivation, [], False), False,
+                          1e-10, 1e-10, 10.0, frames, lambda text: None)
     return robot, generated_module(source, robot.name), trajectory
 
 
 def test_a_free_body_keeps_energy_momentum_and_unit_quaternion(tmp_path):
-    q0 = [0.3, -0.1, 0.2, 0.1, 0.2, -0.3, 0.927]   # normalized by floating_initial
+    q0 = [0.3, -0.1, 0.2, 0.1, 0.2, -0.3, 0.927]   # normalized by initial_configuration
     robot, module, trajectory = _run(tmp_path, FREE, q0, [0.3, -0.2, 0.1, 1.5, -2.0, 0.7], 4.0)
     assert trajectory.position.shape == (41, 7) and trajectory.velocity.shape == (41, 6)
     np.testing.assert_allclose(np.linalg.norm(trajectory.position[:, 3:7], axis=1), 1.0, rtol=0, atol=1e-12)
@@ -64,14 +62,14 @@ def test_momentum_is_pinocchios(tmp_path):
     """The momentum of the box with its arm (about the world origin): Pinocchio's centroidal
     momentum moved from the centre of mass to the origin."""
     pin = pytest.importorskip("pinocchio")
-    from dynderive.verify.floating_checks import pinocchio_floating_model
+    from dynderive.verify.pinocchio_model import pinocchio_maps
 
     path = tmp_path / "box.yaml"
     path.write_text(BOX)
     robot = dynderive.load_robot(path)
     values = {p.name: p.value for p in robot.parameters if p.value is not None}
     module = generated_module(render_floating_code(dynderive.derive(robot)), robot.name)
-    model, qp, vp = pinocchio_floating_model(robot, values)
+    model, qp, vp = pinocchio_maps(robot, values)
     data = model.createData()
     pin.seed(3)
     rng = np.random.default_rng(3)
@@ -140,7 +138,7 @@ def test_the_check_rows_catch_a_wrong_module(tmp_path, right, wrong, row):
     path.write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(path))
     source = render_floating_code(derivation)
-    assert {r.name: r.status for r in run_floating_checks(derivation, source)}[row] == "pass"
+    assert {r.name: r.status for r in run_checks(derivation, source)}[row] == "pass"
     broken = source.replace(right, wrong)
     assert broken != source
-    assert {r.name: r.status for r in run_floating_checks(derivation, broken)}[row] == "FAIL"
+    assert {r.name: r.status for r in run_checks(derivation, broken)}[row] == "FAIL"

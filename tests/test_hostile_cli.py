@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands import integrate
 from dynderive.commands.cli import app
-from dynderive.commands.simulate import default_initial, parse_efforts, simulate
+from dynderive.commands.simulate import initial_configuration, parse_efforts, simulate
 from dynderive.errors import InputError
 from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import generated_module
@@ -202,7 +202,7 @@ def test_an_explicit_method_on_a_stiff_robot_says_so():
     efforts = parse_efforts(derivation, [], False)
 
     def run(method, note):
-        return simulate(derivation, source, 1.0, default_initial(derivation), np.zeros(2), efforts, False,
+        return simulate(derivation, source, 1.0, initial_configuration(derivation.robot, None), np.zeros(2), efforts, False,
                         1e-9, 1e-9, 10.0, 11, lambda s: None, 0.0, method=method, note=note)
 
     def stop(text):
@@ -338,7 +338,7 @@ def test_the_runaway_stop_counts_steps():
     stops = []
     for _ in range(2):
         with pytest.raises(InputError) as caught:
-            simulate(d, render_code(d), 1.0, default_initial(d), np.zeros(2), efforts, False, 1e-9, 1e-9, 10.0, 11,
+            simulate(d, render_code(d), 1.0, initial_configuration(d.robot, None), np.zeros(2), efforts, False, 1e-9, 1e-9, 10.0, 11,
                      lambda s: None)
         stops.append(str(caught.value))
     assert stops[0] == stops[1] and "the motion runs away" in stops[0]

@@ -219,44 +219,16 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     (``<name>.log``) are returned instead of the PDF, with the error; when TeX (or TikZ) is
     missing, the other outputs and the error."""
     from .. import derive, load_robot
-    from ..render.json import render_json
-    from ..render.latex import render_latex
-    from .solve import target_files
+    from .solve import sheet_files, target_files
 
     floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
     robot = load_robot(source, size_limits=True, floating_base=floating_base)
-    if robot.floating:   # the NumPy module only
-        from .floating import floating_outputs
-
-        return (*floating_outputs(robot, source, kinds, template_dir), robot.name)  # type: ignore[return-value]
     derivation = derive(robot)
-    files: dict[str, bytes] = {}
-    failed: LatexError | ToolMissingError | None = None
-    tex = render_latex(derivation, template_dir, digits=digits) if ("latex" in kinds or "pdf" in kinds) else None
-    if "latex" in kinds:
-        files[f"{robot.name}.tex"] = tex.encode()  # type: ignore[union-attr]
-    if "pdf" in kinds:
-        from ..render.pdf import compile_pdf_report, failure_outputs
-
-        start = time.monotonic()
-        try:
-            files[f"{robot.name}.pdf"], pages, overfull = compile_pdf_report(tex, robot.name)  # type: ignore[arg-type]
-        except LatexError as exc:
-            failed = exc
-            files |= failure_outputs(robot.name, tex, exc)  # type: ignore[arg-type]
-        except ToolMissingError as exc:   # no TeX, no TikZ: the other outputs are still made
-            failed = exc
-        else:
-            if sheet is not None:
-                sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1), overfull=max(overfull, default=0.0))
-    files |= target_files(derivation, kinds, template_dir)[0]
-    if "json" in kinds:
-        files[f"{robot.name}.json"] = render_json(derivation).encode()
-    if "html" in kinds:
-        from ..render.html import render_html
-
-        files[f"{robot.name}.html"] = render_html(derivation, template_dir, digits=digits).encode()
+    sheets, failed = sheet_files(derivation, kinds, template_dir, digits=digits, sheet=sheet)
+    files = {file: data for file, data in sheets.items() if not file.endswith((".json", ".html"))}   # the sheet
+    files |= target_files(derivation, kinds, template_dir)[0]   # then the code, the JSON and the page
+    files |= {file: sheets[file] for file in (f"{robot.name}.json", f"{robot.name}.html") if file in sheets}
     return files, failed, robot.name
 
 
@@ -285,14 +257,9 @@ def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: st
         return None, f"{source}: internal error: {type(exc).__name__}: {exc}", time.monotonic() - start, sheet, ""
     if failed is None:
         return files, "", time.monotonic() - start, sheet, name
-    from ..render.pdf import failure_message
+    from .solve import failure_text
 
-    if out is None:
-        message = str(failed)
-    elif isinstance(failed, LatexError):
-        message = failure_message(Path(out), name, failed)
-    else:
-        message = f"{Path(out) / (name + '.pdf')} skipped: {failed}"
+    message = str(failed) if out is None else failure_text(Path(out), name, failed)
     return files, f"{source}: {message}", time.monotonic() - start, sheet, name
 
 

@@ -17,7 +17,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
-from ..render.targets import COLUMNS, TARGETS, by_name, resolve
+from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, resolve, simulate_backends
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
@@ -34,6 +34,10 @@ app = typer.Typer(
 )
 
 F = TypeVar("F", bound=Callable[..., Any])
+#: Options several commands share.
+FloatingBase = Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by a "
+                                            "floating joint 'root_joint' (legged robots, humanoids).")]
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")]
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -106,6 +110,17 @@ def target_options(after: str, build: bool = False) -> Callable[[F], F]:
     return decorate
 
 
+def option_help(option: str) -> str:
+    """The help of an option whose choices are code targets, from the registry's entries
+    (``Target.option_help``): ``--tests`` says which target's option it goes with, ``--backend``
+    lists each choice, ``check``'s and ``simulate``'s in their order."""
+    if option == "--tests":
+        target = next(target for target in TARGETS if target.help_for(option))
+        return f"With {target.flag}: {target.help_for(option)}."
+    choices = check_backends() if option.startswith("check") else simulate_backends()
+    return "; ".join(f"{name}: {by_name(name).help_for(option)}" for name in choices) + "."
+
+
 def target_flags(targets: dict[str, bool]) -> dict[str, bool]:
     """The code targets' options by kind (``c_extension``), in the registry's order."""
     return {target.kind: bool(targets.get(target.kind)) for target in TARGETS}
@@ -149,16 +164,14 @@ def solve(
     json_: Annotated[bool, typer.Option("--json", help="Write DIR/<name>.json, every quantity.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Write DIR/<name>.html, the solution sheet as one self-contained "
                                        "web page (MathML equations, SVG drawing, no script).")] = False,
-    tests: Annotated[bool, typer.Option("--tests", help="With --code: also write DIR/test_<name>_dynamics.py, "
-                                        "pytest property checks of the generated module.")] = False,
+    tests: Annotated[bool, typer.Option("--tests", help=option_help("--tests"))] = False,
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("."),
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Directory of templates that override the built-in ones by file name.")] = None,
     sections: Annotated[str | None, typer.Option("--sections", help="Sections of the sheet, comma-separated: "
                         "generalized, maximal, checks, or all (default: maximal coordinates only for planar "
                         "robots of at most 2 links).")] = None,
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
+    floating_base: FloatingBase = False,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheet's numbers (and the printed equations') "
                       "to at most N significant digits (default: as many as the robot file wrote).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
@@ -166,9 +179,9 @@ def solve(
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
-    from ..render.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
     from .output import write_all
+    from .solve import Wanted, form_note, renderers, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
@@ -176,8 +189,9 @@ def solve(
     chosen = sheet_sections_option(sections, latex or pdf or html)
     printed = not (latex or pdf or any(targets.values()) or json_ or html)
     shortened = sheet_digits_option(digits, latex or pdf or html or printed)
-    if tests and not targets["code"]:   # the NumPy module's checks
-        raise InputError(problem("--tests", "--tests writes checks of the generated module: use it with --code"))
+    tested = next(target for target in TARGETS if target.help_for("--tests"))   # the module --tests checks
+    if tests and not targets[tested.kind]:
+        raise InputError(problem("--tests", f"--tests writes checks of the generated module: use it with {tested.flag}"))
     target_needs(targets)   # no compiler: stop before any work
     progress = Progress(quiet)
     progress("loading")
@@ -186,22 +200,13 @@ def solve(
     echo_notes(model, quiet)
     if not quiet:
         target_notes(targets)
-    if model.floating:
-        from .floating import solve_floating
-
-        flags = {"latex": latex, "pdf": pdf, **targets, "json": json_, "html": html, "digits": shortened}
-        return solve_floating(model, robot, flags, out, template_dir, quiet, lambda t: typer.echo(t, err=True),
-                              progress, tests)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
-    if derivation.intermediate_form and not quiet:
-        typer.echo(f"note: {model.name} has {len(model.coordinates)} coordinates: M, C, N, the energies and "
-                   "Lagrange's equations are derived in intermediate-variable form (named sub-expressions)", err=True)
+    if (note := form_note(model)) and not quiet:
+        typer.echo(note, err=True)
     if printed:
-        typer.echo(render_terminal(derivation, shortened), nl=False)
+        typer.echo(renderers(derivation)["terminal"](derivation, shortened), nl=False)
         return
-    from .solve import Wanted, solve_outputs
-
     wanted = Wanted(latex=latex, pdf=pdf, json=json_, tests=tests, html=html,
                     targets=frozenset(kind for kind, asked in targets.items() if asked))
     files, failures, stale = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
@@ -229,12 +234,9 @@ def check(
     states: Annotated[int, typer.Option("--states", help="Random states for the numeric checks.")] = 12,
     param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                      "(repeatable; parameters without a default take 1.0).")] = None,
-    backend: Annotated[str, typer.Option("--backend", help="numpy: check the generated NumPy module; c: also "
-                       "compile the C extension (--c-extension) and compare each of its functions with the "
-                       "NumPy module; jax: the same for the JAX module (--jax; needs jax).")] = "numpy",
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    backend: Annotated[str, typer.Option("--backend", help=option_help("check --backend"))] = "numpy",
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
 
@@ -249,8 +251,8 @@ def check(
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
     backend = backend_name(backend, CHECK_BACKENDS)
-    harness = None if backend == "numpy" else by_name(backend)   # numpy: the module's own checks only
-    if harness is not None and harness.check_needs:   # no compiler, no jax: stop before any work
+    harness = by_name(backend)   # the NumPy module: its own checks only (no harness)
+    if harness.check_needs:   # no compiler, no jax: stop before any work
         resolve(harness.check_needs)()
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
@@ -260,14 +262,9 @@ def check(
     echo_notes(derivation, quiet)
     progress("generating code")
     source = reference(derivation)
-    if model.floating:   # the module's functions against each other and Pinocchio's free flyer
-        from ..verify.floating_checks import run_floating_checks
-
-        rows = run_floating_checks(derivation, source, states=states)
-    else:
-        progress("checking")
-        rows = run_checks(derivation, source, states=states)
-    if harness is not None and harness.check:   # the target's harness, against the NumPy module
+    progress("checking")
+    rows = run_checks(derivation, source, states=states)
+    if harness.check:   # the target's harness, against the NumPy module
         rows += resolve(harness.check)(derivation, source, progress, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
@@ -313,11 +310,9 @@ def simulate(
     friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
                                   "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, as the generated "
                                   "module's default, which integrators cannot step through).")] = 1e-3,
-    backend: Annotated[str, typer.Option("--backend", help="numpy: the generated NumPy module; c: the C "
-                       "extension (--c-extension), compiled for this run (generalized coordinates).")] = "numpy",
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    backend: Annotated[str, typer.Option("--backend", help=option_help("simulate --backend"))] = "numpy",
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
     import numpy as np
@@ -326,7 +321,16 @@ def simulate(
     from ..render.targets import reference
     from .integrate import method_name
     from .output import check_frames, check_output_paths, write_all
-    from .simulate import animation_gif, csv_text, default_initial, parse_efforts, parse_wrenches, plot_png
+    from .simulate import (
+        animation_gif,
+        csv_text,
+        initial_configuration,
+        parse_efforts,
+        parse_wrenches,
+        plot_png,
+        refuse_options,
+        run_summary,
+    )
     from .simulate import simulate as run
 
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
@@ -339,10 +343,10 @@ def simulate(
     tolerances(rtol, atol)
     method = method_name(method)
     backend = backend_name(backend)
-    loaded = None if backend == "numpy" else by_name(backend)   # a target simulate loads (the C extension)
-    if loaded is not None and loaded.check_needs:   # no compiler: stop before any work
+    loaded = by_name(backend)   # the NumPy module, or a target simulate loads (the C extension)
+    if loaded.check_needs:   # no compiler: stop before any work
         resolve(loaded.check_needs)()
-    if loaded is not None and coordinates == "maximal":
+    if loaded.load and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
     for option, path in (("--plot", plot), ("--animate", animate)):
@@ -355,23 +359,13 @@ def simulate(
                                "pip install scipy") from None
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    if model.floating:
-        from .simulate_floating import floating_options, run_floating
-
-        floating_options(model, coordinates, animate, backend)
     model = with_parameters(model, robot, param or [], required=True)
     echo_notes(model, quiet)
-    if model.floating:
-        return run_floating(model, duration, q0, qd0, effort or [], plot, csv, method, rtol, atol, frames, quiet,
-                            progress, force, friction_smoothing, backend)
+    refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
-    if maximal and not model.planar:
-        raise InputError(problem(model.source, "maximal coordinates are planar-only for now"))
-    if animate is not None and not model.planar:
-        raise InputError(problem(model.source, "--animate draws planar robots only"))
-    n = len(model.coordinates)
-    start_q = vector(q0, n, "--q0")
-    start_qd = vector(qd0, n, "--qd0")
+    start_q = vector(q0, len(model.configuration_names), "--q0")
+    start_qd = vector(qd0, model.velocity_count, "--qd0")
+    start_q = initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
     efforts = parse_efforts(derivation, effort or [], maximal)
@@ -380,10 +374,10 @@ def simulate(
     wrenches = parse_wrenches(derivation, force or [])
     progress("generating code")
     source = reference(derivation)
-    compiled = None if loaded is None else resolve(loaded.load)(derivation, progress=progress)
-    trajectory = run(derivation, source, duration, default_initial(derivation) if start_q is None else start_q,
-                     np.zeros(n) if start_qd is None else start_qd, efforts, maximal, rtol, atol, baumgarte,
-                     frames, progress, friction_smoothing, wrenches, method,
+    compiled = resolve(loaded.load)(derivation, progress=progress) if loaded.load else None
+    trajectory = run(derivation, source, duration, start_q,
+                     np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
+                     baumgarte, frames, progress, friction_smoothing, wrenches, method,
                      lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled)
     files: dict[Path, bytes] = {}
     if plot is not None:
@@ -395,12 +389,7 @@ def simulate(
         progress("animating")
         files[animate] = animation_gif(derivation, trajectory)
     write_all(files)
-    relative = float(np.max(np.abs(trajectory.energy - trajectory.energy[0])) / max(abs(trajectory.energy[0]), 1e-12))
-    typer.echo(f"simulated {duration:g} s of {model.name} in {coordinates} coordinates: "
-               f"largest relative energy change {relative:.3g}"
-               + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else "")
-               + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"
-                  if trajectory.dissipated is not None else ""))
+    typer.echo(run_summary(model, coordinates, duration, trajectory))
     for path in files:
         typer.echo(f"wrote {path}", err=True)
 
@@ -416,9 +405,8 @@ def linearize(
                      "numbers (repeatable; parameters without a default take 1.0).")] = None,
     json_: Annotated[bool, typer.Option("--json", help="Print A and B as JSON.")] = False,
     latex: Annotated[bool, typer.Option("--latex", help="Print a LaTeX document of A and B.")] = False,
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """Linearize ROBOT's dynamics about a state: xdot = A dx + B du, x = (q, qd).
 
@@ -441,9 +429,8 @@ def identify(
     states: Annotated[int | None, typer.Option("--states", help="Random states sampled (at least the number of "
                                                "regressor parameters).", show_default="4 per parameter, at least "
                                                "100")] = None,
-    floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by "
-                             "a floating joint 'root_joint' (legged robots, humanoids).")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    floating_base: FloatingBase = False,
+    quiet: Quiet = False,
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
     into the combinations the joint forces determine (Y pi = Y_base pi_base)."""

@@ -241,6 +241,13 @@ def check_frames(frames: int, animate: bool) -> None:
                                  "ask for fewer"))
 
 
+def quaternion_kind(robot: Any) -> str:
+    """What gives ``robot``'s configuration its quaternions: "floating base", "floating joints"
+    or "spherical joints" (for ``solve``'s note and ``simulate``'s summary)."""
+    return ("floating base" if robot.floating_base else "floating joints"
+            if any(j.type == "floating" for j in robot.joints) else "spherical joints")
+
+
 def echo_notes(model: Any, quiet: bool) -> None:
     """The notes of a loaded robot or a derivation (accepted input that was changed or
     ignored) on stderr, unless ``quiet``."""

@@ -5,6 +5,14 @@ Integrates with SciPy (a dependency); ``--plot`` and ``--animate`` draw with mat
 Efforts are expressions of ``t``, the coordinates, their velocities and the parameters, parsed
 by the same whitelist as robot files. Maximal-coordinate runs use Baumgarte stabilisation and accept efforts of
 ``t`` only (the generalized coordinates are not state there).
+
+A robot whose configuration holds unit quaternions (floating and spherical joints) is
+integrated in ``(q, v)``, NQ + NV entries, with ``dq/dt`` from the module's
+``configuration_rate`` (a quaternion moves by ``1/2 quaternion * (w, 0)``, tangent to the unit
+sphere), from output frame to output frame: at each frame the quaternions are normalized (the
+integrator's own error moves them off the sphere by about its tolerance) and the run goes on
+from there, as closed loops are projected back onto their constraints; the right-hand side
+evaluates the dynamics at normalized quaternions too.
 """
 
 from __future__ import annotations
@@ -13,7 +21,7 @@ import io
 import math
 import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -23,13 +31,16 @@ import sympy
 from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError, parse_expression
+from ..model.naming import velocity_name
 from ..verify.checks import allowed_velocity, generated_module
 from .integrate import DEFAULT_METHOD, Culprit, Integrator, at_duration, checked, singular_problem
-from .options import split_top_level
+from .options import problem, split_top_level
 
 #: Singular values below this fraction of the largest count as zero in ``singular_start``
 #: (a configuration that close to singular makes the integrator stall).
 SINGULAR = 1e-9
+#: How far from unit a quaternion of ``--q0`` may be (then normalized): four decimals typed.
+QUATERNION_TOLERANCE = 1e-3
 
 
 @dataclass
@@ -44,6 +55,8 @@ class Trajectory:
     #: work done by damping and friction since t = 0, integral of qd . F dt (generalized runs of
     #: robots with damping or friction; None otherwise): E + W changes only by the efforts' work
     dissipated: np.ndarray | None = None
+    #: the velocities' names (the CSV's columns after the coordinates)
+    velocity_names: list[str] = field(default_factory=list)
 
 
 def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Callable[..., np.ndarray]:
@@ -82,14 +95,14 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
     return efforts
 
 
-def culprit(efforts: Callable[..., np.ndarray], n: int, maximal: bool = False) -> Culprit:
+def culprit(efforts: Callable[..., np.ndarray], nq: int, nv: int, maximal: bool = False) -> Culprit:
     """The option to blame for a motion that stops being computable at (time, state): the
-    ``--effort`` whose value is largest there (the state's first ``n`` entries are q, the next
-    ``n`` qd; maximal runs' efforts are of t only), else ``--duration``."""
+    ``--effort`` whose value is largest there (the state's first ``nq`` entries are q, the next
+    ``nv`` qd; maximal runs' efforts are of t only), else ``--duration``."""
     options = getattr(efforts, "options", [])
 
     def blame(time: float, state: np.ndarray, body: str) -> Problem:
-        q, qd = (np.zeros(n), np.zeros(n)) if maximal else (state[:n], state[n:2 * n])
+        q, qd = (np.zeros(nq), np.zeros(nv)) if maximal else (state[:nq], state[nq:nq + nv])
         sizes = []
         for name, where, column, function in options:
             try:
@@ -159,10 +172,62 @@ def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., di
                                 for name, parts in functions.items()}
 
 
-def default_initial(derivation: Derivation) -> np.ndarray:
-    """A meaningful start with no options: revolute joints at 0.5 rad, prismatic at 0.2."""
-    kinds = {j.name: j.type for j in derivation.robot.joints}
-    return np.array([0.5 if kinds[name] == "revolute" else 0.2 for name in derivation.robot.coordinates])
+def normalized(q: np.ndarray, starts: tuple[int, ...]) -> np.ndarray:
+    """``q`` (a copy) with its quaternions, starting at ``starts``, made unit."""
+    q = np.array(q, dtype=float)
+    for start in starts:
+        q[..., start:start + 4] /= np.linalg.norm(q[..., start:start + 4], axis=-1, keepdims=True)
+    return q
+
+
+def initial_configuration(robot: Any, q0: np.ndarray | None) -> np.ndarray:
+    """``--q0`` with its quaternions normalized (refused if one is off unit by more than
+    QUATERNION_TOLERANCE); without it a meaningful start: revolute joints at 0.5 rad,
+    prismatic at 0.2 m, floating and spherical joints at identity quaternions (a floating
+    base at the origin of its parent)."""
+    starts = robot.quaternion_starts
+    if q0 is None:
+        where_q, _ = robot.offsets()
+        q0 = np.zeros(len(robot.configuration_names))
+        for joint in (j for j in robot.joints if j.owns):
+            if joint.multi:   # the identity quaternion
+                q0[where_q[joint.name] + joint.sizes[0] - 1] = 1.0
+            else:
+                q0[where_q[joint.name]] = 0.5 if joint.type == "revolute" else 0.2
+        return q0
+    names = robot.configuration_names
+    for start in starts:
+        norm = float(np.linalg.norm(q0[start:start + 4]))
+        if abs(norm - 1.0) > QUATERNION_TOLERANCE:
+            raise InputError(problem("--q0", f"the quaternion {', '.join(names[start:start + 4])} must be unit "
+                                             f"(within {QUATERNION_TOLERANCE:g}), its norm is {norm:.6g}"))
+    return normalized(q0, starts)
+
+
+def refuse_options(robot: Any, coordinates: str, animate: object) -> None:
+    """Refuse what a run of ``robot`` does not do (exit 2, before any work): maximal
+    coordinates and the animation beyond planar robots (a robot with quaternions is run in
+    ``(q, v)`` only)."""
+    if coordinates == "maximal" and robot.floating:
+        raise InputError(problem("--coordinates", "a floating-base robot is simulated in its coordinates (q, v) only"))
+    if coordinates == "maximal" and not robot.planar:
+        raise InputError(problem(robot.source, "maximal coordinates are planar-only for now"))
+    if animate is not None and not robot.planar:
+        raise InputError(problem("--animate" if robot.floating else robot.source, "--animate draws planar robots only"))
+
+
+def run_summary(robot: Any, coordinates: str, duration: float, trajectory: Trajectory) -> str:
+    """The line ``simulate`` prints: the run, its largest relative energy change, and the
+    constraint drift and the work of damping and friction where they apply."""
+    energy = trajectory.energy
+    relative = float(np.max(np.abs(energy - energy[0])) / max(abs(energy[0]), 1e-12))
+    from .output import quaternion_kind
+
+    where = f"({quaternion_kind(robot)}, on the manifold)" if robot.floating else f"in {coordinates} coordinates"
+    return (f"simulated {duration:g} s of {robot.name} {where}: largest relative energy change {relative:.3g}"
+            + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else "")
+            + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"
+               if trajectory.dissipated is not None else ""))
 
 
 def friction_hint(robot: Any, friction_smoothing: float) -> str:
@@ -192,59 +257,74 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
              wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
              method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
              compiled: Any = None) -> Trajectory:
-    """Integrate the generated dynamics with SciPy's ``method`` (see ``integrate``). Robots
-    with Coulomb friction use the module's smoothed sign (``friction_smoothing``, a velocity;
-    0 = exact) in generalized coordinates. ``note`` receives one line if the integrator
-    struggles; a state or an effort that stops being finite stops the run (InputError).
-    ``compiled``: the C extension (``--backend c``), whose forward dynamics and friction the
-    integrator calls instead of the NumPy module's (generalized coordinates only)."""
-    module = generated_module(source, derivation.robot.name)
+    """Integrate the generated dynamics with SciPy's ``method`` (see ``integrate``), from ``q0``
+    (NQ entries) and ``qd0`` (NV), on the manifold for a robot with quaternions (module
+    docstring). Robots with Coulomb friction use the module's smoothed sign
+    (``friction_smoothing``, a velocity; 0 = exact) in generalized coordinates; with damping or
+    friction the work they dissipate rides along (``Trajectory.dissipated``). ``note`` receives
+    one line if the integrator struggles; a state or an effort that stops being finite stops
+    the run (InputError). ``compiled``: the C extension (``--backend c``), whose forward
+    dynamics, ``configuration_rate`` and friction the integrator calls instead of the NumPy
+    module's (generalized coordinates only)."""
+    robot = derivation.robot
+    module = generated_module(source, robot.name)
     fast = compiled if compiled is not None else module
-    values = {p.name: p.value for p in derivation.robot.parameters if p.value is not None}
-    n = len(q0)
+    values = {p.name: p.value for p in robot.parameters if p.value is not None}
+    nq, nv = len(q0), len(qd0)
     tick = progress_ticker(duration, progress)
 
-    hint = "" if maximal else friction_hint(derivation.robot, friction_smoothing)
-    if derivation.robot.loops and not maximal:
+    hint = "" if maximal else friction_hint(robot, friction_smoothing)
+    if robot.loops and not maximal:
         return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
                                frames, tick, friction_smoothing, wrenches, method, note, hint, fast)
-    dissipative = derivation.robot.dissipative and not maximal
+    dissipative = robot.dissipative and not maximal
+    starts = () if maximal else robot.quaternion_starts
     if not maximal:
+        rate = fast.configuration_rate if starts else lambda q, qd: qd   # dq/dt
+
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
-            q, qd = y[:n], y[n:2 * n]
+            q, qd = normalized(y[:nq], starts), y[nq:nq + nv]
             qdd = fast.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
                                         friction_smoothing=friction_smoothing, **values)
             if not dissipative:
-                return np.concatenate([qd, qdd])
+                return np.concatenate([rate(q, qd), qdd])
             power = qd @ fast.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
-            return np.concatenate([qd, qdd, [power]])   # the dissipated work W rides along
+            return np.concatenate([rate(q, qd), qdd, [power]])   # the dissipated work W rides along
         y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
-        names = list(derivation.robot.coordinates)
+        names, rates = list(robot.configuration_names), [str(s) for s in derivation.symbols.qd]
     else:
         with np.errstate(all="ignore"):
             qm0 = module.to_maximal(q0, **values)
             singular_start(module.constraint_jacobian(qm0, **values),
                            len(qm0) - len(getattr(module, "INDEPENDENT_COORDINATES", q0)),
-                           "the maximal coordinates' constraint Jacobian A(qm)", derivation.robot.coordinates, q0)
+                           "the maximal coordinates' constraint Jacobian A(qm)", robot.coordinates, q0)
             y0 = np.concatenate([qm0, module.to_maximal_jacobian(q0, **values) @ qd0])
-        n = len(qm0)
-        zero_q = np.zeros(len(q0))
+        zero_q = np.zeros(nq)
+        nq = nv = len(qm0)
 
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
-            qm, qmd = y[:n], y[n:]
+            qm, qmd = y[:nq], y[nq:]
             u = efforts(time, zero_q, zero_q)
             return np.concatenate([qmd, module.maximal_forward_dynamics(qm, qmd, u, alpha=baumgarte,
                                                                          beta=baumgarte, **values)])
         names = [str(s) for s in derivation.symbols.qm]
-    _finite_start(rhs, y0, n, q0, qd0)
+        rates = [velocity_name(name) for name in names]
+    _finite_start(rhs, y0, nq, nv, q0, qd0)
     times = np.linspace(0.0, duration, frames)
-    states = Integrator(rhs, method, rtol, atol, duration, note, hint,
-                        culprit(efforts, len(q0), maximal)).run(0.0, duration, y0, times)
+    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint, culprit(efforts, len(q0), len(qd0), maximal))
+    if starts:   # frame to frame, the quaternions normalized at each
+        runs = [y0]
+        for start, end in zip(times[:-1], times[1:]):
+            y = integrator.run(start, end, runs[-1], np.array([end]))[-1]
+            runs.append(np.concatenate([normalized(y[:nq], starts), y[nq:]]))
+        states = np.array(runs)
+    else:
+        states = integrator.run(0.0, duration, y0, times)
     tick(duration)
-    position, velocity = states[:, :n], states[:, n:2 * n]
-    dissipated = states[:, 2 * n] if dissipative else None
+    position, velocity = states[:, :nq], states[:, nq:nq + nv]
+    dissipated = states[:, nq + nv] if dissipative else None
     if maximal:
         energy = module.maximal_kinetic_energy(position, velocity, **values) + module.maximal_potential_energy(position, **values)
         drift = np.max(np.abs(module.constraints(position, **values)), axis=-1)
@@ -252,11 +332,11 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
         drift = None
     return Trajectory(names, times, position, velocity, np.asarray(energy), drift,
-                      _link_poses(derivation, maximal) if derivation.robot.planar else None, dissipated)
+                      _link_poses(derivation, maximal) if robot.planar else None, dissipated, rates)
 
 
-def _finite_start(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray, n: int, q0: np.ndarray,
-                  qd0: np.ndarray) -> None:
+def _finite_start(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray, nq: int, nv: int,
+                  q0: np.ndarray, qd0: np.ndarray) -> None:
     """Refuse an initial state whose accelerations are not finite (``--qd0 1e200`` overflows
     the velocity products), at the option to blame: ``--qd0`` if the same coordinates at rest
     are fine, else ``--q0``."""
@@ -274,8 +354,8 @@ def _finite_start(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray
     if finite(y0):
         return
     at_rest = y0.copy()
-    at_rest[n:2 * n] = 0.0
-    if np.any(qd0) and len(y0) >= 2 * n and finite(at_rest):
+    at_rest[nq:nq + nv] = 0.0
+    if np.any(qd0) and len(y0) >= nq + nv and finite(at_rest):
         raise InputError(Problem("--qd0", 1, 1, "the accelerations at the initial velocities "
                                  f"{', '.join(f'{v:g}' for v in qd0)} are not finite (they overflow a double)"))
     raise InputError(Problem("--q0", 1, 1, "the accelerations at the initial coordinates "
@@ -327,8 +407,8 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
     with np.errstate(all="ignore"):
         singular_start(module.loop_jacobian(q, **values), n - len(independent),
                        "the loop constraint Jacobian A_g(q)", module.COORDINATES, q)
-    _finite_start(rhs, np.concatenate([q, qd]), n, q0, qd0)
-    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint, culprit(efforts, n))
+    _finite_start(rhs, np.concatenate([q, qd]), n, n, q0, qd0)
+    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint, culprit(efforts, n, n))
     positions, velocities, drift = [q], [qd], [float(np.max(np.abs(module.loop_constraints(q, **values))))]
     for start, end in zip(times[:-1], times[1:]):
         state = integrator.run(start, end, np.concatenate([q, qd]), np.array([end]))[-1]
@@ -341,7 +421,8 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
     position, velocity = np.array(positions), np.array(velocities)
     energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
     return Trajectory(list(derivation.robot.coordinates), times, position, velocity, np.asarray(energy),
-                      np.array(drift), _link_poses(derivation, False) if derivation.robot.planar else None)
+                      np.array(drift), _link_poses(derivation, False) if derivation.robot.planar else None, None,
+                      [str(s) for s in derivation.symbols.qd])
 
 
 def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray], list[tuple[np.ndarray, float]]]:
@@ -428,9 +509,9 @@ def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
 
 
 def csv_text(trajectory: Trajectory) -> str:
-    from ..model.naming import velocity_name
-
-    header = ["t", *trajectory.names, *(velocity_name(n) for n in trajectory.names), "energy"]
+    """t, the coordinates, the velocities, the energy (and the constraint drift, the work
+    dissipated by damping and friction)."""
+    header = ["t", *trajectory.names, *trajectory.velocity_names, "energy"]
     columns = [trajectory.times[:, None], trajectory.position, trajectory.velocity, trajectory.energy[:, None]]
     if trajectory.drift is not None:
         header.append("constraint_drift")

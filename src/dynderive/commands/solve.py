@@ -1,4 +1,5 @@
-"""``dynderive solve``'s output files, in memory: what the command line asked for, made from
+"""``dynderive solve``'s and ``build``'s output files, in memory, for every robot (a fixed
+base, a floating base, spherical or mimic joints): what the command line asked for, made from
 one derivation, and the outputs that could not be made (a PDF without LaTeX, a sheet LaTeX
 rejects, an extension the compiler rejects) as messages, so that the command writes all the
 others at once (``output.write_all``) and then exits 1 naming each failure; and the files the
@@ -8,12 +9,18 @@ log of an earlier failure when the PDF or the extension is made.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..derivation import Derivation
 from ..errors import LatexError, ToolMissingError
+from ..model.robot import Robot
+
+#: The outputs that are not code: the sheet (``--latex``, ``--pdf``, ``--html``) and the JSON dump.
+SHEET_KINDS = ("latex", "pdf", "html", "json")
 
 
 @dataclass(frozen=True)
@@ -29,15 +36,53 @@ class Wanted:
     targets: frozenset[str] = frozenset()
 
 
+def form_note(robot: Robot) -> str | None:
+    """``solve``'s note on the form of ``robot``'s equations: one whose configuration holds
+    quaternions (NQ != NV) has every output but the MATLAB derivation script; a large one's
+    symbolic quantities are in intermediate-variable form."""
+    from ..mechanics.structured import intermediate_form
+    from .output import quaternion_kind
+
+    if robot.floating:
+        what = "has a floating base" if robot.floating_base else f"has {quaternion_kind(robot)}"
+        return (f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)}, NV = {robot.velocity_count}): "
+                "every output is built except the MATLAB derivation script (--matlab writes its +package only)")
+    if intermediate_form(robot):
+        return (f"note: {robot.name} has {len(robot.coordinates)} coordinates: M, C, N, the energies and Lagrange's "
+                "equations are derived in intermediate-variable form (named sub-expressions)")
+    return None
+
+
+def renderers(derivation: Derivation) -> dict[str, Callable[..., str]]:
+    """The sheet's renderers for ``derivation``'s robot by output (``latex``, ``html``: called
+    with (derivation, template_dir, sections, digits); ``json``; ``terminal``: (derivation,
+    digits)); a robot with quaternions has the free-flyer sheet (no sections to choose)."""
+    from ..render import terminal
+
+    if not derivation.robot.floating:
+        from ..render.html import render_html
+        from ..render.json import render_json
+        from ..render.latex import render_latex
+
+        return {"latex": render_latex, "html": render_html, "json": render_json, "terminal": terminal.render_terminal}
+    from ..render.floating_json import render_floating_json
+    from ..render.floating_latex import render_floating_latex
+    from ..render.html_floating import render_floating_html
+
+    return {"latex": lambda d, folder, sections, digits: render_floating_latex(d, folder, digits),
+            "html": lambda d, folder, sections, digits: render_floating_html(d, folder, digits),
+            "json": render_floating_json, "terminal": terminal.render_floating_terminal}
+
+
 def target_files(derivation: Derivation, kinds: Collection[str], template_dir: str | Path | None,
                  progress: Callable[[str], None] = lambda stage: None, folder: Path | None = None,
                  tests: bool = False) -> tuple[dict[str, bytes], list[str], list[str]]:
     """The files of the code targets among ``kinds`` by name, in the registry's order (a
-    target that refuses the robot stops the run before the later ones' work), for a fixed or
-    a floating base; ``tests``: the NumPy module's checks too. With ``folder`` (``solve``), a
-    target that could not be made (the extension a compiler rejected) leaves its log and a
-    message (the other outputs are still written) and one that was made names the files of an
-    earlier failure it makes stale; without, its error stops the robot (``build``)."""
+    target that refuses the robot stops the run before the later ones' work); ``tests``: the
+    NumPy module's checks too. With ``folder`` (``solve``), a target that could not be made
+    (the extension a compiler rejected) leaves its log and a message (the other outputs are
+    still written) and one that was made names the files of an earlier failure it makes
+    stale; without, its error stops the robot (``build``)."""
     from ..render.targets import TARGETS, resolve
 
     name = derivation.robot.name
@@ -48,7 +93,7 @@ def target_files(derivation: Derivation, kinds: Collection[str], template_dir: s
         if target.kind not in kinds:
             continue
         if target.progress:
-            progress(target.progress + (" (floating base)" if derivation.robot.floating else ""))
+            progress(target.progress)
         try:
             files |= target.files(derivation, template_dir, files, tests=tests, progress=progress)
         except Exception as exc:
@@ -62,45 +107,75 @@ def target_files(derivation: Derivation, kinds: Collection[str], template_dir: s
     return files, failures, stale
 
 
+def sheet_files(derivation: Derivation, kinds: Collection[str], template_dir: str | Path | None,
+                sections: Any = None, digits: int | None = None,
+                progress: Callable[[str], None] = lambda stage: None, sheet: dict[str, float] | None = None,
+                ) -> tuple[dict[str, bytes], LatexError | ToolMissingError | None]:
+    """The sheet's files among ``kinds`` by name (the ``.tex``, the ``.pdf``, the ``.html``, the
+    ``.json``), ``sections`` of it with numbers to ``digits`` significant digits at most, and
+    the PDF's failure, if any: LaTeX's (the ``.tex`` and its log are then among the files) or
+    a missing TeX. With a PDF, ``sheet`` receives its pages, LaTeX's seconds and the widest
+    overfull line (pt)."""
+    name, render = derivation.robot.name, renderers(derivation)
+    files: dict[str, bytes] = {}
+    failure: LatexError | ToolMissingError | None = None
+    if "latex" in kinds or "pdf" in kinds:
+        progress("rendering LaTeX")
+        tex = render["latex"](derivation, template_dir, sections, digits)
+        if "latex" in kinds:
+            files[f"{name}.tex"] = tex.encode()
+        if "pdf" in kinds:
+            from ..render import pdf
+
+            progress("compiling PDF")
+            start = time.monotonic()
+            try:
+                files[f"{name}.pdf"], pages, overfull = pdf.compile_pdf_report(tex, name)
+            except LatexError as exc:   # the other outputs are still worth writing, with the .tex and the log
+                failure = exc
+                files |= pdf.failure_outputs(name, tex, exc)
+            except ToolMissingError as exc:   # no TeX, no TikZ: so are they
+                failure = exc
+            else:
+                if sheet is not None:
+                    sheet.update(pages=pages, seconds=round(time.monotonic() - start, 1),
+                                 overfull=max(overfull, default=0.0))
+    if "html" in kinds:
+        progress("rendering HTML")
+        files[f"{name}.html"] = render["html"](derivation, template_dir, sections, digits).encode()
+    if "json" in kinds:
+        files[f"{name}.json"] = render["json"](derivation).encode()
+    return files, failure
+
+
+def failure_text(folder: Path, name: str, failure: LatexError | ToolMissingError) -> str:
+    """The line for a PDF that could not be made into ``folder``."""
+    if isinstance(failure, LatexError):
+        from ..render.pdf import failure_message
+
+        return failure_message(folder, name, failure)
+    return f"{folder / (name + '.pdf')} skipped: {failure}"
+
+
 def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_dir: Path | None,
                   sections: object, progress: Callable[[str], None],
                   digits: int | None = None) -> tuple[dict[Path, bytes], list[str], list[Path]]:
     """Every requested file by path, one message per output that could not be made (its log,
     if any, is among the files) and the files to remove (``stale_beside``); the sheet's
     numbers to ``digits`` at most (``--digits``)."""
-    from ..render.json import render_json
-    from ..render.latex import render_latex
-
     name = derivation.robot.name
     made, failures, stale = target_files(derivation, wanted.targets, template_dir, progress, out, wanted.tests)
-    files = {out / path: data for path, data in made.items()}
+    sheets, failure = sheet_files(derivation, [kind for kind in SHEET_KINDS if getattr(wanted, kind)], template_dir,
+                                  sections, digits, progress)
+    files = {out / path: data for path, data in (made | sheets).items()}
     removed = [out / path for path in stale]
-    tex = None
-    if wanted.latex or wanted.pdf:
-        progress("rendering LaTeX")
-        tex = render_latex(derivation, template_dir, sections, digits)
-    if wanted.latex:
-        files[out / f"{name}.tex"] = tex.encode()  # type: ignore[union-attr]
+    if failure is not None:
+        failures.append(failure_text(out, name, failure))
     if wanted.pdf:
-        from ..render.pdf import compile_pdf, failure_message, failure_outputs, stale_beside
+        from ..render.pdf import stale_beside
 
-        progress("compiling PDF")
-        try:
-            files[out / f"{name}.pdf"] = compile_pdf(tex, name)  # type: ignore[arg-type]
-        except ToolMissingError as exc:   # the other outputs are still worth writing
-            failures.append(f"{out / (name + '.pdf')} skipped: {exc}")
-        except LatexError as exc:   # so are they, with the .tex and LaTeX's log to look at
-            files |= {out / log: text for log, text in failure_outputs(name, tex, exc).items()}  # type: ignore[arg-type]
-            failures.append(failure_message(out, name, exc))
-        stale, said = stale_beside(out, name, made=out / f"{name}.pdf" in files)
-        removed += stale
+        stale_files, said = stale_beside(out, name, made=out / f"{name}.pdf" in files)
+        removed += stale_files
         if said:
             failures[-1] += said
-    if wanted.html:
-        from ..render.html import render_html
-
-        progress("rendering HTML")
-        files[out / f"{name}.html"] = render_html(derivation, template_dir, sections, digits).encode()
-    if wanted.json:
-        files[out / f"{name}.json"] = render_json(derivation).encode()
     return files, failures, removed

@@ -20,6 +20,10 @@ from ..mechanics.tidy import Check, check_zero, is_small
 
 #: Quantities larger than this (tree nodes) are not evaluated symbolically against the code.
 SYMBOLIC_EVALUATION_NODES = 60_000
+#: The rows of a robot with quaternions that tie its velocity convention (``integrate``) to its dynamics.
+POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . (inverse_dynamics(q, qd, qdd) - friction_forces(qd))"
+MOMENTUM = "momentum conserved without gravity: d(linear, angular momentum)/dt = 0 under the joints' efforts"
+ENERGY_RUN = "energy conserved without efforts (simulate on the manifold; with damping or friction, energy + dissipated work)"
 
 
 @dataclass(frozen=True)
@@ -54,42 +58,81 @@ def _from_check(check: Check) -> Row:
 
 
 def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int = 0) -> list[Row]:
-    robot, quantities = derivation.robot, derivation.quantities
+    """Every check that applies to ``derivation``'s robot, at ``states`` random states (random
+    unit quaternions for floating and spherical joints): M, then for a robot whose
+    configuration is on a manifold (NQ != NV) the module's functions against each other along
+    its ``integrate``, for any other the symbolic quantities and the module against each
+    other; then Pinocchio (``pinocchio_checks``)."""
+    from .pinocchio_checks import pinocchio_rows
+
+    robot = derivation.robot
     module = generated_module(source, robot.name)
     values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
     rng = np.random.default_rng(seed)
-    n = len(robot.coordinates)
-    qs = rng.uniform(-1.5, 1.5, (states, n))
-    qds = rng.uniform(-1.0, 1.0, (states, n))
+    qs = random_configurations(robot, rng, states)
+    qds = rng.uniform(-1.0, 1.0, (states, robot.velocity_count))
     us = rng.uniform(-1.0, 1.0, (states, len(robot.efforts)))
     rows: list[Row] = []
     if robot.loops:   # states on the loop constraints, velocities the loops allow
         qs, qds, loop_rows = _loop_states(derivation, module, values, qs, qds)
         us = us[: len(qs)]
         rows += loop_rows
-
-    M = quantities["M_g"]
-    if is_small(M, SYMBOLIC_EVALUATION_NODES):
-        check = check_zero("M symmetric", "", M - M.T, [])
-        rows.append(_row("M symmetric", check.passed, check.method, check.residual))
+    rows += _mass_matrix(derivation, module, values, qs, states)
+    if robot.floating:
+        rows += _along_integrate(derivation, source, module, values, qs, qds, us, rng)
     else:
-        mats = module.mass_matrix(qs, **values)
+        rows += _generalized_rows(derivation, module, values, qs, qds, us, rng)
+    return rows + pinocchio_rows(derivation, module, values, qs[:5], qds[:5], us[:5])
+
+
+def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> np.ndarray:
+    """``states`` configurations: random unit quaternions (floating and spherical joints),
+    every other coordinate uniform in [-1.5, 1.5]."""
+    qs = rng.uniform(-1.5, 1.5, (states, len(robot.configuration_names)))
+    for start in robot.quaternion_starts:
+        quaternion = rng.normal(size=(states, 4))
+        qs[:, start:start + 4] = quaternion / np.linalg.norm(quaternion, axis=1, keepdims=True)
+    return qs
+
+
+def applied(robot: Any, u: np.ndarray) -> np.ndarray:
+    """The efforts ``u`` at their velocity columns (``Robot.effort_columns``)."""
+    Y = np.zeros(robot.velocity_count)
+    Y[list(robot.effort_columns())] = u
+    return Y
+
+
+def _mass_matrix(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
+                 states: int) -> list[Row]:
+    """M symmetric (symbolically where the symbolic M is small) and positive definite."""
+    mats = module.mass_matrix(qs, **values)
+    M = None if derivation.robot.floating else derivation.quantities["M_g"]   # with quaternions: no Lagrange M
+    if M is not None and is_small(M, SYMBOLIC_EVALUATION_NODES):
+        check = check_zero("M symmetric", "", M - M.T, [])
+        rows = [_row("M symmetric", check.passed, check.method, check.residual)]
+    else:
         worst = float(np.max(np.abs(mats - np.swapaxes(mats, -1, -2))))
-        rows.append(_row("M symmetric", worst < 1e-9, "numeric", worst))
-    eig = np.linalg.eigvalsh(module.mass_matrix(qs, **values))
-    rows.append(_row(f"M positive definite ({states} random states)", bool(np.all(eig[..., 0] > 0)),
-                     "numeric, smallest eigenvalue", float(np.min(eig[..., 0]))))
-    rows.append(_skew_check(derivation, module, values, qs, qds))
-    rows.append(_power_balance(module, values, qs, qds, us, robot.dissipative))
+        rows = [_row("M symmetric", worst < 1e-9 * max(1.0, float(np.max(np.abs(mats)))), "numeric", worst)]
+    eig = np.linalg.eigvalsh(mats)
+    return rows + [_row(f"M positive definite ({states} random states)", bool(np.all(eig[..., 0] > 0)),
+                        "numeric, smallest eigenvalue", float(np.min(eig[..., 0])))]
+
+
+def _generalized_rows(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
+                      qds: np.ndarray, us: np.ndarray, rng: np.random.Generator) -> list[Row]:
+    """The generalized quantities: Mdot - 2C, the power balance, the loops' reduced form, the
+    engine's own checks, the maximal model, the code against the symbolic quantities, and the
+    module's linearization, regressor and frames."""
+    robot = derivation.robot
+    rows = [_skew_check(derivation, module, values, qs, qds), _power_balance(module, values, qs, qds, us,
+                                                                             robot.dissipative)]
     if robot.loops:
         rows.append(_reduced_agrees(module, values, qs, qds, us))
     rows += [_from_check(c) for c in derivation.checks]
-    if "M_m" in quantities:
+    if "M_m" in derivation.quantities:
         rows += _maximal_checks(module, values, qs, qds, us)
     rows += _code_matches_symbolic(derivation, module, values, qs[:3], qds[:3], us[:3])
-    rows += _derived_functions(module, values, qs[:4], qds[:4], us[:4], rng)
-    rows += _pinocchio(derivation, module, values, qs[:5], qds[:5])
-    return rows
+    return rows + _derived_functions(module, values, qs[:4], qds[:4], us[:4], rng)
 
 
 def _derived_functions(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray, us: np.ndarray,
@@ -303,82 +346,163 @@ def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str
     return rows
 
 
-def _pinocchio(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
-               qds: np.ndarray) -> list[Row]:
-    name = "agrees with Pinocchio (crba, rnea" + (", open tree)" if derivation.robot.loops else ", aba)")
-    try:
-        import pinocchio as pin
-    except ImportError:
-        return [Row(name, "skip", "pin is not installed", float("nan"))]
-    if any(p.value is None for p in derivation.robot.parameters):
-        return [Row(name, "skip", "a parameter has no default value", float("nan"))]
-    from .pinocchio_model import PinocchioDrives, pinocchio_model
-
-    model, perm = pinocchio_model(derivation.robot, values)
-    drives = PinocchioDrives(derivation.robot, values, perm)
-    data = model.createData()
-    worst, scale = 0.0, 1.0
-    for q, qd in zip(qs, qds):
-        u = np.linspace(-1, 1, len(q))
-        qp, qdp = q[perm], qd[perm]
-        M = _pinocchio_mass_matrix(pin, model, data, qp)
-        ours = module.mass_matrix(q, **values)[np.ix_(perm, perm)]
-        # Pinocchio has the armature (model.armature); springs and dissipation are added here
-        g = pin.computeGeneralizedGravity(model, data, qp) + drives.spring(qp)
-        bias = pin.rnea(model, data, qp, qdp, np.zeros(len(q))) - pin.computeGeneralizedGravity(model, data, qp)
-        Y = module.generalized_forces(q, module_efforts(module, u), **values)
-        rhs = Y[perm] - drives.spring(qp) - drives.dissipative(qdp)
-        acc = (np.linalg.solve(M, rhs - pin.nonLinearEffects(model, data, qp, qdp)) if derivation.robot.mimics
-               else pin.aba(model, data, qp, qdp, rhs))   # Pinocchio's aba refuses mimic joints
-        diffs = [ours - M, module.gravity_vector(q, **values)[perm] - g,
-                 (module.coriolis_matrix(q, qd, **values) @ qd)[perm] - bias]
-        if not derivation.robot.loops:   # with loops forward_dynamics is the constrained one
-            diffs.append(module.forward_dynamics(q, qd, module_efforts(module, u), **values)[perm] - acc)
-        worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
-        scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
-    rows = [_row(name, worst < 1e-9 * scale, "numeric", worst)]
+def _along_integrate(derivation: Derivation, source: str, module: Any, values: dict[str, float], qs: np.ndarray,
+                     vs: np.ndarray, us: np.ndarray, rng: np.random.Generator) -> list[Row]:
+    """A configuration on a manifold (NQ != NV): the module's functions against each other, and
+    along its ``integrate``: the energy balance, the momentum of a floating base, the energy of
+    a run, ``integrate`` and ``difference``, the frames."""
+    robot = derivation.robot
+    M = module.mass_matrix(qs, **values)
+    scale = max(1.0, float(np.max(np.abs(M))))
+    zero = np.zeros_like(vs)
+    bias = module.inverse_dynamics(qs, vs, zero, **values)
+    qdds = module.forward_dynamics(qs, vs, us, **values)
+    forces = np.einsum("...ij,...j->...i", M, qdds) + bias
+    worst = float(np.max(np.abs(module.inverse_dynamics(qs, vs, qdds, **values) - forces)))
+    worst = max(worst, float(np.max(np.abs(forces - np.array([applied(robot, u) for u in us])))))
+    rows = [_row("inverse_dynamics = M qdd + inverse_dynamics(q, qd, 0), and = Y at forward_dynamics' qdd",
+                 worst < 1e-9 * max(scale, float(np.max(np.abs(forces)))), "numeric", worst)]
+    gravity = float(np.max(np.abs(module.gravity_vector(qs, **values) - module.inverse_dynamics(qs, zero, zero,
+                                                                                                 **values))))
+    rows.append(_row("gravity_vector = inverse_dynamics(q, 0, 0)", gravity < 1e-12 * max(1.0, float(np.max(
+        np.abs(bias)))), "numeric", gravity))
+    rows.append(_energy_balance(module, values, qs, vs, rng))
+    if robot.floating_base:   # a fixed base (spherical joints only) takes the world's reaction
+        rows.append(_momentum(module, robot, values, qs[:6], vs[:6], us[:6]))
+    rows.append(_energy_along_a_run(derivation, source, values, qs[0], vs[0]))
+    rows += _manifold(module, robot, qs, vs)
     if module.FRAMES:
-        rows.append(_pinocchio_frames(pin, model, data, perm, module, values, qs, qds))
+        rows.append(_frames_along_integrate(module, values, qs[:4], vs[:4]))
     return rows
 
 
-def _pinocchio_mass_matrix(pin: Any, model: Any, data: Any, q: np.ndarray) -> np.ndarray:
-    """Pinocchio's M(q): its crba; with mimic joints, column by column from its rnea (Pinocchio
-    4.1's crba is wrong for a mimic joint below its leader with a joint between them)."""
-    if not model.mimicking_joints:
-        M = pin.crba(model, data, q)
-        return np.triu(M) + np.triu(M, 1).T
-    zero = np.zeros(model.nv)
-    base = pin.rnea(model, data, q, zero, zero)
-    return np.array([pin.rnea(model, data, q, zero, e) - base for e in np.eye(model.nv)]).T
+def _energy_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
+                   rng: np.random.Generator) -> Row:
+    """Along ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``: ``d(T + V)/dt = v . (tau - F)`` with
+    ``tau`` the inverse dynamics at ``a`` and ``F`` the joints' damping and friction, by central
+    differences: ties the module's velocity convention (integrate) to its dynamics, and
+    gravity_vector to potential_energy."""
+    h, worst, scale = 1e-5, 0.0, 1.0
+    for q, v in zip(qs, vs):
+        a = rng.uniform(-1.0, 1.0, v.shape)
+
+        def energy(t: float, q: np.ndarray = q, v: np.ndarray = v, a: np.ndarray = a) -> float:
+            moved = module.integrate(q, v, t)
+            return float(module.kinetic_energy(moved, v + t * a, **values) + module.potential_energy(moved, **values))
+
+        rate = (energy(h) - energy(-h)) / (2 * h)   # damping and friction take power out: F is not in d(T + V)/dt
+        power = float(v @ (module.inverse_dynamics(q, v, a, **values) - module.friction_forces(v, **values)))
+        worst, scale = max(worst, abs(rate - power)), max(scale, abs(power))
+    return _row(POWER_BALANCE, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
 
 
-def _pinocchio_frames(pin: Any, model: Any, data: Any, perm: np.ndarray, module: Any, values: dict[str, float],
-                      qs: np.ndarray, qds: np.ndarray) -> Row:
-    """Frame placements, LOCAL_WORLD_ALIGNED Jacobians and classical accelerations at qdd = 0."""
-    planar = module.frame_jacobian(qs[0], module.FRAMES[0], **values).shape[0] == 3
-    rows = [0, 1, 5] if planar else list(range(6))
-    worst = 0.0
-    for q, qd in zip(qs, qds):
-        qp, qdp = q[perm], qd[perm]
-        pin.forwardKinematics(model, data, qp, qdp, np.zeros(len(q)))
-        pin.computeJointJacobians(model, data, qp)
-        pin.updateFramePlacements(model, data)
+def _momentum(module: Any, robot: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
+              us: np.ndarray) -> Row:
+    """Without gravity and without the efforts of the floating base's own joint (a wrench from
+    the world, zeroed here) the efforts are internal: the whole robot's
+    linear and angular momentum (``system_momentum``) stays constant. Its rate along
+    ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``, with ``a`` the accelerations the efforts
+    give without gravity (``M a = Y - (inverse_dynamics(q, v, 0) - gravity_vector(q))``), by
+    central differences, against the size of the gravity-free accelerations' momentum change."""
+    h, worst, scale = 1e-5, 0.0, 1.0
+    external = [k for k, name in enumerate(robot.efforts)
+                for j in robot.joints if j.parent == "world" and name in j.effort_names]
+    for q, v, u in zip(qs, vs, us):
+        u = np.array(u, dtype=float)
+        u[external] = 0.0
+        bias = module.inverse_dynamics(q, v, np.zeros_like(v), **values) - module.gravity_vector(q, **values)
+        mass = module.mass_matrix(q, **values)
+        a = np.linalg.solve(mass, applied(robot, u) - bias)
+        ahead, behind = (system_momentum(module, robot, module.integrate(q, v, s * h), v + s * h * a, values)
+                         for s in (1, -1))
+        worst = max(worst, float(np.max(np.abs(ahead - behind))) / (2 * h))
+        scale = max(scale, float(np.max(np.abs(mass @ a))), float(np.max(np.abs(ahead))))
+    return _row(MOMENTUM, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
+
+
+def _energy_along_a_run(derivation: Derivation, source: str, values: dict[str, float], q: np.ndarray,
+                        v: np.ndarray, duration: float = 0.5) -> Row:
+    """The module's rates (``configuration_rate``, ``forward_dynamics``) integrated without
+    efforts from a random state, as ``simulate`` does: the energy T + V stays what it was
+    (tolerance 1e-10 of the integrator); with damping or friction T + V + W does, W the work
+    they dissipate riding along (Coulomb friction smoothed, ``friction_smoothing`` 0.01, so
+    that the integrator meets no jump)."""
+    try:
+        import scipy  # noqa: F401
+    except ImportError:
+        return Row(ENERGY_RUN, "skip", "SciPy is not installed", float("nan"))
+    from scipy.integrate import solve_ivp
+
+    module = generated_module(source, derivation.robot.name)
+    nq, zero = len(q), np.zeros(len(derivation.robot.efforts))
+
+    nv, smoothing = len(v), 0.01
+
+    def rhs(time: float, y: np.ndarray) -> np.ndarray:   # the module's own rates: quaternions stay unit
+        qd = y[nq:nq + nv]
+        return np.concatenate([module.configuration_rate(y[:nq], qd),
+                               module.forward_dynamics(y[:nq], qd, zero, friction_smoothing=smoothing, **values),
+                               [qd @ module.friction_forces(qd, friction_smoothing=smoothing, **values)]])
+
+    run = solve_ivp(rhs, (0.0, duration), np.concatenate([q, v, [0.0]]), method="DOP853", rtol=1e-10, atol=1e-10,
+                    t_eval=np.linspace(0.0, duration, 3))
+    position, velocity, work = run.y[:nq].T, run.y[nq:nq + nv].T, run.y[nq + nv]
+    energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values) + work
+    potential = float(module.potential_energy(q, **values))
+    scale = max(1.0, abs(energy[0] - potential) + abs(potential))
+    worst = float(np.max(np.abs(energy - energy[0])))
+    return _row(ENERGY_RUN, worst < 1e-6 * scale, f"numeric ({duration:g} s simulated)", worst)
+
+
+def _frames_along_integrate(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray) -> Row:
+    """Each frame's Jacobian times qd against the central difference of its position and
+    rotation along ``integrate`` (the angular part from ``dR/dt R^T``)."""
+    h, worst, scale = 1e-6, 0.0, 1.0
+    for q, v in zip(qs, vs):
         for frame in module.FRAMES:
-            fid = model.getFrameId(frame)
-            T = module.frame_transform(q, frame, **values)
-            placement = data.oMf[fid]
-            k = 2 if planar else 3
-            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[rows]
-            acceleration = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-            expected = np.concatenate([acceleration.linear, acceleration.angular])[rows]
-            diffs = [T[:k, :k] - placement.rotation[:k, :k], T[:k, -1] - placement.translation[:k],
-                     module.frame_jacobian(q, frame, **values)[:, perm] - J,
-                     module.frame_jacobian_dot_qd(q, qd, frame, **values) - expected]
-            worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
-    return _row("frames agree with Pinocchio (placement, LOCAL_WORLD_ALIGNED Jacobian, classical acceleration)",
-                worst < 1e-9, "numeric", worst)
+            ahead, behind = (module.frame_transform(module.integrate(q, v, s * h), frame, **values) for s in (1, -1))
+            twist = module.frame_jacobian(q, frame, **values) @ v
+            spin = (ahead[:3, :3] - behind[:3, :3]) / (2 * h) @ module.frame_transform(q, frame, **values)[:3, :3].T
+            numeric = np.concatenate([(ahead[:3, 3] - behind[:3, 3]) / (2 * h), [spin[2, 1], spin[0, 2], spin[1, 0]]])
+            worst, scale = max(worst, float(np.max(np.abs(twist - numeric)))), max(scale, float(np.max(np.abs(twist))))
+    return _row(f"frames ({len(module.FRAMES)}): frame_jacobian qd = d(pose)/dt along integrate", worst < 1e-5 * scale,
+                f"numeric (h = {h:g})", worst)
 
 
-def module_efforts(module: Any, u: np.ndarray) -> np.ndarray:
-    return u[: len(module.EFFORTS)]
+def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[Row]:
+    """``integrate`` keeps quaternions unit; ``difference`` inverts it."""
+    moved = module.integrate(qs, vs, 0.7)
+    norms = [np.linalg.norm(moved[:, start:start + 4], axis=1) for start in robot.quaternion_starts]
+    unit = float(np.max(np.abs(np.array(norms) - 1.0)))
+    back = float(np.max(np.abs(module.difference(qs, moved) - 0.7 * vs)))
+    return [_row("integrate keeps the quaternions unit", unit < 1e-12, "numeric", unit),
+            _row("difference(q, integrate(q, v, dt)) = v dt", back < 1e-9, "numeric", back)]
+
+
+def _rotate(quaternion: np.ndarray, vector: np.ndarray) -> np.ndarray:
+    """The vector rotated by the unit quaternion (x, y, z, w)."""
+    u, w = quaternion[..., :3], quaternion[..., 3:]
+    t = 2.0 * np.cross(u, vector)
+    return vector + w * t + np.cross(u, t)
+
+
+def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """The whole robot's momentum ``(linear, angular about the origin)``, shape (..., 6), in the
+    axes of the floating joint's placement in the world (its ``origin``: a fixed frame, so
+    conservation there is conservation in the world). The floating joint's rows of ``M v`` are
+    the momentum in the base's own frame, about its origin; rotated and moved by the base's pose."""
+    where_q, where_v = robot.offsets()
+    joint = next(j for j in robot.joints if j.parent == "world")   # the robot's one joint to the world
+    qi, vi = where_q[joint.name], where_v[joint.name]
+    local = np.einsum("...ij,...j->...i", module.mass_matrix(q, **values)[..., vi:vi + 6, :], v)
+    quaternion, position = q[..., qi + 3:qi + 7], q[..., qi:qi + 3]
+    linear = _rotate(quaternion, local[..., :3])
+    angular = _rotate(quaternion, local[..., 3:]) + np.cross(position, linear)
+    return np.concatenate([linear, angular], axis=-1)
+
+
+def _pinocchio_mass_matrix(pin: Any, model: Any, data: Any, q: np.ndarray) -> np.ndarray:
+    """Pinocchio's M(q) (``pinocchio_checks.mass_matrix``)."""
+    from .pinocchio_checks import mass_matrix
+
+    return mass_matrix(pin, model, data, q)

@@ -4,8 +4,9 @@ Used by ``dynderive check`` to compare the generated dynamics with an independen
 Joints are added depth-first (Pinocchio's CRBA assumes each subtree has consecutive joint
 indices), fixed joints append their child's inertia to the parent's Pinocchio joint; the
 robot's frames become operational frames of the same names; ``<mimic>`` joints become
-Pinocchio's mimic joints (``transformJointIntoMimic``). The returned permutation maps
-dynderive's coordinate order to Pinocchio's.
+Pinocchio's mimic joints (``transformJointIntoMimic``); floating and spherical joints its
+free flyer and spherical joint. The returned permutations map dynderive's configuration and
+velocity orders to Pinocchio's.
 """
 
 from __future__ import annotations
@@ -20,18 +21,26 @@ from ..model.symbols import SymbolTable
 
 
 def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndarray]:
-    """(model, perm) with ``q_pin = q[perm]``; parameters take ``values``."""
+    """(model, perm) with ``v_pin = v[perm]`` (for a robot without quaternions ``q_pin = q[perm]``
+    too); parameters take ``values``."""
+    model, _, order = pinocchio_maps(robot, values)
+    return model, order
+
+
+def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndarray, np.ndarray]:
+    """(model, qp, vp) with ``q_pin = q[qp]`` and ``v_pin = v[vp]``: a floating joint is a
+    ``JointModelFreeFlyer``, a spherical joint a ``JointModelSpherical`` (their quaternions
+    take NQ != NV entries), a planar robot's revolute joints ``JointModelRZ``."""
     import pinocchio as pin
 
     table = SymbolTable.for_robot(robot)
     numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}
 
     def num(text: object) -> float:
-        return float(table.expr(text).xreplace(numbers).evalf())
+        return float(table.expr(text).xreplace(numbers).evalf(17))
 
     model = pin.Model()
     model.gravity.linear = np.array([num(e) for e in robot.gravity] + ([0.0] if robot.planar else []))
-    coordinate = {name: i for i, name in enumerate(robot.coordinates)}
     # where each link lives: (pinocchio joint id, placement of the link frame in that joint)
     frame_of: dict[str, tuple[int, Any]] = {"world": (0, pin.SE3.Identity())}
 
@@ -54,6 +63,15 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
             tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
         return pin.Inertia(mass, np.array(com), tensor)
 
+    def kind(joint: Any) -> Any:
+        if joint.multi:
+            return pin.JointModelFreeFlyer() if joint.type == "floating" else pin.JointModelSpherical()
+        axis = np.array([num(e) for e in joint.axis] + ([0.0] if robot.planar else []))
+        axis = axis / np.linalg.norm(axis)
+        if joint.type == "revolute":
+            return pin.JointModelRZ() if robot.planar else pin.JointModelRevoluteUnaligned(axis)
+        return pin.JointModelPrismaticUnaligned(axis)
+
     def visit(parent: str) -> None:
         for joint in robot.joints:
             if joint.parent != parent:
@@ -64,13 +82,7 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
                 frame_of[joint.child] = (parent_id, place)
                 model.appendBodyToJoint(parent_id, inertia(joint.child), place)
             else:
-                axis = np.array([num(e) for e in joint.axis] + ([0.0] if robot.planar else []))
-                axis = axis / np.linalg.norm(axis)
-                if joint.type == "revolute":
-                    kind = pin.JointModelRZ() if robot.planar else pin.JointModelRevoluteUnaligned(axis)
-                else:
-                    kind = pin.JointModelPrismaticUnaligned(axis)
-                joint_id = model.addJoint(parent_id, kind, place, joint.name)
+                joint_id = model.addJoint(parent_id, kind(joint), place, joint.name)
                 model.appendBodyToJoint(joint_id, inertia(joint.child), pin.SE3.Identity())
                 frame_of[joint.child] = (joint_id, pin.SE3.Identity())
             visit(joint.child)
@@ -79,26 +91,27 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
     for joint in (j for j in robot.joints if j.mimic is not None):
         model = pin.transformJointIntoMimic(model, model.getJointId(joint.mimic.joint), model.getJointId(joint.name),
                                             float(joint.mimic.multiplier), float(joint.mimic.offset))
-    perm = [0] * len(robot.coordinates)
-    for name, jmodel in zip(model.names[1:], model.joints[1:]):
-        if name in coordinate:
-            perm[jmodel.idx_v] = coordinate[name]
+    where_q, where_v = robot.offsets()
+    qp, vp = np.zeros(model.nq, dtype=int), np.zeros(model.nv, dtype=int)
+    for index, (name, jmodel) in enumerate(zip(model.names, model.joints)):
+        if index > 0 and index not in model.mimicking_joints:
+            qp[jmodel.idx_q:jmodel.idx_q + jmodel.nq] = range(where_q[name], where_q[name] + jmodel.nq)
+            vp[jmodel.idx_v:jmodel.idx_v + jmodel.nv] = range(where_v[name], where_v[name] + jmodel.nv)
     for frame in robot.frames:   # operational frames, by the robot's frame names
         joint_id, link_place = frame_of[frame.link]
         model.addFrame(pin.Frame(frame.name, joint_id, link_place * placement(frame), pin.FrameType.OP_FRAME))
-    order = np.array(perm, dtype=int)
-    model.armature = PinocchioDrives(robot, values, order).armature   # crba, rnea and aba use it
-    return model, order
+    model.armature = PinocchioDrives(robot, values, vp).armature   # crba, rnea and aba use it
+    return model, qp, vp
 
 
 class PinocchioDrives:
-    """The joints' springs, damping and friction in Pinocchio's coordinate order, which Pinocchio
+    """The joints' springs, damping and friction in Pinocchio's velocity order, which Pinocchio
     does not model (its ``armature`` it does): ``spring(q)`` = k (q - rest), ``dissipative(v)``
-    = b v + fc sign(v); per coordinate, a ``<mimic>`` joint's terms mapped onto its leader's
-    (``mechanics.drives.joint_drives``)."""
+    = b v + fc sign(v); per velocity column, a ``<mimic>`` joint's terms mapped onto its leader's
+    (``mechanics.drives``; floating and spherical joints take none)."""
 
     def __init__(self, robot: Robot, values: dict[str, float], perm: np.ndarray):
-        from ..mechanics.drives import joint_drives
+        from ..mechanics.drives import floating_joint_drives as joint_drives  # by velocity column
 
         table = SymbolTable.for_robot(robot)
         numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}

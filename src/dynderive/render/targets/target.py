@@ -83,6 +83,14 @@ class Target:
     fingerprint: str | None = None
     #: Files of an earlier failure that a successful run removes (``{}``: the robot's name).
     stale: tuple[str, ...] = ()
+    #: What it is to the options of other commands that name it, as (option, help) pairs:
+    #: ``"check --backend"``, ``"simulate --backend"`` (the help after ``NAME:``), ``"--tests"``
+    #: (``solve``'s checks of the module it writes: the help after ``With FLAG:``).
+    option_help: tuple[tuple[str, str], ...] = ()
+
+    def help_for(self, option: str) -> str | None:
+        """Its help in ``option`` (``"check --backend"``), or None when it is not one of its choices."""
+        return dict(self.option_help).get(option)
 
     @property
     def folder(self) -> str:

@@ -36,4 +36,8 @@ TARGET = Target(
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating C",
     check="dynderive.verify.backends:compiled_backend", check_needs="dynderive.render.targets.c_extension.compile:require_backend",
     load="dynderive.render.targets.c_extension.compile:compiled_module",
+    option_help=(("check --backend", "also compile the C extension (--c-extension) and compare each of its functions "
+                                     "with the NumPy module"),
+                 ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "
+                                        "coordinates)")),
 )

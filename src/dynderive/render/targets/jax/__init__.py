@@ -53,4 +53,5 @@ TARGET = Target(
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
     note=f"{__name__}:missing_note",
     check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",
+    option_help=(("check --backend", "the same for the JAX module (--jax; needs jax)"),),
 )

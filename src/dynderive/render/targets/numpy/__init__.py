@@ -45,4 +45,7 @@ TARGET = Target(
     outputs=("{}_dynamics.py",),
     templates=("dynamics.py.j2", "floating_dynamics.py.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating code",
+    option_help=(("check --backend", "check the generated NumPy module"),
+                 ("simulate --backend", "the generated NumPy module"),
+                 ("--tests", "also write DIR/test_<name>_dynamics.py, pytest property checks of the generated module")),
 )
