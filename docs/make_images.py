@@ -20,7 +20,7 @@ from pathlib import Path
 import dynderive
 from dynderive.render.environment import render
 from dynderive.render.figure import sheet_figure
-from dynderive.render.latex import Formatter
+from dynderive.render.sheets.latex import Formatter
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images"

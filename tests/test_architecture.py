@@ -1,4 +1,4 @@
-"""The package layout by layer (DESIGN.md section 2, issue 14): each layer imports only the
+"""The package layout by layer (DESIGN.md section 2): each layer imports only the
 layers before it, renderers only format (no derivation inside), and no module grows past
 the size a reader takes in at once. Checked on the source's own import statements."""
 
@@ -125,16 +125,16 @@ def test_no_module_imports_itself_through_others():
 
 _PACKAGES = {module for relative, module, _ in MODULES if relative.endswith("__init__.py")}
 
-#: Modules named for the floating base that another area still imports (removed at merge).
-_FLOATING_LEFT = {"mechanics/floating.py", "mechanics/floating_sheet.py"}
-
-
 def test_one_engine_for_every_robot_class():
     """A floating base or a spherical joint is a joint type, not a second pipeline: no module
-    of the input or the engine is named for it (``mechanics/tree.py`` serves every robot)."""
-    named = sorted(relative for relative, module, _ in MODULES
-                   if _layer(module) in ("input", "mechanics") and "floating" in relative.rsplit("/", 1)[-1])
-    assert set(named) <= _FLOATING_LEFT, named
+    or template of any layer is named for it (``mechanics/tree.py`` serves every robot, each
+    target and each sheet renders every robot)."""
+    from dynderive.render.environment import builtin_templates_dir
+
+    templates = builtin_templates_dir()
+    named = sorted([relative for relative, module, _ in MODULES if "floating" in relative.rsplit("/", 1)[-1]]
+                   + [str(path.relative_to(templates)) for path in templates.rglob("*") if "floating" in path.name])
+    assert not named, named
 
 
 def test_public_api_keeps_working():

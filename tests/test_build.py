@@ -299,7 +299,7 @@ def test_the_sample_workflow_installs_the_tex_that_ci_and_the_install_guide_inst
     ``.ci/run`` and docs/install.md both install Chromium for the HTML tests."""
     import yaml
 
-    from dynderive.render.pdf import TEX_PACKAGES
+    from dynderive.render.sheets.pdf import TEX_PACKAGES
 
     workflow = yaml.safe_load((ROOT / "examples" / "ci" / "regenerate-sheets.yml").read_text())
     steps = "\n".join(step.get("run", "") for job in workflow["jobs"].values() for step in job["steps"])
@@ -317,7 +317,7 @@ def fake_latex(monkeypatch):
     """LaTeX replaced by a switch: ``fake_latex["fail"] = True`` makes every sheet fail, as
     a sheet TeX rejects does (no TeX needed; build runs in this process with -j 1)."""
     from dynderive.errors import LatexError
-    from dynderive.render import pdf
+    from dynderive.render.sheets import pdf
 
     state = {"fail": False}
 
@@ -380,7 +380,7 @@ def test_solve_pdf_follows_the_same_rule(tmp_path, fake_latex):
 
 
 def test_missing_tikz_names_each_robot_and_writes_its_other_outputs(robots, tmp_path, monkeypatch):
-    from dynderive.render import pdf
+    from dynderive.render.sheets import pdf
 
     monkeypatch.setattr(pdf, "latex_engine_available", lambda: True)
     monkeypatch.setattr(pdf, "tikz_available", lambda: False)

@@ -140,7 +140,7 @@ def test_plain_printing_of_large_entries_parses_back():
     import sympy
 
     import dynderive
-    from dynderive.render.json import _plain
+    from dynderive.render.sheets.json import _plain
 
     derivation = dynderive.derive(dynderive.load_robot("elbow_arm"))
     names = derivation.symbols.locals()

@@ -64,7 +64,7 @@ def test_check_takes_parameters(no_default):
 
 
 def test_pdf_without_tex_still_writes_the_other_outputs(tmp_path, monkeypatch):
-    import dynderive.render.pdf as pdf
+    import dynderive.render.sheets.pdf as pdf
 
     monkeypatch.setattr(pdf, "latex_engine_available", lambda: False)
     out = tmp_path / "out"
@@ -76,7 +76,7 @@ def test_pdf_without_tex_still_writes_the_other_outputs(tmp_path, monkeypatch):
 
 def test_pdf_without_tikz_says_which_package(tmp_path, monkeypatch):
     """TeX without texlive-pictures: the drawing's TikZ is named before LaTeX fails on it."""
-    import dynderive.render.pdf as pdf
+    import dynderive.render.sheets.pdf as pdf
 
     monkeypatch.setattr(pdf, "latex_engine_available", lambda: True)
     monkeypatch.setattr(pdf, "tikz_available", lambda: False)

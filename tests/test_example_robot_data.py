@@ -34,7 +34,7 @@ from dynderive.errors import InputError
 from dynderive.input.urdf import identifier
 from dynderive.mechanics.recursive import inverse_dynamics_program, mass_matrix_program
 from dynderive.model.symbols import SymbolTable
-from dynderive.verify.checks import _pinocchio_mass_matrix
+from dynderive.verify.pinocchio_checks import mass_matrix as _pinocchio_mass_matrix
 
 pytestmark = pytest.mark.pinocchio
 pin = pytest.importorskip("pinocchio")

@@ -25,13 +25,13 @@ from dynderive.errors import InputError
 from dynderive.input.urdf import identifier
 from dynderive.mechanics.tree import offsets
 from dynderive.render.targets.numpy.floating_code import render_floating_code
-from dynderive.verify.floating_checks import (
+from dynderive.verify.checks import (
     ENERGY_RUN,
     MOMENTUM,
     POWER_BALANCE,
-    pinocchio_floating_model,
-    run_floating_checks,
+    run_checks,
 )
+from dynderive.verify.pinocchio_model import pinocchio_maps
 
 from random_robots3d import _random_inertia, random_spatial_tree
 
@@ -49,9 +49,9 @@ def _module(robot, tmp_path: Path):
 
 
 def _pinocchio(robot):
-    """Pinocchio's model of a floating-base ``Robot`` (``pinocchio_floating_model``: a floating
+    """Pinocchio's model of a floating-base ``Robot`` (``pinocchio_maps``: a floating
     joint as a ``JointModelFreeFlyer``) and where its q and v entries are in ours."""
-    return pinocchio_floating_model(robot, {p.name: p.value for p in robot.parameters if p.value is not None})
+    return pinocchio_maps(robot, {p.name: p.value for p in robot.parameters if p.value is not None})
 
 
 def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
@@ -317,7 +317,7 @@ def test_floating_joints_anywhere_as_in_pinocchio(text, tmp_path):
     _compare(robot, _module(robot, tmp_path), model, qp, vp, seed=3)
     _, result = _solve(tmp_path, text, "--code")
     assert result.exit_code == 0 and "note: box has floating joints (NQ = " in result.stderr, result.output
-    rows = [row.name for row in run_floating_checks(dynderive.derive(robot), render_floating_code(dynderive.derive(robot)),
+    rows = [row.name for row in run_checks(dynderive.derive(robot), render_floating_code(dynderive.derive(robot)),
                                                       states=6)]
     assert MOMENTUM not in rows and POWER_BALANCE in rows
 
@@ -445,7 +445,7 @@ def test_the_energy_balance_catches_a_velocity_in_the_wrong_frame(tmp_path, righ
     source = render_floating_code(derivation)
     broken = source.replace(right, wrong)
     assert broken != source
-    failed = {row.name for row in run_floating_checks(derivation, broken) if row.status == "FAIL"}
+    failed = {row.name for row in run_checks(derivation, broken) if row.status == "FAIL"}
     assert failed - {MOMENTUM} == {POWER_BALANCE,
                       "agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
                       "difference)", "difference(q, integrate(q, v, dt)) = v dt"}

@@ -23,7 +23,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.targets.c.c import render_c
-from dynderive.verify.floating_checks import random_configurations
+from dynderive.verify.checks import random_configurations
 
 CC = shutil.which("gcc") or shutil.which("cc")
 CXX = shutil.which("g++")

@@ -29,7 +29,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.targets.c_extension.c_extension import bindings, render_extension
-from dynderive.verify.floating_checks import random_configurations
+from dynderive.verify.checks import random_configurations
 
 HEADERS = (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file()
 if not (shutil.which("gcc") or shutil.which("cc")) or not HEADERS:

@@ -23,14 +23,14 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.targets.numpy.floating_code import render_floating_code
-from dynderive.verify.floating_checks import (
+from dynderive.verify.checks import (
     ENERGY_RUN,
     MOMENTUM,
     POWER_BALANCE,
-    pinocchio_floating_model,
     random_configurations,
-    run_floating_checks,
+    run_checks,
 )
+from dynderive.verify.pinocchio_model import pinocchio_maps
 from test_floating_base import _floating_tree
 from test_matlab_numeric import _Calls, _octave, _vector, needs_octave
 
@@ -67,7 +67,7 @@ def tree(tmp_path_factory):
     robot = dynderive.load_robot(path)
     derivation = dynderive.derive(robot)
     module = import_code(render_floating_code(derivation), folder)
-    model, qp, vp = pinocchio_floating_model(robot, {})
+    model, qp, vp = pinocchio_maps(robot, {})
     where_v = robot.offsets()[1]
     b, fc = np.zeros(robot.velocity_count), np.zeros(robot.velocity_count)
     for joint in robot.joints:
@@ -141,7 +141,7 @@ def test_check_passes_its_rows(tree):
     """``check``'s rows: the energy balance takes the friction's power out, the run keeps energy
     plus dissipated work, and the Pinocchio row compares aba with the friction taken from tau."""
     _, derivation, module, *_ = tree
-    rows = run_floating_checks(derivation, render_floating_code(derivation), states=6)
+    rows = run_checks(derivation, render_floating_code(derivation), states=6)
     assert all(row.status == "pass" for row in rows), [(row.name, row.status, row.residual) for row in rows]
     assert {POWER_BALANCE, ENERGY_RUN, MOMENTUM} <= {row.name for row in rows}
     assert any(row.name.startswith("agrees with Pinocchio") for row in rows)
@@ -272,11 +272,11 @@ def test_sheet_and_json_carry_the_friction(tree):
     inverse_dynamics at a random state (the sheet shows the same F)."""
     import sympy
 
-    from dynderive.render.floating_json import render_floating_json
-    from dynderive.render.floating_latex import render_floating_latex
+    from dynderive.render.sheets.json import render_json
+    from dynderive.render.sheets.latex import render_latex
 
     _, derivation, module, *_ = tree
-    dump = json.loads(render_floating_json(derivation))
+    dump = json.loads(render_json(derivation))
     quantities = dump["quantities"]
     table = derivation.symbols
     rng = np.random.default_rng(11)
@@ -293,4 +293,4 @@ def test_sheet_and_json_carry_the_friction(tree):
     np.testing.assert_allclose(values["F_g"], module.friction_forces(v), rtol=1e-12)
     expected = module.inverse_dynamics(q, v, a) - applied
     np.testing.assert_allclose(values["EOM_g2"], expected, rtol=0, atol=1e-9 * max(1.0, np.max(np.abs(expected))))
-    assert "the joints' damping and Coulomb friction $F = " in render_floating_latex(derivation)
+    assert "the joints' damping and Coulomb friction $F = " in render_latex(derivation)

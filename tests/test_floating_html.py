@@ -254,9 +254,9 @@ def test_build_writes_the_page_and_the_refusal_is_gone(free, tmp_path):
     assert (tmp_path / "b" / "free_body.html").read_text(encoding="utf-8") == page
     checked = runner.invoke(app, ["build", str(folder), "--out", str(tmp_path / "b"), "-j", "1", "--html", "--check"])
     assert checked.exit_code == 0, checked.output
-    from dynderive.commands.floating import floating_note
+    from dynderive.commands.solve import form_note
 
-    built, _, missing = floating_note(dynderive.load_robot(path)).partition("except")
+    built, _, missing = form_note(dynderive.load_robot(path)).partition("except")
     assert "every output is built" in built and "--html" not in missing and "HTML" not in missing
 
 

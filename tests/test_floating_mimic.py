@@ -27,13 +27,13 @@ import yaml
 
 import dynderive
 from dynderive.errors import InputError
+from dynderive.mechanics.quasi_velocity import is_step_by_step
 from dynderive.mechanics.tree import offsets
-from dynderive.mechanics.floating_sheet import is_small_floating
-from dynderive.render.floating_latex import coordinate_names
-from dynderive.render.html_floating import coordinate_math_names, render_floating_html
+from dynderive.render.sheets.html import render_html
+from dynderive.render.sheets.html_math import coordinate_math_names
+from dynderive.render.sheets.latex_format import coordinate_names
 from dynderive.render.targets.numpy.floating_code import render_floating_code
-from dynderive.verify.checks import generated_module
-from dynderive.verify.floating_checks import run_floating_checks
+from dynderive.verify.checks import generated_module, run_checks
 from test_mimic import ARM, _link, frame_agrees_with_pinocchio
 
 from random_robots3d import _random_axis, _random_inertia
@@ -85,7 +85,7 @@ def test_followers_have_no_coordinate(arm):
     assert robot.efforts == ("tau_j1", "tau_j2", "f_f1")
     model, _, _ = _pinocchio(path, robot)
     assert (model.nq, model.nv) == (10, 9) and len(model.mimicking_joints) == 3
-    assert not is_small_floating(robot)
+    assert not is_step_by_step(robot)
 
 
 def test_agrees_with_pinocchio_free_flyer_with_mimic_joints(arm):
@@ -142,7 +142,7 @@ def test_sheets_name_only_the_leaders_coordinates(arm):
     latex, math = coordinate_names(derivation), coordinate_math_names(derivation)
     assert set(latex) == set(math) == {*table.q, *table.qd, *table.qdd}
     assert "j3" not in " ".join(latex.values()) and "\\dot{v}_{x}" in latex.values()
-    page = render_floating_html(derivation)
+    page = render_html(derivation)
     assert page.startswith("<!DOCTYPE html>") and page.count("<math") > 10
 
 
@@ -302,12 +302,12 @@ def test_check_passes(arm, driven):
     """``dynderive check``'s rows: the arm's with Pinocchio's mimic joints and free flyer; the
     spherical tree's with its drive terms (Pinocchio's row skipped: it models no springs)."""
     _, _, derivation, _ = arm
-    rows = run_floating_checks(derivation, render_floating_code(derivation), states=4)
+    rows = run_checks(derivation, render_floating_code(derivation), states=4)
     assert all(row.status == "pass" for row in rows), [r for r in rows if r.status != "pass"]
     [pinocchio] = [r for r in rows if r.name.startswith("agrees with Pinocchio")]
     assert "mimic joints" in pinocchio.method
     _, _, derivation, source, _, _ = driven
-    rows = run_floating_checks(derivation, source, states=3)
+    rows = run_checks(derivation, source, states=3)
     assert all(row.status in ("pass", "skip") for row in rows), [r for r in rows if r.status == "FAIL"]
     assert sum(row.status == "pass" for row in rows) >= 10
 

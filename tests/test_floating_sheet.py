@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.mechanics.floating import quaternion_matrix
+from dynderive.mechanics.joint_types.quaternion import quaternion_matrix
 from dynderive.mechanics.quasi_velocity import is_step_by_step, quasi_velocity_sheet, skew
 from dynderive.render.sheets.json import render_json
 from dynderive.render.sheets.latex import render_latex

@@ -303,7 +303,7 @@ def test_linearize_matches_central_differences(bennett, which):
 
 def test_outputs_report_mobility():
     from dynderive import render_json, render_latex
-    from dynderive.render.terminal import render_terminal
+    from dynderive.render.sheets.terminal import render_terminal
 
     derivation = derivation_of("bennett")
     first = render_terminal(derivation).splitlines()[0]

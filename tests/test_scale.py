@@ -19,7 +19,7 @@ import sympy
 
 import dynderive
 from dynderive.mechanics import structured
-from dynderive.render.json import render_json
+from dynderive.render.sheets.json import render_json
 from dynderive.verify.checks import generated_module
 
 from random_robots3d import random_spatial_tree

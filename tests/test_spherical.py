@@ -20,7 +20,8 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.targets.numpy.floating_code import render_floating_code
-from dynderive.verify.floating_checks import MOMENTUM, pinocchio_floating_model, run_floating_checks
+from dynderive.verify.checks import MOMENTUM, run_checks
+from dynderive.verify.pinocchio_model import pinocchio_maps
 from test_floating_base import _compare, _floating_tree, _module
 
 from random_robots3d import random_spatial_tree
@@ -64,9 +65,9 @@ def _tree(seed: int, floating: bool) -> str:
 
 
 def _pinocchio(robot):
-    """Pinocchio's model (``pinocchio_floating_model``: spherical joints as ``JointModelSpherical``)
+    """Pinocchio's model (``pinocchio_maps``: spherical joints as ``JointModelSpherical``)
     with the robot's frames added, and where its q and v entries are in ours."""
-    model, qp, vp = pinocchio_floating_model(robot, {})
+    model, qp, vp = pinocchio_maps(robot, {})
     for frame in robot.frames:   # the frame's placement in its link's joint: up through the welds
         o = frame.origin
         place = pin.SE3(pin.rpy.rpyToMatrix(*(float(e) for e in o[3:])), np.array([float(e) for e in o[:3]]))
@@ -196,7 +197,7 @@ def test_check_runs_the_rows_of_a_fixed_base_robot_with_a_ball_joint(tmp_path):
     row is left out: a fixed base takes the world's reaction."""
     path, result = _solve(tmp_path, PENDULUM, "--code")
     assert result.exit_code == 0, result.output
-    rows = run_floating_checks(dynderive.derive(dynderive.load_robot(path)),
+    rows = run_checks(dynderive.derive(dynderive.load_robot(path)),
                                (tmp_path / "out" / "ball_arm_dynamics.py").read_text(), states=4)
     assert MOMENTUM not in [row.name for row in rows]
     assert any("Pinocchio" in row.name and row.status == "pass" for row in rows)
@@ -204,7 +205,7 @@ def test_check_runs_the_rows_of_a_fixed_base_robot_with_a_ball_joint(tmp_path):
     floating = _tree(5, True)
     (tmp_path / "floating.yaml").write_text(floating)
     robot = dynderive.load_robot(tmp_path / "floating.yaml")
-    rows = run_floating_checks(dynderive.derive(robot), render_floating_code(dynderive.derive(robot)), states=3)
+    rows = run_checks(dynderive.derive(robot), render_floating_code(dynderive.derive(robot)), states=3)
     assert [row.status for row in rows if row.name == MOMENTUM] == ["pass"]
 
 

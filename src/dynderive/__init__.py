@@ -84,7 +84,7 @@ def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
     """The LaTeX solution sheet as a string (nothing is written): ``sections`` among
     ``"generalized", "maximal", "checks"`` (default: what the robot's size makes readable);
     numbers to ``digits`` significant digits at most (default: as many as the file wrote)."""
-    from .render.latex import render_latex as _render
+    from .render.sheets.latex import render_latex as _render
 
     return _render(derivation, template_dir, sections, digits)
 
@@ -98,7 +98,7 @@ def render_code(derivation: Derivation, template_dir: str | Path | None = None) 
 
 def render_json(derivation: Derivation) -> str:
     """The JSON dump of every quantity (DESIGN.md section 5) as a string."""
-    from .render.json import render_json as _render
+    from .render.sheets.json import render_json as _render
 
     return _render(derivation)
 

@@ -183,8 +183,8 @@ class Derivation:
 
             add(_Stage(self._frames, frozenset(frame_quantity_names(robot))))
         self._frame_programs: list[Any] | None = None
-        self._floating_steps: Any = None
         self._configuration_programs: dict[str, Any] | None = None
+        self._quasi_velocity_steps: Any = None
 
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
@@ -376,7 +376,7 @@ class Derivation:
         """A robot with quaternion joints: its sheet quantities in quasi-velocities
         (``mechanics.quasi_velocity.QuasiVelocitySteps``: step by step when small, Y, the
         joints' rotations), derived once on first use."""
-        if getattr(self, "_quasi_velocity_steps", None) is None:
+        if self._quasi_velocity_steps is None:
             from .mechanics.quasi_velocity import quasi_velocity_steps
 
             self._quasi_velocity_steps = quasi_velocity_steps(self.robot, self.symbols)

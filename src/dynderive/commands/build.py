@@ -58,10 +58,10 @@ EXTENSION_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 #: compile), the code targets' among them (a MATLAB package ``+<name>/``: its parameters.m)
 OUTPUT_NAMES = ("{}.tex", "{}.pdf", *(pattern for target in _TARGETS for pattern in target.outputs), "{}.json",
                 "{}.log", "{}.html")
-TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2", "floating_sheet.tex.j2"],
-             "pdf": ["sheet.tex.j2", "preamble.tex.j2", "floating_sheet.tex.j2"],
+TEMPLATES = {"latex": ["sheet.tex.j2", "preamble.tex.j2"],
+             "pdf": ["sheet.tex.j2", "preamble.tex.j2"],
              **{target.kind: list(target.templates) for target in _TARGETS},
-             "json": [], "html": ["html/sheet.html.j2", "html/floating_sheet.html.j2"],
+             "json": [], "html": ["html/sheet.html.j2"],
              "floating_base": []}   # not an output: --floating-base, part of the inputs (so is digits:N, --digits)
 
 
@@ -442,7 +442,7 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
         logs = leftover_logs(out, robot, files)
         if error:   # no PDF: the other outputs, the .tex and the log are written, not recorded
             if not check:   # an older PDF would disagree with the new .tex: it goes, as the message says
-                from ..render.pdf import stale_beside
+                from ..render.sheets.pdf import stale_beside
 
                 stale, said = stale_beside(out, robot, made=False)
                 write_all({out / file: data for file, data in files.items()}, remove=logs + stale)

@@ -224,8 +224,8 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
     A, B = result["A_numeric"], result["B_numeric"]
     given = ", ".join(f"{name}={value:g}" for name, value in values.items())
     if kind == "json":
-        from ..render.json import quantity_entry
-        from ..render.latex import Formatter
+        from ..render.sheets.json import quantity_entry
+        from ..render.sheets.latex import Formatter
 
         fmt = Formatter.of(derivation, exact=True)   # JSON: exact numbers
         document: dict[str, Any] = {
@@ -243,7 +243,7 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
     if kind == "latex":
         from ..render.encode import escape_tex
         from ..render.environment import render
-        from ..render.latex import Formatter
+        from ..render.sheets.latex import Formatter
 
         fmt = Formatter.of(derivation)
         table = derivation.symbols

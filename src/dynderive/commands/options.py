@@ -230,8 +230,8 @@ def sheet_digits_option(text: str | None, sheet: bool) -> int | None:
 
 
 def sheet_sections_option(text: str | None, sheet: bool) -> tuple[str, ...] | None:
-    """``--sections``: the sheet's sections (``render.latex.parse_sections``), with a sheet only."""
-    from ..render.latex import parse_sections
+    """``--sections``: the sheet's sections (``render.sheets.latex.parse_sections``), with a sheet only."""
+    from ..render.sheets.latex import parse_sections
 
     if text is None:
         return None
@@ -260,7 +260,7 @@ def maximal_section_applies(text: str | None, planar: bool, floating: bool) -> N
 def _unknown_section_column(text: str) -> int:
     """1-based column in ``--sections``'s value of the first name that is no section (1 when
     none is: an empty list)."""
-    from ..render.latex import SECTIONS
+    from ..render.sheets.latex import SECTIONS
 
     column = _section_column(text, lambda name: name not in SECTIONS)
     return 1 if column is None else column

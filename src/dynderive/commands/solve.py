@@ -54,24 +54,15 @@ def form_note(robot: Robot) -> str | None:
 
 
 def renderers(derivation: Derivation) -> dict[str, Callable[..., str]]:
-    """The sheet's renderers for ``derivation``'s robot by output (``latex``, ``html``: called
-    with (derivation, template_dir, sections, digits); ``json``; ``terminal``: (derivation,
-    digits)); a robot with quaternions has the free-flyer sheet (no sections to choose)."""
-    from ..render import terminal
+    """The sheet's renderers by output (``latex``, ``html``: called with (derivation,
+    template_dir, sections, digits); ``json``; ``terminal``: (derivation, digits)), one per
+    output for every robot (a robot with quaternions gets its quasi-velocity sections)."""
+    from ..render.sheets.html import render_html
+    from ..render.sheets.json import render_json
+    from ..render.sheets.latex import render_latex
+    from ..render.sheets.terminal import render_terminal
 
-    if not derivation.robot.floating:
-        from ..render.html import render_html
-        from ..render.json import render_json
-        from ..render.latex import render_latex
-
-        return {"latex": render_latex, "html": render_html, "json": render_json, "terminal": terminal.render_terminal}
-    from ..render.floating_json import render_floating_json
-    from ..render.floating_latex import render_floating_latex
-    from ..render.html_floating import render_floating_html
-
-    return {"latex": lambda d, folder, sections, digits: render_floating_latex(d, folder, digits),
-            "html": lambda d, folder, sections, digits: render_floating_html(d, folder, digits),
-            "json": render_floating_json, "terminal": terminal.render_floating_terminal}
+    return {"latex": render_latex, "html": render_html, "json": render_json, "terminal": render_terminal}
 
 
 def target_files(derivation: Derivation, kinds: Collection[str], template_dir: str | Path | None,
@@ -125,7 +116,7 @@ def sheet_files(derivation: Derivation, kinds: Collection[str], template_dir: st
         if "latex" in kinds:
             files[f"{name}.tex"] = tex.encode()
         if "pdf" in kinds:
-            from ..render import pdf
+            from ..render.sheets import pdf
 
             progress("compiling PDF")
             start = time.monotonic()
@@ -151,7 +142,7 @@ def sheet_files(derivation: Derivation, kinds: Collection[str], template_dir: st
 def failure_text(folder: Path, name: str, failure: LatexError | ToolMissingError) -> str:
     """The line for a PDF that could not be made into ``folder``."""
     if isinstance(failure, LatexError):
-        from ..render.pdf import failure_message
+        from ..render.sheets.pdf import failure_message
 
         return failure_message(folder, name, failure)
     return f"{folder / (name + '.pdf')} skipped: {failure}"
@@ -172,7 +163,7 @@ def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_di
     if failure is not None:
         failures.append(failure_text(out, name, failure))
     if wanted.pdf:
-        from ..render.pdf import stale_beside
+        from ..render.sheets.pdf import stale_beside
 
         stale_files, said = stale_beside(out, name, made=out / f"{name}.pdf" in files)
         removed += stale_files

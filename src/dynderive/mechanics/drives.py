@@ -104,5 +104,3 @@ def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
 
 __all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "joint_drives"]
 
-#: compatibility name for ``floating_sheet.py`` (remove at merge): every robot's drives are by velocity column
-floating_joint_drives = joint_drives

@@ -22,7 +22,7 @@ twist is invariant under the base's motion). Then
 
 Drives as in the module: armature on M's diagonal, springs ``k (q - rest)`` in N and V,
 damping and Coulomb friction ``F = b v + fc sign(v)`` in the equations of motion.
-These are derived afresh here, not read from ``floating.py``'s programs: the tests compare
+These are derived afresh here, not read from the recursive programs (``recursive.py``): the tests compare
 the two.
 """
 
@@ -35,13 +35,13 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from . import joint_types
-from .drives import dissipative_force, floating_joint_drives
-from .floating import efforts, offsets
+from .drives import dissipative_force, joint_drives
 from .joint_types.quaternion import quaternion_matrix
 from .joints import unit
 from .polynomial import expand
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 from .tidy import fold_constants
+from .tree import efforts, offsets
 
 #: Most scalar (revolute, prismatic) joints of a robot whose quantities the sheet expands;
 #: larger ones get the intermediate-variable form (the module's programs, line by line).
@@ -378,7 +378,7 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     Y = sympy.Matrix(efforts(robot, table))
     Cv_s = ring.matrix(Cv)
     F = sympy.zeros(len(table.qd), 1)   # damping and Coulomb friction of the scalar joints
-    for drive in floating_joint_drives(robot, table):
+    for drive in joint_drives(robot, table):
         F[drive.coordinate] = dissipative_force(drive.damping, drive.friction, table.qd[drive.coordinate])
     EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s + F - Y).applyfunc(expand)
     return QuasiVelocitySheet(joints, [links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,

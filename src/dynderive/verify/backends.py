@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from .checks import Row
+from .rows import Row
 
 
 def compiled_backend(derivation: Any, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import types
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -17,6 +16,7 @@ import sympy
 
 from ..derivation import Derivation
 from ..mechanics.tidy import Check, check_zero, is_small
+from .rows import Row, _row, applied
 
 #: Quantities larger than this (tree nodes) are not evaluated symbolically against the code.
 SYMBOLIC_EVALUATION_NODES = 60_000
@@ -26,29 +26,11 @@ MOMENTUM = "momentum conserved without gravity: d(linear, angular momentum)/dt =
 ENERGY_RUN = "energy conserved without efforts (simulate on the manifold; with damping or friction, energy + dissipated work)"
 
 
-@dataclass(frozen=True)
-class Row:
-    name: str
-    status: str        # "pass", "FAIL" or "skip"
-    method: str        # "symbolic", "numeric", "engine", or why it was skipped
-    residual: float
-
-    def as_dict(self) -> dict[str, Any]:
-        """The row for JSON: a residual that is not a number (a skipped check) is null."""
-        row = asdict(self)
-        row["residual"] = self.residual if np.isfinite(self.residual) else None
-        return row
-
-
 def generated_module(source: str, name: str) -> types.ModuleType:
     """Execute generated source (ours, never user text) as a fresh module."""
     module = types.ModuleType(f"{name}_dynamics")
     exec(compile(source, f"<{name}_dynamics.py>", "exec"), module.__dict__)  # noqa: S102
     return module
-
-
-def _row(name: str, passed: bool, method: str, residual: float) -> Row:
-    return Row(name, "pass" if passed else "FAIL", method, float(residual))
 
 
 def _from_check(check: Check) -> Row:
@@ -93,13 +75,6 @@ def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> 
         quaternion = rng.normal(size=(states, 4))
         qs[:, start:start + 4] = quaternion / np.linalg.norm(quaternion, axis=1, keepdims=True)
     return qs
-
-
-def applied(robot: Any, u: np.ndarray) -> np.ndarray:
-    """The efforts ``u`` at their velocity columns (``Robot.effort_columns``)."""
-    Y = np.zeros(robot.velocity_count)
-    Y[list(robot.effort_columns())] = u
-    return Y
 
 
 def _mass_matrix(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
@@ -499,10 +474,3 @@ def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, value
     linear = _rotate(quaternion, local[..., :3])
     angular = _rotate(quaternion, local[..., 3:]) + np.cross(position, linear)
     return np.concatenate([linear, angular], axis=-1)
-
-
-def _pinocchio_mass_matrix(pin: Any, model: Any, data: Any, q: np.ndarray) -> np.ndarray:
-    """Pinocchio's M(q) (``pinocchio_checks.mass_matrix``)."""
-    from .pinocchio_checks import mass_matrix
-
-    return mass_matrix(pin, model, data, q)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .checks import Row
+from .rows import Row
 
 #: Agreement required of the compiled functions, relative to the result's largest entry.
 RTOL = 1e-12
@@ -136,7 +136,7 @@ def _frame(extra: tuple, smoothing: float = 0.0) -> str:
 
 def _states(robot: Any, rng: np.random.Generator, states: int) -> dict[str, np.ndarray]:
     """Random states: ``q`` (and ``q1``) on the robot's manifold (unit quaternions), the rest uniform."""
-    from .floating_checks import random_configurations
+    from .checks import random_configurations
 
     nv, nu = robot.velocity_count if robot.floating else len(robot.coordinates), len(robot.efforts)
     if robot.floating:

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from .checks import Row
 from .floating_c import FUNCTIONS, floating_rows
+from .rows import Row
 
 __all__ = ["FUNCTIONS", "floating_jax_checks"]
 

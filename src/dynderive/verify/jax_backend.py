@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import InputError, Problem
-from .checks import Row
+from .rows import Row
 
 
 def require_jax() -> None:

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..derivation import Derivation
-from .checks import Row, _row, applied
+from .rows import Row, _row, applied
 
 FREE_FLYER = ("agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
               "difference)")

@@ -111,7 +111,7 @@ class PinocchioDrives:
     (``mechanics.drives``; floating and spherical joints take none)."""
 
     def __init__(self, robot: Robot, values: dict[str, float], perm: np.ndarray):
-        from ..mechanics.drives import floating_joint_drives as joint_drives  # by velocity column
+        from ..mechanics.drives import joint_drives  # by velocity column
 
         table = SymbolTable.for_robot(robot)
         numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}

@@ -223,7 +223,7 @@ def _frame_functions(derivation: Derivation, names: Names, start: str, pp: str) 
     for kind, arguments, used, out, count, comment in specs:
         body = [start, *void(*used, "frame", "P", out)]
         for index, frame in enumerate(derivation.frame_programs):
-            program = frame[1 + [s[0] for s in specs].index(kind)] if isinstance(frame, tuple) else getattr(frame, kind)
+            program = getattr(frame, kind)
             lines = program_body(names, program, [f"{out}[{k}]" for k in range(count)])
             body += [f"if (frame == {index}) {{", *(f"    {line}" for line in lines), "    return 0;", "}"]
         body.append("return 1;")

@@ -229,10 +229,10 @@ def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
          f"FRAME_JACOBIAN_DOT_QD  Jdot(q, qd) qd of a frame, {twist} x 1 (its acceleration at qdd = 0)."),
     ]
     functions = []
-    for position, (kind, out, vectors, targets, empty, summary) in enumerate(specs):
+    for kind, out, vectors, targets, empty, summary in specs:
         body = [*prologue(derivation, vectors, len(vectors) + 2), *lookup, f"{out} = {empty};"]
         for index, frame in enumerate(derivation.frame_programs):
-            program = frame[1 + position] if isinstance(frame, tuple) else getattr(frame, kind)
+            program = getattr(frame, kind)
             lines = program_body(names, program, targets)
             body += [f"{'if' if index == 0 else 'elseif'} isequal(index, {index + 1})", *("    " + x for x in lines)]
         body += ["else", f"    error('{pkg}:frame', 'no such frame: give its name or a number from 1 to {len(robot.frames)}');",
