@@ -41,6 +41,6 @@ TARGET = Target(
     help="Write DIR/<name>_dynamics.py, a NumPy module.",
     build_help="Write <name>_dynamics.py.",
     outputs=("{}_dynamics.py",),
-    templates=("dynamics.py.j2", "dynamics_loops.py.j2", "dynamics_manifold.py.j2"),
+    templates=("dynamics.py.j2", "dynamics_loops.py.j2", "dynamics_manifold.py.j2", "dynamics_maximal.py.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating code",
 )
