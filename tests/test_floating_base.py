@@ -24,7 +24,7 @@ from dynderive.commands.cli import app
 from dynderive.errors import InputError
 from dynderive.input.urdf import identifier
 from dynderive.mechanics.tree import offsets
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import (
     ENERGY_RUN,
     MOMENTUM,
@@ -41,7 +41,7 @@ runner = CliRunner()
 
 def _module(robot, tmp_path: Path):
     path = tmp_path / f"{robot.name}_dynamics.py"
-    path.write_text(render_floating_code(dynderive.derive(robot)))
+    path.write_text(render_code(dynderive.derive(robot)))
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -317,7 +317,7 @@ def test_floating_joints_anywhere_as_in_pinocchio(text, tmp_path):
     _compare(robot, _module(robot, tmp_path), model, qp, vp, seed=3)
     _, result = _solve(tmp_path, text, "--code")
     assert result.exit_code == 0 and "note: box has floating joints (NQ = " in result.stderr, result.output
-    rows = [row.name for row in run_checks(dynderive.derive(robot), render_floating_code(dynderive.derive(robot)),
+    rows = [row.name for row in run_checks(dynderive.derive(robot), render_code(dynderive.derive(robot)),
                                                       states=6)]
     assert MOMENTUM not in rows and POWER_BALANCE in rows
 
@@ -431,20 +431,43 @@ def test_check_runs_the_floating_rows(tmp_path):
     assert all(status == "pass" for status in rows.values()) and len(rows) == 10
 
 
-@pytest.mark.parametrize("right,wrong", [
-    ("out[..., start : start + 3] = q[..., start : start + 3] + _rotate(quaternion, translation)",
-     "out[..., start : start + 3] = q[..., start : start + 3] + translation"),   # linear velocity in world axes
-    ("moved = _multiply(quaternion, step)", "moved = _multiply(step, quaternion)"),   # angular velocity in world axes
-])
-def test_the_energy_balance_catches_a_velocity_in_the_wrong_frame(tmp_path, right, wrong):
+#: integrate redefined at the end of a module, with the base's (first joint's) velocity taken in
+#: world axes: its linear velocity (moved along v, not R v), or its angular one (exp(w) q, not q exp(w)).
+WRONG_FRAME = {
+    "linear": "out[..., :3] = q[..., :3] + v[..., :3]",
+    "angular": """turn = _right(np.broadcast_to(neutral_configuration(), q.shape), np.concatenate(
+        [np.zeros_like(v[..., :3]), v[..., 3:6], np.zeros_like(v[..., 6:])], axis=-1))[..., 3:7]
+    a, b = turn, q[..., 3:7]
+    product = np.concatenate([a[..., 3:] * b[..., :3] + b[..., 3:] * a[..., :3] + np.cross(a[..., :3], b[..., :3]),
+                              a[..., 3:] * b[..., 3:] - np.sum(a[..., :3] * b[..., :3], axis=-1, keepdims=True)], axis=-1)
+    out[..., 3:7] = product / np.linalg.norm(product, axis=-1, keepdims=True)""",
+}
+
+
+def _wrong_frame(source: str, which: str) -> str:
+    """The module's text with ``integrate`` taking the base's velocity in world axes (``WRONG_FRAME``)."""
+    return source + f"""
+
+_right = integrate
+
+
+def integrate(q, v, dt=1.0):
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float) * np.asarray(dt, dtype=float)[..., np.newaxis]
+    out = np.array(_right(q, v))
+    {WRONG_FRAME[which]}
+    return out
+"""
+
+
+@pytest.mark.parametrize("which", WRONG_FRAME)
+def test_the_energy_balance_catches_a_velocity_in_the_wrong_frame(tmp_path, which):
     """A module whose integrate moves the base along v in world axes (not its own) fails the
     energy balance and Pinocchio: the row ties integrate to the dynamics without Pinocchio."""
     path = tmp_path / "box.yaml"
     path.write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(path))
-    source = render_floating_code(derivation)
-    broken = source.replace(right, wrong)
-    assert broken != source
+    broken = _wrong_frame(render_code(derivation), which)
     failed = {row.name for row in run_checks(derivation, broken) if row.status == "FAIL"}
     assert failed - {MOMENTUM} == {POWER_BALANCE,
                       "agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
@@ -478,7 +501,7 @@ def test_generated_property_checks_pass_and_catch_a_wrong_module(tmp_path):
                          cwd=out, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and "42 passed" in run.stdout, run.stdout + run.stderr
     module = out / "box_dynamics.py"
-    module.write_text(module.read_text().replace("moved = _multiply(quaternion, step)", "moved = _multiply(step, quaternion)"))
+    module.write_text(_wrong_frame(module.read_text(), "angular"))
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
                          cwd=out, capture_output=True, text=True, timeout=300)
     assert run.returncode == 1 and "test_energy_balance_along_integrate" in run.stdout, run.stdout

@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import (
     ENERGY_RUN,
     MOMENTUM,
@@ -66,7 +66,7 @@ def tree(tmp_path_factory):
     path.write_text(_text())
     robot = dynderive.load_robot(path)
     derivation = dynderive.derive(robot)
-    module = import_code(render_floating_code(derivation), folder)
+    module = import_code(render_code(derivation), folder)
     model, qp, vp = pinocchio_maps(robot, {})
     where_v = robot.offsets()[1]
     b, fc = np.zeros(robot.velocity_count), np.zeros(robot.velocity_count)
@@ -141,7 +141,7 @@ def test_check_passes_its_rows(tree):
     """``check``'s rows: the energy balance takes the friction's power out, the run keeps energy
     plus dissipated work, and the Pinocchio row compares aba with the friction taken from tau."""
     _, derivation, module, *_ = tree
-    rows = run_checks(derivation, render_floating_code(derivation), states=6)
+    rows = run_checks(derivation, render_code(derivation), states=6)
     assert all(row.status == "pass" for row in rows), [(row.name, row.status, row.residual) for row in rows]
     assert {POWER_BALANCE, ENERGY_RUN, MOMENTUM} <= {row.name for row in rows}
     assert any(row.name.startswith("agrees with Pinocchio") for row in rows)
@@ -151,10 +151,10 @@ def test_jax_and_c_extension_agree_with_numpy(tree, tmp_path):
     """One compile: the extension and the JAX module at one state and a batch, wrenches and smoothing."""
     jax = pytest.importorskip("jax")
     jax.config.update("jax_enable_x64", True)
-    from dynderive.render.targets.jax.floating_jax import render_floating_jax
+    from dynderive.render.targets.jax.jax import render_jax
 
     _, derivation, module, *_ = tree
-    jx = import_code(render_floating_jax(derivation), tmp_path)
+    jx = import_code(render_jax(derivation), tmp_path)
     try:
         from test_c_extension import _load
 
@@ -257,11 +257,11 @@ def test_generated_property_checks_take_the_friction_out(tree, tmp_path):
     import subprocess
     import sys
 
-    from dynderive.render.targets.numpy.floating_code import render_floating_code_tests
+    from dynderive.render.targets.numpy.code import render_code_tests
 
     _, derivation, *_ = tree
-    (tmp_path / "rough_tree_dynamics.py").write_text(render_floating_code(derivation))
-    (tmp_path / "test_rough_tree_dynamics.py").write_text(render_floating_code_tests(derivation))
+    (tmp_path / "rough_tree_dynamics.py").write_text(render_code(derivation))
+    (tmp_path / "test_rough_tree_dynamics.py").write_text(render_code_tests(derivation))
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_rough_tree_dynamics.py"],
                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and " passed" in run.stdout and "failed" not in run.stdout, run.stdout + run.stderr

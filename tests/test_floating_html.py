@@ -25,7 +25,7 @@ from dynderive.commands.cli import app
 from dynderive.render.sheets.html import render_html
 from dynderive.render.sheets.html_math import MathFormatter
 from dynderive.render.sheets.html_quasi_velocity import quasi_velocity_html_context
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 from test_floating_sheet import FREE, _chain
 from test_html import HOSTILE, parse, sizes_in_chromium
 
@@ -42,7 +42,7 @@ def _robot(folder: Path, text: str, name: str):
     path = folder / f"{name}.yaml"
     path.write_text(text)
     derivation = dynderive.derive(dynderive.load_robot(path))
-    module = import_code(render_floating_code(derivation), folder, f"{name}_floating_html")
+    module = import_code(render_code(derivation), folder, f"{name}_floating_html")
     return path, derivation, render_html(derivation), module
 
 

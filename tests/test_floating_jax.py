@@ -33,8 +33,8 @@ jnp = jax.numpy
 
 import dynderive  # noqa: E402
 from dynderive.commands.cli import app  # noqa: E402
-from dynderive.render.targets.jax.floating_jax import render_floating_jax  # noqa: E402
-from dynderive.render.targets.numpy.floating_code import render_floating_code  # noqa: E402
+from dynderive.render.targets.jax.jax import render_jax  # noqa: E402
+from dynderive.render.targets.numpy.code import render_code  # noqa: E402
 from test_floating_base import _floating_tree as _base_tree  # noqa: E402
 
 from conftest import import_code  # noqa: E402
@@ -92,8 +92,8 @@ def _modules(robot: str, directory: str):
         loaded = dynderive.load_robot(path)
     derivation = dynderive.derive(loaded)
     name = loaded.name
-    return (import_code(render_floating_code(derivation), folder, f"{name}_dynamics"),
-            import_code(render_floating_jax(derivation), folder, f"{name}_dynamics_jax"))
+    return (import_code(render_code(derivation), folder, f"{name}_dynamics"),
+            import_code(render_jax(derivation), folder, f"{name}_dynamics_jax"))
 
 
 @pytest.fixture(scope="module")
@@ -290,22 +290,22 @@ def test_large_traced_batch_holds_values_and_agrees(folder):
 
 def test_integrate_keeps_quaternions_unit(folder):
     numpy_module, jax_module = _modules("tree", folder)
-    (start, _), = jax_module._FLOATING
+    qx = next(i for i, name in enumerate(jax_module.COORDINATES) if name.endswith("_qx"))   # the base's quaternion
     rng = np.random.default_rng(12)
     q = numpy_module.integrate(numpy_module.neutral_configuration(), rng.uniform(-3, 3, (256, jax_module.NV)))
     step = jax.jit(jax_module.integrate)
     for dt in (0.01, 0.7, 5.0):
         for _ in range(20):
             q = step(q, rng.normal(size=(256, jax_module.NV)) * 3.0, dt)
-        norms = np.linalg.norm(np.asarray(q)[:, start + 3:start + 7], axis=-1)
+        norms = np.linalg.norm(np.asarray(q)[:, qx:qx + 4], axis=-1)
         assert np.max(np.abs(norms - 1.0)) < 1e-13
     single = jax.jit(jax_module.integrate)(q.astype(np.float32), rng.normal(size=jax_module.NV).astype(np.float32))
-    assert np.max(np.abs(np.linalg.norm(np.asarray(single)[:, start + 3:start + 7], axis=-1) - 1.0)) < 1e-6
+    assert np.max(np.abs(np.linalg.norm(np.asarray(single)[:, qx:qx + 4], axis=-1) - 1.0)) < 1e-6
 
 
 def test_module_is_pure_and_imports_only_jax(folder):
     """No subscript is assigned (no in-place write), the only imports are jax's; the manifold
-    functions branch on no value (``jnp.where``)."""
+    functions and their bodies (printed from the joint types) branch on no value (``jnp.where``)."""
     _, jax_module = _modules("box", folder)
     tree = ast.parse(Path(jax_module.__file__).read_text())
     for node in ast.walk(tree):
@@ -316,7 +316,8 @@ def test_module_is_pure_and_imports_only_jax(folder):
             names = [node.module] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
             assert all(n.split(".")[0] == "jax" for n in names), ast.unparse(node)
         if isinstance(node, ast.FunctionDef) and node.name in ("integrate", "difference", "configuration_rate",
-                                                               "_exp6", "_log6", "_norm"):
+                                                               "_integrate_body", "_difference_body",
+                                                               "_configuration_rate_body", "_sqrt"):
             assert not any(isinstance(n, (ast.If, ast.IfExp, ast.While)) for n in ast.walk(node)), node.name
 
 
@@ -328,7 +329,7 @@ def test_solve_build_and_check_write_and_check_the_module(tmp_path):
     assert result.exit_code == 0, result.output
     assert "every output is built except the MATLAB derivation script" in result.stderr
     assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["box_dynamics_jax.py"]
-    assert (tmp_path / "a" / "box_dynamics_jax.py").read_text() == render_floating_jax(derivation)
+    assert (tmp_path / "a" / "box_dynamics_jax.py").read_text() == render_jax(derivation)
     result = runner.invoke(app, ["solve", str(path), "--jax", "--code", "--out", str(tmp_path / "b"), "-q"])
     assert result.exit_code == 0 and sorted(p.name for p in (tmp_path / "b").iterdir()) == [
         "box_dynamics.py", "box_dynamics_jax.py"], result.output
@@ -361,10 +362,10 @@ def test_hostile_title_and_parameters_named_like_the_imports(tmp_path):
     path.write_text(text)
     derivation = dynderive.derive(dynderive.load_robot(path))
     assert derivation.robot.title == HOSTILE
-    source = render_floating_jax(derivation)
+    source = render_jax(derivation)
     assert ast.get_docstring(ast.parse(source), clean=False).startswith(f"Equations of motion of {HOSTILE} ")
     module = import_code(source, tmp_path, "hostile_floating_dynamics_jax")
-    numpy_module = import_code(render_floating_code(derivation), tmp_path, "hostile_floating_dynamics")
+    numpy_module = import_code(render_code(derivation), tmp_path, "hostile_floating_dynamics")
     q = numpy_module.integrate(numpy_module.neutral_configuration(), np.linspace(-1, 1, numpy_module.NV))
     _close(module.mass_matrix(q, jnp=1.7), numpy_module.mass_matrix(q, jnp=1.7), "mass_matrix with jnp = 1.7")
     _close(module.parameter_vector(jnp=1.7), numpy_module.parameter_vector(jnp=1.7), "parameter_vector")

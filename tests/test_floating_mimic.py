@@ -32,7 +32,7 @@ from dynderive.mechanics.tree import offsets
 from dynderive.render.sheets.html import render_html
 from dynderive.render.sheets.html_math import coordinate_math_names
 from dynderive.render.sheets.latex_format import coordinate_names
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import generated_module, run_checks
 from test_mimic import ARM, _link, frame_agrees_with_pinocchio
 
@@ -54,7 +54,7 @@ def arm(tmp_path_factory):
     path.write_text(FLOATING_ARM)
     robot = dynderive.load_robot(path, floating_base=True)
     derivation = dynderive.derive(robot)
-    source = render_floating_code(derivation)
+    source = render_code(derivation)
     return path, robot, derivation, generated_module(source, robot.name)
 
 
@@ -171,11 +171,11 @@ def test_the_jax_module_agrees_with_numpy(arm):
     NumPy module's (float64, a batch of states; the followers' columns summed alike). Eager JAX
     runs a straight-line program op by op: four functions, not all of ``check --backend jax``."""
     jax = pytest.importorskip("jax")
-    from dynderive.render.targets.jax.floating_jax import render_floating_jax
+    from dynderive.render.targets.jax.jax import render_jax
 
     jax.config.update("jax_enable_x64", True)
     _, robot, derivation, module = arm
-    traced = generated_module(render_floating_jax(derivation), f"{robot.name}_jax")
+    traced = generated_module(render_jax(derivation), f"{robot.name}_jax")
     rng = np.random.default_rng(33)
     q = rng.uniform(-1.2, 1.2, (2, 10))
     q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
@@ -237,8 +237,8 @@ def driven(tmp_path_factory):
     free = dataclasses.replace(robot, name="spherical_free", joints=tuple(dataclasses.replace(j, mimic=None)
                                                                           for j in robot.joints))
     derivation = dynderive.derive(robot)
-    source = render_floating_code(derivation)
-    uncoupled = generated_module(render_floating_code(dynderive.derive(free)), free.name)
+    source = render_code(derivation)
+    uncoupled = generated_module(render_code(dynderive.derive(free)), free.name)
     return robot, free, derivation, source, generated_module(source, robot.name), uncoupled
 
 
@@ -302,7 +302,7 @@ def test_check_passes(arm, driven):
     """``dynderive check``'s rows: the arm's with Pinocchio's mimic joints and free flyer; the
     spherical tree's with its drive terms (Pinocchio's row skipped: it models no springs)."""
     _, _, derivation, _ = arm
-    rows = run_checks(derivation, render_floating_code(derivation), states=4)
+    rows = run_checks(derivation, render_code(derivation), states=4)
     assert all(row.status == "pass" for row in rows), [r for r in rows if r.status != "pass"]
     [pinocchio] = [r for r in rows if r.name.startswith("agrees with Pinocchio")]
     assert "mimic joints" in pinocchio.method

@@ -26,7 +26,7 @@ from dynderive.mechanics.joint_types.quaternion import quaternion_matrix
 from dynderive.mechanics.quasi_velocity import is_step_by_step, quasi_velocity_sheet, skew
 from dynderive.render.sheets.json import render_json
 from dynderive.render.sheets.latex import render_latex
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 
 runner = CliRunner()
 ROOT = Path(__file__).resolve().parents[1]
@@ -101,7 +101,7 @@ def _load(tmp_path: Path, text: str, name: str = "robot.yaml"):
 
 def _module(derivation, tmp_path: Path):
     path = tmp_path / f"{derivation.robot.name}_dynamics.py"
-    path.write_text(render_floating_code(derivation))
+    path.write_text(render_code(derivation))
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 import dynderive
 from dynderive.commands.cli import app
 from dynderive.commands.simulate import initial_configuration, parse_efforts, simulate
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import ENERGY_RUN, MOMENTUM, generated_module, run_checks, system_momentum
 from test_floating_base import BOX
 
@@ -37,7 +37,7 @@ def _run(tmp_path: Path, text: str, q0: list[float] | None, v0: list[float], dur
     path.write_text(text)
     robot = dynderive.load_robot(path)
     derivation = dynderive.derive(robot)
-    source = render_floating_code(derivation)
+    source = render_code(derivation)
     q0 = initial_configuration(robot, None if q0 is None else np.array(q0))
     trajectory = simulate(derivation, source, duration, q0, np.array(v0), parse_efforts(derivation, [], False), False,
                           1e-10, 1e-10, 10.0, frames, lambda text: None)
@@ -68,7 +68,7 @@ def test_momentum_is_pinocchios(tmp_path):
     path.write_text(BOX)
     robot = dynderive.load_robot(path)
     values = {p.name: p.value for p in robot.parameters if p.value is not None}
-    module = generated_module(render_floating_code(dynderive.derive(robot)), robot.name)
+    module = generated_module(render_code(dynderive.derive(robot)), robot.name)
     model, qp, vp = pinocchio_maps(robot, values)
     data = model.createData()
     pin.seed(3)
@@ -126,19 +126,35 @@ def test_simulate_options_a_floating_run_refuses(tmp_path, args, message):
     assert not (tmp_path / "run.csv").exists()
 
 
-@pytest.mark.parametrize("right,wrong,row", [
-    # the quaternion turned by the angular velocity in world axes: the run's energy drifts
-    ("out[..., start + 3 : start + 7] = 0.5 * _multiply(quaternion, spin)",
-     "out[..., start + 3 : start + 7] = 0.5 * _multiply(spin, quaternion)", ENERGY_RUN),
+#: A configuration rate that turns the base's quaternion by its angular velocity in world axes
+#: (q w instead of w q, the body-frame rate), appended to the module: the run's energy drifts.
+WRONG_RATE = """
+
+_rate = configuration_rate
+
+
+def configuration_rate(q, v):
+    out = np.array(_rate(q, v))
+    v = np.asarray(v, dtype=float)
+    a, b = np.concatenate([v[..., 3:6], np.zeros_like(v[..., :1])], axis=-1), np.asarray(q, dtype=float)[..., 3:7]
+    out[..., 3:7] = 0.5 * np.concatenate([a[..., 3:] * b[..., :3] + b[..., 3:] * a[..., :3] + np.cross(a[..., :3], b[..., :3]),
+                                          a[..., 3:] * b[..., 3:] - np.sum(a[..., :3] * b[..., :3], axis=-1, keepdims=True)], axis=-1)
+    return out
+"""
+
+
+@pytest.mark.parametrize("break_module,row", [
+    (lambda source: source + WRONG_RATE, ENERGY_RUN),
     # gravity left out of gravity_vector: the gravity-free accelerations push the whole robot
-    ("return _evaluate(_gravity_body, [q], (NV,)", "return 0.0 * _evaluate(_gravity_body, [q], (NV,)", MOMENTUM),
+    (lambda source: source.replace("return _evaluate(_gravity_body, [q], (NV,)",
+                                   "return 0.0 * _evaluate(_gravity_body, [q], (NV,)"), MOMENTUM),
 ])
-def test_the_check_rows_catch_a_wrong_module(tmp_path, right, wrong, row):
+def test_the_check_rows_catch_a_wrong_module(tmp_path, break_module, row):
     path = tmp_path / "box.yaml"
     path.write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(path))
-    source = render_floating_code(derivation)
+    source = render_code(derivation)
     assert {r.name: r.status for r in run_checks(derivation, source)}[row] == "pass"
-    broken = source.replace(right, wrong)
+    broken = break_module(source)
     assert broken != source
     assert {r.name: r.status for r in run_checks(derivation, broken)}[row] == "FAIL"

@@ -21,7 +21,7 @@ from dynderive.mechanics.joint_types import JOINT_TYPES, configuration_programs,
 from dynderive.mechanics.joint_types.quaternion import quaternion_matrix
 from dynderive.mechanics.program import Program
 from dynderive.model.robot import Joint, floating_names
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 
 pin = pytest.importorskip("pinocchio")
 
@@ -203,7 +203,7 @@ def test_revolute_and_prismatic_move_along_their_axis():
 
 def _module(robot, tmp_path: Path):
     path = tmp_path / f"{robot.name}_dynamics.py"
-    path.write_text(render_floating_code(dynderive.derive(robot)))
+    path.write_text(render_code(dynderive.derive(robot)))
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render.targets.numpy.floating_code import render_floating_code
+from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import MOMENTUM, run_checks
 from dynderive.verify.pinocchio_model import pinocchio_maps
 from test_floating_base import _compare, _floating_tree, _module
@@ -205,7 +205,7 @@ def test_check_runs_the_rows_of_a_fixed_base_robot_with_a_ball_joint(tmp_path):
     floating = _tree(5, True)
     (tmp_path / "floating.yaml").write_text(floating)
     robot = dynderive.load_robot(tmp_path / "floating.yaml")
-    rows = run_checks(dynderive.derive(robot), render_floating_code(dynderive.derive(robot)), states=3)
+    rows = run_checks(dynderive.derive(robot), render_code(dynderive.derive(robot)), states=3)
     assert [row.status for row in rows if row.name == MOMENTUM] == ["pass"]
 
 

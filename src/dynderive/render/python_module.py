@@ -1,5 +1,5 @@
 """The checks every generated Python module passes before anyone can write or import it
-(the NumPy, floating-base and JAX modules, and the generated pytest files)."""
+(the NumPy and JAX modules of every robot, and the generated pytest files)."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ class CodeGenerationError(ValueError):
 
 def render_module(derivation: Derivation, template: str, context: dict[str, Any],
                   template_dir: str | Path | None = None, imports: frozenset[str] | None = None) -> str:
-    """A generated Python module's text (the NumPy, floating-base and JAX modules), checked by
+    """A generated Python module's text (the NumPy and JAX modules), checked by
     ``verify_module`` before anyone can write or import it; the docstring must read back the
     robot's title with the built-in templates. A user's template at fault is bad input (exit 2)."""
     text = render("code", template, context, template_dir)
@@ -67,7 +67,7 @@ def verify_module(text: str, title: str | None = None, imports: frozenset[str] |
 
 def render_test_module(derivation: Derivation, template: str, template_dir: str | Path | None = None,
                        **context: Any) -> str:
-    """A generated pytest file (the fixed-base and the floating-base modules' checks), parsed
+    """A generated pytest file (the NumPy module's checks), parsed
     before it is returned; ``context`` adds to its module name, generator and source."""
     from .._version import __version__
 

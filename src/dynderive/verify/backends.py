@@ -25,10 +25,6 @@ def compiled_backend(derivation: Any, source: str, progress: Callable[[str], Non
 def jax_backend(derivation: Any, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:
     """The JAX target's harness: the JAX module against the NumPy module, in float64."""
     progress("checking the JAX module")
-    if derivation.robot.floating:
-        from .floating_jax import floating_jax_checks
-
-        return floating_jax_checks(derivation, source, states=states)
     from .jax_backend import jax_checks
 
     return jax_checks(derivation, source, states=states)

@@ -9,10 +9,8 @@ from ..target import Target
 
 
 def _source(derivation: Any, template_dir: Any = None) -> str:
-    if derivation.robot.floating:
-        from .floating_jax import render_floating_jax as render_jax
-    else:
-        from .jax import render_jax
+    from .jax import render_jax
+
     return render_jax(derivation, template_dir)
 
 
@@ -49,7 +47,7 @@ TARGET = Target(
          "float64); importing it needs JAX (the jax extra).",
     build_help="Write <name>_dynamics_jax.py (JAX).",
     outputs=("{}_dynamics_jax.py",),
-    templates=("jax/dynamics.py.j2", "jax/floating_dynamics.py.j2"),
+    templates=("jax/dynamics.py.j2", "jax/dynamics_manifold.py.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
     note=f"{__name__}:missing_note",
     check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",

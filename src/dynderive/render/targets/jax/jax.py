@@ -1,5 +1,8 @@
 """The JAX target (``solve --jax``): ``<name>_dynamics_jax.py``, the NumPy module's API on
-``jax.numpy``.
+``jax.numpy``, for a fixed or a floating base (one template, ``jax/dynamics.py.j2``; a robot
+with quaternions in ``q`` takes ``jax/dynamics_manifold.py.j2``, its configuration maps the
+same printed bodies as the NumPy module's, ``where`` as ``jnp.where``, ``sqrt`` with derivative
+0 at 0, so ``jax.jacfwd`` through ``integrate`` at ``v = 0`` is finite).
 
 The same straight-line programs as the NumPy module (``code.program_function``: plain Python
 text whose functions, ``sin``, ``cos``..., are the body's parameters) run here on

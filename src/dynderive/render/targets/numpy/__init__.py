@@ -9,11 +9,11 @@ from ..target import Target
 
 
 def source(derivation: Any, template_dir: Any = None) -> str:
-    """The module's text, for a fixed or a floating base (``check`` and ``simulate`` run it)."""
-    if derivation.robot.floating:
-        from .floating_code import render_floating_code as render_code
-    else:
-        from .code import render_code
+    """The module's text, for a fixed or a floating base (``check`` and ``simulate`` run it): one
+    template, ``dynamics.py.j2``, with the tangent-space functions of a robot with quaternions
+    in ``q`` (``dynamics_manifold.py.j2``)."""
+    from .code import render_code
+
     return render_code(derivation, template_dir)
 
 
@@ -23,11 +23,9 @@ def render(derivation: Any, template_dir: Any, made: dict[str, bytes], tests: bo
     name = derivation.robot.name
     files = {f"{name}_dynamics.py": source(derivation, template_dir).encode()}
     if tests:
-        if derivation.robot.floating:
-            from .floating_code import render_floating_code_tests as render_tests
-        else:
-            from .code import render_code_tests as render_tests
-        files[f"test_{name}_dynamics.py"] = render_tests(derivation, template_dir).encode()
+        from .code import render_code_tests
+
+        files[f"test_{name}_dynamics.py"] = render_code_tests(derivation, template_dir).encode()
     return files
 
 
@@ -43,7 +41,7 @@ TARGET = Target(
     help="Write DIR/<name>_dynamics.py, a NumPy module.",
     build_help="Write <name>_dynamics.py.",
     outputs=("{}_dynamics.py",),
-    templates=("dynamics.py.j2", "floating_dynamics.py.j2"),
+    templates=("dynamics.py.j2", "dynamics_loops.py.j2", "dynamics_manifold.py.j2", "dynamics_maximal.py.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating code",
     option_help=(("check --backend", "check the generated NumPy module"),
                  ("simulate --backend", "the generated NumPy module"),

@@ -1,4 +1,7 @@
-"""The generated NumPy module: CSE per function, a NumPy printer, blocks into a template.
+"""The generated NumPy module of every robot: CSE per function, a NumPy printer, blocks into
+one template (``dynamics.py.j2``). A robot with quaternions in ``q`` (floating base,
+spherical joints: NQ != NV) takes its tangent-space sections (``dynamics_manifold.py.j2``),
+its configuration maps printed from the joint types (``Derivation.configuration_programs``).
 
 Numbers: constant sub-expressions (``sqrt(2)/2``, ``E``, a square root of a 17-digit
 rational from a CAD file's axis) are folded to correctly rounded floats, printed with
@@ -10,42 +13,21 @@ can write or import it.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import sympy
 from sympy.printing.numpy import NumPyPrinter
-from sympy.printing.precedence import precedence
-from sympy.printing.str import StrPrinter
 
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants, operation_count
 from ...encode import Code, python_literal
 from ...python_module import CodeGenerationError, render_module, render_test_module
-
-#: Functions the printed code may call, as the straight-line bodies receive them: from
-#: ``math`` (one state on floats) or NumPy (a batch). SymPy's ``Abs`` prints as ``abs``.
-BODY_FUNCTIONS = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
-                  "exp", "log", "sqrt", "abs")
-_CALL = re.compile(r"\b(" + "|".join(BODY_FUNCTIONS) + r")\(")
+from .printing import _CALL, BODY_FUNCTIONS, _LinePrinter, _Printer, _ProgramPrinter
 
 CODE_TEMPLATE = "dynamics.py.j2"
-
-
-class _Printer(NumPyPrinter):
-    """NumPy printer that writes ``np.sin`` rather than ``numpy.sin``."""
-
-    def _module_format(self, fqn: str, register: bool = True) -> str:
-        text = super()._module_format(fqn, register)
-        return "np." + text[len("numpy."):] if text.startswith("numpy.") else text
-
-    def _print_Float(self, expr: sympy.Float) -> str:
-        return repr(float(expr))
-
-    def _print_Function(self, expr: sympy.Function) -> str:   # anything NumPy has no name for
-        raise CodeGenerationError(f"no NumPy function for {type(expr).__name__}")
 
 
 @dataclass
@@ -77,149 +59,6 @@ class ExpressionFunction:
         return repr(tuple(self.shape))
 
 
-class _LinePrinter(StrPrinter):
-    """Plain Python for straight-line programs: ``sin(x)`` (bound to ``math`` or NumPy by the
-    caller), numbers as float literals (``0.333*x``: one multiplication at run time), each
-    symbol under its name in ``names``."""
-
-    def __init__(self, names: dict[sympy.Symbol, str]):
-        super().__init__({"order": "none"})
-        self.names = names
-
-    def _print_Symbol(self, expr: sympy.Symbol) -> str:
-        return self.names.get(expr, expr.name)
-
-    def _print_Float(self, expr: sympy.Float) -> str:
-        text = repr(float(expr))
-        return f"({text})" if text.startswith("-") else text
-
-    def _print_Rational(self, expr: sympy.Rational) -> str:
-        return str(expr.p) if expr.q == 1 else repr(float(expr))
-
-    def _print_Abs(self, expr: sympy.Abs) -> str:
-        return f"abs({self._print(expr.args[0])})"
-
-    def _print_Function(self, expr: sympy.Function) -> str:
-        name = type(expr).__name__
-        if name not in BODY_FUNCTIONS:
-            raise CodeGenerationError(f"no function {name} in generated bodies")
-        return f"{name}({', '.join(self._print(a) for a in expr.args)})"
-
-    def _print_NumberSymbol(self, expr: sympy.Expr) -> str:   # pi, E: folded before printing
-        return repr(float(expr))
-
-    def _print_Mul(self, expr: sympy.Mul) -> str:
-        coeff, rest = expr.as_coeff_Mul()
-        if coeff.is_Rational and not coeff.is_Integer:
-            value = float(coeff)
-            text = self.parenthesize(rest, precedence(expr))
-            return f"{value!r}*{text}" if value >= 0 else f"-{-value!r}*{text}"
-        return super()._print_Mul(expr)
-
-
-class _ProgramPrinter:
-    """Python for the lines of a straight-line program, fast: the lines are sums, products
-    and integer powers of names and numbers, and sines and cosines, and SymPy's general
-    printer spends half a millisecond on each (its precedence rules ask the assumptions
-    system about signs): 13 s for a 30-joint chain's Coriolis body. Any other node goes to
-    ``_LinePrinter``, whose output this one matches in meaning (tests compare the two)."""
-
-    def __init__(self, names: dict[sympy.Symbol, str]):
-        self.names = names
-        self.general = _LinePrinter(names)
-
-    def __call__(self, expr: sympy.Basic) -> str:
-        return self._text(expr)
-
-    def _text(self, expr: sympy.Basic) -> str:
-        if expr.is_Symbol:
-            return self.names.get(expr, expr.name)  # type: ignore[call-overload]
-        if expr.is_Number:
-            text = self._number(expr)
-            return f"({text})" if text.startswith("-") else text
-        if expr.is_Add:
-            return self._sum(expr)
-        if expr.is_Mul:
-            return self._product(expr)
-        if expr.is_Pow and expr.exp.is_Integer:
-            return self._power(expr)
-        if expr.is_Function and type(expr).__name__ in BODY_FUNCTIONS:
-            return f"{type(expr).__name__}({', '.join(self._text(a) for a in expr.args)})"
-        return self.general.doprint(expr)
-
-    @staticmethod
-    def _number(expr: sympy.Basic) -> str:
-        if expr.is_Integer:
-            return str(expr.p)   # type: ignore[attr-defined]
-        if expr.is_Rational or expr.is_Float:
-            return repr(float(expr))
-        raise CodeGenerationError(f"unexpected number {expr} in a program line")
-
-    @staticmethod
-    def _negative(expr: sympy.Basic) -> bool:
-        """A negative number, or a product with a negative coefficient (read off the number
-        itself: SymPy's ``is_negative`` consults the assumptions system)."""
-        number = expr if expr.is_Number else expr.args[0] if expr.is_Mul else None
-        if number is None or not number.is_Number:
-            return False
-        return number.p < 0 if number.is_Rational else float(number) < 0
-
-    def _sum(self, expr: sympy.Basic) -> str:
-        parts = []
-        for index, term in enumerate(expr.args):
-            negative = self._negative(term)
-            text = self._product(term, negate=True) if negative and term.is_Mul else (
-                self._number(-term) if negative else self._text(term))
-            if index == 0 and negative and term.is_Float:
-                parts.append(f"(-{text})")
-            elif index == 0:
-                parts.append(f"-{text}" if negative else text)
-            else:
-                parts.append(f" - {text}" if negative else f" + {text}")
-        return "".join(parts)
-
-    def _product(self, expr: sympy.Basic, negate: bool = False) -> str:
-        coefficient, rest = expr.as_coeff_Mul()
-        if negate:
-            coefficient = -coefficient
-        numerator, denominator = [], []
-        for factor in sympy.Mul.make_args(rest):
-            if factor.is_Pow and factor.exp.is_Integer and factor.exp.p < 0:
-                denominator.append(factor.base if factor.exp == -1 else sympy.Pow(factor.base, -factor.exp))
-            else:
-                numerator.append(factor)
-        text = "*".join(self._power_factor(f) for f in numerator) or "1"
-        if denominator:
-            below = "*".join(self._power_factor(f) for f in denominator)
-            text = f"{text}/{below}" if len(denominator) == 1 and not denominator[0].is_Pow else f"{text}/({below})"
-        sign = ""
-        if coefficient is sympy.S.NegativeOne:
-            sign = "-"
-        elif coefficient is not sympy.S.One:
-            number = self._number(coefficient)
-            if number.startswith("-"):
-                sign, number = "-", number[1:]
-            if coefficient.is_Rational and not coefficient.is_Integer and not sign and not negate \
-                    and len(numerator) + len(denominator) > 1:
-                text = f"({text})"   # a positive fraction times the rest, as it was always printed
-            text = f"{number}*{text}" if text != "1" else number
-        return sign + text
-
-    def _power_factor(self, expr: sympy.Basic) -> str:
-        if expr.is_Add:
-            return f"({self._sum(expr)})"
-        return self._text(expr)
-
-    def _power(self, expr: sympy.Basic) -> str:
-        base, exponent = expr.args
-        if exponent.p < 0:
-            return self._product(expr)
-        inner = self._text(base)
-        if not (base.is_Symbol or (base.is_Number and not inner.startswith("("))):
-            inner = f"({inner})"
-        return f"{inner}**{exponent}"
-
-
 @dataclass
 class ProgramFunction:
     """A straight-line body (see ``recursive.py``) printed with reused local names."""
@@ -232,6 +71,14 @@ class ProgramFunction:
     operations: int
     #: Names of the functions the body calls (its parameters after the argument rows).
     functions: tuple[str, ...] = ()
+    #: Whether it takes the robot's parameters (keyword arguments; the configuration maps do not).
+    keywords: bool = True
+
+
+def _folded(expr: sympy.Basic) -> sympy.Basic:
+    """A line's constants folded (``fold_constants``); a branch (``Piecewise``: the configuration
+    maps' lines, numbers and names only) as it is."""
+    return expr if expr.has(sympy.Piecewise) else fold_constants(expr, rationals=False)
 
 
 def program_function(name: str, doc: str, arguments: list[Argument], program: Any) -> ProgramFunction:
@@ -265,7 +112,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
     count = 0
     lines = []
     for position, (target, expr, names) in enumerate(body):
-        text = Code(printer(fold_constants(expr, rationals=False)))
+        text = Code(printer(_folded(expr)))
         for symbol in sorted(names & targets, key=lambda s: s.name):
             if last_use[symbol] == position:
                 free.append(slot[symbol])
@@ -275,7 +122,7 @@ def program_function(name: str, doc: str, arguments: list[Argument], program: An
             slot[target] = f"_r{count}"
             count += 1
         lines.append((slot[target], text))
-    outputs = [Code(printer(fold_constants(e, rationals=False))) for e in program.outputs]
+    outputs = [Code(printer(_folded(e))) for e in program.outputs]
     operations = sum(operation_count(e) for _, e, _ in body) + operation_count(sympy.Matrix(program.outputs))
     used = {m.group(1) for text in [*(t for _, t in lines), *outputs] for m in _CALL.finditer(text)}
     functions = tuple(f for f in BODY_FUNCTIONS if f in used)
@@ -315,9 +162,44 @@ def expression_function(name: str, doc: str, arguments: list[Argument], value: A
     return ExpressionFunction(name, Code(doc), arguments, shape, unpack, lines, entries)
 
 
+def _common_context(derivation: Derivation) -> dict[str, Any]:
+    """The variables of every module: the robot, its parameters, efforts, frames, the
+    regressor's parameter vector, whether it is dissipative, what the bodies take besides q,
+    qd, qdd and u."""
+    from ...._version import __version__
+
+    robot, identification = derivation.robot, derivation.parameter_vector
+    parameters = [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
+                   "unit": p.unit, "description": p.description} for p in robot.parameters]
+    keywords = [p["name"] if p["default"] is None else f"{p['name']}={p['default']}" for p in parameters]
+    forward = derivation.programs.get("forward_dynamics")
+    return {
+        "params_keywords": ("*, " + ", ".join(keywords)) if keywords else "",
+        "params_pass": ", ".join(f"{p['name']}={p['name']}" for p in parameters),
+        "generator": f"dynderive {__version__}",
+        "source": Path(robot.source).name,
+        "robot": {"name": robot.name, "title": robot.title},
+        "parameters": parameters,
+        "efforts": list(robot.efforts),
+        "efforts_tuple": _tuple(robot.efforts),
+        "dissipative": robot.dissipative,
+        "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
+        "frames_tuple": _tuple(tuple(f.name for f in robot.frames)),
+        # the forward-dynamics body takes F - J^T w where its program says so (damping, friction, frames)
+        "forward_extra": forward is not None and bool(forward.extra_inputs),
+        "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
+        "parameter_count": len(identification),
+        "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
+        "floating": robot.floating,
+    }
+
+
 def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -> dict[str, Any]:
     """Every variable the code template can use (documented in docs/templates.md); ``printer``
-    prints the expression functions (default: NumPy's, ``np.sin``; the JAX target passes its own)."""
+    prints the expression functions (default: NumPy's, ``np.sin``; the JAX target passes its own).
+    A robot with quaternions in ``q`` (``robot.floating``) takes ``_tangent_context``."""
+    if derivation.robot.floating:
+        return _tangent_context(derivation)
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     printer = printer or _Printer({"fully_qualified_modules": True, "strict": False})
     params = set(table.parameters.values())
@@ -364,43 +246,22 @@ def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) ->
             functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
                                                  matrix_result=quantity in MATRICES))
     identification = derivation.parameter_vector
-    forward = derivation.programs.get("forward_dynamics")
     functions.append(expression_function(
         "parameter_vector", f"The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape ({len(identification)},).",
         [], sympy.Matrix([p.value for p in identification]), printer, params))
-    parameters = []
-    for p in robot.parameters:
-        parameters.append({"name": p.name, "default": None if p.value is None else python_literal(float(p.value)),
-                           "unit": p.unit, "description": p.description})
-    from ...._version import __version__
-
-    keywords = [p["name"] if p["default"] is None else f"{p['name']}={p['default']}" for p in parameters]
-    return {
-        "params_keywords": ("*, " + ", ".join(keywords)) if keywords else "",
-        "params_pass": ", ".join(f"{p['name']}={p['name']}" for p in parameters),
-        "generator": f"dynderive {__version__}",
-        "source": Path(robot.source).name,
-        "robot": {"name": robot.name, "title": robot.title},
-        "parameters": parameters,
+    return _common_context(derivation) | {
         "coordinates": list(robot.coordinates),
         "coordinates_tuple": _tuple(robot.coordinates),
-        "efforts": list(robot.efforts),
-        "efforts_tuple": _tuple(robot.efforts),
+        "q_doc": Code(f"joint coordinates {_tuple(robot.coordinates)}"),
         "dof": n,
+        "nq_text": n,
+        "nv_text": n,
         "functions": functions,
         "structured": structured,
-        "dissipative": robot.dissipative,
         "maximal_dissipative": robot.planar and robot.dissipative,
         "programs": programs,
-        "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
-        "frames_tuple": _tuple(tuple(f.name for f in robot.frames)),
         "frame_size": 3 if robot.planar else 4,
         "twist_size": 3 if robot.planar else 6,
-        # the forward-dynamics body takes F_g - J^T w where its program says so (damping, friction, frames)
-        "forward_extra": forward is not None and bool(forward.extra_inputs),
-        "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
-        "parameter_count": len(identification),
-        "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
         "maximal": maximal,
         "maximal_coordinates_tuple": _tuple(tuple(str(s) for s in table.qm)),
         "maximal_size": len(table.qm),
@@ -508,15 +369,61 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
     }
     functions = [program_function(*specs[key], program) for key, program in derivation.programs.items()]
     for index, frame in enumerate(derivation.frame_programs):
+        name, pose, jacobian, bias = frame if isinstance(frame, tuple) else (
+            frame.name, frame.transform, frame.jacobian, frame.jacobian_dot_qd)
         functions += [
-            program_function(f"_frame{index}_transform_body", f"Pose of frame {frame.name!r} (homogeneous, row by row).",
-                             [q], frame.transform),
-            program_function(f"_frame{index}_jacobian_body", f"World-frame Jacobian of frame {frame.name!r}, row by row.",
-                             [q], frame.jacobian),
-            program_function(f"_frame{index}_jacobian_dot_qd_body", f"Jdot qd of frame {frame.name!r}.",
-                             [q, qd], frame.jacobian_dot_qd),
+            program_function(f"_frame{index}_transform_body", f"Pose of frame {name!r} (homogeneous, row by row).",
+                             [q], pose),
+            program_function(f"_frame{index}_jacobian_body", f"World-frame Jacobian of frame {name!r}, row by row.",
+                             [q], jacobian),
+            program_function(f"_frame{index}_jacobian_dot_qd_body", f"Jdot qd of frame {name!r}.", [q, qd], bias),
         ]
     return functions
+
+
+def _tangent_context(derivation: Derivation) -> dict[str, Any]:
+    """The variables of the module of a robot with quaternions in ``q`` (floating base,
+    spherical joints; Pinocchio's conventions, DESIGN.md section 10): NQ coordinates, NV
+    velocities, the free-flyer programs, the parameter vector and the drives' coefficients as
+    bodies, and the configuration maps (``Derivation.configuration_programs``) as bodies."""
+    robot, table = derivation.robot, derivation.symbols
+    nq, nv = len(table.q), len(table.qd)
+    q = Argument("q", table.q, f"coordinates, shape (..., {nq})")
+    qd = Argument("qd", table.qd, f"velocities, shape (..., {nv})")
+    u = Argument("u", list(table.efforts.values()), f"efforts, shape (..., {len(table.efforts)})")
+    bodies = _programs(derivation, q, qd, u)
+    values = {"parameter_vector": [p.value for p in derivation.parameter_vector]}
+    if robot.dissipative:   # F = b qd + fc sign(qd): the coefficients per velocity column (0 on a quaternion's)
+        for name in ("damping", "friction"):
+            values[f"{name}_coefficients"] = [sympy.Integer(0)] * nv
+            for drive in derivation.joint_drives:
+                values[f"{name}_coefficients"][drive.coordinate] = getattr(drive, name)
+    for name, outputs in values.items():
+        bodies.append(program_function(f"_{name}_body", f"{name}, entry by entry.", [],
+                                       SimpleNamespace(lines=[], outputs=outputs)))
+    for name, map_ in derivation.configuration_programs.items():
+        arguments = [Argument(a, symbols, a) for a, symbols in map_.arguments.items()]
+        bodies.append(program_function(f"_{name}_body", f"{name}: the joint types' map, joint by joint.",
+                                       arguments, map_.program))
+        bodies[-1].keywords = False
+    return _common_context(derivation) | {
+        "coordinates_tuple": _tuple(tuple(str(s) for s in table.q)),
+        "velocities_tuple": _tuple(tuple(str(s) for s in table.qd)),
+        "nq": nq,
+        "nv": nv,
+        "q_doc": Code("coordinates COORDINATES"),
+        "nq_text": Code("NQ"),
+        "nv_text": Code("NV"),
+        "frame_size": 4,
+        "twist_size": 6,
+        "spherical": any(j.type == "spherical" for j in robot.joints),
+        "floating_base": robot.floating_base,
+        "effort_columns": python_literal(robot.effort_columns()),
+        "programs": bodies,
+        "functions": [],
+        "loops": False,
+        "maximal": False,
+    }
 
 
 def _tuple(names: tuple[str, ...]) -> Code:
@@ -530,5 +437,11 @@ def render_code(derivation: Derivation, template_dir: str | Path | None = None) 
 
 def render_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """A pytest file of property checks for the generated module (``solve --code --tests``)."""
+    robot = derivation.robot
     return render_test_module(derivation, "dynamics_test.py.j2", template_dir,
-                              maximal=derivation.robot.planar, loops=bool(derivation.robot.loops))
+                              maximal=robot.planar, loops=bool(robot.loops), floating=robot.floating)
+
+
+#: The printers (``printing.py``) and the error, by the names other modules import from here.
+__all__ = ["BODY_FUNCTIONS", "CodeGenerationError", "_LinePrinter", "_ProgramPrinter", "code_context",
+           "program_function", "render_code", "render_code_tests"]
