@@ -99,7 +99,7 @@ def measure_forward_dynamics(urdf: str, module_path: str, batch: int, extension:
 
     import dynderive
     from dynderive.input.urdf import identifier
-    from dynderive.mechanics.floating import offsets
+    from dynderive.mechanics.tree import offsets
 
     spec = importlib.util.spec_from_file_location("floating_module", module_path)
     module = importlib.util.module_from_spec(spec)

@@ -53,7 +53,7 @@ def measure_phases(robot: str) -> dict:
     """In a child: CPU seconds of each phase of ``solve --latex --code --json``."""
     _command_line_cache()
     import dynderive
-    from dynderive.render.json import render_json
+    from dynderive.render.sheets.json import render_json
 
     out, clock = {}, time.process_time()
 

@@ -87,7 +87,7 @@ def measure_outputs(robot: str) -> dict:
     CPU seconds: on a shared machine the CPU time is the steadier figure), with the command
     line's SymPy cache (``main``)."""
     import dynderive
-    from dynderive.render.json import render_json
+    from dynderive.render.sheets.json import render_json
 
     start, cpu = time.perf_counter(), time.process_time()
     derivation = dynderive.derive(dynderive.load_robot(robot))
