@@ -157,7 +157,8 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
     trig = {expr: name for name, expr in tree.trig}
     built = []
     for frame in robot.frames:
-        rotation, position = _frame_pose(tree, poses, frame)
+        offset, shift = tree.placement(frame.origin)
+        rotation, position = tree.compose(poses[frame.link], offset.tolist(), shift)
         columns = _jacobian_columns(tree, poses, frame.link, position)
         if robot.planar:
             transform = [rotation[0][0], rotation[0][1], position[0], rotation[1][0], rotation[1][1], position[1],
@@ -191,20 +192,6 @@ def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
 Pose = tuple[tuple[Vector, Vector, Vector], Vector]
 
 
-def _frame_pose(tree: Tree, poses: dict[str, Pose], frame: Frame) -> Pose:
-    let, expr = tree.program.let, tree.table.expr
-    zero = sympy.Integer(0)
-    if tree.robot.planar:
-        x, y, yaw = (expr(e) for e in frame.origin)
-        z = roll = pitch = zero
-    else:
-        x, y, z, roll, pitch, yaw = (expr(e) for e in frame.origin)
-    offset = rpy_matrix(roll, pitch, yaw)
-    R_link, p_link = poses[frame.link]
-    R = tuple(tuple(let(sum((R_link[i][k] * offset[k, j] for k in range(3)), zero)) for j in range(3))
-              for i in range(3))
-    p = tuple(let(e) for e in _add(p_link, _rotate(R_link, (x, y, z))))
-    return R, p   # type: ignore[return-value]
 
 
 def _jacobian_columns(tree: Tree, poses: dict[str, Pose], link: str,

@@ -8,7 +8,7 @@ computed twice gets one name, so lines never grow. Every target's printer (NumPy
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -121,6 +121,10 @@ def _add(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> tuple[sympy.Expr, 
     return tuple(x + y for x, y in zip(a, b))
 
 
+def _times(vector: Sequence[sympy.Expr], scalar: sympy.Expr) -> tuple[sympy.Expr, ...]:
+    return tuple(x * scalar for x in vector)
+
+
 def _rotate(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
     return tuple(_dot(row, v) for row in R)
 
@@ -128,16 +132,6 @@ def _rotate(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
 def _rotate_back(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
     """``R^T v``."""
     return tuple(R[0][k] * v[0] + R[1][k] * v[1] + R[2][k] * v[2] for k in range(3))
-
-
-def add_column(vec: Callable[..., Vector], present: tuple[Vector, Vector] | None,
-               column: tuple[Vector, Vector]) -> tuple[Vector, Vector]:
-    """A joint's motion axis ``(w, v)`` added to its coordinate's column carried from above:
-    the column itself for a joint with a coordinate of its own, the sum for a <mimic> joint
-    below its leader."""
-    if present is None:
-        return column
-    return vec(_add(present[0], column[0])), vec(_add(present[1], column[1]))
 
 
 def part_of(lines: Sequence[tuple[sympy.Symbol, sympy.Expr]], outputs: Sequence[sympy.Expr]) -> Program:
