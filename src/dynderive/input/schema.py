@@ -222,22 +222,8 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
     defaults = v.evaluate
     link_names, bad_link_names, links_broken = tree.names, tree.bad, tree.broken
     joints: list[Joint] = []
-    raw_joints = top.get("joints")
-    if "joints" in top and (not isinstance(raw_joints, list) or not raw_joints):
-        v.error(("joints",), f"joints: expected a non-empty list of joints, got {_kind(raw_joints, empty=True)}")
-        raw_joints = []
-    joint_names: dict[str, tuple[Any, ...]] = {}
-    for i, raw in enumerate(raw_joints or []):
-        path = ("joints", i)
-        item = v.mapping(raw, path, JOINT_KEYS, required=("name", "type", "parent", "child"))
-        if item is None:
-            continue
-        jname = v.identifier(item.get("name"), path + ("name",), "joint name") if "name" in item else None
-        if jname is not None and jname in joint_names:
-            v.error(path + ("name",), f"{v.label(('joints', i, 'name'))}: duplicate joint name '{jname}' "
-                    f"(first at {v.at(joint_names[jname])})")
-        elif jname:
-            joint_names[jname] = path + ("name",)
+    required = ("name", "type", "parent", "child")
+    for i, path, item, jname, _ in v.named_items(top, "joints", "joint", JOINT_KEYS, required, {}):
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
             extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype), "")
@@ -280,28 +266,14 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
     """The optional ``loops`` list: loop-closing joints between two links (or a link and the
     world) of the spanning tree. Their constraints are derived, and checked for redundancy
     and assembly, by ``mechanics/loops.py``."""
-    if "loops" not in top:
-        return []
-    raw = top["loops"]
-    if not isinstance(raw, list) or not raw:
-        v.error(("loops",), f"loops: expected a non-empty list of loop joints, got {_kind(raw, empty=True)}")
-        return []
     types = LOOP_TYPES[planar]
     raw_joints = top.get("joints") if isinstance(top.get("joints"), list) else []
     taken = {item["name"]: ("joints", k, "name") for k, item in reversed(list(enumerate(raw_joints)))
              if isinstance(item, dict) and isinstance(item.get("name"), str)}
     loops: list[LoopJoint] = []
-    for i, item_raw in enumerate(raw):
-        path = ("loops", i)
-        item = v.mapping(item_raw, path, LOOP_KEYS, required=("name", "type", "parent", "child"))
-        if item is None:
-            continue
-        name = v.identifier(item.get("name"), path + ("name",), "loop joint name") if "name" in item else None
-        if name is not None and name in taken:
-            v.error(path + ("name",), f"{v.label(path + ('name',))}: name '{name}' is already used by a joint "
-                    f"or another loop joint (first at {v.at(taken[name])})")
-        elif name is not None:
-            taken[name] = path + ("name",)
+    clash = "name '{name}' is already used by a joint or another loop joint"
+    for i, path, item, name, _ in v.named_items(top, "loops", "loop joint", LOOP_KEYS,
+                                                ("name", "type", "parent", "child"), taken, clash):
         ltype = item.get("type")
         if "type" in item and ltype not in types:
             kind = "planar" if planar else "3-D"
