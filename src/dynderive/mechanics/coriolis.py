@@ -44,14 +44,9 @@ def _force_cross(m: Motion, f: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sy
 def _world_inertia(program: Program, body: Body, R: Matrix3, p: Vector) -> Inertia:
     """The link's spatial inertia ``(m, h, I)`` about the world origin in world axes (the
     link frame at rotation ``R``, origin ``p``)."""
-    mass, let = body.mass, program.let
-    h_r, moved = moved_inertia(program, mass, body.first_moment, body.inertia, R, p)
-    inertia = [[None] * 3 for _ in range(3)]
-    for a in range(3):
-        for b in range(a, 3):
-            inertia[a][b] = inertia[b][a] = let(moved[a][b])
-    h = program.vector(_add(h_r, _times(p, mass)))
-    return mass, h, tuple(tuple(row) for row in inertia)  # type: ignore[return-value]
+    h_r, moved = moved_inertia(program, body.mass, body.first_moment, body.inertia, R, p)
+    inertia = program.symmetric(moved)
+    return body.mass, program.vector(_add(h_r, _times(p, body.mass))), inertia
 
 
 def _apply(inertia: Inertia, m: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
@@ -113,11 +108,8 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
             continue
         mass, h, J = composite[body.link]
         p_mass, p_h, p_J = composite[body.parent]
-        total = [[None] * 3 for _ in range(3)]
-        for a in range(3):
-            for b in range(a, 3):
-                total[a][b] = total[b][a] = let(p_J[a][b] + J[a][b])
-        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)), tuple(tuple(row) for row in total))  # type: ignore[assignment]
+        total = tree.program.symmetric([[p_J[a][b] + J[a][b] for b in range(3)] for a in range(3)])
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)), total)
         B[body.parent] = [[let(x + y) for x, y in zip(row_p, row)] for row_p, row in zip(B[body.parent], B[body.link])]
     by_link = {b.link: b for b in tree.bodies}
     C = [[_ZERO] * n for _ in range(n)]

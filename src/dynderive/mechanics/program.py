@@ -79,6 +79,15 @@ class Program:
             return tuple(self.let(v) for v in values)  # type: ignore[return-value]
         return tuple(self.let(v, meaning._replace(index=(k,))) for k, v in enumerate(values))  # type: ignore[return-value]
 
+    def symmetric(self, entries: Sequence[Sequence[sympy.Expr]], meaning: Meaning | None = None) -> Matrix3:
+        """A symmetric 3 x 3 matrix: the upper triangle of ``entries`` ``let`` row by row;
+        ``meaning`` (without index) gives entry (a, b) index (a, b)."""
+        rows: list[list[sympy.Expr]] = [[sympy.S.Zero] * 3 for _ in range(3)]
+        for a in range(3):
+            for b in range(a, 3):
+                rows[a][b] = rows[b][a] = self.let(entries[a][b], meaning and meaning._replace(index=(a, b)))
+        return tuple(tuple(row) for row in rows)  # type: ignore[return-value]
+
     @property
     def operations(self) -> int:
         """Arithmetic operations and function calls of the program."""

@@ -70,13 +70,11 @@ def add_to_parent(program: Program, composite: dict[str, Any], body: Any) -> Non
     p = body.position
     h_r, moved = moved_inertia(program, mass, h, inertia, body.rotation, p, body.link)
     p_mass, p_h, p_inertia = composite[body.parent]
-    total = [[None] * 3 for _ in range(3)]
-    for a in range(3):
-        for b in range(a, 3):
-            total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b], Meaning("Ic", body.parent, (a, b)))
+    total = program.symmetric([[p_inertia[a][b] + moved[a][b] for b in range(3)] for a in range(3)],
+                              Meaning("Ic", body.parent))
     composite[body.parent] = (let(p_mass + mass, Meaning("mc", body.parent)),
                               vec(_add(p_h, _add(h_r, [mass * x for x in p])), Meaning("hc", body.parent)),
-                              tuple(tuple(row) for row in total))
+                              total)
 
 
 def _pair(s: tuple[Vector, Vector], n: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> sympy.Expr:
@@ -206,9 +204,9 @@ def mass_matrix_program(robot: Robot, table: SymbolTable) -> Program:
     return tree.program
 
 
-def inverse_dynamics_program(robot: Robot, table: SymbolTable) -> Program:
-    """``M qdd + C qd + N`` by recursive Newton-Euler."""
-    tree = Tree(robot, table)
+def inverse_dynamics_program(robot: Robot, table: SymbolTable, tree: Tree | None = None) -> Program:
+    """``M qdd + C qd + N`` by recursive Newton-Euler (on ``tree``'s program, if given)."""
+    tree = tree or Tree(robot, table)
     tree.program.outputs = _newton_euler(tree, table.qd, table.qdd)
     return tree.program
 
