@@ -21,7 +21,7 @@ from .mechanics.programs import build_programs
 from .mechanics.recursive import GeneralizedProgram
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
-from .model.naming import body_jacobian_index
+from .model.naming import body_jacobian_index, frame_quantity_names
 from .model.robot import Robot
 from .model.symbols import SymbolTable
 
@@ -176,9 +176,8 @@ class Derivation:
             add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS),
                        frozenset({"maximal"})))
         if robot.frames and not self.intermediate_form:
-            from .mechanics.frames import frame_quantity_names
-
-            add(_Stage(self._frames, frozenset(frame_quantity_names(robot))))
+            names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
+            add(_Stage(self._frames, frozenset(names)))
 
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
