@@ -234,13 +234,13 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
         known = links_broken or parent in bad_link_names
         if "parent" in item and parent != "world" and parent not in link_names and not known:
             v.error(path + ("parent",), f"{v.label(('joints', i, 'parent'))}: unknown link {parent!r}"
-                    + _did_you_mean(parent, [*link_names, "world"]))
+                    + did_you_mean(parent, [*link_names, "world"]))
         if "child" in item:
             if child == "world":
                 v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: 'world' cannot be a child")
             elif child not in link_names and not (links_broken or child in bad_link_names):
                 v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: unknown link {child!r}"
-                        + _did_you_mean(child, list(link_names)))
+                        + did_you_mean(child, list(link_names)))
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
         axis = _axis(v, item, path, jtype, planar, symbols, defaults)
         effort = item.get("effort")
@@ -285,7 +285,7 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
             end = item.get(role)
             if role in item and end != "world" and end not in tree.names and not (tree.broken or end in tree.bad):
                 v.error(path + (role,), f"{v.label(path + (role,))}: unknown link {end!r}"
-                        + _did_you_mean(end, [*tree.names, "world"]))
+                        + did_you_mean(end, [*tree.names, "world"]))
             ends.append(end)
         if "parent" in item and "child" in item and ends[0] == ends[1]:
             v.error(path + ("child",), f"{v.label(path + ('child',))}: a loop joint needs two different links "
@@ -386,10 +386,6 @@ def _looks_numeric(text: str) -> bool:
         return math.isfinite(float(text.strip()))
     except ValueError:
         return False
-
-
-def _did_you_mean(value: Any, options: list[str]) -> str:
-    return did_you_mean(str(value), options)
 
 
 def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,

@@ -272,7 +272,6 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     return program
 
 
-
 def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
     """``d expr / d symbol`` for a program line: sums, products and integer powers of names
     and numbers, by the sum and product rules (SymPy's general ``diff`` costs several times
