@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, MutableMapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import sympy
@@ -20,7 +21,7 @@ from .mechanics.programs import build_programs
 from .mechanics.recursive import GeneralizedProgram
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
-from .model.naming import body_jacobian_index
+from .model.naming import body_jacobian_index, frame_quantity_names
 from .model.robot import Robot
 from .model.symbols import SymbolTable
 
@@ -163,10 +164,6 @@ class Derivation:
         self.quantities = LazyMapping(self._stages, "quantities")
         self.steps = LazyMapping(self._stages, "steps")
         self._checks: list[Check] | None = None
-        self._programs: dict[str, Program] | None = None
-        self._generalized_program: GeneralizedProgram | None = None
-        self._recursion: Any = None
-        self._loop_linearization: tuple[sympy.Matrix, sympy.Matrix] | None = None
         add = self._stages.add
         add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
         add(_Stage(self._applied_forces, frozenset({"Y_g"})))
@@ -179,12 +176,8 @@ class Derivation:
             add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS),
                        frozenset({"maximal"})))
         if robot.frames and not self.intermediate_form:
-            from .mechanics.frames import frame_quantity_names
-
-            add(_Stage(self._frames, frozenset(frame_quantity_names(robot))))
-        self._frame_programs: list[Any] | None = None
-        self._configuration_programs: dict[str, Any] | None = None
-        self._quasi_velocity_steps: Any = None
+            names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
+            add(_Stage(self._frames, frozenset(names)))
 
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
@@ -312,18 +305,16 @@ class Derivation:
                     f"of mass in the link's own axes per joint rate, rows {rows}")
         return DESCRIPTIONS.get(name) or describe(name) or ""
 
-    @property
+    @cached_property
     def frame_programs(self) -> list[Any]:
         """Straight-line programs of the frames' poses, Jacobians and ``Jdot qd``
         (``mechanics.frames.FramePrograms``, also a tuple ``(name, transform, jacobian,
         jacobian_dot_qd)``), for the generated module; built on first use."""
-        if self._frame_programs is None:
-            from .mechanics.frames import frame_programs
+        from .mechanics.frames import frame_programs
 
-            if self.robot.frames:
-                self.report(f"program: frames ({len(self.robot.frames)})")
-            self._frame_programs = frame_programs(self.robot, self.symbols)
-        return self._frame_programs
+        if self.robot.frames:
+            self.report(f"program: frames ({len(self.robot.frames)})")
+        return frame_programs(self.robot, self.symbols)
 
     @property
     def intermediates(self) -> list[tuple[sympy.Symbol, sympy.Expr]]:
@@ -360,29 +351,25 @@ class Derivation:
         run that writes only code reports no checks rather than deriving everything for them."""
         return self._checks or []
 
-    @property
+    @cached_property
     def configuration_programs(self) -> dict[str, Any]:
         """The configuration maps ``neutral_configuration``, ``integrate``, ``difference`` and
         ``configuration_rate`` as target-neutral programs, joint by joint from the joint types
         (``mechanics.joint_types.configuration_programs``); built on first use."""
-        if self._configuration_programs is None:
-            from .mechanics.joint_types import configuration_programs
+        from .mechanics.joint_types import configuration_programs
 
-            self._configuration_programs = configuration_programs(self.robot, self.symbols)
-        return self._configuration_programs
+        return configuration_programs(self.robot, self.symbols)
 
-    @property
+    @cached_property
     def quasi_velocity_steps(self) -> Any:
         """A robot with quaternion joints: its sheet quantities in quasi-velocities
         (``mechanics.quasi_velocity.QuasiVelocitySteps``: step by step when small, Y, the
         joints' rotations), derived once on first use."""
-        if self._quasi_velocity_steps is None:
-            from .mechanics.quasi_velocity import quasi_velocity_steps
+        from .mechanics.quasi_velocity import quasi_velocity_steps
 
-            self._quasi_velocity_steps = quasi_velocity_steps(self.robot, self.symbols)
-        return self._quasi_velocity_steps
+        return quasi_velocity_steps(self.robot, self.symbols)
 
-    @property
+    @cached_property
     def programs(self) -> dict[str, Program]:
         """Straight-line programs of the recursive algorithms over the robot's one tree
         (``mechanics/programs.py``), by what they compute: ``inverse_dynamics``,
@@ -390,42 +377,34 @@ class Derivation:
         robot, and ``mass_matrix``, ``coriolis``, ``gravity``, ``potential`` where the code is
         structured (``structured_code``). Built once, on first use, straight from the robot: a
         run that writes only code never derives the symbolic matrices."""
-        if self._programs is None:
-            generalized = (lambda: self.generalized_program) if self.structured_code else None
-            self._programs = build_programs(self.robot, self.symbols, generalized, self.report)
-        return self._programs
+        generalized = (lambda: self.generalized_program) if self.structured_code else None
+        return build_programs(self.robot, self.symbols, generalized, self.report)
 
-    @property
+    @cached_property
     def loop_linearization(self) -> tuple[sympy.Matrix, sympy.Matrix]:
         """What ``linearize`` of a closed-loop robot needs beyond Newton-Euler's derivatives
         (``mechanics.linearization.loop_linearization_terms``: ``d(A_g^T lambda_g)/dq`` and
         ``d(A_g qdd + Adot_g qd)/dq``), built once for every code target."""
-        if self._loop_linearization is None:
-            from .mechanics.linearization import loop_linearization_terms
+        from .mechanics.linearization import loop_linearization_terms
 
-            self._loop_linearization = loop_linearization_terms(self.quantities, self.symbols)
-        return self._loop_linearization
+        return loop_linearization_terms(self.quantities, self.symbols)
 
-    @property
+    @cached_property
     def generalized_program(self) -> GeneralizedProgram:
         """The one straight-line program of M, C, N and V (``recursive.GeneralizedProgram``)
         that both the generated module and the intermediate-variable form read, built on first
         use."""
-        if self._generalized_program is None:
-            self._symbolic("the generalized program (M, C, N, V)")
-            self._generalized_program = GeneralizedProgram(self.robot, self.symbols, self.report)
-        return self._generalized_program
+        self._symbolic("the generalized program (M, C, N, V)")
+        return GeneralizedProgram(self.robot, self.symbols, self.report)
 
-    @property
+    @cached_property
     def recursion(self) -> Any:
         """Newton-Euler and CRBA as one program whose lines record their meaning
         (``mechanics.recursion.Recursion``), for a large robot's sheet; built on first use."""
-        if self._recursion is None:
-            from .mechanics.recursion import newton_euler_recursion
+        from .mechanics.recursion import newton_euler_recursion
 
-            self._symbolic("the recursion of the sheet")
-            self._recursion = newton_euler_recursion(self.robot, self.symbols)
-        return self._recursion
+        self._symbolic("the recursion of the sheet")
+        return newton_euler_recursion(self.robot, self.symbols)
 
     @property
     def parameter_vector(self) -> list[Any]:

@@ -15,7 +15,6 @@ from typing import Any
 from ..model.naming import did_you_mean
 from ..model.robot import Frame
 from .names import EngineQuantities, check_frame
-from .validator import kind
 
 FRAME_KEYS = ("name", "link", "origin")
 
@@ -26,25 +25,9 @@ def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_b
     """The frames, every problem reported on the validator ``v`` (a frame naming a link that
     is already reported as bad is not reported again; a frame whose quantities would be named
     as one of ``engine``'s, ``names.engine_quantities``, is refused)."""
-    if "frames" not in top:
-        return []
-    raw = top["frames"]
-    if not isinstance(raw, list) or not raw:
-        v.error(("frames",), f"frames: expected a non-empty list of frames, got {kind(raw, empty=True)}")
-        return []
     frames: list[Frame] = []
-    taken: dict[str, tuple[Any, ...]] = {}
-    for i, item_raw in enumerate(raw):
-        path = ("frames", i)
-        item = v.mapping(item_raw, path, FRAME_KEYS, required=("name", "link"))
-        if item is None:
-            continue
-        name = v.identifier(item.get("name"), path + ("name",), "frame name") if "name" in item else None
-        if name is not None and name in taken:
-            v.error(path + ("name",), f"{v.label(path + ('name',))}: duplicate frame name '{name}' "
-                    f"(first at {v.at(taken[name])})")
-        elif name is not None:
-            taken[name] = path + ("name",)
+    for i, path, item, name, new in v.named_items(top, "frames", "frame", FRAME_KEYS, ("name", "link"), {}):
+        if new:
             check_frame(v, name, path + ("name",), planar, engine or {})
         link = item.get("link")
         if "link" in item and link not in link_names and not (links_broken or link in bad_links):

@@ -251,7 +251,7 @@ def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Wr
     """The robot file's links with their inertias judged (``v``: the validator, for errors
     and positions): refused beyond the tolerance, corrected within it when every entry is a
     number (a note says so), kept as written when some entry is an expression."""
-    moved = _moved(joints)
+    moved = moved_links({j.child: (j.parent, j.moves) for j in joints})
     scale = max((size(w.tensor) for w in written if w is not None and w.tensor is not None), default=0.0)
     result = []
     for link, w in zip(links, written):
@@ -295,23 +295,23 @@ def _yaml_note(v: Any, path: tuple[Any, ...], message: str) -> None:
     v.doc.notes.append(f"{v.doc.file}:{line}:{column}: note: {message}")
 
 
-def _moved(joints: list[Joint]) -> set[str]:
-    """Links below a moving joint (the others are welded to the world); lenient with a
-    broken tree, which is reported on its own."""
-    parent = {j.child: j for j in joints}
+def moved_links(parents: dict[str, tuple[str, bool]]) -> set[str]:
+    """Links below a moving joint (``parents``: each link's parent link and whether the joint
+    between them moves); the others are welded to the world (to the root, in a valid tree).
+    Linear time; lenient with a broken tree, which is reported on its own."""
     moved: dict[str, bool] = {}
-    for name in parent:
+    for name in parents:
         chain: list[str] = []
         current, answer = name, None
         while answer is None:
             if current in moved:
                 answer = moved[current]
-            elif current not in parent or current in chain:
+            elif current not in parents or current in chain:  # a root, or a cycle
                 answer = False
             else:
                 chain.append(current)
-                if parent[current].moves:
+                current, moves = parents[current]
+                if moves:
                     answer = True
-                current = parent[current].parent
         moved.update(dict.fromkeys(chain, answer))
     return {name for name, yes in moved.items() if yes}

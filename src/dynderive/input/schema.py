@@ -222,22 +222,8 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
     defaults = v.evaluate
     link_names, bad_link_names, links_broken = tree.names, tree.bad, tree.broken
     joints: list[Joint] = []
-    raw_joints = top.get("joints")
-    if "joints" in top and (not isinstance(raw_joints, list) or not raw_joints):
-        v.error(("joints",), f"joints: expected a non-empty list of joints, got {_kind(raw_joints, empty=True)}")
-        raw_joints = []
-    joint_names: dict[str, tuple[Any, ...]] = {}
-    for i, raw in enumerate(raw_joints or []):
-        path = ("joints", i)
-        item = v.mapping(raw, path, JOINT_KEYS, required=("name", "type", "parent", "child"))
-        if item is None:
-            continue
-        jname = v.identifier(item.get("name"), path + ("name",), "joint name") if "name" in item else None
-        if jname is not None and jname in joint_names:
-            v.error(path + ("name",), f"{v.label(('joints', i, 'name'))}: duplicate joint name '{jname}' "
-                    f"(first at {v.at(joint_names[jname])})")
-        elif jname:
-            joint_names[jname] = path + ("name",)
+    required = ("name", "type", "parent", "child")
+    for i, path, item, jname, _ in v.named_items(top, "joints", "joint", JOINT_KEYS, required, {}):
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
             extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype), "")
@@ -248,13 +234,13 @@ def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str,
         known = links_broken or parent in bad_link_names
         if "parent" in item and parent != "world" and parent not in link_names and not known:
             v.error(path + ("parent",), f"{v.label(('joints', i, 'parent'))}: unknown link {parent!r}"
-                    + _did_you_mean(parent, [*link_names, "world"]))
+                    + did_you_mean(parent, [*link_names, "world"]))
         if "child" in item:
             if child == "world":
                 v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: 'world' cannot be a child")
             elif child not in link_names and not (links_broken or child in bad_link_names):
                 v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: unknown link {child!r}"
-                        + _did_you_mean(child, list(link_names)))
+                        + did_you_mean(child, list(link_names)))
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
         axis = _axis(v, item, path, jtype, planar, symbols, defaults)
         effort = item.get("effort")
@@ -280,28 +266,14 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
     """The optional ``loops`` list: loop-closing joints between two links (or a link and the
     world) of the spanning tree. Their constraints are derived, and checked for redundancy
     and assembly, by ``mechanics/loops.py``."""
-    if "loops" not in top:
-        return []
-    raw = top["loops"]
-    if not isinstance(raw, list) or not raw:
-        v.error(("loops",), f"loops: expected a non-empty list of loop joints, got {_kind(raw, empty=True)}")
-        return []
     types = LOOP_TYPES[planar]
     raw_joints = top.get("joints") if isinstance(top.get("joints"), list) else []
     taken = {item["name"]: ("joints", k, "name") for k, item in reversed(list(enumerate(raw_joints)))
              if isinstance(item, dict) and isinstance(item.get("name"), str)}
     loops: list[LoopJoint] = []
-    for i, item_raw in enumerate(raw):
-        path = ("loops", i)
-        item = v.mapping(item_raw, path, LOOP_KEYS, required=("name", "type", "parent", "child"))
-        if item is None:
-            continue
-        name = v.identifier(item.get("name"), path + ("name",), "loop joint name") if "name" in item else None
-        if name is not None and name in taken:
-            v.error(path + ("name",), f"{v.label(path + ('name',))}: name '{name}' is already used by a joint "
-                    f"or another loop joint (first at {v.at(taken[name])})")
-        elif name is not None:
-            taken[name] = path + ("name",)
+    clash = "name '{name}' is already used by a joint or another loop joint"
+    for i, path, item, name, _ in v.named_items(top, "loops", "loop joint", LOOP_KEYS,
+                                                ("name", "type", "parent", "child"), taken, clash):
         ltype = item.get("type")
         if "type" in item and ltype not in types:
             kind = "planar" if planar else "3-D"
@@ -313,7 +285,7 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
             end = item.get(role)
             if role in item and end != "world" and end not in tree.names and not (tree.broken or end in tree.bad):
                 v.error(path + (role,), f"{v.label(path + (role,))}: unknown link {end!r}"
-                        + _did_you_mean(end, [*tree.names, "world"]))
+                        + did_you_mean(end, [*tree.names, "world"]))
             ends.append(end)
         if "parent" in item and "child" in item and ends[0] == ends[1]:
             v.error(path + ("child",), f"{v.label(path + ('child',))}: a loop joint needs two different links "
@@ -414,10 +386,6 @@ def _looks_numeric(text: str) -> bool:
         return math.isfinite(float(text.strip()))
     except ValueError:
         return False
-
-
-def _did_you_mean(value: Any, options: list[str]) -> str:
-    return did_you_mean(str(value), options)
 
 
 def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,

@@ -46,7 +46,8 @@ def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
     to the world (fixed joints up to a link without a parent) never enter the dynamics: what
     is wrong with them is a note, not an error. With ``floating_base`` (``--floating-base``)
     the root floats, so no link is welded to the world: every body is judged as a moving one."""
-    moved = set(bodies) if floating_base else moved_links(joints)
+    moved = set(bodies) if floating_base else inertia.moved_links({j["child"]: (j["parent"], j["type"] != "fixed")
+                                                                   for j in joints})
     written = {name: body.written for name, body in bodies.items() if body.written is not None}
     scale = max(map(inertia.size, written.values()), default=0.0)
     for name, body in bodies.items():
@@ -70,28 +71,6 @@ def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
             _note(reader, doc, element, f"link '{name}' inertia: {verdict.note}")
         if verdict.tensor is not written[name] and body.axes is not None:
             body.inertia = body.axes @ verdict.tensor @ body.axes.T
-
-
-def moved_links(joints: list[dict[str, Any]]) -> set[str]:
-    """Links below a moving joint; the others are welded to the world (to the root, in a valid
-    tree). Linear time; lenient with a broken tree (reported later)."""
-    parent_joint = {j["child"]: j for j in joints}
-    moved: dict[str, bool] = {}
-    for name in parent_joint:
-        chain: list[str] = []
-        current, answer = name, None
-        while answer is None:
-            if current in moved:
-                answer = moved[current]
-            elif current not in parent_joint or current in chain:  # a root, or a cycle
-                answer = False
-            else:
-                chain.append(current)
-                if parent_joint[current]["type"] != "fixed":
-                    answer = True
-                current = parent_joint[current]["parent"]
-        moved.update(dict.fromkeys(chain, answer))
-    return {name for name, yes in moved.items() if yes}
 
 
 def _note(reader: _Reader, doc: SourceDocument, element: _Element, message: str) -> None:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import keyword
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from typing import Any
 
 import sympy
@@ -74,6 +74,30 @@ class Validator:
             if key not in value:
                 self.error(path, f"{self.label(path)}: missing required key '{key}'")
         return value
+
+    def named_items(self, top: dict[str, Any], key: str, what: str, allowed: Iterable[str], required: Iterable[str],
+                    taken: dict[str, tuple[Any, ...]], clash: str = "duplicate {what} name '{name}'"
+                    ) -> Iterator[tuple[int, tuple[Any, ...], dict[str, Any], str | None, bool]]:
+        """The mappings of the non-empty list ``top[key]`` (an error if it is something else),
+        each as ``(i, path, item, name, new)``: ``name`` its ``name`` if an identifier (a
+        ``what`` name), ``new`` whether no entry of ``taken`` (name -> path, updated) has it."""
+        raw = top.get(key)
+        if key in top and (not isinstance(raw, list) or not raw):
+            self.error((key,), f"{key}: expected a non-empty list of {what}s, got {kind(raw, empty=True)}")
+            return
+        for i, value in enumerate(raw or []):
+            path = (key, i)
+            item = self.mapping(value, path, allowed, required)
+            if item is None:
+                continue
+            name = self.identifier(item.get("name"), path + ("name",), f"{what} name") if "name" in item else None
+            new = name is not None and name not in taken
+            if name is not None and not new:
+                self.error(path + ("name",), f"{self.label(path + ('name',))}: {clash.format(what=what, name=name)} "
+                           f"(first at {self.at(taken[name])})")
+            elif new:
+                taken[name] = path + ("name",)   # type: ignore[index]
+            yield i, path, item, name, new
 
     def identifier(self, value: Any, path: tuple[Any, ...], what: str, key: bool = False) -> str | None:
         if not isinstance(value, str) or not IDENTIFIER.match(value):

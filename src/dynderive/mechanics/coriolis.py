@@ -21,17 +21,14 @@ from collections.abc import Sequence
 
 import sympy
 
-from .program import Matrix3, Vector, _add, _cross, _dot, _rotate
-from .tree import Tree
+from .program import Matrix3, Program, Vector, _add, _cross, _rotate, _times
+from .recursive import moved_inertia
+from .tree import Body, Tree
 
 _ZERO = sympy.Integer(0)
 _HALF = sympy.Rational(1, 2)
 Motion = tuple[Vector, Vector]
 Inertia = tuple[sympy.Expr, Vector, Matrix3]   # (m, h, I about the origin)
-
-
-def _times(vector: Sequence[sympy.Expr], scalar: sympy.Expr) -> tuple[sympy.Expr, ...]:
-    return tuple(x * scalar for x in vector)
 
 
 def _motion_cross(a: Motion, b: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
@@ -44,19 +41,12 @@ def _force_cross(m: Motion, f: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sy
     return _add(_cross(m[0], f[0]), _cross(m[1], f[1])), _cross(m[0], f[1])
 
 
-def _world_inertia(let, vec, body, R: Matrix3, p: Vector) -> Inertia:  # noqa: ANN001
+def _world_inertia(program: Program, body: Body, R: Matrix3, p: Vector) -> Inertia:
     """The link's spatial inertia ``(m, h, I)`` about the world origin in world axes (the
     link frame at rotation ``R``, origin ``p``)."""
-    h_r = vec(_rotate(R, body.first_moment))
-    inertia_rt = [[let(_dot(body.inertia[k], R[b])) for b in range(3)] for k in range(3)]   # I R^T
-    ph, pp, mass = _dot(p, h_r), _dot(p, p), body.mass
-    inertia = [[None] * 3 for _ in range(3)]
-    for a in range(3):
-        for b in range(a, 3):
-            inertia[a][b] = inertia[b][a] = let(
-                _dot(R[a], [inertia_rt[k][b] for k in range(3)]) + mass * ((pp if a == b else 0) - p[a] * p[b])
-                + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b])
-    return mass, vec(_add(h_r, _times(p, mass))), tuple(tuple(row) for row in inertia)  # type: ignore[return-value]
+    h_r, moved = moved_inertia(program, body.mass, body.first_moment, body.inertia, R, p)
+    inertia = program.symmetric(moved)
+    return body.mass, program.vector(_add(h_r, _times(p, body.mass))), inertia
 
 
 def _apply(inertia: Inertia, m: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
@@ -102,7 +92,7 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         velocity[body.link] = (w, v)
         for j, s in own:
             columns[body.link, j] = (body.link, s, tuple(vec(x) for x in _motion_cross((w, v), s)))  # type: ignore[assignment]
-        inertia = _world_inertia(let, vec, body, R, p)   # type: ignore[arg-type]
+        inertia = _world_inertia(tree.program, body, R, p)
         composite[body.link] = inertia
         momentum = tuple(vec(x) for x in _apply(inertia, (w, v)))
         B_columns = []   # B e_r = (v x* I e_r - I (v x e_r) + e_r x* I v) / 2
@@ -118,11 +108,8 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
             continue
         mass, h, J = composite[body.link]
         p_mass, p_h, p_J = composite[body.parent]
-        total = [[None] * 3 for _ in range(3)]
-        for a in range(3):
-            for b in range(a, 3):
-                total[a][b] = total[b][a] = let(p_J[a][b] + J[a][b])
-        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)), tuple(tuple(row) for row in total))  # type: ignore[assignment]
+        total = tree.program.symmetric([[p_J[a][b] + J[a][b] for b in range(3)] for a in range(3)])
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)), total)
         B[body.parent] = [[let(x + y) for x, y in zip(row_p, row)] for row_p, row in zip(B[body.parent], B[body.link])]
     by_link = {b.link: b for b in tree.bodies}
     C = [[_ZERO] * n for _ in range(n)]

@@ -66,11 +66,8 @@ def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
     ``k (m q + o - rest)^2 / 2 = m^2 k (q - (rest - o)/m)^2 / 2``: so the coordinate's terms
     are ``b + m^2 b_f``, ``fc + |m| fc_f``, ``Ia + m^2 Ia_f`` and (one spring per coordinate,
     the validator's rule) ``m^2 k_f`` about ``(rest_f - o)/m``."""
-    where_v = robot.offsets()[1]
-    return _drives(robot, table, {j.name: where_v[j.name] for j in robot.joints if j.owns and not j.multi})
+    index = robot.offsets()[1]
 
-
-def _drives(robot: Robot, table: SymbolTable, index: dict[str, int]) -> list[JointDrive]:
     def value(text: object) -> sympy.Expr:
         return sympy.Integer(0) if text is None else table.expr(text)
 

@@ -24,6 +24,7 @@ from typing import NamedTuple
 
 import sympy
 
+from ..model.naming import frame_quantity_names
 from ..model.robot import Frame, Robot
 from ..model.symbols import SymbolTable
 from .joints import couplings, unit
@@ -43,12 +44,6 @@ FRAME_DESCRIPTIONS = {
 }
 
 
-def frame_quantity_names(robot: Robot) -> list[str]:
-    """The names ``frame_quantities`` gives, in order."""
-    angle = "theta" if robot.planar else "R"
-    return [f"{kind}_{f.name}" for f in robot.frames for kind in ("p", angle, "J", "Jdot")]
-
-
 def describe(key: str) -> str | None:
     """The description of a frame quantity ``p_tool`` etc., or None for other names."""
     kind, _, name = key.partition("_")
@@ -57,7 +52,8 @@ def describe(key: str) -> str | None:
 
 
 def frame_quantities(robot: Robot, table: SymbolTable) -> dict[str, sympy.Matrix]:
-    """Symbolic pose, Jacobian and its time derivative of every frame, tidied entry by entry."""
+    """Symbolic pose, Jacobian and its time derivative of every frame, tidied entry by entry,
+    by the names ``naming.frame_quantity_names`` gives."""
     quantities: dict[str, sympy.Matrix] = {}
     q, qd = sympy.Matrix(table.q), table.qd
     for frame in robot.frames:
@@ -69,11 +65,8 @@ def frame_quantities(robot: Robot, table: SymbolTable) -> dict[str, sympy.Matrix
         linear = position.jacobian(q)
         jacobian = sympy.Matrix.vstack(linear, angular).applyfunc(tidy)
         rate = sum((jacobian.diff(qk) * rk for qk, rk in zip(table.q, qd)), sympy.zeros(*jacobian.shape))
-        angle_key = "theta" if robot.planar else "R"
-        quantities[f"p_{frame.name}"] = position.applyfunc(tidy)
-        quantities[f"{angle_key}_{frame.name}"] = orientation.applyfunc(tidy)
-        quantities[f"J_{frame.name}"] = jacobian
-        quantities[f"Jdot_{frame.name}"] = rate.applyfunc(tidy)
+        quantities.update(zip(frame_quantity_names(frame.name, robot.planar),
+                              (position.applyfunc(tidy), orientation.applyfunc(tidy), jacobian, rate.applyfunc(tidy))))
     return quantities
 
 
@@ -157,7 +150,8 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
     trig = {expr: name for name, expr in tree.trig}
     built = []
     for frame in robot.frames:
-        rotation, position = _frame_pose(tree, poses, frame)
+        offset, shift = tree.placement(frame.origin)
+        rotation, position = tree.compose(poses[frame.link], offset.tolist(), shift)
         columns = _jacobian_columns(tree, poses, frame.link, position)
         if robot.planar:
             transform = [rotation[0][0], rotation[0][1], position[0], rotation[1][0], rotation[1][1], position[1],
@@ -191,20 +185,6 @@ def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
 Pose = tuple[tuple[Vector, Vector, Vector], Vector]
 
 
-def _frame_pose(tree: Tree, poses: dict[str, Pose], frame: Frame) -> Pose:
-    let, expr = tree.program.let, tree.table.expr
-    zero = sympy.Integer(0)
-    if tree.robot.planar:
-        x, y, yaw = (expr(e) for e in frame.origin)
-        z = roll = pitch = zero
-    else:
-        x, y, z, roll, pitch, yaw = (expr(e) for e in frame.origin)
-    offset = rpy_matrix(roll, pitch, yaw)
-    R_link, p_link = poses[frame.link]
-    R = tuple(tuple(let(sum((R_link[i][k] * offset[k, j] for k in range(3)), zero)) for j in range(3))
-              for i in range(3))
-    p = tuple(let(e) for e in _add(p_link, _rotate(R_link, (x, y, z))))
-    return R, p   # type: ignore[return-value]
 
 
 def _jacobian_columns(tree: Tree, poses: dict[str, Pose], link: str,

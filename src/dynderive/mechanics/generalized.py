@@ -85,10 +85,6 @@ class LinkTerms:
     potential: sympy.Expr
 
 
-def spatial_inertia_planar(mass: sympy.Expr, inertia: sympy.Expr) -> sympy.Matrix:
-    return sympy.diag(mass, mass, inertia)
-
-
 def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
                gravity: sympy.Matrix) -> list[LinkTerms]:
     """Per-link inertias, velocities and energies, planar or spatial."""
@@ -102,7 +98,7 @@ def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
         potential = clean(-mass * matmul(gravity.T, com)[0, 0])
         if robot.planar:
             inertia = table.expr(link.inertia[0])
-            G = spatial_inertia_planar(mass, inertia)
+            G = sympy.diag(mass, mass, inertia)
             kinetic = sympy.Rational(1, 2) * (mass * (velocity[0] ** 2 + velocity[1] ** 2)
                                               + inertia * velocity[2] ** 2)
             orientation = kin.angle
@@ -164,11 +160,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     if robot.planar or (robot.kinematic_size <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
         report("Lagrange's equations")
         steps = lagrange_steps(L, q, qd, qdd)
-        steps_tidy = {
-            "dL_dqd": tidy_matrix(steps.dL_dqd),
-            "ddt_dL_dqd": tidy_matrix(steps.ddt_dL_dqd),
-            "dL_dq": tidy_matrix(steps.dL_dq),
-        }
+        steps_tidy = {key: tidy_matrix(getattr(steps, key)) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")}
         # Lagrange's equations with Rayleigh's dissipation function and Coulomb friction:
         # d/dt dL/dqd - dL/dq + dD/dqd + fc sign(qd) = Y
         EOM_g1 = (steps.lhs + F - Y).applyfunc(tidy)

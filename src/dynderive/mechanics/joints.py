@@ -1,10 +1,6 @@
-"""The planar motion of the scalar joint kinds, and how a joint's variable depends on the
-coordinates (``Coupling``: a URDF ``<mimic>`` joint follows its leader's).
-
-A kind answers the few questions the planar kinematics asks: how the joint moves its child
-frame for a coordinate value (rotation and translation in the joint frame), and its unit
-twist in the joint frame. The joint types (``joint_types/``, which own everything else about
-a joint: nq, nv, 3-D motion, configuration maps) answer ``planar`` from ``KINDS``.
+"""What the scalar joint types' planar motion is (``PlanarMotion``, answered by
+``joint_types``' ``planar``), and how a joint's variable depends on the coordinates
+(``Coupling``: a URDF ``<mimic>`` joint follows its leader's).
 """
 
 from __future__ import annotations
@@ -25,37 +21,6 @@ class PlanarMotion:
     shift: Vector2
     #: Unit twist (vx, vy, omega) in the joint frame: the velocity per unit coordinate rate.
     twist: tuple[sympy.Expr, sympy.Expr, sympy.Expr]
-
-
-class JointKind:
-    moves = True
-
-    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
-        raise NotImplementedError
-
-
-class Revolute(JointKind):
-    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
-        zero = sympy.Integer(0)
-        return PlanarMotion(q, (zero, zero), (zero, zero, sympy.Integer(1)))
-
-
-class Prismatic(JointKind):
-    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
-        ux, uy = unit(axis)
-        zero = sympy.Integer(0)
-        return PlanarMotion(zero, (q * ux, q * uy), (ux, uy, zero))
-
-
-class Fixed(JointKind):
-    moves = False
-
-    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
-        zero = sympy.Integer(0)
-        return PlanarMotion(zero, (zero, zero), (zero, zero, zero))
-
-
-KINDS: dict[str, JointKind] = {"revolute": Revolute(), "prismatic": Prismatic(), "fixed": Fixed()}
 
 
 @dataclass(frozen=True)

@@ -69,26 +69,11 @@ def joint_constraints(joint: Joint, bodies: _Bodies) -> list[sympy.Expr]:
     """Constraints a joint imposes, each zero when it holds.
 
     Revolute: the joint point seen from both links coincides (2). Prismatic: no offset of
-    the child's frame across the axis, relative rotation fixed (2). Fixed: both (3).
+    the child's frame across the axis, relative rotation fixed (2). Fixed: both (3). The
+    rows of a loop joint whose child frame is the child's link frame (``loop_constraints``).
     """
-    table = bodies.table
-    ox, oy, theta = (table.expr(e) for e in joint.origin)
-    p_parent, phi_parent, com_parent = bodies.pose(joint.parent)
-    p_child, phi_child, com_child = bodies.pose(joint.child)
-    # the joint point, fixed in the parent; the child's link-frame origin, fixed in the child
-    joint_point = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
-    child_origin = p_child + _rot(phi_child, (-com_child[0], -com_child[1]))
-    rotation = phi_child - phi_parent - theta
-    if joint.type == "revolute":
-        gap = child_origin - joint_point
-        return [gap[0], gap[1]]
-    if joint.type == "fixed":
-        gap = child_origin - joint_point
-        return [gap[0], gap[1], rotation]
-    ax, ay = unit(tuple(table.expr(e) for e in joint.axis))
-    normal = _rot(phi_parent + theta, (-ay, ax))
-    offset = (normal.T * (child_origin - joint_point))[0, 0]
-    return [offset, rotation]
+    return loop_constraints(LoopJoint(joint.name, joint.type, joint.parent, joint.child, joint.origin, (0, 0, 0),
+                                      joint.axis), bodies)
 
 
 def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
@@ -184,7 +169,7 @@ def maximal_body_jacobian(k: int, table: SymbolTable) -> sympy.Matrix:
 def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     """The rows of a loop-closing joint in maximal coordinates, in the order of
     ``mechanics/loops.py``: revolute, the loop frames' origins coincide (2); prismatic, no
-    offset across the axis and no relative rotation (2)."""
+    offset across the axis and no relative rotation (2); fixed (a tree's joint), both (3)."""
     table = bodies.table
     ox, oy, theta = (table.expr(e) for e in loop.origin)
     cx, cy, child_theta = (table.expr(e) for e in loop.child_origin)
@@ -193,11 +178,12 @@ def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     point_parent = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
     point_child = p_child + _rot(phi_child, (cx - com_child[0], cy - com_child[1]))
     gap = point_child - point_parent
-    if loop.type == "revolute":
-        return [gap[0], gap[1]]
+    rotation = (phi_child + child_theta) - (phi_parent + theta)
+    if loop.type != "prismatic":
+        return [gap[0], gap[1]] + ([rotation] if loop.type == "fixed" else [])
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
     normal = _rot(phi_parent + theta, (-uy, ux))
-    return [(normal.T * gap)[0, 0], (phi_child + child_theta) - (phi_parent + theta)]
+    return [(normal.T * gap)[0, 0], rotation]
 
 
 def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinematics],

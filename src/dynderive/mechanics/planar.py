@@ -15,7 +15,7 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
-from .joints import KINDS
+from .joint_types import joint_type
 
 
 @dataclass
@@ -117,7 +117,7 @@ def planar_kinematics(robot: Robot, table: SymbolTable) -> list[PlanarLinkKinema
             x, y, theta = (table.expr(e) for e in joint.origin)
             position.add(angle, (x, y))
             angle = angle + theta
-            kind = KINDS[joint.type]
+            kind = joint_type(joint.type)
             q = table.q[index_of[joint.name]] if kind.moves else sympy.Integer(0)
             axis = tuple(table.expr(e) for e in joint.axis)
             motion = kind.planar(q, axis)  # type: ignore[arg-type]

@@ -8,7 +8,7 @@ computed twice gets one name, so lines never grow. Every target's printer (NumPy
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -79,6 +79,15 @@ class Program:
             return tuple(self.let(v) for v in values)  # type: ignore[return-value]
         return tuple(self.let(v, meaning._replace(index=(k,))) for k, v in enumerate(values))  # type: ignore[return-value]
 
+    def symmetric(self, entries: Sequence[Sequence[sympy.Expr]], meaning: Meaning | None = None) -> Matrix3:
+        """A symmetric 3 x 3 matrix: the upper triangle of ``entries`` ``let`` row by row;
+        ``meaning`` (without index) gives entry (a, b) index (a, b)."""
+        rows: list[list[sympy.Expr]] = [[sympy.S.Zero] * 3 for _ in range(3)]
+        for a in range(3):
+            for b in range(a, 3):
+                rows[a][b] = rows[b][a] = self.let(entries[a][b], meaning and meaning._replace(index=(a, b)))
+        return tuple(tuple(row) for row in rows)  # type: ignore[return-value]
+
     @property
     def operations(self) -> int:
         """Arithmetic operations and function calls of the program."""
@@ -121,6 +130,10 @@ def _add(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> tuple[sympy.Expr, 
     return tuple(x + y for x, y in zip(a, b))
 
 
+def _times(vector: Sequence[sympy.Expr], scalar: sympy.Expr) -> tuple[sympy.Expr, ...]:
+    return tuple(x * scalar for x in vector)
+
+
 def _rotate(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
     return tuple(_dot(row, v) for row in R)
 
@@ -128,16 +141,6 @@ def _rotate(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
 def _rotate_back(R: Matrix3, v: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
     """``R^T v``."""
     return tuple(R[0][k] * v[0] + R[1][k] * v[1] + R[2][k] * v[2] for k in range(3))
-
-
-def add_column(vec: Callable[..., Vector], present: tuple[Vector, Vector] | None,
-               column: tuple[Vector, Vector]) -> tuple[Vector, Vector]:
-    """A joint's motion axis ``(w, v)`` added to its coordinate's column carried from above:
-    the column itself for a joint with a coordinate of its own, the sum for a <mimic> joint
-    below its leader."""
-    if present is None:
-        return column
-    return vec(_add(present[0], column[0])), vec(_add(present[1], column[1]))
 
 
 def part_of(lines: Sequence[tuple[sympy.Symbol, sympy.Expr]], outputs: Sequence[sympy.Expr]) -> Program:

@@ -19,6 +19,7 @@ from .recursive import (
     _newton_euler,
     _potential,
     forward_dynamics_program,
+    inverse_dynamics_program,
 )
 from .regressor import regressor_program
 from .tree import ZERO, Tree, efforts
@@ -50,9 +51,7 @@ def build_programs(robot: Robot, table: SymbolTable, generalized: Callable[[], G
             tree.program.outputs = outputs(tree)
             programs[name] = tree.program
     report("program: inverse dynamics" + (" and forward dynamics" if not robot.loops else ""))
-    tree = base.copy()
-    tree.program.outputs = _newton_euler(tree, table.qd, table.qdd)
-    programs["inverse_dynamics"] = tree.program
+    programs["inverse_dynamics"] = inverse_dynamics_program(robot, table, base.copy())
     if not robot.loops:   # closed loops solve a KKT system in the module instead
         programs["forward_dynamics"] = forward_dynamics_program(robot, table, efforts(robot, table), base.copy())
     report("program: regressor")

@@ -49,7 +49,6 @@ MEANINGS = {
 }
 
 
-
 @dataclass
 class Recursion:
     """The sheet's recursion: ``program`` (lines, ``labels``, ``records`` in the order built:
@@ -69,8 +68,6 @@ class Recursion:
 def newton_euler_recursion(robot: Robot, table: SymbolTable) -> Recursion:
     """Newton-Euler (symbolic q, qd, qdd) and CRBA over one labelled program (module doc)."""
     tree = Tree(robot, table)
-    program, trig = tree.program, tree.trig
-    tau = _newton_euler(tree, table.qd, table.qdd)
-    mass_matrix = _composite_mass_matrix(tree)
-    return Recursion(program, trig, tau, mass_matrix, {b.link: b.parent for b in tree.bodies},
-                     [b.link for b in tree.bodies])
+    tau = _newton_euler(tree, table.qd, table.qdd)   # its lines first, then CRBA's
+    return Recursion(tree.program, tree.trig, tau, _composite_mass_matrix(tree),
+                     {b.link: b.parent for b in tree.bodies}, [b.link for b in tree.bodies])

@@ -32,6 +32,7 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .program import (
+    Matrix3,
     Meaning,
     Program,
     Vector,
@@ -40,16 +41,25 @@ from .program import (
     _dot,
     _rotate,
     _rotate_back,
-    add_column,
+    _times,
     lines_read,
     part_of,
 )
 from .tree import ZERO, Body, Tree, gravity
 
 
-def _start(robot: Robot, table: SymbolTable) -> tuple[Program, Tree]:
-    tree = Tree(robot, table)
-    return tree.program, tree
+def moved_inertia(program: Program, mass: sympy.Expr, h: Vector, inertia: Matrix3, R: Matrix3, p: Vector,
+                  link: str | None = None) -> tuple[Vector, list[list[sympy.Expr]]]:
+    """A spatial inertia (``mass``, first moment ``h``, ``inertia`` about its frame's origin) of
+    a frame at rotation ``R`` and origin ``p`` in an outer frame, in the outer frame: ``R h``
+    (as lines; the caller adds ``mass p``) and the inertia about the outer origin (entries not
+    named). ``link``: record the lines' meanings (``hc_up``, ``IRt``)."""
+    h_r = program.vector(_rotate(R, h), None if link is None else Meaning("hc_up", link))
+    inertia_rt = [[program.let(_dot(inertia[k], R[b]), None if link is None else Meaning("IRt", link, (k, b)))
+                   for b in range(3)] for k in range(3)]   # I R^T
+    ph, pp = _dot(p, h_r), _dot(p, p)
+    return h_r, [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) + mass * ((pp if a == b else 0) - p[a] * p[b])
+                  + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
 
 
 def add_to_parent(program: Program, composite: dict[str, Any], body: Any) -> None:
@@ -57,27 +67,14 @@ def add_to_parent(program: Program, composite: dict[str, Any], body: Any) -> Non
     about its frame) expressed in its parent's frame and added to the parent's, as program lines."""
     let, vec = program.let, program.vector
     mass, h, inertia = composite[body.link]
-    R, p = body.rotation, body.position
-    h_r = vec(_rotate(R, h), Meaning("hc_up", body.link))
-    inertia_rt = [[let(_dot(inertia[k], R[b]), Meaning("IRt", body.link, (k, b))) for b in range(3)]
-                  for k in range(3)]   # I R^T
-    rotated = [[_dot(R[a], [inertia_rt[k][b] for k in range(3)]) for b in range(3)] for a in range(3)]
-    ph = _dot(p, h_r)
-    pp = _dot(p, p)
-    moved = [[rotated[a][b] + mass * ((pp if a == b else 0) - p[a] * p[b])
-              + (2 * ph if a == b else 0) - h_r[a] * p[b] - p[a] * h_r[b] for b in range(3)] for a in range(3)]
+    p = body.position
+    h_r, moved = moved_inertia(program, mass, h, inertia, body.rotation, p, body.link)
     p_mass, p_h, p_inertia = composite[body.parent]
-    total = [[None] * 3 for _ in range(3)]
-    for a in range(3):
-        for b in range(a, 3):
-            total[a][b] = total[b][a] = let(p_inertia[a][b] + moved[a][b], Meaning("Ic", body.parent, (a, b)))
+    total = program.symmetric([[p_inertia[a][b] + moved[a][b] for b in range(3)] for a in range(3)],
+                              Meaning("Ic", body.parent))
     composite[body.parent] = (let(p_mass + mass, Meaning("mc", body.parent)),
                               vec(_add(p_h, _add(h_r, [mass * x for x in p])), Meaning("hc", body.parent)),
-                              tuple(tuple(row) for row in total))
-
-
-def _times(vector: Sequence[sympy.Expr], scalar: sympy.Expr) -> list[sympy.Expr]:
-    return [x * scalar for x in vector]
+                              total)
 
 
 def _pair(s: tuple[Vector, Vector], n: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> sympy.Expr:
@@ -202,16 +199,16 @@ def _newton_euler(tree: Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr
 
 def mass_matrix_program(robot: Robot, table: SymbolTable) -> Program:
     """``M(q)`` by the composite-rigid-body algorithm; outputs row by row."""
-    program, tree = _start(robot, table)
-    program.outputs = [e for row in _composite_mass_matrix(tree) for e in row]
-    return program
+    tree = Tree(robot, table)
+    tree.program.outputs = [e for row in _composite_mass_matrix(tree) for e in row]
+    return tree.program
 
 
-def inverse_dynamics_program(robot: Robot, table: SymbolTable) -> Program:
-    """``M qdd + C qd + N`` by recursive Newton-Euler."""
-    program, tree = _start(robot, table)
-    program.outputs = _newton_euler(tree, table.qd, table.qdd)
-    return program
+def inverse_dynamics_program(robot: Robot, table: SymbolTable, tree: Tree | None = None) -> Program:
+    """``M qdd + C qd + N`` by recursive Newton-Euler (on ``tree``'s program, if given)."""
+    tree = tree or Tree(robot, table)
+    tree.program.outputs = _newton_euler(tree, table.qd, table.qdd)
+    return tree.program
 
 
 def friction_symbols(n: int) -> list[sympy.Symbol]:
@@ -273,7 +270,6 @@ def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence
     if robot.dissipative or robot.frames:
         program.extra_inputs = friction   # type: ignore[assignment]
     return program
-
 
 
 def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
@@ -423,10 +419,7 @@ def _body_jacobians(tree: Tree) -> dict[str, sympy.Matrix]:
     columns: dict[str, dict[int, tuple[Vector, Vector]]] = {"world": {}}
     jacobians = {}
     for body in tree.bodies:
-        own = {j: tree.motion_from_parent(body, w, v) for j, (w, v) in columns[body.parent].items()}
-        for j, sw, sv in body.columns:
-            own[j] = add_column(vec, own.get(j), (sw, sv))
-        columns[body.link] = own
+        own = columns[body.link] = tree.carry_columns(body, columns[body.parent])
         com = [tree.table.expr(e) for e in tree.robot.link(body.link).com] + ([sympy.Integer(0)] if tree.robot.planar else [])
         rows = 3 if tree.robot.planar else 6
         jacobian = sympy.zeros(rows, n)
@@ -448,7 +441,8 @@ class GeneralizedProgram:
     on which other outputs a run writes."""
 
     def __init__(self, robot: Robot, table: SymbolTable, report: Callable[[str], None] = lambda stage: None):
-        program, tree = _start(robot, table)
+        tree = Tree(robot, table)
+        program = tree.program
         self.program, self._tree = program, tree
         n = len(table.q)
         report(f"program: mass matrix (composite rigid bodies, {n} coordinates)")

@@ -50,7 +50,7 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import joint_drives
-from .program import Program, Vector, _dot, add_column
+from .program import Program, Vector, _dot
 from .recursive import _advance, body_force
 from .spatial import inertia_tensor
 from .tree import ZERO, Tree, gravity
@@ -143,12 +143,7 @@ def regressor_program(robot: Robot, table: SymbolTable, tree: Tree | None = None
         if body.link in tree.static:       # no joint moves it: zero columns
             axes[body.link] = {}
             continue
-        # the columns of the joints above, as motion vectors in this link's frame; a <mimic>
-        # joint's joins its leader's (G^T Y_joints)
-        own = {j: tree.motion_from_parent(body, w, v) for j, (w, v) in axes[body.parent].items()}
-        for j, sw, sv in body.columns:
-            own[j] = add_column(vec, own.get(j), (sw, sv))
-        axes[body.link] = own
+        own = axes[body.link] = tree.carry_columns(body, axes[body.parent])   # a <mimic> joint's: G^T Y_joints
         w, v, alpha, acc = motion[body.link]
         for kind in (PLANAR_KINDS if robot.planar else SPATIAL_KINDS):
             mass, h, inertia = _unit_parameters(kind)

@@ -147,13 +147,7 @@ class Tree:
 
     def _body(self, link, joint: Joint) -> Body:   # noqa: ANN001
         expr, let, planar = self.table.expr, self.program.let, self.robot.planar
-        if planar:   # the plane z = 0 of a 3-D model: rotations about z only
-            x, y, yaw = (expr(e) for e in joint.origin)
-            z = roll = pitch = ZERO
-        else:
-            x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
-        origin = rpy_matrix(roll, pitch, yaw)
-        position = [x, y, z]
+        origin, position = self.placement(joint.origin)
         motion, kind = sympy.eye(3), joint_types.of(joint)
         columns: list[Column] = []
         trig = None
@@ -174,12 +168,9 @@ class Tree:
                 axis = (ZERO, ZERO, w) if kind.turns else (vx, vy, ZERO)
             else:
                 axis = unit(tuple(expr(e) for e in joint.axis))
-            if kind.turns and joint.mimic is None:
-                cos, sin = sympy.Symbol(f"_cos{coordinate}"), sympy.Symbol(f"_sin{coordinate}")
-                motion = kind.rotation([q], axis).subs({sympy.cos(q): cos, sympy.sin(q): sin})
-                trig = (cos, sin, q)
-            elif kind.turns:   # a <mimic> joint: the sine and cosine of its own variable
-                cos, sin = (sympy.Symbol(f"_{f}{coordinate}_{len(self.bodies)}") for f in ("cos", "sin"))
+            if kind.turns:   # sine and cosine names: a <mimic> joint's of its own variable
+                suffix = "" if joint.mimic is None else f"_{len(self.bodies)}"
+                cos, sin = (sympy.Symbol(f"_{f}{coordinate}{suffix}") for f in ("cos", "sin"))
                 # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
                 turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
                 angle = sympy.Dummy("angle")
@@ -207,6 +198,23 @@ class Tree:
                     self.program.vector(position, Meaning("p", name)), mass,
                     self.program.vector([mass * c for c in com], Meaning("h", name)), inertia, trig)
 
+    def placement(self, values: Sequence[object]) -> tuple[sympy.Matrix, list[sympy.Expr]]:
+        """A joint's or a frame's ``origin`` (planar: x, y, yaw; the plane z = 0 of a 3-D model,
+        rotations about z only) as its rotation and position in its link's frame."""
+        entries = [self.table.expr(e) for e in values]
+        if self.robot.planar:
+            entries = [entries[0], entries[1], ZERO, ZERO, ZERO, entries[2]]
+        return rpy_matrix(*entries[3:]), entries[:3]
+
+    def compose(self, outer: tuple[Matrix3, Vector], rotation: Sequence[Sequence[sympy.Expr]],
+                position: Sequence[sympy.Expr]) -> tuple[Matrix3, Vector]:
+        """The pose ``(R, p)`` of a frame at ``rotation``, ``position`` in a frame at pose
+        ``outer`` (lines of this tree's program)."""
+        let, (R_outer, p_outer) = self.program.let, outer
+        R = tuple(tuple(let(sum((R_outer[i][k] * rotation[k][j] for k in range(3)), ZERO)) for j in range(3))
+                  for i in range(3))
+        return R, tuple(let(e) for e in _add(p_outer, _rotate(R_outer, position)))   # type: ignore[return-value]
+
     def force_to_parent(self, body: Body, n: Sequence[sympy.Expr], f: Sequence[sympy.Expr],
                         column: int = -1) -> tuple[Vector, Vector]:
         """A force (moment about the link origin, force) in the parent's frame: the joint's
@@ -229,19 +237,24 @@ class Tree:
         return (let(_rotate_back(body.rotation, w), angular),
                 let(_rotate_back(body.rotation, _add(v, _cross(w, body.position))), linear))
 
+    def carry_columns(self, body: Body, above: dict[int, tuple[Vector, Vector]]) -> dict[int, tuple[Vector, Vector]]:
+        """The motion columns ``(w, v)`` of the joints above ``body`` (``above``, by column of
+        ``qd``, in its parent's frame) in its frame, with its own joint's: a <mimic> joint's
+        summed into its leader's column (lines of this tree's program)."""
+        vec = self.program.vector
+        own = {j: self.motion_from_parent(body, w, v) for j, (w, v) in above.items()}
+        for j, sw, sv in body.columns:
+            own[j] = (sw, sv) if j not in own else (vec(_add(own[j][0], sw)), vec(_add(own[j][1], sv)))
+        return own
+
     def world_poses(self) -> dict[str, tuple[Matrix3, Vector]]:
         """Each link frame's world rotation and origin, carried from parent to child (lines of
         this tree's program)."""
-        let = self.program.let
         one = sympy.Integer(1)
         identity = ((one, ZERO, ZERO), (ZERO, one, ZERO), (ZERO, ZERO, one))
         poses: dict[str, tuple[Matrix3, Vector]] = {"world": (identity, (ZERO, ZERO, ZERO))}  # type: ignore[dict-item]
         for body in self.bodies:
-            R_parent, p_parent = poses[body.parent]
-            R = tuple(tuple(let(sum((R_parent[i][k] * body.rotation[k][j] for k in range(3)), ZERO)) for j in range(3))
-                      for i in range(3))
-            p = tuple(let(e) for e in _add(p_parent, _rotate(R_parent, body.position)))
-            poses[body.link] = (R, p)   # type: ignore[assignment]
+            poses[body.link] = self.compose(poses[body.parent], body.rotation, body.position)
         return poses
 
     def tangent_seeds(self) -> list[dict[sympy.Symbol, sympy.Expr]]:

@@ -112,7 +112,7 @@ def closest_name(name: str, candidates) -> str | None:
     return lowered[close[0]] if close else None
 
 
-def did_you_mean(name: str, candidates) -> str:
+def did_you_mean(name: object, candidates) -> str:
     """`` (did you mean 'x'?)`` for the closest candidate (``closest_name``), or ``""``."""
     close = closest_name(str(name), candidates)
     return f" (did you mean '{close}'?)" if close is not None else ""

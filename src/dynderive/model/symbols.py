@@ -41,24 +41,17 @@ class SymbolTable:
 
     @classmethod
     def for_robot(cls, robot: Robot) -> SymbolTable:
-        coords = robot.coordinates
-        table = cls(
-            parameters={p.name: sympy.Symbol(p.name) for p in robot.parameters},
-            q=[sympy.Symbol(n) for n in coords],
-            qd=[sympy.Symbol(velocity_name(n)) for n in coords],
-            qdd=[sympy.Symbol(acceleration_name(n)) for n in coords],
-            efforts={e: sympy.Symbol(e) for e in robot.efforts},
-        )
-        if robot.floating:   # NQ coordinates, NV velocities and accelerations (DESIGN.md section 10)
-            table.q, table.qd, table.qdd = [], [], []
-            for joint in (j for j in robot.joints if j.owns):
-                if joint.multi:
-                    q, v, a = floating_names(joint.name, joint.type)
-                else:
-                    q, v, a = [joint.name], [velocity_name(joint.name)], [acceleration_name(joint.name)]
-                table.q += [sympy.Symbol(n) for n in q]
-                table.qd += [sympy.Symbol(n) for n in v]
-                table.qdd += [sympy.Symbol(n) for n in a]
+        q: list[sympy.Symbol] = []
+        qd: list[sympy.Symbol] = []
+        qdd: list[sympy.Symbol] = []
+        for joint in (j for j in robot.joints if j.owns):   # NQ coordinates, NV rates (DESIGN.md section 10)
+            name = joint.name
+            names = floating_names(name, joint.type) if joint.multi else ([name], [velocity_name(name)],
+                                                                           [acceleration_name(name)])
+            for kept, entries in zip((q, qd, qdd), names):
+                kept += [sympy.Symbol(n) for n in entries]
+        table = cls(parameters={p.name: sympy.Symbol(p.name) for p in robot.parameters}, q=q, qd=qd, qdd=qdd,
+                    efforts={e: sympy.Symbol(e) for e in robot.efforts})
         if robot.planar:
             names = maximal_coordinate_names(len(robot.links))
             table.qm = [sympy.Symbol(n) for n in names]

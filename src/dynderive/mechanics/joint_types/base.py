@@ -23,7 +23,7 @@ from typing import ClassVar
 
 import sympy
 
-from ..joints import KINDS, PlanarMotion
+from ..joints import PlanarMotion
 
 Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
 Vector2 = tuple[sympy.Expr, sympy.Expr]
@@ -85,11 +85,9 @@ class JointType:
         raise NotImplementedError
 
     def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
-        """The motion in the plane z = 0 of a planar robot (``joints.py``'s kind of the same
-        name, which ``planar.py`` reads)."""
-        if self.name not in KINDS:
-            raise NotImplementedError(f"a {self.name} joint is not a planar robot's joint")
-        return KINDS[self.name].planar(q, axis)
+        """The motion in the plane z = 0 of a planar robot at variable ``q`` (``planar.py``
+        reads it); ``axis``: the joint's axis in the plane."""
+        raise NotImplementedError(f"a {self.name} joint is not a planar robot's joint")
 
     # --- configuration space -------------------------------------------------------------
     def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:

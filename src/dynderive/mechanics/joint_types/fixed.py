@@ -5,7 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from .base import Column, JointType
+import sympy
+
+from ..joints import PlanarMotion
+from .base import ZERO, Column, JointType, Vector2
 
 
 class Fixed(JointType):
@@ -15,3 +18,6 @@ class Fixed(JointType):
 
     def columns(self, axis: Sequence[object]) -> list[Column]:
         return []
+
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        return PlanarMotion(ZERO, (ZERO, ZERO), (ZERO, ZERO, ZERO))

@@ -20,32 +20,18 @@ import sympy
 
 from ...model.robot import FLOATING_CONFIGURATION, FLOATING_EFFORT, FLOATING_VELOCITY
 from ..program import _dot
-from .base import ONE, ZERO, ZERO3, Column, JointType, Let, basis, keep
-from .quaternion import (
-    exp3,
-    exp6_translation,
-    inverse,
-    log3,
-    log6_translation,
-    multiply,
-    normalized,
-    quaternion_matrix,
-    quaternion_rate,
-    quaternion_seeds,
-    rotate,
-)
+from .base import ZERO3, Column, Let, basis, keep
+from .quaternion import exp3, exp6_translation, inverse, log3, log6_translation, multiply, normalized, rotate
+from .spherical import Spherical
 
 
-class Floating(JointType):
+class Floating(Spherical):
     name = "floating"
     nq, nv = 7, 6
     configuration_suffixes = FLOATING_CONFIGURATION
     velocity_suffixes = FLOATING_VELOCITY
     effort_suffixes = FLOATING_EFFORT
     quaternion_start = 3
-
-    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:
-        return quaternion_matrix(*q[3:7])
 
     def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],
                      axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:
@@ -58,11 +44,8 @@ class Floating(JointType):
 
     def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
         """The position's tangent ``R(quaternion) e_k``, then the quaternion's."""
-        R = quaternion_matrix(*q[3:7])
-        return [{q[r]: let(R[r, k]) for r in range(3)} for k in range(3)] + quaternion_seeds(let, q[3:7])
-
-    def neutral(self) -> list[sympy.Expr]:
-        return [ZERO] * 6 + [ONE]
+        R = self.rotation(q)
+        return [{q[r]: let(R[r, k]) for r in range(3)} for k in range(3)] + super().tangent_seed(q[3:7], let)
 
     def integrate(self, let: Let, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr],
                   dt: sympy.Expr) -> list[sympy.Expr]:
@@ -82,4 +65,4 @@ class Floating(JointType):
         return [*log6_translation(let, p, w, theta), *w]
 
     def rate(self, let: Let, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> list[sympy.Expr]:
-        return [*rotate(let, q[3:7], v[:3]), *quaternion_rate(let, q[3:7], v[3:])]
+        return [*rotate(let, q[3:7], v[:3]), *super().rate(let, q[3:7], v[3:])]

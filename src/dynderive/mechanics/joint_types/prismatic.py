@@ -8,7 +8,8 @@ from collections.abc import Sequence
 
 import sympy
 
-from .base import ZERO3, Column, JointType
+from ..joints import PlanarMotion, unit
+from .base import ZERO, ZERO3, Column, JointType, Vector2
 
 
 class Prismatic(JointType):
@@ -22,3 +23,7 @@ class Prismatic(JointType):
     def columns(self, axis: Sequence[sympy.Expr]) -> list[Column]:
         """The axis, linear."""
         return [(ZERO3, tuple(axis))]  # type: ignore[list-item]
+
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        ux, uy = unit(axis)
+        return PlanarMotion(ZERO, (q * ux, q * uy), (ux, uy, ZERO))

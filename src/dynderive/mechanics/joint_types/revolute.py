@@ -7,8 +7,9 @@ from collections.abc import Sequence
 
 import sympy
 
+from ..joints import PlanarMotion
 from ..spatial import axis_angle
-from .base import ZERO3, Column, JointType
+from .base import ONE, ZERO, ZERO3, Column, JointType, Vector2
 
 
 class Revolute(JointType):
@@ -22,3 +23,6 @@ class Revolute(JointType):
     def columns(self, axis: Sequence[sympy.Expr]) -> list[Column]:
         """The axis, angular (the axis is the same in the joint and the child frame)."""
         return [(tuple(axis), ZERO3)]  # type: ignore[list-item]
+
+    def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
+        return PlanarMotion(q, (ZERO, ZERO), (ZERO, ZERO, ONE))

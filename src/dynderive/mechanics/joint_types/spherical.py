@@ -28,6 +28,9 @@ from .quaternion import (
 
 
 class Spherical(JointType):
+    """The ball joint; the free flyer (``free_flyer.py``) extends it, its quaternion at
+    ``quaternion_start``."""
+
     name = "spherical"
     nq, nv = 4, 3
     configuration_suffixes = SPHERICAL_CONFIGURATION
@@ -36,7 +39,7 @@ class Spherical(JointType):
     quaternion_start = 0
 
     def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:
-        return quaternion_matrix(*q)
+        return quaternion_matrix(*q[self.quaternion_start:self.quaternion_start + 4])
 
     def columns(self, axis: Sequence[sympy.Expr] = ()) -> list[Column]:
         """The three angular unit columns."""
@@ -46,7 +49,7 @@ class Spherical(JointType):
         return quaternion_seeds(let, q)
 
     def neutral(self) -> list[sympy.Expr]:
-        return [ZERO, ZERO, ZERO, ONE]
+        return [ZERO] * (self.nq - 1) + [ONE]
 
     def integrate(self, let: Let, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr],
                   dt: sympy.Expr) -> list[sympy.Expr]:
