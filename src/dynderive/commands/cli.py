@@ -320,6 +320,7 @@ def simulate(
     from .. import derive, load_robot
     from ..render.targets import reference
     from .integrate import method_name
+    from .options import require_scipy
     from .output import check_frames, check_output_paths, write_all
     from .simulate import (
         animation_gif,
@@ -352,11 +353,7 @@ def simulate(
     for option, path in (("--plot", plot), ("--animate", animate)):
         if path is not None:
             require_matplotlib(option)
-    try:
-        import scipy  # noqa: F401
-    except ImportError:
-        raise ToolMissingError("simulate needs SciPy, a dependency of dynderive that is missing here: "
-                               "pip install scipy") from None
+    require_scipy("simulate")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=True)

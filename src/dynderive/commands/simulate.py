@@ -79,9 +79,10 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
             hint = " (maximal runs take efforts of t only)" if maximal else ""
             raise InputError(Problem(where, 1, len(name) + 2 + exc.offset, f"{exc}{hint}")) from None
     values = table.defaults(robot)
-    functions = {name: checked(sympy.lambdify([t, table.q, table.qd], expr.xreplace(values), modules="numpy"),
-                               where, column, f"effort {name}") for name, (expr, where, column) in exprs.items()}
-    indices = [(robot.efforts.index(name), function) for name, function in functions.items()]
+    options = [(name, where, column, sympy.lambdify([t, table.q, table.qd], expr.xreplace(values), modules="numpy"))
+               for name, (expr, where, column) in exprs.items()]
+    indices = [(robot.efforts.index(name), checked(function, where, column, f"effort {name}"))
+               for name, where, column, function in options]
     size = len(robot.efforts)
 
     def efforts(time: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
@@ -89,9 +90,7 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
         for index, function in indices:
             u[index] = function(time, q, qd).reshape(-1)[0]
         return u
-    efforts.options = [(name, where, column, sympy.lambdify([t, table.q, table.qd], expr.xreplace(values),  # type: ignore[attr-defined]
-                                                            modules="numpy"))
-                       for name, (expr, where, column) in exprs.items()]
+    efforts.options = options  # type: ignore[attr-defined]
     return efforts
 
 
