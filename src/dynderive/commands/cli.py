@@ -179,9 +179,10 @@ def solve(
 ) -> None:
     """Derive the equations of motion of ROBOT. With no output flag, print them."""
     from .. import derive, load_robot
+    from ..render.sheets.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
     from .output import write_all
-    from .solve import Wanted, form_note, renderers, solve_outputs
+    from .solve import Wanted, form_note, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
@@ -205,7 +206,7 @@ def solve(
     if (note := form_note(model)) and not quiet:
         typer.echo(note, err=True)
     if printed:
-        typer.echo(renderers(derivation)["terminal"](derivation, shortened), nl=False)
+        typer.echo(render_terminal(derivation, shortened), nl=False)
         return
     wanted = Wanted(latex=latex, pdf=pdf, json=json_, tests=tests, html=html,
                     targets=frozenset(kind for kind, asked in targets.items() if asked))
@@ -320,6 +321,7 @@ def simulate(
     from .. import derive, load_robot
     from ..render.targets import reference
     from .integrate import method_name
+    from .options import require_scipy
     from .output import check_frames, check_output_paths, write_all
     from .simulate import (
         animation_gif,
@@ -352,11 +354,7 @@ def simulate(
     for option, path in (("--plot", plot), ("--animate", animate)):
         if path is not None:
             require_matplotlib(option)
-    try:
-        import scipy  # noqa: F401
-    except ImportError:
-        raise ToolMissingError("simulate needs SciPy, a dependency of dynderive that is missing here: "
-                               "pip install scipy") from None
+    require_scipy("simulate")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=True)

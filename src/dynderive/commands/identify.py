@@ -8,8 +8,8 @@ import json
 
 import typer
 
-from ..errors import InputError, ToolMissingError
-from .options import problem, with_parameters
+from ..errors import InputError
+from .options import problem, require_scipy, with_parameters
 from .output import echo_notes
 from .progress import Progress
 
@@ -19,11 +19,7 @@ def run_identify(argument: str, assignments: list[str], states: int | None, json
     from .. import derive, load_robot
     from ..verify.checks import generated_module
 
-    try:
-        import scipy  # noqa: F401
-    except ImportError:
-        raise ToolMissingError("identify needs SciPy, a dependency of dynderive that is missing here: "
-                               "pip install scipy") from None
+    require_scipy("identify")
     from ..verify.identification import base_parameters, fewest_states
 
     progress = Progress(quiet)

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, Problem
+from ..errors import InputError, Problem, ToolMissingError
 from ..render.targets import check_backends, simulate_backends
 
 #: The smallest relative tolerance an integrator can honour in double precision (SciPy
@@ -24,6 +24,15 @@ SMALLEST_RTOL = 100 * float(np.finfo(float).eps)
 
 def problem(option: str, message: str, column: int = 1) -> Problem:
     return Problem(option, 1, column, message)
+
+
+def require_scipy(command: str) -> None:
+    """SciPy (a dependency of dynderive) importable, else ``ToolMissingError`` before any work."""
+    try:
+        import scipy  # noqa: F401
+    except ImportError:
+        raise ToolMissingError(f"{command} needs SciPy, a dependency of dynderive that is missing here: "
+                               "pip install scipy") from None
 
 
 def real_number(text: str) -> float | None:

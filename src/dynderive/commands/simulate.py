@@ -79,9 +79,10 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
             hint = " (maximal runs take efforts of t only)" if maximal else ""
             raise InputError(Problem(where, 1, len(name) + 2 + exc.offset, f"{exc}{hint}")) from None
     values = table.defaults(robot)
-    functions = {name: checked(sympy.lambdify([t, table.q, table.qd], expr.xreplace(values), modules="numpy"),
-                               where, column, f"effort {name}") for name, (expr, where, column) in exprs.items()}
-    indices = [(robot.efforts.index(name), function) for name, function in functions.items()]
+    options = [(name, where, column, sympy.lambdify([t, table.q, table.qd], expr.xreplace(values), modules="numpy"))
+               for name, (expr, where, column) in exprs.items()]
+    indices = [(robot.efforts.index(name), checked(function, where, column, f"effort {name}"))
+               for name, where, column, function in options]
     size = len(robot.efforts)
 
     def efforts(time: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
@@ -89,9 +90,7 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
         for index, function in indices:
             u[index] = function(time, q, qd).reshape(-1)[0]
         return u
-    efforts.options = [(name, where, column, sympy.lambdify([t, table.q, table.qd], expr.xreplace(values),  # type: ignore[attr-defined]
-                                                            modules="numpy"))
-                       for name, (expr, where, column) in exprs.items()]
+    efforts.options = options  # type: ignore[attr-defined]
     return efforts
 
 
@@ -274,24 +273,32 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     tick = progress_ticker(duration, progress)
 
     hint = "" if maximal else friction_hint(robot, friction_smoothing)
-    if robot.loops and not maximal:
-        return _simulate_loops(derivation, module, values, duration, q0, qd0, efforts, rtol, atol, baumgarte,
-                               frames, tick, friction_smoothing, wrenches, method, note, hint, fast)
-    dissipative = robot.dissipative and not maximal
-    starts = () if maximal else robot.quaternion_starts
+    loops = bool(robot.loops) and not maximal
+    dissipative = robot.dissipative and not maximal and not loops
+    starts = () if maximal or loops else robot.quaternion_starts
+    drift: list[float] = []
     if not maximal:
         rate = fast.configuration_rate if starts else lambda q, qd: qd   # dq/dt
+        gains = {"alpha": baumgarte, "beta": baumgarte} if loops else {}
 
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
             q, qd = normalized(y[:nq], starts), y[nq:nq + nv]
             qdd = fast.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
-                                        friction_smoothing=friction_smoothing, **values)
+                                        friction_smoothing=friction_smoothing, **gains, **values)
             if not dissipative:
                 return np.concatenate([rate(q, qd), qdd])
             power = qd @ fast.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
             return np.concatenate([rate(q, qd), qdd, [power]])   # the dissipated work W rides along
-        y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
+        if loops:   # start on the constraints; at every frame the state goes back onto them
+            project = _loop_projection(module, values, q0)
+            y0 = project(q0, qd0)
+            with np.errstate(all="ignore"):
+                singular_start(module.loop_jacobian(y0[:nq], **values), nq - len(module.INDEPENDENT_COORDINATES),
+                               "the loop constraint Jacobian A_g(q)", module.COORDINATES, y0[:nq])
+            drift.append(float(np.max(np.abs(module.loop_constraints(y0[:nq], **values)))))
+        else:
+            y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
         names, rates = list(robot.configuration_names), [str(s) for s in derivation.symbols.qd]
     else:
         with np.errstate(all="ignore"):
@@ -314,11 +321,13 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     _finite_start(rhs, y0, nq, nv, q0, qd0)
     times = np.linspace(0.0, duration, frames)
     integrator = Integrator(rhs, method, rtol, atol, duration, note, hint, culprit(efforts, len(q0), len(qd0), maximal))
-    if starts:   # frame to frame, the quaternions normalized at each
+    if starts or loops:   # frame to frame, the quaternions normalized (the loops closed) at each
         runs = [y0]
         for start, end in zip(times[:-1], times[1:]):
             y = integrator.run(start, end, runs[-1], np.array([end]))[-1]
-            runs.append(np.concatenate([normalized(y[:nq], starts), y[nq:]]))
+            if loops:   # the drift before the projection
+                drift.append(float(np.max(np.abs(module.loop_constraints(y[:nq], **values)))))
+            runs.append(project(y[:nq], y[nq:]) if loops else np.concatenate([normalized(y[:nq], starts), y[nq:]]))
         states = np.array(runs)
     else:
         states = integrator.run(0.0, duration, y0, times)
@@ -327,11 +336,10 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     dissipated = states[:, nq + nv] if dissipative else None
     if maximal:
         energy = module.maximal_kinetic_energy(position, velocity, **values) + module.maximal_potential_energy(position, **values)
-        drift = np.max(np.abs(module.constraints(position, **values)), axis=-1)
+        drift += list(np.max(np.abs(module.constraints(position, **values)), axis=-1))
     else:
         energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
-        drift = None
-    return Trajectory(names, times, position, velocity, np.asarray(energy), drift,
+    return Trajectory(names, times, position, velocity, np.asarray(energy), np.array(drift) if len(drift) else None,
                       _link_poses(derivation, maximal) if robot.planar else None, dissipated, rates)
 
 
@@ -363,22 +371,14 @@ def _finite_start(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray
                              "robot is singular there)"))
 
 
-def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float], duration: float,
-                    q0: np.ndarray, qd0: np.ndarray, efforts: Callable[..., np.ndarray], rtol: float, atol: float,
-                    baumgarte: float, frames: int, tick: Callable[[float], None],
-                    friction_smoothing: float = 0.0,
-                    wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
-                    method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
-                    hint: str = "", fast: Any = None) -> Trajectory:
-    """A closed-loop mechanism: start on the constraints (``assemble`` keeps q0's independent
-    coordinates; qd0 projected onto the allowed motions), integrate the constrained dynamics
-    (Baumgarte gains ``baumgarte``) from frame to frame, and project the state back onto the
-    constraints at every frame; ``drift`` is the largest |a_g| before each projection."""
-    n = len(q0)
-    dynamics = fast if fast is not None else module
+def _loop_projection(module: Any, values: dict[str, float],
+                     q0: np.ndarray) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """A closed-loop mechanism's state (q, qd) put on the constraints: ``assemble`` keeps the
+    independent coordinates (of ``q0``: those of the default assembly for the others), qd is
+    projected onto the allowed motions."""
     independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
 
-    def project(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def project(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         guess = np.array(module.ASSEMBLED_CONFIGURATION) if q is q0 else q.copy()
         guess[independent] = q[independent]
         try:
@@ -389,40 +389,13 @@ def _simulate_loops(derivation: Derivation, module: Any, values: dict[str, float
                                      + ", ".join(f"{module.COORDINATES[i]} = {q[i]:g}" for i in independent))) from None
         try:
             with np.errstate(all="ignore"):
-                return q, allowed_velocity(module, q, qd, values)
+                return np.concatenate([q, allowed_velocity(module, q, qd, values)])
         except (ValueError, np.linalg.LinAlgError):
             raise InputError(singular_problem("the configuration " + ", ".join(
                 f"{name} = {value:.6g}" for name, value in zip(module.COORDINATES, q)) + " is singular: the loop "
                 "constraint Jacobian A_g(q) cannot be decomposed there; the run stops there")) from None
 
-    def rhs(time: float, y: np.ndarray) -> np.ndarray:
-        tick(time)
-        q, qd = y[:n], y[n:]
-        return np.concatenate([qd, dynamics.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
-                                                             alpha=baumgarte, beta=baumgarte,
-                                                             friction_smoothing=friction_smoothing, **values)])
-
-    times = np.linspace(0.0, duration, frames)
-    q, qd = project(q0, qd0)
-    with np.errstate(all="ignore"):
-        singular_start(module.loop_jacobian(q, **values), n - len(independent),
-                       "the loop constraint Jacobian A_g(q)", module.COORDINATES, q)
-    _finite_start(rhs, np.concatenate([q, qd]), n, n, q0, qd0)
-    integrator = Integrator(rhs, method, rtol, atol, duration, note, hint, culprit(efforts, n, n))
-    positions, velocities, drift = [q], [qd], [float(np.max(np.abs(module.loop_constraints(q, **values))))]
-    for start, end in zip(times[:-1], times[1:]):
-        state = integrator.run(start, end, np.concatenate([q, qd]), np.array([end]))[-1]
-        q, qd = state[:n], state[n:]
-        drift.append(float(np.max(np.abs(module.loop_constraints(q, **values)))))
-        q, qd = project(q, qd)
-        positions.append(q)
-        velocities.append(qd)
-    tick(duration)
-    position, velocity = np.array(positions), np.array(velocities)
-    energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
-    return Trajectory(list(derivation.robot.coordinates), times, position, velocity, np.asarray(energy),
-                      np.array(drift), _link_poses(derivation, False) if derivation.robot.planar else None, None,
-                      [str(s) for s in derivation.symbols.qd])
+    return project
 
 
 def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray], list[tuple[np.ndarray, float]]]:

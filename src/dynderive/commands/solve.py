@@ -53,18 +53,6 @@ def form_note(robot: Robot) -> str | None:
     return None
 
 
-def renderers(derivation: Derivation) -> dict[str, Callable[..., str]]:
-    """The sheet's renderers by output (``latex``, ``html``: called with (derivation,
-    template_dir, sections, digits); ``json``; ``terminal``: (derivation, digits)), one per
-    output for every robot (a robot with quaternions gets its quasi-velocity sections)."""
-    from ..render.sheets.html import render_html
-    from ..render.sheets.json import render_json
-    from ..render.sheets.latex import render_latex
-    from ..render.sheets.terminal import render_terminal
-
-    return {"latex": render_latex, "html": render_html, "json": render_json, "terminal": render_terminal}
-
-
 def target_files(derivation: Derivation, kinds: Collection[str], template_dir: str | Path | None,
                  progress: Callable[[str], None] = lambda stage: None, folder: Path | None = None,
                  tests: bool = False) -> tuple[dict[str, bytes], list[str], list[str]]:
@@ -107,12 +95,16 @@ def sheet_files(derivation: Derivation, kinds: Collection[str], template_dir: st
     the PDF's failure, if any: LaTeX's (the ``.tex`` and its log are then among the files) or
     a missing TeX. With a PDF, ``sheet`` receives its pages, LaTeX's seconds and the widest
     overfull line (pt)."""
-    name, render = derivation.robot.name, renderers(derivation)
+    from ..render.sheets.html import render_html
+    from ..render.sheets.json import render_json
+    from ..render.sheets.latex import render_latex
+
+    name = derivation.robot.name
     files: dict[str, bytes] = {}
     failure: LatexError | ToolMissingError | None = None
     if "latex" in kinds or "pdf" in kinds:
         progress("rendering LaTeX")
-        tex = render["latex"](derivation, template_dir, sections, digits)
+        tex = render_latex(derivation, template_dir, sections, digits)
         if "latex" in kinds:
             files[f"{name}.tex"] = tex.encode()
         if "pdf" in kinds:
@@ -133,9 +125,9 @@ def sheet_files(derivation: Derivation, kinds: Collection[str], template_dir: st
                                  overfull=max(overfull, default=0.0))
     if "html" in kinds:
         progress("rendering HTML")
-        files[f"{name}.html"] = render["html"](derivation, template_dir, sections, digits).encode()
+        files[f"{name}.html"] = render_html(derivation, template_dir, sections, digits).encode()
     if "json" in kinds:
-        files[f"{name}.json"] = render["json"](derivation).encode()
+        files[f"{name}.json"] = render_json(derivation).encode()
     return files, failure
 
 

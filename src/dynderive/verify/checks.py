@@ -8,7 +8,6 @@ installed. Each row says how it was checked and its worst residual.
 from __future__ import annotations
 
 import types
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -293,17 +292,12 @@ def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str
                            qs: np.ndarray, qds: np.ndarray, us: np.ndarray) -> list[Row]:
     table = derivation.symbols
     params = [table.parameters[p.name] for p in derivation.robot.parameters]
-    specs: list[tuple[str, str, Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]]] = [
-        ("M_g", "mass_matrix", lambda q, qd, u: module.mass_matrix(q, **values)),
-        ("C_g", "coriolis_matrix", lambda q, qd, u: module.coriolis_matrix(q, qd, **values)),
-        ("N_g", "gravity_vector", lambda q, qd, u: module.gravity_vector(q, **values)),
-        ("T_g", "kinetic_energy", lambda q, qd, u: module.kinetic_energy(q, qd, **values)),
-        ("V_g", "potential_energy", lambda q, qd, u: module.potential_energy(q, **values)),
-    ]
+    specs = [("M_g", "mass_matrix", "q"), ("C_g", "coriolis_matrix", "q qd"), ("N_g", "gravity_vector", "q"),
+             ("T_g", "kinetic_energy", "q qd"), ("V_g", "potential_energy", "q")]
     if "F_g" in derivation:
-        specs.append(("F_g", "friction_forces", lambda q, qd, u: module.friction_forces(qd, **values)))
+        specs.append(("F_g", "friction_forces", "qd"))
     rows = []
-    for quantity, function, call in specs:
+    for quantity, function, arguments in specs:
         name = f"generated {function} == symbolic {quantity}"
         value = derivation[quantity]
         if not is_small(value if not isinstance(value, sympy.MatrixBase) else sympy.Tuple(*value),
@@ -314,7 +308,8 @@ def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str
         worst, scale = 0.0, 1.0
         for q, qd, u in zip(qs, qds, us):
             expected = np.asarray(symbolic(q, qd, u, [values[p.name] for p in params]), dtype=float)
-            got = np.asarray(call(q, qd, u), dtype=float)
+            got = np.asarray(getattr(module, function)(*({"q": q, "qd": qd}[a] for a in arguments.split()), **values),
+                             dtype=float)
             worst = max(worst, float(np.max(np.abs(expected.reshape(got.shape) - got))))
             scale = max(scale, float(np.max(np.abs(expected))))
         rows.append(_row(name, worst <= 1e-10 * scale, "numeric", worst))

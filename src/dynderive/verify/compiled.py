@@ -138,11 +138,10 @@ def _states(robot: Any, rng: np.random.Generator, states: int) -> dict[str, np.n
     """Random states: ``q`` (and ``q1``) on the robot's manifold (unit quaternions), the rest uniform."""
     from .checks import random_configurations
 
-    nv, nu = robot.velocity_count if robot.floating else len(robot.coordinates), len(robot.efforts)
+    nv, nu = robot.velocity_count, len(robot.efforts)
+    sample = {"q": random_configurations(robot, rng, states)}
     if robot.floating:
-        sample = {"q": random_configurations(robot, rng, states), "q1": random_configurations(robot, rng, states)}
-    else:
-        sample = {"q": rng.uniform(-1.5, 1.5, (states, nv))}
+        sample["q1"] = random_configurations(robot, rng, states)
     return sample | {"qd": rng.uniform(-1.0, 1.0, (states, nv)), "qdd": rng.uniform(-1.0, 1.0, (states, nv)),
                      "u": rng.uniform(-1.0, 1.0, (states, nu))}
 

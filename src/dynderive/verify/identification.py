@@ -108,10 +108,10 @@ def random_states(n: int, count: int, seed: int, module: Any = None) -> tuple[np
     number of velocities and the configurations are ``integrate(neutral, v)`` for v uniform over
     a full turn in every entry: positions within pi, rotations of every size and axis."""
     rng = np.random.default_rng(seed)
+    q = rng.uniform(-np.pi, np.pi, (count, n))
     if module is not None and hasattr(module, "integrate"):
-        q = module.integrate(module.neutral_configuration(), rng.uniform(-np.pi, np.pi, (count, n)))
-        return q, rng.normal(size=(count, n)), rng.normal(size=(count, n))
-    return rng.uniform(-np.pi, np.pi, (count, n)), rng.normal(size=(count, n)), rng.normal(size=(count, n))
+        q = module.integrate(module.neutral_configuration(), q)
+    return q, rng.normal(size=(count, n)), rng.normal(size=(count, n))
 
 
 def _stack(module: Any, states: tuple[np.ndarray, ...], values: dict[str, float]) -> np.ndarray:
@@ -134,12 +134,12 @@ def base_parameters(derivation: Derivation, module: Any, values: dict[str, float
     zero = [int(i) for i in np.flatnonzero(norms <= 1e-12 * max(norms.max(), 1.0))]
     live = [i for i in range(size) if i not in zero]
     scaled = W[:, live] / norms[live]
-    pivoted = np.abs(np.diag(qr(scaled, mode="r", pivoting=True)[0]))
+    R, pivots = qr(scaled, mode="r", pivoting=True)
+    pivoted = np.abs(np.diag(R))
     rank = int(np.sum(pivoted > RANK_TOLERANCE * pivoted[0])) if live else 0
     ordered = np.abs(np.diag(qr(scaled, mode="r")[0]))
     base = [live[k] for k in range(len(live)) if ordered[k] > RANK_TOLERANCE]
     if len(base) != rank:   # a borderline column: trust the pivoted choice, kept in vector order
-        _, _, pivots = qr(scaled, mode="r", pivoting=True)
         base = sorted(live[k] for k in pivots[:rank])
     dependent = [i for i in live if i not in base]
     beta = _clean(_solve(W, base, dependent))

@@ -36,10 +36,9 @@ def pinocchio_rows(derivation: Derivation, module: Any, values: dict[str, float]
 
     model, qp, vp = pinocchio_maps(robot, values)
     data = model.createData()
-    if robot.floating:
-        return [_free_flyer(pin, model, data, qp, vp, robot, module, values, qs, vs, us)]
-    rows = [_fixed_base(name, pin, model, data, vp, PinocchioDrives(robot, values, vp), robot, module, values, qs, vs)]
-    if module.FRAMES:
+    rows = [_dynamics(name, pin, model, data, qp, vp, PinocchioDrives(robot, values, vp), robot, module, values,
+                      qs, vs, us)]
+    if module.FRAMES and not robot.floating:
         rows.append(_frames(pin, model, data, vp, module, values, qs, vs))
     return rows
 
@@ -53,56 +52,47 @@ def _accelerations(pin: Any, model: Any, data: Any, q: np.ndarray, v: np.ndarray
     return pin.aba(model, data, q, v, tau)
 
 
-def _fixed_base(name: str, pin: Any, model: Any, data: Any, perm: np.ndarray, drives: Any, robot: Any, module: Any,
-                values: dict[str, float], qs: np.ndarray, qds: np.ndarray) -> Row:
-    """M, N, C qd and (without loops) the forward dynamics under efforts spread over [-1, 1];
-    Pinocchio has the armature, the springs and dissipation are added here."""
-    worst, scale = 0.0, 1.0
-    for q, qd in zip(qs, qds):
-        u = np.linspace(-1, 1, len(q))[: len(module.EFFORTS)]
-        qp, qdp = q[perm], qd[perm]
-        M = mass_matrix(pin, model, data, qp)
-        ours = module.mass_matrix(q, **values)[np.ix_(perm, perm)]
-        g = pin.computeGeneralizedGravity(model, data, qp) + drives.spring(qp)
-        bias = pin.rnea(model, data, qp, qdp, np.zeros(len(q))) - pin.computeGeneralizedGravity(model, data, qp)
-        Y = module.generalized_forces(q, u, **values)
-        acc = _accelerations(pin, model, data, qp, qdp, Y[perm] - drives.spring(qp) - drives.dissipative(qdp), M)
-        diffs = [ours - M, module.gravity_vector(q, **values)[perm] - g,
-                 (module.coriolis_matrix(q, qd, **values) @ qd)[perm] - bias]
-        if not robot.loops:   # with loops forward_dynamics is the constrained one
-            diffs.append(module.forward_dynamics(q, qd, u, **values)[perm] - acc)
-        worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
-        scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
-    return _row(name, worst < 1e-9 * scale, "numeric", worst)
-
-
-def _free_flyer(pin: Any, model: Any, data: Any, qp: np.ndarray, vp: np.ndarray, robot: Any, module: Any,
-                values: dict[str, float], qs: np.ndarray, vs: np.ndarray, us: np.ndarray) -> Row:
-    """M, the inverse dynamics (damping and friction: joint torques taken from tau), gravity,
-    the forward dynamics, ``integrate``, ``difference`` and the energies."""
+def _dynamics(name: str, pin: Any, model: Any, data: Any, qp: np.ndarray, vp: np.ndarray, drives: Any, robot: Any,
+              module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray, us: np.ndarray) -> Row:
+    """M, the gravity forces and the forward dynamics (Pinocchio has the armature). A fixed
+    base (``q_pin = q[qp]`` with ``qp = vp``): the bias forces C qd too, under efforts spread over
+    [-1, 1], the springs and dissipation added here (with loops forward_dynamics is the
+    constrained one: not compared). With quaternions: the inverse dynamics (damping and
+    friction: joint torques taken from tau), ``integrate``, ``difference`` and the energies."""
     worst, scale = 0.0, 1.0
     for q, v, u, q1 in zip(qs, vs, us, qs[::-1]):
-        a = np.linspace(-1.0, 1.0, len(v))
-        M = mass_matrix(pin, model, data, q[qp])
-        friction = module.friction_forces(v, **values)
-        acc = _accelerations(pin, model, data, q[qp], v[vp], (applied(robot, u) - friction)[vp], M)
-        if model.mimicking_joints:   # Pinocchio 4.1's energies refuse mimic joints
-            kinetic, potential = 0.5 * v[vp] @ M @ v[vp], _potential(pin, model, data, q[qp])
+        qm, vm = q[qp], v[vp]
+        M = mass_matrix(pin, model, data, qm)
+        diffs = [module.mass_matrix(q, **values)[np.ix_(vp, vp)] - M]
+        if not robot.floating:
+            u = np.linspace(-1, 1, len(q))[: len(module.EFFORTS)]
+            g = pin.computeGeneralizedGravity(model, data, qm) + drives.spring(qm)
+            bias = pin.rnea(model, data, qm, vm, np.zeros(len(q))) - pin.computeGeneralizedGravity(model, data, qm)
+            Y = module.generalized_forces(q, u, **values)
+            acc = _accelerations(pin, model, data, qm, vm, Y[vp] - drives.spring(qm) - drives.dissipative(vm), M)
+            diffs += [module.gravity_vector(q, **values)[vp] - g, (module.coriolis_matrix(q, v, **values) @ v)[vp] - bias]
+            if not robot.loops:   # with loops forward_dynamics is the constrained one
+                diffs.append(module.forward_dynamics(q, v, u, **values)[vp] - acc)
         else:
-            kinetic = pin.computeKineticEnergy(model, data, q[qp], v[vp])
-            potential = pin.computePotentialEnergy(model, data, q[qp])
-        diffs = [module.mass_matrix(q, **values)[np.ix_(vp, vp)] - M,
-                 module.inverse_dynamics(q, v, a, **values)[vp] - pin.rnea(model, data, q[qp], v[vp], a[vp])
-                 - friction[vp],
-                 module.gravity_vector(q, **values)[vp] - pin.computeGeneralizedGravity(model, data, q[qp]),
-                 module.forward_dynamics(q, v, u, **values)[vp] - acc,
-                 module.integrate(q, v, 0.3)[qp] - pin.integrate(model, q[qp], 0.3 * v[vp]),
-                 module.difference(q, q1)[vp] - pin.difference(model, q[qp], q1[qp]),
-                 module.kinetic_energy(q, v, **values) - kinetic, module.potential_energy(q, **values) - potential]
+            a = np.linspace(-1.0, 1.0, len(v))
+            friction = module.friction_forces(v, **values)
+            acc = _accelerations(pin, model, data, qm, vm, (applied(robot, u) - friction)[vp], M)
+            if model.mimicking_joints:   # Pinocchio 4.1's energies refuse mimic joints
+                kinetic, potential = 0.5 * vm @ M @ vm, _potential(pin, model, data, qm)
+            else:
+                kinetic = pin.computeKineticEnergy(model, data, qm, vm)
+                potential = pin.computePotentialEnergy(model, data, qm)
+            diffs += [module.inverse_dynamics(q, v, a, **values)[vp] - pin.rnea(model, data, qm, vm, a[vp]) - friction[vp],
+                      module.gravity_vector(q, **values)[vp] - pin.computeGeneralizedGravity(model, data, qm),
+                      module.forward_dynamics(q, v, u, **values)[vp] - acc,
+                      module.integrate(q, v, 0.3)[qp] - pin.integrate(model, qm, 0.3 * vm),
+                      module.difference(q, q1)[vp] - pin.difference(model, qm, q1[qp]),
+                      module.kinetic_energy(q, v, **values) - kinetic, module.potential_energy(q, **values) - potential]
         worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
         scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
-    return _row(FREE_FLYER, worst < 1e-9 * scale, "numeric (mimic joints: M from rnea, aba as M^-1 (tau - nle))"
-                if model.mimicking_joints else "numeric", worst)
+    mimic = robot.floating and model.mimicking_joints
+    return _row(name, worst < 1e-9 * scale, "numeric (mimic joints: M from rnea, aba as M^-1 (tau - nle))"
+                if mimic else "numeric", worst)
 
 
 def mass_matrix(pin: Any, model: Any, data: Any, q: np.ndarray) -> np.ndarray:
