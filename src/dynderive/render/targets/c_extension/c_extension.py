@@ -185,11 +185,10 @@ def _kernel(robot_name: str, binding: Binding) -> list[str]:
     return [f"{call};", "return 0;"]
 
 
-def _wrench_kernel(binding: Binding, function: str) -> list[str]:
-    """The kernel with wrenches: ``function`` (the C target's ``<name>_..._wrenches``, or the
-    binding's own ``ext_...`` helper of the same signature) called for one state."""
+def _wrench_kernel(robot_name: str, binding: Binding) -> list[str]:
+    """The kernel with wrenches: the C target's ``<name>_..._wrenches`` called for one state."""
     arguments = [f"in[{i}]" for i in range(len(binding.inputs))]
-    call = f"{function}({', '.join([*arguments, 'w', 'p', 'out[0]'])})"
+    call = _call(robot_name, binding.wrenches or "", [*arguments, "w", "p", "out[0]"])
     return [f"return {call};"] if binding.returns == "status" else [f"{call};", "return 0;"]
 
 
@@ -214,22 +213,16 @@ def _signature(binding: Binding, parameters: list[dict[str, Any]], members: dict
     return f"{binding.name}({', '.join(['$module', *positional])})"
 
 
-def _native(robot_name: str, function: str, header: str | None) -> bool:
-    """Whether the C target's header declares ``<name>_<function>`` (then the binding calls it)."""
-    return header is not None and f" {robot_name}_{function}(" in header
-
-
-def extension_context(derivation: Derivation, header: str | None = None) -> dict[str, Any]:
-    """Every variable ``extension.c.j2`` uses; ``header``: the C target's header, whose
-    ``<name>_..._wrenches`` functions the binding calls where it declares them (else its own
-    helpers, from ``frame_jacobian``; a loop robot's are always the C target's, which has them)."""
+def extension_context(derivation: Derivation) -> dict[str, Any]:
+    """Every variable ``extension.c.j2`` uses; the wrench kernels call the C target's
+    ``<name>_..._wrenches``, which every robot has."""
     problems = unsupported(derivation)
     if problems:
         raise InputError([type(p)(p.file, p.line, p.column, p.message.replace("--c:", "--c-extension:", 1))
                           for p in problems])
     check_c_names(derivation.robot)
     robot = derivation.robot
-    name = robot.name
+    name, nq, nv = robot.name, len(derivation.symbols.q), len(derivation.symbols.qd)
     parameters = [{"name": p.name, "c_name": c_string(p.name),
                    "default": None if p.value is None else Code(double_literal(float(p.value))),
                    "python_default": None if p.value is None else python_literal(float(p.value))}
@@ -238,18 +231,15 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
     members = [{"name": m["name"], "default": m["default"], "python_default": python_literal(float(m["default"]))}
                for m in loop_context(derivation)["members"]]
     python_defaults = {m["name"]: m["python_default"] for m in members}
-    functions, own_wrenches = [], False
+    functions = []
     for binding in table:
-        native = bool(binding.wrenches) and (bool(robot.loops) or robot.floating or _native(name, binding.wrenches or "", header))
-        own_wrenches |= bool(binding.wrenches) and not native
         text = f"{_signature(binding, parameters, python_defaults)}\n--\n\n{binding.doc}"
         functions.append({
             "name": binding.name,
             "c_name": c_string(binding.name),
             "doc": c_string(text),
             "kernel": [Code(line) for line in _kernel(name, binding)],
-            "wrench_kernel": [Code(line) for line in _wrench_kernel(
-                binding, f"{name if native else 'ext'}_{binding.wrenches}")] if binding.wrenches else [],
+            "wrench_kernel": [Code(line) for line in _wrench_kernel(name, binding)] if binding.wrenches else [],
             "inputs": [{"name": c_string(n), "size": s} for n, s in binding.inputs],
             "outputs": [{"ndim": len(shape), "dims": list(shape) + [0] * (2 - len(shape))} for shape in binding.outputs],
             "status": int(binding.returns == "status"),
@@ -274,8 +264,8 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "macro": name.upper(),
         "module": module_name(name),
         "generator": c_string(f"dynderive {__version__}"),
-        "n": len(derivation.symbols.q),
-        "velocities": strings([str(s) for s in derivation.symbols.qd]) if robot.floating else None,
+        "n": nq,
+        "velocities": strings([str(s) for s in derivation.symbols.qd]) if nq != nv else None,
         "nu": len(derivation.symbols.efforts),
         "twist": 3 if robot.planar else 6,
         "parameters": parameters,
@@ -289,13 +279,11 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "assembled": [Code(double_literal(float(x))) for x in loops.assembled or ()] if loops else [],
         "parameter_vector": strings([p.name for p in derivation.parameter_vector]),
         "functions": functions,
-        "own_wrenches": own_wrenches,
         "max_inputs": max(max(len(b.inputs) for b in table), 1),
         "max_outputs": max(len(b.outputs) for b in table),
     }
 
 
-def render_extension(derivation: Derivation, template_dir: str | Path | None = None, header: str | None = None) -> str:
-    """The C source of the binding (it includes ``<name>_dynamics.h``, given as ``header``
-    when the caller has it), as text."""
-    return render("code", TEMPLATE, extension_context(derivation, header), template_dir)
+def render_extension(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    """The C source of the binding (it includes ``<name>_dynamics.h``), as text."""
+    return render("code", TEMPLATE, extension_context(derivation), template_dir)

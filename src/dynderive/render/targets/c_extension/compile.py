@@ -124,9 +124,8 @@ def build_extension(derivation: Derivation, template_dir: str | Path | None = No
 
     compiler = find_compiler(option)
     includes = include_dirs(option)
-    render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
+    binding = render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
     header, source = c_files if c_files is not None else render_c(derivation, template_dir)
-    binding = render_extension(derivation, template_dir, header)
     name = derivation.robot.name
     filename = extension_filename(name)
     if progress is not None:
