@@ -15,7 +15,7 @@ has no ``generalized_forces`` and adds the configuration maps (``neutral_configu
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
-(``c_names.check_c_names``). Nothing is compiled here (``compile.py`` beside it does that).
+(``c_names.c_problems``). Nothing is compiled here (``compile.py`` beside it does that).
 """
 
 from __future__ import annotations
@@ -24,13 +24,12 @@ from pathlib import Path
 from typing import Any
 
 from ....derivation import Derivation
-from ....errors import InputError
 from ...encode import Code, python_literal
 from ...environment import render
-from ..c.c import double_literal, unsupported
 from ..c.c_binding import Binding
 from ..c.c_loops import loop_context
-from ..c.c_names import check_c_names
+from ..c.c_names import c_problems, refuse
+from ..c.c_print import double_literal
 
 TEMPLATE = "c/extension.c.j2"
 
@@ -216,11 +215,7 @@ def _signature(binding: Binding, parameters: list[dict[str, Any]], members: dict
 def extension_context(derivation: Derivation) -> dict[str, Any]:
     """Every variable ``extension.c.j2`` uses; the wrench kernels call the C target's
     ``<name>_..._wrenches``, which every robot has."""
-    problems = unsupported(derivation)
-    if problems:
-        raise InputError([type(p)(p.file, p.line, p.column, p.message.replace("--c:", "--c-extension:", 1))
-                          for p in problems])
-    check_c_names(derivation.robot)
+    refuse(c_problems(derivation.robot))
     robot = derivation.robot
     name, nq, nv = robot.name, len(derivation.symbols.q), len(derivation.symbols.qd)
     parameters = [{"name": p.name, "c_name": c_string(p.name),

@@ -23,7 +23,8 @@ from ....derivation import Derivation
 from ....errors import InputError, Problem
 from ...encode import Code
 from ...environment import render
-from .matlab_names import check_matlab_names
+from ..c.c_names import refuse
+from .matlab_names import matlab_problems
 from .matlab_text import matlab_code, matlab_comment, matlab_string
 
 SCRIPT_TEMPLATE = "matlab/derivation.m.j2"
@@ -198,7 +199,7 @@ def _clashes(derivation: Derivation, text: str) -> list[Problem]:
 def render_matlab_script(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The text of ``<name>_derivation.m`` (nothing written); ``InputError`` when a name of the
     robot cannot be a MATLAB name or is a variable the script assigns."""
-    check_matlab_names(derivation.robot)
+    refuse(matlab_problems(derivation.robot))
     text = render("code", SCRIPT_TEMPLATE, matlab_script_context(derivation), template_dir)
     problems = _clashes(derivation, text)
     if problems:
