@@ -138,7 +138,7 @@ def _states(robot: Any, rng: np.random.Generator, states: int) -> dict[str, np.n
     """Random states: ``q`` (and ``q1``) on the robot's manifold (unit quaternions), the rest uniform."""
     from .checks import random_configurations
 
-    nv, nu = robot.velocity_count if robot.floating else len(robot.coordinates), len(robot.efforts)
+    nv, nu = robot.velocity_count, len(robot.efforts)
     if robot.floating:
         sample = {"q": random_configurations(robot, rng, states), "q1": random_configurations(robot, rng, states)}
     else:

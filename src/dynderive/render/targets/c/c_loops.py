@@ -134,7 +134,7 @@ def _applied(derivation: Derivation, kit: CKit, target: str, wrenches: str) -> l
     lines = [kit.start, "(void)P;", "(void)u;", f"double M[{n * n}];", f"double b[{n}];", f"double {target}[{n}];",
              f"const double zero[{n}] = {{0.0}};", f"{name}_mass_matrix(q, p, M);",
              f"{name}_inverse_dynamics_wrenches(q, qd, zero, {wrenches}, p, b);   /* C qd + N + F - sum J^T w */"]
-    if derivation.robot.floating:   # each effort at its velocity column (no symbolic Y_g)
+    if len(derivation.symbols.q) != n:   # quaternions: each effort at its velocity column (no symbolic Y_g)
         columns = dict(zip(derivation.robot.effort_columns(), range(len(derivation.robot.efforts))))
         lines += [f"{target}[{i}] = {f'u[{columns[i]}]' if i in columns else '0.0'};" for i in range(n)]
     else:

@@ -20,7 +20,7 @@ from typing import Any
 import sympy
 
 from ....derivation import Derivation
-from ....errors import InputError, Problem
+from ....errors import Problem
 from ...encode import Code
 from ...environment import render
 from ..c.c_names import refuse
@@ -41,25 +41,16 @@ def _column(symbols: Any) -> str:
 
 
 def _links(derivation: Derivation) -> list[dict[str, Any]]:
-    links = []
-    for t in derivation.steps["generalized"]["links"]:
-        links.append({
-            "index": t.index, "name": matlab_comment(t.name),
-            "com": matlab_code(sympy.Matrix(t.com_position)),
-            "orientation": matlab_code(t.orientation),
-            "inertia": matlab_code(t.spatial_inertia),
-        })
-    return links
+    return [{"index": t.index, "name": matlab_comment(t.name), "com": matlab_code(sympy.Matrix(t.com_position)),
+             "orientation": matlab_code(t.orientation), "inertia": matlab_code(t.spatial_inertia)}
+            for t in derivation.steps["generalized"]["links"]]
 
 
 def _drives(derivation: Derivation) -> list[dict[str, Any]]:
-    drives = []
-    for d in derivation.joint_drives:
-        drives.append({"index": d.coordinate + 1, "coordinate": str(derivation.symbols.q[d.coordinate]),
-                       "damping": matlab_code(d.damping), "friction": matlab_code(d.friction),
-                       "stiffness": matlab_code(d.stiffness), "rest": matlab_code(d.rest),
-                       "armature": matlab_code(d.armature)})
-    return drives
+    return [{"index": d.coordinate + 1, "coordinate": str(derivation.symbols.q[d.coordinate]),
+             "damping": matlab_code(d.damping), "friction": matlab_code(d.friction),
+             "stiffness": matlab_code(d.stiffness), "rest": matlab_code(d.rest), "armature": matlab_code(d.armature)}
+            for d in derivation.joint_drives]
 
 
 def _frames(derivation: Derivation, omitted: list[str]) -> list[dict[str, Any]]:
@@ -201,7 +192,5 @@ def render_matlab_script(derivation: Derivation, template_dir: str | Path | None
     robot cannot be a MATLAB name or is a variable the script assigns."""
     refuse(matlab_problems(derivation.robot))
     text = render("code", SCRIPT_TEMPLATE, matlab_script_context(derivation), template_dir)
-    problems = _clashes(derivation, text)
-    if problems:
-        raise InputError(problems)
+    refuse(_clashes(derivation, text))
     return text
