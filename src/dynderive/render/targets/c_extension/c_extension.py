@@ -240,25 +240,16 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
             "status": int(binding.returns == "status"),
             "error": c_string(binding.error) if binding.error else Code("NULL"),
             "members": sum(1 << [m["name"] for m in members].index(member) for member in binding.members),
-            "optional": int(binding.optional),
-            "frame": int(binding.frame),
-            "smoothing": int(binding.smoothing),
-            "refuses_negative": int(binding.refuses_negative),
-            "scalar": int(binding.scalar),
-            "parameters": int(binding.parameters),
+            **{flag: int(getattr(binding, flag))
+               for flag in ("optional", "frame", "smoothing", "refuses_negative", "scalar", "parameters")},
             "number": int(binding.number is not None),
             "fill": Code(binding.number or "0.0"),
         })
     strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
-    from ...._version import __version__
-
     loops = derivation.steps["loops"] if robot.loops else None
-
     return {
         "name": name,
-        "macro": name.upper(),
         "module": module_name(name),
-        "generator": c_string(f"dynderive {__version__}"),
         "n": nq,
         "velocities": strings([str(s) for s in derivation.symbols.qd]) if nq != nv else None,
         "nu": len(derivation.symbols.efforts),
