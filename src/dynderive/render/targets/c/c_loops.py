@@ -74,7 +74,8 @@ def _block(printer: Callable[..., list[str]], *arguments: Any) -> list[str]:
     return ["{", *("    " + line for line in printer(*arguments)), "}"]
 
 
-def _name(function: Any) -> str:
+def function_name(function: Any) -> str:
+    """``<robot>_<function>`` of a CFunction's prototype."""
     return str(function.prototype).split("(")[0].split()[-1]
 
 
@@ -85,7 +86,7 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
     name, loops = derivation.robot.name, bool(derivation.robot.loops)
     result = []
     for function in functions:
-        which = _name(function)[len(name) + 1:]
+        which = function_name(function)[len(name) + 1:]
         if loops and which == "forward_dynamics":
             function = kit.function(
                 f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {kit.pp}, "
@@ -103,13 +104,9 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
     return result
 
 
-def _twist(derivation: Derivation) -> int:
-    return 3 if derivation.robot.planar else 6
-
-
 def _inverse_wrenches(derivation: Derivation, kit: CKit) -> Any:
     name, n = derivation.robot.name, len(derivation.symbols.qd)
-    frames, twist = len(derivation.robot.frames), _twist(derivation)
+    frames, twist = len(derivation.robot.frames), 3 if derivation.robot.planar else 6
     body = [f"{name}_inverse_dynamics(q, qd, qdd, p, tau);"]
     if frames:
         body += ["if (wrenches) {", f"    double J[{twist * n}];",
