@@ -19,12 +19,10 @@ def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options
 
 def offered(derivation: Any) -> set[str]:
     """The functions whose prototypes the header declares (extra variants included)."""
-    import re
+    from .c import c_context
+    from .c_loops import function_name
 
-    from .c import c_context as context
-
-    pattern = re.compile(rf"\b{re.escape(derivation.robot.name)}_(\w+)\(")
-    return {pattern.search(str(f.prototype)).group(1) for f in context(derivation)["functions"]}  # type: ignore[union-attr]
+    return {function_name(f)[len(derivation.robot.name) + 1:] for f in c_context(derivation)["functions"]}
 
 
 TARGET = Target(

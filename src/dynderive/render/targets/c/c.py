@@ -17,9 +17,8 @@ space (A is 2 NV x 2 NV), and the configuration maps ``neutral_configuration``, 
 Damping and Coulomb friction are ``friction_forces``, added to inverse dynamics and taken from
 the right-hand side of forward dynamics as the NumPy module does; the struct carries
 ``friction_smoothing`` (0: the exact sign; eps > 0: ``tanh(qd / eps)``). Closed loops and the
-wrench variants are ``c_loops.py`` (``amend``); what a target cannot build is refused
-(``unsupported``), never printed half. Names must be C names (``c_names.py``); free text
-appears only in encoded comments.
+wrench variants are ``c_loops.py`` (``amend``). Names must be C names (``c_names.py``); free
+text appears only in encoded comments.
 """
 
 from __future__ import annotations
@@ -30,24 +29,22 @@ from typing import Any
 import sympy
 
 from ....derivation import Derivation
-from ....errors import InputError, Problem
 from ....mechanics.tidy import fold_constants
 from ...encode import Code
 from ...environment import render
 from .c_join import joined_program as _joined
 from .c_join import print_body as _print_body
 from .c_loops import CKit, amend, loop_context
-from .c_names import c_comment, check_c_names
-from .c_print import (  # noqa: F401   (CPrinter, FastCPrinter, DoublePrinting: this module's names before the split)
+from .c_names import c_comment, c_problems, refuse
+from .c_print import (
     CFunction,
-    CPrinter,
-    DoublePrinting,
-    FastCPrinter,
     Names,
     double_literal,
     expression_body,
     kept,
+    parameter_note,
     program_body,
+    quantity_body,
     void,
 )
 from .c_solve import fill_in, ldl_factor, ldl_solve
@@ -56,36 +53,20 @@ HEADER_TEMPLATE = "c/dynamics.h.j2"
 SOURCE_TEMPLATE = "c/dynamics.c.j2"
 
 
-def unsupported(derivation: Derivation) -> list[Problem]:
-    """What of this robot the C target cannot print yet, each at its place in the robot file:
-    nothing today (closed loops and wrenches are ``c_loops.py``; what is not built for any
-    robot is listed in the README)."""
-    del derivation
-    return []
-
-
 def c_context(derivation: Derivation) -> dict[str, Any]:
     """Every variable the C templates can use."""
-    problems = unsupported(derivation)
-    if problems:
-        raise InputError(problems)
-    check_c_names(derivation.robot)
+    refuse(c_problems(derivation.robot))
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     name, nq, n, nu = robot.name, len(table.q), len(table.qd), len(table.efforts)
     quaternions = nq != n   # Pinocchio's conventions: M, C, N are NV x NV, the maps not q + v dt
     names = Names(derivation)
     programs = derivation.programs
-    structured = derivation.structured_code
     pp = f"const {name}_parameters *p"
     start = f"const {name}_parameters *const P = p ? p : &{name}_default_parameters;"
     square = [f"M[{i * n + j}]" for i in range(n) for j in range(n)]
 
     def body(program: str, quantity: str, targets: list[str]) -> list[str]:
-        if structured:
-            return program_body(names, programs[program], targets)
-        value = quantities[quantity]
-        entries = list(value) if isinstance(value, sympy.MatrixBase) else [value]
-        return expression_body(names, entries, targets)
+        return quantity_body(derivation, names, program, quantity, targets)
 
     coriolis = [f"C[{k}]" for k in range(n * n)]
     applied = [] if quaternions else [
@@ -151,7 +132,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         functions)
     loops = loop_context(derivation)
     parameters = [{"name": p.name, "default": Code("NAN") if p.value is None else Code(double_literal(float(p.value))),
-                   "comment": c_comment(_parameter_note(p))} for p in robot.parameters]
+                   "comment": c_comment(parameter_note(p))} for p in robot.parameters]
     parameters.append({"name": "friction_smoothing", "default": Code("0.0"), "comment": c_comment(
         "Coulomb friction: 0 for sign(qd), eps > 0 for tanh(qd / eps) (negative: as 0)"
         if robot.dissipative else "unused: the robot has no Coulomb friction (every robot's struct ends with it)")})
@@ -258,15 +239,6 @@ def _add_friction(derivation: Derivation, target: str, operator: str) -> list[st
     n, name = len(derivation.symbols.qd), derivation.robot.name
     return [f"double F[{n}];", f"{name}_friction_forces(qd, p, F);",
             *(f"{target}[{i}] {operator} F[{i}];" for i in range(n))]
-
-
-def _parameter_note(parameter: Any) -> str:
-    parts = [parameter.description or ""]
-    if parameter.unit:
-        parts.append(f"[{parameter.unit}]")
-    if parameter.value is None:
-        parts.append("(no default in the robot file: NaN)")
-    return " ".join(p for p in parts if p)
 
 
 def _forward_body(derivation: Derivation, names: Names, start: str) -> list[str]:

@@ -74,7 +74,8 @@ def _block(printer: Callable[..., list[str]], *arguments: Any) -> list[str]:
     return ["{", *("    " + line for line in printer(*arguments)), "}"]
 
 
-def _name(function: Any) -> str:
+def function_name(function: Any) -> str:
+    """``<robot>_<function>`` of a CFunction's prototype."""
     return str(function.prototype).split("(")[0].split()[-1]
 
 
@@ -85,7 +86,7 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
     name, loops = derivation.robot.name, bool(derivation.robot.loops)
     result = []
     for function in functions:
-        which = _name(function)[len(name) + 1:]
+        which = function_name(function)[len(name) + 1:]
         if loops and which == "forward_dynamics":
             function = kit.function(
                 f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {kit.pp}, "
@@ -103,13 +104,9 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
     return result
 
 
-def _twist(derivation: Derivation) -> int:
-    return 3 if derivation.robot.planar else 6
-
-
 def _inverse_wrenches(derivation: Derivation, kit: CKit) -> Any:
     name, n = derivation.robot.name, len(derivation.symbols.qd)
-    frames, twist = len(derivation.robot.frames), _twist(derivation)
+    frames, twist = len(derivation.robot.frames), 3 if derivation.robot.planar else 6
     body = [f"{name}_inverse_dynamics(q, qd, qdd, p, tau);"]
     if frames:
         body += ["if (wrenches) {", f"    double J[{twist * n}];",
@@ -134,7 +131,7 @@ def _applied(derivation: Derivation, kit: CKit, target: str, wrenches: str) -> l
     lines = [kit.start, "(void)P;", "(void)u;", f"double M[{n * n}];", f"double b[{n}];", f"double {target}[{n}];",
              f"const double zero[{n}] = {{0.0}};", f"{name}_mass_matrix(q, p, M);",
              f"{name}_inverse_dynamics_wrenches(q, qd, zero, {wrenches}, p, b);   /* C qd + N + F - sum J^T w */"]
-    if derivation.robot.floating:   # each effort at its velocity column (no symbolic Y_g)
+    if len(derivation.symbols.q) != n:   # quaternions: each effort at its velocity column (no symbolic Y_g)
         columns = dict(zip(derivation.robot.effort_columns(), range(len(derivation.robot.efforts))))
         lines += [f"{target}[{i}] = {f'u[{columns[i]}]' if i in columns else '0.0'};" for i in range(n)]
     else:
@@ -158,7 +155,7 @@ def _tree_forward_wrenches(derivation: Derivation, kit: CKit) -> Any:
     return kit.function(prototype, comment, lines + [f"qdd[{i}] = mx{i};" for i in range(n)] + ["return 0;"])
 
 
-def _sizes(derivation: Derivation) -> tuple[int, int, int]:
+def loop_sizes(derivation: Derivation) -> tuple[int, int, int]:
     """(NV, NC, rank of the loop rows)."""
     return (len(derivation.symbols.q), derivation.quantities["a_g"].shape[0], derivation.steps["loops"].rank)
 
@@ -167,7 +164,7 @@ def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -
     """Lines that give the rows the solve uses: the loop Jacobian ``Aj`` itself, or
     (over-constrained) ``Ar = U_r^T Aj`` with ``U_r`` (``Ur``) from the row space, and ``bottom``
     (NC x columns) projected to ``<bottom>_r``; returns (lines, rows array, bottom array)."""
-    n, k, rank = _sizes(derivation)
+    n, k, rank = loop_sizes(derivation)
     if rank == k:
         return [], "Aj", bottom
     lines = row_space_lines(k, n, rank, "Aj", "Ar", "Ur", "return 2;")
@@ -184,7 +181,7 @@ def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -
 def _schur(derivation: Derivation, kit: CKit, rows: str) -> list[str]:
     """M = L D L^T (``return 1`` if not positive definite), ``W = M^-1 rows^T`` and
     ``S = rows W`` = L D L^T (``return 2`` if singular)."""
-    n, _, r = _sizes(derivation)
+    n, _, r = loop_sizes(derivation)
     lines = ldl_factor(lambda i, j: f"M[{i * n + j}]", n, kit.mass_pattern, "m", "return 1;")
     lines += [f"double W[{n * r}];   /* M^-1 rows^T */", f"for (int j = 0; j < {r}; ++j) {{"]
     lines += ["    " + line for line in ldl_solve(n, kit.mass_pattern, "m", [f"{rows}[j * {n} + {i}]" for i in range(n)])]
@@ -199,7 +196,7 @@ def _schur_column(derivation: Derivation, kit: CKit, top: str, rows: str, bottom
                   column: str) -> list[str]:
     """For the column ``column`` of the right-hand side [top; bottom] (n x columns, rank x
     columns): ``a<i>`` and ``sx<m>`` solving ``M a - rows^T s = top, rows a = bottom``."""
-    n, _, r = _sizes(derivation)
+    n, _, r = loop_sizes(derivation)
     lines = ldl_solve(n, kit.mass_pattern, "m", [f"{top}[{i * columns} + {column}]" for i in range(n)])
     lines += [f"const double g{m} = {bottom}[{m * columns} + {column}]"
               + "".join(f" - {rows}[{m * n + i}]*mx{i}" for i in range(n)) + ";" for m in range(r)]
@@ -209,7 +206,7 @@ def _schur_column(derivation: Derivation, kit: CKit, top: str, rows: str, bottom
 
 
 def _multipliers(derivation: Derivation, target: str) -> list[str]:
-    n, k, r = _sizes(derivation)
+    n, k, r = loop_sizes(derivation)
     if r == k:
         return [f"{target}[{i}] = sx{i};" for i in range(k)]
     return [f"{target}[{i}] = " + " + ".join(f"Ur[{i * r + m}]*sx{m}" for m in range(r)) + ";" for i in range(k)]
@@ -218,7 +215,7 @@ def _multipliers(derivation: Derivation, target: str) -> list[str]:
 def _loop_system(derivation: Derivation, kit: CKit, wrenches: str, baumgarte: bool) -> list[str]:
     """Locals ``M``, ``f`` (n x 1), ``Aj``, ``Ad``, ``e`` (NC x 1) of the constrained system."""
     name = derivation.robot.name
-    n, k, _ = _sizes(derivation)
+    n, k, _ = loop_sizes(derivation)
     lines = _applied(derivation, kit, "f", wrenches)
     lines += [f"double Aj[{k * n}];", f"double Ad[{k * n}];", f"double e[{k}];",
               f"{name}_loop_jacobian(q, p, Aj);", f"{name}_loop_jacobian_dot(q, qd, p, Ad);"]
@@ -263,7 +260,7 @@ def _loop_forward(derivation: Derivation, kit: CKit) -> Any:
 
 def _loop_functions(derivation: Derivation, kit: CKit) -> list[Any]:
     name, quantities = derivation.robot.name, derivation.quantities
-    n, k, r = _sizes(derivation)
+    n, k, r = loop_sizes(derivation)
     rows = (f" The {k} rows have rank {r} on the constraints (over-constrained): the multipliers of least norm."
             if r < k else "")
     return [
@@ -298,7 +295,7 @@ def _partition(derivation: Derivation, rows: str, extra: str | None) -> list[str
     and the column ``extra`` when given: r x (m + 1)), then ``Di = Dd^-1 Di`` (``return 2``
     when Dd is singular, as ``numpy.linalg.solve`` raises)."""
     loops = derivation.steps["loops"]
-    n, _, r = _sizes(derivation)
+    n, _, r = loop_sizes(derivation)
     m = len(loops.independent)
     width = m + (1 if extra else 0)
     lines = [f"double Dd[{r * r}];", f"double Di[{r * width}];"]
@@ -325,7 +322,7 @@ def _basis(derivation: Derivation, target: str, width: int) -> list[str]:
 def _reduced_functions(derivation: Derivation, kit: CKit) -> list[Any]:
     """reduced_basis, reduced_forward_dynamics and assemble, as the NumPy module's."""
     name, loops = derivation.robot.name, derivation.steps["loops"]
-    n, k, r = _sizes(derivation)
+    n, k, r = loop_sizes(derivation)
     m, independent = len(loops.independent), ", ".join(derivation.robot.coordinates[i] for i in loops.independent)
     jacobian = [f"double Aj[{k * n}];", f"{name}_loop_jacobian(q, p, Aj);"]
     rows_lines, rows, _ = _constraint_rows(derivation, None, 1)
@@ -397,7 +394,7 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
     [dY/dx - dtau/dx + d(A^T lambda)/dx; -d(A qdd + Adot qd)/dx] at the state's qdd and lambda
     (one constrained solve with alpha = beta = 0 and no wrench, in a block of its own)."""
     table, quantities = derivation.symbols, derivation.quantities
-    n, k, r = _sizes(derivation)
+    n, k, r = loop_sizes(derivation)
     nu = len(table.efforts)
     width = 2 * n + nu
     lines = [f"double qdd[{n}];", f"double lambda[{k}];", "{",

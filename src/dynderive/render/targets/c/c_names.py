@@ -10,6 +10,7 @@ programmer who fills the struct. The refusal names the robot file's line and col
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Any
 
 from ....errors import InputError, Problem
@@ -42,34 +43,33 @@ _ASCII_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 
 def c_problems(robot: Any) -> list[Problem]:
     """Why the robot's names cannot be C names (empty when they can), each at its place."""
-    problems = []
     name = robot.name
-    line, column = robot.positions.get("name", (1, 1))
     if not _ASCII_IDENTIFIER.match(name) or "__" in name:
-        problems.append(Problem(robot.source, line, column,
-                                f"--c: robot name '{name}' is not a C identifier of ASCII letters, digits and "
-                                "single '_' starting with a letter (it prefixes every C name)"))
-        return problems
+        return [Problem(robot.source, *robot.positions.get("name", (1, 1)),
+                        f"--c: robot name '{name}' is not a C identifier of ASCII letters, digits and single '_' "
+                        "starting with a letter (it prefixes every C name)")]
     ours = {f"{name.upper()}_{suffix}" for suffix in ("NQ", "NV", "NU", "NC", "NFRAMES", "DYNAMICS_H")}
-    for parameter in robot.parameters:
-        where = robot.positions.get(f"parameter:{parameter.name}", (1, 1))
-        why = None
-        if not _ASCII_IDENTIFIER.match(parameter.name) or "__" in parameter.name:
-            why = "is not a C identifier of ASCII letters, digits and single '_' starting with a letter"
-        elif parameter.name in C_KEYWORDS:
-            why = "is a C or C++ keyword"
-        elif parameter.name in MATH_MACROS or parameter.name in ours:
-            why = "is a macro of <math.h> or of the generated header"
-        if why:
-            problems.append(Problem(robot.source, where[0], where[1],
-                                    f"--c: parameter name '{parameter.name}' {why}: it would be a member "
-                                    "of the C parameters struct; rename it"))
-    return problems
+
+    def why(parameter: str) -> str | None:
+        if not _ASCII_IDENTIFIER.match(parameter) or "__" in parameter:
+            return "is not a C identifier of ASCII letters, digits and single '_' starting with a letter"
+        if parameter in C_KEYWORDS:
+            return "is a C or C++ keyword"
+        return "is a macro of <math.h> or of the generated header" if parameter in MATH_MACROS | ours else None
+
+    return parameter_problems(robot, "--c", why, "a member of the C parameters struct")
 
 
-def check_c_names(robot: Any) -> None:
-    """Raise ``InputError`` (exit 2) if any name cannot be used in the C files."""
-    problems = c_problems(robot)
+def parameter_problems(robot: Any, option: str, why: Callable[[str], str | None], use: str) -> list[Problem]:
+    """The target ``option``'s refusal of each parameter name for which ``why`` gives a reason
+    (None: the name is fine), at its place in the robot file: the name would be ``use``."""
+    return [Problem(robot.source, *robot.positions.get(f"parameter:{p.name}", (1, 1)),
+                    f"{option}: parameter name '{p.name}' {why(p.name)}: it would be {use}; rename it")
+            for p in robot.parameters if why(p.name)]
+
+
+def refuse(problems: list[Problem]) -> None:
+    """Raise ``InputError`` (exit 2) if there are ``problems`` (names a target cannot use)."""
     if problems:
         raise InputError(problems)
 

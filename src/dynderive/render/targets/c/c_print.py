@@ -244,6 +244,22 @@ def expression_body(names: Names, values: list[sympy.Expr], targets: list[str]) 
     return _lines(names, temporaries, list(zip(targets, reduced)))
 
 
+def quantity_body(derivation: Derivation, names: Names, program: str, quantity: str, targets: list[str]) -> list[str]:
+    """The lines of ``derivation.programs[program]``, or for a small planar robot (no structured
+    code) of the explicit ``quantities[quantity]``."""
+    if derivation.structured_code:
+        return program_body(names, derivation.programs[program], targets)
+    value = derivation.quantities[quantity]
+    return expression_body(names, list(value) if isinstance(value, sympy.MatrixBase) else [value], targets)
+
+
+def parameter_note(parameter: Any) -> str:
+    """A parameter's description, unit and missing default, for the comment beside its value."""
+    parts = [parameter.description or "", f"[{parameter.unit}]" if parameter.unit else "",
+             "(no default in the robot file: NaN)" if parameter.value is None else ""]
+    return " ".join(p for p in parts if p)
+
+
 def void(*arguments: str) -> list[str]:
     """Casts that mark every argument used (``-Wextra -Werror``: a constant M reads no ``q``)."""
     return [f"(void){a};" for a in arguments]

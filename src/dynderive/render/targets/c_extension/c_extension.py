@@ -15,7 +15,7 @@ has no ``generalized_forces`` and adds the configuration maps (``neutral_configu
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
-(``c_names.check_c_names``). Nothing is compiled here (``compile.py`` beside it does that).
+(``c_names.c_problems``). Nothing is compiled here (``compile.py`` beside it does that).
 """
 
 from __future__ import annotations
@@ -24,13 +24,12 @@ from pathlib import Path
 from typing import Any
 
 from ....derivation import Derivation
-from ....errors import InputError
 from ...encode import Code, python_literal
 from ...environment import render
-from ..c.c import double_literal, unsupported
 from ..c.c_binding import Binding
 from ..c.c_loops import loop_context
-from ..c.c_names import check_c_names
+from ..c.c_names import c_problems, refuse
+from ..c.c_print import double_literal
 
 TEMPLATE = "c/extension.c.j2"
 
@@ -185,11 +184,10 @@ def _kernel(robot_name: str, binding: Binding) -> list[str]:
     return [f"{call};", "return 0;"]
 
 
-def _wrench_kernel(binding: Binding, function: str) -> list[str]:
-    """The kernel with wrenches: ``function`` (the C target's ``<name>_..._wrenches``, or the
-    binding's own ``ext_...`` helper of the same signature) called for one state."""
+def _wrench_kernel(robot_name: str, binding: Binding) -> list[str]:
+    """The kernel with wrenches: the C target's ``<name>_..._wrenches`` called for one state."""
     arguments = [f"in[{i}]" for i in range(len(binding.inputs))]
-    call = f"{function}({', '.join([*arguments, 'w', 'p', 'out[0]'])})"
+    call = _call(robot_name, binding.wrenches or "", [*arguments, "w", "p", "out[0]"])
     return [f"return {call};"] if binding.returns == "status" else [f"{call};", "return 0;"]
 
 
@@ -214,22 +212,12 @@ def _signature(binding: Binding, parameters: list[dict[str, Any]], members: dict
     return f"{binding.name}({', '.join(['$module', *positional])})"
 
 
-def _native(robot_name: str, function: str, header: str | None) -> bool:
-    """Whether the C target's header declares ``<name>_<function>`` (then the binding calls it)."""
-    return header is not None and f" {robot_name}_{function}(" in header
-
-
-def extension_context(derivation: Derivation, header: str | None = None) -> dict[str, Any]:
-    """Every variable ``extension.c.j2`` uses; ``header``: the C target's header, whose
-    ``<name>_..._wrenches`` functions the binding calls where it declares them (else its own
-    helpers, from ``frame_jacobian``; a loop robot's are always the C target's, which has them)."""
-    problems = unsupported(derivation)
-    if problems:
-        raise InputError([type(p)(p.file, p.line, p.column, p.message.replace("--c:", "--c-extension:", 1))
-                          for p in problems])
-    check_c_names(derivation.robot)
+def extension_context(derivation: Derivation) -> dict[str, Any]:
+    """Every variable ``extension.c.j2`` uses; the wrench kernels call the C target's
+    ``<name>_..._wrenches``, which every robot has."""
+    refuse(c_problems(derivation.robot))
     robot = derivation.robot
-    name = robot.name
+    name, nq, nv = robot.name, len(derivation.symbols.q), len(derivation.symbols.qd)
     parameters = [{"name": p.name, "c_name": c_string(p.name),
                    "default": None if p.value is None else Code(double_literal(float(p.value))),
                    "python_default": None if p.value is None else python_literal(float(p.value))}
@@ -238,44 +226,32 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
     members = [{"name": m["name"], "default": m["default"], "python_default": python_literal(float(m["default"]))}
                for m in loop_context(derivation)["members"]]
     python_defaults = {m["name"]: m["python_default"] for m in members}
-    functions, own_wrenches = [], False
+    functions = []
     for binding in table:
-        native = bool(binding.wrenches) and (bool(robot.loops) or robot.floating or _native(name, binding.wrenches or "", header))
-        own_wrenches |= bool(binding.wrenches) and not native
         text = f"{_signature(binding, parameters, python_defaults)}\n--\n\n{binding.doc}"
         functions.append({
             "name": binding.name,
             "c_name": c_string(binding.name),
             "doc": c_string(text),
             "kernel": [Code(line) for line in _kernel(name, binding)],
-            "wrench_kernel": [Code(line) for line in _wrench_kernel(
-                binding, f"{name if native else 'ext'}_{binding.wrenches}")] if binding.wrenches else [],
+            "wrench_kernel": [Code(line) for line in _wrench_kernel(name, binding)] if binding.wrenches else [],
             "inputs": [{"name": c_string(n), "size": s} for n, s in binding.inputs],
             "outputs": [{"ndim": len(shape), "dims": list(shape) + [0] * (2 - len(shape))} for shape in binding.outputs],
             "status": int(binding.returns == "status"),
             "error": c_string(binding.error) if binding.error else Code("NULL"),
             "members": sum(1 << [m["name"] for m in members].index(member) for member in binding.members),
-            "optional": int(binding.optional),
-            "frame": int(binding.frame),
-            "smoothing": int(binding.smoothing),
-            "refuses_negative": int(binding.refuses_negative),
-            "scalar": int(binding.scalar),
-            "parameters": int(binding.parameters),
+            **{flag: int(getattr(binding, flag))
+               for flag in ("optional", "frame", "smoothing", "refuses_negative", "scalar", "parameters")},
             "number": int(binding.number is not None),
             "fill": Code(binding.number or "0.0"),
         })
     strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
-    from ...._version import __version__
-
     loops = derivation.steps["loops"] if robot.loops else None
-
     return {
         "name": name,
-        "macro": name.upper(),
         "module": module_name(name),
-        "generator": c_string(f"dynderive {__version__}"),
-        "n": len(derivation.symbols.q),
-        "velocities": strings([str(s) for s in derivation.symbols.qd]) if robot.floating else None,
+        "n": nq,
+        "velocities": strings([str(s) for s in derivation.symbols.qd]) if nq != nv else None,
         "nu": len(derivation.symbols.efforts),
         "twist": 3 if robot.planar else 6,
         "parameters": parameters,
@@ -289,13 +265,11 @@ def extension_context(derivation: Derivation, header: str | None = None) -> dict
         "assembled": [Code(double_literal(float(x))) for x in loops.assembled or ()] if loops else [],
         "parameter_vector": strings([p.name for p in derivation.parameter_vector]),
         "functions": functions,
-        "own_wrenches": own_wrenches,
         "max_inputs": max(max(len(b.inputs) for b in table), 1),
         "max_outputs": max(len(b.outputs) for b in table),
     }
 
 
-def render_extension(derivation: Derivation, template_dir: str | Path | None = None, header: str | None = None) -> str:
-    """The C source of the binding (it includes ``<name>_dynamics.h``, given as ``header``
-    when the caller has it), as text."""
-    return render("code", TEMPLATE, extension_context(derivation, header), template_dir)
+def render_extension(derivation: Derivation, template_dir: str | Path | None = None) -> str:
+    """The C source of the binding (it includes ``<name>_dynamics.h``), as text."""
+    return render("code", TEMPLATE, extension_context(derivation), template_dir)

@@ -124,9 +124,8 @@ def build_extension(derivation: Derivation, template_dir: str | Path | None = No
 
     compiler = find_compiler(option)
     includes = include_dirs(option)
-    render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
+    binding = render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
     header, source = c_files if c_files is not None else render_c(derivation, template_dir)
-    binding = render_extension(derivation, template_dir, header)
     name = derivation.robot.name
     filename = extension_filename(name)
     if progress is not None:
@@ -158,17 +157,6 @@ def _first_error(text: str) -> str:
     lines = [line.strip() for line in text.splitlines() if line.strip()]
     errors = [line for line in lines if "error" in line.lower()]
     return (errors or lines or ["no message"])[0][:300]
-
-
-def failure_outputs(robot_name: str, error: ExtensionCompileError) -> dict[str, bytes]:
-    """What a failed compilation leaves beside the other outputs, by file name: the log."""
-    return {f"{robot_name}_dynamics_c.log": error.log.encode()}
-
-
-def failure_message(folder: Path, robot_name: str, error: ExtensionCompileError) -> str:
-    """One line: which extension failed, the compiler's first error, and where its log is."""
-    return (f"{folder / extension_filename(robot_name)} not made: the C compiler failed: {error.detail}; the log is "
-            f"{folder / (robot_name + '_dynamics_c.log')} (please report it: the generated code should always compile)")
 
 
 def compiled_module(derivation: Derivation, progress: Callable[[str], None] | None = None,
@@ -203,7 +191,12 @@ def extension_files(derivation: Derivation, template_dir: str | Path | None, mad
 
 
 def failure_files(error: Exception, folder: Path, robot_name: str) -> tuple[dict[str, bytes], str]:
-    """A compiler that failed: its log (by file name) and the message; any other error raised again."""
+    """A compiler that failed: its log (by file name), left beside the other outputs, and one line
+    saying which extension failed, the compiler's first error and where the log is; any other
+    error raised again."""
     if not isinstance(error, ExtensionCompileError):
         raise error
-    return failure_outputs(robot_name, error), failure_message(folder, robot_name, error)
+    log = f"{robot_name}_dynamics_c.log"
+    return {log: error.log.encode()}, (f"{folder / extension_filename(robot_name)} not made: the C compiler failed: "
+                                       f"{error.detail}; the log is {folder / log} (please report it: the generated "
+                                       "code should always compile)")

@@ -21,15 +21,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import sympy
-
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
 from ...encode import Code
 from ...environment import render
-from ..c.c import double_literal
+from ..c.c_names import refuse
+from ..c.c_print import double_literal, parameter_note, quantity_body
 from .matlab_loops import loop_functions
-from .matlab_names import check_matlab_names, matlab_comment, matlab_string
+from .matlab_names import matlab_comment, matlab_problems, matlab_string
 from .matlab_print import (
     DIRECTION_LINES,
     MFunction,
@@ -66,14 +65,11 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     name, nq, n, nu = robot.name, len(table.q), len(table.qd), len(table.efforts)
     names = Names(derivation)
-    programs, structured = derivation.programs, derivation.structured_code
+    programs = derivation.programs
     count = len(derivation.parameter_vector)
 
     def body(program: str, quantity: str, targets: list[str]) -> list[str]:
-        if structured:
-            return program_body(names, programs[program], targets)
-        value = quantities[quantity]
-        return expression_body(names, list(value) if isinstance(value, sympy.MatrixBase) else [value], targets)
+        return quantity_body(derivation, names, program, quantity, targets)
 
     friction = ([f"tau = tau + {name}.friction_forces(qd, p);"] if robot.dissipative else [])
     regressor = programs["regressor"]
@@ -250,8 +246,7 @@ def parameters_function(derivation: Derivation) -> MFunction:
     body = ["p = struct();"]
     for parameter in robot.parameters:
         value = "NaN" if parameter.value is None else double_literal(float(parameter.value))
-        note = " ".join(x for x in [parameter.description or "", f"[{parameter.unit}]" if parameter.unit else "",
-                                    "(no default in the robot file: NaN)" if parameter.value is None else ""] if x)
+        note = parameter_note(parameter)
         help_lines.append(f"   {parameter.name}: {note}" if note else f"   {parameter.name}")
         body.append(f"p.{parameter.name} = {value};")
     help_lines.append("   friction_smoothing: 0 for sign(qd) in Coulomb friction, eps > 0 for tanh(qd / eps)")
@@ -266,7 +261,7 @@ def render_matlab(derivation: Derivation, template_dir: str | Path | None = None
                   functions: list[MFunction] | None = None) -> dict[str, str]:
     """The package ``+<name>/``: {relative path: text}, nothing written. ``functions``: the
     numeric functions (default ``numeric_functions``)."""
-    check_matlab_names(derivation.robot)
+    refuse(matlab_problems(derivation.robot))
     from ...._version import __version__
 
     robot = derivation.robot

@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import Any
 
 from ....derivation import Derivation
+from ..c.c_loops import loop_sizes
 from .matlab_print import (
     MFunction,
     Names,
@@ -27,14 +28,9 @@ from .matlab_print import (
 )
 
 
-def _sizes(derivation: Derivation) -> tuple[int, int, int]:
-    """(NV, NC, rank of the loop rows)."""
-    return (len(derivation.symbols.q), derivation.quantities["a_g"].shape[0], derivation.steps["loops"].rank)
-
-
 def _rows(derivation: Derivation, bottom: str) -> list[str]:
     """``Aj`` and ``bottom`` projected on U_r when the loops are over-constrained (``Ur``)."""
-    _, k, r = _sizes(derivation)
+    _, k, r = loop_sizes(derivation)
     if r == k:
         return ["Ur = eye(" + str(k) + ");"]
     return ["[Ub, ~, ~] = svd(Aj);", f"Ur = Ub(:, 1:{r});", "Aj = Ur' * Aj;", f"{bottom} = Ur' * {bottom};"]
@@ -43,7 +39,7 @@ def _rows(derivation: Derivation, bottom: str) -> list[str]:
 def _solve_function(derivation: Derivation) -> MFunction:
     """The local function ``loop_solve(q, qd, u, p, alpha, beta)`` -> [qdd, lambda]."""
     name = derivation.robot.name
-    n, _, r = _sizes(derivation)
+    n, _, r = loop_sizes(derivation)
     return MFunction("loop_solve", "[qdd, lambda]", ["q", "qd", "u", "p", "alpha", "beta"],
                      ["LOOP_SOLVE  The constrained system at one state (alpha, beta: Baumgarte gains)."],
                      [f"M = {name}.mass_matrix(q, p);", f"Aj = {name}.loop_jacobian(q, p);",
@@ -58,7 +54,7 @@ def _solve_function(derivation: Derivation) -> MFunction:
 def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
     """The loop functions, and the constrained forward dynamics and linearize."""
     quantities, table = derivation.quantities, derivation.symbols
-    n, k, r = _sizes(derivation)
+    n, k, r = loop_sizes(derivation)
     nu = len(table.efforts)
     least = (f" The {k} rows of A_g have rank {r} (over-constrained): the multipliers of least norm."
              if r < k else "")
@@ -95,7 +91,7 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
 def _linearize(derivation: Derivation, names: Names) -> Any:
     table = derivation.symbols
     name = derivation.robot.name
-    n, k, r = _sizes(derivation)
+    n, k, r = loop_sizes(derivation)
     nu = len(table.efforts)
     width = 2 * n + nu
     force, acceleration = derivation.loop_linearization

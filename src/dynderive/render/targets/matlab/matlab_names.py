@@ -14,8 +14,9 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ....errors import InputError, Problem
+from ....errors import Problem
 from ...encode import Code, code_point
+from ..c.c_names import parameter_problems
 
 #: MATLAB's keywords (``iskeyword``) and Octave's (``iskeyword`` of GNU Octave 7): a field or
 #: package of that name cannot be written with a dot.
@@ -47,24 +48,16 @@ def matlab_problems(robot: Any) -> list[Problem]:
     """Why the robot's names cannot be MATLAB names (empty when they can), each at its place."""
     problems = []
     name = robot.name
-    line, column = robot.positions.get("name", (1, 1))
     why = _why(name)
     if why is None and (name in GENERATED_NAMES or re.fullmatch(r"t[0-9]+", name)):
         why = "is a function or a local variable of the generated files"
     if why:
-        problems.append(Problem(robot.source, line, column,
+        problems.append(Problem(robot.source, *robot.positions.get("name", (1, 1)),
                                 f"--matlab: robot name '{name}' {why}: it names the package +{name}; rename it"))
     added = ADDED_FIELDS if robot.loops else ADDED_FIELDS[:1]
-    for parameter in robot.parameters:
-        where = robot.positions.get(f"parameter:{parameter.name}", (1, 1))
-        why = _why(parameter.name)
-        if why is None and parameter.name in added:
-            why = "is a field the generated parameters struct adds"
-        if why:
-            problems.append(Problem(robot.source, where[0], where[1],
-                                    f"--matlab: parameter name '{parameter.name}' {why}: it would be a field of "
-                                    "the MATLAB parameters struct; rename it"))
-    return problems
+    return problems + parameter_problems(
+        robot, "--matlab", lambda p: _why(p) or ("is a field the generated parameters struct adds" if p in added else None),
+        "a field of the MATLAB parameters struct")
 
 
 def _why(name: str) -> str | None:
@@ -75,13 +68,6 @@ def _why(name: str) -> str | None:
     if name in MATLAB_KEYWORDS:
         return "is a MATLAB or Octave keyword"
     return None
-
-
-def check_matlab_names(robot: Any) -> None:
-    """Raise ``InputError`` (exit 2) if any name cannot be used in the MATLAB files."""
-    problems = matlab_problems(robot)
-    if problems:
-        raise InputError(problems)
 
 
 def matlab_comment(text: object) -> Code:

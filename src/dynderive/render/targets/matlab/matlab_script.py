@@ -20,10 +20,11 @@ from typing import Any
 import sympy
 
 from ....derivation import Derivation
-from ....errors import InputError, Problem
+from ....errors import Problem
 from ...encode import Code
 from ...environment import render
-from .matlab_names import check_matlab_names
+from ..c.c_names import refuse
+from .matlab_names import matlab_problems
 from .matlab_text import matlab_code, matlab_comment, matlab_string
 
 SCRIPT_TEMPLATE = "matlab/derivation.m.j2"
@@ -40,25 +41,16 @@ def _column(symbols: Any) -> str:
 
 
 def _links(derivation: Derivation) -> list[dict[str, Any]]:
-    links = []
-    for t in derivation.steps["generalized"]["links"]:
-        links.append({
-            "index": t.index, "name": matlab_comment(t.name),
-            "com": matlab_code(sympy.Matrix(t.com_position)),
-            "orientation": matlab_code(t.orientation),
-            "inertia": matlab_code(t.spatial_inertia),
-        })
-    return links
+    return [{"index": t.index, "name": matlab_comment(t.name), "com": matlab_code(sympy.Matrix(t.com_position)),
+             "orientation": matlab_code(t.orientation), "inertia": matlab_code(t.spatial_inertia)}
+            for t in derivation.steps["generalized"]["links"]]
 
 
 def _drives(derivation: Derivation) -> list[dict[str, Any]]:
-    drives = []
-    for d in derivation.joint_drives:
-        drives.append({"index": d.coordinate + 1, "coordinate": str(derivation.symbols.q[d.coordinate]),
-                       "damping": matlab_code(d.damping), "friction": matlab_code(d.friction),
-                       "stiffness": matlab_code(d.stiffness), "rest": matlab_code(d.rest),
-                       "armature": matlab_code(d.armature)})
-    return drives
+    return [{"index": d.coordinate + 1, "coordinate": str(derivation.symbols.q[d.coordinate]),
+             "damping": matlab_code(d.damping), "friction": matlab_code(d.friction),
+             "stiffness": matlab_code(d.stiffness), "rest": matlab_code(d.rest), "armature": matlab_code(d.armature)}
+            for d in derivation.joint_drives]
 
 
 def _frames(derivation: Derivation, omitted: list[str]) -> list[dict[str, Any]]:
@@ -198,9 +190,7 @@ def _clashes(derivation: Derivation, text: str) -> list[Problem]:
 def render_matlab_script(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The text of ``<name>_derivation.m`` (nothing written); ``InputError`` when a name of the
     robot cannot be a MATLAB name or is a variable the script assigns."""
-    check_matlab_names(derivation.robot)
+    refuse(matlab_problems(derivation.robot))
     text = render("code", SCRIPT_TEMPLATE, matlab_script_context(derivation), template_dir)
-    problems = _clashes(derivation, text)
-    if problems:
-        raise InputError(problems)
+    refuse(_clashes(derivation, text))
     return text
