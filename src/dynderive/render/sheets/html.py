@@ -38,6 +38,7 @@ from .latex import (
     _residual_text,
     default_sections,
     drives_context,
+    frames_context,
     loops_context,
     maximal_context,
     maximal_left_out,
@@ -128,7 +129,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
         "figure": _figure(derivation), "quasi_velocity": False,
         "drives": drives_context(derivation, style),
         "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
-        "frames": _frames(derivation, fmt) if robot.frames else None,
+        "frames": frames_context(derivation, style) if robot.frames else None,
         "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
     }
     return context
@@ -151,26 +152,6 @@ def _figure(derivation: Derivation) -> dict[str, Any] | None:
 
 def _dot(letter: str) -> Markup:
     return accent(letter, "\u02d9")
-
-
-def _frames(derivation: Derivation, fmt: MathFormatter) -> list[dict[str, Any]]:
-    q, planar = derivation.quantities, derivation.robot.planar
-    items = []
-    for frame in derivation.robot.frames:
-        name = frame.name
-        label = _upright(name)
-        item: dict[str, Any] = {"name": name, "link": frame.link, "symbolic": f"J_{name}" in q}
-        if item["symbolic"]:
-            item |= {
-                "position": fmt.matrix(sub("p", label), q[f"p_{name}"]),
-                "angle": fmt(q[f"theta_{name}"][0, 0]) if planar else None,
-                "theta": sub("\u03b8", label),
-                "rotation": None if planar else fmt.matrix(sub("R", label), q[f"R_{name}"]),
-                "jacobian": fmt.matrix(sub("J", label), q[f"J_{name}"]),
-                "jacobian_dot": fmt.matrix(sub(_dot("J"), label), q[f"Jdot_{name}"]) if planar else None,
-            }
-        items.append(item)
-    return items
 
 
 class PageStyle(SheetStyle):
@@ -203,6 +184,12 @@ class PageStyle(SheetStyle):
 
     def jacobian(self, k: int, value: sympy.Matrix) -> dict[str, Any]:
         return self.fmt.matrix(fenced(body_jacobian(k)), value, body_jacobian(k))
+
+    def frame_labels(self, name: str) -> dict[str, Any]:
+        return {"theta": sub("\u03b8", _upright(name))}
+
+    def frame_matrix(self, letter: str, name: str, value: sympy.Matrix) -> dict[str, Any]:
+        return self.fmt.matrix(sub(_dot("J") if letter == "Jdot" else letter, _upright(name)), value)
 
     def show(self, value: sympy.Expr) -> Markup:
         return self.fmt(value)

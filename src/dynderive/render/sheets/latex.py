@@ -149,7 +149,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
         "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
         "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
-        "frames": frames_context(derivation, fmt) if robot.frames else None,
+        "frames": frames_context(derivation, style) if robot.frames else None,
         "recursion": _recursion(derivation, digits) if intermediates and "generalized" in sections else None,
     }
     return context
@@ -168,24 +168,22 @@ def _recursion(derivation: Derivation, digits: int | None) -> dict[str, Any]:
                              Formatter.of(derivation, digits=digits), typeset_width)
 
 
-def frames_context(derivation: Derivation, fmt: Formatter) -> list[dict[str, Any]]:
-    """Each frame's pose, Jacobian and its derivative (small robots; the names only for large
-    ones, whose frame quantities the generated module computes)."""
-    q, planar = derivation.quantities, derivation.robot.planar
+def frames_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    """Each frame's pose, Jacobian and, planar, its derivative (small robots; the names only for
+    large ones, whose frame quantities the generated module computes)."""
+    q, planar, fmt = derivation.quantities, derivation.robot.planar, style.fmt
     items = []
     for frame in derivation.robot.frames:
         name = frame.name
-        symbolic = f"J_{name}" in q
-        label = r"\mathrm{" + escape_tex(name) + "}"
-        item: dict[str, Any] = {"name": escape_tex(name), "link": escape_tex(frame.link), "label": label,
-                                "symbolic": symbolic}
-        if symbolic:
+        item: dict[str, Any] = {"name": style.text(name), "link": style.text(frame.link), "symbolic": f"J_{name}" in q,
+                                **style.frame_labels(name)}
+        if item["symbolic"]:
             item |= {
-                "position": fmt.matrix("p", q[f"p_{name}"]),
+                "position": style.frame_matrix("p", name, q[f"p_{name}"]),
                 "angle": fmt(q[f"theta_{name}"][0, 0]) if planar else None,
-                "rotation": None if planar else fmt.matrix("R", q[f"R_{name}"]),
-                "jacobian": fmt.matrix("J", q[f"J_{name}"]),
-                "jacobian_dot": fmt.matrix(r"\dot J", q[f"Jdot_{name}"]),
+                "rotation": None if planar else style.frame_matrix("R", name, q[f"R_{name}"]),
+                "jacobian": style.frame_matrix("J", name, q[f"J_{name}"]),
+                "jacobian_dot": style.frame_matrix("Jdot", name, q[f"Jdot_{name}"]) if planar else None,
             }
         items.append(item)
     return items
@@ -214,6 +212,14 @@ class SheetStyle:
 
     def jacobian(self, k: int, value: sympy.Matrix) -> dict[str, Any]:
         return self.fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", value)
+
+    def frame_labels(self, name: str) -> dict[str, Any]:
+        """A frame's name as the template writes it beside its matrices' letters."""
+        return {"label": r"\mathrm{" + escape_tex(name) + "}"}
+
+    def frame_matrix(self, letter: str, name: str, value: sympy.Matrix) -> dict[str, Any]:
+        """A frame's matrix (``letter`` p, R, J or Jdot; the template adds the frame's label)."""
+        return self.fmt.matrix(r"\dot J" if letter == "Jdot" else letter, value)
 
     def show(self, value: sympy.Expr) -> Any:
         """An equation's side, however large."""
