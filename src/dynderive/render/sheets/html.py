@@ -35,15 +35,16 @@ from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
 from .latex import (
     SheetStyle,
-    _residual_text,
+    checks_context,
     default_sections,
     drives_context,
     frames_context,
+    lagrange_context,
     loops_context,
     maximal_context,
     maximal_left_out,
 )
-from .latex_format import INLINE_NODES, SCALAR_NODES, Formatter, _groups
+from .latex_format import ENTRY_NODES, INLINE_NODES, SCALAR_NODES, Formatter, _groups
 from .recursion import joint_variable
 
 HTML_TEMPLATE = "html/sheet.html.j2"
@@ -72,16 +73,6 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
     def display(expr: Any, limit: int | None = SCALAR_NODES) -> Markup | None:
         return fmt(expr) if limit is None else fmt.maybe(expr, limit)
 
-    lagrange = []
-    for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
-        lagrange.append({
-            "coordinate": fmt(table.q[i]), "velocity": fmt(table.qd[i]),
-            "dL_dqd": display(gen["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": display(gen["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": display(gen["lagrange"]["dL_dq"][i]),
-            "dissipation": display(q["F_g"][i], None) if "F_g" in q and q["F_g"][i] != 0 else None,
-            "equation": display(q["EOM_g1"][i]),
-        })
     links = []
     for t in gen["links"]:
         k = t.index
@@ -112,7 +103,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
         "links": links,
         "T_g": display(q["T_g"]), "V_g": display(q["V_g"]), "L_g": display(q["L_g"]),
         "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange,
+        "lagrange": lagrange_context(derivation, style),
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"], _named("EOM", "g1")) if "EOM_g1" in q else None,
         "M_g": fmt.matrix("M", q["M_g"], _named("M", "g")),
         "C_g": fmt.matrix("C", q["C_g"], _named("C", "g")),
@@ -121,9 +112,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"], _named("EOM", "g2")),
         "inertia_groups": [{"names": [sub("\U0001d4dc", str(i)) for i in g["indices"]], "math": g["latex"]}
                            for g in _groups([(link["index"], link["spatial_inertia"]) for link in links])],
-        "checks": [{"description": c.description, "passed": c.passed, "method": c.method,
-                    "residual": _residual_text(c.residual)} for c in derivation.checks]
-                  if "checks" in sections else [],
+        "checks": checks_context(derivation, style) if "checks" in sections else [],
         "sections": list(sections),
         "maximal_left_out": left_out,
         "figure": _figure(derivation), "quasi_velocity": False,
@@ -194,8 +183,8 @@ class PageStyle(SheetStyle):
     def show(self, value: sympy.Expr) -> Markup:
         return self.fmt(value)
 
-    def scalar(self, value: sympy.Expr) -> Markup | None:
-        return self.fmt.maybe(value)
+    def scalar(self, value: sympy.Expr, limit: int = ENTRY_NODES) -> Markup | None:
+        return self.fmt.maybe(value, limit)
 
 
 def _tilde(letter: str) -> Markup:

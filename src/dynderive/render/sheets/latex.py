@@ -17,6 +17,7 @@ from .latex_format import (
     INLINE_NODES,
     INLINE_UNITS,
     LINE_UNITS,
+    SCALAR_NODES,
     TIGHT,
     Formatter,
     _fits,
@@ -74,17 +75,6 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
     coordinate_latex = [fmt(s) for s in table.q]
-    lagrange = []
-    for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
-        lagrange.append({
-            "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
-            "dL_dqd": fmt.display(gen["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": fmt.display(gen["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": fmt.display(gen["lagrange"]["dL_dq"][i]),
-            "effort": fmt(q["Y_g"][i]),
-            "dissipation": fmt.display(q["F_g"][i], None) if "F_g" in q and q["F_g"][i] != 0 else None,
-            "equation": fmt.display(q["EOM_g1"][i]),
-        })
     links = []
     for t in gen["links"]:
         links.append({
@@ -129,15 +119,13 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "T_g": fmt.display(q["T_g"]), "V_g": fmt.display(q["V_g"]),
         "L_g": fmt.display(q["L_g"]),
         "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange,
+        "lagrange": lagrange_context(derivation, style),
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
         "M_g": fmt.matrix("M", q["M_g"]),
         "C_g": fmt.matrix("C", q["C_g"]),
         "N_g": fmt.matrix("N", q["N_g"]),
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
-        "checks": [{"description": escape_tex(c.description), "passed": c.passed,
-                    "method": c.method, "residual": _residual_text(c.residual)} for c in derivation.checks]
-                  if "checks" in sections else [],
+        "checks": checks_context(derivation, style) if "checks" in sections else [],
         "sections": list(sections),
         "maximal_left_out": left_out,
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
@@ -166,6 +154,23 @@ class RecursionFormatter(Formatter):
 def _recursion(derivation: Derivation, digits: int | None) -> dict[str, Any]:
     return recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits),
                              Formatter.of(derivation, digits=digits), typeset_width)
+
+
+def lagrange_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    """Lagrange's equations coordinate by coordinate (where derived: small robots)."""
+    steps, q, table, fmt = derivation.steps["generalized"]["lagrange"], derivation.quantities, derivation.symbols, style.fmt
+    return [{
+        "coordinate": fmt(table.q[i]), "velocity": fmt(table.qd[i]),
+        **{key: style.scalar(steps[key][i], SCALAR_NODES) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")},
+        "effort": fmt(q["Y_g"][i]),
+        "dissipation": style.show(q["F_g"][i]) if "F_g" in q and q["F_g"][i] != 0 else None,
+        "equation": style.scalar(q["EOM_g1"][i], SCALAR_NODES),
+    } for i in range(len(derivation.robot.coordinates) if steps else 0)]
+
+
+def checks_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    return [{"description": style.text(c.description), "passed": c.passed, "method": c.method,
+             "residual": _residual_text(c.residual)} for c in derivation.checks]
 
 
 def frames_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
@@ -225,9 +230,9 @@ class SheetStyle:
         """An equation's side, however large."""
         return self.fmt.display(value, None)
 
-    def scalar(self, value: sympy.Expr) -> Any:
-        """A scalar shown while it is small enough."""
-        return self.fmt.display(value)
+    def scalar(self, value: sympy.Expr, limit: int = SCALAR_NODES) -> Any:
+        """A scalar shown while it has at most ``limit`` nodes."""
+        return self.fmt.display(value, limit)
 
 
 def drives_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any] | None:
