@@ -35,21 +35,11 @@ class HtmlStyle(LatexStyle):
     def formatter(self, derivation: Derivation, digits: int | None, groups: list[Any]) -> MathFormatter:
         return MathFormatter.of(derivation, digits=digits, lines=tuple(n for _, group in groups for n, _ in group))
 
-    def header(self, derivation: Derivation, fmt: Any, gravity: sympy.Matrix) -> dict[str, Any]:
-        robot, table = derivation.robot, derivation.symbols
-        where_q, where_v = robot.offsets()
-
-        def listed(symbols: list[sympy.Symbol]) -> Markup | None:
-            return Markup("<mo>,</mo>").join(fmt(s) for s in symbols) if symbols else None
-
-        joints = []
-        for j in robot.joints:
-            size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1)) if j.moves else (0, 0)
-            qi, vi = where_q.get(j.name, 0), where_v.get(j.name, 0)
-            joints.append({"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
-                           "variables": [listed(table.q[qi:qi + size[0]]), listed(table.qd[vi:vi + size[1]])],
-                           "effort": listed([table.efforts[n] for n in j.effort_names])})
+    def opening(self, derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: list[Any]) -> dict[str, Any]:
         return page_header(derivation, fmt, gravity, joints)
+
+    def listed(self, fmt: Any, symbols: list[sympy.Symbol]) -> Markup | None:
+        return Markup("<mo>,</mo>").join(fmt(s) for s in symbols) if symbols else None
 
     def matrix(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
         """``MathFormatter.matrix`` named as the LaTeX sheet's (entries ``I_{1,23}``), a label in

@@ -84,26 +84,31 @@ class LatexStyle:
         return Formatter.of(derivation, digits=digits, lines=_names_of(groups))
 
     def header(self, derivation: Derivation, fmt: Any, gravity: sympy.Matrix) -> dict[str, Any]:
-        """The sheet's header with the joint table: each joint's coordinates and velocities (a
+        """The header with the joint table: each joint's coordinates and velocities (a
         ``<mimic>`` joint's follow its leader's coordinate)."""
         robot, table = derivation.robot, derivation.symbols
         where_q, where_v = robot.offsets()
         joints = []
         for j in robot.joints:
-            entry = {"name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),
-                     "child": escape_tex(j.child), "variables": ["", ""],
-                     "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
+            variables = [self.listed(fmt, []), self.listed(fmt, [])]
             if j.owns:
                 size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
-                entry["variables"] = [", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]]),
-                                      ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])]
+                variables = [self.listed(fmt, table.q[where_q[j.name]:where_q[j.name] + size[0]]),
+                             self.listed(fmt, table.qd[where_v[j.name]:where_v[j.name] + size[1]])]
             elif j.moves:
                 leader, multiplier, offset = robot.driver(j)
                 m = table.expr(multiplier)
-                entry["variables"] = [fmt(m * table.q[where_q[leader]] + table.expr(offset)),
-                                      fmt(m * table.qd[where_v[leader]])]
-            joints.append(entry)
+                variables = [fmt(m * table.q[where_q[leader]] + table.expr(offset)), fmt(m * table.qd[where_v[leader]])]
+            joints.append({"name": self.name(j.name), "type": j.type, "parent": self.name(j.parent),
+                           "child": self.name(j.child), "variables": variables,
+                           "effort": self.listed(fmt, [table.efforts[n] for n in j.effort_names])})
+        return self.opening(derivation, fmt, gravity, joints)
+
+    def opening(self, derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: list[Any]) -> dict[str, Any]:
         return sheet_header(derivation, fmt, gravity, ["Coordinates", "Velocities"], joints)
+
+    def listed(self, fmt: Any, symbols: list[sympy.Symbol]) -> Any:
+        return ", ".join(fmt(s) for s in symbols)
 
     def matrix(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
         """``Formatter.matrix`` with the entries over ENTRY_LIMIT nodes or LATEX_LIMIT characters
