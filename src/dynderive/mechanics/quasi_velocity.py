@@ -90,26 +90,6 @@ def skew(a: sympy.Matrix) -> sympy.Matrix:
     return sympy.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
 
 
-def _constant(matrix: sympy.Matrix) -> sympy.Matrix:
-    """A joint's constant transform or axis with its irrational numbers (``cos(0.3)``, a
-    normalized axis's square roots) as doubles: exact, they would multiply out into sums of
-    products of them in every entry below."""
-    return fold_constants(matrix)
-
-
-@dataclass
-class QuaternionJointSheet:
-    """A floating or spherical joint: its coordinates, velocities, the rotation of its
-    quaternion, and ``rate`` (``qdot = rate * v``, NQ_joint x NV_joint)."""
-
-    name: str
-    type: str
-    q: list[sympy.Symbol]
-    v: list[sympy.Symbol]
-    rotation: sympy.Matrix
-    rate: sympy.Matrix
-
-
 @dataclass
 class LinkSheet:
     """One link: rotation and position of its frame in the world, its centre of mass in the
@@ -134,7 +114,6 @@ class LinkSheet:
 class QuasiVelocitySheet:
     """Everything the quasi-velocity sections of a small robot show (module docstring)."""
 
-    joints: list[QuaternionJointSheet]
     links: list[LinkSheet]
     rate: sympy.Matrix             # qdot = rate * v, NQ x NV
     M: sympy.Matrix
@@ -246,7 +225,6 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     where = offsets(robot)
     nq, nv = len(table.q), len(table.qd)
     rate = sympy.zeros(nq, nv)
-    joints: list[QuaternionJointSheet] = []
     gravity = sympy.Matrix([expr(e) for e in robot.gravity])
     depth = {link.name: len(robot.path_to(link.name)) for link in robot.links}
     order = sorted(robot.links, key=lambda link: depth[link.name])
@@ -255,7 +233,9 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     for link in order:
         joint = robot.parent_joint(link.name)
         x, y, z, roll, pitch, yaw = (expr(e) for e in joint.origin)
-        R, p = _constant(rpy_matrix(roll, pitch, yaw)), _constant(sympy.Matrix([x, y, z]))
+        # constant transforms and axes with their irrational numbers (cos(0.3), a normalized axis's
+        # square roots) as doubles: exact, they would multiply out into every entry below
+        R, p = fold_constants(rpy_matrix(roll, pitch, yaw)), fold_constants(sympy.Matrix([x, y, z]))
         S = sympy.zeros(6, nv)
         if joint.moves:
             qi, vi = where.q[joint.name], where.v[joint.name]
@@ -272,16 +252,14 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
             block[start:, start:] = quaternion_rate(quat)
             S[3:, vi + start:vi + start + 3] = sympy.eye(3)
             rate[qi:qi + start + 4, vi:vi + start + 3] = block
-            joints.append(QuaternionJointSheet(joint.name, joint.type, table.q[qi:qi + start + 4],
-                                             table.qd[vi:vi + start + 3], Rq, block))
             R = R * Rq
         elif kind.turns:
-            axis = _constant(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
+            axis = fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
             R = R * axis_angle(tuple(axis), table.q[qi])
             S[3:, vi] = axis
             rate[qi, vi] = 1
         elif kind.moves:   # prismatic
-            axis = _constant(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
+            axis = fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
             p = p + R * axis * table.q[qi]
             S[:3, vi] = axis
             rate[qi, vi] = 1
@@ -381,8 +359,8 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     for drive in joint_drives(robot, table):
         F[drive.coordinate] = dissipative_force(drive.damping, drive.friction, table.qd[drive.coordinate])
     EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s + F - Y).applyfunc(expand)
-    return QuasiVelocitySheet(joints, [links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,
-                         expand(potential_s), Y, EOM)
+    return QuasiVelocitySheet([links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,
+                              expand(potential_s), Y, EOM)
 
 
 def _cross3(a: list, b: list) -> list:

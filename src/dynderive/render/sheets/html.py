@@ -21,6 +21,7 @@ from ..environment import render
 from .figure import sheet_figure
 from .html_math import (
     MathFormatter,
+    accent,
     body_jacobian,
     fenced,
     link_frame,
@@ -32,8 +33,18 @@ from .html_math import (
 )
 from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
-from .latex import LONGEST_LAMBDA, _residual_text, default_sections, maximal_left_out
-from .latex_format import INLINE_NODES, SCALAR_NODES, Formatter, _groups
+from .latex import (
+    SheetStyle,
+    checks_context,
+    default_sections,
+    drives_context,
+    frames_context,
+    lagrange_context,
+    loops_context,
+    maximal_context,
+    maximal_left_out,
+)
+from .latex_format import ENTRY_NODES, INLINE_NODES, SCALAR_NODES, Formatter, _groups
 from .recursion import joint_variable
 
 HTML_TEMPLATE = "html/sheet.html.j2"
@@ -55,22 +66,13 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
     left_out = maximal_left_out(derivation, sections)
     sections = default_sections(derivation) if sections is None else sections
     fmt = MathFormatter.of(derivation, digits=digits)
+    style = PageStyle(derivation, fmt)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
 
     def display(expr: Any, limit: int | None = SCALAR_NODES) -> Markup | None:
         return fmt(expr) if limit is None else fmt.maybe(expr, limit)
 
-    lagrange = []
-    for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
-        lagrange.append({
-            "coordinate": fmt(table.q[i]), "velocity": fmt(table.qd[i]),
-            "dL_dqd": display(gen["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": display(gen["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": display(gen["lagrange"]["dL_dq"][i]),
-            "dissipation": display(q["F_g"][i], None) if "F_g" in q and q["F_g"][i] != 0 else None,
-            "equation": display(q["EOM_g1"][i]),
-        })
     links = []
     for t in gen["links"]:
         k = t.index
@@ -101,7 +103,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
         "links": links,
         "T_g": display(q["T_g"]), "V_g": display(q["V_g"]), "L_g": display(q["L_g"]),
         "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange,
+        "lagrange": lagrange_context(derivation, style),
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"], _named("EOM", "g1")) if "EOM_g1" in q else None,
         "M_g": fmt.matrix("M", q["M_g"], _named("M", "g")),
         "C_g": fmt.matrix("C", q["C_g"], _named("C", "g")),
@@ -110,16 +112,14 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"], _named("EOM", "g2")),
         "inertia_groups": [{"names": [sub("\U0001d4dc", str(i)) for i in g["indices"]], "math": g["latex"]}
                            for g in _groups([(link["index"], link["spatial_inertia"]) for link in links])],
-        "checks": [{"description": c.description, "passed": c.passed, "method": c.method,
-                    "residual": _residual_text(c.residual)} for c in derivation.checks]
-                  if "checks" in sections else [],
+        "checks": checks_context(derivation, style) if "checks" in sections else [],
         "sections": list(sections),
         "maximal_left_out": left_out,
         "figure": _figure(derivation), "quasi_velocity": False,
-        "drives": _drives(derivation, fmt),
-        "loops": _loops(derivation, fmt) if "loops" in derivation.steps else None,
-        "frames": _frames(derivation, fmt) if robot.frames else None,
-        "maximal": _maximal(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
+        "drives": drives_context(derivation, style),
+        "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
+        "frames": frames_context(derivation, style) if robot.frames else None,
+        "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
     }
     return context
 
@@ -139,122 +139,55 @@ def _figure(derivation: Derivation) -> dict[str, Any] | None:
             "view": figure.get("view", ("", ""))}
 
 
-def _drives(derivation: Derivation, fmt: MathFormatter) -> dict[str, Any] | None:
-    drives = derivation.steps["generalized"]["drives"]
-    if drives.empty:
-        return None
-    table, q = derivation.symbols, derivation.quantities
-
-    def term(value: sympy.Expr) -> Markup | None:
-        return fmt(value) if value != 0 else None
-
-    return {
-        "joints": [{"coordinate": fmt(table.q[d.coordinate]), "damping": term(d.damping),
-                    "friction": term(d.friction), "stiffness": term(d.stiffness),
-                    "rest": (fmt(d.rest) if d.stiffness != 0 else None), "armature": term(d.armature)}
-                   for d in drives.joints],
-        "kinetic": fmt(drives.kinetic) if drives.kinetic != 0 else None,
-        "potential": fmt(drives.potential) if drives.potential != 0 else None,
-        "armature": drives.armature != sympy.zeros(*drives.armature.shape),
-        "D_g": fmt(q["D_g"]) if "D_g" in q else None,
-        "coulomb": any(d.friction != 0 for d in drives.joints),
-    }
-
-
-def _loops(derivation: Derivation, fmt: MathFormatter) -> dict[str, Any]:
-    q, model, table = derivation.quantities, derivation.steps["loops"], derivation.symbols
-    labels = {"R_g": _named("R", "g"), "M_r": _named("M", "r"), "C_r": _named("C", "r"), "N_r": _named("N", "r"),
-              "Y_r": sub("\u03a5", _upright("r"))}
-    reduced = {key: fmt.matrix(key.split("_")[0] if key != "Y_r" else "\u03a5", q[key], label) if key in q else None
-               for key, label in labels.items()}
-    return {
-        "joints": [lp.name for lp in derivation.robot.loops],
-        "count": q["a_g"].shape[0], "rank": model.rank, "mobility": model.mobility,
-        "rows": [f"{name}: {what}" for name, what in model.rows],
-        "a_g": fmt.matrix("a", q["a_g"], mrow(_named("a", "g"), fenced(_named("q", "g")))),
-        "A_g": fmt.matrix("A", q["A_g"], _named("A", "g")),
-        "Adot_g": fmt.matrix(_dot("A"), q["Adot_g"], sub(_dot("A"), _upright("g"))),
-        "multipliers": fmt(q["lambda_g"]),
-        "independent": fmt(sympy.Matrix([table.q[i] for i in model.independent])),
-        "dependent": fmt(sympy.Matrix([table.q[i] for i in model.dependent])),
-        "assembled": fmt(sympy.Matrix([sympy.Float(x, 4) for x in model.assembled])) if model.assembled else None,
-        "notes": [n.split(": note: ", 1)[-1] for n in model.notes],
-        **reduced,
-    }
-
-
 def _dot(letter: str) -> Markup:
-    from .html_math import accent
-
     return accent(letter, "\u02d9")
 
 
-def _frames(derivation: Derivation, fmt: MathFormatter) -> list[dict[str, Any]]:
-    q, planar = derivation.quantities, derivation.robot.planar
-    items = []
-    for frame in derivation.robot.frames:
-        name = frame.name
-        label = _upright(name)
-        item: dict[str, Any] = {"name": name, "link": frame.link, "symbolic": f"J_{name}" in q}
-        if item["symbolic"]:
-            item |= {
-                "position": fmt.matrix(sub("p", label), q[f"p_{name}"]),
-                "angle": fmt(q[f"theta_{name}"][0, 0]) if planar else None,
-                "theta": sub("\u03b8", label),
-                "rotation": None if planar else fmt.matrix(sub("R", label), q[f"R_{name}"]),
-                "jacobian": fmt.matrix(sub("J", label), q[f"J_{name}"]),
-                "jacobian_dot": fmt.matrix(sub(_dot("J"), label), q[f"Jdot_{name}"]) if planar else None,
-            }
-        items.append(item)
-    return items
+class PageStyle(SheetStyle):
+    """The sections the page shares with the LaTeX sheet (``latex.SheetStyle``) in MathML: each
+    matrix named by its letter, labelled as the page writes it; names as written."""
 
+    text = staticmethod(str)
+    blank = unknown = None
 
-def _maximal(derivation: Derivation, fmt: MathFormatter) -> dict[str, Any]:
-    q, steps, table = derivation.quantities, derivation.steps["maximal"], derivation.symbols
-    lagrange = [{"coordinate": fmt(c), "velocity": fmt(table.qmd[i]),
-                 "dL_dqd": fmt(steps["lagrange"]["dL_dqd"][i]), "ddt_dL_dqd": fmt(steps["lagrange"]["ddt_dL_dqd"][i]),
-                 "dL_dq": fmt(steps["lagrange"]["dL_dq"][i]), "equation": fmt(q["EOM_m1"][i])}
-                for i, c in enumerate(table.qm)]
-    lambda_entries = None
-    latex = Formatter.of(derivation, digits=fmt.digits)
-    if "lambdaVec" in q and max(len(latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
-        lambda_entries = [fmt(e) for e in q["lambdaVec"]]
-    tilde = {}
-    if "EOM_g3" in q:
-        marks = {"M_tilde": "M", "C_tilde": "C", "N_tilde": "N", "Y_tilde": "\u03a5"}
-        tilde = {key: fmt.matrix(_tilde(letter), steps[key]) for key, letter in marks.items()}
-        tilde["F_tilde"] = fmt.matrix(_tilde("F"), steps["F_tilde"]) if "F_m" in q else None
-        tilde["Hdot"] = fmt.matrix(_dot("H"), steps["Hdot"])
-        tilde["EOM_g3"] = fmt.matrix("EOM", q["EOM_g3"], _named("EOM", "g3"))
-    else:
-        tilde["EOM_g3"] = None
-    return {
-        "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)), "lambda": fmt(sympy.Matrix(table.multipliers)),
-        "constraint_count": q["a_m"].shape[0], "constraints_from_file": steps["constraint_origin"] == "override",
-        "a_m": fmt.matrix("a", q["a_m"], mrow(_named("a", "m"), fenced(_named("q", "m")))),
-        "A_m": fmt.matrix("A", q["A_m"], _named("A", "m")),
-        "Adot_m": fmt.matrix(_dot("A"), q["Adot_m"], sub(_dot("A"), _upright("m"))),
-        "T_m": fmt(q["T_m"]), "V_m": fmt(q["V_m"]), "L_m": fmt(q["L_m"]),
-        "Y_m": fmt.matrix("\u03a5", q["Y_m"], sub("\u03a5", _upright("m"))),
-        "lagrange": lagrange,
-        "jacobians": [fmt.matrix(fenced(body_jacobian(k)), j, body_jacobian(k)) for k, j in enumerate(steps["jacobians"], 1)],
-        "M_m": fmt.matrix("M", q["M_m"], _named("M", "m")), "C_m": fmt.matrix("C", q["C_m"], _named("C", "m")),
-        "N_m": fmt.matrix("N", q["N_m"], _named("N", "m")),
-        "EOM_m1": fmt.matrix("EOM", q["EOM_m1"], _named("EOM", "m1")),
-        "EOM_m2": fmt.matrix("EOM", q["EOM_m2"], _named("EOM", "m2")),
-        "lambda_symbolic": "lambdaVec" in q, "lambda_entries": lambda_entries,
-        "h": fmt.matrix("h", q["h"], mrow(mi("h"), fenced(_named("q", "g")))),
-        "H": fmt.matrix("H", q["H"], mrow(mi("H"), fenced(_named("q", "g")))),
-        "F_m": fmt.matrix("F", q["F_m"], _named("F", "m")) if "F_m" in q else None,
-        "D_m": fmt.maybe(q["D_m"]) if "D_m" in q else None,
-        "drives": not derivation.steps["generalized"]["drives"].empty,
-        **tilde,
-    }
+    def __init__(self, derivation: Derivation, fmt: MathFormatter):
+        super().__init__(derivation, fmt)
+        self.latex = Formatter.of(derivation, digits=fmt.digits)
+        qg, qm = fenced(_named("q", "g")), fenced(_named("q", "m"))
+        self.names = {
+            "a_g": ("a", mrow(_named("a", "g"), qg)), "A_g": ("A", _named("A", "g")),
+            "Adot_g": (_dot("A"), sub(_dot("A"), _upright("g"))), "R_g": ("R", _named("R", "g")),
+            "M_r": ("M", _named("M", "r")), "C_r": ("C", _named("C", "r")), "N_r": ("N", _named("N", "r")),
+            "Y_r": ("\u03a5", sub("\u03a5", _upright("r"))), "a_m": ("a", mrow(_named("a", "m"), qm)),
+            "A_m": ("A", _named("A", "m")), "Adot_m": (_dot("A"), sub(_dot("A"), _upright("m"))),
+            "Y_m": ("\u03a5", sub("\u03a5", _upright("m"))), "M_m": ("M", _named("M", "m")),
+            "C_m": ("C", _named("C", "m")), "N_m": ("N", _named("N", "m")), "EOM_m1": ("EOM", _named("EOM", "m1")),
+            "EOM_m2": ("EOM", _named("EOM", "m2")), "h": ("h", mrow(mi("h"), qg)), "H": ("H", mrow(mi("H"), qg)),
+            "F_m": ("F", _named("F", "m")), "Hdot": (_dot("H"), None), "M_tilde": (_tilde("M"), None),
+            "C_tilde": (_tilde("C"), None), "N_tilde": (_tilde("N"), None), "Y_tilde": (_tilde("\u03a5"), None),
+            "F_tilde": (_tilde("F"), None), "EOM_g3": ("EOM", _named("EOM", "g3"))}
+
+    def matrix(self, key: str, value: sympy.Matrix) -> dict[str, Any]:
+        base, label = self.names[key]
+        return self.fmt.matrix(base, value, label)
+
+    def jacobian(self, k: int, value: sympy.Matrix) -> dict[str, Any]:
+        return self.fmt.matrix(fenced(body_jacobian(k)), value, body_jacobian(k))
+
+    def frame_labels(self, name: str) -> dict[str, Any]:
+        return {"theta": sub("\u03b8", _upright(name))}
+
+    def frame_matrix(self, letter: str, name: str, value: sympy.Matrix) -> dict[str, Any]:
+        return self.fmt.matrix(sub(_dot("J") if letter == "Jdot" else letter, _upright(name)), value)
+
+    def show(self, value: sympy.Expr) -> Markup:
+        return self.fmt(value)
+
+    def scalar(self, value: sympy.Expr, limit: int = ENTRY_NODES) -> Markup | None:
+        return self.fmt.maybe(value, limit)
 
 
 def _tilde(letter: str) -> Markup:
-    from .html_math import accent
-
     return accent(letter, "~")
 
 

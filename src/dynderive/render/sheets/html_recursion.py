@@ -16,7 +16,7 @@ from markupsafe import Markup
 from ...derivation import Derivation
 from .html_math import MathFormatter, Name, accent, mi, mn, mo, mrow, sub
 from .latex_format import typeset_width
-from .recursion import coordinate_index, link_indices, name_fields, named_lines, recursion_parts
+from .recursion import name_fields, recursion_names, recursion_parts
 
 #: MathML of each quantity (``recursion.NAMES``, ``mechanics.recursion.MEANINGS``): the letter,
 #: a dot over it, a bar over that, the superscript and the subscript (``{i}`` the link's index,
@@ -67,19 +67,8 @@ def meaning_markup(quantity: str, fields: dict[str, Any], primes: int = 0) -> Ma
 
 
 def recursion_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | Markup]:
-    """MathML names of the recursion's program (``recursion.recursion_names`` in MathML):
-    ``q_k`` and its rates, ``s_k``/``c_k``, each line by its meaning."""
-    robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
-    index, n = link_indices(robot), len(robot.coordinates)
-    names: dict[sympy.Symbol, Name | Markup] = {}
-    for k in range(len(table.q)):
-        names |= {table.q[k]: ("q", "", 0, str(k + 1)), table.qd[k]: ("q", "", 1, str(k + 1)),
-                  table.qdd[k]: ("q", "", 2, str(k + 1))}
-    for symbol, value in r.trig:
-        names[symbol] = ("c" if isinstance(value, sympy.cos) else "s", "", 0, str(coordinate_index(derivation, value)))
-    for symbol, (meaning, primes) in named_lines(derivation).items():
-        names[symbol] = meaning_markup(meaning.quantity, name_fields(meaning, index, robot, n), primes)
-    return names
+    """MathML names of the recursion's program (``recursion.recursion_names`` in MathML)."""
+    return recursion_names(derivation, lambda letter, dots, k: (letter, "", dots, k), meaning_markup)
 
 
 class RecursionMathFormatter(MathFormatter):

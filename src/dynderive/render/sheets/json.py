@@ -35,7 +35,7 @@ from ...derivation import Derivation
 from ...mechanics.tidy import is_small
 from ..printers import RememberingStrPrinter
 from .latex_format import Formatter
-from .quasi_velocity import _names_of, dissipative_forces, program_listing
+from .quasi_velocity import _names_of, dissipative_forces, listing
 
 #: Quantities larger than this (tree nodes per entry, on average) get ``"latex": null``: their
 #: LaTeX would run to pages per entry and costs most of the JSON's time (30 s for the UR5's C_g).
@@ -161,17 +161,13 @@ def _quasi_velocity(derivation: Derivation) -> tuple[dict[str, Any], dict[str, A
     """A robot with quaternion joints: the dump's head (``floating``, ``NQ``, ``NV``, the names,
     the joints), quantities, intermediates and degrees of freedom."""
     robot, table = derivation.robot, derivation.symbols
-    steps = derivation.quasi_velocity_steps
-    small = steps.sheet is not None
-    groups, outputs = ([], {}) if small else program_listing(derivation)
+    steps, groups, outputs = listing(derivation)
     fmt = Formatter.of(derivation, exact=True, lines=_names_of(groups))
     printer = RememberingStrPrinter({"order": fmt.order or "lex"})
     nv = len(table.qd)
-    values: dict[str, object] = {}
-    if small:
-        sheet = steps.sheet
-        values = {"T_g": sheet.T, "V_g": sheet.V, "Y_g": sheet.Y, "M_g": sheet.M, "C_g": sheet.C, "N_g": sheet.N,
-                  "EOM_g2": sheet.EOM, "Q_g": sheet.rate}
+    if (sheet := steps.sheet) is not None:
+        values: dict[str, object] = {"T_g": sheet.T, "V_g": sheet.V, "Y_g": sheet.Y, "M_g": sheet.M, "C_g": sheet.C,
+                                     "N_g": sheet.N, "EOM_g2": sheet.EOM, "Q_g": sheet.rate}
         values |= {f"J_b{link.index}": link.jacobian for link in sheet.links}
     else:
         Y = sympy.Matrix(steps.efforts)

@@ -17,6 +17,7 @@ from .latex_format import (
     INLINE_NODES,
     INLINE_UNITS,
     LINE_UNITS,
+    SCALAR_NODES,
     TIGHT,
     Formatter,
     _fits,
@@ -70,20 +71,10 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     left_out = maximal_left_out(derivation, sections)
     sections = default_sections(derivation) if sections is None else sections
     fmt = Formatter.of(derivation, digits=digits)
+    style = SheetStyle(derivation, fmt)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
     coordinate_latex = [fmt(s) for s in table.q]
-    lagrange = []
-    for i in range(len(robot.coordinates) if gen["lagrange"] else 0):
-        lagrange.append({
-            "coordinate": coordinate_latex[i], "velocity": fmt(table.qd[i]),
-            "dL_dqd": fmt.display(gen["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": fmt.display(gen["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": fmt.display(gen["lagrange"]["dL_dq"][i]),
-            "effort": fmt(q["Y_g"][i]),
-            "dissipation": fmt.display(q["F_g"][i], None) if "F_g" in q and q["F_g"][i] != 0 else None,
-            "equation": fmt.display(q["EOM_g1"][i]),
-        })
     links = []
     for t in gen["links"]:
         links.append({
@@ -118,7 +109,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     context = sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | {
         "quasi_velocity": False,
         "intermediates": intermediates,
-        "jacobians": [{"index": k, "matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", q[f"J_b{k}"])}
+        "jacobians": [{"index": k, "matrix": style.jacobian(k, q[f"J_b{k}"])}
                       for k in range(1, len(robot.links) + 1)] if intermediates else [],
         "dof": len(robot.coordinates),
         "coordinates": coordinate_latex,
@@ -128,15 +119,13 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "T_g": fmt.display(q["T_g"]), "V_g": fmt.display(q["V_g"]),
         "L_g": fmt.display(q["L_g"]),
         "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange,
+        "lagrange": lagrange_context(derivation, style),
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
         "M_g": fmt.matrix("M", q["M_g"]),
         "C_g": fmt.matrix("C", q["C_g"]),
         "N_g": fmt.matrix("N", q["N_g"]),
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
-        "checks": [{"description": escape_tex(c.description), "passed": c.passed,
-                    "method": c.method, "residual": _residual_text(c.residual)} for c in derivation.checks]
-                  if "checks" in sections else [],
+        "checks": checks_context(derivation, style) if "checks" in sections else [],
         "sections": list(sections),
         "maximal_left_out": left_out,
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
@@ -144,11 +133,11 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "inertia_groups": (_groups([(link["index"], link["spatial_inertia"]) for link in links])
                            if all(link["spatial_fits"] for link in links) else []),
         "figure": sheet_figure(derivation, fmt),
-        "drives": drives_context(derivation, fmt),
+        "drives": drives_context(derivation, style),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
-        "maximal": maximal_context(derivation, fmt) if "maximal" in sections and "maximal" in derivation.steps else None,
-        "loops": loops_context(derivation, fmt) if "loops" in derivation.steps else None,
-        "frames": frames_context(derivation, fmt) if robot.frames else None,
+        "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
+        "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
+        "frames": frames_context(derivation, style) if robot.frames else None,
         "recursion": _recursion(derivation, digits) if intermediates and "generalized" in sections else None,
     }
     return context
@@ -167,69 +156,123 @@ def _recursion(derivation: Derivation, digits: int | None) -> dict[str, Any]:
                              Formatter.of(derivation, digits=digits), typeset_width)
 
 
-def frames_context(derivation: Derivation, fmt: Formatter) -> list[dict[str, Any]]:
-    """Each frame's pose, Jacobian and its derivative (small robots; the names only for large
-    ones, whose frame quantities the generated module computes)."""
-    q, planar = derivation.quantities, derivation.robot.planar
+def lagrange_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    """Lagrange's equations coordinate by coordinate (where derived: small robots)."""
+    steps, q, table, fmt = derivation.steps["generalized"]["lagrange"], derivation.quantities, derivation.symbols, style.fmt
+    return [{
+        "coordinate": fmt(table.q[i]), "velocity": fmt(table.qd[i]),
+        **{key: style.scalar(steps[key][i], SCALAR_NODES) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")},
+        "effort": fmt(q["Y_g"][i]),
+        "dissipation": style.show(q["F_g"][i]) if "F_g" in q and q["F_g"][i] != 0 else None,
+        "equation": style.scalar(q["EOM_g1"][i], SCALAR_NODES),
+    } for i in range(len(derivation.robot.coordinates) if steps else 0)]
+
+
+def checks_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    return [{"description": style.text(c.description), "passed": c.passed, "method": c.method,
+             "residual": _residual_text(c.residual)} for c in derivation.checks]
+
+
+def frames_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    """Each frame's pose, Jacobian and, planar, its derivative (small robots; the names only for
+    large ones, whose frame quantities the generated module computes)."""
+    q, planar, fmt = derivation.quantities, derivation.robot.planar, style.fmt
     items = []
     for frame in derivation.robot.frames:
         name = frame.name
-        symbolic = f"J_{name}" in q
-        label = r"\mathrm{" + escape_tex(name) + "}"
-        item: dict[str, Any] = {"name": escape_tex(name), "link": escape_tex(frame.link), "label": label,
-                                "symbolic": symbolic}
-        if symbolic:
+        item: dict[str, Any] = {"name": style.text(name), "link": style.text(frame.link), "symbolic": f"J_{name}" in q,
+                                **style.frame_labels(name)}
+        if item["symbolic"]:
             item |= {
-                "position": fmt.matrix("p", q[f"p_{name}"]),
+                "position": style.frame_matrix("p", name, q[f"p_{name}"]),
                 "angle": fmt(q[f"theta_{name}"][0, 0]) if planar else None,
-                "rotation": None if planar else fmt.matrix("R", q[f"R_{name}"]),
-                "jacobian": fmt.matrix("J", q[f"J_{name}"]),
-                "jacobian_dot": fmt.matrix(r"\dot J", q[f"Jdot_{name}"]),
+                "rotation": None if planar else style.frame_matrix("R", name, q[f"R_{name}"]),
+                "jacobian": style.frame_matrix("J", name, q[f"J_{name}"]),
+                "jacobian_dot": style.frame_matrix("Jdot", name, q[f"Jdot_{name}"]) if planar else None,
             }
         items.append(item)
     return items
 
 
-def drives_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any] | None:
+class SheetStyle:
+    """How the LaTeX sheet writes the sections the HTML page shares with it (drives, closed
+    loops, maximal coordinates: ``drives_context``, ``loops_context``, ``maximal_context``
+    build their content); ``html.PageStyle`` writes them in MathML."""
+
+    text = staticmethod(escape_tex)
+    blank: Any = ""      # a drive term a joint has not
+    unknown: Any = "?"   # an assembly not found
+    #: the sheet's names of the sections' matrices
+    NAMES = {"a_g": "a", "A_g": "A", "Adot_g": "\\dot{A}", "R_g": "R_g", "M_r": "M_r", "C_r": "C_r", "N_r": "N_r",
+             "Y_r": "\\Upsilon_r", "a_m": "a", "A_m": "A", "Adot_m": "\\dot{A}", "Y_m": "\\Upsilon", "M_m": "M",
+             "C_m": "C", "N_m": "N", "EOM_m1": "\\mathrm{EOM}", "EOM_m2": "\\mathrm{EOM}", "h": "h", "H": "H",
+             "F_m": "F", "Hdot": "\\dot{H}", "M_tilde": "\\tilde{M}", "C_tilde": "\\tilde{C}", "N_tilde": "\\tilde{N}",
+             "Y_tilde": "\\tilde{\\Upsilon}", "F_tilde": "\\tilde{F}", "EOM_g3": "\\mathrm{EOM}"}
+
+    def __init__(self, derivation: Derivation, fmt: Any):
+        self.fmt, self.latex = fmt, fmt   # latex: the LaTeX formatter, whose lengths decide what is shown
+
+    def matrix(self, key: str, value: sympy.Matrix) -> dict[str, Any]:
+        return self.fmt.matrix(self.NAMES[key], value)
+
+    def jacobian(self, k: int, value: sympy.Matrix) -> dict[str, Any]:
+        return self.fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", value)
+
+    def frame_labels(self, name: str) -> dict[str, Any]:
+        """A frame's name as the template writes it beside its matrices' letters."""
+        return {"label": r"\mathrm{" + escape_tex(name) + "}"}
+
+    def frame_matrix(self, letter: str, name: str, value: sympy.Matrix) -> dict[str, Any]:
+        """A frame's matrix (``letter`` p, R, J or Jdot; the template adds the frame's label)."""
+        return self.fmt.matrix(r"\dot J" if letter == "Jdot" else letter, value)
+
+    def show(self, value: sympy.Expr) -> Any:
+        """An equation's side, however large."""
+        return self.fmt.display(value, None)
+
+    def scalar(self, value: sympy.Expr, limit: int = SCALAR_NODES) -> Any:
+        """A scalar shown while it has at most ``limit`` nodes."""
+        return self.fmt.display(value, limit)
+
+
+def drives_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any] | None:
     """The joints' drive terms and where each enters Lagrange's equations (None: no drives)."""
     drives = derivation.steps["generalized"]["drives"]
     if drives.empty:
         return None
-    table, q = derivation.symbols, derivation.quantities
+    table, q, fmt = derivation.symbols, derivation.quantities, style.fmt
 
-    def term(value: sympy.Expr) -> str:
-        return fmt(value) if value != 0 else ""
+    def term(value: sympy.Expr) -> Any:
+        return fmt(value) if value != 0 else style.blank
 
     return {
         "joints": [{"coordinate": fmt(table.q[d.coordinate]), "damping": term(d.damping),
                     "friction": term(d.friction), "stiffness": term(d.stiffness),
-                    "rest": term(d.rest) if d.stiffness != 0 else "", "armature": term(d.armature)}
+                    "rest": fmt(d.rest) if d.stiffness != 0 else style.blank, "armature": term(d.armature)}
                    for d in drives.joints],
-        "kinetic": fmt.display(drives.kinetic, None) if drives.kinetic != 0 else None,
-        "potential": fmt.display(drives.potential, None) if drives.potential != 0 else None,
+        "kinetic": style.show(drives.kinetic) if drives.kinetic != 0 else None,
+        "potential": style.show(drives.potential) if drives.potential != 0 else None,
         "armature": drives.armature != sympy.zeros(*drives.armature.shape),
-        "D_g": fmt.display(q["D_g"], None) if "D_g" in q else None,
+        "D_g": style.show(q["D_g"]) if "D_g" in q else None,
         "coulomb": any(d.friction != 0 for d in drives.joints),
     }
 
 
-def loops_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
+def loops_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]:
     """The closed-loop section: constraints, multiplier form, reduced form (where derived)."""
-    q, model, table = derivation.quantities, derivation.steps["loops"], derivation.symbols
-    names = {"R_g": "R_g", "M_r": "M_r", "C_r": "C_r", "N_r": "N_r", "Y_r": "\\Upsilon_r"}
-    reduced = {key: fmt.matrix(name, q[key]) if key in q else None for key, name in names.items()}
+    q, model, table, fmt, text = derivation.quantities, derivation.steps["loops"], derivation.symbols, style.fmt, style.text
     return {
-        "joints": [escape_tex(lp.name) for lp in derivation.robot.loops],
+        "joints": [text(lp.name) for lp in derivation.robot.loops],
         "count": q["a_g"].shape[0], "rank": model.rank, "mobility": model.mobility,
-        "rows": [f"{escape_tex(name)}: {escape_tex(what)}" for name, what in model.rows],
-        "a_g": fmt.matrix("a", q["a_g"]), "A_g": fmt.matrix("A", q["A_g"]),
-        "Adot_g": fmt.matrix("\\dot{A}", q["Adot_g"]),
+        "rows": [f"{text(name)}: {text(what)}" for name, what in model.rows],
         "multipliers": fmt(q["lambda_g"]),
         "independent": fmt(sympy.Matrix([table.q[i] for i in model.independent])),
         "dependent": fmt(sympy.Matrix([table.q[i] for i in model.dependent])),
-        "assembled": fmt(sympy.Matrix([sympy.Float(x, 4) for x in model.assembled])) if model.assembled else "?",
-        "notes": [escape_tex(n.split(": note: ", 1)[-1]) for n in model.notes],
-        **reduced,
+        "assembled": (fmt(sympy.Matrix([sympy.Float(x, 4) for x in model.assembled])) if model.assembled
+                      else style.unknown),
+        "notes": [text(n.split(": note: ", 1)[-1]) for n in model.notes],
+        **{key: style.matrix(key, q[key]) if key in q else None
+           for key in ("a_g", "A_g", "Adot_g", "R_g", "M_r", "C_r", "N_r", "Y_r")},
     }
 
 
@@ -237,58 +280,47 @@ def loops_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
 LONGEST_LAMBDA = 1800
 
 
-def maximal_context(derivation: Derivation, fmt: Formatter) -> dict[str, Any]:
-    q, steps, table = derivation.quantities, derivation.steps["maximal"], derivation.symbols
+def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]:
+    """The maximal-coordinates section; the change of basis to the generalized coordinates
+    (``EOM_g3``) for small robots."""
+    q, steps, table, fmt = derivation.quantities, derivation.steps["maximal"], derivation.symbols, style.fmt
     lagrange = []
     for i, coordinate in enumerate(table.qm):
         lagrange.append({
             "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
-            "dL_dqd": fmt.display(steps["lagrange"]["dL_dqd"][i], None),
-            "ddt_dL_dqd": fmt.display(steps["lagrange"]["ddt_dL_dqd"][i], None),
-            "dL_dq": fmt.display(steps["lagrange"]["dL_dq"][i], None),
+            "dL_dqd": style.show(steps["lagrange"]["dL_dqd"][i]),
+            "ddt_dL_dqd": style.show(steps["lagrange"]["ddt_dL_dqd"][i]),
+            "dL_dq": style.show(steps["lagrange"]["dL_dq"][i]),
             # the three derivatives share a display line when they fit side by side, else the
             # first two (short: momenta and their rates) when they do
             "together": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd", "dL_dq")), extra=24),
             "pair": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd")), extra=16),
-            "equation": fmt.display(q["EOM_m1"][i], None),
+            "equation": style.show(q["EOM_m1"][i]),
         })
     lambda_entries = None
-    if "lambdaVec" in q and max(len(fmt(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
+    if "lambdaVec" in q and max(len(style.latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
         # the LaTeX first: breaking entries too long to show into lines cost seconds
-        lambda_entries = [fmt.display(e, None) for e in q["lambdaVec"]]
+        lambda_entries = [style.show(e) for e in q["lambdaVec"]]
+    tilde = ("Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde") if "EOM_g3" in q else ()
     return {
         "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
         "lambda": fmt(sympy.Matrix(table.multipliers)),
         "constraint_count": q["a_m"].shape[0],
         "constraints_from_file": steps["constraint_origin"] == "override",
-        "a_m": fmt.matrix("a", q["a_m"]), "A_m": fmt.matrix("A", q["A_m"]),
-        "Adot_m": fmt.matrix("\\dot{A}", q["Adot_m"]),
-        "T_m": fmt.display(q["T_m"], None), "V_m": fmt.display(q["V_m"], None), "L_m": fmt.display(q["L_m"], None),
-        "Y_m": fmt.matrix("\\Upsilon", q["Y_m"]),
+        **{key: style.matrix(key, q[key]) for key in ("a_m", "A_m", "Adot_m")},
+        "T_m": style.show(q["T_m"]), "V_m": style.show(q["V_m"]), "L_m": style.show(q["L_m"]),
+        "Y_m": style.matrix("Y_m", q["Y_m"]),
         "lagrange": lagrange,
-        "jacobians": [fmt.matrix(rf"\left(J^b_{{sL_{{{k}}}}}\right)", j) for k, j in enumerate(steps["jacobians"], 1)],
-        "M_m": fmt.matrix("M", q["M_m"]), "C_m": fmt.matrix("C", q["C_m"]),
-        "N_m": fmt.matrix("N", q["N_m"]), "EOM_m2": fmt.matrix("\\mathrm{EOM}", q["EOM_m2"]),
-        "EOM_m1": fmt.matrix("\\mathrm{EOM}", q["EOM_m1"]),
+        "jacobians": [style.jacobian(k, j) for k, j in enumerate(steps["jacobians"], 1)],
+        **{key: style.matrix(key, q[key]) for key in ("M_m", "C_m", "N_m", "EOM_m2", "EOM_m1")},
         "lambda_symbolic": "lambdaVec" in q, "lambda_entries": lambda_entries,
-        "h": fmt.matrix("h", q["h"]), "H": fmt.matrix("H", q["H"]),
-        **(_change_of_basis(q, steps, fmt) if "EOM_g3" in q else {"EOM_g3": None}),
-        "F_m": fmt.matrix("F", q["F_m"]) if "F_m" in q else None,
-        "D_m": fmt.display(q["D_m"]) if "D_m" in q else None,
+        "h": style.matrix("h", q["h"]), "H": style.matrix("H", q["H"]),
+        **{key: style.matrix(key, steps[key]) for key in tilde},
+        "EOM_g3": style.matrix("EOM_g3", q["EOM_g3"]) if tilde else None,
+        "F_tilde": style.matrix("F_tilde", steps["F_tilde"]) if tilde and "F_m" in q else None,
+        "F_m": style.matrix("F_m", q["F_m"]) if "F_m" in q else None,
+        "D_m": style.scalar(q["D_m"]) if "D_m" in q else None,
         "drives": not derivation.steps["generalized"]["drives"].empty,
-    }
-
-
-def _change_of_basis(q: Any, steps: dict[str, Any], fmt: Formatter) -> dict[str, Any]:
-    """The maximal model mapped through H (small robots: ``EOM_g3``)."""
-    return {
-        "Hdot": fmt.matrix("\\dot{H}", steps["Hdot"]),
-        "M_tilde": fmt.matrix("\\tilde{M}", steps["M_tilde"]),
-        "C_tilde": fmt.matrix("\\tilde{C}", steps["C_tilde"]),
-        "N_tilde": fmt.matrix("\\tilde{N}", steps["N_tilde"]),
-        "Y_tilde": fmt.matrix("\\tilde{\\Upsilon}", steps["Y_tilde"]),
-        "EOM_g3": fmt.matrix("\\mathrm{EOM}", q["EOM_g3"]),
-        "F_tilde": fmt.matrix("\\tilde{F}", steps["F_tilde"]) if "F_m" in q else None,
     }
 
 

@@ -57,46 +57,113 @@ def _names_of(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]]) -
     return tuple((name, f"\\mathsf{{w}}_{{{str(name)[2:]}}}") for _, lines in groups for name, _ in lines)
 
 
-def quasi_velocity_context(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
-    """Every variable ``sheet.tex.j2`` uses for a robot with quaternion joints
-    (docs/reference/outputs.md)."""
-    robot, table = derivation.robot, derivation.symbols
+def listing(derivation: Derivation) -> tuple[Any, list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]],
+                                             dict[str, list[sympy.Expr]]]:
+    """The robot's quasi-velocity steps and, for a large robot (no step-by-step ``sheet``), its
+    ``program_listing`` (empty for a small one): what every format shows."""
     steps = derivation.quasi_velocity_steps
+    groups, outputs = ([], {}) if steps.sheet is not None else program_listing(derivation)
+    return steps, groups, outputs
+
+
+class LatexStyle:
+    """How the LaTeX sheet writes the quasi-velocity content that ``quasi_velocity_context``
+    builds (which sections, matrices and lines, in which order); the HTML page's style
+    (``html_quasi_velocity.HtmlStyle``) writes the same content in MathML."""
+
+    dash = "--"
+    absent: Any = ""
+    name = staticmethod(escape_tex)
+    #: the names of a link's (``{k}`` its index) and the robot's matrices
+    NAMES = {"inertia": "I_{{{k}}}", "rotation": "R_{{{k}}}", "position": "p_{{{k}}}", "jacobian": "J_{{{k}}}",
+             "jacobian_dot": "\\dot J_{{{k}}}", "twist": "\\mathcal{{V}}_{{{k}}}",
+             "gravity": "\\left(R_{{{k}}}^T \\vec g\\right)", "rate": "Q", "M": "M", "N": "N",
+             "Cv": "\\left(C v\\right)", "C": "C", "EOM": "\\mathrm{{EOM}}"}
+
+    def formatter(self, derivation: Derivation, digits: int | None, groups: list[Any]) -> Formatter:
+        return Formatter.of(derivation, digits=digits, lines=_names_of(groups))
+
+    def header(self, derivation: Derivation, fmt: Any, gravity: sympy.Matrix) -> dict[str, Any]:
+        """The header with the joint table: each joint's coordinates and velocities (a
+        ``<mimic>`` joint's follow its leader's coordinate)."""
+        robot, table = derivation.robot, derivation.symbols
+        where_q, where_v = robot.offsets()
+        joints = []
+        for j in robot.joints:
+            variables = [self.listed(fmt, []), self.listed(fmt, [])]
+            if j.owns:
+                size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
+                variables = [self.listed(fmt, table.q[where_q[j.name]:where_q[j.name] + size[0]]),
+                             self.listed(fmt, table.qd[where_v[j.name]:where_v[j.name] + size[1]])]
+            elif j.moves:
+                leader, multiplier, offset = robot.driver(j)
+                m = table.expr(multiplier)
+                variables = [fmt(m * table.q[where_q[leader]] + table.expr(offset)), fmt(m * table.qd[where_v[leader]])]
+            joints.append({"name": self.name(j.name), "type": j.type, "parent": self.name(j.parent),
+                           "child": self.name(j.child), "variables": variables,
+                           "effort": self.listed(fmt, [table.efforts[n] for n in j.effort_names])})
+        return self.opening(derivation, fmt, gravity, joints)
+
+    def opening(self, derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: list[Any]) -> dict[str, Any]:
+        return sheet_header(derivation, fmt, gravity, ["Coordinates", "Velocities"], joints)
+
+    def listed(self, fmt: Any, symbols: list[sympy.Symbol]) -> Any:
+        return ", ".join(fmt(s) for s in symbols)
+
+    def matrix(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
+        """``Formatter.matrix`` with the entries over ENTRY_LIMIT nodes or LATEX_LIMIT characters
+        left out (the template says they are too long)."""
+        small = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
+        shown = fmt.matrix(self.NAMES[key].format(k=index),
+                           matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
+        long = [not fits or len(entry["latex"]) > LATEX_LIMIT for fits, entry in zip(small, shown["entries"])]
+        if any(long):
+            shown["wide"], shown["latex"] = True, ""
+            for entry, too_long in zip(shown["entries"], long):
+                if too_long:
+                    entry["latex"] = None
+        return shown
+
+    def scalar(self, fmt: Any, expr: sympy.Expr) -> Any:
+        return fmt.display(expr)
+
+    def line(self, fmt: Any, name: sympy.Symbol, value: sympy.Expr) -> dict[str, Any]:
+        return {"name": fmt(name), "parts": fmt.display(value, None, COLUMN_UNITS).lines}
+
+    def output(self, fmt: Any, key: str, value: sympy.Expr, row: int, column: int | None = None) -> Any:
+        """An entry of ``tau``, ``N`` (its LaTeX) or ``M`` (with its row and column)."""
+        if column is None:
+            return fmt(value)
+        return {"row": row, "column": column, "latex": fmt(value)}
+
+
+def quasi_velocity_context(derivation: Derivation, digits: int | None = None, style: Any = None) -> dict[str, Any]:
+    """Every variable ``sheet.tex.j2`` uses for a robot with quaternion joints
+    (docs/reference/outputs.md), written by ``style`` (default ``LatexStyle``; the HTML page
+    passes its own)."""
+    style = style or LatexStyle()
+    robot, table = derivation.robot, derivation.symbols
+    steps, groups, outputs = listing(derivation)
     small = steps.sheet is not None
-    groups, outputs = ([], {}) if small else program_listing(derivation)
-    fmt = Formatter.of(derivation, digits=digits, lines=_names_of(groups))
+    fmt = style.formatter(derivation, digits, groups)
     where_q, where_v = robot.offsets()
-    joints = []
-    for j in robot.joints:
-        entry = {"name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent), "child": escape_tex(j.child),
-                 "variables": ["", ""], "effort": ", ".join(fmt(table.efforts[n]) for n in j.effort_names)}
-        if j.owns:
-            size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
-            entry["variables"] = [", ".join(fmt(s) for s in table.q[where_q[j.name]:where_q[j.name] + size[0]]),
-                                  ", ".join(fmt(s) for s in table.qd[where_v[j.name]:where_v[j.name] + size[1]])]
-        elif j.moves:   # a <mimic> joint: its variable and rate follow its leader's coordinate
-            leader, multiplier, offset = robot.driver(j)
-            m = table.expr(multiplier)
-            entry["variables"] = [fmt(m * table.q[where_q[leader]] + table.expr(offset)),
-                                  fmt(m * table.qd[where_v[leader]])]
-        joints.append(entry)
     gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
-    context = sheet_header(derivation, fmt, gravity, ["Coordinates", "Velocities"], joints) | {
+    context = style.header(derivation, fmt, gravity) | {
         "quasi_velocity": True, "maximal_left_out": False,
         "nq": len(table.q), "nv": len(table.qd), "small": small,
         "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
         "floating_base": robot.floating_base,
-        "multi": [multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name])
-                  for j in robot.joints if j.multi],
+        "multi": [multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name], style) for j in robot.joints
+                  if j.multi],
         "Y": fmt(sympy.Matrix(steps.efforts)),
         "actuated_multi": any(j.multi and j.effort for j in robot.joints),
         "intermediates": bool(groups), "figure": None,
         "F": fmt(dissipative_forces(derivation)) if robot.dissipative else None,
     }
     if small:
-        context |= _small_context(steps.sheet, fmt)
+        context |= _small_context(steps.sheet, fmt, style)
     else:
-        context |= _large_context(groups, outputs, fmt, len(table.qd))
+        context |= _large_context(groups, outputs, fmt, len(table.qd), style)
     return context
 
 
@@ -111,17 +178,16 @@ def dissipative_forces(derivation: Derivation) -> sympy.Matrix:
 
 
 def multi_joint(joint: Any, fmt: Any, table: Any, where_q: dict[str, int], where_v: dict[str, int],
-                rotation: tuple[sympy.Matrix, sympy.Matrix], name: Any = escape_tex, absent: Any = "") -> dict[str, Any]:
+                rotation: tuple[sympy.Matrix, sympy.Matrix], style: Any) -> dict[str, Any]:
     """A floating or spherical joint: its quaternion's rotation matrix and configuration rate,
-    formatted by ``fmt`` (the LaTeX sheet's, or the HTML page's with ``name`` and ``absent``
-    its own: a spherical joint has no position)."""
+    formatted by ``fmt`` with ``style``'s ``name`` and ``absent`` (a spherical joint has no position)."""
     start = 3 if joint.type == "floating" else 0
     qi, vi = where_q[joint.name], where_v[joint.name]
     quat = table.q[qi + start:qi + start + 4]
-    return {"name": name(joint.name), "type": joint.type,
+    return {"name": style.name(joint.name), "type": joint.type,
             "quaternion": fmt(sympy.Matrix(quat)),
-            "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else absent,
-            "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else absent,
+            "position": fmt(sympy.Matrix(table.q[qi:qi + 3])) if start else style.absent,
+            "linear": fmt(sympy.Matrix(table.qd[vi:vi + 3])) if start else style.absent,
             "angular": fmt(sympy.Matrix(table.qd[vi + start:vi + start + 3])),
             "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
 
@@ -132,54 +198,35 @@ ENTRY_LIMIT = 1500
 LATEX_LIMIT = 5000
 
 
-def _matrix(fmt: Formatter, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
-    """``Formatter.matrix`` with the entries over ENTRY_LIMIT nodes or LATEX_LIMIT characters
-    left out (the template says they are too long)."""
-    small = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
-    shown = fmt.matrix(name, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
-    long = [not fits or len(entry["latex"]) > LATEX_LIMIT for fits, entry in zip(small, shown["entries"])]
-    if any(long):
-        shown["wide"], shown["latex"] = True, ""
-        for entry, too_long in zip(shown["entries"], long):
-            if too_long:
-                entry["latex"] = None
-    return shown
-
-
-def _small_context(sheet: Any, fmt: Formatter) -> dict[str, Any]:
+def _small_context(sheet: Any, fmt: Any, style: Any) -> dict[str, Any]:
     links = [{
-        "index": item.index, "name": escape_tex(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
-        "inertia": _matrix(fmt, f"I_{{{item.index}}}", item.inertia),
-        "rotation": _matrix(fmt, f"R_{{{item.index}}}", item.rotation),
-        "position": _matrix(fmt, f"p_{{{item.index}}}", item.com_position),
-        "jacobian": _matrix(fmt, f"J_{{{item.index}}}", item.jacobian),
-        "jacobian_dot": _matrix(fmt, f"\\dot J_{{{item.index}}}", item.jacobian_dot)
+        "index": item.index, "name": style.name(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
+        **{key: style.matrix(fmt, key, item.index, getattr(item, field)) for key, field in (
+            ("inertia", "inertia"), ("rotation", "rotation"), ("position", "com_position"), ("jacobian", "jacobian"))},
+        "jacobian_dot": style.matrix(fmt, "jacobian_dot", item.index, item.jacobian_dot)
         if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
-        "twist": _matrix(fmt, f"\\mathcal{{V}}_{{{item.index}}}", item.twist),
-        "gravity": _matrix(fmt, f"\\left(R_{{{item.index}}}^T \\vec g\\right)", item.gravity),
-        "kinetic": fmt.display(item.kinetic), "potential": fmt.display(item.potential),
+        "twist": style.matrix(fmt, "twist", item.index, item.twist),
+        "gravity": style.matrix(fmt, "gravity", item.index, item.gravity),
+        "kinetic": style.scalar(fmt, item.kinetic), "potential": style.scalar(fmt, item.potential),
     } for item in sheet.links]
     return {
         "links": links, "single": len(sheet.links) == 1,
-        "rate": _matrix(fmt, "Q", sheet.rate),
-        "T": fmt.display(sheet.T), "V": fmt.display(sheet.V),
-        "M": _matrix(fmt, "M", sheet.M), "N": _matrix(fmt, "N", sheet.N), "Cv": _matrix(fmt, "\\left(C v\\right)", sheet.Cv),
-        "C": _matrix(fmt, "C", sheet.C), "EOM": _matrix(fmt, "\\mathrm{EOM}", sheet.EOM),
+        "rate": style.matrix(fmt, "rate", None, sheet.rate),
+        "T": style.scalar(fmt, sheet.T), "V": style.scalar(fmt, sheet.V),
+        **{key: style.matrix(fmt, key, None, getattr(sheet, key)) for key in ("M", "N", "Cv", "C", "EOM")},
     }
 
 
 def _large_context(groups: list[tuple[str, list[tuple[sympy.Symbol, sympy.Expr]]]], outputs: dict[str, list[sympy.Expr]],
-                   fmt: Formatter, nv: int) -> dict[str, Any]:
-    def line(name: sympy.Symbol, value: sympy.Expr) -> dict[str, Any]:
-        shown = fmt.display(value, None, COLUMN_UNITS)
-        return {"name": fmt(name), "parts": shown.lines}
-
+                   fmt: Any, nv: int, style: Any) -> dict[str, Any]:
     titles = {"shared": "The links' transforms and inertias", "tau": "Newton--Euler",
               "M": "Composite rigid bodies", "N": "Gravity (Newton--Euler at rest)"}
     return {
-        "groups": [{"title": titles[key], "key": key, "lines": [line(n, v) for n, v in lines]} for key, lines in groups],
+        "groups": [{"title": titles[key].replace("--", style.dash), "key": key,
+                    "lines": [style.line(fmt, n, v) for n, v in lines]} for key, lines in groups],
         "line_count": sum(len(lines) for _, lines in groups),
-        "tau": [fmt(e) for e in outputs["tau"]], "N": [fmt(e) for e in outputs["N"]],
-        "M": [{"row": i + 1, "column": j + 1, "latex": fmt(outputs["M"][i * nv + j])}
+        "tau": [style.output(fmt, "tau", e, i) for i, e in enumerate(outputs["tau"], 1)],
+        "N": [style.output(fmt, "N", e, i) for i, e in enumerate(outputs["N"], 1)],
+        "M": [style.output(fmt, "M", outputs["M"][i * nv + j], i + 1, j + 1)
               for i in range(nv) for j in range(i, nv) if outputs["M"][i * nv + j] != 0],
     }

@@ -96,23 +96,33 @@ def mimic_variables(derivation: Derivation) -> list[tuple[int, int, sympy.Expr]]
     return found
 
 
-def recursion_names(derivation: Derivation) -> dict[sympy.Symbol, str]:
-    """LaTeX of every name of the recursion's program: its lines by meaning (primed as
-    ``named_lines`` says), ``s_k``/``c_k`` for the sines and cosines of coordinate k."""
-    robot, r = derivation.robot, derivation.recursion
-    index = link_indices(robot)
-    table = derivation.symbols
-    names: dict[sympy.Symbol, str] = {}
+def latex_coordinate(letter: str, dots: int, k: str) -> str:
+    """LaTeX of ``q_k`` (``dots`` its rates) or of a sine or cosine ``s_k``/``c_k``."""
+    return ("", "\\dot ", "\\ddot ")[dots] + f"{letter}_{{{k}}}"
+
+
+def latex_line(quantity: str, fields: dict[str, Any], primes: int = 0) -> str:
+    """LaTeX of a line meaning ``quantity`` (``name_fields``), primed."""
+    text = NAMES[quantity].format(**fields)
+    if "^" in text:   # a group, so that a power or a prime is not a second superscript
+        text = "{" + text + "}"
+    return text + "'" * primes
+
+
+def recursion_names(derivation: Derivation, coordinate: Any = latex_coordinate, line: Any = latex_line) -> dict:
+    """Every name of the recursion's program, LaTeX unless ``coordinate`` and ``line`` write
+    them (MathML: ``html_recursion``): ``q_k`` and its rates and ``s_k``/``c_k`` the sines and
+    cosines of coordinate k (``coordinate(letter, dots, k)``), its lines by meaning
+    (``line(quantity, name_fields, primes)``, primed as ``named_lines`` says)."""
+    robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
+    index, n = link_indices(robot), len(robot.coordinates)
+    names = {}
     for k in range(len(table.q)):   # OpenSYMORO's short names: q_k the coordinate of joint k
-        names |= {table.q[k]: f"q_{{{k + 1}}}", table.qd[k]: f"\\dot q_{{{k + 1}}}",
-                  table.qdd[k]: f"\\ddot q_{{{k + 1}}}"}
+        names |= {s: coordinate("q", dots, str(k + 1)) for dots, s in enumerate((table.q[k], table.qd[k], table.qdd[k]))}
     for symbol, value in r.trig:
-        names[symbol] = f"{'c' if isinstance(value, sympy.cos) else 's'}_{{{coordinate_index(derivation, value)}}}"
+        names[symbol] = coordinate("c" if isinstance(value, sympy.cos) else "s", 0, coordinate_index(derivation, value))
     for symbol, (meaning, primes) in named_lines(derivation).items():
-        text = _name(meaning, index, robot, len(robot.coordinates))
-        if "^" in text:   # a group, so that a power or a prime is not a second superscript
-            text = "{" + text + "}"
-        names[symbol] = text + "'" * primes
+        names[symbol] = line(meaning.quantity, name_fields(meaning, index, robot, n), primes)
     return names
 
 
