@@ -23,7 +23,7 @@ def jax_checks(derivation: Any, source: str, states: int = 12, seed: int = 0) ->
     float64 (``jax_enable_x64`` is switched on for this process): with the compiled extension's
     comparison (``compiled.py``), or for a robot with quaternions in ``q`` at states on the
     manifold (random unit quaternions), for a batch and for one state, to 1e-12 relative to the
-    result's largest entry (``floating_c.floating_rows``, shared with ``check --backend c``)."""
+    result's largest entry (``compiled.floating_rows``, shared with ``check --backend c``)."""
     import jax
 
     from ..render.targets.jax.jax import render_jax
@@ -32,10 +32,8 @@ def jax_checks(derivation: Any, source: str, states: int = 12, seed: int = 0) ->
     jax.config.update("jax_enable_x64", True)
     robot = derivation.robot
     module = generated_module(render_jax(derivation), f"{robot.name}_jax")
+    from .compiled import compiled_checks, floating_rows
+
     if robot.floating:
-        from .floating_c import floating_rows
-
         return floating_rows(generated_module(source, robot.name), module, robot, "JAX", states, seed)
-    from .compiled import compiled_checks
-
     return compiled_checks(derivation, source, module, states=states, label="JAX", target="jax")
