@@ -48,7 +48,7 @@ TARGET = Target(
     build_help="Write <name>_dynamics_jax.py (JAX).",
     outputs=("{}_dynamics_jax.py",),
     templates=("jax/dynamics.py.j2", "python_api.j2", "dynamics_api.py.j2", "jax/arrays.py.j2", "jax/bodies.py.j2",
-               "jax/dynamics_loops.py.j2", "jax/dynamics_manifold.py.j2", "jax/dynamics_maximal.py.j2"),
+               "dynamics_loops.py.j2", "dynamics_manifold.py.j2", "dynamics_maximal.py.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
     note=f"{__name__}:missing_note",
     check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",
