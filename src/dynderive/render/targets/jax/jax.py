@@ -1,6 +1,7 @@
 """The JAX target (``solve --jax``): ``<name>_dynamics_jax.py``, the NumPy module's API on
-``jax.numpy``, for a fixed or a floating base (one template, ``jax/dynamics.py.j2``; a robot
-with quaternions in ``q`` takes ``jax/dynamics_manifold.py.j2``, its configuration maps the
+``jax.numpy``, for a fixed or a floating base (one template, ``jax/dynamics.py.j2``, whose public
+functions are the NumPy module's ``dynamics_api.py.j2`` with ``jax`` set; a robot with quaternions
+in ``q`` takes ``dynamics_manifold.py.j2``, its configuration maps the
 same printed bodies as the NumPy module's, ``where`` as ``jnp.where``, ``sqrt`` with derivative
 0 at 0, so ``jax.jacfwd`` through ``integrate`` at ``v = 0`` is finite).
 

@@ -10,7 +10,8 @@ from ..target import Target
 
 def source(derivation: Any, template_dir: Any = None) -> str:
     """The module's text, for a fixed or a floating base (``check`` and ``simulate`` run it): one
-    template, ``dynamics.py.j2``, with the tangent-space functions of a robot with quaternions
+    template, ``dynamics.py.j2``; its public functions are ``dynamics_api.py.j2``'s, written once
+    for this module and the JAX one, with the tangent-space functions of a robot with quaternions
     in ``q`` (``dynamics_manifold.py.j2``)."""
     from .code import render_code
 
@@ -41,7 +42,8 @@ TARGET = Target(
     help="Write DIR/<name>_dynamics.py, a NumPy module.",
     build_help="Write <name>_dynamics.py.",
     outputs=("{}_dynamics.py",),
-    templates=("dynamics.py.j2", "dynamics_loops.py.j2", "dynamics_manifold.py.j2", "dynamics_maximal.py.j2"),
+    templates=("dynamics.py.j2", "python_api.j2", "dynamics_api.py.j2", "dynamics_loops.py.j2",
+               "dynamics_manifold.py.j2", "dynamics_maximal.py.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating code",
     option_help=(("check --backend", "check the generated NumPy module"),
                  ("simulate --backend", "the generated NumPy module"),
