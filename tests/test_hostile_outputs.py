@@ -355,10 +355,11 @@ def test_frames_are_bounded(tmp_path, monkeypatch, extra, limit):
 
 # -- item 7: user templates: positioned errors, the sandbox ----------------------------------------
 
-def _code_template(tmp_path: Path, edit) -> Path:
+def _code_template(tmp_path: Path, edit, name: str = "dynamics.py.j2") -> Path:
+    """A template folder with the built-in template ``name`` edited (the others built in)."""
     templates = tmp_path / "templates"
     templates.mkdir(exist_ok=True)
-    (templates / "dynamics.py.j2").write_text(edit((TEMPLATES / "dynamics.py.j2").read_text()))
+    (templates / name).write_text(edit((TEMPLATES / name).read_text()))
     return templates
 
 
@@ -367,9 +368,10 @@ def _line_of(path: Path, text: str) -> int:
 
 
 def test_a_template_that_makes_the_module_unparseable_is_positioned(tmp_path):
+    # the module's constants are written by a macro the NumPy and JAX modules share
     templates = _code_template(tmp_path, lambda s: s.replace("EFFORTS = {{ efforts_tuple }}\n",
-                                                             "EFFORTS = {{ efforts_tuple }} (\n"))
-    template = templates / "dynamics.py.j2"
+                                                             "EFFORTS = {{ efforts_tuple }} (\n"), "python_api.j2")
+    template = templates / "python_api.j2"
     result = _run("solve", "rp_arm", "--code", "--out", tmp_path / "out", "--template-dir", templates, "-q")
     line = _refused(result, f"{template}:{_line_of(template, 'EFFORTS = ')}:1: ")
     assert "the generated module does not parse" in line and "'(' was never closed" in line
@@ -393,8 +395,9 @@ def test_a_template_syntax_error_is_positioned(tmp_path):
 
 
 def test_a_misspelt_variable_in_a_template_is_positioned(tmp_path):
-    templates = _code_template(tmp_path, lambda s: s.replace("{{ efforts_tuple }}", "{{ effort_tuple }}", 1))
-    template = templates / "dynamics.py.j2"
+    templates = _code_template(tmp_path, lambda s: s.replace("{{ efforts_tuple }}", "{{ effort_tuple }}", 1),
+                               "python_api.j2")
+    template = templates / "python_api.j2"
     result = _run("solve", "rp_arm", "--code", "--out", tmp_path / "out", "--template-dir", templates, "-q")
     line = _refused(result, f"{template}:{_line_of(template, 'effort_tuple')}:")
     assert "'effort_tuple' is undefined" in line
