@@ -30,7 +30,6 @@ from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
 from . import joint_types
 from .drives import JointDrive, joint_drives
-from .joint_types.quaternion import quaternion_matrix as quaternion_matrix  # noqa: F401  (re-exported)
 from .joints import unit
 from .program import Matrix3, Meaning, Program, Vector, _add, _cross, _rotate, _rotate_back
 from .spatial import inertia_tensor, rpy_matrix

@@ -3,9 +3,8 @@ exponential and logarithm of SO(3) and SE(3) (Pinocchio's ``liegroup/special-ort
 and ``special-euclidean.hpp``, ``spatial/explog.hpp``), shared by the ``floating`` and
 ``spherical`` joint types.
 
-The formulas are those of the generated modules (``templates/floating_dynamics.py.j2``,
-``render/c_manifold.py``): below an angle of ``SMALL`` the exponential and the logarithm take
-their series, and the closed forms divide by ``t`` (the angle, or 1 when small), so no branch
+Every target prints these lines (``Derivation.configuration_programs``): below an angle of
+``SMALL`` the exponential and the logarithm take their series, and the closed forms divide by ``t`` (the angle, or 1 when small), so no branch
 divides by zero, in values or derivatives, when a target evaluates both (``jnp.where``).
 Branches are ``sympy.Piecewise``.
 """
