@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from . import api
 from .targets import COLUMNS, by_name, resolve
 from .targets.target import public
 
@@ -20,11 +21,8 @@ from .targets.target import public
 TARGETS = tuple(target.name for target in COLUMNS)
 TITLES = {target.name: target.title for target in COLUMNS}
 
-MAXIMAL = ("maximal_mass_matrix", "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts",
-           "maximal_kinetic_energy", "maximal_potential_energy", "maximal_friction_forces", "maximal_forward_dynamics",
-           "constraints", "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
-           "to_maximal_jacobian")
-FRAME_FUNCTIONS = ("frame_transform", "frame_jacobian", "frame_jacobian_dot_qd")
+MAXIMAL = api.group("maximal")
+FRAME_FUNCTIONS = api.group("frames")
 
 #: What a target does not build: (targets, functions, robots it concerns, reason). Robots:
 #: "fixed" (fixed base), "floating" (floating base, or spherical joints), "frameless" (a

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..render import api
 from .rows import Row
 
 #: Agreement required of the compiled functions, relative to the result's largest entry.
@@ -23,20 +24,20 @@ RTOL = 1e-12
 #: (the NumPy module's batch takes further steps on states that have converged, until all have).
 RTOLS = {"assemble": 1e-10}
 
-#: The functions compared, with the arrays they take (``p``: keyword parameters only).
-FUNCTIONS = (
-    ("mass_matrix", "q"), ("coriolis_matrix", "q qd"), ("gravity_vector", "q"),
-    ("generalized_forces", "q u"), ("inverse_dynamics", "q qd qdd"), ("forward_dynamics", "q qd u"),
-    ("kinetic_energy", "q qd"),
-    ("potential_energy", "q"), ("friction_forces", "qd"), ("linearize", "q qd u"),
-    ("regressor", "q qd qdd"), ("parameter_vector", ""),
-    ("loop_constraints", "q"), ("loop_jacobian", "q"), ("loop_jacobian_dot", "q qd"), ("loop_forces", "q qd u"),
-    ("reduced_basis", "q"), ("reduced_forward_dynamics", "q qd u"), ("assemble", "q"),
-    ("neutral_configuration", ""), ("integrate", "q qd"), ("configuration_rate", "q qd"), ("difference", "q q1"),
-)
+#: The state each argument of the API is drawn from (``q_to``: a second configuration).
+STATES = {"q": "q", "qd": "qd", "v": "qd", "qdd": "qdd", "u": "u", "q_guess": "q", "q_from": "q", "q_to": "q1"}
+
+
+def _arrays(function: api.Function) -> str:
+    return " ".join(STATES[a] for a in function.arguments if a in STATES)
+
+
+#: The functions compared (the API table's, but a planar robot's maximal form, which only the
+#: Python modules print), with the arrays they take (``p``: keyword parameters only).
+FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group in ("dynamics", "loops", "configuration"))
 #: The functions that take no parameters (a robot with quaternions: its configuration maps).
-GEOMETRY = {"neutral_configuration", "integrate", "configuration_rate", "difference"}
-FRAME_FUNCTIONS = (("frame_transform", "q"), ("frame_jacobian", "q"), ("frame_jacobian_dot_qd", "q qd"))
+GEOMETRY = set(api.group("configuration"))
+FRAME_FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group == "frames")
 
 
 def _difference(expected: Any, got: Any) -> float:

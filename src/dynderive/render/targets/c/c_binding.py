@@ -8,7 +8,8 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Binding:
-    """One Python function of the extension and the C function it calls for each state.
+    """One Python function of the extension and the C function of the same name it calls for
+    each state.
 
     ``inputs``: the array arguments in order, each (name, size of its last axis); ``outputs``:
     the shape of each result for one state (several: a tuple is returned). ``returns``:
@@ -31,7 +32,6 @@ class Binding:
     state (shape (...), as ``integrate``'s ``dt``), this C literal when omitted."""
 
     name: str
-    function: str
     inputs: tuple[tuple[str, int], ...]
     outputs: tuple[tuple[int, ...], ...]
     doc: str

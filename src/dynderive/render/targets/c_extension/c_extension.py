@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ....derivation import Derivation
+from ... import api
 from ...encode import Code, python_literal
 from ...environment import render
 from ..c.c_binding import Binding
@@ -56,113 +57,67 @@ def c_string(text: str) -> Code:
 
 
 def bindings(derivation: Derivation) -> list[Binding]:
-    """The extension's functions, in the order of the NumPy module's API."""
+    """The extension's functions: the API table's (``render/api.py``) that the C target builds
+    for this robot, in its order, each with what its C function returns and takes besides."""
     robot = derivation.robot
-    nq, n, nu = len(derivation.symbols.q), len(derivation.symbols.qd), len(derivation.symbols.efforts)
-    count = len(derivation.parameter_vector)
-    size, twist = (3, 3) if robot.planar else (4, 6)
-    dissipative = robot.dissipative
-    sign = dissipative and bool(derivation.programs["regressor"].extra_inputs)
-    q, qd, qdd, u = ("q", nq), ("qd", n), ("qdd", n), ("u", nu)
-    loops = bool(robot.loops)
-    forward = (("Accelerations qdd of the closed-loop mechanism from [M -A^T; A 0] [qdd; lambda_g] = [Y - C qd - N - F "
-                "+ sum J^T w; -Adot qd - 2 alpha A qd - beta**2 a_g(q)], shape (..., n); alpha, beta: Baumgarte gains "
-                "(0: none); u=None: no effort. NaN where the system cannot be solved (M not positive definite, or the "
-                "loop rows singular).") if loops else
-               ("Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F + sum J^T w, shape (..., n); u=None: no "
-                "effort. NaN where M is not positive definite."))
-    table = [
-        Binding("mass_matrix", "mass_matrix", (q,), ((n, n),), "Mass matrix M_g(q), shape (..., n, n)."),
-        Binding("coriolis_matrix", "coriolis_matrix", (q, qd), ((n, n),),
-                "Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., n, n)."),
-        Binding("gravity_vector", "gravity_vector", (q,), ((n,),), "Gravity vector N_g(q) = dV/dq, shape (..., n)."),
-        *([] if nq != n else [Binding("generalized_forces", "generalized_forces", (q, u), ((n,),),
-                                      "Applied generalized forces Y_g(q, u) of the efforts, shape (..., n).")]),
-        Binding("inverse_dynamics", "inverse_dynamics", (q, qd, qdd), ((n,),),
-                "Generalized forces Y_g = M qdd + C qd + N + F - sum J^T w, shape (..., n); wrenches: None or "
-                "{frame: w} in world axes.", wrenches="inverse_dynamics_wrenches", smoothing=True,
-                refuses_negative=dissipative),
-        Binding("forward_dynamics", "forward_dynamics", (q, qd, u), ((n,),), forward, returns="status", optional=True,
-                wrenches="forward_dynamics_wrenches", smoothing=True, refuses_negative=dissipative,
-                members=("alpha", "beta") if loops else ()),
-        Binding("kinetic_energy", "kinetic_energy", (q, qd), ((),), "Kinetic energy T_g = 1/2 qd^T M qd, shape (...).",
-                returns="value", scalar=derivation.structured_code),
-        Binding("potential_energy", "potential_energy", (q,), ((),),
-                "Potential energy V_g(q) of gravity and the springs, shape (...).", returns="value"),
-        Binding("friction_forces", "friction_forces", (qd,), ((n,),),
-                "Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) when it is positive), "
-                "shape (..., n).", smoothing=True, refuses_negative=dissipative),
-        Binding("linearize", "linearize", (q, qd, u), ((2 * n, 2 * n), (2 * n, nu)),
-                "(A, B) of xdot = A dx + B du about x = (q, qd) and u, shapes (..., 2n, 2n) and (..., 2n, nu); NaN "
-                "where M is not positive definite.", returns="status", optional=True, smoothing=True,
-                refuses_negative=dissipative),
-        Binding("regressor", "regressor", (q, qd, qdd), ((n, count),),
-                "Regressor Y(q, qd, qdd), shape (..., n, len(PARAMETER_VECTOR)): Y @ parameter_vector() equals "
-                "inverse_dynamics(q, qd, qdd).", smoothing=True, refuses_negative=sign),
-        Binding("parameter_vector", "parameter_vector", (), ((count,),),
-                "The regressor's parameters pi (PARAMETER_VECTOR), shape (len(PARAMETER_VECTOR),)."),
-        Binding("frame_transform", "frame_transform", (q,), ((size, size),),
-                "Pose of frame (a name of FRAMES) in the world, [[R, p], [0, 1]], shape (..., s, s).",
-                returns="status", frame=True),
-        Binding("frame_jacobian", "frame_jacobian", (q,), ((twist, n),),
-                "World-frame Jacobian of frame (a name of FRAMES): linear rows, then angular, shape (..., t, n).",
-                returns="status", frame=True),
-        Binding("frame_jacobian_dot_qd", "frame_jacobian_dot_qd", (q, qd), ((twist,),),
-                "Jdot(q, qd) qd of frame (a name of FRAMES), shape (..., t).", returns="status", frame=True),
-    ]
-    return table + (_loop_bindings(derivation) if loops else []) + (_configuration_bindings(nq, n) if nq != n else [])
+    size = api.sizes(derivation)
+    dissipative, loops, quaternions = robot.dissipative, bool(robot.loops), size["NQ"] != size["NV"]
+    smooth = {"smoothing": True, "refuses_negative": dissipative}
+    solved = {"returns": "status", "optional": True, **smooth}
+    frame = {"returns": "status", "frame": True}
+    geometry = {"parameters": False}
+    extra: dict[str, dict[str, Any]] = {
+        "inverse_dynamics": {"wrenches": "inverse_dynamics_wrenches", **smooth},
+        "forward_dynamics": {"wrenches": "forward_dynamics_wrenches", "members": ("alpha", "beta") if loops else (),
+                             **solved},
+        "kinetic_energy": {"returns": "value", "scalar": derivation.structured_code},
+        "potential_energy": {"returns": "value"},
+        "friction_forces": smooth,
+        "linearize": solved,
+        "regressor": {"smoothing": True,
+                      "refuses_negative": dissipative and bool(derivation.programs["regressor"].extra_inputs)},
+        "frame_transform": frame, "frame_jacobian": frame, "frame_jacobian_dot_qd": frame,
+        "loop_forces": {"wrenches": "loop_forces_wrenches", **solved},
+        "reduced_basis": {"returns": "status"},
+        "reduced_forward_dynamics": solved,
+        "assemble": {"returns": "status", "error": "assemble: the loop constraints could not be solved for these "
+                     "independent coordinates from this guess"},
+        "neutral_configuration": geometry, "integrate": {"number": "1.0", **geometry},
+        "configuration_rate": geometry, "difference": geometry,
+    }
+    groups = {"dynamics", "frames"} | ({"loops"} if loops else set()) | ({"configuration"} if quaternions else set())
+    table = []
+    for function in api.API:
+        if function.group not in groups or (quaternions and function.name == "generalized_forces"):
+            continue
+        inputs = tuple((a, 1 if a == "dt" else size[api.ARGUMENT_SIZES[a]]) for a in function.arguments if a != "frame")
+        doc = " ".join([api.python_doc(function.name, size, batch=function.name != "parameter_vector"),
+                        *_notes(function.name, loops)])
+        table.append(Binding(function.name, inputs, api.shapes(function.name, size), doc,
+                             **extra.get(function.name, {})))
+    return table
 
 
-def _configuration_bindings(nq: int, nv: int) -> list[Binding]:
-    """The configuration maps of a robot with quaternions (NQ != NV): no parameters;
-    ``integrate``'s ``dt`` a number per state (default 1.0)."""
-    q, v = ("q", nq), ("v", nv)
-    return [
-        Binding("neutral_configuration", "neutral_configuration", (), ((nq,),),
-                "The neutral configuration (Pinocchio's neutral): zeros, and identity quaternions, shape (NQ,).",
-                parameters=False),
-        Binding("integrate", "integrate", (q, v, ("dt", 1)), ((nq,),),
-                "The configuration reached from q moving at v for dt (Pinocchio's integrate(q, v dt)), shape "
-                "(..., NQ); dt: a number or an array of them (batch dimensions).", parameters=False, number="1.0"),
-        Binding("configuration_rate", "configuration_rate", (q, v), ((nq,),),
-                "dq/dt of the configuration q moving at velocity v, shape (..., NQ).", parameters=False),
-        Binding("difference", "difference", (("q_from", nq), ("q_to", nq)), ((nv,),),
-                "The velocity v that integrate turns q_from into q_to in unit time (Pinocchio's difference), shape "
-                "(..., NV).", parameters=False),
-    ]
-
-
-def _loop_bindings(derivation: Derivation) -> list[Binding]:
-    """A closed-loop robot's functions (``render/targets/c/c_loops.py``'s C functions)."""
-    n, nu = len(derivation.symbols.q), len(derivation.symbols.efforts)
-    k, m = derivation.quantities["a_g"].shape[0], len(derivation.steps["loops"].independent)
-    dissipative = derivation.robot.dissipative
-    q, qd, u = ("q", n), ("qd", n), ("u", nu)
-    return [
-        Binding("loop_constraints", "loop_constraints", (q,), ((k,),),
-                "Loop constraints a_g(q) (zero when the loops are closed), shape (..., k)."),
-        Binding("loop_jacobian", "loop_jacobian", (q,), ((k, n),),
-                "Loop constraint Jacobian A_g(q) = da_g/dq, shape (..., k, n)."),
-        Binding("loop_jacobian_dot", "loop_jacobian_dot", (q, qd), ((k, n),),
-                "Its time derivative Adot_g(q, qd), shape (..., k, n)."),
-        Binding("loop_forces", "loop_forces", (q, qd, u), ((k,),),
-                "Loop multipliers lambda_g, shape (..., k): A_g^T lambda_g is the generalized force the loop joints "
-                "exert (forward_dynamics' system with alpha = beta = 0). NaN where it cannot be solved.",
-                returns="status", optional=True, wrenches="loop_forces_wrenches", smoothing=True,
-                refuses_negative=dissipative),
-        Binding("reduced_basis", "reduced_basis", (q,), ((n, m),),
-                "R_g(q), shape (..., n, m): the motions the loops allow, qd = R_g qd_i with qd_i the velocities of "
-                "INDEPENDENT_COORDINATES. NaN where the dependent block of A_g is singular.", returns="status"),
-        Binding("reduced_forward_dynamics", "reduced_forward_dynamics", (q, qd, u), ((n,),),
-                "Accelerations qdd, shape (..., n), by the reduced form R_g^T M R_g qdd_i = R_g^T (Y - C qd - N - F - "
-                "M s), qdd = R_g qdd_i + s (forward_dynamics with alpha = beta = 0 on the constraints). NaN where it "
-                "cannot be solved.", returns="status", optional=True, smoothing=True, refuses_negative=dissipative),
-        Binding("assemble", "assemble", (("q_guess", n),), ((n,),),
-                "The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method, keeping "
-                "INDEPENDENT_COORDINATES, shape (..., n). Raises ValueError where it does not converge.",
-                returns="status", error="assemble: the loop constraints could not be solved for these independent "
-                "coordinates from this guess"),
-    ]
+def _notes(name: str, loops: bool) -> list[str]:
+    """What the extension's docstring adds to the table's summary: optional arguments, NaN."""
+    unsolved = "NaN where M is not positive definite."
+    notes = {
+        "inverse_dynamics": ["wrenches: None or {frame: w} in world axes (w: linear, then angular)."],
+        "forward_dynamics": ["u=None: no effort;", "wrenches as for inverse_dynamics.", unsolved] if not loops else [
+            "With the loops, from [M -A^T; A 0] [qdd; lambda_g] = [Y - C qd - N - F + sum J^T w; -Adot qd - 2 alpha "
+            "A qd - beta**2 a_g(q)]; alpha, beta: Baumgarte gains (0: none); u=None: no effort. NaN where the "
+            "system cannot be solved (M not positive definite, or the loop rows singular)."],
+        "linearize": ["u=None: no effort.", unsolved],
+        "frame_transform": ["frame: a name of FRAMES."],
+        "frame_jacobian": ["frame: a name of FRAMES."],
+        "frame_jacobian_dot_qd": ["frame: a name of FRAMES."],
+        "loop_forces": ["NaN where it cannot be solved."],
+        "reduced_basis": ["NaN where the dependent block of A_g is singular."],
+        "reduced_forward_dynamics": ["NaN where it cannot be solved."],
+        "assemble": ["Raises ValueError where it does not converge."],
+        "integrate": ["dt: a number or an array of them (batch dimensions)."],
+    }
+    return notes.get(name, [])
 
 
 def _call(prefix: str, function: str, arguments: list[str]) -> str:
@@ -177,8 +132,8 @@ def _kernel(robot_name: str, binding: Binding) -> list[str]:
     p = ["p"] if binding.parameters else []
     outputs = [f"out[{k}]" for k in range(len(binding.outputs))]
     if binding.returns == "value":
-        return [f"out[0][0] = {_call(robot_name, binding.function, [*arguments, *p])};", "return 0;"]
-    call = _call(robot_name, binding.function, [*arguments, *p, *outputs])
+        return [f"out[0][0] = {_call(robot_name, binding.name, [*arguments, *p])};", "return 0;"]
+    call = _call(robot_name, binding.name, [*arguments, *p, *outputs])
     if binding.returns == "status":
         return [f"return {call};"]
     return [f"{call};", "return 0;"]

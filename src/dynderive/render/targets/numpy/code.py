@@ -23,6 +23,7 @@ from sympy.printing.numpy import NumPyPrinter
 
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants, operation_count
+from ... import api
 from ...encode import Code, python_literal
 from ...python_module import CodeGenerationError, render_module, render_test_module
 from .printing import _CALL, BODY_FUNCTIONS, _LinePrinter, _Printer, _ProgramPrinter
@@ -203,7 +204,7 @@ def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) ->
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     printer = printer or _Printer({"fully_qualified_modules": True, "strict": False})
     params = set(table.parameters.values())
-    n = len(table.q)
+    n, size = len(table.q), api.sizes(derivation)
     q = Argument("q", table.q, f"joint coordinates {tuple(robot.coordinates)}, shape (..., {n})")
     qd = Argument("qd", table.qd, f"joint velocities, shape (..., {n})")
     u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
@@ -211,13 +212,10 @@ def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) ->
     functions = _expression_functions(derivation, q, qd, u, printer, params, structured)
     programs = _programs(derivation, q, qd, u)
     if robot.loops:
-        k = quantities["a_g"].shape[0]
-        for name, doc, args, quantity in [
-            ("loop_constraints", f"Loop constraints a_g(q) (zero when the loops are closed), shape (..., {k}).", [q], "a_g"),
-            ("loop_jacobian", f"Loop constraint Jacobian A_g(q) = da_g/dq, shape (..., {k}, {n}).", [q], "A_g"),
-            ("loop_jacobian_dot", f"Its time derivative Adot_g(q, qd), shape (..., {k}, {n}).", [q, qd], "Adot_g"),
-        ]:
-            functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
+        for name, args, quantity in [("loop_constraints", [q], "a_g"), ("loop_jacobian", [q], "A_g"),
+                                     ("loop_jacobian_dot", [q, qd], "Adot_g")]:
+            functions.append(expression_function(name, api.python_doc(name, size), args, quantities[quantity],
+                                                 printer, params,
                                                  matrix_result=quantity != "a_g"))
         functions += _loop_derivatives(derivation, q, qd, printer, params)
     maximal = robot.planar
@@ -225,29 +223,20 @@ def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) ->
         m = len(table.qm)
         qm = Argument("qm", table.qm, f"maximal coordinates (x, y, phi of each link's COM frame), shape (..., {m})")
         qmd = Argument("qmd", table.qmd, f"maximal velocities, shape (..., {m})")
-        k = quantities["a_m"].shape[0]
-        specs = [
-            ("maximal_mass_matrix", f"Mass matrix M_m(qm) in maximal coordinates, shape (..., {m}, {m}).", [qm], "M_m"),
-            ("maximal_coriolis_matrix", f"Coriolis matrix C_m(qm, qmd), shape (..., {m}, {m}).", [qm, qmd], "C_m"),
-            ("maximal_gravity_vector", f"Gravity vector N_m(qm), shape (..., {m}).", [qm], "N_m"),
-            ("maximal_efforts", f"Joint efforts as forces on the links, Y_m(qm, u), shape (..., {m}).", [qm, u], "Y_m"),
-            ("constraints", f"Holonomic constraints a_m(qm) (zero when they hold), shape (..., {k}).", [qm], "a_m"),
-            ("constraint_jacobian", f"Constraint Jacobian A_m(qm) = da/dqm, shape (..., {k}, {m}).", [qm], "A_m"),
-            ("constraint_jacobian_dot", f"Time derivative Adot_m(qm, qmd), shape (..., {k}, {m}).", [qm, qmd], "Adot_m"),
-            ("maximal_kinetic_energy", "Kinetic energy T_m(qm, qmd), shape (...).", [qm, qmd], "T_m"),
-            ("maximal_potential_energy", "Potential energy V_m(qm), shape (...).", [qm], "V_m"),
-            ("to_maximal", f"Change of basis qm = h(q), shape (..., {m}).", [q], "h"),
-            ("to_maximal_jacobian", f"Its Jacobian H(q) = dh/dq (qmd = H qd), shape (..., {m}, {n}).", [q], "H"),
-        ]
+        specs = [("maximal_mass_matrix", [qm], "M_m"), ("maximal_coriolis_matrix", [qm, qmd], "C_m"),
+                 ("maximal_gravity_vector", [qm], "N_m"), ("maximal_efforts", [qm, u], "Y_m"),
+                 ("constraints", [qm], "a_m"), ("constraint_jacobian", [qm], "A_m"),
+                 ("constraint_jacobian_dot", [qm, qmd], "Adot_m"), ("maximal_kinetic_energy", [qm, qmd], "T_m"),
+                 ("maximal_potential_energy", [qm], "V_m"), ("to_maximal", [q], "h"),
+                 ("to_maximal_jacobian", [q], "H")]
         if robot.dissipative:
-            specs.append(("maximal_friction_forces", "Dissipative forces F_m(qm, qmd) of the joints' damping and "
-                          f"friction on the links (exact sign), shape (..., {m}).", [qm, qmd], "F_m"))
-        for name, doc, args, quantity in specs:
-            functions.append(expression_function(name, doc, args, quantities[quantity], printer, params,
-                                                 matrix_result=quantity in MATRICES))
+            specs.append(("maximal_friction_forces", [qm, qmd], "F_m"))
+        for name, args, quantity in specs:
+            functions.append(expression_function(name, api.python_doc(name, size), args, quantities[quantity],
+                                                 printer, params, matrix_result=quantity in MATRICES))
     identification = derivation.parameter_vector
     functions.append(expression_function(
-        "parameter_vector", f"The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape ({len(identification)},).",
+        "parameter_vector", api.python_doc("parameter_vector", size, batch=False),
         [], sympy.Matrix([p.value for p in identification]), printer, params))
     return _common_context(derivation) | {
         "coordinates": list(robot.coordinates),
@@ -287,24 +276,14 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
     """Functions printed as explicit expressions: Y_g and V_g always; M, C, N and T_g for
     planar robots (short, readable beside the sheet). A 3-D robot's M, C, N are programs
     (``_programs``): their explicit entries are far too large to print for a 6-7 DOF arm."""
-    quantities, n = derivation.quantities, len(derivation.symbols.q)
-    functions = []
+    quantities, n, size = derivation.quantities, len(derivation.symbols.q), api.sizes(derivation)
+    explicit = [] if structured else [("mass_matrix", [q], "M_g"), ("coriolis_matrix", [q, qd], "C_g"),
+                                      ("gravity_vector", [q], "N_g")]
+    explicit.append(("generalized_forces", [q, u], "Y_g"))
     if not structured:
-        functions += [
-            expression_function("mass_matrix", f"Mass matrix M_g(q), shape (..., {n}, {n}).", [q],
-                                quantities["M_g"], printer, params, matrix_result=True),
-            expression_function("coriolis_matrix", f"Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., {n}, {n}).",
-                                [q, qd], quantities["C_g"], printer, params, matrix_result=True),
-            expression_function("gravity_vector", f"Gravity vector N_g(q) = dV/dq, shape (..., {n}).", [q],
-                                quantities["N_g"], printer, params),
-        ]
-    functions.append(expression_function("generalized_forces", f"Applied generalized forces Y_g(u), shape (..., {n}).",
-                                          [q, u], quantities["Y_g"], printer, params))
-    if not structured:
-        functions.append(expression_function("kinetic_energy", "Kinetic energy T_g(q, qd), shape (...).", [q, qd],
-                                             quantities["T_g"], printer, params))
-        functions.append(expression_function("potential_energy", "Potential energy V_g(q), shape (...).", [q],
-                                             quantities["V_g"], printer, params))
+        explicit += [("kinetic_energy", [q, qd], "T_g"), ("potential_energy", [q], "V_g")]
+    functions = [expression_function(name, api.python_doc(name, size), args, quantities[quantity], printer, params,
+                                     matrix_result=quantity in MATRICES) for name, args, quantity in explicit]
     if derivation.robot.dissipative:   # F_g = b qd + fc sign(qd): the coefficients, per coordinate
         drives = derivation.joint_drives
         for name, what, attribute in (("_damping_coefficients", "Viscous damping b", "damping"),
@@ -369,8 +348,7 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
     }
     functions = [program_function(*specs[key], program) for key, program in derivation.programs.items()]
     for index, frame in enumerate(derivation.frame_programs):
-        name, pose, jacobian, bias = frame if isinstance(frame, tuple) else (
-            frame.name, frame.transform, frame.jacobian, frame.jacobian_dot_qd)
+        name, pose, jacobian, bias = frame
         functions += [
             program_function(f"_frame{index}_transform_body", f"Pose of frame {name!r} (homogeneous, row by row).",
                              [q], pose),

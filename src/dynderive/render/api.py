@@ -1,0 +1,143 @@
+"""The generated API, written once: each function's name, its arguments, the shapes of its
+results and what it computes.
+
+Every code target prints its functions from this table (the names, the argument order, the
+one-line summary) and states the shapes in its own idiom: ``shape (..., 3, 3)`` in Python
+docstrings (NumPy, JAX, the C extension), ``3 x 3, row-major`` in C comments, ``3 x 3`` in
+MATLAB help. ``verify`` compares the targets function by function over the same table, and
+the tests hold every generated NumPy module to it (names, arguments, result shapes), so a
+function added here and to one target is missing, visibly, from the others.
+
+Sizes are letters resolved per robot (``sizes``): NQ coordinates, NV velocities, NU efforts,
+NP regressor parameters, NC loop constraints, NI independent coordinates of a
+loop robot, NM maximal coordinates and NK their constraints (a planar robot), S the side of a
+frame's homogeneous matrix and T its twist, 2NV the state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Function:
+    """One function of the generated API. ``arguments``: its positional arrays in order
+    (``frame``: a frame's name, not an array); ``results``: the shape of each result for one
+    state, in size letters; ``group``: which robots have it ("dynamics": every robot,
+    "frames": every robot, raising for a name that is no frame, "loops": closed loops,
+    "configuration": a robot with quaternions, "maximal": a planar robot's maximal form)."""
+
+    name: str
+    arguments: tuple[str, ...]
+    results: tuple[tuple[str, ...], ...]
+    summary: str
+    group: str = "dynamics"
+
+
+def _f(name: str, arguments: str, results: str, summary: str, group: str = "dynamics") -> Function:
+    """A row from compact text: arguments space-separated, results ``;``-separated shapes."""
+    shapes = tuple(tuple(part.split()) for part in results.split(";"))
+    return Function(name, tuple(arguments.split()), shapes, summary, group)
+
+
+#: The API in the NumPy module's order.
+API: tuple[Function, ...] = (
+    _f("mass_matrix", "q", "NV NV", "Mass matrix M_g(q)"),
+    _f("coriolis_matrix", "q qd", "NV NV", "Coriolis matrix C_g(q, qd) (Christoffel symbols)"),
+    _f("gravity_vector", "q", "NV", "Gravity vector N_g(q) = dV/dq"),
+    _f("generalized_forces", "q u", "NV", "Applied generalized forces Y_g(q, u) of the efforts"),
+    _f("inverse_dynamics", "q qd qdd", "NV", "Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler"),
+    _f("forward_dynamics", "q qd u", "NV", "Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F"),
+    _f("kinetic_energy", "q qd", "", "Kinetic energy T_g = 1/2 qd^T M(q) qd"),
+    _f("potential_energy", "q", "", "Potential energy V_g(q) of gravity and the springs"),
+    _f("friction_forces", "qd", "NV", "Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) "
+       "when it is positive)"),
+    _f("linearize", "q qd u", "2NV 2NV; 2NV NU", "(A, B) of xdot = A dx + B du about x = (q, qd) and u"),
+    _f("regressor", "q qd qdd", "NV NP", "Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi "
+       "from parameter_vector"),
+    _f("parameter_vector", "", "NP", "The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR)"),
+    _f("frame_transform", "q frame", "S S", "Pose of a frame in the world, [[R, p], [0, 1]]", "frames"),
+    _f("frame_jacobian", "q frame", "T NV", "World-frame Jacobian of a frame: linear rows, then angular", "frames"),
+    _f("frame_jacobian_dot_qd", "q qd frame", "T", "Jdot(q, qd) qd of a frame (its acceleration at qdd = 0)",
+       "frames"),
+    _f("loop_constraints", "q", "NC", "Loop constraints a_g(q) (zero when the loops are closed)", "loops"),
+    _f("loop_jacobian", "q", "NC NV", "Loop constraint Jacobian A_g(q) = da_g/dq", "loops"),
+    _f("loop_jacobian_dot", "q qd", "NC NV", "Its time derivative Adot_g(q, qd)", "loops"),
+    _f("loop_forces", "q qd u", "NC", "Loop multipliers lambda_g: A_g^T lambda_g is the generalized force the loop "
+       "joints exert (forward_dynamics' system with alpha = beta = 0)", "loops"),
+    _f("reduced_basis", "q", "NV NI", "R_g(q): the motions the loops allow, qd = R_g qd_i with qd_i the velocities "
+       "of INDEPENDENT_COORDINATES", "loops"),
+    _f("reduced_forward_dynamics", "q qd u", "NV", "Accelerations qdd by the reduced form R_g^T M R_g qdd_i = R_g^T "
+       "(Y - C qd - N - F - M s), qdd = R_g qdd_i + s (forward_dynamics with alpha = beta = 0 on the constraints)",
+       "loops"),
+    _f("assemble", "q_guess", "NQ", "The configuration on the loop constraints a_g(q) = 0 nearest the guess by "
+       "Newton's method, keeping INDEPENDENT_COORDINATES", "loops"),
+    _f("neutral_configuration", "", "NQ", "The neutral configuration (Pinocchio's neutral): zeros, and identity "
+       "quaternions", "configuration"),
+    _f("integrate", "q v dt", "NQ", "The configuration reached from q moving at v for dt (Pinocchio's "
+       "integrate(q, v dt))", "configuration"),
+    _f("configuration_rate", "q v", "NQ", "dq/dt of the configuration q moving at velocity v", "configuration"),
+    _f("difference", "q_from q_to", "NV", "The velocity v that integrate turns q_from into q_to in unit time "
+       "(Pinocchio's difference)", "configuration"),
+    _f("maximal_mass_matrix", "qm", "NM NM", "Mass matrix M_m(qm) in maximal coordinates", "maximal"),
+    _f("maximal_coriolis_matrix", "qm qmd", "NM NM", "Coriolis matrix C_m(qm, qmd)", "maximal"),
+    _f("maximal_gravity_vector", "qm", "NM", "Gravity vector N_m(qm)", "maximal"),
+    _f("maximal_efforts", "qm u", "NM", "Joint efforts as forces on the links, Y_m(qm, u)", "maximal"),
+    _f("constraints", "qm", "NK", "Holonomic constraints a_m(qm) (zero when they hold)", "maximal"),
+    _f("constraint_jacobian", "qm", "NK NM", "Constraint Jacobian A_m(qm) = da/dqm", "maximal"),
+    _f("constraint_jacobian_dot", "qm qmd", "NK NM", "Time derivative Adot_m(qm, qmd)", "maximal"),
+    _f("maximal_kinetic_energy", "qm qmd", "", "Kinetic energy T_m(qm, qmd)", "maximal"),
+    _f("maximal_potential_energy", "qm", "", "Potential energy V_m(qm)", "maximal"),
+    _f("to_maximal", "q", "NM", "Change of basis qm = h(q)", "maximal"),
+    _f("to_maximal_jacobian", "q", "NM NV", "Its Jacobian H(q) = dh/dq (qmd = H qd)", "maximal"),
+    _f("maximal_friction_forces", "qm qmd", "NM", "Dissipative forces F_m(qm, qmd) of the joints' damping and "
+       "friction on the links (exact sign)", "maximal"),
+    _f("constraint_forces", "qm qmd u", "NK", "Multipliers lambda_m of the maximal form's constraints", "maximal"),
+    _f("maximal_forward_dynamics", "qm qmd u", "NM", "Constrained accelerations qmdd of the maximal form",
+       "maximal"),
+)
+BY_NAME = {function.name: function for function in API}
+#: The size of each argument's last axis (``dt``: a number per state; ``frame``: a name).
+ARGUMENT_SIZES = {"q": "NQ", "qd": "NV", "qdd": "NV", "u": "NU", "v": "NV", "dt": None, "q_guess": "NQ",
+                  "q_from": "NQ", "q_to": "NQ", "qm": "NM", "qmd": "NM", "frame": None}
+
+
+def group(name: str) -> tuple[str, ...]:
+    """The names of one group of the API, in order."""
+    return tuple(function.name for function in API if function.group == name)
+
+
+def sizes(derivation: Any) -> dict[str, int]:
+    """The size letters of ``derivation``'s robot."""
+    robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
+    nv = len(table.qd)
+    loops = derivation.steps["loops"] if robot.loops else None
+    return {"NQ": len(table.q), "NV": nv, "NU": len(table.efforts), "NP": len(derivation.parameter_vector),
+            "NC": quantities["a_g"].shape[0] if loops else 0, "NI": len(loops.independent) if loops else 0,
+            "NM": len(table.qm) if robot.planar else 0,
+            "NK": quantities["a_m"].shape[0] if robot.planar else 0,
+            "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv}
+
+
+def shapes(name: str, size: dict[str, int]) -> tuple[tuple[int, ...], ...]:
+    """The shapes of ``name``'s results for one state, in numbers."""
+    return tuple(tuple(size[letter] for letter in shape) for shape in BY_NAME[name].results)
+
+
+def python_doc(name: str, size: dict[str, int], batch: bool = True) -> str:
+    """The summary with its shapes as a Python docstring states them: ``shape (..., 3, 3)``
+    (``batch`` False: no batch axes, as ``parameter_vector``'s)."""
+    texts = []
+    for shape in shapes(name, size):
+        axes = (["..."] if batch else []) + [str(n) for n in shape]
+        texts.append(f"({', '.join(axes)}{',' if len(axes) == 1 and not batch else ''})")
+    word = "shape" if len(texts) == 1 else "shapes"
+    return f"{BY_NAME[name].summary}, {word} {' and '.join(texts)}."
+
+
+def dimensions(name: str, size: dict[str, int], column: str) -> list[str]:
+    """Each result's dimensions as ``3 x 3``; a vector as ``{n} {column}`` (C: "3 entries",
+    MATLAB: "3 x 1")."""
+    return [" x ".join(map(str, shape)) if len(shape) != 1 else column.format(n=shape[0])
+            for shape in shapes(name, size) if shape]
