@@ -56,7 +56,7 @@ API: tuple[Function, ...] = (
     _f("linearize", "q qd u", "2NV 2NV; 2NV NU", "(A, B) of xdot = A dx + B du about x = (q, qd) and u"),
     _f("regressor", "q qd qdd", "NV NP", "Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi "
        "from parameter_vector"),
-    _f("parameter_vector", "", "NP", "The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR)"),
+    _f("parameter_vector", "", "NP", "The parameter vector pi of regressor (names: PARAMETER_VECTOR)"),
     _f("frame_transform", "q frame", "S S", "Pose of a frame in the world, [[R, p], [0, 1]]", "frames"),
     _f("frame_jacobian", "q frame", "T NV", "World-frame Jacobian of a frame: linear rows, then angular", "frames"),
     _f("frame_jacobian_dot_qd", "q qd frame", "T", "Jdot(q, qd) qd of a frame (its acceleration at qdd = 0)",
@@ -136,8 +136,12 @@ def python_doc(name: str, size: dict[str, int], batch: bool = True) -> str:
     return f"{BY_NAME[name].summary}, {word} {' and '.join(texts)}."
 
 
-def dimensions(name: str, size: dict[str, int], column: str) -> list[str]:
-    """Each result's dimensions as ``3 x 3``; a vector as ``{n} {column}`` (C: "3 entries",
-    MATLAB: "3 x 1")."""
-    return [" x ".join(map(str, shape)) if len(shape) != 1 else column.format(n=shape[0])
-            for shape in shapes(name, size) if shape]
+def described(name: str, size: dict[str, int], vector: str, matrix: str = "") -> str:
+    """The summary with its dimensions as a comment states them: ``3 x 3`` and a vector as
+    ``vector`` (C: "{n} entries", MATLAB: "{n} x 1"), then ``matrix`` if a result is a matrix
+    (C: ", row-major"); no full stop, so a target can go on."""
+    results = [shape for shape in shapes(name, size) if shape]
+    if not results:
+        return BY_NAME[name].summary
+    dims = [" x ".join(map(str, shape)) if len(shape) != 1 else vector.format(n=shape[0]) for shape in results]
+    return f"{BY_NAME[name].summary}, {' and '.join(dims)}{matrix if any(len(s) > 1 for s in results) else ''}"

@@ -30,6 +30,7 @@ import sympy
 
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
+from ... import api
 from ...encode import Code
 from ...environment import render
 from .c_join import joined_program as _joined
@@ -64,6 +65,10 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
     pp = f"const {name}_parameters *p"
     start = f"const {name}_parameters *const P = p ? p : &{name}_default_parameters;"
     square = [f"M[{i * n + j}]" for i in range(n) for j in range(n)]
+    size = api.sizes(derivation)
+
+    def comment(function: str, *notes: str) -> str:
+        return " ".join([api.described(function, size, "{n} entries", ", row-major") + ".", *notes])
 
     def body(program: str, quantity: str, targets: list[str]) -> list[str]:
         return quantity_body(derivation, names, program, quantity, targets)
@@ -71,54 +76,51 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
     coriolis = [f"C[{k}]" for k in range(n * n)]
     applied = [] if quaternions else [
         CFunction(f"void {name}_generalized_forces(const double *q, const double *u, {pp}, double *Y)",
-                  f"Applied generalized forces Y_g(q, u) of the efforts, {n} entries.",
+                  comment("generalized_forces"),
                   [start, *void("q", "u", "P"), *expression_body(
                       names, list(quantities["Y_g"]), [f"Y[{i}]" for i in range(n)])])]
     functions = [
         CFunction(f"void {name}_mass_matrix(const double *q, {pp}, double *M)",
-                  f"Mass matrix M_g(q), {n} x {n}, row-major.",
+                  comment("mass_matrix"),
                   [start, *void("q", "P"), *body("mass_matrix", "M_g", square)]),
         CFunction(f"void {name}_coriolis_matrix(const double *q, const double *qd, {pp}, double *C)",
-                  f"Coriolis matrix C_g(q, qd) (Christoffel symbols), {n} x {n}, row-major.",
+                  comment("coriolis_matrix"),
                   [start, *void("q", "qd", "P"), *body("coriolis", "C_g", coriolis)]),
         CFunction(f"void {name}_gravity_vector(const double *q, {pp}, double *N)",
-                  f"Gravity vector N_g(q) = dV/dq, {n} entries.",
+                  comment("gravity_vector"),
                   [start, *void("q", "P"), *body("gravity", "N_g", [f"N[{i}]" for i in range(n)])]),
         *applied,
         CFunction(f"void {name}_inverse_dynamics(const double *q, const double *qd, const double *qdd, {pp}, "
-                  "double *tau)", f"Y_g = M qdd + C qd + N by recursive Newton-Euler, {n} entries"
-                  + ("; a floating joint's entries are the wrench its child would need." if quaternions else "."),
+                  "double *tau)", comment("inverse_dynamics", *(["A floating joint's entries are the wrench its child "
+                                                                  "would need."] if quaternions else [])),
                   [start, *void("q", "qd", "qdd", "P"),
                    *program_body(names, programs["inverse_dynamics"], [f"tau[{i}]" for i in range(n)]),
                    *_add_friction(derivation, "tau", "+=")]),
         CFunction(f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {pp}, "
-                  "double *qdd)", "qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 "
-                  "(qdd untouched) if M is not positive definite.",
+                  "double *qdd)", comment("forward_dynamics", "M is factored as L D L^T; returns 0, or 1 (qdd "
+                                          "untouched) if M is not positive definite."),
                   [] if robot.loops else _forward_body(derivation, names, start)),   # loops: c_loops.amend
         CFunction(f"double {name}_kinetic_energy(const double *q, const double *qd, {pp})",
-                  "Kinetic energy T_g = 1/2 qd^T M(q) qd.",
+                  comment("kinetic_energy"),
                   [f"double M[{n * n}];", f"{name}_mass_matrix(q, p, M);",
                    "return 0.5 * (" + " + ".join(f"qd[{i}]*({' + '.join(f'M[{i * n + j}]*qd[{j}]' for j in range(n))})"
                                                  for i in range(n)) + ");"]),
         CFunction(f"double {name}_potential_energy(const double *q, {pp})",
-                  "Potential energy V_g(q) of gravity and the springs.",
+                  comment("potential_energy"),
                   [start, "double V;", *void("q", "P"), *body("potential", "V_g", ["V"]), "return V;"]),
         CFunction(f"void {name}_friction_forces(const double *qd, {pp}, double *F)",
-                  f"Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) when it is "
-                  f"positive), {n} entries." if robot.dissipative else
+                  comment("friction_forces") if robot.dissipative else
                   f"Dissipative forces F_g: zero, the robot declares no damping or friction, {n} entries.",
                   _friction_body(derivation, names, start)),
         CFunction(f"int {name}_linearize(const double *q, const double *qd, const double *u, {pp}, double *A, "
-                  "double *B)", f"(A, B) of xdot = A dx + B du about x = (q, qd) and u: A {2 * n} x {2 * n}, B {2 * n} x "
-                  f"{nu}, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 "
-                  "(A, B untouched) if M is not positive definite." + (
-                      " Tangent space: q perturbed as integrate(q, dq)." if quaternions else ""),
+                  "double *B)", comment("linearize", "From Newton-Euler differentiated and one L D L^T solve; "
+                                        "returns 0, or 1 (A, B untouched) if M is not positive definite.",
+                                        *(["Tangent space: q perturbed as integrate(q, dq)."] if quaternions else [])),
                   [] if robot.loops else _linearize_body(derivation, names, start)),
         CFunction(f"void {name}_regressor(const double *q, const double *qd, const double *qdd, {pp}, double *Y)",
-                  f"Regressor Y(q, qd, qdd), {n} x {len(derivation.parameter_vector)}, row-major: Y pi = "
-                  "inverse_dynamics (pi from parameter_vector).", _regressor_body(derivation, names, start)),
+                  comment("regressor"), _regressor_body(derivation, names, start)),
         CFunction(f"void {name}_parameter_vector({pp}, double *pi)",
-                  f"The regressor's parameters pi, {len(derivation.parameter_vector)} entries.",
+                  comment("parameter_vector"),
                   [start, *void("P"), *expression_body(
                       names, [v.value for v in derivation.parameter_vector],
                       [f"pi[{i}]" for i in range(len(derivation.parameter_vector))])]),

@@ -34,6 +34,7 @@ from .matlab_print import (
     MFunction,
     Names,
     expression_body,
+    help_line,
     linearize_rhs,
     matrix_targets,
     program_body,
@@ -76,48 +77,45 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
     regressor_names = names.extended({s: f"s({i + 1})" for i, s in enumerate(regressor.extra_inputs)})
     functions = [
         MFunction("mass_matrix", "M", ["q", "p"],
-                  [f"MASS_MATRIX  Mass matrix M_g(q), {n} x {n}.", "", "   M = " + name + ".mass_matrix(q)",
+                  [help_line(derivation, "mass_matrix"), "", "   M = " + name + ".mass_matrix(q)",
                    "   M = " + name + ".mass_matrix(q, p)   (p: a struct as from parameters())"],
                   [*prologue(derivation, ["q"], 2), f"M = zeros({n}, {n});", *body("mass_matrix", "M_g",
                                                                                    matrix_targets("M", n, n))]),
         MFunction("coriolis_matrix", "C", ["q", "qd", "p"],
-                  [f"CORIOLIS_MATRIX  Coriolis matrix C_g(q, qd) (Christoffel symbols), {n} x {n}.", "",
+                  [help_line(derivation, "coriolis_matrix"), "",
                    f"   C = {name}.coriolis_matrix(q, qd, p): C*qd are the velocity terms of the equations."],
                   [*prologue(derivation, ["q", "qd"], 3), f"C = zeros({n}, {n});",
                    *body("coriolis", "C_g", matrix_targets("C", n, n))]),
         MFunction("gravity_vector", "N", ["q", "p"],
-                  [f"GRAVITY_VECTOR  Gravity vector N_g(q) = dV/dq, {n} x 1."],
+                  [help_line(derivation, "gravity_vector")],
                   [*prologue(derivation, ["q"], 2), f"N = zeros({n}, 1);",
                    *body("gravity", "N_g", vector_targets("N", n))]),
         MFunction("inverse_dynamics", "tau", ["q", "qd", "qdd", "p"],
-                  [f"INVERSE_DYNAMICS  Y_g = M qdd + C qd + N (+ friction_forces) by recursive Newton-Euler, {n} x 1."
-                   + (" The open tree's: no loop forces." if robot.loops else "")],
+                  [help_line(derivation, "inverse_dynamics", *(["The open tree's: no loop forces."] if robot.loops else []))],
                   [*prologue(derivation, ["q", "qd", "qdd"], 4), f"tau = zeros({n}, 1);",
                    *program_body(names, programs["inverse_dynamics"], vector_targets("tau", n)), *friction]),
         MFunction("generalized_forces", "Y", ["q", "u", "p"],
-                  [f"GENERALIZED_FORCES  Y_g(q, u): the generalized forces of the efforts u ({nu} x 1), {n} x 1."],
+                  [help_line(derivation, "generalized_forces", f"u: {nu} x 1.")],
                   [*prologue(derivation, ["q", "u"], 3), f"Y = zeros({n}, 1);",
                    *(expression_body(names, list(quantities["Y_g"]), vector_targets("Y", n)) if nq == n else
                      (f"Y({c + 1}) = u({k + 1});" for k, c in enumerate(robot.effort_columns())))]),
-        MFunction("kinetic_energy", "T", ["q", "qd", "p"], ["KINETIC_ENERGY  Kinetic energy T_g = 1/2 qd' M(q) qd."],
+        MFunction("kinetic_energy", "T", ["q", "qd", "p"], [help_line(derivation, "kinetic_energy")],
                   [*prologue(derivation, ["q", "qd"], 3), f"T = 0.5*(qd' * ({name}.mass_matrix(q, p) * qd));"]),
         MFunction("potential_energy", "V", ["q", "p"],
-                  ["POTENTIAL_ENERGY  Potential energy V_g(q) of gravity and the springs."],
+                  [help_line(derivation, "potential_energy")],
                   [*prologue(derivation, ["q"], 2), "V = 0;", *body("potential", "V_g", ["V"])]),
         MFunction("friction_forces", "F", ["qd", "p"],
-                  [f"FRICTION_FORCES  Dissipative forces F_g = b qd + fc sign(qd), {n} x 1 (tanh(qd / "
-                   "p.friction_smoothing) for sign(qd) when friction_smoothing > 0)." if robot.dissipative else
+                  [help_line(derivation, "friction_forces") if robot.dissipative else
                    f"FRICTION_FORCES  Dissipative forces F_g: zero, the robot declares no damping or friction, {n} x 1."],
                   _friction_body(derivation, names)),
         MFunction("regressor", "Y", ["q", "qd", "qdd", "p"],
-                  [f"REGRESSOR  Regressor Y(q, qd, qdd), {n} x {count}: Y * parameter_vector(p) equals "
-                   "inverse_dynamics" + (" of the open tree (no loop forces)." if robot.loops else ".")],
+                  [help_line(derivation, "regressor", *(["The open tree's: no loop forces."] if robot.loops else []))],
                   [*prologue(derivation, ["q", "qd", "qdd"], 4),
                    *(DIRECTION_LINES if regressor.extra_inputs else []), f"Y = zeros({n}, {count});",
                    *program_body(regressor_names, regressor, matrix_targets("Y", n, count))]),
         MFunction("parameter_vector", "pi_", ["p"],
-                  [f"PARAMETER_VECTOR  The regressor's parameters, {count} x 1: per link mass, first moment m c, "
-                   "inertia about the link frame's origin; then the drives."],
+                  [help_line(derivation, "parameter_vector", "Per link mass, first moment m c, inertia about the "
+                             "link frame's origin; then the drives.")],
                   ["if nargin < 1 || isempty(p)", f"    p = {name}.parameters();", "end", f"pi_ = zeros({count}, 1);",
                    *expression_body(names, [v.value for v in derivation.parameter_vector], vector_targets("pi_", count))]),
         *_frame_functions(derivation, names),
@@ -133,7 +131,7 @@ def _forward_dynamics(derivation: Derivation) -> MFunction:
     name, n, nu = derivation.robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
     return MFunction(
         "forward_dynamics", "qdd", ["q", "qd", "u", "p"],
-        [f"FORWARD_DYNAMICS  Accelerations qdd solving M(q) qdd = Y_g(u) - C qd - N - F, {n} x 1.", "",
+        [help_line(derivation, "forward_dynamics"), "",
          f"   qdd = {name}.forward_dynamics(q, qd, u, p); u ({nu} x 1) may be [] (no effort).",
          "   M is solved with MATLAB's \\ (Cholesky: M is symmetric positive definite).",
          f"   ode45(@(t, x) [x({n + 1}:{2 * n}); {name}.forward_dynamics(x(1:{n}), x({n + 1}:{2 * n}), u, p)], tspan, x0)"],
@@ -147,7 +145,7 @@ def _linearize(derivation: Derivation, names: Names) -> MFunction:
     name, n, nu = derivation.robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
     return MFunction(
         "linearize", "[A, B]", ["q", "qd", "u", "p"],
-        [f"LINEARIZE  (A, B) of xdot = A dx + B du about x = [q; qd] and u: A {2 * n} x {2 * n}, B {2 * n} x {nu}.", "",
+        [help_line(derivation, "linearize"), "",
          "   A = [0, I; dqdd/dq, dqdd/dqd], B = [0; dqdd/du], from Newton-Euler differentiated line by line",
          "   and one solve with M (M dqdd/dx = dY/dx - dtau/dx at the state's own qdd)."],
         [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),

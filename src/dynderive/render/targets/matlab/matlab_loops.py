@@ -21,6 +21,7 @@ from .matlab_print import (
     MFunction,
     Names,
     expression_body,
+    help_line,
     linearize_rhs,
     matrix_targets,
     prologue,
@@ -61,15 +62,15 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
     optional_u = {"u": f"zeros({nu}, 1)"}
     return [
         MFunction("loop_constraints", "a", ["q", "p"],
-                  [f"LOOP_CONSTRAINTS  Loop constraints a_g(q), {k} x 1 (zero when the loops are closed)."],
+                  [help_line(derivation, "loop_constraints")],
                   [*prologue(derivation, ["q"], 2), f"a = zeros({k}, 1);",
                    *expression_body(names, list(quantities["a_g"]), vector_targets("a", k))]),
         MFunction("loop_jacobian", "A", ["q", "p"],
-                  [f"LOOP_JACOBIAN  Loop constraint Jacobian A_g(q) = da_g/dq, {k} x {n}."],
+                  [help_line(derivation, "loop_jacobian")],
                   [*prologue(derivation, ["q"], 2), f"A = zeros({k}, {n});",
                    *expression_body(names, list(quantities["A_g"]), matrix_targets("A", k, n))]),
         MFunction("loop_jacobian_dot", "Adot", ["q", "qd", "p"],
-                  [f"LOOP_JACOBIAN_DOT  Its time derivative Adot_g(q, qd), {k} x {n}."],
+                  [help_line(derivation, "loop_jacobian_dot")],
                   [*prologue(derivation, ["q", "qd"], 3), f"Adot = zeros({k}, {n});",
                    *expression_body(names, list(quantities["Adot_g"]), matrix_targets("Adot", k, n))]),
         MFunction("forward_dynamics", "qdd", ["q", "qd", "u", "p"],
@@ -80,8 +81,7 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
                    "qdd = loop_solve(q, qd, u, p, p.alpha, p.beta);"], [_solve_function(derivation)]),
         MFunction("loop_forces", "lambda", ["q", "qd", "u", "p"],
-                  [f"LOOP_FORCES  Loop multipliers lambda_g, {k} x 1: A_g' lambda_g is the generalized force the loop "
-                   "joints exert (forward_dynamics' system with alpha = beta = 0)." + least],
+                  [help_line(derivation, "loop_forces") + least],
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
                    "[qdd, lambda] = loop_solve(q, qd, u, p, 0, 0);"], [_solve_function(derivation)]),
         _linearize(derivation, names),
@@ -110,7 +110,7 @@ def _linearize(derivation: Derivation, names: Names) -> Any:
             f"B = [zeros({n}, {nu}); X(1:{n}, {2 * n + 1}:end)];"]
     return MFunction(
         "linearize", "[A, B]", ["q", "qd", "u", "p"],
-        [f"LINEARIZE  (A, B) of xdot = A dx + B du about x = [q; qd] and u: A {2 * n} x {2 * n}, B {2 * n} x {nu}.", "",
+        [help_line(derivation, "linearize"), "",
          "   The constrained solve [M, -A_g'; A_g, 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g' lambda)/dx;",
          "   -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0, as the NumPy module)."],
         body, [_solve_function(derivation)])

@@ -15,6 +15,7 @@ from sympy.printing.octave import OctaveCodePrinter
 
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
+from ... import api
 from ...encode import Code
 from ..c.c_print import DoublePrinting, FastCPrinter, expression_body, program_body
 from ..c.c_print import Names as CNames
@@ -78,6 +79,12 @@ class Names(CNames):
 
     parameter, entry, first, declaration = "p.{}", "{}({})", 1, ""
     fast_printer = FastMatlabPrinter
+
+
+def help_line(derivation: Derivation, name: str, *notes: str) -> str:
+    """The first help line of the API function ``name``: its summary from the API table with
+    MATLAB's dimensions (``3 x 1``), then ``notes``."""
+    return " ".join([f"{name.upper()}  {api.described(name, api.sizes(derivation), '{n} x 1')}.", *notes])
 
 
 def matrix_targets(out: str, rows: int, columns: int) -> list[str]:
