@@ -93,9 +93,9 @@ def test_the_extension_and_the_backend_check_read_the_table(robot, sample):
 
 def test_descriptions_state_shapes_in_each_idiom():
     size = {"NV": 3, "NP": 12, "2NV": 6, "NU": 2, "NQ": 3}
-    assert api.python_doc("mass_matrix", size) == "Mass matrix M_g(q), shape (..., 3, 3)."
+    assert api.python_doc("mass_matrix", size) == "Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 3, 3)."
     assert api.python_doc("parameter_vector", size, batch=False).endswith("shape (12,).")
     assert api.python_doc("kinetic_energy", size).endswith("shape (...).")
     assert api.described("linearize", size, "{n} entries", ", row-major").endswith(
         "u, 6 x 6 and 6 x 2, row-major")
-    assert api.described("gravity_vector", size, "{n} x 1") == "Gravity vector N_g(q) = dV/dq, 3 x 1"
+    assert api.described("gravity_vector", size, "{n} x 1") == "Gravity vector N_g(q), the gradient of V_g, 3 x 1"

@@ -24,7 +24,8 @@ from typing import Any
 class Function:
     """One function of the generated API. ``arguments``: its positional arrays in order
     (``frame``: a frame's name, not an array); ``results``: the shape of each result for one
-    state, in size letters; ``group``: which robots have it ("dynamics": every robot,
+    state, in size letters; ``pinocchio``: the function of Pinocchio that computes the same
+    (the tests compare them); ``group``: which robots have it ("dynamics": every robot,
     "frames": every robot, raising for a name that is no frame, "loops": closed loops,
     "configuration": a robot with quaternions, "maximal": a planar robot's maximal form)."""
 
@@ -33,24 +34,30 @@ class Function:
     results: tuple[tuple[str, ...], ...]
     summary: str
     group: str = "dynamics"
+    pinocchio: str = ""
 
 
-def _f(name: str, arguments: str, results: str, summary: str, group: str = "dynamics") -> Function:
+def _f(name: str, arguments: str, results: str, summary: str, group: str = "dynamics",
+       pinocchio: str = "") -> Function:
     """A row from compact text: arguments space-separated, results ``;``-separated shapes."""
     shapes = tuple(tuple(part.split()) for part in results.split(";"))
-    return Function(name, tuple(arguments.split()), shapes, summary, group)
+    return Function(name, tuple(arguments.split()), shapes, summary, group, pinocchio)
 
 
 #: The API in the NumPy module's order.
 API: tuple[Function, ...] = (
-    _f("mass_matrix", "q", "NV NV", "Mass matrix M_g(q)"),
-    _f("coriolis_matrix", "q qd", "NV NV", "Coriolis matrix C_g(q, qd) (Christoffel symbols)"),
-    _f("gravity_vector", "q", "NV", "Gravity vector N_g(q) = dV/dq"),
+    _f("mass_matrix", "q", "NV NV", "Mass matrix M_g(q)", pinocchio="crba"),
+    _f("coriolis_matrix", "q qd", "NV NV", "Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric",
+       pinocchio="computeCoriolisMatrix"),
+    _f("gravity_vector", "q", "NV", "Gravity vector N_g(q), the gradient of V_g", pinocchio="computeGeneralizedGravity"),
     _f("generalized_forces", "q u", "NV", "Applied generalized forces Y_g(q, u) of the efforts"),
-    _f("inverse_dynamics", "q qd qdd", "NV", "Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler"),
-    _f("forward_dynamics", "q qd u", "NV", "Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F"),
-    _f("kinetic_energy", "q qd", "", "Kinetic energy T_g = 1/2 qd^T M(q) qd"),
-    _f("potential_energy", "q", "", "Potential energy V_g(q) of gravity and the springs"),
+    _f("inverse_dynamics", "q qd qdd", "NV", "Generalized forces Y_g = M qdd + C qd + N + F by recursive "
+       "Newton-Euler", pinocchio="rnea"),
+    _f("forward_dynamics", "q qd u", "NV", "Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F",
+       pinocchio="aba"),
+    _f("kinetic_energy", "q qd", "", "Kinetic energy T_g = 1/2 qd^T M(q) qd", pinocchio="computeKineticEnergy"),
+    _f("potential_energy", "q", "", "Potential energy V_g(q) of gravity and the springs",
+       pinocchio="computePotentialEnergy"),
     _f("friction_forces", "qd", "NV", "Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) "
        "when it is positive)"),
     _f("linearize", "q qd u", "2NV 2NV; 2NV NU", "(A, B) of xdot = A dx + B du about x = (q, qd) and u"),
@@ -58,7 +65,8 @@ API: tuple[Function, ...] = (
        "from parameter_vector"),
     _f("parameter_vector", "", "NP", "The parameter vector pi of regressor (names: PARAMETER_VECTOR)"),
     _f("frame_transform", "q frame", "S S", "Pose of a frame in the world, [[R, p], [0, 1]]", "frames"),
-    _f("frame_jacobian", "q frame", "T NV", "World-frame Jacobian of a frame: linear rows, then angular", "frames"),
+    _f("frame_jacobian", "q frame", "T NV", "World-frame Jacobian of a frame: linear rows, then angular", "frames",
+       "getFrameJacobian"),
     _f("frame_jacobian_dot_qd", "q qd frame", "T", "Jdot(q, qd) qd of a frame (its acceleration at qdd = 0)",
        "frames"),
     _f("loop_constraints", "q", "NC", "Loop constraints a_g(q) (zero when the loops are closed)", "loops"),
@@ -120,20 +128,23 @@ def sizes(derivation: Any) -> dict[str, int]:
             "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv}
 
 
-def shapes(name: str, size: dict[str, int]) -> tuple[tuple[int, ...], ...]:
+def shapes(name: str, size: dict[str, Any]) -> tuple[tuple[Any, ...], ...]:
     """The shapes of ``name``'s results for one state, in numbers."""
     return tuple(tuple(size[letter] for letter in shape) for shape in BY_NAME[name].results)
 
 
-def python_doc(name: str, size: dict[str, int], batch: bool = True) -> str:
-    """The summary with its shapes as a Python docstring states them: ``shape (..., 3, 3)``
-    (``batch`` False: no batch axes, as ``parameter_vector``'s)."""
+def python_doc(name: str, size: dict[str, Any], batch: bool = True) -> str:
+    """The summary with its Pinocchio counterpart and its shapes as a Python docstring states
+    them: ``shape (..., 3, 3)`` (``batch`` False: no batch axes, as ``parameter_vector``'s;
+    ``size`` may hold letters, ``shape (..., NV, NV)``)."""
     texts = []
     for shape in shapes(name, size):
         axes = (["..."] if batch else []) + [str(n) for n in shape]
         texts.append(f"({', '.join(axes)}{',' if len(axes) == 1 and not batch else ''})")
     word = "shape" if len(texts) == 1 else "shapes"
-    return f"{BY_NAME[name].summary}, {word} {' and '.join(texts)}."
+    row = BY_NAME[name]
+    counterpart = f" (Pinocchio's ``{row.pinocchio}``)" if row.pinocchio else ""
+    return f"{row.summary}{counterpart}, {word} {' and '.join(texts)}."
 
 
 def described(name: str, size: dict[str, int], vector: str, matrix: str = "") -> str:

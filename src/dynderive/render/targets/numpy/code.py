@@ -174,7 +174,10 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
                    "unit": p.unit, "description": p.description} for p in robot.parameters]
     keywords = [p["name"] if p["default"] is None else f"{p['name']}={p['default']}" for p in parameters]
     forward = derivation.programs.get("forward_dynamics")
+    size = api.sizes(derivation) | ({"NQ": "NQ", "NV": "NV"} if robot.floating else {})
     return {
+        # each function's first docstring line, from the API table (a floating robot's sizes as NQ, NV)
+        "doc": {f.name: Code(api.python_doc(f.name, size, batch=f.name != "parameter_vector")) for f in api.API},
         "params_keywords": ("*, " + ", ".join(keywords)) if keywords else "",
         "params_pass": ", ".join(f"{p['name']}={p['name']}" for p in parameters),
         "generator": f"dynderive {__version__}",
