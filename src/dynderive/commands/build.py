@@ -34,7 +34,7 @@ import sysconfig
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -242,25 +242,25 @@ def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: st
     (a positioned input error names it already); ``out``: where a failed sheet's .tex and
     log will be (None: they will not be written)."""
     from ..render.environment import TemplateProblem
+    from .solve import failure_text
 
     start = time.monotonic()
     sheet: dict[str, float] = {}
+    files, error, name = None, "", ""
     try:
         files, failed, name = render_outputs(source, kinds, template_dir, sheet)
     except TemplateProblem:
         raise   # a user's template is at fault: every robot would fail alike (exit 2)
     except InputError as exc:
-        return None, str(exc), time.monotonic() - start, sheet, ""
+        error = str(exc)
     except DynderiveError as exc:
-        return None, f"{source}: {exc}", time.monotonic() - start, sheet, ""
+        error = f"{source}: {exc}"
     except Exception as exc:  # an internal error in one robot must not stop the others
-        return None, f"{source}: internal error: {type(exc).__name__}: {exc}", time.monotonic() - start, sheet, ""
-    if failed is None:
-        return files, "", time.monotonic() - start, sheet, name
-    from .solve import failure_text
-
-    message = str(failed) if out is None else failure_text(Path(out), name, failed)
-    return files, f"{source}: {message}", time.monotonic() - start, sheet, name
+        error = f"{source}: internal error: {type(exc).__name__}: {exc}"
+    else:
+        if failed is not None:
+            error = f"{source}: {str(failed) if out is None else failure_text(Path(out), name, failed)}"
+    return files, error, time.monotonic() - start, sheet, name
 
 
 def _sha(data: bytes) -> str:
@@ -349,10 +349,8 @@ def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict],
         document = {"version": 1, "robots": dict(sorted(manifest.items()))}
         write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()}, remove=removed)
         for folder in sorted({path.parent for path in removed} - {out}, reverse=True):   # +<name>/, if empty now
-            try:
+            with suppress(OSError):
                 folder.rmdir()
-            except OSError:
-                pass
     return {name: files for name, files in orphans.items() if files}
 
 
@@ -475,16 +473,11 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
 
 
 def _outputs_match(out: Path, outputs: dict[str, str]) -> bool:
-    if not outputs:
+    try:
+        return bool(outputs) and all((out / file).is_file() and _sha((out / file).read_bytes()) == digest
+                                     for file, digest in outputs.items())
+    except OSError:
         return False
-    for file, digest in outputs.items():
-        path = out / file
-        try:
-            if not path.is_file() or _sha(path.read_bytes()) != digest:
-                return False
-        except OSError:
-            return False
-    return True
 
 
 def default_jobs() -> int:
