@@ -16,11 +16,11 @@ from typing import Annotated, Any, TypeVar
 import typer
 
 from .._version import __version__
-from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
+from ..errors import DynderiveError, InputError, Interrupted
 from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, resolve, simulate_backends
 from .help import Command as _Command
 from .help import Group as _Group
-from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
+from .options import backend_target, finite, problem, tolerances, vector, with_parameters
 from .output import WRITTEN, echo_notes, interrupted_message
 from .progress import Progress
 
@@ -60,9 +60,7 @@ def handle_errors(function: F) -> F:
             return function(*args, **kwargs)
         except InputError as exc:
             raise _fail(str(exc), 2) from None
-        except (ToolMissingError, ExternalToolError) as exc:
-            raise _fail(f"dynderive: {exc}", 1) from None
-        except DynderiveError as exc:
+        except DynderiveError as exc:   # a missing tool, a tool's failure, an output that cannot be written
             raise _fail(f"dynderive: {exc}", 1) from None
         except (KeyboardInterrupt, Interrupted):
             raise _fail(interrupted_message(), 130) from None
@@ -182,13 +180,15 @@ def solve(
     from ..render.sheets.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
     from .output import write_all
-    from .solve import Wanted, form_note, solve_outputs
+    from .solve import form_note, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     targets = target_flags(targets)
+    kinds = {kind for kind, asked in (("latex", latex), ("pdf", pdf), ("json", json_), ("html", html),
+                                      *targets.items()) if asked}
     chosen = sheet_sections_option(sections, latex or pdf or html)
-    printed = not (latex or pdf or any(targets.values()) or json_ or html)
+    printed = not kinds
     shortened = sheet_digits_option(digits, latex or pdf or html or printed)
     tested = next(target for target in TARGETS if target.help_for("--tests"))   # the module --tests checks
     if tests and not targets[tested.kind]:
@@ -208,19 +208,15 @@ def solve(
     if printed:
         typer.echo(render_terminal(derivation, shortened), nl=False)
         return
-    wanted = Wanted(latex=latex, pdf=pdf, json=json_, tests=tests, html=html,
-                    targets=frozenset(kind for kind, asked in targets.items() if asked))
-    files, failures, stale = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
+    files, failures, stale = solve_outputs(derivation, kinds, tests, out, template_dir, chosen, progress,
+                                           shortened)
     removed = [path for path in stale if os.path.lexists(path)]
     write_all(files, remove=removed)
     if not quiet:
-        for path in files:
-            typer.echo(f"wrote {path}", err=True)
-        for path in removed:
-            typer.echo(f"removed {path}", err=True)
-        failed = [c for c in derivation.checks_run if not c.passed and not c.skipped]
-        for check in failed:
-            typer.echo(f"warning: check failed: {check.description}", err=True)
+        failed = [c.description for c in derivation.checks_run if not c.passed and not c.skipped]
+        for line in [*(f"wrote {path}" for path in files), *(f"removed {path}" for path in removed),
+                     *(f"warning: check failed: {description}" for description in failed)]:
+            typer.echo(line, err=True)
     for message in failures:   # outputs that could not be made (the others are written)
         typer.echo(f"dynderive: {message}", err=True)
     if failures:
@@ -251,10 +247,7 @@ def check(
 
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
-    backend = backend_name(backend, CHECK_BACKENDS)
-    harness = by_name(backend)   # the NumPy module: its own checks only (no harness)
-    if harness.check_needs:   # no compiler, no jax: stop before any work
-        resolve(harness.check_needs)()
+    harness = backend_target(backend, check=True)   # the NumPy module: its own checks only (no harness)
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=False, command="check")
@@ -320,20 +313,10 @@ def simulate(
 
     from .. import derive, load_robot
     from ..render.targets import reference
+    from . import simulate as simulation
     from .integrate import method_name
     from .options import require_scipy
     from .output import check_frames, check_output_paths, write_all
-    from .simulate import (
-        animation_gif,
-        csv_text,
-        initial_configuration,
-        parse_efforts,
-        parse_wrenches,
-        plot_png,
-        refuse_options,
-        run_summary,
-    )
-    from .simulate import simulate as run
 
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
     check_frames(frames, animate is not None)
@@ -344,10 +327,7 @@ def simulate(
     finite(baumgarte, "--baumgarte", "a gain", 0.0)
     tolerances(rtol, atol)
     method = method_name(method)
-    backend = backend_name(backend)
-    loaded = by_name(backend)   # the NumPy module, or a target simulate loads (the C extension)
-    if loaded.check_needs:   # no compiler: stop before any work
-        resolve(loaded.check_needs)()
+    loaded = backend_target(backend)   # the NumPy module, or a target simulate loads (the C extension)
     if loaded.load and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
@@ -359,35 +339,35 @@ def simulate(
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=True)
     echo_notes(model, quiet)
-    refuse_options(model, coordinates, animate)
+    simulation.refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
     start_q = vector(q0, len(model.configuration_names), "--q0")
     start_qd = vector(qd0, model.velocity_count, "--qd0")
-    start_q = initial_configuration(model, start_q)
+    start_q = simulation.initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
-    efforts = parse_efforts(derivation, effort or [], maximal)
+    efforts = simulation.parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
         raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))
-    wrenches = parse_wrenches(derivation, force or [])
+    wrenches = simulation.parse_wrenches(derivation, force or [])
     progress("generating code")
     source = reference(derivation)
     compiled = resolve(loaded.load)(derivation, progress=progress) if loaded.load else None
-    trajectory = run(derivation, source, duration, start_q,
+    trajectory = simulation.simulate(derivation, source, duration, start_q,
                      np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
                      baumgarte, frames, progress, friction_smoothing, wrenches, method,
                      lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
-        files[plot] = plot_png(derivation, trajectory)
+        files[plot] = simulation.plot_png(derivation, trajectory)
     if csv is not None:
-        files[csv] = csv_text(trajectory).encode()
+        files[csv] = simulation.csv_text(trajectory).encode()
     if animate is not None:
         progress("animating")
-        files[animate] = animation_gif(derivation, trajectory)
+        files[animate] = simulation.animation_gif(derivation, trajectory)
     write_all(files)
-    typer.echo(run_summary(model, coordinates, duration, trajectory))
+    typer.echo(simulation.run_summary(model, coordinates, duration, trajectory))
     for path in files:
         typer.echo(f"wrote {path}", err=True)
 
@@ -468,9 +448,7 @@ def build(
     targets = target_flags(targets)
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf),
                                             *((t.kind, targets[t.kind]) for t in COLUMNS),
-                                            ("json", json_), ("html", html)) if wanted)
-    if not kinds:
-        kinds = ("latex", "code")
+                                            ("json", json_), ("html", html)) if wanted) or ("latex", "code")
     if prune and check_only:
         raise InputError(problem("--prune", "--check writes nothing, so it cannot prune: run build --prune "
                                  "without --check"))
@@ -495,14 +473,12 @@ def build(
         typer.echo(f"{o.source:<{width}}  {o.status:<10}  {seconds}{extra}")
         for line in o.problems:
             typer.echo(f"  {line}")
-        if o.message:
-            for line in o.message.splitlines():
-                typer.echo(f"  {line}", err=True)
+        for line in o.message.splitlines():
+            typer.echo(f"  {line}", err=True)
     counts = {s: sum(o.status == s for o in outcomes)
               for s in ("built", "up to date", "current", "differs", "failed", "orphaned", "pruned")}
     typer.echo(", ".join(f"{n} {s}" for s, n in counts.items() if n) or "no robot files found")
-    if counts["orphaned"]:
-        n = counts["orphaned"]
+    if n := counts["orphaned"]:
         typer.echo(f"note: {n} robot file{'s' if n > 1 else ''} whose outputs are in {out} no longer "
                    f"exist{'' if n > 1 else 's'} (their outputs are listed as orphaned): "
                    f"build --prune --out {out} removes them", err=True)

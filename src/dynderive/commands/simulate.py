@@ -229,13 +229,6 @@ def run_summary(robot: Any, coordinates: str, duration: float, trajectory: Traje
                if trajectory.dissipated is not None else ""))
 
 
-def friction_hint(robot: Any, friction_smoothing: float) -> str:
-    """What the integrator's note adds when it struggles on a robot with exact Coulomb friction."""
-    friction = any(j.friction is not None for j in robot.joints if j.moves)
-    return ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"
-            if friction and friction_smoothing == 0 else "")
-
-
 def progress_ticker(duration: float, progress: Callable[[str], None]) -> Callable[[float], None]:
     """A right-hand side's clock: reports "simulated 10 % ..." each tenth of ``duration`` once."""
     reported = [-1]
@@ -272,7 +265,9 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     nq, nv = len(q0), len(qd0)
     tick = progress_ticker(duration, progress)
 
-    hint = "" if maximal else friction_hint(robot, friction_smoothing)
+    exact_friction = friction_smoothing == 0 and any(j.friction is not None for j in robot.joints if j.moves)
+    hint = ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"
+            if exact_friction and not maximal else "")   # what the note of a struggling run adds
     loops = bool(robot.loops) and not maximal
     dissipative = robot.dissipative and not maximal and not loops
     starts = () if maximal or loops else robot.quaternion_starts
