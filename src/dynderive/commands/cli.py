@@ -412,9 +412,49 @@ def identify(
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
     into the combinations the joint forces determine (Y pi = Y_base pi_base)."""
-    from .identify import run_identify
+    import json
 
-    run_identify(robot, param or [], states, json_, quiet, floating_base)
+    from .. import derive, load_robot
+    from ..render.targets import reference  # the NumPy module, for a fixed or a floating base
+    from ..verify.checks import generated_module
+    from .options import require_scipy
+
+    require_scipy("identify")
+    from ..verify.identification import base_parameters, fewest_states
+
+    progress = Progress(quiet)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    model = with_parameters(model, robot, param or [], required=True)
+    echo_notes(model, quiet)
+    if states is not None and states < (least := fewest_states(model)):
+        raise InputError(problem("--states", f"expected at least {least} states for {model.name} (one per "
+                                 "regressor parameter: fewer can make the rank, and so the base parameters, "
+                                 f"come out too small), got {states}"))
+    derivation = derive(model, progress=progress)
+    progress("generating code")
+    module = generated_module(reference(derivation), model.name)
+    progress("sampling the regressor")
+    values = {p.name: float(p.value) for p in model.parameters}
+    result = base_parameters(derivation, module, values, states)
+    if json_:
+        typer.echo(json.dumps({"robot": model.name, **result.as_dict()}, indent=2, allow_nan=False))
+        return
+    rows = len(derivation.symbols.qd)
+    per_link = "4 per link (planar)" if model.planar else "10 per link"
+    typer.echo(f"{model.name}: regressor Y(q, qd, qdd) of shape ({rows}, {len(result.names)}), "
+               f"parameters {per_link} then drives\n\nParameter vector pi:")
+    width = max(len(name) for name in result.names)
+    for name, value in zip(result.names, result.values):
+        typer.echo(f"  {name:<{width}}  {value:.10g}")
+    typer.echo(f"\nBase parameters: {result.rank} of {len(result.names)} (rank of Y at {result.states} "
+               "random states; Y pi = Y_base pi_base):")
+    for k, grouping in enumerate(result.groupings, 1):
+        typer.echo(f"  {k:>3}  {grouping.text}  =  {grouping.value:.10g}")
+    if result.unidentifiable:
+        unidentifiable = ", ".join(result.names[i] for i in result.unidentifiable)
+        typer.echo(f"\nNot identifiable (zero columns): {unidentifiable}")
+    if model.loops:
+        typer.echo("\nNote: the regressor is the spanning tree's (no loop forces).")
 
 
 @app.command(cls=_Command)
@@ -506,6 +546,23 @@ def import_(
                              "floating joint 'root_joint'.")] = False,
 ) -> None:
     """Convert a URDF file into the equivalent dynderive YAML robot file."""
-    from .convert import import_urdf
+    from ..input.loader import read_text, resolve_robot_path
+    from ..input.schema import validate
+    from ..input.urdf import read_urdf, to_yaml
+    from .output import check_output_paths, write_all
 
-    import_urdf(urdf, output, floating_base, lambda text: typer.echo(text, err=True))
+    path = resolve_robot_path(urdf)   # a file or a bundled robot's name
+    check_output_paths({"--output": output}, (path,))
+    if path.suffix.lower() in (".yaml", ".yml"):
+        raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF files)"))
+    document = read_urdf(read_text(path), str(path), floating_base)
+    for note in document.notes:
+        typer.echo(note, err=True)
+    validate(document)  # the same checks as any robot file, before anything is written
+    if document.impossible_inertias:   # a robot file's inertias must be physical: it would not load
+        message = ("inertia: not imported: it misses the triangle inequality (see the note), which a YAML "
+                   "robot file may not; correct it in the URDF, or use the URDF itself")
+        raise InputError([document.problem(where + ("inertia",), f"{document.labels[where]} {message}")
+                          for where in sorted(document.impossible_inertias)])
+    write_all({output: to_yaml(document.data, path.name).encode()})
+    typer.echo(f"wrote {output}", err=True)
