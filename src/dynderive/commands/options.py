@@ -122,8 +122,7 @@ def with_parameters(model: Any, robot: str, assignments: list[str], required: bo
         try:
             number = real_number(value)
         except (ExpressionError, TypeError, ValueError, OverflowError) as exc:
-            offset = getattr(exc, "offset", 0)
-            problems.append(problem("--param", f"{name}: {exc}", column + offset))
+            problems.append(problem("--param", f"{name}: {exc}", column + getattr(exc, "offset", 0)))
             continue
         if number is None:
             problems.append(problem("--param", f"{name}: {value!r} is not a finite real number", column))
@@ -184,14 +183,11 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
     """The problems of the robot file ``robot`` read again with the parameter ``values``."""
     from ..input.loader import load_document, read_text, resolve_robot_path
     from ..input.schema import validate
+    from ..input.urdf import read_urdf
 
     path = resolve_robot_path(robot)
-    if path.suffix.lower() == ".urdf":
-        from ..input.urdf import read_urdf
-
-        document = read_urdf(read_text(path), str(path))
-    else:
-        document = load_document(path)
+    document = (read_urdf(read_text(path), str(path)) if path.suffix.lower() == ".urdf"
+                else load_document(path))
     block = document.data.get("parameters") or {}
     for name, value in values.items():
         if isinstance(block.get(name), dict):
