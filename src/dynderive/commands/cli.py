@@ -7,21 +7,23 @@ Exit codes: 0 success; 1 internal error or missing tool; 2 bad input
 from __future__ import annotations
 
 import functools
+import json
 import os
 import signal
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
+import numpy as np
 import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, InputError, Interrupted
-from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, resolve, simulate_backends
+from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, reference, resolve, simulate_backends
 from .help import Command as _Command
 from .help import Group as _Group
-from .options import backend_target, finite, problem, tolerances, vector, with_parameters
-from .output import WRITTEN, echo_notes, interrupted_message
+from .options import backend_target, finite, problem, require_scipy, tolerances, vector, with_parameters
+from .output import WRITTEN, check_frames, check_output_paths, echo_notes, interrupted_message, write_all
 from .progress import Progress
 
 app = typer.Typer(
@@ -38,6 +40,8 @@ F = TypeVar("F", bound=Callable[..., Any])
 FloatingBase = Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by a "
                                             "floating joint 'root_joint' (legged robots, humanoids).")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")]
+Params = Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
+                   "(repeatable; required for parameters without a default).")]
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -179,7 +183,6 @@ def solve(
     from .. import derive, load_robot
     from ..render.sheets.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
-    from .output import write_all
     from .solve import form_note, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
@@ -239,10 +242,7 @@ def check(
 
     Exit code 1 if any check fails, 0 otherwise (skipped checks are listed, not failed).
     """
-    import json
-
     from .. import derive, load_robot
-    from ..render.targets import reference
     from ..verify.checks import run_checks
 
     if states < 1:
@@ -270,8 +270,7 @@ def check(
         for r in rows:
             residual = "-" if r.residual != r.residual else f"{r.residual:.3g}"
             typer.echo(f"{r.name:<{width}}  {r.status:<6}  {residual:>14}  {r.method}")
-        passed = sum(r.status == "pass" for r in rows)
-        skipped = sum(r.status == "skip" for r in rows)
+        passed, skipped = (sum(r.status == status for r in rows) for status in ("pass", "skip"))
         typer.echo(f"\n{passed} passed, {len(failed)} failed, {skipped} skipped")
     if failed:
         raise typer.Exit(1)
@@ -299,8 +298,7 @@ def simulate(
     atol: Annotated[float, typer.Option("--atol", help="Absolute tolerance of the integrator.")] = 1e-9,
     baumgarte: Annotated[float, typer.Option("--baumgarte", help="Baumgarte gain (alpha = beta) for maximal runs.")] = 10.0,
     frames: Annotated[int, typer.Option("--frames", help="Output samples (and animation frames).")] = 101,
-    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
-                     "(repeatable; required for parameters without a default).")] = None,
+    param: Params = None,
     friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
                                   "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, as the generated "
                                   "module's default, which integrators cannot step through).")] = 1e-3,
@@ -309,14 +307,9 @@ def simulate(
     quiet: Quiet = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
-    import numpy as np
-
     from .. import derive, load_robot
-    from ..render.targets import reference
     from . import simulate as simulation
     from .integrate import method_name
-    from .options import require_scipy
-    from .output import check_frames, check_output_paths, write_all
 
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
     check_frames(frames, animate is not None)
@@ -392,9 +385,40 @@ def linearize(
     and closed loops: the values, from the generated module's linearize (Newton-Euler
     differentiated line by line; with loops, the constrained solve).
     """
-    from .linearize import run_linearize
+    from .. import derive, load_robot
+    from ..verify.checks import generated_module
+    from . import linearize as linear
 
-    run_linearize(robot, at or [], param or [], "json" if json_ else "latex" if latex else "text", quiet, floating_base)
+    def note(*texts: str | None) -> None:
+        for text in texts:
+            if text is not None and not quiet:
+                typer.echo(f"note: {text}", err=True)
+
+    progress = Progress(quiet)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    model = with_parameters(model, robot, param or [], required=False, command="linearize")
+    echo_notes(model, quiet)
+    derivation = derive(model, progress=progress)
+    table = derivation.symbols
+    point, given, equilibrium = linear.parse_at(at or [], [str(s) for s in table.q],
+                                                [str(s) for s in table.qd], list(table.efforts))
+    progress("generating code")
+    module = generated_module(reference(derivation), model.name)   # the NumPy module, any base
+    if model.floating:
+        point["q"], manifold_notes = linear.on_the_manifold(model, module, point["q"], given)
+        note(*manifold_notes)
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
+    if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
+        point, loop_notes = linear.on_the_loops(module, point, given, values)
+        note(*loop_notes)
+    remark = None
+    if equilibrium:
+        point["u"], remark = linear.equilibrium_efforts(module, point, values)
+    note(remark or linear.equilibrium_note(module, point, values))
+    progress("linearizing")
+    result = linear.linearization(derivation, module, point, values, equilibrium)
+    kind = "json" if json_ else "latex" if latex else "text"
+    typer.echo(linear.render_linearization(derivation, point, values, result, kind), nl=False)
 
 
 @app.command(cls=_Command)
@@ -402,8 +426,7 @@ def linearize(
 def identify(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
     json_: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
-    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
-                     "(repeatable; required for parameters without a default).")] = None,
+    param: Params = None,
     states: Annotated[int | None, typer.Option("--states", help="Random states sampled (at least the number of "
                                                "regressor parameters).", show_default="4 per parameter, at least "
                                                "100")] = None,
@@ -412,12 +435,8 @@ def identify(
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
     into the combinations the joint forces determine (Y pi = Y_base pi_base)."""
-    import json
-
     from .. import derive, load_robot
-    from ..render.targets import reference  # the NumPy module, for a fixed or a floating base
     from ..verify.checks import generated_module
-    from .options import require_scipy
 
     require_scipy("identify")
     from ..verify.identification import base_parameters, fewest_states
@@ -482,7 +501,6 @@ def build(
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
-    from .build import default_jobs
     from .options import sheet_digits_option
 
     targets = target_flags(targets)
@@ -499,8 +517,8 @@ def build(
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     target_notes(targets)
-    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
-                         lambda text: typer.echo(text, err=True), prune)
+    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or os.cpu_count() or 1, check_only,
+                         template_dir, lambda text: typer.echo(text, err=True), prune)
     width = max([len(o.source) for o in outcomes] + [5])
     sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
     typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
@@ -530,8 +548,6 @@ def build(
 @handle_errors
 def schema() -> None:
     """Print the JSON Schema of the robot file format (for editors such as VS Code's YAML extension)."""
-    import json
-
     from ..input.json_schema import robot_schema
 
     typer.echo(json.dumps(robot_schema(), indent=2))
@@ -549,7 +565,6 @@ def import_(
     from ..input.loader import read_text, resolve_robot_path
     from ..input.schema import validate
     from ..input.urdf import read_urdf, to_yaml
-    from .output import check_output_paths, write_all
 
     path = resolve_robot_path(urdf)   # a file or a bundled robot's name
     check_output_paths({"--output": output}, (path,))

@@ -139,9 +139,8 @@ def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, 
     changed."""
     independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
     guess = np.array(module.ASSEMBLED_CONFIGURATION, dtype=float)
-    for i in independent:
-        if ("q", i) in given:
-            guess[i] = at["q"][i]
+    chosen = [i for i in independent if ("q", i) in given]
+    guess[chosen] = np.array(at["q"], dtype=float)[chosen]
     try:
         q = module.assemble(guess, **values)
     except (ValueError, np.linalg.LinAlgError):
@@ -297,48 +296,3 @@ def on_the_manifold(robot: Any, module: Any, q: list[float], given: set[tuple[st
     if problems:
         raise InputError(problems)
     return q, notes
-
-
-def run_linearize(argument: str, at: list[str], assignments: list[str], kind: str, quiet: bool,
-                  floating_base: bool) -> None:
-    """``dynderive linearize``: load, derive, generate the module, solve for the operating point
-    and print A and B (``kind``: "text", "json" or "latex")."""
-    import typer
-
-    from .. import derive, load_robot
-    from ..verify.checks import generated_module
-    from .options import with_parameters
-    from .output import echo_notes
-    from .progress import Progress
-
-    def note(*texts: str | None) -> None:
-        for text in texts:
-            if text is not None and not quiet:
-                typer.echo(f"note: {text}", err=True)
-
-    progress = Progress(quiet)
-    model = load_robot(argument, size_limits=True, floating_base=floating_base)
-    model = with_parameters(model, argument, assignments, required=False, command="linearize")
-    echo_notes(model, quiet)
-    derivation = derive(model, progress=progress)
-    table = derivation.symbols
-    point, given, equilibrium = parse_at(at, [str(s) for s in table.q], [str(s) for s in table.qd],
-                                         list(table.efforts))
-    progress("generating code")
-    from ..render.targets import reference  # the NumPy module, for a fixed or a floating base
-
-    module = generated_module(reference(derivation), model.name)
-    if model.floating:
-        point["q"], manifold_notes = on_the_manifold(model, module, point["q"], given)
-        note(*manifold_notes)
-    values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
-    if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
-        point, loop_notes = on_the_loops(module, point, given, values)
-        note(*loop_notes)
-    remark = None
-    if equilibrium:
-        point["u"], remark = equilibrium_efforts(module, point, values)
-    note(remark or equilibrium_note(module, point, values))
-    progress("linearizing")
-    result = linearization(derivation, module, point, values, equilibrium)
-    typer.echo(render_linearization(derivation, point, values, result, kind), nl=False)
