@@ -34,7 +34,7 @@ import sysconfig
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -119,14 +119,12 @@ def robot_name(source: Path) -> tuple[str, int, int] | None:
 
 def _urdf_name_position(text: str, line: int, column: int) -> tuple[int, int]:
     """Position of the value of the ``name`` attribute of the element starting at (line, column)."""
-    lines = text.split("\n")
-    start = sum(len(row) + 1 for row in lines[: line - 1])
+    start = sum(len(row) + 1 for row in text.split("\n")[: line - 1])
     match = re.compile(r"<robot\b[^>]*?\sname\s*=\s*[\"']").search(text, start)
     if match is None:
         return line, column
     offset = match.end()
-    before = text.rfind("\n", 0, offset)
-    return text.count("\n", 0, offset) + 1, offset - before
+    return text.count("\n", 0, offset) + 1, offset - text.rfind("\n", 0, offset)
 
 
 def check_names(sources: list[Path]) -> dict[Path, tuple[str, int, int]]:
@@ -136,8 +134,7 @@ def check_names(sources: list[Path]) -> dict[Path, tuple[str, int, int]]:
     names: dict[Path, tuple[str, int, int]] = {}
     problems: list[Problem] = []
     for source in sources:
-        found = robot_name(source)
-        if found is None:
+        if (found := robot_name(source)) is None:
             continue
         names[source] = found
         name, line, column = found
@@ -212,12 +209,9 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
                    sheet: dict[str, float] | None = None,
                    ) -> tuple[dict[str, bytes], LatexError | ToolMissingError | None, str]:
     """Every requested output of one robot file, in memory (runs in a worker process), the
-    PDF's failure if any, and the robot's name; with a PDF, ``sheet`` receives its pages,
-    LaTeX's seconds and the widest overfull line (pt).
-
-    When LaTeX cannot compile the sheet, the other outputs, the ``.tex`` and LaTeX's log
-    (``<name>.log``) are returned instead of the PDF, with the error; when TeX (or TikZ) is
-    missing, the other outputs and the error."""
+    PDF's failure if any (as ``solve.sheet_files`` gives it: LaTeX's log instead of the PDF),
+    and the robot's name; with a PDF, ``sheet`` receives its pages, LaTeX's seconds and the
+    widest overfull line (pt)."""
     from .. import derive, load_robot
     from .solve import sheet_files, target_files
 
@@ -242,25 +236,25 @@ def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: st
     (a positioned input error names it already); ``out``: where a failed sheet's .tex and
     log will be (None: they will not be written)."""
     from ..render.environment import TemplateProblem
+    from .solve import failure_text
 
     start = time.monotonic()
     sheet: dict[str, float] = {}
+    files, error, name = None, "", ""
     try:
         files, failed, name = render_outputs(source, kinds, template_dir, sheet)
     except TemplateProblem:
         raise   # a user's template is at fault: every robot would fail alike (exit 2)
     except InputError as exc:
-        return None, str(exc), time.monotonic() - start, sheet, ""
+        error = str(exc)
     except DynderiveError as exc:
-        return None, f"{source}: {exc}", time.monotonic() - start, sheet, ""
+        error = f"{source}: {exc}"
     except Exception as exc:  # an internal error in one robot must not stop the others
-        return None, f"{source}: internal error: {type(exc).__name__}: {exc}", time.monotonic() - start, sheet, ""
-    if failed is None:
-        return files, "", time.monotonic() - start, sheet, name
-    from .solve import failure_text
-
-    message = str(failed) if out is None else failure_text(Path(out), name, failed)
-    return files, f"{source}: {message}", time.monotonic() - start, sheet, name
+        error = f"{source}: internal error: {type(exc).__name__}: {exc}"
+    else:
+        if failed is not None:
+            error = f"{source}: {str(failed) if out is None else failure_text(Path(out), name, failed)}"
+    return files, error, time.monotonic() - start, sheet, name
 
 
 def _sha(data: bytes) -> str:
@@ -325,22 +319,16 @@ def manifest_lock(out: Path) -> Iterator[None]:
 def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict], claimed: set[str],
                     prune: bool) -> dict[str, list[str]]:
     """Merge this run's records into the manifest on disk, under the lock, and replace it
-    atomically; returns the orphaned outputs (``orphaned``), removed with their records when
-    ``prune``.
+    atomically; returns the orphaned outputs (``orphaned``: ``claimed`` are the files this run
+    made), removed with their records when ``prune``.
 
     ``built`` records replace what is on disk; ``current`` (up-to-date) records are only put
     back if missing, so a newer record written meanwhile by a concurrent build is kept.
-    Records of robot files that no longer exist are kept while outputs of theirs are in
-    ``out`` (nobody else's, nor among ``claimed``, the files this run made), so later runs
-    still report them; ``prune`` removes those files and the records.
     """
     from .output import write_all
 
     with manifest_lock(out):
-        manifest = load_manifest(out)
-        manifest.update(built)
-        for name, record in current.items():
-            manifest.setdefault(name, record)
+        manifest = current | load_manifest(out) | built
         orphans = orphaned(out, manifest, claimed)
         for name, files in orphans.items():
             if prune or not files:
@@ -349,10 +337,8 @@ def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict],
         document = {"version": 1, "robots": dict(sorted(manifest.items()))}
         write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()}, remove=removed)
         for folder in sorted({path.parent for path in removed} - {out}, reverse=True):   # +<name>/, if empty now
-            try:
+            with suppress(OSError):
                 folder.rmdir()
-            except OSError:
-                pass
     return {name: files for name, files in orphans.items() if files}
 
 
@@ -370,17 +356,10 @@ def orphaned(out: Path, manifest: dict[str, dict], claimed: set[str]) -> dict[st
             for name in sorted(gone)}
 
 
-def shown_source(out: Path, name: str) -> str:
-    """A manifest key (relative to ``out``) as a path relative to the working directory."""
-    return os.path.relpath(os.path.normpath(out.resolve() / name))
-
-
 def leftover_logs(out: Path, name: str, files: dict[str, bytes]) -> list[Path]:
     """The logs of failures that this run's outputs of robot ``name`` make stale: ``<name>.log``
     once its PDF is built, a target's (the extension's compiler log) once its first file is."""
-    logs = []
-    if f"{name}.pdf" in files:
-        logs.append(out / f"{name}.log")
+    logs = [out / f"{name}.log"] if f"{name}.pdf" in files else []
     for target in _TARGETS:
         if target.stale and target.outputs[0].format(name) in files:
             logs += [out / pattern.format(name) for pattern in target.stale]
@@ -413,22 +392,20 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
             current[manifest_key(source, out)] = record
         else:
             pending.append((source, key))
-    workers = max(1, min(jobs, len(pending)))
-    results: list[tuple[Path, str, _Result]] = []
-    if pending:
-        templates, folder = str(template_dir) if template_dir else None, None if check else str(out)
-        if workers == 1:
-            results = [(s, k, _work(str(s), kinds, templates, folder)) for s, k in pending]
-        else:
-            # forkserver: fresh workers, never a fork of a process whose threads (JAX's, a
-            # caller's) hold locks; Python 3.14's default on Linux
-            with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("forkserver")) as pool:
-                futures = [(s, k, pool.submit(_work, str(s), kinds, templates, folder)) for s, k in pending]
-                try:
-                    results = [(s, k, f.result()) for s, k, f in futures]
-                except TemplateProblem:
-                    pool.shutdown(wait=False, cancel_futures=True)
-                    raise
+    templates, folder = str(template_dir) if template_dir else None, None if check else str(out)
+    if len(pending) <= 1 or jobs <= 1:
+        results = [(s, k, _work(str(s), kinds, templates, folder)) for s, k in pending]
+    else:
+        # forkserver: fresh workers, never a fork of a process whose threads (JAX's, a
+        # caller's) hold locks; Python 3.14's default on Linux
+        context = multiprocessing.get_context("forkserver")
+        with ProcessPoolExecutor(max_workers=min(jobs, len(pending)), mp_context=context) as pool:
+            futures = [(s, k, pool.submit(_work, str(s), kinds, templates, folder)) for s, k in pending]
+            try:
+                results = [(s, k, f.result()) for s, k, f in futures]
+            except TemplateProblem:
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
     built: dict[str, dict] = {}
     # this run's outputs, and every output name of a robot it reads (one that fails keeps its files)
     claimed = {file for record in current.values() for file in record["outputs"]}
@@ -469,23 +446,14 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
         orphans = update_manifest(out, built, current, claimed, prune)
     status = "pruned" if prune and not check else "orphaned"
     done = "removed" if status == "pruned" else status
-    extra = [Outcome(shown_source(out, key), status, problems=[f"{out / file}: {done}" for file in files])
-             for key, files in orphans.items()]
+    extra = [Outcome(os.path.relpath(os.path.normpath(out.resolve() / key)), status,   # relative to the cwd
+                     problems=[f"{out / file}: {done}" for file in files]) for key, files in orphans.items()]
     return [outcomes[str(s)] for s in sources] + extra
 
 
 def _outputs_match(out: Path, outputs: dict[str, str]) -> bool:
-    if not outputs:
+    try:
+        return bool(outputs) and all((out / file).is_file() and _sha((out / file).read_bytes()) == digest
+                                     for file, digest in outputs.items())
+    except OSError:
         return False
-    for file, digest in outputs.items():
-        path = out / file
-        try:
-            if not path.is_file() or _sha(path.read_bytes()) != digest:
-                return False
-        except OSError:
-            return False
-    return True
-
-
-def default_jobs() -> int:
-    return max(1, os.cpu_count() or 1)

@@ -7,21 +7,23 @@ Exit codes: 0 success; 1 internal error or missing tool; 2 bad input
 from __future__ import annotations
 
 import functools
+import json
 import os
 import signal
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
+import numpy as np
 import typer
 
 from .._version import __version__
-from ..errors import DynderiveError, ExternalToolError, InputError, Interrupted, ToolMissingError
-from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, resolve, simulate_backends
+from ..errors import DynderiveError, InputError, Interrupted
+from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, reference, resolve, simulate_backends
 from .help import Command as _Command
 from .help import Group as _Group
-from .options import CHECK_BACKENDS, backend_name, finite, problem, tolerances, vector, with_parameters
-from .output import WRITTEN, echo_notes, interrupted_message
+from .options import backend_target, finite, problem, require_scipy, tolerances, vector, with_parameters
+from .output import WRITTEN, check_frames, check_output_paths, echo_notes, interrupted_message, write_all
 from .progress import Progress
 
 app = typer.Typer(
@@ -38,6 +40,8 @@ F = TypeVar("F", bound=Callable[..., Any])
 FloatingBase = Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by a "
                                             "floating joint 'root_joint' (legged robots, humanoids).")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")]
+Params = Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
+                   "(repeatable; required for parameters without a default).")]
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -60,9 +64,7 @@ def handle_errors(function: F) -> F:
             return function(*args, **kwargs)
         except InputError as exc:
             raise _fail(str(exc), 2) from None
-        except (ToolMissingError, ExternalToolError) as exc:
-            raise _fail(f"dynderive: {exc}", 1) from None
-        except DynderiveError as exc:
+        except DynderiveError as exc:   # a missing tool, a tool's failure, an output that cannot be written
             raise _fail(f"dynderive: {exc}", 1) from None
         except (KeyboardInterrupt, Interrupted):
             raise _fail(interrupted_message(), 130) from None
@@ -181,14 +183,15 @@ def solve(
     from .. import derive, load_robot
     from ..render.sheets.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
-    from .output import write_all
-    from .solve import Wanted, form_note, solve_outputs
+    from .solve import form_note, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     targets = target_flags(targets)
+    kinds = {kind for kind, asked in (("latex", latex), ("pdf", pdf), ("json", json_), ("html", html),
+                                      *targets.items()) if asked}
     chosen = sheet_sections_option(sections, latex or pdf or html)
-    printed = not (latex or pdf or any(targets.values()) or json_ or html)
+    printed = not kinds
     shortened = sheet_digits_option(digits, latex or pdf or html or printed)
     tested = next(target for target in TARGETS if target.help_for("--tests"))   # the module --tests checks
     if tests and not targets[tested.kind]:
@@ -208,19 +211,15 @@ def solve(
     if printed:
         typer.echo(render_terminal(derivation, shortened), nl=False)
         return
-    wanted = Wanted(latex=latex, pdf=pdf, json=json_, tests=tests, html=html,
-                    targets=frozenset(kind for kind, asked in targets.items() if asked))
-    files, failures, stale = solve_outputs(derivation, wanted, out, template_dir, chosen, progress, shortened)
+    files, failures, stale = solve_outputs(derivation, kinds, tests, out, template_dir, chosen, progress,
+                                           shortened)
     removed = [path for path in stale if os.path.lexists(path)]
     write_all(files, remove=removed)
     if not quiet:
-        for path in files:
-            typer.echo(f"wrote {path}", err=True)
-        for path in removed:
-            typer.echo(f"removed {path}", err=True)
-        failed = [c for c in derivation.checks_run if not c.passed and not c.skipped]
-        for check in failed:
-            typer.echo(f"warning: check failed: {check.description}", err=True)
+        failed = [c.description for c in derivation.checks_run if not c.passed and not c.skipped]
+        for line in [*(f"wrote {path}" for path in files), *(f"removed {path}" for path in removed),
+                     *(f"warning: check failed: {description}" for description in failed)]:
+            typer.echo(line, err=True)
     for message in failures:   # outputs that could not be made (the others are written)
         typer.echo(f"dynderive: {message}", err=True)
     if failures:
@@ -243,18 +242,12 @@ def check(
 
     Exit code 1 if any check fails, 0 otherwise (skipped checks are listed, not failed).
     """
-    import json
-
     from .. import derive, load_robot
-    from ..render.targets import reference
     from ..verify.checks import run_checks
 
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
-    backend = backend_name(backend, CHECK_BACKENDS)
-    harness = by_name(backend)   # the NumPy module: its own checks only (no harness)
-    if harness.check_needs:   # no compiler, no jax: stop before any work
-        resolve(harness.check_needs)()
+    harness = backend_target(backend, check=True)   # the NumPy module: its own checks only (no harness)
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=False, command="check")
@@ -277,8 +270,7 @@ def check(
         for r in rows:
             residual = "-" if r.residual != r.residual else f"{r.residual:.3g}"
             typer.echo(f"{r.name:<{width}}  {r.status:<6}  {residual:>14}  {r.method}")
-        passed = sum(r.status == "pass" for r in rows)
-        skipped = sum(r.status == "skip" for r in rows)
+        passed, skipped = (sum(r.status == status for r in rows) for status in ("pass", "skip"))
         typer.echo(f"\n{passed} passed, {len(failed)} failed, {skipped} skipped")
     if failed:
         raise typer.Exit(1)
@@ -306,8 +298,7 @@ def simulate(
     atol: Annotated[float, typer.Option("--atol", help="Absolute tolerance of the integrator.")] = 1e-9,
     baumgarte: Annotated[float, typer.Option("--baumgarte", help="Baumgarte gain (alpha = beta) for maximal runs.")] = 10.0,
     frames: Annotated[int, typer.Option("--frames", help="Output samples (and animation frames).")] = 101,
-    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
-                     "(repeatable; required for parameters without a default).")] = None,
+    param: Params = None,
     friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
                                   "becomes tanh(qd / EPS) (a velocity; 0 = the exact sign, as the generated "
                                   "module's default, which integrators cannot step through).")] = 1e-3,
@@ -316,24 +307,9 @@ def simulate(
     quiet: Quiet = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
-    import numpy as np
-
     from .. import derive, load_robot
-    from ..render.targets import reference
+    from . import simulate as simulation
     from .integrate import method_name
-    from .options import require_scipy
-    from .output import check_frames, check_output_paths, write_all
-    from .simulate import (
-        animation_gif,
-        csv_text,
-        initial_configuration,
-        parse_efforts,
-        parse_wrenches,
-        plot_png,
-        refuse_options,
-        run_summary,
-    )
-    from .simulate import simulate as run
 
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
     check_frames(frames, animate is not None)
@@ -344,10 +320,7 @@ def simulate(
     finite(baumgarte, "--baumgarte", "a gain", 0.0)
     tolerances(rtol, atol)
     method = method_name(method)
-    backend = backend_name(backend)
-    loaded = by_name(backend)   # the NumPy module, or a target simulate loads (the C extension)
-    if loaded.check_needs:   # no compiler: stop before any work
-        resolve(loaded.check_needs)()
+    loaded = backend_target(backend)   # the NumPy module, or a target simulate loads (the C extension)
     if loaded.load and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
@@ -359,35 +332,35 @@ def simulate(
     model = load_robot(robot, size_limits=True, floating_base=floating_base)
     model = with_parameters(model, robot, param or [], required=True)
     echo_notes(model, quiet)
-    refuse_options(model, coordinates, animate)
+    simulation.refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
     start_q = vector(q0, len(model.configuration_names), "--q0")
     start_qd = vector(qd0, model.velocity_count, "--qd0")
-    start_q = initial_configuration(model, start_q)
+    start_q = simulation.initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
-    efforts = parse_efforts(derivation, effort or [], maximal)
+    efforts = simulation.parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
         raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))
-    wrenches = parse_wrenches(derivation, force or [])
+    wrenches = simulation.parse_wrenches(derivation, force or [])
     progress("generating code")
     source = reference(derivation)
     compiled = resolve(loaded.load)(derivation, progress=progress) if loaded.load else None
-    trajectory = run(derivation, source, duration, start_q,
+    trajectory = simulation.simulate(derivation, source, duration, start_q,
                      np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
                      baumgarte, frames, progress, friction_smoothing, wrenches, method,
                      lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
-        files[plot] = plot_png(derivation, trajectory)
+        files[plot] = simulation.plot_png(derivation, trajectory)
     if csv is not None:
-        files[csv] = csv_text(trajectory).encode()
+        files[csv] = simulation.csv_text(trajectory).encode()
     if animate is not None:
         progress("animating")
-        files[animate] = animation_gif(derivation, trajectory)
+        files[animate] = simulation.animation_gif(derivation, trajectory)
     write_all(files)
-    typer.echo(run_summary(model, coordinates, duration, trajectory))
+    typer.echo(simulation.run_summary(model, coordinates, duration, trajectory))
     for path in files:
         typer.echo(f"wrote {path}", err=True)
 
@@ -412,9 +385,40 @@ def linearize(
     and closed loops: the values, from the generated module's linearize (Newton-Euler
     differentiated line by line; with loops, the constrained solve).
     """
-    from .linearize import run_linearize
+    from .. import derive, load_robot
+    from ..verify.checks import generated_module
+    from . import linearize as linear
 
-    run_linearize(robot, at or [], param or [], "json" if json_ else "latex" if latex else "text", quiet, floating_base)
+    def note(*texts: str | None) -> None:
+        for text in texts:
+            if text is not None and not quiet:
+                typer.echo(f"note: {text}", err=True)
+
+    progress = Progress(quiet)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    model = with_parameters(model, robot, param or [], required=False, command="linearize")
+    echo_notes(model, quiet)
+    derivation = derive(model, progress=progress)
+    table = derivation.symbols
+    point, given, equilibrium = linear.parse_at(at or [], [str(s) for s in table.q],
+                                                [str(s) for s in table.qd], list(table.efforts))
+    progress("generating code")
+    module = generated_module(reference(derivation), model.name)   # the NumPy module, any base
+    if model.floating:
+        point["q"], manifold_notes = linear.on_the_manifold(model, module, point["q"], given)
+        note(*manifold_notes)
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
+    if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
+        point, loop_notes = linear.on_the_loops(module, point, given, values)
+        note(*loop_notes)
+    remark = None
+    if equilibrium:
+        point["u"], remark = linear.equilibrium_efforts(module, point, values)
+    note(remark or linear.equilibrium_note(module, point, values))
+    progress("linearizing")
+    result = linear.linearization(derivation, module, point, values, equilibrium)
+    kind = "json" if json_ else "latex" if latex else "text"
+    typer.echo(linear.render_linearization(derivation, point, values, result, kind), nl=False)
 
 
 @app.command(cls=_Command)
@@ -422,8 +426,7 @@ def linearize(
 def identify(
     robot: Annotated[str, typer.Argument(help="Robot file (YAML or URDF) or the name of a bundled robot.")],
     json_: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
-    param: Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
-                     "(repeatable; required for parameters without a default).")] = None,
+    param: Params = None,
     states: Annotated[int | None, typer.Option("--states", help="Random states sampled (at least the number of "
                                                "regressor parameters).", show_default="4 per parameter, at least "
                                                "100")] = None,
@@ -432,9 +435,45 @@ def identify(
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
     into the combinations the joint forces determine (Y pi = Y_base pi_base)."""
-    from .identify import run_identify
+    from .. import derive, load_robot
+    from ..verify.checks import generated_module
 
-    run_identify(robot, param or [], states, json_, quiet, floating_base)
+    require_scipy("identify")
+    from ..verify.identification import base_parameters, fewest_states
+
+    progress = Progress(quiet)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    model = with_parameters(model, robot, param or [], required=True)
+    echo_notes(model, quiet)
+    if states is not None and states < (least := fewest_states(model)):
+        raise InputError(problem("--states", f"expected at least {least} states for {model.name} (one per "
+                                 "regressor parameter: fewer can make the rank, and so the base parameters, "
+                                 f"come out too small), got {states}"))
+    derivation = derive(model, progress=progress)
+    progress("generating code")
+    module = generated_module(reference(derivation), model.name)
+    progress("sampling the regressor")
+    values = {p.name: float(p.value) for p in model.parameters}
+    result = base_parameters(derivation, module, values, states)
+    if json_:
+        typer.echo(json.dumps({"robot": model.name, **result.as_dict()}, indent=2, allow_nan=False))
+        return
+    rows = len(derivation.symbols.qd)
+    per_link = "4 per link (planar)" if model.planar else "10 per link"
+    typer.echo(f"{model.name}: regressor Y(q, qd, qdd) of shape ({rows}, {len(result.names)}), "
+               f"parameters {per_link} then drives\n\nParameter vector pi:")
+    width = max(len(name) for name in result.names)
+    for name, value in zip(result.names, result.values):
+        typer.echo(f"  {name:<{width}}  {value:.10g}")
+    typer.echo(f"\nBase parameters: {result.rank} of {len(result.names)} (rank of Y at {result.states} "
+               "random states; Y pi = Y_base pi_base):")
+    for k, grouping in enumerate(result.groupings, 1):
+        typer.echo(f"  {k:>3}  {grouping.text}  =  {grouping.value:.10g}")
+    if result.unidentifiable:
+        unidentifiable = ", ".join(result.names[i] for i in result.unidentifiable)
+        typer.echo(f"\nNot identifiable (zero columns): {unidentifiable}")
+    if model.loops:
+        typer.echo("\nNote: the regressor is the spanning tree's (no loop forces).")
 
 
 @app.command(cls=_Command)
@@ -462,15 +501,12 @@ def build(
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
-    from .build import default_jobs
     from .options import sheet_digits_option
 
     targets = target_flags(targets)
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf),
                                             *((t.kind, targets[t.kind]) for t in COLUMNS),
-                                            ("json", json_), ("html", html)) if wanted)
-    if not kinds:
-        kinds = ("latex", "code")
+                                            ("json", json_), ("html", html)) if wanted) or ("latex", "code")
     if prune and check_only:
         raise InputError(problem("--prune", "--check writes nothing, so it cannot prune: run build --prune "
                                  "without --check"))
@@ -481,8 +517,8 @@ def build(
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
     target_notes(targets)
-    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or default_jobs(), check_only, template_dir,
-                         lambda text: typer.echo(text, err=True), prune)
+    outcomes = run_build(paths or [Path(".")], out, kinds, jobs or os.cpu_count() or 1, check_only,
+                         template_dir, lambda text: typer.echo(text, err=True), prune)
     width = max([len(o.source) for o in outcomes] + [5])
     sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
     typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
@@ -495,14 +531,12 @@ def build(
         typer.echo(f"{o.source:<{width}}  {o.status:<10}  {seconds}{extra}")
         for line in o.problems:
             typer.echo(f"  {line}")
-        if o.message:
-            for line in o.message.splitlines():
-                typer.echo(f"  {line}", err=True)
+        for line in o.message.splitlines():
+            typer.echo(f"  {line}", err=True)
     counts = {s: sum(o.status == s for o in outcomes)
               for s in ("built", "up to date", "current", "differs", "failed", "orphaned", "pruned")}
     typer.echo(", ".join(f"{n} {s}" for s, n in counts.items() if n) or "no robot files found")
-    if counts["orphaned"]:
-        n = counts["orphaned"]
+    if n := counts["orphaned"]:
         typer.echo(f"note: {n} robot file{'s' if n > 1 else ''} whose outputs are in {out} no longer "
                    f"exist{'' if n > 1 else 's'} (their outputs are listed as orphaned): "
                    f"build --prune --out {out} removes them", err=True)
@@ -514,8 +548,6 @@ def build(
 @handle_errors
 def schema() -> None:
     """Print the JSON Schema of the robot file format (for editors such as VS Code's YAML extension)."""
-    import json
-
     from ..input.json_schema import robot_schema
 
     typer.echo(json.dumps(robot_schema(), indent=2))
@@ -530,6 +562,22 @@ def import_(
                              "floating joint 'root_joint'.")] = False,
 ) -> None:
     """Convert a URDF file into the equivalent dynderive YAML robot file."""
-    from .convert import import_urdf
+    from ..input.loader import read_text, resolve_robot_path
+    from ..input.schema import validate
+    from ..input.urdf import read_urdf, to_yaml
 
-    import_urdf(urdf, output, floating_base, lambda text: typer.echo(text, err=True))
+    path = resolve_robot_path(urdf)   # a file or a bundled robot's name
+    check_output_paths({"--output": output}, (path,))
+    if path.suffix.lower() in (".yaml", ".yml"):
+        raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF files)"))
+    document = read_urdf(read_text(path), str(path), floating_base)
+    for note in document.notes:
+        typer.echo(note, err=True)
+    validate(document)  # the same checks as any robot file, before anything is written
+    if document.impossible_inertias:   # a robot file's inertias must be physical: it would not load
+        message = ("inertia: not imported: it misses the triangle inequality (see the note), which a YAML "
+                   "robot file may not; correct it in the URDF, or use the URDF itself")
+        raise InputError([document.problem(where + ("inertia",), f"{document.labels[where]} {message}")
+                          for where in sorted(document.impossible_inertias)])
+    write_all({output: to_yaml(document.data, path.name).encode()})
+    typer.echo(f"wrote {output}", err=True)

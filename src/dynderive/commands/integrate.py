@@ -92,9 +92,8 @@ class Integrator:
                  duration: float, note: Callable[[str], None], hint: str = "", culprit: Culprit = at_duration):
         from scipy import integrate
 
-        self.method, self.rtol, self.atol = method, rtol, atol
-        self.evaluations = 0
-        self.culprit = culprit
+        self.method, self.rtol, self.atol, self.culprit = method, rtol, atol, culprit
+        self.evaluations = self.steps = self.stalled = 0   # over the whole run, interval by interval
 
         def counted(time: float, y: np.ndarray) -> np.ndarray:
             self.evaluations += 1
@@ -117,8 +116,6 @@ class Integrator:
         self.pace: deque[float] = deque(maxlen=PACE_STEPS + 1)   # the times of the last steps
         self.solver_class = getattr(integrate, method)
         self.duration, self.note, self.hint = duration, note, hint
-        self.steps = 0
-        self.stalled = 0
         self.noted = False
 
     def run(self, start: float, end: float, y0: np.ndarray, times: np.ndarray) -> np.ndarray:

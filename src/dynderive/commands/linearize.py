@@ -42,11 +42,11 @@ def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
     """``{"q": [...], "qd": [...], "u": [...]}`` from the ``--at`` texts, which entries
     were given (``("q", 0)``, ...), and whether ``u=equilibrium`` asks for the efforts that
     hold the state; raises InputError."""
-    sizes = {"q": len(coordinates), "qd": len(velocities), "u": len(efforts)}
-    values = {key: [0.0] * size for key, size in sizes.items()}
-    scalar = {name: ("q", i) for i, name in enumerate(coordinates)}
-    scalar |= {name: ("qd", i) for i, name in enumerate(velocities)}
-    scalar |= {name: ("u", i) for i, name in enumerate(efforts)}
+    names = {"q": coordinates, "qd": velocities, "u": efforts}
+    values = {key: [0.0] * len(entries) for key, entries in names.items()}
+    # the entries each key sets: a name one, q, qd and u all theirs (they win over a name)
+    slots = {name: [(key, i)] for key, entries in names.items() for i, name in enumerate(entries)}
+    slots |= {key: [(key, i) for i in range(len(entries))] for key, entries in names.items()}
     problems: list[Problem] = []
     given: set[tuple[str, int]] = set()
     items: list[tuple[str, list[str]]] = []
@@ -77,19 +77,13 @@ def parse_at(texts: list[str], coordinates: list[str], velocities: list[str],
                 break
             numbers.append(number)
         else:
-            if key in sizes:
-                if len(numbers) != sizes[key]:
-                    problems.append(_problem(f"{key}: expected {sizes[key]} values, got {len(numbers)}"))
-                else:
-                    values[key] = numbers
-                    given.update((key, i) for i in range(sizes[key]))
-            elif key in scalar:
-                vector, index = scalar[key]
-                if len(numbers) != 1:
-                    problems.append(_problem(f"{key}: expected one value, got {len(numbers)}"))
-                else:
-                    values[vector][index] = numbers[0]
-                    given.add((vector, index))
+            if key in slots and len(numbers) != len(slots[key]):
+                wanted = f"{len(slots[key])} values" if key in names else "one value"
+                problems.append(_problem(f"{key}: expected {wanted}, got {len(numbers)}"))
+            elif key in slots:
+                for (vector, index), number in zip(slots[key], numbers):
+                    values[vector][index] = number
+                given.update(slots[key])
             else:
                 known = ", ".join(["q", "qd", "u", *coordinates, *velocities, *efforts])
                 problems.append(_problem(f"unknown name {key!r} (known: {known})"))
@@ -145,9 +139,8 @@ def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, 
     changed."""
     independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
     guess = np.array(module.ASSEMBLED_CONFIGURATION, dtype=float)
-    for i in independent:
-        if ("q", i) in given:
-            guess[i] = at["q"][i]
+    chosen = [i for i in independent if ("q", i) in given]
+    guess[chosen] = np.array(at["q"], dtype=float)[chosen]
     try:
         q = module.assemble(guess, **values)
     except (ValueError, np.linalg.LinAlgError):
@@ -219,13 +212,14 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
     """The result as terminal text, JSON (``kind`` "json") or a LaTeX document ("latex")."""
     import json
 
+    from ..render.sheets.latex import Formatter
+
     robot = derivation.robot
     symbolic = result["symbolic"]
     A, B = result["A_numeric"], result["B_numeric"]
     given = ", ".join(f"{name}={value:g}" for name, value in values.items())
     if kind == "json":
         from ..render.sheets.json import quantity_entry
-        from ..render.sheets.latex import Formatter
 
         fmt = Formatter.of(derivation, exact=True)   # JSON: exact numbers
         document: dict[str, Any] = {
@@ -243,7 +237,6 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
     if kind == "latex":
         from ..render.encode import escape_tex
         from ..render.environment import render
-        from ..render.sheets.latex import Formatter
 
         fmt = Formatter.of(derivation)
         table = derivation.symbols
@@ -303,51 +296,3 @@ def on_the_manifold(robot: Any, module: Any, q: list[float], given: set[tuple[st
     if problems:
         raise InputError(problems)
     return q, notes
-
-
-def run_linearize(argument: str, at: list[str], assignments: list[str], kind: str, quiet: bool,
-                  floating_base: bool) -> None:
-    """``dynderive linearize``: load, derive, generate the module, solve for the operating point
-    and print A and B (``kind``: "text", "json" or "latex")."""
-    import typer
-
-    from .. import derive, load_robot
-    from ..verify.checks import generated_module
-    from .options import with_parameters
-    from .output import echo_notes
-    from .progress import Progress
-
-    def note(text: str) -> None:
-        if not quiet:
-            typer.echo(f"note: {text}", err=True)
-
-    progress = Progress(quiet)
-    model = load_robot(argument, size_limits=True, floating_base=floating_base)
-    model = with_parameters(model, argument, assignments, required=False, command="linearize")
-    echo_notes(model, quiet)
-    derivation = derive(model, progress=progress)
-    table = derivation.symbols
-    point, given, equilibrium = parse_at(at, [str(s) for s in table.q], [str(s) for s in table.qd],
-                                         list(table.efforts))
-    progress("generating code")
-    from ..render.targets import reference  # the NumPy module, for a fixed or a floating base
-
-    module = generated_module(reference(derivation), model.name)
-    if model.floating:
-        point["q"], manifold_notes = on_the_manifold(model, module, point["q"], given)
-        for text in manifold_notes:
-            note(text)
-    values = {p.name: (p.value if p.value is not None else 1.0) for p in model.parameters}
-    if model.loops:   # the state on the constraints: independent coordinates kept, the rest assembled
-        point, loop_notes = on_the_loops(module, point, given, values)
-        for text in loop_notes:
-            note(text)
-    remark = None
-    if equilibrium:
-        point["u"], remark = equilibrium_efforts(module, point, values)
-    remark = remark or equilibrium_note(module, point, values)
-    if remark is not None:
-        note(remark)
-    progress("linearizing")
-    result = linearization(derivation, module, point, values, equilibrium)
-    typer.echo(render_linearization(derivation, point, values, result, kind), nl=False)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, Problem, ToolMissingError
-from ..render.targets import check_backends, simulate_backends
+from ..render.targets import Target, by_name, check_backends, resolve, simulate_backends
 
 #: The smallest relative tolerance an integrator can honour in double precision (SciPy
 #: raises smaller ones to this, with a warning).
@@ -122,8 +122,7 @@ def with_parameters(model: Any, robot: str, assignments: list[str], required: bo
         try:
             number = real_number(value)
         except (ExpressionError, TypeError, ValueError, OverflowError) as exc:
-            offset = getattr(exc, "offset", 0)
-            problems.append(problem("--param", f"{name}: {exc}", column + offset))
+            problems.append(problem("--param", f"{name}: {exc}", column + getattr(exc, "offset", 0)))
             continue
         if number is None:
             problems.append(problem("--param", f"{name}: {value!r} is not a finite real number", column))
@@ -184,14 +183,11 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
     """The problems of the robot file ``robot`` read again with the parameter ``values``."""
     from ..input.loader import load_document, read_text, resolve_robot_path
     from ..input.schema import validate
+    from ..input.urdf import read_urdf
 
     path = resolve_robot_path(robot)
-    if path.suffix.lower() == ".urdf":
-        from ..input.urdf import read_urdf
-
-        document = read_urdf(read_text(path), str(path))
-    else:
-        document = load_document(path)
+    document = (read_urdf(read_text(path), str(path)) if path.suffix.lower() == ".urdf"
+                else load_document(path))
     block = document.data.get("parameters") or {}
     for name, value in values.items():
         if isinstance(block.get(name), dict):
@@ -205,18 +201,19 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
     return []
 
 
-#: ``--backend`` of ``simulate`` and ``check``, from the target registry (``render/targets``):
-#: the generated NumPy module, or a target ``simulate`` can load (the compiled C extension);
-#: ``check`` also every target with a harness (the C extension, the JAX module).
-BACKENDS = simulate_backends()
-CHECK_BACKENDS = check_backends()
-
-
-def backend_name(text: str, choices: tuple[str, ...] = BACKENDS) -> str:
-    """``--backend`` in lower case, or an InputError listing the choices."""
-    if text.lower() in choices:
-        return text.lower()
-    raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"))
+def backend_target(text: str, check: bool = False) -> Target:
+    """The target of ``--backend`` (any case), from the registry (``render/targets``): the
+    generated NumPy module, or a target ``simulate`` can load (the compiled C extension); with
+    ``check`` also every target with a harness (the C extension, the JAX module). What it needs
+    (a compiler, jax) is checked before any work; any other name is an InputError listing the
+    choices."""
+    choices = check_backends() if check else simulate_backends()
+    if text.lower() not in choices:
+        raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"))
+    target = by_name(text.lower())
+    if target.check_needs:
+        resolve(target.check_needs)()
+    return target
 
 
 #: Most significant digits ``--digits`` accepts (a double has 17; a file may write more).
@@ -240,15 +237,16 @@ def sheet_digits_option(text: str | None, sheet: bool) -> int | None:
 
 def sheet_sections_option(text: str | None, sheet: bool) -> tuple[str, ...] | None:
     """``--sections``: the sheet's sections (``render.sheets.latex.parse_sections``), with a sheet only."""
-    from ..render.sheets.latex import parse_sections
+    from ..render.sheets.latex import SECTIONS, parse_sections
 
     if text is None:
         return None
     try:
         chosen = parse_sections(text)
-    except ValueError as exc:
+    except ValueError as exc:   # at the first name that is no section (column 1 when none is: an empty list)
+        column = _section_column(text, lambda name: name not in SECTIONS) or 1
         raise InputError(problem("--sections", f"{exc} (choose from generalized, maximal, checks, or all)",
-                                 _unknown_section_column(text))) from None
+                                 column)) from None
     if not sheet:
         raise InputError(problem("--sections", "--sections chooses what the sheet shows: use it with --latex or "
                                                "--pdf (or --html)"))
@@ -264,15 +262,6 @@ def maximal_section_applies(text: str | None, planar: bool, floating: bool) -> N
     kind = "a floating-base robot" if floating else "a 3-D robot"
     raise InputError(problem("--sections", f"maximal coordinates are built for planar robots only (this is {kind}): "
                                            "leave 'maximal' out", column))
-
-
-def _unknown_section_column(text: str) -> int:
-    """1-based column in ``--sections``'s value of the first name that is no section (1 when
-    none is: an empty list)."""
-    from ..render.sheets.latex import SECTIONS
-
-    column = _section_column(text, lambda name: name not in SECTIONS)
-    return 1 if column is None else column
 
 
 def _section_column(text: str, wanted) -> int | None:

@@ -24,6 +24,8 @@ import signal
 import stat
 import tempfile
 import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +48,15 @@ class _Failed(Exception):
     def __init__(self, path: Path, error: OSError, detail: str = ""):
         super().__init__(str(path))
         self.path, self.error, self.detail = path, error, detail
+
+
+@contextmanager
+def _failing(path: Path) -> Iterator[None]:
+    """An OS error in the block becomes ``_Failed`` naming ``path``."""
+    try:
+        yield
+    except OSError as exc:
+        raise _Failed(path, exc) from None
 
 
 def write_all(files: dict[Path, bytes], remove: tuple[Path, ...] | list[Path] = ()) -> None:
@@ -105,40 +116,28 @@ def _write_all(files: dict[Path, bytes], remove: list[Path]) -> None:
         for _, target, path in staged:   # keep the current outputs until every new one is in place
             if target.is_file():
                 backup = str(target.parent / f".{target.name}.{uuid.uuid4().hex}.old")
-                try:
+                with _failing(path):
                     try:
                         os.link(target, backup)
                     except OSError:   # a file system without hard links
                         shutil.copy2(target, backup)
-                except OSError as exc:
-                    raise _Failed(path, exc) from None
                 backups[target] = backup
         try:
-            held = _hold_signals()
-            try:
+            with _hold_signals():
                 for temp, target, path in staged:
-                    try:
+                    with _failing(path):
                         os.replace(temp, target)
-                    except OSError as exc:
-                        raise _Failed(path, exc) from None
                     done.append(target)
                 for path in remove:   # moved aside (put back on failure), deleted at the end
                     backup = str(path.parent / f".{path.name}.{uuid.uuid4().hex}.old")
-                    try:
+                    with _failing(path):
                         os.rename(path, backup)
-                    except OSError as exc:
-                        raise _Failed(path, exc) from None
                     backups[path] = backup
                     done.append(path)
-            finally:
-                _release_signals(held)
             staged.clear()
             for path, data in streams:   # not under the hold: a pipe may block until its reader reads
-                try:
-                    with open(path, "wb") as handle:
-                        handle.write(data)
-                except OSError as exc:
-                    raise _Failed(path, exc) from None
+                with _failing(path), open(path, "wb") as handle:
+                    handle.write(data)
         except BaseException:
             _restore(done, backups)
             raise
@@ -154,33 +153,30 @@ def _stage(target: Path, path: Path, data: bytes, staged: list[tuple[str, Path, 
     blocker = next((p for p in target.parents if p.exists() or p.is_symlink()), None)
     if blocker is not None and not blocker.is_dir():
         raise _Failed(path, NotADirectoryError(20, os.strerror(20)), f"{blocker} is a file, not a folder")
-    try:
+    with _failing(path):
         target.parent.mkdir(parents=True, exist_ok=True)
         fd, temp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    except OSError as exc:
-        raise _Failed(path, exc) from None
     staged.append((temp, target, path))
-    try:
+    with _failing(path):
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
             handle.flush()
             os.fsync(handle.fileno())
         os.chmod(temp, 0o644)
-    except OSError as exc:
-        raise _Failed(path, exc) from None
 
 
-def _hold_signals() -> set[int] | None:
+@contextmanager
+def _hold_signals() -> Iterator[None]:
     """Block SIGINT and SIGTERM (they stay pending) while outputs are replaced."""
     try:
-        return signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
     except (AttributeError, OSError, ValueError):   # not POSIX
-        return None
-
-
-def _release_signals(previous: set[int] | None) -> None:
-    if previous is not None:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        previous = None
+    try:
+        yield
+    finally:
+        if previous is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _restore(done: list[Path], backups: dict[Path, str]) -> None:
@@ -193,10 +189,8 @@ def _restore(done: list[Path], backups: dict[Path, str]) -> None:
 
 
 def _unlink(name: str) -> None:
-    try:
+    with suppress(FileNotFoundError):
         os.unlink(name)
-    except FileNotFoundError:
-        pass
 
 
 def _same(a: Path, b: Path) -> bool:

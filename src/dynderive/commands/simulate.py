@@ -35,6 +35,7 @@ from ..model.naming import velocity_name
 from ..verify.checks import allowed_velocity, generated_module
 from .integrate import DEFAULT_METHOD, Culprit, Integrator, at_duration, checked, singular_problem
 from .options import problem, split_top_level
+from .output import quaternion_kind
 
 #: Singular values below this fraction of the largest count as zero in ``singular_start``
 #: (a configuration that close to singular makes the integrator stall).
@@ -83,10 +84,9 @@ def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Ca
                for name, (expr, where, column) in exprs.items()]
     indices = [(robot.efforts.index(name), checked(function, where, column, f"effort {name}"))
                for name, where, column, function in options]
-    size = len(robot.efforts)
 
     def efforts(time: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        u = np.zeros(size)
+        u = np.zeros(len(robot.efforts))
         for index, function in indices:
             u[index] = function(time, q, qd).reshape(-1)[0]
         return u
@@ -220,20 +220,11 @@ def run_summary(robot: Any, coordinates: str, duration: float, trajectory: Traje
     constraint drift and the work of damping and friction where they apply."""
     energy = trajectory.energy
     relative = float(np.max(np.abs(energy - energy[0])) / max(abs(energy[0]), 1e-12))
-    from .output import quaternion_kind
-
     where = f"({quaternion_kind(robot)}, on the manifold)" if robot.floating else f"in {coordinates} coordinates"
     return (f"simulated {duration:g} s of {robot.name} {where}: largest relative energy change {relative:.3g}"
             + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else "")
             + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"
                if trajectory.dissipated is not None else ""))
-
-
-def friction_hint(robot: Any, friction_smoothing: float) -> str:
-    """What the integrator's note adds when it struggles on a robot with exact Coulomb friction."""
-    friction = any(j.friction is not None for j in robot.joints if j.moves)
-    return ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"
-            if friction and friction_smoothing == 0 else "")
 
 
 def progress_ticker(duration: float, progress: Callable[[str], None]) -> Callable[[float], None]:
@@ -272,7 +263,9 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     nq, nv = len(q0), len(qd0)
     tick = progress_ticker(duration, progress)
 
-    hint = "" if maximal else friction_hint(robot, friction_smoothing)
+    exact_friction = friction_smoothing == 0 and any(j.friction is not None for j in robot.joints if j.moves)
+    hint = ("Coulomb friction with --friction-smoothing 0 has no slope at rest: try 1e-3"
+            if exact_friction and not maximal else "")   # what the note of a struggling run adds
     loops = bool(robot.loops) and not maximal
     dissipative = robot.dissipative and not maximal and not loops
     starts = () if maximal or loops else robot.quaternion_starts
@@ -402,8 +395,8 @@ def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray],
     """state -> [(link frame origin, angle)] per link, for drawing."""
     table, robot = derivation.symbols, derivation.robot
     values = table.defaults(robot)
-    poses = []
     if maximal:
+        poses = []
         for k, link in enumerate(robot.links):
             x, y, phi = table.qm[3 * k: 3 * k + 3]
             cx, cy = (table.expr(e) for e in link.com)
@@ -412,8 +405,7 @@ def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray],
             poses.append((origin, phi))
         state = table.qm
     else:
-        for kin in derivation.steps["kinematics"]:
-            poses.append((kin.joint_origin, kin.angle))
+        poses = [(kin.joint_origin, kin.angle) for kin in derivation.steps["kinematics"]]
         state = table.q
     flat = sympy.Matrix([e for origin, angle in poses for e in (*origin, angle)]).xreplace(values)
     function = sympy.lambdify([state], flat, modules="numpy")
@@ -430,17 +422,16 @@ def _segments(derivation: Derivation, poses: list[tuple[np.ndarray, float]]) -> 
     robot, table = derivation.robot, derivation.symbols
     values = table.defaults(robot)
 
-    def number(text: object) -> float:
-        return float(table.expr(text).xreplace(values))
+    def point(texts: Any) -> np.ndarray:   # (x, y) of a position in the robot file
+        return np.array([float(table.expr(text).xreplace(values)) for text in texts[:2]])
 
     lines = []
     for (origin, angle), link in zip(poses, robot.links):
         rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-        ends = [np.array([number(j.origin[0]), number(j.origin[1])]) for j in robot.joints if j.parent == link.name]
-        ends += [np.array([number(lp.origin[0]), number(lp.origin[1])]) for lp in robot.loops if lp.parent == link.name]
-        ends += [np.array([number(lp.child_origin[0]), number(lp.child_origin[1])])
-                 for lp in robot.loops if lp.child == link.name]   # a closed chain is drawn closed
-        com = np.array([number(e) for e in link.com])
+        ends = [point(j.origin) for j in robot.joints if j.parent == link.name]
+        ends += [point(lp.origin) for lp in robot.loops if lp.parent == link.name]
+        ends += [point(lp.child_origin) for lp in robot.loops if lp.child == link.name]   # drawn closed
+        com = point(link.com)
         if not ends:
             ends = [2 * com] if np.any(com) else [np.array([0.0, 0.0])]
         for end in ends:
@@ -511,11 +502,9 @@ def animation_gif(derivation: Derivation, trajectory: Trajectory, fps: int = 20)
     span = max(float(np.max(high - low)), 1e-3) * 0.6
     centre = (low + high) / 2
     figure, axis = plt.subplots(figsize=(5, 5))
-    axis.set_xlim(centre[0] - span, centre[0] + span)
-    axis.set_ylim(centre[1] - span, centre[1] + span)
-    axis.set_aspect("equal")
+    axis.set(xlim=(centre[0] - span, centre[0] + span), ylim=(centre[1] - span, centre[1] + span),
+             aspect="equal", title=derivation.robot.title)
     axis.grid(True, alpha=0.3)
-    axis.set_title(derivation.robot.title)
     artists = [axis.plot([], [], "o-", lw=3)[0] for _ in frames[0]]
     label = axis.text(0.02, 0.95, "", transform=axis.transAxes)
 

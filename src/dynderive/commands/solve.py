@@ -11,29 +11,12 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Collection
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ..derivation import Derivation
 from ..errors import LatexError, ToolMissingError
 from ..model.robot import Robot
-
-#: The outputs that are not code: the sheet (``--latex``, ``--pdf``, ``--html``) and the JSON dump.
-SHEET_KINDS = ("latex", "pdf", "html", "json")
-
-
-@dataclass(frozen=True)
-class Wanted:
-    """The output flags of ``solve``; ``targets``: the code targets asked for, by ``build``
-    kind (``render/targets``: ``code``, ``c``, ``c_extension``, ...)."""
-
-    latex: bool = False
-    pdf: bool = False
-    json: bool = False
-    tests: bool = False
-    html: bool = False
-    targets: frozenset[str] = frozenset()
 
 
 def form_note(robot: Robot) -> str | None:
@@ -140,21 +123,21 @@ def failure_text(folder: Path, name: str, failure: LatexError | ToolMissingError
     return f"{folder / (name + '.pdf')} skipped: {failure}"
 
 
-def solve_outputs(derivation: Derivation, wanted: Wanted, out: Path, template_dir: Path | None,
-                  sections: object, progress: Callable[[str], None],
+def solve_outputs(derivation: Derivation, kinds: Collection[str], tests: bool, out: Path,
+                  template_dir: Path | None, sections: object, progress: Callable[[str], None],
                   digits: int | None = None) -> tuple[dict[Path, bytes], list[str], list[Path]]:
-    """Every requested file by path, one message per output that could not be made (its log,
-    if any, is among the files) and the files to remove (``stale_beside``); the sheet's
-    numbers to ``digits`` at most (``--digits``)."""
+    """Every file of ``kinds`` (``build``'s: ``latex``, ``pdf``, ``html``, ``json`` and the code
+    targets') by path, one message per output that could not be made (its log, if any, is among
+    the files) and the files to remove (``stale_beside``); ``tests``: the NumPy module's checks
+    too; the sheet's numbers to ``digits`` at most (``--digits``)."""
     name = derivation.robot.name
-    made, failures, stale = target_files(derivation, wanted.targets, template_dir, progress, out, wanted.tests)
-    sheets, failure = sheet_files(derivation, [kind for kind in SHEET_KINDS if getattr(wanted, kind)], template_dir,
-                                  sections, digits, progress)
+    made, failures, stale = target_files(derivation, kinds, template_dir, progress, out, tests)
+    sheets, failure = sheet_files(derivation, kinds, template_dir, sections, digits, progress)
     files = {out / path: data for path, data in (made | sheets).items()}
     removed = [out / path for path in stale]
     if failure is not None:
         failures.append(failure_text(out, name, failure))
-    if wanted.pdf:
+    if "pdf" in kinds:
         from ..render.sheets.pdf import stale_beside
 
         stale_files, said = stale_beside(out, name, made=out / f"{name}.pdf" in files)
