@@ -33,17 +33,7 @@ from .html_math import (
 )
 from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
-from .latex import (
-    SheetStyle,
-    checks_context,
-    default_sections,
-    drives_context,
-    frames_context,
-    lagrange_context,
-    loops_context,
-    maximal_context,
-    maximal_left_out,
-)
+from .latex import SheetStyle, shared_context
 from .latex_format import ENTRY_NODES, INLINE_NODES, SCALAR_NODES, Formatter, _groups
 from .recursion import joint_variable
 
@@ -63,15 +53,11 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
                  digits: int | None = None) -> dict[str, Any]:
     """Every variable the HTML template uses; only the ``sections`` asked for (default the
     sheet's ``default_sections``); numbers to ``digits`` at most (``--digits``)."""
-    left_out = maximal_left_out(derivation, sections)
-    sections = default_sections(derivation) if sections is None else sections
     fmt = MathFormatter.of(derivation, digits=digits)
     style = PageStyle(derivation, fmt)
+    shared = shared_context(derivation, style, sections)
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
-
-    def display(expr: Any, limit: int | None = SCALAR_NODES) -> Markup | None:
-        return fmt(expr) if limit is None else fmt.maybe(expr, limit)
 
     links = []
     for t in gen["links"]:
@@ -88,22 +74,19 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "angle": (fmt.maybe(t.orientation, INLINE_NODES) if robot.planar else
                       fmt.matrix(fenced(sub("R", link_frame(k))), t.orientation, sub("R", link_frame(k)))),
             "jacobian_matrix": fmt.matrix(fenced(body_jacobian(k)), t.body_jacobian, body_jacobian(k)),
-            "kinetic": display(t.kinetic), "potential": display(t.potential),
+            "kinetic": fmt.maybe(t.kinetic, SCALAR_NODES), "potential": fmt.maybe(t.potential, SCALAR_NODES),
             "frame": link_frame(k),
         })
     joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                "variables": [fmt(joint_variable(robot, table, j)) if j.moves else None],
                "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]
-    context = page_header(derivation, fmt, gen["gravity"], joints) | {
-        "dof": len(robot.coordinates),
-        "q_g": fmt(sympy.Matrix(table.q)), "qd_g": fmt(sympy.Matrix(table.qd)),
+    return page_header(derivation, fmt, gen["gravity"], joints) | shared | {
         # a large robot's equations as the recursion that computes them, as on the LaTeX sheet
         "recursion": (html_recursion(derivation, fmt.digits)
-                      if derivation.intermediates and "generalized" in sections else None),
+                      if derivation.intermediates and "generalized" in shared["sections"] else None),
         "links": links,
-        "T_g": display(q["T_g"]), "V_g": display(q["V_g"]), "L_g": display(q["L_g"]),
+        **{key: fmt.maybe(q[key], SCALAR_NODES) for key in ("T_g", "V_g", "L_g")},
         "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange_context(derivation, style),
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"], _named("EOM", "g1")) if "EOM_g1" in q else None,
         "M_g": fmt.matrix("M", q["M_g"], _named("M", "g")),
         "C_g": fmt.matrix("C", q["C_g"], _named("C", "g")),
@@ -112,16 +95,8 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"], _named("EOM", "g2")),
         "inertia_groups": [{"names": [sub("\U0001d4dc", str(i)) for i in g["indices"]], "math": g["latex"]}
                            for g in _groups([(link["index"], link["spatial_inertia"]) for link in links])],
-        "checks": checks_context(derivation, style) if "checks" in sections else [],
-        "sections": list(sections),
-        "maximal_left_out": left_out,
-        "figure": _figure(derivation), "quasi_velocity": False,
-        "drives": drives_context(derivation, style),
-        "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
-        "frames": frames_context(derivation, style) if robot.frames else None,
-        "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
+        "figure": _figure(derivation),
     }
-    return context
 
 
 def _figure(derivation: Derivation) -> dict[str, Any] | None:

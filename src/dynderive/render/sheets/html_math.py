@@ -20,22 +20,10 @@ from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 from ...derivation import Derivation
-from ...mechanics.tidy import is_small
 from ...model.naming import GREEK, split_index
 from ..numbers import DecimalNumbers, Numbers, sheet_digits
 from ..printers import DerivationFormatter
-from .latex_format import (
-    BROKEN_NODES,
-    ENTRY_NODES,
-    LINE_UNITS,
-    MATRIX_COLUMNS,
-    MATRIX_NODES,
-    TIGHT,
-    _nodes_up_to,
-    coordinate_entries,
-    entry_index,
-    matrix_width,
-)
+from .latex_format import Formatter, coordinate_entries, entry_index, matrix_layout
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -250,31 +238,20 @@ class MathFormatter(DerivationFormatter):
         # minus as the minus sign (SymPy writes the hyphen)
         return Markup(text.replace("&InvisibleTimes;", "&#x2062;").replace("<mo>-</mo>", "<mo>&#x2212;</mo>"))
 
-    def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> Markup | None:
-        """MathML of ``expr``, or None when the sheet finds it too large (``Formatter.maybe``)."""
-        entries = list(expr) if isinstance(expr, sympy.MatrixBase) else [expr]
-        if not is_small(sympy.Tuple(*entries), limit * max(1, len(entries))):
-            return None
-        return self(expr)
+    #: MathML of an expression, or None when the sheet finds it too large
+    maybe = Formatter.maybe
 
     def matrix(self, base: Markup | str, matrix: sympy.Matrix, label: Markup | str | None = None) -> dict[str, Any]:
         """A matrix shown whole, or entry by entry (``wide``: as the sheet's too wide a
-        matrix, named ``base`` with the entry's index), or ``too_large`` (the sheet's limits).
-        ``label``: its name in front (default ``base``)."""
+        matrix, named ``base`` with the entry's index), or ``too_large`` (the sheet's limits:
+        ``matrix_layout``). ``label``: its name in front (default ``base``)."""
+        layout, places, large = matrix_layout(matrix)
         rows, cols = matrix.shape
         shown = _atom(label if label is not None else base)
-        nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
-        if nodes > BROKEN_NODES:
-            return {"label": shown, "math": None, "wide": True, "entries": [], "shape": [rows, cols],
-                    "too_large": True, "nodes": nodes, "zeros": 0}
-        large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
         single = rows == cols == 1 and label is not None   # a named 1 x 1 matrix (M_r) is its entry
         entries = [{"name": shown if single else sub(base, entry_index(i, j, rows, cols).replace(",", "\u2009")),
-                    "math": self(matrix[i, j])}
-                   for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
-        wide = large or matrix_width(matrix) > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
-        return {"label": shown, "math": None if large else self(matrix), "wide": wide, "entries": entries, "shape": [rows, cols],
-                "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+                    "math": self(matrix[i, j])} for i, j in places]
+        return {"label": shown, "math": None if large else self(matrix), **layout, "entries": entries}
 
 
 def html_unit(unit: str) -> Markup:

@@ -68,10 +68,10 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     """Every variable the sheet template can use (documented in docs/templates.md); only the
     ``sections`` asked for (default ``default_sections``) are derived and formatted; numbers
     to ``digits`` significant digits at most (``--digits``)."""
-    left_out = maximal_left_out(derivation, sections)
-    sections = default_sections(derivation) if sections is None else sections
     fmt = Formatter.of(derivation, digits=digits)
     style = SheetStyle(derivation, fmt)
+    shared = shared_context(derivation, style, sections)
+    sections = shared["sections"]
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
     coordinate_latex = [fmt(s) for s in table.q]
@@ -106,41 +106,48 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     # the default sheet shows the named recursion instead: printed only if a template reads them
     intermediates = LazyList(len(derivation.intermediates), lambda: [
         {"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates])
-    context = sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | {
-        "quasi_velocity": False,
+    return sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | shared | {
         "intermediates": intermediates,
         "jacobians": [{"index": k, "matrix": style.jacobian(k, q[f"J_b{k}"])}
                       for k in range(1, len(robot.links) + 1)] if intermediates else [],
-        "dof": len(robot.coordinates),
         "coordinates": coordinate_latex,
-        "q_g": fmt(sympy.Matrix(table.q)),
-        "qd_g": fmt(sympy.Matrix(table.qd)),
         "links": links,
         "T_g": fmt.display(q["T_g"]), "V_g": fmt.display(q["V_g"]),
         "L_g": fmt.display(q["L_g"]),
         "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange_context(derivation, style),
         "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
         "M_g": fmt.matrix("M", q["M_g"]),
         "C_g": fmt.matrix("C", q["C_g"]),
         "N_g": fmt.matrix("N", q["N_g"]),
         "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
-        "checks": checks_context(derivation, style) if "checks" in sections else [],
-        "sections": list(sections),
-        "maximal_left_out": left_out,
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
         # the generalized inertias as matrices while they fit the line (else diag(m_i, ..., I_i) says it)
         "inertia_groups": (_groups([(link["index"], link["spatial_inertia"]) for link in links])
                            if all(link["spatial_fits"] for link in links) else []),
         "figure": sheet_figure(derivation, fmt),
-        "drives": drives_context(derivation, style),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
-        "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
-        "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
-        "frames": frames_context(derivation, style) if robot.frames else None,
         "recursion": _recursion(derivation, digits) if intermediates and "generalized" in sections else None,
     }
-    return context
+
+
+def shared_context(derivation: Derivation, style: SheetStyle, sections: tuple[str, ...] | None) -> dict[str, Any]:
+    """What the LaTeX sheet and the HTML page take alike from the derivation, written by
+    ``style``: the ``sections`` asked for (None: ``default_sections``), whether the maximal
+    coordinates are left out, the coordinates, and the sections' content."""
+    left_out = maximal_left_out(derivation, sections)
+    sections = default_sections(derivation) if sections is None else sections
+    table, fmt, steps = derivation.symbols, style.fmt, derivation.steps
+    return {
+        "quasi_velocity": False, "sections": list(sections), "maximal_left_out": left_out,
+        "dof": len(derivation.robot.coordinates),
+        "q_g": fmt(sympy.Matrix(table.q)), "qd_g": fmt(sympy.Matrix(table.qd)),
+        "lagrange": lagrange_context(derivation, style),
+        "checks": checks_context(derivation, style) if "checks" in sections else [],
+        "drives": drives_context(derivation, style),
+        "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in steps else None,
+        "loops": loops_context(derivation, style) if "loops" in steps else None,
+        "frames": frames_context(derivation, style) if derivation.robot.frames else None,
+    }
 
 
 class RecursionFormatter(Formatter):

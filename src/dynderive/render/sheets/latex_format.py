@@ -156,26 +156,33 @@ class Formatter(DerivationFormatter):
 
     def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
         """A matrix as a whole when its estimated width fits the line (``wide`` False), else as
-        its non-zero entries; ``too_large`` when even those cannot be typeset."""
+        its non-zero entries; ``too_large`` when even those cannot be typeset (``matrix_layout``)."""
+        layout, places, large = matrix_layout(matrix)
         rows, cols = matrix.shape
-        nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
-        if nodes > BROKEN_NODES:
-            return {"latex": "", "wide": True, "tight": False, "entries": [], "shape": [rows, cols],
-                    "too_large": True, "nodes": nodes, "zeros": 0}
-        large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
         whole = "" if large else self(matrix)
-        entries = []
         single = rows == cols == 1 and "_" in name   # a named 1 x 1 matrix (a one-DOF loop's M_r) is its entry
-        for i in range(rows):
-            for j in range(cols):
-                if matrix[i, j] != 0:
-                    entries.append({"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
-                                    "latex": self.display(matrix[i, j], None)})
-        width = 0 if large else matrix_width(matrix)
-        wide = large or width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
-        return {"latex": whole, "wide": wide, "tight": not wide and width > LINE_UNITS,
-                "entries": entries,
-                "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+        entries = [{"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
+                    "latex": self.display(matrix[i, j], None)} for i, j in places]
+        return {"latex": whole, **layout, "entries": entries}
+
+
+def matrix_layout(matrix: sympy.Matrix) -> tuple[dict[str, Any], list[tuple[int, int]], bool]:
+    """How both sheets set ``matrix`` (the LaTeX ``Formatter.matrix``, the page's
+    ``MathFormatter.matrix``): its ``wide``, ``tight``, ``shape``, ``too_large``, ``nodes`` and
+    ``zeros``; the places of its non-zero entries (none when ``too_large``); and whether it is
+    too large to typeset whole (it is then ``wide``)."""
+    rows, cols = matrix.shape
+    nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
+    layout = {"wide": True, "tight": False, "shape": [rows, cols], "too_large": nodes > BROKEN_NODES,
+              "nodes": nodes, "zeros": 0}
+    if layout["too_large"]:
+        return layout, [], True
+    large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
+    places = [(i, j) for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
+    width = 0 if large else matrix_width(matrix)
+    wide = large or width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
+    layout |= {"wide": wide, "tight": not wide and width > LINE_UNITS, "zeros": rows * cols - len(places)}
+    return layout, places, large
 
 
 def entry_index(i: int, j: int, rows: int, cols: int) -> str:

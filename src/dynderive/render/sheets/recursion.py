@@ -245,16 +245,8 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
     def vector(values: list[sympy.Expr]) -> str:
         return "(" + ", ".join(plain(v) for v in values) + ")"
 
-    links = [{
-        "index": row["index"], "name": escape_tex(row["name"]), "joint": escape_tex(row["joint"]),
-        "type": row["type"], "parent": row["parent"],
-        "coordinate": plain(row["coordinate"]) if row["coordinate"] is not None else "",
-        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]), "axis": vector(row["axis"]) if row["axis"] else "",
-        "mass": plain(row["mass"]), "com": vector(row["com"]),
-        "inertia": plain(row["inertia"][0]) if robot.planar else vector(row["inertia"]),
-    } for row in parts["links"]]
     return {
-        "links": links,
+        "links": kinematic_table(parts["links"], robot.planar, plain, vector, escape_tex, ""),
         "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
         "mimics": [{"k": k, "i": i, "variable": fmt(v)} for k, i, v in mimic_variables(derivation)],
         "forward": forward, "backward": backward, "composite": composite, "columns": columns,
@@ -262,6 +254,20 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
         "M_g": fmt.matrix("M", sympy.Matrix(n, n, [e for row in r.mass_matrix for e in row])),
         "lines": sum(len(b["lines"]) for part in (forward, backward, composite, columns) for b in part),
     }
+
+
+def kinematic_table(rows: list[dict[str, Any]], planar: bool, plain: Any, vector: Any, text: Any,
+                    absent: Any) -> list[dict[str, Any]]:
+    """The kinematic data (``_kinematic_rows``) as a sheet shows them: values by ``plain``, lists
+    by ``vector``, names by ``text``, ``absent`` for a fixed joint's coordinate and axis."""
+    return [{
+        "index": row["index"], "name": text(row["name"]), "joint": text(row["joint"]),
+        "type": row["type"], "parent": row["parent"],
+        "coordinate": plain(row["coordinate"]) if row["coordinate"] is not None else absent,
+        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]), "axis": vector(row["axis"]) if row["axis"] else absent,
+        "mass": plain(row["mass"]), "com": vector(row["com"]),
+        "inertia": plain(row["inertia"][0]) if planar else vector(row["inertia"]),
+    } for row in rows]
 
 
 #: Estimated width (math glyphs) of values shown as they are that share one display line.
