@@ -10,7 +10,6 @@ every text it holds went through the XML writer, which escapes ``<``, ``&`` and 
 from __future__ import annotations
 
 import re
-from pathlib import Path
 from typing import Any
 from xml.dom import minidom
 
@@ -23,7 +22,7 @@ from ...derivation import Derivation
 from ...model.naming import GREEK, split_index
 from ..numbers import DecimalNumbers, Numbers, sheet_digits
 from ..printers import DerivationFormatter
-from .latex_format import Formatter, coordinate_entries, entry_index, matrix_layout
+from .latex_format import Formatter, coordinate_entries, entry_index, matrix_layout, opening
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -272,17 +271,7 @@ def value_markup(value: float, fmt: MathFormatter) -> Markup:
 
 def page_header(derivation: Derivation, fmt: MathFormatter, gravity: sympy.Matrix,
                 joints: list[dict[str, Any]]) -> dict[str, Any]:
-    """What every page opens with (as the LaTeX sheet's ``sheet_header``): who made it from
-    which file, the robot's name, title, gravity, parameter table and ``joints``; names and
-    free text as written (the environment escapes them)."""
-    from ..._version import __version__
-
-    robot, table = derivation.robot, derivation.symbols
-    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value_markup(p.value, fmt),
-                   "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
-    return {
-        "generator": f"dynderive {__version__}",
-        "source": Path(robot.source).name,
-        "robot": {"name": robot.name, "title": robot.title, "planar": robot.planar, "parameters": parameters,
-                  "joints": joints, "gravity": fmt(gravity)},
-    }
+    """What every page opens with (the LaTeX sheet's ``opening``); names and free text as
+    written (the environment escapes them)."""
+    return opening(derivation, fmt, gravity, joints, lambda text: text or "", lambda value: value_markup(value, fmt),
+                   lambda unit: html_unit(unit or ""))

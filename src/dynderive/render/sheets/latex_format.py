@@ -376,21 +376,25 @@ def parameter_value(value: float, numbers: Numbers | None) -> str:
 
 def sheet_header(derivation: Derivation, fmt: Formatter, gravity: sympy.Matrix, joint_columns: list[str],
                  joints: list[dict[str, Any]]) -> dict[str, Any]:
-    """What every sheet opens with: who made it from which file, the robot's name, title,
-    gravity and parameter table, and its joint table (``joints``: each with ``variables``, one
-    per entry of ``joint_columns``)."""
+    """What every sheet opens with (``opening``), and its joint table (``joints``: each with
+    ``variables``, one per entry of ``joint_columns``)."""
+    return opening(derivation, fmt, gravity, joints, escape_tex, lambda value: parameter_value(value, fmt.numbers),
+                   tex_unit) | {"joint_columns": joint_columns}
+
+
+def opening(derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: list[dict[str, Any]], text: Any,
+            value: Any, unit: Any) -> dict[str, Any]:
+    """What the sheet and the page open with: who made it from which file, the robot's name,
+    title, gravity, ``joints`` and parameter table; free text written by ``text``, a
+    parameter's default by ``value``, its unit by ``unit``."""
     from ..._version import __version__
 
     robot, table = derivation.robot, derivation.symbols
-    parameters = [{
-        "symbol": fmt(table.parameters[p.name]),
-        "value": "" if p.value is None else parameter_value(p.value, fmt.numbers),
-        "unit": tex_unit(p.unit), "description": escape_tex(p.description),
-    } for p in robot.parameters]
+    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value(p.value),
+                   "unit": unit(p.unit), "description": text(p.description)} for p in robot.parameters]
     return {
         "generator": f"dynderive {__version__}",
-        "source": escape_tex(Path(robot.source).name),
-        "robot": {"name": escape_tex(robot.name), "title": escape_tex(robot.title), "planar": robot.planar,
+        "source": text(Path(robot.source).name),
+        "robot": {"name": text(robot.name), "title": text(robot.title), "planar": robot.planar,
                   "parameters": parameters, "joints": joints, "gravity": fmt(gravity)},
-        "joint_columns": joint_columns,
     }

@@ -218,29 +218,27 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
     index = parts["link_index"]
     n = len(robot.coordinates)
 
-    def alias(item: dict[str, Any]) -> dict[str, Any]:
-        shown_value = fmt.display(item["value"], None, COLUMN_UNITS)
-        return {"name": _name(item["meaning"], index, robot, n), "value": shown_value, "parts": shown_value.lines,
-                "symbol": None}
+    def shown(name: str, value: sympy.Expr, symbol: sympy.Symbol | None = None) -> dict[str, Any]:
+        text = fmt.display(value, None, COLUMN_UNITS)
+        return {"name": name, "value": text, "parts": text.lines, "symbol": symbol}
 
     def line(item: dict[str, Any]) -> dict[str, Any]:
         if item["symbol"] is not None:
-            shown_value = fmt.display(item["value"], None, COLUMN_UNITS)
-            return {"name": fmt(item["symbol"]), "value": shown_value, "parts": shown_value.lines, "symbol": item["symbol"]}
-        aliases = [alias(a) for a in item["aliases"]]
+            return shown(fmt(item["symbol"]), item["value"], item["symbol"])
+        aliases = [shown(_name(a["meaning"], index, robot, n), a["value"]) for a in item["aliases"]]
         if len(aliases) == 1:
             return aliases[0]
-        text = ",\\quad ".join(_equation(a) for a in aliases)
+        text = ",\\quad ".join(f"{a['name']} = {a['value']}" for a in aliases)
         return {"name": None, "symbol": None, "value": text, "parts": [text]}
 
     def latex(blocks: list[dict[str, Any]]) -> list[dict[str, Any]]:
         return [{"key": b["key"], "lines": [line(item) for item in b["lines"]],
-                 "title": f"Column {b['index']}" if b["link"] is None else _link_title(b["link"], index, robot),
+                 "title": (f"Column {b['index']}" if b["link"] is None
+                           else f"Link {b['index']} (\\texttt{{{escape_tex(b['link'])}}})"),
                  "rotation": None if b["rotation"] is None else f"R_{{{b['index']}}} = {fmt(b['rotation'])}"}
                 for b in blocks]
 
-    forward, backward = latex(parts["forward"]), latex(parts["backward"])
-    composite, columns = latex(parts["composite"]), latex(parts["columns"])
+    blocks = {key: latex(parts[key]) for key in ("forward", "backward", "composite", "columns")}
 
     def vector(values: list[sympy.Expr]) -> str:
         return "(" + ", ".join(plain(v) for v in values) + ")"
@@ -249,10 +247,10 @@ def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) 
         "links": kinematic_table(parts["links"], robot.planar, plain, vector, escape_tex, ""),
         "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
         "mimics": [{"k": k, "i": i, "variable": fmt(v)} for k, i, v in mimic_variables(derivation)],
-        "forward": forward, "backward": backward, "composite": composite, "columns": columns,
+        **blocks,
         "tau": fmt(sympy.Matrix(r.tau).T),   # a row: the template transposes it
         "M_g": fmt.matrix("M", sympy.Matrix(n, n, [e for row in r.mass_matrix for e in row])),
-        "lines": sum(len(b["lines"]) for part in (forward, backward, composite, columns) for b in part),
+        "lines": sum(len(b["lines"]) for part in blocks.values() for b in part),
     }
 
 
@@ -293,14 +291,6 @@ def _group_aliases(lines: list[dict[str, Any]], width: Any) -> list[dict[str, An
             grouped.append({"symbol": None, "aliases": [item]})
             used = extent
     return grouped
-
-
-def _equation(item: dict[str, Any]) -> str:
-    return item["value"] if item["name"] is None else f"{item['name']} = {item['value']}"
-
-
-def _link_title(link: str, index: dict[str, int], robot: Any) -> str:
-    return f"Link {index[link]} (\\texttt{{{escape_tex(link)}}})"
 
 
 def _rotation(link: str, r: Any) -> sympy.Matrix | None:
