@@ -175,16 +175,11 @@ class _Printer(DecimalNumbers, MathMLPresentationPrinter):
         return name_element(self.dom, name)
 
 
-#: MathML letters of FREE_FLYER_Q / FREE_FLYER_V: (letter, subscript or "").
-_LETTERS = {"x": ("x", ""), "y": ("y", ""), "z": ("z", ""), "q_{x}": ("q", "x"), "q_{y}": ("q", "y"),
-            "q_{z}": ("q", "z"), "q_{w}": ("q", "w"), "v_{x}": ("v", "x"), "v_{y}": ("v", "y"), "v_{z}": ("v", "z"),
-            "\\omega_{x}": ("\u03c9", "x"), "\\omega_{y}": ("\u03c9", "y"), "\\omega_{z}": ("\u03c9", "z")}
-
-
 def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
-    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text) in MathML: the letter
-    (dotted), its subscript, the joint's name upright after a comma when tagged."""
-    letter, index = _LETTERS[text]
+    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text: ``q_{x}``, ``\\omega_{z}``)
+    in MathML: the letter (dotted), its subscript, the joint's name upright after a comma when tagged."""
+    letter, _, index = text.partition("_")
+    letter, index = greek_unicode.get(letter.lstrip("\\"), letter), index.strip("{}")
     base = accent(mi(letter), "\u02d9") if dots else mi(letter)
     parts = [mi(index)] if index else []
     if tag:

@@ -1,11 +1,6 @@
 """The HTML page's quasi-velocity content, what ``render_html`` gives a robot with quaternion
-joints: the LaTeX sheet's quasi-velocity sections (``quasi_velocity``: the same content, a
-small robot's equations step by step in quasi-velocities, a large one's as the module's
-programs line by line) written in MathML by ``HtmlStyle``, from the same SymPy quantities
-(``html_math``), the sheet's names for the quaternion joints' entries (``x, y, z, q_x .. q_w``,
-``v_x .. omega_z``), the programs' lines named ``w_k``, text from the robot file escaped by
-the HTML environment. No drawing: the 3-D kinematic diagram (``figure_3d``) is not drawn for
-such a robot, as on the LaTeX sheet.
+joints: the LaTeX sheet's quasi-velocity sections (``quasi_velocity``: the same content and
+names) written in MathML by ``HtmlStyle``. No drawing, as on the LaTeX sheet.
 """
 
 from __future__ import annotations

@@ -79,14 +79,9 @@ class RecursionMathFormatter(MathFormatter):
 
 
 def html_recursion(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
-    """What ``html/recursion.html.j2`` shows: the LaTeX ``recursion`` context in MathML.
-    ``links`` (kinematic data: ``index``, ``name``, ``joint``, ``type``, ``parent``,
-    ``coordinate``, ``xyz``, ``rpy``, ``axis``, ``mass``, ``com``, ``inertia``; names as
-    written, escaped by the template), ``coordinates`` (``index``, ``name``), ``forward``,
-    ``backward``, ``composite``, ``columns`` (blocks of ``link`` (None for a column of the
-    mass matrix), ``index``, ``rotation`` and ``lines``, each ``name`` and ``math``: ``name``
-    None for values shown as they are, side by side in ``math``), ``tau`` (a row), ``M_g``
-    (a matrix, as ``MathFormatter.matrix``) and ``lines`` (how many)."""
+    """What ``html/recursion.html.j2`` shows: the LaTeX ``recursion.recursion_context`` in
+    MathML, names as written (escaped by the template); a block's lines are each a ``name``
+    and its ``math`` (``name`` None for values shown as they are, side by side in ``math``)."""
     robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
     fmt, plain = RecursionMathFormatter.of(derivation, digits=digits), MathFormatter.of(derivation, digits=digits)
     parts = recursion_parts(derivation, typeset_width)

@@ -126,7 +126,8 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
                            if all(link["spatial_fits"] for link in links) else []),
         "figure": sheet_figure(derivation, fmt),
         "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
-        "recursion": _recursion(derivation, digits) if intermediates and "generalized" in sections else None,
+        "recursion": (recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits), fmt, typeset_width)
+                      if intermediates and "generalized" in sections else None),
     }
 
 
@@ -156,11 +157,6 @@ class RecursionFormatter(Formatter):
 
     def __init__(self, derivation: Derivation, digits: int | None = None):
         super().__init__(derivation, digits=digits, extra_names=recursion_names(derivation))
-
-
-def _recursion(derivation: Derivation, digits: int | None) -> dict[str, Any]:
-    return recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits),
-                             Formatter.of(derivation, digits=digits), typeset_width)
 
 
 def lagrange_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
@@ -291,19 +287,16 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
     """The maximal-coordinates section; the change of basis to the generalized coordinates
     (``EOM_g3``) for small robots."""
     q, steps, table, fmt = derivation.quantities, derivation.steps["maximal"], derivation.symbols, style.fmt
-    lagrange = []
-    for i, coordinate in enumerate(table.qm):
-        lagrange.append({
-            "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
-            "dL_dqd": style.show(steps["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": style.show(steps["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": style.show(steps["lagrange"]["dL_dq"][i]),
-            # the three derivatives share a display line when they fit side by side, else the
-            # first two (short: momenta and their rates) when they do
-            "together": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd", "dL_dq")), extra=24),
-            "pair": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd")), extra=16),
-            "equation": style.show(q["EOM_m1"][i]),
-        })
+    derivatives = ("dL_dqd", "ddt_dL_dqd", "dL_dq")
+    lagrange = [{
+        "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
+        **{key: style.show(steps["lagrange"][key][i]) for key in derivatives},
+        # the three derivatives share a display line when they fit side by side, else the
+        # first two (short: momenta and their rates) when they do
+        "together": _fits(*(steps["lagrange"][k][i] for k in derivatives), extra=24),
+        "pair": _fits(*(steps["lagrange"][k][i] for k in derivatives[:2]), extra=16),
+        "equation": style.show(q["EOM_m1"][i]),
+    } for i, coordinate in enumerate(table.qm)]
     lambda_entries = None
     if "lambdaVec" in q and max(len(style.latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
         # the LaTeX first: breaking entries too long to show into lines cost seconds
