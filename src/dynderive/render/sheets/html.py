@@ -33,9 +33,8 @@ from .html_math import (
 )
 from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
-from .latex import SheetStyle, shared_context
+from .latex import SheetStyle, joint_rows, shared_context
 from .latex_format import ENTRY_NODES, INLINE_NODES, SCALAR_NODES, Formatter, _groups
-from .recursion import joint_variable
 
 HTML_TEMPLATE = "html/sheet.html.j2"
 
@@ -56,7 +55,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
     fmt = MathFormatter.of(derivation, digits=digits)
     style = PageStyle(derivation, fmt)
     shared = shared_context(derivation, style, sections)
-    robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
+    robot, q = derivation.robot, derivation.quantities
     gen = derivation.steps["generalized"]
 
     links = []
@@ -73,14 +72,11 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "velocity": fmt.matrix(fenced(sub("V", link_frame(k), "b")), t.body_velocity, sub("V", link_frame(k), "b")),
             "angle": (fmt.maybe(t.orientation, INLINE_NODES) if robot.planar else
                       fmt.matrix(fenced(sub("R", link_frame(k))), t.orientation, sub("R", link_frame(k)))),
-            "jacobian_matrix": fmt.matrix(fenced(body_jacobian(k)), t.body_jacobian, body_jacobian(k)),
+            "jacobian_matrix": style.jacobian(k, t.body_jacobian),
             "kinetic": fmt.maybe(t.kinetic, SCALAR_NODES), "potential": fmt.maybe(t.potential, SCALAR_NODES),
             "frame": link_frame(k),
         })
-    joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
-               "variables": [fmt(joint_variable(robot, table, j)) if j.moves else None],
-               "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]
-    return page_header(derivation, fmt, gen["gravity"], joints) | shared | {
+    return page_header(derivation, fmt, gen["gravity"], joint_rows(derivation, style)) | shared | {
         # a large robot's equations as the recursion that computes them, as on the LaTeX sheet
         "recursion": (html_recursion(derivation, fmt.digits)
                       if derivation.intermediates and "generalized" in shared["sections"] else None),
@@ -129,18 +125,14 @@ class PageStyle(SheetStyle):
         super().__init__(derivation, fmt)
         self.latex = Formatter.of(derivation, digits=fmt.digits)
         qg, qm = fenced(_named("q", "g")), fenced(_named("q", "m"))
-        self.names = {
-            "a_g": ("a", mrow(_named("a", "g"), qg)), "A_g": ("A", _named("A", "g")),
-            "Adot_g": (_dot("A"), sub(_dot("A"), _upright("g"))), "R_g": ("R", _named("R", "g")),
-            "M_r": ("M", _named("M", "r")), "C_r": ("C", _named("C", "r")), "N_r": ("N", _named("N", "r")),
-            "Y_r": ("\u03a5", sub("\u03a5", _upright("r"))), "a_m": ("a", mrow(_named("a", "m"), qm)),
-            "A_m": ("A", _named("A", "m")), "Adot_m": (_dot("A"), sub(_dot("A"), _upright("m"))),
-            "Y_m": ("\u03a5", sub("\u03a5", _upright("m"))), "M_m": ("M", _named("M", "m")),
-            "C_m": ("C", _named("C", "m")), "N_m": ("N", _named("N", "m")), "EOM_m1": ("EOM", _named("EOM", "m1")),
-            "EOM_m2": ("EOM", _named("EOM", "m2")), "h": ("h", mrow(mi("h"), qg)), "H": ("H", mrow(mi("H"), qg)),
-            "F_m": ("F", _named("F", "m")), "Hdot": (_dot("H"), None), "M_tilde": (_tilde("M"), None),
-            "C_tilde": (_tilde("C"), None), "N_tilde": (_tilde("N"), None), "Y_tilde": (_tilde("\u03a5"), None),
-            "F_tilde": (_tilde("F"), None), "EOM_g3": ("EOM", _named("EOM", "g3"))}
+        self.names = {"a_g": ("a", mrow(_named("a", "g"), qg)), "a_m": ("a", mrow(_named("a", "m"), qm)),
+                      "h": ("h", mrow(mi("h"), qg)), "H": ("H", mrow(mi("H"), qg)), "Hdot": (_dot("H"), None)}
+        for key in self.NAMES.keys() - self.names.keys():
+            # the others "letter_index" (the index upright) or "letter_tilde" (no label: in the text)
+            letter, _, index = key.partition("_")
+            base = {"Y": "\u03a5", "Adot": _dot("A")}.get(letter, letter)
+            self.names[key] = ((_tilde(base), None) if index == "tilde"
+                               else (base, sub(_upright(base) if letter == "EOM" else base, _upright(index))))
 
     def matrix(self, key: str, value: sympy.Matrix) -> dict[str, Any]:
         base, label = self.names[key]

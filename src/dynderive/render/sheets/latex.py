@@ -94,19 +94,13 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
             "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{{{t.index}}}}}\right)", t.body_velocity),
             "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{{{t.index}}}}}\right)", t.orientation)
             if isinstance(t.orientation, sympy.MatrixBase) else None,
-            "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{t.index}}}}}\right)", t.body_jacobian),
+            "jacobian_matrix": style.jacobian(t.index, t.body_jacobian),
             "kinetic": fmt.display(t.kinetic), "potential": fmt.display(t.potential),
         })
-    joints = [{
-        "name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),
-        "child": escape_tex(j.child),
-        "variables": [fmt(joint_variable(robot, table, j)) if j.moves else ""],
-        "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
-    } for j in robot.joints]
     # the default sheet shows the named recursion instead: printed only if a template reads them
     intermediates = LazyList(len(derivation.intermediates), lambda: [
         {"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates])
-    return sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | shared | {
+    return sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joint_rows(derivation, style)) | shared | {
         "intermediates": intermediates,
         "jacobians": [{"index": k, "matrix": style.jacobian(k, q[f"J_b{k}"])}
                       for k in range(1, len(robot.links) + 1)] if intermediates else [],
@@ -129,6 +123,15 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "recursion": (recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits), fmt, typeset_width)
                       if intermediates and "generalized" in sections else None),
     }
+
+
+def joint_rows(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    """The joint table: each joint's names, its variable (its coordinate, or a <mimic> joint's
+    expression) and its effort, ``style.blank`` where it has none."""
+    robot, table, fmt, text = derivation.robot, derivation.symbols, style.fmt, style.text
+    return [{"name": text(j.name), "type": j.type, "parent": text(j.parent), "child": text(j.child),
+             "variables": [fmt(joint_variable(robot, table, j)) if j.moves else style.blank],
+             "effort": fmt(sympy.Symbol(j.effort)) if j.effort else style.blank} for j in robot.joints]
 
 
 def shared_context(derivation: Derivation, style: SheetStyle, sections: tuple[str, ...] | None) -> dict[str, Any]:

@@ -207,11 +207,10 @@ def _small_context(sheet: Any, fmt: Any, style: Any) -> dict[str, Any]:
     links = [{
         "index": item.index, "name": style.name(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
         **{key: style.matrix(fmt, key, item.index, getattr(item, field)) for key, field in (
-            ("inertia", "inertia"), ("rotation", "rotation"), ("position", "com_position"), ("jacobian", "jacobian"))},
+            ("inertia", "inertia"), ("rotation", "rotation"), ("position", "com_position"), ("jacobian", "jacobian"),
+            ("twist", "twist"), ("gravity", "gravity"))},
         "jacobian_dot": style.matrix(fmt, "jacobian_dot", item.index, item.jacobian_dot)
         if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
-        "twist": style.matrix(fmt, "twist", item.index, item.twist),
-        "gravity": style.matrix(fmt, "gravity", item.index, item.gravity),
         "kinetic": style.scalar(fmt, item.kinetic), "potential": style.scalar(fmt, item.potential),
     } for item in sheet.links]
     return {
