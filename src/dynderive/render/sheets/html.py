@@ -55,7 +55,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
     fmt = MathFormatter.of(derivation, digits=digits)
     style = PageStyle(derivation, fmt)
     shared = shared_context(derivation, style, sections)
-    robot, q = derivation.robot, derivation.quantities
+    robot = derivation.robot
     gen = derivation.steps["generalized"]
 
     links = []
@@ -81,14 +81,6 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
         "recursion": (html_recursion(derivation, fmt.digits)
                       if derivation.intermediates and "generalized" in shared["sections"] else None),
         "links": links,
-        **{key: fmt.maybe(q[key], SCALAR_NODES) for key in ("T_g", "V_g", "L_g")},
-        "Y_g": fmt(q["Y_g"]),
-        "EOM_g1": fmt.matrix("EOM", q["EOM_g1"], _named("EOM", "g1")) if "EOM_g1" in q else None,
-        "M_g": fmt.matrix("M", q["M_g"], _named("M", "g")),
-        "C_g": fmt.matrix("C", q["C_g"], _named("C", "g")),
-        "N_g": fmt.matrix("N", q["N_g"], _named("N", "g")),
-        "F_g": fmt.matrix("F", q["F_g"], _named("F", "g")) if "F_g" in q else None,
-        "EOM_g2": fmt.matrix("EOM", q["EOM_g2"], _named("EOM", "g2")),
         "inertia_groups": [{"names": [sub("\U0001d4dc", str(i)) for i in g["indices"]], "math": g["latex"]}
                            for g in _groups([(link["index"], link["spatial_inertia"]) for link in links])],
         "figure": _figure(derivation),

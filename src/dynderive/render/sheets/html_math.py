@@ -197,9 +197,7 @@ def coordinate_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | M
 
 
 class MathFormatter(DerivationFormatter):
-    """MathML of SymPy objects with the robot's symbol names, numbers as the file wrote them
-    (to ``digits`` at most: ``--digits``); one per derivation and digits (``of``),
-    remembering what it printed, with the LaTeX ``Formatter``'s size rules (``maybe``,
+    """The LaTeX ``Formatter`` in MathML: the same names, numbers and size rules (``maybe``,
     ``matrix``: the same limits, so the page shows what the sheet shows)."""
 
     def __init__(self, derivation: Derivation, digits: int | None = None,
@@ -268,5 +266,5 @@ def page_header(derivation: Derivation, fmt: MathFormatter, gravity: sympy.Matri
                 joints: list[dict[str, Any]]) -> dict[str, Any]:
     """What every page opens with (the LaTeX sheet's ``opening``); names and free text as
     written (the environment escapes them)."""
-    return opening(derivation, fmt, gravity, joints, lambda text: text or "", lambda value: value_markup(value, fmt),
-                   lambda unit: html_unit(unit or ""))
+    return opening(derivation, fmt, gravity, joints, lambda text: text or "",
+                   lambda value: value_markup(value, fmt), lambda unit: html_unit(unit or ""))

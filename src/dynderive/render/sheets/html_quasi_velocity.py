@@ -25,7 +25,7 @@ class HtmlStyle(LatexStyle):
 
     dash = "\u2013"
     absent = None
-    text, longest = "math", math.inf   # no limit on the MathML of an entry
+    text_key, longest = "math", math.inf   # no limit on the MathML of an entry
     name = staticmethod(str)
 
     def formatter(self, derivation: Derivation, digits: int | None, groups: list[Any]) -> MathFormatter:

@@ -67,7 +67,7 @@ def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str |
     joint's name when it must be tagged (the robot has several such joints, or another symbol
     would read the same; else ""); a scalar joint's has ``text`` None and its joint's name. The
     LaTeX sheet and the HTML page each spell these (``coordinate_names``,
-    ``html_quasi_velocity.coordinate_math_names``)."""
+    ``html_math.coordinate_math_names``)."""
     robot, table = derivation.robot, derivation.symbols
     where_q, where_v = robot.offsets()
     multi = [j for j in robot.joints if j.multi]
@@ -378,8 +378,9 @@ def sheet_header(derivation: Derivation, fmt: Formatter, gravity: sympy.Matrix, 
                  joints: list[dict[str, Any]]) -> dict[str, Any]:
     """What every sheet opens with (``opening``), and its joint table (``joints``: each with
     ``variables``, one per entry of ``joint_columns``)."""
-    return opening(derivation, fmt, gravity, joints, escape_tex, lambda value: parameter_value(value, fmt.numbers),
-                   tex_unit) | {"joint_columns": joint_columns}
+    opened = opening(derivation, fmt, gravity, joints, escape_tex,
+                     lambda value: parameter_value(value, fmt.numbers), tex_unit)
+    return opened | {"joint_columns": joint_columns}
 
 
 def opening(derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: list[dict[str, Any]], text: Any,
@@ -390,7 +391,8 @@ def opening(derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: lis
     from ..._version import __version__
 
     robot, table = derivation.robot, derivation.symbols
-    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value(p.value),
+    parameters = [{"symbol": fmt(table.parameters[p.name]),
+                   "value": "" if p.value is None else value(p.value),
                    "unit": unit(p.unit), "description": text(p.description)} for p in robot.parameters]
     return {
         "generator": f"dynderive {__version__}",

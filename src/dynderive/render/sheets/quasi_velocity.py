@@ -80,7 +80,7 @@ class LatexStyle:
     dash = "--"
     absent: Any = ""
     #: the key of a matrix's and its entries' text, and the longest entry text shown
-    text, longest = "latex", LATEX_LIMIT
+    text_key, longest = "latex", LATEX_LIMIT
     name = staticmethod(escape_tex)
     #: the names of a link's (``{k}`` its index) and the robot's matrices
     NAMES = {"inertia": "I_{{{k}}}", "rotation": "R_{{{k}}}", "position": "p_{{{k}}}", "jacobian": "J_{{{k}}}",
@@ -123,13 +123,15 @@ class LatexStyle:
         nodes or ``longest`` characters left out: their text None (the template says they are
         too long and in the JSON dump)."""
         fits = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
-        shown = self.shown(fmt, key, index, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
-        long = [not small or len(entry[self.text]) > self.longest for small, entry in zip(fits, shown["entries"])]
+        shown = self.shown(fmt, key, index,
+                           matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
+        long = [not small or len(entry[self.text_key]) > self.longest
+                for small, entry in zip(fits, shown["entries"])]
         if any(long):
-            shown["wide"], shown[self.text] = True, self.absent
+            shown["wide"], shown[self.text_key] = True, self.absent
             for entry, too_long in zip(shown["entries"], long):
                 if too_long:
-                    entry[self.text] = None
+                    entry[self.text_key] = None
         return shown
 
     def shown(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
@@ -207,8 +209,8 @@ def _small_context(sheet: Any, fmt: Any, style: Any) -> dict[str, Any]:
     links = [{
         "index": item.index, "name": style.name(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
         **{key: style.matrix(fmt, key, item.index, getattr(item, field)) for key, field in (
-            ("inertia", "inertia"), ("rotation", "rotation"), ("position", "com_position"), ("jacobian", "jacobian"),
-            ("twist", "twist"), ("gravity", "gravity"))},
+            ("inertia", "inertia"), ("rotation", "rotation"), ("position", "com_position"),
+            ("jacobian", "jacobian"), ("twist", "twist"), ("gravity", "gravity"))},
         "jacobian_dot": style.matrix(fmt, "jacobian_dot", item.index, item.jacobian_dot)
         if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
         "kinetic": style.scalar(fmt, item.kinetic), "potential": style.scalar(fmt, item.potential),

@@ -207,12 +207,9 @@ def recursion_parts(derivation: Derivation, width: Any) -> dict[str, Any]:
 
 
 def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) -> dict[str, Any]:
-    """What ``recursion.tex.j2`` shows (documented in docs/templates.md): ``links`` (the
-    kinematic data), ``forward``, ``backward``, ``composite``, ``columns`` (blocks of
-    ``title`` and ``lines``, each line ``name``, ``value``, ``symbol``: the program's name or
-    None for a value shown as it is), ``coordinates``, ``tau``, ``M_g`` and ``lines`` (how many).
-    ``fmt`` formats the recursion (``latex.RecursionFormatter``), ``plain`` the robot's data
-    (the sheet's formatter), ``width`` estimates a value's width in glyphs."""
+    """What ``recursion.tex.j2`` shows (its variables are documented in docs/templates.md):
+    ``recursion_parts`` in LaTeX. ``fmt`` formats the recursion (``latex.RecursionFormatter``),
+    ``plain`` the robot's data (the sheet's formatter), ``width`` estimates a value's width."""
     robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
     parts = recursion_parts(derivation, width)
     index = parts["link_index"]
@@ -262,7 +259,8 @@ def kinematic_table(rows: list[dict[str, Any]], planar: bool, plain: Any, vector
         "index": row["index"], "name": text(row["name"]), "joint": text(row["joint"]),
         "type": row["type"], "parent": row["parent"],
         "coordinate": plain(row["coordinate"]) if row["coordinate"] is not None else absent,
-        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]), "axis": vector(row["axis"]) if row["axis"] else absent,
+        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]),
+        "axis": vector(row["axis"]) if row["axis"] else absent,
         "mass": plain(row["mass"]), "com": vector(row["com"]),
         "inertia": plain(row["inertia"][0]) if planar else vector(row["inertia"]),
     } for row in rows]
