@@ -43,11 +43,6 @@ def _upright(text: str) -> Markup:
     return mi(text, normal=True)
 
 
-def _named(letter: str, index: str) -> Markup:
-    """``M_g``, ``EOM_{g2}`` (several letters upright)."""
-    return sub(_upright(letter) if len(letter) > 1 else letter, _upright(index) if not index.isdigit() else index)
-
-
 def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None,
                  digits: int | None = None) -> dict[str, Any]:
     """Every variable the HTML template uses; only the ``sections`` asked for (default the
@@ -116,14 +111,15 @@ class PageStyle(SheetStyle):
     def __init__(self, derivation: Derivation, fmt: MathFormatter):
         super().__init__(derivation, fmt)
         self.latex = Formatter.of(derivation, digits=fmt.digits)
-        qg, qm = fenced(_named("q", "g")), fenced(_named("q", "m"))
-        self.names = {"a_g": ("a", mrow(_named("a", "g"), qg)), "a_m": ("a", mrow(_named("a", "m"), qm)),
+        g, m = _upright("g"), _upright("m")
+        qg, qm = fenced(sub("q", g)), fenced(sub("q", m))
+        self.names = {"a_g": ("a", mrow(sub("a", g), qg)), "a_m": ("a", mrow(sub("a", m), qm)),
                       "h": ("h", mrow(mi("h"), qg)), "H": ("H", mrow(mi("H"), qg)), "Hdot": (_dot("H"), None)}
         for key in self.NAMES.keys() - self.names.keys():
             # the others "letter_index" (the index upright) or "letter_tilde" (no label: in the text)
             letter, _, index = key.partition("_")
             base = {"Y": "\u03a5", "Adot": _dot("A")}.get(letter, letter)
-            self.names[key] = ((_tilde(base), None) if index == "tilde"
+            self.names[key] = ((accent(base, "~"), None) if index == "tilde"
                                else (base, sub(_upright(base) if letter == "EOM" else base, _upright(index))))
 
     def matrix(self, key: str, value: sympy.Matrix) -> dict[str, Any]:
@@ -144,10 +140,6 @@ class PageStyle(SheetStyle):
 
     def scalar(self, value: sympy.Expr, limit: int = ENTRY_NODES) -> Markup | None:
         return self.fmt.maybe(value, limit)
-
-
-def _tilde(letter: str) -> Markup:
-    return accent(letter, "~")
 
 
 def render_html(derivation: Derivation, template_dir: str | Path | None = None,

@@ -79,8 +79,8 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
         # an inertia tensor of long decimals (CAD) is displayed, entry by entry if too wide
         "inertia_matrix": (fmt.matrix(rf"I_{{{t.index}}}", t.inertia)
-                           if isinstance(t.inertia, sympy.MatrixBase) and matrix_width(t.inertia) > INLINE_UNITS
-                           else None),
+                           if isinstance(t.inertia, sympy.MatrixBase)
+                           and matrix_width(t.inertia) > INLINE_UNITS else None),
         "spatial_fits": matrix_width(t.spatial_inertia) <= LINE_UNITS * TIGHT,
         "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
         "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
