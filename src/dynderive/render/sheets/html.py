@@ -31,6 +31,7 @@ from .html_math import (
     page_header,
     sub,
 )
+from .html_quasi_velocity import quasi_velocity_html_context
 from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
 from .latex import SheetStyle, joint_rows, shared_context
@@ -147,8 +148,6 @@ def render_html(derivation: Derivation, template_dir: str | Path | None = None,
     """The HTML sheet of ``sections`` (default: the LaTeX sheet's ``default_sections``), numbers
     to ``digits`` significant digits at most (default: as the robot file wrote them). A robot
     with quaternion joints gets the quasi-velocity page (``html_quasi_velocity``)."""
-    if derivation.robot.floating:
-        from .html_quasi_velocity import quasi_velocity_html_context
-
-        return render("html", HTML_TEMPLATE, quasi_velocity_html_context(derivation, digits), template_dir)
-    return render("html", HTML_TEMPLATE, html_context(derivation, sections, digits), template_dir)
+    context = (quasi_velocity_html_context(derivation, digits) if derivation.robot.floating
+               else html_context(derivation, sections, digits))
+    return render("html", HTML_TEMPLATE, context, template_dir)
