@@ -182,12 +182,10 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
     x_tip, y_tip = (origin[0] + lengths[0], origin[1]), (origin[0], origin[1] + lengths[1])
     sheet.path([origin, x_tip], "axis", arrow=True)
     sheet.path([origin, y_tip], "axis", arrow=True)
-    frames_drawn = []
     for name, point, angle in named:   # short axes x, y of each named frame
-        at_mm = mm(point)
         for k in (0, 1):
-            sheet.path([at_mm, polar(at_mm, FRAME_MM, angle + k * math.pi / 2)], "axis", arrow=True, tag=name)
-        frames_drawn.append((name, at_mm, angle))
+            arrow_tip = polar(mm(point), FRAME_MM, angle + k * math.pi / 2)
+            sheet.path([mm(point), arrow_tip], "axis", arrow=True, tag=name)
 
     # the coordinates (arcs, reference lines, arrows), then their labels
     links_mm = [(mm(joint_points[link.name]), mm(p)) for link in links for p in body[link.name][1:]]
@@ -242,10 +240,10 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
                             for extra in (0.0, 2.5) for f in (0.5, 0.3, 0.7)], label, joint.name))
     for candidates, label, tag in places:
         sheet.label(candidates, label, tag=tag)
-    for name, origin_f, angle in frames_drawn:   # the frame's name in the quadrant its axes leave free
+    for name, point, angle in named:   # the frame's name in the quadrant its axes leave free
         label = r"\mathrm{" + escape_tex(name) + "}"
         w, h = label_size(label)
-        sheet.label([polar(origin_f, 1.5 + math.hypot(w, h), angle + turn)
+        sheet.label([polar(mm(point), 1.5 + math.hypot(w, h), angle + turn)
                      for turn in (-3 * math.pi / 4, math.pi + math.pi / 4, -math.pi / 4, 3 * math.pi / 4)], label,
                     tag=name)
     w, h = label_size("x_s")

@@ -292,9 +292,6 @@ def _plate(sheet: Drawing, at: Callable[[Vector], Point], scale: float) -> None:
 
 def _label(sheet: Drawing, centre: Point, gap: float, label: str, tag: str) -> None:
     w, h = label_size(label)
-    candidates = []
-    for extra in (0.0, 2.5, 5.0):
-        for turn in (30, 150, -30, -150, 90, -90, 0, 180):
-            t = math.radians(turn)
-            candidates.append((centre[0] + (gap + extra + w) * math.cos(t), centre[1] + (gap + extra + h) * math.sin(t)))
-    sheet.label(candidates, label, tag=tag)
+    turns = [math.radians(turn) for turn in (30, 150, -30, -150, 90, -90, 0, 180)]
+    sheet.label([(centre[0] + (gap + extra + w) * math.cos(t), centre[1] + (gap + extra + h) * math.sin(t))
+                 for extra in (0.0, 2.5, 5.0) for t in turns], label, tag=tag)

@@ -31,21 +31,11 @@ from .html_math import (
     page_header,
     sub,
 )
+from .html_quasi_velocity import quasi_velocity_html_context
 from .html_recursion import html_recursion
 from .html_svg import configuration_text, figure_labels, svg_figure
-from .latex import (
-    SheetStyle,
-    checks_context,
-    default_sections,
-    drives_context,
-    frames_context,
-    lagrange_context,
-    loops_context,
-    maximal_context,
-    maximal_left_out,
-)
+from .latex import SheetStyle, joint_rows, shared_context
 from .latex_format import ENTRY_NODES, INLINE_NODES, SCALAR_NODES, Formatter, _groups
-from .recursion import joint_variable
 
 HTML_TEMPLATE = "html/sheet.html.j2"
 
@@ -54,24 +44,15 @@ def _upright(text: str) -> Markup:
     return mi(text, normal=True)
 
 
-def _named(letter: str, index: str) -> Markup:
-    """``M_g``, ``EOM_{g2}`` (several letters upright)."""
-    return sub(_upright(letter) if len(letter) > 1 else letter, _upright(index) if not index.isdigit() else index)
-
-
 def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None,
                  digits: int | None = None) -> dict[str, Any]:
     """Every variable the HTML template uses; only the ``sections`` asked for (default the
     sheet's ``default_sections``); numbers to ``digits`` at most (``--digits``)."""
-    left_out = maximal_left_out(derivation, sections)
-    sections = default_sections(derivation) if sections is None else sections
     fmt = MathFormatter.of(derivation, digits=digits)
     style = PageStyle(derivation, fmt)
-    robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
+    shared = shared_context(derivation, style, sections)
+    robot = derivation.robot
     gen = derivation.steps["generalized"]
-
-    def display(expr: Any, limit: int | None = SCALAR_NODES) -> Markup | None:
-        return fmt(expr) if limit is None else fmt.maybe(expr, limit)
 
     links = []
     for t in gen["links"]:
@@ -87,41 +68,19 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
             "velocity": fmt.matrix(fenced(sub("V", link_frame(k), "b")), t.body_velocity, sub("V", link_frame(k), "b")),
             "angle": (fmt.maybe(t.orientation, INLINE_NODES) if robot.planar else
                       fmt.matrix(fenced(sub("R", link_frame(k))), t.orientation, sub("R", link_frame(k)))),
-            "jacobian_matrix": fmt.matrix(fenced(body_jacobian(k)), t.body_jacobian, body_jacobian(k)),
-            "kinetic": display(t.kinetic), "potential": display(t.potential),
+            "jacobian_matrix": style.jacobian(k, t.body_jacobian),
+            "kinetic": fmt.maybe(t.kinetic, SCALAR_NODES), "potential": fmt.maybe(t.potential, SCALAR_NODES),
             "frame": link_frame(k),
         })
-    joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
-               "variables": [fmt(joint_variable(robot, table, j)) if j.moves else None],
-               "effort": fmt(sympy.Symbol(j.effort)) if j.effort else None} for j in robot.joints]
-    context = page_header(derivation, fmt, gen["gravity"], joints) | {
-        "dof": len(robot.coordinates),
-        "q_g": fmt(sympy.Matrix(table.q)), "qd_g": fmt(sympy.Matrix(table.qd)),
+    return page_header(derivation, fmt, gen["gravity"], joint_rows(derivation, style)) | shared | {
         # a large robot's equations as the recursion that computes them, as on the LaTeX sheet
         "recursion": (html_recursion(derivation, fmt.digits)
-                      if derivation.intermediates and "generalized" in sections else None),
+                      if derivation.intermediates and "generalized" in shared["sections"] else None),
         "links": links,
-        "T_g": display(q["T_g"]), "V_g": display(q["V_g"]), "L_g": display(q["L_g"]),
-        "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange_context(derivation, style),
-        "EOM_g1": fmt.matrix("EOM", q["EOM_g1"], _named("EOM", "g1")) if "EOM_g1" in q else None,
-        "M_g": fmt.matrix("M", q["M_g"], _named("M", "g")),
-        "C_g": fmt.matrix("C", q["C_g"], _named("C", "g")),
-        "N_g": fmt.matrix("N", q["N_g"], _named("N", "g")),
-        "F_g": fmt.matrix("F", q["F_g"], _named("F", "g")) if "F_g" in q else None,
-        "EOM_g2": fmt.matrix("EOM", q["EOM_g2"], _named("EOM", "g2")),
         "inertia_groups": [{"names": [sub("\U0001d4dc", str(i)) for i in g["indices"]], "math": g["latex"]}
                            for g in _groups([(link["index"], link["spatial_inertia"]) for link in links])],
-        "checks": checks_context(derivation, style) if "checks" in sections else [],
-        "sections": list(sections),
-        "maximal_left_out": left_out,
-        "figure": _figure(derivation), "quasi_velocity": False,
-        "drives": drives_context(derivation, style),
-        "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
-        "frames": frames_context(derivation, style) if robot.frames else None,
-        "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
+        "figure": _figure(derivation),
     }
-    return context
 
 
 def _figure(derivation: Derivation) -> dict[str, Any] | None:
@@ -153,19 +112,16 @@ class PageStyle(SheetStyle):
     def __init__(self, derivation: Derivation, fmt: MathFormatter):
         super().__init__(derivation, fmt)
         self.latex = Formatter.of(derivation, digits=fmt.digits)
-        qg, qm = fenced(_named("q", "g")), fenced(_named("q", "m"))
-        self.names = {
-            "a_g": ("a", mrow(_named("a", "g"), qg)), "A_g": ("A", _named("A", "g")),
-            "Adot_g": (_dot("A"), sub(_dot("A"), _upright("g"))), "R_g": ("R", _named("R", "g")),
-            "M_r": ("M", _named("M", "r")), "C_r": ("C", _named("C", "r")), "N_r": ("N", _named("N", "r")),
-            "Y_r": ("\u03a5", sub("\u03a5", _upright("r"))), "a_m": ("a", mrow(_named("a", "m"), qm)),
-            "A_m": ("A", _named("A", "m")), "Adot_m": (_dot("A"), sub(_dot("A"), _upright("m"))),
-            "Y_m": ("\u03a5", sub("\u03a5", _upright("m"))), "M_m": ("M", _named("M", "m")),
-            "C_m": ("C", _named("C", "m")), "N_m": ("N", _named("N", "m")), "EOM_m1": ("EOM", _named("EOM", "m1")),
-            "EOM_m2": ("EOM", _named("EOM", "m2")), "h": ("h", mrow(mi("h"), qg)), "H": ("H", mrow(mi("H"), qg)),
-            "F_m": ("F", _named("F", "m")), "Hdot": (_dot("H"), None), "M_tilde": (_tilde("M"), None),
-            "C_tilde": (_tilde("C"), None), "N_tilde": (_tilde("N"), None), "Y_tilde": (_tilde("\u03a5"), None),
-            "F_tilde": (_tilde("F"), None), "EOM_g3": ("EOM", _named("EOM", "g3"))}
+        g, m = _upright("g"), _upright("m")
+        qg, qm = fenced(sub("q", g)), fenced(sub("q", m))
+        self.names = {"a_g": ("a", mrow(sub("a", g), qg)), "a_m": ("a", mrow(sub("a", m), qm)),
+                      "h": ("h", mrow(mi("h"), qg)), "H": ("H", mrow(mi("H"), qg)), "Hdot": (_dot("H"), None)}
+        for key in self.NAMES.keys() - self.names.keys():
+            # the others "letter_index" (the index upright) or "letter_tilde" (no label: in the text)
+            letter, _, index = key.partition("_")
+            base = {"Y": "\u03a5", "Adot": _dot("A")}.get(letter, letter)
+            self.names[key] = ((accent(base, "~"), None) if index == "tilde"
+                               else (base, sub(_upright(base) if letter == "EOM" else base, _upright(index))))
 
     def matrix(self, key: str, value: sympy.Matrix) -> dict[str, Any]:
         base, label = self.names[key]
@@ -187,17 +143,11 @@ class PageStyle(SheetStyle):
         return self.fmt.maybe(value, limit)
 
 
-def _tilde(letter: str) -> Markup:
-    return accent(letter, "~")
-
-
 def render_html(derivation: Derivation, template_dir: str | Path | None = None,
                 sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
     """The HTML sheet of ``sections`` (default: the LaTeX sheet's ``default_sections``), numbers
     to ``digits`` significant digits at most (default: as the robot file wrote them). A robot
     with quaternion joints gets the quasi-velocity page (``html_quasi_velocity``)."""
-    if derivation.robot.floating:
-        from .html_quasi_velocity import quasi_velocity_html_context
-
-        return render("html", HTML_TEMPLATE, quasi_velocity_html_context(derivation, digits), template_dir)
-    return render("html", HTML_TEMPLATE, html_context(derivation, sections, digits), template_dir)
+    context = (quasi_velocity_html_context(derivation, digits) if derivation.robot.floating
+               else html_context(derivation, sections, digits))
+    return render("html", HTML_TEMPLATE, context, template_dir)

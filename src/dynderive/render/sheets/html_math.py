@@ -10,7 +10,6 @@ every text it holds went through the XML writer, which escapes ``<``, ``&`` and 
 from __future__ import annotations
 
 import re
-from pathlib import Path
 from typing import Any
 from xml.dom import minidom
 
@@ -20,22 +19,10 @@ from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 from ...derivation import Derivation
-from ...mechanics.tidy import is_small
 from ...model.naming import GREEK, split_index
 from ..numbers import DecimalNumbers, Numbers, sheet_digits
 from ..printers import DerivationFormatter
-from .latex_format import (
-    BROKEN_NODES,
-    ENTRY_NODES,
-    LINE_UNITS,
-    MATRIX_COLUMNS,
-    MATRIX_NODES,
-    TIGHT,
-    _nodes_up_to,
-    coordinate_entries,
-    entry_index,
-    matrix_width,
-)
+from .latex_format import Formatter, coordinate_entries, entry_index, matrix_layout, opening
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -188,16 +175,11 @@ class _Printer(DecimalNumbers, MathMLPresentationPrinter):
         return name_element(self.dom, name)
 
 
-#: MathML letters of FREE_FLYER_Q / FREE_FLYER_V: (letter, subscript or "").
-_LETTERS = {"x": ("x", ""), "y": ("y", ""), "z": ("z", ""), "q_{x}": ("q", "x"), "q_{y}": ("q", "y"),
-            "q_{z}": ("q", "z"), "q_{w}": ("q", "w"), "v_{x}": ("v", "x"), "v_{y}": ("v", "y"), "v_{z}": ("v", "z"),
-            "\\omega_{x}": ("\u03c9", "x"), "\\omega_{y}": ("\u03c9", "y"), "\\omega_{z}": ("\u03c9", "z")}
-
-
 def _coordinate(text: str, tag: str, dots: int = 0) -> Markup:
-    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text) in MathML: the letter
-    (dotted), its subscript, the joint's name upright after a comma when tagged."""
-    letter, index = _LETTERS[text]
+    """A floating joint's entry (``FREE_FLYER_Q``/``FREE_FLYER_V`` text: ``q_{x}``, ``\\omega_{z}``)
+    in MathML: the letter (dotted), its subscript, the joint's name upright after a comma when tagged."""
+    letter, _, index = text.partition("_")
+    letter, index = greek_unicode.get(letter.lstrip("\\"), letter), index.strip("{}")
     base = accent(mi(letter), "\u02d9") if dots else mi(letter)
     parts = [mi(index)] if index else []
     if tag:
@@ -215,9 +197,7 @@ def coordinate_math_names(derivation: Derivation) -> dict[sympy.Symbol, Name | M
 
 
 class MathFormatter(DerivationFormatter):
-    """MathML of SymPy objects with the robot's symbol names, numbers as the file wrote them
-    (to ``digits`` at most: ``--digits``); one per derivation and digits (``of``),
-    remembering what it printed, with the LaTeX ``Formatter``'s size rules (``maybe``,
+    """The LaTeX ``Formatter`` in MathML: the same names, numbers and size rules (``maybe``,
     ``matrix``: the same limits, so the page shows what the sheet shows)."""
 
     def __init__(self, derivation: Derivation, digits: int | None = None,
@@ -250,31 +230,20 @@ class MathFormatter(DerivationFormatter):
         # minus as the minus sign (SymPy writes the hyphen)
         return Markup(text.replace("&InvisibleTimes;", "&#x2062;").replace("<mo>-</mo>", "<mo>&#x2212;</mo>"))
 
-    def maybe(self, expr: Any, limit: int = ENTRY_NODES) -> Markup | None:
-        """MathML of ``expr``, or None when the sheet finds it too large (``Formatter.maybe``)."""
-        entries = list(expr) if isinstance(expr, sympy.MatrixBase) else [expr]
-        if not is_small(sympy.Tuple(*entries), limit * max(1, len(entries))):
-            return None
-        return self(expr)
+    #: MathML of an expression, or None when the sheet finds it too large
+    maybe = Formatter.maybe
 
     def matrix(self, base: Markup | str, matrix: sympy.Matrix, label: Markup | str | None = None) -> dict[str, Any]:
         """A matrix shown whole, or entry by entry (``wide``: as the sheet's too wide a
-        matrix, named ``base`` with the entry's index), or ``too_large`` (the sheet's limits).
-        ``label``: its name in front (default ``base``)."""
+        matrix, named ``base`` with the entry's index), or ``too_large`` (the sheet's limits:
+        ``matrix_layout``). ``label``: its name in front (default ``base``)."""
+        layout, places, large = matrix_layout(matrix)
         rows, cols = matrix.shape
         shown = _atom(label if label is not None else base)
-        nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
-        if nodes > BROKEN_NODES:
-            return {"label": shown, "math": None, "wide": True, "entries": [], "shape": [rows, cols],
-                    "too_large": True, "nodes": nodes, "zeros": 0}
-        large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
         single = rows == cols == 1 and label is not None   # a named 1 x 1 matrix (M_r) is its entry
         entries = [{"name": shown if single else sub(base, entry_index(i, j, rows, cols).replace(",", "\u2009")),
-                    "math": self(matrix[i, j])}
-                   for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
-        wide = large or matrix_width(matrix) > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
-        return {"label": shown, "math": None if large else self(matrix), "wide": wide, "entries": entries, "shape": [rows, cols],
-                "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+                    "math": self(matrix[i, j])} for i, j in places]
+        return {"label": shown, "math": None if large else self(matrix), **layout, "entries": entries}
 
 
 def html_unit(unit: str) -> Markup:
@@ -295,17 +264,7 @@ def value_markup(value: float, fmt: MathFormatter) -> Markup:
 
 def page_header(derivation: Derivation, fmt: MathFormatter, gravity: sympy.Matrix,
                 joints: list[dict[str, Any]]) -> dict[str, Any]:
-    """What every page opens with (as the LaTeX sheet's ``sheet_header``): who made it from
-    which file, the robot's name, title, gravity, parameter table and ``joints``; names and
-    free text as written (the environment escapes them)."""
-    from ..._version import __version__
-
-    robot, table = derivation.robot, derivation.symbols
-    parameters = [{"symbol": fmt(table.parameters[p.name]), "value": "" if p.value is None else value_markup(p.value, fmt),
-                   "unit": html_unit(p.unit or ""), "description": p.description or ""} for p in robot.parameters]
-    return {
-        "generator": f"dynderive {__version__}",
-        "source": Path(robot.source).name,
-        "robot": {"name": robot.name, "title": robot.title, "planar": robot.planar, "parameters": parameters,
-                  "joints": joints, "gravity": fmt(gravity)},
-    }
+    """What every page opens with (the LaTeX sheet's ``opening``); names and free text as
+    written (the environment escapes them)."""
+    return opening(derivation, fmt, gravity, joints, lambda text: text or "",
+                   lambda value: value_markup(value, fmt), lambda unit: html_unit(unit or ""))

@@ -1,22 +1,17 @@
 """The HTML page's quasi-velocity content, what ``render_html`` gives a robot with quaternion
-joints: the LaTeX sheet's quasi-velocity sections (``quasi_velocity``: the same content, a
-small robot's equations step by step in quasi-velocities, a large one's as the module's
-programs line by line) written in MathML by ``HtmlStyle``, from the same SymPy quantities
-(``html_math``), the sheet's names for the quaternion joints' entries (``x, y, z, q_x .. q_w``,
-``v_x .. omega_z``), the programs' lines named ``w_k``, text from the robot file escaped by
-the HTML environment. No drawing: the 3-D kinematic diagram (``figure_3d``) is not drawn for
-such a robot, as on the LaTeX sheet.
+joints: the LaTeX sheet's quasi-velocity sections (``quasi_velocity``: the same content and
+names) written in MathML by ``HtmlStyle``. No drawing, as on the LaTeX sheet.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import sympy
 from markupsafe import Markup
 
 from ...derivation import Derivation
-from ...mechanics.tidy import is_small
 from .html_math import MathFormatter, _atom, accent, mi, mn, mo, mrow, page_header, sub
 from .latex_format import entry_index
 from .quasi_velocity import ENTRY_LIMIT, LatexStyle, quasi_velocity_context
@@ -30,6 +25,7 @@ class HtmlStyle(LatexStyle):
 
     dash = "\u2013"
     absent = None
+    text_key, longest = "math", math.inf   # no limit on the MathML of an entry
     name = staticmethod(str)
 
     def formatter(self, derivation: Derivation, digits: int | None, groups: list[Any]) -> MathFormatter:
@@ -41,30 +37,21 @@ class HtmlStyle(LatexStyle):
     def listed(self, fmt: Any, symbols: list[sympy.Symbol]) -> Markup | None:
         return Markup("<mo>,</mo>").join(fmt(s) for s in symbols) if symbols else None
 
-    def matrix(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
+    def shown(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
         """``MathFormatter.matrix`` named as the LaTeX sheet's (entries ``I_{1,23}``), a label in
-        front of the twist, with the entries the LaTeX sheet leaves out (over ``ENTRY_LIMIT``
-        nodes) left out here too: their ``math`` None (the page says they are too long and in
-        the JSON dump)."""
+        front of the twist."""
         letter, label = self._letter(key, index), None
         if key == "gravity":
             index = None
         if key == "twist":
             label = mrow(sub(_TWIST, index), mo("="), sub("J", index), mi("v"))
         name = _atom(letter) if index is None else sub(letter, str(index))
-        fits = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
-        shown = fmt.matrix(name, matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)),
-                           label if label is not None else name)
+        shown = fmt.matrix(name, matrix, label if label is not None else name)
         rows, cols = matrix.shape
         places = [(i, j) for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
         for entry, (i, j) in zip(shown["entries"], places):
             at = mn(entry_index(i, j, rows, cols).replace(",", "\u2009"))
             entry["name"] = sub(letter, at if index is None else mrow(str(index), mo(","), at))
-        if not all(fits) and not shown["too_large"]:
-            shown["wide"], shown["math"] = True, None
-            for entry, small in zip(shown["entries"], fits):
-                if not small:
-                    entry["math"] = None
         return shown
 
     @staticmethod

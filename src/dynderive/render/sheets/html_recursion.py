@@ -16,7 +16,7 @@ from markupsafe import Markup
 from ...derivation import Derivation
 from .html_math import MathFormatter, Name, accent, mi, mn, mo, mrow, sub
 from .latex_format import typeset_width
-from .recursion import name_fields, recursion_names, recursion_parts
+from .recursion import kinematic_table, name_fields, recursion_names, recursion_parts
 
 #: MathML of each quantity (``recursion.NAMES``, ``mechanics.recursion.MEANINGS``): the letter,
 #: a dot over it, a bar over that, the superscript and the subscript (``{i}`` the link's index,
@@ -79,14 +79,9 @@ class RecursionMathFormatter(MathFormatter):
 
 
 def html_recursion(derivation: Derivation, digits: int | None = None) -> dict[str, Any]:
-    """What ``html/recursion.html.j2`` shows: the LaTeX ``recursion`` context in MathML.
-    ``links`` (kinematic data: ``index``, ``name``, ``joint``, ``type``, ``parent``,
-    ``coordinate``, ``xyz``, ``rpy``, ``axis``, ``mass``, ``com``, ``inertia``; names as
-    written, escaped by the template), ``coordinates`` (``index``, ``name``), ``forward``,
-    ``backward``, ``composite``, ``columns`` (blocks of ``link`` (None for a column of the
-    mass matrix), ``index``, ``rotation`` and ``lines``, each ``name`` and ``math``: ``name``
-    None for values shown as they are, side by side in ``math``), ``tau`` (a row), ``M_g``
-    (a matrix, as ``MathFormatter.matrix``) and ``lines`` (how many)."""
+    """What ``html/recursion.html.j2`` shows: the LaTeX ``recursion.recursion_context`` in
+    MathML, names as written (escaped by the template); a block's lines are each a ``name``
+    and its ``math`` (``name`` None for values shown as they are, side by side in ``math``)."""
     robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
     fmt, plain = RecursionMathFormatter.of(derivation, digits=digits), MathFormatter.of(derivation, digits=digits)
     parts = recursion_parts(derivation, typeset_width)
@@ -109,16 +104,9 @@ def html_recursion(derivation: Derivation, digits: int | None = None) -> dict[st
     def vector(values: list[sympy.Expr]) -> Markup:
         return mrow(mo("("), *[Markup(f"{plain(v)}<mo>,</mo>") for v in values[:-1]], plain(values[-1]), mo(")"))
 
-    links = [{
-        "index": row["index"], "name": row["name"], "joint": row["joint"], "type": row["type"], "parent": row["parent"],
-        "coordinate": plain(row["coordinate"]) if row["coordinate"] is not None else None,
-        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]), "axis": vector(row["axis"]) if row["axis"] else None,
-        "mass": plain(row["mass"]), "com": vector(row["com"]),
-        "inertia": plain(row["inertia"][0]) if robot.planar else vector(row["inertia"]),
-    } for row in parts["links"]]
     shown = {key: html(parts[key]) for key in ("forward", "backward", "composite", "columns")}
     return {
-        "links": links,
+        "links": kinematic_table(parts["links"], robot.planar, plain, vector, str, None),
         "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
         **shown,
         "tau": fmt(sympy.Matrix(r.tau).T),

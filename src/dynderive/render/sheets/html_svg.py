@@ -110,8 +110,6 @@ def _label(x: float, y: float, name: Name) -> str:
 def configuration_text(derivation: Any, values: str, latex: Any) -> list[tuple[Name, str]]:
     """The drawn configuration (``figure["configuration"]``, LaTeX) as (coordinate, value) pairs."""
     names = {latex(q): name_of(str(q)) for q in derivation.symbols.q}
-    pairs = []
-    for item in values.split(", "):
-        left, _, value = item.partition(" = ")
-        pairs.append((names.get(left, (left, "normal", 0, "")), value.replace("^\\circ", "\u00b0")))
-    return pairs
+    pairs = [item.partition(" = ") for item in values.split(", ")]
+    return [(names.get(left, (left, "normal", 0, "")), value.replace("^\\circ", "\u00b0"))
+            for left, _, value in pairs]

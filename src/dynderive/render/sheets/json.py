@@ -97,10 +97,8 @@ def quantity_entry(value: object, fmt: Formatter, description: str = "",
         text = _text(value, printer)
     # LaTeX of very large quantities (3-D arms' C_g) takes minutes and nobody reads it.
     latex = fmt.maybe(value, LATEX_NODES)
-    entry: dict[str, object] = {"shape": shape, "sympy": text, "latex": latex}
-    if description:
-        entry["description"] = description
-    return entry
+    described = {"description": description} if description else {}
+    return {"shape": shape, "sympy": text, "latex": latex} | described
 
 
 def _loops_entry(derivation: Derivation) -> dict[str, Any]:

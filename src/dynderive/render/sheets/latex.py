@@ -68,79 +68,87 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     """Every variable the sheet template can use (documented in docs/templates.md); only the
     ``sections`` asked for (default ``default_sections``) are derived and formatted; numbers
     to ``digits`` significant digits at most (``--digits``)."""
-    left_out = maximal_left_out(derivation, sections)
-    sections = default_sections(derivation) if sections is None else sections
     fmt = Formatter.of(derivation, digits=digits)
     style = SheetStyle(derivation, fmt)
+    shared = shared_context(derivation, style, sections)
+    sections = shared["sections"]
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.steps["generalized"]
-    coordinate_latex = [fmt(s) for s in table.q]
-    links = []
-    for t in gen["links"]:
-        links.append({
-            "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
-            "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
-            # an inertia tensor of long decimals (CAD) is displayed, entry by entry if too wide
-            "inertia_matrix": (fmt.matrix(rf"I_{{{t.index}}}", t.inertia)
-                               if isinstance(t.inertia, sympy.MatrixBase) and matrix_width(t.inertia) > INLINE_UNITS
-                               else None),
-            "spatial_fits": matrix_width(t.spatial_inertia) <= LINE_UNITS * TIGHT,
-            "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
-            "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
-            "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
-            # what shares a display line when it fits, else one display each, entry by entry if needed
-            "pose_together": _fits(t.com_position, t.body_velocity, extra=16),
-            "com_matrix": fmt.matrix(rf"\left(p_{{sL_{{{t.index}}}}}\right)", t.com_position),
-            "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{{{t.index}}}}}\right)", t.body_velocity),
-            "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{{{t.index}}}}}\right)", t.orientation)
-            if isinstance(t.orientation, sympy.MatrixBase) else None,
-            "jacobian_matrix": fmt.matrix(rf"\left(J^b_{{sL_{{{t.index}}}}}\right)", t.body_jacobian),
-            "kinetic": fmt.display(t.kinetic), "potential": fmt.display(t.potential),
-        })
-    joints = [{
-        "name": escape_tex(j.name), "type": j.type, "parent": escape_tex(j.parent),
-        "child": escape_tex(j.child),
-        "variables": [fmt(joint_variable(robot, table, j)) if j.moves else ""],
-        "effort": fmt(sympy.Symbol(j.effort)) if j.effort else "",
-    } for j in robot.joints]
+    links = [{
+        "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
+        "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
+        # an inertia tensor of long decimals (CAD) is displayed, entry by entry if too wide
+        "inertia_matrix": (fmt.matrix(rf"I_{{{t.index}}}", t.inertia)
+                           if isinstance(t.inertia, sympy.MatrixBase)
+                           and matrix_width(t.inertia) > INLINE_UNITS else None),
+        "spatial_fits": matrix_width(t.spatial_inertia) <= LINE_UNITS * TIGHT,
+        "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
+        "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
+        "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
+        # what shares a display line when it fits, else one display each, entry by entry if needed
+        "pose_together": _fits(t.com_position, t.body_velocity, extra=16),
+        "com_matrix": fmt.matrix(rf"\left(p_{{sL_{{{t.index}}}}}\right)", t.com_position),
+        "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{{{t.index}}}}}\right)", t.body_velocity),
+        "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{{{t.index}}}}}\right)", t.orientation)
+        if isinstance(t.orientation, sympy.MatrixBase) else None,
+        "jacobian_matrix": style.jacobian(t.index, t.body_jacobian),
+        "kinetic": fmt.display(t.kinetic), "potential": fmt.display(t.potential),
+    } for t in gen["links"]]
     # the default sheet shows the named recursion instead: printed only if a template reads them
     intermediates = LazyList(len(derivation.intermediates), lambda: [
         {"name": fmt(name), "latex": fmt(value)} for name, value in derivation.intermediates])
-    context = sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | {
-        "quasi_velocity": False,
+    joints = joint_rows(derivation, style)
+    return sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | shared | {
         "intermediates": intermediates,
         "jacobians": [{"index": k, "matrix": style.jacobian(k, q[f"J_b{k}"])}
                       for k in range(1, len(robot.links) + 1)] if intermediates else [],
-        "dof": len(robot.coordinates),
-        "coordinates": coordinate_latex,
-        "q_g": fmt(sympy.Matrix(table.q)),
-        "qd_g": fmt(sympy.Matrix(table.qd)),
+        "coordinates": [fmt(s) for s in table.q],
         "links": links,
-        "T_g": fmt.display(q["T_g"]), "V_g": fmt.display(q["V_g"]),
-        "L_g": fmt.display(q["L_g"]),
-        "Y_g": fmt(q["Y_g"]),
-        "lagrange": lagrange_context(derivation, style),
-        "EOM_g1": fmt.matrix("EOM", q["EOM_g1"]) if "EOM_g1" in q else None,
-        "M_g": fmt.matrix("M", q["M_g"]),
-        "C_g": fmt.matrix("C", q["C_g"]),
-        "N_g": fmt.matrix("N", q["N_g"]),
-        "EOM_g2": fmt.matrix("EOM", q["EOM_g2"]),
-        "checks": checks_context(derivation, style) if "checks" in sections else [],
-        "sections": list(sections),
-        "maximal_left_out": left_out,
         # equal generalized inertias in one display (M_1 = M_2 = ...), as the reference writes them
         # the generalized inertias as matrices while they fit the line (else diag(m_i, ..., I_i) says it)
         "inertia_groups": (_groups([(link["index"], link["spatial_inertia"]) for link in links])
                            if all(link["spatial_fits"] for link in links) else []),
         "figure": sheet_figure(derivation, fmt),
-        "drives": drives_context(derivation, style),
-        "F_g": fmt.matrix("F", q["F_g"]) if "F_g" in q else None,
-        "maximal": maximal_context(derivation, style) if "maximal" in sections and "maximal" in derivation.steps else None,
-        "loops": loops_context(derivation, style) if "loops" in derivation.steps else None,
-        "frames": frames_context(derivation, style) if robot.frames else None,
-        "recursion": _recursion(derivation, digits) if intermediates and "generalized" in sections else None,
+        "recursion": (recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits),
+                                        fmt, typeset_width)
+                      if intermediates and "generalized" in sections else None),
     }
-    return context
+
+
+def joint_rows(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
+    """The joint table: each joint's names, its variable (its coordinate, or a <mimic> joint's
+    expression) and its effort, ``style.blank`` where it has none."""
+    robot, table, fmt, text = derivation.robot, derivation.symbols, style.fmt, style.text
+    return [{"name": text(j.name), "type": j.type, "parent": text(j.parent), "child": text(j.child),
+             "variables": [fmt(joint_variable(robot, table, j)) if j.moves else style.blank],
+             "effort": fmt(sympy.Symbol(j.effort)) if j.effort else style.blank} for j in robot.joints]
+
+
+def shared_context(derivation: Derivation, style: SheetStyle,
+                   sections: tuple[str, ...] | None) -> dict[str, Any]:
+    """What the LaTeX sheet and the HTML page take alike from the derivation, written by
+    ``style``: the ``sections`` asked for (None: ``default_sections``), whether the maximal
+    coordinates are left out, the coordinates, the generalized quantities and the sections'
+    content."""
+    left_out = maximal_left_out(derivation, sections)
+    sections = default_sections(derivation) if sections is None else sections
+    table, fmt, steps, q = derivation.symbols, style.fmt, derivation.steps, derivation.quantities
+    return {
+        "quasi_velocity": False, "sections": list(sections), "maximal_left_out": left_out,
+        "dof": len(derivation.robot.coordinates),
+        "q_g": fmt(sympy.Matrix(table.q)), "qd_g": fmt(sympy.Matrix(table.qd)),
+        **{key: style.scalar(q[key], SCALAR_NODES) for key in ("T_g", "V_g", "L_g")},
+        "Y_g": fmt(q["Y_g"]),
+        **{key: style.matrix(key, q[key]) for key in ("M_g", "C_g", "N_g", "EOM_g2")},
+        **{key: style.matrix(key, q[key]) if key in q else None for key in ("EOM_g1", "F_g")},
+        "lagrange": lagrange_context(derivation, style),
+        "checks": checks_context(derivation, style) if "checks" in sections else [],
+        "drives": drives_context(derivation, style),
+        "maximal": (maximal_context(derivation, style) if "maximal" in sections and "maximal" in steps
+                    else None),
+        "loops": loops_context(derivation, style) if "loops" in steps else None,
+        "frames": frames_context(derivation, style) if derivation.robot.frames else None,
+    }
 
 
 class RecursionFormatter(Formatter):
@@ -149,11 +157,6 @@ class RecursionFormatter(Formatter):
 
     def __init__(self, derivation: Derivation, digits: int | None = None):
         super().__init__(derivation, digits=digits, extra_names=recursion_names(derivation))
-
-
-def _recursion(derivation: Derivation, digits: int | None) -> dict[str, Any]:
-    return recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits),
-                             Formatter.of(derivation, digits=digits), typeset_width)
 
 
 def lagrange_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
@@ -168,9 +171,15 @@ def lagrange_context(derivation: Derivation, style: SheetStyle) -> list[dict[str
     } for i in range(len(derivation.robot.coordinates) if steps else 0)]
 
 
+#: Residuals below this print as "below 1e-12": their digits are rounding noise (double or
+#: 30-digit arithmetic) that a library version or machine may change, and the sheet must not.
+RESIDUAL_FLOOR = 1e-12
+
+
 def checks_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
     return [{"description": style.text(c.description), "passed": c.passed, "method": c.method,
-             "residual": _residual_text(c.residual)} for c in derivation.checks]
+             "residual": "below 1e-12" if c.residual < RESIDUAL_FLOOR else f"{c.residual:.2g}"}
+            for c in derivation.checks]
 
 
 def frames_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
@@ -203,7 +212,8 @@ class SheetStyle:
     blank: Any = ""      # a drive term a joint has not
     unknown: Any = "?"   # an assembly not found
     #: the sheet's names of the sections' matrices
-    NAMES = {"a_g": "a", "A_g": "A", "Adot_g": "\\dot{A}", "R_g": "R_g", "M_r": "M_r", "C_r": "C_r", "N_r": "N_r",
+    NAMES = {"M_g": "M", "C_g": "C", "N_g": "N", "F_g": "F", "EOM_g1": "EOM", "EOM_g2": "EOM", "a_g": "a",
+             "A_g": "A", "Adot_g": "\\dot{A}", "R_g": "R_g", "M_r": "M_r", "C_r": "C_r", "N_r": "N_r",
              "Y_r": "\\Upsilon_r", "a_m": "a", "A_m": "A", "Adot_m": "\\dot{A}", "Y_m": "\\Upsilon", "M_m": "M",
              "C_m": "C", "N_m": "N", "EOM_m1": "\\mathrm{EOM}", "EOM_m2": "\\mathrm{EOM}", "h": "h", "H": "H",
              "F_m": "F", "Hdot": "\\dot{H}", "M_tilde": "\\tilde{M}", "C_tilde": "\\tilde{C}", "N_tilde": "\\tilde{N}",
@@ -284,19 +294,16 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
     """The maximal-coordinates section; the change of basis to the generalized coordinates
     (``EOM_g3``) for small robots."""
     q, steps, table, fmt = derivation.quantities, derivation.steps["maximal"], derivation.symbols, style.fmt
-    lagrange = []
-    for i, coordinate in enumerate(table.qm):
-        lagrange.append({
-            "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
-            "dL_dqd": style.show(steps["lagrange"]["dL_dqd"][i]),
-            "ddt_dL_dqd": style.show(steps["lagrange"]["ddt_dL_dqd"][i]),
-            "dL_dq": style.show(steps["lagrange"]["dL_dq"][i]),
-            # the three derivatives share a display line when they fit side by side, else the
-            # first two (short: momenta and their rates) when they do
-            "together": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd", "dL_dq")), extra=24),
-            "pair": _fits(*(steps["lagrange"][k][i] for k in ("dL_dqd", "ddt_dL_dqd")), extra=16),
-            "equation": style.show(q["EOM_m1"][i]),
-        })
+    derivatives = ("dL_dqd", "ddt_dL_dqd", "dL_dq")
+    lagrange = [{
+        "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
+        **{key: style.show(steps["lagrange"][key][i]) for key in derivatives},
+        # the three derivatives share a display line when they fit side by side, else the
+        # first two (short: momenta and their rates) when they do
+        "together": _fits(*(steps["lagrange"][k][i] for k in derivatives), extra=24),
+        "pair": _fits(*(steps["lagrange"][k][i] for k in derivatives[:2]), extra=16),
+        "equation": style.show(q["EOM_m1"][i]),
+    } for i, coordinate in enumerate(table.qm)]
     lambda_entries = None
     if "lambdaVec" in q and max(len(style.latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
         # the LaTeX first: breaking entries too long to show into lines cost seconds
@@ -332,12 +339,3 @@ def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
     context = (quasi_velocity_context(derivation, digits) if derivation.robot.floating
                else sheet_context(derivation, sections, digits))
     return render("latex", SHEET_TEMPLATE, context, template_dir)
-
-
-#: Residuals below this print as "below 1e-12": their digits are rounding noise (double or
-#: 30-digit arithmetic) that a library version or machine may change, and the sheet must not.
-RESIDUAL_FLOOR = 1e-12
-
-
-def _residual_text(residual: float) -> str:
-    return "below 1e-12" if residual < RESIDUAL_FLOOR else f"{residual:.2g}"

@@ -67,7 +67,7 @@ def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str |
     joint's name when it must be tagged (the robot has several such joints, or another symbol
     would read the same; else ""); a scalar joint's has ``text`` None and its joint's name. The
     LaTeX sheet and the HTML page each spell these (``coordinate_names``,
-    ``html_quasi_velocity.coordinate_math_names``)."""
+    ``html_math.coordinate_math_names``)."""
     robot, table = derivation.robot, derivation.symbols
     where_q, where_v = robot.offsets()
     multi = [j for j in robot.joints if j.multi]
@@ -156,26 +156,33 @@ class Formatter(DerivationFormatter):
 
     def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
         """A matrix as a whole when its estimated width fits the line (``wide`` False), else as
-        its non-zero entries; ``too_large`` when even those cannot be typeset."""
+        its non-zero entries; ``too_large`` when even those cannot be typeset (``matrix_layout``)."""
+        layout, places, large = matrix_layout(matrix)
         rows, cols = matrix.shape
-        nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
-        if nodes > BROKEN_NODES:
-            return {"latex": "", "wide": True, "tight": False, "entries": [], "shape": [rows, cols],
-                    "too_large": True, "nodes": nodes, "zeros": 0}
-        large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
         whole = "" if large else self(matrix)
-        entries = []
         single = rows == cols == 1 and "_" in name   # a named 1 x 1 matrix (a one-DOF loop's M_r) is its entry
-        for i in range(rows):
-            for j in range(cols):
-                if matrix[i, j] != 0:
-                    entries.append({"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
-                                    "latex": self.display(matrix[i, j], None)})
-        width = 0 if large else matrix_width(matrix)
-        wide = large or width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
-        return {"latex": whole, "wide": wide, "tight": not wide and width > LINE_UNITS,
-                "entries": entries,
-                "shape": [rows, cols], "too_large": False, "nodes": nodes, "zeros": rows * cols - len(entries)}
+        entries = [{"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
+                    "latex": self.display(matrix[i, j], None)} for i, j in places]
+        return {"latex": whole, **layout, "entries": entries}
+
+
+def matrix_layout(matrix: sympy.Matrix) -> tuple[dict[str, Any], list[tuple[int, int]], bool]:
+    """How both sheets set ``matrix`` (the LaTeX ``Formatter.matrix``, the page's
+    ``MathFormatter.matrix``): its ``wide``, ``tight``, ``shape``, ``too_large``, ``nodes`` and
+    ``zeros``; the places of its non-zero entries (none when ``too_large``); and whether it is
+    too large to typeset whole (it is then ``wide``)."""
+    rows, cols = matrix.shape
+    nodes = _nodes_up_to(list(matrix), BROKEN_NODES)
+    layout = {"wide": True, "tight": False, "shape": [rows, cols], "too_large": nodes > BROKEN_NODES,
+              "nodes": nodes, "zeros": 0}
+    if layout["too_large"]:
+        return layout, [], True
+    large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
+    places = [(i, j) for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
+    width = 0 if large else matrix_width(matrix)
+    wide = large or width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
+    layout |= {"wide": wide, "tight": not wide and width > LINE_UNITS, "zeros": rows * cols - len(places)}
+    return layout, places, large
 
 
 def entry_index(i: int, j: int, rows: int, cols: int) -> str:
@@ -369,21 +376,27 @@ def parameter_value(value: float, numbers: Numbers | None) -> str:
 
 def sheet_header(derivation: Derivation, fmt: Formatter, gravity: sympy.Matrix, joint_columns: list[str],
                  joints: list[dict[str, Any]]) -> dict[str, Any]:
-    """What every sheet opens with: who made it from which file, the robot's name, title,
-    gravity and parameter table, and its joint table (``joints``: each with ``variables``, one
-    per entry of ``joint_columns``)."""
+    """What every sheet opens with (``opening``), and its joint table (``joints``: each with
+    ``variables``, one per entry of ``joint_columns``)."""
+    opened = opening(derivation, fmt, gravity, joints, escape_tex,
+                     lambda value: parameter_value(value, fmt.numbers), tex_unit)
+    return opened | {"joint_columns": joint_columns}
+
+
+def opening(derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: list[dict[str, Any]], text: Any,
+            value: Any, unit: Any) -> dict[str, Any]:
+    """What the sheet and the page open with: who made it from which file, the robot's name,
+    title, gravity, ``joints`` and parameter table; free text written by ``text``, a
+    parameter's default by ``value``, its unit by ``unit``."""
     from ..._version import __version__
 
     robot, table = derivation.robot, derivation.symbols
-    parameters = [{
-        "symbol": fmt(table.parameters[p.name]),
-        "value": "" if p.value is None else parameter_value(p.value, fmt.numbers),
-        "unit": tex_unit(p.unit), "description": escape_tex(p.description),
-    } for p in robot.parameters]
+    parameters = [{"symbol": fmt(table.parameters[p.name]),
+                   "value": "" if p.value is None else value(p.value),
+                   "unit": unit(p.unit), "description": text(p.description)} for p in robot.parameters]
     return {
         "generator": f"dynderive {__version__}",
-        "source": escape_tex(Path(robot.source).name),
-        "robot": {"name": escape_tex(robot.name), "title": escape_tex(robot.title), "planar": robot.planar,
+        "source": text(Path(robot.source).name),
+        "robot": {"name": text(robot.name), "title": text(robot.title), "planar": robot.planar,
                   "parameters": parameters, "joints": joints, "gravity": fmt(gravity)},
-        "joint_columns": joint_columns,
     }

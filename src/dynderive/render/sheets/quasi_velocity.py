@@ -66,6 +66,12 @@ def listing(derivation: Derivation) -> tuple[Any, list[tuple[str, list[tuple[sym
     return steps, groups, outputs
 
 
+#: Largest entry (tree nodes, then LaTeX characters: about a page) sheet
+#: typesets: breqn cannot break a display over pages; a longer one is in the JSON dump.
+ENTRY_LIMIT = 1500
+LATEX_LIMIT = 5000
+
+
 class LatexStyle:
     """How the LaTeX sheet writes the quasi-velocity content that ``quasi_velocity_context``
     builds (which sections, matrices and lines, in which order); the HTML page's style
@@ -73,6 +79,8 @@ class LatexStyle:
 
     dash = "--"
     absent: Any = ""
+    #: the key of a matrix's and its entries' text, and the longest entry text shown
+    text_key, longest = "latex", LATEX_LIMIT
     name = staticmethod(escape_tex)
     #: the names of a link's (``{k}`` its index) and the robot's matrices
     NAMES = {"inertia": "I_{{{k}}}", "rotation": "R_{{{k}}}", "position": "p_{{{k}}}", "jacobian": "J_{{{k}}}",
@@ -111,18 +119,23 @@ class LatexStyle:
         return ", ".join(fmt(s) for s in symbols)
 
     def matrix(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
-        """``Formatter.matrix`` with the entries over ENTRY_LIMIT nodes or LATEX_LIMIT characters
-        left out (the template says they are too long)."""
-        small = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
-        shown = fmt.matrix(self.NAMES[key].format(k=index),
+        """The matrix ``key`` (of link ``index``) as ``shown``, with the entries over ENTRY_LIMIT
+        nodes or ``longest`` characters left out: their text None (the template says they are
+        too long and in the JSON dump)."""
+        fits = [is_small(e, ENTRY_LIMIT) for e in matrix if e != 0]   # row by row, as the entries
+        shown = self.shown(fmt, key, index,
                            matrix.applyfunc(lambda e: e if is_small(e, ENTRY_LIMIT) else sympy.Integer(1)))
-        long = [not fits or len(entry["latex"]) > LATEX_LIMIT for fits, entry in zip(small, shown["entries"])]
+        long = [not small or len(entry[self.text_key]) > self.longest
+                for small, entry in zip(fits, shown["entries"])]
         if any(long):
-            shown["wide"], shown["latex"] = True, ""
+            shown["wide"], shown[self.text_key] = True, self.absent
             for entry, too_long in zip(shown["entries"], long):
                 if too_long:
-                    entry["latex"] = None
+                    entry[self.text_key] = None
         return shown
+
+    def shown(self, fmt: Any, key: str, index: int | None, matrix: sympy.Matrix) -> dict[str, Any]:
+        return fmt.matrix(self.NAMES[key].format(k=index), matrix)
 
     def scalar(self, fmt: Any, expr: sympy.Expr) -> Any:
         return fmt.display(expr)
@@ -192,21 +205,14 @@ def multi_joint(joint: Any, fmt: Any, table: Any, where_q: dict[str, int], where
             "rotation": fmt(rotation[0]), "rate": fmt(rotation[1])}
 
 
-#: Largest entry (tree nodes, then LaTeX characters: about a page) sheet
-#: typesets: breqn cannot break a display over pages; a longer one is in the JSON dump.
-ENTRY_LIMIT = 1500
-LATEX_LIMIT = 5000
-
-
 def _small_context(sheet: Any, fmt: Any, style: Any) -> dict[str, Any]:
     links = [{
         "index": item.index, "name": style.name(item.name), "mass": fmt(item.mass), "com": fmt(item.com),
         **{key: style.matrix(fmt, key, item.index, getattr(item, field)) for key, field in (
-            ("inertia", "inertia"), ("rotation", "rotation"), ("position", "com_position"), ("jacobian", "jacobian"))},
+            ("inertia", "inertia"), ("rotation", "rotation"), ("position", "com_position"),
+            ("jacobian", "jacobian"), ("twist", "twist"), ("gravity", "gravity"))},
         "jacobian_dot": style.matrix(fmt, "jacobian_dot", item.index, item.jacobian_dot)
         if item.jacobian_dot != sympy.zeros(*item.jacobian_dot.shape) else None,
-        "twist": style.matrix(fmt, "twist", item.index, item.twist),
-        "gravity": style.matrix(fmt, "gravity", item.index, item.gravity),
         "kinetic": style.scalar(fmt, item.kinetic), "potential": style.scalar(fmt, item.potential),
     } for item in sheet.links]
     return {

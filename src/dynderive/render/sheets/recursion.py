@@ -207,61 +207,63 @@ def recursion_parts(derivation: Derivation, width: Any) -> dict[str, Any]:
 
 
 def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) -> dict[str, Any]:
-    """What ``recursion.tex.j2`` shows (documented in docs/templates.md): ``links`` (the
-    kinematic data), ``forward``, ``backward``, ``composite``, ``columns`` (blocks of
-    ``title`` and ``lines``, each line ``name``, ``value``, ``symbol``: the program's name or
-    None for a value shown as it is), ``coordinates``, ``tau``, ``M_g`` and ``lines`` (how many).
-    ``fmt`` formats the recursion (``latex.RecursionFormatter``), ``plain`` the robot's data
-    (the sheet's formatter), ``width`` estimates a value's width in glyphs."""
+    """What ``recursion.tex.j2`` shows (its variables are documented in docs/templates.md):
+    ``recursion_parts`` in LaTeX. ``fmt`` formats the recursion (``latex.RecursionFormatter``),
+    ``plain`` the robot's data (the sheet's formatter), ``width`` estimates a value's width."""
     robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
     parts = recursion_parts(derivation, width)
     index = parts["link_index"]
     n = len(robot.coordinates)
 
-    def alias(item: dict[str, Any]) -> dict[str, Any]:
-        shown_value = fmt.display(item["value"], None, COLUMN_UNITS)
-        return {"name": _name(item["meaning"], index, robot, n), "value": shown_value, "parts": shown_value.lines,
-                "symbol": None}
+    def shown(name: str, value: sympy.Expr, symbol: sympy.Symbol | None = None) -> dict[str, Any]:
+        text = fmt.display(value, None, COLUMN_UNITS)
+        return {"name": name, "value": text, "parts": text.lines, "symbol": symbol}
 
     def line(item: dict[str, Any]) -> dict[str, Any]:
         if item["symbol"] is not None:
-            shown_value = fmt.display(item["value"], None, COLUMN_UNITS)
-            return {"name": fmt(item["symbol"]), "value": shown_value, "parts": shown_value.lines, "symbol": item["symbol"]}
-        aliases = [alias(a) for a in item["aliases"]]
+            return shown(fmt(item["symbol"]), item["value"], item["symbol"])
+        aliases = [shown(_name(a["meaning"], index, robot, n), a["value"]) for a in item["aliases"]]
         if len(aliases) == 1:
             return aliases[0]
-        text = ",\\quad ".join(_equation(a) for a in aliases)
+        text = ",\\quad ".join(f"{a['name']} = {a['value']}" for a in aliases)
         return {"name": None, "symbol": None, "value": text, "parts": [text]}
 
     def latex(blocks: list[dict[str, Any]]) -> list[dict[str, Any]]:
         return [{"key": b["key"], "lines": [line(item) for item in b["lines"]],
-                 "title": f"Column {b['index']}" if b["link"] is None else _link_title(b["link"], index, robot),
+                 "title": (f"Column {b['index']}" if b["link"] is None
+                           else f"Link {b['index']} (\\texttt{{{escape_tex(b['link'])}}})"),
                  "rotation": None if b["rotation"] is None else f"R_{{{b['index']}}} = {fmt(b['rotation'])}"}
                 for b in blocks]
 
-    forward, backward = latex(parts["forward"]), latex(parts["backward"])
-    composite, columns = latex(parts["composite"]), latex(parts["columns"])
+    blocks = {key: latex(parts[key]) for key in ("forward", "backward", "composite", "columns")}
 
     def vector(values: list[sympy.Expr]) -> str:
         return "(" + ", ".join(plain(v) for v in values) + ")"
 
-    links = [{
-        "index": row["index"], "name": escape_tex(row["name"]), "joint": escape_tex(row["joint"]),
-        "type": row["type"], "parent": row["parent"],
-        "coordinate": plain(row["coordinate"]) if row["coordinate"] is not None else "",
-        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]), "axis": vector(row["axis"]) if row["axis"] else "",
-        "mass": plain(row["mass"]), "com": vector(row["com"]),
-        "inertia": plain(row["inertia"][0]) if robot.planar else vector(row["inertia"]),
-    } for row in parts["links"]]
     return {
-        "links": links,
+        "links": kinematic_table(parts["links"], robot.planar, plain, vector, escape_tex, ""),
         "coordinates": [{"index": k, "name": plain(q)} for k, q in enumerate(table.q, 1)],
         "mimics": [{"k": k, "i": i, "variable": fmt(v)} for k, i, v in mimic_variables(derivation)],
-        "forward": forward, "backward": backward, "composite": composite, "columns": columns,
+        **blocks,
         "tau": fmt(sympy.Matrix(r.tau).T),   # a row: the template transposes it
         "M_g": fmt.matrix("M", sympy.Matrix(n, n, [e for row in r.mass_matrix for e in row])),
-        "lines": sum(len(b["lines"]) for part in (forward, backward, composite, columns) for b in part),
+        "lines": sum(len(b["lines"]) for part in blocks.values() for b in part),
     }
+
+
+def kinematic_table(rows: list[dict[str, Any]], planar: bool, plain: Any, vector: Any, text: Any,
+                    absent: Any) -> list[dict[str, Any]]:
+    """The kinematic data (``_kinematic_rows``) as a sheet shows them: values by ``plain``, lists
+    by ``vector``, names by ``text``, ``absent`` for a fixed joint's coordinate and axis."""
+    return [{
+        "index": row["index"], "name": text(row["name"]), "joint": text(row["joint"]),
+        "type": row["type"], "parent": row["parent"],
+        "coordinate": plain(row["coordinate"]) if row["coordinate"] is not None else absent,
+        "xyz": vector(row["xyz"]), "rpy": vector(row["rpy"]),
+        "axis": vector(row["axis"]) if row["axis"] else absent,
+        "mass": plain(row["mass"]), "com": vector(row["com"]),
+        "inertia": plain(row["inertia"][0]) if planar else vector(row["inertia"]),
+    } for row in rows]
 
 
 #: Estimated width (math glyphs) of values shown as they are that share one display line.
@@ -287,14 +289,6 @@ def _group_aliases(lines: list[dict[str, Any]], width: Any) -> list[dict[str, An
             grouped.append({"symbol": None, "aliases": [item]})
             used = extent
     return grouped
-
-
-def _equation(item: dict[str, Any]) -> str:
-    return item["value"] if item["name"] is None else f"{item['name']} = {item['value']}"
-
-
-def _link_title(link: str, index: dict[str, int], robot: Any) -> str:
-    return f"Link {index[link]} (\\texttt{{{escape_tex(link)}}})"
 
 
 def _rotation(link: str, r: Any) -> sympy.Matrix | None:
