@@ -20,6 +20,18 @@ BUNDLED = sorted(p.stem for p in ROBOTS.glob("*.yaml"))
 
 _counter = itertools.count()
 
+
+@pytest.fixture(autouse=True)
+def _no_progress_lines(request, monkeypatch):
+    """A command shows its stages on stderr once it has run a second, so on a loaded machine
+    an error message would come after progress lines: tests of messages see only what they
+    test, whatever the machine's speed (the tests marked ``progress`` test the lines)."""
+    if request.node.get_closest_marker("progress") is None:
+        from dynderive.commands import progress
+
+        monkeypatch.setattr(progress, "SHOW_AFTER", float("inf"))
+        monkeypatch.setattr(progress, "WATCH_AFTER", float("inf"))
+
 # XLA compiles the JAX tests' programs with LLVM's cheap passes: the UR5's traced batch of
 # ``linearize`` compiles in 10 s instead of 35 s and runs in milliseconds either way. The tests
 # compare values, never speed (benchmarks/ measure that, with XLA's defaults). Set before any

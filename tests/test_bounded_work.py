@@ -7,6 +7,7 @@ import io
 import random
 import time
 
+import pytest
 import sympy
 from typer.testing import CliRunner
 
@@ -94,6 +95,7 @@ def test_the_engine_never_expands_what_would_explode(monkeypatch):
     assert tidy_module.trig_linear(entry) == entry
 
 
+@pytest.mark.progress
 def test_a_long_stage_is_shown_while_it_runs(monkeypatch):
     """A stage that runs over a second is printed without waiting for the next one, and a
     stage still running is reported again (here every 1.5 s instead of every minute)."""
@@ -117,6 +119,7 @@ def test_a_long_stage_is_shown_while_it_runs(monkeypatch):
     assert stream.getvalue() == shown   # closed: nothing more
 
 
+@pytest.mark.progress
 def test_a_quiet_or_quick_run_prints_no_progress():
     stream = io.StringIO()
     progress = progress_module.Progress(quiet=True, stream=stream)
