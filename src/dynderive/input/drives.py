@@ -22,11 +22,10 @@ NON_NEGATIVE = ("damping", "friction", "stiffness", "armature")
 
 
 def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None,
-                symbols: dict[str, sympy.Expr], numeric: Any) -> dict[str, Any]:
+                symbols: dict[str, sympy.Expr]) -> dict[str, Any]:
     """The drive terms of one joint entry, checked; problems go to the validator ``v``.
 
-    ``numeric(expr)`` gives an expression's value at the parameter defaults (None if it has
-    no number there). Returns ``{key: expression text}`` for the keys present and valid.
+    Returns ``{key: expression text}`` for the keys present and valid.
     """
     terms: dict[str, Any] = {}
     for key in DRIVE_KEYS:
@@ -48,7 +47,7 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
         expr = v.expression(item[key], kpath, symbols)
         if expr is None:
             continue
-        value = numeric(expr)
+        value = v.numeric(expr)
         if key in NON_NEGATIVE and value is not None and value < 0:
             v.error(kpath, f"{v.label(kpath)}: {DRIVE_KEYS[key]} must not be negative (got {value:g})")
             continue

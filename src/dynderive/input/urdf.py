@@ -34,19 +34,12 @@ import numpy as np
 
 from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
-from .loader import SourceDocument
+from . import inertia
+from .loader import Path_, SourceDocument
 from .urdf_bodies import Body, check_bodies, finite, merge_bodies
 from .urdf_root import float_root, note_fixed_base, split_planar
-from .urdf_values import (
-    IDENTITY,
-    Rotation,
-    _number,
-    _numbers,
-    _Reader,
-)
+from .urdf_values import IDENTITY, Rotation, _number, _numbers, _Reader
 from .urdf_xml import _Element, _parse_xml
-
-Path_ = tuple[Any, ...]
 
 
 def identifier(name: str) -> str:
@@ -66,7 +59,7 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
     reader = _Reader(file)
     doc = SourceDocument(file=file, data=None)
     if root.tag != "robot":
-        raise InputError(Problem(file, root.line, root.column, f"expected a <robot> element, got <{root.tag}>"))
+        raise InputError(Problem(file, *root.at, f"expected a <robot> element, got <{root.tag}>"))
     bodies, link_elements = _read_links(root, reader)
     joints = _read_joints(root, reader, doc, link_elements)
     check_bodies(reader, doc, bodies, joints, floating_base)
@@ -80,7 +73,7 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
     roots = [name for name in link_elements if name not in children]
     if len(roots) != 1:
         where = root if not roots else link_elements[roots[1]]
-        raise InputError(Problem(file, where.line, where.column,
+        raise InputError(Problem(file, *where.at,
                                  f"a URDF robot needs exactly one root link, found {len(roots)}"
                                  + (f" ({', '.join(roots)})" if roots else "")))
     base = roots[0]
@@ -127,10 +120,8 @@ def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, Body], dict[
             reader.error(inertial, f"link '{name}': <inertial> needs <mass> and <inertia>")
             continue
         mass = reader.numbers(mass_element, "value", 1, [0])[0]
-        values = [reader.numbers(inertia_element, key, 1, [0])[0]
-                  for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")]
-        ixx, ixy, ixz, iyy, iyz, izz = values
-        tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        tensor = inertia.from_entries(**{key: reader.numbers(inertia_element, key, 1, [0])[0]
+                                         for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")})
         R = rotation.matrix
         with np.errstate(all="ignore"):
             rotated = R @ tensor @ R.T
@@ -150,7 +141,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         child = (joint.find("child") or _Element("child", {}, joint.line, joint.column)).attrib.get("link")
         mimic = joint.find("mimic")
         if mimic is not None and jtype == "fixed":
-            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
+            doc.note(mimic.at, f"<mimic> on fixed joint '{name}' ignored")
         follows = None
         if mimic is not None and jtype == "planar":
             reader.error(mimic, f"joint '{name}': <mimic> on a planar joint is not supported (only revolute, "
@@ -170,8 +161,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         origin = joint.find("origin")
         dynamics = joint.find("dynamics")
         if dynamics is not None and jtype == "fixed":
-            doc.notes.append(f"{reader.file}:{dynamics.line}:{dynamics.column}: note: <dynamics> on fixed joint "
-                             f"'{name}' ignored (it has no coordinate)")
+            doc.note(dynamics.at, f"<dynamics> on fixed joint '{name}' ignored (it has no coordinate)")
             dynamics = None
         joints.append({
             "element": joint, "name": name, "type": "revolute" if jtype == "continuous" else jtype,
@@ -183,8 +173,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             "dynamics": dynamics,
             "mimic": follows,
             # <dynamics damping friction>: viscous damping and Coulomb friction (0 = none)
-            "damping": reader.numbers(dynamics, "damping", 1, [0.0])[0] if dynamics is not None else 0.0,
-            "friction": reader.numbers(dynamics, "friction", 1, [0.0])[0] if dynamics is not None else 0.0,
+            **{key: reader.numbers(dynamics, key, 1, [0.0])[0] for key in ("damping", "friction")},
         })
     return joints
 
@@ -231,9 +220,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         "links": [],
         "joints": [],
     }
-    positions: dict[Path_, tuple[int, int]] = {(): (root.line, root.column)}
+    positions: dict[Path_, tuple[int, int]] = {(): root.at}
     for key in ("name", "title", "planar", "parameters", "gravity", "links", "joints"):
-        positions[(key,)] = (root.line, root.column)
+        positions[(key,)] = root.at
     doc.labels[("name",)] = "<robot name>"
     moving = [j for j in joints if j["type"] != "fixed"]
     carrying = _carrying(moving, frames, merged)
@@ -242,7 +231,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         element = link_elements[name]
         body = merged.get(name)
         path = ("links", index)
-        positions[path] = (element.line, element.column)
+        positions[path] = element.at
         if name not in carrying and not joint.get("virtual"):   # a planar joint's own links: its child's error
             reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass, nor has any "
                          "link below it: the joint moves nothing; give the link an <inertial> with a positive mass")
@@ -262,7 +251,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
                  "com": inertial.find("origin")}
         for key in entry:
             spot = spots.get(key) or inertial
-            positions[path + (key,)] = (spot.line, spot.column)
+            positions[path + (key,)] = spot.at
     all_names = {j["name"] for j in joints}
     moving_names = {j["name"] for j in moving}
     for index, joint in enumerate(moving):
@@ -290,9 +279,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         if joint.get("mimic") is not None and joint["mimic"][1] not in moving_names:
             mimic, leader = joint["mimic"][:2]
             why = "a fixed joint, which has no coordinate" if leader in all_names else "which the file does not have"
-            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{joint['name']}': its <mimic> "
-                             f"names joint '{leader}', {why}: '{joint['name']}' is an independent coordinate (as in "
-                             "Pinocchio's default, buildModelFromUrdf without mimic)")
+            doc.note(mimic.at, f"joint '{joint['name']}': its <mimic> names joint '{leader}', {why}: "
+                     f"'{joint['name']}' is an independent coordinate (as in Pinocchio's default, "
+                     "buildModelFromUrdf without mimic)")
             joint["mimic"] = None
         if joint.get("mimic") is not None:   # no coordinate, no effort of its own: its leader's
             entry.pop("effort", None)
@@ -304,19 +293,18 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         data["joints"].append(entry)
         path = ("joints", index)
         doc.labels[path] = f"joint '{joint['name']}'"
-        positions[path] = (element.line, element.column)
+        positions[path] = element.at
         for key in entry:
-            positions[path + (key,)] = (element.line, element.column)
+            positions[path + (key,)] = element.at
         if "axis" in entry:
-            positions[path + ("axis",)] = (joint["axis_element"].line, joint["axis_element"].column)
+            positions[path + ("axis",)] = joint["axis_element"].at
         if joint["dynamics"] is not None:
             for key in ("damping", "friction"):
-                positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
+                positions[path + (key,)] = joint["dynamics"].at
         if joint.get("mimic") is not None:
-            spot = (joint["mimic"][0].line, joint["mimic"][0].column)
             doc.labels[path + ("mimic",)] = f"joint '{joint['name']}' <mimic>"
             for key in ((), ("joint",), ("multiplier",), ("offset",)):
-                positions[path + ("mimic",) + key] = spot
+                positions[path + ("mimic",) + key] = joint["mimic"][0].at
         for i in range(3 if "axis" in entry else 0):
             positions[path + ("axis", i)] = positions[path + ("axis",)]
     _welded_frames(data, positions, doc, link_elements, frames)
@@ -360,8 +348,7 @@ def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]]
         clash = next((q for q in frame_quantity_names(frame, False) if body_jacobian_index(q, len(data["links"]))), None)
         if clash or frame in taken:   # the frame is a convenience: left out rather than refuse the URDF
             why = f"its Jacobian would be {clash}, link {clash[3:]}'s body Jacobian" if clash else "another frame has its name"
-            doc.notes.append(f"{doc.file}:{element.line}:{element.column}: note: link '{name}' (welded to "
-                             f"'{owner}') is not made a frame: {why}")
+            doc.note(element.at, f"link '{name}' (welded to '{owner}') is not made a frame: {why}")
             continue
         taken.add(frame)
         path = ("frames", len(entries))
@@ -369,7 +356,7 @@ def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]]
                         "origin": {"xyz": _numbers(p, float(np.max(np.abs(p)))), "rpy": rotation.rpy()}})
         doc.labels[path] = f"frame '{name}'"
         for key in ((), ("name",), ("link",), ("origin",)):
-            positions[path + key] = (element.line, element.column)
+            positions[path + key] = element.at
     if entries:
         data["frames"] = entries
         positions[("frames",)] = positions[()]

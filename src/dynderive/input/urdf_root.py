@@ -50,9 +50,9 @@ def note_fixed_base(doc: SourceDocument, joints: list[dict[str, Any]], frames: d
         return
     subtrees = [j for j in joints if j["type"] != "fixed" and frames[j["parent"]][0] == "world"]
     if len(subtrees) >= 2:
-        doc.notes.append(f"{doc.file}:{element.line}:{element.column}: note: the root link '{base}' carries "
-                         f"{len(subtrees)} moving subtrees and is welded to the world (a fixed base); for a "
-                         "floating base (legged robots, humanoids) pass --floating-base")
+        doc.note(element.at, f"the root link '{base}' carries {len(subtrees)} moving subtrees and is welded "
+                 "to the world (a fixed base); for a floating base (legged robots, humanoids) pass "
+                 "--floating-base")
 
 
 def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]], link_elements: dict[str, _Element],
@@ -84,9 +84,8 @@ def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]],
                          f"{'joint' if clash in names else 'link'} '{clash}' already")
             continue
         if joint["dynamics"] is not None:
-            where = joint["dynamics"]
-            doc.notes.append(f"{reader.file}:{where.line}:{where.column}: note: <dynamics> on planar joint "
-                             f"'{joint['name']}' ignored (as Pinocchio's URDF parser does)")
+            doc.note(joint["dynamics"].at, f"<dynamics> on planar joint '{joint['name']}' ignored (as "
+                     "Pinocchio's URDF parser does)")
         for link in links:
             link_elements[link] = joint["element"]
             frames[link] = (link, identity, np.zeros(3))

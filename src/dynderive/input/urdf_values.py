@@ -24,7 +24,7 @@ class _Reader:
         self.digits = 0
 
     def error(self, element: _Element, message: str) -> None:
-        self.problems.append(Problem(self.file, element.line, element.column, message))
+        self.problems.append(Problem(self.file, *element.at, message))
 
     def numbers(self, element: _Element | None, attribute: str, count: int, default: list[float],
                 angles: bool = False) -> list[float]:

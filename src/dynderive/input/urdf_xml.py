@@ -72,6 +72,11 @@ class _Element:
     column: int
     children: list[_Element] = field(default_factory=list)
 
+    @property
+    def at(self) -> tuple[int, int]:
+        """``(line, column)`` of the element's start tag."""
+        return self.line, self.column
+
     def find(self, tag: str) -> _Element | None:
         return next((c for c in self.children if c.tag == tag), None)
 
@@ -92,7 +97,7 @@ def _parse_xml(text: str, file: str) -> _Element:
         xacro.update(name[6:] for name, value in attrs.items() if name.startswith("xmlns:") and _XACRO_URI.search(value))
         found = _xacro_in(element, xacro)
         if found is not None:
-            raise _Xacro(Problem(file, element.line, element.column, f"{found}: this is a xacro file, not a "
+            raise _Xacro(Problem(file, *element.at, f"{found}: this is a xacro file, not a "
                                  f"URDF; expand it first (xacro {PurePath(file).name} > robot.urdf) and read the result"))
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)

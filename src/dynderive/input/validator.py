@@ -43,6 +43,9 @@ class Validator:
     def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
         self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
 
+    def note(self, path: tuple[Any, ...], message: str) -> None:
+        self.doc.note(self.doc.where(path), message)
+
     def at(self, path: tuple[Any, ...], key: bool = False) -> str:
         """``LINE:COL`` of ``path`` (of its key with ``key``), to point at an earlier value."""
         line, column = self.doc.where(path, key)
@@ -135,6 +138,18 @@ class Validator:
             return None
         return expr if self.at_defaults(expr, value, path) else None
 
+    def numeric(self, expr: sympy.Expr | None) -> float | None:
+        """Value of ``expr`` at the parameter defaults, or None if it is not a real number."""
+        if expr is None:
+            return None
+        try:
+            value = self.evaluate(expr)
+        except NotFiniteError:
+            return None
+        if value is None or imaginary_part(value):
+            return None
+        return float(sympy.re(value))
+
     def at_defaults(self, expr: sympy.Expr, value: Any, path: tuple[Any, ...]) -> bool:
         """Refuse an expression that is not finite or not real at the parameter defaults."""
         if not expr.free_symbols or expr.free_symbols - set(self.evaluate.values):
@@ -179,16 +194,3 @@ def kind(value: Any, empty: bool = False) -> str:
 
 def _lengths(lengths: tuple[int, ...]) -> str:
     return " or ".join(str(n) for n in lengths)
-
-
-def numeric(expr: sympy.Expr | None, defaults: Evaluator) -> float | None:
-    """Value of ``expr`` with the parameter defaults, or None if it is not a real number."""
-    if expr is None:
-        return None
-    try:
-        value = defaults(expr)
-    except NotFiniteError:
-        return None
-    if value is None or imaginary_part(value):
-        return None
-    return float(sympy.re(value))
