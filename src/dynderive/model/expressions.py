@@ -100,14 +100,13 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
         if depth > MAX_DEPTH:
             raise ExpressionError(f"expression is nested more than {MAX_DEPTH} levels deep", index)
     source = text.replace("^", "**")
+    lead = len(source) - len(source.lstrip())
     try:
         tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
-        offset = max((exc.offset or 1) - 1, 0) + (len(source) - len(source.lstrip()))
-        raise ExpressionError(f"malformed expression: {exc.msg}", offset) from None
+        raise ExpressionError(f"malformed expression: {exc.msg}", max((exc.offset or 1) - 1, 0) + lead) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression is too complex") from None
-    lead = len(source) - len(source.lstrip())
     builder = _Builder(symbols, lead, source.strip())
     deep = _too_deep(tree.body)
     if deep is not None:
@@ -270,9 +269,10 @@ class _Builder:
         characters = len(self.source.encode("utf-8")[:offset].decode("utf-8", errors="ignore"))
         return ExpressionError(message, characters + self.lead)
 
-    def segment(self, node: ast.AST) -> str:
+    def refuse(self, node: ast.AST, what: str) -> ExpressionError:
+        """``'<node's text>' <what>`` at ``node``, the text cut to 40 characters."""
         text = ast.get_source_segment(self.source, node) or "expression"
-        return text if len(text) <= 40 else text[:37] + "..."
+        return self.fail(node, f"'{text if len(text) <= 40 else text[:37] + '...'}' {what}")
 
     def build(self, node: ast.AST) -> sympy.Expr:
         if isinstance(node, ast.Constant):
@@ -309,16 +309,15 @@ class _Builder:
                 continue
             self.seen.add(expr)
             if expr in _NON_FINITE:
-                raise self.fail(node, f"'{self.segment(node)}' is {_NON_FINITE[expr]}")
+                raise self.refuse(node, f"is {_NON_FINITE[expr]}")
             if expr.is_Number:
                 if _out_of_range(expr):
-                    raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                                    f"({_about(expr)})")
+                    raise self.refuse(node, f"is out of the range of a double ({_about(expr)})")
                 continue
             if (expr.is_Pow and expr.exp.is_Number and abs(expr.exp) > MAX_SYMBOLIC_EXPONENT
                     and expr.base.free_symbols):
-                raise self.fail(node, f"'{self.segment(node)}' makes the power {expr}; powers of symbolic "
-                                f"expressions are limited to exponent {MAX_SYMBOLIC_EXPONENT}")
+                raise self.refuse(node, f"makes the power {expr}; powers of symbolic expressions are limited "
+                                  f"to exponent {MAX_SYMBOLIC_EXPONENT}")
             if not expr.free_symbols:
                 self._check_constant(node, expr)
                 continue
@@ -326,9 +325,9 @@ class _Builder:
         if result.free_symbols and not result.is_Symbol:
             terms = expanded_terms(result, MAX_EXPANDED_TERMS + 1, self.size_memo)
             if terms > MAX_EXPANDED_TERMS:
-                raise self.fail(node, f"'{self.segment(node)}' expands to up to {expanded_terms(result)} "
-                                f"terms (limit {MAX_EXPANDED_TERMS}): give the value a parameter of its "
-                                "own, or write it with fewer sums inside powers and products")
+                raise self.refuse(node, f"expands to up to {expanded_terms(result)} terms (limit "
+                                  f"{MAX_EXPANDED_TERMS}): give the value a parameter of its own, or write "
+                                  "it with fewer sums inside powers and products")
         return result
 
     def _check_constant(self, node: ast.AST, expr: sympy.Expr) -> None:
@@ -336,17 +335,15 @@ class _Builder:
             value = self.evaluate(expr)
         except NotFiniteError as exc:
             if exc.reason == "out of range":
-                raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                                f"({_about(exc.value)})") from None  # type: ignore[arg-type]
-            raise self.fail(node, f"'{self.segment(node)}' is {exc.reason}") from None
+                about = _about(exc.value)  # type: ignore[arg-type]
+                raise self.refuse(node, f"is out of the range of a double ({about})") from None
+            raise self.refuse(node, f"is {exc.reason}") from None
         if value is None:
             return
         if imaginary_part(value):
-            raise self.fail(node, f"'{self.segment(node)}' is not a real number "
-                            f"(its value is {describe_number(value)})")
+            raise self.refuse(node, f"is not a real number (its value is {describe_number(value)})")
         if _out_of_range(sympy.re(value)):
-            raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                            f"({_about(value)})")
+            raise self.refuse(node, f"is out of the range of a double ({_about(value)})")
 
     def _binary(self, node: ast.BinOp) -> sympy.Expr:
         # a long chain a + b - c + ... (or a*b/c*...) is built in a loop, not by recursion
@@ -384,8 +381,7 @@ class _Builder:
                 if base is not None and abs(base) != 0:
                     log10 = float(right) * math.log10(float(abs(base)))
                     if log10 > _LOG10_MAX or log10 < _LOG10_TINY:
-                        raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                                        f"({_about_log10(log10)})")
+                        raise self.refuse(node, f"is out of the range of a double ({_about_log10(log10)})")
             return left**right
         raise self.fail(node, f"operator not allowed: {_describe(op)}")
 

@@ -11,12 +11,7 @@ from dataclasses import dataclass, field
 import sympy
 
 from .expressions import parse_expression
-from .naming import (
-    acceleration_name,
-    latex_name,
-    maximal_coordinate_names,
-    velocity_name,
-)
+from .naming import acceleration_name, latex_name, maximal_coordinate_names, velocity_name
 from .robot import Robot, floating_names
 
 
