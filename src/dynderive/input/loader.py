@@ -29,6 +29,8 @@ MAX_FILE_BYTES = 2_000_000
 MAX_VALUES = 50_000
 #: Deepest nesting of YAML collections (a robot file needs about 5 levels).
 MAX_YAML_DEPTH = 100
+#: The suffixes of robot files.
+ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf")
 
 
 @dataclass
@@ -88,18 +90,15 @@ def bundled_robots_dir() -> Path:
 
 
 def bundled_robot_names() -> list[str]:
-    directory = bundled_robots_dir()
-    return sorted(
-        p.stem for p in directory.glob("*") if p.suffix in {".yaml", ".yml", ".urdf"}
-    )
+    return sorted(p.stem for p in bundled_robots_dir().glob("*") if p.suffix in ROBOT_SUFFIXES)
 
 
 def resolve_robot_path(robot: str | Path) -> Path:
     """A path as given, or the file of a bundled robot called ``robot``."""
     path = Path(robot)
-    if path.exists() or path.suffix in {".yaml", ".yml", ".urdf"} or len(path.parts) > 1:
+    if path.exists() or path.suffix in ROBOT_SUFFIXES or len(path.parts) > 1:
         return path
-    for suffix in (".yaml", ".yml", ".urdf"):
+    for suffix in ROBOT_SUFFIXES:
         candidate = bundled_robots_dir() / f"{robot}{suffix}"
         if candidate.is_file():
             return candidate

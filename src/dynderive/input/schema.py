@@ -153,15 +153,12 @@ def _parameters(v: Validator, top: dict[str, Any]) -> list[Parameter]:
         if pname in RESERVED:
             v.error(path, f"parameters.{pname}: '{pname}' is a built-in function or constant", key=True)
             continue
-        value, unit, description = spec, "", ""
+        value, unit, description, vpath = spec, "", "", path
         if isinstance(spec, dict):
             v.mapping(spec, path, PARAMETER_KEYS)
-            value = spec.get("value")
+            value, vpath = spec.get("value"), path + ("value",)
             unit = v.text(spec.get("unit"), path + ("unit",))
             description = v.text(spec.get("description"), path + ("description",))
-            vpath = path + ("value",)
-        else:
-            vpath = path
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
             quoted = isinstance(value, str) and _looks_numeric(value)
             v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {kind(value)}"
@@ -184,33 +181,21 @@ def _links(v: Validator, top: dict[str, Any], planar: bool,
     links: list[Link] = []
     raw_links = top.get("links")
     links_broken = "links" in top and (not isinstance(raw_links, list) or not raw_links)
-    if links_broken:
-        v.error(("links",), f"links: expected a non-empty list of links, got {kind(raw_links, empty=True)}")
-        raw_links = []
-    link_names: dict[str, tuple[Any, ...]] = {}
+    taken: dict[str, tuple[Any, ...]] = {}   # link name -> the path of its name
     bad_link_names: set[Any] = set()  # reported already; joints naming them are not re-reported
     inertias: list[inertia.Written | None] = []   # judged once the joints are read
-    for i, raw in enumerate(raw_links or []):
-        path = ("links", i)
-        item = v.mapping(raw, path, LINK_KEYS, required=("name", "mass"))
-        if item is None:
-            continue
-        lname = v.identifier(item.get("name"), path + ("name",), "link name") if "name" in item else None
-        if lname is None and "name" in item and isinstance(item["name"], (str, int, float)):
+    for i, path, item, lname, _ in v.named_items(top, "links", "link", LINK_KEYS, ("name", "mass"), taken):
+        if lname is None and isinstance(item.get("name"), (str, int, float)):
             bad_link_names.add(item["name"])
         if lname == "world":
-            v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: 'world' is reserved for the fixed frame")
+            v.error(path + ("name",), f"{v.label(path + ('name',))}: 'world' is reserved for the fixed frame")
+            taken.pop("world", None)
             lname = None
-        if lname is not None:
-            if lname in link_names:
-                v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: duplicate link name '{lname}' "
-                        f"(first at {v.at(link_names[lname] + ('name',))})")
-            link_names.setdefault(lname, path)
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
         value = v.numeric(mass)
         if value is not None and (value <= 0 if planar else value < 0):  # 3-D: massless links (M checked regular)
             rule = "must be positive" if planar else "must not be negative"
-            v.error(path + ("mass",), f"{v.label(('links', i, 'mass'))}: {rule} (got {value:g})")
+            v.error(path + ("mass",), f"{v.label(path + ('mass',))}: {rule} (got {value:g})")
         com = item.get("com", [0] * dimension)
         v.vector(com, path + ("com",), (dimension,), symbols)
         entries, written = inertia.read(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
@@ -219,6 +204,7 @@ def _links(v: Validator, top: dict[str, Any], planar: bool,
                           entries))
         inertias.append(written)
 
+    link_names = {name: where[:-1] for name, where in taken.items()}
     return links, _LinkNames(link_names, bad_link_names, links_broken), inertias
 
 
@@ -324,31 +310,25 @@ def _independent(v: Validator, top: dict[str, Any], joints: list[Joint],
 def _maximal_constraints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
                          links: list[Link], joints: list[Joint]) -> tuple[Any, ...] | None:
     """The optional ``maximal.constraints`` override: planar only, 3 per link minus the DOF."""
-    constraints = None
-    if "maximal" in top:
-        block = v.mapping(top["maximal"], ("maximal",), MAXIMAL_KEYS)
-        if block is not None and "constraints" in block:
-            raw_constraints = block["constraints"]
-            cpath = ("maximal", "constraints")
-            if not planar:
-                v.error(cpath, "maximal.constraints: maximal coordinates are planar-only for now")
-            elif not isinstance(raw_constraints, list):
-                v.error(cpath, f"maximal.constraints: expected a list of expressions, got "
-                        f"{kind(raw_constraints)}")
-            else:
-                names = maximal_coordinate_names(len(links))
-                scope = dict(symbols) | {n: sympy.Symbol(n) for n in names}
-                for k, expr in enumerate(raw_constraints):
-                    v.expression(expr, cpath + (k,), scope)
-                moving = sum(1 for j in joints if j.moves)
-                needed = 3 * len(links) - moving
-                if len(raw_constraints) != needed:
-                    v.error(cpath, f"maximal.constraints: expected {needed} constraint{'s' * (needed != 1)} "
-                            f"(3 per link minus {moving} degree{'s' * (moving != 1)} of "
-                            f"freedom), got {len(raw_constraints)}")
-                constraints = tuple(raw_constraints)
-
-    return constraints
+    block = v.mapping(top["maximal"], ("maximal",), MAXIMAL_KEYS) if "maximal" in top else None
+    if block is None or "constraints" not in block:
+        return None
+    raw_constraints, cpath = block["constraints"], ("maximal", "constraints")
+    if not planar:
+        v.error(cpath, "maximal.constraints: maximal coordinates are planar-only for now")
+        return None
+    if not isinstance(raw_constraints, list):
+        v.error(cpath, f"maximal.constraints: expected a list of expressions, got {kind(raw_constraints)}")
+        return None
+    scope = dict(symbols) | {n: sympy.Symbol(n) for n in maximal_coordinate_names(len(links))}
+    for k, expr in enumerate(raw_constraints):
+        v.expression(expr, cpath + (k,), scope)
+    moving = sum(1 for j in joints if j.moves)
+    needed = 3 * len(links) - moving
+    if len(raw_constraints) != needed:
+        v.error(cpath, f"maximal.constraints: expected {needed} constraint{'s' * (needed != 1)} (3 per link "
+                f"minus {moving} degree{'s' * (moving != 1)} of freedom), got {len(raw_constraints)}")
+    return tuple(raw_constraints)
 
 
 def _looks_planar(top: dict[str, Any]) -> bool:

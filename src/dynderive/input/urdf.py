@@ -296,8 +296,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         positions[path] = element.at
         for key in entry:
             positions[path + (key,)] = element.at
-        if "axis" in entry:
-            positions[path + ("axis",)] = joint["axis_element"].at
+        if "axis" in entry:   # the axis and its entries
+            for key in ((), (0,), (1,), (2,)):
+                positions[path + ("axis",) + key] = joint["axis_element"].at
         if joint["dynamics"] is not None:
             for key in ("damping", "friction"):
                 positions[path + (key,)] = joint["dynamics"].at
@@ -305,8 +306,6 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
             doc.labels[path + ("mimic",)] = f"joint '{joint['name']}' <mimic>"
             for key in ((), ("joint",), ("multiplier",), ("offset",)):
                 positions[path + ("mimic",) + key] = joint["mimic"][0].at
-        for i in range(3 if "axis" in entry else 0):
-            positions[path + ("axis", i)] = positions[path + ("axis",)]
     _welded_frames(data, positions, doc, link_elements, frames)
     if reader.problems:
         raise InputError(reader.problems)

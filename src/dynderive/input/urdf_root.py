@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from .free_joints import planar_floating_links, planar_floating_names
 from .loader import SourceDocument
 from .urdf_xml import _Element
 
@@ -75,8 +76,8 @@ def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]],
         e1 = guess - (guess @ n) * n
         e1 = e1 / np.linalg.norm(e1)
         axes = [_exact(e1), _exact(np.cross(n, e1)), joint["axis"]]
-        x, y, theta = (f"{joint['name']}_{s}" for s in ("x", "y", "theta"))
-        links = [f"{joint['name']}_x_link", f"{joint['name']}_y_link"]
+        x, y, theta = planar_floating_names(joint["name"])
+        links = planar_floating_links(joint["name"])
         clash = next((m for m in (x, y, theta) if m in names), None) or next((m for m in links if m in link_elements), None)
         if clash is not None:
             reader.error(joint["element"], f"joint '{joint['name']}': a planar joint is read as the joints {x}, {y}, "

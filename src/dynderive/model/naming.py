@@ -105,9 +105,7 @@ def closest_name(name: str, candidates) -> str | None:
     close = difflib.get_close_matches(name, options, n=1)
     if close:
         return close[0]
-    lowered: dict[str, str] = {}
-    for option in options:
-        lowered.setdefault(option.lower(), option)
+    lowered = {option.lower(): option for option in reversed(options)}   # the first spelling wins
     close = difflib.get_close_matches(name.lower(), list(lowered), n=1)
     return lowered[close[0]] if close else None
 
