@@ -198,12 +198,16 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
     deep = _flow_too_deep(text, MAX_YAML_DEPTH)
     if deep is not None:
         raise InputError(Problem(file, *deep, "YAML nesting is too deep"))
+    document = SourceDocument(file=file, data=None, positions={(): (1, 1)})   # (1, 1): an empty file
+    problems: list[Problem] = []
     try:
         loader = _Composer(text)
         try:
             node = loader.get_single_node()
         finally:
             loader.dispose()
+        if node is not None:
+            document.data = _build(node, (), document, problems, _Composer(""), [0])
     except yaml.MarkedYAMLError as exc:
         raise InputError(student_problem(exc, text, file) or _syntax_problem(exc, file)) from None
     except yaml.reader.ReaderError as exc:
@@ -215,20 +219,8 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
         raise InputError(Problem(file, 1, 1, f"YAML syntax error: {exc}")) from None
     except _Refused as exc:
         raise InputError(Problem(file, *exc.where, exc.message)) from None
-    except RecursionError:   # pragma: no cover - the depth limit comes first
+    except RecursionError:   # building a self-referencing alias (&a [*a]); composing stops at the limit
         raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
-
-    document = SourceDocument(file=file, data=None)
-    if node is None:
-        document.positions[()] = (1, 1)
-        return document
-    problems: list[Problem] = []
-    try:
-        document.data = _build(node, (), document, problems, _Composer(""), [0])
-    except RecursionError:
-        raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
-    except _Refused as exc:
-        raise InputError(Problem(file, *exc.where, exc.message)) from None
     if problems:
         raise InputError(problems)
     return document

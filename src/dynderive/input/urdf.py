@@ -63,12 +63,10 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
     bodies, link_elements = _read_links(root, reader)
     joints = _read_joints(root, reader, doc, link_elements)
     check_bodies(reader, doc, bodies, joints, floating_base)
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
 
     by_child = _check_tree(reader, joints, link_elements)
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
     children = set(by_child)
     roots = [name for name in link_elements if name not in children]
     if len(roots) != 1:
@@ -79,15 +77,13 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
     base = roots[0]
     if floating_base:
         base = float_root(reader, joints, link_elements, base, root, IDENTITY)
-        if reader.problems:
-            raise InputError(reader.problems)
+        reader.raise_problems()
         by_child[roots[0]] = joints[0]
 
     frames = _fixed_frames(reader, joints, link_elements, by_child, base)
     merged = merge_bodies(reader, bodies, link_elements, frames)
     split_planar(reader, doc, joints, link_elements, frames, IDENTITY)   # x, y, theta joints in a row
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
     if not floating_base:
         note_fixed_base(doc, joints, frames, base, link_elements[base])
     doc.digits = max(reader.digits, 1)   # the sheet's precision: as written, not as composed
@@ -201,8 +197,7 @@ def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: 
                 reader.error(joint["element"], f"joint '{joint['name']}': origin too large (composing it "
                              "with the fixed joints above overflows)")
             frames[joint["child"]] = (target, R0 @ joint["R"], p)
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
 
     return frames
 
@@ -307,8 +302,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
             for key in ((), ("joint",), ("multiplier",), ("offset",)):
                 positions[path + ("mimic",) + key] = joint["mimic"][0].at
     _welded_frames(data, positions, doc, link_elements, frames)
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
     doc.data, doc.positions = data, positions
     doc.key_positions = dict(positions)
     return doc

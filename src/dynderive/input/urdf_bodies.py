@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
 from . import inertia
 from .loader import SourceDocument
 from .urdf_values import Rotation, _Reader
@@ -94,8 +93,7 @@ def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[s
                          f"'{target}' (fixed joints) makes the {what} overflow")
             continue
         merged[target] = combined
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
 
     return merged
 
