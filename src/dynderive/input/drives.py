@@ -37,8 +37,7 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
                     key=True)
             continue
         if jtype in ("floating", "spherical"):
-            v.error(kpath, f"{v.label(kpath)}: drive terms on a {jtype} joint are not built yet",
-                    key=True)
+            v.error(kpath, f"{v.label(kpath)}: drive terms on a {jtype} joint are not built yet", key=True)
             continue
         if item[key] is None or isinstance(item[key], (bool, list, dict)):
             kind = "nothing" if item[key] is None else type(item[key]).__name__

@@ -142,8 +142,7 @@ def _parameters(v: Validator, top: dict[str, Any]) -> list[Parameter]:
     parameters: list[Parameter] = []
     raw_parameters = top.get("parameters", {}) or {}
     if not isinstance(raw_parameters, dict):
-        v.error(("parameters",), f"parameters: expected a mapping of name: value, got "
-                f"{kind(raw_parameters)}")
+        v.error(("parameters",), f"parameters: expected a mapping of name: value, got {kind(raw_parameters)}")
         v.parameters_broken = True
         raw_parameters = {}
     for pname, spec in raw_parameters.items():

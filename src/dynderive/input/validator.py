@@ -20,6 +20,7 @@ from ..model.expressions import (
     NotFiniteError,
     describe_number,
     imaginary_part,
+    kind,
     parse_expression,
 )
 from ..model.naming import did_you_mean
@@ -71,8 +72,7 @@ class Validator:
         for key in value:
             if key not in allowed:
                 hint = did_you_mean(str(key), allowed) or f" (allowed: {', '.join(allowed)})"
-                self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}",
-                           key=True)
+                self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}", key=True)
         for key in required:
             if key not in value:
                 self.error(path, f"{self.label(path)}: missing required key '{key}'")
@@ -177,19 +177,9 @@ class Validator:
                        f"entries, got {kind(value)}")
             return None
         if len(value) not in lengths:
-            self.error(path, f"{self.label(path)}: expected {_lengths(lengths)} entries, "
-                       f"got {len(value)}")
+            self.error(path, f"{self.label(path)}: expected {_lengths(lengths)} entries, got {len(value)}")
             return None
         return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
-
-
-def kind(value: Any, empty: bool = False) -> str:
-    if value is None:
-        return "nothing"
-    if empty and value in ([], {}):
-        return f"an empty {'list' if value == [] else 'mapping'}"
-    return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
-            dict: "a mapping"}.get(type(value), type(value).__name__)
 
 
 def _lengths(lengths: tuple[int, ...]) -> str:

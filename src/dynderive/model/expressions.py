@@ -88,7 +88,7 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
     if isinstance(text, float):
         return _number(repr(text), 0)
     if not isinstance(text, str):
-        raise ExpressionError(f"expected an expression or a number, got {_kind(text)}")
+        raise ExpressionError(f"expected an expression or a number, got {kind(text)}")
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"expression is longer than {MAX_LENGTH} characters")
     if not text.strip():
@@ -117,18 +117,13 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
         raise ExpressionError("expression is nested too deeply") from None
 
 
-def _family(op: ast.operator) -> str | None:
-    """Operators whose left-nested chains are built in a loop: ``+ -`` and ``* /``."""
-    if isinstance(op, (ast.Add, ast.Sub)):
-        return "sum"
-    if isinstance(op, (ast.Mult, ast.Div)):
-        return "product"
-    return None
+#: Operators whose left-nested chains are built in a loop: ``+ -`` and ``* /``.
+_FAMILY = {ast.Add: "sum", ast.Sub: "sum", ast.Mult: "product", ast.Div: "product"}
 
 
 def _chained(parent: ast.AST, child: ast.AST) -> bool:
     return (isinstance(parent, ast.BinOp) and child is parent.left and isinstance(child, ast.BinOp)
-            and _family(child.op) is not None and _family(child.op) == _family(parent.op))
+            and type(child.op) in _FAMILY and _FAMILY[type(child.op)] == _FAMILY.get(type(parent.op)))
 
 
 def _too_deep(tree: ast.AST) -> ast.AST | None:
@@ -237,8 +232,14 @@ def _out_of_range(value: sympy.Expr) -> bool:
     return bool(magnitude > _DOUBLE_MAX or (magnitude != 0 and magnitude < _DOUBLE_TINY))
 
 
-def _kind(value: object) -> str:
-    return {list: "a list", dict: "a mapping", type(None): "nothing"}.get(type(value), type(value).__name__)
+def kind(value: object, empty: bool = False) -> str:
+    """What a parsed YAML value is, in words: ``a list``, ``text``; ``empty``: ``an empty list``."""
+    if value is None:
+        return "nothing"
+    if empty and value in ([], {}):
+        return f"an empty {'list' if value == [] else 'mapping'}"
+    return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
+            dict: "a mapping"}.get(type(value), type(value).__name__)
 
 
 def _number(literal: str, offset: int) -> sympy.Expr:
@@ -391,14 +392,12 @@ class _Builder:
                             f"({', '.join(sorted(FUNCTIONS))})")
         name = node.func.id
         if name not in FUNCTIONS:
-            raise self.fail(node, f"unknown function '{name}' (allowed: "
-                            f"{', '.join(sorted(FUNCTIONS))})")
+            raise self.fail(node, f"unknown function '{name}' (allowed: {', '.join(sorted(FUNCTIONS))})")
         if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
             raise self.fail(node, f"'{name}' takes plain positional arguments only")
         arity = 2 if name == "atan2" else 1
         if len(node.args) != arity:
-            raise self.fail(node, f"'{name}' takes {arity} argument{'s' * (arity > 1)}, "
-                            f"got {len(node.args)}")
+            raise self.fail(node, f"'{name}' takes {arity} argument{'s' * (arity > 1)}, got {len(node.args)}")
         args = [self.build(a) for a in node.args]
         return self.checked(node, FUNCTIONS[name](*args))  # type: ignore[operator]
 
