@@ -20,9 +20,8 @@ from ..model.robot import Joint, Link
 
 #: Names the generated module of a floating-base robot defines or takes as arguments (besides
 #: those of every module, ``names.MODULE_NAMES``): robot symbols may not take them.
-FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "neutral_configuration", "integrate", "difference",
-                                   "configuration_rate",
-                                   "v", "dt", "q_from", "q_to"})
+FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "neutral_configuration", "integrate",
+                                   "difference", "configuration_rate", "v", "dt", "q_from", "q_to"})
 
 #: A planar floating joint's coordinates, ``<joint>_x``, ``<joint>_y``, ``<joint>_theta``.
 PLANAR_FLOATING = ("x", "y", "theta")
@@ -43,21 +42,16 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
     """``floating`` and ``spherical`` joints stand anywhere in a 3-D robot without loops (both
     take the floating-base module); a planar ``floating`` joint anywhere in a planar robot,
     its coordinates' and massless links' names free."""
-    spherical = [(i, j) for i, j in enumerate(joints) if j.type == "spherical"]
-    if spherical and planar:
-        for i, _ in spherical:
+    spherical = [i for i, j in enumerate(joints) if j.type == "spherical"]
+    floating = [(i, j) for i, j in enumerate(joints) if j.type == "floating"]
+    if planar:
+        for i in spherical:
             v.error(("joints", i, "type"), f"{v.label(('joints', i, 'type'))}: a spherical joint turns in 3-D: "
                     "a planar robot has none (give the robot 3-D origins, inertias and axes)")
-        return
-    floating = [(i, j) for i, j in enumerate(joints) if j.type == "floating"]
-    if not floating:
-        if spherical:
-            _reserved(v, top, joints, "a robot with spherical joints")
-        return
-    if planar:
-        _planar_names(v, floating, joints, links or [])
-        return
-    _reserved(v, top, joints, "a floating-base robot")
+        if floating and not spherical:
+            _planar_names(v, floating, joints, links or [])
+    elif floating or spherical:
+        _reserved(v, top, joints, "a floating-base robot" if floating else "a robot with spherical joints")
 
 
 def _planar_names(v: Any, floating: list[tuple[int, Joint]], joints: list[Joint], links: list[Link]) -> None:

@@ -100,7 +100,7 @@ def check_mimics(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool)
         elif joint.stiffness is not None:
             springs.setdefault(name, []).append(i)
     for leader, indices in springs.items():
-        for i in indices[1:] if len(indices) > 1 else ():
+        for i in indices[1:]:
             spath = ("joints", i, "stiffness")
             v.error(spath, f"{v.label(spath)}: coordinate '{leader}' already has a spring (on joint "
                     f"'{joints[indices[0]].name}'): one spring per coordinate, on a leader or on one of its "

@@ -360,8 +360,7 @@ def _origin(v: Validator, value: Any, path: tuple[Any, ...], planar: bool,
     if value is None:
         return (0, 0, 0) if planar else (0,) * 6
     if planar:
-        entries = v.vector(value, path, (2, 3), symbols)
-        if entries is None:
+        if v.vector(value, path, (2, 3), symbols) is None:
             return (0, 0, 0)
         return tuple(value) + ((0,) if len(value) == 2 else ())
     block = v.mapping(value, path, ORIGIN_KEYS)
@@ -401,13 +400,10 @@ def _check_tree(v: Validator, joints: list[Joint], link_names: dict[str, tuple[A
     """Each link has exactly one parent joint, and every link hangs from the world."""
     parent_of: dict[str, int] = {}
     for i, joint in enumerate(joints):
-        if joint.child in link_names:
-            if joint.child in parent_of:
-                first = parent_of[joint.child]
-                v.error(("joints", i, "child"), f"{v.label(('joints', i, 'child'))}: link '{joint.child}' already "
-                        f"has a parent joint ({v.label(('joints', first))}); robots must be trees")
-            else:
-                parent_of[joint.child] = i
+        first = parent_of.setdefault(joint.child, i) if joint.child in link_names else i
+        if first != i:
+            v.error(("joints", i, "child"), f"{v.label(('joints', i, 'child'))}: link '{joint.child}' already "
+                    f"has a parent joint ({v.label(('joints', first))}); robots must be trees")
     for lname, lpath in link_names.items():
         if lname not in parent_of:
             v.error(lpath, f"{v.label(lpath)}: link '{lname}' is not the child of any joint")

@@ -135,14 +135,13 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         jtype = joint.attrib.get("type", "")
         parent = (joint.find("parent") or _Element("parent", {}, joint.line, joint.column)).attrib.get("link")
         child = (joint.find("child") or _Element("child", {}, joint.line, joint.column)).attrib.get("link")
-        mimic = joint.find("mimic")
+        mimic, follows = joint.find("mimic"), None
         if mimic is not None and jtype == "fixed":
             doc.note(mimic.at, f"<mimic> on fixed joint '{name}' ignored")
-        follows = None
-        if mimic is not None and jtype == "planar":
+        elif mimic is not None and jtype == "planar":
             reader.error(mimic, f"joint '{name}': <mimic> on a planar joint is not supported (only revolute, "
                          "continuous and prismatic joints follow a leader)")
-        elif mimic is not None and jtype != "fixed":   # checked by the validator (input/mimic.py)
+        elif mimic is not None:   # checked by the validator (input/mimic.py)
             follows = (mimic, mimic.attrib.get("joint", ""), reader.numbers(mimic, "multiplier", 1, [1.0])[0],
                        reader.numbers(mimic, "offset", 1, [0.0])[0])
         if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
