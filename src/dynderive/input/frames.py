@@ -35,6 +35,6 @@ def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_b
                 hint = " (a frame on the world is fixed: it needs no kinematics)"
             else:
                 hint = did_you_mean(str(link), link_names)
-            v.error(path + ("link",), f"{v.label(path + ('link',))}: unknown link {link!r}{hint}")
+            v.report(path + ("link",), f"unknown link {link!r}{hint}")
         frames.append(Frame(name or f"frame{i + 1}", str(link), origin(item.get("origin"), path + ("origin",))))
     return frames

@@ -160,7 +160,7 @@ def check_frame(v: Any, name: str, path: tuple[Any, ...], planar: bool, engine: 
             what, origin = engine[quantity]
             kind = FRAME_KINDS[quantity.partition("_")[0]]
             where = f" (first at {v.at(origin, key=origin == ('loops',))})" if origin is not None else ""
-            v.error(path, f"{v.label(path)}: frame '{name}' would name its {kind} '{quantity}', {what}; "
-                    f"rename the frame{where}")
+            v.report(path, f"frame '{name}' would name its {kind} '{quantity}', {what}; "
+                     f"rename the frame{where}")
             return False
     return True

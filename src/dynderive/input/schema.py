@@ -56,8 +56,8 @@ def validate(doc: SourceDocument) -> Robot:
 
     name = v.identifier(top.get("name"), ("name",), "robot name") if "name" in top else None
     if name is not None and len(name) > MAX_NAME_LENGTH:
-        v.error(("name",), f"{v.label(('name',))}: robot name is {len(name)} characters long, at most {MAX_NAME_LENGTH} "
-                f"(it names the output files, e.g. test_<name>_dynamics.py)")
+        v.report(("name",), f"robot name is {len(name)} characters long, at most {MAX_NAME_LENGTH} (it names "
+                 "the output files, e.g. test_<name>_dynamics.py)")
         name = None
     title = v.text(top.get("title"), ("title",), default=name or "")
     planar = top.get("planar", False)
@@ -131,10 +131,10 @@ class _LinkNames:
         if role not in item or (world and end == "world"):
             return
         if end == "world":
-            v.error(where, f"{v.label(where)}: 'world' cannot be a child")
+            v.report(where, "'world' cannot be a child")
         elif end not in self.names and not (self.broken or end in self.bad):
-            v.error(where, f"{v.label(where)}: unknown link {end!r}"
-                    + did_you_mean(end, [*self.names, "world"] if world else list(self.names)))
+            v.report(where, f"unknown link {end!r}"
+                     + did_you_mean(end, [*self.names, "world"] if world else list(self.names)))
 
 
 def _parameters(v: Validator, top: dict[str, Any]) -> list[Parameter]:
@@ -160,14 +160,14 @@ def _parameters(v: Validator, top: dict[str, Any]) -> list[Parameter]:
             description = v.text(spec.get("description"), path + ("description",))
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
             quoted = isinstance(value, str) and _looks_numeric(value)
-            v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {kind(value)}"
-                    + (f" ({value!r} in quotes: write it without them)" if quoted else ""))
+            v.report(vpath, f"default value must be a number, got {kind(value)}"
+                     + (f" ({value!r} in quotes: write it without them)" if quoted else ""))
             value = None
         elif value is not None and isinstance(value, int) and abs(value) > 1.7976931348623157e308:
-            v.error(vpath, f"{v.label(vpath)}: default value is out of the range of a double")
+            v.report(vpath, "default value is out of the range of a double")
             value = None
         elif value is not None and not math.isfinite(float(value)):
-            v.error(vpath, f"{v.label(vpath)}: default value must be finite, got {value}")
+            v.report(vpath, f"default value must be finite, got {value}")
             value = None
         parameters.append(Parameter(pname, None if value is None else float(value), unit, description))
     return parameters
@@ -187,14 +187,14 @@ def _links(v: Validator, top: dict[str, Any], planar: bool,
         if lname is None and isinstance(item.get("name"), (str, int, float)):
             bad_link_names.add(item["name"])
         if lname == "world":
-            v.error(path + ("name",), f"{v.label(path + ('name',))}: 'world' is reserved for the fixed frame")
+            v.report(path + ("name",), "'world' is reserved for the fixed frame")
             taken.pop("world", None)
             lname = None
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
         value = v.numeric(mass)
         if value is not None and (value <= 0 if planar else value < 0):  # 3-D: massless links (M checked regular)
             rule = "must be positive" if planar else "must not be negative"
-            v.error(path + ("mass",), f"{v.label(path + ('mass',))}: {rule} (got {value:g})")
+            v.report(path + ("mass",), f"{rule} (got {value:g})")
         com = item.get("com", [0] * dimension)
         v.vector(com, path + ("com",), (dimension,), symbols)
         entries, written = inertia.read(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
@@ -216,8 +216,8 @@ def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
             extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype), "")
-            v.error(path + ("type",), f"{v.label(('joints', i, 'type'))}: unsupported joint type {jtype!r}; "
-                    f"expected one of {', '.join(JOINT_TYPES)}{extra}")
+            v.report(path + ("type",), f"unsupported joint type {jtype!r}; "
+                     f"expected one of {', '.join(JOINT_TYPES)}{extra}")
             jtype = None
         tree.check(v, item, path, "parent")
         tree.check(v, item, path, "child", world=False)
@@ -227,11 +227,11 @@ def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         if effort is not None:
             effort = v.identifier(effort, path + ("effort",), "effort name")
             if effort is not None and jtype == "fixed":
-                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
+                v.report(path + ("effort",), "a fixed joint has no effort")
                 effort = None
             elif effort is not None and jtype == "floating" and planar:
-                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a planar floating joint is "
-                        "unactuated (push its body with a wrench at a frame)")
+                v.report(path + ("effort",), "a planar floating joint is unactuated (push its body with a "
+                         "wrench at a frame)")
                 effort = None
         drives = drive_terms(v, item, path, jtype, symbols)
         mimic = read_mimic(v, item, path, jtype)
@@ -258,21 +258,20 @@ def _loops(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, s
         ltype = item.get("type")
         if "type" in item and ltype not in types:
             shape = "planar" if planar else "3-D"
-            v.error(path + ("type",), f"{v.label(path + ('type',))}: unsupported {shape} loop joint type "
-                    f"{ltype!r}; expected one of {', '.join(types)}")
+            v.report(path + ("type",), f"unsupported {shape} loop joint type {ltype!r}; "
+                     f"expected one of {', '.join(types)}")
             ltype = None
         ends = [item.get("parent"), item.get("child")]
         tree.check(v, item, path, "parent")
         tree.check(v, item, path, "child")
         if "parent" in item and "child" in item and ends[0] == ends[1]:
-            v.error(path + ("child",), f"{v.label(path + ('child',))}: a loop joint needs two different links "
-                    f"(parent and child are both {ends[0]!r})")
+            v.report(path + ("child",), "a loop joint needs two different links "
+                     f"(parent and child are both {ends[0]!r})")
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
         child_origin = _origin(v, item.get("child_origin"), path + ("child_origin",), planar, symbols)
         takes_axis = ltype in (None, "prismatic") or (ltype == "revolute" and not planar)
         if "axis" in item and not takes_axis:
-            v.error(path + ("axis",), f"{v.label(path + ('axis',))}: a {'planar ' if planar else ''}{ltype} "
-                    "loop joint takes no axis")
+            v.report(path + ("axis",), f"a {'planar ' if planar else ''}{ltype} loop joint takes no axis")
         axis = _axis(v, item if takes_axis else {}, path, ltype, planar, symbols)
         loops.append(LoopJoint(name or f"loop{i + 1}", ltype or "revolute", str(ends[0]), str(ends[1]),
                                origin, child_origin, axis))
@@ -380,19 +379,18 @@ def _axis(v: Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
         return default
     apath = path + ("axis",)
     if planar and jtype in ("revolute", "fixed"):
-        v.error(apath, f"{v.label(apath)}: a planar {jtype} joint takes no axis "
-                "(planar revolute joints turn about z)")
+        v.report(apath, f"a planar {jtype} joint takes no axis (planar revolute joints turn about z)")
         return default
     if jtype in ("fixed", "floating", "spherical"):
-        v.error(apath, f"{v.label(apath)}: a {jtype} joint takes no axis"
-                + (" (it turns about all three)" if jtype == "spherical" else ""))
+        v.report(apath, f"a {jtype} joint takes no axis"
+                 + (" (it turns about all three)" if jtype == "spherical" else ""))
         return default
     entries = v.vector(item["axis"], apath, (2,) if planar else (3,), symbols)
     if entries is None:
         return default
     numbers = [v.numeric(e) for e in entries]
     if all(x is not None for x in numbers) and math.hypot(*numbers) < 1e-12:  # type: ignore[arg-type]
-        v.error(apath, f"{v.label(apath)}: axis has zero length")
+        v.report(apath, "axis has zero length")
     return tuple(item["axis"])
 
 
@@ -402,11 +400,11 @@ def _check_tree(v: Validator, joints: list[Joint], link_names: dict[str, tuple[A
     for i, joint in enumerate(joints):
         first = parent_of.setdefault(joint.child, i) if joint.child in link_names else i
         if first != i:
-            v.error(("joints", i, "child"), f"{v.label(('joints', i, 'child'))}: link '{joint.child}' already "
-                    f"has a parent joint ({v.label(('joints', first))}); robots must be trees")
+            v.report(("joints", i, "child"), f"link '{joint.child}' already has a parent joint "
+                     f"({v.label(('joints', first))}); robots must be trees")
     for lname, lpath in link_names.items():
         if lname not in parent_of:
-            v.error(lpath, f"{v.label(lpath)}: link '{lname}' is not the child of any joint")
+            v.report(lpath, f"link '{lname}' is not the child of any joint")
     reported: set[str] = set()
     for lname in link_names:
         seen: list[str] = []
@@ -417,5 +415,5 @@ def _check_tree(v: Validator, joints: list[Joint], link_names: dict[str, tuple[A
         if current in seen and not reported.intersection(seen):
             reported.update(seen)
             i = parent_of[current]
-            v.error(("joints", i), f"{v.label(('joints', i))}: links {' -> '.join(seen[seen.index(current):] + [current])}"
-                    " form a cycle not connected to 'world'")
+            v.report(("joints", i), f"links {' -> '.join(seen[seen.index(current):] + [current])}"
+                     " form a cycle not connected to 'world'")

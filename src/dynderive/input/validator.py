@@ -44,6 +44,10 @@ class Validator:
     def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
         self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
 
+    def report(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
+        """A problem with the value at ``path``: its label, then ``message``."""
+        self.error(path, f"{self.label(path)}: {message}", key=key, offset=offset)
+
     def note(self, path: tuple[Any, ...], message: str) -> None:
         self.doc.note(self.doc.where(path), message)
 
@@ -66,16 +70,16 @@ class Validator:
     def mapping(self, value: Any, path: tuple[Any, ...], allowed: Iterable[str],
                 required: Iterable[str] = ()) -> dict[str, Any] | None:
         if not isinstance(value, dict):
-            self.error(path, f"{self.label(path)}: expected a mapping, got {kind(value)}")
+            self.report(path, f"expected a mapping, got {kind(value)}")
             return None
         allowed = tuple(allowed)
         for key in value:
             if key not in allowed:
                 hint = did_you_mean(str(key), allowed) or f" (allowed: {', '.join(allowed)})"
-                self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}", key=True)
+                self.report(path + (key,), f"unknown key '{key}'{hint}", key=True)
         for key in required:
             if key not in value:
-                self.error(path, f"{self.label(path)}: missing required key '{key}'")
+                self.report(path, f"missing required key '{key}'")
         return value
 
     def named_items(self, top: dict[str, Any], key: str, what: str, allowed: Iterable[str], required: Iterable[str],
@@ -96,19 +100,18 @@ class Validator:
             name = self.identifier(item.get("name"), path + ("name",), f"{what} name") if "name" in item else None
             new = name is not None and name not in taken
             if name is not None and not new:
-                self.error(path + ("name",), f"{self.label(path + ('name',))}: {clash.format(what=what, name=name)} "
-                           f"(first at {self.at(taken[name])})")
+                self.report(path + ("name",), f"{clash.format(what=what, name=name)} "
+                            f"(first at {self.at(taken[name])})")
             elif new:
                 taken[name] = path + ("name",)   # type: ignore[index]
             yield i, path, item, name, new
 
     def identifier(self, value: Any, path: tuple[Any, ...], what: str, key: bool = False) -> str | None:
         if not isinstance(value, str) or not IDENTIFIER.match(value):
-            self.error(path, f"{self.label(path)}: {what} must be an identifier "
-                       f"(letters, digits, '_'), got {value!r}", key=key)
+            self.report(path, f"{what} must be an identifier (letters, digits, '_'), got {value!r}", key=key)
             return None
         if keyword.iskeyword(value):
-            self.error(path, f"{self.label(path)}: {what} '{value}' is a Python keyword", key=key)
+            self.report(path, f"{what} '{value}' is a Python keyword", key=key)
             return None
         return value
 
@@ -118,7 +121,7 @@ class Validator:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return str(value)
         if not isinstance(value, str):
-            self.error(path, f"{self.label(path)}: expected text, got {kind(value)}")
+            self.report(path, f"expected text, got {kind(value)}")
             return default
         return value
 
@@ -134,7 +137,7 @@ class Validator:
                 offset = exc.offset + (1 if style in ("'", '"') else 0)
                 if style == '"' and "\\" in value:
                     offset = 0
-            self.error(path, f"{self.label(path)}: {exc}", offset=offset)
+            self.report(path, str(exc), offset=offset)
             return None
         return expr if self.at_defaults(expr, value, path) else None
 
@@ -166,18 +169,16 @@ class Validator:
         text = str(value) if len(str(value)) <= 40 else str(value)[:37] + "..."
         names = ", ".join(f"{s} = {float(self.evaluate.values[s]):g}"
                           for s in sorted(expr.free_symbols, key=str))
-        self.error(path, f"{self.label(path)}: '{text}' is {what} at the default parameter values "
-                   f"{names}{detail}")
+        self.report(path, f"'{text}' is {what} at the default parameter values {names}{detail}")
         return False
 
     def vector(self, value: Any, path: tuple[Any, ...], lengths: tuple[int, ...],
                symbols: dict[str, sympy.Expr]) -> list[sympy.Expr | None] | None:
         if not isinstance(value, list):
-            self.error(path, f"{self.label(path)}: expected a list of {_lengths(lengths)} "
-                       f"entries, got {kind(value)}")
+            self.report(path, f"expected a list of {_lengths(lengths)} entries, got {kind(value)}")
             return None
         if len(value) not in lengths:
-            self.error(path, f"{self.label(path)}: expected {_lengths(lengths)} entries, got {len(value)}")
+            self.report(path, f"expected {_lengths(lengths)} entries, got {len(value)}")
             return None
         return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
 
