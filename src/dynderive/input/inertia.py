@@ -264,8 +264,7 @@ def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Wr
         for r, c, upper, lower in w.pairs:
             where = w.path + (c, r)
             if welded:
-                v.note(where, f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}]); "
-                       "ignored: the link is welded to the world, so its inertia never enters the dynamics")
+                v.note(where, _ignored(f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}])"))
             elif tensor is None or upper is None or lower is None:
                 v.error(where, f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}])")
             else:

@@ -109,10 +109,8 @@ def resolve_robot_path(robot: str | Path) -> Path:
     )
 
 
-_FILE_KINDS = (
-    (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
+_FILE_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
 def read_text(path: Path) -> str:
@@ -128,7 +126,9 @@ def read_text(path: Path) -> str:
         if stat.S_ISDIR(info.st_mode):
             raise InputError(Problem(display, 1, 1, "is a directory, not a robot file"))
         if not stat.S_ISREG(info.st_mode):
-            raise InputError(Problem(display, 1, 1, f"not a regular file ({_file_kind(info.st_mode)})"))
+            what = next((name for test, name in _FILE_KINDS if test(info.st_mode)),
+                        "not a file with contents")
+            raise InputError(Problem(display, 1, 1, f"not a regular file ({what})"))
         if info.st_size > MAX_FILE_BYTES:
             raise InputError(Problem(display, 1, 1, f"file is larger than {MAX_FILE_BYTES} bytes"))
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
@@ -150,10 +150,6 @@ def read_text(path: Path) -> str:
         line = raw[: exc.start].count(b"\n") + 1
         column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
         raise InputError(Problem(display, line, column, "file is not valid UTF-8")) from None
-
-
-def _file_kind(mode: int) -> str:
-    return next((kind for test, kind in _FILE_KINDS if test(mode)), "not a file with contents")
 
 
 class _Composer(yaml.SafeLoader):

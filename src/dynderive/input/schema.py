@@ -88,10 +88,11 @@ def validate(doc: SourceDocument) -> Robot:
     links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops, planar)
-    frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
-                         lambda value, path: _origin(v, value, path, planar, symbols), planar,
-                         engine_quantities(links + virtual_links(joints, planar), planar, "loops" in top))
-    check_names(v, parameters, links + virtual_links(joints, planar), joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
+    all_links = links + virtual_links(joints, planar)
+    frames = read_frames(v, top, tree, lambda value, path: _origin(v, value, path, planar, symbols), planar,
+                         engine_quantities(all_links, planar, "loops" in top))
+    check_names(v, parameters, all_links, joints, planar,
+                sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
     if loops and constraints is not None:
         v.error(("maximal", "constraints"), "maximal.constraints: a robot with loops derives its maximal "

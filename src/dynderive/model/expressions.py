@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ast
 import math
+import operator
 import sys
 from collections.abc import Mapping
 from decimal import Decimal, InvalidOperation
@@ -119,6 +120,8 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
 
 #: Operators whose left-nested chains are built in a loop: ``+ -`` and ``* /``.
 _FAMILY = {ast.Add: "sum", ast.Sub: "sum", ast.Mult: "product", ast.Div: "product"}
+#: Operators built without a check of their own (``/`` and ``**`` have theirs).
+_ARITHMETIC = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul}
 
 
 def _chained(parent: ast.AST, child: ast.AST) -> bool:
@@ -358,12 +361,8 @@ class _Builder:
 
     def _combine(self, node: ast.BinOp, left: sympy.Expr, right: sympy.Expr) -> sympy.Expr:
         op = node.op
-        if isinstance(op, ast.Add):
-            return left + right
-        if isinstance(op, ast.Sub):
-            return left - right
-        if isinstance(op, ast.Mult):
-            return left * right
+        if type(op) in _ARITHMETIC:
+            return _ARITHMETIC[type(op)](left, right)
         if isinstance(op, ast.Div):
             if right == 0:
                 raise self.fail(node, "division by zero")
