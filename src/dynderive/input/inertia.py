@@ -214,20 +214,19 @@ def read(v: Any, value: Any, path: tuple[Any, ...], planar: bool,
          symbols: dict[str, sympy.Expr]) -> tuple[tuple[Any, ...], Written | None]:
     """A link's inertia entries as written (``v``: the validator), and for a 3-D link what
     ``check_links`` needs to judge them once the whole robot is read."""
-    label = v.label(path)
     if planar:
         if isinstance(value, list):
-            v.error(path, f"{label}: a planar link takes one scalar inertia about the COM")
+            v.report(path, "a planar link takes one scalar inertia about the COM")
             return (0,), None
         number = v.numeric(v.expression(value, path, symbols))
         if number is not None and number < 0:
-            v.error(path, f"{label}: must not be negative (got {number:g})")
+            v.report(path, f"must not be negative (got {number:g})")
         return (value,), None
     pairs = []
     if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
         rows = value
         if any(len(r) != 3 for r in rows):
-            v.error(path, f"{label}: a 3x3 inertia needs three rows of three entries")
+            v.report(path, "a 3x3 inertia needs three rows of three entries")
             return (0,) * 6, None
         flat = [rows[0][0], rows[1][1], rows[2][2], rows[0][1], rows[0][2], rows[1][2]]
         exprs = [v.expression(rows[r][c], path + (r, c), symbols) for r in range(3) for c in range(3)]
@@ -281,7 +280,7 @@ def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Wr
         if tensor is not None:
             verdict = judge(tensor, scale, welded, correct=w.constant)
             if verdict.error is not None:
-                v.error(w.path, f"{label}: {verdict.error}")
+                v.report(w.path, verdict.error)
             if verdict.note is not None:
                 v.note(w.path, f"{label}: {verdict.note}")
             if verdict.tensor is not tensor:

@@ -38,8 +38,8 @@ class SourceDocument:
     """Parsed file contents with positions.
 
     ``positions[path]`` is where the value at ``path`` starts; ``key_positions[path]`` is
-    where the key naming it starts (for "unknown key" errors); ``quoted[path]`` tells whether
-    a scalar was written in quotes (so expression errors can point inside the string).
+    where the key naming it starts (for "unknown key" errors); ``scalar_style[path]`` tells
+    whether a scalar was written in quotes (so expression errors can point inside the string).
     """
 
     file: str

@@ -11,16 +11,13 @@ parent link (mass, centre of mass and inertia combined), so every remaining link
 inertial frames with ``rpy`` are rotated into the link axes; efforts are named ``tau_<joint>``
 (revolute) and ``f_<joint>`` (prismatic); gravity is ``[0, 0, -g]`` with ``g = 9.81``.
 
-Rotations are composed as matrices; a composed ``rpy`` is extracted so that its matrix
-reproduces the composed one to rounding, also near gimbal lock (``matrix_to_rpy``). Only the
-``rpy`` numbers written in the file are snapped to exact quarter turns (``snap``), never
-composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``;
-on a moving joint it becomes the joint's ``mimic`` (no coordinate of its own, no effort: its
-variable is ``multiplier * q_leader + offset``, as ``pin.buildModelFromUrdf(..., mimic=True)``
-models it), checked by the validator like a YAML file's (``input/mimic.py``); one naming a
-joint the file does not have, or a fixed one, is ignored with a note (the joint an independent
-coordinate, as in Pinocchio's default: alex_psyonic_hands.urdf names ``index_q1`` for
-``Left_index_q1``).
+Rotations are composed as matrices (``urdf_values``: only the ``rpy`` written in the file are
+snapped to quarter turns). ``<mimic>`` on a fixed joint is ignored with a note in
+``document.notes``; on a moving joint it becomes the joint's ``mimic``, as
+``pin.buildModelFromUrdf(..., mimic=True)`` models it, checked by the validator like a YAML
+file's (``input/mimic.py``); one naming a joint the file does not have, or a fixed one, is
+ignored with a note (the joint an independent coordinate, as in Pinocchio's default:
+alex_psyonic_hands.urdf names ``index_q1`` for ``Left_index_q1``).
 Masses and inertias are judged in ``urdf_bodies`` (with the rounding tolerance of ``inertia``;
 links welded to the world get notes, never errors), which also merges the welded bodies.
 """
@@ -110,8 +107,7 @@ def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, Body], dict[
         origin = inertial.find("origin")
         xyz = reader.numbers(origin, "xyz", 3, [0, 0, 0])
         rotation = Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0], angles=True))
-        mass_element = inertial.find("mass")
-        inertia_element = inertial.find("inertia")
+        mass_element, inertia_element = inertial.find("mass"), inertial.find("inertia")
         if mass_element is None or inertia_element is None:
             reader.error(inertial, f"link '{name}': <inertial> needs <mass> and <inertia>")
             continue

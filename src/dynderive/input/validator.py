@@ -30,8 +30,7 @@ IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
 class Validator:
-    """Collects positioned problems and checks generic values (mappings, identifiers, texts,
-    expressions, vectors) of one parsed robot file."""
+    """The problems and the generic checks (module docstring) of one parsed robot file."""
 
     def __init__(self, doc: SourceDocument):
         self.doc = doc

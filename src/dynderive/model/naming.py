@@ -22,9 +22,7 @@ def split_index(name: str) -> tuple[str, str]:
     match = re.fullmatch(r"(.*?)(\d*)", name)
     assert match is not None
     stem, digits = match.group(1), match.group(2)
-    if not stem:  # a name of digits only cannot happen (identifiers), keep it whole
-        return name, ""
-    return stem, digits
+    return (stem, digits) if stem else (name, "")   # digits only cannot happen (identifiers): kept whole
 
 
 def velocity_name(name: str) -> str:
