@@ -28,9 +28,8 @@ from .free_joints import planar_floating_names
 #: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
 #: of that name would shadow them in the generated module. The names ``site`` adds are listed
 #: too, so the set does not depend on how Python was started.
-PYTHON_BUILTINS = frozenset(
-    name for name in dir(builtins) if not name.startswith("_")
-) | {"copyright", "credits", "exit", "help", "license", "quit"}
+PYTHON_BUILTINS = frozenset(name for name in dir(builtins) if not name.startswith("_")) | {
+    "copyright", "credits", "exit", "help", "license", "quit"}
 
 #: Argument names of the generated functions, current and planned (DESIGN.md section 6).
 API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess", "friction_smoothing"})

@@ -341,9 +341,8 @@ def _looks_planar(top: dict[str, Any]) -> bool:
     for joint in joints if isinstance(joints, list) else []:
         if isinstance(joint, dict):
             origin, axis = joint.get("origin"), joint.get("axis")
-            if isinstance(origin, dict) or (isinstance(origin, list) and len(origin) not in (2, 3)):
-                return False
-            if isinstance(axis, list) and len(axis) != 2:
+            if (isinstance(origin, dict) or (isinstance(origin, list) and len(origin) not in (2, 3))
+                    or (isinstance(axis, list) and len(axis) != 2)):
                 return False
     return True
 

@@ -28,6 +28,7 @@ import re
 from typing import Any
 
 import numpy as np
+import yaml
 
 from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
@@ -64,8 +65,7 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
 
     by_child = _check_tree(reader, joints, link_elements)
     reader.raise_problems()
-    children = set(by_child)
-    roots = [name for name in link_elements if name not in children]
+    roots = [name for name in link_elements if name not in by_child]
     if len(roots) != 1:
         where = root if not roots else link_elements[roots[1]]
         raise InputError(Problem(file, *where.at,
@@ -379,8 +379,6 @@ def _check_tree(reader: _Reader, joints: list[dict[str, Any]],
 
 def to_yaml(data: dict[str, Any], source: str) -> str:
     """The robot data as a version-1 YAML robot file, lists written inline."""
-    import yaml
-
     from .._version import __version__
 
     class _Dumper(yaml.SafeDumper):

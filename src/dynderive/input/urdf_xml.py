@@ -98,14 +98,11 @@ def _parse_xml(text: str, file: str) -> _Element:
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)
 
-    def end(tag: str) -> None:
-        stack.pop()
-
     def refuse(*_: Any) -> None:
         raise ValueError("DTDs and entities are not allowed in URDF files")
 
     parser.StartElementHandler = start
-    parser.EndElementHandler = end
+    parser.EndElementHandler = lambda tag: stack.pop()
     parser.StartDoctypeDeclHandler = refuse
     parser.EntityDeclHandler = refuse
     try:

@@ -173,14 +173,11 @@ class Validator:
 
     def vector(self, value: Any, path: tuple[Any, ...], lengths: tuple[int, ...],
                symbols: dict[str, sympy.Expr]) -> list[sympy.Expr | None] | None:
+        sizes = " or ".join(str(n) for n in lengths)
         if not isinstance(value, list):
-            self.report(path, f"expected a list of {_lengths(lengths)} entries, got {kind(value)}")
+            self.report(path, f"expected a list of {sizes} entries, got {kind(value)}")
             return None
         if len(value) not in lengths:
-            self.report(path, f"expected {_lengths(lengths)} entries, got {len(value)}")
+            self.report(path, f"expected {sizes} entries, got {len(value)}")
             return None
         return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
-
-
-def _lengths(lengths: tuple[int, ...]) -> str:
-    return " or ".join(str(n) for n in lengths)

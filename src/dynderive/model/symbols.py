@@ -59,8 +59,7 @@ class SymbolTable:
         return parse_expression(text, self.parameters)
 
     def maximal_expr(self, text: object) -> sympy.Expr:
-        scope = dict(self.parameters) | {str(s): s for s in self.qm}
-        return parse_expression(text, scope)
+        return parse_expression(text, dict(self.parameters) | {str(s): s for s in self.qm})
 
     def all_symbols(self) -> list[sympy.Symbol]:
         return [*self.parameters.values(), *self.q, *self.qd, *self.qdd, *self.efforts.values(),
