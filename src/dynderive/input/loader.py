@@ -102,11 +102,8 @@ def resolve_robot_path(robot: str | Path) -> Path:
         candidate = bundled_robots_dir() / f"{robot}{suffix}"
         if candidate.is_file():
             return candidate
-    names = ", ".join(bundled_robot_names())
-    raise InputError(
-        Problem(str(robot), 1, 1, f"no such file, and no bundled robot of that name "
-                f"(bundled: {names})")
-    )
+    raise InputError(Problem(str(robot), 1, 1, "no such file, and no bundled robot of that name "
+                             f"(bundled: {', '.join(bundled_robot_names())})"))
 
 
 _FILE_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),

@@ -54,9 +54,7 @@ def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str |
         epath = path + ("effort",)
         v.report(epath, "a mimic joint has no effort of its own (its drive acts on its leader's coordinate, "
                  f"through the multiplier): put the effort on joint {block['joint']!r}", key=True)
-    if leader is None or None in numbers:
-        return None
-    return Mimic(leader, numbers[0], numbers[1])
+    return None if leader is None or None in numbers else Mimic(leader, *numbers)
 
 
 def _finite(value: float) -> bool:
@@ -77,11 +75,9 @@ def check_mimics(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool)
                 springs.setdefault(joint.name, []).append(i)
             continue
         mpath, lpath = ("joints", i, "mimic"), ("joints", i, "mimic", "joint")
-        if planar:
-            v.report(mpath, "mimic joints are built for 3-D robots only", key=True)
-            continue
-        if "loops" in top:
-            v.report(mpath, "mimic joints in a robot with loops are not built yet", key=True)
+        if planar or "loops" in top:   # not built yet
+            v.report(mpath, "mimic joints are built for 3-D robots only" if planar
+                     else "mimic joints in a robot with loops are not built yet", key=True)
             continue
         name = joint.mimic.joint
         leader = by_name.get(name)
