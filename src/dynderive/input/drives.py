@@ -32,11 +32,9 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
         if key not in item:
             continue
         kpath = path + (key,)
-        if jtype == "fixed":
-            v.report(kpath, f"a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}", key=True)
-            continue
-        if jtype in ("floating", "spherical"):
-            v.report(kpath, f"drive terms on a {jtype} joint are not built yet", key=True)
+        if jtype in ("fixed", "floating", "spherical"):
+            v.report(kpath, f"a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}" if jtype == "fixed"
+                     else f"drive terms on a {jtype} joint are not built yet", key=True)
             continue
         if item[key] is None or isinstance(item[key], (bool, list, dict)):
             kind = "nothing" if item[key] is None else type(item[key]).__name__

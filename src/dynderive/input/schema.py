@@ -227,13 +227,10 @@ def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         effort = item.get("effort")
         if effort is not None:
             effort = v.identifier(effort, path + ("effort",), "effort name")
-            if effort is not None and jtype == "fixed":
-                v.report(path + ("effort",), "a fixed joint has no effort")
-                effort = None
-            elif effort is not None and jtype == "floating" and planar:
-                v.report(path + ("effort",), "a planar floating joint is unactuated (push its body with a "
-                         "wrench at a frame)")
-                effort = None
+        if effort is not None and (jtype == "fixed" or (jtype == "floating" and planar)):
+            v.report(path + ("effort",), "a fixed joint has no effort" if jtype == "fixed" else
+                     "a planar floating joint is unactuated (push its body with a wrench at a frame)")
+            effort = None
         drives = drive_terms(v, item, path, jtype, symbols)
         mimic = read_mimic(v, item, path, jtype)
         parent, child = item.get("parent"), item.get("child")

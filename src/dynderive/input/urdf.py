@@ -129,8 +129,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
     for joint in root.findall("joint"):
         name = joint.attrib.get("name", "")
         jtype = joint.attrib.get("type", "")
-        parent = (joint.find("parent") or _Element("parent", {}, joint.line, joint.column)).attrib.get("link")
-        child = (joint.find("child") or _Element("child", {}, joint.line, joint.column)).attrib.get("link")
+        parent, child = (getattr(joint.find(role), "attrib", {}).get("link") for role in ("parent", "child"))
         mimic, follows = joint.find("mimic"), None
         if mimic is not None and jtype == "fixed":
             doc.note(mimic.at, f"<mimic> on fixed joint '{name}' ignored")
