@@ -20,8 +20,9 @@ from ..model.robot import Joint, Link
 
 #: Names the generated module of a floating-base robot defines or takes as arguments (besides
 #: those of every module, ``names.MODULE_NAMES``): robot symbols may not take them.
-FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "neutral_configuration", "integrate",
-                                   "difference", "configuration_rate", "v", "dt", "q_from", "q_to"})
+FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "neutral_configuration",
+                                   "integrate", "difference", "configuration_rate",
+                                   "v", "dt", "q_from", "q_to"})
 
 #: A planar floating joint's coordinates, ``<joint>_x``, ``<joint>_y``, ``<joint>_theta``.
 PLANAR_FLOATING = ("x", "y", "theta")

@@ -105,7 +105,8 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
     try:
         tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
-        raise ExpressionError(f"malformed expression: {exc.msg}", max((exc.offset or 1) - 1, 0) + lead) from None
+        offset = max((exc.offset or 1) - 1, 0) + lead
+        raise ExpressionError(f"malformed expression: {exc.msg}", offset) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression is too complex") from None
     builder = _Builder(symbols, lead, source.strip())
