@@ -22,39 +22,34 @@ NON_NEGATIVE = ("damping", "friction", "stiffness", "armature")
 
 
 def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None,
-                symbols: dict[str, sympy.Expr], numeric: Any) -> dict[str, Any]:
+                symbols: dict[str, sympy.Expr]) -> dict[str, Any]:
     """The drive terms of one joint entry, checked; problems go to the validator ``v``.
 
-    ``numeric(expr)`` gives an expression's value at the parameter defaults (None if it has
-    no number there). Returns ``{key: expression text}`` for the keys present and valid.
+    Returns ``{key: expression text}`` for the keys present and valid.
     """
     terms: dict[str, Any] = {}
     for key in DRIVE_KEYS:
         if key not in item:
             continue
         kpath = path + (key,)
-        if jtype == "fixed":
-            v.error(kpath, f"{v.label(kpath)}: a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}",
-                    key=True)
-            continue
-        if jtype in ("floating", "spherical"):
-            v.error(kpath, f"{v.label(kpath)}: drive terms on a {jtype} joint are not built yet",
-                    key=True)
+        if jtype in ("fixed", "floating", "spherical"):
+            v.report(kpath, f"a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}" if jtype == "fixed"
+                     else f"drive terms on a {jtype} joint are not built yet", key=True)
             continue
         if item[key] is None or isinstance(item[key], (bool, list, dict)):
             kind = "nothing" if item[key] is None else type(item[key]).__name__
-            v.error(kpath, f"{v.label(kpath)}: expected a number or an expression, got {kind}")
+            v.report(kpath, f"expected a number or an expression, got {kind}")
             continue
         expr = v.expression(item[key], kpath, symbols)
         if expr is None:
             continue
-        value = numeric(expr)
+        value = v.numeric(expr)
         if key in NON_NEGATIVE and value is not None and value < 0:
-            v.error(kpath, f"{v.label(kpath)}: {DRIVE_KEYS[key]} must not be negative (got {value:g})")
+            v.report(kpath, f"{DRIVE_KEYS[key]} must not be negative (got {value:g})")
             continue
         terms[key] = item[key]
     if "rest" in item and "stiffness" not in item and jtype != "fixed":
         rpath = path + ("rest",)
-        v.error(rpath, f"{v.label(rpath)}: a rest position needs a spring: add 'stiffness'", key=True)
+        v.report(rpath, "a rest position needs a spring: add 'stiffness'", key=True)
         terms.pop("rest", None)
     return terms

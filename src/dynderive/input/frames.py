@@ -19,22 +19,21 @@ from .names import EngineQuantities, check_frame
 FRAME_KEYS = ("name", "link", "origin")
 
 
-def read_frames(v: Any, top: dict[str, Any], link_names: dict[str, Any], links_broken: bool, bad_links: set[Any],
+def read_frames(v: Any, top: dict[str, Any], tree: Any,
                 origin: Callable[[Any, tuple[Any, ...]], tuple[Any, ...]], planar: bool = False,
                 engine: EngineQuantities | None = None) -> list[Frame]:
-    """The frames, every problem reported on the validator ``v`` (a frame naming a link that
-    is already reported as bad is not reported again; a frame whose quantities would be named
-    as one of ``engine``'s, ``names.engine_quantities``, is refused)."""
+    """The frames, every problem reported on the validator ``v`` (``tree``: the links read,
+    ``schema._LinkNames``; a frame naming a link that is already reported as bad is not
+    reported again; a frame whose quantities would be named as one of ``engine``'s,
+    ``names.engine_quantities``, is refused)."""
     frames: list[Frame] = []
     for i, path, item, name, new in v.named_items(top, "frames", "frame", FRAME_KEYS, ("name", "link"), {}):
         if new:
             check_frame(v, name, path + ("name",), planar, engine or {})
         link = item.get("link")
-        if "link" in item and link not in link_names and not (links_broken or link in bad_links):
-            if link == "world":
-                hint = " (a frame on the world is fixed: it needs no kinematics)"
-            else:
-                hint = did_you_mean(str(link), link_names)
-            v.error(path + ("link",), f"{v.label(path + ('link',))}: unknown link {link!r}{hint}")
+        if "link" in item and link not in tree.names and not (tree.broken or link in tree.bad):
+            hint = (" (a frame on the world is fixed: it needs no kinematics)" if link == "world"
+                    else did_you_mean(str(link), tree.names))
+            v.report(path + ("link",), f"unknown link {link!r}{hint}")
         frames.append(Frame(name or f"frame{i + 1}", str(link), origin(item.get("origin"), path + ("origin",))))
     return frames

@@ -20,8 +20,8 @@ from ..model.robot import Joint, Link
 
 #: Names the generated module of a floating-base robot defines or takes as arguments (besides
 #: those of every module, ``names.MODULE_NAMES``): robot symbols may not take them.
-FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "neutral_configuration", "integrate", "difference",
-                                   "configuration_rate",
+FLOATING_MODULE_NAMES = frozenset({"NQ", "NV", "VELOCITIES", "EFFORT_COLUMNS", "neutral_configuration",
+                                   "integrate", "difference", "configuration_rate",
                                    "v", "dt", "q_from", "q_to"})
 
 #: A planar floating joint's coordinates, ``<joint>_x``, ``<joint>_y``, ``<joint>_theta``.
@@ -43,21 +43,16 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
     """``floating`` and ``spherical`` joints stand anywhere in a 3-D robot without loops (both
     take the floating-base module); a planar ``floating`` joint anywhere in a planar robot,
     its coordinates' and massless links' names free."""
-    spherical = [(i, j) for i, j in enumerate(joints) if j.type == "spherical"]
-    if spherical and planar:
-        for i, _ in spherical:
-            v.error(("joints", i, "type"), f"{v.label(('joints', i, 'type'))}: a spherical joint turns in 3-D: "
-                    "a planar robot has none (give the robot 3-D origins, inertias and axes)")
-        return
+    spherical = [i for i, j in enumerate(joints) if j.type == "spherical"]
     floating = [(i, j) for i, j in enumerate(joints) if j.type == "floating"]
-    if not floating:
-        if spherical:
-            _reserved(v, top, joints, "a robot with spherical joints")
-        return
     if planar:
-        _planar_names(v, floating, joints, links or [])
-        return
-    _reserved(v, top, joints, "a floating-base robot")
+        for i in spherical:
+            v.report(("joints", i, "type"), "a spherical joint turns in 3-D: a planar robot has none (give "
+                     "the robot 3-D origins, inertias and axes)")
+        if floating and not spherical:
+            _planar_names(v, floating, joints, links or [])
+    elif floating or spherical:
+        _reserved(v, top, joints, "a floating-base robot" if floating else "a robot with spherical joints")
 
 
 def _planar_names(v: Any, floating: list[tuple[int, Joint]], joints: list[Joint], links: list[Link]) -> None:
@@ -72,8 +67,9 @@ def _planar_names(v: Any, floating: list[tuple[int, Joint]], joints: list[Joint]
             where = (f"{kind} '{name}' at {v.at((kind + 's', others[name]))}" if name in others else
                      f"the floating joint at {v.at(('joints', taken[name]))}" if name in taken else None)
             if where is not None:
-                v.error(path, f"{v.label(path)}: a planar floating joint is the joints {', '.join(planar_floating_names(joint.name))} "
-                        f"and the massless links {', '.join(planar_floating_links(joint.name))}; '{name}' is taken by {where}")
+                v.report(path, "a planar floating joint is the joints "
+                         f"{', '.join(planar_floating_names(joint.name))} and the massless links "
+                         f"{', '.join(planar_floating_links(joint.name))}; '{name}' is taken by {where}")
             taken.setdefault(name, i)
 
 
@@ -118,5 +114,4 @@ def _reserved(v: Any, top: dict[str, Any], joints: list[Joint], kind: str) -> No
     for i, joint in enumerate(joints):
         if (joint.moves and not joint.multi and joint.name in FLOATING_MODULE_NAMES) or (joint.effort or "") in FLOATING_MODULE_NAMES:
             what, key = ("name", joint.name) if joint.name in FLOATING_MODULE_NAMES else ("effort", joint.effort)
-            v.error(("joints", i, what), f"{v.label(('joints', i, what))}: name '{key}' is reserved by the "
-                    f"generated module of {kind}")
+            v.report(("joints", i, what), f"name '{key}' is reserved by the generated module of {kind}")

@@ -33,7 +33,6 @@ by its own size, which is a millionth of the robot's and below anything the dyna
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -202,47 +201,48 @@ class Written:
     pairs: tuple[tuple[int, int, float | None, float | None], ...] = ()
 
 
+def from_entries(ixx: Any, iyy: Any, izz: Any, ixy: Any, ixz: Any, iyz: Any) -> np.ndarray:
+    """The symmetric 3 x 3 tensor of the six entries of an inertia."""
+    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=float)
+
+
 #: Position of the entry ``[r][c]`` (``r < c``) in ``(ixx, iyy, izz, ixy, ixz, iyz)``.
 _FLAT = {(0, 1): 3, (0, 2): 4, (1, 2): 5}
 
 
-def read(v: Any, value: Any, path: tuple[Any, ...], planar: bool, symbols: dict[str, sympy.Expr],
-         numeric: Callable[[sympy.Expr | None], float | None]) -> tuple[tuple[Any, ...], Written | None]:
-    """A link's inertia entries as written (``v``: the validator; ``numeric``: an expression's
-    value at the parameter defaults, or None), and for a 3-D link what ``check_links`` needs
-    to judge them once the whole robot is read."""
-    label = v.label(path)
+def read(v: Any, value: Any, path: tuple[Any, ...], planar: bool,
+         symbols: dict[str, sympy.Expr]) -> tuple[tuple[Any, ...], Written | None]:
+    """A link's inertia entries as written (``v``: the validator), and for a 3-D link what
+    ``check_links`` needs to judge them once the whole robot is read."""
     if planar:
         if isinstance(value, list):
-            v.error(path, f"{label}: a planar link takes one scalar inertia about the COM")
+            v.report(path, "a planar link takes one scalar inertia about the COM")
             return (0,), None
-        number = numeric(v.expression(value, path, symbols))
+        number = v.numeric(v.expression(value, path, symbols))
         if number is not None and number < 0:
-            v.error(path, f"{label}: must not be negative (got {number:g})")
+            v.report(path, f"must not be negative (got {number:g})")
         return (value,), None
     pairs = []
     if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
         rows = value
         if any(len(r) != 3 for r in rows):
-            v.error(path, f"{label}: a 3x3 inertia needs three rows of three entries")
+            v.report(path, "a 3x3 inertia needs three rows of three entries")
             return (0,) * 6, None
         flat = [rows[0][0], rows[1][1], rows[2][2], rows[0][1], rows[0][2], rows[1][2]]
         exprs = [v.expression(rows[r][c], path + (r, c), symbols) for r in range(3) for c in range(3)]
         for (r, c) in ((0, 1), (0, 2), (1, 2)):
             a, b = exprs[3 * r + c], exprs[3 * c + r]
             if a is not None and b is not None and sympy.expand(a - b) != 0:
-                pairs.append((r, c, None if a.free_symbols else numeric(a), None if b.free_symbols else numeric(b)))
+                pairs.append((r, c, None if a.free_symbols else v.numeric(a),
+                              None if b.free_symbols else v.numeric(b)))
         used = [exprs[0], exprs[4], exprs[8], exprs[1], exprs[2], exprs[5]]
     else:
         entries = v.vector(value, path, (6,), symbols)
         if entries is None:
             return (0,) * 6, None
         flat, used = list(value), entries
-    values = [numeric(e) for e in used]
-    tensor = None
-    if all(x is not None for x in values):
-        ixx, iyy, izz, ixy, ixz, iyz = values
-        tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=float)
+    values = [v.numeric(e) for e in used]
+    tensor = from_entries(*values) if all(x is not None for x in values) else None
     constant = all(e is not None and not e.free_symbols for e in used)
     return tuple(flat), Written(path, tensor, constant, tuple(pairs))
 
@@ -263,8 +263,7 @@ def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Wr
         for r, c, upper, lower in w.pairs:
             where = w.path + (c, r)
             if welded:
-                _yaml_note(v, where, f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}]); "
-                           "ignored: the link is welded to the world, so its inertia never enters the dynamics")
+                v.note(where, _ignored(f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}])"))
             elif tensor is None or upper is None or lower is None:
                 v.error(where, f"{label}: not symmetric (entry [{c}][{r}] differs from [{r}][{c}])")
             else:
@@ -276,23 +275,18 @@ def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Wr
                     v.error(where, f"{label}: {error}")
                     tensor = None
                 else:
-                    _yaml_note(v, where, f"{label}: {note}")
+                    v.note(where, f"{label}: {note}")
                     entries[_FLAT[(r, c)]] = mean
         if tensor is not None:
             verdict = judge(tensor, scale, welded, correct=w.constant)
             if verdict.error is not None:
-                v.error(w.path, f"{label}: {verdict.error}")
+                v.report(w.path, verdict.error)
             if verdict.note is not None:
-                _yaml_note(v, w.path, f"{label}: {verdict.note}")
+                v.note(w.path, f"{label}: {verdict.note}")
             if verdict.tensor is not tensor:
                 entries = list(inertia_entries(verdict.tensor))
         result.append(replace(link, inertia=tuple(entries)))
     return result
-
-
-def _yaml_note(v: Any, path: tuple[Any, ...], message: str) -> None:
-    line, column = v.doc.where(path)
-    v.doc.notes.append(f"{v.doc.file}:{line}:{column}: note: {message}")
 
 
 def moved_links(parents: dict[str, tuple[str, bool]]) -> set[str]:

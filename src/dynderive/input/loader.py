@@ -29,11 +29,8 @@ MAX_FILE_BYTES = 2_000_000
 MAX_VALUES = 50_000
 #: Deepest nesting of YAML collections (a robot file needs about 5 levels).
 MAX_YAML_DEPTH = 100
-
-
-class _TooLarge(Exception):
-    def __init__(self, node: yaml.Node):
-        self.node = node
+#: The suffixes of robot files.
+ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf")
 
 
 @dataclass
@@ -41,8 +38,8 @@ class SourceDocument:
     """Parsed file contents with positions.
 
     ``positions[path]`` is where the value at ``path`` starts; ``key_positions[path]`` is
-    where the key naming it starts (for "unknown key" errors); ``quoted[path]`` tells whether
-    a scalar was written in quotes (so expression errors can point inside the string).
+    where the key naming it starts (for "unknown key" errors); ``scalar_style[path]`` tells
+    whether a scalar was written in quotes (so expression errors can point inside the string).
     """
 
     file: str
@@ -79,6 +76,10 @@ class SourceDocument:
         line, column = self.where(path, key)
         return Problem(self.file, line, column + offset, message)
 
+    def note(self, where: tuple[int, int], message: str) -> None:
+        """Add a ``note:`` line at ``where`` (``LINE, COL``) to ``notes``."""
+        self.notes.append(f"{self.file}:{where[0]}:{where[1]}: note: {message}")
+
 
 def bundled_robots_dir() -> Path:
     """Directory of the robots shipped with dynderive (inside the wheel, or the checkout)."""
@@ -89,32 +90,24 @@ def bundled_robots_dir() -> Path:
 
 
 def bundled_robot_names() -> list[str]:
-    directory = bundled_robots_dir()
-    return sorted(
-        p.stem for p in directory.glob("*") if p.suffix in {".yaml", ".yml", ".urdf"}
-    )
+    return sorted(p.stem for p in bundled_robots_dir().glob("*") if p.suffix in ROBOT_SUFFIXES)
 
 
 def resolve_robot_path(robot: str | Path) -> Path:
     """A path as given, or the file of a bundled robot called ``robot``."""
     path = Path(robot)
-    if path.exists() or path.suffix in {".yaml", ".yml", ".urdf"} or len(path.parts) > 1:
+    if path.exists() or path.suffix in ROBOT_SUFFIXES or len(path.parts) > 1:
         return path
-    for suffix in (".yaml", ".yml", ".urdf"):
+    for suffix in ROBOT_SUFFIXES:
         candidate = bundled_robots_dir() / f"{robot}{suffix}"
         if candidate.is_file():
             return candidate
-    names = ", ".join(bundled_robot_names())
-    raise InputError(
-        Problem(str(robot), 1, 1, f"no such file, and no bundled robot of that name "
-                f"(bundled: {names})")
-    )
+    raise InputError(Problem(str(robot), 1, 1, "no such file, and no bundled robot of that name "
+                             f"(bundled: {', '.join(bundled_robot_names())})"))
 
 
-_FILE_KINDS = (
-    (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
+_FILE_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
 def read_text(path: Path) -> str:
@@ -130,7 +123,9 @@ def read_text(path: Path) -> str:
         if stat.S_ISDIR(info.st_mode):
             raise InputError(Problem(display, 1, 1, "is a directory, not a robot file"))
         if not stat.S_ISREG(info.st_mode):
-            raise InputError(Problem(display, 1, 1, f"not a regular file ({_file_kind(info.st_mode)})"))
+            what = next((name for test, name in _FILE_KINDS if test(info.st_mode)),
+                        "not a file with contents")
+            raise InputError(Problem(display, 1, 1, f"not a regular file ({what})"))
         if info.st_size > MAX_FILE_BYTES:
             raise InputError(Problem(display, 1, 1, f"file is larger than {MAX_FILE_BYTES} bytes"))
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
@@ -154,10 +149,6 @@ def read_text(path: Path) -> str:
         raise InputError(Problem(display, line, column, "file is not valid UTF-8")) from None
 
 
-def _file_kind(mode: int) -> str:
-    return next((kind for test, kind in _FILE_KINDS if test(mode)), "not a file with contents")
-
-
 class _Composer(yaml.SafeLoader):
     """Safe loader used only to compose nodes; values are built by ``_build``.
 
@@ -165,7 +156,7 @@ class _Composer(yaml.SafeLoader):
     numbers, as in YAML 1.2 and as users mean them: YAML 1.1, which PyYAML follows, reads them
     as text unless they have a dot and a signed exponent. Quoted, they stay text.
 
-    Nesting deeper than ``MAX_YAML_DEPTH`` stops the composition at once (``_TooDeep``): PyYAML's
+    Nesting deeper than ``MAX_YAML_DEPTH`` stops the composition at once (``_Refused``): PyYAML's
     parser slows down with depth, and 500 levels of ``[`` took seconds before Python's
     recursion limit ended them."""
 
@@ -175,19 +166,17 @@ class _Composer(yaml.SafeLoader):
         self.depth += 1
         try:
             if self.depth > MAX_YAML_DEPTH:
-                raise _TooDeep(_mark_of(self.peek_event().start_mark))
+                raise _Refused(self.peek_event().start_mark, "YAML nesting is too deep")
             return super().compose_node(parent, index)
         finally:
             self.depth -= 1
 
 
-class _TooDeep(Exception):
-    def __init__(self, where: tuple[int, int]):
-        self.where = where
+class _Refused(Exception):
+    """A document beyond a limit (``MAX_YAML_DEPTH``, ``MAX_VALUES``), refused where it shows."""
 
-
-def _mark_of(mark: yaml.Mark) -> tuple[int, int]:
-    return mark.line + 1, mark.column + 1
+    def __init__(self, mark: yaml.Mark, message: str):
+        self.where, self.message = _mark(mark), message
 
 
 _Composer.add_implicit_resolver(
@@ -202,12 +191,16 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
     deep = _flow_too_deep(text, MAX_YAML_DEPTH)
     if deep is not None:
         raise InputError(Problem(file, *deep, "YAML nesting is too deep"))
+    document = SourceDocument(file=file, data=None, positions={(): (1, 1)})   # (1, 1): an empty file
+    problems: list[Problem] = []
     try:
         loader = _Composer(text)
         try:
             node = loader.get_single_node()
         finally:
             loader.dispose()
+        if node is not None:
+            document.data = _build(node, (), document, problems, _Composer(""), [0])
     except yaml.MarkedYAMLError as exc:
         raise InputError(student_problem(exc, text, file) or _syntax_problem(exc, file)) from None
     except yaml.reader.ReaderError as exc:
@@ -217,25 +210,10 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
                                  "is not allowed in YAML")) from None
     except yaml.YAMLError as exc:  # pragma: no cover - defensive, PyYAML marks nearly all
         raise InputError(Problem(file, 1, 1, f"YAML syntax error: {exc}")) from None
-    except _TooDeep as exc:
-        raise InputError(Problem(file, *exc.where, "YAML nesting is too deep")) from None
-    except RecursionError:   # pragma: no cover - the depth limit comes first
+    except _Refused as exc:
+        raise InputError(Problem(file, *exc.where, exc.message)) from None
+    except RecursionError:   # building a self-referencing alias (&a [*a]); composing stops at the limit
         raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
-
-    document = SourceDocument(file=file, data=None)
-    if node is None:
-        document.data = None
-        document.positions[()] = (1, 1)
-        return document
-    problems: list[Problem] = []
-    try:
-        document.data = _build(node, (), document, problems, _Composer(""), [0])
-    except RecursionError:
-        raise InputError(Problem(file, 1, 1, "YAML nesting is too deep")) from None
-    except _TooLarge as exc:
-        line, column = _mark(exc.node)
-        raise InputError(Problem(file, line, column, f"document expands to more than {MAX_VALUES} "
-                                 "values (YAML aliases?)")) from None
     if problems:
         raise InputError(problems)
     return document
@@ -301,18 +279,16 @@ def _syntax_problem(exc: yaml.MarkedYAMLError, file: str) -> Problem:
     if opened is not None and context and exc.problem_mark is not None and opened.line != exc.problem_mark.line:
         if "quoted scalar" in context:
             quote = opened.buffer[opened.pointer] if opened.buffer else '"'
-            return Problem(file, opened.line + 1, opened.column + 1, f"YAML syntax error: '{quote}' was never closed")
+            return Problem(file, *_mark(opened), f"YAML syntax error: '{quote}' was never closed")
         if "flow sequence" in context or "flow mapping" in context:
             bracket = "[" if "sequence" in context else "{"
-            return Problem(file, opened.line + 1, opened.column + 1,
-                           f"YAML syntax error: '{bracket}' was never closed ({what} at line "
-                           f"{exc.problem_mark.line + 1})")
-    line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-    return Problem(file, line, column, f"YAML syntax error: {what}")
+            return Problem(file, *_mark(opened), f"YAML syntax error: '{bracket}' was never closed "
+                           f"({what} at line {exc.problem_mark.line + 1})")
+    return Problem(file, *(_mark(mark) if mark else (1, 1)), f"YAML syntax error: {what}")
 
 
-def _mark(node: yaml.Node) -> tuple[int, int]:
-    return node.start_mark.line + 1, node.start_mark.column + 1
+def _mark(mark: yaml.Mark) -> tuple[int, int]:
+    return mark.line + 1, mark.column + 1
 
 
 _PLAIN_TAGS = {"tag:yaml.org,2002:seq", "tag:yaml.org,2002:map"}
@@ -322,30 +298,28 @@ def _build(node: yaml.Node, path: Path_, doc: SourceDocument, problems: list[Pro
            constructor: yaml.SafeLoader, count: list[int]) -> Any:
     count[0] += 1
     if count[0] > MAX_VALUES:
-        raise _TooLarge(node)
-    doc.positions[path] = _mark(node)
+        raise _Refused(node.start_mark, f"document expands to more than {MAX_VALUES} values (YAML aliases?)")
+    doc.positions[path] = _mark(node.start_mark)
     if not isinstance(node, yaml.ScalarNode) and node.tag not in _PLAIN_TAGS:
-        line, column = _mark(node)
-        problems.append(Problem(doc.file, line, column, "invalid value: could not determine a "
+        problems.append(Problem(doc.file, *_mark(node.start_mark), "invalid value: could not determine a "
                                 f"constructor for the tag '{node.tag}'"))
         return None
     if isinstance(node, yaml.MappingNode):
         result: dict[Any, Any] = {}
         for key_node, value_node in node.value:
             if not isinstance(key_node, yaml.ScalarNode):
-                line, column = _mark(key_node)
-                problems.append(Problem(doc.file, line, column, "mapping keys must be plain names"))
+                problems.append(Problem(doc.file, *_mark(key_node.start_mark),
+                                        "mapping keys must be plain names"))
                 continue
             key = _construct(key_node, doc, problems, constructor)
             if not isinstance(key, str):
                 key = str(key_node.value)
             if key in result:
-                line, column = _mark(key_node)
                 first = doc.key_positions[path + (key,)]
-                problems.append(Problem(doc.file, line, column,
+                problems.append(Problem(doc.file, *_mark(key_node.start_mark),
                                         f"duplicate key '{key}' (first given at line {first[0]})"))
                 continue
-            doc.key_positions[path + (key,)] = _mark(key_node)
+            doc.key_positions[path + (key,)] = _mark(key_node.start_mark)
             result[key] = _build(value_node, path + (key,), doc, problems, constructor, count)
         return result
     if isinstance(node, yaml.SequenceNode):
@@ -366,8 +340,7 @@ def _construct(node: yaml.Node, doc: SourceDocument, problems: list[Problem],
         message = exc.problem or "cannot be constructed"
     except (ValueError, KeyError, TypeError, OverflowError) as exc:
         message = f"{node.tag.rsplit(':', 1)[-1]} value {node.value!r} does not parse ({type(exc).__name__})"
-    line, column = _mark(node)
-    problems.append(Problem(doc.file, line, column, f"invalid value: {message}"))
+    problems.append(Problem(doc.file, *_mark(node.start_mark), f"invalid value: {message}"))
     return None
 
 

@@ -32,8 +32,8 @@ def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str |
         return None
     mpath = path + ("mimic",)
     if jtype is not None and jtype not in COUPLED_TYPES:
-        v.error(mpath, f"{v.label(mpath)}: a {jtype} joint cannot mimic another (only revolute and prismatic "
-                "joints can)", key=True)
+        v.report(mpath, f"a {jtype} joint cannot mimic another (only revolute and prismatic joints can)",
+                 key=True)
         return None
     block = v.mapping(item["mimic"], mpath, MIMIC_KEYS, required=("joint",))
     if block is None or "joint" not in block:
@@ -44,19 +44,17 @@ def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str |
         value = block.get(key, default)
         kpath = mpath + (key,)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
-            v.error(kpath, f"{v.label(kpath)}: expected a finite number, got {value!r}")
+            v.report(kpath, f"expected a finite number, got {value!r}")
             value = None
         elif key == "multiplier" and value == 0:
-            v.error(kpath, f"{v.label(kpath)}: multiplier 0 does not move the joint (make it type: fixed)")
+            v.report(kpath, "multiplier 0 does not move the joint (make it type: fixed)")
             value = None
         numbers.append(value)
     if "effort" in item:
         epath = path + ("effort",)
-        v.error(epath, f"{v.label(epath)}: a mimic joint has no effort of its own (its drive acts on its "
-                f"leader's coordinate, through the multiplier): put the effort on joint {block['joint']!r}", key=True)
-    if leader is None or None in numbers:
-        return None
-    return Mimic(leader, numbers[0], numbers[1])
+        v.report(epath, "a mimic joint has no effort of its own (its drive acts on its leader's coordinate, "
+                 f"through the multiplier): put the effort on joint {block['joint']!r}", key=True)
+    return None if leader is None or None in numbers else Mimic(leader, *numbers)
 
 
 def _finite(value: float) -> bool:
@@ -77,31 +75,28 @@ def check_mimics(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool)
                 springs.setdefault(joint.name, []).append(i)
             continue
         mpath, lpath = ("joints", i, "mimic"), ("joints", i, "mimic", "joint")
-        if planar:
-            v.error(mpath, f"{v.label(mpath)}: mimic joints are built for 3-D robots only", key=True)
-            continue
-        if "loops" in top:
-            v.error(mpath, f"{v.label(mpath)}: mimic joints in a robot with loops are not built yet",
-                    key=True)
+        if planar or "loops" in top:   # not built yet
+            v.report(mpath, "mimic joints are built for 3-D robots only" if planar
+                     else "mimic joints in a robot with loops are not built yet", key=True)
             continue
         name = joint.mimic.joint
         leader = by_name.get(name)
         if leader is None:
-            v.error(lpath, f"{v.label(lpath)}: unknown joint {name!r}" + did_you_mean(name, by_name))
+            v.report(lpath, f"unknown joint {name!r}" + did_you_mean(name, by_name))
         elif leader is joint:
-            v.error(lpath, f"{v.label(lpath)}: a joint cannot mimic itself")
+            v.report(lpath, "a joint cannot mimic itself")
         elif leader.mimic is not None:
-            v.error(lpath, f"{v.label(lpath)}: joint '{name}' mimics joint '{leader.mimic.joint}' itself: a joint can "
-                    "only mimic a joint with a coordinate of its own (mimic the first one, multipliers and "
-                    "offsets composed)")
+            v.report(lpath, f"joint '{name}' mimics joint '{leader.mimic.joint}' itself: a joint can only "
+                     "mimic a joint with a coordinate of its own (mimic the first one, multipliers and "
+                     "offsets composed)")
         elif leader.type not in COUPLED_TYPES:
-            v.error(lpath, f"{v.label(lpath)}: joint '{name}' is {leader.type}: only revolute and prismatic joints "
-                    "can be mimicked")
+            v.report(lpath, f"joint '{name}' is {leader.type}: only revolute and prismatic joints can be "
+                     "mimicked")
         elif joint.stiffness is not None:
             springs.setdefault(name, []).append(i)
     for leader, indices in springs.items():
-        for i in indices[1:] if len(indices) > 1 else ():
+        for i in indices[1:]:
             spath = ("joints", i, "stiffness")
-            v.error(spath, f"{v.label(spath)}: coordinate '{leader}' already has a spring (on joint "
-                    f"'{joints[indices[0]].name}'): one spring per coordinate, on a leader or on one of its "
-                    "mimic joints", key=True)
+            v.report(spath, f"coordinate '{leader}' already has a spring (on joint "
+                     f"'{joints[indices[0]].name}'): one spring per coordinate, on a leader or on one of its "
+                     "mimic joints", key=True)

@@ -23,13 +23,13 @@ from ..model.naming import (
     velocity_name,
 )
 from ..model.robot import Joint, Link, Parameter, floating_names
+from .free_joints import planar_floating_names
 
 #: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
 #: of that name would shadow them in the generated module. The names ``site`` adds are listed
 #: too, so the set does not depend on how Python was started.
-PYTHON_BUILTINS = frozenset(
-    name for name in dir(builtins) if not name.startswith("_")
-) | {"copyright", "credits", "exit", "help", "license", "quit"}
+PYTHON_BUILTINS = frozenset(name for name in dir(builtins) if not name.startswith("_")) | {
+    "copyright", "credits", "exit", "help", "license", "quit"}
 
 #: Argument names of the generated functions, current and planned (DESIGN.md section 6).
 API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess", "friction_smoothing"})
@@ -91,48 +91,45 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
             return True
         return False
 
+    def claim_coordinate(name: str, owner: str, label: str, path: tuple[Any, ...]) -> bool:
+        """A coordinate and, once it is free, its velocity and acceleration."""
+        if not claim(name, owner, path):
+            return False
+        for dots, (what, derived) in enumerate((("velocity", velocity_name(name)),
+                                                 ("acceleration", acceleration_name(name))), start=1):
+            claim(derived, f"{label} ({what} '{derived}')", path, dots=dots, base=name)
+        return True
+
     if planar:  # names the maximal-coordinate derivation creates come first
         for name in maximal_coordinate_names(len(links)):
             for dots, derived in enumerate((name, velocity_name(name), acceleration_name(name))):
                 owners[derived] = f"the maximal coordinate '{derived}'"
                 typeset[latex_name(name, dots)] = (derived, owners[derived])
-        for k in range(1, 3 * len(links) + 1):
-            owners[f"lambda{k}"] = f"the multiplier 'lambda{k}'"
-            typeset[latex_name(f"lambda{k}")] = (f"lambda{k}", owners[f"lambda{k}"])
-    for k in range(1, loop_rows + 1):   # multipliers of the loop constraints
-        owners[f"lambda_g{k}"] = f"the loop multiplier 'lambda_g{k}'"
-        typeset[latex_name(f"lambda_g{k}")] = (f"lambda_g{k}", owners[f"lambda_g{k}"])
+    multipliers = [(f"lambda{k}", "multiplier") for k in range(1, 3 * len(links) + 1)] if planar else []
+    multipliers += [(f"lambda_g{k}", "loop multiplier") for k in range(1, loop_rows + 1)]   # of the loops
+    for name, what in multipliers:
+        owners[name] = f"the {what} '{name}'"
+        typeset[latex_name(name)] = (name, owners[name])
     for p in parameters:
         claim(p.name, f"parameters.{p.name}", ("parameters", p.name), key=True)
     seen_joints: set[str] = set()
     for i, joint in enumerate(joints):
-        if not joint.moves:
-            continue
-        if joint.name in seen_joints:  # a duplicate joint name is reported once, where found
+        if not joint.moves or joint.name in seen_joints:  # a duplicate name is reported once, where found
             continue
         seen_joints.add(joint.name)
-        label = v.label(("joints", i, "name"))
+        path = ("joints", i, "name")
+        label = v.label(path)
         if planar and joint.type == "floating":   # three coordinates <joint>_x, _y, _theta
-            for name in (f"{joint.name}_{s}" for s in ("x", "y", "theta")):
-                if claim(name, f"{label} (coordinate '{name}')", ("joints", i, "name")):
-                    claim(velocity_name(name), f"{label} (velocity '{velocity_name(name)}')", ("joints", i, "name"),
-                          dots=1, base=name)
-                    claim(acceleration_name(name), f"{label} (acceleration '{acceleration_name(name)}')",
-                          ("joints", i, "name"), dots=2, base=name)
+            for name in planar_floating_names(joint.name):
+                claim_coordinate(name, f"{label} (coordinate '{name}')", label, path)
             continue
         if joint.multi:   # a floating or spherical joint: its configuration, velocity and acceleration entries
             for name in (n for names in floating_names(joint.name, joint.type) for n in names):
-                claim(name, f"{label} (coordinate '{name}')", ("joints", i, "name"))
+                claim(name, f"{label} (coordinate '{name}')", path)
             for name in joint.effort_names:   # e_fx ... e_tz
                 claim(name, f"joints[{i}].effort ('{name}')", ("joints", i, "effort"))
             continue
-        if not claim(joint.name, label, ("joints", i, "name")):
-            continue
-        claim(velocity_name(joint.name), f"{label} (velocity '{velocity_name(joint.name)}')",
-              ("joints", i, "name"), dots=1, base=joint.name)
-        claim(acceleration_name(joint.name), f"{label} (acceleration '{acceleration_name(joint.name)}')",
-              ("joints", i, "name"), dots=2, base=joint.name)
-        if joint.effort:
+        if claim_coordinate(joint.name, label, label, path) and joint.effort:
             claim(joint.effort, f"joints[{i}].effort", ("joints", i, "effort"))
 
 
@@ -162,7 +159,7 @@ def check_frame(v: Any, name: str, path: tuple[Any, ...], planar: bool, engine: 
             what, origin = engine[quantity]
             kind = FRAME_KINDS[quantity.partition("_")[0]]
             where = f" (first at {v.at(origin, key=origin == ('loops',))})" if origin is not None else ""
-            v.error(path, f"{v.label(path)}: frame '{name}' would name its {kind} '{quantity}', {what}; "
-                    f"rename the frame{where}")
+            v.report(path, f"frame '{name}' would name its {kind} '{quantity}', {what}; "
+                     f"rename the frame{where}")
             return False
     return True

@@ -24,9 +24,7 @@ from .free_joints import check_floating, expand_planar_floating, planar_floating
 from .loader import SourceDocument
 from .mimic import check_mimics, read_mimic
 from .names import check_names, engine_quantities
-from .validator import Validator as _Validator
-from .validator import kind as _kind
-from .validator import numeric as _numeric
+from .validator import Validator, kind
 
 JOINT_TYPES = ("revolute", "prismatic", "fixed", "floating", "spherical")
 
@@ -51,15 +49,15 @@ def validate(doc: SourceDocument) -> Robot:
     Every problem is collected (top level, parameters, links, joints, tree, names, maximal
     constraints) and raised once, so a user fixes a file in one pass.
     """
-    v = _Validator(doc)
+    v = Validator(doc)
     top = v.mapping(doc.data, (), TOP_KEYS, required=("name", "links", "joints", "gravity"))
     if top is None:
         raise InputError(v.problems)
 
     name = v.identifier(top.get("name"), ("name",), "robot name") if "name" in top else None
     if name is not None and len(name) > MAX_NAME_LENGTH:
-        v.error(("name",), f"{v.label(('name',))}: robot name is {len(name)} characters long, at most {MAX_NAME_LENGTH} "
-                f"(it names the output files, e.g. test_<name>_dynamics.py)")
+        v.report(("name",), f"robot name is {len(name)} characters long, at most {MAX_NAME_LENGTH} (it names "
+                 "the output files, e.g. test_<name>_dynamics.py)")
         name = None
     title = v.text(top.get("title"), ("title",), default=name or "")
     planar = top.get("planar", False)
@@ -90,10 +88,11 @@ def validate(doc: SourceDocument) -> Robot:
     links = inertia.check_links(v, links, joints, inertias)
     loops = _loops(v, top, planar, symbols, tree, joints)
     independent = _independent(v, top, joints, loops, planar)
-    frames = read_frames(v, top, tree.names, tree.broken, tree.bad,
-                         lambda value, path: _origin(v, value, path, planar, symbols), planar,
-                         engine_quantities(links + virtual_links(joints, planar), planar, "loops" in top))
-    check_names(v, parameters, links + virtual_links(joints, planar), joints, planar, sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
+    all_links = links + virtual_links(joints, planar)
+    frames = read_frames(v, top, tree, lambda value, path: _origin(v, value, path, planar, symbols), planar,
+                         engine_quantities(all_links, planar, "loops" in top))
+    check_names(v, parameters, all_links, joints, planar,
+                sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
     if loops and constraints is not None:
         v.error(("maximal", "constraints"), "maximal.constraints: a robot with loops derives its maximal "
@@ -101,15 +100,12 @@ def validate(doc: SourceDocument) -> Robot:
 
     if v.problems:
         raise InputError(v.problems)
-    positions = {f"joint:{j.name}": doc.where(("joints", i)) for i, j in enumerate(joints)}
-    positions |= {f"link:{lk.name}": doc.where(("links", i)) for i, lk in enumerate(links)}
-    positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
+    positions = {f"{prefix}:{item.name}": doc.where((f"{prefix}s", i))
+                 for prefix, items in (("joint", joints), ("link", links), ("loop", loops), ("frame", frames))
+                 for i, item in enumerate(items)}
     positions |= {f"parameter:{p.name}": doc.where(("parameters", p.name), key=True) for p in parameters}
-    positions |= {f"loop:{lp.name}": doc.where(("loops", i)) for i, lp in enumerate(loops)}
-    positions["loops"] = doc.where(("loops",))
-    positions["independent"] = doc.where(("independent",))
-    positions["name"] = doc.where(("name",))
-    positions |= {f"frame:{f.name}": doc.where(("frames", i)) for i, f in enumerate(frames)}
+    positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
+    positions |= {key: doc.where((key,)) for key in ("loops", "independent", "name")}
     if planar:   # a floating joint: prismatic x, prismatic y, revolute theta and two massless links
         joints, links = expand_planar_floating(joints, links, positions)
     return Robot(
@@ -129,14 +125,25 @@ class _LinkNames:
     bad: set[Any]
     broken: bool
 
+    def check(self, v: Validator, item: dict[str, Any], path: tuple[Any, ...], role: str,
+              world: bool = True) -> None:
+        """Report ``item[role]`` (when given) unless it names a link, or ``world`` where it may."""
+        end, where = item.get(role), path + (role,)
+        if role not in item or (world and end == "world"):
+            return
+        if end == "world":
+            v.report(where, "'world' cannot be a child")
+        elif end not in self.names and not (self.broken or end in self.bad):
+            v.report(where, f"unknown link {end!r}"
+                     + did_you_mean(end, [*self.names, "world"] if world else list(self.names)))
 
-def _parameters(v: _Validator, top: dict[str, Any]) -> list[Parameter]:
+
+def _parameters(v: Validator, top: dict[str, Any]) -> list[Parameter]:
     """The ``parameters`` block: names, default values (finite doubles), units, descriptions."""
     parameters: list[Parameter] = []
     raw_parameters = top.get("parameters", {}) or {}
     if not isinstance(raw_parameters, dict):
-        v.error(("parameters",), f"parameters: expected a mapping of name: value, got "
-                f"{_kind(raw_parameters)}")
+        v.error(("parameters",), f"parameters: expected a mapping of name: value, got {kind(raw_parameters)}")
         v.parameters_broken = True
         raw_parameters = {}
     for pname, spec in raw_parameters.items():
@@ -146,122 +153,94 @@ def _parameters(v: _Validator, top: dict[str, Any]) -> list[Parameter]:
         if pname in RESERVED:
             v.error(path, f"parameters.{pname}: '{pname}' is a built-in function or constant", key=True)
             continue
-        value, unit, description = spec, "", ""
+        value, unit, description, vpath = spec, "", "", path
         if isinstance(spec, dict):
             v.mapping(spec, path, PARAMETER_KEYS)
-            value = spec.get("value")
+            value, vpath = spec.get("value"), path + ("value",)
             unit = v.text(spec.get("unit"), path + ("unit",))
             description = v.text(spec.get("description"), path + ("description",))
-            vpath = path + ("value",)
-        else:
-            vpath = path
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
             quoted = isinstance(value, str) and _looks_numeric(value)
-            v.error(vpath, f"{v.label(vpath)}: default value must be a number, got {_kind(value)}"
-                    + (f" ({value!r} in quotes: write it without them)" if quoted else ""))
+            v.report(vpath, f"default value must be a number, got {kind(value)}"
+                     + (f" ({value!r} in quotes: write it without them)" if quoted else ""))
             value = None
         elif value is not None and isinstance(value, int) and abs(value) > 1.7976931348623157e308:
-            v.error(vpath, f"{v.label(vpath)}: default value is out of the range of a double")
+            v.report(vpath, "default value is out of the range of a double")
             value = None
         elif value is not None and not math.isfinite(float(value)):
-            v.error(vpath, f"{v.label(vpath)}: default value must be finite, got {value}")
+            v.report(vpath, f"default value must be finite, got {value}")
             value = None
         parameters.append(Parameter(pname, None if value is None else float(value), unit, description))
     return parameters
 
 
-def _links(v: _Validator, top: dict[str, Any], planar: bool,
+def _links(v: Validator, top: dict[str, Any], planar: bool,
            symbols: dict[str, sympy.Expr]) -> tuple[list[Link], _LinkNames, list[inertia.Written | None]]:
     """The ``links`` list: names, masses (positive; 3-D: not negative), centres of mass, physical inertias."""
-    defaults = v.evaluate
     dimension = 2 if planar else 3
     links: list[Link] = []
     raw_links = top.get("links")
     links_broken = "links" in top and (not isinstance(raw_links, list) or not raw_links)
-    if links_broken:
-        v.error(("links",), f"links: expected a non-empty list of links, got {_kind(raw_links, empty=True)}")
-        raw_links = []
-    link_names: dict[str, tuple[Any, ...]] = {}
+    taken: dict[str, tuple[Any, ...]] = {}   # link name -> the path of its name
     bad_link_names: set[Any] = set()  # reported already; joints naming them are not re-reported
     inertias: list[inertia.Written | None] = []   # judged once the joints are read
-    for i, raw in enumerate(raw_links or []):
-        path = ("links", i)
-        item = v.mapping(raw, path, LINK_KEYS, required=("name", "mass"))
-        if item is None:
-            continue
-        lname = v.identifier(item.get("name"), path + ("name",), "link name") if "name" in item else None
-        if lname is None and "name" in item and isinstance(item["name"], (str, int, float)):
+    for i, path, item, lname, _ in v.named_items(top, "links", "link", LINK_KEYS, ("name", "mass"), taken):
+        if lname is None and isinstance(item.get("name"), (str, int, float)):
             bad_link_names.add(item["name"])
         if lname == "world":
-            v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: 'world' is reserved for the fixed frame")
+            v.report(path + ("name",), "'world' is reserved for the fixed frame")
+            taken.pop("world", None)
             lname = None
-        if lname is not None:
-            if lname in link_names:
-                v.error(path + ("name",), f"{v.label(('links', i, 'name'))}: duplicate link name '{lname}' "
-                        f"(first at {v.at(link_names[lname] + ('name',))})")
-            link_names.setdefault(lname, path)
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
-        value = _numeric(mass, defaults)
+        value = v.numeric(mass)
         if value is not None and (value <= 0 if planar else value < 0):  # 3-D: massless links (M checked regular)
             rule = "must be positive" if planar else "must not be negative"
-            v.error(path + ("mass",), f"{v.label(('links', i, 'mass'))}: {rule} (got {value:g})")
+            v.report(path + ("mass",), f"{rule} (got {value:g})")
         com = item.get("com", [0] * dimension)
         v.vector(com, path + ("com",), (dimension,), symbols)
         entries, written = inertia.read(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
-                                        planar, symbols, lambda e: _numeric(e, defaults))
+                                        planar, symbols)
         links.append(Link(lname or f"link{i + 1}", item.get("mass", 1), tuple(com) if isinstance(com, list) else (),
                           entries))
         inertias.append(written)
 
+    link_names = {name: where[:-1] for name, where in taken.items()}
     return links, _LinkNames(link_names, bad_link_names, links_broken), inertias
 
 
-def _joints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
+def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
             tree: _LinkNames) -> list[Joint]:
     """The ``joints`` list: names, types, parent and child links, origins, axes, efforts."""
-    defaults = v.evaluate
-    link_names, bad_link_names, links_broken = tree.names, tree.bad, tree.broken
     joints: list[Joint] = []
     required = ("name", "type", "parent", "child")
     for i, path, item, jname, _ in v.named_items(top, "joints", "joint", JOINT_KEYS, required, {}):
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
             extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype), "")
-            v.error(path + ("type",), f"{v.label(('joints', i, 'type'))}: unsupported joint type {jtype!r}; "
-                    f"expected one of {', '.join(JOINT_TYPES)}{extra}")
+            v.report(path + ("type",), f"unsupported joint type {jtype!r}; "
+                     f"expected one of {', '.join(JOINT_TYPES)}{extra}")
             jtype = None
-        parent, child = item.get("parent"), item.get("child")
-        known = links_broken or parent in bad_link_names
-        if "parent" in item and parent != "world" and parent not in link_names and not known:
-            v.error(path + ("parent",), f"{v.label(('joints', i, 'parent'))}: unknown link {parent!r}"
-                    + did_you_mean(parent, [*link_names, "world"]))
-        if "child" in item:
-            if child == "world":
-                v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: 'world' cannot be a child")
-            elif child not in link_names and not (links_broken or child in bad_link_names):
-                v.error(path + ("child",), f"{v.label(('joints', i, 'child'))}: unknown link {child!r}"
-                        + did_you_mean(child, list(link_names)))
+        tree.check(v, item, path, "parent")
+        tree.check(v, item, path, "child", world=False)
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
-        axis = _axis(v, item, path, jtype, planar, symbols, defaults)
+        axis = _axis(v, item, path, jtype, planar, symbols)
         effort = item.get("effort")
         if effort is not None:
             effort = v.identifier(effort, path + ("effort",), "effort name")
-            if effort is not None and jtype == "fixed":
-                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a fixed joint has no effort")
-                effort = None
-            elif effort is not None and jtype == "floating" and planar:
-                v.error(path + ("effort",), f"{v.label(('joints', i, 'effort'))}: a planar floating joint is "
-                        "unactuated (push its body with a wrench at a frame)")
-                effort = None
-        drives = drive_terms(v, item, path, jtype, symbols, lambda e: _numeric(e, defaults))
+        if effort is not None and (jtype == "fixed" or (jtype == "floating" and planar)):
+            v.report(path + ("effort",), "a fixed joint has no effort" if jtype == "fixed" else
+                     "a planar floating joint is unactuated (push its body with a wrench at a frame)")
+            effort = None
+        drives = drive_terms(v, item, path, jtype, symbols)
         mimic = read_mimic(v, item, path, jtype)
+        parent, child = item.get("parent"), item.get("child")
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
                             origin, axis, None if mimic else effort, **drives, mimic=mimic))
 
     return joints
 
 
-def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
+def _loops(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
            tree: _LinkNames, joints: list[Joint]) -> list[LoopJoint]:
     """The optional ``loops`` list: loop-closing joints between two links (or a link and the
     world) of the spanning tree. Their constraints are derived, and checked for redundancy
@@ -276,37 +255,28 @@ def _loops(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
                                                 ("name", "type", "parent", "child"), taken, clash):
         ltype = item.get("type")
         if "type" in item and ltype not in types:
-            kind = "planar" if planar else "3-D"
-            v.error(path + ("type",), f"{v.label(path + ('type',))}: unsupported {kind} loop joint type "
-                    f"{ltype!r}; expected one of {', '.join(types)}")
+            shape = "planar" if planar else "3-D"
+            v.report(path + ("type",), f"unsupported {shape} loop joint type {ltype!r}; "
+                     f"expected one of {', '.join(types)}")
             ltype = None
-        ends = []
-        for role in ("parent", "child"):
-            end = item.get(role)
-            if role in item and end != "world" and end not in tree.names and not (tree.broken or end in tree.bad):
-                v.error(path + (role,), f"{v.label(path + (role,))}: unknown link {end!r}"
-                        + did_you_mean(end, [*tree.names, "world"]))
-            ends.append(end)
+        ends = [item.get("parent"), item.get("child")]
+        tree.check(v, item, path, "parent")
+        tree.check(v, item, path, "child")
         if "parent" in item and "child" in item and ends[0] == ends[1]:
-            v.error(path + ("child",), f"{v.label(path + ('child',))}: a loop joint needs two different links "
-                    f"(parent and child are both {ends[0]!r})")
+            v.report(path + ("child",), "a loop joint needs two different links "
+                     f"(parent and child are both {ends[0]!r})")
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
         child_origin = _origin(v, item.get("child_origin"), path + ("child_origin",), planar, symbols)
-        needs_axis = ltype == "prismatic" or (ltype == "revolute" and not planar)
-        default_axis = (1, 0) if planar else (0, 0, 1)
-        if "axis" in item and not needs_axis and ltype is not None:
-            v.error(path + ("axis",), f"{v.label(path + ('axis',))}: a {'planar ' if planar else ''}{ltype} "
-                    "loop joint takes no axis")
-            axis: tuple[Any, ...] = default_axis
-        else:
-            axis = _axis(v, item, path, ltype if ltype != "spherical" else "revolute", planar, symbols,
-                         v.evaluate) if "axis" in item else default_axis
+        takes_axis = ltype in (None, "prismatic") or (ltype == "revolute" and not planar)
+        if "axis" in item and not takes_axis:
+            v.report(path + ("axis",), f"a {'planar ' if planar else ''}{ltype} loop joint takes no axis")
+        axis = _axis(v, item if takes_axis else {}, path, ltype, planar, symbols)
         loops.append(LoopJoint(name or f"loop{i + 1}", ltype or "revolute", str(ends[0]), str(ends[1]),
                                origin, child_origin, axis))
     return loops
 
 
-def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
+def _independent(v: Validator, top: dict[str, Any], joints: list[Joint],
                  loops: list[LoopJoint], planar: bool) -> tuple[str, ...] | None:
     """The optional ``independent`` list: coordinates kept in the reduced form (loops only)."""
     if "independent" not in top:
@@ -317,7 +287,7 @@ def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
         return None
     if not isinstance(raw, list) or not raw:
         v.error(("independent",), f"independent: expected a non-empty list of coordinate names, got "
-                f"{_kind(raw, empty=True)}")
+                f"{kind(raw, empty=True)}")
         return None
     coordinates = [n for j in joints if j.owns
                    for n in (planar_floating_names(j.name) if planar and j.type == "floating" else [j.name])]
@@ -333,34 +303,28 @@ def _independent(v: _Validator, top: dict[str, Any], joints: list[Joint],
     return tuple(names)
 
 
-def _maximal_constraints(v: _Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
+def _maximal_constraints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, sympy.Expr],
                          links: list[Link], joints: list[Joint]) -> tuple[Any, ...] | None:
     """The optional ``maximal.constraints`` override: planar only, 3 per link minus the DOF."""
-    constraints = None
-    if "maximal" in top:
-        block = v.mapping(top["maximal"], ("maximal",), MAXIMAL_KEYS)
-        if block is not None and "constraints" in block:
-            raw_constraints = block["constraints"]
-            cpath = ("maximal", "constraints")
-            if not planar:
-                v.error(cpath, "maximal.constraints: maximal coordinates are planar-only for now")
-            elif not isinstance(raw_constraints, list):
-                v.error(cpath, f"maximal.constraints: expected a list of expressions, got "
-                        f"{_kind(raw_constraints)}")
-            else:
-                names = maximal_coordinate_names(len(links))
-                scope = dict(symbols) | {n: sympy.Symbol(n) for n in names}
-                for k, expr in enumerate(raw_constraints):
-                    v.expression(expr, cpath + (k,), scope)
-                moving = sum(1 for j in joints if j.moves)
-                needed = 3 * len(links) - moving
-                if len(raw_constraints) != needed:
-                    v.error(cpath, f"maximal.constraints: expected {needed} constraint{'s' * (needed != 1)} "
-                            f"(3 per link minus {moving} degree{'s' * (moving != 1)} of "
-                            f"freedom), got {len(raw_constraints)}")
-                constraints = tuple(raw_constraints)
-
-    return constraints
+    block = v.mapping(top["maximal"], ("maximal",), MAXIMAL_KEYS) if "maximal" in top else None
+    if block is None or "constraints" not in block:
+        return None
+    raw_constraints, cpath = block["constraints"], ("maximal", "constraints")
+    if not planar:
+        v.error(cpath, "maximal.constraints: maximal coordinates are planar-only for now")
+        return None
+    if not isinstance(raw_constraints, list):
+        v.error(cpath, f"maximal.constraints: expected a list of expressions, got {kind(raw_constraints)}")
+        return None
+    scope = dict(symbols) | {n: sympy.Symbol(n) for n in maximal_coordinate_names(len(links))}
+    for k, expr in enumerate(raw_constraints):
+        v.expression(expr, cpath + (k,), scope)
+    moving = sum(1 for j in joints if j.moves)
+    needed = 3 * len(links) - moving
+    if len(raw_constraints) != needed:
+        v.error(cpath, f"maximal.constraints: expected {needed} constraint{'s' * (needed != 1)} (3 per link "
+                f"minus {moving} degree{'s' * (moving != 1)} of freedom), got {len(raw_constraints)}")
+    return tuple(raw_constraints)
 
 
 def _looks_planar(top: dict[str, Any]) -> bool:
@@ -374,9 +338,8 @@ def _looks_planar(top: dict[str, Any]) -> bool:
     for joint in joints if isinstance(joints, list) else []:
         if isinstance(joint, dict):
             origin, axis = joint.get("origin"), joint.get("axis")
-            if isinstance(origin, dict) or (isinstance(origin, list) and len(origin) not in (2, 3)):
-                return False
-            if isinstance(axis, list) and len(axis) != 2:
+            if (isinstance(origin, dict) or (isinstance(origin, list) and len(origin) not in (2, 3))
+                    or (isinstance(axis, list) and len(axis) != 2)):
                 return False
     return True
 
@@ -388,13 +351,12 @@ def _looks_numeric(text: str) -> bool:
         return False
 
 
-def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,
+def _origin(v: Validator, value: Any, path: tuple[Any, ...], planar: bool,
             symbols: dict[str, sympy.Expr]) -> tuple[Any, ...]:
     if value is None:
         return (0, 0, 0) if planar else (0,) * 6
     if planar:
-        entries = v.vector(value, path, (2, 3), symbols)
-        if entries is None:
+        if v.vector(value, path, (2, 3), symbols) is None:
             return (0, 0, 0)
         return tuple(value) + ((0,) if len(value) == 2 else ())
     block = v.mapping(value, path, ORIGIN_KEYS)
@@ -407,44 +369,39 @@ def _origin(v: _Validator, value: Any, path: tuple[Any, ...], planar: bool,
     return tuple(xyz if ok_xyz else [0] * 3) + tuple(rpy if ok_rpy else [0] * 3)
 
 
-def _axis(v: _Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None,
-          planar: bool, symbols: dict[str, sympy.Expr],
-          defaults: Evaluator) -> tuple[Any, ...]:
+def _axis(v: Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None,
+          planar: bool, symbols: dict[str, sympy.Expr]) -> tuple[Any, ...]:
     default = (1, 0) if planar else (0, 0, 1)
     if "axis" not in item:
         return default
     apath = path + ("axis",)
     if planar and jtype in ("revolute", "fixed"):
-        v.error(apath, f"{v.label(apath)}: a planar {jtype} joint takes no axis "
-                "(planar revolute joints turn about z)")
+        v.report(apath, f"a planar {jtype} joint takes no axis (planar revolute joints turn about z)")
         return default
     if jtype in ("fixed", "floating", "spherical"):
-        v.error(apath, f"{v.label(apath)}: a {jtype} joint takes no axis"
-                + (" (it turns about all three)" if jtype == "spherical" else ""))
+        v.report(apath, f"a {jtype} joint takes no axis"
+                 + (" (it turns about all three)" if jtype == "spherical" else ""))
         return default
     entries = v.vector(item["axis"], apath, (2,) if planar else (3,), symbols)
     if entries is None:
         return default
-    numbers = [_numeric(e, defaults) for e in entries]
+    numbers = [v.numeric(e) for e in entries]
     if all(x is not None for x in numbers) and math.hypot(*numbers) < 1e-12:  # type: ignore[arg-type]
-        v.error(apath, f"{v.label(apath)}: axis has zero length")
+        v.report(apath, "axis has zero length")
     return tuple(item["axis"])
 
 
-def _check_tree(v: _Validator, joints: list[Joint], link_names: dict[str, tuple[Any, ...]]) -> None:
+def _check_tree(v: Validator, joints: list[Joint], link_names: dict[str, tuple[Any, ...]]) -> None:
     """Each link has exactly one parent joint, and every link hangs from the world."""
     parent_of: dict[str, int] = {}
     for i, joint in enumerate(joints):
-        if joint.child in link_names:
-            if joint.child in parent_of:
-                first = parent_of[joint.child]
-                v.error(("joints", i, "child"), f"{v.label(('joints', i, 'child'))}: link '{joint.child}' already "
-                        f"has a parent joint ({v.label(('joints', first))}); robots must be trees")
-            else:
-                parent_of[joint.child] = i
+        first = parent_of.setdefault(joint.child, i) if joint.child in link_names else i
+        if first != i:
+            v.report(("joints", i, "child"), f"link '{joint.child}' already has a parent joint "
+                     f"({v.label(('joints', first))}); robots must be trees")
     for lname, lpath in link_names.items():
         if lname not in parent_of:
-            v.error(lpath, f"{v.label(lpath)}: link '{lname}' is not the child of any joint")
+            v.report(lpath, f"link '{lname}' is not the child of any joint")
     reported: set[str] = set()
     for lname in link_names:
         seen: list[str] = []
@@ -455,5 +412,5 @@ def _check_tree(v: _Validator, joints: list[Joint], link_names: dict[str, tuple[
         if current in seen and not reported.intersection(seen):
             reported.update(seen)
             i = parent_of[current]
-            v.error(("joints", i), f"{v.label(('joints', i))}: links {' -> '.join(seen[seen.index(current):] + [current])}"
-                    " form a cycle not connected to 'world'")
+            v.report(("joints", i), f"links {' -> '.join(seen[seen.index(current):] + [current])}"
+                     " form a cycle not connected to 'world'")

@@ -11,16 +11,13 @@ parent link (mass, centre of mass and inertia combined), so every remaining link
 inertial frames with ``rpy`` are rotated into the link axes; efforts are named ``tau_<joint>``
 (revolute) and ``f_<joint>`` (prismatic); gravity is ``[0, 0, -g]`` with ``g = 9.81``.
 
-Rotations are composed as matrices; a composed ``rpy`` is extracted so that its matrix
-reproduces the composed one to rounding, also near gimbal lock (``matrix_to_rpy``). Only the
-``rpy`` numbers written in the file are snapped to exact quarter turns (``snap``), never
-composed angles. ``<mimic>`` on a fixed joint is ignored with a note in ``document.notes``;
-on a moving joint it becomes the joint's ``mimic`` (no coordinate of its own, no effort: its
-variable is ``multiplier * q_leader + offset``, as ``pin.buildModelFromUrdf(..., mimic=True)``
-models it), checked by the validator like a YAML file's (``input/mimic.py``); one naming a
-joint the file does not have, or a fixed one, is ignored with a note (the joint an independent
-coordinate, as in Pinocchio's default: alex_psyonic_hands.urdf names ``index_q1`` for
-``Left_index_q1``).
+Rotations are composed as matrices (``urdf_values``: only the ``rpy`` written in the file are
+snapped to quarter turns). ``<mimic>`` on a fixed joint is ignored with a note in
+``document.notes``; on a moving joint it becomes the joint's ``mimic``, as
+``pin.buildModelFromUrdf(..., mimic=True)`` models it, checked by the validator like a YAML
+file's (``input/mimic.py``); one naming a joint the file does not have, or a fixed one, is
+ignored with a note (the joint an independent coordinate, as in Pinocchio's default:
+alex_psyonic_hands.urdf names ``index_q1`` for ``Left_index_q1``).
 Masses and inertias are judged in ``urdf_bodies`` (with the rounding tolerance of ``inertia``;
 links welded to the world get notes, never errors), which also merges the welded bodies.
 """
@@ -31,22 +28,16 @@ import re
 from typing import Any
 
 import numpy as np
+import yaml
 
 from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
-from .loader import SourceDocument
+from . import inertia
+from .loader import Path_, SourceDocument
 from .urdf_bodies import Body, check_bodies, finite, merge_bodies
 from .urdf_root import float_root, note_fixed_base, split_planar
-from .urdf_values import (
-    IDENTITY,
-    Rotation,
-    _number,
-    _numbers,
-    _Reader,
-)
+from .urdf_values import IDENTITY, Rotation, _number, _numbers, _Reader
 from .urdf_xml import _Element, _parse_xml
-
-Path_ = tuple[Any, ...]
 
 
 def identifier(name: str) -> str:
@@ -66,35 +57,30 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
     reader = _Reader(file)
     doc = SourceDocument(file=file, data=None)
     if root.tag != "robot":
-        raise InputError(Problem(file, root.line, root.column, f"expected a <robot> element, got <{root.tag}>"))
+        raise InputError(Problem(file, *root.at, f"expected a <robot> element, got <{root.tag}>"))
     bodies, link_elements = _read_links(root, reader)
     joints = _read_joints(root, reader, doc, link_elements)
     check_bodies(reader, doc, bodies, joints, floating_base)
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
 
     by_child = _check_tree(reader, joints, link_elements)
-    if reader.problems:
-        raise InputError(reader.problems)
-    children = set(by_child)
-    roots = [name for name in link_elements if name not in children]
+    reader.raise_problems()
+    roots = [name for name in link_elements if name not in by_child]
     if len(roots) != 1:
         where = root if not roots else link_elements[roots[1]]
-        raise InputError(Problem(file, where.line, where.column,
+        raise InputError(Problem(file, *where.at,
                                  f"a URDF robot needs exactly one root link, found {len(roots)}"
                                  + (f" ({', '.join(roots)})" if roots else "")))
     base = roots[0]
     if floating_base:
         base = float_root(reader, joints, link_elements, base, root, IDENTITY)
-        if reader.problems:
-            raise InputError(reader.problems)
+        reader.raise_problems()
         by_child[roots[0]] = joints[0]
 
     frames = _fixed_frames(reader, joints, link_elements, by_child, base)
     merged = merge_bodies(reader, bodies, link_elements, frames)
     split_planar(reader, doc, joints, link_elements, frames, IDENTITY)   # x, y, theta joints in a row
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
     if not floating_base:
         note_fixed_base(doc, joints, frames, base, link_elements[base])
     doc.digits = max(reader.digits, 1)   # the sheet's precision: as written, not as composed
@@ -121,16 +107,13 @@ def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, Body], dict[
         origin = inertial.find("origin")
         xyz = reader.numbers(origin, "xyz", 3, [0, 0, 0])
         rotation = Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0], angles=True))
-        mass_element = inertial.find("mass")
-        inertia_element = inertial.find("inertia")
+        mass_element, inertia_element = inertial.find("mass"), inertial.find("inertia")
         if mass_element is None or inertia_element is None:
             reader.error(inertial, f"link '{name}': <inertial> needs <mass> and <inertia>")
             continue
         mass = reader.numbers(mass_element, "value", 1, [0])[0]
-        values = [reader.numbers(inertia_element, key, 1, [0])[0]
-                  for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")]
-        ixx, ixy, ixz, iyy, iyz, izz = values
-        tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        tensor = inertia.from_entries(**{key: reader.numbers(inertia_element, key, 1, [0])[0]
+                                         for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")})
         R = rotation.matrix
         with np.errstate(all="ignore"):
             rotated = R @ tensor @ R.T
@@ -146,16 +129,14 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
     for joint in root.findall("joint"):
         name = joint.attrib.get("name", "")
         jtype = joint.attrib.get("type", "")
-        parent = (joint.find("parent") or _Element("parent", {}, joint.line, joint.column)).attrib.get("link")
-        child = (joint.find("child") or _Element("child", {}, joint.line, joint.column)).attrib.get("link")
-        mimic = joint.find("mimic")
+        parent, child = (getattr(joint.find(role), "attrib", {}).get("link") for role in ("parent", "child"))
+        mimic, follows = joint.find("mimic"), None
         if mimic is not None and jtype == "fixed":
-            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: <mimic> on fixed joint '{name}' ignored")
-        follows = None
-        if mimic is not None and jtype == "planar":
+            doc.note(mimic.at, f"<mimic> on fixed joint '{name}' ignored")
+        elif mimic is not None and jtype == "planar":
             reader.error(mimic, f"joint '{name}': <mimic> on a planar joint is not supported (only revolute, "
                          "continuous and prismatic joints follow a leader)")
-        elif mimic is not None and jtype != "fixed":   # checked by the validator (input/mimic.py)
+        elif mimic is not None:   # checked by the validator (input/mimic.py)
             follows = (mimic, mimic.attrib.get("joint", ""), reader.numbers(mimic, "multiplier", 1, [1.0])[0],
                        reader.numbers(mimic, "offset", 1, [0.0])[0])
         if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
@@ -170,8 +151,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         origin = joint.find("origin")
         dynamics = joint.find("dynamics")
         if dynamics is not None and jtype == "fixed":
-            doc.notes.append(f"{reader.file}:{dynamics.line}:{dynamics.column}: note: <dynamics> on fixed joint "
-                             f"'{name}' ignored (it has no coordinate)")
+            doc.note(dynamics.at, f"<dynamics> on fixed joint '{name}' ignored (it has no coordinate)")
             dynamics = None
         joints.append({
             "element": joint, "name": name, "type": "revolute" if jtype == "continuous" else jtype,
@@ -183,8 +163,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             "dynamics": dynamics,
             "mimic": follows,
             # <dynamics damping friction>: viscous damping and Coulomb friction (0 = none)
-            "damping": reader.numbers(dynamics, "damping", 1, [0.0])[0] if dynamics is not None else 0.0,
-            "friction": reader.numbers(dynamics, "friction", 1, [0.0])[0] if dynamics is not None else 0.0,
+            **{key: reader.numbers(dynamics, key, 1, [0.0])[0] for key in ("damping", "friction")},
         })
     return joints
 
@@ -212,8 +191,7 @@ def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: 
                 reader.error(joint["element"], f"joint '{joint['name']}': origin too large (composing it "
                              "with the fixed joints above overflows)")
             frames[joint["child"]] = (target, R0 @ joint["R"], p)
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
 
     return frames
 
@@ -231,9 +209,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         "links": [],
         "joints": [],
     }
-    positions: dict[Path_, tuple[int, int]] = {(): (root.line, root.column)}
+    positions: dict[Path_, tuple[int, int]] = {(): root.at}
     for key in ("name", "title", "planar", "parameters", "gravity", "links", "joints"):
-        positions[(key,)] = (root.line, root.column)
+        positions[(key,)] = root.at
     doc.labels[("name",)] = "<robot name>"
     moving = [j for j in joints if j["type"] != "fixed"]
     carrying = _carrying(moving, frames, merged)
@@ -242,7 +220,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         element = link_elements[name]
         body = merged.get(name)
         path = ("links", index)
-        positions[path] = (element.line, element.column)
+        positions[path] = element.at
         if name not in carrying and not joint.get("virtual"):   # a planar joint's own links: its child's error
             reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass, nor has any "
                          "link below it: the joint moves nothing; give the link an <inertial> with a positive mass")
@@ -262,7 +240,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
                  "com": inertial.find("origin")}
         for key in entry:
             spot = spots.get(key) or inertial
-            positions[path + (key,)] = (spot.line, spot.column)
+            positions[path + (key,)] = spot.at
     all_names = {j["name"] for j in joints}
     moving_names = {j["name"] for j in moving}
     for index, joint in enumerate(moving):
@@ -290,9 +268,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         if joint.get("mimic") is not None and joint["mimic"][1] not in moving_names:
             mimic, leader = joint["mimic"][:2]
             why = "a fixed joint, which has no coordinate" if leader in all_names else "which the file does not have"
-            doc.notes.append(f"{reader.file}:{mimic.line}:{mimic.column}: note: joint '{joint['name']}': its <mimic> "
-                             f"names joint '{leader}', {why}: '{joint['name']}' is an independent coordinate (as in "
-                             "Pinocchio's default, buildModelFromUrdf without mimic)")
+            doc.note(mimic.at, f"joint '{joint['name']}': its <mimic> names joint '{leader}', {why}: "
+                     f"'{joint['name']}' is an independent coordinate (as in Pinocchio's default, "
+                     "buildModelFromUrdf without mimic)")
             joint["mimic"] = None
         if joint.get("mimic") is not None:   # no coordinate, no effort of its own: its leader's
             entry.pop("effort", None)
@@ -304,24 +282,21 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         data["joints"].append(entry)
         path = ("joints", index)
         doc.labels[path] = f"joint '{joint['name']}'"
-        positions[path] = (element.line, element.column)
+        positions[path] = element.at
         for key in entry:
-            positions[path + (key,)] = (element.line, element.column)
-        if "axis" in entry:
-            positions[path + ("axis",)] = (joint["axis_element"].line, joint["axis_element"].column)
+            positions[path + (key,)] = element.at
+        if "axis" in entry:   # the axis and its entries
+            for key in ((), (0,), (1,), (2,)):
+                positions[path + ("axis",) + key] = joint["axis_element"].at
         if joint["dynamics"] is not None:
             for key in ("damping", "friction"):
-                positions[path + (key,)] = (joint["dynamics"].line, joint["dynamics"].column)
+                positions[path + (key,)] = joint["dynamics"].at
         if joint.get("mimic") is not None:
-            spot = (joint["mimic"][0].line, joint["mimic"][0].column)
             doc.labels[path + ("mimic",)] = f"joint '{joint['name']}' <mimic>"
             for key in ((), ("joint",), ("multiplier",), ("offset",)):
-                positions[path + ("mimic",) + key] = spot
-        for i in range(3 if "axis" in entry else 0):
-            positions[path + ("axis", i)] = positions[path + ("axis",)]
+                positions[path + ("mimic",) + key] = joint["mimic"][0].at
     _welded_frames(data, positions, doc, link_elements, frames)
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
     doc.data, doc.positions = data, positions
     doc.key_positions = dict(positions)
     return doc
@@ -360,8 +335,7 @@ def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]]
         clash = next((q for q in frame_quantity_names(frame, False) if body_jacobian_index(q, len(data["links"]))), None)
         if clash or frame in taken:   # the frame is a convenience: left out rather than refuse the URDF
             why = f"its Jacobian would be {clash}, link {clash[3:]}'s body Jacobian" if clash else "another frame has its name"
-            doc.notes.append(f"{doc.file}:{element.line}:{element.column}: note: link '{name}' (welded to "
-                             f"'{owner}') is not made a frame: {why}")
+            doc.note(element.at, f"link '{name}' (welded to '{owner}') is not made a frame: {why}")
             continue
         taken.add(frame)
         path = ("frames", len(entries))
@@ -369,7 +343,7 @@ def _welded_frames(data: dict[str, Any], positions: dict[Path_, tuple[int, int]]
                         "origin": {"xyz": _numbers(p, float(np.max(np.abs(p)))), "rpy": rotation.rpy()}})
         doc.labels[path] = f"frame '{name}'"
         for key in ((), ("name",), ("link",), ("origin",)):
-            positions[path + key] = (element.line, element.column)
+            positions[path + key] = element.at
     if entries:
         data["frames"] = entries
         positions[("frames",)] = positions[()]
@@ -404,8 +378,6 @@ def _check_tree(reader: _Reader, joints: list[dict[str, Any]],
 
 def to_yaml(data: dict[str, Any], source: str) -> str:
     """The robot data as a version-1 YAML robot file, lists written inline."""
-    import yaml
-
     from .._version import __version__
 
     class _Dumper(yaml.SafeDumper):

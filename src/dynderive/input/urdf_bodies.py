@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
 from . import inertia
 from .loader import SourceDocument
 from .urdf_values import Rotation, _Reader
@@ -55,8 +54,8 @@ def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
         mass_element = body.element.find("mass") or body.element
         if body.mass < 0:  # massless links are fine (virtual links between joints; the robot derives when M is regular)
             if welded:
-                _note(reader, doc, mass_element, f"link '{name}' mass: must not be negative (got {body.mass:g}); "
-                      "ignored: the link is welded to the world, so its mass never enters the dynamics")
+                doc.note(mass_element.at, f"link '{name}' mass: must not be negative (got {body.mass:g}); "
+                         "ignored: the link is welded to the world, so its mass never enters the dynamics")
             else:
                 reader.error(mass_element, f"link '{name}' mass: must not be negative (got {body.mass:g})")
         element = body.element.find("inertia") or body.element
@@ -68,13 +67,9 @@ def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
             reader.error(element, f"link '{name}' inertia: too large (rotating it by the <origin rpy> of "
                          "<inertial> overflows)")
         if verdict.note is not None:
-            _note(reader, doc, element, f"link '{name}' inertia: {verdict.note}")
+            doc.note(element.at, f"link '{name}' inertia: {verdict.note}")
         if verdict.tensor is not written[name] and body.axes is not None:
             body.inertia = body.axes @ verdict.tensor @ body.axes.T
-
-
-def _note(reader: _Reader, doc: SourceDocument, element: _Element, message: str) -> None:
-    doc.notes.append(f"{reader.file}:{element.line}:{element.column}: note: {message}")
 
 
 def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[str, _Element],
@@ -98,8 +93,7 @@ def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[s
                          f"'{target}' (fixed joints) makes the {what} overflow")
             continue
         merged[target] = combined
-    if reader.problems:
-        raise InputError(reader.problems)
+    reader.raise_problems()
 
     return merged
 

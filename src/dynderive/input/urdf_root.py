@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from .free_joints import planar_floating_links, planar_floating_names
 from .loader import SourceDocument
 from .urdf_xml import _Element
 
@@ -50,9 +51,9 @@ def note_fixed_base(doc: SourceDocument, joints: list[dict[str, Any]], frames: d
         return
     subtrees = [j for j in joints if j["type"] != "fixed" and frames[j["parent"]][0] == "world"]
     if len(subtrees) >= 2:
-        doc.notes.append(f"{doc.file}:{element.line}:{element.column}: note: the root link '{base}' carries "
-                         f"{len(subtrees)} moving subtrees and is welded to the world (a fixed base); for a "
-                         "floating base (legged robots, humanoids) pass --floating-base")
+        doc.note(element.at, f"the root link '{base}' carries {len(subtrees)} moving subtrees and is welded "
+                 "to the world (a fixed base); for a floating base (legged robots, humanoids) pass "
+                 "--floating-base")
 
 
 def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]], link_elements: dict[str, _Element],
@@ -75,8 +76,8 @@ def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]],
         e1 = guess - (guess @ n) * n
         e1 = e1 / np.linalg.norm(e1)
         axes = [_exact(e1), _exact(np.cross(n, e1)), joint["axis"]]
-        x, y, theta = (f"{joint['name']}_{s}" for s in ("x", "y", "theta"))
-        links = [f"{joint['name']}_x_link", f"{joint['name']}_y_link"]
+        x, y, theta = planar_floating_names(joint["name"])
+        links = planar_floating_links(joint["name"])
         clash = next((m for m in (x, y, theta) if m in names), None) or next((m for m in links if m in link_elements), None)
         if clash is not None:
             reader.error(joint["element"], f"joint '{joint['name']}': a planar joint is read as the joints {x}, {y}, "
@@ -84,9 +85,8 @@ def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]],
                          f"{'joint' if clash in names else 'link'} '{clash}' already")
             continue
         if joint["dynamics"] is not None:
-            where = joint["dynamics"]
-            doc.notes.append(f"{reader.file}:{where.line}:{where.column}: note: <dynamics> on planar joint "
-                             f"'{joint['name']}' ignored (as Pinocchio's URDF parser does)")
+            doc.note(joint["dynamics"].at, f"<dynamics> on planar joint '{joint['name']}' ignored (as "
+                     "Pinocchio's URDF parser does)")
         for link in links:
             link_elements[link] = joint["element"]
             frames[link] = (link, identity, np.zeros(3))

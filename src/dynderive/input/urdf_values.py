@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import Problem
+from ..errors import InputError, Problem
 from ..model.written import significant_digits
 from .urdf_xml import _Element, numbers_in
 
@@ -24,7 +24,12 @@ class _Reader:
         self.digits = 0
 
     def error(self, element: _Element, message: str) -> None:
-        self.problems.append(Problem(self.file, element.line, element.column, message))
+        self.problems.append(Problem(self.file, *element.at, message))
+
+    def raise_problems(self) -> None:
+        """Stop the reading with every problem found so far, if any."""
+        if self.problems:
+            raise InputError(self.problems)
 
     def numbers(self, element: _Element | None, attribute: str, count: int, default: list[float],
                 angles: bool = False) -> list[float]:

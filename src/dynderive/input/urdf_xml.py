@@ -41,11 +41,6 @@ def numbers_in(text: str) -> tuple[list[float], str | None]:
     return values, None
 
 
-class _Xacro(Exception):
-    def __init__(self, problem: Problem):
-        self.problem = problem
-
-
 def _xacro_in(element: _Element, prefixes: set[str]) -> str | None:
     """What in ``element`` is unexpanded xacro (an element or attribute with a xacro prefix, a
     ``${...}`` expression), or None."""
@@ -72,6 +67,11 @@ class _Element:
     column: int
     children: list[_Element] = field(default_factory=list)
 
+    @property
+    def at(self) -> tuple[int, int]:
+        """``(line, column)`` of the element's start tag."""
+        return self.line, self.column
+
     def find(self, tag: str) -> _Element | None:
         return next((c for c in self.children if c.tag == tag), None)
 
@@ -92,19 +92,17 @@ def _parse_xml(text: str, file: str) -> _Element:
         xacro.update(name[6:] for name, value in attrs.items() if name.startswith("xmlns:") and _XACRO_URI.search(value))
         found = _xacro_in(element, xacro)
         if found is not None:
-            raise _Xacro(Problem(file, element.line, element.column, f"{found}: this is a xacro file, not a "
-                                 f"URDF; expand it first (xacro {PurePath(file).name} > robot.urdf) and read the result"))
+            raise InputError(Problem(file, *element.at, f"{found}: this is a xacro file, not a URDF; expand "
+                                     f"it first (xacro {PurePath(file).name} > robot.urdf) and read the "
+                                     "result"))
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)
-
-    def end(tag: str) -> None:
-        stack.pop()
 
     def refuse(*_: Any) -> None:
         raise ValueError("DTDs and entities are not allowed in URDF files")
 
     parser.StartElementHandler = start
-    parser.EndElementHandler = end
+    parser.EndElementHandler = lambda tag: stack.pop()
     parser.StartDoctypeDeclHandler = refuse
     parser.EntityDeclHandler = refuse
     try:
@@ -112,8 +110,6 @@ def _parse_xml(text: str, file: str) -> _Element:
     except expat.ExpatError as exc:
         message = expat.ErrorString(exc.code)
         raise InputError(Problem(file, exc.lineno, exc.offset + 1, f"malformed XML: {message}")) from None
-    except _Xacro as exc:
-        raise InputError(exc.problem) from None
     except ValueError as exc:
         raise InputError(Problem(file, parser.CurrentLineNumber, 1, str(exc))) from None
     if not roots:

@@ -20,6 +20,7 @@ from ..model.expressions import (
     NotFiniteError,
     describe_number,
     imaginary_part,
+    kind,
     parse_expression,
 )
 from ..model.naming import did_you_mean
@@ -29,8 +30,7 @@ IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
 class Validator:
-    """Collects positioned problems and checks generic values (mappings, identifiers, texts,
-    expressions, vectors) of one parsed robot file."""
+    """The problems and the generic checks (module docstring) of one parsed robot file."""
 
     def __init__(self, doc: SourceDocument):
         self.doc = doc
@@ -42,6 +42,13 @@ class Validator:
     # -- reporting -------------------------------------------------------------------
     def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
         self.problems.append(self.doc.problem(path, message, key=key, offset=offset))
+
+    def report(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
+        """A problem with the value at ``path``: its label, then ``message``."""
+        self.error(path, f"{self.label(path)}: {message}", key=key, offset=offset)
+
+    def note(self, path: tuple[Any, ...], message: str) -> None:
+        self.doc.note(self.doc.where(path), message)
 
     def at(self, path: tuple[Any, ...], key: bool = False) -> str:
         """``LINE:COL`` of ``path`` (of its key with ``key``), to point at an earlier value."""
@@ -62,17 +69,16 @@ class Validator:
     def mapping(self, value: Any, path: tuple[Any, ...], allowed: Iterable[str],
                 required: Iterable[str] = ()) -> dict[str, Any] | None:
         if not isinstance(value, dict):
-            self.error(path, f"{self.label(path)}: expected a mapping, got {kind(value)}")
+            self.report(path, f"expected a mapping, got {kind(value)}")
             return None
         allowed = tuple(allowed)
         for key in value:
             if key not in allowed:
                 hint = did_you_mean(str(key), allowed) or f" (allowed: {', '.join(allowed)})"
-                self.error(path + (key,), f"{self.label(path + (key,))}: unknown key '{key}'{hint}",
-                           key=True)
+                self.report(path + (key,), f"unknown key '{key}'{hint}", key=True)
         for key in required:
             if key not in value:
-                self.error(path, f"{self.label(path)}: missing required key '{key}'")
+                self.report(path, f"missing required key '{key}'")
         return value
 
     def named_items(self, top: dict[str, Any], key: str, what: str, allowed: Iterable[str], required: Iterable[str],
@@ -93,19 +99,18 @@ class Validator:
             name = self.identifier(item.get("name"), path + ("name",), f"{what} name") if "name" in item else None
             new = name is not None and name not in taken
             if name is not None and not new:
-                self.error(path + ("name",), f"{self.label(path + ('name',))}: {clash.format(what=what, name=name)} "
-                           f"(first at {self.at(taken[name])})")
+                self.report(path + ("name",), f"{clash.format(what=what, name=name)} "
+                            f"(first at {self.at(taken[name])})")
             elif new:
                 taken[name] = path + ("name",)   # type: ignore[index]
             yield i, path, item, name, new
 
     def identifier(self, value: Any, path: tuple[Any, ...], what: str, key: bool = False) -> str | None:
         if not isinstance(value, str) or not IDENTIFIER.match(value):
-            self.error(path, f"{self.label(path)}: {what} must be an identifier "
-                       f"(letters, digits, '_'), got {value!r}", key=key)
+            self.report(path, f"{what} must be an identifier (letters, digits, '_'), got {value!r}", key=key)
             return None
         if keyword.iskeyword(value):
-            self.error(path, f"{self.label(path)}: {what} '{value}' is a Python keyword", key=key)
+            self.report(path, f"{what} '{value}' is a Python keyword", key=key)
             return None
         return value
 
@@ -115,7 +120,7 @@ class Validator:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return str(value)
         if not isinstance(value, str):
-            self.error(path, f"{self.label(path)}: expected text, got {kind(value)}")
+            self.report(path, f"expected text, got {kind(value)}")
             return default
         return value
 
@@ -131,9 +136,21 @@ class Validator:
                 offset = exc.offset + (1 if style in ("'", '"') else 0)
                 if style == '"' and "\\" in value:
                     offset = 0
-            self.error(path, f"{self.label(path)}: {exc}", offset=offset)
+            self.report(path, str(exc), offset=offset)
             return None
         return expr if self.at_defaults(expr, value, path) else None
+
+    def numeric(self, expr: sympy.Expr | None) -> float | None:
+        """Value of ``expr`` at the parameter defaults, or None if it is not a real number."""
+        if expr is None:
+            return None
+        try:
+            value = self.evaluate(expr)
+        except NotFiniteError:
+            return None
+        if value is None or imaginary_part(value):
+            return None
+        return float(sympy.re(value))
 
     def at_defaults(self, expr: sympy.Expr, value: Any, path: tuple[Any, ...]) -> bool:
         """Refuse an expression that is not finite or not real at the parameter defaults."""
@@ -151,44 +168,16 @@ class Validator:
         text = str(value) if len(str(value)) <= 40 else str(value)[:37] + "..."
         names = ", ".join(f"{s} = {float(self.evaluate.values[s]):g}"
                           for s in sorted(expr.free_symbols, key=str))
-        self.error(path, f"{self.label(path)}: '{text}' is {what} at the default parameter values "
-                   f"{names}{detail}")
+        self.report(path, f"'{text}' is {what} at the default parameter values {names}{detail}")
         return False
 
     def vector(self, value: Any, path: tuple[Any, ...], lengths: tuple[int, ...],
                symbols: dict[str, sympy.Expr]) -> list[sympy.Expr | None] | None:
+        sizes = " or ".join(str(n) for n in lengths)
         if not isinstance(value, list):
-            self.error(path, f"{self.label(path)}: expected a list of {_lengths(lengths)} "
-                       f"entries, got {kind(value)}")
+            self.report(path, f"expected a list of {sizes} entries, got {kind(value)}")
             return None
         if len(value) not in lengths:
-            self.error(path, f"{self.label(path)}: expected {_lengths(lengths)} entries, "
-                       f"got {len(value)}")
+            self.report(path, f"expected {sizes} entries, got {len(value)}")
             return None
         return [self.expression(v, path + (i,), symbols) for i, v in enumerate(value)]
-
-
-def kind(value: Any, empty: bool = False) -> str:
-    if value is None:
-        return "nothing"
-    if empty and value in ([], {}):
-        return f"an empty {'list' if value == [] else 'mapping'}"
-    return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
-            dict: "a mapping"}.get(type(value), type(value).__name__)
-
-
-def _lengths(lengths: tuple[int, ...]) -> str:
-    return " or ".join(str(n) for n in lengths)
-
-
-def numeric(expr: sympy.Expr | None, defaults: Evaluator) -> float | None:
-    """Value of ``expr`` with the parameter defaults, or None if it is not a real number."""
-    if expr is None:
-        return None
-    try:
-        value = defaults(expr)
-    except NotFiniteError:
-        return None
-    if value is None or imaginary_part(value):
-        return None
-    return float(sympy.re(value))

@@ -144,9 +144,8 @@ def _open_columns(text: str, line: int) -> list[tuple[int, str]]:
     for number in sorted({n for n, _, _ in starts}, reverse=True):
         on_line = sorted((c, k) for n, c, k in starts if n == number)
         for column, kind in on_line:
-            if limit is None or column < limit:
-                if all(c != column for c, _ in opened):
-                    opened.append((column, kind))
+            if (limit is None or column < limit) and all(c != column for c, _ in opened):
+                opened.append((column, kind))
         limit = on_line[0][0] if limit is None else min(limit, on_line[0][0])
         if limit == 1:
             break

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ast
 import math
+import operator
 import sys
 from collections.abc import Mapping
 from decimal import Decimal, InvalidOperation
@@ -88,7 +89,7 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
     if isinstance(text, float):
         return _number(repr(text), 0)
     if not isinstance(text, str):
-        raise ExpressionError(f"expected an expression or a number, got {_kind(text)}")
+        raise ExpressionError(f"expected an expression or a number, got {kind(text)}")
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"expression is longer than {MAX_LENGTH} characters")
     if not text.strip():
@@ -100,14 +101,14 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
         if depth > MAX_DEPTH:
             raise ExpressionError(f"expression is nested more than {MAX_DEPTH} levels deep", index)
     source = text.replace("^", "**")
+    lead = len(source) - len(source.lstrip())
     try:
         tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
-        offset = max((exc.offset or 1) - 1, 0) + (len(source) - len(source.lstrip()))
+        offset = max((exc.offset or 1) - 1, 0) + lead
         raise ExpressionError(f"malformed expression: {exc.msg}", offset) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression is too complex") from None
-    lead = len(source) - len(source.lstrip())
     builder = _Builder(symbols, lead, source.strip())
     deep = _too_deep(tree.body)
     if deep is not None:
@@ -118,18 +119,15 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
         raise ExpressionError("expression is nested too deeply") from None
 
 
-def _family(op: ast.operator) -> str | None:
-    """Operators whose left-nested chains are built in a loop: ``+ -`` and ``* /``."""
-    if isinstance(op, (ast.Add, ast.Sub)):
-        return "sum"
-    if isinstance(op, (ast.Mult, ast.Div)):
-        return "product"
-    return None
+#: Operators whose left-nested chains are built in a loop: ``+ -`` and ``* /``.
+_FAMILY = {ast.Add: "sum", ast.Sub: "sum", ast.Mult: "product", ast.Div: "product"}
+#: Operators built without a check of their own (``/`` and ``**`` have theirs).
+_ARITHMETIC = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul}
 
 
 def _chained(parent: ast.AST, child: ast.AST) -> bool:
     return (isinstance(parent, ast.BinOp) and child is parent.left and isinstance(child, ast.BinOp)
-            and _family(child.op) is not None and _family(child.op) == _family(parent.op))
+            and type(child.op) in _FAMILY and _FAMILY[type(child.op)] == _FAMILY.get(type(parent.op)))
 
 
 def _too_deep(tree: ast.AST) -> ast.AST | None:
@@ -238,8 +236,14 @@ def _out_of_range(value: sympy.Expr) -> bool:
     return bool(magnitude > _DOUBLE_MAX or (magnitude != 0 and magnitude < _DOUBLE_TINY))
 
 
-def _kind(value: object) -> str:
-    return {list: "a list", dict: "a mapping", type(None): "nothing"}.get(type(value), type(value).__name__)
+def kind(value: object, empty: bool = False) -> str:
+    """What a parsed YAML value is, in words: ``a list``, ``text``; ``empty``: ``an empty list``."""
+    if value is None:
+        return "nothing"
+    if empty and value in ([], {}):
+        return f"an empty {'list' if value == [] else 'mapping'}"
+    return {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
+            dict: "a mapping"}.get(type(value), type(value).__name__)
 
 
 def _number(literal: str, offset: int) -> sympy.Expr:
@@ -270,9 +274,10 @@ class _Builder:
         characters = len(self.source.encode("utf-8")[:offset].decode("utf-8", errors="ignore"))
         return ExpressionError(message, characters + self.lead)
 
-    def segment(self, node: ast.AST) -> str:
+    def refuse(self, node: ast.AST, what: str) -> ExpressionError:
+        """``'<node's text>' <what>`` at ``node``, the text cut to 40 characters."""
         text = ast.get_source_segment(self.source, node) or "expression"
-        return text if len(text) <= 40 else text[:37] + "..."
+        return self.fail(node, f"'{text if len(text) <= 40 else text[:37] + '...'}' {what}")
 
     def build(self, node: ast.AST) -> sympy.Expr:
         if isinstance(node, ast.Constant):
@@ -309,16 +314,15 @@ class _Builder:
                 continue
             self.seen.add(expr)
             if expr in _NON_FINITE:
-                raise self.fail(node, f"'{self.segment(node)}' is {_NON_FINITE[expr]}")
+                raise self.refuse(node, f"is {_NON_FINITE[expr]}")
             if expr.is_Number:
                 if _out_of_range(expr):
-                    raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                                    f"({_about(expr)})")
+                    raise self.refuse(node, f"is out of the range of a double ({_about(expr)})")
                 continue
             if (expr.is_Pow and expr.exp.is_Number and abs(expr.exp) > MAX_SYMBOLIC_EXPONENT
                     and expr.base.free_symbols):
-                raise self.fail(node, f"'{self.segment(node)}' makes the power {expr}; powers of symbolic "
-                                f"expressions are limited to exponent {MAX_SYMBOLIC_EXPONENT}")
+                raise self.refuse(node, f"makes the power {expr}; powers of symbolic expressions are limited "
+                                  f"to exponent {MAX_SYMBOLIC_EXPONENT}")
             if not expr.free_symbols:
                 self._check_constant(node, expr)
                 continue
@@ -326,9 +330,9 @@ class _Builder:
         if result.free_symbols and not result.is_Symbol:
             terms = expanded_terms(result, MAX_EXPANDED_TERMS + 1, self.size_memo)
             if terms > MAX_EXPANDED_TERMS:
-                raise self.fail(node, f"'{self.segment(node)}' expands to up to {expanded_terms(result)} "
-                                f"terms (limit {MAX_EXPANDED_TERMS}): give the value a parameter of its "
-                                "own, or write it with fewer sums inside powers and products")
+                raise self.refuse(node, f"expands to up to {expanded_terms(result)} terms (limit "
+                                  f"{MAX_EXPANDED_TERMS}): give the value a parameter of its own, or write "
+                                  "it with fewer sums inside powers and products")
         return result
 
     def _check_constant(self, node: ast.AST, expr: sympy.Expr) -> None:
@@ -336,17 +340,15 @@ class _Builder:
             value = self.evaluate(expr)
         except NotFiniteError as exc:
             if exc.reason == "out of range":
-                raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                                f"({_about(exc.value)})") from None  # type: ignore[arg-type]
-            raise self.fail(node, f"'{self.segment(node)}' is {exc.reason}") from None
+                about = _about(exc.value)  # type: ignore[arg-type]
+                raise self.refuse(node, f"is out of the range of a double ({about})") from None
+            raise self.refuse(node, f"is {exc.reason}") from None
         if value is None:
             return
         if imaginary_part(value):
-            raise self.fail(node, f"'{self.segment(node)}' is not a real number "
-                            f"(its value is {describe_number(value)})")
+            raise self.refuse(node, f"is not a real number (its value is {describe_number(value)})")
         if _out_of_range(sympy.re(value)):
-            raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                            f"({_about(value)})")
+            raise self.refuse(node, f"is out of the range of a double ({_about(value)})")
 
     def _binary(self, node: ast.BinOp) -> sympy.Expr:
         # a long chain a + b - c + ... (or a*b/c*...) is built in a loop, not by recursion
@@ -360,12 +362,8 @@ class _Builder:
 
     def _combine(self, node: ast.BinOp, left: sympy.Expr, right: sympy.Expr) -> sympy.Expr:
         op = node.op
-        if isinstance(op, ast.Add):
-            return left + right
-        if isinstance(op, ast.Sub):
-            return left - right
-        if isinstance(op, ast.Mult):
-            return left * right
+        if type(op) in _ARITHMETIC:
+            return _ARITHMETIC[type(op)](left, right)
         if isinstance(op, ast.Div):
             if right == 0:
                 raise self.fail(node, "division by zero")
@@ -384,8 +382,7 @@ class _Builder:
                 if base is not None and abs(base) != 0:
                     log10 = float(right) * math.log10(float(abs(base)))
                     if log10 > _LOG10_MAX or log10 < _LOG10_TINY:
-                        raise self.fail(node, f"'{self.segment(node)}' is out of the range of a double "
-                                        f"({_about_log10(log10)})")
+                        raise self.refuse(node, f"is out of the range of a double ({_about_log10(log10)})")
             return left**right
         raise self.fail(node, f"operator not allowed: {_describe(op)}")
 
@@ -395,14 +392,12 @@ class _Builder:
                             f"({', '.join(sorted(FUNCTIONS))})")
         name = node.func.id
         if name not in FUNCTIONS:
-            raise self.fail(node, f"unknown function '{name}' (allowed: "
-                            f"{', '.join(sorted(FUNCTIONS))})")
+            raise self.fail(node, f"unknown function '{name}' (allowed: {', '.join(sorted(FUNCTIONS))})")
         if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
             raise self.fail(node, f"'{name}' takes plain positional arguments only")
         arity = 2 if name == "atan2" else 1
         if len(node.args) != arity:
-            raise self.fail(node, f"'{name}' takes {arity} argument{'s' * (arity > 1)}, "
-                            f"got {len(node.args)}")
+            raise self.fail(node, f"'{name}' takes {arity} argument{'s' * (arity > 1)}, got {len(node.args)}")
         args = [self.build(a) for a in node.args]
         return self.checked(node, FUNCTIONS[name](*args))  # type: ignore[operator]
 

@@ -22,9 +22,7 @@ def split_index(name: str) -> tuple[str, str]:
     match = re.fullmatch(r"(.*?)(\d*)", name)
     assert match is not None
     stem, digits = match.group(1), match.group(2)
-    if not stem:  # a name of digits only cannot happen (identifiers), keep it whole
-        return name, ""
-    return stem, digits
+    return (stem, digits) if stem else (name, "")   # digits only cannot happen (identifiers): kept whole
 
 
 def velocity_name(name: str) -> str:
@@ -105,9 +103,7 @@ def closest_name(name: str, candidates) -> str | None:
     close = difflib.get_close_matches(name, options, n=1)
     if close:
         return close[0]
-    lowered: dict[str, str] = {}
-    for option in options:
-        lowered.setdefault(option.lower(), option)
+    lowered = {option.lower(): option for option in reversed(options)}   # the first spelling wins
     close = difflib.get_close_matches(name.lower(), list(lowered), n=1)
     return lowered[close[0]] if close else None
 

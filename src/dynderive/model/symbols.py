@@ -11,12 +11,7 @@ from dataclasses import dataclass, field
 import sympy
 
 from .expressions import parse_expression
-from .naming import (
-    acceleration_name,
-    latex_name,
-    maximal_coordinate_names,
-    velocity_name,
-)
+from .naming import acceleration_name, latex_name, maximal_coordinate_names, velocity_name
 from .robot import Robot, floating_names
 
 
@@ -64,8 +59,7 @@ class SymbolTable:
         return parse_expression(text, self.parameters)
 
     def maximal_expr(self, text: object) -> sympy.Expr:
-        scope = dict(self.parameters) | {str(s): s for s in self.qm}
-        return parse_expression(text, scope)
+        return parse_expression(text, dict(self.parameters) | {str(s): s for s in self.qm})
 
     def all_symbols(self) -> list[sympy.Symbol]:
         return [*self.parameters.values(), *self.q, *self.qd, *self.qdd, *self.efforts.values(),
