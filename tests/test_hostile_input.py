@@ -80,6 +80,21 @@ def test_yaml_exponent_numbers_keep_positioned_errors(tmp_path):
     assert result.stderr.splitlines() == [f"{path}:10:26: links[1].mass: must be positive (got -0.002)"]
 
 
+@pytest.mark.parametrize("end, written, kind, column", [("parent", "[upper]", "a list", 41),
+                                                       ("child", "{a: 1}", "a mapping", 55)])
+def test_a_joint_end_that_is_no_name_is_a_positioned_error(tmp_path, end, written, kind, column):
+    """A list or a mapping where a link's name belongs is refused at its place (not a crash on an
+    unhashable value)."""
+    path = _arm(tmp_path)
+    old = "parent: upper, child: slider"
+    new = f"parent: {written}, child: slider" if end == "parent" else f"parent: upper, child: {written}"
+    path.write_text(path.read_text().replace(old, new))
+    result = runner.invoke(app, ["solve", str(path)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    first = result.stderr.splitlines()[0]
+    assert first == f"{path}:13:{column}: joints[1].{end}: expected a link's name, got {kind}"
+
+
 # -- names -------------------------------------------------------------------------------------
 
 def test_velocity_names_of_the_bundled_robots_are_unchanged():

@@ -131,7 +131,9 @@ class _LinkNames:
         end, where = item.get(role), path + (role,)
         if role not in item or (world and end == "world"):
             return
-        if end == "world":
+        if not isinstance(end, str):
+            v.report(where, f"expected a link's name, got {kind(end)}")
+        elif end == "world":
             v.report(where, "'world' cannot be a child")
         elif end not in self.names and not (self.broken or end in self.bad):
             v.report(where, f"unknown link {end!r}"
