@@ -34,6 +34,7 @@ from .tidy import (
     trig_group,
     trig_linear,
 )
+from .tree import efforts
 
 #: 3-D robots with more coordinates than this, or whose Lagrangian has more tree nodes than
 #: LAGRANGE_LIMIT, skip the symbolic Lagrange route (EOM_g1): differentiating it twice costs
@@ -50,14 +51,6 @@ SPATIAL_TIDY_LIMIT = 400
 PLANAR_TIDY_LIMIT = 300
 
 
-def _spatial_tidy(expr: sympy.Expr) -> sympy.Expr:
-    return tidy(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
-
-
-def _spatial_quick_tidy(expr: sympy.Expr) -> sympy.Expr:
-    return quick_tidy(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
-
-
 def tidier(robot: Robot) -> Callable[[sympy.Expr], sympy.Expr]:
     """The clean-up used for ``robot``'s quantities: full ``tidy`` for planar robots; for 3-D
     robots only entries small enough to be read, and for arms beyond LAGRANGE_DOF_LIMIT
@@ -65,7 +58,8 @@ def tidier(robot: Robot) -> Callable[[sympy.Expr], sympy.Expr]:
     entries for 4 % fewer operations)."""
     if robot.planar:
         return tidy
-    return _spatial_tidy if robot.kinematic_size <= LAGRANGE_DOF_LIMIT else _spatial_quick_tidy
+    clean = tidy if robot.kinematic_size <= LAGRANGE_DOF_LIMIT else quick_tidy
+    return lambda expr: clean(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
 
 
 @dataclass
@@ -115,8 +109,7 @@ def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
 
 def applied_forces(robot: Robot, table: SymbolTable) -> sympy.Matrix:
     """``Y_g``: each joint's effort symbol on its own coordinate (0 where it has none)."""
-    efforts = {j.name: j.effort for j in robot.joints if j.moves}
-    return sympy.Matrix([table.efforts[efforts[n]] if efforts[n] else 0 for n in robot.coordinates])
+    return sympy.Matrix(efforts(robot, table))
 
 
 def _trig_squares(expr: sympy.Expr) -> bool:

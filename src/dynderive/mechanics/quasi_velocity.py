@@ -39,6 +39,7 @@ from .drives import dissipative_force, joint_drives
 from .joint_types.quaternion import quaternion_matrix
 from .joints import unit
 from .polynomial import expand
+from .program import _cross
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 from .tidy import fold_constants
 from .tree import efforts, offsets
@@ -183,7 +184,6 @@ class _Ring:
         scale = max((_largest(e) for row in rows for e in row if e), default=0.0)
         return sympy.Matrix([[self.expr(e, scale) for e in row] for row in rows])
 
-
     def diff(self, element, symbol: sympy.Symbol):   # noqa: ANN001
         """d element / d symbol, a revolute coordinate through its sine and cosine."""
         if symbol in self.derivatives:
@@ -326,7 +326,7 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
                 Jdot = _add(Jdot, [[ring.diff(e, s) * rates[s] for e in row] for row in Jc])
         links[name].jacobian_dot = ring.matrix(Jdot)
         JcT = _t(Jc)
-        bias = [[mass * e] for e in _cross3(ang, lin)] + [[e] for e in _cross3(ang, I_w)]
+        bias = [[mass * e] for e in _cross(ang, lin)] + [[e] for e in _cross(ang, I_w)]
         M = _add(M, _mul(JcT, _mul(G, Jc, zero), zero))
         N = _add(N, _mul(JcT, [[-mass * row[0]] for row in g_link] + [[zero]] * 3, zero))
         Cv = _add(Cv, _mul(JcT, _add(_mul(G, _mul(Jdot, v, zero), zero), bias), zero))
@@ -343,28 +343,21 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
         C = _add(C, _mul(JcT, _add(_mul(G, Jdot, zero), _mul(_mul(G, cross, zero), Jc, zero), _mul(B, Jc, zero)), zero))
     potential_s = sum((item.potential for item in links.values()), sympy.Integer(0))
     M_s, N_s = ring.matrix(M), ring.matrix(N)
-    for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
-        qi, vi = where.q[joint.name], where.v[joint.name]
-        armature = expr(joint.armature) if joint.armature is not None else 0
-        stiffness = expr(joint.stiffness) if joint.stiffness is not None else 0
-        rest = expr(joint.rest) if joint.rest is not None else 0
-        M_s[vi, vi] += armature
-        N_s[vi] = expand(N_s[vi] + stiffness * (table.q[qi] - rest))
-        potential_s += stiffness * (table.q[qi] - rest) ** 2 / 2
+    F = sympy.zeros(len(table.qd), 1)   # damping and Coulomb friction of the scalar joints
+    coordinate = {where.v[j.name]: table.q[where.q[j.name]] for j in robot.joints if j.moves and not j.multi}
+    for drive in joint_drives(robot, table):
+        vi, spring = drive.coordinate, coordinate[drive.coordinate] - drive.rest
+        M_s[vi, vi] += drive.armature
+        N_s[vi] = expand(N_s[vi] + drive.stiffness * spring)
+        potential_s += drive.stiffness * spring ** 2 / 2
+        F[vi] = dissipative_force(drive.damping, drive.friction, table.qd[vi])
     v_s = sympy.Matrix(table.qd)
     T = expand((v_s.T * M_s * v_s)[0, 0] / 2)
     Y = sympy.Matrix(efforts(robot, table))
     Cv_s = ring.matrix(Cv)
-    F = sympy.zeros(len(table.qd), 1)   # damping and Coulomb friction of the scalar joints
-    for drive in joint_drives(robot, table):
-        F[drive.coordinate] = dissipative_force(drive.damping, drive.friction, table.qd[drive.coordinate])
     EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s + F - Y).applyfunc(expand)
     return QuasiVelocitySheet([links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,
                               expand(potential_s), Y, EOM)
-
-
-def _cross3(a: list, b: list) -> list:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def _skew3(a: list, zero) -> list[list]:   # noqa: ANN001

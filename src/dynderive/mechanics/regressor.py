@@ -52,8 +52,7 @@ from ..model.symbols import SymbolTable
 from .drives import joint_drives
 from .program import Program, Vector, _dot
 from .recursive import _advance, body_force
-from .spatial import inertia_tensor
-from .tree import ZERO, Tree, gravity
+from .tree import ZERO, Tree, gravity, origin_inertia
 
 #: Pinocchio's order of a link's standard parameters (``Inertia.toDynamicParameters``).
 SPATIAL_KINDS = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
@@ -85,16 +84,9 @@ def parameter_vector(robot: Robot, table: SymbolTable) -> list[Parameter]:
     kinds = PLANAR_KINDS if robot.planar else SPATIAL_KINDS
     for link in robot.links:
         mass = table.expr(link.mass)
-        com = [table.expr(e) for e in link.com] + ([sympy.Integer(0)] if robot.planar else [])
-        if robot.planar:
-            zero = sympy.Integer(0)
-            about_com = inertia_tensor((zero, zero, table.expr(link.inertia[0]), zero, zero, zero))
-        else:
-            about_com = inertia_tensor(tuple(table.expr(e) for e in link.inertia))
-        square = sum((c * c for c in com), sympy.Integer(0))
+        com, inertia = origin_inertia(robot, table, link, mass)
         values = {"m": mass, "mcx": mass * com[0], "mcy": mass * com[1], "mcz": mass * com[2]}
-        for kind, (a, b) in _ENTRY.items():
-            values[kind] = about_com[a, b] + mass * ((square if a == b else 0) - com[a] * com[b])
+        values |= {kind: inertia[a][b] for kind, (a, b) in _ENTRY.items()}
         entries += [Parameter(f"{kind}_{link.name}", kind, link.name, values[kind]) for kind in kinds]
     return entries + _drive_parameters(robot, table)
 
