@@ -45,48 +45,39 @@ def count_ops(expr: sympy.Expr) -> int:
 def _ops(a: sympy.Basic) -> int:
     """What ``count_ops`` adds for ``a`` when it pops it off its stack, descendants included."""
     known = _OPS.get(a)
-    if known is not None:
-        return known
-    total = 0
-    node = a
-    if node.is_Rational:
-        if node is not sympy.S.One:
-            total = (node.p < 0) + (node.q != 1)
-            _OPS[a] = total
-            return total
-    elif node.is_Mul:
+    if known is None:
+        known = _OPS[a] = _count(a)
+    return known
+
+
+def _count(node: sympy.Basic) -> int:
+    """``_ops`` of ``node``, not remembered yet."""
+    if node.is_Rational and node is not sympy.S.One:
+        return (node.p < 0) + (node.q != 1)
+    if node.is_Mul:
+        total = 0
         if _negative_coefficient(node):
-            total += 1
+            total = 1
             node = node.as_two_terms()[1] if node.args[0] is sympy.S.NegativeOne else _negated(node)
         if _numerator_only(node):   # what fraction(node) gives as (node, 1), without rebuilding it
-            total += _tail(node)
-            _OPS[a] = total
-            return total
+            return total + _tail(node)
         n, d = fraction(node)
         if n.is_Integer:
-            total += 1 + bool(n < 0) + _ops(d)
-            _OPS[a] = total
-            return total
+            return total + 1 + bool(n < 0) + _ops(d)
         if d is not sympy.S.One:
-            total += 1 + _ops(n) + (0 if d.is_Integer else _ops(d))
-            _OPS[a] = total
-            return total
-    elif node.is_Add:
-        args = node.args
-        negative = 0
-        for i, term in enumerate(args):
+            return total + 1 + _ops(n) + (0 if d.is_Integer else _ops(d))
+        return total + _tail(node)
+    if node.is_Add:
+        total = negative = 0
+        for i, term in enumerate(node.args):
             if _negative_coefficient(term):
                 negative += 1
                 total += _ops(_negated(term))
             else:
                 total += _ops(term)
             total += i > 0
-        total += negative == len(args)
-        _OPS[a] = total
-        return total
-    total += _tail(node)
-    _OPS[a] = total
-    return total
+        return total + (negative == len(node.args))
+    return _tail(node)
 
 
 def _negative_coefficient(a: sympy.Basic) -> bool:

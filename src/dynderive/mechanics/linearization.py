@@ -41,7 +41,7 @@ def inverse_dynamics_derivatives_program(robot: Robot, table: SymbolTable, tree:
     n = tree.size
     seeds = tree.tangent_seeds() + [{rate: sympy.Integer(1)} for rate in table.qd]
     by_variable: list[list[sympy.Expr]] = []
-    partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr] = {}
+    partials: dict[tuple[sympy.Expr, sympy.Symbol], sympy.Expr] = {}
     for seed in seeds:
         tangent = dict(seed)
         _carry(program, tangent, trig, lines, partials)

@@ -250,11 +250,8 @@ def assemblies(numeric: _Numeric, robot: Robot) -> list[np.ndarray]:
 
 
 def _rank(J: np.ndarray) -> int:
-    return _rank_of(np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0))
-
-
-def _rank_of(sigma: np.ndarray) -> int:
-    """The rank given by singular values in decreasing order."""
+    """The rank of ``J``: its singular values above RANK_TOLERANCE times the largest."""
+    sigma = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
     return int(np.sum(sigma > RANK_TOLERANCE * max(float(sigma[0]) if len(sigma) else 0.0, 1e-300)))
 
 
@@ -276,7 +273,7 @@ def _neighbours(numeric: _Numeric, q: np.ndarray) -> list[np.ndarray]:
 def _regular(J: np.ndarray, rank: int) -> bool:
     """Whether ``J`` has rank ``rank``, well away from a lower one."""
     sigma = np.linalg.svd(J, compute_uv=False)
-    return _rank_of(sigma) == rank and (rank == 0 or sigma[rank - 1] > 1e-6 * sigma[0])
+    return _rank(J) == rank and (rank == 0 or sigma[rank - 1] > 1e-6 * sigma[0])
 
 
 def _manifold_rank(numeric: _Numeric, q: np.ndarray) -> int:
@@ -322,17 +319,17 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     if vanishing:
         nonzero = [i for k, i in enumerate(nonzero) if k not in vanishing]
         a, A, numeric = numeric_of(nonzero)
-    dropped = [every[i] for i in range(len(every)) if i not in nonzero]
+    dropped = "; ".join(f"{name}: {what}" for i, (name, what, _) in enumerate(every) if i not in nonzero)
     if dropped:
-        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint "
-                     f"{'rows are' if len(dropped) != 1 else 'row is'} identically zero and "
-                     f"{'were' if len(dropped) != 1 else 'was'} dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
+        count = len(every) - len(nonzero)
+        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {count} loop constraint "
+                     f"{'rows are' if count != 1 else 'row is'} identically zero and "
+                     f"{'were' if count != 1 else 'was'} dropped: {dropped}")
     rows = [every[i] for i in nonzero]
     if not rows:   # a loop joint on a tree joint's own axis: nothing to close
-        raise InputError(Problem(robot.source, where[0], where[1], "loops: every loop constraint row is identically "
-                                 "zero (" + "; ".join(f"{name}: {what}" for name, what, _ in dropped) + "), so the "
-                                 "loops constrain nothing: remove them, or move the loop joint off the tree joint's "
-                                 "axis"))
+        raise InputError(Problem(robot.source, where[0], where[1], f"loops: every loop constraint row is identically "
+                                 f"zero ({dropped}), so the loops constrain nothing: remove them, or move the loop "
+                                 "joint off the tree joint's axis"))
     found = assemblies(numeric, robot)
     if not found:
         if complete:

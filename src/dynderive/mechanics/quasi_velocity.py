@@ -272,8 +272,8 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     zero, one = K.zero, K.one
     v = ring.of(sympy.Matrix(table.qd))
     g = ring.of(gravity)
-    poses = {"world": ([[one if i == j else zero for j in range(3)] for i in range(3)], [[zero]] * 3,
-                       [[zero] * nv for _ in range(6)])}
+    identity = [[one if i == j else zero for j in range(3)] for i in range(3)]
+    poses = {"world": (identity, [[zero]] * 3, [[zero] * nv for _ in range(6)])}
     rates = {s: ring.of(sympy.Matrix([e]))[0][0] for s, e in zip(table.q, rate * sympy.Matrix(table.qd))}
     links: dict[str, LinkSheet] = {}
     numeric: dict[str, tuple] = {}
@@ -284,21 +284,13 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
         mass, com, inertia = ring.of(sympy.Matrix([mass_s]))[0][0], ring.of(com_s), ring.of(inertia_s)
         R_parent, p_parent, J_parent = poses[joint.parent]
         Rt = _t(R)
-        X = [[zero] * 6 for _ in range(6)]   # the link origin's twist (v, w) in link axes: X J_parent + S
-        lever = _mul(Rt, _scale(ring.of(skew(p_s)), -one), zero)
-        for i in range(3):
-            for j in range(3):
-                X[i][j], X[i][3 + j], X[3 + i][3 + j] = Rt[i][j], lever[i][j], Rt[i][j]
+        # the link origin's twist (v, w) in link axes: X J_parent + S
+        X = _blocks(zero, Rt, _mul(Rt, _scale(ring.of(skew(p_s)), -one), zero), None, Rt)
         J = _add(_mul(X, J_parent, zero), S)
         R_world = _mul(R_parent, R, zero)
         p_world = _add(p_parent, _mul(R_parent, p, zero))
         poses[link.name] = (R_world, p_world, J)
-        shift = ring.of(sympy.eye(6))
-        com_skew = ring.of(-skew(com_s))
-        for i in range(3):
-            for j in range(3):
-                shift[i][3 + j] = com_skew[i][j]
-        Jc = _mul(shift, J, zero)
+        Jc = _mul(_blocks(zero, identity, ring.of(-skew(com_s)), None, identity), J, zero)
         twist = _mul(Jc, v, zero)
         g_link = _mul(_t(R_world), g, zero)
         lin, ang = [row[0] for row in twist[:3]], [row[0] for row in twist[3:]]
@@ -315,11 +307,7 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     C = [[zero] * nv for _ in range(nv)]
     half = K.convert(sympy.Rational(1, 2))
     for name, (mass, inertia, Jc, twist, lin, ang, I_w, g_link) in numeric.items():
-        G = [[zero] * 6 for _ in range(6)]
-        for i in range(3):
-            G[i][i] = mass
-            for j in range(3):
-                G[3 + i][3 + j] = inertia[i][j]
+        G = _blocks(zero, [[mass if i == j else zero for j in range(3)] for i in range(3)], None, None, inertia)
         Jdot = [[zero] * nv for _ in range(6)]
         for s in table.q:
             if s in rates and rates[s] != zero:
@@ -330,15 +318,11 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
         M = _add(M, _mul(JcT, _mul(G, Jc, zero), zero))
         N = _add(N, _mul(JcT, [[-mass * row[0]] for row in g_link] + [[zero]] * 3, zero))
         Cv = _add(Cv, _mul(JcT, _add(_mul(G, _mul(Jdot, v, zero), zero), bias), zero))
-        cross = [[zero] * 6 for _ in range(6)]   # V x, (v, w) order
         momentum = [row[0] for row in _mul(G, twist, zero)]
-        star = [[zero] * 6 for _ in range(6)]    # (G V) xbar*: m -> m x* (G V)
-        wx, vx = _skew3(ang, zero), _skew3(lin, zero)
-        px, Lx = _skew3(momentum[:3], zero), _skew3(momentum[3:], zero)
-        for i in range(3):
-            for j in range(3):
-                cross[i][j], cross[i][3 + j], cross[3 + i][3 + j] = wx[i][j], vx[i][j], wx[i][j]
-                star[i][3 + j], star[3 + i][j], star[3 + i][3 + j] = -px[i][j], -px[i][j], -Lx[i][j]
+        wx = _skew3(ang, zero)
+        cross = _blocks(zero, wx, _skew3(lin, zero), None, wx)   # V x, (v, w) order
+        px, Lx = _skew3([-e for e in momentum[:3]], zero), _skew3([-e for e in momentum[3:]], zero)
+        star = _blocks(zero, None, px, px, Lx)    # (G V) xbar*: m -> m x* (G V)
         B = _scale(_add(_scale(_mul(_t(cross), G, zero), -one), _scale(_mul(G, cross, zero), -one), star), half)
         C = _add(C, _mul(JcT, _add(_mul(G, Jdot, zero), _mul(_mul(G, cross, zero), Jc, zero), _mul(B, Jc, zero)), zero))
     potential_s = sum((item.potential for item in links.values()), sympy.Integer(0))
@@ -362,3 +346,13 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
 
 def _skew3(a: list, zero) -> list[list]:   # noqa: ANN001
     return [[zero, -a[2], a[1]], [a[2], zero, -a[0]], [-a[1], a[0], zero]]
+
+
+def _blocks(zero, top_left, top_right, bottom_left, bottom_right) -> list[list]:   # noqa: ANN001
+    """The 6 x 6 matrix of four 3 x 3 blocks (None: a zero block)."""
+    rows = [[zero] * 6 for _ in range(6)]
+    for (r, c), block in zip(((0, 0), (0, 3), (3, 0), (3, 3)), (top_left, top_right, bottom_left, bottom_right)):
+        if block is not None:
+            for i in range(3):
+                rows[r + i][c:c + 3] = block[i]
+    return rows

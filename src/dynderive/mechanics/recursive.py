@@ -305,37 +305,24 @@ def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
 
 def _carry(program: Program, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
            lines: Sequence[tuple[sympy.Symbol, sympy.Expr, set[sympy.Symbol]]],
-           partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr] | None = None) -> None:
+           partials: dict[tuple[sympy.Expr, sympy.Symbol], sympy.Expr] | None = None) -> None:
     """One forward pass: the tangent of each of ``lines`` (name, expression, its names) that
     has one joins ``tangent`` under a new name of ``program``. ``partials``: each line's
     partial derivatives kept across passes that differentiate the same lines (only the
     tangents they multiply differ)."""
-    if partials is None:
-        partials = {}
-    one = sympy.S.One
+    partials = {} if partials is None else partials
     for name, expr, symbols in lines:
-        moving = sorted((s for s in symbols if s in tangent), key=lambda s: s.name)
-        if not moving:
-            continue
-        if expr.is_Function:
-            d = _forward(expr, tangent, trig, symbols)
-        else:
-            terms = []
-            for s in moving:
-                partial = partials.get((name, s))
-                if partial is None:
-                    partial = partials[name, s] = _partial(expr, s)
-                terms.append(partial if tangent[s] is one else partial * tangent[s])
-            d = sympy.Add(*terms)
+        d = _forward(expr, tangent, trig, symbols, partials)
         if d != 0:
             tangent[name] = program.let(d)
 
 
 def _forward(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
-             symbols: set[sympy.Symbol] | None = None) -> sympy.Expr:
+             symbols: set[sympy.Symbol] | None = None,
+             partials: dict[tuple[sympy.Expr, sympy.Symbol], sympy.Expr] | None = None) -> sympy.Expr:
     """The tangent of ``expr`` (forward mode): ``sum_s d expr/d s * tangent[s]`` over its names
     (``symbols``, if known) that have one; sines and cosines of coordinates in terms of the
-    program's trig lines (``trig``)."""
+    program's trig lines (``trig``). ``partials``: the partial derivatives already taken."""
     expr = sympy.sympify(expr)
     moving = sorted((s for s in (expr.free_symbols if symbols is None else symbols) if s in tangent),
                     key=lambda s: s.name)
@@ -343,8 +330,13 @@ def _forward(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr], trig: di
         return sympy.Integer(0)
     if expr.is_Function:   # a sine or cosine of a coordinate: in terms of the trig lines
         return sympy.Add(*(sympy.diff(expr, s) * tangent[s] for s in moving)).xreplace(trig)
-    return sympy.Add(*(_partial(expr, s) if tangent[s] is sympy.S.One else _partial(expr, s) * tangent[s]
-                       for s in moving))
+    partials = {} if partials is None else partials
+    terms = []
+    for s in moving:
+        if (expr, s) not in partials:
+            partials[expr, s] = _partial(expr, s)
+        terms.append(partials[expr, s] if tangent[s] is sympy.S.One else partials[expr, s] * tangent[s])
+    return sympy.Add(*terms)
 
 
 @dataclass

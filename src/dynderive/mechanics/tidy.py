@@ -153,10 +153,10 @@ def _tidy(expr: sympy.Expr) -> sympy.Expr:
         for base in _pythagoras(expanded):
             candidates.append(base)
             candidates.append(factor_terms(base))
-            if size <= COLLECT_LIMIT:
-                collected = _collect_common(base)
-                if collected is not None:
-                    candidates.append(collected)
+            if size <= COLLECT_LIMIT and base.is_Add:   # grouped by trigonometric factor: (a + b) sin(q)
+                trig = sorted(base.atoms(sympy.sin, sympy.cos), key=sympy.default_sort_key)
+                if trig:
+                    candidates.append(exact_fast.collect_trig(base, trig))
     ops = [count_ops(c) for c in candidates]
     best = min(range(len(candidates)), key=lambda i: ops[i])
     # Keep the form the derivation built (it carries the kinematics' own groupings, such
@@ -221,24 +221,8 @@ def _pythagoras(expanded: sympy.Expr) -> list[sympy.Expr]:
     return out
 
 
-def _collect_common(expr: sympy.Expr) -> sympy.Expr | None:
-    """Group an expanded sum by its trigonometric factors, e.g. ``(a + b) sin(q)``."""
-    if not expr.is_Add:
-        return None
-    trig = sorted({f for f in expr.atoms(sympy.sin, sympy.cos)}, key=sympy.default_sort_key)
-    if not trig:
-        return None
-    return exact_fast.collect_trig(expr, trig)
-
-
 #: Entries larger than this (tree nodes) are not put into Fourier form or regrouped.
 FOURIER_LIMIT = 1500
-
-
-def _constant_trig(expr: sympy.Expr) -> dict[sympy.Expr, sympy.Dummy]:
-    """Sines and cosines of constants (``cos(253/100)`` from a joint origin), to be treated as
-    coefficients rather than combined with the coordinates' ones."""
-    return {f: sympy.Dummy() for f in expr.atoms(sympy.sin, sympy.cos) if not f.free_symbols}
 
 
 def trig_linear(expr: sympy.Expr) -> sympy.Expr:
@@ -258,7 +242,8 @@ def trig_linear(expr: sympy.Expr) -> sympy.Expr:
     if known is None:
         if len(_LINEAR) > exact_fast.MEMO_LIMIT:
             _LINEAR.clear()
-        constants = _constant_trig(expr)
+        # sines and cosines of constants (cos(253/100) from a joint origin) stay coefficients
+        constants = {f: sympy.Dummy() for f in expr.atoms(sympy.sin, sympy.cos) if not f.free_symbols}
         linear = trig_group(TR8(expand(expr.xreplace(constants))))
         known = _LINEAR[expr] = linear.xreplace({d: f for f, d in constants.items()})
     return known
