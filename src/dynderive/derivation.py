@@ -230,9 +230,8 @@ class Derivation:
         self.report("loop constraints")
         model = derive_loops(self.robot, self.symbols, self.steps["kinematics"])
         self.symbols.loop_multipliers = model.multipliers
-        for key, value in (("a_g", model.constraints), ("A_g", model.jacobian), ("Adot_g", model.jacobian_dot),
-                           ("lambda_g", sympy.Matrix(model.multipliers))):
-            self.quantities[key] = value
+        self.quantities.update(zip(_LOOP_KEYS, (model.constraints, model.jacobian, model.jacobian_dot,
+                                                sympy.Matrix(model.multipliers))))
         self.steps["loops"] = model
         self.notes.extend(model.notes)
 

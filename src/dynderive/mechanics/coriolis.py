@@ -21,9 +21,9 @@ from collections.abc import Sequence
 
 import sympy
 
-from .program import Matrix3, Program, Vector, _add, _cross, _rotate, _times
+from .program import Matrix3, Vector, _add, _cross, _rotate, _times
 from .recursive import moved_inertia
-from .tree import Body, Tree
+from .tree import Tree
 
 _ZERO = sympy.Integer(0)
 _HALF = sympy.Rational(1, 2)
@@ -39,14 +39,6 @@ def _motion_cross(a: Motion, b: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[s
 def _force_cross(m: Motion, f: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
     """``m x* f`` of a motion ``(w, v)`` and a force ``(n, f)``."""
     return _add(_cross(m[0], f[0]), _cross(m[1], f[1])), _cross(m[0], f[1])
-
-
-def _world_inertia(program: Program, body: Body, R: Matrix3, p: Vector) -> Inertia:
-    """The link's spatial inertia ``(m, h, I)`` about the world origin in world axes (the
-    link frame at rotation ``R``, origin ``p``)."""
-    h_r, moved = moved_inertia(program, body.mass, body.first_moment, body.inertia, R, p)
-    inertia = program.symmetric(moved)
-    return body.mass, program.vector(_add(h_r, _times(p, body.mass))), inertia
 
 
 def _apply(inertia: Inertia, m: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
@@ -92,8 +84,10 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         velocity[body.link] = (w, v)
         for j, s in own:
             columns[body.link, j] = (body.link, s, tuple(vec(x) for x in _motion_cross((w, v), s)))  # type: ignore[assignment]
-        inertia = _world_inertia(tree.program, body, R, p)
-        composite[body.link] = inertia
+        # the link's spatial inertia (m, h, I) about the world origin, in world axes
+        h_r, moved = moved_inertia(tree.program, body.mass, body.first_moment, body.inertia, R, p)
+        about_origin = tree.program.symmetric(moved)
+        inertia = composite[body.link] = (body.mass, vec(_add(h_r, _times(p, body.mass))), about_origin)
         momentum = tuple(vec(x) for x in _apply(inertia, (w, v)))
         B_columns = []   # B e_r = (v x* I e_r - I (v x e_r) + e_r x* I v) / 2
         for e in units:

@@ -206,9 +206,7 @@ def collect_trig(expr: sympy.Expr, trig: list[sympy.Expr]) -> sympy.Expr:
         first, where = None, -1
         for i, factor in enumerate(factors):
             base, exponent = (factor.base, factor.exp) if factor.is_Pow else (factor, sympy.S.One)
-            if not (base.is_Symbol or base.is_Number) or not exponent.is_Number:
-                return sympy.collect(expr, trig, func=sympy.factor_terms)
-            if not factor.is_commutative:
+            if not (base.is_Symbol or base.is_Number) or not exponent.is_Number or not factor.is_commutative:
                 return sympy.collect(expr, trig, func=sympy.factor_terms)
             if base in rank and (first is None or rank[base] < rank[first]):
                 first, where = base, i

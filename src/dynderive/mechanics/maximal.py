@@ -61,6 +61,11 @@ class _Bodies:
         com = tuple(self.table.expr(e) for e in self.robot.links[k].com)
         return sympy.Matrix([x, y]), phi, com  # type: ignore[return-value]
 
+    def point(self, name: str, x: sympy.Expr, y: sympy.Expr) -> sympy.Matrix:
+        """World position of the point at ``(x, y)`` in the link frame of ``name``."""
+        p, phi, com = self.pose(name)
+        return p + _rot(phi, (x - com[0], y - com[1]))
+
     def slots(self, name: str) -> int | None:
         return None if name == "world" else 3 * self.index[name]
 
@@ -119,14 +124,13 @@ def joint_coordinate(joint: Joint, bodies: _Bodies) -> sympy.Expr:
     (springs, damping, friction, armature) act through it, on both links alike."""
     table = bodies.table
     ox, oy, theta = (table.expr(e) for e in joint.origin)
-    p_parent, phi_parent, com_parent = bodies.pose(joint.parent)
-    p_child, phi_child, com_child = bodies.pose(joint.child)
+    phi_parent, phi_child = bodies.pose(joint.parent)[1], bodies.pose(joint.child)[1]
     if joint.type == "revolute":
         return phi_child - phi_parent - theta
-    joint_point = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
-    child_origin = p_child + _rot(phi_child, (-com_child[0], -com_child[1]))
+    zero = sympy.Integer(0)
+    gap = bodies.point(joint.child, zero, zero) - bodies.point(joint.parent, ox, oy)
     direction = _rot(phi_parent + theta, unit(tuple(table.expr(e) for e in joint.axis)))  # type: ignore[arg-type]
-    return (direction.T * (child_origin - joint_point))[0, 0]
+    return (direction.T * gap)[0, 0]
 
 
 def _maximal_drives(robot: Robot, bodies: _Bodies, drives: Any) -> dict[str, Any]:
@@ -173,11 +177,8 @@ def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     table = bodies.table
     ox, oy, theta = (table.expr(e) for e in loop.origin)
     cx, cy, child_theta = (table.expr(e) for e in loop.child_origin)
-    p_parent, phi_parent, com_parent = bodies.pose(loop.parent)
-    p_child, phi_child, com_child = bodies.pose(loop.child)
-    point_parent = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
-    point_child = p_child + _rot(phi_child, (cx - com_child[0], cy - com_child[1]))
-    gap = point_child - point_parent
+    phi_parent, phi_child = bodies.pose(loop.parent)[1], bodies.pose(loop.child)[1]
+    gap = bodies.point(loop.child, cx, cy) - bodies.point(loop.parent, ox, oy)
     rotation = (phi_child + child_theta) - (phi_parent + theta)
     if loop.type != "prismatic":
         return [gap[0], gap[1]] + ([rotation] if loop.type == "fixed" else [])

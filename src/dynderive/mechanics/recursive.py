@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import sympy
@@ -446,34 +447,25 @@ class GeneralizedProgram:
         self.gravity = _newton_euler(tree, zeros, zeros)
         self.potential = _potential(tree)
         self.trig = tree.trig
-        self._jacobians: dict[str, sympy.Matrix] | None = None
-        self._potential_gradient: list[sympy.Expr] | None = None
 
-    @property
+    @cached_property
     def potential_gradient(self) -> list[sympy.Expr]:
         """``dV/dq_k`` for every k (Lagrange's route to the gravity terms, where ``gravity``
         is Newton-Euler's): the Coriolis passes carried on over the lines V reads."""
-        if self._potential_gradient is None:
-            self._potential_gradient = self._gradient(self.potential)
-        return self._potential_gradient
-
-    def _gradient(self, expr: sympy.Expr) -> list[sympy.Expr]:
-        needed = lines_read([expr], dict(self.program.lines))
+        needed = lines_read([self.potential], dict(self.program.lines))
         later = [(name, e, e.free_symbols) for name, e in self.program.lines[self._passes.lines:] if name in needed]
         gradient = []
         for passed in self._passes.tangents:
             tangent = dict(passed)
             _carry(self.program, tangent, self._passes.trig, later)
-            gradient.append(self.program.let(_forward(expr, tangent, self._passes.trig)))
+            gradient.append(self.program.let(_forward(self.potential, tangent, self._passes.trig)))
         return gradient
 
-    @property
+    @cached_property
     def jacobians(self) -> dict[str, sympy.Matrix]:
         """Each link's body Jacobian (``_body_jacobians``), by link name, computed on first use
         with lines appended after those of M, C, N and V."""
-        if self._jacobians is None:
-            self._jacobians = _body_jacobians(self._tree)
-        return self._jacobians
+        return _body_jacobians(self._tree)
 
     def part(self, outputs: Sequence[sympy.Expr]) -> Program:
         """A program computing ``outputs``, whatever joined this one first (``part_of``)."""

@@ -76,15 +76,10 @@ def configuration_programs(robot: Robot, table: object) -> dict[str, Configurati
     q, v = list(table.q), list(table.qd)   # type: ignore[attr-defined]
     dt = sympy.Symbol("_dt")
     q_from, q_to = configuration_symbols(robot, "q_from"), configuration_symbols(robot, "q_to")
-    nq, nv = len(q), len(v)
-    programs = {"neutral_configuration": ConfigurationProgram(Program(), {}),
-                "integrate": ConfigurationProgram(Program(), {"q": q, "v": v, "dt": [dt]}),
-                "difference": ConfigurationProgram(Program(), {"q_from": q_from, "q_to": q_to}),
-                "configuration_rate": ConfigurationProgram(Program(), {"q": q, "v": v})}
-    outputs: dict[str, list[sympy.Expr]] = {"neutral_configuration": [sympy.Integer(0)] * nq,
-                                            "integrate": [sympy.Integer(0)] * nq,
-                                            "difference": [sympy.Integer(0)] * nv,
-                                            "configuration_rate": [sympy.Integer(0)] * nq}
+    arguments = {"neutral_configuration": {}, "integrate": {"q": q, "v": v, "dt": [dt]},
+                 "difference": {"q_from": q_from, "q_to": q_to}, "configuration_rate": {"q": q, "v": v}}
+    programs = {name: ConfigurationProgram(Program(), given) for name, given in arguments.items()}
+    outputs = {name: [sympy.Integer(0)] * len(v if name == "difference" else q) for name in programs}
     for joint in (j for j in robot.joints if j.owns):
         kind = of(joint)
         i, k = where_q[joint.name], where_v[joint.name]
