@@ -171,10 +171,8 @@ class Derivation:
             add(_Stage(self._loops, frozenset(_LOOP_KEYS), frozenset({"loops"})))
         add(_Stage(self._generalized, None, frozenset({"generalized"})))
         if robot.planar:
-            add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS),
-                       frozenset({"maximal_model"})))
-            add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS),
-                       frozenset({"maximal"})))
+            add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
+            add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS), frozenset({"maximal"})))
         if robot.frames and not self.intermediate_form:
             names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
             add(_Stage(self._frames, frozenset(names)))

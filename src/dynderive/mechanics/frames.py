@@ -185,8 +185,6 @@ def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
 Pose = tuple[tuple[Vector, Vector, Vector], Vector]
 
 
-
-
 def _jacobian_columns(tree: Tree, poses: dict[str, Pose], link: str,
                       position: Vector) -> list[tuple[Vector, Vector]]:
     """``(linear, angular)`` world-axes columns of a point fixed on ``link`` at world

@@ -494,14 +494,14 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     if det == 0:
         return {}
     adjugate = matmul(A_d.adjugate(method="berkowitz"), A_i)
+    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
+    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
     fourier = factor_terms(trig_linear(det))
     if count_ops(fourier) <= count_ops(det):   # planar loops: det is one sine or cosine of an angle sum
-        return _reduced_over_determinant(model, table, fourier, adjugate, (M, C, N, Y))
+        return _reduced_over_determinant(model, table, fourier, adjugate, (M, C, N, Y), (qd_i, qdd_i))
     m = len(model.independent)
     R = _stacked(model, len(table.q), sympy.S.One, adjugate.applyfunc(lambda e: tidy(-e / det)))
     Rdot = tidy_matrix(constraint_jacobian_dot(R, table.q, table.qd))
-    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
-    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
     M_r = tidy_matrix(matmul(R.T, M, R))
     if not is_small(sympy.Tuple(*M_r), 4000 * m * m):
         return {"R_g": R}
@@ -528,7 +528,8 @@ def _stacked(model: LoopModel, n: int, identity: sympy.Expr, dependent: sympy.Ma
 
 
 def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.Expr, adjugate: sympy.Matrix,
-                              generalized: tuple[sympy.Matrix, ...]) -> dict[str, sympy.Matrix]:
+                              generalized: tuple[sympy.Matrix, ...],
+                              independent_rates: tuple[sympy.Matrix, sympy.Matrix]) -> dict[str, sympy.Matrix]:
     """The reduced form as numerators over powers of ``det = det A_d``, each numerator in
     Fourier form (``trig_linear``): for planar loops ``det`` is one sine of an angle sum
     (``b c sin(q1 + q2 - q3)`` for the four-bar) and the numerators short sums of sines and
@@ -541,9 +542,7 @@ def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.E
     ``C_r = R_n^T (M (D(R_n) det - R_n D(det)) + C(R_n qd_i) R_n det) / det^4`` (C is linear in qd).
     Common factors of symbols cancel against the determinant's (SymPy's products merge powers).
     """
-    M, C, N, Y = generalized
-    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
-    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
+    (M, C, N, Y), (qd_i, qdd_i) = generalized, independent_rates
     R_n = _stacked(model, len(table.q), det, adjugate.applyfunc(lambda e: fewest_operations(tidy(-e), trig_linear)))
     velocity = matmul(R_n, qd_i)   # det * qd on the manifold
 

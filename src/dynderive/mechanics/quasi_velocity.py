@@ -253,15 +253,14 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
             S[3:, vi + start:vi + start + 3] = sympy.eye(3)
             rate[qi:qi + start + 4, vi:vi + start + 3] = block
             R = R * Rq
-        elif kind.turns:
+        elif kind.moves:   # revolute, prismatic
             axis = fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
-            R = R * axis_angle(tuple(axis), table.q[qi])
-            S[3:, vi] = axis
-            rate[qi, vi] = 1
-        elif kind.moves:   # prismatic
-            axis = fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
-            p = p + R * axis * table.q[qi]
-            S[:3, vi] = axis
+            if kind.turns:
+                R = R * axis_angle(tuple(axis), table.q[qi])
+                S[3:, vi] = axis
+            else:
+                p = p + R * axis * table.q[qi]
+                S[:3, vi] = axis
             rate[qi, vi] = 1
         com = sympy.Matrix([expr(e) for e in link.com])
         pieces[link.name] = (R, p, S, expr(link.mass), com, inertia_tensor(tuple(expr(e) for e in link.inertia)))

@@ -8,7 +8,7 @@ RP arm's ``N_g`` reads ``[g m (l + q2) cos q1, g m sin q1]`` as in the reference
 from __future__ import annotations
 
 import random
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -262,15 +262,21 @@ def trig_group(expr: sympy.Expr) -> sympy.Expr:
     expanded = expand(expr)
     if not expanded.is_Add:
         return expanded
+    return group_terms(expanded.args, lambda base: isinstance(base, (sympy.sin, sympy.cos)) and bool(base.free_symbols),
+                       factor_terms)
+
+
+def group_terms(terms: Iterable[sympy.Expr], selects: Callable[[sympy.Expr], bool],
+                coefficient: Callable[[sympy.Expr], sympy.Expr] = lambda sum_: sum_) -> sympy.Expr:
+    """The sum of ``terms``, grouped by the product of each term's factors whose base
+    ``selects`` picks: one ``coefficient(sum of the other factors) * product`` per group."""
     groups: dict[sympy.Expr, list[sympy.Expr]] = {}
-    for term in expanded.args:
-        trig, rest = [], []
+    for term in terms:
+        chosen, rest = [], []
         for factor in sympy.Mul.make_args(term):
-            base = factor.base if factor.is_Pow else factor
-            moves = isinstance(base, (sympy.sin, sympy.cos)) and base.free_symbols
-            (trig if moves else rest).append(factor)
-        groups.setdefault(sympy.Mul(*trig), []).append(sympy.Mul(*rest))
-    return sympy.Add(*(factor_terms(sympy.Add(*coefficients)) * key for key, coefficients in groups.items()))
+            (chosen if selects(factor.base if factor.is_Pow else factor) else rest).append(factor)
+        groups.setdefault(sympy.Mul(*chosen), []).append(sympy.Mul(*rest))
+    return sympy.Add(*(coefficient(sympy.Add(*coefficients)) * key for key, coefficients in groups.items()))
 
 
 def fewest_operations(expr: sympy.Expr, *rewritings) -> sympy.Expr:
