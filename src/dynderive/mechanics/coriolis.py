@@ -53,11 +53,8 @@ def _pair(m: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> sympy.Expr:
 
 
 def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
-    """Pinocchio's Coriolis matrix ``C(q, qd)`` (module docstring), n x n, in world axes as
-    ``computeCoriolisMatrix`` builds it: with every quantity about the world origin, a joint's
-    column ``S_j`` and its rate ``v_j x S_j`` are the same for every link below it, so
-    ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` with ``k`` the deeper of the two joints'
-    links and ``I^c``, ``B^c`` summed over the links below ``k`` (no frame changes)."""
+    """Pinocchio's Coriolis matrix ``C(q, qd)``, n x n, in world axes as ``computeCoriolisMatrix``
+    builds it: ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` (module docstring)."""
     let, vec = tree.program.let, tree.program.vector
     n = tree.size
     qd = tree.table.qd

@@ -359,9 +359,7 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     Adot = constraint_jacobian_dot(A, table.q, table.qd).applyfunc(_tidy_entry)
     independent = _independent(robot, numeric.jacobian(default), n, rank, notes)
     dependent = [i for i in range(n) if i not in independent]
-    assembled = None
-    if found:
-        assembled = _exact_assembly(a, A, table, values, default, independent, dependent)
+    assembled = _exact_assembly(a, A, table, values, default, independent, dependent) if found else None
     multipliers = [sympy.Symbol(f"lambda_g{i}") for i in range(1, k + 1)]
     model = LoopModel(a, A, Adot, multipliers, [(r[0], r[1]) for r in rows], nonzero, rank,
                       independent, dependent, assembled, notes)
@@ -454,8 +452,7 @@ def _singular_partition(robot: Robot, model: LoopModel, numeric: _Numeric, notes
     bad: list[str] = []
     rng = np.random.default_rng(15)
     if len(model.independent) == 1:
-        samples = [q[model.independent[0]] + t for t in np.linspace(-math.pi, math.pi, 73)[1:]]
-        points = [[s] for s in samples]
+        points = [[q[model.independent[0]] + t] for t in np.linspace(-math.pi, math.pi, 73)[1:]]
     else:
         points = [list(q[model.independent] + rng.uniform(-1, 1, len(model.independent))) for _ in range(40)]
     current = q.copy()

@@ -104,16 +104,12 @@ def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
     _, _, com_child = bodies.pose(joint.child)
     axis = unit(tuple(table.expr(e) for e in joint.axis))
     direction = _rot(phi_parent + theta, axis)  # type: ignore[arg-type]
-    Y[child] += u * direction[0]  # type: ignore[operator]
-    Y[child + 1] += u * direction[1]  # type: ignore[operator]
     # the child frame is parallel to the joint frame, so the axis reads the same in it
-    Y[child + 2] += u * _cross((-com_child[0], -com_child[1]), axis)  # type: ignore[operator]
+    moment = _cross((-com_child[0], -com_child[1]), axis)
+    Y[child:child + 3, 0] += u * sympy.Matrix([*direction, moment])  # type: ignore[operator]
     if parent is not None:
-        axis_in_parent = _rot(theta, axis)  # type: ignore[arg-type]
-        lever = (ox - com_parent[0], oy - com_parent[1])
-        Y[parent] -= u * direction[0]
-        Y[parent + 1] -= u * direction[1]
-        Y[parent + 2] -= u * _cross(lever, axis_in_parent)
+        moment = _cross((ox - com_parent[0], oy - com_parent[1]), _rot(theta, axis))  # type: ignore[arg-type]
+        Y[parent:parent + 3, 0] -= u * sympy.Matrix([*direction, moment])
     return Y
 
 
@@ -223,8 +219,7 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
     # 2.2 energies
     masses = [table.expr(link.mass) for link in robot.links]
     inertias = [table.expr(link.inertia[0]) for link in robot.links]
-    T = sympy.Integer(0)
-    V = sympy.Integer(0)
+    T = V = sympy.Integer(0)
     for k, (mass, inertia) in enumerate(zip(masses, inertias)):
         x, y, phi = qmd[3 * k: 3 * k + 3]
         T += sympy.Rational(1, 2) * (mass * (x**2 + y**2) + inertia * phi**2)

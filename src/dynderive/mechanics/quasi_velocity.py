@@ -28,7 +28,7 @@ the two.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import sympy
 
@@ -108,7 +108,7 @@ class LinkSheet:
     gravity: sympy.Matrix          # g in link axes, R^T g
     kinetic: sympy.Expr
     potential: sympy.Expr
-    jacobian_dot: sympy.Matrix = field(default_factory=lambda: sympy.zeros(0, 0))
+    jacobian_dot: sympy.Matrix     # d J / dt along qdot = Q(q) v
 
 
 @dataclass
@@ -275,7 +275,9 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     poses = {"world": (identity, [[zero]] * 3, [[zero] * nv for _ in range(6)])}
     rates = {s: ring.of(sympy.Matrix([e]))[0][0] for s, e in zip(table.q, rate * sympy.Matrix(table.qd))}
     links: dict[str, LinkSheet] = {}
-    numeric: dict[str, tuple] = {}
+    M, C = [[zero] * nv for _ in range(nv)], [[zero] * nv for _ in range(nv)]
+    N, Cv = [[zero] for _ in range(nv)], [[zero] for _ in range(nv)]
+    half = K.convert(sympy.Rational(1, 2))
     for link in order:
         joint = robot.parent_joint(link.name)
         R_s, p_s, S_s, mass_s, com_s, inertia_s = pieces[link.name]
@@ -294,24 +296,17 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
         g_link = _mul(_t(R_world), g, zero)
         lin, ang = [row[0] for row in twist[:3]], [row[0] for row in twist[3:]]
         I_w = [row[0] for row in _mul(inertia, [[a] for a in ang], zero)]
-        kinetic = (mass * sum((a * a for a in lin), zero) + sum((a * b for a, b in zip(ang, I_w)), zero)) * K.convert(sympy.Rational(1, 2))
+        kinetic = (mass * sum((a * a for a in lin), zero) + sum((a * b for a, b in zip(ang, I_w)), zero)) * half
         position = _add(p_world, _mul(R_world, com, zero))
         potential = -mass * sum((a[0] * b[0] for a, b in zip(g, position)), zero)
-        numeric[link.name] = (mass, inertia, Jc, twist, lin, ang, I_w, g_link)
-        links[link.name] = LinkSheet(index[link.name], link.name, mass_s, com_s, inertia_s, ring.matrix(R_world),
-                                     ring.matrix(position), ring.matrix(Jc), ring.matrix(twist), ring.matrix(g_link),
-                                     ring.expr(kinetic), ring.expr(potential))
-    M = [[zero] * nv for _ in range(nv)]
-    N, Cv = [[zero] for _ in range(nv)], [[zero] for _ in range(nv)]
-    C = [[zero] * nv for _ in range(nv)]
-    half = K.convert(sympy.Rational(1, 2))
-    for name, (mass, inertia, Jc, twist, lin, ang, I_w, g_link) in numeric.items():
         G = _blocks(zero, [[mass if i == j else zero for j in range(3)] for i in range(3)], None, None, inertia)
         Jdot = [[zero] * nv for _ in range(6)]
         for s in table.q:
             if s in rates and rates[s] != zero:
                 Jdot = _add(Jdot, [[ring.diff(e, s) * rates[s] for e in row] for row in Jc])
-        links[name].jacobian_dot = ring.matrix(Jdot)
+        links[link.name] = LinkSheet(index[link.name], link.name, mass_s, com_s, inertia_s, ring.matrix(R_world),
+                                     ring.matrix(position), ring.matrix(Jc), ring.matrix(twist), ring.matrix(g_link),
+                                     ring.expr(kinetic), ring.expr(potential), ring.matrix(Jdot))
         JcT = _t(Jc)
         bias = [[mass * e] for e in _cross(ang, lin)] + [[e] for e in _cross(ang, I_w)]
         M = _add(M, _mul(JcT, _mul(G, Jc, zero), zero))

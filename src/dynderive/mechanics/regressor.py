@@ -113,11 +113,9 @@ def _unit_parameters(kind: str) -> tuple[sympy.Expr, Vector, tuple[Vector, Vecto
     one, zero = sympy.Integer(1), sympy.Integer(0)
     mass = one if kind == "m" else zero
     h = tuple(one if kind == f"mc{axis}" else zero for axis in "xyz")
-    inertia = [[zero] * 3 for _ in range(3)]
-    if kind in _ENTRY:
-        a, b = _ENTRY[kind]
-        inertia[a][b] = inertia[b][a] = one
-    return mass, h, tuple(tuple(row) for row in inertia)  # type: ignore[return-value]
+    entry = _ENTRY.get(kind)
+    inertia = tuple(tuple(one if entry in ((a, b), (b, a)) else zero for b in range(3)) for a in range(3))
+    return mass, h, inertia  # type: ignore[return-value]
 
 
 def regressor_program(robot: Robot, table: SymbolTable, tree: Tree | None = None) -> Program:

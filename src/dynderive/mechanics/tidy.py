@@ -387,14 +387,12 @@ def check_zero(name: str, description: str, difference: sympy.Matrix,
     remaining = list(difference)
     if all(is_small(e, SYMBOLIC_CHECK_LIMIT // len(remaining) + 1) and expandable(e) for e in remaining):
         remaining = [e for e in remaining if expand(e) != 0]
-        if not remaining:
-            return Check(name, description, True, "symbolic", 0.0)
-        if sum(count_ops(e) for e in remaining) < CANONICAL_LIMIT:
-            # products to sums first (cheap, and enough when both sides are trigonometric
-            # polynomials), the canonical form for what that leaves
-            if all(_fourier_zero(e) or trig_canonical(sympy.together(e).as_numer_denom()[0]) == 0
-                   for e in remaining):
-                return Check(name, description, True, "symbolic", 0.0)
+        # products to sums first (cheap, and enough when both sides are trigonometric
+        # polynomials), the canonical form for what that leaves
+        if sum(count_ops(e) for e in remaining) < CANONICAL_LIMIT and all(
+                _fourier_zero(e) or trig_canonical(sympy.together(e).as_numer_denom()[0]) == 0
+                for e in remaining):
+            remaining = []
     remaining = [e for e in remaining if e != 0]
     if not remaining:
         return Check(name, description, True, "symbolic", 0.0)
