@@ -214,9 +214,8 @@ class Derivation:
         else:
             from .mechanics.generalized import derive_generalized
 
-            links = self.steps["kinematics"]
             self.report("energies")
-            quantities, steps = derive_generalized(robot, table, links, self.report)
+            quantities, steps = derive_generalized(robot, table, self.steps["kinematics"], self.report)
         if robot.loops:
             self._close_loops(quantities)
         self.quantities.update(quantities)

@@ -17,23 +17,9 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
 from .exact_fast import matmul
-from .lagrange import (
-    christoffel_coriolis,
-    gravity_vector,
-    lagrange_steps,
-    mass_matrix_from_jacobians,
-)
+from .lagrange import christoffel_coriolis, gravity_vector, lagrange_steps, mass_matrix_from_jacobians
 from .spatial import inertia_tensor
-from .tidy import (
-    FOURIER_LIMIT,
-    fewest_operations,
-    is_small,
-    quick_tidy,
-    tidy,
-    tidy_matrix,
-    trig_group,
-    trig_linear,
-)
+from .tidy import FOURIER_LIMIT, fewest_operations, is_small, quick_tidy, tidy, trig_group, trig_linear
 from .tree import efforts
 
 #: 3-D robots with more coordinates than this, or whose Lagrangian has more tree nodes than
@@ -153,7 +139,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     if robot.planar or (robot.kinematic_size <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
         report("Lagrange's equations")
         steps = lagrange_steps(L, q, qd, qdd)
-        steps_tidy = {key: tidy_matrix(getattr(steps, key)) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")}
+        steps_tidy = {key: getattr(steps, key).applyfunc(tidy) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")}
         # Lagrange's equations with Rayleigh's dissipation function and Coulomb friction:
         # d/dt dL/dqd - dL/dq + dD/dqd + fc sign(qd) = Y
         EOM_g1 = (steps.lhs + F - Y).applyfunc(tidy)

@@ -43,17 +43,9 @@ from ..model.symbols import SymbolTable
 from .exact_fast import factor_terms, jacobian, matmul
 from .joints import unit
 from .lagrange import constraint_jacobian_dot
+from .planar import rotated
 from .spatial import rpy_matrix
-from .tidy import (
-    count_ops,
-    fewest_operations,
-    fold_constants,
-    is_small,
-    quick_tidy,
-    tidy,
-    tidy_matrix,
-    trig_linear,
-)
+from .tidy import count_ops, fewest_operations, fold_constants, is_small, quick_tidy, tidy, trig_linear
 
 #: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold,
 #: at configurations assembled to ``ASSEMBLY_TOLERANCE``).
@@ -106,8 +98,7 @@ def _planar_frame(link: str, kinematics: dict[str, Any], offset: tuple[sympy.Exp
         kin = kinematics[link]
         origin, angle = kin.joint_origin, kin.angle
     x, y, theta = offset
-    c, s = sympy.cos(angle), sympy.sin(angle)
-    return origin + sympy.Matrix([c * x - s * y, s * x + c * y]), angle + theta
+    return origin + rotated(angle, (x, y)), angle + theta
 
 
 def _spatial_frame(link: str, kinematics: dict[str, Any], offset: tuple[sympy.Expr, ...],
@@ -157,8 +148,7 @@ def _planar_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[symp
         return [(loop.name, "x of the gap between the loop frames", gap[0]),
                 (loop.name, "y of the gap between the loop frames", gap[1])]
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
-    c, s = sympy.cos(angle_parent), sympy.sin(angle_parent)
-    normal = sympy.Matrix([c * -uy - s * ux, s * -uy + c * ux])
+    normal = rotated(angle_parent, (-uy, ux))
     return [(loop.name, "offset across the sliding axis", (normal.T * gap)[0, 0]),
             (loop.name, "relative rotation", angle_child - angle_parent)]
 
@@ -498,16 +488,16 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
         return _reduced_over_determinant(model, table, fourier, adjugate, (M, C, N, Y), (qd_i, qdd_i))
     m = len(model.independent)
     R = _stacked(model, len(table.q), sympy.S.One, adjugate.applyfunc(lambda e: tidy(-e / det)))
-    Rdot = tidy_matrix(constraint_jacobian_dot(R, table.q, table.qd))
-    M_r = tidy_matrix(matmul(R.T, M, R))
+    Rdot = constraint_jacobian_dot(R, table.q, table.qd).applyfunc(tidy)
+    M_r = matmul(R.T, M, R).applyfunc(tidy)
     if not is_small(sympy.Tuple(*M_r), 4000 * m * m):
         return {"R_g": R}
     # on the manifold qd = R qd_i: Rdot's qd are written through R as well
     on_manifold = dict(zip(table.qd, matmul(R, qd_i)))
     Rdot = Rdot.xreplace(on_manifold)
-    C_r = tidy_matrix(matmul(R.T, matmul(M, Rdot) + matmul(C.xreplace(on_manifold), R)))
-    N_r = tidy_matrix(matmul(R.T, N))
-    Y_r = tidy_matrix(matmul(R.T, Y))
+    C_r = matmul(R.T, matmul(M, Rdot) + matmul(C.xreplace(on_manifold), R)).applyfunc(tidy)
+    N_r = matmul(R.T, N).applyfunc(tidy)
+    Y_r = matmul(R.T, Y).applyfunc(tidy)
     EOM_r = (matmul(M_r, qdd_i) + matmul(C_r, qd_i) + N_r - Y_r).applyfunc(tidy)
     return {"R_g": R, "M_r": M_r, "C_r": C_r, "N_r": N_r, "Y_r": Y_r, "EOM_r": EOM_r}
 

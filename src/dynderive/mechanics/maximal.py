@@ -25,7 +25,7 @@ from .lagrange import (
     lagrange_steps,
     mass_matrix_from_jacobians,
 )
-from .planar import PlanarLinkKinematics
+from .planar import PlanarLinkKinematics, rotated
 from .tidy import quick_tidy, tidy, tidy_matrix
 
 #: Above this many operations in A M^-1 A^T, lambda is not solved symbolically (the
@@ -33,11 +33,6 @@ from .tidy import quick_tidy, tidy, tidy_matrix
 LAMBDA_SYMBOLIC_LIMIT = 200
 #: Systems with more constraints than this keep lambda numeric only.
 LAMBDA_SYMBOLIC_ROWS = 4
-
-
-def _rot(angle: sympy.Expr, vector: tuple[sympy.Expr, sympy.Expr]) -> sympy.Matrix:
-    c, s = sympy.cos(angle), sympy.sin(angle)
-    return sympy.Matrix([c * vector[0] - s * vector[1], s * vector[0] + c * vector[1]])
 
 
 def _cross(a: sympy.Matrix | tuple, b: sympy.Matrix | tuple) -> sympy.Expr:
@@ -64,7 +59,7 @@ class _Bodies:
     def point(self, name: str, x: sympy.Expr, y: sympy.Expr) -> sympy.Matrix:
         """World position of the point at ``(x, y)`` in the link frame of ``name``."""
         p, phi, com = self.pose(name)
-        return p + _rot(phi, (x - com[0], y - com[1]))
+        return p + rotated(phi, (x - com[0], y - com[1]))
 
     def slots(self, name: str) -> int | None:
         return None if name == "world" else 3 * self.index[name]
@@ -103,12 +98,12 @@ def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
     _, phi_parent, com_parent = bodies.pose(joint.parent)
     _, _, com_child = bodies.pose(joint.child)
     axis = unit(tuple(table.expr(e) for e in joint.axis))
-    direction = _rot(phi_parent + theta, axis)  # type: ignore[arg-type]
+    direction = rotated(phi_parent + theta, axis)
     # the child frame is parallel to the joint frame, so the axis reads the same in it
     moment = _cross((-com_child[0], -com_child[1]), axis)
     Y[child:child + 3, 0] += u * sympy.Matrix([*direction, moment])  # type: ignore[operator]
     if parent is not None:
-        moment = _cross((ox - com_parent[0], oy - com_parent[1]), _rot(theta, axis))  # type: ignore[arg-type]
+        moment = _cross((ox - com_parent[0], oy - com_parent[1]), rotated(theta, axis))
         Y[parent:parent + 3, 0] -= u * sympy.Matrix([*direction, moment])
     return Y
 
@@ -125,7 +120,7 @@ def joint_coordinate(joint: Joint, bodies: _Bodies) -> sympy.Expr:
         return phi_child - phi_parent - theta
     zero = sympy.Integer(0)
     gap = bodies.point(joint.child, zero, zero) - bodies.point(joint.parent, ox, oy)
-    direction = _rot(phi_parent + theta, unit(tuple(table.expr(e) for e in joint.axis)))  # type: ignore[arg-type]
+    direction = rotated(phi_parent + theta, unit(tuple(table.expr(e) for e in joint.axis)))
     return (direction.T * gap)[0, 0]
 
 
@@ -179,7 +174,7 @@ def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     if loop.type != "prismatic":
         return [gap[0], gap[1]] + ([rotation] if loop.type == "fixed" else [])
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
-    normal = _rot(phi_parent + theta, (-uy, ux))
+    normal = rotated(phi_parent + theta, (-uy, ux))
     return [(normal.T * gap)[0, 0], rotation]
 
 

@@ -311,7 +311,6 @@ def _carry(program: Program, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict
     has one joins ``tangent`` under a new name of ``program``. ``partials``: each line's
     partial derivatives kept across passes that differentiate the same lines (only the
     tangents they multiply differ)."""
-    partials = {} if partials is None else partials
     for name, expr, symbols in lines:
         d = _forward(expr, tangent, trig, symbols, partials)
         if d != 0:

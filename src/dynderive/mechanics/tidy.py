@@ -214,11 +214,7 @@ def _pythagoras(expanded: sympy.Expr) -> list[sympy.Expr]:
     args = sorted(set(pairs), key=sympy.default_sort_key)
     sin_first = expanded.xreplace({sympy.sin(a) ** 2: 1 - sympy.cos(a) ** 2 for a in args})
     cos_first = expanded.xreplace({sympy.cos(a) ** 2: 1 - sympy.sin(a) ** 2 for a in args})
-    out = [expanded]
-    for candidate in (sin_first, cos_first):
-        if candidate != expanded:
-            out.append(expand(candidate))
-    return out
+    return [expanded] + [expand(candidate) for candidate in (sin_first, cos_first) if candidate != expanded]
 
 
 #: Entries larger than this (tree nodes) are not put into Fourier form or regrouped.
