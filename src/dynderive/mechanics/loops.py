@@ -295,9 +295,8 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     nonzero = [i for i, row in enumerate(every) if row[2] != 0]
     notes: list[str] = []
     where = robot.positions.get("loops", (1, 1))
-    defaults = table.defaults(robot)
     complete = all(p.value is not None for p in robot.parameters)
-    values = defaults if complete else {s: 1.0 for s in table.parameters.values()}
+    values = table.defaults(robot) if complete else {s: 1.0 for s in table.parameters.values()}
 
     def numeric_of(indices: list[int]) -> tuple[sympy.Matrix, sympy.Matrix, _Numeric]:
         a = sympy.Matrix([every[i][2] for i in indices]) if indices else sympy.zeros(0, 1)

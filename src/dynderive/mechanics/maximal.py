@@ -199,9 +199,7 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
         a = sympy.Matrix([table.maximal_expr(e) for e in robot.maximal_constraints])
         origin = "override"
     else:
-        rows: list[sympy.Expr] = []
-        for joint in robot.joints:
-            rows += joint_constraints(joint, bodies)
+        rows = [row for joint in robot.joints for row in joint_constraints(joint, bodies)]
         closing = [row for loop in robot.loops for row in loop_constraints(loop, bodies)]
         rows += [closing[i] for i in (loop_rows or [])]
         a = sympy.Matrix(rows).applyfunc(clean)

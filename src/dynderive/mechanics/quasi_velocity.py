@@ -145,15 +145,11 @@ class _Ring:
     sparse polynomials a second. Matrices are lists of rows."""
 
     def __init__(self, table: SymbolTable, revolute: list[sympy.Symbol], values: list[sympy.Basic]):
-        self.trig = {}
-        for q in revolute:
-            self.trig[sympy.sin(q)] = sympy.Symbol(f"_sin_{q}")
-            self.trig[sympy.cos(q)] = sympy.Symbol(f"_cos_{q}")
+        self.trig = {f(q): sympy.Symbol(f"_{f.__name__}_{q}")
+                     for q in revolute for f in (sympy.sin, sympy.cos)}
         self.back = {v: k for k, v in self.trig.items()}
-        found = set()
-        for value in values:
-            found |= sympy.sympify(value).xreplace(self.trig).free_symbols
-        found |= set(table.q) | set(table.qd) | set(table.qdd)
+        found = set().union(*(sympy.sympify(value).xreplace(self.trig).free_symbols for value in values),
+                            table.q, table.qd, table.qdd)
         sines = [self.trig[sympy.sin(q)] for q in revolute]
         cosines = [self.trig[sympy.cos(q)] for q in revolute]
         rest = sorted(found - set(sines) - set(cosines), key=lambda s: s.name)

@@ -89,9 +89,8 @@ def _composite_mass_matrix(tree: Tree) -> list[list[sympy.Expr]]:
     n = tree.size
     composite = {b.link: (b.mass, b.first_moment, b.inertia) for b in tree.bodies}
     for body in reversed(tree.bodies):
-        if body.parent in tree.static:
-            continue
-        add_to_parent(tree.program, composite, body)
+        if body.parent not in tree.static:
+            add_to_parent(tree.program, composite, body)
     M = [[ZERO] * n for _ in range(n)]
     for body in tree.bodies:
         mass, h, inertia = composite[body.link]
@@ -177,9 +176,9 @@ def _newton_euler(tree: Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr
     forces = {}
     for body in tree.bodies:
         motion[body.link] = _advance(tree, body, motion[body.parent], qd, qdd)   # type: ignore[assignment]
-        if body.link in tree.static:
-            continue
-        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, *motion[body.link], body.link)
+        if body.link not in tree.static:
+            forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia,
+                                           *motion[body.link], body.link)
     tau: list[sympy.Expr] = [ZERO] * tree.size
     for body in reversed(tree.bodies):
         if body.link in tree.static:
