@@ -292,10 +292,8 @@ def _diff(expr: sympy.Basic, s: sympy.Symbol) -> sympy.Basic:
     elif expr.is_Mul and expr.is_commutative:
         # Mul._eval_derivative_n_times(s, 1): the general Leibniz rule's terms in its order
         args = expr.args
-        terms = []
-        for orders, c in multinomial_coefficients_iterator(len(args), 1):
-            terms.append(c * sympy.Mul(*[_diff(a, s) if k else a for k, a in zip(orders, args)]))
-        result = sympy.Add(*terms)
+        result = sympy.Add(*[c * sympy.Mul(*[_diff(a, s) if k else a for k, a in zip(orders, args)])
+                             for orders, c in multinomial_coefficients_iterator(len(args), 1)])
     elif expr.is_Pow:
         # Pow._eval_derivative
         dbase, dexp = _diff(expr.base, s), _diff(expr.exp, s)
@@ -320,10 +318,8 @@ def matmul(*factors: sympy.MatrixBase) -> sympy.Matrix:
         if result.cols != factor.rows:
             raise sympy.ShapeError(f"matrix size mismatch: {result.shape} * {factor.shape}")
         columns = [[(k, x) for k, x in enumerate(column) if x != 0] for column in factor.T.tolist()]
-        entries = []
-        for row in result.tolist():
-            for column in columns:
-                entries.append(sympy.Add(*[row[k] * x for k, x in column if row[k] != 0]))
+        entries = [sympy.Add(*[row[k] * x for k, x in column if row[k] != 0])
+                   for row in result.tolist() for column in columns]
         result = sympy.Matrix(result.rows, factor.cols, entries)
     return result
 

@@ -59,8 +59,7 @@ def frame_quantities(robot: Robot, table: SymbolTable) -> dict[str, sympy.Matrix
     pose = _planar_pose if robot.planar else _spatial_pose
     for frame in robot.frames:
         orientation, position, angular = pose(robot, table, frame)
-        linear = position.jacobian(q)
-        jacobian = sympy.Matrix.vstack(linear, angular).applyfunc(tidy)
+        jacobian = sympy.Matrix.vstack(position.jacobian(q), angular).applyfunc(tidy)
         rate = sum((jacobian.diff(qk) * rk for qk, rk in zip(table.q, qd)), sympy.zeros(*jacobian.shape))
         quantities.update(zip(frame_quantity_names(frame.name, robot.planar),
                               (position.applyfunc(tidy), orientation.applyfunc(tidy), jacobian, rate.applyfunc(tidy))))

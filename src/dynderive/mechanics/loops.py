@@ -172,9 +172,8 @@ def _spatial_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[sym
                  (loop.name, "axis alignment (second normal)", (a_world.T * R_child * b2)[0, 0])]
         return rows
     relative = R_parent.T * R_child
-    rows += [(loop.name, "relative rotation about x", relative[2, 1] - relative[1, 2]),
-             (loop.name, "relative rotation about y", relative[0, 2] - relative[2, 0]),
-             (loop.name, "relative rotation about z", relative[1, 0] - relative[0, 1])]
+    rows += [(loop.name, f"relative rotation about {axis}", relative[k, j] - relative[j, k])
+             for axis, (k, j) in zip("xyz", ((2, 1), (0, 2), (1, 0)))]
     offset = R_parent.T * (p_child - p_parent)
     rows += [(loop.name, "offset across the sliding axis (first normal)", (b1.T * offset)[0, 0]),
              (loop.name, "offset across the sliding axis (second normal)", (b2.T * offset)[0, 0])]
@@ -230,13 +229,10 @@ def assemblies(numeric: _Numeric, robot: Robot) -> list[np.ndarray]:
     rng = random.Random(15)
     starts = [np.zeros(n), np.array([0.3 * (-1) ** i for i in range(n)]), np.array([-0.3 * (-1) ** i for i in range(n)])]
     starts += [np.array([rng.uniform(-math.pi, math.pi) for _ in range(n)]) for _ in range(9)]
-    found = []
-    for start in starts:
-        q = assemble(numeric, start)
-        if q is not None:
-            q = np.array([math.remainder(x, 2 * math.pi) if r else x for x, r in zip(q, revolute)])
-            found.append(q)
-    return sorted(found, key=lambda q: float(np.linalg.norm(q)))
+    found = [q for q in (assemble(numeric, start) for start in starts) if q is not None]
+    wrapped = [np.array([math.remainder(x, 2 * math.pi) if r else x for x, r in zip(q, revolute)])
+               for q in found]
+    return sorted(wrapped, key=lambda q: float(np.linalg.norm(q)))
 
 
 def _rank(J: np.ndarray) -> int:

@@ -139,13 +139,12 @@ def _advance(tree: Tree, body: Body, parent: tuple[Vector, Vector, Vector, Vecto
             dv = _add(dv, [x * rate for x in sv])
             dalpha = _add(dalpha, [x * accel + y * rate for x, y in zip(sw, _cross(w, sw))])
             dacc = _add(dacc, [x * accel + y * rate for x, y in zip(sv, _add(_cross(w, sv), _cross(v, sw)))])
-        meaning = {q: Meaning(q, body.link) for q in ("omega", "v", "alpha", "a")}
         if turns:
-            w = vec(_add(w, dw), meaning["omega"])
-            alpha = vec(_add(alpha, dalpha), meaning["alpha"])
-        acc = vec(_add(acc, dacc), meaning["a"])
+            w = vec(_add(w, dw), Meaning("omega", body.link))
+            alpha = vec(_add(alpha, dalpha), Meaning("alpha", body.link))
+        acc = vec(_add(acc, dacc), Meaning("a", body.link))
         if slides:
-            v = vec(_add(v, dv), meaning["v"])
+            v = vec(_add(v, dv), Meaning("v", body.link))
     return w, v, alpha, acc
 
 

@@ -77,10 +77,9 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
         value = expr.xreplace(rename)
         if value.is_Atom:        # a copy: no name of its own
             rename[name] = value
-            continue
-        symbol = sympy.Symbol(f"_w{len(intermediates) + 1}")
-        rename[name] = symbol
-        intermediates.append((symbol, value))
+        else:
+            rename[name] = sympy.Symbol(f"_w{len(intermediates) + 1}")
+            intermediates.append((rename[name], value))
     table.intermediates = [s for s, _ in intermediates]
     M, C, N = (m.xreplace(rename) for m in (M, C, N))
     V = sympy.sympify(built.potential).xreplace(rename)
