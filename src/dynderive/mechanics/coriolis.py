@@ -102,7 +102,6 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         total = tree.program.symmetric([[p_J[a][b] + J[a][b] for b in range(3)] for a in range(3)])
         composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)), total)
         B[body.parent] = [[let(x + y) for x, y in zip(row_p, row)] for row_p, row in zip(B[body.parent], B[body.link])]
-    by_link = {b.link: b for b in tree.bodies}
     C = [[_ZERO] * n for _ in range(n)]
     rows: dict[tuple[str, int], tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]] = {}   # (S_i^T B^c, I^c S_i)
     for key, (link, s, ds) in columns.items():
@@ -113,19 +112,19 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         force = vec([a + b for a, b in zip((*spin[0], *spin[1]), turn)])   # I^c_k dS_j + B^c_k S_j
         rows[key] = (vec([sum((flat[r] * B[link][r][c] for r in range(6)), _ZERO) for c in range(6)]),
                      vec([x for part in _apply(composite[link], s) for x in part]))
-        current = by_link[link]
+        current = tree.by_link[link]
         while True:   # rows of joint j's link and of the joints above it
             for i, _, _ in current.columns:
                 t = columns[current.link, i][1]
                 C[i][j] = let(C[i][j] + _pair((*t[0], *t[1]), force))
             if current.parent == "world":
                 break
-            current = by_link[current.parent]
+            current = tree.by_link[current.parent]
     for key, (link, _, _) in columns.items():   # the joints strictly above joint i's link
         i = key[1]
-        current = by_link[link]
+        current = tree.by_link[link]
         while current.parent != "world":
-            current = by_link[current.parent]
+            current = tree.by_link[current.parent]
             for j, _, _ in current.columns:
                 t, dt = columns[current.link, j][1], columns[current.link, j][2]
                 C[i][j] = let(C[i][j] + _pair((*t[0], *t[1]), rows[key][0]) + _pair((*dt[0], *dt[1]), rows[key][1]))

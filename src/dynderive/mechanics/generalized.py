@@ -111,9 +111,8 @@ def _textbook(built: sympy.Expr, fourier: sympy.Expr) -> bool:
     if not built.has(sympy.sin, sympy.cos):
         return False
     built_ops, fourier_ops = sympy.count_ops(built), sympy.count_ops(fourier)
-    if fourier_ops < built_ops:
-        return True
-    return _trig_squares(built) and not _trig_squares(fourier) and 2 * fourier_ops <= 3 * built_ops
+    return fourier_ops < built_ops or (_trig_squares(built) and not _trig_squares(fourier)
+                                       and 2 * fourier_ops <= 3 * built_ops)
 
 
 def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],

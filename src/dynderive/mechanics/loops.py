@@ -145,8 +145,7 @@ def _planar_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[symp
     p_child, angle_child = _planar_frame(loop.child, kinematics, child_origin)
     gap = p_child - p_parent
     if loop.type == "revolute":
-        return [(loop.name, "x of the gap between the loop frames", gap[0]),
-                (loop.name, "y of the gap between the loop frames", gap[1])]
+        return [(loop.name, f"{axis} of the gap between the loop frames", e) for axis, e in zip("xy", gap)]
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
     normal = rotated(angle_parent, (-uy, ux))
     return [(loop.name, "offset across the sliding axis", (normal.T * gap)[0, 0]),

@@ -253,11 +253,10 @@ def ltdl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> lis
 
 def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr],
                              tree: Tree | None = None) -> Program:
-    """``qdd`` solving ``M qdd = Y - (C qd + N) - F``: CRBA, Newton-Euler and a solve.
+    """``qdd`` solving ``M qdd = Y - (C qd + N) - F``: CRBA, Newton-Euler and a solve (``ltdl_solve``).
 
     ``efforts`` is ``Y`` as expressions of the effort symbols; for a robot with damping,
-    friction or frames, ``F - J^T w`` comes in as the inputs ``friction_symbols``. M is positive
-    definite, so the factorization (``ltdl_solve``) needs no pivoting.
+    friction or frames, ``F - J^T w`` comes in as the inputs ``friction_symbols``.
     """
     tree = tree or Tree(robot, table)
     program, let, n = tree.program, tree.program.let, tree.size

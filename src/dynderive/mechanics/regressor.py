@@ -95,10 +95,8 @@ def _drive_parameters(robot: Robot, table: SymbolTable) -> list[Parameter]:
     entries = []
     for drive in joint_drives(robot, table):
         joint = _leader_name(robot, drive.coordinate)
-        for kind in DRIVE_KINDS:
-            value = getattr(drive, kind)
-            if value != 0:
-                entries.append(Parameter(f"{kind}_{joint}", kind, joint, value))
+        entries += [Parameter(f"{kind}_{joint}", kind, joint, getattr(drive, kind)) for kind in DRIVE_KINDS
+                    if getattr(drive, kind) != 0]
     return entries
 
 
