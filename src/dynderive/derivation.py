@@ -248,9 +248,8 @@ class Derivation:
 
         force = self._loop_force()
         clean = expand if self.intermediate_form else tidy
-        if "EOM_g1" in q:
-            q["EOM_g1"] = (q["EOM_g1"] - force).applyfunc(clean)
-        q["EOM_g2"] = (q["EOM_g2"] - force).applyfunc(clean)
+        for key in [k for k in ("EOM_g1", "EOM_g2") if k in q]:   # EOM_g1: where Lagrange's route ran
+            q[key] = (q[key] - force).applyfunc(clean)
         if not self.intermediate_form:
             q.update(reduced_form(self.steps["loops"], self.symbols, q["M_g"], q["C_g"], q["N_g"], q["Y_g"]))
 

@@ -108,8 +108,7 @@ def _numerator_only(mul: sympy.Mul) -> bool:
     exponent and no fraction among its numbers."""
     for factor in mul.args:
         if factor.is_Pow:
-            exponent = factor.exp
-            if not (exponent.is_Rational and exponent.p > 0) or not factor.is_commutative:
+            if not (factor.exp.is_Rational and factor.exp.p > 0) or not factor.is_commutative:
                 return False
         elif factor.is_Rational:
             if factor.q != 1:

@@ -311,9 +311,9 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
                      f"{'were' if count != 1 else 'was'} dropped: {dropped}")
     rows = [every[i] for i in nonzero]
     if not rows:   # a loop joint on a tree joint's own axis: nothing to close
-        raise InputError(Problem(robot.source, where[0], where[1], f"loops: every loop constraint row is identically "
-                                 f"zero ({dropped}), so the loops constrain nothing: remove them, or move the loop "
-                                 "joint off the tree joint's axis"))
+        message = (f"loops: every loop constraint row is identically zero ({dropped}), so the loops "
+                   "constrain nothing: remove them, or move the loop joint off the tree joint's axis")
+        raise InputError(Problem(robot.source, where[0], where[1], message))
     found = assemblies(numeric, robot)
     if not found:
         if complete:
@@ -510,7 +510,7 @@ def _stacked(model: LoopModel, n: int, identity: sympy.Expr, dependent: sympy.Ma
 
 def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.Expr, adjugate: sympy.Matrix,
                               generalized: tuple[sympy.Matrix, ...],
-                              independent_rates: tuple[sympy.Matrix, sympy.Matrix]) -> dict[str, sympy.Matrix]:
+                              rates: tuple[sympy.Matrix, sympy.Matrix]) -> dict[str, sympy.Matrix]:
     """The reduced form as numerators over powers of ``det = det A_d``, each numerator in
     Fourier form (``trig_linear``): for planar loops ``det`` is one sine of an angle sum
     (``b c sin(q1 + q2 - q3)`` for the four-bar) and the numerators short sums of sines and
@@ -523,7 +523,7 @@ def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.E
     ``C_r = R_n^T (M (D(R_n) det - R_n D(det)) + C(R_n qd_i) R_n det) / det^4`` (C is linear in qd).
     Common factors of symbols cancel against the determinant's (SymPy's products merge powers).
     """
-    (M, C, N, Y), (qd_i, qdd_i) = generalized, independent_rates
+    (M, C, N, Y), (qd_i, qdd_i) = generalized, rates
     R_n = _stacked(model, len(table.q), det, adjugate.applyfunc(lambda e: fewest_operations(tidy(-e), trig_linear)))
     velocity = matmul(R_n, qd_i)   # det * qd on the manifold
 

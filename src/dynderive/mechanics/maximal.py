@@ -15,6 +15,7 @@ import sympy
 
 from ..model.robot import Joint, LoopJoint, Robot
 from ..model.symbols import SymbolTable
+from .drives import dissipative_force
 from .exact_fast import matmul
 from .joints import unit
 from .lagrange import (
@@ -130,8 +131,6 @@ def _maximal_drives(robot: Robot, bodies: _Bodies, drives: Any) -> dict[str, Any
     ``Ia (G_i qmd)**2/2`` in T_m (``Ia G_i^T G_i`` in M_m), dissipation
     ``D_m = sum b (G_i qmd)**2/2`` and forces ``F_m = sum G_i^T (b G_i qmd + fc sign(G_i qmd))``.
     Since ``G_i H = e_i``, ``H^T F_m = F_g``: the same forces, equal and opposite on both links."""
-    from .drives import dissipative_force
-
     table, size = bodies.table, len(bodies.table.qm)
     qmd = sympy.Matrix(table.qmd)
     moving = [j for j in robot.joints if j.moves]

@@ -292,16 +292,18 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
         g_link = _mul(_t(R_world), g, zero)
         lin, ang = [row[0] for row in twist[:3]], [row[0] for row in twist[3:]]
         I_w = [row[0] for row in _mul(inertia, [[a] for a in ang], zero)]
-        kinetic = (mass * sum((a * a for a in lin), zero) + sum((a * b for a, b in zip(ang, I_w)), zero)) * half
+        spin = sum((a * b for a, b in zip(ang, I_w)), zero)
+        kinetic = (mass * sum((a * a for a in lin), zero) + spin) * half
         position = _add(p_world, _mul(R_world, com, zero))
         potential = -mass * sum((a[0] * b[0] for a, b in zip(g, position)), zero)
-        G = _blocks(zero, [[mass if i == j else zero for j in range(3)] for i in range(3)], None, None, inertia)
+        masses = [[mass if i == j else zero for j in range(3)] for i in range(3)]
+        G = _blocks(zero, masses, None, None, inertia)
         Jdot = [[zero] * nv for _ in range(6)]
         for s in table.q:
             if s in rates and rates[s] != zero:
                 Jdot = _add(Jdot, [[ring.diff(e, s) * rates[s] for e in row] for row in Jc])
-        links[link.name] = LinkSheet(index[link.name], link.name, mass_s, com_s, inertia_s, ring.matrix(R_world),
-                                     ring.matrix(position), ring.matrix(Jc), ring.matrix(twist), ring.matrix(g_link),
+        shown = [ring.matrix(m) for m in (R_world, position, Jc, twist, g_link)]
+        links[link.name] = LinkSheet(index[link.name], link.name, mass_s, com_s, inertia_s, *shown,
                                      ring.expr(kinetic), ring.expr(potential), ring.matrix(Jdot))
         JcT = _t(Jc)
         bias = [[mass * e] for e in _cross(ang, lin)] + [[e] for e in _cross(ang, I_w)]
@@ -341,7 +343,8 @@ def _skew3(a: list, zero) -> list[list]:   # noqa: ANN001
 def _blocks(zero, top_left, top_right, bottom_left, bottom_right) -> list[list]:   # noqa: ANN001
     """The 6 x 6 matrix of four 3 x 3 blocks (None: a zero block)."""
     rows = [[zero] * 6 for _ in range(6)]
-    for (r, c), block in zip(((0, 0), (0, 3), (3, 0), (3, 3)), (top_left, top_right, bottom_left, bottom_right)):
+    corners = {(0, 0): top_left, (0, 3): top_right, (3, 0): bottom_left, (3, 3): bottom_right}
+    for (r, c), block in corners.items():
         if block is not None:
             for i in range(3):
                 rows[r + i][c:c + 3] = block[i]

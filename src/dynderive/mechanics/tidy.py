@@ -258,7 +258,8 @@ def trig_group(expr: sympy.Expr) -> sympy.Expr:
     expanded = expand(expr)
     if not expanded.is_Add:
         return expanded
-    return group_terms(expanded.args, lambda base: isinstance(base, (sympy.sin, sympy.cos)) and bool(base.free_symbols),
+    return group_terms(expanded.args,
+                       lambda base: isinstance(base, (sympy.sin, sympy.cos)) and bool(base.free_symbols),
                        factor_terms)
 
 
