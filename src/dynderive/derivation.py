@@ -171,10 +171,8 @@ class Derivation:
             add(_Stage(self._loops, frozenset(_LOOP_KEYS), frozenset({"loops"})))
         add(_Stage(self._generalized, None, frozenset({"generalized"})))
         if robot.planar:
-            add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS),
-                       frozenset({"maximal_model"})))
-            add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS),
-                       frozenset({"maximal"})))
+            add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
+            add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS), frozenset({"maximal"})))
         if robot.frames and not self.intermediate_form:
             names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
             add(_Stage(self._frames, frozenset(names)))
@@ -216,9 +214,8 @@ class Derivation:
         else:
             from .mechanics.generalized import derive_generalized
 
-            links = self.steps["kinematics"]
             self.report("energies")
-            quantities, steps = derive_generalized(robot, table, links, self.report)
+            quantities, steps = derive_generalized(robot, table, self.steps["kinematics"], self.report)
         if robot.loops:
             self._close_loops(quantities)
         self.quantities.update(quantities)
@@ -230,9 +227,8 @@ class Derivation:
         self.report("loop constraints")
         model = derive_loops(self.robot, self.symbols, self.steps["kinematics"])
         self.symbols.loop_multipliers = model.multipliers
-        for key, value in (("a_g", model.constraints), ("A_g", model.jacobian), ("Adot_g", model.jacobian_dot),
-                           ("lambda_g", sympy.Matrix(model.multipliers))):
-            self.quantities[key] = value
+        self.quantities.update(zip(_LOOP_KEYS, (model.constraints, model.jacobian, model.jacobian_dot,
+                                                sympy.Matrix(model.multipliers))))
         self.steps["loops"] = model
         self.notes.extend(model.notes)
 
@@ -252,9 +248,8 @@ class Derivation:
 
         force = self._loop_force()
         clean = expand if self.intermediate_form else tidy
-        if "EOM_g1" in q:
-            q["EOM_g1"] = (q["EOM_g1"] - force).applyfunc(clean)
-        q["EOM_g2"] = (q["EOM_g2"] - force).applyfunc(clean)
+        for key in [k for k in ("EOM_g1", "EOM_g2") if k in q]:   # EOM_g1: where Lagrange's route ran
+            q[key] = (q[key] - force).applyfunc(clean)
         if not self.intermediate_form:
             q.update(reduced_form(self.steps["loops"], self.symbols, q["M_g"], q["C_g"], q["N_g"], q["Y_g"]))
 

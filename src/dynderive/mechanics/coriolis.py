@@ -21,9 +21,9 @@ from collections.abc import Sequence
 
 import sympy
 
-from .program import Matrix3, Program, Vector, _add, _cross, _rotate, _times
+from .program import Matrix3, Vector, _add, _cross, _rotate, _times
 from .recursive import moved_inertia
-from .tree import Body, Tree
+from .tree import Tree
 
 _ZERO = sympy.Integer(0)
 _HALF = sympy.Rational(1, 2)
@@ -41,14 +41,6 @@ def _force_cross(m: Motion, f: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sy
     return _add(_cross(m[0], f[0]), _cross(m[1], f[1])), _cross(m[0], f[1])
 
 
-def _world_inertia(program: Program, body: Body, R: Matrix3, p: Vector) -> Inertia:
-    """The link's spatial inertia ``(m, h, I)`` about the world origin in world axes (the
-    link frame at rotation ``R``, origin ``p``)."""
-    h_r, moved = moved_inertia(program, body.mass, body.first_moment, body.inertia, R, p)
-    inertia = program.symmetric(moved)
-    return body.mass, program.vector(_add(h_r, _times(p, body.mass))), inertia
-
-
 def _apply(inertia: Inertia, m: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
     """A spatial inertia ``(m, h, I)`` times a motion ``(w, v)``: ``(I w + h x v, m v + w x h)``."""
     mass, h, J = inertia
@@ -61,11 +53,8 @@ def _pair(m: Sequence[sympy.Expr], f: Sequence[sympy.Expr]) -> sympy.Expr:
 
 
 def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
-    """Pinocchio's Coriolis matrix ``C(q, qd)`` (module docstring), n x n, in world axes as
-    ``computeCoriolisMatrix`` builds it: with every quantity about the world origin, a joint's
-    column ``S_j`` and its rate ``v_j x S_j`` are the same for every link below it, so
-    ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` with ``k`` the deeper of the two joints'
-    links and ``I^c``, ``B^c`` summed over the links below ``k`` (no frame changes)."""
+    """Pinocchio's Coriolis matrix ``C(q, qd)``, n x n, in world axes as ``computeCoriolisMatrix``
+    builds it: ``C_ij = S_i^T (I^c_k (v_j x S_j) + B^c_k S_j)`` (module docstring)."""
     let, vec = tree.program.let, tree.program.vector
     n = tree.size
     qd = tree.table.qd
@@ -92,8 +81,10 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         velocity[body.link] = (w, v)
         for j, s in own:
             columns[body.link, j] = (body.link, s, tuple(vec(x) for x in _motion_cross((w, v), s)))  # type: ignore[assignment]
-        inertia = _world_inertia(tree.program, body, R, p)
-        composite[body.link] = inertia
+        # the link's spatial inertia (m, h, I) about the world origin, in world axes
+        h_r, moved = moved_inertia(tree.program, body.mass, body.first_moment, body.inertia, R, p)
+        about_origin = tree.program.symmetric(moved)
+        inertia = composite[body.link] = (body.mass, vec(_add(h_r, _times(p, body.mass))), about_origin)
         momentum = tuple(vec(x) for x in _apply(inertia, (w, v)))
         B_columns = []   # B e_r = (v x* I e_r - I (v x e_r) + e_r x* I v) / 2
         for e in units:
@@ -111,7 +102,6 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         total = tree.program.symmetric([[p_J[a][b] + J[a][b] for b in range(3)] for a in range(3)])
         composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)), total)
         B[body.parent] = [[let(x + y) for x, y in zip(row_p, row)] for row_p, row in zip(B[body.parent], B[body.link])]
-    by_link = {b.link: b for b in tree.bodies}
     C = [[_ZERO] * n for _ in range(n)]
     rows: dict[tuple[str, int], tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]] = {}   # (S_i^T B^c, I^c S_i)
     for key, (link, s, ds) in columns.items():
@@ -122,19 +112,19 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         force = vec([a + b for a, b in zip((*spin[0], *spin[1]), turn)])   # I^c_k dS_j + B^c_k S_j
         rows[key] = (vec([sum((flat[r] * B[link][r][c] for r in range(6)), _ZERO) for c in range(6)]),
                      vec([x for part in _apply(composite[link], s) for x in part]))
-        current = by_link[link]
+        current = tree.by_link[link]
         while True:   # rows of joint j's link and of the joints above it
             for i, _, _ in current.columns:
                 t = columns[current.link, i][1]
                 C[i][j] = let(C[i][j] + _pair((*t[0], *t[1]), force))
             if current.parent == "world":
                 break
-            current = by_link[current.parent]
+            current = tree.by_link[current.parent]
     for key, (link, _, _) in columns.items():   # the joints strictly above joint i's link
         i = key[1]
-        current = by_link[link]
+        current = tree.by_link[link]
         while current.parent != "world":
-            current = by_link[current.parent]
+            current = tree.by_link[current.parent]
             for j, _, _ in current.columns:
                 t, dt = columns[current.link, j][1], columns[current.link, j][2]
                 C[i][j] = let(C[i][j] + _pair((*t[0], *t[1]), rows[key][0]) + _pair((*dt[0], *dt[1]), rows[key][1]))

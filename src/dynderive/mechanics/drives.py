@@ -100,4 +100,3 @@ def drive_terms(robot: Robot, table: SymbolTable) -> DriveTerms:
 
 
 __all__ = ["DriveTerms", "JointDrive", "dissipative_force", "drive_terms", "joint_drives"]
-

@@ -61,11 +61,9 @@ def evaluator(exprs: Sequence[sympy.Expr], symbols: Sequence[sympy.Symbol]) -> C
 
 
 def _kind(node: sympy.Basic) -> None:
-    if node.is_Symbol or node.is_Number or node.is_NumberSymbol or node.is_Add or node.is_Mul or node.is_Pow:
-        return
-    if type(node) in _FUNCTIONS or node is sympy.S.ImaginaryUnit:
-        return
-    raise Unsupported(type(node).__name__)
+    if not (node.is_Symbol or node.is_Number or node.is_NumberSymbol or node.is_Add or node.is_Mul
+            or node.is_Pow or type(node) in _FUNCTIONS or node is sympy.S.ImaginaryUnit):
+        raise Unsupported(type(node).__name__)
 
 
 def _value(node: sympy.Basic, known: dict[sympy.Basic, Any]) -> Any:

@@ -45,48 +45,39 @@ def count_ops(expr: sympy.Expr) -> int:
 def _ops(a: sympy.Basic) -> int:
     """What ``count_ops`` adds for ``a`` when it pops it off its stack, descendants included."""
     known = _OPS.get(a)
-    if known is not None:
-        return known
-    total = 0
-    node = a
-    if node.is_Rational:
-        if node is not sympy.S.One:
-            total = (node.p < 0) + (node.q != 1)
-            _OPS[a] = total
-            return total
-    elif node.is_Mul:
+    if known is None:
+        known = _OPS[a] = _count(a)
+    return known
+
+
+def _count(node: sympy.Basic) -> int:
+    """``_ops`` of ``node``, not remembered yet."""
+    if node.is_Rational and node is not sympy.S.One:
+        return (node.p < 0) + (node.q != 1)
+    if node.is_Mul:
+        total = 0
         if _negative_coefficient(node):
-            total += 1
+            total = 1
             node = node.as_two_terms()[1] if node.args[0] is sympy.S.NegativeOne else _negated(node)
         if _numerator_only(node):   # what fraction(node) gives as (node, 1), without rebuilding it
-            total += _tail(node)
-            _OPS[a] = total
-            return total
+            return total + _tail(node)
         n, d = fraction(node)
         if n.is_Integer:
-            total += 1 + bool(n < 0) + _ops(d)
-            _OPS[a] = total
-            return total
+            return total + 1 + bool(n < 0) + _ops(d)
         if d is not sympy.S.One:
-            total += 1 + _ops(n) + (0 if d.is_Integer else _ops(d))
-            _OPS[a] = total
-            return total
-    elif node.is_Add:
-        args = node.args
-        negative = 0
-        for i, term in enumerate(args):
+            return total + 1 + _ops(n) + (0 if d.is_Integer else _ops(d))
+        return total + _tail(node)
+    if node.is_Add:
+        total = negative = 0
+        for i, term in enumerate(node.args):
             if _negative_coefficient(term):
                 negative += 1
                 total += _ops(_negated(term))
             else:
                 total += _ops(term)
             total += i > 0
-        total += negative == len(args)
-        _OPS[a] = total
-        return total
-    total += _tail(node)
-    _OPS[a] = total
-    return total
+        return total + (negative == len(node.args))
+    return _tail(node)
 
 
 def _negative_coefficient(a: sympy.Basic) -> bool:
@@ -117,8 +108,7 @@ def _numerator_only(mul: sympy.Mul) -> bool:
     exponent and no fraction among its numbers."""
     for factor in mul.args:
         if factor.is_Pow:
-            exponent = factor.exp
-            if not (exponent.is_Rational and exponent.p > 0) or not factor.is_commutative:
+            if not (factor.exp.is_Rational and factor.exp.p > 0) or not factor.is_commutative:
                 return False
         elif factor.is_Rational:
             if factor.q != 1:
@@ -215,9 +205,7 @@ def collect_trig(expr: sympy.Expr, trig: list[sympy.Expr]) -> sympy.Expr:
         first, where = None, -1
         for i, factor in enumerate(factors):
             base, exponent = (factor.base, factor.exp) if factor.is_Pow else (factor, sympy.S.One)
-            if not (base.is_Symbol or base.is_Number) or not exponent.is_Number:
-                return sympy.collect(expr, trig, func=sympy.factor_terms)
-            if not factor.is_commutative:
+            if not (base.is_Symbol or base.is_Number) or not exponent.is_Number or not factor.is_commutative:
                 return sympy.collect(expr, trig, func=sympy.factor_terms)
             if base in rank and (first is None or rank[base] < rank[first]):
                 first, where = base, i
@@ -303,10 +291,8 @@ def _diff(expr: sympy.Basic, s: sympy.Symbol) -> sympy.Basic:
     elif expr.is_Mul and expr.is_commutative:
         # Mul._eval_derivative_n_times(s, 1): the general Leibniz rule's terms in its order
         args = expr.args
-        terms = []
-        for orders, c in multinomial_coefficients_iterator(len(args), 1):
-            terms.append(c * sympy.Mul(*[_diff(a, s) if k else a for k, a in zip(orders, args)]))
-        result = sympy.Add(*terms)
+        result = sympy.Add(*[c * sympy.Mul(*[_diff(a, s) if k else a for k, a in zip(orders, args)])
+                             for orders, c in multinomial_coefficients_iterator(len(args), 1)])
     elif expr.is_Pow:
         # Pow._eval_derivative
         dbase, dexp = _diff(expr.base, s), _diff(expr.exp, s)
@@ -331,10 +317,8 @@ def matmul(*factors: sympy.MatrixBase) -> sympy.Matrix:
         if result.cols != factor.rows:
             raise sympy.ShapeError(f"matrix size mismatch: {result.shape} * {factor.shape}")
         columns = [[(k, x) for k, x in enumerate(column) if x != 0] for column in factor.T.tolist()]
-        entries = []
-        for row in result.tolist():
-            for column in columns:
-                entries.append(sympy.Add(*[row[k] * x for k, x in column if row[k] != 0]))
+        entries = [sympy.Add(*[row[k] * x for k, x in column if row[k] != 0])
+                   for row in result.tolist() for column in columns]
         result = sympy.Matrix(result.rows, factor.cols, entries)
     return result
 

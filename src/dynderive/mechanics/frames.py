@@ -56,22 +56,20 @@ def frame_quantities(robot: Robot, table: SymbolTable) -> dict[str, sympy.Matrix
     by the names ``naming.frame_quantity_names`` gives."""
     quantities: dict[str, sympy.Matrix] = {}
     q, qd = sympy.Matrix(table.q), table.qd
+    pose = _planar_pose if robot.planar else _spatial_pose
     for frame in robot.frames:
-        if robot.planar:
-            angle, position, angular = _planar_pose(robot, table, frame)
-            orientation: sympy.Matrix = sympy.Matrix([[angle]])
-        else:
-            orientation, position, angular = _spatial_pose(robot, table, frame)
-        linear = position.jacobian(q)
-        jacobian = sympy.Matrix.vstack(linear, angular).applyfunc(tidy)
+        orientation, position, angular = pose(robot, table, frame)
+        jacobian = sympy.Matrix.vstack(position.jacobian(q), angular).applyfunc(tidy)
         rate = sum((jacobian.diff(qk) * rk for qk, rk in zip(table.q, qd)), sympy.zeros(*jacobian.shape))
         quantities.update(zip(frame_quantity_names(frame.name, robot.planar),
                               (position.applyfunc(tidy), orientation.applyfunc(tidy), jacobian, rate.applyfunc(tidy))))
     return quantities
 
 
-def _planar_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy.Expr, sympy.Matrix, sympy.Matrix]:
-    """World angle and position of a planar frame, and the angular row of its Jacobian."""
+def _planar_pose(robot: Robot, table: SymbolTable,
+                 frame: Frame) -> tuple[sympy.Matrix, sympy.Matrix, sympy.Matrix]:
+    """World angle (a 1 x 1 matrix) and position of a planar frame, and the angular row of its
+    Jacobian."""
     index = {name: i for i, name in enumerate(robot.coordinates)}
     angle: sympy.Expr = sympy.Integer(0)
     x: sympy.Expr = sympy.Integer(0)
@@ -96,7 +94,7 @@ def _planar_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy.
             x, y = shift(ax * qk, ay * qk)
     fx, fy, ftheta = (table.expr(e) for e in frame.origin)
     x, y = shift(fx, fy)
-    return angle + ftheta, sympy.Matrix([x, y]), angular
+    return sympy.Matrix([[angle + ftheta]]), sympy.Matrix([x, y]), angular
 
 
 def _spatial_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy.Matrix, sympy.Matrix, sympy.Matrix]:
@@ -183,8 +181,6 @@ def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
 
 
 Pose = tuple[tuple[Vector, Vector, Vector], Vector]
-
-
 
 
 def _jacobian_columns(tree: Tree, poses: dict[str, Pose], link: str,

@@ -17,23 +17,10 @@ from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
 from .exact_fast import matmul
-from .lagrange import (
-    christoffel_coriolis,
-    gravity_vector,
-    lagrange_steps,
-    mass_matrix_from_jacobians,
-)
+from .lagrange import christoffel_coriolis, gravity_vector, lagrange_steps, mass_matrix_from_jacobians
 from .spatial import inertia_tensor
-from .tidy import (
-    FOURIER_LIMIT,
-    fewest_operations,
-    is_small,
-    quick_tidy,
-    tidy,
-    tidy_matrix,
-    trig_group,
-    trig_linear,
-)
+from .tidy import FOURIER_LIMIT, fewest_operations, is_small, quick_tidy, tidy, trig_group, trig_linear
+from .tree import efforts
 
 #: 3-D robots with more coordinates than this, or whose Lagrangian has more tree nodes than
 #: LAGRANGE_LIMIT, skip the symbolic Lagrange route (EOM_g1): differentiating it twice costs
@@ -50,14 +37,6 @@ SPATIAL_TIDY_LIMIT = 400
 PLANAR_TIDY_LIMIT = 300
 
 
-def _spatial_tidy(expr: sympy.Expr) -> sympy.Expr:
-    return tidy(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
-
-
-def _spatial_quick_tidy(expr: sympy.Expr) -> sympy.Expr:
-    return quick_tidy(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
-
-
 def tidier(robot: Robot) -> Callable[[sympy.Expr], sympy.Expr]:
     """The clean-up used for ``robot``'s quantities: full ``tidy`` for planar robots; for 3-D
     robots only entries small enough to be read, and for arms beyond LAGRANGE_DOF_LIMIT
@@ -65,7 +44,8 @@ def tidier(robot: Robot) -> Callable[[sympy.Expr], sympy.Expr]:
     entries for 4 % fewer operations)."""
     if robot.planar:
         return tidy
-    return _spatial_tidy if robot.kinematic_size <= LAGRANGE_DOF_LIMIT else _spatial_quick_tidy
+    clean = tidy if robot.kinematic_size <= LAGRANGE_DOF_LIMIT else quick_tidy
+    return lambda expr: clean(expr) if is_small(expr, SPATIAL_TIDY_LIMIT) else expr
 
 
 @dataclass
@@ -115,8 +95,7 @@ def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
 
 def applied_forces(robot: Robot, table: SymbolTable) -> sympy.Matrix:
     """``Y_g``: each joint's effort symbol on its own coordinate (0 where it has none)."""
-    efforts = {j.name: j.effort for j in robot.joints if j.moves}
-    return sympy.Matrix([table.efforts[efforts[n]] if efforts[n] else 0 for n in robot.coordinates])
+    return sympy.Matrix(efforts(robot, table))
 
 
 def _trig_squares(expr: sympy.Expr) -> bool:
@@ -132,9 +111,8 @@ def _textbook(built: sympy.Expr, fourier: sympy.Expr) -> bool:
     if not built.has(sympy.sin, sympy.cos):
         return False
     built_ops, fourier_ops = sympy.count_ops(built), sympy.count_ops(fourier)
-    if fourier_ops < built_ops:
-        return True
-    return _trig_squares(built) and not _trig_squares(fourier) and 2 * fourier_ops <= 3 * built_ops
+    return fourier_ops < built_ops or (_trig_squares(built) and not _trig_squares(fourier)
+                                       and 2 * fourier_ops <= 3 * built_ops)
 
 
 def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
@@ -160,7 +138,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     if robot.planar or (robot.kinematic_size <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
         report("Lagrange's equations")
         steps = lagrange_steps(L, q, qd, qdd)
-        steps_tidy = {key: tidy_matrix(getattr(steps, key)) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")}
+        steps_tidy = {key: getattr(steps, key).applyfunc(tidy) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")}
         # Lagrange's equations with Rayleigh's dissipation function and Coulomb friction:
         # d/dt dL/dqd - dL/dq + dD/dqd + fc sign(qd) = Y
         EOM_g1 = (steps.lhs + F - Y).applyfunc(tidy)

@@ -39,9 +39,7 @@ def couplings(robot: Any, table: Any) -> dict[str, Coupling]:
     """The ``Coupling`` of every moving joint with a single coordinate, by joint name."""
     index = {name: i for i, name in enumerate(robot.coordinates)}
     found = {}
-    for joint in robot.joints:
-        if not joint.moves or joint.multi:
-            continue
+    for joint in (j for j in robot.joints if j.moves and not j.multi):
         leader, multiplier, offset = robot.driver(joint)
         k = index[leader]
         m, o = table.expr(multiplier), table.expr(offset)

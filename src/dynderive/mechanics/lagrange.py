@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import sympy
 
 from .exact_fast import diff as exact_diff
+from .exact_fast import jacobian as jacobian  # d column / d variables, the same entries as Matrix.jacobian
 from .polynomial import expand
 
 
@@ -37,12 +38,6 @@ def matrix_derivative(matrix: sympy.Matrix, symbol: sympy.Symbol) -> sympy.Matri
     if symbol not in matrix.free_symbols:
         return sympy.zeros(*matrix.shape)
     return matrix.applyfunc(lambda e: derivative(e, symbol))
-
-
-def jacobian(column: sympy.Matrix, variables: Sequence[sympy.Symbol]) -> sympy.Matrix:
-    """``d column / d variables`` (``Matrix.jacobian``), skipping the variables an entry lacks."""
-    entries = list(column)
-    return sympy.Matrix(len(entries), len(variables), [derivative(e, v) for e in entries for v in variables])
 
 
 def time_derivative(expr: sympy.Expr, q: Sequence[sympy.Symbol], qd: Sequence[sympy.Symbol],

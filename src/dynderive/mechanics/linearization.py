@@ -41,7 +41,7 @@ def inverse_dynamics_derivatives_program(robot: Robot, table: SymbolTable, tree:
     n = tree.size
     seeds = tree.tangent_seeds() + [{rate: sympy.Integer(1)} for rate in table.qd]
     by_variable: list[list[sympy.Expr]] = []
-    partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr] = {}
+    partials: dict[tuple[sympy.Expr, sympy.Symbol], sympy.Expr] = {}
     for seed in seeds:
         tangent = dict(seed)
         _carry(program, tangent, trig, lines, partials)
@@ -91,15 +91,15 @@ def symbolic_linearization(quantities: dict[str, sympy.Matrix], table: SymbolTab
     forces = at(Y - C * sympy.Matrix(table.qd) - N - F)
     inverse = M0.inv(method="LU") if n > 2 else M0.inv()
     inverse = inverse.applyfunc(lambda e: tidy(sympy.cancel(e)))
-    qdd0 = (inverse * forces).applyfunc(lambda e: tidy(sympy.cancel(e)))
-    at_qdd = dict(zip(table.qdd, qdd0))
-    d_q = at(residual.jacobian(sympy.Matrix(table.q))).xreplace(at_qdd)
-    d_qd = at(residual.jacobian(sympy.Matrix(table.qd))).xreplace(at_qdd)
-    d_u = at(Y.jacobian(sympy.Matrix(efforts))) if efforts else sympy.zeros(n, 0)
 
     def solve(matrix: sympy.Matrix) -> sympy.Matrix:
         return (inverse * matrix).applyfunc(lambda e: tidy(sympy.cancel(e)))
 
+    qdd0 = solve(forces)
+    at_qdd = dict(zip(table.qdd, qdd0))
+    d_q = at(residual.jacobian(sympy.Matrix(table.q))).xreplace(at_qdd)
+    d_qd = at(residual.jacobian(sympy.Matrix(table.qd))).xreplace(at_qdd)
+    d_u = at(Y.jacobian(sympy.Matrix(efforts))) if efforts else sympy.zeros(n, 0)
     A = sympy.Matrix.vstack(sympy.Matrix.hstack(sympy.zeros(n, n), sympy.eye(n)),
                             sympy.Matrix.hstack(solve(-d_q), solve(-d_qd)))
     B = sympy.Matrix.vstack(sympy.zeros(n, len(efforts)), solve(d_u))

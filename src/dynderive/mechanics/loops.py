@@ -43,17 +43,9 @@ from ..model.symbols import SymbolTable
 from .exact_fast import factor_terms, jacobian, matmul
 from .joints import unit
 from .lagrange import constraint_jacobian_dot
+from .planar import rotated
 from .spatial import rpy_matrix
-from .tidy import (
-    count_ops,
-    fewest_operations,
-    fold_constants,
-    is_small,
-    quick_tidy,
-    tidy,
-    tidy_matrix,
-    trig_linear,
-)
+from .tidy import count_ops, fewest_operations, fold_constants, is_small, quick_tidy, tidy, trig_linear
 
 #: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold,
 #: at configurations assembled to ``ASSEMBLY_TOLERANCE``).
@@ -106,8 +98,7 @@ def _planar_frame(link: str, kinematics: dict[str, Any], offset: tuple[sympy.Exp
         kin = kinematics[link]
         origin, angle = kin.joint_origin, kin.angle
     x, y, theta = offset
-    c, s = sympy.cos(angle), sympy.sin(angle)
-    return origin + sympy.Matrix([c * x - s * y, s * x + c * y]), angle + theta
+    return origin + rotated(angle, (x, y)), angle + theta
 
 
 def _spatial_frame(link: str, kinematics: dict[str, Any], offset: tuple[sympy.Expr, ...],
@@ -154,11 +145,9 @@ def _planar_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[symp
     p_child, angle_child = _planar_frame(loop.child, kinematics, child_origin)
     gap = p_child - p_parent
     if loop.type == "revolute":
-        return [(loop.name, "x of the gap between the loop frames", gap[0]),
-                (loop.name, "y of the gap between the loop frames", gap[1])]
+        return [(loop.name, f"{axis} of the gap between the loop frames", e) for axis, e in zip("xy", gap)]
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
-    c, s = sympy.cos(angle_parent), sympy.sin(angle_parent)
-    normal = sympy.Matrix([c * -uy - s * ux, s * -uy + c * ux])
+    normal = rotated(angle_parent, (-uy, ux))
     return [(loop.name, "offset across the sliding axis", (normal.T * gap)[0, 0]),
             (loop.name, "relative rotation", angle_child - angle_parent)]
 
@@ -182,9 +171,8 @@ def _spatial_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[sym
                  (loop.name, "axis alignment (second normal)", (a_world.T * R_child * b2)[0, 0])]
         return rows
     relative = R_parent.T * R_child
-    rows += [(loop.name, "relative rotation about x", relative[2, 1] - relative[1, 2]),
-             (loop.name, "relative rotation about y", relative[0, 2] - relative[2, 0]),
-             (loop.name, "relative rotation about z", relative[1, 0] - relative[0, 1])]
+    rows += [(loop.name, f"relative rotation about {axis}", relative[k, j] - relative[j, k])
+             for axis, (k, j) in zip("xyz", ((2, 1), (0, 2), (1, 0)))]
     offset = R_parent.T * (p_child - p_parent)
     rows += [(loop.name, "offset across the sliding axis (first normal)", (b1.T * offset)[0, 0]),
              (loop.name, "offset across the sliding axis (second normal)", (b2.T * offset)[0, 0])]
@@ -240,21 +228,15 @@ def assemblies(numeric: _Numeric, robot: Robot) -> list[np.ndarray]:
     rng = random.Random(15)
     starts = [np.zeros(n), np.array([0.3 * (-1) ** i for i in range(n)]), np.array([-0.3 * (-1) ** i for i in range(n)])]
     starts += [np.array([rng.uniform(-math.pi, math.pi) for _ in range(n)]) for _ in range(9)]
-    found = []
-    for start in starts:
-        q = assemble(numeric, start)
-        if q is not None:
-            q = np.array([math.remainder(x, 2 * math.pi) if r else x for x, r in zip(q, revolute)])
-            found.append(q)
-    return sorted(found, key=lambda q: float(np.linalg.norm(q)))
+    found = [q for q in (assemble(numeric, start) for start in starts) if q is not None]
+    wrapped = [np.array([math.remainder(x, 2 * math.pi) if r else x for x, r in zip(q, revolute)])
+               for q in found]
+    return sorted(wrapped, key=lambda q: float(np.linalg.norm(q)))
 
 
 def _rank(J: np.ndarray) -> int:
-    return _rank_of(np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0))
-
-
-def _rank_of(sigma: np.ndarray) -> int:
-    """The rank given by singular values in decreasing order."""
+    """The rank of ``J``: its singular values above RANK_TOLERANCE times the largest."""
+    sigma = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
     return int(np.sum(sigma > RANK_TOLERANCE * max(float(sigma[0]) if len(sigma) else 0.0, 1e-300)))
 
 
@@ -276,7 +258,7 @@ def _neighbours(numeric: _Numeric, q: np.ndarray) -> list[np.ndarray]:
 def _regular(J: np.ndarray, rank: int) -> bool:
     """Whether ``J`` has rank ``rank``, well away from a lower one."""
     sigma = np.linalg.svd(J, compute_uv=False)
-    return _rank_of(sigma) == rank and (rank == 0 or sigma[rank - 1] > 1e-6 * sigma[0])
+    return _rank(J) == rank and (rank == 0 or sigma[rank - 1] > 1e-6 * sigma[0])
 
 
 def _manifold_rank(numeric: _Numeric, q: np.ndarray) -> int:
@@ -308,9 +290,8 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     nonzero = [i for i, row in enumerate(every) if row[2] != 0]
     notes: list[str] = []
     where = robot.positions.get("loops", (1, 1))
-    defaults = table.defaults(robot)
     complete = all(p.value is not None for p in robot.parameters)
-    values = defaults if complete else {s: 1.0 for s in table.parameters.values()}
+    values = table.defaults(robot) if complete else {s: 1.0 for s in table.parameters.values()}
 
     def numeric_of(indices: list[int]) -> tuple[sympy.Matrix, sympy.Matrix, _Numeric]:
         a = sympy.Matrix([every[i][2] for i in indices]) if indices else sympy.zeros(0, 1)
@@ -322,17 +303,17 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     if vanishing:
         nonzero = [i for k, i in enumerate(nonzero) if k not in vanishing]
         a, A, numeric = numeric_of(nonzero)
-    dropped = [every[i] for i in range(len(every)) if i not in nonzero]
+    dropped = "; ".join(f"{name}: {what}" for i, (name, what, _) in enumerate(every) if i not in nonzero)
     if dropped:
-        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {len(dropped)} loop constraint "
-                     f"{'rows are' if len(dropped) != 1 else 'row is'} identically zero and "
-                     f"{'were' if len(dropped) != 1 else 'was'} dropped: " + "; ".join(f"{name}: {what}" for name, what, _ in dropped))
+        count = len(every) - len(nonzero)
+        notes.append(f"{robot.source}:{where[0]}:{where[1]}: note: {count} loop constraint "
+                     f"{'rows are' if count != 1 else 'row is'} identically zero and "
+                     f"{'were' if count != 1 else 'was'} dropped: {dropped}")
     rows = [every[i] for i in nonzero]
     if not rows:   # a loop joint on a tree joint's own axis: nothing to close
-        raise InputError(Problem(robot.source, where[0], where[1], "loops: every loop constraint row is identically "
-                                 "zero (" + "; ".join(f"{name}: {what}" for name, what, _ in dropped) + "), so the "
-                                 "loops constrain nothing: remove them, or move the loop joint off the tree joint's "
-                                 "axis"))
+        message = (f"loops: every loop constraint row is identically zero ({dropped}), so the loops "
+                   "constrain nothing: remove them, or move the loop joint off the tree joint's axis")
+        raise InputError(Problem(robot.source, where[0], where[1], message))
     found = assemblies(numeric, robot)
     if not found:
         if complete:
@@ -362,9 +343,7 @@ def derive_loops(robot: Robot, table: SymbolTable, links: list[Any]) -> LoopMode
     Adot = constraint_jacobian_dot(A, table.q, table.qd).applyfunc(_tidy_entry)
     independent = _independent(robot, numeric.jacobian(default), n, rank, notes)
     dependent = [i for i in range(n) if i not in independent]
-    assembled = None
-    if found:
-        assembled = _exact_assembly(a, A, table, values, default, independent, dependent)
+    assembled = _exact_assembly(a, A, table, values, default, independent, dependent) if found else None
     multipliers = [sympy.Symbol(f"lambda_g{i}") for i in range(1, k + 1)]
     model = LoopModel(a, A, Adot, multipliers, [(r[0], r[1]) for r in rows], nonzero, rank,
                       independent, dependent, assembled, notes)
@@ -457,8 +436,7 @@ def _singular_partition(robot: Robot, model: LoopModel, numeric: _Numeric, notes
     bad: list[str] = []
     rng = np.random.default_rng(15)
     if len(model.independent) == 1:
-        samples = [q[model.independent[0]] + t for t in np.linspace(-math.pi, math.pi, 73)[1:]]
-        points = [[s] for s in samples]
+        points = [[q[model.independent[0]] + t] for t in np.linspace(-math.pi, math.pi, 73)[1:]]
     else:
         points = [list(q[model.independent] + rng.uniform(-1, 1, len(model.independent))) for _ in range(40)]
     current = q.copy()
@@ -497,23 +475,23 @@ def reduced_form(model: LoopModel, table: SymbolTable, M: sympy.Matrix, C: sympy
     if det == 0:
         return {}
     adjugate = matmul(A_d.adjugate(method="berkowitz"), A_i)
-    fourier = factor_terms(trig_linear(det))
-    if count_ops(fourier) <= count_ops(det):   # planar loops: det is one sine or cosine of an angle sum
-        return _reduced_over_determinant(model, table, fourier, adjugate, (M, C, N, Y))
-    m = len(model.independent)
-    R = _stacked(model, len(table.q), sympy.S.One, adjugate.applyfunc(lambda e: tidy(-e / det)))
-    Rdot = tidy_matrix(constraint_jacobian_dot(R, table.q, table.qd))
     qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
     qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
-    M_r = tidy_matrix(matmul(R.T, M, R))
+    fourier = factor_terms(trig_linear(det))
+    if count_ops(fourier) <= count_ops(det):   # planar loops: det is one sine or cosine of an angle sum
+        return _reduced_over_determinant(model, table, fourier, adjugate, (M, C, N, Y), (qd_i, qdd_i))
+    m = len(model.independent)
+    R = _stacked(model, len(table.q), sympy.S.One, adjugate.applyfunc(lambda e: tidy(-e / det)))
+    Rdot = constraint_jacobian_dot(R, table.q, table.qd).applyfunc(tidy)
+    M_r = matmul(R.T, M, R).applyfunc(tidy)
     if not is_small(sympy.Tuple(*M_r), 4000 * m * m):
         return {"R_g": R}
     # on the manifold qd = R qd_i: Rdot's qd are written through R as well
     on_manifold = dict(zip(table.qd, matmul(R, qd_i)))
     Rdot = Rdot.xreplace(on_manifold)
-    C_r = tidy_matrix(matmul(R.T, matmul(M, Rdot) + matmul(C.xreplace(on_manifold), R)))
-    N_r = tidy_matrix(matmul(R.T, N))
-    Y_r = tidy_matrix(matmul(R.T, Y))
+    C_r = matmul(R.T, matmul(M, Rdot) + matmul(C.xreplace(on_manifold), R)).applyfunc(tidy)
+    N_r = matmul(R.T, N).applyfunc(tidy)
+    Y_r = matmul(R.T, Y).applyfunc(tidy)
     EOM_r = (matmul(M_r, qdd_i) + matmul(C_r, qd_i) + N_r - Y_r).applyfunc(tidy)
     return {"R_g": R, "M_r": M_r, "C_r": C_r, "N_r": N_r, "Y_r": Y_r, "EOM_r": EOM_r}
 
@@ -531,7 +509,8 @@ def _stacked(model: LoopModel, n: int, identity: sympy.Expr, dependent: sympy.Ma
 
 
 def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.Expr, adjugate: sympy.Matrix,
-                              generalized: tuple[sympy.Matrix, ...]) -> dict[str, sympy.Matrix]:
+                              generalized: tuple[sympy.Matrix, ...],
+                              rates: tuple[sympy.Matrix, sympy.Matrix]) -> dict[str, sympy.Matrix]:
     """The reduced form as numerators over powers of ``det = det A_d``, each numerator in
     Fourier form (``trig_linear``): for planar loops ``det`` is one sine of an angle sum
     (``b c sin(q1 + q2 - q3)`` for the four-bar) and the numerators short sums of sines and
@@ -544,9 +523,7 @@ def _reduced_over_determinant(model: LoopModel, table: SymbolTable, det: sympy.E
     ``C_r = R_n^T (M (D(R_n) det - R_n D(det)) + C(R_n qd_i) R_n det) / det^4`` (C is linear in qd).
     Common factors of symbols cancel against the determinant's (SymPy's products merge powers).
     """
-    M, C, N, Y = generalized
-    qd_i = sympy.Matrix([table.qd[i] for i in model.independent])
-    qdd_i = sympy.Matrix([table.qdd[i] for i in model.independent])
+    (M, C, N, Y), (qd_i, qdd_i) = generalized, rates
     R_n = _stacked(model, len(table.q), det, adjugate.applyfunc(lambda e: fewest_operations(tidy(-e), trig_linear)))
     velocity = matmul(R_n, qd_i)   # det * qd on the manifold
 

@@ -15,6 +15,7 @@ import sympy
 
 from ..model.robot import Joint, LoopJoint, Robot
 from ..model.symbols import SymbolTable
+from .drives import dissipative_force
 from .exact_fast import matmul
 from .joints import unit
 from .lagrange import (
@@ -25,7 +26,7 @@ from .lagrange import (
     lagrange_steps,
     mass_matrix_from_jacobians,
 )
-from .planar import PlanarLinkKinematics
+from .planar import PlanarLinkKinematics, rotated
 from .tidy import quick_tidy, tidy, tidy_matrix
 
 #: Above this many operations in A M^-1 A^T, lambda is not solved symbolically (the
@@ -33,11 +34,6 @@ from .tidy import quick_tidy, tidy, tidy_matrix
 LAMBDA_SYMBOLIC_LIMIT = 200
 #: Systems with more constraints than this keep lambda numeric only.
 LAMBDA_SYMBOLIC_ROWS = 4
-
-
-def _rot(angle: sympy.Expr, vector: tuple[sympy.Expr, sympy.Expr]) -> sympy.Matrix:
-    c, s = sympy.cos(angle), sympy.sin(angle)
-    return sympy.Matrix([c * vector[0] - s * vector[1], s * vector[0] + c * vector[1]])
 
 
 def _cross(a: sympy.Matrix | tuple, b: sympy.Matrix | tuple) -> sympy.Expr:
@@ -60,6 +56,11 @@ class _Bodies:
         x, y, phi = self.table.qm[3 * k: 3 * k + 3]
         com = tuple(self.table.expr(e) for e in self.robot.links[k].com)
         return sympy.Matrix([x, y]), phi, com  # type: ignore[return-value]
+
+    def point(self, name: str, x: sympy.Expr, y: sympy.Expr) -> sympy.Matrix:
+        """World position of the point at ``(x, y)`` in the link frame of ``name``."""
+        p, phi, com = self.pose(name)
+        return p + rotated(phi, (x - com[0], y - com[1]))
 
     def slots(self, name: str) -> int | None:
         return None if name == "world" else 3 * self.index[name]
@@ -98,17 +99,13 @@ def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
     _, phi_parent, com_parent = bodies.pose(joint.parent)
     _, _, com_child = bodies.pose(joint.child)
     axis = unit(tuple(table.expr(e) for e in joint.axis))
-    direction = _rot(phi_parent + theta, axis)  # type: ignore[arg-type]
-    Y[child] += u * direction[0]  # type: ignore[operator]
-    Y[child + 1] += u * direction[1]  # type: ignore[operator]
+    direction = rotated(phi_parent + theta, axis)
     # the child frame is parallel to the joint frame, so the axis reads the same in it
-    Y[child + 2] += u * _cross((-com_child[0], -com_child[1]), axis)  # type: ignore[operator]
+    moment = _cross((-com_child[0], -com_child[1]), axis)
+    Y[child:child + 3, 0] += u * sympy.Matrix([*direction, moment])  # type: ignore[operator]
     if parent is not None:
-        axis_in_parent = _rot(theta, axis)  # type: ignore[arg-type]
-        lever = (ox - com_parent[0], oy - com_parent[1])
-        Y[parent] -= u * direction[0]
-        Y[parent + 1] -= u * direction[1]
-        Y[parent + 2] -= u * _cross(lever, axis_in_parent)
+        moment = _cross((ox - com_parent[0], oy - com_parent[1]), rotated(theta, axis))
+        Y[parent:parent + 3, 0] -= u * sympy.Matrix([*direction, moment])
     return Y
 
 
@@ -119,14 +116,13 @@ def joint_coordinate(joint: Joint, bodies: _Bodies) -> sympy.Expr:
     (springs, damping, friction, armature) act through it, on both links alike."""
     table = bodies.table
     ox, oy, theta = (table.expr(e) for e in joint.origin)
-    p_parent, phi_parent, com_parent = bodies.pose(joint.parent)
-    p_child, phi_child, com_child = bodies.pose(joint.child)
+    phi_parent, phi_child = bodies.pose(joint.parent)[1], bodies.pose(joint.child)[1]
     if joint.type == "revolute":
         return phi_child - phi_parent - theta
-    joint_point = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
-    child_origin = p_child + _rot(phi_child, (-com_child[0], -com_child[1]))
-    direction = _rot(phi_parent + theta, unit(tuple(table.expr(e) for e in joint.axis)))  # type: ignore[arg-type]
-    return (direction.T * (child_origin - joint_point))[0, 0]
+    zero = sympy.Integer(0)
+    gap = bodies.point(joint.child, zero, zero) - bodies.point(joint.parent, ox, oy)
+    direction = rotated(phi_parent + theta, unit(tuple(table.expr(e) for e in joint.axis)))
+    return (direction.T * gap)[0, 0]
 
 
 def _maximal_drives(robot: Robot, bodies: _Bodies, drives: Any) -> dict[str, Any]:
@@ -135,8 +131,6 @@ def _maximal_drives(robot: Robot, bodies: _Bodies, drives: Any) -> dict[str, Any
     ``Ia (G_i qmd)**2/2`` in T_m (``Ia G_i^T G_i`` in M_m), dissipation
     ``D_m = sum b (G_i qmd)**2/2`` and forces ``F_m = sum G_i^T (b G_i qmd + fc sign(G_i qmd))``.
     Since ``G_i H = e_i``, ``H^T F_m = F_g``: the same forces, equal and opposite on both links."""
-    from .drives import dissipative_force
-
     table, size = bodies.table, len(bodies.table.qm)
     qmd = sympy.Matrix(table.qmd)
     moving = [j for j in robot.joints if j.moves]
@@ -173,16 +167,13 @@ def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     table = bodies.table
     ox, oy, theta = (table.expr(e) for e in loop.origin)
     cx, cy, child_theta = (table.expr(e) for e in loop.child_origin)
-    p_parent, phi_parent, com_parent = bodies.pose(loop.parent)
-    p_child, phi_child, com_child = bodies.pose(loop.child)
-    point_parent = p_parent + _rot(phi_parent, (ox - com_parent[0], oy - com_parent[1]))
-    point_child = p_child + _rot(phi_child, (cx - com_child[0], cy - com_child[1]))
-    gap = point_child - point_parent
+    phi_parent, phi_child = bodies.pose(loop.parent)[1], bodies.pose(loop.child)[1]
+    gap = bodies.point(loop.child, cx, cy) - bodies.point(loop.parent, ox, oy)
     rotation = (phi_child + child_theta) - (phi_parent + theta)
     if loop.type != "prismatic":
         return [gap[0], gap[1]] + ([rotation] if loop.type == "fixed" else [])
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
-    normal = _rot(phi_parent + theta, (-uy, ux))
+    normal = rotated(phi_parent + theta, (-uy, ux))
     return [(normal.T * gap)[0, 0], rotation]
 
 
@@ -207,9 +198,7 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
         a = sympy.Matrix([table.maximal_expr(e) for e in robot.maximal_constraints])
         origin = "override"
     else:
-        rows: list[sympy.Expr] = []
-        for joint in robot.joints:
-            rows += joint_constraints(joint, bodies)
+        rows = [row for joint in robot.joints for row in joint_constraints(joint, bodies)]
         closing = [row for loop in robot.loops for row in loop_constraints(loop, bodies)]
         rows += [closing[i] for i in (loop_rows or [])]
         a = sympy.Matrix(rows).applyfunc(clean)
@@ -222,8 +211,7 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
     # 2.2 energies
     masses = [table.expr(link.mass) for link in robot.links]
     inertias = [table.expr(link.inertia[0]) for link in robot.links]
-    T = sympy.Integer(0)
-    V = sympy.Integer(0)
+    T = V = sympy.Integer(0)
     for k, (mass, inertia) in enumerate(zip(masses, inertias)):
         x, y, phi = qmd[3 * k: 3 * k + 3]
         T += sympy.Rational(1, 2) * (mass * (x**2 + y**2) + inertia * phi**2)

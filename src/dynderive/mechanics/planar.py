@@ -8,6 +8,7 @@ come out compact without any trigonometric simplification.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -16,6 +17,12 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .joint_types import joint_type
+
+
+def rotated(angle: sympy.Expr, vector: Sequence[sympy.Expr]) -> sympy.Matrix:
+    """The plane vector ``vector`` rotated by ``angle``."""
+    c, s = sympy.cos(angle), sympy.sin(angle)
+    return sympy.Matrix([c * vector[0] - s * vector[1], s * vector[0] + c * vector[1]])
 
 
 @dataclass
@@ -48,12 +55,7 @@ class RotatedSum:
             slot = grouped.setdefault(relative, [sympy.Integer(0), sympy.Integer(0)])
             slot[0] += x
             slot[1] += y
-        out_x, out_y = sympy.Integer(0), sympy.Integer(0)
-        for relative, (x, y) in grouped.items():
-            c, s = sympy.cos(relative), sympy.sin(relative)
-            out_x += c * x - s * y
-            out_y += s * x + c * y
-        return sympy.Matrix([out_x, out_y])
+        return sum((rotated(relative, vector) for relative, vector in grouped.items()), sympy.zeros(2, 1))
 
 
 @dataclass

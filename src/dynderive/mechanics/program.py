@@ -75,9 +75,8 @@ class Program:
 
     def vector(self, values: Sequence[sympy.Expr], meaning: Meaning | None = None) -> Vector:
         """Each component ``let``; ``meaning`` (without index) gives component k index (k,)."""
-        if meaning is None:
-            return tuple(self.let(v) for v in values)  # type: ignore[return-value]
-        return tuple(self.let(v, meaning._replace(index=(k,))) for k, v in enumerate(values))  # type: ignore[return-value]
+        named = [self.let(v, meaning and meaning._replace(index=(k,))) for k, v in enumerate(values)]
+        return tuple(named)  # type: ignore[return-value]
 
     def symmetric(self, entries: Sequence[Sequence[sympy.Expr]], meaning: Meaning | None = None) -> Matrix3:
         """A symmetric 3 x 3 matrix: the upper triangle of ``entries`` ``let`` row by row;

@@ -28,7 +28,7 @@ the two.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import sympy
 
@@ -39,6 +39,7 @@ from .drives import dissipative_force, joint_drives
 from .joint_types.quaternion import quaternion_matrix
 from .joints import unit
 from .polynomial import expand
+from .program import _cross
 from .spatial import axis_angle, inertia_tensor, rpy_matrix
 from .tidy import fold_constants
 from .tree import efforts, offsets
@@ -107,7 +108,7 @@ class LinkSheet:
     gravity: sympy.Matrix          # g in link axes, R^T g
     kinetic: sympy.Expr
     potential: sympy.Expr
-    jacobian_dot: sympy.Matrix = field(default_factory=lambda: sympy.zeros(0, 0))
+    jacobian_dot: sympy.Matrix     # d J / dt along qdot = Q(q) v
 
 
 @dataclass
@@ -144,15 +145,11 @@ class _Ring:
     sparse polynomials a second. Matrices are lists of rows."""
 
     def __init__(self, table: SymbolTable, revolute: list[sympy.Symbol], values: list[sympy.Basic]):
-        self.trig = {}
-        for q in revolute:
-            self.trig[sympy.sin(q)] = sympy.Symbol(f"_sin_{q}")
-            self.trig[sympy.cos(q)] = sympy.Symbol(f"_cos_{q}")
+        self.trig = {f(q): sympy.Symbol(f"_{f.__name__}_{q}")
+                     for q in revolute for f in (sympy.sin, sympy.cos)}
         self.back = {v: k for k, v in self.trig.items()}
-        found = set()
-        for value in values:
-            found |= sympy.sympify(value).xreplace(self.trig).free_symbols
-        found |= set(table.q) | set(table.qd) | set(table.qdd)
+        found = set().union(*(sympy.sympify(value).xreplace(self.trig).free_symbols for value in values),
+                            table.q, table.qd, table.qdd)
         sines = [self.trig[sympy.sin(q)] for q in revolute]
         cosines = [self.trig[sympy.cos(q)] for q in revolute]
         rest = sorted(found - set(sines) - set(cosines), key=lambda s: s.name)
@@ -182,7 +179,6 @@ class _Ring:
         exact arithmetic comes out as noise alone)."""
         scale = max((_largest(e) for row in rows for e in row if e), default=0.0)
         return sympy.Matrix([[self.expr(e, scale) for e in row] for row in rows])
-
 
     def diff(self, element, symbol: sympy.Symbol):   # noqa: ANN001
         """d element / d symbol, a revolute coordinate through its sine and cosine."""
@@ -253,15 +249,14 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
             S[3:, vi + start:vi + start + 3] = sympy.eye(3)
             rate[qi:qi + start + 4, vi:vi + start + 3] = block
             R = R * Rq
-        elif kind.turns:
+        elif kind.moves:   # revolute, prismatic
             axis = fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
-            R = R * axis_angle(tuple(axis), table.q[qi])
-            S[3:, vi] = axis
-            rate[qi, vi] = 1
-        elif kind.moves:   # prismatic
-            axis = fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
-            p = p + R * axis * table.q[qi]
-            S[:3, vi] = axis
+            if kind.turns:
+                R = R * axis_angle(tuple(axis), table.q[qi])
+                S[3:, vi] = axis
+            else:
+                p = p + R * axis * table.q[qi]
+                S[:3, vi] = axis
             rate[qi, vi] = 1
         com = sympy.Matrix([expr(e) for e in link.com])
         pieces[link.name] = (R, p, S, expr(link.mass), com, inertia_tensor(tuple(expr(e) for e in link.inertia)))
@@ -272,11 +267,13 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     zero, one = K.zero, K.one
     v = ring.of(sympy.Matrix(table.qd))
     g = ring.of(gravity)
-    poses = {"world": ([[one if i == j else zero for j in range(3)] for i in range(3)], [[zero]] * 3,
-                       [[zero] * nv for _ in range(6)])}
+    identity = [[one if i == j else zero for j in range(3)] for i in range(3)]
+    poses = {"world": (identity, [[zero]] * 3, [[zero] * nv for _ in range(6)])}
     rates = {s: ring.of(sympy.Matrix([e]))[0][0] for s, e in zip(table.q, rate * sympy.Matrix(table.qd))}
     links: dict[str, LinkSheet] = {}
-    numeric: dict[str, tuple] = {}
+    M, C = [[zero] * nv for _ in range(nv)], [[zero] * nv for _ in range(nv)]
+    N, Cv = [[zero] for _ in range(nv)], [[zero] for _ in range(nv)]
+    half = K.convert(sympy.Rational(1, 2))
     for link in order:
         joint = robot.parent_joint(link.name)
         R_s, p_s, S_s, mass_s, com_s, inertia_s = pieces[link.name]
@@ -284,88 +281,71 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
         mass, com, inertia = ring.of(sympy.Matrix([mass_s]))[0][0], ring.of(com_s), ring.of(inertia_s)
         R_parent, p_parent, J_parent = poses[joint.parent]
         Rt = _t(R)
-        X = [[zero] * 6 for _ in range(6)]   # the link origin's twist (v, w) in link axes: X J_parent + S
-        lever = _mul(Rt, _scale(ring.of(skew(p_s)), -one), zero)
-        for i in range(3):
-            for j in range(3):
-                X[i][j], X[i][3 + j], X[3 + i][3 + j] = Rt[i][j], lever[i][j], Rt[i][j]
+        # the link origin's twist (v, w) in link axes: X J_parent + S
+        X = _blocks(zero, Rt, _mul(Rt, _scale(ring.of(skew(p_s)), -one), zero), None, Rt)
         J = _add(_mul(X, J_parent, zero), S)
         R_world = _mul(R_parent, R, zero)
         p_world = _add(p_parent, _mul(R_parent, p, zero))
         poses[link.name] = (R_world, p_world, J)
-        shift = ring.of(sympy.eye(6))
-        com_skew = ring.of(-skew(com_s))
-        for i in range(3):
-            for j in range(3):
-                shift[i][3 + j] = com_skew[i][j]
-        Jc = _mul(shift, J, zero)
+        Jc = _mul(_blocks(zero, identity, ring.of(-skew(com_s)), None, identity), J, zero)
         twist = _mul(Jc, v, zero)
         g_link = _mul(_t(R_world), g, zero)
         lin, ang = [row[0] for row in twist[:3]], [row[0] for row in twist[3:]]
         I_w = [row[0] for row in _mul(inertia, [[a] for a in ang], zero)]
-        kinetic = (mass * sum((a * a for a in lin), zero) + sum((a * b for a, b in zip(ang, I_w)), zero)) * K.convert(sympy.Rational(1, 2))
+        spin = sum((a * b for a, b in zip(ang, I_w)), zero)
+        kinetic = (mass * sum((a * a for a in lin), zero) + spin) * half
         position = _add(p_world, _mul(R_world, com, zero))
         potential = -mass * sum((a[0] * b[0] for a, b in zip(g, position)), zero)
-        numeric[link.name] = (mass, inertia, Jc, twist, lin, ang, I_w, g_link)
-        links[link.name] = LinkSheet(index[link.name], link.name, mass_s, com_s, inertia_s, ring.matrix(R_world),
-                                     ring.matrix(position), ring.matrix(Jc), ring.matrix(twist), ring.matrix(g_link),
-                                     ring.expr(kinetic), ring.expr(potential))
-    M = [[zero] * nv for _ in range(nv)]
-    N, Cv = [[zero] for _ in range(nv)], [[zero] for _ in range(nv)]
-    C = [[zero] * nv for _ in range(nv)]
-    half = K.convert(sympy.Rational(1, 2))
-    for name, (mass, inertia, Jc, twist, lin, ang, I_w, g_link) in numeric.items():
-        G = [[zero] * 6 for _ in range(6)]
-        for i in range(3):
-            G[i][i] = mass
-            for j in range(3):
-                G[3 + i][3 + j] = inertia[i][j]
+        masses = [[mass if i == j else zero for j in range(3)] for i in range(3)]
+        G = _blocks(zero, masses, None, None, inertia)
         Jdot = [[zero] * nv for _ in range(6)]
         for s in table.q:
             if s in rates and rates[s] != zero:
                 Jdot = _add(Jdot, [[ring.diff(e, s) * rates[s] for e in row] for row in Jc])
-        links[name].jacobian_dot = ring.matrix(Jdot)
+        shown = [ring.matrix(m) for m in (R_world, position, Jc, twist, g_link)]
+        links[link.name] = LinkSheet(index[link.name], link.name, mass_s, com_s, inertia_s, *shown,
+                                     ring.expr(kinetic), ring.expr(potential), ring.matrix(Jdot))
         JcT = _t(Jc)
-        bias = [[mass * e] for e in _cross3(ang, lin)] + [[e] for e in _cross3(ang, I_w)]
+        bias = [[mass * e] for e in _cross(ang, lin)] + [[e] for e in _cross(ang, I_w)]
         M = _add(M, _mul(JcT, _mul(G, Jc, zero), zero))
         N = _add(N, _mul(JcT, [[-mass * row[0]] for row in g_link] + [[zero]] * 3, zero))
         Cv = _add(Cv, _mul(JcT, _add(_mul(G, _mul(Jdot, v, zero), zero), bias), zero))
-        cross = [[zero] * 6 for _ in range(6)]   # V x, (v, w) order
         momentum = [row[0] for row in _mul(G, twist, zero)]
-        star = [[zero] * 6 for _ in range(6)]    # (G V) xbar*: m -> m x* (G V)
-        wx, vx = _skew3(ang, zero), _skew3(lin, zero)
-        px, Lx = _skew3(momentum[:3], zero), _skew3(momentum[3:], zero)
-        for i in range(3):
-            for j in range(3):
-                cross[i][j], cross[i][3 + j], cross[3 + i][3 + j] = wx[i][j], vx[i][j], wx[i][j]
-                star[i][3 + j], star[3 + i][j], star[3 + i][3 + j] = -px[i][j], -px[i][j], -Lx[i][j]
+        wx = _skew3(ang, zero)
+        cross = _blocks(zero, wx, _skew3(lin, zero), None, wx)   # V x, (v, w) order
+        px, Lx = _skew3([-e for e in momentum[:3]], zero), _skew3([-e for e in momentum[3:]], zero)
+        star = _blocks(zero, None, px, px, Lx)    # (G V) xbar*: m -> m x* (G V)
         B = _scale(_add(_scale(_mul(_t(cross), G, zero), -one), _scale(_mul(G, cross, zero), -one), star), half)
         C = _add(C, _mul(JcT, _add(_mul(G, Jdot, zero), _mul(_mul(G, cross, zero), Jc, zero), _mul(B, Jc, zero)), zero))
     potential_s = sum((item.potential for item in links.values()), sympy.Integer(0))
     M_s, N_s = ring.matrix(M), ring.matrix(N)
-    for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
-        qi, vi = where.q[joint.name], where.v[joint.name]
-        armature = expr(joint.armature) if joint.armature is not None else 0
-        stiffness = expr(joint.stiffness) if joint.stiffness is not None else 0
-        rest = expr(joint.rest) if joint.rest is not None else 0
-        M_s[vi, vi] += armature
-        N_s[vi] = expand(N_s[vi] + stiffness * (table.q[qi] - rest))
-        potential_s += stiffness * (table.q[qi] - rest) ** 2 / 2
+    F = sympy.zeros(len(table.qd), 1)   # damping and Coulomb friction of the scalar joints
+    coordinate = {where.v[j.name]: table.q[where.q[j.name]] for j in robot.joints if j.moves and not j.multi}
+    for drive in joint_drives(robot, table):
+        vi, spring = drive.coordinate, coordinate[drive.coordinate] - drive.rest
+        M_s[vi, vi] += drive.armature
+        N_s[vi] = expand(N_s[vi] + drive.stiffness * spring)
+        potential_s += drive.stiffness * spring ** 2 / 2
+        F[vi] = dissipative_force(drive.damping, drive.friction, table.qd[vi])
     v_s = sympy.Matrix(table.qd)
     T = expand((v_s.T * M_s * v_s)[0, 0] / 2)
     Y = sympy.Matrix(efforts(robot, table))
     Cv_s = ring.matrix(Cv)
-    F = sympy.zeros(len(table.qd), 1)   # damping and Coulomb friction of the scalar joints
-    for drive in joint_drives(robot, table):
-        F[drive.coordinate] = dissipative_force(drive.damping, drive.friction, table.qd[drive.coordinate])
     EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s + F - Y).applyfunc(expand)
     return QuasiVelocitySheet([links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,
                               expand(potential_s), Y, EOM)
 
 
-def _cross3(a: list, b: list) -> list:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
 def _skew3(a: list, zero) -> list[list]:   # noqa: ANN001
     return [[zero, -a[2], a[1]], [a[2], zero, -a[0]], [-a[1], a[0], zero]]
+
+
+def _blocks(zero, top_left, top_right, bottom_left, bottom_right) -> list[list]:   # noqa: ANN001
+    """The 6 x 6 matrix of four 3 x 3 blocks (None: a zero block)."""
+    rows = [[zero] * 6 for _ in range(6)]
+    corners = {(0, 0): top_left, (0, 3): top_right, (3, 0): bottom_left, (3, 3): bottom_right}
+    for (r, c), block in corners.items():
+        if block is not None:
+            for i in range(3):
+                rows[r + i][c:c + 3] = block[i]
+    return rows

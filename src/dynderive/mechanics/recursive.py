@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import sympy
@@ -88,9 +89,8 @@ def _composite_mass_matrix(tree: Tree) -> list[list[sympy.Expr]]:
     n = tree.size
     composite = {b.link: (b.mass, b.first_moment, b.inertia) for b in tree.bodies}
     for body in reversed(tree.bodies):
-        if body.parent in tree.static:
-            continue
-        add_to_parent(tree.program, composite, body)
+        if body.parent not in tree.static:
+            add_to_parent(tree.program, composite, body)
     M = [[ZERO] * n for _ in range(n)]
     for body in tree.bodies:
         mass, h, inertia = composite[body.link]
@@ -139,13 +139,12 @@ def _advance(tree: Tree, body: Body, parent: tuple[Vector, Vector, Vector, Vecto
             dv = _add(dv, [x * rate for x in sv])
             dalpha = _add(dalpha, [x * accel + y * rate for x, y in zip(sw, _cross(w, sw))])
             dacc = _add(dacc, [x * accel + y * rate for x, y in zip(sv, _add(_cross(w, sv), _cross(v, sw)))])
-        meaning = {q: Meaning(q, body.link) for q in ("omega", "v", "alpha", "a")}
         if turns:
-            w = vec(_add(w, dw), meaning["omega"])
-            alpha = vec(_add(alpha, dalpha), meaning["alpha"])
-        acc = vec(_add(acc, dacc), meaning["a"])
+            w = vec(_add(w, dw), Meaning("omega", body.link))
+            alpha = vec(_add(alpha, dalpha), Meaning("alpha", body.link))
+        acc = vec(_add(acc, dacc), Meaning("a", body.link))
         if slides:
-            v = vec(_add(v, dv), meaning["v"])
+            v = vec(_add(v, dv), Meaning("v", body.link))
     return w, v, alpha, acc
 
 
@@ -176,9 +175,9 @@ def _newton_euler(tree: Tree, qd: Sequence[sympy.Expr], qdd: Sequence[sympy.Expr
     forces = {}
     for body in tree.bodies:
         motion[body.link] = _advance(tree, body, motion[body.parent], qd, qdd)   # type: ignore[assignment]
-        if body.link in tree.static:
-            continue
-        forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia, *motion[body.link], body.link)
+        if body.link not in tree.static:
+            forces[body.link] = body_force(vec, body.mass, body.first_moment, body.inertia,
+                                           *motion[body.link], body.link)
     tau: list[sympy.Expr] = [ZERO] * tree.size
     for body in reversed(tree.bodies):
         if body.link in tree.static:
@@ -254,11 +253,10 @@ def ltdl_solve(let, M: list[list[sympy.Expr]], rhs: Sequence[sympy.Expr]) -> lis
 
 def forward_dynamics_program(robot: Robot, table: SymbolTable, efforts: Sequence[sympy.Expr],
                              tree: Tree | None = None) -> Program:
-    """``qdd`` solving ``M qdd = Y - (C qd + N) - F``: CRBA, Newton-Euler and a solve.
+    """``qdd`` solving ``M qdd = Y - (C qd + N) - F``: CRBA, Newton-Euler and a solve (``ltdl_solve``).
 
     ``efforts`` is ``Y`` as expressions of the effort symbols; for a robot with damping,
-    friction or frames, ``F - J^T w`` comes in as the inputs ``friction_symbols``. M is positive
-    definite, so the factorization (``ltdl_solve``) needs no pivoting.
+    friction or frames, ``F - J^T w`` comes in as the inputs ``friction_symbols``.
     """
     tree = tree or Tree(robot, table)
     program, let, n = tree.program, tree.program.let, tree.size
@@ -305,37 +303,23 @@ def _partial(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
 
 def _carry(program: Program, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
            lines: Sequence[tuple[sympy.Symbol, sympy.Expr, set[sympy.Symbol]]],
-           partials: dict[tuple[sympy.Symbol, sympy.Symbol], sympy.Expr] | None = None) -> None:
+           partials: dict[tuple[sympy.Expr, sympy.Symbol], sympy.Expr] | None = None) -> None:
     """One forward pass: the tangent of each of ``lines`` (name, expression, its names) that
     has one joins ``tangent`` under a new name of ``program``. ``partials``: each line's
     partial derivatives kept across passes that differentiate the same lines (only the
     tangents they multiply differ)."""
-    if partials is None:
-        partials = {}
-    one = sympy.S.One
     for name, expr, symbols in lines:
-        moving = sorted((s for s in symbols if s in tangent), key=lambda s: s.name)
-        if not moving:
-            continue
-        if expr.is_Function:
-            d = _forward(expr, tangent, trig, symbols)
-        else:
-            terms = []
-            for s in moving:
-                partial = partials.get((name, s))
-                if partial is None:
-                    partial = partials[name, s] = _partial(expr, s)
-                terms.append(partial if tangent[s] is one else partial * tangent[s])
-            d = sympy.Add(*terms)
+        d = _forward(expr, tangent, trig, symbols, partials)
         if d != 0:
             tangent[name] = program.let(d)
 
 
 def _forward(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr], trig: dict[sympy.Expr, sympy.Symbol],
-             symbols: set[sympy.Symbol] | None = None) -> sympy.Expr:
+             symbols: set[sympy.Symbol] | None = None,
+             partials: dict[tuple[sympy.Expr, sympy.Symbol], sympy.Expr] | None = None) -> sympy.Expr:
     """The tangent of ``expr`` (forward mode): ``sum_s d expr/d s * tangent[s]`` over its names
     (``symbols``, if known) that have one; sines and cosines of coordinates in terms of the
-    program's trig lines (``trig``)."""
+    program's trig lines (``trig``). ``partials``: the partial derivatives already taken."""
     expr = sympy.sympify(expr)
     moving = sorted((s for s in (expr.free_symbols if symbols is None else symbols) if s in tangent),
                     key=lambda s: s.name)
@@ -343,8 +327,13 @@ def _forward(expr: sympy.Expr, tangent: dict[sympy.Symbol, sympy.Expr], trig: di
         return sympy.Integer(0)
     if expr.is_Function:   # a sine or cosine of a coordinate: in terms of the trig lines
         return sympy.Add(*(sympy.diff(expr, s) * tangent[s] for s in moving)).xreplace(trig)
-    return sympy.Add(*(_partial(expr, s) if tangent[s] is sympy.S.One else _partial(expr, s) * tangent[s]
-                       for s in moving))
+    partials = {} if partials is None else partials
+    terms = []
+    for s in moving:
+        if (expr, s) not in partials:
+            partials[expr, s] = _partial(expr, s)
+        terms.append(partials[expr, s] if tangent[s] is sympy.S.One else partials[expr, s] * tangent[s])
+    return sympy.Add(*terms)
 
 
 @dataclass
@@ -454,34 +443,25 @@ class GeneralizedProgram:
         self.gravity = _newton_euler(tree, zeros, zeros)
         self.potential = _potential(tree)
         self.trig = tree.trig
-        self._jacobians: dict[str, sympy.Matrix] | None = None
-        self._potential_gradient: list[sympy.Expr] | None = None
 
-    @property
+    @cached_property
     def potential_gradient(self) -> list[sympy.Expr]:
         """``dV/dq_k`` for every k (Lagrange's route to the gravity terms, where ``gravity``
         is Newton-Euler's): the Coriolis passes carried on over the lines V reads."""
-        if self._potential_gradient is None:
-            self._potential_gradient = self._gradient(self.potential)
-        return self._potential_gradient
-
-    def _gradient(self, expr: sympy.Expr) -> list[sympy.Expr]:
-        needed = lines_read([expr], dict(self.program.lines))
+        needed = lines_read([self.potential], dict(self.program.lines))
         later = [(name, e, e.free_symbols) for name, e in self.program.lines[self._passes.lines:] if name in needed]
         gradient = []
         for passed in self._passes.tangents:
             tangent = dict(passed)
             _carry(self.program, tangent, self._passes.trig, later)
-            gradient.append(self.program.let(_forward(expr, tangent, self._passes.trig)))
+            gradient.append(self.program.let(_forward(self.potential, tangent, self._passes.trig)))
         return gradient
 
-    @property
+    @cached_property
     def jacobians(self) -> dict[str, sympy.Matrix]:
         """Each link's body Jacobian (``_body_jacobians``), by link name, computed on first use
         with lines appended after those of M, C, N and V."""
-        if self._jacobians is None:
-            self._jacobians = _body_jacobians(self._tree)
-        return self._jacobians
+        return _body_jacobians(self._tree)
 
     def part(self, outputs: Sequence[sympy.Expr]) -> Program:
         """A program computing ``outputs``, whatever joined this one first (``part_of``)."""

@@ -52,8 +52,7 @@ from ..model.symbols import SymbolTable
 from .drives import joint_drives
 from .program import Program, Vector, _dot
 from .recursive import _advance, body_force
-from .spatial import inertia_tensor
-from .tree import ZERO, Tree, gravity
+from .tree import ZERO, Tree, gravity, origin_inertia
 
 #: Pinocchio's order of a link's standard parameters (``Inertia.toDynamicParameters``).
 SPATIAL_KINDS = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
@@ -85,16 +84,9 @@ def parameter_vector(robot: Robot, table: SymbolTable) -> list[Parameter]:
     kinds = PLANAR_KINDS if robot.planar else SPATIAL_KINDS
     for link in robot.links:
         mass = table.expr(link.mass)
-        com = [table.expr(e) for e in link.com] + ([sympy.Integer(0)] if robot.planar else [])
-        if robot.planar:
-            zero = sympy.Integer(0)
-            about_com = inertia_tensor((zero, zero, table.expr(link.inertia[0]), zero, zero, zero))
-        else:
-            about_com = inertia_tensor(tuple(table.expr(e) for e in link.inertia))
-        square = sum((c * c for c in com), sympy.Integer(0))
+        com, inertia = origin_inertia(robot, table, link, mass)
         values = {"m": mass, "mcx": mass * com[0], "mcy": mass * com[1], "mcz": mass * com[2]}
-        for kind, (a, b) in _ENTRY.items():
-            values[kind] = about_com[a, b] + mass * ((square if a == b else 0) - com[a] * com[b])
+        values |= {kind: inertia[a][b] for kind, (a, b) in _ENTRY.items()}
         entries += [Parameter(f"{kind}_{link.name}", kind, link.name, values[kind]) for kind in kinds]
     return entries + _drive_parameters(robot, table)
 
@@ -103,10 +95,8 @@ def _drive_parameters(robot: Robot, table: SymbolTable) -> list[Parameter]:
     entries = []
     for drive in joint_drives(robot, table):
         joint = _leader_name(robot, drive.coordinate)
-        for kind in DRIVE_KINDS:
-            value = getattr(drive, kind)
-            if value != 0:
-                entries.append(Parameter(f"{kind}_{joint}", kind, joint, value))
+        entries += [Parameter(f"{kind}_{joint}", kind, joint, getattr(drive, kind)) for kind in DRIVE_KINDS
+                    if getattr(drive, kind) != 0]
     return entries
 
 
@@ -121,11 +111,9 @@ def _unit_parameters(kind: str) -> tuple[sympy.Expr, Vector, tuple[Vector, Vecto
     one, zero = sympy.Integer(1), sympy.Integer(0)
     mass = one if kind == "m" else zero
     h = tuple(one if kind == f"mc{axis}" else zero for axis in "xyz")
-    inertia = [[zero] * 3 for _ in range(3)]
-    if kind in _ENTRY:
-        a, b = _ENTRY[kind]
-        inertia[a][b] = inertia[b][a] = one
-    return mass, h, tuple(tuple(row) for row in inertia)  # type: ignore[return-value]
+    entry = _ENTRY.get(kind)
+    inertia = tuple(tuple(one if entry in ((a, b), (b, a)) else zero for b in range(3)) for a in range(3))
+    return mass, h, inertia  # type: ignore[return-value]
 
 
 def regressor_program(robot: Robot, table: SymbolTable, tree: Tree | None = None) -> Program:

@@ -83,17 +83,13 @@ def _floating_neutral(robot: Robot, table: SymbolTable, q: list[float]) -> tuple
     """``q`` with each floating joint's seven entries at (0, 0, 0, 0, 0, 0, 1) and each
     spherical joint's four at (0, 0, 0, 1), and the joint of each velocity column (a floating
     joint owns six, a spherical joint three)."""
-    from .tree import offsets
-
-    where = offsets(robot)
+    where_q = robot.offsets()[0]
     columns: list[str] = []
     for joint in (j for j in robot.joints if j.owns):
+        (nq, nv), start = joint.sizes, where_q[joint.name]
         if joint.multi:   # floating: (0, 0, 0, 0, 0, 0, 1); spherical: (0, 0, 0, 1)
-            start, (nq, nv) = where.q[joint.name], joint.sizes
             q[start:start + nq] = [0.0] * (nq - 1) + [1.0]
-            columns += [joint.name] * nv
-        else:
-            columns.append(joint.name)
+        columns += [joint.name] * nv
     return q, columns
 
 

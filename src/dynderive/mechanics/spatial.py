@@ -119,8 +119,7 @@ def spatial_kinematics(robot: Robot, table: SymbolTable) -> list[SpatialLinkKine
             omega = _tidy(to_com.R * w)
             velocity = _tidy(to_com.R * v + to_com.p.cross(omega))
             # a leader's column sums its followers' twists on the path (G of q = G q_c + offset)
-            jacobian[0:3, coordinate] = jacobian[0:3, coordinate] + velocity
-            jacobian[3:6, coordinate] = jacobian[3:6, coordinate] + omega
+            jacobian[:, coordinate] += sympy.Matrix.vstack(velocity, omega)
         world = suffix[0]
         results.append(SpatialLinkKinematics(link.name, world.R, world.p, jacobian))
     return results

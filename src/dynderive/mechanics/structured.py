@@ -29,7 +29,7 @@ from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
 from .polynomial import expand
 from .program import lines_read
 from .recursive import GeneralizedProgram
-from .tidy import tidy
+from .tidy import group_terms, tidy
 
 #: Planar robots with more coordinates than this are derived in intermediate-variable form, as
 #: 3-D ones beyond LAGRANGE_DOF_LIMIT. Measured, every output of a planar chain of 6 links:
@@ -77,10 +77,9 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
         value = expr.xreplace(rename)
         if value.is_Atom:        # a copy: no name of its own
             rename[name] = value
-            continue
-        symbol = sympy.Symbol(f"_w{len(intermediates) + 1}")
-        rename[name] = symbol
-        intermediates.append((symbol, value))
+        else:
+            rename[name] = sympy.Symbol(f"_w{len(intermediates) + 1}")
+            intermediates.append((rename[name], value))
     table.intermediates = [s for s, _ in intermediates]
     M, C, N = (m.xreplace(rename) for m in (M, C, N))
     V = sympy.sympify(built.potential).xreplace(rename)
@@ -138,11 +137,4 @@ def _lagrange_steps(M: sympy.Matrix, dM: list[list[list[sympy.Expr]]], dV: list[
 def _by_rates(expr: sympy.Expr, rates: set[sympy.Symbol]) -> sympy.Expr:
     """``expr`` expanded, then grouped by its products of joint rates and accelerations:
     ``(w_151 + w_164) qd_2 qd_3`` rather than two terms (each dM/dq_k entry is a name)."""
-    groups: dict[sympy.Expr, list[sympy.Expr]] = {}
-    for term in sympy.Add.make_args(expand(expr)):
-        moving: list[sympy.Expr] = []
-        rest: list[sympy.Expr] = []
-        for factor in sympy.Mul.make_args(term):
-            (moving if (factor.base if factor.is_Pow else factor) in rates else rest).append(factor)
-        groups.setdefault(sympy.Mul(*moving), []).append(sympy.Mul(*rest))
-    return sympy.Add(*(sympy.Add(*coefficients) * key for key, coefficients in groups.items()))
+    return group_terms(sympy.Add.make_args(expand(expr)), rates.__contains__)

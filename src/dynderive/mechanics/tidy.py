@@ -8,7 +8,7 @@ RP arm's ``N_g`` reads ``[g m (l + q2) cos q1, g m sin q1]`` as in the reference
 from __future__ import annotations
 
 import random
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -153,10 +153,10 @@ def _tidy(expr: sympy.Expr) -> sympy.Expr:
         for base in _pythagoras(expanded):
             candidates.append(base)
             candidates.append(factor_terms(base))
-            if size <= COLLECT_LIMIT:
-                collected = _collect_common(base)
-                if collected is not None:
-                    candidates.append(collected)
+            if size <= COLLECT_LIMIT and base.is_Add:   # grouped by trigonometric factor: (a + b) sin(q)
+                trig = sorted(base.atoms(sympy.sin, sympy.cos), key=sympy.default_sort_key)
+                if trig:
+                    candidates.append(exact_fast.collect_trig(base, trig))
     ops = [count_ops(c) for c in candidates]
     best = min(range(len(candidates)), key=lambda i: ops[i])
     # Keep the form the derivation built (it carries the kinematics' own groupings, such
@@ -214,31 +214,11 @@ def _pythagoras(expanded: sympy.Expr) -> list[sympy.Expr]:
     args = sorted(set(pairs), key=sympy.default_sort_key)
     sin_first = expanded.xreplace({sympy.sin(a) ** 2: 1 - sympy.cos(a) ** 2 for a in args})
     cos_first = expanded.xreplace({sympy.cos(a) ** 2: 1 - sympy.sin(a) ** 2 for a in args})
-    out = [expanded]
-    for candidate in (sin_first, cos_first):
-        if candidate != expanded:
-            out.append(expand(candidate))
-    return out
-
-
-def _collect_common(expr: sympy.Expr) -> sympy.Expr | None:
-    """Group an expanded sum by its trigonometric factors, e.g. ``(a + b) sin(q)``."""
-    if not expr.is_Add:
-        return None
-    trig = sorted({f for f in expr.atoms(sympy.sin, sympy.cos)}, key=sympy.default_sort_key)
-    if not trig:
-        return None
-    return exact_fast.collect_trig(expr, trig)
+    return [expanded] + [expand(candidate) for candidate in (sin_first, cos_first) if candidate != expanded]
 
 
 #: Entries larger than this (tree nodes) are not put into Fourier form or regrouped.
 FOURIER_LIMIT = 1500
-
-
-def _constant_trig(expr: sympy.Expr) -> dict[sympy.Expr, sympy.Dummy]:
-    """Sines and cosines of constants (``cos(253/100)`` from a joint origin), to be treated as
-    coefficients rather than combined with the coordinates' ones."""
-    return {f: sympy.Dummy() for f in expr.atoms(sympy.sin, sympy.cos) if not f.free_symbols}
 
 
 def trig_linear(expr: sympy.Expr) -> sympy.Expr:
@@ -258,7 +238,8 @@ def trig_linear(expr: sympy.Expr) -> sympy.Expr:
     if known is None:
         if len(_LINEAR) > exact_fast.MEMO_LIMIT:
             _LINEAR.clear()
-        constants = _constant_trig(expr)
+        # sines and cosines of constants (cos(253/100) from a joint origin) stay coefficients
+        constants = {f: sympy.Dummy() for f in expr.atoms(sympy.sin, sympy.cos) if not f.free_symbols}
         linear = trig_group(TR8(expand(expr.xreplace(constants))))
         known = _LINEAR[expr] = linear.xreplace({d: f for f, d in constants.items()})
     return known
@@ -277,15 +258,22 @@ def trig_group(expr: sympy.Expr) -> sympy.Expr:
     expanded = expand(expr)
     if not expanded.is_Add:
         return expanded
+    return group_terms(expanded.args,
+                       lambda base: isinstance(base, (sympy.sin, sympy.cos)) and bool(base.free_symbols),
+                       factor_terms)
+
+
+def group_terms(terms: Iterable[sympy.Expr], selects: Callable[[sympy.Expr], bool],
+                coefficient: Callable[[sympy.Expr], sympy.Expr] = lambda sum_: sum_) -> sympy.Expr:
+    """The sum of ``terms``, grouped by the product of each term's factors whose base
+    ``selects`` picks: one ``coefficient(sum of the other factors) * product`` per group."""
     groups: dict[sympy.Expr, list[sympy.Expr]] = {}
-    for term in expanded.args:
-        trig, rest = [], []
+    for term in terms:
+        chosen, rest = [], []
         for factor in sympy.Mul.make_args(term):
-            base = factor.base if factor.is_Pow else factor
-            moves = isinstance(base, (sympy.sin, sympy.cos)) and base.free_symbols
-            (trig if moves else rest).append(factor)
-        groups.setdefault(sympy.Mul(*trig), []).append(sympy.Mul(*rest))
-    return sympy.Add(*(factor_terms(sympy.Add(*coefficients)) * key for key, coefficients in groups.items()))
+            (chosen if selects(factor.base if factor.is_Pow else factor) else rest).append(factor)
+        groups.setdefault(sympy.Mul(*chosen), []).append(sympy.Mul(*rest))
+    return sympy.Add(*(coefficient(sympy.Add(*coefficients)) * key for key, coefficients in groups.items()))
 
 
 def fewest_operations(expr: sympy.Expr, *rewritings) -> sympy.Expr:
@@ -396,14 +384,12 @@ def check_zero(name: str, description: str, difference: sympy.Matrix,
     remaining = list(difference)
     if all(is_small(e, SYMBOLIC_CHECK_LIMIT // len(remaining) + 1) and expandable(e) for e in remaining):
         remaining = [e for e in remaining if expand(e) != 0]
-        if not remaining:
-            return Check(name, description, True, "symbolic", 0.0)
-        if sum(count_ops(e) for e in remaining) < CANONICAL_LIMIT:
-            # products to sums first (cheap, and enough when both sides are trigonometric
-            # polynomials), the canonical form for what that leaves
-            if all(_fourier_zero(e) or trig_canonical(sympy.together(e).as_numer_denom()[0]) == 0
-                   for e in remaining):
-                return Check(name, description, True, "symbolic", 0.0)
+        # products to sums first (cheap, and enough when both sides are trigonometric
+        # polynomials), the canonical form for what that leaves
+        if sum(count_ops(e) for e in remaining) < CANONICAL_LIMIT and all(
+                _fourier_zero(e) or trig_canonical(sympy.together(e).as_numer_denom()[0]) == 0
+                for e in remaining):
+            remaining = []
     remaining = [e for e in remaining if e != 0]
     if not remaining:
         return Check(name, description, True, "symbolic", 0.0)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import sympy
 
 from ..errors import InputError, Problem
-from ..model.robot import Joint, Robot
+from ..model.robot import Joint, Link, Robot
 from ..model.symbols import SymbolTable
 from . import joint_types
 from .drives import JointDrive, joint_drives
@@ -98,6 +98,21 @@ def efforts(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
     for name, column in zip(robot.efforts, robot.effort_columns()):
         Y[column] = table.efforts[name]
     return Y
+
+
+def origin_inertia(robot: Robot, table: SymbolTable, link: Link,
+                   mass: sympy.Expr) -> tuple[list[sympy.Expr], list[list[sympy.Expr]]]:
+    """A link's centre of mass ``c`` (a planar robot's with z = 0) and its inertia about the
+    link origin, ``I_C + mass (|c|^2 1 - c c^T)`` (only the inertia about z enters planar motion)."""
+    com = [table.expr(e) for e in link.com]
+    if robot.planar:
+        com.append(ZERO)
+        moments = (ZERO, ZERO, table.expr(link.inertia[0]), ZERO, ZERO, ZERO)
+    else:
+        moments = tuple(table.expr(e) for e in link.inertia)
+    about_com, square = inertia_tensor(moments), sum(c * c for c in com)
+    return com, [[about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]) for j in range(3)]
+                 for i in range(3)]
 
 
 def gravity(robot: Robot, table: SymbolTable) -> list[sympy.Expr]:
@@ -183,16 +198,9 @@ class Tree:
         name = link.name
         R = tuple(tuple(let(rotation[i, j], Meaning("R", name, (i, j))) for j in range(3)) for i in range(3))
         mass = let(expr(link.mass), Meaning("m", name))
-        com = [expr(e) for e in link.com]
-        if planar:   # only the inertia about z enters planar motion
-            com.append(ZERO)
-            moments = (ZERO, ZERO, expr(link.inertia[0]), ZERO, ZERO, ZERO)
-        else:
-            moments = tuple(expr(e) for e in link.inertia)
-        about_com = inertia_tensor(moments)
-        square = sum(c * c for c in com)
-        inertia = tuple(tuple(let(about_com[i, j] + mass * ((square if i == j else 0) - com[i] * com[j]),
-                                  Meaning("I", name, (i, j))) for j in range(3)) for i in range(3))
+        com, about_origin = origin_inertia(self.robot, self.table, link, mass)
+        inertia = tuple(tuple(let(e, Meaning("I", name, (i, j))) for j, e in enumerate(row))
+                        for i, row in enumerate(about_origin))
         return Body(link.name, joint.parent, joint, columns, R,  # type: ignore[arg-type]
                     self.program.vector(position, Meaning("p", name)), mass,
                     self.program.vector([mass * c for c in com], Meaning("h", name)), inertia, trig)

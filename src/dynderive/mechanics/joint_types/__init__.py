@@ -60,12 +60,6 @@ class ConfigurationProgram:
     arguments: dict[str, list[sympy.Symbol]] = field(default_factory=dict)
 
 
-def configuration_symbols(robot: Robot, name: str) -> list[sympy.Symbol]:
-    """Symbols for the entries of a second configuration (``difference``'s ``q_from`` and
-    ``q_to``): ``_<name><i>``, names no robot symbol takes."""
-    return [sympy.Symbol(f"_{name}{i}") for i in range(len(robot.configuration_names))]
-
-
 def configuration_programs(robot: Robot, table: object) -> dict[str, ConfigurationProgram]:
     """The robot's configuration maps, joint by joint over its moving joints with entries
     (``Robot.offsets``): ``neutral_configuration`` (no arguments, NQ outputs), ``integrate``
@@ -75,16 +69,12 @@ def configuration_programs(robot: Robot, table: object) -> dict[str, Configurati
     where_q, where_v = robot.offsets()
     q, v = list(table.q), list(table.qd)   # type: ignore[attr-defined]
     dt = sympy.Symbol("_dt")
-    q_from, q_to = configuration_symbols(robot, "q_from"), configuration_symbols(robot, "q_to")
-    nq, nv = len(q), len(v)
-    programs = {"neutral_configuration": ConfigurationProgram(Program(), {}),
-                "integrate": ConfigurationProgram(Program(), {"q": q, "v": v, "dt": [dt]}),
-                "difference": ConfigurationProgram(Program(), {"q_from": q_from, "q_to": q_to}),
-                "configuration_rate": ConfigurationProgram(Program(), {"q": q, "v": v})}
-    outputs: dict[str, list[sympy.Expr]] = {"neutral_configuration": [sympy.Integer(0)] * nq,
-                                            "integrate": [sympy.Integer(0)] * nq,
-                                            "difference": [sympy.Integer(0)] * nv,
-                                            "configuration_rate": [sympy.Integer(0)] * nq}
+    # the entries of difference's two configurations: _q_from<i>, _q_to<i>, names no robot symbol takes
+    q_from, q_to = ([sympy.Symbol(f"_{name}{i}") for i in range(len(q))] for name in ("q_from", "q_to"))
+    arguments = {"neutral_configuration": {}, "integrate": {"q": q, "v": v, "dt": [dt]},
+                 "difference": {"q_from": q_from, "q_to": q_to}, "configuration_rate": {"q": q, "v": v}}
+    programs = {name: ConfigurationProgram(Program(), given) for name, given in arguments.items()}
+    outputs = {name: [sympy.Integer(0)] * len(v if name == "difference" else q) for name in programs}
     for joint in (j for j in robot.joints if j.owns):
         kind = of(joint)
         i, k = where_q[joint.name], where_v[joint.name]
