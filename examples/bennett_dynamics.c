@@ -78,7 +78,7 @@ void bennett_mass_matrix(const double *q, const bennett_parameters *p, double *M
     M[8] = t15;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void bennett_coriolis_matrix(const double *q, const double *qd, const bennett_parameters *p, double *C)
 {
     const bennett_parameters *const P = p ? p : &bennett_default_parameters;
@@ -172,7 +172,7 @@ void bennett_coriolis_matrix(const double *q, const double *qd, const bennett_pa
     C[8] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void bennett_gravity_vector(const double *q, const bennett_parameters *p, double *N)
 {
     const bennett_parameters *const P = p ? p : &bennett_default_parameters;
@@ -237,7 +237,7 @@ void bennett_generalized_forces(const double *q, const double *u, const bennett_
     Y[2] = 0;
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void bennett_inverse_dynamics(const double *q, const double *qd, const double *qdd, const bennett_parameters *p, double *tau)
 {
     const bennett_parameters *const P = p ? p : &bennett_default_parameters;
@@ -1483,7 +1483,7 @@ int bennett_linearize(const double *q, const double *qd, const double *u, const 
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 3 x 30, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 30, row-major. */
 void bennett_regressor(const double *q, const double *qd, const double *qdd, const bennett_parameters *p, double *Y)
 {
     const bennett_parameters *const P = p ? p : &bennett_default_parameters;
@@ -1726,7 +1726,7 @@ void bennett_regressor(const double *q, const double *qd, const double *qdd, con
     Y[89] = t84;
 }
 
-/* The regressor's parameters pi, 30 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 30 entries. */
 void bennett_parameter_vector(const bennett_parameters *p, double *pi)
 {
     const bennett_parameters *const P = p ? p : &bennett_default_parameters;

@@ -30,13 +30,13 @@ extern const bennett_parameters bennett_default_parameters;   /* the robot file'
 
 /* Mass matrix M_g(q), 3 x 3, row-major. */
 void bennett_mass_matrix(const double *q, const bennett_parameters *p, double *M);
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void bennett_coriolis_matrix(const double *q, const double *qd, const bennett_parameters *p, double *C);
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void bennett_gravity_vector(const double *q, const bennett_parameters *p, double *N);
 /* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
 void bennett_generalized_forces(const double *q, const double *u, const bennett_parameters *p, double *Y);
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void bennett_inverse_dynamics(const double *q, const double *qd, const double *qdd, const bennett_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 6 row-major, (fx, fy, fz, nx, ny, nz) per frame in world axes (moment about the frame's origin), or NULL for none. */
 void bennett_inverse_dynamics_wrenches(const double *q, const double *qd, const double *qdd, const double *wrenches, const bennett_parameters *p, double *tau);
@@ -52,9 +52,9 @@ double bennett_potential_energy(const double *q, const bennett_parameters *p);
 void bennett_friction_forces(const double *qd, const bennett_parameters *p, double *F);
 /* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 6 x 6, B 6 x 1, row-major; the constrained solve [M -A_g^T; A_g 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g^T lambda)/dx; -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0 and no wrench, as the NumPy module); returns 0, or 1 or 2 as forward_dynamics (A, B untouched). */
 int bennett_linearize(const double *q, const double *qd, const double *u, const bennett_parameters *p, double *A, double *B);
-/* Regressor Y(q, qd, qdd), 3 x 30, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 30, row-major. */
 void bennett_regressor(const double *q, const double *qd, const double *qdd, const bennett_parameters *p, double *Y);
-/* The regressor's parameters pi, 30 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 30 entries. */
 void bennett_parameter_vector(const bennett_parameters *p, double *pi);
 /* Pose of frame number `frame` in the world, [[R, p], [0, 1]], 4 x 4, row-major. Returns 0, or 1 if there is no such frame. */
 int bennett_frame_transform(const double *q, int frame, const bennett_parameters *p, double *T);

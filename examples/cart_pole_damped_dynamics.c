@@ -29,7 +29,7 @@ void cart_pole_damped_mass_matrix(const double *q, const cart_pole_damped_parame
     M[3] = 0.33333333333333331*(P->mp*P->lp*P->lp);
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 2 x 2, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 2 x 2, row-major. */
 void cart_pole_damped_coriolis_matrix(const double *q, const double *qd, const cart_pole_damped_parameters *p, double *C)
 {
     const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;
@@ -42,7 +42,7 @@ void cart_pole_damped_coriolis_matrix(const double *q, const double *qd, const c
     C[3] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 2 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 2 entries. */
 void cart_pole_damped_gravity_vector(const double *q, const cart_pole_damped_parameters *p, double *N)
 {
     const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;
@@ -63,7 +63,7 @@ void cart_pole_damped_generalized_forces(const double *q, const double *u, const
     Y[1] = 0;
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 2 entries. */
 void cart_pole_damped_inverse_dynamics(const double *q, const double *qd, const double *qdd, const cart_pole_damped_parameters *p, double *tau)
 {
     const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;
@@ -105,7 +105,7 @@ void cart_pole_damped_inverse_dynamics_wrenches(const double *q, const double *q
     (void)wrenches;   /* no frames: no wrench */
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 2 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int cart_pole_damped_forward_dynamics(const double *q, const double *qd, const double *u, const cart_pole_damped_parameters *p, double *qdd)
 {
     const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;
@@ -186,7 +186,7 @@ void cart_pole_damped_friction_forces(const double *qd, const cart_pole_damped_p
     F[1] = (P->bp)*qd[1];
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 4 x 4, B 4 x 1, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 4 x 4 and 4 x 1, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int cart_pole_damped_linearize(const double *q, const double *qd, const double *u, const cart_pole_damped_parameters *p, double *A, double *B)
 {
     const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;
@@ -306,7 +306,7 @@ int cart_pole_damped_linearize(const double *q, const double *qd, const double *
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 2 x 12, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 12, row-major. */
 void cart_pole_damped_regressor(const double *q, const double *qd, const double *qdd, const cart_pole_damped_parameters *p, double *Y)
 {
     const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;
@@ -356,7 +356,7 @@ void cart_pole_damped_regressor(const double *q, const double *qd, const double 
     Y[23] = qd[1];
 }
 
-/* The regressor's parameters pi, 12 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */
 void cart_pole_damped_parameter_vector(const cart_pole_damped_parameters *p, double *pi)
 {
     const cart_pole_damped_parameters *const P = p ? p : &cart_pole_damped_default_parameters;

@@ -42,7 +42,7 @@ def _coordinates(name, value, size):
 
 
 def mass_matrix(q, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Mass matrix M_g(q), shape (..., 2, 2).
+    """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 2, 2).
 
     q: joint coordinates ('x', 'theta'), shape (..., 2)
     """
@@ -59,7 +59,7 @@ def mass_matrix(q, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05,
 
 
 def coriolis_matrix(q, qd, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., 2, 2).
+    """Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric (Pinocchio's ``computeCoriolisMatrix``), shape (..., 2, 2).
 
     q: joint coordinates ('x', 'theta'), shape (..., 2)
     qd: joint velocities, shape (..., 2)
@@ -75,7 +75,7 @@ def coriolis_matrix(q, qd, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, 
 
 
 def gravity_vector(q, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Gravity vector N_g(q) = dV/dq, shape (..., 2).
+    """Gravity vector N_g(q), the gradient of V_g (Pinocchio's ``computeGeneralizedGravity``), shape (..., 2).
 
     q: joint coordinates ('x', 'theta'), shape (..., 2)
     """
@@ -88,7 +88,7 @@ def gravity_vector(q, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.
 
 
 def generalized_forces(q, u, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Applied generalized forces Y_g(u), shape (..., 2).
+    """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 2).
 
     q: joint coordinates ('x', 'theta'), shape (..., 2)
     u: efforts ('F',), shape (..., 1)
@@ -103,7 +103,7 @@ def generalized_forces(q, u, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002
 
 
 def kinetic_energy(q, qd, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Kinetic energy T_g(q, qd), shape (...).
+    """Kinetic energy T_g = 1/2 qd^T M(q) qd (Pinocchio's ``computeKineticEnergy``), shape (...).
 
     q: joint coordinates ('x', 'theta'), shape (..., 2)
     qd: joint velocities, shape (..., 2)
@@ -122,7 +122,7 @@ def kinetic_energy(q, qd, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, J
 
 
 def potential_energy(q, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Potential energy V_g(q), shape (...).
+    """Potential energy V_g(q) of gravity and the springs (Pinocchio's ``computePotentialEnergy``), shape (...).
 
     q: joint coordinates ('x', 'theta'), shape (..., 2)
     """
@@ -368,7 +368,7 @@ def maximal_friction_forces(qm, qmd, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, 
 
 
 def parameter_vector(*, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
+    """The parameter vector pi of regressor (names: PARAMETER_VECTOR), shape (12,).
     """
     batch = np.broadcast_shapes()
     out = np.zeros(batch + (12,))
@@ -618,7 +618,7 @@ def _frame_bodies(frame):
 
 
 def frame_transform(q, frame, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 3, 3)    (planar: R the 2 x 2 rotation by the frame's angle).
+    """Pose of a frame in the world, [[R, p], [0, 1]], shape (..., 3, 3). Planar: R is the 2 x 2 rotation by the frame's angle.
 
     q: joint coordinates ("x", "theta"), shape (..., 2); frame: a name of FRAMES
     """
@@ -627,9 +627,9 @@ def frame_transform(q, frame, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.00
 
 
 def frame_jacobian(q, frame, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """World-frame geometric Jacobian of ``frame``, shape (..., 3, 2): rows (vx, vy, omega),
-    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
-    (Pinocchio's LOCAL_WORLD_ALIGNED).
+    """World-frame Jacobian of a frame: linear rows, then angular (Pinocchio's ``getFrameJacobian``), shape (..., 3, 2).
+    Rows (vx, vy, omega): the velocity of the frame's origin and its angular velocity in world
+    axes (LOCAL_WORLD_ALIGNED), per entry of the velocity qd.
 
     q: joint coordinates ("x", "theta"), shape (..., 2); frame: a name of FRAMES
     """
@@ -638,9 +638,12 @@ def frame_jacobian(q, frame, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002
 
 
 def frame_jacobian_dot_qd(q, qd, frame, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Jdot(q, qd) qd of ``frame``, shape (..., 3): the frame's acceleration at qdd = 0
-    (the origin's classical acceleration, then the angular one), so that the frame
-    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """Jdot(q, qd) qd of a frame (its acceleration at qdd = 0), shape (..., 3).
+    The origin's classical acceleration, then the angular one, in world axes, so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd) (Pinocchio's
+    ``getFrameClassicalAcceleration`` in LOCAL_WORLD_ALIGNED at zero acceleration).
+
+    q: joint coordinates ("x", "theta"), shape (..., 2); qd: velocities, shape (..., 2); frame: a name of FRAMES
     """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2)]
     return _evaluate(_frame_bodies(frame)[2], arrays, (3,), {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g})
@@ -672,12 +675,12 @@ def _direction(qd, friction_smoothing):
 
 
 def friction_forces(qd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Dissipative forces F_g = b qd + fc sign(qd) of the joints' viscous damping and Coulomb
-    friction (F_g = dD/dqd + fc sign(qd), D the Rayleigh dissipation function), shape (..., 2).
+    """Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) when it is positive), shape (..., 2).
+    Viscous damping and Coulomb friction of the joints (F_g = dD/dqd + fc sign(qd), D the Rayleigh dissipation function).
 
-    qd: joint velocities, shape (..., 2). friction_smoothing: 0 for the exact sign (a
-    discontinuity at qd = 0); a velocity eps > 0 replaces sign(qd) by tanh(qd / eps), which
-    adaptive integrators step through far more easily.
+    qd: velocities, shape (..., 2). friction_smoothing: 0 for the exact sign (a
+    discontinuity at qd = 0); eps > 0 replaces sign(qd) by tanh(qd / eps), which adaptive
+    integrators step through far more easily.
     """
     qd = _coordinates("qd", qd, 2)
     _damping = _damping_coefficients(qd, mc=mc, mp=mp, lp=lp, bc=bc, fc=fc, bp=bp, Jm=Jm, g=g)
@@ -686,10 +689,10 @@ def friction_forces(qd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.
 
 
 def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) + F(qd) - sum J^T w by recursive Newton-Euler, shape (..., 2).
+    """Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler (Pinocchio's ``rnea``), shape (..., 2).
+    Wrenches at frames enter as - sum J^T w; F = friction_forces(qd, friction_smoothing=friction_smoothing).
 
-    F = friction_forces(qd, friction_smoothing=friction_smoothing): viscous damping and Coulomb friction.
-
+    q: joint coordinates ("x", "theta"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
     wrenches: None, or {frame: w} with w of shape (..., 3), (fx, fy, n), the wrench the
     environment applies to the robot at that frame of FRAMES (this robot declares none), in world axes (moment about the
     frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
@@ -706,12 +709,13 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, mc=1.
 
 
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) - F(qd) + sum J^T w, shape (..., 2).
+    """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 2).
+    Wrenches at frames enter as + sum J^T w; F = friction_forces(qd, friction_smoothing=friction_smoothing)
+    (friction_smoothing > 0 smooths the sign for integrators). M is factored as L^T D L, never inverted.
 
     u: efforts ("F",), shape (..., 1); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
-    M is factored as L D L^T (it is positive definite), never inverted.    F = friction_forces(qd, friction_smoothing=friction_smoothing): damping and Coulomb friction
-    (friction_smoothing > 0 smooths the sign for integrators).    """
+    """
     if u is None:
         u = np.zeros(1)
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
@@ -765,12 +769,12 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
-    """Regressor Y(q, qd, qdd), shape (..., 2, 12): Y @ parameter_vector() equals
-    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
-
+    """Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, shape (..., 2, 12).
     Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
     (link axes); Coulomb friction's column is sign(qd), or tanh(qd / friction_smoothing) when
     friction_smoothing > 0, as in friction_forces. Gravity and the geometry are in Y, not in pi.
+
+    q: joint coordinates ("x", "theta"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
     """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
     arrays.append(_direction(arrays[1], friction_smoothing))

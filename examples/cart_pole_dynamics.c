@@ -25,7 +25,7 @@ void cart_pole_mass_matrix(const double *q, const cart_pole_parameters *p, doubl
     M[3] = 0.33333333333333331*(P->mp*P->lp*P->lp);
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 2 x 2, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 2 x 2, row-major. */
 void cart_pole_coriolis_matrix(const double *q, const double *qd, const cart_pole_parameters *p, double *C)
 {
     const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;
@@ -38,7 +38,7 @@ void cart_pole_coriolis_matrix(const double *q, const double *qd, const cart_pol
     C[3] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 2 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 2 entries. */
 void cart_pole_gravity_vector(const double *q, const cart_pole_parameters *p, double *N)
 {
     const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;
@@ -59,7 +59,7 @@ void cart_pole_generalized_forces(const double *q, const double *u, const cart_p
     Y[1] = 0;
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 2 entries. */
 void cart_pole_inverse_dynamics(const double *q, const double *qd, const double *qdd, const cart_pole_parameters *p, double *tau)
 {
     const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;
@@ -96,7 +96,7 @@ void cart_pole_inverse_dynamics_wrenches(const double *q, const double *qd, cons
     (void)wrenches;   /* no frames: no wrench */
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 2 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int cart_pole_forward_dynamics(const double *q, const double *qd, const double *u, const cart_pole_parameters *p, double *qdd)
 {
     const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;
@@ -173,7 +173,7 @@ void cart_pole_friction_forces(const double *qd, const cart_pole_parameters *p, 
     F[1] = 0.0;
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 4 x 4, B 4 x 1, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 4 x 4 and 4 x 1, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int cart_pole_linearize(const double *q, const double *qd, const double *u, const cart_pole_parameters *p, double *A, double *B)
 {
     const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;
@@ -287,7 +287,7 @@ int cart_pole_linearize(const double *q, const double *qd, const double *u, cons
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 2 x 8, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void cart_pole_regressor(const double *q, const double *qd, const double *qdd, const cart_pole_parameters *p, double *Y)
 {
     const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;
@@ -328,7 +328,7 @@ void cart_pole_regressor(const double *q, const double *qd, const double *qdd, c
     Y[15] = qdd[1];
 }
 
-/* The regressor's parameters pi, 8 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 8 entries. */
 void cart_pole_parameter_vector(const cart_pole_parameters *p, double *pi)
 {
     const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;

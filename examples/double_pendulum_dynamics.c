@@ -30,7 +30,7 @@ void double_pendulum_mass_matrix(const double *q, const double_pendulum_paramete
     M[3] = t1;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 2 x 2, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 2 x 2, row-major. */
 void double_pendulum_coriolis_matrix(const double *q, const double *qd, const double_pendulum_parameters *p, double *C)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
@@ -44,7 +44,7 @@ void double_pendulum_coriolis_matrix(const double *q, const double *qd, const do
     C[3] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 2 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 2 entries. */
 void double_pendulum_gravity_vector(const double *q, const double_pendulum_parameters *p, double *N)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
@@ -66,7 +66,7 @@ void double_pendulum_generalized_forces(const double *q, const double *u, const 
     Y[1] = u[1];
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 2 entries. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *tau)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
@@ -112,7 +112,7 @@ void double_pendulum_inverse_dynamics_wrenches(const double *q, const double *qd
     (void)wrenches;   /* no frames: no wrench */
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 2 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *u, const double_pendulum_parameters *p, double *qdd)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
@@ -201,7 +201,7 @@ void double_pendulum_friction_forces(const double *qd, const double_pendulum_par
     F[1] = 0.0;
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 4 x 4, B 4 x 2, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 4 x 4 and 4 x 2, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int double_pendulum_linearize(const double *q, const double *qd, const double *u, const double_pendulum_parameters *p, double *A, double *B)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
@@ -350,7 +350,7 @@ int double_pendulum_linearize(const double *q, const double *qd, const double *u
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 2 x 8, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void double_pendulum_regressor(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *Y)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
@@ -399,7 +399,7 @@ void double_pendulum_regressor(const double *q, const double *qd, const double *
     Y[15] = t11;
 }
 
-/* The regressor's parameters pi, 8 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 8 entries. */
 void double_pendulum_parameter_vector(const double_pendulum_parameters *p, double *pi)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;

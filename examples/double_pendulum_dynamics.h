@@ -27,17 +27,17 @@ extern const double_pendulum_parameters double_pendulum_default_parameters;   /*
 
 /* Mass matrix M_g(q), 2 x 2, row-major. */
 void double_pendulum_mass_matrix(const double *q, const double_pendulum_parameters *p, double *M);
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 2 x 2, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 2 x 2, row-major. */
 void double_pendulum_coriolis_matrix(const double *q, const double *qd, const double_pendulum_parameters *p, double *C);
-/* Gravity vector N_g(q) = dV/dq, 2 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 2 entries. */
 void double_pendulum_gravity_vector(const double *q, const double_pendulum_parameters *p, double *N);
 /* Applied generalized forces Y_g(q, u) of the efforts, 2 entries. */
 void double_pendulum_generalized_forces(const double *q, const double *u, const double_pendulum_parameters *p, double *Y);
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 2 entries. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */
 void double_pendulum_inverse_dynamics_wrenches(const double *q, const double *qd, const double *qdd, const double *wrenches, const double_pendulum_parameters *p, double *tau);
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 2 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *u, const double_pendulum_parameters *p, double *qdd);
 /* forward_dynamics with wrenches (as inverse_dynamics_wrenches; NULL: none): M qdd = Y_g(u) - C qd - N - F + sum_f J_f^T w_f; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int double_pendulum_forward_dynamics_wrenches(const double *q, const double *qd, const double *u, const double *wrenches, const double_pendulum_parameters *p, double *qdd);
@@ -47,11 +47,11 @@ double double_pendulum_kinetic_energy(const double *q, const double *qd, const d
 double double_pendulum_potential_energy(const double *q, const double_pendulum_parameters *p);
 /* Dissipative forces F_g: zero, the robot declares no damping or friction, 2 entries. */
 void double_pendulum_friction_forces(const double *qd, const double_pendulum_parameters *p, double *F);
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 4 x 4, B 4 x 2, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 4 x 4 and 4 x 2, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int double_pendulum_linearize(const double *q, const double *qd, const double *u, const double_pendulum_parameters *p, double *A, double *B);
-/* Regressor Y(q, qd, qdd), 2 x 8, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void double_pendulum_regressor(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *Y);
-/* The regressor's parameters pi, 8 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 8 entries. */
 void double_pendulum_parameter_vector(const double_pendulum_parameters *p, double *pi);
 /* Pose of frame number `frame` in the world, [[R, p], [0, 1]], 3 x 3, row-major. Returns 0, or 1 if there is no such frame. */
 int double_pendulum_frame_transform(const double *q, int frame, const double_pendulum_parameters *p, double *T);

@@ -39,7 +39,7 @@ def _coordinates(name, value, size):
 
 
 def mass_matrix(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Mass matrix M_g(q), shape (..., 2, 2).
+    """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 2, 2).
 
     q: joint coordinates ('q1', 'q2'), shape (..., 2)
     """
@@ -60,7 +60,7 @@ def mass_matrix(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def coriolis_matrix(q, qd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., 2, 2).
+    """Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric (Pinocchio's ``computeCoriolisMatrix``), shape (..., 2, 2).
 
     q: joint coordinates ('q1', 'q2'), shape (..., 2)
     qd: joint velocities, shape (..., 2)
@@ -80,7 +80,7 @@ def coriolis_matrix(q, qd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def gravity_vector(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Gravity vector N_g(q) = dV/dq, shape (..., 2).
+    """Gravity vector N_g(q), the gradient of V_g (Pinocchio's ``computeGeneralizedGravity``), shape (..., 2).
 
     q: joint coordinates ('q1', 'q2'), shape (..., 2)
     """
@@ -96,7 +96,7 @@ def gravity_vector(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def generalized_forces(q, u, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Applied generalized forces Y_g(u), shape (..., 2).
+    """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 2).
 
     q: joint coordinates ('q1', 'q2'), shape (..., 2)
     u: efforts ('tau1', 'tau2'), shape (..., 2)
@@ -113,7 +113,7 @@ def generalized_forces(q, u, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def kinetic_energy(q, qd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Kinetic energy T_g(q, qd), shape (...).
+    """Kinetic energy T_g = 1/2 qd^T M(q) qd (Pinocchio's ``computeKineticEnergy``), shape (...).
 
     q: joint coordinates ('q1', 'q2'), shape (..., 2)
     qd: joint velocities, shape (..., 2)
@@ -132,7 +132,7 @@ def kinetic_energy(q, qd, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def potential_energy(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Potential energy V_g(q), shape (...).
+    """Potential energy V_g(q) of gravity and the springs (Pinocchio's ``computePotentialEnergy``), shape (...).
 
     q: joint coordinates ('q1', 'q2'), shape (..., 2)
     """
@@ -372,7 +372,7 @@ def to_maximal_jacobian(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def parameter_vector(*, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (8,).
+    """The parameter vector pi of regressor (names: PARAMETER_VECTOR), shape (8,).
     """
     batch = np.broadcast_shapes()
     out = np.zeros(batch + (8,))
@@ -658,7 +658,7 @@ def _frame_bodies(frame):
 
 
 def frame_transform(q, frame, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 3, 3)    (planar: R the 2 x 2 rotation by the frame's angle).
+    """Pose of a frame in the world, [[R, p], [0, 1]], shape (..., 3, 3). Planar: R is the 2 x 2 rotation by the frame's angle.
 
     q: joint coordinates ("q1", "q2"), shape (..., 2); frame: a name of FRAMES
     """
@@ -667,9 +667,9 @@ def frame_transform(q, frame, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def frame_jacobian(q, frame, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """World-frame geometric Jacobian of ``frame``, shape (..., 3, 2): rows (vx, vy, omega),
-    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
-    (Pinocchio's LOCAL_WORLD_ALIGNED).
+    """World-frame Jacobian of a frame: linear rows, then angular (Pinocchio's ``getFrameJacobian``), shape (..., 3, 2).
+    Rows (vx, vy, omega): the velocity of the frame's origin and its angular velocity in world
+    axes (LOCAL_WORLD_ALIGNED), per entry of the velocity qd.
 
     q: joint coordinates ("q1", "q2"), shape (..., 2); frame: a name of FRAMES
     """
@@ -678,9 +678,12 @@ def frame_jacobian(q, frame, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
 
 
 def frame_jacobian_dot_qd(q, qd, frame, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Jdot(q, qd) qd of ``frame``, shape (..., 3): the frame's acceleration at qdd = 0
-    (the origin's classical acceleration, then the angular one), so that the frame
-    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """Jdot(q, qd) qd of a frame (its acceleration at qdd = 0), shape (..., 3).
+    The origin's classical acceleration, then the angular one, in world axes, so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd) (Pinocchio's
+    ``getFrameClassicalAcceleration`` in LOCAL_WORLD_ALIGNED at zero acceleration).
+
+    q: joint coordinates ("q1", "q2"), shape (..., 2); qd: velocities, shape (..., 2); frame: a name of FRAMES
     """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2)]
     return _evaluate(_frame_bodies(frame)[2], arrays, (3,), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
@@ -711,8 +714,10 @@ def friction_forces(qd, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.
 
 
 def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 2).
+    """Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler (Pinocchio's ``rnea``), shape (..., 2).
+    Wrenches at frames enter as - sum J^T w.
 
+    q: joint coordinates ("q1", "q2"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
     wrenches: None, or {frame: w} with w of shape (..., 3), (fx, fy, n), the wrench the
     environment applies to the robot at that frame of FRAMES (this robot declares none), in world axes (moment about the
     frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
@@ -728,11 +733,12 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=1.
 
 
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) + sum J^T w, shape (..., 2).
+    """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 2).
+    Wrenches at frames enter as + sum J^T w. M is factored as L^T D L, never inverted.
 
     u: efforts ("tau1", "tau2"), shape (..., 2); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
-    M is factored as L D L^T (it is positive definite), never inverted.    """
+    """
     if u is None:
         u = np.zeros(2)
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
@@ -776,11 +782,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, 
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
-    """Regressor Y(q, qd, qdd), shape (..., 2, 8): Y @ parameter_vector() equals
-    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
-
+    """Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, shape (..., 2, 8).
     Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
     (link axes). Gravity and the geometry are in Y, not in pi.
+
+    q: joint coordinates ("q1", "q2"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
     """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
     return _evaluate(_regressor_body, arrays, (2, 8), {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})

@@ -55,7 +55,7 @@ void elbow_arm_mass_matrix(const double *q, const elbow_arm_parameters *p, doubl
     M[8] = t5;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void elbow_arm_coriolis_matrix(const double *q, const double *qd, const elbow_arm_parameters *p, double *C)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;
@@ -110,7 +110,7 @@ void elbow_arm_coriolis_matrix(const double *q, const double *qd, const elbow_ar
     C[8] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void elbow_arm_gravity_vector(const double *q, const elbow_arm_parameters *p, double *N)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;
@@ -150,7 +150,7 @@ void elbow_arm_generalized_forces(const double *q, const double *u, const elbow_
     Y[2] = u[2];
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void elbow_arm_inverse_dynamics(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *tau)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;
@@ -234,7 +234,7 @@ void elbow_arm_inverse_dynamics_wrenches(const double *q, const double *qd, cons
     }
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 3 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int elbow_arm_forward_dynamics(const double *q, const double *qd, const double *u, const elbow_arm_parameters *p, double *qdd)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;
@@ -409,7 +409,7 @@ void elbow_arm_friction_forces(const double *qd, const elbow_arm_parameters *p, 
     F[2] = 0.0;
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 6 x 6, B 6 x 3, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 6 x 6 and 6 x 3, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int elbow_arm_linearize(const double *q, const double *qd, const double *u, const elbow_arm_parameters *p, double *A, double *B)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;
@@ -733,7 +733,7 @@ int elbow_arm_linearize(const double *q, const double *qd, const double *u, cons
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 3 x 30, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 30, row-major. */
 void elbow_arm_regressor(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *Y)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;
@@ -929,7 +929,7 @@ void elbow_arm_regressor(const double *q, const double *qd, const double *qdd, c
     Y[89] = -t94;
 }
 
-/* The regressor's parameters pi, 30 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 30 entries. */
 void elbow_arm_parameter_vector(const elbow_arm_parameters *p, double *pi)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;

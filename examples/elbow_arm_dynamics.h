@@ -34,17 +34,17 @@ extern const elbow_arm_parameters elbow_arm_default_parameters;   /* the robot f
 
 /* Mass matrix M_g(q), 3 x 3, row-major. */
 void elbow_arm_mass_matrix(const double *q, const elbow_arm_parameters *p, double *M);
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void elbow_arm_coriolis_matrix(const double *q, const double *qd, const elbow_arm_parameters *p, double *C);
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void elbow_arm_gravity_vector(const double *q, const elbow_arm_parameters *p, double *N);
 /* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
 void elbow_arm_generalized_forces(const double *q, const double *u, const elbow_arm_parameters *p, double *Y);
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void elbow_arm_inverse_dynamics(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 6 row-major, (fx, fy, fz, nx, ny, nz) per frame in world axes (moment about the frame's origin), or NULL for none. */
 void elbow_arm_inverse_dynamics_wrenches(const double *q, const double *qd, const double *qdd, const double *wrenches, const elbow_arm_parameters *p, double *tau);
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 3 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int elbow_arm_forward_dynamics(const double *q, const double *qd, const double *u, const elbow_arm_parameters *p, double *qdd);
 /* forward_dynamics with wrenches (as inverse_dynamics_wrenches; NULL: none): M qdd = Y_g(u) - C qd - N - F + sum_f J_f^T w_f; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int elbow_arm_forward_dynamics_wrenches(const double *q, const double *qd, const double *u, const double *wrenches, const elbow_arm_parameters *p, double *qdd);
@@ -54,11 +54,11 @@ double elbow_arm_kinetic_energy(const double *q, const double *qd, const elbow_a
 double elbow_arm_potential_energy(const double *q, const elbow_arm_parameters *p);
 /* Dissipative forces F_g: zero, the robot declares no damping or friction, 3 entries. */
 void elbow_arm_friction_forces(const double *qd, const elbow_arm_parameters *p, double *F);
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 6 x 6, B 6 x 3, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 6 x 6 and 6 x 3, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int elbow_arm_linearize(const double *q, const double *qd, const double *u, const elbow_arm_parameters *p, double *A, double *B);
-/* Regressor Y(q, qd, qdd), 3 x 30, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 30, row-major. */
 void elbow_arm_regressor(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *Y);
-/* The regressor's parameters pi, 30 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 30 entries. */
 void elbow_arm_parameter_vector(const elbow_arm_parameters *p, double *pi);
 /* Pose of frame number `frame` in the world, [[R, p], [0, 1]], 4 x 4, row-major. Returns 0, or 1 if there is no such frame. */
 int elbow_arm_frame_transform(const double *q, int frame, const elbow_arm_parameters *p, double *T);

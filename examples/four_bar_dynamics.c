@@ -40,7 +40,7 @@ void four_bar_mass_matrix(const double *q, const four_bar_parameters *p, double 
     M[8] = 0.33333333333333331*(P->m3*P->c*P->c);
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void four_bar_coriolis_matrix(const double *q, const double *qd, const four_bar_parameters *p, double *C)
 {
     const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;
@@ -59,7 +59,7 @@ void four_bar_coriolis_matrix(const double *q, const double *qd, const four_bar_
     C[8] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void four_bar_gravity_vector(const double *q, const four_bar_parameters *p, double *N)
 {
     const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;
@@ -85,7 +85,7 @@ void four_bar_generalized_forces(const double *q, const double *u, const four_ba
     Y[2] = 0;
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void four_bar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *tau)
 {
     const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;
@@ -564,7 +564,7 @@ int four_bar_linearize(const double *q, const double *qd, const double *u, const
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 3 x 12, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void four_bar_regressor(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *Y)
 {
     const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;
@@ -637,7 +637,7 @@ void four_bar_regressor(const double *q, const double *qd, const double *qdd, co
     Y[35] = qdd[2];
 }
 
-/* The regressor's parameters pi, 12 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */
 void four_bar_parameter_vector(const four_bar_parameters *p, double *pi)
 {
     const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;

@@ -28,7 +28,7 @@ void mass_spring_damper_mass_matrix(const double *q, const mass_spring_damper_pa
     M[3] = P->m2;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 2 x 2, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 2 x 2, row-major. */
 void mass_spring_damper_coriolis_matrix(const double *q, const double *qd, const mass_spring_damper_parameters *p, double *C)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
@@ -41,7 +41,7 @@ void mass_spring_damper_coriolis_matrix(const double *q, const double *qd, const
     C[3] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 2 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 2 entries. */
 void mass_spring_damper_gravity_vector(const double *q, const mass_spring_damper_parameters *p, double *N)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
@@ -62,7 +62,7 @@ void mass_spring_damper_generalized_forces(const double *q, const double *u, con
     Y[1] = 0;
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 2 entries. */
 void mass_spring_damper_inverse_dynamics(const double *q, const double *qd, const double *qdd, const mass_spring_damper_parameters *p, double *tau)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
@@ -91,7 +91,7 @@ void mass_spring_damper_inverse_dynamics_wrenches(const double *q, const double 
     (void)wrenches;   /* no frames: no wrench */
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 2 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int mass_spring_damper_forward_dynamics(const double *q, const double *qd, const double *u, const mass_spring_damper_parameters *p, double *qdd)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
@@ -156,7 +156,7 @@ void mass_spring_damper_friction_forces(const double *qd, const mass_spring_damp
     F[1] = (P->b2)*qd[1];
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 4 x 4, B 4 x 1, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 4 x 4 and 4 x 1, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int mass_spring_damper_linearize(const double *q, const double *qd, const double *u, const mass_spring_damper_parameters *p, double *A, double *B)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
@@ -220,7 +220,7 @@ int mass_spring_damper_linearize(const double *q, const double *qd, const double
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 2 x 12, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 12, row-major. */
 void mass_spring_damper_regressor(const double *q, const double *qd, const double *qdd, const mass_spring_damper_parameters *p, double *Y)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
@@ -255,7 +255,7 @@ void mass_spring_damper_regressor(const double *q, const double *qd, const doubl
     Y[23] = q[1];
 }
 
-/* The regressor's parameters pi, 12 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */
 void mass_spring_damper_parameter_vector(const mass_spring_damper_parameters *p, double *pi)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;

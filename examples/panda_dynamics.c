@@ -223,7 +223,7 @@ void panda_mass_matrix(const double *q, const panda_parameters *p, double *M)
     M[48] = 0.0049096519673609458;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 7 x 7, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 7 x 7, row-major. */
 void panda_coriolis_matrix(const double *q, const double *qd, const panda_parameters *p, double *C)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;
@@ -841,7 +841,7 @@ void panda_coriolis_matrix(const double *q, const double *qd, const panda_parame
     C[48] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 7 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 7 entries. */
 void panda_gravity_vector(const double *q, const panda_parameters *p, double *N)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;
@@ -978,7 +978,7 @@ void panda_generalized_forces(const double *q, const double *u, const panda_para
     Y[6] = u[6];
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 7 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 7 entries. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *tau)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;
@@ -1223,7 +1223,7 @@ void panda_inverse_dynamics_wrenches(const double *q, const double *qd, const do
     }
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 7 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int panda_forward_dynamics(const double *q, const double *qd, const double *u, const panda_parameters *p, double *qdd)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;
@@ -1816,7 +1816,7 @@ void panda_friction_forces(const double *qd, const panda_parameters *p, double *
     F[6] = 0.0;
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 14 x 14, B 14 x 7, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 14 x 14 and 14 x 7, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int panda_linearize(const double *q, const double *qd, const double *u, const panda_parameters *p, double *A, double *B)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;
@@ -4331,7 +4331,7 @@ int panda_linearize(const double *q, const double *qd, const double *u, const pa
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 7 x 70, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 7 x 70, row-major. */
 void panda_regressor(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *Y)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;
@@ -5352,7 +5352,7 @@ void panda_regressor(const double *q, const double *qd, const double *qdd, const
     Y[489] = t407;
 }
 
-/* The regressor's parameters pi, 70 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 70 entries. */
 void panda_parameter_vector(const panda_parameters *p, double *pi)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;

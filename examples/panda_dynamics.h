@@ -24,17 +24,17 @@ extern const panda_parameters panda_default_parameters;   /* the robot file's de
 
 /* Mass matrix M_g(q), 7 x 7, row-major. */
 void panda_mass_matrix(const double *q, const panda_parameters *p, double *M);
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 7 x 7, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 7 x 7, row-major. */
 void panda_coriolis_matrix(const double *q, const double *qd, const panda_parameters *p, double *C);
-/* Gravity vector N_g(q) = dV/dq, 7 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 7 entries. */
 void panda_gravity_vector(const double *q, const panda_parameters *p, double *N);
 /* Applied generalized forces Y_g(q, u) of the efforts, 7 entries. */
 void panda_generalized_forces(const double *q, const double *u, const panda_parameters *p, double *Y);
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 7 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 7 entries. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 6 row-major, (fx, fy, fz, nx, ny, nz) per frame in world axes (moment about the frame's origin), or NULL for none. */
 void panda_inverse_dynamics_wrenches(const double *q, const double *qd, const double *qdd, const double *wrenches, const panda_parameters *p, double *tau);
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 7 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int panda_forward_dynamics(const double *q, const double *qd, const double *u, const panda_parameters *p, double *qdd);
 /* forward_dynamics with wrenches (as inverse_dynamics_wrenches; NULL: none): M qdd = Y_g(u) - C qd - N - F + sum_f J_f^T w_f; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int panda_forward_dynamics_wrenches(const double *q, const double *qd, const double *u, const double *wrenches, const panda_parameters *p, double *qdd);
@@ -44,11 +44,11 @@ double panda_kinetic_energy(const double *q, const double *qd, const panda_param
 double panda_potential_energy(const double *q, const panda_parameters *p);
 /* Dissipative forces F_g: zero, the robot declares no damping or friction, 7 entries. */
 void panda_friction_forces(const double *qd, const panda_parameters *p, double *F);
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 14 x 14, B 14 x 7, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 14 x 14 and 14 x 7, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int panda_linearize(const double *q, const double *qd, const double *u, const panda_parameters *p, double *A, double *B);
-/* Regressor Y(q, qd, qdd), 7 x 70, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 7 x 70, row-major. */
 void panda_regressor(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *Y);
-/* The regressor's parameters pi, 70 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 70 entries. */
 void panda_parameter_vector(const panda_parameters *p, double *pi);
 /* Pose of frame number `frame` in the world, [[R, p], [0, 1]], 4 x 4, row-major. Returns 0, or 1 if there is no such frame. */
 int panda_frame_transform(const double *q, int frame, const panda_parameters *p, double *T);

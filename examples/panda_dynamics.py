@@ -34,7 +34,7 @@ def _coordinates(name, value, size):
 
 
 def generalized_forces(q, u, *, g=9.81):
-    """Applied generalized forces Y_g(u), shape (..., 7).
+    """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 7).
 
     q: joint coordinates ('panda_joint1', 'panda_joint2', 'panda_joint3', 'panda_joint4', 'panda_joint5', 'panda_joint6', 'panda_joint7'), shape (..., 7)
     u: efforts ('tau_panda_joint1', 'tau_panda_joint2', 'tau_panda_joint3', 'tau_panda_joint4', 'tau_panda_joint5', 'tau_panda_joint6', 'tau_panda_joint7'), shape (..., 7)
@@ -61,7 +61,7 @@ def generalized_forces(q, u, *, g=9.81):
 
 
 def parameter_vector(*, g=9.81):
-    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (70,).
+    """The parameter vector pi of regressor (names: PARAMETER_VECTOR), shape (70,).
     """
     batch = np.broadcast_shapes()
     out = np.zeros(batch + (70,))
@@ -5085,7 +5085,7 @@ def _frame_bodies(frame):
 
 
 def frame_transform(q, frame, *, g=9.81):
-    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 4, 4).
+    """Pose of a frame in the world, [[R, p], [0, 1]], shape (..., 4, 4).
 
     q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); frame: a name of FRAMES
     """
@@ -5094,9 +5094,9 @@ def frame_transform(q, frame, *, g=9.81):
 
 
 def frame_jacobian(q, frame, *, g=9.81):
-    """World-frame geometric Jacobian of ``frame``, shape (..., 6, 7): rows (vx, vy, vz, wx, wy, wz),
-    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
-    (Pinocchio's LOCAL_WORLD_ALIGNED).
+    """World-frame Jacobian of a frame: linear rows, then angular (Pinocchio's ``getFrameJacobian``), shape (..., 6, 7).
+    Rows (vx, vy, vz, wx, wy, wz): the velocity of the frame's origin and its angular velocity in world
+    axes (LOCAL_WORLD_ALIGNED), per entry of the velocity qd.
 
     q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); frame: a name of FRAMES
     """
@@ -5105,9 +5105,12 @@ def frame_jacobian(q, frame, *, g=9.81):
 
 
 def frame_jacobian_dot_qd(q, qd, frame, *, g=9.81):
-    """Jdot(q, qd) qd of ``frame``, shape (..., 6): the frame's acceleration at qdd = 0
-    (the origin's classical acceleration, then the angular one), so that the frame
-    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """Jdot(q, qd) qd of a frame (its acceleration at qdd = 0), shape (..., 6).
+    The origin's classical acceleration, then the angular one, in world axes, so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd) (Pinocchio's
+    ``getFrameClassicalAcceleration`` in LOCAL_WORLD_ALIGNED at zero acceleration).
+
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd: velocities, shape (..., 7); frame: a name of FRAMES
     """
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7)]
     return _evaluate(_frame_bodies(frame)[2], arrays, (6,), {"g": g})
@@ -5132,7 +5135,7 @@ def _external_forces(q, wrenches, parameters):
 
 
 def mass_matrix(q, *, g=9.81):
-    """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 7, 7).
+    """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 7, 7). By the composite-rigid-body algorithm.
 
     q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7)
     """
@@ -5141,10 +5144,10 @@ def mass_matrix(q, *, g=9.81):
 
 
 def coriolis_matrix(q, qd, *, g=9.81):
-    """Coriolis matrix C_g(q, qd) from the Christoffel symbols of M, shape (..., 7, 7).
+    """Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric (Pinocchio's ``computeCoriolisMatrix``), shape (..., 7, 7).
+    From the Christoffel symbols of M: C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k,
+    with dM/dq_k from the composite-rigid-body algorithm differentiated line by line.
 
-    C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k, with dM/dq_k from the
-    composite-rigid-body algorithm differentiated line by line.
     q: joint coordinates, shape (..., 7); qd: joint velocities, shape (..., 7)
     """
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7)]
@@ -5152,7 +5155,7 @@ def coriolis_matrix(q, qd, *, g=9.81):
 
 
 def gravity_vector(q, *, g=9.81):
-    """Gravity vector N_g(q) = dV/dq (Newton-Euler at rest), shape (..., 7).
+    """Gravity vector N_g(q), the gradient of V_g (Pinocchio's ``computeGeneralizedGravity``), shape (..., 7). By Newton-Euler at rest.
 
     q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7)
     """
@@ -5161,13 +5164,14 @@ def gravity_vector(q, *, g=9.81):
 
 
 def kinetic_energy(q, qd, *, g=9.81):
-    """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
+    """Kinetic energy T_g = 1/2 qd^T M(q) qd (Pinocchio's ``computeKineticEnergy``), shape (...)."""
     qd = _coordinates("qd", qd, 7)
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, g=g), qd)
 
 
 def potential_energy(q, *, g=9.81):
-    """Potential energy V_g(q) of gravity (along the tree) and the springs, shape (...).
+    """Potential energy V_g(q) of gravity and the springs (Pinocchio's ``computePotentialEnergy``), shape (...).
+    Pinocchio's leaves out the springs; gravity_vector is its gradient in the velocity coordinates.
 
     q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7)
     """
@@ -5182,8 +5186,10 @@ def friction_forces(qd, *, friction_smoothing=0.0, g=9.81):
 
 
 def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 7).
+    """Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler (Pinocchio's ``rnea``), shape (..., 7).
+    Wrenches at frames enter as - sum J^T w.
 
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd, qdd: velocities and accelerations, shape (..., 7)
     wrenches: None, or {frame: w} with w of shape (..., 6), (fx, fy, fz, nx, ny, nz), the wrench the
     environment applies to the robot at that frame of FRAMES, in world axes (moment about the
     frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
@@ -5199,11 +5205,12 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, g=9.8
 
 
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) + sum J^T w, shape (..., 7).
+    """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 7).
+    Wrenches at frames enter as + sum J^T w. M is factored as L^T D L, never inverted.
 
     u: efforts ("tau_panda_joint1", "tau_panda_joint2", "tau_panda_joint3", "tau_panda_joint4", "tau_panda_joint5", "tau_panda_joint6", "tau_panda_joint7"), shape (..., 7); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
-    M is factored as L D L^T (it is positive definite), never inverted.    """
+    """
     if u is None:
         u = np.zeros(7)
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), np.asarray(u, dtype=float)]
@@ -5250,11 +5257,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
-    """Regressor Y(q, qd, qdd), shape (..., 7, 70): Y @ parameter_vector() equals
-    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
-
+    """Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, shape (..., 7, 70).
     Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
     (link axes). Gravity and the geometry are in Y, not in pi.
+
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd, qdd: velocities and accelerations, shape (..., 7)
     """
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), _coordinates("qdd", qdd, 7)]
     return _evaluate(_regressor_body, arrays, (7, 70), {"g": g})

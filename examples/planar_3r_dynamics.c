@@ -51,7 +51,7 @@ void planar_3r_mass_matrix(const double *q, const planar_3r_parameters *p, doubl
     M[8] = t7;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void planar_3r_coriolis_matrix(const double *q, const double *qd, const planar_3r_parameters *p, double *C)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
@@ -85,7 +85,7 @@ void planar_3r_coriolis_matrix(const double *q, const double *qd, const planar_3
     C[8] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void planar_3r_gravity_vector(const double *q, const planar_3r_parameters *p, double *N)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
@@ -111,7 +111,7 @@ void planar_3r_generalized_forces(const double *q, const double *u, const planar
     Y[2] = u[2];
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void planar_3r_inverse_dynamics(const double *q, const double *qd, const double *qdd, const planar_3r_parameters *p, double *tau)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
@@ -189,7 +189,7 @@ void planar_3r_inverse_dynamics_wrenches(const double *q, const double *qd, cons
     }
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 3 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int planar_3r_forward_dynamics(const double *q, const double *qd, const double *u, const planar_3r_parameters *p, double *qdd)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
@@ -356,7 +356,7 @@ void planar_3r_friction_forces(const double *qd, const planar_3r_parameters *p, 
     F[2] = 0.0;
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 6 x 6, B 6 x 3, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 6 x 6 and 6 x 3, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int planar_3r_linearize(const double *q, const double *qd, const double *u, const planar_3r_parameters *p, double *A, double *B)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
@@ -678,7 +678,7 @@ int planar_3r_linearize(const double *q, const double *qd, const double *u, cons
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 3 x 12, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void planar_3r_regressor(const double *q, const double *qd, const double *qdd, const planar_3r_parameters *p, double *Y)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
@@ -771,7 +771,7 @@ void planar_3r_regressor(const double *q, const double *qd, const double *qdd, c
     Y[35] = t30;
 }
 
-/* The regressor's parameters pi, 12 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */
 void planar_3r_parameter_vector(const planar_3r_parameters *p, double *pi)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;

@@ -47,7 +47,7 @@ def _coordinates(name, value, size):
 
 
 def mass_matrix(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Mass matrix M_g(q), shape (..., 3, 3).
+    """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 3, 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
     """
@@ -82,7 +82,7 @@ def mass_matrix(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r
 
 
 def coriolis_matrix(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Coriolis matrix C_g(q, qd) (Christoffel symbols), shape (..., 3, 3).
+    """Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric (Pinocchio's ``computeCoriolisMatrix``), shape (..., 3, 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
     qd: joint velocities, shape (..., 3)
@@ -124,7 +124,7 @@ def coriolis_matrix(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1
 
 
 def gravity_vector(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Gravity vector N_g(q) = dV/dq, shape (..., 3).
+    """Gravity vector N_g(q), the gradient of V_g (Pinocchio's ``computeGeneralizedGravity``), shape (..., 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
     """
@@ -144,7 +144,7 @@ def gravity_vector(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25
 
 
 def generalized_forces(q, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Applied generalized forces Y_g(u), shape (..., 3).
+    """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 3).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
     u: efforts ('tau1', 'tau2', 'tau3'), shape (..., 3)
@@ -163,7 +163,7 @@ def generalized_forces(q, u, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, 
 
 
 def kinetic_energy(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Kinetic energy T_g(q, qd), shape (...).
+    """Kinetic energy T_g = 1/2 qd^T M(q) qd (Pinocchio's ``computeKineticEnergy``), shape (...).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
     qd: joint velocities, shape (..., 3)
@@ -189,7 +189,7 @@ def kinetic_energy(q, qd, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=
 
 
 def potential_energy(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Potential energy V_g(q), shape (...).
+    """Potential energy V_g(q) of gravity and the springs (Pinocchio's ``computePotentialEnergy``), shape (...).
 
     q: joint coordinates ('th1', 'th2', 'th3'), shape (..., 3)
     """
@@ -496,7 +496,7 @@ def to_maximal_jacobian(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1
 
 
 def parameter_vector(*, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (12,).
+    """The parameter vector pi of regressor (names: PARAMETER_VECTOR), shape (12,).
     """
     batch = np.broadcast_shapes()
     out = np.zeros(batch + (12,))
@@ -1129,7 +1129,7 @@ def _frame_bodies(frame):
 
 
 def frame_transform(q, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 3, 3)    (planar: R the 2 x 2 rotation by the frame's angle).
+    """Pose of a frame in the world, [[R, p], [0, 1]], shape (..., 3, 3). Planar: R is the 2 x 2 rotation by the frame's angle.
 
     q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); frame: a name of FRAMES
     """
@@ -1138,9 +1138,9 @@ def frame_transform(q, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2,
 
 
 def frame_jacobian(q, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """World-frame geometric Jacobian of ``frame``, shape (..., 3, 3): rows (vx, vy, omega),
-    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
-    (Pinocchio's LOCAL_WORLD_ALIGNED).
+    """World-frame Jacobian of a frame: linear rows, then angular (Pinocchio's ``getFrameJacobian``), shape (..., 3, 3).
+    Rows (vx, vy, omega): the velocity of the frame's origin and its angular velocity in world
+    axes (LOCAL_WORLD_ALIGNED), per entry of the velocity qd.
 
     q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); frame: a name of FRAMES
     """
@@ -1149,9 +1149,12 @@ def frame_jacobian(q, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, 
 
 
 def frame_jacobian_dot_qd(q, qd, frame, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Jdot(q, qd) qd of ``frame``, shape (..., 3): the frame's acceleration at qdd = 0
-    (the origin's classical acceleration, then the angular one), so that the frame
-    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """Jdot(q, qd) qd of a frame (its acceleration at qdd = 0), shape (..., 3).
+    The origin's classical acceleration, then the angular one, in world axes, so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd) (Pinocchio's
+    ``getFrameClassicalAcceleration`` in LOCAL_WORLD_ALIGNED at zero acceleration).
+
+    q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); qd: velocities, shape (..., 3); frame: a name of FRAMES
     """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
     return _evaluate(_frame_bodies(frame)[2], arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
@@ -1182,8 +1185,10 @@ def friction_forces(qd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.
 
 
 def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 3).
+    """Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler (Pinocchio's ``rnea``), shape (..., 3).
+    Wrenches at frames enter as - sum J^T w.
 
+    q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)
     wrenches: None, or {frame: w} with w of shape (..., 3), (fx, fy, n), the wrench the
     environment applies to the robot at that frame of FRAMES, in world axes (moment about the
     frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
@@ -1199,11 +1204,12 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=2.
 
 
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Accelerations qdd solving M(q) qdd = Y_g(u) - C(q, qd) qd - N(q) + sum J^T w, shape (..., 3).
+    """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 3).
+    Wrenches at frames enter as + sum J^T w. M is factored as L^T D L, never inverted.
 
     u: efforts ("tau1", "tau2", "tau3"), shape (..., 3); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
-    M is factored as L D L^T (it is positive definite), never inverted.    """
+    """
     if u is None:
         u = np.zeros(3)
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), np.asarray(u, dtype=float)]
@@ -1250,11 +1256,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """Regressor Y(q, qd, qdd), shape (..., 3, 12): Y @ parameter_vector() equals
-    inverse_dynamics(q, qd, qdd), linear in the parameters PARAMETER_VECTOR.
-
+    """Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, shape (..., 3, 12).
     Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
     (link axes). Gravity and the geometry are in Y, not in pi.
+
+    q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)
     """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
     return _evaluate(_regressor_body, arrays, (3, 12), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})

@@ -23,7 +23,7 @@ void rp_arm_mass_matrix(const double *q, const rp_arm_parameters *p, double *M)
     M[3] = P->m;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 2 x 2, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 2 x 2, row-major. */
 void rp_arm_coriolis_matrix(const double *q, const double *qd, const rp_arm_parameters *p, double *C)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
@@ -38,7 +38,7 @@ void rp_arm_coriolis_matrix(const double *q, const double *qd, const rp_arm_para
     C[3] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 2 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 2 entries. */
 void rp_arm_gravity_vector(const double *q, const rp_arm_parameters *p, double *N)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
@@ -60,7 +60,7 @@ void rp_arm_generalized_forces(const double *q, const double *u, const rp_arm_pa
     Y[1] = u[1];
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 2 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 2 entries. */
 void rp_arm_inverse_dynamics(const double *q, const double *qd, const double *qdd, const rp_arm_parameters *p, double *tau)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
@@ -97,7 +97,7 @@ void rp_arm_inverse_dynamics_wrenches(const double *q, const double *qd, const d
     (void)wrenches;   /* no frames: no wrench */
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 2 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int rp_arm_forward_dynamics(const double *q, const double *qd, const double *u, const rp_arm_parameters *p, double *qdd)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
@@ -171,7 +171,7 @@ void rp_arm_friction_forces(const double *qd, const rp_arm_parameters *p, double
     F[1] = 0.0;
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 4 x 4, B 4 x 2, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 4 x 4 and 4 x 2, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int rp_arm_linearize(const double *q, const double *qd, const double *u, const rp_arm_parameters *p, double *A, double *B)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
@@ -270,7 +270,7 @@ int rp_arm_linearize(const double *q, const double *qd, const double *u, const r
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 2 x 8, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void rp_arm_regressor(const double *q, const double *qd, const double *qdd, const rp_arm_parameters *p, double *Y)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
@@ -311,7 +311,7 @@ void rp_arm_regressor(const double *q, const double *qd, const double *qdd, cons
     Y[15] = 0;
 }
 
-/* The regressor's parameters pi, 8 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 8 entries. */
 void rp_arm_parameter_vector(const rp_arm_parameters *p, double *pi)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;

@@ -39,7 +39,7 @@ void slider_crank_mass_matrix(const double *q, const slider_crank_parameters *p,
     M[8] = P->m3;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void slider_crank_coriolis_matrix(const double *q, const double *qd, const slider_crank_parameters *p, double *C)
 {
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
@@ -58,7 +58,7 @@ void slider_crank_coriolis_matrix(const double *q, const double *qd, const slide
     C[8] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void slider_crank_gravity_vector(const double *q, const slider_crank_parameters *p, double *N)
 {
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
@@ -82,7 +82,7 @@ void slider_crank_generalized_forces(const double *q, const double *u, const sli
     Y[2] = 0;
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void slider_crank_inverse_dynamics(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *tau)
 {
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
@@ -550,7 +550,7 @@ int slider_crank_linearize(const double *q, const double *qd, const double *u, c
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 3 x 12, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void slider_crank_regressor(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *Y)
 {
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
@@ -619,7 +619,7 @@ void slider_crank_regressor(const double *q, const double *qd, const double *qdd
     Y[35] = 0;
 }
 
-/* The regressor's parameters pi, 12 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */
 void slider_crank_parameter_vector(const slider_crank_parameters *p, double *pi)
 {
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;

@@ -32,13 +32,13 @@ extern const slider_crank_parameters slider_crank_default_parameters;   /* the r
 
 /* Mass matrix M_g(q), 3 x 3, row-major. */
 void slider_crank_mass_matrix(const double *q, const slider_crank_parameters *p, double *M);
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 3 x 3, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 3 x 3, row-major. */
 void slider_crank_coriolis_matrix(const double *q, const double *qd, const slider_crank_parameters *p, double *C);
-/* Gravity vector N_g(q) = dV/dq, 3 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 3 entries. */
 void slider_crank_gravity_vector(const double *q, const slider_crank_parameters *p, double *N);
 /* Applied generalized forces Y_g(q, u) of the efforts, 3 entries. */
 void slider_crank_generalized_forces(const double *q, const double *u, const slider_crank_parameters *p, double *Y);
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 3 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 3 entries. */
 void slider_crank_inverse_dynamics(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *tau);
 /* inverse_dynamics - sum_f J_f^T w_f: wrenches NFRAMES x 3 row-major, (fx, fy, n) per frame in world axes (moment about the frame's origin), or NULL for none. */
 void slider_crank_inverse_dynamics_wrenches(const double *q, const double *qd, const double *qdd, const double *wrenches, const slider_crank_parameters *p, double *tau);
@@ -54,9 +54,9 @@ double slider_crank_potential_energy(const double *q, const slider_crank_paramet
 void slider_crank_friction_forces(const double *qd, const slider_crank_parameters *p, double *F);
 /* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 6 x 6, B 6 x 1, row-major; the constrained solve [M -A_g^T; A_g 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g^T lambda)/dx; -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0 and no wrench, as the NumPy module); returns 0, or 1 or 2 as forward_dynamics (A, B untouched). */
 int slider_crank_linearize(const double *q, const double *qd, const double *u, const slider_crank_parameters *p, double *A, double *B);
-/* Regressor Y(q, qd, qdd), 3 x 12, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void slider_crank_regressor(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *Y);
-/* The regressor's parameters pi, 12 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */
 void slider_crank_parameter_vector(const slider_crank_parameters *p, double *pi);
 /* Pose of frame number `frame` in the world, [[R, p], [0, 1]], 3 x 3, row-major. Returns 0, or 1 if there is no such frame. */
 int slider_crank_frame_transform(const double *q, int frame, const slider_crank_parameters *p, double *T);

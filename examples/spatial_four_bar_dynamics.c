@@ -61,7 +61,7 @@ void spatial_four_bar_mass_matrix(const double *q, const spatial_four_bar_parame
     M[15] = t5;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 4 x 4, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 4 x 4, row-major. */
 void spatial_four_bar_coriolis_matrix(const double *q, const double *qd, const spatial_four_bar_parameters *p, double *C)
 {
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
@@ -115,7 +115,7 @@ void spatial_four_bar_coriolis_matrix(const double *q, const double *qd, const s
     C[15] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 4 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 4 entries. */
 void spatial_four_bar_gravity_vector(const double *q, const spatial_four_bar_parameters *p, double *N)
 {
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
@@ -156,7 +156,7 @@ void spatial_four_bar_generalized_forces(const double *q, const double *u, const
     Y[3] = 0;
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 4 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 4 entries. */
 void spatial_four_bar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const spatial_four_bar_parameters *p, double *tau)
 {
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
@@ -919,7 +919,7 @@ int spatial_four_bar_linearize(const double *q, const double *qd, const double *
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 4 x 40, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 4 x 40, row-major. */
 void spatial_four_bar_regressor(const double *q, const double *qd, const double *qdd, const spatial_four_bar_parameters *p, double *Y)
 {
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
@@ -1168,7 +1168,7 @@ void spatial_four_bar_regressor(const double *q, const double *qd, const double 
     Y[159] = 0;
 }
 
-/* The regressor's parameters pi, 40 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 40 entries. */
 void spatial_four_bar_parameter_vector(const spatial_four_bar_parameters *p, double *pi)
 {
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;

@@ -47,7 +47,7 @@ def _coordinates(name, value, size):
 
 
 def generalized_forces(q, u, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Applied generalized forces Y_g(u), shape (..., 4).
+    """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 4).
 
     q: joint coordinates ('q1', 'q2', 'q3', 'q4'), shape (..., 4)
     u: efforts ('tau1',), shape (..., 1)
@@ -300,7 +300,7 @@ def _loop_acceleration_jacobian(q, qd, qdd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0
 
 
 def parameter_vector(*, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """The parameter vector pi of ``regressor`` (names: PARAMETER_VECTOR), shape (40,).
+    """The parameter vector pi of regressor (names: PARAMETER_VECTOR), shape (40,).
     """
     batch = np.broadcast_shapes()
     _t0 = (1/3)*a**2*m1
@@ -1051,7 +1051,7 @@ def _frame_bodies(frame):
 
 
 def frame_transform(q, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Pose of ``frame`` in the world as a homogeneous matrix [[R, p], [0, 1]], shape (..., 4, 4).
+    """Pose of a frame in the world, [[R, p], [0, 1]], shape (..., 4, 4).
 
     q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); frame: a name of FRAMES
     """
@@ -1060,9 +1060,9 @@ def frame_transform(q, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05,
 
 
 def frame_jacobian(q, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """World-frame geometric Jacobian of ``frame``, shape (..., 6, 4): rows (vx, vy, vz, wx, wy, wz),
-    the velocity of the frame's origin and its angular velocity in world axes, per joint rate
-    (Pinocchio's LOCAL_WORLD_ALIGNED).
+    """World-frame Jacobian of a frame: linear rows, then angular (Pinocchio's ``getFrameJacobian``), shape (..., 6, 4).
+    Rows (vx, vy, vz, wx, wy, wz): the velocity of the frame's origin and its angular velocity in world
+    axes (LOCAL_WORLD_ALIGNED), per entry of the velocity qd.
 
     q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); frame: a name of FRAMES
     """
@@ -1071,9 +1071,12 @@ def frame_jacobian(q, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, 
 
 
 def frame_jacobian_dot_qd(q, qd, frame, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Jdot(q, qd) qd of ``frame``, shape (..., 6): the frame's acceleration at qdd = 0
-    (the origin's classical acceleration, then the angular one), so that the frame
-    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd).
+    """Jdot(q, qd) qd of a frame (its acceleration at qdd = 0), shape (..., 6).
+    The origin's classical acceleration, then the angular one, in world axes, so that the frame
+    accelerates by frame_jacobian(q) @ qdd + frame_jacobian_dot_qd(q, qd) (Pinocchio's
+    ``getFrameClassicalAcceleration`` in LOCAL_WORLD_ALIGNED at zero acceleration).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd: velocities, shape (..., 4); frame: a name of FRAMES
     """
     arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4)]
     return _evaluate(_frame_bodies(frame)[2], arrays, (6,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
@@ -1098,7 +1101,7 @@ def _external_forces(q, wrenches, parameters):
 
 
 def mass_matrix(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Mass matrix M_g(q) by the composite-rigid-body algorithm, shape (..., 4, 4).
+    """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 4, 4). By the composite-rigid-body algorithm.
 
     q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
     """
@@ -1107,10 +1110,10 @@ def mass_matrix(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3
 
 
 def coriolis_matrix(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Coriolis matrix C_g(q, qd) from the Christoffel symbols of M, shape (..., 4, 4).
+    """Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric (Pinocchio's ``computeCoriolisMatrix``), shape (..., 4, 4).
+    From the Christoffel symbols of M: C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k,
+    with dM/dq_k from the composite-rigid-body algorithm differentiated line by line.
 
-    C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) qd_k, with dM/dq_k from the
-    composite-rigid-body algorithm differentiated line by line.
     q: joint coordinates, shape (..., 4); qd: joint velocities, shape (..., 4)
     """
     arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4)]
@@ -1118,7 +1121,7 @@ def coriolis_matrix(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2
 
 
 def gravity_vector(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Gravity vector N_g(q) = dV/dq (Newton-Euler at rest), shape (..., 4).
+    """Gravity vector N_g(q), the gradient of V_g (Pinocchio's ``computeGeneralizedGravity``), shape (..., 4). By Newton-Euler at rest.
 
     q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
     """
@@ -1127,13 +1130,14 @@ def gravity_vector(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8,
 
 
 def kinetic_energy(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Kinetic energy T_g = 1/2 qd^T M(q) qd, shape (...)."""
+    """Kinetic energy T_g = 1/2 qd^T M(q) qd (Pinocchio's ``computeKineticEnergy``), shape (...)."""
     qd = _coordinates("qd", qd, 4)
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, mass_matrix(q, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g), qd)
 
 
 def potential_energy(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Potential energy V_g(q) of gravity (along the tree) and the springs, shape (...).
+    """Potential energy V_g(q) of gravity and the springs (Pinocchio's ``computePotentialEnergy``), shape (...).
+    Pinocchio's leaves out the springs; gravity_vector is its gradient in the velocity coordinates.
 
     q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
     """
@@ -1148,8 +1152,10 @@ def friction_forces(qd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, 
 
 
 def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Generalized forces Y_g = M(q) qdd + C(q, qd) qd + N(q) - sum J^T w by recursive Newton-Euler, shape (..., 4).
+    """Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler (Pinocchio's ``rnea``), shape (..., 4).
+    Wrenches at frames enter as - sum J^T w.
 
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd, qdd: velocities and accelerations, shape (..., 4)
     wrenches: None, or {frame: w} with w of shape (..., 6), (fx, fy, fz, nx, ny, nz), the wrench the
     environment applies to the robot at that frame of FRAMES (this robot declares none), in world axes (moment about the
     frame's origin); it enters as J^T w with J = frame_jacobian(q, frame).
@@ -1321,11 +1327,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """Regressor Y(q, qd, qdd), shape (..., 4, 40): Y @ parameter_vector() equals
-    inverse_dynamics(q, qd, qdd) of the open tree (no loop forces), linear in the parameters PARAMETER_VECTOR.
-
+    """Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, shape (..., 4, 40). Of the open tree (no loop forces).
     Columns per link: mass, first moment m c (link frame), inertia about the link frame's origin
     (link axes). Gravity and the geometry are in Y, not in pi.
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd, qdd: velocities and accelerations, shape (..., 4)
     """
     arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4), _coordinates("qdd", qdd, 4)]
     return _evaluate(_regressor_body, arrays, (4, 40), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})

@@ -141,7 +141,7 @@ void ur5_mass_matrix(const double *q, const ur5_parameters *p, double *M)
     M[35] = 0.0171364731454;
 }
 
-/* Coriolis matrix C_g(q, qd) (Christoffel symbols), 6 x 6, row-major. */
+/* Coriolis matrix C_g(q, qd), dM/dt - 2 C_g skew-symmetric, 6 x 6, row-major. */
 void ur5_coriolis_matrix(const double *q, const double *qd, const ur5_parameters *p, double *C)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;
@@ -448,7 +448,7 @@ void ur5_coriolis_matrix(const double *q, const double *qd, const ur5_parameters
     C[35] = 0;
 }
 
-/* Gravity vector N_g(q) = dV/dq, 6 entries. */
+/* Gravity vector N_g(q), the gradient of V_g, 6 entries. */
 void ur5_gravity_vector(const double *q, const ur5_parameters *p, double *N)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;
@@ -542,7 +542,7 @@ void ur5_generalized_forces(const double *q, const double *u, const ur5_paramete
     Y[5] = u[5];
 }
 
-/* Y_g = M qdd + C qd + N by recursive Newton-Euler, 6 entries. */
+/* Generalized forces Y_g = M qdd + C qd + N + F by recursive Newton-Euler, 6 entries. */
 void ur5_inverse_dynamics(const double *q, const double *qd, const double *qdd, const ur5_parameters *p, double *tau)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;
@@ -765,7 +765,7 @@ void ur5_inverse_dynamics_wrenches(const double *q, const double *qd, const doub
     }
 }
 
-/* qdd solving M qdd = Y_g(u) - C qd - N by L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
+/* Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F, 6 entries. M is factored as L D L^T; returns 0, or 1 (qdd untouched) if M is not positive definite. */
 int ur5_forward_dynamics(const double *q, const double *qd, const double *u, const ur5_parameters *p, double *qdd)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;
@@ -1214,7 +1214,7 @@ void ur5_friction_forces(const double *qd, const ur5_parameters *p, double *F)
     F[5] = 0.0;
 }
 
-/* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 12 x 12, B 12 x 6, row-major, from Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
+/* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 12 x 12 and 12 x 6, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int ur5_linearize(const double *q, const double *qd, const double *u, const ur5_parameters *p, double *A, double *B)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;
@@ -3008,7 +3008,7 @@ int ur5_linearize(const double *q, const double *qd, const double *u, const ur5_
     return 0;
 }
 
-/* Regressor Y(q, qd, qdd), 6 x 60, row-major: Y pi = inverse_dynamics (pi from parameter_vector). */
+/* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 6 x 60, row-major. */
 void ur5_regressor(const double *q, const double *qd, const double *qdd, const ur5_parameters *p, double *Y)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;
@@ -3746,7 +3746,7 @@ void ur5_regressor(const double *q, const double *qd, const double *qdd, const u
     Y[359] = t364;
 }
 
-/* The regressor's parameters pi, 60 entries. */
+/* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 60 entries. */
 void ur5_parameter_vector(const ur5_parameters *p, double *pi)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;
