@@ -156,33 +156,31 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
     }
 
 
-#: The configuration maps: the C function's arguments, its output and its size (NQ or NV),
-#: the C array of each argument of the program (``Derivation.configuration_programs``), a comment.
-CONFIGURATION_FUNCTIONS = (
-    ("neutral_configuration", "double *q", "q", "nq", {},
-     "The neutral configuration, {nq} entries: zeros, and identity quaternions (Pinocchio's neutral)."),
-    ("integrate", "const double *q, const double *v, double dt, double *out", "out", "nq",
-     {"q": "q", "v": "v", "dt": "dt"},
-     "The configuration reached from q moving at v for dt, {nq} entries (Pinocchio's integrate(q, v dt)): q + v dt, "
-     "a floating joint's pose times exp(v dt) on SE(3) (its quaternion normalized in the hemisphere of q's), a "
-     "spherical joint's quaternion times exp(w dt), normalized."),
-    ("difference", "const double *q0, const double *q1, double *v", "v", "nv", {"q_from": "q0", "q_to": "q1"},
-     "The velocity v, {nv} entries, that integrate turns q0 into q1 in unit time (Pinocchio's difference)."),
-    ("configuration_rate", "const double *q, const double *v, double *out", "out", "nq", {"q": "q", "v": "v"},
-     "dq/dt of q moving at v, {nq} entries: the derivative of integrate(q, v, t) at t = 0."),
-)
+#: The output array of each configuration map (the others write ``out``), and what its comment
+#: adds to the API table's summary.
+OUTPUTS = {"neutral_configuration": "q", "difference": "v"}
+CONFIGURATION_NOTES = {
+    "integrate": "q + v dt, a floating joint's pose times exp(v dt) on SE(3) (its quaternion normalized in the "
+                 "hemisphere of q's), a spherical joint's quaternion times exp(w dt), normalized.",
+    "configuration_rate": "The derivative of integrate(q, v, t) at t = 0.",
+}
 
 
 def _configuration_functions(derivation: Derivation) -> list[CFunction]:
-    """The configuration maps, each its joint types' program printed (no parameters)."""
-    sizes = {"nq": len(derivation.symbols.q), "nv": len(derivation.symbols.qd)}
+    """The configuration maps, each its joint types' program printed (no parameters), with the
+    API table's arguments."""
+    size = api.sizes(derivation)
     functions = []
-    for kind, arguments, out, size, arrays, comment in CONFIGURATION_FUNCTIONS:
-        entry = derivation.configuration_programs[kind]
-        names = Names(extra={symbol: array if key == "dt" else f"{array}[{i}]"
-                            for key, array in arrays.items() for i, symbol in enumerate(entry.arguments[key])})
-        functions.append(CFunction(f"void {derivation.robot.name}_{kind}({arguments})", comment.format(**sizes),
-                                   program_body(names, entry.program, [f"{out}[{i}]" for i in range(sizes[size])])))
+    for kind in api.group("configuration"):
+        entry, arguments = derivation.configuration_programs[kind], api.BY_NAME[kind].arguments
+        out = OUTPUTS.get(kind, "out")
+        names = Names(extra={symbol: key if key == "dt" else f"{key}[{i}]"
+                             for key in arguments for i, symbol in enumerate(entry.arguments[key])})
+        declared = ", ".join([*("double dt" if a == "dt" else f"const double *{a}" for a in arguments), f"double *{out}"])
+        comment = f"{api.described(kind, size, '{n} entries')}. {CONFIGURATION_NOTES.get(kind, '')}".strip()
+        ((count,),) = api.shapes(kind, size)
+        functions.append(CFunction(f"void {derivation.robot.name}_{kind}({declared})", comment,
+                                   program_body(names, entry.program, [f"{out}[{i}]" for i in range(count)])))
     return functions
 
 

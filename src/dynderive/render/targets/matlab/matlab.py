@@ -23,6 +23,7 @@ from pathlib import Path
 
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
+from ... import api
 from ...encode import Code
 from ...environment import render
 from ..c.c_names import refuse
@@ -154,25 +155,17 @@ def _linearize(derivation: Derivation, names: Names) -> MFunction:
          f"A = [zeros({n}, {n}), eye({n}); X(:, 1:{2 * n})];", f"B = [zeros({n}, {nu}); X(:, {2 * n + 1}:end)];"])
 
 
-#: The configuration maps: output, arguments, the MATLAB array of each argument of the program
-#: (``Derivation.configuration_programs``), the output's size (NQ or NV), help text.
-CONFIGURATION_FUNCTIONS = (
-    ("neutral_configuration", "q", [], {}, "nq",
-     ["NEUTRAL_CONFIGURATION  The neutral configuration, {nq} x 1: zeros, and identity quaternions (Pinocchio's "
-      "neutral)."]),
-    ("integrate", "out", ["q", "v", "dt"], {"q": "q", "v": "v", "dt": "dt"}, "nq",
-     ["INTEGRATE  The configuration reached from q ({nq} x 1) moving at v ({nv} x 1) for dt (default 1), "
-      "Pinocchio's integrate(q, v dt).", "",
-      "   q + v dt for the joints, a floating joint's pose times exp(v dt) on SE(3), a spherical joint's",
-      "   quaternion times exp(w dt); quaternions normalized, in the hemisphere of q's.",
-      "   q1 = {name}.integrate(q, v, dt)"]),
-    ("difference", "v", ["q0", "q1"], {"q_from": "q0", "q_to": "q1"}, "nv",
-     ["DIFFERENCE  The velocity v ({nv} x 1) that integrate turns q0 into q1 in unit time (Pinocchio's difference)."]),
-    ("configuration_rate", "out", ["q", "v"], {"q": "q", "v": "v"}, "nq",
-     ["CONFIGURATION_RATE  dq/dt ({nq} x 1) of q moving at v: the derivative of integrate(q, v, t) at t = 0.", "",
-      "   ode45(@(t, x) [{name}.configuration_rate(x(1:{nq}), x({nq1}:end)); "
-      "{name}.forward_dynamics(x(1:{nq}), x({nq1}:end), u, p)], tspan, x0)"]),
-)
+#: Each configuration map's output, and its help lines after the API table's.
+CONFIGURATION_FUNCTIONS = {
+    "neutral_configuration": ("q", []),
+    "integrate": ("out", ["", "   q + v dt for the joints, a floating joint's pose times exp(v dt) on SE(3), a spherical joint's",
+                          "   quaternion times exp(w dt); quaternions normalized, in the hemisphere of q's. dt: 1 if omitted.",
+                          "   q1 = {name}.integrate(q, v, dt)"]),
+    "difference": ("v", []),
+    "configuration_rate": ("out", ["", "   The derivative of integrate(q, v, t) at t = 0:",
+                                   "   ode45(@(t, x) [{name}.configuration_rate(x(1:{nq}), x({nq1}:end)); "
+                                   "{name}.forward_dynamics(x(1:{nq}), x({nq1}:end), u, p)], tspan, x0)"]),
+}
 
 #: The local function of a file whose program branches (``MatlabPrinter._choice``).
 IF_ELSE = MFunction("if_else", "y", ["condition", "yes", "no"],
@@ -181,20 +174,23 @@ IF_ELSE = MFunction("if_else", "y", ["condition", "yes", "no"],
 
 
 def _configuration_functions(derivation: Derivation) -> list[MFunction]:
-    """The configuration maps, each its joint types' program printed (no parameters)."""
-    sizes = {"nq": len(derivation.symbols.q), "nv": len(derivation.symbols.qd)}
-    text = sizes | {"name": derivation.robot.name, "nq1": sizes["nq"] + 1}
+    """The configuration maps, each its joint types' program printed (no parameters), with the
+    API table's arguments."""
+    size = api.sizes(derivation)
+    text = {"name": derivation.robot.name, "nq": size["NQ"], "nq1": size["NQ"] + 1}
     functions = []
-    for kind, out, arguments, arrays, size, help_lines in CONFIGURATION_FUNCTIONS:
-        entry = derivation.configuration_programs[kind]
-        names = Names(extra={symbol: array if key == "dt" else f"{array}({i + 1})"
-                             for key, array in arrays.items() for i, symbol in enumerate(entry.arguments[key])})
+    for kind, (out, help_lines) in CONFIGURATION_FUNCTIONS.items():
+        entry, arguments = derivation.configuration_programs[kind], list(api.BY_NAME[kind].arguments)
+        names = Names(extra={symbol: key if key == "dt" else f"{key}({i + 1})"
+                             for key in arguments for i, symbol in enumerate(entry.arguments[key])})
+        ((count,),) = api.shapes(kind, size)
         body = [f"{a} = {a}(:);" for a in arguments if a != "dt"]
         body += ["if nargin < 3", "    dt = 1;", "end"] if "dt" in arguments else []
-        body += [f"{out} = zeros({sizes[size]}, 1);", *program_body(names, entry.program, vector_targets(out, sizes[size]))]
+        body += [f"{out} = zeros({count}, 1);", *program_body(names, entry.program, vector_targets(out, count))]
         branches = any("if_else(" in line for line in body)
-        functions.append(MFunction(kind, out, arguments, [line.format(**text) for line in help_lines], body,
-                                   [IF_ELSE] if branches else []))
+        functions.append(MFunction(kind, out, arguments, [help_line(derivation, kind),
+                                                          *(line.format(**text) for line in help_lines)],
+                                   body, [IF_ELSE] if branches else []))
     return functions
 
 
