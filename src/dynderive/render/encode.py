@@ -20,7 +20,11 @@ class Code(str):
 _NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
 
 
-def _escape(char: str) -> str:
+def _printed(char: str) -> str:
+    """``char`` itself where it is a space or printable and no format, private-use or surrogate
+    code point (a bidi control hides what the text says), else its escape (``\\n``, ``\\x00``)."""
+    if char == " " or (char.isprintable() and unicodedata.category(char) not in ("Cf", "Co", "Cs")):
+        return char
     return _NAMED.get(char) or code_point(char)
 
 
@@ -39,25 +43,13 @@ def docstring(text: object) -> Code:
     """``text`` for the inside of a ``\"\"\"docstring\"\"\"``: backslashes and quotes escaped,
     every non-printable character (newlines, NUL, lone surrogates, bidi controls) written
     as an escape, so the docstring's value is ``text`` exactly."""
-    out = []
-    for char in str(text):
-        if char == "\\":
-            out.append("\\\\")
-        elif char in "\"'":
-            out.append("\\" + char)
-        elif char == " " or (char.isprintable() and unicodedata.category(char) not in ("Cf", "Co", "Cs")):
-            out.append(char)
-        else:
-            out.append(_escape(char))
-    return Code("".join(out))
+    return Code("".join("\\" + char if char in "\\\"'" else _printed(char) for char in str(text)))
 
 
 def python_literal(value: object) -> Code:
     """A Python literal for a string, number, ``None`` or a tuple of them, with the string
     escapes of ``docstring`` (so the source stays printable ASCII-safe UTF-8)."""
-    if value is None or isinstance(value, bool):
-        return Code(repr(value))
-    if isinstance(value, (int, float)):
+    if value is None or isinstance(value, (bool, int, float)):
         return Code(repr(value))
     if isinstance(value, (tuple, list)):
         items = [python_literal(v) for v in value]
@@ -118,10 +110,4 @@ def tex_unit(unit: object) -> str:
 
 def terminal_text(text: object) -> str:
     """Free text for a terminal: control characters (escape sequences!) shown as escapes."""
-    out = []
-    for char in str(text):
-        if char == " " or (char.isprintable() and unicodedata.category(char) not in ("Cf", "Co", "Cs")):
-            out.append(char)
-        else:
-            out.append(_escape(char))
-    return "".join(out)
+    return "".join(map(_printed, str(text)))

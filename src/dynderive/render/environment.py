@@ -14,6 +14,7 @@ while rendering is bad input: ``TemplateProblem`` at the template's file and lin
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -112,10 +113,8 @@ class _BytecodeCache(jinja2.FileSystemBytecodeCache):
             bucket.reset()
 
     def dump_bytecode(self, bucket: jinja2.bccache.Bucket) -> None:
-        try:
+        with contextlib.suppress(OSError):
             super().dump_bytecode(bucket)
-        except OSError:
-            pass
 
 
 def _bytecode_cache() -> jinja2.BytecodeCache | None:
@@ -154,13 +153,11 @@ def _python_source(value: object) -> object:
     """What a code template prints: encoded text (``Code``), numbers, or text that holds
     nothing that could change the program; anything else is a template bug (free text
     printed without ``|docstring`` or ``|py``), refused before a module is written."""
-    if isinstance(value, (Code, markupsafe.Markup)) or value is None or isinstance(value, (bool, int, float)):
+    if value is None or isinstance(value, (Code, markupsafe.Markup, bool, int, float)) \
+            or is_plain(str(value)):
         return value
-    text = str(value)
-    if not is_plain(text):
-        raise TemplateEncodingError(f"a code template printed text that is not encoded for Python: {text[:60]!r} "
-                                    "(use the |docstring or |py filter)")
-    return value
+    raise TemplateEncodingError("a code template printed text that is not encoded for Python: "
+                                f"{str(value)[:60]!r} (use the |docstring or |py filter)")
 
 
 class TemplateEncodingError(ValueError):
@@ -204,11 +201,7 @@ def render(kind: str, name: str, context: dict[str, object], template_dir: str |
 def _is_user_file(filename: str | None, template_dir: str | Path) -> bool:
     if not filename:
         return False
-    try:
-        Path(filename).resolve().relative_to(Path(template_dir).resolve())
-    except ValueError:
-        return False
-    return True
+    return Path(filename).resolve().is_relative_to(Path(template_dir).resolve())
 
 
 def _user_frame(exc: BaseException, template_dir: str | Path | None) -> tuple[str, int] | None:
@@ -256,11 +249,8 @@ def templates_in_use(names: list[str], template_dir: str | Path | None) -> list[
             references = _references(kind, directory, source)
         except jinja2.TemplateSyntaxError:
             continue   # rendering will report it
-        for reference in references:
-            if reference is None:
-                dynamic = True
-            else:
-                todo.append((kind, reference))
+        dynamic |= None in references
+        todo += [(kind, reference) for reference in references if reference is not None]
     used = {(name, path) for (_, name), path in found.items()}
     if dynamic and directory:
         base = Path(directory)

@@ -24,6 +24,7 @@ below 1e-4 and at or above 10^D. Exact constants (``\\sqrt{2}/2``, ``\\pi/4``) s
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from decimal import ROUND_HALF_EVEN, Context, Decimal
 from typing import Any
 
@@ -48,6 +49,13 @@ def _magnitude(value: sympy.Basic) -> float:
         return 0.0
 
 
+def _remembered(cache: dict[Any, Any], key: Any, make: Callable[[Any], Any]) -> Any:
+    """``make(key)``, made once per key (``None`` included)."""
+    if key not in cache:
+        cache[key] = make(key)
+    return cache[key]
+
+
 def _terminates(q: int) -> bool:
     """Whether 1/q has a finite decimal expansion (q = 2^a 5^b)."""
     for prime in (2, 5):
@@ -68,16 +76,13 @@ class Numbers:
         self._shown: dict[sympy.Basic, sympy.Basic] = {}   # products as ``mul`` shows them
         self._kinds: dict[Rational, tuple[str, Decimal | None]] = {}
         self._split: dict[sympy.Basic, tuple[sympy.Basic, sympy.Basic]] = {}
-        self._added: dict[sympy.Basic, sympy.Basic | None] = {}   # sums as ``add`` shows them
+        self._added: dict[sympy.Basic, sympy.Basic] = {}   # sums as ``add`` shows them
         self._constants: dict[sympy.Basic, Float | None] = {}
 
     # --- rationals -----------------------------------------------------------------------
     def _kind(self, r: Rational) -> tuple[str, Decimal | None]:
         """("fraction", None): SymPy prints it; ("exact", d) / ("rounded", d): the decimal d."""
-        known = self._kinds.get(r)
-        if known is None:
-            known = self._kinds[r] = self._classify(r)
-        return known
+        return _remembered(self._kinds, r, self._classify)
 
     def _classify(self, r: Rational) -> tuple[str, Decimal | None]:
         p, q = int(r.p), int(r.q)
@@ -111,27 +116,19 @@ class Numbers:
     def exact(self, expr: sympy.Basic) -> bool:
         """Whether a constant prints exactly: its rationals as integers, short fractions or
         decimals of at most D digits, its roots of short rationals only, no Float."""
-        known = self._exact.get(expr)
-        if known is not None:
-            return known
+        return _remembered(self._exact, expr, self._exact_uncached)
+
+    def _exact_uncached(self, expr: sympy.Basic) -> bool:
         if expr.is_Rational:
-            result = self._kind(expr)[0] != "rounded"
-        elif expr.is_Float:
-            result = False
-        elif expr.is_Pow and not expr.exp.is_Integer:
+            return self._kind(expr)[0] != "rounded"
+        if expr.is_Pow and not expr.exp.is_Integer:
             base, exp = expr.args
-            result = bool(base.is_Rational and self._kind(base)[0] == "fraction" and self.exact(exp))
-        else:
-            result = all(self.exact(a) for a in expr.args)
-        self._exact[expr] = result
-        return result
+            return bool(base.is_Rational and self._kind(base)[0] == "fraction" and self.exact(exp))
+        return not expr.is_Float and all(self.exact(a) for a in expr.args)
 
     def constant(self, expr: sympy.Basic) -> Float | None:
         """The marker of a constant that does not print exactly (its value to D digits), or None."""
-        if expr in self._constants:
-            return self._constants[expr]
-        marker = self._constants[expr] = self._constant(expr)
-        return marker
+        return _remembered(self._constants, expr, self._constant)
 
     def _constant(self, expr: sympy.Basic) -> Float | None:
         if not expr.is_number or self.exact(expr):
@@ -143,10 +140,7 @@ class Numbers:
 
     def split(self, term: sympy.Basic) -> tuple[sympy.Basic, sympy.Basic]:
         """A term as (its constant part, exact: coefficient and constant factors; the rest)."""
-        known = self._split.get(term)
-        if known is None:
-            known = self._split[term] = self._split_term(term)
-        return known
+        return _remembered(self._split, term, self._split_term)
 
     def _split_term(self, term: sympy.Basic) -> tuple[sympy.Basic, sympy.Basic]:
         coefficient, rest = term.as_coeff_Mul()
@@ -167,10 +161,7 @@ class Numbers:
         ``1.8e-49 (5.3e47 x + ...)`` (a CAD robot's exact factoring). Others as they are."""
         if not isinstance(expr, sympy.Mul):
             return expr
-        known = self._shown.get(expr)
-        if known is None:
-            known = self._shown[expr] = self._mul(expr)
-        return known
+        return _remembered(self._shown, expr, self._mul)
 
     def _mul(self, expr: sympy.Mul) -> sympy.Basic:
         value, symbolic = self.split(expr)
@@ -226,10 +217,7 @@ class Numbers:
         wrong one in ``-(1 - 2 sin(c)) x``); others as they are."""
         if not isinstance(expr, sympy.Add):
             return expr
-        if expr not in self._added:
-            collected = self._add(expr)
-            self._added[expr] = None if collected is expr else collected   # None: as it is
-        return self._added[expr] or expr
+        return _remembered(self._added, expr, self._add)
 
     def _add(self, expr: sympy.Add) -> sympy.Basic:
         args: list[sympy.Basic] = []
@@ -275,9 +263,7 @@ class Numbers:
 
     def value_parts(self, value: float) -> tuple[str, int | None]:
         """A parameter's value (a float, as written: its shortest form) to at most D digits."""
-        written = Decimal(repr(float(value))).normalize()
-        digits = max(1, len(written.as_tuple().digits))
-        return self.parts(Float(str(written), digits))
+        return self.parts(self.marker(Decimal(repr(float(value))).normalize()))
 
 
 class DecimalNumbers:
@@ -298,9 +284,7 @@ class DecimalNumbers:
 
     def _print_Mul(self, expr: Any, *args: Any, **kwargs: Any) -> Any:
         rewritten = self.numbers.mul(expr)
-        if rewritten is expr:
-            return super()._print_Mul(expr, *args, **kwargs)  # type: ignore[misc]
-        if not rewritten.is_Mul:
+        if rewritten is not expr and not rewritten.is_Mul:
             return self._print(rewritten)  # type: ignore[attr-defined]
         return super()._print_Mul(rewritten, *args, **kwargs)  # type: ignore[misc]
 

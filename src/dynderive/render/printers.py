@@ -18,22 +18,32 @@ from sympy.printing.str import StrPrinter
 from .numbers import DecimalNumbers, Numbers, latex_decimal
 
 
-class RememberingLatexPrinter(LatexPrinter):
-    """``sympy.latex(expr, **settings)`` is ``LatexPrinter(settings).doprint(expr)``; this
-    printer gives the same text and remembers it for every sub-expression printed without
-    extra arguments (a function raised to a power passes its exponent: not remembered)."""
+class _Remembering:
+    """Printer mixin (before the SymPy printer in the bases): the text of every sub-expression
+    printed without extra arguments (a function raised to a power passes its exponent) is
+    remembered, except floating-point numbers, whose text can depend on whether they are
+    printed at the top (``StrPrinter``'s ``full_prec="auto"``)."""
 
     def __init__(self, settings: dict[str, Any]):
-        super().__init__(settings)
+        super().__init__(settings)  # type: ignore[call-arg]
         self._memo: dict[sympy.Basic, str] = {}
 
     def _print(self, expr: Any, **kwargs: Any) -> str:
-        if kwargs or not isinstance(expr, sympy.Basic):
-            return super()._print(expr, **kwargs)
+        if kwargs or not isinstance(expr, sympy.Basic) or expr.is_Float:
+            return super()._print(expr, **kwargs)  # type: ignore[misc]
         known = self._memo.get(expr)
         if known is None:
-            known = self._memo[expr] = super()._print(expr)
+            known = self._memo[expr] = super()._print(expr)  # type: ignore[misc]
         return known
+
+
+class RememberingLatexPrinter(_Remembering, LatexPrinter):
+    """``sympy.latex(expr, **settings)`` is ``LatexPrinter(settings).doprint(expr)``: this
+    printer gives the same text, remembered."""
+
+
+class RememberingStrPrinter(_Remembering, StrPrinter):
+    """``sympy.sstr(expr, **settings)`` (``StrPrinter(settings).doprint(expr)``), remembered."""
 
 
 class SheetLatexPrinter(DecimalNumbers, RememberingLatexPrinter):
@@ -45,24 +55,6 @@ class SheetLatexPrinter(DecimalNumbers, RememberingLatexPrinter):
 
     def _decimal(self, mantissa: str, exponent: int | None) -> str:
         return latex_decimal(mantissa, exponent)
-
-
-class RememberingStrPrinter(StrPrinter):
-    """``sympy.sstr(expr, **settings)`` (``StrPrinter(settings).doprint(expr)``), remembered
-    for every sub-expression except floating-point numbers, whose text depends on whether
-    they are printed at the top (``full_prec="auto"``)."""
-
-    def __init__(self, settings: dict[str, Any]):
-        super().__init__(settings)
-        self._memo: dict[sympy.Basic, str] = {}
-
-    def _print(self, expr: Any, **kwargs: Any) -> str:
-        if kwargs or not isinstance(expr, sympy.Basic) or expr.is_Float:
-            return super()._print(expr, **kwargs)
-        known = self._memo.get(expr)
-        if known is None:
-            known = self._memo[expr] = super()._print(expr)
-        return known
 
 
 class DerivationFormatter:

@@ -67,8 +67,8 @@ def verify_module(text: str, title: str | None = None, imports: frozenset[str] |
 
 def render_test_module(derivation: Derivation, template: str, template_dir: str | Path | None = None,
                        **context: Any) -> str:
-    """A generated pytest file (the NumPy module's checks), parsed
-    before it is returned; ``context`` adds to its module name, generator and source."""
+    """A generated pytest file (the NumPy module's checks), parsed before it is returned;
+    ``context`` adds to its module name, generator and source."""
     from .._version import __version__
 
     context |= {"module": f"{derivation.robot.name}_dynamics", "generator": f"dynderive {__version__}",

@@ -14,17 +14,27 @@ def compiled_backend(derivation: Any, source: str, progress: Callable[[str], Non
     """The C target's harness: the extension compiled for this process, each of its functions
     against the NumPy module ``source``."""
     from ..render.targets.c_extension.compile import compiled_module
+    from .compiled import compiled_checks
 
     compiled = compiled_module(derivation, progress=progress)
     progress("checking the compiled module")
-    from .compiled import compiled_checks
-
     return compiled_checks(derivation, source, compiled, states=states)
 
 
 def jax_backend(derivation: Any, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:
-    """The JAX target's harness: the JAX module against the NumPy module, in float64."""
+    """The JAX target's harness: the JAX module against the NumPy module ``source`` at random
+    states, in float64 (``jax_enable_x64`` is switched on for this process): the compiled
+    extension's comparison (``compiled.py``), for a robot with quaternions ``floating_rows``."""
     progress("checking the JAX module")
-    from .jax_backend import jax_checks
+    import jax
 
-    return jax_checks(derivation, source, states=states)
+    from ..render.targets.jax.jax import render_jax
+    from .checks import generated_module
+    from .compiled import compiled_checks, floating_rows
+
+    jax.config.update("jax_enable_x64", True)
+    robot = derivation.robot
+    module = generated_module(render_jax(derivation), f"{robot.name}_jax")
+    if robot.floating:
+        return floating_rows(generated_module(source, robot.name), module, robot, "JAX", states)
+    return compiled_checks(derivation, source, module, states=states, label="JAX", target="jax")

@@ -15,7 +15,7 @@ import sympy
 
 from ..derivation import Derivation
 from ..mechanics.tidy import Check, check_zero, is_small
-from .rows import Row, _row, applied
+from .rows import Row, _row, applied, peak
 
 #: Quantities larger than this (tree nodes) are not evaluated symbolically against the code.
 SYMBOLIC_EVALUATION_NODES = 60_000
@@ -32,18 +32,17 @@ def generated_module(source: str, name: str) -> types.ModuleType:
     return module
 
 
-def _from_check(check: Check) -> Row:
+def _from_check(check: Check, method: str = "engine, ") -> Row:
+    """A ``Check``'s row: the engine's own (``derivation.checks``), or one of ours (``method`` "")."""
     if check.skipped:
         return Row(check.name, "skip", "not derived (too large)", float("nan"))
-    return _row(check.name, check.passed, f"engine, {check.method}", check.residual)
+    return _row(check.name, check.passed, method + check.method, check.residual)
 
 
 def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int = 0) -> list[Row]:
-    """Every check that applies to ``derivation``'s robot, at ``states`` random states (random
-    unit quaternions for floating and spherical joints): M, then for a robot whose
-    configuration is on a manifold (NQ != NV) the module's functions against each other along
-    its ``integrate``, for any other the symbolic quantities and the module against each
-    other; then Pinocchio (``pinocchio_checks``)."""
+    """Every check that applies to ``derivation``'s robot, at ``states`` random states
+    (``random_configurations``): M, then ``_along_integrate`` for a configuration on a manifold
+    (NQ != NV), ``_generalized_rows`` for any other, then Pinocchio (``pinocchio_checks``)."""
     from .pinocchio_checks import pinocchio_rows
 
     robot = derivation.robot
@@ -60,7 +59,7 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
         rows += loop_rows
     rows += _mass_matrix(derivation, module, values, qs, states)
     if robot.floating:
-        rows += _along_integrate(derivation, source, module, values, qs, qds, us, rng)
+        rows += _along_integrate(derivation, module, values, qs, qds, us, rng)
     else:
         rows += _generalized_rows(derivation, module, values, qs, qds, us, rng)
     return rows + pinocchio_rows(derivation, module, values, qs[:5], qds[:5], us[:5])
@@ -82,11 +81,10 @@ def _mass_matrix(derivation: Derivation, module: Any, values: dict[str, float], 
     mats = module.mass_matrix(qs, **values)
     M = None if derivation.robot.floating else derivation.quantities["M_g"]   # with quaternions: no Lagrange M
     if M is not None and is_small(M, SYMBOLIC_EVALUATION_NODES):
-        check = check_zero("M symmetric", "", M - M.T, [])
-        rows = [_row("M symmetric", check.passed, check.method, check.residual)]
+        rows = [_from_check(check_zero("M symmetric", "", M - M.T, []), "")]
     else:
-        worst = float(np.max(np.abs(mats - np.swapaxes(mats, -1, -2))))
-        rows = [_row("M symmetric", worst < 1e-9 * max(1.0, float(np.max(np.abs(mats)))), "numeric", worst)]
+        worst = peak(mats - np.swapaxes(mats, -1, -2))
+        rows = [_row("M symmetric", worst < 1e-9 * max(1.0, peak(mats)), "numeric", worst)]
     eig = np.linalg.eigvalsh(mats)
     return rows + [_row(f"M positive definite ({states} random states)", bool(np.all(eig[..., 0] > 0)),
                         "numeric, smallest eigenvalue", float(np.min(eig[..., 0])))]
@@ -98,8 +96,8 @@ def _generalized_rows(derivation: Derivation, module: Any, values: dict[str, flo
     engine's own checks, the maximal model, the code against the symbolic quantities, and the
     module's linearization, regressor and frames."""
     robot = derivation.robot
-    rows = [_skew_check(derivation, module, values, qs, qds), _power_balance(module, values, qs, qds, us,
-                                                                             robot.dissipative)]
+    rows = [_skew_check(derivation, module, values, qs, qds),
+            _power_balance(module, values, qs, qds, us, robot.dissipative)]
     if robot.loops:
         rows.append(_reduced_agrees(module, values, qs, qds, us))
     rows += [_from_check(c) for c in derivation.checks]
@@ -115,7 +113,6 @@ def _derived_functions(module: Any, values: dict[str, float], qs: np.ndarray, qd
     factor: central differences of ``forward_dynamics`` and of the frames' poses, and
     ``inverse_dynamics`` itself."""
     n, h = qs.shape[1], 1e-6
-    rows = []
     worst, scale = 0.0, 1.0
     for q, qd, u in zip(qs, qds, us):
         A, B = module.linearize(q, qd, u, **values)
@@ -126,17 +123,16 @@ def _derived_functions(module: Any, values: dict[str, float], qs: np.ndarray, qd
 
         numeric = np.array([(xdot(x + h * e, u) - xdot(x - h * e, u)) / (2 * h) for e in np.eye(2 * n)]).T
         inputs = np.array([(xdot(x, u + h * e) - xdot(x, u - h * e)) / (2 * h) for e in np.eye(len(u))]).T
-        worst = max(worst, float(np.max(np.abs(A - numeric))), float(np.max(np.abs(B - inputs.reshape(B.shape)),
-                                                                            initial=0.0)))
-        scale = max(scale, float(np.max(np.abs(A))))
-    rows.append(_row("linearize matches central differences of forward_dynamics", worst < 1e-5 * scale,
-                     "numeric (h = 1e-6)", worst))
+        worst = max(worst, peak(A - numeric), peak(B - inputs.reshape(B.shape)))
+        scale = max(scale, peak(A))
     qdds = rng.uniform(-1.0, 1.0, qs.shape)
     Y = module.regressor(qs, qds, qdds, **values)
     tau = module.inverse_dynamics(qs, qds, qdds, **values)
-    residual = float(np.max(np.abs(Y @ module.parameter_vector(**values) - tau)))
-    rows.append(_row("regressor(q, qd, qdd) @ parameter_vector() = inverse_dynamics (the tree's)",
-                     residual < 1e-9 * max(1.0, float(np.max(np.abs(tau)))), "numeric", residual))
+    residual = peak(Y @ module.parameter_vector(**values) - tau)
+    rows = [_row("linearize matches central differences of forward_dynamics", worst < 1e-5 * scale,
+                 "numeric (h = 1e-6)", worst),
+            _row("regressor(q, qd, qdd) @ parameter_vector() = inverse_dynamics (the tree's)",
+                 residual < 1e-9 * max(1.0, peak(tau)), "numeric", residual)]
     if module.FRAMES:
         worst, scale = 0.0, 1.0
         for q, qd in zip(qs, qds):
@@ -146,9 +142,9 @@ def _derived_functions(module: Any, values: dict[str, float], qs: np.ndarray, qd
                 linear = (ahead[:-1, -1] - behind[:-1, -1]) / (2 * h)
                 rate = (module.frame_jacobian(q + h * qd, frame, **values)
                         - module.frame_jacobian(q - h * qd, frame, **values)) @ qd / (2 * h)
-                worst = max(worst, float(np.max(np.abs(J[: len(linear)] @ qd - linear))),
-                            float(np.max(np.abs(module.frame_jacobian_dot_qd(q, qd, frame, **values) - rate))))
-                scale = max(scale, float(np.max(np.abs(J))))
+                worst = max(worst, peak(J[: len(linear)] @ qd - linear),
+                            peak(module.frame_jacobian_dot_qd(q, qd, frame, **values) - rate))
+                scale = max(scale, peak(J))
         rows.append(_row(f"frames ({len(module.FRAMES)}): J qd = dp/dt and Jdot qd = d(J qd)/dt", worst < 1e-5 * scale,
                          "numeric (h = 1e-6)", worst))
     return rows
@@ -175,9 +171,9 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
         return qs[:0], qds[:0], [Row("loop constraints hold at assembled states", "FAIL",
                                      "numeric: no random state could be assembled", float("nan"))]
     qs, qds = np.array(states), np.array(rates)
-    residual = float(np.max(np.abs(module.loop_constraints(qs, **values))))
+    residual = peak(module.loop_constraints(qs, **values))
     rows.append(_row(f"loop constraints a_g = 0 at {len(qs)} assembled states", residual < 1e-9, "numeric", residual))
-    velocity = float(np.max(np.abs(np.einsum("...ij,...j->...i", module.loop_jacobian(qs, **values), qds))))
+    velocity = peak(np.einsum("...ij,...j->...i", module.loop_jacobian(qs, **values), qds))
     rows.append(_row("A_g qd = 0 for the velocities the loops allow", velocity < 1e-9, "numeric", velocity))
     return qs, qds, rows
 
@@ -201,13 +197,12 @@ def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: 
     allow) holds for the constrained accelerations of the multiplier form."""
     worst, scale = 0.0, 1.0
     for q, qd, u in zip(qs, qds, us):
-        R = _allowed_motions(module, q, values).T
         qdd = module.forward_dynamics(q, qd, u, **values)
-        worst = max(worst, float(np.max(np.abs(module.reduced_forward_dynamics(q, qd, u, **values) - qdd))))
         forces = module.mass_matrix(q, **values) @ qdd + module.inverse_dynamics(q, qd, np.zeros(len(q)), **values) \
             - module.generalized_forces(q, u, **values)
-        worst = max(worst, float(np.max(np.abs(R.T @ forces))))
-        scale = max(scale, float(np.max(np.abs(forces))))
+        worst = max(worst, peak(module.reduced_forward_dynamics(q, qd, u, **values) - qdd),
+                    peak(_allowed_motions(module, q, values) @ forces))
+        scale = max(scale, peak(forces))
     return _row("reduced form R_g^T (M qdd + C qd + N - Y) = 0, reduced_forward_dynamics == forward_dynamics",
                 worst < 1e-9 * scale, "numeric", worst)
 
@@ -217,16 +212,14 @@ def _skew_check(derivation: Derivation, module: Any, values: dict[str, float], q
     name = "Mdot - 2C skew-symmetric"
     table, M, C = derivation.symbols, derivation["M_g"], derivation["C_g"]
     if is_small(M, 2000) and is_small(C, 4000) and not derivation.intermediate_form:
-        Mdot = sum((M.diff(qk) * qdk for qk, qdk in zip(table.q, table.qd)), sympy.zeros(*M.shape))
-        S = Mdot - 2 * C
-        check = check_zero(name, "", S + S.T, [])
-        return _row(name, check.passed, check.method, check.residual)
+        S = sum((M.diff(qk) * qdk for qk, qdk in zip(table.q, table.qd)), sympy.zeros(*M.shape)) - 2 * C
+        return _from_check(check_zero(name, "", S + S.T, []), "")
     h, worst, scale = 1e-6, 0.0, 1.0
     for q, qd in zip(qs, qds):
         Mdot = (module.mass_matrix(q + h * qd, **values) - module.mass_matrix(q - h * qd, **values)) / (2 * h)
         S = Mdot - 2 * module.coriolis_matrix(q, qd, **values)
-        worst = max(worst, float(np.max(np.abs(S + S.T))))
-        scale = max(scale, float(np.max(np.abs(Mdot))))
+        worst = max(worst, peak(S + S.T))
+        scale = max(scale, peak(Mdot))
     return _row(name, worst < 1e-6 * scale, "numeric (central differences)", worst)
 
 
@@ -237,12 +230,8 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, qds: n
     h, worst, scale = 1e-5, 0.0, 1.0
     for q, qd, u in zip(qs, qds, us):
         qdd = module.forward_dynamics(q, qd, u, **values)
-
-        def energy(t: float, q: np.ndarray = q, qd: np.ndarray = qd, qdd: np.ndarray = qdd) -> float:
-            qt, qdt = q + qd * t + qdd * t**2 / 2, qd + qdd * t
-            return float(module.kinetic_energy(qt, qdt, **values) + module.potential_energy(qt, **values))
-
-        rate = (energy(h) - energy(-h)) / (2 * h)
+        ahead, behind = (_energy(module, values, q + qd * t + qdd * t**2 / 2, qd + qdd * t) for t in (h, -h))
+        rate = (ahead - behind) / (2 * h)
         dissipated = float(qd @ module.friction_forces(qd, **values))
         power = float(qd @ module.generalized_forces(q, u, **values)) - dissipated
         worst = max(worst, abs(rate - power))
@@ -251,10 +240,16 @@ def _power_balance(module: Any, values: dict[str, float], qs: np.ndarray, qds: n
     return _row(name, worst < 1e-5 * scale, "numeric (central differences)", worst)
 
 
+def _energy(module: Any, values: dict[str, float], q: np.ndarray, qd: np.ndarray) -> Any:
+    """The energy T + V at ``(q, qd)`` (one state or a batch)."""
+    return module.kinetic_energy(q, qd, **values) + module.potential_energy(q, **values)
+
+
 def _maximal_checks(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
                     us: np.ndarray) -> list[Row]:
-    worst = {"H^T M_m H = M_g": 0.0, "H^T (M_m Hdot + C_m H) qd = C_g qd": 0.0, "H^T N_m = N_g": 0.0,
-             "H^T Y_m = Y_g": 0.0, "constraint forces consistent": 0.0}
+    """The maximal form through ``H = d(to_maximal)/dq`` against the generalized one, and the
+    constraint forces against the maximal equations of motion and the constraints' acceleration."""
+    worst: dict[str, float] = {}
     h = 1e-6
     for q, qd, u in zip(qs, qds, us):
         hq = module.to_maximal(q, **values)
@@ -263,27 +258,27 @@ def _maximal_checks(module: Any, values: dict[str, float], qs: np.ndarray, qds: 
         v = H @ qd
         Mm = module.maximal_mass_matrix(hq, **values)
         Cm = module.maximal_coriolis_matrix(hq, v, **values)
+        Nm = module.maximal_gravity_vector(hq, **values)
         Ym = module.maximal_efforts(hq, u, **values)
-        pairs = {
-            "H^T M_m H = M_g": (H.T @ Mm @ H, module.mass_matrix(q, **values)),
-            "H^T (M_m Hdot + C_m H) qd = C_g qd": (H.T @ (Mm @ Hdot + Cm @ H) @ qd,
-                                                   module.coriolis_matrix(q, qd, **values) @ qd),
-            "H^T N_m = N_g": (H.T @ module.maximal_gravity_vector(hq, **values), module.gravity_vector(q, **values)),
-            "H^T Y_m = Y_g": (H.T @ Ym, module.generalized_forces(q, u, **values)),
-        }
-        friction = np.zeros(len(v))
-        if hasattr(module, "maximal_friction_forces"):
-            friction = module.maximal_friction_forces(hq, v, **values)
-            pairs["H^T F_m = F_g"] = (H.T @ friction, module.friction_forces(qd, **values))
-        for key, (a, b) in pairs.items():
-            worst[key] = max(worst.get(key, 0.0), float(np.max(np.abs(a - b))))
+        frictional = hasattr(module, "maximal_friction_forces")
+        friction = module.maximal_friction_forces(hq, v, **values) if frictional else np.zeros(len(v))
         qmdd = module.maximal_forward_dynamics(hq, v, u, **values)
         lam = module.constraint_forces(hq, v, u, **values)
         A = module.constraint_jacobian(hq, **values)
-        residual = Mm @ qmdd + Cm @ v + module.maximal_gravity_vector(hq, **values) + friction + A.T @ lam - Ym
+        residual = Mm @ qmdd + Cm @ v + Nm + friction + A.T @ lam - Ym
         acceleration = A @ qmdd + module.constraint_jacobian_dot(hq, v, **values) @ v
-        worst["constraint forces consistent"] = max(worst["constraint forces consistent"],
-                                                    float(np.max(np.abs(residual))), float(np.max(np.abs(acceleration))))
+        differences = {
+            "H^T M_m H = M_g": H.T @ Mm @ H - module.mass_matrix(q, **values),
+            "H^T (M_m Hdot + C_m H) qd = C_g qd": (H.T @ (Mm @ Hdot + Cm @ H) @ qd
+                                                   - module.coriolis_matrix(q, qd, **values) @ qd),
+            "H^T N_m = N_g": H.T @ Nm - module.gravity_vector(q, **values),
+            "H^T Y_m = Y_g": H.T @ Ym - module.generalized_forces(q, u, **values),
+            "constraint forces consistent": np.concatenate([residual, acceleration]),
+        }
+        if frictional:
+            differences["H^T F_m = F_g"] = H.T @ friction - module.friction_forces(qd, **values)
+        for key, difference in differences.items():
+            worst[key] = max(worst.get(key, 0.0), peak(difference))
     tolerance = {"H^T (M_m Hdot + C_m H) qd = C_g qd": 1e-5}
     return [_row(k, w < tolerance.get(k, 1e-8), "numeric", w) for k, w in worst.items()]
 
@@ -310,36 +305,34 @@ def _code_matches_symbolic(derivation: Derivation, module: Any, values: dict[str
             expected = np.asarray(symbolic(q, qd, u, [values[p.name] for p in params]), dtype=float)
             got = np.asarray(getattr(module, function)(*({"q": q, "qd": qd}[a] for a in arguments.split()), **values),
                              dtype=float)
-            worst = max(worst, float(np.max(np.abs(expected.reshape(got.shape) - got))))
-            scale = max(scale, float(np.max(np.abs(expected))))
+            worst = max(worst, peak(expected.reshape(got.shape) - got))
+            scale = max(scale, peak(expected))
         rows.append(_row(name, worst <= 1e-10 * scale, "numeric", worst))
     return rows
 
 
-def _along_integrate(derivation: Derivation, source: str, module: Any, values: dict[str, float], qs: np.ndarray,
+def _along_integrate(derivation: Derivation, module: Any, values: dict[str, float], qs: np.ndarray,
                      vs: np.ndarray, us: np.ndarray, rng: np.random.Generator) -> list[Row]:
     """A configuration on a manifold (NQ != NV): the module's functions against each other, and
     along its ``integrate``: the energy balance, the momentum of a floating base, the energy of
     a run, ``integrate`` and ``difference``, the frames."""
     robot = derivation.robot
     M = module.mass_matrix(qs, **values)
-    scale = max(1.0, float(np.max(np.abs(M))))
     zero = np.zeros_like(vs)
     bias = module.inverse_dynamics(qs, vs, zero, **values)
     qdds = module.forward_dynamics(qs, vs, us, **values)
     forces = np.einsum("...ij,...j->...i", M, qdds) + bias
-    worst = float(np.max(np.abs(module.inverse_dynamics(qs, vs, qdds, **values) - forces)))
-    worst = max(worst, float(np.max(np.abs(forces - np.array([applied(robot, u) for u in us])))))
+    worst = peak(module.inverse_dynamics(qs, vs, qdds, **values) - forces)
+    worst = max(worst, peak(forces - np.array([applied(robot, u) for u in us])))
     rows = [_row("inverse_dynamics = M qdd + inverse_dynamics(q, qd, 0), and = Y at forward_dynamics' qdd",
-                 worst < 1e-9 * max(scale, float(np.max(np.abs(forces)))), "numeric", worst)]
-    gravity = float(np.max(np.abs(module.gravity_vector(qs, **values) - module.inverse_dynamics(qs, zero, zero,
-                                                                                                 **values))))
-    rows.append(_row("gravity_vector = inverse_dynamics(q, 0, 0)", gravity < 1e-12 * max(1.0, float(np.max(
-        np.abs(bias)))), "numeric", gravity))
+                 worst < 1e-9 * max(1.0, peak(M), peak(forces)), "numeric", worst)]
+    gravity = peak(module.gravity_vector(qs, **values) - module.inverse_dynamics(qs, zero, zero, **values))
+    rows.append(_row("gravity_vector = inverse_dynamics(q, 0, 0)", gravity < 1e-12 * max(1.0, peak(bias)),
+                     "numeric", gravity))
     rows.append(_energy_balance(module, values, qs, vs, rng))
     if robot.floating_base:   # a fixed base (spherical joints only) takes the world's reaction
         rows.append(_momentum(module, robot, values, qs[:6], vs[:6], us[:6]))
-    rows.append(_energy_along_a_run(derivation, source, values, qs[0], vs[0]))
+    rows.append(_energy_along_a_run(module, values, qs[0], vs[0]))
     rows += _manifold(module, robot, qs, vs)
     if module.FRAMES:
         rows.append(_frames_along_integrate(module, values, qs[:4], vs[:4]))
@@ -355,12 +348,8 @@ def _energy_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: n
     h, worst, scale = 1e-5, 0.0, 1.0
     for q, v in zip(qs, vs):
         a = rng.uniform(-1.0, 1.0, v.shape)
-
-        def energy(t: float, q: np.ndarray = q, v: np.ndarray = v, a: np.ndarray = a) -> float:
-            moved = module.integrate(q, v, t)
-            return float(module.kinetic_energy(moved, v + t * a, **values) + module.potential_energy(moved, **values))
-
-        rate = (energy(h) - energy(-h)) / (2 * h)   # damping and friction take power out: F is not in d(T + V)/dt
+        ahead, behind = (_energy(module, values, module.integrate(q, v, t), v + t * a) for t in (h, -h))
+        rate = (ahead - behind) / (2 * h)   # damping and friction take power out: F is not in d(T + V)/dt
         power = float(v @ (module.inverse_dynamics(q, v, a, **values) - module.friction_forces(v, **values)))
         worst, scale = max(worst, abs(rate - power)), max(scale, abs(power))
     return _row(POWER_BALANCE, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
@@ -369,11 +358,11 @@ def _energy_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: n
 def _momentum(module: Any, robot: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
               us: np.ndarray) -> Row:
     """Without gravity and without the efforts of the floating base's own joint (a wrench from
-    the world, zeroed here) the efforts are internal: the whole robot's
-    linear and angular momentum (``system_momentum``) stays constant. Its rate along
-    ``q(t) = integrate(q, v, t)``, ``v(t) = v + t a``, with ``a`` the accelerations the efforts
-    give without gravity (``M a = Y - (inverse_dynamics(q, v, 0) - gravity_vector(q))``), by
-    central differences, against the size of the gravity-free accelerations' momentum change."""
+    the world, zeroed here) the efforts are internal: the whole robot's linear and angular
+    momentum (``system_momentum``) stays constant. Its rate along ``q(t) = integrate(q, v, t)``,
+    ``v(t) = v + t a``, with ``a`` the accelerations the efforts give without gravity
+    (``M a = Y - (inverse_dynamics(q, v, 0) - gravity_vector(q))``), by central differences,
+    against the size of the gravity-free accelerations' momentum change."""
     h, worst, scale = 1e-5, 0.0, 1.0
     external = [k for k, name in enumerate(robot.efforts)
                 for j in robot.joints if j.parent == "world" and name in j.effort_names]
@@ -385,13 +374,13 @@ def _momentum(module: Any, robot: Any, values: dict[str, float], qs: np.ndarray,
         a = np.linalg.solve(mass, applied(robot, u) - bias)
         ahead, behind = (system_momentum(module, robot, module.integrate(q, v, s * h), v + s * h * a, values)
                          for s in (1, -1))
-        worst = max(worst, float(np.max(np.abs(ahead - behind))) / (2 * h))
-        scale = max(scale, float(np.max(np.abs(mass @ a))), float(np.max(np.abs(ahead))))
+        worst = max(worst, peak(ahead - behind) / (2 * h))
+        scale = max(scale, peak(mass @ a), peak(ahead))
     return _row(MOMENTUM, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
 
 
-def _energy_along_a_run(derivation: Derivation, source: str, values: dict[str, float], q: np.ndarray,
-                        v: np.ndarray, duration: float = 0.5) -> Row:
+def _energy_along_a_run(module: Any, values: dict[str, float], q: np.ndarray, v: np.ndarray,
+                        duration: float = 0.5) -> Row:
     """The module's rates (``configuration_rate``, ``forward_dynamics``) integrated without
     efforts from a random state, as ``simulate`` does: the energy T + V stays what it was
     (tolerance 1e-10 of the integrator); with damping or friction T + V + W does, W the work
@@ -403,10 +392,7 @@ def _energy_along_a_run(derivation: Derivation, source: str, values: dict[str, f
         return Row(ENERGY_RUN, "skip", "SciPy is not installed", float("nan"))
     from scipy.integrate import solve_ivp
 
-    module = generated_module(source, derivation.robot.name)
-    nq, zero = len(q), np.zeros(len(derivation.robot.efforts))
-
-    nv, smoothing = len(v), 0.01
+    nq, nv, zero, smoothing = len(q), len(v), np.zeros(len(module.EFFORTS)), 0.01
 
     def rhs(time: float, y: np.ndarray) -> np.ndarray:   # the module's own rates: quaternions stay unit
         qd = y[nq:nq + nv]
@@ -417,10 +403,10 @@ def _energy_along_a_run(derivation: Derivation, source: str, values: dict[str, f
     run = solve_ivp(rhs, (0.0, duration), np.concatenate([q, v, [0.0]]), method="DOP853", rtol=1e-10, atol=1e-10,
                     t_eval=np.linspace(0.0, duration, 3))
     position, velocity, work = run.y[:nq].T, run.y[nq:nq + nv].T, run.y[nq + nv]
-    energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values) + work
+    energy = _energy(module, values, position, velocity) + work
     potential = float(module.potential_energy(q, **values))
     scale = max(1.0, abs(energy[0] - potential) + abs(potential))
-    worst = float(np.max(np.abs(energy - energy[0])))
+    worst = peak(energy - energy[0])
     return _row(ENERGY_RUN, worst < 1e-6 * scale, f"numeric ({duration:g} s simulated)", worst)
 
 
@@ -434,7 +420,7 @@ def _frames_along_integrate(module: Any, values: dict[str, float], qs: np.ndarra
             twist = module.frame_jacobian(q, frame, **values) @ v
             spin = (ahead[:3, :3] - behind[:3, :3]) / (2 * h) @ module.frame_transform(q, frame, **values)[:3, :3].T
             numeric = np.concatenate([(ahead[:3, 3] - behind[:3, 3]) / (2 * h), [spin[2, 1], spin[0, 2], spin[1, 0]]])
-            worst, scale = max(worst, float(np.max(np.abs(twist - numeric)))), max(scale, float(np.max(np.abs(twist))))
+            worst, scale = max(worst, peak(twist - numeric)), max(scale, peak(twist))
     return _row(f"frames ({len(module.FRAMES)}): frame_jacobian qd = d(pose)/dt along integrate", worst < 1e-5 * scale,
                 f"numeric (h = {h:g})", worst)
 
@@ -443,8 +429,8 @@ def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[R
     """``integrate`` keeps quaternions unit; ``difference`` inverts it."""
     moved = module.integrate(qs, vs, 0.7)
     norms = [np.linalg.norm(moved[:, start:start + 4], axis=1) for start in robot.quaternion_starts]
-    unit = float(np.max(np.abs(np.array(norms) - 1.0)))
-    back = float(np.max(np.abs(module.difference(qs, moved) - 0.7 * vs)))
+    unit = peak(np.array(norms) - 1.0)
+    back = peak(module.difference(qs, moved) - 0.7 * vs)
     return [_row("integrate keeps the quaternions unit", unit < 1e-12, "numeric", unit),
             _row("difference(q, integrate(q, v, dt)) = v dt", back < 1e-9, "numeric", back)]
 

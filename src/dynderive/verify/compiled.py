@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..render import api
-from .rows import Row
+from .rows import Row, peak
 
 #: Agreement required of the compiled functions, relative to the result's largest entry.
 RTOL = 1e-12
@@ -47,10 +47,7 @@ def _difference(expected: Any, got: Any) -> float:
     expected, got = np.asarray(expected, dtype=float), np.asarray(got, dtype=float)
     if expected.shape != got.shape:
         return float("inf")
-    if not expected.size:
-        return 0.0
-    scale = max(1.0, float(np.max(np.abs(expected))))
-    return float(np.max(np.abs(expected - got))) / scale
+    return peak(expected - got) / max(1.0, peak(expected))
 
 
 def _compared(module: Any, other: Any, values: dict[str, float], states: dict[str, np.ndarray],
@@ -69,22 +66,19 @@ def _compared(module: Any, other: Any, values: dict[str, float], states: dict[st
             missing.append(name)
             continue
         arrays = [states[a] for a in args.split()]
+        calls = [arrays, [a[0] for a in arrays]] if arrays else [arrays]   # a batch, and one state
         keywords = {} if name in GEOMETRY else dict(
             values, **(friction if name in ("inverse_dynamics", "forward_dynamics", "friction_forces", "linearize",
                                             "loop_forces", "reduced_forward_dynamics") else {}))
+        title = f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module"
         try:
-            worst = _difference(getattr(module, name)(*arrays, *extra, **keywords),
-                                getattr(other, name)(*arrays, *extra, **keywords))
-            if arrays:   # one state: the fast path
-                worst = max(worst, _difference(getattr(module, name)(*(a[0] for a in arrays), *extra, **keywords),
-                                               getattr(other, name)(*(a[0] for a in arrays), *extra, **keywords)))
+            worst = max(_difference(*(getattr(m, name)(*given, *extra, **keywords) for m in (module, other)))
+                        for given in calls)
         except (ValueError, TypeError, np.linalg.LinAlgError) as exc:
-            rows.append(Row(f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module", "FAIL",
-                            f"raised {type(exc).__name__}: {exc}", float("nan")))
+            rows.append(Row(title, "FAIL", f"raised {type(exc).__name__}: {exc}", float("nan")))
             continue
         tolerance = RTOLS.get(name, RTOL)
-        rows.append(Row(f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module",
-                        "pass" if worst <= tolerance else "FAIL",
+        rows.append(Row(title, "pass" if worst <= tolerance else "FAIL",
                         f"numeric, {count} states and one, relative (at most {tolerance:g})", worst))
     return rows, missing
 

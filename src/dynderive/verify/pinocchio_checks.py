@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..derivation import Derivation
-from .rows import Row, _row, applied
+from .rows import Row, _row, applied, peak
 
 FREE_FLYER = ("agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
               "difference)")
@@ -88,8 +88,8 @@ def _dynamics(name: str, pin: Any, model: Any, data: Any, qp: np.ndarray, vp: np
                       module.integrate(q, v, 0.3)[qp] - pin.integrate(model, qm, 0.3 * vm),
                       module.difference(q, q1)[vp] - pin.difference(model, qm, q1[qp]),
                       module.kinetic_energy(q, v, **values) - kinetic, module.potential_energy(q, **values) - potential]
-        worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
-        scale = max(scale, float(np.max(np.abs(M))), float(np.max(np.abs(acc))))
+        worst = max(worst, *(peak(d) for d in diffs))
+        scale = max(scale, peak(M), peak(acc))
     mimic = robot.floating and model.mimicking_joints
     return _row(name, worst < 1e-9 * scale, "numeric (mimic joints: M from rnea, aba as M^-1 (tau - nle))"
                 if mimic else "numeric", worst)
@@ -118,7 +118,7 @@ def _frames(pin: Any, model: Any, data: Any, perm: np.ndarray, module: Any, valu
             qs: np.ndarray, qds: np.ndarray) -> Row:
     """Frame placements, LOCAL_WORLD_ALIGNED Jacobians and classical accelerations at qdd = 0."""
     planar = module.frame_jacobian(qs[0], module.FRAMES[0], **values).shape[0] == 3
-    rows = [0, 1, 5] if planar else list(range(6))
+    rows, k = ([0, 1, 5], 2) if planar else (list(range(6)), 3)
     worst = 0.0
     for q, qd in zip(qs, qds):
         qp, qdp = q[perm], qd[perm]
@@ -129,13 +129,12 @@ def _frames(pin: Any, model: Any, data: Any, perm: np.ndarray, module: Any, valu
             fid = model.getFrameId(frame)
             T = module.frame_transform(q, frame, **values)
             placement = data.oMf[fid]
-            k = 2 if planar else 3
             J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[rows]
             acceleration = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
             expected = np.concatenate([acceleration.linear, acceleration.angular])[rows]
             diffs = [T[:k, :k] - placement.rotation[:k, :k], T[:k, -1] - placement.translation[:k],
                      module.frame_jacobian(q, frame, **values)[:, perm] - J,
                      module.frame_jacobian_dot_qd(q, qd, frame, **values) - expected]
-            worst = max(worst, *(float(np.max(np.abs(d))) for d in diffs))
+            worst = max(worst, *(peak(d) for d in diffs))
     return _row("frames agree with Pinocchio (placement, LOCAL_WORLD_ALIGNED Jacobian, classical acceleration)",
                 worst < 1e-9, "numeric", worst)

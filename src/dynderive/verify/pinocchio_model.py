@@ -53,7 +53,6 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
 
     def inertia(link_name: str) -> Any:
         link = robot.link(link_name)
-        mass = num(link.mass)
         com = [num(e) for e in link.com] + ([0.0] if robot.planar else [])
         if robot.planar:
             izz = num(link.inertia[0])
@@ -61,7 +60,7 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
         else:
             ixx, iyy, izz, ixy, ixz, iyz = (num(e) for e in link.inertia)
             tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        return pin.Inertia(mass, np.array(com), tensor)
+        return pin.Inertia(num(link.mass), np.array(com), tensor)
 
     def kind(joint: Any) -> Any:
         if joint.multi:
@@ -73,9 +72,7 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
         return pin.JointModelPrismaticUnaligned(axis)
 
     def visit(parent: str) -> None:
-        for joint in robot.joints:
-            if joint.parent != parent:
-                continue
+        for joint in (j for j in robot.joints if j.parent == parent):
             parent_id, parent_frame = frame_of[parent]
             place = parent_frame * placement(joint)
             if not joint.moves:

@@ -27,6 +27,11 @@ def _row(name: str, passed: bool, method: str, residual: float) -> Row:
     return Row(name, "pass" if passed else "FAIL", method, float(residual))
 
 
+def peak(array: Any) -> float:
+    """The largest absolute entry of ``array`` (0 for an empty one): a residual, or a scale."""
+    return float(np.max(np.abs(array), initial=0.0))
+
+
 def applied(robot: Any, u: np.ndarray) -> np.ndarray:
     """The efforts ``u`` at their velocity columns (``Robot.effort_columns``)."""
     Y = np.zeros(robot.velocity_count)

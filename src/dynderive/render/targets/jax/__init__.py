@@ -5,38 +5,32 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..target import Target
-
-
-def _source(derivation: Any, template_dir: Any = None) -> str:
-    from .jax import render_jax
-
-    return render_jax(derivation, template_dir)
+from ..target import Target, public
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The module, for a fixed or a floating base."""
-    return {f"{derivation.robot.name}_dynamics_jax.py": _source(derivation, template_dir).encode()}
+    from .jax import render_jax
+
+    return {f"{derivation.robot.name}_dynamics_jax.py": render_jax(derivation, template_dir).encode()}
 
 
 def offered(derivation: Any) -> set[str]:
     """The module's public functions."""
-    from ..target import public
+    from .jax import render_jax
 
-    return public(_source(derivation))
+    return public(render_jax(derivation))
 
 
 def missing_note() -> str | None:
     """The module is written whether or not JAX is installed (it is generated text); it imports
     JAX, an optional dependency (the ``jax`` extra): a note when it is not importable here."""
+    import contextlib
     import importlib.util
 
-    try:
-        found = importlib.util.find_spec("jax") is not None
-    except (ImportError, ValueError):
-        found = False
-    if found:
-        return None
+    with contextlib.suppress(ImportError, ValueError):
+        if importlib.util.find_spec("jax") is not None:
+            return None
     return ('note: --jax: JAX is not installed here; the JAX module is written, and imports once JAX is installed: '
             'pip install "dynderive[jax]"')
 

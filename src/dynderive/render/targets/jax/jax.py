@@ -1,22 +1,21 @@
 """The JAX target (``solve --jax``): ``<name>_dynamics_jax.py``, the NumPy module's API on
 ``jax.numpy``, for a fixed or a floating base (one template, ``jax/dynamics.py.j2``, whose public
 functions are the NumPy module's ``dynamics_api.py.j2`` with ``jax`` set; a robot with quaternions
-in ``q`` takes ``dynamics_manifold.py.j2``, its configuration maps the
-same printed bodies as the NumPy module's, ``where`` as ``jnp.where``, ``sqrt`` with derivative
-0 at 0, so ``jax.jacfwd`` through ``integrate`` at ``v = 0`` is finite).
+in ``q`` takes ``dynamics_manifold.py.j2``, its configuration maps the same printed bodies as the
+NumPy module's, ``where`` as ``jnp.where``, ``sqrt`` with derivative 0 at 0, so ``jax.jacfwd``
+through ``integrate`` at ``v = 0`` is finite).
 
 The same straight-line programs as the NumPy module (``code.program_function``: plain Python
 text whose functions, ``sin``, ``cos``..., are the body's parameters) run here on
 ``jax.numpy`` arrays; the explicit expressions (a planar robot's M, C, N, the loop and
 maximal-coordinate functions) are printed by SymPy's own ``JaxPrinter`` (``_jnp.sin``: the
 module imports ``jax`` as ``_jax`` and ``jax.numpy`` as ``_jnp``, names no robot symbol can
-take, since they start with ``_``). Every
-function is pure: results are stacked from their entries (``jnp.stack``), blocks joined with
-``jnp.concatenate``, never written in place; no Python ``if`` or loop depends on a value
-(friction's sign and its smooth form are chosen by ``jnp.where``; ``assemble`` runs a fixed
-number of Newton steps in ``jax.lax.fori_loop``), so every function works under ``jax.jit``,
-``vmap``, ``grad`` and ``jacfwd``/``jacrev``, parameters included (keyword arguments, or a
-dict passed as ``**p``), in float32 and float64.
+take, since they start with ``_``). Every function is pure: results are stacked from their
+entries (``jnp.stack``), blocks joined with ``jnp.concatenate``, never written in place; no
+Python ``if`` or loop depends on a value (friction's sign and its smooth form are chosen by
+``jnp.where``; ``assemble`` runs a fixed number of Newton steps in ``jax.lax.fori_loop``), so
+every function works under ``jax.jit``, ``vmap``, ``grad`` and ``jacfwd``/``jacrev``,
+parameters included (keyword arguments, or a dict passed as ``**p``), in float32 and float64.
 
 Free text reaches the module only through the code environment's encoders (``|docstring``,
 ``|py``), as in the NumPy module; the rendered module is parsed back and checked (only
@@ -25,16 +24,17 @@ Free text reaches the module only through the code environment's encoders (``|do
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import Any
 
-import sympy
 from sympy.printing.numpy import JaxPrinter
 
 from ....derivation import Derivation
-from ...python_module import CodeGenerationError, render_module
+from ...python_module import render_module
 from ..numpy.code import ExpressionFunction, code_context
+from ..numpy.printing import _Printer
 
 JAX_TEMPLATE = "jax/dynamics.py.j2"
 #: Modules the generated JAX module may import.
@@ -46,19 +46,11 @@ HOLD_EVERY = 4
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
-class _JaxPrinter(JaxPrinter):
+class _JaxPrinter(_Printer, JaxPrinter):
     """SymPy's JAX printer writing ``_jnp.sin`` rather than ``jax.numpy.sin``, floats as exact
-    ``repr`` literals (17 significant digits, weakly typed: they keep float32 float32)."""
+    ``repr`` literals (weakly typed: they keep float32 float32)."""
 
-    def _module_format(self, fqn: str, register: bool = True) -> str:
-        text = super()._module_format(fqn, register)
-        return "_jnp." + text[len("jax.numpy."):] if text.startswith("jax.numpy.") else text
-
-    def _print_Float(self, expr: sympy.Float) -> str:
-        return repr(float(expr))
-
-    def _print_Function(self, expr: sympy.Function) -> str:   # anything jax.numpy has no name for
-        raise CodeGenerationError(f"no jax.numpy function for {type(expr).__name__}")
+    _short = ("jax.numpy.", "_jnp.", "jax.numpy")
 
 
 def _flat_entries(function: ExpressionFunction) -> list[tuple[int, str]]:
@@ -110,13 +102,7 @@ def jax_context(derivation: Derivation) -> dict[str, Any]:
     """The NumPy module's context (``code.code_context``) with the expressions printed for
     ``jax.numpy`` and each expression function's entries by flat index."""
     context = code_context(derivation, _JaxPrinter({"fully_qualified_modules": True, "strict": False}))
-    sizes = {}
-    for function in context["functions"]:
-        size = 1
-        for extent in function.shape:
-            size *= extent
-        sizes[function.name] = (size, _flat_entries(function))
-    context["sizes"] = sizes
+    context["sizes"] = {f.name: (math.prod(f.shape), _flat_entries(f)) for f in context["functions"]}
     context["holds"] = {p.name: holds(p.lines, p.outputs) for p in context["programs"]}
     context["body_functions"] = {p.name: tuple(p.functions) + (("_hold",) if context["holds"][p.name] else ())
                                  for p in context["programs"]}

@@ -23,17 +23,21 @@ BODY_FUNCTIONS = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", 
 _CALL = re.compile(r"\b(" + "|".join(BODY_FUNCTIONS) + r")\(")
 
 class _Printer(NumPyPrinter):
-    """NumPy printer that writes ``np.sin`` rather than ``numpy.sin``."""
+    """NumPy printer that writes ``np.sin`` rather than ``numpy.sin``, floats as exact ``repr``
+    literals (17 significant digits); the JAX module's (``jax.py``) sets its own ``_short``."""
+
+    _short = ("numpy.", "np.", "NumPy")   # the module's full name, its name in the code, its title
 
     def _module_format(self, fqn: str, register: bool = True) -> str:
         text = super()._module_format(fqn, register)
-        return "np." + text[len("numpy."):] if text.startswith("numpy.") else text
+        full, short, _ = self._short
+        return short + text[len(full):] if text.startswith(full) else text
 
     def _print_Float(self, expr: sympy.Float) -> str:
         return repr(float(expr))
 
-    def _print_Function(self, expr: sympy.Function) -> str:   # anything NumPy has no name for
-        raise CodeGenerationError(f"no NumPy function for {type(expr).__name__}")
+    def _print_Function(self, expr: sympy.Function) -> str:   # anything the library has no name for
+        raise CodeGenerationError(f"no {self._short[2]} function for {type(expr).__name__}")
 
 
 class _LinePrinter(StrPrinter):
