@@ -1,6 +1,6 @@
 """The Python extension of a floating-base robot's C target (``solve --c-extension``,
 ``render/targets/c_extension/c_extension.py``): every function agrees with the floating NumPy module
-(which agrees with Pinocchio's free flyer: ``test_floating_base.py``) to 1e-12 relative at
+(which agrees with Pinocchio's free flyer: ``test_free_flyer.py``) to 1e-12 relative at
 random unit quaternions, one state and a broadcast batch: solo12 from example-robot-data,
 random trees with spherical joints on a fixed and a floating base, a
 free box with parameters; the same constants, signatures and errors; NaN where M is not
@@ -38,7 +38,7 @@ if not (shutil.which("gcc") or shutil.which("cc")) or not HEADERS:
     pytest.skip("no C compiler or no Python.h", allow_module_level=True)
 
 from test_c_extension import _load as _load_extension  # noqa: E402
-from test_floating_base import BOX, _example_robot, _module  # noqa: E402
+from test_free_flyer import BOX, _example_robot, _module  # noqa: E402
 from test_spherical import _tree as _spherical_tree  # noqa: E402
 
 RTOL = 1e-12

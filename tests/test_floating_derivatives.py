@@ -11,7 +11,7 @@ import pytest
 
 import dynderive
 from dynderive.input.urdf import identifier
-from test_floating_base import BOX, _example_robot, _floating_tree, _module, _pinocchio
+from test_free_flyer import BOX, _example_robot, _floating_tree, _module, _pinocchio
 
 pin = pytest.importorskip("pinocchio")
 

@@ -31,7 +31,7 @@ from dynderive.verify.checks import (
     run_checks,
 )
 from dynderive.verify.pinocchio_model import pinocchio_maps
-from test_floating_base import _floating_tree
+from test_free_flyer import _floating_tree
 from test_matlab_numeric import _Calls, _octave, _vector, needs_octave
 
 from conftest import import_code

@@ -1,4 +1,4 @@
-"""Floating-base robots (issue 30, DESIGN.md section 10): the generated NumPy module of a
+"""Floating-base robots (DESIGN.md section 10): the generated NumPy module of a
 robot whose root floats equals Pinocchio with a ``JointModelFreeFlyer`` root (crba, rnea,
 computeGeneralizedGravity, aba, integrate, difference, neutral) to 1e-9, at random unit
 quaternions and velocities: solo12, a1, go1, anymal_c, bolt, simple_humanoid and talos_reduced
