@@ -271,7 +271,7 @@ def test_simulate_with_the_c_backend_follows_the_numpy_run(tmp_path, monkeypatch
             return call
 
     monkeypatch.setattr(compile_command, "compiled_module", lambda *a, **k: Counted(build(*a, **k)))
-    from test_floating_sheet import _chain  # full-precision numbers, generic axes, full inertias
+    from test_sheets_compile import _chain  # full-precision numbers, generic axes, full inertias
 
     text = _chain(12, 2).replace("effort: u2}", "effort: u2, damping: 0.0712345678901234, friction: 0.0312345678901234}") \
         + "frames:\n  - {name: tip, link: l2, origin: {xyz: [0.3123456789012345, 0.0123456789012345, -0.0234567890123456]}}\n"

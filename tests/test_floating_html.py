@@ -26,8 +26,8 @@ from dynderive.render.sheets.html import render_html
 from dynderive.render.sheets.html_math import MathFormatter
 from dynderive.render.sheets.html_quasi_velocity import quasi_velocity_html_context
 from dynderive.render.targets.numpy.code import render_code
-from test_floating_sheet import FREE, _chain
 from test_html import HOSTILE, parse, sizes_in_chromium
+from test_sheets_compile import FREE, _chain
 
 from conftest import ROOT, import_code
 
