@@ -1,6 +1,6 @@
 """The C target of floating-base robots (``render/targets/c/c.py``): the header and
 source compile as strict C99 and as C++ with no diagnostic, and every function agrees with the
-NumPy floating module (which agrees with Pinocchio's free flyer: ``test_floating_base.py``) to
+NumPy floating module (which agrees with Pinocchio's free flyer: ``test_free_flyer.py``) to
 1e-12 relative at random unit quaternions and full-precision states: solo12 from
 example-robot-data, random floating trees with full-precision numbers, a free box with a
 parameter in the struct; forward dynamics and linearize refuse a mass matrix that is not
@@ -32,7 +32,7 @@ if CC is None:
         raise RuntimeError("CI must run the C target tests, but no C compiler (gcc or cc) was found")
     pytest.skip("no C compiler", allow_module_level=True)
 
-from test_floating_base import BOX, _example_robot, _floating_tree, _module  # noqa: E402
+from test_free_flyer import BOX, _example_robot, _floating_tree, _module  # noqa: E402
 from test_spherical import _tree as _spherical_tree  # noqa: E402
 
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wshadow"]

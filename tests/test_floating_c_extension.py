@@ -1,6 +1,6 @@
 """The Python extension of a floating-base robot's C target (``solve --c-extension``,
 ``render/targets/c_extension/c_extension.py``): every function agrees with the floating NumPy module
-(which agrees with Pinocchio's free flyer: ``test_floating_base.py``) to 1e-12 relative at
+(which agrees with Pinocchio's free flyer: ``test_free_flyer.py``) to 1e-12 relative at
 random unit quaternions, one state and a broadcast batch: solo12 from example-robot-data,
 random trees with spherical joints on a fixed and a floating base, a
 free box with parameters; the same constants, signatures and errors; NaN where M is not
@@ -38,7 +38,7 @@ if not (shutil.which("gcc") or shutil.which("cc")) or not HEADERS:
     pytest.skip("no C compiler or no Python.h", allow_module_level=True)
 
 from test_c_extension import _load as _load_extension  # noqa: E402
-from test_floating_base import BOX, _example_robot, _module  # noqa: E402
+from test_free_flyer import BOX, _example_robot, _module  # noqa: E402
 from test_spherical import _tree as _spherical_tree  # noqa: E402
 
 RTOL = 1e-12
@@ -271,7 +271,7 @@ def test_simulate_with_the_c_backend_follows_the_numpy_run(tmp_path, monkeypatch
             return call
 
     monkeypatch.setattr(compile_command, "compiled_module", lambda *a, **k: Counted(build(*a, **k)))
-    from test_floating_sheet import _chain  # full-precision numbers, generic axes, full inertias
+    from test_sheets_compile import _chain  # full-precision numbers, generic axes, full inertias
 
     text = _chain(12, 2).replace("effort: u2}", "effort: u2, damping: 0.0712345678901234, friction: 0.0312345678901234}") \
         + "frames:\n  - {name: tip, link: l2, origin: {xyz: [0.3123456789012345, 0.0123456789012345, -0.0234567890123456]}}\n"

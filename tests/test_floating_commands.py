@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from test_floating_base import urdf_in_pinocchio
+from test_free_flyer import urdf_in_pinocchio
 
 pin = pytest.importorskip("pinocchio")
 runner = CliRunner()

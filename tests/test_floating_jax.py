@@ -35,7 +35,7 @@ import dynderive  # noqa: E402
 from dynderive.commands.cli import app  # noqa: E402
 from dynderive.render.targets.jax.jax import render_jax  # noqa: E402
 from dynderive.render.targets.numpy.code import render_code  # noqa: E402
-from test_floating_base import _floating_tree as _base_tree  # noqa: E402
+from test_free_flyer import _floating_tree as _base_tree  # noqa: E402
 
 from conftest import import_code  # noqa: E402
 
@@ -61,7 +61,7 @@ frames:
 
 
 def _floating_tree(seed: int, joints: int) -> str:
-    """``test_floating_base``'s random floating tree of ``joints`` joints, named by its seed."""
+    """``test_free_flyer``'s random floating tree of ``joints`` joints, named by its seed."""
     return _base_tree(seed, joints).replace("name: floating_tree\n", f"name: floating_tree_{seed}\n", 1)
 
 

@@ -18,7 +18,7 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.targets.matlab.matlab import render_matlab
 from dynderive.verify.checks import random_configurations
-from test_floating_base import BOX, _floating_tree, _module
+from test_free_flyer import BOX, _floating_tree, _module
 from test_matlab_numeric import _Calls, _octave, _vector, needs_octave
 from test_spherical import _tree as _spherical_tree
 

@@ -15,7 +15,7 @@ from dynderive.commands.cli import app
 from dynderive.commands.simulate import initial_configuration, parse_efforts, simulate
 from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import ENERGY_RUN, MOMENTUM, generated_module, run_checks, system_momentum
-from test_floating_base import BOX
+from test_free_flyer import BOX
 
 pytest.importorskip("scipy")
 runner = CliRunner()

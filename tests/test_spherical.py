@@ -22,7 +22,7 @@ from dynderive.commands.cli import app
 from dynderive.render.targets.numpy.code import render_code
 from dynderive.verify.checks import MOMENTUM, run_checks
 from dynderive.verify.pinocchio_model import pinocchio_maps
-from test_floating_base import _compare, _floating_tree, _module
+from test_free_flyer import _compare, _floating_tree, _module
 
 from random_robots3d import random_spatial_tree
 

@@ -1,4 +1,4 @@
-"""Floating-base robots (issue 30, DESIGN.md section 10): the generated NumPy module of a
+"""Floating-base robots (DESIGN.md section 10): the generated NumPy module of a
 robot whose root floats equals Pinocchio with a ``JointModelFreeFlyer`` root (crba, rnea,
 computeGeneralizedGravity, aba, integrate, difference, neutral) to 1e-9, at random unit
 quaternions and velocities: solo12, a1, go1, anymal_c, bolt, simple_humanoid and talos_reduced
@@ -254,8 +254,8 @@ def test_solve_writes_the_module_and_says_what_is_not_built(tmp_path):
 
 def test_printing_and_other_commands(tmp_path):
     """``solve`` with no output flag prints a small robot's equations (the floating sheet's
-    M, C, N and Y, tested against the module in test_floating_sheet.py); nothing is written."""
-    from test_floating_sheet import _chain  # full-precision numbers, generic axes, full inertias
+    M, C, N and Y, tested against the module in test_sheets_compile.py); nothing is written."""
+    from test_sheets_compile import _chain  # full-precision numbers, generic axes, full inertias
 
     text = _chain(13, 1, title="'A floating arm <b>&amp;'").replace("rest: 0.3}", "rest: 0.3, damping: 0.27123}")
     path, result = _solve(tmp_path, text)
@@ -397,7 +397,7 @@ def test_urdf_floating_base_option_and_note(tmp_path):
     assert f"{path}:4:3: joint 'free' is floating already: leave out --floating-base" in result.stderr
 
 
-def test_build_writes_the_module_of_a_floating_robot(tmp_path):   # its sheets: test_floating_sheet, _html
+def test_build_writes_the_module_of_a_floating_robot(tmp_path):   # its sheets: test_sheets_compile, test_html
     folder = tmp_path / "robots"
     folder.mkdir()
     (folder / "box.yaml").write_text(BOX)
