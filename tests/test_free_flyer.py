@@ -273,7 +273,7 @@ def test_printing_and_other_commands(tmp_path):
     assert result.exit_code == 0, result.output
     assert "M, C and N are computed by recursive algorithms" in result.stdout and "\nM(q) =" not in result.stdout
     assert not (tmp_path / "out").exists()
-    for command in (["linearize", "-q"], ["identify", "-q"]):   # built: tests/test_floating_commands.py
+    for command in (["linearize", "-q"], ["identify", "-q"]):   # built: tests/test_linearize.py, tests/test_regressor.py
         result = runner.invoke(app, [*command, str(path)])
         assert result.exit_code == 0, (command, result.output)
 

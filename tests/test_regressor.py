@@ -1,4 +1,4 @@
-"""The identification regressor (issue 19): ``regressor(q, qd, qdd) @ parameter_vector()`` is
+"""The identification regressor: ``regressor(q, qd, qdd) @ parameter_vector()`` is
 ``inverse_dynamics``, its columns are Pinocchio's ``computeJointTorqueRegressor`` link by link,
 and the base parameters group as worked out by hand.
 
@@ -6,12 +6,17 @@ Robots: random 3-D trees (arbitrary axes and origins, full inertia tensors, a fi
 a moving link, a link welded to the world) and random planar trees, with full-precision
 numbers; the bundled RP arm, the damped cart-pole (damping, Coulomb friction, armature), the
 mass-spring-damper (springs) and the UR5.
+
+``dynderive identify`` of a floating-base robot: the base parameters' count equals the rank of
+Pinocchio's stacked joint-torque regressor.
 """
 
 from __future__ import annotations
 
+import json
 import keyword
 import random
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -232,3 +237,34 @@ def test_identify_command():
     result = runner.invoke(app, ["identify", "rp_arm", "--param", "nope=1"])
     assert result.exit_code == 2
     assert "--param:1:1: unknown parameter 'nope'" in result.output
+
+
+# -- floating base --------------------------------------------------------------------------------
+# test_free_flyer skips itself without Pinocchio: imported where its model of the floating
+# elbow is needed, so that the rest of this file runs without it.
+
+ELBOW = Path(__file__).parent / "floating_elbow.urdf"
+
+
+@pytest.mark.pinocchio
+def test_identify_counts_the_base_parameters_of_pinocchios_regressor():
+    pin = pytest.importorskip("pinocchio")
+    from test_free_flyer import urdf_in_pinocchio
+
+    pytest.importorskip("scipy")
+    robot, model, qp, vp = urdf_in_pinocchio(ELBOW)   # a revolute shoulder, a free body below it
+    result = CliRunner().invoke(app, ["identify", str(ELBOW), "--json", "-q"])
+    assert result.exit_code == 0, result.output
+    document = json.loads(result.stdout)
+    data = model.createData()
+    rng = np.random.default_rng(4)
+    rows = []
+    for _ in range(60):
+        q = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
+        rows.append(pin.computeJointTorqueRegressor(model, data, q, rng.normal(size=7), rng.normal(size=7)).copy())
+    rank = np.linalg.matrix_rank(np.vstack(rows), tol=1e-9 * np.abs(np.vstack(rows)).max())
+    assert document["rank"] == rank == 13   # the shoulder's pendulum: 3; the free body: all 10
+    pi = np.concatenate([model.inertias[i].toDynamicParameters() for i in range(1, model.njoints)])
+    assert np.max(np.abs(np.array([p["value"] for p in document["parameters"]]) - pi)) <= 1e-12
+    text = CliRunner().invoke(app, ["identify", str(ELBOW), "-q"])
+    assert text.exit_code == 0 and "regressor Y(q, qd, qdd) of shape (7, 20)" in text.stdout
