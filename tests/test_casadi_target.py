@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-if os.environ.get("CI"):   # the CasADi target's tests are required in CI (casadi is in the test extra)
+if os.environ.get("CI"):  # the CasADi target's tests are required in CI (casadi is in the test extra)
     import casadi
 else:
     casadi = pytest.importorskip("casadi")
@@ -32,7 +32,15 @@ import dynderive  # noqa: E402
 from dynderive.render import api  # noqa: E402
 from dynderive.render.targets.casadi.casadi import render_casadi  # noqa: E402
 
-from conftest import ROBOTS, ROOT, derivation_of, import_code, module_of, on_loops, random_tree_derivation  # noqa: E402
+from conftest import (  # noqa: E402
+    ROBOTS,
+    ROOT,
+    derivation_of,
+    import_code,
+    module_of,
+    on_loops,
+    random_tree_derivation,
+)
 
 RTOL = 1e-12
 BUNDLED = ["rp_arm", "elbow_arm", "cart_pole_damped", "four_bar", "ur5"]
@@ -48,8 +56,10 @@ def casadi_module_of(robot: str, directory: str):
 def floating_modules(directory: str):
     derivation = dynderive.derive(dynderive.load_robot(FLOATING))
     folder = Path(directory)
-    return (import_code(dynderive.render_code(derivation), folder, "floating_elbow_dynamics"),
-            import_code(render_casadi(derivation), folder, "floating_elbow_dynamics_casadi"))
+    return (
+        import_code(dynderive.render_code(derivation), folder, "floating_elbow_dynamics"),
+        import_code(render_casadi(derivation), folder, "floating_elbow_dynamics_casadi"),
+    )
 
 
 def _close(actual, expected, what: str, rtol: float = RTOL) -> None:
@@ -57,23 +67,35 @@ def _close(actual, expected, what: str, rtol: float = RTOL) -> None:
     actual = np.asarray(actual, dtype=float).reshape(expected.shape)
     scale = max(float(np.max(np.abs(expected), initial=0.0)), 1.0)
     error = float(np.max(np.abs(actual - expected), initial=0.0))
-    assert np.all(np.isfinite(actual)) and error <= rtol * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
+    assert np.all(np.isfinite(actual)) and error <= rtol * scale, (
+        f"{what}: error {error:.3g} at scale {scale:.3g}"
+    )
 
 
 def _public(module) -> list[str]:
-    return sorted(name for name, value in vars(module).items()
-                  if callable(value) and not name.startswith("_") and inspect.isfunction(value)
-                  and value.__module__ == module.__name__)
+    return sorted(
+        name
+        for name, value in vars(module).items()
+        if callable(value)
+        and not name.startswith("_")
+        and inspect.isfunction(value)
+        and value.__module__ == module.__name__
+    )
 
 
 def _states(numpy_module, rng, count: int) -> dict:
-    """``count`` states by argument name (a loop robot's on its loops, a floating robot's unit quaternions)."""
+    """``count`` states by argument name (a loop robot's on its loops, a floating robot's unit
+    quaternions)."""
     nu, nv = len(numpy_module.EFFORTS), len(getattr(numpy_module, "VELOCITIES", numpy_module.COORDINATES))
     qd, qdd, u = rng.normal(size=(count, nv)), rng.normal(size=(count, nv)), rng.normal(size=(count, nu))
     if hasattr(numpy_module, "neutral_configuration"):
         q = numpy_module.integrate(numpy_module.neutral_configuration(), rng.normal(size=(count, nv)))
-        state = {"q_from": q, "q_to": numpy_module.integrate(q, 0.5 * rng.normal(size=(count, nv))),
-                 "v": rng.normal(size=(count, nv)), "dt": rng.uniform(0.1, 1.0, count)}
+        state = {
+            "q_from": q,
+            "q_to": numpy_module.integrate(q, 0.5 * rng.normal(size=(count, nv))),
+            "v": rng.normal(size=(count, nv)),
+            "dt": rng.uniform(0.1, 1.0, count),
+        }
     else:
         q, qd = on_loops(numpy_module, rng.uniform(-1.2, 1.2, (count, nv)), qd)
         state = {}
@@ -88,7 +110,7 @@ def _inputs(function, args: list, p, smoothing: float) -> list:
     """The Function's inputs: the state's arrays, then p and the scalar options by name."""
     extra = {"p": p, "friction_smoothing": smoothing, "alpha": 0.0, "beta": 0.0}
     names = function.name_in()
-    return list(args) + [extra[n] for n in names[len(args):]]
+    return list(args) + [extra[n] for n in names[len(args) :]]
 
 
 def _agree(numpy_module, casadi_module, seed: int, count: int = 2, smoothing: float = 0.0, **values) -> int:
@@ -98,8 +120,11 @@ def _agree(numpy_module, casadi_module, seed: int, count: int = 2, smoothing: fl
         assert getattr(numpy_module, constant) == getattr(casadi_module, constant)
     parameters = numpy_module.PARAMETERS | values
     p = np.array([parameters[name] for name in casadi_module.PARAMETER_NAMES])
-    _close(casadi_module.default_parameters(), [numpy_module.PARAMETERS[n] for n in casadi_module.PARAMETER_NAMES],
-           "default_parameters")
+    _close(
+        casadi_module.default_parameters(),
+        [numpy_module.PARAMETERS[n] for n in casadi_module.PARAMETER_NAMES],
+        "default_parameters",
+    )
     state = _states(numpy_module, np.random.default_rng(seed), count)
     compared = 0
     for name in _public(numpy_module):
@@ -108,7 +133,9 @@ def _agree(numpy_module, casadi_module, seed: int, count: int = 2, smoothing: fl
         numpy_function = getattr(numpy_module, name)
         signature = inspect.signature(numpy_function).parameters
         positional = list(api.BY_NAME[name].arguments)
-        keywords = {k: v for k, v in (parameters | {"friction_smoothing": smoothing}).items() if k in signature}
+        keywords = {
+            k: v for k, v in (parameters | {"friction_smoothing": smoothing}).items() if k in signature
+        }
         frames = list(numpy_module.FRAMES) if "frame" in positional else [None]
         for frame in frames:
             function = getattr(casadi_module, name) if frame is None else getattr(casadi_module, name)(frame)
@@ -116,8 +143,12 @@ def _agree(numpy_module, casadi_module, seed: int, count: int = 2, smoothing: fl
             for index in range(count):
                 args = [state[a][index] for a in positional if a != "frame"] + ([frame] if frame else [])
                 expected = numpy_function(*args, **keywords)
-                actual = function(*_inputs(function, [a for a in args if not isinstance(a, str)], p, smoothing))
-                expected, actual = (expected, actual) if isinstance(expected, tuple) else ((expected,), (actual,))
+                actual = function(
+                    *_inputs(function, [a for a in args if not isinstance(a, str)], p, smoothing)
+                )
+                expected, actual = (
+                    (expected, actual) if isinstance(expected, tuple) else ((expected,), (actual,))
+                )
                 for e, a in zip(expected, actual):
                     _close(np.array(a), e, f"{name} {frame or ''}")
             compared += 1
@@ -133,20 +164,26 @@ def test_bundled_robot_agrees_with_numpy(robot, code_dir):
 def test_smoothed_friction_and_other_parameters_agree(code_dir):
     numpy_module = module_of("cart_pole_damped", str(code_dir))
     values = {k: v * 1.3 for k, v in numpy_module.PARAMETERS.items()}
-    _agree(numpy_module, casadi_module_of("cart_pole_damped", str(code_dir)), seed=5, smoothing=0.05, **values)
+    _agree(
+        numpy_module, casadi_module_of("cart_pole_damped", str(code_dir)), seed=5, smoothing=0.05, **values
+    )
 
 
 def test_random_tree_with_full_precision_numbers(code_dir):
     derivation, module = random_tree_derivation(11, 3, str(code_dir))
     folder = code_dir / "random_tree_11_3"
-    _agree(module, import_code(render_casadi(derivation), folder, "random_tree_11_3_dynamics_casadi"), seed=11)
+    _agree(
+        module, import_code(render_casadi(derivation), folder, "random_tree_11_3_dynamics_casadi"), seed=11
+    )
 
 
 def test_floating_base_agrees_with_numpy(code_dir):
     numpy_module, casadi_module = floating_modules(str(code_dir))
     assert casadi_module.NQ == casadi_module.NV + 1
     _agree(numpy_module, casadi_module, seed=3)
-    _close(casadi_module.neutral_configuration(), numpy_module.neutral_configuration(), "neutral_configuration")
+    _close(
+        casadi_module.neutral_configuration(), numpy_module.neutral_configuration(), "neutral_configuration"
+    )
 
 
 def _derivatives_agree(numpy_module, casadi_module, seed: int, smoothing: float = 0.0) -> None:
@@ -155,15 +192,20 @@ def _derivatives_agree(numpy_module, casadi_module, seed: int, smoothing: float 
     nq, nv, nu = casadi_module.NQ, casadi_module.NV, casadi_module.NU
     q, qd, qdd, u = (casadi.SX.sym(n, k) for n, k in (("q", nq), ("qd", nv), ("qdd", nv), ("u", nu)))
     p = casadi.DM(casadi_module.default_parameters())
-    dq = casadi.SX.sym("dq", nv)   # a floating base's configuration moves on the tangent space, by integrate
+    dq = casadi.SX.sym("dq", nv)  # a floating base's configuration moves on the tangent space, by integrate
     moved = casadi_module.integrate(q, dq) if nq != nv else q + dq
-    forward = casadi_module.forward_dynamics(moved, qd, u, p, *([0.0, 0.0] if hasattr(casadi_module, "LOOPS") else []),
-                                             smoothing)
-    jacobian = casadi.Function("j", [q, dq, qd, u], [casadi.jacobian(forward, casadi.vertcat(dq, qd)),
-                                                     casadi.jacobian(forward, u)])
+    forward = casadi_module.forward_dynamics(
+        moved, qd, u, p, *([0.0, 0.0] if hasattr(casadi_module, "LOOPS") else []), smoothing
+    )
+    jacobian = casadi.Function(
+        "j", [q, dq, qd, u], [casadi.jacobian(forward, casadi.vertcat(dq, qd)), casadi.jacobian(forward, u)]
+    )
     inverse = casadi_module.inverse_dynamics(q, qd, qdd, p, smoothing)
-    inverse_jacobian = casadi.Function("i", [q, qd, qdd], [casadi.jacobian(inverse, q), casadi.jacobian(inverse, qd),
-                                                           casadi.jacobian(inverse, qdd)])
+    inverse_jacobian = casadi.Function(
+        "i",
+        [q, qd, qdd],
+        [casadi.jacobian(inverse, q), casadi.jacobian(inverse, qd), casadi.jacobian(inverse, qdd)],
+    )
     state = _states(numpy_module, np.random.default_rng(seed), 2)
     for q0, qd0, qdd0, u0 in zip(state["q"], state["qd"], state["qdd"], state["u"]):
         A, B = casadi_module.linearize(q0, qd0, u0, p, smoothing)
@@ -175,8 +217,11 @@ def _derivatives_agree(numpy_module, casadi_module, seed: int, smoothing: float 
         _close(np.array(by_effort), np.array(B)[nv:], "jacobian(forward_dynamics) vs linearize B", 1e-9)
         assert np.any(np.abs(np.array(A)[nv:]) > 1e-6)
         blocks = casadi_module.forward_dynamics_derivatives(q0, qd0, u0, p, smoothing)
-        _close(np.hstack([np.array(b) for b in blocks]), np.hstack([expected_A[nv:], expected_B[nv:]]),
-               "forward_dynamics_derivatives")
+        _close(
+            np.hstack([np.array(b) for b in blocks]),
+            np.hstack([expected_A[nv:], expected_B[nv:]]),
+            "forward_dynamics_derivatives",
+        )
         dq, dqd = casadi_module.inverse_dynamics_derivatives(q0, qd0, qdd0, p, smoothing)
         by_q, by_qd, by_qdd = inverse_jacobian(q0, qd0, qdd0)
         _close(np.array(dqd), np.array(by_qd), "inverse_dynamics_derivatives dtau/dqd", 1e-9)
@@ -185,7 +230,9 @@ def _derivatives_agree(numpy_module, casadi_module, seed: int, smoothing: float 
             _close(np.array(dq), np.array(by_q), "inverse_dynamics_derivatives dtau/dq", 1e-9)
 
 
-@pytest.mark.parametrize("robot, smoothing", [("elbow_arm", 0.0), ("cart_pole_damped", 0.05), ("four_bar", 0.0)])
+@pytest.mark.parametrize(
+    "robot, smoothing", [("elbow_arm", 0.0), ("cart_pole_damped", 0.05), ("four_bar", 0.0)]
+)
 def test_jacobian_of_forward_dynamics_is_linearize(robot, smoothing, code_dir):
     _derivatives_agree(module_of(robot, str(code_dir)), casadi_module_of(robot, str(code_dir)), 4, smoothing)
 
@@ -213,10 +260,14 @@ def test_parameters_as_decision_variables(code_dir):
     index = int(np.argmax(np.max(np.abs(by_parameter), axis=0)))
     target, defaults = numpy_module.inverse_dynamics(q0, qd0, qdd0), module.default_parameters()
     x = casadi.SX.sym("x")
-    guess = casadi.vertcat(casadi.DM(defaults[:index]), x, casadi.DM(defaults[index + 1:]))
+    guess = casadi.vertcat(casadi.DM(defaults[:index]), x, casadi.DM(defaults[index + 1 :]))
     residual = module.inverse_dynamics(q0, qd0, qdd0, guess) - target
-    solver = casadi.nlpsol("s", "ipopt", {"x": x, "f": casadi.sumsqr(residual)},
-                           {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"})
+    solver = casadi.nlpsol(
+        "s",
+        "ipopt",
+        {"x": x, "f": casadi.sumsqr(residual)},
+        {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"},
+    )
     found = float(solver(x0=2.0 * defaults[index])["x"])
     assert abs(found - defaults[index]) < 1e-6 * max(1.0, abs(found))
 
@@ -227,8 +278,11 @@ def test_left_out_inputs_take_the_defaults(code_dir):
     full = np.array(module.forward_dynamics(q, qd, u, module.default_parameters(), 0.0))
     _close(np.array(module.forward_dynamics(q, qd, u)), full, "positional, p left out")
     _close(np.array(module.forward_dynamics(q=q, qd=qd, u=u)["qdd"]), full, "by keyword, p left out")
-    _close(np.array(module.parameter_vector()), np.array(module.parameter_vector(module.default_parameters())),
-           "parameter_vector()")
+    _close(
+        np.array(module.parameter_vector()),
+        np.array(module.parameter_vector(module.default_parameters())),
+        "parameter_vector()",
+    )
     assert module.mass_matrix.name_in() == ["q", "p"] and module.linearize.name_out() == ["A", "B"]
     with pytest.raises(ValueError, match="unknown frame"):
         module.frame_transform("no such frame")
@@ -247,8 +301,9 @@ def test_generated_c_compiles_as_c99(robot, code_dir, tmp_path):
         source = getattr(module, name).generate(f"{robot}_{name}.c", {"with_header": True})
         shutil.move(source, tmp_path / source)
         shutil.move(source[:-2] + ".h", tmp_path / (source[:-2] + ".h"))
-        result = subprocess.run(["gcc", *C_FLAGS, "-c", source, "-o", name + ".o"], cwd=tmp_path,
-                                capture_output=True, text=True)
+        result = subprocess.run(
+            ["gcc", *C_FLAGS, "-c", source, "-o", name + ".o"], cwd=tmp_path, capture_output=True, text=True
+        )
         assert result.returncode == 0, result.stderr
 
 
@@ -256,23 +311,44 @@ HOSTILE = 'a """ b\n import os\r\\ \' # c \u202e\x00 \U0001f600 "q'
 
 
 def test_hostile_text_and_names(tmp_path):
-    """A title and a description that would end the docstring, frames named with quotes and
-    backslashes, parameters named like the module's imports: encoded, read back exactly, and the
-    module works."""
+    """A title and a parameter's description that would end the docstring: encoded, read back
+    exactly, and the module works; a frame name that is not an identifier is refused at its
+    position (Functions are named by frame index, FRAMES holds the names as string literals)."""
     text = (ROBOTS / "elbow_arm.yaml").read_text()
-    title = HOSTILE.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r") \
-        .replace("\x00", "\\0").replace("\u202e", "\\u202e").replace("\U0001f600", "\\U0001f600")
-    lines = [f'title: "{title}"' if line.startswith("title:") else line for line in text.splitlines()]
-    text = "\n".join(lines) + "\n"
+    encoded = (
+        HOSTILE.replace("\\", "\\\\")
+        .replace('"', '\\"')
+        .replace("\n", "\\n")
+        .replace("\r", "\\r")
+        .replace("\x00", "\\0")
+        .replace("\u202e", "\\u202e")
+        .replace("\U0001f600", "\\U0001f600")
+    )
+    lines = [f'title: "{encoded}"' if line.startswith("title:") else line for line in text.splitlines()]
+    text = (
+        "\n".join(lines).replace("description: mass of the waist (column)", f'description: "{encoded}"')
+        + "\n"
+    )
     path = tmp_path / "elbow_arm.yaml"
     path.write_text(text)
     derivation = dynderive.derive(dynderive.load_robot(path))
-    assert derivation.robot.title == HOSTILE
+    assert derivation.robot.title == HOSTILE and derivation.robot.parameters[0].description == HOSTILE
     source = render_casadi(derivation)
-    assert ast.get_docstring(ast.parse(source), clean=False).startswith(f"Equations of motion of {HOSTILE} ")
+    docstring = ast.get_docstring(ast.parse(source), clean=False)
+    assert (
+        docstring.startswith(f"Equations of motion of {HOSTILE} ")
+        and HOSTILE in docstring.split("m1 [kg]: ")[1]
+    )
     module = import_code(source, tmp_path, "hostile_dynamics_casadi")
     numpy_module = import_code(dynderive.render_code(derivation), tmp_path, "hostile_dynamics")
     _agree(numpy_module, module, seed=2)
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "elbow_arm.yaml").write_text(
+        text.replace("  - name: wrist ", '  - name: "wr\\"is\'t\\\\ \\n */ x" ')
+    )
+    with pytest.raises(dynderive.InputError, match="frame name must be an identifier"):
+        dynderive.load_robot(bad / "elbow_arm.yaml")
 
 
 def test_solve_writes_the_module(tmp_path):
@@ -287,3 +363,16 @@ def test_solve_writes_the_module(tmp_path):
     imports = {n.names[0].name for n in ast.parse(written.read_text()).body if isinstance(n, ast.Import)}
     assert imports == {"casadi", "numpy"}
     assert not re.search(r"^\s*(exec|eval)\(", written.read_text(), re.MULTILINE)
+
+
+def test_over_constrained_loops_are_refused_at_their_position(tmp_path):
+    """The Bennett linkage's loop rows have rank 2 of 5: its solves need an SVD, which casadi.SX
+    has not; --casadi says so at the robot file's loops (exit 2), writing nothing."""
+    from typer.testing import CliRunner
+
+    from dynderive.commands.cli import app
+
+    result = CliRunner().invoke(app, ["solve", "bennett", "--casadi", "--out", str(tmp_path), "--quiet"])
+    assert result.exit_code == 2, result.output
+    assert "bennett.yaml:" in result.output and "over-constrained loops" in result.output
+    assert not (tmp_path / "bennett_dynamics_casadi.py").exists()

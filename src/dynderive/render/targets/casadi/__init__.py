@@ -30,8 +30,12 @@ def offered(derivation: Any) -> set[str]:
     source = _source(derivation)
     names = public(source)
     for node in ast.parse(source).body:
-        if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Call) and isinstance(node.value.func, ast.Name)
-                and node.value.func.id == "_function"):
+        if (
+            isinstance(node, ast.Assign)
+            and isinstance(node.value, ast.Call)
+            and isinstance(node.value.func, ast.Name)
+            and node.value.func.id == "_function"
+        ):
             names |= {t.id for t in node.targets if isinstance(t, ast.Name) and not t.id.startswith("_")}
     return names
 
@@ -47,17 +51,26 @@ def missing_note() -> str | None:
         found = False
     if found:
         return None
-    return ('note: --casadi: CasADi is not installed here; the CasADi module is written, and imports once CasADi is '
-            'installed: pip install "dynderive[casadi]"')
+    return (
+        "note: --casadi: CasADi is not installed here; the CasADi module is written, and imports once "
+        'CasADi is installed: pip install "dynderive[casadi]"'
+    )
 
 
 TARGET = Target(
-    name="casadi", flag="--casadi", kind="casadi", title="CasADi", column=5,
-    help="Write DIR/<name>_dynamics_casadi.py: every function as a casadi.Function built with casadi.SX (optimal "
-         "control, automatic derivatives, C code generation); importing it needs CasADi (the casadi extra).",
+    name="casadi",
+    flag="--casadi",
+    kind="casadi",
+    title="CasADi",
+    column=5,
+    help="Write DIR/<name>_dynamics_casadi.py: every function as a casadi.Function built with casadi.SX "
+    "(optimal control, automatic derivatives, C code generation); importing it needs CasADi "
+    "(the casadi extra).",
     build_help="Write <name>_dynamics_casadi.py (CasADi).",
     outputs=("{}_dynamics_casadi.py",),
     templates=("casadi/dynamics.py.j2", "casadi/bodies.py.j2", "casadi/functions.py.j2", "python_api.j2"),
-    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating CasADi",
+    render=f"{__name__}:render",
+    offered=f"{__name__}:offered",
+    progress="generating CasADi",
     note=f"{__name__}:missing_note",
 )

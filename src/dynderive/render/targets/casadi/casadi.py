@@ -38,12 +38,19 @@ CASADI_TEMPLATE = "casadi/dynamics.py.j2"
 #: Modules the generated CasADi module may import.
 CASADI_IMPORTS = frozenset({"casadi", "numpy", "__future__"})
 #: Maximal-coordinate functions printed from a quantity: (name, arguments, quantity).
-_MAXIMAL = (("maximal_mass_matrix", ("qm",), "M_m"), ("maximal_coriolis_matrix", ("qm", "qmd"), "C_m"),
-            ("maximal_gravity_vector", ("qm",), "N_m"), ("maximal_efforts", ("qm", "u"), "Y_m"),
-            ("constraints", ("qm",), "a_m"), ("constraint_jacobian", ("qm",), "A_m"),
-            ("constraint_jacobian_dot", ("qm", "qmd"), "Adot_m"), ("maximal_kinetic_energy", ("qm", "qmd"), "T_m"),
-            ("maximal_potential_energy", ("qm",), "V_m"), ("to_maximal", ("q",), "h"),
-            ("to_maximal_jacobian", ("q",), "H"))
+_MAXIMAL = (
+    ("maximal_mass_matrix", ("qm",), "M_m"),
+    ("maximal_coriolis_matrix", ("qm", "qmd"), "C_m"),
+    ("maximal_gravity_vector", ("qm",), "N_m"),
+    ("maximal_efforts", ("qm", "u"), "Y_m"),
+    ("constraints", ("qm",), "a_m"),
+    ("constraint_jacobian", ("qm",), "A_m"),
+    ("constraint_jacobian_dot", ("qm", "qmd"), "Adot_m"),
+    ("maximal_kinetic_energy", ("qm", "qmd"), "T_m"),
+    ("maximal_potential_energy", ("qm",), "V_m"),
+    ("to_maximal", ("q",), "h"),
+    ("to_maximal_jacobian", ("q",), "H"),
+)
 _FRICTION = ("maximal_friction_forces", ("qm", "qmd"), "F_m")
 
 
@@ -71,31 +78,48 @@ def _explicit_bodies(derivation: Derivation, context: dict[str, Any]) -> list[Pr
     qdd = Argument("qdd", table.qdd, "accelerations")
     u = Argument("u", list(table.efforts.values()), "efforts")
     bodies = []
-    specs = [("_mass_matrix_body", [q], "M_g"), ("_coriolis_body", [q, qd], "C_g"), ("_gravity_body", [q], "N_g"),
-             ("_potential_body", [q], "V_g")]
+    specs = [
+        ("_mass_matrix_body", [q], "M_g"),
+        ("_coriolis_body", [q, qd], "C_g"),
+        ("_gravity_body", [q], "N_g"),
+        ("_potential_body", [q], "V_g"),
+    ]
     if not robot.floating:
         specs.append(("_generalized_forces_body", [q, u], "Y_g"))
     for name, arguments, quantity in specs:
         if name not in have:
-            bodies.append(expression_body(name, f"{quantity}, entry by entry.", arguments, quantities[quantity]))
+            bodies.append(
+                expression_body(name, f"{quantity}, entry by entry.", arguments, quantities[quantity])
+            )
     if not robot.floating:
-        bodies.append(expression_body("_parameter_vector_body", "parameter_vector, entry by entry.", [],
-                                      sympy.Matrix([p.value for p in derivation.parameter_vector])))
+        bodies.append(
+            expression_body(
+                "_parameter_vector_body",
+                "parameter_vector, entry by entry.",
+                [],
+                sympy.Matrix([p.value for p in derivation.parameter_vector]),
+            )
+        )
         if robot.dissipative:
             for name in ("damping", "friction"):
                 value = [sympy.Integer(0)] * nv
                 for drive in derivation.joint_drives:
                     value[drive.coordinate] = getattr(drive, name)
-                bodies.append(expression_body(f"_{name}_coefficients_body", f"{name}, entry by entry.", [],
-                                              sympy.Matrix(value)))
+                bodies.append(
+                    expression_body(
+                        f"_{name}_coefficients_body", f"{name}, entry by entry.", [], sympy.Matrix(value)
+                    )
+                )
     if robot.loops:
         multipliers = Argument("_multipliers", table.loop_multipliers, "loop multipliers")
         force, acceleration = derivation.loop_linearization
-        for name, arguments, value in [("_loop_constraints_body", [q], quantities["a_g"]),
-                                       ("_loop_jacobian_body", [q], quantities["A_g"]),
-                                       ("_loop_jacobian_dot_body", [q, qd], quantities["Adot_g"]),
-                                       ("_loop_force_jacobian_body", [q, multipliers], force),
-                                       ("_loop_acceleration_jacobian_body", [q, qd, qdd], acceleration)]:
+        for name, arguments, value in [
+            ("_loop_constraints_body", [q], quantities["a_g"]),
+            ("_loop_jacobian_body", [q], quantities["A_g"]),
+            ("_loop_jacobian_dot_body", [q, qd], quantities["Adot_g"]),
+            ("_loop_force_jacobian_body", [q, multipliers], force),
+            ("_loop_acceleration_jacobian_body", [q, qd, qdd], acceleration),
+        ]:
             bodies.append(expression_body(name, f"{name[1:-5]}, entry by entry.", arguments, value))
     if robot.planar:
         qm = Argument("qm", table.qm, "maximal coordinates")
@@ -103,8 +127,14 @@ def _explicit_bodies(derivation: Derivation, context: dict[str, Any]) -> list[Pr
         by_name = {"q": q, "u": u, "qm": qm, "qmd": qmd}
         specs = list(_MAXIMAL) + ([_FRICTION] if robot.dissipative else [])
         for name, arguments, quantity in specs:
-            bodies.append(expression_body(f"_{name}_body", f"{quantity}, entry by entry.",
-                                          [by_name[a] for a in arguments], quantities[quantity]))
+            bodies.append(
+                expression_body(
+                    f"_{name}_body",
+                    f"{quantity}, entry by entry.",
+                    [by_name[a] for a in arguments],
+                    quantities[quantity],
+                )
+            )
     return bodies
 
 
@@ -121,21 +151,30 @@ def casadi_context(derivation: Derivation) -> dict[str, Any]:
     programs) with the explicit expressions as bodies too, and the sizes of the module."""
     robot = derivation.robot
     if robot.loops and derivation.steps["loops"].redundant:
-        raise InputError(Problem(robot.source, *robot.positions.get("loops", (1, 1)),
-                                 "--casadi does not build over-constrained loops (their solves take the row space of "
-                                 "the constraint Jacobian at each state, an SVD that casadi.SX has not); the NumPy, C "
-                                 "and JAX modules do"))
+        raise InputError(
+            Problem(
+                robot.source,
+                *robot.positions.get("loops", (1, 1)),
+                "--casadi does not build over-constrained loops (their solves take the row space of "
+                "the constraint Jacobian at each state, an SVD that casadi.SX has not); the NumPy, C "
+                "and JAX modules do",
+            )
+        )
     context = code_context(derivation)
     context["programs"] = list(context["programs"]) + _explicit_bodies(derivation, context)
     size = api.sizes(derivation)
-    maximal = [_maximal_row(derivation, spec) for spec in _MAXIMAL + ((_FRICTION,) if robot.dissipative else ())] \
-        if robot.planar else []
+    maximal = (
+        [_maximal_row(derivation, spec) for spec in _MAXIMAL + ((_FRICTION,) if robot.dissipative else ())]
+        if robot.planar
+        else []
+    )
     context |= {
         "module": f"{robot.name}_dynamics_casadi",
         "sizes": size,
         "parameter_names": python_literal(tuple(p.name for p in robot.parameters)),
-        "parameter_defaults": Code(", ".join("_np.nan" if p["default"] is None else str(p["default"])
-                                             for p in context["parameters"])),
+        "parameter_defaults": Code(
+            ", ".join("_np.nan" if p["default"] is None else str(p["default"]) for p in context["parameters"])
+        ),
         "maximal_functions": maximal,
         "loops": bool(robot.loops),
         "maximal": bool(robot.planar),
@@ -155,7 +194,9 @@ def casadi_context(derivation: Derivation) -> dict[str, Any]:
 def render_casadi(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """The text of ``<name>_dynamics_casadi.py``, checked (it parses, imports only ``casadi`` and
     ``numpy``, and its docstring reads back the robot's title) before it is returned."""
-    return render_module(derivation, CASADI_TEMPLATE, casadi_context(derivation), template_dir, CASADI_IMPORTS)
+    return render_module(
+        derivation, CASADI_TEMPLATE, casadi_context(derivation), template_dir, CASADI_IMPORTS
+    )
 
 
 __all__ = ["CASADI_IMPORTS", "CASADI_TEMPLATE", "casadi_context", "expression_body", "render_casadi"]
