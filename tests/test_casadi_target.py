@@ -186,6 +186,37 @@ def test_floating_base_agrees_with_numpy(code_dir):
     )
 
 
+#: A floating base with a spherical joint (two quaternions: NQ = NV + 2), as in test_joint_types.py.
+BALL_ARM = """\
+name: ball_arm
+planar: false
+gravity: [0, 0, -9.81]
+links:
+- {name: base, mass: 2.1234567890123456, com: [0.1, 0.02, -0.03], inertia: [0.3, 0.2, 0.25, 0.01, 0.0, 0.02]}
+- {name: arm, mass: 1.3, com: [0.2, 0.0, 0.01], inertia: [0.1, 0.12, 0.09, 0.0, 0.01, 0.0]}
+- {name: hand, mass: 0.7, com: [0.05, 0.01, 0.0], inertia: [0.02, 0.03, 0.025, 0.0, 0.0, 0.001]}
+- {name: slide, mass: 0.4, com: [0.0, 0.0, 0.1], inertia: [0.01, 0.01, 0.01, 0.0, 0.0, 0.0]}
+joints:
+- {name: free, type: floating, parent: world, child: base, origin: {xyz: [0.1, -0.2, 0.3], rpy: [0.3, -0.2, 0.1]}}
+- {name: ball, type: spherical, parent: base, child: arm, origin: {xyz: [0.2, 0.1, 0.0], rpy: [0.0, 0.4, 0.0]}}
+- {name: wrist, type: revolute, parent: arm, child: hand, origin: {xyz: [0.4, 0.0, 0.0], rpy: [0, 0, 0]},
+   axis: [0, 0.6, 0.8]}
+- {name: drawer, type: prismatic, parent: base, child: slide, origin: {xyz: [0, 0, 0.1], rpy: [0, 0, 0]},
+   axis: [1, 0, 0]}
+"""
+
+
+def test_spherical_joint_agrees_with_numpy(tmp_path):
+    path = tmp_path / "ball_arm.yaml"
+    path.write_text(BALL_ARM)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    numpy_module = import_code(dynderive.render_code(derivation), tmp_path, "ball_arm_dynamics")
+    casadi_module = import_code(render_casadi(derivation), tmp_path, "ball_arm_dynamics_casadi")
+    assert casadi_module.NQ == casadi_module.NV + 2
+    _agree(numpy_module, casadi_module, seed=8)
+    _derivatives_agree(numpy_module, casadi_module, seed=9)
+
+
 def _derivatives_agree(numpy_module, casadi_module, seed: int, smoothing: float = 0.0) -> None:
     """casadi.jacobian of forward_dynamics is linearize's lower rows and forward_dynamics_derivatives;
     that of inverse_dynamics is inverse_dynamics_derivatives (dtau/dqdd: the mass matrix)."""
