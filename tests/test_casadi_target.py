@@ -407,3 +407,21 @@ def test_over_constrained_loops_are_refused_at_their_position(tmp_path):
     assert result.exit_code == 2, result.output
     assert "bennett.yaml:" in result.output and "over-constrained loops" in result.output
     assert not (tmp_path / "bennett_dynamics_casadi.py").exists()
+
+
+def test_one_node_per_operation_of_the_programs(code_dir):
+    """The SX graph keeps the engine's common subexpressions: each Function runs about as many
+    instructions as its program has operations (a tree would repeat every shared value)."""
+    from dynderive.render.targets.casadi.casadi import casadi_context
+
+    module = casadi_module_of("ur5", str(code_dir))
+    programs = {p.name: p for p in casadi_context(derivation_of("ur5"))["programs"]}
+    for name, body in (
+        ("mass_matrix", "_mass_matrix_body"),
+        ("inverse_dynamics", "_inverse_dynamics_body"),
+        ("forward_dynamics", "_forward_dynamics_body"),
+    ):
+        function = getattr(module, name)
+        inputs = sum(function.numel_in(i) for i in range(function.n_in()))
+        outputs = sum(function.numel_out(i) for i in range(function.n_out()))
+        assert function.n_instructions() <= 1.2 * programs[body].operations + inputs + 2 * outputs, name
