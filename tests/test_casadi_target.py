@@ -425,3 +425,17 @@ def test_one_node_per_operation_of_the_programs(code_dir):
         inputs = sum(function.numel_in(i) for i in range(function.n_in()))
         outputs = sum(function.numel_out(i) for i in range(function.n_out()))
         assert function.n_instructions() <= 1.2 * programs[body].operations + inputs + 2 * outputs, name
+
+
+def test_a_note_when_casadi_is_not_installed(monkeypatch):
+    """The module is generated text, written without CasADi: solve says how to install it."""
+    import importlib.util
+
+    from dynderive.render.targets.casadi import missing_note
+
+    assert missing_note() is None
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "casadi" else real(name, *a)
+    )
+    assert 'pip install "dynderive[casadi]"' in missing_note()
