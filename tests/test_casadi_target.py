@@ -325,7 +325,7 @@ C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wno-unused-
 
 
 @pytest.mark.skipif(not os.environ.get("CI") and shutil.which("gcc") is None, reason="no gcc")
-@pytest.mark.parametrize("robot", ["ur5", "cart_pole_damped"])
+@pytest.mark.parametrize("robot", ["ur5", "cart_pole_damped", "four_bar"])
 def test_generated_c_compiles_as_c99(robot, code_dir, tmp_path):
     module = casadi_module_of(robot, str(code_dir))
     for name in ("mass_matrix", "forward_dynamics", "linearize"):
