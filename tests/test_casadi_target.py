@@ -197,8 +197,10 @@ links:
 - {name: hand, mass: 0.7, com: [0.05, 0.01, 0.0], inertia: [0.02, 0.03, 0.025, 0.0, 0.0, 0.001]}
 - {name: slide, mass: 0.4, com: [0.0, 0.0, 0.1], inertia: [0.01, 0.01, 0.01, 0.0, 0.0, 0.0]}
 joints:
-- {name: free, type: floating, parent: world, child: base, origin: {xyz: [0.1, -0.2, 0.3], rpy: [0.3, -0.2, 0.1]}}
-- {name: ball, type: spherical, parent: base, child: arm, origin: {xyz: [0.2, 0.1, 0.0], rpy: [0.0, 0.4, 0.0]}}
+- {name: free, type: floating, parent: world, child: base,
+   origin: {xyz: [0.1, -0.2, 0.3], rpy: [0.3, -0.2, 0.1]}}
+- {name: ball, type: spherical, parent: base, child: arm,
+   origin: {xyz: [0.2, 0.1, 0.0], rpy: [0.0, 0.4, 0.0]}}
 - {name: wrist, type: revolute, parent: arm, child: hand, origin: {xyz: [0.4, 0.0, 0.0], rpy: [0, 0, 0]},
    axis: [0, 0.6, 0.8]}
 - {name: drawer, type: prismatic, parent: base, child: slide, origin: {xyz: [0, 0, 0.1], rpy: [0, 0, 0]},
