@@ -36,6 +36,10 @@ NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
      "a robot without frames: MATLAB writes no frame functions (the NumPy module's raise for any frame name)"),
     (("numpy", "c", "c-extension", "jax"), ("generalized_forces",), "floating",
      "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
+    (("casadi",), ("generalized_forces",), "floating",
+     "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
+    (("casadi",), ("assemble",), "fixed",
+     "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
 )
 
 

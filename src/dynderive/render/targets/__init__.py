@@ -1,5 +1,5 @@
 """The code targets' registry: one folder per target (``numpy/``, ``c/``, ``c_extension/``,
-``matlab/``, ``jax/``), whose ``__init__.py`` holds its entry (``TARGET``, a ``Target``),
+``matlab/``, ``jax/``, ``casadi/``), whose ``__init__.py`` holds its entry (``TARGET``, a ``Target``),
 listed here in the order the commands render them: C first and MATLAB next (a robot that either
 refuses stops the run before the others' work), the extension after the C (it compiles the C
 files this run made), the NumPy module last. Adding a target: a folder with its entry, its
@@ -12,13 +12,14 @@ from typing import Any
 
 from .c import TARGET as _C
 from .c_extension import TARGET as _C_EXTENSION
+from .casadi import TARGET as _CASADI
 from .jax import TARGET as _JAX
 from .matlab import TARGET as _MATLAB
 from .numpy import TARGET as _NUMPY
 from .target import Target, resolve
 
 #: Every code target, in the order they are rendered.
-TARGETS: tuple[Target, ...] = (_C, _MATLAB, _JAX, _C_EXTENSION, _NUMPY)
+TARGETS: tuple[Target, ...] = (_C, _MATLAB, _JAX, _CASADI, _C_EXTENSION, _NUMPY)
 #: The same, in the order of their options and of the table of offered functions.
 COLUMNS: tuple[Target, ...] = tuple(sorted(TARGETS, key=lambda target: target.column))
 

@@ -1,0 +1,76 @@
+"""The CasADi target (``--casadi``): ``<name>_dynamics_casadi.py``, every function of the
+generated API as a ``casadi.Function`` built with ``casadi.SX`` (DESIGN.md section 9); its
+tests compare it with the NumPy module (``tests/test_casadi_target.py``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..target import Target
+
+
+def _source(derivation: Any, template_dir: Any = None) -> str:
+    from .casadi import render_casadi
+
+    return render_casadi(derivation, template_dir)
+
+
+def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+    """The module, for a fixed or a floating base."""
+    return {f"{derivation.robot.name}_dynamics_casadi.py": _source(derivation, template_dir).encode()}
+
+
+def offered(derivation: Any) -> set[str]:
+    """The module's public Functions (top-level names bound to ``_function(...)``) and functions
+    (``frame_transform``...)."""
+    import ast
+
+    from ..target import public
+
+    source = _source(derivation)
+    names = public(source)
+    for node in ast.parse(source).body:
+        if (
+            isinstance(node, ast.Assign)
+            and isinstance(node.value, ast.Call)
+            and isinstance(node.value.func, ast.Name)
+            and node.value.func.id == "_function"
+        ):
+            names |= {t.id for t in node.targets if isinstance(t, ast.Name) and not t.id.startswith("_")}
+    return names
+
+
+def missing_note() -> str | None:
+    """The module is written whether or not CasADi is installed (it is generated text); it imports
+    CasADi, an optional dependency (the ``casadi`` extra): a note when it is not importable here."""
+    import importlib.util
+
+    try:
+        found = importlib.util.find_spec("casadi") is not None
+    except (ImportError, ValueError):
+        found = False
+    if found:
+        return None
+    return (
+        "note: --casadi: CasADi is not installed here; the CasADi module is written, and imports once "
+        'CasADi is installed: pip install "dynderive[casadi]"'
+    )
+
+
+TARGET = Target(
+    name="casadi",
+    flag="--casadi",
+    kind="casadi",
+    title="CasADi",
+    column=5,
+    help="Write DIR/<name>_dynamics_casadi.py: every function as a casadi.Function built with casadi.SX "
+    "(optimal control, automatic derivatives, C code generation); importing it needs CasADi "
+    "(the casadi extra).",
+    build_help="Write <name>_dynamics_casadi.py (CasADi).",
+    outputs=("{}_dynamics_casadi.py",),
+    templates=("casadi/dynamics.py.j2", "casadi/bodies.py.j2", "casadi/functions.py.j2", "python_api.j2"),
+    render=f"{__name__}:render",
+    offered=f"{__name__}:offered",
+    progress="generating CasADi",
+    note=f"{__name__}:missing_note",
+)
