@@ -29,14 +29,12 @@ FRAME_FUNCTIONS = api.group("frames")
 #: robot that declares no frames).
 NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
     (("c", "c-extension", "matlab"), MAXIMAL, "fixed",
-     "the maximal-coordinate form of a planar robot is printed for NumPy and JAX only"),
+     "the maximal-coordinate form of a planar robot is printed for NumPy, JAX and CasADi only"),
     (("matlab",), ("assemble", "reduced_basis", "reduced_forward_dynamics"), "fixed",
      "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
     (("matlab",), FRAME_FUNCTIONS, "frameless",
      "a robot without frames: MATLAB writes no frame functions (the NumPy module's raise for any frame name)"),
-    (("numpy", "c", "c-extension", "jax"), ("generalized_forces",), "floating",
-     "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
-    (("casadi",), ("generalized_forces",), "floating",
+    (("numpy", "c", "c-extension", "jax", "casadi"), ("generalized_forces",), "floating",
      "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
     (("casadi",), ("assemble",), "fixed",
      "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
