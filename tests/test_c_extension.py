@@ -39,8 +39,9 @@ if not (shutil.which("gcc") or shutil.which("cc")) or not HEADERS:
 
 RTOL = 1e-12
 FUNCTIONS = ["mass_matrix", "coriolis_matrix", "gravity_vector", "generalized_forces", "inverse_dynamics", "forward_dynamics",
-             "kinetic_energy", "potential_energy", "friction_forces", "linearize", "regressor", "parameter_vector",
-             "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd"]
+             "kinetic_energy", "potential_energy", "friction_forces", "linearize", "inverse_dynamics_derivatives",
+             "forward_dynamics_derivatives", "regressor", "parameter_vector", "frame_transform", "frame_jacobian",
+             "frame_jacobian_dot_qd"]
 
 
 def _load(derivation, folder: Path, optimization: str = "-O0"):
