@@ -235,7 +235,7 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
     compiled_rows = [n for n in rows if n.startswith("compiled ")]
-    assert len(compiled_rows) == 19 and all(rows[n] == "pass" for n in compiled_rows)
+    assert len(compiled_rows) == 21 and all(rows[n] == "pass" for n in compiled_rows)
 
 
 def test_failing_compiler_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):
