@@ -1483,7 +1483,7 @@ int bennett_linearize(const double *q, const double *qd, const double *u, const 
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
 void bennett_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const bennett_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const bennett_parameters *const P = p ? p : &bennett_default_parameters;

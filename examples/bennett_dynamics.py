@@ -1896,8 +1896,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
-    By recursive Newton-Euler differentiated line by line. Of the open tree, as inverse_dynamics (no loop forces).
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q). Of the open tree, as inverse_dynamics (no loop forces).
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
 
     q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)

@@ -674,8 +674,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
-    By recursive Newton-Euler differentiated line by line.
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
 
     q: joint coordinates ("x", "theta"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)

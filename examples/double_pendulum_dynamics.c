@@ -350,7 +350,7 @@ int double_pendulum_linearize(const double *q, const double *qd, const double *u
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
 void double_pendulum_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;

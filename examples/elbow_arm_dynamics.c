@@ -733,7 +733,7 @@ int elbow_arm_linearize(const double *q, const double *qd, const double *u, cons
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
 void elbow_arm_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const elbow_arm_parameters *const P = p ? p : &elbow_arm_default_parameters;

@@ -564,7 +564,7 @@ int four_bar_linearize(const double *q, const double *qd, const double *u, const
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
 void four_bar_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;

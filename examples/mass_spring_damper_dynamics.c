@@ -220,7 +220,7 @@ int mass_spring_damper_linearize(const double *q, const double *qd, const double
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. Damping and Coulomb friction's slope (friction_smoothing > 0) are in dtau_dqd. External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Damping and Coulomb friction's slope (friction_smoothing > 0) are in dtau_dqd. External wrenches are not differentiated. */
 void mass_spring_damper_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const mass_spring_damper_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;

@@ -718,8 +718,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0,
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0, k2=25.0, b1=0.8, b2=0.3, d=0.5, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
-    By recursive Newton-Euler differentiated line by line.
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
     Damping adds b to dtau/dqd; Coulomb friction adds fc d sign(qd)/dqd, zero with friction_smoothing = 0
     (the exact sign) and fc (1 - tanh(qd/eps)**2)/eps with friction_smoothing = eps > 0.
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.

@@ -4331,7 +4331,7 @@ int panda_linearize(const double *q, const double *qd, const double *u, const pa
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 7 x 7 and 7 x 7, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 7 x 7 and 7 x 7, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
 void panda_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const panda_parameters *const P = p ? p : &panda_default_parameters;

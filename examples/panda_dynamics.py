@@ -5257,8 +5257,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 7, 7) and (..., 7, 7).
-    By recursive Newton-Euler differentiated line by line.
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 7, 7) and (..., 7, 7).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
 
     q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd, qdd: velocities and accelerations, shape (..., 7)

@@ -678,7 +678,7 @@ int planar_3r_linearize(const double *q, const double *qd, const double *u, cons
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
 void planar_3r_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const planar_3r_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;

@@ -1256,8 +1256,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
-    By recursive Newton-Euler differentiated line by line.
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
 
     q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)

@@ -270,7 +270,7 @@ int rp_arm_linearize(const double *q, const double *qd, const double *u, const r
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
 void rp_arm_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const rp_arm_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;

@@ -550,7 +550,7 @@ int slider_crank_linearize(const double *q, const double *qd, const double *u, c
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
 void slider_crank_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;

@@ -1035,8 +1035,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
-    By recursive Newton-Euler differentiated line by line. Of the open tree, as inverse_dynamics (no loop forces).
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q). Of the open tree, as inverse_dynamics (no loop forces).
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
 
     q: joint coordinates ("q1", "q2", "s"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)

@@ -919,7 +919,7 @@ int spatial_four_bar_linearize(const double *q, const double *qd, const double *
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 4 x 4 and 4 x 4, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 4 x 4 and 4 x 4, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
 void spatial_four_bar_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const spatial_four_bar_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;

@@ -1327,8 +1327,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 4, 4) and (..., 4, 4).
-    By recursive Newton-Euler differentiated line by line. Of the open tree, as inverse_dynamics (no loop forces).
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 4, 4) and (..., 4, 4).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q). Of the open tree, as inverse_dynamics (no loop forces).
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
 
     q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd, qdd: velocities and accelerations, shape (..., 4)

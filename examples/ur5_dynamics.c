@@ -3008,7 +3008,7 @@ int ur5_linearize(const double *q, const double *qd, const double *u, const ur5_
     return 0;
 }
 
-/* (dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix), 6 x 6 and 6 x 6, row-major. From Newton-Euler differentiated line by line; the derivative by qdd is the mass matrix. External wrenches are not differentiated. */
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 6 x 6 and 6 x 6, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
 void ur5_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const ur5_parameters *p, double *dtau_dq, double *dtau_dqd)
 {
     const ur5_parameters *const P = p ? p : &ur5_default_parameters;

@@ -3797,8 +3797,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
 
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
-    """(dtau/dq, dtau/dqd) of inverse_dynamics (dtau/dqdd is mass_matrix) (Pinocchio's ``computeRNEADerivatives``), shapes (..., 6, 6) and (..., 6, 6).
-    By recursive Newton-Euler differentiated line by line.
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 6, 6) and (..., 6, 6).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
     External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
 
     q: joint coordinates ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"), shape (..., 6); qd, qdd: velocities and accelerations, shape (..., 6)

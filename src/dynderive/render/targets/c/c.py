@@ -119,8 +119,8 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
                   [] if robot.loops else _linearize_body(derivation, names, start)),
         CFunction(f"void {name}_inverse_dynamics_derivatives(const double *q, const double *qd, "
                   f"const double *qdd, {pp}, double *dtau_dq, double *dtau_dqd)",
-                  comment("inverse_dynamics_derivatives", "From Newton-Euler differentiated line by line; the "
-                          "derivative by qdd is the mass matrix.",
+                  comment("inverse_dynamics_derivatives", "From Newton-Euler differentiated line by line; "
+                          "dtau/dqdd is the mass matrix.",
                           *(["Tangent space: q perturbed as integrate(q, dq)."] if quaternions else []),
                           *(["Of the open tree (no loop forces)."] if robot.loops else []),
                           *(["Damping and Coulomb friction's slope (friction_smoothing > 0) are in dtau_dqd."]
