@@ -745,8 +745,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
         u = np.zeros(1)
     _parameters = {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _by_coordinate, _by_rate = inverse_dynamics_derivatives(q, qd, _qdd, friction_smoothing=friction_smoothing,
-                                                            **_parameters)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(1), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
@@ -773,7 +772,11 @@ def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, 
     q: joint coordinates ("x", "theta"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
     """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
-    _parameters = {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g}
+    return _inverse_derivatives(arrays, friction_smoothing, {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 2, 2), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     _damping = _damping_coefficients(arrays[1], **_parameters)

@@ -1071,8 +1071,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=
         u = np.zeros(1)
     _parameters = {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g}
     _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
-    _by_coordinate, _by_rate = inverse_dynamics_derivatives(q, qd, _qdd, friction_smoothing=friction_smoothing,
-                                                            **_parameters)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
     _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(1), **_parameters), -1, -2)
@@ -1108,7 +1107,11 @@ def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, a=0.25, 
     q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)
     """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
-    _parameters = {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    return _inverse_derivatives(arrays, friction_smoothing, {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 3, 3), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     return _by_coordinate, _by_rate

@@ -699,8 +699,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=0.5, k1=40.0,
         u = np.zeros(1)
     _parameters = {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _by_coordinate, _by_rate = inverse_dynamics_derivatives(q, qd, _qdd, friction_smoothing=friction_smoothing,
-                                                            **_parameters)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(1), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
@@ -727,7 +726,11 @@ def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, 
     q: joint coordinates ("s1", "s2"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
     """
     arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
-    _parameters = {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g}
+    return _inverse_derivatives(arrays, friction_smoothing, {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "b1": b1, "b2": b2, "d": d, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 2, 2), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     _damping = _damping_coefficients(arrays[1], **_parameters)

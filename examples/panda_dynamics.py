@@ -5238,8 +5238,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
         u = np.zeros(7)
     _parameters = {"g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _by_coordinate, _by_rate = inverse_dynamics_derivatives(q, qd, _qdd, friction_smoothing=friction_smoothing,
-                                                            **_parameters)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(7), np.eye(7), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
@@ -5264,7 +5263,11 @@ def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
     q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd, qdd: velocities and accelerations, shape (..., 7)
     """
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), _coordinates("qdd", qdd, 7)]
-    _parameters = {"g": g}
+    return _inverse_derivatives(arrays, friction_smoothing, {"g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 7, 7), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     return _by_coordinate, _by_rate

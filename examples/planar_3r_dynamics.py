@@ -1237,8 +1237,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
         u = np.zeros(3)
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _by_coordinate, _by_rate = inverse_dynamics_derivatives(q, qd, _qdd, friction_smoothing=friction_smoothing,
-                                                            **_parameters)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(3), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
@@ -1263,7 +1262,11 @@ def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, 
     q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)
     """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
-    _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
+    return _inverse_derivatives(arrays, friction_smoothing, {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 3, 3), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     return _by_coordinate, _by_rate

@@ -1005,8 +1005,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m
         u = np.zeros(1)
     _parameters = {"r": r, "l": l, "e": e, "m1": m1, "m2": m2, "m3": m3, "g": g}
     _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
-    _by_coordinate, _by_rate = inverse_dynamics_derivatives(q, qd, _qdd, friction_smoothing=friction_smoothing,
-                                                            **_parameters)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
     _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(1), **_parameters), -1, -2)
@@ -1042,7 +1041,11 @@ def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, r=0.1, l
     q: joint coordinates ("q1", "q2", "s"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)
     """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
-    _parameters = {"r": r, "l": l, "e": e, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    return _inverse_derivatives(arrays, friction_smoothing, {"r": r, "l": l, "e": e, "m1": m1, "m2": m2, "m3": m3, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 3, 3), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     return _by_coordinate, _by_rate

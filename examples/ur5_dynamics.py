@@ -3778,8 +3778,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
         u = np.zeros(6)
     _parameters = {"g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _by_coordinate, _by_rate = inverse_dynamics_derivatives(q, qd, _qdd, friction_smoothing=friction_smoothing,
-                                                            **_parameters)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(6), np.eye(6), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
@@ -3804,7 +3803,11 @@ def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
     q: joint coordinates ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"), shape (..., 6); qd, qdd: velocities and accelerations, shape (..., 6)
     """
     arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), _coordinates("qdd", qdd, 6)]
-    _parameters = {"g": g}
+    return _inverse_derivatives(arrays, friction_smoothing, {"g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 6, 6), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     return _by_coordinate, _by_rate
