@@ -1864,9 +1864,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m
         u = np.zeros(1)
     _parameters = {"a": a, "m1": m1, "m2": m2, "m3": m3, "g": g}
     _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
-    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 3, 3), _parameters)
-    _by_coordinate = -_derivatives[..., 0, :, :]
-    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
+    _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
     _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(1), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
@@ -1875,7 +1874,7 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m
                               -2.0 * loop_jacobian_dot(q, qd, **_parameters)], axis=-1)
     _space, _jac = _row_space(_jac, 2)
     _bottom = np.swapaxes(_space, -1, -2) @ _bottom
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _derivatives.shape[:-3], _bottom.shape[:-2])
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _by_rate.shape[:-2], _bottom.shape[:-2])
     _n, _k, _m = 3, 2, 1
     _system = np.zeros(_batch + (_n + _k, _n + _k))
     _system[..., :_n, :_n] = _mass
@@ -1893,6 +1892,38 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m
     _B = np.zeros(_batch + (6, 1))
     _B[..., 3:, :] = _solved[..., 6:]
     return _A, _B
+
+
+def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q). Of the open tree, as inverse_dynamics (no loop forces).
+    External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
+    return _inverse_derivatives(arrays, friction_smoothing, {"a": a, "m1": m1, "m2": m2, "m3": m3, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 3, 3), _parameters)
+    _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
+    return _by_coordinate, _by_rate
+
+
+def forward_dynamics_derivatives(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
+    """(dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks (Pinocchio's ``computeABADerivatives``), shapes (..., 3, 3) and (..., 3, 3) and (..., 3, 1).
+    linearize(q, qd, u) = (A, B) with A = [[0, I], [dqdd/dq, dqdd/dqd]] and B = [[0], [dqdd/du]]; with the loops, of the
+    constrained forward_dynamics with alpha = beta = 0.
+    External wrenches are not differentiated.
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd: velocities, shape (..., 3)
+    u: efforts ("tau1",), shape (..., 1); None means no effort.
+    """
+    _A, _B = linearize(q, qd, u, friction_smoothing=friction_smoothing, a=a, m1=m1, m2=m2, m3=m3, g=g)
+    _n = _A.shape[-1] // 2
+    return _A[..., _n:, :_n], _A[..., _n:, _n:], _B[..., _n:, :]
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):

@@ -745,17 +745,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
         u = np.zeros(1)
     _parameters = {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 2, 2), _parameters)
-    _by_coordinate = -_derivatives[..., 0, :, :]
-    _by_rate = -_derivatives[..., 1, :, :]
-    _slope = _damping_coefficients(qd, **_parameters)
-    if friction_smoothing > 0:
-        _slope = _slope + _friction_coefficients(qd, **_parameters) * (
-            1.0 - np.tanh(qd / friction_smoothing) ** 2) / friction_smoothing
-    _by_rate = _by_rate - _slope[..., None, :] * np.eye(2)
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
+    _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(1), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (2, 2)),
                            np.broadcast_to(_by_rate, _batch + (2, 2)),
                            np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
@@ -766,6 +760,48 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
     _B = np.zeros(_batch + (4, 1))
     _B[..., 2:, :] = _solved[..., 4:]
     return _A, _B
+
+
+def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
+    Damping adds b to dtau/dqd; Coulomb friction adds fc d sign(qd)/dqd, zero with friction_smoothing = 0
+    (the exact sign) and fc (1 - tanh(qd/eps)**2)/eps with friction_smoothing = eps > 0.
+    External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
+
+    q: joint coordinates ("x", "theta"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
+    """
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    return _inverse_derivatives(arrays, friction_smoothing, {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 2, 2), _parameters)
+    _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
+    _damping = _damping_coefficients(arrays[1], **_parameters)
+    _friction = _friction_coefficients(arrays[1], **_parameters)
+    if friction_smoothing < 0:
+        raise ValueError(f"friction_smoothing must not be negative, got {friction_smoothing}")
+    _slope = _damping
+    if friction_smoothing > 0:
+        _slope = _slope + _friction * (
+            1.0 - np.tanh(arrays[1] / friction_smoothing) ** 2) / friction_smoothing
+    _by_rate = _by_rate + _slope[..., None, :] * np.eye(2)
+    return _by_coordinate, _by_rate
+
+
+def forward_dynamics_derivatives(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
+    """(dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks (Pinocchio's ``computeABADerivatives``), shapes (..., 2, 2) and (..., 2, 2) and (..., 2, 1).
+    linearize(q, qd, u) = (A, B) with A = [[0, I], [dqdd/dq, dqdd/dqd]] and B = [[0], [dqdd/du]].
+    External wrenches are not differentiated.
+
+    q: joint coordinates ("x", "theta"), shape (..., 2); qd: velocities, shape (..., 2)
+    u: efforts ("F",), shape (..., 1); None means no effort.
+    """
+    _A, _B = linearize(q, qd, u, friction_smoothing=friction_smoothing, mc=mc, mp=mp, lp=lp, bc=bc, fc=fc, bp=bp, Jm=Jm, g=g)
+    _n = _A.shape[-1] // 2
+    return _A[..., _n:, :_n], _A[..., _n:, _n:], _B[..., _n:, :]
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):

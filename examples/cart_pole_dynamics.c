@@ -287,6 +287,74 @@ int cart_pole_linearize(const double *q, const double *qd, const double *u, cons
     return 0;
 }
 
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
+void cart_pole_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const cart_pole_parameters *p, double *dtau_dq, double *dtau_dqd)
+{
+    const cart_pole_parameters *const P = p ? p : &cart_pole_default_parameters;
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    (void)P;
+    const double t0 = cos(q[1]);
+    const double t1 = sin(q[1]);
+    const double t2 = 0.5*(P->lp*P->mp);
+    const double t3 = -t1*qd[0];
+    const double t4 = -t0*qd[0];
+    const double t5 = t0*P->g - t1*qdd[0];
+    const double t6 = -t0*qdd[0] - t1*P->g;
+    const double t7 = t5 + t4*qd[1];
+    const double t8 = t6 - t3*qd[1];
+    const double t9 = t3*P->mp;
+    const double t10 = t2*qd[1] + t4*P->mp;
+    const double t11 = t7*P->mp - t10*qd[1];
+    const double t12 = t8*P->mp + t9*qd[1] + t2*qdd[1];
+    const double t13 = t1*qd[0];
+    const double t14 = t1*qdd[0] - t0*P->g;
+    const double t15 = t6 + t13*qd[1];
+    const double t16 = t14 - t4*qd[1];
+    const double t17 = t4*P->mp;
+    const double t18 = t13*P->mp;
+    const double t19 = t10*t4 + t2*t16 + t18*t3 - t9*t13 - t17*t4;
+    const double t20 = t15*P->mp - t18*qd[1];
+    const double t21 = t16*P->mp + t17*qd[1];
+    const double t22 = t1*t12 - t0*t11 - t0*t21 - t1*t20;
+    const double t23 = -t0*qd[1];
+    const double t24 = t1*qd[1];
+    const double t25 = -t1*P->mp;
+    const double t26 = -t0*P->mp;
+    const double t27 = t0*t9 + t2*t24 + t26*t3 - t1*t10 - t25*t4;
+    const double t28 = t23*P->mp - t26*qd[1];
+    const double t29 = t24*P->mp + t25*qd[1];
+    const double t30 = -t0*t29 - t1*t28;
+    const double t31 = -t10 + t4*P->mp - t2*qd[1];
+    const double t32 = t9 - t3*P->mp;
+    const double t33 = -t0*t32 - t1*t31;
+    dtau_dq[0] = 0;
+    dtau_dq[1] = t22;
+    dtau_dq[2] = 0;
+    dtau_dq[3] = t19;
+    dtau_dqd[0] = t30;
+    dtau_dqd[1] = t33;
+    dtau_dqd[2] = t27;
+    dtau_dqd[3] = 0;
+}
+
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 2 x 2 and 2 x 2 and 2 x 1, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int cart_pole_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const cart_pole_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du)
+{
+    double A[16];
+    double B[4];
+    if (cart_pole_linearize(q, qd, u, p, A, B) != 0) return 1;
+    for (int i = 0; i < 2; ++i) {
+        for (int k = 0; k < 2; ++k) {
+            dqdd_dq[i * 2 + k] = A[(2 + i) * 4 + k];
+            dqdd_dqd[i * 2 + k] = A[(2 + i) * 4 + 2 + k];
+        }
+        for (int k = 0; k < 1; ++k) dqdd_du[i * 1 + k] = B[(2 + i) * 1 + k];
+    }
+    return 0;
+}
+
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void cart_pole_regressor(const double *q, const double *qd, const double *qdd, const cart_pole_parameters *p, double *Y)
 {

@@ -48,6 +48,10 @@ double cart_pole_potential_energy(const double *q, const cart_pole_parameters *p
 void cart_pole_friction_forces(const double *qd, const cart_pole_parameters *p, double *F);
 /* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 4 x 4 and 4 x 1, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int cart_pole_linearize(const double *q, const double *qd, const double *u, const cart_pole_parameters *p, double *A, double *B);
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
+void cart_pole_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const cart_pole_parameters *p, double *dtau_dq, double *dtau_dqd);
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 2 x 2 and 2 x 2 and 2 x 1, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int cart_pole_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const cart_pole_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du);
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void cart_pole_regressor(const double *q, const double *qd, const double *qdd, const cart_pole_parameters *p, double *Y);
 /* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 8 entries. */

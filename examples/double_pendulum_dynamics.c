@@ -350,6 +350,96 @@ int double_pendulum_linearize(const double *q, const double *qd, const double *u
     return 0;
 }
 
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
+void double_pendulum_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *dtau_dq, double *dtau_dqd)
+{
+    const double_pendulum_parameters *const P = p ? p : &double_pendulum_default_parameters;
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    (void)P;
+    const double t0 = cos(q[0]);
+    const double t1 = sin(q[0]);
+    const double t2 = cos(q[1]);
+    const double t3 = sin(q[1]);
+    const double t4 = 0.5*(P->l1*P->m1);
+    const double t5 = 0.5*(P->l2*P->m2);
+    const double t6 = t1*P->g;
+    const double t7 = t0*P->g;
+    const double t8 = t3*P->l1*qd[0];
+    const double t9 = t2*P->l1*qd[0];
+    const double t10 = t2*t6 + t3*(t7 + P->l1*qdd[0]);
+    const double t11 = t2*(t7 + P->l1*qdd[0]) - t3*t6;
+    const double t12 = qd[0] + qd[1];
+    const double t13 = qdd[0] + qdd[1];
+    const double t14 = t10 + t9*qd[1];
+    const double t15 = t11 - t8*qd[1];
+    const double t16 = t8*P->m2;
+    const double t17 = t9*P->m2 + t12*t5;
+    const double t18 = t14*P->m2 - t12*t17;
+    const double t19 = t12*t16 + t13*t5 + t15*P->m2;
+    const double t20 = -t1*P->g;
+    const double t21 = t4*t20;
+    const double t22 = t2*t7 + t3*t20;
+    const double t23 = t2*t20 - t3*t7;
+    const double t24 = t23*t5;
+    const double t25 = t22*P->m2;
+    const double t26 = t23*P->m2;
+    const double t27 = t2*t26 + t3*t25;
+    const double t28 = t24 + t27*P->l1;
+    const double t29 = t21 + t28;
+    const double t30 = -t3*P->l1*qd[0];
+    const double t31 = -t2*t6 - t3*(t7 + P->l1*qdd[0]);
+    const double t32 = t11 + t30*qd[1];
+    const double t33 = t31 - t9*qd[1];
+    const double t34 = t9*P->m2;
+    const double t35 = t30*P->m2;
+    const double t36 = t8*t35 + t9*t17 + t5*t33 - t9*t34 - t16*t30;
+    const double t37 = t32*P->m2 - t12*t35;
+    const double t38 = t12*t34 + t33*P->m2;
+    const double t39 = t2*t18 + t2*t38 + t3*t37 - t3*t19;
+    const double t40 = t36 + t39*P->l1;
+    const double t41 = t3*P->l1;
+    const double t42 = t2*P->l1;
+    const double t43 = t42*qd[1];
+    const double t44 = -t41*qd[1];
+    const double t45 = t41*P->m2;
+    const double t46 = t5 + t42*P->m2;
+    const double t47 = t8*t46 + t17*t41 + t5*t44 - t9*t45 - t16*t42;
+    const double t48 = -t17 + t43*P->m2 - t12*t46;
+    const double t49 = t16 + t12*t45 + t44*P->m2;
+    const double t50 = t2*t49 + t3*t48;
+    const double t51 = t47 + t50*P->l1;
+    const double t52 = -t17 + t9*P->m2 - t12*t5;
+    const double t53 = t16 - t8*P->m2;
+    const double t54 = t2*t53 + t3*t52;
+    const double t55 = t54*P->l1;
+    dtau_dq[0] = t29;
+    dtau_dq[1] = t40;
+    dtau_dq[2] = t24;
+    dtau_dq[3] = t36;
+    dtau_dqd[0] = t51;
+    dtau_dqd[1] = t55;
+    dtau_dqd[2] = t47;
+    dtau_dqd[3] = 0;
+}
+
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 2 x 2 and 2 x 2 and 2 x 2, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int double_pendulum_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const double_pendulum_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du)
+{
+    double A[16];
+    double B[8];
+    if (double_pendulum_linearize(q, qd, u, p, A, B) != 0) return 1;
+    for (int i = 0; i < 2; ++i) {
+        for (int k = 0; k < 2; ++k) {
+            dqdd_dq[i * 2 + k] = A[(2 + i) * 4 + k];
+            dqdd_dqd[i * 2 + k] = A[(2 + i) * 4 + 2 + k];
+        }
+        for (int k = 0; k < 2; ++k) dqdd_du[i * 2 + k] = B[(2 + i) * 2 + k];
+    }
+    return 0;
+}
+
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void double_pendulum_regressor(const double *q, const double *qd, const double *qdd, const double_pendulum_parameters *p, double *Y)
 {

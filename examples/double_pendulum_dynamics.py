@@ -763,12 +763,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, 
         u = np.zeros(2)
     _parameters = {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 2, 2), _parameters)
-    _by_coordinate = -_derivatives[..., 0, :, :]
-    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
+    _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(2), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (2, 2)),
                            np.broadcast_to(_by_rate, _batch + (2, 2)),
                            np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
@@ -779,6 +778,37 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, 
     _B = np.zeros(_batch + (4, 2))
     _B[..., 2:, :] = _solved[..., 4:]
     return _A, _B
+
+
+def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
+    External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
+
+    q: joint coordinates ("q1", "q2"), shape (..., 2); qd, qdd: velocities and accelerations, shape (..., 2)
+    """
+    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), _coordinates("qdd", qdd, 2)]
+    return _inverse_derivatives(arrays, friction_smoothing, {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 2, 2), _parameters)
+    _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
+    return _by_coordinate, _by_rate
+
+
+def forward_dynamics_derivatives(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
+    """(dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks (Pinocchio's ``computeABADerivatives``), shapes (..., 2, 2) and (..., 2, 2) and (..., 2, 2).
+    linearize(q, qd, u) = (A, B) with A = [[0, I], [dqdd/dq, dqdd/dqd]] and B = [[0], [dqdd/du]].
+    External wrenches are not differentiated.
+
+    q: joint coordinates ("q1", "q2"), shape (..., 2); qd: velocities, shape (..., 2)
+    u: efforts ("tau1", "tau2"), shape (..., 2); None means no effort.
+    """
+    _A, _B = linearize(q, qd, u, friction_smoothing=friction_smoothing, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
+    _n = _A.shape[-1] // 2
+    return _A[..., _n:, :_n], _A[..., _n:, _n:], _B[..., _n:, :]
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):

@@ -56,6 +56,10 @@ double elbow_arm_potential_energy(const double *q, const elbow_arm_parameters *p
 void elbow_arm_friction_forces(const double *qd, const elbow_arm_parameters *p, double *F);
 /* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 6 x 6 and 6 x 3, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int elbow_arm_linearize(const double *q, const double *qd, const double *u, const elbow_arm_parameters *p, double *A, double *B);
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
+void elbow_arm_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *dtau_dq, double *dtau_dqd);
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 3 x 3 and 3 x 3 and 3 x 3, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int elbow_arm_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const elbow_arm_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du);
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 30, row-major. */
 void elbow_arm_regressor(const double *q, const double *qd, const double *qdd, const elbow_arm_parameters *p, double *Y);
 /* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 30 entries. */

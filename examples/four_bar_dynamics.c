@@ -564,6 +564,110 @@ int four_bar_linearize(const double *q, const double *qd, const double *u, const
     return 0;
 }
 
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
+void four_bar_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *dtau_dq, double *dtau_dqd)
+{
+    const four_bar_parameters *const P = p ? p : &four_bar_default_parameters;
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    (void)P;
+    const double t0 = cos(q[0]);
+    const double t1 = sin(q[0]);
+    const double t2 = sin(q[2]);
+    const double t3 = cos(q[1]);
+    const double t4 = sin(q[1]);
+    const double t5 = 0.5*(P->a*P->m1);
+    const double t6 = 0.5*(P->c*P->m3);
+    const double t7 = 0.5*(P->b*P->m2);
+    const double t8 = t1*P->g;
+    const double t9 = t0*P->g;
+    const double t10 = t4*P->a*qd[0];
+    const double t11 = t3*P->a*qd[0];
+    const double t12 = t3*t8 + t4*(t9 + P->a*qdd[0]);
+    const double t13 = t3*(t9 + P->a*qdd[0]) - t4*t8;
+    const double t14 = qd[0] + qd[1];
+    const double t15 = qdd[0] + qdd[1];
+    const double t16 = t12 + t11*qd[1];
+    const double t17 = t13 - t10*qd[1];
+    const double t18 = t10*P->m2;
+    const double t19 = t11*P->m2 + t14*t7;
+    const double t20 = t16*P->m2 - t14*t19;
+    const double t21 = t14*t18 + t15*t7 + t17*P->m2;
+    const double t22 = -t1*P->g;
+    const double t23 = t5*t22;
+    const double t24 = t3*t9 + t4*t22;
+    const double t25 = t3*t22 - t4*t9;
+    const double t26 = t25*t7;
+    const double t27 = t24*P->m2;
+    const double t28 = t25*P->m2;
+    const double t29 = t3*t28 + t4*t27;
+    const double t30 = t26 + t29*P->a;
+    const double t31 = t23 + t30;
+    const double t32 = -t4*P->a*qd[0];
+    const double t33 = -t3*t8 - t4*(t9 + P->a*qdd[0]);
+    const double t34 = t13 + t32*qd[1];
+    const double t35 = t33 - t11*qd[1];
+    const double t36 = t11*P->m2;
+    const double t37 = t32*P->m2;
+    const double t38 = t10*t37 + t11*t19 + t35*t7 - t11*t36 - t18*t32;
+    const double t39 = t34*P->m2 - t14*t37;
+    const double t40 = t14*t36 + t35*P->m2;
+    const double t41 = t3*t20 + t3*t40 + t4*t39 - t4*t21;
+    const double t42 = t38 + t41*P->a;
+    const double t43 = -t2*P->g;
+    const double t44 = t6*t43;
+    const double t45 = t4*P->a;
+    const double t46 = t3*P->a;
+    const double t47 = t46*qd[1];
+    const double t48 = -t45*qd[1];
+    const double t49 = t45*P->m2;
+    const double t50 = t7 + t46*P->m2;
+    const double t51 = t10*t50 + t19*t45 + t48*t7 - t11*t49 - t18*t46;
+    const double t52 = -t19 + t47*P->m2 - t14*t50;
+    const double t53 = t18 + t14*t49 + t48*P->m2;
+    const double t54 = t3*t53 + t4*t52;
+    const double t55 = t51 + t54*P->a;
+    const double t56 = -t19 + t11*P->m2 - t14*t7;
+    const double t57 = t18 - t10*P->m2;
+    const double t58 = t3*t57 + t4*t56;
+    const double t59 = t58*P->a;
+    dtau_dq[0] = t31;
+    dtau_dq[1] = t42;
+    dtau_dq[2] = 0;
+    dtau_dq[3] = t26;
+    dtau_dq[4] = t38;
+    dtau_dq[5] = 0;
+    dtau_dq[6] = 0;
+    dtau_dq[7] = 0;
+    dtau_dq[8] = t44;
+    dtau_dqd[0] = t55;
+    dtau_dqd[1] = t59;
+    dtau_dqd[2] = 0;
+    dtau_dqd[3] = t51;
+    dtau_dqd[4] = 0;
+    dtau_dqd[5] = 0;
+    dtau_dqd[6] = 0;
+    dtau_dqd[7] = 0;
+    dtau_dqd[8] = 0;
+}
+
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 3 x 3 and 3 x 3 and 3 x 1, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int four_bar_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const four_bar_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du)
+{
+    double A[36];
+    double B[6];
+    if (four_bar_linearize(q, qd, u, p, A, B) != 0) return 1;
+    for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < 3; ++k) {
+            dqdd_dq[i * 3 + k] = A[(3 + i) * 6 + k];
+            dqdd_dqd[i * 3 + k] = A[(3 + i) * 6 + 3 + k];
+        }
+        for (int k = 0; k < 1; ++k) dqdd_du[i * 1 + k] = B[(3 + i) * 1 + k];
+    }
+    return 0;
+}
+
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void four_bar_regressor(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *Y)
 {

@@ -55,6 +55,10 @@ double four_bar_potential_energy(const double *q, const four_bar_parameters *p);
 void four_bar_friction_forces(const double *qd, const four_bar_parameters *p, double *F);
 /* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 6 x 6, B 6 x 1, row-major; the constrained solve [M -A_g^T; A_g 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g^T lambda)/dx; -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0 and no wrench, as the NumPy module); returns 0, or 1 or 2 as forward_dynamics (A, B untouched). */
 int four_bar_linearize(const double *q, const double *qd, const double *u, const four_bar_parameters *p, double *A, double *B);
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
+void four_bar_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *dtau_dq, double *dtau_dqd);
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 3 x 3 and 3 x 3 and 3 x 1, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int four_bar_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const four_bar_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du);
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void four_bar_regressor(const double *q, const double *qd, const double *qdd, const four_bar_parameters *p, double *Y);
 /* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */

@@ -220,6 +220,42 @@ int mass_spring_damper_linearize(const double *q, const double *qd, const double
     return 0;
 }
 
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Damping and Coulomb friction's slope (friction_smoothing > 0) are in dtau_dqd. External wrenches are not differentiated. */
+void mass_spring_damper_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const mass_spring_damper_parameters *p, double *dtau_dq, double *dtau_dqd)
+{
+    const mass_spring_damper_parameters *const P = p ? p : &mass_spring_damper_default_parameters;
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    (void)P;
+    dtau_dq[0] = P->k1;
+    dtau_dq[1] = 0;
+    dtau_dq[2] = 0;
+    dtau_dq[3] = P->k2;
+    dtau_dqd[0] = 0;
+    dtau_dqd[1] = 0;
+    dtau_dqd[2] = 0;
+    dtau_dqd[3] = 0;
+    dtau_dqd[0] += (P->b1);
+    dtau_dqd[3] += (P->b2);
+}
+
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 2 x 2 and 2 x 2 and 2 x 1, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int mass_spring_damper_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const mass_spring_damper_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du)
+{
+    double A[16];
+    double B[4];
+    if (mass_spring_damper_linearize(q, qd, u, p, A, B) != 0) return 1;
+    for (int i = 0; i < 2; ++i) {
+        for (int k = 0; k < 2; ++k) {
+            dqdd_dq[i * 2 + k] = A[(2 + i) * 4 + k];
+            dqdd_dqd[i * 2 + k] = A[(2 + i) * 4 + 2 + k];
+        }
+        for (int k = 0; k < 1; ++k) dqdd_du[i * 1 + k] = B[(2 + i) * 1 + k];
+    }
+    return 0;
+}
+
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 12, row-major. */
 void mass_spring_damper_regressor(const double *q, const double *qd, const double *qdd, const mass_spring_damper_parameters *p, double *Y)
 {

@@ -46,6 +46,10 @@ double panda_potential_energy(const double *q, const panda_parameters *p);
 void panda_friction_forces(const double *qd, const panda_parameters *p, double *F);
 /* (A, B) of xdot = A dx + B du about x = (q, qd) and u, 14 x 14 and 14 x 7, row-major. From Newton-Euler differentiated and one L D L^T solve; returns 0, or 1 (A, B untouched) if M is not positive definite. */
 int panda_linearize(const double *q, const double *qd, const double *u, const panda_parameters *p, double *A, double *B);
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 7 x 7 and 7 x 7, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
+void panda_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *dtau_dq, double *dtau_dqd);
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 7 x 7 and 7 x 7 and 7 x 7, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int panda_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const panda_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du);
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 7 x 70, row-major. */
 void panda_regressor(const double *q, const double *qd, const double *qdd, const panda_parameters *p, double *Y);
 /* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 70 entries. */

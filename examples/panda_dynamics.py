@@ -5238,12 +5238,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
         u = np.zeros(7)
     _parameters = {"g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 7, 7), _parameters)
-    _by_coordinate = -_derivatives[..., 0, :, :]
-    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
+    _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(7), np.eye(7), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (7, 7)),
                            np.broadcast_to(_by_rate, _batch + (7, 7)),
                            np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
@@ -5254,6 +5253,37 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     _B = np.zeros(_batch + (14, 7))
     _B[..., 7:, :] = _solved[..., 14:]
     return _A, _B
+
+
+def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 7, 7) and (..., 7, 7).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
+    External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
+
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd, qdd: velocities and accelerations, shape (..., 7)
+    """
+    arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), _coordinates("qdd", qdd, 7)]
+    return _inverse_derivatives(arrays, friction_smoothing, {"g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 7, 7), _parameters)
+    _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
+    return _by_coordinate, _by_rate
+
+
+def forward_dynamics_derivatives(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
+    """(dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks (Pinocchio's ``computeABADerivatives``), shapes (..., 7, 7) and (..., 7, 7) and (..., 7, 7).
+    linearize(q, qd, u) = (A, B) with A = [[0, I], [dqdd/dq, dqdd/dqd]] and B = [[0], [dqdd/du]].
+    External wrenches are not differentiated.
+
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd: velocities, shape (..., 7)
+    u: efforts ("tau_panda_joint1", "tau_panda_joint2", "tau_panda_joint3", "tau_panda_joint4", "tau_panda_joint5", "tau_panda_joint6", "tau_panda_joint7"), shape (..., 7); None means no effort.
+    """
+    _A, _B = linearize(q, qd, u, friction_smoothing=friction_smoothing, g=g)
+    _n = _A.shape[-1] // 2
+    return _A[..., _n:, :_n], _A[..., _n:, _n:], _B[..., _n:, :]
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):

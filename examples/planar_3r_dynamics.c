@@ -678,6 +678,207 @@ int planar_3r_linearize(const double *q, const double *qd, const double *u, cons
     return 0;
 }
 
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
+void planar_3r_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const planar_3r_parameters *p, double *dtau_dq, double *dtau_dqd)
+{
+    const planar_3r_parameters *const P = p ? p : &planar_3r_default_parameters;
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    (void)P;
+    const double t0 = cos(q[0]);
+    const double t1 = sin(q[0]);
+    const double t2 = cos(q[1]);
+    const double t3 = sin(q[1]);
+    const double t4 = cos(q[2]);
+    const double t5 = sin(q[2]);
+    const double t6 = P->m1*P->r1;
+    const double t7 = P->m2*P->r2;
+    const double t8 = P->m3*P->r3;
+    const double t9 = t1*P->g;
+    const double t10 = t0*P->g;
+    const double t11 = t3*P->l1*qd[0];
+    const double t12 = t2*P->l1*qd[0];
+    const double t13 = t2*t9 + t3*(t10 + P->l1*qdd[0]);
+    const double t14 = t2*(t10 + P->l1*qdd[0]) - t3*t9;
+    const double t15 = qd[0] + qd[1];
+    const double t16 = qdd[0] + qdd[1];
+    const double t17 = t13 + t12*qd[1];
+    const double t18 = t14 - t11*qd[1];
+    const double t19 = t11*P->m2;
+    const double t20 = t12*P->m2 + t15*t7;
+    const double t21 = t17*P->m2 - t15*t20;
+    const double t22 = t15*t19 + t16*t7 + t18*P->m2;
+    const double t23 = t4*t11 + t5*(t12 + t15*P->l2);
+    const double t24 = t4*(t12 + t15*P->l2) - t5*t11;
+    const double t25 = t4*t17 + t5*(t18 + t16*P->l2);
+    const double t26 = t4*(t18 + t16*P->l2) - t5*t17;
+    const double t27 = t15 + qd[2];
+    const double t28 = t16 + qdd[2];
+    const double t29 = t25 + t24*qd[2];
+    const double t30 = t26 - t23*qd[2];
+    const double t31 = t23*P->m3;
+    const double t32 = t24*P->m3 + t27*t8;
+    const double t33 = t29*P->m3 - t27*t32;
+    const double t34 = t27*t31 + t28*t8 + t30*P->m3;
+    const double t35 = t4*t33 - t5*t34;
+    const double t36 = t4*t34 + t5*t33;
+    const double t37 = t21 + t35;
+    const double t38 = t22 + t36;
+    const double t39 = -t1*P->g;
+    const double t40 = t6*t39;
+    const double t41 = t2*t10 + t3*t39;
+    const double t42 = t2*t39 - t3*t10;
+    const double t43 = t7*t42;
+    const double t44 = t41*P->m2;
+    const double t45 = t42*P->m2;
+    const double t46 = t4*t41 + t5*t42;
+    const double t47 = t4*t42 - t5*t41;
+    const double t48 = t47*t8;
+    const double t49 = t46*P->m3;
+    const double t50 = t47*P->m3;
+    const double t51 = t4*t49 - t5*t50;
+    const double t52 = t4*t50 + t5*t49;
+    const double t53 = t48 + t52*P->l2;
+    const double t54 = t43 + t53;
+    const double t55 = t44 + t51;
+    const double t56 = t45 + t52;
+    const double t57 = t2*t56 + t3*t55;
+    const double t58 = t54 + t57*P->l1;
+    const double t59 = t40 + t58;
+    const double t60 = -t3*P->l1*qd[0];
+    const double t61 = -t2*t9 - t3*(t10 + P->l1*qdd[0]);
+    const double t62 = t14 + t60*qd[1];
+    const double t63 = t61 - t12*qd[1];
+    const double t64 = t12*P->m2;
+    const double t65 = t60*P->m2;
+    const double t66 = t11*t65 + t12*t20 + t7*t63 - t12*t64 - t19*t60;
+    const double t67 = t62*P->m2 - t15*t65;
+    const double t68 = t15*t64 + t63*P->m2;
+    const double t69 = t4*t12 + t5*t60;
+    const double t70 = t4*t60 - t5*t12;
+    const double t71 = t4*t62 + t5*t63;
+    const double t72 = t4*t63 - t5*t62;
+    const double t73 = t71 + t70*qd[2];
+    const double t74 = t72 - t69*qd[2];
+    const double t75 = t69*P->m3;
+    const double t76 = t70*P->m3;
+    const double t77 = t76*t23 + t32*t69 + t8*t74 - t24*t75 - t31*t70;
+    const double t78 = t73*P->m3 - t76*t27;
+    const double t79 = t27*t75 + t74*P->m3;
+    const double t80 = t4*t78 - t5*t79;
+    const double t81 = t4*t79 + t5*t78;
+    const double t82 = t77 + t81*P->l2;
+    const double t83 = t82 + t66;
+    const double t84 = t80 + t67;
+    const double t85 = t81 + t68;
+    const double t86 = t2*t85 + t2*t37 + t3*t84 - t3*t38;
+    const double t87 = t83 + t86*P->l1;
+    const double t88 = -t4*t11 - t5*(t12 + t15*P->l2);
+    const double t89 = -t4*t17 - t5*(t18 + t16*P->l2);
+    const double t90 = t26 + t88*qd[2];
+    const double t91 = t89 - t24*qd[2];
+    const double t92 = t24*P->m3;
+    const double t93 = t88*P->m3;
+    const double t94 = t91*t8 + t93*t23 + t24*t32 - t88*t31 - t92*t24;
+    const double t95 = t90*P->m3 - t93*t27;
+    const double t96 = t91*P->m3 + t92*t27;
+    const double t97 = t4*t95 - t4*t34 - t5*t96 - t5*t33;
+    const double t98 = t4*t96 + t4*t33 + t5*t95 - t5*t34;
+    const double t99 = t94 + t98*P->l2;
+    const double t100 = t2*t98 + t3*t97;
+    const double t101 = t99 + t100*P->l1;
+    const double t102 = t3*P->l1;
+    const double t103 = t2*P->l1;
+    const double t104 = t103*qd[1];
+    const double t105 = -t102*qd[1];
+    const double t106 = t102*P->m2;
+    const double t107 = t7 + t103*P->m2;
+    const double t108 = t102*t20 + t105*t7 + t107*t11 - t103*t19 - t106*t12;
+    const double t109 = -t20 + t104*P->m2 - t107*t15;
+    const double t110 = t19 + t105*P->m2 + t106*t15;
+    const double t111 = t4*t102 + t5*t103 + t5*P->l2;
+    const double t112 = t4*t103 + t4*P->l2 - t5*t102;
+    const double t113 = t4*t104 + t5*t105;
+    const double t114 = t4*t105 - t5*t104;
+    const double t115 = t113 + t112*qd[2];
+    const double t116 = t114 - t111*qd[2];
+    const double t117 = t111*P->m3;
+    const double t118 = t8 + t112*P->m3;
+    const double t119 = t111*t32 + t116*t8 + t118*t23 - t112*t31 - t117*t24;
+    const double t120 = -t32 + t115*P->m3 - t118*t27;
+    const double t121 = t31 + t116*P->m3 + t117*t27;
+    const double t122 = t4*t120 - t5*t121;
+    const double t123 = t4*t121 + t5*t120;
+    const double t124 = t119 + t123*P->l2;
+    const double t125 = t108 + t124;
+    const double t126 = t109 + t122;
+    const double t127 = t110 + t123;
+    const double t128 = t2*t127 + t3*t126;
+    const double t129 = t125 + t128*P->l1;
+    const double t130 = -t20 + t12*P->m2 - t15*t7;
+    const double t131 = t19 - t11*P->m2;
+    const double t132 = t5*P->l2;
+    const double t133 = t4*P->l2;
+    const double t134 = t4*t12 - t5*t11;
+    const double t135 = -t4*t11 - t5*t12;
+    const double t136 = t134 + t133*qd[2];
+    const double t137 = t135 - t132*qd[2];
+    const double t138 = t132*P->m3;
+    const double t139 = t8 + t133*P->m3;
+    const double t140 = t132*t32 + t137*t8 + t139*t23 - t133*t31 - t138*t24;
+    const double t141 = -t32 + t136*P->m3 - t139*t27;
+    const double t142 = t31 + t137*P->m3 + t138*t27;
+    const double t143 = t4*t141 - t5*t142;
+    const double t144 = t4*t142 + t5*t141;
+    const double t145 = t140 + t144*P->l2;
+    const double t146 = t130 + t143;
+    const double t147 = t131 + t144;
+    const double t148 = t2*t147 + t3*t146;
+    const double t149 = t145 + t148*P->l1;
+    const double t150 = -t32 + t24*P->m3 - t27*t8;
+    const double t151 = t31 - t23*P->m3;
+    const double t152 = t4*t150 - t5*t151;
+    const double t153 = t4*t151 + t5*t150;
+    const double t154 = t153*P->l2;
+    const double t155 = t2*t153 + t3*t152;
+    const double t156 = t154 + t155*P->l1;
+    dtau_dq[0] = t59;
+    dtau_dq[1] = t87;
+    dtau_dq[2] = t101;
+    dtau_dq[3] = t54;
+    dtau_dq[4] = t83;
+    dtau_dq[5] = t99;
+    dtau_dq[6] = t48;
+    dtau_dq[7] = t77;
+    dtau_dq[8] = t94;
+    dtau_dqd[0] = t129;
+    dtau_dqd[1] = t149;
+    dtau_dqd[2] = t156;
+    dtau_dqd[3] = t125;
+    dtau_dqd[4] = t145;
+    dtau_dqd[5] = t154;
+    dtau_dqd[6] = t119;
+    dtau_dqd[7] = t140;
+    dtau_dqd[8] = 0;
+}
+
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 3 x 3 and 3 x 3 and 3 x 3, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int planar_3r_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const planar_3r_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du)
+{
+    double A[36];
+    double B[18];
+    if (planar_3r_linearize(q, qd, u, p, A, B) != 0) return 1;
+    for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < 3; ++k) {
+            dqdd_dq[i * 3 + k] = A[(3 + i) * 6 + k];
+            dqdd_dqd[i * 3 + k] = A[(3 + i) * 6 + 3 + k];
+        }
+        for (int k = 0; k < 3; ++k) dqdd_du[i * 3 + k] = B[(3 + i) * 3 + k];
+    }
+    return 0;
+}
+
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void planar_3r_regressor(const double *q, const double *qd, const double *qdd, const planar_3r_parameters *p, double *Y)
 {

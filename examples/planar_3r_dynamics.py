@@ -1237,12 +1237,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
         u = np.zeros(3)
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 3, 3), _parameters)
-    _by_coordinate = -_derivatives[..., 0, :, :]
-    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
+    _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(3), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (3, 3)),
                            np.broadcast_to(_by_rate, _batch + (3, 3)),
                            np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
@@ -1253,6 +1252,37 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
     _B = np.zeros(_batch + (6, 3))
     _B[..., 3:, :] = _solved[..., 6:]
     return _A, _B
+
+
+def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
+    External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
+
+    q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); qd, qdd: velocities and accelerations, shape (..., 3)
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
+    return _inverse_derivatives(arrays, friction_smoothing, {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 3, 3), _parameters)
+    _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
+    return _by_coordinate, _by_rate
+
+
+def forward_dynamics_derivatives(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
+    """(dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks (Pinocchio's ``computeABADerivatives``), shapes (..., 3, 3) and (..., 3, 3) and (..., 3, 3).
+    linearize(q, qd, u) = (A, B) with A = [[0, I], [dqdd/dq, dqdd/dqd]] and B = [[0], [dqdd/du]].
+    External wrenches are not differentiated.
+
+    q: joint coordinates ("th1", "th2", "th3"), shape (..., 3); qd: velocities, shape (..., 3)
+    u: efforts ("tau1", "tau2", "tau3"), shape (..., 3); None means no effort.
+    """
+    _A, _B = linearize(q, qd, u, friction_smoothing=friction_smoothing, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
+    _n = _A.shape[-1] // 2
+    return _A[..., _n:, :_n], _A[..., _n:, _n:], _B[..., _n:, :]
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):

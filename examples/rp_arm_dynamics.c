@@ -270,6 +270,69 @@ int rp_arm_linearize(const double *q, const double *qd, const double *u, const r
     return 0;
 }
 
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 2 x 2 and 2 x 2, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. External wrenches are not differentiated. */
+void rp_arm_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const rp_arm_parameters *p, double *dtau_dq, double *dtau_dqd)
+{
+    const rp_arm_parameters *const P = p ? p : &rp_arm_default_parameters;
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    (void)P;
+    const double t0 = cos(q[0]);
+    const double t1 = sin(q[0]);
+    const double t2 = 0.5*(P->l*P->m);
+    const double t3 = t0*P->g;
+    const double t4 = q[1]*qd[0];
+    const double t5 = t3 + q[1]*qdd[0];
+    const double t6 = t5 + qd[0]*qd[1];
+    const double t7 = P->m*qd[1];
+    const double t8 = t4*P->m + t2*qd[0];
+    const double t9 = t6*P->m + t7*qd[0] + t2*qdd[0];
+    const double t10 = -t1*P->g;
+    const double t11 = t2*t10;
+    const double t12 = t3*P->m;
+    const double t13 = t10*P->m;
+    const double t14 = t11 + t13*q[1];
+    const double t15 = t11 + t14;
+    const double t16 = P->m*qd[0];
+    const double t17 = t2*qdd[0] + t16*qd[1] - t7*qd[0];
+    const double t18 = -t16*qd[0];
+    const double t19 = P->m*qdd[0];
+    const double t20 = t9 + t17 + t19*q[1];
+    const double t21 = t2 + P->m*q[1];
+    const double t22 = t2*qd[1] + t21*qd[1] - t7*q[1];
+    const double t23 = -t8 - t21*qd[0];
+    const double t24 = t7 + P->m*qd[1];
+    const double t25 = t22 + t24*q[1];
+    const double t26 = t8 + t2*qd[0] - t4*P->m;
+    const double t27 = 2*P->m*qd[0];
+    const double t28 = t26 + t27*q[1];
+    dtau_dq[0] = t15;
+    dtau_dq[1] = t20;
+    dtau_dq[2] = t12;
+    dtau_dq[3] = t18;
+    dtau_dqd[0] = t25;
+    dtau_dqd[1] = t28;
+    dtau_dqd[2] = t23;
+    dtau_dqd[3] = 0;
+}
+
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 2 x 2 and 2 x 2 and 2 x 2, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int rp_arm_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const rp_arm_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du)
+{
+    double A[16];
+    double B[8];
+    if (rp_arm_linearize(q, qd, u, p, A, B) != 0) return 1;
+    for (int i = 0; i < 2; ++i) {
+        for (int k = 0; k < 2; ++k) {
+            dqdd_dq[i * 2 + k] = A[(2 + i) * 4 + k];
+            dqdd_dqd[i * 2 + k] = A[(2 + i) * 4 + 2 + k];
+        }
+        for (int k = 0; k < 2; ++k) dqdd_du[i * 2 + k] = B[(2 + i) * 2 + k];
+    }
+    return 0;
+}
+
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 2 x 8, row-major. */
 void rp_arm_regressor(const double *q, const double *qd, const double *qdd, const rp_arm_parameters *p, double *Y)
 {

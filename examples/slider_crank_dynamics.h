@@ -54,6 +54,10 @@ double slider_crank_potential_energy(const double *q, const slider_crank_paramet
 void slider_crank_friction_forces(const double *qd, const slider_crank_parameters *p, double *F);
 /* (A, B) of xdot = A dx + B du about x = (q, qd) and u: A 6 x 6, B 6 x 1, row-major; the constrained solve [M -A_g^T; A_g 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g^T lambda)/dx; -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0 and no wrench, as the NumPy module); returns 0, or 1 or 2 as forward_dynamics (A, B untouched). */
 int slider_crank_linearize(const double *q, const double *qd, const double *u, const slider_crank_parameters *p, double *A, double *B);
+/* (dtau/dq, dtau/dqd) of inverse_dynamics, 3 x 3 and 3 x 3, row-major. From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix. Of the open tree (no loop forces). External wrenches are not differentiated. */
+void slider_crank_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *dtau_dq, double *dtau_dqd);
+/* (dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks, 3 x 3 and 3 x 3 and 3 x 1, row-major. The lower blocks of linearize's A and B; returns its status: 0, or 1 (outputs untouched) if it fails. */
+int slider_crank_forward_dynamics_derivatives(const double *q, const double *qd, const double *u, const slider_crank_parameters *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du);
 /* Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi from parameter_vector, 3 x 12, row-major. */
 void slider_crank_regressor(const double *q, const double *qd, const double *qdd, const slider_crank_parameters *p, double *Y);
 /* The parameter vector pi of regressor (names: PARAMETER_VECTOR), 12 entries. */

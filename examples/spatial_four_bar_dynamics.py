@@ -1297,16 +1297,15 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=
         u = np.zeros(1)
     _parameters = {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g}
     _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
-    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 4, 4), _parameters)
-    _by_coordinate = -_derivatives[..., 0, :, :]
-    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
+    _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
     _inputs = np.swapaxes(generalized_forces(np.zeros(4), np.eye(1), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _jac = loop_jacobian(q, **_parameters)
     _bottom = np.concatenate([-_loop_acceleration_jacobian(q, qd, _qdd, **_parameters),
                               -2.0 * loop_jacobian_dot(q, qd, **_parameters)], axis=-1)
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _derivatives.shape[:-3], _bottom.shape[:-2])
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _by_rate.shape[:-2], _bottom.shape[:-2])
     _n, _k, _m = 4, 3, 1
     _system = np.zeros(_batch + (_n + _k, _n + _k))
     _system[..., :_n, :_n] = _mass
@@ -1324,6 +1323,38 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=
     _B = np.zeros(_batch + (8, 1))
     _B[..., 4:, :] = _solved[..., 8:]
     return _A, _B
+
+
+def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 4, 4) and (..., 4, 4).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q). Of the open tree, as inverse_dynamics (no loop forces).
+    External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd, qdd: velocities and accelerations, shape (..., 4)
+    """
+    arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4), _coordinates("qdd", qdd, 4)]
+    return _inverse_derivatives(arrays, friction_smoothing, {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 4, 4), _parameters)
+    _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
+    return _by_coordinate, _by_rate
+
+
+def forward_dynamics_derivatives(q, qd, u=None, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """(dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks (Pinocchio's ``computeABADerivatives``), shapes (..., 4, 4) and (..., 4, 4) and (..., 4, 1).
+    linearize(q, qd, u) = (A, B) with A = [[0, I], [dqdd/dq, dqdd/dqd]] and B = [[0], [dqdd/du]]; with the loops, of the
+    constrained forward_dynamics with alpha = beta = 0.
+    External wrenches are not differentiated.
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd: velocities, shape (..., 4)
+    u: efforts ("tau1",), shape (..., 1); None means no effort.
+    """
+    _A, _B = linearize(q, qd, u, friction_smoothing=friction_smoothing, a=a, b=b, c=c, m1=m1, ms=ms, Is=Is, m2=m2, m3=m3, g=g)
+    _n = _A.shape[-1] // 2
+    return _A[..., _n:, :_n], _A[..., _n:, _n:], _B[..., _n:, :]
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):

@@ -3778,12 +3778,11 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
         u = np.zeros(6)
     _parameters = {"g": g}
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
-    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, [q, qd, _qdd], (2, 6, 6), _parameters)
-    _by_coordinate = -_derivatives[..., 0, :, :]
-    _by_rate = -_derivatives[..., 1, :, :]
+    _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
+    _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _inputs = np.swapaxes(generalized_forces(np.zeros(6), np.eye(6), **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _derivatives.shape[:-3])
+    _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (6, 6)),
                            np.broadcast_to(_by_rate, _batch + (6, 6)),
                            np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
@@ -3794,6 +3793,37 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     _B = np.zeros(_batch + (12, 6))
     _B[..., 6:, :] = _solved[..., 12:]
     return _A, _B
+
+
+def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
+    """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 6, 6) and (..., 6, 6).
+    By recursive Newton-Euler differentiated line by line; dtau/dqdd is mass_matrix(q).
+    External wrenches (``inverse_dynamics``' wrenches) are not differentiated.
+
+    q: joint coordinates ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"), shape (..., 6); qd, qdd: velocities and accelerations, shape (..., 6)
+    """
+    arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), _coordinates("qdd", qdd, 6)]
+    return _inverse_derivatives(arrays, friction_smoothing, {"g": g})
+
+
+def _inverse_derivatives(arrays, friction_smoothing, _parameters):
+    """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
+    _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 6, 6), _parameters)
+    _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
+    return _by_coordinate, _by_rate
+
+
+def forward_dynamics_derivatives(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
+    """(dqdd/dq, dqdd/dqd, dqdd/du) of forward_dynamics, linearize's lower blocks (Pinocchio's ``computeABADerivatives``), shapes (..., 6, 6) and (..., 6, 6) and (..., 6, 6).
+    linearize(q, qd, u) = (A, B) with A = [[0, I], [dqdd/dq, dqdd/dqd]] and B = [[0], [dqdd/du]].
+    External wrenches are not differentiated.
+
+    q: joint coordinates ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"), shape (..., 6); qd: velocities, shape (..., 6)
+    u: efforts ("tau_shoulder_pan_joint", "tau_shoulder_lift_joint", "tau_elbow_joint", "tau_wrist_1_joint", "tau_wrist_2_joint", "tau_wrist_3_joint"), shape (..., 6); None means no effort.
+    """
+    _A, _B = linearize(q, qd, u, friction_smoothing=friction_smoothing, g=g)
+    _n = _A.shape[-1] // 2
+    return _A[..., _n:, :_n], _A[..., _n:, _n:], _B[..., _n:, :]
 
 
 def regressor(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):

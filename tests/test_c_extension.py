@@ -49,8 +49,9 @@ if not (shutil.which("gcc") or shutil.which("cc")) or not HEADERS:
 
 RTOL = 1e-12
 FUNCTIONS = ["mass_matrix", "coriolis_matrix", "gravity_vector", "generalized_forces", "inverse_dynamics", "forward_dynamics",
-             "kinetic_energy", "potential_energy", "friction_forces", "linearize", "regressor", "parameter_vector",
-             "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd"]
+             "kinetic_energy", "potential_energy", "friction_forces", "linearize", "inverse_dynamics_derivatives",
+             "forward_dynamics_derivatives", "regressor", "parameter_vector", "frame_transform", "frame_jacobian",
+             "frame_jacobian_dot_qd"]
 
 
 def _load(derivation, folder: Path, optimization: str = "-O0"):
@@ -710,7 +711,7 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
     compiled_rows = [n for n in rows if n.startswith("compiled ")]
-    assert len(compiled_rows) == 19 and all(rows[n] == "pass" for n in compiled_rows)
+    assert len(compiled_rows) == 21 and all(rows[n] == "pass" for n in compiled_rows)
 
 
 def test_failing_compiler_on_a_floating_robot_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):

@@ -61,6 +61,10 @@ API: tuple[Function, ...] = (
     _f("friction_forces", "qd", "NV", "Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) "
        "when it is positive)"),
     _f("linearize", "q qd u", "2NV 2NV; 2NV NU", "(A, B) of xdot = A dx + B du about x = (q, qd) and u"),
+    _f("inverse_dynamics_derivatives", "q qd qdd", "NV NV; NV NV", "(dtau/dq, dtau/dqd) of inverse_dynamics",
+       pinocchio="computeRNEADerivatives"),
+    _f("forward_dynamics_derivatives", "q qd u", "NV NV; NV NV; NV NU", "(dqdd/dq, dqdd/dqd, dqdd/du) of "
+       "forward_dynamics, linearize's lower blocks", pinocchio="computeABADerivatives"),
     _f("regressor", "q qd qdd", "NV NP", "Regressor Y(q, qd, qdd): Y pi equals inverse_dynamics(q, qd, qdd), pi "
        "from parameter_vector"),
     _f("parameter_vector", "", "NP", "The parameter vector pi of regressor (names: PARAMETER_VECTOR)"),

@@ -35,6 +35,9 @@ def _arrays(function: api.Function) -> str:
 #: The functions compared (the API table's, but a planar robot's maximal form, which only the
 #: Python modules print), with the arrays they take (``p``: keyword parameters only).
 FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group in ("dynamics", "loops", "configuration"))
+#: The functions that take ``friction_smoothing``.
+SMOOTHED = {"inverse_dynamics", "forward_dynamics", "friction_forces", "linearize", "inverse_dynamics_derivatives",
+            "forward_dynamics_derivatives", "loop_forces", "reduced_forward_dynamics"}
 #: The functions that take no parameters (a robot with quaternions: its configuration maps).
 GEOMETRY = set(api.group("configuration"))
 FRAME_FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group == "frames")
@@ -68,8 +71,7 @@ def _compared(module: Any, other: Any, values: dict[str, float], states: dict[st
         arrays = [states[a] for a in args.split()]
         calls = [arrays, [a[0] for a in arrays]] if arrays else [arrays]   # a batch, and one state
         keywords = {} if name in GEOMETRY else dict(
-            values, **(friction if name in ("inverse_dynamics", "forward_dynamics", "friction_forces", "linearize",
-                                            "loop_forces", "reduced_forward_dynamics") else {}))
+            values, **(friction if name in SMOOTHED else {}))
         title = f"{label} {name}{_frame(extra, friction_smoothing)} == NumPy module"
         try:
             worst = max(_difference(*(getattr(m, name)(*given, *extra, **keywords) for m in (module, other)))

@@ -117,6 +117,20 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
                                         "returns 0, or 1 (A, B untouched) if M is not positive definite.",
                                         *(["Tangent space: q perturbed as integrate(q, dq)."] if quaternions else [])),
                   [] if robot.loops else _linearize_body(derivation, names, start)),
+        CFunction(f"void {name}_inverse_dynamics_derivatives(const double *q, const double *qd, "
+                  f"const double *qdd, {pp}, double *dtau_dq, double *dtau_dqd)",
+                  comment("inverse_dynamics_derivatives", "From Newton-Euler differentiated line by line; "
+                          "dtau/dqdd is the mass matrix.",
+                          *(["Tangent space: q perturbed as integrate(q, dq)."] if quaternions else []),
+                          *(["Of the open tree (no loop forces)."] if robot.loops else []),
+                          *(["Damping and Coulomb friction's slope (friction_smoothing > 0) are in dtau_dqd."]
+                            if robot.dissipative else []), "External wrenches are not differentiated."),
+                  _inverse_derivatives_body(derivation, names, start)),
+        CFunction(f"int {name}_forward_dynamics_derivatives(const double *q, const double *qd, "
+                  f"const double *u, {pp}, double *dqdd_dq, double *dqdd_dqd, double *dqdd_du)",
+                  comment("forward_dynamics_derivatives", "The lower blocks of linearize's A and B; "
+                          "returns its status: 0, or 1 (outputs untouched) if it fails."),
+                  _forward_derivatives_body(name, n, nu)),
         CFunction(f"void {name}_regressor(const double *q, const double *qd, const double *qdd, {pp}, double *Y)",
                   comment("regressor"), _regressor_body(derivation, names, start)),
         CFunction(f"void {name}_parameter_vector({pp}, double *pi)",
@@ -353,12 +367,42 @@ def solved_into_a_and_b(pattern: list[list[bool]], n: int, nu: int) -> list[str]
     return lines + ["    }", "}", "return 0;"]
 
 
+def _inverse_derivatives_body(derivation: Derivation, names: Names, start: str) -> list[str]:
+    """The differentiated Newton-Euler program into dtau_dq and dtau_dqd (n x n each,
+    row-major), then dF/dqd on dtau_dqd's diagonal."""
+    n = len(derivation.symbols.qd)
+    targets = [f"dtau_dq[{k}]" for k in range(n * n)] + [f"dtau_dqd[{k}]" for k in range(n * n)]
+    slope = [f"dtau_dqd[{i * n + i}] += {terms};" for i, terms in _slope_terms(derivation, names)]
+    return [start, *void("q", "qd", "qdd", "P"),
+            *program_body(names, derivation.programs["inverse_dynamics_derivatives"], targets), *slope]
+
+
+def _forward_derivatives_body(name: str, n: int, nu: int) -> list[str]:
+    """linearize into local A and B, their lower blocks copied out (nothing written on failure)."""
+    return [f"double A[{4 * n * n}];", f"double B[{max(2 * n * nu, 1)}];",
+            f"if ({name}_linearize(q, qd, u, p, A, B) != 0) return 1;",
+            f"for (int i = 0; i < {n}; ++i) {{",
+            f"    for (int k = 0; k < {n}; ++k) {{",
+            f"        dqdd_dq[i * {n} + k] = A[({n} + i) * {2 * n} + k];",
+            f"        dqdd_dqd[i * {n} + k] = A[({n} + i) * {2 * n} + {n} + k];",
+            "    }",
+            *([f"    for (int k = 0; k < {nu}; ++k) dqdd_du[i * {nu} + k] = B[({n} + i) * {nu} + k];"]
+              if nu else []),
+            "}", *([] if nu else ["(void)dqdd_du;"]), "return 0;"]
+
+
 def _friction_slope(derivation: Derivation, names: Names, width: int) -> list[str]:
-    """``R[i, n + i] -= dF_i/dqd_i`` in linearize's right-hand side R (``width`` columns):
-    b + fc (1 - tanh(qd/eps)^2)/eps (zero for the exact sign)."""
+    """``R[i, n + i] -= dF_i/dqd_i`` in linearize's right-hand side R (``width`` columns)."""
+    n = len(derivation.symbols.qd)
+    return [f"R[{i * width + n + i}] -= {terms};" for i, terms in _slope_terms(derivation, names)]
+
+
+def _slope_terms(derivation: Derivation, names: Names) -> list[tuple[int, str]]:
+    """(i, dF_i/dqd_i) of each coordinate with a drive: b + fc (1 - tanh(qd/eps)^2)/eps (zero
+    for the exact sign)."""
     if not derivation.robot.dissipative:
         return []
-    n, printer, lines = len(derivation.symbols.qd), names.printer(), []
+    printer, lines = names.printer(), []
     for drive in derivation.joint_drives:
         i = drive.coordinate
         terms = []
@@ -369,7 +413,7 @@ def _friction_slope(derivation: Derivation, names: Names, width: int) -> list[st
             terms.append(f"(P->friction_smoothing > 0.0 ? ({fc})*(1.0 - tanh(qd[{i}] / P->friction_smoothing)"
                          f"*tanh(qd[{i}] / P->friction_smoothing)) / P->friction_smoothing : 0.0)")
         if terms:
-            lines.append(f"R[{i * width + n + i}] -= {' + '.join(terms)};")
+            lines.append((i, " + ".join(terms)))
     return lines
 
 

@@ -74,6 +74,8 @@ def bindings(derivation: Derivation) -> list[Binding]:
         "potential_energy": {"returns": "value"},
         "friction_forces": smooth,
         "linearize": solved,
+        "inverse_dynamics_derivatives": smooth,
+        "forward_dynamics_derivatives": solved,
         "regressor": {"smoothing": True,
                       "refuses_negative": dissipative and bool(derivation.programs["regressor"].extra_inputs)},
         "frame_transform": frame, "frame_jacobian": frame, "frame_jacobian_dot_qd": frame,
@@ -108,6 +110,7 @@ def _notes(name: str, loops: bool) -> list[str]:
             "A qd - beta**2 a_g(q)]; alpha, beta: Baumgarte gains (0: none); u=None: no effort. NaN where the "
             "system cannot be solved (M not positive definite, or the loop rows singular)."],
         "linearize": ["u=None: no effort.", unsolved],
+        "forward_dynamics_derivatives": ["u=None: no effort.", unsolved],
         "frame_transform": ["frame: a name of FRAMES."],
         "frame_jacobian": ["frame: a name of FRAMES."],
         "frame_jacobian_dot_qd": ["frame: a name of FRAMES."],

@@ -35,6 +35,7 @@ from .matlab_print import (
     MFunction,
     Names,
     expression_body,
+    friction_slope,
     help_line,
     linearize_rhs,
     matrix_targets,
@@ -125,7 +126,41 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         functions += [_forward_dynamics(derivation), _linearize(derivation, names)]
     else:
         functions += loop_functions(derivation, names)
+    functions += _derivatives(derivation, names)
     return functions + (_configuration_functions(derivation) if nq != n else [])
+
+
+def _derivatives(derivation: Derivation, names: Names) -> list[MFunction]:
+    """``inverse_dynamics_derivatives`` (the differentiated Newton-Euler program, the drives'
+    slope on dtau_dqd's diagonal) and ``forward_dynamics_derivatives`` (linearize's lower blocks)."""
+    robot = derivation.robot
+    name, n, nu = robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
+    notes = [*(["Tangent space: q perturbed as integrate(q, dq)."] if len(derivation.symbols.q) != n else []),
+             *(["The open tree's: no loop forces."] if robot.loops else [])]
+    return [
+        MFunction("inverse_dynamics_derivatives", "[dtau_dq, dtau_dqd]", ["q", "qd", "qdd", "p"],
+                  [help_line(derivation, "inverse_dynamics_derivatives", *notes), "",
+                   "   From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix."
+                   + (" Damping and Coulomb" if robot.dissipative else ""),
+                   *(["   friction's slope (p.friction_smoothing > 0) are in dtau_dqd."]
+                     if robot.dissipative else []),
+                   "   External wrenches are not differentiated."],
+                  [*prologue(derivation, ["q", "qd", "qdd"], 4), f"D = zeros({2 * n * n}, 1);",
+                   *program_body(names, derivation.programs["inverse_dynamics_derivatives"],
+                                 vector_targets("D", 2 * n * n)),
+                   f"dtau_dq = reshape(D(1:{n * n}), {n}, {n})';",
+                   f"dtau_dqd = reshape(D({n * n + 1}:{2 * n * n}), {n}, {n})';",
+                   *friction_slope(derivation, names, "dtau_dqd", 0, "+")]),
+        MFunction("forward_dynamics_derivatives", "[dqdd_dq, dqdd_dqd, dqdd_du]", ["q", "qd", "u", "p"],
+                  [help_line(derivation, "forward_dynamics_derivatives"), "",
+                   f"   [A, B] = {name}.linearize(q, qd, u, p): A = [0, I; dqdd_dq, dqdd_dqd],",
+                   "   B = [0; dqdd_du].",
+                   "   u may be [] (no effort)."],
+                  [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
+                   f"[A, B] = {name}.linearize(q, qd, u, p);",
+                   f"dqdd_dq = A({n + 1}:end, 1:{n});", f"dqdd_dqd = A({n + 1}:end, {n + 1}:end);",
+                   f"dqdd_du = B({n + 1}:end, :);"]),
+    ]
 
 
 def _forward_dynamics(derivation: Derivation) -> MFunction:

@@ -112,20 +112,23 @@ DIRECTION_LINES = ["if p.friction_smoothing > 0", "    s = tanh(qd / p.friction_
                    "    s = sign(qd);", "end"]
 
 
-def friction_slope(derivation: Derivation, names: Names, target: str) -> list[str]:
-    """``target(i, n + i) -= dF_i/dqd_i``: b + fc (1 - tanh(qd/eps)^2)/eps (0 for the exact sign)."""
+def friction_slope(derivation: Derivation, names: Names, target: str, offset: int | None = None,
+                   sign: str = "-") -> list[str]:
+    """``target(i, offset + i) -= dF_i/dqd_i`` (``offset`` n by default; ``sign`` "+" adds it):
+    b + fc (1 - tanh(qd/eps)^2)/eps (0 for the exact sign)."""
     if not derivation.robot.dissipative:
         return []
     n, printer, lines = len(derivation.symbols.qd), names.printer(), []
+    offset = n if offset is None else offset
     for drive in derivation.joint_drives:
         i = drive.coordinate
-        entry = f"{target}({i + 1}, {n + i + 1})"
+        entry = f"{target}({i + 1}, {offset + i + 1})"
         if drive.damping != 0:
-            lines.append(f"{entry} = {entry} - ({printer.doprint(fold_constants(drive.damping))});")
+            lines.append(f"{entry} = {entry} {sign} ({printer.doprint(fold_constants(drive.damping))});")
         if drive.friction != 0:
             fc = printer.doprint(fold_constants(drive.friction))
             lines += ["if p.friction_smoothing > 0",
-                      f"    {entry} = {entry} - ({fc})*(1.0 - tanh(qd({i + 1}) / p.friction_smoothing)"
+                      f"    {entry} = {entry} {sign} ({fc})*(1.0 - tanh(qd({i + 1}) / p.friction_smoothing)"
                       f"*tanh(qd({i + 1}) / p.friction_smoothing)) / p.friction_smoothing;", "end"]
     return lines
 
