@@ -441,3 +441,58 @@ def test_a_note_when_casadi_is_not_installed(monkeypatch):
         importlib.util, "find_spec", lambda name, *a: None if name == "casadi" else real(name, *a)
     )
     assert 'pip install "dynderive[casadi]"' in missing_note()
+
+
+# -- check --backend casadi ------------------------------------------------------------------------
+
+
+def _check_rows(robot: str) -> dict[str, str]:
+    """``dynderive check ROBOT --backend casadi --json``: its CasADi rows, name -> status."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from dynderive.commands.cli import app
+
+    result = CliRunner().invoke(app, ["check", robot, "--backend", "casadi", "--states", "4", "--json", "-q"])
+    assert result.exit_code == 0, result.output
+    rows = {row["name"]: row["status"] for row in json.loads(result.stdout)["checks"]}
+    return {name: status for name, status in rows.items() if name.startswith("CasADi ")}
+
+
+def test_check_backend_casadi_rp_arm():
+    """Every Function of rp_arm's CasADi module, called with column vectors and the vector p,
+    gives the NumPy module's numbers: one pass row per function of the API table, none missing."""
+    rows = _check_rows(str(ROBOTS / "rp_arm.yaml"))
+    names = [f.name for f in api.API if f.group == "dynamics"]
+    assert rows == {f"CasADi {name} == NumPy module": "pass" for name in names}
+
+
+def test_check_backend_casadi_frames_loops_floating():
+    """Frames (their Functions by index, and wrenches as J^T w), a closed loop (``assemble``
+    a skip row, as the table of what is not built says) and a floating base (the configuration
+    maps, without p)."""
+    rows = _check_rows("elbow_arm")
+    assert rows["CasADi frame_jacobian (frame wrist) == NumPy module"] == "pass"
+    assert rows["CasADi inverse_dynamics with wrenches at every frame == NumPy module"] == "pass"
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 18
+    rows = _check_rows("four_bar")
+    assert rows.pop("CasADi not built: assemble") == "skip"
+    assert rows["CasADi reduced_forward_dynamics == NumPy module"] == "pass"
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 20
+    rows = _check_rows(str(FLOATING))
+    assert rows["CasADi integrate == NumPy module"] == "pass"
+    assert rows["CasADi difference == NumPy module"] == "pass"
+    assert all(status == "pass" for status in rows.values())
+
+
+def test_check_backend_casadi_needs_casadi(monkeypatch):
+    """Without CasADi, ``--backend casadi`` is refused at the option before any work."""
+    import sys
+
+    from dynderive.errors import InputError
+    from dynderive.verify.backends import require_casadi
+
+    monkeypatch.setitem(sys.modules, "casadi", None)
+    with pytest.raises(InputError, match="--backend casadi needs the casadi package"):
+        require_casadi()

@@ -1,4 +1,4 @@
-"""The check harnesses of the code targets (``check --backend c``, ``--backend jax``), named by
+"""The check harnesses of the code targets (``check --backend c``, ``jax``, ``casadi``), named by
 their registry entries (``render/targets``): each compares the target's functions with the
 NumPy module, for a fixed or a floating base."""
 
@@ -38,3 +38,31 @@ def jax_backend(derivation: Any, source: str, progress: Callable[[str], None], s
     if robot.floating:
         return floating_rows(generated_module(source, robot.name), module, robot, "JAX", states)
     return compiled_checks(derivation, source, module, states=states, label="JAX", target="jax")
+
+
+def require_casadi() -> None:
+    """``InputError`` at ``--backend``, before any work, when ``casadi`` cannot be imported."""
+    from ..errors import InputError, Problem
+
+    try:
+        import casadi  # noqa: F401
+    except ImportError:
+        raise InputError(Problem("--backend", 1, 1, "--backend casadi needs the casadi package "
+                                 '(pip install "dynderive[casadi]")')) from None
+
+
+def casadi_backend(derivation: Any, source: str, progress: Callable[[str], None],
+                   states: int = 12) -> list[Row]:
+    """The CasADi target's harness: each ``casadi.Function`` of the CasADi module against the
+    NumPy module ``source`` at random states (``compiled.CasadiModule`` calls it as the NumPy
+    module is called), for a robot with quaternions ``floating_rows``."""
+    progress("checking the CasADi module")
+    from ..render.targets.casadi.casadi import render_casadi
+    from .checks import generated_module
+    from .compiled import CasadiModule, compiled_checks, floating_rows
+
+    robot = derivation.robot
+    module = CasadiModule(generated_module(render_casadi(derivation), f"{robot.name}_casadi"))
+    if robot.floating:
+        return floating_rows(generated_module(source, robot.name), module, robot, "CasADi", states)
+    return compiled_checks(derivation, source, module, states=states, label="CasADi", target="casadi")

@@ -172,3 +172,68 @@ def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 1
         rows += [r for r in compiled_rows(module, compiled, values, sample, friction, label, target, robot.floating)
                  if "smoothing" in r.name]
     return rows
+
+
+class CasadiModule:
+    """The CasADi module (``--casadi``) behind the NumPy module's calling convention, for the
+    comparison above (``check --backend casadi``): arrays of one state or a batch (one call of
+    the ``casadi.Function`` per state, its inputs as column vectors), the parameters as
+    keywords (gathered into the vector ``p`` in ``PARAMETER_NAMES``' order), ``friction_smoothing``
+    as a keyword, a frame as the last positional argument (its Function from
+    ``frame_transform(frame)``...), results in the API table's shapes (``render/api.py``), and
+    ``inverse_dynamics``' ``wrenches`` added as ``J^T w`` with ``frame_jacobian(frame)``, as
+    the CasADi reference says to. Only the module's own Functions are reached: a function it
+    does not offer is an ``AttributeError`` (``hasattr`` false), as for the other modules."""
+
+    RANKS = {f.name: tuple(len(shape) for shape in f.results) for f in api.API}
+
+    def __init__(self, module: Any) -> None:
+        self.module = module
+
+    def __getattr__(self, name: str) -> Any:
+        import casadi
+
+        value = getattr(self.module, name)   # AttributeError: not offered
+        if name.startswith("frame_") and name in self.RANKS and not isinstance(value, casadi.Function):
+            return lambda *args, **keywords: self._call(value(args[-1]), name, args[:-1], keywords)
+        if not isinstance(value, casadi.Function):
+            return value
+        if name == "inverse_dynamics":
+            return self._inverse_dynamics
+        return lambda *args, **keywords: self._call(value, name, args, keywords)
+
+    def _inverse_dynamics(self, q: Any, qd: Any, qdd: Any, wrenches: Any = None,
+                          **keywords: Any) -> np.ndarray:
+        tau = self._call(self.module.inverse_dynamics, "inverse_dynamics", (q, qd, qdd), keywords)
+        parameters = {k: v for k, v in keywords.items() if k != "friction_smoothing"}
+        for frame, wrench in (wrenches or {}).items():
+            jacobian = self._call(self.module.frame_jacobian(frame), "frame_jacobian", (q,), parameters)
+            tau = tau - np.einsum("...ij,...i->...j", jacobian, np.asarray(wrench, dtype=float))
+        return tau
+
+    def _call(self, function: Any, name: str, args: tuple, keywords: dict[str, Any]) -> Any:
+        """``function`` at each state of ``args`` (the Function's array inputs in order)."""
+        import casadi
+
+        inputs = [n for n in function.name_in() if n not in ("p", "friction_smoothing", "alpha", "beta")]
+        arrays = [np.asarray(a, dtype=float) for a in args]
+        given: dict[str, Any] = {}
+        if "p" in function.name_in():
+            given["p"] = [float(keywords.get(n, v)) for n, v in
+                          zip(self.module.PARAMETER_NAMES, self.module.default_parameters(), strict=True)]
+        for key in ("friction_smoothing", "alpha", "beta"):
+            if key in function.name_in() and key in keywords:
+                given[key] = float(keywords[key])
+        ranks = self.RANKS.get(name, (2,) * function.n_out())
+        batch = bool(arrays) and arrays[0].ndim > 1
+
+        def one(state: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+            arrays_in = {n: a.reshape(-1, 1) for n, a in zip(inputs[: len(state)], state, strict=True)}
+            result = function.call({**given, **arrays_in})   # a dict, whatever the inputs
+            values = [np.asarray(casadi.DM(result[n]), dtype=float) for n in function.name_out()]
+            return tuple(v.reshape(()) if r == 0 else v.ravel() if r == 1 else v
+                         for v, r in zip(values, ranks, strict=True))
+
+        results = [one([a[i] for a in arrays]) for i in range(len(arrays[0]))] if batch else [one(arrays)]
+        stacked = tuple(np.stack(r) for r in zip(*results, strict=True)) if batch else results[0]
+        return stacked[0] if len(stacked) == 1 else stacked

@@ -1,6 +1,7 @@
 """The CasADi target (``--casadi``): ``<name>_dynamics_casadi.py``, every function of the
 generated API as a ``casadi.Function`` built with ``casadi.SX`` (DESIGN.md section 9); its
-tests compare it with the NumPy module (``tests/test_casadi_target.py``)."""
+check harness (``check --backend casadi``) and tests (``tests/test_casadi_target.py``) compare
+it with the NumPy module."""
 
 from __future__ import annotations
 
@@ -73,4 +74,7 @@ TARGET = Target(
     offered=f"{__name__}:offered",
     progress="generating CasADi",
     note=f"{__name__}:missing_note",
+    check="dynderive.verify.backends:casadi_backend",
+    check_needs="dynderive.verify.backends:require_casadi",
+    option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),),
 )
