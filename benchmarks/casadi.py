@@ -121,7 +121,10 @@ def generate(urdf: Path, work: Path):
 
 def functions(module, urdf: Path, options: dict) -> dict[str, ca.Function]:
     """Plain Functions of (q, qd, u) / (q, qd, qdd) for both sides, built with ``options``."""
-    from adam.casadi import KinDynComputations
+    try:
+        from adam.casadi import KinDynComputations
+    except ImportError as error:
+        raise SystemExit(f"needs adam: pip install adam-robotics liecasadi ({error})") from None
 
     n = len(module.COORDINATES)
     p = module.default_parameters()
