@@ -4,7 +4,8 @@ project's C, for the Panda (``robots/panda.urdf``), measured in the same run.
     python benchmarks/casadi.py [--states 10000] [--calls 200] [--repeats 3] [--rounds 3] [--no-jit]
 
 Needs ``casadi``, gcc and adam (``pip install adam-robotics liecasadi``: a benchmark requirement,
-in no extra; ``adam.casadi`` imports ``liecasadi``, which adam-robotics 0.5.0 does not install). ``dynderive solve robots/panda.urdf --casadi --c --out TMP`` writes the module and the C;
+in no extra; ``adam.casadi`` imports ``liecasadi``, which adam-robotics 0.5.0 does not install).
+``dynderive solve robots/panda.urdf --casadi --c --out TMP`` writes the module and the C;
 adam's ``KinDynComputations(urdf, joints)`` is built with the module's ``COORDINATES`` as its
 joint list (the same order) and the module's gravity. adam's ``aba_fun`` is a floating-base
 ABA; a fixed base's dynamics are the joint block of its ``mass_matrix_fun`` and
