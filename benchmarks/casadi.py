@@ -24,7 +24,8 @@ Rows: forward (FD) and inverse (ID) dynamics. Columns, in microseconds per state
   each of these measured in ``--rounds`` rounds, taking turns, the best of the rounds;
 * C: ``Function.generate`` of each side's Function, compiled with gcc -O2 with the project's C
   (``panda_forward_dynamics``, ``panda_inverse_dynamics``) into one timing program (the loop of
-  ``benchmarks/compiled.py``), all three over the same states, taking turns.
+  ``benchmarks/compiled.py``: the best of ``--repeats`` runs of at least 20 ms), all five over
+  the same states, one after the other.
 
 Before timing, the project's FD and ID must agree with adam's to 1e-8 (relative to the largest
 entry) at the first 100 states, and the generated C programs' results with the Python ones.
