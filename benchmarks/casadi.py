@@ -24,7 +24,7 @@ Rows: forward (FD) and inverse (ID) dynamics. Columns, in microseconds per state
   each of these measured in ``--rounds`` rounds, taking turns, the best of the rounds;
 * C: ``Function.generate`` of each side's Function, compiled with gcc -O2 with the project's C
   (``panda_forward_dynamics``, ``panda_inverse_dynamics``) into one timing program (the loop of
-  ``benchmarks/compiled.py``: the best of ``--repeats`` runs of at least 20 ms), all five over
+  ``benchmarks/compiled.py``: the best of ``--repeats`` runs of at least 20 ms), all six over
   the same states, one after the other.
 
 Before timing, the project's FD and ID must agree with adam's to 1e-8 (relative to the largest
