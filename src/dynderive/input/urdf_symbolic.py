@@ -95,7 +95,7 @@ def select(patterns: tuple[str, ...], bodies: dict[str, Any], links: list[str],
             elif link in links:
                 why = f"link '{link}' is welded to the world, so its inertia never enters the dynamics; "
             problems.append(Problem(OPTION, 1, column, f"no link matches {pattern!r} ({why}links: "
-                                    f"{', '.join(candidates) or 'none'}){did_you_mean(link, candidates)}"))
+                                    f"{', '.join(candidates) or 'none'})" + ("" if why else did_you_mean(link, candidates))))
             continue
         for name in matched:
             chosen.setdefault(name, set()).update(fnmatch.filter(FIELDS, field))
