@@ -72,8 +72,10 @@ def test_equal_to_the_plain_module_at_the_defaults(modules):
     rng = np.random.default_rng(7)
     for _ in range(5):
         q, qd, qdd = rng.uniform(-2, 2, (3, 7))
-        for name, args in (("mass_matrix", (q,)), ("gravity_vector", (q,)), ("inverse_dynamics", (q, qd, qdd))):
-            np.testing.assert_allclose(getattr(symbolic, name)(*args), getattr(plain, name)(*args), rtol=0, atol=1e-12)
+        for name, args in (("mass_matrix", (q,)), ("gravity_vector", (q,)),
+                           ("inverse_dynamics", (q, qd, qdd))):
+            np.testing.assert_allclose(getattr(symbolic, name)(*args), getattr(plain, name)(*args),
+                                       rtol=0, atol=1e-12)
 
 
 def test_a_heavier_hand_as_pinocchio(modules, tmp_path):
@@ -96,7 +98,8 @@ def test_every_massive_link_mass(modules):
     path = modules[0]
     robot = dynderive.load_robot(path, symbolic="*.mass")
     names = [p.name for p in robot.parameters if p.name != "g"]
-    assert names == [f"m_panda_link{k}" for k in range(1, 8)] + ["m_panda_hand"]   # link8 massless, link0 welded
+    # panda_link8 is massless, panda_link0 welded to the world
+    assert names == [f"m_panda_link{k}" for k in range(1, 8)] + ["m_panda_hand"]
 
 
 @pytest.mark.parametrize("option, message", [
@@ -124,8 +127,8 @@ def test_refused_on_a_yaml_robot():
 
 def test_c_struct_and_casadi_p(modules, tmp_path):
     out = tmp_path / "out"
-    result = runner.invoke(app, ["solve", str(modules[0]), "--c", "--casadi", "--symbolic", ",".join(SYMBOLIC),
-                                 "--out", str(out), "-q"])
+    result = runner.invoke(app, ["solve", str(modules[0]), "--c", "--casadi", "--symbolic",
+                                 ",".join(SYMBOLIC), "--out", str(out), "-q"])
     assert result.exit_code == 0, result.output
     header = (out / "panda_dynamics.h").read_text()
     assert "double m_panda_hand;" in header and "double I_panda_link7_xy;" in header

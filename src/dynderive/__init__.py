@@ -77,8 +77,9 @@ def load_robot(robot: str | Path, size_limits: bool = False, floating_base: bool
             raise InputError(Problem("--floating-base", 1, 1, "--floating-base floats a URDF's root link; a YAML "
                                      "robot file declares its floating joint itself (type: floating)"))
         if symbolic:
-            raise InputError(Problem("--symbolic", 1, 1, "--symbolic makes a URDF's inertial values parameters; "
-                                     "a YAML robot file names its parameters itself (its parameters block)"))
+            raise InputError(Problem("--symbolic", 1, 1, "--symbolic makes a URDF's inertial values "
+                                     "parameters; a YAML robot file names its parameters itself (its "
+                                     "parameters block)"))
         document = load_document(path)
     model = validate(document)
     if size_limits:

@@ -40,8 +40,9 @@ F = TypeVar("F", bound=Callable[..., Any])
 FloatingBase = Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by a "
                                             "floating joint 'root_joint' (legged robots, humanoids).")]
 Symbolic = Annotated[str | None, typer.Option("--symbolic", help="URDF: LINK.FIELD[,...] (wildcards: "
-                     "panda_hand.mass, panda_link7.*, *.mass; FIELD mass, com or inertia): those inertial values "
-                     "become parameters m_<link>, c_<link>_x.., I_<link>_xx.. with the file's values as defaults.")]
+                     "panda_hand.mass, panda_link7.*, *.mass; FIELD mass, com or inertia): those inertial "
+                     "values become parameters m_<link>, c_<link>_x.., I_<link>_xx.. with the file's values "
+                     "as defaults.")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")]
 Params = Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                    "(repeatable; required for parameters without a default).")]
@@ -507,8 +508,9 @@ def build(
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Templates that override the built-in ones by file name.")] = None,
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
-    symbolic: Annotated[str | None, typer.Option("--symbolic", help="URDF files: LINK.FIELD[,...] (wildcards; "
-                        "FIELD mass, com or inertia): those inertial values become parameters.")] = None,
+    symbolic: Annotated[str | None, typer.Option("--symbolic", help="URDF files: LINK.FIELD[,...] "
+                        "(wildcards; FIELD mass, com or inertia): those inertial values become "
+                        "parameters.")] = None,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to at most N significant "
                       "digits (default: as many as each robot file wrote).")] = None,
     **targets: bool,

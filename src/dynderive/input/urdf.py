@@ -83,7 +83,8 @@ def read_urdf(text: str, file: str, floating_base: bool = False,
 
     frames = _fixed_frames(reader, joints, link_elements, by_child, base)
     patterns = patterns_of(symbolic)
-    declared = attach(bodies, select(patterns, bodies, list(link_elements), frames), identifier) if patterns else []
+    chosen = select(patterns, bodies, list(link_elements), frames) if patterns else {}
+    declared = attach(bodies, chosen, identifier)
     merged = merge_bodies(reader, bodies, link_elements, frames)
     split_planar(reader, doc, joints, link_elements, frames, IDENTITY)   # x, y, theta joints in a row
     reader.raise_problems()

@@ -90,7 +90,8 @@ def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[s
             placed = Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
                            max(body.scale, float(np.max(np.abs(p)))), impossible=body.impossible)
             if body.symbolic is not None:
-                placed.symbolic = symbolic.SymbolicBody(body.symbolic.mass, symbolic.transform(R, p, body.symbolic.com),
+                placed.symbolic = symbolic.SymbolicBody(body.symbolic.mass,
+                                                        symbolic.transform(R, p, body.symbolic.com),
                                                         symbolic.rotate(R, body.symbolic.inertia))
             combined = placed if target not in merged else combine(merged[target], placed)
         if not finite(combined.mass, combined.com, combined.inertia):

@@ -94,8 +94,9 @@ def select(patterns: tuple[str, ...], bodies: dict[str, Any], links: list[str],
                 why = f"link '{link}' has no <inertial>; "
             elif link in links:
                 why = f"link '{link}' is welded to the world, so its inertia never enters the dynamics; "
+            hint = "" if why else did_you_mean(link, candidates)
             problems.append(Problem(OPTION, 1, column, f"no link matches {pattern!r} ({why}links: "
-                                    f"{', '.join(candidates) or 'none'})" + ("" if why else did_you_mean(link, candidates))))
+                                    f"{', '.join(candidates) or 'none'}){hint}"))
             continue
         for name in matched:
             chosen.setdefault(name, set()).update(fnmatch.filter(FIELDS, field))
@@ -168,7 +169,8 @@ def transform(R: np.ndarray, p: np.ndarray, c: list[sympy.Expr]) -> list[sympy.E
 
 
 def of_numbers(mass: float, com: np.ndarray, inertia: np.ndarray) -> SymbolicBody:
-    return SymbolicBody(_f(mass), [_f(x) for x in com], [[_f(inertia[i, j]) for j in range(3)] for i in range(3)])
+    tensor = [[_f(inertia[i, j]) for j in range(3)] for i in range(3)]
+    return SymbolicBody(_f(mass), [_f(x) for x in com], tensor)
 
 
 def combine(a: SymbolicBody, b: SymbolicBody) -> SymbolicBody:
@@ -185,7 +187,8 @@ def combine(a: SymbolicBody, b: SymbolicBody) -> SymbolicBody:
         cc = sum(x * x for x in body.com)
         for i in range(3):
             for j in range(3):
-                inertia[i][j] += body.inertia[i][j] + body.mass * ((cc if i == j else 0) - body.com[i] * body.com[j])
+                shift = (cc if i == j else 0) - body.com[i] * body.com[j]
+                inertia[i][j] += body.inertia[i][j] + body.mass * shift
     return SymbolicBody(mass, com, inertia)
 
 
@@ -222,8 +225,8 @@ def attach(bodies: dict[str, Any], chosen: dict[str, list[str]], ident: Any) -> 
         com = [_f(x) for x in body.com]
         if "com" in fields:
             where = inertial.find("origin") or inertial
-            com = [declare(f"c_{link}_{axis}", body.com[i], "m", f"centre of mass of link '{name}', {axis} (URDF)",
-                           where) for i, axis in enumerate("xyz")]
+            com = [declare(f"c_{link}_{axis}", body.com[i], "m", f"centre of mass of link '{name}', "
+                           f"{axis} (URDF)", where) for i, axis in enumerate("xyz")]
         if "inertia" in fields and body.written is not None:
             written: list[list[sympy.Expr]] = [[sympy.S.Zero] * 3 for _ in range(3)]
             where = inertial.find("inertia") or inertial
