@@ -40,9 +40,8 @@ F = TypeVar("F", bound=Callable[..., Any])
 FloatingBase = Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by a "
                                             "floating joint 'root_joint' (legged robots, humanoids).")]
 Symbolic = Annotated[str | None, typer.Option("--symbolic", help="URDF: LINK.FIELD[,...] (wildcards: "
-                     "panda_hand.mass, panda_link7.*, *.mass; FIELD mass, com or inertia): those inertial "
-                     "values become parameters m_<link>, c_<link>_x.., I_<link>_xx.. with the file's values "
-                     "as defaults.")]
+                     "panda_hand.mass, *.mass; FIELD mass, com or inertia): those inertial values become "
+                     "parameters m_<link>, c_<link>_x, I_<link>_xx..., the file's values their defaults.")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")]
 Params = Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                    "(repeatable; required for parameters without a default).")]
@@ -517,7 +516,7 @@ def build(
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
-    from .options import sheet_digits_option
+    from .options import sheet_digits_option, symbolic_kind
 
     targets = target_flags(targets)
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf),
@@ -529,11 +528,7 @@ def build(
     shortened = sheet_digits_option(digits, any(kind in kinds for kind in ("latex", "pdf", "html")))
     target_needs(targets)   # no compiler: stop before any work
     kinds += ("floating_base",) if floating_base else ()
-    if symbolic:   # the patterns' form checked before any work; what they match, by each URDF file
-        from ..input.urdf_symbolic import parse_patterns, patterns_of
-
-        parse_patterns(patterns_of(symbolic))
-        kinds += (f"symbolic:{symbolic}",)
+    kinds += symbolic_kind(symbolic)
     kinds += (f"digits:{shortened}",) if shortened else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))

@@ -202,6 +202,17 @@ def _revalidate(robot: str, values: dict[str, float], load: dict[str, Any]) -> l
     return []
 
 
+def symbolic_kind(symbolic: str | None) -> tuple[str, ...]:
+    """``build --symbolic``: the patterns' form checked before any work (what they match is
+    each URDF file's matter), as the input kind ``symbolic:PATTERNS``."""
+    if not symbolic:
+        return ()
+    from ..input.urdf_symbolic import parse_patterns, patterns_of
+
+    parse_patterns(patterns_of(symbolic))
+    return (f"symbolic:{symbolic}",)
+
+
 def backend_target(text: str, check: bool = False) -> Target:
     """The target of ``--backend`` (any case), from the registry (``render/targets``): the
     generated NumPy module, or a target ``simulate`` can load (the compiled C extension); with
