@@ -143,3 +143,17 @@ def test_param_through_the_command_line(modules):
     result = runner.invoke(app, ["linearize", str(modules[0]), "--symbolic", "panda_hand.mass",
                                  "--param", "m_panda_hand=-1", "-q"])
     assert result.exit_code == 2 and "--param:1:" in result.output, result.output
+
+
+def test_names_are_made_unique():
+    from dynderive.input.urdf_symbolic import free_name
+
+    taken = {"m_a", "g"}
+    assert free_name("m_a", taken) == "m_a_2" and free_name("m_a", taken) == "m_a_3"
+    assert free_name("m_b", taken) == "m_b"
+
+
+def test_a_floating_joint_and_param():
+    urdf = str(Path(__file__).parent / "floating_elbow.urdf")
+    result = runner.invoke(app, ["check", urdf, "--symbolic", "*.*", "--param", "m_lower=2", "-q"])
+    assert result.exit_code == 0, result.output
