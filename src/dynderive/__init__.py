@@ -49,13 +49,17 @@ def __dir__() -> list[str]:
     return sorted(__all__)
 
 
-def load_robot(robot: str | Path, size_limits: bool = False, floating_base: bool = False) -> Robot:
+def load_robot(robot: str | Path, size_limits: bool = False, floating_base: bool = False,
+               symbolic: str | tuple[str, ...] | list[str] | None = None) -> Robot:
     """Load and validate a robot file (YAML or URDF path) or a bundled robot by name.
 
     With ``size_limits`` (the command line's), a robot beyond the documented limits of the
     whole derivation (``input/limits.py``) is refused before any work; the library leaves it
     to the caller, who may want only the programs that do not grow like n^3. With
-    ``floating_base`` a URDF's root link floats (a ``floating`` joint ``root_joint``)."""
+    ``floating_base`` a URDF's root link floats (a ``floating`` joint ``root_joint``). ``symbolic``:
+    patterns ``LINK.FIELD`` (``"panda_hand.*"``, ``"*.mass"``; FIELD ``mass``, ``com`` or
+    ``inertia``) whose inertial values of a URDF become parameters (``m_<link>``, ``c_<link>_x``,
+    ``I_<link>_xx``...), the file's values their defaults (``--symbolic``)."""
     from .input.limits import check_size
     from .input.loader import load_document, resolve_robot_path
     from .input.schema import validate
@@ -65,13 +69,17 @@ def load_robot(robot: str | Path, size_limits: bool = False, floating_base: bool
         from .input.loader import read_text
         from .input.urdf import read_urdf
 
-        document = read_urdf(read_text(path), str(path), floating_base)
+        document = read_urdf(read_text(path), str(path), floating_base, symbolic)
     else:
-        if floating_base:
-            from .errors import InputError, Problem
+        from .errors import InputError, Problem
 
+        if floating_base:
             raise InputError(Problem("--floating-base", 1, 1, "--floating-base floats a URDF's root link; a YAML "
                                      "robot file declares its floating joint itself (type: floating)"))
+        if symbolic:
+            raise InputError(Problem("--symbolic", 1, 1, "--symbolic makes a URDF's inertial values "
+                                     "parameters; a YAML robot file names its parameters itself (its "
+                                     "parameters block)"))
         document = load_document(path)
     model = validate(document)
     if size_limits:

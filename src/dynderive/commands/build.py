@@ -217,7 +217,9 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
 
     floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
-    robot = load_robot(source, size_limits=True, floating_base=floating_base)
+    symbolic = next((kind.partition(":")[2] for kind in kinds if kind.startswith("symbolic:")), None)
+    symbolic = symbolic if source.lower().endswith(".urdf") else None   # --symbolic: URDF files only
+    robot = load_robot(source, size_limits=True, floating_base=floating_base, symbolic=symbolic)
     derivation = derive(robot)
     sheets, failed = sheet_files(derivation, kinds, template_dir, digits=digits, sheet=sheet)
     files = {file: data for file, data in sheets.items() if not file.endswith((".json", ".html"))}   # the sheet

@@ -39,6 +39,9 @@ F = TypeVar("F", bound=Callable[..., Any])
 #: Options several commands share.
 FloatingBase = Annotated[bool, typer.Option("--floating-base", help="URDF: join the world to the root link by a "
                                             "floating joint 'root_joint' (legged robots, humanoids).")]
+Symbolic = Annotated[str | None, typer.Option("--symbolic", help="URDF: LINK.FIELD[,...] (wildcards: "
+                     "panda_hand.mass, *.mass; FIELD mass, com or inertia): those inertial values become "
+                     "parameters m_<link>, c_<link>_x, I_<link>_xx..., the file's values their defaults.")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")]
 Params = Annotated[list[str] | None, typer.Option("--param", help="NAME=VALUE: a parameter's value "
                    "(repeatable; required for parameters without a default).")]
@@ -174,6 +177,7 @@ def solve(
                         "generalized, maximal, checks, or all (default: maximal coordinates only for planar "
                         "robots of at most 2 links).")] = None,
     floating_base: FloatingBase = False,
+    symbolic: Symbolic = None,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheet's numbers (and the printed equations') "
                       "to at most N significant digits (default: as many as the robot file wrote).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
@@ -199,7 +203,7 @@ def solve(
     target_needs(targets)   # no compiler: stop before any work
     progress = Progress(quiet)
     progress("loading")
-    model = load_robot(robot, size_limits=True, floating_base=floating_base)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
     maximal_section_applies(sections, model.planar, model.floating)
     echo_notes(model, quiet)
     if not quiet:
@@ -236,6 +240,7 @@ def check(
                      "(repeatable; parameters without a default take 1.0).")] = None,
     backend: Annotated[str, typer.Option("--backend", help=option_help("check --backend"))] = "numpy",
     floating_base: FloatingBase = False,
+    symbolic: Symbolic = None,
     quiet: Quiet = False,
 ) -> None:
     """Run every check that applies to ROBOT's derivation and generated code.
@@ -249,8 +254,9 @@ def check(
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
     harness = backend_target(backend, check=True)   # the NumPy module: its own checks only (no harness)
     progress = Progress(quiet)
-    model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    model = with_parameters(model, robot, param or [], required=False, command="check")
+    model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
+    model = with_parameters(model, robot, param or [], required=False, command="check",
+                            load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
@@ -304,6 +310,7 @@ def simulate(
                                   "module's default, which integrators cannot step through).")] = 1e-3,
     backend: Annotated[str, typer.Option("--backend", help=option_help("simulate --backend"))] = "numpy",
     floating_base: FloatingBase = False,
+    symbolic: Symbolic = None,
     quiet: Quiet = False,
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
@@ -329,8 +336,9 @@ def simulate(
             require_matplotlib(option)
     require_scipy("simulate")
     progress = Progress(quiet)
-    model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    model = with_parameters(model, robot, param or [], required=True)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
+    model = with_parameters(model, robot, param or [], required=True,
+                            load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)
     simulation.refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
@@ -377,6 +385,7 @@ def linearize(
     json_: Annotated[bool, typer.Option("--json", help="Print A and B as JSON.")] = False,
     latex: Annotated[bool, typer.Option("--latex", help="Print a LaTeX document of A and B.")] = False,
     floating_base: FloatingBase = False,
+    symbolic: Symbolic = None,
     quiet: Quiet = False,
 ) -> None:
     """Linearize ROBOT's dynamics about a state: xdot = A dx + B du, x = (q, qd).
@@ -395,8 +404,9 @@ def linearize(
                 typer.echo(f"note: {text}", err=True)
 
     progress = Progress(quiet)
-    model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    model = with_parameters(model, robot, param or [], required=False, command="linearize")
+    model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
+    model = with_parameters(model, robot, param or [], required=False, command="linearize",
+                            load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)
     derivation = derive(model, progress=progress)
     table = derivation.symbols
@@ -431,6 +441,7 @@ def identify(
                                                "regressor parameters).", show_default="4 per parameter, at least "
                                                "100")] = None,
     floating_base: FloatingBase = False,
+    symbolic: Symbolic = None,
     quiet: Quiet = False,
 ) -> None:
     """The regressor's parameter vector pi and ROBOT's base parameters: how the parameters group
@@ -442,8 +453,9 @@ def identify(
     from ..verify.identification import base_parameters, fewest_states
 
     progress = Progress(quiet)
-    model = load_robot(robot, size_limits=True, floating_base=floating_base)
-    model = with_parameters(model, robot, param or [], required=True)
+    model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
+    model = with_parameters(model, robot, param or [], required=True,
+                            load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)
     if states is not None and states < (least := fewest_states(model)):
         raise InputError(problem("--states", f"expected at least {least} states for {model.name} (one per "
@@ -495,13 +507,16 @@ def build(
     template_dir: Annotated[Path | None, typer.Option("--template-dir",
                             help="Templates that override the built-in ones by file name.")] = None,
     floating_base: Annotated[bool, typer.Option("--floating-base", help="URDF files: float the root link.")] = False,
+    symbolic: Annotated[str | None, typer.Option("--symbolic", help="URDF files: LINK.FIELD[,...] "
+                        "(wildcards; FIELD mass, com or inertia): those inertial values become "
+                        "parameters.")] = None,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to at most N significant "
                       "digits (default: as many as each robot file wrote).")] = None,
     **targets: bool,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
-    from .options import sheet_digits_option
+    from .options import sheet_digits_option, symbolic_kind
 
     targets = target_flags(targets)
     kinds = tuple(kind for kind, wanted in (("latex", latex), ("pdf", pdf),
@@ -513,6 +528,7 @@ def build(
     shortened = sheet_digits_option(digits, any(kind in kinds for kind in ("latex", "pdf", "html")))
     target_needs(targets)   # no compiler: stop before any work
     kinds += ("floating_base",) if floating_base else ()
+    kinds += symbolic_kind(symbolic)
     kinds += (f"digits:{shortened}",) if shortened else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))

@@ -96,12 +96,13 @@ def split_top_level(text: str) -> list[str]:
 
 
 def with_parameters(model: Any, robot: str, assignments: list[str], required: bool,
-                    command: str = "this command") -> Any:
+                    command: str = "this command", load: dict[str, Any] | None = None) -> Any:
     """``model`` with the values of ``--param NAME=VALUE`` (VALUE: a number or a whitelisted
     expression of numbers, e.g. ``pi/4``); ``required``: every parameter must then have a
     value (otherwise those without one take 1.0, as ``command`` does). The robot file ``robot``
     is validated again with the values used, so a negative mass or an expression that is not
-    real at them is refused as it would be in the file."""
+    real at them is refused as it would be in the file (a URDF read as ``load`` says:
+    ``floating_base``, ``symbolic``, the options ``--floating-base`` and ``--symbolic``)."""
     from ..model.expressions import ExpressionError
 
     known = {p.name: p for p in model.parameters}
@@ -141,22 +142,22 @@ def with_parameters(model: Any, robot: str, assignments: list[str], required: bo
     if problems:
         raise InputError(problems)
     if given or filled:
-        _check_values(robot, given, filled, texts, command)
+        _check_values(robot, given, filled, texts, command, load or {})
     return dataclasses.replace(model, parameters=parameters) if given else model
 
 
 def _check_values(robot: str, given: dict[str, float], filled: dict[str, float],
-                  texts: dict[str, tuple[str, int]], command: str) -> None:
+                  texts: dict[str, tuple[str, int]], command: str, load: dict[str, Any]) -> None:
     """Validate the robot file again with the parameter values used; report what fails at the
     ``--param`` option responsible (alone, else those given together), or, for a parameter
     without a default, at the file with the value taken."""
-    found = _revalidate(robot, given | filled)
+    found = _revalidate(robot, given | filled, load)
     if not found:
         return
     owner: dict[tuple[str, int, int], list[str]] = {}
     if len(given) > 1 or (given and filled):
         for name, value in given.items():
-            for p in _revalidate(robot, {name: value}):
+            for p in _revalidate(robot, {name: value}, load):
                 owner.setdefault((p.file, p.line, p.column), []).append(name)
     elif given:
         owner = {(p.file, p.line, p.column): list(given) for p in found}
@@ -179,14 +180,14 @@ def _check_values(robot: str, given: dict[str, float], filled: dict[str, float],
     raise InputError(problems)
 
 
-def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
+def _revalidate(robot: str, values: dict[str, float], load: dict[str, Any]) -> list[Problem]:
     """The problems of the robot file ``robot`` read again with the parameter ``values``."""
     from ..input.loader import load_document, read_text, resolve_robot_path
     from ..input.schema import validate
     from ..input.urdf import read_urdf
 
     path = resolve_robot_path(robot)
-    document = (read_urdf(read_text(path), str(path)) if path.suffix.lower() == ".urdf"
+    document = (read_urdf(read_text(path), str(path), **load) if path.suffix.lower() == ".urdf"
                 else load_document(path))
     block = document.data.get("parameters") or {}
     for name, value in values.items():
@@ -199,6 +200,17 @@ def _revalidate(robot: str, values: dict[str, float]) -> list[Problem]:
     except InputError as exc:
         return exc.problems
     return []
+
+
+def symbolic_kind(symbolic: str | None) -> tuple[str, ...]:
+    """``build --symbolic``: the patterns' form checked before any work (what they match is
+    each URDF file's matter), as the input kind ``symbolic:PATTERNS``."""
+    if not symbolic:
+        return ()
+    from ..input.urdf_symbolic import parse_patterns, patterns_of
+
+    parse_patterns(patterns_of(symbolic))
+    return (f"symbolic:{symbolic}",)
 
 
 def backend_target(text: str, check: bool = False) -> Target:

@@ -36,6 +36,7 @@ from . import inertia
 from .loader import Path_, SourceDocument
 from .urdf_bodies import Body, check_bodies, finite, merge_bodies
 from .urdf_root import float_root, note_fixed_base, split_planar
+from .urdf_symbolic import Declared, attach, entries, name_parameters, patterns_of, select
 from .urdf_values import IDENTITY, Rotation, _number, _numbers, _Reader
 from .urdf_xml import _Element, _parse_xml
 
@@ -45,13 +46,16 @@ def identifier(name: str) -> str:
     return cleaned if re.match(r"[A-Za-z_]", cleaned) else f"r_{cleaned}"
 
 
-def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocument:
+def read_urdf(text: str, file: str, floating_base: bool = False,
+              symbolic: str | tuple[str, ...] | list[str] | None = None) -> SourceDocument:
     """URDF text -> the data of an equivalent robot file, with positions for every value.
 
     Steps: read the links' inertials and the joints, check the tree, place every link in the
     moving link it is welded to (fixed joints composed as rotation matrices), merge welded
     bodies, and write the moving links and joints as robot-file data. With ``floating_base``
     a ``floating`` joint ``root_joint`` joins the world to the root link (``--floating-base``).
+    ``symbolic``: patterns ``LINK.FIELD`` whose inertial values become parameters (``--symbolic``,
+    ``urdf_symbolic``), the file's values their defaults.
     """
     root = _parse_xml(text, file)
     reader = _Reader(file)
@@ -78,13 +82,16 @@ def read_urdf(text: str, file: str, floating_base: bool = False) -> SourceDocume
         by_child[roots[0]] = joints[0]
 
     frames = _fixed_frames(reader, joints, link_elements, by_child, base)
+    patterns = patterns_of(symbolic)
+    chosen = select(patterns, bodies, list(link_elements), frames) if patterns else {}
+    declared = attach(bodies, chosen, identifier)
     merged = merge_bodies(reader, bodies, link_elements, frames)
     split_planar(reader, doc, joints, link_elements, frames, IDENTITY)   # x, y, theta joints in a row
     reader.raise_problems()
     if not floating_base:
         note_fixed_base(doc, joints, frames, base, link_elements[base])
     doc.digits = max(reader.digits, 1)   # the sheet's precision: as written, not as composed
-    return _robot_document(root, reader, doc, joints, link_elements, frames, merged)
+    return _robot_document(root, reader, doc, joints, link_elements, frames, merged, declared)
 
 
 def _read_links(root: _Element, reader: _Reader) -> tuple[dict[str, Body], dict[str, _Element]]:
@@ -198,8 +205,10 @@ def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: 
 
 def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints: list[dict[str, Any]],
                     link_elements: dict[str, _Element], frames: dict[str, tuple[str, Rotation, np.ndarray]],
-                    merged: dict[str, Body]) -> SourceDocument:
-    """The moving links and joints as robot-file data, with a position for every value."""
+                    merged: dict[str, Body], declared: list[Declared] | None = None) -> SourceDocument:
+    """The moving links and joints as robot-file data, with a position for every value;
+    ``declared``: the inertial values made parameters (``--symbolic``), then written as
+    expressions of them where they enter a link's values."""
     data: dict[str, Any] = {
         "name": identifier(root.attrib.get("name", "robot")),
         "title": root.attrib.get("name", "robot"),
@@ -215,6 +224,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
     doc.labels[("name",)] = "<robot name>"
     moving = [j for j in joints if j["type"] != "fixed"]
     carrying = _carrying(moving, frames, merged)
+    expressed: list[tuple[dict[str, Any], Any]] = []   # link entries with values that are expressions
     for index, joint in enumerate(moving):
         name = joint["child"]
         element = link_elements[name]
@@ -232,6 +242,8 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
                  "com": _numbers(body.com, max(body.scale, float(np.max(np.abs(body.com))))),
                  "inertia": _numbers([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])}
         data["links"].append(entry)
+        if body.symbolic is not None:
+            expressed.append((entry, body.symbolic))
         doc.labels[path] = f"link '{name}'"
         if body.impossible:
             doc.impossible_inertias.add(path)
@@ -295,11 +307,27 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
             doc.labels[path + ("mimic",)] = f"joint '{joint['name']}' <mimic>"
             for key in ((), ("joint",), ("multiplier",), ("offset",)):
                 positions[path + ("mimic",) + key] = joint["mimic"][0].at
+    if declared:
+        _write_parameters(data, positions, declared, expressed)
     _welded_frames(data, positions, doc, link_elements, frames)
     reader.raise_problems()
     doc.data, doc.positions = data, positions
     doc.key_positions = dict(positions)
     return doc
+
+
+def _write_parameters(data: dict[str, Any], positions: dict[Path_, tuple[int, int]], declared: list[Declared],
+                      expressed: list[tuple[dict[str, Any], Any]]) -> None:
+    """The inertial values made parameters (``--symbolic``): named, declared with the file's
+    values as defaults, and written into the links' values that depend on them."""
+    named = name_parameters(data, declared)
+    for item in declared:
+        positions[("parameters", named[item.symbol].name)] = item.at
+    for entry, body in expressed:
+        for key, texts in entries(body, named).items():
+            values = entry[key] if key != "mass" else [entry["mass"]]
+            values = [number if expr is None else expr for number, expr in zip(values, texts)]
+            entry[key] = values if key != "mass" else values[0]
 
 
 def _carrying(moving: list[dict[str, Any]], frames: dict[str, tuple[str, Rotation, np.ndarray]],

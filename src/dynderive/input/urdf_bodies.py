@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from . import inertia
+from . import urdf_symbolic as symbolic
 from .loader import SourceDocument
 from .urdf_values import Rotation, _Reader
 from .urdf_xml import _Element
@@ -35,6 +36,8 @@ class Body:
     written: np.ndarray | None = None  # the inertia as written, in the axes of <inertial><origin>
     axes: np.ndarray | None = None     # those axes in the link frame (written -> inertia)
     impossible: bool = False           # an inertia that misses the triangle inequality, kept as written
+    #: the same values as expressions, when some are parameters (``--symbolic``: ``urdf_symbolic``)
+    symbolic: symbolic.SymbolicBody | None = None
 
 
 def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
@@ -70,6 +73,7 @@ def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
             doc.note(element.at, f"link '{name}' inertia: {verdict.note}")
         if verdict.tensor is not written[name] and body.axes is not None:
             body.inertia = body.axes @ verdict.tensor @ body.axes.T
+            body.written = verdict.tensor   # what an inertia made parameters takes as defaults
 
 
 def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[str, _Element],
@@ -85,6 +89,10 @@ def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[s
         with np.errstate(all="ignore"):
             placed = Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
                            max(body.scale, float(np.max(np.abs(p)))), impossible=body.impossible)
+            if body.symbolic is not None:
+                placed.symbolic = symbolic.SymbolicBody(body.symbolic.mass,
+                                                        symbolic.transform(R, p, body.symbolic.com),
+                                                        symbolic.rotate(R, body.symbolic.inertia))
             combined = placed if target not in merged else combine(merged[target], placed)
         if not finite(combined.mass, combined.com, combined.inertia):
             what, tag = next((w, t) for w, t, v in (("mass", "mass", combined.mass), ("centre of mass", "origin",
@@ -102,7 +110,7 @@ def combine(a: Body, b: Body) -> Body:
     """Two rigid bodies welded together (all in one frame): mass, COM, inertia about the COM.
     A massless body without inertia (a frame: a tool flange) leaves ``a`` exactly as it was
     (``(m c + 0) / m`` need not give back ``c`` in floating point)."""
-    if not b.mass and not np.any(b.inertia):
+    if not b.mass and not np.any(b.inertia) and b.symbolic is None:
         return a
     mass = a.mass + b.mass
     com = (a.mass * a.com + b.mass * b.com) / mass if mass > 0 else a.com
@@ -112,4 +120,8 @@ def combine(a: Body, b: Body) -> Body:
         if body.mass:  # a massless body adds no parallel-axis term, however far away it is
             d = body.com - com
             inertia += body.mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
-    return Body(mass, com, inertia, a.element, max(a.scale, b.scale), impossible=a.impossible or b.impossible)
+    body = Body(mass, com, inertia, a.element, max(a.scale, b.scale), impossible=a.impossible or b.impossible)
+    if a.symbolic is not None or b.symbolic is not None:
+        a_, b_ = (x.symbolic or symbolic.of_numbers(x.mass, x.com, x.inertia) for x in (a, b))
+        body.symbolic = symbolic.combine(a_, b_)
+    return body
