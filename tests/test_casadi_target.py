@@ -177,7 +177,7 @@ def test_random_tree_with_full_precision_numbers(code_dir):
     )
 
 
-def test_floating_base_agrees_with_numpy(code_dir):
+def test_free_flyer_agrees_with_numpy(code_dir):
     numpy_module, casadi_module = floating_modules(str(code_dir))
     assert casadi_module.NQ == casadi_module.NV + 1
     _agree(numpy_module, casadi_module, seed=3)
@@ -270,7 +270,7 @@ def test_jacobian_of_forward_dynamics_is_linearize(robot, smoothing, code_dir):
     _derivatives_agree(module_of(robot, str(code_dir)), casadi_module_of(robot, str(code_dir)), 4, smoothing)
 
 
-def test_floating_base_derivatives(code_dir):
+def test_free_flyer_derivatives(code_dir):
     _derivatives_agree(*floating_modules(str(code_dir)), seed=6)
 
 

@@ -37,8 +37,8 @@ def _derived(key: str):
     """(derivation, NumPy module) of a bundled robot's name, ``ur5``, ``elbow`` (a floating joint
     below a revolute one), ``box`` (a floating base with an arm) or ``rough_tree`` (a floating
     tree with damping and friction), derived once."""
-    from test_floating_base import BOX
-    from test_floating_drives import _text
+    from test_drives import _text
+    from test_free_flyer import BOX
 
     folder = Path(_folder()) / key
     folder.mkdir(parents=True, exist_ok=True)
