@@ -199,3 +199,12 @@ def test_no_command_names_a_target():
         if "render.targets." in (PACKAGE / relative).read_text():
             found.append(f"{relative}: names a module of render.targets")
     assert found == []
+
+
+def test_no_benchmark_script_shadows_a_package():
+    """Tests put ``benchmarks/`` on ``sys.path`` (to import its anchors): a script named like a
+    package the project or its tests import (``casadi.py``) would be imported in its place."""
+    imported = {"dynderive", "numpy", "sympy", "scipy", "jax", "casadi", "pinocchio", "adam", "liecasadi",
+                "matplotlib", "yaml", "jinja2", "typer", "pytest", "hypothesis", "jsonschema", "example_robot_data"}
+    shadowing = [s.name for s in (PACKAGE.parents[1] / "benchmarks").glob("*.py") if s.stem in imported]
+    assert not shadowing, f"benchmark scripts named like packages: {shadowing}"

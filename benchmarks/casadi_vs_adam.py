@@ -1,7 +1,7 @@
 """The CasADi target beside adam's CasADi functions, and CasADi's generated C beside the
 project's C, for the Panda (``robots/panda.urdf``), measured in the same run.
 
-    python benchmarks/casadi.py [--states 10000] [--calls 200] [--repeats 3] [--rounds 3] [--no-jit]
+    python benchmarks/casadi_vs_adam.py [--states 10000] [--calls 200] [--repeats 3] [--rounds 3] [--no-jit]
 
 Needs ``casadi``, gcc and adam (``pip install adam-robotics liecasadi``: a benchmark requirement,
 in no extra; ``adam.casadi`` imports ``liecasadi``, which adam-robotics 0.5.0 does not install).
