@@ -206,5 +206,7 @@ def test_no_benchmark_script_shadows_a_package():
     package the project or its tests import (``casadi.py``) would be imported in its place."""
     imported = {"dynderive", "numpy", "sympy", "scipy", "jax", "casadi", "pinocchio", "adam", "liecasadi",
                 "matplotlib", "yaml", "jinja2", "typer", "pytest", "hypothesis", "jsonschema", "example_robot_data"}
-    shadowing = [s.name for s in (PACKAGE.parents[1] / "benchmarks").glob("*.py") if s.stem in imported]
+    scripts = list((Path(__file__).resolve().parents[1] / "benchmarks").glob("*.py"))
+    assert scripts   # the checkout's benchmarks, not an installed copy
+    shadowing = [s.name for s in scripts if s.stem in imported]
     assert not shadowing, f"benchmark scripts named like packages: {shadowing}"
