@@ -19,8 +19,13 @@ Rows: forward (FD) and inverse (ID) dynamics. Columns, in microseconds per state
 
 * per call: one ``Function`` call from Python on NumPy vectors, the best of ``--repeats`` runs of
   ``--calls`` calls (``call jit``: of the jitted Function);
-* map: ``Function.map(states)`` on ``(n, states)`` matrices, one call, the best of ``--repeats``;
-  ``map jit``: the same of the Function built with ``jit=True`` (gcc -O2);
+* map: ``Function.map(states)`` on ``(n, states)`` NumPy matrices, one call, the best of
+  ``--repeats``; ``map jit``: the same of the Function built with ``jit=True`` (gcc -O2);
+  ``... DM``: the same on ``casadi.DM`` matrices made beforehand, as inside an optimizer (the
+  conversions of NumPy matrices cost about 1 us a state, more than either side's arithmetic);
+* external: the project's C through CasADi's external ABI (``<name>_dynamics.c`` compiled with
+  ``-D<NAME>_CASADI_EXTERNAL -O2``, ``casadi.external``) per call and through ``map``, against
+  adam's jitted Functions (adam's fastest) and beside our jitted SX;
   each of these measured in ``--rounds`` rounds, taking turns, the best of the rounds;
 * C: ``Function.generate`` of each side's Function, compiled with gcc -O2 with the project's C
   (``panda_forward_dynamics``, ``panda_inverse_dynamics``) into one timing program (the loop of
@@ -60,7 +65,10 @@ TIMING = _compiled.TIMING
 
 CHECKED = 100
 AGREE = 1e-8
-GOALS = {"call": 0.5, "map": 0.2, "map jit": 0.2, "C": 2.0}
+GOALS = {"call": 0.5, "map": 0.2, "map jit": 0.2, "map DM": 0.2, "map jit DM": 0.2, "C": 2.0}
+#: The ways of calling each side, in the table's order.
+HOWS = ("call", "call jit", "map", "map jit", "map DM", "map jit DM", "call external", "map external",
+        "map external DM")
 
 DRIVER = TIMING + r"""
 #include "panda_dynamics.h"
@@ -170,8 +178,9 @@ def python_times(fs: dict, states: tuple, calls: int, repeats: int, label: str) 
             rows = [(q[i], qd[i], x[i]) for i in range(calls)]
             out[name] = best(lambda f=fs[name], rows=rows: [f(*r) for r in rows], repeats) * 1e6 / calls
         else:
-            m, args = mapped[name], (q.T.copy(), qd.T.copy(), x.T.copy())
-            out[name] = best(lambda m=m, args=args: m(*args), repeats) * 1e6 / size
+            args = (q.T.copy(), qd.T.copy(), x.T.copy())
+            args = tuple(ca.DM(a) for a in args) if label == "map DM" else args
+            out[name] = best(lambda m=mapped[name], args=args: m(*args), repeats) * 1e6 / size
     return out
 
 
@@ -197,6 +206,17 @@ def c_times(fs: dict, states: tuple, work: Path, repeats: int) -> dict[str, floa
     times = {kind: float(ns) / 1000 for kind, ns in lines}
     results = np.fromfile(check).reshape(6, CHECKED, n)
     return times, results
+
+
+def externals(work: Path, fallback: dict) -> dict[str, ca.Function]:
+    """The project's C FD and ID as ``casadi.external`` Functions, beside adam's ``fallback``
+    ones (jitted when jit is on)."""
+    library = work / "libpanda_external.so"
+    subprocess.run(["gcc", "-std=c99", "-O2", "-shared", "-fPIC", "-DPANDA_CASADI_EXTERNAL",
+                    str(work / "panda_dynamics.c"), "-o", str(library), "-lm"], check=True)
+    return {"ours_fd": ca.external("panda_casadi_forward_dynamics", str(library)),
+            "ours_id": ca.external("panda_casadi_inverse_dynamics", str(library)),
+            "adam_fd": fallback["adam_fd"], "adam_id": fallback["adam_id"]}
 
 
 def main() -> None:
@@ -231,6 +251,11 @@ def main() -> None:
         try:
             options = {"cse": True, "jit": True, "compiler": "shell", "jit_options": {"flags": ["-O2"]}}
             compiled = functions(module, urdf, options) if jit else {}
+            external = externals(work, compiled or plain)
+            for kind, x in (("fd", u), ("id", qdd)):
+                worst = relative(values(external[f"ours_{kind}"], q, qd, x), values(plain[f"ours_{kind}"], q, qd, x))
+                if worst > AGREE:
+                    raise SystemExit(f"{kind.upper()}: the external C and the CasADi module differ by {worst:.3g}")
             c, checked = c_times(plain, states, work, args.repeats)
             pairs = (("ours_fd", u), ("ours_id", qdd)) * 2 + (("adam_fd", u), ("adam_id", qdd))
             expected = [values(plain[f], q, qd, x) for f, x in pairs]
@@ -240,34 +265,39 @@ def main() -> None:
                     raise SystemExit(f"generated C {label} differs from CasADi: {relative(got, want):.3g}")
             measured: dict[str, dict[str, float]] = {}
             for _ in range(args.rounds):   # the kinds take turns; the best of the rounds
-                kinds = [("call", plain, "call"), ("map", plain, "map")]
-                kinds += [("call jit", compiled, "call"), ("map jit", compiled, "map")] if jit else []
+                kinds = [("call", plain, "call"), ("map", plain, "map"), ("map DM", plain, "map DM")]
+                kinds += [("call jit", compiled, "call"), ("map jit", compiled, "map"),
+                          ("map jit DM", compiled, "map DM")] if jit else []
+                kinds += [("call external", external, "call"), ("map external", external, "map"),
+                          ("map external DM", external, "map DM")]
                 for how, fs, label in kinds:
                     got = python_times(fs, states, args.calls, args.repeats, label)
                     old = measured.setdefault(how, got)
                     measured[how] = {name: min(old[name], got[name]) for name in got}
         finally:
             # the jitted libraries live in the directory: release them before it goes
-            compiled = kinds = fs = None  # noqa: F841
+            compiled = kinds = fs = external = None  # noqa: F841
             os.chdir(cwd)
     report(measured, c, args, jit, time.perf_counter() - started)
 
 
 def report(measured: dict, c: dict, args, jit: bool, seconds: float) -> None:
     print(f"\nPanda, 7 joints; CasADi {ca.__version__}; {args.states} states; microseconds per state")
-    header = f"{'':4} {'how':10} {'dynderive':>10} {'adam':>10} {'ratio':>7}"
+    header = f"{'':4} {'how':15} {'dynderive':>10} {'adam':>10} {'ratio':>7}"
     print(header + "\n" + "-" * len(header))
     goals = []
     for kind in ("FD", "ID"):
-        for how in ("call", "call jit", "map", "map jit"):
+        for how in HOWS:
             if how not in measured:
                 continue
             ours, adam = measured[how][f"ours_{kind.lower()}"], measured[how][f"adam_{kind.lower()}"]
-            print(f"{kind:4} {how:10} {ours:>10.3f} {adam:>10.3f} {ours / adam:>7.2f}")
+            sx = measured.get(how.replace("external", "jit" if jit else "").replace("  ", " ").strip(), {})
+            beside = f"   our SX{' jit' if jit else ''} {sx[f'ours_{kind.lower()}']:.3f}" if "external" in how else ""
+            print(f"{kind:4} {how:15} {ours:>10.3f} {adam:>10.3f} {ours / adam:>7.2f}{beside}")
             if how in GOALS:
                 goals.append((f"{kind} {how}: at most {GOALS[how]}x adam's time", ours / adam, GOALS[how]))
         ours, adam, own = c[f"ours_{kind}"], c[f"adam_{kind}"], c[f"C_{kind}"]
-        print(f"{kind:4} {'C (-O2)':10} {ours:>10.3f} {adam:>10.3f} {ours / adam:>7.2f}   "
+        print(f"{kind:4} {'C (-O2)':15} {ours:>10.3f} {adam:>10.3f} {ours / adam:>7.2f}   "
               f"project's C {own:.3f}, CasADi C / project's C {ours / own:.2f}")
         goals.append((f"{kind} CasADi-generated C within {GOALS['C']}x of the project's C",
                       ours / own, GOALS["C"]))

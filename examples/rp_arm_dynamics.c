@@ -424,3 +424,256 @@ int rp_arm_frame_jacobian_dot_qd(const double *q, const double *qd, int frame, c
     (void)a;
     return 1;
 }
+
+#ifdef RP_ARM_CASADI_EXTERNAL
+/* CasADi's external-function ABI (compile with -DRP_ARM_CASADI_EXTERNAL into a shared
+   library; casadi.external("rp_arm_casadi_forward_dynamics", "./librp_arm.so")). The parameters
+   are the defaults. jac_<function> gives each Jacobian from the derivative programs. */
+#ifndef casadi_int
+#define casadi_int long long int
+#endif
+
+static const double rp_arm_casadi_zeros[2] = {0.0};
+static const casadi_int rp_arm_casadi_dense_2x1[3] = {2, 1, 1};
+static const casadi_int rp_arm_casadi_dense_2x2[3] = {2, 2, 1};
+
+/* forward_dynamics(q, qd, u) -> qdd; returns 1 if M is not positive definite. */
+int rp_arm_casadi_forward_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    const double *q = arg[0] ? arg[0] : rp_arm_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : rp_arm_casadi_zeros;
+    const double *u = arg[2] ? arg[2] : rp_arm_casadi_zeros;
+    (void)iw; (void)w; (void)mem;
+    if (!res[0]) return 0;
+    return rp_arm_forward_dynamics(q, qd, u, &rp_arm_default_parameters, res[0]);
+}
+casadi_int rp_arm_casadi_forward_dynamics_n_in(void) { return 3; }
+casadi_int rp_arm_casadi_forward_dynamics_n_out(void) { return 1; }
+const char *rp_arm_casadi_forward_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "u";
+    default: return 0;
+    }
+}
+const casadi_int *rp_arm_casadi_forward_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x1;
+    case 1: return rp_arm_casadi_dense_2x1;
+    case 2: return rp_arm_casadi_dense_2x1;
+    default: return 0;
+    }
+}
+const char *rp_arm_casadi_forward_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "qdd";
+    default: return 0;
+    }
+}
+const casadi_int *rp_arm_casadi_forward_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x1;
+    default: return 0;
+    }
+}
+int rp_arm_casadi_forward_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 3;
+    if (sz_res) *sz_res = 1;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 0;
+    return 0;
+}
+
+/* dqdd/d(q, qd, u) of forward_dynamics, column-major 2-row blocks. */
+int jac_rp_arm_casadi_forward_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    int i, j;
+    const double *q = arg[0] ? arg[0] : rp_arm_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : rp_arm_casadi_zeros;
+    const double *u = arg[2] ? arg[2] : rp_arm_casadi_zeros;
+    (void)iw; (void)mem;
+    if (rp_arm_forward_dynamics_derivatives(q, qd, u, &rp_arm_default_parameters, w, w + 4, w + 8)) return 1;
+    if (res[0]) for (i = 0; i < 2; ++i) for (j = 0; j < 2; ++j)
+        res[0][j * 2 + i] = w[0 + i * 2 + j];
+    if (res[1]) for (i = 0; i < 2; ++i) for (j = 0; j < 2; ++j)
+        res[1][j * 2 + i] = w[4 + i * 2 + j];
+    if (res[2]) for (i = 0; i < 2; ++i) for (j = 0; j < 2; ++j)
+        res[2][j * 2 + i] = w[8 + i * 2 + j];
+    return 0;
+}
+casadi_int jac_rp_arm_casadi_forward_dynamics_n_in(void) { return 4; }
+casadi_int jac_rp_arm_casadi_forward_dynamics_n_out(void) { return 3; }
+const char *jac_rp_arm_casadi_forward_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "u";
+    case 3: return "out_qdd";
+    default: return 0;
+    }
+}
+const casadi_int *jac_rp_arm_casadi_forward_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x1;
+    case 1: return rp_arm_casadi_dense_2x1;
+    case 2: return rp_arm_casadi_dense_2x1;
+    case 3: return rp_arm_casadi_dense_2x1;
+    default: return 0;
+    }
+}
+const char *jac_rp_arm_casadi_forward_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "jac_qdd_q";
+    case 1: return "jac_qdd_qd";
+    case 2: return "jac_qdd_u";
+    default: return 0;
+    }
+}
+const casadi_int *jac_rp_arm_casadi_forward_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x2;
+    case 1: return rp_arm_casadi_dense_2x2;
+    case 2: return rp_arm_casadi_dense_2x2;
+    default: return 0;
+    }
+}
+int jac_rp_arm_casadi_forward_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 4;
+    if (sz_res) *sz_res = 3;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 12;
+    return 0;
+}
+
+/* inverse_dynamics(q, qd, qdd) -> tau. */
+int rp_arm_casadi_inverse_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    const double *q = arg[0] ? arg[0] : rp_arm_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : rp_arm_casadi_zeros;
+    const double *qdd = arg[2] ? arg[2] : rp_arm_casadi_zeros;
+    (void)iw; (void)w; (void)mem;
+    if (!res[0]) return 0;
+    rp_arm_inverse_dynamics(q, qd, qdd, &rp_arm_default_parameters, res[0]);
+    return 0;
+}
+casadi_int rp_arm_casadi_inverse_dynamics_n_in(void) { return 3; }
+casadi_int rp_arm_casadi_inverse_dynamics_n_out(void) { return 1; }
+const char *rp_arm_casadi_inverse_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "qdd";
+    default: return 0;
+    }
+}
+const casadi_int *rp_arm_casadi_inverse_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x1;
+    case 1: return rp_arm_casadi_dense_2x1;
+    case 2: return rp_arm_casadi_dense_2x1;
+    default: return 0;
+    }
+}
+const char *rp_arm_casadi_inverse_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "tau";
+    default: return 0;
+    }
+}
+const casadi_int *rp_arm_casadi_inverse_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x1;
+    default: return 0;
+    }
+}
+int rp_arm_casadi_inverse_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 3;
+    if (sz_res) *sz_res = 1;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 0;
+    return 0;
+}
+
+/* dtau/d(q, qd, qdd) of inverse_dynamics, column-major 2-row blocks. */
+int jac_rp_arm_casadi_inverse_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    int i, j;
+    const double *q = arg[0] ? arg[0] : rp_arm_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : rp_arm_casadi_zeros;
+    const double *qdd = arg[2] ? arg[2] : rp_arm_casadi_zeros;
+    (void)iw; (void)mem;
+    rp_arm_inverse_dynamics_derivatives(q, qd, qdd, &rp_arm_default_parameters, w, w + 4);
+    rp_arm_mass_matrix(q, &rp_arm_default_parameters, w + 8);
+    if (res[0]) for (i = 0; i < 2; ++i) for (j = 0; j < 2; ++j)
+        res[0][j * 2 + i] = w[0 + i * 2 + j];
+    if (res[1]) for (i = 0; i < 2; ++i) for (j = 0; j < 2; ++j)
+        res[1][j * 2 + i] = w[4 + i * 2 + j];
+    if (res[2]) for (i = 0; i < 2; ++i) for (j = 0; j < 2; ++j)
+        res[2][j * 2 + i] = w[8 + i * 2 + j];
+    return 0;
+}
+casadi_int jac_rp_arm_casadi_inverse_dynamics_n_in(void) { return 4; }
+casadi_int jac_rp_arm_casadi_inverse_dynamics_n_out(void) { return 3; }
+const char *jac_rp_arm_casadi_inverse_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "qdd";
+    case 3: return "out_tau";
+    default: return 0;
+    }
+}
+const casadi_int *jac_rp_arm_casadi_inverse_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x1;
+    case 1: return rp_arm_casadi_dense_2x1;
+    case 2: return rp_arm_casadi_dense_2x1;
+    case 3: return rp_arm_casadi_dense_2x1;
+    default: return 0;
+    }
+}
+const char *jac_rp_arm_casadi_inverse_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "jac_tau_q";
+    case 1: return "jac_tau_qd";
+    case 2: return "jac_tau_qdd";
+    default: return 0;
+    }
+}
+const casadi_int *jac_rp_arm_casadi_inverse_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return rp_arm_casadi_dense_2x2;
+    case 1: return rp_arm_casadi_dense_2x2;
+    case 2: return rp_arm_casadi_dense_2x2;
+    default: return 0;
+    }
+}
+int jac_rp_arm_casadi_inverse_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 4;
+    if (sz_res) *sz_res = 3;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 12;
+    return 0;
+}
+#endif /* RP_ARM_CASADI_EXTERNAL */

@@ -1120,3 +1120,257 @@ int slider_crank_assemble(const double *q_guess, const slider_crank_parameters *
     for (int i = 0; i < 3; ++i) q[i] = x[i];
     return 0;
 }
+
+#ifdef SLIDER_CRANK_CASADI_EXTERNAL
+/* CasADi's external-function ABI (compile with -DSLIDER_CRANK_CASADI_EXTERNAL into a shared
+   library; casadi.external("slider_crank_casadi_forward_dynamics", "./libslider_crank.so")). The parameters
+   are the defaults. jac_<function> gives each Jacobian from the derivative programs. */
+#ifndef casadi_int
+#define casadi_int long long int
+#endif
+
+static const double slider_crank_casadi_zeros[3] = {0.0};
+static const casadi_int slider_crank_casadi_dense_1x1[3] = {1, 1, 1};
+static const casadi_int slider_crank_casadi_dense_3x1[3] = {3, 1, 1};
+static const casadi_int slider_crank_casadi_dense_3x3[3] = {3, 3, 1};
+
+/* forward_dynamics(q, qd, u) -> qdd; returns 1 if M is not positive definite. */
+int slider_crank_casadi_forward_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    const double *q = arg[0] ? arg[0] : slider_crank_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : slider_crank_casadi_zeros;
+    const double *u = arg[2] ? arg[2] : slider_crank_casadi_zeros;
+    (void)iw; (void)w; (void)mem;
+    if (!res[0]) return 0;
+    return slider_crank_forward_dynamics(q, qd, u, &slider_crank_default_parameters, res[0]);
+}
+casadi_int slider_crank_casadi_forward_dynamics_n_in(void) { return 3; }
+casadi_int slider_crank_casadi_forward_dynamics_n_out(void) { return 1; }
+const char *slider_crank_casadi_forward_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "u";
+    default: return 0;
+    }
+}
+const casadi_int *slider_crank_casadi_forward_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x1;
+    case 1: return slider_crank_casadi_dense_3x1;
+    case 2: return slider_crank_casadi_dense_1x1;
+    default: return 0;
+    }
+}
+const char *slider_crank_casadi_forward_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "qdd";
+    default: return 0;
+    }
+}
+const casadi_int *slider_crank_casadi_forward_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x1;
+    default: return 0;
+    }
+}
+int slider_crank_casadi_forward_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 3;
+    if (sz_res) *sz_res = 1;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 0;
+    return 0;
+}
+
+/* dqdd/d(q, qd, u) of forward_dynamics, column-major 3-row blocks. */
+int jac_slider_crank_casadi_forward_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    int i, j;
+    const double *q = arg[0] ? arg[0] : slider_crank_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : slider_crank_casadi_zeros;
+    const double *u = arg[2] ? arg[2] : slider_crank_casadi_zeros;
+    (void)iw; (void)mem;
+    if (slider_crank_forward_dynamics_derivatives(q, qd, u, &slider_crank_default_parameters, w, w + 9, w + 18)) return 1;
+    if (res[0]) for (i = 0; i < 3; ++i) for (j = 0; j < 3; ++j)
+        res[0][j * 3 + i] = w[0 + i * 3 + j];
+    if (res[1]) for (i = 0; i < 3; ++i) for (j = 0; j < 3; ++j)
+        res[1][j * 3 + i] = w[9 + i * 3 + j];
+    if (res[2]) for (i = 0; i < 3; ++i) for (j = 0; j < 1; ++j)
+        res[2][j * 3 + i] = w[18 + i * 1 + j];
+    return 0;
+}
+casadi_int jac_slider_crank_casadi_forward_dynamics_n_in(void) { return 4; }
+casadi_int jac_slider_crank_casadi_forward_dynamics_n_out(void) { return 3; }
+const char *jac_slider_crank_casadi_forward_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "u";
+    case 3: return "out_qdd";
+    default: return 0;
+    }
+}
+const casadi_int *jac_slider_crank_casadi_forward_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x1;
+    case 1: return slider_crank_casadi_dense_3x1;
+    case 2: return slider_crank_casadi_dense_1x1;
+    case 3: return slider_crank_casadi_dense_3x1;
+    default: return 0;
+    }
+}
+const char *jac_slider_crank_casadi_forward_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "jac_qdd_q";
+    case 1: return "jac_qdd_qd";
+    case 2: return "jac_qdd_u";
+    default: return 0;
+    }
+}
+const casadi_int *jac_slider_crank_casadi_forward_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x3;
+    case 1: return slider_crank_casadi_dense_3x3;
+    case 2: return slider_crank_casadi_dense_3x1;
+    default: return 0;
+    }
+}
+int jac_slider_crank_casadi_forward_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 4;
+    if (sz_res) *sz_res = 3;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 21;
+    return 0;
+}
+
+/* inverse_dynamics(q, qd, qdd) -> tau. */
+int slider_crank_casadi_inverse_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    const double *q = arg[0] ? arg[0] : slider_crank_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : slider_crank_casadi_zeros;
+    const double *qdd = arg[2] ? arg[2] : slider_crank_casadi_zeros;
+    (void)iw; (void)w; (void)mem;
+    if (!res[0]) return 0;
+    slider_crank_inverse_dynamics(q, qd, qdd, &slider_crank_default_parameters, res[0]);
+    return 0;
+}
+casadi_int slider_crank_casadi_inverse_dynamics_n_in(void) { return 3; }
+casadi_int slider_crank_casadi_inverse_dynamics_n_out(void) { return 1; }
+const char *slider_crank_casadi_inverse_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "qdd";
+    default: return 0;
+    }
+}
+const casadi_int *slider_crank_casadi_inverse_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x1;
+    case 1: return slider_crank_casadi_dense_3x1;
+    case 2: return slider_crank_casadi_dense_3x1;
+    default: return 0;
+    }
+}
+const char *slider_crank_casadi_inverse_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "tau";
+    default: return 0;
+    }
+}
+const casadi_int *slider_crank_casadi_inverse_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x1;
+    default: return 0;
+    }
+}
+int slider_crank_casadi_inverse_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 3;
+    if (sz_res) *sz_res = 1;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 0;
+    return 0;
+}
+
+/* dtau/d(q, qd, qdd) of inverse_dynamics, column-major 3-row blocks. */
+int jac_slider_crank_casadi_inverse_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    int i, j;
+    const double *q = arg[0] ? arg[0] : slider_crank_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : slider_crank_casadi_zeros;
+    const double *qdd = arg[2] ? arg[2] : slider_crank_casadi_zeros;
+    (void)iw; (void)mem;
+    slider_crank_inverse_dynamics_derivatives(q, qd, qdd, &slider_crank_default_parameters, w, w + 9);
+    slider_crank_mass_matrix(q, &slider_crank_default_parameters, w + 18);
+    if (res[0]) for (i = 0; i < 3; ++i) for (j = 0; j < 3; ++j)
+        res[0][j * 3 + i] = w[0 + i * 3 + j];
+    if (res[1]) for (i = 0; i < 3; ++i) for (j = 0; j < 3; ++j)
+        res[1][j * 3 + i] = w[9 + i * 3 + j];
+    if (res[2]) for (i = 0; i < 3; ++i) for (j = 0; j < 3; ++j)
+        res[2][j * 3 + i] = w[18 + i * 3 + j];
+    return 0;
+}
+casadi_int jac_slider_crank_casadi_inverse_dynamics_n_in(void) { return 4; }
+casadi_int jac_slider_crank_casadi_inverse_dynamics_n_out(void) { return 3; }
+const char *jac_slider_crank_casadi_inverse_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "qdd";
+    case 3: return "out_tau";
+    default: return 0;
+    }
+}
+const casadi_int *jac_slider_crank_casadi_inverse_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x1;
+    case 1: return slider_crank_casadi_dense_3x1;
+    case 2: return slider_crank_casadi_dense_3x1;
+    case 3: return slider_crank_casadi_dense_3x1;
+    default: return 0;
+    }
+}
+const char *jac_slider_crank_casadi_inverse_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "jac_tau_q";
+    case 1: return "jac_tau_qd";
+    case 2: return "jac_tau_qdd";
+    default: return 0;
+    }
+}
+const casadi_int *jac_slider_crank_casadi_inverse_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return slider_crank_casadi_dense_3x3;
+    case 1: return slider_crank_casadi_dense_3x3;
+    case 2: return slider_crank_casadi_dense_3x3;
+    default: return 0;
+    }
+}
+int jac_slider_crank_casadi_inverse_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 4;
+    if (sz_res) *sz_res = 3;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 27;
+    return 0;
+}
+#endif /* SLIDER_CRANK_CASADI_EXTERNAL */

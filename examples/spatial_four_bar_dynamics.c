@@ -1915,3 +1915,257 @@ int spatial_four_bar_assemble(const double *q_guess, const spatial_four_bar_para
     for (int i = 0; i < 4; ++i) q[i] = x[i];
     return 0;
 }
+
+#ifdef SPATIAL_FOUR_BAR_CASADI_EXTERNAL
+/* CasADi's external-function ABI (compile with -DSPATIAL_FOUR_BAR_CASADI_EXTERNAL into a shared
+   library; casadi.external("spatial_four_bar_casadi_forward_dynamics", "./libspatial_four_bar.so")). The parameters
+   are the defaults. jac_<function> gives each Jacobian from the derivative programs. */
+#ifndef casadi_int
+#define casadi_int long long int
+#endif
+
+static const double spatial_four_bar_casadi_zeros[4] = {0.0};
+static const casadi_int spatial_four_bar_casadi_dense_1x1[3] = {1, 1, 1};
+static const casadi_int spatial_four_bar_casadi_dense_4x1[3] = {4, 1, 1};
+static const casadi_int spatial_four_bar_casadi_dense_4x4[3] = {4, 4, 1};
+
+/* forward_dynamics(q, qd, u) -> qdd; returns 1 if M is not positive definite. */
+int spatial_four_bar_casadi_forward_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    const double *q = arg[0] ? arg[0] : spatial_four_bar_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : spatial_four_bar_casadi_zeros;
+    const double *u = arg[2] ? arg[2] : spatial_four_bar_casadi_zeros;
+    (void)iw; (void)w; (void)mem;
+    if (!res[0]) return 0;
+    return spatial_four_bar_forward_dynamics(q, qd, u, &spatial_four_bar_default_parameters, res[0]);
+}
+casadi_int spatial_four_bar_casadi_forward_dynamics_n_in(void) { return 3; }
+casadi_int spatial_four_bar_casadi_forward_dynamics_n_out(void) { return 1; }
+const char *spatial_four_bar_casadi_forward_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "u";
+    default: return 0;
+    }
+}
+const casadi_int *spatial_four_bar_casadi_forward_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x1;
+    case 1: return spatial_four_bar_casadi_dense_4x1;
+    case 2: return spatial_four_bar_casadi_dense_1x1;
+    default: return 0;
+    }
+}
+const char *spatial_four_bar_casadi_forward_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "qdd";
+    default: return 0;
+    }
+}
+const casadi_int *spatial_four_bar_casadi_forward_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x1;
+    default: return 0;
+    }
+}
+int spatial_four_bar_casadi_forward_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 3;
+    if (sz_res) *sz_res = 1;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 0;
+    return 0;
+}
+
+/* dqdd/d(q, qd, u) of forward_dynamics, column-major 4-row blocks. */
+int jac_spatial_four_bar_casadi_forward_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    int i, j;
+    const double *q = arg[0] ? arg[0] : spatial_four_bar_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : spatial_four_bar_casadi_zeros;
+    const double *u = arg[2] ? arg[2] : spatial_four_bar_casadi_zeros;
+    (void)iw; (void)mem;
+    if (spatial_four_bar_forward_dynamics_derivatives(q, qd, u, &spatial_four_bar_default_parameters, w, w + 16, w + 32)) return 1;
+    if (res[0]) for (i = 0; i < 4; ++i) for (j = 0; j < 4; ++j)
+        res[0][j * 4 + i] = w[0 + i * 4 + j];
+    if (res[1]) for (i = 0; i < 4; ++i) for (j = 0; j < 4; ++j)
+        res[1][j * 4 + i] = w[16 + i * 4 + j];
+    if (res[2]) for (i = 0; i < 4; ++i) for (j = 0; j < 1; ++j)
+        res[2][j * 4 + i] = w[32 + i * 1 + j];
+    return 0;
+}
+casadi_int jac_spatial_four_bar_casadi_forward_dynamics_n_in(void) { return 4; }
+casadi_int jac_spatial_four_bar_casadi_forward_dynamics_n_out(void) { return 3; }
+const char *jac_spatial_four_bar_casadi_forward_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "u";
+    case 3: return "out_qdd";
+    default: return 0;
+    }
+}
+const casadi_int *jac_spatial_four_bar_casadi_forward_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x1;
+    case 1: return spatial_four_bar_casadi_dense_4x1;
+    case 2: return spatial_four_bar_casadi_dense_1x1;
+    case 3: return spatial_four_bar_casadi_dense_4x1;
+    default: return 0;
+    }
+}
+const char *jac_spatial_four_bar_casadi_forward_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "jac_qdd_q";
+    case 1: return "jac_qdd_qd";
+    case 2: return "jac_qdd_u";
+    default: return 0;
+    }
+}
+const casadi_int *jac_spatial_four_bar_casadi_forward_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x4;
+    case 1: return spatial_four_bar_casadi_dense_4x4;
+    case 2: return spatial_four_bar_casadi_dense_4x1;
+    default: return 0;
+    }
+}
+int jac_spatial_four_bar_casadi_forward_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 4;
+    if (sz_res) *sz_res = 3;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 36;
+    return 0;
+}
+
+/* inverse_dynamics(q, qd, qdd) -> tau. */
+int spatial_four_bar_casadi_inverse_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    const double *q = arg[0] ? arg[0] : spatial_four_bar_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : spatial_four_bar_casadi_zeros;
+    const double *qdd = arg[2] ? arg[2] : spatial_four_bar_casadi_zeros;
+    (void)iw; (void)w; (void)mem;
+    if (!res[0]) return 0;
+    spatial_four_bar_inverse_dynamics(q, qd, qdd, &spatial_four_bar_default_parameters, res[0]);
+    return 0;
+}
+casadi_int spatial_four_bar_casadi_inverse_dynamics_n_in(void) { return 3; }
+casadi_int spatial_four_bar_casadi_inverse_dynamics_n_out(void) { return 1; }
+const char *spatial_four_bar_casadi_inverse_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "qdd";
+    default: return 0;
+    }
+}
+const casadi_int *spatial_four_bar_casadi_inverse_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x1;
+    case 1: return spatial_four_bar_casadi_dense_4x1;
+    case 2: return spatial_four_bar_casadi_dense_4x1;
+    default: return 0;
+    }
+}
+const char *spatial_four_bar_casadi_inverse_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "tau";
+    default: return 0;
+    }
+}
+const casadi_int *spatial_four_bar_casadi_inverse_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x1;
+    default: return 0;
+    }
+}
+int spatial_four_bar_casadi_inverse_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 3;
+    if (sz_res) *sz_res = 1;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 0;
+    return 0;
+}
+
+/* dtau/d(q, qd, qdd) of inverse_dynamics, column-major 4-row blocks. */
+int jac_spatial_four_bar_casadi_inverse_dynamics(const double **arg, double **res, casadi_int *iw, double *w, int mem)
+{
+    int i, j;
+    const double *q = arg[0] ? arg[0] : spatial_four_bar_casadi_zeros;
+    const double *qd = arg[1] ? arg[1] : spatial_four_bar_casadi_zeros;
+    const double *qdd = arg[2] ? arg[2] : spatial_four_bar_casadi_zeros;
+    (void)iw; (void)mem;
+    spatial_four_bar_inverse_dynamics_derivatives(q, qd, qdd, &spatial_four_bar_default_parameters, w, w + 16);
+    spatial_four_bar_mass_matrix(q, &spatial_four_bar_default_parameters, w + 32);
+    if (res[0]) for (i = 0; i < 4; ++i) for (j = 0; j < 4; ++j)
+        res[0][j * 4 + i] = w[0 + i * 4 + j];
+    if (res[1]) for (i = 0; i < 4; ++i) for (j = 0; j < 4; ++j)
+        res[1][j * 4 + i] = w[16 + i * 4 + j];
+    if (res[2]) for (i = 0; i < 4; ++i) for (j = 0; j < 4; ++j)
+        res[2][j * 4 + i] = w[32 + i * 4 + j];
+    return 0;
+}
+casadi_int jac_spatial_four_bar_casadi_inverse_dynamics_n_in(void) { return 4; }
+casadi_int jac_spatial_four_bar_casadi_inverse_dynamics_n_out(void) { return 3; }
+const char *jac_spatial_four_bar_casadi_inverse_dynamics_name_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return "q";
+    case 1: return "qd";
+    case 2: return "qdd";
+    case 3: return "out_tau";
+    default: return 0;
+    }
+}
+const casadi_int *jac_spatial_four_bar_casadi_inverse_dynamics_sparsity_in(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x1;
+    case 1: return spatial_four_bar_casadi_dense_4x1;
+    case 2: return spatial_four_bar_casadi_dense_4x1;
+    case 3: return spatial_four_bar_casadi_dense_4x1;
+    default: return 0;
+    }
+}
+const char *jac_spatial_four_bar_casadi_inverse_dynamics_name_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return "jac_tau_q";
+    case 1: return "jac_tau_qd";
+    case 2: return "jac_tau_qdd";
+    default: return 0;
+    }
+}
+const casadi_int *jac_spatial_four_bar_casadi_inverse_dynamics_sparsity_out(casadi_int i)
+{
+    switch (i) {
+    case 0: return spatial_four_bar_casadi_dense_4x4;
+    case 1: return spatial_four_bar_casadi_dense_4x4;
+    case 2: return spatial_four_bar_casadi_dense_4x4;
+    default: return 0;
+    }
+}
+int jac_spatial_four_bar_casadi_inverse_dynamics_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w)
+{
+    if (sz_arg) *sz_arg = 4;
+    if (sz_res) *sz_res = 3;
+    if (sz_iw) *sz_iw = 0;
+    if (sz_w) *sz_w = 48;
+    return 0;
+}
+#endif /* SPATIAL_FOUR_BAR_CASADI_EXTERNAL */

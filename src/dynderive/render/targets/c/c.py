@@ -33,6 +33,7 @@ from ....mechanics.tidy import fold_constants
 from ... import api
 from ...encode import Code
 from ...environment import render
+from .c_external import external_section
 from .c_join import joined_program as _joined
 from .c_join import print_body as _print_body
 from .c_loops import CKit, amend, loop_context
@@ -167,6 +168,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         "parameters": parameters,
         "frames": [{"index": i, "name": c_comment(f.name)} for i, f in enumerate(robot.frames)],
         "functions": functions,
+        "external": [Code(line) for line in external_section(derivation)],
     }
 
 
