@@ -3,7 +3,11 @@
 The Panda with its hand (robots/panda.urdf plus example-robot-data's ``panda_hand``, welded to
 ``panda_link8`` turned by -pi/4): the hand and link 7 made parameters give the plain module's
 numbers at the defaults, and another hand mass gives Pinocchio's gravity for a URDF with that
-mass (Pinocchio merges the hand into joint 7's body as dynderive does).
+mass (Pinocchio merges the hand into joint 7's body as dynderive does). Another hand mass and
+COM, given to every target as its parameters (the C parameters struct, the MATLAB struct in GNU
+Octave, the JAX module's keywords, CasADi's ``p``), give the NumPy module's mass matrix, gravity
+and inverse dynamics with those values to 1e-12 relative; each target is skipped without its
+tool locally and required in CI, as in its own tests.
 """
 
 from __future__ import annotations
@@ -19,6 +23,9 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.errors import InputError
 from dynderive.verify.checks import generated_module
+from test_matlab_numeric import _Calls, _octave, _vector, needs_octave
+
+from conftest import import_code
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 HAND = """  <joint name="panda_hand_joint" type="fixed">
@@ -36,6 +43,10 @@ HAND = """  <joint name="panda_hand_joint" type="fixed">
 </robot>"""
 SYMBOLIC = ("panda_link7.*", "panda_hand.*")
 runner = CliRunner()
+#: The hand's parameters changed in every target's test: another payload, further out.
+CHANGED = {"m_panda_hand": 2.5, "c_panda_hand_z": 0.07}
+#: Agreement with the NumPy module, relative to the result's largest entry (at least 1).
+RTOL = 1e-12
 
 
 def panda_with_hand(folder: Path, mass: float = 0.73) -> Path:
@@ -46,8 +57,9 @@ def panda_with_hand(folder: Path, mass: float = 0.73) -> Path:
 
 
 def module(path: Path, symbolic=None):
-    robot = dynderive.load_robot(path, symbolic=symbolic)
-    return robot, generated_module(dynderive.render_code(dynderive.derive(robot)), robot.name)
+    """(derivation, NumPy module) of a URDF."""
+    derivation = dynderive.derive(dynderive.load_robot(path, symbolic=symbolic))
+    return derivation, generated_module(dynderive.render_code(derivation), derivation.robot.name)
 
 
 @pytest.fixture(scope="module")
@@ -57,8 +69,8 @@ def modules(tmp_path_factory):
 
 
 def test_parameters_have_the_files_values_as_defaults(modules):
-    _, _, (robot, symbolic) = modules
-    values = {p.name: p.value for p in robot.parameters}
+    _, _, (derivation, symbolic) = modules
+    values = {p.name: p.value for p in derivation.robot.parameters}
     assert values["m_panda_hand"] == 0.73 and values["m_panda_link7"] == 0.735522
     assert [values[f"c_panda_hand_{a}"] for a in "xyz"] == [-0.01, 0.0, 0.03]
     assert [values[f"I_panda_link7_{k}"] for k in ("xx", "xy", "xz", "yy", "yz", "zz")] == [
@@ -157,3 +169,112 @@ def test_a_floating_joint_and_param():
     urdf = str(Path(__file__).parent / "floating_elbow.urdf")
     result = runner.invoke(app, ["check", urdf, "--symbolic", "*.*", "--param", "m_lower=2", "-q"])
     assert result.exit_code == 0, result.output
+
+
+@pytest.fixture(scope="module")
+def changed(modules):
+    """States, the parameters with CHANGED, and the NumPy module's mass matrix, gravity vector
+    and inverse dynamics at them (which differ from those at the defaults)."""
+    _, _, (derivation, symbolic) = modules
+    rng = np.random.default_rng(11)
+    states = [tuple(rng.uniform(-2, 2, (3, 7))) for _ in range(3)]
+    expected = []
+    for q, qd, qdd in states:
+        results = {"mass_matrix": symbolic.mass_matrix(q, **CHANGED),
+                   "gravity_vector": symbolic.gravity_vector(q, **CHANGED),
+                   "inverse_dynamics": symbolic.inverse_dynamics(q, qd, qdd, **CHANGED)}
+        assert not np.allclose(results["gravity_vector"], symbolic.gravity_vector(q), atol=1e-3)
+        assert not np.allclose(results["mass_matrix"], symbolic.mass_matrix(q), atol=1e-4)
+        expected.append(results)
+    return derivation, symbolic, symbolic.PARAMETERS | CHANGED, states, expected
+
+
+def _close(got, want, what: str) -> None:
+    got, want = np.asarray(got, dtype=float), np.asarray(want, dtype=float)
+    assert got.shape == want.shape, f"{what}: shape {got.shape} != {want.shape}"
+    error = float(np.max(np.abs(got - want)))
+    assert error <= RTOL * max(1.0, float(np.max(np.abs(want)))), f"{what}: {error:.3g} off"
+
+
+def test_c_parameter_struct_changes_the_hand(changed, tmp_path):
+    """The C functions, compiled (strict C99, and C++) and called with a parameters struct whose
+    hand mass and COM are changed, give the NumPy module's numbers with those values."""
+    from test_c_target import Library  # skips without a C compiler, required in CI
+
+    derivation, symbolic, values, states, expected = changed
+    library = Library(derivation, tmp_path)
+    p = [*(values[name] for name in symbolic.PARAMETERS), 0.0]   # the struct: parameters, friction_smoothing
+    for (q, qd, qdd), want in zip(states, expected):
+        _close(library.call("mass_matrix", [q], 49, p)[1].reshape(7, 7), want["mass_matrix"], "mass_matrix")
+        _close(library.call("gravity_vector", [q], 7, p)[1], want["gravity_vector"], "gravity_vector")
+        _close(library.call("inverse_dynamics", [q, qd, qdd], 7, p)[1], want["inverse_dynamics"], "inverse_dynamics")
+
+
+@needs_octave
+def test_matlab_struct_changes_the_hand(changed, tmp_path, monkeypatch):
+    """The MATLAB package in GNU Octave, called with the struct of ``parameters()`` whose hand
+    fields are changed, gives the NumPy module's numbers with those values."""
+    import test_matlab_numeric
+    from dynderive.render.targets.matlab.matlab import render_matlab
+
+    monkeypatch.setattr(test_matlab_numeric, "TOLERANCE", RTOL)   # _Calls.check's tolerance
+    derivation, _, _, states, expected = changed
+    for path, text in render_matlab(derivation).items():
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text(text)
+    calls = _Calls("panda")
+    fields = "".join(f"p.{name} = {value!r}; " for name, value in CHANGED.items())
+    calls.lines.append(f"p = panda.parameters(); {fields}")
+    for k, ((q, qd, qdd), want) in enumerate(zip(states, expected)):
+        Q, QD, QDD = (_vector(x) for x in (q, qd, qdd))
+        calls.add(f"M{k}", f"mass_matrix({Q}, p)", want["mass_matrix"])
+        calls.add(f"N{k}", f"gravity_vector({Q}, p)", want["gravity_vector"])
+        calls.add(f"tau{k}", f"inverse_dynamics({Q}, {QD}, {QDD}, p)", want["inverse_dynamics"])
+    calls.check(_octave(tmp_path, "\n".join(calls.lines) + "\n"))
+
+
+def test_jax_keywords_change_the_hand(changed, tmp_path):
+    """The JAX module, given the changed hand values as its keyword parameters (traced by
+    ``jit`` too), gives the NumPy module's numbers with those values."""
+    jax = importorskip_in_ci("jax")
+    jax.config.update("jax_enable_x64", True)
+    from dynderive.render.targets.jax.jax import render_jax
+
+    derivation, _, _, states, expected = changed
+    jx = import_code(render_jax(derivation), tmp_path, "panda_symbolic_dynamics_jax")
+    gravity = jax.jit(lambda q, m, z: jx.gravity_vector(q, m_panda_hand=m, c_panda_hand_z=z))
+    for (q, qd, qdd), want in zip(states, expected):
+        _close(jx.mass_matrix(q, **CHANGED), want["mass_matrix"], "mass_matrix")
+        _close(jx.gravity_vector(q, **CHANGED), want["gravity_vector"], "gravity_vector")
+        _close(jx.inverse_dynamics(q, qd, qdd, **CHANGED), want["inverse_dynamics"], "inverse_dynamics")
+        _close(gravity(q, *CHANGED.values()), want["gravity_vector"], "jit gravity_vector")
+
+
+def test_casadi_p_changes_the_hand(changed, tmp_path):
+    """The CasADi Functions, given ``p`` (in ``PARAMETER_NAMES``' order) with the hand's entries
+    changed, give the NumPy module's numbers with those values."""
+    importorskip_in_ci("casadi")
+    from dynderive.render.targets.casadi.casadi import render_casadi
+
+    derivation, symbolic, values, states, expected = changed
+    cs = import_code(render_casadi(derivation), tmp_path, "panda_symbolic_dynamics_casadi")
+    assert set(cs.PARAMETER_NAMES) == set(symbolic.PARAMETERS)
+    p = np.array([values[name] for name in cs.PARAMETER_NAMES])
+    assert list(p) != list(cs.default_parameters())
+
+    def call(name: str, *arrays):
+        function = getattr(cs, name)
+        extra = {"p": p, "friction_smoothing": 0.0}
+        return np.array(function(*arrays, *(extra[n] for n in function.name_in()[len(arrays):])))
+
+    for (q, qd, qdd), want in zip(states, expected):
+        _close(call("mass_matrix", q), want["mass_matrix"], "mass_matrix")
+        _close(call("gravity_vector", q).ravel(), want["gravity_vector"], "gravity_vector")
+        _close(call("inverse_dynamics", q, qd, qdd).ravel(), want["inverse_dynamics"], "inverse_dynamics")
+
+
+def importorskip_in_ci(name: str):
+    """``name`` imported: skipped without it locally, required in CI (as the target's own tests)."""
+    if os.environ.get("CI"):
+        return __import__(name)
+    return pytest.importorskip(name)
