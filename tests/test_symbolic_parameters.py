@@ -7,7 +7,8 @@ mass (Pinocchio merges the hand into joint 7's body as dynderive does). Another 
 COM, given to every target as its parameters (the C parameters struct, the MATLAB struct in GNU
 Octave, the JAX module's keywords, CasADi's ``p``), give the NumPy module's mass matrix, gravity
 and inverse dynamics with those values to 1e-12 relative; each target is skipped without its
-tool locally and required in CI, as in its own tests.
+tool locally and required in CI, as in its own tests. Link names of 70 characters, or ending in
+'_', give parameter names that MATLAB (63 characters) and C (no '__') take, run in Octave.
 """
 
 from __future__ import annotations
@@ -278,3 +279,107 @@ def importorskip_in_ci(name: str):
     if os.environ.get("CI"):
         return __import__(name)
     return pytest.importorskip(name)
+
+
+#: Two links whose names (70 characters) share their first 60, and a link whose name ends in '_'.
+UPPER, FORE = "l" * 60 + "_upper_arm", "l" * 60 + "_fore_arm_"
+LONG = """<?xml version="1.0"?>
+<robot name="long_links">
+  <link name="base"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="UPPER"/><axis xyz="0 1 0"/>
+    <limit effort="10" velocity="1" lower="-3" upper="3"/>
+  </joint>
+  <link name="UPPER">
+    <inertial><origin xyz="0.1 0 -0.2"/><mass value="1.5"/>
+      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.03"/></inertial>
+  </link>
+  <joint name="j2" type="revolute">
+    <parent link="UPPER"/><child link="FORE"/><origin xyz="0 0 -0.4"/><axis xyz="0 1 0"/>
+    <limit effort="10" velocity="1" lower="-3" upper="3"/>
+  </joint>
+  <link name="FORE">
+    <inertial><origin xyz="0 0.05 -0.15"/><mass value="0.8"/>
+      <inertia ixx="0.004" ixy="0.0002" ixz="0" iyy="0.005" iyz="0" izz="0.002"/></inertial>
+  </link>
+  <joint name="j3" type="revolute">
+    <parent link="FORE"/><child link="tool_"/><origin xyz="0 0 -0.3"/><axis xyz="1 0 0"/>
+    <limit effort="10" velocity="1" lower="-3" upper="3"/>
+  </joint>
+  <link name="tool_">
+    <inertial><origin xyz="0 0 -0.05"/><mass value="0.3"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial>
+  </link>
+</robot>
+""".replace("UPPER", UPPER).replace("FORE", FORE)
+
+
+@pytest.fixture(scope="module")
+def long_links(tmp_path_factory):
+    path = tmp_path_factory.mktemp("long") / "long_links.urdf"
+    path.write_text(LONG)
+    return path, module(path, "*.*")
+
+
+def test_names_of_long_links_fit_matlab_and_c(long_links, tmp_path):
+    """A parameter name has at most 63 characters (MATLAB's namelengthmax) and no '__' (C): the
+    link part is cut to 58, ``_2`` where two links cut alike; ``--matlab --c`` writes the files."""
+    path, (derivation, numpy_module) = long_links
+    names = [p.name for p in derivation.robot.parameters]
+    cut = "l" * 58
+    assert names == ["g", f"m_{cut}", f"c_{cut}_x", f"c_{cut}_y", f"c_{cut}_z",
+                     *(f"I_{cut}_{k}" for k in ("xx", "xy", "xz", "yy", "yz", "zz")),
+                     f"m_{cut[:56]}_2", f"c_{cut[:56]}_2_x", f"c_{cut[:56]}_2_y", f"c_{cut[:56]}_2_z",
+                     *(f"I_{cut[:56]}_2_{k}" for k in ("xx", "xy", "xz", "yy", "yz", "zz")),
+                     "m_tool", "c_tool_x", "c_tool_y", "c_tool_z",
+                     *(f"I_tool_{k}" for k in ("xx", "xy", "xz", "yy", "yz", "zz"))]
+    assert max(map(len, names)) == 63
+    descriptions = {p.name: p.description for p in derivation.robot.parameters}
+    assert descriptions[f"m_{cut[:56]}_2"] == f"mass of link '{FORE}' (URDF)"
+    assert numpy_module.PARAMETERS[f"I_{cut[:56]}_2_xy"] == 0.0002
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["solve", str(path), "--matlab", "--c", "--symbolic", "*.*", "--out", str(out), "-q"])
+    assert result.exit_code == 0, result.output
+    assert f"p.I_{cut}_xx = 0.01;" in (out / "+long_links" / "parameters.m").read_text()
+
+
+@pytest.mark.parametrize("link, stem, again", [
+    ("tool_", "tool", "tool_2"), ("a--b", "a_b", "a_b_2"), ("_x", "x", "x_2"), ("1st", "r_1st", "r_1st_2"),
+    ("t\u00f6\u00f6l", "t_l", "t_l_2"), ("\u00e9", "link", "link_2"),
+    ("a" * 57 + "_b", "a" * 57, "a" * 56 + "_2"), ("a" * 70, "a" * 58, "a" * 56 + "_2"),
+])
+def test_link_stems(link, stem, again):
+    """A link's part of its parameter names, and that of a second link with the same part."""
+    from dynderive.input.urdf import identifier
+    from dynderive.input.urdf_symbolic import link_stem
+
+    used = set()
+    assert link_stem(link, identifier, used) == stem
+    assert link_stem(link, identifier, used) == again
+
+
+def test_a_suffix_keeps_a_name_within_63_characters():
+    from dynderive.input.urdf_symbolic import free_name
+
+    base = "I_" + "a" * 58 + "_xx"
+    assert free_name(base, {base}) == "I_" + "a" * 58 + "_2"
+
+
+@needs_octave
+def test_long_link_names_in_octave(long_links, tmp_path):
+    """The MATLAB package of the long-named links, in GNU Octave: the struct with a cut name's
+    field changed gives the NumPy module's gravity and mass matrix with that value."""
+    from dynderive.render.targets.matlab.matlab import render_matlab
+
+    _, (derivation, numpy_module) = long_links
+    for path, text in render_matlab(derivation).items():
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text(text)
+    values = {f"m_{'l' * 58}": 2.5, f"c_{'l' * 56}_2_z": -0.25, "I_tool_xx": 0.003}
+    calls = _Calls("long_links")
+    calls.lines.append("p = long_links.parameters(); " + "".join(f"p.{k} = {v!r}; " for k, v in values.items()))
+    q = np.array([0.3, -0.7, 1.1])
+    calls.add("N", f"gravity_vector({_vector(q)}, p)", numpy_module.gravity_vector(q, **values))
+    calls.add("M", f"mass_matrix({_vector(q)}, p)", numpy_module.mass_matrix(q, **values))
+    assert not np.allclose(numpy_module.gravity_vector(q, **values), numpy_module.gravity_vector(q))
+    calls.check(_octave(tmp_path, "\n".join(calls.lines) + "\n"))
