@@ -10,11 +10,17 @@ merging of welded bodies), kept as SymPy expressions whose constants are doubles
 (``sympy.Float``, rounded as IEEE doubles), so the robot's values at the defaults are today's
 to rounding. Only links whose body enters the dynamics (an ``<inertial>``, not welded to the
 world) match.
+
+``<link>`` is the link's name made a name every target takes (``link_stem``): ASCII letters,
+digits and single ``_`` (a C struct member), at most 58 characters so that every parameter name
+has at most 63 (MATLAB's ``namelengthmax``, a field of the MATLAB struct), ``_2``, ``_3`` ...
+when two links would share it. The parameter's description names the link in full.
 """
 
 from __future__ import annotations
 
 import fnmatch
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -34,6 +40,11 @@ OPTION = "--symbolic"
 FIELDS = ("mass", "com", "inertia")
 #: The entries of a written inertia, in the URDF's attribute order, and their places in the tensor.
 INERTIA_KEYS = (("xx", 0, 0), ("xy", 0, 1), ("xz", 0, 2), ("yy", 1, 1), ("yz", 1, 2), ("zz", 2, 2))
+#: The longest parameter name: MATLAB's ``namelengthmax`` (a field of the MATLAB struct), and the
+#: initial characters of an identifier C99 guarantees significant (a member of the C struct).
+MAX_NAME = 63
+#: The longest ``<link>`` of a parameter name: room for the longest, ``I_<link>_xx``.
+MAX_STEM = MAX_NAME - len("I__xx")
 
 
 @dataclass
@@ -123,14 +134,32 @@ def taken_names(data: dict[str, Any]) -> set[str]:
 
 def free_name(base: str, taken: set[str]) -> str:
     """``base``, or ``base_2``, ``base_3`` ... the first that no symbol has, the generated
-    module does not use, and that typesets unlike every taken name."""
+    module does not use, and that typesets unlike every taken name (``base`` cut before the
+    suffix where the name would be longer than ``MAX_NAME``)."""
     typeset = {latex_name(name) for name in taken}
     name, k = base, 1
     while name in taken or name in MODULE_NAMES or name in RESERVED or latex_name(name) in typeset:
         k += 1
-        name = f"{base}_{k}"
+        name = f"{base[:MAX_NAME - len(str(k)) - 1].rstrip('_')}_{k}"   # at most MAX_NAME characters
     taken.add(name)
     return name
+
+
+def link_stem(name: str, ident: Any, used: set[str]) -> str:
+    """The ``<link>`` of a link's parameter names (``m_<link>``...): the name as ASCII
+    letters, digits and single ``_`` without one at either end (C refuses ``__`` in a struct
+    member: ``tool_`` would give ``c_tool__x``), ``link`` if nothing is left, made an identifier
+    by ``ident`` (the URDF reader's: ``r_`` before a digit), cut to ``MAX_STEM`` characters
+    (MATLAB's 63 for the whole name), and ``_2``, ``_3`` ... when ``used`` (the stems of the
+    links before) has it."""
+    cleaned = re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9_]", "_", name)).strip("_") or "link"
+    stem = ident(cleaned)[:MAX_STEM].rstrip("_")
+    base, k = stem, 1
+    while stem in used:
+        k += 1
+        stem = f"{base[:MAX_STEM - len(str(k)) - 1].rstrip('_')}_{k}"
+    used.add(stem)
+    return stem
 
 
 class _Printer(StrPrinter):
@@ -206,8 +235,9 @@ class Declared:
 
 def attach(bodies: dict[str, Any], chosen: dict[str, list[str]], ident: Any) -> list[Declared]:
     """Give each chosen body (``Body`` of ``urdf_bodies``) its values as expressions, the chosen
-    fields as placeholder symbols; ``ident``: a link name as an identifier."""
+    fields as placeholder symbols; ``ident``: a link name as an identifier (``link_stem``)."""
     declared: list[Declared] = []
+    stems: set[str] = set()
 
     def declare(base: str, value: float, unit: str, description: str, element: Any) -> sympy.Symbol:
         symbol = sympy.Dummy(base)
@@ -216,7 +246,7 @@ def attach(bodies: dict[str, Any], chosen: dict[str, list[str]], ident: Any) -> 
 
     for name, fields in chosen.items():
         body = bodies[name]
-        link = ident(name)
+        link = link_stem(name, ident, stems)
         inertial = body.element
         mass: sympy.Expr = _f(body.mass)
         if "mass" in fields:
