@@ -1008,6 +1008,882 @@ def _frame0_jacobian_dot_qd_body(q, qd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=
 _frame0_jacobian_dot_qd_body.functions = ("sin", "cos")
 
 
+def _total_mass_body(*, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """total_mass: centroidal.py's program, row by row. 2 lines, 2 operations."""
+    _r0 = m2 + m3
+    _r0 = _r0 + m1
+    return (
+        _r0,
+    )
+
+
+_total_mass_body.functions = ()
+
+
+def _center_of_mass_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """center_of_mass: centroidal.py's program, row by row. 39 lines, 52 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = lc1*m1
+    _r7 = lc2*m2
+    _r8 = lc3*m3
+    _r9 = _r0*_r2
+    _r0 = -_r0*_r3
+    _r10 = _r1*_r2
+    _r1 = -_r1*_r3
+    _r0 = _r0*_r5 + _r4*_r9
+    _r1 = _r10*_r4 + _r1*_r5
+    _r5 = _r2*_r5 + _r3*_r4
+    _r4 = _r9*l2
+    _r2 = _r10*l2
+    _r11 = l1 + _r3*l2
+    _r9 = _r7*_r9
+    _r10 = _r10*_r7
+    _r7 = _r3*_r7
+    _r7 = _r7 + l1*m2
+    _r0 = _r0*_r8
+    _r1 = _r1*_r8
+    _r8 = _r5*_r8
+    _r0 = _r0 + _r4*m3
+    _r1 = _r1 + _r2*m3
+    _r8 = _r8 + _r11*m3
+    _r11 = m2 + m3
+    _r0 = _r9 + _r0
+    _r1 = _r10 + _r1
+    _r8 = _r7 + _r8
+    _r11 = _r11 + m1
+    _r6 = _r8 + _r6
+    _r11 = 1/_r11
+    _r0 = _r0*_r11
+    _r1 = _r1*_r11
+    _r11 = _r6*_r11
+    return (
+        _r0,
+        _r1,
+        _r11,
+    )
+
+
+_center_of_mass_body.functions = ("sin", "cos")
+
+
+def _center_of_mass_velocity_body(q, qd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """center_of_mass_velocity: centroidal.py's program, row by row. 56 lines, 102 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = lc2*m2
+    _r7 = lc3*m3
+    _r8 = _r0*_r2
+    _r9 = -_r0*_r3
+    _r10 = _r1*_r2
+    _r11 = -_r1*_r3
+    _r9 = _r4*_r8 + _r5*_r9
+    _r11 = _r10*_r4 + _r11*_r5
+    _r5 = _r2*_r5 + _r3*_r4
+    _r4 = _r8*l2
+    _r2 = _r10*l2
+    _r12 = l1 + _r3*l2
+    _r8 = _r6*_r8
+    _r10 = _r10*_r6
+    _r6 = _r3*_r6
+    _r6 = _r6 + l1*m2
+    _r9 = _r9*_r7
+    _r11 = _r11*_r7
+    _r7 = _r5*_r7
+    _r9 = _r9 + _r4*m3
+    _r11 = _r11 + _r2*m3
+    _r7 = _r7 + _r12*m3
+    _r5 = m2 + m3
+    _r8 = _r8 + _r9
+    _r10 = _r10 + _r11
+    _r6 = _r6 + _r7
+    _r3 = _r5 + m1
+    _r3 = 1/_r3
+    _r13 = _r8*_r3
+    _r14 = _r0*l1
+    _r15 = _r1*l1
+    _r14 = _r5*_r14 - _r0*_r6
+    _r15 = _r5*_r15 - _r1*_r6
+    _r8 = _r0*_r8 + _r1*_r10
+    _r6 = _r0*_r12
+    _r12 = _r1*_r12
+    _r2 = -_r0*_r4 - _r1*_r2
+    _r6 = _r6*m3 - _r0*_r7
+    _r12 = _r12*m3 - _r1*_r7
+    _r2 = _r0*_r9 + _r1*_r11 + _r2*m3
+    _r10 = -_r10*_r3
+    _r14 = _r3*_r14
+    _r6 = _r3*_r6
+    _r15 = _r3*_r15
+    _r12 = _r3*_r12
+    _r8 = _r3*_r8
+    _r2 = _r3*_r2
+    _r6 = _r10*qd1 + _r14*qd2 + _r6*qd3
+    _r12 = _r13*qd1 + _r15*qd2 + _r12*qd3
+    _r2 = _r8*qd2 + _r2*qd3
+    return (
+        _r6,
+        _r12,
+        _r2,
+    )
+
+
+_center_of_mass_velocity_body.functions = ("sin", "cos")
+
+
+def _center_of_mass_jacobian_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """center_of_mass_jacobian: centroidal.py's program, row by row. 53 lines, 89 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = lc2*m2
+    _r7 = lc3*m3
+    _r8 = _r0*_r2
+    _r9 = -_r0*_r3
+    _r10 = _r1*_r2
+    _r11 = -_r1*_r3
+    _r9 = _r4*_r8 + _r5*_r9
+    _r11 = _r10*_r4 + _r11*_r5
+    _r5 = _r2*_r5 + _r3*_r4
+    _r4 = _r8*l2
+    _r2 = _r10*l2
+    _r12 = l1 + _r3*l2
+    _r8 = _r6*_r8
+    _r10 = _r10*_r6
+    _r6 = _r3*_r6
+    _r6 = _r6 + l1*m2
+    _r9 = _r9*_r7
+    _r11 = _r11*_r7
+    _r7 = _r5*_r7
+    _r9 = _r9 + _r4*m3
+    _r11 = _r11 + _r2*m3
+    _r7 = _r7 + _r12*m3
+    _r5 = m2 + m3
+    _r8 = _r8 + _r9
+    _r10 = _r10 + _r11
+    _r6 = _r6 + _r7
+    _r3 = _r5 + m1
+    _r3 = 1/_r3
+    _r13 = _r8*_r3
+    _r14 = _r0*l1
+    _r15 = _r1*l1
+    _r14 = _r5*_r14 - _r0*_r6
+    _r15 = _r5*_r15 - _r1*_r6
+    _r8 = _r0*_r8 + _r1*_r10
+    _r6 = _r0*_r12
+    _r12 = _r1*_r12
+    _r2 = -_r0*_r4 - _r1*_r2
+    _r6 = _r6*m3 - _r0*_r7
+    _r12 = _r12*m3 - _r1*_r7
+    _r2 = _r0*_r9 + _r1*_r11 + _r2*m3
+    _r10 = -_r10*_r3
+    _r14 = _r3*_r14
+    _r6 = _r3*_r6
+    _r15 = _r3*_r15
+    _r12 = _r3*_r12
+    _r8 = _r3*_r8
+    _r2 = _r3*_r2
+    return (
+        _r10,
+        _r14,
+        _r6,
+        _r13,
+        _r15,
+        _r12,
+        0,
+        _r8,
+        _r2,
+    )
+
+
+_center_of_mass_jacobian_body.functions = ("sin", "cos")
+
+
+def _center_of_mass_acceleration_bias_body(q, qd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """center_of_mass_acceleration_bias: centroidal.py's program, row by row. 84 lines, 196 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = lc2*m2
+    _r7 = lc3*m3
+    _r8 = _r0*_r2
+    _r9 = -_r0*_r3
+    _r10 = _r1*_r2
+    _r11 = -_r1*_r3
+    _r12 = _r4*_r8 + _r5*_r9
+    _r13 = _r10*_r4 + _r11*_r5
+    _r14 = _r2*_r5 + _r3*_r4
+    _r15 = _r8*l2
+    _r16 = _r10*l2
+    _r17 = l1 + _r3*l2
+    _r18 = _r6*_r8
+    _r19 = _r10*_r6
+    _r20 = _r3*_r6
+    _r20 = _r20 + l1*m2
+    _r12 = _r12*_r7
+    _r13 = _r13*_r7
+    _r14 = _r14*_r7
+    _r12 = _r12 + _r15*m3
+    _r13 = _r13 + _r16*m3
+    _r14 = _r14 + _r17*m3
+    _r21 = m2 + m3
+    _r18 = _r18 + _r12
+    _r19 = _r19 + _r13
+    _r20 = _r20 + _r14
+    _r22 = _r21 + m1
+    _r22 = 1/_r22
+    _r23 = -_r1*qd1
+    _r24 = _r0*qd1
+    _r25 = -_r3*qd2
+    _r26 = _r2*qd2
+    _r27 = -_r5*qd3
+    _r28 = _r4*qd3
+    _r29 = _r0*_r25 + _r2*_r23
+    _r30 = -_r0*_r26 - _r3*_r23
+    _r31 = _r1*_r25 + _r2*_r24
+    _r32 = -_r1*_r26 - _r3*_r24
+    _r9 = _r27*_r8 + _r28*_r9 + _r4*_r29 + _r30*_r5
+    _r32 = _r10*_r27 + _r11*_r28 + _r4*_r31 + _r32*_r5
+    _r5 = _r2*_r28 + _r3*_r27 + _r25*_r5 + _r26*_r4
+    _r4 = _r29*l2
+    _r28 = _r31*l2
+    _r27 = _r26*l2
+    _r29 = _r29*_r6
+    _r31 = _r31*_r6
+    _r6 = _r26*_r6
+    _r9 = _r9*_r7
+    _r32 = _r32*_r7
+    _r7 = _r5*_r7
+    _r9 = _r9 + _r4*m3
+    _r32 = _r32 + _r28*m3
+    _r7 = _r7 + _r27*m3
+    _r29 = _r29 + _r9
+    _r31 = _r31 + _r32
+    _r6 = _r6 + _r7
+    _r5 = _r22*_r29
+    _r26 = _r23*l1
+    _r25 = _r24*l1
+    _r26 = _r21*_r26 - _r0*_r6 - _r20*_r23
+    _r25 = _r21*_r25 - _r1*_r6 - _r20*_r24
+    _r29 = _r0*_r29 + _r1*_r31 + _r18*_r23 + _r19*_r24
+    _r19 = _r0*_r27 + _r17*_r23
+    _r27 = _r1*_r27 + _r17*_r24
+    _r28 = -_r0*_r4 - _r1*_r28 - _r15*_r23 - _r16*_r24
+    _r19 = _r19*m3 - _r0*_r7 - _r14*_r23
+    _r27 = _r27*m3 - _r1*_r7 - _r14*_r24
+    _r28 = _r0*_r9 + _r1*_r32 + _r12*_r23 + _r13*_r24 + _r28*m3
+    _r31 = -_r22*_r31
+    _r26 = _r22*_r26
+    _r19 = _r22*_r19
+    _r25 = _r22*_r25
+    _r27 = _r22*_r27
+    _r29 = _r22*_r29
+    _r28 = _r22*_r28
+    _r19 = _r31*qd1 + _r26*qd2 + _r19*qd3
+    _r27 = _r5*qd1 + _r25*qd2 + _r27*qd3
+    _r28 = _r29*qd2 + _r28*qd3
+    return (
+        _r19,
+        _r27,
+        _r28,
+    )
+
+
+_center_of_mass_acceleration_bias_body.functions = ("sin", "cos")
+
+
+def _centroidal_momentum_matrix_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """centroidal_momentum_matrix: centroidal.py's program, row by row. 99 lines, 327 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = lc1*m1
+    _r7 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r8 = lc2*m2
+    _r9 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r10 = lc3*m3
+    _r11 = _r0*_r2
+    _r12 = -_r0*_r3
+    _r13 = _r1*_r2
+    _r14 = -_r1*_r3
+    _r15 = _r11*_r4 + _r12*_r5
+    _r16 = _r12*_r4 - _r11*_r5
+    _r17 = _r13*_r4 + _r14*_r5
+    _r18 = _r14*_r4 - _r13*_r5
+    _r19 = _r2*_r5 + _r3*_r4
+    _r5 = _r2*_r4 - _r3*_r5
+    _r4 = _r11*l2
+    _r20 = _r13*l2
+    _r21 = l1 + _r3*l2
+    _r11 = _r11*_r8
+    _r13 = _r13*_r8
+    _r8 = _r3*_r8
+    _r3 = -_r1*_r7
+    _r22 = _r0*_r7
+    _r23 = _r12*_r7
+    _r24 = _r14*_r7
+    _r7 = _r2*_r7
+    _r25 = _r8 + l1*m2
+    _r23 = _r12*_r23 + m2*l1**2 - _r1*_r3 + 2*_r8*l1
+    _r3 = _r12*_r24 - _r1*_r22
+    _r12 = _r12*_r7 - _r11*l1
+    _r24 = _r0*_r22 + _r14*_r24 + m2*l1**2 + 2*_r8*l1
+    _r14 = _r14*_r7 - _r13*l1
+    _r7 = _r2*_r7
+    _r15 = _r10*_r15
+    _r17 = _r10*_r17
+    _r19 = _r10*_r19
+    _r10 = -_r1*_r9
+    _r2 = _r0*_r9
+    _r22 = _r16*_r9
+    _r8 = _r18*_r9
+    _r9 = _r5*_r9
+    _r26 = _r15 + _r4*m3
+    _r27 = _r17 + _r20*m3
+    _r28 = _r19 + _r21*m3
+    _r22 = _r16*_r22 + m3*(_r20**2 + _r21**2) - _r1*_r10 + 2*_r20*_r17 + 2*_r21*_r19
+    _r10 = _r16*_r8 - _r1*_r2 - _r4*_r17 - _r20*_r15 - _r4*_r20*m3
+    _r16 = _r16*_r9 - _r4*_r19 - _r21*_r15 - _r4*_r21*m3
+    _r8 = _r0*_r2 + _r18*_r8 + m3*(_r4**2 + _r21**2) + 2*_r4*_r15 + 2*_r21*_r19
+    _r19 = _r18*_r9 - _r20*_r19 - _r21*_r17 - _r20*_r21*m3
+    _r9 = _r5*_r9 + m3*(_r4**2 + _r20**2) + 2*_r4*_r15 + 2*_r20*_r17
+    _r17 = m2 + m3
+    _r11 = _r11 + _r26
+    _r13 = _r13 + _r27
+    _r25 = _r25 + _r28
+    _r23 = _r23 + _r22
+    _r3 = _r3 + _r10
+    _r12 = _r12 + _r16
+    _r24 = _r24 + _r8
+    _r14 = _r14 + _r19
+    _r9 = _r7 + _r9
+    _r7 = _r17 + m1
+    _r6 = _r25 + _r6
+    _r9 = I1 + _r9
+    _r7 = 1/_r7
+    _r15 = _r11*_r7
+    _r5 = _r13*_r7
+    _r7 = _r6*_r7
+    _r6 = _r0*l1
+    _r18 = _r1*l1
+    _r2 = _r17*_r6 - _r0*_r25
+    _r17 = _r17*_r18 - _r1*_r25
+    _r29 = _r0*_r11 + _r1*_r13
+    _r23 = _r1*_r23 - _r0*_r3 - _r25*_r18
+    _r24 = _r1*_r3 + _r25*_r6 - _r0*_r24
+    _r18 = _r1*_r12 + _r11*_r18 - _r0*_r14 - _r13*_r6
+    _r6 = _r0*_r21
+    _r21 = _r1*_r21
+    _r20 = -_r0*_r4 - _r1*_r20
+    _r4 = _r6*m3 - _r0*_r28
+    _r3 = _r21*m3 - _r1*_r28
+    _r25 = _r0*_r26 + _r1*_r27 + _r20*m3
+    _r22 = _r1*_r22 + _r27*_r20 - _r0*_r10 - _r28*_r21
+    _r20 = _r1*_r10 + _r28*_r6 - _r0*_r8 - _r26*_r20
+    _r21 = _r1*_r16 + _r26*_r21 - _r0*_r19 - _r27*_r6
+    _r12 = _r12 + _r11*_r7
+    _r23 = _r23 + _r7*_r17 - _r5*_r29
+    _r22 = _r22 + _r7*_r3 - _r5*_r25
+    _r14 = _r14 + _r13*_r7
+    _r24 = _r24 + _r15*_r29 - _r7*_r2
+    _r20 = _r20 + _r15*_r25 - _r7*_r4
+    _r9 = _r9 - _r11*_r15 - _r13*_r5
+    _r18 = _r18 + _r5*_r2 - _r15*_r17
+    _r21 = _r21 + _r5*_r4 - _r15*_r3
+    return (
+        -_r13,
+        _r2,
+        _r4,
+        _r11,
+        _r17,
+        _r3,
+        0,
+        _r29,
+        _r25,
+        _r12,
+        _r23,
+        _r22,
+        _r14,
+        _r24,
+        _r20,
+        _r9,
+        _r18,
+        _r21,
+    )
+
+
+_centroidal_momentum_matrix_body.functions = ("sin", "cos")
+
+
+def _centroidal_momentum_body(q, qd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """centroidal_momentum: centroidal.py's program, row by row. 105 lines, 355 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = lc1*m1
+    _r7 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r8 = lc2*m2
+    _r9 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r10 = lc3*m3
+    _r11 = _r0*_r2
+    _r12 = -_r0*_r3
+    _r13 = _r1*_r2
+    _r14 = -_r1*_r3
+    _r15 = _r11*_r4 + _r12*_r5
+    _r16 = _r12*_r4 - _r11*_r5
+    _r17 = _r13*_r4 + _r14*_r5
+    _r18 = _r14*_r4 - _r13*_r5
+    _r19 = _r2*_r5 + _r3*_r4
+    _r5 = _r2*_r4 - _r3*_r5
+    _r4 = _r11*l2
+    _r20 = _r13*l2
+    _r21 = l1 + _r3*l2
+    _r11 = _r11*_r8
+    _r13 = _r13*_r8
+    _r8 = _r3*_r8
+    _r3 = -_r1*_r7
+    _r22 = _r0*_r7
+    _r23 = _r12*_r7
+    _r24 = _r14*_r7
+    _r7 = _r2*_r7
+    _r25 = _r8 + l1*m2
+    _r23 = _r12*_r23 + m2*l1**2 - _r1*_r3 + 2*_r8*l1
+    _r3 = _r12*_r24 - _r1*_r22
+    _r12 = _r12*_r7 - _r11*l1
+    _r24 = _r0*_r22 + _r14*_r24 + m2*l1**2 + 2*_r8*l1
+    _r14 = _r14*_r7 - _r13*l1
+    _r7 = _r2*_r7
+    _r15 = _r10*_r15
+    _r17 = _r10*_r17
+    _r19 = _r10*_r19
+    _r10 = -_r1*_r9
+    _r2 = _r0*_r9
+    _r22 = _r16*_r9
+    _r8 = _r18*_r9
+    _r9 = _r5*_r9
+    _r26 = _r15 + _r4*m3
+    _r27 = _r17 + _r20*m3
+    _r28 = _r19 + _r21*m3
+    _r22 = _r16*_r22 + m3*(_r20**2 + _r21**2) - _r1*_r10 + 2*_r20*_r17 + 2*_r21*_r19
+    _r10 = _r16*_r8 - _r1*_r2 - _r4*_r17 - _r20*_r15 - _r4*_r20*m3
+    _r16 = _r16*_r9 - _r4*_r19 - _r21*_r15 - _r4*_r21*m3
+    _r8 = _r0*_r2 + _r18*_r8 + m3*(_r4**2 + _r21**2) + 2*_r4*_r15 + 2*_r21*_r19
+    _r19 = _r18*_r9 - _r20*_r19 - _r21*_r17 - _r20*_r21*m3
+    _r9 = _r5*_r9 + m3*(_r4**2 + _r20**2) + 2*_r4*_r15 + 2*_r20*_r17
+    _r17 = m2 + m3
+    _r11 = _r11 + _r26
+    _r13 = _r13 + _r27
+    _r25 = _r25 + _r28
+    _r23 = _r23 + _r22
+    _r3 = _r3 + _r10
+    _r12 = _r12 + _r16
+    _r24 = _r24 + _r8
+    _r14 = _r14 + _r19
+    _r9 = _r7 + _r9
+    _r7 = _r17 + m1
+    _r6 = _r25 + _r6
+    _r9 = I1 + _r9
+    _r7 = 1/_r7
+    _r15 = _r11*_r7
+    _r5 = _r13*_r7
+    _r7 = _r6*_r7
+    _r6 = _r0*l1
+    _r18 = _r1*l1
+    _r2 = _r17*_r6 - _r0*_r25
+    _r17 = _r17*_r18 - _r1*_r25
+    _r29 = _r0*_r11 + _r1*_r13
+    _r23 = _r1*_r23 - _r0*_r3 - _r25*_r18
+    _r24 = _r1*_r3 + _r25*_r6 - _r0*_r24
+    _r18 = _r1*_r12 + _r11*_r18 - _r0*_r14 - _r13*_r6
+    _r6 = _r0*_r21
+    _r21 = _r1*_r21
+    _r20 = -_r0*_r4 - _r1*_r20
+    _r4 = _r6*m3 - _r0*_r28
+    _r3 = _r21*m3 - _r1*_r28
+    _r25 = _r0*_r26 + _r1*_r27 + _r20*m3
+    _r22 = _r1*_r22 + _r27*_r20 - _r0*_r10 - _r28*_r21
+    _r20 = _r1*_r10 + _r28*_r6 - _r0*_r8 - _r26*_r20
+    _r21 = _r1*_r16 + _r26*_r21 - _r0*_r19 - _r27*_r6
+    _r12 = _r12 + _r11*_r7
+    _r23 = _r23 + _r7*_r17 - _r5*_r29
+    _r22 = _r22 + _r7*_r3 - _r5*_r25
+    _r14 = _r14 + _r13*_r7
+    _r24 = _r24 + _r15*_r29 - _r7*_r2
+    _r20 = _r20 + _r15*_r25 - _r7*_r4
+    _r9 = _r9 - _r11*_r15 - _r13*_r5
+    _r18 = _r18 + _r5*_r2 - _r15*_r17
+    _r21 = _r21 + _r5*_r4 - _r15*_r3
+    _r4 = _r2*qd2 + _r4*qd3 - _r13*qd1
+    _r3 = _r11*qd1 + _r17*qd2 + _r3*qd3
+    _r25 = _r29*qd2 + _r25*qd3
+    _r22 = _r12*qd1 + _r23*qd2 + _r22*qd3
+    _r20 = _r14*qd1 + _r24*qd2 + _r20*qd3
+    _r21 = _r9*qd1 + _r18*qd2 + _r21*qd3
+    return (
+        _r4,
+        _r3,
+        _r25,
+        _r22,
+        _r20,
+        _r21,
+    )
+
+
+_centroidal_momentum_body.functions = ("sin", "cos")
+
+
+def _centroidal_momentum_bias_body(q, qd, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """centroidal_momentum_bias: centroidal.py's program, row by row. 174 lines, 798 operations."""
+    q1, q2, q3 = q
+    qd1, qd2, qd3 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = lc1*m1
+    _r7 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r8 = lc2*m2
+    _r9 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r10 = lc3*m3
+    _r11 = _r0*_r2
+    _r12 = -_r0*_r3
+    _r13 = _r1*_r2
+    _r14 = -_r1*_r3
+    _r15 = _r11*_r4 + _r12*_r5
+    _r16 = _r12*_r4 - _r11*_r5
+    _r17 = _r13*_r4 + _r14*_r5
+    _r18 = _r14*_r4 - _r13*_r5
+    _r19 = _r2*_r5 + _r3*_r4
+    _r20 = _r2*_r4 - _r3*_r5
+    _r21 = _r11*l2
+    _r22 = _r13*l2
+    _r23 = l1 + _r3*l2
+    _r24 = _r11*_r8
+    _r25 = _r13*_r8
+    _r26 = _r3*_r8
+    _r27 = -_r1*_r7
+    _r28 = _r0*_r7
+    _r29 = _r12*_r7
+    _r30 = _r14*_r7
+    _r31 = _r2*_r7
+    _r32 = _r26 + l1*m2
+    _r33 = _r12*_r29 + m2*l1**2 - _r1*_r27 + 2*_r26*l1
+    _r34 = _r12*_r30 - _r1*_r28
+    _r35 = _r12*_r31 - _r24*l1
+    _r26 = _r0*_r28 + _r14*_r30 + m2*l1**2 + 2*_r26*l1
+    _r36 = _r14*_r31 - _r25*l1
+    _r15 = _r10*_r15
+    _r17 = _r10*_r17
+    _r19 = _r10*_r19
+    _r37 = -_r1*_r9
+    _r38 = _r0*_r9
+    _r39 = _r16*_r9
+    _r40 = _r18*_r9
+    _r41 = _r20*_r9
+    _r42 = _r15 + _r21*m3
+    _r43 = _r17 + _r22*m3
+    _r44 = _r19 + _r23*m3
+    _r45 = _r16*_r39 + m3*(_r22**2 + _r23**2) - _r1*_r37 + 2*_r22*_r17 + 2*_r23*_r19
+    _r46 = _r16*_r40 - _r1*_r38 - _r21*_r17 - _r22*_r15 - _r21*_r22*m3
+    _r47 = _r16*_r41 - _r21*_r19 - _r23*_r15 - _r21*_r23*m3
+    _r48 = _r0*_r38 + _r18*_r40 + m3*(_r21**2 + _r23**2) + 2*_r21*_r15 + 2*_r23*_r19
+    _r49 = _r18*_r41 - _r22*_r19 - _r23*_r17 - _r22*_r23*m3
+    _r50 = m2 + m3
+    _r24 = _r24 + _r42
+    _r25 = _r25 + _r43
+    _r32 = _r32 + _r44
+    _r33 = _r33 + _r45
+    _r34 = _r34 + _r46
+    _r35 = _r35 + _r47
+    _r26 = _r26 + _r48
+    _r36 = _r36 + _r49
+    _r51 = _r50 + m1
+    _r6 = _r32 + _r6
+    _r51 = 1/_r51
+    _r52 = _r24*_r51
+    _r53 = _r25*_r51
+    _r6 = _r6*_r51
+    _r54 = _r0*l1
+    _r55 = _r1*l1
+    _r56 = _r50*_r54 - _r0*_r32
+    _r57 = _r50*_r55 - _r1*_r32
+    _r58 = _r0*_r24 + _r1*_r25
+    _r59 = _r0*_r23
+    _r60 = _r1*_r23
+    _r61 = -_r0*_r21 - _r1*_r22
+    _r62 = _r59*m3 - _r0*_r44
+    _r63 = _r60*m3 - _r1*_r44
+    _r64 = _r0*_r42 + _r1*_r43 + _r61*m3
+    _r65 = -_r1*qd1
+    _r66 = _r0*qd1
+    _r67 = -_r3*qd2
+    _r68 = _r2*qd2
+    _r69 = -_r5*qd3
+    _r70 = _r4*qd3
+    _r71 = _r0*_r67 + _r2*_r65
+    _r72 = -_r0*_r68 - _r3*_r65
+    _r73 = _r1*_r67 + _r2*_r66
+    _r74 = -_r1*_r68 - _r3*_r66
+    _r75 = _r11*_r69 + _r12*_r70 + _r4*_r71 + _r5*_r72
+    _r11 = _r12*_r69 + _r4*_r72 - _r11*_r70 - _r5*_r71
+    _r76 = _r13*_r69 + _r14*_r70 + _r4*_r73 + _r5*_r74
+    _r13 = _r14*_r69 + _r4*_r74 - _r13*_r70 - _r5*_r73
+    _r77 = _r2*_r70 + _r3*_r69 + _r4*_r68 + _r5*_r67
+    _r70 = _r2*_r69 + _r4*_r67 - _r3*_r70 - _r5*_r68
+    _r69 = _r71*l2
+    _r5 = _r73*l2
+    _r4 = _r68*l2
+    _r71 = _r8*_r71
+    _r73 = _r8*_r73
+    _r68 = _r8*_r68
+    _r8 = -_r7*_r66
+    _r3 = _r7*_r65
+    _r78 = _r7*_r72
+    _r79 = _r7*_r74
+    _r7 = _r7*_r67
+    _r29 = _r78*_r12 + _r29*_r72 - _r1*_r8 - _r27*_r66 + 2*_r68*l1
+    _r27 = _r79*_r12 + _r30*_r72 - _r1*_r3 - _r28*_r66
+    _r72 = _r7*_r12 + _r31*_r72 - _r71*l1
+    _r30 = _r0*_r3 + _r79*_r14 + _r28*_r65 + _r30*_r74 + 2*_r68*l1
+    _r74 = _r7*_r14 + _r31*_r74 - _r73*l1
+    _r67 = _r7*_r2 + _r31*_r67
+    _r75 = _r10*_r75
+    _r76 = _r10*_r76
+    _r77 = _r10*_r77
+    _r10 = -_r66*_r9
+    _r31 = _r65*_r9
+    _r2 = _r9*_r11
+    _r7 = _r9*_r13
+    _r9 = _r9*_r70
+    _r14 = _r75 + _r69*m3
+    _r28 = _r76 + _r5*m3
+    _r79 = _r77 + _r4*m3
+    _r39 = _r2*_r16 + _r39*_r11 + _r5*(2*_r17 + 2*_r22*m3) + _r4*(2*_r19 + 2*_r23*m3) - _r1*_r10 - _r37*_r66 + 2*_r76*_r22 + 2*_r77*_r23
+    _r37 = _r7*_r16 + _r40*_r11 + _r69*(-_r17 - _r22*m3) + _r5*(-_r15 - _r21*m3) - _r1*_r31 - _r75*_r22 - _r76*_r21 - _r38*_r66
+    _r11 = _r9*_r16 + _r41*_r11 + _r69*(-_r19 - _r23*m3) + _r4*(-_r15 - _r21*m3) - _r75*_r23 - _r77*_r21
+    _r40 = _r0*_r31 + _r7*_r18 + _r38*_r65 + _r40*_r13 + _r69*(2*_r15 + 2*_r21*m3) + _r4*(2*_r19 + 2*_r23*m3) + 2*_r75*_r21 + 2*_r77*_r23
+    _r13 = _r9*_r18 + _r41*_r13 + _r5*(-_r19 - _r23*m3) + _r4*(-_r17 - _r22*m3) - _r76*_r23 - _r77*_r22
+    _r70 = _r9*_r20 + _r41*_r70 + _r69*(2*_r15 + 2*_r21*m3) + _r5*(2*_r17 + 2*_r22*m3) + 2*_r75*_r21 + 2*_r76*_r22
+    _r71 = _r14 + _r71
+    _r73 = _r73 + _r28
+    _r68 = _r68 + _r79
+    _r29 = _r29 + _r39
+    _r27 = _r27 + _r37
+    _r72 = _r72 + _r11
+    _r30 = _r30 + _r40
+    _r74 = _r74 + _r13
+    _r70 = _r67 + _r70
+    _r67 = _r71*_r51
+    _r41 = _r73*_r51
+    _r51 = _r68*_r51
+    _r17 = _r65*l1
+    _r15 = _r66*l1
+    _r20 = _r17*_r50 - _r0*_r68 - _r32*_r65
+    _r50 = _r15*_r50 - _r1*_r68 - _r32*_r66
+    _r9 = _r0*_r71 + _r1*_r73 + _r24*_r65 + _r25*_r66
+    _r33 = _r1*_r29 + _r33*_r66 - _r0*_r27 - _r68*_r55 - _r15*_r32 - _r34*_r65
+    _r26 = _r1*_r27 + _r68*_r54 + _r17*_r32 + _r34*_r66 - _r0*_r30 - _r26*_r65
+    _r55 = _r1*_r72 + _r71*_r55 + _r15*_r24 + _r35*_r66 - _r0*_r74 - _r73*_r54 - _r17*_r25 - _r36*_r65
+    _r54 = _r0*_r4 + _r23*_r65
+    _r4 = _r1*_r4 + _r23*_r66
+    _r5 = -_r0*_r69 - _r1*_r5 - _r21*_r65 - _r22*_r66
+    _r69 = _r54*m3 - _r0*_r79 - _r44*_r65
+    _r22 = _r4*m3 - _r1*_r79 - _r44*_r66
+    _r21 = _r0*_r14 + _r1*_r28 + _r5*m3 + _r42*_r65 + _r43*_r66
+    _r45 = _r1*_r39 + _r28*_r61 + _r5*_r43 + _r45*_r66 - _r0*_r37 - _r79*_r60 - _r4*_r44 - _r46*_r65
+    _r61 = _r1*_r37 + _r79*_r59 + _r54*_r44 + _r46*_r66 - _r0*_r40 - _r14*_r61 - _r5*_r42 - _r48*_r65
+    _r66 = _r1*_r11 + _r14*_r60 + _r4*_r42 + _r47*_r66 - _r0*_r13 - _r28*_r59 - _r54*_r43 - _r49*_r65
+    _r72 = _r72 + _r71*_r6 + _r51*_r24
+    _r33 = _r33 + _r51*_r57 + _r50*_r6 - _r41*_r58 - _r9*_r53
+    _r45 = _r45 + _r51*_r63 + _r22*_r6 - _r41*_r64 - _r21*_r53
+    _r74 = _r74 + _r73*_r6 + _r51*_r25
+    _r58 = _r26 + _r67*_r58 + _r9*_r52 - _r51*_r56 - _r20*_r6
+    _r64 = _r61 + _r67*_r64 + _r21*_r52 - _r51*_r62 - _r69*_r6
+    _r25 = _r70 - _r71*_r52 - _r73*_r53 - _r67*_r24 - _r41*_r25
+    _r57 = _r55 + _r41*_r56 + _r20*_r53 - _r67*_r57 - _r50*_r52
+    _r63 = _r66 + _r41*_r62 + _r69*_r53 - _r67*_r63 - _r22*_r52
+    _r69 = _r20*qd2 + _r69*qd3 - _r73*qd1
+    _r22 = _r71*qd1 + _r50*qd2 + _r22*qd3
+    _r21 = _r9*qd2 + _r21*qd3
+    _r45 = _r72*qd1 + _r33*qd2 + _r45*qd3
+    _r64 = _r74*qd1 + _r58*qd2 + _r64*qd3
+    _r63 = _r25*qd1 + _r57*qd2 + _r63*qd3
+    return (
+        _r69,
+        _r22,
+        _r21,
+        _r45,
+        _r64,
+        _r63,
+    )
+
+
+_centroidal_momentum_bias_body.functions = ("sin", "cos")
+
+
+def _centroidal_inertia_body(q, sin, cos, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """centroidal_inertia: centroidal.py's program, row by row. 86 lines, 250 operations."""
+    q1, q2, q3 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q2)
+    _r3 = sin(q2)
+    _r4 = cos(q3)
+    _r5 = sin(q3)
+    _r6 = 0.5*I1 + m1*lc1**2
+    _r7 = lc1*m1
+    _r8 = m2*lc2**2 + 0.08333333333333333*(m2*l2**2)
+    _r9 = lc2*m2
+    _r10 = m3*lc3**2 + 0.08333333333333333*(m3*l3**2)
+    _r11 = lc3*m3
+    _r12 = _r0*_r2
+    _r13 = -_r0*_r3
+    _r14 = _r1*_r2
+    _r15 = -_r1*_r3
+    _r16 = _r12*_r4 + _r13*_r5
+    _r17 = _r13*_r4 - _r12*_r5
+    _r18 = _r14*_r4 + _r15*_r5
+    _r19 = _r15*_r4 - _r14*_r5
+    _r20 = _r2*_r5 + _r3*_r4
+    _r5 = _r2*_r4 - _r3*_r5
+    _r4 = _r12*l2
+    _r21 = _r14*l2
+    _r22 = l1 + _r3*l2
+    _r23 = _r0*_r6
+    _r24 = _r1*_r6
+    _r6 = -_r1*_r6
+    _r6 = _r0*_r23 - _r1*_r6
+    _r25 = _r0*_r24 - _r1*_r23
+    _r24 = _r0*_r23 + _r1*_r24
+    _r12 = _r12*_r9
+    _r14 = _r14*_r9
+    _r9 = _r3*_r9
+    _r3 = -_r1*_r8
+    _r23 = _r0*_r8
+    _r26 = _r13*_r8
+    _r27 = _r15*_r8
+    _r8 = _r2*_r8
+    _r28 = _r9 + l1*m2
+    _r26 = _r13*_r26 + m2*l1**2 - _r1*_r3 + 2*_r9*l1
+    _r3 = _r13*_r27 - _r1*_r23
+    _r13 = _r13*_r8 - _r12*l1
+    _r27 = _r0*_r23 + _r15*_r27 + m2*l1**2 + 2*_r9*l1
+    _r15 = _r15*_r8 - _r14*l1
+    _r8 = _r2*_r8
+    _r16 = _r11*_r16
+    _r18 = _r11*_r18
+    _r20 = _r11*_r20
+    _r11 = -_r1*_r10
+    _r2 = _r0*_r10
+    _r23 = _r10*_r17
+    _r9 = _r10*_r19
+    _r10 = _r10*_r5
+    _r29 = _r16 + _r4*m3
+    _r30 = _r18 + _r21*m3
+    _r31 = _r20 + _r22*m3
+    _r23 = _r17*_r23 + m3*(_r21**2 + _r22**2) - _r1*_r11 + 2*_r21*_r18 + 2*_r22*_r20
+    _r1 = _r17*_r9 - _r1*_r2 - _r4*_r18 - _r21*_r16 - _r4*_r21*m3
+    _r17 = _r17*_r10 - _r4*_r20 - _r22*_r16 - _r4*_r22*m3
+    _r9 = _r0*_r2 + _r19*_r9 + m3*(_r4**2 + _r22**2) + 2*_r4*_r16 + 2*_r22*_r20
+    _r20 = _r19*_r10 - _r21*_r20 - _r22*_r18 - _r21*_r22*m3
+    _r10 = _r5*_r10 + m3*(_r4**2 + _r21**2) + 2*_r4*_r16 + 2*_r21*_r18
+    _r18 = m2 + m3
+    _r29 = _r12 + _r29
+    _r30 = _r14 + _r30
+    _r31 = _r28 + _r31
+    _r23 = _r26 + _r23
+    _r1 = _r3 + _r1
+    _r17 = _r13 + _r17
+    _r9 = _r27 + _r9
+    _r20 = _r15 + _r20
+    _r10 = _r8 + _r10
+    _r18 = _r18 + m1
+    _r7 = _r31 + _r7
+    _r23 = _r6 + _r23
+    _r1 = _r25 + _r1
+    _r9 = _r24 + _r9
+    _r10 = I1 + _r10
+    _r24 = 1/_r18
+    _r23 = _r23 - _r24*(_r30**2 + _r7**2)
+    _r1 = _r1 + _r29*_r30*_r24
+    _r17 = _r17 + _r29*_r7*_r24
+    _r9 = _r9 - _r24*(_r29**2 + _r7**2)
+    _r7 = _r20 + _r30*_r7*_r24
+    _r24 = _r10 - _r24*(_r29**2 + _r30**2)
+    return (
+        _r18,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r18,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r18,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r23,
+        _r1,
+        _r17,
+        0,
+        0,
+        0,
+        _r1,
+        _r9,
+        _r7,
+        0,
+        0,
+        0,
+        _r17,
+        _r7,
+        _r24,
+    )
+
+
+_centroidal_inertia_body.functions = ("sin", "cos")
+
+
 
 #: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
 _FRAME_BODIES = {"wrist": (_frame0_transform_body, _frame0_jacobian_body, _frame0_jacobian_dot_qd_body)}
@@ -1068,6 +1944,85 @@ def _external_forces(q, wrenches, parameters):
         jacobian = frame_jacobian(q, frame, **parameters)
         total = total + np.einsum("...ij,...i->...j", jacobian, wrench)
     return total
+
+
+def total_mass(*, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Total mass of the moving links (Pinocchio's ``computeTotalMass``), shape (...).. Links welded to the world are left out (Pinocchio's universe)."""
+    return _evaluate(_total_mass_body, [], (), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def center_of_mass(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Centre of mass of the moving links in the world (Pinocchio's ``centerOfMass``), shape (..., 3).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3)
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_center_of_mass_body, [q], (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def center_of_mass_velocity(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Velocity of the centre of mass in the world (Pinocchio's ``centerOfMass``), shape (..., 3).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd: velocities, shape (..., 3)
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
+    return _evaluate(_center_of_mass_velocity_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def center_of_mass_jacobian(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Jacobian of the centre of mass: its velocity per velocity (Pinocchio's ``jacobianCenterOfMass``), shape (..., 3, 3).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3)
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_center_of_mass_jacobian_body, [q], (3, 3), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def center_of_mass_acceleration_bias(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Jdot(q, qd) qd of the centre of mass (its acceleration at qdd = 0) (Pinocchio's ``centerOfMass``), shape (..., 3).
+    The centre of mass accelerates by center_of_mass_jacobian(q) @ qdd + this.
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd: velocities, shape (..., 3)
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
+    return _evaluate(_center_of_mass_acceleration_bias_body, arrays, (3,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def centroidal_momentum_matrix(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Centroidal momentum matrix A_G(q): linear, then angular momentum about the centre of mass, world axes (Pinocchio's ``ccrba``), shape (..., 6, 3).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3)
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_centroidal_momentum_matrix_body, [q], (6, 3), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def centroidal_momentum(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Centroidal momentum h_G = A_G qd: linear, then angular about the centre of mass (Pinocchio's ``computeCentroidalMomentum``), shape (..., 6).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd: velocities, shape (..., 3)
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
+    return _evaluate(_centroidal_momentum_body, arrays, (6,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def centroidal_momentum_bias(q, qd, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Adot_G(q, qd) qd, the rate of h_G at qdd = 0 (Pinocchio's ``computeCentroidalMomentumTimeVariation``), shape (..., 6).
+    The centroidal momentum changes by centroidal_momentum_matrix(q) @ qdd + this.
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd: velocities, shape (..., 3)
+    """
+    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3)]
+    return _evaluate(_centroidal_momentum_bias_body, arrays, (6,), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
+
+
+def centroidal_inertia(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
+    """Composite inertia of the moving links about the centre of mass, world axes: [[m 1, 0], [0, I_G]] (Pinocchio's ``ccrba``), shape (..., 6, 6).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3)
+    """
+    q = _coordinates("q", q, 3)
+    return _evaluate(_centroidal_inertia_body, [q], (6, 6), {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g})
 
 
 def mass_matrix(q, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):

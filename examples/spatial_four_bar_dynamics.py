@@ -1038,6 +1038,875 @@ def _inverse_dynamics_derivatives_body(q, qd, qdd, sin, cos, *, a=0.1, b=0.4, c=
 _inverse_dynamics_derivatives_body.functions = ("sin", "cos")
 
 
+def _total_mass_body(*, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """total_mass: centroidal.py's program, row by row. 3 lines, 3 operations."""
+    _r0 = m2 + ms
+    _r0 = _r0 + m1
+    _r0 = _r0 + m3
+    return (
+        _r0,
+    )
+
+
+_total_mass_body.functions = ()
+
+
+def _center_of_mass_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """center_of_mass: centroidal.py's program, row by row. 45 lines, 62 operations."""
+    q1, q2, q3, q4 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.5*(a*m1)
+    _r9 = 0.5*(c*m3)
+    _r10 = 0.5*(b*m2)
+    _r11 = -_r0*_r5 - _r1*_r4
+    _r5 = _r0*_r4 - _r1*_r5
+    _r4 = _r0*a
+    _r12 = _r1*a
+    _r11 = _r11*_r6
+    _r6 = _r5*_r6
+    _r0 = _r0*_r8
+    _r8 = _r1*_r8
+    _r3 = -_r3*_r9
+    _r9 = _r2*_r9
+    _r2 = a*m3
+    _r3 = _r3 + b*m3
+    _r9 = _r9 - c*m3
+    _r1 = _r4*ms
+    _r5 = _r12*ms
+    _r11 = _r10*_r11
+    _r6 = _r10*_r6
+    _r7 = -_r10*_r7
+    _r11 = _r11 + _r4*m2
+    _r6 = _r6 + _r12*m2
+    _r12 = m2 + ms
+    _r11 = _r1 + _r11
+    _r6 = _r5 + _r6
+    _r12 = _r12 + m1
+    _r11 = _r0 + _r11
+    _r6 = _r8 + _r6
+    _r12 = _r12 + m3
+    _r11 = _r2 + _r11
+    _r6 = _r3 + _r6
+    _r7 = _r9 + _r7
+    _r12 = 1/_r12
+    _r11 = _r11*_r12
+    _r6 = _r6*_r12
+    _r12 = _r7*_r12
+    return (
+        _r11,
+        _r6,
+        _r12,
+    )
+
+
+_center_of_mass_body.functions = ("sin", "cos")
+
+
+def _center_of_mass_velocity_body(q, qd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """center_of_mass_velocity: centroidal.py's program, row by row. 59 lines, 110 operations."""
+    q1, q2, q3, q4 = q
+    qd1, qd2, qd3, qd4 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.5*(a*m1)
+    _r9 = 0.5*(c*m3)
+    _r10 = 0.5*(b*m2)
+    _r11 = -_r0*_r5 - _r1*_r4
+    _r12 = _r1*_r5 - _r0*_r4
+    _r5 = _r0*_r4 - _r1*_r5
+    _r4 = _r0*a
+    _r13 = _r1*a
+    _r14 = _r11*_r6
+    _r6 = _r5*_r6
+    _r0 = _r0*_r8
+    _r8 = _r1*_r8
+    _r3 = -_r3*_r9
+    _r9 = _r2*_r9
+    _r3 = _r3 + b*m3
+    _r9 = _r9 - c*m3
+    _r2 = _r4*ms
+    _r1 = _r13*ms
+    _r14 = _r10*_r14
+    _r6 = _r10*_r6
+    _r7 = -_r10*_r7
+    _r14 = _r14 + _r4*m2
+    _r6 = _r6 + _r13*m2
+    _r10 = m2 + ms
+    _r2 = _r2 + _r14
+    _r1 = _r1 + _r6
+    _r5 = _r10 + m1
+    _r0 = _r0 + _r2
+    _r8 = _r8 + _r1
+    _r5 = _r5 + m3
+    _r5 = 1/_r5
+    _r9 = -_r9 - c*m3
+    _r3 = _r3 - b*m3
+    _r1 = -_r1 + _r13*_r10
+    _r2 = _r2 - _r4*_r10
+    _r13 = _r11*_r4 - _r12*_r13
+    _r4 = _r11*_r7
+    _r7 = -_r12*_r7
+    _r13 = _r12*_r6 + _r13*m2 - _r11*_r14
+    _r8 = -_r8*_r5
+    _r1 = _r5*_r1
+    _r4 = _r5*_r4
+    _r0 = _r0*_r5
+    _r2 = _r5*_r2
+    _r7 = _r5*_r7
+    _r9 = _r5*_r9
+    _r13 = _r5*_r13
+    _r3 = _r5*_r3
+    _r4 = _r8*qd1 + _r1*qd2 + _r4*qd3
+    _r9 = _r0*qd1 + _r2*qd2 + _r7*qd3 + _r9*qd4
+    _r3 = _r13*qd3 + _r3*qd4
+    return (
+        _r4,
+        _r9,
+        _r3,
+    )
+
+
+_center_of_mass_velocity_body.functions = ("sin", "cos")
+
+
+def _center_of_mass_jacobian_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """center_of_mass_jacobian: centroidal.py's program, row by row. 56 lines, 95 operations."""
+    q1, q2, q3, q4 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.5*(a*m1)
+    _r9 = 0.5*(c*m3)
+    _r10 = 0.5*(b*m2)
+    _r11 = -_r0*_r5 - _r1*_r4
+    _r12 = _r1*_r5 - _r0*_r4
+    _r5 = _r0*_r4 - _r1*_r5
+    _r4 = _r0*a
+    _r13 = _r1*a
+    _r14 = _r11*_r6
+    _r6 = _r5*_r6
+    _r0 = _r0*_r8
+    _r8 = _r1*_r8
+    _r3 = -_r3*_r9
+    _r9 = _r2*_r9
+    _r3 = _r3 + b*m3
+    _r9 = _r9 - c*m3
+    _r2 = _r4*ms
+    _r1 = _r13*ms
+    _r14 = _r10*_r14
+    _r6 = _r10*_r6
+    _r7 = -_r10*_r7
+    _r14 = _r14 + _r4*m2
+    _r6 = _r6 + _r13*m2
+    _r10 = m2 + ms
+    _r2 = _r2 + _r14
+    _r1 = _r1 + _r6
+    _r5 = _r10 + m1
+    _r0 = _r0 + _r2
+    _r8 = _r8 + _r1
+    _r5 = _r5 + m3
+    _r5 = 1/_r5
+    _r9 = -_r9 - c*m3
+    _r3 = _r3 - b*m3
+    _r1 = -_r1 + _r13*_r10
+    _r2 = _r2 - _r4*_r10
+    _r13 = _r11*_r4 - _r12*_r13
+    _r4 = _r11*_r7
+    _r7 = -_r12*_r7
+    _r13 = _r12*_r6 + _r13*m2 - _r11*_r14
+    _r8 = -_r8*_r5
+    _r1 = _r5*_r1
+    _r4 = _r5*_r4
+    _r0 = _r0*_r5
+    _r2 = _r5*_r2
+    _r7 = _r5*_r7
+    _r9 = _r5*_r9
+    _r13 = _r5*_r13
+    _r3 = _r5*_r3
+    return (
+        _r8,
+        _r1,
+        _r4,
+        0,
+        _r0,
+        _r2,
+        _r7,
+        _r9,
+        0,
+        0,
+        _r13,
+        _r3,
+    )
+
+
+_center_of_mass_jacobian_body.functions = ("sin", "cos")
+
+
+def _center_of_mass_acceleration_bias_body(q, qd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """center_of_mass_acceleration_bias: centroidal.py's program, row by row. 75 lines, 171 operations."""
+    q1, q2, q3, q4 = q
+    qd1, qd2, qd3, qd4 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.5*(a*m1)
+    _r9 = 0.5*(c*m3)
+    _r10 = 0.5*(b*m2)
+    _r11 = -_r0*_r5 - _r1*_r4
+    _r12 = _r1*_r5 - _r0*_r4
+    _r13 = _r0*_r4 - _r1*_r5
+    _r14 = _r0*a
+    _r15 = _r1*a
+    _r16 = _r11*_r6
+    _r17 = _r13*_r6
+    _r16 = _r10*_r16
+    _r17 = _r10*_r17
+    _r18 = -_r10*_r7
+    _r16 = _r16 + _r14*m2
+    _r17 = _r17 + _r15*m2
+    _r19 = m2 + ms
+    _r20 = _r19 + m1
+    _r20 = _r20 + m3
+    _r20 = 1/_r20
+    _r21 = -_r1*qd1
+    _r22 = _r0*qd1
+    _r3 = -_r3*qd4
+    _r2 = _r2*qd4
+    _r23 = -_r5*qd2
+    _r24 = _r4*qd2
+    _r7 = -_r7*qd3
+    _r25 = _r6*qd3
+    _r26 = -_r0*_r24 - _r1*_r23 - _r21*_r5 - _r22*_r4
+    _r27 = _r1*_r24 + _r22*_r5 - _r0*_r23 - _r21*_r4
+    _r5 = _r0*_r23 + _r21*_r4 - _r1*_r24 - _r22*_r5
+    _r4 = _r21*a
+    _r24 = _r22*a
+    _r23 = _r11*_r7 + _r26*_r6
+    _r6 = _r13*_r7 + _r5*_r6
+    _r21 = _r21*_r8
+    _r8 = _r22*_r8
+    _r2 = -_r2*_r9
+    _r9 = _r3*_r9
+    _r3 = _r4*ms
+    _r22 = _r24*ms
+    _r23 = _r10*_r23
+    _r6 = _r10*_r6
+    _r25 = -_r10*_r25
+    _r23 = _r23 + _r4*m2
+    _r6 = _r6 + _r24*m2
+    _r3 = _r3 + _r23
+    _r22 = _r22 + _r6
+    _r21 = _r21 + _r3
+    _r8 = _r8 + _r22
+    _r21 = _r20*_r21
+    _r22 = -_r22 + _r19*_r24
+    _r3 = _r3 - _r19*_r4
+    _r24 = _r11*_r4 + _r14*_r26 - _r12*_r24 - _r15*_r27
+    _r4 = _r11*_r25 + _r18*_r26
+    _r25 = -_r12*_r25 - _r18*_r27
+    _r24 = _r12*_r6 + _r17*_r27 + _r24*m2 - _r11*_r23 - _r16*_r26
+    _r8 = -_r20*_r8
+    _r22 = _r20*_r22
+    _r4 = _r20*_r4
+    _r3 = _r20*_r3
+    _r25 = _r20*_r25
+    _r9 = -_r20*_r9
+    _r24 = _r20*_r24
+    _r2 = _r20*_r2
+    _r4 = _r8*qd1 + _r22*qd2 + _r4*qd3
+    _r9 = _r21*qd1 + _r3*qd2 + _r25*qd3 + _r9*qd4
+    _r2 = _r24*qd3 + _r2*qd4
+    return (
+        _r4,
+        _r9,
+        _r2,
+    )
+
+
+_center_of_mass_acceleration_bias_body.functions = ("sin", "cos")
+
+
+def _centroidal_momentum_matrix_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """centroidal_momentum_matrix: centroidal.py's program, row by row. 97 lines, 268 operations."""
+    q1, q2, q3, q4 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.3333333333333333*(m1*a**2)
+    _r9 = 0.5*(a*m1)
+    _r10 = 0.3333333333333333*(m3*c**2)
+    _r11 = 0.5*(c*m3)
+    _r12 = 0.3333333333333333*(m2*b**2)
+    _r13 = 0.5*(b*m2)
+    _r14 = -_r0*_r5 - _r1*_r4
+    _r15 = _r1*_r5 - _r0*_r4
+    _r5 = _r0*_r4 - _r1*_r5
+    _r4 = _r0*a
+    _r16 = _r1*a
+    _r17 = _r14*_r6
+    _r18 = _r14*_r7
+    _r19 = _r5*_r6
+    _r5 = _r5*_r7
+    _r0 = _r0*_r9
+    _r9 = _r1*_r9
+    _r3 = -_r11*_r3
+    _r2 = _r11*_r2
+    _r11 = a*m3
+    _r1 = _r3 + b*m3
+    _r20 = _r2 - c*m3
+    _r10 = _r10 + m3*(b**2 + c**2) - 2*_r2*c + 2*_r3*b
+    _r3 = -_r3*a - a*b*m3
+    _r2 = -_r2*a + a*c*m3
+    _r21 = _r4*ms
+    _r22 = _r16*ms
+    _r23 = Is + ms*(_r4**2 + _r16**2)
+    _r17 = _r13*_r17
+    _r19 = _r13*_r19
+    _r7 = -_r13*_r7
+    _r13 = _r12*_r15
+    _r24 = _r12*_r14
+    _r25 = _r12*_r18
+    _r26 = _r12*_r5
+    _r12 = _r12*_r6
+    _r27 = _r17 + _r4*m2
+    _r28 = _r19 + _r16*m2
+    _r25 = _r15*_r13 + _r18*_r25 + m2*_r16**2 + 2*_r16*_r19
+    _r13 = _r15*_r24 + _r18*_r26 - _r4*_r19 - _r16*_r17 - _r4*_r16*m2
+    _r18 = _r18*_r12 - _r4*_r7
+    _r26 = _r14*_r24 + _r5*_r26 + m2*_r4**2 + 2*_r4*_r17
+    _r5 = _r5*_r12 - _r16*_r7
+    _r6 = _r12*_r6 + m2*(_r4**2 + _r16**2) + 2*_r4*_r17 + 2*_r16*_r19
+    _r12 = m2 + ms
+    _r21 = _r21 + _r27
+    _r22 = _r22 + _r28
+    _r6 = _r23 + _r6
+    _r23 = _r12 + m1
+    _r0 = _r0 + _r21
+    _r9 = _r9 + _r22
+    _r8 = _r6 + _r8
+    _r23 = _r23 + m3
+    _r19 = _r11 + _r0
+    _r17 = _r1 + _r9
+    _r24 = _r20 + _r7
+    _r23 = 1/_r23
+    _r19 = _r19*_r23
+    _r17 = _r17*_r23
+    _r23 = _r24*_r23
+    _r24 = -_r20 - c*m3
+    _r29 = _r1 - b*m3
+    _r10 = _r10 + _r20*c - _r1*b
+    _r3 = _r3 + _r11*b
+    _r2 = _r2 - _r11*c
+    _r11 = -_r22 + _r16*_r12
+    _r12 = _r21 - _r4*_r12
+    _r20 = _r18 + _r4*_r7
+    _r1 = _r5 + _r16*_r7
+    _r6 = _r6 - _r4*_r21 - _r16*_r22
+    _r16 = _r14*_r4 - _r15*_r16
+    _r4 = _r14*_r7
+    _r7 = -_r15*_r7
+    _r22 = _r15*_r28 + _r16*m2 - _r14*_r27
+    _r25 = _r14*_r13 + _r15*_r25 + _r28*_r16
+    _r16 = _r14*_r26 + _r15*_r13 - _r27*_r16
+    _r15 = _r14*_r5 + _r15*_r18
+    _r18 = _r18 + _r0*_r23
+    _r20 = _r20 + _r23*_r12
+    _r25 = _r25 + _r23*_r7 - _r17*_r22
+    _r10 = _r10 + _r23*_r24 - _r17*_r29
+    _r5 = _r5 + _r9*_r23
+    _r1 = _r1 - _r23*_r11
+    _r16 = _r16 + _r19*_r22 - _r23*_r4
+    _r3 = _r3 + _r19*_r29
+    _r8 = _r8 - _r0*_r19 - _r9*_r17
+    _r6 = _r6 + _r17*_r11 - _r19*_r12
+    _r15 = _r15 + _r17*_r4 - _r19*_r7
+    _r2 = _r2 - _r19*_r24
+    return (
+        -_r9,
+        _r11,
+        _r4,
+        0,
+        _r0,
+        _r12,
+        _r7,
+        _r24,
+        0,
+        0,
+        _r22,
+        _r29,
+        _r18,
+        _r20,
+        _r25,
+        _r10,
+        _r5,
+        _r1,
+        _r16,
+        _r3,
+        _r8,
+        _r6,
+        _r15,
+        _r2,
+    )
+
+
+_centroidal_momentum_matrix_body.functions = ("sin", "cos")
+
+
+def _centroidal_momentum_body(q, qd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """centroidal_momentum: centroidal.py's program, row by row. 103 lines, 304 operations."""
+    q1, q2, q3, q4 = q
+    qd1, qd2, qd3, qd4 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.3333333333333333*(m1*a**2)
+    _r9 = 0.5*(a*m1)
+    _r10 = 0.3333333333333333*(m3*c**2)
+    _r11 = 0.5*(c*m3)
+    _r12 = 0.3333333333333333*(m2*b**2)
+    _r13 = 0.5*(b*m2)
+    _r14 = -_r0*_r5 - _r1*_r4
+    _r15 = _r1*_r5 - _r0*_r4
+    _r5 = _r0*_r4 - _r1*_r5
+    _r4 = _r0*a
+    _r16 = _r1*a
+    _r17 = _r14*_r6
+    _r18 = _r14*_r7
+    _r19 = _r5*_r6
+    _r5 = _r5*_r7
+    _r0 = _r0*_r9
+    _r9 = _r1*_r9
+    _r3 = -_r11*_r3
+    _r2 = _r11*_r2
+    _r11 = a*m3
+    _r1 = _r3 + b*m3
+    _r20 = _r2 - c*m3
+    _r10 = _r10 + m3*(b**2 + c**2) - 2*_r2*c + 2*_r3*b
+    _r3 = -_r3*a - a*b*m3
+    _r2 = -_r2*a + a*c*m3
+    _r21 = _r4*ms
+    _r22 = _r16*ms
+    _r23 = Is + ms*(_r4**2 + _r16**2)
+    _r17 = _r13*_r17
+    _r19 = _r13*_r19
+    _r7 = -_r13*_r7
+    _r13 = _r12*_r15
+    _r24 = _r12*_r14
+    _r25 = _r12*_r18
+    _r26 = _r12*_r5
+    _r12 = _r12*_r6
+    _r27 = _r17 + _r4*m2
+    _r28 = _r19 + _r16*m2
+    _r25 = _r15*_r13 + _r18*_r25 + m2*_r16**2 + 2*_r16*_r19
+    _r13 = _r15*_r24 + _r18*_r26 - _r4*_r19 - _r16*_r17 - _r4*_r16*m2
+    _r18 = _r18*_r12 - _r4*_r7
+    _r26 = _r14*_r24 + _r5*_r26 + m2*_r4**2 + 2*_r4*_r17
+    _r5 = _r5*_r12 - _r16*_r7
+    _r6 = _r12*_r6 + m2*(_r4**2 + _r16**2) + 2*_r4*_r17 + 2*_r16*_r19
+    _r12 = m2 + ms
+    _r21 = _r21 + _r27
+    _r22 = _r22 + _r28
+    _r6 = _r23 + _r6
+    _r23 = _r12 + m1
+    _r0 = _r0 + _r21
+    _r9 = _r9 + _r22
+    _r8 = _r6 + _r8
+    _r23 = _r23 + m3
+    _r19 = _r11 + _r0
+    _r17 = _r1 + _r9
+    _r24 = _r20 + _r7
+    _r23 = 1/_r23
+    _r19 = _r19*_r23
+    _r17 = _r17*_r23
+    _r23 = _r24*_r23
+    _r24 = -_r20 - c*m3
+    _r29 = _r1 - b*m3
+    _r10 = _r10 + _r20*c - _r1*b
+    _r3 = _r3 + _r11*b
+    _r2 = _r2 - _r11*c
+    _r11 = -_r22 + _r16*_r12
+    _r12 = _r21 - _r4*_r12
+    _r20 = _r18 + _r4*_r7
+    _r1 = _r5 + _r16*_r7
+    _r6 = _r6 - _r4*_r21 - _r16*_r22
+    _r16 = _r14*_r4 - _r15*_r16
+    _r4 = _r14*_r7
+    _r7 = -_r15*_r7
+    _r22 = _r15*_r28 + _r16*m2 - _r14*_r27
+    _r25 = _r14*_r13 + _r15*_r25 + _r28*_r16
+    _r16 = _r14*_r26 + _r15*_r13 - _r27*_r16
+    _r15 = _r14*_r5 + _r15*_r18
+    _r18 = _r18 + _r0*_r23
+    _r20 = _r20 + _r23*_r12
+    _r25 = _r25 + _r23*_r7 - _r17*_r22
+    _r10 = _r10 + _r23*_r24 - _r17*_r29
+    _r5 = _r5 + _r9*_r23
+    _r1 = _r1 - _r23*_r11
+    _r16 = _r16 + _r19*_r22 - _r23*_r4
+    _r3 = _r3 + _r19*_r29
+    _r8 = _r8 - _r0*_r19 - _r9*_r17
+    _r6 = _r6 + _r17*_r11 - _r19*_r12
+    _r15 = _r15 + _r17*_r4 - _r19*_r7
+    _r2 = _r2 - _r19*_r24
+    _r4 = _r11*qd2 + _r4*qd3 - _r9*qd1
+    _r7 = _r0*qd1 + _r24*qd4 + _r12*qd2 + _r7*qd3
+    _r22 = _r29*qd4 + _r22*qd3
+    _r10 = _r18*qd1 + _r20*qd2 + _r25*qd3 + _r10*qd4
+    _r3 = _r5*qd1 + _r1*qd2 + _r16*qd3 + _r3*qd4
+    _r2 = _r8*qd1 + _r6*qd2 + _r15*qd3 + _r2*qd4
+    return (
+        _r4,
+        _r7,
+        _r22,
+        _r10,
+        _r3,
+        _r2,
+    )
+
+
+_centroidal_momentum_body.functions = ("sin", "cos")
+
+
+def _centroidal_momentum_bias_body(q, qd, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """centroidal_momentum_bias: centroidal.py's program, row by row. 151 lines, 556 operations."""
+    q1, q2, q3, q4 = q
+    qd1, qd2, qd3, qd4 = qd
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.5*(a*m1)
+    _r9 = 0.5*(c*m3)
+    _r10 = 0.3333333333333333*(m2*b**2)
+    _r11 = 0.5*(b*m2)
+    _r12 = -_r0*_r5 - _r1*_r4
+    _r13 = _r1*_r5 - _r0*_r4
+    _r14 = _r0*_r4 - _r1*_r5
+    _r15 = _r0*a
+    _r16 = _r1*a
+    _r17 = _r12*_r6
+    _r18 = _r12*_r7
+    _r19 = _r14*_r6
+    _r20 = _r14*_r7
+    _r21 = _r0*_r8
+    _r22 = _r1*_r8
+    _r23 = -_r3*_r9
+    _r24 = _r2*_r9
+    _r25 = a*m3
+    _r23 = _r23 + b*m3
+    _r24 = _r24 - c*m3
+    _r26 = _r15*ms
+    _r27 = _r16*ms
+    _r17 = _r11*_r17
+    _r19 = _r11*_r19
+    _r28 = -_r11*_r7
+    _r29 = _r10*_r13
+    _r30 = _r10*_r12
+    _r31 = _r10*_r18
+    _r32 = _r10*_r20
+    _r33 = _r10*_r6
+    _r34 = _r17 + _r15*m2
+    _r35 = _r19 + _r16*m2
+    _r36 = _r13*_r29 + _r18*_r31 + m2*_r16**2 + 2*_r16*_r19
+    _r37 = _r13*_r30 + _r18*_r32 - _r15*_r19 - _r16*_r17 - _r15*_r16*m2
+    _r38 = _r18*_r33 - _r15*_r28
+    _r39 = _r12*_r30 + _r20*_r32 + m2*_r15**2 + 2*_r15*_r17
+    _r40 = _r20*_r33 - _r16*_r28
+    _r41 = m2 + ms
+    _r26 = _r26 + _r34
+    _r27 = _r27 + _r35
+    _r42 = _r41 + m1
+    _r21 = _r21 + _r26
+    _r22 = _r22 + _r27
+    _r42 = _r42 + m3
+    _r25 = _r25 + _r21
+    _r43 = _r23 + _r22
+    _r44 = _r24 + _r28
+    _r42 = 1/_r42
+    _r25 = _r25*_r42
+    _r43 = _r43*_r42
+    _r44 = _r44*_r42
+    _r24 = -_r24 - c*m3
+    _r23 = _r23 - b*m3
+    _r45 = -_r27 + _r16*_r41
+    _r46 = _r26 - _r15*_r41
+    _r47 = _r12*_r15 - _r13*_r16
+    _r48 = _r12*_r28
+    _r49 = -_r13*_r28
+    _r50 = _r13*_r35 + _r47*m2 - _r12*_r34
+    _r51 = -_r1*qd1
+    _r52 = _r0*qd1
+    _r3 = -_r3*qd4
+    _r2 = _r2*qd4
+    _r53 = -_r5*qd2
+    _r54 = _r4*qd2
+    _r55 = -_r7*qd3
+    _r56 = _r6*qd3
+    _r57 = -_r0*_r54 - _r1*_r53 - _r4*_r52 - _r5*_r51
+    _r58 = _r1*_r54 + _r5*_r52 - _r0*_r53 - _r4*_r51
+    _r54 = _r0*_r53 + _r4*_r51 - _r1*_r54 - _r5*_r52
+    _r53 = _r51*a
+    _r5 = _r52*a
+    _r4 = _r12*_r55 + _r6*_r57
+    _r1 = _r12*_r56 + _r7*_r57
+    _r0 = _r14*_r55 + _r6*_r54
+    _r54 = _r14*_r56 + _r7*_r54
+    _r51 = _r51*_r8
+    _r8 = _r52*_r8
+    _r2 = -_r2*_r9
+    _r9 = _r3*_r9
+    _r3 = -2*_r9*c + 2*_r2*b
+    _r52 = -_r2*a
+    _r7 = -_r9*a
+    _r14 = _r53*ms
+    _r59 = _r5*ms
+    _r60 = 2*_r15*_r53*ms + 2*_r16*_r5*ms
+    _r4 = _r11*_r4
+    _r0 = _r11*_r0
+    _r56 = -_r11*_r56
+    _r11 = _r10*_r58
+    _r61 = _r10*_r57
+    _r62 = _r10*_r1
+    _r63 = _r10*_r54
+    _r10 = _r10*_r55
+    _r64 = _r4 + _r53*m2
+    _r65 = _r0 + _r5*m2
+    _r62 = _r13*_r11 + _r18*_r62 + _r29*_r58 + _r31*_r1 + _r5*(2*_r19 + 2*_r16*m2) + 2*_r16*_r0
+    _r11 = _r63*_r18 + _r13*_r61 + _r30*_r58 + _r32*_r1 + _r53*(-_r19 - _r16*m2) + _r5*(-_r17 - _r15*m2) - _r15*_r0 - _r16*_r4
+    _r1 = _r10*_r18 + _r33*_r1 - _r15*_r56 - _r28*_r53
+    _r61 = _r63*_r20 + _r12*_r61 + _r30*_r57 + _r32*_r54 + _r53*(2*_r17 + 2*_r15*m2) + 2*_r15*_r4
+    _r54 = _r10*_r20 + _r33*_r54 - _r16*_r56 - _r28*_r5
+    _r0 = _r10*_r6 + _r33*_r55 + _r53*(2*_r17 + 2*_r15*m2) + _r5*(2*_r19 + 2*_r16*m2) + 2*_r15*_r4 + 2*_r16*_r0
+    _r14 = _r64 + _r14
+    _r59 = _r65 + _r59
+    _r60 = _r0 + _r60
+    _r51 = _r14 + _r51
+    _r8 = _r59 + _r8
+    _r0 = _r8 + _r2
+    _r4 = _r9 + _r56
+    _r55 = _r51*_r42
+    _r0 = _r0*_r42
+    _r42 = _r4*_r42
+    _r3 = _r3 + _r9*c - _r2*b
+    _r4 = -_r59 + _r41*_r5
+    _r41 = _r14 - _r41*_r53
+    _r6 = _r1 + _r15*_r56 + _r28*_r53
+    _r33 = _r54 + _r16*_r56 + _r28*_r5
+    _r27 = _r60 - _r14*_r15 - _r59*_r16 - _r26*_r53 - _r27*_r5
+    _r5 = _r12*_r53 + _r15*_r57 - _r13*_r5 - _r16*_r58
+    _r53 = _r12*_r56 + _r28*_r57
+    _r56 = -_r13*_r56 - _r28*_r58
+    _r28 = _r65*_r13 + _r5*m2 + _r35*_r58 - _r64*_r12 - _r34*_r57
+    _r36 = _r65*_r47 + _r62*_r13 + _r11*_r12 + _r5*_r35 + _r36*_r58 + _r37*_r57
+    _r47 = _r11*_r13 + _r61*_r12 + _r37*_r58 + _r39*_r57 - _r64*_r47 - _r5*_r34
+    _r58 = _r1*_r13 + _r54*_r12 + _r38*_r58 + _r40*_r57
+    _r1 = _r1 + _r51*_r44 + _r42*_r21
+    _r6 = _r6 + _r42*_r46 + _r41*_r44
+    _r36 = _r36 + _r42*_r49 + _r56*_r44 - _r0*_r50 - _r28*_r43
+    _r3 = _r3 + _r42*_r24 - _r0*_r23 - _r43*_r2 - _r44*_r9
+    _r54 = _r54 + _r8*_r44 + _r42*_r22
+    _r33 = _r33 - _r42*_r45 - _r4*_r44
+    _r50 = _r47 + _r55*_r50 + _r28*_r25 - _r42*_r48 - _r53*_r44
+    _r52 = _r52 + _r55*_r23 + _r25*_r2
+    _r22 = _r60 - _r51*_r25 - _r8*_r43 - _r55*_r21 - _r0*_r22
+    _r46 = _r27 + _r0*_r45 + _r4*_r43 - _r55*_r46 - _r41*_r25
+    _r49 = _r58 + _r0*_r48 + _r53*_r43 - _r55*_r49 - _r56*_r25
+    _r7 = _r7 + _r25*_r9 - _r55*_r24
+    _r53 = _r4*qd2 + _r53*qd3 - _r8*qd1
+    _r9 = _r51*qd1 + _r41*qd2 + _r56*qd3 - _r9*qd4
+    _r2 = _r28*qd3 + _r2*qd4
+    _r3 = _r1*qd1 + _r6*qd2 + _r36*qd3 + _r3*qd4
+    _r52 = _r54*qd1 + _r33*qd2 + _r50*qd3 + _r52*qd4
+    _r7 = _r22*qd1 + _r46*qd2 + _r49*qd3 + _r7*qd4
+    return (
+        _r53,
+        _r9,
+        _r2,
+        _r3,
+        _r52,
+        _r7,
+    )
+
+
+_centroidal_momentum_bias_body.functions = ("sin", "cos")
+
+
+def _centroidal_inertia_body(q, sin, cos, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """centroidal_inertia: centroidal.py's program, row by row. 93 lines, 257 operations."""
+    q1, q2, q3, q4 = q
+    _r0 = cos(q1)
+    _r1 = sin(q1)
+    _r2 = cos(q4)
+    _r3 = sin(q4)
+    _r4 = cos(q2)
+    _r5 = sin(q2)
+    _r6 = cos(q3)
+    _r7 = sin(q3)
+    _r8 = 0.3333333333333333*(m1*a**2)
+    _r9 = 0.5*(a*m1)
+    _r10 = 0.3333333333333333*(m3*c**2)
+    _r11 = 0.5*(c*m3)
+    _r12 = 0.3333333333333333*(m2*b**2)
+    _r13 = 0.5*(b*m2)
+    _r14 = -_r0*_r5 - _r1*_r4
+    _r15 = _r1*_r5 - _r0*_r4
+    _r5 = _r0*_r4 - _r1*_r5
+    _r4 = _r0*a
+    _r16 = _r1*a
+    _r17 = _r14*_r6
+    _r18 = _r14*_r7
+    _r19 = _r5*_r6
+    _r20 = _r5*_r7
+    _r21 = _r0*_r9
+    _r9 = _r1*_r9
+    _r22 = -_r1*_r8
+    _r23 = _r0*_r8
+    _r22 = -_r1*_r22
+    _r1 = -_r1*_r23
+    _r23 = _r0*_r23
+    _r0 = -_r11*_r3
+    _r11 = _r11*_r2
+    _r24 = _r10*_r2
+    _r25 = _r10*_r3
+    _r26 = a*m3
+    _r27 = _r0 + b*m3
+    _r28 = _r11 - c*m3
+    _r10 = _r10 + m3*(b**2 + c**2) - 2*_r11*c + 2*_r0*b
+    _r29 = -_r0*a - a*b*m3
+    _r30 = -_r11*a + a*c*m3
+    _r24 = _r2*_r24 + m3*(a**2 + c**2) - 2*_r11*c
+    _r11 = _r2*_r25 + _r0*c - _r11*b + b*c*m3
+    _r25 = _r3*_r25 + m3*(a**2 + b**2) + 2*_r0*b
+    _r0 = Is*_r14
+    _r3 = Is*_r5
+    _r2 = Is*_r15
+    _r31 = _r4*ms
+    _r32 = _r16*ms
+    _r2 = _r14*_r0 + _r15*_r2 + ms*_r16**2
+    _r33 = _r14*_r3 + _r15*_r0 - _r4*_r16*ms
+    _r3 = _r14*_r0 + _r5*_r3 + ms*_r4**2
+    _r0 = Is + ms*(_r4**2 + _r16**2)
+    _r17 = _r13*_r17
+    _r19 = _r13*_r19
+    _r7 = -_r13*_r7
+    _r13 = _r12*_r15
+    _r5 = _r12*_r14
+    _r34 = _r12*_r18
+    _r35 = _r12*_r20
+    _r12 = _r12*_r6
+    _r36 = _r17 + _r4*m2
+    _r37 = _r19 + _r16*m2
+    _r34 = _r15*_r13 + _r18*_r34 + m2*_r16**2 + 2*_r16*_r19
+    _r15 = _r15*_r5 + _r18*_r35 - _r4*_r19 - _r16*_r17 - _r4*_r16*m2
+    _r18 = _r18*_r12 - _r4*_r7
+    _r35 = _r14*_r5 + _r20*_r35 + m2*_r4**2 + 2*_r4*_r17
+    _r20 = _r20*_r12 - _r16*_r7
+    _r6 = _r12*_r6 + m2*(_r4**2 + _r16**2) + 2*_r4*_r17 + 2*_r16*_r19
+    _r12 = m2 + ms
+    _r36 = _r31 + _r36
+    _r37 = _r32 + _r37
+    _r34 = _r2 + _r34
+    _r15 = _r33 + _r15
+    _r35 = _r3 + _r35
+    _r6 = _r0 + _r6
+    _r12 = _r12 + m1
+    _r36 = _r21 + _r36
+    _r37 = _r9 + _r37
+    _r34 = _r22 + _r34
+    _r15 = _r1 + _r15
+    _r35 = _r23 + _r35
+    _r8 = _r6 + _r8
+    _r12 = _r12 + m3
+    _r36 = _r26 + _r36
+    _r37 = _r27 + _r37
+    _r7 = _r28 + _r7
+    _r28 = 1/_r12
+    _r34 = _r10 + _r34 - _r28*(_r37**2 + _r7**2)
+    _r15 = _r29 + _r15 + _r36*_r37*_r28
+    _r18 = _r30 + _r18 + _r36*_r7*_r28
+    _r35 = _r24 + _r35 - _r28*(_r36**2 + _r7**2)
+    _r7 = _r11 + _r20 + _r37*_r7*_r28
+    _r28 = _r25 + _r8 - _r28*(_r36**2 + _r37**2)
+    return (
+        _r12,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r12,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r12,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        _r34,
+        _r15,
+        _r18,
+        0,
+        0,
+        0,
+        _r15,
+        _r35,
+        _r7,
+        0,
+        0,
+        0,
+        _r18,
+        _r7,
+        _r28,
+    )
+
+
+_centroidal_inertia_body.functions = ("sin", "cos")
+
+
 
 #: Each frame's straight-line bodies: (pose, Jacobian, Jdot qd).
 _FRAME_BODIES = {}
@@ -1098,6 +1967,85 @@ def _external_forces(q, wrenches, parameters):
         jacobian = frame_jacobian(q, frame, **parameters)
         total = total + np.einsum("...ij,...i->...j", jacobian, wrench)
     return total
+
+
+def total_mass(*, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Total mass of the moving links (Pinocchio's ``computeTotalMass``), shape (...).. Links welded to the world are left out (Pinocchio's universe)."""
+    return _evaluate(_total_mass_body, [], (), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def center_of_mass(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Centre of mass of the moving links in the world (Pinocchio's ``centerOfMass``), shape (..., 3).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
+    """
+    q = _coordinates("q", q, 4)
+    return _evaluate(_center_of_mass_body, [q], (3,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def center_of_mass_velocity(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Velocity of the centre of mass in the world (Pinocchio's ``centerOfMass``), shape (..., 3).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd: velocities, shape (..., 4)
+    """
+    arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4)]
+    return _evaluate(_center_of_mass_velocity_body, arrays, (3,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def center_of_mass_jacobian(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Jacobian of the centre of mass: its velocity per velocity (Pinocchio's ``jacobianCenterOfMass``), shape (..., 3, 4).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
+    """
+    q = _coordinates("q", q, 4)
+    return _evaluate(_center_of_mass_jacobian_body, [q], (3, 4), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def center_of_mass_acceleration_bias(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Jdot(q, qd) qd of the centre of mass (its acceleration at qdd = 0) (Pinocchio's ``centerOfMass``), shape (..., 3).
+    The centre of mass accelerates by center_of_mass_jacobian(q) @ qdd + this.
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd: velocities, shape (..., 4)
+    """
+    arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4)]
+    return _evaluate(_center_of_mass_acceleration_bias_body, arrays, (3,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def centroidal_momentum_matrix(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Centroidal momentum matrix A_G(q): linear, then angular momentum about the centre of mass, world axes (Pinocchio's ``ccrba``), shape (..., 6, 4).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
+    """
+    q = _coordinates("q", q, 4)
+    return _evaluate(_centroidal_momentum_matrix_body, [q], (6, 4), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def centroidal_momentum(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Centroidal momentum h_G = A_G qd: linear, then angular about the centre of mass (Pinocchio's ``computeCentroidalMomentum``), shape (..., 6).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd: velocities, shape (..., 4)
+    """
+    arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4)]
+    return _evaluate(_centroidal_momentum_body, arrays, (6,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def centroidal_momentum_bias(q, qd, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Adot_G(q, qd) qd, the rate of h_G at qdd = 0 (Pinocchio's ``computeCentroidalMomentumTimeVariation``), shape (..., 6).
+    The centroidal momentum changes by centroidal_momentum_matrix(q) @ qdd + this.
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4); qd: velocities, shape (..., 4)
+    """
+    arrays = [_coordinates("q", q, 4), _coordinates("qd", qd, 4)]
+    return _evaluate(_centroidal_momentum_bias_body, arrays, (6,), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
+
+
+def centroidal_inertia(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):
+    """Composite inertia of the moving links about the centre of mass, world axes: [[m 1, 0], [0, I_G]] (Pinocchio's ``ccrba``), shape (..., 6, 6).
+
+    q: joint coordinates ("q1", "q2", "q3", "q4"), shape (..., 4)
+    """
+    q = _coordinates("q", q, 4)
+    return _evaluate(_centroidal_inertia_body, [q], (6, 6), {"a": a, "b": b, "c": c, "m1": m1, "ms": ms, "Is": Is, "m2": m2, "m3": m3, "g": g})
 
 
 def mass_matrix(q, *, a=0.1, b=0.4, c=0.3, m1=0.4, ms=0.05, Is=2e-05, m2=0.8, m3=0.6, g=9.81):

@@ -311,6 +311,18 @@ class Derivation:
             self.report(f"program: frames ({len(self.robot.frames)})")
         return frame_programs(self.robot, self.symbols)
 
+    @cached_property
+    def centroidal_programs(self) -> Any:
+        """Straight-line programs of the centre of mass and the centroidal momentum
+        (``mechanics.centroidal.CentroidalPrograms``) of a 3-D robot, None for a planar one;
+        built on first use."""
+        from .mechanics.centroidal import centroidal_programs
+
+        if self.robot.planar:
+            return None
+        self.report("program: centre of mass and centroidal momentum")
+        return centroidal_programs(self.robot, self.symbols)
+
     @property
     def intermediates(self) -> list[tuple[sympy.Symbol, sympy.Expr]]:
         """``(name, definition)`` of the intermediate variables, in order (large robots; else

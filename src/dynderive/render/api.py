@@ -26,7 +26,7 @@ class Function:
     (``frame``: a frame's name, not an array); ``results``: the shape of each result for one
     state, in size letters; ``pinocchio``: the function of Pinocchio that computes the same
     (the tests compare them); ``group``: which robots have it ("dynamics": every robot,
-    "frames": every robot, raising for a name that is no frame, "loops": closed loops,
+    "frames": every robot, raising for a name that is no frame, "centroidal": 3-D robots, "loops": closed loops,
     "configuration": a robot with quaternions, "maximal": a planar robot's maximal form)."""
 
     name: str
@@ -73,6 +73,22 @@ API: tuple[Function, ...] = (
        "getFrameJacobian"),
     _f("frame_jacobian_dot_qd", "q qd frame", "T", "Jdot(q, qd) qd of a frame (its acceleration at qdd = 0)",
        "frames"),
+    _f("total_mass", "", "", "Total mass of the moving links", "centroidal", "computeTotalMass"),
+    _f("center_of_mass", "q", "3", "Centre of mass of the moving links in the world", "centroidal", "centerOfMass"),
+    _f("center_of_mass_velocity", "q qd", "3", "Velocity of the centre of mass in the world", "centroidal",
+       "centerOfMass"),
+    _f("center_of_mass_jacobian", "q", "3 NV", "Jacobian of the centre of mass: its velocity per velocity",
+       "centroidal", "jacobianCenterOfMass"),
+    _f("center_of_mass_acceleration_bias", "q qd", "3", "Jdot(q, qd) qd of the centre of mass (its acceleration at "
+       "qdd = 0)", "centroidal", "centerOfMass"),
+    _f("centroidal_momentum_matrix", "q", "6 NV", "Centroidal momentum matrix A_G(q): linear, then angular "
+       "momentum about the centre of mass, world axes", "centroidal", "ccrba"),
+    _f("centroidal_momentum", "q qd", "6", "Centroidal momentum h_G = A_G qd: linear, then angular about the centre "
+       "of mass", "centroidal", "computeCentroidalMomentum"),
+    _f("centroidal_momentum_bias", "q qd", "6", "Adot_G(q, qd) qd, the rate of h_G at qdd = 0", "centroidal",
+       "computeCentroidalMomentumTimeVariation"),
+    _f("centroidal_inertia", "q", "6 6", "Composite inertia of the moving links about the centre of mass, world "
+       "axes: [[m 1, 0], [0, I_G]]", "centroidal", "ccrba"),
     _f("loop_constraints", "q", "NC", "Loop constraints a_g(q) (zero when the loops are closed)", "loops"),
     _f("loop_jacobian", "q", "NC NV", "Loop constraint Jacobian A_g(q) = da_g/dq", "loops"),
     _f("loop_jacobian_dot", "q qd", "NC NV", "Its time derivative Adot_g(q, qd)", "loops"),
@@ -129,7 +145,7 @@ def sizes(derivation: Any) -> dict[str, int]:
             "NC": quantities["a_g"].shape[0] if loops else 0, "NI": len(loops.independent) if loops else 0,
             "NM": len(table.qm) if robot.planar else 0,
             "NK": quantities["a_m"].shape[0] if robot.planar else 0,
-            "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv}
+            "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv, "3": 3, "6": 6}
 
 
 def shapes(name: str, size: dict[str, Any]) -> tuple[tuple[Any, ...], ...]:

@@ -34,7 +34,7 @@ def _arrays(function: api.Function) -> str:
 
 #: The functions compared (the API table's, but a planar robot's maximal form, which only the
 #: Python modules print), with the arrays they take (``p``: keyword parameters only).
-FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group in ("dynamics", "loops", "configuration"))
+FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group in ("dynamics", "centroidal", "loops", "configuration"))
 #: The functions that take ``friction_smoothing``.
 SMOOTHED = {"inverse_dynamics", "forward_dynamics", "friction_forces", "linearize", "inverse_dynamics_derivatives",
             "forward_dynamics_derivatives", "loop_forces", "reduced_forward_dynamics"}

@@ -189,6 +189,7 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
         "dissipative": robot.dissipative,
         "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
         "frames_tuple": _tuple(tuple(f.name for f in robot.frames)),
+        "centroidal": not robot.planar,   # centre of mass and centroidal momentum: 3-D robots
         # the forward-dynamics body takes F - J^T w where its program says so (damping, friction, frames)
         "forward_extra": forward is not None and bool(forward.extra_inputs),
         "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
@@ -359,6 +360,12 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
                              [q], jacobian),
             program_function(f"_frame{index}_jacobian_dot_qd_body", f"Jdot qd of frame {name!r}.", [q, qd], bias),
         ]
+    if derivation.centroidal_programs is not None:
+        arguments = {"total_mass": [], "center_of_mass": [q], "center_of_mass_jacobian": [q],
+                     "centroidal_momentum_matrix": [q], "centroidal_inertia": [q]}
+        for name, program in derivation.centroidal_programs._asdict().items():
+            functions.append(program_function(f"_{name}_body", f"{name}: centroidal.py's program, row by row.",
+                                              arguments.get(name, [q, qd]), program))
     return functions
 
 

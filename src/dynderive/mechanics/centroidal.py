@@ -1,0 +1,126 @@
+"""Centre of mass and centroidal momentum of a 3-D robot as straight-line programs, over the
+one tree (``tree.py``) for every joint type (floating, spherical, mimic included).
+
+Each moving body's spatial inertia is carried to the world origin (mass, first moment ``m c``,
+rotational inertia about the origin), summed from the leaves up into its subtree's composite
+(CRBA's upward pass, in world axes). A joint column's world motion ``(w, v0)`` (``v0`` the
+velocity of the body point at the world origin) times its subtree's composite inertia is the
+momentum that column gives, linear ``m v0 + w x h`` and angular ``h x v0 + I w`` about the
+origin; shifted to the centre of mass ``G = h / m`` it is the column of Pinocchio's ``ccrba``
+``A_G`` (linear rows, then angular about G, world axes). The CoM Jacobian is A_G's linear rows
+over the mass; ``Jdot qd`` and ``Adot_G qd`` are the programs' forward derivatives along the
+motion (the tangent of each line, as ``frames.py`` takes ``Jdot qd``).
+
+Bodies welded to the world carry no motion and are left out, as Pinocchio leaves out the
+universe's inertia: the centre of mass of a fixed-base robot is that of its moving links.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import sympy
+
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
+from .program import Program, Vector, _add, _cross, _rotate, _times, part_of
+from .recursive import _carry, _forward, moved_inertia
+from .tree import Tree
+
+
+class CentroidalPrograms(NamedTuple):
+    """The programs of DESIGN.md section 11, by the generated function's name; matrices row
+    by row."""
+
+    total_mass: Program                        # no input: 1
+    center_of_mass: Program                    # q: 3
+    center_of_mass_velocity: Program           # q, qd: 3
+    center_of_mass_jacobian: Program           # q: 3 x NV
+    center_of_mass_acceleration_bias: Program  # q, qd: 3
+    centroidal_momentum_matrix: Program        # q: 6 x NV
+    centroidal_momentum: Program               # q, qd: 6
+    centroidal_momentum_bias: Program          # q, qd: 6
+    centroidal_inertia: Program                # q: 6 x 6
+
+
+def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
+    """Every program of ``CentroidalPrograms``, from one shared list of lines."""
+    tree = Tree(robot, table)
+    program = tree.program
+    let, vec = program.let, program.vector
+    poses = tree.world_poses()
+    moving = [b for b in tree.bodies if b.link not in tree.static]
+    composite: dict[str, tuple[sympy.Expr, Vector, tuple]] = {}
+    for body in moving:   # each body's inertia about the world origin, world axes
+        R, origin = poses[body.link]
+        h_r, inertia = moved_inertia(program, body.mass, body.first_moment, body.inertia, R, origin)
+        composite[body.link] = (body.mass, vec(_add(h_r, _times(origin, body.mass))), program.symmetric(inertia))
+    roots = []
+    for body in reversed(moving):   # the subtrees' composites, leaves first
+        if body.parent in tree.static:
+            roots.append(body.link)
+            continue
+        mass, h, inertia = composite[body.link]
+        p_mass, p_h, p_inertia = composite[body.parent]
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)),
+                                  program.symmetric([[p_inertia[a][b] + inertia[a][b] for b in range(3)]
+                                                     for a in range(3)]))
+    zero = sympy.Integer(0)
+    mass = let(sum((composite[r][0] for r in roots), zero))
+    h = vec([sum((composite[r][1][k] for r in roots), zero) for k in range(3)])
+    inertia = [[sum((composite[r][2][a][b] for r in roots), zero) for b in range(3)] for a in range(3)]
+    inverse_mass = let(1 / mass)
+    com = vec(_times(h, inverse_mass))
+    n = tree.size
+    momentum: list[list[sympy.Expr]] = [[zero] * n for _ in range(6)]   # about the world origin
+    for body in moving:
+        R, origin = poses[body.link]
+        m, hb, ib = composite[body.link]
+        for j, sw, sv in body.columns:
+            w = vec(_rotate(R, sw))
+            v0 = vec(_add(_rotate(R, sv), _cross(origin, w)))   # the velocity of the point at the origin
+            linear = _add(_times(v0, m), _cross(w, hb))
+            angular = _add(_cross(hb, v0), _rotate(ib, w))
+            for k, value in enumerate((*linear, *angular)):   # a <mimic> follower adds to its leader's column
+                momentum[k][j] = let(momentum[k][j] + value)
+    matrix = [[momentum[k][j] for j in range(n)] for k in range(3)]
+    for k in range(3):   # angular momentum about G: K_O - G x L
+        matrix.append([let(momentum[3 + k][j] - _cross(com, [momentum[r][j] for r in range(3)])[k])
+                       for j in range(n)])
+    jacobian = [[let(matrix[k][j] * inverse_mass) for j in range(n)] for k in range(3)]
+    qd = table.qd
+
+    def times_qd(rows: list[list[sympy.Expr]]) -> list[sympy.Expr]:
+        return [let(sum((row[j] * qd[j] for j in range(n)), zero)) for row in rows]
+
+    shift = [[(h[0] ** 2 + h[1] ** 2 + h[2] ** 2 if a == b else 0) - h[a] * h[b] for b in range(3)] for a in range(3)]
+    about_com = [[let(inertia[a][b] - shift[a][b] * inverse_mass) for b in range(3)] for a in range(3)]
+    spatial = [[mass if a == b else zero for b in range(3)] + [zero] * 3 for a in range(3)] + \
+        [[zero] * 3 + about_com[a] for a in range(3)]
+    velocity, total_momentum = times_qd(jacobian), times_qd(matrix)
+    # d/dt along the motion: each line's tangent, then the rows' tangents times qd
+    trig = {expr: name for name, expr in tree.trig}
+    tangent: dict[sympy.Symbol, sympy.Expr] = {}
+    for seed, rate in zip(tree.tangent_seeds(), qd):
+        for symbol, value in seed.items():
+            tangent[symbol] = tangent.get(symbol, 0) + (rate if value is sympy.S.One else program.let(value * rate))
+    tangent = {s: let(t) for s, t in tangent.items()}
+    _carry(program, tangent, trig, [(name, expr, expr.free_symbols) for name, expr in program.lines])
+
+    def bias(rows: list[list[sympy.Expr]]) -> list[sympy.Expr]:
+        return [let(sum((_forward(e, tangent, trig) * rate for e, rate in zip(row, qd)), zero)) for row in rows]
+
+    com_bias, momentum_bias = bias(jacobian), bias(matrix)
+    lines = list(program.lines)
+    flat = lambda rows: [e for row in rows for e in row]  # noqa: E731
+    return CentroidalPrograms(
+        total_mass=part_of(lines, [mass]),
+        center_of_mass=part_of(lines, list(com)),
+        center_of_mass_velocity=part_of(lines, velocity),
+        center_of_mass_jacobian=part_of(lines, flat(jacobian)),
+        center_of_mass_acceleration_bias=part_of(lines, com_bias),
+        centroidal_momentum_matrix=part_of(lines, flat(matrix)),
+        centroidal_momentum=part_of(lines, total_momentum),
+        centroidal_momentum_bias=part_of(lines, momentum_bias),
+        centroidal_inertia=part_of(lines, flat(spatial)),
+    )
