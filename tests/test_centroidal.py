@@ -15,15 +15,13 @@ import numpy as np
 import pytest
 
 import dynderive
-from dynderive.input.urdf import identifier
-from dynderive.mechanics.tree import offsets
 from dynderive.verify.checks import generated_module
 
 from conftest import derivation_of, module_of
 
 pin = pytest.importorskip("pinocchio")
 
-from test_free_flyer import _example_robot  # noqa: E402
+from test_free_flyer import _example_robot, free_flyer_model  # noqa: E402
 from test_mimic import FLOATING_ARM, _pinocchio_free_flyer  # noqa: E402
 from test_spherical import _pinocchio, _tree  # noqa: E402
 
@@ -78,15 +76,9 @@ def test_panda_fixed_base(tmp_path):
 def test_legged_robots_with_a_floating_base(relative, tmp_path):
     path = _example_robot(relative)
     robot = dynderive.load_robot(path, floating_base=True)
-    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
-    where = offsets(robot)
-    qp, vp = [], []
-    for name, joint in zip(model.names[1:], model.joints[1:]):
-        ours = identifier(name)
-        qp.extend(range(where.q[ours], where.q[ours] + joint.nq))
-        vp.extend(range(where.v[ours], where.v[ours] + joint.nv))
+    model, qp, vp = free_flyer_model(path, robot)
     module = generated_module(dynderive.render_code(dynderive.derive(robot)), robot.name)
-    _agree(module, model, np.array(qp), np.array(vp), seed=len(relative), states=2)
+    _agree(module, model, qp, vp, seed=len(relative), states=2)
 
 
 @pytest.mark.parametrize("seed", range(3))

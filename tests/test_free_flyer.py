@@ -136,6 +136,15 @@ def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
     path = _example_robot(relative)
     robot = dynderive.load_robot(path, floating_base=True)
     assert robot.joints[0].name == "root_joint" and robot.joints[0].type == "floating"
+    model, qp, vp = free_flyer_model(path, robot)
+    module = _module(robot, tmp_path)
+    _compare(robot, module, model, qp, vp, seed=len(relative))
+    _coriolis_and_derivatives(module, model, qp, vp, seed=len(relative))
+
+
+def free_flyer_model(path: Path, robot) -> tuple:
+    """Pinocchio's ``buildModelFromUrdf(path, JointModelFreeFlyer())`` and where its q and v
+    entries are in ours (``robot`` loaded with ``floating_base=True``)."""
     model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
     where = offsets(robot)
     qp, vp = [], []
@@ -143,9 +152,7 @@ def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
         ours = identifier(name)
         qp.extend(range(where.q[ours], where.q[ours] + joint.nq))
         vp.extend(range(where.v[ours], where.v[ours] + joint.nv))
-    module = _module(robot, tmp_path)
-    _compare(robot, module, model, np.array(qp), np.array(vp), seed=len(relative))
-    _coriolis_and_derivatives(module, model, np.array(qp), np.array(vp), seed=len(relative))
+    return model, np.array(qp), np.array(vp)
 
 
 def _coriolis_and_derivatives(module, model, qp, vp, seed: int) -> None:
