@@ -49,6 +49,11 @@ ROBOTS = sorted(p.stem for p in (ROOT / "robots").glob("*.yaml")) + ["panda", "u
 EXTRA = [str(ROOT / "tests" / "loops" / "double_parallelogram.yaml")]
 LOOP_ROBOTS = {"four_bar", "slider_crank", "bennett", "spatial_four_bar", *EXTRA}
 TOLERANCE = 1e-10
+#: The centre of mass and centroidal momentum (3-D robots): each function's MATLAB arguments.
+CENTROIDAL = {"total_mass": "", "center_of_mass": "q", "center_of_mass_velocity": "q, qd",
+              "center_of_mass_jacobian": "q", "center_of_mass_acceleration_bias": "q, qd",
+              "centroidal_momentum_matrix": "q", "centroidal_momentum": "q, qd", "centroidal_momentum_bias": "q, qd",
+              "centroidal_inertia": "q"}
 
 
 def _write(derivation, directory: Path) -> dict[str, str]:
@@ -176,6 +181,12 @@ def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
             calls.add(f"{tag}J{number}", f"frame_jacobian(q, {which}, p)", module.frame_jacobian(q, frame, **kwargs))
             calls.add(f"{tag}a{number}", f"frame_jacobian_dot_qd(q, qd, {which}, p)",
                       module.frame_jacobian_dot_qd(q, qd, frame, **kwargs))
+        if hasattr(module, "total_mass"):   # 3-D robots: the centre of mass and centroidal momentum
+            for function, arguments in CENTROIDAL.items():
+                given = [a for a in arguments.split(", ") if a]
+                values = {"q": q, "qd": qd}
+                calls.add(tag + function, f"{function}({', '.join([*given, 'p'])})",
+                          getattr(module, function)(*(values[a] for a in given), **kwargs))
         if loops:
             calls.add(tag + "lc", "loop_constraints(q, p)", module.loop_constraints(q, **kwargs))
             calls.add(tag + "lj", "loop_jacobian(q, p)", module.loop_jacobian(q, **kwargs))
@@ -185,13 +196,6 @@ def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
               module.mass_matrix(np.zeros(len(module.COORDINATES))))
     calls.check(_octave(tmp_path, "\n".join(calls.lines) + "\n"))
     assert f"+{name}/parameters.m" in files
-
-
-#: The centre of mass and centroidal momentum (3-D robots): each function's MATLAB arguments.
-CENTROIDAL = {"total_mass": "", "center_of_mass": "q", "center_of_mass_velocity": "q, qd",
-              "center_of_mass_jacobian": "q", "center_of_mass_acceleration_bias": "q, qd",
-              "centroidal_momentum_matrix": "q", "centroidal_momentum": "q, qd", "centroidal_momentum_bias": "q, qd",
-              "centroidal_inertia": "q"}
 
 
 @needs_octave
