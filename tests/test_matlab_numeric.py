@@ -10,6 +10,10 @@ Floating-base robots too: every function, run in GNU Octave, agrees with the Num
 random floating tree with full-precision numbers, random trees with spherical joints and a free
 box with a non-default parameter; ``solve --matlab`` and ``build --matlab`` write the package.
 
+The centre of mass and centroidal momentum functions (3-D robots) agree with the NumPy module to
+1e-12 relative on the Panda and the floating tests/floating_elbow.urdf, with link parameters made
+symbolic, and run in Octave without a warning.
+
 Needs GNU Octave: skipped locally without it, required in CI (CI=true).
 """
 
@@ -45,6 +49,11 @@ ROBOTS = sorted(p.stem for p in (ROOT / "robots").glob("*.yaml")) + ["panda", "u
 EXTRA = [str(ROOT / "tests" / "loops" / "double_parallelogram.yaml")]
 LOOP_ROBOTS = {"four_bar", "slider_crank", "bennett", "spatial_four_bar", *EXTRA}
 TOLERANCE = 1e-10
+#: The centre of mass and centroidal momentum (3-D robots): each function's MATLAB arguments.
+CENTROIDAL = {"total_mass": "", "center_of_mass": "q", "center_of_mass_velocity": "q, qd",
+              "center_of_mass_jacobian": "q", "center_of_mass_acceleration_bias": "q, qd",
+              "centroidal_momentum_matrix": "q", "centroidal_momentum": "q, qd", "centroidal_momentum_bias": "q, qd",
+              "centroidal_inertia": "q"}
 
 
 def _write(derivation, directory: Path) -> dict[str, str]:
@@ -55,13 +64,17 @@ def _write(derivation, directory: Path) -> dict[str, str]:
     return files
 
 
-def _octave(directory: Path, script: str) -> str:
+def _octave(directory: Path, script: str, warnings: bool = True) -> str:
+    """Octave's output of ``script`` run in ``directory``; no error (``warnings`` False: no
+    warning either)."""
     (directory / "run_checks.m").write_text(script)
     result = subprocess.run([OCTAVE, "--no-gui", "--quiet", "--no-window-system", "--eval", "run_checks"],
                             cwd=directory, capture_output=True, text=True, timeout=300)
     assert "error:" not in result.stdout, result.stdout
     assert result.returncode == 0 and "error: " not in result.stderr.replace(
         "error: ignoring const execution_exception& while preparing to exit", ""), result.stderr
+    if not warnings:
+        assert "warning" not in (result.stdout + result.stderr).lower(), result.stdout + result.stderr
     return result.stdout
 
 
@@ -90,8 +103,8 @@ class _Calls:
     """Octave lines that print each result as ``label rows cols v1 v2 ...`` (row-major, %.17g),
     and the NumPy module's value of each label."""
 
-    def __init__(self, package: str):
-        self.package, self.lines, self.expected = package, [], {}
+    def __init__(self, package: str, tolerance: float = TOLERANCE):
+        self.package, self.lines, self.expected, self.tolerance = package, [], {}, tolerance
 
     def add(self, label: str, call: str, expected, outputs: int = 1) -> None:
         if outputs == 1:
@@ -118,7 +131,7 @@ class _Calls:
                 want = want.reshape(got.shape)
             scale = max(1.0, float(np.max(np.abs(want)))) if want.size else 1.0
             error = float(np.max(np.abs(got - want))) if want.size else 0.0
-            assert error <= TOLERANCE * scale, f"{label}: {error:.3g} off (scale {scale:.3g})\n{got}\n{want}"
+            assert error <= self.tolerance * scale, f"{label}: {error:.3g} off (scale {scale:.3g})\n{got}\n{want}"
             seen.add(label)
         assert seen == set(self.expected), f"missing from Octave's output: {sorted(set(self.expected) - seen)}"
 
@@ -168,6 +181,12 @@ def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
             calls.add(f"{tag}J{number}", f"frame_jacobian(q, {which}, p)", module.frame_jacobian(q, frame, **kwargs))
             calls.add(f"{tag}a{number}", f"frame_jacobian_dot_qd(q, qd, {which}, p)",
                       module.frame_jacobian_dot_qd(q, qd, frame, **kwargs))
+        if hasattr(module, "total_mass"):   # 3-D robots: the centre of mass and centroidal momentum
+            for function, arguments in CENTROIDAL.items():
+                given = [a for a in arguments.split(", ") if a]
+                values = {"q": q, "qd": qd}
+                calls.add(tag + function, f"{function}({', '.join([*given, 'p'])})",
+                          getattr(module, function)(*(values[a] for a in given), **kwargs))
         if loops:
             calls.add(tag + "lc", "loop_constraints(q, p)", module.loop_constraints(q, **kwargs))
             calls.add(tag + "lj", "loop_jacobian(q, p)", module.loop_jacobian(q, **kwargs))
@@ -177,6 +196,44 @@ def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
               module.mass_matrix(np.zeros(len(module.COORDINATES))))
     calls.check(_octave(tmp_path, "\n".join(calls.lines) + "\n"))
     assert f"+{name}/parameters.m" in files
+
+
+@needs_octave
+@pytest.mark.parametrize(("robot", "symbolic"), [("panda", "panda_link7.*"),
+                                                 (str(ROOT / "tests" / "floating_elbow.urdf"), "*.mass")],
+                         ids=["panda", "floating_elbow"])
+def test_centroidal_functions_agree_with_numpy(robot, symbolic, tmp_path):
+    """Every centroidal function, run warning-free in Octave, equals the NumPy module's to 1e-12
+    relative at random full-precision states (unit quaternions on the floating base): with p
+    omitted, the defaults' struct and other values of the link parameters ``symbolic`` makes."""
+    derivation = dynderive.derive(dynderive.load_robot(robot, symbolic=symbolic))
+    name = derivation.robot.name
+    module = import_code(dynderive.render_code(derivation), tmp_path, f"{name}_centroidal_dynamics")
+    files = _write(derivation, tmp_path)
+    assert {f"+{name}/{f}.m" for f in CENTROIDAL} <= set(files)
+    rng = np.random.default_rng(43)
+    changed = {k: v * rng.uniform(0.8, 1.2) for k, v in module.PARAMETERS.items()}
+    assert len(changed) > 1   # the link's parameters besides g
+    calls = _Calls(name, tolerance=1e-12)
+    calls.lines.append(f"p0 = {name}.parameters();")
+    calls.add("mass_omitted", "total_mass()", module.total_mass())
+    states = random_configurations(derivation.robot, rng, 3)
+    for index, q in enumerate(states):
+        qd = rng.normal(size=len(derivation.symbols.qd))
+        kwargs = changed if index == 2 else {}
+        fields = "".join(f"p.{k} = {format(v, '.17g')}; " for k, v in kwargs.items())
+        calls.lines.append(f"p = p0; {fields}q = {_vector(q)}; qd = {_vector(qd)};")
+        for function, arguments in CENTROIDAL.items():
+            given = [a for a in arguments.split(", ") if a]
+            call = f"{function}({', '.join([*given, '[]' if index == 0 else 'p'])})"
+            values = {"q": q, "qd": qd}
+            calls.add(f"s{index}_{function}", call, getattr(module, function)(*(values[a] for a in given), **kwargs))
+    calls.lines.append(f"help {name}.centroidal_momentum_matrix")
+    output = _octave(tmp_path, "\n".join(calls.lines) + "\n", warnings=False)
+    calls.check(output)
+    nv = len(derivation.symbols.qd)
+    assert f"Centroidal momentum matrix A_G(q): linear, then angular momentum about the centre of mass, world axes, " \
+           f"6 x {nv}." in output
 
 
 def _double_pendulum_energy(tmp_path: Path) -> list[float]:

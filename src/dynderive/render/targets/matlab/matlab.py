@@ -2,8 +2,8 @@
 per file.
 
 The same straight-line programs as the NumPy and C targets (``Derivation.programs``,
-``frame_programs``; a small planar robot's explicit M, C, N, V with common subexpressions
-eliminated), printed for MATLAB by ``matlab_print.py``'s ``MatlabPrinter`` (SymPy's ``OctaveCodePrinter``, with
+``frame_programs``, a 3-D robot's ``centroidal_programs``; a small planar robot's explicit M,
+C, N, V with common subexpressions eliminated), printed for MATLAB by ``matlab_print.py``'s ``MatlabPrinter`` (SymPy's ``OctaveCodePrinter``, with
 numbers as exact double literals of 17 significant digits, integer powers as products and
 ``~`` for negation) and ``FastMatlabPrinter`` (the project's fast line printer with the same
 numbers and powers). Every value is a scalar: ``*``, ``/`` and products print the same in
@@ -121,6 +121,7 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
                   ["if nargin < 1 || isempty(p)", f"    p = {name}.parameters();", "end", f"pi_ = zeros({count}, 1);",
                    *expression_body(names, [v.value for v in derivation.parameter_vector], vector_targets("pi_", count))]),
         *_frame_functions(derivation, names),
+        *_centroidal_functions(derivation, names),
     ]
     if not robot.loops:
         functions += [_forward_dynamics(derivation), _linearize(derivation, names)]
@@ -265,6 +266,46 @@ def _frame_functions(derivation: Derivation, names: Names) -> list[MFunction]:
         functions.append(MFunction(f"frame_{kind}", out, [*vectors, "frame", "p"],
                                    [summary, "", f"   frame: its name, or its number in the robot file's order: {listing}"],
                                    body))
+    return functions
+
+
+#: Each centroidal function's output (the CasADi module's names) and its help lines after the
+#: API table's.
+CENTROIDAL_FUNCTIONS = {
+    "total_mass": ("m", ["   Links welded to the world are left out (Pinocchio's universe)."]),
+    "center_of_mass": ("c", ["   Links welded to the world are left out (Pinocchio's universe)."]),
+    "center_of_mass_velocity": ("cdot", []),
+    "center_of_mass_jacobian": ("J_G", ["   cdot = J_G*qd."]),
+    "center_of_mass_acceleration_bias": ("Jdot_G_qd", ["   The centre of mass accelerates by J_G*qdd + Jdot_G_qd."]),
+    "centroidal_momentum_matrix": ("A_G", []),
+    "centroidal_momentum": ("h_G", []),
+    "centroidal_momentum_bias": ("Adot_G_qd", ["   The centroidal momentum changes at A_G*qdd + Adot_G_qd."]),
+    "centroidal_inertia": ("I_G", []),
+}
+
+
+def _centroidal_functions(derivation: Derivation, names: Names) -> list[MFunction]:
+    """Centre of mass and centroidal momentum of a 3-D robot (``Derivation.centroidal_programs``,
+    matrices row by row; none for a planar robot), with the API table's arguments."""
+    programs = derivation.centroidal_programs
+    if programs is None:
+        return []
+    name, size = derivation.robot.name, api.sizes(derivation)
+    functions = []
+    for kind, (out, help_lines) in CENTROIDAL_FUNCTIONS.items():
+        vectors = list(api.BY_NAME[kind].arguments)
+        (shape,) = api.shapes(kind, size)
+        if len(shape) == 2:
+            targets, empty = matrix_targets(out, *shape), [f"{out} = zeros({shape[0]}, {shape[1]});"]
+        elif shape:
+            targets, empty = vector_targets(out, shape[0]), [f"{out} = zeros({shape[0]}, 1);"]
+        else:   # total_mass: one number
+            targets, empty = [out], []
+        call = f"   {out} = {name}.{kind}({', '.join([*vectors, 'p'])})"
+        functions.append(MFunction(kind, out, [*vectors, "p"],
+                                   [help_line(derivation, kind), *help_lines, "", call],
+                                   [*prologue(derivation, vectors, len(vectors) + 1), *empty,
+                                    *program_body(names, getattr(programs, kind), targets)]))
     return functions
 
 

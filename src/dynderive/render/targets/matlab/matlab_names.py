@@ -36,6 +36,7 @@ error ischar strcmp isnumeric numel struct nan NaN pi size reshape max min any a
 q qd qdd u p frame M C N V F Y A B R X K E D G T J W x s r top bottom rhs solution lambda tau n index
 Ur Ar Ub ans Adot Aj a alpha beta pi_ qdd0 loop_solve isstring isequal tanh
 dtau_dq dtau_dqd dqdd_dq dqdd_dqd dqdd_du
+m c cdot J_G Jdot_G_qd A_G h_G Adot_G_qd I_G
 """.split())
 
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
