@@ -469,6 +469,22 @@ def test_simulate_holds_the_contacts(tmp_path):
     assert result.exit_code == 0 and "holding" not in result.output, result.output
 
 
+
+@pytest.mark.parametrize("arguments, message", [
+    (["rp_arm", "--contacts", "tip"], "--contacts:1:1: contact dynamics are 3-D only (this robot is planar)"),
+    (["bennett", "--contacts", "tip"], "--contacts:1:1: contact dynamics are not built for robots with closed loops"),
+    (["HELD", "--contacts", "pad:edge"], "--contacts:1:1: unknown contact kind 'edge' of pad; expected point or surface"),
+    (["HELD", "--contacts", "pad,pad"], "--contacts:1:5: frame 'pad' is listed twice"),
+])
+def test_simulate_refuses_contacts_it_cannot_hold(arguments, message, tmp_path):
+    if arguments[0] == "HELD":
+        path = tmp_path / "held.yaml"
+        path.write_text(HELD)
+        arguments = [str(path), *arguments[1:]]
+    result = runner.invoke(app, ["simulate", *arguments, "--duration", "0.1", "--quiet"])
+    assert result.exit_code == 2 and result.output.startswith(message), result.output
+
+
 HELD = """name: held
 title: A free box with an arm, held at a pad
 planar: false
