@@ -325,6 +325,8 @@ def test_run_time_errors(folder):
         module.constrained_forward_dynamics(q, qd, u, [("toe", "line")])
     with pytest.raises(ValueError, match="held twice"):
         module.constrained_forward_dynamics(q, qd, u, ["toe", 1])
+    with pytest.raises(ValueError, match="a pair"):
+        module.constrained_forward_dynamics(q, qd, u, ["toe"], baumgarte=1.0)
     with pytest.raises(ValueError, match="kp needs anchors"):
         module.constrained_forward_dynamics(q, qd, u, ["toe"], baumgarte=(1.0, 0.0))
     qdd, forces = module.constrained_forward_dynamics(q, qd, u, "toe")   # one name: one contact
