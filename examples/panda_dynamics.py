@@ -7805,3 +7805,194 @@ def regressor(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
     """
     arrays = [_coordinates("q", q, 7), _coordinates("qd", qd, 7), _coordinates("qdd", qdd, 7)]
     return _evaluate(_regressor_body, arrays, (7, 70), {"g": g})
+
+
+#: The frames held by contacts by default (the robot file's ``contacts:``) and each one's kind:
+#: "point" (the origin's acceleration is held: 3 forces in world-aligned axes) or "surface" (the
+#: frame's whole twist is held: a force and a moment, 6, in the frame's own axes). A frame not
+#: listed here is a point contact unless a (frame, kind) pair says otherwise.
+CONTACTS = ()
+CONTACT_KINDS = {}
+
+
+def _contact_list(contacts):
+    """[(frame, kind)] of ``contacts``: frame names, indices of FRAMES or (frame, kind) pairs (a
+    single name is one contact); a frame without a kind takes its CONTACT_KINDS entry, else point."""
+    if isinstance(contacts, str):
+        contacts = (contacts,)
+    try:
+        items = list(contacts)
+    except TypeError:
+        raise ValueError("contacts must be a sequence of frame names, indices of FRAMES or (frame, kind) pairs, "
+                         f"got {contacts!r}") from None
+    held = []
+    for item in items:
+        frame, kind = item if isinstance(item, (tuple, list)) and len(item) == 2 else (item, None)
+        if isinstance(item, (tuple, list)) and len(item) != 2:
+            raise ValueError(f"a contact is a frame or a (frame, kind) pair, got {item!r}")
+        if not isinstance(frame, (str, bool)) and hasattr(type(frame), "__index__"):
+            index = type(frame).__index__(frame)
+            if not -len(FRAMES) <= index < len(FRAMES):
+                raise ValueError(f"contact frame index {index} is out of range (FRAMES has {len(FRAMES)} frames)")
+            frame = FRAMES[index]
+        _frame_bodies(frame)   # refuses a name that is no frame
+        kind = CONTACT_KINDS.get(frame, "point") if kind is None else kind
+        if kind not in ("point", "surface"):
+            raise ValueError(f"contact kind of {frame!r} must be 'point' or 'surface', got {kind!r}")
+        if any(frame == other for other, _ in held):
+            raise ValueError(f"frame {frame!r} is held twice in contacts")
+        held.append((frame, kind))
+    return held
+
+
+def _contact_rows(q, qd, held, anchors, parameters):
+    """The stacked contact Jacobian J (..., k, NV), its drift Jdot qd (..., k) (None without qd)
+    and, with ``anchors``, the position error (..., k). Point contacts: the origin's rows of
+    frame_jacobian (world-aligned); surface contacts: blockdiag(R^T, R^T) J, the frame's twist in
+    its own axes, whose drift is the spatial acceleration at qdd = 0 in those axes (the classical
+    acceleration minus omega x v, rotated)."""
+    jacobians, drifts, errors = [], [], []
+    for index, (frame, kind) in enumerate(held):
+        jacobian = frame_jacobian(q, frame, **parameters)
+        bias = None if qd is None else frame_jacobian_dot_qd(q, qd, frame, **parameters)
+        anchor = None if anchors is None else np.asarray(anchors[index], dtype=float)
+        if kind == "point":
+            jacobians.append(jacobian[..., :3, :])
+            if bias is not None:
+                drifts.append(bias[..., :3])
+            if anchor is not None:
+                if anchor.ndim == 0 or anchor.shape[-1] != 3:
+                    raise ValueError(f"the anchor of point contact {frame!r} must have shape (..., 3), got {anchor.shape}")
+                errors.append(frame_transform(q, frame, **parameters)[..., :3, 3] - anchor)
+            continue
+        pose = frame_transform(q, frame, **parameters)
+        transposed = np.swapaxes(pose[..., :3, :3], -1, -2)
+        jacobians.append(np.concatenate([transposed @ jacobian[..., :3, :], transposed @ jacobian[..., 3:, :]], axis=-2))
+        if bias is not None:
+            twist = _matvec(jacobian, qd)
+            linear = bias[..., :3] - np.cross(twist[..., 3:], twist[..., :3])
+            drifts.append(np.concatenate([_matvec(transposed, linear), _matvec(transposed, bias[..., 3:])], axis=-1))
+        if anchor is not None:
+            if anchor.ndim < 2 or anchor.shape[-2:] != (4, 4):
+                raise ValueError(f"the anchor of surface contact {frame!r} must have shape (..., 4, 4), got {anchor.shape}")
+            turn = np.swapaxes(anchor[..., :3, :3], -1, -2) @ pose[..., :3, :3]   # R_ref^T R
+            skew = (turn - np.swapaxes(turn, -1, -2)) / 2
+            errors.append(np.concatenate([_matvec(transposed, pose[..., :3, 3] - anchor[..., :3, 3]),
+                                          np.stack([skew[..., 2, 1], skew[..., 0, 2], skew[..., 1, 0]], axis=-1)], axis=-1))
+    batch = np.broadcast_shapes(*(e.shape[:-1] for e in errors)) if errors else None
+    return (np.concatenate(jacobians, axis=-2), np.concatenate(drifts, axis=-1) if drifts else None,
+            np.concatenate([np.broadcast_to(e, batch + e.shape[-1:]) for e in errors], axis=-1) if errors else None)
+
+
+def _schur_solve(mass, jacobian, free, target, held):
+    """(x, lam) with M x = M free + J^T lam and J x = target: lam = S^-1 (target - J free) with the
+    Schur complement S = J M^-1 J^T (symmetric positive definite when the contacts' rows are
+    independent), x = free + M^-1 J^T lam. Refuses a singular S (redundant contacts): their forces are not unique.
+    """
+    batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], free.shape[:-1], target.shape[:-1])
+    n, k = mass.shape[-1], jacobian.shape[-2]
+    mass = np.broadcast_to(mass, batch + (n, n))
+    jacobian = np.broadcast_to(jacobian, batch + (k, n))
+    inverse_jt = np.linalg.solve(mass, np.swapaxes(jacobian, -1, -2))   # M^-1 J^T, (..., n, k)
+    schur = jacobian @ inverse_jt
+    schur = (schur + np.swapaxes(schur, -1, -2)) / 2
+    _independent_contacts(schur, held)
+    residual = np.broadcast_to(target, batch + (k,)) - _matvec(jacobian, free)
+    forces = np.linalg.solve(schur, residual[..., None])[..., 0]
+    return free + _matvec(inverse_jt, forces), forces
+
+
+#: The smallest eigenvalue of J M^-1 J^T, relative to its largest, below which the contacts count
+#: as redundant (their constraint rows dependent): a condition number above 1e12.
+CONTACT_RANK_TOLERANCE = 1e-12
+
+
+def _independent_contacts(schur, held):
+    """Refuse redundant contacts: J M^-1 J^T singular (to CONTACT_RANK_TOLERANCE) somewhere."""
+    finite = np.all(np.isfinite(schur), axis=(-2, -1))
+    values = np.linalg.eigvalsh(np.where(finite[..., None, None], schur, np.eye(schur.shape[-1])))
+    if np.any(values[..., 0] <= CONTACT_RANK_TOLERANCE * np.abs(values[..., -1])):
+        names = ", ".join(f"{frame} ({kind})" for frame, kind in held)
+        raise ValueError(f"the contacts {names} are redundant here: J M^-1 J^T ({schur.shape[-1]} x {schur.shape[-1]}) is "
+                         "singular, their constraint rows are dependent and their forces not unique; hold fewer "
+                         "contacts (a point contact instead of a surface one, or fewer frames)")
+
+
+def constrained_forward_dynamics(q, qd, u=None, contacts=CONTACTS, baumgarte=(0, 0), *, anchors=None, wrenches=None,
+                                 friction_smoothing=0.0, g=9.81):
+    """(qdd, forces) with the contacts held: [[M, J^T], [J, 0]] [qdd; -forces] = [tau - h; -gamma] (Pinocchio's ``forwardDynamics``), shapes (..., 7) and (..., 0).
+    Solves the KKT system [[M, J^T], [J, 0]] [qdd; -forces] = [tau - h; -gamma] as Pinocchio's
+    ``forwardDynamics(model, data, q, v, tau, J, gamma, 0)``: M qdd = tau - h + J^T forces, J qdd = -gamma,
+    with h = inverse_dynamics(q, qd, 0) (Coriolis, gravity, minus J^T w of ``wrenches``) and tau
+    the efforts' generalized forces; by the Schur complement
+    J M^-1 J^T (redundant contacts, a singular complement, raise ValueError).
+
+    contacts: the frames held, a sequence of names or indices of FRAMES or (frame, kind) pairs,
+    kind "point" or "surface" (default: CONTACT_KINDS, else "point"). A point contact holds the
+    frame origin's acceleration in world-aligned axes (Pinocchio CONTACT_3D, LOCAL_WORLD_ALIGNED):
+    rows J = frame_jacobian[:3], gamma = frame_jacobian_dot_qd[:3], 3 forces in world axes. A surface
+    contact holds the frame's twist in its own axes (CONTACT_6D, LOCAL): J = blockdiag(R^T, R^T)
+    frame_jacobian, gamma its spatial acceleration at qdd = 0 in those axes, 6 forces (force, then
+    moment about the origin) in the frame's axes. Forces are those the environment applies to the robot.
+    baumgarte: (kp, kd); gamma += kd J qd + kp e, so that the contact's acceleration is
+    -kd (velocity) - kp e. e, the position error, needs ``anchors`` (one per contact, in order: a
+    point's held position (..., 3) in the world, a surface's held pose (..., 4, 4)): e = p - p_ref for
+    a point; R^T (p - p_ref) and vee of the skew part of R_ref^T R (first order in the angle) for a
+    surface. kp must be 0 without anchors.
+
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd: velocities, shape (..., 7)
+    u: efforts ("tau_panda_joint1", "tau_panda_joint2", "tau_panda_joint3", "tau_panda_joint4", "tau_panda_joint5", "tau_panda_joint6", "tau_panda_joint7"), shape (..., 7); None means no effort.
+    wrenches, friction_smoothing: as for ``forward_dynamics``.
+    Returns (qdd (..., 7), forces (..., k)), k = 3 per point and 6 per surface contact.
+    """
+    q = _coordinates("q", q, 7)
+    qd = _coordinates("qd", qd, 7)
+    if u is None:
+        u = np.zeros(7)
+    u = _coordinates("u", u, 7)
+    _held = _contact_list(contacts)
+    try:
+        _kp, _kd = baumgarte
+    except (TypeError, ValueError):
+        raise ValueError(f"baumgarte must be a pair (kp, kd), got {baumgarte!r}") from None
+    if anchors is None and not (isinstance(_kp, (int, float)) and _kp == 0):
+        raise ValueError("baumgarte's kp needs anchors (the held positions and poses): without them kp must be 0")
+    if anchors is not None and len(anchors) != len(_held):
+        raise ValueError(f"anchors must hold one entry per contact ({len(_held)}), got {len(anchors)}")
+    _parameters = {"g": g}
+    _tau = generalized_forces(q, u, **_parameters)
+    _bias = inverse_dynamics(q, qd, np.zeros_like(qd), wrenches, friction_smoothing=friction_smoothing, **_parameters)
+    _mass = mass_matrix(q, **_parameters)
+    batch = np.broadcast_shapes(_mass.shape[:-2], _tau.shape[:-1], _bias.shape[:-1])
+    _free = np.linalg.solve(np.broadcast_to(_mass, batch + _mass.shape[-2:]),
+                            np.broadcast_to(_tau - _bias, batch + _tau.shape[-1:])[..., None])[..., 0]
+    if not _held:
+        return _free, np.zeros(batch + (0,))
+    _jacobian, _drift, _error = _contact_rows(q, qd, _held, anchors, _parameters)
+    _gamma = _drift + _kd * _matvec(_jacobian, qd)
+    if _error is not None:
+        _gamma = _gamma + _kp * _error
+    return _schur_solve(_mass, _jacobian, _free, -_gamma, _held)
+
+
+def impulse_dynamics(q, qd_minus, contacts=CONTACTS, restitution=0, *, g=9.81):
+    """(qd_plus, impulses) of an impact on the contacts: M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus (Pinocchio's ``impulseDynamics``), shapes (..., 7) and (..., 0).
+    The velocity jump of an impact that makes the contacts hold, as Pinocchio's ``impulseDynamics(model,
+    data, q, v_before, J, restitution, 0)``: M (qd_plus - qd_minus) = J^T impulses and J qd_plus =
+    -restitution J qd_minus, by the Schur complement J M^-1 J^T (redundant contacts raise ValueError).
+
+    q: joint coordinates ("panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"), shape (..., 7); qd_minus: velocities before the impact, shape (..., 7)
+    contacts: as for ``constrained_forward_dynamics`` (point: world-aligned; surface: the frame's axes).
+    restitution: 0 (the contacts stop: plastic impact) to 1 (their velocities reverse: elastic).
+    Returns (qd_plus (..., 7), impulses (..., k)), k = 3 per point and 6 per surface contact.
+    """
+    q = _coordinates("q", q, 7)
+    qd_minus = _coordinates("qd_minus", qd_minus, 7)
+    _held = _contact_list(contacts)
+    _parameters = {"g": g}
+    if not _held:
+        batch = np.broadcast_shapes(q.shape[:-1], qd_minus.shape[:-1])
+        return np.broadcast_to(qd_minus, batch + qd_minus.shape[-1:]), np.zeros(batch + (0,))
+    _jacobian = _contact_rows(q, None, _held, None, _parameters)[0]
+    return _schur_solve(mass_matrix(q, **_parameters), _jacobian, qd_minus,
+                        -restitution * _matvec(_jacobian, qd_minus), _held)

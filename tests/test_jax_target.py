@@ -106,7 +106,7 @@ def _agree(numpy_module, jax_module, seed: int, count: int = 3, traced: bool = F
         assert getattr(numpy_module, constant) == getattr(jax_module, constant)
     rng = np.random.default_rng(seed)
     q, qd, qdd, u = _states(numpy_module, rng, count)
-    state = {"q": q, "qd": qd, "qdd": qdd, "u": u, "q_guess": q + 1e-3 * rng.normal(size=q.shape)}
+    state = {"q": q, "qd": qd, "qd_minus": qd, "qdd": qdd, "u": u, "q_guess": q + 1e-3 * rng.normal(size=q.shape)}
     if hasattr(numpy_module, "MAXIMAL_COORDINATES"):
         size = len(numpy_module.MAXIMAL_COORDINATES)
         state |= {"qm": rng.uniform(-1, 1, (count, size)), "qmd": rng.normal(size=(count, size))}
@@ -445,7 +445,7 @@ def _floating_states(module, rng, count: int) -> dict:
     nv = module.NV
     return {"q": module.integrate(module.neutral_configuration(), rng.uniform(-2.0, 2.0, (count, nv))),
             "q_from": module.integrate(module.neutral_configuration(), rng.uniform(-2.0, 2.0, (count, nv))),
-            "qd": rng.normal(size=(count, nv)), "qdd": rng.normal(size=(count, nv)), "v": rng.normal(size=(count, nv)),
+            "qd": rng.normal(size=(count, nv)), "qd_minus": rng.normal(size=(count, nv)), "qdd": rng.normal(size=(count, nv)), "v": rng.normal(size=(count, nv)),
             "u": rng.normal(size=(count, len(module.EFFORTS)))}
 
 

@@ -293,6 +293,9 @@ def simulate(
     force: Annotated[list[str] | None, typer.Option("--force", help="FRAME=EXPR,EXPR,..(t, q, qd): a wrench at a frame "
                      "in world axes (planar fx,fy,n; 3-D fx,fy,fz,nx,ny,nz), repeatable.")] = None,
     coordinates: Annotated[str, typer.Option("--coordinates", help="generalized or maximal (planar robots).")] = "generalized",
+    contacts: Annotated[str | None, typer.Option("--contacts", help="FRAME[:point|surface][,...]: frames held by "
+                        "contacts (3-D robots), anchored where they start; 'none' for none (default: the robot "
+                        "file's contacts).")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift); "
                                   "needs matplotlib (the plot extra).")] = None,
     csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
@@ -302,7 +305,8 @@ def simulate(
                       "when needed), Radau, BDF (stiff), RK45, DOP853 (explicit: slow on stiff robots).")] = "LSODA",
     rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator.")] = 1e-9,
     atol: Annotated[float, typer.Option("--atol", help="Absolute tolerance of the integrator.")] = 1e-9,
-    baumgarte: Annotated[float, typer.Option("--baumgarte", help="Baumgarte gain (alpha = beta) for maximal runs.")] = 10.0,
+    baumgarte: Annotated[float, typer.Option("--baumgarte", help="Baumgarte gain b: alpha = beta = b for maximal runs and "
+                         "loops; contacts take kp = b**2, kd = 2 b.")] = 10.0,
     frames: Annotated[int, typer.Option("--frames", help="Output samples (and animation frames).")] = 101,
     param: Params = None,
     friction_smoothing: Annotated[float, typer.Option("--friction-smoothing", help="Coulomb friction: sign(qd) "
@@ -347,6 +351,7 @@ def simulate(
     start_q = simulation.initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
+    held = simulation.parse_contacts(model, contacts, coordinates, bool(loaded.load))
     efforts = simulation.parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
         raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))
@@ -357,7 +362,7 @@ def simulate(
     trajectory = simulation.simulate(derivation, source, duration, start_q,
                      np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
                      baumgarte, frames, progress, friction_smoothing, wrenches, method,
-                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled)
+                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled, held)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")

@@ -13,6 +13,12 @@ sphere), from output frame to output frame: at each frame the quaternions are no
 integrator's own error moves them off the sphere by about its tolerance) and the run goes on
 from there, as closed loops are projected back onto their constraints; the right-hand side
 evaluates the dynamics at normalized quaternions too.
+
+``--contacts`` (3-D robots without loops; default: the robot file's ``contacts:``, ``none`` for
+none) holds frames with the module's ``constrained_forward_dynamics``: the start velocity is
+first made to respect them (``impulse_dynamics``, a plastic impact at t = 0), and the contacts
+are anchored where they start, held by Baumgarte stabilisation with kp = b**2, kd = 2 b
+(b = ``--baumgarte``: critically damped position and velocity errors).
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ import sympy
 from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError, parse_expression
-from ..model.naming import velocity_name
+from ..model.naming import did_you_mean, velocity_name
 from ..verify.checks import allowed_velocity, generated_module
 from .integrate import DEFAULT_METHOD, Culprit, Integrator, at_duration, checked, singular_problem
 from .options import problem, split_top_level
@@ -58,6 +64,9 @@ class Trajectory:
     dissipated: np.ndarray | None = None
     #: the velocities' names (the CSV's columns after the coordinates)
     velocity_names: list[str] = field(default_factory=list)
+    #: the contacts held (frame, kind), and the largest distance of a contact from its anchor
+    contacts: list[tuple[str, str]] = field(default_factory=list)
+    contact_drift: float = 0.0
 
 
 def parse_efforts(derivation: Derivation, specs: list[str], maximal: bool) -> Callable[..., np.ndarray]:
@@ -171,6 +180,45 @@ def parse_wrenches(derivation: Derivation, specs: list[str]) -> Callable[..., di
                                 for name, parts in functions.items()}
 
 
+def parse_contacts(robot: Any, text: str | None, coordinates: str, compiled: bool) -> list[tuple[str, str]]:
+    """``--contacts FRAME[:KIND][,FRAME[:KIND]...]`` (KIND point or surface; default the robot
+    file's kind, else point), ``none``, or (not given) the robot file's ``contacts:``: the
+    contacts a run holds, as (frame, kind). Refused (exit 2) where they are not built: planar
+    robots, closed loops, maximal coordinates, the compiled backend."""
+    declared = {c.frame: c.kind for c in robot.contacts}
+    if text is None and declared and compiled:
+        raise InputError(problem("--backend", "the compiled module has no contact dynamics, and the robot file "
+                                 "declares contacts: use --backend numpy, or --contacts none"))
+    if text is None:
+        return list(declared.items())
+    if text.strip().lower() == "none":
+        return []
+    why = ("contact dynamics are 3-D only (this robot is planar)" if robot.planar else
+           "contact dynamics are not built for robots with closed loops" if robot.loops else
+           "contacts are held in generalized coordinates only" if coordinates == "maximal" else
+           "the compiled module has no contact dynamics: use --backend numpy" if compiled else None)
+    if why:
+        raise InputError(problem("--contacts", why))
+    frames = [f.name for f in robot.frames]
+    held: list[tuple[str, str]] = []
+    column = 1
+    for part in text.split(","):
+        name, _, kind = part.strip().partition(":")
+        if name not in frames:
+            hint = did_you_mean(name, frames) or (f" (frames: {', '.join(frames)})" if frames else
+                                                  " (this robot declares no frames)")
+            raise InputError(problem("--contacts", f"unknown frame {name!r}{hint}", column))
+        kind = kind.strip() or declared.get(name, "point")
+        if kind not in ("point", "surface"):
+            raise InputError(problem("--contacts", f"unknown contact kind {kind!r} of {name}; expected point or "
+                                     "surface", column))
+        if any(name == other for other, _ in held):
+            raise InputError(problem("--contacts", f"frame {name!r} is listed twice", column))
+        held.append((name, kind))
+        column += len(part) + 1
+    return held
+
+
 def normalized(q: np.ndarray, starts: tuple[int, ...]) -> np.ndarray:
     """``q`` (a copy) with its quaternions, starting at ``starts``, made unit."""
     q = np.array(q, dtype=float)
@@ -221,7 +269,10 @@ def run_summary(robot: Any, coordinates: str, duration: float, trajectory: Traje
     energy = trajectory.energy
     relative = float(np.max(np.abs(energy - energy[0])) / max(abs(energy[0]), 1e-12))
     where = f"({quaternion_kind(robot)}, on the manifold)" if robot.floating else f"in {coordinates} coordinates"
-    return (f"simulated {duration:g} s of {robot.name} {where}: largest relative energy change {relative:.3g}"
+    held = ", ".join(f"{frame} ({kind})" for frame, kind in trajectory.contacts)
+    return (f"simulated {duration:g} s of {robot.name} {where}"
+            + (f" holding {held} (largest contact drift {trajectory.contact_drift:.3g})" if held else "")
+            + f": largest relative energy change {relative:.3g}"
             + (f", largest constraint drift {np.max(trajectory.drift):.3g}" if trajectory.drift is not None else "")
             + (f", energy dissipated by damping and friction {trajectory.dissipated[-1]:.6g}"
                if trajectory.dissipated is not None else ""))
@@ -246,7 +297,7 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
              friction_smoothing: float = 0.0,
              wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
              method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
-             compiled: Any = None) -> Trajectory:
+             compiled: Any = None, contacts: list[tuple[str, str]] | None = None) -> Trajectory:
     """Integrate the generated dynamics with SciPy's ``method`` (see ``integrate``), from ``q0``
     (NQ entries) and ``qd0`` (NV), on the manifold for a robot with quaternions (module
     docstring). Robots with Coulomb friction use the module's smoothed sign
@@ -255,7 +306,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     one line if the integrator struggles; a state or an effort that stops being finite stops
     the run (InputError). ``compiled``: the C extension (``--backend c``), whose forward
     dynamics, ``configuration_rate`` and friction the integrator calls instead of the NumPy
-    module's (generalized coordinates only)."""
+    module's (generalized coordinates only). ``contacts``: (frame, kind) held (module
+    docstring; generalized coordinates of a 3-D robot without loops)."""
     robot = derivation.robot
     module = generated_module(source, robot.name)
     fast = compiled if compiled is not None else module
@@ -270,15 +322,19 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     dissipative = robot.dissipative and not maximal and not loops
     starts = () if maximal or loops else robot.quaternion_starts
     drift: list[float] = []
+    held = list(contacts or ()) if not maximal else []
     if not maximal:
         rate = fast.configuration_rate if starts else lambda q, qd: qd   # dq/dt
         gains = {"alpha": baumgarte, "beta": baumgarte} if loops else {}
+        forward = fast.forward_dynamics
+        if held:   # anchored where they start; the start velocity made to respect them
+            qd0, forward = _held(module, held, q0, qd0, baumgarte, values)
 
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
             q, qd = normalized(y[:nq], starts), y[nq:nq + nv]
-            qdd = fast.forward_dynamics(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
-                                        friction_smoothing=friction_smoothing, **gains, **values)
+            qdd = forward(q, qd, efforts(time, q, qd), wrenches(time, q, qd),
+                          friction_smoothing=friction_smoothing, **gains, **values)
             if not dissipative:
                 return np.concatenate([rate(q, qd), qdd])
             power = qd @ fast.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
@@ -332,8 +388,32 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         drift += list(np.max(np.abs(module.constraints(position, **values)), axis=-1))
     else:
         energy = module.kinetic_energy(position, velocity, **values) + module.potential_energy(position, **values)
+    contact_drift = 0.0
+    for frame, _ in held:
+        origins = module.frame_transform(position, frame, **values)[:, :3, 3]
+        contact_drift = max(contact_drift, float(np.max(np.linalg.norm(origins - origins[0], axis=-1))))
     return Trajectory(names, times, position, velocity, np.asarray(energy), np.array(drift) if len(drift) else None,
-                      _link_poses(derivation, maximal) if robot.planar else None, dissipated, rates)
+                      _link_poses(derivation, maximal) if robot.planar else None, dissipated, rates, held,
+                      contact_drift)
+
+
+def _held(module: Any, held: list[tuple[str, str]], q0: np.ndarray, qd0: np.ndarray, baumgarte: float,
+          values: dict[str, float]) -> tuple[np.ndarray, Callable[..., np.ndarray]]:
+    """(the start velocity after a plastic impact on the contacts, forward dynamics holding
+    them): anchors at their start poses, Baumgarte gains kp = b**2, kd = 2 b. Redundant
+    contacts are refused at ``--contacts``."""
+    anchors = [module.frame_transform(q0, frame, **values) for frame, _ in held]
+    anchors = [pose[:3, 3] if kind == "point" else pose for pose, (_, kind) in zip(anchors, held)]
+    try:
+        with np.errstate(all="ignore"):
+            qd0 = module.impulse_dynamics(q0, qd0, held, 0.0, **values)[0]
+    except ValueError as exc:
+        raise InputError(problem("--contacts", str(exc))) from None
+
+    def forward(q: np.ndarray, qd: np.ndarray, u: np.ndarray, w: Any, **options: Any) -> np.ndarray:
+        return module.constrained_forward_dynamics(q, qd, u, held, (baumgarte ** 2, 2.0 * baumgarte),
+                                                   anchors=anchors, wrenches=w, **options)[0]
+    return qd0, forward
 
 
 def _finite_start(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray, nq: int, nv: int,

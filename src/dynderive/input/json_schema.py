@@ -110,6 +110,15 @@ def robot_schema() -> dict[str, Any]:
             "origin": origin,
         },
     }
+    contact = {
+        "type": "object", "additionalProperties": False, "required": ["frame"],
+        "description": "a frame held by a contact (3-D robots without loops)",
+        "properties": {
+            "frame": {"type": "string", "description": "a frame of 'frames'"},
+            "kind": {"enum": ["point", "surface"], "default": "point",
+                     "description": "point: the origin held (3 forces); surface: the whole twist (6)"},
+        },
+    }
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://dynderive.invalid/schema/robot-v1.json",
@@ -130,6 +139,7 @@ def robot_schema() -> dict[str, Any]:
             "independent": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern": IDENTIFIER},
                             "description": "robots with loops: coordinates kept independent"},
             "frames": {"type": "array", "minItems": 1, "items": frame},
+            "contacts": {"type": "array", "minItems": 1, "items": contact},
             "maximal": {"type": "object", "additionalProperties": False, "properties": {
                 "constraints": {"type": "array", "items": EXPRESSION}}},
         },

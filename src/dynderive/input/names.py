@@ -32,7 +32,8 @@ PYTHON_BUILTINS = frozenset(name for name in dir(builtins) if not name.startswit
     "copyright", "credits", "exit", "help", "license", "quit"}
 
 #: Argument names of the generated functions, current and planned (DESIGN.md section 6).
-API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess", "friction_smoothing"})
+API_ARGUMENTS = frozenset({"alpha", "beta", "frame", "wrenches", "q_guess", "friction_smoothing",
+                           "contacts", "baumgarte", "anchors", "qd_minus", "restitution"})
 
 #: Public names of the generated module planned in DESIGN.md section 6.
 PLANNED_NAMES = frozenset({
@@ -40,6 +41,7 @@ PLANNED_NAMES = frozenset({
     "assemble", "FRAMES", "frame_transform", "frame_jacobian", "frame_jacobian_dot_qd",
     "linearize", "regressor", "PARAMETER_VECTOR", "parameter_vector", "maximal_kinetic_energy",
     "maximal_potential_energy", "generalized_forces", "maximal_forward_dynamics",
+    "CONTACTS", "CONTACT_KINDS", "CONTACT_RANK_TOLERANCE", "constrained_forward_dynamics", "impulse_dynamics",
 })
 
 #: Names the generated module defines or uses; robot symbols may not take them.

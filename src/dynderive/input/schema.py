@@ -18,6 +18,7 @@ from ..model.expressions import RESERVED, Evaluator
 from ..model.naming import did_you_mean, maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
+from .contacts import read_contacts
 from .drives import DRIVE_KEYS, drive_terms
 from .frames import read_frames
 from .free_joints import check_floating, expand_planar_floating, planar_floating_names, virtual_links
@@ -29,7 +30,7 @@ from .validator import Validator, kind
 JOINT_TYPES = ("revolute", "prismatic", "fixed", "floating", "spherical")
 
 TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "loops", "independent",
-            "frames", "maximal")
+            "frames", "contacts", "maximal")
 PARAMETER_KEYS = ("value", "unit", "description")
 LINK_KEYS = ("name", "mass", "com", "inertia")
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS, "mimic")
@@ -91,6 +92,7 @@ def validate(doc: SourceDocument) -> Robot:
     all_links = links + virtual_links(joints, planar)
     frames = read_frames(v, top, tree, lambda value, path: _origin(v, value, path, planar, symbols), planar,
                          engine_quantities(all_links, planar, "loops" in top))
+    contacts = read_contacts(v, top, frames, planar, bool(loops) or "loops" in top)
     check_names(v, parameters, all_links, joints, planar,
                 sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)
@@ -112,7 +114,8 @@ def validate(doc: SourceDocument) -> Robot:
         name=name or "robot", title=title, planar=planar, parameters=tuple(parameters),
         gravity=tuple(top["gravity"]), links=tuple(links), joints=tuple(joints),
         maximal_constraints=constraints, source=doc.file, positions=positions, notes=tuple(doc.notes),
-        loops=tuple(loops), independent=independent, frames=tuple(frames), digits=doc.digits,
+        loops=tuple(loops), independent=independent, frames=tuple(frames), contacts=tuple(contacts),
+        digits=doc.digits,
     )
 
 

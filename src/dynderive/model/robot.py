@@ -187,6 +187,22 @@ class Frame:
     origin: tuple[Expression, ...]
 
 
+#: The kinds of contact a frame can hold (DESIGN.md section 11): ``point`` constrains the
+#: frame origin's acceleration in world-aligned axes (3 forces), ``surface`` the frame's whole
+#: twist in its own axes (a force and a moment, 6).
+CONTACT_KINDS = ("point", "surface")
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A frame held by a contact (the robot file's ``contacts:``): its name and ``kind``, one
+    of CONTACT_KINDS. A 3-D robot's generated module holds these contacts by default in
+    ``constrained_forward_dynamics`` and ``impulse_dynamics``."""
+
+    frame: str
+    kind: Literal["point", "surface"] = "point"
+
+
 @dataclass(frozen=True)
 class Robot:
     """A validated robot description. Links and joints keep the file's order."""
@@ -205,6 +221,8 @@ class Robot:
     independent: tuple[str, ...] | None = None
     #: Named frames fixed on links (kinematics outputs, external wrenches).
     frames: tuple[Frame, ...] = ()
+    #: Frames held by contacts by default (``contacts:``; 3-D robots only).
+    contacts: tuple[Contact, ...] = ()
     source: str = ""
     #: Where each named item was written, for errors found after validation.
     positions: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)

@@ -11,7 +11,8 @@ function added here and to one target is missing, visibly, from the others.
 Sizes are letters resolved per robot (``sizes``): NQ coordinates, NV velocities, NU efforts,
 NP regressor parameters, NC loop constraints, NI independent coordinates of a
 loop robot, NM maximal coordinates and NK their constraints (a planar robot), S the side of a
-frame's homogeneous matrix and T its twist, 2NV the state.
+frame's homogeneous matrix and T its twist, 2NV the state, NF the forces of the robot file's
+contacts (3 per point contact, 6 per surface contact).
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ class Function:
     state, in size letters; ``pinocchio``: the function of Pinocchio that computes the same
     (the tests compare them); ``group``: which robots have it ("dynamics": every robot,
     "frames": every robot, raising for a name that is no frame, "centroidal": 3-D robots, "loops": closed loops,
-    "configuration": a robot with quaternions, "maximal": a planar robot's maximal form)."""
+    "configuration": a robot with quaternions, "maximal": a planar robot's maximal form,
+    "contacts": a 3-D robot without closed loops)."""
 
     name: str
     arguments: tuple[str, ...]
@@ -124,11 +126,16 @@ API: tuple[Function, ...] = (
     _f("constraint_forces", "qm qmd u", "NK", "Multipliers lambda_m of the maximal form's constraints", "maximal"),
     _f("maximal_forward_dynamics", "qm qmd u", "NM", "Constrained accelerations qmdd of the maximal form",
        "maximal"),
+    _f("constrained_forward_dynamics", "q qd u", "NV; NF", "(qdd, forces) with the contacts held: [[M, J^T], "
+       "[J, 0]] [qdd; -forces] = [tau - h; -gamma]", "contacts", "forwardDynamics"),
+    _f("impulse_dynamics", "q qd_minus", "NV; NF", "(qd_plus, impulses) of an impact on the contacts: M (qd_plus "
+       "- qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus", "contacts", "impulseDynamics"),
 )
 BY_NAME = {function.name: function for function in API}
 #: The size of each argument's last axis (``dt``: a number per state; ``frame``: a name).
 ARGUMENT_SIZES = {"q": "NQ", "qd": "NV", "qdd": "NV", "u": "NU", "v": "NV", "dt": None, "q_guess": "NQ",
-                  "q_from": "NQ", "q_to": "NQ", "qm": "NM", "qmd": "NM", "frame": None}
+                  "q_from": "NQ", "q_to": "NQ", "qm": "NM", "qmd": "NM", "frame": None,
+                  "qd_minus": "NV"}
 
 
 def group(name: str) -> tuple[str, ...]:
@@ -145,7 +152,8 @@ def sizes(derivation: Any) -> dict[str, int]:
             "NC": quantities["a_g"].shape[0] if loops else 0, "NI": len(loops.independent) if loops else 0,
             "NM": len(table.qm) if robot.planar else 0,
             "NK": quantities["a_m"].shape[0] if robot.planar else 0,
-            "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv, "3": 3, "6": 6}
+            "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv, "3": 3, "6": 6,
+            "NF": sum(3 if c.kind == "point" else 6 for c in robot.contacts)}
 
 
 def shapes(name: str, size: dict[str, Any]) -> tuple[tuple[Any, ...], ...]:

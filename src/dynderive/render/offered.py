@@ -23,10 +23,11 @@ TITLES = {target.name: target.title for target in COLUMNS}
 
 MAXIMAL = api.group("maximal")
 FRAME_FUNCTIONS = api.group("frames")
+CONTACT_FUNCTIONS = api.group("contacts")
 
 #: What a target does not build: (targets, functions, robots it concerns, reason). Robots:
 #: "fixed" (fixed base), "floating" (floating base, or spherical joints), "frameless" (a
-#: robot that declares no frames).
+#: robot that declares no frames), "any" (every robot that has them).
 NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
     (("c", "c-extension", "matlab"), MAXIMAL, "fixed",
      "the maximal-coordinate form of a planar robot is printed for NumPy, JAX and CasADi only"),
@@ -40,6 +41,8 @@ NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
         "centre of mass and centroidal momentum: the Python modules only so far") for kind in ("fixed", "floating")),
     (("casadi",), ("assemble",), "fixed",
      "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
+    (("c", "c-extension", "matlab", "casadi"), CONTACT_FUNCTIONS, "any",
+     "contact dynamics (constrained forward and impulse dynamics) are built for NumPy and JAX only"),
 )
 
 
@@ -47,7 +50,7 @@ def not_built(target: str, function: str, floating: bool = False, frames: bool =
     """Why ``target`` does not build ``function`` for a robot with a ``floating`` base (or not)
     and ``frames`` (or none), or None if it should."""
     for targets, functions, kind, reason in NOT_BUILT:
-        applies = {"fixed": not floating, "floating": floating, "frameless": not frames}[kind]
+        applies = {"fixed": not floating, "floating": floating, "frameless": not frames, "any": True}[kind]
         if target in targets and function in functions and applies:
             return reason
     return None
@@ -122,5 +125,5 @@ def markdown_table(derivations: list[Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["FRAME_FUNCTIONS", "MAXIMAL", "NOT_BUILT", "TARGETS", "api", "gaps", "markdown_table", "not_built",
+__all__ = ["CONTACT_FUNCTIONS", "FRAME_FUNCTIONS", "MAXIMAL", "NOT_BUILT", "TARGETS", "api", "gaps", "markdown_table", "not_built",
            "offered", "public"]

@@ -190,6 +190,10 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
         "frames": [{"name": f.name, "body": f"_frame{i}"} for i, f in enumerate(robot.frames)],
         "frames_tuple": _tuple(tuple(f.name for f in robot.frames)),
         "centroidal": not robot.planar,   # centre of mass and centroidal momentum: 3-D robots
+        # the frames held by contacts by default (``contacts:``) and their kinds (dynamics_contacts.py.j2)
+        "contacts_tuple": _tuple(tuple(c.frame for c in robot.contacts)),
+        "contact_kinds": Code("{" + ", ".join(f"{python_literal(c.frame)}: {python_literal(c.kind)}"
+                                             for c in robot.contacts) + "}"),
         # the forward-dynamics body takes F - J^T w where its program says so (damping, friction, frames)
         "forward_extra": forward is not None and bool(forward.extra_inputs),
         "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
