@@ -128,7 +128,7 @@ def _agree(numpy_module, casadi_module, seed: int, count: int = 2, smoothing: fl
     state = _states(numpy_module, np.random.default_rng(seed), count)
     compared = 0
     for name in _public(numpy_module):
-        if name == "assemble":
+        if name == "assemble" or name in api.group("contacts"):   # contacts: a Function per set (test_contacts)
             continue
         numpy_function = getattr(numpy_module, name)
         signature = inspect.signature(numpy_function).parameters

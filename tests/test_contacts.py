@@ -505,3 +505,43 @@ frames:
 contacts:
   - {frame: pad, kind: surface}
 """
+
+
+@pytest.mark.parametrize("name", ["floating_10", "fixed_6"])
+def test_casadi_equals_numpy(name, folder):
+    """The CasADi module's Functions (one per set of contacts), with and without Baumgarte
+    anchors, equal the NumPy module's to 1e-12; a Function of SX symbols differentiates."""
+    if os.environ.get("CI"):   # required in CI (casadi is in the test extra)
+        import casadi
+    else:
+        casadi = pytest.importorskip("casadi")
+    from dynderive.render.targets.casadi.casadi import render_casadi
+
+    _, derivation, module = _robot(name, folder)
+    casadi_module = import_code(render_casadi(derivation), folder, f"{name}_contacts_dynamics_casadi")
+    assert casadi_module.CONTACTS == module.CONTACTS and casadi_module.CONTACT_KINDS == module.CONTACT_KINDS
+    floating = name == "floating_10"
+    contacts = module.CONTACTS if floating else ("toe",)
+    function = casadi_module.constrained_forward_dynamics(contacts)
+    assert function is casadi_module.constrained_forward_dynamics(list(contacts))   # built once per set
+    p = casadi_module.default_parameters()
+    for q, qd, u in zip(*_random_state(module, np.random.default_rng(11), (2,))):
+        poses = {frame: module.frame_transform(q, frame) for frame in module.CONTACTS + ("toe",)}
+        anchors = [poses[frame] + 0.01 if module.CONTACT_KINDS.get(frame) == "surface" else poses[frame][:3, 3] - 0.02
+                   for frame in contacts]
+        flat = np.concatenate([np.ravel(a) for a in anchors])   # a surface's pose row by row
+        for baumgarte, held in (((0.0, 0.0), None), ((9.0, 6.0), anchors)):
+            expected = module.constrained_forward_dynamics(q, qd, u, contacts, baumgarte, anchors=held)
+            actual = function(q, qd, u, p, 0.0, np.array(baumgarte), flat if held else 0.0)
+            for e, a in zip(expected, actual, strict=True):
+                _close(np.ravel(np.array(a)), e, f"{name} CasADi constrained_forward_dynamics {baumgarte}", 1e-12)
+        expected = module.impulse_dynamics(q, qd, contacts, restitution=0.4)
+        actual = casadi_module.impulse_dynamics(contacts)(q, qd, p, 0.4)
+        for e, a in zip(expected, actual, strict=True):
+            _close(np.ravel(np.array(a)), e, f"{name} CasADi impulse_dynamics", 1e-12)
+    q = casadi.SX.sym("q", len(module.COORDINATES))
+    qd, u = (casadi.SX.sym(s, n) for s, n in (("qd", function.size1_in(1)), ("u", function.size1_in(2))))
+    qdd = function(q, qd, u)[0]
+    assert casadi.jacobian(qdd, u).shape == (function.size1_in(1), function.size1_in(2))
+    with pytest.raises(ValueError, match="held twice"):
+        casadi_module.constrained_forward_dynamics(["toe", "toe"])
