@@ -300,29 +300,20 @@ class Derivation:
         """A small 3-D robot's centre of mass and centroidal momentum matrix derived step by
         step (``mechanics.centroidal_steps.CentroidalSteps``: m_total, p_G, J_G, A_G) from the
         links' kinematics of its sheet (with quaternion joints, the quasi-velocity sheet's);
-        None for a planar robot, a large one (the sheet shows the recursion, the generated code
-        computes them) or one whose links all stay still."""
-        from .mechanics.centroidal_steps import centroidal_steps, moving_links, quasi_velocity_centroidal
-        from .mechanics.spatial import inertia_tensor
+        None for a planar robot, a large one (the generated code computes them) or one whose
+        links all stay still."""
+        from .mechanics.centroidal_steps import fixed_base_centroidal, moving_links, quasi_velocity_centroidal
 
-        robot, table = self.robot, self.symbols
-        moving = moving_links(robot)
-        if robot.planar or not moving:
+        robot = self.robot
+        if robot.planar or not moving_links(robot) or (self.intermediate_form and not robot.floating):
             return None
-        if robot.floating:
-            sheet = self.quasi_velocity_steps.sheet
-            if sheet is None:
-                return None
-            self.report("centre of mass and centroidal momentum")
-            return quasi_velocity_centroidal(robot, table, sheet)
-        if self.intermediate_form:
+        sheet = self.quasi_velocity_steps.sheet if robot.floating else None
+        if robot.floating and sheet is None:
             return None
         self.report("centre of mass and centroidal momentum")
-        inputs = [(index, link.name, table.expr(link.mass), kin.rotation, kin.com_world, kin.body_jacobian,
-                   inertia_tensor(tuple(table.expr(e) for e in link.inertia)))
-                  for index, (link, kin) in enumerate(zip(robot.links, self.steps["kinematics"]), 1)
-                  if link.name in moving]
-        return centroidal_steps(inputs, tidy)
+        if sheet is not None:
+            return quasi_velocity_centroidal(robot, self.symbols, sheet)
+        return fixed_base_centroidal(robot, self.symbols, self.steps["kinematics"])
 
     # -- results ---------------------------------------------------------------------------
     def description(self, name: str) -> str:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import sympy
 
@@ -30,8 +31,8 @@ from ..model.symbols import SymbolTable
 from . import joint_types
 from .joint_types.quaternion import quaternion_matrix
 from .quasi_velocity import QuasiVelocitySheet, _Ring
-from .spatial import rpy_matrix
-from .tidy import fold_constants
+from .spatial import inertia_tensor, rpy_matrix
+from .tidy import fold_constants, tidy
 
 #: Centroidal quantity names (``naming.CENTROIDAL_QUANTITIES``), by what they are.
 DESCRIPTIONS = {
@@ -117,6 +118,16 @@ def centroidal_steps(links: Sequence[LinkInput], clean: Callable[[sympy.Expr], s
     divide = lambda m: m.applyfunc(lambda e: over(e / total))  # noqa: E731
     return CentroidalSteps(parts, total, divide(moment), divide(linear),
                            sympy.Matrix.vstack(linear, divide(tidy(angular))))
+
+
+def fixed_base_centroidal(robot: Robot, table: SymbolTable, kinematics: Sequence[Any]) -> CentroidalSteps:
+    """The steps of a robot without quaternion joints from its links' kinematics
+    (``spatial.SpatialLinkKinematics``, in the file's link order), entries tidied."""
+    moving = moving_links(robot)
+    inputs = [(index, link.name, table.expr(link.mass), kin.rotation, kin.com_world, kin.body_jacobian,
+               inertia_tensor(tuple(table.expr(e) for e in link.inertia)))
+              for index, (link, kin) in enumerate(zip(robot.links, kinematics), 1) if link.name in moving]
+    return centroidal_steps(inputs, tidy)
 
 
 def quasi_velocity_centroidal(robot: Robot, table: SymbolTable, sheet: QuasiVelocitySheet) -> CentroidalSteps:

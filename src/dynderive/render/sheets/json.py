@@ -34,8 +34,8 @@ from typing import Any
 import sympy
 
 from ...derivation import Derivation
-from ...mechanics.centroidal_steps import DESCRIPTIONS as CENTROIDAL
 from ...mechanics.tidy import is_small
+from ...model.naming import CENTROIDAL_QUANTITIES
 from ..printers import RememberingStrPrinter
 from .latex_format import Formatter
 from .quasi_velocity import _names_of, dissipative_forces, listing
@@ -180,8 +180,8 @@ def _quasi_velocity(derivation: Derivation) -> tuple[dict[str, Any], dict[str, A
         values |= centroidal.quantities()
 
     def description(name: str) -> str:
-        if name in CENTROIDAL:
-            return CENTROIDAL[name]
+        if name in CENTROIDAL_QUANTITIES:
+            return derivation.description(name)
         if name.startswith("J_b"):
             link = robot.links[int(name[3:]) - 1].name
             return (f"body Jacobian of link {name[3:]} ({link}): the twist (v, omega) of its centre of mass in "
