@@ -176,7 +176,7 @@ class Derivation:
         if robot.frames and not self.intermediate_form:
             names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
             add(_Stage(self._frames, frozenset(names)))
-        if not robot.planar and not robot.floating and not self.intermediate_form:
+        if not robot.planar and not robot.floating and not robot.loops and not self.intermediate_form:
             add(_Stage(self._centroidal, frozenset(CENTROIDAL_QUANTITIES), frozenset({"centroidal"})))
 
     # -- stages ----------------------------------------------------------------------------
@@ -300,13 +300,13 @@ class Derivation:
         """A small 3-D robot's centre of mass and centroidal momentum matrix derived step by
         step (``mechanics.centroidal_steps.CentroidalSteps``: m_total, p_G, J_G, A_G) from the
         links' kinematics of its sheet (with quaternion joints, the quasi-velocity sheet's);
-        None for a planar robot, a large one (the generated code computes them) or one whose
-        links all stay still."""
+        None for a planar robot, a large one or one with loops (the generated code computes them),
+        or one whose links all stay still."""
         from .mechanics.centroidal_steps import fixed_base_centroidal, moving_links, quasi_velocity_centroidal
 
         robot = self.robot
-        if robot.planar or not moving_links(robot) or (self.intermediate_form and not robot.floating):
-            return None
+        if robot.planar or robot.loops or not moving_links(robot) or (self.intermediate_form and not robot.floating):
+            return None   # with loops the tree's A_G is one step removed from the motion: in the code only
         sheet = self.quasi_velocity_steps.sheet if robot.floating else None
         if robot.floating and sheet is None:
             return None

@@ -12,7 +12,9 @@ axes, ``(v_i, w_i) = J_i qd``):
   ``Jw_i = R_i J_i[w]``; then ``J_G = sum m_i Jv_i / m``;
 * ``A_G`` (Pinocchio's ``ccrba``): linear rows ``m J_G``, angular rows
   ``sum m_i (p_i - p_G) x Jv_i + R_i I_i J_i[w]`` (``R_i I_i R_i^T Jw_i``), the momentum about
-  the centre of mass in world axes per velocity coordinate.
+  the centre of mass in world axes per velocity coordinate; written over the pairs of links,
+  ``sum_{i<j} m_i m_j (p_i - p_j) x (Jv_i - Jv_j) / m``, the relative positions and velocities
+  being shorter than the world ones.
 
 Links welded to the world (no moving joint above them) are left out, as Pinocchio and the
 generated code leave them out. With quaternion joints ``qd`` is the quasi-velocity ``v``.
@@ -105,19 +107,21 @@ def centroidal_steps(links: Sequence[LinkInput], clean: Callable[[sympy.Expr], s
     total = clean(sum((part.mass for part in parts), sympy.Integer(0)))
     moment = tidy(sum((part.position * part.mass for part in parts), sympy.zeros(3, 1)))   # m p_G
     linear = tidy(sum((part.linear * part.mass for part in parts), sympy.zeros(3, nv)))
-    # about the origin, K_O = sum m_i p_i x Jv_i + R_i I_i J_i[w]; about G, K_O - p_G x (m J_G):
-    # over the one denominator m, m K_O - (m p_G) x (m J_G), so that the numerators tidy as polynomials
-    origin = sympy.zeros(3, nv)
-    for part, (_, _, _, R, _, J, inertia) in zip(parts, links):
-        spin = R * inertia * J[3:, :]
-        for j in range(nv):
-            origin[:, j] += part.position.cross(part.linear[:, j]) * part.mass + spin[:, j]
-    angular = sympy.zeros(3, nv)
-    for j in range(nv):
-        angular[:, j] = origin[:, j] * total - moment.cross(linear[:, j])
+    # about G: sum_i m_i (p_i - p_G) x Jv_i, with p_i - p_G = sum_j m_j (p_i - p_j) / m, is
+    # sum over the pairs i < j of m_i m_j (p_i - p_j) x (Jv_i - Jv_j) / m: the links' relative
+    # positions and velocities, shorter than their world ones; and each link's spin R_i I_i [J_i]_w
+    pairs, spin = sympy.zeros(3, nv), sympy.zeros(3, nv)
+    for a, first in enumerate(parts):
+        for second in parts[a + 1:]:
+            lever = tidy(first.position - second.position)
+            relative = tidy(first.linear - second.linear)
+            for j in range(nv):
+                pairs[:, j] += lever.cross(relative[:, j]) * first.mass * second.mass
+    for _, _, _, R, _, J, inertia in links:
+        spin += R * inertia * J[3:, :]
     divide = lambda m: m.applyfunc(lambda e: over(e / total))  # noqa: E731
-    return CentroidalSteps(parts, total, divide(moment), divide(linear),
-                           sympy.Matrix.vstack(linear, divide(tidy(angular))))
+    angular = divide(tidy(pairs)) + tidy(spin)
+    return CentroidalSteps(parts, total, divide(moment), divide(linear), sympy.Matrix.vstack(linear, angular))
 
 
 def fixed_base_centroidal(robot: Robot, table: SymbolTable, kinematics: Sequence[Any]) -> CentroidalSteps:

@@ -33,7 +33,7 @@ class LatexNames:
         if kind in ("Jv", "Jw"):
             return letters[kind] + f"{index}}}"
         if kind == "A_G":
-            return rf"\left({bar('A')}_{{G}}\right)_{{:,{index}}}"
+            return rf"\left({bar('A')}_{{G}}\right)_{{\omega,{index}}}"
         return letters[kind]
 
     def matrix(self, kind: str, index: Any, barred: bool, value: sympy.Matrix) -> dict[str, Any]:
@@ -56,7 +56,7 @@ class HtmlNames(LatexNames):
         if kind in ("Jv", "Jw"):
             return sub(bar("J"), mrow(mi("v" if kind == "Jv" else "\u03c9"), mo(","), str(index)))
         if kind == "A_G":
-            return sub(mrow(mo("("), sub(bar("A"), "G"), mo(")")), mrow(mo(":"), mo(","), str(index)))
+            return sub(mrow(mo("("), sub(bar("A"), "G"), mo(")")), mrow(mi("\u03c9"), mo(","), str(index)))
         if kind in ("R_B", "p_B"):
             return sub(kind[0], "B")
         return sub(bar(kind[0]), "G")
@@ -74,7 +74,7 @@ def centroidal_context(derivation: Derivation, names: LatexNames) -> dict[str, A
         return None
     steps = derivation.centroidal_steps
     if steps is None:
-        return {"symbolic": False}
+        return {"symbolic": False, "loops": bool(robot.loops)}
     barred = steps.base is not None
     velocities = derivation.symbols.qd
     return {
@@ -87,7 +87,7 @@ def centroidal_context(derivation: Derivation, names: LatexNames) -> dict[str, A
         "com": names.matrix("p_G", None, barred, steps.com),
         "jacobian": names.matrix("J_G", None, barred, steps.jacobian),
         "columns": [{"index": k, "velocity": names.scalar(velocities[k - 1]),
-                     "matrix": names.matrix("A_G", k, barred, steps.matrix[:, k - 1])}
+                     "matrix": names.matrix("A_G", k, barred, steps.matrix[3:, k - 1])}
                     for k in range(1, steps.matrix.cols + 1)],
         "base": ({"rotation": names.matrix("R_B", None, False, steps.base[0]),
                   "position": names.matrix("p_B", None, False, steps.base[1])} if barred else None),
