@@ -15,9 +15,10 @@ import sympy
 from ..derivation import Derivation
 from .rows import Row, _row, peak
 
-MOMENTA = "centroidal: A_G qd, center_of_mass, total_mass = the links' momenta summed link by link (own kinematics)"
-DIFFERENCES = "centroidal: J_G = d center_of_mass/dq; J qd, Jdot qd, Adot_G qd (central differences along {along})"
-PINOCCHIO = "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, computeCentroidalMomentumTimeVariation)"
+#: The rows' names (what each compares: the module docstring, docs/guides/check-and-simulate.md).
+MOMENTA = "centroidal: A_G qd, center_of_mass, total_mass = sum over the links (own kinematics)"
+DIFFERENCES = "centroidal: J_G, J qd, Jdot qd, Adot_G qd = central differences along {along}"
+PINOCCHIO = "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, dhg)"
 
 
 def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -180,7 +181,7 @@ def pinocchio_centroidal(pin: Any, model: Any, module: Any, values: dict[str, fl
     """The module's centre of mass and centroidal momentum against Pinocchio's algorithms:
     ``computeTotalMass``, ``centerOfMass`` (position, velocity, acceleration at zero qdd),
     ``jacobianCenterOfMass``, ``ccrba`` (A_G and the composite inertia Ig) and
-    ``computeCentroidalMomentumTimeVariation`` (h_G and its rate at zero qdd)."""
+    ``computeCentroidalMomentumTimeVariation`` (h_G and its rate ``dhg`` at zero qdd)."""
     name = PINOCCHIO
     if model.mimicking_joints:
         return Row(name, "skip", "mimic joints (Pinocchio's centroidal algorithms do not take them)", float("nan"))
