@@ -21,7 +21,7 @@ from .mechanics.programs import build_programs
 from .mechanics.recursive import GeneralizedProgram
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
-from .model.naming import body_jacobian_index, frame_quantity_names
+from .model.naming import CENTROIDAL_QUANTITIES, body_jacobian_index, frame_quantity_names
 from .model.robot import Robot
 from .model.symbols import SymbolTable
 
@@ -176,6 +176,8 @@ class Derivation:
         if robot.frames and not self.intermediate_form:
             names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
             add(_Stage(self._frames, frozenset(names)))
+        if not robot.planar and not robot.floating and not robot.loops and not self.intermediate_form:
+            add(_Stage(self._centroidal, frozenset(CENTROIDAL_QUANTITIES), frozenset({"centroidal"})))
 
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
@@ -288,6 +290,31 @@ class Derivation:
         self.report(f"frames ({len(self.robot.frames)})")
         self.quantities.update(frame_quantities(self.robot, self.symbols))
 
+    def _centroidal(self) -> None:
+        self.steps["centroidal"] = steps = self.centroidal_steps
+        if steps is not None:
+            self.quantities.update(steps.quantities())
+
+    @cached_property
+    def centroidal_steps(self) -> Any:
+        """A small 3-D robot's centre of mass and centroidal momentum matrix derived step by
+        step (``mechanics.centroidal_steps.CentroidalSteps``: m_total, p_G, J_G, A_G) from the
+        links' kinematics of its sheet (with quaternion joints, the quasi-velocity sheet's);
+        None for a planar robot, a large one or one with loops (the generated code computes them),
+        or one whose links all stay still."""
+        from .mechanics.centroidal_steps import fixed_base_centroidal, moving_links, quasi_velocity_centroidal
+
+        robot = self.robot
+        if robot.planar or robot.loops or not moving_links(robot) or (self.intermediate_form and not robot.floating):
+            return None   # with loops the tree's A_G is one step removed from the motion: in the code only
+        sheet = self.quasi_velocity_steps.sheet if robot.floating else None
+        if robot.floating and sheet is None:
+            return None
+        self.report("centre of mass and centroidal momentum")
+        if sheet is not None:
+            return quasi_velocity_centroidal(robot, self.symbols, sheet)
+        return fixed_base_centroidal(robot, self.symbols, self.steps["kinematics"])
+
     # -- results ---------------------------------------------------------------------------
     def description(self, name: str) -> str:
         """What quantity ``name`` is (empty if it has no description)."""
@@ -298,7 +325,9 @@ class Derivation:
             rows = "(v_x, v_y, omega)" if self.robot.planar else "(v, omega)"
             return (f"body Jacobian of link {index} ({self.robot.links[index - 1].name}): the twist of its centre "
                     f"of mass in the link's own axes per joint rate, rows {rows}")
-        return DESCRIPTIONS.get(name) or describe(name) or ""
+        from .mechanics.centroidal_steps import DESCRIPTIONS as CENTROIDAL
+
+        return DESCRIPTIONS.get(name) or CENTROIDAL.get(name) or describe(name) or ""
 
     @cached_property
     def frame_programs(self) -> list[Any]:

@@ -11,6 +11,7 @@ from typing import Any
 
 from ..model.expressions import RESERVED
 from ..model.naming import (
+    CENTROIDAL_QUANTITIES,
     FRAME_KINDS,
     GENERALIZED_QUANTITIES,
     LOOP_QUANTITIES,
@@ -149,6 +150,8 @@ def engine_quantities(links: list[Link], planar: bool, loops: bool) -> EngineQua
         names |= {name: ("a quantity of the loops' equations", ("loops",)) for name in LOOP_QUANTITIES}
     if planar:
         names |= {name: ("a quantity of the maximal-coordinate equations", None) for name in MAXIMAL_QUANTITIES}
+    else:
+        names |= {name: ("a quantity of the centre of mass", None) for name in CENTROIDAL_QUANTITIES}
     return names
 
 

@@ -53,6 +53,8 @@ LOOP_QUANTITIES = ("a_g", "A_g", "Adot_g", "lambda_g", "R_g", "M_r", "C_r", "N_r
 #: Maximal coordinates (planar robots).
 MAXIMAL_QUANTITIES = ("q_m", "a_m", "A_m", "Adot_m", "T_m", "V_m", "L_m", "Y_m", "EOM_m1", "M_m", "C_m",
                       "N_m", "EOM_m2", "D_m", "F_m", "lambdaVec", "h", "H", "EOM_g3")
+#: The centre of mass and the centroidal momentum matrix (3-D robots small enough for a step-by-step sheet).
+CENTROIDAL_QUANTITIES = ("m_total", "p_G", "J_G", "A_G")
 #: What a frame's quantities are, by the prefix of their names.
 FRAME_KINDS = {"p": "position", "R": "rotation", "theta": "angle", "J": "Jacobian", "Jdot": "Jacobian's derivative"}
 

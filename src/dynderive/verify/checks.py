@@ -42,7 +42,9 @@ def _from_check(check: Check, method: str = "engine, ") -> Row:
 def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int = 0) -> list[Row]:
     """Every check that applies to ``derivation``'s robot, at ``states`` random states
     (``random_configurations``): M, then ``_along_integrate`` for a configuration on a manifold
-    (NQ != NV), ``_generalized_rows`` for any other, then Pinocchio (``pinocchio_checks``)."""
+    (NQ != NV), ``_generalized_rows`` for any other, a 3-D robot's centre of mass and centroidal
+    momentum (``centroidal_checks``), then Pinocchio (``pinocchio_checks``)."""
+    from .centroidal_checks import centroidal_rows
     from .pinocchio_checks import pinocchio_rows
 
     robot = derivation.robot
@@ -62,6 +64,7 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
         rows += _along_integrate(derivation, module, values, qs, qds, us, rng)
     else:
         rows += _generalized_rows(derivation, module, values, qs, qds, us, rng)
+    rows += centroidal_rows(derivation, module, values, qs[:4], qds[:4])
     return rows + pinocchio_rows(derivation, module, values, qs[:5], qds[:5], us[:5])
 
 

@@ -2,7 +2,8 @@
 installed), for every robot: the model of ``pinocchio_model`` (a floating joint as its free
 flyer, a spherical joint as its spherical joint, ``<mimic>`` joints as its mimic joints),
 against the generated module's mass matrix, bias and gravity forces and forward dynamics, its
-frames; with quaternions, its energies, ``integrate`` and ``difference`` too."""
+frames; with quaternions, its energies, ``integrate`` and ``difference`` too; a 3-D robot's centre of
+mass and centroidal momentum (``centroidal_checks.pinocchio_centroidal``)."""
 
 from __future__ import annotations
 
@@ -28,19 +29,23 @@ def pinocchio_rows(derivation: Derivation, module: Any, values: dict[str, float]
         import pinocchio as pin
     except ImportError:
         return [Row(name, "skip", "pin is not installed", float("nan"))]
-    if robot.floating and any(j.stiffness is not None or j.armature is not None for j in robot.joints):
-        return [Row(name, "skip", "springs or armature (Pinocchio's free flyer here has neither)", float("nan"))]
-    if not robot.floating and any(p.value is None for p in robot.parameters):
-        return [Row(name, "skip", "a parameter has no default value", float("nan"))]
+    from .centroidal_checks import pinocchio_centroidal
     from .pinocchio_model import PinocchioDrives, pinocchio_maps
 
     model, qp, vp = pinocchio_maps(robot, values)
+    # the centre of mass and the centroidal momentum need neither drives nor the file's defaults
+    centroidal = [] if robot.planar else [pinocchio_centroidal(pin, model, module, values, qp, vp, qs, vs)]
+    if robot.floating and any(j.stiffness is not None or j.armature is not None for j in robot.joints):
+        return [Row(name, "skip", "springs or armature (Pinocchio's free flyer here has neither)", float("nan")),
+                *centroidal]
+    if not robot.floating and any(p.value is None for p in robot.parameters):
+        return [Row(name, "skip", "a parameter has no default value", float("nan")), *centroidal]
     data = model.createData()
     rows = [_dynamics(name, pin, model, data, qp, vp, PinocchioDrives(robot, values, vp), robot, module, values,
                       qs, vs, us)]
     if module.FRAMES and not robot.floating:
         rows.append(_frames(pin, model, data, vp, module, values, qs, vs))
-    return rows
+    return rows + centroidal
 
 
 def _accelerations(pin: Any, model: Any, data: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray,

@@ -18,6 +18,7 @@ from markupsafe import Markup
 
 from ...derivation import Derivation
 from ..environment import render
+from .centroidal import HtmlNames
 from .figure import sheet_figure
 from .html_math import (
     MathFormatter,
@@ -129,6 +130,9 @@ class PageStyle(SheetStyle):
 
     def jacobian(self, k: int, value: sympy.Matrix) -> dict[str, Any]:
         return self.fmt.matrix(fenced(body_jacobian(k)), value, body_jacobian(k))
+
+    def centroidal_names(self) -> HtmlNames:
+        return HtmlNames(self.fmt)
 
     def frame_labels(self, name: str) -> dict[str, Any]:
         return {"theta": sub("\u03b8", _upright(name))}

@@ -12,6 +12,7 @@ import sympy
 from markupsafe import Markup
 
 from ...derivation import Derivation
+from .centroidal import HtmlNames
 from .html_math import MathFormatter, _atom, accent, mi, mn, mo, mrow, page_header, sub
 from .latex_format import entry_index
 from .quasi_velocity import ENTRY_LIMIT, LatexStyle, quasi_velocity_context
@@ -65,6 +66,9 @@ class HtmlStyle(LatexStyle):
 
     def scalar(self, fmt: Any, expr: sympy.Expr) -> Any:
         return fmt.maybe(expr, ENTRY_LIMIT)
+
+    def centroidal_names(self, fmt: Any) -> HtmlNames:
+        return HtmlNames(fmt)
 
     def line(self, fmt: Any, name: sympy.Symbol, value: sympy.Expr) -> dict[str, Any]:
         return {"name": fmt(name), "math": fmt(value)}

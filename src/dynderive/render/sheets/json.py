@@ -17,7 +17,9 @@ names where they apply, in quasi-velocities.
 join the fixed-base keys. A small robot's ``quantities`` (``mechanics/quasi_velocity.py``):
 ``T_g``, ``V_g``, ``Y_g``, ``M_g``, ``C_g`` (Pinocchio's Coriolis matrix), ``N_g`` (gravity
 and springs: not ``dV/dq``, the velocities being quasi-velocities), ``EOM_g2``
-(``M vdot + C v + N - Y``), ``Q_g`` (``qdot = Q_g v``) and the body Jacobians ``J_b1, ...``.
+(``M vdot + C v + N - Y``), ``Q_g`` (``qdot = Q_g v``), the body Jacobians ``J_b1, ...`` and
+the centre of mass's ``m_total``, ``p_G``, ``J_G``, ``A_G`` (``mechanics/centroidal_steps.py``:
+world axes, per quasi-velocity; a fixed-base 3-D robot has them among its quantities too).
 A large robot's (the sheet's intermediate-variable form) ``M_g``, ``N_g`` and ``EOM_g2`` over
 ``intermediates`` ``_w1, _w2, ...``, the lines of the module's programs. No Lagrange's
 equations (``EOM_g1``, ``L_g``) and no checks: the quaternion is not a generalized coordinate
@@ -33,6 +35,7 @@ import sympy
 
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
+from ...model.naming import CENTROIDAL_QUANTITIES
 from ..printers import RememberingStrPrinter
 from .latex_format import Formatter
 from .quasi_velocity import _names_of, dissipative_forces, listing
@@ -173,8 +176,12 @@ def _quasi_velocity(derivation: Derivation) -> tuple[dict[str, Any], dict[str, A
                   "EOM_g2": sympy.Matrix(outputs["tau"]) + dissipative_forces(derivation) - Y}
     if robot.dissipative:
         values["F_g"] = dissipative_forces(derivation)
+    if (centroidal := derivation.centroidal_steps) is not None:
+        values |= centroidal.quantities()
 
     def description(name: str) -> str:
+        if name in CENTROIDAL_QUANTITIES:
+            return derivation.description(name)
         if name.startswith("J_b"):
             link = robot.links[int(name[3:]) - 1].name
             return (f"body Jacobian of link {name[3:]} ({link}): the twist (v, omega) of its centre of mass in "

@@ -12,6 +12,7 @@ import sympy
 from ...derivation import Derivation
 from ..encode import escape_tex
 from ..environment import LazyList, render
+from .centroidal import LatexNames, centroidal_context
 from .figure import sheet_figure
 from .latex_format import (
     INLINE_NODES,
@@ -148,6 +149,7 @@ def shared_context(derivation: Derivation, style: SheetStyle,
                     else None),
         "loops": loops_context(derivation, style) if "loops" in steps else None,
         "frames": frames_context(derivation, style) if derivation.robot.frames else None,
+        "centroidal": centroidal_context(derivation, style.centroidal_names()),
     }
 
 
@@ -221,6 +223,10 @@ class SheetStyle:
 
     def __init__(self, derivation: Derivation, fmt: Any):
         self.fmt, self.latex = fmt, fmt   # latex: the LaTeX formatter, whose lengths decide what is shown
+
+    def centroidal_names(self) -> LatexNames:
+        """How the section on the centre of mass names its matrices (``centroidal``)."""
+        return LatexNames(self.fmt)
 
     def matrix(self, key: str, value: sympy.Matrix) -> dict[str, Any]:
         return self.fmt.matrix(self.NAMES[key], value)

@@ -15,6 +15,7 @@ import sympy
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
 from ..encode import escape_tex
+from .centroidal import LatexNames, centroidal_context
 from .latex_format import Formatter, sheet_header
 from .recursion import COLUMN_UNITS
 
@@ -140,6 +141,10 @@ class LatexStyle:
     def scalar(self, fmt: Any, expr: sympy.Expr) -> Any:
         return fmt.display(expr)
 
+    def centroidal_names(self, fmt: Any) -> LatexNames:
+        """How the section on the centre of mass names its matrices (``centroidal``)."""
+        return LatexNames(fmt)
+
     def line(self, fmt: Any, name: sympy.Symbol, value: sympy.Expr) -> dict[str, Any]:
         return {"name": fmt(name), "parts": fmt.display(value, None, COLUMN_UNITS).lines}
 
@@ -173,6 +178,7 @@ def quasi_velocity_context(derivation: Derivation, digits: int | None = None, st
         "intermediates": bool(groups), "figure": None,
         "F": fmt(dissipative_forces(derivation)) if robot.dissipative else None,
     }
+    context["centroidal"] = centroidal_context(derivation, style.centroidal_names(fmt))
     if small:
         context |= _small_context(steps.sheet, fmt, style)
     else:
