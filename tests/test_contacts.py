@@ -545,3 +545,33 @@ def test_casadi_equals_numpy(name, folder):
     assert casadi.jacobian(qdd, u).shape == (function.size1_in(1), function.size1_in(2))
     with pytest.raises(ValueError, match="held twice"):
         casadi_module.constrained_forward_dynamics(["toe", "toe"])
+
+
+def test_check_rows_hold_and_catch_a_wrong_module():
+    """``check`` holds the robot's first frame (elbow_arm declares no contacts): both rows pass;
+    forces off by 1 % fail the system's row."""
+    import importlib.util
+    import json
+    import types
+
+    from dynderive.verify.checks import generated_module
+    from dynderive.verify.contact_checks import KKT, PINOCCHIO, contact_rows
+
+    from conftest import derivation_of
+
+    result = CliRunner().invoke(app, ["check", "elbow_arm", "--json", "-q"])
+    assert result.exit_code == 0, result.output
+    rows = {row["name"]: row for row in json.loads(result.stdout)["checks"]}
+    assert rows[KKT]["status"] == "pass" and "holding wrist (point)" in rows[KKT]["method"]
+    if importlib.util.find_spec("pinocchio"):
+        assert rows[PINOCCHIO]["status"] == "pass"
+    derivation = derivation_of("elbow_arm")
+    module = generated_module(dynderive.render_code(derivation), "elbow_arm_contact_rows")
+    values = dict(module.PARAMETERS)
+    rng = np.random.default_rng(3)
+    states = (rng.uniform(-1, 1, (3, 3)), rng.normal(size=(3, 3)), rng.normal(size=(3, 3)))
+    assert contact_rows(derivation, module, values, *states)[0].status == "pass"
+    wrong = types.SimpleNamespace(**vars(module))
+    wrong.constrained_forward_dynamics = lambda *a, **k: (lambda r: (r[0], 1.01 * r[1]))(
+        module.constrained_forward_dynamics(*a, **k))
+    assert contact_rows(derivation, wrong, values, *states)[0].status == "FAIL"

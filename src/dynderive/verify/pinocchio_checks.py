@@ -30,11 +30,13 @@ def pinocchio_rows(derivation: Derivation, module: Any, values: dict[str, float]
     except ImportError:
         return [Row(name, "skip", "pin is not installed", float("nan"))]
     from .centroidal_checks import pinocchio_centroidal
+    from .contact_checks import pinocchio_contacts
     from .pinocchio_model import PinocchioDrives, pinocchio_maps
 
     model, qp, vp = pinocchio_maps(robot, values)
     # the centre of mass and the centroidal momentum need neither drives nor the file's defaults
-    centroidal = [] if robot.planar else [pinocchio_centroidal(pin, model, module, values, qp, vp, qs, vs)]
+    centroidal = [] if robot.planar else [pinocchio_centroidal(pin, model, module, values, qp, vp, qs, vs),
+                                          *pinocchio_contacts(pin, model, derivation, module, values, qp, vp, qs, vs, us)]
     if robot.floating and any(j.stiffness is not None or j.armature is not None for j in robot.joints):
         return [Row(name, "skip", "springs or armature (Pinocchio's free flyer here has neither)", float("nan")),
                 *centroidal]
