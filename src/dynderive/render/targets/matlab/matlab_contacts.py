@@ -211,7 +211,7 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
         "   on the robot."]
     forward = MFunction(
         "constrained_forward_dynamics", "[qdd, forces]", ["q", "qd", "u", "contacts", "baumgarte", "anchors", "p"],
-        [help_line(derivation, "constrained_forward_dynamics", "(forces: NF for the declared contacts)"), "",
+        [help_line(derivation, "constrained_forward_dynamics", "Forces: that size for the declared contacts, 3 per point and 6 per surface contact held."), "",
          f"   [qdd, forces] = {pkg}.constrained_forward_dynamics(q, qd, u, contacts, baumgarte, anchors, p)", "",
          "   As Pinocchio's forwardDynamics: M qdd = tau - h + J' forces, J qdd = -gamma, with h =",
          "   inverse_dynamics(q, qd, 0) (friction with p.friction_smoothing) and tau = generalized_forces(q, u);",
@@ -249,7 +249,7 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
         local)
     impulse = MFunction(
         "impulse_dynamics", "[qd_plus, impulses]", ["q", "qd_minus", "contacts", "restitution", "p"],
-        [help_line(derivation, "impulse_dynamics", "(impulses: NF for the declared contacts)"), "",
+        [help_line(derivation, "impulse_dynamics", "Impulses: that size for the declared contacts, 3 per point and 6 per surface contact held."), "",
          f"   [qd_plus, impulses] = {pkg}.impulse_dynamics(q, qd_minus, contacts, restitution, p)", "",
          "   As Pinocchio's impulseDynamics, by the Schur complement J M^-1 J' (redundant contacts: error",
          f"   {pkg}:redundant).",
