@@ -22,6 +22,8 @@ from .matlab_print import MFunction, help_line
 #: The NumPy module's CONTACT_RANK_TOLERANCE: the smallest eigenvalue of S, relative to its
 #: largest, below which the contacts are redundant.
 RANK_TOLERANCE = "1e-12"
+#: The help's note on the size of the forces (impulses): the API table's is the declared contacts'.
+HELD_SIZE = "that size for the declared contacts, 3 per point and 6 per surface contact held."
 
 
 def has_contacts(derivation: Derivation) -> bool:
@@ -211,7 +213,7 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
         "   on the robot."]
     forward = MFunction(
         "constrained_forward_dynamics", "[qdd, forces]", ["q", "qd", "u", "contacts", "baumgarte", "anchors", "p"],
-        [help_line(derivation, "constrained_forward_dynamics", "Forces: that size for the declared contacts, 3 per point and 6 per surface contact held."), "",
+        [help_line(derivation, "constrained_forward_dynamics", f"Forces: {HELD_SIZE}"), "",
          f"   [qdd, forces] = {pkg}.constrained_forward_dynamics(q, qd, u, contacts, baumgarte, anchors, p)", "",
          "   As Pinocchio's forwardDynamics: M qdd = tau - h + J' forces, J qdd = -gamma, with h =",
          "   inverse_dynamics(q, qd, 0) (friction with p.friction_smoothing) and tau = generalized_forces(q, u);",
@@ -249,7 +251,7 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
         local)
     impulse = MFunction(
         "impulse_dynamics", "[qd_plus, impulses]", ["q", "qd_minus", "contacts", "restitution", "p"],
-        [help_line(derivation, "impulse_dynamics", "Impulses: that size for the declared contacts, 3 per point and 6 per surface contact held."), "",
+        [help_line(derivation, "impulse_dynamics", f"Impulses: {HELD_SIZE}"), "",
          f"   [qd_plus, impulses] = {pkg}.impulse_dynamics(q, qd_minus, contacts, restitution, p)", "",
          "   As Pinocchio's impulseDynamics, by the Schur complement J M^-1 J' (redundant contacts: error",
          f"   {pkg}:redundant).",
