@@ -14,6 +14,11 @@ The centre of mass and centroidal momentum functions (3-D robots) agree with the
 1e-12 relative on the Panda and the floating tests/floating_elbow.urdf, with link parameters made
 symbolic, and run in Octave without a warning.
 
+The contact functions (3-D robots without loops) agree with the NumPy module to 1e-12 relative,
+warning-free, on test_contacts' random floating tree (a surface and a point contact) and random
+fixed-base tree, with contacts by name, number and struct array, Baumgarte gains and anchors; each
+refusal is an error with its identifier; every bundled 3-D robot holds its first frame.
+
 Needs GNU Octave: skipped locally without it, required in CI (CI=true).
 """
 
@@ -187,6 +192,14 @@ def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
                 values = {"q": q, "qd": qd}
                 calls.add(tag + function, f"{function}({', '.join([*given, 'p'])})",
                           getattr(module, function)(*(values[a] for a in given), **kwargs))
+        if hasattr(module, "impulse_dynamics"):   # contacts: the declared ones (none), the first frame as a point
+            calls.add(tag + "cfd", "constrained_forward_dynamics(q, qd, u, [], [], [], p)",
+                      module.constrained_forward_dynamics(q, qd, u, **both), outputs=2)
+            if frames:
+                calls.add(tag + "cfd1", "constrained_forward_dynamics(q, qd, u, 1, [0 2], {}, p)",
+                          module.constrained_forward_dynamics(q, qd, u, [0], (0, 2.0), **both), outputs=2)
+                calls.add(tag + "imp1", f"impulse_dynamics(q, qd, '{frames[0]}', 0.5, p)",
+                          module.impulse_dynamics(q, qd, [frames[0]], 0.5, **kwargs), outputs=2)
         if loops:
             calls.add(tag + "lc", "loop_constraints(q, p)", module.loop_constraints(q, **kwargs))
             calls.add(tag + "lj", "loop_jacobian(q, p)", module.loop_jacobian(q, **kwargs))

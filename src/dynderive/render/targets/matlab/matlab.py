@@ -13,7 +13,8 @@ of the struct ``p`` (``p.m``).
 Dense linear algebra is MATLAB's: forward dynamics solves ``M qdd = Y(u) - (C qd + N + F)``
 with ``\\`` (M symmetric positive definite: MATLAB factors it by Cholesky), ``linearize``
 solves its columns the same way, and a loop robot solves the NumPy module's constrained system
-(``matlab_loops.py``). Free text appears only in ``%`` comments (``matlab_comment``); names must
+(``matlab_loops.py``); a 3-D robot's contact dynamics solve the NumPy module's Schur complement
+(``matlab_contacts.py``). Free text appears only in ``%`` comments (``matlab_comment``); names must
 be MATLAB names (``matlab_names.py``).
 """
 
