@@ -14,6 +14,11 @@ The centre of mass and centroidal momentum functions (3-D robots) agree with the
 1e-12 relative on the Panda and the floating tests/floating_elbow.urdf, with link parameters made
 symbolic, and run in Octave without a warning.
 
+The contact functions (3-D robots without loops) agree with the NumPy module to 1e-12 relative,
+warning-free, on test_contacts' random floating tree (a surface and a point contact) and random
+fixed-base tree, with contacts by name, number and struct array, Baumgarte gains and anchors; each
+refusal is an error with its identifier; every bundled 3-D robot holds its first frame.
+
 Needs GNU Octave: skipped locally without it, required in CI (CI=true).
 """
 
@@ -187,6 +192,14 @@ def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
                 values = {"q": q, "qd": qd}
                 calls.add(tag + function, f"{function}({', '.join([*given, 'p'])})",
                           getattr(module, function)(*(values[a] for a in given), **kwargs))
+        if hasattr(module, "impulse_dynamics"):   # contacts: the declared ones (none), the first frame as a point
+            calls.add(tag + "cfd", "constrained_forward_dynamics(q, qd, u, [], [], [], p)",
+                      module.constrained_forward_dynamics(q, qd, u, **both), outputs=2)
+            if frames:
+                calls.add(tag + "cfd1", "constrained_forward_dynamics(q, qd, u, 1, [0 2], {}, p)",
+                          module.constrained_forward_dynamics(q, qd, u, [0], (0, 2.0), **both), outputs=2)
+                calls.add(tag + "imp1", f"impulse_dynamics(q, qd, '{frames[0]}', 0.5, p)",
+                          module.impulse_dynamics(q, qd, [frames[0]], 0.5, **kwargs), outputs=2)
         if loops:
             calls.add(tag + "lc", "loop_constraints(q, p)", module.loop_constraints(q, **kwargs))
             calls.add(tag + "lj", "loop_jacobian(q, p)", module.loop_jacobian(q, **kwargs))
@@ -234,6 +247,146 @@ def test_centroidal_functions_agree_with_numpy(robot, symbolic, tmp_path):
     nv = len(derivation.symbols.qd)
     assert f"Centroidal momentum matrix A_G(q): linear, then angular momentum about the centre of mass, world axes, " \
            f"6 x {nv}." in output
+
+
+_CONTACT_TREES: dict[str, tuple] = {}
+
+
+def _contact_tree(name: str, directory: Path):
+    """(derivation, NumPy module) of test_contacts' random tree ``floating_10`` (a floating base:
+    a surface contact ``sole`` and a point contact ``toe`` on the base) or ``fixed_6`` (a fixed
+    base of 5 joints, both on its deepest link), full-precision numbers, derived once."""
+    from test_contacts import _tree
+
+    if name not in _CONTACT_TREES:
+        path = directory / f"{name}.yaml"
+        path.write_text(_tree(int(name.split("_")[1]), name.startswith("floating")))
+        derivation = dynderive.derive(dynderive.load_robot(path))
+        module = import_code(dynderive.render_code(derivation), directory, f"{name}_matlab_contacts_dynamics")
+        _CONTACT_TREES[name] = derivation, module
+    return _CONTACT_TREES[name]
+
+
+def _matrix(values) -> str:
+    return "[" + "; ".join(", ".join(format(float(v), ".17g") for v in row) for row in np.atleast_2d(values)) + "]"
+
+
+@needs_octave
+@pytest.mark.parametrize("robot", ["floating_10", "fixed_6"])
+def test_contact_functions_agree_with_numpy(robot, tmp_path, code_dir):
+    """constrained_forward_dynamics and impulse_dynamics, run warning-free in Octave, equal the
+    NumPy module's to 1e-12 relative at random full-precision states: the declared contacts
+    (contacts omitted and []; the floating tree's surface ``sole`` and point ``toe``), frames by
+    number, by name and as a struct array (contacts() edited) with kinds, no contact ({}),
+    Baumgarte gains with anchors (a 4 x 4 pose, a 3 x 1 position) and without (kd only), restitution
+    0 and 0.5, non-default parameters. The fixed tree (5 joints) holds its point contact ``toe``."""
+    derivation, module = _contact_tree(robot, Path(code_dir))
+    name = derivation.robot.name
+    files = _write(derivation, tmp_path)
+    assert {f"+{name}/{f}.m" for f in ("constrained_forward_dynamics", "impulse_dynamics", "contacts")} <= set(files)
+    floating = robot.startswith("floating")
+    rng = np.random.default_rng(47)
+    changed = {k: v * rng.uniform(0.8, 1.2) for k, v in module.PARAMETERS.items()}
+    calls = _Calls(name, tolerance=1e-12)
+    calls.lines.append(f"p0 = {name}.parameters(); c = {name}.contacts(); c(1).kind = 'point';")
+    calls.lines.append("fprintf('declared'); for k = 1:numel(c), fprintf(' %s', c(k).frame); end; fprintf('\\n');")
+    sole, toe = module.FRAMES.index("sole") + 1, module.FRAMES.index("toe") + 1
+    for index in range(3):
+        nv = len(derivation.symbols.qd)
+        q = module.integrate(module.neutral_configuration(), rng.uniform(-1.5, 1.5, nv)) if floating else \
+            rng.uniform(-1.5, 1.5, nv)
+        qd, u = rng.normal(size=nv), rng.normal(size=len(module.EFFORTS))
+        kwargs = changed if index == 2 else {}
+        fields = "".join(f"p.{k} = {format(v, '.17g')}; " for k, v in kwargs.items())
+        pose = module.frame_transform(q, "sole", **kwargs)
+        turn = np.array([[np.cos(0.02), -np.sin(0.02), 0], [np.sin(0.02), np.cos(0.02), 0], [0, 0, 1]])
+        anchor_sole = pose.copy()
+        anchor_sole[:3, :3] = pose[:3, :3] @ turn
+        anchor_sole[:3, 3] += rng.normal(scale=0.01, size=3)
+        anchor_toe = module.frame_transform(q, "toe", **kwargs)[:3, 3] + rng.normal(scale=0.01, size=3)
+        calls.lines.append(f"p = p0; {fields}q = {_vector(q)}; qd = {_vector(qd)}; u = {_vector(u)}; "
+                           f"A_sole = {_matrix(anchor_sole)}; A_toe = {_vector(anchor_toe)};")
+        given = "[]" if index == 0 else "p"
+        tag = f"s{index}_"
+        cfd, imp = module.constrained_forward_dynamics, module.impulse_dynamics
+        if floating:
+            calls.add(tag + "declared", f"constrained_forward_dynamics(q, qd, u, [], [], [], {given})",
+                      cfd(q, qd, u, **kwargs), outputs=2)
+            calls.add(tag + "gains", f"constrained_forward_dynamics(q, qd, u, {{'sole', {toe}}}, [25 10], "
+                      f"{{A_sole, A_toe}}, {given})",
+                      cfd(q, qd, u, ["sole", "toe"], (25.0, 10.0), anchors=[anchor_sole, anchor_toe], **kwargs),
+                      outputs=2)
+            calls.add(tag + "kd", f"constrained_forward_dynamics(q, qd, [], [{toe} {sole}], [0 4], {{}}, {given})",
+                      cfd(q, qd, None, ["toe", "sole"], (0, 4.0), **kwargs), outputs=2)
+            calls.add(tag + "struct", "constrained_forward_dynamics(q, qd, u, struct('frame', {'toe', 'sole'}, "
+                      f"'kind', {{'surface', 'point'}}), [], [], {given})",
+                      cfd(q, qd, u, [("toe", "surface"), ("sole", "point")], **kwargs), outputs=2)
+            calls.add(tag + "edited", f"constrained_forward_dynamics(q, qd, u, c, [9 6], {{A_sole(1:3, 4), A_toe}}, "
+                      f"{given})", cfd(q, qd, u, [("sole", "point"), "toe"], (9.0, 6.0),
+                                       anchors=[anchor_sole[:3, 3], anchor_toe], **kwargs), outputs=2)
+            calls.add(tag + "none", f"constrained_forward_dynamics(q, qd, u, {{}}, [], [], {given})",
+                      cfd(q, qd, u, (), **kwargs), outputs=2)
+            calls.add(tag + "impact", f"impulse_dynamics(q, qd, [], [], {given})", imp(q, qd, **kwargs), outputs=2)
+            calls.add(tag + "bounce", f"impulse_dynamics(q, qd, {{{toe}, 'sole'}}, 0.5, {given})",
+                      imp(q, qd, ["toe", "sole"], 0.5, **kwargs), outputs=2)
+            if index == 0:   # every argument after q and qd omitted
+                calls.add("omitted", "constrained_forward_dynamics(q, qd)", cfd(q, qd), outputs=2)
+                calls.add("omitted_impact", "impulse_dynamics(q, qd)", imp(q, qd), outputs=2)
+        else:
+            calls.add(tag + "toe", f"constrained_forward_dynamics(q, qd, u, 'toe', [], [], {given})",
+                      cfd(q, qd, u, "toe", **kwargs), outputs=2)
+            calls.add(tag + "gains", f"constrained_forward_dynamics(q, qd, u, {toe}, [16 8], {{A_toe}}, {given})",
+                      cfd(q, qd, u, ["toe"], (16.0, 8.0), anchors=[anchor_toe], **kwargs), outputs=2)
+            calls.add(tag + "sole_point", f"constrained_forward_dynamics(q, qd, u, struct('frame', 'sole', 'kind', "
+                      f"'point'), [0 3], [], {given})", cfd(q, qd, u, [("sole", "point")], (0, 3.0), **kwargs),
+                      outputs=2)
+            calls.add(tag + "impact", f"impulse_dynamics(q, qd, {{'toe'}}, 0.5, {given})",
+                      imp(q, qd, ["toe"], 0.5, **kwargs), outputs=2)
+    calls.lines.append(f"help {name}.constrained_forward_dynamics")
+    output = _octave(tmp_path, "\n".join(calls.lines) + "\n", warnings=False)
+    calls.check(output)
+    assert "declared sole toe" in output
+    assert "CONSTRAINED_FORWARD_DYNAMICS  (qdd, forces) with the contacts held" in output
+
+
+@needs_octave
+def test_contact_errors_in_octave(tmp_path, code_dir):
+    """Each refusal raises an error with its identifier: redundant contacts (the fixed tree's
+    declared surface and point contacts: 9 rows on 5 joints), an unknown frame, a number out of
+    range, an unknown kind, a frame held twice, kp without anchors, a wrong anchor; the same
+    cases the NumPy module refuses."""
+    derivation, module = _contact_tree("fixed_6", Path(code_dir))
+    name = derivation.robot.name
+    _write(derivation, tmp_path)
+    rng, n = np.random.default_rng(1), len(module.COORDINATES)
+    q, qd, u = rng.uniform(-1.5, 1.5, n), rng.normal(size=n), rng.normal(size=len(module.EFFORTS))
+    cases = {
+        "redundant": ("constrained_forward_dynamics(q, qd, u)", "redundant", "redundant"),
+        "redundant_impact": ("impulse_dynamics(q, qd)", "redundant", "redundant"),
+        "unknown": ("constrained_forward_dynamics(q, qd, u, {'heel'})", "contacts", "unknown frame 'heel'"),
+        "range": ("constrained_forward_dynamics(q, qd, u, [7])", "contacts", "frame number 7 is out of range"),
+        "kind": ("constrained_forward_dynamics(q, qd, u, struct('frame', 'toe', 'kind', 'line'))", "contacts",
+                 "'point' or 'surface'"),
+        "twice": ("constrained_forward_dynamics(q, qd, u, {'toe', 2})", "contacts", "held twice"),
+        "pair": ("constrained_forward_dynamics(q, qd, u, {'toe'}, 1)", "baumgarte", "a pair"),
+        "kp": ("constrained_forward_dynamics(q, qd, u, {'toe'}, [1 0])", "baumgarte", "kp needs anchors"),
+        "anchor": ("constrained_forward_dynamics(q, qd, u, {'toe'}, [1 0], {eye(4)})", "anchors", "3 x 1"),
+        "anchors": ("constrained_forward_dynamics(q, qd, u, {'toe'}, [1 0], {[0; 0; 0], [0; 0; 0]})", "anchors",
+                    "one entry per contact"),
+    }
+    lines = [f"q = {_vector(q)}; qd = {_vector(qd)}; u = {_vector(u)};"]
+    for label, (call, _, _) in cases.items():
+        lines.append(f"try, {name}.{call}; fprintf('{label} no error\\n'); "
+                     f"catch failure, fprintf('{label} %s | %s\\n', failure.identifier, failure.message); end")
+    output = _octave(tmp_path, "\n".join(lines) + "\n")
+    got = dict(line.split(" ", 1) for line in output.splitlines() if line.split(" ", 1)[0] in cases)
+    assert set(got) == set(cases), output
+    for label, (_, identifier, message) in cases.items():
+        assert got[label].startswith(f"{name}:{identifier} | ") and message in got[label], (label, got[label])
+    assert "sole (surface), toe (point)" in got["redundant"]
+    for contacts in (["heel"], [("toe", "line")], ["toe", 1]):   # the NumPy module refuses them too
+        with pytest.raises(ValueError):
+            module.constrained_forward_dynamics(q, qd, u, contacts)
 
 
 def _double_pendulum_energy(tmp_path: Path) -> list[float]:
@@ -290,7 +443,7 @@ def _code_part(line: str) -> str:
     return code.split("%", 1)[0]
 
 
-@pytest.mark.parametrize("robot", ["rp_arm", "four_bar", "cart_pole_damped", "bennett", "planar_3r"])
+@pytest.mark.parametrize("robot", ["rp_arm", "four_bar", "cart_pole_damped", "bennett", "planar_3r", "elbow_arm"])
 def test_files_hold_matlab_syntax_only(robot):
     files = render_matlab(derivation_of(robot))
     for path, text in files.items():
@@ -369,7 +522,7 @@ def test_every_name_the_files_use_is_refused_as_a_package_name():
     from dynderive.render.targets.matlab.matlab_names import GENERATED_NAMES, MATLAB_KEYWORDS
 
     used, packages, functions = set(), set(), set()
-    for robot in ["rp_arm", "bennett", "cart_pole_damped", "planar_3r", "slider_crank"]:
+    for robot in ["rp_arm", "bennett", "cart_pole_damped", "planar_3r", "slider_crank", "elbow_arm"]:
         files = render_matlab(derivation_of(robot))
         packages.add(robot)
         functions |= {path.split("/")[1][:-2] for path in files}
@@ -377,8 +530,8 @@ def test_every_name_the_files_use_is_refused_as_a_package_name():
             for line in text.splitlines():
                 if line.lstrip().startswith("%"):
                     continue
-                if "error(" in line or "strcmp(" in line:   # character vectors: not names
-                    line = re.sub(r"'[^']*'", "''", line)
+                # character vectors (a quote after an operator, not a transpose) and comments: not names
+                line = re.sub(r"(?<=[(\[{,=;\s])'(?:[^'\n]|'')*'", "''", line).split("%", 1)[0]
                 used |= set(re.findall(r"(?<![.\w])([A-Za-z]\w*)", line))
     missing = used - GENERATED_NAMES - MATLAB_KEYWORDS - packages - functions
     assert not {m for m in missing if not re.fullmatch(r"t[0-9]+", m)}, missing

@@ -41,8 +41,8 @@ NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
         "centre of mass and centroidal momentum: the Python modules only so far") for kind in ("fixed", "floating")),
     (("casadi",), ("assemble",), "fixed",
      "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
-    (("c", "c-extension", "matlab"), CONTACT_FUNCTIONS, "any",
-     "contact dynamics (constrained forward and impulse dynamics): the Python modules only so far"),
+    (("c", "c-extension"), CONTACT_FUNCTIONS, "any",
+     "contact dynamics (constrained forward and impulse dynamics): not in the C code so far"),
 )
 
 

@@ -13,7 +13,8 @@ of the struct ``p`` (``p.m``).
 Dense linear algebra is MATLAB's: forward dynamics solves ``M qdd = Y(u) - (C qd + N + F)``
 with ``\\`` (M symmetric positive definite: MATLAB factors it by Cholesky), ``linearize``
 solves its columns the same way, and a loop robot solves the NumPy module's constrained system
-(``matlab_loops.py``). Free text appears only in ``%`` comments (``matlab_comment``); names must
+(``matlab_loops.py``); a 3-D robot's contact dynamics solve the NumPy module's Schur complement
+(``matlab_contacts.py``). Free text appears only in ``%`` comments (``matlab_comment``); names must
 be MATLAB names (``matlab_names.py``).
 """
 
@@ -28,6 +29,7 @@ from ...encode import Code
 from ...environment import render
 from ..c.c_names import refuse
 from ..c.c_print import double_literal, parameter_note, quantity_body
+from .matlab_contacts import contact_functions, contacts_function
 from .matlab_loops import loop_functions
 from .matlab_names import matlab_comment, matlab_problems, matlab_string
 from .matlab_print import (
@@ -124,7 +126,7 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         *_centroidal_functions(derivation, names),
     ]
     if not robot.loops:
-        functions += [_forward_dynamics(derivation), _linearize(derivation, names)]
+        functions += [_forward_dynamics(derivation), _linearize(derivation, names), *contact_functions(derivation)]
     else:
         functions += loop_functions(derivation, names)
     functions += _derivatives(derivation, names)
@@ -339,7 +341,7 @@ def render_matlab(derivation: Derivation, template_dir: str | Path | None = None
                "generator": matlab_comment(f"dynderive {__version__}"), "name": Code(robot.name)}
     files = {}
     numeric = numeric_functions(derivation) if functions is None else functions
-    for function in [parameters_function(derivation), *numeric]:
+    for function in [parameters_function(derivation), *contacts_function(derivation), *numeric]:
         files[f"+{robot.name}/{function.name}.m"] = render("code", FUNCTION_TEMPLATE, context | {"f": function},
                                                             template_dir)
     return dict(sorted(files.items()))

@@ -37,6 +37,10 @@ q qd qdd u p frame M C N V F Y A B R X K E D G T J W x s r top bottom rhs soluti
 Ur Ar Ub ans Adot Aj a alpha beta pi_ qdd0 loop_solve isstring isequal tanh
 dtau_dq dtau_dqd dqdd_dq dqdd_dqd dqdd_du
 m c cdot J_G Jdot_G_qd A_G h_G Adot_G_qd I_G
+contacts baumgarte anchors restitution qd_minus qd_plus impulses forces frames surface held entries kinds names
+parts k kind anchor turn w v e err drift gamma free Jc Jf MiJt S target contact_list contact_rows schur_solve
+cross eig strjoin sprintf find num2cell cellstr isstruct isfield iscell isscalar isreal fix double false char
+cell
 """.split())
 
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")

@@ -1,0 +1,275 @@
+"""The MATLAB/Octave target's contact dynamics of a 3-D robot without closed loops (DESIGN.md
+section 11): ``constrained_forward_dynamics``, ``impulse_dynamics`` and ``contacts()`` (the
+robot file's declared contacts), with the NumPy module's mathematics
+(``templates/dynamics_contacts.py.j2``) written on the package's own functions.
+
+``h = inverse_dynamics(q, qd, 0)`` (friction included), ``tau = generalized_forces(q, u)`` (a
+floating base's efforts at their columns); point contacts hold the rows ``frame_jacobian(1:3,
+:)`` (world-aligned) with drift ``frame_jacobian_dot_qd(1:3)``, surface contacts ``[R' Jv; R'
+Jw]`` with the spatial acceleration's drift ``[R' (a - w x v); R' alpha]``; the Schur
+complement ``S = J M^-1 J'`` is solved with MATLAB's ``\\`` after refusing a singular one
+(redundant contacts, the NumPy module's ``CONTACT_RANK_TOLERANCE``). Each file carries its local
+functions ``contact_list`` (frames by name, 1-based number or a struct with fields ``frame`` and
+``kind``), ``contact_rows`` and ``schur_solve``.
+"""
+
+from __future__ import annotations
+
+from ....derivation import Derivation
+from .matlab_names import matlab_string
+from .matlab_print import MFunction, help_line
+
+#: The NumPy module's CONTACT_RANK_TOLERANCE: the smallest eigenvalue of S, relative to its
+#: largest, below which the contacts are redundant.
+RANK_TOLERANCE = "1e-12"
+#: The help's note on the size of the forces (impulses): the API table's is the declared contacts'.
+HELD_SIZE = "that size for the declared contacts, 3 per point and 6 per surface contact held."
+
+
+def has_contacts(derivation: Derivation) -> bool:
+    """Whether the robot has contact dynamics: 3-D, without closed loops (as the NumPy module)."""
+    return not derivation.robot.planar and not derivation.robot.loops
+
+
+def contacts_function(derivation: Derivation) -> list[MFunction]:
+    """``contacts()``: the declared contacts as a struct array (fields frame, kind), which the
+    contact functions take as their ``contacts`` argument; none for a robot without them."""
+    if not has_contacts(derivation):
+        return []
+    robot = derivation.robot
+    frames = ", ".join(matlab_string(c.frame) for c in robot.contacts)
+    kinds = ", ".join(matlab_string(c.kind) for c in robot.contacts)
+    listing = ", ".join(f"{c.frame} ({c.kind})" for c in robot.contacts) or "none"
+    return [MFunction("contacts", "c", [],
+                      ["CONTACTS  The contacts the robot file declares: a struct array with fields frame (a name) and",
+                       "   kind ('point' or 'surface'), the default contacts of constrained_forward_dynamics and",
+                       f"   impulse_dynamics: {listing}.", "",
+                       f"   c = {robot.name}.contacts();  c(1).kind = 'surface';   (then pass c as contacts)"],
+                      [f"c = struct('frame', {{{frames}}}, 'kind', {{{kinds}}});"])]
+
+
+def _contact_list(derivation: Derivation) -> MFunction:
+    """``[frames, surface, held] = contact_list(contacts)``: frame numbers, surface flags and the
+    contacts as text for messages."""
+    robot = derivation.robot
+    pkg, count = robot.name, len(robot.frames)
+    declared = {c.frame: c.kind for c in robot.contacts}
+    names = ", ".join(matlab_string(f.name) for f in robot.frames)
+    kinds = ", ".join(matlab_string(declared.get(f.name, "point")) for f in robot.frames)
+    what = (f"a contact is a frame name, a frame number from 1 to {count} or a struct with fields frame and kind")
+    return MFunction(
+        "contact_list", "[frames, surface, held]", ["contacts"],
+        ["CONTACT_LIST  The frames held (numbers in the robot file's order), whether each is a surface",
+         "   contact, and the contacts as text: [] means the declared ones, an empty cell array none."],
+        [f"names = {{{names}}};",
+         f"kinds = {{{kinds}}};   % each frame's declared kind, else point",
+         "if isnumeric(contacts) && isempty(contacts)",
+         f"    contacts = {pkg}.contacts();",
+         "end",
+         "if ischar(contacts)",
+         "    entries = {contacts};",
+         "elseif isstring(contacts)",
+         "    entries = cellstr(contacts);",
+         "elseif isnumeric(contacts)",
+         "    entries = num2cell(contacts(:));",
+         "elseif isstruct(contacts)",
+         "    entries = num2cell(contacts(:));",
+         "elseif iscell(contacts)",
+         "    entries = contacts(:);",
+         "else",
+         f"    error('{pkg}:contacts', 'contacts must be frame names (a cell array), frame numbers or a struct "
+         "array with fields frame and kind');",
+         "end",
+         "frames = zeros(numel(entries), 1);",
+         "surface = false(numel(entries), 1);",
+         "parts = cell(1, numel(entries));",
+         "for k = 1:numel(entries)",
+         "    frame = entries{k};",
+         "    kind = [];",
+         "    if isstruct(frame) && isscalar(frame) && isfield(frame, 'frame')",
+         "        if isfield(frame, 'kind')",
+         "            kind = frame.kind;",
+         "        end",
+         "        frame = frame.frame;",
+         "    end",
+         "    if ischar(frame) || (isstring(frame) && isscalar(frame))",
+         "        index = find(strcmp(frame, names), 1);",
+         "        if isempty(index)",
+         f"            error('{pkg}:contacts', 'unknown frame ''%s'': give a name or a number from 1 to {count}', "
+         "char(frame));",
+         "        end",
+         "    elseif isnumeric(frame) && isscalar(frame) && isreal(frame) && frame == fix(frame)",
+         f"        if frame < 1 || frame > {count}",
+         f"            error('{pkg}:contacts', 'frame number %d is out of range: give a number from 1 to {count}', "
+         "frame);",
+         "        end",
+         "        index = double(frame);",
+         "    else",
+         f"        error('{pkg}:contacts', '{what}');",
+         "    end",
+         "    if isempty(kind)",
+         "        kind = kinds{index};",
+         "    end",
+         "    if ~(ischar(kind) || isstring(kind)) || ~any(strcmp(kind, {'point', 'surface'}))",
+         f"        error('{pkg}:contacts', 'the contact kind of frame ''%s'' must be ''point'' or ''surface''', "
+         "names{index});",
+         "    end",
+         "    if any(frames(1:k - 1) == index)",
+         f"        error('{pkg}:contacts', 'frame ''%s'' is held twice in contacts', names{{index}});",
+         "    end",
+         "    frames(k) = index;",
+         "    surface(k) = strcmp(kind, 'surface');",
+         "    parts{k} = sprintf('%s (%s)', names{index}, char(kind));",
+         "end",
+         "held = strjoin(parts, ', ');"])
+
+
+def _contact_rows(derivation: Derivation) -> MFunction:
+    """``[Jc, drift, err] = contact_rows(q, qd, frames, surface, anchors, p)``."""
+    pkg, n = derivation.robot.name, len(derivation.symbols.qd)
+    return MFunction(
+        "contact_rows", "[Jc, drift, err]", ["q", "qd", "frames", "surface", "anchors", "p"],
+        ["CONTACT_ROWS  The stacked contact Jacobian Jc (k x NV), its drift Jdot qd (k x 1; qd [] for none)",
+         "   and with anchors the position error (k x 1). Point: the origin's rows of frame_jacobian",
+         "   (world-aligned); surface: [R' Jv; R' Jw], drift its spatial acceleration at qdd = 0 in its axes."],
+        [f"Jc = zeros(0, {n});", "drift = zeros(0, 1);", "err = zeros(0, 1);",
+         "for k = 1:numel(frames)",
+         f"    Jf = {pkg}.frame_jacobian(q, frames(k), p);",
+         f"    T = {pkg}.frame_transform(q, frames(k), p);",
+         "    if ~isempty(qd)",
+         f"        a = {pkg}.frame_jacobian_dot_qd(q, qd, frames(k), p);",
+         "    end",
+         "    if ~isempty(anchors)",
+         "        anchor = anchors{k};",
+         "    end",
+         "    if ~surface(k)",
+         "        Jc = [Jc; Jf(1:3, :)];",
+         "        if ~isempty(qd)",
+         "            drift = [drift; a(1:3)];",
+         "        end",
+         "        if ~isempty(anchors)",
+         "            if ~isnumeric(anchor) || numel(anchor) ~= 3",
+         f"                error('{pkg}:anchors', 'the anchor of point contact %d must be a position, 3 x 1', k);",
+         "            end",
+         "            err = [err; T(1:3, 4) - anchor(:)];",
+         "        end",
+         "    else",
+         "        R = T(1:3, 1:3);",
+         "        Jc = [Jc; R' * Jf(1:3, :); R' * Jf(4:6, :)];",
+         "        if ~isempty(qd)",
+         "            v = Jf * qd;",
+         "            drift = [drift; R' * (a(1:3) - cross(v(4:6), v(1:3))); R' * a(4:6)];",
+         "        end",
+         "        if ~isempty(anchors)",
+         "            if ~isnumeric(anchor) || ~isequal(size(anchor), [4, 4])",
+         f"                error('{pkg}:anchors', 'the anchor of surface contact %d must be a pose, 4 x 4', k);",
+         "            end",
+         "            turn = anchor(1:3, 1:3)' * R;",
+         "            w = (turn - turn') / 2;",
+         "            err = [err; R' * (T(1:3, 4) - anchor(1:3, 4)); w(3, 2); w(1, 3); w(2, 1)];",
+         "        end",
+         "    end",
+         "end"])
+
+
+def _schur_solve(derivation: Derivation) -> MFunction:
+    """``[x, forces] = schur_solve(M, Jc, free, target, held)``."""
+    pkg = derivation.robot.name
+    return MFunction(
+        "schur_solve", "[x, forces]", ["M", "Jc", "free", "target", "held"],
+        ["SCHUR_SOLVE  x and forces with M x = M free + Jc' forces and Jc x = target, by the Schur",
+         "   complement S = Jc M^-1 Jc': forces = S^-1 (target - Jc free), x = free + M^-1 Jc' forces.",
+         f"   S singular (smallest eigenvalue below {RANK_TOLERANCE} of the largest): redundant contacts, an error."],
+        ["MiJt = M \\ Jc';",
+         "S = Jc * MiJt;",
+         "S = (S + S') / 2;",
+         "if all(isfinite(S(:)))",
+         "    e = eig(S);",
+         f"    if min(e) <= {RANK_TOLERANCE} * max(abs(e))",
+         f"        error('{pkg}:redundant', ['the contacts %s are redundant here: J M^-1 J'' (%d x %d) is singular, "
+         "their constraint ' ...",
+         "              'rows are dependent and their forces not unique; hold fewer contacts (a point contact ' ...",
+         "              'instead of a surface one, or fewer frames)'], held, size(S, 1), size(S, 1));",
+         "    end",
+         "end",
+         "forces = S \\ (target - Jc * free);",
+         "x = free + MiJt * forces;"])
+
+
+def contact_functions(derivation: Derivation) -> list[MFunction]:
+    """``constrained_forward_dynamics`` and ``impulse_dynamics`` (none for a planar or loop robot)."""
+    if not has_contacts(derivation):
+        return []
+    robot = derivation.robot
+    pkg, n, nu = robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
+    local = [_contact_list(derivation), _contact_rows(derivation), _schur_solve(derivation)]
+    contacts_help = [
+        "   contacts: frame names (a cell array; one name alone is one contact), frame numbers (1-based, the",
+        "   robot file's order: a vector, or numbers in the cell array), or a struct array with fields frame",
+        f"   and kind ('point' or 'surface'; empty: the frame's declared kind, else point), as {pkg}.contacts()",
+        "   returns. Omitted or []: the declared contacts; an empty cell array holds none. Point: the frame's",
+        "   origin's acceleration in world-aligned axes, 3 forces (world axes); surface: the frame's twist in",
+        "   its own axes, 6 (force, then moment about the origin, frame axes). Forces are the environment's",
+        "   on the robot."]
+    forward = MFunction(
+        "constrained_forward_dynamics", "[qdd, forces]", ["q", "qd", "u", "contacts", "baumgarte", "anchors", "p"],
+        [help_line(derivation, "constrained_forward_dynamics", f"Forces: {HELD_SIZE}"), "",
+         f"   [qdd, forces] = {pkg}.constrained_forward_dynamics(q, qd, u, contacts, baumgarte, anchors, p)", "",
+         "   As Pinocchio's forwardDynamics: M qdd = tau - h + J' forces, J qdd = -gamma, with h =",
+         "   inverse_dynamics(q, qd, 0) (friction with p.friction_smoothing) and tau = generalized_forces(q, u);",
+         f"   u ({nu} x 1) may be [] (no effort). Solved by the Schur complement J M^-1 J' (redundant contacts:",
+         f"   error {pkg}:redundant).",
+         *contacts_help,
+         "   baumgarte: [kp kd] (omitted or []: [0 0]); gamma = Jdot qd + kd J qd + kp e, so that the contacts",
+         "   accelerate by -kd (velocity) - kp e. e needs anchors, a cell array with one entry per contact in",
+         "   order: a point's held position (3 x 1, world), a surface's held pose (4 x 4); e = p - p_ref for a",
+         "   point, [R' (p - p_ref); vee of the skew part of R_ref' R] for a surface. kp must be 0 without anchors.",
+         "   forces: 3 per point and 6 per surface contact, in the order of contacts."],
+        [*_arguments(["q", "qd"]),
+         "if nargin < 3 || isempty(u)", f"    u = zeros({nu}, 1);", "end", "u = u(:);",
+         "if nargin < 4", "    contacts = [];", "end",
+         "if nargin < 5 || isempty(baumgarte)", "    baumgarte = [0, 0];", "end",
+         "if ~isnumeric(baumgarte) || numel(baumgarte) ~= 2",
+         f"    error('{pkg}:baumgarte', 'baumgarte must be a pair [kp kd]');", "end",
+         "if nargin < 6", "    anchors = {};", "end",
+         "if nargin < 7 || isempty(p)", f"    p = {pkg}.parameters();", "end",
+         "[frames, surface, held] = contact_list(contacts);",
+         "if isempty(anchors) && baumgarte(1) ~= 0",
+         f"    error('{pkg}:baumgarte', 'baumgarte''s kp needs anchors (the held positions and poses): without them "
+         "kp must be 0');",
+         "end",
+         "if ~isempty(anchors) && (~iscell(anchors) || numel(anchors) ~= numel(frames))",
+         f"    error('{pkg}:anchors', 'anchors must be a cell array of one entry per contact (%d)', numel(frames));",
+         "end",
+         f"M = {pkg}.mass_matrix(q, p);",
+         f"free = M \\ ({pkg}.generalized_forces(q, u, p) - {pkg}.inverse_dynamics(q, qd, zeros({n}, 1), p));",
+         "if isempty(frames)", "    qdd = free;", "    forces = zeros(0, 1);", "    return", "end",
+         "[Jc, drift, err] = contact_rows(q, qd, frames, surface, anchors, p);",
+         "gamma = drift + baumgarte(2) * (Jc * qd);",
+         "if ~isempty(anchors)", "    gamma = gamma + baumgarte(1) * err;", "end",
+         "[qdd, forces] = schur_solve(M, Jc, free, -gamma, held);"],
+        local)
+    impulse = MFunction(
+        "impulse_dynamics", "[qd_plus, impulses]", ["q", "qd_minus", "contacts", "restitution", "p"],
+        [help_line(derivation, "impulse_dynamics", f"Impulses: {HELD_SIZE}"), "",
+         f"   [qd_plus, impulses] = {pkg}.impulse_dynamics(q, qd_minus, contacts, restitution, p)", "",
+         "   As Pinocchio's impulseDynamics, by the Schur complement J M^-1 J' (redundant contacts: error",
+         f"   {pkg}:redundant).",
+         *contacts_help,
+         "   restitution: 0 (omitted or []: the contacts stop, a plastic impact) to 1 (their velocities reverse).",
+         "   impulses: 3 per point and 6 per surface contact, in the order of contacts."],
+        [*_arguments(["q", "qd_minus"]),
+         "if nargin < 3", "    contacts = [];", "end",
+         "if nargin < 4 || isempty(restitution)", "    restitution = 0;", "end",
+         "if nargin < 5 || isempty(p)", f"    p = {pkg}.parameters();", "end",
+         "[frames, surface, held] = contact_list(contacts);",
+         "if isempty(frames)", "    qd_plus = qd_minus;", "    impulses = zeros(0, 1);", "    return", "end",
+         "Jc = contact_rows(q, [], frames, surface, {}, p);",
+         f"[qd_plus, impulses] = schur_solve({pkg}.mass_matrix(q, p), Jc, qd_minus, "
+         "-restitution * (Jc * qd_minus), held);"],
+        local)
+    return [forward, impulse]
+
+
+def _arguments(vectors: list[str]) -> list[str]:
+    return [f"{v} = {v}(:);" for v in vectors]
