@@ -14,6 +14,9 @@ space (A is 2 NV x 2 NV), and the configuration maps ``neutral_configuration``, 
 ``difference`` and ``configuration_rate`` are printed from the joint types' programs
 (``Derivation.configuration_programs``; their branches as ``(c ? a : b)``).
 
+A 3-D robot has the centre of mass and the centroidal momentum (``total_mass`` ...
+``centroidal_inertia``), each its program of ``Derivation.centroidal_programs`` printed.
+
 Damping and Coulomb friction are ``friction_forces``, added to inverse dynamics and taken from
 the right-hand side of forward dynamics as the NumPy module does; the struct carries
 ``friction_smoothing`` (0: the exact sign; eps > 0: ``tanh(qd / eps)``). Closed loops and the

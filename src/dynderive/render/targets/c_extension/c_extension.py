@@ -11,7 +11,8 @@ messages, broadcasting of the batch dimensions, and the batch loop in C (without
 Adding a C function to the module is one row (``c_binding.Binding``). A robot with
 quaternions (a floating or spherical joint) takes ``q`` of NQ entries and ``qd``, ``qdd`` of NV,
 has no ``generalized_forces`` and adds the configuration maps (``neutral_configuration``,
-``integrate``, ``difference``, ``configuration_rate``).
+``integrate``, ``difference``, ``configuration_rate``). A 3-D robot adds the centre of mass and
+centroidal momentum (``total_mass`` ... ``centroidal_inertia``).
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
@@ -88,7 +89,8 @@ def bindings(derivation: Derivation) -> list[Binding]:
         "neutral_configuration": geometry, "integrate": {"number": "1.0", **geometry},
         "configuration_rate": geometry, "difference": geometry,
     }
-    groups = {"dynamics", "frames"} | (set() if robot.planar else {"centroidal"}) | ({"loops"} if loops else set()) | ({"configuration"} if quaternions else set())
+    groups = {"dynamics", "frames"} | (set() if robot.planar else {"centroidal"}) | \
+        ({"loops"} if loops else set()) | ({"configuration"} if quaternions else set())
     table = []
     for function in api.API:
         if function.group not in groups or (quaternions and function.name == "generalized_forces"):
