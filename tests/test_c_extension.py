@@ -35,7 +35,6 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from dynderive.render import api
 from dynderive.render.targets.c_extension.c_extension import bindings, c_string, render_extension
 from dynderive.render.targets.c_extension.compile import build_extension
 from dynderive.verify.checks import random_configurations
@@ -613,8 +612,7 @@ def test_keyword_parameters_constants_and_signatures(compiled_floating):
     _agree_floating(ext, module, robot, seed=5, values={"m": 2.5, "g": 9.7})
     for constant in ("NQ", "NV", "COORDINATES", "VELOCITIES", "EFFORTS", "FRAMES", "PARAMETERS", "PARAMETER_VECTOR"):
         assert getattr(ext, constant) == getattr(module, constant), constant
-    functions = sorted(n for n, v in vars(module).items() if inspect.isfunction(v) and not n.startswith("_")
-                       and n not in api.group("centroidal"))   # not in the C target yet: NOT_BUILT
+    functions = sorted(n for n, v in vars(module).items() if inspect.isfunction(v) and not n.startswith("_"))
     assert sorted(b.name for b in bindings(dynderive.derive(robot))) == functions
     for name in functions:
         assert inspect.signature(getattr(ext, name)) == inspect.signature(getattr(module, name)), name
@@ -712,8 +710,8 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
         assert f"compiled {function} == NumPy module" in result.stdout, function
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
-    compiled_rows = [n for n in rows if n.startswith("compiled ") and rows[n] != "skip"]   # skip: not built
-    assert len(compiled_rows) == 21 and all(rows[n] == "pass" for n in compiled_rows)
+    compiled_rows = [n for n in rows if n.startswith("compiled ")]
+    assert len(compiled_rows) == 30 and all(rows[n] == "pass" for n in compiled_rows)
 
 
 def test_failing_compiler_on_a_floating_robot_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):

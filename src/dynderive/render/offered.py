@@ -37,8 +37,6 @@ NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
      "a robot without frames: MATLAB writes no frame functions (the NumPy module's raise for any frame name)"),
     (("numpy", "c", "c-extension", "jax", "casadi"), ("generalized_forces",), "floating",
      "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
-    *((("c", "c-extension"), api.group("centroidal"), kind,
-        "centre of mass and centroidal momentum: the Python modules only so far") for kind in ("fixed", "floating")),
     (("casadi",), ("assemble",), "fixed",
      "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
     (("c", "c-extension"), CONTACT_FUNCTIONS, "any",

@@ -14,6 +14,9 @@ space (A is 2 NV x 2 NV), and the configuration maps ``neutral_configuration``, 
 ``difference`` and ``configuration_rate`` are printed from the joint types' programs
 (``Derivation.configuration_programs``; their branches as ``(c ? a : b)``).
 
+A 3-D robot has the centre of mass and the centroidal momentum (``total_mass`` ...
+``centroidal_inertia``), each its program of ``Derivation.centroidal_programs`` printed.
+
 Damping and Coulomb friction are ``friction_forces``, added to inverse dynamics and taken from
 the right-hand side of forward dynamics as the NumPy module does; the struct carries
 ``friction_smoothing`` (0: the exact sign; eps > 0: ``tanh(qd / eps)``). Closed loops and the
@@ -23,6 +26,7 @@ text appears only in encoded comments.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -140,6 +144,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
                       names, [v.value for v in derivation.parameter_vector],
                       [f"pi[{i}]" for i in range(len(derivation.parameter_vector))])]),
         *_frame_functions(derivation, names, start, pp),
+        *_centroidal_functions(derivation, names, start, pp),
         *(_configuration_functions(derivation) if quaternions else []),
     ]
     functions = amend(derivation, CKit(
@@ -226,6 +231,45 @@ def _frame_functions(derivation: Derivation, names: Names, start: str, pp: str) 
         body.append("return 1;")
         functions.append(CFunction(f"int {name}_frame_{kind}({arguments}, int frame, {pp}, double *{out})",
                                    comment + " Returns 0, or 1 if there is no such frame.", body))
+    return functions
+
+
+#: The output array of each centroidal function (the inertia's not ``I``, <complex.h>'s macro),
+#: and what its comment adds to the API table's.
+CENTROIDAL_OUTPUTS = {"center_of_mass": "c", "center_of_mass_velocity": "v", "center_of_mass_jacobian": "J",
+                      "center_of_mass_acceleration_bias": "a", "centroidal_momentum_matrix": "A",
+                      "centroidal_momentum": "h", "centroidal_momentum_bias": "dh", "centroidal_inertia": "Ig"}
+CENTROIDAL_NOTES = {
+    "total_mass": "Links welded to the world are left out (Pinocchio's universe).",
+    "center_of_mass_acceleration_bias": "The centre of mass accelerates by J qdd + this.",
+    "centroidal_momentum_bias": "The centroidal momentum changes by A_G qdd + this.",
+}
+
+
+def _centroidal_functions(derivation: Derivation, names: Names, start: str, pp: str) -> list[CFunction]:
+    """The centre of mass and the centroidal momentum of a 3-D robot (none for a planar one):
+    each ``Derivation.centroidal_programs`` program printed, with the API table's arguments;
+    ``total_mass`` returns its value."""
+    programs = derivation.centroidal_programs
+    if programs is None:
+        return []
+    size, name = api.sizes(derivation), derivation.robot.name
+    functions = []
+    for kind in api.group("centroidal"):
+        program, arguments = getattr(programs, kind), api.BY_NAME[kind].arguments
+        comment = " ".join([api.described(kind, size, "{n} entries", ", row-major") + ".",
+                            *([CENTROIDAL_NOTES[kind]] if kind in CENTROIDAL_NOTES else [])])
+        if kind not in CENTROIDAL_OUTPUTS:   # total_mass: the one value
+            functions.append(CFunction(f"double {name}_{kind}({pp})", comment,
+                                       [start, "double m;", *void("P"), *program_body(names, program, ["m"]),
+                                        "return m;"]))
+            continue
+        out = CENTROIDAL_OUTPUTS[kind]
+        count = math.prod(*api.shapes(kind, size))
+        declared = ", ".join([*(f"const double *{a}" for a in arguments), pp, f"double *{out}"])
+        functions.append(CFunction(f"void {name}_{kind}({declared})", comment,
+                                   [start, *void(*arguments, "P"),
+                                    *program_body(names, program, [f"{out}[{k}]" for k in range(count)])]))
     return functions
 
 

@@ -11,7 +11,8 @@ messages, broadcasting of the batch dimensions, and the batch loop in C (without
 Adding a C function to the module is one row (``c_binding.Binding``). A robot with
 quaternions (a floating or spherical joint) takes ``q`` of NQ entries and ``qd``, ``qdd`` of NV,
 has no ``generalized_forces`` and adds the configuration maps (``neutral_configuration``,
-``integrate``, ``difference``, ``configuration_rate``).
+``integrate``, ``difference``, ``configuration_rate``). A 3-D robot adds the centre of mass and
+centroidal momentum (``total_mass`` ... ``centroidal_inertia``).
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
@@ -78,6 +79,7 @@ def bindings(derivation: Derivation) -> list[Binding]:
         "forward_dynamics_derivatives": solved,
         "regressor": {"smoothing": True,
                       "refuses_negative": dissipative and bool(derivation.programs["regressor"].extra_inputs)},
+        "total_mass": {"returns": "value"},
         "frame_transform": frame, "frame_jacobian": frame, "frame_jacobian_dot_qd": frame,
         "loop_forces": {"wrenches": "loop_forces_wrenches", **solved},
         "reduced_basis": {"returns": "status"},
@@ -87,13 +89,14 @@ def bindings(derivation: Derivation) -> list[Binding]:
         "neutral_configuration": geometry, "integrate": {"number": "1.0", **geometry},
         "configuration_rate": geometry, "difference": geometry,
     }
-    groups = {"dynamics", "frames"} | ({"loops"} if loops else set()) | ({"configuration"} if quaternions else set())
+    groups = {"dynamics", "frames"} | (set() if robot.planar else {"centroidal"}) | \
+        ({"loops"} if loops else set()) | ({"configuration"} if quaternions else set())
     table = []
     for function in api.API:
         if function.group not in groups or (quaternions and function.name == "generalized_forces"):
             continue
         inputs = tuple((a, 1 if a == "dt" else size[api.ARGUMENT_SIZES[a]]) for a in function.arguments if a != "frame")
-        doc = " ".join([api.python_doc(function.name, size, batch=function.name != "parameter_vector"),
+        doc = " ".join([api.python_doc(function.name, size, batch=function.name not in ("parameter_vector", "total_mass")),
                         *_notes(function.name, loops)])
         table.append(Binding(function.name, inputs, api.shapes(function.name, size), doc,
                              **extra.get(function.name, {})))
@@ -119,6 +122,10 @@ def _notes(name: str, loops: bool) -> list[str]:
         "reduced_forward_dynamics": ["NaN where it cannot be solved."],
         "assemble": ["Raises ValueError where it does not converge."],
         "integrate": ["dt: a number or an array of them (batch dimensions)."],
+        "total_mass": ["Links welded to the world are left out (Pinocchio's universe)."],
+        "center_of_mass_acceleration_bias": ["The centre of mass accelerates by center_of_mass_jacobian(q) @ qdd + "
+                                             "this."],
+        "centroidal_momentum_bias": ["The centroidal momentum changes by centroidal_momentum_matrix(q) @ qdd + this."],
     }
     return notes.get(name, [])
 
