@@ -60,6 +60,24 @@ int panda_frame_transform(const double *q, int frame, const panda_parameters *p,
 int panda_frame_jacobian(const double *q, int frame, const panda_parameters *p, double *J);
 /* Jdot(q, qd) qd of frame number `frame`, 6 entries (its acceleration at qdd = 0). Returns 0, or 1 if there is no such frame. */
 int panda_frame_jacobian_dot_qd(const double *q, const double *qd, int frame, const panda_parameters *p, double *a);
+/* Total mass of the moving links. Links welded to the world are left out (Pinocchio's universe). */
+double panda_total_mass(const panda_parameters *p);
+/* Centre of mass of the moving links in the world, 3 entries. */
+void panda_center_of_mass(const double *q, const panda_parameters *p, double *c);
+/* Velocity of the centre of mass in the world, 3 entries. */
+void panda_center_of_mass_velocity(const double *q, const double *qd, const panda_parameters *p, double *v);
+/* Jacobian of the centre of mass: its velocity per velocity, 3 x 7, row-major. */
+void panda_center_of_mass_jacobian(const double *q, const panda_parameters *p, double *J);
+/* Jdot(q, qd) qd of the centre of mass (its acceleration at qdd = 0), 3 entries. The centre of mass accelerates by J qdd + this. */
+void panda_center_of_mass_acceleration_bias(const double *q, const double *qd, const panda_parameters *p, double *a);
+/* Centroidal momentum matrix A_G(q): linear, then angular momentum about the centre of mass, world axes, 6 x 7, row-major. */
+void panda_centroidal_momentum_matrix(const double *q, const panda_parameters *p, double *A);
+/* Centroidal momentum h_G = A_G qd: linear, then angular about the centre of mass, 6 entries. */
+void panda_centroidal_momentum(const double *q, const double *qd, const panda_parameters *p, double *h);
+/* Adot_G(q, qd) qd, the rate of h_G at qdd = 0, 6 entries. The centroidal momentum changes by A_G qdd + this. */
+void panda_centroidal_momentum_bias(const double *q, const double *qd, const panda_parameters *p, double *dh);
+/* Composite inertia of the moving links about the centre of mass, world axes: [[m 1, 0], [0, I_G]], 6 x 6, row-major. */
+void panda_centroidal_inertia(const double *q, const panda_parameters *p, double *Ig);
 
 #ifdef __cplusplus
 }
