@@ -26,14 +26,9 @@ from .options import backend_target, finite, problem, require_scipy, tolerances,
 from .output import WRITTEN, check_frames, check_output_paths, echo_notes, interrupted_message, write_all
 from .progress import Progress
 
-app = typer.Typer(
-    cls=_Group,
-    add_completion=False,
-    no_args_is_help=True,
-    pretty_exceptions_enable=False,
-    help="Derive a robot's equations of motion symbolically and render them as a LaTeX "
-         "solution sheet, a PDF, a NumPy module or JSON.",
-)
+app = typer.Typer(cls=_Group, add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Derive a robot's equations of motion symbolically and render them as a LaTeX "
+                       "solution sheet, a PDF, a NumPy module or JSON.")
 
 F = TypeVar("F", bound=Callable[..., Any])
 #: Options several commands share.
@@ -293,9 +288,8 @@ def simulate(
     force: Annotated[list[str] | None, typer.Option("--force", help="FRAME=EXPR,EXPR,..(t, q, qd): a wrench at a frame "
                      "in world axes (planar fx,fy,n; 3-D fx,fy,fz,nx,ny,nz), repeatable.")] = None,
     coordinates: Annotated[str, typer.Option("--coordinates", help="generalized or maximal (planar robots).")] = "generalized",
-    contacts: Annotated[str | None, typer.Option("--contacts", help="FRAME[:point|surface][,...]: frames held by "
-                        "contacts (3-D robots), anchored where they start; 'none' for none (default: the robot "
-                        "file's contacts).")] = None,
+    contacts: Annotated[str | None, typer.Option("--contacts", help="FRAME[:point|surface][,...]: frames held (3-D), "
+                        "anchored where they start; 'none': none (default: the robot file's contacts).")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift); "
                                   "needs matplotlib (the plot extra).")] = None,
     csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
@@ -320,6 +314,7 @@ def simulate(
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
     from .. import derive, load_robot
     from . import simulate as simulation
+    from .contacts import parse_contacts
     from .integrate import method_name
 
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
@@ -351,7 +346,7 @@ def simulate(
     start_q = simulation.initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
-    held = simulation.parse_contacts(model, contacts, coordinates, bool(loaded.load))
+    held = parse_contacts(model, contacts, coordinates, bool(loaded.load))
     efforts = simulation.parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
         raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))
