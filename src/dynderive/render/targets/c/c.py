@@ -33,6 +33,7 @@ from ....mechanics.tidy import fold_constants
 from ... import api
 from ...encode import Code
 from ...environment import render
+from .c_contacts import contact_functions, contact_macros
 from .c_external import external_section
 from .c_join import joined_program as _joined
 from .c_join import print_body as _print_body
@@ -141,6 +142,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
                       [f"pi[{i}]" for i in range(len(derivation.parameter_vector))])]),
         *_frame_functions(derivation, names, start, pp),
         *(_configuration_functions(derivation) if quaternions else []),
+        *contact_functions(derivation, fill_in(_structural_pattern(derivation, n), n)),
     ]
     functions = amend(derivation, CKit(
         start, pp, CFunction, lambda values, targets, extra=None: expression_body(names.extended(extra), values, targets),
@@ -169,6 +171,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         "frames": [{"index": i, "name": c_comment(f.name)} for i, f in enumerate(robot.frames)],
         "functions": functions,
         "external": [Code(line) for line in external_section(derivation)],
+        "contacts": [Code(line) for line in contact_macros(derivation)],
     }
 
 
