@@ -102,7 +102,6 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], impulse: bool) -> l
     numbers = {f.name: i for i, f in enumerate(robot.frames)}
     for contact in robot.contacts:
         declared[numbers[contact.frame]] = int(contact.kind == "surface")
-    velocity = "qd_minus" if impulse else "qd"
     table = ", ".join(str(declared[f]) for f in range(frames)) or "0"
     lines = [
         f"static const int declared[{max(frames, 1)}] = {{ {table} }};   /* each frame's declared kind, else point */",
