@@ -38,6 +38,7 @@ from dynderive.commands.cli import app
 from dynderive.render import api
 from dynderive.render.targets.c_extension.c_extension import bindings, c_string, render_extension
 from dynderive.render.targets.c_extension.compile import build_extension
+from dynderive.render.targets.c_extension.contacts import contact_names
 from dynderive.verify.checks import random_configurations
 
 from conftest import ROBOTS, derivation_of, import_code, module_of, random_tree_derivation
@@ -615,7 +616,8 @@ def test_keyword_parameters_constants_and_signatures(compiled_floating):
         assert getattr(ext, constant) == getattr(module, constant), constant
     functions = sorted(n for n, v in vars(module).items() if inspect.isfunction(v) and not n.startswith("_")
                        and n not in api.group("centroidal"))   # not in the C target yet: NOT_BUILT
-    assert sorted(b.name for b in bindings(dynderive.derive(robot))) == functions
+    derivation = dynderive.derive(robot)
+    assert sorted({b.name for b in bindings(derivation)} | contact_names(derivation)) == functions
     for name in functions:
         assert inspect.signature(getattr(ext, name)) == inspect.signature(getattr(module, name)), name
     big = random_configurations(robot, np.random.default_rng(2), 300)   # the batch loop without the GIL

@@ -41,7 +41,7 @@ NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
         "centre of mass and centroidal momentum: the Python modules only so far") for kind in ("fixed", "floating")),
     (("casadi",), ("assemble",), "fixed",
      "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
-    (("c", "c-extension", "matlab", "casadi"), CONTACT_FUNCTIONS, "any",
+    (("matlab", "casadi"), CONTACT_FUNCTIONS, "any",
      "contact dynamics (constrained forward and impulse dynamics) are built for NumPy and JAX only"),
 )
 

@@ -51,6 +51,8 @@ def contact_context(derivation: Derivation, template_dir: str | Path | None = No
         "contacts_tuple": python_literal(tuple(c.frame for c in robot.contacts)),
         "contact_kinds": Code("{" + ", ".join(f"{python_literal(c.frame)}: {python_literal(c.kind)}"
                                               for c in robot.contacts) + "}"),
+        "parameters": [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value))}
+                       for p in robot.parameters],
         "nq": size["NQ"], "nv": size["NV"], "nu": len(derivation.symbols.efforts),
         "doc_forward": docstring(api.python_doc("constrained_forward_dynamics", size) + notes[NAMES[0]]),
         "doc_impulse": docstring(api.python_doc("impulse_dynamics", size) + notes[NAMES[1]]),
