@@ -142,7 +142,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
                       [f"pi[{i}]" for i in range(len(derivation.parameter_vector))])]),
         *_frame_functions(derivation, names, start, pp),
         *(_configuration_functions(derivation) if quaternions else []),
-        *contact_functions(derivation, fill_in(_structural_pattern(derivation, n), n)),
+        *contact_functions(derivation, _structural_pattern(derivation, n)),
     ]
     functions = amend(derivation, CKit(
         start, pp, CFunction, lambda values, targets, extra=None: expression_body(names.extended(extra), values, targets),

@@ -3,15 +3,18 @@ and ``<name>_impulse_dynamics`` of a 3-D robot without closed loops, the NumPy m
 (``templates/dynamics_contacts.py.j2``) written over the C target's own functions.
 
 Forward: M = mass_matrix, h = inverse_dynamics(q, qd, 0) (Coriolis, gravity and friction, with
-the struct's ``friction_smoothing``), tau = generalized_forces(q, u) (with quaternions: u at the
-efforts' velocity columns). Each contact's rows: a point's world-aligned rows of frame_jacobian
-and frame_jacobian_dot_qd; a surface's rows blockdiag(R^T, R^T) J in the frame's axes, with the
-spatial acceleration at qdd = 0 (the classical one minus omega x v, rotated) as drift. Then
-gamma = drift + kd J qd (+ kp e with anchors), ``M = L D L^T`` unrolled for this robot's sparsity,
-X = M^-1 [J^T, tau - h], the Schur complement S = J M^-1 J^T factored by dense Cholesky loops,
-forces = S^-1 (-gamma - J qdd_free), qdd = qdd_free + M^-1 J^T forces. Impulse: qd_minus in
-place of qdd_free and -restitution J qd_minus in place of -gamma. Every array is on the stack,
-sized at generation (NV, and 6 rows per frame: a frame is held at most once); no allocation.
+the struct's ``friction_smoothing``), tau = generalized_forces(q, u) (with quaternions: u at
+the efforts' velocity columns). Each contact's rows: a point's world-aligned rows of
+frame_jacobian and frame_jacobian_dot_qd; a surface's rows blockdiag(R^T, R^T) J in the frame's
+axes, with the spatial acceleration at qdd = 0 (the classical one minus omega x v, rotated) as
+drift. Then gamma = drift + kd J qd (+ kp e with anchors). M is factored in reverse order, P M
+P = L D L^T unrolled for this robot's sparsity (P the reversal: the leaves first, so a tree's
+factor has no fill-in); Y = L^-1 P J^T and e = L^-1 P (tau - h) by forward substitution, the
+Schur complement S = J M^-1 J^T = Y^T D^-1 Y factored by dense Cholesky loops, forces = S^-1
+(-gamma - Y^T D^-1 e) (J M^-1 (tau - h) = Y^T D^-1 e), qdd = P L^-T D^-1 (e + Y forces), one
+back substitution. Impulse: forces = S^-1 (-restitution J qd_minus - J qd_minus), qd_plus =
+qd_minus + P L^-T D^-1 Y forces. Every array is on the stack, sized at generation (NV, and 6
+rows per frame: a frame is held at most once); no allocation.
 
 Return codes (header macros ``<NAME>_CONTACT_...``): 0; 1 if M is not positive definite; 2 if
 the contacts are redundant (a pivot of S not above 1e-12 of its diagonal entry); 3 for a bad
@@ -24,7 +27,7 @@ from __future__ import annotations
 
 from ....derivation import Derivation
 from .c_print import CFunction
-from .c_solve import ldl_factor, ldl_solve
+from .c_solve import fill_in, ldl_factor
 
 #: The return codes, after 0: (macro suffix, value, meaning).
 CODES = (("MASS_NOT_PD", 1, "M is not positive definite"),
@@ -59,11 +62,14 @@ def contact_macros(derivation: Derivation) -> list[str]:
     return lines
 
 
-def contact_functions(derivation: Derivation, nonzero: list[list[bool]]) -> list[CFunction]:
-    """The two functions (none for a planar robot or one with loops); ``nonzero``: the entries of
-    M's L D L^T factor that can be nonzero (M's pattern and its fill-in)."""
+def contact_functions(derivation: Derivation, pattern: list[list[bool]]) -> list[CFunction]:
+    """The two functions (none for a planar robot or one with loops); ``pattern``: which entries
+    of M can be nonzero. M is factored in reverse order (P M P = L D L^T, P the reversal: the
+    leaves first, so a tree's factor has no fill-in)."""
     if not built(derivation):
         return []
+    n = len(pattern)
+    nonzero = fill_in([[pattern[n - 1 - i][n - 1 - j] for j in range(n)] for i in range(n)], n)
     name = derivation.robot.name
     pp = f"const {name}_parameters *p"
     forward = CFunction(
@@ -96,7 +102,6 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], impulse: bool) -> l
     name, n, nu = robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
     frames = len(robot.frames)
     rows = 6 * max(frames, 1)       # at most 6 rows per frame
-    width = rows + 1                # X = M^-1 [J^T, tau - h]
     quaternions = len(derivation.symbols.q) != n
     declared = {f: 0 for f in range(frames)}
     numbers = {f.name: i for i, f in enumerate(robot.frames)}
@@ -105,7 +110,7 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], impulse: bool) -> l
     table = ", ".join(str(declared[f]) for f in range(frames)) or "0"
     lines = [
         f"static const int declared[{max(frames, 1)}] = {{ {table} }};   /* each frame's declared kind, else point */",
-        f"double M[{n * n}], J[{rows * n}], target[{rows}], X[{n * width}];",
+        f"double M[{n * n}], J[{rows * n}], target[{rows}];",
         f"double Jf[{6 * n}], T[16];",
         *([] if impulse else ["double acc[6];"]),
         "int count = 0;" if impulse else "int count = 0, at = 0;",
@@ -215,37 +220,32 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], impulse: bool) -> l
                   "        target[r] = -target[r];",
                   "    }"]
     lines += [f"    count += {size};", "}"]
-    # X = M^-1 [J^T, tau - h] column by column (M = L D L^T unrolled)
-    lines += [f"for (int i = 0; i < {n}; ++i) {{",
-              "    for (int c = 0; c < count; ++c) X[i * " + str(width) + f" + c] = J[c * {n} + i];",
-              *([] if impulse else [f"    X[i * {width} + count] = tau[i] - h[i];"]),
-              "}"]
-    lines += ldl_factor(lambda i, j: f"M[{i * n + j}]", n, nonzero, "m", "return 1;")
-    lines += [f"for (int c = 0; c < {'count' if impulse else 'count + 1'}; ++c) {{",
-              *(f"    {line}" for line in ldl_solve(n, nonzero, "m", [f"X[{i * width} + c]" for i in range(n)])),
-              *(f"    X[{i * width} + c] = mx{i};" for i in range(n)), "}"]
-    base = (lambda i: f"qd_minus[{i}]") if impulse else (lambda i: f"X[{i} * {width} + count]")
-    out, multipliers = ("qd_plus", "impulses") if impulse else ("qdd", "forces")
-    if not impulse:
-        lines += ["if (count == 0) {", f"    for (int i = 0; i < {n}; ++i) qdd[i] = X[i * {width}];",
-                  "    return 0;", "}"]
+    # M reversed (P M P, leaves first: a tree's factor has no fill-in) = L D L^T unrolled;
+    # Y = L^-1 P J^T, e = L^-1 P (tau - h); S = Y^T D^-1 Y, J M^-1 (tau - h) = Y^T D^-1 e
+    lines += ldl_factor(lambda i, j: f"M[{(n - 1 - i) * n + n - 1 - j}]", n, nonzero, "m", "return 1;")
+    lines += [f"double Y[{n * rows}], dinv[{n}], z[{n}];",
+              *(f"dinv[{i}] = 1.0 / md{i};" for i in range(n)),
+              "for (int c = 0; c < count; ++c) {",
+              *(f"    {line}" for line in _forward(n, nonzero, "w", [f"J[c * {n} + {n - 1 - i}]" for i in range(n)])),
+              *(f"    Y[{i * rows} + c] = w{i};" for i in range(n)), "}"]
+    if impulse:
+        lines += [f"for (int i = 0; i < {n}; ++i) z[i] = 0.0;"]
     else:
-        lines += ["if (count == 0) {", f"    for (int i = 0; i < {n}; ++i) qd_plus[i] = qd_minus[i];",
-                  "    return 0;", "}"]
+        lines += [*_forward(n, nonzero, "e", [f"tau[{n - 1 - i}] - h[{n - 1 - i}]" for i in range(n)]),
+                  *(f"z[{i}] = e{i};" for i in range(n))]
+    out, multipliers = ("qd_plus", "impulses") if impulse else ("qdd", "forces")
     lines += [
-        "{   /* S = J M^-1 J^T (symmetrized), L L^T in S's lower triangle; the forces */",
+        "if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */",
         f"    double S[{rows * rows}], lam[{rows}];",
         "    for (int a = 0; a < count; ++a) {",
         "        for (int b = 0; b <= a; ++b) {",
-        "            double ab = 0.0, ba = 0.0;",
-        f"            for (int i = 0; i < {n}; ++i) {{",
-        f"                ab += J[a * {n} + i]*X[i * {width} + b];",
-        f"                ba += J[b * {n} + i]*X[i * {width} + a];",
-        "            }",
-        f"            S[a * {rows} + b] = (ab + ba) / 2;",
+        "            double sum = 0.0;",
+        f"            for (int i = 0; i < {n}; ++i) sum += Y[i * {rows} + a]*dinv[i]*Y[i * {rows} + b];",
+        f"            S[a * {rows} + b] = sum;",
         "        }",
         "        lam[a] = target[a];",
-        f"        for (int i = 0; i < {n}; ++i) lam[a] -= J[a * {n} + i]*{base('i')};",
+        *([f"        for (int j = 0; j < {n}; ++j) lam[a] -= J[a * {n} + j]*qd_minus[j];"] if impulse else
+          [f"        for (int i = 0; i < {n}; ++i) lam[a] -= Y[i * {rows} + a]*dinv[i]*z[i];"]),
         "    }",
         "    for (int j = 0; j < count; ++j) {",
         f"        double pivot = S[j * {rows} + j];",
@@ -253,9 +253,9 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], impulse: bool) -> l
         f"        if (!(pivot > 1e-12*S[j * {rows} + j])) return 2;",
         f"        S[j * {rows} + j] = sqrt(pivot);",
         "        for (int i = j + 1; i < count; ++i) {",
-        f"            double s = S[i * {rows} + j];",
-        f"            for (int k = 0; k < j; ++k) s -= S[i * {rows} + k]*S[j * {rows} + k];",
-        f"            S[i * {rows} + j] = s / S[j * {rows} + j];",
+        f"            double sum = S[i * {rows} + j];",
+        f"            for (int k = 0; k < j; ++k) sum -= S[i * {rows} + k]*S[j * {rows} + k];",
+        f"            S[i * {rows} + j] = sum / S[j * {rows} + j];",
         "        }",
         "    }",
         "    for (int i = 0; i < count; ++i) {",
@@ -267,12 +267,25 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], impulse: bool) -> l
         f"        lam[i] /= S[i * {rows} + i];",
         "    }",
         f"    for (int i = 0; i < {n}; ++i) {{",
-        f"        double sum = {base('i')};",
-        f"        for (int c = 0; c < count; ++c) sum += X[i * {width} + c]*lam[c];",
-        f"        {out}[i] = sum;",
+        f"        for (int c = 0; c < count; ++c) z[i] += Y[i * {rows} + c]*lam[c];",
         "    }",
         f"    for (int c = 0; c < count; ++c) {multipliers}[c] = lam[c];",
         "}",
+        *_back(n, nonzero, "x", "z"),
+        *((f"{out}[{n - 1 - i}] = qd_minus[{n - 1 - i}] + x{i};" for i in range(n)) if impulse else
+          (f"{out}[{n - 1 - i}] = x{i};" for i in range(n))),
         "return 0;",
     ]
     return lines
+
+
+def _forward(n: int, nonzero: list[list[bool]], name: str, rhs: list[str]) -> list[str]:
+    """``<name><i>`` solving ``L w = rhs`` (L the unit lower factor ``mL``, forward substitution)."""
+    return [f"const double {name}{i} = {rhs[i]}" + "".join(f" - mL{i}_{k}*{name}{k}" for k in range(i) if nonzero[i][k])
+            + ";" for i in range(n)]
+
+
+def _back(n: int, nonzero: list[list[bool]], name: str, rhs: str) -> list[str]:
+    """``<name><i>`` solving ``D L^T x = rhs[]`` (back substitution)."""
+    return [f"const double {name}{i} = {rhs}[{i}] / md{i}" + "".join(f" - mL{k}_{i}*{name}{k}" for k in range(i + 1, n)
+                                                                   if nonzero[k][i]) + ";" for i in reversed(range(n))]
