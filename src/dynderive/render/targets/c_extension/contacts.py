@@ -13,7 +13,6 @@ gives NaN. No external wrenches: ``wrenches`` must be None (the C target takes n
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from ....derivation import Derivation
 from ... import api
@@ -30,15 +29,12 @@ def contact_names(derivation: Derivation) -> set[str]:
     return set(NAMES) if built(derivation) else set()
 
 
-def contact_context(derivation: Derivation, template_dir: str | Path | None = None) -> dict[str, Any]:
-    """``contact_source`` (the Python's lines as C string literals; empty where contact dynamics
-    are not built) and ``macro`` for ``extension.c.j2``."""
-    from .c_extension import c_string
-
+def contact_source(derivation: Derivation, template_dir: str | Path | None = None) -> list[str]:
+    """The Python's lines (``extension.c.j2`` prints them as C string literals); none where
+    contact dynamics are not built."""
     robot = derivation.robot
-    context: dict[str, Any] = {"macro": robot.name.upper(), "contact_source": []}
     if not built(derivation):
-        return context
+        return []
     size = api.sizes(derivation)
     notes = {"constrained_forward_dynamics": " contacts: names or indices of FRAMES or (frame, kind) pairs "
              "(kind 'point' or 'surface'; default CONTACT_KINDS, else point); baumgarte: (kp, kd); anchors: one "
@@ -57,5 +53,4 @@ def contact_context(derivation: Derivation, template_dir: str | Path | None = No
         "doc_forward": docstring(api.python_doc("constrained_forward_dynamics", size) + notes[NAMES[0]]),
         "doc_impulse": docstring(api.python_doc("impulse_dynamics", size) + notes[NAMES[1]]),
     }, template_dir)
-    context["contact_source"] = [c_string(line) for line in source.splitlines(keepends=True)]
-    return context
+    return source.splitlines(keepends=True)
