@@ -4,7 +4,8 @@ extension's ``constrained_forward_dynamics`` and ``impulse_dynamics``, equal to 
 to 1e-12 relative at random full-precision states: a random floating tree with a surface and a
 point contact (the robot file's CONTACTS), a random fixed-base tree, and solo12 on its four feet;
 with Baumgarte gains and anchors, impacts with restitution; the C functions' return codes
-(redundant contacts, bad counts, frames and kinds, kp without anchors) and the extension's errors.
+(redundant contacts, bad counts, frames and kinds, kp without anchors), the extension's errors and
+check --backend c's rows for them.
 The C compiles as strict C99 and as C++ with no diagnostic.
 """
 
@@ -251,3 +252,17 @@ def test_return_codes_and_extension_errors(built):
         ext.constrained_forward_dynamics(q, qd, u, ["toe"], wrenches={"toe": np.ones(6)})
     with pytest.raises(TypeError, match="unexpected keyword argument 'mass'"):
         ext.impulse_dynamics(q, qd, ["toe"], mass=1.0)
+
+
+def test_check_backend_c_compares_the_contact_functions(built):
+    """``check --backend c``'s comparison (``verify.compiled.compiled_rows``) has a passing row for
+    each contact function of the floating tree (its CONTACTS: a surface and a point)."""
+    from dynderive.verify.compiled import compiled_rows
+
+    c = built("floating_10")
+    q, qd, u = _random_state(c.module, np.random.default_rng(4), (5,))
+    states = {"q": q, "qd": qd, "qdd": np.zeros_like(qd), "u": u, "q1": q}
+    rows = {row.name: row for row in compiled_rows(c.module, c.ext, {}, states, floating=True)}
+    for name in ("constrained_forward_dynamics", "impulse_dynamics"):
+        row = rows[f"compiled {name} == NumPy module"]
+        assert row.status == "pass" and row.residual <= 1e-12, row
