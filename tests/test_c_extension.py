@@ -715,7 +715,8 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
     compiled_rows = [n for n in rows if n.startswith("compiled ") and rows[n] != "skip"]   # skip: not built
-    assert len(compiled_rows) == 21 and all(rows[n] == "pass" for n in compiled_rows)
+    # 21 functions and the two contact functions (the box declares no contacts: forward dynamics)
+    assert len(compiled_rows) == 23 and all(rows[n] == "pass" for n in compiled_rows)
 
 
 def test_failing_compiler_on_a_floating_robot_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):
