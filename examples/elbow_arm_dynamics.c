@@ -2228,6 +2228,270 @@ void elbow_arm_centroidal_inertia(const double *q, const elbow_arm_parameters *p
     Ig[35] = t85;
 }
 
+/* qdd and the contact forces with `ncontacts` frames held (frames: their frame numbers; kinds: 0 point, 1 surface, NULL for the robot file's kinds, else point): M qdd = tau - h + J^T forces, J qdd = -gamma, gamma = Jdot qd + kd J qd + kp e (baumgarte: (kp, kd), NULL for (0, 0); anchors: NULL, or per contact in order a point's held position (3) or a surface's held pose (4 x 4, row-major), e the position error). u NULL: no effort. forces: 3 per point contact (world-aligned), 6 per surface contact (force, then moment, in the frame's axes). Pinocchio's forwardDynamics(model, data, q, v, tau, J, gamma, 0). No external wrenches. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; 4 kp without anchors (outputs untouched unless 0). */
+int elbow_arm_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const elbow_arm_parameters *p, double *qdd, double *forces)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[9], J[18], target[6];
+    double Jf[18], T[16];
+    double acc[6];
+    int count = 0, at = 0;
+    if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 1) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    const double kp = baumgarte ? baumgarte[0] : 0.0;
+    const double kd = baumgarte ? baumgarte[1] : 0.0;
+    if (kp != 0.0 && !anchors) return 4;
+    double zero[3], h[3], tau[3];
+    for (int i = 0; i < 3; ++i) zero[i] = 0.0;
+    elbow_arm_mass_matrix(q, p, M);
+    elbow_arm_inverse_dynamics(q, qd, zero, p, h);
+    elbow_arm_generalized_forces(q, u ? u : zero, p, tau);
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+        const int f = frames[c];
+        const int kind = kinds ? kinds[c] : declared[f];
+        elbow_arm_frame_jacobian(q, f, p, Jf);
+        elbow_arm_frame_jacobian_dot_qd(q, qd, f, p, acc);
+        if (kind == 1 || anchors) {
+            elbow_arm_frame_transform(q, f, p, T);
+        }
+        if (kind == 0) {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 3; ++j) J[(count + i) * 3 + j] = Jf[i * 3 + j];
+                target[count + i] = acc[i];
+            }
+            if (anchors) {
+                for (int i = 0; i < 3; ++i) acc[3 + i] = T[4 * i + 3] - anchors[at + i];   /* e */
+                at += 3;
+            }
+        } else {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 3; ++j) {
+                    J[(count + i) * 3 + j] = T[i]*Jf[j] + T[4 + i]*Jf[3 + j] + T[8 + i]*Jf[6 + j];
+                    J[(count + 3 + i) * 3 + j] = T[i]*Jf[9 + j] + T[4 + i]*Jf[12 + j] + T[8 + i]*Jf[15 + j];
+                }
+            }
+            {   /* the spatial acceleration at qdd = 0 in the frame's axes: (a - w x v, alpha) rotated */
+                double v[6], linear[3];
+                for (int i = 0; i < 6; ++i) {
+                    v[i] = 0.0;
+                    for (int j = 0; j < 3; ++j) v[i] += Jf[i * 3 + j]*qd[j];
+                }
+                linear[0] = acc[0] - (v[4]*v[2] - v[5]*v[1]);
+                linear[1] = acc[1] - (v[5]*v[0] - v[3]*v[2]);
+                linear[2] = acc[2] - (v[3]*v[1] - v[4]*v[0]);
+                for (int i = 0; i < 3; ++i) {
+                    target[count + i] = T[i]*linear[0] + T[4 + i]*linear[1] + T[8 + i]*linear[2];
+                    target[count + 3 + i] = T[i]*acc[3] + T[4 + i]*acc[4] + T[8 + i]*acc[5];
+                }
+            }
+            if (anchors) {   /* e: R^T (p - p_ref), vee of the skew part of R_ref^T R */
+                const double *A = anchors + at;
+                double d[3], turn[9];
+                for (int i = 0; i < 3; ++i) d[i] = T[4 * i + 3] - A[4 * i + 3];
+                for (int i = 0; i < 3; ++i) {
+                    for (int j = 0; j < 3; ++j) turn[3 * i + j] = A[i]*T[j] + A[4 + i]*T[4 + j] + A[8 + i]*T[8 + j];
+                }
+                Jf[0] = T[0]*d[0] + T[4]*d[1] + T[8]*d[2];   /* Jf is free: e kept in its first 6 */
+                Jf[1] = T[1]*d[0] + T[5]*d[1] + T[9]*d[2];
+                Jf[2] = T[2]*d[0] + T[6]*d[1] + T[10]*d[2];
+                Jf[3] = (turn[7] - turn[5]) / 2;
+                Jf[4] = (turn[2] - turn[6]) / 2;
+                Jf[5] = (turn[3] - turn[1]) / 2;
+                at += 16;
+            }
+        }
+        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {   /* -gamma = -(drift + kd J qd + kp e) */
+            double rate = 0.0;
+            for (int j = 0; j < 3; ++j) rate += J[r * 3 + j]*qd[j];
+            target[r] += kd*rate;
+            if (anchors) target[r] += kp*(kind == 0 ? acc[3 + r - count] : Jf[r - count]);
+            target[r] = -target[r];
+        }
+        count += (kind == 0 ? 3 : 6);
+    }
+    const double md0 = M[8];
+    if (!(md0 > 0.0)) return 1;
+    const double mL1_0 = (M[5]) / md0;
+    const double md1 = M[4] - mL1_0*mL1_0*md0;
+    if (!(md1 > 0.0)) return 1;
+    const double md2 = M[0];
+    if (!(md2 > 0.0)) return 1;
+    double Y[18], dinv[3], z[3];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    for (int c = 0; c < count; ++c) {
+        const double w0 = J[c * 3 + 2];
+        const double w1 = J[c * 3 + 1] - mL1_0*w0;
+        const double w2 = J[c * 3 + 0];
+        Y[0 + c] = w0;
+        Y[6 + c] = w1;
+        Y[12 + c] = w2;
+    }
+    const double e0 = tau[2] - h[2];
+    const double e1 = tau[1] - h[1] - mL1_0*e0;
+    const double e2 = tau[0] - h[0];
+    z[0] = e0;
+    z[1] = e1;
+    z[2] = e2;
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+        double S[36], lam[6];
+        for (int a = 0; a < count; ++a) {
+            for (int b = 0; b <= a; ++b) {
+                double sum = 0.0;
+                for (int i = 0; i < 3; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
+                S[a * 6 + b] = sum;
+            }
+            lam[a] = target[a];
+            for (int i = 0; i < 3; ++i) lam[a] -= Y[i * 6 + a]*dinv[i]*z[i];
+        }
+        for (int j = 0; j < count; ++j) {
+            double pivot = S[j * 6 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 6 + k]*S[j * 6 + k];
+            if (!(pivot > 1e-12*S[j * 6 + j])) return 2;
+            S[j * 6 + j] = sqrt(pivot);
+            for (int i = j + 1; i < count; ++i) {
+                double sum = S[i * 6 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 6 + k]*S[j * 6 + k];
+                S[i * 6 + j] = sum / S[j * 6 + j];
+            }
+        }
+        for (int i = 0; i < count; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 6 + k]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = count - 1; i >= 0; --i) {
+            for (int k = i + 1; k < count; ++k) lam[i] -= S[k * 6 + i]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = 0; i < 3; ++i) {
+            for (int c = 0; c < count; ++c) z[i] += Y[i * 6 + c]*lam[c];
+        }
+        for (int c = 0; c < count; ++c) forces[c] = lam[c];
+    }
+    const double x2 = z[2] / md2;
+    const double x1 = z[1] / md1;
+    const double x0 = z[0] / md0 - mL1_0*x1;
+    qdd[2] = x0;
+    qdd[1] = x1;
+    qdd[0] = x2;
+    return 0;
+}
+
+/* qd_plus and the impulses of an impact that makes the contacts hold (frames, kinds as for constrained_forward_dynamics): M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus. Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0). Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind (outputs untouched unless 0). */
+int elbow_arm_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const elbow_arm_parameters *p, double *qd_plus, double *impulses)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[9], J[18], target[6];
+    double Jf[18], T[16];
+    int count = 0;
+    if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 1) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    elbow_arm_mass_matrix(q, p, M);
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+        const int f = frames[c];
+        const int kind = kinds ? kinds[c] : declared[f];
+        elbow_arm_frame_jacobian(q, f, p, Jf);
+        if (kind == 1) {
+            elbow_arm_frame_transform(q, f, p, T);
+        }
+        if (kind == 0) {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 3; ++j) J[(count + i) * 3 + j] = Jf[i * 3 + j];
+            }
+        } else {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 3; ++j) {
+                    J[(count + i) * 3 + j] = T[i]*Jf[j] + T[4 + i]*Jf[3 + j] + T[8 + i]*Jf[6 + j];
+                    J[(count + 3 + i) * 3 + j] = T[i]*Jf[9 + j] + T[4 + i]*Jf[12 + j] + T[8 + i]*Jf[15 + j];
+                }
+            }
+        }
+        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {
+            double rate = 0.0;
+            for (int j = 0; j < 3; ++j) rate += J[r * 3 + j]*qd_minus[j];
+            target[r] = -restitution*rate;
+        }
+        count += (kind == 0 ? 3 : 6);
+    }
+    const double md0 = M[8];
+    if (!(md0 > 0.0)) return 1;
+    const double mL1_0 = (M[5]) / md0;
+    const double md1 = M[4] - mL1_0*mL1_0*md0;
+    if (!(md1 > 0.0)) return 1;
+    const double md2 = M[0];
+    if (!(md2 > 0.0)) return 1;
+    double Y[18], dinv[3], z[3];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    for (int c = 0; c < count; ++c) {
+        const double w0 = J[c * 3 + 2];
+        const double w1 = J[c * 3 + 1] - mL1_0*w0;
+        const double w2 = J[c * 3 + 0];
+        Y[0 + c] = w0;
+        Y[6 + c] = w1;
+        Y[12 + c] = w2;
+    }
+    for (int i = 0; i < 3; ++i) z[i] = 0.0;
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+        double S[36], lam[6];
+        for (int a = 0; a < count; ++a) {
+            for (int b = 0; b <= a; ++b) {
+                double sum = 0.0;
+                for (int i = 0; i < 3; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
+                S[a * 6 + b] = sum;
+            }
+            lam[a] = target[a];
+            for (int j = 0; j < 3; ++j) lam[a] -= J[a * 3 + j]*qd_minus[j];
+        }
+        for (int j = 0; j < count; ++j) {
+            double pivot = S[j * 6 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 6 + k]*S[j * 6 + k];
+            if (!(pivot > 1e-12*S[j * 6 + j])) return 2;
+            S[j * 6 + j] = sqrt(pivot);
+            for (int i = j + 1; i < count; ++i) {
+                double sum = S[i * 6 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 6 + k]*S[j * 6 + k];
+                S[i * 6 + j] = sum / S[j * 6 + j];
+            }
+        }
+        for (int i = 0; i < count; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 6 + k]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = count - 1; i >= 0; --i) {
+            for (int k = i + 1; k < count; ++k) lam[i] -= S[k * 6 + i]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = 0; i < 3; ++i) {
+            for (int c = 0; c < count; ++c) z[i] += Y[i * 6 + c]*lam[c];
+        }
+        for (int c = 0; c < count; ++c) impulses[c] = lam[c];
+    }
+    const double x2 = z[2] / md2;
+    const double x1 = z[1] / md1;
+    const double x0 = z[0] / md0 - mL1_0*x1;
+    qd_plus[2] = qd_minus[2] + x0;
+    qd_plus[1] = qd_minus[1] + x1;
+    qd_plus[0] = qd_minus[0] + x2;
+    return 0;
+}
+
 #ifdef ELBOW_ARM_CASADI_EXTERNAL
 /* CasADi's external-function ABI (compile with -DELBOW_ARM_CASADI_EXTERNAL into a shared
    library; casadi.external("elbow_arm_casadi_forward_dynamics", "./libelbow_arm.so")). The parameters

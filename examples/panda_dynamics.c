@@ -10072,6 +10072,374 @@ void panda_centroidal_inertia(const double *q, const panda_parameters *p, double
     Ig[35] = t254;
 }
 
+/* qdd and the contact forces with `ncontacts` frames held (frames: their frame numbers; kinds: 0 point, 1 surface, NULL for the robot file's kinds, else point): M qdd = tau - h + J^T forces, J qdd = -gamma, gamma = Jdot qd + kd J qd + kp e (baumgarte: (kp, kd), NULL for (0, 0); anchors: NULL, or per contact in order a point's held position (3) or a surface's held pose (4 x 4, row-major), e the position error). u NULL: no effort. forces: 3 per point contact (world-aligned), 6 per surface contact (force, then moment, in the frame's axes). Pinocchio's forwardDynamics(model, data, q, v, tau, J, gamma, 0). No external wrenches. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; 4 kp without anchors (outputs untouched unless 0). */
+int panda_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const panda_parameters *p, double *qdd, double *forces)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[49], J[42], target[6];
+    double Jf[42], T[16];
+    double acc[6];
+    int count = 0, at = 0;
+    if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 1) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    const double kp = baumgarte ? baumgarte[0] : 0.0;
+    const double kd = baumgarte ? baumgarte[1] : 0.0;
+    if (kp != 0.0 && !anchors) return 4;
+    double zero[7], h[7], tau[7];
+    for (int i = 0; i < 7; ++i) zero[i] = 0.0;
+    panda_mass_matrix(q, p, M);
+    panda_inverse_dynamics(q, qd, zero, p, h);
+    panda_generalized_forces(q, u ? u : zero, p, tau);
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+        const int f = frames[c];
+        const int kind = kinds ? kinds[c] : declared[f];
+        panda_frame_jacobian(q, f, p, Jf);
+        panda_frame_jacobian_dot_qd(q, qd, f, p, acc);
+        if (kind == 1 || anchors) {
+            panda_frame_transform(q, f, p, T);
+        }
+        if (kind == 0) {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 7; ++j) J[(count + i) * 7 + j] = Jf[i * 7 + j];
+                target[count + i] = acc[i];
+            }
+            if (anchors) {
+                for (int i = 0; i < 3; ++i) acc[3 + i] = T[4 * i + 3] - anchors[at + i];   /* e */
+                at += 3;
+            }
+        } else {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 7; ++j) {
+                    J[(count + i) * 7 + j] = T[i]*Jf[j] + T[4 + i]*Jf[7 + j] + T[8 + i]*Jf[14 + j];
+                    J[(count + 3 + i) * 7 + j] = T[i]*Jf[21 + j] + T[4 + i]*Jf[28 + j] + T[8 + i]*Jf[35 + j];
+                }
+            }
+            {   /* the spatial acceleration at qdd = 0 in the frame's axes: (a - w x v, alpha) rotated */
+                double v[6], linear[3];
+                for (int i = 0; i < 6; ++i) {
+                    v[i] = 0.0;
+                    for (int j = 0; j < 7; ++j) v[i] += Jf[i * 7 + j]*qd[j];
+                }
+                linear[0] = acc[0] - (v[4]*v[2] - v[5]*v[1]);
+                linear[1] = acc[1] - (v[5]*v[0] - v[3]*v[2]);
+                linear[2] = acc[2] - (v[3]*v[1] - v[4]*v[0]);
+                for (int i = 0; i < 3; ++i) {
+                    target[count + i] = T[i]*linear[0] + T[4 + i]*linear[1] + T[8 + i]*linear[2];
+                    target[count + 3 + i] = T[i]*acc[3] + T[4 + i]*acc[4] + T[8 + i]*acc[5];
+                }
+            }
+            if (anchors) {   /* e: R^T (p - p_ref), vee of the skew part of R_ref^T R */
+                const double *A = anchors + at;
+                double d[3], turn[9];
+                for (int i = 0; i < 3; ++i) d[i] = T[4 * i + 3] - A[4 * i + 3];
+                for (int i = 0; i < 3; ++i) {
+                    for (int j = 0; j < 3; ++j) turn[3 * i + j] = A[i]*T[j] + A[4 + i]*T[4 + j] + A[8 + i]*T[8 + j];
+                }
+                Jf[0] = T[0]*d[0] + T[4]*d[1] + T[8]*d[2];   /* Jf is free: e kept in its first 6 */
+                Jf[1] = T[1]*d[0] + T[5]*d[1] + T[9]*d[2];
+                Jf[2] = T[2]*d[0] + T[6]*d[1] + T[10]*d[2];
+                Jf[3] = (turn[7] - turn[5]) / 2;
+                Jf[4] = (turn[2] - turn[6]) / 2;
+                Jf[5] = (turn[3] - turn[1]) / 2;
+                at += 16;
+            }
+        }
+        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {   /* -gamma = -(drift + kd J qd + kp e) */
+            double rate = 0.0;
+            for (int j = 0; j < 7; ++j) rate += J[r * 7 + j]*qd[j];
+            target[r] += kd*rate;
+            if (anchors) target[r] += kp*(kind == 0 ? acc[3 + r - count] : Jf[r - count]);
+            target[r] = -target[r];
+        }
+        count += (kind == 0 ? 3 : 6);
+    }
+    const double md0 = M[48];
+    if (!(md0 > 0.0)) return 1;
+    const double mL1_0 = (M[41]) / md0;
+    const double mL2_0 = (M[34]) / md0;
+    const double mL3_0 = (M[27]) / md0;
+    const double mL4_0 = (M[20]) / md0;
+    const double mL5_0 = (M[13]) / md0;
+    const double mL6_0 = (M[6]) / md0;
+    const double md1 = M[40] - mL1_0*mL1_0*md0;
+    if (!(md1 > 0.0)) return 1;
+    const double mL2_1 = (M[33] - mL2_0*mL1_0*md0) / md1;
+    const double mL3_1 = (M[26] - mL3_0*mL1_0*md0) / md1;
+    const double mL4_1 = (M[19] - mL4_0*mL1_0*md0) / md1;
+    const double mL5_1 = (M[12] - mL5_0*mL1_0*md0) / md1;
+    const double mL6_1 = (M[5] - mL6_0*mL1_0*md0) / md1;
+    const double md2 = M[32] - mL2_0*mL2_0*md0 - mL2_1*mL2_1*md1;
+    if (!(md2 > 0.0)) return 1;
+    const double mL3_2 = (M[25] - mL3_0*mL2_0*md0 - mL3_1*mL2_1*md1) / md2;
+    const double mL4_2 = (M[18] - mL4_0*mL2_0*md0 - mL4_1*mL2_1*md1) / md2;
+    const double mL5_2 = (M[11] - mL5_0*mL2_0*md0 - mL5_1*mL2_1*md1) / md2;
+    const double mL6_2 = (M[4] - mL6_0*mL2_0*md0 - mL6_1*mL2_1*md1) / md2;
+    const double md3 = M[24] - mL3_0*mL3_0*md0 - mL3_1*mL3_1*md1 - mL3_2*mL3_2*md2;
+    if (!(md3 > 0.0)) return 1;
+    const double mL4_3 = (M[17] - mL4_0*mL3_0*md0 - mL4_1*mL3_1*md1 - mL4_2*mL3_2*md2) / md3;
+    const double mL5_3 = (M[10] - mL5_0*mL3_0*md0 - mL5_1*mL3_1*md1 - mL5_2*mL3_2*md2) / md3;
+    const double mL6_3 = (M[3] - mL6_0*mL3_0*md0 - mL6_1*mL3_1*md1 - mL6_2*mL3_2*md2) / md3;
+    const double md4 = M[16] - mL4_0*mL4_0*md0 - mL4_1*mL4_1*md1 - mL4_2*mL4_2*md2 - mL4_3*mL4_3*md3;
+    if (!(md4 > 0.0)) return 1;
+    const double mL5_4 = (M[9] - mL5_0*mL4_0*md0 - mL5_1*mL4_1*md1 - mL5_2*mL4_2*md2 - mL5_3*mL4_3*md3) / md4;
+    const double mL6_4 = (M[2] - mL6_0*mL4_0*md0 - mL6_1*mL4_1*md1 - mL6_2*mL4_2*md2 - mL6_3*mL4_3*md3) / md4;
+    const double md5 = M[8] - mL5_0*mL5_0*md0 - mL5_1*mL5_1*md1 - mL5_2*mL5_2*md2 - mL5_3*mL5_3*md3 - mL5_4*mL5_4*md4;
+    if (!(md5 > 0.0)) return 1;
+    const double mL6_5 = (M[1] - mL6_0*mL5_0*md0 - mL6_1*mL5_1*md1 - mL6_2*mL5_2*md2 - mL6_3*mL5_3*md3 - mL6_4*mL5_4*md4) / md5;
+    const double md6 = M[0] - mL6_0*mL6_0*md0 - mL6_1*mL6_1*md1 - mL6_2*mL6_2*md2 - mL6_3*mL6_3*md3 - mL6_4*mL6_4*md4 - mL6_5*mL6_5*md5;
+    if (!(md6 > 0.0)) return 1;
+    double Y[42], dinv[7], z[7];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    dinv[3] = 1.0 / md3;
+    dinv[4] = 1.0 / md4;
+    dinv[5] = 1.0 / md5;
+    dinv[6] = 1.0 / md6;
+    for (int c = 0; c < count; ++c) {
+        const double w0 = J[c * 7 + 6];
+        const double w1 = J[c * 7 + 5] - mL1_0*w0;
+        const double w2 = J[c * 7 + 4] - mL2_0*w0 - mL2_1*w1;
+        const double w3 = J[c * 7 + 3] - mL3_0*w0 - mL3_1*w1 - mL3_2*w2;
+        const double w4 = J[c * 7 + 2] - mL4_0*w0 - mL4_1*w1 - mL4_2*w2 - mL4_3*w3;
+        const double w5 = J[c * 7 + 1] - mL5_0*w0 - mL5_1*w1 - mL5_2*w2 - mL5_3*w3 - mL5_4*w4;
+        const double w6 = J[c * 7 + 0] - mL6_0*w0 - mL6_1*w1 - mL6_2*w2 - mL6_3*w3 - mL6_4*w4 - mL6_5*w5;
+        Y[0 + c] = w0;
+        Y[6 + c] = w1;
+        Y[12 + c] = w2;
+        Y[18 + c] = w3;
+        Y[24 + c] = w4;
+        Y[30 + c] = w5;
+        Y[36 + c] = w6;
+    }
+    const double e0 = tau[6] - h[6];
+    const double e1 = tau[5] - h[5] - mL1_0*e0;
+    const double e2 = tau[4] - h[4] - mL2_0*e0 - mL2_1*e1;
+    const double e3 = tau[3] - h[3] - mL3_0*e0 - mL3_1*e1 - mL3_2*e2;
+    const double e4 = tau[2] - h[2] - mL4_0*e0 - mL4_1*e1 - mL4_2*e2 - mL4_3*e3;
+    const double e5 = tau[1] - h[1] - mL5_0*e0 - mL5_1*e1 - mL5_2*e2 - mL5_3*e3 - mL5_4*e4;
+    const double e6 = tau[0] - h[0] - mL6_0*e0 - mL6_1*e1 - mL6_2*e2 - mL6_3*e3 - mL6_4*e4 - mL6_5*e5;
+    z[0] = e0;
+    z[1] = e1;
+    z[2] = e2;
+    z[3] = e3;
+    z[4] = e4;
+    z[5] = e5;
+    z[6] = e6;
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+        double S[36], lam[6];
+        for (int a = 0; a < count; ++a) {
+            for (int b = 0; b <= a; ++b) {
+                double sum = 0.0;
+                for (int i = 0; i < 7; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
+                S[a * 6 + b] = sum;
+            }
+            lam[a] = target[a];
+            for (int i = 0; i < 7; ++i) lam[a] -= Y[i * 6 + a]*dinv[i]*z[i];
+        }
+        for (int j = 0; j < count; ++j) {
+            double pivot = S[j * 6 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 6 + k]*S[j * 6 + k];
+            if (!(pivot > 1e-12*S[j * 6 + j])) return 2;
+            S[j * 6 + j] = sqrt(pivot);
+            for (int i = j + 1; i < count; ++i) {
+                double sum = S[i * 6 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 6 + k]*S[j * 6 + k];
+                S[i * 6 + j] = sum / S[j * 6 + j];
+            }
+        }
+        for (int i = 0; i < count; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 6 + k]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = count - 1; i >= 0; --i) {
+            for (int k = i + 1; k < count; ++k) lam[i] -= S[k * 6 + i]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = 0; i < 7; ++i) {
+            for (int c = 0; c < count; ++c) z[i] += Y[i * 6 + c]*lam[c];
+        }
+        for (int c = 0; c < count; ++c) forces[c] = lam[c];
+    }
+    const double x6 = z[6] / md6;
+    const double x5 = z[5] / md5 - mL6_5*x6;
+    const double x4 = z[4] / md4 - mL5_4*x5 - mL6_4*x6;
+    const double x3 = z[3] / md3 - mL4_3*x4 - mL5_3*x5 - mL6_3*x6;
+    const double x2 = z[2] / md2 - mL3_2*x3 - mL4_2*x4 - mL5_2*x5 - mL6_2*x6;
+    const double x1 = z[1] / md1 - mL2_1*x2 - mL3_1*x3 - mL4_1*x4 - mL5_1*x5 - mL6_1*x6;
+    const double x0 = z[0] / md0 - mL1_0*x1 - mL2_0*x2 - mL3_0*x3 - mL4_0*x4 - mL5_0*x5 - mL6_0*x6;
+    qdd[6] = x0;
+    qdd[5] = x1;
+    qdd[4] = x2;
+    qdd[3] = x3;
+    qdd[2] = x4;
+    qdd[1] = x5;
+    qdd[0] = x6;
+    return 0;
+}
+
+/* qd_plus and the impulses of an impact that makes the contacts hold (frames, kinds as for constrained_forward_dynamics): M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus. Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0). Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind (outputs untouched unless 0). */
+int panda_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const panda_parameters *p, double *qd_plus, double *impulses)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[49], J[42], target[6];
+    double Jf[42], T[16];
+    int count = 0;
+    if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 1) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    panda_mass_matrix(q, p, M);
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+        const int f = frames[c];
+        const int kind = kinds ? kinds[c] : declared[f];
+        panda_frame_jacobian(q, f, p, Jf);
+        if (kind == 1) {
+            panda_frame_transform(q, f, p, T);
+        }
+        if (kind == 0) {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 7; ++j) J[(count + i) * 7 + j] = Jf[i * 7 + j];
+            }
+        } else {
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 7; ++j) {
+                    J[(count + i) * 7 + j] = T[i]*Jf[j] + T[4 + i]*Jf[7 + j] + T[8 + i]*Jf[14 + j];
+                    J[(count + 3 + i) * 7 + j] = T[i]*Jf[21 + j] + T[4 + i]*Jf[28 + j] + T[8 + i]*Jf[35 + j];
+                }
+            }
+        }
+        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {
+            double rate = 0.0;
+            for (int j = 0; j < 7; ++j) rate += J[r * 7 + j]*qd_minus[j];
+            target[r] = -restitution*rate;
+        }
+        count += (kind == 0 ? 3 : 6);
+    }
+    const double md0 = M[48];
+    if (!(md0 > 0.0)) return 1;
+    const double mL1_0 = (M[41]) / md0;
+    const double mL2_0 = (M[34]) / md0;
+    const double mL3_0 = (M[27]) / md0;
+    const double mL4_0 = (M[20]) / md0;
+    const double mL5_0 = (M[13]) / md0;
+    const double mL6_0 = (M[6]) / md0;
+    const double md1 = M[40] - mL1_0*mL1_0*md0;
+    if (!(md1 > 0.0)) return 1;
+    const double mL2_1 = (M[33] - mL2_0*mL1_0*md0) / md1;
+    const double mL3_1 = (M[26] - mL3_0*mL1_0*md0) / md1;
+    const double mL4_1 = (M[19] - mL4_0*mL1_0*md0) / md1;
+    const double mL5_1 = (M[12] - mL5_0*mL1_0*md0) / md1;
+    const double mL6_1 = (M[5] - mL6_0*mL1_0*md0) / md1;
+    const double md2 = M[32] - mL2_0*mL2_0*md0 - mL2_1*mL2_1*md1;
+    if (!(md2 > 0.0)) return 1;
+    const double mL3_2 = (M[25] - mL3_0*mL2_0*md0 - mL3_1*mL2_1*md1) / md2;
+    const double mL4_2 = (M[18] - mL4_0*mL2_0*md0 - mL4_1*mL2_1*md1) / md2;
+    const double mL5_2 = (M[11] - mL5_0*mL2_0*md0 - mL5_1*mL2_1*md1) / md2;
+    const double mL6_2 = (M[4] - mL6_0*mL2_0*md0 - mL6_1*mL2_1*md1) / md2;
+    const double md3 = M[24] - mL3_0*mL3_0*md0 - mL3_1*mL3_1*md1 - mL3_2*mL3_2*md2;
+    if (!(md3 > 0.0)) return 1;
+    const double mL4_3 = (M[17] - mL4_0*mL3_0*md0 - mL4_1*mL3_1*md1 - mL4_2*mL3_2*md2) / md3;
+    const double mL5_3 = (M[10] - mL5_0*mL3_0*md0 - mL5_1*mL3_1*md1 - mL5_2*mL3_2*md2) / md3;
+    const double mL6_3 = (M[3] - mL6_0*mL3_0*md0 - mL6_1*mL3_1*md1 - mL6_2*mL3_2*md2) / md3;
+    const double md4 = M[16] - mL4_0*mL4_0*md0 - mL4_1*mL4_1*md1 - mL4_2*mL4_2*md2 - mL4_3*mL4_3*md3;
+    if (!(md4 > 0.0)) return 1;
+    const double mL5_4 = (M[9] - mL5_0*mL4_0*md0 - mL5_1*mL4_1*md1 - mL5_2*mL4_2*md2 - mL5_3*mL4_3*md3) / md4;
+    const double mL6_4 = (M[2] - mL6_0*mL4_0*md0 - mL6_1*mL4_1*md1 - mL6_2*mL4_2*md2 - mL6_3*mL4_3*md3) / md4;
+    const double md5 = M[8] - mL5_0*mL5_0*md0 - mL5_1*mL5_1*md1 - mL5_2*mL5_2*md2 - mL5_3*mL5_3*md3 - mL5_4*mL5_4*md4;
+    if (!(md5 > 0.0)) return 1;
+    const double mL6_5 = (M[1] - mL6_0*mL5_0*md0 - mL6_1*mL5_1*md1 - mL6_2*mL5_2*md2 - mL6_3*mL5_3*md3 - mL6_4*mL5_4*md4) / md5;
+    const double md6 = M[0] - mL6_0*mL6_0*md0 - mL6_1*mL6_1*md1 - mL6_2*mL6_2*md2 - mL6_3*mL6_3*md3 - mL6_4*mL6_4*md4 - mL6_5*mL6_5*md5;
+    if (!(md6 > 0.0)) return 1;
+    double Y[42], dinv[7], z[7];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    dinv[3] = 1.0 / md3;
+    dinv[4] = 1.0 / md4;
+    dinv[5] = 1.0 / md5;
+    dinv[6] = 1.0 / md6;
+    for (int c = 0; c < count; ++c) {
+        const double w0 = J[c * 7 + 6];
+        const double w1 = J[c * 7 + 5] - mL1_0*w0;
+        const double w2 = J[c * 7 + 4] - mL2_0*w0 - mL2_1*w1;
+        const double w3 = J[c * 7 + 3] - mL3_0*w0 - mL3_1*w1 - mL3_2*w2;
+        const double w4 = J[c * 7 + 2] - mL4_0*w0 - mL4_1*w1 - mL4_2*w2 - mL4_3*w3;
+        const double w5 = J[c * 7 + 1] - mL5_0*w0 - mL5_1*w1 - mL5_2*w2 - mL5_3*w3 - mL5_4*w4;
+        const double w6 = J[c * 7 + 0] - mL6_0*w0 - mL6_1*w1 - mL6_2*w2 - mL6_3*w3 - mL6_4*w4 - mL6_5*w5;
+        Y[0 + c] = w0;
+        Y[6 + c] = w1;
+        Y[12 + c] = w2;
+        Y[18 + c] = w3;
+        Y[24 + c] = w4;
+        Y[30 + c] = w5;
+        Y[36 + c] = w6;
+    }
+    for (int i = 0; i < 7; ++i) z[i] = 0.0;
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+        double S[36], lam[6];
+        for (int a = 0; a < count; ++a) {
+            for (int b = 0; b <= a; ++b) {
+                double sum = 0.0;
+                for (int i = 0; i < 7; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
+                S[a * 6 + b] = sum;
+            }
+            lam[a] = target[a];
+            for (int j = 0; j < 7; ++j) lam[a] -= J[a * 7 + j]*qd_minus[j];
+        }
+        for (int j = 0; j < count; ++j) {
+            double pivot = S[j * 6 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 6 + k]*S[j * 6 + k];
+            if (!(pivot > 1e-12*S[j * 6 + j])) return 2;
+            S[j * 6 + j] = sqrt(pivot);
+            for (int i = j + 1; i < count; ++i) {
+                double sum = S[i * 6 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 6 + k]*S[j * 6 + k];
+                S[i * 6 + j] = sum / S[j * 6 + j];
+            }
+        }
+        for (int i = 0; i < count; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 6 + k]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = count - 1; i >= 0; --i) {
+            for (int k = i + 1; k < count; ++k) lam[i] -= S[k * 6 + i]*lam[k];
+            lam[i] /= S[i * 6 + i];
+        }
+        for (int i = 0; i < 7; ++i) {
+            for (int c = 0; c < count; ++c) z[i] += Y[i * 6 + c]*lam[c];
+        }
+        for (int c = 0; c < count; ++c) impulses[c] = lam[c];
+    }
+    const double x6 = z[6] / md6;
+    const double x5 = z[5] / md5 - mL6_5*x6;
+    const double x4 = z[4] / md4 - mL5_4*x5 - mL6_4*x6;
+    const double x3 = z[3] / md3 - mL4_3*x4 - mL5_3*x5 - mL6_3*x6;
+    const double x2 = z[2] / md2 - mL3_2*x3 - mL4_2*x4 - mL5_2*x5 - mL6_2*x6;
+    const double x1 = z[1] / md1 - mL2_1*x2 - mL3_1*x3 - mL4_1*x4 - mL5_1*x5 - mL6_1*x6;
+    const double x0 = z[0] / md0 - mL1_0*x1 - mL2_0*x2 - mL3_0*x3 - mL4_0*x4 - mL5_0*x5 - mL6_0*x6;
+    qd_plus[6] = qd_minus[6] + x0;
+    qd_plus[5] = qd_minus[5] + x1;
+    qd_plus[4] = qd_minus[4] + x2;
+    qd_plus[3] = qd_minus[3] + x3;
+    qd_plus[2] = qd_minus[2] + x4;
+    qd_plus[1] = qd_minus[1] + x5;
+    qd_plus[0] = qd_minus[0] + x6;
+    return 0;
+}
+
 #ifdef PANDA_CASADI_EXTERNAL
 /* CasADi's external-function ABI (compile with -DPANDA_CASADI_EXTERNAL into a shared
    library; casadi.external("panda_casadi_forward_dynamics", "./libpanda.so")). The parameters

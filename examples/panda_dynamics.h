@@ -10,6 +10,13 @@
 #define PANDA_NU 7   /* efforts: tau_panda_joint1, tau_panda_joint2, tau_panda_joint3, tau_panda_joint4, tau_panda_joint5, tau_panda_joint6, tau_panda_joint7 */
 #define PANDA_NFRAMES 1   /* frames, numbered for the frame functions: */
 /*   0: panda_link8 */
+#define PANDA_NCONTACTS 0   /* contacts the robot file declares (CONTACTS) */
+#define PANDA_CONTACT_POINT 0   /* a point contact: 3 rows, world-aligned */
+#define PANDA_CONTACT_SURFACE 1   /* a surface contact: 6 rows, in the frame's axes */
+#define PANDA_CONTACT_MASS_NOT_PD 1   /* returned: M is not positive definite */
+#define PANDA_CONTACT_REDUNDANT 2   /* returned: the contacts are redundant: J M^-1 J^T is singular (a pivot not above 1e-12 of its diagonal entry) */
+#define PANDA_CONTACT_BAD_ARGUMENT 3   /* returned: a contact count outside 0..NFRAMES, a frame number that is no frame or is held twice, or a kind that is neither point (0) nor surface (1) */
+#define PANDA_CONTACT_NO_ANCHORS 4   /* returned: baumgarte's kp is not 0 but anchors is NULL */
 
 #ifdef __cplusplus
 extern "C" {
@@ -78,6 +85,10 @@ void panda_centroidal_momentum(const double *q, const double *qd, const panda_pa
 void panda_centroidal_momentum_bias(const double *q, const double *qd, const panda_parameters *p, double *dh);
 /* Composite inertia of the moving links about the centre of mass, world axes: [[m 1, 0], [0, I_G]], 6 x 6, row-major. */
 void panda_centroidal_inertia(const double *q, const panda_parameters *p, double *Ig);
+/* qdd and the contact forces with `ncontacts` frames held (frames: their frame numbers; kinds: 0 point, 1 surface, NULL for the robot file's kinds, else point): M qdd = tau - h + J^T forces, J qdd = -gamma, gamma = Jdot qd + kd J qd + kp e (baumgarte: (kp, kd), NULL for (0, 0); anchors: NULL, or per contact in order a point's held position (3) or a surface's held pose (4 x 4, row-major), e the position error). u NULL: no effort. forces: 3 per point contact (world-aligned), 6 per surface contact (force, then moment, in the frame's axes). Pinocchio's forwardDynamics(model, data, q, v, tau, J, gamma, 0). No external wrenches. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; 4 kp without anchors (outputs untouched unless 0). */
+int panda_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const panda_parameters *p, double *qdd, double *forces);
+/* qd_plus and the impulses of an impact that makes the contacts hold (frames, kinds as for constrained_forward_dynamics): M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus. Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0). Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind (outputs untouched unless 0). */
+int panda_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const panda_parameters *p, double *qd_plus, double *impulses);
 
 #ifdef __cplusplus
 }

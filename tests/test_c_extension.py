@@ -37,6 +37,7 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.render.targets.c_extension.c_extension import bindings, c_string, render_extension
 from dynderive.render.targets.c_extension.compile import build_extension
+from dynderive.render.targets.c_extension.contacts import contact_names
 from dynderive.verify.checks import random_configurations
 
 from conftest import ROBOTS, derivation_of, import_code, module_of, random_tree_derivation
@@ -613,7 +614,8 @@ def test_keyword_parameters_constants_and_signatures(compiled_floating):
     for constant in ("NQ", "NV", "COORDINATES", "VELOCITIES", "EFFORTS", "FRAMES", "PARAMETERS", "PARAMETER_VECTOR"):
         assert getattr(ext, constant) == getattr(module, constant), constant
     functions = sorted(n for n, v in vars(module).items() if inspect.isfunction(v) and not n.startswith("_"))
-    assert sorted(b.name for b in bindings(dynderive.derive(robot))) == functions
+    derivation = dynderive.derive(robot)
+    assert sorted({b.name for b in bindings(derivation)} | contact_names(derivation)) == functions
     for name in functions:
         assert inspect.signature(getattr(ext, name)) == inspect.signature(getattr(module, name)), name
     big = random_configurations(robot, np.random.default_rng(2), 300)   # the batch loop without the GIL
@@ -711,7 +713,8 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
     compiled_rows = [n for n in rows if n.startswith("compiled ")]
-    assert len(compiled_rows) == 30 and all(rows[n] == "pass" for n in compiled_rows)
+    # 21 functions, 9 centroidal and the two contact functions (the box declares no contacts: forward dynamics)
+    assert len(compiled_rows) == 32 and all(rows[n] == "pass" for n in compiled_rows)
 
 
 def test_failing_compiler_on_a_floating_robot_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):

@@ -39,8 +39,6 @@ NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
      "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
     (("casadi",), ("assemble",), "fixed",
      "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
-    (("c", "c-extension"), CONTACT_FUNCTIONS, "any",
-     "contact dynamics (constrained forward and impulse dynamics): not in the C code so far"),
 )
 
 

@@ -25,7 +25,8 @@ RTOL = 1e-12
 RTOLS = {"assemble": 1e-10}
 
 #: The state each argument of the API is drawn from (``q_to``: a second configuration).
-STATES = {"q": "q", "qd": "qd", "v": "qd", "qdd": "qdd", "u": "u", "q_guess": "q", "q_from": "q", "q_to": "q1"}
+STATES = {"q": "q", "qd": "qd", "v": "qd", "qdd": "qdd", "u": "u", "q_guess": "q", "q_from": "q", "q_to": "q1",
+          "qd_minus": "qd"}
 
 
 def _arrays(function: api.Function) -> str:
@@ -33,11 +34,13 @@ def _arrays(function: api.Function) -> str:
 
 
 #: The functions compared (the API table's, but a planar robot's maximal form, which only the
-#: Python modules print), with the arrays they take (``p``: keyword parameters only).
-FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group in ("dynamics", "centroidal", "loops", "configuration"))
+#: Python modules print), with the arrays they take (``p``: keyword parameters only); the contact
+#: functions hold the robot file's CONTACTS (none: forward dynamics).
+FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group in ("dynamics", "centroidal", "loops", "configuration",
+                                                                           "contacts"))
 #: The functions that take ``friction_smoothing``.
 SMOOTHED = {"inverse_dynamics", "forward_dynamics", "friction_forces", "linearize", "inverse_dynamics_derivatives",
-            "forward_dynamics_derivatives", "loop_forces", "reduced_forward_dynamics"}
+            "forward_dynamics_derivatives", "loop_forces", "reduced_forward_dynamics", "constrained_forward_dynamics"}
 #: The functions that take no parameters (a robot with quaternions: its configuration maps).
 GEOMETRY = set(api.group("configuration"))
 FRAME_FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group == "frames")

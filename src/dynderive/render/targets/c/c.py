@@ -37,6 +37,7 @@ from ....mechanics.tidy import fold_constants
 from ... import api
 from ...encode import Code
 from ...environment import render
+from .c_contacts import contact_functions, contact_macros
 from .c_external import external_section
 from .c_join import joined_program as _joined
 from .c_join import print_body as _print_body
@@ -146,6 +147,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         *_frame_functions(derivation, names, start, pp),
         *_centroidal_functions(derivation, names, start, pp),
         *(_configuration_functions(derivation) if quaternions else []),
+        *contact_functions(derivation, _structural_pattern(derivation, n)),
     ]
     functions = amend(derivation, CKit(
         start, pp, CFunction, lambda values, targets, extra=None: expression_body(names.extended(extra), values, targets),
@@ -174,6 +176,7 @@ def c_context(derivation: Derivation) -> dict[str, Any]:
         "frames": [{"index": i, "name": c_comment(f.name)} for i, f in enumerate(robot.frames)],
         "functions": functions,
         "external": [Code(line) for line in external_section(derivation)],
+        "contacts": [Code(line) for line in contact_macros(derivation)],
     }
 
 

@@ -32,6 +32,7 @@ from ..c.c_binding import Binding
 from ..c.c_loops import loop_context
 from ..c.c_names import c_problems, refuse
 from ..c.c_print import double_literal
+from .contacts import contact_source
 
 TEMPLATE = "c/extension.c.j2"
 
@@ -232,6 +233,7 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
         "functions": functions,
         "max_inputs": max(max(len(b.inputs) for b in table), 1),
         "max_outputs": max(len(b.outputs) for b in table),
+        "macro": name.upper(), "contact_source": [c_string(line) for line in contact_source(derivation)],
     }
 
 

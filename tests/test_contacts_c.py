@@ -1,0 +1,268 @@
+"""Contact dynamics in the C target and the C extension (DESIGN.md section 11):
+``<name>_constrained_forward_dynamics`` and ``<name>_impulse_dynamics`` through ctypes, and the
+extension's ``constrained_forward_dynamics`` and ``impulse_dynamics``, equal to the NumPy module's
+to 1e-12 relative at random full-precision states: a random floating tree with a surface and a
+point contact (the robot file's CONTACTS), a random fixed-base tree, and solo12 on its four feet;
+with Baumgarte gains and anchors, impacts with restitution; the C functions' return codes
+(redundant contacts, bad counts, frames and kinds, kp without anchors), the extension's errors and
+check --backend c's rows for them.
+The C compiles as strict C99 and as C++ with no diagnostic.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import os
+import shutil
+import subprocess
+import sysconfig
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dynderive
+from dynderive.render.targets.c.c import render_c
+from dynderive.render.targets.c_extension.compile import build_extension
+from dynderive.render.targets.numpy.code import render_code
+from test_contacts import _example_robot, _random_state, _tree
+
+from conftest import import_code
+
+CC = shutil.which("gcc") or shutil.which("cc")
+CXX = shutil.which("g++")
+HEADERS = (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file()
+if CC is None or not HEADERS:
+    if os.environ.get("CI"):
+        raise RuntimeError("CI must run the C contact tests, but no C compiler or no Python.h was found")
+    pytest.skip("no C compiler or no Python.h", allow_module_level=True)
+
+STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wshadow"]
+RTOL = 1e-12
+P = ctypes.POINTER(ctypes.c_double)
+INTS = ctypes.POINTER(ctypes.c_int)
+
+
+def _close(actual, expected, what: str) -> None:
+    actual, expected = np.asarray(actual, dtype=float), np.asarray(expected, dtype=float)
+    assert actual.shape == expected.shape, f"{what}: shape {actual.shape} != {expected.shape}"
+    scale = max(1.0, float(np.max(np.abs(expected), initial=0.0)))
+    error = float(np.max(np.abs(actual - expected), initial=0.0))
+    assert np.all(np.isfinite(actual)) and error <= RTOL * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
+
+
+class Contacts:
+    """A robot's NumPy module, its C (strict C99 and C++, no diagnostic) as a shared library, and
+    its extension."""
+
+    def __init__(self, derivation, folder: Path, optimization: str):
+        folder.mkdir(parents=True, exist_ok=True)
+        self.name = name = derivation.robot.name
+        self.module = import_code(render_code(derivation), folder, f"{name}_contacts_c_dynamics")
+        self.header, source = render_c(derivation)
+        (folder / f"{name}_dynamics.h").write_text(self.header)
+        path = folder / f"{name}_dynamics.c"
+        path.write_text(source)
+        shared = folder / f"{name}_contacts.so"
+        for command in ([CC, *STRICT, optimization, "-shared", "-fPIC", str(path), "-o", str(shared), "-lm"],
+                        *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-O0", "-c", str(path),
+                            "-o", str(path.with_suffix(".cpp.o"))]] if CXX else [])):
+            run = subprocess.run(command, capture_output=True, text=True)
+            assert run.returncode == 0 and not run.stderr, f"{' '.join(command)}:\n{run.stderr}"
+        self.lib = ctypes.CDLL(str(shared))
+        filename, data = build_extension(derivation, c_files=(self.header, source), optimization="-O0")
+        (folder / filename).write_bytes(data)
+        spec = importlib.util.spec_from_file_location(f"{name}_dynamics_c", folder / filename)
+        self.ext = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(self.ext)
+        self.nv = len(derivation.symbols.qd)
+
+    def numbers(self, held):
+        frames = np.array([self.module.FRAMES.index(f) for f, _ in held], dtype=np.intc)
+        kinds = np.array([kind == "surface" for _, kind in held], dtype=np.intc)
+        return frames, kinds, sum(6 if k else 3 for k in kinds)
+
+    def forward(self, q, qd, u, frames, kinds, baumgarte=None, anchors=None, rows=None):
+        """(status, qdd, forces) of the C function (kinds None: NULL); outputs pre-filled with NaN."""
+        rows = len(frames) * 6 if rows is None else rows
+        qdd, forces = np.full(self.nv, np.nan), np.full(max(rows, 1), np.nan)
+        status = getattr(self.lib, f"{self.name}_constrained_forward_dynamics")(
+            _pointer(q), _pointer(qd), _pointer(u), ctypes.c_int(len(frames)), _ints(frames), _ints(kinds),
+            _pointer(baumgarte), _pointer(anchors), None, qdd.ctypes.data_as(P), forces.ctypes.data_as(P))
+        return status, qdd, forces[:rows]
+
+    def impulse(self, q, qd, frames, kinds, restitution, rows):
+        qd_plus, impulses = np.full(self.nv, np.nan), np.full(max(rows, 1), np.nan)
+        status = getattr(self.lib, f"{self.name}_impulse_dynamics")(
+            _pointer(q), _pointer(qd), ctypes.c_int(len(frames)), _ints(frames), _ints(kinds),
+            ctypes.c_double(restitution), None, qd_plus.ctypes.data_as(P), impulses.ctypes.data_as(P))
+        return status, qd_plus, impulses[:rows]
+
+
+def _pointer(values):
+    if values is None:
+        return None
+    array = np.ascontiguousarray(values, dtype=float)
+    _KEEP.append(array)
+    return array.ctypes.data_as(P)
+
+
+def _ints(values):
+    if values is None:
+        return None
+    array = np.ascontiguousarray(values, dtype=np.intc)
+    _KEEP.append(array)
+    return array.ctypes.data_as(INTS)
+
+
+_KEEP: list[np.ndarray] = []   # the arrays behind the pointers of the current call
+_BUILT: dict[str, Contacts] = {}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """``built(name)``: a random tree ("floating_10", "fixed_6") or solo12 (--floating-base), once."""
+
+    def get(name: str) -> Contacts:
+        if name not in _BUILT:
+            folder = tmp_path_factory.mktemp(name)
+            if name == "solo12":
+                robot = dynderive.load_robot(_example_robot("solo_description/robots/solo12.urdf"), floating_base=True)
+            else:
+                path = folder / f"{name}.yaml"
+                path.write_text(_tree(int(name.split("_")[1]), name.startswith("floating")))
+                robot = dynderive.load_robot(path)
+            _BUILT[name] = Contacts(dynderive.derive(robot), folder, "-O1")
+        return _BUILT[name]
+
+    return get
+
+
+def _anchors(module, q, held, rng):
+    """Held poses and positions near the frames' current ones (a point's 3, a surface's 4 x 4)."""
+    anchors = []
+    for frame, kind in held:
+        pose = module.frame_transform(q, frame)
+        if kind == "point":
+            anchors.append(pose[:3, 3] + rng.normal(scale=0.01, size=3))
+        else:
+            angle = rng.normal(scale=0.02)
+            turn = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+            moved = pose.copy()
+            moved[:3, :3] = pose[:3, :3] @ turn
+            moved[:3, 3] += rng.normal(scale=0.01, size=3)
+            anchors.append(moved)
+    return anchors
+
+
+CASES = [("floating_10", [("sole", "surface"), ("toe", "point")]),
+         ("fixed_6", [("toe", "point")]),
+         ("solo12", [(f, "point") for f in ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")])]
+
+
+@pytest.mark.parametrize("name, held", CASES, ids=[c[0] for c in CASES])
+def test_c_and_extension_equal_the_numpy_module(name, held, built):
+    """At random states: the C functions (kinds given, and NULL for the declared kinds where the
+    contacts are the robot file's) and the extension's, one state and a batch of 2 x 2, equal the
+    NumPy module's to 1e-12: without Baumgarte, with (0, kd), with (kp, kd) and anchors; impacts
+    with restitution 0 and 0.6."""
+    c = built(name)
+    module, ext = c.module, c.ext
+    frames, kinds, rows = c.numbers(held)
+    declared = [(f, module.CONTACT_KINDS[f]) for f in module.CONTACTS] == held
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        q, qd, u = _random_state(module, rng)
+        anchors = _anchors(module, q, held, rng)
+        flat = np.concatenate([np.ravel(a) for a in anchors])
+        for baumgarte, given in (((0.0, 0.0), None), ((0.0, 4.0), None), ((25.0, 10.0), anchors)):
+            expected = module.constrained_forward_dynamics(q, qd, u, held, baumgarte, anchors=given)
+            for kind_array in (kinds, None) if declared else (kinds,):
+                status, qdd, forces = c.forward(q, qd, u, frames, kind_array, baumgarte,
+                                                None if given is None else flat, rows)
+                assert status == 0
+                _close(qdd, expected[0], f"C qdd {baumgarte}")
+                _close(forces, expected[1], f"C forces {baumgarte}")
+            got = ext.constrained_forward_dynamics(q, qd, u, held, baumgarte, anchors=given)
+            _close(got[0], expected[0], f"extension qdd {baumgarte}")
+            _close(got[1], expected[1], f"extension forces {baumgarte}")
+        for restitution in (0.0, 0.6):
+            expected = module.impulse_dynamics(q, qd, held, restitution)
+            status, qd_plus, impulses = c.impulse(q, qd, frames, kinds, restitution, rows)
+            assert status == 0
+            _close(qd_plus, expected[0], "C qd_plus")
+            _close(impulses, expected[1], "C impulses")
+            got = ext.impulse_dynamics(q, qd, held, restitution)
+            _close(got[0], expected[0], "extension qd_plus")
+            _close(got[1], expected[1], "extension impulses")
+    # a batch, and contacts given by index
+    q, qd, u = _random_state(module, rng, (2, 2))
+    by_index = [(module.FRAMES.index(f), kind) for f, kind in held]
+    for function, args in (("constrained_forward_dynamics", (q, qd, u[0], by_index, (0.0, 2.0))),
+                           ("impulse_dynamics", (q, qd, by_index, 0.3))):
+        expected, got = getattr(module, function)(*args), getattr(ext, function)(*args)
+        for e, g, what in zip(expected, got, ("velocities", "forces")):
+            _close(g, e, f"extension batch {function} {what}")
+    # no contact: forward dynamics
+    status, qdd, _ = c.forward(q[0, 0], qd[0, 0], u[0, 0], np.zeros(0, np.intc), None, None, None, 0)
+    assert status == 0
+    _close(qdd, module.forward_dynamics(q[0, 0], qd[0, 0], u[0, 0]), "C without contacts")
+    assert ext.constrained_forward_dynamics(q, qd, u, ())[1].shape == (2, 2, 0)
+
+
+def test_return_codes_and_extension_errors(built):
+    """The C functions return 2 for redundant contacts (the fixed tree's sole and toe: 9 rows on
+    5 joints), 3 for a bad count, frame number (negative, NFRAMES, held twice) or kind, 4 for kp
+    without anchors, and leave their outputs untouched; the extension raises the NumPy module's
+    ValueErrors and refuses wrenches."""
+    c = built("fixed_6")
+    module, ext = c.module, c.ext
+    q, qd, u = _random_state(module, np.random.default_rng(2))
+    frames, kinds, rows = c.numbers([("sole", "surface"), ("toe", "point")])
+    status, qdd, forces = c.forward(q, qd, u, frames, kinds)
+    assert status == 2 and np.all(np.isnan(qdd)) and np.all(np.isnan(forces))
+    assert c.impulse(q, qd, frames, kinds, 0.0, rows)[0] == 2
+    assert c.forward(q, qd, u, frames, None)[0] == 2   # NULL: the declared kinds (surface, point)
+    nframes = len(module.FRAMES)
+    for bad_frames, bad_kinds in (([-1], [0]), ([nframes], [0]), ([1, 1], [0, 0]), ([1], [2]), ([1], [-1])):
+        status, qdd, _ = c.forward(q, qd, u, np.array(bad_frames), np.array(bad_kinds))
+        assert status == 3 and np.all(np.isnan(qdd)), (bad_frames, bad_kinds)
+        assert c.impulse(q, qd, np.array(bad_frames), np.array(bad_kinds), 0.0, 6)[0] == 3
+    assert c.forward(q, qd, u, np.zeros(nframes + 1, np.intc), None)[0] == 3   # more contacts than frames
+    assert c.forward(q, qd, u, np.array([1]), None, (1.0, 0.0), None)[0] == 4
+    assert c.forward(q, qd, u, np.array([1]), None, (0.0, 1.0), None, 3)[0] == 0   # kd alone needs no anchors
+    macro = c.name.upper()
+    for line in (f"#define {macro}_NCONTACTS 2", f"#define {macro}_CONTACT_FRAMES {{ 0, 1 }}",
+                 f"#define {macro}_CONTACT_KINDS {{ 1, 0 }}", f"#define {macro}_CONTACT_REDUNDANT 2"):
+        assert line in c.header
+    with pytest.raises(ValueError, match="redundant"):
+        ext.constrained_forward_dynamics(q, qd, u)
+    with pytest.raises(ValueError, match="redundant"):
+        ext.impulse_dynamics(q, qd)
+    with pytest.raises(ValueError, match="unknown frame 'heel'"):
+        ext.constrained_forward_dynamics(q, qd, u, ["heel"])
+    with pytest.raises(ValueError, match="out of range"):
+        ext.constrained_forward_dynamics(q, qd, u, [7])
+    with pytest.raises(ValueError, match="held twice"):
+        ext.constrained_forward_dynamics(q, qd, u, ["toe", 1])
+    with pytest.raises(ValueError, match="kp needs anchors"):
+        ext.constrained_forward_dynamics(q, qd, u, ["toe"], baumgarte=(1.0, 0.0))
+    with pytest.raises(ValueError, match="takes none"):
+        ext.constrained_forward_dynamics(q, qd, u, ["toe"], wrenches={"toe": np.ones(6)})
+    with pytest.raises(TypeError, match="unexpected keyword argument 'mass'"):
+        ext.impulse_dynamics(q, qd, ["toe"], mass=1.0)
+
+
+def test_check_backend_c_compares_the_contact_functions(built):
+    """``check --backend c``'s comparison (``verify.compiled.compiled_rows``) has a passing row for
+    each contact function of the floating tree (its CONTACTS: a surface and a point)."""
+    from dynderive.verify.compiled import compiled_rows
+
+    c = built("floating_10")
+    q, qd, u = _random_state(c.module, np.random.default_rng(4), (5,))
+    states = {"q": q, "qd": qd, "qdd": np.zeros_like(qd), "u": u, "q1": q}
+    rows = {row.name: row for row in compiled_rows(c.module, c.ext, {}, states, floating=True)}
+    for name in ("constrained_forward_dynamics", "impulse_dynamics"):
+        row = rows[f"compiled {name} == NumPy module"]
+        assert row.status == "pass" and row.residual <= 1e-12, row
