@@ -127,3 +127,17 @@ def random_tree_derivation(seed: int, n_joints: int, directory: str):
     derivation = dynderive.derive(dynderive.load_robot(path))
     module = import_code(dynderive.render_code(derivation), folder, f"random_tree_{seed}_{n_joints}_dynamics")
     return derivation, module
+
+
+def example_robot(relative: str) -> Path:
+    """The path of a file of example-robot-data ending in ``relative`` (a test skips without it)."""
+    import importlib.metadata
+
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    paths = [Path(str(dist.locate_file(f))) for f in dist.files or () if str(f).endswith(relative)]
+    if not paths:
+        pytest.skip(f"{relative} is not in example-robot-data")
+    return paths[0]

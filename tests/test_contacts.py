@@ -18,7 +18,6 @@ simulation that holds its contact.
 
 from __future__ import annotations
 
-import importlib.metadata
 import os
 import random
 from pathlib import Path
@@ -33,6 +32,7 @@ from dynderive.commands.cli import app
 from dynderive.input.urdf import identifier
 from dynderive.render.targets.numpy.code import render_code
 
+from conftest import example_robot as _example_robot
 from conftest import import_code
 from random_robots3d import random_spatial_tree
 
@@ -45,17 +45,6 @@ def _close(actual, expected, what: str, tolerance: float = 1e-9) -> None:
     scale = max(1.0, float(np.max(np.abs(expected), initial=0.0)))
     error = float(np.max(np.abs(actual - expected), initial=0.0))
     assert np.all(np.isfinite(actual)) and error <= tolerance * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
-
-
-def _example_robot(relative: str) -> Path:
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        pytest.skip("example-robot-data is not installed")
-    paths = [Path(str(dist.locate_file(f))) for f in dist.files or () if str(f).endswith(relative)]
-    if not paths:
-        pytest.skip(f"{relative} is not in example-robot-data")
-    return paths[0]
 
 
 def _tree(seed: int, floating: bool) -> str:

@@ -34,6 +34,7 @@ from dynderive.verify.checks import (
 )
 from dynderive.verify.pinocchio_model import pinocchio_maps
 
+from conftest import example_robot as _example_robot
 from random_robots3d import _random_inertia, random_spatial_tree
 
 pin = pytest.importorskip("pinocchio")
@@ -112,17 +113,6 @@ def _compare(robot, module, model, qp, vp, seed: int, states: int = 3) -> None:
     np.testing.assert_allclose(module.mass_matrix(Q)[1], module.mass_matrix(q1), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(module.difference(Q, module.integrate(Q, v, 0.5)), np.stack([v, v]) * 0.5,
                                rtol=0, atol=1e-9)
-
-
-def _example_robot(relative: str) -> Path:
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        pytest.skip("example-robot-data is not installed")
-    paths = [Path(str(dist.locate_file(f))) for f in dist.files or () if str(f).endswith(relative)]
-    if not paths:
-        pytest.skip(f"{relative} is not in example-robot-data")
-    return paths[0]
 
 
 @pytest.mark.pinocchio
