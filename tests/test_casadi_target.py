@@ -476,7 +476,7 @@ def test_check_backend_casadi_frames_loops_floating():
     assert rows["CasADi frame_jacobian (frame wrist) == NumPy module"] == "pass"
     assert rows["CasADi inverse_dynamics with wrenches at every frame == NumPy module"] == "pass"
     assert rows["CasADi centroidal_momentum_matrix == NumPy module"] == "pass"
-    assert all(status == "pass" for status in rows.values()) and len(rows) == 27   # 9 of them centroidal
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 29   # 9 centroidal, 2 contacts
     rows = _check_rows("four_bar")
     assert rows.pop("CasADi not built: assemble") == "skip"
     assert rows["CasADi reduced_forward_dynamics == NumPy module"] == "pass"

@@ -659,7 +659,7 @@ def test_solve_build_and_check_write_and_check_the_module(tmp_path):
 
     rows = {row["name"]: row["status"] for row in json.loads(result.stdout)["checks"]}
     jax_rows = [name for name in rows if name.startswith("JAX ")]
-    assert len(jax_rows) == 29 and all(rows[name] == "pass" for name in jax_rows)   # 9 of them centroidal
+    assert len(jax_rows) == 31 and all(rows[name] == "pass" for name in jax_rows)   # 9 centroidal, 2 contacts
     assert "JAX frame_jacobian (frame tip) == NumPy module" in rows and "JAX integrate == NumPy module" in rows
 
 

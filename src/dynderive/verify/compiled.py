@@ -44,6 +44,8 @@ SMOOTHED = {"inverse_dynamics", "forward_dynamics", "friction_forces", "lineariz
 #: The functions that take no parameters (a robot with quaternions: its configuration maps).
 GEOMETRY = set(api.group("configuration"))
 FRAME_FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group == "frames")
+#: The contact functions (the CasADi module builds a Function per set of contacts).
+CONTACTS = set(api.group("contacts"))
 
 
 def _difference(expected: Any, got: Any) -> float:
@@ -184,7 +186,8 @@ class CasadiModule:
     keywords (gathered into the vector ``p`` in ``PARAMETER_NAMES``' order), ``friction_smoothing``
     as a keyword, a frame as the last positional argument (its Function from
     ``frame_transform(frame)``...), results in the API table's shapes (``render/api.py``), and
-    ``inverse_dynamics``' ``wrenches`` added as ``J^T w`` with ``frame_jacobian(frame)``, as
+    the contact functions' Function of the robot file's contacts, ``inverse_dynamics``'
+    ``wrenches`` added as ``J^T w`` with ``frame_jacobian(frame)``, as
     the CasADi reference says to. Only the module's own Functions are reached: a function it
     does not offer is an ``AttributeError`` (``hasattr`` false), as for the other modules."""
 
@@ -199,6 +202,8 @@ class CasadiModule:
         value = getattr(self.module, name)   # AttributeError: not offered
         if name.startswith("frame_") and name in self.RANKS and not isinstance(value, casadi.Function):
             return lambda *args, **keywords: self._call(value(args[-1]), name, args[:-1], keywords)
+        if name in CONTACTS and not isinstance(value, casadi.Function):   # a Function per set: the file's contacts
+            return lambda *args, **keywords: self._call(value(self.module.CONTACTS), name, args, keywords)
         if not isinstance(value, casadi.Function):
             return value
         if name == "inverse_dynamics":
