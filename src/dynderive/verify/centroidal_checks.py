@@ -13,6 +13,7 @@ import numpy as np
 import sympy
 
 from ..derivation import Derivation
+from ..render.sheets.figure_3d import axis_angle, rpy
 from .rows import Row, _row, peak
 
 #: The rows' names (what each compares: the module docstring, docs/guides/check-and-simulate.md).
@@ -21,24 +22,11 @@ DIFFERENCES = "centroidal: J_G, J qd, Jdot qd, Adot_G qd = central differences a
 PINOCCHIO = "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, dhg)"
 
 
-def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rodrigues: the rotation by ``angle`` about the unit ``axis``."""
-    x, y, z = axis
-    K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * K @ K
-
-
 def _quaternion(x: float, y: float, z: float, w: float) -> np.ndarray:
     """The rotation of the unit quaternion ``(x, y, z, w)``."""
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
-def _rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """URDF's fixed-axis roll-pitch-yaw, ``Rz(yaw) Ry(pitch) Rx(roll)``."""
-    e = np.eye(3)
-    return _rotation(e[2], yaw) @ _rotation(e[1], pitch) @ _rotation(e[0], roll)
 
 
 class LinkModel:
@@ -59,7 +47,7 @@ class LinkModel:
         self.axes = {}
         for joint in robot.joints:
             x, y, z, roll, pitch, yaw = (num(e) for e in joint.origin)
-            self.placements[joint.name] = (_rpy(roll, pitch, yaw), np.array([x, y, z]))
+            self.placements[joint.name] = (rpy(roll, pitch, yaw), np.array([x, y, z]))
             if joint.type in ("revolute", "prismatic"):
                 axis = np.array([num(e) for e in joint.axis])
                 self.axes[joint.name] = axis / np.linalg.norm(axis)
@@ -92,7 +80,7 @@ class LinkModel:
                 rate = multiplier * v[where_v[leader]]
                 axis = R @ self.axes[joint.name]
                 if joint.type == "revolute":
-                    R, w = R @ _rotation(self.axes[joint.name], value), w + axis * rate
+                    R, w = R @ axis_angle(self.axes[joint.name], value), w + axis * rate
                 else:
                     shift = axis * value
                     p, velocity = p + shift, velocity + np.cross(w, shift) + axis * rate
