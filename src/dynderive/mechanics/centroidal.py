@@ -23,8 +23,9 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
+from .frames import along_motion
 from .program import Program, Vector, _add, _cross, _rotate, _times, part_of
-from .recursive import _carry, _forward, moved_inertia
+from .recursive import moved_inertia
 from .tree import Tree
 
 
@@ -98,18 +99,7 @@ def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
     spatial = [[mass if a == b else zero for b in range(3)] + [zero] * 3 for a in range(3)] + \
         [[zero] * 3 + about_com[a] for a in range(3)]
     velocity, total_momentum = times_qd(jacobian), times_qd(matrix)
-    # d/dt along the motion: each line's tangent, then the rows' tangents times qd
-    trig = {expr: name for name, expr in tree.trig}
-    tangent: dict[sympy.Symbol, sympy.Expr] = {}
-    for seed, rate in zip(tree.tangent_seeds(), qd):
-        for symbol, value in seed.items():
-            tangent[symbol] = tangent.get(symbol, 0) + (rate if value is sympy.S.One else program.let(value * rate))
-    tangent = {s: let(t) for s, t in tangent.items()}
-    _carry(program, tangent, trig, [(name, expr, expr.free_symbols) for name, expr in program.lines])
-
-    def bias(rows: list[list[sympy.Expr]]) -> list[sympy.Expr]:
-        return [let(sum((_forward(e, tangent, trig) * rate for e, rate in zip(row, qd)), zero)) for row in rows]
-
+    bias = along_motion(tree)   # d/dt along the motion: the rows' tangents times qd
     com_bias, momentum_bias = bias(jacobian), bias(matrix)
     lines = list(program.lines)
     flat = lambda rows: [e for row in rows for e in row]  # noqa: E731

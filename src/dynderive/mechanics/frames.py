@@ -19,7 +19,7 @@ at ``qdd = 0``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import sympy
@@ -145,7 +145,6 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
     program = tree.program
     poses = tree.world_poses()
     n = tree.size
-    trig = {expr: name for name, expr in tree.trig}
     built = []
     for frame in robot.frames:
         offset, shift = tree.placement(frame.origin)
@@ -160,20 +159,34 @@ def frame_programs(robot: Robot, table: SymbolTable) -> list[FramePrograms]:
             transform = [*rotation[0], position[0], *rotation[1], position[1], *rotation[2], position[2], 0, 0, 0, 1]
             rows = [[columns[j][part][axis] for j in range(n)] for part in range(2) for axis in range(3)]
         built.append((frame.name, transform, [[program.let(e) for e in row] for row in rows]))
-    # d/dt along the motion, one forward pass for every frame: each line's tangent
+    rates = along_motion(tree)   # one forward pass for every frame
+    results = []
+    for name, transform, jacobian in built:
+        jdot_qd = rates(jacobian)
+        results.append(FramePrograms(name, _part(program, transform), _part(program, [e for row in jacobian for e in row]),
+                                     _part(program, jdot_qd)))
+    return results
+
+
+def along_motion(tree: Tree) -> Callable[[Sequence[Sequence[sympy.Expr]]], list[sympy.Expr]]:
+    """One forward pass over ``tree``'s program along the motion: each line's tangent, each
+    configuration entry's rate ``qd_k`` for a scalar joint, a quaternion's from
+    ``Tree.tangent_seeds``. Returns ``rates``: rows of the program's values -> each row's
+    tangent times ``qd`` (``Jdot qd`` of a Jacobian's rows), as lines of the program."""
+    program, qd = tree.program, tree.table.qd
+    trig = {expr: name for name, expr in tree.trig}
     tangent: dict[sympy.Symbol, sympy.Expr] = {}
-    for seed, rate in zip(tree.tangent_seeds(), table.qd):
+    for seed, rate in zip(tree.tangent_seeds(), qd):
         for symbol, value in seed.items():
             tangent[symbol] = tangent.get(symbol, 0) + (rate if value is sympy.S.One else program.let(value * rate))
     tangent = {s: program.let(t) for s, t in tangent.items()}
     _carry(program, tangent, trig, [(name, expr, expr.free_symbols) for name, expr in program.lines])
-    results = []
-    for name, transform, jacobian in built:
-        jdot_qd = [program.let(sum((_forward(e, tangent, trig) * rate for e, rate in zip(row, table.qd)),
-                                   sympy.Integer(0))) for row in jacobian]
-        results.append(FramePrograms(name, _part(program, transform), _part(program, [e for row in jacobian for e in row]),
-                                     _part(program, jdot_qd)))
-    return results
+
+    def rates(rows: Sequence[Sequence[sympy.Expr]]) -> list[sympy.Expr]:
+        return [program.let(sum((_forward(e, tangent, trig) * rate for e, rate in zip(row, qd)), sympy.Integer(0)))
+                for row in rows]
+
+    return rates
 
 
 def _part(program: Program, outputs: Sequence[sympy.Expr]) -> Program:
