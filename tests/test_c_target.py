@@ -486,23 +486,30 @@ def test_forward_dynamics_and_linearize_are_one_body_each_sine_once():
 C99_STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wshadow"]
 
 
+def compiled_library(derivation, directory: Path, cxx: bool = False) -> tuple[str, ctypes.CDLL]:
+    """(name, library) of ``derivation``'s generated C, compiled unoptimized as strict C99 (and
+    as C++ when ``cxx``), with no diagnostic, and loaded."""
+    header, source = render_c(derivation)
+    name = derivation.robot.name
+    (directory / f"{name}_dynamics.h").write_text(header)
+    path = directory / f"{name}_dynamics.c"
+    path.write_text(source)
+    shared = path.with_suffix(".so")
+    for command in ([CC, *C99_STRICT, "-O0", "-shared", "-fPIC", str(path), "-o", str(shared), "-lm"],
+                    *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-O1", "-c", str(path),
+                        "-o", str(path.with_suffix(".cpp.o"))]] if CXX and cxx else [])):
+        run = subprocess.run(command, capture_output=True, text=True)
+        assert run.returncode == 0 and not run.stderr, f"{' '.join(command)}:\n{run.stderr}"
+    return name, ctypes.CDLL(str(shared))
+
+
 class FloatingLibrary:
     """A floating-base robot's generated C, compiled (C99, and C++ when ``cxx``, with no
     diagnostic) and loaded. Unoptimized: solo12's 0.9 MB of C takes 30 s at -O1."""
 
     def __init__(self, derivation, directory: Path, cxx: bool = False):
-        header, source = render_c(derivation)
-        self.name = name = derivation.robot.name
-        (directory / f"{name}_dynamics.h").write_text(header)
-        path = directory / f"{name}_dynamics.c"
-        path.write_text(source)
-        shared = path.with_suffix(".so")
-        for command in ([CC, *C99_STRICT, "-O0", "-shared", "-fPIC", str(path), "-o", str(shared), "-lm"],
-                        *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-O1", "-c", str(path),
-                            "-o", str(path.with_suffix(".cpp.o"))]] if CXX and cxx else [])):
-            run = subprocess.run(command, capture_output=True, text=True)
-            assert run.returncode == 0 and not run.stderr, f"{' '.join(command)}:\n{run.stderr}"
-        self.lib = ctypes.CDLL(str(shared))
+        self.name, self.lib = compiled_library(derivation, directory, cxx)
+        name = self.name
         for function in ("kinetic_energy", "potential_energy"):
             getattr(self.lib, f"{name}_{function}").restype = ctypes.c_double
         for function in ("mass_matrix", "coriolis_matrix", "gravity_vector", "inverse_dynamics", "regressor",

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import ctypes
 import inspect
-import subprocess
 import sysconfig
 from pathlib import Path
 
@@ -28,7 +27,7 @@ from dynderive.render import api
 from dynderive.render.targets.c.c import render_c
 from dynderive.render.targets.c_extension.c_extension import bindings
 from dynderive.verify.checks import random_configurations
-from test_c_target import C99_STRICT, CC, CXX, P
+from test_c_target import P, compiled_library
 from test_free_flyer import BOX, _module
 from test_spherical import _tree
 
@@ -57,24 +56,13 @@ def _robot(key: str, tmp_path: Path):
 
 class Library:
     """A robot's generated C, compiled as strict C99 (and as C++ when ``cxx``) with no
-    diagnostic, loaded; unoptimized (solo12-sized sources take long at -O1)."""
+    diagnostic and loaded (``test_c_target.compiled_library``), its centroidal functions typed."""
 
     def __init__(self, derivation, directory: Path, cxx: bool = False):
-        header, source = render_c(derivation)
-        self.name = name = derivation.robot.name
-        (directory / f"{name}_dynamics.h").write_text(header)
-        path = directory / f"{name}_dynamics.c"
-        path.write_text(source)
-        shared = path.with_suffix(".so")
-        for command in ([CC, *C99_STRICT, "-O0", "-shared", "-fPIC", str(path), "-o", str(shared), "-lm"],
-                        *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-O0", "-c", str(path),
-                            "-o", str(path.with_suffix(".cpp.o"))]] if CXX and cxx else [])):
-            run = subprocess.run(command, capture_output=True, text=True)
-            assert run.returncode == 0 and not run.stderr, f"{' '.join(command)}:\n{run.stderr}"
-        self.lib = ctypes.CDLL(str(shared))
-        getattr(self.lib, f"{name}_total_mass").restype = ctypes.c_double
+        self.name, self.lib = compiled_library(derivation, directory, cxx)
+        getattr(self.lib, f"{self.name}_total_mass").restype = ctypes.c_double
         for function in CENTROIDAL[1:]:
-            getattr(self.lib, f"{name}_{function}").restype = None
+            getattr(self.lib, f"{self.name}_{function}").restype = None
 
     def call(self, function: str, inputs: list, size: int, p=None) -> np.ndarray:
         """``function(*inputs, p, out)``: ``out``, pre-filled with NaN."""
