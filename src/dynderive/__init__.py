@@ -61,26 +61,11 @@ def load_robot(robot: str | Path, size_limits: bool = False, floating_base: bool
     ``inertia``) whose inertial values of a URDF become parameters (``m_<link>``, ``c_<link>_x``,
     ``I_<link>_xx``...), the file's values their defaults (``--symbolic``)."""
     from .input.limits import check_size
-    from .input.loader import load_document, resolve_robot_path
+    from .input.loader import resolve_robot_path
     from .input.schema import validate
+    from .input.sources import read_source
 
-    path = resolve_robot_path(robot)
-    if path.suffix.lower() == ".urdf":
-        from .input.loader import read_text
-        from .input.urdf import read_urdf
-
-        document = read_urdf(read_text(path), str(path), floating_base, symbolic)
-    else:
-        from .errors import InputError, Problem
-
-        if floating_base:
-            raise InputError(Problem("--floating-base", 1, 1, "--floating-base floats a URDF's root link; a YAML "
-                                     "robot file declares its floating joint itself (type: floating)"))
-        if symbolic:
-            raise InputError(Problem("--symbolic", 1, 1, "--symbolic makes a URDF's inertial values "
-                                     "parameters; a YAML robot file names its parameters itself (its "
-                                     "parameters block)"))
-        document = load_document(path)
+    document = read_source(resolve_robot_path(robot), floating_base, symbolic)
     model = validate(document)
     if size_limits:
         check_size(model, document)

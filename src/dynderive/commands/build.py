@@ -49,7 +49,7 @@ except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
 
 MANIFEST = ".dynderive-build.json"
 LOCK = ".dynderive-build.lock"
-SUFFIXES = (".yaml", ".yml", ".urdf")
+SUFFIXES = (".yaml", ".yml", ".urdf", ".xml")
 #: The output kinds: the sheets, the code targets', the JSON and the web page.
 KINDS = ("latex", "pdf", *(target.kind for target in _TARGETS), "json", "html")
 #: The compiled extension's file name ends with this Python's suffix for extensions.
@@ -99,16 +99,20 @@ def robot_name(source: Path) -> tuple[str, int, int] | None:
     ``None`` if the file cannot be read that far; building it will report why.
     """
     from ..input.loader import load_document, read_text
+    from ..input.sources import kind_of
 
     try:
-        if source.suffix.lower() == ".urdf":
+        kind = kind_of(source)
+        if kind in ("urdf", "mjcf"):
             from ..input.urdf import _parse_xml, identifier
 
             text = read_text(source)
             root = _parse_xml(text, str(source))
-            if root.tag != "robot":
+            tag, attribute = ("robot", "name") if kind == "urdf" else ("mujoco", "model")
+            if root.tag != tag:
                 return None
-            return (identifier(root.attrib.get("name", "robot")), *_urdf_name_position(text, root.line, root.column))
+            where = _xml_name_position(text, root.line, root.column, tag, attribute)
+            return (identifier(root.attrib.get(attribute, "robot") or "robot"), *where)
         doc = load_document(source)
     except DynderiveError:
         return None
@@ -117,10 +121,11 @@ def robot_name(source: Path) -> tuple[str, int, int] | None:
     return (doc.data["name"], *doc.where(("name",)))
 
 
-def _urdf_name_position(text: str, line: int, column: int) -> tuple[int, int]:
-    """Position of the value of the ``name`` attribute of the element starting at (line, column)."""
+def _xml_name_position(text: str, line: int, column: int, tag: str, attribute: str) -> tuple[int, int]:
+    """Position of the value of the element's name attribute (``<robot name>``, ``<mujoco
+    model>``), the element starting at (line, column)."""
     start = sum(len(row) + 1 for row in text.split("\n")[: line - 1])
-    match = re.compile(r"<robot\b[^>]*?\sname\s*=\s*[\"']").search(text, start)
+    match = re.compile(rf"<{tag}\b[^>]*?\s{attribute}\s*=\s*[\"']").search(text, start)
     if match is None:
         return line, column
     offset = match.end()
@@ -215,7 +220,7 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     from .. import derive, load_robot
     from .solve import sheet_files, target_files
 
-    floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")
+    floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")   # URDF files only
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
     symbolic = next((kind.partition(":")[2] for kind in kinds if kind.startswith("symbolic:")), None)
     symbolic = symbolic if source.lower().endswith(".urdf") else None   # --symbolic: URDF files only

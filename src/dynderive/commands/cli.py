@@ -572,21 +572,22 @@ def schema() -> None:
 @app.command("import", cls=_Command)
 @handle_errors
 def import_(
-    urdf: Annotated[str, typer.Argument(help="URDF file to convert, or a bundled URDF robot (ur5, panda).")],
+    urdf: Annotated[str, typer.Argument(help="URDF or MJCF file to convert, or a bundled URDF robot (ur5, panda).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")],
     floating_base: Annotated[bool, typer.Option("--floating-base", help="Join the world to the root link by a "
                              "floating joint 'root_joint'.")] = False,
 ) -> None:
-    """Convert a URDF file into the equivalent dynderive YAML robot file."""
-    from ..input.loader import read_text, resolve_robot_path
+    """Convert a URDF or MJCF file into the equivalent dynderive YAML robot file."""
+    from ..input.loader import resolve_robot_path
     from ..input.schema import validate
-    from ..input.urdf import read_urdf, to_yaml
+    from ..input.sources import read_source
+    from ..input.urdf import to_yaml
 
     path = resolve_robot_path(urdf)   # a file or a bundled robot's name
     check_output_paths({"--output": output}, (path,))
     if path.suffix.lower() in (".yaml", ".yml"):
-        raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF files)"))
-    document = read_urdf(read_text(path), str(path), floating_base)
+        raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF and MJCF files)"))
+    document = read_source(path, floating_base)
     for note in document.notes:
         typer.echo(note, err=True)
     validate(document)  # the same checks as any robot file, before anything is written

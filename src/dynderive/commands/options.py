@@ -182,13 +182,11 @@ def _check_values(robot: str, given: dict[str, float], filled: dict[str, float],
 
 def _revalidate(robot: str, values: dict[str, float], load: dict[str, Any]) -> list[Problem]:
     """The problems of the robot file ``robot`` read again with the parameter ``values``."""
-    from ..input.loader import load_document, read_text, resolve_robot_path
+    from ..input.loader import resolve_robot_path
     from ..input.schema import validate
-    from ..input.urdf import read_urdf
+    from ..input.sources import read_source
 
-    path = resolve_robot_path(robot)
-    document = (read_urdf(read_text(path), str(path), **load) if path.suffix.lower() == ".urdf"
-                else load_document(path))
+    document = read_source(resolve_robot_path(robot), **load)
     block = document.data.get("parameters") or {}
     for name, value in values.items():
         if isinstance(block.get(name), dict):

@@ -30,7 +30,7 @@ MAX_VALUES = 50_000
 #: Deepest nesting of YAML collections (a robot file needs about 5 levels).
 MAX_YAML_DEPTH = 100
 #: The suffixes of robot files.
-ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf")
+ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf", ".xml")
 
 
 @dataclass

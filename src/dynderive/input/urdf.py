@@ -416,6 +416,10 @@ def to_yaml(data: dict[str, Any], source: str) -> str:
         return dumper.represent_sequence("tag:yaml.org,2002:seq", value, flow_style=flat)
 
     _Dumper.add_representer(list, inline)
-    header = (f"# Imported by dynderive {__version__} from {source}: fixed joints merged into their\n"
-              "# parent links, inertias rotated into link axes, the root link welded to the world.\n")
+    if source.lower().endswith(".xml"):
+        header = (f"# Imported by dynderive {__version__} from {source} (compiled by MuJoCo): bodies without\n"
+                  "# joints merged into the link they ride on, a body's joints chained through massless links.\n")
+    else:
+        header = (f"# Imported by dynderive {__version__} from {source}: fixed joints merged into their\n"
+                  "# parent links, inertias rotated into link axes, the root link welded to the world.\n")
     return header + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)

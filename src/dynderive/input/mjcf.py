@@ -1,0 +1,57 @@
+"""Read MuJoCo models (MJCF) into the same plain data as a robot YAML file.
+
+The ``mujoco`` package (the ``mjcf`` extra) compiles the file: it resolves ``<include>``,
+``<default>`` classes, ``childclass``, ``<compiler angle eulerseq>``, ``fromto``, inertias
+inferred from geoms and frames; nothing here reads MJCF syntax. The compiled model's body tree
+becomes robot-file data (``mjcf_tree``), with every entry placed at the line of the XML element
+it came from (``mjcf_positions``), and goes through the same validator as YAML and URDF.
+
+Conventions (the docs' MJCF page says more): ``hinge`` -> revolute, ``slide`` -> prismatic,
+``ball`` -> spherical, ``free`` -> floating; coordinates are MuJoCo's ``qpos`` (a joint's
+``ref`` goes into its origin, so ``q = 0`` is MuJoCo's ``qpos = 0``), quaternions w-last and a
+free joint's linear velocity in the body frame (Pinocchio's, section 10 of the design).
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from ..errors import InputError, Problem
+from .loader import SourceDocument
+
+
+def is_mjcf(text: str) -> bool:
+    """Whether an ``.xml`` file's root element is ``<mujoco>`` (a URDF may be named ``.xml``)."""
+    from .mjcf_positions import root_tag
+
+    return root_tag(text) == "mujoco"
+
+
+def read_mjcf(path: Path, text: str, file: str) -> SourceDocument:
+    """MJCF file -> the data of an equivalent robot file, with positions and notes.
+
+    MuJoCo's own compile errors come back as ``FILE:LINE:COL: MuJoCo: message`` (the line
+    MuJoCo names, or the file's first line); whatever the model holds that the robot file
+    cannot (tendons, contacts, other equalities, actuator dynamics) is a ``note:``.
+    """
+    try:
+        import mujoco
+    except ImportError:
+        raise InputError(Problem(file, 1, 1, "reading an MJCF file needs the mujoco package, which is not "
+                                 'installed: pip install "dynderive[mjcf]"')) from None
+    from .mjcf_positions import Locator, compile_problem
+    from .mjcf_tree import robot_document
+
+    locator = Locator(text)
+    try:
+        with warnings.catch_warnings(record=True) as caught:   # MuJoCo's compiler warnings: notes
+            warnings.simplefilter("always")
+            spec = mujoco.MjSpec.from_file(str(path))
+            model = spec.compile()
+    except ValueError as exc:
+        raise InputError(compile_problem(str(exc), file, locator)) from None
+    doc = SourceDocument(file=file, data=None)
+    for warning in caught:
+        text = str(warning.message).strip()
+        doc.note(locator._first("compiler") if "compiler" in text else locator.root, f"MuJoCo: {text}")
+    return robot_document(mujoco, spec, model, doc, locator)
