@@ -43,10 +43,11 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
     """Every check that applies to ``derivation``'s robot, at ``states`` random states
     (``random_configurations``): M, then ``_along_integrate`` for a configuration on a manifold
     (NQ != NV), ``_generalized_rows`` for any other, a 3-D robot's centre of mass and centroidal
-    momentum (``centroidal_checks``) and its contact dynamics (``contact_checks``), then Pinocchio
-    (``pinocchio_checks``)."""
+    momentum (``centroidal_checks``) and its contact dynamics (``contact_checks``), MuJoCo for a
+    robot read from MJCF (``mujoco_checks``), then Pinocchio (``pinocchio_checks``)."""
     from .centroidal_checks import centroidal_rows
     from .contact_checks import contact_rows
+    from .mujoco_checks import mujoco_rows
     from .pinocchio_checks import pinocchio_rows
 
     robot = derivation.robot
@@ -68,6 +69,7 @@ def run_checks(derivation: Derivation, source: str, states: int = 12, seed: int 
         rows += _generalized_rows(derivation, module, values, qs, qds, us, rng)
     rows += centroidal_rows(derivation, module, values, qs[:4], qds[:4])
     rows += contact_rows(derivation, module, values, qs[:4], qds[:4], us[:4])
+    rows += mujoco_rows(derivation, module, values, 5, rng)
     return rows + pinocchio_rows(derivation, module, values, qs[:5], qds[:5], us[:5])
 
 

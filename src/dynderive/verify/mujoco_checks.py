@@ -1,0 +1,122 @@
+"""``dynderive check``'s comparison with MuJoCo itself, for a robot read from an MJCF file
+(optional: skipped when ``mujoco`` is not installed).
+
+MuJoCo's state differs from ours only in a free joint's linear velocity (world frame there,
+body frame here) and the quaternions' order (w first there): ``to_ours`` maps a MuJoCo state to
+ours, with ``T`` (our velocities = ``T`` MuJoCo's) and our accelerations at zero MuJoCo
+acceleration, ``W``. Then ``M_mujoco = T' M T``, ``qfrc_bias - qfrc_spring - qfrc_damper =
+T' inverse_dynamics(q, qd, W)`` and ``qacc = T^-1 (forward_dynamics(q, qd, qfrc_actuator) - W)``
+with MuJoCo's constraints (contacts, limits, equalities) and fluid forces turned off.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..derivation import Derivation
+from .rows import Row, _row, peak
+
+NAME = "agrees with MuJoCo (mj_fullM, qfrc_bias, mj_forward's qacc without constraints)"
+
+
+def _quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def to_ours(model: Any, qpos: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A MuJoCo state as ours: ``(q, qd, T, W)`` (see the module's docstring)."""
+    q, qd = [], []
+    T, W = np.eye(model.nv), np.zeros(model.nv)
+    for j in range(model.njnt):
+        a, v, kind = int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), int(model.jnt_type[j])
+        if kind == 0:   # free: position, quaternion w last; linear velocity into the body frame
+            w, x, y, z = qpos[a + 3:a + 7]
+            R = _quaternion_matrix(w, x, y, z)
+            linear, angular = R.T @ qvel[v:v + 3], qvel[v + 3:v + 6]
+            q += [*qpos[a:a + 3], x, y, z, w]
+            qd += [*linear, *angular]
+            T[v:v + 3, v:v + 3] = R.T
+            W[v:v + 3] = -np.cross(angular, linear)   # d/dt (R' v_world) at zero world acceleration
+        elif kind == 1:   # ball: quaternion w last, local angular velocity as MuJoCo's
+            w, x, y, z = qpos[a:a + 4]
+            q += [x, y, z, w]
+            qd += list(qvel[v:v + 3])
+        else:
+            q.append(qpos[a])
+            qd.append(qvel[v])
+    return np.array(q), np.array(qd), T, W
+
+
+def full_mass_matrix(mujoco: Any, model: Any, data: Any) -> np.ndarray:
+    """``mj_fullM``'s dense M (MuJoCo 4 takes the data, MuJoCo 3 the sparse ``qM``)."""
+    M = np.zeros((model.nv, model.nv))
+    try:
+        mujoco.mj_fullM(model, data, M)
+    except TypeError:
+        mujoco.mj_fullM(model, M, data.qM)
+    return M
+
+
+def random_state(model: Any, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A MuJoCo ``(qpos, qvel)``: unit quaternions, other coordinates in [-1, 1]."""
+    qpos = rng.uniform(-1.0, 1.0, model.nq)
+    for j in range(model.njnt):
+        kind, a = int(model.jnt_type[j]), int(model.jnt_qposadr[j])
+        if kind in (0, 1):
+            start = a + 3 if kind == 0 else a
+            quaternion = rng.normal(size=4)
+            qpos[start:start + 4] = quaternion / np.linalg.norm(quaternion)
+    return qpos, rng.uniform(-1.0, 1.0, model.nv)
+
+
+def mujoco_rows(derivation: Derivation, module: Any, values: dict[str, float], states: int,
+                rng: np.random.Generator) -> list[Row]:
+    """The row for a robot read from an MJCF file (none for other robots)."""
+    robot = derivation.robot
+    if not robot.source.lower().endswith(".xml"):
+        return []
+    from ..input.sources import kind_of
+
+    if kind_of(Path(robot.source)) != "mjcf":
+        return []
+    try:
+        import mujoco
+    except ImportError:
+        return [Row(NAME, "skip", "mujoco is not installed", float("nan"))]
+    if robot.loops or robot.mimics:
+        return [Row(NAME, "skip", "MuJoCo's equality constraints are soft; ours are exact", float("nan"))]
+    if any(p.value is None or values.get(p.name) != p.value for p in robot.parameters):
+        return [Row(NAME, "skip", "parameters other than the file's values", float("nan"))]
+    model = mujoco.MjModel.from_xml_path(robot.source)
+    if np.any(model.body_gravcomp):
+        return [Row(NAME, "skip", "gravity compensation (gravcomp) is not modelled", float("nan"))]
+    model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    model.opt.viscosity = model.opt.density = 0.0   # fluid forces are not modelled
+    data = mujoco.MjData(model)
+    friction = any(j.friction is not None for j in robot.joints)   # MuJoCo's is a constraint, turned off here
+    columns = list(robot.effort_columns())
+    worst = scale = 0.0
+    for _ in range(states):
+        qpos, qvel = random_state(model, rng)
+        data.qpos[:], data.qvel[:] = qpos, qvel
+        data.ctrl[:] = rng.uniform(-1.0, 1.0, model.nu)
+        mujoco.mj_forward(model, data)
+        M = full_mass_matrix(mujoco, model, data)
+        q, qd, T, W = to_ours(model, qpos, qvel)
+        ours_M = T.T @ module.mass_matrix(q, **values) @ T
+        bias = data.qfrc_bias - data.qfrc_spring - data.qfrc_damper
+        ours_bias = T.T @ module.inverse_dynamics(q, qd, W, **values)
+        residuals = [peak(ours_M - M), peak(ours_bias - bias)]
+        scale = max(scale, peak(M), peak(bias))
+        if not friction:
+            u = data.qfrc_actuator[columns]
+            qacc = np.linalg.solve(T, module.forward_dynamics(q, qd, u, **values) - W)
+            residuals.append(peak(qacc - data.qacc) * peak(M))   # as a force, to share the scale
+        worst = max(worst, *residuals)
+    return [_row(NAME, worst <= 1e-9 * max(1.0, scale), f"numeric, {states} states, MuJoCo {mujoco.__version__}",
+                 worst)]
