@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from ..model.written import significant_digits
 from .loader import Path_, SourceDocument
@@ -90,6 +91,10 @@ class _Tree:
         self.link_of: dict[str, _Link] = {}
         self.joint_names: dict[int, str] = {}
         self.taken: set[str] = {"world"}
+
+    def disabled(self, flag: str) -> bool:
+        """Whether ``<option><flag NAME="disable"/>`` turned a part of MuJoCo's dynamics off."""
+        return bool(self.m.opt.disableflags & int(getattr(self.mj.mjtDisableBit, f"mjDSBL_{flag}")))
 
     # names -----------------------------------------------------------------------------------
     def _unique(self, name: str) -> str:
@@ -177,14 +182,16 @@ class _Tree:
                                  "origin": {"xyz": _numbers(p), "rpy": _rotation(R).rpy()}}
         if jtype in (2, 3):
             entry["axis"] = _numbers(axis)
-            terms = {"damping": m.dof_damping[dof], "friction": m.dof_frictionloss[dof],
-                     "stiffness": m.jnt_stiffness[j], "armature": m.dof_armature[dof]}
+            stiffness = 0.0 if self.disabled("SPRING") else m.jnt_stiffness[j]
+            terms = {"damping": 0.0 if self.disabled("DAMPER") else m.dof_damping[dof],
+                     "friction": 0.0 if self.disabled("FRICTIONLOSS") else m.dof_frictionloss[dof],
+                     "stiffness": stiffness, "armature": m.dof_armature[dof]}
             for key, value in terms.items():
                 if value != 0:
                     entry[key] = _number(value)
-            if m.jnt_stiffness[j] != 0 and m.qpos_spring[qpos] != 0:
+            if stiffness != 0 and m.qpos_spring[qpos] != 0:
                 entry["rest"] = _number(m.qpos_spring[qpos])
-            if m.dof_frictionloss[dof] != 0:
+            if "friction" in entry:
                 self.doc.note(at, f"joint '{name}': frictionloss {m.dof_frictionloss[dof]:g} becomes Coulomb "
                               "friction -friction*sign(qd); MuJoCo solves it as a soft constraint")
         else:
@@ -199,11 +206,15 @@ class _Tree:
         self.joints.append((entry, at))
 
     def _frame(self, name: str, link: str, R: np.ndarray, p: np.ndarray, at: tuple[int, int]) -> None:
+        if name in self.taken:   # a site named as its body (common in MJCF): the frame gets a suffix
+            renamed = self._unique(f"{name}_site")
+            self.doc.note(at, f"'{name}' is a link's name too: its frame is '{renamed}'")
+            self.taken.discard(renamed)
+            name = renamed
         clash = next((q for q in frame_quantity_names(name, False) if body_jacobian_index(q, len(self.links) + 99)),
                      None)
-        if clash or name in self.taken:
-            why = f"its Jacobian would be {clash}, a link's body Jacobian" if clash else "a link or frame has its name"
-            self.doc.note(at, f"'{name}' is not made a frame: {why}")
+        if clash:
+            self.doc.note(at, f"'{name}' is not made a frame: its Jacobian would be {clash}, a link's body Jacobian")
             return
         self.taken.add(name)
         self.frames.append(({"name": name, "link": link, "origin": {"xyz": _numbers(p), "rpy": _rotation(R).rpy()}},
@@ -214,6 +225,9 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
     """The compiled ``model`` as robot-file data in ``doc`` (positions, labels, notes)."""
     tree = _Tree(mujoco, spec, model, doc, locator)
     tree.walk()
+    if not tree.links:
+        raise InputError(Problem(doc.file, *locator.root, "no body moves: the model has no joint outside the world "
+                                 "body (a robot needs at least one hinge, slide, ball or free joint)"))
     efforts = _actuators(tree)
     mimics, loops = _equalities(tree)
     _notes(tree)
@@ -225,6 +239,8 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
         positions[(key,)] = locator.root
     doc.labels[("name",)] = "<mujoco model>"
     gravity = np.array(model.opt.gravity, dtype=float)
+    if tree.disabled("GRAVITY"):   # <flag gravity="disable"/>: MuJoCo applies none
+        gravity = np.zeros(3)
     g = float(np.linalg.norm(gravity))
     if g > 0 and gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0:
         data["parameters"]["g"] = {"value": _number(g), "unit": "m/s^2", "description": "gravitational acceleration"}
@@ -337,7 +353,7 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
                                "child": ends[1][0], "origin": {"xyz": _numbers(ends[0][1]), "rpy": [0, 0, 0]},
                                "child_origin": {"xyz": _numbers(ends[1][1]), "rpy": [0, 0, 0]}}, at))
                 continue
-        kinds = {int(v): k[6:].lower() for k, v in mj.mjtEq.__members__.items() if k.startswith("mjEQ_")}
+        kinds = {int(v): k[5:].lower() for k, v in mj.mjtEq.__members__.items() if k.startswith("mjEQ_")}
         tree.doc.note(at, f"equality '{name}' ({kinds.get(kind, kind)}) is not modelled (joint equalities of degree "
                       "one and connect between two moving bodies are)")
     return mimics, loops
