@@ -283,6 +283,45 @@ def test_arm_agrees_with_mujoco(arm_module):
     np.testing.assert_allclose(data.qfrc_actuator[:2], [3 * 0.7, -0.4], rtol=1e-15)
 
 
+def _rotation(wxyz: np.ndarray) -> np.ndarray:
+    w, x, y, z = wxyz
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def test_free_joint_conventions_map_onto_mujoco(tmp_path):
+    """The MJCF page's formulas: q = [p, q_xyz, q_w, ...] against MuJoCo's [p, q_w, q_xyz, ...];
+    qd = T qd_mj with T = diag(R^T, I); M_mj = T^T M T; qfrc_bias = T^T inverse_dynamics(q, qd, c)
+    and qacc = T^-1 (forward_dynamics(q, qd) - c), c = [-w x v_local, 0, ...]."""
+    path = FIXTURES / "floating.xml"
+    module = import_code(dynderive.render_code(dynderive.derive(dynderive.load_robot(path))), tmp_path, "mj_float_dyn")
+    assert module.NQ == 8 and module.NV == 7
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        quaternion = rng.normal(size=4)
+        quaternion /= np.linalg.norm(quaternion)
+        qpos = np.concatenate([rng.uniform(-1, 1, 3), quaternion, rng.uniform(-1.5, 1.5, 1)])
+        qvel = rng.uniform(-2, 2, 7)
+        data.qpos[:], data.qvel[:] = qpos, qvel
+        mujoco.mj_forward(model, data)
+        R = _rotation(quaternion)
+        T = np.eye(7)
+        T[:3, :3] = R.T
+        q = np.concatenate([qpos[:3], quaternion[1:], quaternion[:1], qpos[7:]])
+        qd = T @ qvel
+        c = np.zeros(7)
+        c[:3] = -np.cross(qd[3:6], qd[:3])
+        M = np.zeros((7, 7))
+        mujoco.mj_fullM(model, data, M)
+        np.testing.assert_allclose(T.T @ module.mass_matrix(q) @ T, M, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(T.T @ module.inverse_dynamics(q, qd, c), data.qfrc_bias, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.solve(T, module.forward_dynamics(q, qd) - c), data.qacc,
+                                   rtol=0, atol=1e-10)
+
+
 def test_check_passes_on_an_mjcf_file():
     result = runner.invoke(app, ["check", str(ARM), "--states", "2"])
     assert result.exit_code == 0, result.output
