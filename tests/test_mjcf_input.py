@@ -110,6 +110,13 @@ def test_bad_mjcf_is_one_positioned_line_and_writes_nothing(case, tmp_path):
     assert words in message, message
 
 
+def test_a_model_without_joints_is_one_line_at_the_worldbody(tmp_path):
+    path = tmp_path / "still.xml"
+    path.write_text(_model('    <body name="fixed" pos="0 0 1">\n      <geom size="0.1"/>\n    </body>\n'))
+    assert _refused(path, tmp_path) == (f"{path}:2:3: the model has no joint: every body is welded to the world "
+                                        "and nothing moves")
+
+
 def test_check_refuses_bad_mjcf_the_same_way(tmp_path):
     path = tmp_path / "bad.xml"
     path.write_text(BAD["reversed range"][0])

@@ -50,6 +50,9 @@ def read_mjcf(path: Path, text: str, file: str) -> SourceDocument:
             model = spec.compile()
     except ValueError as exc:
         raise InputError(compile_problem(str(exc), file, locator)) from None
+    if model.njnt == 0:   # one line, not the validator's two about empty links and joints
+        raise InputError(Problem(file, *(locator._first("worldbody", default=None) or locator.root),
+                                 "the model has no joint: every body is welded to the world and nothing moves"))
     doc = SourceDocument(file=file, data=None)
     for warning in caught:
         said = " ".join(str(warning.message).split())
