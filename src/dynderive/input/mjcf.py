@@ -42,7 +42,7 @@ def read_mjcf(path: Path, text: str, file: str) -> SourceDocument:
     from .mjcf_positions import Locator, compile_problem
     from .mjcf_tree import robot_document
 
-    locator = Locator(text)
+    locator = Locator(text, path)
     try:
         with warnings.catch_warnings(record=True) as caught:   # MuJoCo's compiler warnings: notes
             warnings.simplefilter("always")
@@ -50,8 +50,11 @@ def read_mjcf(path: Path, text: str, file: str) -> SourceDocument:
             model = spec.compile()
     except ValueError as exc:
         raise InputError(compile_problem(str(exc), file, locator)) from None
+    if model.njnt == 0:   # one line, not the validator's two about empty links and joints
+        raise InputError(Problem(file, *(locator._first("worldbody", default=None) or locator.root),
+                                 "the model has no joint: every body is welded to the world and nothing moves"))
     doc = SourceDocument(file=file, data=None)
     for warning in caught:
-        text = str(warning.message).strip()
-        doc.note(locator._first("compiler") if "compiler" in text else locator.root, f"MuJoCo: {text}")
+        said = " ".join(str(warning.message).split())
+        doc.note(locator._first("compiler") if "compiler" in said else locator.root, f"MuJoCo: {said}")
     return robot_document(mujoco, spec, model, doc, locator)
