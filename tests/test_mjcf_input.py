@@ -490,8 +490,6 @@ def test_hostile_names_and_title_change_no_program(tmp_path):
     assert not (tmp_path / MARKER).exists()
 
 
-@pytest.mark.xfail(strict=True, reason="the robot name made from a hostile model title has runs of '_', "
-                   "which the C target refuses as its prefix")
 def test_hostile_title_in_c(tmp_path):
     from test_c_target import _compile, _decode
 
@@ -503,10 +501,10 @@ def test_hostile_title_in_c(tmp_path):
     assert _decode(header.splitlines()[0].split("equations of motion of ", 1)[1][:-3]) == TITLE
 
 
-@pytest.mark.xfail(strict=True, reason="the reader keeps non-ASCII letters in names, which the validator refuses")
 def test_names_in_other_scripts_are_read(tmp_path):
     path = tmp_path / "unicode.xml"
     path.write_text('<mujoco model="bras_é">\n  <worldbody>\n    <body name="épaule">\n      <joint name="機械"/>\n'
                     '      <geom size="0.1" pos="0.3 0 0"/>\n    </body>\n  </worldbody>\n</mujoco>\n', encoding="utf-8")
     robot = dynderive.load_robot(path)
     assert robot.title == "bras_é" and len(robot.joints) == 1
+    assert (robot.name, robot.links[0].name, robot.joints[0].name) == ("bras_e", "epaule", "epaule_joint1")

@@ -112,6 +112,10 @@ def robot_name(source: Path) -> tuple[str, int, int] | None:
             if root.tag != tag:
                 return None
             where = _xml_name_position(text, root.line, root.column, tag, attribute)
+            if kind == "mjcf":   # the reader's rule: <mujoco model>, else the file's stem
+                from ..input.mjcf_tree import robot_identifier
+
+                return (robot_identifier(root.attrib.get("model") or source.stem), *where)
             return (identifier(root.attrib.get(attribute, "robot") or "robot"), *where)
         doc = load_document(source)
     except DynderiveError:

@@ -65,6 +65,12 @@ class Locator:
         self.root = self.at_line(self.elements[0][2], self.elements[0][0]) if self.elements else (1, 1)
         self.include = self._first("include", default=None)
 
+    def model_name(self) -> str | None:
+        """``<mujoco model="...">`` as written (None when the file does not name its model)."""
+        if not self.elements or self.elements[0][0] != "mujoco":
+            return None
+        return self.elements[0][1].get("model") or None
+
     def _first(self, tag: str, default: tuple[int, int] | None = (1, 1)) -> tuple[int, int] | None:
         line = next((line for name, _, line in self.elements if name == tag), None)
         if line is not None:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 import re
+import unicodedata
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -28,6 +30,8 @@ from .urdf_values import IDENTITY, Rotation, _number, _numbers
 #: MuJoCo's joint types (``mjtJoint``) and the robot file's.
 JOINT_TYPES = {0: "floating", 1: "spherical", 2: "prismatic", 3: "revolute"}
 _XML_TAGS = {0: "freejoint", 1: "joint", 2: "joint", 3: "joint"}
+#: Longest robot name: ``<name>_dynamics`` and the generated functions' names stay within 63.
+NAME_LIMIT = 40
 #: Entries below this fraction (over ``_numbers``' 1e-15) of a body's largest moment are rounding noise.
 ROTATION_NOISE = 1e3
 
@@ -105,13 +109,16 @@ class _Tree:
         return name
 
     def body_name(self, b: int) -> str:
-        return identifier(self.m.body(b).name or f"body{b}")
+        return ascii_name(self.m.body(b).name, f"body{b}")
 
     def joint_name(self, j: int) -> str:
         if j not in self.joint_names:
             body = int(self.m.jnt_bodyid[j])
             k = j - int(self.m.body_jntadr[body]) + 1
-            self.joint_names[j] = identifier(self.m.joint(j).name or f"{self.body_name(body)}_joint{k}")
+            name = ascii_name(self.m.joint(j).name, f"{self.body_name(body)}_joint{k}")
+            taken = set(self.joint_names.values())
+            self.joint_names[j] = name if name not in taken else next(
+                f"{name}_{n}" for n in range(2, len(taken) + 3) if f"{name}_{n}" not in taken)
         return self.joint_names[j]
 
     def at(self, kind: str, index: int, tag: str) -> tuple[int, int]:
@@ -134,7 +141,7 @@ class _Tree:
                 if owner != "world":
                     self._inertia(b, self.link_of[owner], R_b, p_b)
                     if m.body(b).name:
-                        self._frame(identifier(m.body(b).name), owner, R_b, p_b, at)
+                        self._frame(ascii_name(m.body(b).name, f"body{b}"), owner, R_b, p_b, at)
                 continue
             previous, c_prev = owner, None   # c_prev: the previous joint's anchor (None: the parent link)
             for j in range(first, first + count):
@@ -161,7 +168,7 @@ class _Tree:
             self._inertia(b, self.link_of[previous], np.eye(3), -c_prev)
         for s in range(m.nsite):
             owner, R_off, p_off = self.owner[int(m.site_bodyid[s])]
-            name = identifier(m.site(s).name or f"site{s}")
+            name = ascii_name(m.site(s).name, f"site{s}")
             at = self.at("sites", s, "site")
             if owner == "world":
                 self.doc.note(at, f"site '{name}' is on a body welded to the world: not made a frame")
@@ -231,8 +238,8 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
     efforts = _actuators(tree)
     mimics, loops = _equalities(tree)
     _notes(tree)
-    title = model.names[:model.names.index(b"\0")].decode() if model.names else "robot"
-    data: dict[str, Any] = {"name": identifier(title or "robot"), "title": title or "robot", "planar": False,
+    title = locator.model_name() or Path(doc.file).stem
+    data: dict[str, Any] = {"name": robot_identifier(title), "title": title, "planar": False,
                             "parameters": {}, "gravity": [], "links": [], "joints": []}
     positions: dict[Path_, tuple[int, int]] = {(): locator.root}
     for key in data:
@@ -243,8 +250,10 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
         gravity = np.zeros(3)
     g = float(np.linalg.norm(gravity))
     if g > 0 and gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0:
-        data["parameters"]["g"] = {"value": _number(g), "unit": "m/s^2", "description": "gravitational acceleration"}
-        data["gravity"] = [0, 0, "-g"]
+        used = tree.taken | set(tree.joint_names.values())   # a body or joint named g keeps its name
+        symbol = "g" if "g" not in used else next(f"g_{k}" for k in range(2, len(used) + 3) if f"g_{k}" not in used)
+        data["parameters"][symbol] = {"value": _number(g), "unit": "m/s^2", "description": "gravitational acceleration"}
+        data["gravity"] = [0, 0, f"-{symbol}"]
     else:
         data["gravity"] = _numbers(gravity)
     if not data["parameters"]:
@@ -292,6 +301,28 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
     doc.key_positions = dict(positions)
     doc.digits = _written_digits(locator)
     return doc
+
+
+def ascii_name(name: str, fallback: str) -> str:
+    """A body's, joint's or site's name as the robot file's identifier: accents dropped
+    (``épaule`` -> ``epaule``), any other character that is not an ASCII letter, digit or
+    ``_`` made ``_``; ``fallback`` when nothing is left (``機械``)."""
+    plain = unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode()
+    cleaned = re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9_]", "_", plain)).strip("_")
+    if not re.search(r"[A-Za-z0-9]", cleaned):
+        return fallback
+    return identifier(cleaned)
+
+
+def robot_identifier(title: str) -> str:
+    """The robot's name from ``<mujoco model>`` (or the file's stem): what every target can
+    call its files and functions (ASCII letters, digits, single ``_``; a letter first; at most
+    ``NAME_LIMIT`` characters, so ``<name>_dynamics`` fits MATLAB's 63)."""
+    plain = unicodedata.normalize("NFKD", title).encode("ascii", "ignore").decode()   # bras_é -> bras_e
+    name = re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9]", "_", plain)).strip("_") or "robot"
+    if not name[0].isalpha():
+        name = f"m_{name}"
+    return name[:NAME_LIMIT].rstrip("_")
 
 
 def _actuators(tree: _Tree) -> dict[str, str]:
@@ -349,7 +380,7 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
                 owner, R, p = tree.owner[body]
                 ends.append((owner, R @ anchor + p))
             if ends[0][0] != "world" and ends[1][0] != "world" and ends[0][0] != ends[1][0]:
-                loops.append(({"name": tree._unique(identifier(name)), "type": "spherical", "parent": ends[0][0],
+                loops.append(({"name": tree._unique(ascii_name(name, f"equality{e}")), "type": "spherical", "parent": ends[0][0],
                                "child": ends[1][0], "origin": {"xyz": _numbers(ends[0][1]), "rpy": [0, 0, 0]},
                                "child_origin": {"xyz": _numbers(ends[1][1]), "rpy": [0, 0, 0]}}, at))
                 continue

@@ -180,7 +180,7 @@ def pinocchio_centroidal(pin: Any, model: Any, module: Any, values: dict[str, fl
         zero = np.zeros(model.nv)
         pin.centerOfMass(model, data, qm, vm, zero)
         com, vcom, acom = (np.array(x[0]) for x in (data.com, data.vcom, data.acom))
-        J = pin.jacobianCenterOfMass(model, data, qm)
+        J = np.reshape(pin.jacobianCenterOfMass(model, data, qm), (3, model.nv))   # one joint: Pinocchio gives (3,)
         diffs = [module.center_of_mass(q, **values) - com, module.center_of_mass_velocity(q, v, **values) - vcom,
                  module.center_of_mass_acceleration_bias(q, v, **values) - acom,
                  module.center_of_mass_jacobian(q, **values)[:, vp] - J]
@@ -188,7 +188,7 @@ def pinocchio_centroidal(pin: Any, model: Any, module: Any, values: dict[str, fl
             A = np.column_stack([np.array(pin.computeCentroidalMomentum(model, data, qm, e).vector)
                                  for e in np.eye(model.nv)])
         else:
-            A = pin.ccrba(model, data, qm, vm)
+            A = np.reshape(pin.ccrba(model, data, qm, vm), (6, model.nv))   # one joint: Pinocchio gives (6,)
             inertia = data.Ig.matrix()
             diffs.append(module.centroidal_inertia(q, **values) - inertia)
             scale = max(scale, peak(inertia))
