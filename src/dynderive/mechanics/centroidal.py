@@ -11,6 +11,14 @@ origin; shifted to the centre of mass ``G = h / m`` it is the column of Pinocchi
 over the mass; ``Jdot qd`` and ``Adot_G qd`` are the programs' forward derivatives along the
 motion (the tangent of each line, as ``frames.py`` takes ``Jdot qd``).
 
+When the tree's root joint is ``floating`` (the robot's base), the same is done in the base's
+frame with the base at the identity: the composites and every other joint's columns then depend
+on those joints' coordinates only (the momentum about the centre of mass does not depend on the
+base's position), the base's six columns (its local twist, Pinocchio's free flyer) are entries
+of the whole tree's composite, and the result is turned into world axes once, ``A_G = blkdiag(R,
+R) A_G^base`` with ``R`` the base's rotation (``G = p + R G^base``, ``I_G = R I_G^base R^T``):
+no link's pose is composed with the base's quaternion.
+
 Bodies welded to the world carry no motion and are left out, as Pinocchio leaves out the
 universe's inertia: the centre of mass of a fixed-base robot is that of its moving links.
 """
@@ -24,7 +32,7 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .frames import along_motion
-from .program import Program, Vector, _add, _cross, _rotate, _times, part_of
+from .program import Matrix3, Program, Vector, _add, _cross, _dot, _rotate, _times, part_of
 from .recursive import moved_inertia
 from .tree import Tree
 
@@ -44,15 +52,51 @@ class CentroidalPrograms(NamedTuple):
     centroidal_inertia: Program                # q: 6 x 6
 
 
+def _identity() -> Matrix3:
+    one, zero = sympy.Integer(1), sympy.Integer(0)
+    return ((one, zero, zero), (zero, one, zero), (zero, zero, one))   # type: ignore[return-value]
+
+
+def _floating_root(tree: Tree, moving: list) -> tuple[object, tuple[Matrix3, Vector]] | None:   # noqa: ANN001
+    """The one moving body at the top of the tree if its joint is ``floating``, with its world
+    pose (its joint's motion after the static links above it), else None."""
+    roots = [b for b in moving if b.parent in tree.static]
+    if len(roots) != 1 or roots[0].joint.type != "floating":
+        return None
+    chain, link = [], roots[0].link
+    while link != "world":
+        chain.append(tree.by_link[link])
+        link = chain[-1].parent
+    pose: tuple[Matrix3, Vector] = (_identity(), (sympy.Integer(0),) * 3)   # type: ignore[assignment]
+    for body in reversed(chain):
+        pose = tree.compose(pose, body.rotation, body.position)
+    return roots[0], pose
+
+
 def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
-    """Every program of ``CentroidalPrograms``, from one shared list of lines."""
+    """Every program of ``CentroidalPrograms``, from one shared list of lines.
+
+    When the tree's root joint is ``floating``, the composites and columns are taken in the
+    floating base's frame with the base at the identity (they depend on the other joints only:
+    the momentum about the centre of mass does not depend on the base's position, and the
+    base's rotation turns it as a whole), and A_G, the centre of mass and the inertia about it
+    are turned into world axes once at the end. The base's own six columns (a local twist) are
+    then entries of the whole tree's composite. Otherwise every body is carried to the world."""
     tree = Tree(robot, table)
     program = tree.program
     let, vec = program.let, program.vector
-    poses = tree.world_poses()
     moving = [b for b in tree.bodies if b.link not in tree.static]
+    base = _floating_root(tree, moving)
+    if base is None:
+        poses = tree.world_poses()
+    else:   # each moving body's pose in the base's frame
+        root, (R_base, p_base) = base
+        poses = {root.link: (_identity(), (sympy.Integer(0),) * 3)}   # type: ignore[dict-item]
+        for body in moving:
+            if body is not root:
+                poses[body.link] = tree.compose(poses[body.parent], body.rotation, body.position)
     composite: dict[str, tuple[sympy.Expr, Vector, tuple]] = {}
-    for body in moving:   # each body's inertia about the world origin, world axes
+    for body in moving:   # each body's inertia about the origin of the frame of ``poses``, its axes
         R, origin = poses[body.link]
         h_r, inertia = moved_inertia(program, body.mass, body.first_moment, body.inertia, R, origin)
         composite[body.link] = (body.mass, vec(_add(h_r, _times(origin, body.mass))), program.symmetric(inertia))
@@ -73,7 +117,7 @@ def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
     inverse_mass = let(1 / mass)
     com = vec(_times(h, inverse_mass))
     n = tree.size
-    momentum: list[list[sympy.Expr]] = [[zero] * n for _ in range(6)]   # about the world origin
+    momentum: list[list[sympy.Expr]] = [[zero] * n for _ in range(6)]   # about the origin of ``poses``
     for body in moving:
         R, origin = poses[body.link]
         m, hb, ib = composite[body.link]
@@ -88,6 +132,12 @@ def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
     for k in range(3):   # angular momentum about G: K_O - G x L
         matrix.append([let(momentum[3 + k][j] - _cross(com, [momentum[r][j] for r in range(3)])[k])
                        for j in range(n)])
+    if base is not None:   # into world axes: A_G = blkdiag(R, R) A_G^base, G = p + R G^base
+        for rows in (matrix[:3], matrix[3:]):
+            turned = [vec(_rotate(R_base, [rows[k][j] for k in range(3)])) for j in range(n)]
+            for k in range(3):
+                rows[k][:] = [turned[j][k] for j in range(n)]
+        com = vec(_add(p_base, _rotate(R_base, com)))
     jacobian = [[let(matrix[k][j] * inverse_mass) for j in range(n)] for k in range(3)]
     qd = table.qd
 
@@ -96,6 +146,10 @@ def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
 
     shift = [[(h[0] ** 2 + h[1] ** 2 + h[2] ** 2 if a == b else 0) - h[a] * h[b] for b in range(3)] for a in range(3)]
     about_com = [[let(inertia[a][b] - shift[a][b] * inverse_mass) for b in range(3)] for a in range(3)]
+    if base is not None:   # R I_G R^T
+        turned = [[let(_dot(about_com[a], R_base[b])) for b in range(3)] for a in range(3)]   # I_G R^T
+        about_com = [list(row) for row in program.symmetric(
+            [[_dot(R_base[a], [turned[k][b] for k in range(3)]) for b in range(3)] for a in range(3)])]
     spatial = [[mass if a == b else zero for b in range(3)] + [zero] * 3 for a in range(3)] + \
         [[zero] * 3 + about_com[a] for a in range(3)]
     velocity, total_momentum = times_qd(jacobian), times_qd(matrix)
