@@ -32,7 +32,7 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .frames import along_motion
-from .program import Matrix3, Program, Vector, _add, _cross, _rotate, _times, part_of
+from .program import Program, Vector, _add, _cross, _rotate, _times, part_of
 from .recursive import moved_inertia
 from .tree import Tree
 
@@ -58,7 +58,7 @@ def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
     program = tree.program
     let, vec = program.let, program.vector
     moving = [b for b in tree.bodies if b.link not in tree.static]
-    composite: dict[str, tuple[sympy.Expr, Vector, Matrix3]] = {
+    composite: dict[str, tuple[sympy.Expr, Vector, tuple]] = {
         b.link: (b.mass, b.first_moment, b.inertia) for b in moving}   # link frame, about its origin
     roots = []
     for body in reversed(moving):   # the subtrees' composites, leaves first, each in its link's frame
@@ -73,15 +73,15 @@ def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
                                                      for a in range(3)]))
     poses = tree.world_poses()
     zero = sympy.Integer(0)
-    mass, h, inertia = zero, (zero,) * 3, [[zero] * 3 for _ in range(3)]
+    total, first, about_origin = zero, (zero,) * 3, [[zero] * 3 for _ in range(3)]
     for root in roots:   # the whole tree's composite about the world origin, world axes
         R, origin = poses[root.link]
         m, hr, ir = composite[root.link]
         h_r, moved = moved_inertia(program, m, hr, ir, R, origin)
-        mass, h = mass + m, _add(h, _add(h_r, _times(origin, m)))
-        inertia = [[inertia[a][b] + moved[a][b] for b in range(3)] for a in range(3)]
-    mass, h = let(mass), vec(h)
-    inertia = [list(row) for row in program.symmetric(inertia)]
+        total, first = total + m, _add(first, _add(h_r, _times(origin, m)))
+        about_origin = [[about_origin[a][b] + moved[a][b] for b in range(3)] for a in range(3)]
+    mass, h = let(total), vec(first)
+    inertia = program.symmetric(about_origin)
     inverse_mass = let(1 / mass)
     com = vec(_times(h, inverse_mass))
     n = tree.size
