@@ -21,11 +21,11 @@ each contact's rows of ``getFrameJacobian`` and its drift gamma (a point: the li
 LOCAL_WORLD_ALIGNED and ``getFrameClassicalAcceleration``; a surface: all six rows in LOCAL and
 ``getFrameAcceleration``), then ``forwardDynamics(model, data, q, v, tau, J, gamma, 0)``: the
 same computation from the same inputs (Pinocchio's tau the efforts less the URDF's joint damping
-and friction, which ours computes: talos_reduced has them). Before timing each program writes qdd and the forces at
-the first 20 states; the script stops unless they agree to 1e-9 relative. Times are ns per
-state, the best of ``--repeats`` runs (``compiled.py``'s ``TIME`` loop) in each of ``--rounds``
-rounds, the two programs taking turns. Then the goal: ours at most 1/2 of Pinocchio's time. No
-figure is typed in.
+and friction, which ours computes: talos_reduced has them). Before timing each program writes
+qdd and the forces at the first 20 states; the script stops unless they agree to 1e-9 relative.
+Times are ns per state, the best of ``--repeats`` runs (``compiled.py``'s ``TIME`` loop) in each
+of ``--rounds`` rounds, the two programs taking turns. Then the goal: ours at most 1/2 of
+Pinocchio's time. No figure is typed in.
 """
 
 from __future__ import annotations
