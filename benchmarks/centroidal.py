@@ -116,16 +116,33 @@ int main(int argc, char **argv) {
 """
 
 
-def centroidal_source(source: str, name: str) -> str:
-    """The generated source's preamble (includes, the defaults) and its centroidal functions,
-    each cut byte for byte (every other function and the CasADi section left out)."""
+def functions_source(source: str, name: str, functions: list[str]) -> str:
+    """The generated source's preamble (includes, the defaults) and ``functions`` with every
+    generated function they call, each cut byte for byte in the file's order (every other
+    function and the CasADi section left out)."""
     blocks = re.split(r"\n\n(?=/\* )", source)
-    wanted = [f" {name}_{function}(" for function in api.group("centroidal")]
-    kept = [b[:b.index("\n}") + 2] for b in blocks[1:] if any(w in b.split("\n", 2)[1] for w in wanted)]
-    if len(kept) != len(wanted) or f"{name}_default_parameters = {{" not in blocks[0]:
-        raise RuntimeError(f"{name}: cannot find the centroidal functions in the generated source")
+    bodies = {}
+    for block in blocks[1:]:
+        found = re.match(rf"[^\n]*\n[a-z][\w ]* \*?{name}_(\w+)\(", block)
+        if found:
+            bodies[found.group(1)] = block[:block.index("\n}") + 2]
+    wanted, todo = set(), list(functions)
+    while todo:   # the functions asked for and those they call
+        function = todo.pop()
+        if function in wanted:
+            continue
+        if function not in bodies or f"{name}_default_parameters = {{" not in blocks[0]:
+            raise RuntimeError(f"{name}: cannot find {function} in the generated source")
+        wanted.add(function)
+        todo.extend(f for f in re.findall(rf"\b{name}_(\w+)\(", bodies[function]) if f in bodies)
+    kept = [body for function, body in bodies.items() if function in wanted]
     assert all(part in source for part in kept)
     return "\n\n".join([blocks[0], *kept]) + "\n"
+
+
+def centroidal_source(source: str, name: str) -> str:
+    """The generated source's preamble and its centroidal functions, cut byte for byte."""
+    return functions_source(source, name, list(api.group("centroidal")))
 
 
 class Robot:

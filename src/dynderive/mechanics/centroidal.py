@@ -1,15 +1,23 @@
 """Centre of mass and centroidal momentum of a 3-D robot as straight-line programs, over the
 one tree (``tree.py``) for every joint type (floating, spherical, mimic included).
 
-Each moving body's spatial inertia is carried to the world origin (mass, first moment ``m c``,
-rotational inertia about the origin), summed from the leaves up into its subtree's composite
-(CRBA's upward pass, in world axes). A joint column's world motion ``(w, v0)`` (``v0`` the
-velocity of the body point at the world origin) times its subtree's composite inertia is the
-momentum that column gives, linear ``m v0 + w x h`` and angular ``h x v0 + I w`` about the
-origin; shifted to the centre of mass ``G = h / m`` it is the column of Pinocchio's ``ccrba``
-``A_G`` (linear rows, then angular about G, world axes). The CoM Jacobian is A_G's linear rows
-over the mass; ``Jdot qd`` and ``Adot_G qd`` are the programs' forward derivatives along the
-motion (the tangent of each line, as ``frames.py`` takes ``Jdot qd``).
+Each subtree's composite inertia (mass, first moment ``m c``, rotational inertia about the
+link origin) is summed from the leaves up in its root link's own frame (CRBA's upward pass: a
+child's composite moves into its parent's frame by the joint's transform, a rotation about one
+axis, so the moves are cheap). A joint column ``(s_w, s_v)`` (link frame) times its subtree's
+composite is the momentum that column gives, linear ``m s_v + s_w x h`` and angular ``h x s_v +
+I s_w`` about the link origin (for a unit axis, entries of the composite); turned into world
+axes by the link's world rotation ``R`` and moved to the centre of mass ``G`` (``K_G = R K +
+(o - G) x R L``, ``o`` the link's world origin) it is the column of Pinocchio's ``ccrba`` ``A_G``
+(linear rows, then angular about G, world axes). ``G`` and the inertia about it come from the
+roots' composites carried to the world. The CoM Jacobian is A_G's linear rows over the mass;
+``Jdot qd`` and ``Adot_G qd`` are the programs' forward derivatives along the motion (the
+tangent of each line, as ``frames.py`` takes ``Jdot qd``).
+
+Carrying every link's inertia into world axes first (``R I R^T`` with a full rotation per
+link) and summing there, as ``ccrba`` does, took about twice the operations for talos_reduced; so did
+taking the composites in a floating base's frame and turning the 6 x NV result by the base's
+rotation at the end.
 
 Bodies welded to the world carry no motion and are left out, as Pinocchio leaves out the
 universe's inertia: the centre of mass of a fixed-base robot is that of its moving links.
@@ -49,45 +57,47 @@ def centroidal_programs(robot: Robot, table: SymbolTable) -> CentroidalPrograms:
     tree = Tree(robot, table)
     program = tree.program
     let, vec = program.let, program.vector
-    poses = tree.world_poses()
     moving = [b for b in tree.bodies if b.link not in tree.static]
-    composite: dict[str, tuple[sympy.Expr, Vector, tuple]] = {}
-    for body in moving:   # each body's inertia about the world origin, world axes
-        R, origin = poses[body.link]
-        h_r, inertia = moved_inertia(program, body.mass, body.first_moment, body.inertia, R, origin)
-        composite[body.link] = (body.mass, vec(_add(h_r, _times(origin, body.mass))), program.symmetric(inertia))
+    composite: dict[str, tuple[sympy.Expr, Vector, tuple]] = {
+        b.link: (b.mass, b.first_moment, b.inertia) for b in moving}   # link frame, about its origin
     roots = []
-    for body in reversed(moving):   # the subtrees' composites, leaves first
+    for body in reversed(moving):   # the subtrees' composites, leaves first, each in its link's frame
         if body.parent in tree.static:
-            roots.append(body.link)
+            roots.append(body)
             continue
         mass, h, inertia = composite[body.link]
+        h_r, moved = moved_inertia(program, mass, h, inertia, body.rotation, body.position)
         p_mass, p_h, p_inertia = composite[body.parent]
-        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, h)),
-                                  program.symmetric([[p_inertia[a][b] + inertia[a][b] for b in range(3)]
+        composite[body.parent] = (let(p_mass + mass), vec(_add(p_h, _add(h_r, _times(body.position, mass)))),
+                                  program.symmetric([[p_inertia[a][b] + moved[a][b] for b in range(3)]
                                                      for a in range(3)]))
+    poses = tree.world_poses()
     zero = sympy.Integer(0)
-    mass = let(sum((composite[r][0] for r in roots), zero))
-    h = vec([sum((composite[r][1][k] for r in roots), zero) for k in range(3)])
-    inertia = [[sum((composite[r][2][a][b] for r in roots), zero) for b in range(3)] for a in range(3)]
+    total, first, about_origin = zero, (zero,) * 3, [[zero] * 3 for _ in range(3)]
+    for root in roots:   # the whole tree's composite about the world origin, world axes
+        R, origin = poses[root.link]
+        m, hr, ir = composite[root.link]
+        h_r, moved = moved_inertia(program, m, hr, ir, R, origin)
+        total, first = total + m, _add(first, _add(h_r, _times(origin, m)))
+        about_origin = [[about_origin[a][b] + moved[a][b] for b in range(3)] for a in range(3)]
+    mass, h = let(total), vec(first)
+    inertia = program.symmetric(about_origin)
     inverse_mass = let(1 / mass)
     com = vec(_times(h, inverse_mass))
     n = tree.size
-    momentum: list[list[sympy.Expr]] = [[zero] * n for _ in range(6)]   # about the world origin
-    for body in moving:
+    matrix: list[list[sympy.Expr]] = [[zero] * n for _ in range(6)]
+    for body in moving:   # a column's momentum in the link's frame about its origin, into world axes about G
         R, origin = poses[body.link]
         m, hb, ib = composite[body.link]
+        lever = None
         for j, sw, sv in body.columns:
-            w = vec(_rotate(R, sw))
-            v0 = vec(_add(_rotate(R, sv), _cross(origin, w)))   # the velocity of the point at the origin
-            linear = _add(_times(v0, m), _cross(w, hb))
-            angular = _add(_cross(hb, v0), _rotate(ib, w))
+            linear = vec(_rotate(R, _add(_times(sv, m), _cross(sw, hb))))
+            angular = _rotate(R, _add(_cross(hb, sv), _rotate(ib, sw)))
+            if any(e != 0 for e in linear):
+                lever = lever or vec([o - g for o, g in zip(origin, com)])
+                angular = _add(angular, _cross(lever, linear))
             for k, value in enumerate((*linear, *angular)):   # a <mimic> follower adds to its leader's column
-                momentum[k][j] = let(momentum[k][j] + value)
-    matrix = [[momentum[k][j] for j in range(n)] for k in range(3)]
-    for k in range(3):   # angular momentum about G: K_O - G x L
-        matrix.append([let(momentum[3 + k][j] - _cross(com, [momentum[r][j] for r in range(3)])[k])
-                       for j in range(n)])
+                matrix[k][j] = let(matrix[k][j] + value)
     jacobian = [[let(matrix[k][j] * inverse_mass) for j in range(n)] for k in range(3)]
     qd = table.qd
 
