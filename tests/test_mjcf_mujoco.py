@@ -89,3 +89,52 @@ def test_urdf_converted_by_mujoco_keeps_the_urdf_dynamics(arm, folder):
         tau_ref = reference.inverse_dynamics(q[np.argsort(order)], qd[np.argsort(order)], qdd[np.argsort(order)])
         assert_close(ours.inverse_dynamics(q, qd, qdd), tau_ref[order], "inverse dynamics")
     check_against_mujoco(ours, converted, seed=5)
+
+
+# hand-written fixtures ---------------------------------------------------------------------------
+
+def fixture_module(name: str, folder: str):
+    return module_of_file(str(FIXTURES / f"{name}.xml"), folder, f"fixture_{name}")
+
+
+def mujoco_frame(m, d, name: str):
+    """(position, rotation, body, point) of a site or body called ``name`` in MuJoCo's data."""
+    site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
+    if site >= 0:
+        return d.site_xpos[site], d.site_xmat[site].reshape(3, 3), int(m.site_bodyid[site])
+    body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+    assert body >= 0, name
+    return d.xpos[body], d.xmat[body].reshape(3, 3), body
+
+
+def test_tree_fixture_agrees_with_mujoco(folder):
+    """Several joints on one body, refs, springs, armature, a ball joint, welded bodies, motors."""
+    module = fixture_module("tree", folder)
+    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "tree.xml"))
+    assert (m.njnt, m.nbody, m.nsite) == (5, 6, 2)
+    assert np.all(m.qpos0[[0, 1, 2]] != 0) and np.all(m.jnt_stiffness[[0, 1]] != 0)
+    check_against_mujoco(module, m, seed=21, states=4)
+
+
+def test_tree_fixture_frames_are_mujocos_sites_and_bodies(folder):
+    """The named welded body (``tool``) and the sites are frames; their poses, Jacobians and
+    Jdot qd equal MuJoCo's (``xpos``/``xmat``, ``site_xpos``/``site_xmat``, ``mj_jac``, ``mj_jacDot``)."""
+    module = fixture_module("tree", folder)
+    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "tree.xml"))
+    d = mujoco.MjData(m)
+    assert set(module.FRAMES) == {"tool", "tip", "hand"}
+    rng = np.random.default_rng(22)
+    for _ in range(4):
+        qpos, qvel, q, qd, T, W = mujoco_state(module, m, rng)
+        mujoco_at(m, d, qpos, qvel)
+        for frame in module.FRAMES:
+            position, rotation, body = mujoco_frame(m, d, frame)
+            pose = module.frame_transform(q, frame)
+            assert_close(pose[:3, 3], position, f"{frame} position")
+            assert_close(pose[:3, :3], rotation, f"{frame} rotation")
+            jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+            mujoco.mj_jac(m, d, jacp, jacr, position, body)
+            assert_close(module.frame_jacobian(q, frame) @ T, np.vstack([jacp, jacr]), f"{frame} Jacobian")
+            mujoco.mj_jacDot(m, d, jacp, jacr, position, body)
+            assert_close(module.frame_jacobian_dot_qd(q, qd, frame), np.concatenate([jacp @ qvel, jacr @ qvel]),
+                         f"{frame} Jdot qd")
