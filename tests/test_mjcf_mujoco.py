@@ -138,3 +138,86 @@ def test_tree_fixture_frames_are_mujocos_sites_and_bodies(folder):
             mujoco.mj_jacDot(m, d, jacp, jacr, position, body)
             assert_close(module.frame_jacobian_dot_qd(q, qd, frame), np.concatenate([jacp @ qvel, jacr @ qvel]),
                          f"{frame} Jdot qd")
+
+
+def test_joint_equality_is_a_mimic_joint(folder):
+    """``follow - follow_ref = 0.25 - 1.5 (drive - drive_ref)`` is the mimic joint ``follow``: on
+    MuJoCo's configuration that satisfies it (MuJoCo's own residual ``efc_pos`` is zero there),
+    our reduced M is G^T M_mj G and our inverse dynamics G^T (M_mj G qdd + bias - springs -
+    dampers), G the map from our velocities to MuJoCo's (constant: the relation is linear), and
+    the end site is where MuJoCo puts it."""
+    module = fixture_module("mimic", folder)
+    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "mimic.xml"))
+    d = mujoco.MjData(m)
+    assert module.COORDINATES == ("drive", "lin") and module.EFFORTS == ("tau_drive", "f_lin")
+    drive, follow, lin = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("drive", "follow", "lin"))
+    G = np.zeros((m.nv, 2))
+    G[m.jnt_dofadr[drive], 0], G[m.jnt_dofadr[follow], 0], G[m.jnt_dofadr[lin], 1] = 1, -1.5, 1
+    rng = np.random.default_rng(31)
+    for _ in range(4):
+        q, qd, qdd = rng.uniform(-1.2, 1.2, (3, 2))
+        qpos = np.zeros(m.nq)
+        qpos[m.jnt_qposadr[drive]], qpos[m.jnt_qposadr[lin]] = q
+        qpos[m.jnt_qposadr[follow]] = -0.2 + 0.25 - 1.5 * (q[0] - 0.3)   # the file's refs and polycoef
+        M = mujoco_at(m, d, qpos, G @ qd)
+        assert d.nefc == 1 and abs(d.efc_pos[0]) < 1e-15
+        assert_close(module.mass_matrix(q), G.T @ M @ G, "reduced mass matrix")
+        tau = G.T @ (M @ G @ qdd + d.qfrc_bias - d.qfrc_spring - d.qfrc_damper)
+        assert_close(module.inverse_dynamics(q, qd, qdd), tau, "reduced inverse dynamics")
+        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "end")
+        pose = module.frame_transform(q, "end")
+        assert_close(pose[:3, 3], d.site_xpos[site], "site position")
+        assert_close(pose[:3, :3], d.site_xmat[site].reshape(3, 3), "site rotation")
+
+
+def connect_rows(m, d) -> tuple[np.ndarray, np.ndarray]:
+    """MuJoCo's Jacobian of the connect equality's residual and the residual's acceleration at
+    zero qacc (Jdot qvel, from ``mj_jacDot`` at the two anchors)."""
+    J = d.efc_J[:3 * m.nv].reshape(3, m.nv)
+    b1, b2 = int(m.eq_obj1id[0]), int(m.eq_obj2id[0])
+    jdot = []
+    for body, anchor in ((b1, m.eq_data[0, 0:3]), (b2, m.eq_data[0, 3:6])):
+        point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ anchor
+        jacp = np.zeros((3, m.nv))
+        mujoco.mj_jacDot(m, d, jacp, None, point, body)
+        jdot.append(jacp @ d.qvel)
+    return J, jdot[0] - jdot[1]
+
+
+def test_connect_equality_is_a_spherical_loop(folder):
+    """The connect equality becomes a spherical loop joint. The loop is closed at MuJoCo's qpos0,
+    and where ``assemble`` closes it MuJoCo's residual is zero too. Constrained forward dynamics:
+    MuJoCo's equality is soft (impedance at most 0.9999, so its qacc keeps a relative error, 9e-6
+    here, however stiff solref is, and its reference acceleration leaves out Jdot qvel), so the hard
+    limit is built from MuJoCo's own pieces, qacc = a0 + M^-1 J^T lambda with J qacc = -Jdot qvel
+    (a0 = qacc_smooth, J = efc_J, M = mj_fullM, Jdot qvel from mj_jacDot): ours equals it to
+    1e-9, and MuJoCo's soft qacc at zero velocity is within 1e-4 of it."""
+    module = fixture_module("loop", folder)
+    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "loop.xml"))
+    d = mujoco.MjData(m)
+    assert module.COORDINATES == ("ja", "jb", "jc", "jd", "je") and len(module.LOOPS) == 1
+    assert np.max(np.abs(module.loop_constraints(m.qpos0))) < 1e-15
+    rng = np.random.default_rng(41)
+    for k in range(4):
+        guess = np.array(module.ASSEMBLED_CONFIGURATION) + rng.uniform(-0.3, 0.3, 5)
+        q = module.assemble(guess)
+        ctrl = rng.uniform(-1, 1, m.nu)
+        d.qpos[:], d.qvel[:], d.ctrl[:] = q, 0, ctrl
+        mujoco.mj_forward(m, d)
+        assert d.nefc == 3 and np.max(np.abs(d.efc_pos)) < 1e-12
+        J, _ = connect_rows(m, d)
+        basis = np.linalg.svd(J)[2][3:].T   # the velocities the loop allows, by MuJoCo's Jacobian
+        qvel = basis @ rng.uniform(-1.5, 1.5, 2) if k else np.zeros(m.nv)
+        d.qvel[:] = qvel
+        mujoco.mj_forward(m, d)
+        J, jdot_v = connect_rows(m, d)
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, M)
+        a0 = d.qacc_smooth.copy()
+        MinvJT = np.linalg.solve(M, J.T)
+        hard = a0 + MinvJT @ np.linalg.solve(J @ MinvJT, -jdot_v - J @ a0)
+        u = d.qfrc_actuator[[0, 3]]
+        assert not np.any(d.qfrc_actuator[[1, 2, 4]])
+        assert_close(module.forward_dynamics(q, qvel, u), hard, "constrained forward dynamics")
+        if not k:
+            assert np.max(np.abs(d.qacc - hard)) <= 1e-4 * np.max(np.abs(hard))
