@@ -6,7 +6,7 @@
 * Small hand-written fixtures in ``tests/mjcf/`` (each one's comment says what it exercises),
   against MuJoCo's ``mj_fullM``, ``qfrc_bias``, ``mj_forward`` and frame poses.
 
-The mapping between the two conventions is ``test_mjcf_gymnasium``'s.
+The mapping between the two conventions (``mujoco_state``) is described in ``test_mjcf_gymnasium``.
 """
 
 from __future__ import annotations
@@ -25,10 +25,135 @@ from conftest import ROBOTS, import_code
 
 mujoco = pytest.importorskip("mujoco")
 
-from test_mjcf_gymnasium import (assert_close, check_against_mujoco, joint_name, mujoco_at,  # noqa: E402
-                                 mujoco_state)
-
 FIXTURES = Path(__file__).parent / "mjcf"
+TOLERANCE = 1e-9
+
+
+# the two conventions, and the comparison with MuJoCo (test_mjcf_gymnasium's too) -------------
+
+def quaternion_matrix(wxyz) -> np.ndarray:
+    w, x, y, z = wxyz
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def joint_name(m, j: int) -> str:
+    """Our name of MuJoCo joint ``j`` (its own, or ``<body>_joint<k>`` for an unnamed one)."""
+    from dynderive.input.urdf import identifier
+
+    if m.joint(j).name:
+        return identifier(m.joint(j).name)
+    body = int(m.jnt_bodyid[j])
+    return identifier(f"{m.body(body).name or f'body{body}'}_joint{j - int(m.body_jntadr[body]) + 1}")
+
+
+def first_coordinate(m, j: int) -> str:
+    name, kind = joint_name(m, j), int(m.jnt_type[j])
+    return {0: f"{name}_x", 1: f"{name}_qx"}.get(kind, name)
+
+
+def layout(module, m) -> list[tuple[int, int, int]]:
+    """Per MuJoCo joint: (joint, our first coordinate index, our first velocity index), in our order."""
+    starts = sorted((module.COORDINATES.index(first_coordinate(m, j)), j) for j in range(m.njnt))
+    rows, v = [], 0
+    for start, j in starts:
+        rows.append((j, start, v))
+        v += {0: 6, 1: 3}.get(int(m.jnt_type[j]), 1)
+    assert v == len(getattr(module, "VELOCITIES", module.COORDINATES)) == m.nv
+    return rows
+
+
+def mujoco_state(module, m, rng):
+    """A random state in both conventions: (qpos, qvel, q, qd, T, W) with qd = T qvel and
+    MuJoCo's zero acceleration our qdd = W."""
+    qpos = m.qpos0.copy()
+    qvel = rng.uniform(-1.5, 1.5, m.nv)
+    q = np.zeros(len(module.COORDINATES))
+    T, W = np.zeros((m.nv, m.nv)), np.zeros(m.nv)
+    for j, c, v in layout(module, m):
+        a, dof, kind = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]), int(m.jnt_type[j])
+        if kind in (0, 1):
+            at = a + 3 if kind == 0 else a
+            if kind == 0:
+                qpos[a:a + 3] = rng.uniform(-1, 1, 3)
+            quat = rng.normal(size=4)
+            qpos[at:at + 4] = quat / np.linalg.norm(quat)
+            quat = qpos[at:at + 4]
+            if kind == 0:
+                R = quaternion_matrix(quat)
+                q[c:c + 3] = qpos[a:a + 3]
+                T[v:v + 3, dof:dof + 3] = R.T
+                T[v + 3:v + 6, dof + 3:dof + 6] = np.eye(3)
+                local, omega = R.T @ qvel[dof:dof + 3], qvel[dof + 3:dof + 6]
+                W[v:v + 3] = -np.cross(omega, local)
+                q[c + 3:c + 7] = [*quat[1:], quat[0]]
+            else:
+                T[v:v + 3, dof:dof + 3] = np.eye(3)
+                q[c:c + 4] = [*quat[1:], quat[0]]
+        else:
+            qpos[a] = rng.uniform(-1.5, 1.5)
+            q[c] = qpos[a]
+            T[v, dof] = 1
+    return qpos, qvel, q, T @ qvel, T, W
+
+
+def mujoco_at(m, d, qpos, qvel, ctrl=None):
+    d.qpos[:], d.qvel[:], d.qacc[:] = qpos, qvel, 0
+    d.ctrl[:] = 0 if ctrl is None else ctrl
+    mujoco.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    return M
+
+
+def assert_close(ours, theirs, what: str) -> None:
+    scale = max(float(np.max(np.abs(theirs))), 1e-300)
+    error = float(np.max(np.abs(np.asarray(ours) - theirs)))
+    assert error <= TOLERANCE * scale, f"{what}: max error {error:.3e}, relative {error / scale:.3e}"
+
+
+def effort_columns(module) -> list[int]:
+    """The velocity each effort acts on (a fixed-base module's efforts are named after coordinates)."""
+    if hasattr(module, "EFFORT_COLUMNS"):
+        return list(module.EFFORT_COLUMNS)
+    return [module.COORDINATES.index(e.removeprefix("tau_").removeprefix("f_")) for e in module.EFFORTS]
+
+
+def check_against_mujoco(module, m, seed: int, states: int = 3) -> None:
+    """Mass matrix, bias and forward dynamics of ``module`` equal MuJoCo's for model ``m``."""
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    m.opt.viscosity = m.opt.density = 0.0
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(seed)
+    for _ in range(states):
+        qpos, qvel, q, qd, T, W = mujoco_state(module, m, rng)
+        ctrl = rng.uniform(-1, 1, m.nu)
+        lo, hi = m.actuator_ctrlrange[:, 0], m.actuator_ctrlrange[:, 1]
+        limited = m.actuator_ctrllimited.astype(bool)
+        ctrl[limited] = lo[limited] + (hi[limited] - lo[limited]) * rng.uniform(0, 1, int(limited.sum()))
+        M = mujoco_at(m, d, qpos, qvel, ctrl)
+        assert_close(T.T @ module.mass_matrix(q) @ T, M, "mass matrix")
+        bias = d.qfrc_bias - d.qfrc_spring - d.qfrc_damper
+        assert_close(T.T @ module.inverse_dynamics(q, qd, W), bias, "inverse dynamics at zero qacc")
+        actuation = np.linalg.solve(T.T, d.qfrc_actuator)   # generalized forces: tau_mj = T^T tau_ours
+        columns = effort_columns(module)
+        unactuated = np.setdiff1d(np.arange(m.nv), columns)
+        assert not np.any(actuation[unactuated]), "MuJoCo actuates a velocity that has no effort of ours"
+        qdd = module.forward_dynamics(q, qd, actuation[columns])
+        assert_close(np.linalg.solve(T, qdd - W), d.qacc, "forward dynamics")
+
+
+def actuated_efforts(m) -> set[str]:
+    """Our effort names of the hinge and slide joints MuJoCo's joint actuators drive."""
+    names = set()
+    for a in range(m.nu):
+        if int(m.actuator_trntype[a]) in (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)):
+            j = int(m.actuator_trnid[a, 0])
+            if int(m.jnt_type[j]) in (2, 3):
+                names.add(("tau_" if int(m.jnt_type[j]) == 3 else "f_") + joint_name(m, j))
+    return names
+
 
 
 @contextmanager
@@ -116,6 +241,23 @@ def test_tree_fixture_agrees_with_mujoco(folder):
     check_against_mujoco(module, m, seed=21, states=4)
 
 
+def test_what_mujoco_switches_off_is_left_out(folder):
+    """Option flags that switch off gravity and springs, an inactive equality and a
+    ``jointinparent`` motor: the module has MuJoCo's dynamics, j2 stays a coordinate (not a
+    mimic) and both motors' joints have efforts."""
+    module = fixture_module("flags", folder)
+    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "flags.xml"))
+    assert module.COORDINATES == ("j1", "j2", "j3")
+    assert set(module.EFFORTS) == actuated_efforts(m) == {"tau_j1", "f_j3"}
+    assert module.gravity_vector(np.array([0.3, -0.4, 0.1])).tolist() == [0.0, 0.0, 0.0]
+    check_against_mujoco(module, m, seed=51)
+    d = mujoco.MjData(m)
+    mujoco_at(m, d, np.array([0.3, -0.4, 0.1]), np.array([0.5, -0.7, 0.9]))
+    assert not np.any(d.qfrc_spring) and np.all(d.qfrc_damper)
+    mujoco_at(m, d, np.array([0.3, -0.4, 0.1]), np.zeros(3))
+    assert not np.any(d.qfrc_bias)   # no gravity
+
+
 def test_tree_fixture_frames_are_mujocos_sites_and_bodies(folder):
     """The named welded body (``tool``) and the sites are frames; their poses, Jacobians and
     Jdot qd equal MuJoCo's (``xpos``/``xmat``, ``site_xpos``/``site_xmat``, ``mj_jac``, ``mj_jacDot``)."""
@@ -187,11 +329,11 @@ def connect_rows(m, d) -> tuple[np.ndarray, np.ndarray]:
 def test_connect_equality_is_a_spherical_loop(folder):
     """The connect equality becomes a spherical loop joint. The loop is closed at MuJoCo's qpos0,
     and where ``assemble`` closes it MuJoCo's residual is zero too. Constrained forward dynamics:
-    MuJoCo's equality is soft (impedance at most 0.9999, so its qacc keeps a relative error, 9e-6
-    here, however stiff solref is, and its reference acceleration leaves out Jdot qvel), so the hard
+    MuJoCo's equality is soft (impedance at most 0.9999, so its qacc keeps a relative error of
+    1e-5 to 1e-4 however stiff solref is, and its reference acceleration leaves out Jdot qvel), so the hard
     limit is built from MuJoCo's own pieces, qacc = a0 + M^-1 J^T lambda with J qacc = -Jdot qvel
     (a0 = qacc_smooth, J = efc_J, M = mj_fullM, Jdot qvel from mj_jacDot): ours equals it to
-    1e-9, and MuJoCo's soft qacc at zero velocity is within 1e-4 of it."""
+    1e-9, and MuJoCo's soft qacc at zero velocity is within 1e-3 of it."""
     module = fixture_module("loop", folder)
     m = mujoco.MjModel.from_xml_path(str(FIXTURES / "loop.xml"))
     d = mujoco.MjData(m)
@@ -220,4 +362,4 @@ def test_connect_equality_is_a_spherical_loop(folder):
         assert not np.any(d.qfrc_actuator[[1, 2, 4]])
         assert_close(module.forward_dynamics(q, qvel, u), hard, "constrained forward dynamics")
         if not k:
-            assert np.max(np.abs(d.qacc - hard)) <= 1e-4 * np.max(np.abs(hard))
+            assert np.max(np.abs(d.qacc - hard)) <= 1e-3 * np.max(np.abs(hard))

@@ -31,6 +31,13 @@ _XML_TAGS = {0: "freejoint", 1: "joint", 2: "joint", 3: "joint"}
 ROTATION_NOISE = 1e3
 
 
+def disabled(mujoco: Any, model: Any, *flags: str) -> bool:
+    """Whether ``<option><flag>`` switches off any of ``flags`` (``mjtDisableBit`` names without
+    ``mjDSBL_``; a name this MuJoCo does not know is not set)."""
+    bits = mujoco.mjtDisableBit.__members__
+    return any(int(model.opt.disableflags) & int(bits[f"mjDSBL_{flag}"]) for flag in flags if f"mjDSBL_{flag}" in bits)
+
+
 def quaternion_matrix(wxyz: Any) -> np.ndarray:
     """Rotation matrix of a unit quaternion written w first (MuJoCo's order)."""
     w, x, y, z = (float(v) for v in wxyz)
@@ -177,14 +184,17 @@ class _Tree:
                                  "origin": {"xyz": _numbers(p), "rpy": _rotation(R).rpy()}}
         if jtype in (2, 3):
             entry["axis"] = _numbers(axis)
-            terms = {"damping": m.dof_damping[dof], "friction": m.dof_frictionloss[dof],
-                     "stiffness": m.jnt_stiffness[j], "armature": m.dof_armature[dof]}
+            # what <option><flag> switches off, MuJoCo leaves out of its dynamics
+            terms = {"damping": 0 if disabled(self.mj, m, "DAMPER", "PASSIVE") else m.dof_damping[dof],
+                     "friction": 0 if disabled(self.mj, m, "FRICTIONLOSS", "CONSTRAINT") else m.dof_frictionloss[dof],
+                     "stiffness": 0 if disabled(self.mj, m, "SPRING", "PASSIVE") else m.jnt_stiffness[j],
+                     "armature": m.dof_armature[dof]}
             for key, value in terms.items():
                 if value != 0:
                     entry[key] = _number(value)
-            if m.jnt_stiffness[j] != 0 and m.qpos_spring[qpos] != 0:
+            if terms["stiffness"] != 0 and m.qpos_spring[qpos] != 0:
                 entry["rest"] = _number(m.qpos_spring[qpos])
-            if m.dof_frictionloss[dof] != 0:
+            if terms["friction"] != 0:
                 self.doc.note(at, f"joint '{name}': frictionloss {m.dof_frictionloss[dof]:g} becomes Coulomb "
                               "friction -friction*sign(qd); MuJoCo solves it as a soft constraint")
         else:
@@ -224,7 +234,7 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
     for key in data:
         positions[(key,)] = locator.root
     doc.labels[("name",)] = "<mujoco model>"
-    gravity = np.array(model.opt.gravity, dtype=float)
+    gravity = np.zeros(3) if disabled(mujoco, model, "GRAVITY") else np.array(model.opt.gravity, dtype=float)
     g = float(np.linalg.norm(gravity))
     if g > 0 and gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0:
         data["parameters"]["g"] = {"value": _number(g), "unit": "m/s^2", "description": "gravitational acceleration"}
@@ -287,7 +297,8 @@ def _actuators(tree: _Tree) -> dict[str, str]:
     for a in range(m.nu):
         name = m.actuator(a).name or f"actuator{a}"
         at = tree.at("actuators", a, "")
-        if int(m.actuator_trntype[a]) != int(mj.mjtTrn.mjTRN_JOINT):
+        # jointinparent differs from joint only on ball and free joints (the frame of the rotation)
+        if int(m.actuator_trntype[a]) not in (int(mj.mjtTrn.mjTRN_JOINT), int(mj.mjtTrn.mjTRN_JOINTINPARENT)):
             tree.doc.note(at, f"actuator '{name}': its transmission (not a joint) is not modelled")
             continue
         j = int(m.actuator_trnid[a, 0])
@@ -320,6 +331,10 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
         name = m.equality(e).name or f"equality{e}"
         at = tree.at("equalities", e, "")
         data = m.eq_data[e]
+        if not m.eq_active0[e] or disabled(mj, m, "EQUALITY", "CONSTRAINT"):
+            why = "inactive at the start (active=\"false\")" if not m.eq_active0[e] else "switched off by <option><flag>"
+            tree.doc.note(at, f"equality '{name}' is {why}: not modelled")
+            continue
         if kind == int(mj.mjtEq.mjEQ_JOINT) and m.eq_obj2id[e] >= 0 and not np.any(data[2:5]):
             j1, j2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
             if int(m.jnt_type[j1]) in (2, 3) and int(m.jnt_type[j2]) in (2, 3):
