@@ -11,7 +11,8 @@ joint values and velocities) with MuJoCo's own computation on the same file:
 * ``forward_dynamics(q, qd, u)`` with ``u`` MuJoCo's ``qfrc_actuator`` for random controls
   equals ``mj_forward``'s ``qacc`` with constraints disabled (``mjDSBL_CONSTRAINT``: no
   contacts, joint limits or friction loss). The swimmer's fluid forces are switched off in the
-  MuJoCo model (``opt.viscosity = opt.density = 0``): dynderive does not model them.
+  MuJoCo model (``opt.viscosity = opt.density = 0``): dynderive does not model them;
+* the frames (sites and named welded bodies) have MuJoCo's poses, Jacobians and Jdot qd.
 
 The mapping between the two velocity conventions (``test_mjcf_mujoco.mujoco_state``): hinge and slide
 coordinates are MuJoCo's ``qpos``; quaternions are w-last in ours, w-first in MuJoCo; a free
@@ -38,7 +39,7 @@ from conftest import import_code
 mujoco = pytest.importorskip("mujoco")
 gymnasium = pytest.importorskip("gymnasium")
 
-from test_mjcf_mujoco import actuated_efforts, check_against_mujoco  # noqa: E402
+from test_mjcf_mujoco import actuated_efforts, check_against_mujoco, check_frames  # noqa: E402
 
 ASSETS = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
 MODELS = ["ant", "half_cheetah", "hopper", "humanoid", "humanoidstandup", "inverted_pendulum",
@@ -69,6 +70,7 @@ def test_gymnasium_model_agrees_with_mujoco(name, folder):
     m = mujoco.MjModel.from_xml_path(str(ASSETS / f"{name}.xml"))
     assert len(module.COORDINATES) == m.nq and len(getattr(module, "VELOCITIES", module.COORDINATES)) == m.nv
     check_against_mujoco(module, m, seed=sum(map(ord, name)))
+    check_frames(module, mujoco.MjModel.from_xml_path(str(ASSETS / f"{name}.xml")), seed=sum(map(ord, name)) + 1)
 
 
 @pytest.mark.parametrize("name", MODELS)

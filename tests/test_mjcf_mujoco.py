@@ -107,8 +107,10 @@ def mujoco_at(m, d, qpos, qvel, ctrl=None):
     return M
 
 
-def assert_close(ours, theirs, what: str) -> None:
-    scale = max(float(np.max(np.abs(theirs))), 1e-300)
+def assert_close(ours, theirs, what: str, floor: float = 1e-300) -> None:
+    """``ours`` equals ``theirs`` to TOLERANCE relative to the largest entry of ``theirs`` (or
+    ``floor``, for quantities that may vanish: a point on a free body's origin has no Jdot qd)."""
+    scale = max(float(np.max(np.abs(theirs))), floor)
     error = float(np.max(np.abs(np.asarray(ours) - theirs)))
     assert error <= TOLERANCE * scale, f"{what}: max error {error:.3e}, relative {error / scale:.3e}"
 
@@ -153,6 +155,39 @@ def actuated_efforts(m) -> set[str]:
             if int(m.jnt_type[j]) in (2, 3):
                 names.add(("tau_" if int(m.jnt_type[j]) == 3 else "f_") + joint_name(m, j))
     return names
+
+
+def mujoco_frame(m, d, name: str):
+    """(position, rotation, body) of the site or body called ``name`` in MuJoCo's data."""
+    site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
+    if site >= 0:
+        return d.site_xpos[site], d.site_xmat[site].reshape(3, 3), int(m.site_bodyid[site])
+    body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+    assert body >= 0, name
+    return d.xpos[body], d.xmat[body].reshape(3, 3), body
+
+
+def check_frames(module, m, seed: int, states: int = 3) -> None:
+    """Every frame of ``module`` (a site or a named welded body) has MuJoCo's pose
+    (``site_xpos``/``site_xmat`` or ``xpos``/``xmat``), Jacobian (``mj_jac``, mapped by T) and
+    acceleration at zero MuJoCo acceleration (``mj_jacDot`` times qvel; ours at qdd = W)."""
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(seed)
+    for _ in range(states):
+        qpos, qvel, q, qd, T, W = mujoco_state(module, m, rng)
+        mujoco_at(m, d, qpos, qvel)
+        for frame in module.FRAMES:
+            position, rotation, body = mujoco_frame(m, d, frame)
+            pose = module.frame_transform(q, frame)
+            assert_close(pose[:3, 3], position, f"{frame} position")
+            assert_close(pose[:3, :3], rotation, f"{frame} rotation")
+            jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+            mujoco.mj_jac(m, d, jacp, jacr, position, body)
+            J = module.frame_jacobian(q, frame)
+            assert_close(J @ T, np.vstack([jacp, jacr]), f"{frame} Jacobian")
+            mujoco.mj_jacDot(m, d, jacp, jacr, position, body)
+            assert_close(module.frame_jacobian_dot_qd(q, qd, frame) + J @ W,
+                         np.concatenate([jacp @ qvel, jacr @ qvel]), f"{frame} Jdot qd", floor=1.0)
 
 
 
@@ -222,16 +257,6 @@ def fixture_module(name: str, folder: str):
     return module_of_file(str(FIXTURES / f"{name}.xml"), folder, f"fixture_{name}")
 
 
-def mujoco_frame(m, d, name: str):
-    """(position, rotation, body, point) of a site or body called ``name`` in MuJoCo's data."""
-    site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
-    if site >= 0:
-        return d.site_xpos[site], d.site_xmat[site].reshape(3, 3), int(m.site_bodyid[site])
-    body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
-    assert body >= 0, name
-    return d.xpos[body], d.xmat[body].reshape(3, 3), body
-
-
 def test_tree_fixture_agrees_with_mujoco(folder):
     """Several joints on one body, refs, springs, armature, a ball joint, welded bodies, motors."""
     module = fixture_module("tree", folder)
@@ -259,27 +284,11 @@ def test_what_mujoco_switches_off_is_left_out(folder):
 
 
 def test_tree_fixture_frames_are_mujocos_sites_and_bodies(folder):
-    """The named welded body (``tool``) and the sites are frames; their poses, Jacobians and
-    Jdot qd equal MuJoCo's (``xpos``/``xmat``, ``site_xpos``/``site_xmat``, ``mj_jac``, ``mj_jacDot``)."""
+    """The named welded body (``tool``) and the sites are frames (the unnamed welded body is not)."""
     module = fixture_module("tree", folder)
     m = mujoco.MjModel.from_xml_path(str(FIXTURES / "tree.xml"))
-    d = mujoco.MjData(m)
     assert set(module.FRAMES) == {"tool", "tip", "hand"}
-    rng = np.random.default_rng(22)
-    for _ in range(4):
-        qpos, qvel, q, qd, T, W = mujoco_state(module, m, rng)
-        mujoco_at(m, d, qpos, qvel)
-        for frame in module.FRAMES:
-            position, rotation, body = mujoco_frame(m, d, frame)
-            pose = module.frame_transform(q, frame)
-            assert_close(pose[:3, 3], position, f"{frame} position")
-            assert_close(pose[:3, :3], rotation, f"{frame} rotation")
-            jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-            mujoco.mj_jac(m, d, jacp, jacr, position, body)
-            assert_close(module.frame_jacobian(q, frame) @ T, np.vstack([jacp, jacr]), f"{frame} Jacobian")
-            mujoco.mj_jacDot(m, d, jacp, jacr, position, body)
-            assert_close(module.frame_jacobian_dot_qd(q, qd, frame), np.concatenate([jacp @ qvel, jacr @ qvel]),
-                         f"{frame} Jdot qd")
+    check_frames(module, m, seed=22, states=4)
 
 
 def test_joint_equality_is_a_mimic_joint(folder):
