@@ -405,3 +405,24 @@ def test_connect_equality_is_a_spherical_loop(folder):
         assert_close(module.forward_dynamics(q, qvel, u), hard, "constrained forward dynamics")
         if not k:
             assert np.max(np.abs(d.qacc - hard)) <= 1e-3 * np.max(np.abs(hard))
+
+
+def test_notes_name_what_is_not_modelled(tmp_path):
+    """An equality that is not modelled is named by its kind, and an actuator on a joint that
+    follows another (a joint equality) is noted, not dropped silently."""
+    path = tmp_path / "notes.xml"
+    path.write_text('<mujoco model="notes">\n  <worldbody>\n'
+                    '    <body name="a"><joint name="j1" axis="0 1 0"/>'
+                    '<inertial pos="0.1 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>\n'
+                    '      <body name="b" pos="0.2 0 0"><joint name="j2" axis="0 1 0"/>'
+                    '<inertial pos="0.1 0 0" mass="1" diaginertia="0.1 0.1 0.1"/></body>\n'
+                    '    </body>\n  </worldbody>\n  <equality>\n'
+                    '    <joint name="gear" joint1="j2" joint2="j1" polycoef="0 0.5 0 0 0"/>\n'
+                    '    <weld name="glue" body1="a"/>\n'
+                    '  </equality>\n  <actuator>\n    <motor joint="j2"/>\n  </actuator>\n</mujoco>\n')
+    robot = dynderive.load_robot(path)
+    assert [j.name for j in robot.joints if j.mimic] == ["j2"] and all(j.effort is None for j in robot.joints)
+    assert f"{path}:9:5: note: equality 'glue' (weld) is not modelled (joint equalities of degree one and " \
+           "connect between two moving bodies are)" in robot.notes
+    assert any(note.startswith(f"{path}:4:36: note: ") and "joint 'j2' follows 'j1' (a joint equality): the force of its "
+               "actuator is not modelled" in note for note in robot.notes), robot.notes

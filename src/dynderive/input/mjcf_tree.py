@@ -262,7 +262,9 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
             entry["effort"] = efforts[entry["name"]]
         if entry["name"] in mimics:
             entry["mimic"] = mimics[entry["name"]]
-            entry.pop("effort", None)
+            if entry.pop("effort", None):
+                doc.note(at, f"joint '{entry['name']}' follows '{mimics[entry['name']]['joint']}' (a joint "
+                         "equality): the force of its actuator is not modelled")
         data["joints"].append(entry)
         path = ("joints", index)
         doc.labels[path] = f"joint '{entry['name']}'"
@@ -352,7 +354,7 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
                                "child": ends[1][0], "origin": {"xyz": _numbers(ends[0][1]), "rpy": [0, 0, 0]},
                                "child_origin": {"xyz": _numbers(ends[1][1]), "rpy": [0, 0, 0]}}, at))
                 continue
-        kinds = {int(v): k[6:].lower() for k, v in mj.mjtEq.__members__.items() if k.startswith("mjEQ_")}
+        kinds = {int(v): k[5:].lower() for k, v in mj.mjtEq.__members__.items() if k.startswith("mjEQ_")}
         tree.doc.note(at, f"equality '{name}' ({kinds.get(kind, kind)}) is not modelled (joint equalities of degree "
                       "one and connect between two moving bodies are)")
     return mimics, loops
