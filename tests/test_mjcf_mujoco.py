@@ -324,25 +324,37 @@ def test_tree_fixture_frames_are_mujocos_sites_and_bodies(folder):
     check_frames(module, m, seed=22, states=4)
 
 
-def test_joint_equality_is_a_mimic_joint(folder):
-    """``follow - follow_ref = 0.25 - 1.5 (drive - drive_ref)`` is the mimic joint ``follow``: on
-    MuJoCo's configuration that satisfies it (MuJoCo's own residual ``efc_pos`` is zero there),
-    our reduced M is G^T M_mj G and our inverse dynamics G^T (M_mj G qdd + bias - springs -
-    dampers), G the map from our velocities to MuJoCo's (constant: the relation is linear), and
-    the end site is where MuJoCo puts it."""
-    module = fixture_module("mimic", folder)
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "mimic.xml"))
+REFS = {"drive": 0.3, "follow": -0.2}   # mimic.xml's hinge refs (MuJoCo's qpos0)
+
+
+@pytest.mark.parametrize("leader, follower", [("drive", "follow"), ("follow", "drive")])
+def test_joint_equality_is_a_mimic_joint(leader, follower, folder, tmp_path):
+    """``follower - ref = 0.25 - 1.5 (leader - ref)`` makes ``follower`` a mimic joint, whether it
+    is the leader's child or its parent: on MuJoCo's configuration that satisfies it (MuJoCo's
+    own residual ``efc_pos`` is zero there), our reduced M is G^T M_mj G and our inverse dynamics
+    G^T (M_mj G qdd + bias - springs - dampers), G the map from our velocities to MuJoCo's
+    (constant: the relation is linear), and the end site is where MuJoCo puts it."""
+    if follower == "follow":
+        path = FIXTURES / "mimic.xml"
+        module = fixture_module("mimic", folder)
+    else:
+        path = tmp_path / "mimic_reversed.xml"
+        path.write_text((FIXTURES / "mimic.xml").read_text().replace('joint1="follow" joint2="drive"',
+                                                                       'joint1="drive" joint2="follow"'))
+        module = module_of_file(str(path), folder, "mimic_reversed")
+    m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
-    assert module.COORDINATES == ("drive", "lin") and module.EFFORTS == ("tau_drive", "f_lin")
-    drive, follow, lin = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("drive", "follow", "lin"))
+    assert module.COORDINATES == (leader, "lin")
+    assert module.EFFORTS == (("tau_drive", "f_lin") if leader == "drive" else ("f_lin",))
+    lead, follow, lin = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in (leader, follower, "lin"))
     G = np.zeros((m.nv, 2))
-    G[m.jnt_dofadr[drive], 0], G[m.jnt_dofadr[follow], 0], G[m.jnt_dofadr[lin], 1] = 1, -1.5, 1
+    G[m.jnt_dofadr[lead], 0], G[m.jnt_dofadr[follow], 0], G[m.jnt_dofadr[lin], 1] = 1, -1.5, 1
     rng = np.random.default_rng(31)
     for _ in range(4):
         q, qd, qdd = rng.uniform(-1.2, 1.2, (3, 2))
         qpos = np.zeros(m.nq)
-        qpos[m.jnt_qposadr[drive]], qpos[m.jnt_qposadr[lin]] = q
-        qpos[m.jnt_qposadr[follow]] = -0.2 + 0.25 - 1.5 * (q[0] - 0.3)   # the file's refs and polycoef
+        qpos[m.jnt_qposadr[lead]], qpos[m.jnt_qposadr[lin]] = q
+        qpos[m.jnt_qposadr[follow]] = REFS[follower] + 0.25 - 1.5 * (q[0] - REFS[leader])   # the file's polycoef
         M = mujoco_at(m, d, qpos, G @ qd)
         assert d.nefc == 1 and abs(d.efc_pos[0]) < 1e-15
         assert_close(module.mass_matrix(q), G.T @ M @ G, "reduced mass matrix")
