@@ -366,6 +366,35 @@ def test_joint_equality_is_a_mimic_joint(leader, follower, folder, tmp_path):
         assert_close(pose[:3, :3], d.site_xmat[site].reshape(3, 3), "site rotation")
 
 
+def test_chained_joint_equalities_are_composed(folder):
+    """A joint following a follower, and a follower tied to a third joint: our one coordinate
+    is MuJoCo's motion with every equality holding. The map G from our velocities to MuJoCo's
+    comes from MuJoCo's constraint Jacobian (the followers' rows solved), the configuration from
+    its residual (linear in qpos: one step puts it at zero), so nothing of ours builds it."""
+    module = fixture_module("mimic_chain", folder)
+    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "mimic_chain.xml"))
+    d = mujoco.MjData(m)
+    assert module.COORDINATES == ("j1", "j5")
+    ours = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name) for name in module.COORDINATES]
+    followers = [j for j in range(m.njnt) if j not in ours]
+    rng = np.random.default_rng(71)
+    for _ in range(4):
+        q, qd, qdd = rng.uniform(-1.2, 1.2, (3, 2))
+        qpos = m.qpos0.copy()
+        qpos[ours] = q
+        mujoco_at(m, d, qpos, np.zeros(m.nv))
+        J = d.efc_J[:d.nefc * m.nv].reshape(d.nefc, m.nv)
+        qpos[followers] -= np.linalg.solve(J[:, followers], d.efc_pos[:d.nefc])
+        G = np.zeros((m.nv, 2))
+        G[ours] = np.eye(2)
+        G[followers] = -np.linalg.solve(J[:, followers], J[:, ours])
+        M = mujoco_at(m, d, qpos, G @ qd)
+        assert d.nefc == 3 and np.max(np.abs(d.efc_pos)) < 1e-14
+        assert_close(module.mass_matrix(q), G.T @ M @ G, "reduced mass matrix")
+        tau = G.T @ (M @ G @ qdd + d.qfrc_bias - d.qfrc_spring - d.qfrc_damper)
+        assert_close(module.inverse_dynamics(q, qd, qdd), tau, "reduced inverse dynamics")
+
+
 def connect_rows(m, d) -> tuple[np.ndarray, np.ndarray]:
     """MuJoCo's Jacobian of the connect equality's residual and the residual's acceleration at
     zero qacc (Jdot qvel, from ``mj_jacDot`` at the two anchors)."""

@@ -326,7 +326,7 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
     """Joint equalities of degree one -> mimic; ``connect`` between two bodies -> a spherical
     loop joint; other equalities -> notes."""
     m, mj = tree.m, tree.mj
-    mimics: dict[str, dict[str, Any]] = {}
+    follows: dict[str, tuple[str, float, float]] = {}   # follower: (leader, multiplier, offset)
     loops: list[tuple[dict[str, Any], tuple[int, int]]] = []
     for e in range(m.neq):
         kind = int(m.eq_type[e])
@@ -341,8 +341,11 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
             j1, j2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
             if int(m.jnt_type[j1]) in (2, 3) and int(m.jnt_type[j2]) in (2, 3):
                 y0, x0 = float(m.qpos0[m.jnt_qposadr[j1]]), float(m.qpos0[m.jnt_qposadr[j2]])
-                mimics[tree.joint_name(j1)] = {"joint": tree.joint_name(j2), "multiplier": _number(data[1]),
-                                               "offset": _number(data[0] + y0 - data[1] * x0)}
+                relation = (tree.joint_name(j1), tree.joint_name(j2), float(data[1]), float(data[0] + y0 - data[1] * x0))
+                if _follow(follows, *relation):
+                    continue
+                tree.doc.note(at, f"equality '{name}': joint '{relation[0]}' already follows a joint and "
+                              f"'{relation[1]}' cannot follow it: not modelled")
                 continue
         if kind == int(mj.mjtEq.mjEQ_CONNECT) and int(m.eq_objtype[e]) == int(mj.mjtObj.mjOBJ_BODY):
             ends = []
@@ -357,7 +360,28 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
         kinds = {int(v): k[5:].lower() for k, v in mj.mjtEq.__members__.items() if k.startswith("mjEQ_")}
         tree.doc.note(at, f"equality '{name}' ({kinds.get(kind, kind)}) is not modelled (joint equalities of degree "
                       "one and connect between two moving bodies are)")
+    mimics = {}
+    for follower, (leader, multiplier, offset) in follows.items():
+        while leader in follows:   # a joint that follows a follower follows its leader
+            leader, inner, shift = follows[leader]
+            multiplier, offset = multiplier * inner, offset + multiplier * shift
+        mimics[follower] = {"joint": leader, "multiplier": _number(multiplier), "offset": _number(offset)}
     return mimics, loops
+
+
+def _follow(follows: dict[str, tuple[str, float, float]], y: str, x: str, a: float, b: float) -> bool:
+    """Record ``y = b + a x`` as y following x, or else (y already follows a joint) as x following
+    y; False when neither is free to follow or it would close a cycle of followers."""
+    for follower, leader, multiplier, offset in ((y, x, a, b), (x, y, 1 / a if a else 0.0, -b / a if a else 0.0)):
+        if follower in follows or not multiplier:
+            continue
+        root = leader
+        while root in follows and root != follower:
+            root = follows[root][0]
+        if root != follower:
+            follows[follower] = (leader, multiplier, offset)
+            return True
+    return False
 
 
 def _notes(tree: _Tree) -> None:
