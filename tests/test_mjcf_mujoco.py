@@ -449,8 +449,8 @@ def test_connect_equality_is_a_spherical_loop(folder):
 
 
 def test_notes_name_what_is_not_modelled(tmp_path):
-    """An equality that is not modelled is named by its kind, and an actuator on a joint that
-    follows another (a joint equality) is noted, not dropped silently."""
+    """An equality that is not modelled is named by its kind, one that would make two joints
+    follow each other is noted, and so is an actuator on a joint that follows another."""
     path = tmp_path / "notes.xml"
     path.write_text('<mujoco model="notes">\n  <worldbody>\n'
                     '    <body name="a"><joint name="j1" axis="0 1 0"/>'
@@ -459,11 +459,14 @@ def test_notes_name_what_is_not_modelled(tmp_path):
                     '<inertial pos="0.1 0 0" mass="1" diaginertia="0.1 0.1 0.1"/></body>\n'
                     '    </body>\n  </worldbody>\n  <equality>\n'
                     '    <joint name="gear" joint1="j2" joint2="j1" polycoef="0 0.5 0 0 0"/>\n'
+                    '    <joint name="back" joint1="j1" joint2="j2" polycoef="0 2 0 0 0"/>\n'
                     '    <weld name="glue" body1="a"/>\n'
                     '  </equality>\n  <actuator>\n    <motor joint="j2"/>\n  </actuator>\n</mujoco>\n')
     robot = dynderive.load_robot(path)
     assert [j.name for j in robot.joints if j.mimic] == ["j2"] and all(j.effort is None for j in robot.joints)
-    assert f"{path}:9:5: note: equality 'glue' (weld) is not modelled (joint equalities of degree one and " \
+    assert f"{path}:9:5: note: equality 'back': neither 'j1' nor 'j2' can follow the other (it follows a joint " \
+           "already, or they would follow each other): not modelled" in robot.notes
+    assert f"{path}:10:5: note: equality 'glue' (weld) is not modelled (joint equalities of degree one and " \
            "connect between two moving bodies are)" in robot.notes
     assert any(note.startswith(f"{path}:4:36: note: ") and "joint 'j2' follows 'j1' (a joint equality): the force of its "
                "actuator is not modelled" in note for note in robot.notes), robot.notes

@@ -344,8 +344,8 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
                 relation = (tree.joint_name(j1), tree.joint_name(j2), float(data[1]), float(data[0] + y0 - data[1] * x0))
                 if _follow(follows, *relation):
                     continue
-                tree.doc.note(at, f"equality '{name}': joint '{relation[0]}' already follows a joint and "
-                              f"'{relation[1]}' cannot follow it: not modelled")
+                tree.doc.note(at, f"equality '{name}': neither '{relation[0]}' nor '{relation[1]}' can follow the other "
+                              "(it follows a joint already, or they would follow each other): not modelled")
                 continue
         if kind == int(mj.mjtEq.mjEQ_CONNECT) and int(m.eq_objtype[e]) == int(mj.mjtObj.mjOBJ_BODY):
             ends = []
