@@ -448,6 +448,26 @@ def test_connect_equality_is_a_spherical_loop(folder):
             assert np.max(np.abs(d.qacc - hard)) <= 1e-3 * np.max(np.abs(hard))
 
 
+def test_connect_between_sites_is_the_same_loop(tmp_path):
+    """``connect site1 site2`` (the sites' origins coincide) is the loop of ``connect body1
+    body2 anchor`` when the sites sit at the anchors (the second where MuJoCo puts it)."""
+    text = (FIXTURES / "loop.xml").read_text()
+    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "loop.xml"))
+    second = " ".join(repr(float(v)) for v in m.eq_data[0, 3:6])
+    text = text.replace('<joint name="jb"', '<site name="pin" pos="0.2391 -0.0127 0.0183"/>\n        <joint name="jb"')
+    text = text.replace('<joint name="je"', f'<site name="hole" pos="{second}"/>\n          <joint name="je"')
+    text = text.replace('body1="b" body2="e" anchor="0.2391 -0.0127 0.0183"', 'site1="pin" site2="hole"')
+    path = tmp_path / "loop_sites.xml"
+    path.write_text(text)
+    bodies, sites = dynderive.load_robot(FIXTURES / "loop.xml"), dynderive.load_robot(path)
+    assert len(sites.loops) == 1 and not any("closure" in note for note in sites.notes)
+    ours, theirs = sites.loops[0], bodies.loops[0]
+    assert (ours.parent, ours.child, ours.type) == (theirs.parent, theirs.child, theirs.type)
+    np.testing.assert_allclose(np.array(ours.origin, dtype=float), np.array(theirs.origin, dtype=float), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.array(ours.child_origin, dtype=float), np.array(theirs.child_origin, dtype=float),
+                               rtol=0, atol=1e-15)
+
+
 def test_notes_name_what_is_not_modelled(tmp_path):
     """An equality that is not modelled is named by its kind, one that would make two joints
     follow each other is noted, and so is an actuator on a joint that follows another."""

@@ -323,8 +323,8 @@ def _actuators(tree: _Tree) -> dict[str, str]:
 
 
 def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict[str, Any], tuple[int, int]]]]:
-    """Joint equalities of degree one -> mimic; ``connect`` between two bodies -> a spherical
-    loop joint; other equalities -> notes."""
+    """Joint equalities of degree one -> mimic; ``connect`` between two bodies (or two sites) ->
+    a spherical loop joint; other equalities -> notes."""
     m, mj = tree.m, tree.mj
     follows: dict[str, tuple[str, float, float]] = {}   # follower: (leader, multiplier, offset)
     loops: list[tuple[dict[str, Any], tuple[int, int]]] = []
@@ -347,9 +347,13 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
                 tree.doc.note(at, f"equality '{name}': neither '{relation[0]}' nor '{relation[1]}' can follow the other "
                               "(it follows a joint already, or they would follow each other): not modelled")
                 continue
-        if kind == int(mj.mjtEq.mjEQ_CONNECT) and int(m.eq_objtype[e]) == int(mj.mjtObj.mjOBJ_BODY):
+        objects = (int(m.eq_objtype[e]), int(m.eq_obj1id[e]), int(m.eq_obj2id[e]))
+        if kind == int(mj.mjtEq.mjEQ_CONNECT) and objects[0] in (int(mj.mjtObj.mjOBJ_BODY), int(mj.mjtObj.mjOBJ_SITE)):
+            points = ((objects[1], data[0:3]), (objects[2], data[3:6]))
+            if objects[0] == int(mj.mjtObj.mjOBJ_SITE):   # site1 and site2: the sites' origins coincide
+                points = tuple((int(m.site_bodyid[s]), m.site_pos[s]) for s in objects[1:])
             ends = []
-            for body, anchor in ((int(m.eq_obj1id[e]), data[0:3]), (int(m.eq_obj2id[e]), data[3:6])):
+            for body, anchor in points:
                 owner, R, p = tree.owner[body]
                 ends.append((owner, R @ anchor + p))
             if ends[0][0] != "world" and ends[1][0] != "world" and ends[0][0] != ends[1][0]:
