@@ -36,6 +36,13 @@ NAME_LIMIT = 40
 ROTATION_NOISE = 1e3
 
 
+def disabled(mujoco: Any, model: Any, *flags: str) -> bool:
+    """Whether ``<option><flag>`` switches off any of ``flags`` (``mjtDisableBit`` names without
+    ``mjDSBL_``; a name this MuJoCo does not know is not set)."""
+    bits = mujoco.mjtDisableBit.__members__
+    return any(int(model.opt.disableflags) & int(bits[f"mjDSBL_{flag}"]) for flag in flags if f"mjDSBL_{flag}" in bits)
+
+
 def quaternion_matrix(wxyz: Any) -> np.ndarray:
     """Rotation matrix of a unit quaternion written w first (MuJoCo's order)."""
     w, x, y, z = (float(v) for v in wxyz)
@@ -95,10 +102,6 @@ class _Tree:
         self.link_of: dict[str, _Link] = {}
         self.joint_names: dict[int, str] = {}
         self.taken: set[str] = {"world"}
-
-    def disabled(self, flag: str) -> bool:
-        """Whether ``<option><flag NAME="disable"/>`` turned a part of MuJoCo's dynamics off."""
-        return bool(self.m.opt.disableflags & int(getattr(self.mj.mjtDisableBit, f"mjDSBL_{flag}")))
 
     # names -----------------------------------------------------------------------------------
     def _unique(self, name: str) -> str:
@@ -189,16 +192,17 @@ class _Tree:
                                  "origin": {"xyz": _numbers(p), "rpy": _rotation(R).rpy()}}
         if jtype in (2, 3):
             entry["axis"] = _numbers(axis)
-            stiffness = 0.0 if self.disabled("SPRING") else m.jnt_stiffness[j]
-            terms = {"damping": 0.0 if self.disabled("DAMPER") else m.dof_damping[dof],
-                     "friction": 0.0 if self.disabled("FRICTIONLOSS") else m.dof_frictionloss[dof],
-                     "stiffness": stiffness, "armature": m.dof_armature[dof]}
+            # what <option><flag> switches off, MuJoCo leaves out of its dynamics
+            terms = {"damping": 0 if disabled(self.mj, m, "DAMPER", "PASSIVE") else m.dof_damping[dof],
+                     "friction": 0 if disabled(self.mj, m, "FRICTIONLOSS", "CONSTRAINT") else m.dof_frictionloss[dof],
+                     "stiffness": 0 if disabled(self.mj, m, "SPRING", "PASSIVE") else m.jnt_stiffness[j],
+                     "armature": m.dof_armature[dof]}
             for key, value in terms.items():
                 if value != 0:
                     entry[key] = _number(value)
-            if stiffness != 0 and m.qpos_spring[qpos] != 0:
+            if terms["stiffness"] != 0 and m.qpos_spring[qpos] != 0:
                 entry["rest"] = _number(m.qpos_spring[qpos])
-            if "friction" in entry:
+            if terms["friction"] != 0:
                 self.doc.note(at, f"joint '{name}': frictionloss {m.dof_frictionloss[dof]:g} becomes Coulomb "
                               "friction -friction*sign(qd); MuJoCo solves it as a soft constraint")
         else:
@@ -245,9 +249,7 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
     for key in data:
         positions[(key,)] = locator.root
     doc.labels[("name",)] = "<mujoco model>"
-    gravity = np.array(model.opt.gravity, dtype=float)
-    if tree.disabled("GRAVITY"):   # <flag gravity="disable"/>: MuJoCo applies none
-        gravity = np.zeros(3)
+    gravity = np.zeros(3) if disabled(mujoco, model, "GRAVITY") else np.array(model.opt.gravity, dtype=float)
     g = float(np.linalg.norm(gravity))
     if g > 0 and gravity[0] == 0 and gravity[1] == 0 and gravity[2] < 0:
         used = tree.taken | set(tree.joint_names.values())   # a body or joint named g keeps its name
@@ -277,7 +279,9 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
             entry["effort"] = efforts[entry["name"]]
         if entry["name"] in mimics:
             entry["mimic"] = mimics[entry["name"]]
-            entry.pop("effort", None)
+            if entry.pop("effort", None):
+                doc.note(at, f"joint '{entry['name']}' follows '{mimics[entry['name']]['joint']}' (a joint "
+                         "equality): the force of its actuator is not modelled")
         data["joints"].append(entry)
         path = ("joints", index)
         doc.labels[path] = f"joint '{entry['name']}'"
@@ -334,7 +338,8 @@ def _actuators(tree: _Tree) -> dict[str, str]:
     for a in range(m.nu):
         name = m.actuator(a).name or f"actuator{a}"
         at = tree.at("actuators", a, "")
-        if int(m.actuator_trntype[a]) != int(mj.mjtTrn.mjTRN_JOINT):
+        # jointinparent differs from joint only on ball and free joints (the frame of the rotation)
+        if int(m.actuator_trntype[a]) not in (int(mj.mjtTrn.mjTRN_JOINT), int(mj.mjtTrn.mjTRN_JOINTINPARENT)):
             tree.doc.note(at, f"actuator '{name}': its transmission (not a joint) is not modelled")
             continue
         j = int(m.actuator_trnid[a, 0])
@@ -357,26 +362,37 @@ def _actuators(tree: _Tree) -> dict[str, str]:
 
 
 def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict[str, Any], tuple[int, int]]]]:
-    """Joint equalities of degree one -> mimic; ``connect`` between two bodies -> a spherical
-    loop joint; other equalities -> notes."""
+    """Joint equalities of degree one -> mimic; ``connect`` between two bodies (or two sites) ->
+    a spherical loop joint; other equalities -> notes."""
     m, mj = tree.m, tree.mj
-    mimics: dict[str, dict[str, Any]] = {}
+    follows: dict[str, tuple[str, float, float]] = {}   # follower: (leader, multiplier, offset)
     loops: list[tuple[dict[str, Any], tuple[int, int]]] = []
     for e in range(m.neq):
         kind = int(m.eq_type[e])
         name = m.equality(e).name or f"equality{e}"
         at = tree.at("equalities", e, "")
         data = m.eq_data[e]
+        if not m.eq_active0[e] or disabled(mj, m, "EQUALITY", "CONSTRAINT"):
+            why = "inactive at the start (active=\"false\")" if not m.eq_active0[e] else "switched off by <option><flag>"
+            tree.doc.note(at, f"equality '{name}' is {why}: not modelled")
+            continue
         if kind == int(mj.mjtEq.mjEQ_JOINT) and m.eq_obj2id[e] >= 0 and not np.any(data[2:5]):
             j1, j2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
             if int(m.jnt_type[j1]) in (2, 3) and int(m.jnt_type[j2]) in (2, 3):
                 y0, x0 = float(m.qpos0[m.jnt_qposadr[j1]]), float(m.qpos0[m.jnt_qposadr[j2]])
-                mimics[tree.joint_name(j1)] = {"joint": tree.joint_name(j2), "multiplier": _number(data[1]),
-                                               "offset": _number(data[0] + y0 - data[1] * x0)}
+                relation = (tree.joint_name(j1), tree.joint_name(j2), float(data[1]), float(data[0] + y0 - data[1] * x0))
+                if _follow(follows, *relation):
+                    continue
+                tree.doc.note(at, f"equality '{name}': neither '{relation[0]}' nor '{relation[1]}' can follow the other "
+                              "(it follows a joint already, or they would follow each other): not modelled")
                 continue
-        if kind == int(mj.mjtEq.mjEQ_CONNECT) and int(m.eq_objtype[e]) == int(mj.mjtObj.mjOBJ_BODY):
+        objects = (int(m.eq_objtype[e]), int(m.eq_obj1id[e]), int(m.eq_obj2id[e]))
+        if kind == int(mj.mjtEq.mjEQ_CONNECT) and objects[0] in (int(mj.mjtObj.mjOBJ_BODY), int(mj.mjtObj.mjOBJ_SITE)):
+            points = ((objects[1], data[0:3]), (objects[2], data[3:6]))
+            if objects[0] == int(mj.mjtObj.mjOBJ_SITE):   # site1 and site2: the sites' origins coincide
+                points = tuple((int(m.site_bodyid[s]), m.site_pos[s]) for s in objects[1:])
             ends = []
-            for body, anchor in ((int(m.eq_obj1id[e]), data[0:3]), (int(m.eq_obj2id[e]), data[3:6])):
+            for body, anchor in points:
                 owner, R, p = tree.owner[body]
                 ends.append((owner, R @ anchor + p))
             if ends[0][0] != "world" and ends[1][0] != "world" and ends[0][0] != ends[1][0]:
@@ -387,7 +403,28 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
         kinds = {int(v): k[5:].lower() for k, v in mj.mjtEq.__members__.items() if k.startswith("mjEQ_")}
         tree.doc.note(at, f"equality '{name}' ({kinds.get(kind, kind)}) is not modelled (joint equalities of degree "
                       "one and connect between two moving bodies are)")
+    mimics = {}
+    for follower, (leader, multiplier, offset) in follows.items():
+        while leader in follows:   # a joint that follows a follower follows its leader
+            leader, inner, shift = follows[leader]
+            multiplier, offset = multiplier * inner, offset + multiplier * shift
+        mimics[follower] = {"joint": leader, "multiplier": _number(multiplier), "offset": _number(offset)}
     return mimics, loops
+
+
+def _follow(follows: dict[str, tuple[str, float, float]], y: str, x: str, a: float, b: float) -> bool:
+    """Record ``y = b + a x`` as y following x, or else (y already follows a joint) as x following
+    y; False when neither is free to follow or it would close a cycle of followers."""
+    for follower, leader, multiplier, offset in ((y, x, a, b), (x, y, 1 / a if a else 0.0, -b / a if a else 0.0)):
+        if follower in follows or not multiplier:
+            continue
+        root = leader
+        while root in follows and root != follower:
+            root = follows[root][0]
+        if root != follower:
+            follows[follower] = (leader, multiplier, offset)
+            return True
+    return False
 
 
 def _notes(tree: _Tree) -> None:
