@@ -13,6 +13,7 @@ and dampers turned off, as the equations leave them out.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -94,7 +95,9 @@ def mujoco_rows(derivation: Derivation, module: Any, values: dict[str, float], s
         return [Row(NAME, "skip", "MuJoCo's equality constraints are soft; ours are exact", float("nan"))]
     if any(p.value is None or values.get(p.name) != p.value for p in robot.parameters):
         return [Row(NAME, "skip", "parameters other than the file's values", float("nan"))]
-    model = mujoco.MjModel.from_xml_path(robot.source)
+    with warnings.catch_warnings():   # the reader has noted them; MjModel.from_xml_path would also
+        warnings.simplefilter("ignore")   # write MUJOCO_LOG.TXT into the working directory
+        model = mujoco.MjSpec.from_file(robot.source).compile()
     if np.any(model.body_gravcomp):
         return [Row(NAME, "skip", "gravity compensation (gravcomp) is not modelled", float("nan"))]
     model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT) | int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
