@@ -141,3 +141,15 @@ def example_robot(relative: str) -> Path:
     if not paths:
         pytest.skip(f"{relative} is not in example-robot-data")
     return paths[0]
+
+
+def compiled_model(path):
+    """MuJoCo's model of an MJCF file through MjSpec, its compiler warnings silenced (the reader
+    notes them): ``MjModel.from_xml_path`` would write MUJOCO_LOG.TXT into the working directory."""
+    import warnings
+
+    import mujoco
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return mujoco.MjSpec.from_file(str(path)).compile()

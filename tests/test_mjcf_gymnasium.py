@@ -37,6 +37,8 @@ import dynderive
 from conftest import import_code
 
 mujoco = pytest.importorskip("mujoco")
+from conftest import compiled_model  # noqa: E402  (MjSpec: no MUJOCO_LOG.TXT)
+
 gymnasium = pytest.importorskip("gymnasium")
 
 from test_mjcf_mujoco import actuated_efforts, check_against_mujoco, check_frames  # noqa: E402
@@ -67,16 +69,16 @@ def _mujoco_log_elsewhere(tmp_path, monkeypatch):
 @pytest.mark.parametrize("name", MODELS)
 def test_gymnasium_model_agrees_with_mujoco(name, folder):
     module = gymnasium_module(name, folder)
-    m = mujoco.MjModel.from_xml_path(str(ASSETS / f"{name}.xml"))
+    m = compiled_model(str(ASSETS / f"{name}.xml"))
     assert len(module.COORDINATES) == m.nq and len(getattr(module, "VELOCITIES", module.COORDINATES)) == m.nv
     check_against_mujoco(module, m, seed=sum(map(ord, name)))
-    check_frames(module, mujoco.MjModel.from_xml_path(str(ASSETS / f"{name}.xml")), seed=sum(map(ord, name)) + 1)
+    check_frames(module, compiled_model(str(ASSETS / f"{name}.xml")), seed=sum(map(ord, name)) + 1)
 
 
 @pytest.mark.parametrize("name", MODELS)
 def test_gymnasium_efforts_are_the_actuated_joints(name, folder):
     module = gymnasium_module(name, folder)
-    m = mujoco.MjModel.from_xml_path(str(ASSETS / f"{name}.xml"))
+    m = compiled_model(str(ASSETS / f"{name}.xml"))
     assert m.nu > 0
     assert len(module.EFFORTS) == len(set(module.EFFORTS))
     assert set(module.EFFORTS) == actuated_efforts(m)
@@ -84,8 +86,8 @@ def test_gymnasium_efforts_are_the_actuated_joints(name, folder):
 
 def test_v5_walker_differs_only_in_friction():
     """walker2d_v5 is left out of the derivations because its equations are walker2d's."""
-    a = mujoco.MjModel.from_xml_path(str(ASSETS / "walker2d.xml"))
-    b = mujoco.MjModel.from_xml_path(str(ASSETS / "walker2d_v5.xml"))
+    a = compiled_model(str(ASSETS / "walker2d.xml"))
+    b = compiled_model(str(ASSETS / "walker2d_v5.xml"))
     for field in ("body_mass", "body_inertia", "body_ipos", "body_iquat", "body_pos", "body_quat", "jnt_type",
                   "jnt_axis", "jnt_pos", "dof_damping", "dof_armature", "jnt_stiffness", "qpos_spring",
                   "actuator_gear", "actuator_trnid"):

@@ -35,6 +35,7 @@ from dynderive.render.encode import escape_tex
 from conftest import import_code
 
 mujoco = pytest.importorskip("mujoco")
+from conftest import compiled_model  # noqa: E402  (MjSpec: no MUJOCO_LOG.TXT)
 
 HERE = Path(__file__).resolve().parent
 FIXTURES = HERE / "mjcf_input"
@@ -271,7 +272,7 @@ def test_arm_agrees_with_mujoco(arm_module):
     equal MuJoCo's at random full-precision states: q is MuJoCo's qpos (``ref`` folded in)."""
     derivation, module = arm_module
     assert list(module.COORDINATES) == ["shoulder", "reach", "fore_joint2"]
-    model = mujoco.MjModel.from_xml_path(str(ARM))
+    model = compiled_model(str(ARM))
     data = mujoco.MjData(model)
     rng = np.random.default_rng(7)
     for _ in range(4):
@@ -304,7 +305,7 @@ def test_free_joint_conventions_map_onto_mujoco(tmp_path):
     path = FIXTURES / "floating.xml"
     module = import_code(dynderive.render_code(dynderive.derive(dynderive.load_robot(path))), tmp_path, "mj_float_dyn")
     assert module.NQ == 8 and module.NV == 7
-    model = mujoco.MjModel.from_xml_path(str(path))
+    model = compiled_model(str(path))
     data = mujoco.MjData(model)
     rng = np.random.default_rng(3)
     for _ in range(4):

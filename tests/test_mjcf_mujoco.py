@@ -24,6 +24,7 @@ import dynderive
 from conftest import ROBOTS, import_code
 
 mujoco = pytest.importorskip("mujoco")
+from conftest import compiled_model  # noqa: E402  (MjSpec: no MUJOCO_LOG.TXT)
 
 FIXTURES = Path(__file__).parent / "mjcf"
 TOLERANCE = 1e-9
@@ -251,7 +252,7 @@ def test_urdf_converted_by_mujoco_keeps_the_urdf_dynamics(arm, folder):
     path = Path(folder) / f"{arm}_from_urdf.xml"
     path.write_text(xml)
     assert "<inertial" in xml and "<joint" in xml
-    converted = mujoco.MjModel.from_xml_path(str(path))
+    converted = compiled_model(str(path))
     # MuJoCo kept every moving link's inertial (fusestatic folds only the fixed, massless ones
     # and the root welded to the world; no geoms, so no inertia from geoms)
     urdf = dynderive.load_robot(ROBOTS / f"{arm}.urdf")
@@ -282,7 +283,7 @@ def fixture_module(name: str, folder: str):
 def test_tree_fixture_agrees_with_mujoco(folder):
     """Several joints on one body, refs, springs, armature, a ball joint, welded bodies, motors."""
     module = fixture_module("tree", folder)
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "tree.xml"))
+    m = compiled_model(str(FIXTURES / "tree.xml"))
     assert (m.njnt, m.nbody, m.nsite) == (5, 6, 2)
     assert np.all(m.qpos0[[0, 1, 2]] != 0) and np.all(m.jnt_stiffness[[0, 1]] != 0)
     check_against_mujoco(module, m, seed=21, states=4)
@@ -292,11 +293,11 @@ def test_floating_fixture_agrees_with_mujoco(folder):
     """A free body, welded bodies between it and a body with a hinge, a ball and a slide, a
     static body, gravity off the z axis, servo and general actuators."""
     module = fixture_module("floating", folder)
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "floating.xml"))
+    m = compiled_model(str(FIXTURES / "floating.xml"))
     assert set(module.FRAMES) == {"weld1", "weld2", "s"}
     assert set(module.EFFORTS) == actuated_efforts(m) == {"tau_swing", "tau_twist", "f_push"}
     check_against_mujoco(module, m, seed=61)
-    check_frames(module, mujoco.MjModel.from_xml_path(str(FIXTURES / "floating.xml")), seed=62, jac_dot=False)
+    check_frames(module, compiled_model(str(FIXTURES / "floating.xml")), seed=62, jac_dot=False)
 
 
 def test_what_mujoco_switches_off_is_left_out(folder):
@@ -304,7 +305,7 @@ def test_what_mujoco_switches_off_is_left_out(folder):
     ``jointinparent`` motor: the module has MuJoCo's dynamics, j2 stays a coordinate (not a
     mimic) and both motors' joints have efforts."""
     module = fixture_module("flags", folder)
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "flags.xml"))
+    m = compiled_model(str(FIXTURES / "flags.xml"))
     assert module.COORDINATES == ("j1", "j2", "j3")
     assert set(module.EFFORTS) == actuated_efforts(m) == {"tau_j1", "f_j3"}
     assert module.gravity_vector(np.array([0.3, -0.4, 0.1])).tolist() == [0.0, 0.0, 0.0]
@@ -319,7 +320,7 @@ def test_what_mujoco_switches_off_is_left_out(folder):
 def test_tree_fixture_frames_are_mujocos_sites_and_bodies(folder):
     """The named welded body (``tool``) and the sites are frames (the unnamed welded body is not)."""
     module = fixture_module("tree", folder)
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "tree.xml"))
+    m = compiled_model(str(FIXTURES / "tree.xml"))
     assert set(module.FRAMES) == {"tool", "tip", "hand"}
     check_frames(module, m, seed=22, states=4)
 
@@ -342,7 +343,7 @@ def test_joint_equality_is_a_mimic_joint(leader, follower, folder, tmp_path):
         path.write_text((FIXTURES / "mimic.xml").read_text().replace('joint1="follow" joint2="drive"',
                                                                        'joint1="drive" joint2="follow"'))
         module = module_of_file(str(path), folder, "mimic_reversed")
-    m = mujoco.MjModel.from_xml_path(str(path))
+    m = compiled_model(str(path))
     d = mujoco.MjData(m)
     assert module.COORDINATES == (leader, "lin")
     assert module.EFFORTS == (("tau_drive", "f_lin") if leader == "drive" else ("f_lin",))
@@ -372,7 +373,7 @@ def test_chained_joint_equalities_are_composed(folder):
     comes from MuJoCo's constraint Jacobian (the followers' rows solved), the configuration from
     its residual (linear in qpos: one step puts it at zero), so nothing of ours builds it."""
     module = fixture_module("mimic_chain", folder)
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "mimic_chain.xml"))
+    m = compiled_model(str(FIXTURES / "mimic_chain.xml"))
     d = mujoco.MjData(m)
     assert module.COORDINATES == ("j1", "j5")
     ours = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name) for name in module.COORDINATES]
@@ -418,7 +419,7 @@ def test_connect_equality_is_a_spherical_loop(folder):
     (a0 = qacc_smooth, J = efc_J, M = mj_fullM, Jdot qvel from mj_jacDot): ours equals it to
     1e-9, and MuJoCo's soft qacc at zero velocity is within 1e-3 of it."""
     module = fixture_module("loop", folder)
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "loop.xml"))
+    m = compiled_model(str(FIXTURES / "loop.xml"))
     d = mujoco.MjData(m)
     assert module.COORDINATES == ("ja", "jb", "jc", "jd", "je") and len(module.LOOPS) == 1
     assert np.max(np.abs(module.loop_constraints(m.qpos0))) < 1e-15
@@ -452,7 +453,7 @@ def test_connect_between_sites_is_the_same_loop(tmp_path):
     """``connect site1 site2`` (the sites' origins coincide) is the loop of ``connect body1
     body2 anchor`` when the sites sit at the anchors (the second where MuJoCo puts it)."""
     text = (FIXTURES / "loop.xml").read_text()
-    m = mujoco.MjModel.from_xml_path(str(FIXTURES / "loop.xml"))
+    m = compiled_model(str(FIXTURES / "loop.xml"))
     second = " ".join(repr(float(v)) for v in m.eq_data[0, 3:6])
     text = text.replace('<joint name="jb"', '<site name="pin" pos="0.2391 -0.0127 0.0183"/>\n        <joint name="jb"')
     text = text.replace('<joint name="je"', f'<site name="hole" pos="{second}"/>\n          <joint name="je"')
