@@ -461,8 +461,10 @@ def test_damping_is_on_the_page_and_in_the_equations(tmp_path):
     """A damped joint: F read back from the page equals the module's ``friction_forces``, the
     EOM (which holds it) its inverse dynamics, and both equations name F."""
     text = _chain(11, 1).replace("rest: 0.3}", "rest: 0.3, damping: 0.1712345678901234}")
-    _, derivation, page, module = _robot(tmp_path, text, "damped")
-    context, sheet = quasi_velocity_html_context(derivation), derivation.quasi_velocity_steps.sheet
+    _, derivation, _, module = _robot(tmp_path, text, "damped")
+    # every digit shown (--digits 17): the page's numbers read back to the module's rounding
+    page = render_html(derivation, digits=17)
+    context, sheet = quasi_velocity_html_context(derivation, 17), derivation.quasi_velocity_steps.sheet
     assert context["F"] is not None and "<mo>+</mo><mi>N</mi><mo>+</mo><mi>F</mi>" in page
     for q, v, a in _states(derivation, 2):
         names, values = _symbols(derivation, q, v, a)
@@ -486,12 +488,13 @@ def test_same_bytes_from_another_process(free, tmp_path):
 def test_large_robot_as_the_programs_lines(chain):
     """The program form: every line shown once, named w_k; evaluated in order from the
     page's MathML, its tau, M and N equal the module's."""
-    _, derivation, page, module = chain
+    _, derivation, _, module = chain
+    page = render_html(derivation, digits=17)   # every digit shown: the lines evaluate to the module's rounding
     assert derivation.quasi_velocity_steps.sheet is None
     tags = parse(page)
     assert tags.problems == [] and tags.stack == []
     assert "intermediate-variable form" in page and "Kane's" not in page
-    context = quasi_velocity_html_context(derivation)
+    context = quasi_velocity_html_context(derivation, 17)
     lines = [line for group in context["groups"] for line in group["lines"]]
     assert len(lines) == context["line_count"] > 50 and f"In all, {len(lines)} lines." in page
     assert [g["key"] for g in context["groups"]] == ["shared", "tau", "M", "N"]

@@ -144,12 +144,11 @@ def test_every_bundled_robot_is_compiled_below():
 @pytest.mark.parametrize("robot", BUNDLED)
 def test_sheets_fit_the_page(robot, tmp_path):
     """Every bundled robot's default sheet: no line sticks out beyond the margin (before
-    issue 18's line breaking, the mass-spring-damper's by 143 pt, the spatial four-bar's by
-    110 pt); the 3R arm's sheet is at most 12 pages; each compiles in under a minute."""
-    seconds, boxes, pages = _compile(dynderive.render_latex(_derive(robot)), tmp_path)
+    line breaking, the mass-spring-damper's by 143 pt, the spatial four-bar's by 110 pt); the 3R
+    arm's sheet is at most 12 pages (how long pdflatex takes is the build benchmark's matter)."""
+    _, boxes, pages = _compile(dynderive.render_latex(_derive(robot)), tmp_path)
     assert max(boxes, default=0.0) < MARGIN_PT, boxes
     assert pages <= MOST_PAGES.get(robot, 16)
-    assert seconds < 60
 
 
 #: The RP arm's quantities in the order the reference problem set shows them (Problems 1 and

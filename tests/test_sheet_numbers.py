@@ -126,17 +126,21 @@ def test_written_digits_count_significant_digits_of_the_file():
     assert written_digits(robot) == 3
 
 
-def test_cad_sheet_shows_no_number_longer_than_the_file_wrote(cad, cad_derivation):
+def test_cad_sheet_shows_six_digits(cad, cad_derivation):
+    """A file of 17-digit numbers: its sheet shows 6 significant digits (and says so); with
+    ``--digits 17`` every number the file wrote appears as written."""
+    assert file_digits(CAD_ROBOT) == 17
     sheet = body(dynderive.render_latex(cad_derivation))
-    limit = file_digits(CAD_ROBOT)
-    assert limit == 17
     digits, number = most_digits(sheet)
-    assert digits <= limit, number
-    # no surd of a normalised axis, no fraction of long integers
+    assert digits <= 6, number
+    assert "shown to 6 significant digits (the file writes up to 17" in sheet
+    # no surd of a normalised axis, no fraction of long integers, no run of 13 digits
     assert r"\sqrt" not in sheet
-    assert not re.search(r"\\frac\{\d{4,}\}", sheet)
-    # the numbers the file wrote appear as written
-    assert "0.1234567890123456" in sheet and "1.2345678901234567" in sheet
+    assert not re.search(r"\\frac\{\d{4,}\}", sheet) and not re.search(r"\d{13}", sheet)
+    assert "Mass $1.23457$" in sheet   # the link mass 1.2345678901234567, rounded
+    full = body(dynderive.render_latex(cad_derivation, digits=17))
+    assert most_digits(full)[0] <= 17 and "shown to" not in full
+    assert "0.1234567890123456" in full and "1.2345678901234567" in full
 
 
 def test_digits_shortens_every_number(cad_derivation):
@@ -192,8 +196,9 @@ def test_html_page_obeys_the_rule(cad_derivation):
 
     page = html.unescape(render_html(cad_derivation))   # the minus sign is a character reference
     numbers = " ".join(re.findall(r"<mn>([^<]*)</mn>", page))
-    assert numbers and most_digits(numbers)[0] <= 17
-    assert "<msqrt>" not in page and "1.2345678901234567" in page
+    assert numbers and most_digits(numbers)[0] <= 6
+    assert "<msqrt>" not in page and "<mn>1.23457</mn>" in page and "shown to 6 significant digits" in page
+    assert "1.2345678901234567" in html.unescape(render_html(cad_derivation, digits=17))
     short = html.unescape(render_html(cad_derivation, digits=3))
     assert most_digits(" ".join(re.findall(r"<mn>([^<]*)</mn>", short)))[0] <= 3
     assert "<mn>1.23</mn>" in short

@@ -85,7 +85,9 @@ def test_lines_are_named_by_meaning_not_numbered():
     names = [line["name"] for part in ("forward", "backward", "composite", "columns")
              for block in context[part] for line in block["lines"] if line["name"]]
     assert not any(r"\mathsf{w}" in name or "_t" in name for name in names)
-    joined = " ".join(names)
+    aliases = [line["value"] for part in ("forward", "backward", "composite", "columns")   # name = value, side by side
+               for block in context[part] for line in block["lines"] if not line["name"]]
+    joined = " ".join(names + aliases)
     for name in (r"\omega_{3x}", r"\dot\omega_{3z}", r"\bar\omega_{3x}", r"F_{7x}", r"N_{7z}",
                  r"f_{6x}", r"n_{6z}", r"I^c_{6,xx}", r"n^{(7)}_{7x}"):
         assert name in joined, name

@@ -174,7 +174,7 @@ def solve(
     floating_base: FloatingBase = False,
     symbolic: Symbolic = None,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheet's numbers (and the printed equations') "
-                      "to at most N significant digits (default: as many as the robot file wrote).")] = None,
+                      "to N significant digits (default: as many as the robot file wrote, at most 6).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")] = False,
     **targets: bool,
 ) -> None:
@@ -510,8 +510,8 @@ def build(
     symbolic: Annotated[str | None, typer.Option("--symbolic", help="URDF files: LINK.FIELD[,...] "
                         "(wildcards; FIELD mass, com or inertia): those inertial values become "
                         "parameters.")] = None,
-    digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to at most N significant "
-                      "digits (default: as many as each robot file wrote).")] = None,
+    digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to N significant "
+                      "digits (default: as many as each robot file wrote, at most 6).")] = None,
     **targets: bool,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+
 from ..errors import InputError, Problem
 from .loader import SourceDocument
 

@@ -99,8 +99,10 @@ def applied_forces(robot: Robot, table: SymbolTable) -> sympy.Matrix:
 
 
 def _trig_squares(expr: sympy.Expr) -> bool:
-    """Whether ``expr`` squares a sine or cosine, or a sum holding one (``m2 (l1 cos q2 + l2)^2``)."""
-    return any(p.exp.is_Integer and p.exp > 1 and p.base.has(sympy.sin, sympy.cos) for p in expr.atoms(sympy.Pow))
+    """Whether ``expr`` squares a sine or cosine of the coordinates, or a sum holding one
+    (``m2 (l1 cos q2 + l2)^2``); ``sin(0.38)^2``, a joint origin's constant, is a number."""
+    return any(p.exp.is_Integer and p.exp > 1 and any(f.free_symbols for f in p.base.atoms(sympy.sin, sympy.cos))
+               for p in expr.atoms(sympy.Pow))
 
 
 def _textbook(built: sympy.Expr, fourier: sympy.Expr) -> bool:

@@ -1,10 +1,11 @@
-"""Numbers on the sheet as the robot file wrote them (docs/reference/outputs.md, "Numbers on the sheet").
+"""Numbers on the sheet as the robot file wrote them, to at most 6 significant digits by default
+(docs/reference/outputs.md, "Numbers on the sheet").
 
 The loader turns every decimal of a robot file into an exact rational (``0.1234`` -> 617/5000),
 so the derivation is exact; printed as SymPy prints it, a CAD number becomes a fraction of 30
 digits and a normalised axis a surd of 60. The sheet's printers (LaTeX, MathML, the terminal's)
 print numbers by one rule instead, with ``D`` the robot's precision (``sheet_digits``: the most
-significant digits among the numbers its file wrote, or ``--digits N`` if fewer):
+significant digits among the numbers its file wrote, at most 6, or ``--digits N``):
 
 * an integer as it is, unless it has more than max(D, 3) significant digits;
 * a short fraction (numerator and denominator of at most max(2, min(3, D)) digits: 1/3, 7/12,
@@ -15,8 +16,9 @@ significant digits among the numbers its file wrote, or ``--digits N`` if fewer)
 * every other number, and every constant with such a number or a surd of a long number in
   it (a normalised CAD axis ``17573222896111212*sqrt(408...)/408...``), as a decimal rounded
   to D significant digits; the constant factors of a product fold into one decimal, a
-  decimal times a sum of decimal terms is multiplied out (no ``1.8e-49 (5.3e47 x + ...)``)
-  and terms that differ only in such constants are collected.
+  decimal times a sum of decimal terms is multiplied out (no ``1.8e-49 (5.3e47 x + ...)``), as
+  is a decimal times a sum of integers of which one is 10 or more (``0.001 (79 x + 220 y)``, a
+  power of ten factored out), and terms that differ only in such constants are collected.
 
 Decimals print as ``printf("%.Dg")`` does: trailing zeros dropped, ``1.2 \\cdot 10^{-5}``
 below 1e-4 and at or above 10^D. Exact constants (``\\sqrt{2}/2``, ``\\pi/4``) stay exact.
@@ -34,11 +36,16 @@ from sympy.core.numbers import Float, Rational, prec_to_dps
 
 from ..model.written import written_digits
 
+#: D's default ceiling: a CAD file's 17 digits print as 6 (the JSON and the code keep them all).
+DEFAULT_MOST_DIGITS = 6
 
-def sheet_digits(robot: Any, limit: int | None = None) -> int:
-    """D: the robot's written precision (at least 1), at most ``limit`` (``--digits``)."""
-    digits = max(1, written_digits(robot))
-    return digits if limit is None else min(digits, limit)
+
+def sheet_digits(robot: Any, digits: int | None = None) -> int:
+    """D: ``digits`` (``--digits N``) when given, else the robot's written precision (at least
+    1), at most ``DEFAULT_MOST_DIGITS``."""
+    if digits is not None:
+        return digits
+    return min(max(1, written_digits(robot)), DEFAULT_MOST_DIGITS)
 
 
 def _magnitude(value: sympy.Basic) -> float:
@@ -166,21 +173,26 @@ class Numbers:
     def _mul(self, expr: sympy.Mul) -> sympy.Basic:
         value, symbolic = self.split(expr)
         others = [f for f in sympy.Mul.make_args(symbolic) if f != 1]
-        powers = [f for f in others if f.is_Pow and f.exp.is_Integer and f.exp > 0 and self._decimal_sum(f.base)]
+        decimal = not value.is_Integer and self.shown(value) is not None
+
+        def scaled(total: sympy.Basic) -> bool:   # a sum to multiply out or scale to its largest term
+            return self._decimal_sum(total) or (decimal and self._scaled_sum(total))
+
+        powers = [f for f in others if f.is_Pow and f.exp.is_Integer and f.exp > 0 and scaled(f.base)]
         if powers:   # (1.6e32 x + ...)^2 as 2.4e64 (0.15 x + ...)^2
             scaled_powers = []
             for power in powers:
-                scale = max((self.split(t)[0] for t in power.base.args), key=_magnitude)
+                scale = self._scale(power.base)
                 scaled_powers.append(sympy.Add(*(t / scale for t in power.base.args)) ** power.exp)
                 value *= scale ** power.exp
             others = [f for f in others if all(f is not p for p in powers)] + scaled_powers
-        sums = [f for f in others if f.is_Add and self._decimal_sum(f)]
+        sums = [f for f in others if f.is_Add and scaled(f)]
         if sums:
             # each such sum scaled to its largest constant (1.3e16 x + 2e15 -> 1.3e16 (x + 0.15)),
             # the scales and the coefficient multiplied into the first
             rest, scaled = [f for f in others if all(f is not s for s in sums)], []
             for total in sums:
-                scale = max((self.split(t)[0] for t in total.args), key=_magnitude)
+                scale = self._scale(total)
                 scaled.append(sympy.Add(*(t / scale for t in total.args)) if scale != 0 else total)
                 value *= scale if scale != 0 else 1
             first = sympy.Add(*(value * t for t in scaled[0].args))
@@ -204,6 +216,25 @@ class Numbers:
     def _decimal_sum(self, expr: sympy.Basic) -> bool:
         """Whether ``expr`` is a sum with a term whose constant prints as a decimal."""
         return expr.is_Add and any(self.shown(self.split(t)[0]) is not None for t in expr.args)
+
+    def _scale(self, total: sympy.Add) -> sympy.Basic:
+        """What a sum is divided by (and its product's coefficient multiplied by): its largest
+        constant; for a sum of integers (``_scaled_sum``) the power of ten at or above the largest,
+        so that its terms become decimals again (``79 x + 220 y`` -> ``0.079 x + 0.22 y``), not
+        fractions of its integers."""
+        if not self._decimal_sum(total):
+            largest = max(abs(int(t.as_coeff_Mul()[0])) for t in total.args)
+            return sympy.Integer(10) ** len(str(largest))
+        return max((self.split(t)[0] for t in total.args), key=_magnitude)
+
+    def _scaled_sum(self, expr: sympy.Basic) -> bool:
+        """Whether ``expr`` is a sum of terms with integer coefficients, one of them at least 10:
+        the integers left when a decimal was factored out (``0.001 (79 x + 220 y)``), which the
+        sheet multiplies back in (a decimal in front of it), as it does for a sum of decimals."""
+        if not expr.is_Add:
+            return False
+        coefficients = [t.as_coeff_Mul()[0] for t in expr.args]   # 71 of 71 sin(0.38): an exact constant's
+        return all(c.is_Integer for c in coefficients) and max(abs(int(c)) for c in coefficients) >= 10
 
     def _decimal_sums(self, term: sympy.Basic) -> bool:
         """Whether a term has a sum among its factors with a decimal term."""

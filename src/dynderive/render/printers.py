@@ -47,7 +47,7 @@ class RememberingStrPrinter(_Remembering, StrPrinter):
 
 
 class SheetLatexPrinter(DecimalNumbers, RememberingLatexPrinter):
-    """The sheet's LaTeX printer: numbers as the robot file wrote them (``render.numbers``)."""
+    """The sheet's LaTeX printer: numbers as the robot file wrote them, to D digits (``render.numbers``)."""
 
     def __init__(self, settings: dict[str, Any], numbers: Numbers):
         super().__init__(settings)

@@ -150,7 +150,7 @@ class PageStyle(SheetStyle):
 def render_html(derivation: Derivation, template_dir: str | Path | None = None,
                 sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
     """The HTML sheet of ``sections`` (default: the LaTeX sheet's ``default_sections``), numbers
-    to ``digits`` significant digits at most (default: as the robot file wrote them). A robot
+    to ``digits`` significant digits (default: as the robot file wrote them, at most 6). A robot
     with quaternion joints gets the quasi-velocity page (``html_quasi_velocity``)."""
     context = (quasi_velocity_html_context(derivation, digits) if derivation.robot.floating
                else html_context(derivation, sections, digits))

@@ -22,7 +22,7 @@ from ...derivation import Derivation
 from ...model.naming import GREEK, split_index
 from ..numbers import DecimalNumbers, Numbers, sheet_digits
 from ..printers import DerivationFormatter
-from .latex_format import Formatter, coordinate_entries, entry_index, matrix_layout, opening
+from .latex_format import Formatter, coordinate_entries, entry_index, matrix_layout, opening, shown_digits
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -205,6 +205,7 @@ class MathFormatter(DerivationFormatter):
         super().__init__()
         self.digits = digits   # --digits, for the LaTeX formatter's decisions the page repeats
         self.numbers = Numbers(sheet_digits(derivation.robot, digits))
+        shown_digits(self.numbers)   # the LaTeX formatter's width estimates, at the page's precision
         table = derivation.symbols
         names: dict[sympy.Symbol, Name | Markup] = {s: name_of(str(s)) for s in table.all_symbols()}
         if derivation.robot.floating:

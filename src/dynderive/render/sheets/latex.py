@@ -340,7 +340,7 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
 def render_latex(derivation: Derivation, template_dir: str | Path | None = None,
                  sections: tuple[str, ...] | None = None, digits: int | None = None) -> str:
     """The sheet of ``sections`` (default: ``default_sections``), numbers to ``digits``
-    significant digits at most (default: as the robot file wrote them). A robot with
+    significant digits (default: as the robot file wrote them, at most 6). A robot with
     quaternion joints gets the quasi-velocity sections (``quasi_velocity``) instead."""
     context = (quasi_velocity_context(derivation, digits) if derivation.robot.floating
                else sheet_context(derivation, sections, digits))

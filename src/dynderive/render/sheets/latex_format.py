@@ -4,6 +4,7 @@ an expression is set (``typeset_width``, ``matrix_width``, ``subscript``)."""
 
 from __future__ import annotations
 
+import contextvars
 import functools
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,7 @@ import sympy
 from ...derivation import Derivation
 from ...mechanics.tidy import is_small
 from ...model.naming import latex_name
+from ...model.written import written_digits
 from ..encode import escape_tex, tex_unit
 from ..numbers import Numbers, latex_decimal, sheet_digits
 from ..printers import DerivationFormatter, RememberingLatexPrinter, SheetLatexPrinter
@@ -41,7 +43,13 @@ TIGHT = 1.15
 MATRIX_COLUMNS = 20
 #: Estimated width (math glyphs) of one line of a displayed expression: the line less room for
 #: the name in front, the continuation lines' indent and the estimate's error (about a fifth).
-DISPLAY_UNITS = 64
+DISPLAY_UNITS = 74
+
+
+#: Estimated width (math glyphs) of an entry's name and "=" (``(J^b_{sL_2})_{11} =``), and of
+#: the ``,\qquad`` between entries set side by side (``packed``).
+ENTRY_NAME_UNITS = 9.0
+ENTRY_GAP_UNITS = 4.0
 
 
 #: Coordinate and velocity LaTeX of a floating joint's entries (DESIGN.md section 10 order).
@@ -123,6 +131,7 @@ class Formatter(DerivationFormatter):
                     "long_frac_ratio": 2, "order": self.order}
         # the sheet's numbers as the file wrote them (render.numbers); exact: SymPy's (the JSON)
         self.numbers = None if exact else Numbers(sheet_digits(derivation.robot, digits))
+        shown_digits(self.numbers)
         self._printer = (RememberingLatexPrinter(settings) if self.numbers is None
                          else SheetLatexPrinter(settings, self.numbers))
         self._breaker = LineBreaker(self, typeset_width, self.order, self.numbers)
@@ -163,7 +172,26 @@ class Formatter(DerivationFormatter):
         single = rows == cols == 1 and "_" in name   # a named 1 x 1 matrix (a one-DOF loop's M_r) is its entry
         entries = [{"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
                     "latex": self.display(matrix[i, j], None)} for i, j in places]
-        return {"latex": whole, **layout, "entries": entries}
+        widths = [typeset_width(matrix[i, j]) + ENTRY_NAME_UNITS for i, j in places]
+        return {"latex": whole, **layout, "entries": entries, "rows": packed(entries, widths)}
+
+
+def packed(entries: list[dict[str, Any]], widths: list[float]) -> list[list[dict[str, Any]]]:
+    """The entries of a matrix set entry by entry, as display lines: consecutive one-line
+    entries side by side while their estimated widths (``widths``, names included) fit a line,
+    a broken one alone. A wide matrix of short entries (a CAD robot's Jacobian) then takes a
+    few lines instead of a display each."""
+    rows: list[list[dict[str, Any]]] = []
+    used = DISPLAY_UNITS + 1.0
+    for entry, width in zip(entries, widths):
+        alone = len(getattr(entry["latex"], "lines", ())) > 1
+        if alone or not rows or len(rows[-1][0]["latex"].lines) > 1 or used + ENTRY_GAP_UNITS + width > DISPLAY_UNITS:
+            rows.append([entry])
+            used = width
+        else:
+            rows[-1].append(entry)
+            used += ENTRY_GAP_UNITS + width
+    return rows
 
 
 def matrix_layout(matrix: sympy.Matrix) -> tuple[dict[str, Any], list[tuple[int, int]], bool]:
@@ -262,29 +290,49 @@ class Display(str):
         return self
 
 
-@functools.lru_cache(maxsize=1 << 16)
+#: The significant digits the sheet being made prints its decimals with (``shown_digits``), for
+#: ``typeset_width``: a CAD number of 17 digits is 8 glyphs wide at 6.
+_DIGITS: contextvars.ContextVar[int] = contextvars.ContextVar("sheet_digits", default=17)
+
+
+def shown_digits(numbers: Numbers | None) -> None:
+    """Tell ``typeset_width`` the precision of the sheet a formatter makes (None: SymPy's exact
+    numbers, as wide as they are)."""
+    _DIGITS.set(numbers.digits if numbers is not None else 17)
+
+
 def typeset_width(expr: sympy.Basic) -> float:
     """Estimated width of ``expr`` typeset inline, in math glyphs: a symbol is a glyph and its
     index 0.7 a digit, a sum adds 2.2 per sign, a function its name and parentheses, a
-    fraction its wider part. Rough (within about a fifth on the bundled sheets), and cheap
-    (remembered: the line breaker asks for the same pieces again and again)."""
+    fraction its wider part, a long number its decimal at the sheet's precision. Rough (within
+    about a fifth on the bundled sheets), and cheap (remembered: the line breaker asks for the
+    same pieces again and again)."""
+    return _typeset_width(expr, _DIGITS.get())
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _typeset_width(expr: sympy.Basic, digits: int) -> float:
+    def typeset_width(part: sympy.Basic) -> float:   # the parts, at the same precision
+        return _typeset_width(part, digits)
+
     if expr.is_Symbol:
         name = str(expr).lstrip("_")
         stem = name.rstrip("0123456789")
         index = len(name) - len(stem)
         base = stem.rstrip("d") or stem      # qd1, phid1: a dot over the coordinate's letter
         return (1.0 if base in _GREEK or len(base) == 1 else 0.9 * len(base)) + 0.7 * index
-    # the sheet prints a long number as a decimal of at most 17 digits (render.numbers)
+    # the sheet prints a long number as a decimal of at most ``digits`` digits (render.numbers)
     if expr.is_Integer:
-        return min(len(str(expr)), 24)
+        size = len(str(abs(int(expr))))
+        return float(size if size <= max(digits, 3) else min(size, digits + 5))   # 1.23457 \cdot 10^{8}
     if expr.is_Rational:
         p, q = abs(int(expr.p)), int(expr.q)
         if len(str(q)) > 3 and q == 2 ** _factor_count(q, 2) * 5 ** _factor_count(q, 5):
             # a terminating decimal, printed as one (render.numbers): its characters (at most
-            # 17 digits, the point and a leading zero)
+            # ``digits`` digits, the point and a leading zero)
             shift = max(_factor_count(q, 2), _factor_count(q, 5))   # digits after the point
-            return float(min(max(len(str(p)), shift) + 2, 19))
-        return min(0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6, 19)
+            return float(min(max(len(str(p)), shift) + 2, 19, digits + 3))
+        return min(0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6, 19, digits + 3)
     if expr.is_Number:
         return len(sympy.sstr(expr))
     if expr.is_Add:
@@ -394,9 +442,14 @@ def opening(derivation: Derivation, fmt: Any, gravity: sympy.Matrix, joints: lis
     parameters = [{"symbol": fmt(table.parameters[p.name]),
                    "value": "" if p.value is None else value(p.value),
                    "unit": unit(p.unit), "description": text(p.description)} for p in robot.parameters]
+    numbers = getattr(fmt, "numbers", None)
+    written = written_digits(robot)
     return {
         "generator": f"dynderive {__version__}",
         "source": text(Path(robot.source).name),
+        # the file wrote more digits than the sheet shows (a CAD file's 17): said once, at the top
+        "precision": {"digits": numbers.digits, "written": written}
+        if numbers is not None and written > numbers.digits else None,
         "robot": {"name": text(robot.name), "title": text(robot.title), "planar": robot.planar,
                   "parameters": parameters, "joints": joints, "gravity": fmt(gravity)},
     }

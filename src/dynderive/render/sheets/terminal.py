@@ -40,7 +40,7 @@ def _block(title: str, value: object, printer: _Printer) -> str:
 
 
 def render_terminal(derivation: Derivation, digits: int | None = None) -> str:
-    """The equations of motion as text, numbers as the robot file wrote them (to ``digits``);
+    """The equations of motion as text, numbers as the robot file wrote them (to ``digits``, at most 6 by default);
     velocities as ``q₁'``; a robot with quaternion joints: in quasi-velocities (``_quasi_velocity``)."""
     robot = derivation.robot
     numbers = Numbers(sheet_digits(robot, digits))
