@@ -115,6 +115,30 @@ def test_mass_matrix_reads_back_to_the_printed_digits(cad_robots, case):
         assert worst <= tolerance * np.max(np.abs(M)), (digits, worst)
 
 
+@pytest.mark.parametrize("case", [("planar", 5), ("spatial", 2)], ids=lambda c: f"{c[0]}{c[1]}")
+def test_mass_matrix_mathml_reads_back_to_the_printed_digits(cad_robots, case):
+    """The HTML page's M entries (MathML), evaluated back, equal the module's M to the printed
+    digits (and to 1e-11 with every digit shown)."""
+    from test_html import _symbols, _value
+
+    from dynderive.render.sheets.html_math import MathFormatter
+
+    derivation = cad_robots[case]
+    module = generated_module(dynderive.render_code(derivation), derivation.robot.name)
+    rng = np.random.default_rng(6)
+    q = rng.uniform(-1.5, 1.5, len(derivation.symbols.q))
+    names, values = _symbols(derivation, q, np.zeros_like(q), np.zeros_like(q))
+    M = module.mass_matrix(q)
+    symbolic = derivation.quantities["M_g"]
+    for name, value in reversed(derivation.intermediates):
+        symbolic = symbolic.xreplace({name: value})
+    for digits, tolerance in ((None, 2e-5), (17, 1e-11)):
+        fmt = MathFormatter(derivation, digits)
+        worst = max(abs(float(_value(str(fmt(symbolic[i, j])), names, values)) - M[i, j])
+                    for i in range(M.shape[0]) for j in range(i, M.shape[1]))
+        assert worst <= tolerance * np.max(np.abs(M)), (digits, worst)
+
+
 @pytest.mark.pdf
 @pytest.mark.parametrize("robot", ["chain4", "four_bar"])
 def test_cad_sheet_pages_within_a_fifth_of_the_round_sheet(robot, tex, tmp_path):  # noqa: F811
