@@ -119,9 +119,8 @@ def test_mass_matrix_reads_back_to_the_printed_digits(cad_robots, case):
 def test_mass_matrix_mathml_reads_back_to_the_printed_digits(cad_robots, case):
     """The HTML page's M entries (MathML), evaluated back, equal the module's M to the printed
     digits (and to 1e-11 with every digit shown)."""
-    from test_html import _symbols, _value
-
     from dynderive.render.sheets.html_math import MathFormatter
+    from test_html import _symbols, _value
 
     derivation = cad_robots[case]
     module = generated_module(dynderive.render_code(derivation), derivation.robot.name)
