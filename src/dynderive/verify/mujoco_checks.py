@@ -20,15 +20,10 @@ from typing import Any
 import numpy as np
 
 from ..derivation import Derivation
+from ..input.mjcf_tree import quaternion_matrix
 from .rows import Row, _row, peak
 
 NAME = "agrees with MuJoCo (mj_fullM, qfrc_bias, mj_forward's qacc without constraints)"
-
-
-def _quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def to_ours(model: Any, qpos: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -39,7 +34,7 @@ def to_ours(model: Any, qpos: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray,
         a, v, kind = int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), int(model.jnt_type[j])
         if kind == 0:   # free: position, quaternion w last; linear velocity into the body frame
             w, x, y, z = qpos[a + 3:a + 7]
-            R = _quaternion_matrix(w, x, y, z)
+            R = quaternion_matrix((w, x, y, z))
             linear, angular = R.T @ qvel[v:v + 3], qvel[v + 3:v + 6]
             q += [*qpos[a:a + 3], x, y, z, w]
             qd += [*linear, *angular]
