@@ -158,3 +158,17 @@ def test_cad_sheet_pages_within_a_fifth_of_the_round_sheet(robot, tex, tmp_path)
         derivation = _derive(text, tmp_path, f"{robot}_{variant}")
         _, pages[variant], _ = compile_pdf_report(dynderive.render_latex(derivation), f"{robot}_{variant}")
     assert pages["CAD"] <= 1.2 * pages["round"], pages
+
+
+def test_small_terms_are_shown_not_rounded_away():
+    """A coefficient far below the others prints with its power of ten, never as 0: the sheet
+    drops only what is zero in exact arithmetic."""
+    import sympy
+
+    from dynderive.render.numbers import Numbers
+    from dynderive.render.printers import SheetLatexPrinter
+
+    x, y = sympy.symbols("x y")
+    tiny = sympy.Rational(123456789, 10**25)   # 1.23456789e-17
+    text = SheetLatexPrinter({}, Numbers(6)).doprint(sympy.Rational(7, 10) * x + tiny * y)
+    assert r"1.23457 \cdot 10^{-17} y" in text and "0.7 x" in text
