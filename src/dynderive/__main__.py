@@ -24,10 +24,14 @@ SYMPY_CACHE_SIZE = "16384"
 
 #: Set once the command has finished (or been interrupted): a signal after it changes nothing.
 _finishing = False
+#: Set when a signal interrupted the run (an import it broke may surface as an ImportError).
+_signalled = False
 
 
 def _interrupt(signum: int, frame: object) -> None:
+    global _signalled
     if not _finishing:
+        _signalled = True
         raise Interrupted
 
 
@@ -62,6 +66,13 @@ def run() -> None:
             code = exc.code
         _finishing = True
     except Interrupted:
+        _finishing = True
+        code = _interrupted()
+    except ImportError:
+        # a signal that arrived while a C extension was importing: NumPy reports the interrupted
+        # import as its own ImportError, with the Interrupted as its cause
+        if not _signalled:
+            raise
         _finishing = True
         code = _interrupted()
     # During the interpreter's shutdown Python hands signals back to the default action
