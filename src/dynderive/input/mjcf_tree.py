@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from ..model.written import significant_digits
 from .loader import Path_, SourceDocument
@@ -235,10 +234,7 @@ class _Tree:
 def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, locator: Locator) -> SourceDocument:
     """The compiled ``model`` as robot-file data in ``doc`` (positions, labels, notes)."""
     tree = _Tree(mujoco, spec, model, doc, locator)
-    tree.walk()
-    if not tree.links:
-        raise InputError(Problem(doc.file, *locator.root, "no body moves: the model has no joint outside the world "
-                                 "body (a robot needs at least one hinge, slide, ball or free joint)"))
+    tree.walk()   # read_mjcf has refused a model without joints: every joint makes a link
     efforts = _actuators(tree)
     mimics, loops = _equalities(tree)
     _notes(tree)
