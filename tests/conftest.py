@@ -6,9 +6,11 @@ import importlib.util
 import itertools
 import os
 import sys
+import zlib
 from functools import cache
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import dynderive
@@ -64,6 +66,24 @@ def on_loops(module, qs, qds, spread: float = 0.3):
 
 
 @cache
+def stable_seed(robot: str) -> int:
+    """A random seed named by a robot's file name, not its path: the states a test draws must not
+    depend on where the repository is checked out."""
+    return zlib.crc32(Path(str(robot)).name.encode())
+
+
+def acceleration_scale(module, q, qd, u) -> float:
+    """The size of the unconstrained accelerations ``M^-1 (Y - C qd - N)`` at a state: a loop's
+    constrained accelerations are those minus the constraint forces' share, and where the two
+    nearly cancel the result is far smaller than the rounding of the terms, so generated code is
+    compared with the NumPy module relative to this (or the result's own size, if larger)."""
+    mass = np.asarray(module.mass_matrix(q), dtype=float)
+    rhs = (np.asarray(module.generalized_forces(q, u), dtype=float)
+           - np.einsum("...ij,...j->...i", module.coriolis_matrix(q, qd), qd) - module.gravity_vector(q))
+    rhs = np.broadcast_to(rhs, mass.shape[:-1])
+    return float(np.max(np.abs(np.linalg.solve(mass, rhs[..., None])), initial=0.0))
+
+
 def derivation_of(robot: str):
     """Derivation of a bundled robot (cached across tests)."""
     return dynderive.derive(dynderive.load_robot(robot))

@@ -22,7 +22,7 @@ import dynderive
 from dynderive.render.targets.c.c import render_c
 from test_c_target import CC, STRICT, Library, _close, _compile, _write
 
-from conftest import ROBOTS, derivation_of, import_code, module_of
+from conftest import ROBOTS, acceleration_scale, derivation_of, import_code, module_of, stable_seed
 
 HERE = Path(__file__).parent / "loops"
 LOOP_ROBOTS = ["four_bar", "slider_crank", "bennett", "spatial_four_bar",
@@ -80,8 +80,9 @@ def test_loop_robot_agrees_with_numpy(robot, tmp_path, code_dir):
     header = (tmp_path / f"{library.name}_dynamics.h").read_text()
     assert f"#define {library.name.upper()}_NC {k}" in header
     defaults = [*map(float, module.PARAMETERS.values()), 0.0]
-    rng = np.random.default_rng(len(robot))
+    rng = np.random.default_rng(stable_seed(robot))
     for q, qd, u in _states(module, rng, 3):
+        terms = acceleration_scale(module, q, qd, u)
         assert np.max(np.abs(module.loop_jacobian(q) @ qd)) < 1e-9 * max(1.0, np.max(np.abs(qd)))
         _, a = _call(library, "loop_constraints", [q], (k,), None)
         assert np.max(np.abs(a)) < 1e-11   # assembled: zero, up to rounding (no relative test)
@@ -99,14 +100,15 @@ def test_loop_robot_agrees_with_numpy(robot, tmp_path, code_dir):
             status, qdd = _call(library, "forward_dynamics", [q, qd, u], (n,), p)
             assert status == 0
             expected = module.forward_dynamics(q, qd, u, alpha=alpha, beta=beta)
-            _close(qdd, expected, f"forward_dynamics alpha={alpha}")
+            _close(qdd, expected, f"forward_dynamics alpha={alpha}", terms)
             status, qdd = _call(library, "forward_dynamics_wrenches", [q, qd, u, None], (n,), p)
             assert status == 0
-            _close(qdd, expected, "forward_dynamics_wrenches NULL")
+            _close(qdd, expected, "forward_dynamics_wrenches NULL", terms)
         # off the constraints the Baumgarte terms matter: the C struct's gains are read
         status, qdd = _call(library, "forward_dynamics", [off, qd, u], (n,), [*defaults, 2.0, 7.0])
         assert status == 0
-        _close(qdd, module.forward_dynamics(off, qd, u, alpha=2.0, beta=7.0), "forward_dynamics off the constraints")
+        _close(qdd, module.forward_dynamics(off, qd, u, alpha=2.0, beta=7.0), "forward_dynamics off the constraints",
+               acceleration_scale(module, off, qd, u))
         assert np.max(np.abs(qdd - module.forward_dynamics(off, qd, u))) > 1e-6
         status, lam = _call(library, "loop_forces", [q, qd, u], (k,), None)
         assert status == 0
@@ -117,7 +119,7 @@ def test_loop_robot_agrees_with_numpy(robot, tmp_path, code_dir):
         _close(R.reshape(n, m), module.reduced_basis(q), "reduced_basis")
         status, qdd = _call(library, "reduced_forward_dynamics", [q, qd, u], (n,), None)
         assert status == 0
-        _close(qdd, module.reduced_forward_dynamics(q, qd, u), "reduced_forward_dynamics")
+        _close(qdd, module.reduced_forward_dynamics(q, qd, u), "reduced_forward_dynamics", terms)
         guess = q + 0.05 * _dependent_mask(module)   # the dependent coordinates moved
         status, assembled = _call(library, "assemble", [guess], (n,), None)
         assert status == 0
