@@ -318,3 +318,18 @@ def test_quiet_build_prints_only_what_needs_the_user(tmp_path):
     assert len(lines) == 3 and lines[0].split()[:2] == ["robot", "status"], check.stdout
     assert lines[1].split()[:2] == [str(robots / "cart_pole.yaml"), "differs"]
     assert lines[2] == f"  {module}: differs"
+
+
+def test_the_build_guide_lists_every_name_prune_may_remove():
+    """docs/guides/build.md says exactly what --prune may delete: every suffix of the registry."""
+    from dynderive.commands.build import EXTENSION_SUFFIX, OUTPUT_NAMES
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "guides" / "build.md").read_text()
+    section = " ".join(text.split("### What `--prune` may delete", 1)[1].split("\n## ", 1)[0].split())
+    for pattern in OUTPUT_NAMES:
+        if pattern.startswith("+"):
+            assert "`.m` file in the robot's MATLAB package folder `+<name>/`" in section
+        elif pattern.endswith(EXTENSION_SUFFIX):
+            assert "`_dynamics_c<extension suffix>`" in section
+        else:
+            assert f"`{pattern.replace('{}', '')}`" in section, pattern
