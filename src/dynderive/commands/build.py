@@ -12,15 +12,20 @@ same files are up to date however the folder is named on the command line (``rob
 name (hence the same output files) are refused before anything is built: in one run, or
 across runs when the manifest says another file that still has that name wrote them. A
 manifest or record that is not what dynderive writes (a merge conflict, a hand edit) counts
-as absent, with a note. The manifest is read, merged and replaced under an exclusive lock
-(``flock`` on a lock file beside it), so concurrent builds into one directory keep every
-record.
+as absent, with a note; so does a manifest that is a symbolic link, which is never read or
+written through (the link itself is replaced). The manifest is read, merged and replaced
+under an exclusive lock (``flock`` on the output folder itself, so no lock file is left
+behind), so concurrent builds into one directory keep every record.
 
 A robot's outputs agree after every run: a PDF that could not be made removes the robot's
 earlier PDF (the new ``.tex`` and LaTeX's log are written), a PDF or extension that is made
 removes the log of an earlier failure. Records of robot files that no longer exist are kept
 while their outputs are in the output directory: those outputs are reported as orphaned
-(``--check`` fails on them) until ``prune`` removes them with the record.
+(``--check`` fails on them) until ``prune`` removes them with the record: only those that
+are still what ``build`` wrote (``prune.py`` says what that means).
+
+An interrupt (SIGINT, SIGTERM) of a parallel build cancels the robots not started and stops
+the workers at once (they hold nothing but outputs in memory), then exits as any other.
 """
 
 from __future__ import annotations
@@ -30,6 +35,8 @@ import json
 import multiprocessing
 import os
 import re
+import signal
+import stat
 import sysconfig
 import time
 from collections.abc import Callable, Iterator
@@ -48,6 +55,7 @@ except ImportError:  # pragma: no cover - not POSIX: builds are not serialized
     fcntl = None  # type: ignore[assignment]
 
 MANIFEST = ".dynderive-build.json"
+#: The lock file of earlier versions (and of file systems that cannot lock a folder).
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf", ".xml")
 #: The output kinds: the sheets, the code targets', the JSON and the web page.
@@ -81,13 +89,20 @@ def discover(paths: list[Path]) -> list[Path]:
     """Robot files under ``paths`` (files as given, folders searched; extensions in any case,
     ``ARM.URDF`` too), in a stable order."""
     found: list[Path] = []
+    problems: list[Problem] = []
     for path in paths:
         if path.is_dir():
-            found += sorted(p for p in path.rglob("*") if p.suffix.lower() in SUFFIXES and p.is_file())
+            inside = sorted(p for p in path.rglob("*") if p.suffix.lower() in SUFFIXES and p.is_file())
+            if not inside:   # a job pointed at the wrong folder must not go green
+                problems.append(Problem(str(path), 1, 1, "no robot files in this folder (" +
+                                        ", ".join(f"*{suffix}" for suffix in SUFFIXES) + ", in any subfolder)"))
+            found += inside
         elif path.is_file():
             found.append(path)
         else:
-            raise InputError(Problem(str(path), 1, 1, "no such file or directory"))
+            problems.append(Problem(str(path), 1, 1, "no such file or directory"))
+    if problems:
+        raise InputError(problems)
     seen: set[Path] = set()
     return [p for p in found if not (p.resolve() in seen or seen.add(p.resolve()))]  # type: ignore[func-returns-value]
 
@@ -249,11 +264,15 @@ def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: st
     from ..render.environment import TemplateProblem
     from .solve import failure_text
 
+    global _BUSY
     start = time.monotonic()
     sheet: dict[str, float] = {}
     files, error, name = None, "", ""
+    _BUSY = True
     try:
         files, failed, name = render_outputs(source, kinds, template_dir, sheet)
+    except _Stopped:   # in a worker told to stop: what the robot's work held is cleaned up by now
+        os._exit(130)
     except TemplateProblem:
         raise   # a user's template is at fault: every robot would fail alike (exit 2)
     except InputError as exc:
@@ -265,7 +284,66 @@ def _work(source: str, kinds: tuple[str, ...], template_dir: str | None, out: st
     else:
         if failed is not None:
             error = f"{source}: {str(failed) if out is None else failure_text(Path(out), name, failed)}"
+    finally:
+        _BUSY = False
     return files, error, time.monotonic() - start, sheet, name
+
+
+def _parallel(pending: list[tuple[Path, str]], kinds: tuple[str, ...], templates: str | None, folder: str | None,
+              jobs: int) -> list[tuple[Path, str, _Result]]:
+    """``_work`` of every pending robot in ``jobs`` worker processes. An interrupt or a
+    user's template error stops it at once: the robots not started are cancelled and the
+    workers terminated (their work is in memory only), not waited for."""
+    # forkserver: fresh workers, never a fork of a process whose threads (JAX's, a caller's)
+    # hold locks; Python 3.14's default on Linux
+    context = multiprocessing.get_context("forkserver")
+    pool = ProcessPoolExecutor(max_workers=min(jobs, len(pending)), mp_context=context, initializer=_worker_signals)
+    try:
+        futures = [(s, k, pool.submit(_work, str(s), kinds, templates, folder)) for s, k in pending]
+        results = [(s, k, f.result()) for s, k, f in futures]
+    except BaseException:
+        _stop(pool)
+        raise
+    pool.shutdown()
+    return results
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel the pool's queued work and end its workers now (SIGTERM, then SIGKILL for one
+    that has not ended within a second)."""
+    workers = list((getattr(pool, "_processes", None) or {}).values())   # no public handle before 3.14
+    pool.shutdown(wait=False, cancel_futures=True)
+    for worker in workers:
+        with suppress(Exception):
+            worker.terminate()
+    for worker in workers:
+        with suppress(Exception):
+            worker.join(timeout=1.0)
+            if worker.is_alive():
+                worker.kill()
+                worker.join(timeout=1.0)
+
+
+#: In a worker: whether it is building a robot (a SIGTERM then unwinds it, so that LaTeX's
+#: temporary folder and process go, before it exits).
+_BUSY = False
+
+
+class _Stopped(BaseException):
+    """A worker was told to stop (SIGTERM) while building a robot."""
+
+
+def _worker_signals() -> None:
+    """A worker's signals: SIGINT (a terminal's Ctrl-C reaches the whole process group) is
+    left to the parent, which stops the workers; SIGTERM ends the worker."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_stop)
+
+
+def _worker_stop(signum: int, frame: object) -> None:
+    if _BUSY:
+        raise _Stopped
+    os._exit(130)
 
 
 def _sha(data: bytes) -> str:
@@ -276,6 +354,10 @@ def load_manifest(out: Path, note: Callable[[str], None] | None = None) -> dict[
     """The manifest's well-formed records; anything else counts as absent (``note`` says so)."""
     path = out / MANIFEST
     say = note or (lambda text: None)
+    if path.is_symlink():
+        say(f"note: {path} is a symbolic link, not a build manifest: it is not read, and a build replaces "
+            "the link itself (what it points to is left alone)")
+        return {}
     try:
         document = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -314,24 +396,57 @@ def _output_name(file: str) -> bool:
 
 @contextmanager
 def manifest_lock(out: Path) -> Iterator[None]:
-    """Hold an exclusive lock on ``out``'s manifest (released when the block ends)."""
-    lock = out / LOCK
+    """Hold an exclusive lock on ``out``'s manifest (released when the block ends).
+
+    The lock is taken on the output folder itself, so no lock file is left in it for ``git
+    add -A`` to commit; a lock file of an earlier version, empty, is removed under the lock. A
+    file system that cannot lock a folder gets the lock file (kept: removing a lock file
+    another build may be waiting on would let a third build take a second lock).
+    """
     try:
         out.mkdir(parents=True, exist_ok=True)
-        handle = open(lock, "ab")  # closed below, which releases the lock
+        descriptor = os.open(out, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
     except OSError as exc:
-        raise OutputError(f"cannot write {exc.filename or lock}: {exc.strerror or exc}") from None
-    with handle:
-        if fcntl is not None:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
+        raise OutputError(f"cannot write {exc.filename or out}: {exc.strerror or exc}") from None
+    try:
+        if fcntl is None:   # pragma: no cover - not POSIX: builds are not serialized
+            yield
+            return
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX)
+        except OSError:   # pragma: no cover - a file system without folder locks (some NFS)
+            with _lock_file(out):
+                yield
+            return
+        old = out / LOCK
+        with suppress(OSError):
+            if (info := os.lstat(old)).st_size == 0 and stat.S_ISREG(info.st_mode):
+                os.unlink(old)
         yield
+    finally:
+        os.close(descriptor)   # releases the lock
+
+
+@contextmanager
+def _lock_file(out: Path) -> Iterator[None]:   # pragma: no cover - see manifest_lock
+    lock = out / LOCK
+    try:
+        descriptor = os.open(lock, os.O_WRONLY | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    except OSError as exc:
+        raise OutputError(f"cannot write {lock}: {exc.strerror or exc}") from None
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(descriptor)
 
 
 def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict], claimed: set[str],
-                    prune: bool) -> dict[str, list[str]]:
+                    prune: bool) -> dict[str, list[tuple[str, str]]]:
     """Merge this run's records into the manifest on disk, under the lock, and replace it
-    atomically; returns the orphaned outputs (``orphaned``: ``claimed`` are the files this run
-    made), removed with their records when ``prune``.
+    atomically (a manifest that is a link: the link itself); returns the orphaned outputs
+    (``orphaned``: ``claimed`` are the files this run made), each with the reason ``--prune``
+    keeps it ("" if it removes it), removed with their records when ``prune``.
 
     ``built`` records replace what is on disk; ``current`` (up-to-date) records are only put
     back if missing, so a newer record written meanwhile by a concurrent build is kept.
@@ -340,17 +455,26 @@ def update_manifest(out: Path, built: dict[str, dict], current: dict[str, dict],
 
     with manifest_lock(out):
         manifest = current | load_manifest(out) | built
-        orphans = orphaned(out, manifest, claimed)
+        orphans = sorted_orphans(out, manifest, orphaned(out, manifest, claimed))
         for name, files in orphans.items():
-            if prune or not files:
+            if prune or not files:   # pruned, kept files are the user's from now on
                 del manifest[name]
-        removed = [out / file for files in orphans.values() for file in files] if prune else []
+        removed = [out / file for files in orphans.values() for file, kept in files if not kept] if prune else []
         document = {"version": 1, "robots": dict(sorted(manifest.items()))}
-        write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()}, remove=removed)
+        write_all({out / MANIFEST: (json.dumps(document, indent=2) + "\n").encode()}, remove=removed,
+                  replace_links=True)
         for folder in sorted({path.parent for path in removed} - {out}, reverse=True):   # +<name>/, if empty now
             with suppress(OSError):
                 folder.rmdir()
     return {name: files for name, files in orphans.items() if files}
+
+
+def sorted_orphans(out: Path, manifest: dict[str, dict], orphans: dict[str, list[str]],
+                   ) -> dict[str, list[tuple[str, str]]]:
+    """Each orphaned output with the reason ``--prune`` keeps it, "" when it may remove it."""
+    from .prune import sort_orphans
+
+    return {name: sort_orphans(out, manifest[name]["outputs"], files) for name, files in orphans.items()}
 
 
 def orphaned(out: Path, manifest: dict[str, dict], claimed: set[str]) -> dict[str, list[str]]:
@@ -382,11 +506,17 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
     """Build (or with ``check`` compare) every robot file under ``paths``; ``note`` receives
     remarks for the user (a malformed manifest). Outputs of robot files that no longer exist
     are reported after the others (``orphaned``), and with ``prune`` removed (``pruned``)."""
-    from ..render.environment import TemplateProblem
-    from .output import write_all
+    from .output import check_output_folder, write_all
+    from .prune import check_prune_folder
+    from .solve import planned_files
 
+    if prune and not check:
+        check_prune_folder(out)
     sources = discover(paths)
     names = check_names(sources)
+    # an --out that cannot hold the outputs is refused before any work (--check writes nothing)
+    check_output_folder(out, [file for robot, _, _ in names.values() for file in planned_files(robot, kinds)],
+                        writable=not check)
     # --check compares bytes, never the manifest (it reads it for orphaned outputs only)
     manifest = load_manifest(out, note)
     if not check:
@@ -407,16 +537,7 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
     if len(pending) <= 1 or jobs <= 1:
         results = [(s, k, _work(str(s), kinds, templates, folder)) for s, k in pending]
     else:
-        # forkserver: fresh workers, never a fork of a process whose threads (JAX's, a
-        # caller's) hold locks; Python 3.14's default on Linux
-        context = multiprocessing.get_context("forkserver")
-        with ProcessPoolExecutor(max_workers=min(jobs, len(pending)), mp_context=context) as pool:
-            futures = [(s, k, pool.submit(_work, str(s), kinds, templates, folder)) for s, k in pending]
-            try:
-                results = [(s, k, f.result()) for s, k, f in futures]
-            except TemplateProblem:
-                pool.shutdown(wait=False, cancel_futures=True)
-                raise
+        results = _parallel(pending, kinds, templates, folder, jobs)
     built: dict[str, dict] = {}
     # this run's outputs, and every output name of a robot it reads (one that fails keeps its files)
     claimed = {file for record in current.values() for file in record["outputs"]}
@@ -452,14 +573,22 @@ def build(paths: list[Path], out: Path, kinds: tuple[str, ...], jobs: int, check
             kept = {k: v for k, v in sheet.items() if k != "seconds"}
             built[manifest_key(source, out)] = {"key": key, "outputs": hashes, **({"sheet": kept} if kept else {})}
     if check:
-        orphans = {k: files for k, files in orphaned(out, manifest, claimed).items() if files}
+        orphans = sorted_orphans(out, manifest, {k: files for k, files in orphaned(out, manifest, claimed).items()
+                                                 if files})
     else:
         orphans = update_manifest(out, built, current, claimed, prune)
     status = "pruned" if prune and not check else "orphaned"
-    done = "removed" if status == "pruned" else status
     extra = [Outcome(os.path.relpath(os.path.normpath(out.resolve() / key)), status,   # relative to the cwd
-                     problems=[f"{out / file}: {done}" for file in files]) for key, files in orphans.items()]
+                     problems=[orphan_line(out / file, kept, status) for file, kept in files])
+             for key, files in orphans.items()]
     return [outcomes[str(s)] for s in sources] + extra
+
+
+def orphan_line(path: Path, kept: str, status: str) -> str:
+    """What happened to an orphaned output (``kept``: why ``--prune`` keeps it, or "")."""
+    if status == "pruned":
+        return f"{path}: kept ({kept})" if kept else f"{path}: removed"
+    return f"{path}: orphaned (--prune keeps it: {kept})" if kept else f"{path}: orphaned"
 
 
 def _outputs_match(out: Path, outputs: dict[str, str]) -> bool:

@@ -182,7 +182,8 @@ def solve(
     from .. import derive, load_robot
     from ..render.sheets.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
-    from .solve import form_note, solve_outputs
+    from .output import check_output_folder
+    from .solve import form_note, planned_files, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
@@ -196,9 +197,13 @@ def solve(
     if tests and not targets[tested.kind]:
         raise InputError(problem("--tests", f"--tests writes checks of the generated module: use it with {tested.flag}"))
     target_needs(targets)   # no compiler: stop before any work
+    if not printed:   # an --out that cannot hold the outputs: refused before the derivation
+        check_output_folder(out)
     progress = Progress(quiet)
     progress("loading")
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
+    if not printed:
+        check_output_folder(out, planned_files(model.name, kinds))
     maximal_section_applies(sections, model.planar, model.floating)
     echo_notes(model, quiet)
     if not quiet:
@@ -512,6 +517,9 @@ def build(
                         "parameters.")] = None,
     digits: Annotated[str | None, typer.Option("--digits", help="N: the sheets' numbers to N significant "
                       "digits (default: as many as each robot file wrote, at most 6).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No notes on stderr, and of the table only the "
+                                        "robots that failed, differ or are orphaned (nothing when all is well); "
+                                        "errors are still printed.")] = False,
     **targets: bool,
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
@@ -532,12 +540,19 @@ def build(
     kinds += (f"digits:{shortened}",) if shortened else ()
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
-    target_notes(targets)
+    if not quiet:
+        target_notes(targets)
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or os.cpu_count() or 1, check_only,
-                         template_dir, lambda text: typer.echo(text, err=True), prune)
+                         template_dir, (lambda text: None) if quiet else lambda text: typer.echo(text, err=True), prune)
+    counts = {s: sum(o.status == s for o in outcomes)
+              for s in ("built", "up to date", "current", "differs", "failed", "orphaned", "pruned")}
+    if quiet:   # what needs the user: rows of robots that failed, differ, or whose outputs are orphaned
+        outcomes = [o for o in outcomes if o.status in ("differs", "failed", "orphaned")
+                    or any(": kept (" in line for line in o.problems)]
     width = max([len(o.source) for o in outcomes] + [5])
     sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
-    typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
+    if outcomes or not quiet:
+        typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
     for o in outcomes:
         extra = ""
         if sheets and o.sheet:
@@ -549,10 +564,9 @@ def build(
             typer.echo(f"  {line}")
         for line in o.message.splitlines():
             typer.echo(f"  {line}", err=True)
-    counts = {s: sum(o.status == s for o in outcomes)
-              for s in ("built", "up to date", "current", "differs", "failed", "orphaned", "pruned")}
-    typer.echo(", ".join(f"{n} {s}" for s, n in counts.items() if n) or "no robot files found")
-    if n := counts["orphaned"]:
+    if not quiet:
+        typer.echo(", ".join(f"{n} {s}" for s, n in counts.items() if n))
+    if (n := counts["orphaned"]) and not quiet:
         typer.echo(f"note: {n} robot file{'s' if n > 1 else ''} whose outputs are in {out} no longer "
                    f"exist{'' if n > 1 else 's'} (their outputs are listed as orphaned): "
                    f"build --prune --out {out} removes them", err=True)

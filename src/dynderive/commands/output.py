@@ -8,7 +8,9 @@ SIGINT and SIGTERM are held back while the renames run, so a signal lands before
 (nothing changed) or after (all changed), and the message says which.
 
 An output that is a symbolic link is written through: the file it points to is replaced
-(atomically, in the link target's folder) and the link is kept. An output that is not a
+(atomically, in the link target's folder) and the link is kept; ``replace_links`` replaces
+the link itself instead (``build``'s manifest: a link in a committed folder may point
+anywhere, and what it points to is left alone). An output that is not a
 regular file (``/dev/null``, a pipe, a terminal, ``/proc/self/fd/1`` behind a link) is
 written to directly, after the regular files are in place; it cannot be put back.
 
@@ -59,13 +61,16 @@ def _failing(path: Path) -> Iterator[None]:
         raise _Failed(path, exc) from None
 
 
-def write_all(files: dict[Path, bytes], remove: tuple[Path, ...] | list[Path] = ()) -> None:
+def write_all(files: dict[Path, bytes], remove: tuple[Path, ...] | list[Path] = (),
+              replace_links: bool = False) -> None:
     """Write every file or none, and remove the files ``remove`` names that exist (outputs that
     no longer hold: a PDF older than its sheet, a log of a failure since fixed), in the same
     step; an OS failure becomes ``OutputError`` naming the output that failed (nothing
-    replaced, nothing removed)."""
+    replaced, nothing removed). ``replace_links``: an output that is a symbolic link is
+    replaced by the file, never written through."""
     try:
-        _write_all(files, [path for path in remove if path not in files and os.path.lexists(path) and not path.is_dir()])
+        _write_all(files, [path for path in remove if path not in files and os.path.lexists(path) and not path.is_dir()],
+                   replace_links)
     except _Failed as failed:
         reason = failed.detail or failed.error.strerror or str(failed.error)
         what = "remove" if failed.path in remove and failed.path not in files else "write"
@@ -81,8 +86,11 @@ def interrupted_message() -> str:
     return f"dynderive: interrupted; the outputs written before it are complete ({shown})"
 
 
-def _kind(path: Path) -> tuple[str, Path]:
-    """("file", where to write atomically) or ("stream", what to write to directly)."""
+def _kind(path: Path, replace_links: bool = False) -> tuple[str, Path]:
+    """("file", where to write atomically) or ("stream", what to write to directly);
+    ``replace_links``: a link is itself the file to replace."""
+    if replace_links and path.is_symlink():
+        return "file", path
     try:
         mode = os.stat(path).st_mode   # follows links
     except (FileNotFoundError, NotADirectoryError):   # a file in the way is reported when writing
@@ -96,11 +104,11 @@ def _kind(path: Path) -> tuple[str, Path]:
     return "stream", path
 
 
-def _write_all(files: dict[Path, bytes], remove: list[Path]) -> None:
+def _write_all(files: dict[Path, bytes], remove: list[Path], replace_links: bool = False) -> None:
     regular: dict[Path, tuple[Path, bytes]] = {}   # target -> (the output as named, data)
     streams: list[tuple[Path, bytes]] = []
     for path, data in files.items():
-        kind, target = _kind(path)
+        kind, target = _kind(path, replace_links)
         if kind == "stream":
             streams.append((path, data))
         elif target in regular and regular[target][1] != data:
@@ -114,7 +122,12 @@ def _write_all(files: dict[Path, bytes], remove: list[Path]) -> None:
         for target, (path, data) in regular.items():
             _stage(target, path, data, staged)
         for _, target, path in staged:   # keep the current outputs until every new one is in place
-            if target.is_file():
+            if target.is_symlink():   # replace_links: the link is put back as it was
+                backup = str(target.parent / f".{target.name}.{uuid.uuid4().hex}.old")
+                with _failing(path):
+                    os.symlink(os.readlink(target), backup)
+                backups[target] = backup
+            elif target.is_file():
                 backup = str(target.parent / f".{target.name}.{uuid.uuid4().hex}.old")
                 with _failing(path):
                     try:
@@ -219,6 +232,37 @@ def check_output_paths(outputs: dict[str, Path | None], inputs: tuple[Path, ...]
             problems.append(Problem(option, 1, 1, f"{path} is the input file {source}: writing it would "
                                     "replace it (give the output another path)"))
         seen.append((option, path))
+    if problems:
+        raise InputError(problems)
+
+
+def check_output_folder(out: Path, files: tuple[str, ...] | list[str] = (), writable: bool = True,
+                        option: str = "--out") -> None:
+    """Refuse an output folder that cannot hold the outputs, before any work (``--out:1:1:``,
+    exit 2): a file where the folder (or a folder above it) should be, a folder that cannot be
+    created or written (tried: a temporary folder made and removed, so permissions, read-only
+    file systems and ``/proc`` answer as they will when writing), or an output among ``files``
+    (names relative to ``out``) that is a folder. ``writable``: False for ``build --check``,
+    which writes nothing."""
+    problems: list[Problem] = []
+    blocker = next((p for p in (out, *out.parents) if p.exists() or p.is_symlink()), None)
+    if blocker is not None and not blocker.is_dir():
+        where = "" if blocker == out else f" (in the way of {out})"
+        problems.append(Problem(option, 1, 1, f"{blocker} is a file, not a folder{where}"))
+    elif blocker is not None and writable:
+        try:
+            os.rmdir(tempfile.mkdtemp(prefix=".dynderive-", dir=blocker))
+        except OSError as exc:
+            what = f"cannot write into {out}" if blocker == out else f"cannot create {out} in {blocker}"
+            problems.append(Problem(option, 1, 1, f"{what}: {exc.strerror or exc}"))
+    if not problems:
+        for name in files:
+            path = out / name
+            if path.is_dir():
+                problems.append(Problem(option, 1, 1, f"{path} is a folder: the output {name} cannot be written"))
+            elif len(path.relative_to(out).parts) > 1 and (path.parent.exists() or path.parent.is_symlink()) \
+                    and not path.parent.is_dir():
+                problems.append(Problem(option, 1, 1, f"{path.parent} is a file, not a folder (in the way of {path})"))
     if problems:
         raise InputError(problems)
 

@@ -114,6 +114,17 @@ def sheet_files(derivation: Derivation, kinds: Collection[str], template_dir: st
     return files, failure
 
 
+def planned_files(name: str, kinds: Collection[str]) -> list[str]:
+    """The names of the files ``kinds`` give robot ``name`` (its sheets' and its code targets'),
+    to check the output paths before the derivation."""
+    from ..render.targets import TARGETS
+
+    sheets = {"latex": "{}.tex", "pdf": "{}.pdf", "html": "{}.html", "json": "{}.json"}
+    patterns = [sheets[kind] for kind in sheets if kind in kinds]
+    patterns += [pattern for target in TARGETS if target.kind in kinds for pattern in target.outputs]
+    return [pattern.format(name) for pattern in patterns]
+
+
 def failure_text(folder: Path, name: str, failure: LatexError | ToolMissingError) -> str:
     """The line for a PDF that could not be made into ``folder``."""
     if isinstance(failure, LatexError):
