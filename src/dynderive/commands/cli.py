@@ -313,11 +313,12 @@ def simulate(
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
     from .. import derive, load_robot
+    from ..input.input_files import input_files
     from . import simulate as simulation
     from .contacts import parse_contacts
     from .integrate import method_name
 
-    check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
+    check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, input_files(Path(robot)))
     check_frames(frames, animate is not None)
     if coordinates not in ("generalized", "maximal"):
         raise InputError(problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
@@ -578,13 +579,14 @@ def import_(
                              "floating joint 'root_joint'.")] = False,
 ) -> None:
     """Convert a URDF or MJCF file into the equivalent dynderive YAML robot file."""
+    from ..input.input_files import input_files
     from ..input.loader import resolve_robot_path
     from ..input.schema import validate
     from ..input.sources import read_source
     from ..input.urdf import to_yaml
 
     path = resolve_robot_path(urdf)   # a file or a bundled robot's name
-    check_output_paths({"--output": output}, (path,))
+    check_output_paths({"--output": output}, input_files(path))   # never over a file the model reads
     if path.suffix.lower() in (".yaml", ".yml"):
         raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF and MJCF files)"))
     document = read_source(path, floating_base)
@@ -598,3 +600,20 @@ def import_(
                           for where in sorted(document.impossible_inertias)])
     write_all({output: to_yaml(document.data, path.name).encode()})
     typer.echo(f"wrote {output}", err=True)
+
+
+@app.command(cls=_Command)
+@handle_errors
+def copy(
+    name: Annotated[str, typer.Argument(help="A bundled robot's name, e.g. rp_arm.")],
+    dest: Annotated[Path | None, typer.Argument(help="File or folder to copy it to (default: NAME.yaml or "
+                                                "NAME.urdf in the current folder).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Replace DEST if it exists.")] = False,
+) -> None:
+    """Copy a bundled robot's file out, to edit it (an unknown NAME lists the bundled robots)."""
+    from .copy import bundled_file, copy_target
+
+    source = bundled_file(name)
+    target = copy_target(source, dest, force)
+    write_all({target: source.read_bytes()})
+    typer.echo(f"wrote {target}", err=True)

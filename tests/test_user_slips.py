@@ -1,0 +1,155 @@
+"""Slips a new user makes, each refused at the spot with a hint, the user's files untouched:
+an output over a file the model reads, a bundled robot's file name given outside the
+repository (and ``copy`` to get it), a negative parameter default, MATLAB's operators, a
+joint type in the wrong case, a plot suffix, an empty ``--symbolic``, a loop robot's
+independent coordinates, contacts the robot file over-constrains."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from dynderive.commands.cli import app
+
+from conftest import ROBOTS
+
+runner = CliRunner()
+
+
+def _run(*args: object):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def _refused(result, prefix: str) -> str:
+    """The one line of a refusal (exit 2, no traceback), which starts with ``prefix``."""
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output and "internal error" not in result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(prefix), result.stderr
+    return lines[0]
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (links as where they point), by relative path."""
+    return {str(p.relative_to(folder)): (os.readlink(p).encode() if p.is_symlink() else p.read_bytes())
+            for p in sorted(folder.rglob("*")) if p.is_file() or p.is_symlink()}
+
+
+# -- import (and simulate) never write over a file the model reads ------------------------------
+
+PART = ('<mujoco>\n  <body name="arm">\n    <joint name="j1" type="hinge" axis="0 1 0"/>\n'
+        '    <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.05" mass="1"/>\n  </body>\n</mujoco>\n')
+MAIN = '<mujoco model="m">\n  <worldbody>\n    <include file="part.xml"/>\n  </worldbody>\n</mujoco>\n'
+CUBE = "".join(f"v {x} {y} {z}\n" for z in (-0.1, 0.1) for y in (-0.1, 0.1) for x in (-0.1, 0.1)) + (
+    "f 1 4 2\nf 1 3 4\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 2 4 8\nf 2 8 6\nf 4 3 7\nf 4 7 8\nf 3 1 5\nf 3 5 7\n")
+MESHED = ('<mujoco model="arm">\n  <compiler meshdir="assets"/>\n  <asset>\n    <mesh name="box" file="box.obj"/>\n'
+          '  </asset>\n  <worldbody>\n    <body name="b">\n      <joint name="j" type="hinge" axis="0 1 0"/>\n'
+          '      <geom type="mesh" mesh="box" mass="1"/>\n    </body>\n  </worldbody>\n</mujoco>\n')
+URDF_MESH = ('<robot name="r">\n  <link name="base"/>\n  <link name="l1"><inertial><mass value="1"/>'
+             '<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>\n'
+             '    <visual><geometry><mesh filename="assets/box.obj"/></geometry></visual></link>\n'
+             '  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>'
+             '<limit effort="1" velocity="1" lower="-1" upper="1"/></joint>\n</robot>\n')
+
+
+@pytest.fixture
+def model(tmp_path, monkeypatch):
+    """A folder with an MJCF file including another, one with a mesh, and a URDF with a mesh."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "assets").mkdir()
+    for name, text in (("part.xml", PART), ("main.xml", MAIN), ("assets/box.obj", CUBE), ("arm.xml", MESHED),
+                       ("r.urdf", URDF_MESH)):
+        (tmp_path / name).write_text(text)
+    os.symlink("part.xml", tmp_path / "link.xml")
+    os.link(tmp_path / "part.xml", tmp_path / "hard.xml")
+    return tmp_path
+
+
+@pytest.mark.parametrize("robot, output, named", [
+    ("main.xml", "part.xml", "part.xml"),            # an included file
+    ("main.xml", "link.xml", "part.xml"),            # a symlink to it
+    ("main.xml", "hard.xml", "part.xml"),            # a hard link to it
+    ("main.xml", "main.xml", "main.xml"),            # the robot file itself
+    ("main.xml", "nowhere/../main.xml", "main.xml"),
+    ("arm.xml", "assets/box.obj", "assets/box.obj"),  # a mesh, under <compiler meshdir>
+    ("r.urdf", "assets/box.obj", "assets/box.obj"),   # a URDF's mesh
+])
+def test_import_never_writes_over_a_file_the_model_reads(model, robot, output, named):
+    before = _files(model)
+    line = _refused(_run("import", robot, "-o", output), "--output:1:1: ")
+    assert f"is the input file {named}" in line
+    assert _files(model) == before
+
+
+def test_import_of_a_model_with_includes_and_meshes_writes_elsewhere(model):
+    before = _files(model)
+    for robot in ("main.xml", "arm.xml"):
+        result = _run("import", robot, "-o", f"{robot}.yaml")
+        assert result.exit_code == 0, result.output
+        assert (model / f"{robot}.yaml").read_text().count("name: ") >= 2
+    assert _files(model) == before | {f"{r}.yaml": (model / f"{r}.yaml").read_bytes() for r in ("main.xml", "arm.xml")}
+
+
+def test_simulate_never_writes_a_plot_over_a_mesh(model):
+    before = _files(model)
+    _refused(_run("simulate", "r.urdf", "--csv", "assets/box.obj"), "--csv:1:1: assets/box.obj is the input file")
+    assert _files(model) == before
+
+
+# -- a bundled robot's file name, and copy --------------------------------------------------------
+
+@pytest.mark.parametrize("given, name", [("rp_arm.yaml", "rp_arm"), ("robots/ur5.urdf", "ur5"),
+                                         ("four_bar.yml", "four_bar")])
+def test_a_missing_file_named_as_a_bundled_robot_says_how_to_get_it(tmp_path, monkeypatch, given, name):
+    monkeypatch.chdir(tmp_path)
+    line = _refused(_run("solve", given, "--latex"), f"{given}:1:1: no such file; `{name}` is a bundled robot")
+    assert f"`dynderive copy {name}`" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_missing_file_of_another_name_is_plain(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    line = _refused(_run("solve", "my_arm.yaml"), "my_arm.yaml:1:1: no such file")
+    assert "bundled" not in line
+
+
+def test_copy_writes_the_bundled_file_to_edit(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = _run("copy", "rp_arm")
+    assert result.exit_code == 0 and result.stderr.strip() == "wrote rp_arm.yaml"
+    assert (tmp_path / "rp_arm.yaml").read_bytes() == (ROBOTS / "rp_arm.yaml").read_bytes()
+    (tmp_path / "mine").mkdir()
+    assert _run("copy", "ur5", "mine").exit_code == 0
+    assert (tmp_path / "mine" / "ur5.urdf").read_bytes() == (ROBOTS / "ur5.urdf").read_bytes()
+    assert _run("copy", "rp_arm", "arm2.yml").exit_code == 0
+    result = _run("solve", "arm2.yml")   # the copy is a working robot file
+    assert result.exit_code == 0 and "M(q)" in result.stdout
+
+
+def test_copy_never_replaces_a_file_without_force(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rp_arm.yaml").write_text("mine\n")
+    os.symlink("elsewhere.yaml", tmp_path / "dangling.yaml")
+    before = _files(tmp_path)
+    _refused(_run("copy", "rp_arm"), "rp_arm.yaml:1:1: already exists: give another name, or --force")
+    _refused(_run("copy", "rp_arm", "dangling.yaml"), "dangling.yaml:1:1: already exists")
+    assert _files(tmp_path) == before
+    assert _run("copy", "rp_arm", "--force").exit_code == 0
+    assert (tmp_path / "rp_arm.yaml").read_bytes() == (ROBOTS / "rp_arm.yaml").read_bytes()
+
+
+@pytest.mark.parametrize("args, prefix, words", [
+    (["rp_ar"], "rp_ar:1:1: no bundled robot of that name (did you mean 'rp_arm'?)", "bundled: bennett,"),
+    (["nothing_like_it"], "nothing_like_it:1:1: no bundled robot of that name (bundled: ", "ur5"),
+    (["ur5", "ur5.yaml"], "ur5.yaml:1:1: the copy of a .urdf robot file must end in .urdf or .xml", ""),
+    (["rp_arm", "no/such/folder.yaml"], "no/such/folder.yaml:1:1: the folder no/such does not exist", ""),
+])
+def test_copy_refuses_what_it_cannot_do(tmp_path, monkeypatch, args, prefix, words):
+    monkeypatch.chdir(tmp_path)
+    line = _refused(_run("copy", *args), prefix)
+    assert words in line
+    assert list(tmp_path.iterdir()) == []
