@@ -153,3 +153,130 @@ def test_copy_refuses_what_it_cannot_do(tmp_path, monkeypatch, args, prefix, wor
     line = _refused(_run("copy", *args), prefix)
     assert words in line
     assert list(tmp_path.iterdir()) == []
+
+
+# -- a robot file's slips: a negative default, MATLAB's operators, a type's case ------------------
+
+ARM = """name: arm
+planar: true
+parameters:
+  m1: {value: 1.0}
+  l1: {value: 1.0}
+  m2: {value: 1.0}
+  l2: {value: 1.0}
+  m3: {value: 0.5}
+  g: {value: 9.81}
+gravity: [0, -g]
+links:
+  - name: link1
+    mass: m1
+    com: [l1/2, 0]
+    inertia: m1*l1**2/12
+  - name: link2
+    mass: m3
+    com: [l2/2, 0]
+    inertia: m3*l2**2/12
+joints:
+  - name: q1
+    type: revolute
+    parent: world
+    child: link1
+  - name: q2
+    type: revolute
+    parent: link1
+    child: link2
+    origin: [l1, 0]
+"""
+
+
+def _slip(tmp_path, text: str, *options: str) -> str:
+    """``solve`` of the robot file ``text``: its one line of refusal; the file is unchanged and
+    nothing else is written."""
+    path = tmp_path / "arm.yaml"
+    path.write_text(text)
+    line = _refused(_run("solve", path, "--out", tmp_path / "out", *options), f"{path}:")
+    assert path.read_text() == text and sorted(p.name for p in tmp_path.iterdir()) == ["arm.yaml"]
+    return line[len(str(path)) + 1:]
+
+
+@pytest.mark.parametrize("written, expected", [
+    ("  m3: {value: -0.5}", "8:15: parameters.m3.value: default value -0.5 is negative, but it is links[1].mass "
+                            "(at 17:11), which must be positive"),
+    ("  m3: -0.5", "8:7: parameters.m3: default value -0.5 is negative, but it is links[1].mass (at 17:11), "
+                   "which must be positive"),
+])
+def test_a_negative_default_is_reported_once_at_the_parameter(tmp_path, written, expected):
+    assert _slip(tmp_path, ARM.replace("  m3: {value: 0.5}", written), "--latex") == expected
+
+
+def test_a_negative_default_used_in_a_sum_and_twice(tmp_path):
+    text = ARM.replace("m3: {value: 0.5}", "m3: {value: -0.5}").replace("mass: m1", "mass: m3 + 0.2")
+    assert _slip(tmp_path, text) == ("8:15: parameters.m3.value: default value -0.5 is negative, and makes "
+                                     "links[0].mass (at 13:11) -0.3, which must be positive")
+
+
+def test_a_negative_default_of_a_3d_mass(tmp_path):
+    text = ("name: box\nparameters:\n  m: {value: -2}\ngravity: [0, 0, -9.81]\nlinks:\n  - name: a\n    mass: m\n"
+            "    inertia: [m/12, m/12, 0.1, 0, 0, 0]\njoints:\n  - {name: q1, type: revolute, parent: world, "
+            "child: a, axis: [0, 1, 0]}\n")
+    assert _slip(tmp_path, text) == ("3:14: parameters.m.value: default value -2 is negative, but it is "
+                                     "links[0].mass (at 7:11), which must not be negative")
+
+
+@pytest.mark.parametrize("expression, column, operator", [
+    ("m3*l2.^2/12", 19, ".^"), ("m3.*l2**2/12", 16, ".*"), ("m3./12*l2**2", 16, "./"), ("m3*l2. ^ 2/12", 19, ". ^"),
+])
+def test_matlab_operators_get_a_hint(tmp_path, expression, column, operator):
+    text = ARM.replace("inertia: m3*l2**2/12", f"inertia: {expression}")
+    assert _slip(tmp_path, text) == (f"19:{column}: links[1].inertia: malformed expression: '{operator}' is "
+                                     "MATLAB's element-wise operator; write ** (or ^) for powers, * and / for "
+                                     "products and quotients")
+
+
+def test_a_decimal_point_before_a_product_and_a_caret_power_still_parse(tmp_path):
+    path = tmp_path / "arm.yaml"
+    path.write_text(ARM.replace("inertia: m3*l2**2/12", "inertia: 1.*m3*l2^2/12."))
+    result = _run("solve", path)
+    assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize("written, expected", [
+    ("Revolute", "'Revolute'; expected one of revolute, prismatic, fixed, floating, spherical (did you mean "
+                 "'revolute'?)"),
+    ("revolut", "'revolut'; expected one of revolute, prismatic, fixed, floating, spherical (did you mean "
+                "'revolute'?)"),
+    ("PRISMATIC", "'PRISMATIC'; expected one of revolute, prismatic, fixed, floating, spherical (did you mean "
+                  "'prismatic'?)"),
+])
+def test_a_joint_type_gets_a_did_you_mean(tmp_path, written, expected):
+    text = ARM.replace("type: revolute", f"type: {written}")   # both joints: two lines, nothing else
+    path = tmp_path / "arm.yaml"
+    path.write_text(text)
+    result = _run("solve", path)
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert result.stderr.splitlines() == [f"{path}:{line}:11: joints[{i}].type: unsupported joint type {expected}"
+                                          for i, line in ((0, 22), (1, 26))]
+    assert path.read_text() == text
+
+
+def test_a_loop_joint_type_gets_a_did_you_mean(tmp_path):
+    text = (ROBOTS / "four_bar.yaml").read_text()
+    assert "loops:" in text
+    head, _, tail = text.partition("loops:")
+    text = head + "loops:" + tail.replace("type: revolute", "type: Revolute", 1)
+    line = _slip(tmp_path, text)
+    assert line.endswith("unsupported planar loop joint type 'Revolute'; expected one of revolute, prismatic "
+                         "(did you mean 'revolute'?)")
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--method", "rk54"], "--method:1:1: expected one of LSODA, Radau, BDF, RK45, DOP853, got 'rk54' (did you "
+                           "mean 'RK45'?)"),
+    (["--backend", "nunpy"], "--backend:1:1: expected one of numpy, c, got 'nunpy' (did you mean 'numpy'?)"),
+    (["--coordinates", "Maximal"], "--coordinates:1:1: expected generalized or maximal, got 'Maximal' (did you "
+                                   "mean 'maximal'?)"),
+])
+def test_simulate_choices_get_a_did_you_mean(tmp_path, monkeypatch, args, expected):
+    monkeypatch.chdir(tmp_path)
+    assert _refused(_run("simulate", "rp_arm", *args), expected) == expected
+    assert list(tmp_path.iterdir()) == []

@@ -314,6 +314,7 @@ def simulate(
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
     from .. import derive, load_robot
     from ..input.input_files import input_files
+    from ..model.naming import did_you_mean
     from . import simulate as simulation
     from .contacts import parse_contacts
     from .integrate import method_name
@@ -321,7 +322,8 @@ def simulate(
     check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, input_files(Path(robot)))
     check_frames(frames, animate is not None)
     if coordinates not in ("generalized", "maximal"):
-        raise InputError(problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
+        raise InputError(problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"
+                                 + did_you_mean(coordinates, ("generalized", "maximal"))))
     finite(duration, "--duration", "a duration in seconds", 0.0, strict=True)
     finite(friction_smoothing, "--friction-smoothing", "a velocity", 0.0)
     finite(baumgarte, "--baumgarte", "a gain", 0.0)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, Problem, ToolMissingError
+from ..model.naming import did_you_mean
 from ..render.targets import Target, by_name, check_backends, resolve, simulate_backends
 
 #: The smallest relative tolerance an integrator can honour in double precision (SciPy
@@ -188,6 +189,7 @@ def _revalidate(robot: str, values: dict[str, float], load: dict[str, Any]) -> l
 
     document = read_source(resolve_robot_path(robot), **load)
     block = document.data.get("parameters") or {}
+    document.replaced |= set(values)
     for name, value in values.items():
         if isinstance(block.get(name), dict):
             block[name]["value"] = value
@@ -219,7 +221,8 @@ def backend_target(text: str, check: bool = False) -> Target:
     choices."""
     choices = check_backends() if check else simulate_backends()
     if text.lower() not in choices:
-        raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"))
+        raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"
+                                 + did_you_mean(text, choices)))
     target = by_name(text.lower())
     if target.check_needs:
         resolve(target.check_needs)()

@@ -59,6 +59,9 @@ class SourceDocument:
     impossible_inertias: set[Path_] = field(default_factory=set)
     #: The most significant digits of a number the source wrote (URDF; None: count the data's).
     digits: int | None = None
+    #: Parameters whose values were replaced by the command line's (``--param``): a problem
+    #: they cause is reported where they are used, not at the file's default.
+    replaced: set[str] = field(default_factory=set)
 
     def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
         """Position of ``path``, falling back to the nearest enclosing value."""
