@@ -280,3 +280,32 @@ def test_simulate_choices_get_a_did_you_mean(tmp_path, monkeypatch, args, expect
     monkeypatch.chdir(tmp_path)
     assert _refused(_run("simulate", "rp_arm", *args), expected) == expected
     assert list(tmp_path.iterdir()) == []
+
+
+# -- simulate --plot writes the format its suffix names ------------------------------------------
+
+MAGIC = {".png": b"\x89PNG\r\n\x1a\n", ".jpg": b"\xff\xd8\xff", ".JPEG": b"\xff\xd8\xff", ".pdf": b"%PDF-",
+         ".svg": b"<?xml"}
+
+
+def test_plot_writes_the_format_its_suffix_names(tmp_path, monkeypatch):
+    pytest.importorskip("matplotlib")
+    monkeypatch.chdir(tmp_path)
+    for suffix, magic in MAGIC.items():
+        result = _run("simulate", "rp_arm", "--duration", "0.2", "--frames", "5", "--plot", f"run{suffix}", "-q")
+        assert result.exit_code == 0, result.output
+        data = (tmp_path / f"run{suffix}").read_bytes()
+        assert data.startswith(magic), (suffix, data[:8])
+        if suffix == ".svg":
+            assert b"<svg" in data[:2000]
+    again = _run("simulate", "rp_arm", "--duration", "0.2", "--frames", "5", "--plot", "again.svg", "-q")
+    assert again.exit_code == 0 and (tmp_path / "again.svg").read_bytes() == (tmp_path / "run.svg").read_bytes()
+
+
+@pytest.mark.parametrize("name, said", [("run.gif", "has '.gif'"), ("run", "has no suffix"), ("run.tiff", "has '.tiff'")])
+def test_plot_refuses_a_suffix_it_cannot_write(tmp_path, monkeypatch, name, said):
+    pytest.importorskip("matplotlib")
+    monkeypatch.chdir(tmp_path)
+    line = _refused(_run("simulate", "rp_arm", "--plot", name), f"--plot:1:1: {name} {said}: the plot is written")
+    assert ".png, .pdf, .svg, .jpg" in line
+    assert list(tmp_path.iterdir()) == []

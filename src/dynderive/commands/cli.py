@@ -290,8 +290,9 @@ def simulate(
     coordinates: Annotated[str, typer.Option("--coordinates", help="generalized or maximal (planar robots).")] = "generalized",
     contacts: Annotated[str | None, typer.Option("--contacts", help="FRAME[:point|surface][,...]: frames held (3-D), "
                         "anchored where they start; 'none': none (default: the robot file's contacts).")] = None,
-    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift); "
-                                  "needs matplotlib (the plot extra).")] = None,
+    plot: Annotated[Path | None, typer.Option("--plot", help="Image of the coordinates, energy (and constraint "
+                                  "drift), in the format its suffix names: .png, .pdf, .svg, .jpg; needs "
+                                  "matplotlib (the plot extra).")] = None,
     csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
     animate: Annotated[Path | None, typer.Option("--animate", help="GIF animation (planar robots); needs matplotlib "
                                      "(the plot extra).")] = None,
@@ -336,6 +337,8 @@ def simulate(
     for option, path in (("--plot", plot), ("--animate", animate)):
         if path is not None:
             require_matplotlib(option)
+    if plot is not None:
+        simulation.plot_format(plot)
     require_scipy("simulate")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
@@ -364,7 +367,7 @@ def simulate(
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
-        files[plot] = simulation.plot_png(derivation, trajectory)
+        files[plot] = simulation.plot_image(derivation, trajectory, plot.suffix.lower())
     if csv is not None:
         files[csv] = simulation.csv_text(trajectory).encode()
     if animate is not None:

@@ -462,7 +462,26 @@ def _segments(derivation: Derivation, poses: list[tuple[np.ndarray, float]]) -> 
     return lines
 
 
-def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
+#: ``--plot``'s formats by suffix, and the metadata that would make two runs' files differ
+#: (a date, the library's version), left out so that the same run writes the same bytes.
+PLOT_FORMATS = {".png": ("png", {"Software": None}), ".pdf": ("pdf", {"Creator": None, "Producer": None,
+                                                                      "CreationDate": None}),
+                ".svg": ("svg", {"Creator": None, "Date": None}), ".jpg": ("jpeg", {}),
+                ".jpeg": ("jpeg", {})}
+
+
+def plot_format(path: Path) -> str:
+    """``--plot``'s format, named by its suffix (any case); another suffix is refused at the
+    option before any work (the file would hold bytes its name does not promise)."""
+    if path.suffix.lower() not in PLOT_FORMATS:
+        given = f"'{path.suffix}'" if path.suffix else "no suffix"
+        raise InputError(problem("--plot", f"{path} has {given}: the plot is written in the format its suffix "
+                                 f"names, one of {', '.join(PLOT_FORMATS)}"))
+    return path.suffix.lower()
+
+
+def plot_image(derivation: Derivation, trajectory: Trajectory, suffix: str = ".png") -> bytes:
+    """The plot, in the format ``suffix`` names (``PLOT_FORMATS``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -490,7 +509,9 @@ def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
     axes[-1].set_xlabel("time [s]")
     figure.tight_layout()
     buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    kind, metadata = PLOT_FORMATS[suffix]
+    with matplotlib.rc_context({"svg.hashsalt": "dynderive"}):   # SVG ids: the same on every run
+        figure.savefig(buffer, format=kind, dpi=100, metadata=metadata or None)
     plt.close(figure)
     return buffer.getvalue()
 
