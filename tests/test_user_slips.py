@@ -309,3 +309,33 @@ def test_plot_refuses_a_suffix_it_cannot_write(tmp_path, monkeypatch, name, said
     line = _refused(_run("simulate", "rp_arm", "--plot", name), f"--plot:1:1: {name} {said}: the plot is written")
     assert ".png, .pdf, .svg, .jpg" in line
     assert list(tmp_path.iterdir()) == []
+
+
+# -- a closed loop's --q0: every coordinate, or the independent ones ------------------------------
+
+def test_a_loop_robot_starts_from_its_independent_coordinates(tmp_path, monkeypatch):
+    pytest.importorskip("scipy")
+    monkeypatch.chdir(tmp_path)
+    runs = {}
+    for name, q0 in (("short", "0.3"), ("full", None)):
+        if q0 is None:   # every coordinate, the dependent ones as the short run assembled them
+            q0 = ",".join(repr(float(v)) for v in runs["short"][0][1:4])
+        result = _run("simulate", "four_bar", "--q0", q0, "--duration", "0.2", "--frames", "3", "--csv",
+                      f"{name}.csv", "-q")
+        assert result.exit_code == 0, result.output
+        assert "largest constraint drift" in result.stdout
+        lines = (tmp_path / f"{name}.csv").read_text().splitlines()
+        assert lines[0].startswith("t,q1,q2,q3,")
+        runs[name] = [[float(v) for v in line.split(",")] for line in lines[1:]]
+    assert runs["short"][0][1] == 0.3
+    assert runs["short"][0][2] != 0.5   # assembled, not the 0.5 rad a free joint starts at
+    assert runs["short"] == runs["full"]
+
+
+@pytest.mark.parametrize("q0", ["0.3,1", "0.3,1,2,3", "0.3,x", ""])
+def test_a_loop_robot_refuses_another_count(tmp_path, monkeypatch, q0):
+    monkeypatch.chdir(tmp_path)
+    line = _refused(_run("simulate", "four_bar", "--q0", q0, "--csv", "run.csv"), "--q0:1:1: expected 3 numbers "
+                    "(every coordinate: q1, q2, q3) or 1 (the independent coordinates q1), separated by commas")
+    assert line.endswith(f"got {q0!r}")
+    assert list(tmp_path.iterdir()) == []

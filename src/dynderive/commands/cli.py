@@ -347,11 +347,13 @@ def simulate(
     echo_notes(model, quiet)
     simulation.refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
-    start_q = vector(q0, len(model.configuration_names), "--q0")
+    loop_q = simulation.loop_numbers(q0, model) if model.loops and not maximal else None
+    start_q = None if loop_q is not None else vector(q0, len(model.configuration_names), "--q0")
     start_qd = vector(qd0, model.velocity_count, "--qd0")
     start_q = simulation.initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
+    start_q = simulation.loop_start(loop_q, q0, derivation, start_q)   # loops: the independent ones may do
     held = parse_contacts(model, contacts, coordinates, bool(loaded.load))
     efforts = simulation.parse_efforts(derivation, effort or [], maximal)
     if force and maximal:

@@ -68,6 +68,15 @@ def vector(text: str | None, size: int, option: str) -> np.ndarray | None:
     """``a,b,..`` (or spaces) -> ``size`` finite numbers; None when the option is absent."""
     if text is None:
         return None
+    values = vector_any(text, option)
+    if values is not None and len(values) == size:
+        return np.array(values)
+    raise InputError(problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
+
+
+def vector_any(text: str, option: str) -> list[float] | None:
+    """``a,b,..`` (or spaces) -> finite numbers, as many as given; None if one is not a number
+    (or none is given); a number that is not finite is refused at its column."""
     column, values = 1, []
     for part in text.replace(" ", ",").split(","):
         if part:
@@ -80,9 +89,8 @@ def vector(text: str | None, size: int, option: str) -> np.ndarray | None:
             values.append(number)
         column += len(part) + 1
     else:
-        if len(values) == size:
-            return np.array(values)
-    raise InputError(problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
+        return values or None
+    return None
 
 
 def split_top_level(text: str) -> list[str]:

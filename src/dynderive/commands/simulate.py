@@ -41,7 +41,7 @@ from ..model.naming import velocity_name
 from ..verify.checks import allowed_velocity, generated_module
 from .contacts import held_contacts as _held
 from .integrate import DEFAULT_METHOD, Culprit, Integrator, at_duration, checked, singular_problem
-from .options import problem, split_top_level
+from .options import problem, split_top_level, vector_any
 from .output import quaternion_kind
 
 #: Singular values below this fraction of the largest count as zero in ``singular_start``
@@ -211,6 +211,44 @@ def initial_configuration(robot: Any, q0: np.ndarray | None) -> np.ndarray:
             raise InputError(problem("--q0", f"the quaternion {', '.join(names[start:start + 4])} must be unit "
                                              f"(within {QUATERNION_TOLERANCE:g}), its norm is {norm:.6g}"))
     return normalized(q0, starts)
+
+
+def loop_numbers(text: str | None, robot: Any) -> list[float] | None:
+    """``--q0`` of a closed-loop robot in generalized coordinates: every coordinate, or only the
+    independent ones (the others are assembled from them). Their number is checked against the
+    derivation's choice by ``loop_start``; here only the numbers themselves (before any work)."""
+    if text is None:
+        return None
+    coordinates = len(robot.configuration_names)
+    fewest = len(robot.independent) if robot.independent is not None else 1
+    values = vector_any(text, "--q0")
+    if values is not None and len(values) == coordinates:
+        return values
+    if values is None or (robot.independent is not None and len(values) != fewest) \
+            or not fewest <= len(values) < coordinates:
+        named = f" or {fewest} (the independent coordinates {', '.join(robot.independent)})" \
+            if robot.independent is not None else " or the independent ones"
+        raise InputError(problem("--q0", f"expected {coordinates} numbers (every coordinate: "
+                                 f"{', '.join(robot.configuration_names)}){named}, separated by commas, got {text!r}"))
+    return values
+
+
+def loop_start(values: list[float] | None, text: str | None, derivation: Derivation,
+               default: np.ndarray) -> np.ndarray:
+    """The start configuration of a closed-loop robot: ``--q0`` with every coordinate as given,
+    or its independent coordinates set in the default assembly (the run assembles the others
+    from them); without ``--q0``, ``default``."""
+    if values is None or len(values) == len(default):
+        return default if values is None else np.array(values)
+    loops = derivation.steps["loops"]
+    names = [derivation.robot.coordinates[i] for i in loops.independent]
+    if len(values) != len(names):
+        raise InputError(problem("--q0", f"expected {len(default)} numbers (every coordinate: "
+                                 f"{', '.join(derivation.robot.coordinates)}) or {len(names)} (the independent "
+                                 f"coordinates {', '.join(names)}), separated by commas, got {text!r}"))
+    start = np.array(loops.assembled, dtype=float) if loops.assembled is not None else default.copy()
+    start[loops.independent] = values
+    return start
 
 
 def refuse_options(robot: Any, coordinates: str, animate: object) -> None:
