@@ -339,3 +339,29 @@ def test_a_loop_robot_refuses_another_count(tmp_path, monkeypatch, q0):
                     "(every coordinate: q1, q2, q3) or 1 (the independent coordinates q1), separated by commas")
     assert line.endswith(f"got {q0!r}")
     assert list(tmp_path.iterdir()) == []
+
+
+# -- an empty --symbolic, and the names the generated module keeps --------------------------------
+
+@pytest.mark.parametrize("args", [["solve", "ur5"], ["check", "ur5"], ["simulate", "ur5", "--csv", "run.csv"],
+                                  ["solve", "rp_arm"], ["build", str(ROBOTS / "ur5.urdf"), "--out", "built"]])
+def test_an_empty_symbolic_is_refused(tmp_path, monkeypatch, args):
+    monkeypatch.chdir(tmp_path)
+    _refused(_run(*args, "--symbolic", ""), "--symbolic:1:1: expected LINK.FIELD (FIELD: mass, com, inertia or *), "
+             "got ''")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_names_page_lists_every_argument_and_local_of_the_module():
+    from dynderive.input.names import API_ARGUMENTS, MODULE_LOCALS
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "reference" / "names.md").read_text()
+    missing = sorted(name for name in API_ARGUMENTS | MODULE_LOCALS if f"`{name}`" not in page)
+    assert not missing, missing
+
+
+@pytest.mark.parametrize("target", ["--casadi", "--code", "--jax"])
+def test_a_parameter_p_is_refused_for_every_target(tmp_path, target):
+    text = ARM.replace("  m3: {value: 0.5}", "  p: {value: 0.5}").replace("mass: m3", "mass: p").replace(
+        "m3*l2**2/12", "p*l2**2/12")
+    assert _slip(tmp_path, text, target) == "8:3: parameters.p: name 'p' is reserved by the generated module"

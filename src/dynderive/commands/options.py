@@ -213,11 +213,11 @@ def _revalidate(robot: str, values: dict[str, float], load: dict[str, Any]) -> l
 def symbolic_kind(symbolic: str | None) -> tuple[str, ...]:
     """``build --symbolic``: the patterns' form checked before any work (what they match is
     each URDF file's matter), as the input kind ``symbolic:PATTERNS``."""
-    if not symbolic:
+    if symbolic is None:
         return ()
     from ..input.urdf_symbolic import parse_patterns, patterns_of
 
-    parse_patterns(patterns_of(symbolic))
+    parse_patterns(patterns_of(symbolic) or ("",))   # '': a pattern left out, refused
     return (f"symbolic:{symbolic}",)
 
 
