@@ -365,3 +365,42 @@ def test_a_parameter_p_is_refused_for_every_target(tmp_path, target):
     text = ARM.replace("  m3: {value: 0.5}", "  p: {value: 0.5}").replace("mass: m3", "mass: p").replace(
         "m3*l2**2/12", "p*l2**2/12")
     assert _slip(tmp_path, text, target) == "8:3: parameters.p: name 'p' is reserved by the generated module"
+
+
+# -- contacts the robot file declares, over-constrained ---------------------------------------------
+
+HELD_TWICE = """name: held
+planar: false
+parameters:
+  m: {value: 2.0, unit: kg}
+gravity: [0, 0, -9.81]
+links:
+  - {name: base, mass: m, com: [0.01, 0.02, 0.1], inertia: [0.02, 0.03, 0.025, 0.001, 0.002, 0.003]}
+  - {name: arm, mass: m, com: [0.2, 0, 0], inertia: [0.001, 0.03, 0.03, 0, 0, 0]}
+joints:
+  - {name: root, type: floating, parent: world, child: base, origin: {xyz: [0, 0, 0.3]}}
+  - {name: q2, type: revolute, parent: base, child: arm, origin: {xyz: [0, 0, 0.4]}, axis: [0, 1, 0], effort: tau2}
+frames:
+  - {name: pad, link: base, origin: {xyz: [0, 0, -0.1]}}
+  - {name: pad2, link: base, origin: {xyz: [0.1, 0, -0.1]}}
+  - {name: tip, link: arm, origin: {xyz: [0.4, 0, 0]}}
+contacts:
+  - {frame: pad, kind: surface}
+  - {frame: CONTACT, kind: surface}
+"""
+
+
+@pytest.mark.parametrize("second", ["pad2", "tip"])
+def test_over_constrained_contacts_of_the_file_are_refused_at_its_contacts_entry(tmp_path, monkeypatch, second):
+    monkeypatch.chdir(tmp_path)
+    text = HELD_TWICE.replace("CONTACT", second)
+    (tmp_path / "held.yaml").write_text(text)
+    line = _refused(_run("simulate", "held.yaml", "--duration", "0.1", "--csv", "run.csv"),
+                    f"held.yaml:16:1: contacts: the contacts pad (surface), {second} (surface) are redundant here")
+    assert line.endswith("or run with --contacts naming fewer, or --contacts none")
+    # given on the command line, the same contacts are refused at the option
+    _refused(_run("simulate", "held.yaml", "--duration", "0.1", "--contacts", f"pad,{second}", "--csv", "run.csv"),
+             f"--contacts:1:1: the contacts pad (surface), {second} (surface) are redundant here")
+    assert _files(tmp_path) == {"held.yaml": text.encode()}
+    result = _run("simulate", "held.yaml", "--duration", "0.1", "--frames", "3", "--contacts", "pad", "-q")
+    assert result.exit_code == 0, result.output

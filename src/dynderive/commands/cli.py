@@ -365,7 +365,8 @@ def simulate(
     trajectory = simulation.simulate(derivation, source, duration, start_q,
                      np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
                      baumgarte, frames, progress, friction_smoothing, wrenches, method,
-                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled, held)
+                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled, held,
+                     declared=contacts is None)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")

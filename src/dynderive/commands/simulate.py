@@ -297,7 +297,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
              friction_smoothing: float = 0.0,
              wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
              method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
-             compiled: Any = None, contacts: list[tuple[str, str]] | None = None) -> Trajectory:
+             compiled: Any = None, contacts: list[tuple[str, str]] | None = None,
+             declared: bool = False) -> Trajectory:
     """Integrate the generated dynamics with SciPy's ``method`` (see ``integrate``), from ``q0``
     (NQ entries) and ``qd0`` (NV), on the manifold for a robot with quaternions (module
     docstring). Robots with Coulomb friction use the module's smoothed sign
@@ -307,7 +308,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     the run (InputError). ``compiled``: the C extension (``--backend c``), whose forward
     dynamics, ``configuration_rate`` and friction the integrator calls instead of the NumPy
     module's (generalized coordinates only). ``contacts``: (frame, kind) held (module
-    docstring; generalized coordinates of a 3-D robot without loops)."""
+    docstring; generalized coordinates of a 3-D robot without loops); ``declared``: they are
+    the robot file's (no ``--contacts``), so a refusal of them is placed at its ``contacts:``."""
     robot = derivation.robot
     module = generated_module(source, robot.name)
     fast = compiled if compiled is not None else module
@@ -328,7 +330,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         gains = {"alpha": baumgarte, "beta": baumgarte} if loops else {}
         forward = fast.forward_dynamics
         if held:   # anchored where they start; the start velocity made to respect them
-            qd0, forward = _held(module, held, q0, qd0, baumgarte, values)
+            at = (robot.source, *robot.positions.get("contacts", (1, 1))) if declared else None
+            qd0, forward = _held(module, held, q0, qd0, baumgarte, values, at)
 
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)

@@ -110,6 +110,7 @@ def validate(doc: SourceDocument) -> Robot:
     positions |= {f"parameter:{p.name}": doc.where(("parameters", p.name), key=True) for p in parameters}
     positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
     positions |= {key: doc.where((key,)) for key in ("loops", "independent", "name")}
+    positions["contacts"] = doc.where(("contacts",), key=True)   # the entry, for a refusal of all of them
     if planar:   # a floating joint: prismatic x, prismatic y, revolute theta and two massless links
         joints, links = expand_planar_floating(joints, links, positions)
     return Robot(
