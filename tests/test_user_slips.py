@@ -7,7 +7,6 @@ independent coordinates, contacts the robot file over-constrains."""
 from __future__ import annotations
 
 import os
-import shutil
 from pathlib import Path
 
 import pytest
