@@ -295,8 +295,9 @@ def simulate(
     coordinates: Annotated[str, typer.Option("--coordinates", help="generalized or maximal (planar robots).")] = "generalized",
     contacts: Annotated[str | None, typer.Option("--contacts", help="FRAME[:point|surface][,...]: frames held (3-D), "
                         "anchored where they start; 'none': none (default: the robot file's contacts).")] = None,
-    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: coordinates, energy (and constraint drift); "
-                                  "needs matplotlib (the plot extra).")] = None,
+    plot: Annotated[Path | None, typer.Option("--plot", help="Image of the coordinates, energy (and constraint "
+                                  "drift), in the format its suffix names: .png, .pdf, .svg, .jpg; needs "
+                                  "matplotlib (the plot extra).")] = None,
     csv: Annotated[Path | None, typer.Option("--csv", help="CSV of the trajectory.")] = None,
     animate: Annotated[Path | None, typer.Option("--animate", help="GIF animation (planar robots); needs matplotlib "
                                      "(the plot extra).")] = None,
@@ -318,14 +319,17 @@ def simulate(
 ) -> None:
     """Integrate ROBOT's generated forward dynamics; plot, tabulate and animate the motion."""
     from .. import derive, load_robot
+    from ..input.input_files import input_files
+    from ..model.naming import did_you_mean
     from . import simulate as simulation
     from .contacts import parse_contacts
     from .integrate import method_name
 
-    check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, (Path(robot),))
+    check_output_paths({"--plot": plot, "--csv": csv, "--animate": animate}, input_files(Path(robot)))
     check_frames(frames, animate is not None)
     if coordinates not in ("generalized", "maximal"):
-        raise InputError(problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"))
+        raise InputError(problem("--coordinates", f"expected generalized or maximal, got {coordinates!r}"
+                                 + did_you_mean(coordinates, ("generalized", "maximal"))))
     finite(duration, "--duration", "a duration in seconds", 0.0, strict=True)
     finite(friction_smoothing, "--friction-smoothing", "a velocity", 0.0)
     finite(baumgarte, "--baumgarte", "a gain", 0.0)
@@ -338,6 +342,8 @@ def simulate(
     for option, path in (("--plot", plot), ("--animate", animate)):
         if path is not None:
             require_matplotlib(option)
+    if plot is not None:
+        simulation.plot_format(plot)
     require_scipy("simulate")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
@@ -346,11 +352,13 @@ def simulate(
     echo_notes(model, quiet)
     simulation.refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
-    start_q = vector(q0, len(model.configuration_names), "--q0")
+    loop_q = simulation.loop_numbers(q0, model) if model.loops and not maximal else None
+    start_q = None if loop_q is not None else vector(q0, len(model.configuration_names), "--q0")
     start_qd = vector(qd0, model.velocity_count, "--qd0")
     start_q = simulation.initial_configuration(model, start_q)
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
+    start_q = simulation.loop_start(loop_q, q0, derivation, start_q)   # loops: the independent ones may do
     held = parse_contacts(model, contacts, coordinates, bool(loaded.load))
     efforts = simulation.parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
@@ -362,11 +370,12 @@ def simulate(
     trajectory = simulation.simulate(derivation, source, duration, start_q,
                      np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
                      baumgarte, frames, progress, friction_smoothing, wrenches, method,
-                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled, held)
+                     lambda text: None if quiet else typer.echo(f"note: {text}", err=True), compiled, held,
+                     declared=contacts is None)
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
-        files[plot] = simulation.plot_png(derivation, trajectory)
+        files[plot] = simulation.plot_image(derivation, trajectory, plot.suffix.lower())
     if csv is not None:
         files[csv] = simulation.csv_text(trajectory).encode()
     if animate is not None:
@@ -592,13 +601,14 @@ def import_(
                              "floating joint 'root_joint'.")] = False,
 ) -> None:
     """Convert a URDF or MJCF file into the equivalent dynderive YAML robot file."""
+    from ..input.input_files import input_files
     from ..input.loader import resolve_robot_path
     from ..input.schema import validate
     from ..input.sources import read_source
     from ..input.urdf import to_yaml
 
     path = resolve_robot_path(urdf)   # a file or a bundled robot's name
-    check_output_paths({"--output": output}, (path,))
+    check_output_paths({"--output": output}, input_files(path))   # never over a file the model reads
     if path.suffix.lower() in (".yaml", ".yml"):
         raise InputError(problem(str(path), "is already a YAML robot file (import converts URDF and MJCF files)"))
     document = read_source(path, floating_base)
@@ -612,3 +622,20 @@ def import_(
                           for where in sorted(document.impossible_inertias)])
     write_all({output: to_yaml(document.data, path.name).encode()})
     typer.echo(f"wrote {output}", err=True)
+
+
+@app.command(cls=_Command)
+@handle_errors
+def copy(
+    name: Annotated[str, typer.Argument(help="A bundled robot's name, e.g. rp_arm.")],
+    dest: Annotated[Path | None, typer.Argument(help="File or folder to copy it to (default: NAME.yaml or "
+                                                "NAME.urdf in the current folder).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Replace DEST if it exists.")] = False,
+) -> None:
+    """Copy a bundled robot's file out, to edit it (an unknown NAME lists the bundled robots)."""
+    from .copy import bundled_file, copy_target
+
+    source = bundled_file(name)
+    target = copy_target(source, dest, force)
+    write_all({target: source.read_bytes()})
+    typer.echo(f"wrote {target}", err=True)

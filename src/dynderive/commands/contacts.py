@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, Problem
 from ..model.naming import did_you_mean
 from .options import problem
 
@@ -53,17 +53,22 @@ def parse_contacts(robot: Any, text: str | None, coordinates: str, compiled: boo
 
 
 def held_contacts(module: Any, held: list[tuple[str, str]], q0: np.ndarray, qd0: np.ndarray, baumgarte: float,
-          values: dict[str, float]) -> tuple[np.ndarray, Callable[..., np.ndarray]]:
+                  values: dict[str, float], declared_at: tuple[str, int, int] | None = None
+                  ) -> tuple[np.ndarray, Callable[..., np.ndarray]]:
     """(the start velocity after a plastic impact on the contacts, forward dynamics holding
     them): anchors at their start poses, Baumgarte gains kp = b**2, kd = 2 b. Redundant
-    contacts are refused at ``--contacts``."""
+    contacts are refused at ``--contacts``, or at ``declared_at`` (the robot file's
+    ``contacts:``, ``(file, line, column)``) when they are the file's."""
     anchors = [module.frame_transform(q0, frame, **values) for frame, _ in held]
     anchors = [pose[:3, 3] if kind == "point" else pose for pose, (_, kind) in zip(anchors, held)]
     try:
         with np.errstate(all="ignore"):
             qd0 = module.impulse_dynamics(q0, qd0, held, 0.0, **values)[0]
     except ValueError as exc:
-        raise InputError(problem("--contacts", str(exc))) from None
+        if declared_at is None:
+            raise InputError(problem("--contacts", str(exc))) from None
+        raise InputError(Problem(*declared_at, f"contacts: {exc}; or run with --contacts naming fewer, or "
+                                 "--contacts none")) from None
 
     def forward(q: np.ndarray, qd: np.ndarray, u: np.ndarray, w: Any, **options: Any) -> np.ndarray:
         return module.constrained_forward_dynamics(q, qd, u, held, (baumgarte ** 2, 2.0 * baumgarte),

@@ -24,6 +24,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..errors import InputError, Problem
+from ..model.naming import did_you_mean
 
 #: SciPy's ``solve_ivp`` methods that ``--method`` offers, the default first.
 METHODS = ("LSODA", "Radau", "BDF", "RK45", "DOP853")
@@ -81,7 +82,8 @@ def method_name(text: str) -> str:
     for name in METHODS:
         if text.lower() == name.lower():
             return name
-    raise InputError(Problem("--method", 1, 1, f"expected one of {', '.join(METHODS)}, got {text!r}"))
+    raise InputError(Problem("--method", 1, 1, f"expected one of {', '.join(METHODS)}, got {text!r}"
+                             + did_you_mean(text, METHODS)))
 
 
 class Integrator:

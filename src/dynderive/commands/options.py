@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, Problem, ToolMissingError
+from ..model.naming import did_you_mean
 from ..render.targets import Target, by_name, check_backends, resolve, simulate_backends
 
 #: The smallest relative tolerance an integrator can honour in double precision (SciPy
@@ -67,6 +68,15 @@ def vector(text: str | None, size: int, option: str) -> np.ndarray | None:
     """``a,b,..`` (or spaces) -> ``size`` finite numbers; None when the option is absent."""
     if text is None:
         return None
+    values = vector_any(text, option)
+    if values is not None and len(values) == size:
+        return np.array(values)
+    raise InputError(problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
+
+
+def vector_any(text: str, option: str) -> list[float] | None:
+    """``a,b,..`` (or spaces) -> finite numbers, as many as given; None if one is not a number
+    (or none is given); a number that is not finite is refused at its column."""
     column, values = 1, []
     for part in text.replace(" ", ",").split(","):
         if part:
@@ -79,9 +89,8 @@ def vector(text: str | None, size: int, option: str) -> np.ndarray | None:
             values.append(number)
         column += len(part) + 1
     else:
-        if len(values) == size:
-            return np.array(values)
-    raise InputError(problem(option, f"expected {size} numbers separated by commas, got {text!r}"))
+        return values or None
+    return None
 
 
 def split_top_level(text: str) -> list[str]:
@@ -188,6 +197,7 @@ def _revalidate(robot: str, values: dict[str, float], load: dict[str, Any]) -> l
 
     document = read_source(resolve_robot_path(robot), **load)
     block = document.data.get("parameters") or {}
+    document.replaced |= set(values)
     for name, value in values.items():
         if isinstance(block.get(name), dict):
             block[name]["value"] = value
@@ -203,11 +213,11 @@ def _revalidate(robot: str, values: dict[str, float], load: dict[str, Any]) -> l
 def symbolic_kind(symbolic: str | None) -> tuple[str, ...]:
     """``build --symbolic``: the patterns' form checked before any work (what they match is
     each URDF file's matter), as the input kind ``symbolic:PATTERNS``."""
-    if not symbolic:
+    if symbolic is None:
         return ()
     from ..input.urdf_symbolic import parse_patterns, patterns_of
 
-    parse_patterns(patterns_of(symbolic))
+    parse_patterns(patterns_of(symbolic) or ("",))   # '': a pattern left out, refused
     return (f"symbolic:{symbolic}",)
 
 
@@ -219,7 +229,8 @@ def backend_target(text: str, check: bool = False) -> Target:
     choices."""
     choices = check_backends() if check else simulate_backends()
     if text.lower() not in choices:
-        raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"))
+        raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"
+                                 + did_you_mean(text, choices)))
     target = by_name(text.lower())
     if target.check_needs:
         resolve(target.check_needs)()

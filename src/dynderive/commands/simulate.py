@@ -41,7 +41,7 @@ from ..model.naming import velocity_name
 from ..verify.checks import allowed_velocity, generated_module
 from .contacts import held_contacts as _held
 from .integrate import DEFAULT_METHOD, Culprit, Integrator, at_duration, checked, singular_problem
-from .options import problem, split_top_level
+from .options import problem, split_top_level, vector_any
 from .output import quaternion_kind
 
 #: Singular values below this fraction of the largest count as zero in ``singular_start``
@@ -213,6 +213,44 @@ def initial_configuration(robot: Any, q0: np.ndarray | None) -> np.ndarray:
     return normalized(q0, starts)
 
 
+def loop_numbers(text: str | None, robot: Any) -> list[float] | None:
+    """``--q0`` of a closed-loop robot in generalized coordinates: every coordinate, or only the
+    independent ones (the others are assembled from them). Their number is checked against the
+    derivation's choice by ``loop_start``; here only the numbers themselves (before any work)."""
+    if text is None:
+        return None
+    coordinates = len(robot.configuration_names)
+    fewest = len(robot.independent) if robot.independent is not None else 1
+    values = vector_any(text, "--q0")
+    if values is not None and len(values) == coordinates:
+        return values
+    if values is None or (robot.independent is not None and len(values) != fewest) \
+            or not fewest <= len(values) < coordinates:
+        named = f" or {fewest} (the independent coordinates {', '.join(robot.independent)})" \
+            if robot.independent is not None else " or the independent ones"
+        raise InputError(problem("--q0", f"expected {coordinates} numbers (every coordinate: "
+                                 f"{', '.join(robot.configuration_names)}){named}, separated by commas, got {text!r}"))
+    return values
+
+
+def loop_start(values: list[float] | None, text: str | None, derivation: Derivation,
+               default: np.ndarray) -> np.ndarray:
+    """The start configuration of a closed-loop robot: ``--q0`` with every coordinate as given,
+    or its independent coordinates set in the default assembly (the run assembles the others
+    from them); without ``--q0``, ``default``."""
+    if values is None or len(values) == len(default):
+        return default if values is None else np.array(values)
+    loops = derivation.steps["loops"]
+    names = [derivation.robot.coordinates[i] for i in loops.independent]
+    if len(values) != len(names):
+        raise InputError(problem("--q0", f"expected {len(default)} numbers (every coordinate: "
+                                 f"{', '.join(derivation.robot.coordinates)}) or {len(names)} (the independent "
+                                 f"coordinates {', '.join(names)}), separated by commas, got {text!r}"))
+    start = np.array(loops.assembled, dtype=float) if loops.assembled is not None else default.copy()
+    start[loops.independent] = values
+    return start
+
+
 def refuse_options(robot: Any, coordinates: str, animate: object) -> None:
     """Refuse what a run of ``robot`` does not do (exit 2, before any work): maximal
     coordinates and the animation beyond planar robots (a robot with quaternions is run in
@@ -259,7 +297,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
              friction_smoothing: float = 0.0,
              wrenches: Callable[..., dict[str, np.ndarray] | None] = lambda time, q, qd: None,
              method: str = DEFAULT_METHOD, note: Callable[[str], None] = lambda text: None,
-             compiled: Any = None, contacts: list[tuple[str, str]] | None = None) -> Trajectory:
+             compiled: Any = None, contacts: list[tuple[str, str]] | None = None,
+             declared: bool = False) -> Trajectory:
     """Integrate the generated dynamics with SciPy's ``method`` (see ``integrate``), from ``q0``
     (NQ entries) and ``qd0`` (NV), on the manifold for a robot with quaternions (module
     docstring). Robots with Coulomb friction use the module's smoothed sign
@@ -269,7 +308,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     the run (InputError). ``compiled``: the C extension (``--backend c``), whose forward
     dynamics, ``configuration_rate`` and friction the integrator calls instead of the NumPy
     module's (generalized coordinates only). ``contacts``: (frame, kind) held (module
-    docstring; generalized coordinates of a 3-D robot without loops)."""
+    docstring; generalized coordinates of a 3-D robot without loops); ``declared``: they are
+    the robot file's (no ``--contacts``), so a refusal of them is placed at its ``contacts:``."""
     robot = derivation.robot
     module = generated_module(source, robot.name)
     fast = compiled if compiled is not None else module
@@ -290,7 +330,8 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
         gains = {"alpha": baumgarte, "beta": baumgarte} if loops else {}
         forward = fast.forward_dynamics
         if held:   # anchored where they start; the start velocity made to respect them
-            qd0, forward = _held(module, held, q0, qd0, baumgarte, values)
+            at = (robot.source, *robot.positions.get("contacts", (1, 1))) if declared else None
+            qd0, forward = _held(module, held, q0, qd0, baumgarte, values, at)
 
         def rhs(time: float, y: np.ndarray) -> np.ndarray:
             tick(time)
@@ -462,7 +503,26 @@ def _segments(derivation: Derivation, poses: list[tuple[np.ndarray, float]]) -> 
     return lines
 
 
-def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
+#: ``--plot``'s formats by suffix, and the metadata that would make two runs' files differ
+#: (a date, the library's version), left out so that the same run writes the same bytes.
+PLOT_FORMATS = {".png": ("png", {"Software": None}), ".pdf": ("pdf", {"Creator": None, "Producer": None,
+                                                                      "CreationDate": None}),
+                ".svg": ("svg", {"Creator": None, "Date": None}), ".jpg": ("jpeg", {}),
+                ".jpeg": ("jpeg", {})}
+
+
+def plot_format(path: Path) -> str:
+    """``--plot``'s format, named by its suffix (any case); another suffix is refused at the
+    option before any work (the file would hold bytes its name does not promise)."""
+    if path.suffix.lower() not in PLOT_FORMATS:
+        given = f"'{path.suffix}'" if path.suffix else "no suffix"
+        raise InputError(problem("--plot", f"{path} has {given}: the plot is written in the format its suffix "
+                                 f"names, one of {', '.join(PLOT_FORMATS)}"))
+    return path.suffix.lower()
+
+
+def plot_image(derivation: Derivation, trajectory: Trajectory, suffix: str = ".png") -> bytes:
+    """The plot, in the format ``suffix`` names (``PLOT_FORMATS``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -490,7 +550,9 @@ def plot_png(derivation: Derivation, trajectory: Trajectory) -> bytes:
     axes[-1].set_xlabel("time [s]")
     figure.tight_layout()
     buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    kind, metadata = PLOT_FORMATS[suffix]
+    with matplotlib.rc_context({"svg.hashsalt": "dynderive"}):   # SVG ids: the same on every run
+        figure.savefig(buffer, format=kind, dpi=100, metadata=metadata or None)
     plt.close(figure)
     return buffer.getvalue()
 

@@ -193,12 +193,14 @@ class Written:
     whole robot (its scale, its welds): where it is, its tensor at the parameter defaults
     (None when some entry has no value), whether every entry is a constant (no parameter:
     then a correction may replace it), and the off-diagonal pairs of a 3 x 3 form that differ
-    (``(r, c, entry [r][c], entry [c][r])``, the values of constants, else None)."""
+    (``(r, c, entry [r][c], entry [c][r])``, the values of constants, else None), and the
+    parameters its entries use (one with a negative default is reported at its value, once)."""
 
     path: tuple[Any, ...]
     tensor: np.ndarray | None
     constant: bool
     pairs: tuple[tuple[int, int, float | None, float | None], ...] = ()
+    symbols: frozenset[sympy.Symbol] = frozenset()
 
 
 def from_entries(ixx: Any, iyy: Any, izz: Any, ixy: Any, ixz: Any, iyz: Any) -> np.ndarray:
@@ -218,9 +220,10 @@ def read(v: Any, value: Any, path: tuple[Any, ...], planar: bool,
         if isinstance(value, list):
             v.report(path, "a planar link takes one scalar inertia about the COM")
             return (0,), None
-        number = v.numeric(v.expression(value, path, symbols))
+        expr = v.expression(value, path, symbols)
+        number = v.numeric(expr)
         if number is not None and number < 0:
-            v.report(path, f"must not be negative (got {number:g})")
+            v.negative_value(expr, path, number, "must not be negative")
         return (value,), None
     pairs = []
     if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
@@ -244,7 +247,8 @@ def read(v: Any, value: Any, path: tuple[Any, ...], planar: bool,
     values = [v.numeric(e) for e in used]
     tensor = from_entries(*values) if all(x is not None for x in values) else None
     constant = all(e is not None and not e.free_symbols for e in used)
-    return tuple(flat), Written(path, tensor, constant, tuple(pairs))
+    symbols = frozenset().union(*(e.free_symbols for e in used if e is not None))
+    return tuple(flat), Written(path, tensor, constant, tuple(pairs), symbols)
 
 
 def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Written | None]) -> list[Link]:
@@ -277,6 +281,8 @@ def check_links(v: Any, links: list[Link], joints: list[Joint], written: list[Wr
                 else:
                     v.note(where, f"{label}: {note}")
                     entries[_FLAT[(r, c)]] = mean
+        if tensor is not None and w.symbols & v.negative_defaults:
+            tensor = None   # a parameter's negative default, reported at the parameter
         if tensor is not None:
             verdict = judge(tensor, scale, welded, correct=w.constant)
             if verdict.error is not None:

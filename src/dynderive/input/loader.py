@@ -59,6 +59,9 @@ class SourceDocument:
     impossible_inertias: set[Path_] = field(default_factory=set)
     #: The most significant digits of a number the source wrote (URDF; None: count the data's).
     digits: int | None = None
+    #: Parameters whose values were replaced by the command line's (``--param``): a problem
+    #: they cause is reported where they are used, not at the file's default.
+    replaced: set[str] = field(default_factory=set)
 
     def where(self, path: Path_, key: bool = False) -> tuple[int, int]:
         """Position of ``path``, falling back to the nearest enclosing value."""
@@ -90,6 +93,7 @@ def bundled_robots_dir() -> Path:
 
 
 def bundled_robot_names() -> list[str]:
+    """The bundled robots' names (their files' stems), sorted."""
     return sorted(p.stem for p in bundled_robots_dir().glob("*") if p.suffix in ROBOT_SUFFIXES)
 
 
@@ -97,6 +101,10 @@ def resolve_robot_path(robot: str | Path) -> Path:
     """A path as given, or the file of a bundled robot called ``robot``."""
     path = Path(robot)
     if path.exists() or path.suffix in ROBOT_SUFFIXES or len(path.parts) > 1:
+        if not os.path.lexists(path) and path.suffix in ROBOT_SUFFIXES and path.stem in bundled_robot_names():
+            raise InputError(Problem(str(robot), 1, 1, f"no such file; `{path.stem}` is a bundled robot: give "
+                                     f"its name alone (`{path.stem}`), or run `dynderive copy {path.stem}` to "
+                                     "get its file to edit"))
         return path
     for suffix in ROBOT_SUFFIXES:
         candidate = bundled_robots_dir() / f"{robot}{suffix}"

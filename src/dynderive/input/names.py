@@ -45,15 +45,19 @@ PLANNED_NAMES = frozenset({
     "CONTACTS", "CONTACT_KINDS", "CONTACT_RANK_TOLERANCE", "constrained_forward_dynamics", "impulse_dynamics",
 })
 
+#: The generated functions' other arguments and locals, and the modules they use (listed in
+#: docs/reference/names.md, which a test holds to this set).
+MODULE_LOCALS = frozenset({"np", "numpy", "math", "q", "qd", "qdd", "u", "qm", "qmd", "p", "out", "result",
+                           "world", "arrays", "batch"})
+
 #: Names the generated module defines or uses; robot symbols may not take them.
-MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | frozenset({
-    "np", "numpy", "math", "q", "qd", "qdd", "u", "qm", "qmd", "p", "out", "result",
+MODULE_NAMES = API_ARGUMENTS | PLANNED_NAMES | PYTHON_BUILTINS | MODULE_LOCALS | frozenset({
     "PARAMETERS", "COORDINATES", "EFFORTS", "MAXIMAL_COORDINATES", "mass_matrix",
     "coriolis_matrix", "gravity_vector", "inverse_dynamics", "forward_dynamics",
     "kinetic_energy", "potential_energy", "generalized_forces", "maximal_mass_matrix",
     "maximal_coriolis_matrix", "maximal_gravity_vector", "maximal_efforts", "constraints",
     "constraint_jacobian", "constraint_jacobian_dot", "constraint_forces", "to_maximal",
-    "to_maximal_jacobian", "maximal_forward_dynamics", "world", "arrays", "batch",
+    "to_maximal_jacobian", "maximal_forward_dynamics",
     "LOOPS", "INDEPENDENT_COORDINATES", "ASSEMBLED_CONFIGURATION", "reduced_basis", "reduced_forward_dynamics",
     "maximal_friction_forces",
 })

@@ -81,7 +81,9 @@ def validate(doc: SourceDocument) -> Robot:
 
     links, tree, inertias = _links(v, top, planar, symbols)
     joints = _joints(v, top, planar, symbols, tree)
-    if joints and not any(j.moves for j in joints):
+    raw_joints = top.get("joints") if isinstance(top.get("joints"), list) else []
+    types_read = all(item.get("type") in JOINT_TYPES for item in raw_joints if isinstance(item, dict))
+    if joints and types_read and not any(j.moves for j in joints):   # an unread type is reported already
         v.error(("joints",), "joints: every joint is fixed, so the robot has no coordinate to derive")
     _check_tree(v, joints, tree.names)
     check_floating(v, top, joints, planar, links)
@@ -108,6 +110,7 @@ def validate(doc: SourceDocument) -> Robot:
     positions |= {f"parameter:{p.name}": doc.where(("parameters", p.name), key=True) for p in parameters}
     positions["maximal.constraints"] = doc.where(("maximal", "constraints"))
     positions |= {key: doc.where((key,)) for key in ("loops", "independent", "name")}
+    positions["contacts"] = doc.where(("contacts",), key=True)   # the entry, for a refusal of all of them
     if planar:   # a floating joint: prismatic x, prismatic y, revolute theta and two massless links
         joints, links = expand_planar_floating(joints, links, positions)
     return Robot(
@@ -199,8 +202,7 @@ def _links(v: Validator, top: dict[str, Any], planar: bool,
         mass = v.expression(item.get("mass"), path + ("mass",), symbols) if "mass" in item else None
         value = v.numeric(mass)
         if value is not None and (value <= 0 if planar else value < 0):  # 3-D: massless links (M checked regular)
-            rule = "must be positive" if planar else "must not be negative"
-            v.report(path + ("mass",), f"{rule} (got {value:g})")
+            v.negative_value(mass, path + ("mass",), value, "must be positive" if planar else "must not be negative")
         com = item.get("com", [0] * dimension)
         v.vector(com, path + ("com",), (dimension,), symbols)
         entries, written = inertia.read(v, item.get("inertia", 0 if planar else [0] * 6), path + ("inertia",),
@@ -221,7 +223,9 @@ def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
     for i, path, item, jname, _ in v.named_items(top, "joints", "joint", JOINT_KEYS, required, {}):
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
-            extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype), "")
+            extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype))
+            if extra is None:
+                extra = did_you_mean(jtype, JOINT_TYPES) if isinstance(jtype, str) else ""
             v.report(path + ("type",), f"unsupported joint type {jtype!r}; "
                      f"expected one of {', '.join(JOINT_TYPES)}{extra}")
             jtype = None
@@ -261,8 +265,9 @@ def _loops(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, s
         ltype = item.get("type")
         if "type" in item and ltype not in types:
             shape = "planar" if planar else "3-D"
+            hint = did_you_mean(ltype, types) if isinstance(ltype, str) else ""
             v.report(path + ("type",), f"unsupported {shape} loop joint type {ltype!r}; "
-                     f"expected one of {', '.join(types)}")
+                     f"expected one of {', '.join(types)}{hint}")
             ltype = None
         ends = [item.get("parent"), item.get("child")]
         tree.check(v, item, path, "parent")

@@ -24,6 +24,10 @@ def kind_of(path: Path, text: str | None = None) -> str:
 def read_source(path: Path, floating_base: bool = False,
                 symbolic: str | tuple[str, ...] | list[str] | None = None) -> SourceDocument:
     """The robot file at ``path`` as data with positions (not yet validated)."""
+    if isinstance(symbolic, str) and not symbolic:   # --symbolic '': a pattern left out, not "none"
+        from .urdf_symbolic import parse_patterns
+
+        parse_patterns(("",))
     text = read_text(path)
     kind = kind_of(path, text)
     if kind == "urdf":

@@ -38,6 +38,8 @@ class Validator:
         self.parameters_broken = False
         #: Values at the parameter defaults (set once the parameters are read).
         self.evaluate = Evaluator()
+        #: Parameters reported for a negative default (their uses are not reported again).
+        self.negative_defaults: set[sympy.Symbol] = set()
 
     # -- reporting -------------------------------------------------------------------
     def error(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
@@ -46,6 +48,27 @@ class Validator:
     def report(self, path: tuple[Any, ...], message: str, key: bool = False, offset: int = 0) -> None:
         """A problem with the value at ``path``: its label, then ``message``."""
         self.error(path, f"{self.label(path)}: {message}", key=key, offset=offset)
+
+    def negative_value(self, expr: sympy.Expr | None, path: tuple[Any, ...], number: float, rule: str) -> None:
+        """Report the value ``number`` of ``expr`` (at ``path``), which breaks ``rule`` by being
+        negative. When one parameter with a negative default makes it so (``m3: {value: -0.5}``
+        used as a mass), the mistake is that default: it is reported once, at the parameter's
+        value, naming its first use; its other uses are not reported again."""
+        negative = sorted((s for s in (expr.free_symbols if expr is not None else ())
+                           if s in self.evaluate.values and self.evaluate.values[s] < 0), key=str)
+        if len(negative) != 1 or str(negative[0]) in self.doc.replaced:   # --param's value: at its use
+            self.report(path, f"{rule} (got {number:g})")
+            return
+        symbol = negative[0]
+        if symbol in self.negative_defaults:
+            return
+        self.negative_defaults.add(symbol)
+        where = ("parameters", str(symbol))
+        where += ("value",) if where + ("value",) in self.doc.positions else ()
+        default = float(self.evaluate.values[symbol])
+        use = (f"but it is {self.label(path)} (at {self.at(path)})" if expr == symbol else
+               f"and makes {self.label(path)} (at {self.at(path)}) {number:g}")
+        self.report(where, f"default value {default:g} is negative, {use}, which {rule}")
 
     def note(self, path: tuple[Any, ...], message: str) -> None:
         self.doc.note(self.doc.where(path), message)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import ast
 import math
 import operator
+import re
 import sys
 from collections.abc import Mapping
 from decimal import Decimal, InvalidOperation
@@ -65,6 +66,11 @@ _LOG10_TINY = math.log10(sys.float_info.min)
 _NON_FINITE = {sympy.zoo: "infinite", sympy.oo: "infinite", -sympy.oo: "infinite", sympy.nan: "undefined"}
 
 
+#: MATLAB's element-wise operators (``.^ .* ./``), hinted at when an expression does not parse
+#: (``2.*x`` parses: a decimal point, then a product).
+_MATLAB_OPERATOR = re.compile(r"\.\s*[\^*/]")
+
+
 class ExpressionError(ValueError):
     """An expression is malformed or not allowed; ``offset`` is the 0-based column in it."""
 
@@ -106,6 +112,11 @@ def parse_expression(text: object, symbols: Mapping[str, sympy.Expr]) -> sympy.E
         tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
         offset = max((exc.offset or 1) - 1, 0) + lead
+        matlab = _MATLAB_OPERATOR.search(text)
+        if matlab is not None:   # l.^2, m.*g: MATLAB's element-wise operators
+            raise ExpressionError(f"malformed expression: '{matlab.group()}' is MATLAB's element-wise operator; "
+                                  "write ** (or ^) for powers, * and / for products and quotients",
+                                  matlab.start()) from None
         raise ExpressionError(f"malformed expression: {exc.msg}", offset) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression is too complex") from None
