@@ -68,7 +68,7 @@ def test_an_output_that_is_the_robot_file_is_refused(tmp_path):
     shutil.copy(ROBOTS / "rp_arm.yaml", robot)
     before = robot.read_bytes()
     line = _refused(_run("simulate", robot, "--csv", robot), "--csv:1:1: ")
-    assert "is the input file" in line
+    assert "is the robot file" in line
     assert robot.read_bytes() == before
 
 
@@ -123,7 +123,7 @@ def test_import_onto_its_own_input_is_refused(tmp_path, monkeypatch, spelling):
     (tmp_path / "sub").mkdir()
     (tmp_path / "src.urdf").write_text(URDF)
     line = _refused(_run("import", "src.urdf", "-o", spelling), "--output:1:1: ")
-    assert "is the input file" in line
+    assert "is the robot file" in line
     assert (tmp_path / "src.urdf").read_text() == URDF
 
 

@@ -69,18 +69,18 @@ def model(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("robot, output, named", [
-    ("main.xml", "part.xml", "part.xml"),            # an included file
-    ("main.xml", "link.xml", "part.xml"),            # a symlink to it
-    ("main.xml", "hard.xml", "part.xml"),            # a hard link to it
-    ("main.xml", "main.xml", "main.xml"),            # the robot file itself
-    ("main.xml", "nowhere/../main.xml", "main.xml"),
-    ("arm.xml", "assets/box.obj", "assets/box.obj"),  # a mesh, under <compiler meshdir>
-    ("r.urdf", "assets/box.obj", "assets/box.obj"),   # a URDF's mesh
+    ("main.xml", "part.xml", "a file the robot file main.xml reads (part.xml)"),   # an included file
+    ("main.xml", "link.xml", "a file the robot file main.xml reads (part.xml)"),   # a symlink to it
+    ("main.xml", "hard.xml", "a file the robot file main.xml reads (part.xml)"),   # a hard link to it
+    ("main.xml", "main.xml", "the robot file (main.xml)"),
+    ("main.xml", "nowhere/../main.xml", "the robot file (main.xml)"),
+    ("arm.xml", "assets/box.obj", "a file the robot file arm.xml reads (assets/box.obj)"),   # <compiler meshdir>
+    ("r.urdf", "assets/box.obj", "a file the robot file r.urdf reads (assets/box.obj)"),     # a URDF's mesh
 ])
 def test_import_never_writes_over_a_file_the_model_reads(model, robot, output, named):
     before = _files(model)
     line = _refused(_run("import", robot, "-o", output), "--output:1:1: ")
-    assert f"is the input file {named}" in line
+    assert f" is {named}: " in line
     assert _files(model) == before
 
 
@@ -95,7 +95,7 @@ def test_import_of_a_model_with_includes_and_meshes_writes_elsewhere(model):
 
 def test_simulate_never_writes_a_plot_over_a_mesh(model):
     before = _files(model)
-    _refused(_run("simulate", "r.urdf", "--csv", "assets/box.obj"), "--csv:1:1: assets/box.obj is the input file")
+    _refused(_run("simulate", "r.urdf", "--csv", "assets/box.obj"), "--csv:1:1: assets/box.obj is a file the robot file r.urdf reads")
     assert _files(model) == before
 
 

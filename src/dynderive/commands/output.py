@@ -229,7 +229,8 @@ def check_output_paths(outputs: dict[str, Path | None], inputs: tuple[Path, ...]
             problems.append(Problem(option, 1, 1, f"{path} is also the {other} output: one file cannot "
                                     "hold both (give each its own path)"))
         elif source is not None:
-            problems.append(Problem(option, 1, 1, f"{path} is the input file {source}: writing it would "
+            what = "the robot file" if source == inputs[0] else f"a file the robot file {inputs[0]} reads"
+            problems.append(Problem(option, 1, 1, f"{path} is {what} ({source}): writing it would "
                                     "replace it (give the output another path)"))
         seen.append((option, path))
     if problems:
