@@ -453,6 +453,14 @@ def _notes(tree: _Tree) -> None:
         tree.doc.note(tree.at("geoms", colliding[0], "geom"), f"contacts of {len(colliding)} colliding geom"
                       f"{'s' * (len(colliding) > 1)} are not modelled (declare contacts: in a YAML robot file "
                       "made by import to hold chosen frames)")
+    for pair in tree.spec.pairs:   # explicit <contact> entries, each at its own line
+        named = f" '{pair.name}'" if pair.name else ""
+        tree.doc.note(tree.locator.of(pair, "pair"), f"contact pair{named} of geoms '{pair.geomname1}' and "
+                      f"'{pair.geomname2}' is not modelled (declare contacts: in a YAML robot "
+                      "file made by import to hold chosen frames)")
+    for exclude in tree.spec.excludes:
+        tree.doc.note(tree.locator.of(exclude, "exclude"), f"contact exclude of bodies '{exclude.bodyname1}' and "
+                      f"'{exclude.bodyname2}' changes nothing here: contacts are not modelled")
     if m.opt.viscosity or m.opt.density:
         tree.doc.note(tree.locator._first("option"), "fluid forces (option viscosity, density) are not modelled")
     for b in range(1, m.nbody):
