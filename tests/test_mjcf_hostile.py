@@ -85,6 +85,7 @@ NUMBERS = {
     "in a default class": (_model(' childclass="c"', before='  <default><default class="c"><joint axis="0 0 nan"/>'
                                                             '</default></default>'), 2, "axis=", "'nan' is not a finite"),
     "huge gravity": (_model(before='  <option gravity="0 0 -1e11"/>'), 2, "gravity=", "-1e11 is out of range"),
+    "huge hexadecimal": (_model(' pos="0 0x1p700 1"'), 4, "pos=", "0x1p700 is out of range"),
 }
 
 

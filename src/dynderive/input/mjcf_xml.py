@@ -170,7 +170,7 @@ def _bad_number(name: str, value: str, names: set[str]) -> str | None:
         return None
     words = value.split()
     try:
-        numbers = [float(word) for word in words]
+        numbers = [_number(word) for word in words]
     except ValueError:
         return None   # text, not numbers
     for word, number in zip(words, numbers):
@@ -181,6 +181,14 @@ def _bad_number(name: str, value: str, names: set[str]) -> str | None:
         if name in MEASURES and abs(number) > LARGEST:
             return f"{word} is out of range (numbers here are at most {LARGEST:.0e} in size, MuJoCo's mjMAXVAL)".replace("+", "")
     return None
+
+
+def _number(word: str) -> float:
+    """A word as MuJoCo's reader (``strtod``) takes it: decimal, or hexadecimal (``0x1p700``)."""
+    try:
+        return float(word)
+    except ValueError:
+        return float.fromhex(word)
 
 
 def _asset_folders(source: _File, base: Path) -> list[Path]:
