@@ -15,7 +15,10 @@ free joint's linear velocity in the body frame (Pinocchio's, section 10 of the d
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from ..errors import InputError, Problem
 from .loader import SourceDocument
@@ -26,6 +29,23 @@ def is_mjcf(text: str) -> bool:
     from .mjcf_positions import root_tag
 
     return root_tag(text) == "mujoco"
+
+
+@contextmanager
+def mujoco_messages(mujoco: Any) -> Iterator[list[str]]:
+    """MuJoCo's warnings (``mju_warning``: "XML contains a 'NaN'", unstable simulations) and
+    its compiler's, collected into the list yielded: by default MuJoCo prints them and appends
+    them to ``MUJOCO_LOG.TXT`` in the working directory, and no command writes outside ``--out``."""
+    said: list[str] = []
+    before = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: said.append(" ".join(str(message).split())))
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            yield said
+    finally:
+        mujoco.set_mju_user_warning(before)
+    said += [" ".join(str(w.message).split()) for w in caught]
 
 
 def read_mjcf(path: Path, text: str, file: str) -> SourceDocument:
@@ -42,11 +62,12 @@ def read_mjcf(path: Path, text: str, file: str) -> SourceDocument:
                                  'installed: pip install "dynderive[mjcf]"')) from None
     from .mjcf_positions import Locator, compile_problem
     from .mjcf_tree import robot_document
+    from .mjcf_xml import check_mjcf_files
 
+    check_mjcf_files(path, text, file)   # before MuJoCo's reader, which trusts its input
     locator = Locator(text, path)
     try:
-        with warnings.catch_warnings(record=True) as caught:   # MuJoCo's compiler warnings: notes
-            warnings.simplefilter("always")
+        with mujoco_messages(mujoco) as said:   # MuJoCo's warnings: notes
             spec = mujoco.MjSpec.from_file(str(path))
             model = spec.compile()
     except ValueError as exc:
@@ -55,7 +76,6 @@ def read_mjcf(path: Path, text: str, file: str) -> SourceDocument:
         raise InputError(Problem(file, *(locator._first("worldbody", default=None) or locator.root),
                                  "the model has no joint: every body is welded to the world and nothing moves"))
     doc = SourceDocument(file=file, data=None)
-    for warning in caught:
-        said = " ".join(str(warning.message).split())
-        doc.note(locator._first("compiler") if "compiler" in said else locator.root, f"MuJoCo: {said}")
+    for message in said:
+        doc.note(locator._first("compiler") if "compiler" in message else locator.root, f"MuJoCo: {message}")
     return robot_document(mujoco, spec, model, doc, locator)

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from ..model.written import significant_digits
 from .loader import Path_, SourceDocument
@@ -237,6 +238,7 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
     tree.walk()   # read_mjcf has refused a model without joints: every joint makes a link
     efforts = _actuators(tree)
     mimics, loops = _equalities(tree)
+    _no_loops_on_quaternions(tree, loops)
     _notes(tree)
     title = locator.model_name() or Path(doc.file).stem
     data: dict[str, Any] = {"name": robot_identifier(title), "title": title, "planar": False,
@@ -408,6 +410,18 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
     return mimics, loops
 
 
+def _no_loops_on_quaternions(tree: _Tree, loops: list[tuple[dict[str, Any], tuple[int, int]]]) -> None:
+    """Refuse, at the first ``<connect>``, loops on a model with a free or ball joint: the
+    validator's ``loops:`` refusal, said in MJCF's words where the loop is written."""
+    kinds = [JOINT_TYPES[int(t)] for t in tree.m.jnt_type]
+    joint = "free" if "floating" in kinds else "ball" if "spherical" in kinds else None
+    if loops and joint:
+        entry, at = loops[0]
+        raise InputError(Problem(tree.doc.file, *at, f"<connect> '{entry['name']}' closes a loop between bodies "
+                                 f"'{entry['parent']}' and '{entry['child']}': loops on a model with a {joint} "
+                                 "joint are not built yet"))
+
+
 def _follow(follows: dict[str, tuple[str, float, float]], y: str, x: str, a: float, b: float) -> bool:
     """Record ``y = b + a x`` as y following x, or else (y already follows a joint) as x following
     y; False when neither is free to follow or it would close a cycle of followers."""
@@ -439,6 +453,14 @@ def _notes(tree: _Tree) -> None:
         tree.doc.note(tree.at("geoms", colliding[0], "geom"), f"contacts of {len(colliding)} colliding geom"
                       f"{'s' * (len(colliding) > 1)} are not modelled (declare contacts: in a YAML robot file "
                       "made by import to hold chosen frames)")
+    for pair in tree.spec.pairs:   # explicit <contact> entries, each at its own line
+        named = f" '{pair.name}'" if pair.name else ""
+        tree.doc.note(tree.locator.of(pair, "pair"), f"contact pair{named} of geoms '{pair.geomname1}' and "
+                      f"'{pair.geomname2}' is not modelled (declare contacts: in a YAML robot "
+                      "file made by import to hold chosen frames)")
+    for exclude in tree.spec.excludes:
+        tree.doc.note(tree.locator.of(exclude, "exclude"), f"contact exclude of bodies '{exclude.bodyname1}' and "
+                      f"'{exclude.bodyname2}' changes nothing here: contacts are not modelled")
     if m.opt.viscosity or m.opt.density:
         tree.doc.note(tree.locator._first("option"), "fluid forces (option viscosity, density) are not modelled")
     for b in range(1, m.nbody):

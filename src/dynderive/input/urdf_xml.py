@@ -79,6 +79,17 @@ class _Element:
         return [c for c in self.children if c.tag == tag]
 
 
+def refuse_declarations(parser: Any, kind: str) -> None:
+    """Make an expat ``parser`` stop (``ValueError``) at a DOCTYPE or an entity declaration:
+    no robot file needs one, and they are how entity expansion bombs and external entities
+    (files read from elsewhere) get in. The URDF and the MJCF readers share this check."""
+    def refuse(*_: Any) -> None:
+        raise ValueError(f"DTDs and entities are not allowed in {kind} files")
+
+    parser.StartDoctypeDeclHandler = refuse
+    parser.EntityDeclHandler = refuse
+
+
 def _parse_xml(text: str, file: str) -> _Element:
     """Parse XML with expat, keeping each element's line and column; no DTDs or entities."""
     parser = expat.ParserCreate()
@@ -98,13 +109,9 @@ def _parse_xml(text: str, file: str) -> _Element:
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)
 
-    def refuse(*_: Any) -> None:
-        raise ValueError("DTDs and entities are not allowed in URDF files")
-
     parser.StartElementHandler = start
     parser.EndElementHandler = lambda tag: stack.pop()
-    parser.StartDoctypeDeclHandler = refuse
-    parser.EntityDeclHandler = refuse
+    refuse_declarations(parser, "URDF")
     try:
         parser.Parse(text, True)
     except expat.ExpatError as exc:

@@ -31,9 +31,12 @@ def pinocchio_rows(derivation: Derivation, module: Any, values: dict[str, float]
         return [Row(name, "skip", "pin is not installed", float("nan"))]
     from .centroidal_checks import pinocchio_centroidal
     from .contact_checks import pinocchio_contacts
-    from .pinocchio_model import PinocchioDrives, pinocchio_maps
+    from .pinocchio_model import NoReference, PinocchioDrives, pinocchio_maps
 
-    model, qp, vp = pinocchio_maps(robot, values)
+    try:
+        model, qp, vp = pinocchio_maps(robot, values)
+    except NoReference as exc:
+        return [Row(name, "skip", str(exc), float("nan"))]
     # the centre of mass and the centroidal momentum need neither drives nor the file's defaults
     centroidal = [] if robot.planar else [pinocchio_centroidal(pin, model, module, values, qp, vp, qs, vs),
                                           *pinocchio_contacts(pin, model, derivation, module, values, qp, vp, qs, vs, us)]

@@ -2,9 +2,12 @@
 
 Used by ``dynderive check`` to compare the generated dynamics with an independent engine.
 Joints are added depth-first (Pinocchio's CRBA assumes each subtree has consecutive joint
-indices), fixed joints append their child's inertia to the parent's Pinocchio joint; the
-robot's frames become operational frames of the same names; ``<mimic>`` joints become
-Pinocchio's mimic joints (``transformJointIntoMimic``); floating and spherical joints its
+indices; a branch holding a leader goes before a sibling branch holding its follower, as
+Pinocchio adds a mimic joint only after the joint it follows), fixed joints append their
+child's inertia to the parent's Pinocchio joint; the robot's frames become operational frames
+of the same names; ``<mimic>`` joints become Pinocchio's mimic joints
+(``transformJointIntoMimic``; a follower above its leader in one chain has no Pinocchio model:
+``NoReference``); floating and spherical joints its
 free flyer and spherical joint. The returned permutations map dynderive's configuration and
 velocity orders to Pinocchio's.
 """
@@ -18,6 +21,11 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
+
+
+class NoReference(ValueError):
+    """The robot is one Pinocchio cannot model (the check that needs it is skipped, with this
+    reason)."""
 
 
 def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndarray]:
@@ -72,7 +80,7 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
         return pin.JointModelPrismaticUnaligned(axis)
 
     def visit(parent: str) -> None:
-        for joint in (j for j in robot.joints if j.parent == parent):
+        for joint in _leaders_first(robot, [j for j in robot.joints if j.parent == parent]):
             parent_id, parent_frame = frame_of[parent]
             place = parent_frame * placement(joint)
             if not joint.moves:
@@ -86,6 +94,9 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
 
     visit("world")
     for joint in (j for j in robot.joints if j.mimic is not None):
+        if model.getJointId(joint.name) < model.getJointId(joint.mimic.joint):
+            raise NoReference(f"joint '{joint.name}' follows '{joint.mimic.joint}', a joint below it: Pinocchio "
+                              "adds a mimic joint only after the joint it follows")
         model = pin.transformJointIntoMimic(model, model.getJointId(joint.mimic.joint), model.getJointId(joint.name),
                                             float(joint.mimic.multiplier), float(joint.mimic.offset))
     where_q, where_v = robot.offsets()
@@ -99,6 +110,29 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
         model.addFrame(pin.Frame(frame.name, joint_id, link_place * placement(frame), pin.FrameType.OP_FRAME))
     model.armature = PinocchioDrives(robot, values, vp).armature   # crba, rnea and aba use it
     return model, qp, vp
+
+
+def _leaders_first(robot: Robot, siblings: list[Any]) -> list[Any]:
+    """Sibling joints in the robot's order, except that a branch holding the leader of a
+    follower in a later sibling's branch moves before that sibling (a finger following the
+    other finger of a hand written before it); a stable order, so the usual case is unchanged."""
+    def below(joint: Any) -> set[str]:
+        names, stack = set(), [joint]
+        while stack:
+            current = stack.pop()
+            names.add(current.name)
+            stack += [j for j in robot.joints if j.parent == current.child]
+        return names
+
+    branches = [(joint, below(joint)) for joint in siblings]
+    led = {j.name: j.mimic.joint for j in robot.joints if j.mimic is not None}
+    ordered: list[tuple[Any, set[str]]] = []
+    for joint, names in branches:
+        # the first earlier branch whose followers' leaders are in this one
+        at = next((k for k, (_, earlier) in enumerate(ordered) if any(led.get(n) in names for n in earlier)),
+                  len(ordered))
+        ordered.insert(at, (joint, names))
+    return [joint for joint, _ in ordered]
 
 
 class PinocchioDrives:
