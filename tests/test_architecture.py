@@ -201,6 +201,33 @@ def test_no_command_names_a_target():
     assert found == []
 
 
+def test_no_target_imports_another_target():
+    """A target's modules import the code-generation layer (``render/codegen/``), the engine
+    and ``render/``'s shared modules, never another target's folder (relative or absolute,
+    lazily or not): what two targets share lives in ``codegen``; the extension reaches the C
+    target's files through the registry."""
+    folders = {path.parent.name for path in (PACKAGE / "render" / "targets").glob("*/__init__.py")}
+    found = []
+    for relative, module, package in MODULES:
+        parts = module.split(".")
+        if parts[:2] != ["render", "targets"] or len(parts) < 3 or parts[2] not in folders:
+            continue
+        for target in _imports(PACKAGE / relative, package):
+            other = target.split(".")
+            if other[:2] == ["render", "targets"] and len(other) > 2 and other[2] in folders - {parts[2]}:
+                found.append(f"{relative}: imports {target}")
+    assert found == []
+
+
+def test_the_import_check_sees_relative_and_absolute_imports(tmp_path):
+    """The parser behind the target check reads both spellings of an import of another target."""
+    source = tmp_path / "m.py"
+    source.write_text("from ..c.c_print import CFunction\nfrom dynderive.render.targets.numpy import code\n"
+                      "def f():\n    from ...codegen.names import refuse\n")
+    assert _imports(source, ["render", "targets", "matlab"]) == {
+        "render.targets.c.c_print", "render.targets.numpy", "render.codegen.names"}
+
+
 def test_no_benchmark_script_shadows_a_package():
     """Tests put ``benchmarks/`` on ``sys.path`` (to import its anchors): a script named like a
     package the project or its tests import (``casadi.py``) would be imported in its place."""

@@ -28,8 +28,8 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
+from dynderive.render.codegen.names import c_comment
 from dynderive.render.targets.c.c import render_c
-from dynderive.render.targets.c.c_names import c_comment
 from dynderive.verify.checks import random_configurations
 
 from conftest import ROBOTS, derivation_of, import_code, module_of, random_tree_derivation, stable_seed
@@ -434,7 +434,7 @@ def test_fast_printer_means_what_the_sympy_printer_means(tmp_path):
     side give the same values on expressions with signs, fractions, powers and functions."""
     import sympy
 
-    from dynderive.render.targets.c.c_print import CPrinter, FastCPrinter
+    from dynderive.render.codegen.c_syntax import CPrinter, FastCPrinter
 
     x, y, z = sympy.symbols("x y z")
     names = {x: "v[0]", y: "v[1]", z: "v[2]"}

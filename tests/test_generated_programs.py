@@ -166,7 +166,7 @@ def test_robot_without_efforts_in_a_batch(tmp_path):
 def test_program_printer_matches_sympys_printer(robot):
     """The fast printer of program lines (``code._ProgramPrinter``) writes what the SymPy-based
     ``_LinePrinter`` writes, character for character, on every line of a robot's programs."""
-    from dynderive.render.targets.numpy.code import _LinePrinter, _ProgramPrinter
+    from dynderive.render.codegen.printer import _LinePrinter, _ProgramPrinter
 
     path = ROOT / "robots" / (f"{robot}.urdf" if robot in ("panda", "ur5") else f"{robot}.yaml")
     derivation = dynderive.derive(dynderive.load_robot(path))
@@ -182,7 +182,7 @@ def test_program_printer_matches_sympys_printer(robot):
 def test_program_printer_keeps_the_meaning_of_every_form():
     """Signs, fractions, powers, negative exponents and functions: the printed Python evaluates
     to the expression's value (random points), and the names map to their slots."""
-    from dynderive.render.targets.numpy.code import _ProgramPrinter
+    from dynderive.render.codegen.printer import _ProgramPrinter
 
     x, y, z = sympy.symbols("x y z")
     forms = [-x, x - y, -x - y, x / y, -x / y, 1 / (x * y), 2 / x, -sympy.Rational(3, 7) * x / y,

@@ -32,8 +32,8 @@ from jinja2 import meta
 from jinja2.sandbox import SandboxedEnvironment, SecurityError
 
 from ..errors import InputError, Problem
+from .codegen.names import c_comment
 from .encode import Code, docstring, escape_tex, is_plain, python_literal, tex_unit
-from .targets.c.c_names import c_comment
 
 LATEX_DELIMITERS = {
     "block_start_string": r"\BLOCK{",

@@ -2,7 +2,7 @@
 robot: fixed-base, floating-base (a free flyer), with spherical or mimic joints.
 
 The same straight-line programs as the NumPy module (``Derivation.programs``; a small planar
-robot's explicit M, C, N, V with common subexpressions eliminated), printed by ``c_print.py``.
+robot's explicit M, C, N, V with common subexpressions eliminated), printed by ``codegen/c_syntax.py``.
 Forward dynamics solves ``M qdd = Y - (C qd + N)`` with an ``L D L^T`` factorization unrolled
 for this robot's size and sparsity (``c_solve.py``), and returns 1 (``qdd`` untouched) if a
 pivot is not positive; ``linearize`` solves its columns with the same factorization.
@@ -20,7 +20,7 @@ A 3-D robot has the centre of mass and the centroidal momentum (``total_mass`` .
 Damping and Coulomb friction are ``friction_forces``, added to inverse dynamics and taken from
 the right-hand side of forward dynamics as the NumPy module does; the struct carries
 ``friction_smoothing`` (0: the exact sign; eps > 0: ``tanh(qd / eps)``). Closed loops and the
-wrench variants are ``c_loops.py`` (``amend``). Names must be C names (``c_names.py``); free
+wrench variants are ``c_loops.py`` (``amend``). Names must be C names (``codegen/names.py``); free
 text appears only in encoded comments.
 """
 
@@ -35,6 +35,11 @@ import sympy
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
 from ... import api
+from ...codegen.c_syntax import Names, expression_body, parameter_note, program_body, quantity_body
+from ...codegen.cse import common_subexpressions
+from ...codegen.literals import double_literal
+from ...codegen.names import c_comment, c_problems, refuse
+from ...codegen.prune import live_lines
 from ...encode import Code
 from ...environment import render
 from .c_contacts import contact_functions, contact_macros
@@ -42,18 +47,7 @@ from .c_external import external_section
 from .c_join import joined_program as _joined
 from .c_join import print_body as _print_body
 from .c_loops import CKit, amend, loop_context
-from .c_names import c_comment, c_problems, refuse
-from .c_print import (
-    CFunction,
-    Names,
-    double_literal,
-    expression_body,
-    kept,
-    parameter_note,
-    program_body,
-    quantity_body,
-    void,
-)
+from .c_print import CFunction, void
 from .c_solve import fill_in, ldl_factor, ldl_solve
 
 HEADER_TEMPLATE = "c/dynamics.h.j2"
@@ -328,8 +322,7 @@ def _mass_part(derivation: Derivation) -> tuple[list, list]:
     if derivation.structured_code:
         program = derivation.programs["mass_matrix"]
         return program.lines, [sympy.sympify(e) for e in program.outputs]
-    folded = [fold_constants(sympy.sympify(v)) for v in derivation.quantities["M_g"]]
-    return sympy.cse(folded, symbols=sympy.numbered_symbols("_c"), order="canonical")
+    return common_subexpressions([fold_constants(sympy.sympify(v)) for v in derivation.quantities["M_g"]], "_c")
 
 
 def _forward_names(derivation: Derivation, names: Names) -> tuple[Names, list[str]]:
@@ -353,7 +346,8 @@ def _regressor_body(derivation: Derivation, names: Names, start: str) -> list[st
     lines = [start, *void("q", "qd", "qdd", "P")]
     local = names
     if program.extra_inputs:   # Coulomb friction's columns: the direction of each velocity
-        read = kept(program)[1]
+        read = set().union(*(sympy.sympify(e).free_symbols for e in program.outputs))
+        live_lines(program.lines, read)   # read: every name the lines its outputs need read
         lines += [f"const double s{i} = {_direction(i)};" for i, symbol in enumerate(program.extra_inputs)
                   if symbol in read]
         local = names.extended({symbol: f"s{i}" for i, symbol in enumerate(program.extra_inputs)})

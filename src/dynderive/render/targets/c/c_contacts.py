@@ -26,6 +26,7 @@ untouched unless 0. No external wrenches (the NumPy module's ``wrenches=None``).
 from __future__ import annotations
 
 from ....derivation import Derivation
+from ...codegen.constrained import contacts_built
 from .c_print import CFunction
 from .c_solve import fill_in, ldl_factor
 
@@ -38,15 +39,10 @@ CODES = (("MASS_NOT_PD", 1, "M is not positive definite"),
          ("NO_ANCHORS", 4, "baumgarte's kp is not 0 but anchors is NULL"))
 
 
-def built(derivation: Derivation) -> bool:
-    """Contact dynamics concern 3-D robots without closed loops (as in the NumPy module)."""
-    return not derivation.robot.planar and not derivation.robot.loops
-
-
 def contact_macros(derivation: Derivation) -> list[str]:
     """The header's lines: the declared contacts (count, frame numbers, kinds), the kinds' and
     the return codes' macros; none where contact dynamics are not built."""
-    if not built(derivation):
+    if not contacts_built(derivation):
         return []
     robot, macro = derivation.robot, derivation.robot.name.upper()
     numbers = {f.name: i for i, f in enumerate(robot.frames)}
@@ -66,7 +62,7 @@ def contact_functions(derivation: Derivation, pattern: list[list[bool]]) -> list
     """The two functions (none for a planar robot or one with loops); ``pattern``: which entries
     of M can be nonzero. M is factored in reverse order (P M P = L D L^T, P the reversal: the
     leaves first, so a tree's factor has no fill-in)."""
-    if not built(derivation):
+    if not contacts_built(derivation):
         return []
     n = len(pattern)
     nonzero = fill_in([[pattern[n - 1 - i][n - 1 - j] for j in range(n)] for i in range(n)], n)

@@ -11,6 +11,7 @@ from typing import Any
 import sympy
 
 from ....mechanics.tidy import fold_constants
+from ...codegen.prune import live_lines
 
 
 def joined_program(parts: list[tuple[Any, ...]]) -> tuple[list, list[list[sympy.Expr]], list[sympy.Symbol]]:
@@ -49,15 +50,10 @@ def print_body(names: Any, lines: list, stores: list[tuple[str, sympy.Expr]],
     (the same text twice, a sine of two programs, is computed once), ``return 1`` unless each
     guard is positive, then the stores."""
     needed = set().union(*(e.free_symbols for _, e in stores), set(guards))
-    kept = []
-    for target, expr in reversed(lines):
-        if target in needed:
-            kept.append((target, expr))
-            needed |= expr.free_symbols
     printer = names.printer()
     seen: dict[str, str] = {}
     text = []
-    for target, expr in reversed(kept):
+    for target, expr, _ in live_lines(lines, needed):
         value = printer.doprint(fold_constants(expr, rationals=False))
         if value not in seen:
             seen[value] = f"t{len(seen)}"

@@ -39,8 +39,9 @@ from typing import Any
 import sympy
 
 from ....derivation import Derivation
+from ...codegen.constrained import BAUMGARTE, loop_sizes
+from ...codegen.names import c_comment
 from ...encode import Code
-from .c_names import c_comment
 from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
 
 
@@ -62,10 +63,7 @@ def loop_context(derivation: Derivation) -> dict[str, Any]:
     if not derivation.robot.loops:
         return {"nc": 0, "members": []}
     return {"nc": derivation.quantities["a_g"].shape[0], "members": [
-        {"name": "alpha", "default": Code("0.0"),
-         "comment": c_comment("Baumgarte gain of forward_dynamics: - 2 alpha A qd (0: none)")},
-        {"name": "beta", "default": Code("0.0"),
-         "comment": c_comment("Baumgarte gain of forward_dynamics: - beta^2 a(q) (0: none)")}]}
+        {"name": name, "default": Code(default), "comment": c_comment(comment)} for name, default, comment in BAUMGARTE]}
 
 
 def _block(printer: Callable[..., list[str]], *arguments: Any) -> list[str]:
@@ -153,11 +151,6 @@ def _tree_forward_wrenches(derivation: Derivation, kit: CKit) -> Any:
     lines += ldl_factor(lambda i, j: f"M[{i * n + j}]", n, kit.mass_pattern, "m", "return 1;")
     lines += ldl_solve(n, kit.mass_pattern, "m", [f"r[{i}]" for i in range(n)])
     return kit.function(prototype, comment, lines + [f"qdd[{i}] = mx{i};" for i in range(n)] + ["return 0;"])
-
-
-def loop_sizes(derivation: Derivation) -> tuple[int, int, int]:
-    """(NV, NC, rank of the loop rows)."""
-    return (len(derivation.symbols.q), derivation.quantities["a_g"].shape[0], derivation.steps["loops"].rank)
 
 
 def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -> tuple[list[str], str, str | None]:

@@ -8,7 +8,7 @@ row into a small kernel that calls the C function for one state and an entry of 
 that one generic dispatcher reads: argument parsing (positional or keyword, the robot's
 parameters and ``friction_smoothing`` as keywords), shape checks with the NumPy module's
 messages, broadcasting of the batch dimensions, and the batch loop in C (without the GIL).
-Adding a C function to the module is one row (``c_binding.Binding``). A robot with
+Adding a C function to the module is one row (``binding.Binding``). A robot with
 quaternions (a floating or spherical joint) takes ``q`` of NQ entries and ``qd``, ``qdd`` of NV,
 has no ``generalized_forces`` and adds the configuration maps (``neutral_configuration``,
 ``integrate``, ``difference``, ``configuration_rate``). A 3-D robot adds the centre of mass and
@@ -16,7 +16,7 @@ centroidal momentum (``total_mass`` ... ``centroidal_inertia``).
 
 Free text reaches the binding only as encoded C string literals (``c_string``): names of
 coordinates, efforts, frames and regressor parameters; parameter names are C identifiers
-(``c_names.c_problems``). Nothing is compiled here (``compile.py`` beside it does that).
+(``codegen/names.c_problems``). Nothing is compiled here (``compile.py`` beside it does that).
 """
 
 from __future__ import annotations
@@ -26,12 +26,12 @@ from typing import Any
 
 from ....derivation import Derivation
 from ... import api
+from ...codegen.constrained import BAUMGARTE
+from ...codegen.literals import double_literal
+from ...codegen.names import c_problems, refuse
 from ...encode import Code, python_literal
 from ...environment import render
-from ..c.c_binding import Binding
-from ..c.c_loops import loop_context
-from ..c.c_names import c_problems, refuse
-from ..c.c_print import double_literal
+from .binding import Binding
 from .contacts import contact_source
 
 TEMPLATE = "c/extension.c.j2"
@@ -189,8 +189,8 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
                    "python_default": None if p.value is None else python_literal(float(p.value))}
                   for p in robot.parameters]
     table = bindings(derivation)
-    members = [{"name": m["name"], "default": m["default"], "python_default": python_literal(float(m["default"]))}
-               for m in loop_context(derivation)["members"]]
+    members = [{"name": member, "default": Code(default), "python_default": python_literal(float(default))}
+               for member, default, _ in (BAUMGARTE if robot.loops else ())]
     python_defaults = {m["name"]: m["python_default"] for m in members}
     functions = []
     for binding in table:

@@ -118,15 +118,18 @@ def build_extension(derivation: Derivation, template_dir: str | Path | None = No
                     c_files: tuple[str, str] | None = None, optimization: str = "-O2",
                     progress: Callable[[str], None] | None = None, option: str = OPTION) -> tuple[str, bytes]:
     """(file name, bytes) of the compiled extension ``<name>_dynamics_c``; ``c_files`` are
-    ``render_c``'s header and source when the caller has them already."""
-    from ..c.c import render_c
+    the C target's header and source when the caller has them already."""
+    from .. import by_name
     from .c_extension import module_name, render_extension
 
     compiler = find_compiler(option)
     includes = include_dirs(option)
     binding = render_extension(derivation, template_dir)   # refuses what the C target refuses, before the C is printed
-    header, source = c_files if c_files is not None else render_c(derivation, template_dir)
     name = derivation.robot.name
+    if c_files is None:   # the C target's files, through the registry as the commands ask for them
+        files = by_name("c").files(derivation, template_dir)
+        c_files = (files[f"{name}_dynamics.h"].decode(), files[f"{name}_dynamics.c"].decode())
+    header, source = c_files
     filename = extension_filename(name)
     if progress is not None:
         progress(f"compiling the C extension ({Path(compiler[0]).name} {optimization})")

@@ -16,9 +16,9 @@ from pathlib import Path
 
 from ....derivation import Derivation
 from ... import api
+from ...codegen.constrained import contacts_built
 from ...encode import Code, docstring, python_literal
 from ...environment import render
-from ..c.c_contacts import built
 
 TEMPLATE = "c/extension_contacts.py.j2"
 NAMES = ("constrained_forward_dynamics", "impulse_dynamics")
@@ -26,14 +26,14 @@ NAMES = ("constrained_forward_dynamics", "impulse_dynamics")
 
 def contact_names(derivation: Derivation) -> set[str]:
     """The functions the extension adds for this robot."""
-    return set(NAMES) if built(derivation) else set()
+    return set(NAMES) if contacts_built(derivation) else set()
 
 
 def contact_source(derivation: Derivation, template_dir: str | Path | None = None) -> list[str]:
     """The Python's lines (``extension.c.j2`` prints them as C string literals); none where
     contact dynamics are not built."""
     robot = derivation.robot
-    if not built(derivation):
+    if not contacts_built(derivation):
         return []
     size = api.sizes(derivation)
     notes = {"constrained_forward_dynamics": " contacts: names or indices of FRAMES or (frame, kind) pairs "

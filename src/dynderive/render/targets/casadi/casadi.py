@@ -30,9 +30,11 @@ from ....derivation import Derivation
 from ....errors import InputError, Problem
 from ....mechanics.tidy import fold_constants
 from ... import api
+from ...codegen.cse import common_subexpressions
+from ...codegen.functions import Argument, ProgramFunction, program_function
+from ...codegen.python_context import code_context
 from ...encode import Code, python_literal
 from ...python_module import render_module
-from ..numpy.code import Argument, ProgramFunction, code_context, program_function
 
 CASADI_TEMPLATE = "casadi/dynamics.py.j2"
 #: Modules the generated CasADi module may import.
@@ -60,7 +62,7 @@ def expression_body(name: str, doc: str, arguments: list[Argument], value: Any) 
     bodies do not call, as its branches: ``casadi.sign`` through ``where``)."""
     matrix = value if isinstance(value, sympy.MatrixBase) else sympy.Matrix([[value]])
     exprs = [fold_constants(entry).replace(sympy.sign, _sign) for entry in matrix]
-    temporaries, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("_t"), order="canonical")
+    temporaries, reduced = common_subexpressions(exprs, "_t")
     return program_function(name, doc, arguments, SimpleNamespace(lines=temporaries, outputs=list(reduced)))
 
 

@@ -32,9 +32,10 @@ from typing import Any
 from sympy.printing.numpy import JaxPrinter
 
 from ....derivation import Derivation
+from ...codegen.functions import ExpressionFunction
+from ...codegen.printer import _Printer
+from ...codegen.python_context import code_context
 from ...python_module import render_module
-from ..numpy.code import ExpressionFunction, code_context
-from ..numpy.printing import _Printer
 
 JAX_TEMPLATE = "jax/dynamics.py.j2"
 #: Modules the generated JAX module may import.

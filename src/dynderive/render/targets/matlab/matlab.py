@@ -25,10 +25,11 @@ from pathlib import Path
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
 from ... import api
+from ...codegen.c_syntax import parameter_note, quantity_body
+from ...codegen.literals import double_literal
+from ...codegen.names import refuse
 from ...encode import Code
 from ...environment import render
-from ..c.c_names import refuse
-from ..c.c_print import double_literal, parameter_note, quantity_body
 from .matlab_contacts import contact_functions, contacts_function
 from .matlab_loops import loop_functions
 from .matlab_names import matlab_comment, matlab_problems, matlab_string

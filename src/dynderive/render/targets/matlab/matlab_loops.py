@@ -16,7 +16,7 @@ from __future__ import annotations
 from typing import Any
 
 from ....derivation import Derivation
-from ..c.c_loops import loop_sizes
+from ...codegen.constrained import loop_sizes
 from .matlab_print import (
     MFunction,
     Names,

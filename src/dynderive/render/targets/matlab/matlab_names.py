@@ -3,7 +3,7 @@ package folder ``+<name>`` and a parameter name that can be a field of the param
 (MATLAB identifiers, no keyword of MATLAB or Octave), and free text encoded for a ``%`` comment
 or a character-vector literal.
 
-Names are refused, not mangled, at their place in the robot file (as ``c_names.py`` does for
+Names are refused, not mangled, at their place in the robot file (as ``codegen/names.py`` does for
 C): a renamed field would be a trap for the user who fills the struct. The robot's name is the
 package's, which the generated functions call (``rp_arm.mass_matrix(q, p)``): it must not be a
 local variable of theirs (``p.mass_matrix`` would read a field) or a function they call.
@@ -15,8 +15,8 @@ import re
 from typing import Any
 
 from ....errors import Problem
+from ...codegen.names import parameter_problems
 from ...encode import Code, code_point
-from ..c.c_names import parameter_problems
 
 #: MATLAB's keywords (``iskeyword``) and Octave's (``iskeyword`` of GNU Octave 7): a field or
 #: package of that name cannot be written with a dot.

@@ -16,9 +16,9 @@ from sympy.printing.octave import OctaveCodePrinter
 from ....derivation import Derivation
 from ....mechanics.tidy import fold_constants
 from ... import api
+from ...codegen.c_syntax import DoublePrinting, FastCPrinter, expression_body, program_body
+from ...codegen.c_syntax import Names as CNames
 from ...encode import Code
-from ..c.c_print import DoublePrinting, FastCPrinter, expression_body, program_body
-from ..c.c_print import Names as CNames
 from .matlab_names import matlab_comment
 
 

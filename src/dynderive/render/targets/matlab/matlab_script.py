@@ -21,9 +21,9 @@ import sympy
 
 from ....derivation import Derivation
 from ....errors import Problem
+from ...codegen.names import refuse
 from ...encode import Code
 from ...environment import render
-from ..c.c_names import refuse
 from .matlab_names import matlab_problems
 from .matlab_text import matlab_code, matlab_comment, matlab_string
 

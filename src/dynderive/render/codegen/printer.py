@@ -12,7 +12,7 @@ from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 from sympy.printing.str import StrPrinter
 
-from ...python_module import CodeGenerationError
+from ..python_module import CodeGenerationError
 
 #: Functions the printed code may call, as the straight-line bodies receive them: from
 #: ``math`` (one state on floats) or NumPy (a batch). SymPy's ``Abs`` prints as ``abs``, a

@@ -13,8 +13,8 @@ import re
 from collections.abc import Callable
 from typing import Any
 
-from ....errors import InputError, Problem
-from ...encode import Code, code_point
+from ...errors import InputError, Problem
+from ..encode import Code, code_point
 
 #: C99 keywords, C11/C23 keywords, and C++ keywords and alternative operator names (the files
 #: compile as C++ too).
