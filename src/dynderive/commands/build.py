@@ -474,7 +474,7 @@ def sorted_orphans(out: Path, manifest: dict[str, dict], orphans: dict[str, list
     """Each orphaned output with the reason ``--prune`` keeps it, "" when it may remove it."""
     from .prune import sort_orphans
 
-    return {name: sort_orphans(out, manifest[name]["outputs"], files) for name, files in orphans.items()}
+    return {name: sort_orphans(out, manifest[name]["outputs"], files, OUTPUT_NAMES) for name, files in orphans.items()}
 
 
 def orphaned(out: Path, manifest: dict[str, dict], claimed: set[str]) -> dict[str, list[str]]:

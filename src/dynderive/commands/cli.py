@@ -19,12 +19,13 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, InputError, Interrupted
-from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, reference, resolve, simulate_backends
+from ..render.targets import COLUMNS, TARGETS, reference, resolve
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import backend_target, finite, problem, require_scipy, tolerances, vector, with_parameters
 from .output import WRITTEN, check_frames, check_output_paths, echo_notes, interrupted_message, write_all
 from .progress import Progress
+from .target_options import option_help, target_flags, target_needs, target_notes, target_options
 
 app = typer.Typer(cls=_Group, add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Derive a robot's equations of motion symbolically and render them as a LaTeX "
@@ -88,56 +89,6 @@ def require_matplotlib(option: str) -> None:
     except ImportError:
         raise InputError(problem(option, 'needs matplotlib, which is not installed: pip install "dynderive[plot]" '
                                  "(or leave out the option: --csv needs no matplotlib)")) from None
-
-
-def target_options(after: str, build: bool = False) -> Callable[[F], F]:
-    """One boolean option per code target (``--code``, ``--c``, ... from the registry, in its
-    column order, with its entry's help), inserted after the parameter ``after`` of the
-    command's signature; the function receives them by kind in ``**targets``."""
-    import inspect
-
-    def decorate(function: F) -> F:
-        signature = inspect.signature(function, eval_str=True)
-        parameters = [p for p in signature.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
-        at = [p.name for p in parameters].index(after) + 1
-        options = [inspect.Parameter(target.kind, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=False,
-                                     annotation=Annotated[bool, typer.Option(target.flag, help=target.build_help
-                                                                             if build else target.help)])
-                   for target in COLUMNS]
-        function.__signature__ = signature.replace(parameters=parameters[:at] + options + parameters[at:])  # type: ignore[attr-defined]
-        return function
-
-    return decorate
-
-
-def option_help(option: str) -> str:
-    """The help of an option whose choices are code targets, from the registry's entries
-    (``Target.option_help``): ``--tests`` says which target's option it goes with, ``--backend``
-    lists each choice, ``check``'s and ``simulate``'s in their order."""
-    if option == "--tests":
-        target = next(target for target in TARGETS if target.help_for(option))
-        return f"With {target.flag}: {target.help_for(option)}."
-    choices = check_backends() if option.startswith("check") else simulate_backends()
-    return "; ".join(f"{name}: {by_name(name).help_for(option)}" for name in choices) + "."
-
-
-def target_flags(targets: dict[str, bool]) -> dict[str, bool]:
-    """The code targets' options by kind (``c_extension``), in the registry's order."""
-    return {target.kind: bool(targets.get(target.kind)) for target in TARGETS}
-
-
-def target_needs(targets: dict[str, bool]) -> None:
-    """What the asked targets need, before any work: a refusal (no C compiler) stops the run."""
-    for target in TARGETS:
-        if targets[target.kind] and target.needs:
-            resolve(target.needs)()
-
-
-def target_notes(targets: dict[str, bool]) -> None:
-    """The asked targets' notes (the JAX module is written without JAX installed here)."""
-    for target in TARGETS:
-        if targets[target.kind] and target.note and (text := resolve(target.note)()):
-            typer.echo(text, err=True)
 
 
 def _version(value: bool) -> None:
@@ -322,6 +273,7 @@ def simulate(
     from ..input.input_files import input_files
     from ..model.naming import did_you_mean
     from . import simulate as simulation
+    from . import simulation_files
     from .contacts import parse_contacts
     from .integrate import method_name
 
@@ -343,7 +295,7 @@ def simulate(
         if path is not None:
             require_matplotlib(option)
     if plot is not None:
-        simulation.plot_format(plot)
+        simulation_files.plot_format(plot)
     require_scipy("simulate")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
@@ -375,12 +327,12 @@ def simulate(
     files: dict[Path, bytes] = {}
     if plot is not None:
         progress("plotting")
-        files[plot] = simulation.plot_image(derivation, trajectory, plot.suffix.lower())
+        files[plot] = simulation_files.plot_image(derivation, trajectory, plot.suffix.lower())
     if csv is not None:
-        files[csv] = simulation.csv_text(trajectory).encode()
+        files[csv] = simulation_files.csv_text(trajectory).encode()
     if animate is not None:
         progress("animating")
-        files[animate] = simulation.animation_gif(derivation, trajectory)
+        files[animate] = simulation_files.animation_gif(derivation, trajectory)
     write_all(files)
     typer.echo(simulation.run_summary(model, coordinates, duration, trajectory))
     for path in files:
@@ -533,6 +485,7 @@ def build(
 ) -> None:
     """Build the outputs of every robot file under PATHS, only where inputs changed."""
     from .build import build as run_build
+    from .build_report import report
     from .options import sheet_digits_option, symbolic_kind
 
     targets = target_flags(targets)
@@ -553,33 +506,7 @@ def build(
         target_notes(targets)
     outcomes = run_build(paths or [Path(".")], out, kinds, jobs or os.cpu_count() or 1, check_only,
                          template_dir, (lambda text: None) if quiet else lambda text: typer.echo(text, err=True), prune)
-    counts = {s: sum(o.status == s for o in outcomes)
-              for s in ("built", "up to date", "current", "differs", "failed", "orphaned", "pruned")}
-    if quiet:   # what needs the user: rows of robots that failed, differ, or whose outputs are orphaned
-        outcomes = [o for o in outcomes if o.status in ("differs", "failed", "orphaned")
-                    or any(": kept (" in line for line in o.problems)]
-    width = max([len(o.source) for o in outcomes] + [5])
-    sheets = any(o.sheet for o in outcomes)   # a PDF: its pages, LaTeX's time, the widest overfull line
-    if outcomes or not quiet:
-        typer.echo(f"{'robot':<{width}}  {'status':<10}  seconds" + ("  pages  LaTeX s  overfull pt" if sheets else ""))
-    for o in outcomes:
-        extra = ""
-        if sheets and o.sheet:
-            seconds = f"{o.sheet['seconds']:7.1f}" if "seconds" in o.sheet else f"{'-':>7}"
-            extra = f"  {o.sheet.get('pages', 0):5.0f}  {seconds}  {o.sheet.get('overfull', 0):11.1f}"
-        seconds = f"{'-':>7}" if o.status in ("orphaned", "pruned") else f"{o.seconds:7.1f}"   # nothing was built
-        typer.echo(f"{o.source:<{width}}  {o.status:<10}  {seconds}{extra}")
-        for line in o.problems:
-            typer.echo(f"  {line}")
-        for line in o.message.splitlines():
-            typer.echo(f"  {line}", err=True)
-    if not quiet:
-        typer.echo(", ".join(f"{n} {s}" for s, n in counts.items() if n))
-    if (n := counts["orphaned"]) and not quiet:
-        typer.echo(f"note: {n} robot file{'s' if n > 1 else ''} whose outputs are in {out} no longer "
-                   f"exist{'' if n > 1 else 's'} (their outputs are listed as orphaned): "
-                   f"build --prune --out {out} removes them", err=True)
-    if counts["failed"] or counts["differs"] or (check_only and counts["orphaned"]):
+    if report(outcomes, out, quiet, check_only):
         raise typer.Exit(1)
 
 

@@ -34,20 +34,15 @@ _STEM = re.compile(r"(?!\d)\w+\Z")
 _PACKAGE_FILE = re.compile(r"(?!\d)\w+\.m\Z")
 
 
-def _patterns() -> tuple[str, ...]:
-    from .build import OUTPUT_NAMES
-
-    return OUTPUT_NAMES
-
-
-def stems_of(file: str) -> set[str]:
-    """The robot names for which ``build`` could give an output the name ``file``."""
+def stems_of(file: str, patterns: tuple[str, ...]) -> set[str]:
+    """The robot names for which ``build`` could give an output the name ``file``; ``patterns``:
+    the output names, ``{}`` standing for the robot's name (``build.OUTPUT_NAMES``)."""
     parts = file.split("/")
     if len(parts) == 2:
         stem = parts[0][1:]
         return {stem} if parts[0].startswith("+") and _STEM.match(stem) and _PACKAGE_FILE.match(parts[1]) else set()
     stems = set()
-    for pattern in _patterns():
+    for pattern in patterns:
         prefix, _, suffix = pattern.partition("{}")
         if "/" not in pattern and file.startswith(prefix) and file.endswith(suffix):
             stem = file[len(prefix):len(file) - len(suffix)]
@@ -56,19 +51,19 @@ def stems_of(file: str) -> set[str]:
     return stems
 
 
-def record_stem(files: list[str] | dict[str, str]) -> str | None:
+def record_stem(files: list[str] | dict[str, str], patterns: tuple[str, ...]) -> str | None:
     """The robot name a record's outputs are named after: the one most of them share (ties:
     the first in sorted order, so the choice does not depend on the record's order)."""
-    counts = Counter(stem for file in files for stem in stems_of(file))
+    counts = Counter(stem for file in files for stem in stems_of(file, patterns))
     if not counts:
         return None
     return min(counts, key=lambda stem: (-counts[stem], stem))
 
 
-def keep_reason(out: Path, file: str, digest: str, stem: str | None) -> str:
+def keep_reason(out: Path, file: str, digest: str, stem: str | None, patterns: tuple[str, ...]) -> str:
     """Why ``--prune`` keeps the orphaned output ``file`` recorded with hash ``digest``, or ""
     when it is what ``build`` wrote for robot ``stem`` and may be removed."""
-    if stem is None or stem not in stems_of(file):
+    if stem is None or stem not in stems_of(file, patterns):
         return "not a name build gives an output" + (f" of robot '{stem}'" if stem else "")
     parts = file.split("/")
     if len(parts) == 2 and os.path.islink(out / parts[0]):
@@ -97,11 +92,12 @@ def keep_reason(out: Path, file: str, digest: str, stem: str | None) -> str:
     return ""
 
 
-def sort_orphans(out: Path, outputs: dict[str, str], files: list[str]) -> list[tuple[str, str]]:
+def sort_orphans(out: Path, outputs: dict[str, str], files: list[str], patterns: tuple[str, ...],
+                 ) -> list[tuple[str, str]]:
     """Each of a record's orphaned ``files`` with the reason ``--prune`` keeps it ("" when it
     removes it); ``outputs``: the record's file names and hashes."""
-    stem = record_stem(outputs)
-    return [(file, keep_reason(out, file, outputs[file], stem)) for file in files]
+    stem = record_stem(outputs, patterns)
+    return [(file, keep_reason(out, file, outputs[file], stem, patterns)) for file in files]
 
 
 def check_prune_folder(out: Path) -> None:
