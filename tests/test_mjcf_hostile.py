@@ -138,12 +138,21 @@ URDF = """<robot name="r">
     ("1", "inf", 4, 70, "expected 3 finite numbers ('inf' is not one"),
     ("1", "1e400", 4, 70, '<origin xyz="0 1e400 0">: expected 3 finite numbers'),
     ("nan", "0", 3, 27, "finite number"),
-], ids=["nan origin", "inf origin", "origin beyond a double", "nan mass"])
+    ("1", "1e200", 4, 70, '<origin xyz="0 1e200 0">: out of range (a robot\'s numbers are at most 1e10'),
+    ("1e12", "0", 3, 27, '<mass value="1e12">: out of range'),
+], ids=["nan origin", "inf origin", "origin beyond a double", "nan mass", "huge origin", "huge mass"])
 def test_urdf_numbers_that_are_not_numbers_are_refused(tmp_path, mass, y, line, column, words):
     robot = _write(tmp_path, "robot.urdf", URDF.replace("MASS", mass).replace("Y", y))
     refused = _refused(tmp_path, robot)
     assert refused.startswith(f"{robot}:{line}:"), refused
     assert words in refused, refused
+
+
+def test_check_refuses_a_huge_urdf_origin_instead_of_crashing(tmp_path):
+    """A length of 1e200 is a double, its square in M is not: refused at the reader, not an
+    internal error of the code generator."""
+    robot = _write(tmp_path, "robot.urdf", URDF.replace("MASS", "1").replace("Y", "1e200"))
+    assert "out of range" in _refused(tmp_path, robot, "check")
 
 
 YAML = """name: arm
@@ -163,7 +172,10 @@ joints:
     ("1.0", "1e301", 9, "is out of range"),
     ("1e400", "0", 4, "default value must be finite"),
     (".nan", "0", 4, "default value must be finite"),
-], ids=["origin beyond a double", "origin beyond 1e300", "infinite default", "nan default"])
+    ("1.0", "1e200", 9, "number '1e+200' is out of range (a robot's numbers are at most 1e10"),
+    ("1e200", "0", 4, "default value 1e+200 is out of range"),
+], ids=["origin beyond a double", "origin beyond 1e300", "infinite default", "nan default", "huge origin",
+        "huge default"])
 def test_yaml_numbers_that_are_not_numbers_are_refused(tmp_path, mass, x, line, words):
     robot = _write(tmp_path, "arm.yaml", YAML.replace("MASS", mass).replace("X", x))
     refused = _refused(tmp_path, robot)

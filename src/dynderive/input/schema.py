@@ -14,7 +14,7 @@ from typing import Any
 import sympy
 
 from ..errors import InputError
-from ..model.expressions import RESERVED, Evaluator
+from ..model.expressions import LARGEST, RESERVED, Evaluator
 from ..model.naming import did_you_mean, maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
@@ -177,6 +177,10 @@ def _parameters(v: Validator, top: dict[str, Any]) -> list[Parameter]:
             value = None
         elif value is not None and not math.isfinite(float(value)):
             v.report(vpath, f"default value must be finite, got {value}")
+            value = None
+        elif value is not None and abs(float(value)) > LARGEST:
+            v.report(vpath, f"default value {value:g} is out of range (a robot's numbers are at most 1e10 in size: "
+                     "products of them must stay within a double)")
             value = None
         parameters.append(Parameter(pname, None if value is None else float(value), unit, description))
     return parameters

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, Problem
+from ..model.expressions import LARGEST
 from ..model.written import significant_digits
 from .urdf_xml import _Element, numbers_in
 
@@ -43,6 +44,10 @@ class _Reader:
             why = f" ({bad!r} is not one: write numbers as 1, -0.5 or 2.5e-3)" if bad is not None else ""
             self.error(element, f"<{element.tag} {attribute}=\"{text}\">: expected "
                        f"{count} finite number{'s' * (count > 1)}{why}")
+            return list(default)
+        if any(abs(v) > LARGEST for v in values):
+            self.error(element, f"<{element.tag} {attribute}=\"{text}\">: out of range (a robot's numbers are "
+                       "at most 1e10 in size: products of them must stay within a double)")
             return list(default)
         for word, value in zip(text.split(), values):
             if not (angles and snap(value)[1] is not None):

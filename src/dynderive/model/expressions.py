@@ -59,6 +59,9 @@ MAX_NESTING = 100
 
 #: Digits of the numeric checks (constants, values at the parameter defaults).
 DIGITS = 15
+#: The largest size of a number written in a robot file (MuJoCo's ``mjMAXVAL`` too): a length of
+#: 1e200 is a double, but its square in the mass matrix is not.
+LARGEST = 1e10
 _DOUBLE_MAX = sympy.Integer(int(sys.float_info.max))
 _DOUBLE_TINY = sympy.Rational(sys.float_info.min)  # exact: the smallest normal double
 _LOG10_MAX = math.log10(sys.float_info.max)
@@ -265,8 +268,9 @@ def _number(literal: str, offset: int) -> sympy.Expr:
     if not value.is_finite():
         raise ExpressionError(f"number {literal!r} is not finite", offset)
     sign, digits, exponent = value.as_tuple()
-    if abs(int(exponent)) > 300:
-        raise ExpressionError(f"number {literal!r} is out of range", offset)
+    if abs(int(exponent)) > 300 or abs(value) > LARGEST:
+        raise ExpressionError(f"number {literal!r} is out of range (a robot's numbers are at most 1e10 in size: "
+                              "products of them must stay within a double)", offset)
     return sympy.Rational(str(value)) if int(exponent) < 0 else sympy.Integer(int(value))
 
 
