@@ -125,7 +125,7 @@ def symbolic_linearization(quantities: dict[str, sympy.Matrix], table: SymbolTab
 
 #: Most terms an entry of the closed form may have (numerator and denominator, expanded):
 #: beyond it no one reads the formula, and printing it takes longer than deriving it.
-CLOSED_FORM_TERMS = 400
+CLOSED_FORM_TERMS = 200
 
 
 #: Entries up to this many terms are put in ``sympy.cancel``'s normal form.
