@@ -3,7 +3,8 @@
 Small robots get A and B in closed form over their parameters (``mechanics.linearization.
 symbolic_linearization``), and their values at the parameters' defaults from the generated
 ``linearize``, which must agree (the output says so). Large robots and closed loops get the
-numbers only.
+numbers only, and so does a small robot at a point where the closed form's entries are too
+large to read (with a note).
 
 Floating-base robots (a quaternion in ``q``) get the numbers of their generated module's
 ``linearize`` on the tangent space (A is 2 NV x 2 NV); entries of ``q`` that ``--at`` does not
