@@ -2,7 +2,7 @@
 ``computeABADerivatives`` called from Python, and ``frame_jacobian`` against
 ``computeFrameJacobian``, for the UR5 and the Panda.
 
-    python benchmarks/linearize.py [--repeats 5]      # about 20 s; prints a table
+    python benchmarks/linearize.py [--repeats 5]      # about 1 min; prints two tables
 
 Each robot runs in a fresh subprocess. One state: median of ``--repeats`` runs of 200 calls
 (Python floats through ``math`` in the generated bodies); batch: 1000 states in one call, per
@@ -10,6 +10,10 @@ state. Pinocchio: its own URDF parser's model, one call at a time (a Python loop
 ``linearize`` comparison includes what each returns: ours A and B (2n x 2n, 2n x n); Pinocchio
 ``ddq_dq``, ``ddq_dv`` and ``Minv``. The last columns are the largest differences of
 ``dqdd/dq`` and of the frame Jacobian.
+
+The second table is the wall time of the command ``dynderive linearize ROBOT --at POINT -q``
+(derivation, code generation, closed form and output, one run each) on the small robots a
+student linearizes first, and whether the closed form was given or skipped for its size.
 """
 
 from __future__ import annotations
@@ -21,6 +25,11 @@ import sys
 import time
 
 ROBOTS = [("ur5", "tool0"), ("panda", "panda_link8")]
+#: (robot, --at) for the command's wall time
+COMMANDS = [("robots/cart_pole.yaml", "theta=0"), ("robots/double_pendulum.yaml", "q=0,0"),
+            ("robots/planar_3r.yaml", "u=equilibrium"), ("robots/planar_3r.yaml", "q=0.3,0.5,0.7"),
+            ("tests/linearize/rrr_arm.yaml", "q=pi/2,0,0,u=equilibrium"),
+            ("tests/linearize/cart_double_pendulum.yaml", "q=0,0,0"), ("robots/elbow_arm.yaml", "q=0.1,0.2,0.3")]
 
 CHILD = r"""
 import json, statistics, sys
@@ -105,6 +114,15 @@ def main() -> None:
         r = json.loads(done.stdout.strip().splitlines()[-1])
         print(f"{name:<6} {r['dof']:>3} {r['one']:>15.1f} {r['batch']:>14.2f} {r['pin_one']:>19.1f} "
               f"{r['jac_one']:>20.1f} {r['jac_batch']:>14.2f} {r['pin_jac']:>17.1f} {r['diff']:>12.1e} {r['jdiff']:>8.1e}")
+    print(f"\n{'dynderive linearize ROBOT --at POINT':<62} {'wall s':>7}  closed form")
+    for path, point in COMMANDS:
+        start = time.perf_counter()
+        done = subprocess.run([sys.executable, "-m", "dynderive", "linearize", path, "--at", point, "--json", "-q"],
+                              capture_output=True, text=True)
+        wall = time.perf_counter() - start
+        method = json.loads(done.stdout)["method"] if done.returncode == 0 else f"failed: {done.stderr[-200:]}"
+        print(f"{path.rsplit('/', 1)[-1] + ' --at ' + point:<62} {wall:>7.1f}  "
+              f"{'given' if method == 'symbolic' else 'skipped' if method == 'numeric' else method}")
     print(f"\n(Python {sys.version.split()[0]}, repeats {args.repeats}, {time.strftime('%Y-%m-%d')})")
 
 

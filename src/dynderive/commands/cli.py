@@ -393,6 +393,8 @@ def linearize(
     note(remark or linear.equilibrium_note(module, point, values))
     progress("linearizing")
     result = linear.linearization(derivation, module, point, values, equilibrium)
+    if result["skipped"]:
+        note(f"closed form skipped: {result['skipped']}; A and B are the generated linearize's numbers")
     kind = "json" if json_ else "latex" if latex else "text"
     typer.echo(linear.render_linearization(derivation, point, values, result, kind), nl=False)
 

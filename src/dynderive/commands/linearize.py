@@ -3,7 +3,8 @@
 Small robots get A and B in closed form over their parameters (``mechanics.linearization.
 symbolic_linearization``), and their values at the parameters' defaults from the generated
 ``linearize``, which must agree (the output says so). Large robots and closed loops get the
-numbers only.
+numbers only, and so does a small robot at a point where the closed form's entries are too
+large to read (with a note).
 
 Floating-base robots (a quaternion in ``q``) get the numbers of their generated module's
 ``linearize`` on the tangent space (A is 2 NV x 2 NV); entries of ``q`` that ``--at`` does not
@@ -157,22 +158,27 @@ def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, 
 def linearization(derivation: Any, module: Any, at: dict[str, list[float]], values: dict[str, float],
                   equilibrium: bool = False) -> dict[str, Any]:
     """A and B at the point ``at``: symbolic (small robots) and numeric (every robot), with
-    the largest difference between the two routes at the parameters' ``values``. With
+    the largest difference between the two routes at the parameters' ``values``; ``skipped``
+    says why a small robot has no closed form at this point (its entries too large). With
     ``equilibrium`` the closed form takes the efforts that hold the state over the parameters
     (where they are unique), not their numbers at ``values``."""
     q, qd, u = (np.array(at[k], dtype=float) for k in ("q", "qd", "u"))
     A, B = module.linearize(q, qd, u, **values)
-    result: dict[str, Any] = {"A_numeric": A, "B_numeric": B, "symbolic": None}
+    result: dict[str, Any] = {"A_numeric": A, "B_numeric": B, "symbolic": None, "skipped": None}
     if derivation.intermediate_form or derivation.robot.loops or derivation.robot.floating:
         return result
-    from ..mechanics.linearization import symbolic_linearization
+    from ..mechanics.linearization import NoClosedForm, symbolic_linearization
 
     table = derivation.symbols
     point = {s: sympy.nsimplify(v, [sympy.pi], rational=False) if v else sympy.Integer(0)
              for s, v in zip([*table.q, *table.qd, *table.efforts.values()], [*at["q"], *at["qd"], *at["u"]])}
     if equilibrium:
         point |= _holding_efforts(derivation, point)
-    A_sym, B_sym, qdd0 = symbolic_linearization(derivation.quantities, table, point)
+    try:
+        A_sym, B_sym, qdd0 = symbolic_linearization(derivation.quantities, table, point)
+    except NoClosedForm as why:
+        result["skipped"] = str(why)
+        return result
     numbers = {table.parameters[name]: value for name, value in values.items()}
     numbers |= {table.parameters[p.name]: p.value for p in derivation.robot.parameters
                 if p.value is not None and p.name not in values}
@@ -270,7 +276,7 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
                      f"{symbolic['agreement']:.1e}):")
     else:
         why = ("not built for floating-base robots" if robot.floating else "it has closed loops" if robot.loops
-               else "this robot is too large")
+               else result.get("skipped") or "this robot is too large")
         lines.append(f"At {given or 'the defaults'} (from the generated linearize; closed form skipped: {why}):")
     with np.printoptions(precision=6, suppress=True, linewidth=120):
         lines += ["A =", str(np.asarray(A)), "B =", str(np.asarray(B)), ""]
