@@ -310,6 +310,14 @@ def test_plot_refuses_a_suffix_it_cannot_write(tmp_path, monkeypatch, name, said
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("name, said", [("run.png", "has '.png'"), ("run", "has no suffix"), ("run.mp4", "has '.mp4'")])
+def test_animate_refuses_a_name_that_is_not_a_gif(tmp_path, monkeypatch, name, said):
+    pytest.importorskip("matplotlib")
+    monkeypatch.chdir(tmp_path)
+    _refused(_run("simulate", "rp_arm", "--animate", name), f"--animate:1:1: {name} {said}: the animation is a GIF")
+    assert list(tmp_path.iterdir()) == []
+
+
 # -- a closed loop's --q0: every coordinate, or the independent ones ------------------------------
 
 def test_a_loop_robot_starts_from_its_independent_coordinates(tmp_path, monkeypatch):

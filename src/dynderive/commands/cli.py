@@ -296,6 +296,8 @@ def simulate(
             require_matplotlib(option)
     if plot is not None:
         simulation_files.plot_format(plot)
+    if animate is not None:
+        simulation_files.animation_format(animate)
     require_scipy("simulate")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)

@@ -56,6 +56,14 @@ def plot_format(path: Path) -> str:
     return path.suffix.lower()
 
 
+def animation_format(path: Path) -> None:
+    """``--animate`` writes a GIF: another suffix is refused at the option before any work."""
+    if path.suffix.lower() != ".gif":
+        given = f"'{path.suffix}'" if path.suffix else "no suffix"
+        raise InputError(problem("--animate", f"{path} has {given}: the animation is a GIF, so its file name "
+                                 "ends in .gif"))
+
+
 def plot_image(derivation: Derivation, trajectory: Trajectory, suffix: str = ".png") -> bytes:
     """The plot, in the format ``suffix`` names (``PLOT_FORMATS``)."""
     import matplotlib
