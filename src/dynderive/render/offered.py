@@ -1,9 +1,10 @@
 """Which functions of the generated API each code target offers, read from the targets' own
-code, and the functions a target does not build, each with its reason (``NOT_BUILT``).
+code, and the functions a target does not build, each with its reason (``NOT_BUILT``, gathered
+from the registry: each target's entry lists its own, ``Target.not_built``).
 
 The NumPy module's API is the reference: every other target (the C99 target, its compiled
-Python extension, MATLAB/Octave, JAX) offers each of its functions or lists it in
-``NOT_BUILT``. ``offered`` reads a target's functions from what it generates (the public
+Python extension, MATLAB/Octave, JAX, CasADi) offers each of its functions or lists it in its
+entry's ``not_built``. ``offered`` reads a target's functions from what it generates (the public
 functions of the rendered Python modules, the C target's prototypes, the extension's binding
 table, the MATLAB function files), so the table in the documentation (``markdown_table``) and
 ``check --backend c`` / ``--backend jax`` (``not_built``) cannot drift from the code.
@@ -14,7 +15,7 @@ from __future__ import annotations
 from typing import Any
 
 from . import api
-from .targets import COLUMNS, by_name, resolve
+from .targets import COLUMNS, REFERENCE, NotBuilt, by_name, resolve
 from .targets.target import public
 
 #: The targets by name, in the table's column order (the registry's, ``render/targets``).
@@ -25,30 +26,21 @@ MAXIMAL = api.group("maximal")
 FRAME_FUNCTIONS = api.group("frames")
 CONTACT_FUNCTIONS = api.group("contacts")
 
-#: What a target does not build: (targets, functions, robots it concerns, reason). Robots:
-#: "fixed" (fixed base), "floating" (floating base, or spherical joints), "frameless" (a
-#: robot that declares no frames), "any" (every robot that has them).
-NOT_BUILT: tuple[tuple[tuple[str, ...], tuple[str, ...], str, str], ...] = (
-    (("c", "c-extension", "matlab"), MAXIMAL, "fixed",
-     "the maximal-coordinate form of a planar robot is printed for NumPy, JAX and CasADi only"),
-    (("matlab",), ("assemble", "reduced_basis", "reduced_forward_dynamics"), "fixed",
-     "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
-    (("matlab",), FRAME_FUNCTIONS, "frameless",
-     "a robot without frames: MATLAB writes no frame functions (the NumPy module's raise for any frame name)"),
-    (("numpy", "c", "c-extension", "jax", "casadi"), ("generalized_forces",), "floating",
-     "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
-    (("casadi",), ("assemble",), "fixed",
-     "closed loops in CasADi: assemble (Newton's method, iterated on values) is not a casadi.Function"),
-)
+#: What each target does not build, (target, row), gathered from the registry's entries
+#: (``Target.not_built``) in the table's column order.
+NOT_BUILT: tuple[tuple[str, NotBuilt], ...] = tuple((target.name, row) for target in COLUMNS for row in target.not_built)
 
 
 def not_built(target: str, function: str, floating: bool = False, frames: bool = True) -> str | None:
     """Why ``target`` does not build ``function`` for a robot with a ``floating`` base (or not)
-    and ``frames`` (or none), or None if it should."""
-    for targets, functions, kind, reason in NOT_BUILT:
-        applies = {"fixed": not floating, "floating": floating, "frameless": not frames, "any": True}[kind]
-        if target in targets and function in functions and applies:
-            return reason
+    and ``frames`` (or none), or None if it should: its entry's rows, then the reference's
+    (what the NumPy module does not build is expected of no target)."""
+    entry = next((t for t in COLUMNS if t.name == target), None)
+    if entry is None:
+        return None
+    for row in (*entry.not_built, *(REFERENCE.not_built if entry is not REFERENCE else ())):
+        if function in row.functions and row.concerns(floating, frames):
+            return row.reason
     return None
 
 
@@ -71,8 +63,8 @@ def offered(derivation: Any, target: str) -> set[str]:
 def api(derivation: Any) -> set[str]:
     """The functions of the generated API that concern this robot: the NumPy module's, and
     those NOT_BUILT lists for the NumPy module of such a robot."""
-    listed = {f for targets, functions, _, _ in NOT_BUILT if "numpy" in targets for f in functions}
-    return offered(derivation, "numpy") | {f for f in listed if _why(derivation, "numpy", f)}
+    listed = {f for row in REFERENCE.not_built for f in row.functions}
+    return offered(derivation, REFERENCE.name) | {f for f in listed if _why(derivation, REFERENCE.name, f)}
 
 
 def gaps(derivation: Any, target: str) -> dict[str, str | None]:
@@ -92,8 +84,8 @@ def markdown_table(derivations: list[Any]) -> str:
     reasons: list[str] = []
     for derivation in derivations:
         wanted = api(derivation)
-        numpy = offered(derivation, "numpy")
-        order += sorted(wanted - set(order), key=lambda f: (f not in numpy, f))
+        reference = offered(derivation, REFERENCE.name)
+        order += sorted(wanted - set(order), key=lambda f: (f not in reference, f))
         for function in wanted:
             robots.setdefault(function, []).append(derivation.robot.name + (" (floating base)"
                                                                            if derivation.robot.floating else ""))

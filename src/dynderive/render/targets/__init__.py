@@ -16,12 +16,15 @@ from .casadi import TARGET as _CASADI
 from .jax import TARGET as _JAX
 from .matlab import TARGET as _MATLAB
 from .numpy import TARGET as _NUMPY
-from .target import Target, resolve
+from .target import NotBuilt, Target, resolve
 
 #: Every code target, in the order they are rendered.
 TARGETS: tuple[Target, ...] = (_C, _MATLAB, _JAX, _CASADI, _C_EXTENSION, _NUMPY)
 #: The same, in the order of their options and of the table of offered functions.
 COLUMNS: tuple[Target, ...] = tuple(sorted(TARGETS, key=lambda target: target.column))
+#: The NumPy module, the reference every target is compared with: its API is the one every
+#: target offers, and what it does not build no target is expected to.
+REFERENCE: Target = _NUMPY
 
 
 def by_kind(kind: str) -> Target:
@@ -53,5 +56,5 @@ def reference(derivation: Any, template_dir: Any = None) -> str:
     return source(derivation, template_dir)
 
 
-__all__ = ["COLUMNS", "TARGETS", "Target", "by_kind", "by_name", "check_backends", "reference", "resolve",
+__all__ = ["COLUMNS", "REFERENCE", "TARGETS", "NotBuilt", "Target", "by_kind", "by_name", "check_backends", "reference", "resolve",
            "simulate_backends"]

@@ -4,7 +4,8 @@
 The commands loop over the registry and name no target: ``solve`` and ``build`` render each
 requested target (``render``), ``build`` hashes the templates it reads (``templates``) and
 knows its files by name (``outputs``), ``check --backend`` runs its harness (``check``),
-``render/offered.py`` reads which functions it generates (``offered``). A target renders a
+``render/offered.py`` reads which functions it generates (``offered``) and gathers what it does
+not build, with the reasons (``not_built``). A target renders a
 fixed-base and a floating-base robot alike: it picks its printer inside.
 
 Callables of later layers (a check harness in ``verify/``, the compiler) are named by a
@@ -19,6 +20,8 @@ import importlib
 from dataclasses import dataclass
 from typing import Any
 
+from ..api import group
+
 
 def resolve(reference: str) -> Any:
     """The function a ``"package.module:function"`` string names, imported now."""
@@ -31,6 +34,29 @@ def public(source: str) -> set[str]:
     target offers)."""
     return {node.name for node in ast.parse(source).body
             if isinstance(node, ast.FunctionDef) and not node.name.startswith("_")}
+
+
+@dataclass(frozen=True)
+class NotBuilt:
+    """Functions of the generated API a target does not build, for which robots, and why (the
+    reason's one line is the table of offered functions' footnote and ``check --backend``'s
+    "not built" row)."""
+
+    functions: tuple[str, ...]
+    #: The robots it concerns: "fixed" (fixed base), "floating" (floating base, or spherical
+    #: joints), "frameless" (a robot that declares no frames), "any" (every robot that has them).
+    kind: str
+    reason: str
+
+    def concerns(self, floating: bool, frames: bool) -> bool:
+        """Whether it applies to a robot with a ``floating`` base (or not) and ``frames`` (or none)."""
+        return {"fixed": not floating, "floating": floating, "frameless": not frames, "any": True}[self.kind]
+
+
+#: The row of every target that does not print a planar robot's maximal-coordinate form (its
+#: entries share it: one reason, one footnote of the table).
+MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "fixed",
+                               "the maximal-coordinate form of a planar robot is printed for NumPy, JAX and CasADi only")
 
 
 @dataclass(frozen=True)
@@ -87,6 +113,10 @@ class Target:
     #: ``"check --backend"``, ``"simulate --backend"`` (the help after ``NAME:``), ``"--tests"``
     #: (``solve``'s checks of the module it writes: the help after ``With FLAG:``).
     option_help: tuple[tuple[str, str], ...] = ()
+    #: The functions of the NumPy module's API it does not build, with the reasons. What the
+    #: NumPy module (the reference) does not build is expected of no target: its rows are
+    #: every target's (a target may build such a function all the same).
+    not_built: tuple[NotBuilt, ...] = ()
 
     def help_for(self, option: str) -> str | None:
         """Its help in ``option`` (``"check --backend"``), or None when it is not one of its choices."""

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..target import Target
+from ..target import NotBuilt, Target
 
 
 def _source(derivation: Any, template_dir: Any = None) -> str:
@@ -77,4 +77,6 @@ TARGET = Target(
     check="dynderive.verify.backends:casadi_backend",
     check_needs="dynderive.verify.backends:require_casadi",
     option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),),
+    not_built=(NotBuilt(("assemble",), "fixed", "closed loops in CasADi: assemble (Newton's method, iterated on "
+                                                "values) is not a casadi.Function"),),
 )
