@@ -15,6 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from dynderive.commands.cli import app
+from dynderive.render.targets import TARGETS, by_name, resolve
 
 from conftest import ROBOTS
 
@@ -476,3 +477,39 @@ def test_prune_keeps_the_outputs_of_a_renamed_robot_file_that_fails(robots, tmp_
     result = _build(robots, "--out", out, "--code", "-j", "1", "--prune")
     assert result.exit_code == 1 and "1 up to date, 1 failed" in result.stdout.splitlines()[-1], result.output
     assert (out / "cart_pole_dynamics.py").is_file()
+
+
+@pytest.mark.parametrize("target", [t.name for t in TARGETS])
+def test_build_hashes_every_template_a_target_loads(target, robots, tmp_path, monkeypatch):
+    """A target's entry names only the templates its code renders; ``build`` adds what they
+    include (read from their syntax), so every template ``solve`` loads for it, for a robot
+    with loops too, is one whose edit makes the record stale."""
+    import jinja2
+
+    from dynderive.commands.build import TEMPLATES
+    from dynderive.errors import InputError
+    from dynderive.render import environment
+
+    entry = by_name(target)
+    if entry.needs:
+        try:
+            resolve(entry.needs)()
+        except InputError as exc:   # no compiler here: nothing is rendered to compare
+            pytest.skip(str(exc))
+    loaded: set[str] = set()
+    get_source = jinja2.FileSystemLoader.get_source
+
+    def recording(self, env, name):
+        loaded.add(name)
+        return get_source(self, env, name)
+
+    monkeypatch.setattr(jinja2.FileSystemLoader, "get_source", recording)
+    environment.environment.cache_clear()   # fresh environments: no template served from memory
+    try:
+        for robot in ("rp_arm", "four_bar"):
+            result = runner.invoke(app, ["solve", robot, entry.flag, "--out", str(tmp_path / robot), "-q"])
+            assert result.exit_code == 0, result.output
+    finally:
+        environment.environment.cache_clear()
+    hashed = {name for name, _ in environment.templates_in_use(TEMPLATES[entry.kind], None)}
+    assert loaded and loaded <= hashed, sorted(loaded - hashed)

@@ -79,7 +79,9 @@ class Target:
     build_help: str
     #: Its output files, ``{}`` for the robot's name (``+{}/parameters.m``: a MATLAB package).
     outputs: tuple[str, ...]
-    #: The templates it reads (a change invalidates ``build``'s records).
+    #: The templates its code renders by name; what they include, extend or import is found
+    #: from their syntax (``render/environment.py``, ``templates_in_use``), so only these are
+    #: listed. A change in any of them invalidates ``build``'s records.
     templates: tuple[str, ...]
     #: ``"module:function"``: (derivation, template_dir, made, **options) -> {file name: bytes};
     #: ``made``: the files of the targets before it in this run (the extension reuses the C).

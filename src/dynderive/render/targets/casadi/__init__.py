@@ -69,7 +69,7 @@ TARGET = Target(
     "(the casadi extra).",
     build_help="Write <name>_dynamics_casadi.py (CasADi).",
     outputs=("{}_dynamics_casadi.py",),
-    templates=("casadi/dynamics.py.j2", "casadi/bodies.py.j2", "casadi/functions.py.j2", "python_api.j2"),
+    templates=("casadi/dynamics.py.j2",),
     render=f"{__name__}:render",
     offered=f"{__name__}:offered",
     progress="generating CasADi",
