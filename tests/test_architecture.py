@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import re
 from pathlib import Path
 
 import pytest
@@ -204,8 +205,10 @@ def test_no_command_names_a_target():
 def test_no_target_imports_another_target():
     """A target's modules import the code-generation layer (``render/codegen/``), the engine
     and ``render/``'s shared modules, never another target's folder (relative or absolute,
-    lazily or not): what two targets share lives in ``codegen``; the extension reaches the C
-    target's files through the registry."""
+    lazily or not), nor names one in a string (a registry entry's ``"module:function"``): what
+    two targets share lives in ``codegen``; the extension reaches the C target's files through
+    the registry, and ``check``/``simulate --backend c`` reach the extension through
+    ``verify/backends.py``."""
     folders = {path.parent.name for path in (PACKAGE / "render" / "targets").glob("*/__init__.py")}
     found = []
     for relative, module, package in MODULES:
@@ -216,7 +219,22 @@ def test_no_target_imports_another_target():
             other = target.split(".")
             if other[:2] == ["render", "targets"] and len(other) > 2 and other[2] in folders - {parts[2]}:
                 found.append(f"{relative}: imports {target}")
+        found += [f"{relative}: names {name}" for name in _named_targets((PACKAGE / relative).read_text(), folders - {parts[2]})]
     assert found == []
+
+
+def _named_targets(text: str, folders: set[str]) -> list[str]:
+    """The modules of the target folders ``folders`` that ``text`` names in full
+    (``dynderive.render.targets.c_extension.compile:...``, as a registry string does)."""
+    return [match.group(0) for match in re.finditer(r"dynderive\.render\.targets\.(\w+)[.:][\w.:]*", text)
+            if match.group(1) in folders]
+
+
+def test_the_target_check_sees_a_registry_string_naming_another_target():
+    text = ('TARGET = Target(load="dynderive.render.targets.c_extension.compile:compiled_module",\n'
+            '                render=f"{__name__}:render", check="dynderive.verify.backends:compiled_backend")\n')
+    assert _named_targets(text, {"c_extension", "numpy"}) == ["dynderive.render.targets.c_extension.compile:compiled_module"]
+    assert _named_targets(text, {"numpy"}) == []
 
 
 def test_the_import_check_sees_relative_and_absolute_imports(tmp_path):

@@ -1,6 +1,9 @@
 """The check harnesses of the code targets (``check --backend c``, ``jax``, ``casadi``), named by
 their registry entries (``render/targets``): each compares the target's functions with the
-NumPy module, for a fixed or a floating base."""
+NumPy module, for a fixed or a floating base. ``check --backend c`` and ``simulate --backend c``
+run the C target as the extension compiled for this process (``compiled_module``): the C
+target's entry names these functions, not the extension's modules, so no target's entry
+reaches into another target's folder."""
 
 from __future__ import annotations
 
@@ -10,10 +13,25 @@ from typing import Any
 from .rows import Row
 
 
+def require_compiled() -> None:
+    """``check --backend c``: ``InputError`` at ``--backend``, before any work, when this machine
+    cannot compile the extension (no compiler, or no Python headers)."""
+    from ..render.targets.c_extension.compile import require_compiler
+
+    require_compiler("--backend")
+
+
+def compiled_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
+    """``simulate --backend c``: the extension of ``derivation``'s robot, compiled for this
+    process and imported (the NumPy module's API)."""
+    from ..render.targets.c_extension import compile as extension
+
+    return extension.compiled_module(derivation, progress=progress)
+
+
 def compiled_backend(derivation: Any, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:
     """The C target's harness: the extension compiled for this process, each of its functions
     against the NumPy module ``source``."""
-    from ..render.targets.c_extension.compile import compiled_module
     from .compiled import compiled_checks
 
     compiled = compiled_module(derivation, progress=progress)

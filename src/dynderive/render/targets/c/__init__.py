@@ -32,8 +32,8 @@ TARGET = Target(
     outputs=("{}_dynamics.h", "{}_dynamics.c"),
     templates=("c/dynamics.h.j2", "c/dynamics.c.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating C",
-    check="dynderive.verify.backends:compiled_backend", check_needs="dynderive.render.targets.c_extension.compile:require_backend",
-    load="dynderive.render.targets.c_extension.compile:compiled_module",
+    check="dynderive.verify.backends:compiled_backend", check_needs="dynderive.verify.backends:require_compiled",
+    load="dynderive.verify.backends:compiled_module",
     option_help=(("check --backend", "also compile the C extension (--c-extension) and compare each of its functions "
                                      "with the NumPy module"),
                  ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "

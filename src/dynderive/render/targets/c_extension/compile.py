@@ -102,11 +102,6 @@ def require_compiler(option: str = OPTION) -> None:
     include_dirs(option)
 
 
-def require_backend() -> None:
-    """``check --backend c``: ``require_compiler`` at ``--backend``."""
-    require_compiler("--backend")
-
-
 def extension_filename(robot_name: str) -> str:
     """``<name>_dynamics_c`` with this Python's suffix for extensions (``.cpython-311-x86_64-linux-gnu.so``)."""
     from .c_extension import module_name
