@@ -138,6 +138,41 @@ def test_one_engine_for_every_robot_class():
     assert not named, named
 
 
+def _target_conditions(text: str, names: set[str]) -> list[str]:
+    """The Jinja conditions of ``text`` (``{% if %}``, ``{% elif %}`` and inline ``x if c else y``)
+    that name a target (a registry name or kind, or the word ``target``)."""
+    found = []
+    for tag in re.findall(r"\{%-?\+?(.*?)[-+]?%\}|\{\{(.*?)\}\}", text, flags=re.S):
+        statement, expression = tag
+        condition = statement if re.match(r"\s*(el)?if\b", statement) else expression if " if " in expression else ""
+        words = set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", re.sub(r"(\"[^\"]*\"|'[^']*')", "", condition)))
+        if words & names:
+            found.append(condition.strip())
+    return found
+
+
+def test_shared_templates_branch_on_no_target():
+    """What differs between targets is data the target supplies (its ``python_backend``
+    macros, its own templates), never a branch on the target's name in a template that several
+    targets or the sheets render: the top-level templates, ``sections/`` and ``html/``."""
+    from dynderive.render.environment import builtin_templates_dir
+    from dynderive.render.targets import TARGETS
+
+    # a one-letter name (C's "c") reads as a loop variable: the longer names and kinds are checked
+    names = {word for target in TARGETS for word in (target.name, target.kind) if len(word) > 1}
+    names |= {"target", "torch", "pytorch"}
+    assert {"jax", "casadi", "numpy", "matlab"} <= names
+    assert _target_conditions("{% if jax %}a{% endif %}{{ 'np' if numpy else '_jnp' }}", names) == [
+        "if jax", "'np' if numpy else '_jnp'"]
+    assert not _target_conditions("{% if loops %}{{ b.zeros(n, 'jax') }}{% endif %}", names)
+    templates = builtin_templates_dir()
+    shared = [*templates.glob("*.j2"), *(templates / "sections").rglob("*.j2"), *(templates / "html").rglob("*.j2")]
+    assert len(shared) > 10
+    branches = {str(path.relative_to(templates)): conditions for path in shared
+                if (conditions := _target_conditions(path.read_text(), names))}
+    assert not branches, branches
+
+
 def test_public_api_keeps_working():
     robot = dynderive.load_robot("rp_arm")
     d = dynderive.derive(robot)
