@@ -41,8 +41,9 @@ TARGET = Target(
          "float64); importing it needs JAX (the jax extra).",
     build_help="Write <name>_dynamics_jax.py (JAX).",
     outputs=("{}_dynamics_jax.py",),
-    templates=("jax/dynamics.py.j2", "python_api.j2", "dynamics_api.py.j2", "jax/arrays.py.j2", "jax/bodies.py.j2",
-               "dynamics_loops.py.j2", "dynamics_manifold.py.j2", "dynamics_maximal.py.j2"),
+    # the macro file is imported by a name the template sets (python_backend), which build's
+    # walk of the includes cannot follow: named here
+    templates=("jax/dynamics.py.j2", "jax/python_backend.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
     note=f"{__name__}:missing_note",
     check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",

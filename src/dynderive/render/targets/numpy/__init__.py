@@ -42,7 +42,9 @@ TARGET = Target(
     help="Write DIR/<name>_dynamics.py, a NumPy module.",
     build_help="Write <name>_dynamics.py.",
     outputs=("{}_dynamics.py",),
-    templates=("dynamics.py.j2",),
+    # the macro file is imported by a name the template sets (python_backend), which build's
+    # walk of the includes cannot follow: named here
+    templates=("dynamics.py.j2", "numpy/python_backend.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating code",
     option_help=(("check --backend", "check the generated NumPy module"),
                  ("simulate --backend", "the generated NumPy module"),
