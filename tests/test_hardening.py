@@ -155,6 +155,7 @@ def test_output_directory_that_is_a_file_is_a_clear_error(tmp_path):
     blocker = tmp_path / "out"
     blocker.write_text("not a folder")
     result = runner.invoke(app, ["solve", "rp_arm", "--code", "--out", str(blocker), "-q"])
-    assert result.exit_code == 1
-    assert result.stderr.startswith(f"dynderive: cannot write {blocker}")
+    assert result.exit_code == 2   # bad input, found before any derivation
+    assert result.stderr == f"--out:1:1: {blocker} is a file, not a folder\n"
     assert "internal error" not in result.stderr and "Traceback" not in result.output
+    assert blocker.read_text() == "not a folder"
