@@ -10,26 +10,10 @@ import os
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
 
-from dynderive.commands.cli import app
+from test_hostile_outputs import _refused, _run
 
 from conftest import ROBOTS
-
-runner = CliRunner()
-
-
-def _run(*args: object):
-    return runner.invoke(app, [str(a) for a in args])
-
-
-def _refused(result, prefix: str) -> str:
-    """The one line of a refusal (exit 2, no traceback), which starts with ``prefix``."""
-    assert result.exit_code == 2, result.output
-    assert "Traceback" not in result.output and "internal error" not in result.output
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith(prefix), result.stderr
-    return lines[0]
 
 
 def _files(folder: Path) -> dict[str, bytes]:
