@@ -34,7 +34,7 @@ from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from . import inertia
 from .loader import Path_, SourceDocument
-from .urdf_bodies import Body, check_bodies, finite, merge_bodies
+from .urdf_bodies import Body, check_bodies, merge_bodies
 from .urdf_root import float_root, note_fixed_base, split_planar
 from .urdf_symbolic import Declared, attach, entries, name_parameters, patterns_of, select
 from .urdf_values import IDENTITY, Rotation, _number, _numbers, _Reader
@@ -192,12 +192,7 @@ def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: 
             current = joint["parent"]
         for joint in reversed(chain):
             target, R0, p0 = frames[joint["parent"]]
-            with np.errstate(all="ignore"):
-                p = R0.matrix @ joint["xyz"] + p0
-            if not finite(p):
-                reader.error(joint["element"], f"joint '{joint['name']}': origin too large (composing it "
-                             "with the fixed joints above overflows)")
-            frames[joint["child"]] = (target, R0 @ joint["R"], p)
+            frames[joint["child"]] = (target, R0 @ joint["R"], R0.matrix @ joint["xyz"] + p0)
     reader.raise_problems()
 
     return frames
@@ -259,12 +254,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         element = joint["element"]
         parent_owner, R0, p0 = frames[joint["parent"]]
         rotation = R0 @ joint["R"]
-        with np.errstate(all="ignore"):
-            xyz = R0.matrix @ joint["xyz"] + p0
-        if not finite(xyz):
-            reader.error(element, f"joint '{joint['name']}': origin too large (composing it with the "
-                         "fixed joints above overflows)")
-            continue
+        xyz = R0.matrix @ joint["xyz"] + p0
         jname = identifier(joint["name"])
         scale = max(float(np.max(np.abs(joint["xyz"]))), float(np.max(np.abs(p0))))
         entry = {

@@ -20,10 +20,6 @@ from .urdf_values import Rotation, _Reader
 from .urdf_xml import _Element
 
 
-def finite(*arrays: Any) -> bool:
-    return all(bool(np.all(np.isfinite(np.asarray(a, dtype=float)))) for a in arrays)
-
-
 @dataclass
 class Body:
     """A link's <inertial>, and later the merged body of a moving link and what is welded to it."""
@@ -66,9 +62,6 @@ def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
         body.impossible = verdict.impossible
         if verdict.error is not None:
             reader.error(element, f"link '{name}' inertia: {verdict.error}")
-        elif not finite(body.inertia) and not welded:
-            reader.error(element, f"link '{name}' inertia: too large (rotating it by the <origin rpy> of "
-                         "<inertial> overflows)")
         if verdict.note is not None:
             doc.note(element.at, f"link '{name}' inertia: {verdict.note}")
         if verdict.tensor is not written[name] and body.axes is not None:
@@ -86,22 +79,13 @@ def merge_bodies(reader: _Reader, bodies: dict[str, Body], link_elements: dict[s
             continue
         body = bodies[name]
         R = rotation.matrix
-        with np.errstate(all="ignore"):
-            placed = Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
-                           max(body.scale, float(np.max(np.abs(p)))), impossible=body.impossible)
-            if body.symbolic is not None:
-                placed.symbolic = symbolic.SymbolicBody(body.symbolic.mass,
-                                                        symbolic.transform(R, p, body.symbolic.com),
-                                                        symbolic.rotate(R, body.symbolic.inertia))
-            combined = placed if target not in merged else combine(merged[target], placed)
-        if not finite(combined.mass, combined.com, combined.inertia):
-            what, tag = next((w, t) for w, t, v in (("mass", "mass", combined.mass), ("centre of mass", "origin",
-                              combined.com), ("inertia", "inertia", combined.inertia)) if not finite(v))
-            reader.error(body.element.find(tag) or body.element, f"link '{name}': merging it into link "
-                         f"'{target}' (fixed joints) makes the {what} overflow")
-            continue
-        merged[target] = combined
-    reader.raise_problems()
+        placed = Body(body.mass, R @ body.com + p, R @ body.inertia @ R.T, body.element,
+                      max(body.scale, float(np.max(np.abs(p)))), impossible=body.impossible)
+        if body.symbolic is not None:
+            placed.symbolic = symbolic.SymbolicBody(body.symbolic.mass,
+                                                    symbolic.transform(R, p, body.symbolic.com),
+                                                    symbolic.rotate(R, body.symbolic.inertia))
+        merged[target] = placed if target not in merged else combine(merged[target], placed)
 
     return merged
 
