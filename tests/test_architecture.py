@@ -130,12 +130,28 @@ def test_one_engine_for_every_robot_class():
     """A floating base or a spherical joint is a joint type, not a second pipeline: no module
     or template of any layer is named for it (``mechanics/tree.py`` serves every robot, each
     target and each sheet renders every robot)."""
-    from dynderive.render.environment import builtin_templates_dir
+    from dynderive.render.environment import builtin_template_dirs
 
-    templates = builtin_templates_dir()
     named = sorted([relative for relative, module, _ in MODULES if "floating" in relative.rsplit("/", 1)[-1]]
-                   + [str(path.relative_to(templates)) for path in templates.rglob("*") if "floating" in path.name])
+                   + [path.name for templates in builtin_template_dirs() for path in templates.rglob("*.j2")
+                      if "floating" in path.name])
     assert not named, named
+
+
+def test_a_target_is_one_folder():
+    """A target's templates live in its folder beside its printer (``render/targets/<folder>/``):
+    the shared ``templates/`` has no folder named for a target, and every template a target
+    lists is found in the targets' folder."""
+    from dynderive.render.environment import builtin_templates_dir, target_templates_dir
+    from dynderive.render.targets import TARGETS
+
+    folders = {path.name for path in target_templates_dir().iterdir() if path.is_dir()}
+    assert {"c", "numpy", "jax"} <= folders
+    assert not [path.name for path in builtin_templates_dir().iterdir() if path.name in folders]
+    for target in TARGETS:
+        for name in target.templates:
+            if "/" in name:
+                assert (target_templates_dir() / name).is_file(), (target.name, name)
 
 
 def _target_conditions(text: str, names: set[str]) -> list[str]:

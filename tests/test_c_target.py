@@ -401,7 +401,7 @@ def test_solve_writes_header_and_source(tmp_path):
 
 
 def test_user_c_template(tmp_path):
-    """--template-dir overrides templates/c/ by file name; a fault in it is the user's (exit 2
+    """--template-dir overrides the C target's templates by file name; a fault in it is the user's (exit 2
     at its file and line), and a correct one may encode text with |c_comment."""
     folder = tmp_path / "templates" / "c"
     folder.mkdir(parents=True)

@@ -52,11 +52,23 @@ MAX_POWER_BITS = 100_000
 
 
 def builtin_templates_dir() -> Path:
-    """The templates shipped with dynderive (inside the wheel, or the checkout's ``templates/``)."""
+    """The shared templates shipped with dynderive (the sheets and what several Python targets
+    render; inside the wheel, or the checkout's ``templates/``)."""
     packaged = resources.files("dynderive") / "templates"
     if packaged.is_dir():
         return Path(str(packaged))
     return Path(__file__).resolve().parents[3] / "templates"
+
+
+def target_templates_dir() -> Path:
+    """The folder of the code targets (``render/targets/``): a target's own templates live in
+    its folder, named by it (``c/dynamics.c.j2`` is ``render/targets/c/dynamics.c.j2``)."""
+    return Path(__file__).resolve().parent / "targets"
+
+
+def builtin_template_dirs() -> tuple[Path, ...]:
+    """Where the built-in templates are found, in order: the shared ones, then the targets'."""
+    return builtin_templates_dir(), target_templates_dir()
 
 
 class TemplateSandbox(SandboxedEnvironment):
@@ -131,7 +143,7 @@ def environment(kind: str, template_dir: str | None = None) -> jinja2.Environmen
     """The environment for ``kind`` ("latex", "html" or "code"); ``template_dir`` overrides by
     file name. HTML templates autoescape: only Markup (MathML, SVG) is printed as it is."""
     search = [str(template_dir)] if template_dir else []
-    search.append(str(builtin_templates_dir()))
+    search += [str(path) for path in builtin_template_dirs()]
     options: dict[str, object] = (dict(LATEX_DELIMITERS) if kind == "latex" else {} if kind == "html"
                                   else {"finalize": _python_source})
     env = TemplateSandbox(

@@ -26,7 +26,7 @@ TARGET = Target(
     # the extension (this Python's suffix for extensions) and the log of a compiler that failed
     outputs=("{}_dynamics_c" + (sysconfig.get_config_var("EXT_SUFFIX") or ".so"), "{}_dynamics_c.log"),
     # the C target's files it compiles, its binding and the Python of its contact functions
-    templates=("c/dynamics.h.j2", "c/dynamics.c.j2", "c/extension.c.j2", "c/extension_contacts.py.j2"),
+    templates=("c/dynamics.h.j2", "c/dynamics.c.j2", "c_extension/extension.c.j2", "c_extension/extension_contacts.py.j2"),
     render=f"{__name__}.compile:extension_files", offered=f"{__name__}:offered",
     progress="",   # build_extension says "compiling the C extension (...)" itself
     needs=f"{__name__}.compile:require_compiler",

@@ -3,7 +3,7 @@
 
 The binding is driven by one table (``bindings``): each row names a Python function, the C
 function it calls, its array inputs and their sizes, its outputs and their shapes, and what
-the C function's return value means. The template (``templates/c/extension.c.j2``) turns each
+the C function's return value means. The template (``c_extension/extension.c.j2``) turns each
 row into a small kernel that calls the C function for one state and an entry of a spec table
 that one generic dispatcher reads: argument parsing (positional or keyword, the robot's
 parameters and ``friction_smoothing`` as keywords), shape checks with the NumPy module's
@@ -34,7 +34,7 @@ from ...environment import render
 from .binding import Binding
 from .contacts import contact_source
 
-TEMPLATE = "c/extension.c.j2"
+TEMPLATE = "c_extension/extension.c.j2"
 
 
 def module_name(robot_name: str) -> str:

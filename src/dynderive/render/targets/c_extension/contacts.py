@@ -2,9 +2,9 @@
 ``impulse_dynamics`` of a 3-D robot without closed loops, with the NumPy module's signatures.
 
 Their arguments (contacts as names, indices of FRAMES or (frame, kind) pairs, the Baumgarte
-gains, the anchors) are read by a little Python (``templates/c/extension_contacts.py.j2``) that
+gains, the anchors) are read by a little Python (``c_extension/extension_contacts.py.j2``) that
 the module runs once when it is imported, as the NumPy module reads them; the batch loop is C
-(``templates/c/extension_contacts.c.j2``), one call of the C target's
+(``c_extension/extension_contacts.c.j2``), one call of the C target's
 ``<name>_constrained_forward_dynamics`` or ``<name>_impulse_dynamics`` per state. Redundant
 contacts raise ValueError (the NumPy module's message); a state whose M is not positive definite
 gives NaN. No external wrenches: ``wrenches`` must be None (the C target takes none there).
@@ -20,7 +20,7 @@ from ...codegen.constrained import contacts_built
 from ...encode import Code, docstring, python_literal
 from ...environment import render
 
-TEMPLATE = "c/extension_contacts.py.j2"
+TEMPLATE = "c_extension/extension_contacts.py.j2"
 NAMES = ("constrained_forward_dynamics", "impulse_dynamics")
 
 
