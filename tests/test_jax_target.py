@@ -203,9 +203,10 @@ def _jacobians_agree(jax_module, q, qd, u, smoothing: float) -> None:
 @pytest.mark.parametrize("robot", ["ur5", "four_bar"])
 def test_large_batches_hold_values_and_agree(robot, code_dir, monkeypatch):
     """A traced batch of at least ``HOLD_STATES`` states runs the bodies with ``_hold`` (loops in
-    the program XLA compiles; none for a small batch or a vmapped state): every function still
-    agrees with the NumPy module, and so do forward- and reverse-mode derivatives through the
-    holds (against the generated ``linearize``) and float32."""
+    the program XLA compiles; none for a small batch), and so does ``jax.vmap`` of the
+    single-state function over as many: every function still agrees with the NumPy module, and
+    so do forward- and reverse-mode derivatives through the holds (against the generated
+    ``linearize``) and float32."""
     numpy_module, jax_module = module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir))
     count = jax_module.HOLD_STATES + 3
     q, qd, qdd, u = _states(numpy_module, np.random.default_rng(9), count)
@@ -216,14 +217,18 @@ def test_large_batches_hold_values_and_agree(robot, code_dir, monkeypatch):
     small = loops(forward, q[:4], qd[:4], u[:4])   # the loops' Newton steps and solves have loops of their own
     held = loops(forward, q, qd, u)
     assert held > small
-    assert loops(jax.vmap(forward), q, qd, u) == small
-    _agree(numpy_module, jax_module, seed=9, count=count, traced=True)
-    n = len(numpy_module.COORDINATES)
+    assert loops(jax.vmap(forward), q[:4], qd[:4], u[:4]) == small
+    assert loops(jax.vmap(forward), q, qd, u) == held
+    mapped = jax.jit(jax.vmap(forward))
+    _close(mapped(q, qd, u), numpy_module.forward_dynamics(q, qd, u), "jit(vmap) of a held batch")
+    weights = np.random.default_rng(11).normal(size=(count, n := len(numpy_module.COORDINATES)))
     A, _ = numpy_module.linearize(q, qd, u)
+    gradient = jax.jit(jax.vmap(jax.grad(lambda x, v, w, c: jnp.sum(c * forward(x, v, w)), argnums=1)))(q, qd, u, weights)
+    _close(gradient, np.einsum("si,sij->sj", weights, A[:, n:, n:]), "vmap(grad) of a held batch", 1e-9)
+    _agree(numpy_module, jax_module, seed=9, count=count, traced=True)
     dq = np.random.default_rng(10).normal(size=(count, n))
     _, tangent = jax.jit(lambda x, v: jax.jvp(lambda y: forward(y, v, u), (x,), (dq,)))(q, qd)
     _close(tangent, np.einsum("sij,sj->si", A[:, n:, :n], dq), "jvp of a held batch", 1e-9)
-    weights = np.random.default_rng(11).normal(size=(count, n))
     gradient = jax.jit(jax.grad(lambda v: jnp.sum(weights * forward(q, v, u))))(qd)
     _close(gradient, np.einsum("si,sij->sj", weights, A[:, n:, n:]), "grad of a held batch", 1e-9)
     single = jax.jit(forward)(*(a.astype(np.float32) for a in (q, qd, u)))
