@@ -39,8 +39,9 @@ def by_name(name: str) -> Target:
 
 def check_backends() -> tuple[str, ...]:
     """``check --backend``'s choices: the NumPy module (always checked), then every target
-    with a harness."""
-    return ("numpy", *(target.name for target in TARGETS if target.check))
+    with a harness or a module ``simulate`` loads (compared by ``verify/backends.py``'s
+    ``loaded_backend``)."""
+    return ("numpy", *(target.name for target in TARGETS if target.check or target.load))
 
 
 def simulate_backends() -> tuple[str, ...]:

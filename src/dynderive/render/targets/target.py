@@ -98,6 +98,8 @@ class Target:
     note: str | None = None
     #: ``check --backend NAME``: ``"module:function"`` (derivation, source, progress, states)
     #: -> rows, and what it needs before any work (called with the option's name), or None.
+    #: A target without a harness whose ``load`` gives the NumPy module's API is checked by
+    #: comparing that module with the NumPy module (``verify/backends.py``, ``loaded_backend``).
     check: str | None = None
     check_needs: str | None = None
     #: ``simulate --backend NAME``: ``"module:function"`` (derivation, progress) -> a module
