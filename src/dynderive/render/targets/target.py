@@ -56,7 +56,7 @@ class NotBuilt:
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its
 #: entries share it: one reason, one footnote of the table).
 MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "fixed",
-                               "the maximal-coordinate form of a planar robot is printed for NumPy, JAX and CasADi only")
+                               "the maximal-coordinate form of a planar robot is printed for the Python modules only")
 
 
 @dataclass(frozen=True)
