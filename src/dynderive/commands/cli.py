@@ -217,6 +217,10 @@ def check(
     rows = run_checks(derivation, source, states=states)
     if harness.check:   # the target's harness, against the NumPy module
         rows += resolve(harness.check)(derivation, source, progress, states=states)
+    elif harness.load:   # the module simulate loads, against the NumPy module
+        from ..verify.backends import loaded_backend
+
+        rows += loaded_backend(harness, derivation, source, progress, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,

@@ -1,7 +1,8 @@
 """The check harnesses of the code targets (``check --backend c``, ``jax``, ``casadi``), named by
 their registry entries (``render/targets``): each compares the target's functions with the
-NumPy module, for a fixed or a floating base. ``check --backend c`` and ``simulate --backend c``
-run the C target as the extension compiled for this process (``compiled_module``): the C
+NumPy module, for a fixed or a floating base; a target with no harness of its own is checked
+through the module ``simulate`` loads (``loaded_backend``). ``check --backend c`` and
+``simulate --backend c`` run the C target as the extension compiled for this process (``compiled_module``): the C
 target's entry names these functions, not the extension's modules, so no target's entry
 reaches into another target's folder."""
 
@@ -84,3 +85,21 @@ def casadi_backend(derivation: Any, source: str, progress: Callable[[str], None]
     if robot.floating:
         return floating_rows(generated_module(source, robot.name), module, robot, "CasADi", states)
     return compiled_checks(derivation, source, module, states=states, label="CasADi", target="casadi")
+
+
+def loaded_backend(target: Any, derivation: Any, source: str, progress: Callable[[str], None],
+                   states: int = 12) -> list[Row]:
+    """The harness of a target without one of its own whose ``load`` gives a module with the
+    NumPy module's API, taking and returning NumPy arrays: that module against the NumPy module
+    ``source`` at random states (the compiled extension's comparison, for a robot with
+    quaternions ``floating_rows``)."""
+    from ..render.targets import resolve
+    from .checks import generated_module
+    from .compiled import compiled_checks, floating_rows
+
+    module = resolve(target.load)(derivation, progress=progress)
+    progress(f"checking the {target.title} module")
+    robot = derivation.robot
+    if robot.floating:
+        return floating_rows(generated_module(source, robot.name), module, robot, target.title, states)
+    return compiled_checks(derivation, source, module, states=states, label=target.title, target=target.name)

@@ -131,3 +131,14 @@ def expression_function(name: str, doc: str, arguments: list[Argument], value: A
         entries.append((index, Code(printer.doprint(expr))))
     shape = () if scalar else ((matrix.shape[0],) if column else tuple(matrix.shape))
     return ExpressionFunction(name, Code(doc), arguments, shape, unpack, lines, entries)
+
+
+def flat_entries(function: ExpressionFunction) -> list[tuple[int, str]]:
+    """The entries of an expression function by their flat (row-major) index (a module that fills
+    its results from a flat list, as the JAX module does)."""
+    columns = function.shape[1] if len(function.shape) == 2 else 1
+    flat = []
+    for index, expr in function.entries:
+        parts = [int(p) for p in index.split(",")] if index else [0]
+        flat.append((parts[0] * columns + parts[1] if len(parts) == 2 else parts[0], expr))
+    return flat

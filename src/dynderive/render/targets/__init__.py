@@ -17,9 +17,10 @@ from .jax import TARGET as _JAX
 from .matlab import TARGET as _MATLAB
 from .numpy import TARGET as _NUMPY
 from .target import NotBuilt, Target, resolve
+from .torch import TARGET as _TORCH
 
 #: Every code target, in the order they are rendered.
-TARGETS: tuple[Target, ...] = (_C, _MATLAB, _JAX, _CASADI, _C_EXTENSION, _NUMPY)
+TARGETS: tuple[Target, ...] = (_C, _MATLAB, _JAX, _CASADI, _TORCH, _C_EXTENSION, _NUMPY)
 #: The same, in the order of their options and of the table of offered functions.
 COLUMNS: tuple[Target, ...] = tuple(sorted(TARGETS, key=lambda target: target.column))
 #: The NumPy module, the reference every target is compared with: its API is the one every
@@ -39,8 +40,9 @@ def by_name(name: str) -> Target:
 
 def check_backends() -> tuple[str, ...]:
     """``check --backend``'s choices: the NumPy module (always checked), then every target
-    with a harness."""
-    return ("numpy", *(target.name for target in TARGETS if target.check))
+    with a harness or a module ``simulate`` loads (compared by ``verify/backends.py``'s
+    ``loaded_backend``)."""
+    return ("numpy", *(target.name for target in TARGETS if target.check or target.load))
 
 
 def simulate_backends() -> tuple[str, ...]:

@@ -56,7 +56,7 @@ class NotBuilt:
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its
 #: entries share it: one reason, one footnote of the table).
 MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "fixed",
-                               "the maximal-coordinate form of a planar robot is printed for NumPy, JAX and CasADi only")
+                               "the maximal-coordinate form of a planar robot is printed for the Python modules only")
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,8 @@ class Target:
     note: str | None = None
     #: ``check --backend NAME``: ``"module:function"`` (derivation, source, progress, states)
     #: -> rows, and what it needs before any work (called with the option's name), or None.
+    #: A target without a harness whose ``load`` gives the NumPy module's API is checked by
+    #: comparing that module with the NumPy module (``verify/backends.py``, ``loaded_backend``).
     check: str | None = None
     check_needs: str | None = None
     #: ``simulate --backend NAME``: ``"module:function"`` (derivation, progress) -> a module

@@ -32,7 +32,7 @@ from typing import Any
 from sympy.printing.numpy import JaxPrinter
 
 from ....derivation import Derivation
-from ...codegen.functions import ExpressionFunction
+from ...codegen.functions import flat_entries
 from ...codegen.printer import _Printer
 from ...codegen.python_context import code_context
 from ...python_module import render_module
@@ -52,16 +52,6 @@ class _JaxPrinter(_Printer, JaxPrinter):
     ``repr`` literals (weakly typed: they keep float32 float32)."""
 
     _short = ("jax.numpy.", "_jnp.", "jax.numpy")
-
-
-def _flat_entries(function: ExpressionFunction) -> list[tuple[int, str]]:
-    """The entries of an expression function by their flat (row-major) index."""
-    columns = function.shape[1] if len(function.shape) == 2 else 1
-    flat = []
-    for index, expr in function.entries:
-        parts = [int(p) for p in index.split(",")] if index else [0]
-        flat.append((parts[0] * columns + parts[1] if len(parts) == 2 else parts[0], expr))
-    return flat
 
 
 def holds(lines: list[tuple[str, str]], outputs: list[str], every: int = HOLD_EVERY) -> dict[int, str]:
@@ -103,7 +93,7 @@ def jax_context(derivation: Derivation) -> dict[str, Any]:
     """The NumPy module's context (``code.code_context``) with the expressions printed for
     ``jax.numpy`` and each expression function's entries by flat index."""
     context = code_context(derivation, _JaxPrinter({"fully_qualified_modules": True, "strict": False}))
-    context["sizes"] = {f.name: (math.prod(f.shape), _flat_entries(f)) for f in context["functions"]}
+    context["sizes"] = {f.name: (math.prod(f.shape), flat_entries(f)) for f in context["functions"]}
     context["holds"] = {p.name: holds(p.lines, p.outputs) for p in context["programs"]}
     context["body_functions"] = {p.name: tuple(p.functions) + (("_hold",) if context["holds"][p.name] else ())
                                  for p in context["programs"]}
