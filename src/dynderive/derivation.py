@@ -168,7 +168,7 @@ class Derivation:
         add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
         add(_Stage(self._applied_forces, frozenset({"Y_g"})))
         if robot.loops:
-            add(_Stage(self._loops, frozenset(_LOOP_KEYS), frozenset({"loops"})))
+            add(_Stage(self._loops, frozenset() if robot.floating else frozenset(_LOOP_KEYS), frozenset({"loops"})))
         add(_Stage(self._generalized, None, frozenset({"generalized"})))
         if robot.planar:
             add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
@@ -224,6 +224,9 @@ class Derivation:
         self.steps["generalized"] = steps
 
     def _loops(self) -> None:
+        if self.robot.floating:   # quaternions in q: the loops are rows on the tree's twists
+            self.steps["loops"] = self.loop_programs
+            return
         from .mechanics.loops import derive_loops
 
         self.report("loop constraints")
@@ -339,6 +342,16 @@ class Derivation:
         if self.robot.frames:
             self.report(f"program: frames ({len(self.robot.frames)})")
         return frame_programs(self.robot, self.symbols)
+
+    @cached_property
+    def loop_programs(self) -> Any:
+        """Straight-line programs of the loops' residual, Jacobian on the velocities and ``Jdot qd``
+        (``mechanics.loop_programs.LoopPrograms``: the loops as rows on the tree's twists), for a
+        robot with quaternions in ``q``, whose loops have no symbolic route; built on first use."""
+        from .mechanics.loop_programs import loop_programs
+
+        self.report(f"program: loop constraints ({len(self.robot.loops)} loop joints)")
+        return loop_programs(self.robot, self.symbols)
 
     @cached_property
     def centroidal_programs(self) -> Any:
