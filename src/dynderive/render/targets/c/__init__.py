@@ -5,13 +5,16 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..target import MAXIMAL_NOT_PRINTED, Target
+from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
+from ..target import MAXIMAL_NOT_PRINTED, NotBuilt, Target
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The header and the source."""
+    from ...codegen.constrained import refuse_floating_loops
     from .c import render_c
 
+    refuse_floating_loops(derivation, "the C target (--c)")
     header, source = render_c(derivation, template_dir)
     name = derivation.robot.name
     return {f"{name}_dynamics.h": header.encode(), f"{name}_dynamics.c": source.encode()}
@@ -38,5 +41,7 @@ TARGET = Target(
                                      "with the NumPy module"),
                  ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "
                                         "coordinates)")),
-    not_built=(MAXIMAL_NOT_PRINTED,),
+    not_built=(MAXIMAL_NOT_PRINTED, NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
+                        "closed loops on a robot with a floating or spherical joint: not printed for C yet (the "
+                        "NumPy and JAX modules have them; C refuses such a robot)")),
 )
