@@ -229,3 +229,27 @@ def test_independent_coordinates_are_refused_on_such_a_robot(tmp_path, independe
         f"{robot}:{line}:1: independent: a floating-base robot keeps no reduced form of its loops, so it takes no "
         "independent coordinates (forward_dynamics solves the loops with their multipliers)"]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["simulate", "linearize"])
+def test_commands_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, command):
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(TIED)
+    result = runner.invoke(app, [command, str(robot), "-q"] + (["--duration", "0.1"] if command == "simulate" else []))
+    assert result.exit_code == 2, result.output
+    line = next(n for n, text in enumerate(TIED.splitlines(), 1) if "{name: tie," in text)
+    assert result.stderr.splitlines() == [
+        f"{robot}:{line}:5: loop joint 'tie': {command} is not built yet for closed loops on a robot with a floating "
+        "or spherical joint (the generated NumPy module's forward_dynamics closes them)"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["robot.yaml"]
+
+
+def test_the_json_counts_the_rows_and_leaves_the_mobility_to_the_module(tmp_path):
+    import json
+
+    result, robot, out = _solve(tmp_path, TIED, "--json")
+    assert result.exit_code == 0, result.output
+    document = json.loads((out / "tied.json").read_text())
+    assert document["degrees_of_freedom"] is None
+    assert document["loops"] == {"constraint_rows": 3, "rows": [["tie", f"{axis} of the gap between the loop frames"]
+                                                                for axis in "xyz"]}

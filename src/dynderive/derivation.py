@@ -225,7 +225,12 @@ class Derivation:
 
     def _loops(self) -> None:
         if self.robot.floating:   # quaternions in q: the loops are rows on the tree's twists
-            self.steps["loops"] = self.loop_programs
+            self.steps["loops"] = programs = self.loop_programs
+            first = self.robot.loops[0].name
+            where = self.robot.positions.get(f"loop:{first}", self.robot.positions.get("loops", (1, 1)))
+            self.notes.append(f"{self.robot.source}:{where[0]}:{where[1]}: note: the {len(programs.rows)} loop "
+                              "constraint rows are closed by the generated module's forward_dynamics (NumPy, JAX); "
+                              "the sheets show the open tree's equations")
             return
         from .mechanics.loops import derive_loops
 
