@@ -253,3 +253,28 @@ def test_the_json_counts_the_rows_and_leaves_the_mobility_to_the_module(tmp_path
     assert document["degrees_of_freedom"] is None
     assert document["loops"] == {"constraint_rows": 3, "rows": [["tie", f"{axis} of the gap between the loop frames"]
                                                                 for axis in "xyz"]}
+
+
+def test_the_jax_module_agrees_under_jit_and_vmap(tmp_path):
+    """``--jax`` prints the same loops from the same template: forward_dynamics, loop_forces and
+    assemble equal the NumPy module's, under ``jax.jit(jax.vmap(...))`` too."""
+    jax = pytest.importorskip("jax")
+    jax.config.update("jax_enable_x64", True)
+    result, robot, out = _solve(tmp_path, TIED, "--jax")
+    assert result.exit_code == 0, result.output
+    modules = []
+    for name in ("tied_dynamics", "tied_dynamics_jax"):
+        spec = importlib.util.spec_from_file_location(f"{name}_{tmp_path.name}", out / f"{name}.py")
+        modules.append(importlib.util.module_from_spec(spec))
+        spec.loader.exec_module(modules[-1])
+    numpy_module, jax_module = modules
+    states = list(_states(numpy_module, 6, 4))
+    qs, qds, us = (np.array(column) for column in zip(*states))
+    expected = numpy_module.forward_dynamics(qs, qds, us)
+    np.testing.assert_allclose(np.asarray(jax_module.forward_dynamics(qs, qds, us)), expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
+    batched = jax.jit(jax.vmap(jax_module.forward_dynamics))(qs, qds, us)
+    np.testing.assert_allclose(np.asarray(batched), expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
+    forces = numpy_module.loop_forces(qs, qds, us)
+    np.testing.assert_allclose(np.asarray(jax_module.loop_forces(qs, qds, us)), forces, rtol=0, atol=1e-12 * np.max(np.abs(forces)))
+    closed = np.asarray(jax_module.assemble(qs))
+    assert np.max(np.abs(numpy_module.loop_constraints(closed))) < 1e-12
