@@ -42,6 +42,5 @@ TARGET = Target(
                  ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "
                                         "coordinates)")),
     not_built=(MAXIMAL_NOT_PRINTED, NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
-                        "closed loops on a robot with a floating or spherical joint: not printed for C yet (the "
-                        "NumPy and JAX modules have them; C refuses such a robot)")),
+                        "loops on a floating base or with spherical joints: not printed for C yet (it refuses such a robot)")),
 )

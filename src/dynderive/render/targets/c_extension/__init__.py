@@ -34,6 +34,5 @@ TARGET = Target(
     failure=f"{__name__}.compile:failure_files", fingerprint=f"{__name__}.compile:toolchain",
     stale=("{}_dynamics_c.log",),
     not_built=(MAXIMAL_NOT_PRINTED, NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
-                        "closed loops on a robot with a floating or spherical joint: not printed for the C extension yet (the "
-                        "NumPy and JAX modules have them; the C extension refuses such a robot)")),
+                        "loops on a floating base or with spherical joints: not printed for the C extension yet (it refuses such a robot)")),
 )

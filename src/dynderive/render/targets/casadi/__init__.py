@@ -83,6 +83,5 @@ TARGET = Target(
     not_built=(NotBuilt(("assemble",), "fixed", "closed loops in CasADi: assemble (Newton's method, iterated on "
                                                 "values) is not a casadi.Function"),
                NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
-                        "closed loops on a robot with a floating or spherical joint: not printed for CasADi yet (the "
-                        "NumPy and JAX modules have them; CasADi refuses such a robot)")),
+                        "loops on a floating base or with spherical joints: not printed for CasADi yet (it refuses such a robot)")),
 )

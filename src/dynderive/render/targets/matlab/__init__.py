@@ -46,6 +46,5 @@ TARGET = Target(
                NotBuilt(group("frames"), "frameless", "a robot without frames: MATLAB writes no frame functions "
                                                       "(the NumPy module's raise for any frame name)"),
                NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
-                        "closed loops on a robot with a floating or spherical joint: not printed for MATLAB yet (the "
-                        "NumPy and JAX modules have them; MATLAB refuses such a robot)")),
+                        "loops on a floating base or with spherical joints: not printed for MATLAB yet (it refuses such a robot)")),
 )

@@ -53,6 +53,5 @@ TARGET = Target(
     not_built=(NotBuilt(("generalized_forces",), "floating",
                         "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
                NotBuilt(("linearize", "forward_dynamics_derivatives"), "floating_loops",
-                        "closed loops on a robot with a floating or spherical joint: the linearization of the "
-                        "constrained dynamics is not built (the loop rows' second derivatives are not derived)")),
+                        "loops on a floating base or with spherical joints: the constrained linearization is not built")),
 )
