@@ -5,16 +5,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
-from ..target import MAXIMAL_NOT_PRINTED, NotBuilt, Target
+from ..target import MAXIMAL_NOT_PRINTED, Target
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The header and the source."""
-    from ...codegen.constrained import refuse_floating_loops
     from .c import render_c
 
-    refuse_floating_loops(derivation, "the C target (--c)")
     header, source = render_c(derivation, template_dir)
     name = derivation.robot.name
     return {f"{name}_dynamics.h": header.encode(), f"{name}_dynamics.c": source.encode()}
@@ -41,6 +38,5 @@ TARGET = Target(
                                      "with the NumPy module"),
                  ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "
                                         "coordinates)")),
-    not_built=(MAXIMAL_NOT_PRINTED, NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
-                        "loops on a floating base or with spherical joints: not printed for C yet (it refuses such a robot)")),
+    not_built=(MAXIMAL_NOT_PRINTED,),
 )
