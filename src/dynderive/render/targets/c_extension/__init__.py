@@ -7,8 +7,7 @@ from __future__ import annotations
 import sysconfig
 from typing import Any
 
-from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
-from ..target import MAXIMAL_NOT_PRINTED, NotBuilt, Target
+from ..target import MAXIMAL_NOT_PRINTED, Target
 
 
 def offered(derivation: Any) -> set[str]:
@@ -33,6 +32,5 @@ TARGET = Target(
     needs=f"{__name__}.compile:require_compiler",
     failure=f"{__name__}.compile:failure_files", fingerprint=f"{__name__}.compile:toolchain",
     stale=("{}_dynamics_c.log",),
-    not_built=(MAXIMAL_NOT_PRINTED, NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
-                        "loops on a floating base or with spherical joints: not printed for the C extension yet (it refuses such a robot)")),
+    not_built=(MAXIMAL_NOT_PRINTED,),
 )

@@ -181,9 +181,6 @@ def extension_files(derivation: Derivation, template_dir: str | Path | None, mad
                     progress: Callable[[str], None] | None = None, **options: object) -> dict[str, bytes]:
     """The target's render (``render/targets/c_extension``): the compiled extension by file
     name, on the C files this run made (``made``) when ``--c`` is asked too."""
-    from ...codegen.constrained import refuse_floating_loops
-
-    refuse_floating_loops(derivation, "the C extension (--c-extension)")
     name = derivation.robot.name
     header, source = f"{name}_dynamics.h", f"{name}_dynamics.c"
     c_files = (made[header].decode(), made[source].decode()) if header in made and source in made else None
