@@ -206,7 +206,7 @@ def test_no_linearization_is_written_for_such_loops(tied):
     assert not hasattr(tied, "INDEPENDENT_COORDINATES") and not hasattr(tied, "reduced_basis")
 
 
-@pytest.mark.parametrize(("option", "target"), [("--c", "the C target (--c)"), ("--matlab", "the MATLAB target (--matlab)"),
+@pytest.mark.parametrize(("option", "target"), [("--matlab", "the MATLAB target (--matlab)"),
                                                 ("--casadi", "the CasADi target (--casadi)")])
 def test_targets_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, option, target):
     result, robot, out = _solve(tmp_path, TIED, option)
@@ -214,7 +214,7 @@ def test_targets_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, op
     line = next(n for n, text in enumerate(TIED.splitlines(), 1) if "{name: tie," in text)
     assert result.stderr.splitlines() == [
         f"{robot}:{line}:5: loop joint 'tie': closed loops on a robot with a floating or spherical joint are not "
-        f"built for {target} yet (the NumPy and JAX modules, --code and --jax, close them)"]
+        f"built for {target} yet (--code, --jax, --c and --c-extension close them)"]
     assert not out.exists()
     assert "internal error" not in result.output
 

@@ -30,8 +30,8 @@ def form_note(robot: Robot) -> str | None:
         what = "has a floating base" if robot.floating_base else f"has {quaternion_kind(robot)}"
         sizes = f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)}, NV = {robot.velocity_count})"
         if robot.loops:
-            return (f"{sizes} and closed loops: the sheets, JSON and the NumPy and JAX modules are built; C, the C "
-                    "extension, MATLAB and CasADi do not print such loops yet")
+            return (f"{sizes} and closed loops: the sheets, JSON, NumPy, JAX, C and the C extension are built; "
+                    "MATLAB and CasADi do not print such loops yet")
         return f"{sizes}: every output is built except the MATLAB derivation script (--matlab writes its +package only)"
     if intermediate_form(robot):
         return (f"note: {robot.name} has {len(robot.coordinates)} coordinates: M, C, N, the energies and Lagrange's "
