@@ -244,7 +244,11 @@ class Derivation:
 
     @property
     def mobility(self) -> int:
-        """Degrees of freedom: the coordinates less the independent loop constraints."""
+        """Degrees of freedom: the coordinates less the independent loop constraints. A robot with
+        quaternions in q and loops has none recorded: its loop rows' rank is found per state."""
+        if self.robot.loops and self.robot.floating:
+            raise ValueError("the mobility of loops on a floating base or with spherical joints is not recorded: "
+                             "the rank of loop_jacobian(q) is found per state by the generated module")
         return self.steps["loops"].mobility if self.robot.loops else len(self.robot.coordinates)
 
     def _loop_force(self) -> sympy.Matrix:
