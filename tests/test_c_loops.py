@@ -22,7 +22,7 @@ import dynderive
 from dynderive.render.targets.c.c import render_c
 from test_c_target import CC, STRICT, Library, _close, _compile, _write
 
-from conftest import ROBOTS, acceleration_scale, derivation_of, import_code, module_of, stable_seed
+from conftest import ROBOTS, ROOT, acceleration_scale, derivation_of, import_code, module_of, stable_seed
 
 HERE = Path(__file__).parent / "loops"
 LOOP_ROBOTS = ["four_bar", "slider_crank", "bennett", "spatial_four_bar",
@@ -322,3 +322,69 @@ def test_header_declares_the_loop_functions(tmp_path):
         assert f" spatial_four_bar_{function}(" in header
     assert "double alpha;" in header and "double beta;" in header
     assert "malloc" not in source and "static double" not in source
+
+
+def test_loops_on_a_floating_base_agree_with_numpy(tmp_path, code_dir):
+    """An MJCF connect on a floating base with a ball joint in the loop (tests/mjcf/floating_loop.xml),
+    and two connects whose six rows have rank five: the C loop rows, forward_dynamics (with and
+    without Baumgarte's gains, off the constraints), loop_forces (least norm) and assemble equal the
+    NumPy module's; no linearize is declared for such a robot."""
+    for path in (ROOT / "tests" / "mjcf" / "floating_loop.xml", _two_connects(tmp_path)):
+        derivation = dynderive.derive(dynderive.load_robot(path))
+        module = import_code(dynderive.render_code(derivation), Path(code_dir), f"{derivation.robot.name}_floating_loops")
+        library = Library(derivation, tmp_path / derivation.robot.name)
+        header = (tmp_path / derivation.robot.name / f"{library.name}_dynamics.h").read_text()
+        assert f"{library.name}_linearize" not in header and f"{library.name}_loop_jacobian_dot_qd" in header
+        nv, nq = module.NV, module.NQ
+        k = len(module.loop_constraints(module.neutral_configuration()))
+        defaults = [*map(float, module.PARAMETERS.values()), 0.0]
+        rng = np.random.default_rng(61)
+        for _ in range(3):
+            q = module.assemble(module.integrate(module.neutral_configuration(), rng.uniform(-1, 1, nv)))
+            qd, u = rng.uniform(-1, 1, nv), rng.uniform(-1, 1, len(module.EFFORTS))
+            off = module.integrate(q, rng.uniform(-0.05, 0.05, nv))
+            _, a = _call(library, "loop_constraints", [off], (k,), None)
+            _close(a, module.loop_constraints(off), "loop_constraints")
+            _, A = _call(library, "loop_jacobian", [q], (k * nv,), None)
+            _close(A.reshape(k, nv), module.loop_jacobian(q), "loop_jacobian")
+            _, drift = _call(library, "loop_jacobian_dot_qd", [q, qd], (k,), None)
+            _close(drift, module.loop_jacobian_dot_qd(q, qd), "loop_jacobian_dot_qd")
+            for state, (alpha, beta) in ((q, (0.0, 0.0)), (off, (2.0, 7.0))):
+                status, qdd = _call(library, "forward_dynamics", [state, qd, u], (nv,), [*defaults, alpha, beta])
+                assert status == 0
+                _close(qdd, module.forward_dynamics(state, qd, u, alpha=alpha, beta=beta), f"forward_dynamics {alpha}")
+            status, lam = _call(library, "loop_forces", [q, qd, u], (k,), None)
+            assert status == 0
+            _close(lam, module.loop_forces(q, qd, u), "loop_forces")
+            guess = module.integrate(q, rng.uniform(-0.1, 0.1, nv))
+            status, closed = _call(library, "assemble", [guess], (nq,), None)
+            assert status == 0 and np.max(np.abs(module.loop_constraints(closed))) < 1e-12
+            # redundant rows make the least-norm steps' last digits differ; on one row set they agree
+            assert np.max(np.abs(closed - module.assemble(guess))) < (1e-12 if k == 3 else 1e-5)
+
+
+def _two_connects(tmp_path: Path) -> Path:
+    """A floating pelvis, a hinged thigh and a hinged rod tied at two points (six rows, rank five)."""
+    path = tmp_path / "two_connects.xml"
+    path.write_text("""<mujoco model="two_connects">
+  <worldbody>
+    <body name="pelvis" pos="0 0 1">
+      <freejoint name="root"/>
+      <geom type="box" size="0.1 0.1 0.1"/>
+      <body name="thigh" pos="0 0 -0.1">
+        <joint name="hip" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.03"/>
+      </body>
+      <body name="rod" pos="0.1 0 -0.1">
+        <joint name="rod_joint" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.02"/>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+    <connect name="tie" body1="thigh" body2="rod" anchor="0 0 -0.4"/>
+    <connect name="second" body1="thigh" body2="rod" anchor="0 0 -0.2"/>
+  </equality>
+</mujoco>
+""")
+    return path

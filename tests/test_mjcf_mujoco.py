@@ -449,6 +449,87 @@ def test_connect_equality_is_a_spherical_loop(folder):
             assert np.max(np.abs(d.qacc - hard)) <= 1e-3 * np.max(np.abs(hard))
 
 
+def mujoco_configuration(module, m, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Our configuration ``q`` in MuJoCo's convention: (qpos, T, W) with our qd = T qvel and, at
+    MuJoCo's zero acceleration, our qdd = W (``mujoco_state``'s maps, the other way)."""
+    qpos, T = m.qpos0.copy(), np.zeros((m.nv, m.nv))
+    for j, c, v in layout(module, m):
+        a, dof, kind = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]), int(m.jnt_type[j])
+        if kind == 0:
+            qpos[a:a + 3], qpos[a + 3], qpos[a + 4:a + 7] = q[c:c + 3], q[c + 6], q[c + 3:c + 6]
+            T[v:v + 3, dof:dof + 3] = quaternion_matrix(qpos[a + 3:a + 7]).T
+            T[v + 3:v + 6, dof + 3:dof + 6] = np.eye(3)
+        elif kind == 1:
+            qpos[a], qpos[a + 1:a + 4] = q[c + 3], q[c:c + 3]
+            T[v:v + 3, dof:dof + 3] = np.eye(3)
+        else:
+            qpos[a], T[v, dof] = q[c], 1
+    return qpos, T
+
+
+def equality_rows(m, d) -> tuple[np.ndarray, np.ndarray]:
+    """``connect_rows`` of every connect equality, stacked: MuJoCo's efc_J and Jdot qvel."""
+    J = d.efc_J[:d.nefc * m.nv].reshape(d.nefc, m.nv)
+    drift = []
+    for e in range(m.neq):
+        ends = []
+        for body, anchor in ((int(m.eq_obj1id[e]), m.eq_data[e, 0:3]), (int(m.eq_obj2id[e]), m.eq_data[e, 3:6])):
+            jacp = np.zeros((3, m.nv))
+            mujoco.mj_jacDot(m, d, jacp, None, d.xpos[body] + d.xmat[body].reshape(3, 3) @ anchor, body)
+            ends.append(jacp @ d.qvel)
+        drift.append(ends[0] - ends[1])
+    return J, np.concatenate(drift)
+
+
+def hard_limit(m, d, J, jdot_v) -> np.ndarray:
+    """MuJoCo's constrained qacc in the hard limit from its own pieces: qacc = a0 + M^-1 J^T lambda
+    with J qacc = -Jdot qvel (a0 = qacc_smooth, M = mj_fullM; redundant rows: the pseudo-inverse)."""
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    a0 = d.qacc_smooth.copy()
+    MinvJT = np.linalg.solve(M, J.T)
+    return a0 + MinvJT @ np.linalg.pinv(J @ MinvJT, rcond=1e-10, hermitian=True) @ (-jdot_v - J @ a0)
+
+
+def test_connect_on_a_floating_base_is_mujocos_hard_limit(folder):
+    """A connect equality on a model with a free joint and a ball joint in the loop (the loop rows on
+    the tree's twists): the generated module's constrained accelerations, mapped to MuJoCo's
+    convention, equal the hard limit built from MuJoCo's efc_J, qacc_smooth and mj_fullM to 1e-9
+    (MuJoCo's own soft qacc within 1e-3 of it); the loops close where MuJoCo's residual is zero, and
+    the accelerations keep them closed (A qdd = -Adot qd)."""
+    module = fixture_module("floating_loop", folder)
+    m = compiled_model(str(FIXTURES / "floating_loop.xml"))
+    d = mujoco.MjData(m)
+    assert (m.nq, m.nv, module.NQ, module.NV, module.LOOPS) == (15, 13, 15, 13, ("closure",))
+    assert not hasattr(module, "linearize")   # the constrained linearization is not built
+    rng = np.random.default_rng(43)
+    for k in range(4):
+        q = module.assemble(mujoco_state(module, m, rng)[2])
+        qpos, T = mujoco_configuration(module, m, q)
+        d.qpos[:], d.qvel[:] = qpos, 0
+        mujoco.mj_forward(m, d)
+        assert d.nefc == 3 and np.max(np.abs(d.efc_pos)) < 1e-12
+        J = d.efc_J[:3 * m.nv].reshape(3, m.nv)
+        allowed = np.linalg.svd(J)[2][3:].T   # the velocities the loop allows, by MuJoCo's Jacobian
+        qvel = allowed @ rng.uniform(-1.5, 1.5, m.nv - 3) if k else np.zeros(m.nv)
+        d.qvel[:], d.ctrl[:] = qvel, rng.uniform(-1, 1, m.nu)
+        mujoco.mj_forward(m, d)
+        hard = hard_limit(m, d, *equality_rows(m, d))
+        free = qpos[3:7]   # the free joint's quaternion: MuJoCo's zero acceleration is our -omega x v
+        R = quaternion_matrix(free)
+        W = np.zeros(m.nv)
+        W[:3] = -np.cross(qvel[3:6], R.T @ qvel[:3])
+        qd = T @ qvel
+        u = np.linalg.solve(T.T, d.qfrc_actuator)[list(module.EFFORT_COLUMNS)]
+        assert np.max(np.abs(module.loop_jacobian(q) @ qd)) < 1e-12
+        qdd = module.forward_dynamics(q, qd, u)
+        assert_close(qdd, T @ hard + W, "constrained forward dynamics")
+        drift = module.loop_jacobian(q) @ qdd + module.loop_jacobian_dot_qd(q, qd)
+        assert np.max(np.abs(drift)) < 1e-10 * max(1.0, np.max(np.abs(qdd)))
+        if not k:
+            assert np.max(np.abs(d.qacc - hard)) <= 1e-3 * np.max(np.abs(hard))
+
+
 def test_connect_between_sites_is_the_same_loop(tmp_path):
     """``connect site1 site2`` (the sites' origins coincide) is the loop of ``connect body1
     body2 anchor`` when the sites sit at the anchors (the second where MuJoCo puts it)."""

@@ -168,7 +168,7 @@ class Derivation:
         add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
         add(_Stage(self._applied_forces, frozenset({"Y_g"})))
         if robot.loops:
-            add(_Stage(self._loops, frozenset(_LOOP_KEYS), frozenset({"loops"})))
+            add(_Stage(self._loops, frozenset() if robot.floating else frozenset(_LOOP_KEYS), frozenset({"loops"})))
         add(_Stage(self._generalized, None, frozenset({"generalized"})))
         if robot.planar:
             add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
@@ -224,6 +224,14 @@ class Derivation:
         self.steps["generalized"] = steps
 
     def _loops(self) -> None:
+        if self.robot.floating:   # quaternions in q: the loops are rows on the tree's twists
+            self.steps["loops"] = programs = self.loop_programs
+            first = self.robot.loops[0].name
+            where = self.robot.positions.get(f"loop:{first}", self.robot.positions.get("loops", (1, 1)))
+            self.notes.append(f"{self.robot.source}:{where[0]}:{where[1]}: note: the {len(programs.rows)} loop "
+                              "constraint rows are closed by the generated module's forward_dynamics (NumPy, JAX); "
+                              "the sheets show the open tree's equations")
+            return
         from .mechanics.loops import derive_loops
 
         self.report("loop constraints")
@@ -236,7 +244,11 @@ class Derivation:
 
     @property
     def mobility(self) -> int:
-        """Degrees of freedom: the coordinates less the independent loop constraints."""
+        """Degrees of freedom: the coordinates less the independent loop constraints. A robot with
+        quaternions in q and loops has none recorded: its loop rows' rank is found per state."""
+        if self.robot.loops and self.robot.floating:
+            raise ValueError("the mobility of loops on a floating base or with spherical joints is not recorded: "
+                             "the rank of loop_jacobian(q) is found per state by the generated module")
         return self.steps["loops"].mobility if self.robot.loops else len(self.robot.coordinates)
 
     def _loop_force(self) -> sympy.Matrix:
@@ -339,6 +351,16 @@ class Derivation:
         if self.robot.frames:
             self.report(f"program: frames ({len(self.robot.frames)})")
         return frame_programs(self.robot, self.symbols)
+
+    @cached_property
+    def loop_programs(self) -> Any:
+        """Straight-line programs of the loops' residual, Jacobian on the velocities and ``Jdot qd``
+        (``mechanics.loop_programs.LoopPrograms``: the loops as rows on the tree's twists), for a
+        robot with quaternions in ``q``, whose loops have no symbolic route; built on first use."""
+        from .mechanics.loop_programs import loop_programs
+
+        self.report(f"program: loop constraints ({len(self.robot.loops)} loop joints)")
+        return loop_programs(self.robot, self.symbols)
 
     @cached_property
     def centroidal_programs(self) -> Any:

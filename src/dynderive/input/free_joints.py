@@ -40,7 +40,7 @@ def planar_floating_links(joint: str) -> list[str]:
 
 def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: bool,
                    links: list[Link] | None = None) -> None:
-    """``floating`` and ``spherical`` joints stand anywhere in a 3-D robot without loops (both
+    """``floating`` and ``spherical`` joints stand anywhere in a 3-D robot, loops too (both
     take the floating-base module); a planar ``floating`` joint anywhere in a planar robot,
     its coordinates' and massless links' names free."""
     spherical = [i for i, j in enumerate(joints) if j.type == "spherical"]
@@ -103,9 +103,11 @@ def expand_planar_floating(joints: list[Joint], links: list[Link],
 
 
 def _reserved(v: Any, top: dict[str, Any], joints: list[Joint], kind: str) -> None:
-    """No loops, and no name the floating-base module defines, on a robot with quaternions."""
-    if "loops" in top:
-        v.error(("loops",), f"loops: closed loops on {kind} are not built yet", key=True)
+    """No ``independent`` list, and no name the floating-base module defines, on a robot with
+    quaternions (its loops are solved with their multipliers, without a reduced form)."""
+    if "independent" in top and "loops" in top:
+        v.error(("independent",), f"independent: {kind} keeps no reduced form of its loops, so it takes no "
+                "independent coordinates (forward_dynamics solves the loops with their multipliers)", key=True)
     parameters = top.get("parameters")
     for name in parameters if isinstance(parameters, dict) else ():
         if name in FLOATING_MODULE_NAMES:

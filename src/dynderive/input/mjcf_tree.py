@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, Problem
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from ..model.written import significant_digits
 from .loader import Path_, SourceDocument
@@ -238,7 +237,6 @@ def robot_document(mujoco: Any, spec: Any, model: Any, doc: SourceDocument, loca
     tree.walk()   # read_mjcf has refused a model without joints: every joint makes a link
     efforts = _actuators(tree)
     mimics, loops = _equalities(tree)
-    _no_loops_on_quaternions(tree, loops)
     _notes(tree)
     title = locator.model_name() or Path(doc.file).stem
     data: dict[str, Any] = {"name": robot_identifier(title), "title": title, "planar": False,
@@ -408,18 +406,6 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
             multiplier, offset = multiplier * inner, offset + multiplier * shift
         mimics[follower] = {"joint": leader, "multiplier": _number(multiplier), "offset": _number(offset)}
     return mimics, loops
-
-
-def _no_loops_on_quaternions(tree: _Tree, loops: list[tuple[dict[str, Any], tuple[int, int]]]) -> None:
-    """Refuse, at the first ``<connect>``, loops on a model with a free or ball joint: the
-    validator's ``loops:`` refusal, said in MJCF's words where the loop is written."""
-    kinds = [JOINT_TYPES[int(t)] for t in tree.m.jnt_type]
-    joint = "free" if "floating" in kinds else "ball" if "spherical" in kinds else None
-    if loops and joint:
-        entry, at = loops[0]
-        raise InputError(Problem(tree.doc.file, *at, f"<connect> '{entry['name']}' closes a loop between bodies "
-                                 f"'{entry['parent']}' and '{entry['child']}': loops on a model with a {joint} "
-                                 "joint are not built yet"))
 
 
 def _follow(follows: dict[str, tuple[str, float, float]], y: str, x: str, a: float, b: float) -> bool:

@@ -94,6 +94,8 @@ API: tuple[Function, ...] = (
     _f("loop_constraints", "q", "NC", "Loop constraints a_g(q) (zero when the loops are closed)", "loops"),
     _f("loop_jacobian", "q", "NC NV", "Loop constraint Jacobian A_g(q) = da_g/dq", "loops"),
     _f("loop_jacobian_dot", "q qd", "NC NV", "Its time derivative Adot_g(q, qd)", "loops"),
+    _f("loop_jacobian_dot_qd", "q qd", "NC", "Adot qd, the loop rows' acceleration at qdd = 0 (floating base, spherical "
+       "joints: the loops' rows on the tree's twists)", "loops"),
     _f("loop_forces", "q qd u", "NC", "Loop multipliers lambda_g: A_g^T lambda_g is the generalized force the loop "
        "joints exert (forward_dynamics' system with alpha = beta = 0)", "loops"),
     _f("reduced_basis", "q", "NV NI", "R_g(q): the motions the loops allow, qd = R_g qd_i with qd_i the velocities "
@@ -149,7 +151,8 @@ def sizes(derivation: Any) -> dict[str, int]:
     nv = len(table.qd)
     loops = derivation.steps["loops"] if robot.loops else None
     return {"NQ": len(table.q), "NV": nv, "NU": len(table.efforts), "NP": len(derivation.parameter_vector),
-            "NC": quantities["a_g"].shape[0] if loops else 0, "NI": len(loops.independent) if loops else 0,
+            "NC": (len(loops.rows) if robot.floating else quantities["a_g"].shape[0]) if loops else 0,
+            "NI": len(loops.independent) if loops and not robot.floating else 0,
             "NM": len(table.qm) if robot.planar else 0,
             "NK": quantities["a_m"].shape[0] if robot.planar else 0,
             "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv, "3": 3, "6": 6,

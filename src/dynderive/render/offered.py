@@ -31,22 +31,23 @@ CONTACT_FUNCTIONS = api.group("contacts")
 NOT_BUILT: tuple[tuple[str, NotBuilt], ...] = tuple((target.name, row) for target in COLUMNS for row in target.not_built)
 
 
-def not_built(target: str, function: str, floating: bool = False, frames: bool = True) -> str | None:
-    """Why ``target`` does not build ``function`` for a robot with a ``floating`` base (or not)
-    and ``frames`` (or none), or None if it should: its entry's rows, then the reference's
-    (what the NumPy module does not build is expected of no target)."""
+def not_built(target: str, function: str, floating: bool = False, frames: bool = True,
+              loops: bool = False) -> str | None:
+    """Why ``target`` does not build ``function`` for a robot with a ``floating`` base (or not),
+    ``frames`` (or none) and closed ``loops`` (or none), or None if it should: its entry's rows,
+    then the reference's (what the NumPy module does not build is expected of no target)."""
     entry = next((t for t in COLUMNS if t.name == target), None)
     if entry is None:
         return None
     for row in (*entry.not_built, *(REFERENCE.not_built if entry is not REFERENCE else ())):
-        if function in row.functions and row.concerns(floating, frames):
+        if function in row.functions and row.concerns(floating, frames, loops):
             return row.reason
     return None
 
 
 def _why(derivation: Any, target: str, function: str) -> str | None:
     robot = derivation.robot
-    return not_built(target, function, bool(robot.floating), bool(robot.frames))
+    return not_built(target, function, bool(robot.floating), bool(robot.frames), bool(robot.loops))
 
 
 def offered(derivation: Any, target: str) -> set[str]:

@@ -175,11 +175,15 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
     """Random configurations assembled by the generated ``assemble`` (independent coordinates
     near the default assembly), and velocities projected onto the null space of A_g."""
     model = derivation.steps["loops"]
-    start = np.array(model.assembled if model.assembled is not None else np.zeros(qs.shape[1]))
+    floating = derivation.robot.floating   # quaternions in q: assemble moves every coordinate, from q itself
+    start = None if floating else np.array(model.assembled if model.assembled is not None else np.zeros(qs.shape[1]))
     states, rates = [], []
     for q, qd in zip(qs, qds):
-        guess = start.copy()
-        guess[model.independent] += 0.4 * q[model.independent]
+        if start is None:
+            guess = q
+        else:
+            guess = start.copy()
+            guess[model.independent] += 0.4 * q[model.independent]
         try:
             assembled = module.assemble(guess, **values)
         except (ValueError, np.linalg.LinAlgError):
@@ -208,7 +212,11 @@ def _allowed_motions(module: Any, q: np.ndarray, values: dict[str, float]) -> np
     """Orthonormal rows spanning the motions the loops allow at ``q``: the null space of A_g,
     of dimension the mobility (the rows of an over-constrained mechanism's A_g are dependent)."""
     A = module.loop_jacobian(q, **values)
-    return np.linalg.svd(A)[2][A.shape[1] - len(module.INDEPENDENT_COORDINATES):]
+    _, sigma, rows = np.linalg.svd(A)
+    if hasattr(module, "INDEPENDENT_COORDINATES"):
+        return rows[A.shape[1] - len(module.INDEPENDENT_COORDINATES):]
+    # quaternions in q (no independent coordinates): the rank of A_g here, as the module's solve takes it
+    return rows[int(np.sum(sigma > 1e-7 * max(float(sigma[0]) if len(sigma) else 0.0, 1e-300))):]
 
 
 def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,
@@ -343,8 +351,13 @@ def _along_integrate(derivation: Derivation, module: Any, values: dict[str, floa
     qdds = module.forward_dynamics(qs, vs, us, **values)
     forces = np.einsum("...ij,...j->...i", M, qdds) + bias
     worst = peak(module.inverse_dynamics(qs, vs, qdds, **values) - forces)
-    worst = max(worst, peak(forces - np.array([applied(robot, u) for u in us])))
-    rows = [_row("inverse_dynamics = M qdd + inverse_dynamics(q, qd, 0), and = Y at forward_dynamics' qdd",
+    loop_force, with_loops = 0.0, ""
+    if robot.loops:   # forward_dynamics closes the loops: Y + A^T lambda
+        loop_force = np.einsum("...ji,...j->...i", module.loop_jacobian(qs, **values),
+                               module.loop_forces(qs, vs, us, **values))
+        with_loops = " + A^T loop_forces"
+    worst = max(worst, peak(forces - np.array([applied(robot, u) for u in us]) - loop_force))
+    rows = [_row(f"inverse_dynamics = M qdd + inverse_dynamics(q, qd, 0), and = Y{with_loops} at forward_dynamics' qdd",
                  worst < 1e-9 * max(1.0, peak(M), peak(forces)), "numeric", worst)]
     gravity = peak(module.gravity_vector(qs, **values) - module.inverse_dynamics(qs, zero, zero, **values))
     rows.append(_row("gravity_vector = inverse_dynamics(q, 0, 0)", gravity < 1e-12 * max(1.0, peak(bias)),

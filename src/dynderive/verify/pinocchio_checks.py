@@ -23,7 +23,7 @@ def pinocchio_rows(derivation: Derivation, module: Any, values: dict[str, float]
     """The rows: the dynamics (and with quaternions the configuration maps and energies), and
     the frames where the robot has frames and no quaternions."""
     robot = derivation.robot
-    name = FREE_FLYER if robot.floating else \
+    name = (FREE_FLYER.replace("aba, ", "") + " (open tree)" if robot.loops else FREE_FLYER) if robot.floating else \
         "agrees with Pinocchio (crba, rnea" + (", open tree)" if robot.loops else ", aba)")
     try:
         import pinocchio as pin
@@ -94,7 +94,8 @@ def _dynamics(name: str, pin: Any, model: Any, data: Any, qp: np.ndarray, vp: np
                 potential = pin.computePotentialEnergy(model, data, qm)
             diffs += [module.inverse_dynamics(q, v, a, **values)[vp] - pin.rnea(model, data, qm, vm, a[vp]) - friction[vp],
                       module.gravity_vector(q, **values)[vp] - pin.computeGeneralizedGravity(model, data, qm),
-                      module.forward_dynamics(q, v, u, **values)[vp] - acc,
+                      # with loops forward_dynamics is the constrained one
+                      0.0 if robot.loops else module.forward_dynamics(q, v, u, **values)[vp] - acc,
                       module.integrate(q, v, 0.3)[qp] - pin.integrate(model, qm, 0.3 * vm),
                       module.difference(q, q1)[vp] - pin.difference(model, qm, q1[qp]),
                       module.kinetic_energy(q, v, **values) - kinetic, module.potential_energy(q, **values) - potential]

@@ -251,6 +251,14 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
     for name, outputs in values.items():
         bodies.append(program_function(f"_{name}_body", f"{name}, entry by entry.", [],
                                        SimpleNamespace(lines=[], outputs=outputs)))
+    if robot.loops:   # the loops' rows on the tree's twists (Derivation.loop_programs)
+        loops = derivation.loop_programs
+        for name, what, arguments, program in (
+                ("loop_constraints", "a(q): the loops' rows.", [q], loops.constraints),
+                ("loop_jacobian", "A(q), row by row: the loop frames' Jacobians differenced.", [q], loops.jacobian),
+                ("loop_jacobian_dot_qd", "Adot qd: the rows' forward derivative along the motion.", [q, qd],
+                 loops.jacobian_dot_qd)):
+            bodies.append(program_function(f"_{name}_body", what, arguments, program))
     for name, map_ in derivation.configuration_programs.items():
         arguments = [Argument(a, symbols, a) for a, symbols in map_.arguments.items()]
         bodies.append(program_function(f"_{name}_body", f"{name}: the joint types' map, joint by joint.",
@@ -271,7 +279,9 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
         "effort_columns": python_literal(robot.effort_columns()),
         "programs": bodies,
         "functions": [],
-        "loops": False,
+        "loops": bool(robot.loops),
+        "loop_count": len(derivation.loop_programs.rows) if robot.loops else 0,
+        "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
         "maximal": False,
     }
 

@@ -108,6 +108,8 @@ def _loops_entry(derivation: Derivation) -> dict[str, Any]:
     """Size of a closed chain: constraint rows, their rank (the independent constraints), the
     coordinates kept independent and the default assembly."""
     model = derivation.steps["loops"]
+    if derivation.robot.floating:   # rows on the tree's twists: their rank is the module's, per state
+        return {"constraint_rows": len(model.rows), "rows": [list(row) for row in model.rows]}
     return {"constraint_rows": model.constraints.shape[0], "independent_constraints": model.rank,
             "independent_coordinates": [derivation.robot.coordinates[i] for i in model.independent],
             "assembled_configuration": model.assembled}
@@ -132,6 +134,8 @@ def render_json(derivation: Derivation) -> str:
     robot = derivation.robot
     if robot.floating:
         head, quantities, intermediates, degrees = _quasi_velocity(derivation)
+        if robot.loops:   # the loops' rank (so the mobility) is found per state by the generated module
+            degrees = None
         checks: list[dict[str, Any]] = []
     else:
         fmt = Formatter.of(derivation, exact=True)   # the JSON keeps SymPy's exact numbers

@@ -44,13 +44,16 @@ class NotBuilt:
 
     functions: tuple[str, ...]
     #: The robots it concerns: "fixed" (fixed base), "floating" (floating base, or spherical
-    #: joints), "frameless" (a robot that declares no frames), "any" (every robot that has them).
+    #: joints), "floating_loops" (those with closed loops), "frameless" (a robot that declares no
+    #: frames), "any" (every robot that has them).
     kind: str
     reason: str
 
-    def concerns(self, floating: bool, frames: bool) -> bool:
-        """Whether it applies to a robot with a ``floating`` base (or not) and ``frames`` (or none)."""
-        return {"fixed": not floating, "floating": floating, "frameless": not frames, "any": True}[self.kind]
+    def concerns(self, floating: bool, frames: bool, loops: bool = False) -> bool:
+        """Whether it applies to a robot with a ``floating`` base (or not), ``frames`` (or none)
+        and closed ``loops`` (or none)."""
+        return {"fixed": not floating, "floating": floating, "floating_loops": floating and loops,
+                "frameless": not frames, "any": True}[self.kind]
 
 
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its

@@ -58,11 +58,25 @@ class CKit:
     friction_slope: Callable[[], list[str]]       # ``R[...] -= dF/dqd`` lines of linearize
 
 
+#: Singular values of a floating-base robot's loop Jacobian below this fraction of the largest are
+#: zero: rows left out of its solve (the NumPy module's LOOP_RANK_TOLERANCE).
+LOOP_RANK_TOLERANCE = "1e-7"
+
+
+def _sizes(derivation: Derivation) -> tuple[int, int, int]:
+    """(NV, NC, the rank the solve takes): a robot with quaternions in q (its loops rows on the
+    tree's twists) finds the rank at each state, so its solve sizes are NC."""
+    if derivation.robot.floating:
+        k = len(derivation.steps["loops"].rows)
+        return len(derivation.symbols.qd), k, k
+    return loop_sizes(derivation)
+
+
 def loop_context(derivation: Derivation) -> dict[str, Any]:
     """The header's loop count and the struct members a loop robot adds (alpha, beta)."""
     if not derivation.robot.loops:
         return {"nc": 0, "members": []}
-    return {"nc": derivation.quantities["a_g"].shape[0], "members": [
+    return {"nc": _sizes(derivation)[1], "members": [
         {"name": name, "default": Code(default), "comment": c_comment(comment)} for name, default, comment in BAUMGARTE]}
 
 
@@ -82,9 +96,12 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
     robot its forward dynamics and linearize replaced by the constrained ones and the loop
     functions added."""
     name, loops = derivation.robot.name, bool(derivation.robot.loops)
+    tangent = loops and derivation.robot.floating   # quaternions in q: the loops' rows on the tree's twists
     result = []
     for function in functions:
         which = function_name(function)[len(name) + 1:]
+        if tangent and which in ("linearize", "forward_dynamics_derivatives"):
+            continue   # the constrained linearization is not built (as in the NumPy module)
         if loops and which == "forward_dynamics":
             function = kit.function(
                 f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {kit.pp}, "
@@ -98,7 +115,7 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
         elif which == "forward_dynamics":
             result.append(_loop_forward(derivation, kit) if loops else _tree_forward_wrenches(derivation, kit))
     if loops:
-        result += _loop_functions(derivation, kit)
+        result += _tangent_loop_functions(derivation, kit) if tangent else _loop_functions(derivation, kit)
     return result
 
 
@@ -157,7 +174,9 @@ def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -
     """Lines that give the rows the solve uses: the loop Jacobian ``Aj`` itself, or
     (over-constrained) ``Ar = U_r^T Aj`` with ``U_r`` (``Ur``) from the row space, and ``bottom``
     (NC x columns) projected to ``<bottom>_r``; returns (lines, rows array, bottom array)."""
-    n, k, rank = loop_sizes(derivation)
+    n, k, rank = _sizes(derivation)
+    if derivation.robot.floating:
+        return _rows_kept(n, k, bottom)
     if rank == k:
         return [], "Aj", bottom
     lines = row_space_lines(k, n, rank, "Aj", "Ar", "Ur", "return 2;")
@@ -174,7 +193,7 @@ def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -
 def _schur(derivation: Derivation, kit: CKit, rows: str) -> list[str]:
     """M = L D L^T (``return 1`` if not positive definite), ``W = M^-1 rows^T`` and
     ``S = rows W`` = L D L^T (``return 2`` if singular)."""
-    n, _, r = loop_sizes(derivation)
+    n, _, r = _sizes(derivation)
     lines = ldl_factor(lambda i, j: f"M[{i * n + j}]", n, kit.mass_pattern, "m", "return 1;")
     lines += [f"double W[{n * r}];   /* M^-1 rows^T */", f"for (int j = 0; j < {r}; ++j) {{"]
     lines += ["    " + line for line in ldl_solve(n, kit.mass_pattern, "m", [f"{rows}[j * {n} + {i}]" for i in range(n)])]
@@ -182,6 +201,8 @@ def _schur(derivation: Derivation, kit: CKit, rows: str) -> list[str]:
     lines += [f"double S[{r * r}];", f"for (int i = 0; i < {r}; ++i) {{", "    for (int j = 0; j <= i; ++j) {",
               "        double sum = 0.0;", f"        for (int c = 0; c < {n}; ++c) sum += {rows}[i * {n} + c]*W[c * {r} + j];",
               f"        S[i * {r} + j] = sum;", "    }", "}"]
+    if derivation.robot.floating:   # the rows left out: S's diagonal 1, their multipliers 0
+        lines += [f"for (int m = 0; m < {r}; ++m) {{", f"    if (!kept_[m]) S[m * {r} + m] = 1.0;", "}"]
     return lines + ldl_factor(lambda i, j: f"S[{i * r + j}]", r, dense(r), "s", "return 2;", relative=True)
 
 
@@ -189,7 +210,7 @@ def _schur_column(derivation: Derivation, kit: CKit, top: str, rows: str, bottom
                   column: str) -> list[str]:
     """For the column ``column`` of the right-hand side [top; bottom] (n x columns, rank x
     columns): ``a<i>`` and ``sx<m>`` solving ``M a - rows^T s = top, rows a = bottom``."""
-    n, _, r = loop_sizes(derivation)
+    n, _, r = _sizes(derivation)
     lines = ldl_solve(n, kit.mass_pattern, "m", [f"{top}[{i * columns} + {column}]" for i in range(n)])
     lines += [f"const double g{m} = {bottom}[{m * columns} + {column}]"
               + "".join(f" - {rows}[{m * n + i}]*mx{i}" for i in range(n)) + ";" for m in range(r)]
@@ -199,8 +220,8 @@ def _schur_column(derivation: Derivation, kit: CKit, top: str, rows: str, bottom
 
 
 def _multipliers(derivation: Derivation, target: str) -> list[str]:
-    n, k, r = loop_sizes(derivation)
-    if r == k:
+    n, k, r = _sizes(derivation)
+    if r == k and not derivation.robot.floating:
         return [f"{target}[{i}] = sx{i};" for i in range(k)]
     return [f"{target}[{i}] = " + " + ".join(f"Ur[{i * r + m}]*sx{m}" for m in range(r)) + ";" for i in range(k)]
 
@@ -208,14 +229,16 @@ def _multipliers(derivation: Derivation, target: str) -> list[str]:
 def _loop_system(derivation: Derivation, kit: CKit, wrenches: str, baumgarte: bool) -> list[str]:
     """Locals ``M``, ``f`` (n x 1), ``Aj``, ``Ad``, ``e`` (NC x 1) of the constrained system."""
     name = derivation.robot.name
-    n, k, _ = loop_sizes(derivation)
+    n, k, _ = _sizes(derivation)
     lines = _applied(derivation, kit, "f", wrenches)
-    lines += [f"double Aj[{k * n}];", f"double Ad[{k * n}];", f"double e[{k}];",
-              f"{name}_loop_jacobian(q, p, Aj);", f"{name}_loop_jacobian_dot(q, qd, p, Ad);"]
+    tangent = derivation.robot.floating   # Adot qd from its own program
+    lines += [f"double Aj[{k * n}];", f"double Ad[{k if tangent else k * n}];", f"double e[{k}];",
+              f"{name}_loop_jacobian(q, p, Aj);",
+              f"{name}_loop_jacobian_dot_qd(q, qd, p, Ad);" if tangent else f"{name}_loop_jacobian_dot(q, qd, p, Ad);"]
     if baumgarte:
         lines += [f"double a[{k}];", f"{name}_loop_constraints(q, p, a);"]
     for i in range(k):
-        drift = " + ".join(f"Ad[{i * n + j}]*qd[{j}]" for j in range(n))
+        drift = f"Ad[{i}]" if tangent else " + ".join(f"Ad[{i * n + j}]*qd[{j}]" for j in range(n))
         text = f"e[{i}] = -({drift})"
         if baumgarte:
             velocity = " + ".join(f"Aj[{i * n + j}]*qd[{j}]" for j in range(n))
@@ -227,7 +250,7 @@ def _loop_system(derivation: Derivation, kit: CKit, wrenches: str, baumgarte: bo
 def _loop_solve(derivation: Derivation, kit: CKit, wrenches: str, baumgarte: bool,
                 qdd: str | None, multipliers: str | None) -> list[str]:
     """The constrained solve at one state; stores qdd and lambda in the arrays named."""
-    n = len(derivation.symbols.q)
+    n = len(derivation.symbols.qd)
     lines = _loop_system(derivation, kit, wrenches, baumgarte)
     rows_lines, rows, bottom = _constraint_rows(derivation, "e", 1)
     lines += rows_lines + _schur(derivation, kit, rows) + _schur_column(derivation, kit, "f", rows, bottom, 1, "0")
@@ -253,7 +276,7 @@ def _loop_forward(derivation: Derivation, kit: CKit) -> Any:
 
 def _loop_functions(derivation: Derivation, kit: CKit) -> list[Any]:
     name, quantities = derivation.robot.name, derivation.quantities
-    n, k, r = loop_sizes(derivation)
+    n, k, r = _sizes(derivation)
     rows = (f" The {k} rows have rank {r} on the constraints (over-constrained): the multipliers of least norm."
             if r < k else "")
     return [
@@ -288,7 +311,7 @@ def _partition(derivation: Derivation, rows: str, extra: str | None) -> list[str
     and the column ``extra`` when given: r x (m + 1)), then ``Di = Dd^-1 Di`` (``return 2``
     when Dd is singular, as ``numpy.linalg.solve`` raises)."""
     loops = derivation.steps["loops"]
-    n, _, r = loop_sizes(derivation)
+    n, _, r = _sizes(derivation)
     m = len(loops.independent)
     width = m + (1 if extra else 0)
     lines = [f"double Dd[{r * r}];", f"double Di[{r * width}];"]
@@ -315,7 +338,7 @@ def _basis(derivation: Derivation, target: str, width: int) -> list[str]:
 def _reduced_functions(derivation: Derivation, kit: CKit) -> list[Any]:
     """reduced_basis, reduced_forward_dynamics and assemble, as the NumPy module's."""
     name, loops = derivation.robot.name, derivation.steps["loops"]
-    n, k, r = loop_sizes(derivation)
+    n, k, r = _sizes(derivation)
     m, independent = len(loops.independent), ", ".join(derivation.robot.coordinates[i] for i in loops.independent)
     jacobian = [f"double Aj[{k * n}];", f"{name}_loop_jacobian(q, p, Aj);"]
     rows_lines, rows, _ = _constraint_rows(derivation, None, 1)
@@ -387,7 +410,7 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
     [dY/dx - dtau/dx + d(A^T lambda)/dx; -d(A qdd + Adot qd)/dx] at the state's qdd and lambda
     (one constrained solve with alpha = beta = 0 and no wrench, in a block of its own)."""
     table, quantities = derivation.symbols, derivation.quantities
-    n, k, r = loop_sizes(derivation)
+    n, k, r = _sizes(derivation)
     nu = len(table.efforts)
     width = 2 * n + nu
     lines = [f"double qdd[{n}];", f"double lambda[{k}];", "{",
@@ -431,3 +454,89 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
         "constrained solve [M -A_g^T; A_g 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g^T lambda)/dx; "
         "-d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0 and no wrench, as the NumPy "
         "module); returns 0, or 1 or 2 as forward_dynamics (A, B untouched).", lines)
+
+
+def _rows_kept(n: int, k: int, bottom: str | None) -> tuple[list[str], str, str | None]:
+    """A floating-base robot's rows in the row space of ``Aj`` at this state (the NumPy module's):
+    ``Ar = U^T Aj`` and ``Ur`` from the one-sided Jacobi SVD, the rows whose singular value is
+    above LOOP_RANK_TOLERANCE of the largest kept (``kept_``), the others zeroed; ``bottom``
+    projected to ``<bottom>_r`` (zero on the rows left out)."""
+    lines = row_space_lines(k, n, k, "Aj", "Ar", "Ur", "return 2;")
+    lines += [f"int kept_[{k}];", "double top_ = 0.0;",
+              f"for (int m = 0; m < {k}; ++m) {{", "    double norm = 0.0;",
+              f"    for (int c = 0; c < {n}; ++c) norm += Ar[m * {n} + c]*Ar[m * {n} + c];",
+              "    norm = sqrt(norm);", "    if (m == 0) top_ = norm;",
+              f"    kept_[m] = norm > {LOOP_RANK_TOLERANCE}*top_;",
+              f"    if (!kept_[m]) for (int c = 0; c < {n}; ++c) Ar[m * {n} + c] = 0.0;", "}"]
+    if bottom is None:
+        return lines + ["(void)Ur;"], "Ar", None
+    lines += [f"double {bottom}_r[{k}];", f"for (int m = 0; m < {k}; ++m) {{", "    double sum = 0.0;",
+              f"    for (int i = 0; i < {k}; ++i) sum += Ur[i * {k} + m]*{bottom}[i];",
+              f"    {bottom}_r[m] = kept_[m] ? sum : 0.0;", "}"]
+    return lines, "Ar", f"{bottom}_r"
+
+
+def _tangent_loop_functions(derivation: Derivation, kit: CKit) -> list[Any]:
+    """A robot with quaternions in q: its loops' rows (``Derivation.loop_programs``) printed,
+    ``loop_forces`` as the fixed base's, and ``assemble``: Gauss-Newton steps of least norm on the
+    tangent space, ``q <- integrate(q, -A^T (A A^T)^-1 a)`` (damped, each at most 0.5), as the
+    NumPy module's."""
+    name, programs = derivation.robot.name, derivation.loop_programs
+    n, k, _ = _sizes(derivation)
+    nq = len(derivation.symbols.q)
+    assemble = [f"double x[{nq}];", f"double y[{nq}];", f"double a[{k}];", f"double Aj[{k * n}];",
+                f"double step[{n}];",
+                f"for (int i = 0; i < {nq}; ++i) x[i] = q_guess[i];",
+                "for (int iteration = 0; iteration < 100; ++iteration) {   /* Gauss-Newton, steps limited to 0.5 */",
+                "    int closed = 1;", f"    {name}_loop_constraints(x, p, a);",
+                f"    for (int i = 0; i < {k}; ++i) closed = closed && fabs(a[i]) < 1e-12;",
+                "    if (closed) {", f"        for (int i = 0; i < {nq}; ++i) q[i] = x[i];", "        return 0;", "    }",
+                f"    {name}_loop_jacobian(x, p, Aj);", f"    double Nm[{k * k}];", "    double trace = 0.0;",
+                f"    for (int i = 0; i < {k}; ++i) {{", f"        for (int j = 0; j < {k}; ++j) {{",
+                "            double sum = 0.0;",
+                f"            for (int c = 0; c < {n}; ++c) sum += Aj[i * {n} + c]*Aj[j * {n} + c];",
+                f"            Nm[i * {k} + j] = sum;", "        }", f"        trace += Nm[i * {k} + i];", "    }",
+                f"    for (int i = 0; i < {k}; ++i) Nm[i * {k} + i] += 1e-14*(1.0 + trace);"]
+    assemble += ["    " + line for line in ldl_factor(lambda i, j: f"Nm[{i * k + j}]", k, dense(k), "n", "return 1;")]
+    assemble += ["    " + line for line in ldl_solve(k, dense(k), "n", [f"a[{i}]" for i in range(k)])]
+    assemble += ["    double size = 0.0;",
+                 *(f"    step[{c}] = -(" + " + ".join(f"Aj[{i * n + c}]*nx{i}" for i in range(k)) + ");"
+                   for c in range(n)),
+                 f"    for (int c = 0; c < {n}; ++c) size = fmax(size, fabs(step[c]));",
+                 "    const double scale = fmin(1.0, 0.5 / fmax(size, 1e-300));",
+                 f"    for (int c = 0; c < {n}; ++c) step[c] *= scale;",
+                 f"    {name}_integrate(x, step, 1.0, y);",
+                 f"    for (int i = 0; i < {nq}; ++i) x[i] = y[i];", "}",
+                 f"{name}_loop_constraints(x, p, a);",
+                 f"for (int i = 0; i < {k}; ++i) {{", "    if (!(fabs(a[i]) < 1e-9)) return 1;", "}",
+                 f"for (int i = 0; i < {nq}; ++i) q[i] = x[i];", "return 0;"]
+    return [
+        kit.function(f"void {name}_loop_constraints(const double *q, {kit.pp}, double *a)",
+                     f"Loop constraints a(q), {k} entries (zero when the loops are closed): per loop joint the gap "
+                     "between its frames' origins in world axes, and the alignment rows of revolute and prismatic ones.",
+                     [kit.start, "(void)q;", "(void)P;",
+                      *_block(kit.program, programs.constraints, [f"a[{i}]" for i in range(k)])]),
+        kit.function(f"void {name}_loop_jacobian(const double *q, {kit.pp}, double *A)",
+                     f"Loop Jacobian A(q), {k} x {n}, row-major: the rate of loop_constraints is A qd (the loop "
+                     "frames' Jacobians differenced).",
+                     [kit.start, "(void)q;", "(void)P;",
+                      *_block(kit.program, programs.jacobian, [f"A[{i}]" for i in range(k * n)])]),
+        kit.function(f"void {name}_loop_jacobian_dot_qd(const double *q, const double *qd, {kit.pp}, double *a)",
+                     f"Adot qd, {k} entries: the loop rows' acceleration at qdd = 0.",
+                     [kit.start, "(void)q;", "(void)qd;", "(void)P;",
+                      *_block(kit.program, programs.jacobian_dot_qd, [f"a[{i}]" for i in range(k)])]),
+        kit.function(f"int {name}_loop_forces(const double *q, const double *qd, const double *u, {kit.pp}, "
+                     "double *lambda)",
+                     f"Loop multipliers lambda, {k} entries: A^T lambda is the generalized force of the loop joints "
+                     "(forward_dynamics' system with alpha = beta = 0, no wrench); rows implied by the others at this "
+                     "state take the multipliers of least norm. Returns as forward_dynamics (lambda untouched unless 0).",
+                     [f"return {name}_loop_forces_wrenches(q, qd, u, 0, p, lambda);"]),
+        kit.function(f"int {name}_loop_forces_wrenches(const double *q, const double *qd, const double *u, "
+                     f"const double *wrenches, {kit.pp}, double *lambda)",
+                     "loop_forces with wrenches as inverse_dynamics_wrenches (NULL: none).",
+                     _loop_solve(derivation, kit, "wrenches", False, None, "lambda") + ["return 0;"]),
+        kit.function(f"int {name}_assemble(const double *q_guess, {kit.pp}, double *q)",
+                     f"A configuration on a(q) = 0 near q_guess ({nq} entries): at most 100 Gauss-Newton steps of "
+                     "least norm on the tangent space, q <- integrate(q, -A^T (A A^T)^-1 a), each at most 0.5; returns "
+                     "0, or 1 (q untouched) where it does not converge (the NumPy module raises ValueError).", assemble),
+    ]

@@ -85,16 +85,21 @@ def bindings(derivation: Derivation) -> list[Binding]:
         "loop_forces": {"wrenches": "loop_forces_wrenches", **solved},
         "reduced_basis": {"returns": "status"},
         "reduced_forward_dynamics": solved,
-        "assemble": {"returns": "status", "error": "assemble: the loop constraints could not be solved for these "
+        "assemble": {"returns": "status", "error": "assemble: the loop constraints could not be solved from this guess"
+                     if quaternions else "assemble: the loop constraints could not be solved for these "
                      "independent coordinates from this guess"},
         "neutral_configuration": geometry, "integrate": {"number": "1.0", **geometry},
         "configuration_rate": geometry, "difference": geometry,
     }
     groups = {"dynamics", "frames"} | (set() if robot.planar else {"centroidal"}) | \
         ({"loops"} if loops else set()) | ({"configuration"} if quaternions else set())
+    # loops on a floating base (rows on the tree's twists): Adot qd, no reduced form, no constrained linearization
+    left_out = ({"linearize", "forward_dynamics_derivatives", "loop_jacobian_dot", "reduced_basis",
+                 "reduced_forward_dynamics"} if loops and quaternions else {"loop_jacobian_dot_qd"})
     table = []
     for function in api.API:
-        if function.group not in groups or (quaternions and function.name == "generalized_forces"):
+        if function.group not in groups or (quaternions and function.name == "generalized_forces") \
+                or function.name in left_out:
             continue
         inputs = tuple((a, 1 if a == "dt" else size[api.ARGUMENT_SIZES[a]]) for a in function.arguments if a != "frame")
         doc = " ".join([api.python_doc(function.name, size, batch=function.name not in ("parameter_vector", "total_mass")),
@@ -227,8 +232,8 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
         "frames": strings([f.name for f in robot.frames]),
         "members": members,
         "loops": strings([lp.name for lp in robot.loops]) if loops else None,
-        "independent": strings([robot.coordinates[i] for i in loops.independent]) if loops else [],
-        "assembled": [Code(double_literal(float(x))) for x in loops.assembled or ()] if loops else [],
+        "independent": strings([robot.coordinates[i] for i in loops.independent]) if loops and nq == nv else [],
+        "assembled": [Code(double_literal(float(x))) for x in loops.assembled or ()] if loops and nq == nv else [],
         "parameter_vector": strings([p.name for p in derivation.parameter_vector]),
         "functions": functions,
         "max_inputs": max(max(len(b.inputs) for b in table), 1),

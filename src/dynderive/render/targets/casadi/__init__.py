@@ -7,12 +7,15 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
 from ..target import NotBuilt, Target
 
 
 def _source(derivation: Any, template_dir: Any = None) -> str:
+    from ...codegen.constrained import refuse_floating_loops
     from .casadi import render_casadi
 
+    refuse_floating_loops(derivation, "the CasADi target (--casadi)")
     return render_casadi(derivation, template_dir)
 
 
@@ -78,5 +81,7 @@ TARGET = Target(
     check_needs="dynderive.verify.backends:require_casadi",
     option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),),
     not_built=(NotBuilt(("assemble",), "fixed", "closed loops in CasADi: assemble (Newton's method, iterated on "
-                                                "values) is not a casadi.Function"),),
+                                                "values) is not a casadi.Function"),
+               NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
+                        "loops on a floating base or with spherical joints: not printed for CasADi yet (it refuses such a robot)")),
 )

@@ -1,0 +1,280 @@
+"""Closed loops on robots with quaternions in q (a floating base, spherical joints): the loops as
+rows on the tree's twists (``mechanics/loop_programs.py``), written by ``solve --code``.
+
+Every loop joint type on a floating base with a spherical joint below it: the rows' Jacobian
+and drift against central differences along ``integrate``, the constrained accelerations keep
+the loops closed (``A qdd = -Adot qd``, Baumgarte's gains as documented), the loop forces close
+the equations of motion and do no work on the motions the loops allow, ``assemble`` closes them.
+Then what is refused: an ``independent`` list on such a robot, and the targets that do not print
+these loops (one positioned line, exit 2, nothing written). MuJoCo's hard limit on an MJCF
+connect: ``test_mjcf_mujoco.py``."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from dynderive.commands.cli import app
+
+runner = CliRunner()
+
+ROBOT = """\
+name: floating_loop_types
+planar: false
+parameters:
+  m: {value: 1.3}
+  g: {value: 9.81}
+gravity: [0, 0, -g]
+links:
+  - {name: base, mass: 4*m, com: [0.02, -0.01, 0.03], inertia: [0.05, 0.04, 0.03, 0.001, 0.002, -0.001]}
+  - {name: arm, mass: m, com: [0.1, 0.01, 0], inertia: [0.002, 0.01, 0.011, 0, 0.0001, 0]}
+  - {name: ball, mass: m/2, com: [0.05, 0, 0.02], inertia: [0.001, 0.002, 0.0025, 0.0001, 0, 0]}
+  - {name: slider, mass: m/3, com: [0, 0.04, 0], inertia: [0.003, 0.001, 0.003, 0, 0, 0.0002]}
+joints:
+  - {name: root, type: floating, parent: world, child: base}
+  - {name: j1, type: revolute, parent: base, child: arm, origin: {xyz: [0.1, 0.05, -0.02], rpy: [0.3, -0.2, 0.1]},
+     axis: [0, 0.6, 0.8], effort: tau1}
+  - {name: j2, type: spherical, parent: arm, child: ball, origin: {xyz: [0.2, 0, 0.01], rpy: [0, 0.4, 0]}}
+  - {name: j3, type: prismatic, parent: base, child: slider, origin: {xyz: [-0.1, 0.02, 0.05], rpy: [0.1, 0.2, 0.3]},
+     axis: [1, 0, 0], effort: f3}
+loops:
+  - {name: r1, type: revolute, parent: ball, child: slider, origin: {xyz: [0.1, 0.02, 0], rpy: [0.2, 0, 0.1]},
+     child_origin: {xyz: [0, 0.1, 0.03], rpy: [0, 0.3, 0]}, axis: [0, 0, 1]}
+  - {name: p1, type: prismatic, parent: arm, child: slider, origin: {xyz: [0.05, 0, 0.1], rpy: [0, 0, 0.5]},
+     child_origin: {xyz: [0.02, 0, 0], rpy: [0.1, 0, 0]}, axis: [0.6, 0, 0.8]}
+  - {name: s1, type: spherical, parent: world, child: ball, origin: {xyz: [0.3, 0.1, 1.0], rpy: [0, 0, 0]},
+     child_origin: {xyz: [0.1, 0, 0], rpy: [0, 0, 0]}}
+"""
+
+#: A floating base whose arm's tip is tied to the base by a ball joint: three rows, assembles.
+TIED = """\
+name: tied
+planar: false
+parameters:
+  m: {value: 1.0}
+gravity: [0, 0, -9.81]
+links:
+  - {name: base, mass: 3*m, com: [0, 0, 0], inertia: [0.03, 0.04, 0.05, 0, 0, 0]}
+  - {name: upper, mass: m, com: [0.15, 0, 0], inertia: [0.001, 0.008, 0.008, 0, 0, 0]}
+  - {name: lower, mass: m/2, com: [0.15, 0, 0], inertia: [0.001, 0.004, 0.004, 0, 0, 0]}
+joints:
+  - {name: root, type: floating, parent: world, child: base}
+  - {name: shoulder, type: spherical, parent: base, child: upper, origin: {xyz: [0.1, 0, 0], rpy: [0, 0, 0]}}
+  - {name: elbow, type: revolute, parent: upper, child: lower, origin: {xyz: [0.3, 0, 0], rpy: [0, 0, 0]},
+     axis: [0, 0, 1], effort: tau_elbow}
+loops:
+  - {name: tie, type: spherical, parent: lower, child: base, origin: {xyz: [0.3, 0, 0], rpy: [0, 0, 0]},
+     child_origin: {xyz: [0.1, 0.3, 0], rpy: [0, 0, 0]}}
+"""
+
+
+def _solve(tmp_path: Path, text: str, *options: str):
+    """``dynderive solve ROBOT --code OPTIONS --out OUT``: the result, the robot file's bytes
+    unchanged, and every file written inside OUT."""
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(text)
+    before = robot.read_bytes()
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["solve", str(robot), "--code", *options, "--out", str(out), "-q"])
+    assert robot.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["robot.yaml"] + (["out"] if out.exists() else []))
+    return result, robot, out
+
+
+def _module(tmp_path: Path, text: str):
+    result, robot, out = _solve(tmp_path, text)
+    assert result.exit_code == 0, result.output
+    name = text.split("\n", 1)[0].split(": ")[1]
+    path = out / f"{name}_dynamics.py"
+    spec = importlib.util.spec_from_file_location(f"{name}_{tmp_path.name}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def types(tmp_path_factory):
+    return _module(tmp_path_factory.mktemp("types"), ROBOT)
+
+
+@pytest.fixture(scope="module")
+def tied(tmp_path_factory):
+    return _module(tmp_path_factory.mktemp("tied"), TIED)
+
+
+def _states(module, seed: int, count: int = 3):
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        q = module.integrate(module.neutral_configuration(), rng.uniform(-1, 1, module.NV))
+        yield q, rng.uniform(-1, 1, module.NV), rng.uniform(-1, 1, len(module.EFFORTS))
+
+
+def test_every_loop_type_has_its_rows(types):
+    assert types.LOOPS == ("r1", "p1", "s1")
+    q = types.neutral_configuration()
+    assert types.loop_constraints(q).shape == (13,)   # revolute 5, prismatic 5, spherical 3
+    assert types.loop_jacobian(q).shape == (13, types.NV) and types.NV == 11
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_jacobian_and_drift_are_the_rows_derivatives_along_integrate(types, seed):
+    """A v = d a(integrate(q, v t))/dt and Adot qd = d(A(q(t))) qd/dt at t = 0, by central
+    differences, for the revolute, prismatic and spherical rows alike."""
+    h = 1e-6
+    for q, v, _ in _states(types, seed):
+        ahead, behind = types.integrate(q, v * h), types.integrate(q, -v * h)
+        rate = (types.loop_constraints(ahead) - types.loop_constraints(behind)) / (2 * h)
+        np.testing.assert_allclose(types.loop_jacobian(q) @ v, rate, atol=1e-8 * max(1.0, np.max(np.abs(rate))))
+        drift = (types.loop_jacobian(ahead) - types.loop_jacobian(behind)) @ v / (2 * h)
+        np.testing.assert_allclose(types.loop_jacobian_dot_qd(q, v), drift, atol=1e-8 * max(1.0, np.max(np.abs(drift))))
+
+
+@pytest.mark.parametrize("robot", ["types", "tied"])
+def test_the_loop_forces_close_the_equations_of_motion(robot, request):
+    """M qdd + h = tau + A^T lambda (inverse_dynamics at forward_dynamics' qdd), also where the
+    rows outnumber the velocities (13 rows on 11: the multipliers of least norm)."""
+    module = request.getfixturevalue(robot)
+    for q, qd, u in _states(module, 3):
+        qdd = module.forward_dynamics(q, qd, u)
+        tau = np.zeros(module.NV)
+        tau[list(module.EFFORT_COLUMNS)] = u
+        forces = module.inverse_dynamics(q, qd, qdd)
+        closed = tau + module.loop_jacobian(q).T @ module.loop_forces(q, qd, u)
+        np.testing.assert_allclose(forces, closed, atol=1e-9 * max(1.0, np.max(np.abs(forces))))
+
+
+def test_accelerations_keep_the_loops_closed_and_baumgarte_pulls_back(tied):
+    """A qdd = -Adot qd (alpha = beta = 0), and with Baumgarte's gains -Adot qd - 2 alpha A qd -
+    beta^2 a, off the constraints too."""
+    for q, qd, u in _states(tied, 3):
+        A, qdd = tied.loop_jacobian(q), tied.forward_dynamics(q, qd, u)
+        np.testing.assert_allclose(A @ qdd, -tied.loop_jacobian_dot_qd(q, qd), atol=1e-9 * max(1.0, np.max(np.abs(qdd))))
+        gained = tied.forward_dynamics(q, qd, u, alpha=2.0, beta=3.0)
+        expected = -tied.loop_jacobian_dot_qd(q, qd) - 4.0 * A @ qd - 9.0 * tied.loop_constraints(q)
+        np.testing.assert_allclose(A @ gained, expected, atol=1e-9 * max(1.0, np.max(np.abs(expected))))
+
+
+def test_batches_broadcast(tied):
+    states = list(_states(tied, 4))
+    qs, qds, us = (np.array(column) for column in zip(*states))
+    np.testing.assert_allclose(tied.forward_dynamics(qs, qds, us),
+                               [tied.forward_dynamics(q, qd, u) for q, qd, u in states], rtol=1e-12, atol=1e-12)
+
+
+def test_assemble_closes_the_loop_and_the_loop_forces_do_no_work(tied):
+    """From a configuration near the neutral one, assemble closes the tie (every coordinate may
+    move); on the velocities the loop allows, the loop force A^T lambda does no work and the
+    accelerations keep A qd = 0 to first order."""
+    rng = np.random.default_rng(5)
+    q0 = tied.assemble(tied.neutral_configuration())
+    assert np.max(np.abs(tied.loop_constraints(q0))) < 1e-12
+    for _ in range(3):
+        q = tied.assemble(tied.integrate(q0, rng.uniform(-0.2, 0.2, tied.NV)))
+        assert np.max(np.abs(tied.loop_constraints(q))) < 1e-12
+        assert np.linalg.norm(q[3:7]) == pytest.approx(1.0, abs=1e-12)   # the base's quaternion stays unit
+        A = tied.loop_jacobian(q)
+        null = np.linalg.svd(A)[2][3:]
+        qd = null.T @ rng.uniform(-1, 1, len(null))
+        force = A.T @ tied.loop_forces(q, qd, [0.3])
+        assert abs(qd @ force) < 1e-12 * max(1.0, np.max(np.abs(force)))
+        qdd = tied.forward_dynamics(q, qd, [0.3])
+        h = 1e-6
+        ahead = tied.loop_jacobian(tied.integrate(q, qd, h)) @ (qd + h * qdd)
+        behind = tied.loop_jacobian(tied.integrate(q, qd, -h)) @ (qd - h * qdd)
+        assert np.max(np.abs(ahead - behind)) / (2 * h) < 1e-6
+
+
+def test_assemble_refuses_what_it_cannot_close(tied):
+    """A tie the arm cannot reach (the base's own origin far from it cannot be, but a guess
+    that diverges is said, not returned)."""
+    far = tied.neutral_configuration()
+    far[7:] = [np.nan] * (len(far) - 7)
+    with pytest.raises(ValueError, match="assemble: the loop constraints could not be solved"):
+        tied.assemble(far)
+
+
+def test_no_linearization_is_written_for_such_loops(tied):
+    """The constrained linearization is not built: the module has no linearize rather than the
+    open tree's."""
+    assert not hasattr(tied, "linearize") and not hasattr(tied, "forward_dynamics_derivatives")
+    assert not hasattr(tied, "INDEPENDENT_COORDINATES") and not hasattr(tied, "reduced_basis")
+
+
+@pytest.mark.parametrize(("option", "target"), [("--matlab", "the MATLAB target (--matlab)"),
+                                                ("--casadi", "the CasADi target (--casadi)")])
+def test_targets_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, option, target):
+    result, robot, out = _solve(tmp_path, TIED, option)
+    assert result.exit_code == 2, result.output
+    line = next(n for n, text in enumerate(TIED.splitlines(), 1) if "{name: tie," in text)
+    assert result.stderr.splitlines() == [
+        f"{robot}:{line}:5: loop joint 'tie': closed loops on a robot with a floating or spherical joint are not "
+        f"built for {target} yet (--code, --jax, --c and --c-extension close them)"]
+    assert not out.exists()
+    assert "internal error" not in result.output
+
+
+@pytest.mark.parametrize("independent", ["[elbow]", "[shoulder, elbow]"])
+def test_independent_coordinates_are_refused_on_such_a_robot(tmp_path, independent):
+    text = TIED + f"independent: {independent}\n"
+    result, robot, out = _solve(tmp_path, text)
+    assert result.exit_code == 2, result.output
+    line = len(text.splitlines())
+    assert result.stderr.splitlines() == [
+        f"{robot}:{line}:1: independent: a floating-base robot keeps no reduced form of its loops, so it takes no "
+        "independent coordinates (forward_dynamics solves the loops with their multipliers)"]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["simulate", "linearize"])
+def test_commands_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, command):
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(TIED)
+    result = runner.invoke(app, [command, str(robot), "-q"] + (["--duration", "0.1"] if command == "simulate" else []))
+    assert result.exit_code == 2, result.output
+    line = next(n for n, text in enumerate(TIED.splitlines(), 1) if "{name: tie," in text)
+    assert result.stderr.splitlines() == [
+        f"{robot}:{line}:5: loop joint 'tie': {command} is not built yet for closed loops on a robot with a floating "
+        "or spherical joint (the generated NumPy module's forward_dynamics closes them)"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["robot.yaml"]
+
+
+def test_the_json_counts_the_rows_and_leaves_the_mobility_to_the_module(tmp_path):
+    import json
+
+    result, robot, out = _solve(tmp_path, TIED, "--json")
+    assert result.exit_code == 0, result.output
+    document = json.loads((out / "tied.json").read_text())
+    assert document["degrees_of_freedom"] is None
+    assert document["loops"] == {"constraint_rows": 3, "rows": [["tie", f"{axis} of the gap between the loop frames"]
+                                                                for axis in "xyz"]}
+
+
+def test_the_jax_module_agrees_under_jit_and_vmap(tmp_path):
+    """``--jax`` prints the same loops from the same template: forward_dynamics, loop_forces and
+    assemble equal the NumPy module's, under ``jax.jit(jax.vmap(...))`` too."""
+    jax = pytest.importorskip("jax")
+    jax.config.update("jax_enable_x64", True)
+    result, robot, out = _solve(tmp_path, TIED, "--jax")
+    assert result.exit_code == 0, result.output
+    modules = []
+    for name in ("tied_dynamics", "tied_dynamics_jax"):
+        spec = importlib.util.spec_from_file_location(f"{name}_{tmp_path.name}", out / f"{name}.py")
+        modules.append(importlib.util.module_from_spec(spec))
+        spec.loader.exec_module(modules[-1])
+    numpy_module, jax_module = modules
+    states = list(_states(numpy_module, 6, 4))
+    qs, qds, us = (np.array(column) for column in zip(*states))
+    expected = numpy_module.forward_dynamics(qs, qds, us)
+    np.testing.assert_allclose(np.asarray(jax_module.forward_dynamics(qs, qds, us)), expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
+    batched = jax.jit(jax.vmap(jax_module.forward_dynamics))(qs, qds, us)
+    np.testing.assert_allclose(np.asarray(batched), expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
+    forces = numpy_module.loop_forces(qs, qds, us)
+    np.testing.assert_allclose(np.asarray(jax_module.loop_forces(qs, qds, us)), forces, rtol=0, atol=1e-12 * np.max(np.abs(forces)))
+    closed = np.asarray(jax_module.assemble(qs))
+    assert np.max(np.abs(numpy_module.loop_constraints(closed))) < 1e-12
