@@ -13,14 +13,14 @@ from typing import Any
 
 import sympy
 
-from .mechanics.exact_fast import matmul
+from .mechanics.consistency import run_checks
 from .mechanics.planar import planar_kinematics
 from .mechanics.polynomial import expand
 from .mechanics.program import Program, lines_read
 from .mechanics.programs import build_programs
 from .mechanics.recursive import GeneralizedProgram
 from .mechanics.regularity import check_mass_matrix
-from .mechanics.tidy import Check, check_zero, fold_constants, is_small, quick_tidy, tidy
+from .mechanics.tidy import Check, fold_constants, is_small, quick_tidy, tidy
 from .model.naming import CENTROIDAL_QUANTITIES, body_jacobian_index, frame_quantity_names
 from .model.robot import Robot
 from .model.symbols import SymbolTable
@@ -225,12 +225,10 @@ class Derivation:
 
     def _loops(self) -> None:
         if self.robot.floating:   # quaternions in q: the loops are rows on the tree's twists
-            self.steps["loops"] = programs = self.loop_programs
-            first = self.robot.loops[0].name
-            where = self.robot.positions.get(f"loop:{first}", self.robot.positions.get("loops", (1, 1)))
-            self.notes.append(f"{self.robot.source}:{where[0]}:{where[1]}: note: the {len(programs.rows)} loop "
-                              "constraint rows are closed by the generated module's forward_dynamics (NumPy, JAX); "
-                              "the sheets show the open tree's equations")
+            from .mechanics.loop_programs import open_tree_note
+
+            self.steps["loops"] = self.loop_programs
+            self.notes.append(open_tree_note(self.robot, self.loop_programs))
             return
         from .mechanics.loops import derive_loops
 
@@ -244,8 +242,8 @@ class Derivation:
 
     @property
     def mobility(self) -> int:
-        """Degrees of freedom: the coordinates less the independent loop constraints. A robot with
-        quaternions in q and loops has none recorded: its loop rows' rank is found per state."""
+        """Degrees of freedom: the coordinates less the independent loop constraints (none recorded
+        for loops on a robot with quaternions in q: their rank is found per state)."""
         if self.robot.loops and self.robot.floating:
             raise ValueError("the mobility of loops on a floating base or with spherical joints is not recorded: "
                              "the rank of loop_jacobian(q) is found per state by the generated module")
@@ -528,84 +526,6 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
     if robot.loops:   # loop problems are input errors: report them at once
         _ = derivation.steps["loops"]
     return derivation
-
-
-def run_checks(derivation: Derivation) -> list[Check]:
-    """The engine's consistency checks (DESIGN.md section 4), each proven or tested."""
-    q, table = derivation.quantities, derivation.symbols
-    symbols = table.all_symbols()
-    if "EOM_g1" in q and derivation.intermediate_form:
-        # C_g's names opened one level (its Christoffel sums over the names of dM/dq_k): the
-        # velocity terms then cancel exactly, and what remains, Newton-Euler's N_g against the
-        # differentiated potential, is compared numerically
-        definitions = dict(derivation.intermediates)
-        christoffel = {c: definitions[c] for c in q["C_g"] if c in definitions}
-        checks = [_zero_over_intermediates(
-            derivation, "EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1, from the differentiated mass-matrix and "
-            "potential programs) equal the manipulator form (EOM_g2, Christoffel symbols and Newton-Euler)",
-            (sympy.Matrix(q["EOM_g1"]) - q["EOM_g2"]).xreplace(christoffel), q["N_g"])]
-    elif "EOM_g1" in q:
-        checks = [check_zero(
-            "EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) equal the manipulator form (EOM_g2)",
-            sympy.Matrix(q["EOM_g1"]) - q["EOM_g2"], symbols)]
-    else:
-        checks = [Check("EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) were not derived "
-                        f"symbolically: this robot ({len(table.q)} coordinates) is too large (see `dynderive check`)",
-                        False, "skipped", float("nan"))]
-    loops = derivation.steps.get("loops")
-    if loops is not None and "R_g" in q:
-        checks.append(check_zero("A_g R_g == 0", "A_g R_g = 0: the reduced velocities qd = R_g qd_i satisfy the "
-                                 "loop constraints", matmul(q["A_g"], q["R_g"]), symbols))
-    if "maximal" not in derivation.steps:
-        return checks
-    on_h = dict(zip(table.qm, q["h"]))
-    a_on_h, AH = q["a_m"].xreplace(on_h), matmul(q["A_m"].xreplace(on_h), q["H"])
-    if loops is not None:   # the loop rows of a_m become a_g on h(q): compare with them
-        tree = a_on_h.shape[0] - loops.constraints.shape[0]
-        a_on_h = a_on_h - sympy.Matrix.vstack(sympy.zeros(tree, 1), loops.constraints)
-        AH = AH - sympy.Matrix.vstack(sympy.zeros(tree, AH.shape[1]), loops.jacobian)
-    tree_note = " (the loop rows give a_g)" if loops is not None else ""
-    checks += [
-        check_zero("a_m(h(q)) == 0", f"the constraints a_m hold on the change of basis h(q_g){tree_note}",
-                   a_on_h, symbols),
-        check_zero("A_m(h(q)) H(q) == 0", "A_m(h(q)) H(q) = 0: every generalized motion satisfies the constraints"
-                   + (" (the loop rows give A_g)" if loops is not None else ""), AH, symbols),
-        check_zero("EOM_m1 == EOM_m2", "constrained Lagrange equations (EOM_m1) equal the manipulator form (EOM_m2)",
-                   q["EOM_m1"] - q["EOM_m2"], symbols),
-    ]
-    if "EOM_g3" in q and "EOM_g1" in q:
-        checks.append(check_zero("EOM_g3 == EOM_g1", "the maximal model mapped through H (EOM_g3) equals EOM_g1",
-                                 q["EOM_g3"] - q["EOM_g1"], symbols))
-    else:
-        checks.append(Check("EOM_g3 == EOM_g1", "the maximal model was not mapped through H symbolically: this "
-                            f"robot ({len(table.q)} coordinates) is too large (`dynderive check` compares both "
-                            "models numerically)", False, "skipped", float("nan")))
-    return checks
-
-
-def _zero_over_intermediates(derivation: Derivation, name: str, description: str, difference: sympy.Matrix,
-                             reference: sympy.Matrix, states: int = 6, seed: int = 0) -> Check:
-    """``difference == 0`` for quantities over a large robot's intermediate variables: the
-    entries expanded (equal names cancel; what is left is zero only numerically), then
-    evaluated at random states, parameters and efforts with the intermediates computed in
-    order, to a tolerance relative to ``reference`` (the size of the terms that remain: for
-    EOM_g1 - EOM_g2, the gravity vector)."""
-    import numpy as np
-
-    difference = sympy.Matrix(difference).applyfunc(expand)
-    if all(e == 0 for e in difference):
-        return Check(name, description, True, "symbolic", 0.0)
-    table, robot = derivation.symbols, derivation.robot
-    inputs = [*table.q, *table.qd, *table.qdd, *table.efforts.values(), *(table.parameters[p.name] for p in robot.parameters)]
-    evaluate = derivation.lambdify(inputs, sympy.Matrix.hstack(difference, sympy.Matrix(reference)))
-    rng = np.random.default_rng(seed)
-    worst, scale = 0.0, 1.0
-    for _ in range(states):
-        values = [*rng.uniform(-1.5, 1.5, 3 * len(table.q) + len(table.efforts)),
-                  *(p.value if p.value is not None else rng.uniform(0.5, 1.5) for p in robot.parameters)]
-        result = np.asarray(evaluate(*values), dtype=float).reshape(difference.shape[0], 2)
-        worst, scale = max(worst, float(np.max(np.abs(result[:, 0])))), max(scale, float(np.max(np.abs(result[:, 1]))))
-    return Check(name, description, worst <= 1e-9 * scale, "numeric", worst)
 
 
 def _latex_text(text: str) -> str:

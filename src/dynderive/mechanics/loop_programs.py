@@ -59,6 +59,14 @@ def _times(R: Sequence[Sequence[sympy.Expr]], v: Sequence[sympy.Expr]) -> list[s
     return [_dot(row, v) for row in R]
 
 
+def open_tree_note(robot: Robot, programs: LoopPrograms) -> str:
+    """The note of a robot whose loops are closed by the generated module only, at its first loop."""
+    first = robot.loops[0].name
+    where = robot.positions.get(f"loop:{first}", robot.positions.get("loops", (1, 1)))
+    return (f"{robot.source}:{where[0]}:{where[1]}: note: the {len(programs.rows)} loop constraint rows are "
+            "closed by the generated modules' forward_dynamics; the sheets show the open tree's equations")
+
+
 def loop_programs(robot: Robot, table: SymbolTable) -> LoopPrograms:
     """The programs of every loop joint's rows, in the file's order (3-D robots)."""
     tree = Tree(robot, table)
