@@ -24,7 +24,7 @@ from ....derivation import Derivation
 from ....mechanics.contact_program import HELD, Append, Call, ContactProgram, Let, SchurSolve
 from ...codegen.constrained import contacts_built
 from .c_print import CFunction
-from .c_program import assignment, c_name
+from .c_program import assignment, c_name, flat_index
 from .c_solve import fill_in, schur_solve
 
 #: The return codes, after 0: (macro suffix, value, meaning).
@@ -185,16 +185,9 @@ def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bo
         return schur_solve(step, n, nonzero, rows, fresh)
     if isinstance(step, Let):
         name, columns = c_name(step.name), step.value.shape[1] if len(step.value.shape) == 2 else None
-        return assignment(lambda i, j: f"{name}[{_flat(i, columns, j)}]", step.value, n, fresh)
+        return assignment(lambda i, j: f"{name}[{flat_index(i, columns, j)}]", step.value, n, fresh)
     name, columns = c_name(step.stacked), step.value.shape[1] if len(step.value.shape) == 2 else None
-    return assignment(lambda i, j: f"{name}[{_flat(f'count + {i}', columns, j)}]", step.value, n, fresh)
-
-
-def _flat(row: int | str, columns: int | None, column: str | None) -> str:
-    if columns is None:
-        return str(row)
-    return f"({row}) * {columns} + {column}" if isinstance(row, str) else (
-        f"{row * columns} + {column}" if row else str(column))
+    return assignment(lambda i, j: f"{name}[{flat_index(f'count + {i}', columns, j)}]", step.value, n, fresh)
 
 
 def _call(derivation: Derivation, step: Call, n: int) -> list[str]:

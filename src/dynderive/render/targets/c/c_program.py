@@ -24,13 +24,13 @@ def c_name(name: str) -> str:
     return C_NAMES.get(name, name)
 
 
-def _index(row: int | str, columns: int | None, column: int | str | None) -> str:
-    """``row * columns + column`` as C, folded where both are numbers."""
+def flat_index(row: int | str, columns: int | None, column: int | str | None) -> str:
+    """``row * columns + column`` as C (row-major), folded where both are numbers."""
     if columns is None:
         return str(row)
     if isinstance(row, int) and isinstance(column, int):
         return str(row * columns + column)
-    start = row * columns if isinstance(row, int) else f"{row} * {columns}"
+    start = row * columns if isinstance(row, int) else f"({row}) * {columns}" if " " in row else f"{row} * {columns}"
     return f"{start} + {column}" if start != 0 else str(column)
 
 
@@ -55,7 +55,7 @@ class Elements:
             columns = node.shape[1] if len(node.shape) == 2 else None
             if node.shape[0] == HELD and columns is None:
                 return f"{c_name(args[0])}[{row}]"
-            return f"{c_name(args[0])}[{_index(row, columns, column)}]"
+            return f"{c_name(args[0])}[{flat_index(row, columns, column)}]"
         if op == "rows":
             return self.element(args[0], _shifted(row, args[1]), column)
         if op == "position":
