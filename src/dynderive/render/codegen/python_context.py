@@ -12,8 +12,10 @@ import sympy
 from sympy.printing.numpy import NumPyPrinter
 
 from ...derivation import Derivation
+from ...mechanics.contact_program import Call
 from .. import api
 from ..encode import Code, python_literal
+from .array_program import ArrayPrinter
 from .functions import Argument, ExpressionFunction, ProgramFunction, expression_function, program_function
 from .printer import _Printer
 
@@ -52,6 +54,8 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
         "contacts_tuple": _tuple(tuple(c.frame for c in robot.contacts)),
         "contact_kinds": Code("{" + ", ".join(f"{python_literal(c.frame)}: {python_literal(c.kind)}"
                                              for c in robot.contacts) + "}"),
+        # the engine's contact programs printed for each array namespace (dynamics_contacts.py.j2)
+        "contact_lines": {xp: _contact_lines(derivation, xp) for xp in ("np", "_jnp")},
         # the forward-dynamics body takes F - J^T w where its program says so (damping, friction, frames)
         "forward_extra": forward is not None and bool(forward.extra_inputs),
         "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
@@ -59,6 +63,25 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
         "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
         "floating": robot.floating,
     }
+
+
+def _contact_lines(derivation: Derivation, xp: str) -> dict[str, Any]:
+    """Each contact program's parts as Python lines over ``xp`` (none without contact dynamics)."""
+    if derivation.contact_programs is None:
+        return {}
+
+    def call(step: Call) -> str:
+        if step.function == "effort_map":
+            return f'{xp}.einsum("ij,...j->...i", _effort_map, u)'
+        if step.function == "inverse_dynamics":
+            return (f"inverse_dynamics(q, qd, {xp}.zeros_like(qd), wrenches, friction_smoothing=friction_smoothing, "
+                    "**_parameters)")
+        return f"{step.function}({', '.join({'frame': '_frame'}.get(a, a) for a in step.arguments)}, **_parameters)"
+
+    printer = ArrayPrinter(xp, call)
+    return {program.name: {"anchors": program.anchors, **{part: [Code(line) for line in printer.statements(
+        getattr(program, part), "anchors" if part == "finish" else "_anchor")] for part in
+        ("setup", "point", "surface", "finish")}} for program in derivation.contact_programs}
 
 
 def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -> dict[str, Any]:
