@@ -125,7 +125,7 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], program: ContactPro
         lines.append(f"for (int i = 0; i < {n}; ++i) zeros[i] = 0.0;")
     lines += _steps(derivation, program.setup, n, rows, nonzero, fresh)
     point, surface = (_steps(derivation, steps, n, rows, nonzero, fresh) for steps in (program.point, program.surface))
-    anchor = ["    const double *A = anchors + (anchors ? at : 0);"] if program.anchors else []
+    anchor = ["    const double *A = anchors ? anchors + at : anchors;"] if program.anchors else []
     lines += [
         "for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */",
         "    const int f = frames[c];",
