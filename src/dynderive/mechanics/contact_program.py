@@ -138,8 +138,8 @@ Step = Call | Let | Append | SchurSolve
 
 @dataclass(frozen=True)
 class ContactProgram:
-    """One contact function: ``setup`` before the contacts, each held contact's steps by its
-    kind, then ``finish``. ``inputs``: the arrays of the function's signature (q, qd, u or
+    """One contact function: ``setup`` before the contacts, each held contact's ``contact``
+    steps then its kind's (``point`` or ``surface``), then ``finish``. ``inputs``: the arrays of the function's signature (q, qd, u or
     qd_minus), ``outputs`` its two results, ``scalars`` the numbers it reads (kp, kd or
     restitution), ``anchors`` whether it takes anchors."""
 
@@ -147,6 +147,7 @@ class ContactProgram:
     inputs: tuple[str, ...]
     scalars: tuple[str, ...]
     setup: tuple[Step, ...]
+    contact: tuple[Step, ...]
     point: tuple[Step, ...]
     surface: tuple[Step, ...]
     finish: tuple[Step, ...]
@@ -154,24 +155,23 @@ class ContactProgram:
     anchors: bool
 
 
-def _rows(n: int, velocity: str | None) -> tuple[list[Step], list[Step]]:
-    """A point's and a surface's steps: the frame's Jacobian rows (and, given the velocity, the
-    drift's) appended. Point: world-aligned rows 0..2; surface: blockdiag(R^T, R^T) J, the drift
-    the spatial acceleration at qdd = 0 in the frame's axes, (a - omega x v, alpha) rotated."""
+def _rows(n: int, velocity: str | None) -> tuple[tuple[Step, ...], list[Step], list[Step]]:
+    """Every contact's calls (the frame's Jacobian and, given the velocity, its drift), then a
+    point's and a surface's rows appended. Point: world-aligned rows 0..2; surface:
+    blockdiag(R^T, R^T) J, the drift the spatial acceleration at qdd = 0 in the frame's axes,
+    (a - omega x v, alpha) rotated."""
     jf, acc, pose, twist = array("Jf", 6, n), array("acc", 6), array("T", 4, 4), array("twist", 6)
     rt = rotation(pose).T
-    jacobian = Call("Jf", "frame_jacobian", ("q", "frame"), (6, n))
-    transform = Call("T", "frame_transform", ("q", "frame"), (4, 4))
-    point: list[Step] = [jacobian, Append("J", jf[0:3])]
-    surface: list[Step] = [jacobian, transform, Append("J", stack(rt @ jf[0:3], rt @ jf[3:6]))]
+    contact: tuple[Step, ...] = (Call("Jf", "frame_jacobian", ("q", "frame"), (6, n)),)
+    point: list[Step] = [Append("J", jf[0:3])]
+    surface: list[Step] = [Call("T", "frame_transform", ("q", "frame"), (4, 4)),
+                           Append("J", stack(rt @ jf[0:3], rt @ jf[3:6]))]
     if velocity:
-        dot = Call("acc", "frame_jacobian_dot_qd", ("q", velocity, "frame"), (6,))
-        point[1:1] = [dot]
+        contact += (Call("acc", "frame_jacobian_dot_qd", ("q", velocity, "frame"), (6,)),)
         point.append(Append("drift", acc[0:3]))
-        surface[2:2] = [dot]
         surface += [Let("twist", jf @ array(velocity, n)),
                     Append("drift", stack(rt @ (acc[0:3] - cross(twist[3:6], twist[0:3])), rt @ acc[3:6]))]
-    return point, surface
+    return contact, point, surface
 
 
 def constrained_forward_dynamics_program(n: int, floating: bool) -> ContactProgram:
@@ -180,7 +180,7 @@ def constrained_forward_dynamics_program(n: int, floating: bool) -> ContactProgr
     the anchors: p - p_ref for a point; R^T (p - p_ref) and the vee of the skew part of
     R_ref^T R for a surface); ``floating``: tau is the efforts at their velocity columns
     (``effort_map``), else generalized_forces(q, u)."""
-    point, surface = _rows(n, "qd")
+    contact, point, surface = _rows(n, "qd")
     pose, anchor = array("T", 4, 4), array("anchor", 4, 4)
     point += [Call("T", "frame_transform", ("q", "frame"), (4, 4), anchored=True),
               Append("error", position(pose) - array("anchor", 3), anchored=True)]
@@ -193,7 +193,7 @@ def constrained_forward_dynamics_program(n: int, floating: bool) -> ContactProgr
         "constrained_forward_dynamics", ("q", "qd", "u"), ("kp", "kd"),
         setup=(Call("M", "mass_matrix", ("q",), (n, n)), Call("h", "inverse_dynamics", ("q", "qd", "zeros"), (n,)),
                tau),
-        point=tuple(point), surface=tuple(surface),
+        contact=contact, point=tuple(point), surface=tuple(surface),
         finish=(Let("gamma", array("drift", HELD) + scale("kd", array("J", HELD, n) @ array("qd", n))),
                 Let("gamma", gamma + scale("kp", array("error", HELD)), anchored=True),
                 SchurSolve("qdd", "forces", "M", "J", array("tau", n) - array("h", n), -gamma)),
@@ -204,12 +204,12 @@ def impulse_dynamics_program(n: int) -> ContactProgram:
     """M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus (Pinocchio's
     impulseDynamics): the jump dqd solves M dqd = J^T impulses, J dqd = -restitution J qd_minus
     - J qd_minus."""
-    point, surface = _rows(n, None)
+    contact, point, surface = _rows(n, None)
     rate = array("rate", HELD)
     return ContactProgram(
         "impulse_dynamics", ("q", "qd_minus"), ("restitution",),
         setup=(Call("M", "mass_matrix", ("q",), (n, n)),),
-        point=tuple(point), surface=tuple(surface),
+        contact=contact, point=tuple(point), surface=tuple(surface),
         finish=(Let("rate", array("J", HELD, n) @ array("qd_minus", n)),
                 SchurSolve("jump", "impulses", "M", "J", None, -scale("restitution", rate) - rate),
                 Let("qd_plus", array("qd_minus", n) + array("jump", n))),

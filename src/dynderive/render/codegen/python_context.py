@@ -81,7 +81,7 @@ def _contact_lines(derivation: Derivation, xp: str) -> dict[str, Any]:
     printer = ArrayPrinter(xp, call)
     return {program.name: {"anchors": program.anchors, **{part: [Code(line) for line in printer.statements(
         getattr(program, part), "anchors" if part == "finish" else "_anchor")] for part in
-        ("setup", "point", "surface", "finish")}} for program in derivation.contact_programs}
+        ("setup", "contact", "point", "surface", "finish")}} for program in derivation.contact_programs}
 
 
 def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -> dict[str, Any]:

@@ -124,12 +124,14 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], program: ContactPro
     if "zeros" in arrays:
         lines.append(f"for (int i = 0; i < {n}; ++i) zeros[i] = 0.0;")
     lines += _steps(derivation, program.setup, n, rows, nonzero, fresh)
-    point, surface = (_steps(derivation, steps, n, rows, nonzero, fresh) for steps in (program.point, program.surface))
+    contact, point, surface = (_steps(derivation, steps, n, rows, nonzero, fresh)
+                               for steps in (program.contact, program.point, program.surface))
     anchor = ["    const double *A = anchors ? anchors + at : anchors;"] if program.anchors else []
     lines += [
         "for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */",
         "    const int f = frames[c];",
         *anchor,
+        *(f"    {line}" for line in contact),
         "    if ((kinds ? kinds[c] : declared[f]) == 0) {",
         *(f"        {line}" for line in point),
         "        count += 3;",
@@ -149,7 +151,7 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], program: ContactPro
 def _arrays(program: ContactProgram, n: int, rows: int) -> dict[str, int]:
     """The local arrays a program writes (its outputs are the C function's), with their sizes."""
     sizes: dict[str, int] = {}
-    for step in (*program.setup, *program.point, *program.surface, *program.finish):
+    for step in (*program.setup, *program.contact, *program.point, *program.surface, *program.finish):
         if isinstance(step, Call) and {"u", "zeros"} & set(step.arguments):
             sizes["zeros"] = n
         if isinstance(step, Call):
@@ -191,8 +193,9 @@ def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bo
 
 
 def _call(derivation: Derivation, step: Call, n: int) -> list[str]:
-    """A generated function's call; ``effort_map`` (a floating base's efforts at their columns)
-    written out."""
+    """A generated function's call (a frame function's failure, which the checks rule out,
+    returns 3: the compiler then sees its output written); ``effort_map`` (a floating base's
+    efforts at their columns) written out."""
     robot = derivation.robot
     if step.function == "effort_map":
         columns = robot.effort_columns()
@@ -201,4 +204,5 @@ def _call(derivation: Derivation, step: Call, n: int) -> list[str]:
                   if columns else ["(void)u;"])]
     spelled = {"u": "u ? u : zeros", "frame": "f"}
     arguments = ", ".join(spelled.get(a, c_name(a)) for a in step.arguments)
-    return [f"{robot.name}_{step.function}({arguments}, p, {c_name(step.output)});"]
+    call = f"{robot.name}_{step.function}({arguments}, p, {c_name(step.output)})"
+    return [f"if ({call} != 0) return 3;" if "frame" in step.arguments else f"{call};"]

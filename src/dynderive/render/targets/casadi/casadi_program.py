@@ -56,4 +56,4 @@ def casadi_contact_lines(derivation: Derivation) -> dict[str, Any]:
     printer = CasadiPrinter()
     return {program.name: {"anchors": program.anchors} | {part: [Code(line) for line in printer.statements(
         tuple(replace(step, anchored=False) for step in getattr(program, part)))]
-        for part in ("setup", "point", "surface", "finish")} for program in derivation.contact_programs}
+        for part in ("setup", "contact", "point", "surface", "finish")} for program in derivation.contact_programs}

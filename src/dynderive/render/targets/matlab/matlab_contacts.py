@@ -141,6 +141,7 @@ def _contact_loop(derivation: Derivation, program: ContactProgram) -> list[str]:
             "for k = 1:numel(frames)",
             "    frame = frames(k);",
             *anchor,
+            *(f"    {line}" for line in statements(program.contact, pkg, n)),
             "    if ~surface(k)",
             *(f"        {line}" for line in statements(program.point, pkg, n)),
             "    else",
