@@ -103,9 +103,13 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], program: ContactPro
         declared[numbers[contact.frame]] = int(contact.kind == "surface")
     table = ", ".join(str(declared[f]) for f in range(frames)) or "0"
     arrays = {c_name(a): size for a, size in _arrays(program, n, rows).items()}
+    small = {c_name(step.output) for step in (*program.contact, *program.point, *program.surface)
+             if isinstance(step, Call) and "frame" in step.arguments and arrays[c_name(step.output)] <= 16}
     lines = [
         f"static const int declared[{max(frames, 1)}] = {{ {table} }};   /* each frame's declared kind, else point */",
-        *(f"double {a}[{size}];" for a, size in arrays.items()),
+        # a frame function writes nothing for no such frame (ruled out below): its small outputs
+        # start at zero, so that gcc -O2 sees them set (-Wmaybe-uninitialized)
+        *(f"double {a}[{size}]{' = {0}' if a in small else ''};" for a, size in arrays.items()),
         "int count = 0, at = 0;" if program.anchors else "int count = 0;",
         f"if (ncontacts < 0 || ncontacts > {frames} || (ncontacts > 0 && !frames)) return 3;",
         "for (int c = 0; c < ncontacts; ++c) {",
@@ -193,9 +197,8 @@ def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bo
 
 
 def _call(derivation: Derivation, step: Call, n: int) -> list[str]:
-    """A generated function's call (a frame function's failure, which the checks rule out,
-    returns 3: the compiler then sees its output written); ``effort_map`` (a floating base's
-    efforts at their columns) written out."""
+    """A generated function's call; ``effort_map`` (a floating base's efforts at their columns)
+    written out."""
     robot = derivation.robot
     if step.function == "effort_map":
         columns = robot.effort_columns()
@@ -204,5 +207,4 @@ def _call(derivation: Derivation, step: Call, n: int) -> list[str]:
                   if columns else ["(void)u;"])]
     spelled = {"u": "u ? u : zeros", "frame": "f"}
     arguments = ", ".join(spelled.get(a, c_name(a)) for a in step.arguments)
-    call = f"{robot.name}_{step.function}({arguments}, p, {c_name(step.output)})"
-    return [f"if ({call} != 0) return 3;" if "frame" in step.arguments else f"{call};"]
+    return [f"{robot.name}_{step.function}({arguments}, p, {c_name(step.output)});"]
