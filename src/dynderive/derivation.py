@@ -361,6 +361,28 @@ class Derivation:
         return loop_programs(self.robot, self.symbols)
 
     @cached_property
+    def contact_programs(self) -> Any:
+        """The programs of ``constrained_forward_dynamics`` and ``impulse_dynamics``
+        (``mechanics.contact_program.ContactPrograms``) every target prints, for a 3-D robot
+        without closed loops; None for the others."""
+        from .mechanics.contact_program import contact_programs
+
+        if self.robot.planar or self.robot.loops:
+            return None
+        return contact_programs(len(self.symbols.qd), self.robot.floating)
+
+    @cached_property
+    def effort_jacobian(self) -> sympy.Matrix:
+        """dY/du (NV x NU): each effort's generalized force per unit effort, which linearize's
+        input matrix B and the compiled targets print; with quaternions (efforts acting at
+        their velocity columns) a 1 at each effort's column."""
+        efforts = list(self.symbols.efforts.values())
+        if len(self.symbols.q) != len(self.symbols.qd):
+            columns = self.robot.effort_columns()
+            return sympy.Matrix(len(self.symbols.qd), len(efforts), lambda i, k: int(columns[k] == i))
+        return self.quantities["Y_g"].jacobian(sympy.Matrix(efforts))
+
+    @cached_property
     def centroidal_programs(self) -> Any:
         """Straight-line programs of the centre of mass and the centroidal momentum
         (``mechanics.centroidal.CentroidalPrograms``) of a 3-D robot, None for a planar one;

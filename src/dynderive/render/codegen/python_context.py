@@ -12,8 +12,10 @@ import sympy
 from sympy.printing.numpy import NumPyPrinter
 
 from ...derivation import Derivation
+from ...mechanics.contact_program import Call
 from .. import api
 from ..encode import Code, python_literal
+from .array_program import ArrayPrinter
 from .functions import Argument, ExpressionFunction, ProgramFunction, expression_function, program_function
 from .printer import _Printer
 
@@ -61,10 +63,35 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
     }
 
 
-def code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -> dict[str, Any]:
+def _contact_lines(derivation: Derivation, xp: str, array_printer: type[ArrayPrinter]) -> dict[str, Any]:
+    """Each contact program's parts as Python lines over ``xp`` (none without contact dynamics)."""
+    if derivation.contact_programs is None:
+        return {}
+
+    def call(step: Call) -> str:
+        if step.function == "effort_map":
+            return f'{xp}.einsum("ij,...j->...i", _effort_map, u)'
+        if step.function == "inverse_dynamics":
+            return (f"inverse_dynamics(q, qd, {xp}.zeros_like(qd), wrenches, friction_smoothing=friction_smoothing, "
+                    "**_parameters)")
+        return f"{step.function}({', '.join({'frame': '_frame'}.get(a, a) for a in step.arguments)}, **_parameters)"
+
+    printer = array_printer(xp, call)
+    return {program.name: {"anchors": program.anchors, **{part: [Code(line) for line in printer.statements(
+        getattr(program, part), "anchors" if part == "finish" else "_anchor")] for part in
+        ("setup", "contact", "point", "surface", "finish")}} for program in derivation.contact_programs}
+
+
+def code_context(derivation: Derivation, printer: NumPyPrinter | None = None, xp: str = "np",
+                 array_printer: type[ArrayPrinter] = ArrayPrinter) -> dict[str, Any]:
     """Every variable the code template can use (documented in docs/templates.md); ``printer``
-    prints the expression functions (default: NumPy's, ``np.sin``; the JAX target passes its own).
+    prints the expression functions (default: NumPy's, ``np.sin``; the JAX target passes its own),
+    ``array_printer`` the engine's array programs over the module's array namespace ``xp``.
     A robot with quaternions in ``q`` (``robot.floating``) takes ``_tangent_context``."""
+    return _code_context(derivation, printer) | {"contact_lines": _contact_lines(derivation, xp, array_printer)}
+
+
+def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -> dict[str, Any]:
     if derivation.robot.floating:
         return _tangent_context(derivation)
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities

@@ -377,8 +377,7 @@ def _linearize_body(derivation: Derivation, names: Names, start: str) -> list[st
     if quaternions:
         lines += [f"R[{column * width + 2 * n + k}] = 1.0;" for k, column in enumerate(derivation.robot.effort_columns())]
     elif nu:
-        inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
-        lines += expression_body(names, list(inputs),
+        lines += expression_body(names, list(derivation.effort_jacobian),
                                   [f"R[{i * width + 2 * n + k}]" for i in range(n) for k in range(nu)])
     return lines + solved_into_a_and_b(_structural_pattern(derivation, n), n, nu)
 

@@ -9,7 +9,10 @@ like a function of ``<math.h>`` (``y0``, ``j1``, ``gamma``), which ``-Wshadow`` 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+
+from ....mechanics.contact_program import SchurSolve
+from .c_program import Elements, c_name
 
 #: A pivot of the loops' Schur complement below this fraction of its diagonal entry means the
 #: loop rows are dependent beyond the rank the derivation found (a singular configuration).
@@ -49,6 +52,83 @@ def ldl_solve(n: int, nonzero: list[list[bool]], prefix: str, rhs: list[str]) ->
         terms = "".join(f" - {prefix}L{k}_{i}*{prefix}x{k}" for k in range(i + 1, n) if nonzero[k][i])
         lines.append(f"const double {prefix}x{i} = {prefix}w{i} / {prefix}d{i}{terms};")
     return lines
+
+
+def schur_solve(step: SchurSolve, n: int, nonzero: list[list[bool]], rows: int, fresh: Iterator[int]) -> list[str]:
+    """The engine's ``SchurSolve`` over ``count`` stacked rows (capacity ``rows``): M is factored
+    in reverse order, P M P = L D L^T unrolled for its sparsity (``nonzero``: L's pattern; P the
+    reversal, the leaves first, so a tree's factor has no fill-in; ``return 1`` at a pivot not
+    positive); Y = L^-1 P J^T and e = L^-1 P b by forward substitution; S = J M^-1 J^T = Y^T
+    D^-1 Y by dense Cholesky loops (``return 2`` at a pivot not above 1e-12 of its diagonal
+    entry: redundant contacts); the multipliers S^-1 (target - Y^T D^-1 e); x = P L^-T D^-1 (e +
+    Y multipliers), one back substitution."""
+    mass, jacobian, multipliers = c_name(step.mass), c_name(step.jacobian), c_name(step.multipliers)
+    elements = Elements(n, fresh)
+    lines = ldl_factor(lambda i, j: f"{mass}[{(n - 1 - i) * n + n - 1 - j}]", n, nonzero, "m", "return 1;")
+    lines += [f"double Y[{n * rows}], dinv[{n}], z[{n}];",
+              *(f"dinv[{i}] = 1.0 / md{i};" for i in range(n)),
+              "for (int c = 0; c < count; ++c) {",
+              *(f"    {line}" for line in _forward(n, nonzero, "w", [f"{jacobian}[c * {n} + {n - 1 - i}]"
+                                                                      for i in range(n)])),
+              *(f"    Y[{i * rows} + c] = w{i};" for i in range(n)), "}"]
+    if step.b is None:
+        lines += [f"for (int i = 0; i < {n}; ++i) z[i] = 0.0;"]
+    else:
+        lines += [*_forward(n, nonzero, "e", [elements.element(step.b, n - 1 - i) for i in range(n)]),
+                  *(f"z[{i}] = e{i};" for i in range(n))]
+    target = elements.element(step.target, "a")
+    lines += [
+        "if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */",
+        f"    double S[{rows * rows}], lam[{rows}];",
+        "    for (int a = 0; a < count; ++a) {",
+        "        for (int b = 0; b <= a; ++b) {",
+        "            double sum = 0.0;",
+        f"            for (int i = 0; i < {n}; ++i) sum += Y[i * {rows} + a]*dinv[i]*Y[i * {rows} + b];",
+        f"            S[a * {rows} + b] = sum;",
+        "        }",
+        f"        lam[a] = {target};",
+        *([] if step.b is None else [f"        for (int i = 0; i < {n}; ++i) lam[a] -= Y[i * {rows} + a]*dinv[i]*z[i];"]),
+        "    }",
+        "    for (int j = 0; j < count; ++j) {",
+        f"        double pivot = S[j * {rows} + j];",
+        f"        for (int k = 0; k < j; ++k) pivot -= S[j * {rows} + k]*S[j * {rows} + k];",
+        f"        if (!(pivot > {RELATIVE_PIVOT}*S[j * {rows} + j])) return 2;",
+        f"        S[j * {rows} + j] = sqrt(pivot);",
+        "        for (int i = j + 1; i < count; ++i) {",
+        f"            double sum = S[i * {rows} + j];",
+        f"            for (int k = 0; k < j; ++k) sum -= S[i * {rows} + k]*S[j * {rows} + k];",
+        f"            S[i * {rows} + j] = sum / S[j * {rows} + j];",
+        "        }",
+        "    }",
+        "    for (int i = 0; i < count; ++i) {",
+        f"        for (int k = 0; k < i; ++k) lam[i] -= S[i * {rows} + k]*lam[k];",
+        f"        lam[i] /= S[i * {rows} + i];",
+        "    }",
+        "    for (int i = count - 1; i >= 0; --i) {",
+        f"        for (int k = i + 1; k < count; ++k) lam[i] -= S[k * {rows} + i]*lam[k];",
+        f"        lam[i] /= S[i * {rows} + i];",
+        "    }",
+        f"    for (int i = 0; i < {n}; ++i) {{",
+        f"        for (int c = 0; c < count; ++c) z[i] += Y[i * {rows} + c]*lam[c];",
+        "    }",
+        f"    for (int c = 0; c < count; ++c) {multipliers}[c] = lam[c];",
+        "}",
+        *_back(n, nonzero, "x", "z"),
+        *(f"{c_name(step.x)}[{n - 1 - i}] = x{i};" for i in range(n)),
+    ]
+    return [*elements.lines, *lines] if elements.lines else lines
+
+
+def _forward(n: int, nonzero: list[list[bool]], name: str, rhs: list[str]) -> list[str]:
+    """``<name><i>`` solving ``L w = rhs`` (L the unit lower factor ``mL``, forward substitution)."""
+    return [f"const double {name}{i} = {rhs[i]}" + "".join(f" - mL{i}_{k}*{name}{k}" for k in range(i) if nonzero[i][k])
+            + ";" for i in range(n)]
+
+
+def _back(n: int, nonzero: list[list[bool]], name: str, rhs: str) -> list[str]:
+    """``<name><i>`` solving ``D L^T x = rhs[]`` (back substitution)."""
+    return [f"const double {name}{i} = {rhs}[{i}] / md{i}" + "".join(f" - mL{k}_{i}*{name}{k}" for k in range(i + 1, n)
+                                                                   if nonzero[k][i]) + ";" for i in reversed(range(n))]
 
 
 def fill_in(mass: list[list[bool]], n: int) -> list[list[bool]]:

@@ -92,7 +92,7 @@ def holds(lines: list[tuple[str, str]], outputs: list[str], every: int = HOLD_EV
 def jax_context(derivation: Derivation) -> dict[str, Any]:
     """The NumPy module's context (``code.code_context``) with the expressions printed for
     ``jax.numpy`` and each expression function's entries by flat index."""
-    context = code_context(derivation, _JaxPrinter({"fully_qualified_modules": True, "strict": False}))
+    context = code_context(derivation, _JaxPrinter({"fully_qualified_modules": True, "strict": False}), "_jnp")
     context["sizes"] = {f.name: (math.prod(f.shape), flat_entries(f)) for f in context["functions"]}
     context["holds"] = {p.name: holds(p.lines, p.outputs) for p in context["programs"]}
     context["body_functions"] = {p.name: tuple(p.functions) + (("_hold",) if context["holds"][p.name] else ())

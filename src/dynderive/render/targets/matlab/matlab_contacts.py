@@ -1,23 +1,21 @@
 """The MATLAB/Octave target's contact dynamics of a 3-D robot without closed loops (DESIGN.md
 section 11): ``constrained_forward_dynamics``, ``impulse_dynamics`` and ``contacts()`` (the
-robot file's declared contacts), with the NumPy module's mathematics
-(``templates/dynamics_contacts.py.j2``) written on the package's own functions.
-
-``h = inverse_dynamics(q, qd, 0)`` (friction included), ``tau = generalized_forces(q, u)`` (a
-floating base's efforts at their columns); point contacts hold the rows ``frame_jacobian(1:3,
-:)`` (world-aligned) with drift ``frame_jacobian_dot_qd(1:3)``, surface contacts ``[R' Jv; R'
-Jw]`` with the spatial acceleration's drift ``[R' (a - w x v); R' alpha]``; the Schur
-complement ``S = J M^-1 J'`` is solved with MATLAB's ``\\`` after refusing a singular one
-(redundant contacts, the NumPy module's ``CONTACT_RANK_TOLERANCE``). Each file carries its local
-functions ``contact_list`` (frames by name, 1-based number or a struct with fields ``frame`` and
-``kind``), ``contact_rows`` and ``schur_solve``.
+robot file's declared contacts): the engine's contact programs (``mechanics/contact_program.py``)
+printed by ``matlab_program.py`` on the package's own functions (a floating base's efforts act
+through ``generalized_forces``), with MATLAB's own argument reading and messages. Each file
+carries its local functions ``contact_list`` (frames by name, 1-based number or a struct with
+fields ``frame`` and ``kind``) and ``schur_solve``, the shim of the programs' SchurSolve: MATLAB's
+``\\`` after refusing a singular complement (redundant contacts, the NumPy module's
+``CONTACT_RANK_TOLERANCE``).
 """
 
 from __future__ import annotations
 
 from ....derivation import Derivation
+from ....mechanics.contact_program import Append, ContactProgram
 from .matlab_names import matlab_string
 from .matlab_print import MFunction, help_line
+from .matlab_program import m_name, statements
 
 #: The NumPy module's CONTACT_RANK_TOLERANCE: the smallest eigenvalue of S, relative to its
 #: largest, below which the contacts are redundant.
@@ -124,63 +122,45 @@ def _contact_list(derivation: Derivation) -> MFunction:
          "held = strjoin(parts, ', ');"])
 
 
-def _contact_rows(derivation: Derivation) -> MFunction:
-    """``[Jc, drift, err] = contact_rows(q, qd, frames, surface, anchors, p)``."""
+def _contact_loop(derivation: Derivation, program: ContactProgram) -> list[str]:
+    """The program's rows of every held contact, each its kind's steps (the anchor checked)."""
     pkg, n = derivation.robot.name, len(derivation.symbols.qd)
-    return MFunction(
-        "contact_rows", "[Jc, drift, err]", ["q", "qd", "frames", "surface", "anchors", "p"],
-        ["CONTACT_ROWS  The stacked contact Jacobian Jc (k x NV), its drift Jdot qd (k x 1; qd [] for none)",
-         "   and with anchors the position error (k x 1). Point: the origin's rows of frame_jacobian",
-         "   (world-aligned); surface: [R' Jv; R' Jw], drift its spatial acceleration at qdd = 0 in its axes."],
-        [f"Jc = zeros(0, {n});", "drift = zeros(0, 1);", "err = zeros(0, 1);",
-         "for k = 1:numel(frames)",
-         f"    Jf = {pkg}.frame_jacobian(q, frames(k), p);",
-         f"    T = {pkg}.frame_transform(q, frames(k), p);",
-         "    if ~isempty(qd)",
-         f"        a = {pkg}.frame_jacobian_dot_qd(q, qd, frames(k), p);",
-         "    end",
-         "    if ~isempty(anchors)",
-         "        anchor = anchors{k};",
-         "    end",
-         "    if ~surface(k)",
-         "        Jc = [Jc; Jf(1:3, :)];",
-         "        if ~isempty(qd)",
-         "            drift = [drift; a(1:3)];",
-         "        end",
-         "        if ~isempty(anchors)",
-         "            if ~isnumeric(anchor) || numel(anchor) ~= 3",
-         f"                error('{pkg}:anchors', 'the anchor of point contact %d must be a position, 3 x 1', k);",
-         "            end",
-         "            err = [err; T(1:3, 4) - anchor(:)];",
-         "        end",
-         "    else",
-         "        R = T(1:3, 1:3);",
-         "        Jc = [Jc; R' * Jf(1:3, :); R' * Jf(4:6, :)];",
-         "        if ~isempty(qd)",
-         "            v = Jf * qd;",
-         "            drift = [drift; R' * (a(1:3) - cross(v(4:6), v(1:3))); R' * a(4:6)];",
-         "        end",
-         "        if ~isempty(anchors)",
-         "            if ~isnumeric(anchor) || ~isequal(size(anchor), [4, 4])",
-         f"                error('{pkg}:anchors', 'the anchor of surface contact %d must be a pose, 4 x 4', k);",
-         "            end",
-         "            turn = anchor(1:3, 1:3)' * R;",
-         "            w = (turn - turn') / 2;",
-         "            err = [err; R' * (T(1:3, 4) - anchor(1:3, 4)); w(3, 2); w(1, 3); w(2, 1)];",
-         "        end",
-         "    end",
-         "end"])
+    stacked = dict.fromkeys(step.stacked for step in (*program.point, *program.surface) if isinstance(step, Append))
+    anchor = [
+        "    if ~isempty(anchors)",
+        "        anchor = anchors{k};",
+        "        if ~surface(k) && (~isnumeric(anchor) || numel(anchor) ~= 3)",
+        f"            error('{pkg}:anchors', 'the anchor of point contact %d must be a position, 3 x 1', k);",
+        "        elseif surface(k) && (~isnumeric(anchor) || ~isequal(size(anchor), [4, 4]))",
+        f"            error('{pkg}:anchors', 'the anchor of surface contact %d must be a pose, 4 x 4', k);",
+        "        elseif ~surface(k)",
+        "            anchor = anchor(:);",
+        "        end",
+        "    end"] if program.anchors else []
+    return [*(f"{m_name(a)} = zeros(0, {n if a == 'J' else 1});" for a in stacked),
+            "for k = 1:numel(frames)",
+            "    frame = frames(k);",
+            *anchor,
+            *(f"    {line}" for line in statements(program.contact, pkg, n)),
+            "    if ~surface(k)",
+            *(f"        {line}" for line in statements(program.point, pkg, n)),
+            "    else",
+            *(f"        {line}" for line in statements(program.surface, pkg, n)),
+            "    end",
+            "end"]
 
 
 def _schur_solve(derivation: Derivation) -> MFunction:
-    """``[x, forces] = schur_solve(M, Jc, free, target, held)``."""
+    """``[x, forces] = schur_solve(M, Jc, b, target, held)``: the engine's SchurSolve."""
     pkg = derivation.robot.name
     return MFunction(
-        "schur_solve", "[x, forces]", ["M", "Jc", "free", "target", "held"],
-        ["SCHUR_SOLVE  x and forces with M x = M free + Jc' forces and Jc x = target, by the Schur",
-         "   complement S = Jc M^-1 Jc': forces = S^-1 (target - Jc free), x = free + M^-1 Jc' forces.",
+        "schur_solve", "[x, forces]", ["M", "Jc", "b", "target", "held"],
+        ["SCHUR_SOLVE  x and forces with M x = b + Jc' forces and Jc x = target (b [] for zero), by the Schur",
+         "   complement S = Jc M^-1 Jc': forces = S^-1 (target - Jc M^-1 b), x = M^-1 b + M^-1 Jc' forces.",
          f"   S singular (smallest eigenvalue below {RANK_TOLERANCE} of the largest): redundant contacts, an error."],
-        ["MiJt = M \\ Jc';",
+        ["if isempty(b)", "    free = zeros(size(M, 1), 1);", "else", "    free = M \\ b;", "end",
+         "if isempty(Jc)", "    x = free;", "    forces = zeros(0, 1);", "    return", "end",
+         "MiJt = M \\ Jc';",
          "S = Jc * MiJt;",
          "S = (S + S') / 2;",
          "if all(isfinite(S(:)))",
@@ -201,8 +181,9 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
     if not has_contacts(derivation):
         return []
     robot = derivation.robot
-    pkg, n, nu = robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
-    local = [_contact_list(derivation), _contact_rows(derivation), _schur_solve(derivation)]
+    pkg, nu = robot.name, len(derivation.symbols.efforts)
+    local = [_contact_list(derivation), _schur_solve(derivation)]
+    programs = derivation.contact_programs
     contacts_help = [
         "   contacts: frame names (a cell array; one name alone is one contact), frame numbers (1-based, the",
         "   robot file's order: a vector, or numbers in the cell array), or a struct array with fields frame",
@@ -241,13 +222,8 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
          "if ~isempty(anchors) && (~iscell(anchors) || numel(anchors) ~= numel(frames))",
          f"    error('{pkg}:anchors', 'anchors must be a cell array of one entry per contact (%d)', numel(frames));",
          "end",
-         f"M = {pkg}.mass_matrix(q, p);",
-         f"free = M \\ ({pkg}.generalized_forces(q, u, p) - {pkg}.inverse_dynamics(q, qd, zeros({n}, 1), p));",
-         "if isempty(frames)", "    qdd = free;", "    forces = zeros(0, 1);", "    return", "end",
-         "[Jc, drift, err] = contact_rows(q, qd, frames, surface, anchors, p);",
-         "gamma = drift + baumgarte(2) * (Jc * qd);",
-         "if ~isempty(anchors)", "    gamma = gamma + baumgarte(1) * err;", "end",
-         "[qdd, forces] = schur_solve(M, Jc, free, -gamma, held);"],
+         "kp = baumgarte(1);", "kd = baumgarte(2);",
+         *_program(derivation, programs.constrained_forward_dynamics)],
         local)
     impulse = MFunction(
         "impulse_dynamics", "[qd_plus, impulses]", ["q", "qd_minus", "contacts", "restitution", "p"],
@@ -263,12 +239,16 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
          "if nargin < 4 || isempty(restitution)", "    restitution = 0;", "end",
          "if nargin < 5 || isempty(p)", f"    p = {pkg}.parameters();", "end",
          "[frames, surface, held] = contact_list(contacts);",
-         "if isempty(frames)", "    qd_plus = qd_minus;", "    impulses = zeros(0, 1);", "    return", "end",
-         "Jc = contact_rows(q, [], frames, surface, {}, p);",
-         f"[qd_plus, impulses] = schur_solve({pkg}.mass_matrix(q, p), Jc, qd_minus, "
-         "-restitution * (Jc * qd_minus), held);"],
+         *_program(derivation, programs.impulse_dynamics)],
         local)
     return [forward, impulse]
+
+
+def _program(derivation: Derivation, program: ContactProgram) -> list[str]:
+    """The engine's program: its setup, each held contact's rows, its finish."""
+    pkg, n = derivation.robot.name, len(derivation.symbols.qd)
+    return [*statements(program.setup, pkg, n), *_contact_loop(derivation, program),
+            *statements(program.finish, pkg, n)]
 
 
 def _arguments(vectors: list[str]) -> list[str]:

@@ -141,9 +141,8 @@ def input_matrix_lines(derivation: Derivation, names: Names, target: str, rows: 
         return []
     if len(table.q) != len(table.qd):
         return [f"{target}({c + 1}, {offset + k + 1}) = 1;" for k, c in enumerate(derivation.robot.effort_columns())]
-    inputs = derivation.quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
     nu = len(table.efforts)
-    return expression_body(names, list(inputs), [f"{target}({i + 1}, {offset + k + 1})"
+    return expression_body(names, list(derivation.effort_jacobian), [f"{target}({i + 1}, {offset + k + 1})"
                                                  for i in range(rows) for k in range(nu)])
 
 

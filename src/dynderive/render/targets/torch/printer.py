@@ -29,6 +29,7 @@ from sympy.printing.pytorch import TorchPrinter
 from sympy.printing.str import StrPrinter
 
 from ....derivation import Derivation
+from ...codegen.array_program import ArrayPrinter
 from ...codegen.functions import flat_entries
 from ...codegen.printer import _Printer
 from ...codegen.python_context import code_context
@@ -80,10 +81,19 @@ for _function in TorchPrinter.mapping:
         setattr(_TorchPrinter, f"_print_{_function.__name__}", _TorchPrinter._print_Function)
 
 
+class _TorchArrays(ArrayPrinter):
+    """The engine's array programs over torch: the cross product along the last axis (``torch.cross``
+    without ``dim`` takes the first axis of size 3, a batch axis perhaps)."""
+
+    def _cross(self, node: Any, a: Any, b: Any) -> str:
+        return f"{self.xp}.linalg.cross({self.expression(a)}, {self.expression(b)})"
+
+
 def torch_context(derivation: Derivation) -> dict[str, Any]:
     """The NumPy module's context (``code_context``) with the expressions printed for torch and
     each expression function's entries by flat index."""
-    context = code_context(derivation, _TorchPrinter({"fully_qualified_modules": True, "strict": False}))
+    context = code_context(derivation, _TorchPrinter({"fully_qualified_modules": True, "strict": False}), "_torch",
+                           _TorchArrays)
     context["sizes"] = {f.name: (math.prod(f.shape), flat_entries(f)) for f in context["functions"]}
     context["module"] = f"{derivation.robot.name}_dynamics_torch"
     return context

@@ -1,0 +1,59 @@
+"""The CasADi printer of the engine's contact programs: the neutral Python printer
+(``codegen/array_program.py``) with CasADi's matrices (``_ca.mtimes``, ``.T``, ``_ca.vertcat``,
+no batch axes) and the module's private bodies as the generated functions; the anchors' steps
+always run (anchors is an input, zeros when left out)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+from ....derivation import Derivation
+from ....mechanics.contact_program import Node
+from ...codegen.array_program import ArrayPrinter
+from ...encode import Code
+
+#: Each generated function as the module's body: (text, arguments after the contact's frame).
+_CALLS = {"mass_matrix": "_mass_matrix(q, p)", "generalized_forces": "_generalized_forces(q, u, p)",
+          "inverse_dynamics": "_inverse_dynamics(q, qd, _ca.SX.zeros(NV), p, smoothing)",
+          "effort_map": "_ca.mtimes(_effort_matrix(p), u) if NU else _ca.SX.zeros(NV)",
+          "frame_transform": "_FRAME_FUNCTIONS[_index][0](q, p)",
+          "frame_jacobian": "_FRAME_FUNCTIONS[_index][1](q, p)",
+          "frame_jacobian_dot_qd": "_FRAME_FUNCTIONS[_index][2](q, qd, p)"}
+
+
+class CasadiPrinter(ArrayPrinter):
+    def __init__(self) -> None:
+        super().__init__("_ca", lambda step: _CALLS[step.function])
+
+    def _rows(self, node: Node, of: Node, start: int, stop: int) -> str:
+        return f"{self.expression(of)}[{start}:{stop}{', :' if len(node.shape) == 2 else ''}]"
+
+    def _position(self, node: Node, pose: Node) -> str:
+        return f"{self.expression(pose)}[:3, 3]"
+
+    def _rotation(self, node: Node, pose: Node) -> str:
+        return f"{self.expression(pose)}[:3, :3]"
+
+    def _transpose(self, node: Node, matrix: Node) -> str:
+        return f"{self.expression(matrix)}.T"
+
+    def _matmul(self, node: Node, left: Node, right: Node) -> str:
+        return f"_ca.mtimes({self.expression(left)}, {self.expression(right)})"
+
+    def _stack(self, node: Node, top: Node, bottom: Node) -> str:
+        return f"_ca.vertcat({self.expression(top)}, {self.expression(bottom)})"
+
+    def _vee(self, node: Node, matrix: Node) -> str:
+        x = self.expression(matrix)
+        return "_ca.vertcat(" + ", ".join(f"({x}[{i}, {j}] - {x}[{j}, {i}]) / 2" for i, j in ((2, 1), (0, 2), (1, 0))) + ")"
+
+
+def casadi_contact_lines(derivation: Derivation) -> dict[str, Any]:
+    """Each contact program's parts as lines of the CasADi module (the anchors' steps always)."""
+    if derivation.contact_programs is None:
+        return {}
+    printer = CasadiPrinter()
+    return {program.name: {"anchors": program.anchors} | {part: [Code(line) for line in printer.statements(
+        tuple(replace(step, anchored=False) for step in getattr(program, part)))]
+        for part in ("setup", "contact", "point", "surface", "finish")} for program in derivation.contact_programs}
