@@ -84,6 +84,7 @@ def acceleration_scale(module, q, qd, u) -> float:
     return float(np.max(np.abs(np.linalg.solve(mass, rhs[..., None])), initial=0.0))
 
 
+@cache
 def derivation_of(robot: str):
     """Derivation of a bundled robot (cached across tests)."""
     return dynderive.derive(dynderive.load_robot(robot))
