@@ -2,11 +2,13 @@
 ``render/targets``: the module ``simulate --backend`` runs) gives the NumPy module's numbers.
 
 One test, parametrized over the registry's targets with a loader times the robot classes:
-planar (Coulomb friction and drives; a random tree with full-precision numbers, whose maximal
-form the Python targets print), 3-D with generic random inertias, frames and centroidal
-quantities, a floating base with quaternions (thrust efforts; frames), spherical joints on a
-fixed and a floating base, closed loops (planar, 3-D, with frames), contacts (fixed and
-floating). Each function the target offers (its entry's ``offered``) that the NumPy module has
+planar (Coulomb friction and drives; random trees with full-precision numbers, small enough
+for the explicit M, C, N and large enough for the programs, whose maximal form the Python
+targets print), 3-D with generic random inertias, frames and centroidal quantities, a floating
+base with quaternions (thrust efforts; damping, friction and frames), spherical joints on a
+fixed and a floating base, closed loops (planar, 3-D, with frames and friction,
+over-constrained: a target that refuses a class says so at the robot file and is skipped
+here, its refusal tested in its own file), contacts (fixed and floating). Each function the target offers (its entry's ``offered``) that the NumPy module has
 is compared, but those its entry's ``not_built`` rows list, at random full-precision states
 (on the loops, on the quaternions' sphere), for a batch and for one state, with the
 parameters at values other than their defaults, the smoothed friction sign, and a wrench at every
@@ -69,12 +71,29 @@ def _rough_tree() -> str:
     return _text(2)
 
 
-def _spherical(floating: bool):
-    def text() -> str:
-        from test_spherical import _tree
+def _spherical_fixed() -> str:
+    from test_spherical import _tree
 
-        return _tree(7, floating)
-    return text
+    return _tree(7, False)
+
+
+#: A floating base, a spherical joint (two quaternions: NQ = NV + 2), a revolute joint on a
+#: generic axis and a frame, with full-precision numbers (smaller than ``test_spherical``'s trees).
+BALL_ARM = """name: ball_arm
+planar: false
+gravity: [0, 0, -9.81]
+links:
+  - {name: base, mass: 2.1234567890123456, com: [0.1, 0.02, -0.03], inertia: [0.3, 0.2, 0.25, 0.01, 0.0, 0.02]}
+  - {name: arm, mass: 1.3123456789012345, com: [0.2, 0.0, 0.01], inertia: [0.1, 0.12, 0.09, 0.0, 0.01, 0.0]}
+  - {name: hand, mass: 0.7123456789012345, com: [0.05, 0.01, 0.0], inertia: [0.02, 0.03, 0.025, 0.0, 0.0, 0.001]}
+joints:
+  - {name: free, type: floating, parent: world, child: base, origin: {xyz: [0.1, -0.2, 0.3], rpy: [0.3, -0.2, 0.1]}}
+  - {name: ball, type: spherical, parent: base, child: arm, origin: {xyz: [0.2, 0.1, 0.0], rpy: [0.0, 0.4, 0.0]}}
+  - {name: wrist, type: revolute, parent: arm, child: hand, origin: {xyz: [0.4, 0.0, 0.0]}, axis: [0, 0.6, 0.8],
+     effort: tau}
+frames:
+  - {name: palm, link: hand, origin: {xyz: [0.1, 0.02, -0.01], rpy: [0.1, 0.2, 0.3]}}
+"""
 
 
 def _framed_loop() -> str:
@@ -106,8 +125,8 @@ CLASSES = {
     "frames_centroidal": "elbow_arm",
     "floating_tree": _floating_tree,
     "floating_friction": _rough_tree,
-    "spherical_fixed": _spherical(False),
-    "spherical_floating": _spherical(True),
+    "spherical_fixed": _spherical_fixed,
+    "spherical_floating": lambda: BALL_ARM,
     "loops_planar": "four_bar",
     "loops_spatial": "spatial_four_bar",
     "loops_with_frames": _framed_loop,
