@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import random
 import re
 import shutil
 import subprocess
@@ -31,7 +32,7 @@ from dynderive.render.codegen.names import c_comment
 from dynderive.render.targets.c.c import render_c
 from dynderive.verify.checks import random_configurations
 
-from conftest import ROBOTS, derivation_of, import_code, module_of
+from conftest import ROBOTS, derivation_of, import_code, module_of, random_tree_derivation, stable_seed
 
 CC = shutil.which("gcc") or shutil.which("cc")
 CXX = shutil.which("g++")
@@ -116,9 +117,10 @@ def _close(actual, expected, what: str, terms: float = 0.0) -> None:
 
 
 def _agree(library: Library, module, seed: int, states: int = 4, parameters: dict | None = None) -> None:
-    """Every C function called through ctypes (the parameters struct, the status codes, a frame
-    index out of range) against the NumPy module at random full-precision states (the values
-    of every robot class, through the extension: ``test_targets_agree.py``)."""
+    """Every C function through ctypes (the parameters struct, the status codes, a frame index
+    out of range) against the NumPy module at random full-precision states, the library compiled
+    as strict C99 and C++ with no diagnostic (the C target's own checks; the values of every
+    robot class through the extension: ``test_targets_agree.py``)."""
     rng = np.random.default_rng(seed)
     n, nu = library.n, library.nu
     kwargs = parameters or {}
@@ -166,6 +168,12 @@ def _agree(library: Library, module, seed: int, states: int = 4, parameters: dic
         assert status == 1 and np.all(np.isnan(T))   # no such frame: refused, output untouched
 
 
+@pytest.mark.parametrize("robot", SUPPORTED)
+def test_bundled_robot_agrees_with_numpy(robot, tmp_path, code_dir):
+    library = Library(derivation_of(robot), tmp_path)
+    _agree(library, module_of(robot, str(code_dir)), seed=stable_seed(robot))
+
+
 def test_parameters_struct_is_read(tmp_path, code_dir):
     """A parameters struct other than the defaults reaches every function (member order)."""
     library = Library(derivation_of("double_pendulum"), tmp_path)
@@ -173,6 +181,14 @@ def test_parameters_struct_is_read(tmp_path, code_dir):
     rng = np.random.default_rng(7)
     values = {k: float(v) * (1 + rng.uniform(0.1, 0.9)) for k, v in module.PARAMETERS.items()}
     _agree(library, module, seed=3, states=2, parameters=values)
+
+
+@pytest.mark.parametrize("seed, joints", [(11, 3), (12, 4), (13, 5)])
+def test_random_planar_tree(seed, joints, tmp_path, code_dir):
+    """Small trees print the explicit M, C, N, V; five coordinates print the programs."""
+    derivation, module = random_tree_derivation(seed, joints, str(code_dir))
+    assert derivation.structured_code == (len(derivation.symbols.q) > 4)
+    _agree(Library(derivation, tmp_path), module, seed=seed)
 
 
 def test_parameter_without_default_is_nan(tmp_path, code_dir):
@@ -188,6 +204,18 @@ def test_parameter_without_default_is_nan(tmp_path, code_dir):
     module = module_of("rp_arm", str(code_dir))
     _, M = library.call("mass_matrix", [[0.3, 0.2]], 4, [1.0, 1.0, 9.81, 0.0])
     _close(M.reshape(2, 2), module.mass_matrix([0.3, 0.2]), "mass_matrix")
+
+
+@pytest.mark.parametrize("seed", [21, 22])
+def test_random_spatial_tree(seed, tmp_path):
+    from random_robots3d import random_spatial_tree
+
+    tree = random_spatial_tree(random.Random(seed), 4)
+    path = tmp_path / "random_spatial.yaml"
+    path.write_text(tree.yaml_text)
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    module = import_code(dynderive.render_code(derivation), tmp_path, f"random_spatial_{seed}_dynamics")
+    _agree(Library(derivation, tmp_path / "c"), module, seed=seed)
 
 
 def test_forward_dynamics_refuses_a_mass_matrix_that_is_not_positive_definite(tmp_path, code_dir):
@@ -568,15 +596,37 @@ def _agree_floating(library: FloatingLibrary, module, robot, seed: int, states: 
 
 
 @pytest.mark.pinocchio
-def test_solo12_compiles_strictly_and_agrees_with_the_numpy_module(tmp_path):
-    """The largest C a test compiles as strict C99 (a real robot's 0.9 MB, many frames), called
-    through ctypes (the values of every robot class: ``test_targets_agree.py``)."""
+def test_solo12_agrees_with_the_numpy_module(tmp_path):
     from test_free_flyer import _example_robot, _module
 
     robot = dynderive.load_robot(_example_robot("solo_description/robots/solo12.urdf"), floating_base=True)
     derivation = dynderive.derive(robot)
     library, module = FloatingLibrary(derivation, tmp_path), _module(derivation.robot, tmp_path)
     _agree_floating(library, module, derivation.robot, seed=1)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_random_floating_trees_agree_with_the_numpy_module(seed, tmp_path):
+    from test_free_flyer import _floating_tree, _module
+
+    path = tmp_path / "floating_tree.yaml"
+    path.write_text(_floating_tree(seed))
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation.robot, tmp_path)
+    _agree_floating(library, module, derivation.robot, seed=seed)
+
+
+@pytest.mark.parametrize("floating", [False, True])
+def test_random_trees_with_spherical_joints_agree_with_the_numpy_module(floating, tmp_path):
+    from test_free_flyer import _module
+    from test_spherical import _tree as _spherical_tree
+
+    path = tmp_path / "spherical_tree.yaml"
+    path.write_text(_spherical_tree(7, floating))
+    derivation = dynderive.derive(dynderive.load_robot(path))
+    assert any(j.type == "spherical" for j in derivation.robot.joints)
+    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation.robot, tmp_path)
+    _agree_floating(library, module, derivation.robot, seed=7)
 
 
 def test_parameters_struct_and_a_mass_matrix_that_is_not_positive_definite(tmp_path):
