@@ -678,8 +678,10 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
     compiled_rows = [n for n in rows if n.startswith("compiled ")]
-    # 21 functions, 9 centroidal and the two contact functions (the box declares no contacts: forward dynamics)
-    assert len(compiled_rows) == 32 and all(rows[n] == "pass" for n in compiled_rows)
+    # 21 functions, 9 centroidal, the two contact functions (the box declares no contacts: forward dynamics)
+    # and inverse and forward dynamics with a wrench at every frame
+    assert len(compiled_rows) == 33 and all(rows[n] == "pass" for n in compiled_rows)
+    assert rows["compiled forward_dynamics with wrenches at every frame == NumPy module"] == "pass"
 
 
 def test_failing_compiler_on_a_floating_robot_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):
