@@ -34,6 +34,24 @@ def _no_progress_lines(request, monkeypatch):
         monkeypatch.setattr(progress, "SHOW_AFTER", float("inf"))
         monkeypatch.setattr(progress, "WATCH_AFTER", float("inf"))
 
+
+#: The test files that take longest, slowest first (``--durations=0`` on one worker). With
+#: ``--dist loadfile`` each file runs whole on one worker, and the workers take the files in the
+#: order collected (``--no-loadscope-reorder``): the longest start first and the short ones fill
+#: in around them, so no worker is left running a long file after the others have finished.
+SLOWEST_FIRST = (
+    "test_jax_target.py", "test_targets_agree.py", "test_matlab_script.py", "test_fuzz.py", "test_contacts.py",
+    "test_centroidal_c.py", "test_centroidal.py", "test_contacts_c.py", "test_matlab_numeric.py",
+    "test_c_extension.py", "test_scale.py", "test_build.py", "test_generated_programs.py", "test_mjcf_mujoco.py",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    """The slowest files' tests first (``SLOWEST_FIRST``), the others in their order."""
+    rank = {name: index for index, name in enumerate(SLOWEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
 # XLA compiles the JAX tests' programs with LLVM's cheap passes: the UR5's traced batch of
 # ``linearize`` compiles in 10 s instead of 35 s and runs in milliseconds either way. The tests
 # compare values, never speed (benchmarks/ measure that, with XLA's defaults). Set before any
@@ -84,6 +102,7 @@ def acceleration_scale(module, q, qd, u) -> float:
     return float(np.max(np.abs(np.linalg.solve(mass, rhs[..., None])), initial=0.0))
 
 
+@cache
 def derivation_of(robot: str):
     """Derivation of a bundled robot (cached across tests)."""
     return dynderive.derive(dynderive.load_robot(robot))

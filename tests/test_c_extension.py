@@ -21,7 +21,6 @@ import importlib.util
 import inspect
 import json
 import os
-import random
 import re
 import shutil
 import subprocess
@@ -46,7 +45,6 @@ from conftest import (
     derivation_of,
     import_code,
     module_of,
-    random_tree_derivation,
     stable_seed,
 )
 
@@ -104,9 +102,10 @@ def _close(actual, expected, what: str, rtol: float = RTOL, terms: float = 0.0) 
     assert np.all(np.isfinite(actual)) and error <= rtol * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
 
 
-def _agree(ext, module, seed: int, parameters: dict | None = None, smoothing: float | None = None) -> None:
+def _broadcast_agree(ext, module, seed: int, parameters: dict | None = None, smoothing: float | None = None) -> None:
     """Every function of the extension against the NumPy module, one state and a batch whose
-    arguments broadcast ((4, 3, n) with (3, n) and (n,))."""
+    arguments broadcast ((4, 3, n) with (3, n) and (n,)), each result of the NumPy module's type
+    (the binding's broadcasting; the values of every robot class: ``test_targets_agree.py``)."""
     rng = np.random.default_rng(seed)
     n, nu = len(module.COORDINATES), len(module.EFFORTS)
     kwargs = dict(parameters or {})
@@ -144,15 +143,6 @@ def _agree(ext, module, seed: int, parameters: dict | None = None, smoothing: fl
                    f"forward_dynamics wrenches {batch}")
 
 
-BUNDLED = ["rp_arm", "planar_3r", "cart_pole_damped", "elbow_arm", "mass_spring_damper", "panda", "ur5"]
-
-
-@pytest.mark.parametrize("robot", BUNDLED)
-def test_bundled_robot_agrees_with_numpy(robot, compiled):
-    ext, module = compiled(robot)
-    _agree(ext, module, seed=stable_seed(robot))
-
-
 def test_constants_and_signatures_are_the_numpy_modules(compiled):
     for robot in ("planar_3r", "cart_pole_damped"):
         ext, module = compiled(robot)
@@ -179,28 +169,10 @@ def test_keyword_parameters_and_smoothing(compiled):
     ext, module = compiled("cart_pole_damped")
     rng = np.random.default_rng(4)
     values = {k: v * (1 + rng.uniform(0.1, 0.5)) for k, v in module.PARAMETERS.items()}
-    _agree(ext, module, seed=5, parameters=values, smoothing=0.05)
-    _agree(ext, module, seed=6, parameters={"mp": 0.3, "fc": 0.4}, smoothing=0.0)
+    _broadcast_agree(ext, module, seed=5, parameters=values, smoothing=0.05)
+    _broadcast_agree(ext, module, seed=6, parameters={"mp": 0.3, "fc": 0.4}, smoothing=0.0)
     qd = np.array([0.02, -0.04])
     assert not np.allclose(ext.friction_forces(qd, friction_smoothing=0.05), ext.friction_forces(qd))
-
-
-def test_random_planar_trees(tmp_path, code_dir):
-    """Three coordinates: the explicit M, C, N, V; five: the programs."""
-    for seed, joints in ((11, 3), (13, 5)):
-        derivation, module = random_tree_derivation(seed, joints, str(code_dir))
-        _agree(_load(derivation, tmp_path / str(seed)), module, seed=seed)
-
-
-def test_random_spatial_tree(tmp_path):
-    from random_robots3d import random_spatial_tree
-
-    tree = random_spatial_tree(random.Random(21), 4)
-    path = tmp_path / "random_spatial.yaml"
-    path.write_text(tree.yaml_text)
-    derivation = dynderive.derive(dynderive.load_robot(path))
-    module = import_code(dynderive.render_code(derivation), tmp_path, "random_spatial_21_dynamics")
-    _agree(_load(derivation, tmp_path / "ext"), module, seed=21)
 
 
 def test_errors_are_the_numpy_modules(compiled):
@@ -345,7 +317,7 @@ def test_robot_without_efforts_and_parameter_without_default(tmp_path):
     derivation = dynderive.derive(dynderive.load_robot(path))
     assert not derivation.robot.efforts
     module = import_code(dynderive.render_code(derivation), tmp_path, "passive_pendulum_dynamics")
-    _agree(_load(derivation, tmp_path / "passive"), module, seed=9)
+    _broadcast_agree(_load(derivation, tmp_path / "passive"), module, seed=9)
     path = tmp_path / "rp_arm.yaml"
     path.write_text((ROBOTS / "rp_arm.yaml").read_text().replace("m: {value: 1.0, unit: kg,", "m: {unit: kg,"))
     derivation = dynderive.derive(dynderive.load_robot(path))
@@ -355,7 +327,7 @@ def test_robot_without_efforts_and_parameter_without_default(tmp_path):
     for m in (module, ext):
         with pytest.raises(TypeError, match="missing 1 required keyword-only argument: 'm'"):
             m.mass_matrix(np.zeros(2))
-    _agree(ext, module, seed=10, parameters={"m": 2.5})
+    _broadcast_agree(ext, module, seed=10, parameters={"m": 2.5})
 
 
 def test_no_python_headers_is_exit_2(tmp_path, monkeypatch):
@@ -568,7 +540,7 @@ def _close_floating(actual, expected, what: str) -> None:
     assert np.all(np.isfinite(actual)) and error <= RTOL * scale, f"{what}: error {error:.3g} at scale {scale:.3g}"
 
 
-def _agree_floating(ext, module, robot, seed: int, values: dict | None = None) -> None:
+def _broadcast_agree_floating(ext, module, robot, seed: int, values: dict | None = None) -> None:
     """Every function of the extension against the NumPy module, one state and a batch whose
     arguments broadcast ((4, 3, size) with (3, size) and (size,)), at random unit quaternions."""
     rng = np.random.default_rng(seed)
@@ -601,29 +573,9 @@ def _agree_floating(ext, module, robot, seed: int, values: dict | None = None) -
                 assert type(got) is type(want), f"{name}: {type(got)} != {type(want)}"
 
 
-@pytest.mark.pinocchio
-def test_solo12_agrees_with_the_numpy_module(compiled_floating):
-    from test_free_flyer import _example_robot
-
-    path = _example_robot("solo_description/robots/solo12.urdf")
-    ext, module, robot = compiled_floating("solo12", path)
-    assert (ext.NQ, ext.NV, len(ext.FRAMES)) == (19, 18, len(module.FRAMES))
-    _agree_floating(ext, module, robot, seed=1)
-
-
-@pytest.mark.parametrize("floating", [False, True])
-def test_random_trees_with_spherical_joints_agree_with_the_numpy_module(floating, compiled_floating):
-    from test_spherical import _tree as _spherical_tree
-
-    ext, module, robot = compiled_floating(f"spherical_{floating}", _spherical_tree(7, floating))
-    assert any(j.type == "spherical" for j in robot.joints)
-    assert any(j.type == "floating" for j in robot.joints) == floating
-    _agree_floating(ext, module, robot, seed=7)
-
-
 def test_keyword_parameters_constants_and_signatures(compiled_floating):
     ext, module, robot = compiled_floating("box", _framed())
-    _agree_floating(ext, module, robot, seed=5, values={"m": 2.5, "g": 9.7})
+    _broadcast_agree_floating(ext, module, robot, seed=5, values={"m": 2.5, "g": 9.7})
     for constant in ("NQ", "NV", "COORDINATES", "VELOCITIES", "EFFORTS", "FRAMES", "PARAMETERS", "PARAMETER_VECTOR"):
         assert getattr(ext, constant) == getattr(module, constant), constant
     functions = sorted(n for n, v in vars(module).items() if inspect.isfunction(v) and not n.startswith("_"))
@@ -690,7 +642,7 @@ def test_hostile_text_stays_out_of_the_binding_and_the_c(tmp_path, compiled_floa
                                                              for line in c_text.splitlines())
     ext = _load(derivation, tmp_path / "ext")
     _, module, robot = compiled_floating("box", _framed())
-    _agree_floating(ext, module, robot, seed=9)
+    _broadcast_agree_floating(ext, module, robot, seed=9)
 
 
 def _write(folder: Path, text: str) -> Path:
@@ -726,8 +678,10 @@ def test_solve_build_and_check_on_the_command_line(tmp_path):
     result = runner.invoke(app, ["check", str(path), "--backend", "c", "--states", "3", "--json", "-q"])
     rows = {r["name"]: r["status"] for r in json.loads(result.stdout)["checks"]}
     compiled_rows = [n for n in rows if n.startswith("compiled ")]
-    # 21 functions, 9 centroidal and the two contact functions (the box declares no contacts: forward dynamics)
-    assert len(compiled_rows) == 32 and all(rows[n] == "pass" for n in compiled_rows)
+    # 21 functions, 9 centroidal, the two contact functions (the box declares no contacts: forward dynamics)
+    # and inverse and forward dynamics with a wrench at every frame
+    assert len(compiled_rows) == 33 and all(rows[n] == "pass" for n in compiled_rows)
+    assert rows["compiled forward_dynamics with wrenches at every frame == NumPy module"] == "pass"
 
 
 def test_failing_compiler_on_a_floating_robot_keeps_the_other_outputs_and_the_log(tmp_path, monkeypatch):

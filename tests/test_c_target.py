@@ -117,7 +117,10 @@ def _close(actual, expected, what: str, terms: float = 0.0) -> None:
 
 
 def _agree(library: Library, module, seed: int, states: int = 4, parameters: dict | None = None) -> None:
-    """Every C function against the NumPy module at random full-precision states."""
+    """Every C function through ctypes (the parameters struct, the status codes, a frame index
+    out of range) against the NumPy module at random full-precision states, the library compiled
+    as strict C99 and C++ with no diagnostic (the C target's own checks; the values of every
+    robot class through the extension: ``test_targets_agree.py``)."""
     rng = np.random.default_rng(seed)
     n, nu = library.n, library.nu
     kwargs = parameters or {}

@@ -12,7 +12,6 @@ Skipped without ``casadi`` (it is in the ``test`` extra); required in CI.
 from __future__ import annotations
 
 import ast
-import inspect
 import os
 import re
 import shutil
@@ -31,6 +30,7 @@ else:
 import dynderive  # noqa: E402
 from dynderive.render import api  # noqa: E402
 from dynderive.render.targets.casadi.casadi import render_casadi  # noqa: E402
+from dynderive.verify.compiled import CasadiModule, compiled_checks  # noqa: E402
 
 from conftest import (  # noqa: E402
     ROBOTS,
@@ -39,12 +39,9 @@ from conftest import (  # noqa: E402
     import_code,
     module_of,
     on_loops,
-    random_tree_derivation,
-    stable_seed,
 )
 
 RTOL = 1e-12
-BUNDLED = ["rp_arm", "elbow_arm", "cart_pole_damped", "four_bar", "ur5"]
 FLOATING = ROOT / "tests" / "floating_elbow.urdf"
 
 
@@ -73,17 +70,6 @@ def _close(actual, expected, what: str, rtol: float = RTOL) -> None:
     )
 
 
-def _public(module) -> list[str]:
-    return sorted(
-        name
-        for name, value in vars(module).items()
-        if callable(value)
-        and not name.startswith("_")
-        and inspect.isfunction(value)
-        and value.__module__ == module.__name__
-    )
-
-
 def _states(numpy_module, rng, count: int) -> dict:
     """``count`` states by argument name (a loop robot's on its loops, a floating robot's unit
     quaternions)."""
@@ -105,86 +91,6 @@ def _states(numpy_module, rng, count: int) -> dict:
         size = len(numpy_module.MAXIMAL_COORDINATES)
         state |= {"qm": rng.uniform(-1, 1, (count, size)), "qmd": rng.normal(size=(count, size))}
     return state
-
-
-def _inputs(function, args: list, p, smoothing: float) -> list:
-    """The Function's inputs: the state's arrays, then p and the scalar options by name."""
-    extra = {"p": p, "friction_smoothing": smoothing, "alpha": 0.0, "beta": 0.0}
-    names = function.name_in()
-    return list(args) + [extra[n] for n in names[len(args) :]]
-
-
-def _agree(numpy_module, casadi_module, seed: int, count: int = 2, smoothing: float = 0.0, **values) -> int:
-    """Every public function of the NumPy module (but ``assemble``) at ``count`` states against the
-    CasADi Function of the same name, parameters ``values`` (the defaults for the others)."""
-    for constant in ("PARAMETERS", "COORDINATES", "EFFORTS", "FRAMES", "PARAMETER_VECTOR"):
-        assert getattr(numpy_module, constant) == getattr(casadi_module, constant)
-    parameters = numpy_module.PARAMETERS | values
-    p = np.array([parameters[name] for name in casadi_module.PARAMETER_NAMES])
-    _close(
-        casadi_module.default_parameters(),
-        [numpy_module.PARAMETERS[n] for n in casadi_module.PARAMETER_NAMES],
-        "default_parameters",
-    )
-    state = _states(numpy_module, np.random.default_rng(seed), count)
-    compared = 0
-    for name in _public(numpy_module):
-        if name == "assemble" or name in api.group("contacts"):   # contacts: a Function per set (test_contacts)
-            continue
-        numpy_function = getattr(numpy_module, name)
-        signature = inspect.signature(numpy_function).parameters
-        positional = list(api.BY_NAME[name].arguments)
-        keywords = {
-            k: v for k, v in (parameters | {"friction_smoothing": smoothing}).items() if k in signature
-        }
-        frames = list(numpy_module.FRAMES) if "frame" in positional else [None]
-        for frame in frames:
-            function = getattr(casadi_module, name) if frame is None else getattr(casadi_module, name)(frame)
-            assert isinstance(function, casadi.Function), name
-            for index in range(count):
-                args = [state[a][index] for a in positional if a != "frame"] + ([frame] if frame else [])
-                expected = numpy_function(*args, **keywords)
-                actual = function(
-                    *_inputs(function, [a for a in args if not isinstance(a, str)], p, smoothing)
-                )
-                expected, actual = (
-                    (expected, actual) if isinstance(expected, tuple) else ((expected,), (actual,))
-                )
-                for e, a in zip(expected, actual):
-                    _close(np.array(a), e, f"{name} {frame or ''}")
-            compared += 1
-    assert compared >= 12
-    return compared
-
-
-@pytest.mark.parametrize("robot", BUNDLED)
-def test_bundled_robot_agrees_with_numpy(robot, code_dir):
-    _agree(module_of(robot, str(code_dir)), casadi_module_of(robot, str(code_dir)), seed=stable_seed(robot))
-
-
-def test_smoothed_friction_and_other_parameters_agree(code_dir):
-    numpy_module = module_of("cart_pole_damped", str(code_dir))
-    values = {k: v * 1.3 for k, v in numpy_module.PARAMETERS.items()}
-    _agree(
-        numpy_module, casadi_module_of("cart_pole_damped", str(code_dir)), seed=5, smoothing=0.05, **values
-    )
-
-
-def test_random_tree_with_full_precision_numbers(code_dir):
-    derivation, module = random_tree_derivation(11, 3, str(code_dir))
-    folder = code_dir / "random_tree_11_3"
-    _agree(
-        module, import_code(render_casadi(derivation), folder, "random_tree_11_3_dynamics_casadi"), seed=11
-    )
-
-
-def test_free_flyer_agrees_with_numpy(code_dir):
-    numpy_module, casadi_module = floating_modules(str(code_dir))
-    assert casadi_module.NQ == casadi_module.NV + 1
-    _agree(numpy_module, casadi_module, seed=3)
-    _close(
-        casadi_module.neutral_configuration(), numpy_module.neutral_configuration(), "neutral_configuration"
-    )
 
 
 #: A floating base with a spherical joint (two quaternions: NQ = NV + 2), as in test_joint_types.py.
@@ -209,14 +115,13 @@ joints:
 """
 
 
-def test_spherical_joint_agrees_with_numpy(tmp_path):
+def test_spherical_joint_derivatives(tmp_path):
     path = tmp_path / "ball_arm.yaml"
     path.write_text(BALL_ARM)
     derivation = dynderive.derive(dynderive.load_robot(path))
     numpy_module = import_code(dynderive.render_code(derivation), tmp_path, "ball_arm_dynamics")
     casadi_module = import_code(render_casadi(derivation), tmp_path, "ball_arm_dynamics_casadi")
     assert casadi_module.NQ == casadi_module.NV + 2
-    _agree(numpy_module, casadi_module, seed=8)
     _derivatives_agree(numpy_module, casadi_module, seed=9)
 
 
@@ -374,8 +279,9 @@ def test_hostile_text_and_names(tmp_path):
         and HOSTILE in docstring.split("m1 [kg]: ")[1]
     )
     module = import_code(source, tmp_path, "hostile_dynamics_casadi")
-    numpy_module = import_code(dynderive.render_code(derivation), tmp_path, "hostile_dynamics")
-    _agree(numpy_module, module, seed=2)
+    rows = compiled_checks(derivation, dynderive.render_code(derivation), CasadiModule(module), states=2, seed=2,
+                           label="CasADi", target="casadi")
+    assert [row.name for row in rows if row.status != "pass"] == [] and len(rows) >= 12
     bad = tmp_path / "bad"
     bad.mkdir()
     (bad / "elbow_arm.yaml").write_text(
@@ -463,9 +369,11 @@ def _check_rows(robot: str) -> dict[str, str]:
 
 def test_check_backend_casadi_rp_arm():
     """Every Function of rp_arm's CasADi module, called with column vectors and the vector p,
-    gives the NumPy module's numbers: one pass row per function of the API table, none missing."""
+    gives the NumPy module's numbers: one pass row per function of the API table (a planar
+    robot's maximal form too), none missing."""
     rows = _check_rows(str(ROBOTS / "rp_arm.yaml"))
-    names = [f.name for f in api.API if f.group == "dynamics"]
+    names = [f.name for f in api.API if f.group in ("dynamics", "maximal")
+             and f.name != "maximal_friction_forces"]   # no friction: the NumPy module has none either
     assert rows == {f"CasADi {name} == NumPy module": "pass" for name in names}
 
 
@@ -477,11 +385,13 @@ def test_check_backend_casadi_frames_loops_floating():
     assert rows["CasADi frame_jacobian (frame wrist) == NumPy module"] == "pass"
     assert rows["CasADi inverse_dynamics with wrenches at every frame == NumPy module"] == "pass"
     assert rows["CasADi centroidal_momentum_matrix == NumPy module"] == "pass"
-    assert all(status == "pass" for status in rows.values()) and len(rows) == 29   # 9 centroidal, 2 contacts
+    assert rows["CasADi forward_dynamics with wrenches at every frame == NumPy module"] == "pass"
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 30   # 9 centroidal, 2 contacts
     rows = _check_rows("four_bar")
     assert rows.pop("CasADi not built: assemble") == "skip"
     assert rows["CasADi reduced_forward_dynamics == NumPy module"] == "pass"
-    assert all(status == "pass" for status in rows.values()) and len(rows) == 20
+    assert rows["CasADi maximal_forward_dynamics == NumPy module"] == "pass"
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 20 + 13   # the maximal form's 13
     rows = _check_rows(str(FLOATING))
     assert rows["CasADi integrate == NumPy module"] == "pass"
     assert rows["CasADi difference == NumPy module"] == "pass"

@@ -2,7 +2,7 @@
 ``<name>_constrained_forward_dynamics`` and ``<name>_impulse_dynamics`` through ctypes, and the
 extension's ``constrained_forward_dynamics`` and ``impulse_dynamics``, equal to the NumPy module's
 to 1e-12 relative at random full-precision states: a random floating tree with a surface and a
-point contact (the robot file's CONTACTS), a random fixed-base tree, and solo12 on its four feet;
+point contact (the robot file's CONTACTS) and a random fixed-base tree;
 with Baumgarte gains and anchors, impacts with restitution; the C functions' return codes
 (redundant contacts, bad counts, frames and kinds, kp without anchors), the extension's errors and
 check --backend c's rows for them.
@@ -156,9 +156,10 @@ def _anchors(module, q, held, rng):
     return anchors
 
 
+#: A floating and a fixed tree (solo12 on its four feet: the NumPy module against Pinocchio in
+#: ``test_contacts.py``, its C compiled strictly in ``test_c_target.py``).
 CASES = [("floating_10", [("sole", "surface"), ("toe", "point")]),
-         ("fixed_6", [("toe", "point")]),
-         ("solo12", [(f, "point") for f in ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")])]
+         ("fixed_6", [("toe", "point")])]
 
 
 @pytest.mark.parametrize("name, held", CASES, ids=[c[0] for c in CASES])

@@ -5,9 +5,10 @@ The NumPy module against Pinocchio's ``computeRNEADerivatives`` and ``computeABA
 elbow URDF, a free box with an arm), in Pinocchio's order and on its tangent space;
 the drives' slope against central differences of ``inverse_dynamics`` (exact and smoothed
 sign); ``forward_dynamics_derivatives`` equal to ``linearize``'s lower blocks, bit for bit.
-Then the C target, its extension, MATLAB (Octave) and JAX against the NumPy module (to 1e-12;
-Octave's solve of the forward derivatives to linearize's 1e-10) on a fixed robot with drives,
-a closed loop and a floating robot with drives.
+Then the C target (through ctypes: its struct and status codes) and MATLAB (Octave) against the
+NumPy module (to 1e-12; Octave's solve of the forward derivatives to linearize's 1e-10) on a
+fixed robot with drives, a closed loop and a floating robot with drives (the loaded targets,
+the extension and JAX among them, for every robot class: ``test_targets_agree.py``).
 """
 
 from __future__ import annotations
@@ -213,22 +214,6 @@ def _calls(module):
 
 
 @pytest.mark.parametrize("key", TARGET_ROBOTS)
-def test_jax_is_the_numpy_modules(key):
-    jax = pytest.importorskip("jax")
-    jax.config.update("jax_enable_x64", True)   # as the JAX target's own tests: double precision
-    from dynderive.render.targets.jax.jax import render_jax
-
-    derivation, module = _derived(key)
-    jax_module = import_code(render_jax(derivation), Path(_folder()) / key, f"derivatives_{key}_jax")
-    for name, args, keywords in _calls(module):
-        want = getattr(module, name)(*args, **keywords)
-        got = getattr(jax_module, name)(*args, **keywords)
-        assert len(got) == len(want)
-        for k, (g, w) in enumerate(zip(got, want)):
-            _close(g, w, f"{key} {name}[{k}] {keywords}")
-
-
-@pytest.mark.parametrize("key", TARGET_ROBOTS)
 def test_c_is_the_numpy_modules(key, tmp_path):
     if not (shutil.which("gcc") or shutil.which("cc")):
         pytest.skip("no C compiler")
@@ -251,26 +236,21 @@ def test_c_is_the_numpy_modules(key, tmp_path):
                 _close(part.reshape(w[state].shape), w[state], f"{key} C {name}[{k}] {keywords}")
 
 
-@pytest.mark.parametrize("key", TARGET_ROBOTS)
-def test_c_extension_is_the_numpy_modules(key, tmp_path):
+def test_c_extension_propagates_nan_and_refuses_a_negative_smoothing(tmp_path):
+    """The extension's derivative functions (their values for every robot class:
+    ``test_targets_agree.py``): NaN in, NaN out; a negative ``friction_smoothing`` refused."""
     from test_c_extension import _load
 
-    derivation, module = _derived(key)
+    derivation, module = _derived("rough_tree")
     try:
         ext = _load(derivation, tmp_path)
     except Exception as exc:   # no compiler or no Python headers: the extension's own tests say which
         pytest.skip(f"the extension cannot be built here: {exc}")
-    for name, args, keywords in _calls(module):
-        for index in (slice(None), 0):
-            want = getattr(module, name)(*(a[index] for a in args), **keywords)
-            got = getattr(ext, name)(*(a[index] for a in args), **keywords)
-            assert isinstance(got, tuple) and len(got) == len(want)
-            for k, (g, w) in enumerate(zip(got, want)):
-                _close(g, w, f"{key} extension {name}[{k}] {keywords}")
-    assert np.all(np.isnan(ext.forward_dynamics_derivatives(np.full(len(args[0][0]), np.nan), args[1][0])[0]))
-    if derivation.robot.dissipative:
-        with pytest.raises(ValueError, match="friction_smoothing"):
-            ext.inverse_dynamics_derivatives(args[0][0], args[1][0], args[1][0], friction_smoothing=-1.0)
+    q, qd, _, _ = _states(module, 17)
+    assert np.all(np.isnan(ext.forward_dynamics_derivatives(np.full(len(q[0]), np.nan), qd[0])[0]))
+    assert derivation.robot.dissipative
+    with pytest.raises(ValueError, match="friction_smoothing"):
+        ext.inverse_dynamics_derivatives(q[0], qd[0], qd[0], friction_smoothing=-1.0)
 
 
 @pytest.mark.parametrize("key", TARGET_ROBOTS)

@@ -25,7 +25,6 @@ import ast
 import importlib.metadata
 import inspect
 import os
-import random
 import re
 from functools import cache
 from pathlib import Path
@@ -45,11 +44,11 @@ import dynderive  # noqa: E402
 from dynderive.commands.cli import app  # noqa: E402
 from dynderive.render.targets.jax.jax import render_jax  # noqa: E402
 from dynderive.render.targets.numpy.code import render_code  # noqa: E402
+from dynderive.verify.compiled import compiled_checks  # noqa: E402
 
-from conftest import ROBOTS, derivation_of, import_code, module_of, on_loops, random_tree_derivation  # noqa: E402
+from conftest import ROBOTS, derivation_of, import_code, module_of, on_loops  # noqa: E402
 
 RTOL = 1e-12
-BUNDLED = sorted(p.stem for p in ROBOTS.glob("*.yaml")) + ["ur5"]
 
 
 @cache
@@ -98,9 +97,9 @@ def _traced(function, args: list, extra: dict):
     return jax.jit(call)(*arrays)
 
 
-def _agree(numpy_module, jax_module, seed: int, count: int = 3, traced: bool = False, **kwargs) -> None:
+def _agree_traced(numpy_module, jax_module, seed: int, count: int, **kwargs) -> None:
     """Every public function of the NumPy module, called on a batch of states, against the JAX
-    one (under ``jax.jit`` when ``traced``)."""
+    one under ``jax.jit`` (eager calls: ``test_targets_agree.py``)."""
     assert _public(numpy_module) == _public(jax_module)
     for constant in ("PARAMETERS", "COORDINATES", "EFFORTS", "FRAMES", "PARAMETER_VECTOR"):
         assert getattr(numpy_module, constant) == getattr(jax_module, constant)
@@ -115,8 +114,7 @@ def _agree(numpy_module, jax_module, seed: int, count: int = 3, traced: bool = F
         for call in _arguments(numpy_module, name, state):
             extra = {k: v for k, v in kwargs.items() if k in inspect.signature(getattr(numpy_module, name)).parameters}
             expected = getattr(numpy_module, name)(*call["args"], **extra)
-            actual = (_traced(getattr(jax_module, name), call["args"], extra) if traced
-                      else getattr(jax_module, name)(*call["args"], **extra))
+            actual = _traced(getattr(jax_module, name), call["args"], extra)
             expected, actual = (expected, actual) if isinstance(expected, tuple) else ((expected,), (actual,))
             for e, a in zip(expected, actual):
                 frames = [a for a in call["args"] if isinstance(a, str)]
@@ -128,36 +126,6 @@ def _agree(numpy_module, jax_module, seed: int, count: int = 3, traced: bool = F
         for name, args in (("inverse_dynamics", (q, qd, qdd)), ("forward_dynamics", (q, qd, u))):
             _close(getattr(jax_module, name)(*args, {frame: wrench}), getattr(numpy_module, name)(*args, {frame: wrench}),
                    f"{name} with a wrench at {frame}")
-
-
-@pytest.mark.parametrize("robot", BUNDLED)
-def test_bundled_robot_agrees_with_numpy(robot, code_dir):
-    _agree(module_of(robot, str(code_dir)), jax_module_of(robot, str(code_dir)), seed=len(robot))
-
-
-def test_smoothed_friction_and_other_parameters_agree(code_dir):
-    numpy_module, jax_module = module_of("cart_pole_damped", str(code_dir)), jax_module_of("cart_pole_damped", str(code_dir))
-    values = {k: v * 1.3 for k, v in numpy_module.PARAMETERS.items()}
-    _agree(numpy_module, jax_module, seed=5, friction_smoothing=0.05, **values)
-
-
-@pytest.mark.parametrize("seed, joints", [(11, 3), (13, 5)])
-def test_random_planar_tree(seed, joints, code_dir):
-    derivation, module = random_tree_derivation(seed, joints, str(code_dir))
-    folder = code_dir / f"random_tree_{seed}_{joints}"
-    _agree(module, import_code(render_jax(derivation), folder, f"random_tree_{seed}_{joints}_dynamics_jax"), seed)
-
-
-@pytest.mark.parametrize("seed", [21])
-def test_random_spatial_tree(seed, tmp_path):
-    from random_robots3d import random_spatial_tree
-
-    tree = random_spatial_tree(random.Random(seed), 4)
-    path = tmp_path / "random_spatial.yaml"
-    path.write_text(tree.yaml_text)
-    derivation = dynderive.derive(dynderive.load_robot(path))
-    module = import_code(dynderive.render_code(derivation), tmp_path, f"random_spatial_{seed}_dynamics")
-    _agree(module, import_code(render_jax(derivation), tmp_path, f"random_spatial_{seed}_dynamics_jax"), seed)
 
 
 TRANSFORMS = ["rp_arm", "cart_pole_damped", "four_bar", "ur5"]
@@ -221,11 +189,11 @@ def test_large_batches_hold_values_and_agree(robot, code_dir, monkeypatch):
     assert loops(jax.vmap(forward), q, qd, u) == held
     mapped = jax.jit(jax.vmap(forward))
     _close(mapped(q, qd, u), numpy_module.forward_dynamics(q, qd, u), "jit(vmap) of a held batch")
+    _agree_traced(numpy_module, jax_module, seed=9, count=count)
     weights = np.random.default_rng(11).normal(size=(count, n := len(numpy_module.COORDINATES)))
     A, _ = numpy_module.linearize(q, qd, u)
     gradient = jax.jit(jax.vmap(jax.grad(lambda x, v, w, c: jnp.sum(c * forward(x, v, w)), argnums=1)))(q, qd, u, weights)
     _close(gradient, np.einsum("si,sij->sj", weights, A[:, n:, n:]), "vmap(grad) of a held batch", 1e-9)
-    _agree(numpy_module, jax_module, seed=9, count=count, traced=True)
     dq = np.random.default_rng(10).normal(size=(count, n))
     _, tangent = jax.jit(lambda x, v: jax.jvp(lambda y: forward(y, v, u), (x,), (dq,)))(q, qd)
     _close(tangent, np.einsum("sij,sj->si", A[:, n:, :n], dq), "jvp of a held batch", 1e-9)
@@ -343,9 +311,10 @@ def test_hostile_text_and_names(tmp_path):
     source = render_jax(derivation)
     assert ast.get_docstring(ast.parse(source), clean=False).startswith(f"Equations of motion of {HOSTILE} ")
     module = import_code(source, tmp_path, "hostile_dynamics_jax")
-    numpy_module = import_code(dynderive.render_code(derivation), tmp_path, "hostile_dynamics")
     assert "jnp" in module.PARAMETERS and "jax" in module.PARAMETERS
-    _agree(numpy_module, module, seed=2, jnp=1.7, jax=0.8)
+    rows = compiled_checks(derivation, dynderive.render_code(derivation), module, states=3, seed=2, label="JAX",
+                           target="jax", values={"jnp": 1.7, "jax": 0.8})
+    assert [row.name for row in rows if row.status != "pass"] == [] and len(rows) >= 12
 
 
 def test_solve_and_build_write_the_module(tmp_path):
@@ -363,7 +332,7 @@ def test_solve_and_build_write_the_module(tmp_path):
     assert result.exit_code == 0 and "current" in result.output, result.output
 
 
-def test_check_backend_jax_and_simulate_refuses_it():
+def test_check_backend_jax():
     from typer.testing import CliRunner
 
     from dynderive.commands.cli import app
@@ -373,8 +342,6 @@ def test_check_backend_jax_and_simulate_refuses_it():
     rows = [line for line in result.output.splitlines() if line.startswith("JAX ")]
     assert len(rows) >= 11 and all(" pass " in line for line in rows)
     assert any("friction_smoothing" in line for line in rows)
-    result = CliRunner().invoke(app, ["simulate", "rp_arm", "--backend", "jax", "--quiet"])
-    assert result.exit_code == 2 and result.output.startswith("--backend:1:1: ")
 
 
 # -- floating base and spherical joints ------------------------------------------------------------
@@ -463,9 +430,9 @@ def _calls(module, name: str, state: dict) -> list[list]:
     return [args + [frame] for frame in module.FRAMES] if "frame" in positional else [args]
 
 
-def _agree_floating(numpy_module, jax_module, seed: int, count: int = 3, traced: bool = False) -> int:
+def _agree_floating_traced(numpy_module, jax_module, seed: int, count: int) -> int:
     """Every public function of the NumPy module against the JAX one on a batch of states
-    (under ``jax.jit`` when ``traced``); the number of calls compared."""
+    under ``jax.jit``; the number of calls compared."""
     assert _public(numpy_module) == _public(jax_module)
     for constant in ("PARAMETERS", "COORDINATES", "VELOCITIES", "EFFORTS", "FRAMES", "PARAMETER_VECTOR", "NQ", "NV",
                      "EFFORT_COLUMNS"):
@@ -476,25 +443,12 @@ def _agree_floating(numpy_module, jax_module, seed: int, count: int = 3, traced:
         for args in _calls(numpy_module, name, state):
             expected = getattr(numpy_module, name)(*args)
             function = getattr(jax_module, name)
-            actual = _traced(function, args, {}) if traced else function(*args)
+            actual = _traced(function, args, {})
             expected, actual = (expected, actual) if isinstance(expected, tuple) else ((expected,), (actual,))
             for e, a in zip(expected, actual, strict=True):
                 _close(a, e, f"{name} {[a for a in args if isinstance(a, str)]}")
             compared += 1
     return compared
-
-
-def test_solo12_agrees_with_numpy(folder):
-    numpy_module, jax_module = _modules("solo12", folder)
-    assert (jax_module.NQ, jax_module.NV) == (19, 18) and jax_module.FRAMES
-    assert _agree_floating(numpy_module, jax_module, seed=12) >= 17 + 3 * (len(jax_module.FRAMES) - 1)
-
-
-@pytest.mark.parametrize("robot", ["tree", "box", "spherical"])
-def test_small_robots_agree_with_numpy(robot, folder):
-    """Eagerly here; under ``jax.jit`` in ``test_large_traced_batch_holds_values_and_agrees``."""
-    numpy_module, jax_module = _modules(robot, folder)
-    assert _agree_floating(numpy_module, jax_module, seed=3) >= 14
 
 
 def test_jit_vmap_and_parameters(folder):
@@ -600,7 +554,7 @@ def test_large_traced_batch_holds_values_and_agrees(folder):
         return jax.jit(forward).lower(*arguments).as_text().count("stablehlo.while")
 
     assert loops(q, qd, u) > loops(q[:4], qd[:4], u[:4]) == 0
-    assert _agree_floating(numpy_module, jax_module, seed=10, count=count, traced=True) >= 14
+    assert _agree_floating_traced(numpy_module, jax_module, seed=10, count=count) >= 14
     nv = jax_module.NV
     A, _ = numpy_module.linearize(q, qd, u)
     weights = np.random.default_rng(11).normal(size=(count, nv))
@@ -664,7 +618,8 @@ def test_solve_build_and_check_write_and_check_the_module(tmp_path):
 
     rows = {row["name"]: row["status"] for row in json.loads(result.stdout)["checks"]}
     jax_rows = [name for name in rows if name.startswith("JAX ")]
-    assert len(jax_rows) == 31 and all(rows[name] == "pass" for name in jax_rows)   # 9 centroidal, 2 contacts
+    assert len(jax_rows) == 33 and all(rows[name] == "pass" for name in jax_rows)   # 9 centroidal, 2 contacts, 2 wrenches
+    assert rows["JAX forward_dynamics with wrenches at every frame == NumPy module"] == "pass"
     assert "JAX frame_jacobian (frame tip) == NumPy module" in rows and "JAX integrate == NumPy module" in rows
 
 

@@ -41,22 +41,34 @@ def compiled_backend(derivation: Any, source: str, progress: Callable[[str], Non
 
 
 def jax_backend(derivation: Any, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:
-    """The JAX target's harness: the JAX module against the NumPy module ``source`` at random
-    states, in float64 (``jax_enable_x64`` is switched on for this process): the compiled
-    extension's comparison (``compiled.py``), for a robot with quaternions ``floating_rows``."""
+    """The JAX target's harness: the JAX module (``jax_module``, float64) against the NumPy
+    module ``source`` at random states: the compiled extension's comparison (``compiled.py``)."""
     progress("checking the JAX module")
+    from .compiled import compiled_checks
+
+    return compiled_checks(derivation, source, jax_module(derivation), states=states, label="JAX", target="jax")
+
+
+def jax_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
+    """``simulate --backend jax``: the JAX module of ``derivation``'s robot, imported, in float64
+    (``jax_enable_x64`` is switched on for this process: the NumPy module's precision)."""
     import jax
 
     from ..render.targets.jax.jax import render_jax
     from .checks import generated_module
-    from .compiled import compiled_checks, floating_rows
 
     jax.config.update("jax_enable_x64", True)
-    robot = derivation.robot
-    module = generated_module(render_jax(derivation), f"{robot.name}_jax")
-    if robot.floating:
-        return floating_rows(generated_module(source, robot.name), module, robot, "JAX", states)
-    return compiled_checks(derivation, source, module, states=states, label="JAX", target="jax")
+    return generated_module(render_jax(derivation), f"{derivation.robot.name}_jax")
+
+
+def casadi_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
+    """``simulate --backend casadi``: the CasADi module of ``derivation``'s robot behind the NumPy
+    module's calling convention (``compiled.CasadiModule``)."""
+    from ..render.targets.casadi.casadi import render_casadi
+    from .checks import generated_module
+    from .compiled import CasadiModule
+
+    return CasadiModule(generated_module(render_casadi(derivation), f"{derivation.robot.name}_casadi"))
 
 
 def require_casadi() -> None:
@@ -74,32 +86,22 @@ def casadi_backend(derivation: Any, source: str, progress: Callable[[str], None]
                    states: int = 12) -> list[Row]:
     """The CasADi target's harness: each ``casadi.Function`` of the CasADi module against the
     NumPy module ``source`` at random states (``compiled.CasadiModule`` calls it as the NumPy
-    module is called), for a robot with quaternions ``floating_rows``."""
+    module is called): the compiled extension's comparison (``compiled.py``)."""
     progress("checking the CasADi module")
-    from ..render.targets.casadi.casadi import render_casadi
-    from .checks import generated_module
-    from .compiled import CasadiModule, compiled_checks, floating_rows
+    from .compiled import compiled_checks
 
-    robot = derivation.robot
-    module = CasadiModule(generated_module(render_casadi(derivation), f"{robot.name}_casadi"))
-    if robot.floating:
-        return floating_rows(generated_module(source, robot.name), module, robot, "CasADi", states)
-    return compiled_checks(derivation, source, module, states=states, label="CasADi", target="casadi")
+    return compiled_checks(derivation, source, casadi_module(derivation), states=states, label="CasADi",
+                           target="casadi")
 
 
 def loaded_backend(target: Any, derivation: Any, source: str, progress: Callable[[str], None],
                    states: int = 12) -> list[Row]:
     """The harness of a target without one of its own whose ``load`` gives a module with the
     NumPy module's API, taking and returning NumPy arrays: that module against the NumPy module
-    ``source`` at random states (the compiled extension's comparison, for a robot with
-    quaternions ``floating_rows``)."""
+    ``source`` at random states (the compiled extension's comparison, ``compiled.py``)."""
     from ..render.targets import resolve
-    from .checks import generated_module
-    from .compiled import compiled_checks, floating_rows
+    from .compiled import compiled_checks
 
     module = resolve(target.load)(derivation, progress=progress)
     progress(f"checking the {target.title} module")
-    robot = derivation.robot
-    if robot.floating:
-        return floating_rows(generated_module(source, robot.name), module, robot, target.title, states)
     return compiled_checks(derivation, source, module, states=states, label=target.title, target=target.name)

@@ -6,7 +6,8 @@ functions gives the NumPy module's numbers at the same states: for a batch (the 
 and for one state (the fast path), to 1e-12 relative to the result's largest entry (section
 9 of the design). A robot with quaternions (a floating or spherical joint) is compared at
 random states on its manifold (random unit quaternions), its configuration maps too; the
-comparison is also ``check --backend jax``'s (``floating_rows``).
+comparison is also ``check --backend jax``'s and ``casadi``'s, and ``tests/test_targets_agree.py``'s
+for every target the registry can load.
 """
 
 from __future__ import annotations
@@ -26,18 +27,19 @@ RTOLS = {"assemble": 1e-10}
 
 #: The state each argument of the API is drawn from (``q_to``: a second configuration).
 STATES = {"q": "q", "qd": "qd", "v": "qd", "qdd": "qdd", "u": "u", "q_guess": "q", "q_from": "q", "q_to": "q1",
-          "qd_minus": "qd"}
+          "qd_minus": "qd", "qm": "qm", "qmd": "qmd"}
 
 
 def _arrays(function: api.Function) -> str:
     return " ".join(STATES[a] for a in function.arguments if a in STATES)
 
 
-#: The functions compared (the API table's, but a planar robot's maximal form, which only the
-#: Python modules print), with the arrays they take (``p``: keyword parameters only); the contact
-#: functions hold the robot file's CONTACTS (none: forward dynamics).
+#: The functions compared (the API table's), with the arrays they take (``p``: keyword parameters
+#: only); the contact functions hold the robot file's CONTACTS (none: forward dynamics); a planar
+#: robot's maximal form (which only the Python modules print) where both modules have it, at
+#: random maximal coordinates (``qm``, ``qmd``: compared as functions, off the constraints too).
 FUNCTIONS = tuple((f.name, _arrays(f)) for f in api.API if f.group in ("dynamics", "centroidal", "loops", "configuration",
-                                                                           "contacts"))
+                                                                           "contacts", "maximal"))
 #: The functions that take ``friction_smoothing``.
 SMOOTHED = {"inverse_dynamics", "forward_dynamics", "friction_forces", "linearize", "inverse_dynamics_derivatives",
             "forward_dynamics_derivatives", "loop_forces", "reduced_forward_dynamics", "constrained_forward_dynamics"}
@@ -68,7 +70,7 @@ def _compared(module: Any, other: Any, values: dict[str, float], states: dict[st
     cases = [(name, args, ()) for name, args in FUNCTIONS]
     cases += [(name, args, (frame,)) for frame in getattr(module, "FRAMES", ()) for name, args in FRAME_FUNCTIONS]
     for name, args, extra in cases:
-        if not hasattr(module, name):
+        if not hasattr(module, name) or (friction_smoothing and name not in SMOOTHED):   # the others take none
             continue
         if not hasattr(other, name):
             missing.append(name)
@@ -104,11 +106,12 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
         rng = np.random.default_rng(1)
         size = module.frame_jacobian(states["q"][0], frames[0], **values).shape[0]
         wrenches = {frame: rng.uniform(-1.0, 1.0, (count, size)) for frame in frames}
-        arrays = [states[a] for a in ("q", "qd", "qdd")]
-        worst = _difference(module.inverse_dynamics(*arrays, wrenches, **values),
-                            compiled.inverse_dynamics(*arrays, wrenches, **values))
-        rows.append(Row(f"{label} inverse_dynamics with wrenches at every frame == NumPy module",
-                        "pass" if worst <= RTOL else "FAIL", f"numeric, {count} states, relative", worst))
+        for name, arguments in (("inverse_dynamics", ("q", "qd", "qdd")), ("forward_dynamics", ("q", "qd", "u"))):
+            arrays = [states[a] for a in arguments]
+            worst = _difference(getattr(module, name)(*arrays, wrenches, **values),
+                                getattr(compiled, name)(*arrays, wrenches, **values))
+            rows.append(Row(f"{label} {name} with wrenches at every frame == NumPy module",
+                            "pass" if worst <= RTOL else "FAIL", f"numeric, {count} states, relative", worst))
     missing += sorted(name for name, value in vars(module).items() if callable(value) and not name.startswith("_")
                       and not hasattr(compiled, name) and name not in missing and not isinstance(value, type))
     return rows + missing_rows(missing, target, label, floating, frames=bool(frames))
@@ -148,23 +151,21 @@ def _states(robot: Any, rng: np.random.Generator, states: int) -> dict[str, np.n
                      "u": rng.uniform(-1.0, 1.0, (states, nu))}
 
 
-def floating_rows(module: Any, other: Any, robot: Any, label: str, states: int = 12, seed: int = 0) -> list[Row]:
-    """The rows comparing ``other`` (the JAX module) with the NumPy ``module`` of a robot with
-    quaternions, at random states on its manifold (``check --backend jax``)."""
-    values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
-    return _compared(module, other, values, _states(robot, np.random.default_rng(seed + 7), states), 0.0, label)[0]
-
-
 def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0,
-                    label: str = "compiled", target: str = "c-extension") -> list[Row]:
+                    label: str = "compiled", target: str = "c-extension",
+                    values: dict[str, float] | None = None) -> list[Row]:
     """``compiled_rows`` at random states of ``derivation``'s robot (on the loops, for a robot
-    with closed loops), with the parameters' defaults (1.0 where a parameter has none)."""
+    with closed loops), with the parameters' defaults (1.0 where a parameter has none) or
+    ``values`` where given."""
     from .checks import _loop_states, generated_module
 
     robot = derivation.robot
     module = generated_module(source, robot.name)
-    values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters}
+    values = {p.name: (p.value if p.value is not None else 1.0) for p in robot.parameters} | (values or {})
     sample = _states(robot, np.random.default_rng(seed + 7), states)
+    if hasattr(module, "MAXIMAL_COORDINATES"):   # the maximal form's arguments
+        rng, size = np.random.default_rng(seed + 11), len(module.MAXIMAL_COORDINATES)
+        sample |= {"qm": rng.uniform(-1.5, 1.5, (states, size)), "qmd": rng.uniform(-1.0, 1.0, (states, size))}
     if robot.loops:
         sample["q"], sample["qd"], _ = _loop_states(derivation, module, values, sample["q"], sample["qd"])
         if not len(sample["q"]):
@@ -208,6 +209,8 @@ class CasadiModule:
             return value
         if name == "inverse_dynamics":
             return self._inverse_dynamics
+        if name == "forward_dynamics":
+            return self._forward_dynamics
         return lambda *args, **keywords: self._call(value, name, args, keywords)
 
     def _inverse_dynamics(self, q: Any, qd: Any, qdd: Any, wrenches: Any = None,
@@ -218,6 +221,30 @@ class CasadiModule:
             jacobian = self._call(self.module.frame_jacobian(frame), "frame_jacobian", (q,), parameters)
             tau = tau - np.einsum("...ij,...i->...j", jacobian, np.asarray(wrench, dtype=float))
         return tau
+
+    def _forward_dynamics(self, q: Any, qd: Any, u: Any = None, wrenches: Any = None,
+                          **keywords: Any) -> np.ndarray:
+        """The Function's accelerations, plus what the ``wrenches`` add: the solution of the
+        (loop-constrained) mass matrix's system for ``J^T w`` (the accelerations are linear in
+        the generalized forces, the Baumgarte terms in the loops' rows unchanged)."""
+        if u is None:
+            u = np.zeros(np.shape(q)[:-1] + (len(self.module.EFFORTS),))
+        qdd = self._call(self.module.forward_dynamics, "forward_dynamics", (q, qd, u), keywords)
+        if not wrenches:
+            return qdd
+        parameters = {k: v for k, v in keywords.items() if k not in ("friction_smoothing", "alpha", "beta")}
+        force = sum(np.einsum("...ij,...i->...j", self._call(self.module.frame_jacobian(frame), "frame_jacobian",
+                                                             (q,), parameters), np.asarray(wrench, dtype=float))
+                    for frame, wrench in wrenches.items())
+        matrix = np.asarray(self._call(self.module.mass_matrix, "mass_matrix", (q,), parameters))
+        rows = np.zeros(matrix.shape[:-2] + (0, matrix.shape[-1]))
+        if hasattr(self.module, "LOOPS"):
+            rows = np.asarray(self._call(self.module.loop_jacobian, "loop_jacobian", (q,), parameters))
+        size, count = matrix.shape[-1], rows.shape[-2]
+        kkt = np.zeros(matrix.shape[:-2] + (size + count, size + count))
+        kkt[..., :size, :size], kkt[..., :size, size:], kkt[..., size:, :size] = matrix, -np.swapaxes(rows, -1, -2), rows
+        right = np.concatenate([np.broadcast_to(force, matrix.shape[:-1]), np.zeros(matrix.shape[:-2] + (count,))], -1)
+        return qdd + np.linalg.solve(kkt, right[..., None])[..., :size, 0]
 
     def _call(self, function: Any, name: str, args: tuple, keywords: dict[str, Any]) -> Any:
         """``function`` at each state of ``args`` (the Function's array inputs in order)."""

@@ -79,7 +79,10 @@ TARGET = Target(
     note=f"{__name__}:missing_note",
     check="dynderive.verify.backends:casadi_backend",
     check_needs="dynderive.verify.backends:require_casadi",
-    option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),),
+    load="dynderive.verify.backends:casadi_module",
+    option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),
+                 ("simulate --backend", "the CasADi module (--casadi), one Function call per state (generalized "
+                                        "coordinates; needs casadi)")),
     not_built=(NotBuilt(("assemble",), "fixed", "closed loops in CasADi: assemble (Newton's method, iterated on "
                                                 "values) is not a casadi.Function"),
                NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",

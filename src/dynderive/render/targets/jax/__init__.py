@@ -47,5 +47,8 @@ TARGET = Target(
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
     note=f"{__name__}:missing_note",
     check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",
-    option_help=(("check --backend", "the same for the JAX module (--jax; needs jax)"),),
+    load="dynderive.verify.backends:jax_module",
+    option_help=(("check --backend", "the same for the JAX module (--jax; needs jax)"),
+                 ("simulate --backend", "the JAX module (--jax), in float64, called eagerly (generalized "
+                                        "coordinates; needs jax)")),
 )
