@@ -1988,9 +1988,19 @@ void elbow_arm_centroidal_inertia(const double *q, const elbow_arm_parameters *p
 int elbow_arm_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const elbow_arm_parameters *p, double *qdd, double *forces)
 {
     static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
-    double M[9], J[18], target[6];
-    double Jf[18], T[16];
-    double acc[6];
+    double M[9];
+    double zeros[3];
+    double h[3];
+    double tau[3];
+    double Jf[18];
+    double acc[6] = {0};
+    double J[18];
+    double drift[6];
+    double T[16] = {0};
+    double error[6];
+    double twist[6];
+    double turn[9];
+    double gam[6];
     int count = 0, at = 0;
     if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
     for (int c = 0; c < ncontacts; ++c) {
@@ -2004,73 +2014,86 @@ int elbow_arm_constrained_forward_dynamics(const double *q, const double *qd, co
     const double kp = baumgarte ? baumgarte[0] : 0.0;
     const double kd = baumgarte ? baumgarte[1] : 0.0;
     if (kp != 0.0 && !anchors) return 4;
-    double zero[3], h[3], tau[3];
-    for (int i = 0; i < 3; ++i) zero[i] = 0.0;
+    for (int i = 0; i < 3; ++i) zeros[i] = 0.0;
     elbow_arm_mass_matrix(q, p, M);
-    elbow_arm_inverse_dynamics(q, qd, zero, p, h);
-    elbow_arm_generalized_forces(q, u ? u : zero, p, tau);
-    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+    elbow_arm_inverse_dynamics(q, qd, zeros, p, h);
+    elbow_arm_generalized_forces(q, u ? u : zeros, p, tau);
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
         const int f = frames[c];
-        const int kind = kinds ? kinds[c] : declared[f];
+        const double *A = anchors ? anchors + at : anchors;
         elbow_arm_frame_jacobian(q, f, p, Jf);
         elbow_arm_frame_jacobian_dot_qd(q, qd, f, p, acc);
-        if (kind == 1 || anchors) {
-            elbow_arm_frame_transform(q, f, p, T);
-        }
-        if (kind == 0) {
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 3; ++j) J[(count + i) * 3 + j] = Jf[i * 3 + j];
-                target[count + i] = acc[i];
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = Jf[j];
+                J[(count + 1) * 3 + j] = Jf[3 + j];
+                J[(count + 2) * 3 + j] = Jf[6 + j];
             }
+            drift[count + 0] = acc[0];
+            drift[count + 1] = acc[1];
+            drift[count + 2] = acc[2];
             if (anchors) {
-                for (int i = 0; i < 3; ++i) acc[3 + i] = T[4 * i + 3] - anchors[at + i];   /* e */
-                at += 3;
+                elbow_arm_frame_transform(q, f, p, T);
+                error[count + 0] = T[3] - A[0];
+                error[count + 1] = T[7] - A[1];
+                error[count + 2] = T[11] - A[2];
             }
+            count += 3;
+            at += 3;
         } else {
-            for (int i = 0; i < 3; ++i) {
+            elbow_arm_frame_transform(q, f, p, T);
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = T[0]*Jf[j] + T[4]*Jf[3 + j] + T[8]*Jf[6 + j];
+                J[(count + 1) * 3 + j] = T[1]*Jf[j] + T[5]*Jf[3 + j] + T[9]*Jf[6 + j];
+                J[(count + 2) * 3 + j] = T[2]*Jf[j] + T[6]*Jf[3 + j] + T[10]*Jf[6 + j];
+                J[(count + 3) * 3 + j] = T[0]*Jf[9 + j] + T[4]*Jf[12 + j] + T[8]*Jf[15 + j];
+                J[(count + 4) * 3 + j] = T[1]*Jf[9 + j] + T[5]*Jf[12 + j] + T[9]*Jf[15 + j];
+                J[(count + 5) * 3 + j] = T[2]*Jf[9 + j] + T[6]*Jf[12 + j] + T[10]*Jf[15 + j];
+            }
+            twist[0] = Jf[0]*qd[0] + Jf[1]*qd[1] + Jf[2]*qd[2];
+            twist[1] = Jf[3]*qd[0] + Jf[4]*qd[1] + Jf[5]*qd[2];
+            twist[2] = Jf[6]*qd[0] + Jf[7]*qd[1] + Jf[8]*qd[2];
+            twist[3] = Jf[9]*qd[0] + Jf[10]*qd[1] + Jf[11]*qd[2];
+            twist[4] = Jf[12]*qd[0] + Jf[13]*qd[1] + Jf[14]*qd[2];
+            twist[5] = Jf[15]*qd[0] + Jf[16]*qd[1] + Jf[17]*qd[2];
+            double t0[3];
+            t0[0] = acc[0] - (twist[4]*twist[2] - twist[5]*twist[1]);
+            t0[1] = acc[1] - (twist[5]*twist[0] - twist[3]*twist[2]);
+            t0[2] = acc[2] - (twist[3]*twist[1] - twist[4]*twist[0]);
+            drift[count + 0] = T[0]*t0[0] + T[4]*t0[1] + T[8]*t0[2];
+            drift[count + 1] = T[1]*t0[0] + T[5]*t0[1] + T[9]*t0[2];
+            drift[count + 2] = T[2]*t0[0] + T[6]*t0[1] + T[10]*t0[2];
+            drift[count + 3] = T[0]*acc[3] + T[4]*acc[4] + T[8]*acc[5];
+            drift[count + 4] = T[1]*acc[3] + T[5]*acc[4] + T[9]*acc[5];
+            drift[count + 5] = T[2]*acc[3] + T[6]*acc[4] + T[10]*acc[5];
+            if (anchors) {
                 for (int j = 0; j < 3; ++j) {
-                    J[(count + i) * 3 + j] = T[i]*Jf[j] + T[4 + i]*Jf[3 + j] + T[8 + i]*Jf[6 + j];
-                    J[(count + 3 + i) * 3 + j] = T[i]*Jf[9 + j] + T[4 + i]*Jf[12 + j] + T[8 + i]*Jf[15 + j];
+                    turn[j] = A[0]*T[j] + A[4]*T[4 + j] + A[8]*T[8 + j];
+                    turn[3 + j] = A[1]*T[j] + A[5]*T[4 + j] + A[9]*T[8 + j];
+                    turn[6 + j] = A[2]*T[j] + A[6]*T[4 + j] + A[10]*T[8 + j];
                 }
+                double t1[3];
+                t1[0] = T[3] - A[3];
+                t1[1] = T[7] - A[7];
+                t1[2] = T[11] - A[11];
+                error[count + 0] = T[0]*t1[0] + T[4]*t1[1] + T[8]*t1[2];
+                error[count + 1] = T[1]*t1[0] + T[5]*t1[1] + T[9]*t1[2];
+                error[count + 2] = T[2]*t1[0] + T[6]*t1[1] + T[10]*t1[2];
+                error[count + 3] = (turn[7] - turn[5]) / 2;
+                error[count + 4] = (turn[2] - turn[6]) / 2;
+                error[count + 5] = (turn[3] - turn[1]) / 2;
             }
-            {   /* the spatial acceleration at qdd = 0 in the frame's axes: (a - w x v, alpha) rotated */
-                double v[6], linear[3];
-                for (int i = 0; i < 6; ++i) {
-                    v[i] = 0.0;
-                    for (int j = 0; j < 3; ++j) v[i] += Jf[i * 3 + j]*qd[j];
-                }
-                linear[0] = acc[0] - (v[4]*v[2] - v[5]*v[1]);
-                linear[1] = acc[1] - (v[5]*v[0] - v[3]*v[2]);
-                linear[2] = acc[2] - (v[3]*v[1] - v[4]*v[0]);
-                for (int i = 0; i < 3; ++i) {
-                    target[count + i] = T[i]*linear[0] + T[4 + i]*linear[1] + T[8 + i]*linear[2];
-                    target[count + 3 + i] = T[i]*acc[3] + T[4 + i]*acc[4] + T[8 + i]*acc[5];
-                }
-            }
-            if (anchors) {   /* e: R^T (p - p_ref), vee of the skew part of R_ref^T R */
-                const double *A = anchors + at;
-                double d[3], turn[9];
-                for (int i = 0; i < 3; ++i) d[i] = T[4 * i + 3] - A[4 * i + 3];
-                for (int i = 0; i < 3; ++i) {
-                    for (int j = 0; j < 3; ++j) turn[3 * i + j] = A[i]*T[j] + A[4 + i]*T[4 + j] + A[8 + i]*T[8 + j];
-                }
-                Jf[0] = T[0]*d[0] + T[4]*d[1] + T[8]*d[2];   /* Jf is free: e kept in its first 6 */
-                Jf[1] = T[1]*d[0] + T[5]*d[1] + T[9]*d[2];
-                Jf[2] = T[2]*d[0] + T[6]*d[1] + T[10]*d[2];
-                Jf[3] = (turn[7] - turn[5]) / 2;
-                Jf[4] = (turn[2] - turn[6]) / 2;
-                Jf[5] = (turn[3] - turn[1]) / 2;
-                at += 16;
-            }
+            count += 6;
+            at += 16;
         }
-        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {   /* -gamma = -(drift + kd J qd + kp e) */
-            double rate = 0.0;
-            for (int j = 0; j < 3; ++j) rate += J[r * 3 + j]*qd[j];
-            target[r] += kd*rate;
-            if (anchors) target[r] += kp*(kind == 0 ? acc[3 + r - count] : Jf[r - count]);
-            target[r] = -target[r];
+    }
+    for (int r = 0; r < count; ++r) {
+        gam[r] = drift[r] + kd*J[r * 3 + 0]*qd[0] + J[r * 3 + 1]*qd[1] + J[r * 3 + 2]*qd[2];
+    }
+    if (anchors) {
+        for (int r = 0; r < count; ++r) {
+            gam[r] = gam[r] + kp*error[r];
         }
-        count += (kind == 0 ? 3 : 6);
     }
     const double md0 = M[8];
     if (!(md0 > 0.0)) return 1;
@@ -2097,7 +2120,7 @@ int elbow_arm_constrained_forward_dynamics(const double *q, const double *qd, co
     z[0] = e0;
     z[1] = e1;
     z[2] = e2;
-    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
         double S[36], lam[6];
         for (int a = 0; a < count; ++a) {
             for (int b = 0; b <= a; ++b) {
@@ -2105,7 +2128,7 @@ int elbow_arm_constrained_forward_dynamics(const double *q, const double *qd, co
                 for (int i = 0; i < 3; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
                 S[a * 6 + b] = sum;
             }
-            lam[a] = target[a];
+            lam[a] = -gam[a];
             for (int i = 0; i < 3; ++i) lam[a] -= Y[i * 6 + a]*dinv[i]*z[i];
         }
         for (int j = 0; j < count; ++j) {
@@ -2145,8 +2168,12 @@ int elbow_arm_constrained_forward_dynamics(const double *q, const double *qd, co
 int elbow_arm_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const elbow_arm_parameters *p, double *qd_plus, double *impulses)
 {
     static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
-    double M[9], J[18], target[6];
-    double Jf[18], T[16];
+    double M[9];
+    double Jf[18];
+    double J[18];
+    double T[16] = {0};
+    double rate[6];
+    double jump[3];
     int count = 0;
     if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
     for (int c = 0; c < ncontacts; ++c) {
@@ -2158,31 +2185,31 @@ int elbow_arm_impulse_dynamics(const double *q, const double *qd_minus, int ncon
         }
     }
     elbow_arm_mass_matrix(q, p, M);
-    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
         const int f = frames[c];
-        const int kind = kinds ? kinds[c] : declared[f];
         elbow_arm_frame_jacobian(q, f, p, Jf);
-        if (kind == 1) {
-            elbow_arm_frame_transform(q, f, p, T);
-        }
-        if (kind == 0) {
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 3; ++j) J[(count + i) * 3 + j] = Jf[i * 3 + j];
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = Jf[j];
+                J[(count + 1) * 3 + j] = Jf[3 + j];
+                J[(count + 2) * 3 + j] = Jf[6 + j];
             }
+            count += 3;
         } else {
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 3; ++j) {
-                    J[(count + i) * 3 + j] = T[i]*Jf[j] + T[4 + i]*Jf[3 + j] + T[8 + i]*Jf[6 + j];
-                    J[(count + 3 + i) * 3 + j] = T[i]*Jf[9 + j] + T[4 + i]*Jf[12 + j] + T[8 + i]*Jf[15 + j];
-                }
+            elbow_arm_frame_transform(q, f, p, T);
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = T[0]*Jf[j] + T[4]*Jf[3 + j] + T[8]*Jf[6 + j];
+                J[(count + 1) * 3 + j] = T[1]*Jf[j] + T[5]*Jf[3 + j] + T[9]*Jf[6 + j];
+                J[(count + 2) * 3 + j] = T[2]*Jf[j] + T[6]*Jf[3 + j] + T[10]*Jf[6 + j];
+                J[(count + 3) * 3 + j] = T[0]*Jf[9 + j] + T[4]*Jf[12 + j] + T[8]*Jf[15 + j];
+                J[(count + 4) * 3 + j] = T[1]*Jf[9 + j] + T[5]*Jf[12 + j] + T[9]*Jf[15 + j];
+                J[(count + 5) * 3 + j] = T[2]*Jf[9 + j] + T[6]*Jf[12 + j] + T[10]*Jf[15 + j];
             }
+            count += 6;
         }
-        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {
-            double rate = 0.0;
-            for (int j = 0; j < 3; ++j) rate += J[r * 3 + j]*qd_minus[j];
-            target[r] = -restitution*rate;
-        }
-        count += (kind == 0 ? 3 : 6);
+    }
+    for (int r = 0; r < count; ++r) {
+        rate[r] = J[r * 3 + 0]*qd_minus[0] + J[r * 3 + 1]*qd_minus[1] + J[r * 3 + 2]*qd_minus[2];
     }
     const double md0 = M[8];
     if (!(md0 > 0.0)) return 1;
@@ -2204,7 +2231,7 @@ int elbow_arm_impulse_dynamics(const double *q, const double *qd_minus, int ncon
         Y[12 + c] = w2;
     }
     for (int i = 0; i < 3; ++i) z[i] = 0.0;
-    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
         double S[36], lam[6];
         for (int a = 0; a < count; ++a) {
             for (int b = 0; b <= a; ++b) {
@@ -2212,8 +2239,7 @@ int elbow_arm_impulse_dynamics(const double *q, const double *qd_minus, int ncon
                 for (int i = 0; i < 3; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
                 S[a * 6 + b] = sum;
             }
-            lam[a] = target[a];
-            for (int j = 0; j < 3; ++j) lam[a] -= J[a * 3 + j]*qd_minus[j];
+            lam[a] = -restitution*rate[a] - rate[a];
         }
         for (int j = 0; j < count; ++j) {
             double pivot = S[j * 6 + j];
@@ -2242,9 +2268,12 @@ int elbow_arm_impulse_dynamics(const double *q, const double *qd_minus, int ncon
     const double x2 = z[2] / md2;
     const double x1 = z[1] / md1;
     const double x0 = z[0] / md0 - mL1_0*x1;
-    qd_plus[2] = qd_minus[2] + x0;
-    qd_plus[1] = qd_minus[1] + x1;
-    qd_plus[0] = qd_minus[0] + x2;
+    jump[2] = x0;
+    jump[1] = x1;
+    jump[0] = x2;
+    qd_plus[0] = qd_minus[0] + jump[0];
+    qd_plus[1] = qd_minus[1] + jump[1];
+    qd_plus[2] = qd_minus[2] + jump[2];
     return 0;
 }
 

@@ -6999,7 +6999,9 @@ def _contact_list(contacts):
             if not -len(FRAMES) <= index < len(FRAMES):
                 raise ValueError(f"contact frame index {index} is out of range (FRAMES has {len(FRAMES)} frames)")
             frame = FRAMES[index]
-        _frame_bodies(frame)   # refuses a name that is no frame
+        if not isinstance(frame, str) or frame not in FRAMES:
+            known = ", ".join(FRAMES) if FRAMES else "none: the robot file declares no 'frames'"
+            raise ValueError(f"unknown frame {frame!r} (frames: {known})")
         kind = CONTACT_KINDS.get(frame, "point") if kind is None else kind
         if kind not in ("point", "surface"):
             raise ValueError(f"contact kind of {frame!r} must be 'point' or 'surface', got {kind!r}")
@@ -7009,51 +7011,38 @@ def _contact_list(contacts):
     return held
 
 
-def _contact_rows(q, qd, held, anchors, parameters):
-    """The stacked contact Jacobian J (..., k, NV), its drift Jdot qd (..., k) (None without qd)
-    and, with ``anchors``, the position error (..., k). Point contacts: the origin's rows of
-    frame_jacobian (world-aligned); surface contacts: blockdiag(R^T, R^T) J, the frame's twist in
-    its own axes, whose drift is the spatial acceleration at qdd = 0 in those axes (the classical
-    acceleration minus omega x v, rotated)."""
-    jacobians, drifts, errors = [], [], []
-    for index, (frame, kind) in enumerate(held):
-        jacobian = frame_jacobian(q, frame, **parameters)
-        bias = None if qd is None else frame_jacobian_dot_qd(q, qd, frame, **parameters)
-        anchor = None if anchors is None else np.asarray(anchors[index], dtype=float)
-        if kind == "point":
-            jacobians.append(jacobian[..., :3, :])
-            if bias is not None:
-                drifts.append(bias[..., :3])
-            if anchor is not None:
-                if anchor.ndim == 0 or anchor.shape[-1] != 3:
-                    raise ValueError(f"the anchor of point contact {frame!r} must have shape (..., 3), got {anchor.shape}")
-                errors.append(frame_transform(q, frame, **parameters)[..., :3, 3] - anchor)
-            continue
-        pose = frame_transform(q, frame, **parameters)
-        transposed = np.swapaxes(pose[..., :3, :3], -1, -2)
-        jacobians.append(np.concatenate([transposed @ jacobian[..., :3, :], transposed @ jacobian[..., 3:, :]], axis=-2))
-        if bias is not None:
-            twist = _matvec(jacobian, qd)
-            linear = bias[..., :3] - np.cross(twist[..., 3:], twist[..., :3])
-            drifts.append(np.concatenate([_matvec(transposed, linear), _matvec(transposed, bias[..., 3:])], axis=-1))
-        if anchor is not None:
-            if anchor.ndim < 2 or anchor.shape[-2:] != (4, 4):
-                raise ValueError(f"the anchor of surface contact {frame!r} must have shape (..., 4, 4), got {anchor.shape}")
-            turn = np.swapaxes(anchor[..., :3, :3], -1, -2) @ pose[..., :3, :3]   # R_ref^T R
-            skew = (turn - np.swapaxes(turn, -1, -2)) / 2
-            errors.append(np.concatenate([_matvec(transposed, pose[..., :3, 3] - anchor[..., :3, 3]),
-                                          np.stack([skew[..., 2, 1], skew[..., 0, 2], skew[..., 1, 0]], axis=-1)], axis=-1))
-    batch = np.broadcast_shapes(*(e.shape[:-1] for e in errors)) if errors else None
-    return (np.concatenate(jacobians, axis=-2), np.concatenate(drifts, axis=-1) if drifts else None,
-            np.concatenate([np.broadcast_to(e, batch + e.shape[-1:]) for e in errors], axis=-1) if errors else None)
+def _anchor_of(anchor, frame, kind):
+    """A contact's anchor as an array: a point's held position (..., 3), a surface's pose (..., 4, 4)."""
+    anchor = np.asarray(anchor, dtype=float)
+    if kind == "point" and (anchor.ndim == 0 or anchor.shape[-1] != 3):
+        raise ValueError(f"the anchor of point contact {frame!r} must have shape (..., 3), got {anchor.shape}")
+    if kind == "surface" and (anchor.ndim < 2 or anchor.shape[-2:] != (4, 4)):
+        raise ValueError(f"the anchor of surface contact {frame!r} must have shape (..., 4, 4), got {anchor.shape}")
+    return anchor
 
 
-def _schur_solve(mass, jacobian, free, target, held):
-    """(x, lam) with M x = M free + J^T lam and J x = target: lam = S^-1 (target - J free) with the
-    Schur complement S = J M^-1 J^T (symmetric positive definite when the contacts' rows are
-    independent), x = free + M^-1 J^T lam. Refuses a singular S (redundant contacts): their forces are not unique.
+def _stacked(parts, axis):
+    """The contacts' rows (a list, one entry per contact) as one array over their common batch."""
+    if not parts:
+        return None
+    batch = np.broadcast_shapes(*(part.shape[:axis] for part in parts))
+    return np.concatenate([np.broadcast_to(part, batch + part.shape[axis:]) for part in parts], axis=axis)
+
+
+def _schur_solve(mass, jacobian, b, target, held):
+    """(x, lam) with M x = b + J^T lam and J x = target (b None: zero): lam = S^-1 (target - J M^-1 b)
+    with the Schur complement S = J M^-1 J^T (symmetric positive definite when the contacts' rows are
+    independent), x = M^-1 b + M^-1 J^T lam; no contacts held (jacobian None): x = M^-1 b. Refuses a singular S (redundant contacts): their forces are not unique.
     """
-    batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], free.shape[:-1], target.shape[:-1])
+    free = None
+    if b is not None:
+        batch = np.broadcast_shapes(mass.shape[:-2], b.shape[:-1])
+        free = np.linalg.solve(np.broadcast_to(mass, batch + mass.shape[-2:]),
+                                np.broadcast_to(b, batch + b.shape[-1:])[..., None])[..., 0]
+        if jacobian is None:
+            return free, np.zeros(batch + (0,))
+    batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], target.shape[:-1],
+                                   *(() if free is None else (free.shape[:-1],)))
     n, k = mass.shape[-1], jacobian.shape[-2]
     mass = np.broadcast_to(mass, batch + (n, n))
     jacobian = np.broadcast_to(jacobian, batch + (k, n))
@@ -7061,9 +7050,12 @@ def _schur_solve(mass, jacobian, free, target, held):
     schur = jacobian @ inverse_jt
     schur = (schur + np.swapaxes(schur, -1, -2)) / 2
     _independent_contacts(schur, held)
-    residual = np.broadcast_to(target, batch + (k,)) - _matvec(jacobian, free)
+    residual = np.broadcast_to(target, batch + (k,))
+    if free is not None:
+        residual = residual - _matvec(jacobian, free)
     forces = np.linalg.solve(schur, residual[..., None])[..., 0]
-    return free + _matvec(inverse_jt, forces), forces
+    jump = _matvec(inverse_jt, forces)
+    return (jump if free is None else free + jump), forces
 
 
 #: The smallest eigenvalue of J M^-1 J^T, relative to its largest, below which the contacts count
@@ -7080,6 +7072,8 @@ def _independent_contacts(schur, held):
         raise ValueError(f"the contacts {names} are redundant here: J M^-1 J^T ({schur.shape[-1]} x {schur.shape[-1]}) is "
                          "singular, their constraint rows are dependent and their forces not unique; hold fewer "
                          "contacts (a point contact instead of a surface one, or fewer frames)")
+
+
 
 
 def constrained_forward_dynamics(q, qd, u=None, contacts=CONTACTS, baumgarte=(0, 0), *, anchors=None, wrenches=None,
@@ -7124,19 +7118,36 @@ def constrained_forward_dynamics(q, qd, u=None, contacts=CONTACTS, baumgarte=(0,
     if anchors is not None and len(anchors) != len(_held):
         raise ValueError(f"anchors must hold one entry per contact ({len(_held)}), got {len(anchors)}")
     _parameters = {"g": g}
+    _M = mass_matrix(q, **_parameters)
+    _h = inverse_dynamics(q, qd, np.zeros_like(qd), wrenches, friction_smoothing=friction_smoothing, **_parameters)
     _tau = generalized_forces(q, u, **_parameters)
-    _bias = inverse_dynamics(q, qd, np.zeros_like(qd), wrenches, friction_smoothing=friction_smoothing, **_parameters)
-    _mass = mass_matrix(q, **_parameters)
-    batch = np.broadcast_shapes(_mass.shape[:-2], _tau.shape[:-1], _bias.shape[:-1])
-    _free = np.linalg.solve(np.broadcast_to(_mass, batch + _mass.shape[-2:]),
-                            np.broadcast_to(_tau - _bias, batch + _tau.shape[-1:])[..., None])[..., 0]
     if not _held:
-        return _free, np.zeros(batch + (0,))
-    _jacobian, _drift, _error = _contact_rows(q, qd, _held, anchors, _parameters)
-    _gamma = _drift + _kd * _matvec(_jacobian, qd)
-    if _error is not None:
-        _gamma = _gamma + _kp * _error
-    return _schur_solve(_mass, _jacobian, _free, -_gamma, _held)
+        return _schur_solve(_M, None, _tau - _h, None, _held)
+    _J, _drift, _error = [], [], []
+    for _index, (_frame, _kind) in enumerate(_held):
+        _anchor = None if anchors is None else _anchor_of(anchors[_index], _frame, _kind)
+        _Jf = frame_jacobian(q, _frame, **_parameters)
+        _acc = frame_jacobian_dot_qd(q, qd, _frame, **_parameters)
+        if _kind == "point":
+            _J.append(_Jf[..., 0:3, :])
+            _drift.append(_acc[..., 0:3])
+            if _anchor is not None:
+                _T = frame_transform(q, _frame, **_parameters)
+                _error.append(_T[..., :3, 3] - _anchor)
+        else:
+            _T = frame_transform(q, _frame, **_parameters)
+            _J.append(np.concatenate([np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 0:3, :], np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 3:6, :]], axis=-2))
+            _twist = _matvec(_Jf, qd)
+            _drift.append(np.concatenate([_matvec(np.swapaxes(_T[..., :3, :3], -1, -2), _acc[..., 0:3] - np.cross(_twist[..., 3:6], _twist[..., 0:3])), _matvec(np.swapaxes(_T[..., :3, :3], -1, -2), _acc[..., 3:6])], axis=-1))
+            if _anchor is not None:
+                _turn = np.swapaxes(_anchor[..., :3, :3], -1, -2) @ _T[..., :3, :3]
+                _error.append(np.concatenate([_matvec(np.swapaxes(_T[..., :3, :3], -1, -2), _T[..., :3, 3] - _anchor[..., :3, 3]), np.stack([(_turn[..., 2, 1] - _turn[..., 1, 2]) / 2, (_turn[..., 0, 2] - _turn[..., 2, 0]) / 2, (_turn[..., 1, 0] - _turn[..., 0, 1]) / 2], axis=-1)], axis=-1))
+    _J, _drift, _error = _stacked(_J, -2), _stacked(_drift, -1), _stacked(_error, -1)
+    _gamma = _drift + (_kd * _matvec(_J, qd))
+    if anchors is not None:
+        _gamma = _gamma + (_kp * _error)
+    _qdd, _forces = _schur_solve(_M, _J, _tau - _h, -_gamma, _held)
+    return _qdd, _forces
 
 
 def impulse_dynamics(q, qd_minus, contacts=CONTACTS, restitution=0, *, g=9.81):
@@ -7157,6 +7168,17 @@ def impulse_dynamics(q, qd_minus, contacts=CONTACTS, restitution=0, *, g=9.81):
     if not _held:
         batch = np.broadcast_shapes(q.shape[:-1], qd_minus.shape[:-1])
         return np.broadcast_to(qd_minus, batch + qd_minus.shape[-1:]), np.zeros(batch + (0,))
-    _jacobian = _contact_rows(q, None, _held, None, _parameters)[0]
-    return _schur_solve(mass_matrix(q, **_parameters), _jacobian, qd_minus,
-                        -restitution * _matvec(_jacobian, qd_minus), _held)
+    _M = mass_matrix(q, **_parameters)
+    _J, _drift, _error = [], [], []
+    for _index, (_frame, _kind) in enumerate(_held):
+        _Jf = frame_jacobian(q, _frame, **_parameters)
+        if _kind == "point":
+            _J.append(_Jf[..., 0:3, :])
+        else:
+            _T = frame_transform(q, _frame, **_parameters)
+            _J.append(np.concatenate([np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 0:3, :], np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 3:6, :]], axis=-2))
+    _J, _drift, _error = _stacked(_J, -2), _stacked(_drift, -1), _stacked(_error, -1)
+    _rate = _matvec(_J, qd_minus)
+    _jump, _impulses = _schur_solve(_M, _J, None, -(restitution * _rate) - _rate, _held)
+    _qd_plus = qd_minus + _jump
+    return _qd_plus, _impulses

@@ -6514,9 +6514,19 @@ void ur5_centroidal_inertia(const double *q, const ur5_parameters *p, double *Ig
 int ur5_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const ur5_parameters *p, double *qdd, double *forces)
 {
     static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
-    double M[36], J[36], target[6];
-    double Jf[36], T[16];
-    double acc[6];
+    double M[36];
+    double zeros[6];
+    double h[6];
+    double tau[6];
+    double Jf[36];
+    double acc[6] = {0};
+    double J[36];
+    double drift[6];
+    double T[16] = {0};
+    double error[6];
+    double twist[6];
+    double turn[9];
+    double gam[6];
     int count = 0, at = 0;
     if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
     for (int c = 0; c < ncontacts; ++c) {
@@ -6530,73 +6540,100 @@ int ur5_constrained_forward_dynamics(const double *q, const double *qd, const do
     const double kp = baumgarte ? baumgarte[0] : 0.0;
     const double kd = baumgarte ? baumgarte[1] : 0.0;
     if (kp != 0.0 && !anchors) return 4;
-    double zero[6], h[6], tau[6];
-    for (int i = 0; i < 6; ++i) zero[i] = 0.0;
+    for (int i = 0; i < 6; ++i) zeros[i] = 0.0;
     ur5_mass_matrix(q, p, M);
-    ur5_inverse_dynamics(q, qd, zero, p, h);
-    ur5_generalized_forces(q, u ? u : zero, p, tau);
-    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+    ur5_inverse_dynamics(q, qd, zeros, p, h);
+    ur5_generalized_forces(q, u ? u : zeros, p, tau);
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
         const int f = frames[c];
-        const int kind = kinds ? kinds[c] : declared[f];
+        const double *A = anchors ? anchors + at : anchors;
         ur5_frame_jacobian(q, f, p, Jf);
         ur5_frame_jacobian_dot_qd(q, qd, f, p, acc);
-        if (kind == 1 || anchors) {
-            ur5_frame_transform(q, f, p, T);
-        }
-        if (kind == 0) {
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 6; ++j) J[(count + i) * 6 + j] = Jf[i * 6 + j];
-                target[count + i] = acc[i];
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 6; ++j) {
+                J[(count + 0) * 6 + j] = Jf[j];
+                J[(count + 1) * 6 + j] = Jf[6 + j];
+                J[(count + 2) * 6 + j] = Jf[12 + j];
             }
+            drift[count + 0] = acc[0];
+            drift[count + 1] = acc[1];
+            drift[count + 2] = acc[2];
             if (anchors) {
-                for (int i = 0; i < 3; ++i) acc[3 + i] = T[4 * i + 3] - anchors[at + i];   /* e */
-                at += 3;
+                ur5_frame_transform(q, f, p, T);
+                error[count + 0] = T[3] - A[0];
+                error[count + 1] = T[7] - A[1];
+                error[count + 2] = T[11] - A[2];
             }
+            count += 3;
+            at += 3;
         } else {
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 6; ++j) {
-                    J[(count + i) * 6 + j] = T[i]*Jf[j] + T[4 + i]*Jf[6 + j] + T[8 + i]*Jf[12 + j];
-                    J[(count + 3 + i) * 6 + j] = T[i]*Jf[18 + j] + T[4 + i]*Jf[24 + j] + T[8 + i]*Jf[30 + j];
-                }
+            ur5_frame_transform(q, f, p, T);
+            for (int j = 0; j < 6; ++j) {
+                J[(count + 0) * 6 + j] = T[0]*Jf[j] + T[4]*Jf[6 + j] + T[8]*Jf[12 + j];
+                J[(count + 1) * 6 + j] = T[1]*Jf[j] + T[5]*Jf[6 + j] + T[9]*Jf[12 + j];
+                J[(count + 2) * 6 + j] = T[2]*Jf[j] + T[6]*Jf[6 + j] + T[10]*Jf[12 + j];
+                J[(count + 3) * 6 + j] = T[0]*Jf[18 + j] + T[4]*Jf[24 + j] + T[8]*Jf[30 + j];
+                J[(count + 4) * 6 + j] = T[1]*Jf[18 + j] + T[5]*Jf[24 + j] + T[9]*Jf[30 + j];
+                J[(count + 5) * 6 + j] = T[2]*Jf[18 + j] + T[6]*Jf[24 + j] + T[10]*Jf[30 + j];
             }
-            {   /* the spatial acceleration at qdd = 0 in the frame's axes: (a - w x v, alpha) rotated */
-                double v[6], linear[3];
-                for (int i = 0; i < 6; ++i) {
-                    v[i] = 0.0;
-                    for (int j = 0; j < 6; ++j) v[i] += Jf[i * 6 + j]*qd[j];
+            double dot0 = 0.0;
+            for (int j = 0; j < 6; ++j) dot0 += Jf[j]*qd[j];
+            double dot1 = 0.0;
+            for (int j = 0; j < 6; ++j) dot1 += Jf[6 + j]*qd[j];
+            double dot2 = 0.0;
+            for (int j = 0; j < 6; ++j) dot2 += Jf[12 + j]*qd[j];
+            double dot3 = 0.0;
+            for (int j = 0; j < 6; ++j) dot3 += Jf[18 + j]*qd[j];
+            double dot4 = 0.0;
+            for (int j = 0; j < 6; ++j) dot4 += Jf[24 + j]*qd[j];
+            double dot5 = 0.0;
+            for (int j = 0; j < 6; ++j) dot5 += Jf[30 + j]*qd[j];
+            twist[0] = dot0;
+            twist[1] = dot1;
+            twist[2] = dot2;
+            twist[3] = dot3;
+            twist[4] = dot4;
+            twist[5] = dot5;
+            double t6[3];
+            t6[0] = acc[0] - (twist[4]*twist[2] - twist[5]*twist[1]);
+            t6[1] = acc[1] - (twist[5]*twist[0] - twist[3]*twist[2]);
+            t6[2] = acc[2] - (twist[3]*twist[1] - twist[4]*twist[0]);
+            drift[count + 0] = T[0]*t6[0] + T[4]*t6[1] + T[8]*t6[2];
+            drift[count + 1] = T[1]*t6[0] + T[5]*t6[1] + T[9]*t6[2];
+            drift[count + 2] = T[2]*t6[0] + T[6]*t6[1] + T[10]*t6[2];
+            drift[count + 3] = T[0]*acc[3] + T[4]*acc[4] + T[8]*acc[5];
+            drift[count + 4] = T[1]*acc[3] + T[5]*acc[4] + T[9]*acc[5];
+            drift[count + 5] = T[2]*acc[3] + T[6]*acc[4] + T[10]*acc[5];
+            if (anchors) {
+                for (int j = 0; j < 3; ++j) {
+                    turn[j] = A[0]*T[j] + A[4]*T[4 + j] + A[8]*T[8 + j];
+                    turn[3 + j] = A[1]*T[j] + A[5]*T[4 + j] + A[9]*T[8 + j];
+                    turn[6 + j] = A[2]*T[j] + A[6]*T[4 + j] + A[10]*T[8 + j];
                 }
-                linear[0] = acc[0] - (v[4]*v[2] - v[5]*v[1]);
-                linear[1] = acc[1] - (v[5]*v[0] - v[3]*v[2]);
-                linear[2] = acc[2] - (v[3]*v[1] - v[4]*v[0]);
-                for (int i = 0; i < 3; ++i) {
-                    target[count + i] = T[i]*linear[0] + T[4 + i]*linear[1] + T[8 + i]*linear[2];
-                    target[count + 3 + i] = T[i]*acc[3] + T[4 + i]*acc[4] + T[8 + i]*acc[5];
-                }
+                double t7[3];
+                t7[0] = T[3] - A[3];
+                t7[1] = T[7] - A[7];
+                t7[2] = T[11] - A[11];
+                error[count + 0] = T[0]*t7[0] + T[4]*t7[1] + T[8]*t7[2];
+                error[count + 1] = T[1]*t7[0] + T[5]*t7[1] + T[9]*t7[2];
+                error[count + 2] = T[2]*t7[0] + T[6]*t7[1] + T[10]*t7[2];
+                error[count + 3] = (turn[7] - turn[5]) / 2;
+                error[count + 4] = (turn[2] - turn[6]) / 2;
+                error[count + 5] = (turn[3] - turn[1]) / 2;
             }
-            if (anchors) {   /* e: R^T (p - p_ref), vee of the skew part of R_ref^T R */
-                const double *A = anchors + at;
-                double d[3], turn[9];
-                for (int i = 0; i < 3; ++i) d[i] = T[4 * i + 3] - A[4 * i + 3];
-                for (int i = 0; i < 3; ++i) {
-                    for (int j = 0; j < 3; ++j) turn[3 * i + j] = A[i]*T[j] + A[4 + i]*T[4 + j] + A[8 + i]*T[8 + j];
-                }
-                Jf[0] = T[0]*d[0] + T[4]*d[1] + T[8]*d[2];   /* Jf is free: e kept in its first 6 */
-                Jf[1] = T[1]*d[0] + T[5]*d[1] + T[9]*d[2];
-                Jf[2] = T[2]*d[0] + T[6]*d[1] + T[10]*d[2];
-                Jf[3] = (turn[7] - turn[5]) / 2;
-                Jf[4] = (turn[2] - turn[6]) / 2;
-                Jf[5] = (turn[3] - turn[1]) / 2;
-                at += 16;
-            }
+            count += 6;
+            at += 16;
         }
-        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {   /* -gamma = -(drift + kd J qd + kp e) */
-            double rate = 0.0;
-            for (int j = 0; j < 6; ++j) rate += J[r * 6 + j]*qd[j];
-            target[r] += kd*rate;
-            if (anchors) target[r] += kp*(kind == 0 ? acc[3 + r - count] : Jf[r - count]);
-            target[r] = -target[r];
+    }
+    for (int r = 0; r < count; ++r) {
+        double dot8 = 0.0;
+        for (int j = 0; j < 6; ++j) dot8 += J[r * 6 + j]*qd[j];
+        gam[r] = drift[r] + kd*dot8;
+    }
+    if (anchors) {
+        for (int r = 0; r < count; ++r) {
+            gam[r] = gam[r] + kp*error[r];
         }
-        count += (kind == 0 ? 3 : 6);
     }
     const double md0 = M[35];
     if (!(md0 > 0.0)) return 1;
@@ -6657,7 +6694,7 @@ int ur5_constrained_forward_dynamics(const double *q, const double *qd, const do
     z[3] = e3;
     z[4] = e4;
     z[5] = e5;
-    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
         double S[36], lam[6];
         for (int a = 0; a < count; ++a) {
             for (int b = 0; b <= a; ++b) {
@@ -6665,7 +6702,7 @@ int ur5_constrained_forward_dynamics(const double *q, const double *qd, const do
                 for (int i = 0; i < 6; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
                 S[a * 6 + b] = sum;
             }
-            lam[a] = target[a];
+            lam[a] = -gam[a];
             for (int i = 0; i < 6; ++i) lam[a] -= Y[i * 6 + a]*dinv[i]*z[i];
         }
         for (int j = 0; j < count; ++j) {
@@ -6711,8 +6748,12 @@ int ur5_constrained_forward_dynamics(const double *q, const double *qd, const do
 int ur5_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const ur5_parameters *p, double *qd_plus, double *impulses)
 {
     static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
-    double M[36], J[36], target[6];
-    double Jf[36], T[16];
+    double M[36];
+    double Jf[36];
+    double J[36];
+    double T[16] = {0};
+    double rate[6];
+    double jump[6];
     int count = 0;
     if (ncontacts < 0 || ncontacts > 1 || (ncontacts > 0 && !frames)) return 3;
     for (int c = 0; c < ncontacts; ++c) {
@@ -6724,31 +6765,33 @@ int ur5_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts,
         }
     }
     ur5_mass_matrix(q, p, M);
-    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c: J, and the target of J qdd */
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
         const int f = frames[c];
-        const int kind = kinds ? kinds[c] : declared[f];
         ur5_frame_jacobian(q, f, p, Jf);
-        if (kind == 1) {
-            ur5_frame_transform(q, f, p, T);
-        }
-        if (kind == 0) {
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 6; ++j) J[(count + i) * 6 + j] = Jf[i * 6 + j];
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 6; ++j) {
+                J[(count + 0) * 6 + j] = Jf[j];
+                J[(count + 1) * 6 + j] = Jf[6 + j];
+                J[(count + 2) * 6 + j] = Jf[12 + j];
             }
+            count += 3;
         } else {
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 6; ++j) {
-                    J[(count + i) * 6 + j] = T[i]*Jf[j] + T[4 + i]*Jf[6 + j] + T[8 + i]*Jf[12 + j];
-                    J[(count + 3 + i) * 6 + j] = T[i]*Jf[18 + j] + T[4 + i]*Jf[24 + j] + T[8 + i]*Jf[30 + j];
-                }
+            ur5_frame_transform(q, f, p, T);
+            for (int j = 0; j < 6; ++j) {
+                J[(count + 0) * 6 + j] = T[0]*Jf[j] + T[4]*Jf[6 + j] + T[8]*Jf[12 + j];
+                J[(count + 1) * 6 + j] = T[1]*Jf[j] + T[5]*Jf[6 + j] + T[9]*Jf[12 + j];
+                J[(count + 2) * 6 + j] = T[2]*Jf[j] + T[6]*Jf[6 + j] + T[10]*Jf[12 + j];
+                J[(count + 3) * 6 + j] = T[0]*Jf[18 + j] + T[4]*Jf[24 + j] + T[8]*Jf[30 + j];
+                J[(count + 4) * 6 + j] = T[1]*Jf[18 + j] + T[5]*Jf[24 + j] + T[9]*Jf[30 + j];
+                J[(count + 5) * 6 + j] = T[2]*Jf[18 + j] + T[6]*Jf[24 + j] + T[10]*Jf[30 + j];
             }
+            count += 6;
         }
-        for (int r = count; r < count + (kind == 0 ? 3 : 6); ++r) {
-            double rate = 0.0;
-            for (int j = 0; j < 6; ++j) rate += J[r * 6 + j]*qd_minus[j];
-            target[r] = -restitution*rate;
-        }
-        count += (kind == 0 ? 3 : 6);
+    }
+    for (int r = 0; r < count; ++r) {
+        double dot0 = 0.0;
+        for (int j = 0; j < 6; ++j) dot0 += J[r * 6 + j]*qd_minus[j];
+        rate[r] = dot0;
     }
     const double md0 = M[35];
     if (!(md0 > 0.0)) return 1;
@@ -6798,7 +6841,7 @@ int ur5_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts,
         Y[30 + c] = w5;
     }
     for (int i = 0; i < 6; ++i) z[i] = 0.0;
-    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the forces; z += Y forces */
+    if (count > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
         double S[36], lam[6];
         for (int a = 0; a < count; ++a) {
             for (int b = 0; b <= a; ++b) {
@@ -6806,8 +6849,7 @@ int ur5_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts,
                 for (int i = 0; i < 6; ++i) sum += Y[i * 6 + a]*dinv[i]*Y[i * 6 + b];
                 S[a * 6 + b] = sum;
             }
-            lam[a] = target[a];
-            for (int j = 0; j < 6; ++j) lam[a] -= J[a * 6 + j]*qd_minus[j];
+            lam[a] = -restitution*rate[a] - rate[a];
         }
         for (int j = 0; j < count; ++j) {
             double pivot = S[j * 6 + j];
@@ -6839,12 +6881,18 @@ int ur5_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts,
     const double x2 = z[2] / md2 - mL3_2*x3 - mL4_2*x4 - mL5_2*x5;
     const double x1 = z[1] / md1 - mL2_1*x2 - mL3_1*x3 - mL4_1*x4 - mL5_1*x5;
     const double x0 = z[0] / md0 - mL2_0*x2 - mL3_0*x3 - mL4_0*x4 - mL5_0*x5;
-    qd_plus[5] = qd_minus[5] + x0;
-    qd_plus[4] = qd_minus[4] + x1;
-    qd_plus[3] = qd_minus[3] + x2;
-    qd_plus[2] = qd_minus[2] + x3;
-    qd_plus[1] = qd_minus[1] + x4;
-    qd_plus[0] = qd_minus[0] + x5;
+    jump[5] = x0;
+    jump[4] = x1;
+    jump[3] = x2;
+    jump[2] = x3;
+    jump[1] = x4;
+    jump[0] = x5;
+    qd_plus[0] = qd_minus[0] + jump[0];
+    qd_plus[1] = qd_minus[1] + jump[1];
+    qd_plus[2] = qd_minus[2] + jump[2];
+    qd_plus[3] = qd_minus[3] + jump[3];
+    qd_plus[4] = qd_minus[4] + jump[4];
+    qd_plus[5] = qd_minus[5] + jump[5];
     return 0;
 }
 

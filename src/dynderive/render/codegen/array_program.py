@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ...mechanics.contact_program import Append, Call, Let, Node, SchurSolve
+from ...model.array_program import Append, Call, Let, Node, SchurSolve
 
 #: Names a program reads that are the function's own (not locals).
 ARGUMENTS = ("q", "qd", "u", "qd_minus", "restitution")

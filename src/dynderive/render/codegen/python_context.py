@@ -12,7 +12,7 @@ import sympy
 from sympy.printing.numpy import NumPyPrinter
 
 from ...derivation import Derivation
-from ...mechanics.contact_program import Call
+from ...model.array_program import Call
 from .. import api
 from ..encode import Code, python_literal
 from .array_program import ArrayPrinter

@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from itertools import count
 
 from ....derivation import Derivation
-from ....mechanics.contact_program import HELD, Append, Call, ContactProgram, Let, SchurSolve
+from ....model.array_program import HELD, Append, Call, ContactProgram, Let, SchurSolve
 from ...codegen.constrained import contacts_built
 from .c_print import CFunction
 from .c_program import assignment, c_name, flat_index

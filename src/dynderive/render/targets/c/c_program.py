@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 
-from ....mechanics.contact_program import HELD, Node
+from ....model.array_program import HELD, Node
 
 #: Program names that C spells differently (a <math.h> function, the anchors' pointer).
 C_NAMES = {"gamma": "gam", "anchor": "A"}

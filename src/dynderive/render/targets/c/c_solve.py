@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 
-from ....mechanics.contact_program import SchurSolve
+from ....model.array_program import SchurSolve
 from .c_program import Elements, c_name
 
 #: A pivot of the loops' Schur complement below this fraction of its diagonal entry means the

@@ -9,7 +9,7 @@ from dataclasses import replace
 from typing import Any
 
 from ....derivation import Derivation
-from ....mechanics.contact_program import Node
+from ....model.array_program import Node
 from ...codegen.array_program import ArrayPrinter
 from ...encode import Code
 

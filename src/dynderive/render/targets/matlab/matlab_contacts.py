@@ -12,7 +12,7 @@ fields ``frame`` and ``kind``) and ``schur_solve``, the shim of the programs' Sc
 from __future__ import annotations
 
 from ....derivation import Derivation
-from ....mechanics.contact_program import Append, ContactProgram
+from ....model.array_program import Append, ContactProgram
 from .matlab_names import matlab_string
 from .matlab_print import MFunction, help_line
 from .matlab_program import m_name, statements

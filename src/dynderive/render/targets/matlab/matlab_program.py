@@ -5,7 +5,7 @@ local ``schur_solve`` (the shim, ``matlab_contacts.py``)."""
 
 from __future__ import annotations
 
-from ....mechanics.contact_program import Append, Call, Let, Node, SchurSolve
+from ....model.array_program import Append, Call, Let, Node, SchurSolve
 
 #: Program names that MATLAB spells differently (``error`` and ``gamma`` are functions).
 M_NAMES = {"error": "err", "gamma": "gam"}
