@@ -267,3 +267,40 @@ def test_check_backend_c_compares_the_contact_functions(built):
     for name in ("constrained_forward_dynamics", "impulse_dynamics"):
         row = rows[f"compiled {name} == NumPy module"]
         assert row.status == "pass" and row.residual <= 1e-12, row
+
+
+LEGS_WITHOUT_EFFORTS = """name: legs
+planar: false
+parameters: {m: 1.2345678901234, g: 9.80665}
+gravity: [0.0123456789, -0.0234567891, -g]
+links:
+  - {name: torso, mass: 3.1234567891, com: [0.0123, 0.0234, -0.0345], inertia: [0.113, 0.127, 0.131, 0.0103, 0.0021, 0.0034]}
+  - {name: l1, mass: m, com: [0.1031, 0.0117, 0.0009], inertia: [0.0103, 0.0112, 0.0125, 0.0011, 0.00013, 0.00021]}
+  - {name: l2, mass: 0.8765432109, com: [0.0987, 0.0012, 0.0213], inertia: [0.0101, 0.0133, 0.0104, 0.00012, 0.00031, 0.00005]}
+joints:
+  - {name: base, type: floating, parent: world, child: torso}
+  - {name: q1, type: revolute, parent: torso, child: l1, axis: [0.2123, 0.9712, 0.1091]}
+  - {name: q2, type: revolute, parent: l1, child: l2, origin: {xyz: [0.2012, 0.0034, -0.0051]}, axis: [0.0213, 0.9543, 0.2981]}
+frames:
+  - {name: foot, link: l2, origin: {xyz: [0.2031, 0.0102, -0.0043]}}
+contacts:
+  - {frame: foot, kind: surface}
+"""
+
+
+def test_extension_contacts_of_a_robot_without_efforts(tmp_path):
+    """A robot that declares no efforts (u of shape (..., 0)): the extension's contact functions
+    flatten the empty efforts by the batch's count (a reshape to (-1, 0) cannot be inferred) and
+    agree with the NumPy module, by check --backend c's rows."""
+    from typer.testing import CliRunner
+
+    from dynderive.commands.cli import app
+
+    path = tmp_path / "legs.yaml"
+    path.write_text(LEGS_WITHOUT_EFFORTS)
+    result = CliRunner().invoke(app, ["check", str(path), "--backend", "c", "-q"])
+    rows = [line for line in result.output.splitlines() if "dynamics == NumPy module" in line]
+    assert any(line.startswith("compiled constrained_forward_dynamics") for line in rows), result.output
+    assert any(line.startswith("compiled impulse_dynamics") for line in rows), result.output
+    assert not [line for line in rows if " FAIL " in line], rows
+    assert result.exit_code == 0, result.output
