@@ -36,8 +36,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-import sympy
-
 from ....derivation import Derivation
 from ...codegen.constrained import BAUMGARTE, loop_sizes
 from ...codegen.names import c_comment
@@ -409,7 +407,7 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
     """The NumPy module's linearize of a loop robot: [M -A^T; A 0] [dqdd/dx; dlambda/dx] =
     [dY/dx - dtau/dx + d(A^T lambda)/dx; -d(A qdd + Adot qd)/dx] at the state's qdd and lambda
     (one constrained solve with alpha = beta = 0 and no wrench, in a block of its own)."""
-    table, quantities = derivation.symbols, derivation.quantities
+    table = derivation.symbols
     n, k, r = _sizes(derivation)
     nu = len(table.efforts)
     width = 2 * n + nu
@@ -424,8 +422,7 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
               "}"]
     lines += kit.friction_slope()
     if nu:
-        inputs = quantities["Y_g"].jacobian(sympy.Matrix(list(table.efforts.values())))
-        lines += _block(kit.expressions, list(inputs), [f"R[{i * width + 2 * n + c}]" for i in range(n) for c in range(nu)])
+        lines += _block(kit.expressions, list(derivation.effort_jacobian), [f"R[{i * width + 2 * n + c}]" for i in range(n) for c in range(nu)])
     force, acceleration = derivation.loop_linearization
     multipliers = {s: f"lambda[{i}]" for i, s in enumerate(table.loop_multipliers)}
     lines += [f"double K[{n * n}];", *_block(kit.expressions, list(force), [f"K[{i}]" for i in range(n * n)], multipliers),
