@@ -222,7 +222,7 @@ def test_build_c_writes_the_c_target_and_tracks_its_templates(robots, tmp_path):
     out = tmp_path / "out"
     templates = tmp_path / "templates"
     (templates / "c").mkdir(parents=True)
-    shutil.copy(ROOT / "templates" / "c" / "dynamics.c.j2", templates / "c")
+    shutil.copy(ROOT / "src" / "dynderive" / "render" / "targets" / "c" / "dynamics.c.j2", templates / "c")
     first = _build(robots, "--out", out, "--c", "--code", "--template-dir", templates, "-j", "1")
     assert first.exit_code == 0, first.output
     header, source = render_c(derivation_of("rp_arm"))

@@ -100,7 +100,7 @@ def test_intermediate_form_equals_expanded(kind, tmp_path, monkeypatch):
 def test_lagrange_check_over_intermediates_can_fail(tmp_path, monkeypatch):
     """EOM_g1 == EOM_g2 of a large robot is evaluated with the intermediates: it passes as
     derived, and fails when the gravity terms are off by a little."""
-    from dynderive.derivation import _zero_over_intermediates
+    from dynderive.mechanics.consistency import _zero_over_intermediates
 
     _, iv = _both_forms(_load(tmp_path, planar_chain_yaml(3, seed=4)), monkeypatch)
     check = next(c for c in iv.checks if c.name == "EOM_g1 == EOM_g2")
