@@ -944,33 +944,60 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, a=0.2
 
 
 
+def _row_space_solve(mass, jacobian, b, target, rank):
+    """(x, lam) with M x = b + J^T lam and J x = target in the row space of J's k rows, by the Schur
+    complement S_r = J_r M^-1 J_r^T: rank k, J's rows themselves; a known rank r < k, J_r = U_r^T J
+    with U_r the r left singular vectors of J = U S V^T with the largest singular values (which rows
+    are implied by the others changes with the state); None, the rows whose singular values are above
+    LOOP_RANK_TOLERANCE of the largest, found at this state (the others' multipliers 0). Returns the
+    multipliers of least norm, lam = U_r lam_r; the accelerations are unique all the same."""
+    batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], b.shape[:-1], target.shape[:-1])
+    n, k = mass.shape[-1], jacobian.shape[-2]
+    mass = np.broadcast_to(mass, batch + (n, n))
+    rows = np.broadcast_to(jacobian, batch + (k, n))
+    target = np.broadcast_to(target, batch + (k,))
+    space = None
+    if rank is None:
+        space, values, _ = np.linalg.svd(rows)
+        kept = values > LOOP_RANK_TOLERANCE * values[..., :1]
+        if k > n:
+            kept = np.concatenate([kept, np.zeros(batch + (k - n,), dtype=bool)], axis=-1)
+        rows = np.where(kept[..., None], np.swapaxes(space, -1, -2) @ rows, 0.0)
+        target = np.where(kept, _matvec(np.swapaxes(space, -1, -2), target), 0.0)
+    elif rank < k:
+        space = np.linalg.svd(rows)[0][..., :rank]
+        rows, target = np.swapaxes(space, -1, -2) @ rows, _matvec(np.swapaxes(space, -1, -2), target)
+    solved = np.linalg.solve(mass, np.concatenate([np.broadcast_to(b, batch + (n,))[..., None],
+                                                        np.swapaxes(rows, -1, -2)], axis=-1))
+    free, inverse_rt = solved[..., 0], solved[..., 1:]   # M^-1 b, M^-1 J_r^T
+    schur = rows @ inverse_rt
+    if rank is None:
+        schur = schur + np.where(kept, 0.0, 1.0)[..., None] * np.eye(k)
+    reduced = np.linalg.solve(schur, (target - _matvec(rows, free))[..., None])[..., 0]
+    return free + _matvec(inverse_rt, reduced), (reduced if space is None else _matvec(space, reduced))
+
+
 def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
-    """Solve [M -A^T; A 0] [qdd; lambda] = [Y - C qd - N; -Adot qd - 2 alpha A qd - beta**2 a]
-    for the accelerations and the loop multipliers (A = loop_jacobian, a = loop_constraints)."""
+    """(qdd, lambda) of M qdd = tau - h + A^T lambda, A qdd = -Adot qd - 2 alpha A qd - beta**2 a(q)
+    (A = loop_jacobian, a = loop_constraints, h = inverse_dynamics(q, qd, 0) with the wrenches, tau the
+    efforts' generalized forces), in the row space of A (_row_space_solve)."""
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
         u = np.zeros(1)
-    _mass = mass_matrix(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-    _jac = loop_jacobian(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-    _top = generalized_forces(q, u, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g) - inverse_dynamics(
-        q, qd, np.zeros(3), wrenches, friction_smoothing=friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-    _bottom = (
-        -_matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g), qd)
-        - 2 * alpha * _matvec(_jac, qd)
-        - beta**2 * loop_constraints(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-    )
-    _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _top.shape[:-1], _bottom.shape[:-1])
-    _n, _k = 3, 2
-    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
-    _kkt[..., :_n, :_n] = _mass
-    _kkt[..., :_n, _n:] = -np.swapaxes(_jac, -1, -2)
-    _kkt[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k,))
-    _rhs[..., :_n] = _top
-    _rhs[..., _n:] = _bottom
-    _solution = np.linalg.solve(_kkt, _rhs[..., None])[..., 0]
-    return _solution[..., :_n], _solution[..., _n:]
+    u = _coordinates("u", u, 1)
+    _parameters = {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    _M = mass_matrix(q, **_parameters)
+    _h = inverse_dynamics(q, qd, np.zeros_like(qd), wrenches, friction_smoothing=friction_smoothing, **_parameters)
+    _tau = generalized_forces(q, u, **_parameters)
+    _jac = loop_jacobian(q, **_parameters)
+    _Adot = loop_jacobian_dot(q, qd, **_parameters)
+    _drift = _matvec(_Adot, qd)
+    _a = loop_constraints(q, **_parameters)
+    _rate = _matvec(_jac, qd)
+    _bottom = -_drift - (alpha * (_rate + _rate)) - (beta * (beta * _a))
+    _qdd, _lam = _row_space_solve(_M, _jac, _tau - _h, _bottom, 2)
+    return _qdd, _lam
 
 
 def forward_dynamics(q, qd, u=None, wrenches=None, *, alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):

@@ -142,29 +142,36 @@ int slider_crank_forward_dynamics_wrenches(const double *q, const double *qd, co
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
     (void)P;
     (void)u;
+    const double zeros[3] = {0.0};
+    const double alpha = P->alpha, beta = P->beta;
     double M[9];
-    double b[3];
-    double f[3];
-    const double zero[3] = {0.0};
     slider_crank_mass_matrix(q, p, M);
-    slider_crank_inverse_dynamics_wrenches(q, qd, zero, wrenches, p, b);   /* C qd + N + F - sum J^T w */
-    {
-        f[0] = u[0];
-        f[1] = 0;
-        f[2] = 0;
-    }
-    f[0] -= b[0];
-    f[1] -= b[1];
-    f[2] -= b[2];
-    double Aj[6];
-    double Ad[6];
-    double e[2];
-    slider_crank_loop_jacobian(q, p, Aj);
-    slider_crank_loop_jacobian_dot(q, qd, p, Ad);
+    double h[3];
+    slider_crank_inverse_dynamics_wrenches(q, qd, zeros, wrenches, p, h);
+    double tau[3];
+    slider_crank_generalized_forces(q, u ? u : zeros, p, tau);
+    double jac[6];
+    slider_crank_loop_jacobian(q, p, jac);
+    double Adot[6];
+    slider_crank_loop_jacobian_dot(q, qd, p, Adot);
+    double drift[2];
+    drift[0] = Adot[0]*qd[0] + Adot[1]*qd[1] + Adot[2]*qd[2];
+    drift[1] = Adot[3]*qd[0] + Adot[4]*qd[1] + Adot[5]*qd[2];
     double a[2];
     slider_crank_loop_constraints(q, p, a);
-    e[0] = -(Ad[0]*qd[0] + Ad[1]*qd[1] + Ad[2]*qd[2]) - 2.0*P->alpha*(Aj[0]*qd[0] + Aj[1]*qd[1] + Aj[2]*qd[2]) - P->beta*P->beta*a[0];
-    e[1] = -(Ad[3]*qd[0] + Ad[4]*qd[1] + Ad[5]*qd[2]) - 2.0*P->alpha*(Aj[3]*qd[0] + Aj[4]*qd[1] + Aj[5]*qd[2]) - P->beta*P->beta*a[1];
+    double rate[2];
+    rate[0] = jac[0]*qd[0] + jac[1]*qd[1] + jac[2]*qd[2];
+    rate[1] = jac[3]*qd[0] + jac[4]*qd[1] + jac[5]*qd[2];
+    double bottom[2];
+    bottom[0] = (-drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+    bottom[1] = (-drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+    double f[3];
+    f[0] = tau[0] - h[0];
+    f[1] = tau[1] - h[1];
+    f[2] = tau[2] - h[2];
+    double e[2];
+    e[0] = bottom[0];
+    e[1] = bottom[1];
     const double md0 = M[0];
     if (!(md0 > 0.0)) return 1;
     const double mL1_0 = (M[3]) / md0;
@@ -174,9 +181,9 @@ int slider_crank_forward_dynamics_wrenches(const double *q, const double *qd, co
     if (!(md2 > 0.0)) return 1;
     double W[6];   /* M^-1 rows^T */
     for (int j = 0; j < 2; ++j) {
-        const double mw0 = Aj[j * 3 + 0];
-        const double mw1 = Aj[j * 3 + 1] - mL1_0*mw0;
-        const double mw2 = Aj[j * 3 + 2];
+        const double mw0 = jac[j * 3 + 0];
+        const double mw1 = jac[j * 3 + 1] - mL1_0*mw0;
+        const double mw2 = jac[j * 3 + 2];
         const double mx2 = mw2 / md2;
         const double mx1 = mw1 / md1;
         const double mx0 = mw0 / md0 - mL1_0*mx1;
@@ -188,7 +195,7 @@ int slider_crank_forward_dynamics_wrenches(const double *q, const double *qd, co
     for (int i = 0; i < 2; ++i) {
         for (int j = 0; j <= i; ++j) {
             double sum = 0.0;
-            for (int c = 0; c < 3; ++c) sum += Aj[i * 3 + c]*W[c * 2 + j];
+            for (int c = 0; c < 3; ++c) sum += jac[i * 3 + c]*W[c * 2 + j];
             S[i * 2 + j] = sum;
         }
     }
@@ -203,8 +210,8 @@ int slider_crank_forward_dynamics_wrenches(const double *q, const double *qd, co
     const double mx2 = mw2 / md2;
     const double mx1 = mw1 / md1;
     const double mx0 = mw0 / md0 - mL1_0*mx1;
-    const double g0 = e[0 + 0] - Aj[0]*mx0 - Aj[1]*mx1 - Aj[2]*mx2;
-    const double g1 = e[1 + 0] - Aj[3]*mx0 - Aj[4]*mx1 - Aj[5]*mx2;
+    const double g0 = e[0 + 0] - jac[0]*mx0 - jac[1]*mx1 - jac[2]*mx2;
+    const double g1 = e[1 + 0] - jac[3]*mx0 - jac[4]*mx1 - jac[5]*mx2;
     const double sw0 = g0;
     const double sw1 = g1 - sL1_0*sw0;
     const double sx1 = sw1 / sd1;
@@ -258,27 +265,36 @@ int slider_crank_linearize(const double *q, const double *qd, const double *u, c
         const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
         (void)P;
         (void)u;
+        const double zeros[3] = {0.0};
+        const double alpha = 0.0, beta = 0.0;
         double M[9];
-        double b[3];
-        double f[3];
-        const double zero[3] = {0.0};
         slider_crank_mass_matrix(q, p, M);
-        slider_crank_inverse_dynamics_wrenches(q, qd, zero, 0, p, b);   /* C qd + N + F - sum J^T w */
-        {
-            f[0] = u[0];
-            f[1] = 0;
-            f[2] = 0;
-        }
-        f[0] -= b[0];
-        f[1] -= b[1];
-        f[2] -= b[2];
-        double Aj[6];
-        double Ad[6];
+        double h[3];
+        slider_crank_inverse_dynamics_wrenches(q, qd, zeros, 0, p, h);
+        double tau[3];
+        slider_crank_generalized_forces(q, u ? u : zeros, p, tau);
+        double jac[6];
+        slider_crank_loop_jacobian(q, p, jac);
+        double Adot[6];
+        slider_crank_loop_jacobian_dot(q, qd, p, Adot);
+        double drift[2];
+        drift[0] = Adot[0]*qd[0] + Adot[1]*qd[1] + Adot[2]*qd[2];
+        drift[1] = Adot[3]*qd[0] + Adot[4]*qd[1] + Adot[5]*qd[2];
+        double a[2];
+        slider_crank_loop_constraints(q, p, a);
+        double rate[2];
+        rate[0] = jac[0]*qd[0] + jac[1]*qd[1] + jac[2]*qd[2];
+        rate[1] = jac[3]*qd[0] + jac[4]*qd[1] + jac[5]*qd[2];
+        double bottom[2];
+        bottom[0] = (-drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+        bottom[1] = (-drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+        double f[3];
+        f[0] = tau[0] - h[0];
+        f[1] = tau[1] - h[1];
+        f[2] = tau[2] - h[2];
         double e[2];
-        slider_crank_loop_jacobian(q, p, Aj);
-        slider_crank_loop_jacobian_dot(q, qd, p, Ad);
-        e[0] = -(Ad[0]*qd[0] + Ad[1]*qd[1] + Ad[2]*qd[2]);
-        e[1] = -(Ad[3]*qd[0] + Ad[4]*qd[1] + Ad[5]*qd[2]);
+        e[0] = bottom[0];
+        e[1] = bottom[1];
         const double md0 = M[0];
         if (!(md0 > 0.0)) return 1;
         const double mL1_0 = (M[3]) / md0;
@@ -288,9 +304,9 @@ int slider_crank_linearize(const double *q, const double *qd, const double *u, c
         if (!(md2 > 0.0)) return 1;
         double W[6];   /* M^-1 rows^T */
         for (int j = 0; j < 2; ++j) {
-            const double mw0 = Aj[j * 3 + 0];
-            const double mw1 = Aj[j * 3 + 1] - mL1_0*mw0;
-            const double mw2 = Aj[j * 3 + 2];
+            const double mw0 = jac[j * 3 + 0];
+            const double mw1 = jac[j * 3 + 1] - mL1_0*mw0;
+            const double mw2 = jac[j * 3 + 2];
             const double mx2 = mw2 / md2;
             const double mx1 = mw1 / md1;
             const double mx0 = mw0 / md0 - mL1_0*mx1;
@@ -302,7 +318,7 @@ int slider_crank_linearize(const double *q, const double *qd, const double *u, c
         for (int i = 0; i < 2; ++i) {
             for (int j = 0; j <= i; ++j) {
                 double sum = 0.0;
-                for (int c = 0; c < 3; ++c) sum += Aj[i * 3 + c]*W[c * 2 + j];
+                for (int c = 0; c < 3; ++c) sum += jac[i * 3 + c]*W[c * 2 + j];
                 S[i * 2 + j] = sum;
             }
         }
@@ -317,8 +333,8 @@ int slider_crank_linearize(const double *q, const double *qd, const double *u, c
         const double mx2 = mw2 / md2;
         const double mx1 = mw1 / md1;
         const double mx0 = mw0 / md0 - mL1_0*mx1;
-        const double g0 = e[0 + 0] - Aj[0]*mx0 - Aj[1]*mx1 - Aj[2]*mx2;
-        const double g1 = e[1 + 0] - Aj[3]*mx0 - Aj[4]*mx1 - Aj[5]*mx2;
+        const double g0 = e[0 + 0] - jac[0]*mx0 - jac[1]*mx1 - jac[2]*mx2;
+        const double g1 = e[1 + 0] - jac[3]*mx0 - jac[4]*mx1 - jac[5]*mx2;
         const double sw0 = g0;
         const double sw1 = g1 - sL1_0*sw0;
         const double sx1 = sw1 / sd1;
@@ -838,27 +854,36 @@ int slider_crank_loop_forces_wrenches(const double *q, const double *qd, const d
     const slider_crank_parameters *const P = p ? p : &slider_crank_default_parameters;
     (void)P;
     (void)u;
+    const double zeros[3] = {0.0};
+    const double alpha = 0.0, beta = 0.0;
     double M[9];
-    double b[3];
-    double f[3];
-    const double zero[3] = {0.0};
     slider_crank_mass_matrix(q, p, M);
-    slider_crank_inverse_dynamics_wrenches(q, qd, zero, wrenches, p, b);   /* C qd + N + F - sum J^T w */
-    {
-        f[0] = u[0];
-        f[1] = 0;
-        f[2] = 0;
-    }
-    f[0] -= b[0];
-    f[1] -= b[1];
-    f[2] -= b[2];
-    double Aj[6];
-    double Ad[6];
+    double h[3];
+    slider_crank_inverse_dynamics_wrenches(q, qd, zeros, wrenches, p, h);
+    double tau[3];
+    slider_crank_generalized_forces(q, u ? u : zeros, p, tau);
+    double jac[6];
+    slider_crank_loop_jacobian(q, p, jac);
+    double Adot[6];
+    slider_crank_loop_jacobian_dot(q, qd, p, Adot);
+    double drift[2];
+    drift[0] = Adot[0]*qd[0] + Adot[1]*qd[1] + Adot[2]*qd[2];
+    drift[1] = Adot[3]*qd[0] + Adot[4]*qd[1] + Adot[5]*qd[2];
+    double a[2];
+    slider_crank_loop_constraints(q, p, a);
+    double rate[2];
+    rate[0] = jac[0]*qd[0] + jac[1]*qd[1] + jac[2]*qd[2];
+    rate[1] = jac[3]*qd[0] + jac[4]*qd[1] + jac[5]*qd[2];
+    double bottom[2];
+    bottom[0] = (-drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+    bottom[1] = (-drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+    double f[3];
+    f[0] = tau[0] - h[0];
+    f[1] = tau[1] - h[1];
+    f[2] = tau[2] - h[2];
     double e[2];
-    slider_crank_loop_jacobian(q, p, Aj);
-    slider_crank_loop_jacobian_dot(q, qd, p, Ad);
-    e[0] = -(Ad[0]*qd[0] + Ad[1]*qd[1] + Ad[2]*qd[2]);
-    e[1] = -(Ad[3]*qd[0] + Ad[4]*qd[1] + Ad[5]*qd[2]);
+    e[0] = bottom[0];
+    e[1] = bottom[1];
     const double md0 = M[0];
     if (!(md0 > 0.0)) return 1;
     const double mL1_0 = (M[3]) / md0;
@@ -868,9 +893,9 @@ int slider_crank_loop_forces_wrenches(const double *q, const double *qd, const d
     if (!(md2 > 0.0)) return 1;
     double W[6];   /* M^-1 rows^T */
     for (int j = 0; j < 2; ++j) {
-        const double mw0 = Aj[j * 3 + 0];
-        const double mw1 = Aj[j * 3 + 1] - mL1_0*mw0;
-        const double mw2 = Aj[j * 3 + 2];
+        const double mw0 = jac[j * 3 + 0];
+        const double mw1 = jac[j * 3 + 1] - mL1_0*mw0;
+        const double mw2 = jac[j * 3 + 2];
         const double mx2 = mw2 / md2;
         const double mx1 = mw1 / md1;
         const double mx0 = mw0 / md0 - mL1_0*mx1;
@@ -882,7 +907,7 @@ int slider_crank_loop_forces_wrenches(const double *q, const double *qd, const d
     for (int i = 0; i < 2; ++i) {
         for (int j = 0; j <= i; ++j) {
             double sum = 0.0;
-            for (int c = 0; c < 3; ++c) sum += Aj[i * 3 + c]*W[c * 2 + j];
+            for (int c = 0; c < 3; ++c) sum += jac[i * 3 + c]*W[c * 2 + j];
             S[i * 2 + j] = sum;
         }
     }
@@ -897,8 +922,8 @@ int slider_crank_loop_forces_wrenches(const double *q, const double *qd, const d
     const double mx2 = mw2 / md2;
     const double mx1 = mw1 / md1;
     const double mx0 = mw0 / md0 - mL1_0*mx1;
-    const double g0 = e[0 + 0] - Aj[0]*mx0 - Aj[1]*mx1 - Aj[2]*mx2;
-    const double g1 = e[1 + 0] - Aj[3]*mx0 - Aj[4]*mx1 - Aj[5]*mx2;
+    const double g0 = e[0 + 0] - jac[0]*mx0 - jac[1]*mx1 - jac[2]*mx2;
+    const double g1 = e[1 + 0] - jac[3]*mx0 - jac[4]*mx1 - jac[5]*mx2;
     const double sw0 = g0;
     const double sw1 = g1 - sL1_0*sw0;
     const double sx1 = sw1 / sd1;

@@ -244,32 +244,53 @@ int spatial_four_bar_forward_dynamics_wrenches(const double *q, const double *qd
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
     (void)P;
     (void)u;
+    const double zeros[4] = {0.0};
+    const double alpha = P->alpha, beta = P->beta;
     double M[16];
-    double b[4];
-    double f[4];
-    const double zero[4] = {0.0};
     spatial_four_bar_mass_matrix(q, p, M);
-    spatial_four_bar_inverse_dynamics_wrenches(q, qd, zero, wrenches, p, b);   /* C qd + N + F - sum J^T w */
-    {
-        f[0] = u[0];
-        f[1] = 0;
-        f[2] = 0;
-        f[3] = 0;
-    }
-    f[0] -= b[0];
-    f[1] -= b[1];
-    f[2] -= b[2];
-    f[3] -= b[3];
-    double Aj[12];
-    double Ad[12];
-    double e[3];
-    spatial_four_bar_loop_jacobian(q, p, Aj);
-    spatial_four_bar_loop_jacobian_dot(q, qd, p, Ad);
+    double h[4];
+    spatial_four_bar_inverse_dynamics_wrenches(q, qd, zeros, wrenches, p, h);
+    double tau[4];
+    spatial_four_bar_generalized_forces(q, u ? u : zeros, p, tau);
+    double jac[12];
+    spatial_four_bar_loop_jacobian(q, p, jac);
+    double Adot[12];
+    spatial_four_bar_loop_jacobian_dot(q, qd, p, Adot);
+    double drift[3];
+    double dot0 = 0.0;
+    for (int j = 0; j < 4; ++j) dot0 += Adot[j]*qd[j];
+    double dot1 = 0.0;
+    for (int j = 0; j < 4; ++j) dot1 += Adot[4 + j]*qd[j];
+    double dot2 = 0.0;
+    for (int j = 0; j < 4; ++j) dot2 += Adot[8 + j]*qd[j];
+    drift[0] = dot0;
+    drift[1] = dot1;
+    drift[2] = dot2;
     double a[3];
     spatial_four_bar_loop_constraints(q, p, a);
-    e[0] = -(Ad[0]*qd[0] + Ad[1]*qd[1] + Ad[2]*qd[2] + Ad[3]*qd[3]) - 2.0*P->alpha*(Aj[0]*qd[0] + Aj[1]*qd[1] + Aj[2]*qd[2] + Aj[3]*qd[3]) - P->beta*P->beta*a[0];
-    e[1] = -(Ad[4]*qd[0] + Ad[5]*qd[1] + Ad[6]*qd[2] + Ad[7]*qd[3]) - 2.0*P->alpha*(Aj[4]*qd[0] + Aj[5]*qd[1] + Aj[6]*qd[2] + Aj[7]*qd[3]) - P->beta*P->beta*a[1];
-    e[2] = -(Ad[8]*qd[0] + Ad[9]*qd[1] + Ad[10]*qd[2] + Ad[11]*qd[3]) - 2.0*P->alpha*(Aj[8]*qd[0] + Aj[9]*qd[1] + Aj[10]*qd[2] + Aj[11]*qd[3]) - P->beta*P->beta*a[2];
+    double rate[3];
+    double dot3 = 0.0;
+    for (int j = 0; j < 4; ++j) dot3 += jac[j]*qd[j];
+    double dot4 = 0.0;
+    for (int j = 0; j < 4; ++j) dot4 += jac[4 + j]*qd[j];
+    double dot5 = 0.0;
+    for (int j = 0; j < 4; ++j) dot5 += jac[8 + j]*qd[j];
+    rate[0] = dot3;
+    rate[1] = dot4;
+    rate[2] = dot5;
+    double bottom[3];
+    bottom[0] = (-drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+    bottom[1] = (-drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+    bottom[2] = (-drift[2] - alpha*(rate[2] + rate[2])) - beta*beta*a[2];
+    double f[4];
+    f[0] = tau[0] - h[0];
+    f[1] = tau[1] - h[1];
+    f[2] = tau[2] - h[2];
+    f[3] = tau[3] - h[3];
+    double e[3];
+    e[0] = bottom[0];
+    e[1] = bottom[1];
+    e[2] = bottom[2];
     const double md0 = M[0];
     if (!(md0 > 0.0)) return 1;
     const double mL1_0 = (M[4]) / md0;
@@ -283,10 +304,10 @@ int spatial_four_bar_forward_dynamics_wrenches(const double *q, const double *qd
     if (!(md3 > 0.0)) return 1;
     double W[12];   /* M^-1 rows^T */
     for (int j = 0; j < 3; ++j) {
-        const double mw0 = Aj[j * 4 + 0];
-        const double mw1 = Aj[j * 4 + 1] - mL1_0*mw0;
-        const double mw2 = Aj[j * 4 + 2] - mL2_0*mw0 - mL2_1*mw1;
-        const double mw3 = Aj[j * 4 + 3];
+        const double mw0 = jac[j * 4 + 0];
+        const double mw1 = jac[j * 4 + 1] - mL1_0*mw0;
+        const double mw2 = jac[j * 4 + 2] - mL2_0*mw0 - mL2_1*mw1;
+        const double mw3 = jac[j * 4 + 3];
         const double mx3 = mw3 / md3;
         const double mx2 = mw2 / md2;
         const double mx1 = mw1 / md1 - mL2_1*mx2;
@@ -300,7 +321,7 @@ int spatial_four_bar_forward_dynamics_wrenches(const double *q, const double *qd
     for (int i = 0; i < 3; ++i) {
         for (int j = 0; j <= i; ++j) {
             double sum = 0.0;
-            for (int c = 0; c < 4; ++c) sum += Aj[i * 4 + c]*W[c * 3 + j];
+            for (int c = 0; c < 4; ++c) sum += jac[i * 4 + c]*W[c * 3 + j];
             S[i * 3 + j] = sum;
         }
     }
@@ -321,9 +342,9 @@ int spatial_four_bar_forward_dynamics_wrenches(const double *q, const double *qd
     const double mx2 = mw2 / md2;
     const double mx1 = mw1 / md1 - mL2_1*mx2;
     const double mx0 = mw0 / md0 - mL1_0*mx1 - mL2_0*mx2;
-    const double g0 = e[0 + 0] - Aj[0]*mx0 - Aj[1]*mx1 - Aj[2]*mx2 - Aj[3]*mx3;
-    const double g1 = e[1 + 0] - Aj[4]*mx0 - Aj[5]*mx1 - Aj[6]*mx2 - Aj[7]*mx3;
-    const double g2 = e[2 + 0] - Aj[8]*mx0 - Aj[9]*mx1 - Aj[10]*mx2 - Aj[11]*mx3;
+    const double g0 = e[0 + 0] - jac[0]*mx0 - jac[1]*mx1 - jac[2]*mx2 - jac[3]*mx3;
+    const double g1 = e[1 + 0] - jac[4]*mx0 - jac[5]*mx1 - jac[6]*mx2 - jac[7]*mx3;
+    const double g2 = e[2 + 0] - jac[8]*mx0 - jac[9]*mx1 - jac[10]*mx2 - jac[11]*mx3;
     const double sw0 = g0;
     const double sw1 = g1 - sL1_0*sw0;
     const double sw2 = g2 - sL2_0*sw0 - sL2_1*sw1;
@@ -389,30 +410,53 @@ int spatial_four_bar_linearize(const double *q, const double *qd, const double *
         const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
         (void)P;
         (void)u;
+        const double zeros[4] = {0.0};
+        const double alpha = 0.0, beta = 0.0;
         double M[16];
-        double b[4];
-        double f[4];
-        const double zero[4] = {0.0};
         spatial_four_bar_mass_matrix(q, p, M);
-        spatial_four_bar_inverse_dynamics_wrenches(q, qd, zero, 0, p, b);   /* C qd + N + F - sum J^T w */
-        {
-            f[0] = u[0];
-            f[1] = 0;
-            f[2] = 0;
-            f[3] = 0;
-        }
-        f[0] -= b[0];
-        f[1] -= b[1];
-        f[2] -= b[2];
-        f[3] -= b[3];
-        double Aj[12];
-        double Ad[12];
+        double h[4];
+        spatial_four_bar_inverse_dynamics_wrenches(q, qd, zeros, 0, p, h);
+        double tau[4];
+        spatial_four_bar_generalized_forces(q, u ? u : zeros, p, tau);
+        double jac[12];
+        spatial_four_bar_loop_jacobian(q, p, jac);
+        double Adot[12];
+        spatial_four_bar_loop_jacobian_dot(q, qd, p, Adot);
+        double drift[3];
+        double dot0 = 0.0;
+        for (int j = 0; j < 4; ++j) dot0 += Adot[j]*qd[j];
+        double dot1 = 0.0;
+        for (int j = 0; j < 4; ++j) dot1 += Adot[4 + j]*qd[j];
+        double dot2 = 0.0;
+        for (int j = 0; j < 4; ++j) dot2 += Adot[8 + j]*qd[j];
+        drift[0] = dot0;
+        drift[1] = dot1;
+        drift[2] = dot2;
+        double a[3];
+        spatial_four_bar_loop_constraints(q, p, a);
+        double rate[3];
+        double dot3 = 0.0;
+        for (int j = 0; j < 4; ++j) dot3 += jac[j]*qd[j];
+        double dot4 = 0.0;
+        for (int j = 0; j < 4; ++j) dot4 += jac[4 + j]*qd[j];
+        double dot5 = 0.0;
+        for (int j = 0; j < 4; ++j) dot5 += jac[8 + j]*qd[j];
+        rate[0] = dot3;
+        rate[1] = dot4;
+        rate[2] = dot5;
+        double bottom[3];
+        bottom[0] = (-drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+        bottom[1] = (-drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+        bottom[2] = (-drift[2] - alpha*(rate[2] + rate[2])) - beta*beta*a[2];
+        double f[4];
+        f[0] = tau[0] - h[0];
+        f[1] = tau[1] - h[1];
+        f[2] = tau[2] - h[2];
+        f[3] = tau[3] - h[3];
         double e[3];
-        spatial_four_bar_loop_jacobian(q, p, Aj);
-        spatial_four_bar_loop_jacobian_dot(q, qd, p, Ad);
-        e[0] = -(Ad[0]*qd[0] + Ad[1]*qd[1] + Ad[2]*qd[2] + Ad[3]*qd[3]);
-        e[1] = -(Ad[4]*qd[0] + Ad[5]*qd[1] + Ad[6]*qd[2] + Ad[7]*qd[3]);
-        e[2] = -(Ad[8]*qd[0] + Ad[9]*qd[1] + Ad[10]*qd[2] + Ad[11]*qd[3]);
+        e[0] = bottom[0];
+        e[1] = bottom[1];
+        e[2] = bottom[2];
         const double md0 = M[0];
         if (!(md0 > 0.0)) return 1;
         const double mL1_0 = (M[4]) / md0;
@@ -426,10 +470,10 @@ int spatial_four_bar_linearize(const double *q, const double *qd, const double *
         if (!(md3 > 0.0)) return 1;
         double W[12];   /* M^-1 rows^T */
         for (int j = 0; j < 3; ++j) {
-            const double mw0 = Aj[j * 4 + 0];
-            const double mw1 = Aj[j * 4 + 1] - mL1_0*mw0;
-            const double mw2 = Aj[j * 4 + 2] - mL2_0*mw0 - mL2_1*mw1;
-            const double mw3 = Aj[j * 4 + 3];
+            const double mw0 = jac[j * 4 + 0];
+            const double mw1 = jac[j * 4 + 1] - mL1_0*mw0;
+            const double mw2 = jac[j * 4 + 2] - mL2_0*mw0 - mL2_1*mw1;
+            const double mw3 = jac[j * 4 + 3];
             const double mx3 = mw3 / md3;
             const double mx2 = mw2 / md2;
             const double mx1 = mw1 / md1 - mL2_1*mx2;
@@ -443,7 +487,7 @@ int spatial_four_bar_linearize(const double *q, const double *qd, const double *
         for (int i = 0; i < 3; ++i) {
             for (int j = 0; j <= i; ++j) {
                 double sum = 0.0;
-                for (int c = 0; c < 4; ++c) sum += Aj[i * 4 + c]*W[c * 3 + j];
+                for (int c = 0; c < 4; ++c) sum += jac[i * 4 + c]*W[c * 3 + j];
                 S[i * 3 + j] = sum;
             }
         }
@@ -464,9 +508,9 @@ int spatial_four_bar_linearize(const double *q, const double *qd, const double *
         const double mx2 = mw2 / md2;
         const double mx1 = mw1 / md1 - mL2_1*mx2;
         const double mx0 = mw0 / md0 - mL1_0*mx1 - mL2_0*mx2;
-        const double g0 = e[0 + 0] - Aj[0]*mx0 - Aj[1]*mx1 - Aj[2]*mx2 - Aj[3]*mx3;
-        const double g1 = e[1 + 0] - Aj[4]*mx0 - Aj[5]*mx1 - Aj[6]*mx2 - Aj[7]*mx3;
-        const double g2 = e[2 + 0] - Aj[8]*mx0 - Aj[9]*mx1 - Aj[10]*mx2 - Aj[11]*mx3;
+        const double g0 = e[0 + 0] - jac[0]*mx0 - jac[1]*mx1 - jac[2]*mx2 - jac[3]*mx3;
+        const double g1 = e[1 + 0] - jac[4]*mx0 - jac[5]*mx1 - jac[6]*mx2 - jac[7]*mx3;
+        const double g2 = e[2 + 0] - jac[8]*mx0 - jac[9]*mx1 - jac[10]*mx2 - jac[11]*mx3;
         const double sw0 = g0;
         const double sw1 = g1 - sL1_0*sw0;
         const double sw2 = g2 - sL2_0*sw0 - sL2_1*sw1;
@@ -2249,30 +2293,53 @@ int spatial_four_bar_loop_forces_wrenches(const double *q, const double *qd, con
     const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
     (void)P;
     (void)u;
+    const double zeros[4] = {0.0};
+    const double alpha = 0.0, beta = 0.0;
     double M[16];
-    double b[4];
-    double f[4];
-    const double zero[4] = {0.0};
     spatial_four_bar_mass_matrix(q, p, M);
-    spatial_four_bar_inverse_dynamics_wrenches(q, qd, zero, wrenches, p, b);   /* C qd + N + F - sum J^T w */
-    {
-        f[0] = u[0];
-        f[1] = 0;
-        f[2] = 0;
-        f[3] = 0;
-    }
-    f[0] -= b[0];
-    f[1] -= b[1];
-    f[2] -= b[2];
-    f[3] -= b[3];
-    double Aj[12];
-    double Ad[12];
+    double h[4];
+    spatial_four_bar_inverse_dynamics_wrenches(q, qd, zeros, wrenches, p, h);
+    double tau[4];
+    spatial_four_bar_generalized_forces(q, u ? u : zeros, p, tau);
+    double jac[12];
+    spatial_four_bar_loop_jacobian(q, p, jac);
+    double Adot[12];
+    spatial_four_bar_loop_jacobian_dot(q, qd, p, Adot);
+    double drift[3];
+    double dot0 = 0.0;
+    for (int j = 0; j < 4; ++j) dot0 += Adot[j]*qd[j];
+    double dot1 = 0.0;
+    for (int j = 0; j < 4; ++j) dot1 += Adot[4 + j]*qd[j];
+    double dot2 = 0.0;
+    for (int j = 0; j < 4; ++j) dot2 += Adot[8 + j]*qd[j];
+    drift[0] = dot0;
+    drift[1] = dot1;
+    drift[2] = dot2;
+    double a[3];
+    spatial_four_bar_loop_constraints(q, p, a);
+    double rate[3];
+    double dot3 = 0.0;
+    for (int j = 0; j < 4; ++j) dot3 += jac[j]*qd[j];
+    double dot4 = 0.0;
+    for (int j = 0; j < 4; ++j) dot4 += jac[4 + j]*qd[j];
+    double dot5 = 0.0;
+    for (int j = 0; j < 4; ++j) dot5 += jac[8 + j]*qd[j];
+    rate[0] = dot3;
+    rate[1] = dot4;
+    rate[2] = dot5;
+    double bottom[3];
+    bottom[0] = (-drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+    bottom[1] = (-drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+    bottom[2] = (-drift[2] - alpha*(rate[2] + rate[2])) - beta*beta*a[2];
+    double f[4];
+    f[0] = tau[0] - h[0];
+    f[1] = tau[1] - h[1];
+    f[2] = tau[2] - h[2];
+    f[3] = tau[3] - h[3];
     double e[3];
-    spatial_four_bar_loop_jacobian(q, p, Aj);
-    spatial_four_bar_loop_jacobian_dot(q, qd, p, Ad);
-    e[0] = -(Ad[0]*qd[0] + Ad[1]*qd[1] + Ad[2]*qd[2] + Ad[3]*qd[3]);
-    e[1] = -(Ad[4]*qd[0] + Ad[5]*qd[1] + Ad[6]*qd[2] + Ad[7]*qd[3]);
-    e[2] = -(Ad[8]*qd[0] + Ad[9]*qd[1] + Ad[10]*qd[2] + Ad[11]*qd[3]);
+    e[0] = bottom[0];
+    e[1] = bottom[1];
+    e[2] = bottom[2];
     const double md0 = M[0];
     if (!(md0 > 0.0)) return 1;
     const double mL1_0 = (M[4]) / md0;
@@ -2286,10 +2353,10 @@ int spatial_four_bar_loop_forces_wrenches(const double *q, const double *qd, con
     if (!(md3 > 0.0)) return 1;
     double W[12];   /* M^-1 rows^T */
     for (int j = 0; j < 3; ++j) {
-        const double mw0 = Aj[j * 4 + 0];
-        const double mw1 = Aj[j * 4 + 1] - mL1_0*mw0;
-        const double mw2 = Aj[j * 4 + 2] - mL2_0*mw0 - mL2_1*mw1;
-        const double mw3 = Aj[j * 4 + 3];
+        const double mw0 = jac[j * 4 + 0];
+        const double mw1 = jac[j * 4 + 1] - mL1_0*mw0;
+        const double mw2 = jac[j * 4 + 2] - mL2_0*mw0 - mL2_1*mw1;
+        const double mw3 = jac[j * 4 + 3];
         const double mx3 = mw3 / md3;
         const double mx2 = mw2 / md2;
         const double mx1 = mw1 / md1 - mL2_1*mx2;
@@ -2303,7 +2370,7 @@ int spatial_four_bar_loop_forces_wrenches(const double *q, const double *qd, con
     for (int i = 0; i < 3; ++i) {
         for (int j = 0; j <= i; ++j) {
             double sum = 0.0;
-            for (int c = 0; c < 4; ++c) sum += Aj[i * 4 + c]*W[c * 3 + j];
+            for (int c = 0; c < 4; ++c) sum += jac[i * 4 + c]*W[c * 3 + j];
             S[i * 3 + j] = sum;
         }
     }
@@ -2324,9 +2391,9 @@ int spatial_four_bar_loop_forces_wrenches(const double *q, const double *qd, con
     const double mx2 = mw2 / md2;
     const double mx1 = mw1 / md1 - mL2_1*mx2;
     const double mx0 = mw0 / md0 - mL1_0*mx1 - mL2_0*mx2;
-    const double g0 = e[0 + 0] - Aj[0]*mx0 - Aj[1]*mx1 - Aj[2]*mx2 - Aj[3]*mx3;
-    const double g1 = e[1 + 0] - Aj[4]*mx0 - Aj[5]*mx1 - Aj[6]*mx2 - Aj[7]*mx3;
-    const double g2 = e[2 + 0] - Aj[8]*mx0 - Aj[9]*mx1 - Aj[10]*mx2 - Aj[11]*mx3;
+    const double g0 = e[0 + 0] - jac[0]*mx0 - jac[1]*mx1 - jac[2]*mx2 - jac[3]*mx3;
+    const double g1 = e[1 + 0] - jac[4]*mx0 - jac[5]*mx1 - jac[6]*mx2 - jac[7]*mx3;
+    const double g2 = e[2 + 0] - jac[8]*mx0 - jac[9]*mx1 - jac[10]*mx2 - jac[11]*mx3;
     const double sw0 = g0;
     const double sw1 = g1 - sL1_0*sw0;
     const double sw2 = g2 - sL2_0*sw0 - sL2_1*sw1;

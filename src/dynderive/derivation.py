@@ -372,6 +372,19 @@ class Derivation:
         return contact_programs(len(self.symbols.qd), self.robot.floating)
 
     @cached_property
+    def loop_solve(self) -> Any:
+        """The program of the loops' constrained solve (``mechanics.loop_solve``) every target
+        prints for a robot with closed loops; None for the others."""
+        from .mechanics.loop_solve import loop_solve_program
+
+        if not self.robot.loops:
+            return None
+        n, loops = len(self.symbols.qd), self.steps["loops"]
+        if self.robot.floating:
+            return loop_solve_program(n, len(loops.rows), None, True)
+        return loop_solve_program(n, self.quantities["a_g"].shape[0], loops.rank, False)
+
+    @cached_property
     def effort_jacobian(self) -> sympy.Matrix:
         """dY/du (NV x NU): each effort's generalized force per unit effort, which linearize's
         input matrix B and the compiled targets print; with quaternions (efforts acting at

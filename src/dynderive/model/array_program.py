@@ -1,6 +1,6 @@
 """The vocabulary of the engine's array programs (plain data, no SymPy): expression trees of
 ``Node`` over named arrays, and the steps a program is made of (``Call`` of a generated function,
-``Let``, ``Append`` of a contact's rows, ``SchurSolve``). The engine writes programs in it
+``Let``, ``Append`` of a contact's rows, ``SchurSolve``, ``RowSpaceSolve``). The engine writes programs in it
 (``mechanics/contact_program.py``); each target's printer reads it and prints the few primitives
 once in its shim.
 
@@ -127,8 +127,39 @@ class SchurSolve:
     anchored: bool = False
 
 
+@dataclass(frozen=True)
+class RowSpaceSolve:
+    """``(x, multipliers)`` with M x = b + J^T multipliers and J x = target in the row space of
+    J's k rows, by the Schur complement S_r = J_r M^-1 J_r^T: ``rank`` k (J's rows themselves), a
+    known r < k (J_r = U_r^T J, U_r the r left singular vectors of J with the largest singular
+    values) or None (found at each state: the singular values above a tolerance of the largest,
+    the other rows' multipliers 0); the multipliers of least norm, U_r lambda_r. A target refuses
+    (or flags) M not positive definite and S_r singular."""
+
+    x: str
+    multipliers: str
+    mass: str
+    jacobian: str
+    b: Node
+    target: Node
+    rank: int | None
+    anchored: bool = False
+
+
 #: A step; one whose ``anchored`` is set runs only when anchors (held positions and poses) are given.
-Step = Call | Let | Append | SchurSolve
+Step = Call | Let | Append | SchurSolve | RowSpaceSolve
+
+
+@dataclass(frozen=True)
+class ArrayProgram:
+    """A straight-line function: ``steps`` from the arrays ``inputs`` and the numbers ``scalars``
+    to ``outputs``."""
+
+    name: str
+    inputs: tuple[str, ...]
+    scalars: tuple[str, ...]
+    steps: tuple[Step, ...]
+    outputs: tuple[str, ...]
 
 
 @dataclass(frozen=True)

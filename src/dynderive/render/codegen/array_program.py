@@ -11,10 +11,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ...model.array_program import Append, Call, Let, Node, SchurSolve
+from ...model.array_program import Append, Call, Let, Node, RowSpaceSolve, SchurSolve
 
 #: Names a program reads that are the function's own (not locals).
-ARGUMENTS = ("q", "qd", "u", "qd_minus", "restitution")
+ARGUMENTS = ("q", "qd", "u", "qd_minus", "restitution", "alpha", "beta")
 
 
 def local(name: str) -> str:
@@ -102,4 +102,7 @@ class ArrayPrinter:
             b = "None" if step.b is None else self.expression(step.b)
             return [f"{local(step.x)}, {local(step.multipliers)} = _schur_solve({local(step.mass)}, "
                     f"{local(step.jacobian)}, {b}, {self.expression(step.target)}, _held)"]
+        if isinstance(step, RowSpaceSolve):
+            return [f"{local(step.x)}, {local(step.multipliers)} = _row_space_solve({local(step.mass)}, "
+                    f"{local(step.jacobian)}, {self.expression(step.b)}, {self.expression(step.target)}, {step.rank})"]
         raise ValueError(f"no Python for the step {step!r}")

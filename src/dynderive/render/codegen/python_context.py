@@ -63,10 +63,9 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
     }
 
 
-def _contact_lines(derivation: Derivation, xp: str, array_printer: type[ArrayPrinter]) -> dict[str, Any]:
-    """Each contact program's parts as Python lines over ``xp`` (none without contact dynamics)."""
-    if derivation.contact_programs is None:
-        return {}
+def _program_lines(derivation: Derivation, xp: str, array_printer: type[ArrayPrinter]) -> dict[str, Any]:
+    """The engine's array programs as Python lines over ``xp``: each contact program's parts
+    (``contact_lines``, none without contact dynamics) and the loops' solve (``loop_lines``)."""
 
     def call(step: Call) -> str:
         if step.function == "effort_map":
@@ -77,9 +76,11 @@ def _contact_lines(derivation: Derivation, xp: str, array_printer: type[ArrayPri
         return f"{step.function}({', '.join({'frame': '_frame'}.get(a, a) for a in step.arguments)}, **_parameters)"
 
     printer = array_printer(xp, call)
-    return {program.name: {"anchors": program.anchors, **{part: [Code(line) for line in printer.statements(
-        getattr(program, part), "anchors" if part == "finish" else "_anchor")] for part in
-        ("setup", "contact", "point", "surface", "finish")}} for program in derivation.contact_programs}
+    loops = derivation.loop_solve
+    return {"loop_lines": [] if loops is None else [Code(line) for line in printer.statements(loops.steps)],
+            "contact_lines": {program.name: {"anchors": program.anchors, **{part: [Code(line) for line in printer.statements(
+                getattr(program, part), "anchors" if part == "finish" else "_anchor")] for part in
+                ("setup", "contact", "point", "surface", "finish")}} for program in derivation.contact_programs or ()}}
 
 
 def code_context(derivation: Derivation, printer: NumPyPrinter | None = None, xp: str = "np",
@@ -88,7 +89,7 @@ def code_context(derivation: Derivation, printer: NumPyPrinter | None = None, xp
     prints the expression functions (default: NumPy's, ``np.sin``; the JAX target passes its own),
     ``array_printer`` the engine's array programs over the module's array namespace ``xp``.
     A robot with quaternions in ``q`` (``robot.floating``) takes ``_tangent_context``."""
-    return _code_context(derivation, printer) | {"contact_lines": _contact_lines(derivation, xp, array_printer)}
+    return _code_context(derivation, printer) | _program_lines(derivation, xp, array_printer)
 
 
 def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -> dict[str, Any]:

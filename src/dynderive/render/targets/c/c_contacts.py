@@ -186,7 +186,7 @@ def _steps(derivation: Derivation, steps: tuple, n: int, rows: int, nonzero: lis
 
 def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bool]], fresh: Iterator[int]) -> list[str]:
     if isinstance(step, Call):
-        return _call(derivation, step, n)
+        return call_line(derivation, step, n)
     if isinstance(step, SchurSolve):
         return schur_solve(step, n, nonzero, rows, fresh)
     if isinstance(step, Let):
@@ -196,7 +196,7 @@ def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bo
     return assignment(lambda i, j: f"{name}[{flat_index(f'count + {i}', columns, j)}]", step.value, n, fresh)
 
 
-def _call(derivation: Derivation, step: Call, n: int) -> list[str]:
+def call_line(derivation: Derivation, step: Call, n: int) -> list[str]:
     """A generated function's call; ``effort_map`` (a floating base's efforts at their columns)
     written out."""
     robot = derivation.robot

@@ -32,14 +32,19 @@ This module knows nothing of ``c.py``: what it needs of it comes in a ``CKit``.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from itertools import count
+from math import prod
 from typing import Any
 
 from ....derivation import Derivation
+from ....model.array_program import Call, Let, RowSpaceSolve
 from ...codegen.constrained import BAUMGARTE, loop_sizes
 from ...codegen.names import c_comment
 from ...encode import Code
+from .c_contacts import call_line
+from .c_program import assignment, c_name, flat_index
 from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
 
 
@@ -168,16 +173,17 @@ def _tree_forward_wrenches(derivation: Derivation, kit: CKit) -> Any:
     return kit.function(prototype, comment, lines + [f"qdd[{i}] = mx{i};" for i in range(n)] + ["return 0;"])
 
 
-def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -> tuple[list[str], str, str | None]:
+def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int,
+                     jacobian: str = "Aj") -> tuple[list[str], str, str | None]:
     """Lines that give the rows the solve uses: the loop Jacobian ``Aj`` itself, or
     (over-constrained) ``Ar = U_r^T Aj`` with ``U_r`` (``Ur``) from the row space, and ``bottom``
     (NC x columns) projected to ``<bottom>_r``; returns (lines, rows array, bottom array)."""
     n, k, rank = _sizes(derivation)
     if derivation.robot.floating:
-        return _rows_kept(n, k, bottom)
+        return _rows_kept(n, k, bottom, jacobian)
     if rank == k:
-        return [], "Aj", bottom
-    lines = row_space_lines(k, n, rank, "Aj", "Ar", "Ur", "return 2;")
+        return [], jacobian, bottom
+    lines = row_space_lines(k, n, rank, jacobian, "Ar", "Ur", "return 2;")
     if bottom is None:
         return lines + ["(void)Ur;"], "Ar", None
     lines += [f"double {bottom}_r[{rank * columns}];",
@@ -188,11 +194,11 @@ def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int) -
     return lines, "Ar", f"{bottom}_r"
 
 
-def _schur(derivation: Derivation, kit: CKit, rows: str) -> list[str]:
+def _schur(derivation: Derivation, kit: CKit, rows: str, mass: str = "M") -> list[str]:
     """M = L D L^T (``return 1`` if not positive definite), ``W = M^-1 rows^T`` and
     ``S = rows W`` = L D L^T (``return 2`` if singular)."""
     n, _, r = _sizes(derivation)
-    lines = ldl_factor(lambda i, j: f"M[{i * n + j}]", n, kit.mass_pattern, "m", "return 1;")
+    lines = ldl_factor(lambda i, j: f"{mass}[{i * n + j}]", n, kit.mass_pattern, "m", "return 1;")
     lines += [f"double W[{n * r}];   /* M^-1 rows^T */", f"for (int j = 0; j < {r}; ++j) {{"]
     lines += ["    " + line for line in ldl_solve(n, kit.mass_pattern, "m", [f"{rows}[j * {n} + {i}]" for i in range(n)])]
     lines += [f"    W[{i} * {r} + j] = mx{i};" for i in range(n)] + ["}"]
@@ -224,41 +230,47 @@ def _multipliers(derivation: Derivation, target: str) -> list[str]:
     return [f"{target}[{i}] = " + " + ".join(f"Ur[{i * r + m}]*sx{m}" for m in range(r)) + ";" for i in range(k)]
 
 
-def _loop_system(derivation: Derivation, kit: CKit, wrenches: str, baumgarte: bool) -> list[str]:
-    """Locals ``M``, ``f`` (n x 1), ``Aj``, ``Ad``, ``e`` (NC x 1) of the constrained system."""
-    name = derivation.robot.name
-    n, k, _ = _sizes(derivation)
-    lines = _applied(derivation, kit, "f", wrenches)
-    tangent = derivation.robot.floating   # Adot qd from its own program
-    lines += [f"double Aj[{k * n}];", f"double Ad[{k if tangent else k * n}];", f"double e[{k}];",
-              f"{name}_loop_jacobian(q, p, Aj);",
-              f"{name}_loop_jacobian_dot_qd(q, qd, p, Ad);" if tangent else f"{name}_loop_jacobian_dot(q, qd, p, Ad);"]
-    if baumgarte:
-        lines += [f"double a[{k}];", f"{name}_loop_constraints(q, p, a);"]
-    for i in range(k):
-        drift = f"Ad[{i}]" if tangent else " + ".join(f"Ad[{i * n + j}]*qd[{j}]" for j in range(n))
-        text = f"e[{i}] = -({drift})"
-        if baumgarte:
-            velocity = " + ".join(f"Aj[{i * n + j}]*qd[{j}]" for j in range(n))
-            text += f" - 2.0*P->alpha*({velocity}) - P->beta*P->beta*a[{i}]"
-        lines.append(text + ";")
-    return lines
-
-
 def _loop_solve(derivation: Derivation, kit: CKit, wrenches: str, baumgarte: bool,
                 qdd: str | None, multipliers: str | None) -> list[str]:
-    """The constrained solve at one state; stores qdd and lambda in the arrays named."""
+    """The engine's loop solve (``Derivation.loop_solve``) at one state, its calls and values
+    printed as the contact programs' (``c_program.py``) and its ``RowSpaceSolve`` by the shim
+    below; stores qdd and lambda in the arrays named. ``baumgarte``: the gains from the struct
+    (else 0, as loop_forces and linearize take them)."""
+    program, name = derivation.loop_solve, derivation.robot.name
     n = len(derivation.symbols.qd)
-    lines = _loop_system(derivation, kit, wrenches, baumgarte)
-    rows_lines, rows, bottom = _constraint_rows(derivation, "e", 1)
-    lines += rows_lines + _schur(derivation, kit, rows) + _schur_column(derivation, kit, "f", rows, bottom, 1, "0")
-    if qdd:
-        lines += [f"{qdd}[{i}] = a{i};" for i in range(n)]
-    else:
-        lines += [f"(void)a{i};" for i in range(n)]
-    if multipliers:
-        lines += _multipliers(derivation, multipliers)
+    fresh = count()
+    gains = ("P->alpha", "P->beta") if baumgarte else ("0.0", "0.0")
+    lines = [kit.start, "(void)P;", "(void)u;",
+             f"const double zeros[{max(n, len(derivation.symbols.efforts))}] = {{0.0}};",
+             f"const double alpha = {gains[0]}, beta = {gains[1]};"]
+    for step in program.steps:
+        if isinstance(step, Call):
+            lines.append(f"double {c_name(step.output)}[{prod(step.shape)}];")
+            if step.function == "inverse_dynamics":
+                lines.append(f"{name}_inverse_dynamics_wrenches(q, qd, zeros, {wrenches}, p, {c_name(step.output)});")
+            else:
+                lines += call_line(derivation, step, n)
+        elif isinstance(step, Let):
+            target, columns = c_name(step.name), step.value.shape[1] if len(step.value.shape) == 2 else None
+            lines += [f"double {target}[{prod(step.value.shape)}];",
+                      *assignment(lambda i, j, t=target, c=columns: f"{t}[{flat_index(i, c, j)}]", step.value, n, fresh)]
+        else:
+            lines += _row_space_solve(derivation, kit, step, fresh, qdd, multipliers)
     return lines
+
+
+def _row_space_solve(derivation: Derivation, kit: CKit, step: RowSpaceSolve, fresh: Iterator[int],
+                     qdd: str | None, multipliers: str | None) -> list[str]:
+    """The shim of ``RowSpaceSolve``: ``f`` = b and ``e`` = target, the rows in the row space
+    (``_constraint_rows``), M and the Schur complement factored, one column solved."""
+    n, k, _ = _sizes(derivation)
+    lines = [f"double f[{n}];", *assignment(lambda i, j: f"f[{i}]", step.b, n, fresh),
+             f"double e[{k}];", *assignment(lambda i, j: f"e[{i}]", step.target, n, fresh)]
+    rows_lines, rows, bottom = _constraint_rows(derivation, "e", 1, c_name(step.jacobian))
+    lines += rows_lines + _schur(derivation, kit, rows, c_name(step.mass))
+    lines += _schur_column(derivation, kit, "f", rows, bottom, 1, "0")
+    lines += [f"{qdd}[{i}] = a{i};" for i in range(n)] if qdd else [f"(void)a{i};" for i in range(n)]
+    return lines + (_multipliers(derivation, multipliers) if multipliers else [])
 
 
 def _loop_forward(derivation: Derivation, kit: CKit) -> Any:
@@ -453,12 +465,12 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
         "module); returns 0, or 1 or 2 as forward_dynamics (A, B untouched).", lines)
 
 
-def _rows_kept(n: int, k: int, bottom: str | None) -> tuple[list[str], str, str | None]:
+def _rows_kept(n: int, k: int, bottom: str | None, jacobian: str = "Aj") -> tuple[list[str], str, str | None]:
     """A floating-base robot's rows in the row space of ``Aj`` at this state (the NumPy module's):
     ``Ar = U^T Aj`` and ``Ur`` from the one-sided Jacobi SVD, the rows whose singular value is
     above LOOP_RANK_TOLERANCE of the largest kept (``kept_``), the others zeroed; ``bottom``
     projected to ``<bottom>_r`` (zero on the rows left out)."""
-    lines = row_space_lines(k, n, k, "Aj", "Ar", "Ur", "return 2;")
+    lines = row_space_lines(k, n, k, jacobian, "Ar", "Ur", "return 2;")
     lines += [f"int kept_[{k}];", "double top_ = 0.0;",
               f"for (int m = 0; m < {k}; ++m) {{", "    double norm = 0.0;",
               f"    for (int c = 0; c < {n}; ++c) norm += Ar[m * {n} + c]*Ar[m * {n} + c];",
