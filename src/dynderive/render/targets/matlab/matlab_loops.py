@@ -27,6 +27,7 @@ from .matlab_print import (
     prologue,
     vector_targets,
 )
+from .matlab_program import statements
 
 
 def _rows(derivation: Derivation, bottom: str) -> list[str]:
@@ -38,18 +39,24 @@ def _rows(derivation: Derivation, bottom: str) -> list[str]:
 
 
 def _solve_function(derivation: Derivation) -> MFunction:
-    """The local function ``loop_solve(q, qd, u, p, alpha, beta)`` -> [qdd, lambda]."""
-    name = derivation.robot.name
-    n, _, r = loop_sizes(derivation)
-    return MFunction("loop_solve", "[qdd, lambda]", ["q", "qd", "u", "p", "alpha", "beta"],
+    """The local function ``loop_solve(q, qd, u, p, alpha, beta)`` -> [qdd, lam]: the engine's
+    program (``Derivation.loop_solve``) printed."""
+    return MFunction("loop_solve", "[qdd, lam]", ["q", "qd", "u", "p", "alpha", "beta"],
                      ["LOOP_SOLVE  The constrained system at one state (alpha, beta: Baumgarte gains)."],
-                     [f"M = {name}.mass_matrix(q, p);", f"Aj = {name}.loop_jacobian(q, p);",
-                      f"top = {name}.generalized_forces(q, u, p) - {name}.inverse_dynamics(q, qd, zeros({n}, 1), p);",
-                      f"bottom = -({name}.loop_jacobian_dot(q, qd, p) * qd) - 2*alpha*(Aj * qd) "
-                      f"- beta*beta*{name}.loop_constraints(q, p);",
-                      *_rows(derivation, "bottom"),
-                      f"solution = [M, -Aj'; Aj, zeros({r}, {r})] \\ [top; bottom];",
-                      f"qdd = solution(1:{n});", f"lambda = Ur * solution({n + 1}:end);"])
+                     statements(derivation.loop_solve.steps, derivation.robot.name, len(derivation.symbols.qd)))
+
+
+def _row_space_solve() -> MFunction:
+    """The shim of the engine's ``RowSpaceSolve`` (a known rank r)."""
+    return MFunction(
+        "row_space_solve", "[x, lambda]", ["M", "Aj", "b", "target", "r"],
+        ["ROW_SPACE_SOLVE  x and lambda with M x = b + Aj' lambda and Aj x = target in the row space of Aj: its",
+         "   rows (r = their number), else U_r' Aj with U_r the r left singular vectors of Aj with the largest",
+         "   singular values (lambda = U_r lambda_r, the multipliers of least norm); by the Schur complement."],
+        ["Ur = eye(size(Aj, 1));", "if r < size(Aj, 1)", "    [Ub, ~, ~] = svd(Aj);", "    Ur = Ub(:, 1:r);",
+         "    Aj = Ur' * Aj;", "    target = Ur' * target;", "end",
+         "free = M \\ b;", "MiJt = M \\ Aj';", "reduced = (Aj * MiJt) \\ (target - Aj * free);",
+         "x = free + MiJt * reduced;", "lambda = Ur * reduced;"])
 
 
 def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
@@ -79,11 +86,11 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
                    "   (alpha = p.alpha, beta = p.beta: Baumgarte gains, 0 = none); start from a state on the",
                    "   constraints (A qd = 0). u may be [] (no effort)." + least],
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
-                   "qdd = loop_solve(q, qd, u, p, p.alpha, p.beta);"], [_solve_function(derivation)]),
+                   "qdd = loop_solve(q, qd, u, p, p.alpha, p.beta);"], [_solve_function(derivation), _row_space_solve()]),
         MFunction("loop_forces", "lambda", ["q", "qd", "u", "p"],
                   [help_line(derivation, "loop_forces") + least],
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
-                   "[qdd, lambda] = loop_solve(q, qd, u, p, 0, 0);"], [_solve_function(derivation)]),
+                   "[qdd, lambda] = loop_solve(q, qd, u, p, 0, 0);"], [_solve_function(derivation), _row_space_solve()]),
         _linearize(derivation, names),
     ]
 
@@ -113,4 +120,4 @@ def _linearize(derivation: Derivation, names: Names) -> Any:
         [help_line(derivation, "linearize"), "",
          "   The constrained solve [M, -A_g'; A_g, 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g' lambda)/dx;",
          "   -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0, as the NumPy module)."],
-        body, [_solve_function(derivation)])
+        body, [_solve_function(derivation), _row_space_solve()])

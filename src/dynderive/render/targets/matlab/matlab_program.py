@@ -1,11 +1,12 @@
 """The MATLAB printer of the engine's array programs (``mechanics/contact_program.py``): each
 value one MATLAB expression (``T(1:3, 1:3)' * Jf(1:3, :)``), each stacked array grown by rows,
-the steps needing anchors inside ``if ~isempty(anchors)``; ``SchurSolve`` calls the file's
-local ``schur_solve`` (the shim, ``matlab_contacts.py``)."""
+the steps needing anchors inside ``if ~isempty(anchors)``; ``SchurSolve`` and ``RowSpaceSolve``
+call the file's local ``schur_solve`` and ``row_space_solve`` (the shims, ``matlab_contacts.py``
+and ``matlab_loops.py``)."""
 
 from __future__ import annotations
 
-from ....model.array_program import Append, Call, Let, Node, SchurSolve
+from ....model.array_program import Append, Call, Let, Node, RowSpaceSolve, SchurSolve
 
 #: Program names that MATLAB spells differently (``error`` and ``gamma`` are functions).
 M_NAMES = {"error": "err", "gamma": "gam"}
@@ -81,4 +82,7 @@ def _statement(step, package: str, n: int) -> list[str]:
         b = "[]" if step.b is None else expression(step.b)
         return [f"[{m_name(step.x)}, {m_name(step.multipliers)}] = schur_solve({m_name(step.mass)}, "
                 f"{m_name(step.jacobian)}, {b}, {expression(step.target)}, held);"]
+    if isinstance(step, RowSpaceSolve):
+        return [f"[{m_name(step.x)}, {m_name(step.multipliers)}] = row_space_solve({m_name(step.mass)}, "
+                f"{m_name(step.jacobian)}, {expression(step.b)}, {expression(step.target)}, {step.rank});"]
     raise ValueError(f"no MATLAB for the step {step!r}")
