@@ -35,7 +35,7 @@ from ...codegen.functions import Argument, ProgramFunction, program_function
 from ...codegen.python_context import code_context
 from ...encode import Code, python_literal
 from ...python_module import render_module
-from .casadi_program import casadi_contact_lines
+from .casadi_program import casadi_program_lines
 
 CASADI_TEMPLATE = "casadi/dynamics.py.j2"
 #: Modules the generated CasADi module may import.
@@ -190,8 +190,7 @@ def casadi_context(derivation: Derivation) -> dict[str, Any]:
         "dependent_list": context.get("dependent_list", "[]"),
         "effort_columns": context.get("effort_columns", "()"),
         "api_doc": {f.name: Code(api.described(f.name, size, "{n} x 1")) for f in api.API},
-        "contact_lines": casadi_contact_lines(derivation),
-    }
+    } | casadi_program_lines(derivation)
     return context
 
 

@@ -1,4 +1,4 @@
-"""The CasADi printer of the engine's contact programs: the neutral Python printer
+"""The CasADi printer of the engine's array programs (contacts, the loops' solve): the neutral Python printer
 (``codegen/array_program.py``) with CasADi's matrices (``_ca.mtimes``, ``.T``, ``_ca.vertcat``,
 no batch axes) and the module's private bodies as the generated functions; the anchors' steps
 always run (anchors is an input, zeros when left out)."""
@@ -19,7 +19,9 @@ _CALLS = {"mass_matrix": "_mass_matrix(q, p)", "generalized_forces": "_generaliz
           "effort_map": "_ca.mtimes(_effort_matrix(p), u) if NU else _ca.SX.zeros(NV)",
           "frame_transform": "_FRAME_FUNCTIONS[_index][0](q, p)",
           "frame_jacobian": "_FRAME_FUNCTIONS[_index][1](q, p)",
-          "frame_jacobian_dot_qd": "_FRAME_FUNCTIONS[_index][2](q, qd, p)"}
+          "frame_jacobian_dot_qd": "_FRAME_FUNCTIONS[_index][2](q, qd, p)",
+          "loop_constraints": "_loop_constraints(q, p)", "loop_jacobian": "_loop_jacobian(q, p)",
+          "loop_jacobian_dot": "_loop_jacobian_dot(q, qd, p)"}
 
 
 class CasadiPrinter(ArrayPrinter):
@@ -49,11 +51,14 @@ class CasadiPrinter(ArrayPrinter):
         return "_ca.vertcat(" + ", ".join(f"({x}[{i}, {j}] - {x}[{j}, {i}]) / 2" for i, j in ((2, 1), (0, 2), (1, 0))) + ")"
 
 
-def casadi_contact_lines(derivation: Derivation) -> dict[str, Any]:
-    """Each contact program's parts as lines of the CasADi module (the anchors' steps always)."""
-    if derivation.contact_programs is None:
-        return {}
+def casadi_program_lines(derivation: Derivation) -> dict[str, Any]:
+    """The engine's programs as lines of the CasADi module: each contact program's parts (the
+    anchors' steps always, ``contact_lines``) and the loops' solve (``loop_lines``)."""
     printer = CasadiPrinter()
-    return {program.name: {"anchors": program.anchors} | {part: [Code(line) for line in printer.statements(
-        tuple(replace(step, anchored=False) for step in getattr(program, part)))]
-        for part in ("setup", "contact", "point", "surface", "finish")} for program in derivation.contact_programs}
+    loops = derivation.loop_solve
+    return {"loop_lines": [] if loops is None else [Code(line) for line in printer.statements(loops.steps)],
+            "contact_lines": {program.name: {"anchors": program.anchors} | {
+                part: [Code(line) for line in printer.statements(
+                    tuple(replace(step, anchored=False) for step in getattr(program, part)))]
+                for part in ("setup", "contact", "point", "surface", "finish")}
+                for program in derivation.contact_programs or ()}}
