@@ -206,8 +206,7 @@ def test_no_linearization_is_written_for_such_loops(tied):
     assert not hasattr(tied, "INDEPENDENT_COORDINATES") and not hasattr(tied, "reduced_basis")
 
 
-@pytest.mark.parametrize(("option", "target"), [("--matlab", "the MATLAB target (--matlab)"),
-                                                ("--casadi", "the CasADi target (--casadi)")])
+@pytest.mark.parametrize(("option", "target"), [("--casadi", "the CasADi target (--casadi)")])
 def test_targets_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, option, target):
     result, robot, out = _solve(tmp_path, TIED, option)
     assert result.exit_code == 2, result.output
@@ -217,6 +216,36 @@ def test_targets_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, op
         f"built for {target} yet (--code, --jax, --c and --c-extension close them)"]
     assert not out.exists()
     assert "internal error" not in result.output
+
+
+@pytest.mark.parametrize("text", [TIED, ROBOT], ids=["tied", "types"])
+def test_the_matlab_package_agrees_with_the_numpy_module_in_octave(tmp_path, text):
+    """``--matlab`` prints the loops' rows from their programs and forward_dynamics and loop_forces
+    from the engine's loop solve (the rank found at each state): equal to the NumPy module's, with
+    Baumgarte gains too; no linearize, as the module has none."""
+    from test_matlab_numeric import OCTAVE, _Calls, _octave, _vector
+
+    if OCTAVE is None:
+        pytest.skip("GNU Octave is not installed")
+    result, robot, out = _solve(tmp_path, text, "--matlab")
+    assert result.exit_code == 0, result.output
+    (tmp_path / "numpy").mkdir()
+    module = _module(tmp_path / "numpy", text)
+    name = text.split("\n", 1)[0].split(": ")[1]
+    package = out / f"+{name}"
+    assert not (package / "linearize.m").exists() and not (package / "forward_dynamics_derivatives.m").exists()
+    calls = _Calls(name, 1e-11)
+    calls.lines.append(f"p = {name}.parameters(); p.alpha = 0.7; p.beta = 1.9;")
+    for index, (q, qd, u) in enumerate(_states(module, 8, 2)):
+        state = f"{_vector(q)}, {_vector(qd)}"
+        calls.add(f"a{index}", f"loop_constraints({_vector(q)})", module.loop_constraints(q))
+        calls.add(f"A{index}", f"loop_jacobian({_vector(q)})", module.loop_jacobian(q))
+        calls.add(f"drift{index}", f"loop_jacobian_dot_qd({state})", module.loop_jacobian_dot_qd(q, qd))
+        calls.add(f"qdd{index}", f"forward_dynamics({state}, {_vector(u)})", module.forward_dynamics(q, qd, u))
+        calls.add(f"gains{index}", f"forward_dynamics({state}, {_vector(u)}, p)",
+                  module.forward_dynamics(q, qd, u, alpha=0.7, beta=1.9))
+        calls.add(f"lambda{index}", f"loop_forces({state}, {_vector(u)})", module.loop_forces(q, qd, u))
+    calls.check(_octave(out, "\n".join(calls.lines), warnings=False))
 
 
 @pytest.mark.parametrize("independent", ["[elbow]", "[shoulder, elbow]"])

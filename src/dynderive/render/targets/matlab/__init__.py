@@ -7,17 +7,14 @@ from __future__ import annotations
 from typing import Any
 
 from ...api import group
-from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
 from ..target import MAXIMAL_NOT_PRINTED, NotBuilt, Target
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The package's files (paths relative to the output folder) and, for a fixed base, the script."""
-    from ...codegen.constrained import refuse_floating_loops
     from .matlab import render_matlab
     from .matlab_script import render_matlab_script
 
-    refuse_floating_loops(derivation, "the MATLAB target (--matlab)")
     files = {path: text.encode() for path, text in render_matlab(derivation, template_dir).items()}
     if not derivation.robot.floating:   # the symbolic path does not apply to quaternion coordinates
         files[f"{derivation.robot.name}_derivation.m"] = render_matlab_script(derivation, template_dir).encode()
@@ -45,6 +42,6 @@ TARGET = Target(
                         "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
                NotBuilt(group("frames"), "frameless", "a robot without frames: MATLAB writes no frame functions "
                                                       "(the NumPy module's raise for any frame name)"),
-               NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
-                        "loops on a floating base or with spherical joints: not printed for MATLAB yet (it refuses such a robot)")),
+               NotBuilt(("linearize", "forward_dynamics_derivatives"), "floating_loops",
+                        "loops on a floating base or with spherical joints: the constrained linearization is not built")),
 )

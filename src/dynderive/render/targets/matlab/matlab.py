@@ -130,7 +130,7 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         functions += [_forward_dynamics(derivation), _linearize(derivation, names), *contact_functions(derivation)]
     else:
         functions += loop_functions(derivation, names)
-    functions += _derivatives(derivation, names)
+    functions += _derivatives(derivation, names)[:1 if robot.floating and robot.loops else 2]
     return functions + (_configuration_functions(derivation) if nq != n else [])
 
 

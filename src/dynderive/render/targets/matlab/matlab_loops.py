@@ -24,6 +24,7 @@ from .matlab_print import (
     help_line,
     linearize_rhs,
     matrix_targets,
+    program_body,
     prologue,
     vector_targets,
 )
@@ -46,27 +47,33 @@ def _solve_function(derivation: Derivation) -> MFunction:
                      statements(derivation.loop_solve.steps, derivation.robot.name, len(derivation.symbols.qd)))
 
 
+#: Singular values of the loop Jacobian of a robot with quaternions in q below this fraction of
+#: the largest are zero (the NumPy module's LOOP_RANK_TOLERANCE).
+TOLERANCE = "1e-7"
+
+
 def _row_space_solve() -> MFunction:
-    """The shim of the engine's ``RowSpaceSolve`` (a known rank r)."""
+    """The shim of the engine's ``RowSpaceSolve``."""
     return MFunction(
         "row_space_solve", "[x, lambda]", ["M", "Aj", "b", "target", "r"],
         ["ROW_SPACE_SOLVE  x and lambda with M x = b + Aj' lambda and Aj x = target in the row space of Aj: its",
          "   rows (r = their number), else U_r' Aj with U_r the r left singular vectors of Aj with the largest",
-         "   singular values (lambda = U_r lambda_r, the multipliers of least norm); by the Schur complement."],
-        ["Ur = eye(size(Aj, 1));", "if r < size(Aj, 1)", "    [Ub, ~, ~] = svd(Aj);", "    Ur = Ub(:, 1:r);",
-         "    Aj = Ur' * Aj;", "    target = Ur' * target;", "end",
+         f"   singular values (r [] : those above {TOLERANCE} of the largest, at this state); lambda = U_r lambda_r,",
+         "   the multipliers of least norm; by the Schur complement."],
+        ["Ur = eye(size(Aj, 1));", "if isempty(r) || r < size(Aj, 1)", "    [Ub, Sb, ~] = svd(Aj);",
+         "    if isempty(r)", "        values = diag(Sb);", f"        r = sum(values > {TOLERANCE} * values(1));", "    end",
+         "    Ur = Ub(:, 1:r);", "    Aj = Ur' * Aj;", "    target = Ur' * target;", "end",
          "free = M \\ b;", "MiJt = M \\ Aj';", "reduced = (Aj * MiJt) \\ (target - Aj * free);",
          "x = free + MiJt * reduced;", "lambda = Ur * reduced;"])
 
 
 def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
-    """The loop functions, and the constrained forward dynamics and linearize."""
-    quantities, table = derivation.quantities, derivation.symbols
+    """The loop functions, and the constrained forward dynamics and linearize (a robot with
+    quaternions in q: its loops' rows on the tree's twists, no linearize)."""
+    quantities = derivation.quantities
+    if derivation.robot.floating:
+        return [*_tangent_rows(derivation, names), *_solved(derivation, len(derivation.loop_programs.rows), None)]
     n, k, r = loop_sizes(derivation)
-    nu = len(table.efforts)
-    least = (f" The {k} rows of A_g have rank {r} (over-constrained): the multipliers of least norm."
-             if r < k else "")
-    optional_u = {"u": f"zeros({nu}, 1)"}
     return [
         MFunction("loop_constraints", "a", ["q", "p"],
                   [help_line(derivation, "loop_constraints")],
@@ -80,9 +87,41 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
                   [help_line(derivation, "loop_jacobian_dot")],
                   [*prologue(derivation, ["q", "qd"], 3), f"Adot = zeros({k}, {n});",
                    *expression_body(names, list(quantities["Adot_g"]), matrix_targets("Adot", k, n))]),
+        *_solved(derivation, k, r),
+        _linearize(derivation, names),
+    ]
+
+
+def _tangent_rows(derivation: Derivation, names: Names) -> list[MFunction]:
+    """A robot with quaternions in q: the loops' rows, their Jacobian on the velocities and
+    Adot qd, each its program printed (``Derivation.loop_programs``)."""
+    programs, n = derivation.loop_programs, len(derivation.symbols.qd)
+    k = len(programs.rows)
+    return [
+        MFunction("loop_constraints", "a", ["q", "p"], [help_line(derivation, "loop_constraints")],
+                  [*prologue(derivation, ["q"], 2), f"a = zeros({k}, 1);",
+                   *program_body(names, programs.constraints, vector_targets("a", k))]),
+        MFunction("loop_jacobian", "A", ["q", "p"], [help_line(derivation, "loop_jacobian")],
+                  [*prologue(derivation, ["q"], 2), f"A = zeros({k}, {n});",
+                   *program_body(names, programs.jacobian, matrix_targets("A", k, n))]),
+        MFunction("loop_jacobian_dot_qd", "a", ["q", "qd", "p"], [help_line(derivation, "loop_jacobian_dot_qd")],
+                  [*prologue(derivation, ["q", "qd"], 3), f"a = zeros({k}, 1);",
+                   *program_body(names, programs.jacobian_dot_qd, vector_targets("a", k))]),
+    ]
+
+
+def _solved(derivation: Derivation, k: int, r: int | None) -> list[MFunction]:
+    """forward_dynamics and loop_forces: the local loop_solve, the engine's program, for ``k``
+    rows of rank ``r`` (None: found at each state)."""
+    n, nu = len(derivation.symbols.qd), len(derivation.symbols.efforts)
+    least = ("" if r == k else f" The {k} rows of A_g have rank {r} (over-constrained): the multipliers of least norm."
+             if r is not None else f" Rows implied by the others at the state (singular values below {TOLERANCE} of "
+             "the largest) are left out: the multipliers of least norm.")
+    optional_u = {"u": f"zeros({nu}, 1)"}
+    return [
         MFunction("forward_dynamics", "qdd", ["q", "qd", "u", "p"],
                   [f"FORWARD_DYNAMICS  Accelerations qdd of the closed-loop mechanism, {n} x 1, from", "",
-                   "   [M, -A'; A, 0] [qdd; lambda] = [Y - C qd - N - F; -Adot qd - 2 alpha A qd - beta^2 a(q)]", "",
+                   "   [M, -A'; A, 0] [qdd; lambda] = [tau - h; -Adot qd - 2 alpha A qd - beta^2 a(q)]", "",
                    "   (alpha = p.alpha, beta = p.beta: Baumgarte gains, 0 = none); start from a state on the",
                    "   constraints (A qd = 0). u may be [] (no effort)." + least],
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
@@ -91,7 +130,6 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
                   [help_line(derivation, "loop_forces") + least],
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
                    "[qdd, lambda] = loop_solve(q, qd, u, p, 0, 0);"], [_solve_function(derivation), _row_space_solve()]),
-        _linearize(derivation, names),
     ]
 
 

@@ -84,5 +84,5 @@ def _statement(step, package: str, n: int) -> list[str]:
                 f"{m_name(step.jacobian)}, {b}, {expression(step.target)}, held);"]
     if isinstance(step, RowSpaceSolve):
         return [f"[{m_name(step.x)}, {m_name(step.multipliers)}] = row_space_solve({m_name(step.mass)}, "
-                f"{m_name(step.jacobian)}, {expression(step.b)}, {expression(step.target)}, {step.rank});"]
+                f"{m_name(step.jacobian)}, {expression(step.b)}, {expression(step.target)}, {'[]' if step.rank is None else step.rank});"]
     raise ValueError(f"no MATLAB for the step {step!r}")
