@@ -213,9 +213,21 @@ def test_targets_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, op
     line = next(n for n, text in enumerate(TIED.splitlines(), 1) if "{name: tie," in text)
     assert result.stderr.splitlines() == [
         f"{robot}:{line}:5: loop joint 'tie': closed loops on a robot with a floating or spherical joint are not "
-        f"built for {target} yet (--code, --jax, --c and --c-extension close them)"]
+        f"built for {target} yet (--code, --jax, --torch, --c, --c-extension and --matlab close them)"]
     assert not out.exists()
     assert "internal error" not in result.output
+
+
+def test_check_with_the_casadi_backend_refuses_such_loops_in_one_line(tmp_path):
+    """``check --backend casadi`` renders the module as ``--casadi`` does: the same refusal, not
+    an internal error."""
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(TIED)
+    result = runner.invoke(app, ["check", str(robot), "--backend", "casadi", "-q"])
+    assert result.exit_code == 2, result.output
+    line = next(n for n, text in enumerate(TIED.splitlines(), 1) if "{name: tie," in text)
+    assert result.stderr.splitlines()[-1].startswith(f"{robot}:{line}:5: loop joint 'tie': closed loops on a robot")
+    assert "internal error" not in result.output and "Traceback" not in result.output
 
 
 @pytest.mark.parametrize("text", [TIED, ROBOT], ids=["tied", "types"])

@@ -7,7 +7,7 @@ for the explicit M, C, N and large enough for the programs, whose maximal form t
 targets print), 3-D with generic random inertias, frames and centroidal quantities, a floating
 base with quaternions (thrust efforts; damping, friction and frames), spherical joints on a
 fixed and a floating base, closed loops (planar, 3-D, with frames and friction,
-over-constrained: a target that refuses a class says so at the robot file and is skipped
+over-constrained, on a floating base with spherical joints: a target that refuses a class says so at the robot file and is skipped
 here, its refusal tested in its own file), contacts (fixed and floating). Each function the target offers (its entry's ``offered``) that the NumPy module has
 is compared, but those its entry's ``not_built`` rows list, at random full-precision states
 (on the loops, on the quaternions' sphere), for a batch and for one state, with the
@@ -96,6 +96,28 @@ frames:
 """
 
 
+#: A floating base whose arm (a spherical shoulder, a damped elbow on a generic axis) is tied back
+#: to the base by a spherical loop joint, and a frame: full-precision numbers, rows on the twists.
+TIED_ARM = """name: tied_arm
+planar: false
+gravity: [0, 0, -9.81]
+links:
+  - {name: base, mass: 3.1234567890123456, com: [0.0112345678901234, -0.0123456789012345, 0.0212345678901234], inertia: [0.0312345678901234, 0.0423456789012345, 0.0512345678901234, 0.0012345678901234, -0.0009876543210987, 0.0007654321098765]}
+  - {name: upper, mass: 1.2345678901234567, com: [0.1523456789012345, 0.0112345678901234, -0.0087654321098765], inertia: [0.0011234567890123, 0.0081234567890123, 0.0079876543210987, 0.0001234567890123, -0.0002345678901234, 0.0000987654321098]}
+  - {name: lower, mass: 0.6543210987654321, com: [0.1412345678901234, -0.0098765432109876, 0.0123456789012345], inertia: [0.0010987654321098, 0.0041234567890123, 0.0039876543210987, -0.0000876543210987, 0.0001234567890123, 0.0000543210987654]}
+joints:
+  - {name: root, type: floating, parent: world, child: base, origin: {xyz: [0.0123456789012345, -0.0234567890123456, 0.4123456789012345], rpy: [0.1234567890123456, -0.0987654321098765, 0.3123456789012345]}}
+  - {name: shoulder, type: spherical, parent: base, child: upper, origin: {xyz: [0.1123456789012345, 0.0212345678901234, -0.0131234567890123], rpy: [0.0512345678901234, -0.1123456789012345, 0.0712345678901234]}}
+  - {name: elbow, type: revolute, parent: upper, child: lower, origin: {xyz: [0.3123456789012345, 0.0123456789012345, -0.0098765432109876], rpy: [0.0312345678901234, 0.0212345678901234, -0.0412345678901234]},
+     axis: [0.1234567890123456, 0.5432109876543210, 0.8312345678901234], effort: tau_elbow, damping: 0.0312345678901234}
+loops:
+  - {name: tie, type: spherical, parent: lower, child: base, origin: {xyz: [0.2871234567890123, 0.0112345678901234, 0.0098765432109876], rpy: [0, 0, 0]},
+     child_origin: {xyz: [0.1312345678901234, 0.3412345678901234, 0.0212345678901234], rpy: [0, 0, 0]}}
+frames:
+  - {name: wrist, link: lower, origin: {xyz: [0.2712345678901234, -0.0212345678901234, 0.0112345678901234], rpy: [0.2123456789012345, -0.1312345678901234, 0.4123456789012345]}}
+"""
+
+
 def _framed_loop() -> str:
     """The four-bar with damping, friction and a frame at the coupler's far end."""
     text = (ROBOTS / "four_bar.yaml").read_text()
@@ -131,6 +153,7 @@ CLASSES = {
     "loops_spatial": "spatial_four_bar",
     "loops_with_frames": _framed_loop,
     "loops_overconstrained": "bennett",
+    "loops_floating": lambda: TIED_ARM,
     "contacts_fixed": _contacts(6, False),
     "contacts_floating": _contacts(10, True),
 }

@@ -1,7 +1,7 @@
 """What every target prints of the constrained solves the same way: which robots get contact
 dynamics (``contacts_built``), the loop solve's sizes (``loop_sizes``) and the Baumgarte gains
 the compiled targets take beside the parameters (``BAUMGARTE``); the refusal of a target that
-does not print the loops of a robot with quaternions in q (``refuse_floating_loops``)."""
+does not print the loops of a robot with quaternions in q (``refuse_floating_loops``, CasADi)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def loop_sizes(derivation: Derivation) -> tuple[int, int, int]:
 
 
 #: The functions of a robot with quaternions in q and closed loops that a target without their
-#: printing (MATLAB, CasADi) does not build (its registry's ``NotBuilt`` row, kind "floating_loops").
+#: printing (CasADi) does not build (its registry's ``NotBuilt`` row, kind "floating_loops").
 FLOATING_LOOP_FUNCTIONS = ("forward_dynamics", "loop_constraints", "loop_jacobian", "loop_jacobian_dot_qd",
                            "loop_forces", "assemble")
 
@@ -39,5 +39,5 @@ def refuse_floating_loops(derivation: Derivation, target: str) -> None:
     first = robot.loops[0]
     line, column = robot.positions.get(f"loop:{first.name}", robot.positions.get("loops", (1, 1)))
     raise InputError(Problem(robot.source, line, column, f"loop joint '{first.name}': closed loops on a robot with a "
-                             f"floating or spherical joint are not built for {target} yet (--code, --jax, --c and "
-                             "--c-extension close them)"))
+                             f"floating or spherical joint are not built for {target} yet (--code, --jax, --torch, "
+                             "--c, --c-extension and --matlab close them)"))

@@ -12,10 +12,8 @@ from ..target import NotBuilt, Target
 
 
 def _source(derivation: Any, template_dir: Any = None) -> str:
-    from ...codegen.constrained import refuse_floating_loops
     from .casadi import render_casadi
 
-    refuse_floating_loops(derivation, "the CasADi target (--casadi)")
     return render_casadi(derivation, template_dir)
 
 

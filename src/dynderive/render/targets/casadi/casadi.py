@@ -30,6 +30,7 @@ from ....derivation import Derivation
 from ....errors import InputError, Problem
 from ....mechanics.tidy import fold_constants
 from ... import api
+from ...codegen.constrained import refuse_floating_loops
 from ...codegen.cse import common_subexpressions
 from ...codegen.functions import Argument, ProgramFunction, program_function
 from ...codegen.python_context import code_context
@@ -153,6 +154,7 @@ def casadi_context(derivation: Derivation) -> dict[str, Any]:
     """The NumPy module's context (``code.code_context``: the parameters, names, the engine's
     programs) with the explicit expressions as bodies too, and the sizes of the module."""
     robot = derivation.robot
+    refuse_floating_loops(derivation, "the CasADi target (--casadi)")
     if robot.loops and derivation.steps["loops"].redundant:
         raise InputError(
             Problem(
