@@ -879,17 +879,17 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, r=0.1
 
 
 def _row_space_solve(mass, jacobian, b, target, rank):
-    """(x, lam) with M x = b + J^T lam and J x = target in the row space of J's k rows, by the Schur
-    complement S_r = J_r M^-1 J_r^T: rank k, J's rows themselves; a known rank r < k, J_r = U_r^T J
-    with U_r the r left singular vectors of J = U S V^T with the largest singular values (which rows
-    are implied by the others changes with the state); None, the rows whose singular values are above
-    LOOP_RANK_TOLERANCE of the largest, found at this state (the others' multipliers 0). Returns the
-    multipliers of least norm, lam = U_r lam_r; the accelerations are unique all the same."""
-    batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], b.shape[:-1], target.shape[:-1])
-    n, k = mass.shape[-1], jacobian.shape[-2]
+    """(X, Lam) with M X = b + J^T Lam and J X = target (b: (..., n, m), target: (..., k, m)) in the row
+    space of J's k rows, by the Schur complement S_r = J_r M^-1 J_r^T: rank k, J's rows themselves; a
+    known rank r < k, J_r = U_r^T J with U_r the r left singular vectors of J = U S V^T with the
+    largest singular values (which rows are implied by the others changes with the state); None, the
+    rows whose singular values are above LOOP_RANK_TOLERANCE of the largest, found at this state (the
+    others' multipliers 0). Lam = U_r Lam_r, the multipliers of least norm; X is unique all the same."""
+    batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], b.shape[:-2], target.shape[:-2])
+    n, k, m = mass.shape[-1], jacobian.shape[-2], b.shape[-1]
     mass = np.broadcast_to(mass, batch + (n, n))
     rows = np.broadcast_to(jacobian, batch + (k, n))
-    target = np.broadcast_to(target, batch + (k,))
+    target = np.broadcast_to(target, batch + (k, m))
     space = None
     if rank is None:
         space, values, _ = np.linalg.svd(rows)
@@ -897,18 +897,18 @@ def _row_space_solve(mass, jacobian, b, target, rank):
         if k > n:
             kept = np.concatenate([kept, np.zeros(batch + (k - n,), dtype=bool)], axis=-1)
         rows = np.where(kept[..., None], np.swapaxes(space, -1, -2) @ rows, 0.0)
-        target = np.where(kept, _matvec(np.swapaxes(space, -1, -2), target), 0.0)
+        target = np.where(kept[..., None], np.swapaxes(space, -1, -2) @ target, 0.0)
     elif rank < k:
         space = np.linalg.svd(rows)[0][..., :rank]
-        rows, target = np.swapaxes(space, -1, -2) @ rows, _matvec(np.swapaxes(space, -1, -2), target)
-    solved = np.linalg.solve(mass, np.concatenate([np.broadcast_to(b, batch + (n,))[..., None],
-                                                        np.swapaxes(rows, -1, -2)], axis=-1))
-    free, inverse_rt = solved[..., 0], solved[..., 1:]   # M^-1 b, M^-1 J_r^T
+        rows, target = np.swapaxes(space, -1, -2) @ rows, np.swapaxes(space, -1, -2) @ target
+    solved = np.linalg.solve(mass, np.concatenate([np.broadcast_to(b, batch + (n, m)), np.swapaxes(rows, -1, -2)],
+                                                        axis=-1))
+    free, inverse_rt = solved[..., :m], solved[..., m:]   # M^-1 b, M^-1 J_r^T
     schur = rows @ inverse_rt
     if rank is None:
         schur = schur + np.where(kept, 0.0, 1.0)[..., None] * np.eye(k)
-    reduced = np.linalg.solve(schur, (target - _matvec(rows, free))[..., None])[..., 0]
-    return free + _matvec(inverse_rt, reduced), (reduced if space is None else _matvec(space, reduced))
+    reduced = np.linalg.solve(schur, target - rows @ free)
+    return free + inverse_rt @ reduced, (reduced if space is None else space @ reduced)
 
 
 def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, r=0.1, l=0.35, e=0.03, m1=0.3, m2=0.6, m3=0.8, g=9.81):
@@ -930,7 +930,8 @@ def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, r=0.1, l
     _a = loop_constraints(q, **_parameters)
     _rate = _matvec(_jac, qd)
     _bottom = -_drift - (alpha * (_rate + _rate)) - (beta * (beta * _a))
-    _qdd, _lam = _row_space_solve(_M, _jac, _tau - _h, _bottom, 2)
+    _qdd, _lam = _row_space_solve(_M, _jac, (_tau - _h)[..., None], _bottom[..., None], 2)
+    _qdd, _lam = _qdd[..., 0], _lam[..., 0]
     return _qdd, _lam
 
 
@@ -1039,19 +1040,13 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, r=0.1, l=0.35, e=0.03, m
     _mass = mass_matrix(q, **_parameters)
     _jac = loop_jacobian(q, **_parameters)
     _bottom = np.concatenate([-_loop_acceleration_jacobian(q, qd, _qdd, **_parameters),
-                              -2.0 * loop_jacobian_dot(q, qd, **_parameters)], axis=-1)
+                              -2.0 * loop_jacobian_dot(q, qd, **_parameters),
+                              np.zeros(_qdd.shape[:-1] + (2, 1))], axis=-1)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _by_rate.shape[:-2], _bottom.shape[:-2])
-    _n, _k, _m = 3, 2, 1
-    _system = np.zeros(_batch + (_n + _k, _n + _k))
-    _system[..., :_n, :_n] = _mass
-    _system[..., :_n, _n:] = -np.swapaxes(_jac, -1, -2)
-    _system[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k, 2 * _n + _m))
-    _rhs[..., :_n, :_n] = _by_coordinate
-    _rhs[..., :_n, _n:2 * _n] = _by_rate
-    _rhs[..., :_n, 2 * _n:] = _inputs
-    _rhs[..., _n:, :2 * _n] = _bottom
-    _solved = np.linalg.solve(_system, _rhs)[..., :_n, :]
+    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (3, 3)),
+                           np.broadcast_to(_by_rate, _batch + (3, 3)),
+                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _solved = _row_space_solve(_mass, _jac, _rhs, _bottom, 2)[0]
     _A = np.zeros(_batch + (6, 6))
     _A[..., :3, 3:] = np.eye(3)
     _A[..., 3:, :] = _solved[..., :6]

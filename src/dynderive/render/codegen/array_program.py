@@ -79,6 +79,10 @@ class ArrayPrinter:
         return f"({text})" if node.op in ("add", "sub", "neg", "scale") or (node.op == "matmul" and
                                                                               len(node.args[1].shape) == 2) else text
 
+    def _column(self, node: Node) -> str:
+        """A vector as a matrix of one column."""
+        return f"{self._operand(node) if node.op != 'name' else self.expression(node)}[..., None]"
+
     def statements(self, steps: tuple, anchors: str = "_anchor") -> list[str]:
         """The lines of ``steps``; those needing anchors under ``if <anchors> is not None:``."""
         lines: list[str] = []
@@ -102,7 +106,9 @@ class ArrayPrinter:
             b = "None" if step.b is None else self.expression(step.b)
             return [f"{local(step.x)}, {local(step.multipliers)} = _schur_solve({local(step.mass)}, "
                     f"{local(step.jacobian)}, {b}, {self.expression(step.target)}, _held)"]
-        if isinstance(step, RowSpaceSolve):
-            return [f"{local(step.x)}, {local(step.multipliers)} = _row_space_solve({local(step.mass)}, "
-                    f"{local(step.jacobian)}, {self.expression(step.b)}, {self.expression(step.target)}, {step.rank})"]
+        if isinstance(step, RowSpaceSolve):   # the shim solves for columns: a vector is one
+            x, multipliers = local(step.x), local(step.multipliers)
+            return [f"{x}, {multipliers} = _row_space_solve({local(step.mass)}, {local(step.jacobian)}, "
+                    f"{self._column(step.b)}, {self._column(step.target)}, {step.rank})",
+                    f"{x}, {multipliers} = {x}[..., 0], {multipliers}[..., 0]"]
         raise ValueError(f"no Python for the step {step!r}")

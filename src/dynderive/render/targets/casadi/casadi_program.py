@@ -9,7 +9,7 @@ from dataclasses import replace
 from typing import Any
 
 from ....derivation import Derivation
-from ....model.array_program import Node
+from ....model.array_program import Node, RowSpaceSolve
 from ...codegen.array_program import ArrayPrinter
 from ...encode import Code
 
@@ -45,6 +45,12 @@ class CasadiPrinter(ArrayPrinter):
 
     def _stack(self, node: Node, top: Node, bottom: Node) -> str:
         return f"_ca.vertcat({self.expression(top)}, {self.expression(bottom)})"
+
+    def statement(self, step) -> list[str]:
+        if isinstance(step, RowSpaceSolve):   # CasADi's vectors are columns already
+            return [f"_{step.x}, _{step.multipliers} = _row_space_solve(_{step.mass}, _{step.jacobian}, "
+                    f"{self.expression(step.b)}, {self.expression(step.target)}, {step.rank})"]
+        return super().statement(step)
 
     def _vee(self, node: Node, matrix: Node) -> str:
         x = self.expression(matrix)

@@ -31,14 +31,6 @@ from .matlab_print import (
 from .matlab_program import statements
 
 
-def _rows(derivation: Derivation, bottom: str) -> list[str]:
-    """``Aj`` and ``bottom`` projected on U_r when the loops are over-constrained (``Ur``)."""
-    _, k, r = loop_sizes(derivation)
-    if r == k:
-        return ["Ur = eye(" + str(k) + ");"]
-    return ["[Ub, ~, ~] = svd(Aj);", f"Ur = Ub(:, 1:{r});", "Aj = Ur' * Aj;", f"{bottom} = Ur' * {bottom};"]
-
-
 def _solve_function(derivation: Derivation) -> MFunction:
     """The local function ``loop_solve(q, qd, u, p, alpha, beta)`` -> [qdd, lam]: the engine's
     program (``Derivation.loop_solve``) printed."""
@@ -149,10 +141,10 @@ def _linearize(derivation: Derivation, names: Names) -> Any:
             f"E = zeros({k}, {width});", f"G = zeros({k}, {n});",
             *expression_body(accelerations, list(acceleration), matrix_targets("G", k, n)),
             f"E(:, 1:{n}) = -G;", f"E(:, {n + 1}:{2 * n}) = -2*{name}.loop_jacobian_dot(q, qd, p);",
-            f"M = {name}.mass_matrix(q, p);", f"Aj = {name}.loop_jacobian(q, p);", *_rows(derivation, "E"),
-            f"X = [M, -Aj'; Aj, zeros({r}, {r})] \\ [R; E];",
-            f"A = [zeros({n}, {n}), eye({n}); X(1:{n}, 1:{2 * n})];",
-            f"B = [zeros({n}, {nu}); X(1:{n}, {2 * n + 1}:end)];"]
+            f"M = {name}.mass_matrix(q, p);", f"Aj = {name}.loop_jacobian(q, p);",
+            f"X = row_space_solve(M, Aj, R, E, {r});",
+            f"A = [zeros({n}, {n}), eye({n}); X(:, 1:{2 * n})];",
+            f"B = [zeros({n}, {nu}); X(:, {2 * n + 1}:end)];"]
     return MFunction(
         "linearize", "[A, B]", ["q", "qd", "u", "p"],
         [help_line(derivation, "linearize"), "",
