@@ -20,7 +20,7 @@ import dynderive
 from dynderive.mechanics.joint_types import JOINT_TYPES, configuration_programs, joint_type
 from dynderive.mechanics.joint_types.quaternion import quaternion_matrix
 from dynderive.mechanics.program import Program
-from dynderive.model.robot import Joint, floating_names
+from dynderive.model.robot import Joint
 from dynderive.render.targets.numpy.code import render_code
 
 pin = pytest.importorskip("pinocchio")
@@ -118,11 +118,6 @@ def test_sizes_and_names_agree_with_the_robot_model(name):
     assert joint.moves == kind.moves
     assert len(kind.columns((sympy.Integer(1), sympy.Integer(0), sympy.Integer(0)))) == kind.nv
     assert len(kind.neutral()) == kind.nq
-    if kind.configuration_suffixes:
-        q, v, _ = floating_names("j", name)
-        assert q == [f"j_{s}" for s in kind.configuration_suffixes]
-        assert v == [f"j_{s}" for s in kind.velocity_suffixes]
-        assert len(kind.configuration_suffixes) == kind.nq and len(kind.velocity_suffixes) == kind.nv
     assert (kind.quaternion_start is not None) == joint.multi
 
 

@@ -58,8 +58,6 @@ MANIFEST = ".dynderive-build.json"
 #: The lock file of earlier versions (and of file systems that cannot lock a folder).
 LOCK = ".dynderive-build.lock"
 SUFFIXES = (".yaml", ".yml", ".urdf", ".xml")
-#: The output kinds: the sheets, the code targets', the JSON and the web page.
-KINDS = ("latex", "pdf", *(target.kind for target in _TARGETS), "json", "html")
 #: The compiled extension's file name ends with this Python's suffix for extensions.
 EXTENSION_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 #: Every output file a robot named ``name`` can have (``.log``: a sheet LaTeX could not

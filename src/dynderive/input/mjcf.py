@@ -24,13 +24,6 @@ from ..errors import InputError, Problem
 from .loader import SourceDocument
 
 
-def is_mjcf(text: str) -> bool:
-    """Whether an ``.xml`` file's root element is ``<mujoco>`` (a URDF may be named ``.xml``)."""
-    from .mjcf_positions import root_tag
-
-    return root_tag(text) == "mujoco"
-
-
 @contextmanager
 def mujoco_messages(mujoco: Any) -> Iterator[list[str]]:
     """MuJoCo's warnings (``mju_warning``: "XML contains a 'NaN'", unstable simulations) and

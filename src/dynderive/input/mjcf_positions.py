@@ -16,7 +16,6 @@ from xml.parsers import expat
 from ..errors import Problem
 
 _LINE = re.compile(r"\bline (\d+)")
-_ELEMENT = re.compile(r"Element (?:name )?'([^']*)'")
 _TAG = re.compile(r"Element '([A-Za-z_]+)'")
 _NAME = re.compile(r"Element name '([^']*)'")
 _ATTRIBUTE = re.compile(r"attribute:? '([^']+)'")

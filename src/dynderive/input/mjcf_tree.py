@@ -11,7 +11,6 @@ a frame); bodies welded to the world never move and are left out. Sites are fram
 
 from __future__ import annotations
 
-import math
 import re
 import unicodedata
 from pathlib import Path
@@ -24,7 +23,7 @@ from ..model.written import significant_digits
 from .loader import Path_, SourceDocument
 from .mjcf_positions import Locator
 from .urdf import identifier
-from .urdf_values import IDENTITY, Rotation, _number, _numbers
+from .urdf_values import IDENTITY, Rotation, _number, _numbers, axis_rotation
 
 #: MuJoCo's joint types (``mjtJoint``) and the robot file's.
 JOINT_TYPES = {0: "floating", 1: "spherical", 2: "prismatic", 3: "revolute"}
@@ -48,13 +47,6 @@ def quaternion_matrix(wxyz: Any) -> np.ndarray:
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
-def axis_rotation(axis: Any, angle: float) -> np.ndarray:
-    """Rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
-    a = np.asarray(axis, dtype=float)
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
 def _rotation(R: np.ndarray) -> Rotation:

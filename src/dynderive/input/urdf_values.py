@@ -1,7 +1,8 @@
 """What the URDF reader shares with its helpers (``urdf.py``, ``urdf_bodies.py``,
 ``urdf_root.py``): ``_Reader`` (the file's problems and the numbers read from attributes),
 written angles snapped to exact quarter turns (``snap``) and ``Rotation`` (a rotation matrix
-with the ``rpy`` it was written with until it is composed)."""
+with the ``rpy`` it was written with until it is composed); ``axis_rotation`` (Rodrigues) also
+serves the MJCF reader and the 3-D drawing."""
 
 from __future__ import annotations
 
@@ -92,6 +93,13 @@ def rpy_matrix(roll: Angle, pitch: Angle, yaw: Angle) -> np.ndarray:
     return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
                      [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
                      [-sp, cp * sr, cp * cr]])
+
+
+def axis_rotation(axis: Any, angle: float) -> np.ndarray:
+    """Rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
+    a = np.asarray(axis, dtype=float)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
 def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:

@@ -14,17 +14,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from . import api
 from .targets import COLUMNS, REFERENCE, NotBuilt, by_name, resolve
-from .targets.target import public
 
 #: The targets by name, in the table's column order (the registry's, ``render/targets``).
 TARGETS = tuple(target.name for target in COLUMNS)
 TITLES = {target.name: target.title for target in COLUMNS}
-
-MAXIMAL = api.group("maximal")
-FRAME_FUNCTIONS = api.group("frames")
-CONTACT_FUNCTIONS = api.group("contacts")
 
 #: What each target does not build, (target, row), gathered from the registry's entries
 #: (``Target.not_built``) in the table's column order.
@@ -114,5 +108,4 @@ def markdown_table(derivations: list[Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["CONTACT_FUNCTIONS", "FRAME_FUNCTIONS", "MAXIMAL", "NOT_BUILT", "TARGETS", "api", "gaps", "markdown_table", "not_built",
-           "offered", "public"]
+__all__ = ["NOT_BUILT", "TARGETS", "api", "gaps", "markdown_table", "not_built", "offered"]

@@ -13,20 +13,15 @@ import numpy as np
 import sympy
 
 from ..derivation import Derivation
-from ..render.sheets.figure_3d import axis_angle, rpy
+from ..input.mjcf_tree import quaternion_matrix
+from ..input.urdf_values import axis_rotation
+from ..render.sheets.figure_3d import rpy
 from .rows import Row, _row, peak
 
 #: The rows' names (what each compares: the module docstring, docs/guides/check-and-simulate.md).
 MOMENTA = "centroidal: A_G qd, center_of_mass, total_mass = sum over the links (own kinematics)"
 DIFFERENCES = "centroidal: J_G, J qd, Jdot qd, Adot_G qd = central differences along {along}"
 PINOCCHIO = "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, dhg)"
-
-
-def _quaternion(x: float, y: float, z: float, w: float) -> np.ndarray:
-    """The rotation of the unit quaternion ``(x, y, z, w)``."""
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 class LinkModel:
@@ -80,7 +75,7 @@ class LinkModel:
                 rate = multiplier * v[where_v[leader]]
                 axis = R @ self.axes[joint.name]
                 if joint.type == "revolute":
-                    R, w = R @ axis_angle(self.axes[joint.name], value), w + axis * rate
+                    R, w = R @ axis_rotation(self.axes[joint.name], value), w + axis * rate
                 else:
                     shift = axis * value
                     p, velocity = p + shift, velocity + np.cross(w, shift) + axis * rate
@@ -90,7 +85,7 @@ class LinkModel:
                 if start:
                     shift = R @ q[qi:qi + 3]
                     p, velocity = p + shift, velocity + np.cross(w, shift)
-                R = R @ _quaternion(*q[qi + start:qi + start + 4])
+                R = R @ quaternion_matrix(np.roll(q[qi + start:qi + start + 4], 1))   # x, y, z, w: w first
                 if start:
                     velocity = velocity + R @ v[vi:vi + 3]
                 w = w + R @ v[vi + start:vi + start + 3]

@@ -54,11 +54,6 @@ class JointType:
     #: Entries in ``q`` and in ``v`` (Pinocchio's NQ, NV).
     nq: ClassVar[int] = 1
     nv: ClassVar[int] = 1
-    #: The names of its entries of ``q``, ``v`` and of its efforts are ``<joint>_<suffix>``
-    #: (``model.robot``'s tuples); none: the joint's own name (velocity: ``naming.velocity_name``).
-    configuration_suffixes: ClassVar[tuple[str, ...]] = ()
-    velocity_suffixes: ClassVar[tuple[str, ...]] = ()
-    effort_suffixes: ClassVar[tuple[str, ...]] = ()
     #: Where its unit quaternion starts among its entries of ``q`` (None: it has none).
     quaternion_start: ClassVar[int | None] = None
     #: Whether its child frame moves relative to its joint frame (a fixed joint's does not).

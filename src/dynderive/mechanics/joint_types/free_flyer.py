@@ -18,7 +18,6 @@ from collections.abc import Sequence
 
 import sympy
 
-from ...model.robot import FLOATING_CONFIGURATION, FLOATING_EFFORT, FLOATING_VELOCITY
 from ..program import _dot
 from .base import ZERO3, Column, Let, basis, keep
 from .quaternion import exp3, exp6_translation, inverse, log3, log6_translation, multiply, normalized, rotate
@@ -28,9 +27,6 @@ from .spherical import Spherical
 class Floating(Spherical):
     name = "floating"
     nq, nv = 7, 6
-    configuration_suffixes = FLOATING_CONFIGURATION
-    velocity_suffixes = FLOATING_VELOCITY
-    effort_suffixes = FLOATING_EFFORT
     quaternion_start = 3
 
     def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],

@@ -13,7 +13,6 @@ from collections.abc import Sequence
 
 import sympy
 
-from ...model.robot import SPHERICAL_CONFIGURATION, SPHERICAL_EFFORT, SPHERICAL_VELOCITY
 from .base import ONE, ZERO, ZERO3, Column, JointType, Let, basis, keep
 from .quaternion import (
     exp3,
@@ -33,9 +32,6 @@ class Spherical(JointType):
 
     name = "spherical"
     nq, nv = 4, 3
-    configuration_suffixes = SPHERICAL_CONFIGURATION
-    velocity_suffixes = SPHERICAL_VELOCITY
-    effort_suffixes = SPHERICAL_EFFORT
     quaternion_start = 0
 
     def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:

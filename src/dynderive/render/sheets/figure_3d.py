@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import sympy
 
+from ...input.urdf_values import axis_rotation
 from ..encode import escape_tex
 from .drawing import Drawing, Point, convex_hull, finish, joint_value_text, label_size
 
@@ -83,7 +84,7 @@ def spatial_kinematics(robot: Any, table: Any, q: list[float]) -> dict[str, Any]
             else:
                 value = 0.0
             if joint.type == "revolute":
-                frames[joint.child] = (R0 @ axis_angle(axis, value), p0)
+                frames[joint.child] = (R0 @ axis_rotation(axis, value), p0)
             elif joint.type == "prismatic":
                 frames[joint.child] = (R0, p0 + R0 @ axis * value)
             else:
@@ -99,14 +100,8 @@ def spatial_kinematics(robot: Any, table: Any, q: list[float]) -> dict[str, Any]
 
 def rpy(roll: float, pitch: float, yaw: float) -> Vector:
     """URDF fixed-axis roll-pitch-yaw: ``Rz(yaw) Ry(pitch) Rx(roll)``."""
-    return axis_angle(np.array([0.0, 0.0, 1.0]), yaw) @ axis_angle(np.array([0.0, 1.0, 0.0]), pitch) @ \
-        axis_angle(np.array([1.0, 0.0, 0.0]), roll)
-
-
-def axis_angle(axis: Vector, angle: float) -> Vector:
-    """Rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
-    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * K @ K
+    return axis_rotation(np.array([0.0, 0.0, 1.0]), yaw) @ axis_rotation(np.array([0.0, 1.0, 0.0]), pitch) @ \
+        axis_rotation(np.array([1.0, 0.0, 0.0]), roll)
 
 
 def reference_configuration(derivation: Any) -> list[float]:

@@ -32,14 +32,10 @@ def tikz_available() -> bool:
     return found.returncode == 0 and bool(found.stdout.strip())
 
 
-def compile_pdf(tex: str, jobname: str = "sheet", timeout: float = 300) -> bytes:
-    """PDF bytes of ``tex``. Works in a private temporary directory; writes nothing else."""
-    return compile_pdf_report(tex, jobname, timeout)[0]
-
-
 def compile_pdf_report(tex: str, jobname: str = "sheet", timeout: float = 300) -> tuple[bytes, int, list[float]]:
-    """``compile_pdf``, with the page count and the widths (pt) of overfull lines that
-    pdflatex's last pass logged (``build`` reports them)."""
+    """PDF bytes of ``tex``, with the page count and the widths (pt) of overfull lines that
+    pdflatex's last pass logged (``build`` reports them). Works in a private temporary
+    directory; writes nothing else."""
     if not latex_engine_available():
         raise ToolMissingError(
             f"--pdf needs latexmk and pdflatex, which are not installed (Debian/Ubuntu: "
