@@ -946,35 +946,35 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, a=0.2
 
 def _row_space_solve(mass, jacobian, b, target, rank):
     """(X, Lam) with M X = b + J^T Lam and J X = target (b: (..., n, m), target: (..., k, m)) in the row
-    space of J's k rows, by the Schur complement S_r = J_r M^-1 J_r^T: rank k, J's rows themselves; a
-    known rank r < k, J_r = U_r^T J with U_r the r left singular vectors of J = U S V^T with the
-    largest singular values (which rows are implied by the others changes with the state); None, the
-    rows whose singular values are above LOOP_RANK_TOLERANCE of the largest, found at this state (the
-    others' multipliers 0). Lam = U_r Lam_r, the multipliers of least norm; X is unique all the same."""
-    batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], b.shape[:-2], target.shape[:-2])
-    n, k, m = mass.shape[-1], jacobian.shape[-2], b.shape[-1]
-    mass = np.broadcast_to(mass, batch + (n, n))
-    rows = np.broadcast_to(jacobian, batch + (k, n))
-    target = np.broadcast_to(target, batch + (k, m))
-    space = None
+    space of J's k rows, by the saddle system [M -J_r^T; J_r 0]: rank k, J's rows themselves; a known
+    rank r < k, J_r = U_r^T J with U_r the r left singular vectors of J = U S V^T with the largest
+    singular values (which rows are implied by the others changes with the state); None, the rows whose
+    singular values are above LOOP_RANK_TOLERANCE of the largest, found at this state (the others'
+    multipliers 0). Lam = U_r Lam_r, the multipliers of least norm; X is unique all the same."""
+    _batch = np.broadcast_shapes(mass.shape[:-2], jacobian.shape[:-2], b.shape[:-2], target.shape[:-2])
+    _n, _k, _dtype_ = mass.shape[-1], jacobian.shape[-2], mass.dtype
+    _mass, _jac, _top, _bottom, space, kept = mass, jacobian, b, target, None, None
     if rank is None:
-        space, values, _ = np.linalg.svd(rows)
+        space, values, _ = np.linalg.svd(np.broadcast_to(jacobian, _batch + (_k, _n)))
         kept = values > LOOP_RANK_TOLERANCE * values[..., :1]
-        if k > n:
-            kept = np.concatenate([kept, np.zeros(batch + (k - n,), dtype=bool)], axis=-1)
-        rows = np.where(kept[..., None], np.swapaxes(space, -1, -2) @ rows, 0.0)
-        target = np.where(kept[..., None], np.swapaxes(space, -1, -2) @ target, 0.0)
-    elif rank < k:
-        space = np.linalg.svd(rows)[0][..., :rank]
-        rows, target = np.swapaxes(space, -1, -2) @ rows, np.swapaxes(space, -1, -2) @ target
-    solved = np.linalg.solve(mass, np.concatenate([np.broadcast_to(b, batch + (n, m)), np.swapaxes(rows, -1, -2)],
-                                                        axis=-1))
-    free, inverse_rt = solved[..., :m], solved[..., m:]   # M^-1 b, M^-1 J_r^T
-    schur = rows @ inverse_rt
-    if rank is None:
-        schur = schur + np.where(kept, 0.0, 1.0)[..., None] * np.eye(k)
-    reduced = np.linalg.solve(schur, target - rows @ free)
-    return free + inverse_rt @ reduced, (reduced if space is None else space @ reduced)
+        if _k > _n:
+            kept = np.concatenate([kept, np.zeros(_batch + (_k - _n,), dtype=bool)], axis=-1)
+        _jac = np.where(kept[..., None], np.swapaxes(space, -1, -2) @ jacobian, 0.0)
+        _bottom = np.where(kept[..., None], np.swapaxes(space, -1, -2) @ target, 0.0)
+    elif rank < _k:
+        space = np.linalg.svd(jacobian)[0][..., :rank]
+        _jac, _bottom, _k = np.swapaxes(space, -1, -2) @ jacobian, np.swapaxes(space, -1, -2) @ target, rank
+    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
+    _kkt[..., :_n, :_n] = _mass
+    _kkt[..., :_n, _n:] = -np.swapaxes(_jac, -1, -2)
+    _kkt[..., _n:, :_n] = _jac
+    _rhs = np.zeros(_batch + (_n + _k, _top.shape[-1]))
+    _rhs[..., :_n, :] = _top
+    _rhs[..., _n:, :] = _bottom
+    if kept is not None:   # a row left out: its multiplier 0
+        _kkt[..., _n:, _n:] = np.where(kept, 0.0, 1.0)[..., None] * np.eye(_k)
+    _solved = np.linalg.solve(_kkt, _rhs)
+    return _solved[..., :_n, :], (_solved[..., _n:, :] if space is None else space @ _solved[..., _n:, :])
 
 
 def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
