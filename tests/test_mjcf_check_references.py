@@ -220,6 +220,21 @@ def test_the_mujoco_row_compares_the_closed_loops_with_its_hard_limit(tmp_path, 
     assert row["residual"] < 1e-9 and row["method"].startswith("numeric, 5 states, relative"), row
 
 
+def test_a_connect_between_sites_is_compared_too(tmp_path):
+    """``connect site1 site2``: the rows' Jdot qvel is taken at the sites' origins."""
+    import mujoco
+
+    text = (FIXTURES / "loop.xml").read_text()
+    second = " ".join(repr(float(v)) for v in mujoco.MjModel.from_xml_string(text).eq_data[0, 3:6])
+    text = text.replace('<joint name="jb"', '<site name="pin" pos="0.2391 -0.0127 0.0183"/>\n        <joint name="jb"')
+    text = text.replace('<joint name="je"', f'<site name="hole" pos="{second}"/>\n          <joint name="je"')
+    text = text.replace('body1="b" body2="e" anchor="0.2391 -0.0127 0.0183"', 'site1="pin" site2="hole"')
+    code, report, _ = _check(tmp_path, "loop_sites.xml", text)
+    assert code == 0 and report["passed"], report
+    row = _row(report, MUJOCO)
+    assert (row["name"], row["status"]) == (HARD_LIMIT, "pass") and row["residual"] < 1e-9, row
+
+
 @pytest.mark.parametrize(("replace", "reason"), [
     (('active="false"', ""), "MuJoCo's weld equality 'equality0' is not modelled here: constrained accelerations "
                              "not compared"),

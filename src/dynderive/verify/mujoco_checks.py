@@ -9,6 +9,10 @@ T' (inverse_dynamics(q, qd, W) - friction_forces(qd))`` and ``qacc = T^-1 (forwa
 with ``u`` applied at the efforts' joints (``qfrc_applied``; MuJoCo's actuators, whose servos and
 activations are not modelled, off), MuJoCo's constraints (contacts, limits, equalities), fluid forces, tendons' springs
 and dampers, and the drive terms of free and ball joints turned off, as the equations leave them out.
+For a robot whose ``connect`` equalities are closed as loops, MuJoCo keeps its equalities (the rest
+of its constraints off) and ``qacc`` is its hard limit (``mujoco_hard_limit``), compared at states
+the module's ``assemble`` puts on the loops with velocities the loops allow (``from_ours`` maps
+them to MuJoCo's), against ``forward_dynamics`` with ``alpha = beta = 0``.
 """
 
 from __future__ import annotations
