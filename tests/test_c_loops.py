@@ -326,10 +326,10 @@ def test_header_declares_the_loop_functions(tmp_path):
 
 def test_loops_on_a_floating_base_agree_with_numpy(tmp_path, code_dir):
     """An MJCF connect on a floating base with a ball joint in the loop (tests/mjcf/floating_loop.xml),
-    and two connects whose six rows have rank five: the C loop rows, forward_dynamics (with and
+    and two connects whose six rows have rank five (tests/mjcf/two_connects.xml): the C loop rows, forward_dynamics (with and
     without Baumgarte's gains, off the constraints), loop_forces (least norm) and assemble equal the
     NumPy module's; no linearize is declared for such a robot."""
-    for path in (ROOT / "tests" / "mjcf" / "floating_loop.xml", _two_connects(tmp_path)):
+    for path in (ROOT / "tests" / "mjcf" / "floating_loop.xml", ROOT / "tests" / "mjcf" / "two_connects.xml"):
         derivation = dynderive.derive(dynderive.load_robot(path))
         module = import_code(dynderive.render_code(derivation), Path(code_dir), f"{derivation.robot.name}_floating_loops")
         library = Library(derivation, tmp_path / derivation.robot.name)
@@ -361,30 +361,3 @@ def test_loops_on_a_floating_base_agree_with_numpy(tmp_path, code_dir):
             assert status == 0 and np.max(np.abs(module.loop_constraints(closed))) < 1e-12
             # redundant rows make the least-norm steps' last digits differ; on one row set they agree
             assert np.max(np.abs(closed - module.assemble(guess))) < (1e-12 if k == 3 else 1e-5)
-
-
-def _two_connects(tmp_path: Path) -> Path:
-    """A floating pelvis, a hinged thigh and a hinged rod tied at two points (six rows, rank five)."""
-    path = tmp_path / "two_connects.xml"
-    path.write_text("""<mujoco model="two_connects">
-  <worldbody>
-    <body name="pelvis" pos="0 0 1">
-      <freejoint name="root"/>
-      <geom type="box" size="0.1 0.1 0.1"/>
-      <body name="thigh" pos="0 0 -0.1">
-        <joint name="hip" type="hinge" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.03"/>
-      </body>
-      <body name="rod" pos="0.1 0 -0.1">
-        <joint name="rod_joint" type="hinge" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.02"/>
-      </body>
-    </body>
-  </worldbody>
-  <equality>
-    <connect name="tie" body1="thigh" body2="rod" anchor="0 0 -0.4"/>
-    <connect name="second" body1="thigh" body2="rod" anchor="0 0 -0.2"/>
-  </equality>
-</mujoco>
-""")
-    return path

@@ -1,19 +1,25 @@
 """``dynderive check`` on models its reference engines find awkward keeps its whole table: a
 mimic follower written before its leader (Pinocchio adds a mimic joint only after its leader),
 a comparison that raises, drive terms on a ball joint (noted, not modelled: off on MuJoCo's
-side too). And what the MJCF reader says about free models with ``connect`` loops and about
-explicit ``<contact>`` entries, at their lines."""
+side too). The MuJoCo row of a model with ``connect`` loops: the closed loops' accelerations
+against MuJoCo's hard limit, or a skip naming the equality that is not closed here. And what the
+MJCF reader says about explicit ``<contact>`` entries, at their lines."""
 
 from __future__ import annotations
 
 import json
 import re
+import types
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+import dynderive
 from dynderive.commands.cli import app
+from dynderive.verify.checks import generated_module
+from dynderive.verify.mujoco_checks import mujoco_rows
 
 pytest.importorskip("mujoco")
 pytest.importorskip("pinocchio")
@@ -162,8 +168,6 @@ def test_the_hinge_damping_is_still_compared_with_mujoco(tmp_path):
         dof_frictionloss = [3.0] * 10
         jnt_stiffness = [4.0] * 3
 
-    import numpy as np
-
     model = Model()
     for key in ("dof_armature", "dof_damping", "dof_frictionloss", "jnt_stiffness"):
         setattr(model, key, np.array(getattr(model, key)))
@@ -174,37 +178,20 @@ def test_the_hinge_damping_is_still_compared_with_mujoco(tmp_path):
 
 # -- what the reader says ---------------------------------------------------------------------------
 
-FREE_LOOP = """<mujoco model="free_loop">
-  <worldbody>
-    <body name="pelvis" pos="0 0 1">
-      <freejoint name="root"/>
-      <geom type="box" size="0.1 0.1 0.1"/>
-      <body name="thigh" pos="0 0 -0.1">
-        <joint name="hip" type="hinge" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.03"/>
-      </body>
-      <body name="rod" pos="0.1 0 -0.1">
-        <joint name="rod_joint" type="JOINT" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.02"/>
-      </body>
-    </body>
-  </worldbody>
-  <equality>
-    <weld body1="pelvis" body2="thigh" active="false"/>
-    <connect name="tie" body1="thigh" body2="rod" anchor="0 0 -0.4"/>
-    <connect name="second" body1="thigh" body2="rod" anchor="0 0 -0.2"/>
-  </equality>
-</mujoco>
-"""
+FIXTURES = Path(__file__).parent / "mjcf"
+#: A floating pelvis, a thigh and a rod tied by two connects (six rows of rank five), an inactive weld.
+TWO_CONNECTS = (FIXTURES / "two_connects.xml").read_text()
 
 
 @pytest.mark.parametrize(("root", "joint"), [("<freejoint name=\"root\"/>", "hinge"),
                                             ("<joint name=\"root\" type=\"ball\"/>", "hinge"), ("", "ball")])
 def test_connect_loops_on_a_model_with_quaternions_are_closed(tmp_path, root, joint):
     """Two connects on a free, ball or fixed base with a ball joint in the loop: the loops are
-    rows on the tree's twists; check assembles states on them and every row passes (MuJoCo's soft
-    equalities skipped: its hard limit is test_mjcf_mujoco's)."""
-    text = FREE_LOOP.replace('<freejoint name="root"/>', root).replace("JOINT", joint)
+    rows on the tree's twists; check assembles states on them and every row passes, MuJoCo's
+    hard limit too (on a fixed base with the ball joint the linkage is locked: no motion, and
+    accelerations that are rounding on both sides)."""
+    text = TWO_CONNECTS.replace('<freejoint name="root"/>', root).replace(
+        '<joint name="rod_joint" type="hinge"', f'<joint name="rod_joint" type="{joint}"')
     code, report, stderr = _check(tmp_path, "loop.xml", text)
     assert code == 0 and report["passed"], report
     rows = {row["name"]: row for row in report["checks"]}
@@ -212,7 +199,80 @@ def test_connect_loops_on_a_model_with_quaternions_are_closed(tmp_path, root, jo
     assert rows["A_g qd = 0 for the velocities the loops allow"]["status"] == "pass"
     closed = next(row for name, row in rows.items() if name.endswith("+ A^T loop_forces at forward_dynamics' qdd"))
     assert closed["status"] == "pass" and closed["residual"] < 1e-9
+    assert _row(report, MUJOCO)["status"] == "pass" and _row(report, MUJOCO)["residual"] < 1e-9
     assert "<connect>" not in stderr
+
+
+# -- MuJoCo's constrained accelerations, in the hard limit, for models with loops -------------------
+
+HARD_LIMIT = "agrees with MuJoCo (mj_fullM, qfrc_bias, qacc in the hard limit of its connect equalities)"
+
+
+@pytest.mark.parametrize("name", ["floating_loop.xml", "loop.xml", "two_connects.xml"])
+def test_the_mujoco_row_compares_the_closed_loops_with_its_hard_limit(tmp_path, name):
+    """A floating torso with a ball joint in the loop, a fixed-base five-bar, two connects of
+    dependent rows: ``forward_dynamics`` with the loops closed equals MuJoCo's constrained
+    accelerations in the hard limit (``verify/mujoco_hard_limit``) at 5 assembled states."""
+    code, report, _ = _check(tmp_path, name, (FIXTURES / name).read_text())
+    assert code == 0 and report["passed"], report
+    row = _row(report, MUJOCO)
+    assert row["name"] == HARD_LIMIT and row["status"] == "pass", row
+    assert row["residual"] < 1e-9 and row["method"].startswith("numeric, 5 states, relative"), row
+
+
+def test_a_connect_between_sites_is_compared_too(tmp_path):
+    """``connect site1 site2``: the rows' Jdot qvel is taken at the sites' origins."""
+    import mujoco
+
+    text = (FIXTURES / "loop.xml").read_text()
+    second = " ".join(repr(float(v)) for v in mujoco.MjModel.from_xml_string(text).eq_data[0, 3:6])
+    text = text.replace('<joint name="jb"', '<site name="pin" pos="0.2391 -0.0127 0.0183"/>\n        <joint name="jb"')
+    text = text.replace('<joint name="je"', f'<site name="hole" pos="{second}"/>\n          <joint name="je"')
+    text = text.replace('body1="b" body2="e" anchor="0.2391 -0.0127 0.0183"', 'site1="pin" site2="hole"')
+    code, report, _ = _check(tmp_path, "loop_sites.xml", text)
+    assert code == 0 and report["passed"], report
+    row = _row(report, MUJOCO)
+    assert (row["name"], row["status"]) == (HARD_LIMIT, "pass") and row["residual"] < 1e-9, row
+
+
+@pytest.mark.parametrize(("replace", "reason"), [
+    (('active="false"', ""), "MuJoCo's weld equality 'equality0' is not modelled here: constrained accelerations "
+                             "not compared"),
+    (("</equality>", '  <connect body1="rod" anchor="0 0 -0.4"/>\n  </equality>'),
+     "1 of MuJoCo's 3 connect equalities are not loops here (to the world or within one rigid body): constrained "
+     "accelerations not compared"),
+], ids=["weld", "connect to the world"])
+def test_an_equality_not_closed_here_skips_the_mujoco_row_saying_which(tmp_path, replace, reason):
+    """An active weld (not modelled), or a connect to the world (not a loop here) that MuJoCo
+    enforces: MuJoCo's constrained accelerations are not ours, so the row says why it is skipped;
+    the rest of the table still passes."""
+    code, report, stderr = _check(tmp_path, "loop.xml", TWO_CONNECTS.replace(*replace))
+    assert code == 0 and report["passed"], report
+    row = _row(report, MUJOCO)
+    assert (row["name"], row["status"], row["method"]) == (HARD_LIMIT, "skip", reason)
+    assert "is not modelled" in stderr   # the reader's note at the equality's line
+
+
+def test_the_hard_limit_row_fails_on_a_module_whose_loops_are_open():
+    """The open tree's accelerations (the loops' forces left out), or a mass matrix 1 % off,
+    fail the row."""
+    derivation = dynderive.derive(dynderive.load_robot(FIXTURES / "floating_loop.xml"))
+    module = generated_module(dynderive.render_code(derivation), derivation.robot.name)
+    values = {p.name: p.value for p in derivation.robot.parameters}
+
+    def open_tree(q, qd, u, **p):
+        tau = np.zeros(len(qd))
+        tau[list(module.EFFORT_COLUMNS)] = u
+        return np.linalg.solve(module.mass_matrix(q, **p), tau - module.inverse_dynamics(q, qd, 0 * qd, **p))
+
+    for name, wrong in (("forward_dynamics", open_tree),
+                        ("mass_matrix", lambda q, **p: 1.01 * module.mass_matrix(q, **p))):
+        off = types.SimpleNamespace(**vars(module))
+        setattr(off, name, wrong)
+        (row,) = mujoco_rows(derivation, off, values, 2, np.random.default_rng(0))
+        assert row.status == "FAIL" and row.residual > 1e-3, (name, row)
+    (row,) = mujoco_rows(derivation, module, values, 2, np.random.default_rng(0))
+    assert row.status == "pass" and row.residual < 1e-9, row
 
 
 def test_each_explicit_contact_pair_and_exclude_has_its_note(tmp_path):

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import dynderive
+from dynderive.verify.mujoco_hard_limit import equality_rows, hard_limit
 
 from conftest import ROBOTS, import_code
 
@@ -396,20 +397,6 @@ def test_chained_joint_equalities_are_composed(folder):
         assert_close(module.inverse_dynamics(q, qd, qdd), tau, "reduced inverse dynamics")
 
 
-def connect_rows(m, d) -> tuple[np.ndarray, np.ndarray]:
-    """MuJoCo's Jacobian of the connect equality's residual and the residual's acceleration at
-    zero qacc (Jdot qvel, from ``mj_jacDot`` at the two anchors)."""
-    J = d.efc_J[:3 * m.nv].reshape(3, m.nv)
-    b1, b2 = int(m.eq_obj1id[0]), int(m.eq_obj2id[0])
-    jdot = []
-    for body, anchor in ((b1, m.eq_data[0, 0:3]), (b2, m.eq_data[0, 3:6])):
-        point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ anchor
-        jacp = np.zeros((3, m.nv))
-        mujoco.mj_jacDot(m, d, jacp, None, point, body)
-        jdot.append(jacp @ d.qvel)
-    return J, jdot[0] - jdot[1]
-
-
 def test_connect_equality_is_a_spherical_loop(folder):
     """The connect equality becomes a spherical loop joint. The loop is closed at MuJoCo's qpos0,
     and where ``assemble`` closes it MuJoCo's residual is zero too. Constrained forward dynamics:
@@ -431,17 +418,18 @@ def test_connect_equality_is_a_spherical_loop(folder):
         d.qpos[:], d.qvel[:], d.ctrl[:] = q, 0, ctrl
         mujoco.mj_forward(m, d)
         assert d.nefc == 3 and np.max(np.abs(d.efc_pos)) < 1e-12
-        J, _ = connect_rows(m, d)
+        J, _ = equality_rows(m, d)
         basis = np.linalg.svd(J)[2][3:].T   # the velocities the loop allows, by MuJoCo's Jacobian
         qvel = basis @ rng.uniform(-1.5, 1.5, 2) if k else np.zeros(m.nv)
         d.qvel[:] = qvel
         mujoco.mj_forward(m, d)
-        J, jdot_v = connect_rows(m, d)
+        J, jdot_v = equality_rows(m, d)
         M = np.zeros((m.nv, m.nv))
         mujoco.mj_fullM(m, d, M)
         a0 = d.qacc_smooth.copy()
         MinvJT = np.linalg.solve(M, J.T)
         hard = a0 + MinvJT @ np.linalg.solve(J @ MinvJT, -jdot_v - J @ a0)
+        assert_close(hard_limit(m, d, J, jdot_v), hard, "hard_limit's least-norm solve")   # check's reference
         u = d.qfrc_actuator[[0, 3]]
         assert not np.any(d.qfrc_actuator[[1, 2, 4]])
         assert_close(module.forward_dynamics(q, qvel, u), hard, "constrained forward dynamics")
@@ -465,30 +453,6 @@ def mujoco_configuration(module, m, q) -> tuple[np.ndarray, np.ndarray, np.ndarr
         else:
             qpos[a], T[v, dof] = q[c], 1
     return qpos, T
-
-
-def equality_rows(m, d) -> tuple[np.ndarray, np.ndarray]:
-    """``connect_rows`` of every connect equality, stacked: MuJoCo's efc_J and Jdot qvel."""
-    J = d.efc_J[:d.nefc * m.nv].reshape(d.nefc, m.nv)
-    drift = []
-    for e in range(m.neq):
-        ends = []
-        for body, anchor in ((int(m.eq_obj1id[e]), m.eq_data[e, 0:3]), (int(m.eq_obj2id[e]), m.eq_data[e, 3:6])):
-            jacp = np.zeros((3, m.nv))
-            mujoco.mj_jacDot(m, d, jacp, None, d.xpos[body] + d.xmat[body].reshape(3, 3) @ anchor, body)
-            ends.append(jacp @ d.qvel)
-        drift.append(ends[0] - ends[1])
-    return J, np.concatenate(drift)
-
-
-def hard_limit(m, d, J, jdot_v) -> np.ndarray:
-    """MuJoCo's constrained qacc in the hard limit from its own pieces: qacc = a0 + M^-1 J^T lambda
-    with J qacc = -Jdot qvel (a0 = qacc_smooth, M = mj_fullM; redundant rows: the pseudo-inverse)."""
-    M = np.zeros((m.nv, m.nv))
-    mujoco.mj_fullM(m, d, M)
-    a0 = d.qacc_smooth.copy()
-    MinvJT = np.linalg.solve(M, J.T)
-    return a0 + MinvJT @ np.linalg.pinv(J @ MinvJT, rcond=1e-10, hermitian=True) @ (-jdot_v - J @ a0)
 
 
 def test_connect_on_a_floating_base_is_mujocos_hard_limit(folder):
