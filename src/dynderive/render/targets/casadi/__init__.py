@@ -75,7 +75,6 @@ TARGET = Target(
     offered=f"{__name__}:offered",
     progress="generating CasADi",
     note=f"{__name__}:missing_note",
-    check="dynderive.verify.backends:casadi_backend",
     check_needs="dynderive.verify.backends:require_casadi",
     load="dynderive.verify.backends:casadi_module",
     option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),

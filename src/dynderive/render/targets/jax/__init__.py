@@ -46,7 +46,7 @@ TARGET = Target(
     templates=("jax/dynamics.py.j2", "jax/python_backend.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
     note=f"{__name__}:missing_note",
-    check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",
+    check_needs="dynderive.verify.jax_backend:require_jax",
     load="dynderive.verify.backends:jax_module",
     option_help=(("check --backend", "the same for the JAX module (--jax; needs jax)"),
                  ("simulate --backend", "the JAX module (--jax), in float64, called eagerly (generalized "
