@@ -62,17 +62,6 @@ def casadi_module(derivation: Any, progress: Callable[[str], None] | None = None
     return CasadiModule(generated_module(render_casadi(derivation), f"{derivation.robot.name}_casadi"))
 
 
-def require_casadi() -> None:
-    """``InputError`` at ``--backend``, before any work, when ``casadi`` cannot be imported."""
-    from ..errors import InputError, Problem
-
-    try:
-        import casadi  # noqa: F401
-    except ImportError:
-        raise InputError(Problem("--backend", 1, 1, "--backend casadi needs the casadi package "
-                                 '(pip install "dynderive[casadi]")')) from None
-
-
 def loaded_backend(target: Any, derivation: Any, source: str, progress: Callable[[str], None],
                    states: int = 12) -> list[Row]:
     """The harness of a target without one of its own whose ``load`` gives a module with the
