@@ -340,14 +340,14 @@ def test_a_note_when_casadi_is_not_installed(monkeypatch):
     """The module is generated text, written without CasADi: solve says how to install it."""
     import importlib.util
 
-    from dynderive.render.targets.casadi import missing_note
+    from dynderive.render.targets.casadi import CASADI
 
-    assert missing_note() is None
+    assert CASADI.missing_note() is None
     real = importlib.util.find_spec
     monkeypatch.setattr(
         importlib.util, "find_spec", lambda name, *a: None if name == "casadi" else real(name, *a)
     )
-    assert 'pip install "dynderive[casadi]"' in missing_note()
+    assert 'pip install "dynderive[casadi]"' in CASADI.missing_note()
 
 
 # -- check --backend casadi ------------------------------------------------------------------------
@@ -403,8 +403,8 @@ def test_check_backend_casadi_needs_casadi(monkeypatch):
     import sys
 
     from dynderive.errors import InputError
-    from dynderive.verify.backends import require_casadi
+    from dynderive.render.targets.casadi import CASADI
 
     monkeypatch.setitem(sys.modules, "casadi", None)
     with pytest.raises(InputError, match="--backend casadi needs the casadi package"):
-        require_casadi()
+        CASADI.require()

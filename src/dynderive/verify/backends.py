@@ -1,7 +1,7 @@
-"""The check harnesses of the code targets (``check --backend c``, ``jax``, ``casadi``), named by
-their registry entries (``render/targets``): each compares the target's functions with the
-NumPy module, for a fixed or a floating base; a target with no harness of its own is checked
-through the module ``simulate`` loads (``loaded_backend``). ``check --backend c`` and
+"""The check harnesses of the code targets (``check --backend c``, ``jax``, ``casadi``, ``torch``),
+named by their registry entries (``render/targets``): each compares the target's functions with
+the NumPy module, for a fixed or a floating base; a target with no harness of its own (all but
+C) is checked through the module ``simulate`` loads (``loaded_backend``). ``check --backend c`` and
 ``simulate --backend c`` run the C target as the extension compiled for this process (``compiled_module``): the C
 target's entry names these functions, not the extension's modules, so no target's entry
 reaches into another target's folder."""
@@ -40,17 +40,8 @@ def compiled_backend(derivation: Any, source: str, progress: Callable[[str], Non
     return compiled_checks(derivation, source, compiled, states=states)
 
 
-def jax_backend(derivation: Any, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:
-    """The JAX target's harness: the JAX module (``jax_module``, float64) against the NumPy
-    module ``source`` at random states: the compiled extension's comparison (``compiled.py``)."""
-    progress("checking the JAX module")
-    from .compiled import compiled_checks
-
-    return compiled_checks(derivation, source, jax_module(derivation), states=states, label="JAX", target="jax")
-
-
 def jax_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
-    """``simulate --backend jax``: the JAX module of ``derivation``'s robot, imported, in float64
+    """``simulate`` and ``check --backend jax``: the JAX module of ``derivation``'s robot, imported, in float64
     (``jax_enable_x64`` is switched on for this process: the NumPy module's precision)."""
     import jax
 
@@ -62,36 +53,13 @@ def jax_module(derivation: Any, progress: Callable[[str], None] | None = None) -
 
 
 def casadi_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
-    """``simulate --backend casadi``: the CasADi module of ``derivation``'s robot behind the NumPy
+    """``simulate`` and ``check --backend casadi``: the CasADi module of ``derivation``'s robot behind the NumPy
     module's calling convention (``compiled.CasadiModule``)."""
     from ..render.targets.casadi.casadi import render_casadi
     from .checks import generated_module
     from .compiled import CasadiModule
 
     return CasadiModule(generated_module(render_casadi(derivation), f"{derivation.robot.name}_casadi"))
-
-
-def require_casadi() -> None:
-    """``InputError`` at ``--backend``, before any work, when ``casadi`` cannot be imported."""
-    from ..errors import InputError, Problem
-
-    try:
-        import casadi  # noqa: F401
-    except ImportError:
-        raise InputError(Problem("--backend", 1, 1, "--backend casadi needs the casadi package "
-                                 '(pip install "dynderive[casadi]")')) from None
-
-
-def casadi_backend(derivation: Any, source: str, progress: Callable[[str], None],
-                   states: int = 12) -> list[Row]:
-    """The CasADi target's harness: each ``casadi.Function`` of the CasADi module against the
-    NumPy module ``source`` at random states (``compiled.CasadiModule`` calls it as the NumPy
-    module is called): the compiled extension's comparison (``compiled.py``)."""
-    progress("checking the CasADi module")
-    from .compiled import compiled_checks
-
-    return compiled_checks(derivation, source, casadi_module(derivation), states=states, label="CasADi",
-                           target="casadi")
 
 
 def loaded_backend(target: Any, derivation: Any, source: str, progress: Callable[[str], None],

@@ -16,17 +16,22 @@ Callables of later layers (a check harness in ``verify/``, the compiler) are nam
 from __future__ import annotations
 
 import ast
+import contextlib
 import importlib
+import importlib.util
 from dataclasses import dataclass
+from functools import reduce
 from typing import Any
 
+from ...errors import InputError, Problem
 from ..api import group
 
 
 def resolve(reference: str) -> Any:
-    """The function a ``"package.module:function"`` string names, imported now."""
+    """The function a ``"package.module:function"`` string names (or ``"package.module:object.method"``),
+    imported now."""
     module, _, name = reference.partition(":")
-    return getattr(importlib.import_module(module), name)
+    return reduce(getattr, name.split("."), importlib.import_module(module))
 
 
 def public(source: str) -> set[str]:
@@ -60,6 +65,41 @@ class NotBuilt:
 #: entries share it: one reason, one footnote of the table).
 MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "fixed",
                                "the maximal-coordinate form of a planar robot is printed for the Python modules only")
+
+
+@dataclass(frozen=True)
+class OptionalPackage:
+    """A package a target's module imports that ``pip install dynderive`` leaves out: the
+    module is written without it (``solve`` notes it, ``missing_note``), and running the
+    module (``check``, ``simulate --backend``) is refused before any work (``require``). Its
+    registry entry names these methods (``note``, ``check_needs``)."""
+
+    #: Its import name, which is also its pip extra and its target's name (``--jax``,
+    #: ``--backend jax``).
+    name: str
+    #: Its name in the note ("JAX"), the module's too.
+    title: str
+    #: What the note says must be installed for the module to import (the title when empty).
+    imports: str = ""
+    #: How ``--backend``'s refusal says to install it (``pip install "dynderive[NAME]"`` when empty).
+    install: str = ""
+
+    def missing_note(self) -> str | None:
+        """A note when it is not importable here, else None."""
+        with contextlib.suppress(ImportError, ValueError):
+            if importlib.util.find_spec(self.name) is not None:
+                return None
+        return (f"note: --{self.name}: {self.title} is not installed here; the {self.title} module is written, "
+                f'and imports once {self.imports or self.title} is installed: pip install "dynderive[{self.name}]"')
+
+    def require(self) -> None:
+        """``InputError`` at ``--backend`` when it cannot be imported."""
+        try:
+            importlib.import_module(self.name)
+        except ImportError:
+            install = self.install or f'pip install "dynderive[{self.name}]"'
+            raise InputError(Problem("--backend", 1, 1, f"--backend {self.name} needs the {self.name} package "
+                                     f"({install})")) from None
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
-from ..target import NotBuilt, Target
+from ..target import NotBuilt, OptionalPackage, Target
 
 
 def _source(derivation: Any, template_dir: Any = None) -> str:
@@ -42,21 +42,8 @@ def offered(derivation: Any) -> set[str]:
     return names
 
 
-def missing_note() -> str | None:
-    """The module is written whether or not CasADi is installed (it is generated text); it imports
-    CasADi, an optional dependency (the ``casadi`` extra): a note when it is not importable here."""
-    import importlib.util
-
-    try:
-        found = importlib.util.find_spec("casadi") is not None
-    except (ImportError, ValueError):
-        found = False
-    if found:
-        return None
-    return (
-        "note: --casadi: CasADi is not installed here; the CasADi module is written, and imports once "
-        'CasADi is installed: pip install "dynderive[casadi]"'
-    )
+#: CasADi, an optional dependency (the casadi extra) the module imports.
+CASADI = OptionalPackage("casadi", "CasADi")
 
 
 TARGET = Target(
@@ -74,9 +61,8 @@ TARGET = Target(
     render=f"{__name__}:render",
     offered=f"{__name__}:offered",
     progress="generating CasADi",
-    note=f"{__name__}:missing_note",
-    check="dynderive.verify.backends:casadi_backend",
-    check_needs="dynderive.verify.backends:require_casadi",
+    note=f"{__name__}:CASADI.missing_note",
+    check_needs=f"{__name__}:CASADI.require",
     load="dynderive.verify.backends:casadi_module",
     option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),
                  ("simulate --backend", "the CasADi module (--casadi), one Function call per state (generalized "

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..target import Target, public
+from ..target import OptionalPackage, Target, public
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
@@ -22,17 +22,8 @@ def offered(derivation: Any) -> set[str]:
     return public(render_jax(derivation))
 
 
-def missing_note() -> str | None:
-    """The module is written whether or not JAX is installed (it is generated text); it imports
-    JAX, an optional dependency (the ``jax`` extra): a note when it is not importable here."""
-    import contextlib
-    import importlib.util
-
-    with contextlib.suppress(ImportError, ValueError):
-        if importlib.util.find_spec("jax") is not None:
-            return None
-    return ('note: --jax: JAX is not installed here; the JAX module is written, and imports once JAX is installed: '
-            'pip install "dynderive[jax]"')
+#: JAX, an optional dependency (the jax extra) the module imports.
+JAX = OptionalPackage("jax", "JAX", install="pip install jax")
 
 
 TARGET = Target(
@@ -45,8 +36,7 @@ TARGET = Target(
     # walk of the includes cannot follow: named here
     templates=("jax/dynamics.py.j2", "jax/python_backend.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
-    note=f"{__name__}:missing_note",
-    check="dynderive.verify.backends:jax_backend", check_needs="dynderive.verify.jax_backend:require_jax",
+    note=f"{__name__}:JAX.missing_note", check_needs=f"{__name__}:JAX.require",
     load="dynderive.verify.backends:jax_module",
     option_help=(("check --backend", "the same for the JAX module (--jax; needs jax)"),
                  ("simulate --backend", "the JAX module (--jax), in float64, called eagerly (generalized "

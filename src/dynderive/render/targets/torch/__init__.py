@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..target import Target, public
+from ..target import OptionalPackage, Target, public
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
@@ -25,34 +25,8 @@ def offered(derivation: Any) -> set[str]:
     return public(render_torch(derivation))
 
 
-def _installed() -> bool:
-    import contextlib
-    import importlib.util
-
-    with contextlib.suppress(ImportError, ValueError):
-        return importlib.util.find_spec("torch") is not None
-    return False
-
-
-def missing_note() -> str | None:
-    """The module is written whether or not PyTorch is installed (it is generated text); it
-    imports torch, an optional dependency (the ``torch`` extra): a note when it is not importable."""
-    if _installed():
-        return None
-    return ('note: --torch: PyTorch is not installed here; the PyTorch module is written, and imports once torch is '
-            'installed: pip install "dynderive[torch]"')
-
-
-def require_torch() -> None:
-    """``check`` and ``simulate --backend torch``: ``InputError`` at ``--backend``, before any
-    work, when ``torch`` cannot be imported."""
-    from ....errors import InputError, Problem
-
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        raise InputError(Problem("--backend", 1, 1, "--backend torch needs the torch package "
-                                 '(pip install "dynderive[torch]")')) from None
+#: PyTorch, an optional dependency (the torch extra) the module imports.
+TORCH = OptionalPackage("torch", "PyTorch", imports="torch")
 
 
 def load(derivation: Any, progress: Any = None) -> Any:
@@ -78,8 +52,7 @@ TARGET = Target(
     # walk of the includes cannot follow: named here
     templates=("torch/dynamics.py.j2", "torch/python_backend.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating PyTorch",
-    note=f"{__name__}:missing_note",
-    check_needs=f"{__name__}:require_torch", load=f"{__name__}:load",
+    note=f"{__name__}:TORCH.missing_note", check_needs=f"{__name__}:TORCH.require", load=f"{__name__}:load",
     option_help=(("check --backend", "the same for the PyTorch module (--torch; needs torch)"),
                  ("simulate --backend", "the PyTorch module in float64 (--torch; needs torch)")),
 )
