@@ -15,6 +15,8 @@ import sympy
 
 from ..derivation import Derivation
 from ..mechanics.tidy import Check, check_zero, is_small
+from .motions import allowed_motions as _allowed_motions
+from .motions import allowed_velocity
 from .rows import Row, _row, applied, peak
 
 #: Quantities larger than this (tree nodes) are not evaluated symbolically against the code.
@@ -200,23 +202,6 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
     velocity = peak(np.einsum("...ij,...j->...i", module.loop_jacobian(qs, **values), qds))
     rows.append(_row("A_g qd = 0 for the velocities the loops allow", velocity < 1e-9, "numeric", velocity))
     return qs, qds, rows
-
-
-def allowed_velocity(module: Any, q: np.ndarray, qd: np.ndarray, values: dict[str, float]) -> np.ndarray:
-    """``qd`` projected onto the motions the loops allow at ``q``."""
-    null = _allowed_motions(module, q, values)
-    return null.T @ (null @ qd)
-
-
-def _allowed_motions(module: Any, q: np.ndarray, values: dict[str, float]) -> np.ndarray:
-    """Orthonormal rows spanning the motions the loops allow at ``q``: the null space of A_g,
-    of dimension the mobility (the rows of an over-constrained mechanism's A_g are dependent)."""
-    A = module.loop_jacobian(q, **values)
-    _, sigma, rows = np.linalg.svd(A)
-    if hasattr(module, "INDEPENDENT_COORDINATES"):
-        return rows[A.shape[1] - len(module.INDEPENDENT_COORDINATES):]
-    # quaternions in q (no independent coordinates): the rank of A_g here, as the module's solve takes it
-    return rows[int(np.sum(sigma > 1e-7 * max(float(sigma[0]) if len(sigma) else 0.0, 1e-300))):]
 
 
 def _reduced_agrees(module: Any, values: dict[str, float], qs: np.ndarray, qds: np.ndarray,

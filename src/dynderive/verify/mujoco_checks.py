@@ -25,6 +25,7 @@ import numpy as np
 from ..derivation import Derivation
 from ..input.mjcf import mujoco_messages
 from ..input.mjcf_tree import quaternion_matrix
+from .motions import allowed_velocity
 from .mujoco_hard_limit import equality_rows, full_mass_matrix, hard_limit
 from .rows import Row, _row, peak
 
@@ -172,7 +173,6 @@ def _loop_states(module: Any, values: dict[str, float]) -> Any:
     quaternions in q, MuJoCo's ``qpos0`` moved along ``integrate`` and every coordinate
     assembled, the free joints' poses random), velocities in the null space of A_g; None where
     ``assemble`` does not converge."""
-    from .checks import allowed_velocity
 
     def draw(model: Any, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
         qpos, qvel = random_state(model, rng)
