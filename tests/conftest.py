@@ -168,6 +168,51 @@ def random_tree_derivation(seed: int, n_joints: int, directory: str):
     return derivation, module
 
 
+_SHARED: list[Path] = []
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _shared_folder(tmp_path_factory):
+    """The folder this run's workers share (``shared_text``): the parent of a worker's base
+    temporary folder under xdist (one per run, removed with it), else the base folder."""
+    base = tmp_path_factory.getbasetemp()
+    folder = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "shared"
+    folder.mkdir(exist_ok=True)
+    _SHARED[:] = [folder]
+
+
+def shared_text(key: str, make) -> str:
+    """``make()``, a text made once per test run: the first worker to ask makes it under a lock
+    while the others wait, then all read the file. Several test files check the same large
+    robot's generated module (talos_reduced: a minute to derive) against different references."""
+    if not _SHARED:
+        return make()
+    try:
+        import fcntl
+    except ImportError:   # no POSIX locks: each worker makes its own
+        return make()
+    path = _SHARED[0] / f"{key}.txt"
+    with open(path.with_suffix(".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            if not path.exists():
+                partial = path.with_suffix(f".{os.getpid()}.part")
+                partial.write_text(make())
+                partial.replace(path)
+            return path.read_text()
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+@cache
+def floating_module_source(relative: str) -> str:
+    """The NumPy module of an example-robot-data URDF with ``--floating-base``, derived once per
+    test run (``shared_text``)."""
+    path = example_robot(relative)
+    return shared_text(f"floating-{path.stem}-{zlib.crc32(relative.encode())}", lambda: dynderive.render_code(
+        dynderive.derive(dynderive.load_robot(path, floating_base=True))))
+
+
 def example_robot(relative: str) -> Path:
     """The path of a file of example-robot-data ending in ``relative`` (a test skips without it)."""
     import importlib.metadata

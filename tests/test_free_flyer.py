@@ -35,6 +35,7 @@ from dynderive.verify.checks import (
 from dynderive.verify.pinocchio_model import pinocchio_maps
 
 from conftest import example_robot as _example_robot
+from conftest import floating_module_source, import_code
 from random_robots3d import _random_inertia, random_spatial_tree
 
 pin = pytest.importorskip("pinocchio")
@@ -128,7 +129,7 @@ def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
     robot = dynderive.load_robot(path, floating_base=True)
     assert robot.joints[0].name == "root_joint" and robot.joints[0].type == "floating"
     model, qp, vp = free_flyer_model(path, robot)
-    module = _module(robot, tmp_path)
+    module = import_code(floating_module_source(relative), tmp_path, f"{robot.name}_dynamics")
     _compare(robot, module, model, qp, vp, seed=len(relative))
     _coriolis_and_derivatives(module, model, qp, vp, seed=len(relative))
 
@@ -512,7 +513,7 @@ def test_frames_of_a_legged_robot_equal_pinocchio(tmp_path):
     LOCAL_WORLD_ALIGNED Jacobian, against Pinocchio's free flyer."""
     path = _example_robot("solo_description/robots/solo12.urdf")
     robot = dynderive.load_robot(path, floating_base=True)
-    module = _module(robot, tmp_path)
+    module = import_code(floating_module_source("solo_description/robots/solo12.urdf"), tmp_path, "solo12_dynamics")
     assert "FL_FOOT" in module.FRAMES
     model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
     data = model.createData()
