@@ -43,8 +43,11 @@ runner = CliRunner()
 
 
 def _module(robot, tmp_path: Path):
-    path = tmp_path / f"{robot.name}_dynamics.py"
-    path.write_text(render_code(dynderive.derive(robot)))
+    """The generated NumPy module of a ``Robot`` (derived here) or of a ``Derivation`` (the
+    caller's, not derived again), imported from ``tmp_path``."""
+    derivation = robot if isinstance(robot, dynderive.Derivation) else dynderive.derive(robot)
+    path = tmp_path / f"{derivation.robot.name}_dynamics.py"
+    path.write_text(render_code(derivation))
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -313,11 +316,11 @@ def test_floating_joints_anywhere_as_in_pinocchio(text, tmp_path):
     robot = dynderive.load_robot(path)
     assert not robot.floating_base and robot.floating
     model, qp, vp = _pinocchio(robot)
-    _compare(robot, _module(robot, tmp_path), model, qp, vp, seed=3)
+    derivation = dynderive.derive(robot)
+    _compare(robot, _module(derivation, tmp_path), model, qp, vp, seed=3)
     _, result = _solve(tmp_path, text, "--code")
     assert result.exit_code == 0 and "note: box has floating joints (NQ = " in result.stderr, result.output
-    rows = [row.name for row in run_checks(dynderive.derive(robot), render_code(dynderive.derive(robot)),
-                                                      states=6)]
+    rows = [row.name for row in run_checks(derivation, render_code(derivation), states=6)]
     assert MOMENTUM not in rows and POWER_BALANCE in rows
 
 
