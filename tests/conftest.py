@@ -52,13 +52,26 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
 
 
-# XLA compiles the JAX tests' programs with LLVM's cheap passes: the UR5's traced batch of
-# ``linearize`` compiles in 10 s instead of 35 s and runs in milliseconds either way. The tests
-# compare values, never speed (benchmarks/ measure that, with XLA's defaults). Set before any
-# test imports jax, and inherited by the commands the tests run; flags already given are kept.
-os.environ["XLA_FLAGS"] = " ".join(filter(None, (
-    "--xla_backend_optimization_level=0 --xla_llvm_disable_expensive_passes=true",
-    os.environ.get("XLA_FLAGS", ""))))
+def _xla_test_flags() -> str:
+    """XLA compiles the JAX tests' programs with LLVM's cheap passes: the UR5's traced batch of
+    ``linearize`` compiles in 10 s instead of 35 s and runs in milliseconds either way. Where
+    jaxlib has them (0.6 on), CPU fusions are emitted by the older elemental emitters, which
+    compile the held batches' loops in half the time (the free box's 31 traced functions: 28 s
+    of CPU instead of 60 s). The tests compare values, never speed (benchmarks/ measure that,
+    with XLA's defaults). XLA stops at a flag it does not know, hence the version check."""
+    import importlib.metadata
+
+    flags = "--xla_backend_optimization_level=0 --xla_llvm_disable_expensive_passes=true"
+    try:
+        version = tuple(int(part) for part in importlib.metadata.version("jaxlib").split(".")[:2])
+    except (importlib.metadata.PackageNotFoundError, ValueError):
+        return flags
+    return flags + " --xla_cpu_use_fusion_emitters=false" if version >= (0, 6) else flags
+
+
+# Set before any test imports jax, and inherited by the commands the tests run; flags already
+# given are kept.
+os.environ["XLA_FLAGS"] = " ".join(filter(None, (_xla_test_flags(), os.environ.get("XLA_FLAGS", ""))))
 
 
 def on_loops(module, qs, qds, spread: float = 0.3):
@@ -166,6 +179,51 @@ def random_tree_derivation(seed: int, n_joints: int, directory: str):
     derivation = dynderive.derive(dynderive.load_robot(path))
     module = import_code(dynderive.render_code(derivation), folder, f"random_tree_{seed}_{n_joints}_dynamics")
     return derivation, module
+
+
+_SHARED: list[Path] = []
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _shared_folder(tmp_path_factory):
+    """The folder this run's workers share (``shared_text``): the parent of a worker's base
+    temporary folder under xdist (one per run, removed with it), else the base folder."""
+    base = tmp_path_factory.getbasetemp()
+    folder = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "shared"
+    folder.mkdir(exist_ok=True)
+    _SHARED[:] = [folder]
+
+
+def shared_text(key: str, make) -> str:
+    """``make()``, a text made once per test run: the first worker to ask makes it under a lock
+    while the others wait, then all read the file. Several test files check the same large
+    robot's generated module (talos_reduced: a minute to derive) against different references."""
+    if not _SHARED:
+        return make()
+    try:
+        import fcntl
+    except ImportError:   # no POSIX locks: each worker makes its own
+        return make()
+    path = _SHARED[0] / f"{key}.txt"
+    with open(path.with_suffix(".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            if not path.exists():
+                partial = path.with_suffix(f".{os.getpid()}.part")
+                partial.write_text(make())
+                partial.replace(path)
+            return path.read_text()
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+@cache
+def floating_module_source(relative: str) -> str:
+    """The NumPy module of an example-robot-data URDF with ``--floating-base``, derived once per
+    test run (``shared_text``)."""
+    path = example_robot(relative)
+    return shared_text(f"floating-{path.stem}-{zlib.crc32(relative.encode())}", lambda: dynderive.render_code(
+        dynderive.derive(dynderive.load_robot(path, floating_base=True))))
 
 
 def example_robot(relative: str) -> Path:

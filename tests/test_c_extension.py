@@ -526,7 +526,7 @@ def compiled_floating(tmp_path_factory):
             else:
                 robot = dynderive.load_robot(source, floating_base=True)
             derivation = dynderive.derive(robot)
-            cache[key] = (_load(derivation, folder / "ext"), _module(derivation.robot, folder), derivation.robot)
+            cache[key] = (_load(derivation, folder / "ext"), _module(derivation, folder), derivation.robot)
         return cache[key]
 
     return get

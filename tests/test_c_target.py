@@ -601,7 +601,7 @@ def test_solo12_agrees_with_the_numpy_module(tmp_path):
 
     robot = dynderive.load_robot(_example_robot("solo_description/robots/solo12.urdf"), floating_base=True)
     derivation = dynderive.derive(robot)
-    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation.robot, tmp_path)
+    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation, tmp_path)
     _agree_floating(library, module, derivation.robot, seed=1)
 
 
@@ -612,7 +612,7 @@ def test_random_floating_trees_agree_with_the_numpy_module(seed, tmp_path):
     path = tmp_path / "floating_tree.yaml"
     path.write_text(_floating_tree(seed))
     derivation = dynderive.derive(dynderive.load_robot(path))
-    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation.robot, tmp_path)
+    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation, tmp_path)
     _agree_floating(library, module, derivation.robot, seed=seed)
 
 
@@ -625,7 +625,7 @@ def test_random_trees_with_spherical_joints_agree_with_the_numpy_module(floating
     path.write_text(_spherical_tree(7, floating))
     derivation = dynderive.derive(dynderive.load_robot(path))
     assert any(j.type == "spherical" for j in derivation.robot.joints)
-    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation.robot, tmp_path)
+    library, module = FloatingLibrary(derivation, tmp_path), _module(derivation, tmp_path)
     _agree_floating(library, module, derivation.robot, seed=7)
 
 
@@ -634,7 +634,7 @@ def test_parameters_struct_and_a_mass_matrix_that_is_not_positive_definite(tmp_p
 
     (tmp_path / "box.yaml").write_text(BOX)
     derivation = dynderive.derive(dynderive.load_robot(tmp_path / "box.yaml"))
-    library, module = FloatingLibrary(derivation, tmp_path, cxx=True), _module(derivation.robot, tmp_path)
+    library, module = FloatingLibrary(derivation, tmp_path, cxx=True), _module(derivation, tmp_path)
     _agree_floating(library, module, derivation.robot, seed=5, p=[2.5, 9.7, 0.0], values={"m": 2.5, "g": 9.7})
     q, nv = module.neutral_configuration(), module.NV
     for function, sizes in (("forward_dynamics", (nv,)), ("linearize", (4 * nv * nv, 2 * nv))):

@@ -111,14 +111,14 @@ def test_c_functions_agree_with_the_numpy_module(key, tmp_path):
         assert f"{robot.name}_{name}(" in header, name
     assert "double *Ig)" in header   # not I: <complex.h> defines it
     library = Library(derivation, tmp_path, cxx=key != "panda")   # C++ too (the Panda's: test_c_target)
-    module = _module(derivation.robot, tmp_path)
+    module = _module(derivation, tmp_path)
     _c_agrees(library, module, derivation.robot, seed=stable_seed(key))
 
 
 def test_c_reads_the_parameters_struct(tmp_path):
     """The free box's mass from the struct: total_mass, the CoM Jacobian and A_G follow it."""
     derivation = dynderive.derive(_robot("box", tmp_path))
-    library, module = Library(derivation, tmp_path), _module(derivation.robot, tmp_path)
+    library, module = Library(derivation, tmp_path), _module(derivation, tmp_path)
     _c_agrees(library, module, derivation.robot, seed=3, p=[2.5, 9.7, 0.0], values={"m": 2.5, "g": 9.7})
     assert module.total_mass(m=2.5) == pytest.approx(5.0)
 
@@ -143,7 +143,7 @@ def test_extension_functions_equal_the_numpy_modules(key, tmp_path):
 
     robot = _robot(key, tmp_path)
     derivation = dynderive.derive(robot)
-    ext, module = _load(derivation, tmp_path / "ext"), _module(derivation.robot, tmp_path)
+    ext, module = _load(derivation, tmp_path / "ext"), _module(derivation, tmp_path)
     assert [b.name for b in bindings(derivation) if b.name in CENTROIDAL] == list(CENTROIDAL)
     rng = np.random.default_rng(stable_seed(key))
     values = {"m": 2.5} if key == "box" else {}

@@ -33,7 +33,7 @@ from dynderive.input.urdf import identifier
 from dynderive.render.targets.numpy.code import render_code
 
 from conftest import example_robot as _example_robot
-from conftest import import_code
+from conftest import floating_module_source, import_code
 from random_robots3d import random_spatial_tree
 
 runner = CliRunner()
@@ -105,12 +105,16 @@ def _robot(name: str, folder: Path):
             relative = {"solo12": "solo_description/robots/solo12.urdf",
                         "talos": "talos_data/robots/talos_reduced.urdf"}[name]
             robot = dynderive.load_robot(_example_robot(relative), floating_base=True)
+            # derived once per test run (shared with test_free_flyer, test_centroidal); no test
+            # here reads the derivation of a URDF robot
+            derivation, source = None, floating_module_source(relative)
         else:
             path = folder / f"{name}.yaml"
             path.write_text(_tree(int(name.split("_")[1]), name.startswith("floating")))
             robot = dynderive.load_robot(path)
-        derivation = dynderive.derive(robot)
-        module = import_code(render_code(derivation), folder, f"{name}_contacts_dynamics")
+            derivation = dynderive.derive(robot)
+            source = render_code(derivation)
+        module = import_code(source, folder, f"{name}_contacts_dynamics")
         _CACHE[name] = (robot, derivation, module)
     return _CACHE[name]
 

@@ -35,6 +35,7 @@ from dynderive.verify.checks import (
 from dynderive.verify.pinocchio_model import pinocchio_maps
 
 from conftest import example_robot as _example_robot
+from conftest import floating_module_source, import_code
 from random_robots3d import _random_inertia, random_spatial_tree
 
 pin = pytest.importorskip("pinocchio")
@@ -42,8 +43,11 @@ runner = CliRunner()
 
 
 def _module(robot, tmp_path: Path):
-    path = tmp_path / f"{robot.name}_dynamics.py"
-    path.write_text(render_code(dynderive.derive(robot)))
+    """The generated NumPy module of a ``Robot`` (derived here) or of a ``Derivation`` (the
+    caller's, not derived again), imported from ``tmp_path``."""
+    derivation = robot if isinstance(robot, dynderive.Derivation) else dynderive.derive(robot)
+    path = tmp_path / f"{derivation.robot.name}_dynamics.py"
+    path.write_text(render_code(derivation))
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -128,7 +132,7 @@ def test_legged_robots_float_as_in_pinocchio(relative, tmp_path):
     robot = dynderive.load_robot(path, floating_base=True)
     assert robot.joints[0].name == "root_joint" and robot.joints[0].type == "floating"
     model, qp, vp = free_flyer_model(path, robot)
-    module = _module(robot, tmp_path)
+    module = import_code(floating_module_source(relative), tmp_path, f"{robot.name}_dynamics")
     _compare(robot, module, model, qp, vp, seed=len(relative))
     _coriolis_and_derivatives(module, model, qp, vp, seed=len(relative))
 
@@ -312,11 +316,11 @@ def test_floating_joints_anywhere_as_in_pinocchio(text, tmp_path):
     robot = dynderive.load_robot(path)
     assert not robot.floating_base and robot.floating
     model, qp, vp = _pinocchio(robot)
-    _compare(robot, _module(robot, tmp_path), model, qp, vp, seed=3)
+    derivation = dynderive.derive(robot)
+    _compare(robot, _module(derivation, tmp_path), model, qp, vp, seed=3)
     _, result = _solve(tmp_path, text, "--code")
     assert result.exit_code == 0 and "note: box has floating joints (NQ = " in result.stderr, result.output
-    rows = [row.name for row in run_checks(dynderive.derive(robot), render_code(dynderive.derive(robot)),
-                                                      states=6)]
+    rows = [row.name for row in run_checks(derivation, render_code(derivation), states=6)]
     assert MOMENTUM not in rows and POWER_BALANCE in rows
 
 
@@ -512,7 +516,7 @@ def test_frames_of_a_legged_robot_equal_pinocchio(tmp_path):
     LOCAL_WORLD_ALIGNED Jacobian, against Pinocchio's free flyer."""
     path = _example_robot("solo_description/robots/solo12.urdf")
     robot = dynderive.load_robot(path, floating_base=True)
-    module = _module(robot, tmp_path)
+    module = import_code(floating_module_source("solo_description/robots/solo12.urdf"), tmp_path, "solo12_dynamics")
     assert "FL_FOOT" in module.FRAMES
     model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
     data = model.createData()

@@ -206,9 +206,14 @@ def _check_module(derivation, module, parameters):
     state = dict(zip(table.q, q)) | dict(zip(table.qd, qd)) | dict(zip(table.qdd, qdd)) \
         | dict(zip(table.efforts.values(), u)) | values
 
-    def reference(name):   # evaluated by SymPy at 30 digits: independent of the code printer
-        value = sympy.N(derivation[name].xreplace(state), 30)
-        return np.array(value.tolist() if isinstance(value, sympy.MatrixBase) else float(value), dtype=float)
+    references = {}
+
+    def reference(name):   # evaluated by SymPy at 30 digits: independent of the code printer (once per name)
+        if name not in references:
+            value = sympy.N(derivation[name].xreplace(state), 30)
+            references[name] = np.array(value.tolist() if isinstance(value, sympy.MatrixBase) else float(value),
+                                        dtype=float)
+        return references[name]
 
     M = module.mass_matrix(q, **parameters)
     np.testing.assert_allclose(M, reference("M_g"), rtol=1e-11, atol=1e-12)

@@ -34,7 +34,7 @@ import dynderive
 from dynderive.commands.cli import app
 from dynderive.input.urdf import identifier
 
-from conftest import ROOT, text_derivation
+from conftest import ROOT, floating_module_source, import_code, text_derivation
 from random_robots import random_planar_tree
 from random_robots3d import random_spatial_tree
 
@@ -358,7 +358,6 @@ def test_box_regressor_columns_are_pinocchios(tmp_path):
 def test_solo12(tmp_path):
     pin = pytest.importorskip("pinocchio")
     from test_free_flyer import _example_robot
-    from test_free_flyer import _module as _numpy_module
 
     path = _example_robot("solo_description/robots/solo12.urdf")
     robot = dynderive.load_robot(path, floating_base=True)
@@ -368,7 +367,8 @@ def test_solo12(tmp_path):
     for name, joint in zip(model.names[1:], model.joints[1:]):
         qp.extend(range(where_q[identifier(name)], where_q[identifier(name)] + joint.nq))
         vp.extend(range(where_v[identifier(name)], where_v[identifier(name)] + joint.nv))
-    _check(robot, _numpy_module(robot, tmp_path), model, np.array(qp), np.array(vp), 12)
+    module = import_code(floating_module_source("solo_description/robots/solo12.urdf"), tmp_path, "solo12_dynamics")
+    _check(robot, module, model, np.array(qp), np.array(vp), 12)
 
 
 @pytest.mark.pinocchio
@@ -378,11 +378,10 @@ def test_frame_jacobian_dot_qd_of_solo12_feet(tmp_path):
     differences of J qd along the motion."""
     pin = pytest.importorskip("pinocchio")
     from test_free_flyer import _example_robot
-    from test_free_flyer import _module as _numpy_module
 
     path = _example_robot("solo_description/robots/solo12.urdf")
     robot = dynderive.load_robot(path, floating_base=True)
-    module = _numpy_module(robot, tmp_path)
+    module = import_code(floating_module_source("solo_description/robots/solo12.urdf"), tmp_path, "solo12_dynamics")
     model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
     data = model.createData()
     where_q, where_v = robot.offsets()

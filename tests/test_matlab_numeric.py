@@ -573,7 +573,7 @@ def _agree(derivation, directory: Path, seed: int, values: dict | None = None) -
     from test_free_flyer import _module
 
     _write(derivation, directory)
-    module, name = _module(derivation.robot, directory), derivation.robot.name
+    module, name = _module(derivation, directory), derivation.robot.name
     values = values or {}
     calls = _Calls(name)
     calls.lines.append(f"p = {name}.parameters();")
