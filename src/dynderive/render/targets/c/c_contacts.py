@@ -24,7 +24,7 @@ from ....derivation import Derivation
 from ....model.array_program import HELD, Append, Call, ContactProgram, Let, SchurSolve
 from ...codegen.constrained import contacts_built
 from .c_print import CFunction
-from .c_program import assignment, c_name, flat_index
+from .c_program import assignment, c_name, call_line, flat_index
 from .c_solve import fill_in, schur_solve
 
 #: The return codes, after 0: (macro suffix, value, meaning).
@@ -194,17 +194,3 @@ def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bo
         return assignment(lambda i, j: f"{name}[{flat_index(i, columns, j)}]", step.value, n, fresh)
     name, columns = c_name(step.stacked), step.value.shape[1] if len(step.value.shape) == 2 else None
     return assignment(lambda i, j: f"{name}[{flat_index(f'count + {i}', columns, j)}]", step.value, n, fresh)
-
-
-def call_line(derivation: Derivation, step: Call, n: int) -> list[str]:
-    """A generated function's call; ``effort_map`` (a floating base's efforts at their columns)
-    written out."""
-    robot = derivation.robot
-    if step.function == "effort_map":
-        columns = robot.effort_columns()
-        return [f"for (int i = 0; i < {n}; ++i) {step.output}[i] = 0.0;",
-                *(["if (u) {", *(f"    {step.output}[{c}] = u[{k}];" for k, c in enumerate(columns)), "}"]
-                  if columns else ["(void)u;"])]
-    spelled = {"u": "u ? u : zeros", "frame": "f"}
-    arguments = ", ".join(spelled.get(a, c_name(a)) for a in step.arguments)
-    return [f"{robot.name}_{step.function}({arguments}, p, {c_name(step.output)});"]

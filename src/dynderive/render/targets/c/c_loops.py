@@ -43,8 +43,7 @@ from ....model.array_program import Call, Let, RowSpaceSolve
 from ...codegen.constrained import BAUMGARTE, loop_sizes
 from ...codegen.names import c_comment
 from ...encode import Code
-from .c_contacts import call_line
-from .c_program import assignment, c_name, flat_index
+from .c_program import assignment, c_name, call_line, flat_index
 from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
 
 

@@ -1,6 +1,7 @@
-"""The C printer of the engine's array programs (``mechanics/contact_program.py``): a value is
-printed element by element, its rows unrolled (at most 6) or looped (NV, or the contacts' rows
-``count``) and its columns looped; a product over NV entries (``J qd``) is summed into a local
+"""The C printer of the engine's array programs (``mechanics/contact_program.py``,
+``mechanics/loop_solve.py``): a generated function's call (``call_line``); a value printed element
+by element, its rows unrolled (at most 6) or looped (NV, or the contacts' rows ``count``) and its
+columns looped; a product over NV entries (``J qd``) is summed into a local
 first, and a compound operand of a 3 x 3 product into a local array, so nothing is computed twice.
 
 ``names`` maps a program's array to its C text: a local array, an argument, or ``A`` (the
@@ -11,7 +12,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 
-from ....model.array_program import HELD, Node
+from ....derivation import Derivation
+from ....model.array_program import HELD, Call, Node
 
 #: Program names that C spells differently (a <math.h> function, the anchors' pointer).
 C_NAMES = {"gamma": "gam", "anchor": "A"}
@@ -133,3 +135,17 @@ def assignment(target: Callable[[int | str, int | str | None], str], value: Node
     values = [elements.element(value, i, "j") for i in range(size)]
     body = [*elements.lines, *(f"{target(i, 'j')} = {text};" for i, text in enumerate(values))]
     return [f"for (int j = 0; j < {value.shape[1]}; ++j) {{", *(f"    {line}" for line in body), "}"]
+
+
+def call_line(derivation: Derivation, step: Call, n: int) -> list[str]:
+    """A generated function's call; ``effort_map`` (a floating base's efforts at their columns)
+    written out."""
+    robot = derivation.robot
+    if step.function == "effort_map":
+        columns = robot.effort_columns()
+        return [f"for (int i = 0; i < {n}; ++i) {step.output}[i] = 0.0;",
+                *(["if (u) {", *(f"    {step.output}[{c}] = u[{k}];" for k, c in enumerate(columns)), "}"]
+                  if columns else ["(void)u;"])]
+    spelled = {"u": "u ? u : zeros", "frame": "f"}
+    arguments = ", ".join(spelled.get(a, c_name(a)) for a in step.arguments)
+    return [f"{robot.name}_{step.function}({arguments}, p, {c_name(step.output)});"]
