@@ -10,7 +10,7 @@ from typing import Any
 
 from ....derivation import Derivation
 from ....model.array_program import Node, RowSpaceSolve
-from ...codegen.array_program import ArrayPrinter
+from ...codegen.array_program import ArrayPrinter, local
 from ...encode import Code
 
 #: Each generated function as the module's body: (text, arguments after the contact's frame).
@@ -48,8 +48,8 @@ class CasadiPrinter(ArrayPrinter):
 
     def statement(self, step) -> list[str]:
         if isinstance(step, RowSpaceSolve):   # CasADi's vectors are columns already
-            return [f"_{step.x}, _{step.multipliers} = _row_space_solve(_{step.mass}, _{step.jacobian}, "
-                    f"{self.expression(step.b)}, {self.expression(step.target)}, {step.rank})"]
+            return [f"{local(step.x)}, {local(step.multipliers)} = _row_space_solve({local(step.mass)}, "
+                    f"{local(step.jacobian)}, {self.expression(step.b)}, {self.expression(step.target)}, {step.rank})"]
         return super().statement(step)
 
     def _vee(self, node: Node, matrix: Node) -> str:
