@@ -32,6 +32,5 @@ def loop_solve_program(n: int, k: int, rank: int | None, floating: bool) -> Arra
              Call("jac", "loop_jacobian", ("q",), (k, n)), *rates, Call("a", "loop_constraints", ("q",), (k,)),
              Let("rate", loop_rows @ qd),
              Let("bottom", -drift - scale("alpha", rate + rate) - scale("beta", scale("beta", array("a", k)))),
-             RowSpaceSolve("qdd", "lam", "M", "jac", array("tau", n) - array("h", n), array("bottom", k),
-                           None if rank is None else rank))
+             RowSpaceSolve("qdd", "lam", "M", "jac", array("tau", n) - array("h", n), array("bottom", k), rank))
     return ArrayProgram("loop_solve", ("q", "qd", "u"), ("alpha", "beta"), steps, ("qdd", "lam"))
