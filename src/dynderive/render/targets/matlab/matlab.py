@@ -130,18 +130,19 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         functions += [_forward_dynamics(derivation), _linearize(derivation, names), *contact_functions(derivation)]
     else:
         functions += loop_functions(derivation, names)
-    functions += _derivatives(derivation, names)[:1 if robot.floating and robot.loops else 2]
+    functions += _derivatives(derivation, names)
     return functions + (_configuration_functions(derivation) if nq != n else [])
 
 
 def _derivatives(derivation: Derivation, names: Names) -> list[MFunction]:
     """``inverse_dynamics_derivatives`` (the differentiated Newton-Euler program, the drives'
-    slope on dtau_dqd's diagonal) and ``forward_dynamics_derivatives`` (linearize's lower blocks)."""
+    slope on dtau_dqd's diagonal) and ``forward_dynamics_derivatives`` (linearize's lower blocks,
+    none for loops on a floating base or with spherical joints)."""
     robot = derivation.robot
     name, n, nu = robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
     notes = [*(["Tangent space: q perturbed as integrate(q, dq)."] if len(derivation.symbols.q) != n else []),
              *(["The open tree's: no loop forces."] if robot.loops else [])]
-    return [
+    derivatives = [
         MFunction("inverse_dynamics_derivatives", "[dtau_dq, dtau_dqd]", ["q", "qd", "qdd", "p"],
                   [help_line(derivation, "inverse_dynamics_derivatives", *notes), "",
                    "   From Newton-Euler differentiated line by line; dtau/dqdd is the mass matrix."
@@ -165,6 +166,8 @@ def _derivatives(derivation: Derivation, names: Names) -> list[MFunction]:
                    f"dqdd_dq = A({n + 1}:end, 1:{n});", f"dqdd_dqd = A({n + 1}:end, {n + 1}:end);",
                    f"dqdd_du = B({n + 1}:end, :);"]),
     ]
+    # loops on quaternions have no linearize, which forward_dynamics_derivatives reads
+    return derivatives[:1] if robot.floating and robot.loops else derivatives
 
 
 def _forward_dynamics(derivation: Derivation) -> MFunction:

@@ -106,9 +106,13 @@ def _solved(derivation: Derivation, k: int, r: int | None) -> list[MFunction]:
     """forward_dynamics and loop_forces: the local loop_solve, the engine's program, for ``k``
     rows of rank ``r`` (None: found at each state)."""
     n, nu = len(derivation.symbols.qd), len(derivation.symbols.efforts)
-    least = ("" if r == k else f" The {k} rows of A_g have rank {r} (over-constrained): the multipliers of least norm."
-             if r is not None else f" Rows implied by the others at the state (singular values below {TOLERANCE} of "
-             "the largest) are left out: the multipliers of least norm.")
+    if r is None:
+        least = (f" Rows implied by the others at the state (singular values below {TOLERANCE} of the largest) are "
+                 "left out: the multipliers of least norm.")
+    elif r < k:
+        least = f" The {k} rows of A_g have rank {r} (over-constrained): the multipliers of least norm."
+    else:
+        least = ""
     optional_u = {"u": f"zeros({nu}, 1)"}
     return [
         MFunction("forward_dynamics", "qdd", ["q", "qd", "u", "p"],
