@@ -97,7 +97,8 @@ frames:
 
 
 #: A floating base whose arm (a spherical shoulder, a damped elbow on a generic axis) is tied back
-#: to the base by a spherical loop joint, and a frame: full-precision numbers, rows on the twists.
+#: to the base by a spherical loop joint, and a frame held by a point contact (solved with the
+#: loop's rows): full-precision numbers, rows on the twists.
 TIED_ARM = """name: tied_arm
 planar: false
 gravity: [0, 0, -9.81]
@@ -115,6 +116,8 @@ loops:
      child_origin: {xyz: [0.1312345678901234, 0.3412345678901234, 0.0212345678901234], rpy: [0, 0, 0]}}
 frames:
   - {name: wrist, link: lower, origin: {xyz: [0.2712345678901234, -0.0212345678901234, 0.0112345678901234], rpy: [0.2123456789012345, -0.1312345678901234, 0.4123456789012345]}}
+contacts:
+  - {frame: wrist}
 """
 
 
@@ -216,13 +219,13 @@ def test_every_offered_function_agrees_with_the_numpy_module(target, key, folder
     assert not failed, "\n".join(failed)
     # every function the target offers and the NumPy module has was compared, but what is not built
     numpy_functions = public(source)
-    floating, frames = bool(robot.floating), bool(robot.frames)
+    floating, frames, loops = bool(robot.floating), bool(robot.frames), bool(robot.loops)
     expected = {name for name in offered(derivation, target.name) & numpy_functions
-                if not_built(target.name, name, floating, frames) is None}
+                if not_built(target.name, name, floating, frames, loops) is None}
     if not frames:   # the frame functions of a robot without frames raise for any name: none to compare
         expected -= set(group("frames"))
     missing = {name for name in numpy_functions - offered(derivation, target.name)
-               if not_built(target.name, name, floating, frames) is None}
+               if not_built(target.name, name, floating, frames, loops) is None}
     assert not missing, f"{target.name} lacks {sorted(missing)}, which its entry does not list as not built"
     compared = _compared(rows, label)
     assert expected <= compared, f"not compared: {sorted(expected - compared)}"

@@ -364,12 +364,12 @@ class Derivation:
     def contact_programs(self) -> Any:
         """The programs of ``constrained_forward_dynamics`` and ``impulse_dynamics``
         (``mechanics.contact_program.ContactPrograms``) every target prints, for a 3-D robot
-        without closed loops; None for the others."""
+        (its closed loops' rows solved with the contacts'); None for a planar one."""
         from .mechanics.contact_program import contact_programs
 
-        if self.robot.planar or self.robot.loops:
+        if self.robot.planar:
             return None
-        return contact_programs(len(self.symbols.qd), self.robot.floating)
+        return contact_programs(len(self.symbols.qd), self.robot.floating, self.loop_rows)
 
     @cached_property
     def loop_solve(self) -> Any:
@@ -379,10 +379,18 @@ class Derivation:
 
         if not self.robot.loops:
             return None
-        n, loops = len(self.symbols.qd), self.steps["loops"]
+        return loop_solve_program(len(self.symbols.qd), *self.loop_rows, bool(self.robot.floating))
+
+    @property
+    def loop_rows(self) -> tuple[int, int | None] | None:
+        """The closed loops' rows k and their rank (None: found at each state, a robot with
+        quaternions in q), or None without loops."""
+        if not self.robot.loops:
+            return None
+        loops = self.steps["loops"]
         if self.robot.floating:
-            return loop_solve_program(n, len(loops.rows), None, True)
-        return loop_solve_program(n, self.quantities["a_g"].shape[0], loops.rank, False)
+            return len(loops.rows), None
+        return self.quantities["a_g"].shape[0], loops.rank
 
     @cached_property
     def effort_jacobian(self) -> sympy.Matrix:

@@ -27,7 +27,8 @@ def parse_contacts(robot: Any, text: str | None, coordinates: str, compiled: boo
     if text.strip().lower() == "none":
         return []
     why = ("contact dynamics are 3-D only (this robot is planar)" if robot.planar else
-           "contact dynamics are not built for robots with closed loops" if robot.loops else
+           "simulate does not hold contacts on robots with closed loops yet (the generated module's "
+           "constrained_forward_dynamics does)" if robot.loops else
            "contacts are held in generalized coordinates only" if coordinates == "maximal" else
            "the compiled module has no contact dynamics: use --backend numpy" if compiled else None)
     if why:

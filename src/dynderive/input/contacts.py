@@ -4,7 +4,7 @@ Each entry names a ``frame`` of the robot (one of ``frames:``) and its ``kind``:
 (default; the frame origin's acceleration is held, three forces in world-aligned axes) or
 ``surface`` (the frame's whole twist is held, a force and a moment in the frame's axes). The
 generated module's ``constrained_forward_dynamics`` and ``impulse_dynamics`` hold these frames
-by default (DESIGN.md section 11). Contacts are 3-D only and not built for closed loops. Part of
+by default (DESIGN.md section 11). Contacts are 3-D only (with closed loops, the loops hold too). Part of
 validation: ``schema.validate`` calls ``read_contacts`` after the frames are read; every problem
 is reported on the validator with its position.
 """
@@ -20,19 +20,16 @@ from .validator import Validator, kind
 CONTACT_KEYS = ("frame", "kind")
 
 
-def read_contacts(v: Validator, top: dict[str, Any], frames: list[Frame], planar: bool,
-                  loops: bool) -> list[Contact]:
+def read_contacts(v: Validator, top: dict[str, Any], frames: list[Frame], planar: bool) -> list[Contact]:
     """The contacts of ``top`` (none without the key), every problem reported on ``v``: not a
     non-empty list, an entry that is not a mapping or has unknown keys, an unknown frame (with
-    the closest name), an unknown kind, a frame listed twice; a planar robot or one with loops
-    is refused at the key."""
+    the closest name), an unknown kind, a frame listed twice; a planar robot is refused at the
+    key."""
     if "contacts" not in top:
         return []
     raw = top["contacts"]
-    if planar or loops:
-        why = ("contact dynamics are 3-D only (this robot is planar)" if planar else
-               "contact dynamics are not built for robots with closed loops ('loops')")
-        v.error(("contacts",), f"contacts: {why}")
+    if planar:
+        v.error(("contacts",), "contacts: contact dynamics are 3-D only (this robot is planar)")
         return []
     if not isinstance(raw, list) or not raw:
         v.error(("contacts",), f"contacts: expected a non-empty list of {{frame: NAME, kind: point|surface}}, "

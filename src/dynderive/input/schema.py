@@ -94,7 +94,7 @@ def validate(doc: SourceDocument) -> Robot:
     all_links = links + virtual_links(joints, planar)
     frames = read_frames(v, top, tree, lambda value, path: _origin(v, value, path, planar, symbols), planar,
                          engine_quantities(all_links, planar, "loops" in top))
-    contacts = read_contacts(v, top, frames, planar, bool(loops) or "loops" in top)
+    contacts = read_contacts(v, top, frames, planar)
     check_names(v, parameters, all_links, joints, planar,
                 sum(LOOP_TYPES[planar].get(lp.type, 5) for lp in loops))
     constraints = _maximal_constraints(v, top, planar, symbols, links, joints)

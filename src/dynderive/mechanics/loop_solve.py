@@ -16,21 +16,33 @@ from __future__ import annotations
 from ..model.array_program import ArrayProgram, Call, Let, RowSpaceSolve, array, scale
 
 
+def loop_rows(n: int, k: int, floating: bool) -> tuple:
+    """The steps of the loop rows' Jacobian ``jac`` (k x NV) and their target ``bottom`` = -Adot qd
+    - 2 alpha A qd - beta^2 a(q), which the loops' solve and the contacts' (on a robot with loops)
+    share; ``floating``: the drift Adot qd from its own program."""
+    qd, drift, loop_rows = array("qd", n), array("drift", k), array("jac", k, n)
+    if floating:
+        rates: tuple = (Call("drift", "loop_jacobian_dot_qd", ("q", "qd"), (k,)),)
+    else:
+        rates = (Call("Adot", "loop_jacobian_dot", ("q", "qd"), (k, n)), Let("drift", array("Adot", k, n) @ qd))
+    rate = array("rate", k)
+    return (Call("jac", "loop_jacobian", ("q",), (k, n)), *rates, Call("a", "loop_constraints", ("q",), (k,)),
+            Let("rate", loop_rows @ qd),
+            Let("bottom", -drift - scale("alpha", rate + rate) - scale("beta", scale("beta", array("a", k)))))
+
+
+def efforts(n: int, floating: bool) -> Call:
+    """tau, the efforts' generalized forces: at their velocity columns with quaternions in q."""
+    if floating:
+        return Call("tau", "effort_map", ("u",), (n,))
+    return Call("tau", "generalized_forces", ("q", "u"), (n,))
+
+
 def loop_solve_program(n: int, k: int, rank: int | None, floating: bool) -> ArrayProgram:
     """``loop_solve(q, qd, u; alpha, beta) -> (qdd, lam)`` for NV = ``n`` and ``k`` loop rows of
     ``rank`` (None: found at each state); ``floating``: quaternions in q, the drift Adot qd from
     its own program and the efforts at their columns."""
-    qd, drift, loop_rows = array("qd", n), array("drift", k), array("jac", k, n)
-    if floating:
-        tau = Call("tau", "effort_map", ("u",), (n,))
-        rates: tuple = (Call("drift", "loop_jacobian_dot_qd", ("q", "qd"), (k,)),)
-    else:
-        tau = Call("tau", "generalized_forces", ("q", "u"), (n,))
-        rates = (Call("Adot", "loop_jacobian_dot", ("q", "qd"), (k, n)), Let("drift", array("Adot", k, n) @ qd))
-    rate = array("rate", k)
-    steps = (Call("M", "mass_matrix", ("q",), (n, n)), Call("h", "inverse_dynamics", ("q", "qd", "zeros"), (n,)), tau,
-             Call("jac", "loop_jacobian", ("q",), (k, n)), *rates, Call("a", "loop_constraints", ("q",), (k,)),
-             Let("rate", loop_rows @ qd),
-             Let("bottom", -drift - scale("alpha", rate + rate) - scale("beta", scale("beta", array("a", k)))),
+    steps = (Call("M", "mass_matrix", ("q",), (n, n)), Call("h", "inverse_dynamics", ("q", "qd", "zeros"), (n,)),
+             efforts(n, floating), *loop_rows(n, k, floating),
              RowSpaceSolve("qdd", "lam", "M", "jac", array("tau", n) - array("h", n), array("bottom", k), rank))
     return ArrayProgram("loop_solve", ("q", "qd", "u"), ("alpha", "beta"), steps, ("qdd", "lam"))

@@ -45,7 +45,9 @@ class Node:
         return Node("matmul", (self, other), self.shape[:1] + other.shape[1:])
 
     def __getitem__(self, bounds: slice) -> Node:
-        return Node("rows", (self, bounds.start, bounds.stop), (bounds.stop - bounds.start,) + self.shape[1:])
+        """Rows start..stop; stop None: to the end (the contacts' rows after the loops')."""
+        rows = HELD if bounds.stop is None else bounds.stop - bounds.start
+        return Node("rows", (self, bounds.start, bounds.stop), (rows,) + self.shape[1:])
 
     @property
     def T(self) -> Node:   # noqa: N802 - the matrix transpose, as NumPy spells it
@@ -66,7 +68,9 @@ def cross(a: Node, b: Node) -> Node:
 
 
 def stack(top: Node, bottom: Node) -> Node:
-    return Node("stack", (top, bottom), (top.shape[0] + bottom.shape[0],) + top.shape[1:])
+    """Rows of ``top`` then ``bottom``; with the contacts' rows (HELD) their batches broadcast."""
+    held = HELD in (top.shape[0], bottom.shape[0])
+    return Node("stack", (top, bottom), (HELD if held else top.shape[0] + bottom.shape[0],) + top.shape[1:])
 
 
 def position(pose: Node) -> Node:
@@ -133,17 +137,20 @@ class RowSpaceSolve:
     J's k rows, by the Schur complement S_r = J_r M^-1 J_r^T: ``rank`` k (J's rows themselves), a
     known r < k (J_r = U_r^T J, U_r the r left singular vectors of J with the largest singular
     values) or None (found at each state: the singular values above a tolerance of the largest,
-    the other rows' multipliers 0); the multipliers of least norm, U_r lambda_r. A target refuses
-    (or flags) M not positive definite and S_r singular."""
+    the other rows' multipliers 0); the multipliers of least norm, U_r lambda_r. ``held``: the
+    stacked contact rows J's last rows are (a loop robot's contacts), their count added to a
+    known rank (contacts are taken as independent); ``b`` None: zero. A target refuses (or
+    flags) M not positive definite and S_r singular."""
 
     x: str
     multipliers: str
     mass: str
     jacobian: str
-    b: Node
+    b: Node | None
     target: Node
     rank: int | None
     anchored: bool = False
+    held: str | None = None
 
 
 #: A step; one whose ``anchored`` is set runs only when anchors (held positions and poses) are given.

@@ -29,7 +29,7 @@ class Function:
     (the tests compare them); ``group``: which robots have it ("dynamics": every robot,
     "frames": every robot, raising for a name that is no frame, "centroidal": 3-D robots, "loops": closed loops,
     "configuration": a robot with quaternions, "maximal": a planar robot's maximal form,
-    "contacts": a 3-D robot without closed loops)."""
+    "contacts": a 3-D robot)."""
 
     name: str
     arguments: tuple[str, ...]

@@ -114,10 +114,11 @@ def compiled_rows(module: Any, compiled: Any, values: dict[str, float], states: 
                             "pass" if worst <= RTOL else "FAIL", f"numeric, {count} states, relative", worst))
     missing += sorted(name for name, value in vars(module).items() if callable(value) and not name.startswith("_")
                       and not hasattr(compiled, name) and name not in missing and not isinstance(value, type))
-    return rows + missing_rows(missing, target, label, floating, frames=bool(frames))
+    return rows + missing_rows(missing, target, label, floating, bool(frames), hasattr(module, "loop_constraints"))
 
 
-def missing_rows(missing: list[str], target: str, label: str, floating: bool = False, frames: bool = True) -> list[Row]:
+def missing_rows(missing: list[str], target: str, label: str, floating: bool = False, frames: bool = True,
+                 loops: bool = False) -> list[Row]:
     """The NumPy module's functions ``target`` lacks: one "skip" row per reason the table of
     what is not built (``render/offered.py``) gives, "not built" and the functions; a FAIL row
     for any it does not list."""
@@ -125,7 +126,7 @@ def missing_rows(missing: list[str], target: str, label: str, floating: bool = F
 
     reasons: dict[str | None, list[str]] = {}
     for name in missing:
-        reasons.setdefault(not_built(target, name, floating, frames), []).append(name)
+        reasons.setdefault(not_built(target, name, floating, frames, loops), []).append(name)
     rows = [Row(f"{label} not built: {names[0]}" + (f" and {len(names) - 1} more" if len(names) > 1 else ""), "skip",
                 f"{reason}: {', '.join(names)}", float("nan"))
             for reason, names in reasons.items() if reason is not None]

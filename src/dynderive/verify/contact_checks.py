@@ -1,9 +1,10 @@
-"""``dynderive check``'s rows on contact dynamics (DESIGN.md section 11) of a 3-D robot without
-closed loops: the robot file's contacts, or its first frame held as a point contact when it
+"""``dynderive check``'s rows on contact dynamics (DESIGN.md sections 11 and 13) of a 3-D robot:
+the robot file's contacts, or its first frame held as a point contact when it
 declares none (no rows for a robot without frames). ``constrained_forward_dynamics`` must satisfy its own system (inverse dynamics
 at its qdd equals the efforts plus J^T forces; the contacts' accelerations, from the frame
 functions, are zero) and ``impulse_dynamics`` leave the contacts at rest with the momentum jump
-J^T impulses; ``pinocchio_contacts`` compares both with Pinocchio's ``forwardDynamics`` and
+J^T impulses; with closed loops, up to a loop force A^T lambda, the loops' rows held too.
+``pinocchio_contacts`` (robots without loops) compares both with Pinocchio's ``forwardDynamics`` and
 ``impulseDynamics`` given the same contact Jacobians and drifts."""
 
 from __future__ import annotations
@@ -74,7 +75,14 @@ def contact_rows(derivation: Derivation, module: Any, values: dict[str, float], 
         tau = _efforts(derivation, module, q, u, values)
         balance = module.inverse_dynamics(q, qd, qdd, **values) - tau - J.T @ forces
         jump = module.mass_matrix(q, **values) @ (qd_plus - qd) - J.T @ impulses
-        worst = max(worst, peak(balance), peak(J @ qdd + drift), peak(J @ qd_plus), peak(jump))
+        worst = max(worst, peak(J @ qdd + drift), peak(J @ qd_plus))
+        if derivation.robot.loops:   # the loops' forces A^T lambda: the parts of balance and jump outside A's row space
+            A = module.loop_jacobian(q, **values)
+            loop_drift = (module.loop_jacobian_dot_qd(q, qd, **values) if hasattr(module, "loop_jacobian_dot_qd")
+                          else module.loop_jacobian_dot(q, qd, **values) @ qd)
+            balance, jump = (r - A.T @ np.linalg.lstsq(A.T, r, rcond=None)[0] for r in (balance, jump))
+            worst = max(worst, peak(A @ qdd + loop_drift), peak(A @ qd_plus))
+        worst = max(worst, peak(balance), peak(jump))
         scale = max(scale, peak(tau), peak(forces), peak(impulses), peak(drift))
     names = ", ".join(f"{frame} ({kind})" for frame, kind in contacts)
     return [_row(KKT, worst < 1e-9 * scale, f"numeric, holding {names}", worst)]
@@ -85,8 +93,8 @@ def pinocchio_contacts(pin: Any, model: Any, derivation: Derivation, module: Any
     """Pinocchio's ``forwardDynamics(model, data, q, v, tau, J, gamma, 0)`` and
     ``impulseDynamics(model, data, q, v, J, 0, 0)`` with J and gamma from its own frames
     (LOCAL_WORLD_ALIGNED for a point, LOCAL for a surface) against the module's."""
-    if not hasattr(module, "constrained_forward_dynamics") or derivation.robot.dissipative:
-        return []   # Pinocchio's forwardDynamics leaves damping and friction out: the KKT row covers them
+    if not hasattr(module, "constrained_forward_dynamics") or derivation.robot.dissipative or derivation.robot.loops:
+        return []   # Pinocchio's forwardDynamics leaves damping, friction and loops out: the KKT row covers them
     contacts = held(module)
     if not contacts:
         return []

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ...model.array_program import Append, Call, Let, Node, RowSpaceSolve, SchurSolve
+from ...model.array_program import HELD, Append, Call, Let, Node, RowSpaceSolve, SchurSolve
 
 #: Names a program reads that are the function's own (not locals).
 ARGUMENTS = ("q", "qd", "u", "qd_minus", "restitution", "alpha", "beta")
@@ -33,8 +33,8 @@ class ArrayPrinter:
     def _name(self, node: Node, name: str) -> str:
         return local(name)
 
-    def _rows(self, node: Node, of: Node, start: int, stop: int) -> str:
-        return f"{self.expression(of)}[..., {start}:{stop}{', :' if len(node.shape) == 2 else ''}]"
+    def _rows(self, node: Node, of: Node, start: int, stop: int | None) -> str:
+        return f"{self.expression(of)}[..., {start}:{'' if stop is None else stop}{', :' if len(node.shape) == 2 else ''}]"
 
     def _position(self, node: Node, pose: Node) -> str:
         return f"{self.expression(pose)}[..., :3, 3]"
@@ -67,6 +67,8 @@ class ArrayPrinter:
 
     def _stack(self, node: Node, top: Node, bottom: Node) -> str:
         axis = -2 if len(node.shape) == 2 else -1
+        if node.shape[0] == HELD:   # the loops' rows over the contacts': batches broadcast (the module's _stacked)
+            return f"_stacked([{self.expression(top)}, {self.expression(bottom)}], {axis})"
         return f"{self.xp}.concatenate([{self.expression(top)}, {self.expression(bottom)}], axis={axis})"
 
     def _vee(self, node: Node, matrix: Node) -> str:
@@ -108,7 +110,9 @@ class ArrayPrinter:
                     f"{local(step.jacobian)}, {b}, {self.expression(step.target)}, _held)"]
         if isinstance(step, RowSpaceSolve):   # the shim solves for columns: a vector is one
             x, multipliers = local(step.x), local(step.multipliers)
+            b = f"{self.xp}.zeros_like({local(step.mass)}[..., :1])" if step.b is None else self._column(step.b)
+            rank = step.rank if step.held is None or step.rank is None else f"{step.rank} + {local(step.held)}.shape[-2]"
             return [f"{x}, {multipliers} = _row_space_solve({local(step.mass)}, {local(step.jacobian)}, "
-                    f"{self._column(step.b)}, {self._column(step.target)}, {step.rank})",
+                    f"{b}, {self._column(step.target)}, {rank})",
                     f"{x}, {multipliers} = {x}[..., 0], {multipliers}[..., 0]"]
         raise ValueError(f"no Python for the step {step!r}")

@@ -49,17 +49,22 @@ class NotBuilt:
 
     functions: tuple[str, ...]
     #: The robots it concerns: "fixed" (fixed base), "floating" (floating base, or spherical
-    #: joints), "floating_loops" (those with closed loops), "frameless" (a robot that declares no
-    #: frames), "any" (every robot that has them).
+    #: joints), "floating_loops" (those with closed loops), "loops" (any robot with closed loops),
+    #: "frameless" (a robot that declares no frames), "any" (every robot that has them).
     kind: str
     reason: str
 
     def concerns(self, floating: bool, frames: bool, loops: bool = False) -> bool:
         """Whether it applies to a robot with a ``floating`` base (or not), ``frames`` (or none)
         and closed ``loops`` (or none)."""
-        return {"fixed": not floating, "floating": floating, "floating_loops": floating and loops,
+        return {"fixed": not floating, "floating": floating, "floating_loops": floating and loops, "loops": loops,
                 "frameless": not frames, "any": True}[self.kind]
 
+
+#: The row of every target that prints contact dynamics on trees only (``contacts_built``).
+CONTACTS_ON_LOOPS = NotBuilt(("constrained_forward_dynamics", "impulse_dynamics"), "loops",
+                             "contact dynamics on a robot with closed loops are printed for the NumPy, JAX and "
+                             "PyTorch modules only")
 
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its
 #: entries share it: one reason, one footnote of the table).

@@ -11,6 +11,7 @@ from typing import Any
 from ....derivation import Derivation
 from ....model.array_program import Node, RowSpaceSolve
 from ...codegen.array_program import ArrayPrinter, local
+from ...codegen.constrained import contacts_built
 from ...encode import Code
 
 #: Each generated function as the module's body: (text, arguments after the contact's frame).
@@ -67,4 +68,4 @@ def casadi_program_lines(derivation: Derivation) -> dict[str, Any]:
                 part: [Code(line) for line in printer.statements(
                     tuple(replace(step, anchored=False) for step in getattr(program, part)))]
                 for part in ("setup", "contact", "point", "surface", "finish")}
-                for program in derivation.contact_programs or ()}}
+                for program in (derivation.contact_programs if contacts_built(derivation) else None) or ()}}
