@@ -204,3 +204,38 @@ def test_contacts_on_loops_broadcast_over_a_batch():
         one = module.constrained_forward_dynamics(qi, qdi, ui, contacts=["toe", ("sole", "surface")])
         np.testing.assert_allclose(qdd[i], one[0], rtol=0, atol=1e-12)
         np.testing.assert_allclose(forces[i], one[1], rtol=0, atol=1e-12)
+
+
+def test_matlab_holds_contacts_on_loops_as_the_numpy_module(tmp_path):
+    """The MATLAB/Octave package's constrained_forward_dynamics and impulse_dynamics on the
+    floating loop (a point and a surface contact, none, the loops' gains p.alpha and p.beta, a
+    restitution) equal the NumPy module's to 1e-12 relative, warning-free."""
+    from test_matlab_numeric import OCTAVE, _Calls, _octave, _vector, _write
+
+    if OCTAVE is None:
+        pytest.skip("GNU Octave is not installed")
+    text = _floating_loop()
+    module, _ = _solved(text)
+    folder = Path(tempfile.mkdtemp(prefix="contacts_on_loops_matlab_"))
+    (folder / "robot.xml").write_text(text)
+    derivation = dynderive.derive(dynderive.load_robot(folder / "robot.xml"))
+    name = derivation.robot.name
+    _write(derivation, tmp_path)
+    plain = mujoco.MjModel.from_xml_string(text)
+    calls = _Calls(name, tolerance=1e-12)
+    calls.lines.append(f"p = {name}.parameters(); p.alpha = 1.5; p.beta = 2.5;")
+    for index, (qpos, qvel, u) in enumerate(_states(module, plain, 2, seed=11)):
+        q, qd, _, _ = to_ours(plain, qpos, qvel)
+        calls.lines.append(f"q = {_vector(q)}; qd = {_vector(qd)}; u = {_vector(u)};")
+        gains = {"alpha": 1.5, "beta": 2.5}
+        calls.add(f"s{index}_both", "constrained_forward_dynamics(q, qd, u, struct('frame', {'toe', 'sole'}, "
+                  "'kind', {'point', 'surface'}), [], [], p)",
+                  module.constrained_forward_dynamics(q, qd, u, ["toe", ("sole", "surface")], **gains), outputs=2)
+        calls.add(f"s{index}_kd", "constrained_forward_dynamics(q, qd, u, {'toe'}, [0 3], {}, p)",
+                  module.constrained_forward_dynamics(q, qd, u, ["toe"], (0.0, 3.0), **gains), outputs=2)
+        calls.add(f"s{index}_none", "constrained_forward_dynamics(q, qd, u, {}, [], [], p)",
+                  module.constrained_forward_dynamics(q, qd, u, (), **gains), outputs=2)
+        calls.add(f"s{index}_bounce", "impulse_dynamics(q, qd, {'toe'}, 0.5)",
+                  module.impulse_dynamics(q, qd, ["toe"], 0.5), outputs=2)
+    output = _octave(tmp_path, "\n".join(calls.lines) + "\n", warnings=False)
+    calls.check(output)

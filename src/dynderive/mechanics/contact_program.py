@@ -87,7 +87,7 @@ def constrained_forward_dynamics_program(n: int, floating: bool, loops: Loops = 
         finish += (SchurSolve("qdd", "forces", "M", "J", b, -gamma),)
     else:
         k, _ = loops
-        setup += loop_rows(n, k, floating)
+        setup += loop_rows(n, k, floating, "loop_drift")
         finish += _stacked_solve(n, "qdd", b, array("bottom", k), -gamma, loops, "forces")
         scalars += ("alpha", "beta")
     return ContactProgram("constrained_forward_dynamics", ("q", "qd", "u"), scalars, setup=setup, contact=contact,

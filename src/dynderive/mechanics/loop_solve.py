@@ -16,15 +16,16 @@ from __future__ import annotations
 from ..model.array_program import ArrayProgram, Call, Let, RowSpaceSolve, array, scale
 
 
-def loop_rows(n: int, k: int, floating: bool) -> tuple:
+def loop_rows(n: int, k: int, floating: bool, drift_name: str = "drift") -> tuple:
     """The steps of the loop rows' Jacobian ``jac`` (k x NV) and their target ``bottom`` = -Adot qd
     - 2 alpha A qd - beta^2 a(q), which the loops' solve and the contacts' (on a robot with loops)
-    share; ``floating``: the drift Adot qd from its own program."""
-    qd, drift, loop_rows = array("qd", n), array("drift", k), array("jac", k, n)
+    share; ``floating``: the drift Adot qd from its own program; ``drift_name`` its array's name
+    (the contacts' programs have a ``drift`` of their own)."""
+    qd, drift, loop_rows = array("qd", n), array(drift_name, k), array("jac", k, n)
     if floating:
-        rates: tuple = (Call("drift", "loop_jacobian_dot_qd", ("q", "qd"), (k,)),)
+        rates: tuple = (Call(drift_name, "loop_jacobian_dot_qd", ("q", "qd"), (k,)),)
     else:
-        rates = (Call("Adot", "loop_jacobian_dot", ("q", "qd"), (k, n)), Let("drift", array("Adot", k, n) @ qd))
+        rates = (Call("Adot", "loop_jacobian_dot", ("q", "qd"), (k, n)), Let(drift_name, array("Adot", k, n) @ qd))
     rate = array("rate", k)
     return (Call("jac", "loop_jacobian", ("q",), (k, n)), *rates, Call("a", "loop_constraints", ("q",), (k,)),
             Let("rate", loop_rows @ qd),

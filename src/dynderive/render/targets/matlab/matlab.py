@@ -127,9 +127,10 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
         *_centroidal_functions(derivation, names),
     ]
     if not robot.loops:
-        functions += [_forward_dynamics(derivation), _linearize(derivation, names), *contact_functions(derivation)]
+        functions += [_forward_dynamics(derivation), _linearize(derivation, names)]
     else:
         functions += loop_functions(derivation, names)
+    functions += contact_functions(derivation)
     functions += _derivatives(derivation, names)
     return functions + (_configuration_functions(derivation) if nq != n else [])
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from ....derivation import Derivation
 from ....model.array_program import Append, ContactProgram
+from .matlab_loops import row_space_shim
 from .matlab_names import matlab_string
 from .matlab_print import MFunction, help_line
 from .matlab_program import m_name, statements
@@ -25,8 +26,9 @@ HELD_SIZE = "that size for the declared contacts, 3 per point and 6 per surface 
 
 
 def has_contacts(derivation: Derivation) -> bool:
-    """Whether the robot has contact dynamics: 3-D, without closed loops (as the NumPy module)."""
-    return not derivation.robot.planar and not derivation.robot.loops
+    """Whether the robot has contact dynamics: 3-D (with closed loops, their rows solved with the
+    contacts', as the NumPy module)."""
+    return not derivation.robot.planar
 
 
 def contacts_function(derivation: Derivation) -> list[MFunction]:
@@ -177,12 +179,16 @@ def _schur_solve(derivation: Derivation) -> MFunction:
 
 
 def contact_functions(derivation: Derivation) -> list[MFunction]:
-    """``constrained_forward_dynamics`` and ``impulse_dynamics`` (none for a planar or loop robot)."""
+    """``constrained_forward_dynamics`` and ``impulse_dynamics`` (none for a planar robot); with
+    closed loops the engine's programs end in the loops' row-space solve (its shim is local)."""
     if not has_contacts(derivation):
         return []
     robot = derivation.robot
     pkg, nu = robot.name, len(derivation.symbols.efforts)
-    local = [_contact_list(derivation), _schur_solve(derivation)]
+    local = [_contact_list(derivation), row_space_shim() if robot.loops else _schur_solve(derivation)]
+    loops = ["   The closed loops stay closed: their rows (with the Baumgarte gains p.alpha, p.beta, as",
+             "   forward_dynamics) are solved with the contacts' in the row space of the rows stacked; forces are",
+             "   the contacts' alone; the contacts are taken as independent."] if robot.loops else []
     programs = derivation.contact_programs
     contacts_help = [
         "   contacts: frame names (a cell array; one name alone is one contact), frame numbers (1-based, the",
@@ -205,7 +211,7 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
          "   accelerate by -kd (velocity) - kp e. e needs anchors, a cell array with one entry per contact in",
          "   order: a point's held position (3 x 1, world), a surface's held pose (4 x 4); e = p - p_ref for a",
          "   point, [R' (p - p_ref); vee of the skew part of R_ref' R] for a surface. kp must be 0 without anchors.",
-         "   forces: 3 per point and 6 per surface contact, in the order of contacts."],
+         "   forces: 3 per point and 6 per surface contact, in the order of contacts.", *loops],
         [*_arguments(["q", "qd"]),
          "if nargin < 3 || isempty(u)", f"    u = zeros({nu}, 1);", "end", "u = u(:);",
          "if nargin < 4", "    contacts = [];", "end",
@@ -222,7 +228,7 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
          "if ~isempty(anchors) && (~iscell(anchors) || numel(anchors) ~= numel(frames))",
          f"    error('{pkg}:anchors', 'anchors must be a cell array of one entry per contact (%d)', numel(frames));",
          "end",
-         "kp = baumgarte(1);", "kd = baumgarte(2);",
+         "kp = baumgarte(1);", "kd = baumgarte(2);", *(["alpha = p.alpha;", "beta = p.beta;"] if robot.loops else []),
          *_program(derivation, programs.constrained_forward_dynamics)],
         local)
     impulse = MFunction(
@@ -233,7 +239,8 @@ def contact_functions(derivation: Derivation) -> list[MFunction]:
          f"   {pkg}:redundant).",
          *contacts_help,
          "   restitution: 0 (omitted or []: the contacts stop, a plastic impact) to 1 (their velocities reverse).",
-         "   impulses: 3 per point and 6 per surface contact, in the order of contacts."],
+         "   impulses: 3 per point and 6 per surface contact, in the order of contacts.",
+         *(["   The closed loops stay closed: A qd_plus = 0, solved with the contacts' rows."] if robot.loops else [])],
         [*_arguments(["q", "qd_minus"]),
          "if nargin < 3", "    contacts = [];", "end",
          "if nargin < 4 || isempty(restitution)", "    restitution = 0;", "end",

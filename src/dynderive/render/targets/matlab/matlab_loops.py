@@ -44,7 +44,7 @@ def _solve_function(derivation: Derivation) -> MFunction:
 TOLERANCE = "1e-7"
 
 
-def _row_space_solve() -> MFunction:
+def row_space_shim() -> MFunction:
     """The shim of the engine's ``RowSpaceSolve``."""
     return MFunction(
         "row_space_solve", "[x, lambda]", ["M", "Aj", "b", "target", "r"],
@@ -121,11 +121,11 @@ def _solved(derivation: Derivation, k: int, r: int | None) -> list[MFunction]:
                    "   (alpha = p.alpha, beta = p.beta: Baumgarte gains, 0 = none); start from a state on the",
                    "   constraints (A qd = 0). u may be [] (no effort)." + least],
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
-                   "qdd = loop_solve(q, qd, u, p, p.alpha, p.beta);"], [_solve_function(derivation), _row_space_solve()]),
+                   "qdd = loop_solve(q, qd, u, p, p.alpha, p.beta);"], [_solve_function(derivation), row_space_shim()]),
         MFunction("loop_forces", "lambda", ["q", "qd", "u", "p"],
                   [help_line(derivation, "loop_forces") + least],
                   [*prologue(derivation, ["q", "qd"], 4, optional_u),
-                   "[qdd, lambda] = loop_solve(q, qd, u, p, 0, 0);"], [_solve_function(derivation), _row_space_solve()]),
+                   "[qdd, lambda] = loop_solve(q, qd, u, p, 0, 0);"], [_solve_function(derivation), row_space_shim()]),
     ]
 
 
@@ -154,4 +154,4 @@ def _linearize(derivation: Derivation, names: Names) -> Any:
         [help_line(derivation, "linearize"), "",
          "   The constrained solve [M, -A_g'; A_g, 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g' lambda)/dx;",
          "   -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0, as the NumPy module)."],
-        body, [_solve_function(derivation), _row_space_solve()])
+        body, [_solve_function(derivation), row_space_shim()])

@@ -21,7 +21,7 @@ def expression(node: Node) -> str:
     if op == "name":
         return m_name(args[0])
     if op == "rows":
-        rows = f"{args[1] + 1}:{args[2]}"
+        rows = f"{args[1] + 1}:{'end' if args[2] is None else args[2]}"
         return f"{expression(args[0])}({rows}, :)" if len(node.shape) == 2 else f"{expression(args[0])}({rows})"
     if op == "position":
         return f"{expression(args[0])}(1:3, 4)"
@@ -82,7 +82,9 @@ def _statement(step, package: str, n: int) -> list[str]:
         b = "[]" if step.b is None else expression(step.b)
         return [f"[{m_name(step.x)}, {m_name(step.multipliers)}] = schur_solve({m_name(step.mass)}, "
                 f"{m_name(step.jacobian)}, {b}, {expression(step.target)}, held);"]
-    if isinstance(step, RowSpaceSolve):
+    if isinstance(step, RowSpaceSolve):   # b None: zero; held: the contacts' rows add to a known rank
+        b = f"zeros({n}, 1)" if step.b is None else expression(step.b)
+        rank = "[]" if step.rank is None else step.rank if step.held is None else f"{step.rank} + size({m_name(step.held)}, 1)"
         return [f"[{m_name(step.x)}, {m_name(step.multipliers)}] = row_space_solve({m_name(step.mass)}, "
-                f"{m_name(step.jacobian)}, {expression(step.b)}, {expression(step.target)}, {'[]' if step.rank is None else step.rank});"]
+                f"{m_name(step.jacobian)}, {b}, {expression(step.target)}, {rank});"]
     raise ValueError(f"no MATLAB for the step {step!r}")
