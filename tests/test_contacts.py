@@ -468,7 +468,7 @@ def test_simulate_holds_the_contacts(tmp_path):
 
 @pytest.mark.parametrize("arguments, message", [
     (["rp_arm", "--contacts", "tip"], "--contacts:1:1: contact dynamics are 3-D only (this robot is planar)"),
-    (["bennett", "--contacts", "tip"], "--contacts:1:1: simulate does not hold contacts on robots with closed loops yet"),
+    (["bennett", "--contacts", "tip"], "--contacts:1:1: unknown frame 'tip' (this robot declares no frames)"),
     (["HELD", "--contacts", "pad:edge"], "--contacts:1:1: unknown contact kind 'edge' of pad; expected point or surface"),
     (["HELD", "--contacts", "pad,pad"], "--contacts:1:5: frame 'pad' is listed twice"),
 ])

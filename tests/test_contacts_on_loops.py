@@ -13,6 +13,7 @@ velocities after an impact the ones closest to those before in MuJoCo's ``M`` on
 from __future__ import annotations
 
 import importlib.util
+import re
 import tempfile
 from functools import cache
 from pathlib import Path
@@ -239,3 +240,52 @@ def test_matlab_holds_contacts_on_loops_as_the_numpy_module(tmp_path):
                   module.impulse_dynamics(q, qd, ["toe"], 0.5), outputs=2)
     output = _octave(tmp_path, "\n".join(calls.lines) + "\n", warnings=False)
     calls.check(output)
+
+
+def _simulated(tmp_path: Path, text: str, *options: str) -> tuple[str, np.ndarray]:
+    """``simulate``'s summary line and its CSV rows (time, then q, then qd)."""
+    path, csv = tmp_path / "robot.xml", tmp_path / "run.csv"
+    path.write_text(text)
+    result = runner.invoke(app, ["simulate", str(path), "--duration", "0.4", "--frames", "9", "--quiet",
+                                 "--csv", str(csv), *options])
+    assert result.exit_code == 0, result.output
+    line = next(line for line in result.output.splitlines() if line.startswith("simulated "))
+    return line, np.loadtxt(csv, delimiter=",", skiprows=1)
+
+
+def _summary_number(line: str, what: str) -> float:
+    return float(re.search(rf"{what} ([-+0-9.e]+)", line).group(1))
+
+
+@pytest.mark.parametrize("contacts", [[], ["--contacts", "toe"], ["--contacts", "toe,sole:surface"]],
+                         ids=["no contact", "point", "point and surface"])
+def test_simulate_closes_the_loops_of_a_floating_base_and_holds_its_contacts(tmp_path, contacts):
+    """``simulate`` on the floating loop (no damping or spring, so energy is conserved): every
+    frame on the loops (constraint drift), the contacts where they start (contact drift), energy
+    kept; the CSV's configurations close the loops and hold the toe."""
+    text = _floating_loop().replace('damping="0.05"', "").replace('stiffness="0.4" springref="0.1"', "")
+    line, rows = _simulated(tmp_path, text, *contacts)
+    module, _ = _solved(_floating_loop())
+    assert "floating_loop (floating base, on the manifold)" in line
+    assert _summary_number(line, "largest relative energy change") < 1e-5
+    assert _summary_number(line, "largest constraint drift") < 1e-8
+    q = rows[:, 1:1 + module.NQ]
+    assert np.max(np.abs(module.loop_constraints(q))) < 1e-8
+    if contacts:
+        assert "holding toe (point)" in line and _summary_number(line, r"largest contact drift") < 1e-8
+        toe = module.frame_transform(q, "toe")[:, :3, 3]
+        assert np.max(np.abs(toe - toe[0])) < 1e-8
+    else:
+        assert np.ptp(q[:, 2]) > 1e-2   # the torso falls
+
+
+def test_simulate_holds_a_contact_on_a_fixed_base_loop(tmp_path):
+    """The fixed-base loop (hinges only, the loops' rank known) holding its toe."""
+    module, _ = _solved(_fixed_loop())
+    start = ",".join(repr(float(v)) for v in module.ASSEMBLED_CONFIGURATION)   # MuJoCo's qpos0, on the loops
+    line, rows = _simulated(tmp_path, _fixed_loop(), "--contacts", "toe", "--effort", "tau_ja=0.3*sin(5*t)",
+                            "--q0", start)
+    q = rows[:, 1:1 + len(module.COORDINATES)]
+    toe = module.frame_transform(q, "toe")[:, :3, 3]
+    assert np.max(np.abs(toe - toe[0])) < 1e-6 and _summary_number(line, "largest constraint drift") < 1e-8
+    assert np.ptp(q[:, 0]) > 1e-4   # the mechanism moves

@@ -305,15 +305,12 @@ def simulate(
     require_scipy("simulate")
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
-    from .solve import refuse_floating_loops
-
-    refuse_floating_loops(model, "simulate")
     model = with_parameters(model, robot, param or [], required=True,
                             load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)
     simulation.refuse_options(model, coordinates, animate)
     maximal = coordinates == "maximal"
-    loop_q = simulation.loop_numbers(q0, model) if model.loops and not maximal else None
+    loop_q = simulation.loop_numbers(q0, model) if model.loops and not maximal and not model.floating else None
     start_q = None if loop_q is not None else vector(q0, len(model.configuration_names), "--q0")
     start_qd = vector(qd0, model.velocity_count, "--qd0")
     start_q = simulation.initial_configuration(model, start_q)

@@ -17,7 +17,7 @@ def parse_contacts(robot: Any, text: str | None, coordinates: str, compiled: boo
     """``--contacts FRAME[:KIND][,FRAME[:KIND]...]`` (KIND point or surface; default the robot
     file's kind, else point), ``none``, or (not given) the robot file's ``contacts:``: the
     contacts a run holds, as (frame, kind). Refused (exit 2) where they are not built: planar
-    robots, closed loops, maximal coordinates, the compiled backend."""
+    robots, maximal coordinates, the compiled backend."""
     declared = {c.frame: c.kind for c in robot.contacts}
     if text is None and declared and compiled:
         raise InputError(problem("--backend", "the compiled module has no contact dynamics, and the robot file "
@@ -27,8 +27,6 @@ def parse_contacts(robot: Any, text: str | None, coordinates: str, compiled: boo
     if text.strip().lower() == "none":
         return []
     why = ("contact dynamics are 3-D only (this robot is planar)" if robot.planar else
-           "simulate does not hold contacts on robots with closed loops yet (the generated module's "
-           "constrained_forward_dynamics does)" if robot.loops else
            "contacts are held in generalized coordinates only" if coordinates == "maximal" else
            "the compiled module has no contact dynamics: use --backend numpy" if compiled else None)
     if why:

@@ -14,7 +14,7 @@ integrator's own error moves them off the sphere by about its tolerance) and the
 from there, as closed loops are projected back onto their constraints; the right-hand side
 evaluates the dynamics at normalized quaternions too.
 
-``--contacts`` (3-D robots without loops; default: the robot file's ``contacts:``, ``none`` for
+``--contacts`` (3-D robots; default: the robot file's ``contacts:``, ``none`` for
 none) holds frames with the module's ``constrained_forward_dynamics``: the start velocity is
 first made to respect them (``impulse_dynamics``, a plastic impact at t = 0), and the contacts
 are anchored where they start, held by Baumgarte stabilisation with kp = b**2, kd = 2 b
@@ -305,7 +305,7 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
     the run (InputError). ``compiled``: the C extension (``--backend c``), whose forward
     dynamics, ``configuration_rate`` and friction the integrator calls instead of the NumPy
     module's (generalized coordinates only). ``contacts``: (frame, kind) held (module
-    docstring; generalized coordinates of a 3-D robot without loops); ``declared``: they are
+    docstring; generalized coordinates of a 3-D robot); ``declared``: they are
     the robot file's (no ``--contacts``), so a refusal of them is placed at its ``contacts:``."""
     robot = derivation.robot
     module = generated_module(source, robot.name)
@@ -319,14 +319,24 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
             if exact_friction and not maximal else "")   # what the note of a struggling run adds
     loops = bool(robot.loops) and not maximal
     dissipative = robot.dissipative and not maximal and not loops
-    starts = () if maximal or loops else robot.quaternion_starts
+    starts = () if maximal else robot.quaternion_starts
     drift: list[float] = []
     held = list(contacts or ()) if not maximal else []
     if not maximal:
         rate = fast.configuration_rate if starts else lambda q, qd: qd   # dq/dt
         gains = {"alpha": baumgarte, "beta": baumgarte} if loops else {}
         forward = fast.forward_dynamics
-        if held:   # anchored where they start; the start velocity made to respect them
+        if loops:   # start on the constraints (before the contacts anchor); at every frame the state goes back onto them
+            project = (_tangent_projection(module, values, starts) if robot.floating
+                       else _loop_projection(module, values, q0))
+            y0 = project(q0, qd0)
+            q0, qd0 = y0[:nq], y0[nq:]
+            if not robot.floating:   # with quaternions the rank is taken at each state (allowed_velocity)
+                with np.errstate(all="ignore"):
+                    singular_start(module.loop_jacobian(q0, **values), nq - len(module.INDEPENDENT_COORDINATES),
+                                   "the loop constraint Jacobian A_g(q)", module.COORDINATES, q0)
+            drift.append(float(np.max(np.abs(module.loop_constraints(q0, **values)))))
+        if held:   # anchored where they start; the start velocity made to respect them (and the loops)
             at = (robot.source, *robot.positions.get("contacts", (1, 1))) if declared else None
             qd0, forward = _held(module, held, q0, qd0, baumgarte, values, at)
 
@@ -339,15 +349,7 @@ def simulate(derivation: Derivation, source: str, duration: float, q0: np.ndarra
                 return np.concatenate([rate(q, qd), qdd])
             power = qd @ fast.friction_forces(qd, friction_smoothing=friction_smoothing, **values)
             return np.concatenate([rate(q, qd), qdd, [power]])   # the dissipated work W rides along
-        if loops:   # start on the constraints; at every frame the state goes back onto them
-            project = _loop_projection(module, values, q0)
-            y0 = project(q0, qd0)
-            with np.errstate(all="ignore"):
-                singular_start(module.loop_jacobian(y0[:nq], **values), nq - len(module.INDEPENDENT_COORDINATES),
-                               "the loop constraint Jacobian A_g(q)", module.COORDINATES, y0[:nq])
-            drift.append(float(np.max(np.abs(module.loop_constraints(y0[:nq], **values)))))
-        else:
-            y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
+        y0 = np.concatenate([q0, qd0] + ([[0.0]] if dissipative else []))
         names, rates = list(robot.configuration_names), [str(s) for s in derivation.symbols.qd]
     else:
         with np.errstate(all="ignore"):
@@ -448,6 +450,25 @@ def _loop_projection(module: Any, values: dict[str, float],
             raise InputError(singular_problem("the configuration " + ", ".join(
                 f"{name} = {value:.6g}" for name, value in zip(module.COORDINATES, q)) + " is singular: the loop "
                 "constraint Jacobian A_g(q) cannot be decomposed there; the run stops there")) from None
+
+    return project
+
+
+def _tangent_projection(module: Any, values: dict[str, float],
+                        starts: tuple[int, ...]) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """The state of a robot with quaternions in q and closed loops put on the constraints: q
+    normalized and assembled from itself (``assemble``'s least-norm steps on the tangent space),
+    qd projected onto the motions the loops allow there (their rank found at the state)."""
+
+    def project(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        try:
+            with np.errstate(all="ignore"):
+                q = module.assemble(normalized(q, starts), **values)
+                return np.concatenate([q, allowed_velocity(module, q, qd, values)])
+        except (ValueError, np.linalg.LinAlgError):
+            raise InputError(Problem("--q0", 1, 1, "the loops cannot be closed near the configuration "
+                                     + ", ".join(f"{name} = {value:.6g}" for name, value in
+                                                 zip(module.COORDINATES, q)))) from None
 
     return project
 

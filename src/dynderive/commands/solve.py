@@ -41,8 +41,7 @@ def form_note(robot: Robot) -> str | None:
 
 def refuse_floating_loops(robot: Robot, command: str) -> None:
     """Bad input for a command not built for closed loops on a robot with quaternions in q (exit
-    2 at its first loop joint): ``simulate`` (no projection onto such loops yet) and
-    ``linearize`` (no constrained linearization)."""
+    2 at its first loop joint): ``linearize`` (no constrained linearization)."""
     if robot.floating and robot.loops:
         first = robot.loops[0].name
         line, column = robot.positions.get(f"loop:{first}", robot.positions.get("loops", (1, 1)))
