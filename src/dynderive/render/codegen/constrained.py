@@ -20,9 +20,10 @@ def contacts_built(derivation: Derivation) -> bool:
     return not derivation.robot.planar and not derivation.robot.loops
 
 
-def loop_sizes(derivation: Derivation) -> tuple[int, int, int]:
-    """(NV, NC, rank of the loop rows)."""
-    return (len(derivation.symbols.q), derivation.quantities["a_g"].shape[0], derivation.steps["loops"].rank)
+def loop_sizes(derivation: Derivation) -> tuple[int, int, int | None]:
+    """(NV, NC, rank of the loop rows: None where it is found at each state, quaternions in q)."""
+    rows, rank = derivation.loop_rows
+    return len(derivation.symbols.qd), rows, rank
 
 
 #: The functions of a robot with quaternions in q and closed loops that a target without their

@@ -68,10 +68,8 @@ LOOP_RANK_TOLERANCE = "1e-7"
 def _sizes(derivation: Derivation) -> tuple[int, int, int]:
     """(NV, NC, the rank the solve takes): a robot with quaternions in q (its loops rows on the
     tree's twists) finds the rank at each state, so its solve sizes are NC."""
-    if derivation.robot.floating:
-        k = len(derivation.steps["loops"].rows)
-        return len(derivation.symbols.qd), k, k
-    return loop_sizes(derivation)
+    n, k, rank = loop_sizes(derivation)
+    return n, k, k if rank is None else rank
 
 
 def loop_context(derivation: Derivation) -> dict[str, Any]:
