@@ -491,9 +491,11 @@ def test_forward_dynamics_and_linearize_are_one_body_each_sine_once():
 C99_STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wshadow"]
 
 
-def compiled_library(derivation, directory: Path, cxx: bool = False) -> tuple[str, ctypes.CDLL]:
+def compiled_library(derivation, directory: Path, cxx: bool = False,
+                     cxx_optimization: str = "-O1") -> tuple[str, ctypes.CDLL]:
     """(name, library) of ``derivation``'s generated C, compiled unoptimized as strict C99 (and
-    as C++ when ``cxx``), with no diagnostic, and loaded."""
+    as C++ when ``cxx``, at ``cxx_optimization``: -O1's flow analysis adds warnings, but a
+    megabyte of C takes five times as long as at -O0), with no diagnostic, and loaded."""
     header, source = render_c(derivation)
     name = derivation.robot.name
     (directory / f"{name}_dynamics.h").write_text(header)
@@ -501,8 +503,8 @@ def compiled_library(derivation, directory: Path, cxx: bool = False) -> tuple[st
     path.write_text(source)
     shared = path.with_suffix(".so")
     for command in ([CC, *C99_STRICT, "-O0", "-shared", "-fPIC", str(path), "-o", str(shared), "-lm"],
-                    *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-O1", "-c", str(path),
-                        "-o", str(path.with_suffix(".cpp.o"))]] if CXX and cxx else [])):
+                    *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", cxx_optimization, "-c",
+                        str(path), "-o", str(path.with_suffix(".cpp.o"))]] if CXX and cxx else [])):
         run = subprocess.run(command, capture_output=True, text=True)
         assert run.returncode == 0 and not run.stderr, f"{' '.join(command)}:\n{run.stderr}"
     return name, ctypes.CDLL(str(shared))
