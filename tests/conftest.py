@@ -50,6 +50,9 @@ SLOWEST_FIRST = (
     "test_jax_target.py", "test_targets_agree.py", "test_matlab_script.py", "test_fuzz.py", "test_contacts.py",
     "test_centroidal_c.py", "test_centroidal.py", "test_contacts_c.py", "test_matlab_numeric.py",
     "test_c_extension.py", "test_scale.py", "test_build.py", "test_generated_programs.py", "test_mjcf_mujoco.py",
+    # long files late in the alphabet (TeX, torch.compile, chromium): started early, they cannot
+    # be the last file one worker runs while the other has finished
+    "test_html.py", "test_sheets_compile.py", "test_torch_target.py",
 )
 
 
