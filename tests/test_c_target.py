@@ -70,13 +70,14 @@ def _compile(path: Path, *flags: str) -> None:
 
 
 class Library:
-    """The generated functions of one robot, from a shared library, called on NumPy arrays."""
+    """The generated functions of one robot, from a shared library, called on NumPy arrays
+    (``flags``: added to the compiler's, e.g. -O0 after STRICT's -O1)."""
 
-    def __init__(self, derivation, directory: Path):
+    def __init__(self, derivation, directory: Path, *flags: str):
         directory.mkdir(parents=True, exist_ok=True)
         path = _write(derivation, directory)
-        _compile(path)
-        shared = path.with_suffix(".so")   # the object _compile checked, at the same -O1
+        _compile(path, *flags)
+        shared = path.with_suffix(".so")   # the object _compile checked, at the same level
         subprocess.run([CC, "-shared", str(path.with_suffix(".o")), "-o", str(shared), "-lm"], check=True)
         self.lib = ctypes.CDLL(str(shared))
         self.name = derivation.robot.name
