@@ -10,10 +10,17 @@ import zlib
 from functools import cache
 from pathlib import Path
 
-import numpy as np
-import pytest
+#: SymPy's cache per cached function in the test processes (its default: 1000; the command line's:
+#: ``dynderive.__main__.SYMPY_CACHE_SIZE``). A worker derives the same robots over and over (each
+#: ``solve`` a test runs in-process derives afresh): with room for them, a second derivation of
+#: the Panda takes half the CPU of the first. SymPy reads it once, when it is imported (here,
+#: before any test imports it); the commands the tests run inherit it. A value already set wins.
+os.environ.setdefault("SYMPY_CACHE_SIZE", "131072")
 
-import dynderive
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import dynderive  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ROOT / "robots"
@@ -43,6 +50,9 @@ SLOWEST_FIRST = (
     "test_jax_target.py", "test_targets_agree.py", "test_matlab_script.py", "test_fuzz.py", "test_contacts.py",
     "test_centroidal_c.py", "test_centroidal.py", "test_contacts_c.py", "test_matlab_numeric.py",
     "test_c_extension.py", "test_scale.py", "test_build.py", "test_generated_programs.py", "test_mjcf_mujoco.py",
+    # long files late in the alphabet (TeX, torch.compile, chromium): started early, they cannot
+    # be the last file one worker runs while the other has finished
+    "test_html.py", "test_sheets_compile.py", "test_torch_target.py",
 )
 
 

@@ -651,7 +651,18 @@ def _write(folder: Path, text: str) -> Path:
     return folder / "box.yaml"
 
 
-def test_solve_build_and_check_on_the_command_line(tmp_path):
+def _unoptimized_commands(monkeypatch) -> None:
+    """The commands build the extension at -O0, as ``_load`` does: the values are compared, not
+    the speed (their -O2 build: ``test_solve_writes_an_importable_extension``, ``test_backend_c.py``)."""
+    import functools
+
+    from dynderive.render.targets.c_extension import compile as extension
+
+    monkeypatch.setattr(extension, "build_extension", functools.partial(extension.build_extension, optimization="-O0"))
+
+
+def test_solve_build_and_check_on_the_command_line(tmp_path, monkeypatch):
+    _unoptimized_commands(monkeypatch)   # five builds of the box
     path = _write(tmp_path, _framed())
     name = "box_dynamics_c" + sysconfig.get_config_var("EXT_SUFFIX")
     result = runner.invoke(app, ["solve", str(path), "--c-extension", "--code", "--out", str(tmp_path / "a")])
@@ -705,6 +716,7 @@ def test_simulate_with_the_c_backend_follows_the_numpy_run(tmp_path, monkeypatch
     friction give the NumPy run's trajectory and dissipated work."""
     from dynderive.render.targets.c_extension import compile as compile_command
 
+    _unoptimized_commands(monkeypatch)
     called: dict[str, int] = {}
     build = compile_command.compiled_module
 

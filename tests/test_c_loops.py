@@ -332,7 +332,10 @@ def test_loops_on_a_floating_base_agree_with_numpy(tmp_path, code_dir):
     for path in (ROOT / "tests" / "mjcf" / "floating_loop.xml", ROOT / "tests" / "mjcf" / "two_connects.xml"):
         derivation = dynderive.derive(dynderive.load_robot(path))
         module = import_code(dynderive.render_code(derivation), Path(code_dir), f"{derivation.robot.name}_floating_loops")
-        library = Library(derivation, tmp_path / derivation.robot.name)
+        # the ball joint's model: 0.9 MB of C, 15 s at STRICT's -O1 and 2 s at -O0; -O1's flow
+        # warnings are checked on the two connects (the same kinds of code, a quarter the size)
+        big = path.name == "floating_loop.xml"
+        library = Library(derivation, tmp_path / derivation.robot.name, *(["-O0"] if big else []))
         header = (tmp_path / derivation.robot.name / f"{library.name}_dynamics.h").read_text()
         assert f"{library.name}_linearize" not in header and f"{library.name}_loop_jacobian_dot_qd" in header
         nv, nq = module.NV, module.NQ

@@ -70,13 +70,14 @@ def _compile(path: Path, *flags: str) -> None:
 
 
 class Library:
-    """The generated functions of one robot, from a shared library, called on NumPy arrays."""
+    """The generated functions of one robot, from a shared library, called on NumPy arrays
+    (``flags``: added to the compiler's, e.g. -O0 after STRICT's -O1)."""
 
-    def __init__(self, derivation, directory: Path):
+    def __init__(self, derivation, directory: Path, *flags: str):
         directory.mkdir(parents=True, exist_ok=True)
         path = _write(derivation, directory)
-        _compile(path)
-        shared = path.with_suffix(".so")   # the object _compile checked, at the same -O1
+        _compile(path, *flags)
+        shared = path.with_suffix(".so")   # the object _compile checked, at the same level
         subprocess.run([CC, "-shared", str(path.with_suffix(".o")), "-o", str(shared), "-lm"], check=True)
         self.lib = ctypes.CDLL(str(shared))
         self.name = derivation.robot.name
@@ -491,9 +492,11 @@ def test_forward_dynamics_and_linearize_are_one_body_each_sine_once():
 C99_STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-Wshadow"]
 
 
-def compiled_library(derivation, directory: Path, cxx: bool = False) -> tuple[str, ctypes.CDLL]:
+def compiled_library(derivation, directory: Path, cxx: bool = False,
+                     cxx_optimization: str = "-O1") -> tuple[str, ctypes.CDLL]:
     """(name, library) of ``derivation``'s generated C, compiled unoptimized as strict C99 (and
-    as C++ when ``cxx``), with no diagnostic, and loaded."""
+    as C++ when ``cxx``, at ``cxx_optimization``: -O1's flow analysis adds warnings, but a
+    megabyte of C takes five times as long as at -O0), with no diagnostic, and loaded."""
     header, source = render_c(derivation)
     name = derivation.robot.name
     (directory / f"{name}_dynamics.h").write_text(header)
@@ -501,8 +504,8 @@ def compiled_library(derivation, directory: Path, cxx: bool = False) -> tuple[st
     path.write_text(source)
     shared = path.with_suffix(".so")
     for command in ([CC, *C99_STRICT, "-O0", "-shared", "-fPIC", str(path), "-o", str(shared), "-lm"],
-                    *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-O1", "-c", str(path),
-                        "-o", str(path.with_suffix(".cpp.o"))]] if CXX and cxx else [])):
+                    *([[CXX, "-x", "c++", "-Wall", "-Wextra", "-Werror", "-Wshadow", cxx_optimization, "-c",
+                        str(path), "-o", str(path.with_suffix(".cpp.o"))]] if CXX and cxx else [])):
         run = subprocess.run(command, capture_output=True, text=True)
         assert run.returncode == 0 and not run.stderr, f"{' '.join(command)}:\n{run.stderr}"
     return name, ctypes.CDLL(str(shared))
