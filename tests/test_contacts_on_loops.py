@@ -13,6 +13,7 @@ velocities after an impact the ones closest to those before in MuJoCo's ``M`` on
 from __future__ import annotations
 
 import importlib.util
+import os
 import re
 import tempfile
 from functools import cache
@@ -289,3 +290,36 @@ def test_simulate_holds_a_contact_on_a_fixed_base_loop(tmp_path):
     toe = module.frame_transform(q, "toe")[:, :3, 3]
     assert np.max(np.abs(toe - toe[0])) < 1e-6 and _summary_number(line, "largest constraint drift") < 1e-8
     assert np.ptp(q[:, 0]) > 1e-4   # the mechanism moves
+
+
+def test_casadi_holds_contacts_on_a_fixed_base_loop_as_the_numpy_module(tmp_path):
+    """The CasADi module's Functions (one per set of contacts, the loops' gains alpha and beta as
+    inputs) on the fixed-base loop equal the NumPy module's to 1e-12: a point contact, none, an
+    impact with restitution."""
+    if not os.environ.get("CI"):   # required in CI (casadi is in the test extra)
+        pytest.importorskip("casadi")
+    text = _fixed_loop()
+    module, _ = _solved(text)
+    path = tmp_path / "robot.xml"
+    path.write_text(text)
+    result = runner.invoke(app, ["solve", str(path), "--casadi", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    module_path = next((tmp_path / "out").glob("*_casadi.py"))
+    spec = importlib.util.spec_from_file_location(module_path.stem, module_path)
+    casadi_module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(casadi_module)
+    plain = mujoco.MjModel.from_xml_string(text)
+    p = casadi_module.default_parameters()
+    for qpos, qvel, u in _states(module, plain, 2, seed=13):
+        q, qd, _, _ = to_ours(plain, qpos, qvel)
+        for contacts in (["toe"], []):
+            got = casadi_module.constrained_forward_dynamics(contacts)(q=q, qd=qd, u=u, p=p, alpha=1.5, beta=2.0)
+            qdd, forces = module.constrained_forward_dynamics(q, qd, u, contacts, alpha=1.5, beta=2.0)
+            scale = max(1.0, np.max(np.abs(qdd)))
+            assert np.max(np.abs(np.ravel(got["qdd"]) - qdd)) <= 1e-12 * scale
+            assert np.ravel(got["forces"]).shape == forces.shape
+            assert np.max(np.abs(np.ravel(got["forces"]) - forces), initial=0.0) <= 1e-12 * max(1.0, np.max(np.abs(forces), initial=0.0))
+            got = casadi_module.impulse_dynamics(contacts)(q=q, qd_minus=qd, p=p, restitution=0.3)
+            qd_plus, impulses = module.impulse_dynamics(q, qd, contacts, 0.3)
+            assert np.max(np.abs(np.ravel(got["qd_plus"]) - qd_plus)) <= 1e-12 * max(1.0, np.max(np.abs(qd_plus)))
+            assert np.ravel(got["impulses"]).shape == impulses.shape

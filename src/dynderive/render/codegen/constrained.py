@@ -14,9 +14,9 @@ BAUMGARTE = (("alpha", "0.0", "Baumgarte gain of forward_dynamics: - 2 alpha A q
 
 
 def contacts_built(derivation: Derivation) -> bool:
-    """Whether a target that prints contact dynamics on trees only (C, its extension, CasADi)
-    prints them: a 3-D robot without closed loops (the Python and MATLAB modules close the loops
-    too; the others' registry row ``CONTACTS_ON_LOOPS``)."""
+    """Whether a target that prints contact dynamics on trees only (C, its extension) prints them:
+    a 3-D robot without closed loops (the Python, CasADi and MATLAB modules close the loops too;
+    the others' registry row ``CONTACTS_ON_LOOPS``)."""
     return not derivation.robot.planar and not derivation.robot.loops
 
 

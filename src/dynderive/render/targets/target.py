@@ -63,8 +63,8 @@ class NotBuilt:
 
 #: The row of every target that prints contact dynamics on trees only (``contacts_built``).
 CONTACTS_ON_LOOPS = NotBuilt(("constrained_forward_dynamics", "impulse_dynamics"), "loops",
-                             "contact dynamics on a robot with closed loops are printed for the NumPy, JAX, PyTorch "
-                             "and MATLAB modules only")
+                             "contact dynamics on a robot with closed loops are printed for the Python modules and "
+                             "MATLAB only")
 
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its
 #: entries share it: one reason, one footnote of the table).

@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
-from ..target import CONTACTS_ON_LOOPS, NotBuilt, OptionalPackage, Target
+from ..target import NotBuilt, OptionalPackage, Target
 
 
 def _source(derivation: Any, template_dir: Any = None) -> str:
@@ -67,7 +67,7 @@ TARGET = Target(
     option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),
                  ("simulate --backend", "the CasADi module (--casadi), one Function call per state (generalized "
                                         "coordinates; needs casadi)")),
-    not_built=(CONTACTS_ON_LOOPS, NotBuilt(("assemble",), "fixed", "closed loops in CasADi: assemble (Newton's method, iterated on "
+    not_built=(NotBuilt(("assemble",), "fixed", "closed loops in CasADi: assemble (Newton's method, iterated on "
                                                 "values) is not a casadi.Function"),
                NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
                         "loops on a floating base or with spherical joints: not printed for CasADi yet (it refuses such a robot)")),

@@ -11,7 +11,6 @@ from typing import Any
 from ....derivation import Derivation
 from ....model.array_program import Node, RowSpaceSolve
 from ...codegen.array_program import ArrayPrinter, local
-from ...codegen.constrained import contacts_built
 from ...encode import Code
 
 #: Each generated function as the module's body: (text, arguments after the contact's frame).
@@ -29,8 +28,8 @@ class CasadiPrinter(ArrayPrinter):
     def __init__(self) -> None:
         super().__init__("_ca", lambda step: _CALLS[step.function])
 
-    def _rows(self, node: Node, of: Node, start: int, stop: int) -> str:
-        return f"{self.expression(of)}[{start}:{stop}{', :' if len(node.shape) == 2 else ''}]"
+    def _rows(self, node: Node, of: Node, start: int, stop: int | None) -> str:
+        return f"{self.expression(of)}[{start}:{'' if stop is None else stop}{', :' if len(node.shape) == 2 else ''}]"
 
     def _position(self, node: Node, pose: Node) -> str:
         return f"{self.expression(pose)}[:3, 3]"
@@ -48,9 +47,11 @@ class CasadiPrinter(ArrayPrinter):
         return f"_ca.vertcat({self.expression(top)}, {self.expression(bottom)})"
 
     def statement(self, step) -> list[str]:
-        if isinstance(step, RowSpaceSolve):   # CasADi's vectors are columns already
+        if isinstance(step, RowSpaceSolve):   # CasADi's vectors are columns already; b None: zero
+            b = "_ca.SX.zeros(NV)" if step.b is None else self.expression(step.b)
+            rank = step.rank if step.held is None or step.rank is None else f"{step.rank} + {local(step.held)}.shape[0]"
             return [f"{local(step.x)}, {local(step.multipliers)} = _row_space_solve({local(step.mass)}, "
-                    f"{local(step.jacobian)}, {self.expression(step.b)}, {self.expression(step.target)}, {step.rank})"]
+                    f"{local(step.jacobian)}, {b}, {self.expression(step.target)}, {rank})"]
         return super().statement(step)
 
     def _vee(self, node: Node, matrix: Node) -> str:
@@ -68,4 +69,4 @@ def casadi_program_lines(derivation: Derivation) -> dict[str, Any]:
                 part: [Code(line) for line in printer.statements(
                     tuple(replace(step, anchored=False) for step in getattr(program, part)))]
                 for part in ("setup", "contact", "point", "surface", "finish")}
-                for program in (derivation.contact_programs if contacts_built(derivation) else None) or ()}}
+                for program in derivation.contact_programs or ()}}
