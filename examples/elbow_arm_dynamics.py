@@ -51,6 +51,8 @@ def _dtype(*values):
 def _blocks(rows, batch):
     """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
     zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
     heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
     out = np.zeros(batch + (sum(heights), sum(widths)))
     top = 0
