@@ -42,6 +42,48 @@ def _coordinates(name, value, size):
     return array
 
 
+def _dtype(*values):
+    """The floating type of a result: NumPy computes in float64."""
+    return float
+
+
+def _blocks(rows, batch):
+    """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
+    zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
+    heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
+    out = np.zeros(batch + (sum(heights), sum(widths)))
+    top = 0
+    for row, height in zip(rows, heights):
+        left = 0
+        for block in row:
+            if block.ndim > 2 or block.any():
+                out[..., top : top + height, left : left + block.shape[-1]] = block
+            left += block.shape[-1]
+        top += height
+    return out
+
+
+def _take(array, indices, axis):
+    """The entries ``indices`` of ``array`` along ``axis``."""
+    return np.take(array, indices, axis=axis)
+
+
+def _newton(step, residual, q, failure):
+    """q moved by q <- step(q, residual(q)) until every |residual(q)| < 1e-12, at most 100 steps (a new
+    array: never the guess itself); ValueError ``failure`` where |residual(q)| >= 1e-9 after them."""
+    q = 1.0 * q
+    for _ in range(100):
+        _residual = residual(q)
+        if bool(np.all(np.abs(_residual) < 1e-12)):
+            return q
+        q = step(q, _residual)
+    if bool(np.all(np.abs(residual(q)) < 1e-9)):
+        return q
+    raise ValueError(failure)
+
+
 def generalized_forces(q, u, *, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
     """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 3).
 
@@ -2602,8 +2644,6 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, a=0.3
     return _result
 
 
-
-
 def _row_space_solve(mass, jacobian, b, target, rank):
     """(X, Lam) with M X = b + J^T Lam and J X = target (b: (..., n, m), target: (..., k, m)) in the row
     space of J's k rows, by the saddle system [M -J_r^T; J_r 0]: rank k, J's rows themselves; a known
@@ -2624,17 +2664,19 @@ def _row_space_solve(mass, jacobian, b, target, rank):
     elif rank < _k:
         space = np.linalg.svd(jacobian)[0][..., :rank]
         _jac, _bottom, _k = np.swapaxes(space, -1, -2) @ jacobian, np.swapaxes(space, -1, -2) @ target, rank
-    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
-    _kkt[..., :_n, :_n] = _mass
-    _kkt[..., :_n, _n:] = -np.swapaxes(_jac, -1, -2)
-    _kkt[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k, _top.shape[-1]))
-    _rhs[..., :_n, :] = _top
-    _rhs[..., _n:, :] = _bottom
+    _corner = np.zeros((_k, _k), dtype=_dtype_)
     if kept is not None:   # a row left out: its multiplier 0
-        _kkt[..., _n:, _n:] = np.where(kept, 0.0, 1.0)[..., None] * np.eye(_k)
+        _corner = np.where(kept, 0.0, 1.0)[..., None] * np.eye(_k, dtype=_dtype_)
+    _kkt = _blocks([[_mass, -np.swapaxes(_jac, -1, -2)], [_jac, _corner]], _batch)
+    _rhs = _blocks([[_top], [_bottom]], _batch)
     _solved = np.linalg.solve(_kkt, _rhs)
     return _solved[..., :_n, :], (_solved[..., _n:, :] if space is None else space @ _solved[..., _n:, :])
+
+
+def _limit(step):
+    """The factor that shortens a Newton step to 0.5 in its largest coordinate (1 for a shorter one)."""
+    size = np.amax(np.abs(step), axis=-1, keepdims=True)
+    return np.where(size > 0.5, 0.5 / np.where(size > 0.5, size, 1.0), 1.0)
 
 
 def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
@@ -2644,7 +2686,7 @@ def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.3, m
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=q.dtype)
     u = _coordinates("u", u, 1)
     _parameters = {"a": a, "m1": m1, "m2": m2, "m3": m3, "g": g}
     _M = mass_matrix(q, **_parameters)
@@ -2667,6 +2709,10 @@ def _row_space(jac, rank):
     independent rows they span (which rows of A are implied by the others changes with q)."""
     _space = np.linalg.svd(jac)[0][..., :rank]
     return _space, np.swapaxes(_space, -1, -2) @ jac
+
+
+#: Where each coordinate is in [independent; dependent], the reduced form's order.
+_ORDER = [([0] + [1, 2]).index(i) for i in range(3)]
 
 
 def forward_dynamics(q, qd, u=None, wrenches=None, *, alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
@@ -2697,10 +2743,9 @@ def reduced_basis(q, *, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
     _jac = loop_jacobian(q, a=a, m1=m1, m2=m2, m3=m3, g=g)
     _jac = _row_space(_jac, 2)[1]
     _independent, _dependent = [0], [1, 2]
-    _basis = np.zeros(_jac.shape[:-2] + (3, len(_independent)))
-    _basis[..., _independent, :] = np.eye(len(_independent))
-    _basis[..., _dependent, :] = -np.linalg.solve(_jac[..., _dependent], _jac[..., _independent])
-    return _basis
+    _solved = -np.linalg.solve(_jac[..., _dependent], _jac[..., _independent])
+    _eye = np.eye(len(_independent), dtype=_jac.dtype)
+    return _take(_blocks([[_eye], [_solved]], _solved.shape[:-2]), _ORDER, -2)
 
 
 def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
@@ -2711,18 +2756,20 @@ def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=q.dtype)
     _jac = loop_jacobian(q, a=a, m1=m1, m2=m2, m3=m3, g=g)
     _drift = _matvec(loop_jacobian_dot(q, qd, a=a, m1=m1, m2=m2, m3=m3, g=g), qd)
     _space, _jac = _row_space(_jac, 2)
     _drift = _matvec(np.swapaxes(_space, -1, -2), _drift)
     _dependent = [1, 2]
     _basis = reduced_basis(q, a=a, m1=m1, m2=m2, m3=m3, g=g)
-    _shift = np.zeros(np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1]) + (3,))
-    _shift[..., _dependent] = -np.linalg.solve(_jac[..., _dependent], _drift[..., None])[..., 0]
+    _solved = -np.linalg.solve(_jac[..., _dependent], _drift[..., None])[..., 0]
+    _batch = np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1], _solved.shape[:-1])
+    _shift = _take(np.concatenate([np.zeros(_batch + (1,), dtype=_jac.dtype),
+                                   np.broadcast_to(_solved, _batch + _solved.shape[-1:])], axis=-1), _ORDER, -1)
     _mass = mass_matrix(q, a=a, m1=m1, m2=m2, m3=m3, g=g)
     _force = (generalized_forces(q, u, a=a, m1=m1, m2=m2, m3=m3, g=g)
-              - inverse_dynamics(q, qd, np.zeros(3), friction_smoothing=friction_smoothing, a=a, m1=m1, m2=m2, m3=m3, g=g)
+              - inverse_dynamics(q, qd, np.zeros(3, dtype=_jac.dtype), friction_smoothing=friction_smoothing, a=a, m1=m1, m2=m2, m3=m3, g=g)
               - _matvec(_mass, _shift))
     _transpose = np.swapaxes(_basis, -1, -2)
     _accel = np.linalg.solve(_transpose @ _mass @ _basis, _matvec(_transpose, _force)[..., None])[..., 0]
@@ -2730,29 +2777,29 @@ def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1
 
 
 def assemble(q_guess, *, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
-    """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method,
-    keeping the independent coordinates ("q1",); shape (..., 3).
+    """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method on
+    the dependent coordinates (steps limited to 0.5), keeping the independent coordinates
+    ("q1",); shape (..., 3).
 
-    Raises ValueError where it does not converge: no assembly for those independent values, or
-    none that Newton reaches from this guess (guess the dependent coordinates nearer, e.g. from
-    a nearby assembled state).
+    Raises ValueError where it does not converge: no assembly near this guess, or none that
+    Newton reaches from it (guess nearer, e.g. from a nearby assembled state).
     """
-    _q = np.array(_coordinates("q_guess", q_guess, 3), dtype=float)
+    _q = _coordinates("q_guess", q_guess, 3)
     _dependent = [1, 2]
-    for _ in range(100):   # Newton on the dependent coordinates, steps limited to 0.5
-        _residual = loop_constraints(_q, a=a, m1=m1, m2=m2, m3=m3, g=g)
-        if np.all(np.abs(_residual) < 1e-12):
-            return _q
+
+    def _step(_q, _residual):
         _block = loop_jacobian(_q, a=a, m1=m1, m2=m2, m3=m3, g=g)[..., _dependent]
         _normal = np.swapaxes(_block, -1, -2) @ _block
-        _normal += 1e-14 * np.eye(len(_dependent)) * (1.0 + np.trace(_normal, axis1=-2, axis2=-1))[..., None, None]
+        _trace = np.diagonal(_normal, 0, -2, -1).sum(-1)
+        _normal = _normal + 1e-14 * np.eye(len(_dependent), dtype=_q.dtype) * (1.0 + _trace)[..., None, None]
         _step = np.linalg.solve(_normal, _matvec(np.swapaxes(_block, -1, -2), _residual)[..., None])[..., 0]
-        _size = np.max(np.abs(_step), axis=-1, keepdims=True)
-        _q[..., _dependent] -= _step * np.minimum(1.0, 0.5 / np.maximum(_size, 1e-300))
-    if np.all(np.abs(loop_constraints(_q, a=a, m1=m1, m2=m2, m3=m3, g=g)) < 1e-9):
-        return _q
-    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates "
-                     "from this guess")
+        _step = _step * _limit(_step)
+        _zeros = np.zeros(_step.shape[:-1] + (1,), dtype=_step.dtype)
+        return _q - _take(np.concatenate([_zeros, _step], axis=-1), _ORDER, -1)
+
+    return _newton(_step, lambda _q: loop_constraints(_q, a=a, m1=m1, m2=m2, m3=m3, g=g), _q,
+                   "assemble: the loop constraints could not be solved for these independent coordinates "
+                   "from this guess")
 
 
 def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
@@ -2769,30 +2816,26 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=q.dtype)
     _parameters = {"a": a, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    _dtype_ = _dtype(q, qd, *_parameters.values())
     _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
-    _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(1), **_parameters), -1, -2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(3, dtype=_dtype_), np.eye(1, dtype=_dtype_),
+                                             **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _jac = loop_jacobian(q, **_parameters)
     _bottom = np.concatenate([-_loop_acceleration_jacobian(q, qd, _qdd, **_parameters),
                               -2.0 * loop_jacobian_dot(q, qd, **_parameters),
-                              np.zeros(_qdd.shape[:-1] + (5, 1))], axis=-1)
+                              np.zeros(_qdd.shape[:-1] + (5, 1), dtype=_qdd.dtype)], axis=-1)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _by_rate.shape[:-2], _bottom.shape[:-2])
-    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (3, 3)),
-                           np.broadcast_to(_by_rate, _batch + (3, 3)),
-                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _rhs = _blocks([[_by_coordinate, _by_rate, _inputs]], _batch)
     _solved = _row_space_solve(_mass, _jac, _rhs, _bottom, 2)[0]
-    _A = np.zeros(_batch + (6, 6))
-    _A[..., :3, 3:] = np.eye(3)
-    _A[..., 3:, :] = _solved[..., :6]
-    _B = np.zeros(_batch + (6, 1))
-    _B[..., 3:, :] = _solved[..., 6:]
+    _A = _blocks([[np.zeros((3, 3), dtype=_dtype_), np.eye(3, dtype=_dtype_)], [_solved[..., :6]]], _batch)
+    _B = _blocks([[np.zeros((3, _solved.shape[-1] - 6), dtype=_dtype_)], [_solved[..., 6:]]], _batch)
     return _A, _B
-
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
     """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
@@ -2835,3 +2878,191 @@ def regressor(q, qd, qdd, *, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0
     """
     arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), _coordinates("qdd", qdd, 3)]
     return _evaluate(_regressor_body, arrays, (3, 30), {"a": a, "m1": m1, "m2": m2, "m3": m3, "g": g})
+
+
+#: The frames held by contacts by default (the robot file's ``contacts:``) and each one's kind:
+#: "point" (the origin's acceleration is held: 3 forces in world-aligned axes) or "surface" (the
+#: frame's whole twist is held: a force and a moment, 6, in the frame's own axes). A frame not
+#: listed here is a point contact unless a (frame, kind) pair says otherwise.
+CONTACTS = ()
+CONTACT_KINDS = {}
+
+
+def _contact_list(contacts):
+    """[(frame, kind)] of ``contacts``: frame names, indices of FRAMES or (frame, kind) pairs (a
+    single name is one contact); a frame without a kind takes its CONTACT_KINDS entry, else point."""
+    if isinstance(contacts, str):
+        contacts = (contacts,)
+    try:
+        items = list(contacts)
+    except TypeError:
+        raise ValueError("contacts must be a sequence of frame names, indices of FRAMES or (frame, kind) pairs, "
+                         f"got {contacts!r}") from None
+    held = []
+    for item in items:
+        frame, kind = item if isinstance(item, (tuple, list)) and len(item) == 2 else (item, None)
+        if isinstance(item, (tuple, list)) and len(item) != 2:
+            raise ValueError(f"a contact is a frame or a (frame, kind) pair, got {item!r}")
+        if not isinstance(frame, (str, bool)) and hasattr(type(frame), "__index__"):
+            index = type(frame).__index__(frame)
+            if not -len(FRAMES) <= index < len(FRAMES):
+                raise ValueError(f"contact frame index {index} is out of range (FRAMES has {len(FRAMES)} frames)")
+            frame = FRAMES[index]
+        if not isinstance(frame, str) or frame not in FRAMES:
+            known = ", ".join(FRAMES) if FRAMES else "none: the robot file declares no 'frames'"
+            raise ValueError(f"unknown frame {frame!r} (frames: {known})")
+        kind = CONTACT_KINDS.get(frame, "point") if kind is None else kind
+        if kind not in ("point", "surface"):
+            raise ValueError(f"contact kind of {frame!r} must be 'point' or 'surface', got {kind!r}")
+        if any(frame == other for other, _ in held):
+            raise ValueError(f"frame {frame!r} is held twice in contacts")
+        held.append((frame, kind))
+    return held
+
+
+def _anchor_of(anchor, frame, kind):
+    """A contact's anchor as an array: a point's held position (..., 3), a surface's pose (..., 4, 4)."""
+    anchor = np.asarray(anchor, dtype=float)
+    if kind == "point" and (anchor.ndim == 0 or anchor.shape[-1] != 3):
+        raise ValueError(f"the anchor of point contact {frame!r} must have shape (..., 3), got {anchor.shape}")
+    if kind == "surface" and (anchor.ndim < 2 or anchor.shape[-2:] != (4, 4)):
+        raise ValueError(f"the anchor of surface contact {frame!r} must have shape (..., 4, 4), got {anchor.shape}")
+    return anchor
+
+
+def _stacked(parts, axis):
+    """The contacts' rows (a list, one entry per contact) as one array over their common batch."""
+    if not parts:
+        return None
+    batch = np.broadcast_shapes(*(part.shape[:axis] for part in parts))
+    return np.concatenate([np.broadcast_to(part, batch + part.shape[axis:]) for part in parts], axis=axis)
+
+
+
+
+
+def constrained_forward_dynamics(q, qd, u=None, contacts=CONTACTS, baumgarte=(0, 0), *, anchors=None, wrenches=None,
+                                 alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
+    """(qdd, forces) with the contacts held: [[M, J^T], [J, 0]] [qdd; -forces] = [tau - h; -gamma] (Pinocchio's ``forwardDynamics``), shapes (..., 3) and (..., 0).
+    Solves the KKT system [[M, J^T], [J, 0]] [qdd; -forces] = [tau - h; -gamma] as Pinocchio's
+    ``forwardDynamics(model, data, q, v, tau, J, gamma, 0)``: M qdd = tau - h + J^T forces, J qdd = -gamma,
+    with h = inverse_dynamics(q, qd, 0) (Coriolis, gravity, minus J^T w of ``wrenches``) and tau
+    the efforts' generalized forces; by the Schur complement
+    J M^-1 J^T (redundant contacts, a singular complement, raise ValueError).
+
+    contacts: the frames held, a sequence of names or indices of FRAMES or (frame, kind) pairs,
+    kind "point" or "surface" (default: CONTACT_KINDS, else "point"). A point contact holds the
+    frame origin's acceleration in world-aligned axes (Pinocchio CONTACT_3D, LOCAL_WORLD_ALIGNED):
+    rows J = frame_jacobian[:3], gamma = frame_jacobian_dot_qd[:3], 3 forces in world axes. A surface
+    contact holds the frame's twist in its own axes (CONTACT_6D, LOCAL): J = blockdiag(R^T, R^T)
+    frame_jacobian, gamma its spatial acceleration at qdd = 0 in those axes, 6 forces (force, then
+    moment about the origin) in the frame's axes. Forces are those the environment applies to the robot.
+    baumgarte: (kp, kd); gamma += kd J qd + kp e, so that the contact's acceleration is
+    -kd (velocity) - kp e. e, the position error, needs ``anchors`` (one per contact, in order: a
+    point's held position (..., 3) in the world, a surface's held pose (..., 4, 4)): e = p - p_ref for
+    a point; R^T (p - p_ref) and vee of the skew part of R_ref^T R (first order in the angle) for a
+    surface. kp must be 0 without anchors.
+    The closed loops stay closed: their rows A qdd = -Adot qd - 2 alpha A qd - beta**2 a(q) (alpha, beta
+    as for ``forward_dynamics``) are solved with the contacts' in the row space of the rows stacked (the
+    loops' rank plus the contacts' rows, taken as independent): forces are the contacts' alone.
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd: velocities, shape (..., 3)
+    u: efforts ("tau1",), shape (..., 1); None means no effort.
+    wrenches, friction_smoothing: as for ``forward_dynamics``.
+    Returns (qdd (..., 3), forces (..., k)), k = 3 per point and 6 per surface contact.
+    """
+    q = _coordinates("q", q, 3)
+    qd = _coordinates("qd", qd, 3)
+    if u is None:
+        u = np.zeros(1)
+    u = _coordinates("u", u, 1)
+    _held = _contact_list(contacts)
+    try:
+        _kp, _kd = baumgarte
+    except (TypeError, ValueError):
+        raise ValueError(f"baumgarte must be a pair (kp, kd), got {baumgarte!r}") from None
+    if anchors is None and not (isinstance(_kp, (int, float)) and _kp == 0):
+        raise ValueError("baumgarte's kp needs anchors (the held positions and poses): without them kp must be 0")
+    if anchors is not None and len(anchors) != len(_held):
+        raise ValueError(f"anchors must hold one entry per contact ({len(_held)}), got {len(anchors)}")
+    _parameters = {"a": a, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    _M = mass_matrix(q, **_parameters)
+    _h = inverse_dynamics(q, qd, np.zeros_like(qd), wrenches, friction_smoothing=friction_smoothing, **_parameters)
+    _tau = generalized_forces(q, u, **_parameters)
+    _jac = loop_jacobian(q, **_parameters)
+    _Adot = loop_jacobian_dot(q, qd, **_parameters)
+    _loop_drift = _matvec(_Adot, qd)
+    _a = loop_constraints(q, **_parameters)
+    _rate = _matvec(_jac, qd)
+    _bottom = -_loop_drift - (alpha * (_rate + _rate)) - (beta * (beta * _a))
+    _J, _drift, _error = [], [], []
+    for _index, (_frame, _kind) in enumerate(_held):
+        _anchor = None if anchors is None else _anchor_of(anchors[_index], _frame, _kind)
+        _Jf = frame_jacobian(q, _frame, **_parameters)
+        _acc = frame_jacobian_dot_qd(q, qd, _frame, **_parameters)
+        if _kind == "point":
+            _J.append(_Jf[..., 0:3, :])
+            _drift.append(_acc[..., 0:3])
+            if _anchor is not None:
+                _T = frame_transform(q, _frame, **_parameters)
+                _error.append(_T[..., :3, 3] - _anchor)
+        else:
+            _T = frame_transform(q, _frame, **_parameters)
+            _J.append(np.concatenate([np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 0:3, :], np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 3:6, :]], axis=-2))
+            _twist = _matvec(_Jf, qd)
+            _drift.append(np.concatenate([_matvec(np.swapaxes(_T[..., :3, :3], -1, -2), _acc[..., 0:3] - np.cross(_twist[..., 3:6], _twist[..., 0:3])), _matvec(np.swapaxes(_T[..., :3, :3], -1, -2), _acc[..., 3:6])], axis=-1))
+            if _anchor is not None:
+                _turn = np.swapaxes(_anchor[..., :3, :3], -1, -2) @ _T[..., :3, :3]
+                _error.append(np.concatenate([_matvec(np.swapaxes(_T[..., :3, :3], -1, -2), _T[..., :3, 3] - _anchor[..., :3, 3]), np.stack([(_turn[..., 2, 1] - _turn[..., 1, 2]) / 2, (_turn[..., 0, 2] - _turn[..., 2, 0]) / 2, (_turn[..., 1, 0] - _turn[..., 0, 1]) / 2], axis=-1)], axis=-1))
+    _J, _drift, _error = _stacked(_J, -2), _stacked(_drift, -1), _stacked(_error, -1)
+    if _J is None:   # no contact held: the loops' rows alone
+        _J, _drift, _error = np.zeros((0, _M.shape[-1])), np.zeros((0,)), np.zeros((0,))
+    _gamma = _drift + (_kd * _matvec(_J, qd))
+    if anchors is not None:
+        _gamma = _gamma + (_kp * _error)
+    _rows = _stacked([_jac, _J], -2)
+    _target = _stacked([_bottom, -_gamma], -1)
+    _qdd, _lam = _row_space_solve(_M, _rows, (_tau - _h)[..., None], _target[..., None], 2 + _J.shape[-2])
+    _qdd, _lam = _qdd[..., 0], _lam[..., 0]
+    _forces = _lam[..., 5:]
+    return _qdd, _forces
+
+
+def impulse_dynamics(q, qd_minus, contacts=CONTACTS, restitution=0, *, a=0.3, m1=0.5, m2=0.4, m3=0.5, g=9.81):
+    """(qd_plus, impulses) of an impact on the contacts: M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus (Pinocchio's ``impulseDynamics``), shapes (..., 3) and (..., 0).
+    The velocity jump of an impact that makes the contacts hold, as Pinocchio's ``impulseDynamics(model,
+    data, q, v_before, J, restitution, 0)``: M (qd_plus - qd_minus) = J^T impulses and J qd_plus =
+    -restitution J qd_minus, by the Schur complement J M^-1 J^T (redundant contacts raise ValueError).
+
+    q: joint coordinates ("q1", "q2", "q3"), shape (..., 3); qd_minus: velocities before the impact, shape (..., 3)
+    contacts: as for ``constrained_forward_dynamics`` (point: world-aligned; surface: the frame's axes).
+    restitution: 0 (the contacts stop: plastic impact) to 1 (their velocities reverse: elastic).
+    The closed loops hold too: A qd_plus = 0 (A = loop_jacobian), solved with the contacts' rows.
+    Returns (qd_plus (..., 3), impulses (..., k)), k = 3 per point and 6 per surface contact.
+    """
+    q = _coordinates("q", q, 3)
+    qd_minus = _coordinates("qd_minus", qd_minus, 3)
+    _held = _contact_list(contacts)
+    _parameters = {"a": a, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    _M = mass_matrix(q, **_parameters)
+    _jac = loop_jacobian(q, **_parameters)
+    _loop_rate = _matvec(_jac, qd_minus)
+    _J, _drift, _error = [], [], []
+    for _index, (_frame, _kind) in enumerate(_held):
+        _Jf = frame_jacobian(q, _frame, **_parameters)
+        if _kind == "point":
+            _J.append(_Jf[..., 0:3, :])
+        else:
+            _T = frame_transform(q, _frame, **_parameters)
+            _J.append(np.concatenate([np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 0:3, :], np.swapaxes(_T[..., :3, :3], -1, -2) @ _Jf[..., 3:6, :]], axis=-2))
+    _J, _drift, _error = _stacked(_J, -2), _stacked(_drift, -1), _stacked(_error, -1)
+    if _J is None:   # no contact held: the loops' rows alone
+        _J, _drift, _error = np.zeros((0, _M.shape[-1])), np.zeros((0,)), np.zeros((0,))
+    _rate = _matvec(_J, qd_minus)
+    _rows = _stacked([_jac, _J], -2)
+    _target = _stacked([-_loop_rate, -(restitution * _rate) - _rate], -1)
+    _jump, _lam = _row_space_solve(_M, _rows, np.zeros_like(_M[..., :1]), _target[..., None], 2 + _J.shape[-2])
+    _jump, _lam = _jump[..., 0], _lam[..., 0]
+    _impulses = _lam[..., 5:]
+    _qd_plus = qd_minus + _jump
+    return _qd_plus, _impulses

@@ -41,6 +41,50 @@ def _coordinates(name, value, size):
     return array
 
 
+def _dtype(*values):
+    """The floating type of a result: NumPy computes in float64."""
+    return float
+
+
+def _blocks(rows, batch):
+    """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
+    zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
+    heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
+    out = np.zeros(batch + (sum(heights), sum(widths)))
+    top = 0
+    for row, height in zip(rows, heights):
+        left = 0
+        for block in row:
+            if block.ndim > 2 or block.any():
+                out[..., top : top + height, left : left + block.shape[-1]] = block
+            left += block.shape[-1]
+        top += height
+    return out
+
+
+def _smoothing(friction_smoothing):
+    """friction_smoothing, refused where it is negative."""
+    if friction_smoothing < 0:
+        raise ValueError(f"friction_smoothing must not be negative, got {friction_smoothing}")
+    return friction_smoothing
+
+
+def _direction(qd, friction_smoothing):
+    """sign(qd), or tanh(qd / friction_smoothing) when it is positive (a smooth Coulomb law)."""
+    if _smoothing(friction_smoothing) == 0:
+        return np.sign(qd)
+    return np.tanh(qd / friction_smoothing)
+
+
+def _coulomb_slope(friction, qd, friction_smoothing):
+    """d/dqd of friction * _direction(qd, friction_smoothing): zero for the exact sign."""
+    if _smoothing(friction_smoothing) == 0:
+        return 0.0
+    return friction * (1.0 - np.tanh(qd / friction_smoothing) ** 2) / friction_smoothing
+
+
 def mass_matrix(q, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
     """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 2, 2).
 
@@ -667,13 +711,6 @@ def _external_forces(q, wrenches, parameters):
     return total
 
 
-def _direction(qd, friction_smoothing):
-    """sign(qd), or tanh(qd / friction_smoothing) when it is positive (a smooth Coulomb law)."""
-    if friction_smoothing < 0:
-        raise ValueError(f"friction_smoothing must not be negative, got {friction_smoothing}")
-    return np.sign(qd) if friction_smoothing == 0 else np.tanh(qd / friction_smoothing)
-
-
 def friction_forces(qd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
     """Dissipative forces F_g = b qd + fc sign(qd) (tanh(qd / friction_smoothing) when it is positive), shape (..., 2).
     Viscous damping and Coulomb friction of the joints (F_g = dD/dqd + fc sign(qd), D the Rayleigh dissipation function).
@@ -706,8 +743,6 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, mc=1.
     return _result
 
 
-
-
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
     """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 2).
     Wrenches at frames enter as + sum J^T w; F = friction_forces(qd, friction_smoothing=friction_smoothing)
@@ -716,16 +751,15 @@ def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, mc
     u: efforts ("F",), shape (..., 1); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     """
+    q = _coordinates("q", q, 2)
     if u is None:
-        u = np.zeros(1)
-    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
-    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 1:
-        raise ValueError(f"u must have shape (..., 1), got {arrays[2].shape}")
+        u = np.zeros(1, dtype=q.dtype)
+    arrays = [q, _coordinates("qd", qd, 2), _coordinates("u", u, 1)]
     _parameters = {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g}
     _opposing = friction_forces(arrays[1], friction_smoothing=friction_smoothing, **_parameters)
     if wrenches:
         _opposing = _opposing - _external_forces(arrays[0], wrenches, _parameters)
-    arrays.append(_opposing)
+    arrays.append(np.broadcast_to(_opposing, np.broadcast_shapes(_opposing.shape, arrays[1].shape)))
     return _evaluate(_forward_dynamics_body, arrays, (2,), _parameters)
 
 
@@ -742,25 +776,21 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
     q = _coordinates("q", q, 2)
     qd = _coordinates("qd", qd, 2)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=q.dtype)
     _parameters = {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g}
+    _dtype_ = _dtype(q, qd, *_parameters.values())
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
-    _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(1), **_parameters), -1, -2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(2, dtype=_dtype_), np.eye(1, dtype=_dtype_),
+                                             **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
-    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (2, 2)),
-                           np.broadcast_to(_by_rate, _batch + (2, 2)),
-                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _rhs = _blocks([[_by_coordinate, _by_rate, _inputs]], _batch)
     _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (2, 2)), _rhs)
-    _A = np.zeros(_batch + (4, 4))
-    _A[..., :2, 2:] = np.eye(2)
-    _A[..., 2:, :] = _solved[..., :4]
-    _B = np.zeros(_batch + (4, 1))
-    _B[..., 2:, :] = _solved[..., 4:]
+    _A = _blocks([[np.zeros((2, 2), dtype=_dtype_), np.eye(2, dtype=_dtype_)], [_solved[..., :4]]], _batch)
+    _B = _blocks([[np.zeros((2, _solved.shape[-1] - 4), dtype=_dtype_)], [_solved[..., 4:]]], _batch)
     return _A, _B
-
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
     """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
@@ -781,13 +811,8 @@ def _inverse_derivatives(arrays, friction_smoothing, _parameters):
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
     _damping = _damping_coefficients(arrays[1], **_parameters)
     _friction = _friction_coefficients(arrays[1], **_parameters)
-    if friction_smoothing < 0:
-        raise ValueError(f"friction_smoothing must not be negative, got {friction_smoothing}")
-    _slope = _damping
-    if friction_smoothing > 0:
-        _slope = _slope + _friction * (
-            1.0 - np.tanh(arrays[1] / friction_smoothing) ** 2) / friction_smoothing
-    _by_rate = _by_rate + _slope[..., None, :] * np.eye(2)
+    _slope = _damping + _coulomb_slope(_friction, arrays[1], friction_smoothing)
+    _by_rate = _by_rate + _slope[..., None, :] * np.eye(2, dtype=_by_rate.dtype)
     return _by_coordinate, _by_rate
 
 
@@ -825,8 +850,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.
     """
     qm = _coordinates("qm", qm, 6)
     qmd = _coordinates("qmd", qmd, 6)
+    _dtype_ = _dtype(qm, qmd, mc, mp, lp, bc, fc, bp, Jm, g)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=_dtype_)
     _mass = maximal_mass_matrix(qm, mc=mc, mp=mp, lp=lp, bc=bc, fc=fc, bp=bp, Jm=Jm, g=g)
     _jac = constraint_jacobian(qm, mc=mc, mp=mp, lp=lp, bc=bc, fc=fc, bp=bp, Jm=Jm, g=g)
     _top = (
@@ -842,14 +868,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.
     )
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _top.shape[:-1], _bottom.shape[:-1])
     _n, _k = 6, 4
-    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
-    _kkt[..., :_n, :_n] = _mass
-    _kkt[..., :_n, _n:] = np.swapaxes(_jac, -1, -2)
-    _kkt[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k,))
-    _rhs[..., :_n] = _top
-    _rhs[..., _n:] = _bottom
-    _solution = np.linalg.solve(_kkt, _rhs[..., None])[..., 0]
+    _kkt = _blocks([[_mass, np.swapaxes(_jac, -1, -2)], [_jac, np.zeros((_k, _k), dtype=_dtype_)]], _batch)
+    _rhs = _blocks([[_top[..., None]], [_bottom[..., None]]], _batch)
+    _solution = np.linalg.solve(_kkt, _rhs)[..., 0]
     return _solution[..., :_n], _solution[..., _n:]
 
 

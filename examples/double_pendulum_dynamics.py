@@ -38,6 +38,29 @@ def _coordinates(name, value, size):
     return array
 
 
+def _dtype(*values):
+    """The floating type of a result: NumPy computes in float64."""
+    return float
+
+
+def _blocks(rows, batch):
+    """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
+    zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
+    heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
+    out = np.zeros(batch + (sum(heights), sum(widths)))
+    top = 0
+    for row, height in zip(rows, heights):
+        left = 0
+        for block in row:
+            if block.ndim > 2 or block.any():
+                out[..., top : top + height, left : left + block.shape[-1]] = block
+            left += block.shape[-1]
+        top += height
+    return out
+
+
 def mass_matrix(q, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 2, 2).
 
@@ -730,8 +753,6 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=1.
     return _result
 
 
-
-
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 2).
     Wrenches at frames enter as + sum J^T w. M is factored as L^T D L, never inverted.
@@ -739,11 +760,10 @@ def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1
     u: efforts ("tau1", "tau2"), shape (..., 2); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     """
+    q = _coordinates("q", q, 2)
     if u is None:
-        u = np.zeros(2)
-    arrays = [_coordinates("q", q, 2), _coordinates("qd", qd, 2), np.asarray(u, dtype=float)]
-    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 2:
-        raise ValueError(f"u must have shape (..., 2), got {arrays[2].shape}")
+        u = np.zeros(2, dtype=q.dtype)
+    arrays = [q, _coordinates("qd", qd, 2), _coordinates("u", u, 2)]
     _parameters = {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g}
     _external_forces(arrays[0], wrenches, _parameters)   # refuses any wrench: the robot has no frame
     return _evaluate(_forward_dynamics_body, arrays, (2,), _parameters)
@@ -760,25 +780,21 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, 
     q = _coordinates("q", q, 2)
     qd = _coordinates("qd", qd, 2)
     if u is None:
-        u = np.zeros(2)
+        u = np.zeros(2, dtype=q.dtype)
     _parameters = {"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g}
+    _dtype_ = _dtype(q, qd, *_parameters.values())
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
-    _inputs = np.swapaxes(generalized_forces(np.zeros(2), np.eye(2), **_parameters), -1, -2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(2, dtype=_dtype_), np.eye(2, dtype=_dtype_),
+                                             **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
-    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (2, 2)),
-                           np.broadcast_to(_by_rate, _batch + (2, 2)),
-                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _rhs = _blocks([[_by_coordinate, _by_rate, _inputs]], _batch)
     _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (2, 2)), _rhs)
-    _A = np.zeros(_batch + (4, 4))
-    _A[..., :2, 2:] = np.eye(2)
-    _A[..., 2:, :] = _solved[..., :4]
-    _B = np.zeros(_batch + (4, 2))
-    _B[..., 2:, :] = _solved[..., 4:]
+    _A = _blocks([[np.zeros((2, 2), dtype=_dtype_), np.eye(2, dtype=_dtype_)], [_solved[..., :4]]], _batch)
+    _B = _blocks([[np.zeros((2, _solved.shape[-1] - 4), dtype=_dtype_)], [_solved[..., 4:]]], _batch)
     return _A, _B
-
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81):
     """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 2, 2) and (..., 2, 2).
@@ -830,8 +846,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.8
     """
     qm = _coordinates("qm", qm, 6)
     qmd = _coordinates("qmd", qmd, 6)
+    _dtype_ = _dtype(qm, qmd, m1, m2, l1, l2, g)
     if u is None:
-        u = np.zeros(2)
+        u = np.zeros(2, dtype=_dtype_)
     _mass = maximal_mass_matrix(qm, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
     _jac = constraint_jacobian(qm, m1=m1, m2=m2, l1=l1, l2=l2, g=g)
     _top = (
@@ -846,14 +863,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.8
     )
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _top.shape[:-1], _bottom.shape[:-1])
     _n, _k = 6, 4
-    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
-    _kkt[..., :_n, :_n] = _mass
-    _kkt[..., :_n, _n:] = np.swapaxes(_jac, -1, -2)
-    _kkt[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k,))
-    _rhs[..., :_n] = _top
-    _rhs[..., _n:] = _bottom
-    _solution = np.linalg.solve(_kkt, _rhs[..., None])[..., 0]
+    _kkt = _blocks([[_mass, np.swapaxes(_jac, -1, -2)], [_jac, np.zeros((_k, _k), dtype=_dtype_)]], _batch)
+    _rhs = _blocks([[_top[..., None]], [_bottom[..., None]]], _batch)
+    _solution = np.linalg.solve(_kkt, _rhs)[..., 0]
     return _solution[..., :_n], _solution[..., _n:]
 
 

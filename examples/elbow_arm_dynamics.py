@@ -43,6 +43,29 @@ def _coordinates(name, value, size):
     return array
 
 
+def _dtype(*values):
+    """The floating type of a result: NumPy computes in float64."""
+    return float
+
+
+def _blocks(rows, batch):
+    """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
+    zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
+    heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
+    out = np.zeros(batch + (sum(heights), sum(widths)))
+    top = 0
+    for row, height in zip(rows, heights):
+        left = 0
+        for block in row:
+            if block.ndim > 2 or block.any():
+                out[..., top : top + height, left : left + block.shape[-1]] = block
+            left += block.shape[-1]
+        top += height
+    return out
+
+
 def generalized_forces(q, u, *, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 3).
 
@@ -1849,8 +1872,6 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=4.
     return _result
 
 
-
-
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 3).
     Wrenches at frames enter as + sum J^T w. M is factored as L^T D L, never inverted.
@@ -1858,16 +1879,15 @@ def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1
     u: efforts ("tau1", "tau2", "tau3"), shape (..., 3); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     """
+    q = _coordinates("q", q, 3)
     if u is None:
-        u = np.zeros(3)
-    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), np.asarray(u, dtype=float)]
-    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 3:
-        raise ValueError(f"u must have shape (..., 3), got {arrays[2].shape}")
+        u = np.zeros(3, dtype=q.dtype)
+    arrays = [q, _coordinates("qd", qd, 3), _coordinates("u", u, 3)]
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g}
     _opposing = np.zeros_like(arrays[1])
     if wrenches:
         _opposing = _opposing - _external_forces(arrays[0], wrenches, _parameters)
-    arrays.append(_opposing)
+    arrays.append(np.broadcast_to(_opposing, np.broadcast_shapes(_opposing.shape, arrays[1].shape)))
     return _evaluate(_forward_dynamics_body, arrays, (3,), _parameters)
 
 
@@ -1882,25 +1902,21 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, 
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(3)
+        u = np.zeros(3, dtype=q.dtype)
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "lc1": lc1, "lc2": lc2, "lc3": lc3, "I1": I1, "g": g}
+    _dtype_ = _dtype(q, qd, *_parameters.values())
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
-    _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(3), **_parameters), -1, -2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(3, dtype=_dtype_), np.eye(3, dtype=_dtype_),
+                                             **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
-    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (3, 3)),
-                           np.broadcast_to(_by_rate, _batch + (3, 3)),
-                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _rhs = _blocks([[_by_coordinate, _by_rate, _inputs]], _batch)
     _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (3, 3)), _rhs)
-    _A = np.zeros(_batch + (6, 6))
-    _A[..., :3, 3:] = np.eye(3)
-    _A[..., 3:, :] = _solved[..., :6]
-    _B = np.zeros(_batch + (6, 3))
-    _B[..., 3:, :] = _solved[..., 6:]
+    _A = _blocks([[np.zeros((3, 3), dtype=_dtype_), np.eye(3, dtype=_dtype_)], [_solved[..., :6]]], _batch)
+    _B = _blocks([[np.zeros((3, _solved.shape[-1] - 6), dtype=_dtype_)], [_solved[..., 6:]]], _batch)
     return _A, _B
-
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=0.4, l2=0.5, l3=0.4, lc1=0.2, lc2=0.25, lc3=0.2, I1=0.02, g=9.81):
     """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).

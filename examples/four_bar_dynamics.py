@@ -46,6 +46,48 @@ def _coordinates(name, value, size):
     return array
 
 
+def _dtype(*values):
+    """The floating type of a result: NumPy computes in float64."""
+    return float
+
+
+def _blocks(rows, batch):
+    """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
+    zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
+    heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
+    out = np.zeros(batch + (sum(heights), sum(widths)))
+    top = 0
+    for row, height in zip(rows, heights):
+        left = 0
+        for block in row:
+            if block.ndim > 2 or block.any():
+                out[..., top : top + height, left : left + block.shape[-1]] = block
+            left += block.shape[-1]
+        top += height
+    return out
+
+
+def _take(array, indices, axis):
+    """The entries ``indices`` of ``array`` along ``axis``."""
+    return np.take(array, indices, axis=axis)
+
+
+def _newton(step, residual, q, failure):
+    """q moved by q <- step(q, residual(q)) until every |residual(q)| < 1e-12, at most 100 steps (a new
+    array: never the guess itself); ValueError ``failure`` where |residual(q)| >= 1e-9 after them."""
+    q = 1.0 * q
+    for _ in range(100):
+        _residual = residual(q)
+        if bool(np.all(np.abs(_residual) < 1e-12)):
+            return q
+        q = step(q, _residual)
+    if bool(np.all(np.abs(residual(q)) < 1e-9)):
+        return q
+    raise ValueError(failure)
+
+
 def mass_matrix(q, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
     """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 3, 3).
 
@@ -942,8 +984,6 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, a=0.2
     return _result
 
 
-
-
 def _row_space_solve(mass, jacobian, b, target, rank):
     """(X, Lam) with M X = b + J^T Lam and J X = target (b: (..., n, m), target: (..., k, m)) in the row
     space of J's k rows, by the saddle system [M -J_r^T; J_r 0]: rank k, J's rows themselves; a known
@@ -964,17 +1004,19 @@ def _row_space_solve(mass, jacobian, b, target, rank):
     elif rank < _k:
         space = np.linalg.svd(jacobian)[0][..., :rank]
         _jac, _bottom, _k = np.swapaxes(space, -1, -2) @ jacobian, np.swapaxes(space, -1, -2) @ target, rank
-    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
-    _kkt[..., :_n, :_n] = _mass
-    _kkt[..., :_n, _n:] = -np.swapaxes(_jac, -1, -2)
-    _kkt[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k, _top.shape[-1]))
-    _rhs[..., :_n, :] = _top
-    _rhs[..., _n:, :] = _bottom
+    _corner = np.zeros((_k, _k), dtype=_dtype_)
     if kept is not None:   # a row left out: its multiplier 0
-        _kkt[..., _n:, _n:] = np.where(kept, 0.0, 1.0)[..., None] * np.eye(_k)
+        _corner = np.where(kept, 0.0, 1.0)[..., None] * np.eye(_k, dtype=_dtype_)
+    _kkt = _blocks([[_mass, -np.swapaxes(_jac, -1, -2)], [_jac, _corner]], _batch)
+    _rhs = _blocks([[_top], [_bottom]], _batch)
     _solved = np.linalg.solve(_kkt, _rhs)
     return _solved[..., :_n, :], (_solved[..., _n:, :] if space is None else space @ _solved[..., _n:, :])
+
+
+def _limit(step):
+    """The factor that shortens a Newton step to 0.5 in its largest coordinate (1 for a shorter one)."""
+    size = np.amax(np.abs(step), axis=-1, keepdims=True)
+    return np.where(size > 0.5, 0.5 / np.where(size > 0.5, size, 1.0), 1.0)
 
 
 def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
@@ -984,7 +1026,7 @@ def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.25, 
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=q.dtype)
     u = _coordinates("u", u, 1)
     _parameters = {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g}
     _M = mass_matrix(q, **_parameters)
@@ -999,6 +1041,10 @@ def _loop_solve(q, qd, u, wrenches, alpha, beta, friction_smoothing, *, a=0.25, 
     _qdd, _lam = _row_space_solve(_M, _jac, (_tau - _h)[..., None], _bottom[..., None], 2)
     _qdd, _lam = _qdd[..., 0], _lam[..., 0]
     return _qdd, _lam
+
+
+#: Where each coordinate is in [independent; dependent], the reduced form's order.
+_ORDER = [([0] + [1, 2]).index(i) for i in range(3)]
 
 
 def forward_dynamics(q, qd, u=None, wrenches=None, *, alpha=0.0, beta=0.0, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
@@ -1026,10 +1072,9 @@ def reduced_basis(q, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9
     qd_i the velocities of ("q1",) (R_g = P [I; -A_d^-1 A_i], A_g R_g = 0)."""
     _jac = loop_jacobian(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _independent, _dependent = [0], [1, 2]
-    _basis = np.zeros(_jac.shape[:-2] + (3, len(_independent)))
-    _basis[..., _independent, :] = np.eye(len(_independent))
-    _basis[..., _dependent, :] = -np.linalg.solve(_jac[..., _dependent], _jac[..., _independent])
-    return _basis
+    _solved = -np.linalg.solve(_jac[..., _dependent], _jac[..., _independent])
+    _eye = np.eye(len(_independent), dtype=_jac.dtype)
+    return _take(_blocks([[_eye], [_solved]], _solved.shape[:-2]), _ORDER, -2)
 
 
 def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
@@ -1040,16 +1085,18 @@ def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=q.dtype)
     _jac = loop_jacobian(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _drift = _matvec(loop_jacobian_dot(q, qd, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g), qd)
     _dependent = [1, 2]
     _basis = reduced_basis(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-    _shift = np.zeros(np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1]) + (3,))
-    _shift[..., _dependent] = -np.linalg.solve(_jac[..., _dependent], _drift[..., None])[..., 0]
+    _solved = -np.linalg.solve(_jac[..., _dependent], _drift[..., None])[..., 0]
+    _batch = np.broadcast_shapes(_jac.shape[:-2], qd.shape[:-1], _solved.shape[:-1])
+    _shift = _take(np.concatenate([np.zeros(_batch + (1,), dtype=_jac.dtype),
+                                   np.broadcast_to(_solved, _batch + _solved.shape[-1:])], axis=-1), _ORDER, -1)
     _mass = mass_matrix(q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _force = (generalized_forces(q, u, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-              - inverse_dynamics(q, qd, np.zeros(3), friction_smoothing=friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
+              - inverse_dynamics(q, qd, np.zeros(3, dtype=_jac.dtype), friction_smoothing=friction_smoothing, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
               - _matvec(_mass, _shift))
     _transpose = np.swapaxes(_basis, -1, -2)
     _accel = np.linalg.solve(_transpose @ _mass @ _basis, _matvec(_transpose, _force)[..., None])[..., 0]
@@ -1057,29 +1104,29 @@ def reduced_forward_dynamics(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b
 
 
 def assemble(q_guess, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
-    """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method,
-    keeping the independent coordinates ("q1",); shape (..., 3).
+    """The configuration on the loop constraints a_g(q) = 0 nearest the guess by Newton's method on
+    the dependent coordinates (steps limited to 0.5), keeping the independent coordinates
+    ("q1",); shape (..., 3).
 
-    Raises ValueError where it does not converge: no assembly for those independent values, or
-    none that Newton reaches from this guess (guess the dependent coordinates nearer, e.g. from
-    a nearby assembled state).
+    Raises ValueError where it does not converge: no assembly near this guess, or none that
+    Newton reaches from it (guess nearer, e.g. from a nearby assembled state).
     """
-    _q = np.array(_coordinates("q_guess", q_guess, 3), dtype=float)
+    _q = _coordinates("q_guess", q_guess, 3)
     _dependent = [1, 2]
-    for _ in range(100):   # Newton on the dependent coordinates, steps limited to 0.5
-        _residual = loop_constraints(_q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
-        if np.all(np.abs(_residual) < 1e-12):
-            return _q
+
+    def _step(_q, _residual):
         _block = loop_jacobian(_q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)[..., _dependent]
         _normal = np.swapaxes(_block, -1, -2) @ _block
-        _normal += 1e-14 * np.eye(len(_dependent)) * (1.0 + np.trace(_normal, axis1=-2, axis2=-1))[..., None, None]
+        _trace = np.diagonal(_normal, 0, -2, -1).sum(-1)
+        _normal = _normal + 1e-14 * np.eye(len(_dependent), dtype=_q.dtype) * (1.0 + _trace)[..., None, None]
         _step = np.linalg.solve(_normal, _matvec(np.swapaxes(_block, -1, -2), _residual)[..., None])[..., 0]
-        _size = np.max(np.abs(_step), axis=-1, keepdims=True)
-        _q[..., _dependent] -= _step * np.minimum(1.0, 0.5 / np.maximum(_size, 1e-300))
-    if np.all(np.abs(loop_constraints(_q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)) < 1e-9):
-        return _q
-    raise ValueError("assemble: the loop constraints could not be solved for these independent coordinates "
-                     "from this guess")
+        _step = _step * _limit(_step)
+        _zeros = np.zeros(_step.shape[:-1] + (1,), dtype=_step.dtype)
+        return _q - _take(np.concatenate([_zeros, _step], axis=-1), _ORDER, -1)
+
+    return _newton(_step, lambda _q: loop_constraints(_q, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g), _q,
+                   "assemble: the loop constraints could not be solved for these independent coordinates "
+                   "from this guess")
 
 
 def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
@@ -1096,30 +1143,26 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=q.dtype)
     _parameters = {"a": a, "b": b, "c": c, "d": d, "m1": m1, "m2": m2, "m3": m3, "g": g}
+    _dtype_ = _dtype(q, qd, *_parameters.values())
     _qdd, _multipliers = _loop_solve(q, qd, u, None, 0.0, 0.0, friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
     _by_coordinate = _by_coordinate + _loop_force_jacobian(q, _multipliers, **_parameters)
-    _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(1), **_parameters), -1, -2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(3, dtype=_dtype_), np.eye(1, dtype=_dtype_),
+                                             **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _jac = loop_jacobian(q, **_parameters)
     _bottom = np.concatenate([-_loop_acceleration_jacobian(q, qd, _qdd, **_parameters),
                               -2.0 * loop_jacobian_dot(q, qd, **_parameters),
-                              np.zeros(_qdd.shape[:-1] + (2, 1))], axis=-1)
+                              np.zeros(_qdd.shape[:-1] + (2, 1), dtype=_qdd.dtype)], axis=-1)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _by_rate.shape[:-2], _bottom.shape[:-2])
-    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (3, 3)),
-                           np.broadcast_to(_by_rate, _batch + (3, 3)),
-                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _rhs = _blocks([[_by_coordinate, _by_rate, _inputs]], _batch)
     _solved = _row_space_solve(_mass, _jac, _rhs, _bottom, 2)[0]
-    _A = np.zeros(_batch + (6, 6))
-    _A[..., :3, 3:] = np.eye(3)
-    _A[..., 3:, :] = _solved[..., :6]
-    _B = np.zeros(_batch + (6, 1))
-    _B[..., 3:, :] = _solved[..., 6:]
+    _A = _blocks([[np.zeros((3, 3), dtype=_dtype_), np.eye(3, dtype=_dtype_)], [_solved[..., :6]]], _batch)
+    _B = _blocks([[np.zeros((3, _solved.shape[-1] - 6), dtype=_dtype_)], [_solved[..., 6:]]], _batch)
     return _A, _B
-
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, m2=1.5, m3=1.0, g=9.81):
     """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
@@ -1172,8 +1215,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, 
     """
     qm = _coordinates("qm", qm, 9)
     qmd = _coordinates("qmd", qmd, 9)
+    _dtype_ = _dtype(qm, qmd, a, b, c, d, m1, m2, m3, g)
     if u is None:
-        u = np.zeros(1)
+        u = np.zeros(1, dtype=_dtype_)
     _mass = maximal_mass_matrix(qm, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _jac = constraint_jacobian(qm, a=a, b=b, c=c, d=d, m1=m1, m2=m2, m3=m3, g=g)
     _top = (
@@ -1188,14 +1232,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, a=0.25, b=0.9, c=0.6, d=0.8, m1=0.5, 
     )
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _top.shape[:-1], _bottom.shape[:-1])
     _n, _k = 9, 8
-    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
-    _kkt[..., :_n, :_n] = _mass
-    _kkt[..., :_n, _n:] = np.swapaxes(_jac, -1, -2)
-    _kkt[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k,))
-    _rhs[..., :_n] = _top
-    _rhs[..., _n:] = _bottom
-    _solution = np.linalg.solve(_kkt, _rhs[..., None])[..., 0]
+    _kkt = _blocks([[_mass, np.swapaxes(_jac, -1, -2)], [_jac, np.zeros((_k, _k), dtype=_dtype_)]], _batch)
+    _rhs = _blocks([[_top[..., None]], [_bottom[..., None]]], _batch)
+    _solution = np.linalg.solve(_kkt, _rhs)[..., 0]
     return _solution[..., :_n], _solution[..., _n:]
 
 

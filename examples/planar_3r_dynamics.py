@@ -46,6 +46,29 @@ def _coordinates(name, value, size):
     return array
 
 
+def _dtype(*values):
+    """The floating type of a result: NumPy computes in float64."""
+    return float
+
+
+def _blocks(rows, batch):
+    """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
+    zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
+    heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
+    out = np.zeros(batch + (sum(heights), sum(widths)))
+    top = 0
+    for row, height in zip(rows, heights):
+        left = 0
+        for block in row:
+            if block.ndim > 2 or block.any():
+                out[..., top : top + height, left : left + block.shape[-1]] = block
+            left += block.shape[-1]
+        top += height
+    return out
+
+
 def mass_matrix(q, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Mass matrix M_g(q) (Pinocchio's ``crba``), shape (..., 3, 3).
 
@@ -1201,8 +1224,6 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, m1=2.
     return _result
 
 
-
-
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 3).
     Wrenches at frames enter as + sum J^T w. M is factored as L^T D L, never inverted.
@@ -1210,16 +1231,15 @@ def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, m1
     u: efforts ("tau1", "tau2", "tau3"), shape (..., 3); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     """
+    q = _coordinates("q", q, 3)
     if u is None:
-        u = np.zeros(3)
-    arrays = [_coordinates("q", q, 3), _coordinates("qd", qd, 3), np.asarray(u, dtype=float)]
-    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 3:
-        raise ValueError(f"u must have shape (..., 3), got {arrays[2].shape}")
+        u = np.zeros(3, dtype=q.dtype)
+    arrays = [q, _coordinates("qd", qd, 3), _coordinates("u", u, 3)]
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
     _opposing = np.zeros_like(arrays[1])
     if wrenches:
         _opposing = _opposing - _external_forces(arrays[0], wrenches, _parameters)
-    arrays.append(_opposing)
+    arrays.append(np.broadcast_to(_opposing, np.broadcast_shapes(_opposing.shape, arrays[1].shape)))
     return _evaluate(_forward_dynamics_body, arrays, (3,), _parameters)
 
 
@@ -1234,25 +1254,21 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
     q = _coordinates("q", q, 3)
     qd = _coordinates("qd", qd, 3)
     if u is None:
-        u = np.zeros(3)
+        u = np.zeros(3, dtype=q.dtype)
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
+    _dtype_ = _dtype(q, qd, *_parameters.values())
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
-    _inputs = np.swapaxes(generalized_forces(np.zeros(3), np.eye(3), **_parameters), -1, -2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(3, dtype=_dtype_), np.eye(3, dtype=_dtype_),
+                                             **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
-    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (3, 3)),
-                           np.broadcast_to(_by_rate, _batch + (3, 3)),
-                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _rhs = _blocks([[_by_coordinate, _by_rate, _inputs]], _batch)
     _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (3, 3)), _rhs)
-    _A = np.zeros(_batch + (6, 6))
-    _A[..., :3, 3:] = np.eye(3)
-    _A[..., 3:, :] = _solved[..., :6]
-    _B = np.zeros(_batch + (6, 3))
-    _B[..., 3:, :] = _solved[..., 6:]
+    _A = _blocks([[np.zeros((3, 3), dtype=_dtype_), np.eye(3, dtype=_dtype_)], [_solved[..., :6]]], _batch)
+    _B = _blocks([[np.zeros((3, _solved.shape[-1] - 6), dtype=_dtype_)], [_solved[..., 6:]]], _batch)
     return _A, _B
-
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):
     """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 3, 3) and (..., 3, 3).
@@ -1304,8 +1320,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.
     """
     qm = _coordinates("qm", qm, 9)
     qmd = _coordinates("qmd", qmd, 9)
+    _dtype_ = _dtype(qm, qmd, m1, m2, m3, l1, l2, l3, r1, r2, r3, I1, I2, I3, g)
     if u is None:
-        u = np.zeros(3)
+        u = np.zeros(3, dtype=_dtype_)
     _mass = maximal_mass_matrix(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
     _jac = constraint_jacobian(qm, m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, r1=r1, r2=r2, r3=r3, I1=I1, I2=I2, I3=I3, g=g)
     _top = (
@@ -1320,14 +1337,9 @@ def _kkt_solve(qm, qmd, u, alpha, beta, *, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.
     )
     _batch = np.broadcast_shapes(_mass.shape[:-2], _jac.shape[:-2], _top.shape[:-1], _bottom.shape[:-1])
     _n, _k = 9, 6
-    _kkt = np.zeros(_batch + (_n + _k, _n + _k))
-    _kkt[..., :_n, :_n] = _mass
-    _kkt[..., :_n, _n:] = np.swapaxes(_jac, -1, -2)
-    _kkt[..., _n:, :_n] = _jac
-    _rhs = np.zeros(_batch + (_n + _k,))
-    _rhs[..., :_n] = _top
-    _rhs[..., _n:] = _bottom
-    _solution = np.linalg.solve(_kkt, _rhs[..., None])[..., 0]
+    _kkt = _blocks([[_mass, np.swapaxes(_jac, -1, -2)], [_jac, np.zeros((_k, _k), dtype=_dtype_)]], _batch)
+    _rhs = _blocks([[_top[..., None]], [_bottom[..., None]]], _batch)
+    _solution = np.linalg.solve(_kkt, _rhs)[..., 0]
     return _solution[..., :_n], _solution[..., _n:]
 
 

@@ -33,6 +33,29 @@ def _coordinates(name, value, size):
     return array
 
 
+def _dtype(*values):
+    """The floating type of a result: NumPy computes in float64."""
+    return float
+
+
+def _blocks(rows, batch):
+    """A block matrix (rows of blocks) with the batch dimensions ``batch``, written in place into
+    zeros (a zero block of no batch dimensions is left as it is)."""
+    if len(rows) == 1:   # one row of blocks: joined in one pass
+        return np.concatenate([np.broadcast_to(b, batch + b.shape[-2:]) for b in rows[0]], axis=-1)
+    heights, widths = [row[0].shape[-2] for row in rows], [block.shape[-1] for block in rows[0]]
+    out = np.zeros(batch + (sum(heights), sum(widths)))
+    top = 0
+    for row, height in zip(rows, heights):
+        left = 0
+        for block in row:
+            if block.ndim > 2 or block.any():
+                out[..., top : top + height, left : left + block.shape[-1]] = block
+            left += block.shape[-1]
+        top += height
+    return out
+
+
 def generalized_forces(q, u, *, g=9.81):
     """Applied generalized forces Y_g(q, u) of the efforts, shape (..., 6).
 
@@ -4851,8 +4874,6 @@ def inverse_dynamics(q, qd, qdd, wrenches=None, *, friction_smoothing=0.0, g=9.8
     return _result
 
 
-
-
 def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, g=9.81):
     """Accelerations qdd solving M qdd = Y_g(u) - C qd - N - F (Pinocchio's ``aba``), shape (..., 6).
     Wrenches at frames enter as + sum J^T w. M is factored as L^T D L, never inverted.
@@ -4860,16 +4881,15 @@ def forward_dynamics(q, qd, u=None, wrenches=None, *, friction_smoothing=0.0, g=
     u: efforts ("tau_shoulder_pan_joint", "tau_shoulder_lift_joint", "tau_elbow_joint", "tau_wrist_1_joint", "tau_wrist_2_joint", "tau_wrist_3_joint"), shape (..., 6); None means no effort.
     wrenches: None, or {frame: w} applied at frames of FRAMES, as for ``inverse_dynamics``.
     """
+    q = _coordinates("q", q, 6)
     if u is None:
-        u = np.zeros(6)
-    arrays = [_coordinates("q", q, 6), _coordinates("qd", qd, 6), np.asarray(u, dtype=float)]
-    if arrays[2].ndim == 0 or arrays[2].shape[-1] != 6:
-        raise ValueError(f"u must have shape (..., 6), got {arrays[2].shape}")
+        u = np.zeros(6, dtype=q.dtype)
+    arrays = [q, _coordinates("qd", qd, 6), _coordinates("u", u, 6)]
     _parameters = {"g": g}
     _opposing = np.zeros_like(arrays[1])
     if wrenches:
         _opposing = _opposing - _external_forces(arrays[0], wrenches, _parameters)
-    arrays.append(_opposing)
+    arrays.append(np.broadcast_to(_opposing, np.broadcast_shapes(_opposing.shape, arrays[1].shape)))
     return _evaluate(_forward_dynamics_body, arrays, (6,), _parameters)
 
 
@@ -4884,25 +4904,21 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     q = _coordinates("q", q, 6)
     qd = _coordinates("qd", qd, 6)
     if u is None:
-        u = np.zeros(6)
+        u = np.zeros(6, dtype=q.dtype)
     _parameters = {"g": g}
+    _dtype_ = _dtype(q, qd, *_parameters.values())
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _by_coordinate, _by_rate = -_by_coordinate, -_by_rate
-    _inputs = np.swapaxes(generalized_forces(np.zeros(6), np.eye(6), **_parameters), -1, -2)
+    _inputs = np.swapaxes(generalized_forces(np.zeros(6, dtype=_dtype_), np.eye(6, dtype=_dtype_),
+                                             **_parameters), -1, -2)
     _mass = mass_matrix(q, **_parameters)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
-    _rhs = np.concatenate([np.broadcast_to(_by_coordinate, _batch + (6, 6)),
-                           np.broadcast_to(_by_rate, _batch + (6, 6)),
-                           np.broadcast_to(_inputs, _batch + _inputs.shape)], axis=-1)
+    _rhs = _blocks([[_by_coordinate, _by_rate, _inputs]], _batch)
     _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (6, 6)), _rhs)
-    _A = np.zeros(_batch + (12, 12))
-    _A[..., :6, 6:] = np.eye(6)
-    _A[..., 6:, :] = _solved[..., :12]
-    _B = np.zeros(_batch + (12, 6))
-    _B[..., 6:, :] = _solved[..., 12:]
+    _A = _blocks([[np.zeros((6, 6), dtype=_dtype_), np.eye(6, dtype=_dtype_)], [_solved[..., :12]]], _batch)
+    _B = _blocks([[np.zeros((6, _solved.shape[-1] - 12), dtype=_dtype_)], [_solved[..., 12:]]], _batch)
     return _A, _B
-
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):
     """(dtau/dq, dtau/dqd) of inverse_dynamics (Pinocchio's ``computeRNEADerivatives``), shapes (..., 6, 6) and (..., 6, 6).
