@@ -56,18 +56,24 @@ def _fixed_loop() -> str:
                         '      <joint name="ja" type="hinge"')
 
 
-@cache
-def _solved(text: str):
-    """(the NumPy module, its effort columns) of an MJCF text, derived once per process."""
-    folder = Path(tempfile.mkdtemp(prefix="contacts_on_loops_"))
+def _written(folder: Path, text: str, option: str, pattern: str):
+    """The module ``solve ROBOT <option>`` writes for the MJCF ``text`` (the file matching
+    ``pattern``), imported, and the robot file's path."""
     path = folder / "robot.xml"
     path.write_text(text)
-    result = runner.invoke(app, ["solve", str(path), "--code", "--out", str(folder / "out")])
+    result = runner.invoke(app, ["solve", str(path), option, "--out", str(folder / "out")])
     assert result.exit_code == 0, result.output
-    module_path = next((folder / "out").glob("*_dynamics.py"))
+    module_path = next((folder / "out").glob(pattern))
     spec = importlib.util.spec_from_file_location(module_path.stem, module_path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    return module, path
+
+
+@cache
+def _solved(text: str):
+    """(the NumPy module, its effort columns) of an MJCF text, derived once per process."""
+    module, path = _written(Path(tempfile.mkdtemp(prefix="contacts_on_loops_")), text, "--code", "*_dynamics.py")
     return module, list(dynderive.load_robot(path).effort_columns())
 
 
@@ -300,14 +306,7 @@ def test_casadi_holds_contacts_on_a_fixed_base_loop_as_the_numpy_module(tmp_path
         pytest.importorskip("casadi")
     text = _fixed_loop()
     module, _ = _solved(text)
-    path = tmp_path / "robot.xml"
-    path.write_text(text)
-    result = runner.invoke(app, ["solve", str(path), "--casadi", "--out", str(tmp_path / "out")])
-    assert result.exit_code == 0, result.output
-    module_path = next((tmp_path / "out").glob("*_casadi.py"))
-    spec = importlib.util.spec_from_file_location(module_path.stem, module_path)
-    casadi_module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(casadi_module)
+    casadi_module, _ = _written(tmp_path, text, "--casadi", "*_casadi.py")
     plain = mujoco.MjModel.from_xml_string(text)
     p = casadi_module.default_parameters()
     for qpos, qvel, u in _states(module, plain, 2, seed=13):

@@ -112,7 +112,7 @@ def robot_schema() -> dict[str, Any]:
     }
     contact = {
         "type": "object", "additionalProperties": False, "required": ["frame"],
-        "description": "a frame held by a contact (3-D robots without loops)",
+        "description": "a frame held by a contact (3-D robots)",
         "properties": {
             "frame": {"type": "string", "description": "a frame of 'frames'"},
             "kind": {"enum": ["point", "surface"], "default": "point",

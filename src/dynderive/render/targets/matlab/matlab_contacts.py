@@ -1,5 +1,5 @@
-"""The MATLAB/Octave target's contact dynamics of a 3-D robot without closed loops (DESIGN.md
-section 11): ``constrained_forward_dynamics``, ``impulse_dynamics`` and ``contacts()`` (the
+"""The MATLAB/Octave target's contact dynamics of a 3-D robot, its closed loops held too (DESIGN.md
+sections 11 and 13): ``constrained_forward_dynamics``, ``impulse_dynamics`` and ``contacts()`` (the
 robot file's declared contacts): the engine's contact programs (``mechanics/contact_program.py``)
 printed by ``matlab_program.py`` on the package's own functions (a floating base's efforts act
 through ``generalized_forces``), with MATLAB's own argument reading and messages. Each file
