@@ -10,17 +10,10 @@ import zlib
 from functools import cache
 from pathlib import Path
 
-#: SymPy's cache per cached function in the test processes (its default: 1000; the command line's:
-#: ``dynderive.__main__.SYMPY_CACHE_SIZE``). A worker derives the same robots over and over (each
-#: ``solve`` a test runs in-process derives afresh): with room for them, a second derivation of
-#: the Panda takes half the CPU of the first. SymPy reads it once, when it is imported (here,
-#: before any test imports it); the commands the tests run inherit it. A value already set wins.
-os.environ.setdefault("SYMPY_CACHE_SIZE", "131072")
+import numpy as np
+import pytest
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-import dynderive  # noqa: E402
+import dynderive
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ROOT / "robots"
