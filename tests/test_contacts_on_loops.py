@@ -28,6 +28,7 @@ from dynderive.commands.cli import app
 
 mujoco = pytest.importorskip("mujoco")
 
+from dynderive.verify.motions import loop_drift  # noqa: E402
 from dynderive.verify.mujoco_checks import _loop_states, _unmodelled_drives_off, from_ours, to_ours  # noqa: E402
 from dynderive.verify.mujoco_hard_limit import equality_rows, full_mass_matrix, hard_limit  # noqa: E402
 
@@ -156,8 +157,6 @@ def test_constrained_and_impulse_dynamics_equal_mujocos_hard_limit(case):
     module, columns = _solved(text)
     plain = mujoco.MjModel.from_xml_string(text)
     model = _with_connects(text, _connects(plain, contacts))
-    drifts = (module.loop_jacobian_dot_qd if hasattr(module, "loop_jacobian_dot_qd")
-              else lambda q, qd: module.loop_jacobian_dot(q, qd) @ qd)
     for qpos, qvel, u in _states(module, plain, 3, seed=7):
         q, qd, _, _ = to_ours(plain, qpos, qvel)
         qpos, qvel = from_ours(plain, q, _at_rest(module, q, qd, contacts))
@@ -169,7 +168,7 @@ def test_constrained_and_impulse_dynamics_equal_mujocos_hard_limit(case):
         rows = sum(3 if isinstance(c, str) else 6 for c in contacts)
         assert forces.shape == (rows,)
         A = module.loop_jacobian(q)
-        assert np.max(np.abs(A @ qdd + drifts(q, qd))) < 1e-9
+        assert np.max(np.abs(A @ qdd + loop_drift(module, q, qd, {}))) < 1e-9
         # the impact: qd_plus = argmin |x - qd_minus|_M on MuJoCo's rows, the loops' target 0
         J = np.asarray(data.efc_J[:data.nefc * model.nv]).reshape(data.nefc, model.nv)
         loop_rows = J.shape[0] - 3 * len(_connects(plain, contacts))

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..derivation import Derivation
+from .motions import loop_drift
 from .rows import Row, _row, peak
 
 KKT = "contacts: inverse dynamics = efforts + J^T forces; contacts held"
@@ -78,10 +79,8 @@ def contact_rows(derivation: Derivation, module: Any, values: dict[str, float], 
         worst = max(worst, peak(J @ qdd + drift), peak(J @ qd_plus))
         if derivation.robot.loops:   # the loops' forces A^T lambda: the parts of balance and jump outside A's row space
             A = module.loop_jacobian(q, **values)
-            loop_drift = (module.loop_jacobian_dot_qd(q, qd, **values) if hasattr(module, "loop_jacobian_dot_qd")
-                          else module.loop_jacobian_dot(q, qd, **values) @ qd)
             balance, jump = (r - A.T @ np.linalg.lstsq(A.T, r, rcond=None)[0] for r in (balance, jump))
-            worst = max(worst, peak(A @ qdd + loop_drift), peak(A @ qd_plus))
+            worst = max(worst, peak(A @ qdd + loop_drift(module, q, qd, values)), peak(A @ qd_plus))
         worst = max(worst, peak(balance), peak(jump))
         scale = max(scale, peak(tau), peak(forces), peak(impulses), peak(drift))
     names = ", ".join(f"{frame} ({kind})" for frame, kind in contacts)

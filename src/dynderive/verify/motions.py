@@ -9,6 +9,13 @@ from typing import Any
 import numpy as np
 
 
+def loop_drift(module: Any, q: np.ndarray, qd: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """Adot qd of the loop rows: the module's own (quaternions in q) or loop_jacobian_dot times qd."""
+    if hasattr(module, "loop_jacobian_dot_qd"):
+        return module.loop_jacobian_dot_qd(q, qd, **values)
+    return module.loop_jacobian_dot(q, qd, **values) @ qd
+
+
 def allowed_velocity(module: Any, q: np.ndarray, qd: np.ndarray, values: dict[str, float]) -> np.ndarray:
     """``qd`` projected onto the motions the loops allow at ``q``."""
     null = allowed_motions(module, q, values)
