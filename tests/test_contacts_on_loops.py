@@ -36,8 +36,8 @@ FIXTURES = Path(__file__).parent / "mjcf"
 runner = CliRunner()
 
 #: A point on body e of the fixtures (the far end of the second arm), and a frame on the torso.
-TOE = '<site name="toe" pos="0.0312 -0.0415 0.0211"/>\n            '
-SOLE = '<site name="sole" pos="0.0213 -0.0112 -0.0817"/>\n      '
+TOE = '<site name="toe" pos="0.0312345678901234 -0.0415432109876543 0.0211234567890123"/>\n            '
+SOLE = '<site name="sole" pos="0.0213456789012345 -0.0112345678901234 -0.0817654321098765"/>\n      '
 
 
 def _floating_loop() -> str:
@@ -53,7 +53,7 @@ def _fixed_loop() -> str:
     text = text.replace('<joint name="je"', TOE.replace("            ", "          ") + '<joint name="je"')
     text = text.replace('<joint name="jc" type="hinge"', '<joint name="jc2" type="hinge" axis="0.2 -0.7 0.6855654600401044"/>\n'
                         '      <joint name="jc" type="hinge"')
-    return text.replace('<joint name="ja" type="hinge"', '<joint name="ja2" type="hinge" axis="0.6 0.64 0.48"/>\n'
+    return text.replace('<joint name="ja" type="hinge"', '<joint name="ja2" type="hinge" axis="0.6123724356957945 0.6123724356957945 0.5"/>\n'
                         '      <joint name="ja" type="hinge"')
 
 
