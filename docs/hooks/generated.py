@@ -7,6 +7,8 @@ A page holds a region between two marker lines, generated from the code:
   from the Typer/click application itself (``dynderive.commands.cli.app``);
 - ``<!-- generated: robot-schema -->``: every key of the robot file, read from the JSON Schema
   (``dynderive.input.json_schema.robot_schema``, what ``dynderive schema`` prints);
+- ``<!-- generated: joint-types -->``: the joint types, their sizes and entry names, read from
+  the joint specification (``dynderive.model.joint_kinds.JOINT_KINDS``);
 
 each region ending at ``<!-- end generated -->``. Update them from the repository root with::
 
@@ -36,6 +38,7 @@ if str(ROOT / "src") not in sys.path:
 REGIONS = {
     "cli": ("reference/cli.md", lambda: cli_markdown()),
     "robot-schema": ("reference/robot-format.md", lambda: schema_markdown()),
+    "joint-types": ("reference/robot-format.md", lambda: joint_types_markdown()),
 }
 END = "<!-- end generated -->"
 UPDATE = "python docs/hooks/generated.py --write"
@@ -100,6 +103,34 @@ def _usage(name: str, command: Any, context: Any) -> str:
 
 
 # ----------------------------------------------------------------------------- robot format
+
+
+def joint_types_markdown() -> str:
+    """The table of joint types: NQ, NV, where a file may write it, the names of a joint
+    ``j``'s entries (efforts of an effort ``e``), its URDF and MuJoCo names."""
+    from dynderive.model.joint_kinds import JOINT_KINDS
+
+    def names(prefix: str, suffixes: tuple[str, ...] | None, single: str) -> str:
+        if suffixes is None:
+            return "rates of the coordinates"
+        if not suffixes:
+            return single
+        return escape(", ".join(f"{prefix}_{s}" for s in suffixes))
+
+    mjcf = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}
+    lines = ["| type | NQ | NV | robots | coordinates of joint `j` | velocities | efforts of effort `e` "
+             "| URDF | MJCF | what it is |", "|" + "---|" * 10]
+    for kind in JOINT_KINDS.values():
+        where = " and ".join(w for w, ok in (("planar", kind.planar), ("3-D", kind.spatial)) if ok)
+        single = "none" if kind.welded else "`j`"
+        lines.append(" | ".join((
+            f"| `{kind.name}`", str(kind.nq), str(kind.nv), where,
+            names("j", kind.coordinates, single),
+            "none" if kind.welded else names("j", kind.velocities, single),
+            names("e", kind.efforts, "none" if kind.welded else "`e`"),
+            ", ".join(f"`{t}`" for t in kind.urdf) or "-", ", ".join(f"`{mjcf[t]}`" for t in kind.mjcf) or "-",
+            escape(kind.summary)),) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def schema_markdown() -> str:

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..model.joint_kinds import JOINT_KINDS, kinds
+
 IDENTIFIER = "^[A-Za-z_][A-Za-z0-9_]*$"
 #: Symbols (parameters, efforts) may not start with '_': the generated module's temporaries do.
 SYMBOL = "^[A-Za-z][A-Za-z0-9_]*$"
@@ -22,6 +24,13 @@ EXPRESSION: dict[str, Any] = {
 def _vector(sizes: list[int], description: str) -> dict[str, Any]:
     return {"description": description, "type": "array", "items": EXPRESSION,
             "minItems": min(sizes), "maxItems": max(sizes)}
+
+
+def _joint_types() -> str:
+    """The joint types' one-line summaries, with the effort names of a joint of several entries."""
+    def efforts(suffixes: tuple[str, ...]) -> str:
+        return f" (effort e: e_{suffixes[0]} ... e_{suffixes[-1]})" if suffixes else ""
+    return "; ".join(f"{k.name}: {k.summary}{efforts(k.efforts)}" for k in JOINT_KINDS.values())
 
 
 def robot_schema() -> dict[str, Any]:
@@ -62,11 +71,7 @@ def robot_schema() -> dict[str, Any]:
         "type": "object", "additionalProperties": False, "required": ["name", "type", "parent", "child"],
         "properties": {
             "name": {"type": "string", "pattern": IDENTIFIER, "description": "also the coordinate's symbol"},
-            "type": {"enum": ["revolute", "prismatic", "fixed", "floating", "spherical"],
-                     "description": "floating: a free joint (3-D: position and unit quaternion; planar: "
-                                    "coordinates <name>_x, <name>_y, <name>_theta, unactuated); 3-D effort e: "
-                                    "e_fx ... e_tz; spherical (3-D only): a ball joint (unit quaternion), "
-                                    "effort e: e_tx, e_ty, e_tz"},
+            "type": {"enum": list(JOINT_KINDS), "description": _joint_types()},
             "parent": {"type": "string", "description": "a link name or world"},
             "child": {"type": "string"},
             "origin": origin,
@@ -92,8 +97,9 @@ def robot_schema() -> dict[str, Any]:
         "description": "a loop-closing joint between two links of the spanning tree (or a link and world)",
         "properties": {
             "name": {"type": "string", "pattern": IDENTIFIER},
-            "type": {"enum": ["revolute", "prismatic", "spherical"],
-                     "description": "planar: revolute | prismatic; 3-D: revolute | spherical | prismatic"},
+            "type": {"enum": list(kinds(loops=True)),
+                     "description": f"planar: {' | '.join(kinds(planar=True, loops=True))}; "
+                                    f"3-D: {' | '.join(kinds(planar=False, loops=True))}"},
             "parent": {"type": "string", "description": "a link name or world"},
             "child": {"type": "string", "description": "a link name or world"},
             "origin": origin,

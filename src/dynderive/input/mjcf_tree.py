@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..model.joint_kinds import JOINT_KINDS, mjcf_types
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from ..model.written import significant_digits
 from .loader import Path_, SourceDocument
@@ -26,7 +27,7 @@ from .urdf import identifier
 from .urdf_values import IDENTITY, Rotation, _number, _numbers, axis_rotation
 
 #: MuJoCo's joint types (``mjtJoint``) and the robot file's.
-JOINT_TYPES = {0: "floating", 1: "spherical", 2: "prismatic", 3: "revolute"}
+JOINT_TYPES = mjcf_types()
 _XML_TAGS = {0: "freejoint", 1: "joint", 2: "joint", 3: "joint"}
 #: Longest robot name: ``<name>_dynamics`` and the generated functions' names stay within 63.
 NAME_LIMIT = 40
@@ -181,7 +182,7 @@ class _Tree:
         at = self.at("joints", j, _XML_TAGS[jtype])
         entry: dict[str, Any] = {"name": name, "type": JOINT_TYPES[jtype], "parent": parent, "child": child,
                                  "origin": {"xyz": _numbers(p), "rpy": _rotation(R).rpy()}}
-        if jtype in (2, 3):
+        if JOINT_KINDS[JOINT_TYPES[jtype]].takes_axis:
             entry["axis"] = _numbers(axis)
             # what <option><flag> switches off, MuJoCo leaves out of its dynamics
             terms = {"damping": 0 if disabled(self.mj, m, "DAMPER", "PASSIVE") else m.dof_damping[dof],

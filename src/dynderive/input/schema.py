@@ -15,6 +15,7 @@ import sympy
 
 from ..errors import InputError
 from ..model.expressions import LARGEST, RESERVED, Evaluator
+from ..model.joint_kinds import JOINT_KINDS, kinds
 from ..model.naming import did_you_mean, maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
@@ -27,7 +28,8 @@ from .mimic import check_mimics, read_mimic
 from .names import check_names, engine_quantities
 from .validator import Validator, kind
 
-JOINT_TYPES = ("revolute", "prismatic", "fixed", "floating", "spherical")
+#: The joint types a robot file may write (the joint specification's, ``model/joint_kinds.py``).
+JOINT_TYPES = kinds()
 
 TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints", "loops", "independent",
             "frames", "contacts", "maximal")
@@ -36,8 +38,9 @@ LINK_KEYS = ("name", "mass", "com", "inertia")
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS, "mimic")
 MAXIMAL_KEYS = ("constraints",)
 LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis")
-#: Loop-closing joint types, and how many constraints each imposes.
-LOOP_TYPES = {True: {"revolute": 2, "prismatic": 2}, False: {"revolute": 5, "spherical": 3, "prismatic": 5}}
+#: Loop-closing joint types, and how many constraints each imposes, for planar (True) and 3-D robots.
+LOOP_TYPES = {planar: {name: JOINT_KINDS[name].loop_rows(planar) for name in kinds(planar=planar, loops=True)}
+              for planar in (True, False)}
 ORIGIN_KEYS = ("xyz", "rpy")
 #: Longest robot name: it names the output files (``test_<name>_dynamics.py``, and their
 #: temporary files while written), which the file system limits to 255 bytes.

@@ -31,6 +31,7 @@ import numpy as np
 import yaml
 
 from ..errors import InputError, Problem
+from ..model.joint_kinds import urdf_types
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from . import inertia
 from .loader import Path_, SourceDocument
@@ -39,6 +40,9 @@ from .urdf_root import float_root, note_fixed_base, split_planar
 from .urdf_symbolic import Declared, attach, entries, name_parameters, patterns_of, select
 from .urdf_values import IDENTITY, Rotation, _number, _numbers, _Reader
 from .urdf_xml import _Element, _parse_xml
+
+#: URDF ``type`` attribute -> the robot file's joint type (the joint specification's map).
+URDF_TYPES = urdf_types()
 
 
 def identifier(name: str) -> str:
@@ -146,7 +150,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         elif mimic is not None:   # checked by the validator (input/mimic.py)
             follows = (mimic, mimic.attrib.get("joint", ""), reader.numbers(mimic, "multiplier", 1, [1.0])[0],
                        reader.numbers(mimic, "offset", 1, [0.0])[0])
-        if jtype not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
+        if jtype not in URDF_TYPES and jtype != "planar":   # a URDF planar joint: split (urdf_root.split_planar)
             reader.error(joint, f"joint '{name}': unknown joint type '{jtype}'")
             continue
         if not parent or not child:
@@ -161,7 +165,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
             doc.note(dynamics.at, f"<dynamics> on fixed joint '{name}' ignored (it has no coordinate)")
             dynamics = None
         joints.append({
-            "element": joint, "name": name, "type": "revolute" if jtype == "continuous" else jtype,
+            "element": joint, "name": name, "type": URDF_TYPES.get(jtype, jtype),
             "parent": parent, "child": child,
             "xyz": np.array(reader.numbers(origin, "xyz", 3, [0, 0, 0])),
             "R": Rotation.from_rpy(reader.numbers(origin, "rpy", 3, [0, 0, 0], angles=True)),

@@ -10,39 +10,26 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-JointType = Literal["revolute", "prismatic", "fixed", "floating", "spherical"]
+from .joint_kinds import JOINT_KINDS, JointKind, joint_kind
+
+#: A joint type's name (``model/joint_kinds.JOINT_KINDS``).
+JointType = str
 
 #: A 3-D floating joint's configuration (position, unit quaternion) and velocity (local twist)
-#: entries, Pinocchio's order: coordinates ``<joint>_x ... <joint>_qw``, velocities
-#: ``<joint>_vx ... <joint>_wz`` (DESIGN.md section 10).
-FLOATING_CONFIGURATION = ("x", "y", "z", "qx", "qy", "qz", "qw")
-FLOATING_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
-#: ... and acceleration entries ``<joint>_dvx ... <joint>_dwz``.
-FLOATING_ACCELERATION = ("dvx", "dvy", "dvz", "dwx", "dwy", "dwz")
-
-
-#: A spherical joint's configuration (unit quaternion), velocity (local angular velocity) and
-#: acceleration entries, Pinocchio's ``JointModelSpherical``: ``<joint>_qx ... <joint>_qw``,
-#: ``<joint>_wx ... <joint>_wz``, ``<joint>_dwx ... <joint>_dwz``.
-SPHERICAL_CONFIGURATION = FLOATING_CONFIGURATION[3:]
-SPHERICAL_VELOCITY = FLOATING_VELOCITY[3:]
-SPHERICAL_ACCELERATION = FLOATING_ACCELERATION[3:]
-#: The efforts of an actuated floating joint (effort ``e``: ``e_fx ... e_tz``, the force and
-#: torque on its child in the joint frame, the wrench dual to its local twist, as Pinocchio's
-#: tau of a free flyer) and of a spherical joint (``e_tx, e_ty, e_tz``, a torque in the joint frame).
-FLOATING_EFFORT = ("fx", "fy", "fz", "tx", "ty", "tz")
-SPHERICAL_EFFORT = FLOATING_EFFORT[3:]
-#: The joint types whose configuration holds a unit quaternion, and where it starts in the
-#: joint's own entries of ``q``.
-QUATERNION_START = {"floating": 3, "spherical": 0}
+#: entries, Pinocchio's order (DESIGN.md section 10): the joint specification's, kept under
+#: these names for the readers and tests that list them.
+FLOATING_CONFIGURATION = JOINT_KINDS["floating"].coordinates
+FLOATING_VELOCITY = JOINT_KINDS["floating"].velocities or ()
+FLOATING_ACCELERATION = JOINT_KINDS["floating"].accelerations or ()
+FLOATING_EFFORT = JOINT_KINDS["floating"].efforts
 
 
 def floating_names(joint: str, kind: str = "floating") -> tuple[list[str], list[str], list[str]]:
-    """A floating (or, with ``kind="spherical"``, a spherical) joint's coordinate, velocity and
-    acceleration names."""
-    entries = ((FLOATING_CONFIGURATION, FLOATING_VELOCITY, FLOATING_ACCELERATION) if kind == "floating" else
-               (SPHERICAL_CONFIGURATION, SPHERICAL_VELOCITY, SPHERICAL_ACCELERATION))
-    return tuple([f"{joint}_{s}" for s in part] for part in entries)  # type: ignore[return-value]
+    """A joint's coordinate, velocity and acceleration names, for a joint type whose
+    configuration holds a quaternion (``floating`` by default, or ``spherical``)."""
+    return tuple(list(names) for names in joint_kind(kind).names(joint)[:3])  # type: ignore[return-value]
+
+
 Expression = str | int | float
 
 
@@ -112,18 +99,22 @@ class Joint:
     def moves(self) -> bool:
         """Whether the joint moves (fixed joints do not). A ``mimic`` joint moves without a
         coordinate of its own: ``owns`` tells those apart."""
-        return self.type != "fixed"
+        return not self.kind.welded
+
+    @property
+    def kind(self) -> JointKind:
+        """The joint's type, as the joint specification gives it (``model/joint_kinds.py``)."""
+        return JOINT_KINDS[self.type]
 
     @property
     def effort_names(self) -> tuple[str, ...]:
         """The joint's efforts, one per velocity entry it drives: its ``effort`` name, or for a
-        floating or spherical joint that name with the suffixes of FLOATING_EFFORT or
-        SPHERICAL_EFFORT (velocity entries in the same order); none when unactuated (or a
-        ``<mimic>`` follower, driven through its leader)."""
+        joint of several entries that name with its type's effort suffixes (velocity entries in
+        the same order); none when unactuated (or a ``<mimic>`` follower, driven through its
+        leader)."""
         if not self.effort or not self.owns:
             return ()
-        suffixes = {"floating": FLOATING_EFFORT, "spherical": SPHERICAL_EFFORT}.get(self.type)
-        return (self.effort,) if suffixes is None else tuple(f"{self.effort}_{s}" for s in suffixes)
+        return self.kind.names(self.name, self.effort)[3]
 
     @property
     def owns(self) -> bool:
@@ -135,12 +126,13 @@ class Joint:
         """How many entries the joint has in ``q`` (NQ) and in ``qd`` (NV)."""
         if self.mimic is not None:
             return (0, 0)
-        return {"fixed": (0, 0), "floating": (7, 6), "spherical": (4, 3)}.get(self.type, (1, 1))
+        return self.kind.nq, self.kind.nv
 
     @property
     def multi(self) -> bool:
-        """Whether the joint has several coordinates (a floating or spherical joint: a quaternion)."""
-        return self.type in QUATERNION_START
+        """Whether the joint's configuration holds a unit quaternion (a floating or spherical
+        joint: NQ != NV)."""
+        return not self.kind.vector_space
 
     @property
     def dissipates(self) -> bool:
@@ -257,14 +249,14 @@ class Robot:
     def quaternion_starts(self) -> tuple[int, ...]:
         """Where each quaternion (of a floating or spherical joint) starts in ``q``, joint order."""
         where_q, _ = self.offsets()
-        return tuple(where_q[j.name] + QUATERNION_START[j.type] for j in self.joints if j.multi)
+        return tuple(where_q[j.name] + j.kind.quaternion_start for j in self.joints if j.multi)  # type: ignore[operator]
 
     @property
     def configuration_names(self) -> tuple[str, ...]:
         """The entries of ``q`` (NQ): a floating joint's seven, a spherical joint's four, every
         other moving joint's name."""
         return tuple(name for j in self.joints if j.owns
-                     for name in (floating_names(j.name, j.type)[0] if j.multi else [j.name]))
+                     for name in j.kind.names(j.name)[0])
 
     @property
     def velocity_count(self) -> int:

@@ -23,6 +23,7 @@ from typing import ClassVar
 
 import sympy
 
+from ...model.joint_kinds import JointKind
 from ..joints import PlanarMotion
 
 Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
@@ -49,6 +50,9 @@ def keep(expr: sympy.Expr) -> sympy.Expr:
 class JointType:
     """A joint type's answers; the defaults are a one-coordinate vector-space joint's."""
 
+    #: Its entry in the joint specification (``model/joint_kinds.py``): name, sizes, entry
+    #: names, readers' names. The class attributes below are read from it.
+    spec: ClassVar[JointKind]
     #: The name in the robot file (``joints[i].type``).
     name: ClassVar[str] = ""
     #: Entries in ``q`` and in ``v`` (Pinocchio's NQ, NV).
@@ -58,6 +62,14 @@ class JointType:
     quaternion_start: ClassVar[int | None] = None
     #: Whether its child frame moves relative to its joint frame (a fixed joint's does not).
     moves: ClassVar[bool] = True
+
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        """Take the sizes and names from the class's ``spec``, the one place they are written."""
+        super().__init_subclass__(**kwargs)
+        if "spec" in cls.__dict__:
+            spec = cls.spec
+            cls.name, cls.nq, cls.nv = spec.name, spec.nq, spec.nv
+            cls.quaternion_start, cls.moves = spec.quaternion_start, not spec.welded
     #: Whether its motion is a turn about its axis (revolute): its column is angular.
     turns: ClassVar[bool] = False
 

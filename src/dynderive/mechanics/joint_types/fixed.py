@@ -7,14 +7,13 @@ from collections.abc import Sequence
 
 import sympy
 
+from ...model.joint_kinds import JOINT_KINDS
 from ..joints import PlanarMotion
 from .base import ZERO, Column, JointType, Vector2
 
 
 class Fixed(JointType):
-    name = "fixed"
-    nq = nv = 0
-    moves = False
+    spec = JOINT_KINDS["fixed"]
 
     def columns(self, axis: Sequence[object]) -> list[Column]:
         return []

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import sympy
 
+from ...model.joint_kinds import JOINT_KINDS
 from ..program import _dot
 from .base import ZERO3, Column, Let, basis, keep
 from .quaternion import exp3, exp6_translation, inverse, log3, log6_translation, multiply, normalized, rotate
@@ -25,9 +26,7 @@ from .spherical import Spherical
 
 
 class Floating(Spherical):
-    name = "floating"
-    nq, nv = 7, 6
-    quaternion_start = 3
+    spec = JOINT_KINDS["floating"]
 
     def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],
                      axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:

@@ -8,12 +8,13 @@ from collections.abc import Sequence
 
 import sympy
 
+from ...model.joint_kinds import JOINT_KINDS
 from ..joints import PlanarMotion, unit
 from .base import ZERO, ZERO3, Column, JointType, Vector2
 
 
 class Prismatic(JointType):
-    name = "prismatic"
+    spec = JOINT_KINDS["prismatic"]
 
     def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],
                      axis: Sequence[sympy.Expr]) -> sympy.Matrix:

@@ -7,13 +7,14 @@ from collections.abc import Sequence
 
 import sympy
 
+from ...model.joint_kinds import JOINT_KINDS
 from ..joints import PlanarMotion
 from ..spatial import axis_angle
 from .base import ONE, ZERO, ZERO3, Column, JointType, Vector2
 
 
 class Revolute(JointType):
-    name = "revolute"
+    spec = JOINT_KINDS["revolute"]
     turns = True
 
     def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr]) -> sympy.Matrix:

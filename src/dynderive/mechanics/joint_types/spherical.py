@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import sympy
 
+from ...model.joint_kinds import JOINT_KINDS
 from .base import ONE, ZERO, ZERO3, Column, JointType, Let, basis, keep
 from .quaternion import (
     exp3,
@@ -30,9 +31,7 @@ class Spherical(JointType):
     """The ball joint; the free flyer (``free_flyer.py``) extends it, its quaternion at
     ``quaternion_start``."""
 
-    name = "spherical"
-    nq, nv = 4, 3
-    quaternion_start = 0
+    spec = JOINT_KINDS["spherical"]
 
     def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:
         return quaternion_matrix(*q[self.quaternion_start:self.quaternion_start + 4])

@@ -1,0 +1,135 @@
+"""The one specification of the joint types (DESIGN.md sections 3, 10, 12 and 13), SymPy-free:
+what the robot file, the readers, the symbol table and the docs need to know of a joint type
+without its motion. ``mechanics/joint_types/`` extends each entry with how it moves (its
+rotation, displacement, motion columns and configuration maps), one module per type.
+
+Everything else reads this table: the robot file's accepted types (``input/schema.py``), the
+JSON Schema's enum, the URDF and MuJoCo type maps, the names of a joint's entries in ``q``,
+``qd``, ``qdd`` and of its efforts, and the docs' table of joint types. Adding a joint type is
+one entry here and one module in ``mechanics/joint_types/``.
+
+Entry names: a joint with one coordinate names it after itself (``q1``); a joint with several
+names them ``<joint>_<suffix>``. A vector-space joint's velocities and accelerations are its
+coordinates' rates (named as any coordinate's, ``model/naming.py``); a joint whose
+configuration holds a unit quaternion names its velocities (a local twist) and accelerations
+by suffixes of their own, Pinocchio's order.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: A 3-D floating joint's entries, Pinocchio's order (DESIGN.md section 10): position and unit
+#: quaternion; local linear then angular velocity; their rates; the wrench dual to the twist.
+_FREE_CONFIGURATION = ("x", "y", "z", "qx", "qy", "qz", "qw")
+_FREE_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
+_FREE_ACCELERATION = ("dvx", "dvy", "dvz", "dwx", "dwy", "dwz")
+_FREE_EFFORT = ("fx", "fy", "fz", "tx", "ty", "tz")
+
+
+@dataclass(frozen=True)
+class JointKind:
+    """One joint type as data.
+
+    ``coordinates``, ``velocities``, ``accelerations`` and ``efforts`` are the suffixes of the
+    joint's entries (empty: one entry named after the joint, or after its ``effort``);
+    ``velocities``/``accelerations`` None: the coordinates' rates (a vector-space joint).
+    ``quaternion_start``: where its unit quaternion starts among its coordinates (None: none).
+    ``takes_axis``: whether a 3-D joint of this type reads ``axis`` (default z).
+    ``planar``: allowed in a planar robot's file; ``spatial``: in a 3-D robot's.
+    ``closes_loops``: allowed as a loop-closing joint (its rows: the frame's 6 (3 planar) minus nv).
+    ``urdf``: the URDF ``type`` attributes read as this type; ``mjcf``: MuJoCo's ``mjtJoint``
+    values read as this type (``mjJNT_FREE`` 0, ``mjJNT_BALL`` 1, ``mjJNT_SLIDE`` 2, ``mjJNT_HINGE`` 3).
+    """
+
+    name: str
+    #: One line for the docs' table and the JSON Schema.
+    summary: str
+    coordinates: tuple[str, ...] = ()
+    velocities: tuple[str, ...] | None = None
+    accelerations: tuple[str, ...] | None = None
+    efforts: tuple[str, ...] = ()
+    quaternion_start: int | None = None
+    takes_axis: bool = False
+    planar: bool = False
+    spatial: bool = True
+    closes_loops: bool = False
+    urdf: tuple[str, ...] = ()
+    mjcf: tuple[int, ...] = ()
+    #: Whether the joint has no coordinate and no motion (its child welded to its parent).
+    welded: bool = False
+
+    @property
+    def nq(self) -> int:
+        """Entries in ``q`` (Pinocchio's NQ)."""
+        return 0 if self.welded else max(1, len(self.coordinates))
+
+    @property
+    def nv(self) -> int:
+        """Entries in ``qd`` and ``qdd`` (Pinocchio's NV)."""
+        if self.welded:
+            return 0
+        return self.nq if self.velocities is None else len(self.velocities)
+
+    @property
+    def vector_space(self) -> bool:
+        """Whether its configuration is a vector space (no quaternion: NQ = NV, ``q + v dt``)."""
+        return self.quaternion_start is None
+
+    def names(self, joint: str, effort: str | None = None) -> tuple[tuple[str, ...], ...]:
+        """A joint's coordinate names and, for a joint with a quaternion, its velocity and
+        acceleration names (empty for a vector-space joint: those are named from the
+        coordinates), then its efforts' names (``effort``: the file's effort name, or None)."""
+        entries = (tuple(f"{joint}_{s}" for s in self.coordinates) or ((joint,) if self.nq else ()),
+                   tuple(f"{joint}_{s}" for s in self.velocities or ()),
+                   tuple(f"{joint}_{s}" for s in self.accelerations or ()))
+        efforts = () if effort is None else (tuple(f"{effort}_{s}" for s in self.efforts) or (effort,))
+        return (*entries, efforts)
+
+    def loop_rows(self, planar: bool) -> int:
+        """The constraints it imposes as a loop-closing joint: the relative motion it forbids."""
+        return (3 if planar else 6) - self.nv
+
+
+#: Every joint type, in the order the docs and messages list them.
+JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
+    JointKind("revolute", "one angle about its unit axis (3-D: axis, default z; planar: about z)",
+              takes_axis=True, planar=True, closes_loops=True, urdf=("revolute", "continuous"), mjcf=(3,)),
+    JointKind("prismatic", "one displacement along its unit axis (3-D: 3 entries, planar: 2)",
+              takes_axis=True, planar=True, closes_loops=True, urdf=("prismatic",), mjcf=(2,)),
+    JointKind("fixed", "no coordinate: the child is welded to the parent", welded=True, planar=True,
+              urdf=("fixed",)),
+    JointKind("floating", "a free joint: 3-D position and unit quaternion (planar: x, y, theta, "
+              "expanded into three joints); unactuated unless it names an effort",
+              coordinates=_FREE_CONFIGURATION, velocities=_FREE_VELOCITY, accelerations=_FREE_ACCELERATION,
+              efforts=_FREE_EFFORT, quaternion_start=3, planar=True, urdf=("floating",), mjcf=(0,)),
+    JointKind("spherical", "a ball joint (3-D): a unit quaternion, the local angular velocity",
+              coordinates=_FREE_CONFIGURATION[3:], velocities=_FREE_VELOCITY[3:],
+              accelerations=_FREE_ACCELERATION[3:], efforts=_FREE_EFFORT[3:], quaternion_start=0,
+              closes_loops=True, mjcf=(1,)),
+)}
+
+
+def joint_kind(name: str) -> JointKind:
+    """The joint type of that name (``joints[i].type`` in the robot file)."""
+    try:
+        return JOINT_KINDS[name]
+    except KeyError:
+        raise ValueError(f"unknown joint type {name!r} (known: {', '.join(JOINT_KINDS)})") from None
+
+
+def kinds(*, planar: bool | None = None, loops: bool = False) -> tuple[str, ...]:
+    """The types' names a robot file may write: for a planar (True) or 3-D (False) robot, or
+    either (None); as loop-closing joints with ``loops``."""
+    return tuple(k.name for k in JOINT_KINDS.values()
+                 if (planar is None or (k.planar if planar else k.spatial)) and (k.closes_loops or not loops))
+
+
+def urdf_types() -> dict[str, str]:
+    """URDF ``type`` attribute -> joint type."""
+    return {attribute: k.name for k in JOINT_KINDS.values() for attribute in k.urdf}
+
+
+def mjcf_types() -> dict[int, str]:
+    """MuJoCo ``mjtJoint`` value -> joint type."""
+    return {value: k.name for k in JOINT_KINDS.values() for value in k.mjcf}
