@@ -33,6 +33,7 @@ import sympy
 
 from ..derivation import Derivation
 from ..errors import InputError, Problem
+from ..mechanics import joint_types
 from ..model.expressions import ExpressionError, parse_expression
 from ..model.naming import velocity_name
 from ..verify.checks import allowed_velocity, generated_module
@@ -195,11 +196,9 @@ def initial_configuration(robot: Any, q0: np.ndarray | None) -> np.ndarray:
     if q0 is None:
         where_q, _ = robot.offsets()
         q0 = np.zeros(len(robot.configuration_names))
-        for joint in (j for j in robot.joints if j.owns):
-            if joint.multi:   # the identity quaternion
-                q0[where_q[joint.name] + joint.sizes[0] - 1] = 1.0
-            else:
-                q0[where_q[joint.name]] = 0.5 if joint.type == "revolute" else 0.2
+        for joint in (j for j in robot.joints if j.owns):   # its joint type's typical configuration
+            start = where_q[joint.name]
+            q0[start:start + joint.sizes[0]] = joint_types.of(joint).typical()
         return q0
     names = robot.configuration_names
     for start in starts:

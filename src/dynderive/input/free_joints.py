@@ -46,10 +46,11 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
     spherical = [i for i, j in enumerate(joints) if j.type == "spherical"]
     floating = [(i, j) for i, j in enumerate(joints) if j.type == "floating"]
     if planar:
-        for i in spherical:
-            v.report(("joints", i, "type"), "a spherical joint turns in 3-D: a planar robot has none (give "
+        spatial_only = [(i, j) for i, j in enumerate(joints) if not j.kind.planar]
+        for i, joint in spatial_only:
+            v.report(("joints", i, "type"), f"a {joint.type} joint moves in 3-D: a planar robot has none (give "
                      "the robot 3-D origins, inertias and axes)")
-        if floating and not spherical:
+        if floating and not spatial_only:
             _planar_names(v, floating, joints, links or [])
     elif floating or spherical:
         _reserved(v, top, joints, "a floating-base robot" if floating else "a robot with spherical joints")

@@ -33,6 +33,16 @@ def _joint_types() -> str:
     return "; ".join(f"{k.name}: {k.summary}{efforts(k.efforts)}" for k in JOINT_KINDS.values())
 
 
+def _type_keys() -> dict[str, Any]:
+    """The keys only some joint types read (the joint specification's ``JointKind.keys``)."""
+    keys: dict[str, Any] = {}
+    for kind in JOINT_KINDS.values():
+        for key in kind.keys:
+            text = f"{kind.name} joints only: {key.description}"
+            keys[key.name] = _vector([key.size], text) if key.size else {**EXPRESSION, "description": text}
+    return keys
+
+
 def robot_schema() -> dict[str, Any]:
     parameter = {
         "oneOf": [
@@ -90,6 +100,7 @@ def robot_schema() -> dict[str, Any]:
                                                "description": "the leader: a revolute or prismatic joint"},
                                      "multiplier": {"type": "number", "description": "default 1, not 0"},
                                      "offset": {"type": "number", "description": "default 0"}}},
+            **_type_keys(),
         },
     }
     loop = {

@@ -23,6 +23,7 @@ from .contacts import read_contacts
 from .drives import DRIVE_KEYS, drive_terms
 from .frames import read_frames
 from .free_joints import check_floating, expand_planar_floating, planar_floating_names, virtual_links
+from .joint_keys import TYPE_KEYS, read_joint_keys
 from .loader import SourceDocument
 from .mimic import check_mimics, read_mimic
 from .names import check_names, engine_quantities
@@ -35,7 +36,7 @@ TOP_KEYS = ("name", "title", "planar", "parameters", "gravity", "links", "joints
             "frames", "contacts", "maximal")
 PARAMETER_KEYS = ("value", "unit", "description")
 LINK_KEYS = ("name", "mass", "com", "inertia")
-JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS, "mimic")
+JOINT_KEYS = ("name", "type", "parent", "child", "origin", "axis", "effort", *DRIVE_KEYS, "mimic", *TYPE_KEYS)
 MAXIMAL_KEYS = ("constraints",)
 LOOP_KEYS = ("name", "type", "parent", "child", "origin", "child_origin", "axis")
 #: Loop-closing joint types, and how many constraints each imposes, for planar (True) and 3-D robots.
@@ -249,9 +250,10 @@ def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
             effort = None
         drives = drive_terms(v, item, path, jtype, symbols)
         mimic = read_mimic(v, item, path, jtype)
+        geometry = read_joint_keys(v, item, path, jtype, symbols)
         parent, child = item.get("parent"), item.get("child")
         joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
-                            origin, axis, None if mimic else effort, **drives, mimic=mimic))
+                            origin, axis, None if mimic else effort, **drives, mimic=mimic, geometry=geometry))
 
     return joints
 
@@ -284,11 +286,12 @@ def _loops(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, s
                      f"(parent and child are both {ends[0]!r})")
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
         child_origin = _origin(v, item.get("child_origin"), path + ("child_origin",), planar, symbols)
-        takes_axis = ltype in (None, "prismatic") or (ltype == "revolute" and not planar)
+        kind = JOINT_KINDS.get(ltype) if ltype is not None else None
+        takes_axis = kind is None or (kind.planar_axis if planar else kind.takes_axis)
         if "axis" in item and not takes_axis:
             v.report(path + ("axis",), f"a {'planar ' if planar else ''}{ltype} loop joint takes no axis")
         axis = _axis(v, item if takes_axis else {}, path, ltype, planar, symbols)
-        loops.append(LoopJoint(name or f"loop{i + 1}", ltype or "revolute", str(ends[0]), str(ends[1]),
+        loops.append(LoopJoint(name or f"loop{i + 1}", ltype or next(iter(types)), str(ends[0]), str(ends[1]),
                                origin, child_origin, axis))
     return loops
 
@@ -392,12 +395,12 @@ def _axis(v: Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
     if "axis" not in item:
         return default
     apath = path + ("axis",)
-    if planar and jtype in ("revolute", "fixed"):
+    kind = JOINT_KINDS.get(jtype) if isinstance(jtype, str) else None
+    if planar and kind is not None and kind.takes_axis and not kind.planar_axis:
         v.report(apath, f"a planar {jtype} joint takes no axis (planar revolute joints turn about z)")
         return default
-    if jtype in ("fixed", "floating", "spherical"):
-        v.report(apath, f"a {jtype} joint takes no axis"
-                 + (" (it turns about all three)" if jtype == "spherical" else ""))
+    if kind is not None and not kind.takes_axis:
+        v.report(apath, f"a {jtype} joint takes no axis" + (f" ({kind.no_axis})" if kind.no_axis else ""))
         return default
     entries = v.vector(item["axis"], apath, (2,) if planar else (3,), symbols)
     if entries is None:

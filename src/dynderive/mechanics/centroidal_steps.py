@@ -33,7 +33,8 @@ from ..model.symbols import SymbolTable
 from . import joint_types
 from .joint_types.quaternion import quaternion_matrix
 from .quasi_velocity import QuasiVelocitySheet, _Ring
-from .spatial import inertia_tensor, rpy_matrix
+from .rotations import rpy_matrix
+from .spatial import inertia_tensor
 from .tidy import fold_constants, tidy
 
 #: Centroidal quantity names (``naming.CENTROIDAL_QUANTITIES``), by what they are.

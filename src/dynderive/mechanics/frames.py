@@ -27,10 +27,12 @@ import sympy
 from ..model.naming import frame_quantity_names
 from ..model.robot import Frame, Robot
 from ..model.symbols import SymbolTable
+from . import joint_types
 from .joints import couplings, unit
 from .program import Program, Vector, _add, _cross, _rotate
 from .recursive import _carry, _forward
-from .spatial import Transform, axis_angle, rpy_matrix
+from .rotations import rpy_matrix
+from .spatial import Transform
 from .tidy import tidy
 from .tree import Tree
 
@@ -84,14 +86,13 @@ def _planar_pose(robot: Robot, table: SymbolTable,
         ox, oy, otheta = (table.expr(e) for e in joint.origin)
         x, y = shift(ox, oy)
         angle = angle + otheta
-        if joint.type == "revolute":
+        if joint.moves:   # the joint type's motion in the plane: a shift in the joint frame, then a turn
             coordinate = index[joint.name]
-            angle = angle + table.q[coordinate]
-            angular[0, coordinate] = 1
-        elif joint.type == "prismatic":
-            ax, ay = unit(tuple(table.expr(e) for e in joint.axis))
-            qk = table.q[index[joint.name]]
-            x, y = shift(ax * qk, ay * qk)
+            motion = joint_types.of(joint).planar(table.q[coordinate], tuple(table.expr(e) for e in joint.axis))
+            x, y = shift(*motion.shift)
+            angle = angle + motion.angle
+            if motion.twist[2] != 0:
+                angular[0, coordinate] = motion.twist[2]
     fx, fy, ftheta = (table.expr(e) for e in frame.origin)
     x, y = shift(fx, fy)
     return sympy.Matrix([[angle + ftheta]]), sympy.Matrix([x, y]), angular
@@ -110,13 +111,15 @@ def _spatial_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy
             continue
         axis = unit(tuple(table.expr(e) for e in joint.axis))
         c = coupling[joint.name]   # a <mimic> joint: multiplier * q_leader + offset
-        if joint.type == "revolute":
-            column = (pose.R * sympy.Matrix(axis) * c.multiplier).applyfunc(tidy)
+        kind, geometry = joint_types.of(joint), joint_types.geometry_of(joint, table.expr)
+        (w, _), = kind.columns(axis, geometry)
+        if any(e != 0 for e in w):   # a scalar joint's angular column: its axis, which its own turn keeps
+            column = (pose.R * sympy.Matrix(w) * c.multiplier).applyfunc(tidy)
             present = angular[:, c.coordinate]
             angular[:, c.coordinate] = column if present.is_zero_matrix else (present + column).applyfunc(tidy)
-            pose = pose * Transform(axis_angle(axis, c.variable), sympy.zeros(3, 1))  # type: ignore[arg-type]
-        else:
-            pose = pose * Transform(sympy.eye(3), sympy.Matrix(axis) * c.variable)
+        shift = kind.displacement(sympy.eye(3), [c.variable], axis, geometry)
+        pose = pose * Transform(kind.rotation([c.variable], axis, geometry),
+                                sympy.zeros(3, 1) if shift is None else shift)
     x, y, z, roll, pitch, yaw = (table.expr(e) for e in frame.origin)
     pose = pose * Transform(rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z]))
     return pose.R, pose.p, angular

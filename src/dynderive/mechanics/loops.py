@@ -44,7 +44,7 @@ from .exact_fast import factor_terms, jacobian, matmul
 from .joints import unit
 from .lagrange import constraint_jacobian_dot
 from .planar import rotated
-from .spatial import rpy_matrix
+from .rotations import rpy_matrix
 from .tidy import count_ops, fewest_operations, fold_constants, is_small, quick_tidy, tidy, trig_linear
 
 #: Singular values of A_g below this fraction of the largest are zero (the rank on the manifold,

@@ -40,7 +40,8 @@ from .joint_types.quaternion import quaternion_matrix
 from .joints import unit
 from .polynomial import expand
 from .program import _cross
-from .spatial import axis_angle, inertia_tensor, rpy_matrix
+from .rotations import axis_angle, rpy_matrix
+from .spatial import inertia_tensor
 from .tidy import fold_constants
 from .tree import efforts, offsets
 

@@ -14,11 +14,9 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
+from . import joint_types
 from .joints import couplings, unit
-from .tidy import is_small, quick_tidy
-
-#: Pieces larger than this (operations) are composed without tidying.
-PIECE_LIMIT = 250  # tree nodes
+from .rotations import _tidy, rpy_matrix
 
 
 @dataclass(frozen=True)
@@ -44,34 +42,6 @@ def inertia_tensor(entries: tuple[sympy.Expr, ...]) -> sympy.Matrix:
     """``(ixx, iyy, izz, ixy, ixz, iyz)`` as a symmetric 3 x 3 matrix."""
     ixx, iyy, izz, ixy, ixz, iyz = entries
     return sympy.Matrix([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-
-
-def _tidy(matrix: sympy.Matrix) -> sympy.Matrix:
-    return matrix.applyfunc(lambda e: quick_tidy(e) if is_small(e, PIECE_LIMIT) else e)
-
-
-def rpy_matrix(roll: sympy.Expr, pitch: sympy.Expr, yaw: sympy.Expr) -> sympy.Matrix:
-    """URDF fixed-axis roll-pitch-yaw: ``R = Rz(yaw) Ry(pitch) Rx(roll)``."""
-    return _tidy(_rot("z", yaw) * _rot("y", pitch) * _rot("x", roll))
-
-
-def _rot(axis: str, angle: sympy.Expr) -> sympy.Matrix:
-    c, s = sympy.cos(angle), sympy.sin(angle)
-    if axis == "x":
-        return sympy.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
-    if axis == "y":
-        return sympy.Matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-    return sympy.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def axis_angle(axis: tuple[sympy.Expr, sympy.Expr, sympy.Expr], angle: sympy.Expr) -> sympy.Matrix:
-    """Rotation by ``angle`` about the unit ``axis`` (Rodrigues); ``[0, 0, -1]`` is Rz(-q)."""
-    for index, name in enumerate("xyz"):
-        others = [axis[i] for i in range(3) if i != index]
-        if all(o == 0 for o in others) and axis[index] in (1, -1):
-            return _rot(name, axis[index] * angle)
-    K = sympy.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return _tidy(sympy.eye(3) + sympy.sin(angle) * K + (1 - sympy.cos(angle)) * K * K)
 
 
 @dataclass
@@ -100,14 +70,12 @@ def spatial_kinematics(robot: Robot, table: SymbolTable) -> list[SpatialLinkKine
                 continue
             axis = unit(tuple(table.expr(e) for e in joint.axis))
             c = coupling[joint.name]   # a <mimic> joint: multiplier * q_leader + offset
-            q, twist = c.variable, sympy.Matrix(axis) * c.multiplier
-            zero = sympy.zeros(3, 1)
-            if joint.type == "revolute":
-                local.append(Transform(axis_angle(axis, q), zero))  # type: ignore[arg-type]
-                twists.append((c.coordinate, len(local), zero, twist))
-            else:
-                local.append(Transform(sympy.eye(3), sympy.Matrix(axis) * q))
-                twists.append((c.coordinate, len(local), twist, zero))
+            kind, geometry = joint_types.of(joint), joint_types.geometry_of(joint, table.expr)
+            shift = kind.displacement(sympy.eye(3), [c.variable], axis, geometry)
+            local.append(Transform(kind.rotation([c.variable], axis, geometry),
+                                   sympy.zeros(3, 1) if shift is None else shift))
+            (w, v), = kind.columns(tuple(a * c.multiplier for a in axis), geometry)
+            twists.append((c.coordinate, len(local), sympy.Matrix(v), sympy.Matrix(w)))
         local.append(Transform(sympy.eye(3), sympy.Matrix([table.expr(e) for e in link.com])))
         # suffix[i] = local[i] * ... * local[-1]: the COM seen from the frame before local[i]
         suffix = [Transform.identity()] * (len(local) + 1)

@@ -32,7 +32,8 @@ from . import joint_types
 from .drives import JointDrive, joint_drives
 from .joints import unit
 from .program import Matrix3, Meaning, Program, Vector, _add, _cross, _rotate, _rotate_back
-from .spatial import inertia_tensor, rpy_matrix
+from .rotations import rpy_matrix
+from .spatial import inertia_tensor
 
 ZERO = sympy.Integer(0)
 Column = tuple[int, Vector, Vector]
@@ -165,13 +166,14 @@ class Tree:
         motion, kind = sympy.eye(3), joint_types.of(joint)
         columns: list[Column] = []
         trig = None
+        geometry = joint_types.geometry_of(joint, expr)
         if joint.multi:   # floating, spherical: entries of their own (<mimic> couples scalar joints only)
             qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
             q = self.table.q[qi:qi + kind.nq]
-            shift = kind.displacement(origin, q, ())
+            shift = kind.displacement(origin, q, (), geometry)
             position = position if shift is None else [p + d for p, d in zip(position, shift)]
-            motion = kind.rotation(q, ())
-            columns = [(vi + k, w, v) for k, (w, v) in enumerate(kind.columns(()))]
+            motion = kind.rotation(q, (), geometry)
+            columns = [(vi + k, w, v) for k, (w, v) in enumerate(kind.columns((), geometry))]
         elif joint.moves:   # variable multiplier * q_leader + offset (1 and 0 for a leader), column the leader's
             leader, multiplier, offset = self.robot.driver(joint)
             coordinate = self.offsets.v[leader]
@@ -188,12 +190,12 @@ class Tree:
                 # by -q about the opposite axis if SymPy would pull the sign out of sin(q)
                 turn, about = (-q, tuple(-a for a in axis)) if q.could_extract_minus_sign() else (q, axis)
                 angle = sympy.Dummy("angle")
-                motion = kind.rotation([angle], about).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})
+                motion = kind.rotation([angle], about, geometry).subs({sympy.cos(angle): cos, sympy.sin(angle): sin})
                 trig = (cos, sin, turn)
-            else:   # (origin axis) q
-                position = [p + d for p, d in zip(position, kind.displacement(origin, [q], axis))]
+            shift = kind.displacement(origin, [q], axis, geometry)   # a prismatic joint's (origin axis) q
+            position = position if shift is None else [p + d for p, d in zip(position, shift)]
             scaled = tuple(m * a for a in axis) if m != 1 else axis   # motion per unit rate of the leader
-            columns = [(coordinate, *kind.columns(scaled)[0])]
+            columns = [(coordinate, *kind.columns(scaled, geometry)[0])]
         rotation = origin * motion
         name = link.name
         R = tuple(tuple(let(rotation[i, j], Meaning("R", name, (i, j))) for j in range(3)) for i in range(3))

@@ -28,6 +28,16 @@ _FREE_EFFORT = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 
 @dataclass(frozen=True)
+class JointKey:
+    """A key of the robot file's joint entry that only some types read (a helical joint's
+    ``pitch``): its name, what it holds, and its size (0: one expression; n: a list of n)."""
+
+    name: str
+    description: str
+    size: int = 0
+
+
+@dataclass(frozen=True)
 class JointKind:
     """One joint type as data.
 
@@ -35,7 +45,7 @@ class JointKind:
     joint's entries (empty: one entry named after the joint, or after its ``effort``);
     ``velocities``/``accelerations`` None: the coordinates' rates (a vector-space joint).
     ``quaternion_start``: where its unit quaternion starts among its coordinates (None: none).
-    ``takes_axis``: whether a 3-D joint of this type reads ``axis`` (default z).
+    ``takes_axis``: whether a 3-D joint of this type reads ``axis`` (default z; a loop joint's too).
     ``planar``: allowed in a planar robot's file; ``spatial``: in a 3-D robot's.
     ``closes_loops``: allowed as a loop-closing joint (its rows: the frame's 6 (3 planar) minus nv).
     ``urdf``: the URDF ``type`` attributes read as this type; ``mjcf``: MuJoCo's ``mjtJoint``
@@ -51,6 +61,10 @@ class JointKind:
     efforts: tuple[str, ...] = ()
     quaternion_start: int | None = None
     takes_axis: bool = False
+    #: Whether a planar robot's joint of this type reads ``axis`` (2 entries; a planar revolute
+    #: joint turns about z), and why a joint that takes none takes none (for the error).
+    planar_axis: bool = False
+    no_axis: str = ""
     planar: bool = False
     spatial: bool = True
     closes_loops: bool = False
@@ -58,6 +72,8 @@ class JointKind:
     mjcf: tuple[int, ...] = ()
     #: Whether the joint has no coordinate and no motion (its child welded to its parent).
     welded: bool = False
+    #: The keys of its own the joint entry must give (beyond name, type, origin, axis, ...).
+    keys: tuple[JointKey, ...] = ()
 
     @property
     def nq(self) -> int:
@@ -96,7 +112,7 @@ JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
     JointKind("revolute", "one angle about its unit axis (3-D: axis, default z; planar: about z)",
               takes_axis=True, planar=True, closes_loops=True, urdf=("revolute", "continuous"), mjcf=(3,)),
     JointKind("prismatic", "one displacement along its unit axis (3-D: 3 entries, planar: 2)",
-              takes_axis=True, planar=True, closes_loops=True, urdf=("prismatic",), mjcf=(2,)),
+              takes_axis=True, planar_axis=True, planar=True, closes_loops=True, urdf=("prismatic",), mjcf=(2,)),
     JointKind("fixed", "no coordinate: the child is welded to the parent", welded=True, planar=True,
               urdf=("fixed",)),
     JointKind("floating", "a free joint: 3-D position and unit quaternion (planar: x, y, theta, "
@@ -106,8 +122,13 @@ JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
     JointKind("spherical", "a ball joint (3-D): a unit quaternion, the local angular velocity",
               coordinates=_FREE_CONFIGURATION[3:], velocities=_FREE_VELOCITY[3:],
               accelerations=_FREE_ACCELERATION[3:], efforts=_FREE_EFFORT[3:], quaternion_start=0,
-              closes_loops=True, mjcf=(1,)),
+              closes_loops=True, mjcf=(1,), no_axis="it turns about all three"),
 )}
+
+
+def joint_keys() -> dict[str, JointKey]:
+    """Every type's own keys, by name (the schema accepts them on a joint of that type)."""
+    return {key.name: key for k in JOINT_KINDS.values() for key in k.keys}
 
 
 def joint_kind(name: str) -> JointKind:

@@ -94,6 +94,8 @@ class Joint:
     armature: Expression | None = None
     #: The joint this one follows (None: it has a coordinate of its own, or is fixed).
     mimic: Mimic | None = None
+    #: The values of its type's own keys (``JointKind.keys``: a helical joint's ``pitch``), by key.
+    geometry: tuple[tuple[str, Expression | tuple[Expression, ...]], ...] = ()
 
     @property
     def moves(self) -> bool:

@@ -13,8 +13,7 @@ import numpy as np
 import sympy
 
 from ..derivation import Derivation
-from ..input.mjcf_tree import quaternion_matrix
-from ..input.urdf_values import axis_rotation
+from ..mechanics import joint_types
 from ..render.sheets.figure_3d import rpy
 from .rows import Row, _row, peak
 
@@ -22,6 +21,22 @@ from .rows import Row, _row, peak
 MOMENTA = "centroidal: A_G qd, center_of_mass, total_mass = sum over the links (own kinematics)"
 DIFFERENCES = "centroidal: J_G, J qd, Jdot qd, Adot_G qd = central differences along {along}"
 PINOCCHIO = "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, dhg)"
+
+
+def _motion(joint: Any, num: Callable[[object], float]) -> Callable[..., tuple[Any, Any, Any]]:
+    """A moving joint's motion as NumPy: its entries of q (one variable for a ``<mimic>``
+    joint) -> its rotation and displacement in its joint frame and its motion columns
+    (angular over linear, 6 x nv, in its child frame), from its joint type at the numbers."""
+    kind = joint_types.of(joint)
+    axis = np.array([num(e) for e in joint.axis]) if kind.spec.takes_axis else np.zeros(3)
+    axis = tuple(sympy.Float(a) for a in axis / (np.linalg.norm(axis) or 1.0))
+    geometry = joint_types.geometry_of(joint, lambda e: sympy.Float(num(e)))
+    entries = sympy.symbols(f"x0:{kind.nq if joint.mimic is None else 1}")
+    shift = kind.displacement(sympy.eye(3), entries, axis, geometry)
+    columns = kind.columns(axis, geometry)
+    S = sympy.Matrix([[*w, *v] for w, v in columns]).T if columns else sympy.zeros(6, 0)
+    return sympy.lambdify(entries, (kind.rotation(entries, axis, geometry),
+                                    sympy.zeros(3, 1) if shift is None else shift, S), "numpy")
 
 
 class LinkModel:
@@ -39,13 +54,12 @@ class LinkModel:
         self.robot = robot
         self.offsets = robot.offsets()
         self.placements = {}
-        self.axes = {}
+        self.motions: dict[str, Callable[..., tuple[Any, Any, Any]]] = {}
         for joint in robot.joints:
             x, y, z, roll, pitch, yaw = (num(e) for e in joint.origin)
             self.placements[joint.name] = (rpy(roll, pitch, yaw), np.array([x, y, z]))
-            if joint.type in ("revolute", "prismatic"):
-                axis = np.array([num(e) for e in joint.axis])
-                self.axes[joint.name] = axis / np.linalg.norm(axis)
+            if joint.moves:
+                self.motions[joint.name] = _motion(joint, num)
         self.moving = [link for link in robot.links if any(j.moves for j in robot.path_to(link.name))]
         self.inertial = {}
         for link in self.moving:
@@ -69,26 +83,19 @@ class LinkModel:
             R_o, p_o = self.placements[joint.name]
             R, p = R_p @ R_o, p_p + R_p @ p_o
             w, velocity = w_p, v_p + np.cross(w_p, p - p_p)
-            if joint.type in ("revolute", "prismatic"):
-                leader, multiplier, offset = robot.driver(joint)
-                value = multiplier * q[where_q[leader]] + offset
-                rate = multiplier * v[where_v[leader]]
-                axis = R @ self.axes[joint.name]
-                if joint.type == "revolute":
-                    R, w = R @ axis_rotation(self.axes[joint.name], value), w + axis * rate
+            if joint.moves:   # a <mimic> joint's variable multiplier * q_leader + offset, its rate the leader's times it
+                if joint.mimic is None:
+                    qi, vi, nq, nv = where_q[joint.name], where_v[joint.name], *joint.sizes
+                    values, rates = q[qi:qi + nq], v[vi:vi + nv]
                 else:
-                    shift = axis * value
-                    p, velocity = p + shift, velocity + np.cross(w, shift) + axis * rate
-            elif joint.type in ("floating", "spherical"):
-                qi, vi = where_q[joint.name], where_v[joint.name]
-                start = 3 if joint.type == "floating" else 0
-                if start:
-                    shift = R @ q[qi:qi + 3]
-                    p, velocity = p + shift, velocity + np.cross(w, shift)
-                R = R @ quaternion_matrix(np.roll(q[qi + start:qi + start + 4], 1))   # x, y, z, w: w first
-                if start:
-                    velocity = velocity + R @ v[vi:vi + 3]
-                w = w + R @ v[vi + start:vi + start + 3]
+                    leader, multiplier, offset = robot.driver(joint)
+                    values, rates = [multiplier * q[where_q[leader]] + offset], multiplier * v[where_v[leader]:where_v[leader] + 1]
+                R_joint, shift, S = (np.asarray(a, dtype=float) for a in self.motions[joint.name](*values))
+                shift = R @ shift.reshape(3)
+                p, velocity = p + shift, velocity + np.cross(w, shift)
+                R = R @ R_joint
+                twist = S.reshape(6, -1) @ rates
+                w, velocity = w + R @ twist[:3], velocity + R @ twist[3:]
             states[link] = (R, p, w, velocity)
             return states[link]
 

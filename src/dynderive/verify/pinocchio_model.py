@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import sympy
 
+from ..mechanics import joint_types
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 
@@ -71,13 +72,17 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
         return pin.Inertia(num(link.mass), np.array(com), tensor)
 
     def kind(joint: Any) -> Any:
-        if joint.multi:
-            return pin.JointModelFreeFlyer() if joint.type == "floating" else pin.JointModelSpherical()
-        axis = np.array([num(e) for e in joint.axis] + ([0.0] if robot.planar else []))
-        axis = axis / np.linalg.norm(axis)
-        if joint.type == "revolute":
-            return pin.JointModelRZ() if robot.planar else pin.JointModelRevoluteUnaligned(axis)
-        return pin.JointModelPrismaticUnaligned(axis)
+        """The joint type's Pinocchio model at the joint's unit axis (a planar robot's: its
+        twist's, about z or along the plane) and its own keys' numbers."""
+        joint_type = joint_types.of(joint)
+        axis = np.zeros(3)
+        if joint_type.spec.takes_axis and robot.planar:
+            vx, vy, w = (float(e) for e in joint_type.planar(sympy.Integer(0), tuple(num(e) for e in joint.axis)).twist)
+            axis = np.array([0.0, 0.0, w] if w else [vx, vy, 0.0])
+        elif joint_type.spec.takes_axis:
+            axis = np.array([num(e) for e in joint.axis])
+        axis = axis / (np.linalg.norm(axis) or 1.0)
+        return joint_type.pinocchio(pin, axis, {key: num(value) for key, value in joint.geometry})
 
     def visit(parent: str) -> None:
         for joint in _leaders_first(robot, [j for j in robot.joints if j.parent == parent]):

@@ -20,21 +20,40 @@ the multiplier), and a planar robot's ``floating`` joint is three scalar joints 
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import sympy
 
+from ...model.joint_kinds import JOINT_KINDS
 from ...model.robot import Joint, Robot
 from ..program import Program
-from .base import JointType
-from .fixed import Fixed
-from .free_flyer import Floating
-from .prismatic import Prismatic
-from .revolute import Revolute
-from .spherical import Spherical
+from .base import Geometry, JointType
+
+
+def _discover() -> dict[str, JointType]:
+    """Every joint type: each module of this package defines one class with a ``spec`` (its
+    entry of ``model/joint_kinds.JOINT_KINDS``), found here, so adding a type adds a module and
+    its specification's entry, no line here. In the specification's order."""
+    for module in pkgutil.iter_modules(__path__):
+        importlib.import_module(f"{__name__}.{module.name}")
+    found: dict[str, JointType] = {}
+    classes: list[type[JointType]] = [JointType]
+    while classes:
+        cls = classes.pop()
+        classes.extend(cls.__subclasses__())
+        if "spec" in cls.__dict__:
+            found[cls.spec.name] = cls()
+    missing = [name for name in JOINT_KINDS if name not in found]
+    if missing:
+        raise RuntimeError(f"joint types without a module in mechanics/joint_types/: {', '.join(missing)}")
+    return {name: found[name] for name in JOINT_KINDS}
+
 
 #: Every joint type, by the name the robot file gives it.
-JOINT_TYPES: dict[str, JointType] = {t.name: t for t in (Revolute(), Prismatic(), Fixed(), Floating(), Spherical())}
+JOINT_TYPES: dict[str, JointType] = _discover()
 
 
 def joint_type(name: str) -> JointType:
@@ -48,6 +67,14 @@ def joint_type(name: str) -> JointType:
 def of(joint: Joint) -> JointType:
     """A joint's type."""
     return joint_type(joint.type)
+
+
+def geometry_of(joint: Joint, expr: Callable[[object], sympy.Expr]) -> Geometry:
+    """The values of the joint's type-specific keys (``Joint.geometry``) as expressions
+    (``expr``: the symbol table's parser), by key: what ``rotation``, ``displacement`` and
+    ``columns`` read besides the axis."""
+    return {key: tuple(expr(e) for e in value) if isinstance(value, tuple) else expr(value)
+            for key, value in joint.geometry}
 
 
 @dataclass
@@ -88,4 +115,5 @@ def configuration_programs(robot: Robot, table: object) -> dict[str, Configurati
     return programs
 
 
-__all__ = ["JOINT_TYPES", "ConfigurationProgram", "JointType", "configuration_programs", "joint_type", "of"]
+__all__ = ["JOINT_TYPES", "ConfigurationProgram", "Geometry", "JointType", "configuration_programs", "geometry_of",
+           "joint_type", "of"]

@@ -18,8 +18,9 @@ override them (``quaternion.py``: SO(3) and SE(3) as Pinocchio's).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import ClassVar
+from collections.abc import Callable, Mapping, Sequence
+from types import MappingProxyType
+from typing import Any, ClassVar
 
 import sympy
 
@@ -32,6 +33,11 @@ Vector2 = tuple[sympy.Expr, sympy.Expr]
 Column = tuple[Vector, Vector]
 #: ``Program.let``: names an expression (or returns it, if cheap), for the program's lines.
 Let = Callable[[sympy.Expr], sympy.Expr]
+
+#: The values of a joint's type-specific keys (``JointKind.keys``, e.g. ``pitch``) as SymPy
+#: expressions (a key of n entries: a tuple), by key.
+Geometry = Mapping[str, Any]
+NO_GEOMETRY: Geometry = MappingProxyType({})
 
 ZERO, ONE = sympy.Integer(0), sympy.Integer(1)
 ZERO3: Vector = (ZERO, ZERO, ZERO)
@@ -74,19 +80,20 @@ class JointType:
     turns: ClassVar[bool] = False
 
     # --- how it moves its child frame -------------------------------------------------
-    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr]) -> sympy.Matrix:
+    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                 geometry: Geometry = NO_GEOMETRY) -> sympy.Matrix:
         """The child frame's axes in the joint frame at configuration ``q`` (its entries, or
         for a scalar joint the one variable, ``[multiplier * q_leader + offset]`` if it
         follows another). ``axis``: the unit axis, for the types that have one."""
         return sympy.eye(3)
 
-    def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],
-                     axis: Sequence[sympy.Expr]) -> sympy.Matrix | None:
+    def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                     geometry: Geometry = NO_GEOMETRY) -> sympy.Matrix | None:
         """The child frame's origin relative to the joint frame's, in the parent's axes
         (``origin``: the joint frame's rotation in the parent), or None for none."""
         return None
 
-    def columns(self, axis: Sequence[sympy.Expr]) -> list[Column]:
+    def columns(self, axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The motion subspace ``S``: per velocity entry, the child frame's ``(angular,
         linear)`` velocity per unit rate, in the child frame (Pinocchio's ``S``, local)."""
         raise NotImplementedError
@@ -96,6 +103,12 @@ class JointType:
         reads it); ``axis``: the joint's axis in the plane."""
         raise NotImplementedError(f"a {self.name} joint is not a planar robot's joint")
 
+    def pinocchio(self, pin: Any, axis: Any, geometry: Mapping[str, float]) -> Any:
+        """Pinocchio's joint model of this type (``pin``: the ``pinocchio`` module; ``axis``
+        the unit axis as 3 floats, ``geometry`` the type's own keys as floats), for ``check``'s
+        reference model (``verify/pinocchio_model.py``)."""
+        raise NotImplementedError(f"a {self.name} joint has no Pinocchio joint model here")
+
     # --- configuration space -------------------------------------------------------------
     def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
         """Per velocity entry ``k``, the tangent of the configuration along it, ``d/dh
@@ -103,6 +116,11 @@ class JointType:
         ``linearization.py`` and ``frames.py`` start from it): ``q_k = 1`` for a vector-space joint. It
         is the rate's derivative by ``v_k`` (``tests/test_joint_types.py``)."""
         return [{q[k]: ONE} for k in range(self.nv)]
+
+    def typical(self) -> list[float]:
+        """A configuration away from the neutral one, where ``simulate`` starts by default:
+        half a radian for a joint that turns, 0.2 for one that slides."""
+        return [0.5 if self.turns else 0.2] * self.nq
 
     def neutral(self) -> list[sympy.Expr]:
         """Pinocchio's ``neutral``: zeros (identity quaternions)."""

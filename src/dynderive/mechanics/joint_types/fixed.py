@@ -9,13 +9,13 @@ import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
 from ..joints import PlanarMotion
-from .base import ZERO, Column, JointType, Vector2
+from .base import NO_GEOMETRY, ZERO, Column, Geometry, JointType, Vector2
 
 
 class Fixed(JointType):
     spec = JOINT_KINDS["fixed"]
 
-    def columns(self, axis: Sequence[object]) -> list[Column]:
+    def columns(self, axis: Sequence[object], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         return []
 
     def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:

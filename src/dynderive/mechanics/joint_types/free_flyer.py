@@ -14,13 +14,14 @@ into a prismatic, a prismatic and a revolute joint (``input/free_joints.py``,
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
 from ..program import _dot
-from .base import ZERO3, Column, Let, basis, keep
+from .base import NO_GEOMETRY, ZERO3, Column, Geometry, Let, basis, keep
 from .quaternion import exp3, exp6_translation, inverse, log3, log6_translation, multiply, normalized, rotate
 from .spherical import Spherical
 
@@ -28,12 +29,12 @@ from .spherical import Spherical
 class Floating(Spherical):
     spec = JOINT_KINDS["floating"]
 
-    def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr],
-                     axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:
+    def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = (),
+                     geometry: Geometry = NO_GEOMETRY) -> sympy.Matrix:
         """``origin (x, y, z)``."""
         return origin * sympy.Matrix(q[:3])
 
-    def columns(self, axis: Sequence[sympy.Expr] = ()) -> list[Column]:
+    def columns(self, axis: Sequence[sympy.Expr] = (), geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The 6 x 6 identity: three linear unit columns, then three angular ones."""
         return [(ZERO3, basis(k)) for k in range(3)] + [(basis(k), ZERO3) for k in range(3)]
 
@@ -61,3 +62,6 @@ class Floating(Spherical):
 
     def rate(self, let: Let, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> list[sympy.Expr]:
         return [*rotate(let, q[3:7], v[:3]), *super().rate(let, q[3:7], v[3:])]
+
+    def pinocchio(self, pin: Any, axis: Any, geometry: Mapping[str, float]) -> Any:
+        return pin.JointModelFreeFlyer()

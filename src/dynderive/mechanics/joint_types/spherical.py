@@ -9,12 +9,13 @@ hemisphere, as Pinocchio's SO(3)); ``difference`` the logarithm of ``q0^-1 q1``;
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
-from .base import ONE, ZERO, ZERO3, Column, JointType, Let, basis, keep
+from .base import NO_GEOMETRY, ONE, ZERO, ZERO3, Column, Geometry, JointType, Let, basis, keep
 from .quaternion import (
     exp3,
     inverse,
@@ -33,15 +34,20 @@ class Spherical(JointType):
 
     spec = JOINT_KINDS["spherical"]
 
-    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = ()) -> sympy.Matrix:
+    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = (),
+                 geometry: Geometry = NO_GEOMETRY) -> sympy.Matrix:
         return quaternion_matrix(*q[self.quaternion_start:self.quaternion_start + 4])
 
-    def columns(self, axis: Sequence[sympy.Expr] = ()) -> list[Column]:
+    def columns(self, axis: Sequence[sympy.Expr] = (), geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The three angular unit columns."""
         return [(basis(k), ZERO3) for k in range(3)]
 
     def tangent_seed(self, q: Sequence[sympy.Symbol], let: Let = keep) -> list[dict[sympy.Symbol, sympy.Expr]]:
         return quaternion_seeds(let, q)
+
+    def typical(self) -> list[float]:
+        """The neutral configuration (the identity quaternion)."""
+        return [float(e) for e in self.neutral()]
 
     def neutral(self) -> list[sympy.Expr]:
         return [ZERO] * (self.nq - 1) + [ONE]
@@ -57,3 +63,6 @@ class Spherical(JointType):
 
     def rate(self, let: Let, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr]) -> list[sympy.Expr]:
         return quaternion_rate(let, q, v)
+
+    def pinocchio(self, pin: Any, axis: Any, geometry: Mapping[str, float]) -> Any:
+        return pin.JointModelSpherical()
