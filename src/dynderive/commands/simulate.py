@@ -237,7 +237,7 @@ def loop_start(values: list[float] | None, text: str | None, derivation: Derivat
     from them); without ``--q0``, ``default``."""
     if values is None or len(values) == len(default):
         return default if values is None else np.array(values)
-    loops = derivation.steps["loops"]
+    loops = derivation.loop_model
     names = [derivation.robot.coordinates[i] for i in loops.independent]
     if len(values) != len(names):
         raise InputError(problem("--q0", f"expected {len(default)} numbers (every coordinate: "
@@ -487,7 +487,7 @@ def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray],
             poses.append((origin, phi))
         state = table.qm
     else:
-        poses = [(kin.joint_origin, kin.angle) for kin in derivation.steps["kinematics"]]
+        poses = [(kin.joint_origin, kin.angle) for kin in derivation.link_kinematics]
         state = table.q
     flat = sympy.Matrix([e for origin, angle in poses for e in (*origin, angle)]).xreplace(values)
     function = sympy.lambdify([state], flat, modules="numpy")

@@ -176,12 +176,13 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
                  qds: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[Row]]:
     """Random configurations assembled by the generated ``assemble`` (independent coordinates
     near the default assembly), and velocities projected onto the null space of A_g."""
-    model = derivation.steps["loops"]
-    floating = derivation.robot.floating   # quaternions in q: assemble moves every coordinate, from q itself
-    start = None if floating else np.array(model.assembled if model.assembled is not None else np.zeros(qs.shape[1]))
+    # quaternions in q: assemble moves every coordinate, from q itself
+    model = None if derivation.robot.floating else derivation.loop_model
+    start = None if model is None else np.array(model.assembled if model.assembled is not None
+                                                else np.zeros(qs.shape[1]))
     states, rates = [], []
     for q, qd in zip(qs, qds):
-        if start is None:
+        if model is None or start is None:
             guess = q
         else:
             guess = start.copy()

@@ -70,8 +70,8 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
         return None
     values: dict[sympy.Symbol, float] = {table.parameters[p.name]: (p.value if p.value is not None else 1.0)
                                          for p in robot.parameters}
-    links = derivation.steps["kinematics"]
-    loops = derivation.steps["loops"] if robot.loops else None
+    links = derivation.link_kinematics
+    loops = derivation.loop_model if robot.loops else None
     q = _configuration(robot, table, links, values, loops)
     at = {s: sympy.Float(v) for s, v in (values | dict(zip(table.q, q))).items()}
 

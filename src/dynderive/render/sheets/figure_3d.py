@@ -108,7 +108,7 @@ def reference_configuration(derivation: Any) -> list[float]:
     """The drawn configuration: the default assembly for closed loops, else zero."""
     robot = derivation.robot
     if robot.loops:
-        assembled = derivation.steps["loops"].assembled
+        assembled = derivation.loop_model.assembled
         if assembled:
             return [float(v) for v in assembled]
     return [0.0] * len(robot.coordinates)
