@@ -313,11 +313,11 @@ class Derivation:
 
     # -- the stages' results, typed ---------------------------------------------------------
     @property
-    def link_kinematics(self) -> list[PlanarLinkKinematics] | list[SpatialLinkKinematics]:
+    def link_kinematics(self) -> list[PlanarLinkKinematics | SpatialLinkKinematics]:
         """The links' symbolic kinematics in the file's link order (``planar.PlanarLinkKinematics``
         or ``spatial.SpatialLinkKinematics``: poses, twists, body Jacobians), derived on first use;
         not for a robot with quaternions in q."""
-        return cast("list[PlanarLinkKinematics] | list[SpatialLinkKinematics]", self.steps["kinematics"])
+        return cast("list[PlanarLinkKinematics | SpatialLinkKinematics]", self.steps["kinematics"])
 
     @property
     def loop_model(self) -> LoopModel:

@@ -20,6 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ..derivation import Derivation
+
 
 @dataclass(frozen=True)
 class Function:
@@ -145,7 +147,7 @@ def group(name: str) -> tuple[str, ...]:
     return tuple(function.name for function in API if function.group == name)
 
 
-def sizes(derivation: Any) -> dict[str, int]:
+def sizes(derivation: Derivation) -> dict[str, int]:
     """The size letters of ``derivation``'s robot."""
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     nv = len(table.qd)

@@ -5,7 +5,7 @@ by ``sheet.tex.j2``; a robot with quaternion joints gets its quasi-velocity sect
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import sympy
 
@@ -164,13 +164,15 @@ class RecursionFormatter(Formatter):
 def lagrange_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
     """Lagrange's equations coordinate by coordinate (where derived: small robots)."""
     steps, q, table, fmt = derivation.generalized_steps["lagrange"], derivation.quantities, derivation.symbols, style.fmt
+    if not steps:   # not derived
+        return []
     return [{
         "coordinate": fmt(table.q[i]), "velocity": fmt(table.qd[i]),
         **{key: style.scalar(steps[key][i], SCALAR_NODES) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")},
         "effort": fmt(q["Y_g"][i]),
         "dissipation": style.show(q["F_g"][i]) if "F_g" in q and q["F_g"][i] != 0 else None,
         "equation": style.scalar(q["EOM_g1"][i], SCALAR_NODES),
-    } for i in range(len(derivation.robot.coordinates) if steps else 0)]
+    } for i in range(len(derivation.robot.coordinates))]
 
 
 #: Residuals below this print as "below 1e-12": their digits are rounding noise (double or
@@ -316,7 +318,8 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
     if "lambdaVec" in q and max(len(style.latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
         # the LaTeX first: breaking entries too long to show into lines cost seconds
         lambda_entries = [style.show(e) for e in q["lambdaVec"]]
-    tilde = ("Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde") if "EOM_g3" in q else ()
+    tilde: tuple[Literal["Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde"], ...] = (
+        ("Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde") if "EOM_g3" in q else ())
     return {
         "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
         "lambda": fmt(sympy.Matrix(table.multipliers)),
