@@ -264,9 +264,9 @@ def test_closed_loops_are_drawn_assembled():
     derivation = derivation_of("four_bar")
     figure = _figure(derivation)
     assert figure["configuration"].startswith(r"q_{1} = 30^\circ, ") and figure["caption"].endswith("its loops closed.")
-    loops, table = derivation.steps["loops"], derivation.symbols
+    loops, table = derivation.loop_model, derivation.symbols
     values = {table.parameters[p.name]: p.value for p in derivation.robot.parameters}
-    q = _configuration(derivation.robot, table, derivation.steps["kinematics"], values, loops)
+    q = _configuration(derivation.robot, table, derivation.link_kinematics, values, loops)
     assert q == figure["q"]
     at = {s: sympy.Float(v) for s, v in (values | dict(zip(table.q, q))).items()}
     assert max(abs(float(r.xreplace(at))) for r in loops.constraints) < 1e-9
@@ -322,7 +322,7 @@ def test_3d_diagram_projects_the_engines_kinematics(robot):
         return origin[0] + scale * float(right @ p), origin[1] + scale * float(up @ p)
 
     robot_ = derivation.robot
-    for link in derivation.steps["kinematics"]:
+    for link in derivation.link_kinematics:
         com = np.array([float(v) for v in link.com_world.xreplace(at)], dtype=float)
         R = np.array(link.rotation.xreplace(at).evalf(), dtype=float)
         local = np.array([float(sympy.sympify(table.expr(e)).xreplace(values)) for e in

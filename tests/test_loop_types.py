@@ -31,7 +31,7 @@ def test_check_passes_on_the_constraint_manifold(name):
 
 def test_prismatic_loop_keeps_the_block_on_the_axis():
     derivation = dynderive.derive(dynderive.load_robot(HERE / "crank_slider_prismatic.yaml"))
-    model = derivation.steps["loops"]
+    model = derivation.loop_model
     assert [what for _, what in model.rows] == ["offset across the sliding axis", "relative rotation"]
     q1, q2, q3 = model.assembled
     r, l = 0.2, 0.7
@@ -43,4 +43,4 @@ def test_planar_loop_in_3d_drops_the_implied_rows_with_a_note():
     derivation = dynderive.derive(dynderive.load_robot(HERE / "four_bar_in_3d.yaml"))
     assert derivation["a_g"].shape == (2, 1)
     assert any("identically zero and were dropped" in note and "axis alignment" in note for note in derivation.notes)
-    assert derivation.steps["loops"].rank == 2 and derivation.mobility == 1
+    assert derivation.loop_model.rank == 2 and derivation.mobility == 1

@@ -17,7 +17,7 @@ LOOP_ROBOTS = ["four_bar", "slider_crank", "spatial_four_bar", "bennett"]
 
 
 def _assembled(robot: str) -> list[float]:
-    return dynderive.derive(dynderive.load_robot(robot)).steps["loops"].assembled
+    return dynderive.derive(dynderive.load_robot(robot)).loop_model.assembled
 
 
 @pytest.mark.parametrize("robot", LOOP_ROBOTS)

@@ -188,7 +188,7 @@ def test_rp_arm_with_automatic_constraints(tmp_path):
     path = tmp_path / "rp_arm.yaml"
     path.write_text(text)
     d = dynderive.derive(dynderive.load_robot(path))
-    assert d.steps["maximal"]["constraint_origin"] == "joints"
+    assert d.maximal_steps["constraint_origin"] == "joints"
     assert all(c.passed for c in d.checks), [c.summary() for c in d.checks]
     assert d["a_m"].shape == (4, 1)
     # the automatic constraints vanish exactly where the reference's do (on h(q))

@@ -36,7 +36,7 @@ def _closed_form(theta: float, thetad: float, tau: float, p: dict[str, float]) -
 
 def test_rank_and_mobility(mechanism):
     derivation, module = mechanism
-    model = derivation.steps["loops"]
+    model = derivation.loop_model
     assert derivation["a_g"].shape == (4, 1) and model.rank == 3 and derivation.mobility == 1
     assert any("over-constrained" in note for note in derivation.notes)
     assert module.INDEPENDENT_COORDINATES == ("q1",)

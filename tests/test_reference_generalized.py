@@ -77,7 +77,7 @@ def test_compact_forms_match_the_printed_ones():
 
 def test_lagrange_steps_match_reference():
     d = dynderive.derive(dynderive.load_robot("rp_arm"))
-    steps = d.steps["generalized"]["lagrange"]
+    steps = d.generalized_steps["lagrange"]
     expected_dL_dqd = Matrix([sp.Rational(5, 12) * m * l**2 * qd1 + m * qd1 * (l / 2 + q2) ** 2, m * qd2])
     expected_ddt = Matrix([
         sp.Rational(5, 12) * m * l**2 * qdd1 + m * qdd1 * (l / 2 + q2) ** 2 + 2 * m * qd1 * qd2 * (l / 2 + q2),

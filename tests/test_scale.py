@@ -92,8 +92,8 @@ def test_intermediate_form_equals_expanded(kind, tmp_path, monkeypatch):
             assert ours.shape == reference.shape, name
             np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-10, err_msg=name)
         for step in ("dL_dqd", "ddt_dL_dqd", "dL_dq"):   # Lagrange's steps, over the names
-            ours = _numeric(iv.steps["generalized"]["lagrange"][step], values, iv.intermediates)
-            reference = _numeric(expanded.steps["generalized"]["lagrange"][step], values, [])
+            ours = _numeric(iv.generalized_steps["lagrange"][step], values, iv.intermediates)
+            reference = _numeric(expanded.generalized_steps["lagrange"][step], values, [])
             np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-10, err_msg=step)
 
 

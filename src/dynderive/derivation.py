@@ -9,62 +9,49 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, MutableMapping
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import sympy
 
 from .mechanics.consistency import run_checks
-from .mechanics.planar import planar_kinematics
+from .mechanics.planar import PlanarLinkKinematics, planar_kinematics
 from .mechanics.polynomial import expand
 from .mechanics.program import Program, lines_read
 from .mechanics.programs import build_programs
 from .mechanics.recursive import GeneralizedProgram
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, fold_constants, is_small, quick_tidy, tidy
-from .model.naming import CENTROIDAL_QUANTITIES, body_jacobian_index, frame_quantity_names
+from .model.naming import (
+    CENTROIDAL_QUANTITIES,
+    LOOP_KEYS,
+    MAXIMAL_EQUATION_KEYS,
+    MAXIMAL_MODEL_KEYS,
+    QUANTITY_DESCRIPTIONS,
+    body_jacobian_index,
+    frame_quantity_names,
+    quantity_rank,
+)
 from .model.robot import Robot
 from .model.symbols import SymbolTable
 
-#: What each quantity is, for the sheet, the terminal and the JSON consumers.
-DESCRIPTIONS = {
-    "T_g": "kinetic energy (generalized coordinates)",
-    "V_g": "potential energy (generalized coordinates)",
-    "L_g": "Lagrangian T_g - V_g",
-    "Y_g": "applied generalized forces",
-    "EOM_g1": "equations of motion from Lagrange's equations (= 0)",
-    "M_g": "mass matrix",
-    "C_g": "Coriolis matrix (Christoffel symbols)",
-    "N_g": "gravity vector dV/dq",
-    "EOM_g2": "equations of motion M qdd + C qd + N + F - Y (= 0)",
-    "D_g": "Rayleigh dissipation function 1/2 sum b_i qd_i^2",
-    "F_g": "dissipative generalized forces dD/dqd + fc sign(qd) (damping and friction)",
-    "D_m": "Rayleigh dissipation function in maximal coordinates",
-    "F_m": "dissipative forces in maximal coordinates",
-}
+if TYPE_CHECKING:
+    from .mechanics.centroidal import CentroidalPrograms
+    from .mechanics.centroidal_steps import CentroidalSteps
+    from .mechanics.contact_program import ContactPrograms
+    from .mechanics.drives import JointDrive
+    from .mechanics.frames import FramePrograms
+    from .mechanics.generalized import GeneralizedSteps
+    from .mechanics.joint_types import ConfigurationProgram
+    from .mechanics.loop_programs import LoopPrograms
+    from .mechanics.loops import LoopModel
+    from .mechanics.maximal import MaximalSteps
+    from .mechanics.quasi_velocity import QuasiVelocitySteps
+    from .mechanics.recursion import Recursion
+    from .mechanics.regressor import Parameter
+    from .mechanics.spatial import SpatialLinkKinematics
+    from .model.array_program import ArrayProgram
 
 Progress = Callable[[str], None]
-
-#: Where each quantity goes in ``Derivation.keys()`` (the sheet's and the JSON's order):
-#: generalized, loops, reduced form (any other name), maximal; whatever stage ran first.
-_GENERALIZED_ORDER = ["T_g", "V_g", "L_g", "Y_g", "EOM_g1", "M_g", "C_g", "N_g", "EOM_g2", "D_g", "F_g"]
-_LOOP_KEYS = ["a_g", "A_g", "Adot_g", "lambda_g"]
-_MAXIMAL_MODEL_KEYS = ["q_m", "a_m", "A_m", "Adot_m", "T_m", "V_m", "L_m", "Y_m", "M_m", "C_m", "N_m",
-                       "D_m", "F_m", "h", "H"]
-_MAXIMAL_EQUATION_KEYS = ["EOM_m1", "EOM_m2", "lambdaVec", "EOM_g3"]
-_MAXIMAL_ORDER = ["q_m", "a_m", "A_m", "Adot_m", "T_m", "V_m", "L_m", "Y_m", "EOM_m1", "M_m", "C_m", "N_m",
-                  "EOM_m2", "D_m", "F_m", "lambdaVec", "h", "H", "EOM_g3"]
-
-
-def _position(key: str, sequence: int) -> tuple[int, int]:
-    if key in _GENERALIZED_ORDER:
-        return 0, _GENERALIZED_ORDER.index(key)
-    if key.startswith("J_b") and key[3:].isdigit():
-        return 0, 100 + int(key[3:])
-    if key in _LOOP_KEYS:
-        return 1, _LOOP_KEYS.index(key)
-    if key in _MAXIMAL_ORDER:
-        return 3, _MAXIMAL_ORDER.index(key)
-    return 2, sequence
 
 
 @dataclass
@@ -130,7 +117,7 @@ class LazyMapping(MutableMapping[str, Any]):
 
     def __setitem__(self, key: str, value: Any) -> None:
         if key not in self._rank:
-            self._rank[key] = _position(key, len(self._rank))
+            self._rank[key] = quantity_rank(key, len(self._rank))
         self._data[key] = value
 
     def __delitem__(self, key: str) -> None:
@@ -168,11 +155,11 @@ class Derivation:
         add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
         add(_Stage(self._applied_forces, frozenset({"Y_g"})))
         if robot.loops:
-            add(_Stage(self._loops, frozenset() if robot.floating else frozenset(_LOOP_KEYS), frozenset({"loops"})))
+            add(_Stage(self._loops, frozenset() if robot.floating else frozenset(LOOP_KEYS), frozenset({"loops"})))
         add(_Stage(self._generalized, None, frozenset({"generalized"})))
         if robot.planar:
-            add(_Stage(self._maximal_model, frozenset(_MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
-            add(_Stage(self._maximal_equations, frozenset(_MAXIMAL_EQUATION_KEYS), frozenset({"maximal"})))
+            add(_Stage(self._maximal_model, frozenset(MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
+            add(_Stage(self._maximal_equations, frozenset(MAXIMAL_EQUATION_KEYS), frozenset({"maximal"})))
         if robot.frames and not self.intermediate_form:
             names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
             add(_Stage(self._frames, frozenset(names)))
@@ -192,12 +179,11 @@ class Derivation:
         self._symbolic("the symbolic kinematics")
         self.report(f"kinematics ({len(self.robot.links)} links)")
         if self.robot.planar:
-            links: list[Any] = planar_kinematics(self.robot, self.symbols)
+            self.steps["kinematics"] = planar_kinematics(self.robot, self.symbols)
         else:
             from .mechanics.spatial import spatial_kinematics
 
-            links = spatial_kinematics(self.robot, self.symbols)
-        self.steps["kinematics"] = links
+            self.steps["kinematics"] = spatial_kinematics(self.robot, self.symbols)
 
     def _applied_forces(self) -> None:
         self._symbolic("the symbolic applied forces Y_g")
@@ -217,7 +203,7 @@ class Derivation:
             from .mechanics.generalized import derive_generalized
 
             self.report("energies")
-            quantities, steps = derive_generalized(robot, table, self.steps["kinematics"], self.report)
+            quantities, steps = derive_generalized(robot, table, self.link_kinematics, self.report)
         if robot.loops:
             self._close_loops(quantities)
         self.quantities.update(quantities)
@@ -233,9 +219,9 @@ class Derivation:
         from .mechanics.loops import derive_loops
 
         self.report("loop constraints")
-        model = derive_loops(self.robot, self.symbols, self.steps["kinematics"])
+        model = derive_loops(self.robot, self.symbols, self.link_kinematics)
         self.symbols.loop_multipliers = model.multipliers
-        self.quantities.update(zip(_LOOP_KEYS, (model.constraints, model.jacobian, model.jacobian_dot,
+        self.quantities.update(zip(LOOP_KEYS, (model.constraints, model.jacobian, model.jacobian_dot,
                                                 sympy.Matrix(model.multipliers))))
         self.steps["loops"] = model
         self.notes.extend(model.notes)
@@ -247,7 +233,7 @@ class Derivation:
         if self.robot.loops and self.robot.floating:
             raise ValueError("the mobility of loops on a floating base or with spherical joints is not recorded: "
                              "the rank of loop_jacobian(q) is found per state by the generated module")
-        return self.steps["loops"].mobility if self.robot.loops else len(self.robot.coordinates)
+        return self.loop_model.mobility if self.robot.loops else len(self.robot.coordinates)
 
     def _loop_force(self) -> sympy.Matrix:
         return self.quantities["A_g"].T * self.quantities["lambda_g"]
@@ -263,15 +249,15 @@ class Derivation:
         for key in [k for k in ("EOM_g1", "EOM_g2") if k in q]:   # EOM_g1: where Lagrange's route ran
             q[key] = (q[key] - force).applyfunc(clean)
         if not self.intermediate_form:
-            q.update(reduced_form(self.steps["loops"], self.symbols, q["M_g"], q["C_g"], q["N_g"], q["Y_g"]))
+            q.update(reduced_form(self.loop_model, self.symbols, q["M_g"], q["C_g"], q["N_g"], q["Y_g"]))
 
     def _maximal_model(self) -> None:
         from .mechanics.drives import drive_terms
         from .mechanics.maximal import maximal_model
 
         robot, table = self.robot, self.symbols
-        links = self.steps["kinematics"]
-        loops = self.steps["loops"] if robot.loops else None
+        links = cast("list[PlanarLinkKinematics]", self.link_kinematics)
+        loops = self.loop_model if robot.loops else None
         self.report(f"maximal coordinates: model ({3 * len(robot.links)} coordinates)")
         gravity = sympy.Matrix([table.expr(e) for e in robot.gravity])
         quantities, steps = maximal_model(robot, table, links, gravity, drive_terms(robot, table),
@@ -283,8 +269,8 @@ class Derivation:
     def _maximal_equations(self) -> None:
         from .mechanics.maximal import maximal_equations
 
-        model = {key: self.quantities[key] for key in _MAXIMAL_MODEL_KEYS if key in self.quantities}
-        steps = dict(self.steps["maximal_model"])
+        model = {key: self.quantities[key] for key in MAXIMAL_MODEL_KEYS if key in self.quantities}
+        steps = cast("MaximalSteps", dict(self.steps["maximal_model"]))
         self.report("maximal coordinates: equations of motion")
         quantities = maximal_equations(self.symbols, model, steps,
                                        self._loop_force() if self.robot.loops else None,
@@ -306,7 +292,7 @@ class Derivation:
             self.quantities.update(steps.quantities())
 
     @cached_property
-    def centroidal_steps(self) -> Any:
+    def centroidal_steps(self) -> CentroidalSteps | None:
         """A small 3-D robot's centre of mass and centroidal momentum matrix derived step by
         step (``mechanics.centroidal_steps.CentroidalSteps``: m_total, p_G, J_G, A_G) from the
         links' kinematics of its sheet (with quaternion joints, the quasi-velocity sheet's);
@@ -323,7 +309,40 @@ class Derivation:
         self.report("centre of mass and centroidal momentum")
         if sheet is not None:
             return quasi_velocity_centroidal(robot, self.symbols, sheet)
-        return fixed_base_centroidal(robot, self.symbols, self.steps["kinematics"])
+        return fixed_base_centroidal(robot, self.symbols, self.link_kinematics)
+
+    # -- the stages' results, typed ---------------------------------------------------------
+    @property
+    def link_kinematics(self) -> list[PlanarLinkKinematics | SpatialLinkKinematics]:
+        """The links' symbolic kinematics in the file's link order (``planar.PlanarLinkKinematics``
+        or ``spatial.SpatialLinkKinematics``: poses, twists, body Jacobians), derived on first use;
+        not for a robot with quaternions in q."""
+        return cast("list[PlanarLinkKinematics | SpatialLinkKinematics]", self.steps["kinematics"])
+
+    @property
+    def loop_model(self) -> LoopModel:
+        """The closed loops' symbolic model (``mechanics.loops.LoopModel``: the rows kept, their
+        rank, the independent coordinates, the default assembly). A robot with quaternions in q
+        has none: its loops are rows on the tree's twists, ``loop_programs``."""
+        if not self.robot.loops or self.robot.floating:
+            raise ValueError(f"{self.robot.name} has no symbolic loop model: "
+                             + ("its loops are closed by loop_programs" if self.robot.loops else "no closed loops"))
+        return cast("LoopModel", self.steps["loops"])
+
+    @property
+    def generalized_steps(self) -> GeneralizedSteps:
+        """The generalized stage's steps (``mechanics.generalized.GeneralizedSteps``: the links'
+        terms, Lagrange's derivatives, gravity, the drive terms), derived on first use."""
+        return cast("GeneralizedSteps", self.steps["generalized"])
+
+    @property
+    def maximal_steps(self) -> MaximalSteps | None:
+        """The maximal stages' steps of a planar robot (``mechanics.maximal.MaximalSteps``: the
+        constraints' origin, the bodies' Jacobians, Lagrange's derivatives, the change of basis),
+        derived on first use; None for a 3-D robot, which has no maximal coordinates."""
+        if not self.robot.planar:
+            return None
+        return cast("MaximalSteps", self.steps["maximal"])
 
     # -- results ---------------------------------------------------------------------------
     def description(self, name: str) -> str:
@@ -337,10 +356,10 @@ class Derivation:
                     f"of mass in the link's own axes per joint rate, rows {rows}")
         from .mechanics.centroidal_steps import DESCRIPTIONS as CENTROIDAL
 
-        return DESCRIPTIONS.get(name) or CENTROIDAL.get(name) or describe(name) or ""
+        return QUANTITY_DESCRIPTIONS.get(name) or CENTROIDAL.get(name) or describe(name) or ""
 
     @cached_property
-    def frame_programs(self) -> list[Any]:
+    def frame_programs(self) -> list[FramePrograms]:
         """Straight-line programs of the frames' poses, Jacobians and ``Jdot qd``
         (``mechanics.frames.FramePrograms``, also a tuple ``(name, transform, jacobian,
         jacobian_dot_qd)``), for the generated module; built on first use."""
@@ -351,7 +370,7 @@ class Derivation:
         return frame_programs(self.robot, self.symbols)
 
     @cached_property
-    def loop_programs(self) -> Any:
+    def loop_programs(self) -> LoopPrograms:
         """Straight-line programs of the loops' residual, Jacobian on the velocities and ``Jdot qd``
         (``mechanics.loop_programs.LoopPrograms``: the loops as rows on the tree's twists), for a
         robot with quaternions in ``q``, whose loops have no symbolic route; built on first use."""
@@ -361,7 +380,7 @@ class Derivation:
         return loop_programs(self.robot, self.symbols)
 
     @cached_property
-    def contact_programs(self) -> Any:
+    def contact_programs(self) -> ContactPrograms | None:
         """The programs of ``constrained_forward_dynamics`` and ``impulse_dynamics``
         (``mechanics.contact_program.ContactPrograms``) every target prints, for a 3-D robot
         (its closed loops' rows solved with the contacts'); None for a planar one."""
@@ -372,7 +391,7 @@ class Derivation:
         return contact_programs(len(self.symbols.qd), self.robot.floating, self.loop_rows)
 
     @cached_property
-    def loop_solve(self) -> Any:
+    def loop_solve(self) -> ArrayProgram | None:
         """The program of the loops' constrained solve (``mechanics.loop_solve``) every target
         prints for a robot with closed loops; None for the others."""
         from .mechanics.loop_solve import loop_solve_program
@@ -387,10 +406,9 @@ class Derivation:
         quaternions in q), or None without loops."""
         if not self.robot.loops:
             return None
-        loops = self.steps["loops"]
         if self.robot.floating:
-            return len(loops.rows), None
-        return self.quantities["a_g"].shape[0], loops.rank
+            return len(self.loop_programs.rows), None
+        return self.quantities["a_g"].shape[0], self.loop_model.rank
 
     @cached_property
     def effort_jacobian(self) -> sympy.Matrix:
@@ -404,7 +422,7 @@ class Derivation:
         return self.quantities["Y_g"].jacobian(sympy.Matrix(efforts))
 
     @cached_property
-    def centroidal_programs(self) -> Any:
+    def centroidal_programs(self) -> CentroidalPrograms | None:
         """Straight-line programs of the centre of mass and the centroidal momentum
         (``mechanics.centroidal.CentroidalPrograms``) of a 3-D robot, None for a planar one;
         built on first use."""
@@ -421,7 +439,7 @@ class Derivation:
         empty): each definition uses coordinates, parameters and earlier names only."""
         if not self.intermediate_form:
             return []
-        return list(self.steps["generalized"]["intermediates"])
+        return list(self.generalized_steps["intermediates"])
 
     def lambdify(self, args: list[Any], value: Any) -> Callable[..., Any]:
         """``sympy.lambdify(args, value)`` (NumPy) for a quantity of this derivation; for a
@@ -451,7 +469,7 @@ class Derivation:
         return self._checks or []
 
     @cached_property
-    def configuration_programs(self) -> dict[str, Any]:
+    def configuration_programs(self) -> dict[str, ConfigurationProgram]:
         """The configuration maps ``neutral_configuration``, ``integrate``, ``difference`` and
         ``configuration_rate`` as target-neutral programs, joint by joint from the joint types
         (``mechanics.joint_types.configuration_programs``); built on first use."""
@@ -460,7 +478,7 @@ class Derivation:
         return configuration_programs(self.robot, self.symbols)
 
     @cached_property
-    def quasi_velocity_steps(self) -> Any:
+    def quasi_velocity_steps(self) -> QuasiVelocitySteps:
         """A robot with quaternion joints: its sheet quantities in quasi-velocities
         (``mechanics.quasi_velocity.QuasiVelocitySteps``: step by step when small, Y, the
         joints' rotations), derived once on first use."""
@@ -497,7 +515,7 @@ class Derivation:
         return GeneralizedProgram(self.robot, self.symbols, self.report)
 
     @cached_property
-    def recursion(self) -> Any:
+    def recursion(self) -> Recursion:
         """Newton-Euler and CRBA as one program whose lines record their meaning
         (``mechanics.recursion.Recursion``), for a large robot's sheet; built on first use."""
         from .mechanics.recursion import newton_euler_recursion
@@ -506,7 +524,7 @@ class Derivation:
         return newton_euler_recursion(self.robot, self.symbols)
 
     @property
-    def parameter_vector(self) -> list[Any]:
+    def parameter_vector(self) -> list[Parameter]:
         """The regressor's parameters ``pi`` (``mechanics.regressor.Parameter``: name, value
         over the robot's parameters), in the order of ``programs["regressor"]``'s columns."""
         from .mechanics.regressor import parameter_vector
@@ -514,7 +532,7 @@ class Derivation:
         return parameter_vector(self.robot, self.symbols)
 
     @property
-    def joint_drives(self) -> list[Any]:
+    def joint_drives(self) -> list[JointDrive]:
         """The velocity columns with drive terms (``mechanics.drives.JointDrive``), from the robot."""
         from .mechanics.drives import joint_drives
 

@@ -10,10 +10,11 @@ import numpy as np
 
 from ..errors import InputError, Problem
 from ..model.naming import did_you_mean
+from ..model.robot import Robot
 from .options import problem
 
 
-def parse_contacts(robot: Any, text: str | None, coordinates: str, compiled: bool) -> list[tuple[str, str]]:
+def parse_contacts(robot: Robot, text: str | None, coordinates: str, compiled: bool) -> list[tuple[str, str]]:
     """``--contacts FRAME[:KIND][,FRAME[:KIND]...]`` (KIND point or surface; default the robot
     file's kind, else point), ``none``, or (not given) the robot file's ``contacts:``: the
     contacts a run holds, as (frame, kind). Refused (exit 2) where they are not built: planar

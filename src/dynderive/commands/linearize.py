@@ -27,8 +27,10 @@ from typing import Any
 import numpy as np
 import sympy
 
+from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError
+from ..model.robot import Robot
 from .options import real_number, split_top_level
 
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$", re.S)
@@ -155,7 +157,7 @@ def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, 
     return {"q": [float(v) for v in q], "qd": [float(v) for v in qd], "u": list(at["u"])}, notes
 
 
-def linearization(derivation: Any, module: Any, at: dict[str, list[float]], values: dict[str, float],
+def linearization(derivation: Derivation, module: Any, at: dict[str, list[float]], values: dict[str, float],
                   equilibrium: bool = False) -> dict[str, Any]:
     """A and B at the point ``at``: symbolic (small robots) and numeric (every robot), with
     the largest difference between the two routes at the parameters' ``values``; ``skipped``
@@ -192,7 +194,7 @@ def linearization(derivation: Any, module: Any, at: dict[str, list[float]], valu
     return result
 
 
-def _holding_efforts(derivation: Any, point: dict[sympy.Symbol, sympy.Expr]) -> dict[sympy.Symbol, sympy.Expr]:
+def _holding_efforts(derivation: Derivation, point: dict[sympy.Symbol, sympy.Expr]) -> dict[sympy.Symbol, sympy.Expr]:
     """The efforts that hold the state in ``point`` in closed form (``Y = C qd + N + F`` at
     ``qdd = 0``, linear in u), or {} when they are not unique or do not exist (then the
     numbers stand)."""
@@ -213,7 +215,7 @@ def _numbers(matrix: np.ndarray) -> list[list[float]]:
     return [[float(f"{v:.12g}") for v in row] for row in np.asarray(matrix)]
 
 
-def render_linearization(derivation: Any, at: dict[str, list[float]], values: dict[str, float],
+def render_linearization(derivation: Derivation, at: dict[str, list[float]], values: dict[str, float],
                          result: dict[str, Any], kind: str) -> str:
     """The result as terminal text, JSON (``kind`` "json") or a LaTeX document ("latex")."""
     import json
@@ -283,7 +285,7 @@ def render_linearization(derivation: Any, at: dict[str, list[float]], values: di
     return "\n".join(lines)
 
 
-def on_the_manifold(robot: Any, module: Any, q: list[float], given: set[tuple[str, int]]) -> tuple[list[float], list[str]]:
+def on_the_manifold(robot: Robot, module: Any, q: list[float], given: set[tuple[str, int]]) -> tuple[list[float], list[str]]:
     """A floating-base robot's configuration from ``--at``: the neutral configuration's entries
     where none is given, each quaternion normalized (with a note when it was not unit); a zero
     quaternion is refused."""

@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, OutputError, Problem
+from ..model.robot import Robot
 
 #: ``simulate --frames``: samples of the trajectory (CSV rows, plot points), and of them
 #: frames of an ``--animate`` GIF (each one drawn by matplotlib).
@@ -280,7 +281,7 @@ def check_frames(frames: int, animate: bool) -> None:
                                  "ask for fewer"))
 
 
-def quaternion_kind(robot: Any) -> str:
+def quaternion_kind(robot: Robot) -> str:
     """What gives ``robot``'s configuration its quaternions: "floating base", "floating joints"
     or "spherical joints" (for ``solve``'s note and ``simulate``'s summary)."""
     return ("floating base" if robot.floating_base else "floating joints"

@@ -36,6 +36,7 @@ from ..errors import InputError, Problem
 from ..mechanics import joint_types
 from ..model.expressions import ExpressionError, parse_expression
 from ..model.naming import velocity_name
+from ..model.robot import Robot
 from ..verify.checks import allowed_velocity, generated_module
 from .contacts import held_contacts as _held
 from .integrate import DEFAULT_METHOD, Culprit, Integrator, at_duration, checked, singular_problem
@@ -187,7 +188,7 @@ def normalized(q: np.ndarray, starts: tuple[int, ...]) -> np.ndarray:
     return q
 
 
-def initial_configuration(robot: Any, q0: np.ndarray | None) -> np.ndarray:
+def initial_configuration(robot: Robot, q0: np.ndarray | None) -> np.ndarray:
     """``--q0`` with its quaternions normalized (refused if one is off unit by more than
     QUATERNION_TOLERANCE); without it a meaningful start: revolute joints at 0.5 rad,
     prismatic at 0.2 m, floating and spherical joints at identity quaternions (a floating
@@ -209,7 +210,7 @@ def initial_configuration(robot: Any, q0: np.ndarray | None) -> np.ndarray:
     return normalized(q0, starts)
 
 
-def loop_numbers(text: str | None, robot: Any) -> list[float] | None:
+def loop_numbers(text: str | None, robot: Robot) -> list[float] | None:
     """``--q0`` of a closed-loop robot in generalized coordinates: every coordinate, or only the
     independent ones (the others are assembled from them). Their number is checked against the
     derivation's choice by ``loop_start``; here only the numbers themselves (before any work)."""
@@ -236,7 +237,7 @@ def loop_start(values: list[float] | None, text: str | None, derivation: Derivat
     from them); without ``--q0``, ``default``."""
     if values is None or len(values) == len(default):
         return default if values is None else np.array(values)
-    loops = derivation.steps["loops"]
+    loops = derivation.loop_model
     names = [derivation.robot.coordinates[i] for i in loops.independent]
     if len(values) != len(names):
         raise InputError(problem("--q0", f"expected {len(default)} numbers (every coordinate: "
@@ -247,7 +248,7 @@ def loop_start(values: list[float] | None, text: str | None, derivation: Derivat
     return start
 
 
-def refuse_options(robot: Any, coordinates: str, animate: object) -> None:
+def refuse_options(robot: Robot, coordinates: str, animate: object) -> None:
     """Refuse what a run of ``robot`` does not do (exit 2, before any work): maximal
     coordinates and the animation beyond planar robots (a robot with quaternions is run in
     ``(q, v)`` only)."""
@@ -259,7 +260,7 @@ def refuse_options(robot: Any, coordinates: str, animate: object) -> None:
         raise InputError(problem("--animate" if robot.floating else robot.source, "--animate draws planar robots only"))
 
 
-def run_summary(robot: Any, coordinates: str, duration: float, trajectory: Trajectory) -> str:
+def run_summary(robot: Robot, coordinates: str, duration: float, trajectory: Trajectory) -> str:
     """The line ``simulate`` prints: the run, its largest relative energy change, and the
     constraint drift and the work of damping and friction where they apply."""
     energy = trajectory.energy
@@ -486,7 +487,7 @@ def _link_poses(derivation: Derivation, maximal: bool) -> Callable[[np.ndarray],
             poses.append((origin, phi))
         state = table.qm
     else:
-        poses = [(kin.joint_origin, kin.angle) for kin in derivation.steps["kinematics"]]
+        poses = [(kin.joint_origin, kin.angle) for kin in derivation.link_kinematics]
         state = table.q
     flat = sympy.Matrix([e for origin, angle in poses for e in (*origin, angle)]).xreplace(values)
     function = sympy.lambdify([state], flat, modules="numpy")

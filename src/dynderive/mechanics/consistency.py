@@ -4,16 +4,46 @@ the generalized one. Each is proven symbolically or, for large robots, tested nu
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, Protocol
 
 import sympy
 
+from ..model.robot import Robot
+from ..model.symbols import SymbolTable
 from .exact_fast import matmul
 from .polynomial import expand
 from .tidy import Check, check_zero
 
+if TYPE_CHECKING:
+    from .loops import LoopModel
+    from .maximal import MaximalSteps
 
-def run_checks(derivation: Any) -> list[Check]:
+
+class Derived(Protocol):
+    """What the checks read of a derivation (``derivation.Derivation``, a layer after the
+    engine's, which the engine cannot name)."""
+
+    robot: Robot
+    symbols: SymbolTable
+    intermediate_form: bool
+
+    @property
+    def quantities(self) -> Mapping[str, Any]: ...
+
+    @property
+    def intermediates(self) -> list[tuple[sympy.Symbol, sympy.Expr]]: ...
+
+    @property
+    def loop_model(self) -> LoopModel: ...
+
+    @property
+    def maximal_steps(self) -> MaximalSteps | None: ...
+
+    def lambdify(self, args: list[Any], value: Any) -> Callable[..., Any]: ...
+
+
+def run_checks(derivation: Derived) -> list[Check]:
     """The engine's consistency checks (DESIGN.md section 4), each proven or tested."""
     q, table = derivation.quantities, derivation.symbols
     symbols = table.all_symbols()
@@ -35,11 +65,11 @@ def run_checks(derivation: Any) -> list[Check]:
         checks = [Check("EOM_g1 == EOM_g2", "Lagrange's equations (EOM_g1) were not derived "
                         f"symbolically: this robot ({len(table.q)} coordinates) is too large (see `dynderive check`)",
                         False, "skipped", float("nan"))]
-    loops = derivation.steps.get("loops")
+    loops = derivation.loop_model if derivation.robot.loops else None
     if loops is not None and "R_g" in q:
         checks.append(check_zero("A_g R_g == 0", "A_g R_g = 0: the reduced velocities qd = R_g qd_i satisfy the "
                                  "loop constraints", matmul(q["A_g"], q["R_g"]), symbols))
-    if "maximal" not in derivation.steps:
+    if derivation.maximal_steps is None:
         return checks
     on_h = dict(zip(table.qm, q["h"]))
     a_on_h, AH = q["a_m"].xreplace(on_h), matmul(q["A_m"].xreplace(on_h), q["H"])
@@ -66,7 +96,7 @@ def run_checks(derivation: Any) -> list[Check]:
     return checks
 
 
-def _zero_over_intermediates(derivation: Any, name: str, description: str, difference: sympy.Matrix,
+def _zero_over_intermediates(derivation: Derived, name: str, description: str, difference: sympy.Matrix,
                              reference: sympy.Matrix, states: int = 6, seed: int = 0) -> Check:
     """``difference == 0`` for quantities over a large robot's intermediate variables: the
     entries expanded (equal names cancel; what is left is zero only numerically), then

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
 import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
-from .drives import drive_terms
+from .drives import DriveTerms, drive_terms
 from .exact_fast import matmul
 from .lagrange import christoffel_coriolis, gravity_vector, lagrange_steps, mass_matrix_from_jacobians
 from .spatial import inertia_tensor
@@ -63,6 +63,18 @@ class LinkTerms:
     orientation: sympy.Expr | sympy.Matrix  # planar: angle; spatial: world rotation matrix
     kinetic: sympy.Expr
     potential: sympy.Expr
+
+
+class GeneralizedSteps(TypedDict):
+    """The generalized stage's steps, for the sheets: the links' terms (none for a large
+    robot), Lagrange's derivatives ``dL_dqd``, ``ddt_dL_dqd`` and ``dL_dq`` (None where not
+    derived), gravity, the drive terms, and a large robot's intermediate variables in order."""
+
+    links: list[LinkTerms]
+    lagrange: dict[str, sympy.Matrix] | None
+    gravity: sympy.Matrix
+    drives: DriveTerms
+    intermediates: NotRequired[list[tuple[sympy.Symbol, sympy.Expr]]]
 
 
 def link_terms(robot: Robot, table: SymbolTable, links: list[Any],
@@ -118,7 +130,7 @@ def _textbook(built: sympy.Expr, fourier: sympy.Expr) -> bool:
 
 
 def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
-                       report: Callable[[str], None] = lambda stage: None) -> tuple[dict[str, Any], dict[str, Any]]:
+                       report: Callable[[str], None] = lambda stage: None) -> tuple[dict[str, Any], GeneralizedSteps]:
     """Quantities (by the reference's names) and intermediate steps, generalized coordinates.
 
     ``report`` is called with the name of each stage as it starts (for progress and timing).
@@ -135,7 +147,7 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
     F = drives.forces.applyfunc(tidy)
     Y = applied_forces(robot, table)
 
-    steps_tidy = None
+    steps_tidy: dict[str, sympy.Matrix] | None = None
     EOM_g1 = None
     if robot.planar or (robot.kinematic_size <= LAGRANGE_DOF_LIMIT and is_small(L, LAGRANGE_LIMIT)):
         report("Lagrange's equations")
@@ -192,5 +204,5 @@ def derive_generalized(robot: Robot, table: SymbolTable, links: list[Any],
         del quantities["EOM_g1"]
     for t in terms:
         quantities[f"J_b{t.index}"] = t.body_jacobian
-    intermediate = {"links": terms, "lagrange": steps_tidy, "gravity": gravity, "drives": drives}
+    intermediate: GeneralizedSteps = {"links": terms, "lagrange": steps_tidy, "gravity": gravity, "drives": drives}
     return quantities, intermediate

@@ -10,6 +10,8 @@ from typing import Any
 
 import sympy
 
+from ..model.robot import Robot
+
 Vector2 = tuple[sympy.Expr, sympy.Expr]
 
 
@@ -35,7 +37,7 @@ class Coupling:
     variable: sympy.Expr
 
 
-def couplings(robot: Any, table: Any) -> dict[str, Coupling]:
+def couplings(robot: Robot, table: Any) -> dict[str, Coupling]:
     """The ``Coupling`` of every moving joint with a single coordinate, by joint name."""
     index = {name: i for i, name in enumerate(robot.coordinates)}
     found = {}

@@ -15,6 +15,7 @@ manipulator form's quantities, for the terminal, JSON and LaTeX of ``dynderive l
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from itertools import combinations
 from typing import Any
 
@@ -72,7 +73,7 @@ def loop_linearization_terms(quantities: dict[str, sympy.Matrix],
     return force, acceleration
 
 
-def symbolic_linearization(quantities: dict[str, sympy.Matrix], table: SymbolTable,
+def symbolic_linearization(quantities: Mapping[str, sympy.Matrix], table: SymbolTable,
                            point: dict[sympy.Symbol, sympy.Expr]) -> tuple[sympy.Matrix, sympy.Matrix, sympy.Matrix]:
     """``(A, B, qdd0)`` at ``point`` (values of q, qd, u), over the parameters, from the
     manipulator form ``M qdd + C qd + N + F = Y``; raises ``NoClosedForm`` when an entry

@@ -9,7 +9,7 @@ both models equal (``EOM_g3 == EOM_g1``).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
 import sympy
 
@@ -177,10 +177,28 @@ def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     return [(normal.T * gap)[0, 0], rotation]
 
 
+class MaximalSteps(TypedDict):
+    """The maximal stages' steps, for the sheet: where the constraints come from (the joints,
+    or the file's ``maximal_constraints``), the bodies' Jacobians; after ``maximal_equations``,
+    Lagrange's derivatives and whether lambda has a closed form; after the change of basis,
+    ``Hdot`` and the model mapped through H (``M_tilde`` ... ``F_tilde``)."""
+
+    constraint_origin: str   # "joints" or "override" (the file's maximal_constraints)
+    jacobians: list[sympy.Matrix]
+    lagrange: NotRequired[dict[str, sympy.Matrix]]
+    lambda_symbolic: NotRequired[bool]
+    Hdot: NotRequired[sympy.Matrix]
+    M_tilde: NotRequired[sympy.Matrix]
+    C_tilde: NotRequired[sympy.Matrix]
+    N_tilde: NotRequired[sympy.Matrix]
+    Y_tilde: NotRequired[sympy.Matrix]
+    F_tilde: NotRequired[sympy.Matrix]
+
+
 def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinematics],
                   gravity: sympy.Matrix, drives: Any,
                   loop_rows: list[int] | None = None,
-                  clean: Callable[[sympy.Expr], sympy.Expr] = tidy) -> tuple[dict[str, Any], dict[str, Any]]:
+                  clean: Callable[[sympy.Expr], sympy.Expr] = tidy) -> tuple[dict[str, Any], MaximalSteps]:
     """The maximal model of Problem 2 (2.1-2.3, 2.5 and the change of basis 2.7): constraints,
     energies, efforts, ``M_m, C_m, N_m``, ``h`` and ``H``, by the reference's names, and the
     steps. Cheap for any size (each constraint involves two links); the generated module's
@@ -245,11 +263,11 @@ def maximal_model(robot: Robot, table: SymbolTable, links: list[PlanarLinkKinema
     }
     if robot.dissipative:
         quantities |= {"D_m": tidy(drive_terms["D"]), "F_m": F}
-    steps = {"constraint_origin": origin, "jacobians": jacobians}
+    steps: MaximalSteps = {"constraint_origin": origin, "jacobians": jacobians}
     return quantities, steps
 
 
-def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: dict[str, Any],
+def maximal_equations(table: SymbolTable, model: dict[str, Any], steps: MaximalSteps,
                       loop_force: sympy.Matrix | None = None,
                       change_of_basis: bool = True,
                       clean: Callable[[sympy.Expr], sympy.Expr] = tidy) -> dict[str, Any]:

@@ -25,7 +25,7 @@ import sympy
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
 from .drives import drive_terms
-from .generalized import LAGRANGE_DOF_LIMIT, applied_forces
+from .generalized import LAGRANGE_DOF_LIMIT, GeneralizedSteps, applied_forces
 from .polynomial import expand
 from .program import lines_read
 from .recursive import GeneralizedProgram
@@ -46,7 +46,7 @@ def intermediate_form(robot: Robot) -> bool:
 
 def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedProgram,
                            report: Callable[[str], None] = lambda stage: None
-                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+                           ) -> tuple[dict[str, Any], GeneralizedSteps]:
     """The quantities of ``derive_generalized`` over intermediate variables; the steps hold
     ``intermediates``, the ordered ``(name, definition)`` pairs, for ``Derivation.intermediates``,
     and Lagrange's steps. ``EOM_g1`` takes Lagrange's route over the same names: ``dM/dq_k``
@@ -100,8 +100,8 @@ def structured_generalized(robot: Robot, table: SymbolTable, built: GeneralizedP
         quantities |= {"D_g": tidy(drives.dissipation), "F_g": F}
     for k, jacobian in enumerate(jacobians, start=1):
         quantities[f"J_b{k}"] = jacobian
-    steps = {"links": [], "lagrange": lagrange, "drives": drives, "intermediates": intermediates,
-             "gravity": sympy.Matrix([table.expr(e) for e in robot.gravity])}
+    steps: GeneralizedSteps = {"links": [], "lagrange": lagrange, "drives": drives, "intermediates": intermediates,
+                               "gravity": sympy.Matrix([table.expr(e) for e in robot.gravity])}
     return quantities, steps
 
 

@@ -114,3 +114,45 @@ def did_you_mean(name: object, candidates) -> str:
     """`` (did you mean 'x'?)`` for the closest candidate (``closest_name``), or ``""``."""
     close = closest_name(str(name), candidates)
     return f" (did you mean '{close}'?)" if close is not None else ""
+
+
+#: Where each quantity goes in ``Derivation.keys()`` (the sheet's and the JSON's order):
+#: generalized, loops, reduced form (any other name), maximal; whatever stage ran first.
+GENERALIZED_ORDER = ["T_g", "V_g", "L_g", "Y_g", "EOM_g1", "M_g", "C_g", "N_g", "EOM_g2", "D_g", "F_g"]
+LOOP_KEYS = ["a_g", "A_g", "Adot_g", "lambda_g"]
+MAXIMAL_MODEL_KEYS = ["q_m", "a_m", "A_m", "Adot_m", "T_m", "V_m", "L_m", "Y_m", "M_m", "C_m", "N_m",
+                      "D_m", "F_m", "h", "H"]
+MAXIMAL_EQUATION_KEYS = ["EOM_m1", "EOM_m2", "lambdaVec", "EOM_g3"]
+MAXIMAL_ORDER = ["q_m", "a_m", "A_m", "Adot_m", "T_m", "V_m", "L_m", "Y_m", "EOM_m1", "M_m", "C_m", "N_m",
+                 "EOM_m2", "D_m", "F_m", "lambdaVec", "h", "H", "EOM_g3"]
+
+
+def quantity_rank(key: str, sequence: int) -> tuple[int, int]:
+    """Where quantity ``key`` goes in that order; ``sequence``: how many were named before it."""
+    if key in GENERALIZED_ORDER:
+        return 0, GENERALIZED_ORDER.index(key)
+    if key.startswith("J_b") and key[3:].isdigit():
+        return 0, 100 + int(key[3:])
+    if key in LOOP_KEYS:
+        return 1, LOOP_KEYS.index(key)
+    if key in MAXIMAL_ORDER:
+        return 3, MAXIMAL_ORDER.index(key)
+    return 2, sequence
+
+
+#: What each quantity is, for the sheet, the terminal and the JSON consumers.
+QUANTITY_DESCRIPTIONS = {
+    "T_g": "kinetic energy (generalized coordinates)",
+    "V_g": "potential energy (generalized coordinates)",
+    "L_g": "Lagrangian T_g - V_g",
+    "Y_g": "applied generalized forces",
+    "EOM_g1": "equations of motion from Lagrange's equations (= 0)",
+    "M_g": "mass matrix",
+    "C_g": "Coriolis matrix (Christoffel symbols)",
+    "N_g": "gravity vector dV/dq",
+    "EOM_g2": "equations of motion M qdd + C qd + N + F - Y (= 0)",
+    "D_g": "Rayleigh dissipation function 1/2 sum b_i qd_i^2",
+    "F_g": "dissipative generalized forces dD/dqd + fc sign(qd) (damping and friction)",
+    "D_m": "Rayleigh dissipation function in maximal coordinates",
+    "F_m": "dissipative forces in maximal coordinates",
+}

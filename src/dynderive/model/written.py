@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import re
 from decimal import Decimal
-from typing import Any
+
+from .robot import Robot
 
 #: A number literal in an expression's text (not the digits of a name such as ``m1``).
 _LITERAL = re.compile(r"(?<![\w.])(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
@@ -34,10 +35,10 @@ def written_in(value: object) -> int:
     return 0
 
 
-def written_digits(robot: Any) -> int:
+def written_digits(robot: Robot) -> int:
     """The most significant digits of a number the robot's file wrote: ``robot.digits`` when
     the reader counted them (URDF: its attributes), else those of the robot's expressions."""
-    if getattr(robot, "digits", None) is not None:
+    if robot.digits is not None:
         return robot.digits
     values: list[object] = [robot.gravity, robot.maximal_constraints or ()]
     values += [p.value for p in robot.parameters]

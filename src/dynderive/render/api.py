@@ -20,6 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ..derivation import Derivation
+
 
 @dataclass(frozen=True)
 class Function:
@@ -145,14 +147,14 @@ def group(name: str) -> tuple[str, ...]:
     return tuple(function.name for function in API if function.group == name)
 
 
-def sizes(derivation: Any) -> dict[str, int]:
+def sizes(derivation: Derivation) -> dict[str, int]:
     """The size letters of ``derivation``'s robot."""
     robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     nv = len(table.qd)
-    loops = derivation.steps["loops"] if robot.loops else None
+    rows = derivation.loop_rows   # (k, rank) with loops
     return {"NQ": len(table.q), "NV": nv, "NU": len(table.efforts), "NP": len(derivation.parameter_vector),
-            "NC": (len(loops.rows) if robot.floating else quantities["a_g"].shape[0]) if loops else 0,
-            "NI": len(loops.independent) if loops and not robot.floating else 0,
+            "NC": rows[0] if rows else 0,
+            "NI": len(derivation.loop_model.independent) if robot.loops and not robot.floating else 0,
             "NM": len(table.qm) if robot.planar else 0,
             "NK": quantities["a_m"].shape[0] if robot.planar else 0,
             "S": 3 if robot.planar else 4, "T": 3 if robot.planar else 6, "2NV": 2 * nv, "3": 3, "6": 6,

@@ -34,13 +34,14 @@ import sympy
 from mpmath.libmp import to_str
 from sympy.core.numbers import Float, Rational, prec_to_dps
 
+from ..model.robot import Robot
 from ..model.written import written_digits
 
 #: D's default ceiling: a CAD file's 17 digits print as 6 (the JSON and the code keep them all).
 DEFAULT_MOST_DIGITS = 6
 
 
-def sheet_digits(robot: Any, digits: int | None = None) -> int:
+def sheet_digits(robot: Robot, digits: int | None = None) -> int:
     """D: ``digits`` (``--digits N``) when given, else the robot's written precision (at least
     1), at most ``DEFAULT_MOST_DIGITS``."""
     if digits is not None:

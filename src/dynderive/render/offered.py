@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..derivation import Derivation
 from .targets import COLUMNS, REFERENCE, NotBuilt, by_name, resolve
 
 #: The targets by name, in the table's column order (the registry's, ``render/targets``).
@@ -39,12 +40,12 @@ def not_built(target: str, function: str, floating: bool = False, frames: bool =
     return None
 
 
-def _why(derivation: Any, target: str, function: str) -> str | None:
+def _why(derivation: Derivation, target: str, function: str) -> str | None:
     robot = derivation.robot
     return not_built(target, function, bool(robot.floating), bool(robot.frames), bool(robot.loops))
 
 
-def offered(derivation: Any, target: str) -> set[str]:
+def offered(derivation: Derivation, target: str) -> set[str]:
     """The API functions ``target`` generates for ``derivation``'s robot (extra C variants
     such as ``inverse_dynamics_wrenches`` included): its registry entry reads them from its
     own code."""
@@ -55,14 +56,14 @@ def offered(derivation: Any, target: str) -> set[str]:
     return resolve(entry.offered)(derivation)
 
 
-def api(derivation: Any) -> set[str]:
+def api(derivation: Derivation) -> set[str]:
     """The functions of the generated API that concern this robot: the NumPy module's, and
     those NOT_BUILT lists for the NumPy module of such a robot."""
     listed = {f for row in REFERENCE.not_built for f in row.functions}
     return offered(derivation, REFERENCE.name) | {f for f in listed if _why(derivation, REFERENCE.name, f)}
 
 
-def gaps(derivation: Any, target: str) -> dict[str, str | None]:
+def gaps(derivation: Derivation, target: str) -> dict[str, str | None]:
     """The API functions ``target`` does not offer for this robot, each with its reason from
     NOT_BUILT (None: not listed there, an omission)."""
     missing = api(derivation) - offered(derivation, target)

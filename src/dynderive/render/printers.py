@@ -9,12 +9,13 @@ printer here keeps the text of every sub-expression it printed, so the text is S
 from __future__ import annotations
 
 import weakref
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Self, cast
 
 import sympy
 from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
+from ..derivation import Derivation
 from .numbers import DecimalNumbers, Numbers, latex_decimal
 
 
@@ -63,7 +64,7 @@ class DerivationFormatter:
     quantities again. A subclass gives ``_text(expr)`` and calls ``super().__init__()``.
     Matrices are mutable, so unhashable: remembered by identity, with the object kept."""
 
-    _shared: ClassVar[weakref.WeakKeyDictionary[Any, dict[tuple[Any, ...], DerivationFormatter]]]
+    _shared: ClassVar[weakref.WeakKeyDictionary[Derivation, dict[tuple[Any, ...], DerivationFormatter]]]
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -73,7 +74,7 @@ class DerivationFormatter:
         self._printed: dict[Any, tuple[Any, Any]] = {}
 
     @classmethod
-    def of(cls, derivation: Any, **options: Any) -> Any:
+    def of(cls, derivation: Derivation, **options: Any) -> Self:
         """The derivation's formatter with ``options`` (those None or False left out, so
         ``of(d)`` and ``of(d, digits=None)`` are one), made on first use."""
         options = {k: v for k, v in options.items() if v is not None and v is not False}
@@ -81,7 +82,7 @@ class DerivationFormatter:
         key = tuple(sorted(options.items()))
         if key not in made:
             made[key] = cls(derivation, **options)   # type: ignore[call-arg]
-        return made[key]
+        return cast(Self, made[key])
 
     def __call__(self, expr: Any) -> Any:
         key = id(expr) if isinstance(expr, sympy.MatrixBase) else expr

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ..derivation import Derivation
 from .rows import Row
 
 
@@ -22,7 +23,7 @@ def require_compiled() -> None:
     require_compiler("--backend")
 
 
-def compiled_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
+def compiled_module(derivation: Derivation, progress: Callable[[str], None] | None = None) -> Any:
     """``simulate --backend c``: the extension of ``derivation``'s robot, compiled for this
     process and imported (the NumPy module's API)."""
     from ..render.targets.c_extension import compile as extension
@@ -30,7 +31,7 @@ def compiled_module(derivation: Any, progress: Callable[[str], None] | None = No
     return extension.compiled_module(derivation, progress=progress)
 
 
-def compiled_backend(derivation: Any, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:
+def compiled_backend(derivation: Derivation, source: str, progress: Callable[[str], None], states: int = 12) -> list[Row]:
     """The C target's harness: the extension compiled for this process, each of its functions
     against the NumPy module ``source``."""
     from .compiled import compiled_checks
@@ -40,7 +41,7 @@ def compiled_backend(derivation: Any, source: str, progress: Callable[[str], Non
     return compiled_checks(derivation, source, compiled, states=states)
 
 
-def jax_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
+def jax_module(derivation: Derivation, progress: Callable[[str], None] | None = None) -> Any:
     """``simulate`` and ``check --backend jax``: the JAX module of ``derivation``'s robot, imported, in float64
     (``jax_enable_x64`` is switched on for this process: the NumPy module's precision)."""
     import jax
@@ -52,7 +53,7 @@ def jax_module(derivation: Any, progress: Callable[[str], None] | None = None) -
     return generated_module(render_jax(derivation), f"{derivation.robot.name}_jax")
 
 
-def casadi_module(derivation: Any, progress: Callable[[str], None] | None = None) -> Any:
+def casadi_module(derivation: Derivation, progress: Callable[[str], None] | None = None) -> Any:
     """``simulate`` and ``check --backend casadi``: the CasADi module of ``derivation``'s robot behind the NumPy
     module's calling convention (``compiled.CasadiModule``)."""
     from ..render.targets.casadi.casadi import render_casadi
@@ -62,7 +63,7 @@ def casadi_module(derivation: Any, progress: Callable[[str], None] | None = None
     return CasadiModule(generated_module(render_casadi(derivation), f"{derivation.robot.name}_casadi"))
 
 
-def loaded_backend(target: Any, derivation: Any, source: str, progress: Callable[[str], None],
+def loaded_backend(target: Any, derivation: Derivation, source: str, progress: Callable[[str], None],
                    states: int = 12) -> list[Row]:
     """The harness of a target without one of its own whose ``load`` gives a module with the
     NumPy module's API, taking and returning NumPy arrays: that module against the NumPy module

@@ -15,6 +15,7 @@ import sympy
 
 from ..derivation import Derivation
 from ..mechanics.tidy import Check, check_zero, is_small
+from ..model.robot import Robot
 from .motions import allowed_motions as _allowed_motions
 from .motions import allowed_velocity
 from .rows import Row, _row, applied, peak
@@ -87,7 +88,7 @@ def _guarded(name: str, comparison: Any, *args: Any) -> list[Row]:
         return [Row(name, "FAIL", f"could not run: {type(exc).__name__}: {said[:200]}", float("nan"))]
 
 
-def random_configurations(robot: Any, rng: np.random.Generator, states: int) -> np.ndarray:
+def random_configurations(robot: Robot, rng: np.random.Generator, states: int) -> np.ndarray:
     """``states`` configurations: random unit quaternions (floating and spherical joints),
     every other coordinate uniform in [-1.5, 1.5]."""
     qs = rng.uniform(-1.5, 1.5, (states, len(robot.configuration_names)))
@@ -176,12 +177,13 @@ def _loop_states(derivation: Derivation, module: Any, values: dict[str, float], 
                  qds: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[Row]]:
     """Random configurations assembled by the generated ``assemble`` (independent coordinates
     near the default assembly), and velocities projected onto the null space of A_g."""
-    model = derivation.steps["loops"]
-    floating = derivation.robot.floating   # quaternions in q: assemble moves every coordinate, from q itself
-    start = None if floating else np.array(model.assembled if model.assembled is not None else np.zeros(qs.shape[1]))
+    # quaternions in q: assemble moves every coordinate, from q itself
+    model = None if derivation.robot.floating else derivation.loop_model
+    start = None if model is None else np.array(model.assembled if model.assembled is not None
+                                                else np.zeros(qs.shape[1]))
     states, rates = [], []
     for q, qd in zip(qs, qds):
-        if start is None:
+        if model is None or start is None:
             guess = q
         else:
             guess = start.copy()
@@ -373,7 +375,7 @@ def _energy_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: n
     return _row(POWER_BALANCE, worst < 1e-6 * scale, f"numeric (h = {h:g})", worst)
 
 
-def _momentum(module: Any, robot: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
+def _momentum(module: Any, robot: Robot, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
               us: np.ndarray) -> Row:
     """Without gravity and without the efforts of the floating base's own joint (a wrench from
     the world, zeroed here) the efforts are internal: the whole robot's linear and angular
@@ -443,7 +445,7 @@ def _frames_along_integrate(module: Any, values: dict[str, float], qs: np.ndarra
                 f"numeric (h = {h:g})", worst)
 
 
-def _manifold(module: Any, robot: Any, qs: np.ndarray, vs: np.ndarray) -> list[Row]:
+def _manifold(module: Any, robot: Robot, qs: np.ndarray, vs: np.ndarray) -> list[Row]:
     """``integrate`` keeps quaternions unit; ``difference`` inverts it."""
     moved = module.integrate(qs, vs, 0.7)
     norms = [np.linalg.norm(moved[:, start:start + 4], axis=1) for start in robot.quaternion_starts]
@@ -460,7 +462,7 @@ def _rotate(quaternion: np.ndarray, vector: np.ndarray) -> np.ndarray:
     return vector + w * t + np.cross(u, t)
 
 
-def system_momentum(module: Any, robot: Any, q: np.ndarray, v: np.ndarray, values: dict[str, float]) -> np.ndarray:
+def system_momentum(module: Any, robot: Robot, q: np.ndarray, v: np.ndarray, values: dict[str, float]) -> np.ndarray:
     """The whole robot's momentum ``(linear, angular about the origin)``, shape (..., 6), in the
     axes of the floating joint's placement in the world (its ``origin``: a fixed frame, so
     conservation there is conservation in the world). The floating joint's rows of ``M v`` are

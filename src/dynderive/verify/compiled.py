@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from ..derivation import Derivation
+from ..model.robot import Robot
 from ..render import api
 from .rows import Row, peak
 
@@ -140,7 +142,7 @@ def _frame(extra: tuple, smoothing: float = 0.0) -> str:
     return (f" (frame {extra[0]})" if extra else "") + (f" (friction_smoothing {smoothing:g})" if smoothing else "")
 
 
-def _states(robot: Any, rng: np.random.Generator, states: int) -> dict[str, np.ndarray]:
+def _states(robot: Robot, rng: np.random.Generator, states: int) -> dict[str, np.ndarray]:
     """Random states: ``q`` (and ``q1``) on the robot's manifold (unit quaternions), the rest uniform."""
     from .checks import random_configurations
 
@@ -152,7 +154,7 @@ def _states(robot: Any, rng: np.random.Generator, states: int) -> dict[str, np.n
                      "u": rng.uniform(-1.0, 1.0, (states, nu))}
 
 
-def compiled_checks(derivation: Any, source: str, compiled: Any, states: int = 12, seed: int = 0,
+def compiled_checks(derivation: Derivation, source: str, compiled: Any, states: int = 12, seed: int = 0,
                     label: str = "compiled", target: str = "c-extension",
                     values: dict[str, float] | None = None) -> list[Row]:
     """``compiled_rows`` at random states of ``derivation``'s robot (on the loops, for a robot

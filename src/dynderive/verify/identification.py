@@ -30,6 +30,7 @@ import numpy as np
 import sympy
 
 from ..derivation import Derivation
+from ..model.robot import Robot
 
 #: Singular-value threshold, relative to the largest scaled column's: below it, dependent.
 RANK_TOLERANCE = 1e-8
@@ -90,7 +91,7 @@ def json_number(value: float) -> float | None:
     return number if np.isfinite(number) else None
 
 
-def fewest_states(robot: Any) -> int:
+def fewest_states(robot: Robot) -> int:
     """The fewest random states ``base_parameters`` accepts: one per entry of ``pi``. Each
     joint's row of ``Y`` adds at most one direction per state, and the first joint's row alone
     can span as many directions as there are base parameters, so fewer states can make the

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..derivation import Derivation
+from ..model.robot import Robot
 from .rows import Row, _row, applied, peak
 
 FREE_FLYER = ("agrees with Pinocchio's free flyer (crba, rnea, computeGeneralizedGravity, aba, energies, integrate, "
@@ -62,7 +63,7 @@ def _accelerations(pin: Any, model: Any, data: Any, q: np.ndarray, v: np.ndarray
     return pin.aba(model, data, q, v, tau)
 
 
-def _dynamics(name: str, pin: Any, model: Any, data: Any, qp: np.ndarray, vp: np.ndarray, drives: Any, robot: Any,
+def _dynamics(name: str, pin: Any, model: Any, data: Any, qp: np.ndarray, vp: np.ndarray, drives: Any, robot: Robot,
               module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray, us: np.ndarray) -> Row:
     """M, the gravity forces and the forward dynamics (Pinocchio has the armature). A fixed
     base (``q_pin = q[qp]`` with ``qp = vp``): the bias forces C qd too, under efforts spread over

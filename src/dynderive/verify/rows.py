@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from ..model.robot import Robot
+
 
 @dataclass(frozen=True)
 class Row:
@@ -32,7 +34,7 @@ def peak(array: Any) -> float:
     return float(np.max(np.abs(array), initial=0.0))
 
 
-def applied(robot: Any, u: np.ndarray) -> np.ndarray:
+def applied(robot: Robot, u: np.ndarray) -> np.ndarray:
     """The efforts ``u`` at their velocity columns (``Robot.effort_columns``)."""
     Y = np.zeros(robot.velocity_count)
     Y[list(robot.effort_columns())] = u

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from typing import Any
 
 from ...errors import InputError, Problem
+from ...model.robot import Robot
 from ..encode import Code, code_point
 
 #: C99 keywords, C11/C23 keywords, and C++ keywords and alternative operator names (the files
@@ -41,7 +41,7 @@ MAXFLOAT NULL EDOM ERANGE EILSEQ errno signgam
 _ASCII_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 
 
-def c_problems(robot: Any) -> list[Problem]:
+def c_problems(robot: Robot) -> list[Problem]:
     """Why the robot's names cannot be C names (empty when they can), each at its place."""
     name = robot.name
     if not _ASCII_IDENTIFIER.match(name) or "__" in name:
@@ -60,7 +60,7 @@ def c_problems(robot: Any) -> list[Problem]:
     return parameter_problems(robot, "--c", why, "a member of the C parameters struct")
 
 
-def parameter_problems(robot: Any, option: str, why: Callable[[str], str | None], use: str) -> list[Problem]:
+def parameter_problems(robot: Robot, option: str, why: Callable[[str], str | None], use: str) -> list[Problem]:
     """The target ``option``'s refusal of each parameter name for which ``why`` gives a reason
     (None: the name is fine), at its place in the robot file: the name would be ``use``."""
     return [Problem(robot.source, *robot.positions.get(f"parameter:{p.name}", (1, 1)),

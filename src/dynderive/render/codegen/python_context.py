@@ -151,15 +151,15 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
         "constraint_count": quantities["a_m"].shape[0] if maximal else 0,
         "loops": bool(robot.loops),
         "loop_count": quantities["a_g"].shape[0] if robot.loops else 0,
-        "loop_rank": derivation.steps["loops"].rank if robot.loops else 0,
-        "redundant_loops": bool(robot.loops) and derivation.steps["loops"].redundant,
+        "loop_rank": derivation.loop_model.rank if robot.loops else 0,
+        "redundant_loops": bool(robot.loops) and derivation.loop_model.redundant,
         "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
-        "independent_tuple": _tuple(tuple(robot.coordinates[i] for i in derivation.steps["loops"].independent))
+        "independent_tuple": _tuple(tuple(robot.coordinates[i] for i in derivation.loop_model.independent))
         if robot.loops else Code("()"),
-        "dependent_list": Code(repr(derivation.steps["loops"].dependent)) if robot.loops else Code("[]"),
-        "independent_list": Code(repr(derivation.steps["loops"].independent)) if robot.loops else Code("[]"),
-        "independent_count": len(derivation.steps["loops"].independent) if robot.loops else 0,
-        "assembled_tuple": python_literal(tuple(derivation.steps["loops"].assembled or ()))
+        "dependent_list": Code(repr(derivation.loop_model.dependent)) if robot.loops else Code("[]"),
+        "independent_list": Code(repr(derivation.loop_model.independent)) if robot.loops else Code("[]"),
+        "independent_count": len(derivation.loop_model.independent) if robot.loops else 0,
+        "assembled_tuple": python_literal(tuple(derivation.loop_model.assembled or ()))
         if robot.loops else Code("()"),
     }
 

@@ -31,6 +31,8 @@ from typing import Any
 import numpy as np
 import sympy
 
+from ...derivation import Derivation
+from ...model.robot import Robot
 from ..encode import escape_tex
 from .drawing import Drawing, Point, Segment, convex_hull, finish, joint_value_text, label_size, polar
 from .figure_3d import spatial_figure
@@ -53,7 +55,7 @@ DASH_MM = (1.2, 0.8)
 JOINT_MM, COM_MM, BLOCK_MM = 1.1, 0.9, (2.6, 1.6)
 
 
-def sheet_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] | None:
+def sheet_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str, Any] | None:
     """The sheet's drawing: the planar drawing, or a 3-D robot's kinematic diagram
     (``figure_3d``); None when the robot cannot be drawn."""
     if derivation.robot.planar:
@@ -61,7 +63,7 @@ def sheet_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] |
     return spatial_figure(derivation, fmt)
 
 
-def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] | None:
+def planar_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str, Any] | None:
     """The drawing (``drawing.finish``'s dict, with ``configuration``: the drawn coordinates
     as LaTeX), or None for 3-D robots and robots that cannot be evaluated at the parameters'
     values (a parameter without one is taken as 1)."""
@@ -70,8 +72,8 @@ def planar_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] 
         return None
     values: dict[sympy.Symbol, float] = {table.parameters[p.name]: (p.value if p.value is not None else 1.0)
                                          for p in robot.parameters}
-    links = derivation.steps["kinematics"]
-    loops = derivation.steps["loops"] if robot.loops else None
+    links = derivation.link_kinematics
+    loops = derivation.loop_model if robot.loops else None
     q = _configuration(robot, table, links, values, loops)
     at = {s: sympy.Float(v) for s, v in (values | dict(zip(table.q, q))).items()}
 
@@ -303,7 +305,7 @@ def _first_segment(at: Point, ends: list[Point]) -> float:
     return min((length for length in lengths if length > 1e-6), default=0.0)
 
 
-def _configuration(robot: Any, table: Any, links: list[Any], values: dict[sympy.Symbol, float],
+def _configuration(robot: Robot, table: Any, links: list[Any], values: dict[sympy.Symbol, float],
                    loops: Any) -> list[float]:
     """The drawn configuration: the assembled one for closed loops, else 30 degrees per
     revolute joint and a quarter of the robot's size (at q = 0) per prismatic one; for closed

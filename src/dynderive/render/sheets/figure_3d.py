@@ -24,7 +24,9 @@ from typing import Any
 import numpy as np
 import sympy
 
+from ...derivation import Derivation
 from ...input.urdf_values import axis_rotation
+from ...model.robot import Robot
 from ..encode import escape_tex
 from .drawing import Drawing, Point, convex_hull, finish, joint_value_text, label_size
 
@@ -51,7 +53,7 @@ def view() -> tuple[Vector, Vector, Vector]:
     return right, np.cross(towards, right), towards
 
 
-def spatial_kinematics(robot: Any, table: Any, q: list[float]) -> dict[str, Any] | None:
+def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, Any] | None:
     """Every link's frame (rotation, origin), every joint's frame before its motion with its
     axis in world axes, every link's centre of mass, at ``q``; None when something is not a
     finite number (or the robot floats)."""
@@ -104,17 +106,17 @@ def rpy(roll: float, pitch: float, yaw: float) -> Vector:
         axis_rotation(np.array([1.0, 0.0, 0.0]), roll)
 
 
-def reference_configuration(derivation: Any) -> list[float]:
+def reference_configuration(derivation: Derivation) -> list[float]:
     """The drawn configuration: the default assembly for closed loops, else zero."""
     robot = derivation.robot
     if robot.loops:
-        assembled = derivation.steps["loops"].assembled
+        assembled = derivation.loop_model.assembled
         if assembled:
             return [float(v) for v in assembled]
     return [0.0] * len(robot.coordinates)
 
 
-def spatial_figure(derivation: Any, fmt: Callable[[Any], str]) -> dict[str, Any] | None:
+def spatial_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str, Any] | None:
     """The kinematic diagram (``drawing.finish``'s dict with ``configuration``), or None for
     planar robots and robots that cannot be evaluated."""
     robot, table = derivation.robot, derivation.symbols

@@ -53,7 +53,7 @@ def html_context(derivation: Derivation, sections: tuple[str, ...] | None = None
     style = PageStyle(derivation, fmt)
     shared = shared_context(derivation, style, sections)
     robot = derivation.robot
-    gen = derivation.steps["generalized"]
+    gen = derivation.generalized_steps
 
     links = []
     for t in gen["links"]:

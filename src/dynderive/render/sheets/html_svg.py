@@ -14,6 +14,7 @@ from typing import Any
 
 from markupsafe import Markup, escape
 
+from ...derivation import Derivation
 from ..encode import escape_tex
 from .html_math import Name, name_of
 
@@ -36,7 +37,7 @@ STYLES = {
 }
 
 
-def figure_labels(derivation: Any, latex: Any) -> dict[str, Name]:
+def figure_labels(derivation: Derivation, latex: Any) -> dict[str, Name]:
     """The drawing's labels (the LaTeX strings the drawing placed) -> the names they show."""
     table = derivation.symbols
     labels: dict[str, Name] = {latex(q): name_of(str(q)) for q in table.q}
@@ -107,7 +108,7 @@ def _label(x: float, y: float, name: Name) -> str:
             f'font-family="serif"><tspan{style}>{text}</tspan>{small}</text>')
 
 
-def configuration_text(derivation: Any, values: str, latex: Any) -> list[tuple[Name, str]]:
+def configuration_text(derivation: Derivation, values: str, latex: Any) -> list[tuple[Name, str]]:
     """The drawn configuration (``figure["configuration"]``, LaTeX) as (coordinate, value) pairs."""
     names = {latex(q): name_of(str(q)) for q in derivation.symbols.q}
     pairs = [item.partition(" = ") for item in values.split(", ")]

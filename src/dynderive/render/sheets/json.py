@@ -107,9 +107,10 @@ def quantity_entry(value: object, fmt: Formatter, description: str = "",
 def _loops_entry(derivation: Derivation) -> dict[str, Any]:
     """Size of a closed chain: constraint rows, their rank (the independent constraints), the
     coordinates kept independent and the default assembly."""
-    model = derivation.steps["loops"]
     if derivation.robot.floating:   # rows on the tree's twists: their rank is the module's, per state
-        return {"constraint_rows": len(model.rows), "rows": [list(row) for row in model.rows]}
+        rows = derivation.loop_programs.rows
+        return {"constraint_rows": len(rows), "rows": [list(row) for row in rows]}
+    model = derivation.loop_model
     return {"constraint_rows": model.constraints.shape[0], "independent_constraints": model.rank,
             "independent_coordinates": [derivation.robot.coordinates[i] for i in model.independent],
             "assembled_configuration": model.assembled}

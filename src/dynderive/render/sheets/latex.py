@@ -5,7 +5,7 @@ by ``sheet.tex.j2``; a robot with quaternion joints gets its quasi-velocity sect
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import sympy
 
@@ -74,7 +74,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     shared = shared_context(derivation, style, sections)
     sections = shared["sections"]
     robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
-    gen = derivation.steps["generalized"]
+    gen = derivation.generalized_steps
     links = [{
         "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
         "inertia": fmt(t.inertia), "spatial_inertia": fmt(t.spatial_inertia),
@@ -133,7 +133,7 @@ def shared_context(derivation: Derivation, style: SheetStyle,
     content."""
     left_out = maximal_left_out(derivation, sections)
     sections = default_sections(derivation) if sections is None else sections
-    table, fmt, steps, q = derivation.symbols, style.fmt, derivation.steps, derivation.quantities
+    table, fmt, q = derivation.symbols, style.fmt, derivation.quantities
     return {
         "quasi_velocity": False, "sections": list(sections), "maximal_left_out": left_out,
         "dof": len(derivation.robot.coordinates),
@@ -145,9 +145,9 @@ def shared_context(derivation: Derivation, style: SheetStyle,
         "lagrange": lagrange_context(derivation, style),
         "checks": checks_context(derivation, style) if "checks" in sections else [],
         "drives": drives_context(derivation, style),
-        "maximal": (maximal_context(derivation, style) if "maximal" in sections and "maximal" in steps
-                    else None),
-        "loops": loops_context(derivation, style) if "loops" in steps else None,
+        "maximal": (maximal_context(derivation, style)
+                    if "maximal" in sections and derivation.maximal_steps is not None else None),
+        "loops": loops_context(derivation, style) if derivation.robot.loops else None,
         "frames": frames_context(derivation, style) if derivation.robot.frames else None,
         "centroidal": centroidal_context(derivation, style.centroidal_names()),
     }
@@ -163,14 +163,16 @@ class RecursionFormatter(Formatter):
 
 def lagrange_context(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]]:
     """Lagrange's equations coordinate by coordinate (where derived: small robots)."""
-    steps, q, table, fmt = derivation.steps["generalized"]["lagrange"], derivation.quantities, derivation.symbols, style.fmt
+    steps, q, table, fmt = derivation.generalized_steps["lagrange"], derivation.quantities, derivation.symbols, style.fmt
+    if not steps:   # not derived
+        return []
     return [{
         "coordinate": fmt(table.q[i]), "velocity": fmt(table.qd[i]),
         **{key: style.scalar(steps[key][i], SCALAR_NODES) for key in ("dL_dqd", "ddt_dL_dqd", "dL_dq")},
         "effort": fmt(q["Y_g"][i]),
         "dissipation": style.show(q["F_g"][i]) if "F_g" in q and q["F_g"][i] != 0 else None,
         "equation": style.scalar(q["EOM_g1"][i], SCALAR_NODES),
-    } for i in range(len(derivation.robot.coordinates) if steps else 0)]
+    } for i in range(len(derivation.robot.coordinates))]
 
 
 #: Residuals below this print as "below 1e-12": their digits are rounding noise (double or
@@ -253,7 +255,7 @@ class SheetStyle:
 
 def drives_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any] | None:
     """The joints' drive terms and where each enters Lagrange's equations (None: no drives)."""
-    drives = derivation.steps["generalized"]["drives"]
+    drives = derivation.generalized_steps["drives"]
     if drives.empty:
         return None
     table, q, fmt = derivation.symbols, derivation.quantities, style.fmt
@@ -276,7 +278,7 @@ def drives_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any] 
 
 def loops_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]:
     """The closed-loop section: constraints, multiplier form, reduced form (where derived)."""
-    q, model, table, fmt, text = derivation.quantities, derivation.steps["loops"], derivation.symbols, style.fmt, style.text
+    q, model, table, fmt, text = derivation.quantities, derivation.loop_model, derivation.symbols, style.fmt, style.text
     return {
         "joints": [text(lp.name) for lp in derivation.robot.loops],
         "count": q["a_g"].shape[0], "rank": model.rank, "mobility": model.mobility,
@@ -299,7 +301,9 @@ LONGEST_LAMBDA = 1800
 def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]:
     """The maximal-coordinates section; the change of basis to the generalized coordinates
     (``EOM_g3``) for small robots."""
-    q, steps, table, fmt = derivation.quantities, derivation.steps["maximal"], derivation.symbols, style.fmt
+    steps, table, fmt = derivation.maximal_steps, derivation.symbols, style.fmt
+    assert steps is not None, "maximal coordinates: planar robots only"
+    q = derivation.quantities
     derivatives = ("dL_dqd", "ddt_dL_dqd", "dL_dq")
     lagrange = [{
         "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
@@ -314,7 +318,8 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
     if "lambdaVec" in q and max(len(style.latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
         # the LaTeX first: breaking entries too long to show into lines cost seconds
         lambda_entries = [style.show(e) for e in q["lambdaVec"]]
-    tilde = ("Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde") if "EOM_g3" in q else ()
+    tilde: tuple[Literal["Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde"], ...] = (
+        ("Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde") if "EOM_g3" in q else ())
     return {
         "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
         "lambda": fmt(sympy.Matrix(table.multipliers)),
@@ -333,7 +338,7 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
         "F_tilde": style.matrix("F_tilde", steps["F_tilde"]) if tilde and "F_m" in q else None,
         "F_m": style.matrix("F_m", q["F_m"]) if "F_m" in q else None,
         "D_m": style.scalar(q["D_m"]) if "D_m" in q else None,
-        "drives": not derivation.steps["generalized"]["drives"].empty,
+        "drives": not derivation.generalized_steps["drives"].empty,
     }
 
 

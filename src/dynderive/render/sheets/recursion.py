@@ -16,6 +16,7 @@ from typing import Any
 import sympy
 
 from ...derivation import Derivation
+from ...model.robot import Robot
 from ..encode import escape_tex
 
 AXES = "xyz"
@@ -126,12 +127,12 @@ def recursion_names(derivation: Derivation, coordinate: Any = latex_coordinate, 
     return names
 
 
-def link_indices(robot: Any) -> dict[str, int]:
+def link_indices(robot: Robot) -> dict[str, int]:
     """Each link's index from 1 (the world 0)."""
     return {link.name: k for k, link in enumerate(robot.links, 1)} | {"world": 0}
 
 
-def name_fields(meaning: Any, index: dict[str, int], robot: Any, n: int) -> dict[str, Any]:
+def name_fields(meaning: Any, index: dict[str, int], robot: Robot, n: int) -> dict[str, Any]:
     """What a line's name shows (NAMES' fields): ``i`` the link's index, ``j`` the column's,
     ``k`` the coordinate's (0 for a fixed joint), ``c`` the component's text."""
     joint = robot.parent_joint(meaning.link)
@@ -139,7 +140,7 @@ def name_fields(meaning: Any, index: dict[str, int], robot: Any, n: int) -> dict
     return {"i": index[meaning.link], "j": meaning.column + 1, "k": k, "c": _component(meaning.quantity, meaning.index, n)}
 
 
-def _name(meaning: Any, index: dict[str, int], robot: Any, n: int) -> str:
+def _name(meaning: Any, index: dict[str, int], robot: Robot, n: int) -> str:
     return NAMES[meaning.quantity].format(**name_fields(meaning, index, robot, n))
 
 
@@ -330,7 +331,7 @@ def _kinematic_rows(derivation: Derivation, index: dict[str, int]) -> list[dict[
     return rows
 
 
-def joint_variable(robot: Any, table: Any, joint: Any) -> sympy.Expr:
+def joint_variable(robot: Robot, table: Any, joint: Any) -> sympy.Expr:
     """A moving joint's variable: its coordinate (a floating or spherical joint's name), or
     ``multiplier * q_leader + offset`` for a <mimic> joint."""
     leader, multiplier, offset = robot.driver(joint)

@@ -57,7 +57,7 @@ def _generalized(derivation: Derivation, numbers: Numbers) -> tuple[str, str, li
     robot, q = derivation.robot, derivation.quantities
     coords = ", ".join(robot.coordinates)
     if robot.loops:
-        loops = derivation.steps["loops"]
+        loops = derivation.loop_model
         rows = q["a_g"].shape[0]
         constraints = (f"{rows} independent loop constraints" if rows == loops.rank else
                        f"{rows} loop constraints of rank {loops.rank} (over-constrained)")

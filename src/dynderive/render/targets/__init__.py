@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...derivation import Derivation
 from .c import TARGET as _C
 from .c_extension import TARGET as _C_EXTENSION
 from .casadi import TARGET as _CASADI
@@ -50,7 +51,7 @@ def simulate_backends() -> tuple[str, ...]:
     return ("numpy", *(target.name for target in TARGETS if target.load))
 
 
-def reference(derivation: Any, template_dir: Any = None) -> str:
+def reference(derivation: Derivation, template_dir: Any = None) -> str:
     """The NumPy module's text (fixed or floating base), the reference every target is
     compared with (``check`` runs it)."""
     from .numpy import source

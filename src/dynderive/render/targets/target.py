@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from functools import reduce
 from typing import Any
 
+from ...derivation import Derivation
 from ...errors import InputError, Problem
 from ..api import group
 
@@ -179,7 +180,7 @@ class Target:
         """Its folder under ``render/targets/`` (its name as a Python identifier)."""
         return self.name.replace("-", "_")
 
-    def files(self, derivation: Any, template_dir: Any, made: dict[str, bytes] | None = None,
+    def files(self, derivation: Derivation, template_dir: Any, made: dict[str, bytes] | None = None,
               **options: Any) -> dict[str, bytes]:
         """Its output files for ``derivation``'s robot (fixed or floating base), by name."""
         return resolve(self.render)(derivation, template_dir, made or {}, **options)

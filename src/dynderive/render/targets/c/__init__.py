@@ -5,10 +5,11 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....derivation import Derivation
 from ..target import CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, Target
 
 
-def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The header and the source."""
     from .c import render_c
 
@@ -17,7 +18,7 @@ def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options
     return {f"{name}_dynamics.h": header.encode(), f"{name}_dynamics.c": source.encode()}
 
 
-def offered(derivation: Any) -> set[str]:
+def offered(derivation: Derivation) -> set[str]:
     """The functions whose prototypes the header declares (extra variants included)."""
     from .c import c_context
     from .c_loops import function_name

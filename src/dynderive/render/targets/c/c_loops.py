@@ -317,7 +317,7 @@ def _partition(derivation: Derivation, rows: str, extra: str | None) -> list[str
     """``Dd`` (the dependent columns of ``rows``, r x r) and ``Di`` (its independent columns,
     and the column ``extra`` when given: r x (m + 1)), then ``Di = Dd^-1 Di`` (``return 2``
     when Dd is singular, as ``numpy.linalg.solve`` raises)."""
-    loops = derivation.steps["loops"]
+    loops = derivation.loop_model
     n, _, r = _sizes(derivation)
     m = len(loops.independent)
     width = m + (1 if extra else 0)
@@ -332,7 +332,7 @@ def _partition(derivation: Derivation, rows: str, extra: str | None) -> list[str
 
 def _basis(derivation: Derivation, target: str, width: int) -> list[str]:
     """``target`` (n x m) = R_g: the identity on the independent rows, -Dd^-1 Di on the others."""
-    loops = derivation.steps["loops"]
+    loops = derivation.loop_model
     m = len(loops.independent)
     lines = []
     for b, i in enumerate(loops.independent):
@@ -344,7 +344,7 @@ def _basis(derivation: Derivation, target: str, width: int) -> list[str]:
 
 def _reduced_functions(derivation: Derivation, kit: CKit) -> list[Any]:
     """reduced_basis, reduced_forward_dynamics and assemble, as the NumPy module's."""
-    name, loops = derivation.robot.name, derivation.steps["loops"]
+    name, loops = derivation.robot.name, derivation.loop_model
     n, k, r = _sizes(derivation)
     m, independent = len(loops.independent), ", ".join(derivation.robot.coordinates[i] for i in loops.independent)
     jacobian = [f"double Aj[{k * n}];", f"{name}_loop_jacobian(q, p, Aj);"]

@@ -5,12 +5,12 @@ its log beside the other outputs."""
 from __future__ import annotations
 
 import sysconfig
-from typing import Any
 
+from ....derivation import Derivation
 from ..target import CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, Target
 
 
-def offered(derivation: Any) -> set[str]:
+def offered(derivation: Derivation) -> set[str]:
     """The functions of the binding's table."""
     from .c_extension import bindings
     from .contacts import contact_names

@@ -217,7 +217,7 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
             "fill": Code(binding.number or "0.0"),
         })
     strings = lambda values: [{"text": c_string(v), "length": len(v.encode("utf-8"))} for v in values]  # noqa: E731
-    loops = derivation.steps["loops"] if robot.loops else None
+    loops = derivation.loop_model if robot.loops and not robot.floating else None   # floating: rows on twists
     return {
         "name": name,
         "module": module_name(name),
@@ -231,9 +231,9 @@ def extension_context(derivation: Derivation) -> dict[str, Any]:
         "efforts": strings(robot.efforts),
         "frames": strings([f.name for f in robot.frames]),
         "members": members,
-        "loops": strings([lp.name for lp in robot.loops]) if loops else None,
-        "independent": strings([robot.coordinates[i] for i in loops.independent]) if loops and nq == nv else [],
-        "assembled": [Code(double_literal(float(x))) for x in loops.assembled or ()] if loops and nq == nv else [],
+        "loops": strings([lp.name for lp in robot.loops]) if robot.loops else None,
+        "independent": strings([robot.coordinates[i] for i in loops.independent]) if loops else [],
+        "assembled": [Code(double_literal(float(x))) for x in loops.assembled or ()] if loops else [],
         "parameter_vector": strings([p.name for p in derivation.parameter_vector]),
         "functions": functions,
         "max_inputs": max(max(len(b.inputs) for b in table), 1),

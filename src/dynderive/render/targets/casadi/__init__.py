@@ -7,22 +7,23 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....derivation import Derivation
 from ...codegen.constrained import FLOATING_LOOP_FUNCTIONS
 from ..target import NotBuilt, OptionalPackage, Target
 
 
-def _source(derivation: Any, template_dir: Any = None) -> str:
+def _source(derivation: Derivation, template_dir: Any = None) -> str:
     from .casadi import render_casadi
 
     return render_casadi(derivation, template_dir)
 
 
-def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The module, for a fixed or a floating base."""
     return {f"{derivation.robot.name}_dynamics_casadi.py": _source(derivation, template_dir).encode()}
 
 
-def offered(derivation: Any) -> set[str]:
+def offered(derivation: Derivation) -> set[str]:
     """The module's public Functions (top-level names bound to ``_function(...)``) and functions
     (``frame_transform``...)."""
     import ast

@@ -155,7 +155,7 @@ def casadi_context(derivation: Derivation) -> dict[str, Any]:
     programs) with the explicit expressions as bodies too, and the sizes of the module."""
     robot = derivation.robot
     refuse_floating_loops(derivation, "the CasADi target (--casadi)")
-    if robot.loops and derivation.steps["loops"].redundant:
+    if robot.loops and derivation.loop_model.redundant:
         raise InputError(
             Problem(
                 robot.source,

@@ -5,17 +5,18 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....derivation import Derivation
 from ..target import OptionalPackage, Target, public
 
 
-def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The module, for a fixed or a floating base."""
     from .jax import render_jax
 
     return {f"{derivation.robot.name}_dynamics_jax.py": render_jax(derivation, template_dir).encode()}
 
 
-def offered(derivation: Any) -> set[str]:
+def offered(derivation: Derivation) -> set[str]:
     """The module's public functions."""
     from .jax import render_jax
 

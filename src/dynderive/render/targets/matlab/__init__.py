@@ -6,11 +6,12 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....derivation import Derivation
 from ...api import group
 from ..target import MAXIMAL_NOT_PRINTED, NotBuilt, Target
 
 
-def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The package's files (paths relative to the output folder) and, for a fixed base, the script."""
     from .matlab import render_matlab
     from .matlab_script import render_matlab_script
@@ -21,7 +22,7 @@ def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options
     return files
 
 
-def offered(derivation: Any) -> set[str]:
+def offered(derivation: Derivation) -> set[str]:
     """The package's numeric functions."""
     from .matlab import numeric_functions as functions
 

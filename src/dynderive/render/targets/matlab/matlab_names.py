@@ -12,9 +12,9 @@ local variable of theirs (``p.mass_matrix`` would read a field) or a function th
 from __future__ import annotations
 
 import re
-from typing import Any
 
 from ....errors import Problem
+from ....model.robot import Robot
 from ...codegen.names import parameter_problems
 from ...encode import Code, code_point
 
@@ -50,7 +50,7 @@ MAX_NAME = 63
 ADDED_FIELDS = ("friction_smoothing", "alpha", "beta")
 
 
-def matlab_problems(robot: Any) -> list[Problem]:
+def matlab_problems(robot: Robot) -> list[Problem]:
     """Why the robot's names cannot be MATLAB names (empty when they can), each at its place."""
     problems = []
     name = robot.name

@@ -43,7 +43,7 @@ def _column(symbols: Any) -> str:
 def _links(derivation: Derivation) -> list[dict[str, Any]]:
     return [{"index": t.index, "name": matlab_comment(t.name), "com": matlab_code(sympy.Matrix(t.com_position)),
              "orientation": matlab_code(t.orientation), "inertia": matlab_code(t.spatial_inertia)}
-            for t in derivation.steps["generalized"]["links"]]
+            for t in derivation.generalized_steps["links"]]
 
 
 def _drives(derivation: Derivation) -> list[dict[str, Any]]:
@@ -154,7 +154,7 @@ def matlab_script_context(derivation: Derivation) -> dict[str, Any]:
     if large:
         context["large_links"] = [{"index": k + 1, "name": matlab_comment(t.name), "com": matlab_code(t.com_world),
                                    "mass": matlab_code(table.expr(link.mass))}
-                                  for k, (t, link) in enumerate(zip(derivation.steps["kinematics"], robot.links))]
+                                  for k, (t, link) in enumerate(zip(derivation.link_kinematics, robot.links))]
     if loops:
         context["loops"] = {"a_g": matlab_code(q["a_g"]), "multipliers": _names(q["lambda_g"]),
                             "lambda": _column(q["lambda_g"])}

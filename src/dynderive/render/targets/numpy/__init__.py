@@ -5,10 +5,11 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....derivation import Derivation
 from ..target import NotBuilt, Target
 
 
-def source(derivation: Any, template_dir: Any = None) -> str:
+def source(derivation: Derivation, template_dir: Any = None) -> str:
     """The module's text, for a fixed or a floating base (``check`` and ``simulate`` run it): one
     template, ``dynamics.py.j2``; its public functions are ``dynamics_api.py.j2``'s, written once
     for this module and the JAX one, with the tangent-space functions of a robot with quaternions
@@ -18,7 +19,7 @@ def source(derivation: Any, template_dir: Any = None) -> str:
     return render_code(derivation, template_dir)
 
 
-def render(derivation: Any, template_dir: Any, made: dict[str, bytes], tests: bool = False,
+def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], tests: bool = False,
            **options: Any) -> dict[str, bytes]:
     """The module and, with ``tests``, its checks."""
     name = derivation.robot.name
@@ -30,7 +31,7 @@ def render(derivation: Any, template_dir: Any, made: dict[str, bytes], tests: bo
     return files
 
 
-def offered(derivation: Any) -> set[str]:
+def offered(derivation: Derivation) -> set[str]:
     """The module's public functions."""
     from ..target import public
 

@@ -8,17 +8,18 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....derivation import Derivation
 from ..target import OptionalPackage, Target, public
 
 
-def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
+def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
     """The module, for every robot class."""
     from .printer import render_torch
 
     return {f"{derivation.robot.name}_dynamics_torch.py": render_torch(derivation, template_dir).encode()}
 
 
-def offered(derivation: Any) -> set[str]:
+def offered(derivation: Derivation) -> set[str]:
     """The module's public functions."""
     from .printer import render_torch
 
@@ -29,7 +30,7 @@ def offered(derivation: Any) -> set[str]:
 TORCH = OptionalPackage("torch", "PyTorch", imports="torch")
 
 
-def load(derivation: Any, progress: Any = None) -> Any:
+def load(derivation: Derivation, progress: Any = None) -> Any:
     """The PyTorch module of ``derivation``'s robot, imported, behind the NumPy module's calling
     convention (``harness.NumpyFacade``: NumPy arrays in, float64 tensors to the module, NumPy
     arrays out)."""
