@@ -74,6 +74,14 @@ class JointKind:
     welded: bool = False
     #: The keys of its own the joint entry must give (beyond name, type, origin, axis, ...).
     keys: tuple[JointKey, ...] = ()
+    #: A one-coordinate joint's motion along its axis, for the sheet's figures: the turn about
+    #: the axis and the shift along it per unit of its coordinate, as expression texts over its
+    #: own keys (None: not a screw motion about one axis).
+    screw: tuple[str, str] | None = None
+    #: How the sheet's 3-D figure draws it: "cylinder", "box" or "ball" ("": not drawn, as a
+    #: fixed joint); ``drawn``: whether the figure can place the links below it at all.
+    glyph: str = ""
+    drawn: bool = True
 
     @property
     def nq(self) -> int:
@@ -110,19 +118,21 @@ class JointKind:
 #: Every joint type, in the order the docs and messages list them.
 JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
     JointKind("revolute", "one angle about its unit axis (3-D: axis, default z; planar: about z)",
-              takes_axis=True, planar=True, closes_loops=True, urdf=("revolute", "continuous"), mjcf=(3,)),
+              takes_axis=True, planar=True, closes_loops=True, urdf=("revolute", "continuous"), mjcf=(3,),
+              screw=("1", "0"), glyph="cylinder"),
     JointKind("prismatic", "one displacement along its unit axis (3-D: 3 entries, planar: 2)",
-              takes_axis=True, planar_axis=True, planar=True, closes_loops=True, urdf=("prismatic",), mjcf=(2,)),
+              takes_axis=True, planar_axis=True, planar=True, closes_loops=True, urdf=("prismatic",), mjcf=(2,),
+              screw=("0", "1"), glyph="box"),
     JointKind("fixed", "no coordinate: the child is welded to the parent", welded=True, planar=True,
               urdf=("fixed",)),
     JointKind("floating", "a free joint: 3-D position and unit quaternion (planar: x, y, theta, "
               "expanded into three joints); unactuated unless it names an effort",
               coordinates=_FREE_CONFIGURATION, velocities=_FREE_VELOCITY, accelerations=_FREE_ACCELERATION,
-              efforts=_FREE_EFFORT, quaternion_start=3, planar=True, urdf=("floating",), mjcf=(0,)),
+              efforts=_FREE_EFFORT, quaternion_start=3, planar=True, urdf=("floating",), mjcf=(0,), drawn=False),
     JointKind("spherical", "a ball joint (3-D): a unit quaternion, the local angular velocity",
               coordinates=_FREE_CONFIGURATION[3:], velocities=_FREE_VELOCITY[3:],
               accelerations=_FREE_ACCELERATION[3:], efforts=_FREE_EFFORT[3:], quaternion_start=0,
-              closes_loops=True, mjcf=(1,), no_axis="it turns about all three"),
+              closes_loops=True, mjcf=(1,), no_axis="it turns about all three", glyph="ball"),
 )}
 
 

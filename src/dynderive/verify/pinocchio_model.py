@@ -37,13 +37,15 @@ def pinocchio_model(robot: Robot, values: dict[str, float]) -> tuple[Any, np.nda
 
 
 def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndarray, np.ndarray]:
-    """(model, qp, vp) with ``q_pin = q[qp]`` and ``v_pin = v[vp]``: a floating joint is a
-    ``JointModelFreeFlyer``, a spherical joint a ``JointModelSpherical`` (their quaternions
-    take NQ != NV entries), a planar robot's revolute joints ``JointModelRZ``."""
+    """(model, qp, vp) with ``q_pin = q[qp]`` and ``v_pin = v[vp]``: each joint its joint
+    type's Pinocchio model (``JointType.pinocchio``: a floating joint ``JointModelFreeFlyer``,
+    a spherical joint ``JointModelSpherical``, whose quaternions take NQ != NV entries), at the
+    parameters' ``values`` (their defaults where not given)."""
     import pinocchio as pin
 
     table = SymbolTable.for_robot(robot)
-    numbers = {table.parameters[name]: sympy.Float(v) for name, v in values.items()}
+    defaults = {p.name: p.value for p in robot.parameters if p.value is not None}
+    numbers = {table.parameters[name]: sympy.Float(v) for name, v in (defaults | values).items()}
 
     def num(text: object) -> float:
         return float(table.expr(text).xreplace(numbers).evalf(17))

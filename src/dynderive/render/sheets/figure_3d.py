@@ -26,6 +26,7 @@ import sympy
 
 from ...derivation import Derivation
 from ...input.urdf_values import axis_rotation
+from ...model.joint_kinds import JOINT_KINDS
 from ...model.robot import Robot
 from ..encode import escape_tex
 from .drawing import Drawing, Point, convex_hull, finish, joint_value_text, label_size
@@ -71,7 +72,7 @@ def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, An
     todo = list(robot.joints)
     while todo:
         ready = [j for j in todo if j.parent in frames]
-        if not ready or any(j.type == "floating" for j in ready):
+        if not ready or not all(j.kind.drawn for j in ready):
             return None
         for joint in ready:
             todo.remove(joint)
@@ -85,10 +86,10 @@ def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, An
                 value = multiplier * q[index[leader]] + offset
             else:
                 value = 0.0
-            if joint.type == "revolute":
-                frames[joint.child] = (R0 @ axis_rotation(axis, value), p0)
-            elif joint.type == "prismatic":
-                frames[joint.child] = (R0, p0 + R0 @ axis * value)
+            if joint.moves and joint.kind.screw is not None:   # its turn about and shift along the axis
+                geometry = dict(joint.geometry)
+                turn, slide = (num(geometry.get(text, text)) * value for text in joint.kind.screw)
+                frames[joint.child] = (R0 @ axis_rotation(axis, turn), p0 + R0 @ axis * slide)
             else:
                 frames[joint.child] = (R0, p0)
             joints[joint.name] = (R0, p0, R0 @ axis)
@@ -189,10 +190,10 @@ def spatial_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[st
         if joint.moves:
             _, p, axis = joints[joint.name]
             solids.append((float(towards @ p), len(solids),
-                           lambda p=p, axis=axis, joint=joint: _joint(sheet, at, scale, p, axis, joint.type, joint.name)))
+                           lambda p=p, axis=axis, joint=joint: _joint(sheet, at, scale, p, axis, joint.kind.glyph, joint.name)))
     for loop, p, axis in loop_joints:
         solids.append((float(towards @ p), len(solids),
-                       lambda p=p, axis=axis, loop=loop: _joint(sheet, at, scale, p, axis, loop.type, loop.name)))
+                       lambda p=p, axis=axis, loop=loop: _joint(sheet, at, scale, p, axis, JOINT_KINDS[loop.type].glyph, loop.name)))
     # the bars first, the joints over their ends; each from the farthest
     for _, _, draw in sorted(solids, key=lambda s: (s[1] >= bars, s[0], s[1])):
         draw()
@@ -245,17 +246,18 @@ def _basis(axis: Vector) -> tuple[Vector, Vector]:
     return e1, np.cross(axis, e1)
 
 
-def _joint(sheet: Drawing, at: Callable[[Vector], Point], scale: float, p: Vector, axis: Vector, kind: str,
+def _joint(sheet: Drawing, at: Callable[[Vector], Point], scale: float, p: Vector, axis: Vector, glyph: str,
            name: str) -> None:
-    """A joint's symbol at ``p`` along ``axis`` (world units; sizes in mm on the paper)."""
+    """A joint's symbol (its type's ``glyph``) at ``p`` along ``axis`` (world units; sizes in mm
+    on the paper)."""
     towards = view()[2]
     e1, e2 = _basis(axis)
-    if kind == "spherical":
+    if glyph == "ball":
         centre = at(p)
         sheet.circle(centre, BALL_MM, "shade", tag=name)
         sheet.circle((centre[0] - 0.6, centre[1] + 0.6), 0.5, "joint", tag=name)
         return
-    if kind == "prismatic":
+    if glyph == "box":
         half, width = BOX_MM[0] / scale, BOX_MM[1] / scale
         sheet.path([at(p - axis * (half + 2.0 / scale)), at(p + axis * (half + 2.0 / scale))], "thin")
         corners = [p + sa * half * axis + s1 * width * e1 + s2 * width * e2
