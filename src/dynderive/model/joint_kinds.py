@@ -133,6 +133,9 @@ JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
               coordinates=_FREE_CONFIGURATION[3:], velocities=_FREE_VELOCITY[3:],
               accelerations=_FREE_ACCELERATION[3:], efforts=_FREE_EFFORT[3:], quaternion_start=0,
               closes_loops=True, mjcf=(1,), no_axis="it turns about all three", glyph="ball"),
+    JointKind("helical", "a screw (3-D): one angle about its unit axis (default z), moving pitch along it per radian",
+              takes_axis=True, keys=(JointKey("pitch", "translation along the axis per radian, an expression"),),
+              screw=("1", "pitch"), glyph="cylinder"),
 )}
 
 
