@@ -26,7 +26,15 @@ from dynderive.render.targets.numpy.code import render_code
 pin = pytest.importorskip("pinocchio")
 
 TESTS = Path(__file__).parent
-MOVING = ["revolute", "prismatic", "floating", "spherical"]
+#: Every registered type that moves: the contract below holds for each, a new type included.
+MOVING = [name for name, kind in JOINT_TYPES.items() if kind.moves]
+#: A generic unit axis (full precision) and the types' own keys at full-precision values.
+AXIS = tuple(x / np.linalg.norm([0.3611, -0.4823, 0.7977]) for x in (0.3611, -0.4823, 0.7977))
+KEY_VALUES = {"pitch": 0.0731946218472513}
+
+
+def _geometry(kind) -> dict[str, float]:
+    return {key.name: KEY_VALUES[key.name] for key in kind.spec.keys}
 
 
 class Compiled:
@@ -113,10 +121,12 @@ STATES = 8
 @pytest.mark.parametrize("name", list(JOINT_TYPES))
 def test_sizes_and_names_agree_with_the_robot_model(name):
     kind = joint_type(name)
-    joint = Joint("j", name, "world", "link", (0,) * 6, (1, 0, 0) if name in ("revolute", "prismatic") else ())
-    assert joint.sizes == (kind.nq, kind.nv)
-    assert joint.moves == kind.moves
-    assert len(kind.columns((sympy.Integer(1), sympy.Integer(0), sympy.Integer(0)))) == kind.nv
+    joint = Joint("j", name, "world", "link", (0,) * 6, (1, 0, 0) if kind.spec.takes_axis else (),
+                  geometry=tuple(_geometry(kind).items()))
+    assert joint.sizes == (kind.nq, kind.nv) == (kind.spec.nq, kind.spec.nv)
+    assert joint.moves == kind.moves and joint.kind is kind.spec
+    assert len(kind.columns((sympy.Integer(1), sympy.Integer(0), sympy.Integer(0)), _geometry(kind))) == kind.nv
+    assert len(joint.kind.names("j")[0]) == kind.nq
     assert len(kind.neutral()) == kind.nq
     assert (kind.quaternion_start is not None) == joint.multi
 
@@ -157,10 +167,9 @@ def test_rate_is_the_derivative_of_integrate_and_the_seed_its_derivative_by_v(ma
 
 
 def _pinocchio_model(name: str):
-    model = pin.Model()
-    joint = {"revolute": pin.JointModelRX, "prismatic": pin.JointModelPX, "floating": pin.JointModelFreeFlyer,
-             "spherical": pin.JointModelSpherical}[name]()
-    model.addJoint(0, joint, pin.SE3.Identity(), "j")
+    """A one-joint model: the type's own Pinocchio joint model at AXIS and KEY_VALUES."""
+    model, kind = pin.Model(), joint_type(name)
+    model.addJoint(0, kind.pinocchio(pin, np.array(AXIS), _geometry(kind)), pin.SE3.Identity(), "j")
     return model
 
 
@@ -179,6 +188,30 @@ def test_maps_equal_pinocchio_on_a_one_joint_model(maps, name):
             np.testing.assert_allclose(q1, pin.integrate(model, q0, v * dt), rtol=0, atol=1e-12)
             other = _random_configuration(name, rng)
             np.testing.assert_allclose(m.difference(q0, other), pin.difference(model, q0, other), rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("name", MOVING)
+def test_motion_equals_pinocchio_on_a_one_joint_model(name):
+    """The type's child placement (rotation, displacement) and motion columns (its local
+    Jacobian, linear then angular in Pinocchio) at AXIS and KEY_VALUES, at random states."""
+    kind, rng = joint_type(name), np.random.default_rng(17)
+    model = _pinocchio_model(name)
+    data = model.createData()
+    axis = tuple(sympy.Float(a, 17) for a in AXIS)
+    geometry = {key: sympy.Float(value, 17) for key, value in _geometry(kind).items()}
+    for _ in range(STATES):
+        q = _random_configuration(name, rng)
+        entries = [sympy.Float(x, 17) for x in q]
+        pin.forwardKinematics(model, data, q)
+        R = np.array(kind.rotation(entries, axis, geometry), dtype=float)
+        shift = kind.displacement(sympy.eye(3), entries, axis, geometry)
+        p = np.zeros(3) if shift is None else np.array(shift, dtype=float).reshape(3)
+        np.testing.assert_allclose(R, data.oMi[1].rotation, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(p, data.oMi[1].translation, rtol=0, atol=1e-14)
+        pin.computeJointJacobians(model, data, q)
+        J = np.asarray(pin.getJointJacobian(model, data, 1, pin.LOCAL)).reshape(6, -1)
+        S = np.array([[*v, *w] for w, v in kind.columns(axis, geometry)], dtype=float).T
+        np.testing.assert_allclose(S, J, rtol=0, atol=1e-14)
 
 
 def test_revolute_and_prismatic_move_along_their_axis():
