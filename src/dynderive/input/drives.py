@@ -9,6 +9,8 @@ from typing import Any
 
 import sympy
 
+from ..model.joint_kinds import JOINT_KINDS
+
 #: The drive keys of a joint, in the order the sheet lists them, and what each is.
 DRIVE_KEYS = {
     "damping": "viscous damping",
@@ -32,8 +34,9 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
         if key not in item:
             continue
         kpath = path + (key,)
-        if jtype in ("fixed", "floating", "spherical"):
-            v.report(kpath, f"a fixed joint has no coordinate, so no {DRIVE_KEYS[key]}" if jtype == "fixed"
+        kind = JOINT_KINDS.get(jtype) if isinstance(jtype, str) else None
+        if kind is not None and (kind.welded or not kind.vector_space):
+            v.report(kpath, f"a {jtype} joint has no coordinate, so no {DRIVE_KEYS[key]}" if kind.welded
                      else f"drive terms on a {jtype} joint are not built yet", key=True)
             continue
         if item[key] is None or isinstance(item[key], (bool, list, dict)):
@@ -48,7 +51,8 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
             v.report(kpath, f"{DRIVE_KEYS[key]} must not be negative (got {value:g})")
             continue
         terms[key] = item[key]
-    if "rest" in item and "stiffness" not in item and jtype != "fixed":
+    welded = isinstance(jtype, str) and jtype in JOINT_KINDS and JOINT_KINDS[jtype].welded
+    if "rest" in item and "stiffness" not in item and not welded:
         rpath = path + ("rest",)
         v.report(rpath, "a rest position needs a spring: add 'stiffness'", key=True)
         terms.pop("rest", None)

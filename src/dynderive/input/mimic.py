@@ -18,12 +18,13 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ..model.joint_kinds import JOINT_KINDS
 from ..model.naming import did_you_mean
 from ..model.robot import Joint, Mimic
 
 MIMIC_KEYS = ("joint", "multiplier", "offset")
-#: Joint types that may follow, or lead.
-COUPLED_TYPES = ("revolute", "prismatic")
+#: Joint types that may follow, or lead (the joint specification's ``follows``).
+COUPLED_TYPES = tuple(name for name, kind in JOINT_KINDS.items() if kind.follows)
 
 
 def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str | None) -> Mimic | None:
@@ -32,7 +33,7 @@ def read_mimic(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str |
         return None
     mpath = path + ("mimic",)
     if jtype is not None and jtype not in COUPLED_TYPES:
-        v.report(mpath, f"a {jtype} joint cannot mimic another (only revolute and prismatic joints can)",
+        v.report(mpath, f"a {jtype} joint cannot mimic another (only {' and '.join(COUPLED_TYPES)} joints can)",
                  key=True)
         return None
     block = v.mapping(item["mimic"], mpath, MIMIC_KEYS, required=("joint",))

@@ -82,6 +82,8 @@ class JointKind:
     #: fixed joint); ``drawn``: whether the figure can place the links below it at all.
     glyph: str = ""
     drawn: bool = True
+    #: Whether a joint of this type may follow another's coordinate, or lead (URDF ``<mimic>``).
+    follows: bool = False
 
     @property
     def nq(self) -> int:
@@ -119,10 +121,10 @@ class JointKind:
 JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
     JointKind("revolute", "one angle about its unit axis (3-D: axis, default z; planar: about z)",
               takes_axis=True, planar=True, closes_loops=True, urdf=("revolute", "continuous"), mjcf=(3,),
-              screw=("1", "0"), glyph="cylinder"),
+              screw=("1", "0"), glyph="cylinder", follows=True),
     JointKind("prismatic", "one displacement along its unit axis (3-D: 3 entries, planar: 2)",
               takes_axis=True, planar_axis=True, planar=True, closes_loops=True, urdf=("prismatic",), mjcf=(2,),
-              screw=("0", "1"), glyph="box"),
+              screw=("0", "1"), glyph="box", follows=True),
     JointKind("fixed", "no coordinate: the child is welded to the parent", welded=True, planar=True,
               urdf=("fixed",)),
     JointKind("floating", "a free joint: 3-D position and unit quaternion (planar: x, y, theta, "
