@@ -29,7 +29,7 @@ from ..model.symbols import SymbolTable
 from .exact_fast import diff, jacobian, matmul
 from .program import Program
 from .recursive import _carry, _forward, _newton_euler
-from .tidy import tidy
+from .tidy import is_small, tidy
 from .tree import Tree
 
 
@@ -107,9 +107,13 @@ def symbolic_linearization(quantities: Mapping[str, sympy.Matrix], table: Symbol
         others = {s: v for s, v in state.items() if s not in set(variables)}
         return at(jacobian(rest.xreplace(others), variables))
 
-    exact = _Exact([at(M), -at(rest), *[at(M.applyfunc(lambda e, c=c: diff(e, c))) for c in table.q],
-                    partials(list(table.q)), partials(list(table.qd)),
-                    at(jacobian(Y, efforts)) if efforts else sympy.zeros(n, 0)])
+    pieces = [at(M), -at(rest), *[at(M.applyfunc(lambda e, c=c: diff(e, c))) for c in table.q],
+              partials(list(table.q)), partials(list(table.qd)),
+              at(jacobian(Y, efforts)) if efforts else sympy.zeros(n, 0)]
+    if not is_small(sympy.Tuple(*(e for piece in pieces for e in piece)), INPUT_NODES):
+        raise NoClosedForm(f"the mass matrix and forces at this point are too large for a closed form "
+                           f"(over {INPUT_NODES} operations)")
+    exact = _Exact(pieces)
     M0, forces, *mass_slopes, rest_q, rest_qd, d_u = exact.matrices
     det, adjugate = exact.inverse_parts(M0)
     accelerations = adjugate * forces                       # det M qdd0
@@ -127,6 +131,13 @@ def symbolic_linearization(quantities: Mapping[str, sympy.Matrix], table: Symbol
 #: Most terms an entry of the closed form may have (numerator and denominator, expanded):
 #: beyond it no one reads the formula, and printing it takes longer than deriving it.
 CLOSED_FORM_TERMS = 200
+
+
+#: Most operations (expression nodes) the mass matrix, the forces and their partials at the
+#: point may have together before the exact solve is tried: a full-precision 3-D arm's reach
+#: hundreds of thousands, whose polynomial ring then takes minutes to build (the bundled
+#: planar and small arms' stay under 300).
+INPUT_NODES = 20_000
 
 
 #: Entries up to this many terms are put in ``sympy.cancel``'s normal form.
