@@ -310,7 +310,6 @@ NAMED_TYPES_LEFT = {
     "mechanics/loop_programs.py": 4,
     "mechanics/loops.py": 6,
     "mechanics/maximal.py": 4,
-    "mechanics/quasi_velocity.py": 1,
     "model/robot.py": 6,
     "render/codegen/python_context.py": 3,
     "render/sheets/centroidal.py": 1,

@@ -40,7 +40,7 @@ from .joint_types.quaternion import quaternion_matrix
 from .joints import unit
 from .polynomial import expand
 from .program import _cross
-from .rotations import axis_angle, rpy_matrix
+from .rotations import rpy_matrix
 from .spatial import inertia_tensor
 from .tidy import fold_constants
 from .tree import efforts, offsets
@@ -250,18 +250,19 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
             S[3:, vi + start:vi + start + 3] = sympy.eye(3)
             rate[qi:qi + start + 4, vi:vi + start + 3] = block
             R = R * Rq
-        elif kind.moves:   # revolute, prismatic
-            axis = fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis))))
-            if kind.turns:
-                R = R * axis_angle(tuple(axis), table.q[qi])
-                S[3:, vi] = axis
-            else:
-                p = p + R * axis * table.q[qi]
-                S[:3, vi] = axis
+        elif kind.moves:   # one coordinate: its type's turn and shift, its column
+            axis = tuple(fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis)))))
+            geometry = joint_types.geometry_of(joint, expr)
+            shift = kind.displacement(R, [table.q[qi]], axis, geometry)   # (R axis) q for a prismatic joint
+            p = p if shift is None else p + shift
+            R = R * kind.rotation([table.q[qi]], axis, geometry)
+            (w, v), = kind.columns(axis, geometry)
+            S[3:, vi], S[:3, vi] = sympy.Matrix(w), sympy.Matrix(v)
             rate[qi, vi] = 1
         com = sympy.Matrix([expr(e) for e in link.com])
         pieces[link.name] = (R, p, S, expr(link.mass), com, inertia_tensor(tuple(expr(e) for e in link.inertia)))
-    revolute = [table.q[where.q[j.name]] for j in robot.joints if j.type == "revolute"]
+    revolute = [table.q[where.q[j.name]] for j in robot.joints   # the angles inside sines and cosines
+                if j.kind.vector_space and joint_types.of(j).turns]
     ring = _Ring(table, revolute, [*gravity, *(e for piece in pieces.values() for part in piece
                                                for e in (part if isinstance(part, sympy.MatrixBase) else [part]))])
     K = ring.domain
