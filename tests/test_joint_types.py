@@ -306,7 +306,6 @@ NAMED_TYPES_LEFT = {
     "input/urdf_bodies.py": 1,
     "input/urdf_root.py": 7,
     "input/urdf_symbolic.py": 2,
-    "mechanics/centroidal_steps.py": 2,
     "mechanics/loop_programs.py": 4,
     "mechanics/loops.py": 6,
     "mechanics/maximal.py": 4,

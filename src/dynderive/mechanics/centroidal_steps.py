@@ -147,14 +147,15 @@ def quasi_velocity_centroidal(robot: Robot, table: SymbolTable, sheet: QuasiVelo
     quaternion = table.q[start:start + 4]
     x, y, z, roll, pitch, yaw = (table.expr(e) for e in root.origin)
     R_o, p_o = fold_constants(rpy_matrix(roll, pitch, yaw)), fold_constants(sympy.Matrix([x, y, z]))
-    position = sympy.Matrix(table.q[where_q[root.name]:where_q[root.name] + 3]) if root.type == "floating" \
-        else sympy.zeros(3, 1)
+    # the entries before its quaternion are its position (a free joint's), if it has them
+    position = sympy.Matrix(table.q[where_q[root.name]:start]) if start > where_q[root.name] else sympy.zeros(3, 1)
     zero = {s: 0 for s in (*quaternion[:3], *position)} | {quaternion[3]: 1}
     moving = moving_links(robot)
     links = [k for k in sheet.links if k.name in moving]
     relative = [(R_o.T * k.rotation.xreplace(zero), R_o.T * (k.com_position.xreplace(zero) - p_o)) for k in links]
     values = [e for k, (R, p) in zip(links, relative) for m in (R, p, k.jacobian, k.inertia) for e in m]
-    revolute = [table.q[where_q[j.name]] for j in robot.joints if j.type == "revolute" and j.owns]
+    revolute = [table.q[where_q[j.name]] for j in robot.joints   # the angles inside sines and cosines
+                if j.owns and j.kind.vector_space and joint_types.of(j).turns]
     ring = _Ring(table, revolute, [*values, *(k.mass for k in links)])
 
     def clean(e: sympy.Expr) -> sympy.Expr:
