@@ -16,6 +16,7 @@ from ...model.array_program import Call
 from .. import api
 from ..encode import Code, python_literal
 from .array_program import ArrayPrinter
+from .conventions import conventions, robot_kind
 from .functions import Argument, ExpressionFunction, ProgramFunction, expression_function, program_function
 from .printer import _Printer
 
@@ -60,6 +61,13 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
         "parameter_count": len(identification),
         "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
         "floating": robot.floating,
+        # NQ and NV (equal for a robot of vector-space joints), and the words on q and qd
+        "nq": len(derivation.symbols.q),
+        "nv": len(derivation.symbols.qd),
+        "velocities_tuple": _tuple(tuple(str(s) for s in derivation.symbols.qd)),
+        "effort_columns": python_literal(robot.effort_columns()),
+        "robot_kind": robot_kind(robot),
+        "conventions": Code(conventions(robot, derivation.symbols)),
     }
 
 
@@ -132,7 +140,7 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
     functions.append(expression_function(
         "parameter_vector", api.python_doc("parameter_vector", size, batch=False),
         [], sympy.Matrix([p.value for p in identification]), printer, params))
-    return _common_context(derivation) | {
+    context = _common_context(derivation) | {
         "coordinates": list(robot.coordinates),
         "coordinates_tuple": _tuple(robot.coordinates),
         "q_doc": Code(f"joint coordinates {_tuple(robot.coordinates)}"),
@@ -162,6 +170,13 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
         "assembled_tuple": python_literal(tuple(derivation.steps["loops"].assembled or ()))
         if robot.loops else Code("()"),
     }
+    # the loops' constants: the joints closing them, the coordinates kept independent, a guess for assemble
+    context["loop_constants"] = [
+        Code("#: The loop-closing joints, and the coordinates kept independent (the others follow from them)."),
+        Code(f"LOOPS = {context['loops_tuple']}"), Code(f"INDEPENDENT_COORDINATES = {context['independent_tuple']}"),
+        Code("#: A configuration on the loop constraints at the default parameters (a guess for ``assemble``)."),
+        Code(f"ASSEMBLED_CONFIGURATION = {context['assembled_tuple']}")]
+    return context
 
 
 def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
@@ -294,9 +309,6 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
         bodies[-1].keywords = False
     return _common_context(derivation) | {
         "coordinates_tuple": _tuple(tuple(str(s) for s in table.q)),
-        "velocities_tuple": _tuple(tuple(str(s) for s in table.qd)),
-        "nq": nq,
-        "nv": nv,
         "q_doc": Code("coordinates COORDINATES"),
         "nq_text": Code("NQ"),
         "nv_text": Code("NV"),
@@ -304,12 +316,14 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
         "twist_size": 6,
         "spherical": any(j.type == "spherical" for j in robot.joints),
         "floating_base": robot.floating_base,
-        "effort_columns": python_literal(robot.effort_columns()),
         "programs": bodies,
         "functions": [],
         "loops": bool(robot.loops),
         "loop_count": len(derivation.loop_programs.rows) if robot.loops else 0,
         "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
+        # the loops' constants: the joints closing them (their rows are loop_constraints')
+        "loop_constants": [Code("#: The loop-closing joints (their rows: loop_constraints)."),
+                           Code(f"LOOPS = {_tuple(tuple(lp.name for lp in robot.loops))}")],
         "maximal": False,
     }
 

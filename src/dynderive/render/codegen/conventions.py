@@ -1,0 +1,48 @@
+"""The words of a generated Python module that describe its robot's ``q`` and ``qd``: what
+kind of robot it is, and for each joint whose configuration holds a unit quaternion (NQ != NV),
+which of its entries are which, read from the joint's own entries rather than from its type's
+name, so the templates write them without asking which joints the robot has."""
+
+from __future__ import annotations
+
+import textwrap
+
+from ...model.robot import Robot
+from ...model.symbols import SymbolTable
+
+#: The width the module docstrings are wrapped to.
+WIDTH = 95
+
+
+def robot_kind(robot: Robot) -> str:
+    """The words after the module title's robot name: a floating base, quaternion joints, or none."""
+    if robot.floating_base:
+        return "a floating-base robot"
+    return "a robot with quaternion joints" if robot.floating else ""
+
+
+def joint_entries(robot: Robot, table: SymbolTable) -> list[str]:
+    """Per joint with a unit quaternion in ``q``, its entries of ``q`` and ``qd``, by name."""
+    where_q, where_v = robot.offsets()
+    sentences = []
+    for joint, quaternion in zip([j for j in robot.joints if j.multi], robot.quaternion_starts, strict=True):
+        nq, nv = joint.sizes
+        q = [str(s) for s in table.q[where_q[joint.name]:where_q[joint.name] + nq]]
+        v = [str(s) for s in table.qd[where_v[joint.name]:where_v[joint.name] + nv]]
+        start = quaternion - where_q[joint.name]
+        held = f"{', '.join(q[:start])} and the unit quaternion " if start else "the unit quaternion "
+        sentences.append(f"joint {joint.name} holds {held}{', '.join(q[start:])} (x, y, z, w) in ``q`` and "
+                         f"its velocity {', '.join(v)} in its own frame in ``qd``")
+    return sentences
+
+
+def conventions(robot: Robot, table: SymbolTable) -> str:
+    """The module docstring's paragraph on ``q`` and ``qd``: their sizes NQ and NV (equal for a
+    robot of vector-space joints), and Pinocchio's conventions for each quaternion joint."""
+    nq, nv = len(table.q), len(table.qd)
+    text = (f"``q`` has NQ = {nq} entries (COORDINATES), ``qd``, ``qdd`` and ``integrate``'s ``v`` have "
+            f"NV = {nv} entries (VELOCITIES), in joint order.")
+    joints = joint_entries(robot, table)
+    if joints:
+        text += " Conventions are Pinocchio's: " + "; ".join(joints) + "."
+    return textwrap.fill(text, WIDTH, break_on_hyphens=False, break_long_words=False)
