@@ -46,3 +46,28 @@ def conventions(robot: Robot, table: SymbolTable) -> str:
     if joints:
         text += " Conventions are Pinocchio's: " + "; ".join(joints) + "."
     return textwrap.fill(text, WIDTH, break_on_hyphens=False, break_long_words=False)
+
+
+def _force_word(nv: int) -> str:
+    """What acts on a quaternion joint's velocity entries: a wrench on six, a torque on three."""
+    return "wrench" if nv == 6 else "torque"
+
+
+def notes(robot: Robot, table: SymbolTable) -> dict[str, str]:
+    """The docstring sentences on the quaternion joints' entries, by function (empty for a
+    robot of vector-space joints): the Jacobian's columns, inverse dynamics' entries, the
+    efforts of an actuated quaternion joint, friction's zero entries, the regressor."""
+    joints = [j for j in robot.joints if j.multi]
+    names = ", ".join(j.name for j in joints)
+    actuated = [j for j in joints if j.effort_names]
+    return {
+        "frame_jacobian": f"; the columns of {names} take their velocity in their own frame" if joints else "",
+        "inverse_dynamics": "".join(f"\n    Joint {j.name}'s entries are the {_force_word(j.sizes[1])} its child would need."
+                                    for j in joints),
+        "efforts": "".join(f" Joint {j.name}'s efforts ({', '.join(j.effort_names)}) are the {_force_word(j.sizes[1])} "
+                           "on its child in its frame." for j in actuated),
+        "friction": ("; zero on the entries of " + names + " (they take no drive term)") if joints else
+                    " (F_g = dD/dqd + fc sign(qd), D the Rayleigh dissipation function)",
+        "regressor": ("\n    Where each link's frame is its joint's (no welded links), the columns are Pinocchio's\n"
+                      "    ``computeJointTorqueRegressor``'s.") if joints else "",
+    }

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..target import CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, Target
+from ..target import CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS, Target
 
 
 def render(derivation: Any, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
@@ -38,5 +38,5 @@ TARGET = Target(
                                      "with the NumPy module"),
                  ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "
                                         "coordinates)")),
-    not_built=(CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED),
+    not_built=(CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS),
 )
