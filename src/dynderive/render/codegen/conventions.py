@@ -68,6 +68,7 @@ def notes(robot: Robot, table: SymbolTable) -> dict[str, str]:
                            "on its child in its frame." for j in actuated),
         "friction": ("; zero on the entries of " + names + " (they take no drive term)") if joints else
                     " (F_g = dD/dqd + fc sign(qd), D the Rayleigh dissipation function)",
+        "contact_efforts": " (u at EFFORT_COLUMNS)" if joints else "",
         "regressor": ("\n    Where each link's frame is its joint's (no welded links), the columns are Pinocchio's\n"
                       "    ``computeJointTorqueRegressor``'s.") if joints else "",
     }

@@ -175,6 +175,7 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
         "loops": bool(robot.loops),
         # the loops' solve partitions q into independent and dependent coordinates (dynamics_loops.py.j2)
         "loop_partition": bool(robot.loops),
+        "contact_rows_doc": Code(" (the\n    loops' rank plus the contacts' rows, taken as independent)"),
         "loop_count": quantities["a_g"].shape[0] if robot.loops else 0,
         "loop_rank": derivation.steps["loops"].rank if robot.loops else 0,
         "redundant_loops": bool(robot.loops) and derivation.steps["loops"].redundant,
@@ -349,6 +350,7 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
                              "B = (v x* I - I v x + (I v) xbar*) / 2."),
         "loops": bool(robot.loops),
         "loop_partition": False,   # the loops are rows on the tree's twists (dynamics_tangent_loops.py.j2)
+        "contact_rows_doc": Code("\n    (found at each state)"),
         "loop_count": len(derivation.loop_programs.rows) if robot.loops else 0,
         "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
         # the loops' constants: the joints closing them (their rows are loop_constraints')
