@@ -340,8 +340,6 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
         "nv_text": Code("NV"),
         "frame_size": 4,
         "twist_size": 6,
-        "spherical": any(j.type == "spherical" for j in robot.joints),
-        "floating_base": robot.floating_base,
         "programs": bodies,
         "functions": [],
         "structured": True,   # M, C, N and V are programs
