@@ -2038,15 +2038,13 @@ def regressor(q, qd, qdd, *, friction_smoothing=0.0, m1=4.0, m2=3.0, m3=2.0, l1=
 
 
 def neutral_configuration():
-    """The neutral configuration (Pinocchio's ``neutral``): zeros, and identity quaternions."""
+    """The neutral configuration (Pinocchio's ``neutral``): zeros."""
     return _evaluate(_neutral_configuration_body, [], (NQ,), {})
 
 
 def integrate(q, v, dt=1.0):
     """The configuration reached from q moving at v for dt (Pinocchio's ``integrate(model, q, v * dt)``):
-    q + v dt for the joints, for a floating joint the exponential map of SE(3), its pose times
-    exp(v dt), with its quaternion normalized in the hemisphere of q's, and for a spherical
-    joint that of SO(3), its quaternion times exp(v dt), normalized. Shape (..., NQ).
+    q + v dt for the joints. Shape (..., NQ).
 
     q: coordinates, shape (..., NQ); v: velocities, shape (..., NV); dt: time step (or an array of them)
     """
@@ -2056,9 +2054,7 @@ def integrate(q, v, dt=1.0):
 
 def configuration_rate(q, v):
     """dq/dt of the configuration q moving at velocity v, shape (..., NQ): the derivative of
-    integrate(q, v, t) at t = 0. The joints' rates as they are, for a floating joint
-    R(quaternion) (vx, vy, vz) and the quaternion's 1/2 quaternion * (wx, wy, wz, 0), for a
-    spherical joint the latter, tangent to the unit sphere (an integrator on (q, v) keeps the quaternion unit up to its own error).
+    integrate(q, v, t) at t = 0. The joints' rates as they are.
 
     q: coordinates, shape (..., NQ); v: velocities, shape (..., NV)
     """
@@ -2067,8 +2063,7 @@ def configuration_rate(q, v):
 
 def difference(q_from, q_to):
     """The velocity v that ``integrate`` turns q_from into q_to in unit time (Pinocchio's
-    ``difference(model, q_from, q_to)``): q_to - q_from for the joints, for a floating joint
-    log of SE(3) of its relative pose, for a spherical joint log of SO(3). Shape (..., NV).
+    ``difference(model, q_from, q_to)``): q_to - q_from for the joints. Shape (..., NV).
 
     q_from, q_to: coordinates, shape (..., NQ)
     """

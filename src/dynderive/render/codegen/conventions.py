@@ -69,6 +69,36 @@ def notes(robot: Robot, table: SymbolTable) -> dict[str, str]:
         "friction": ("; zero on the entries of " + names + " (they take no drive term)") if joints else
                     " (F_g = dD/dqd + fc sign(qd), D the Rayleigh dissipation function)",
         "contact_efforts": " (u at EFFORT_COLUMNS)" if joints else "",
+        **_map_notes(joints),
         "regressor": ("\n    Where each link's frame is its joint's (no welded links), the columns are Pinocchio's\n"
                       "    ``computeJointTorqueRegressor``'s.") if joints else "",
     }
+
+
+def _map_notes(joints: list) -> dict[str, str]:
+    """The configuration maps' sentences on the quaternion joints, grouped by their velocity
+    size (six: a free body's SE(3); three: a ball's SO(3)); none without them."""
+    free = ", ".join(j.name for j in joints if j.sizes[1] == 6)
+    ball = ", ".join(j.name for j in joints if j.sizes[1] == 3)
+    integrate = difference = rate = ""
+    if free:
+        integrate += (f", for {free} the exponential map of SE(3), the pose times exp(v dt), with its quaternion "
+                      "normalized in the hemisphere of q's")
+        difference += f", for {free} log of SE(3) of the relative pose"
+        rate += f", for {free} R(quaternion) (vx, vy, vz) and the quaternion's 1/2 quaternion * (wx, wy, wz, 0)"
+    if ball:
+        integrate += f", for {ball} the exponential map of SO(3), the quaternion times exp(v dt), normalized"
+        difference += f", for {ball} log of SO(3)"
+        rate += f", for {ball} the quaternion's 1/2 quaternion * (wx, wy, wz, 0)"
+    if joints:
+        rate += ", tangent to the unit sphere (an integrator on (q, v) keeps the quaternion unit up to its own error)"
+    return {"neutral": ", and identity quaternions" if joints else "", "integrate": _indented(integrate),
+            "difference": _indented(difference), "rate": _indented(rate)}
+
+
+def _indented(clauses: str) -> str:
+    """Clauses that continue a docstring's sentence (``, for ...``), wrapped on lines of their own."""
+    if not clauses:
+        return ""
+    return ",\n" + textwrap.fill(clauses.removeprefix(", "), WIDTH, initial_indent="    ", subsequent_indent="    ",
+                                  break_on_hyphens=False, break_long_words=False)
