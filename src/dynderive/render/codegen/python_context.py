@@ -80,6 +80,8 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
 def _effort_matrix(derivation: Derivation) -> list[list[float]]:
     """dY/du (NV x NU), rows of numbers: 1 at each effort's velocity column (or a mimic's
     multiplier), taken at q = 0 as linearize's input matrix B takes it."""
+    if not derivation.symbols.efforts:   # no effort: NV empty rows
+        return [[] for _ in derivation.symbols.qd]
     at_zero = {symbol: 0 for symbol in derivation.symbols.q}
     return [[float(entry) for entry in row] for row in derivation.effort_jacobian.subs(at_zero).tolist()]
 
