@@ -667,11 +667,11 @@ def _neutral_configuration_body():
 _neutral_configuration_body.functions = ()
 
 
-def _integrate_body(q, v, dt):
+def _integrate_body(q, _v, _dt):
     """integrate: the joint types' map, joint by joint. 2 lines, 4 operations."""
     x, theta = q
-    xd, thetad = v
-    _dt, = dt
+    xd, thetad = _v
+    _dt, = _dt
     _r0 = x + _dt*xd
     _r1 = theta + _dt*thetad
     return (
@@ -683,10 +683,10 @@ def _integrate_body(q, v, dt):
 _integrate_body.functions = ()
 
 
-def _difference_body(q_from, q_to):
+def _difference_body(_q_from, _q_to):
     """difference: the joint types' map, joint by joint. 2 lines, 4 operations."""
-    _q_from0, _q_from1 = q_from
-    _q_to0, _q_to1 = q_to
+    _q_from0, _q_from1 = _q_from
+    _q_to0, _q_to1 = _q_to
     _r0 = _q_to0 - _q_from0
     _r1 = _q_to1 - _q_from1
     return (
@@ -698,10 +698,10 @@ def _difference_body(q_from, q_to):
 _difference_body.functions = ()
 
 
-def _configuration_rate_body(q, v):
+def _configuration_rate_body(q, _v):
     """configuration_rate: the joint types' map, joint by joint. 0 lines, 0 operations."""
     x, theta = q
-    xd, thetad = v
+    xd, thetad = _v
     return (
         xd,
         thetad,
@@ -781,10 +781,10 @@ def friction_forces(qd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.
     discontinuity at qd = 0); eps > 0 replaces sign(qd) by tanh(qd / eps), which adaptive
     integrators step through far more easily.
     """
-    qd = _coordinates("qd", qd, NV)
+    qd = _coordinates("qd", qd, 2)
     _parameters = {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g}
-    _damping = _evaluate(_damping_coefficients_body, [], (NV,), _parameters)
-    _friction = _evaluate(_friction_coefficients_body, [], (NV,), _parameters)
+    _damping = _evaluate(_damping_coefficients_body, [], (2,), _parameters)
+    _friction = _evaluate(_friction_coefficients_body, [], (2,), _parameters)
     return _damping * qd + _friction * _direction(qd, friction_smoothing)
 
 
@@ -840,8 +840,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
     friction_smoothing = 0 (the exact sign) and fc (1 - tanh(qd/eps)**2)/eps with friction_smoothing = eps > 0.
     External wrenches are not linearized.
     """
-    q = _coordinates("q", q, NQ)
-    qd = _coordinates("qd", qd, NV)
+    q = _coordinates("q", q, 2)
+    qd = _coordinates("qd", qd, 2)
     if u is None:
         u = np.zeros(len(EFFORTS), dtype=q.dtype)
     _parameters = {"mc": mc, "mp": mp, "lp": lp, "bc": bc, "fc": fc, "bp": bp, "Jm": Jm, "g": g}
@@ -849,12 +849,12 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, 
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _mass = mass_matrix(q, **_parameters)
-    _inputs = np.asarray(((1.0,), (0.0,)), dtype=_dtype_).reshape(NV, len(EFFORTS))
+    _inputs = np.asarray(((1.0,), (0.0,)), dtype=_dtype_).reshape(2, 1)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = _blocks([[-_by_coordinate, -_by_rate, _inputs]], _batch)
-    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (NV, NV)), _rhs)
-    _A = _blocks([[np.zeros((NV, NV), dtype=_dtype_), np.eye(NV, dtype=_dtype_)], [_solved[..., :2 * NV]]], _batch)
-    _B = _blocks([[np.zeros((NV, _solved.shape[-1] - 2 * NV), dtype=_dtype_)], [_solved[..., 2 * NV:]]], _batch)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (2, 2)), _rhs)
+    _A = _blocks([[np.zeros((2, 2), dtype=_dtype_), np.eye(2, dtype=_dtype_)], [_solved[..., :4]]], _batch)
+    _B = _blocks([[np.zeros((2, _solved.shape[-1] - 4), dtype=_dtype_)], [_solved[..., 4:]]], _batch)
     return _A, _B
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, mc=1.0, mp=0.1, lp=1.0, bc=0.5, fc=0.2, bp=0.002, Jm=0.05, g=9.81):
@@ -876,8 +876,8 @@ def _inverse_derivatives(arrays, friction_smoothing, _parameters):
     """inverse_dynamics_derivatives of the checked arrays [q, qd, qdd] (linearize's too)."""
     _derivatives = _evaluate(_inverse_dynamics_derivatives_body, arrays, (2, 2, 2), _parameters)
     _by_coordinate, _by_rate = _derivatives[..., 0, :, :], _derivatives[..., 1, :, :]
-    _damping = _evaluate(_damping_coefficients_body, [], (NV,), _parameters)
-    _friction = _evaluate(_friction_coefficients_body, [], (NV,), _parameters)
+    _damping = _evaluate(_damping_coefficients_body, [], (2,), _parameters)
+    _friction = _evaluate(_friction_coefficients_body, [], (2,), _parameters)
     _slope = _damping + _coulomb_slope(_friction, arrays[1], friction_smoothing)
     _by_rate = _by_rate + _slope[..., None, :] * np.eye(2, dtype=_by_rate.dtype)
     return _by_coordinate, _by_rate

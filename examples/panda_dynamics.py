@@ -6716,11 +6716,11 @@ def _neutral_configuration_body():
 _neutral_configuration_body.functions = ()
 
 
-def _integrate_body(q, v, dt):
+def _integrate_body(q, _v, _dt):
     """integrate: the joint types' map, joint by joint. 7 lines, 14 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
-    panda_jointd1, panda_jointd2, panda_jointd3, panda_jointd4, panda_jointd5, panda_jointd6, panda_jointd7 = v
-    _dt, = dt
+    panda_jointd1, panda_jointd2, panda_jointd3, panda_jointd4, panda_jointd5, panda_jointd6, panda_jointd7 = _v
+    _dt, = _dt
     _r0 = panda_joint1 + _dt*panda_jointd1
     _r1 = panda_joint2 + _dt*panda_jointd2
     _r2 = panda_joint3 + _dt*panda_jointd3
@@ -6742,10 +6742,10 @@ def _integrate_body(q, v, dt):
 _integrate_body.functions = ()
 
 
-def _difference_body(q_from, q_to):
+def _difference_body(_q_from, _q_to):
     """difference: the joint types' map, joint by joint. 7 lines, 14 operations."""
-    _q_from0, _q_from1, _q_from2, _q_from3, _q_from4, _q_from5, _q_from6 = q_from
-    _q_to0, _q_to1, _q_to2, _q_to3, _q_to4, _q_to5, _q_to6 = q_to
+    _q_from0, _q_from1, _q_from2, _q_from3, _q_from4, _q_from5, _q_from6 = _q_from
+    _q_to0, _q_to1, _q_to2, _q_to3, _q_to4, _q_to5, _q_to6 = _q_to
     _r0 = _q_to0 - _q_from0
     _r1 = _q_to1 - _q_from1
     _r2 = _q_to2 - _q_from2
@@ -6767,10 +6767,10 @@ def _difference_body(q_from, q_to):
 _difference_body.functions = ()
 
 
-def _configuration_rate_body(q, v):
+def _configuration_rate_body(q, _v):
     """configuration_rate: the joint types' map, joint by joint. 0 lines, 0 operations."""
     panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7 = q
-    panda_jointd1, panda_jointd2, panda_jointd3, panda_jointd4, panda_jointd5, panda_jointd6, panda_jointd7 = v
+    panda_jointd1, panda_jointd2, panda_jointd3, panda_jointd4, panda_jointd5, panda_jointd6, panda_jointd7 = _v
     return (
         panda_jointd1,
         panda_jointd2,
@@ -7025,8 +7025,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     line along integrate) and one solve with M: M dqdd/dx = dY/dx - dtau/dx at the state's own qdd.
     External wrenches are not linearized.
     """
-    q = _coordinates("q", q, NQ)
-    qd = _coordinates("qd", qd, NV)
+    q = _coordinates("q", q, 7)
+    qd = _coordinates("qd", qd, 7)
     if u is None:
         u = np.zeros(len(EFFORTS), dtype=q.dtype)
     _parameters = {"g": g}
@@ -7034,12 +7034,12 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _mass = mass_matrix(q, **_parameters)
-    _inputs = np.asarray(((1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)), dtype=_dtype_).reshape(NV, len(EFFORTS))
+    _inputs = np.asarray(((1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)), dtype=_dtype_).reshape(7, 7)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = _blocks([[-_by_coordinate, -_by_rate, _inputs]], _batch)
-    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (NV, NV)), _rhs)
-    _A = _blocks([[np.zeros((NV, NV), dtype=_dtype_), np.eye(NV, dtype=_dtype_)], [_solved[..., :2 * NV]]], _batch)
-    _B = _blocks([[np.zeros((NV, _solved.shape[-1] - 2 * NV), dtype=_dtype_)], [_solved[..., 2 * NV:]]], _batch)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (7, 7)), _rhs)
+    _A = _blocks([[np.zeros((7, 7), dtype=_dtype_), np.eye(7, dtype=_dtype_)], [_solved[..., :14]]], _batch)
+    _B = _blocks([[np.zeros((7, _solved.shape[-1] - 14), dtype=_dtype_)], [_solved[..., 14:]]], _batch)
     return _A, _B
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):

@@ -1161,11 +1161,11 @@ def _neutral_configuration_body():
 _neutral_configuration_body.functions = ()
 
 
-def _integrate_body(q, v, dt):
+def _integrate_body(q, _v, _dt):
     """integrate: the joint types' map, joint by joint. 3 lines, 6 operations."""
     th1, th2, th3 = q
-    thd1, thd2, thd3 = v
-    _dt, = dt
+    thd1, thd2, thd3 = _v
+    _dt, = _dt
     _r0 = th1 + _dt*thd1
     _r1 = th2 + _dt*thd2
     _r2 = th3 + _dt*thd3
@@ -1179,10 +1179,10 @@ def _integrate_body(q, v, dt):
 _integrate_body.functions = ()
 
 
-def _difference_body(q_from, q_to):
+def _difference_body(_q_from, _q_to):
     """difference: the joint types' map, joint by joint. 3 lines, 6 operations."""
-    _q_from0, _q_from1, _q_from2 = q_from
-    _q_to0, _q_to1, _q_to2 = q_to
+    _q_from0, _q_from1, _q_from2 = _q_from
+    _q_to0, _q_to1, _q_to2 = _q_to
     _r0 = _q_to0 - _q_from0
     _r1 = _q_to1 - _q_from1
     _r2 = _q_to2 - _q_from2
@@ -1196,10 +1196,10 @@ def _difference_body(q_from, q_to):
 _difference_body.functions = ()
 
 
-def _configuration_rate_body(q, v):
+def _configuration_rate_body(q, _v):
     """configuration_rate: the joint types' map, joint by joint. 0 lines, 0 operations."""
     th1, th2, th3 = q
-    thd1, thd2, thd3 = v
+    thd1, thd2, thd3 = _v
     return (
         thd1,
         thd2,
@@ -1326,8 +1326,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
     line along integrate) and one solve with M: M dqdd/dx = dY/dx - dtau/dx at the state's own qdd.
     External wrenches are not linearized.
     """
-    q = _coordinates("q", q, NQ)
-    qd = _coordinates("qd", qd, NV)
+    q = _coordinates("q", q, 3)
+    qd = _coordinates("qd", qd, 3)
     if u is None:
         u = np.zeros(len(EFFORTS), dtype=q.dtype)
     _parameters = {"m1": m1, "m2": m2, "m3": m3, "l1": l1, "l2": l2, "l3": l3, "r1": r1, "r2": r2, "r3": r3, "I1": I1, "I2": I2, "I3": I3, "g": g}
@@ -1335,12 +1335,12 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, 
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _mass = mass_matrix(q, **_parameters)
-    _inputs = np.asarray(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), dtype=_dtype_).reshape(NV, len(EFFORTS))
+    _inputs = np.asarray(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), dtype=_dtype_).reshape(3, 3)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = _blocks([[-_by_coordinate, -_by_rate, _inputs]], _batch)
-    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (NV, NV)), _rhs)
-    _A = _blocks([[np.zeros((NV, NV), dtype=_dtype_), np.eye(NV, dtype=_dtype_)], [_solved[..., :2 * NV]]], _batch)
-    _B = _blocks([[np.zeros((NV, _solved.shape[-1] - 2 * NV), dtype=_dtype_)], [_solved[..., 2 * NV:]]], _batch)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (3, 3)), _rhs)
+    _A = _blocks([[np.zeros((3, 3), dtype=_dtype_), np.eye(3, dtype=_dtype_)], [_solved[..., :6]]], _batch)
+    _B = _blocks([[np.zeros((3, _solved.shape[-1] - 6), dtype=_dtype_)], [_solved[..., 6:]]], _batch)
     return _A, _B
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m1=2.0, m2=1.5, m3=0.5, l1=0.5, l2=0.4, l3=0.2, r1=0.25, r2=0.2, r3=0.1, I1=0.04, I2=0.02, I3=0.002, g=9.81):

@@ -627,11 +627,11 @@ def _neutral_configuration_body():
 _neutral_configuration_body.functions = ()
 
 
-def _integrate_body(q, v, dt):
+def _integrate_body(q, _v, _dt):
     """integrate: the joint types' map, joint by joint. 2 lines, 4 operations."""
     q1, q2 = q
-    qd1, qd2 = v
-    _dt, = dt
+    qd1, qd2 = _v
+    _dt, = _dt
     _r0 = q1 + _dt*qd1
     _r1 = q2 + _dt*qd2
     return (
@@ -643,10 +643,10 @@ def _integrate_body(q, v, dt):
 _integrate_body.functions = ()
 
 
-def _difference_body(q_from, q_to):
+def _difference_body(_q_from, _q_to):
     """difference: the joint types' map, joint by joint. 2 lines, 4 operations."""
-    _q_from0, _q_from1 = q_from
-    _q_to0, _q_to1 = q_to
+    _q_from0, _q_from1 = _q_from
+    _q_to0, _q_to1 = _q_to
     _r0 = _q_to0 - _q_from0
     _r1 = _q_to1 - _q_from1
     return (
@@ -658,10 +658,10 @@ def _difference_body(q_from, q_to):
 _difference_body.functions = ()
 
 
-def _configuration_rate_body(q, v):
+def _configuration_rate_body(q, _v):
     """configuration_rate: the joint types' map, joint by joint. 0 lines, 0 operations."""
     q1, q2 = q
-    qd1, qd2 = v
+    qd1, qd2 = _v
     return (
         qd1,
         qd2,
@@ -784,8 +784,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
     line along integrate) and one solve with M: M dqdd/dx = dY/dx - dtau/dx at the state's own qdd.
     External wrenches are not linearized.
     """
-    q = _coordinates("q", q, NQ)
-    qd = _coordinates("qd", qd, NV)
+    q = _coordinates("q", q, 2)
+    qd = _coordinates("qd", qd, 2)
     if u is None:
         u = np.zeros(len(EFFORTS), dtype=q.dtype)
     _parameters = {"m": m, "l": l, "g": g}
@@ -793,12 +793,12 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _mass = mass_matrix(q, **_parameters)
-    _inputs = np.asarray(((1.0, 0.0), (0.0, 1.0)), dtype=_dtype_).reshape(NV, len(EFFORTS))
+    _inputs = np.asarray(((1.0, 0.0), (0.0, 1.0)), dtype=_dtype_).reshape(2, 2)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = _blocks([[-_by_coordinate, -_by_rate, _inputs]], _batch)
-    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (NV, NV)), _rhs)
-    _A = _blocks([[np.zeros((NV, NV), dtype=_dtype_), np.eye(NV, dtype=_dtype_)], [_solved[..., :2 * NV]]], _batch)
-    _B = _blocks([[np.zeros((NV, _solved.shape[-1] - 2 * NV), dtype=_dtype_)], [_solved[..., 2 * NV:]]], _batch)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (2, 2)), _rhs)
+    _A = _blocks([[np.zeros((2, 2), dtype=_dtype_), np.eye(2, dtype=_dtype_)], [_solved[..., :4]]], _batch)
+    _B = _blocks([[np.zeros((2, _solved.shape[-1] - 4), dtype=_dtype_)], [_solved[..., 4:]]], _batch)
     return _A, _B
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, m=1.0, l=1.0, g=9.81):

@@ -855,11 +855,11 @@ def _neutral_configuration_body():
 _neutral_configuration_body.functions = ()
 
 
-def _integrate_body(q, v, dt):
+def _integrate_body(q, _v, _dt):
     """integrate: the joint types' map, joint by joint. 3 lines, 6 operations."""
     q1, q2, s = q
-    qd1, qd2, sd = v
-    _dt, = dt
+    qd1, qd2, sd = _v
+    _dt, = _dt
     _r0 = q1 + _dt*qd1
     _r1 = q2 + _dt*qd2
     _r2 = s + _dt*sd
@@ -873,10 +873,10 @@ def _integrate_body(q, v, dt):
 _integrate_body.functions = ()
 
 
-def _difference_body(q_from, q_to):
+def _difference_body(_q_from, _q_to):
     """difference: the joint types' map, joint by joint. 3 lines, 6 operations."""
-    _q_from0, _q_from1, _q_from2 = q_from
-    _q_to0, _q_to1, _q_to2 = q_to
+    _q_from0, _q_from1, _q_from2 = _q_from
+    _q_to0, _q_to1, _q_to2 = _q_to
     _r0 = _q_to0 - _q_from0
     _r1 = _q_to1 - _q_from1
     _r2 = _q_to2 - _q_from2
@@ -890,10 +890,10 @@ def _difference_body(q_from, q_to):
 _difference_body.functions = ()
 
 
-def _configuration_rate_body(q, v):
+def _configuration_rate_body(q, _v):
     """configuration_rate: the joint types' map, joint by joint. 0 lines, 0 operations."""
     q1, q2, s = q
-    qd1, qd2, sd = v
+    qd1, qd2, sd = _v
     return (
         qd1,
         qd2,

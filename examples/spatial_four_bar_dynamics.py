@@ -1794,11 +1794,11 @@ def _neutral_configuration_body():
 _neutral_configuration_body.functions = ()
 
 
-def _integrate_body(q, v, dt):
+def _integrate_body(q, _v, _dt):
     """integrate: the joint types' map, joint by joint. 4 lines, 8 operations."""
     q1, q2, q3, q4 = q
-    qd1, qd2, qd3, qd4 = v
-    _dt, = dt
+    qd1, qd2, qd3, qd4 = _v
+    _dt, = _dt
     _r0 = q1 + _dt*qd1
     _r1 = q2 + _dt*qd2
     _r2 = q3 + _dt*qd3
@@ -1814,10 +1814,10 @@ def _integrate_body(q, v, dt):
 _integrate_body.functions = ()
 
 
-def _difference_body(q_from, q_to):
+def _difference_body(_q_from, _q_to):
     """difference: the joint types' map, joint by joint. 4 lines, 8 operations."""
-    _q_from0, _q_from1, _q_from2, _q_from3 = q_from
-    _q_to0, _q_to1, _q_to2, _q_to3 = q_to
+    _q_from0, _q_from1, _q_from2, _q_from3 = _q_from
+    _q_to0, _q_to1, _q_to2, _q_to3 = _q_to
     _r0 = _q_to0 - _q_from0
     _r1 = _q_to1 - _q_from1
     _r2 = _q_to2 - _q_from2
@@ -1833,10 +1833,10 @@ def _difference_body(q_from, q_to):
 _difference_body.functions = ()
 
 
-def _configuration_rate_body(q, v):
+def _configuration_rate_body(q, _v):
     """configuration_rate: the joint types' map, joint by joint. 0 lines, 0 operations."""
     q1, q2, q3, q4 = q
-    qd1, qd2, qd3, qd4 = v
+    qd1, qd2, qd3, qd4 = _v
     return (
         qd1,
         qd2,

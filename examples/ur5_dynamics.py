@@ -4690,11 +4690,11 @@ def _neutral_configuration_body():
 _neutral_configuration_body.functions = ()
 
 
-def _integrate_body(q, v, dt):
+def _integrate_body(q, _v, _dt):
     """integrate: the joint types' map, joint by joint. 6 lines, 12 operations."""
     shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
-    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = v
-    _dt, = dt
+    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = _v
+    _dt, = _dt
     _r0 = shoulder_pan_joint + _dt*shoulder_pan_jointd
     _r1 = shoulder_lift_joint + _dt*shoulder_lift_jointd
     _r2 = elbow_joint + _dt*elbow_jointd
@@ -4714,10 +4714,10 @@ def _integrate_body(q, v, dt):
 _integrate_body.functions = ()
 
 
-def _difference_body(q_from, q_to):
+def _difference_body(_q_from, _q_to):
     """difference: the joint types' map, joint by joint. 6 lines, 12 operations."""
-    _q_from0, _q_from1, _q_from2, _q_from3, _q_from4, _q_from5 = q_from
-    _q_to0, _q_to1, _q_to2, _q_to3, _q_to4, _q_to5 = q_to
+    _q_from0, _q_from1, _q_from2, _q_from3, _q_from4, _q_from5 = _q_from
+    _q_to0, _q_to1, _q_to2, _q_to3, _q_to4, _q_to5 = _q_to
     _r0 = _q_to0 - _q_from0
     _r1 = _q_to1 - _q_from1
     _r2 = _q_to2 - _q_from2
@@ -4737,10 +4737,10 @@ def _difference_body(q_from, q_to):
 _difference_body.functions = ()
 
 
-def _configuration_rate_body(q, v):
+def _configuration_rate_body(q, _v):
     """configuration_rate: the joint types' map, joint by joint. 0 lines, 0 operations."""
     shoulder_pan_joint, shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint = q
-    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = v
+    shoulder_pan_jointd, shoulder_lift_jointd, elbow_jointd, wrist_1_jointd, wrist_2_jointd, wrist_3_jointd = _v
     return (
         shoulder_pan_jointd,
         shoulder_lift_jointd,
@@ -4994,8 +4994,8 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     line along integrate) and one solve with M: M dqdd/dx = dY/dx - dtau/dx at the state's own qdd.
     External wrenches are not linearized.
     """
-    q = _coordinates("q", q, NQ)
-    qd = _coordinates("qd", qd, NV)
+    q = _coordinates("q", q, 6)
+    qd = _coordinates("qd", qd, 6)
     if u is None:
         u = np.zeros(len(EFFORTS), dtype=q.dtype)
     _parameters = {"g": g}
@@ -5003,12 +5003,12 @@ def linearize(q, qd, u=None, *, friction_smoothing=0.0, g=9.81):
     _qdd = forward_dynamics(q, qd, u, friction_smoothing=friction_smoothing, **_parameters)
     _by_coordinate, _by_rate = _inverse_derivatives([q, qd, _qdd], friction_smoothing, _parameters)
     _mass = mass_matrix(q, **_parameters)
-    _inputs = np.asarray(((1.0, 0.0, 0.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 1.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 1.0)), dtype=_dtype_).reshape(NV, len(EFFORTS))
+    _inputs = np.asarray(((1.0, 0.0, 0.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 1.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 1.0)), dtype=_dtype_).reshape(6, 6)
     _batch = np.broadcast_shapes(_mass.shape[:-2], _by_coordinate.shape[:-2], _by_rate.shape[:-2])
     _rhs = _blocks([[-_by_coordinate, -_by_rate, _inputs]], _batch)
-    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (NV, NV)), _rhs)
-    _A = _blocks([[np.zeros((NV, NV), dtype=_dtype_), np.eye(NV, dtype=_dtype_)], [_solved[..., :2 * NV]]], _batch)
-    _B = _blocks([[np.zeros((NV, _solved.shape[-1] - 2 * NV), dtype=_dtype_)], [_solved[..., 2 * NV:]]], _batch)
+    _solved = np.linalg.solve(np.broadcast_to(_mass, _batch + (6, 6)), _rhs)
+    _A = _blocks([[np.zeros((6, 6), dtype=_dtype_), np.eye(6, dtype=_dtype_)], [_solved[..., :12]]], _batch)
+    _B = _blocks([[np.zeros((6, _solved.shape[-1] - 12), dtype=_dtype_)], [_solved[..., 12:]]], _batch)
     return _A, _B
 
 def inverse_dynamics_derivatives(q, qd, qdd, *, friction_smoothing=0.0, g=9.81):

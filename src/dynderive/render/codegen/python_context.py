@@ -305,7 +305,8 @@ def _configuration_bodies(derivation: Derivation) -> list[ProgramFunction]:
     (a vector-space joint's are ``q + v dt`` and ``q1 - q0``)."""
     bodies = []
     for name, map_ in derivation.configuration_programs.items():
-        arguments = [Argument(a, symbols, a) for a, symbols in map_.arguments.items()]
+        # private argument names (q aside, reserved): a joint of a robot without quaternions may be called v or dt
+        arguments = [Argument(a if a == "q" else f"_{a}", symbols, a) for a, symbols in map_.arguments.items()]
         bodies.append(program_function(f"_{name}_body", f"{name}: the joint types' map, joint by joint.",
                                        arguments, map_.program))
         bodies[-1].keywords = False
