@@ -306,3 +306,31 @@ def test_no_benchmark_script_shadows_a_package():
     assert scripts   # the checkout's benchmarks, not an installed copy
     shadowing = [s.name for s in scripts if s.stem in imported]
     assert not shadowing, f"benchmark scripts named like packages: {shadowing}"
+
+
+#: The templates of the generated Python modules (NumPy, JAX, PyTorch, CasADi): written once over
+#: NQ and NV, they never ask which kind of joint a robot has.
+CODE_TEMPLATES = ["dynamics*.py.j2", "python_api.j2", "loop_solve.py.j2"]
+CODE_TARGETS = ("jax", "torch", "casadi", "numpy")
+#: The words that would make a template branch on the robot's joints rather than on what its code needs.
+KIND_WORDS = re.compile(r"\b(floating|floating_base|spherical)\b")
+
+
+def _kind_branches(text: str) -> list[str]:
+    """The Jinja tags and expressions of ``text`` (comments aside) that read a robot-kind flag."""
+    return [tag.strip() for tag in re.findall(r"\{[%{]-?(.*?)-?\+?[%}]\}", text, re.S) if KIND_WORDS.search(tag)]
+
+
+def test_no_code_template_branches_on_the_robot_kind():
+    root = PACKAGE.parents[1]
+    paths = [p for pattern in CODE_TEMPLATES for p in sorted((root / "templates").glob(pattern))]
+    paths += [p for target in CODE_TARGETS for p in sorted((PACKAGE / "render" / "targets" / target).glob("*.j2"))]
+    assert len(paths) > 15   # the checkout's templates, found
+    found = {str(p.relative_to(root)): _kind_branches(p.read_text()) for p in paths}
+    assert not {path: tags for path, tags in found.items() if tags}
+
+
+def test_the_kind_check_sees_a_branch_and_not_a_comment():
+    assert _kind_branches("{% if floating %}x{% endif %}{{ 'a' if floating_base }}") == ["if floating", "'a' if floating_base"]
+    assert _kind_branches("{%- if loops and not spherical +%}") == ["if loops and not spherical"]
+    assert _kind_branches("{#- the floating type of a result #}{{ robot_kind }} the floating type") == []

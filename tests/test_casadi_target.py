@@ -370,9 +370,9 @@ def _check_rows(robot: str) -> dict[str, str]:
 def test_check_backend_casadi_rp_arm():
     """Every Function of rp_arm's CasADi module, called with column vectors and the vector p,
     gives the NumPy module's numbers: one pass row per function of the API table (a planar
-    robot's maximal form too), none missing."""
+    robot's maximal form and the configuration maps too), none missing."""
     rows = _check_rows(str(ROBOTS / "rp_arm.yaml"))
-    names = [f.name for f in api.API if f.group in ("dynamics", "maximal")
+    names = [f.name for f in api.API if f.group in ("dynamics", "maximal", "configuration")
              and f.name != "maximal_friction_forces"]   # no friction: the NumPy module has none either
     assert rows == {f"CasADi {name} == NumPy module": "pass" for name in names}
 
@@ -386,12 +386,12 @@ def test_check_backend_casadi_frames_loops_floating():
     assert rows["CasADi inverse_dynamics with wrenches at every frame == NumPy module"] == "pass"
     assert rows["CasADi centroidal_momentum_matrix == NumPy module"] == "pass"
     assert rows["CasADi forward_dynamics with wrenches at every frame == NumPy module"] == "pass"
-    assert all(status == "pass" for status in rows.values()) and len(rows) == 30   # 9 centroidal, 2 contacts
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 34   # 9 centroidal, 2 contacts, 4 maps
     rows = _check_rows("four_bar")
     assert rows.pop("CasADi not built: assemble") == "skip"
     assert rows["CasADi reduced_forward_dynamics == NumPy module"] == "pass"
     assert rows["CasADi maximal_forward_dynamics == NumPy module"] == "pass"
-    assert all(status == "pass" for status in rows.values()) and len(rows) == 20 + 13   # the maximal form's 13
+    assert all(status == "pass" for status in rows.values()) and len(rows) == 24 + 13   # the maps' 4, the maximal form's 13
     rows = _check_rows(str(FLOATING))
     assert rows["CasADi integrate == NumPy module"] == "pass"
     assert rows["CasADi difference == NumPy module"] == "pass"

@@ -502,7 +502,7 @@ def test_generated_property_checks_pass_and_catch_a_wrong_module(tmp_path):
     out = tmp_path / "out"
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],
                          cwd=out, capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0 and "42 passed" in run.stdout, run.stdout + run.stderr
+    assert run.returncode == 0 and "43 passed" in run.stdout, run.stdout + run.stderr
     module = out / "box_dynamics.py"
     module.write_text(_wrong_frame(module.read_text(), "angular"))
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_box_dynamics.py"],

@@ -150,8 +150,11 @@ def _states(robot: Robot, rng: np.random.Generator, states: int) -> dict[str, np
     sample = {"q": random_configurations(robot, rng, states)}
     if robot.floating:
         sample["q1"] = random_configurations(robot, rng, states)
-    return sample | {"qd": rng.uniform(-1.0, 1.0, (states, nv)), "qdd": rng.uniform(-1.0, 1.0, (states, nv)),
-                     "u": rng.uniform(-1.0, 1.0, (states, nu))}
+    sample |= {"qd": rng.uniform(-1.0, 1.0, (states, nv)), "qdd": rng.uniform(-1.0, 1.0, (states, nv)),
+               "u": rng.uniform(-1.0, 1.0, (states, nu))}
+    if "q1" not in sample:   # difference's q_to for every robot, drawn last: the states before it stay the same
+        sample["q1"] = random_configurations(robot, rng, states)
+    return sample
 
 
 def compiled_checks(derivation: Derivation, source: str, compiled: Any, states: int = 12, seed: int = 0,

@@ -16,6 +16,7 @@ from ...model.array_program import Call
 from .. import api
 from ..encode import Code, python_literal
 from .array_program import ArrayPrinter
+from .conventions import conventions, notes, robot_kind
 from .functions import Argument, ExpressionFunction, ProgramFunction, expression_function, program_function
 from .printer import _Printer
 
@@ -34,6 +35,7 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
                    "unit": p.unit, "description": p.description} for p in robot.parameters]
     keywords = [p["name"] if p["default"] is None else f"{p['name']}={p['default']}" for p in parameters]
     forward = derivation.programs.get("forward_dynamics")
+    effort_matrix = _effort_matrix(derivation)
     size = api.sizes(derivation) | ({"NQ": "NQ", "NV": "NV"} if robot.floating else {})
     return {
         # each function's first docstring line, from the API table (a floating robot's sizes as NQ, NV)
@@ -60,7 +62,28 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
         "parameter_count": len(identification),
         "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
         "floating": robot.floating,
+        # NQ and NV (equal for a robot of vector-space joints), and the words on q and qd
+        "nq": len(derivation.symbols.q),
+        "nv": len(derivation.symbols.qd),
+        "velocities_tuple": _tuple(tuple(str(s) for s in derivation.symbols.qd)),
+        "effort_columns": python_literal(robot.effort_columns()),
+        "robot_kind": robot_kind(robot),
+        "conventions": Code(conventions(robot, derivation.symbols)),
+        "notes": {name: Code(text) for name, text in notes(robot, derivation.symbols).items()},
+        # dY/du as a Python literal (linearize's B), and its nonzero entries (row, column, value)
+        "effort_matrix": Code(repr(tuple(map(tuple, effort_matrix)))),
+        "effort_entries": [(i, k, Code(repr(value))) for i, row in enumerate(effort_matrix)
+                           for k, value in enumerate(row) if value],
     }
+
+
+def _effort_matrix(derivation: Derivation) -> list[list[float]]:
+    """dY/du (NV x NU), rows of numbers: 1 at each effort's velocity column (or a mimic's
+    multiplier), taken at q = 0 as linearize's input matrix B takes it."""
+    if not derivation.symbols.efforts:   # no effort: NV empty rows
+        return [[] for _ in derivation.symbols.qd]
+    at_zero = {symbol: 0 for symbol in derivation.symbols.q}
+    return [[float(entry) for entry in row] for row in derivation.effort_jacobian.subs(at_zero).tolist()]
 
 
 def _program_lines(derivation: Derivation, xp: str, array_printer: type[ArrayPrinter]) -> dict[str, Any]:
@@ -104,7 +127,7 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
     u = Argument("u", list(table.efforts.values()), f"efforts {tuple(robot.efforts)}, shape (..., {len(table.efforts)})")
     structured = derivation.structured_code
     functions = _expression_functions(derivation, q, qd, u, printer, params, structured)
-    programs = _programs(derivation, q, qd, u)
+    programs = _programs(derivation, q, qd, u) + _drive_bodies(derivation) + _configuration_bodies(derivation)
     if robot.loops:
         for name, args, quantity in [("loop_constraints", [q], "a_g"), ("loop_jacobian", [q], "A_g"),
                                      ("loop_jacobian_dot", [q, qd], "Adot_g")]:
@@ -132,7 +155,7 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
     functions.append(expression_function(
         "parameter_vector", api.python_doc("parameter_vector", size, batch=False),
         [], sympy.Matrix([p.value for p in identification]), printer, params))
-    return _common_context(derivation) | {
+    context = _common_context(derivation) | {
         "coordinates": list(robot.coordinates),
         "coordinates_tuple": _tuple(robot.coordinates),
         "q_doc": Code(f"joint coordinates {_tuple(robot.coordinates)}"),
@@ -141,6 +164,8 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
         "nv_text": n,
         "functions": functions,
         "structured": structured,
+        "coriolis_doc": Code("From the Christoffel symbols of M: C_ij = 1/2 sum_k (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) "
+                             "qd_k,\n    with dM/dq_k from the composite-rigid-body algorithm differentiated line by line."),
         "maximal_dissipative": robot.planar and robot.dissipative,
         "programs": programs,
         "frame_size": 3 if robot.planar else 4,
@@ -150,6 +175,9 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
         "maximal_size": len(table.qm),
         "constraint_count": quantities["a_m"].shape[0] if maximal else 0,
         "loops": bool(robot.loops),
+        # the loops' solve partitions q into independent and dependent coordinates (dynamics_loops.py.j2)
+        "loop_partition": bool(robot.loops),
+        "contact_rows_doc": Code(" (the\n    loops' rank plus the contacts' rows, taken as independent)"),
         "loop_count": quantities["a_g"].shape[0] if robot.loops else 0,
         "loop_rank": derivation.loop_model.rank if robot.loops else 0,
         "redundant_loops": bool(robot.loops) and derivation.loop_model.redundant,
@@ -162,6 +190,13 @@ def _code_context(derivation: Derivation, printer: NumPyPrinter | None = None) -
         "assembled_tuple": python_literal(tuple(derivation.loop_model.assembled or ()))
         if robot.loops else Code("()"),
     }
+    # the loops' constants: the joints closing them, the coordinates kept independent, a guess for assemble
+    context["loop_constants"] = [
+        Code("#: The loop-closing joints, and the coordinates kept independent (the others follow from them)."),
+        Code(f"LOOPS = {context['loops_tuple']}"), Code(f"INDEPENDENT_COORDINATES = {context['independent_tuple']}"),
+        Code("#: A configuration on the loop constraints at the default parameters (a guess for ``assemble``)."),
+        Code(f"ASSEMBLED_CONFIGURATION = {context['assembled_tuple']}")]
+    return context
 
 
 def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: Argument,
@@ -170,7 +205,7 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
     """Functions printed as explicit expressions: Y_g and V_g always; M, C, N and T_g for
     planar robots (short, readable beside the sheet). A 3-D robot's M, C, N are programs
     (``_programs``): their explicit entries are far too large to print for a 6-7 DOF arm."""
-    quantities, n, size = derivation.quantities, len(derivation.symbols.q), api.sizes(derivation)
+    quantities, size = derivation.quantities, api.sizes(derivation)
     explicit = [] if structured else [("mass_matrix", [q], "M_g"), ("coriolis_matrix", [q, qd], "C_g"),
                                       ("gravity_vector", [q], "N_g")]
     explicit.append(("generalized_forces", [q, u], "Y_g"))
@@ -178,15 +213,6 @@ def _expression_functions(derivation: Derivation, q: Argument, qd: Argument, u: 
         explicit += [("kinetic_energy", [q, qd], "T_g"), ("potential_energy", [q], "V_g")]
     functions = [expression_function(name, api.python_doc(name, size), args, quantities[quantity], printer, params,
                                      matrix_result=quantity in MATRICES) for name, args, quantity in explicit]
-    if derivation.robot.dissipative:   # F_g = b qd + fc sign(qd): the coefficients, per coordinate
-        drives = derivation.joint_drives
-        for name, what, attribute in (("_damping_coefficients", "Viscous damping b", "damping"),
-                                      ("_friction_coefficients", "Coulomb friction fc", "friction")):
-            value = sympy.zeros(n, 1)
-            for drive in drives:
-                value[drive.coordinate] = getattr(drive, attribute)
-            functions.append(expression_function(name, f"{what} of each coordinate, shape (..., {n}).", [qd],
-                                                 value, printer, params))
     return functions
 
 
@@ -259,6 +285,34 @@ def _programs(derivation: Derivation, q: Argument, qd: Argument, u: Argument) ->
     return functions
 
 
+def _drive_bodies(derivation: Derivation) -> list[ProgramFunction]:
+    """The drives' coefficients as bodies of the parameters alone: ``F = b qd + fc sign(qd)``
+    per velocity entry (0 where no drive acts: a quaternion joint's entries), none without drives."""
+    bodies = []
+    if derivation.robot.dissipative:
+        for name in ("damping", "friction"):
+            values = [sympy.Integer(0)] * len(derivation.symbols.qd)
+            for drive in derivation.joint_drives:
+                values[drive.coordinate] = getattr(drive, name)
+            bodies.append(program_function(f"_{name}_coefficients_body", f"{name}_coefficients, entry by entry.", [],
+                                           SimpleNamespace(lines=[], outputs=values)))
+    return bodies
+
+
+def _configuration_bodies(derivation: Derivation) -> list[ProgramFunction]:
+    """The configuration maps (``Derivation.configuration_programs``: neutral, integrate,
+    difference, rate) as bodies, joint by joint from the joint types: every robot has them
+    (a vector-space joint's are ``q + v dt`` and ``q1 - q0``)."""
+    bodies = []
+    for name, map_ in derivation.configuration_programs.items():
+        # private argument names (q aside, reserved): a joint of a robot without quaternions may be called v or dt
+        arguments = [Argument(a if a == "q" else f"_{a}", symbols, a) for a, symbols in map_.arguments.items()]
+        bodies.append(program_function(f"_{name}_body", f"{name}: the joint types' map, joint by joint.",
+                                       arguments, map_.program))
+        bodies[-1].keywords = False
+    return bodies
+
+
 def _tangent_context(derivation: Derivation) -> dict[str, Any]:
     """The variables of the module of a robot with quaternions in ``q`` (floating base,
     spherical joints; Pinocchio's conventions, DESIGN.md section 10): NQ coordinates, NV
@@ -270,15 +324,9 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
     qd = Argument("qd", table.qd, f"velocities, shape (..., {nv})")
     u = Argument("u", list(table.efforts.values()), f"efforts, shape (..., {len(table.efforts)})")
     bodies = _programs(derivation, q, qd, u)
-    values = {"parameter_vector": [p.value for p in derivation.parameter_vector]}
-    if robot.dissipative:   # F = b qd + fc sign(qd): the coefficients per velocity column (0 on a quaternion's)
-        for name in ("damping", "friction"):
-            values[f"{name}_coefficients"] = [sympy.Integer(0)] * nv
-            for drive in derivation.joint_drives:
-                values[f"{name}_coefficients"][drive.coordinate] = getattr(drive, name)
-    for name, outputs in values.items():
-        bodies.append(program_function(f"_{name}_body", f"{name}, entry by entry.", [],
-                                       SimpleNamespace(lines=[], outputs=outputs)))
+    bodies.append(program_function("_parameter_vector_body", "parameter_vector, entry by entry.", [],
+                                   SimpleNamespace(lines=[], outputs=[p.value for p in derivation.parameter_vector])))
+    bodies += _drive_bodies(derivation)
     if robot.loops:   # the loops' rows on the tree's twists (Derivation.loop_programs)
         loops = derivation.loop_programs
         for name, what, arguments, program in (
@@ -287,29 +335,28 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
                 ("loop_jacobian_dot_qd", "Adot qd: the rows' forward derivative along the motion.", [q, qd],
                  loops.jacobian_dot_qd)):
             bodies.append(program_function(f"_{name}_body", what, arguments, program))
-    for name, map_ in derivation.configuration_programs.items():
-        arguments = [Argument(a, symbols, a) for a, symbols in map_.arguments.items()]
-        bodies.append(program_function(f"_{name}_body", f"{name}: the joint types' map, joint by joint.",
-                                       arguments, map_.program))
-        bodies[-1].keywords = False
+    bodies += _configuration_bodies(derivation)
     return _common_context(derivation) | {
         "coordinates_tuple": _tuple(tuple(str(s) for s in table.q)),
-        "velocities_tuple": _tuple(tuple(str(s) for s in table.qd)),
-        "nq": nq,
-        "nv": nv,
         "q_doc": Code("coordinates COORDINATES"),
         "nq_text": Code("NQ"),
         "nv_text": Code("NV"),
         "frame_size": 4,
         "twist_size": 6,
-        "spherical": any(j.type == "spherical" for j in robot.joints),
-        "floating_base": robot.floating_base,
-        "effort_columns": python_literal(robot.effort_columns()),
         "programs": bodies,
         "functions": [],
+        "structured": True,   # M, C, N and V are programs
+        "coriolis_doc": Code("C qd = inverse_dynamics(q, qd, 0) - gravity_vector(q), dM/dt along integrate. C = sum "
+                             "over links of\n    J^T (I Jdot + B J), J the link's Jacobian in its own frame and "
+                             "B = (v x* I - I v x + (I v) xbar*) / 2."),
         "loops": bool(robot.loops),
+        "loop_partition": False,   # the loops are rows on the tree's twists (dynamics_tangent_loops.py.j2)
+        "contact_rows_doc": Code("\n    (found at each state)"),
         "loop_count": len(derivation.loop_programs.rows) if robot.loops else 0,
         "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
+        # the loops' constants: the joints closing them (their rows are loop_constraints')
+        "loop_constants": [Code("#: The loop-closing joints (their rows: loop_constraints)."),
+                           Code(f"LOOPS = {_tuple(tuple(lp.name for lp in robot.loops))}")],
         "maximal": False,
     }
 

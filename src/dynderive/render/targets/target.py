@@ -72,6 +72,12 @@ CONTACTS_ON_LOOPS = NotBuilt(("constrained_forward_dynamics", "impulse_dynamics"
 MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "fixed",
                                "the maximal-coordinate form of a planar robot is printed for the Python modules only")
 
+#: The row of the compiled targets and MATLAB, which print the configuration maps of a robot with
+#: quaternion joints only: a robot of vector-space joints integrates as q + v dt.
+VECTOR_SPACE_MAPS = NotBuilt(group("configuration"), "fixed",
+                             "a robot of vector-space joints: q + v dt and q_to - q_from, printed for the Python "
+                             "modules only")
+
 
 @dataclass(frozen=True)
 class OptionalPackage:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import sysconfig
 
 from ....derivation import Derivation
-from ..target import CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, Target
+from ..target import CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS, Target
 
 
 def offered(derivation: Derivation) -> set[str]:
@@ -32,5 +32,5 @@ TARGET = Target(
     needs=f"{__name__}.compile:require_compiler",
     failure=f"{__name__}.compile:failure_files", fingerprint=f"{__name__}.compile:toolchain",
     stale=("{}_dynamics_c.log",),
-    not_built=(CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED),
+    not_built=(CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS),
 )

@@ -166,7 +166,8 @@ def casadi_context(derivation: Derivation) -> dict[str, Any]:
             )
         )
     context = code_context(derivation)
-    context["programs"] = list(context["programs"]) + _explicit_bodies(derivation, context)
+    explicit = _explicit_bodies(derivation, context)   # in place of the context's bodies of the same name
+    context["programs"] = [p for p in context["programs"] if p.name not in {b.name for b in explicit}] + explicit
     size = api.sizes(derivation)
     maximal = (
         [_maximal_row(derivation, spec) for spec in _MAXIMAL + ((_FRICTION,) if robot.dissipative else ())]

@@ -8,7 +8,7 @@ from typing import Any
 
 from ....derivation import Derivation
 from ...api import group
-from ..target import MAXIMAL_NOT_PRINTED, NotBuilt, Target
+from ..target import MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS, NotBuilt, Target
 
 
 def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
@@ -38,7 +38,7 @@ TARGET = Target(
     outputs=("+{}/parameters.m", "{}_derivation.m"),
     templates=("matlab/function.m.j2", "matlab/derivation.m.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating MATLAB",
-    not_built=(MAXIMAL_NOT_PRINTED,
+    not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS,
                NotBuilt(("assemble", "reduced_basis", "reduced_forward_dynamics"), "fixed",
                         "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
                NotBuilt(group("frames"), "frameless", "a robot without frames: MATLAB writes no frame functions "

@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ....derivation import Derivation
+from ...codegen.conventions import robot_kind
 from ...codegen.python_context import code_context
 from ...python_module import render_module, render_test_module
 
@@ -29,5 +30,6 @@ def render_code(derivation: Derivation, template_dir: str | Path | None = None) 
 def render_code_tests(derivation: Derivation, template_dir: str | Path | None = None) -> str:
     """A pytest file of property checks for the generated module (``solve --code --tests``)."""
     robot = derivation.robot
-    return render_test_module(derivation, "dynamics_test.py.j2", template_dir,
-                              maximal=robot.planar, loops=bool(robot.loops), floating=robot.floating)
+    return render_test_module(derivation, "dynamics_test.py.j2", template_dir, maximal=robot.planar,
+                              loops=bool(robot.loops), loop_partition=bool(robot.loops) and not robot.floating,
+                              robot_kind=robot_kind(robot))
