@@ -310,7 +310,7 @@ NAMED_TYPES_LEFT = {
     "mechanics/loops.py": 6,
     "mechanics/maximal.py": 4,
     "model/robot.py": 6,
-    "render/codegen/python_context.py": 3,
+    "render/codegen/python_context.py": 1,
     "render/sheets/centroidal.py": 1,
     "render/sheets/drawing.py": 1,
     "render/sheets/figure.py": 5,
@@ -318,10 +318,6 @@ NAMED_TYPES_LEFT = {
     "render/sheets/latex_format.py": 1,
     "render/sheets/quasi_velocity.py": 3,
     "render/sheets/recursion.py": 2,
-    "render/targets/casadi/__init__.py": 1,
-    "render/targets/matlab/__init__.py": 1,
-    "render/targets/numpy/__init__.py": 1,
-    "render/targets/target.py": 3,
 }
 
 

@@ -49,8 +49,9 @@ class NotBuilt:
     "not built" row)."""
 
     functions: tuple[str, ...]
-    #: The robots it concerns: "fixed" (fixed base), "floating" (floating base, or spherical
-    #: joints), "floating_loops" (those with closed loops), "loops" (any robot with closed loops),
+    #: The robots it concerns: "vector_space" (no quaternion in the configuration), "quaternions"
+    #: (a floating or spherical joint), "quaternion_loops" (those with closed loops), "loops" (any
+    #: robot with closed loops),
     #: "frameless" (a robot that declares no frames), "any" (every robot that has them).
     kind: str
     reason: str
@@ -58,7 +59,7 @@ class NotBuilt:
     def concerns(self, floating: bool, frames: bool, loops: bool = False) -> bool:
         """Whether it applies to a robot with a ``floating`` base (or not), ``frames`` (or none)
         and closed ``loops`` (or none)."""
-        return {"fixed": not floating, "floating": floating, "floating_loops": floating and loops, "loops": loops,
+        return {"vector_space": not floating, "quaternions": floating, "quaternion_loops": floating and loops, "loops": loops,
                 "frameless": not frames, "any": True}[self.kind]
 
 
@@ -69,12 +70,12 @@ CONTACTS_ON_LOOPS = NotBuilt(("constrained_forward_dynamics", "impulse_dynamics"
 
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its
 #: entries share it: one reason, one footnote of the table).
-MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "fixed",
+MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "vector_space",
                                "the maximal-coordinate form of a planar robot is printed for the Python modules only")
 
 #: The row of the compiled targets and MATLAB, which print the configuration maps of a robot with
 #: quaternion joints only: a robot of vector-space joints integrates as q + v dt.
-VECTOR_SPACE_MAPS = NotBuilt(group("configuration"), "fixed",
+VECTOR_SPACE_MAPS = NotBuilt(group("configuration"), "vector_space",
                              "a robot of vector-space joints: q + v dt and q_to - q_from, printed for the Python "
                              "modules only")
 

@@ -68,8 +68,8 @@ TARGET = Target(
     option_help=(("check --backend", "the same for the CasADi module (--casadi; needs casadi)"),
                  ("simulate --backend", "the CasADi module (--casadi), one Function call per state (generalized "
                                         "coordinates; needs casadi)")),
-    not_built=(NotBuilt(("assemble",), "fixed", "closed loops in CasADi: assemble (Newton's method, iterated on "
+    not_built=(NotBuilt(("assemble",), "vector_space", "closed loops in CasADi: assemble (Newton's method, iterated on "
                                                 "values) is not a casadi.Function"),
-               NotBuilt(FLOATING_LOOP_FUNCTIONS, "floating_loops",
+               NotBuilt(FLOATING_LOOP_FUNCTIONS, "quaternion_loops",
                         "loops on a floating base or with spherical joints: not printed for CasADi yet (it refuses such a robot)")),
 )

@@ -39,11 +39,11 @@ TARGET = Target(
     templates=("matlab/function.m.j2", "matlab/derivation.m.j2"),
     render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating MATLAB",
     not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS,
-               NotBuilt(("assemble", "reduced_basis", "reduced_forward_dynamics"), "fixed",
+               NotBuilt(("assemble", "reduced_basis", "reduced_forward_dynamics"), "vector_space",
                         "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
                NotBuilt(group("frames"), "frameless", "a robot without frames: MATLAB writes no frame functions "
                                                       "(the NumPy module's raise for any frame name)"),
-               NotBuilt(("assemble", "linearize", "forward_dynamics_derivatives"), "floating_loops",
+               NotBuilt(("assemble", "linearize", "forward_dynamics_derivatives"), "quaternion_loops",
                         "loops on a floating base or with spherical joints in MATLAB: no assemble nor the constrained "
                         "linearization")),
 )
