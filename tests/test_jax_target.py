@@ -105,7 +105,9 @@ def _agree_traced(numpy_module, jax_module, seed: int, count: int, **kwargs) -> 
         assert getattr(numpy_module, constant) == getattr(jax_module, constant)
     rng = np.random.default_rng(seed)
     q, qd, qdd, u = _states(numpy_module, rng, count)
-    state = {"q": q, "qd": qd, "qd_minus": qd, "qdd": qdd, "u": u, "q_guess": q + 1e-3 * rng.normal(size=q.shape)}
+    state = {"q": q, "qd": qd, "qd_minus": qd, "qdd": qdd, "u": u, "q_guess": q + 1e-3 * rng.normal(size=q.shape),
+             # the configuration maps every module has (integrate, difference, configuration_rate)
+             "v": qd, "dt": 0.01, "q_from": q, "q_to": q + 0.1 * rng.normal(size=q.shape)}
     if hasattr(numpy_module, "MAXIMAL_COORDINATES"):
         size = len(numpy_module.MAXIMAL_COORDINATES)
         state |= {"qm": rng.uniform(-1, 1, (count, size)), "qmd": rng.normal(size=(count, size))}
