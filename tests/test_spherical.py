@@ -179,7 +179,7 @@ def test_a_fixed_base_robot_with_a_ball_joint_takes_the_floating_module(tmp_path
     assert robot.velocity_count == 4 and robot.offsets() == ({"ball": 0, "wrist": 4}, {"ball": 0, "wrist": 3})
     assert robot.floating and not robot.floating_base and robot.quaternion_starts == (0,)
     text = (tmp_path / "out" / "ball_arm_dynamics.py").read_text()
-    assert "NQ = 5" in text and "NV = 4" in text and "robot with spherical joints" in text
+    assert "NQ = 5" in text and "NV = 4" in text and "robot with quaternion joints" in text
     assert 'VELOCITIES = ("ball_wx", "ball_wy", "ball_wz", "wristd")' in text
     spec = importlib.util.spec_from_file_location("ball_arm_dynamics", tmp_path / "out" / "ball_arm_dynamics.py")
     module = importlib.util.module_from_spec(spec)
