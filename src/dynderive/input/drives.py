@@ -9,7 +9,7 @@ from typing import Any
 
 import sympy
 
-from ..model.joint_kinds import JOINT_KINDS
+from ..model.joint_kinds import find_kind
 
 #: The drive keys of a joint, in the order the sheet lists them, and what each is.
 DRIVE_KEYS = {
@@ -30,11 +30,11 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
     Returns ``{key: expression text}`` for the keys present and valid.
     """
     terms: dict[str, Any] = {}
+    kind = find_kind(jtype)
     for key in DRIVE_KEYS:
         if key not in item:
             continue
         kpath = path + (key,)
-        kind = JOINT_KINDS.get(jtype) if isinstance(jtype, str) else None
         if kind is not None and (kind.welded or not kind.vector_space):
             v.report(kpath, f"a {jtype} joint has no coordinate, so no {DRIVE_KEYS[key]}" if kind.welded
                      else f"drive terms on a {jtype} joint are not built yet", key=True)
@@ -51,8 +51,7 @@ def drive_terms(v: Any, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
             v.report(kpath, f"{DRIVE_KEYS[key]} must not be negative (got {value:g})")
             continue
         terms[key] = item[key]
-    welded = isinstance(jtype, str) and jtype in JOINT_KINDS and JOINT_KINDS[jtype].welded
-    if "rest" in item and "stiffness" not in item and not welded:
+    if "rest" in item and "stiffness" not in item and not (kind is not None and kind.welded):
         rpath = path + ("rest",)
         v.report(rpath, "a rest position needs a spring: add 'stiffness'", key=True)
         terms.pop("rest", None)

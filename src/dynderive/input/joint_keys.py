@@ -8,7 +8,7 @@ from typing import Any
 
 import sympy
 
-from ..model.joint_kinds import JOINT_KINDS, joint_keys
+from ..model.joint_kinds import find_kind, joint_keys
 from .validator import Validator
 
 #: Every type's own keys: the schema accepts them on any joint entry, and this module says which.
@@ -19,7 +19,7 @@ def read_joint_keys(v: Validator, item: dict[str, Any], path: tuple[Any, ...], j
                     symbols: dict[str, sympy.Expr]) -> tuple[tuple[str, Any], ...]:
     """The values of ``jtype``'s own keys in the entry ``item``, by key, in the type's order;
     problems (a key of another type, a missing or malformed one) go to ``v``."""
-    kind = JOINT_KINDS.get(jtype) if isinstance(jtype, str) else None
+    kind = find_kind(jtype)
     own = {key.name: key for key in (kind.keys if kind is not None else ())}
     for name in TYPE_KEYS:
         if name in item and kind is not None and name not in own:

@@ -15,7 +15,7 @@ import sympy
 
 from ..errors import InputError
 from ..model.expressions import LARGEST, RESERVED, Evaluator
-from ..model.joint_kinds import JOINT_KINDS, kinds
+from ..model.joint_kinds import JOINT_KINDS, find_kind, kinds
 from ..model.naming import did_you_mean, maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
@@ -286,7 +286,7 @@ def _loops(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, s
                      f"(parent and child are both {ends[0]!r})")
         origin = _origin(v, item.get("origin"), path + ("origin",), planar, symbols)
         child_origin = _origin(v, item.get("child_origin"), path + ("child_origin",), planar, symbols)
-        kind = JOINT_KINDS.get(ltype) if ltype is not None else None
+        kind = find_kind(ltype)
         takes_axis = kind is None or (kind.planar_axis if planar else kind.takes_axis)
         if "axis" in item and not takes_axis:
             v.report(path + ("axis",), f"a {'planar ' if planar else ''}{ltype} loop joint takes no axis")
@@ -395,7 +395,7 @@ def _axis(v: Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
     if "axis" not in item:
         return default
     apath = path + ("axis",)
-    kind = JOINT_KINDS.get(jtype) if isinstance(jtype, str) else None
+    kind = find_kind(jtype)
     if planar and kind is not None and kind.takes_axis and not kind.planar_axis:
         v.report(apath, f"a planar {jtype} joint takes no axis (planar revolute joints turn about z)")
         return default

@@ -146,6 +146,12 @@ def joint_keys() -> dict[str, JointKey]:
     return {key.name: key for k in JOINT_KINDS.values() for key in k.keys}
 
 
+def find_kind(name: object) -> JointKind | None:
+    """The joint type a file's ``type`` value names, or None (not a type's name, or not text:
+    the readers report that once, where they read it)."""
+    return JOINT_KINDS.get(name) if isinstance(name, str) else None
+
+
 def joint_kind(name: str) -> JointKind:
     """The joint type of that name (``joints[i].type`` in the robot file)."""
     try:
