@@ -15,6 +15,7 @@ import dynderive
 from dynderive.render.sheets.html import html_context, render_html
 from dynderive.render.sheets.html_recursion import MATH_NAMES, meaning_markup
 from dynderive.render.sheets.latex import sheet_context
+from dynderive.render.sheets.latex_format import Formatter
 from dynderive.render.sheets.recursion import NAMES
 from test_html import parse, sizes_in_chromium
 
@@ -112,3 +113,19 @@ def test_hostile_page_loads_in_chromium(hostile_panda, tmp_path):
     assert len(sizes["math"]) == page.count("<math") > 500
     empty = [k for k, (w, h) in enumerate(sizes["math"]) if not (w > 0 and h > 0)]
     assert empty == [], f"{len(empty)} <math> elements without size"
+
+
+def test_layout_does_not_depend_on_the_sheet_made_before():
+    """The formatters are shared per derivation: a width estimate at the precision of whichever
+    sheet was made last (an exact JSON formatter, a ``--digits 3`` sheet) once changed how the
+    Panda's recursion grouped its lines (493 against 491 in one run)."""
+    derivation = derivation_of("panda")
+    first = sheet_context(derivation)["recursion"]
+    page = html_context(derivation)["recursion"]["lines"]
+    Formatter.of(derivation, exact=True)
+    sheet_context(derivation, digits=3)
+    render_html(derivation, digits=3)
+    again = sheet_context(derivation)["recursion"]
+    assert again["lines"] == first["lines"] == page == html_context(derivation)["recursion"]["lines"]
+    assert [line["value"] for b in again["forward"] for line in b["lines"]] == \
+        [line["value"] for b in first["forward"] for line in b["lines"]]

@@ -22,7 +22,14 @@ from ...derivation import Derivation
 from ...model.naming import GREEK, split_index
 from ..numbers import DecimalNumbers, Numbers, sheet_digits
 from ..printers import DerivationFormatter
-from .latex_format import Formatter, coordinate_entries, entry_index, matrix_layout, opening, shown_digits
+from .latex_format import (
+    Formatter,
+    coordinate_entries,
+    entry_index,
+    matrix_layout,
+    opening,
+    shown_digits,
+)
 
 #: A name: (letters, mathvariant or "", dots over it, subscript text or "").
 Name = tuple[str, str, int, str]
@@ -205,7 +212,6 @@ class MathFormatter(DerivationFormatter):
         super().__init__()
         self.digits = digits   # --digits, for the LaTeX formatter's decisions the page repeats
         self.numbers = Numbers(sheet_digits(derivation.robot, digits))
-        shown_digits(self.numbers)   # the LaTeX formatter's width estimates, at the page's precision
         table = derivation.symbols
         names: dict[sympy.Symbol, Name | Markup] = {s: name_of(str(s)) for s in table.all_symbols()}
         if derivation.robot.floating:
@@ -234,11 +240,14 @@ class MathFormatter(DerivationFormatter):
     #: MathML of an expression, or None when the sheet finds it too large
     maybe = Formatter.maybe
 
+    #: the LaTeX sheet's width estimates, at the page's precision (the same decisions)
+    width, matrix_width, fits = Formatter.width, Formatter.matrix_width, Formatter.fits
+
     def matrix(self, base: Markup | str, matrix: sympy.Matrix, label: Markup | str | None = None) -> dict[str, Any]:
         """A matrix shown whole, or entry by entry (``wide``: as the sheet's too wide a
         matrix, named ``base`` with the entry's index), or ``too_large`` (the sheet's limits:
         ``matrix_layout``). ``label``: its name in front (default ``base``)."""
-        layout, places, large = matrix_layout(matrix)
+        layout, places, large = matrix_layout(matrix, shown_digits(self.numbers))
         rows, cols = matrix.shape
         shown = _atom(label if label is not None else base)
         single = rows == cols == 1 and label is not None   # a named 1 x 1 matrix (M_r) is its entry

@@ -15,7 +15,6 @@ from markupsafe import Markup
 
 from ...derivation import Derivation
 from .html_math import MathFormatter, Name, accent, mi, mn, mo, mrow, sub
-from .latex_format import typeset_width
 from .recursion import kinematic_table, name_fields, recursion_names, recursion_parts
 
 #: MathML of each quantity (``recursion.NAMES``, ``mechanics.recursion.MEANINGS``): the letter,
@@ -84,7 +83,7 @@ def html_recursion(derivation: Derivation, digits: int | None = None) -> dict[st
     and its ``math`` (``name`` None for values shown as they are, side by side in ``math``)."""
     robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
     fmt, plain = RecursionMathFormatter.of(derivation, digits=digits), MathFormatter.of(derivation, digits=digits)
-    parts = recursion_parts(derivation, typeset_width)
+    parts = recursion_parts(derivation, fmt.width)
     index, n = parts["link_index"], len(robot.coordinates)
 
     def alias(item: dict[str, Any]) -> Markup:

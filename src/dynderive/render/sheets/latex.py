@@ -21,11 +21,8 @@ from .latex_format import (
     SCALAR_NODES,
     TIGHT,
     Formatter,
-    _fits,
     _groups,
-    matrix_width,
     sheet_header,
-    typeset_width,
 )
 from .quasi_velocity import quasi_velocity_context
 from .recursion import joint_variable, recursion_context, recursion_names
@@ -81,13 +78,13 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         # an inertia tensor of long decimals (CAD) is displayed, entry by entry if too wide
         "inertia_matrix": (fmt.matrix(rf"I_{{{t.index}}}", t.inertia)
                            if isinstance(t.inertia, sympy.MatrixBase)
-                           and matrix_width(t.inertia) > INLINE_UNITS else None),
-        "spatial_fits": matrix_width(t.spatial_inertia) <= LINE_UNITS * TIGHT,
+                           and fmt.matrix_width(t.inertia) > INLINE_UNITS else None),
+        "spatial_fits": fmt.matrix_width(t.spatial_inertia) <= LINE_UNITS * TIGHT,
         "jacobian": fmt.maybe(t.body_jacobian, INLINE_NODES),
         "velocity": fmt.maybe(t.body_velocity, INLINE_NODES),
         "com": fmt.maybe(t.com_position, INLINE_NODES), "angle": fmt.maybe(t.orientation, INLINE_NODES),
         # what shares a display line when it fits, else one display each, entry by entry if needed
-        "pose_together": _fits(t.com_position, t.body_velocity, extra=16),
+        "pose_together": fmt.fits(t.com_position, t.body_velocity, extra=16),
         "com_matrix": fmt.matrix(rf"\left(p_{{sL_{{{t.index}}}}}\right)", t.com_position),
         "velocity_matrix": fmt.matrix(rf"\left(V^b_{{sL_{{{t.index}}}}}\right)", t.body_velocity),
         "angle_matrix": fmt.matrix(rf"\left(R_{{sL_{{{t.index}}}}}\right)", t.orientation)
@@ -110,8 +107,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
         "inertia_groups": (_groups([(link["index"], link["spatial_inertia"]) for link in links])
                            if all(link["spatial_fits"] for link in links) else []),
         "figure": sheet_figure(derivation, fmt),
-        "recursion": (recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits),
-                                        fmt, typeset_width)
+        "recursion": (recursion_context(derivation, RecursionFormatter.of(derivation, digits=digits), fmt)
                       if intermediates and "generalized" in sections else None),
     }
 
@@ -310,8 +306,8 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
         **{key: style.show(steps["lagrange"][key][i]) for key in derivatives},
         # the three derivatives share a display line when they fit side by side, else the
         # first two (short: momenta and their rates) when they do
-        "together": _fits(*(steps["lagrange"][k][i] for k in derivatives), extra=24),
-        "pair": _fits(*(steps["lagrange"][k][i] for k in derivatives[:2]), extra=16),
+        "together": fmt.fits(*(steps["lagrange"][k][i] for k in derivatives), extra=24),
+        "pair": fmt.fits(*(steps["lagrange"][k][i] for k in derivatives[:2]), extra=16),
         "equation": style.show(q["EOM_m1"][i]),
     } for i, coordinate in enumerate(table.qm)]
     lambda_entries = None

@@ -4,7 +4,6 @@ an expression is set (``typeset_width``, ``matrix_width``, ``subscript``)."""
 
 from __future__ import annotations
 
-import contextvars
 import functools
 from pathlib import Path
 from typing import Any
@@ -131,10 +130,21 @@ class Formatter(DerivationFormatter):
                     "long_frac_ratio": 2, "order": self.order}
         # the sheet's numbers as the file wrote them (render.numbers); exact: SymPy's (the JSON)
         self.numbers = None if exact else Numbers(sheet_digits(derivation.robot, digits))
-        shown_digits(self.numbers)
         self._printer = (RememberingLatexPrinter(settings) if self.numbers is None
                          else SheetLatexPrinter(settings, self.numbers))
-        self._breaker = LineBreaker(self, typeset_width, self.order, self.numbers)
+        self._breaker = LineBreaker(self, self.width, self.order, self.numbers)
+
+    def width(self, expr: sympy.Basic) -> float:
+        """``typeset_width`` of ``expr`` at this sheet's precision."""
+        return typeset_width(expr, shown_digits(self.numbers))
+
+    def matrix_width(self, matrix: sympy.Matrix) -> float:
+        """``matrix_width`` of ``matrix`` at this sheet's precision."""
+        return matrix_width(matrix, shown_digits(self.numbers))
+
+    def fits(self, *values: Any, extra: float = 0.0) -> bool:
+        """``fits`` at this sheet's precision."""
+        return fits(*values, extra=extra, digits=shown_digits(self.numbers))
 
     def _text(self, expr: Any) -> str:
         if isinstance(expr, sympy.MatrixBase):
@@ -159,20 +169,20 @@ class Formatter(DerivationFormatter):
             return None
         # breqn breaks a sum between its terms by itself; the breaker takes over where a term
         # is wider than the line (a long product, a fraction, a sum in parentheses)
-        if isinstance(expr, sympy.MatrixBase) or all(typeset_width(t) <= units for t in sympy.Add.make_args(expr)):
+        if isinstance(expr, sympy.MatrixBase) or all(self.width(t) <= units for t in sympy.Add.make_args(expr)):
             return Display(text, [text])
         return Display(text, self._breaker.lines(expr, units))
 
     def matrix(self, name: str, matrix: sympy.Matrix) -> dict[str, Any]:
         """A matrix as a whole when its estimated width fits the line (``wide`` False), else as
         its non-zero entries; ``too_large`` when even those cannot be typeset (``matrix_layout``)."""
-        layout, places, large = matrix_layout(matrix)
+        layout, places, large = matrix_layout(matrix, shown_digits(self.numbers))
         rows, cols = matrix.shape
         whole = "" if large else self(matrix)
         single = rows == cols == 1 and "_" in name   # a named 1 x 1 matrix (a one-DOF loop's M_r) is its entry
         entries = [{"name": name if single else subscript(name, entry_index(i, j, rows, cols)),
                     "latex": self.display(matrix[i, j], None)} for i, j in places]
-        widths = [typeset_width(matrix[i, j]) + ENTRY_NAME_UNITS for i, j in places]
+        widths = [self.width(matrix[i, j]) + ENTRY_NAME_UNITS for i, j in places]
         return {"latex": whole, **layout, "entries": entries, "rows": packed(entries, widths)}
 
 
@@ -194,9 +204,9 @@ def packed(entries: list[dict[str, Any]], widths: list[float]) -> list[list[dict
     return rows
 
 
-def matrix_layout(matrix: sympy.Matrix) -> tuple[dict[str, Any], list[tuple[int, int]], bool]:
+def matrix_layout(matrix: sympy.Matrix, digits: int = 17) -> tuple[dict[str, Any], list[tuple[int, int]], bool]:
     """How both sheets set ``matrix`` (the LaTeX ``Formatter.matrix``, the page's
-    ``MathFormatter.matrix``): its ``wide``, ``tight``, ``shape``, ``too_large``, ``nodes`` and
+    ``MathFormatter.matrix``; widths at ``digits``, ``shown_digits``): its ``wide``, ``tight``, ``shape``, ``too_large``, ``nodes`` and
     ``zeros``; the places of its non-zero entries (none when ``too_large``); and whether it is
     too large to typeset whole (it is then ``wide``)."""
     rows, cols = matrix.shape
@@ -207,7 +217,7 @@ def matrix_layout(matrix: sympy.Matrix) -> tuple[dict[str, Any], list[tuple[int,
         return layout, [], True
     large = nodes > MATRIX_NODES or any(not is_small(e, ENTRY_NODES) for e in matrix)
     places = [(i, j) for i in range(rows) for j in range(cols) if matrix[i, j] != 0]
-    width = 0 if large else matrix_width(matrix)
+    width = 0 if large else matrix_width(matrix, digits)
     wide = large or width > LINE_UNITS * TIGHT or cols > MATRIX_COLUMNS
     layout |= {"wide": wide, "tight": not wide and width > LINE_UNITS, "zeros": rows * cols - len(places)}
     return layout, places, large
@@ -290,24 +300,20 @@ class Display(str):
         return self
 
 
-#: The significant digits the sheet being made prints its decimals with (``shown_digits``), for
-#: ``typeset_width``: a CAD number of 17 digits is 8 glyphs wide at 6.
-_DIGITS: contextvars.ContextVar[int] = contextvars.ContextVar("sheet_digits", default=17)
+def shown_digits(numbers: Numbers | None) -> int:
+    """The significant digits ``typeset_width`` measures a sheet's decimals at: its formatter's
+    (None: SymPy's exact numbers, as wide as they are: 17). An argument, not a setting: the
+    formatters are shared, so a width must never depend on which sheet was made last."""
+    return numbers.digits if numbers is not None else 17
 
 
-def shown_digits(numbers: Numbers | None) -> None:
-    """Tell ``typeset_width`` the precision of the sheet a formatter makes (None: SymPy's exact
-    numbers, as wide as they are)."""
-    _DIGITS.set(numbers.digits if numbers is not None else 17)
-
-
-def typeset_width(expr: sympy.Basic) -> float:
+def typeset_width(expr: sympy.Basic, digits: int = 17) -> float:
     """Estimated width of ``expr`` typeset inline, in math glyphs: a symbol is a glyph and its
     index 0.7 a digit, a sum adds 2.2 per sign, a function its name and parentheses, a
     fraction its wider part, a long number its decimal at the sheet's precision. Rough (within
     about a fifth on the bundled sheets), and cheap (remembered: the line breaker asks for the
     same pieces again and again)."""
-    return _typeset_width(expr, _DIGITS.get())
+    return _typeset_width(expr, digits)
 
 
 @functools.lru_cache(maxsize=1 << 16)
@@ -376,12 +382,13 @@ def _groups(items: list[tuple[int, str]]) -> list[dict[str, Any]]:
     return [{"indices": indices, "latex": latex} for latex, indices in groups.items()]
 
 
-def _fits(*values: Any, extra: float = 0.0) -> bool:
+def fits(*values: Any, extra: float = 0.0, digits: int = 17) -> bool:
     """Whether ``values`` typeset side by side (plus ``extra`` glyphs of names and spacing)
-    fit the line."""
+    fit the line (decimals of ``digits`` digits)."""
     total = extra
     for value in values:
-        total += matrix_width(value) if isinstance(value, sympy.MatrixBase) else typeset_width(sympy.sympify(value))
+        total += (matrix_width(value, digits) if isinstance(value, sympy.MatrixBase)
+                  else typeset_width(sympy.sympify(value), digits))
     return total <= LINE_UNITS
 
 
@@ -394,11 +401,11 @@ def _factor_count(n: int, prime: int) -> int:
     return count
 
 
-def matrix_width(matrix: sympy.Matrix) -> float:
+def matrix_width(matrix: sympy.Matrix, digits: int = 17) -> float:
     """Estimated width of ``matrix`` typeset whole: its columns' widest entries, the gaps
     between columns, the brackets and the name in front."""
     rows, cols = matrix.shape
-    widest = [max(typeset_width(sympy.sympify(matrix[i, j])) for i in range(rows)) for j in range(cols)]
+    widest = [max(typeset_width(sympy.sympify(matrix[i, j]), digits) for i in range(rows)) for j in range(cols)]
     return sum(widest) + 2.0 * (cols - 1) + 6.0
 
 

@@ -207,12 +207,12 @@ def recursion_parts(derivation: Derivation, width: Any) -> dict[str, Any]:
     }
 
 
-def recursion_context(derivation: Derivation, fmt: Any, plain: Any, width: Any) -> dict[str, Any]:
+def recursion_context(derivation: Derivation, fmt: Any, plain: Any) -> dict[str, Any]:
     """What ``recursion.tex.j2`` shows (its variables are documented in docs/templates.md):
     ``recursion_parts`` in LaTeX. ``fmt`` formats the recursion (``latex.RecursionFormatter``),
-    ``plain`` the robot's data (the sheet's formatter), ``width`` estimates a value's width."""
+    ``plain`` the robot's data (the sheet's formatter)."""
     robot, r, table = derivation.robot, derivation.recursion, derivation.symbols
-    parts = recursion_parts(derivation, width)
+    parts = recursion_parts(derivation, fmt.width)
     index = parts["link_index"]
     n = len(robot.coordinates)
 
