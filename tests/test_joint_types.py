@@ -30,7 +30,14 @@ TESTS = Path(__file__).parent
 MOVING = [name for name, kind in JOINT_TYPES.items() if kind.moves]
 #: A generic unit axis (full precision) and the types' own keys at full-precision values.
 AXIS = tuple(x / np.linalg.norm([0.3611, -0.4823, 0.7977]) for x in (0.3611, -0.4823, 0.7977))
-KEY_VALUES = {"pitch": 0.0731946218472513}
+_SECOND = np.cross(AXIS, (0.2718, 0.5771, -0.1414))
+KEY_VALUES = {"pitch": 0.0731946218472513, "axis2": tuple(_SECOND / np.linalg.norm(_SECOND))}
+
+
+def _sympy_geometry(kind) -> dict[str, object]:
+    """The types' own keys as SymPy floats (a key of n entries a tuple)."""
+    return {key: tuple(sympy.Float(x, 17) for x in value) if isinstance(value, tuple) else sympy.Float(value, 17)
+            for key, value in _geometry(kind).items()}
 
 
 def _geometry(kind) -> dict[str, float]:
@@ -125,7 +132,7 @@ def test_sizes_and_names_agree_with_the_robot_model(name):
                   geometry=tuple(_geometry(kind).items()))
     assert joint.sizes == (kind.nq, kind.nv) == (kind.spec.nq, kind.spec.nv)
     assert joint.moves == kind.moves and joint.kind is kind.spec
-    assert len(kind.columns((sympy.Integer(1), sympy.Integer(0), sympy.Integer(0)), _geometry(kind))) == kind.nv
+    assert len(kind.columns(kind.neutral(), (sympy.Integer(1), sympy.Integer(0), sympy.Integer(0)), _geometry(kind))) == kind.nv
     assert len(joint.kind.names("j")[0]) == kind.nq
     assert len(kind.neutral()) == kind.nq
     assert (kind.quaternion_start is not None) == joint.multi
@@ -198,7 +205,7 @@ def test_motion_equals_pinocchio_on_a_one_joint_model(name):
     model = _pinocchio_model(name)
     data = model.createData()
     axis = tuple(sympy.Float(a, 17) for a in AXIS)
-    geometry = {key: sympy.Float(value, 17) for key, value in _geometry(kind).items()}
+    geometry = _sympy_geometry(kind)
     for _ in range(STATES):
         q = _random_configuration(name, rng)
         entries = [sympy.Float(x, 17) for x in q]
@@ -210,8 +217,28 @@ def test_motion_equals_pinocchio_on_a_one_joint_model(name):
         np.testing.assert_allclose(p, data.oMi[1].translation, rtol=0, atol=1e-14)
         pin.computeJointJacobians(model, data, q)
         J = np.asarray(pin.getJointJacobian(model, data, 1, pin.LOCAL)).reshape(6, -1)
-        S = np.array([[*v, *w] for w, v in kind.columns(axis, geometry)], dtype=float).T
+        S = np.array([[*v, *w] for w, v in kind.columns(entries, axis, geometry)], dtype=float).T
         np.testing.assert_allclose(S, J, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", MOVING)
+def test_column_rates_give_pinocchio_s_bias_acceleration(name):
+    """``c_J = sum_k rate_k v_k`` (the columns' rates in the child frame) equals Pinocchio's
+    joint bias: a one-joint model's link acceleration at zero joint acceleration (zero for a
+    type whose columns are constant)."""
+    kind, rng = joint_type(name), np.random.default_rng(19)
+    model = _pinocchio_model(name)
+    data = model.createData()
+    axis = tuple(sympy.Float(a, 17) for a in AXIS)
+    geometry = _sympy_geometry(kind)
+    for _ in range(STATES):
+        q, v = _random_configuration(name, rng), _random_velocity(name, rng)
+        pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+        rates = kind.column_rates([sympy.Float(x, 17) for x in q], [sympy.Float(x, 17) for x in v], axis, geometry)
+        bias = np.zeros(6)
+        for (w, lin), rate in zip(rates or [], v):
+            bias += np.array([*lin, *w], dtype=float) * rate
+        np.testing.assert_allclose(bias, data.a[1].vector, rtol=0, atol=1e-14)
 
 
 def test_revolute_and_prismatic_move_along_their_axis():
@@ -219,14 +246,14 @@ def test_revolute_and_prismatic_move_along_their_axis():
     q = sympy.Symbol("q")
     revolute, prismatic = joint_type("revolute"), joint_type("prismatic")
     assert revolute.rotation([q], axis) * sympy.Matrix(axis) == sympy.Matrix(axis)
-    assert revolute.columns(axis) == [(axis, (0, 0, 0))] and prismatic.columns(axis) == [((0, 0, 0), axis)]
+    assert revolute.columns([q], axis) == [(axis, (0, 0, 0))] and prismatic.columns([q], axis) == [((0, 0, 0), axis)]
     assert prismatic.displacement(sympy.eye(3), [q], axis) == sympy.Matrix(axis) * q
     assert prismatic.rotation([q], axis) == sympy.eye(3) and revolute.displacement(sympy.eye(3), [q], axis) is None
     floating = joint_type("floating")
     symbols = sympy.symbols("x y z qx qy qz qw")
     assert floating.rotation(symbols) == quaternion_matrix(*symbols[3:])
     assert floating.displacement(sympy.eye(3), symbols) == sympy.Matrix(symbols[:3])
-    assert joint_type("fixed").columns(()) == [] and joint_type("fixed").neutral() == []
+    assert joint_type("fixed").columns([], ()) == [] and joint_type("fixed").neutral() == []
 
 
 def _module(robot, tmp_path: Path):

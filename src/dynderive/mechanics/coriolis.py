@@ -79,8 +79,15 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
             w = vec([w[k] + sum((s[0][k] * qd[j] for j, s in own), _ZERO) for k in range(3)])
             v = vec([v[k] + sum((s[1][k] * qd[j] for j, s in own), _ZERO) for k in range(3)])
         velocity[body.link] = (w, v)
+        changing = {}   # a column that changes with the joint's coordinates: its rate, world axes
+        for j, rw, rv in body.rates:
+            turn = _rotate(R, rw)
+            changing[j] = (turn, _add(_rotate(R, rv), _cross(p, turn)))
         for j, s in own:
-            columns[body.link, j] = (body.link, s, tuple(vec(x) for x in _motion_cross((w, v), s)))  # type: ignore[assignment]
+            rate = _motion_cross((w, v), s)
+            if j in changing:
+                rate = (_add(rate[0], changing[j][0]), _add(rate[1], changing[j][1]))
+            columns[body.link, j] = (body.link, s, tuple(vec(x) for x in rate))  # type: ignore[assignment]
         # the link's spatial inertia (m, h, I) about the world origin, in world axes
         h_r, moved = moved_inertia(tree.program, body.mass, body.first_moment, body.inertia, R, p)
         about_origin = tree.program.symmetric(moved)

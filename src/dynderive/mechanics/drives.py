@@ -75,10 +75,13 @@ def joint_drives(robot: Robot, table: SymbolTable) -> list[JointDrive]:
     for joint in (j for j in robot.joints if j.moves and not j.multi and j.driven):
         leader, multiplier, offset = robot.driver(joint)
         m, o = table.expr(multiplier), table.expr(offset)
-        damping, friction, stiffness, rest, armature = terms.setdefault(index[leader], [sympy.Integer(0)] * 5)
-        terms[index[leader]] = [damping + m**2 * value(joint.damping), friction + abs(m) * value(joint.friction),
-                                stiffness + m**2 * value(joint.stiffness), (value(joint.rest) - o) / m if joint.stiffness is not None else rest,
-                                armature + m**2 * value(joint.armature)]
+        # a joint of several coordinates (universal): the same terms on each
+        for column in range(index[leader], index[leader] + max(joint.sizes[1], 1)):
+            damping, friction, stiffness, rest, armature = terms.setdefault(column, [sympy.Integer(0)] * 5)
+            terms[column] = [damping + m**2 * value(joint.damping), friction + abs(m) * value(joint.friction),
+                             stiffness + m**2 * value(joint.stiffness),
+                             (value(joint.rest) - o) / m if joint.stiffness is not None else rest,
+                             armature + m**2 * value(joint.armature)]
     return [JointDrive(i, *terms[i]) for i in sorted(terms)]
 
 

@@ -28,7 +28,7 @@ from ..model.naming import frame_quantity_names
 from ..model.robot import Frame, Robot
 from ..model.symbols import SymbolTable
 from . import joint_types
-from .joints import couplings, unit
+from .joints import couplings, scalar_motions
 from .program import Program, Vector, _add, _cross, _rotate
 from .recursive import _carry, _forward
 from .rotations import rpy_matrix
@@ -109,17 +109,16 @@ def _spatial_pose(robot: Robot, table: SymbolTable, frame: Frame) -> tuple[sympy
         pose = pose * Transform(rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z]))
         if not joint.moves:
             continue
-        axis = unit(tuple(table.expr(e) for e in joint.axis))
-        c = coupling[joint.name]   # a <mimic> joint: multiplier * q_leader + offset
-        kind, geometry = joint_types.of(joint), joint_types.geometry_of(joint, table.expr)
-        (w, _), = kind.columns(axis, geometry)
-        if any(e != 0 for e in w):   # a scalar joint's angular column: its axis, which its own turn keeps
-            column = (pose.R * sympy.Matrix(w) * c.multiplier).applyfunc(tidy)
-            present = angular[:, c.coordinate]
-            angular[:, c.coordinate] = column if present.is_zero_matrix else (present + column).applyfunc(tidy)
-        shift = kind.displacement(sympy.eye(3), [c.variable], axis, geometry)
-        pose = pose * Transform(kind.rotation([c.variable], axis, geometry),
-                                sympy.zeros(3, 1) if shift is None else shift)
+        for motion in scalar_motions(robot, table, joint, coupling):   # one per coordinate it moves with
+            c, kind, axis, geometry = motion.coupling, motion.kind, motion.axis, motion.geometry
+            (w, _), = kind.columns([c.variable], axis, geometry)
+            if any(e != 0 for e in w):   # a turn's angular column: its axis, which its own turn keeps
+                column = (pose.R * sympy.Matrix(w) * c.multiplier).applyfunc(tidy)
+                present = angular[:, c.coordinate]
+                angular[:, c.coordinate] = column if present.is_zero_matrix else (present + column).applyfunc(tidy)
+            shift = kind.displacement(sympy.eye(3), [c.variable], axis, geometry)
+            pose = pose * Transform(kind.rotation([c.variable], axis, geometry),
+                                    sympy.zeros(3, 1) if shift is None else shift)
     x, y, z, roll, pitch, yaw = (table.expr(e) for e in frame.origin)
     pose = pose * Transform(rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z]))
     return pose.R, pose.p, angular

@@ -28,11 +28,12 @@ the two.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import sympy
 
-from ..model.robot import Robot
+from ..model.robot import Joint, Robot
 from ..model.symbols import SymbolTable
 from . import joint_types
 from .drives import dissipative_force, joint_drives
@@ -250,19 +251,20 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
             S[3:, vi + start:vi + start + 3] = sympy.eye(3)
             rate[qi:qi + start + 4, vi:vi + start + 3] = block
             R = R * Rq
-        elif kind.moves:   # one coordinate: its type's turn and shift, its column
+        elif kind.moves:   # vector-space coordinates: its type's turn and shift, its columns
             axis = tuple(fold_constants(sympy.Matrix(unit(tuple(expr(e) for e in joint.axis)))))
             geometry = joint_types.geometry_of(joint, expr)
-            shift = kind.displacement(R, [table.q[qi]], axis, geometry)   # (R axis) q for a prismatic joint
+            entries = table.q[qi:qi + kind.nq]
+            shift = kind.displacement(R, entries, axis, geometry)   # (R axis) q for a prismatic joint
             p = p if shift is None else p + shift
-            R = R * kind.rotation([table.q[qi]], axis, geometry)
-            (w, v), = kind.columns(axis, geometry)
-            S[3:, vi], S[:3, vi] = sympy.Matrix(w), sympy.Matrix(v)
-            rate[qi, vi] = 1
+            R = R * kind.rotation(entries, axis, geometry)
+            for k, (w, v) in enumerate(kind.columns(entries, axis, geometry)):
+                S[3:, vi + k], S[:3, vi + k] = sympy.Matrix(w), sympy.Matrix(v)
+                rate[qi + k, vi + k] = 1
         com = sympy.Matrix([expr(e) for e in link.com])
         pieces[link.name] = (R, p, S, expr(link.mass), com, inertia_tensor(tuple(expr(e) for e in link.inertia)))
-    revolute = [table.q[where.q[j.name]] for j in robot.joints   # the angles inside sines and cosines
-                if j.kind.vector_space and joint_types.of(j).turns]
+    revolute = [table.q[where.q[j.name] + k] for j in robot.joints if j.kind.vector_space and j.owns
+                for k, turn in enumerate(_turns(j, expr)) if turn]   # the angles inside sines and cosines
     ring = _Ring(table, revolute, [*gravity, *(e for piece in pieces.values() for part in piece
                                                for e in (part if isinstance(part, sympy.MatrixBase) else [part]))])
     K = ring.domain
@@ -322,7 +324,8 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     potential_s = sum((item.potential for item in links.values()), sympy.Integer(0))
     M_s, N_s = ring.matrix(M), ring.matrix(N)
     F = sympy.zeros(len(table.qd), 1)   # damping and Coulomb friction of the scalar joints
-    coordinate = {where.v[j.name]: table.q[where.q[j.name]] for j in robot.joints if j.moves and not j.multi}
+    coordinate = {where.v[j.name] + k: table.q[where.q[j.name] + k] for j in robot.joints if j.moves and not j.multi
+                  for k in range(max(j.sizes[1], 1))}
     for drive in joint_drives(robot, table):
         vi, spring = drive.coordinate, coordinate[drive.coordinate] - drive.rest
         M_s[vi, vi] += drive.armature
@@ -336,6 +339,13 @@ def quasi_velocity_sheet(robot: Robot, table: SymbolTable) -> QuasiVelocitySheet
     EOM = (M_s * sympy.Matrix(table.qdd) + Cv_s + N_s + F - Y).applyfunc(expand)
     return QuasiVelocitySheet([links[link.name] for link in robot.links], rate, M_s, N_s, Cv_s, ring.matrix(C), T,
                               expand(potential_s), Y, EOM)
+
+
+def _turns(joint: Joint, expr: Callable[[object], sympy.Expr]) -> list[bool]:
+    """Per coordinate of a vector-space joint, whether it is an angle (a sine and cosine's)."""
+    axis = unit(tuple(expr(e) for e in joint.axis)) if joint.kind.takes_axis else ()
+    segments = joint_types.of(joint).segments(axis, joint_types.geometry_of(joint, expr))
+    return [segment.kind.turns for segment in segments]
 
 
 def _skew3(a: list, zero) -> list[list]:   # noqa: ANN001

@@ -120,7 +120,8 @@ def _advance(tree: Tree, body: Body, parent: tuple[Vector, Vector, Vector, Vecto
     """Newton-Euler's outward step: the link's velocity and acceleration ``(w, v, alpha, a)``
     (at its frame origin, in its axes) from its parent's; a link at rest keeps only its
     frame's acceleration (gravity). Per column ``S = (s_w, s_v)``: ``w += s_w qd``,
-    ``v += s_v qd``, ``alpha += s_w qdd + (w x s_w) qd``, ``a += s_v qdd + (w x s_v + v x s_w) qd``."""
+    ``v += s_v qd``, ``alpha += s_w qdd + (w x s_w) qd``, ``a += s_v qdd + (w x s_v + v x s_w) qd``;
+    a column that changes with the joint's coordinates adds its rate times ``qd`` (``c_J``)."""
     vec = tree.program.vector
     zero = (ZERO,) * 3
     if body.link in tree.static:
@@ -139,6 +140,9 @@ def _advance(tree: Tree, body: Body, parent: tuple[Vector, Vector, Vector, Vecto
             dv = _add(dv, [x * rate for x in sv])
             dalpha = _add(dalpha, [x * accel + y * rate for x, y in zip(sw, _cross(w, sw))])
             dacc = _add(dacc, [x * accel + y * rate for x, y in zip(sv, _add(_cross(w, sv), _cross(v, sw)))])
+        for j, rw, rv in body.rates:   # columns that turn with the joint's own coordinates: c_J
+            dalpha = _add(dalpha, [x * qd[j] for x in rw])
+            dacc = _add(dacc, [x * qd[j] for x in rv])
         if turns:
             w = vec(_add(w, dw), Meaning("omega", body.link))
             alpha = vec(_add(alpha, dalpha), Meaning("alpha", body.link))

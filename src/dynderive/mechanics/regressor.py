@@ -153,9 +153,11 @@ def regressor_program(robot: Robot, table: SymbolTable, tree: Tree | None = None
 
 
 def _leader_name(robot: Robot, column: int) -> str:
-    """The joint owning velocity column ``column`` (a scalar joint: its coordinate's name)."""
+    """The coordinate of velocity column ``column`` of a vector-space joint: a one-coordinate
+    joint's name, a universal joint's entry (``<joint>_1``)."""
     where_v = robot.offsets()[1]
-    return next(name for name, start in where_v.items() if start == column)
+    joint = next(j for j in robot.joints if j.owns and where_v[j.name] <= column < where_v[j.name] + j.sizes[1])
+    return joint.kind.names(joint.name)[0][column - where_v[joint.name]]
 
 
 __all__ = ["DRIVE_KINDS", "PLANAR_KINDS", "SPATIAL_KINDS", "Parameter", "parameter_vector", "regressor_program",

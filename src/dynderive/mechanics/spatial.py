@@ -14,8 +14,7 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
-from . import joint_types
-from .joints import couplings, unit
+from .joints import couplings, scalar_motions
 from .rotations import _tidy, rpy_matrix
 
 
@@ -68,14 +67,14 @@ def spatial_kinematics(robot: Robot, table: SymbolTable) -> list[SpatialLinkKine
             local.append(Transform(rpy_matrix(roll, pitch, yaw), sympy.Matrix([x, y, z])))
             if not joint.moves:
                 continue
-            axis = unit(tuple(table.expr(e) for e in joint.axis))
-            c = coupling[joint.name]   # a <mimic> joint: multiplier * q_leader + offset
-            kind, geometry = joint_types.of(joint), joint_types.geometry_of(joint, table.expr)
-            shift = kind.displacement(sympy.eye(3), [c.variable], axis, geometry)
-            local.append(Transform(kind.rotation([c.variable], axis, geometry),
-                                   sympy.zeros(3, 1) if shift is None else shift))
-            (w, v), = kind.columns(tuple(a * c.multiplier for a in axis), geometry)
-            twists.append((c.coordinate, len(local), sympy.Matrix(v), sympy.Matrix(w)))
+            for motion in scalar_motions(robot, table, joint, coupling):   # one per coordinate it moves with
+                c, kind, axis, geometry = motion.coupling, motion.kind, motion.axis, motion.geometry
+                shift = kind.displacement(sympy.eye(3), [c.variable], axis, geometry)
+                local.append(Transform(kind.rotation([c.variable], axis, geometry),
+                                       sympy.zeros(3, 1) if shift is None else shift))
+                # a <mimic> joint: multiplier * q_leader + offset, its column the multiplier's
+                (w, v), = kind.columns([c.variable], tuple(a * c.multiplier for a in axis), geometry)
+                twists.append((c.coordinate, len(local), sympy.Matrix(v), sympy.Matrix(w)))
         local.append(Transform(sympy.eye(3), sympy.Matrix([table.expr(e) for e in link.com])))
         # suffix[i] = local[i] * ... * local[-1]: the COM seen from the frame before local[i]
         suffix = [Transform.identity()] * (len(local) + 1)

@@ -21,7 +21,7 @@ of a large robot.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy
 
@@ -54,6 +54,9 @@ class Body:
     inertia: tuple[tuple[sympy.Expr, ...], ...]  # about the link origin, link axes
     #: a revolute joint's cosine and sine names and angle (a <mimic> joint: multiplier * q + offset)
     trig: tuple[sympy.Symbol, sympy.Symbol, sympy.Expr] | None = None
+    #: per column whose direction changes with the joint's own coordinates (a universal or
+    #: 3-D planar joint's), its rate in the link frame: (index of qd, angular, linear)
+    rates: list[Column] = field(default_factory=list)
 
     @property
     def leads(self) -> bool:
@@ -138,9 +141,9 @@ class Tree:
         #: drive terms by column: armature joins M[i, i] (CRBA) and Ia qdd_i the joint force
         #: (Newton-Euler), springs k (q_i - rest) the joint force
         self.drives: dict[int, JointDrive] = {d.coordinate: d for d in joint_drives(robot, table)}
-        #: each scalar column's coordinate in q (its leader's)
-        self.coordinate = {self.offsets.v[j.name]: table.q[self.offsets.q[j.name]]
-                           for j in robot.joints if j.owns and not j.multi}
+        #: each vector-space column's coordinate in q (a universal joint's two)
+        self.coordinate = {self.offsets.v[j.name] + k: table.q[self.offsets.q[j.name] + k]
+                           for j in robot.joints if j.owns and not j.multi for k in range(j.sizes[1])}
         #: links welded to the world (no moving joint above them): they carry no dynamics
         self.static = {"world"} | {link.name for link in robot.links
                                    if not any(j.moves for j in robot.path_to(link.name))}
@@ -167,13 +170,17 @@ class Tree:
         columns: list[Column] = []
         trig = None
         geometry = joint_types.geometry_of(joint, expr)
-        if joint.multi:   # floating, spherical: entries of their own (<mimic> couples scalar joints only)
+        rates: list[Column] = []
+        if kind.nq > 1:   # entries of their own (<mimic> couples one-coordinate joints only)
             qi, vi = self.offsets.q[joint.name], self.offsets.v[joint.name]
             q = self.table.q[qi:qi + kind.nq]
-            shift = kind.displacement(origin, q, (), geometry)
+            axis = unit(tuple(expr(e) for e in joint.axis)) if joint.kind.takes_axis else ()
+            shift = kind.displacement(origin, q, axis, geometry)
             position = position if shift is None else [p + d for p, d in zip(position, shift)]
-            motion = kind.rotation(q, (), geometry)
-            columns = [(vi + k, w, v) for k, (w, v) in enumerate(kind.columns((), geometry))]
+            motion = kind.rotation(q, axis, geometry)
+            columns = [(vi + k, w, v) for k, (w, v) in enumerate(kind.columns(q, axis, geometry))]
+            changing = kind.column_rates(q, self.table.qd[vi:vi + kind.nv], axis, geometry)
+            rates = [] if changing is None else [(vi + k, w, v) for k, (w, v) in enumerate(changing)]
         elif joint.moves:   # variable multiplier * q_leader + offset (1 and 0 for a leader), column the leader's
             leader, multiplier, offset = self.robot.driver(joint)
             coordinate = self.offsets.v[leader]
@@ -195,7 +202,7 @@ class Tree:
             shift = kind.displacement(origin, [q], axis, geometry)   # a prismatic joint's (origin axis) q
             position = position if shift is None else [p + d for p, d in zip(position, shift)]
             scaled = tuple(m * a for a in axis) if m != 1 else axis   # motion per unit rate of the leader
-            columns = [(coordinate, *kind.columns(scaled, geometry)[0])]
+            columns = [(coordinate, *kind.columns([q], scaled, geometry)[0])]
         rotation = origin * motion
         name = link.name
         R = tuple(tuple(let(rotation[i, j], Meaning("R", name, (i, j))) for j in range(3)) for i in range(3))
@@ -205,7 +212,8 @@ class Tree:
                         for i, row in enumerate(about_origin))
         return Body(link.name, joint.parent, joint, columns, R,  # type: ignore[arg-type]
                     self.program.vector(position, Meaning("p", name)), mass,
-                    self.program.vector([mass * c for c in com], Meaning("h", name)), inertia, trig)
+                    self.program.vector([mass * c for c in com], Meaning("h", name)), inertia, trig,
+                    rates)  # type: ignore[arg-type]
 
     def placement(self, values: Sequence[object]) -> tuple[sympy.Matrix, list[sympy.Expr]]:
         """A joint's or a frame's ``origin`` (planar: x, y, yaw; the plane z = 0 of a 3-D model,

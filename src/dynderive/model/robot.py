@@ -230,8 +230,11 @@ class Robot:
     @property
     def coordinates(self) -> tuple[str, ...]:
         """Names of the generalized coordinates: the moving joints, in file order (a ``mimic``
-        joint has none: it follows its leader's)."""
-        return tuple(j.name for j in self.joints if j.owns)
+        joint has none: it follows its leader's); a joint of several coordinates without a
+        quaternion (universal) names each (``<joint>_1, <joint>_2``), one with a quaternion is
+        named once (its entries: ``configuration_names``)."""
+        return tuple(name for j in self.joints if j.owns
+                     for name in (j.kind.names(j.name)[0] if j.kind.vector_space else (j.name,)))
 
     @property
     def floating(self) -> bool:

@@ -41,8 +41,9 @@ class SymbolTable:
         qdd: list[sympy.Symbol] = []
         for joint in (j for j in robot.joints if j.owns):   # NQ coordinates, NV rates (DESIGN.md section 10)
             name = joint.name
-            names = floating_names(name, joint.type) if joint.multi else ([name], [velocity_name(name)],
-                                                                           [acceleration_name(name)])
+            entries = joint.kind.names(name)[0]   # one per coordinate: a universal joint's two
+            names = floating_names(name, joint.type) if joint.multi else (
+                list(entries), [velocity_name(n) for n in entries], [acceleration_name(n) for n in entries])
             for kept, entries in zip((q, qd, qdd), names):
                 kept += [sympy.Symbol(n) for n in entries]
         table = cls(parameters={p.name: sympy.Symbol(p.name) for p in robot.parameters}, q=q, qd=qd, qdd=qdd,

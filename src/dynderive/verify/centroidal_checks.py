@@ -33,7 +33,7 @@ def _motion(joint: Any, num: Callable[[object], float]) -> Callable[..., tuple[A
     geometry = joint_types.geometry_of(joint, lambda e: sympy.Float(num(e)))
     entries = sympy.symbols(f"x0:{kind.nq if joint.mimic is None else 1}")
     shift = kind.displacement(sympy.eye(3), entries, axis, geometry)
-    columns = kind.columns(axis, geometry)
+    columns = kind.columns(entries, axis, geometry)
     S = sympy.Matrix([[*w, *v] for w, v in columns]).T if columns else sympy.zeros(6, 0)
     return sympy.lambdify(entries, (kind.rotation(entries, axis, geometry),
                                     sympy.zeros(3, 1) if shift is None else shift, S), "numpy")

@@ -84,7 +84,8 @@ def pinocchio_maps(robot: Robot, values: dict[str, float]) -> tuple[Any, np.ndar
         elif joint_type.spec.takes_axis:
             axis = np.array([num(e) for e in joint.axis])
         axis = axis / (np.linalg.norm(axis) or 1.0)
-        return joint_type.pinocchio(pin, axis, {key: num(value) for key, value in joint.geometry})
+        return joint_type.pinocchio(pin, axis, {key: tuple(num(e) for e in value) if isinstance(value, tuple) else num(value)
+                                                for key, value in joint.geometry})
 
     def visit(parent: str) -> None:
         for joint in _leaders_first(robot, [j for j in robot.joints if j.parent == parent]):

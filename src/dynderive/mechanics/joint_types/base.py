@@ -19,6 +19,7 @@ override them (``quaternion.py``: SO(3) and SE(3) as Pinocchio's).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, ClassVar
 
@@ -46,6 +47,16 @@ ZERO3: Vector = (ZERO, ZERO, ZERO)
 def basis(k: int) -> Vector:
     """The unit vector ``e_k`` of 3-D space."""
     return tuple(sympy.Integer(int(i == k)) for i in range(3))  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One one-coordinate screw motion of a joint: its type (revolute, prismatic, helical),
+    unit axis in the frame it starts from, and that type's own keys."""
+
+    kind: JointType
+    axis: Vector
+    geometry: Geometry = field(default_factory=lambda: NO_GEOMETRY)
 
 
 def keep(expr: sympy.Expr) -> sympy.Expr:
@@ -93,10 +104,26 @@ class JointType:
         (``origin``: the joint frame's rotation in the parent), or None for none."""
         return None
 
-    def columns(self, axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
-        """The motion subspace ``S``: per velocity entry, the child frame's ``(angular,
-        linear)`` velocity per unit rate, in the child frame (Pinocchio's ``S``, local)."""
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+        """The motion subspace ``S`` at configuration ``q``: per velocity entry, the child
+        frame's ``(angular, linear)`` velocity per unit rate, in the child frame (Pinocchio's
+        ``S``, local). Constant for every type but a product of screw motions (``Product``)."""
         raise NotImplementedError
+
+    def column_rates(self, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                     geometry: Geometry = NO_GEOMETRY) -> list[Column] | None:
+        """Per column, its rate of change in the child frame at velocity ``v`` (Featherstone's
+        apparent derivative; the joint's bias acceleration ``c_J = sum_k rate_k v_k``), or None
+        when the columns are constant in the child frame (every type but a ``Product``)."""
+        return None
+
+    def segments(self, axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Segment]:
+        """The one-coordinate screw motions its motion is the product of, in order, one per
+        coordinate (the sheet's kinematics compose them): a one-coordinate joint is its own."""
+        if self.nq != 1 or self.quaternion_start is not None:
+            raise NotImplementedError(f"a {self.name} joint is not a product of one-coordinate motions")
+        return [Segment(self, tuple(axis), geometry)]  # type: ignore[arg-type]
 
     def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:
         """The motion in the plane z = 0 of a planar robot at variable ``q`` (``planar.py``
@@ -143,3 +170,74 @@ class JointType:
 
     def __repr__(self) -> str:
         return f"<joint type {self.name}: nq={self.nq}, nv={self.nv}>"
+
+
+def motion_cross(a: Column, b: Column) -> Column:
+    """``a x b`` of motion vectors ``(angular, linear)``."""
+    (wa, va), (wb, vb) = a, b
+    return _cross(wa, wb), tuple(x + y for x, y in zip(_cross(wa, vb), _cross(va, wb)))  # type: ignore[return-value]
+
+
+def _cross(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> Vector:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+class Product(JointType):
+    """A vector-space joint whose motion is a product of one-coordinate screw motions, one per
+    coordinate (``segments``; Pinocchio's ``JointModelComposite``): a universal joint two
+    turns, a 3-D planar joint two shifts and a turn. Its placement composes theirs; its column
+    ``k`` is segment k's, carried into the child frame through the segments after it, so it
+    changes with those coordinates: ``rate_k = -(sum_{l>k} S_l v_l) x S_k`` (the child frame
+    moves relative to segment k's by the later segments' motion), and ``c_J = sum_k rate_k v_k``."""
+
+    def segments(self, axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Segment]:
+        raise NotImplementedError
+
+    def _poses(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+               geometry: Geometry) -> list[tuple[sympy.Matrix, sympy.Matrix]]:
+        """Each segment's rotation and displacement in the frame it starts from."""
+        poses = []
+        for segment, entry in zip(self.segments(axis, geometry), q):
+            shift = segment.kind.displacement(sympy.eye(3), [entry], segment.axis, segment.geometry)
+            poses.append((segment.kind.rotation([entry], segment.axis, segment.geometry),
+                          sympy.zeros(3, 1) if shift is None else shift))
+        return poses
+
+    @staticmethod
+    def _compose(poses: Sequence[tuple[sympy.Matrix, sympy.Matrix]]) -> tuple[sympy.Matrix, sympy.Matrix]:
+        R, p = sympy.eye(3), sympy.zeros(3, 1)
+        for rotation, shift in poses:
+            R, p = R * rotation, p + R * shift
+        return R, p
+
+    def rotation(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                 geometry: Geometry = NO_GEOMETRY) -> sympy.Matrix:
+        return self._compose(self._poses(q, axis, geometry))[0]
+
+    def displacement(self, origin: sympy.Matrix, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                     geometry: Geometry = NO_GEOMETRY) -> sympy.Matrix | None:
+        p = self._compose(self._poses(q, axis, geometry))[1]
+        return None if p.is_zero_matrix else origin * p
+
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+        poses, segments = self._poses(q, axis, geometry), self.segments(axis, geometry)
+        found = []
+        for k, (segment, entry) in enumerate(zip(segments, q)):
+            (w, v), = segment.kind.columns([entry], segment.axis, segment.geometry)
+            R, p = self._compose(poses[k + 1:])   # the child frame in segment k's
+            w_child = R.T * sympy.Matrix(w)
+            v_child = R.T * (sympy.Matrix(v) + sympy.Matrix(w).cross(p))
+            found.append((tuple(w_child), tuple(v_child)))
+        return found  # type: ignore[return-value]
+
+    def column_rates(self, q: Sequence[sympy.Expr], v: Sequence[sympy.Expr], axis: Sequence[sympy.Expr],
+                     geometry: Geometry = NO_GEOMETRY) -> list[Column] | None:
+        columns = self.columns(q, axis, geometry)
+        rates = []
+        for k, column in enumerate(columns):
+            later = [tuple(sum((c[part][i] * v[l] for l, c in enumerate(columns) if l > k), ZERO) for i in range(3))
+                     for part in range(2)]
+            w, lin = motion_cross((later[0], later[1]), column)  # type: ignore[arg-type]
+            rates.append((tuple(-x for x in w), tuple(-x for x in lin)))
+        return rates  # type: ignore[return-value]

@@ -15,7 +15,7 @@ from .base import NO_GEOMETRY, ZERO, Column, Geometry, JointType, Vector2
 class Fixed(JointType):
     spec = JOINT_KINDS["fixed"]
 
-    def columns(self, axis: Sequence[object], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[object], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         return []
 
     def planar(self, q: sympy.Expr, axis: Vector2) -> PlanarMotion:

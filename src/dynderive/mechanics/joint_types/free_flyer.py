@@ -34,7 +34,7 @@ class Floating(Spherical):
         """``origin (x, y, z)``."""
         return origin * sympy.Matrix(q[:3])
 
-    def columns(self, axis: Sequence[sympy.Expr] = (), geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = (), geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The 6 x 6 identity: three linear unit columns, then three angular ones."""
         return [(ZERO3, basis(k)) for k in range(3)] + [(basis(k), ZERO3) for k in range(3)]
 

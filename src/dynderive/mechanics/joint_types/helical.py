@@ -28,7 +28,7 @@ class Helical(JointType):
         """``(origin axis) pitch q``."""
         return origin * sympy.Matrix(axis) * (geometry["pitch"] * q[0])
 
-    def columns(self, axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The axis, angular, and ``pitch`` times it, linear (the axis reads the same in the
         joint and the child frame)."""
         return [(tuple(axis), tuple(geometry["pitch"] * a for a in axis))]  # type: ignore[list-item]

@@ -22,7 +22,7 @@ class Prismatic(JointType):
         """``(origin axis) q``: the axis in the parent's axes times the displacement."""
         return origin * sympy.Matrix(axis) * q[0]
 
-    def columns(self, axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The axis, linear."""
         return [(ZERO3, tuple(axis))]  # type: ignore[list-item]
 

@@ -22,7 +22,7 @@ class Revolute(JointType):
         """Rodrigues' rotation by ``q[0]`` about ``axis`` (``spatial.axis_angle``)."""
         return axis_angle(tuple(axis), q[0])  # type: ignore[arg-type]
 
-    def columns(self, axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr], geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The axis, angular (the axis is the same in the joint and the child frame)."""
         return [(tuple(axis), ZERO3)]  # type: ignore[list-item]
 

@@ -38,7 +38,7 @@ class Spherical(JointType):
                  geometry: Geometry = NO_GEOMETRY) -> sympy.Matrix:
         return quaternion_matrix(*q[self.quaternion_start:self.quaternion_start + 4])
 
-    def columns(self, axis: Sequence[sympy.Expr] = (), geometry: Geometry = NO_GEOMETRY) -> list[Column]:
+    def columns(self, q: Sequence[sympy.Expr], axis: Sequence[sympy.Expr] = (), geometry: Geometry = NO_GEOMETRY) -> list[Column]:
         """The three angular unit columns."""
         return [(basis(k), ZERO3) for k in range(3)]
 

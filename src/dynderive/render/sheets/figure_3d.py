@@ -18,7 +18,7 @@ parameters take their values (1 where a parameter has none).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -26,6 +26,7 @@ import sympy
 
 from ...derivation import Derivation
 from ...input.urdf_values import axis_rotation
+from ...mechanics import joint_types
 from ...model.joint_kinds import JOINT_KINDS
 from ...model.robot import Robot
 from ..encode import escape_tex
@@ -81,15 +82,16 @@ def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, An
             R0, p0 = R @ rpy(roll, pitch, yaw), p + R @ np.array([x, y, z])
             axis = np.array([num(e) for e in joint.axis]) if joint.moves else np.array([0.0, 0.0, 1.0])
             axis = axis / (np.linalg.norm(axis) or 1.0)
-            if joint.moves:   # a <mimic> joint: multiplier * q_leader + offset
-                leader, multiplier, offset = robot.driver(joint)
-                value = multiplier * q[index[leader]] + offset
-            else:
-                value = 0.0
             if joint.moves and joint.kind.screw is not None:   # its turn about and shift along the axis
+                leader, multiplier, offset = robot.driver(joint)   # a <mimic> joint: multiplier * q_leader + offset
+                value = multiplier * q[index[leader]] + offset
                 geometry = dict(joint.geometry)
                 turn, slide = (num(geometry.get(text, text)) * value for text in joint.kind.screw)
                 frames[joint.child] = (R0 @ axis_rotation(axis, turn), p0 + R0 @ axis * slide)
+            elif joint.moves:   # several coordinates (a universal joint): its type's placement at them
+                start = index[joint.kind.names(joint.name)[0][0]]
+                R_joint, p_joint = _placement(joint, axis, q[start:start + joint.kind.nq], num)
+                frames[joint.child] = (R0 @ R_joint, p0 + R0 @ p_joint)
             else:
                 frames[joint.child] = (R0, p0)
             joints[joint.name] = (R0, p0, R0 @ axis)
@@ -99,6 +101,16 @@ def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, An
     if not all(map(math.isfinite, numbers)):
         return None
     return {"frames": frames, "joints": joints, "coms": coms, "num": num}
+
+
+def _placement(joint: Any, axis: Vector, entries: Sequence[float], num: Callable[[Any], float]) -> tuple[Vector, Vector]:
+    """A joint's rotation and displacement at its coordinates ``entries``, from its type."""
+    kind = joint_types.of(joint)
+    geometry = joint_types.geometry_of(joint, lambda e: sympy.Float(num(e)))
+    values, unit_axis = [sympy.Float(x) for x in entries], tuple(sympy.Float(a) for a in axis)
+    shift = kind.displacement(sympy.eye(3), values, unit_axis, geometry)
+    return (np.array(kind.rotation(values, unit_axis, geometry), dtype=float),
+            np.zeros(3) if shift is None else np.array(shift, dtype=float).reshape(3))
 
 
 def rpy(roll: float, pitch: float, yaw: float) -> Vector:
@@ -209,7 +221,11 @@ def spatial_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[st
     # labels: the coordinates beside their joints, the frames' names beside their origins
     index = {name: i for i, name in enumerate(robot.coordinates)}
     for joint in robot.joints:
-        if joint.moves:
+        if joint.moves and joint.kind.nq > 1:   # several coordinates (a universal joint): each
+            start = index[joint.kind.names(joint.name)[0][0]]
+            label = ", ".join(fmt(table.q[start + k]) for k in range(joint.kind.nq))
+            _label(sheet, at(joints[joint.name][1]), CYLINDER_MM[1] + 0.8, label, joint.name)
+        elif joint.moves:
             leader, multiplier, offset = robot.driver(joint)
             label = fmt(table.expr(multiplier) * table.q[index[leader]] + table.expr(offset))
             _label(sheet, at(joints[joint.name][1]), CYLINDER_MM[1] + 0.8, label, joint.name)
@@ -225,9 +241,10 @@ def spatial_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[st
                      (tip[0] - uy * (w + 0.8), tip[1] + ux * (h + 0.8)),
                      (tip[0] + uy * (w + 0.8), tip[1] - ux * (h + 0.8))], label)
     zero = all(v == 0 for v in q)
+    owner = {name: j for j in robot.joints if j.owns for name in j.kind.names(j.name)[0]}   # coordinate -> joint
     configuration = ("q = 0" if zero else ", ".join(
         f"{fmt(c)} = {joint_value_text(v, j)}" for c, v, j in
-        zip(table.q, q, ({j.name: j for j in robot.joints}[n].type for n in robot.coordinates))))
+        zip(table.q, q, (owner[n].type for n in robot.coordinates))))
     what = f"its {'default assembly' if robot.loops else 'zero configuration'} ${configuration}$"
     view_text = f"azimuth ${math.degrees(AZIMUTH):.0f}^\\circ$, elevation ${math.degrees(ELEVATION):.0f}^\\circ$"
     anchors = {"world": at(np.zeros(3))} | {f"joint:{j.name}": at(joints[j.name][1]) for j in robot.joints}

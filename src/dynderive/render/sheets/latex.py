@@ -10,6 +10,7 @@ from typing import Any, Literal
 import sympy
 
 from ...derivation import Derivation
+from ...model.robot import Joint
 from ..encode import escape_tex
 from ..environment import LazyList, render
 from .centroidal import LatexNames, centroidal_context
@@ -116,9 +117,15 @@ def joint_rows(derivation: Derivation, style: SheetStyle) -> list[dict[str, Any]
     """The joint table: each joint's names, its variable (its coordinate, or a <mimic> joint's
     expression) and its effort, ``style.blank`` where it has none."""
     robot, table, fmt, text = derivation.robot, derivation.symbols, style.fmt, style.text
+
+    def several(j: Joint) -> bool:   # coordinates of its own, no quaternion (a universal joint)
+        return j.kind.vector_space and j.kind.nq > 1 and j.owns
+
     return [{"name": text(j.name), "type": j.type, "parent": text(j.parent), "child": text(j.child),
-             "variables": [fmt(joint_variable(robot, table, j)) if j.moves else style.blank],
-             "effort": fmt(sympy.Symbol(j.effort)) if j.effort else style.blank} for j in robot.joints]
+             "variables": ([fmt(sympy.Tuple(*(sympy.Symbol(n) for n in j.kind.names(j.name)[0])))] if several(j)
+                           else [fmt(joint_variable(robot, table, j)) if j.moves else style.blank]),
+             "effort": (fmt(sympy.Tuple(*(sympy.Symbol(n) for n in j.effort_names))) if several(j) and j.effort
+                        else fmt(sympy.Symbol(j.effort)) if j.effort else style.blank)} for j in robot.joints]
 
 
 def shared_context(derivation: Derivation, style: SheetStyle,

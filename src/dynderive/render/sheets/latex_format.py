@@ -79,7 +79,7 @@ def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str |
     where_q, where_v = robot.offsets()
     multi = [j for j in robot.joints if j.multi]
     others = {latex_name(str(s)) for s in [*table.parameters.values(), *table.efforts.values()]}
-    others |= {latex_name(j.name) for j in robot.joints if j.owns and not j.multi}
+    others |= {latex_name(name) for j in robot.joints if j.owns and not j.multi for name in j.kind.names(j.name)[0]}
     plain = set(FREE_FLYER_Q) | set(FREE_FLYER_V)
     entries: list[tuple[sympy.Symbol, str | None, str, int]] = []
     for joint in multi:
@@ -91,8 +91,9 @@ def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str |
             entries += [(table.qd[vi + k], text, tag, 0), (table.qdd[vi + k], text, tag, 1)]
     for joint in (j for j in robot.joints if j.owns and not j.multi):
         qi, vi = where_q[joint.name], where_v[joint.name]
-        entries += [(table.q[qi], None, joint.name, 0), (table.qd[vi], None, joint.name, 1),
-                    (table.qdd[vi], None, joint.name, 2)]
+        for k, name in enumerate(joint.kind.names(joint.name)[0]):   # a universal joint's two
+            entries += [(table.q[qi + k], None, name, 0), (table.qd[vi + k], None, name, 1),
+                        (table.qdd[vi + k], None, name, 2)]
     return entries
 
 
