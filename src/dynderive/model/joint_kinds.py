@@ -138,6 +138,10 @@ JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
     JointKind("helical", "a screw (3-D): one angle about its unit axis (default z), moving pitch along it per radian",
               takes_axis=True, keys=(JointKey("pitch", "translation along the axis per radian, an expression"),),
               screw=("1", "pitch"), glyph="cylinder"),
+    JointKind("universal", "two angles (3-D): about its unit axis (default z), then about axis2, orthogonal to it",
+              coordinates=("1", "2"), efforts=("1", "2"), takes_axis=True,
+              keys=(JointKey("axis2", "the second unit axis, orthogonal to axis, in the frame the first turn leaves", 3),),
+              glyph="ball"),
 )}
 
 
