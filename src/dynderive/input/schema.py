@@ -396,6 +396,8 @@ def _axis(v: Validator, item: dict[str, Any], path: tuple[Any, ...], jtype: str 
         return default
     apath = path + ("axis",)
     kind = find_kind(jtype)
+    if planar and kind is not None and not kind.planar:   # the type's own error says it all
+        return default
     if planar and kind is not None and kind.takes_axis and not kind.planar_axis:
         v.report(apath, f"a planar {jtype} joint takes no axis (planar revolute joints turn about z)")
         return default
