@@ -142,6 +142,8 @@ JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
               coordinates=("1", "2"), efforts=("1", "2"), takes_axis=True,
               keys=(JointKey("axis2", "the second unit axis, orthogonal to axis, in the frame the first turn leaves", 3),),
               glyph="ball"),
+    JointKind("planar", "a plane (3-D): x and y in the plane normal to its unit axis (default z), then the angle theta "
+              "about it", coordinates=("x", "y", "theta"), efforts=("x", "y", "theta"), takes_axis=True, glyph="box"),
 )}
 
 
