@@ -318,7 +318,8 @@ KIND_WORDS = re.compile(r"\b(floating|floating_base|spherical)\b")
 
 def _kind_branches(text: str) -> list[str]:
     """The Jinja tags and expressions of ``text`` (comments aside) that read a robot-kind flag."""
-    return [tag.strip() for tag in re.findall(r"\{[%{]-?(.*?)-?\+?[%}]\}", text, re.S) if KIND_WORDS.search(tag)]
+    tags = re.findall(r"\{[%{]-?(.*?)-?\+?[%}]\}", text, re.S) + re.findall(r"\\(?:BLOCK|VAR)\{([^}]*)\}", text)
+    return [tag.strip() for tag in tags if KIND_WORDS.search(tag)]
 
 
 def test_no_code_template_branches_on_the_robot_kind():
@@ -331,7 +332,19 @@ def test_no_code_template_branches_on_the_robot_kind():
     assert not {path: tags for path, tags in found.items() if tags}
 
 
+def test_no_sheet_template_branches_on_the_robot_kind():
+    """Every template (the sheets' LaTeX and HTML, linearize's, the code): what differs for a
+    robot with quaternion joints comes from the context by what it is (``quaternion_joints``,
+    ``free_body``, the centroidal steps' ``base``, ``tangent_space``), never a floating flag."""
+    root = Path(__file__).resolve().parents[1]
+    paths = sorted((root / "templates").rglob("*.j2")) + sorted((root / "src" / "dynderive").rglob("*.j2"))
+    assert len(paths) > 40
+    found = {str(p.relative_to(root)): _kind_branches(p.read_text()) for p in paths}
+    assert not {path: tags for path, tags in found.items() if tags}
+
+
 def test_the_kind_check_sees_a_branch_and_not_a_comment():
     assert _kind_branches("{% if floating %}x{% endif %}{{ 'a' if floating_base }}") == ["if floating", "'a' if floating_base"]
     assert _kind_branches("{%- if loops and not spherical +%}") == ["if loops and not spherical"]
     assert _kind_branches("{#- the floating type of a result #}{{ robot_kind }} the floating type") == []
+    assert _kind_branches(r"\BLOCK{if floating_base}x\BLOCK{endif} the floating base \VAR{free_body}") == ["if floating_base"]

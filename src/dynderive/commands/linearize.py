@@ -261,7 +261,8 @@ def render_linearization(derivation: Derivation, at: dict[str, list[float]], val
             "title": escape_tex(robot.title), "q": fmt(sympy.Matrix(table.q).T),
             "dissipative": robot.dissipative, "q0": vector(at["q"]), "qd0": vector(at["qd"]), "u0": vector(at["u"]),
             "qdd0": fmt(symbolic["qdd"].T) if symbolic else numeric(np.zeros((1, len(table.qd)))),
-            "floating": robot.floating, "qd": fmt(sympy.Matrix(table.qd).T), "nq": len(table.q), "nv": len(table.qd),
+            "tangent_space": robot.floating,   # quaternions: perturbed by integrate, NV entries
+            "qd": fmt(sympy.Matrix(table.qd).T), "nq": len(table.q), "nv": len(table.qd),
             "A": fmt(symbolic["A"]) if symbolic else numeric(A), "B": fmt(symbolic["B"]) if symbolic else numeric(B),
             "values": escape_tex(given) if symbolic else "", "A_numeric": numeric(A), "B_numeric": numeric(B),
         }

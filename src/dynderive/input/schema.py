@@ -231,7 +231,7 @@ def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
     for i, path, item, jname, _ in v.named_items(top, "joints", "joint", JOINT_KEYS, required, {}):
         jtype = item.get("type")
         if "type" in item and jtype not in JOINT_TYPES:
-            extra = {"continuous": " (write 'revolute')", "planar": ""}.get(str(jtype))
+            extra = {"continuous": " (write 'revolute')"}.get(str(jtype))
             if extra is None:
                 extra = did_you_mean(jtype, JOINT_TYPES) if isinstance(jtype, str) else ""
             v.report(path + ("type",), f"unsupported joint type {jtype!r}; "

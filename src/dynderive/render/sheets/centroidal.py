@@ -78,7 +78,7 @@ def centroidal_context(derivation: Derivation, names: LatexNames) -> dict[str, A
     barred = steps.base is not None
     velocities = derivation.symbols.qd
     return {
-        "symbolic": True, "floating": barred,
+        "symbolic": True,
         "mass": names.scalar(steps.mass),
         "links": [{"index": part.index, "name": names.text(part.name), "mass": names.scalar(part.mass),
                    "position": names.matrix("p", part.index, barred, part.position),

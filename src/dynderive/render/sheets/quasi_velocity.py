@@ -170,7 +170,9 @@ def quasi_velocity_context(derivation: Derivation, digits: int | None = None, st
         "quasi_velocity": True, "maximal_left_out": False,
         "nq": len(table.q), "nv": len(table.qd), "small": small,
         "q": fmt(sympy.Matrix(table.q)), "v": fmt(sympy.Matrix(table.qd)), "vdot": fmt(sympy.Matrix(table.qdd)),
-        "floating_base": robot.floating_base,
+        # what its quaternion joints are, in words; whether it is one free body (Euler's equations)
+        "quaternion_joints": "with a floating base" if robot.floating_base else "with floating or spherical joints",
+        "free_body": robot.floating_base and len(robot.links) == 1,
         "multi": [multi_joint(j, fmt, table, where_q, where_v, steps.rotations[j.name], style) for j in robot.joints
                   if j.multi],
         "Y": fmt(sympy.Matrix(steps.efforts)),
