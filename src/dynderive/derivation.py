@@ -13,11 +13,12 @@ from typing import TYPE_CHECKING, Any, cast
 
 import sympy
 
+from .mechanics import joint_types
 from .mechanics.consistency import run_checks
+from .mechanics.module_programs import build_programs
 from .mechanics.planar import PlanarLinkKinematics, planar_kinematics
 from .mechanics.polynomial import expand
 from .mechanics.program import Program, lines_read
-from .mechanics.programs import build_programs
 from .mechanics.recursive import GeneralizedProgram
 from .mechanics.regularity import check_mass_matrix
 from .mechanics.tidy import Check, fold_constants, is_small, quick_tidy, tidy
@@ -31,11 +32,11 @@ from .model.naming import (
     frame_quantity_names,
     quantity_rank,
 )
-from .model.robot import Robot
+from .model.robot import Joint, Robot
 from .model.symbols import SymbolTable
 
 if TYPE_CHECKING:
-    from .mechanics.centroidal import CentroidalPrograms
+    from .mechanics.centroidal_programs import CentroidalPrograms
     from .mechanics.centroidal_steps import CentroidalSteps
     from .mechanics.contact_program import ContactPrograms
     from .mechanics.drives import JointDrive
@@ -46,8 +47,8 @@ if TYPE_CHECKING:
     from .mechanics.loops import LoopModel
     from .mechanics.maximal import MaximalSteps
     from .mechanics.quasi_velocity import QuasiVelocitySteps
-    from .mechanics.recursion import Recursion
     from .mechanics.regressor import Parameter
+    from .mechanics.sheet_recursion import Recursion
     from .mechanics.spatial import SpatialLinkKinematics
     from .model.array_program import ArrayProgram
 
@@ -133,9 +134,8 @@ class Derivation:
     >>> d["N_g"]                                   # doctest: +SKIP
     Matrix([[g*m*(l + q2)*cos(q1)], [g*m*sin(q1)]])
 
-    Large robots (``mechanics.structured.intermediate_form``) hold M_g, C_g, N_g, T_g, V_g,
-    EOM_g1, EOM_g2 and the body Jacobians over named sub-expressions ``_w1, _w2, ...``, defined in
-    order by ``intermediates``.
+    Large robots (``mechanics.structured.intermediate_form``) hold M_g ... EOM_g2 and the body
+    Jacobians over sub-expressions ``_w1, _w2, ...`` that ``intermediates`` defines in order.
     """
 
     def __init__(self, robot: Robot, symbols: SymbolTable, progress: Progress | None = None):
@@ -424,9 +424,9 @@ class Derivation:
     @cached_property
     def centroidal_programs(self) -> CentroidalPrograms | None:
         """Straight-line programs of the centre of mass and the centroidal momentum
-        (``mechanics.centroidal.CentroidalPrograms``) of a 3-D robot, None for a planar one;
+        (``mechanics.centroidal_programs.CentroidalPrograms``) of a 3-D robot, None for a planar one;
         built on first use."""
-        from .mechanics.centroidal import centroidal_programs
+        from .mechanics.centroidal_programs import centroidal_programs
 
         if self.robot.planar:
             return None
@@ -489,7 +489,7 @@ class Derivation:
     @cached_property
     def programs(self) -> dict[str, Program]:
         """Straight-line programs of the recursive algorithms over the robot's one tree
-        (``mechanics/programs.py``), by what they compute: ``inverse_dynamics``,
+        (``mechanics/module_programs.py``), by what they compute: ``inverse_dynamics``,
         ``forward_dynamics``, ``regressor`` and ``inverse_dynamics_derivatives`` for every
         robot, and ``mass_matrix``, ``coriolis``, ``gravity``, ``potential`` where the code is
         structured (``structured_code``). Built once, on first use, straight from the robot: a
@@ -517,11 +517,16 @@ class Derivation:
     @cached_property
     def recursion(self) -> Recursion:
         """Newton-Euler and CRBA as one program whose lines record their meaning
-        (``mechanics.recursion.Recursion``), for a large robot's sheet; built on first use."""
-        from .mechanics.recursion import newton_euler_recursion
+        (``mechanics.sheet_recursion.Recursion``), for a large robot's sheet; built on first use."""
+        from .mechanics.sheet_recursion import newton_euler_recursion
 
         self._symbolic("the recursion of the sheet")
         return newton_euler_recursion(self.robot, self.symbols)
+
+    @staticmethod
+    def joint_type(joint: Joint) -> joint_types.JointType:
+        """The joint's type (``mechanics.joint_types``): its placement for a figure's numbers."""
+        return joint_types.of(joint)
 
     @property
     def parameter_vector(self) -> list[Parameter]:
@@ -584,8 +589,7 @@ def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
     table = SymbolTable.for_robot(robot)
     check_mass_matrix(robot, table)
     derivation = Derivation(robot, table, progress)
-    if robot.loops:   # loop problems are input errors: report them at once
-        _ = derivation.steps["loops"]
+    _ = derivation.steps["loops"] if robot.loops else None   # loop problems are input errors: at once
     return derivation
 
 

@@ -1,6 +1,6 @@
 """The centre of mass and the centroidal momentum matrix of a small 3-D robot, symbolically and
 step by step, for the sheet and the JSON (``Derivation.centroidal_steps``); the generated code
-computes them with the programs of ``centroidal.py`` at every size.
+computes them with the programs of ``centroidal_programs.py`` at every size.
 
 From each moving link's quantities the derivation already has (mass ``m_i``, inertia ``I_i``
 about its centre of mass in link axes, world rotation ``R_i``, centre of mass ``p_i`` in the

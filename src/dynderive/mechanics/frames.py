@@ -28,7 +28,7 @@ from ..model.naming import frame_quantity_names
 from ..model.robot import Frame, Robot
 from ..model.symbols import SymbolTable
 from . import joint_types
-from .joints import couplings, scalar_motions
+from .joint_variables import couplings, scalar_motions
 from .program import Program, Vector, _add, _cross, _rotate
 from .recursive import _carry, _forward
 from .rotations import rpy_matrix

@@ -29,7 +29,7 @@ import sympy
 from ..model.robot import LoopJoint, Robot
 from ..model.symbols import SymbolTable
 from .frames import _jacobian_columns, _part, along_motion
-from .joints import unit
+from .joint_variables import unit
 from .loops import _normals
 from .program import Program, Vector, _cross
 from .tree import Tree

@@ -41,7 +41,7 @@ from ..errors import InputError, Problem
 from ..model.robot import LoopJoint, Robot
 from ..model.symbols import SymbolTable
 from .exact_fast import factor_terms, jacobian, matmul
-from .joints import unit
+from .joint_variables import unit
 from .lagrange import constraint_jacobian_dot
 from .planar import rotated
 from .rotations import rpy_matrix

@@ -17,7 +17,7 @@ from ..model.robot import Joint, LoopJoint, Robot
 from ..model.symbols import SymbolTable
 from .drives import dissipative_force
 from .exact_fast import matmul
-from .joints import unit
+from .joint_variables import unit
 from .lagrange import (
     christoffel_coriolis,
     constraint_jacobian_dot,

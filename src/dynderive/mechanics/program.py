@@ -22,7 +22,7 @@ Matrix3 = tuple[Vector, Vector, Vector]
 
 class Meaning(NamedTuple):
     """What a program line computes, recorded where the recursion builds it (the sheet names
-    the line by it): ``quantity`` a key of ``recursion.MEANINGS`` (``omega``: the link's
+    the line by it): ``quantity`` a key of ``sheet_recursion.MEANINGS`` (``omega``: the link's
     angular velocity), ``link`` the link's name, ``index`` the component (0-2, or row and
     column), ``column`` the mass matrix's column ``j`` for CRBA's force columns, else -1."""
 

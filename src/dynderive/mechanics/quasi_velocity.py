@@ -38,7 +38,7 @@ from ..model.symbols import SymbolTable
 from . import joint_types
 from .drives import dissipative_force, joint_drives
 from .joint_types.quaternion import quaternion_matrix
-from .joints import unit
+from .joint_variables import unit
 from .polynomial import expand
 from .program import _cross
 from .rotations import rpy_matrix

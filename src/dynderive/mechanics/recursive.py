@@ -429,7 +429,7 @@ class GeneralizedProgram:
     """One straight-line program for a robot's generalized quantities: M (CRBA), C (its
     Christoffel symbols), N (Newton-Euler at rest) and V, sharing every intermediate; the body
     Jacobians join it on first use. ``mechanics/structured.py`` names its lines for the sheet
-    and JSON of a large robot, and ``programs.build_programs`` prints the lines each quantity reads as
+    and JSON of a large robot, and ``module_programs.build_programs`` prints the lines each quantity reads as
     the generated module's bodies: one program for both, so the module's bytes do not depend
     on which other outputs a run writes."""
 

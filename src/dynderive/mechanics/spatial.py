@@ -14,7 +14,7 @@ import sympy
 
 from ..model.robot import Robot
 from ..model.symbols import SymbolTable
-from .joints import couplings, scalar_motions
+from .joint_variables import couplings, scalar_motions
 from .rotations import _tidy, rpy_matrix
 
 

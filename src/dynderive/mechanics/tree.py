@@ -14,7 +14,7 @@ A planar robot is a 3-D one moving in the plane z = 0 (rotations about z only).
 Conventions: link frames as in the robot file (the joint frame after its motion); spatial
 vectors as pairs of 3-vectors, motion ``(omega, v)`` with ``v`` the velocity of the body point
 at the frame origin, force ``(n, f)`` with the moment about that origin. Each line records what
-it means (``program.Meaning``, keys in ``recursion.MEANINGS``) where it is built, for the sheet
+it means (``program.Meaning``, keys in ``sheet_recursion.MEANINGS``) where it is built, for the sheet
 of a large robot.
 """
 
@@ -30,7 +30,7 @@ from ..model.robot import Joint, Link, Robot
 from ..model.symbols import SymbolTable
 from . import joint_types
 from .drives import JointDrive, joint_drives
-from .joints import unit
+from .joint_variables import unit
 from .program import Matrix3, Meaning, Program, Vector, _add, _cross, _rotate, _rotate_back
 from .rotations import rpy_matrix
 from .spatial import inertia_tensor

@@ -6,7 +6,7 @@ integrate, difference, configuration rate) as target-neutral program lines. Vect
 joints take ``base.py``'s defaults; the quaternion joints override them (``quaternion.py``).
 
 Not types of their own: a URDF ``<mimic>`` joint is its scalar type coupled to its leader's
-coordinate (``joints.Coupling``: no entries in ``q`` or ``v``, its column its leader's times
+coordinate (``joint_variables.Coupling``: no entries in ``q`` or ``v``, its column its leader's times
 the multiplier), and a planar robot's ``floating`` joint is three scalar joints once loaded
 (``input/free_joints.py``, ``expand_planar_floating``).
 

@@ -26,7 +26,7 @@ from typing import Any, ClassVar
 import sympy
 
 from ...model.joint_kinds import JointKind
-from ..joints import PlanarMotion
+from ..joint_variables import PlanarMotion
 
 Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
 Vector2 = tuple[sympy.Expr, sympy.Expr]

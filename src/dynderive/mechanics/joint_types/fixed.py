@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
-from ..joints import PlanarMotion
+from ..joint_variables import PlanarMotion
 from .base import NO_GEOMETRY, ZERO, Column, Geometry, JointType, Vector2
 
 

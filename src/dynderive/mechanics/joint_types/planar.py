@@ -17,7 +17,7 @@ from typing import Any
 import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
-from ..joints import unit
+from ..joint_variables import unit
 from .base import NO_GEOMETRY, Geometry, Product, Segment, basis
 from .prismatic import Prismatic
 from .revolute import Revolute

@@ -10,7 +10,7 @@ from typing import Any
 import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
-from ..joints import PlanarMotion, unit
+from ..joint_variables import PlanarMotion, unit
 from .base import NO_GEOMETRY, ZERO, ZERO3, Column, Geometry, JointType, Vector2
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
-from ..joints import PlanarMotion
+from ..joint_variables import PlanarMotion
 from ..rotations import axis_angle
 from .base import NO_GEOMETRY, ONE, ZERO, ZERO3, Column, Geometry, JointType, Vector2
 

@@ -12,7 +12,7 @@ from typing import Any
 import sympy
 
 from ...model.joint_kinds import JOINT_KINDS
-from ..joints import unit
+from ..joint_variables import unit
 from .base import NO_GEOMETRY, Geometry, Product, Segment
 from .revolute import Revolute
 

@@ -18,7 +18,7 @@ parameters take their values (1 where a parameter has none).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -26,7 +26,6 @@ import sympy
 
 from ...derivation import Derivation
 from ...input.urdf_values import axis_rotation
-from ...mechanics import joint_types
 from ...model.joint_kinds import JOINT_KINDS
 from ...model.robot import Robot
 from ..encode import escape_tex
@@ -55,10 +54,12 @@ def view() -> tuple[Vector, Vector, Vector]:
     return right, np.cross(towards, right), towards
 
 
-def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, Any] | None:
+def spatial_kinematics(robot: Robot, table: Any, q: list[float],
+                       joint_type: Callable[[Any], Any] = Derivation.joint_type) -> dict[str, Any] | None:
     """Every link's frame (rotation, origin), every joint's frame before its motion with its
     axis in world axes, every link's centre of mass, at ``q``; None when something is not a
-    finite number (or the robot floats)."""
+    finite number (or the robot floats). ``joint_type``: a joint's type, for the placement of
+    a joint of several coordinates."""
     values = {table.parameters[p.name]: sympy.Float(p.value if p.value is not None else 1.0) for p in robot.parameters}
 
     def num(entry: Any) -> float:
@@ -90,8 +91,13 @@ def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, An
                 frames[joint.child] = (R0 @ axis_rotation(axis, turn), p0 + R0 @ axis * slide)
             elif joint.moves:   # several coordinates (a universal joint): its type's placement at them
                 start = index[joint.kind.names(joint.name)[0][0]]
-                R_joint, p_joint = _placement(joint, axis, q[start:start + joint.kind.nq], num)
-                frames[joint.child] = (R0 @ R_joint, p0 + R0 @ p_joint)
+                kind, entries = joint_type(joint), [sympy.Float(x) for x in q[start:start + joint.kind.nq]]
+                unit_axis = tuple(sympy.Float(a) for a in axis)
+                geometry = {k: tuple(sympy.Float(num(e)) for e in v) if isinstance(v, tuple) else sympy.Float(num(v))
+                            for k, v in joint.geometry}
+                shift = kind.displacement(sympy.eye(3), entries, unit_axis, geometry)
+                frames[joint.child] = (R0 @ np.array(kind.rotation(entries, unit_axis, geometry), dtype=float),
+                                       p0 + (0.0 if shift is None else R0 @ np.array(shift, dtype=float).reshape(3)))
             else:
                 frames[joint.child] = (R0, p0)
             joints[joint.name] = (R0, p0, R0 @ axis)
@@ -101,16 +107,6 @@ def spatial_kinematics(robot: Robot, table: Any, q: list[float]) -> dict[str, An
     if not all(map(math.isfinite, numbers)):
         return None
     return {"frames": frames, "joints": joints, "coms": coms, "num": num}
-
-
-def _placement(joint: Any, axis: Vector, entries: Sequence[float], num: Callable[[Any], float]) -> tuple[Vector, Vector]:
-    """A joint's rotation and displacement at its coordinates ``entries``, from its type."""
-    kind = joint_types.of(joint)
-    geometry = joint_types.geometry_of(joint, lambda e: sympy.Float(num(e)))
-    values, unit_axis = [sympy.Float(x) for x in entries], tuple(sympy.Float(a) for a in axis)
-    shift = kind.displacement(sympy.eye(3), values, unit_axis, geometry)
-    return (np.array(kind.rotation(values, unit_axis, geometry), dtype=float),
-            np.zeros(3) if shift is None else np.array(shift, dtype=float).reshape(3))
 
 
 def rpy(roll: float, pitch: float, yaw: float) -> Vector:

@@ -17,7 +17,7 @@ from ...derivation import Derivation
 from .html_math import MathFormatter, Name, accent, mi, mn, mo, mrow, sub
 from .recursion import kinematic_table, name_fields, recursion_names, recursion_parts
 
-#: MathML of each quantity (``recursion.NAMES``, ``mechanics.recursion.MEANINGS``): the letter,
+#: MathML of each quantity (``recursion.NAMES``, ``mechanics.sheet_recursion.MEANINGS``): the letter,
 #: a dot over it, a bar over that, the superscript and the subscript (``{i}`` the link's index,
 #: ``{j}`` the column's, ``{k}`` the coordinate's, ``{c}`` the component).
 MATH_NAMES: dict[str, tuple[str, bool, bool, str, str]] = {
