@@ -323,7 +323,6 @@ def test_a_robots_maps_equal_its_generated_module(source, tmp_path):
 #: file's count may only fall, as its branches move behind the joint type (most left are the
 #: readers' own words and the floating base's, which is a robot class as much as a type).
 NAMED_TYPES_LEFT = {
-    "commands/output.py": 1,
     "input/free_joints.py": 7,
     "input/mjcf_tree.py": 1,
     "input/names.py": 1,
@@ -332,17 +331,7 @@ NAMED_TYPES_LEFT = {
     "input/urdf_bodies.py": 1,
     "input/urdf_root.py": 8,
     "input/urdf_symbolic.py": 2,
-    "mechanics/loop_programs.py": 4,
-    "mechanics/loops.py": 6,
-    "mechanics/maximal.py": 4,
-    "model/robot.py": 6,
-    "render/codegen/python_context.py": 1,
-    "render/sheets/drawing.py": 1,
-    "render/sheets/figure.py": 5,
     "render/sheets/json.py": 1,
-    "render/sheets/latex_format.py": 1,
-    "render/sheets/quasi_velocity.py": 3,
-    "render/sheets/recursion.py": 2,
 }
 
 

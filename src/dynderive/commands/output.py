@@ -285,7 +285,7 @@ def quaternion_kind(robot: Robot) -> str:
     """What gives ``robot``'s configuration its quaternions: "floating base", "floating joints"
     or "spherical joints" (for ``solve``'s note and ``simulate``'s summary)."""
     return ("floating base" if robot.floating_base else "floating joints"
-            if any(j.type == "floating" for j in robot.joints) else "spherical joints")
+            if any(j.kind.free for j in robot.joints) else "spherical joints")
 
 
 def echo_notes(model: Any, quiet: bool) -> None:

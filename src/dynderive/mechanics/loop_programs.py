@@ -26,6 +26,7 @@ from typing import NamedTuple
 
 import sympy
 
+from ..model.joint_kinds import joint_kind
 from ..model.robot import LoopJoint, Robot
 from ..model.symbols import SymbolTable
 from .frames import _jacobian_columns, _part, along_motion
@@ -107,13 +108,14 @@ def _rows(loop: LoopJoint, parent: tuple[list[list[sympy.Expr]], Vector, list[li
     linear = [[J_c[i][j] - J_p[i][j] for j in range(n)] for i in range(3)]          # d gap / dt
     angular = [[J_c[3 + i][j] - J_p[3 + i][j] for j in range(n)] for i in range(3)]  # w_c - w_p
     out: list[tuple[str, str, list[sympy.Expr]]] = []
-    if loop.type in ("spherical", "revolute"):
+    translation, rotation = joint_kind(loop.type).frees or ("all", "all")
+    if translation == "none":
         out += [(f"{axis} of the gap between the loop frames", gap[i], linear[i]) for i, axis in enumerate("xyz")]
-    if loop.type == "spherical":
+    if rotation == "all":
         return out
     axis = unit(tuple(table.expr(e) for e in loop.axis))
     normals = [list(b) for b in _normals(axis)]   # type: ignore[arg-type]
-    if loop.type == "revolute":
+    if rotation == "axis":
         a = _times(R_p, axis)
         for k, b in enumerate(normals):
             b_world = _times(R_c, b)

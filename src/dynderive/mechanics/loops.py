@@ -38,6 +38,7 @@ import numpy as np
 import sympy
 
 from ..errors import InputError, Problem
+from ..model.joint_kinds import joint_kind
 from ..model.robot import LoopJoint, Robot
 from ..model.symbols import SymbolTable
 from .exact_fast import factor_terms, jacobian, matmul
@@ -139,12 +140,17 @@ def loop_rows(robot: Robot, table: SymbolTable, links: list[Any]) -> list[tuple[
     return [(name, what, tidy(expr)) for name, what, expr in rows]
 
 
+def _frees(loop: LoopJoint) -> tuple[str, str]:
+    """What the loop joint lets move between its frames (translation, rotation), from its type."""
+    return joint_kind(loop.type).frees or ("all", "all")
+
+
 def _planar_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[sympy.Expr, ...],
                  child_origin: tuple[sympy.Expr, ...], table: SymbolTable) -> list[tuple[str, str, sympy.Expr]]:
     p_parent, angle_parent = _planar_frame(loop.parent, kinematics, origin)
     p_child, angle_child = _planar_frame(loop.child, kinematics, child_origin)
     gap = p_child - p_parent
-    if loop.type == "revolute":
+    if _frees(loop) == ("none", "axis"):   # a turn: the frames' origins coincide
         return [(loop.name, f"{axis} of the gap between the loop frames", e) for axis, e in zip("xy", gap)]
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
     normal = rotated(angle_parent, (-uy, ux))
@@ -158,14 +164,15 @@ def _spatial_rows(loop: LoopJoint, kinematics: dict[str, Any], origin: tuple[sym
     p_parent, R_parent = _spatial_frame(loop.parent, kinematics, origin, table, robot)
     p_child, R_child = _spatial_frame(loop.child, kinematics, child_origin, table, robot)
     rows: list[tuple[str, str, sympy.Expr]] = []
-    if loop.type in ("spherical", "revolute"):
+    translation, rotation = _frees(loop)
+    if translation == "none":
         gap = p_child - p_parent
         rows += [(loop.name, f"{axis} of the gap between the loop frames", gap[i]) for i, axis in enumerate("xyz")]
-    if loop.type == "spherical":
+    if rotation == "all":
         return rows
     axis = unit(tuple(table.expr(e) for e in loop.axis))
     b1, b2 = _normals(axis)   # type: ignore[arg-type]
-    if loop.type == "revolute":
+    if rotation == "axis":
         a_world = R_parent * sympy.Matrix(axis)
         rows += [(loop.name, "axis alignment (first normal)", (a_world.T * R_child * b1)[0, 0]),
                  (loop.name, "axis alignment (second normal)", (a_world.T * R_child * b2)[0, 0])]
@@ -224,7 +231,7 @@ def assemblies(numeric: _Numeric, robot: Robot) -> list[np.ndarray]:
     """The assembled configurations reached from a few deterministic starts (angles wrapped to
     (-pi, pi]), the one nearest ``q = 0`` first: the branch the sheet and ``assemble`` use."""
     n = len(robot.coordinates)
-    revolute = [j.type == "revolute" for j in robot.joints if j.moves]
+    revolute = [angle for j in robot.joints if j.owns for angle in j.kind.angle_entries]
     rng = random.Random(15)
     starts = [np.zeros(n), np.array([0.3 * (-1) ** i for i in range(n)]), np.array([-0.3 * (-1) ** i for i in range(n)])]
     starts += [np.array([rng.uniform(-math.pi, math.pi) for _ in range(n)]) for _ in range(9)]

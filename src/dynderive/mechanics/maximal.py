@@ -13,6 +13,7 @@ from typing import Any, NotRequired, TypedDict
 
 import sympy
 
+from ..model.joint_kinds import joint_kind
 from ..model.robot import Joint, LoopJoint, Robot
 from ..model.symbols import SymbolTable
 from .drives import dissipative_force
@@ -90,7 +91,7 @@ def joint_efforts(joint: Joint, bodies: _Bodies, size: int) -> sympy.Matrix:
     table = bodies.table
     u = table.efforts[joint.effort]
     child, parent = bodies.slots(joint.child), bodies.slots(joint.parent)
-    if joint.type == "revolute":
+    if joint.kind.angle:
         Y[child + 2] += u  # type: ignore[operator]
         if parent is not None:
             Y[parent + 2] -= u
@@ -117,7 +118,7 @@ def joint_coordinate(joint: Joint, bodies: _Bodies) -> sympy.Expr:
     table = bodies.table
     ox, oy, theta = (table.expr(e) for e in joint.origin)
     phi_parent, phi_child = bodies.pose(joint.parent)[1], bodies.pose(joint.child)[1]
-    if joint.type == "revolute":
+    if joint.kind.angle:
         return phi_child - phi_parent - theta
     zero = sympy.Integer(0)
     gap = bodies.point(joint.child, zero, zero) - bodies.point(joint.parent, ox, oy)
@@ -170,8 +171,9 @@ def loop_constraints(loop: LoopJoint, bodies: _Bodies) -> list[sympy.Expr]:
     phi_parent, phi_child = bodies.pose(loop.parent)[1], bodies.pose(loop.child)[1]
     gap = bodies.point(loop.child, cx, cy) - bodies.point(loop.parent, ox, oy)
     rotation = (phi_child + child_theta) - (phi_parent + theta)
-    if loop.type != "prismatic":
-        return [gap[0], gap[1]] + ([rotation] if loop.type == "fixed" else [])
+    translation, turn = joint_kind(loop.type).frees or ("all", "all")
+    if translation == "none":   # a turn (2 rows) or a weld (3)
+        return [gap[0], gap[1]] + ([rotation] if turn == "none" else [])
     ux, uy = unit(tuple(table.expr(e) for e in loop.axis))
     normal = rotated(phi_parent + theta, (-uy, ux))
     return [(normal.T * gap)[0, 0], rotation]

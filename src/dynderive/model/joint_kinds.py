@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 #: A 3-D floating joint's entries, Pinocchio's order (DESIGN.md section 10): position and unit
 #: quaternion; local linear then angular velocity; their rates; the wrench dual to the twist.
-_FREE_CONFIGURATION = ("x", "y", "z", "qx", "qy", "qz", "qw")
-_FREE_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
-_FREE_ACCELERATION = ("dvx", "dvy", "dvz", "dwx", "dwy", "dwz")
-_FREE_EFFORT = ("fx", "fy", "fz", "tx", "ty", "tz")
+FREE_CONFIGURATION = ("x", "y", "z", "qx", "qy", "qz", "qw")
+FREE_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
+FREE_ACCELERATION = ("dvx", "dvy", "dvz", "dwx", "dwy", "dwz")
+FREE_EFFORT = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,12 @@ class JointKind:
     drawn: bool = True
     #: Whether a joint of this type may follow another's coordinate, or lead (URDF ``<mimic>``).
     follows: bool = False
+    #: The suffixes of its coordinates that are angles (a one-coordinate joint's: from ``screw``).
+    angles: tuple[str, ...] = ()
+    #: What it lets move between its two frames, translation then rotation: "none", "axis" (along
+    #: or about its axis) or "all"; the rows a loop joint (or a maximal-coordinates joint) keeps
+    #: are the rest (None: not built as a loop joint).
+    frees: tuple[str, str] | None = None
 
     @property
     def nq(self) -> int:
@@ -101,6 +107,28 @@ class JointKind:
     def vector_space(self) -> bool:
         """Whether its configuration is a vector space (no quaternion: NQ = NV, ``q + v dt``)."""
         return self.quaternion_start is None
+
+    @property
+    def free(self) -> bool:
+        """Whether it moves its child in all six directions (a free joint: position and orientation)."""
+        return self.nv == 6
+
+    @property
+    def angle_entries(self) -> tuple[bool, ...]:
+        """Per coordinate, whether it is an angle (shown in degrees, a turn's sine and cosine)."""
+        if self.nq == 1 and self.screw is not None:
+            return (self.screw[0] != "0",)
+        return tuple(s in self.angles for s in self.coordinates)
+
+    @property
+    def angle(self) -> bool:
+        """Whether it is one angle (revolute, helical): a turn the sheets draw and write in degrees."""
+        return self.angle_entries == (True,)
+
+    @property
+    def slides(self) -> bool:
+        """Whether it is one travel along its axis (a prismatic joint)."""
+        return self.screw is not None and self.screw[0] == "0"
 
     def names(self, joint: str, effort: str | None = None) -> tuple[tuple[str, ...], ...]:
         """A joint's coordinate names and, for a joint with a quaternion, its velocity and
@@ -121,29 +149,30 @@ class JointKind:
 JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
     JointKind("revolute", "one angle about its unit axis (3-D: axis, default z; planar: about z)",
               takes_axis=True, planar=True, closes_loops=True, urdf=("revolute", "continuous"), mjcf=(3,),
-              screw=("1", "0"), glyph="cylinder", follows=True),
+              screw=("1", "0"), glyph="cylinder", follows=True, frees=("none", "axis")),
     JointKind("prismatic", "one displacement along its unit axis (3-D: 3 entries, planar: 2)",
               takes_axis=True, planar_axis=True, planar=True, closes_loops=True, urdf=("prismatic",), mjcf=(2,),
-              screw=("0", "1"), glyph="box", follows=True),
+              screw=("0", "1"), glyph="box", follows=True, frees=("axis", "none")),
     JointKind("fixed", "no coordinate: the child is welded to the parent", welded=True, planar=True,
-              urdf=("fixed",)),
+              urdf=("fixed",), frees=("none", "none")),
     JointKind("floating", "a free joint: 3-D position and unit quaternion (planar: x, y, theta, "
               "expanded into three joints); unactuated unless it names an effort",
-              coordinates=_FREE_CONFIGURATION, velocities=_FREE_VELOCITY, accelerations=_FREE_ACCELERATION,
-              efforts=_FREE_EFFORT, quaternion_start=3, planar=True, urdf=("floating",), mjcf=(0,), drawn=False),
+              coordinates=FREE_CONFIGURATION, velocities=FREE_VELOCITY, accelerations=FREE_ACCELERATION,
+              efforts=FREE_EFFORT, quaternion_start=3, planar=True, urdf=("floating",), mjcf=(0,), drawn=False),
     JointKind("spherical", "a ball joint (3-D): a unit quaternion, the local angular velocity",
-              coordinates=_FREE_CONFIGURATION[3:], velocities=_FREE_VELOCITY[3:],
-              accelerations=_FREE_ACCELERATION[3:], efforts=_FREE_EFFORT[3:], quaternion_start=0,
-              closes_loops=True, mjcf=(1,), no_axis="it turns about all three", glyph="ball"),
+              coordinates=FREE_CONFIGURATION[3:], velocities=FREE_VELOCITY[3:],
+              accelerations=FREE_ACCELERATION[3:], efforts=FREE_EFFORT[3:], quaternion_start=0,
+              closes_loops=True, mjcf=(1,), no_axis="it turns about all three", glyph="ball", frees=("none", "all")),
     JointKind("helical", "a screw (3-D): one angle about its unit axis (default z), moving pitch along it per radian",
               takes_axis=True, keys=(JointKey("pitch", "translation along the axis per radian, an expression"),),
               screw=("1", "pitch"), glyph="cylinder"),
     JointKind("universal", "two angles (3-D): about its unit axis (default z), then about axis2, orthogonal to it",
               coordinates=("1", "2"), efforts=("1", "2"), takes_axis=True,
               keys=(JointKey("axis2", "the second unit axis, orthogonal to axis, in the frame the first turn leaves", 3),),
-              glyph="ball"),
+              glyph="ball", angles=("1", "2")),
     JointKind("planar", "a plane (3-D): x and y in the plane normal to its unit axis (default z), then the angle theta "
-              "about it", coordinates=("x", "y", "theta"), efforts=("x", "y", "theta"), takes_axis=True, glyph="box"),
+              "about it", coordinates=("x", "y", "theta"), efforts=("x", "y", "theta"), takes_axis=True, glyph="box",
+              angles=("theta",)),
 )}
 
 

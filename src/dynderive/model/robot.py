@@ -15,18 +15,9 @@ from .joint_kinds import JOINT_KINDS, JointKind, joint_kind
 #: A joint type's name (``model/joint_kinds.JOINT_KINDS``).
 JointType = str
 
-#: A 3-D floating joint's configuration (position, unit quaternion) and velocity (local twist)
-#: entries, Pinocchio's order (DESIGN.md section 10): the joint specification's, kept under
-#: these names for the readers and tests that list them.
-FLOATING_CONFIGURATION = JOINT_KINDS["floating"].coordinates
-FLOATING_VELOCITY = JOINT_KINDS["floating"].velocities or ()
-FLOATING_ACCELERATION = JOINT_KINDS["floating"].accelerations or ()
-FLOATING_EFFORT = JOINT_KINDS["floating"].efforts
-
-
-def floating_names(joint: str, kind: str = "floating") -> tuple[list[str], list[str], list[str]]:
+def floating_names(joint: str, kind: str) -> tuple[list[str], list[str], list[str]]:
     """A joint's coordinate, velocity and acceleration names, for a joint type whose
-    configuration holds a quaternion (``floating`` by default, or ``spherical``)."""
+    configuration holds a quaternion (``floating``, ``spherical``)."""
     return tuple(list(names) for names in joint_kind(kind).names(joint)[:3])  # type: ignore[return-value]
 
 
@@ -248,7 +239,7 @@ class Robot:
         """Whether the robot floats as a whole: its one joint to the world is ``floating``
         (then, without gravity, its momentum is conserved)."""
         roots = [j for j in self.joints if j.parent == "world"]
-        return len(roots) == 1 and roots[0].type == "floating"
+        return len(roots) == 1 and roots[0].kind.free
 
     @property
     def quaternion_starts(self) -> tuple[int, ...]:

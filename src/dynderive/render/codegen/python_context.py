@@ -61,7 +61,6 @@ def _common_context(derivation: Derivation) -> dict[str, Any]:
         "parameter_vector_tuple": _tuple(tuple(p.name for p in identification)),
         "parameter_count": len(identification),
         "regressor_sign": bool(derivation.programs["regressor"].extra_inputs),
-        "floating": robot.floating,
         # NQ and NV (equal for a robot of vector-space joints), and the words on q and qd
         "nq": len(derivation.symbols.q),
         "nv": len(derivation.symbols.qd),

@@ -220,11 +220,11 @@ def finish(drawing: Drawing, caption: str, anchors: dict[str, Point], **extra: A
             "items": items, "caption": caption, "anchors": {k: at(p) for k, p in anchors.items()}, **extra}
 
 
-def joint_value_text(value: float, kind: str) -> str:
+def joint_value_text(value: float, angle: bool) -> str:
     """A joint coordinate in a drawing's caption (LaTeX): a revolute angle in whole degrees,
     wrapped to (-180, 180] (an assembled loop may sit at -314 degrees: shown as 46), a travel
     to 3 significant digits."""
-    if kind != "revolute":
+    if not angle:
         return f"{value:.3g}"
     if not math.isfinite(value):
         return f"{math.degrees(value):.0f}^\\circ"

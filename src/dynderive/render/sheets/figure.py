@@ -116,7 +116,7 @@ def planar_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str
         body[frame.link].append(point)
     index = {name: i for i, name in enumerate(robot.coordinates)}
     by_name = {j.name: j for j in robot.joints}
-    world = [joint_points[j.child] for j in robot.joints if j.parent == "world" and j.type != "prismatic"]
+    world = [joint_points[j.child] for j in robot.joints if j.parent == "world" and not j.kind.slides]
     world += [p for p, grounded in loop_points if grounded]
     points = [p for ps in body.values() for p in ps] + [(0.0, 0.0)]
     left, right = min(p[0] for p in points), max(p[0] for p in points)
@@ -133,7 +133,7 @@ def planar_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str
     # the world: a hatched pedestal under each pivot, a hatched guide under each slider
     slides = []
     for joint in robot.joints:
-        if joint.type != "prismatic":
+        if not joint.kind.slides:
             continue
         axis = [written(e) for e in joint.axis[:2]]
         norm = math.hypot(*axis) or 1.0
@@ -167,7 +167,7 @@ def planar_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str
                      tip[1] + su * BLOCK_MM[0] * u[1] + sv * BLOCK_MM[1] * v[1])
                     for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))], "joint", closed=True, tag=joint.name)
     for joint in robot.joints:
-        if joint.type == "revolute":
+        if joint.kind.angle:
             sheet.circle(mm(joint_points[joint.child]), JOINT_MM, "joint", tag=joint.name)
     for p, _ in loop_points:
         sheet.circle(mm(p), JOINT_MM, "joint", tag="loop")
@@ -202,7 +202,7 @@ def planar_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str
         label = fmt(table.q[index[joint.name]])
         w, h = label_size(label)
         centre = mm(joint_points[joint.child])
-        if joint.type == "revolute":
+        if joint.kind.angle:
             end = angles[joint.child]
             start = end - value
             first = _first_segment(centre, [mm(p) for p in body[joint.child][1:]])
@@ -253,7 +253,7 @@ def planar_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[str
                  (x_tip[0] - w, x_tip[1] + 0.8 + h), (x_tip[0] + 0.8 + w, x_tip[1] - 0.8 - h)], "x_s")
     sheet.label([(y_tip[0], y_tip[1] + 0.8 + h), (y_tip[0] - 0.8 - w, y_tip[1] - h),
                  (y_tip[0] + 0.8 + w, y_tip[1] - h)], "y_s")
-    configuration = ", ".join(f"{fmt(c)} = {joint_value_text(v, j.type)}"
+    configuration = ", ".join(f"{fmt(c)} = {joint_value_text(v, j.kind.angle)}"
                               for c, v, j in zip(table.q, q, (by_name[n] for n in robot.coordinates)))
     anchors = {"world": origin} | {f"joint:{j.name}": mm(joint_points[j.child]) for j in robot.joints}
     anchors |= {f"com:{link.name}": mm(coms[link.name]) for link in links}
@@ -313,8 +313,8 @@ def _configuration(robot: Robot, table: Any, links: list[Any], values: dict[symp
     at_zero = {s: sympy.Float(v) for s, v in (values | {c: 0.0 for c in table.q}).items()}
     reach = max([r for r in (math.hypot(*(_float(e, at_zero) for e in link.com_world[:2])) for link in links)
                  if math.isfinite(r)] + [1e-3])
-    kinds = {j.name: j.type for j in robot.joints}
-    reference = [REFERENCE_ANGLE if kinds[name] == "revolute" else REFERENCE_TRAVEL * reach for name in robot.coordinates]
+    angle = {j.name: j.kind.angle for j in robot.joints}
+    reference = [REFERENCE_ANGLE if angle[name] else REFERENCE_TRAVEL * reach for name in robot.coordinates]
     if loops is None or not loops.assembled:
         return reference
     # the independent coordinates at the reference, the dependent ones assembled from the

@@ -237,10 +237,11 @@ def spatial_figure(derivation: Derivation, fmt: Callable[[Any], str]) -> dict[st
                      (tip[0] - uy * (w + 0.8), tip[1] + ux * (h + 0.8)),
                      (tip[0] + uy * (w + 0.8), tip[1] - ux * (h + 0.8))], label)
     zero = all(v == 0 for v in q)
-    owner = {name: j for j in robot.joints if j.owns for name in j.kind.names(j.name)[0]}   # coordinate -> joint
+    angle = {name: is_angle for j in robot.joints if j.owns   # coordinate -> whether an angle
+             for name, is_angle in zip(j.kind.names(j.name)[0], j.kind.angle_entries)}
     configuration = ("q = 0" if zero else ", ".join(
         f"{fmt(c)} = {joint_value_text(v, j)}" for c, v, j in
-        zip(table.q, q, (owner[n].type for n in robot.coordinates))))
+        zip(table.q, q, (angle[n] for n in robot.coordinates))))
     what = f"its {'default assembly' if robot.loops else 'zero configuration'} ${configuration}$"
     view_text = f"azimuth ${math.degrees(AZIMUTH):.0f}^\\circ$, elevation ${math.degrees(ELEVATION):.0f}^\\circ$"
     anchors = {"world": at(np.zeros(3))} | {f"joint:{j.name}": at(joints[j.name][1]) for j in robot.joints}

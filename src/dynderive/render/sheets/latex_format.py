@@ -84,7 +84,8 @@ def coordinate_entries(derivation: Derivation) -> list[tuple[sympy.Symbol, str |
     entries: list[tuple[sympy.Symbol, str | None, str, int]] = []
     for joint in multi:
         tag = "" if len(multi) == 1 and not plain & others else joint.name
-        qs, vs = (FREE_FLYER_Q, FREE_FLYER_V) if joint.type == "floating" else (FREE_FLYER_Q[3:], FREE_FLYER_V[3:])
+        skipped = 3 - (joint.kind.quaternion_start or 0)   # a ball joint has no position
+        qs, vs = FREE_FLYER_Q[skipped:], FREE_FLYER_V[skipped:]
         qi, vi = where_q[joint.name], where_v[joint.name]
         entries += [(table.q[qi + k], text, tag, 0) for k, text in enumerate(qs)]
         for k, text in enumerate(vs):

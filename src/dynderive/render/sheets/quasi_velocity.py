@@ -101,7 +101,7 @@ class LatexStyle:
         for j in robot.joints:
             variables = [self.listed(fmt, []), self.listed(fmt, [])]
             if j.owns:
-                size = {"floating": (7, 6), "spherical": (4, 3)}.get(j.type, (1, 1))
+                size = j.sizes   # a universal joint's two, a floating joint's seven and six
                 variables = [self.listed(fmt, table.q[where_q[j.name]:where_q[j.name] + size[0]]),
                              self.listed(fmt, table.qd[where_v[j.name]:where_v[j.name] + size[1]])]
             elif j.moves:
@@ -202,7 +202,7 @@ def multi_joint(joint: Any, fmt: Any, table: Any, where_q: dict[str, int], where
                 rotation: tuple[sympy.Matrix, sympy.Matrix], style: Any) -> dict[str, Any]:
     """A floating or spherical joint: its quaternion's rotation matrix and configuration rate,
     formatted by ``fmt`` with ``style``'s ``name`` and ``absent`` (a spherical joint has no position)."""
-    start = 3 if joint.type == "floating" else 0
+    start = joint.kind.quaternion_start or 0
     qi, vi = where_q[joint.name], where_v[joint.name]
     quat = table.q[qi + start:qi + start + 4]
     return {"name": style.name(joint.name), "type": joint.type,

@@ -90,7 +90,7 @@ def mimic_variables(derivation: Derivation) -> list[tuple[int, int, sympy.Expr]]
     robot, table = derivation.robot, derivation.symbols
     index = link_indices(robot)
     found = []
-    for joint in (j for j in robot.joints if j.mimic is not None and j.type == "revolute"):
+    for joint in (j for j in robot.joints if j.mimic is not None and j.kind.angle):
         leader, multiplier, offset = robot.driver(joint)
         k = robot.coordinates.index(leader)
         found.append((k + 1, index[joint.child], table.expr(multiplier) * table.q[k] + table.expr(offset)))
@@ -318,7 +318,7 @@ def _kinematic_rows(derivation: Derivation, index: dict[str, int]) -> list[dict[
         xyz, rpy = (origin[:2] + [0], [0, 0, origin[2] if len(origin) > 2 else 0]) if robot.planar else (origin[:3], origin[3:])
         axis = list(joint.axis)
         if robot.planar:   # the plane z = 0 of a 3-D model: revolute about z, prismatic in the plane
-            axis = [0, 0, 1] if joint.type == "revolute" else axis[:2] + [0]
+            axis = [0, 0, 1] if joint.kind.angle else axis[:2] + [0]
         rows.append({
             "index": index[link.name], "name": link.name, "joint": joint.name, "type": joint.type,
             "parent": index[joint.parent],
