@@ -18,8 +18,9 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from test_free_flyer import _compare, _module
-from test_spherical import _compare_more, _pinocchio, _tree
+from joint_trees import CHECK_ROWS, check_passes_every_row, tree_equals_pinocchio
+from test_free_flyer import _module
+from test_spherical import _pinocchio, _tree
 
 from random_robots3d import random_spatial_tree
 
@@ -59,18 +60,9 @@ def _vector_space_tree(seed: int) -> str:
 @pytest.mark.parametrize("seed", range(2))
 def test_random_trees_with_helical_joints_equal_pinocchio(seed, floating, tmp_path):
     rng = random.Random(3000 + seed)
-    data = _screws(yaml.safe_load(_tree(seed, floating)), rng, 2)
-    path = tmp_path / "screw_tree.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    robot = dynderive.load_robot(path)
-    kinds = [j.type for j in robot.joints]
-    assert "helical" in kinds and "spherical" in kinds and ("floating" in kinds) == floating
-    model, qp, vp = _pinocchio(robot)
-    helical = [model.joints[model.getJointId(j.name)] for j in robot.joints if j.type == "helical"]
-    assert helical and all(j.shortname() == "JointModelHelicalUnaligned" for j in helical)
-    module = _module(robot, tmp_path)
-    _compare(robot, module, model, qp, vp, seed)
-    _compare_more(robot, module, model, qp, vp, seed)
+    _, _, model = tree_equals_pinocchio(_screws(yaml.safe_load(_tree(seed, floating)), rng, 2), "helical", floating,
+                                        seed, tmp_path)
+    assert "JointModelHelicalUnaligned" in [j.shortname() for j in model.joints]
 
 
 @pytest.mark.pinocchio
@@ -79,17 +71,8 @@ def test_a_vector_space_tree_with_helical_joints_checks_against_pinocchio_and_it
     """``check`` on a fixed-base tree with helical joints: the generated module against the
     sheet path's symbolic T, V, N (and M, C where small enough), the property checks and
     Pinocchio (crba, rnea, aba; the centroidal functions), every row passing."""
-    path = tmp_path / "screw_tree.yaml"
-    path.write_text(_vector_space_tree(seed))
-    result = runner.invoke(app, ["check", str(path), "--quiet"])
-    assert result.exit_code == 0, result.output
-    rows = {line.split("  ")[0]: line for line in result.stdout.splitlines()}
-    for row in ("generated kinetic_energy == symbolic T_g", "generated potential_energy == symbolic V_g",
-                "generated gravity_vector == symbolic N_g", "agrees with Pinocchio (crba, rnea, aba)",
-                "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, dhg)",
-                "centroidal: A_G qd, center_of_mass, total_mass = sum over the links (own kinematics)"):
-        assert " pass " in rows[row], rows[row]
-    assert " 0 failed" in result.stdout
+    check_passes_every_row(_vector_space_tree(seed), tmp_path, CHECK_ROWS + (
+        "centroidal: A_G qd, center_of_mass, total_mass = sum over the links (own kinematics)",))
 
 
 @pytest.mark.pinocchio

@@ -18,19 +18,17 @@ import random
 import numpy as np
 import pytest
 import yaml
-from typer.testing import CliRunner
 
 import dynderive
-from dynderive.commands.cli import app
-from test_free_flyer import _compare, _module
+from joint_trees import check_passes_every_row, tree_equals_pinocchio
+from test_free_flyer import _module
 from test_helical import _screws
-from test_spherical import _compare_more, _pinocchio, _tree
+from test_spherical import _pinocchio, _tree
 from test_universal import _cardans
 
 from random_robots3d import random_spatial_tree
 
 pin = pytest.importorskip("pinocchio")
-runner = CliRunner()
 
 
 def _planes(data: dict, rng: random.Random, count: int) -> dict:
@@ -56,18 +54,10 @@ def _vector_space_tree(seed: int) -> str:
 @pytest.mark.parametrize("seed", range(2))
 def test_random_trees_with_planar_joints_equal_pinocchio(seed, floating, tmp_path):
     rng = random.Random(7000 + seed)
-    data = _planes(yaml.safe_load(_tree(seed, floating)), rng, 2)
-    path = tmp_path / "plane_tree.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    robot = dynderive.load_robot(path)
-    kinds = [j.type for j in robot.joints]
-    assert "planar" in kinds and "spherical" in kinds and ("floating" in kinds) == floating
-    model, qp, vp = _pinocchio(robot)
-    module = _module(robot, tmp_path)
+    robot, module, _ = tree_equals_pinocchio(_planes(yaml.safe_load(_tree(seed, floating)), rng, 2), "planar",
+                                             floating, seed, tmp_path, pinocchio_derivatives=False)
     planar = next(j for j in robot.joints if j.type == "planar")
     assert {f"{planar.name}_{s}" for s in ("x", "y", "theta")} <= set(module.COORDINATES)
-    _compare(robot, module, model, qp, vp, seed)
-    _compare_more(robot, module, model, qp, vp, seed, pinocchio_derivatives=False)
 
 
 @pytest.mark.pinocchio
@@ -75,16 +65,7 @@ def test_random_trees_with_planar_joints_equal_pinocchio(seed, floating, tmp_pat
 def test_a_vector_space_tree_with_planar_joints_checks_against_pinocchio_and_its_sheet(seed, tmp_path):
     """``check`` on a fixed-base tree with a planar, a universal and a helical joint: the
     module against the sheet path's symbolic T, V, N, the property checks and Pinocchio."""
-    path = tmp_path / "plane_tree.yaml"
-    path.write_text(_vector_space_tree(seed))
-    result = runner.invoke(app, ["check", str(path), "--quiet"])
-    assert result.exit_code == 0, result.output
-    rows = {line.split("  ")[0]: line for line in result.stdout.splitlines()}
-    for row in ("generated kinetic_energy == symbolic T_g", "generated potential_energy == symbolic V_g",
-                "generated gravity_vector == symbolic N_g", "agrees with Pinocchio (crba, rnea, aba)",
-                "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, dhg)"):
-        assert " pass " in rows[row], rows[row]
-    assert " 0 failed" in result.stdout
+    check_passes_every_row(_vector_space_tree(seed), tmp_path)
 
 
 PUCK = """name: puck

@@ -24,9 +24,10 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from test_free_flyer import _compare, _module
+from joint_trees import CHECK_ROWS, check_passes_every_row, tree_equals_pinocchio
+from test_free_flyer import _module
 from test_helical import _screws
-from test_spherical import _aba_differences, _compare_more, _coriolis_properties, _pinocchio, _tree
+from test_spherical import _aba_differences, _coriolis_properties, _pinocchio, _tree
 
 from random_robots3d import random_spatial_tree
 
@@ -69,19 +70,11 @@ def _vector_space_tree(seed: int) -> str:
 @pytest.mark.parametrize("seed", range(2))
 def test_random_trees_with_universal_joints_equal_pinocchio(seed, floating, tmp_path):
     rng = random.Random(5000 + seed)
-    data = _cardans(yaml.safe_load(_tree(seed, floating)), rng, 2)
-    path = tmp_path / "cardan_tree.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    robot = dynderive.load_robot(path)
-    kinds = [j.type for j in robot.joints]
-    assert "universal" in kinds and "spherical" in kinds and ("floating" in kinds) == floating
-    model, qp, vp = _pinocchio(robot)
-    universal = [model.joints[model.getJointId(j.name)] for j in robot.joints if j.type == "universal"]
-    assert universal and all(j.shortname() == "JointModelUniversal" for j in universal)
-    module = _module(robot, tmp_path)
-    assert [name for name in module.COORDINATES if name.startswith(robot.joints[kinds.index("universal")].name)][-2:]
-    _compare(robot, module, model, qp, vp, seed)
-    _compare_more(robot, module, model, qp, vp, seed, pinocchio_derivatives=False)
+    robot, module, model = tree_equals_pinocchio(_cardans(yaml.safe_load(_tree(seed, floating)), rng, 2), "universal",
+                                                 floating, seed, tmp_path, pinocchio_derivatives=False)
+    assert "JointModelUniversal" in [j.shortname() for j in model.joints]
+    cardan = next(j for j in robot.joints if j.type == "universal")
+    assert {f"{cardan.name}_1", f"{cardan.name}_2"} <= set(module.COORDINATES)
 
 
 @pytest.mark.pinocchio
@@ -89,17 +82,8 @@ def test_random_trees_with_universal_joints_equal_pinocchio(seed, floating, tmp_
 def test_a_vector_space_tree_with_universal_joints_checks_against_pinocchio_and_its_sheet(seed, tmp_path):
     """``check`` on a fixed-base tree with universal joints: the generated module against the
     sheet path's symbolic T, V, N, the property checks and Pinocchio, every row passing."""
-    path = tmp_path / "cardan_tree.yaml"
-    path.write_text(_vector_space_tree(seed))
-    result = runner.invoke(app, ["check", str(path), "--quiet"])
-    assert result.exit_code == 0, result.output
-    rows = {line.split("  ")[0]: line for line in result.stdout.splitlines()}
-    for row in ("generated kinetic_energy == symbolic T_g", "generated potential_energy == symbolic V_g",
-                "generated gravity_vector == symbolic N_g", "agrees with Pinocchio (crba, rnea, aba)",
-                "centroidal agrees with Pinocchio (ccrba, centerOfMass, jacobianCenterOfMass, dhg)",
-                "centroidal: A_G qd, center_of_mass, total_mass = sum over the links (own kinematics)"):
-        assert " pass " in rows[row], rows[row]
-    assert " 0 failed" in result.stdout
+    check_passes_every_row(_vector_space_tree(seed), tmp_path, CHECK_ROWS + (
+        "centroidal: A_G qd, center_of_mass, total_mass = sum over the links (own kinematics)",))
 
 
 @pytest.mark.pinocchio
