@@ -64,12 +64,12 @@ def _remembered(cache: dict[Any, Any], key: Any, make: Callable[[Any], Any]) -> 
     return cache[key]
 
 
-def _terminates(q: int) -> bool:
-    """Whether 1/q has a finite decimal expansion (q = 2^a 5^b)."""
+def _terminates(denominator: int) -> bool:
+    """Whether 1/denominator has a finite decimal expansion (denominator = 2^a 5^b)."""
     for prime in (2, 5):
-        while q % prime == 0:
-            q //= prime
-    return q == 1
+        while denominator % prime == 0:
+            denominator //= prime
+    return denominator == 1
 
 
 class Numbers:
@@ -93,19 +93,19 @@ class Numbers:
         return _remembered(self._kinds, r, self._classify)
 
     def _classify(self, r: Rational) -> tuple[str, Decimal | None]:
-        p, q = int(r.p), int(r.q)
-        if q == 1:
-            if len(str(abs(p)).rstrip("0")) <= max(self.digits, 3):
+        numerator, denominator = int(r.p), int(r.q)
+        if denominator == 1:
+            if len(str(abs(numerator)).rstrip("0")) <= max(self.digits, 3):
                 return "fraction", None
-            return "rounded", self.rounded(Decimal(p))
-        terminates = _terminates(q)
-        if len(str(abs(p))) <= self.short and len(str(q)) <= self.short and (q % 5 or not terminates):
+            return "rounded", self.rounded(Decimal(numerator))
+        terminates = _terminates(denominator)
+        if len(str(abs(numerator))) <= self.short and len(str(denominator)) <= self.short and (denominator % 5 or not terminates):
             return "fraction", None
         if terminates:
-            exact = Context(prec=len(str(abs(p))) + len(str(q)) * 4 + 8).divide(Decimal(p), Decimal(q)).normalize()
+            exact = Context(prec=len(str(abs(numerator))) + len(str(denominator)) * 4 + 8).divide(Decimal(numerator), Decimal(denominator)).normalize()
             if len(exact.as_tuple().digits) <= self.digits:
                 return "exact", exact
-        return "rounded", Context(prec=self.digits, rounding=ROUND_HALF_EVEN).divide(Decimal(p), Decimal(q)).normalize()
+        return "rounded", Context(prec=self.digits, rounding=ROUND_HALF_EVEN).divide(Decimal(numerator), Decimal(denominator)).normalize()
 
     def rounded(self, value: Decimal) -> Decimal:
         """``value`` to D significant digits (ties to even), trailing zeros dropped."""

@@ -71,7 +71,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     style = SheetStyle(derivation, fmt)
     shared = shared_context(derivation, style, sections)
     sections = shared["sections"]
-    robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
+    robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     gen = derivation.generalized_steps
     links = [{
         "index": t.index, "name": escape_tex(t.name), "mass": fmt(t.mass),
@@ -99,7 +99,7 @@ def sheet_context(derivation: Derivation, sections: tuple[str, ...] | None = Non
     joints = joint_rows(derivation, style)
     return sheet_header(derivation, fmt, gen["gravity"], ["Coordinate"], joints) | shared | {
         "intermediates": intermediates,
-        "jacobians": [{"index": k, "matrix": style.jacobian(k, q[f"J_b{k}"])}
+        "jacobians": [{"index": k, "matrix": style.jacobian(k, quantities[f"J_b{k}"])}
                       for k in range(1, len(robot.links) + 1)] if intermediates else [],
         "coordinates": [fmt(s) for s in table.q],
         "links": links,
@@ -136,15 +136,15 @@ def shared_context(derivation: Derivation, style: SheetStyle,
     content."""
     left_out = maximal_left_out(derivation, sections)
     sections = default_sections(derivation) if sections is None else sections
-    table, fmt, q = derivation.symbols, style.fmt, derivation.quantities
+    table, fmt, quantities = derivation.symbols, style.fmt, derivation.quantities
     return {
         "quasi_velocity": False, "sections": list(sections), "maximal_left_out": left_out,
         "dof": len(derivation.robot.coordinates),
         "q_g": fmt(sympy.Matrix(table.q)), "qd_g": fmt(sympy.Matrix(table.qd)),
-        **{key: style.scalar(q[key], SCALAR_NODES) for key in ("T_g", "V_g", "L_g")},
-        "Y_g": fmt(q["Y_g"]),
-        **{key: style.matrix(key, q[key]) for key in ("M_g", "C_g", "N_g", "EOM_g2")},
-        **{key: style.matrix(key, q[key]) if key in q else None for key in ("EOM_g1", "F_g")},
+        **{key: style.scalar(quantities[key], SCALAR_NODES) for key in ("T_g", "V_g", "L_g")},
+        "Y_g": fmt(quantities["Y_g"]),
+        **{key: style.matrix(key, quantities[key]) for key in ("M_g", "C_g", "N_g", "EOM_g2")},
+        **{key: style.matrix(key, quantities[key]) if key in quantities else None for key in ("EOM_g1", "F_g")},
         "lagrange": lagrange_context(derivation, style),
         "checks": checks_context(derivation, style) if "checks" in sections else [],
         "drives": drives_context(derivation, style),
@@ -306,7 +306,7 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
     (``EOM_g3``) for small robots."""
     steps, table, fmt = derivation.maximal_steps, derivation.symbols, style.fmt
     assert steps is not None, "maximal coordinates: planar robots only"
-    q = derivation.quantities
+    quantities = derivation.quantities
     derivatives = ("dL_dqd", "ddt_dL_dqd", "dL_dq")
     lagrange = [{
         "coordinate": fmt(coordinate), "velocity": fmt(table.qmd[i]),
@@ -315,32 +315,32 @@ def maximal_context(derivation: Derivation, style: SheetStyle) -> dict[str, Any]
         # first two (short: momenta and their rates) when they do
         "together": fmt.fits(*(steps["lagrange"][k][i] for k in derivatives), extra=24),
         "pair": fmt.fits(*(steps["lagrange"][k][i] for k in derivatives[:2]), extra=16),
-        "equation": style.show(q["EOM_m1"][i]),
+        "equation": style.show(quantities["EOM_m1"][i]),
     } for i, coordinate in enumerate(table.qm)]
     lambda_entries = None
-    if "lambdaVec" in q and max(len(style.latex(e)) for e in q["lambdaVec"]) <= LONGEST_LAMBDA:
+    if "lambdaVec" in quantities and max(len(style.latex(e)) for e in quantities["lambdaVec"]) <= LONGEST_LAMBDA:
         # the LaTeX first: breaking entries too long to show into lines cost seconds
-        lambda_entries = [style.show(e) for e in q["lambdaVec"]]
+        lambda_entries = [style.show(e) for e in quantities["lambdaVec"]]
     tilde: tuple[Literal["Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde"], ...] = (
-        ("Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde") if "EOM_g3" in q else ())
+        ("Hdot", "M_tilde", "C_tilde", "N_tilde", "Y_tilde") if "EOM_g3" in quantities else ())
     return {
-        "q_m": fmt(q["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
+        "q_m": fmt(quantities["q_m"]), "qd_m": fmt(sympy.Matrix(table.qmd)),
         "lambda": fmt(sympy.Matrix(table.multipliers)),
-        "constraint_count": q["a_m"].shape[0],
+        "constraint_count": quantities["a_m"].shape[0],
         "constraints_from_file": steps["constraint_origin"] == "override",
-        **{key: style.matrix(key, q[key]) for key in ("a_m", "A_m", "Adot_m")},
-        "T_m": style.show(q["T_m"]), "V_m": style.show(q["V_m"]), "L_m": style.show(q["L_m"]),
-        "Y_m": style.matrix("Y_m", q["Y_m"]),
+        **{key: style.matrix(key, quantities[key]) for key in ("a_m", "A_m", "Adot_m")},
+        "T_m": style.show(quantities["T_m"]), "V_m": style.show(quantities["V_m"]), "L_m": style.show(quantities["L_m"]),
+        "Y_m": style.matrix("Y_m", quantities["Y_m"]),
         "lagrange": lagrange,
         "jacobians": [style.jacobian(k, j) for k, j in enumerate(steps["jacobians"], 1)],
-        **{key: style.matrix(key, q[key]) for key in ("M_m", "C_m", "N_m", "EOM_m2", "EOM_m1")},
-        "lambda_symbolic": "lambdaVec" in q, "lambda_entries": lambda_entries,
-        "h": style.matrix("h", q["h"]), "H": style.matrix("H", q["H"]),
+        **{key: style.matrix(key, quantities[key]) for key in ("M_m", "C_m", "N_m", "EOM_m2", "EOM_m1")},
+        "lambda_symbolic": "lambdaVec" in quantities, "lambda_entries": lambda_entries,
+        "h": style.matrix("h", quantities["h"]), "H": style.matrix("H", quantities["H"]),
         **{key: style.matrix(key, steps[key]) for key in tilde},
-        "EOM_g3": style.matrix("EOM_g3", q["EOM_g3"]) if tilde else None,
-        "F_tilde": style.matrix("F_tilde", steps["F_tilde"]) if tilde and "F_m" in q else None,
-        "F_m": style.matrix("F_m", q["F_m"]) if "F_m" in q else None,
-        "D_m": style.scalar(q["D_m"]) if "D_m" in q else None,
+        "EOM_g3": style.matrix("EOM_g3", quantities["EOM_g3"]) if tilde else None,
+        "F_tilde": style.matrix("F_tilde", steps["F_tilde"]) if tilde and "F_m" in quantities else None,
+        "F_m": style.matrix("F_m", quantities["F_m"]) if "F_m" in quantities else None,
+        "D_m": style.scalar(quantities["D_m"]) if "D_m" in quantities else None,
         "drives": not derivation.generalized_steps["drives"].empty,
     }
 

@@ -334,12 +334,12 @@ def _typeset_width(expr: sympy.Basic, digits: int) -> float:
         size = len(str(abs(int(expr))))
         return float(size if size <= max(digits, 3) else min(size, digits + 5))   # 1.23457 \cdot 10^{8}
     if expr.is_Rational:
-        p, q = abs(int(expr.p)), int(expr.q)
-        if len(str(q)) > 3 and q == 2 ** _factor_count(q, 2) * 5 ** _factor_count(q, 5):
+        numerator, denominator = abs(int(expr.p)), int(expr.q)
+        if len(str(denominator)) > 3 and denominator == 2 ** _factor_count(denominator, 2) * 5 ** _factor_count(denominator, 5):
             # a terminating decimal, printed as one (render.numbers): its characters (at most
             # ``digits`` digits, the point and a leading zero)
-            shift = max(_factor_count(q, 2), _factor_count(q, 5))   # digits after the point
-            return float(min(max(len(str(p)), shift) + 2, 19, digits + 3))
+            shift = max(_factor_count(denominator, 2), _factor_count(denominator, 5))   # digits after the point
+            return float(min(max(len(str(numerator)), shift) + 2, 19, digits + 3))
         return min(0.8 * max(len(str(expr.p)), len(str(expr.q))) + 0.6, 19, digits + 3)
     if expr.is_Number:
         return len(sympy.sstr(expr))

@@ -54,23 +54,23 @@ def _generalized(derivation: Derivation, numbers: Numbers) -> tuple[str, str, li
     """The robot's size, its equation, M, C, N, F and Y, and its checks."""
     table = derivation.symbols
     printer = _Printer(numbers, dict(zip(table.qd, table.q)))
-    robot, q = derivation.robot, derivation.quantities
+    robot, quantities = derivation.robot, derivation.quantities
     coords = ", ".join(robot.coordinates)
     if robot.loops:
         loops = derivation.loop_model
-        rows = q["a_g"].shape[0]
+        rows = quantities["a_g"].shape[0]
         constraints = (f"{rows} independent loop constraints" if rows == loops.rank else
                        f"{rows} loop constraints of rank {loops.rank} (over-constrained)")
         size = f"{loops.mobility} DOF: coordinates ({coords}), {constraints}"
     else:
         size = f"{len(robot.coordinates)} DOF, coordinates ({coords})"
-    equation = "M(q) q'' + C(q, q') q' + N(q)" + (" + F(q')" if "F_g" in q else "") + " = Y"
+    equation = "M(q) q'' + C(q, q') q' + N(q)" + (" + F(q')" if "F_g" in quantities else "") + " = Y"
     blocks = [
-        _block("M(q) =", q["M_g"], printer),
-        _block("C(q, q') =", q["C_g"], printer),
-        _block("N(q) =", q["N_g"], printer),
-        *([_block("F(q') = (damping and friction)", q["F_g"], printer)] if "F_g" in q else []),
-        _block("Y =", q["Y_g"], printer),
+        _block("M(q) =", quantities["M_g"], printer),
+        _block("C(q, q') =", quantities["C_g"], printer),
+        _block("N(q) =", quantities["N_g"], printer),
+        *([_block("F(q') = (damping and friction)", quantities["F_g"], printer)] if "F_g" in quantities else []),
+        _block("Y =", quantities["Y_g"], printer),
     ]
     return size, equation, blocks, ["Checks:", *(f"  {c.summary()}" for c in derivation.checks)]
 

@@ -54,15 +54,15 @@ def _drives(derivation: Derivation) -> list[dict[str, Any]]:
 
 
 def _frames(derivation: Derivation, omitted: list[str]) -> list[dict[str, Any]]:
-    robot, q = derivation.robot, derivation.quantities
+    robot, quantities = derivation.robot, derivation.quantities
     frames = []
     for frame in robot.frames:
         if not _IDENTIFIER.match(frame.name) or len(frame.name) > 50:
             omitted.append(f"frame {frame.name}: its name is not a MATLAB identifier")
             continue
-        orientation = q[f"theta_{frame.name}"][0, 0] if robot.planar else q[f"R_{frame.name}"]
+        orientation = quantities[f"theta_{frame.name}"][0, 0] if robot.planar else quantities[f"R_{frame.name}"]
         frames.append({"name": frame.name, "link": matlab_comment(frame.link),
-                       "position": matlab_code(q[f"p_{frame.name}"]), "orientation": matlab_code(orientation)})
+                       "position": matlab_code(quantities[f"p_{frame.name}"]), "orientation": matlab_code(orientation)})
     return frames
 
 
@@ -109,7 +109,7 @@ def _checks(derivation: Derivation, maximal: bool, loops: bool) -> list[dict[str
 
 def matlab_script_context(derivation: Derivation) -> dict[str, Any]:
     """What the script's template needs, every value printed or encoded already."""
-    robot, table, q = derivation.robot, derivation.symbols, derivation.quantities
+    robot, table, quantities = derivation.robot, derivation.symbols, derivation.quantities
     omitted: list[str] = []
     large = derivation.intermediate_form
     drives = _drives(derivation) if not large else []
@@ -127,7 +127,7 @@ def matlab_script_context(derivation: Derivation) -> dict[str, Any]:
     if loops:
         omitted.append("the reduced form of the closed loops (R_g, M_r, C_r, N_r): the multiplier form "
                        "(EOM_g1, EOM_g2 with A_g.'*lambda_g) is derived instead")
-    if maximal and "lambdaVec" not in q:
+    if maximal and "lambdaVec" not in quantities:
         omitted.append("lambdaVec in closed form: at this size it is not formed symbolically (the numeric "
                        "package evaluates it)")
     if large and robot.frames:
@@ -146,8 +146,8 @@ def matlab_script_context(derivation: Derivation) -> dict[str, Any]:
         "links": _links(derivation) if not large else [],
         "drives": drives,
         "armature": any(d.armature != 0 for d in derivation.joint_drives) if drives else False,
-        "dissipative": "F_g" in q and not large,
-        "Y_g": matlab_code(q["Y_g"]),
+        "dissipative": "F_g" in quantities and not large,
+        "Y_g": matlab_code(quantities["Y_g"]),
         "loops": None, "frames": frames, "maximal": _maximal(derivation) if maximal else None,
         "omitted": [matlab_comment(o) for o in omitted],
     }
@@ -156,8 +156,8 @@ def matlab_script_context(derivation: Derivation) -> dict[str, Any]:
                                    "mass": matlab_code(table.expr(link.mass))}
                                   for k, (t, link) in enumerate(zip(derivation.link_kinematics, robot.links))]
     if loops:
-        context["loops"] = {"a_g": matlab_code(q["a_g"]), "multipliers": _names(q["lambda_g"]),
-                            "lambda": _column(q["lambda_g"])}
+        context["loops"] = {"a_g": matlab_code(quantities["a_g"]), "multipliers": _names(quantities["lambda_g"]),
+                            "lambda": _column(quantities["lambda_g"])}
     context["checks"] = _checks(derivation, maximal, loops) if not large else []
     return context
 
