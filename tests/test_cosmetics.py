@@ -47,11 +47,11 @@ joints:
     (-179.6, "180^\\circ"), (359.6, "0^\\circ"), (-0.3, "0^\\circ"), (-90, "-90^\\circ"), (725, "5^\\circ"),
 ])
 def test_caption_angles_are_wrapped_to_a_half_turn_either_way(degrees, text):
-    assert joint_value_text(math.radians(degrees), "revolute") == text
+    assert joint_value_text(math.radians(degrees), True) == text
 
 
 def test_travel_is_not_wrapped():
-    assert joint_value_text(-3.14159e3, "prismatic") == "-3.14e+03"
+    assert joint_value_text(-3.14159e3, False) == "-3.14e+03"
 
 
 def test_sheet_caption_shows_the_wrapped_angle(monkeypatch):

@@ -225,11 +225,11 @@ def test_a_decimal_point_before_a_product_and_a_caret_power_still_parse(tmp_path
 
 
 @pytest.mark.parametrize("written, expected", [
-    ("Revolute", "'Revolute'; expected one of revolute, prismatic, fixed, floating, spherical, helical (did you mean "
+    ("Revolute", "'Revolute'; expected one of revolute, prismatic, fixed, floating, spherical, helical, universal, planar (did you mean "
                  "'revolute'?)"),
-    ("revolut", "'revolut'; expected one of revolute, prismatic, fixed, floating, spherical, helical (did you mean "
+    ("revolut", "'revolut'; expected one of revolute, prismatic, fixed, floating, spherical, helical, universal, planar (did you mean "
                 "'revolute'?)"),
-    ("PRISMATIC", "'PRISMATIC'; expected one of revolute, prismatic, fixed, floating, spherical, helical (did you mean "
+    ("PRISMATIC", "'PRISMATIC'; expected one of revolute, prismatic, fixed, floating, spherical, helical, universal, planar (did you mean "
                   "'prismatic'?)"),
 ])
 def test_a_joint_type_gets_a_did_you_mean(tmp_path, written, expected):
