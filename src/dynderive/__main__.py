@@ -68,9 +68,9 @@ def run() -> None:
     except Interrupted:
         _finishing = True
         code = _interrupted()
-    except ImportError:
-        # a signal that arrived while a C extension was importing: NumPy reports the interrupted
-        # import as its own ImportError, with the Interrupted as its cause
+    except Exception:
+        # a signal that arrived during an import surfaces as what that import raised: NumPy's
+        # ImportError with the Interrupted as its cause, or a TypeError of the import machinery
         if not _signalled:
             raise
         _finishing = True
