@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 import sympy
 
-from .program import Matrix3, Vector, _add, _cross, _rotate, _times
+from .program import Matrix3, Vector, _add, _cross, _rotate, _times, motion_cross
 from .recursive import moved_inertia
 from .tree import Tree
 
@@ -29,11 +29,6 @@ _ZERO = sympy.Integer(0)
 _HALF = sympy.Rational(1, 2)
 Motion = tuple[Vector, Vector]
 Inertia = tuple[sympy.Expr, Vector, Matrix3]   # (m, h, I about the origin)
-
-
-def _motion_cross(a: Motion, b: Motion) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
-    """``a x b`` of motion vectors ``(w, v)``."""
-    return _cross(a[0], b[0]), _add(_cross(a[0], b[1]), _cross(a[1], b[0]))
 
 
 def _force_cross(m: Motion, f: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
@@ -84,7 +79,7 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
             turn = _rotate(R, rw)
             changing[j] = (turn, _add(_rotate(R, rv), _cross(p, turn)))
         for j, s in own:
-            rate = _motion_cross((w, v), s)
+            rate = motion_cross((w, v), s)
             if j in changing:
                 rate = (_add(rate[0], changing[j][0]), _add(rate[1], changing[j][1]))
             columns[body.link, j] = (body.link, s, tuple(vec(x) for x in rate))  # type: ignore[assignment]
@@ -96,7 +91,7 @@ def coriolis_matrix(tree: Tree) -> list[list[sympy.Expr]]:
         B_columns = []   # B e_r = (v x* I e_r - I (v x e_r) + e_r x* I v) / 2
         for e in units:
             first = _force_cross((w, v), _apply(inertia, e))
-            second = _apply(inertia, _motion_cross((w, v), e))
+            second = _apply(inertia, motion_cross((w, v), e))
             third = _force_cross(e, momentum)
             B_columns.append([let(_HALF * (a - b + c)) for part in zip(first, second, third)
                               for a, b, c in zip(*part)])

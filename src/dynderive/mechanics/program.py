@@ -129,6 +129,12 @@ def _add(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> tuple[sympy.Expr, 
     return tuple(x + y for x, y in zip(a, b))
 
 
+def motion_cross(a: Sequence[Sequence[sympy.Expr]],
+                 b: Sequence[Sequence[sympy.Expr]]) -> tuple[tuple[sympy.Expr, ...], tuple[sympy.Expr, ...]]:
+    """``a x b`` of motion vectors ``(angular, linear)``."""
+    return _cross(a[0], b[0]), _add(_cross(a[0], b[1]), _cross(a[1], b[0]))
+
+
 def _times(vector: Sequence[sympy.Expr], scalar: sympy.Expr) -> tuple[sympy.Expr, ...]:
     return tuple(x * scalar for x in vector)
 

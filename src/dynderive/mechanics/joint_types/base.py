@@ -27,6 +27,7 @@ import sympy
 
 from ...model.joint_kinds import JointKind
 from ..joint_variables import PlanarMotion
+from ..program import motion_cross
 
 Vector = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
 Vector2 = tuple[sympy.Expr, sympy.Expr]
@@ -170,16 +171,6 @@ class JointType:
 
     def __repr__(self) -> str:
         return f"<joint type {self.name}: nq={self.nq}, nv={self.nv}>"
-
-
-def motion_cross(a: Column, b: Column) -> Column:
-    """``a x b`` of motion vectors ``(angular, linear)``."""
-    (wa, va), (wb, vb) = a, b
-    return _cross(wa, wb), tuple(x + y for x, y in zip(_cross(wa, vb), _cross(va, wb)))  # type: ignore[return-value]
-
-
-def _cross(a: Sequence[sympy.Expr], b: Sequence[sympy.Expr]) -> Vector:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 class Product(JointType):
