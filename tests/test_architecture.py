@@ -233,14 +233,18 @@ def test_every_registered_target_has_its_folder():
     for target in targets.TARGETS:
         module = importlib.import_module(f"dynderive.render.targets.{target.folder}")
         assert module.TARGET is target
-        for field in ("render", "offered", "needs", "note", "check", "check_needs", "load", "failure", "fingerprint"):
-            reference = getattr(target, field)
-            assert reference is None or callable(targets.resolve(reference)), (target.name, field, reference)
+        for field in ("render", "offered", "needs", "note", "failure", "fingerprint"):
+            function = getattr(target, field)
+            assert function is None or callable(function), (target.name, field, function)
+    from dynderive.verify.backends import HARNESSES
+
+    for harness in HARNESSES:   # a harness runs a registered target
+        assert harness.target.name == harness.name and callable(harness.load) and callable(harness.needs)
 
 
 def test_no_command_names_a_target():
     """The commands loop over the registry (``render.targets``): none imports a target's
-    modules, lazily or not, nor names one in a ``"module:function"`` string."""
+    modules, lazily or not, nor names one in a string."""
     found = []
     for relative, module, package in MODULES:
         if _layer(module) != "commands":
@@ -256,7 +260,7 @@ def test_no_command_names_a_target():
 def test_no_target_imports_another_target():
     """A target's modules import the code-generation layer (``render/codegen/``), the engine
     and ``render/``'s shared modules, never another target's folder (relative or absolute,
-    lazily or not), nor names one in a string (a registry entry's ``"module:function"``): what
+    lazily or not), nor names one in a string (``"package.module:function"``): what
     two targets share lives in ``codegen``; the extension reaches the C target's files through
     the registry, and ``check``/``simulate --backend c`` reach the extension through
     ``verify/backends.py``."""

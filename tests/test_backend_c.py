@@ -17,8 +17,8 @@ import pytest
 from typer.testing import CliRunner
 
 from dynderive.commands.cli import app
-from dynderive.render.targets import simulate_backends
 from dynderive.render.targets.numpy.code import render_code
+from dynderive.verify.backends import backends
 from dynderive.verify.checks import generated_module
 from dynderive.verify.compiled import compiled_rows
 
@@ -106,7 +106,7 @@ def test_simulate_backend_c_follows_the_numpy_run(tmp_path):
 
 
 @pytest.mark.parametrize(("arguments", "message"), [
-    (["--backend", "fortran"], f"--backend:1:1: expected one of {', '.join(simulate_backends())}, got 'fortran'"),
+    (["--backend", "fortran"], f"--backend:1:1: expected one of {', '.join(backends())}, got 'fortran'"),
     (["--backend", "c", "--coordinates", "maximal"], "--backend:1:1: the compiled module has no maximal"),
 ])
 def test_simulate_backend_refusals(arguments, message, tmp_path):

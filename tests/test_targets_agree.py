@@ -1,5 +1,5 @@
-"""Every code target that can be loaded into this process (``Target.load`` in the registry,
-``render/targets``: the module ``simulate --backend`` runs) gives the NumPy module's numbers.
+"""Every code target that can be loaded into this process (its harness's ``load``,
+``verify/backends.py``: the module ``simulate --backend`` runs) gives the NumPy module's numbers.
 
 One test, parametrized over the registry's targets with a loader times the robot classes:
 planar (Coulomb friction and drives; random trees with full-precision numbers, small enough
@@ -13,7 +13,7 @@ is compared, but those its entry's ``not_built`` rows list, at random full-preci
 (on the loops, on the quaternions' sphere), for a batch and for one state, with the
 parameters at values other than their defaults, the smoothed friction sign, and a wrench at every
 frame (``verify/compiled.py``, the harness ``check --backend`` runs): to 1e-12 relative to the
-result's largest entry (``assemble``, an iteration, 1e-10). A new target's entry with ``load``
+result's largest entry (``assemble``, an iteration, 1e-10). A new target's harness
 is compared here with no new test file.
 """
 
@@ -31,14 +31,15 @@ import pytest
 import dynderive
 from dynderive.render.api import group
 from dynderive.render.offered import not_built, offered
-from dynderive.render.targets import REFERENCE, TARGETS, reference, resolve
+from dynderive.render.targets import REFERENCE, reference
 from dynderive.render.targets.target import public
+from dynderive.verify.backends import HARNESSES
 from dynderive.verify.compiled import compiled_checks
 
 from conftest import ROBOTS, stable_seed
 
-#: The targets with a loader, by name.
-LOADED = [target for target in TARGETS if target.load]
+#: The targets' harnesses (a loader each).
+LOADED = HARNESSES
 
 
 def _planar_tree() -> str:
@@ -199,15 +200,14 @@ def _compared(rows, label: str) -> set[str]:
 @pytest.mark.parametrize("key", CLASSES)
 @pytest.mark.parametrize("target", LOADED, ids=lambda t: t.name)
 def test_every_offered_function_agrees_with_the_numpy_module(target, key, folder):
-    if target.check_needs:   # jax, casadi, a compiler: skipped where the target cannot run
-        try:
-            resolve(target.check_needs)()
-        except dynderive.InputError as exc:
-            pytest.skip(str(exc))
+    try:   # jax, casadi, a compiler: skipped where the target cannot run
+        target.needs()
+    except dynderive.InputError as exc:
+        pytest.skip(str(exc))
     derivation, source = _derived(key, str(folder))
     robot = derivation.robot
     try:
-        module = resolve(target.load)(derivation)
+        module = target.load(derivation)
     except dynderive.InputError as exc:   # a class the target refuses, at the robot file (its own tests)
         pytest.skip(str(exc))
     label = f"{target.name}:"
@@ -265,11 +265,10 @@ def test_simulate_with_the_target_follows_the_numpy_run(target, tmp_path):
 
     from dynderive.commands.cli import app
 
-    if target.check_needs:
-        try:
-            resolve(target.check_needs)()
-        except dynderive.InputError as exc:
-            pytest.skip(str(exc))
+    try:
+        target.needs()
+    except dynderive.InputError as exc:
+        pytest.skip(str(exc))
     path = tmp_path / "rough_box.yaml"
     path.write_text(ROUGH_BOX)
     runs = {}

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from dynderive.render.targets import simulate_backends
+from dynderive.verify.backends import backends
 from test_hostile_outputs import _refused, _run
 
 from conftest import ROBOTS
@@ -256,7 +256,7 @@ def test_a_loop_joint_type_gets_a_did_you_mean(tmp_path):
 @pytest.mark.parametrize("args, expected", [
     (["--method", "rk54"], "--method:1:1: expected one of LSODA, Radau, BDF, RK45, DOP853, got 'rk54' (did you "
                            "mean 'RK45'?)"),
-    (["--backend", "nunpy"], f"--backend:1:1: expected one of {', '.join(simulate_backends())}, got 'nunpy' (did you "
+    (["--backend", "nunpy"], f"--backend:1:1: expected one of {', '.join(backends())}, got 'nunpy' (did you "
                              "mean 'numpy'?)"),
     (["--coordinates", "Maximal"], "--coordinates:1:1: expected generalized or maximal, got 'Maximal' (did you "
                                    "mean 'maximal'?)"),

@@ -47,7 +47,6 @@ from pathlib import Path
 
 from ..errors import DynderiveError, InputError, LatexError, OutputError, Problem, ToolMissingError
 from ..render.targets import COLUMNS as _TARGETS  # the code targets, in the order of their options
-from ..render.targets import resolve
 
 try:
     import fcntl
@@ -204,7 +203,7 @@ def input_key(source: Path, kinds: tuple[str, ...], template_dir: Path | None) -
     digest.update(f"dynderive {__version__} {engine_fingerprint()}\n{','.join(kinds)}\n".encode())
     for target in _TARGETS:   # the compiled bytes depend on the compiler, Python and NumPy too
         if target.kind in kinds and target.fingerprint:
-            digest.update(resolve(target.fingerprint)().encode())
+            digest.update(target.fingerprint().encode())
     try:
         digest.update(source.read_bytes())
     except OSError:

@@ -19,7 +19,7 @@ import typer
 
 from .._version import __version__
 from ..errors import DynderiveError, InputError, Interrupted
-from ..render.targets import COLUMNS, TARGETS, reference, resolve
+from ..render.targets import COLUMNS, TARGETS, reference
 from .help import Command as _Command
 from .help import Group as _Group
 from .options import backend_target, finite, problem, require_scipy, tolerances, vector, with_parameters
@@ -203,7 +203,7 @@ def check(
 
     if states < 1:
         raise InputError(problem("--states", f"expected a number of random states >= 1, got {states}"))
-    harness = backend_target(backend, check=True)   # the NumPy module: its own checks only (no harness)
+    harness = backend_target(backend)   # None: the NumPy module, its own checks only
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
     model = with_parameters(model, robot, param or [], required=False, command="check",
@@ -215,12 +215,8 @@ def check(
     source = reference(derivation)
     progress("checking")
     rows = run_checks(derivation, source, states=states)
-    if harness.check:   # the target's harness, against the NumPy module
-        rows += resolve(harness.check)(derivation, source, progress, states=states)
-    elif harness.load:   # the module simulate loads, against the NumPy module
-        from ..verify.backends import loaded_backend
-
-        rows += loaded_backend(harness, derivation, source, progress, states=states)
+    if harness is not None:   # the target's module, against the NumPy module
+        rows += harness.compare(derivation, source, progress, states=states)
     failed = [r for r in rows if r.status == "FAIL"]
     if json_:
         typer.echo(json.dumps({"robot": model.name, "passed": not failed,
@@ -291,8 +287,8 @@ def simulate(
     finite(baumgarte, "--baumgarte", "a gain", 0.0)
     tolerances(rtol, atol)
     method = method_name(method)
-    loaded = backend_target(backend)   # the NumPy module, or a target simulate loads (the C extension)
-    if loaded.load and coordinates == "maximal":
+    loaded = backend_target(backend)   # None: the NumPy module; else a target's module (the C extension)
+    if loaded is not None and coordinates == "maximal":
         raise InputError(problem("--backend", "the compiled module has no maximal-coordinate functions: "
                                  "use --backend numpy with --coordinates maximal"))
     for option, path in (("--plot", plot), ("--animate", animate)):
@@ -317,14 +313,14 @@ def simulate(
     derivation = derive(model, progress=progress)
     echo_notes(derivation, quiet)
     start_q = simulation.loop_start(loop_q, q0, derivation, start_q)   # loops: the independent ones may do
-    held = parse_contacts(model, contacts, coordinates, bool(loaded.load))
+    held = parse_contacts(model, contacts, coordinates, loaded is not None)
     efforts = simulation.parse_efforts(derivation, effort or [], maximal)
     if force and maximal:
         raise InputError(problem("--force", "wrenches at frames are applied in generalized coordinates only"))
     wrenches = simulation.parse_wrenches(derivation, force or [])
     progress("generating code")
     source = reference(derivation)
-    compiled = resolve(loaded.load)(derivation, progress=progress) if loaded.load else None
+    compiled = loaded.load(derivation, progress=progress) if loaded is not None else None
     trajectory = simulation.simulate(derivation, source, duration, start_q,
                      np.zeros(model.velocity_count) if start_qd is None else start_qd, efforts, maximal, rtol, atol,
                      baumgarte, frames, progress, friction_smoothing, wrenches, method,

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InputError, Problem, ToolMissingError
 from ..model.naming import did_you_mean
-from ..render.targets import Target, by_name, check_backends, resolve, simulate_backends
+from ..verify.backends import Harness, backends, harness_of
 
 #: The smallest relative tolerance an integrator can honour in double precision (SciPy
 #: raises smaller ones to this, with a warning).
@@ -221,20 +221,19 @@ def symbolic_kind(symbolic: str | None) -> tuple[str, ...]:
     return (f"symbolic:{symbolic}",)
 
 
-def backend_target(text: str, check: bool = False) -> Target:
-    """The target of ``--backend`` (any case), from the registry (``render/targets``): the
-    generated NumPy module, or a target ``simulate`` can load (the compiled C extension); with
-    ``check`` also every target with a harness (the C extension, the JAX module). What it needs
-    (a compiler, jax) is checked before any work; any other name is an InputError listing the
-    choices."""
-    choices = check_backends() if check else simulate_backends()
+def backend_target(text: str) -> Harness | None:
+    """The harness of ``--backend``'s target (any case): None for the generated NumPy module,
+    else how ``check`` and ``simulate`` run that target's module (``verify/backends.py``). What it
+    needs (a compiler, jax) is checked before any work; any other name is an InputError listing
+    the choices."""
+    choices = backends()
     if text.lower() not in choices:
         raise InputError(problem("--backend", f"expected one of {', '.join(choices)}, got {text!r}"
                                  + did_you_mean(text, choices)))
-    target = by_name(text.lower())
-    if target.check_needs:
-        resolve(target.check_needs)()
-    return target
+    harness = harness_of(text.lower())
+    if harness is not None:
+        harness.needs()
+    return harness
 
 
 #: Most significant digits ``--digits`` accepts (a double has 17; a file may write more).

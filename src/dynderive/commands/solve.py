@@ -59,7 +59,7 @@ def target_files(derivation: Derivation, kinds: Collection[str], template_dir: s
     (the extension a compiler rejected) leaves its log and a message (the other outputs are
     still written) and one that was made names the files of an earlier failure it makes
     stale; without, its error stops the robot (``build``)."""
-    from ..render.targets import TARGETS, resolve
+    from ..render.targets import TARGETS
 
     name = derivation.robot.name
     files: dict[str, bytes] = {}
@@ -75,7 +75,7 @@ def target_files(derivation: Derivation, kinds: Collection[str], template_dir: s
         except Exception as exc:
             if folder is None or target.failure is None:
                 raise
-            logs, message = resolve(target.failure)(exc, folder, name)   # raises what is not its failure
+            logs, message = target.failure(exc, folder, name)   # raises what is not its failure
             files |= logs
             failures.append(message)
         else:

@@ -9,7 +9,8 @@ from typing import Annotated, Any, TypeVar
 
 import typer
 
-from ..render.targets import COLUMNS, TARGETS, by_name, check_backends, resolve, simulate_backends
+from ..render.targets import COLUMNS, TARGETS, by_name
+from ..verify.backends import backends
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -39,8 +40,7 @@ def option_help(option: str) -> str:
     if option == "--tests":
         target = next(target for target in TARGETS if target.help_for(option))
         return f"With {target.flag}: {target.help_for(option)}."
-    choices = check_backends() if option.startswith("check") else simulate_backends()
-    return "; ".join(f"{name}: {by_name(name).help_for(option)}" for name in choices) + "."
+    return "; ".join(f"{name}: {by_name(name).help_for(option)}" for name in backends()) + "."
 
 
 def target_flags(targets: dict[str, bool]) -> dict[str, bool]:
@@ -52,11 +52,11 @@ def target_needs(targets: dict[str, bool]) -> None:
     """What the asked targets need, before any work: a refusal (no C compiler) stops the run."""
     for target in TARGETS:
         if targets[target.kind] and target.needs:
-            resolve(target.needs)()
+            target.needs()
 
 
 def target_notes(targets: dict[str, bool]) -> None:
     """The asked targets' notes (the JAX module is written without JAX installed here)."""
     for target in TARGETS:
-        if targets[target.kind] and target.note and (text := resolve(target.note)()):
+        if targets[target.kind] and target.note and (text := target.note()):
             typer.echo(text, err=True)

@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..derivation import Derivation
-from .targets import COLUMNS, REFERENCE, NotBuilt, by_name, resolve
+from .targets import COLUMNS, REFERENCE, NotBuilt, by_name
 
 #: The targets by name, in the table's column order (the registry's, ``render/targets``).
 TARGETS = tuple(target.name for target in COLUMNS)
@@ -53,7 +53,7 @@ def offered(derivation: Derivation, target: str) -> set[str]:
         entry = by_name(target)
     except StopIteration:
         raise ValueError(f"unknown target {target!r}") from None
-    return resolve(entry.offered)(derivation)
+    return entry.offered(derivation)
 
 
 def api(derivation: Derivation) -> set[str]:

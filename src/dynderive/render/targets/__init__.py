@@ -17,7 +17,7 @@ from .casadi import TARGET as _CASADI
 from .jax import TARGET as _JAX
 from .matlab import TARGET as _MATLAB
 from .numpy import TARGET as _NUMPY
-from .target import NotBuilt, Target, resolve
+from .target import NotBuilt, Target
 from .torch import TARGET as _TORCH
 
 #: Every code target, in the order they are rendered.
@@ -39,18 +39,6 @@ def by_name(name: str) -> Target:
     return next(target for target in TARGETS if target.name == name)
 
 
-def check_backends() -> tuple[str, ...]:
-    """``check --backend``'s choices: the NumPy module (always checked), then every target
-    with a harness or a module ``simulate`` loads (compared by ``verify/backends.py``'s
-    ``loaded_backend``)."""
-    return ("numpy", *(target.name for target in TARGETS if target.check or target.load))
-
-
-def simulate_backends() -> tuple[str, ...]:
-    """``simulate --backend``'s choices: the NumPy module, then every target it can load."""
-    return ("numpy", *(target.name for target in TARGETS if target.load))
-
-
 def reference(derivation: Derivation, template_dir: Any = None) -> str:
     """The NumPy module's text (fixed or floating base), the reference every target is
     compared with (``check`` runs it)."""
@@ -59,5 +47,4 @@ def reference(derivation: Derivation, template_dir: Any = None) -> str:
     return source(derivation, template_dir)
 
 
-__all__ = ["COLUMNS", "REFERENCE", "TARGETS", "NotBuilt", "Target", "by_kind", "by_name", "check_backends", "reference", "resolve",
-           "simulate_backends"]
+__all__ = ["COLUMNS", "REFERENCE", "TARGETS", "NotBuilt", "Target", "by_kind", "by_name", "reference"]

@@ -3,14 +3,13 @@
 
 The commands loop over the registry and name no target: ``solve`` and ``build`` render each
 requested target (``render``), ``build`` hashes the templates it reads (``templates``) and
-knows its files by name (``outputs``), ``check --backend`` runs its harness (``check``),
-``render/offered.py`` reads which functions it generates (``offered``) and gathers what it does
-not build, with the reasons (``not_built``). A target renders a
-fixed-base and a floating-base robot alike: it picks its printer inside.
+knows its files by name (``outputs``), ``render/offered.py`` reads which functions it generates
+(``offered``) and gathers what it does not build, with the reasons (``not_built``). A target
+renders a fixed-base and a floating-base robot alike: it picks its printer inside.
 
-Callables of later layers (a check harness in ``verify/``, the compiler) are named by a
-``"module:function"`` string and imported when called (``resolve``), so the registry, in
-``render/``, imports nothing after it.
+The entry holds its own functions, imported with it; how ``check --backend`` and ``simulate
+--backend`` run the module it writes belongs to a later layer (``verify/backends.py``,
+``HARNESSES``), so the registry, in ``render/``, imports nothing after it.
 """
 
 from __future__ import annotations
@@ -19,20 +18,13 @@ import ast
 import contextlib
 import importlib
 import importlib.util
+from collections.abc import Callable
 from dataclasses import dataclass
-from functools import reduce
 from typing import Any
 
 from ...derivation import Derivation
 from ...errors import InputError, Problem
 from ..api import group
-
-
-def resolve(reference: str) -> Any:
-    """The function a ``"package.module:function"`` string names (or ``"package.module:object.method"``),
-    imported now."""
-    module, _, name = reference.partition(":")
-    return reduce(getattr, name.split("."), importlib.import_module(module))
 
 
 def public(source: str) -> set[str]:
@@ -85,7 +77,7 @@ class OptionalPackage:
     """A package a target's module imports that ``pip install dynderive`` leaves out: the
     module is written without it (``solve`` notes it, ``missing_note``), and running the
     module (``check``, ``simulate --backend``) is refused before any work (``require``). Its
-    registry entry names these methods (``note``, ``check_needs``)."""
+    registry entry names ``missing_note`` (``note``), its harness ``require`` (``needs``)."""
 
     #: Its import name, which is also its pip extra and its target's name (``--jax``,
     #: ``--backend jax``).
@@ -139,34 +131,25 @@ class Target:
     #: from their syntax (``render/environment.py``, ``templates_in_use``), so only these are
     #: listed. A change in any of them invalidates ``build``'s records.
     templates: tuple[str, ...]
-    #: ``"module:function"``: (derivation, template_dir, made, **options) -> {file name: bytes};
-    #: ``made``: the files of the targets before it in this run (the extension reuses the C).
-    render: str
-    #: ``"module:function"``: (derivation) -> the API functions it generates.
-    offered: str
+    #: (derivation, template_dir, made, **options) -> {file name: bytes}; ``made``: the files of
+    #: the targets before it in this run (the extension reuses the C).
+    render: Callable[..., dict[str, bytes]]
+    #: (derivation) -> the API functions it generates.
+    offered: Callable[[Derivation], set[str]]
     #: Said before it renders ("": nothing).
     progress: str
-    #: ``"module:function"`` raising an InputError before any work when it cannot be made here
-    #: (no compiler), or None.
-    needs: str | None = None
-    #: ``"module:function"`` -> a note (str) or None, printed when it is asked for (JAX not
-    #: installed: the module is written all the same).
-    note: str | None = None
-    #: ``check --backend NAME``: ``"module:function"`` (derivation, source, progress, states)
-    #: -> rows, and what it needs before any work (called with the option's name), or None.
-    #: A target without a harness whose ``load`` gives the NumPy module's API is checked by
-    #: comparing that module with the NumPy module (``verify/backends.py``, ``loaded_backend``).
-    check: str | None = None
-    check_needs: str | None = None
-    #: ``simulate --backend NAME``: ``"module:function"`` (derivation, progress) -> a module
-    #: with the NumPy module's API built for this process, or None.
-    load: str | None = None
-    #: ``"module:function"`` (exception, folder, robot name) -> (log files, message) for an
-    #: output that could not be made while the others are written, or None (the error stops).
-    failure: str | None = None
-    #: ``"module:function"`` -> text: what its bytes depend on besides the sources (the
-    #: compiler), part of ``build``'s input key, or None.
-    fingerprint: str | None = None
+    #: () -> None, raising an InputError before any work when it cannot be made here (no
+    #: compiler), or None.
+    needs: Callable[[], None] | None = None
+    #: () -> a note (str) or None, printed when it is asked for (JAX not installed: the module
+    #: is written all the same).
+    note: Callable[[], str | None] | None = None
+    #: (exception, folder, robot name) -> (log files, message) for an output that could not be
+    #: made while the others are written, or None (the error stops).
+    failure: Callable[..., tuple[dict[str, bytes], str]] | None = None
+    #: () -> text: what its bytes depend on besides the sources (the compiler), part of
+    #: ``build``'s input key, or None.
+    fingerprint: Callable[[], str] | None = None
     #: Files of an earlier failure that a successful run removes (``{}``: the robot's name).
     stale: tuple[str, ...] = ()
     #: What it is to the options of other commands that name it, as (option, help) pairs:
@@ -190,4 +173,4 @@ class Target:
     def files(self, derivation: Derivation, template_dir: Any, made: dict[str, bytes] | None = None,
               **options: Any) -> dict[str, bytes]:
         """Its output files for ``derivation``'s robot (fixed or floating base), by name."""
-        return resolve(self.render)(derivation, template_dir, made or {}, **options)
+        return self.render(derivation, template_dir, made or {}, **options)

@@ -32,9 +32,7 @@ TARGET = Target(
     build_help="Write <name>_dynamics.h and .c (C99).",
     outputs=("{}_dynamics.h", "{}_dynamics.c"),
     templates=("c/dynamics.h.j2", "c/dynamics.c.j2"),
-    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating C",
-    check="dynderive.verify.backends:compiled_backend", check_needs="dynderive.verify.backends:require_compiled",
-    load="dynderive.verify.backends:compiled_module",
+    render=render, offered=offered, progress="generating C",
     option_help=(("check --backend", "also compile the C extension (--c-extension) and compare each of its functions "
                                      "with the NumPy module"),
                  ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "

@@ -8,6 +8,7 @@ import sysconfig
 
 from ....derivation import Derivation
 from ..target import CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS, Target
+from .compile import extension_files, failure_files, require_compiler, toolchain
 
 
 def offered(derivation: Derivation) -> set[str]:
@@ -27,10 +28,10 @@ TARGET = Target(
     outputs=("{}_dynamics_c" + (sysconfig.get_config_var("EXT_SUFFIX") or ".so"), "{}_dynamics_c.log"),
     # the C target's files it compiles, its binding and the Python of its contact functions
     templates=("c/dynamics.h.j2", "c/dynamics.c.j2", "c_extension/extension.c.j2", "c_extension/extension_contacts.py.j2"),
-    render=f"{__name__}.compile:extension_files", offered=f"{__name__}:offered",
+    render=extension_files, offered=offered,
     progress="",   # build_extension says "compiling the C extension (...)" itself
-    needs=f"{__name__}.compile:require_compiler",
-    failure=f"{__name__}.compile:failure_files", fingerprint=f"{__name__}.compile:toolchain",
+    needs=require_compiler,
+    failure=failure_files, fingerprint=toolchain,
     stale=("{}_dynamics_c.log",),
     not_built=(CONTACTS_ON_LOOPS, MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS),
 )

@@ -36,9 +36,8 @@ TARGET = Target(
     # the macro file is imported by a name the template sets (python_backend), which build's
     # walk of the includes cannot follow: named here
     templates=("jax/dynamics.py.j2", "jax/python_backend.j2"),
-    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating JAX",
-    note=f"{__name__}:JAX.missing_note", check_needs=f"{__name__}:JAX.require",
-    load="dynderive.verify.backends:jax_module",
+    render=render, offered=offered, progress="generating JAX",
+    note=JAX.missing_note,
     option_help=(("check --backend", "the same for the JAX module (--jax; needs jax)"),
                  ("simulate --backend", "the JAX module (--jax), in float64, called eagerly (generalized "
                                         "coordinates; needs jax)")),

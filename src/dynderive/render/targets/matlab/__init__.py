@@ -37,7 +37,7 @@ TARGET = Target(
     # the package +<name>/ (every one has parameters.m) and the derivation script
     outputs=("+{}/parameters.m", "{}_derivation.m"),
     templates=("matlab/function.m.j2", "matlab/derivation.m.j2"),
-    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating MATLAB",
+    render=render, offered=offered, progress="generating MATLAB",
     not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS,
                NotBuilt(("assemble", "reduced_basis", "reduced_forward_dynamics"), "vector_space",
                         "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),

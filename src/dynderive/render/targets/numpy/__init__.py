@@ -46,7 +46,7 @@ TARGET = Target(
     # the macro file is imported by a name the template sets (python_backend), which build's
     # walk of the includes cannot follow: named here
     templates=("dynamics.py.j2", "numpy/python_backend.j2"),
-    render=f"{__name__}:render", offered=f"{__name__}:offered", progress="generating code",
+    render=render, offered=offered, progress="generating code",
     option_help=(("check --backend", "check the generated NumPy module"),
                  ("simulate --backend", "the generated NumPy module"),
                  ("--tests", "also write DIR/test_<name>_dynamics.py, pytest property checks of the generated module")),
