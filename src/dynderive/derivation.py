@@ -6,8 +6,7 @@ The engine's only output. Renderers read it; they never call into ``mechanics`` 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, MutableMapping
-from dataclasses import dataclass
+from collections.abc import Callable, Collection, Iterator
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, cast
 
@@ -30,10 +29,10 @@ from .model.naming import (
     QUANTITY_DESCRIPTIONS,
     body_jacobian_index,
     frame_quantity_names,
-    quantity_rank,
 )
 from .model.robot import Joint, Robot
 from .model.symbols import SymbolTable
+from .stages import LazyMapping, Stage, Stages
 
 if TYPE_CHECKING:
     from .mechanics.centroidal_programs import CentroidalPrograms
@@ -54,76 +53,11 @@ if TYPE_CHECKING:
 
 Progress = Callable[[str], None]
 
-
-@dataclass
-class _Stage:
-    """A part of the derivation, run the first time one of its results is needed."""
-
-    run: Callable[[], None]
-    quantities: frozenset[str] | None   # names it provides; None: any name no stage declares
-    steps: frozenset[str] = frozenset()
-
-
-class _Stages:
-    def __init__(self) -> None:
-        self.all: list[_Stage] = []
-        self.pending: list[_Stage] = []
-
-    def add(self, stage: _Stage) -> None:
-        self.all.append(stage)
-        self.pending.append(stage)
-
-    def need(self, space: str, name: str | None) -> None:
-        """Run the pending stages that provide ``name`` in ``space`` ('quantities' or
-        'steps'); every pending stage when ``name`` is None."""
-        declared = {k for s in self.all if s.quantities is not None for k in s.quantities}
-        for stage in list(self.pending):
-            if stage not in self.pending:   # ran meanwhile, as another stage's dependency
-                continue
-            provides = stage.steps if space == "steps" else stage.quantities
-            if name is None and provides is not None and not provides:
-                continue   # gives nothing here (kinematics): runs only as another stage's input
-            if name is None or (provides is None and name not in declared) or (provides and name in provides):
-                self.pending.remove(stage)
-                stage.run()
-
-
-class LazyMapping(MutableMapping[str, Any]):
-    """A dict whose values are derived on first access, stage by stage: ``d["h"]`` of a
-    large planar robot builds the maximal model only, never the generalized equations.
-    Iterating (the sheet, the JSON) derives everything."""
-
-    def __init__(self, stages: _Stages, space: str):
-        self._stages, self._space = stages, space
-        self._data: dict[str, Any] = {}
-        self._rank: dict[str, tuple[int, int]] = {}
-
-    def __getitem__(self, key: str) -> Any:
-        if key not in self._data:
-            self._stages.need(self._space, key)
-        return self._data[key]
-
-    def __contains__(self, key: object) -> bool:
-        if isinstance(key, str) and key not in self._data:
-            self._stages.need(self._space, key)
-        return key in self._data
-
-    def __iter__(self) -> Iterator[str]:
-        self._stages.need(self._space, None)
-        return iter(sorted(self._data, key=self._rank.__getitem__))
-
-    def __len__(self) -> int:
-        self._stages.need(self._space, None)
-        return len(self._data)
-
-    def __setitem__(self, key: str, value: Any) -> None:
-        if key not in self._rank:
-            self._rank[key] = quantity_rank(key, len(self._rank))
-        self._data[key] = value
-
-    def __delitem__(self, key: str) -> None:
-        del self._data[key]
-        del self._rank[key]
+#: What an output reads from a derivation (``derive``'s ``wants``): "sheet", the symbolic
+#: quantities, their steps and the checks (the worked sheet, the JSON, the terminal, MATLAB's
+#: script); "code", the programs every code target prints; "kinematics", the links' symbolic
+#: kinematics (MATLAB's script of a large robot).
+WANTS = ("sheet", "code", "kinematics")
 
 
 class Derivation:
@@ -147,24 +81,49 @@ class Derivation:
         self.notes: list[str] = []
         #: Whether the generalized quantities are in intermediate-variable form (large robots).
         self.intermediate_form = intermediate_form(robot)
-        self._stages = _Stages()
+        self._stages = Stages()
         self.quantities = LazyMapping(self._stages, "quantities")
         self.steps = LazyMapping(self._stages, "steps")
         self._checks: list[Check] | None = None
         add = self._stages.add
-        add(_Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
-        add(_Stage(self._applied_forces, frozenset({"Y_g"})))
+        add(Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
+        add(Stage(self._applied_forces, frozenset({"Y_g"})))
         if robot.loops:
-            add(_Stage(self._loops, frozenset() if robot.floating else frozenset(LOOP_KEYS), frozenset({"loops"})))
-        add(_Stage(self._generalized, None, frozenset({"generalized"})))
+            add(Stage(self._loops, frozenset() if robot.floating else frozenset(LOOP_KEYS), frozenset({"loops"})))
+        add(Stage(self._generalized, None, frozenset({"generalized"})))
         if robot.planar:
-            add(_Stage(self._maximal_model, frozenset(MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
-            add(_Stage(self._maximal_equations, frozenset(MAXIMAL_EQUATION_KEYS), frozenset({"maximal"})))
+            add(Stage(self._maximal_model, frozenset(MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
+            add(Stage(self._maximal_equations, frozenset(MAXIMAL_EQUATION_KEYS), frozenset({"maximal"})))
         if robot.frames and not self.intermediate_form:
             names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
-            add(_Stage(self._frames, frozenset(names)))
+            add(Stage(self._frames, frozenset(names)))
         if not robot.planar and not robot.floating and not robot.loops and not self.intermediate_form:
-            add(_Stage(self._centroidal, frozenset(CENTROIDAL_QUANTITIES), frozenset({"centroidal"})))
+            add(Stage(self._centroidal, frozenset(CENTROIDAL_QUANTITIES), frozenset({"centroidal"})))
+
+    def prepare(self, wants: Collection[str]) -> None:
+        """Derive now what the outputs ``wants`` (``WANTS``) read, so that rendering them derives
+        nothing: the derivation's progress, its errors and its time are ``derive``'s."""
+        if unknown := set(wants) - set(WANTS):
+            raise ValueError(f"unknown wants {sorted(unknown)}: expected some of {', '.join(WANTS)}")
+        robot = self.robot
+        if "sheet" in wants:
+            if robot.floating:   # quasi-velocities: the sheet of a robot with quaternion joints
+                _ = self.quasi_velocity_steps, self.centroidal_steps
+            else:
+                _ = len(self.quantities), self.checks, self.centroidal_steps
+                if self.intermediate_form:   # a large robot's sheet shows its recursion
+                    _ = self.recursion
+        if "code" in wants:
+            _ = (self.programs, self.effort_jacobian, self.frame_programs, self.centroidal_programs,
+                 self.configuration_programs, self.contact_programs, self.loop_solve)
+            if robot.loops and not robot.floating:
+                _ = self.loop_linearization
+            if not self.structured_code:   # a small planar robot's code prints M_g, C_g, N_g
+                _ = self.quantities["M_g"]
+            if robot.planar:   # the maximal-coordinate functions
+                _ = self.steps["maximal_model"]
+        if "kinematics" in wants and not robot.floating:
+            _ = self.link_kinematics
 
     # -- stages ----------------------------------------------------------------------------
     def _symbolic(self, what: str) -> None:
@@ -416,6 +375,8 @@ class Derivation:
         input matrix B and the compiled targets print; with quaternions (efforts acting at
         their velocity columns) a 1 at each effort's column."""
         efforts = list(self.symbols.efforts.values())
+        if not efforts:
+            return sympy.zeros(len(self.symbols.qd), 0)
         if len(self.symbols.q) != len(self.symbols.qd):
             columns = self.robot.effort_columns()
             return sympy.Matrix(len(self.symbols.qd), len(efforts), lambda i, k: int(columns[k] == i))
@@ -583,13 +544,15 @@ class Derivation:
         return all(c.passed for c in self.checks if not c.skipped)
 
 
-def derive(robot: Robot, progress: Progress | None = None) -> Derivation:
+def derive(robot: Robot, wants: Collection[str] = (), progress: Progress | None = None) -> Derivation:
     """The derivation of ``robot``: its inputs are checked now (a singular mass matrix, loops
-    that do not close), every quantity is derived on first use (``Derivation``)."""
+    that do not close), and what ``wants`` read (``WANTS``: "sheet", "code") is derived now,
+    so a renderer only prints; anything else is derived on first use (``Derivation``)."""
     table = SymbolTable.for_robot(robot)
     check_mass_matrix(robot, table)
     derivation = Derivation(robot, table, progress)
     _ = derivation.steps["loops"] if robot.loops else None   # loop problems are input errors: at once
+    derivation.prepare(wants)
     return derivation
 
 

@@ -234,14 +234,14 @@ def render_outputs(source: str, kinds: tuple[str, ...], template_dir: str | None
     and the robot's name; with a PDF, ``sheet`` receives its pages, LaTeX's seconds and the
     widest overfull line (pt)."""
     from .. import derive, load_robot
-    from .solve import sheet_files, target_files
+    from .solve import output_wants, sheet_files, target_files
 
     floating_base = "floating_base" in kinds and source.lower().endswith(".urdf")   # URDF files only
     digits = next((int(kind.split(":")[1]) for kind in kinds if kind.startswith("digits:")), None)   # --digits
     symbolic = next((kind.partition(":")[2] for kind in kinds if kind.startswith("symbolic:")), None)
     symbolic = symbolic if source.lower().endswith(".urdf") else None   # --symbolic: URDF files only
     robot = load_robot(source, size_limits=True, floating_base=floating_base, symbolic=symbolic)
-    derivation = derive(robot)
+    derivation = derive(robot, wants=output_wants(kinds))
     sheets, failed = sheet_files(derivation, kinds, template_dir, digits=digits, sheet=sheet)
     files = {file: data for file, data in sheets.items() if not file.endswith((".json", ".html"))}   # the sheet
     files |= target_files(derivation, kinds, template_dir)[0]   # then the code, the JSON and the page

@@ -134,7 +134,7 @@ def solve(
     from ..render.sheets.terminal import render_terminal
     from .options import maximal_section_applies, sheet_digits_option, sheet_sections_option
     from .output import check_output_folder
-    from .solve import form_note, planned_files, solve_outputs
+    from .solve import form_note, output_wants, planned_files, solve_outputs
 
     if template_dir is not None and not template_dir.is_dir():
         raise InputError(problem(str(template_dir), "template directory does not exist"))
@@ -159,7 +159,7 @@ def solve(
     echo_notes(model, quiet)
     if not quiet:
         target_notes(targets)
-    derivation = derive(model, progress=progress)
+    derivation = derive(model, wants={"sheet"} if printed else output_wants(kinds), progress=progress)
     echo_notes(derivation, quiet)
     if (note := form_note(model)) and not quiet:
         typer.echo(note, err=True)
@@ -209,7 +209,7 @@ def check(
     model = with_parameters(model, robot, param or [], required=False, command="check",
                             load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)
-    derivation = derive(model, progress=progress)
+    derivation = derive(model, wants={"code"}, progress=progress)
     echo_notes(derivation, quiet)
     progress("generating code")
     source = reference(derivation)
@@ -310,7 +310,7 @@ def simulate(
     start_q = None if loop_q is not None else vector(q0, len(model.configuration_names), "--q0")
     start_qd = vector(qd0, model.velocity_count, "--qd0")
     start_q = simulation.initial_configuration(model, start_q)
-    derivation = derive(model, progress=progress)
+    derivation = derive(model, wants={"code"}, progress=progress)
     echo_notes(derivation, quiet)
     start_q = simulation.loop_start(loop_q, q0, derivation, start_q)   # loops: the independent ones may do
     held = parse_contacts(model, contacts, coordinates, loaded is not None)
@@ -379,7 +379,7 @@ def linearize(
     model = with_parameters(model, robot, param or [], required=False, command="linearize",
                             load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)
-    derivation = derive(model, progress=progress)
+    derivation = derive(model, wants={"code"}, progress=progress)
     table = derivation.symbols
     point, given, equilibrium = linear.parse_at(at or [], [str(s) for s in table.q],
                                                 [str(s) for s in table.qd], list(table.efforts))
@@ -434,7 +434,7 @@ def identify(
         raise InputError(problem("--states", f"expected at least {least} states for {model.name} (one per "
                                  "regressor parameter: fewer can make the rank, and so the base parameters, "
                                  f"come out too small), got {states}"))
-    derivation = derive(model, progress=progress)
+    derivation = derive(model, wants={"code"}, progress=progress)
     progress("generating code")
     module = generated_module(reference(derivation), model.name)
     progress("sampling the regressor")

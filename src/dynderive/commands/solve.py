@@ -50,6 +50,19 @@ def refuse_floating_loops(robot: Robot, command: str) -> None:
                                  "module's forward_dynamics closes them)"))
 
 
+#: The kinds of output that are the sheet (a terminal print reads what they do).
+SHEET_KINDS = ("latex", "pdf", "html", "json")
+
+
+def output_wants(kinds: Collection[str]) -> set[str]:
+    """What the outputs of ``kinds`` read from the derivation (``derive``'s ``wants``): the
+    sheet's kinds the symbolic quantities, each code target what its entry says."""
+    from ..render.targets import TARGETS
+
+    wants = {"sheet"} if set(kinds) & set(SHEET_KINDS) else set()
+    return wants | {part for target in TARGETS if target.kind in kinds for part in target.reads}
+
+
 def target_files(derivation: Derivation, kinds: Collection[str], template_dir: str | Path | None,
                  progress: Callable[[str], None] = lambda stage: None, folder: Path | None = None,
                  tests: bool = False) -> tuple[dict[str, bytes], list[str], list[str]]:

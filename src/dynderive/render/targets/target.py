@@ -150,6 +150,8 @@ class Target:
     #: () -> text: what its bytes depend on besides the sources (the compiler), part of
     #: ``build``'s input key, or None.
     fingerprint: Callable[[], str] | None = None
+    #: What it reads from the derivation (``derivation.WANTS``), derived before any target renders.
+    reads: tuple[str, ...] = ("code",)
     #: Files of an earlier failure that a successful run removes (``{}``: the robot's name).
     stale: tuple[str, ...] = ()
     #: What it is to the options of other commands that name it, as (option, help) pairs:

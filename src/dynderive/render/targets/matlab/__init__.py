@@ -38,6 +38,7 @@ TARGET = Target(
     outputs=("+{}/parameters.m", "{}_derivation.m"),
     templates=("matlab/function.m.j2", "matlab/derivation.m.j2"),
     render=render, offered=offered, progress="generating MATLAB",
+    reads=("code", "sheet", "kinematics"),   # the script derives the sheet's quantities and checks
     not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS,
                NotBuilt(("assemble", "reduced_basis", "reduced_forward_dynamics"), "vector_space",
                         "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
