@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
+from ..model.joint_kinds import BALL, PLANE_AS_JOINTS, is_free
 from ..model.robot import Joint, Link
 
 #: Names the generated module of a floating-base robot defines or takes as arguments (besides
@@ -43,8 +44,8 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
     """``floating`` and ``spherical`` joints stand anywhere in a 3-D robot, loops too (both
     take the floating-base module); a planar ``floating`` joint anywhere in a planar robot,
     its coordinates' and massless links' names free."""
-    spherical = [i for i, j in enumerate(joints) if j.type == "spherical"]
-    floating = [(i, j) for i, j in enumerate(joints) if j.type == "floating"]
+    spherical = [i for i, j in enumerate(joints) if j.type == BALL]
+    floating = [(i, j) for i, j in enumerate(joints) if is_free(j.type)]
     if planar:
         spatial_only = [(i, j) for i, j in enumerate(joints) if not j.kind.planar]
         for i, joint in spatial_only:
@@ -76,7 +77,7 @@ def _planar_names(v: Any, floating: list[tuple[int, Joint]], joints: list[Joint]
 
 def virtual_links(joints: list[Joint], planar: bool) -> list[Link]:
     """The massless links a planar robot's floating joints add (none in 3-D)."""
-    return [Link(name, 0, (0, 0), (0,)) for j in joints if planar and j.type == "floating"
+    return [Link(name, 0, (0, 0), (0,)) for j in joints if planar and is_free(j.type)
             for name in planar_floating_links(j.name)]
 
 
@@ -89,14 +90,15 @@ def expand_planar_floating(joints: list[Joint], links: list[Link],
     expanded: list[Joint] = []
     added: list[Link] = []
     for joint in joints:
-        if joint.type != "floating":
+        if not is_free(joint.type):
             expanded.append(joint)
             continue
         x, y, theta = planar_floating_names(joint.name)
         x_link, y_link = planar_floating_links(joint.name)
-        expanded += [replace(joint, name=x, type="prismatic", child=x_link, axis=(1, 0), effort=None),
-                     Joint(y, "prismatic", x_link, y_link, (0, 0, 0), (0, 1)),
-                     Joint(theta, "revolute", y_link, joint.child, (0, 0, 0), (1, 0))]
+        along_x, along_y, about = PLANE_AS_JOINTS
+        expanded += [replace(joint, name=x, type=along_x, child=x_link, axis=(1, 0), effort=None),
+                     Joint(y, along_y, x_link, y_link, (0, 0, 0), (0, 1)),
+                     Joint(theta, about, y_link, joint.child, (0, 0, 0), (1, 0))]
         added += [Link(x_link, 0, (0, 0), (0,)), Link(y_link, 0, (0, 0), (0,))]
         where = positions.get(f"joint:{joint.name}", (1, 1))
         positions |= {f"joint:{n}": where for n in (x, y, theta)} | {f"link:{n}": where for n in (x_link, y_link)}

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model.joint_kinds import JOINT_KINDS, mjcf_types
+from ..model.joint_kinds import BALL, JOINT_KINDS, mjcf_types
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from ..model.written import significant_digits
 from .loader import Path_, SourceDocument
@@ -385,7 +385,7 @@ def _equalities(tree: _Tree) -> tuple[dict[str, dict[str, Any]], list[tuple[dict
                 owner, R, p = tree.owner[body]
                 ends.append((owner, R @ anchor + p))
             if ends[0][0] != "world" and ends[1][0] != "world" and ends[0][0] != ends[1][0]:
-                loops.append(({"name": tree._unique(ascii_name(name, f"equality{e}")), "type": "spherical", "parent": ends[0][0],
+                loops.append(({"name": tree._unique(ascii_name(name, f"equality{e}")), "type": BALL, "parent": ends[0][0],
                                "child": ends[1][0], "origin": {"xyz": _numbers(ends[0][1]), "rpy": [0, 0, 0]},
                                "child_origin": {"xyz": _numbers(ends[1][1]), "rpy": [0, 0, 0]}}, at))
                 continue

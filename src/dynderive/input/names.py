@@ -10,6 +10,7 @@ import builtins
 from typing import Any
 
 from ..model.expressions import RESERVED
+from ..model.joint_kinds import is_free
 from ..model.naming import (
     CENTROIDAL_QUANTITIES,
     FRAME_KINDS,
@@ -126,7 +127,7 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
         seen_joints.add(joint.name)
         path = ("joints", i, "name")
         label = v.label(path)
-        if planar and joint.type == "floating":   # three coordinates <joint>_x, _y, _theta
+        if planar and is_free(joint.type):   # three coordinates <joint>_x, _y, _theta
             for name in planar_floating_names(joint.name):
                 claim_coordinate(name, f"{label} (coordinate '{name}')", label, path)
             continue

@@ -15,7 +15,7 @@ import sympy
 
 from ..errors import InputError
 from ..model.expressions import LARGEST, RESERVED, Evaluator
-from ..model.joint_kinds import JOINT_KINDS, find_kind, kinds
+from ..model.joint_kinds import JOINT_KINDS, WELDED, find_kind, is_free, is_welded, kinds
 from ..model.naming import did_you_mean, maximal_coordinate_names
 from ..model.robot import Joint, Link, LoopJoint, Parameter, Robot
 from . import inertia
@@ -244,15 +244,15 @@ def _joints(v: Validator, top: dict[str, Any], planar: bool, symbols: dict[str, 
         effort = item.get("effort")
         if effort is not None:
             effort = v.identifier(effort, path + ("effort",), "effort name")
-        if effort is not None and (jtype == "fixed" or (jtype == "floating" and planar)):
-            v.report(path + ("effort",), "a fixed joint has no effort" if jtype == "fixed" else
+        if effort is not None and (is_welded(jtype) or (is_free(jtype) and planar)):
+            v.report(path + ("effort",), "a fixed joint has no effort" if is_welded(jtype) else
                      "a planar floating joint is unactuated (push its body with a wrench at a frame)")
             effort = None
         drives = drive_terms(v, item, path, jtype, symbols)
         mimic = read_mimic(v, item, path, jtype)
         geometry = read_joint_keys(v, item, path, jtype, symbols)
         parent, child = item.get("parent"), item.get("child")
-        joints.append(Joint(jname or f"joint{i + 1}", jtype or "fixed", str(parent), str(child),
+        joints.append(Joint(jname or f"joint{i + 1}", jtype or WELDED, str(parent), str(child),
                             origin, axis, None if mimic else effort, **drives, mimic=mimic, geometry=geometry))
 
     return joints
@@ -310,7 +310,7 @@ def _independent(v: Validator, top: dict[str, Any], joints: list[Joint],
                 f"{kind(raw, empty=True)}")
         return None
     coordinates = [n for j in joints if j.owns
-                   for n in (planar_floating_names(j.name) if planar and j.type == "floating" else [j.name])]
+                   for n in (planar_floating_names(j.name) if planar and is_free(j.type) else [j.name])]
     names: list[str] = []
     for k, name in enumerate(raw):
         if name not in coordinates:

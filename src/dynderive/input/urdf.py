@@ -31,12 +31,12 @@ import numpy as np
 import yaml
 
 from ..errors import InputError, Problem
-from ..model.joint_kinds import urdf_types
+from ..model.joint_kinds import is_angle, is_free, is_welded, urdf_types
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from . import inertia
 from .loader import Path_, SourceDocument
 from .urdf_bodies import Body, check_bodies, merge_bodies
-from .urdf_root import float_root, note_fixed_base, split_planar
+from .urdf_root import URDF_PLANAR, float_root, note_fixed_base, split_planar
 from .urdf_symbolic import Declared, attach, entries, name_parameters, patterns_of, select
 from .urdf_values import IDENTITY, Rotation, _number, _numbers, _Reader
 from .urdf_xml import _Element, _parse_xml
@@ -142,15 +142,15 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         jtype = joint.attrib.get("type", "")
         parent, child = (getattr(joint.find(role), "attrib", {}).get("link") for role in ("parent", "child"))
         mimic, follows = joint.find("mimic"), None
-        if mimic is not None and jtype == "fixed":
+        if mimic is not None and is_welded(jtype):
             doc.note(mimic.at, f"<mimic> on fixed joint '{name}' ignored")
-        elif mimic is not None and jtype == "planar":
+        elif mimic is not None and jtype == URDF_PLANAR:
             reader.error(mimic, f"joint '{name}': <mimic> on a planar joint is not supported (only revolute, "
                          "continuous and prismatic joints follow a leader)")
         elif mimic is not None:   # checked by the validator (input/mimic.py)
             follows = (mimic, mimic.attrib.get("joint", ""), reader.numbers(mimic, "multiplier", 1, [1.0])[0],
                        reader.numbers(mimic, "offset", 1, [0.0])[0])
-        if jtype not in URDF_TYPES and jtype != "planar":   # a URDF planar joint: split (urdf_root.split_planar)
+        if jtype not in URDF_TYPES and jtype != URDF_PLANAR:   # a URDF planar joint: split (urdf_root.split_planar)
             reader.error(joint, f"joint '{name}': unknown joint type '{jtype}'")
             continue
         if not parent or not child:
@@ -161,7 +161,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
                 reader.error(joint.find(role) or joint, f"joint '{name}': unknown {role} link '{link_name}'")
         origin = joint.find("origin")
         dynamics = joint.find("dynamics")
-        if dynamics is not None and jtype == "fixed":
+        if dynamics is not None and is_welded(jtype):
             doc.note(dynamics.at, f"<dynamics> on fixed joint '{name}' ignored (it has no coordinate)")
             dynamics = None
         joints.append({
@@ -189,7 +189,7 @@ def _fixed_frames(reader: _Reader, joints: list[dict[str, Any]], link_elements: 
         current = name
         while current not in frames:
             joint = by_child[current]
-            if joint["type"] != "fixed":
+            if not is_welded(joint["type"]):
                 frames[current] = (current, IDENTITY, np.zeros(3))
                 break
             chain.append(joint)
@@ -221,7 +221,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
     for key in ("name", "title", "planar", "parameters", "gravity", "links", "joints"):
         positions[(key,)] = root.at
     doc.labels[("name",)] = "<robot name>"
-    moving = [j for j in joints if j["type"] != "fixed"]
+    moving = [j for j in joints if not is_welded(j["type"])]
     carrying = _carrying(moving, frames, merged)
     expressed: list[tuple[dict[str, Any], Any]] = []   # link entries with values that are expressions
     for index, joint in enumerate(moving):
@@ -267,9 +267,9 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
             "child": identifier(joint["child"]),
             "origin": {"xyz": _numbers(xyz, scale), "rpy": rotation.rpy()},
             "axis": [_number(v) for v in joint["axis"]],
-            "effort": ("tau_" if joint["type"] == "revolute" else "f_") + jname,
+            "effort": ("tau_" if is_angle(joint["type"]) else "f_") + jname,
         }
-        if joint["type"] == "floating":   # unactuated, no axis (its origin places its frame)
+        if is_free(joint["type"]):   # unactuated, no axis (its origin places its frame)
             del entry["axis"], entry["effort"]
         if joint.get("mimic") is not None and joint["mimic"][1] not in moving_names:
             mimic, leader = joint["mimic"][:2]

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..model.joint_kinds import is_welded
 from . import inertia
 from . import urdf_symbolic as symbolic
 from .loader import SourceDocument
@@ -44,7 +45,7 @@ def check_bodies(reader: _Reader, doc: SourceDocument, bodies: dict[str, Body],
     to the world (fixed joints up to a link without a parent) never enter the dynamics: what
     is wrong with them is a note, not an error. With ``floating_base`` (``--floating-base``)
     the root floats, so no link is welded to the world: every body is judged as a moving one."""
-    moved = set(bodies) if floating_base else inertia.moved_links({j["child"]: (j["parent"], j["type"] != "fixed")
+    moved = set(bodies) if floating_base else inertia.moved_links({j["child"]: (j["parent"], not is_welded(j["type"]))
                                                                    for j in joints})
     written = {name: body.written for name, body in bodies.items() if body.written is not None}
     scale = max(map(inertia.size, written.values()), default=0.0)

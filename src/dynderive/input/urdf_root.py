@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..model.joint_kinds import FREE, PLANE_AS_JOINTS, is_free, is_welded
 from .free_joints import planar_floating_links, planar_floating_names
 from .loader import SourceDocument
 from .urdf_xml import _Element
@@ -20,12 +21,15 @@ ROOT_JOINT = "root_joint"
 #: forbids NUL), so it never clashes; it becomes ``world``.
 _WORLD = "\0world"
 
+#: URDF's planar joint's ``type`` attribute: read as three joints in a row (``split_planar``).
+URDF_PLANAR = "planar"
+
 
 def float_root(reader: Any, joints: list[dict[str, Any]], link_elements: dict[str, _Element], base: str,
                robot: _Element, identity: Any) -> str:
     """Add the joint ``root_joint`` (type floating) from a new world link to ``base``, first
     (its coordinates come first, as in Pinocchio); returns the new root link's name."""
-    floating = next((j for j in joints if j["type"] == "floating"), None)
+    floating = next((j for j in joints if is_free(j["type"])), None)
     if floating is not None:
         reader.error(floating["element"], f"joint '{floating['name']}' is floating already: leave out --floating-base")
         return base
@@ -36,7 +40,7 @@ def float_root(reader: Any, joints: list[dict[str, Any]], link_elements: dict[st
         return base
     link_elements[_WORLD] = robot
     joints.insert(0, {
-        "element": link_elements[base], "name": ROOT_JOINT, "type": "floating", "parent": _WORLD, "child": base,
+        "element": link_elements[base], "name": ROOT_JOINT, "type": FREE, "parent": _WORLD, "child": base,
         "xyz": np.zeros(3), "R": identity, "axis": [1, 0, 0], "axis_element": link_elements[base],
         "dynamics": None, "damping": 0.0, "friction": 0.0,
     })
@@ -47,9 +51,9 @@ def note_fixed_base(doc: SourceDocument, joints: list[dict[str, Any]], frames: d
                     element: _Element) -> None:
     """A note when the root link (welded to the world) carries two or more moving subtrees and
     no joint of the URDF floats: a legged robot or humanoid loaded with its trunk fixed."""
-    if any(j["type"] == "floating" for j in joints):
+    if any(is_free(j["type"]) for j in joints):
         return
-    subtrees = [j for j in joints if j["type"] != "fixed" and frames[j["parent"]][0] == "world"]
+    subtrees = [j for j in joints if not is_welded(j["type"]) and frames[j["parent"]][0] == "world"]
     if len(subtrees) >= 2:
         doc.note(element.at, f"the root link '{base}' carries {len(subtrees)} moving subtrees and is welded "
                  "to the world (a fixed base); for a floating base (legged robots, humanoids) pass "
@@ -64,7 +68,7 @@ def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]],
     ``<joint>_x_link`` and ``<joint>_y_link``. ``e1`` is the joint frame's x axis projected on
     the plane (its y axis when the axis is nearer x than y): for the axis z, x and y."""
     names = {j["name"] for j in joints}
-    for index in [k for k, j in enumerate(joints) if j["type"] == "planar"][::-1]:
+    for index in [k for k, j in enumerate(joints) if j["type"] == URDF_PLANAR][::-1]:
         joint = joints[index]
         n = np.asarray(joint["axis"], dtype=float)
         length = float(np.linalg.norm(n))
@@ -92,7 +96,7 @@ def split_planar(reader: Any, doc: SourceDocument, joints: list[dict[str, Any]],
             frames[link] = (link, identity, np.zeros(3))
         ends = [joint["parent"], *links, joint["child"]]
         parts = []
-        for k, (name, kind) in enumerate(zip((x, y, theta), ("prismatic", "prismatic", "revolute"))):
+        for k, (name, kind) in enumerate(zip((x, y, theta), PLANE_AS_JOINTS)):
             parts.append(joint | {"name": name, "type": kind, "parent": ends[k], "child": ends[k + 1],
                                   "axis": axes[k], "dynamics": None, "damping": 0.0, "friction": 0.0, "mimic": None,
                                   "virtual": k < 2}   # its child is a massless link of the split

@@ -31,6 +31,7 @@ from sympy.printing.str import StrPrinter
 
 from ..errors import InputError, Problem
 from ..model.expressions import RESERVED
+from ..model.joint_kinds import BALL, FREE
 from ..model.naming import acceleration_name, did_you_mean, latex_name, velocity_name
 from ..model.robot import floating_names
 from .free_joints import planar_floating_names
@@ -121,7 +122,7 @@ def taken_names(data: dict[str, Any]) -> set[str]:
     taken = set(data.get("parameters") or {})
     for joint in data.get("joints", []):
         name, kind = joint["name"], joint["type"]
-        if kind in ("floating", "spherical"):
+        if kind in (FREE, BALL):
             taken.update(n for names in floating_names(name, kind) for n in names)
         elif kind == "planar_floating":   # pragma: no cover - the planar reader's joints are split
             taken.update(planar_floating_names(name))

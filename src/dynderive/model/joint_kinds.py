@@ -176,6 +176,33 @@ JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
 )}
 
 
+#: The type of a welded joint, which a reader gives a joint whose type it could not read (the
+#: error is reported once, where it is read).
+WELDED = next(name for name, kind in JOINT_KINDS.items() if kind.welded)
+#: The free joint's type (a floating base: all six directions).
+FREE = next(name for name, kind in JOINT_KINDS.items() if kind.free)
+#: The ball joint's type (a unit quaternion, nothing else; a MuJoCo ball, a connect equality).
+BALL = next(name for name, kind in JOINT_KINDS.items() if kind.quaternion_start is not None and not kind.free)
+#: A motion in a plane as one-coordinate joints in a row: along x, along y, about the plane's
+#: normal (a planar robot's floating joint and a URDF planar joint are read so).
+PLANE_AS_JOINTS = ("prismatic", "prismatic", "revolute")
+
+
+def is_welded(name: object) -> bool:
+    """Whether a file's type value names a welded joint (no coordinate, no motion)."""
+    return (kind := find_kind(name)) is not None and kind.welded
+
+
+def is_free(name: object) -> bool:
+    """Whether a file's type value names the free joint (a floating base)."""
+    return (kind := find_kind(name)) is not None and kind.free
+
+
+def is_angle(name: object) -> bool:
+    """Whether a file's type value names a joint of one angle (its effort a torque)."""
+    return (kind := find_kind(name)) is not None and kind.angle
+
+
 def joint_keys() -> dict[str, JointKey]:
     """Every type's own keys, by name (the schema accepts them on a joint of that type)."""
     return {key.name: key for k in JOINT_KINDS.values() for key in k.keys}
