@@ -264,7 +264,7 @@ def test_urdf_planar_joint_against_pinocchios_urdf_parser(tmp_path):
     text = URDF.format(rpy="0.1 0.2 0.3", axis='<axis xyz="0 0 1"/>')
     derivation, module = _module(tmp_path, "slider", text, ".urdf")
     assert module.COORDINATES == ("slide_x", "slide_y", "slide_theta", "elbow")
-    assert module.EFFORTS == ("f_slide_x", "f_slide_y", "tau_slide_theta", "tau_elbow")
+    assert module.EFFORTS == ("f_slide_x", "f_slide_y", "f_slide_theta", "tau_elbow")
     (tmp_path / "slider.urdf").write_text(text)
     model = pin.buildModelFromUrdf(str(tmp_path / "slider.urdf"))
     assert [j.shortname() for j in model.joints[1:]] == ["JointModelPlanar", "JointModelRY"]
@@ -303,8 +303,11 @@ def test_urdf_planar_joint_about_a_general_axis(tmp_path):
     along_x = URDF.format(rpy="0 0 0", axis='<axis xyz="1 0 0"/>')
     path = tmp_path / "along_x.urdf"
     path.write_text(along_x)
-    joints = dynderive.load_robot(path).joints
-    assert [tuple(float(a) for a in j.axis) for j in joints[:3]] == [(0, 1, 0), (0, 0, 1), (1, 0, 0)]
+    joint = dynderive.load_robot(path).joints[0]
+    assert joint.kind.nq == 3 and tuple(float(a) for a in joint.axis) == (1, 0, 0)
+    from dynderive.mechanics.joint_types.planar import plane_axes
+
+    assert plane_axes(joint.axis) == ((0, 1, 0), (0, 0, 1))
 
 
 # --- bad input -------------------------------------------------------------------------------
@@ -344,14 +347,22 @@ def test_bad_planar_floating_joints(tmp_path):
 
 def test_bad_urdf_planar_joints(tmp_path):
     lines = _bad(tmp_path, URDF.format(rpy="0 0 0", axis='<axis xyz="0 0 0"/>'), ".urdf")
-    assert lines == ["14:5: joint 'slide': axis has zero length"]
+    assert lines == ["14:5: joint 'slide' axis: axis has zero length"]
     clash = URDF.format(rpy="0 0 0", axis="").replace('name="elbow"', 'name="slide_theta"')
     assert _bad(tmp_path, clash, ".urdf") == [
-        "11:3: joint 'slide': a planar joint is read as the joints slide_x, slide_y, slide_theta and the massless "
-        "links slide_x_link, slide_y_link; the URDF has a joint 'slide_theta' already"]
+        "16:3: joint 'slide_theta' name: name 'slide_theta' clashes with joint 'slide' name (coordinate "
+        "'slide_theta') (first at 11:3)"]
+    universal = ("name: u\nplanar: false\ngravity: [0, 0, -9.81]\nlinks:\n  - {name: a, mass: 1, inertia: [0.1, 0.1, 0.1, 0, 0, 0]}\n"
+                 "  - {name: b, mass: 1, inertia: [0.1, 0.1, 0.1, 0, 0, 0]}\njoints:\n"
+                 "  - {name: cardan, type: universal, parent: world, child: a, axis2: [1, 0, 0], effort: t}\n"
+                 "  - {name: cardan_2, type: revolute, parent: a, child: b, effort: t_1}\n")
+    lines = _bad(tmp_path, universal)   # a joint of several coordinates claims each of their names
+    assert any("'cardan_2' clashes with joints[0].name (coordinate 'cardan_2')" in line for line in lines), lines
+    lines = _bad(tmp_path, universal.replace("name: cardan_2,", "name: elbow,"))
+    assert any("'t_1' clashes with joints[0].effort ('t_1')" in line for line in lines), lines
     empty = re.sub(r'<link name="(body|arm)">.*?</link>', r'<link name="\1"/>', URDF.format(rpy="0 0 0", axis=""), flags=re.S)
     lines = _bad(tmp_path, empty, ".urdf")   # the child's error only, not its massless links'
-    assert [line.split(": ")[1] for line in lines] == ["link 'body' moves (joint 'slide_theta') but has no mass, nor has any link below it",
+    assert [line.split(": ")[1] for line in lines] == ["link 'body' moves (joint 'slide') but has no mass, nor has any link below it",
                                                        "link 'arm' moves (joint 'elbow') but has no mass, nor has any link below it"]
 
 

@@ -65,7 +65,7 @@ JOINT = ('  <joint name="j1" type="{type}">\n    <parent link="base"/><child lin
 
 @pytest.mark.parametrize("body,expected", [
     (LINK + JOINT.format(type="planar", extra="").replace('xyz="0 0 1"', 'xyz="0 0 0"'),
-     "9:5: joint 'j1': axis has zero length"),
+     "9:5: joint 'j1' axis: axis has zero length"),
     ('  <link name="a"/>\n' + JOINT.format(type="revolute", extra=""),
      "4:3: link 'a' moves (joint 'j1') but has no mass, nor has any link below it: the joint moves nothing; give "
      "the link an <inertial> with a positive mass"),

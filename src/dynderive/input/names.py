@@ -131,6 +131,12 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
             for name in planar_floating_names(joint.name):
                 claim_coordinate(name, f"{label} (coordinate '{name}')", label, path)
             continue
+        if joint.kind.vector_space and joint.kind.nq > 1:   # universal, 3-D planar: <joint>_<suffix> each
+            for name in joint.kind.names(joint.name)[0]:
+                claim_coordinate(name, f"{label} (coordinate '{name}')", label, path)
+            for name in joint.effort_names:
+                claim(name, f"joints[{i}].effort ('{name}')", ("joints", i, "effort"))
+            continue
         if joint.multi:   # a floating or spherical joint: its configuration, velocity and acceleration entries
             for name in (n for names in floating_names(joint.name, joint.type) for n in names):
                 claim(name, f"{label} (coordinate '{name}')", path)

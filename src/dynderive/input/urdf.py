@@ -8,8 +8,9 @@ and goes through the same validator as YAML; ``dynderive import`` writes that da
 Conventions: the root link is welded to the world (its inertia never enters M(q)), so it
 becomes ``world``; ``continuous`` joints are revolute; ``fixed`` joints are merged into the
 parent link (mass, centre of mass and inertia combined), so every remaining link moves;
-inertial frames with ``rpy`` are rotated into the link axes; efforts are named ``tau_<joint>``
-(revolute) and ``f_<joint>`` (prismatic); gravity is ``[0, 0, -g]`` with ``g = 9.81``.
+inertial frames with ``rpy`` are rotated into the link axes; a ``planar`` joint is the 3-D
+planar joint (x, y, theta in the plane normal to its axis); efforts are named ``tau_<joint>``
+(revolute) and ``f_<joint>`` (prismatic; a planar joint's ``f_<joint>_x``, ``_y``, ``_theta``); gravity is ``[0, 0, -g]`` with ``g = 9.81``.
 
 Rotations are composed as matrices (``urdf_values``: only the ``rpy`` written in the file are
 snapped to quarter turns). ``<mimic>`` on a fixed joint is ignored with a note in
@@ -31,18 +32,20 @@ import numpy as np
 import yaml
 
 from ..errors import InputError, Problem
-from ..model.joint_kinds import is_angle, is_free, is_welded, urdf_types
+from ..model.joint_kinds import is_angle, is_free, is_welded, joint_kind, urdf_types
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from . import inertia
 from .loader import Path_, SourceDocument
 from .urdf_bodies import Body, check_bodies, merge_bodies
-from .urdf_root import URDF_PLANAR, float_root, note_fixed_base, split_planar
+from .urdf_root import float_root, note_fixed_base
 from .urdf_symbolic import Declared, attach, entries, name_parameters, patterns_of, select
 from .urdf_values import IDENTITY, Rotation, _number, _numbers, _Reader
 from .urdf_xml import _Element, _parse_xml
 
 #: URDF ``type`` attribute -> the robot file's joint type (the joint specification's map).
 URDF_TYPES = urdf_types()
+#: URDF's planar joint (a 3-D planar joint: x, y and theta in the plane normal to its axis).
+URDF_PLANAR = next(attribute for attribute, name in URDF_TYPES.items() if joint_kind(name).nq == 3)
 
 
 def identifier(name: str) -> str:
@@ -90,8 +93,6 @@ def read_urdf(text: str, file: str, floating_base: bool = False,
     chosen = select(patterns, bodies, list(link_elements), frames) if patterns else {}
     declared = attach(bodies, chosen, identifier)
     merged = merge_bodies(reader, bodies, link_elements, frames)
-    split_planar(reader, doc, joints, link_elements, frames, IDENTITY)   # x, y, theta joints in a row
-    reader.raise_problems()
     if not floating_base:
         note_fixed_base(doc, joints, frames, base, link_elements[base])
     doc.digits = max(reader.digits, 1)   # the sheet's precision: as written, not as composed
@@ -150,7 +151,7 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         elif mimic is not None:   # checked by the validator (input/mimic.py)
             follows = (mimic, mimic.attrib.get("joint", ""), reader.numbers(mimic, "multiplier", 1, [1.0])[0],
                        reader.numbers(mimic, "offset", 1, [0.0])[0])
-        if jtype not in URDF_TYPES and jtype != URDF_PLANAR:   # a URDF planar joint: split (urdf_root.split_planar)
+        if jtype not in URDF_TYPES:
             reader.error(joint, f"joint '{name}': unknown joint type '{jtype}'")
             continue
         if not parent or not child:
@@ -163,6 +164,9 @@ def _read_joints(root: _Element, reader: _Reader, doc: SourceDocument,
         dynamics = joint.find("dynamics")
         if dynamics is not None and is_welded(jtype):
             doc.note(dynamics.at, f"<dynamics> on fixed joint '{name}' ignored (it has no coordinate)")
+            dynamics = None
+        elif dynamics is not None and jtype == URDF_PLANAR:
+            doc.note(dynamics.at, f"<dynamics> on planar joint '{name}' ignored (as Pinocchio's URDF parser does)")
             dynamics = None
         joints.append({
             "element": joint, "name": name, "type": URDF_TYPES.get(jtype, jtype),
@@ -230,7 +234,7 @@ def _robot_document(root: _Element, reader: _Reader, doc: SourceDocument, joints
         body = merged.get(name)
         path = ("links", index)
         positions[path] = element.at
-        if name not in carrying and not joint.get("virtual"):   # a planar joint's own links: its child's error
+        if name not in carrying:
             reader.error(element, f"link '{name}' moves (joint '{joint['name']}') but has no mass, nor has any "
                          "link below it: the joint moves nothing; give the link an <inertial> with a positive mass")
             continue

@@ -172,7 +172,7 @@ JOINT_KINDS: dict[str, JointKind] = {kind.name: kind for kind in (
               glyph="ball", angles=("1", "2")),
     JointKind("planar", "a plane (3-D): x and y in the plane normal to its unit axis (default z), then the angle theta "
               "about it", coordinates=("x", "y", "theta"), efforts=("x", "y", "theta"), takes_axis=True, glyph="box",
-              angles=("theta",)),
+              angles=("theta",), urdf=("planar",)),
 )}
 
 
