@@ -7,13 +7,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import yaml
 from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
 from test_free_flyer import _compare, _module
-from test_spherical import _compare_more, _pinocchio
+from test_spherical import _aba_differences, _compare_more, _coriolis_properties, _pinocchio
 
 #: The rows of ``check`` a vector-space tree must pass (beside every other row).
 CHECK_ROWS = ("generated kinetic_energy == symbolic T_g", "generated potential_energy == symbolic V_g",
@@ -48,3 +49,33 @@ def check_passes_every_row(text: str, tmp_path: Path, rows: tuple[str, ...] = CH
     for row in rows:
         assert " pass " in found[row], found[row]
     assert " 0 failed" in result.stdout
+
+
+def module_equals_pinocchio(text: str, kind: str, tmp_path: Path, seed: int = 7) -> None:
+    """The generated module of the vector-space tree ``text`` (with joints of type ``kind``)
+    against Pinocchio at random states: the mass matrix (``crba``), inverse dynamics (``rnea``),
+    ``linearize`` at u = 0 against central differences of its ``aba`` (Pinocchio 4.1's
+    ``computeABADerivatives`` and ``computeCoriolisMatrix`` leave out a universal joint's
+    column rates), and C by its properties."""
+    import pinocchio as pin
+
+    path = tmp_path / "tree.yaml"
+    path.write_text(text)
+    robot = dynderive.load_robot(path)
+    model, qp, vp = _pinocchio(robot)
+    assert [j for j in robot.joints if j.type == kind]
+    module = _module(robot, tmp_path)
+    data, rng = model.createData(), np.random.default_rng(seed)
+    for _ in range(3):
+        q, v, a = (rng.uniform(-1, 1, size=model.nv) for _ in range(3))
+        M = pin.crba(model, data, q[qp])
+        M = np.triu(M) + np.triu(M, 1).T
+        np.testing.assert_allclose(module.mass_matrix(q)[np.ix_(vp, vp)], M, rtol=0, atol=1e-9 * max(1, abs(M).max()))
+        tau = pin.rnea(model, data, q[qp], v[vp], a[vp])
+        np.testing.assert_allclose(module.inverse_dynamics(q, v, a)[vp], tau, rtol=0, atol=1e-9 * max(1, abs(tau).max()))
+        A, _ = module.linearize(q, v, np.zeros(len(module.EFFORTS)))
+        dq, dv = _aba_differences(model, q[qp], v[vp], np.zeros(model.nv))
+        n = model.nv
+        np.testing.assert_allclose(A[n:, :n][np.ix_(vp, vp)], dq, rtol=0, atol=1e-6 * max(1, abs(dq).max()))
+        np.testing.assert_allclose(A[n:, n:][np.ix_(vp, vp)], dv, rtol=0, atol=1e-6 * max(1, abs(dv).max()))
+        _coriolis_properties(model, module.coriolis_matrix(q, v)[np.ix_(vp, vp)], q[qp], v[vp])

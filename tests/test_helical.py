@@ -18,9 +18,9 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from joint_trees import CHECK_ROWS, check_passes_every_row, tree_equals_pinocchio
+from joint_trees import CHECK_ROWS, check_passes_every_row, module_equals_pinocchio, tree_equals_pinocchio
 from test_free_flyer import _module
-from test_spherical import _pinocchio, _tree
+from test_spherical import _tree
 
 from random_robots3d import random_spatial_tree
 
@@ -77,25 +77,7 @@ def test_a_vector_space_tree_with_helical_joints_checks_against_pinocchio_and_it
 
 @pytest.mark.pinocchio
 def test_a_vector_space_tree_with_helical_joints_equals_pinocchio_by_the_module(tmp_path):
-    path = tmp_path / "screw_tree.yaml"
-    path.write_text(_vector_space_tree(7))
-    robot = dynderive.load_robot(path)
-    model, qp, vp = _pinocchio(robot)
-    assert [j for j in robot.joints if j.type == "helical"]
-    module = _module(robot, tmp_path)
-    data, rng = model.createData(), np.random.default_rng(7)
-    for _ in range(3):
-        q, v, a = (rng.uniform(-1, 1, size=model.nv) for _ in range(3))
-        M = pin.crba(model, data, q[qp])
-        M = np.triu(M) + np.triu(M, 1).T
-        np.testing.assert_allclose(module.mass_matrix(q)[np.ix_(vp, vp)], M, rtol=0, atol=1e-9 * max(1, abs(M).max()))
-        tau = pin.rnea(model, data, q[qp], v[vp], a[vp])
-        np.testing.assert_allclose(module.inverse_dynamics(q, v, a)[vp], tau, rtol=0, atol=1e-9 * max(1, abs(tau).max()))
-        pin.computeABADerivatives(model, data, q[qp], v[vp], np.zeros(model.nv))   # linearize at u = 0
-        A, _ = module.linearize(q, v, np.zeros(len(module.EFFORTS)))
-        n = model.nv
-        np.testing.assert_allclose(A[n:, :n][np.ix_(vp, vp)], data.ddq_dq, rtol=0,
-                                   atol=1e-9 * max(1, abs(data.ddq_dq).max()))
+    module_equals_pinocchio(_vector_space_tree(7), "helical", tmp_path)
 
 
 SCREW = """name: screw

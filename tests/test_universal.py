@@ -24,10 +24,10 @@ from typer.testing import CliRunner
 
 import dynderive
 from dynderive.commands.cli import app
-from joint_trees import CHECK_ROWS, check_passes_every_row, tree_equals_pinocchio
+from joint_trees import CHECK_ROWS, check_passes_every_row, module_equals_pinocchio, tree_equals_pinocchio
 from test_free_flyer import _module
 from test_helical import _screws
-from test_spherical import _aba_differences, _coriolis_properties, _pinocchio, _tree
+from test_spherical import _tree
 
 from random_robots3d import random_spatial_tree
 
@@ -88,28 +88,7 @@ def test_a_vector_space_tree_with_universal_joints_checks_against_pinocchio_and_
 
 @pytest.mark.pinocchio
 def test_a_vector_space_tree_with_universal_joints_equals_pinocchio_by_the_module(tmp_path):
-    path = tmp_path / "cardan_tree.yaml"
-    path.write_text(_vector_space_tree(7))
-    robot = dynderive.load_robot(path)
-    model, qp, vp = _pinocchio(robot)
-    assert [j for j in robot.joints if j.type == "universal"]
-    module = _module(robot, tmp_path)
-    data, rng = model.createData(), np.random.default_rng(7)
-    for _ in range(3):
-        q, v, a = (rng.uniform(-1, 1, size=model.nv) for _ in range(3))
-        M = pin.crba(model, data, q[qp])
-        M = np.triu(M) + np.triu(M, 1).T
-        np.testing.assert_allclose(module.mass_matrix(q)[np.ix_(vp, vp)], M, rtol=0, atol=1e-9 * max(1, abs(M).max()))
-        tau = pin.rnea(model, data, q[qp], v[vp], a[vp])
-        np.testing.assert_allclose(module.inverse_dynamics(q, v, a)[vp], tau, rtol=0, atol=1e-9 * max(1, abs(tau).max()))
-        # linearize at u = 0, against central differences of Pinocchio's aba (its own
-        # computeABADerivatives and computeCoriolisMatrix leave out the universal joint's column rates)
-        A, _ = module.linearize(q, v, np.zeros(len(module.EFFORTS)))
-        dq, dv = _aba_differences(model, q[qp], v[vp], np.zeros(model.nv))
-        n = model.nv
-        np.testing.assert_allclose(A[n:, :n][np.ix_(vp, vp)], dq, rtol=0, atol=1e-6 * max(1, abs(dq).max()))
-        np.testing.assert_allclose(A[n:, n:][np.ix_(vp, vp)], dv, rtol=0, atol=1e-6 * max(1, abs(dv).max()))
-        _coriolis_properties(model, module.coriolis_matrix(q, v)[np.ix_(vp, vp)], q[qp], v[vp])
+    module_equals_pinocchio(_vector_space_tree(7), "universal", tmp_path)
 
 
 CARDAN = """name: cardan

@@ -489,6 +489,11 @@ class Derivation:
         """The joint's type (``mechanics.joint_types``): its placement for a figure's numbers."""
         return joint_types.of(joint)
 
+    @staticmethod
+    def joint_geometry(joint: Joint, expr: Callable[[object], sympy.Expr]) -> joint_types.Geometry:
+        """The values of the joint's own keys (a helical joint's pitch) as ``expr`` reads them."""
+        return joint_types.geometry_of(joint, expr)
+
     @property
     def parameter_vector(self) -> list[Parameter]:
         """The regressor's parameters ``pi`` (``mechanics.regressor.Parameter``: name, value

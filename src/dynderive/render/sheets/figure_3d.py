@@ -93,8 +93,7 @@ def spatial_kinematics(robot: Robot, table: Any, q: list[float],
                 start = index[joint.kind.names(joint.name)[0][0]]
                 kind, entries = joint_type(joint), [sympy.Float(x) for x in q[start:start + joint.kind.nq]]
                 unit_axis = tuple(sympy.Float(a) for a in axis)
-                geometry = {k: tuple(sympy.Float(num(e)) for e in v) if isinstance(v, tuple) else sympy.Float(num(v))
-                            for k, v in joint.geometry}
+                geometry = Derivation.joint_geometry(joint, lambda e: sympy.Float(num(e)))
                 shift = kind.displacement(sympy.eye(3), entries, unit_axis, geometry)
                 frames[joint.child] = (R0 @ np.array(kind.rotation(entries, unit_axis, geometry), dtype=float),
                                        p0 + (0.0 if shift is None else R0 @ np.array(shift, dtype=float).reshape(3)))
