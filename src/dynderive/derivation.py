@@ -7,6 +7,7 @@ The engine's only output. Renderers read it; they never call into ``mechanics`` 
 from __future__ import annotations
 
 from collections.abc import Callable, Collection, Iterator
+from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, cast
 
@@ -60,6 +61,19 @@ Progress = Callable[[str], None]
 WANTS = ("sheet", "code", "kinematics")
 
 
+@dataclass
+class StageResults:
+    """What the stages derive beside the named quantities, typed; read through ``Derivation``'s
+    accessors, which run the stage first (``link_kinematics``, ``loop_model``,
+    ``generalized_steps``, ``maximal_steps``)."""
+
+    kinematics: list[PlanarLinkKinematics | SpatialLinkKinematics] | None = None
+    loops: LoopModel | LoopPrograms | None = None
+    generalized: GeneralizedSteps | None = None
+    maximal_model: MaximalSteps | None = None
+    maximal: MaximalSteps | None = None
+
+
 class Derivation:
     """Named SymPy quantities (DESIGN.md section 4), intermediate steps and checks, each
     derived when first asked for: code for a 3-D arm needs none of the symbolic matrices.
@@ -82,23 +96,23 @@ class Derivation:
         #: Whether the generalized quantities are in intermediate-variable form (large robots).
         self.intermediate_form = intermediate_form(robot)
         self._stages = Stages()
-        self.quantities = LazyMapping(self._stages, "quantities")
-        self.steps = LazyMapping(self._stages, "steps")
+        self.quantities = LazyMapping(self._stages)
+        self._results = StageResults()
         self._checks: list[Check] | None = None
         add = self._stages.add
-        add(Stage(self._kinematics, frozenset(), frozenset({"kinematics"})))
+        add(Stage(self._kinematics, frozenset()))
         add(Stage(self._applied_forces, frozenset({"Y_g"})))
         if robot.loops:
-            add(Stage(self._loops, frozenset() if robot.floating else frozenset(LOOP_KEYS), frozenset({"loops"})))
-        add(Stage(self._generalized, None, frozenset({"generalized"})))
+            add(Stage(self._loops, frozenset() if robot.floating else frozenset(LOOP_KEYS)))
+        add(Stage(self._generalized, None))
         if robot.planar:
-            add(Stage(self._maximal_model, frozenset(MAXIMAL_MODEL_KEYS), frozenset({"maximal_model"})))
-            add(Stage(self._maximal_equations, frozenset(MAXIMAL_EQUATION_KEYS), frozenset({"maximal"})))
+            add(Stage(self._maximal_model, frozenset(MAXIMAL_MODEL_KEYS)))
+            add(Stage(self._maximal_equations, frozenset(MAXIMAL_EQUATION_KEYS)))
         if robot.frames and not self.intermediate_form:
             names = (name for f in robot.frames for name in frame_quantity_names(f.name, robot.planar))
             add(Stage(self._frames, frozenset(names)))
         if not robot.planar and not robot.floating and not robot.loops and not self.intermediate_form:
-            add(Stage(self._centroidal, frozenset(CENTROIDAL_QUANTITIES), frozenset({"centroidal"})))
+            add(Stage(self._centroidal, frozenset(CENTROIDAL_QUANTITIES)))
 
     def prepare(self, wants: Collection[str]) -> None:
         """Derive now what the outputs ``wants`` (``WANTS``) read, so that rendering them derives
@@ -121,7 +135,7 @@ class Derivation:
             if not self.structured_code:   # a small planar robot's code prints M_g, C_g, N_g
                 _ = self.quantities["M_g"]
             if robot.planar:   # the maximal-coordinate functions
-                _ = self.steps["maximal_model"]
+                self._stages.run(self._maximal_model)
         if "kinematics" in wants and not robot.floating:
             _ = self.link_kinematics
 
@@ -138,11 +152,11 @@ class Derivation:
         self._symbolic("the symbolic kinematics")
         self.report(f"kinematics ({len(self.robot.links)} links)")
         if self.robot.planar:
-            self.steps["kinematics"] = planar_kinematics(self.robot, self.symbols)
+            self._results.kinematics = list(planar_kinematics(self.robot, self.symbols))
         else:
             from .mechanics.spatial import spatial_kinematics
 
-            self.steps["kinematics"] = spatial_kinematics(self.robot, self.symbols)
+            self._results.kinematics = list(spatial_kinematics(self.robot, self.symbols))
 
     def _applied_forces(self) -> None:
         self._symbolic("the symbolic applied forces Y_g")
@@ -166,13 +180,13 @@ class Derivation:
         if robot.loops:
             self._close_loops(quantities)
         self.quantities.update(quantities)
-        self.steps["generalized"] = steps
+        self._results.generalized = steps
 
     def _loops(self) -> None:
         if self.robot.floating:   # quaternions in q: the loops are rows on the tree's twists
             from .mechanics.loop_programs import open_tree_note
 
-            self.steps["loops"] = self.loop_programs
+            self._results.loops = self.loop_programs
             self.notes.append(open_tree_note(self.robot, self.loop_programs))
             return
         from .mechanics.loops import derive_loops
@@ -182,7 +196,7 @@ class Derivation:
         self.symbols.loop_multipliers = model.multipliers
         self.quantities.update(zip(LOOP_KEYS, (model.constraints, model.jacobian, model.jacobian_dot,
                                                 sympy.Matrix(model.multipliers))))
-        self.steps["loops"] = model
+        self._results.loops = model
         self.notes.extend(model.notes)
 
     @property
@@ -223,20 +237,21 @@ class Derivation:
                                           loops.row_indices if loops else None,
                                           quick_tidy if self.intermediate_form else tidy)
         self.quantities.update(quantities)
-        self.steps["maximal_model"] = steps
+        self._results.maximal_model = steps
 
     def _maximal_equations(self) -> None:
         from .mechanics.maximal import maximal_equations
 
         model = {key: self.quantities[key] for key in MAXIMAL_MODEL_KEYS if key in self.quantities}
-        steps = cast("MaximalSteps", dict(self.steps["maximal_model"]))
+        self._stages.run(self._maximal_model)
+        steps = cast("MaximalSteps", dict(cast("MaximalSteps", self._results.maximal_model)))
         self.report("maximal coordinates: equations of motion")
         quantities = maximal_equations(self.symbols, model, steps,
                                        self._loop_force() if self.robot.loops else None,
                                        change_of_basis=not self.intermediate_form,
                                        clean=quick_tidy if self.intermediate_form else tidy)
         self.quantities.update(quantities)
-        self.steps["maximal"] = steps
+        self._results.maximal = steps
 
     def _frames(self) -> None:
         from .mechanics.frames import frame_quantities
@@ -246,7 +261,7 @@ class Derivation:
         self.quantities.update(frame_quantities(self.robot, self.symbols))
 
     def _centroidal(self) -> None:
-        self.steps["centroidal"] = steps = self.centroidal_steps
+        steps = self.centroidal_steps
         if steps is not None:
             self.quantities.update(steps.quantities())
 
@@ -276,7 +291,8 @@ class Derivation:
         """The links' symbolic kinematics in the file's link order (``planar.PlanarLinkKinematics``
         or ``spatial.SpatialLinkKinematics``: poses, twists, body Jacobians), derived on first use;
         not for a robot with quaternions in q."""
-        return cast("list[PlanarLinkKinematics | SpatialLinkKinematics]", self.steps["kinematics"])
+        self._stages.run(self._kinematics)
+        return cast("list[PlanarLinkKinematics | SpatialLinkKinematics]", self._results.kinematics)
 
     @property
     def loop_model(self) -> LoopModel:
@@ -286,13 +302,15 @@ class Derivation:
         if not self.robot.loops or self.robot.floating:
             raise ValueError(f"{self.robot.name} has no symbolic loop model: "
                              + ("its loops are closed by loop_programs" if self.robot.loops else "no closed loops"))
-        return cast("LoopModel", self.steps["loops"])
+        self._stages.run(self._loops)
+        return cast("LoopModel", self._results.loops)
 
     @property
     def generalized_steps(self) -> GeneralizedSteps:
         """The generalized stage's steps (``mechanics.generalized.GeneralizedSteps``: the links'
         terms, Lagrange's derivatives, gravity, the drive terms), derived on first use."""
-        return cast("GeneralizedSteps", self.steps["generalized"])
+        self._stages.run(self._generalized)
+        return cast("GeneralizedSteps", self._results.generalized)
 
     @property
     def maximal_steps(self) -> MaximalSteps | None:
@@ -301,7 +319,8 @@ class Derivation:
         derived on first use; None for a 3-D robot, which has no maximal coordinates."""
         if not self.robot.planar:
             return None
-        return cast("MaximalSteps", self.steps["maximal"])
+        self._stages.run(self._maximal_equations)
+        return cast("MaximalSteps", self._results.maximal)
 
     # -- results ---------------------------------------------------------------------------
     def description(self, name: str) -> str:
@@ -418,7 +437,7 @@ class Derivation:
         """The engine's consistency checks (``run_checks``), run on first use."""
         if self._checks is None:
             self._checks = []
-            self._stages.need("quantities", None)
+            self._stages.need(None)
             self.report("checks")
             self._checks = run_checks(self)
         return self._checks
@@ -556,7 +575,7 @@ def derive(robot: Robot, wants: Collection[str] = (), progress: Progress | None 
     table = SymbolTable.for_robot(robot)
     check_mass_matrix(robot, table)
     derivation = Derivation(robot, table, progress)
-    _ = derivation.steps["loops"] if robot.loops else None   # loop problems are input errors: at once
+    derivation._stages.run(derivation._loops)   # loop problems are input errors: at once
     derivation.prepare(wants)
     return derivation
 

@@ -1,7 +1,7 @@
 """The derivation's stages: each part of it runs the first time one of its results is read
-(``Stages``), and the quantities and steps it fills are dicts derived on access
-(``LazyMapping``); ``Derivation`` declares its stages, ``derive(robot, wants)`` runs those the
-requested outputs read before any renderer does."""
+(``Stages``: by a quantity's name, or the stage itself for its typed result), and the quantities
+it fills are a dict derived on access (``LazyMapping``); ``Derivation`` declares its stages,
+``derive(robot, wants)`` runs those the requested outputs read before any renderer does."""
 
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ class Stage:
 
     run: Callable[[], None]
     quantities: frozenset[str] | None   # names it provides; None: any name no stage declares
-    steps: frozenset[str] = frozenset()
 
 
 class Stages:
@@ -30,14 +29,23 @@ class Stages:
         self.all.append(stage)
         self.pending.append(stage)
 
-    def need(self, space: str, name: str | None) -> None:
-        """Run the pending stages that provide ``name`` in ``space`` ('quantities' or
-        'steps'); every pending stage when ``name`` is None."""
+    def run(self, method: Callable[[], None]) -> None:
+        """Run the stage ``method`` is, if it is pending (a stage the robot does not have, or one
+        that ran, does nothing): its typed result is read next."""
+        for stage in self.pending:
+            if stage.run == method:
+                self.pending.remove(stage)
+                stage.run()
+                return
+
+    def need(self, name: str | None) -> None:
+        """Run the pending stages that provide the quantity ``name``; every pending stage when
+        ``name`` is None."""
         declared = {k for s in self.all if s.quantities is not None for k in s.quantities}
         for stage in list(self.pending):
             if stage not in self.pending:   # ran meanwhile, as another stage's dependency
                 continue
-            provides = stage.steps if space == "steps" else stage.quantities
+            provides = stage.quantities
             if name is None and provides is not None and not provides:
                 continue   # gives nothing here (kinematics): runs only as another stage's input
             if name is None or (provides is None and name not in declared) or (provides and name in provides):
@@ -50,27 +58,27 @@ class LazyMapping(MutableMapping[str, Any]):
     large planar robot builds the maximal model only, never the generalized equations.
     Iterating (the sheet, the JSON) derives everything."""
 
-    def __init__(self, stages: Stages, space: str):
-        self._stages, self._space = stages, space
+    def __init__(self, stages: Stages):
+        self._stages = stages
         self._data: dict[str, Any] = {}
         self._rank: dict[str, tuple[int, int]] = {}
 
     def __getitem__(self, key: str) -> Any:
         if key not in self._data:
-            self._stages.need(self._space, key)
+            self._stages.need(key)
         return self._data[key]
 
     def __contains__(self, key: object) -> bool:
         if isinstance(key, str) and key not in self._data:
-            self._stages.need(self._space, key)
+            self._stages.need(key)
         return key in self._data
 
     def __iter__(self) -> Iterator[str]:
-        self._stages.need(self._space, None)
+        self._stages.need(None)
         return iter(sorted(self._data, key=self._rank.__getitem__))
 
     def __len__(self) -> int:
-        self._stages.need(self._space, None)
+        self._stages.need(None)
         return len(self._data)
 
     def __setitem__(self, key: str, value: Any) -> None:
