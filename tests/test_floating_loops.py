@@ -253,10 +253,15 @@ def test_the_matlab_package_agrees_with_the_numpy_module_in_octave(tmp_path, tex
         calls.add(f"a{index}", f"loop_constraints({_vector(q)})", module.loop_constraints(q))
         calls.add(f"A{index}", f"loop_jacobian({_vector(q)})", module.loop_jacobian(q))
         calls.add(f"drift{index}", f"loop_jacobian_dot_qd({state})", module.loop_jacobian_dot_qd(q, qd))
-        calls.add(f"qdd{index}", f"forward_dynamics({state}, {_vector(u)})", module.forward_dynamics(q, qd, u))
+        # the solves go through each LAPACK's SVD of the rows (the rank found at the state): two
+        # libraries agree to the system's conditioning, not to the rows' 1e-11 (a CI run: 1.4e-11)
+        solve = 1e-9
+        calls.add(f"qdd{index}", f"forward_dynamics({state}, {_vector(u)})", module.forward_dynamics(q, qd, u),
+                  tolerance=solve)
         calls.add(f"gains{index}", f"forward_dynamics({state}, {_vector(u)}, p)",
-                  module.forward_dynamics(q, qd, u, alpha=0.7, beta=1.9))
-        calls.add(f"lambda{index}", f"loop_forces({state}, {_vector(u)})", module.loop_forces(q, qd, u))
+                  module.forward_dynamics(q, qd, u, alpha=0.7, beta=1.9), tolerance=solve)
+        calls.add(f"lambda{index}", f"loop_forces({state}, {_vector(u)})", module.loop_forces(q, qd, u),
+                  tolerance=solve)
     calls.check(_octave(out, "\n".join(calls.lines), warnings=False))
 
 
