@@ -234,9 +234,12 @@ def test_every_offered_function_agrees_with_the_numpy_module(target, key, folder
 
 def test_the_reference_is_the_numpy_module_and_every_loader_is_a_target_of_the_registry():
     """What this file compares with is the NumPy module, and every target ``simulate --backend``
-    can load is compared (C, JAX, CasADi today)."""
-    assert REFERENCE.name == "numpy" and not REFERENCE.load
-    assert {t.name for t in LOADED} >= {"c", "jax", "casadi"}
+    can load is compared (C, JAX, CasADi, PyTorch today), each a target of the registry."""
+    from dynderive.render.targets import by_name
+
+    assert REFERENCE.name == "numpy" and REFERENCE.name not in {harness.name for harness in LOADED}
+    assert {harness.name for harness in LOADED} >= {"c", "jax", "casadi", "torch"}
+    assert all(by_name(harness.name) is harness.target for harness in LOADED)
 
 
 #: A floating box with a damped arm (smoothed Coulomb friction) and a frame: what ``simulate``
