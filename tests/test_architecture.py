@@ -352,3 +352,22 @@ def test_the_kind_check_sees_a_branch_and_not_a_comment():
     assert _kind_branches("{%- if loops and not spherical +%}") == ["if loops and not spherical"]
     assert _kind_branches("{#- the floating type of a result #}{{ robot_kind }} the floating type") == []
     assert _kind_branches(r"\BLOCK{if floating_base}x\BLOCK{endif} the floating base \VAR{free_body}") == ["if floating_base"]
+
+
+def test_derivations_and_robots_are_typed_parameters():
+    """No function takes a ``derivation`` or a ``robot`` typed ``Any`` (or not typed): what a
+    renderer or a command receives says what it is (``Derivation``, ``Robot``)."""
+    found = []
+    for relative, _, _ in MODULES:
+        tree = ast.parse((PACKAGE / relative).read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                continue
+            arguments = node.args
+            for argument in (*arguments.posonlyargs, *arguments.args, *arguments.kwonlyargs):
+                if argument.arg not in ("derivation", "robot") or isinstance(node, ast.Lambda):
+                    continue
+                annotation = ast.unparse(argument.annotation) if argument.annotation is not None else None
+                if annotation is None or "Any" in annotation:
+                    found.append(f"{relative}:{node.lineno}: {node.name}({argument.arg}: {annotation})")
+    assert found == []
