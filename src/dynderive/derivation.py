@@ -242,9 +242,9 @@ class Derivation:
     def _maximal_equations(self) -> None:
         from .mechanics.maximal import maximal_equations
 
-        model = {key: self.quantities[key] for key in MAXIMAL_MODEL_KEYS if key in self.quantities}
         self._stages.run(self._maximal_model)
-        steps = cast("MaximalSteps", dict(cast("MaximalSteps", self._results.maximal_model)))
+        model = {key: self.quantities[key] for key in MAXIMAL_MODEL_KEYS if key in self.quantities}
+        steps = cast("MaximalSteps", dict(self._results.maximal_model or {}))
         self.report("maximal coordinates: equations of motion")
         quantities = maximal_equations(self.symbols, model, steps,
                                        self._loop_force() if self.robot.loops else None,

@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-from ..model.joint_kinds import BALL, PLANE_AS_JOINTS, is_free
+from ..model.joint_kinds import BALL, PLANE_AS_JOINTS
 from ..model.robot import Joint, Link
 
 #: Names the generated module of a floating-base robot defines or takes as arguments (besides
@@ -45,7 +45,7 @@ def check_floating(v: Any, top: dict[str, Any], joints: list[Joint], planar: boo
     take the floating-base module); a planar ``floating`` joint anywhere in a planar robot,
     its coordinates' and massless links' names free."""
     spherical = [i for i, j in enumerate(joints) if j.type == BALL]
-    floating = [(i, j) for i, j in enumerate(joints) if is_free(j.type)]
+    floating = [(i, j) for i, j in enumerate(joints) if j.kind.free]
     if planar:
         spatial_only = [(i, j) for i, j in enumerate(joints) if not j.kind.planar]
         for i, joint in spatial_only:
@@ -77,7 +77,7 @@ def _planar_names(v: Any, floating: list[tuple[int, Joint]], joints: list[Joint]
 
 def virtual_links(joints: list[Joint], planar: bool) -> list[Link]:
     """The massless links a planar robot's floating joints add (none in 3-D)."""
-    return [Link(name, 0, (0, 0), (0,)) for j in joints if planar and is_free(j.type)
+    return [Link(name, 0, (0, 0), (0,)) for j in joints if planar and j.kind.free
             for name in planar_floating_links(j.name)]
 
 
@@ -90,7 +90,7 @@ def expand_planar_floating(joints: list[Joint], links: list[Link],
     expanded: list[Joint] = []
     added: list[Link] = []
     for joint in joints:
-        if not is_free(joint.type):
+        if not joint.kind.free:
             expanded.append(joint)
             continue
         x, y, theta = planar_floating_names(joint.name)

@@ -10,7 +10,6 @@ import builtins
 from typing import Any
 
 from ..model.expressions import RESERVED
-from ..model.joint_kinds import is_free
 from ..model.naming import (
     CENTROIDAL_QUANTITIES,
     FRAME_KINDS,
@@ -24,7 +23,7 @@ from ..model.naming import (
     maximal_coordinate_names,
     velocity_name,
 )
-from ..model.robot import Joint, Link, Parameter, floating_names
+from ..model.robot import Joint, Link, Parameter
 from .free_joints import planar_floating_names
 
 #: Python's built-in names (``float``, ``range``, ``sum``, ``ValueError``...): a robot symbol
@@ -127,20 +126,20 @@ def check_names(v: Any, parameters: list[Parameter], links: list[Link],
         seen_joints.add(joint.name)
         path = ("joints", i, "name")
         label = v.label(path)
-        if planar and is_free(joint.type):   # three coordinates <joint>_x, _y, _theta
+        if planar and joint.kind.free:   # three coordinates <joint>_x, _y, _theta
             for name in planar_floating_names(joint.name):
                 claim_coordinate(name, f"{label} (coordinate '{name}')", label, path)
             continue
-        if joint.kind.vector_space and joint.kind.nq > 1:   # universal, 3-D planar: <joint>_<suffix> each
-            for name in joint.kind.names(joint.name)[0]:
-                claim_coordinate(name, f"{label} (coordinate '{name}')", label, path)
-            for name in joint.effort_names:
-                claim(name, f"joints[{i}].effort ('{name}')", ("joints", i, "effort"))
-            continue
-        if joint.multi:   # a floating or spherical joint: its configuration, velocity and acceleration entries
-            for name in (n for names in floating_names(joint.name, joint.type) for n in names):
+        if joint.kind.nq > 1:   # entries <joint>_<suffix>: universal, planar, spherical, floating
+            coordinates, velocities, accelerations, _ = joint.kind.names(joint.name)
+            for name in coordinates:   # a vector-space joint's rates are named from its coordinates
+                if joint.kind.vector_space:
+                    claim_coordinate(name, f"{label} (coordinate '{name}')", label, path)
+                else:
+                    claim(name, f"{label} (coordinate '{name}')", path)
+            for name in (*velocities, *accelerations):
                 claim(name, f"{label} (coordinate '{name}')", path)
-            for name in joint.effort_names:   # e_fx ... e_tz
+            for name in joint.effort_names:   # e_1, e_2; e_fx ... e_tz
                 claim(name, f"joints[{i}].effort ('{name}')", ("joints", i, "effort"))
             continue
         if claim_coordinate(joint.name, label, label, path) and joint.effort:

@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from ..errors import InputError, Problem
-from ..model.joint_kinds import is_angle, is_free, is_welded, joint_kind, urdf_types
+from ..model.joint_kinds import is_angle, is_free, is_welded, urdf_types
 from ..model.naming import body_jacobian_index, frame_quantity_names
 from . import inertia
 from .loader import Path_, SourceDocument
@@ -44,8 +44,9 @@ from .urdf_xml import _Element, _parse_xml
 
 #: URDF ``type`` attribute -> the robot file's joint type (the joint specification's map).
 URDF_TYPES = urdf_types()
-#: URDF's planar joint (a 3-D planar joint: x, y and theta in the plane normal to its axis).
-URDF_PLANAR = next(attribute for attribute, name in URDF_TYPES.items() if joint_kind(name).nq == 3)
+#: URDF's planar joint's ``type`` attribute (the 3-D planar joint: x, y and theta in the plane
+#: normal to its axis; no mimic, its <dynamics> ignored as Pinocchio's parser does).
+URDF_PLANAR = "planar"
 
 
 def identifier(name: str) -> str:
