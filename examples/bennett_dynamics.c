@@ -2972,6 +2972,511 @@ void bennett_centroidal_inertia(const double *q, const bennett_parameters *p, do
     Ig[35] = t73;
 }
 
+/* qdd and the contact forces with `ncontacts` frames held (frames: their frame numbers; kinds: 0 point, 1 surface, NULL for the robot file's kinds, else point): M qdd = tau - h + J^T forces, J qdd = -gamma, gamma = Jdot qd + kd J qd + kp e (baumgarte: (kp, kd), NULL for (0, 0); anchors: NULL, or per contact in order a point's held position (3) or a surface's held pose (4 x 4, row-major), e the position error). u NULL: no effort. forces: 3 per point contact (world-aligned), 6 per surface contact (force, then moment, in the frame's axes). Pinocchio's forwardDynamics(model, data, q, v, tau, J, gamma, 0). No external wrenches. The closed loops hold too: their rows (target with the struct's alpha and beta, as forward_dynamics) solved with the contacts'; forces are the contacts' alone. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; 4 kp without anchors (outputs untouched unless 0). */
+int bennett_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const bennett_parameters *p, double *qdd, double *forces)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[9];
+    double zeros[3];
+    double h[3];
+    double tau[3];
+    double jac[15];
+    double Adot[15];
+    double loop_drift[5];
+    double a[5];
+    double rate[5];
+    double bottom[5];
+    double Jf[18];
+    double acc[6] = {0};
+    double J[33];
+    double drift[11];
+    double T[16] = {0};
+    double error[11];
+    double twist[6];
+    double turn[9];
+    double gam[11];
+    double rows[33];
+    double target[11];
+    double multipliers[11];
+    int count = 0, at = 0;
+    if (ncontacts < 0 || ncontacts > 0 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 0) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    const bennett_parameters *const P = p ? p : &bennett_default_parameters;
+    const double alpha = P->alpha, beta = P->beta;
+    const double kp = baumgarte ? baumgarte[0] : 0.0;
+    const double kd = baumgarte ? baumgarte[1] : 0.0;
+    if (kp != 0.0 && !anchors) return 4;
+    for (int i = 0; i < 3; ++i) zeros[i] = 0.0;
+    bennett_mass_matrix(q, p, M);
+    bennett_inverse_dynamics(q, qd, zeros, p, h);
+    bennett_generalized_forces(q, u ? u : zeros, p, tau);
+    bennett_loop_jacobian(q, p, jac);
+    bennett_loop_jacobian_dot(q, qd, p, Adot);
+    loop_drift[0] = Adot[0]*qd[0] + Adot[1]*qd[1] + Adot[2]*qd[2];
+    loop_drift[1] = Adot[3]*qd[0] + Adot[4]*qd[1] + Adot[5]*qd[2];
+    loop_drift[2] = Adot[6]*qd[0] + Adot[7]*qd[1] + Adot[8]*qd[2];
+    loop_drift[3] = Adot[9]*qd[0] + Adot[10]*qd[1] + Adot[11]*qd[2];
+    loop_drift[4] = Adot[12]*qd[0] + Adot[13]*qd[1] + Adot[14]*qd[2];
+    bennett_loop_constraints(q, p, a);
+    rate[0] = jac[0]*qd[0] + jac[1]*qd[1] + jac[2]*qd[2];
+    rate[1] = jac[3]*qd[0] + jac[4]*qd[1] + jac[5]*qd[2];
+    rate[2] = jac[6]*qd[0] + jac[7]*qd[1] + jac[8]*qd[2];
+    rate[3] = jac[9]*qd[0] + jac[10]*qd[1] + jac[11]*qd[2];
+    rate[4] = jac[12]*qd[0] + jac[13]*qd[1] + jac[14]*qd[2];
+    bottom[0] = (-loop_drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+    bottom[1] = (-loop_drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+    bottom[2] = (-loop_drift[2] - alpha*(rate[2] + rate[2])) - beta*beta*a[2];
+    bottom[3] = (-loop_drift[3] - alpha*(rate[3] + rate[3])) - beta*beta*a[3];
+    bottom[4] = (-loop_drift[4] - alpha*(rate[4] + rate[4])) - beta*beta*a[4];
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
+        const int f = frames[c];
+        const double *A = anchors ? anchors + at : anchors;
+        bennett_frame_jacobian(q, f, p, Jf);
+        bennett_frame_jacobian_dot_qd(q, qd, f, p, acc);
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = Jf[j];
+                J[(count + 1) * 3 + j] = Jf[3 + j];
+                J[(count + 2) * 3 + j] = Jf[6 + j];
+            }
+            drift[count + 0] = acc[0];
+            drift[count + 1] = acc[1];
+            drift[count + 2] = acc[2];
+            if (anchors) {
+                bennett_frame_transform(q, f, p, T);
+                error[count + 0] = T[3] - A[0];
+                error[count + 1] = T[7] - A[1];
+                error[count + 2] = T[11] - A[2];
+            }
+            count += 3;
+            at += 3;
+        } else {
+            bennett_frame_transform(q, f, p, T);
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = T[0]*Jf[j] + T[4]*Jf[3 + j] + T[8]*Jf[6 + j];
+                J[(count + 1) * 3 + j] = T[1]*Jf[j] + T[5]*Jf[3 + j] + T[9]*Jf[6 + j];
+                J[(count + 2) * 3 + j] = T[2]*Jf[j] + T[6]*Jf[3 + j] + T[10]*Jf[6 + j];
+                J[(count + 3) * 3 + j] = T[0]*Jf[9 + j] + T[4]*Jf[12 + j] + T[8]*Jf[15 + j];
+                J[(count + 4) * 3 + j] = T[1]*Jf[9 + j] + T[5]*Jf[12 + j] + T[9]*Jf[15 + j];
+                J[(count + 5) * 3 + j] = T[2]*Jf[9 + j] + T[6]*Jf[12 + j] + T[10]*Jf[15 + j];
+            }
+            twist[0] = Jf[0]*qd[0] + Jf[1]*qd[1] + Jf[2]*qd[2];
+            twist[1] = Jf[3]*qd[0] + Jf[4]*qd[1] + Jf[5]*qd[2];
+            twist[2] = Jf[6]*qd[0] + Jf[7]*qd[1] + Jf[8]*qd[2];
+            twist[3] = Jf[9]*qd[0] + Jf[10]*qd[1] + Jf[11]*qd[2];
+            twist[4] = Jf[12]*qd[0] + Jf[13]*qd[1] + Jf[14]*qd[2];
+            twist[5] = Jf[15]*qd[0] + Jf[16]*qd[1] + Jf[17]*qd[2];
+            double t0[3];
+            t0[0] = acc[0] - (twist[4]*twist[2] - twist[5]*twist[1]);
+            t0[1] = acc[1] - (twist[5]*twist[0] - twist[3]*twist[2]);
+            t0[2] = acc[2] - (twist[3]*twist[1] - twist[4]*twist[0]);
+            drift[count + 0] = T[0]*t0[0] + T[4]*t0[1] + T[8]*t0[2];
+            drift[count + 1] = T[1]*t0[0] + T[5]*t0[1] + T[9]*t0[2];
+            drift[count + 2] = T[2]*t0[0] + T[6]*t0[1] + T[10]*t0[2];
+            drift[count + 3] = T[0]*acc[3] + T[4]*acc[4] + T[8]*acc[5];
+            drift[count + 4] = T[1]*acc[3] + T[5]*acc[4] + T[9]*acc[5];
+            drift[count + 5] = T[2]*acc[3] + T[6]*acc[4] + T[10]*acc[5];
+            if (anchors) {
+                for (int j = 0; j < 3; ++j) {
+                    turn[j] = A[0]*T[j] + A[4]*T[4 + j] + A[8]*T[8 + j];
+                    turn[3 + j] = A[1]*T[j] + A[5]*T[4 + j] + A[9]*T[8 + j];
+                    turn[6 + j] = A[2]*T[j] + A[6]*T[4 + j] + A[10]*T[8 + j];
+                }
+                double t1[3];
+                t1[0] = T[3] - A[3];
+                t1[1] = T[7] - A[7];
+                t1[2] = T[11] - A[11];
+                error[count + 0] = T[0]*t1[0] + T[4]*t1[1] + T[8]*t1[2];
+                error[count + 1] = T[1]*t1[0] + T[5]*t1[1] + T[9]*t1[2];
+                error[count + 2] = T[2]*t1[0] + T[6]*t1[1] + T[10]*t1[2];
+                error[count + 3] = (turn[7] - turn[5]) / 2;
+                error[count + 4] = (turn[2] - turn[6]) / 2;
+                error[count + 5] = (turn[3] - turn[1]) / 2;
+            }
+            count += 6;
+            at += 16;
+        }
+    }
+    for (int r = 0; r < count; ++r) {
+        gam[r] = drift[r] + kd*J[r * 3 + 0]*qd[0] + J[r * 3 + 1]*qd[1] + J[r * 3 + 2]*qd[2];
+    }
+    if (anchors) {
+        for (int r = 0; r < count; ++r) {
+            gam[r] = gam[r] + kp*error[r];
+        }
+    }
+    for (int j = 0; j < 3; ++j) {
+        rows[j] = jac[j];
+        rows[3 + j] = jac[3 + j];
+        rows[6 + j] = jac[6 + j];
+        rows[9 + j] = jac[9 + j];
+        rows[12 + j] = jac[12 + j];
+    }
+    for (int r = 0; r < count; ++r) {
+        for (int j = 0; j < 3; ++j) {
+            rows[(r + 5) * 3 + j] = J[r * 3 + j];
+        }
+    }
+    target[0] = bottom[0];
+    target[1] = bottom[1];
+    target[2] = bottom[2];
+    target[3] = bottom[3];
+    target[4] = bottom[4];
+    for (int r = 0; r < count; ++r) {
+        target[r + 5] = -gam[r];
+    }
+    const int nr = 5 + count;
+    double G_[33], U_[121], norm_[11];
+    int taken_[11] = {0};
+    double Jr[33], Ur[121];
+    for (int i = 0; i < nr * 3; ++i) G_[i] = rows[i];
+    for (int i = 0; i < 121; ++i) U_[i] = (i % 12 == 0) ? 1.0 : 0.0;
+    for (int sweep = 0; sweep < 60; ++sweep) {
+        int rotated = 0;
+        for (int i = 0; i < nr - 1; ++i) {
+            for (int j = i + 1; j < nr; ++j) {
+                double gii = 0.0, gjj = 0.0, gij = 0.0;
+                for (int c = 0; c < 3; ++c) {
+                    gii += G_[i * 3 + c]*G_[i * 3 + c];
+                    gjj += G_[j * 3 + c]*G_[j * 3 + c];
+                    gij += G_[i * 3 + c]*G_[j * 3 + c];
+                }
+                if (gij != 0.0 && fabs(gij) > 2.220446049250313e-16*sqrt(gii*gjj)) {
+                    const double zeta = (gjj - gii) / (2.0*gij);
+                    const double t = (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta*zeta));
+                    const double cs = 1.0 / sqrt(1.0 + t*t);
+                    const double sn = cs*t;
+                    for (int c = 0; c < 3; ++c) {
+                        const double gi = G_[i * 3 + c], gj = G_[j * 3 + c];
+                        G_[i * 3 + c] = cs*gi - sn*gj;
+                        G_[j * 3 + c] = sn*gi + cs*gj;
+                    }
+                    for (int c = 0; c < nr; ++c) {
+                        const double ui = U_[c * 11 + i], uj = U_[c * 11 + j];
+                        U_[c * 11 + i] = cs*ui - sn*uj;
+                        U_[c * 11 + j] = sn*ui + cs*uj;
+                    }
+                    rotated = 1;
+                }
+            }
+        }
+        if (!rotated) break;
+    }
+    for (int i = 0; i < nr; ++i) {
+        norm_[i] = 0.0;
+        for (int c = 0; c < 3; ++c) norm_[i] += G_[i * 3 + c]*G_[i * 3 + c];
+    }
+    for (int m = 0; m < 2 + count; ++m) {   /* the rows of largest norm (singular value), in order */
+        int best = -1;
+        for (int i = 0; i < nr; ++i) {
+            if (!taken_[i] && (best < 0 || norm_[i] > norm_[best])) best = i;
+        }
+        if (best < 0) return 2;
+        taken_[best] = 1;
+        for (int c = 0; c < 3; ++c) Jr[m * 3 + c] = G_[best * 3 + c];
+        for (int i = 0; i < nr; ++i) Ur[i * 11 + m] = U_[i * 11 + best];
+    }
+    const int nk = 2 + count;
+    double tr[11], lr[11];
+    for (int m = 0; m < nk; ++m) {   /* U_r^T target */
+        tr[m] = 0.0;
+        for (int i = 0; i < nr; ++i) tr[m] += Ur[i * 11 + m]*target[i];
+    }
+    const double md0 = M[8];
+    if (!(md0 > 0.0)) return 1;
+    const double mL1_0 = (M[5]) / md0;
+    const double mL2_0 = (M[2]) / md0;
+    const double md1 = M[4] - mL1_0*mL1_0*md0;
+    if (!(md1 > 0.0)) return 1;
+    const double mL2_1 = (M[1] - mL2_0*mL1_0*md0) / md1;
+    const double md2 = M[0] - mL2_0*mL2_0*md0 - mL2_1*mL2_1*md1;
+    if (!(md2 > 0.0)) return 1;
+    double Y[33], dinv[3], z[3];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    for (int c = 0; c < nk; ++c) {
+        const double w0 = Jr[c * 3 + 2];
+        const double w1 = Jr[c * 3 + 1] - mL1_0*w0;
+        const double w2 = Jr[c * 3 + 0] - mL2_0*w0 - mL2_1*w1;
+        Y[0 + c] = w0;
+        Y[11 + c] = w1;
+        Y[22 + c] = w2;
+    }
+    const double e0 = tau[2] - h[2];
+    const double e1 = tau[1] - h[1] - mL1_0*e0;
+    const double e2 = tau[0] - h[0] - mL2_0*e0 - mL2_1*e1;
+    z[0] = e0;
+    z[1] = e1;
+    z[2] = e2;
+    if (nk > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
+        double S[121], lam[11];
+        for (int ra = 0; ra < nk; ++ra) {
+            for (int rb = 0; rb <= ra; ++rb) {
+                double sum = 0.0;
+                for (int i = 0; i < 3; ++i) sum += Y[i * 11 + ra]*dinv[i]*Y[i * 11 + rb];
+                S[ra * 11 + rb] = sum;
+            }
+            lam[ra] = tr[ra];
+            for (int i = 0; i < 3; ++i) lam[ra] -= Y[i * 11 + ra]*dinv[i]*z[i];
+        }
+        for (int j = 0; j < nk; ++j) {
+            double pivot = S[j * 11 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 11 + k]*S[j * 11 + k];
+            if (!(pivot > 1e-12*S[j * 11 + j])) return 2;
+            S[j * 11 + j] = sqrt(pivot);
+            for (int i = j + 1; i < nk; ++i) {
+                double sum = S[i * 11 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 11 + k]*S[j * 11 + k];
+                S[i * 11 + j] = sum / S[j * 11 + j];
+            }
+        }
+        for (int i = 0; i < nk; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 11 + k]*lam[k];
+            lam[i] /= S[i * 11 + i];
+        }
+        for (int i = nk - 1; i >= 0; --i) {
+            for (int k = i + 1; k < nk; ++k) lam[i] -= S[k * 11 + i]*lam[k];
+            lam[i] /= S[i * 11 + i];
+        }
+        for (int i = 0; i < 3; ++i) {
+            for (int c = 0; c < nk; ++c) z[i] += Y[i * 11 + c]*lam[c];
+        }
+        for (int c = 0; c < nk; ++c) lr[c] = lam[c];
+    }
+    const double x2 = z[2] / md2;
+    const double x1 = z[1] / md1 - mL2_1*x2;
+    const double x0 = z[0] / md0 - mL1_0*x1 - mL2_0*x2;
+    qdd[2] = x0;
+    qdd[1] = x1;
+    qdd[0] = x2;
+    for (int i = 0; i < nr; ++i) {   /* the multipliers of least norm, U_r lambda_r */
+        multipliers[i] = 0.0;
+        for (int m = 0; m < nk; ++m) multipliers[i] += Ur[i * 11 + m]*lr[m];
+    }
+    for (int r = 0; r < count; ++r) {
+        forces[r] = multipliers[r + 5];
+    }
+    return 0;
+}
+
+/* qd_plus and the impulses of an impact that makes the contacts hold (frames, kinds as for constrained_forward_dynamics): M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus. Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0). The closed loops hold too: A qd_plus = 0. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind (outputs untouched unless 0). */
+int bennett_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const bennett_parameters *p, double *qd_plus, double *impulses)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[9];
+    double jac[15];
+    double loop_rate[5];
+    double Jf[18];
+    double J[33];
+    double T[16] = {0};
+    double rate[11];
+    double rows[33];
+    double target[11];
+    double jump[3];
+    double multipliers[11];
+    int count = 0;
+    if (ncontacts < 0 || ncontacts > 0 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 0) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    bennett_mass_matrix(q, p, M);
+    bennett_loop_jacobian(q, p, jac);
+    loop_rate[0] = jac[0]*qd_minus[0] + jac[1]*qd_minus[1] + jac[2]*qd_minus[2];
+    loop_rate[1] = jac[3]*qd_minus[0] + jac[4]*qd_minus[1] + jac[5]*qd_minus[2];
+    loop_rate[2] = jac[6]*qd_minus[0] + jac[7]*qd_minus[1] + jac[8]*qd_minus[2];
+    loop_rate[3] = jac[9]*qd_minus[0] + jac[10]*qd_minus[1] + jac[11]*qd_minus[2];
+    loop_rate[4] = jac[12]*qd_minus[0] + jac[13]*qd_minus[1] + jac[14]*qd_minus[2];
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
+        const int f = frames[c];
+        bennett_frame_jacobian(q, f, p, Jf);
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = Jf[j];
+                J[(count + 1) * 3 + j] = Jf[3 + j];
+                J[(count + 2) * 3 + j] = Jf[6 + j];
+            }
+            count += 3;
+        } else {
+            bennett_frame_transform(q, f, p, T);
+            for (int j = 0; j < 3; ++j) {
+                J[(count + 0) * 3 + j] = T[0]*Jf[j] + T[4]*Jf[3 + j] + T[8]*Jf[6 + j];
+                J[(count + 1) * 3 + j] = T[1]*Jf[j] + T[5]*Jf[3 + j] + T[9]*Jf[6 + j];
+                J[(count + 2) * 3 + j] = T[2]*Jf[j] + T[6]*Jf[3 + j] + T[10]*Jf[6 + j];
+                J[(count + 3) * 3 + j] = T[0]*Jf[9 + j] + T[4]*Jf[12 + j] + T[8]*Jf[15 + j];
+                J[(count + 4) * 3 + j] = T[1]*Jf[9 + j] + T[5]*Jf[12 + j] + T[9]*Jf[15 + j];
+                J[(count + 5) * 3 + j] = T[2]*Jf[9 + j] + T[6]*Jf[12 + j] + T[10]*Jf[15 + j];
+            }
+            count += 6;
+        }
+    }
+    for (int r = 0; r < count; ++r) {
+        rate[r] = J[r * 3 + 0]*qd_minus[0] + J[r * 3 + 1]*qd_minus[1] + J[r * 3 + 2]*qd_minus[2];
+    }
+    for (int j = 0; j < 3; ++j) {
+        rows[j] = jac[j];
+        rows[3 + j] = jac[3 + j];
+        rows[6 + j] = jac[6 + j];
+        rows[9 + j] = jac[9 + j];
+        rows[12 + j] = jac[12 + j];
+    }
+    for (int r = 0; r < count; ++r) {
+        for (int j = 0; j < 3; ++j) {
+            rows[(r + 5) * 3 + j] = J[r * 3 + j];
+        }
+    }
+    target[0] = -loop_rate[0];
+    target[1] = -loop_rate[1];
+    target[2] = -loop_rate[2];
+    target[3] = -loop_rate[3];
+    target[4] = -loop_rate[4];
+    for (int r = 0; r < count; ++r) {
+        target[r + 5] = -restitution*rate[r] - rate[r];
+    }
+    const int nr = 5 + count;
+    double G_[33], U_[121], norm_[11];
+    int taken_[11] = {0};
+    double Jr[33], Ur[121];
+    for (int i = 0; i < nr * 3; ++i) G_[i] = rows[i];
+    for (int i = 0; i < 121; ++i) U_[i] = (i % 12 == 0) ? 1.0 : 0.0;
+    for (int sweep = 0; sweep < 60; ++sweep) {
+        int rotated = 0;
+        for (int i = 0; i < nr - 1; ++i) {
+            for (int j = i + 1; j < nr; ++j) {
+                double gii = 0.0, gjj = 0.0, gij = 0.0;
+                for (int c = 0; c < 3; ++c) {
+                    gii += G_[i * 3 + c]*G_[i * 3 + c];
+                    gjj += G_[j * 3 + c]*G_[j * 3 + c];
+                    gij += G_[i * 3 + c]*G_[j * 3 + c];
+                }
+                if (gij != 0.0 && fabs(gij) > 2.220446049250313e-16*sqrt(gii*gjj)) {
+                    const double zeta = (gjj - gii) / (2.0*gij);
+                    const double t = (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta*zeta));
+                    const double cs = 1.0 / sqrt(1.0 + t*t);
+                    const double sn = cs*t;
+                    for (int c = 0; c < 3; ++c) {
+                        const double gi = G_[i * 3 + c], gj = G_[j * 3 + c];
+                        G_[i * 3 + c] = cs*gi - sn*gj;
+                        G_[j * 3 + c] = sn*gi + cs*gj;
+                    }
+                    for (int c = 0; c < nr; ++c) {
+                        const double ui = U_[c * 11 + i], uj = U_[c * 11 + j];
+                        U_[c * 11 + i] = cs*ui - sn*uj;
+                        U_[c * 11 + j] = sn*ui + cs*uj;
+                    }
+                    rotated = 1;
+                }
+            }
+        }
+        if (!rotated) break;
+    }
+    for (int i = 0; i < nr; ++i) {
+        norm_[i] = 0.0;
+        for (int c = 0; c < 3; ++c) norm_[i] += G_[i * 3 + c]*G_[i * 3 + c];
+    }
+    for (int m = 0; m < 2 + count; ++m) {   /* the rows of largest norm (singular value), in order */
+        int best = -1;
+        for (int i = 0; i < nr; ++i) {
+            if (!taken_[i] && (best < 0 || norm_[i] > norm_[best])) best = i;
+        }
+        if (best < 0) return 2;
+        taken_[best] = 1;
+        for (int c = 0; c < 3; ++c) Jr[m * 3 + c] = G_[best * 3 + c];
+        for (int i = 0; i < nr; ++i) Ur[i * 11 + m] = U_[i * 11 + best];
+    }
+    const int nk = 2 + count;
+    double tr[11], lr[11];
+    for (int m = 0; m < nk; ++m) {   /* U_r^T target */
+        tr[m] = 0.0;
+        for (int i = 0; i < nr; ++i) tr[m] += Ur[i * 11 + m]*target[i];
+    }
+    const double md0 = M[8];
+    if (!(md0 > 0.0)) return 1;
+    const double mL1_0 = (M[5]) / md0;
+    const double mL2_0 = (M[2]) / md0;
+    const double md1 = M[4] - mL1_0*mL1_0*md0;
+    if (!(md1 > 0.0)) return 1;
+    const double mL2_1 = (M[1] - mL2_0*mL1_0*md0) / md1;
+    const double md2 = M[0] - mL2_0*mL2_0*md0 - mL2_1*mL2_1*md1;
+    if (!(md2 > 0.0)) return 1;
+    double Y[33], dinv[3], z[3];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    for (int c = 0; c < nk; ++c) {
+        const double w0 = Jr[c * 3 + 2];
+        const double w1 = Jr[c * 3 + 1] - mL1_0*w0;
+        const double w2 = Jr[c * 3 + 0] - mL2_0*w0 - mL2_1*w1;
+        Y[0 + c] = w0;
+        Y[11 + c] = w1;
+        Y[22 + c] = w2;
+    }
+    for (int i = 0; i < 3; ++i) z[i] = 0.0;
+    if (nk > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
+        double S[121], lam[11];
+        for (int ra = 0; ra < nk; ++ra) {
+            for (int rb = 0; rb <= ra; ++rb) {
+                double sum = 0.0;
+                for (int i = 0; i < 3; ++i) sum += Y[i * 11 + ra]*dinv[i]*Y[i * 11 + rb];
+                S[ra * 11 + rb] = sum;
+            }
+            lam[ra] = tr[ra];
+        }
+        for (int j = 0; j < nk; ++j) {
+            double pivot = S[j * 11 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 11 + k]*S[j * 11 + k];
+            if (!(pivot > 1e-12*S[j * 11 + j])) return 2;
+            S[j * 11 + j] = sqrt(pivot);
+            for (int i = j + 1; i < nk; ++i) {
+                double sum = S[i * 11 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 11 + k]*S[j * 11 + k];
+                S[i * 11 + j] = sum / S[j * 11 + j];
+            }
+        }
+        for (int i = 0; i < nk; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 11 + k]*lam[k];
+            lam[i] /= S[i * 11 + i];
+        }
+        for (int i = nk - 1; i >= 0; --i) {
+            for (int k = i + 1; k < nk; ++k) lam[i] -= S[k * 11 + i]*lam[k];
+            lam[i] /= S[i * 11 + i];
+        }
+        for (int i = 0; i < 3; ++i) {
+            for (int c = 0; c < nk; ++c) z[i] += Y[i * 11 + c]*lam[c];
+        }
+        for (int c = 0; c < nk; ++c) lr[c] = lam[c];
+    }
+    const double x2 = z[2] / md2;
+    const double x1 = z[1] / md1 - mL2_1*x2;
+    const double x0 = z[0] / md0 - mL1_0*x1 - mL2_0*x2;
+    jump[2] = x0;
+    jump[1] = x1;
+    jump[0] = x2;
+    for (int i = 0; i < nr; ++i) {   /* the multipliers of least norm, U_r lambda_r */
+        multipliers[i] = 0.0;
+        for (int m = 0; m < nk; ++m) multipliers[i] += Ur[i * 11 + m]*lr[m];
+    }
+    for (int r = 0; r < count; ++r) {
+        impulses[r] = multipliers[r + 5];
+    }
+    qd_plus[0] = qd_minus[0] + jump[0];
+    qd_plus[1] = qd_minus[1] + jump[1];
+    qd_plus[2] = qd_minus[2] + jump[2];
+    return 0;
+}
+
 /* Loop constraints a_g(q), 5 entries (zero when the loops are closed). */
 void bennett_loop_constraints(const double *q, const bennett_parameters *p, double *a)
 {

@@ -9,6 +9,13 @@
 #define BENNETT_NV 3   /* velocity size */
 #define BENNETT_NU 1   /* efforts: tau1 */
 #define BENNETT_NFRAMES 0   /* frames, numbered for the frame functions */
+#define BENNETT_NCONTACTS 0   /* contacts the robot file declares (CONTACTS) */
+#define BENNETT_CONTACT_POINT 0   /* a point contact: 3 rows, world-aligned */
+#define BENNETT_CONTACT_SURFACE 1   /* a surface contact: 6 rows, in the frame's axes */
+#define BENNETT_CONTACT_MASS_NOT_PD 1   /* returned: M is not positive definite */
+#define BENNETT_CONTACT_REDUNDANT 2   /* returned: the contacts are redundant: J M^-1 J^T is singular (a pivot not above 1e-12 of its diagonal entry) */
+#define BENNETT_CONTACT_BAD_ARGUMENT 3   /* returned: a contact count outside 0..NFRAMES, a frame number that is no frame or is held twice, or a kind that is neither point (0) nor surface (1) */
+#define BENNETT_CONTACT_NO_ANCHORS 4   /* returned: baumgarte's kp is not 0 but anchors is NULL */
 #define BENNETT_NC 5   /* loop constraints (rows of the loop Jacobian) */
 
 #ifdef __cplusplus
@@ -84,6 +91,10 @@ void bennett_centroidal_momentum(const double *q, const double *qd, const bennet
 void bennett_centroidal_momentum_bias(const double *q, const double *qd, const bennett_parameters *p, double *dh);
 /* Composite inertia of the moving links about the centre of mass, world axes: [[m 1, 0], [0, I_G]], 6 x 6, row-major. */
 void bennett_centroidal_inertia(const double *q, const bennett_parameters *p, double *Ig);
+/* qdd and the contact forces with `ncontacts` frames held (frames: their frame numbers; kinds: 0 point, 1 surface, NULL for the robot file's kinds, else point): M qdd = tau - h + J^T forces, J qdd = -gamma, gamma = Jdot qd + kd J qd + kp e (baumgarte: (kp, kd), NULL for (0, 0); anchors: NULL, or per contact in order a point's held position (3) or a surface's held pose (4 x 4, row-major), e the position error). u NULL: no effort. forces: 3 per point contact (world-aligned), 6 per surface contact (force, then moment, in the frame's axes). Pinocchio's forwardDynamics(model, data, q, v, tau, J, gamma, 0). No external wrenches. The closed loops hold too: their rows (target with the struct's alpha and beta, as forward_dynamics) solved with the contacts'; forces are the contacts' alone. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; 4 kp without anchors (outputs untouched unless 0). */
+int bennett_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const bennett_parameters *p, double *qdd, double *forces);
+/* qd_plus and the impulses of an impact that makes the contacts hold (frames, kinds as for constrained_forward_dynamics): M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus. Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0). The closed loops hold too: A qd_plus = 0. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind (outputs untouched unless 0). */
+int bennett_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const bennett_parameters *p, double *qd_plus, double *impulses);
 /* Loop constraints a_g(q), 5 entries (zero when the loops are closed). */
 void bennett_loop_constraints(const double *q, const bennett_parameters *p, double *a);
 /* Loop constraint Jacobian A_g(q) = da_g/dq, 5 x 3, row-major. */

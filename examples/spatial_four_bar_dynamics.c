@@ -2186,6 +2186,424 @@ void spatial_four_bar_centroidal_inertia(const double *q, const spatial_four_bar
     Ig[35] = t63;
 }
 
+/* qdd and the contact forces with `ncontacts` frames held (frames: their frame numbers; kinds: 0 point, 1 surface, NULL for the robot file's kinds, else point): M qdd = tau - h + J^T forces, J qdd = -gamma, gamma = Jdot qd + kd J qd + kp e (baumgarte: (kp, kd), NULL for (0, 0); anchors: NULL, or per contact in order a point's held position (3) or a surface's held pose (4 x 4, row-major), e the position error). u NULL: no effort. forces: 3 per point contact (world-aligned), 6 per surface contact (force, then moment, in the frame's axes). Pinocchio's forwardDynamics(model, data, q, v, tau, J, gamma, 0). No external wrenches. The closed loops hold too: their rows (target with the struct's alpha and beta, as forward_dynamics) solved with the contacts'; forces are the contacts' alone. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; 4 kp without anchors (outputs untouched unless 0). */
+int spatial_four_bar_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, const int *frames, const int *kinds, const double *baumgarte, const double *anchors, const spatial_four_bar_parameters *p, double *qdd, double *forces)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[16];
+    double zeros[4];
+    double h[4];
+    double tau[4];
+    double jac[12];
+    double Adot[12];
+    double loop_drift[3];
+    double a[3];
+    double rate[3];
+    double bottom[3];
+    double Jf[24];
+    double acc[6] = {0};
+    double J[36];
+    double drift[9];
+    double T[16] = {0};
+    double error[9];
+    double twist[6];
+    double turn[9];
+    double gam[9];
+    double rows[36];
+    double target[9];
+    double multipliers[9];
+    int count = 0, at = 0;
+    if (ncontacts < 0 || ncontacts > 0 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 0) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    const spatial_four_bar_parameters *const P = p ? p : &spatial_four_bar_default_parameters;
+    const double alpha = P->alpha, beta = P->beta;
+    const double kp = baumgarte ? baumgarte[0] : 0.0;
+    const double kd = baumgarte ? baumgarte[1] : 0.0;
+    if (kp != 0.0 && !anchors) return 4;
+    for (int i = 0; i < 4; ++i) zeros[i] = 0.0;
+    spatial_four_bar_mass_matrix(q, p, M);
+    spatial_four_bar_inverse_dynamics(q, qd, zeros, p, h);
+    spatial_four_bar_generalized_forces(q, u ? u : zeros, p, tau);
+    spatial_four_bar_loop_jacobian(q, p, jac);
+    spatial_four_bar_loop_jacobian_dot(q, qd, p, Adot);
+    double dot0 = 0.0;
+    for (int j = 0; j < 4; ++j) dot0 += Adot[j]*qd[j];
+    double dot1 = 0.0;
+    for (int j = 0; j < 4; ++j) dot1 += Adot[4 + j]*qd[j];
+    double dot2 = 0.0;
+    for (int j = 0; j < 4; ++j) dot2 += Adot[8 + j]*qd[j];
+    loop_drift[0] = dot0;
+    loop_drift[1] = dot1;
+    loop_drift[2] = dot2;
+    spatial_four_bar_loop_constraints(q, p, a);
+    double dot3 = 0.0;
+    for (int j = 0; j < 4; ++j) dot3 += jac[j]*qd[j];
+    double dot4 = 0.0;
+    for (int j = 0; j < 4; ++j) dot4 += jac[4 + j]*qd[j];
+    double dot5 = 0.0;
+    for (int j = 0; j < 4; ++j) dot5 += jac[8 + j]*qd[j];
+    rate[0] = dot3;
+    rate[1] = dot4;
+    rate[2] = dot5;
+    bottom[0] = (-loop_drift[0] - alpha*(rate[0] + rate[0])) - beta*beta*a[0];
+    bottom[1] = (-loop_drift[1] - alpha*(rate[1] + rate[1])) - beta*beta*a[1];
+    bottom[2] = (-loop_drift[2] - alpha*(rate[2] + rate[2])) - beta*beta*a[2];
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
+        const int f = frames[c];
+        const double *A = anchors ? anchors + at : anchors;
+        spatial_four_bar_frame_jacobian(q, f, p, Jf);
+        spatial_four_bar_frame_jacobian_dot_qd(q, qd, f, p, acc);
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 4; ++j) {
+                J[(count + 0) * 4 + j] = Jf[j];
+                J[(count + 1) * 4 + j] = Jf[4 + j];
+                J[(count + 2) * 4 + j] = Jf[8 + j];
+            }
+            drift[count + 0] = acc[0];
+            drift[count + 1] = acc[1];
+            drift[count + 2] = acc[2];
+            if (anchors) {
+                spatial_four_bar_frame_transform(q, f, p, T);
+                error[count + 0] = T[3] - A[0];
+                error[count + 1] = T[7] - A[1];
+                error[count + 2] = T[11] - A[2];
+            }
+            count += 3;
+            at += 3;
+        } else {
+            spatial_four_bar_frame_transform(q, f, p, T);
+            for (int j = 0; j < 4; ++j) {
+                J[(count + 0) * 4 + j] = T[0]*Jf[j] + T[4]*Jf[4 + j] + T[8]*Jf[8 + j];
+                J[(count + 1) * 4 + j] = T[1]*Jf[j] + T[5]*Jf[4 + j] + T[9]*Jf[8 + j];
+                J[(count + 2) * 4 + j] = T[2]*Jf[j] + T[6]*Jf[4 + j] + T[10]*Jf[8 + j];
+                J[(count + 3) * 4 + j] = T[0]*Jf[12 + j] + T[4]*Jf[16 + j] + T[8]*Jf[20 + j];
+                J[(count + 4) * 4 + j] = T[1]*Jf[12 + j] + T[5]*Jf[16 + j] + T[9]*Jf[20 + j];
+                J[(count + 5) * 4 + j] = T[2]*Jf[12 + j] + T[6]*Jf[16 + j] + T[10]*Jf[20 + j];
+            }
+            double dot6 = 0.0;
+            for (int j = 0; j < 4; ++j) dot6 += Jf[j]*qd[j];
+            double dot7 = 0.0;
+            for (int j = 0; j < 4; ++j) dot7 += Jf[4 + j]*qd[j];
+            double dot8 = 0.0;
+            for (int j = 0; j < 4; ++j) dot8 += Jf[8 + j]*qd[j];
+            double dot9 = 0.0;
+            for (int j = 0; j < 4; ++j) dot9 += Jf[12 + j]*qd[j];
+            double dot10 = 0.0;
+            for (int j = 0; j < 4; ++j) dot10 += Jf[16 + j]*qd[j];
+            double dot11 = 0.0;
+            for (int j = 0; j < 4; ++j) dot11 += Jf[20 + j]*qd[j];
+            twist[0] = dot6;
+            twist[1] = dot7;
+            twist[2] = dot8;
+            twist[3] = dot9;
+            twist[4] = dot10;
+            twist[5] = dot11;
+            double t12[3];
+            t12[0] = acc[0] - (twist[4]*twist[2] - twist[5]*twist[1]);
+            t12[1] = acc[1] - (twist[5]*twist[0] - twist[3]*twist[2]);
+            t12[2] = acc[2] - (twist[3]*twist[1] - twist[4]*twist[0]);
+            drift[count + 0] = T[0]*t12[0] + T[4]*t12[1] + T[8]*t12[2];
+            drift[count + 1] = T[1]*t12[0] + T[5]*t12[1] + T[9]*t12[2];
+            drift[count + 2] = T[2]*t12[0] + T[6]*t12[1] + T[10]*t12[2];
+            drift[count + 3] = T[0]*acc[3] + T[4]*acc[4] + T[8]*acc[5];
+            drift[count + 4] = T[1]*acc[3] + T[5]*acc[4] + T[9]*acc[5];
+            drift[count + 5] = T[2]*acc[3] + T[6]*acc[4] + T[10]*acc[5];
+            if (anchors) {
+                for (int j = 0; j < 3; ++j) {
+                    turn[j] = A[0]*T[j] + A[4]*T[4 + j] + A[8]*T[8 + j];
+                    turn[3 + j] = A[1]*T[j] + A[5]*T[4 + j] + A[9]*T[8 + j];
+                    turn[6 + j] = A[2]*T[j] + A[6]*T[4 + j] + A[10]*T[8 + j];
+                }
+                double t13[3];
+                t13[0] = T[3] - A[3];
+                t13[1] = T[7] - A[7];
+                t13[2] = T[11] - A[11];
+                error[count + 0] = T[0]*t13[0] + T[4]*t13[1] + T[8]*t13[2];
+                error[count + 1] = T[1]*t13[0] + T[5]*t13[1] + T[9]*t13[2];
+                error[count + 2] = T[2]*t13[0] + T[6]*t13[1] + T[10]*t13[2];
+                error[count + 3] = (turn[7] - turn[5]) / 2;
+                error[count + 4] = (turn[2] - turn[6]) / 2;
+                error[count + 5] = (turn[3] - turn[1]) / 2;
+            }
+            count += 6;
+            at += 16;
+        }
+    }
+    for (int r = 0; r < count; ++r) {
+        double dot14 = 0.0;
+        for (int j = 0; j < 4; ++j) dot14 += J[r * 4 + j]*qd[j];
+        gam[r] = drift[r] + kd*dot14;
+    }
+    if (anchors) {
+        for (int r = 0; r < count; ++r) {
+            gam[r] = gam[r] + kp*error[r];
+        }
+    }
+    for (int j = 0; j < 4; ++j) {
+        rows[j] = jac[j];
+        rows[4 + j] = jac[4 + j];
+        rows[8 + j] = jac[8 + j];
+    }
+    for (int r = 0; r < count; ++r) {
+        for (int j = 0; j < 4; ++j) {
+            rows[(r + 3) * 4 + j] = J[r * 4 + j];
+        }
+    }
+    target[0] = bottom[0];
+    target[1] = bottom[1];
+    target[2] = bottom[2];
+    for (int r = 0; r < count; ++r) {
+        target[r + 3] = -gam[r];
+    }
+    const int nr = 3 + count;
+    const double md0 = M[15];
+    if (!(md0 > 0.0)) return 1;
+    const double md1 = M[10];
+    if (!(md1 > 0.0)) return 1;
+    const double mL3_1 = (M[2]) / md1;
+    const double md2 = M[5];
+    if (!(md2 > 0.0)) return 1;
+    const double mL3_2 = (M[1]) / md2;
+    const double md3 = M[0] - mL3_1*mL3_1*md1 - mL3_2*mL3_2*md2;
+    if (!(md3 > 0.0)) return 1;
+    double Y[36], dinv[4], z[4];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    dinv[3] = 1.0 / md3;
+    for (int c = 0; c < nr; ++c) {
+        const double w0 = rows[c * 4 + 3];
+        const double w1 = rows[c * 4 + 2];
+        const double w2 = rows[c * 4 + 1];
+        const double w3 = rows[c * 4 + 0] - mL3_1*w1 - mL3_2*w2;
+        Y[0 + c] = w0;
+        Y[9 + c] = w1;
+        Y[18 + c] = w2;
+        Y[27 + c] = w3;
+    }
+    const double e0 = tau[3] - h[3];
+    const double e1 = tau[2] - h[2];
+    const double e2 = tau[1] - h[1];
+    const double e3 = tau[0] - h[0] - mL3_1*e1 - mL3_2*e2;
+    z[0] = e0;
+    z[1] = e1;
+    z[2] = e2;
+    z[3] = e3;
+    if (nr > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
+        double S[81], lam[9];
+        for (int ra = 0; ra < nr; ++ra) {
+            for (int rb = 0; rb <= ra; ++rb) {
+                double sum = 0.0;
+                for (int i = 0; i < 4; ++i) sum += Y[i * 9 + ra]*dinv[i]*Y[i * 9 + rb];
+                S[ra * 9 + rb] = sum;
+            }
+            lam[ra] = target[ra];
+            for (int i = 0; i < 4; ++i) lam[ra] -= Y[i * 9 + ra]*dinv[i]*z[i];
+        }
+        for (int j = 0; j < nr; ++j) {
+            double pivot = S[j * 9 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 9 + k]*S[j * 9 + k];
+            if (!(pivot > 1e-12*S[j * 9 + j])) return 2;
+            S[j * 9 + j] = sqrt(pivot);
+            for (int i = j + 1; i < nr; ++i) {
+                double sum = S[i * 9 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 9 + k]*S[j * 9 + k];
+                S[i * 9 + j] = sum / S[j * 9 + j];
+            }
+        }
+        for (int i = 0; i < nr; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 9 + k]*lam[k];
+            lam[i] /= S[i * 9 + i];
+        }
+        for (int i = nr - 1; i >= 0; --i) {
+            for (int k = i + 1; k < nr; ++k) lam[i] -= S[k * 9 + i]*lam[k];
+            lam[i] /= S[i * 9 + i];
+        }
+        for (int i = 0; i < 4; ++i) {
+            for (int c = 0; c < nr; ++c) z[i] += Y[i * 9 + c]*lam[c];
+        }
+        for (int c = 0; c < nr; ++c) multipliers[c] = lam[c];
+    }
+    const double x3 = z[3] / md3;
+    const double x2 = z[2] / md2 - mL3_2*x3;
+    const double x1 = z[1] / md1 - mL3_1*x3;
+    const double x0 = z[0] / md0;
+    qdd[3] = x0;
+    qdd[2] = x1;
+    qdd[1] = x2;
+    qdd[0] = x3;
+    for (int r = 0; r < count; ++r) {
+        forces[r] = multipliers[r + 3];
+    }
+    return 0;
+}
+
+/* qd_plus and the impulses of an impact that makes the contacts hold (frames, kinds as for constrained_forward_dynamics): M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus. Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0). The closed loops hold too: A qd_plus = 0. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind (outputs untouched unless 0). */
+int spatial_four_bar_impulse_dynamics(const double *q, const double *qd_minus, int ncontacts, const int *frames, const int *kinds, double restitution, const spatial_four_bar_parameters *p, double *qd_plus, double *impulses)
+{
+    static const int declared[1] = { 0 };   /* each frame's declared kind, else point */
+    double M[16];
+    double jac[12];
+    double loop_rate[3];
+    double Jf[24];
+    double J[36];
+    double T[16] = {0};
+    double rate[9];
+    double rows[36];
+    double target[9];
+    double jump[4];
+    double multipliers[9];
+    int count = 0;
+    if (ncontacts < 0 || ncontacts > 0 || (ncontacts > 0 && !frames)) return 3;
+    for (int c = 0; c < ncontacts; ++c) {
+        const int f = frames[c];
+        if (f < 0 || f >= 0) return 3;
+        if (kinds && kinds[c] != 0 && kinds[c] != 1) return 3;
+        for (int k = 0; k < c; ++k) {
+            if (frames[k] == f) return 3;
+        }
+    }
+    spatial_four_bar_mass_matrix(q, p, M);
+    spatial_four_bar_loop_jacobian(q, p, jac);
+    double dot0 = 0.0;
+    for (int j = 0; j < 4; ++j) dot0 += jac[j]*qd_minus[j];
+    double dot1 = 0.0;
+    for (int j = 0; j < 4; ++j) dot1 += jac[4 + j]*qd_minus[j];
+    double dot2 = 0.0;
+    for (int j = 0; j < 4; ++j) dot2 += jac[8 + j]*qd_minus[j];
+    loop_rate[0] = dot0;
+    loop_rate[1] = dot1;
+    loop_rate[2] = dot2;
+    for (int c = 0; c < ncontacts; ++c) {   /* the rows of contact c */
+        const int f = frames[c];
+        spatial_four_bar_frame_jacobian(q, f, p, Jf);
+        if ((kinds ? kinds[c] : declared[f]) == 0) {
+            for (int j = 0; j < 4; ++j) {
+                J[(count + 0) * 4 + j] = Jf[j];
+                J[(count + 1) * 4 + j] = Jf[4 + j];
+                J[(count + 2) * 4 + j] = Jf[8 + j];
+            }
+            count += 3;
+        } else {
+            spatial_four_bar_frame_transform(q, f, p, T);
+            for (int j = 0; j < 4; ++j) {
+                J[(count + 0) * 4 + j] = T[0]*Jf[j] + T[4]*Jf[4 + j] + T[8]*Jf[8 + j];
+                J[(count + 1) * 4 + j] = T[1]*Jf[j] + T[5]*Jf[4 + j] + T[9]*Jf[8 + j];
+                J[(count + 2) * 4 + j] = T[2]*Jf[j] + T[6]*Jf[4 + j] + T[10]*Jf[8 + j];
+                J[(count + 3) * 4 + j] = T[0]*Jf[12 + j] + T[4]*Jf[16 + j] + T[8]*Jf[20 + j];
+                J[(count + 4) * 4 + j] = T[1]*Jf[12 + j] + T[5]*Jf[16 + j] + T[9]*Jf[20 + j];
+                J[(count + 5) * 4 + j] = T[2]*Jf[12 + j] + T[6]*Jf[16 + j] + T[10]*Jf[20 + j];
+            }
+            count += 6;
+        }
+    }
+    for (int r = 0; r < count; ++r) {
+        double dot3 = 0.0;
+        for (int j = 0; j < 4; ++j) dot3 += J[r * 4 + j]*qd_minus[j];
+        rate[r] = dot3;
+    }
+    for (int j = 0; j < 4; ++j) {
+        rows[j] = jac[j];
+        rows[4 + j] = jac[4 + j];
+        rows[8 + j] = jac[8 + j];
+    }
+    for (int r = 0; r < count; ++r) {
+        for (int j = 0; j < 4; ++j) {
+            rows[(r + 3) * 4 + j] = J[r * 4 + j];
+        }
+    }
+    target[0] = -loop_rate[0];
+    target[1] = -loop_rate[1];
+    target[2] = -loop_rate[2];
+    for (int r = 0; r < count; ++r) {
+        target[r + 3] = -restitution*rate[r] - rate[r];
+    }
+    const int nr = 3 + count;
+    const double md0 = M[15];
+    if (!(md0 > 0.0)) return 1;
+    const double md1 = M[10];
+    if (!(md1 > 0.0)) return 1;
+    const double mL3_1 = (M[2]) / md1;
+    const double md2 = M[5];
+    if (!(md2 > 0.0)) return 1;
+    const double mL3_2 = (M[1]) / md2;
+    const double md3 = M[0] - mL3_1*mL3_1*md1 - mL3_2*mL3_2*md2;
+    if (!(md3 > 0.0)) return 1;
+    double Y[36], dinv[4], z[4];
+    dinv[0] = 1.0 / md0;
+    dinv[1] = 1.0 / md1;
+    dinv[2] = 1.0 / md2;
+    dinv[3] = 1.0 / md3;
+    for (int c = 0; c < nr; ++c) {
+        const double w0 = rows[c * 4 + 3];
+        const double w1 = rows[c * 4 + 2];
+        const double w2 = rows[c * 4 + 1];
+        const double w3 = rows[c * 4 + 0] - mL3_1*w1 - mL3_2*w2;
+        Y[0 + c] = w0;
+        Y[9 + c] = w1;
+        Y[18 + c] = w2;
+        Y[27 + c] = w3;
+    }
+    for (int i = 0; i < 4; ++i) z[i] = 0.0;
+    if (nr > 0) {   /* S = Y^T D^-1 Y, L L^T in place (lower triangle); the multipliers; z += Y lam */
+        double S[81], lam[9];
+        for (int ra = 0; ra < nr; ++ra) {
+            for (int rb = 0; rb <= ra; ++rb) {
+                double sum = 0.0;
+                for (int i = 0; i < 4; ++i) sum += Y[i * 9 + ra]*dinv[i]*Y[i * 9 + rb];
+                S[ra * 9 + rb] = sum;
+            }
+            lam[ra] = target[ra];
+        }
+        for (int j = 0; j < nr; ++j) {
+            double pivot = S[j * 9 + j];
+            for (int k = 0; k < j; ++k) pivot -= S[j * 9 + k]*S[j * 9 + k];
+            if (!(pivot > 1e-12*S[j * 9 + j])) return 2;
+            S[j * 9 + j] = sqrt(pivot);
+            for (int i = j + 1; i < nr; ++i) {
+                double sum = S[i * 9 + j];
+                for (int k = 0; k < j; ++k) sum -= S[i * 9 + k]*S[j * 9 + k];
+                S[i * 9 + j] = sum / S[j * 9 + j];
+            }
+        }
+        for (int i = 0; i < nr; ++i) {
+            for (int k = 0; k < i; ++k) lam[i] -= S[i * 9 + k]*lam[k];
+            lam[i] /= S[i * 9 + i];
+        }
+        for (int i = nr - 1; i >= 0; --i) {
+            for (int k = i + 1; k < nr; ++k) lam[i] -= S[k * 9 + i]*lam[k];
+            lam[i] /= S[i * 9 + i];
+        }
+        for (int i = 0; i < 4; ++i) {
+            for (int c = 0; c < nr; ++c) z[i] += Y[i * 9 + c]*lam[c];
+        }
+        for (int c = 0; c < nr; ++c) multipliers[c] = lam[c];
+    }
+    const double x3 = z[3] / md3;
+    const double x2 = z[2] / md2 - mL3_2*x3;
+    const double x1 = z[1] / md1 - mL3_1*x3;
+    const double x0 = z[0] / md0;
+    jump[3] = x0;
+    jump[2] = x1;
+    jump[1] = x2;
+    jump[0] = x3;
+    for (int r = 0; r < count; ++r) {
+        impulses[r] = multipliers[r + 3];
+    }
+    qd_plus[0] = qd_minus[0] + jump[0];
+    qd_plus[1] = qd_minus[1] + jump[1];
+    qd_plus[2] = qd_minus[2] + jump[2];
+    qd_plus[3] = qd_minus[3] + jump[3];
+    return 0;
+}
+
 /* Loop constraints a_g(q), 3 entries (zero when the loops are closed). */
 void spatial_four_bar_loop_constraints(const double *q, const spatial_four_bar_parameters *p, double *a)
 {

@@ -28,7 +28,7 @@ from dynderive.render.targets.c_extension.compile import build_extension
 from dynderive.render.targets.numpy.code import render_code
 from test_contacts import _example_robot, _random_state, _tree
 
-from conftest import import_code
+from conftest import ROBOTS, import_code
 
 CC = shutil.which("gcc") or shutil.which("cc")
 CXX = shutil.which("g++")
@@ -312,3 +312,101 @@ def test_extension_contacts_of_a_robot_without_efforts(tmp_path, monkeypatch):
     assert any(line.startswith("compiled impulse_dynamics") for line in rows), result.output
     assert not [line for line in rows if " FAIL " in line], rows
     assert result.exit_code == 0, result.output
+
+
+#: An arm of three revolute joints on generic axes, full-precision numbers, hung from ``{parent}``
+#: of a bundled loop robot, with a point frame at its end and a surface frame on its middle link.
+ARM = """  - {{name: arm1, mass: 0.3123456789012345, com: [0.0712345678901234, 0.0112345678901234, -0.0098765432109876], inertia: [0.0011234567890123, 0.0021234567890123, 0.0019876543210987, 0.0001234567890123, -0.0000987654321098, 0.0000543210987654]}}
+  - {{name: arm2, mass: 0.2712345678901234, com: [0.0612345678901234, -0.0087654321098765, 0.0123456789012345], inertia: [0.0009876543210987, 0.0017654321098765, 0.0015432109876543, -0.0000765432109876, 0.0000432109876543, 0.0001098765432109]}}
+  - {{name: arm3, mass: 0.1912345678901234, com: [0.0412345678901234, 0.0067654321098765, 0.0054321098765432], inertia: [0.0004321098765432, 0.0007654321098765, 0.0006543210987654, 0.0000321098765432, -0.0000210987654321, 0.0000123456789012]}}
+joints:
+  - {{name: s1, type: revolute, parent: {parent}, child: arm1, origin: {{xyz: [0.0512345678901234, 0.0312345678901234, -0.0212345678901234], rpy: [0.3123456789012345, -0.2123456789012345, 0.1123456789012345]}}, axis: [0.2672612419124244, 0.5345224838248488, 0.8017837257372732], effort: tau_s1}}
+  - {{name: s2, type: revolute, parent: arm1, child: arm2, origin: {{xyz: [0.1512345678901234, -0.0112345678901234, 0.0087654321098765], rpy: [-0.1712345678901234, 0.2412345678901234, 0.0512345678901234]}}, axis: [0.8017837257372732, -0.2672612419124244, 0.5345224838248488]}}
+  - {{name: s3, type: revolute, parent: arm2, child: arm3, origin: {{xyz: [0.1312345678901234, 0.0212345678901234, -0.0112345678901234], rpy: [0.0912345678901234, -0.0612345678901234, 0.2212345678901234]}}, axis: [-0.5345224838248488, 0.8017837257372732, 0.2672612419124244]}}
+"""
+FRAMES = """frames:
+  - {name: tip, link: arm3, origin: {xyz: [0.0912345678901234, -0.0112345678901234, 0.0087654321098765]}}
+  - {name: pad, link: arm2, origin: {xyz: [0.0712345678901234, 0.0112345678901234, -0.0212345678901234], rpy: [0.2123456789012345, -0.1123456789012345, 0.3123456789012345]}}
+"""
+
+
+def _loop_with_arm(robot: str, parent: str) -> str:
+    """A bundled loop robot with ``ARM`` on its link ``parent`` (its joints independent) and ``FRAMES``."""
+    text = (ROBOTS / f"{robot}.yaml").read_text()
+    links, rest = text.split("joints:\n", 1)
+    rest = rest.replace("independent: [q1]", "independent: [q1, s1, s2, s3]")
+    return links + ARM.format(parent=parent) + rest.rstrip("\n") + "\n" + FRAMES
+
+
+def _tied_arm() -> str:
+    from test_targets_agree import TIED_ARM
+
+    return TIED_ARM
+
+
+#: Loop robots holding contacts: the loops' rank known and equal to their rows (a spherical loop
+#: joint), known and below them (Bennett's over-constrained loop: 5 rows of rank 2), found at each
+#: state (a floating base tied by a spherical loop joint; quaternions in q).
+LOOP_CASES = {
+    "full_rank": (lambda: _loop_with_arm("spatial_four_bar", "crank"), [("tip", "point")]),
+    "over_constrained": (lambda: _loop_with_arm("bennett", "link2"), [("tip", "point")]),
+    "floating": (_tied_arm, [("wrist", "point")]),
+}
+
+
+def _on_loops(module, rng):
+    """A state on the loops (assembled near a random configuration, qd in the motions they allow)."""
+    nv = len(module.VELOCITIES) if hasattr(module, "VELOCITIES") else len(module.COORDINATES)
+    if hasattr(module, "ASSEMBLED_CONFIGURATION"):   # near it (Newton from farther may not converge)
+        q = module.assemble(np.array(module.ASSEMBLED_CONFIGURATION) + rng.uniform(-0.02, 0.02, nv))
+    else:   # quaternions in q: Gauss-Newton on the tangent space
+        q = module.assemble(module.integrate(module.neutral_configuration(), rng.uniform(-0.2, 0.2, nv)))
+    _, sigma, vt = np.linalg.svd(module.loop_jacobian(q))
+    null = vt[int(np.sum(sigma > 1e-9 * sigma[0])):]
+    return q, null.T @ (null @ rng.normal(size=nv)), rng.normal(size=len(module.EFFORTS))
+
+
+@pytest.mark.parametrize("case", LOOP_CASES)
+def test_c_and_extension_hold_contacts_on_loops(case, tmp_path):
+    """Contacts on robots with closed loops (the loops' rows and the contacts' in one solve): the C
+    functions and the extension's equal the NumPy module's to 1e-12 at states on the loops, with
+    the loops' Baumgarte gains (the struct's alpha and beta, the extension's keywords), the
+    contacts' (kp with anchors, kd), impacts with restitution, and no contact (forward dynamics
+    with the loops closed)."""
+    made, held = LOOP_CASES[case]
+    path = tmp_path / "robot.yaml"
+    path.write_text(made())
+    c = Contacts(dynderive.derive(dynderive.load_robot(path)), tmp_path, "-O1")
+    module, ext = c.module, c.ext
+    frames, kinds, rows = c.numbers(held)
+    rng = np.random.default_rng(17)
+    for _ in range(3):
+        q, qd, u = _on_loops(module, rng)
+        anchors = _anchors(module, q, held, rng)
+        flat = np.concatenate([np.ravel(a) for a in anchors])
+        for alpha, beta in ((0.0, 0.0), (1.7, 2.3)):
+            for baumgarte, given in (((0.0, 0.0), None), ((25.0, 10.0), anchors)):
+                expected = module.constrained_forward_dynamics(q, qd, u, held, baumgarte, anchors=given, alpha=alpha,
+                                                               beta=beta)
+                got = ext.constrained_forward_dynamics(q, qd, u, held, baumgarte, anchors=given, alpha=alpha,
+                                                       beta=beta)
+                _close(got[0], expected[0], f"extension qdd {alpha, beta, baumgarte}")
+                _close(got[1], expected[1], f"extension forces {alpha, beta, baumgarte}")
+                if (alpha, beta) == (0.0, 0.0):   # the C function with the default parameters (p NULL)
+                    status, qdd, forces = c.forward(q, qd, u, frames, kinds, baumgarte, None if given is None else flat,
+                                                    rows)
+                    assert status == 0
+                    _close(qdd, expected[0], f"C qdd {baumgarte}")
+                    _close(forces, expected[1], f"C forces {baumgarte}")
+        for restitution in (0.0, 0.6):
+            expected = module.impulse_dynamics(q, qd, held, restitution)
+            status, qd_plus, impulses = c.impulse(q, qd, frames, kinds, restitution, rows)
+            assert status == 0
+            _close(qd_plus, expected[0], "C qd_plus")
+            _close(impulses, expected[1], "C impulses")
+            got = ext.impulse_dynamics(q, qd, held, restitution)
+            _close(got[0], expected[0], "extension qd_plus")
+            _close(got[1], expected[1], "extension impulses")
+        status, qdd, _ = c.forward(q, qd, u, np.zeros(0, np.intc), None, None, None, 0)
+        assert status == 0
+        _close(qdd, module.forward_dynamics(q, qd, u), "C without contacts: the loops' forward dynamics")

@@ -1,5 +1,5 @@
-"""What every target prints of the constrained solves the same way: which robots get contact
-dynamics (``contacts_built``), the loop solve's sizes (``loop_sizes``) and the Baumgarte gains
+"""What every target prints of the constrained solves the same way: the loop solve's sizes
+(``loop_sizes``) and the Baumgarte gains
 the compiled targets take beside the parameters (``BAUMGARTE``); the refusal of a target that
 does not print the loops of a robot with quaternions in q (``refuse_floating_loops``, CasADi)."""
 
@@ -11,13 +11,6 @@ from ...errors import InputError, Problem
 #: A loop robot's Baumgarte gains: (name, default as a C literal, what it does).
 BAUMGARTE = (("alpha", "0.0", "Baumgarte gain of forward_dynamics: - 2 alpha A qd (0: none)"),
              ("beta", "0.0", "Baumgarte gain of forward_dynamics: - beta^2 a(q) (0: none)"))
-
-
-def contacts_built(derivation: Derivation) -> bool:
-    """Whether a target that prints contact dynamics on trees only (C, its extension) prints them:
-    a 3-D robot without closed loops (the Python, CasADi and MATLAB modules close the loops too;
-    the others' registry row ``CONTACTS_ON_LOOPS``)."""
-    return not derivation.robot.planar and not derivation.robot.loops
 
 
 def loop_sizes(derivation: Derivation) -> tuple[int, int, int | None]:

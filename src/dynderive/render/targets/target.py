@@ -42,8 +42,7 @@ class NotBuilt:
 
     functions: tuple[str, ...]
     #: The robots it concerns: "vector_space" (no quaternion in the configuration), "quaternions"
-    #: (a floating or spherical joint), "quaternion_loops" (those with closed loops), "loops" (any
-    #: robot with closed loops),
+    #: (a floating or spherical joint), "quaternion_loops" (those with closed loops),
     #: "frameless" (a robot that declares no frames), "any" (every robot that has them).
     kind: str
     reason: str
@@ -51,14 +50,9 @@ class NotBuilt:
     def concerns(self, floating: bool, frames: bool, loops: bool = False) -> bool:
         """Whether it applies to a robot with a ``floating`` base (or not), ``frames`` (or none)
         and closed ``loops`` (or none)."""
-        return {"vector_space": not floating, "quaternions": floating, "quaternion_loops": floating and loops, "loops": loops,
+        return {"vector_space": not floating, "quaternions": floating, "quaternion_loops": floating and loops,
                 "frameless": not frames, "any": True}[self.kind]
 
-
-#: The row of every target that prints contact dynamics on trees only (``contacts_built``).
-CONTACTS_ON_LOOPS = NotBuilt(("constrained_forward_dynamics", "impulse_dynamics"), "loops",
-                             "contact dynamics on a robot with closed loops are printed for the Python modules and "
-                             "MATLAB only")
 
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its
 #: entries share it: one reason, one footnote of the table).

@@ -1,15 +1,18 @@
-"""The C target's contact dynamics (DESIGN.md section 11): ``<name>_constrained_forward_dynamics``
-and ``<name>_impulse_dynamics`` of a 3-D robot without closed loops, the engine's contact
+"""The C target's contact dynamics (DESIGN.md sections 11 and 13): ``<name>_constrained_forward_dynamics``
+and ``<name>_impulse_dynamics`` of a 3-D robot, its closed loops held too, the engine's contact
 programs (``mechanics/contact_program.py``, as every target) printed by ``c_program.py`` over
 the C target's own functions, their ``SchurSolve`` by the shim's unrolled sparse L D L^T
-(``c_solve.schur_solve``). This module adds what is C's own: the signatures, the checks of the
-arguments, the loop over the held contacts (their number and kinds known at run time, each
-contact's rows at ``count``, its anchor at ``at``) and the header's macros. Every array is on
-the stack, sized at generation (NV, and 6 rows per frame: a frame is held at most once); no
-allocation.
+(``c_solve.schur_solve``), a loop robot's ``RowSpaceSolve`` of the loops' rows over the
+contacts' by ``c_solve.stacked_row_space_solve`` (its Baumgarte gains ``alpha`` and ``beta``
+the parameters struct's members, as ``forward_dynamics`` reads them). This module adds what is
+C's own: the signatures, the checks of the arguments, the loop over the held contacts (their
+number and kinds known at run time, each contact's rows at ``count``, its anchor at ``at``) and
+the header's macros. Every array is on the stack, sized at generation (NV, and 6 rows per
+frame: a frame is held at most once, plus the loops' rows); no allocation.
 
 Return codes (header macros ``<NAME>_CONTACT_...``): 0; 1 if M is not positive definite; 2 if
-the contacts are redundant (a pivot of S not above 1e-12 of its diagonal entry); 3 for a bad
+the contacts are redundant (a pivot of S not above 1e-12 of its diagonal entry; with loops,
+the contacts' rows and the loops' together); 3 for a bad
 argument (a contact count outside 0..NFRAMES, a frame number that is no frame or is held twice,
 a kind that is neither 0 (point) nor 1 (surface)); 4 for a nonzero kp without anchors. Outputs are
 untouched unless 0. No external wrenches (the NumPy module's ``wrenches=None``).
@@ -21,11 +24,11 @@ from collections.abc import Iterator
 from itertools import count
 
 from ....derivation import Derivation
-from ....model.array_program import HELD, Append, Call, ContactProgram, Let, SchurSolve
-from ...codegen.constrained import contacts_built
+from ....model.array_program import HELD, Append, Call, ContactProgram, Let, RowSpaceSolve, SchurSolve
+from ...codegen.constrained import loop_sizes
 from .c_print import CFunction
 from .c_program import assignment, c_name, call_line, flat_index
-from .c_solve import fill_in, schur_solve
+from .c_solve import fill_in, schur_solve, stacked_row_space_solve
 
 #: The return codes, after 0: (macro suffix, value, meaning).
 CODES = (("MASS_NOT_PD", 1, "M is not positive definite"),
@@ -39,7 +42,7 @@ CODES = (("MASS_NOT_PD", 1, "M is not positive definite"),
 def contact_macros(derivation: Derivation) -> list[str]:
     """The header's lines: the declared contacts (count, frame numbers, kinds), the kinds' and
     the return codes' macros; none where contact dynamics are not built."""
-    if not contacts_built(derivation):
+    if derivation.contact_programs is None:
         return []
     robot, macro = derivation.robot, derivation.robot.name.upper()
     numbers = {f.name: i for i, f in enumerate(robot.frames)}
@@ -56,15 +59,18 @@ def contact_macros(derivation: Derivation) -> list[str]:
 
 
 def contact_functions(derivation: Derivation, pattern: list[list[bool]]) -> list[CFunction]:
-    """The two functions (none for a planar robot or one with loops); ``pattern``: which entries
+    """The two functions (none for a planar robot); ``pattern``: which entries
     of M can be nonzero. M is factored in reverse order (P M P = L D L^T, P the reversal: the
     leaves first, so a tree's factor has no fill-in)."""
-    if not contacts_built(derivation):
+    if derivation.contact_programs is None:
         return []
     n = len(pattern)
     nonzero = fill_in([[pattern[n - 1 - i][n - 1 - j] for j in range(n)] for i in range(n)], n)
     name = derivation.robot.name
     pp = f"const {name}_parameters *p"
+    loops = (" The closed loops hold too: their rows (target with the struct's alpha and beta, as forward_dynamics) "
+             "solved with the contacts'; forces are the contacts' alone." if derivation.robot.loops else "")
+    kept = " The closed loops hold too: A qd_plus = 0." if derivation.robot.loops else ""
     forward = CFunction(
         f"int {name}_constrained_forward_dynamics(const double *q, const double *qd, const double *u, int ncontacts, "
         f"const int *frames, const int *kinds, const double *baumgarte, const double *anchors, {pp}, double *qdd, "
@@ -75,7 +81,7 @@ def contact_functions(derivation: Derivation, pattern: list[list[bool]]) -> list
         "in order a point's held position (3) or a surface's held pose (4 x 4, row-major), e the position error). "
         "u NULL: no effort. forces: 3 per point contact (world-aligned), 6 per surface contact (force, then moment, "
         "in the frame's axes). Pinocchio's forwardDynamics(model, data, q, v, tau, J, gamma, 0). No external "
-        "wrenches. Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; "
+        f"wrenches.{loops} Returns 0; 1 M not positive definite; 2 redundant contacts; 3 a bad count, frame or kind; "
         "4 kp without anchors (outputs untouched unless 0).",
         _body(derivation, nonzero, derivation.contact_programs.constrained_forward_dynamics))
     impulse = CFunction(
@@ -83,7 +89,7 @@ def contact_functions(derivation: Derivation, pattern: list[list[bool]]) -> list
         f"const int *kinds, double restitution, {pp}, double *qd_plus, double *impulses)",
         "qd_plus and the impulses of an impact that makes the contacts hold (frames, kinds as for "
         "constrained_forward_dynamics): M (qd_plus - qd_minus) = J^T impulses, J qd_plus = -restitution J qd_minus. "
-        "Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0). Returns 0; 1 M not positive definite; "
+        f"Pinocchio's impulseDynamics(model, data, q, v, J, restitution, 0).{kept} Returns 0; 1 M not positive definite; "
         "2 redundant contacts; 3 a bad count, frame or kind (outputs untouched unless 0).",
         _body(derivation, nonzero, derivation.contact_programs.impulse_dynamics))
     return [forward, impulse]
@@ -95,7 +101,8 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], program: ContactPro
     robot = derivation.robot
     n = len(derivation.symbols.qd)
     frames = len(robot.frames)
-    rows = 6 * max(frames, 1)       # at most 6 rows per frame
+    loops = loop_sizes(derivation)[1] if robot.loops else 0
+    rows = 6 * max(frames, 1) + loops       # at most 6 rows per frame, and the loops' rows
     fresh = count()
     declared = {f: 0 for f in range(frames)}
     numbers = {f.name: i for i, f in enumerate(robot.frames)}
@@ -121,14 +128,17 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], program: ContactPro
         "    }",
         "}",
     ]
+    if "alpha" in program.scalars:   # a loop robot: its Baumgarte gains, the struct's members
+        lines += [f"const {robot.name}_parameters *const P = p ? p : &{robot.name}_default_parameters;",
+                  "const double alpha = P->alpha, beta = P->beta;"]
     if program.anchors:
         lines += ["const double kp = baumgarte ? baumgarte[0] : 0.0;",
                   "const double kd = baumgarte ? baumgarte[1] : 0.0;",
                   "if (kp != 0.0 && !anchors) return 4;"]
     if "zeros" in arrays:
         lines.append(f"for (int i = 0; i < {n}; ++i) zeros[i] = 0.0;")
-    lines += _steps(derivation, program.setup, n, rows, nonzero, fresh)
-    contact, point, surface = (_steps(derivation, steps, n, rows, nonzero, fresh)
+    lines += _steps(derivation, program.setup, n, rows, nonzero, fresh, loops)
+    contact, point, surface = (_steps(derivation, steps, n, rows, nonzero, fresh, loops)
                                for steps in (program.contact, program.point, program.surface))
     anchor = ["    const double *A = anchors ? anchors + at : anchors;"] if program.anchors else []
     lines += [
@@ -146,7 +156,7 @@ def _body(derivation: Derivation, nonzero: list[list[bool]], program: ContactPro
         *(["        at += 16;"] if program.anchors else []),
         "    }",
         "}",
-        *_steps(derivation, program.finish, n, rows, nonzero, fresh),
+        *_steps(derivation, program.finish, n, rows, nonzero, fresh, loops),
         "return 0;",
     ]
     return lines
@@ -168,11 +178,13 @@ def _arrays(program: ContactProgram, n: int, rows: int) -> dict[str, int]:
             sizes[step.stacked] = rows * (step.value.shape[1] if len(step.value.shape) == 2 else 1)
         elif isinstance(step, SchurSolve):
             sizes[step.x] = n
+        elif isinstance(step, RowSpaceSolve):
+            sizes[step.x], sizes[step.multipliers] = n, rows
     return {a: size for a, size in sizes.items() if a not in program.outputs}
 
 
 def _steps(derivation: Derivation, steps: tuple, n: int, rows: int, nonzero: list[list[bool]],
-           fresh: Iterator[int]) -> list[str]:
+           fresh: Iterator[int], loops: int) -> list[str]:
     """The C of ``steps``, those needing anchors inside ``if (anchors)``."""
     lines: list[str] = []
     held = False
@@ -180,15 +192,18 @@ def _steps(derivation: Derivation, steps: tuple, n: int, rows: int, nonzero: lis
         if step.anchored != held:
             lines.append("if (anchors) {" if step.anchored else "}")
             held = step.anchored
-        lines += [("    " if held else "") + line for line in _step(derivation, step, n, rows, nonzero, fresh)]
+        lines += [("    " if held else "") + line for line in _step(derivation, step, n, rows, nonzero, fresh, loops)]
     return lines + (["}"] if held else [])
 
 
-def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bool]], fresh: Iterator[int]) -> list[str]:
+def _step(derivation: Derivation, step, n: int, rows: int, nonzero: list[list[bool]], fresh: Iterator[int],
+          loops: int) -> list[str]:
     if isinstance(step, Call):
         return call_line(derivation, step, n)
     if isinstance(step, SchurSolve):
         return schur_solve(step, n, nonzero, rows, fresh)
+    if isinstance(step, RowSpaceSolve):
+        return stacked_row_space_solve(step, n, nonzero, rows, loops, fresh)
     if isinstance(step, Let):
         name, columns = c_name(step.name), step.value.shape[1] if len(step.value.shape) == 2 else None
         return assignment(lambda i, j: f"{name}[{flat_index(i, columns, j)}]", step.value, n, fresh)

@@ -44,7 +44,7 @@ from ...codegen.constrained import BAUMGARTE, loop_sizes
 from ...codegen.names import c_comment
 from ...encode import Code
 from .c_program import assignment, c_name, call_line, flat_index
-from .c_solve import dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
+from .c_solve import LOOP_RANK_TOLERANCE, dense, gauss_lines, ldl_factor, ldl_solve, row_space_lines
 
 
 @dataclass
@@ -58,11 +58,6 @@ class CKit:
     program: Callable[..., list[str]]             # (program, targets, extra names) -> C lines
     mass_pattern: list[list[bool]]                # entries of L that can be nonzero (M's, fill-in)
     friction_slope: Callable[[], list[str]]       # ``R[...] -= dF/dqd`` lines of linearize
-
-
-#: Singular values of a floating-base robot's loop Jacobian below this fraction of the largest are
-#: zero: rows left out of its solve (the NumPy module's LOOP_RANK_TOLERANCE).
-LOOP_RANK_TOLERANCE = "1e-7"
 
 
 def _sizes(derivation: Derivation) -> tuple[int, int, int]:

@@ -15,8 +15,9 @@ from collections.abc import Callable, Iterator
 from ....derivation import Derivation
 from ....model.array_program import HELD, Call, Node
 
-#: Program names that C spells differently (a <math.h> function, the anchors' pointer).
-C_NAMES = {"gamma": "gam", "anchor": "A"}
+#: Program names that C spells differently (a <math.h> function, the anchors' pointer, the
+#: multipliers of the stacked loop and contact rows: the Schur shim's own local is ``lam``).
+C_NAMES = {"gamma": "gam", "anchor": "A", "lam": "multipliers"}
 
 #: The largest number of rows printed one by one (a frame's 6); more are a loop.
 UNROLLED = 6
@@ -123,11 +124,19 @@ def assignment(target: Callable[[int | str, int | str | None], str], value: Node
     (else looped over ``i`` up to their number, or over ``r`` up to ``rows``), columns looped
     over ``j``; ``fresh`` numbers the locals of the whole function."""
     matrix, size = len(value.shape) == 2, value.shape[0]
+    if value.op == "stack" and size == HELD:   # fixed rows (the loops'), then the contacts' count
+        top, bottom = value.args
+        start = top.shape[0]
+        return [*assignment(target, top, n, fresh, rows),
+                *assignment(lambda i, j: target(_shifted(i, start), j), bottom, n, fresh, rows)]
     elements = Elements(n, fresh)
     if size == HELD or size > UNROLLED:
         index, bound = ("r", rows) if size == HELD else ("i", str(size))
-        text = elements.element(value, index)
-        body = [*elements.lines, f"{target(index, None)} = {text};"]
+        column = "j" if matrix else None
+        text = elements.element(value, index, column)
+        body = [*elements.lines, f"{target(index, column)} = {text};"]
+        if matrix:
+            body = [f"for (int j = 0; j < {value.shape[1]}; ++j) {{", *(f"    {line}" for line in body), "}"]
         return [f"for (int {index} = 0; {index} < {bound}; ++{index}) {{", *(f"    {line}" for line in body), "}"]
     if not matrix:
         values = [elements.element(value, i) for i in range(size)]

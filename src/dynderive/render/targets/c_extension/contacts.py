@@ -1,5 +1,6 @@
-"""The C extension's contact dynamics (DESIGN.md section 11): ``constrained_forward_dynamics`` and
-``impulse_dynamics`` of a 3-D robot without closed loops, with the NumPy module's signatures.
+"""The C extension's contact dynamics (DESIGN.md sections 11 and 13): ``constrained_forward_dynamics``
+and ``impulse_dynamics`` of a 3-D robot (its closed loops held too, with the Baumgarte gains
+``alpha`` and ``beta`` as keywords), with the NumPy module's signatures.
 
 Their arguments (contacts as names, indices of FRAMES or (frame, kind) pairs, the Baumgarte
 gains, the anchors) are read by a little Python (``c_extension/extension_contacts.py.j2``) that
@@ -16,7 +17,6 @@ from pathlib import Path
 
 from ....derivation import Derivation
 from ... import api
-from ...codegen.constrained import contacts_built
 from ...encode import Code, docstring, python_literal
 from ...environment import render
 
@@ -26,14 +26,14 @@ NAMES = ("constrained_forward_dynamics", "impulse_dynamics")
 
 def contact_names(derivation: Derivation) -> set[str]:
     """The functions the extension adds for this robot."""
-    return set(NAMES) if contacts_built(derivation) else set()
+    return set() if derivation.contact_programs is None else set(NAMES)
 
 
 def contact_source(derivation: Derivation, template_dir: str | Path | None = None) -> list[str]:
     """The Python's lines (``extension.c.j2`` prints them as C string literals); none where
     contact dynamics are not built."""
     robot = derivation.robot
-    if not contacts_built(derivation):
+    if derivation.contact_programs is None:
         return []
     size = api.sizes(derivation)
     notes = {"constrained_forward_dynamics": " contacts: names or indices of FRAMES or (frame, kind) pairs "
@@ -49,7 +49,7 @@ def contact_source(derivation: Derivation, template_dir: str | Path | None = Non
                                               for c in robot.contacts) + "}"),
         "parameters": [{"name": p.name, "default": None if p.value is None else python_literal(float(p.value))}
                        for p in robot.parameters],
-        "nq": size["NQ"], "nv": size["NV"], "nu": len(derivation.symbols.efforts),
+        "nq": size["NQ"], "nv": size["NV"], "nu": len(derivation.symbols.efforts), "loops": bool(robot.loops),
         "doc_forward": docstring(api.python_doc("constrained_forward_dynamics", size) + notes[NAMES[0]]),
         "doc_impulse": docstring(api.python_doc("impulse_dynamics", size) + notes[NAMES[1]]),
     }, template_dir)
