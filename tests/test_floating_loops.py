@@ -72,6 +72,27 @@ loops:
      child_origin: {xyz: [0.1, 0.3, 0], rpy: [0, 0, 0]}}
 """
 
+#: A planar four-bar on a floating base, closed by a revolute loop joint: five rows of rank two at
+#: every configuration (the gap across the plane and the axes' alignment hold by construction).
+FOUR_BAR = """\
+name: floating_four_bar
+planar: false
+gravity: [0, 0, -9.81]
+links:
+  - {name: base, mass: 2.7123456789012345, com: [0.2012345678901234, 0.0123456789012345, -0.0212345678901234], inertia: [0.0312345678901234, 0.0523456789012345, 0.0612345678901234, 0.0012345678901234, -0.0009876543210987, 0.0007654321098765]}
+  - {name: crank, mass: 0.4123456789012345, com: [0.1012345678901234, 0.0012345678901234, 0.0], inertia: [0.0002123456789012, 0.0014123456789012, 0.0015123456789012, 0.0, 0.0, 0.0000123456789012]}
+  - {name: coupler, mass: 0.6123456789012345, com: [0.2212345678901234, -0.0012345678901234, 0.0], inertia: [0.0003123456789012, 0.0104123456789012, 0.0106123456789012, 0.0000212345678901, 0.0, 0.0]}
+  - {name: rocker, mass: 0.5123456789012345, com: [0.1512345678901234, 0.0, 0.0012345678901234], inertia: [0.0002523456789012, 0.0040123456789012, 0.0041123456789012, 0.0, 0.0000112345678901, 0.0]}
+joints:
+  - {name: root, type: floating, parent: world, child: base}
+  - {name: j1, type: revolute, parent: base, child: crank, origin: {xyz: [0, 0, 0], rpy: [0, 0, 1.2]}, axis: [0, 0, 1], effort: tau1}
+  - {name: j2, type: revolute, parent: crank, child: coupler, origin: {xyz: [0.2, 0, 0], rpy: [0, 0, -1.0]}, axis: [0, 0, 1]}
+  - {name: j3, type: revolute, parent: base, child: rocker, origin: {xyz: [0.4, 0, 0], rpy: [0, 0, 1.9]}, axis: [0, 0, 1]}
+loops:
+  - {name: pin, type: revolute, parent: coupler, child: rocker, origin: {xyz: [0.45, 0, 0], rpy: [0, 0, 0]},
+     child_origin: {xyz: [0.3, 0, 0], rpy: [0, 0, 0]}, axis: [0, 0, 1]}
+"""
+
 
 def _solve(tmp_path: Path, text: str, *options: str):
     """``dynderive solve ROBOT --code OPTIONS --out OUT``: the result, the robot file's bytes
@@ -106,6 +127,11 @@ def types(tmp_path_factory):
 @pytest.fixture(scope="module")
 def tied(tmp_path_factory):
     return _module(tmp_path_factory.mktemp("tied"), TIED)
+
+
+@pytest.fixture(scope="module")
+def four_bar(tmp_path_factory):
+    return _module(tmp_path_factory.mktemp("four_bar"), FOUR_BAR)
 
 
 def _states(module, seed: int, count: int = 3):
@@ -199,11 +225,41 @@ def test_assemble_refuses_what_it_cannot_close(tied):
         tied.assemble(far)
 
 
-def test_no_linearization_is_written_for_such_loops(tied):
-    """The constrained linearization is not built: the module has no linearize rather than the
-    open tree's."""
-    assert not hasattr(tied, "linearize") and not hasattr(tied, "forward_dynamics_derivatives")
-    assert not hasattr(tied, "INDEPENDENT_COORDINATES") and not hasattr(tied, "reduced_basis")
+@pytest.mark.parametrize("robot", ["tied", "four_bar"])
+def test_linearize_is_the_constrained_accelerations_derivative_along_integrate(robot, request):
+    """linearize on the tangent space (the loops' rows differentiated line by line, the solve in
+    their row space at the state) equals central differences of forward_dynamics through
+    integrate, of qd and of u, at a state on the loops (dq along the motions they allow: across
+    them a redundant row's rank changes, the four-bar's five rows of rank two becoming three) and
+    off them (every dq); forward_dynamics_derivatives are its blocks. No reduced form is kept."""
+    module = request.getfixturevalue(robot)
+    nv, step = module.NV, 1e-6
+    assert not hasattr(module, "INDEPENDENT_COORDINATES") and not hasattr(module, "reduced_basis")
+    for index, (q, qd, u) in enumerate(_states(module, 31, 2)):
+        directions = np.eye(nv)
+        if index == 0:   # on the loops: assembled, qd and dq in the motions they allow
+            q = module.assemble(q)
+            _, sigma, vt = np.linalg.svd(module.loop_jacobian(q))
+            directions = vt[int(np.sum(sigma > 1e-9 * sigma[0])):].T
+            qd = directions @ (directions.T @ qd)
+        A, B = module.linearize(q, qd, u)
+        assert A.shape == (2 * nv, 2 * nv) and B.shape == (2 * nv, len(module.EFFORTS))
+        np.testing.assert_array_equal(A[:nv], np.hstack([np.zeros((nv, nv)), np.eye(nv)]))
+        columns = []
+        for e in directions.T * step:
+            columns.append((module.forward_dynamics(module.integrate(q, e), qd, u)
+                            - module.forward_dynamics(module.integrate(q, -e), qd, u)) / (2 * step))
+        for e in np.eye(nv) * step:
+            columns.append((module.forward_dynamics(q, qd + e, u) - module.forward_dynamics(q, qd - e, u)) / (2 * step))
+        for e in np.eye(len(module.EFFORTS)) * step:
+            columns.append((module.forward_dynamics(q, qd, u + e) - module.forward_dynamics(q, qd, u - e)) / (2 * step))
+        expected = np.array(columns).T
+        got = np.hstack([A[nv:, :nv] @ directions, A[nv:, nv:], B[nv:]])
+        scale = max(1.0, float(np.max(np.abs(expected))))
+        assert np.max(np.abs(got - expected)) < 1e-6 * scale, (index, np.max(np.abs(got - expected)))
+        by_q, by_qd, by_u = module.forward_dynamics_derivatives(q, qd, u)
+        np.testing.assert_allclose(np.hstack([by_q, by_qd, by_u]), np.hstack([A[nv:], B[nv:]]), rtol=0,
+                                   atol=1e-14 * scale)
 
 
 @pytest.mark.parametrize(("option", "target"), [("--casadi", "the CasADi target (--casadi)")])
@@ -234,7 +290,7 @@ def test_check_with_the_casadi_backend_refuses_such_loops_in_one_line(tmp_path):
 def test_the_matlab_package_agrees_with_the_numpy_module_in_octave(tmp_path, text):
     """``--matlab`` prints the loops' rows from their programs and forward_dynamics and loop_forces
     from the engine's loop solve (the rank found at each state): equal to the NumPy module's, with
-    Baumgarte gains too; no linearize, as the module has none."""
+    Baumgarte gains too; no linearize (MATLAB's registry row: the Python modules only)."""
     from test_matlab_numeric import OCTAVE, _Calls, _octave, _vector
 
     if OCTAVE is None:
@@ -277,17 +333,26 @@ def test_independent_coordinates_are_refused_on_such_a_robot(tmp_path, independe
     assert not out.exists()
 
 
-@pytest.mark.parametrize("command", ["linearize"])
-def test_commands_without_these_loops_refuse_at_the_first_loop_joint(tmp_path, command):
+def test_the_linearize_command_closes_the_loops_at_the_point(tmp_path):
+    """``dynderive linearize`` of such a robot: the point's configuration assembled and its
+    velocity projected onto the motions the loops allow (notes name the entries that moved), A and
+    B the module's linearize there."""
+    import json
+
     robot = tmp_path / "robot.yaml"
     robot.write_text(TIED)
-    result = runner.invoke(app, [command, str(robot), "-q"])
-    assert result.exit_code == 2, result.output
-    line = next(n for n, text in enumerate(TIED.splitlines(), 1) if "{name: tie," in text)
-    assert result.stderr.splitlines() == [
-        f"{robot}:{line}:5: loop joint 'tie': {command} is not built yet for closed loops on a robot with a floating "
-        "or spherical joint (the generated NumPy module's forward_dynamics closes them)"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["robot.yaml"]
+    result = runner.invoke(app, ["linearize", str(robot), "--json", "--at", "qd=0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8,0.9,1.0"])
+    assert result.exit_code == 0, result.output
+    assert "elbowd = " in result.stderr and "follows from the loops (given 1)" in result.stderr
+    document = json.loads(result.stdout)
+    (tmp_path / "numpy").mkdir()
+    module = _module(tmp_path / "numpy", TIED)
+    q, qd, u = (np.array(document["state"][key]) for key in ("q", "qd", "u"))
+    assert np.max(np.abs(module.loop_constraints(q))) < 1e-9 and np.max(np.abs(module.loop_jacobian(q) @ qd)) < 1e-9
+    A, B = module.linearize(q, qd, u)
+    scale = float(np.max(np.abs(A)))   # the point as printed (its digits) against the command's own
+    np.testing.assert_allclose(np.array(document["A_numeric"]), A, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(np.array(document["B_numeric"]), B, rtol=0, atol=1e-10 * scale)
 
 
 def test_the_json_counts_the_rows_and_leaves_the_mobility_to_the_module(tmp_path):

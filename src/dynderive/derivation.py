@@ -43,7 +43,7 @@ if TYPE_CHECKING:
     from .mechanics.frames import FramePrograms
     from .mechanics.generalized import GeneralizedSteps
     from .mechanics.joint_types import ConfigurationProgram
-    from .mechanics.loop_programs import LoopPrograms
+    from .mechanics.loop_programs import LoopLinearization, LoopPrograms
     from .mechanics.loops import LoopModel
     from .mechanics.maximal import MaximalSteps
     from .mechanics.quasi_velocity import QuasiVelocitySteps
@@ -130,8 +130,8 @@ class Derivation:
         if "code" in wants:
             _ = (self.programs, self.effort_jacobian, self.frame_programs, self.centroidal_programs,
                  self.configuration_programs, self.contact_programs, self.loop_solve)
-            if robot.loops and not robot.floating:
-                _ = self.loop_linearization
+            if robot.loops:
+                _ = self.loop_linearization_programs if robot.floating else self.loop_linearization
             if not self.structured_code:   # a small planar robot's code prints M_g, C_g, N_g
                 _ = self.quantities["M_g"]
             if robot.planar:   # the maximal-coordinate functions
@@ -356,6 +356,16 @@ class Derivation:
 
         self.report(f"program: loop constraints ({len(self.robot.loops)} loop joints)")
         return loop_programs(self.robot, self.symbols)
+
+    @cached_property
+    def loop_linearization_programs(self) -> LoopLinearization:
+        """The loops' terms of ``linearize`` for a robot with quaternions in ``q``
+        (``mechanics.loop_programs.LoopLinearization``, on the tangent space); the other loop
+        robots' are symbolic (``loop_linearization``)."""
+        from .mechanics.loop_programs import loop_linearization_programs
+
+        self.report("program: the loops' derivatives (linearize)")
+        return loop_linearization_programs(self.robot, self.symbols)
 
     @cached_property
     def contact_programs(self) -> ContactPrograms | None:

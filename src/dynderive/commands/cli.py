@@ -373,9 +373,6 @@ def linearize(
 
     progress = Progress(quiet)
     model = load_robot(robot, size_limits=True, floating_base=floating_base, symbolic=symbolic)
-    from .solve import refuse_floating_loops
-
-    refuse_floating_loops(model, "linearize")
     model = with_parameters(model, robot, param or [], required=False, command="linearize",
                             load={"floating_base": floating_base, "symbolic": symbolic})
     echo_notes(model, quiet)

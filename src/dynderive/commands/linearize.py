@@ -139,7 +139,9 @@ def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, 
     """A closed-loop robot's operating point on its constraints: the independent coordinates
     as given (else those of the default assembly), the others assembled; the independent
     velocities as given, the others those the loops allow. Returns it with notes on what was
-    changed."""
+    changed. A robot with quaternions in q keeps no reduced form: ``_on_tangent_loops``."""
+    if not hasattr(module, "INDEPENDENT_COORDINATES"):
+        return _on_tangent_loops(module, at, given, values)
     independent = [module.COORDINATES.index(c) for c in module.INDEPENDENT_COORDINATES]
     guess = np.array(module.ASSEMBLED_CONFIGURATION, dtype=float)
     chosen = [i for i in independent if ("q", i) in given]
@@ -154,6 +156,26 @@ def on_the_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, 
              for i in range(len(q)) if ("q", i) in given and i not in independent and abs(q[i] - at["q"][i]) > 1e-9]
     notes += [f"{module.COORDINATES[i]}' = {qd[i]:.6g} follows from the loops (given {at['qd'][i]:g})"
               for i in range(len(q)) if ("qd", i) in given and i not in independent and abs(qd[i] - at["qd"][i]) > 1e-9]
+    return {"q": [float(v) for v in q], "qd": [float(v) for v in qd], "u": list(at["u"])}, notes
+
+
+def _on_tangent_loops(module: Any, at: dict[str, list[float]], given: set[tuple[str, int]],
+                      values: dict[str, float]) -> tuple[dict[str, list[float]], list[str]]:
+    """The operating point of closed loops on a robot with quaternions in q: the configuration
+    assembled from the one given (the module's Gauss-Newton steps of least norm, so it moves the
+    least it can), the velocity projected onto the motions the loops allow (the least change)."""
+    try:
+        q = module.assemble(np.array(at["q"], dtype=float), **values)
+    except (ValueError, np.linalg.LinAlgError):
+        raise InputError(_problem("the loops cannot be closed near the configuration given")) from None
+    _, sigma, vt = np.linalg.svd(module.loop_jacobian(q, **values))
+    rows = vt[:int(np.sum(sigma > 1e-9 * sigma[0]))] if sigma.size and sigma[0] > 0 else vt[:0]
+    given_qd = np.array(at["qd"], dtype=float)
+    qd = given_qd - rows.T @ (rows @ given_qd)
+    notes = [f"{module.COORDINATES[i]} = {q[i]:.6g} follows from the loops (given {at['q'][i]:g})"
+             for i in range(len(q)) if ("q", i) in given and abs(q[i] - at["q"][i]) > 1e-9]
+    notes += [f"{module.VELOCITIES[i]} = {qd[i]:.6g} follows from the loops (given {given_qd[i]:g})"
+              for i in range(len(qd)) if abs(qd[i] - given_qd[i]) > 1e-9]
     return {"q": [float(v) for v in q], "qd": [float(v) for v in qd], "u": list(at["u"])}, notes
 
 

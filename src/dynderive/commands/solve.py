@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..derivation import Derivation
-from ..errors import InputError, LatexError, Problem, ToolMissingError
+from ..errors import LatexError, ToolMissingError
 from ..model.robot import Robot
 
 
@@ -30,24 +30,13 @@ def form_note(robot: Robot) -> str | None:
         what = "has a floating base" if robot.floating_base else f"has {quaternion_kind(robot)}"
         sizes = f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)}, NV = {robot.velocity_count})"
         if robot.loops:
-            return (f"{sizes} and closed loops: the sheets, JSON, NumPy, JAX, C and the C extension are built; "
-                    "MATLAB and CasADi do not print such loops yet")
+            return (f"{sizes} and closed loops: the sheets, JSON and every code target but CasADi are built "
+                    "(linearize: the Python modules only; CasADi does not print such loops yet)")
         return f"{sizes}: every output is built except the MATLAB derivation script (--matlab writes its +package only)"
     if intermediate_form(robot):
         return (f"note: {robot.name} has {len(robot.coordinates)} coordinates: M, C, N, the energies and Lagrange's "
                 "equations are derived in intermediate-variable form (named sub-expressions)")
     return None
-
-
-def refuse_floating_loops(robot: Robot, command: str) -> None:
-    """Bad input for a command not built for closed loops on a robot with quaternions in q (exit
-    2 at its first loop joint): ``linearize`` (no constrained linearization)."""
-    if robot.floating and robot.loops:
-        first = robot.loops[0].name
-        line, column = robot.positions.get(f"loop:{first}", robot.positions.get("loops", (1, 1)))
-        raise InputError(Problem(robot.source, line, column, f"loop joint '{first}': {command} is not built yet for "
-                                 "closed loops on a robot with a floating or spherical joint (the generated NumPy "
-                                 "module's forward_dynamics closes them)"))
 
 
 #: The kinds of output that are the sheet (a terminal print reads what they do).

@@ -33,6 +33,7 @@ from .frames import _jacobian_columns, _part, along_motion
 from .joint_variables import unit
 from .loops import _normals
 from .program import Program, Vector, _cross
+from .recursive import _carry, _forward
 from .tree import Tree
 
 ZERO = sympy.Integer(0)
@@ -68,8 +69,62 @@ def open_tree_note(robot: Robot, programs: LoopPrograms) -> str:
             "closed by the generated modules' forward_dynamics; the sheets show the open tree's equations")
 
 
+class LoopLinearization(NamedTuple):
+    """What ``linearize`` of a robot with quaternions in q and closed loops needs beyond
+    Newton-Euler's derivatives, on the tangent space (along ``Tree.tangent_seeds``, as
+    ``inverse_dynamics_derivatives``): ``force`` = d(A^T lambda)/dq at fixed ``multipliers``
+    (NV x NV), ``acceleration`` = d(A qdd + Adot qd)/dq at fixed qdd (k x NV) and ``rate`` =
+    d(Adot qd)/dqd (k x NV), each row by row."""
+
+    multipliers: list[sympy.Symbol]
+    force: Program
+    acceleration: Program
+    rate: Program
+
+
 def loop_programs(robot: Robot, table: SymbolTable) -> LoopPrograms:
     """The programs of every loop joint's rows, in the file's order (3-D robots)."""
+    tree, residuals, jacobian, drift, rows = _built(robot, table)
+    program = tree.program
+    return LoopPrograms(_part(program, residuals), _part(program, [e for row in jacobian for e in row]),
+                        _part(program, drift), rows)
+
+
+def loop_linearization_programs(robot: Robot, table: SymbolTable) -> LoopLinearization:
+    """The loops' terms of ``linearize`` (``LoopLinearization``): the rows' program, then one
+    forward pass over it per velocity column (the configuration's tangent along it, then each
+    velocity), as ``linearization.inverse_dynamics_derivatives_program`` differentiates
+    Newton-Euler's."""
+    tree, _, jacobian, drift, _ = _built(robot, table)
+    program, n, k = tree.program, tree.size, len(jacobian)
+    multipliers = [sympy.Symbol(f"lambda_g{i}") for i in range(1, k + 1)]
+    force = [sum((jacobian[r][c] * multipliers[r] for r in range(k)), ZERO) for c in range(n)]        # A^T lambda
+    acceleration = [sum((e * a for e, a in zip(jacobian[r], table.qdd)), ZERO) + drift[r] for r in range(k)]
+    trig = {expr: name for name, expr in tree.trig}
+    seeds = tree.tangent_seeds()
+    lines = [(name, expr, expr.free_symbols) for name, expr in program.lines]
+    partials: dict[tuple[sympy.Expr, sympy.Symbol], sympy.Expr] = {}
+    by_coordinate, by_rate = [], []
+    for seed in seeds:
+        tangent = dict(seed)
+        _carry(program, tangent, trig, lines, partials)
+        by_coordinate.append(([program.let(_forward(e, tangent, trig)) for e in force],
+                              [program.let(_forward(e, tangent, trig)) for e in acceleration]))
+    for rate in table.qd:
+        tangent = {rate: sympy.Integer(1)}
+        _carry(program, tangent, trig, lines, partials)
+        by_rate.append([program.let(_forward(e, tangent, trig)) for e in drift])
+    return LoopLinearization(
+        multipliers,
+        _part(program, [by_coordinate[c][0][i] for i in range(n) for c in range(n)]),
+        _part(program, [by_coordinate[c][1][r] for r in range(k) for c in range(n)]),
+        _part(program, [by_rate[c][r] for r in range(k) for c in range(n)]))
+
+
+def _built(robot: Robot, table: SymbolTable) -> tuple[Tree, list[sympy.Expr], list[list[sympy.Expr]],
+                                                      list[sympy.Expr], list[tuple[str, str]]]:
+    """The tree and its program's lines of the loops' residuals, Jacobian rows (k x NV) and drift
+    (Adot qd), and what each row is."""
     tree = Tree(robot, table)
     let = tree.program.let
     poses = tree.world_poses()
@@ -94,9 +149,7 @@ def loop_programs(robot: Robot, table: SymbolTable) -> LoopPrograms:
             jacobian.append([let(e) for e in row])
             rows.append((loop.name, description))
     drift = along_motion(tree)(jacobian)   # after every Jacobian line: one pass covers them all
-    program = tree.program
-    return LoopPrograms(_part(program, residuals), _part(program, [e for row in jacobian for e in row]),
-                        _part(program, drift), rows)
+    return tree, residuals, jacobian, drift, rows
 
 
 def _rows(loop: LoopJoint, parent: tuple[list[list[sympy.Expr]], Vector, list[list[sympy.Expr]]],

@@ -334,6 +334,17 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
                 ("loop_jacobian_dot_qd", "Adot qd: the rows' forward derivative along the motion.", [q, qd],
                  loops.jacobian_dot_qd)):
             bodies.append(program_function(f"_{name}_body", what, arguments, program))
+        # linearize's terms of the loops (Derivation.loop_linearization_programs), on the tangent space
+        terms, k = derivation.loop_linearization_programs, len(loops.rows)
+        qdd = Argument("qdd", table.qdd, f"accelerations, shape (..., {nv})")
+        multipliers = Argument("_multipliers", terms.multipliers, f"loop multipliers lambda, shape (..., {k})")
+        for name, what, arguments, program in (
+                ("loop_force_jacobian", "d(A^T lambda)/dq at fixed lambda, row by row.", [q, multipliers],
+                 terms.force),
+                ("loop_acceleration_jacobian", "d(A qdd + Adot qd)/dq at fixed qdd, row by row.", [q, qd, qdd],
+                 terms.acceleration),
+                ("loop_rate_jacobian", "d(Adot qd)/dqd, row by row.", [q, qd], terms.rate)):
+            bodies.append(program_function(f"_{name}_body", what, arguments, program))
     bodies += _configuration_bodies(derivation)
     return _common_context(derivation) | {
         "coordinates_tuple": _tuple(tuple(str(s) for s in table.q)),
@@ -352,6 +363,7 @@ def _tangent_context(derivation: Derivation) -> dict[str, Any]:
         "loop_partition": False,   # the loops are rows on the tree's twists (dynamics_tangent_loops.py.j2)
         "contact_rows_doc": Code("\n    (found at each state)"),
         "loop_count": len(derivation.loop_programs.rows) if robot.loops else 0,
+        "loop_rank": Code("None"),   # found at each state
         "loops_tuple": _tuple(tuple(lp.name for lp in robot.loops)),
         # the loops' constants: the joints closing them (their rows are loop_constraints')
         "loop_constants": [Code("#: The loop-closing joints (their rows: loop_constraints)."),

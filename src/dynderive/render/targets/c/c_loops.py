@@ -96,7 +96,7 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
     for function in functions:
         which = function_name(function)[len(name) + 1:]
         if tangent and which in ("linearize", "forward_dynamics_derivatives"):
-            continue   # the constrained linearization is not built (as in the NumPy module)
+            continue   # printed for the Python modules only (the registry's row)
         if loops and which == "forward_dynamics":
             function = kit.function(
                 f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {kit.pp}, "

@@ -52,7 +52,5 @@ TARGET = Target(
                  ("--tests", "also write DIR/test_<name>_dynamics.py, pytest property checks of the generated module")),
     # the reference's rows are every target's: MATLAB, which builds it, offers it all the same
     not_built=(NotBuilt(("generalized_forces",), "quaternions",
-                        "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),
-               NotBuilt(("linearize", "forward_dynamics_derivatives"), "quaternion_loops",
-                        "loops on a floating base or with spherical joints: the constrained linearization is not built")),
+                        "floating base: not built (the efforts enter forward_dynamics and linearize; MATLAB has it)"),),
 )
