@@ -327,8 +327,9 @@ def test_header_declares_the_loop_functions(tmp_path):
 def test_loops_on_a_floating_base_agree_with_numpy(tmp_path, code_dir):
     """An MJCF connect on a floating base with a ball joint in the loop (tests/mjcf/floating_loop.xml),
     and two connects whose six rows have rank five (tests/mjcf/two_connects.xml): the C loop rows, forward_dynamics (with and
-    without Baumgarte's gains, off the constraints), loop_forces (least norm) and assemble equal the
-    NumPy module's; no linearize is declared for such a robot."""
+    without Baumgarte's gains, off the constraints), loop_forces (least norm), linearize (the rows'
+    derivatives on the tangent space, their rank found at the state) and assemble equal the NumPy
+    module's."""
     for path in (ROOT / "tests" / "mjcf" / "floating_loop.xml", ROOT / "tests" / "mjcf" / "two_connects.xml"):
         derivation = dynderive.derive(dynderive.load_robot(path))
         module = import_code(dynderive.render_code(derivation), Path(code_dir), f"{derivation.robot.name}_floating_loops")
@@ -337,7 +338,7 @@ def test_loops_on_a_floating_base_agree_with_numpy(tmp_path, code_dir):
         big = path.name == "floating_loop.xml"
         library = Library(derivation, tmp_path / derivation.robot.name, *(["-O0"] if big else []))
         header = (tmp_path / derivation.robot.name / f"{library.name}_dynamics.h").read_text()
-        assert f"{library.name}_linearize" not in header and f"{library.name}_loop_jacobian_dot_qd" in header
+        assert f"{library.name}_linearize" in header and f"{library.name}_loop_jacobian_dot_qd" in header
         nv, nq = module.NV, module.NQ
         k = len(module.loop_constraints(module.neutral_configuration()))
         defaults = [*map(float, module.PARAMETERS.values()), 0.0]
@@ -359,6 +360,13 @@ def test_loops_on_a_floating_base_agree_with_numpy(tmp_path, code_dir):
             status, lam = _call(library, "loop_forces", [q, qd, u], (k,), None)
             assert status == 0
             _close(lam, module.loop_forces(q, qd, u), "loop_forces")
+            nu = len(module.EFFORTS)
+            for state in (q, off):
+                status, AB = _call(library, "linearize", [state, qd, u], (4 * nv * nv, 2 * nv * nu), None)
+                assert status == 0
+                A_lin, B_lin = module.linearize(state, qd, u)
+                _close(AB[:4 * nv * nv].reshape(2 * nv, 2 * nv), A_lin, "linearize A")
+                _close(AB[4 * nv * nv:].reshape(2 * nv, nu), B_lin, "linearize B")
             guess = module.integrate(q, rng.uniform(-0.1, 0.1, nv))
             status, closed = _call(library, "assemble", [guess], (nq,), None)
             assert status == 0 and np.max(np.abs(module.loop_constraints(closed))) < 1e-12

@@ -54,12 +54,6 @@ class NotBuilt:
                 "frameless": not frames, "any": True}[self.kind]
 
 
-#: The row of the compiled targets, which print the constrained linearization of loops on vector-space
-#: robots only.
-QUATERNION_LOOPS_LINEARIZE = NotBuilt(("linearize", "forward_dynamics_derivatives"), "quaternion_loops",
-                                      "loops on a floating base or with spherical joints: linearize is printed for "
-                                      "the Python modules only")
-
 #: The row of every target that does not print a planar robot's maximal-coordinate form (its
 #: entries share it: one reason, one footnote of the table).
 MAXIMAL_NOT_PRINTED = NotBuilt(group("maximal"), "vector_space",

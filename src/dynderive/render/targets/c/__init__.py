@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from ....derivation import Derivation
-from ..target import MAXIMAL_NOT_PRINTED, QUATERNION_LOOPS_LINEARIZE, VECTOR_SPACE_MAPS, Target
+from ..target import MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS, Target
 
 
 def render(derivation: Derivation, template_dir: Any, made: dict[str, bytes], **options: Any) -> dict[str, bytes]:
@@ -37,5 +37,5 @@ TARGET = Target(
                                      "with the NumPy module"),
                  ("simulate --backend", "the C extension (--c-extension), compiled for this run (generalized "
                                         "coordinates)")),
-    not_built=(MAXIMAL_NOT_PRINTED, QUATERNION_LOOPS_LINEARIZE, VECTOR_SPACE_MAPS),
+    not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS),
 )

@@ -95,8 +95,6 @@ def amend(derivation: Derivation, kit: CKit, functions: list[Any]) -> list[Any]:
     result = []
     for function in functions:
         which = function_name(function)[len(name) + 1:]
-        if tangent and which in ("linearize", "forward_dynamics_derivatives"):
-            continue   # printed for the Python modules only (the registry's row)
         if loops and which == "forward_dynamics":
             function = kit.function(
                 f"int {name}_forward_dynamics(const double *q, const double *qd, const double *u, {kit.pp}, "
@@ -172,7 +170,7 @@ def _constraint_rows(derivation: Derivation, bottom: str | None, columns: int,
     (NC x columns) projected to ``<bottom>_r``; returns (lines, rows array, bottom array)."""
     n, k, rank = _sizes(derivation)
     if derivation.robot.floating:
-        return _rows_kept(n, k, bottom, jacobian)
+        return _rows_kept(n, k, bottom, jacobian, columns)
     if rank == k:
         return [], jacobian, bottom
     lines = row_space_lines(k, n, rank, jacobian, "Ar", "Ur", "return 2;")
@@ -427,16 +425,26 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
     lines += kit.friction_slope()
     if nu:
         lines += _block(kit.expressions, list(derivation.effort_jacobian), [f"R[{i * width + 2 * n + c}]" for i in range(n) for c in range(nu)])
-    force, acceleration = derivation.loop_linearization
-    multipliers = {s: f"lambda[{i}]" for i, s in enumerate(table.loop_multipliers)}
-    lines += [f"double K[{n * n}];", *_block(kit.expressions, list(force), [f"K[{i}]" for i in range(n * n)], multipliers),
-              *(f"R[{i * width + j}] += K[{i * n + j}];" for i in range(n) for j in range(n))]
     name = derivation.robot.name
-    lines += [f"double Ad[{k * n}];", f"{name}_loop_jacobian_dot(q, qd, p, Ad);",
-              f"for (int i = 0; i < {k * width}; ++i) E[i] = 0.0;",
-              *_block(kit.expressions, list(acceleration), [f"E[{i * width + j}]" for i in range(k) for j in range(n)], extra),
-              *(f"E[{i * width + j}] = -E[{i * width + j}];" for i in range(k) for j in range(n)),
-              *(f"E[{i * width + n + j}] = -2.0*Ad[{i * n + j}];" for i in range(k) for j in range(n)),
+    force_at = [f"K[{i}]" for i in range(n * n)]
+    acceleration_at = [f"E[{i * width + j}]" for i in range(k) for j in range(n)]
+    if derivation.robot.floating:   # the loops' terms on the tangent space: the engine's programs
+        terms = derivation.loop_linearization_programs
+        multipliers = {s: f"lambda[{i}]" for i, s in enumerate(terms.multipliers)}
+        force = _block(kit.program, terms.force, force_at, multipliers)
+        acceleration = _block(kit.program, terms.acceleration, acceleration_at, extra)
+        rate = [f"double Ad[{k * n}];", *_block(kit.program, terms.rate, [f"Ad[{i}]" for i in range(k * n)])]
+        stored = [f"E[{i * width + n + j}] = -Ad[{i * n + j}];" for i in range(k) for j in range(n)]
+    else:   # d(Adot qd)/dqd = 2 Adot: A_g is a Hessian's rows
+        force_terms, acceleration_terms = derivation.loop_linearization
+        multipliers = {s: f"lambda[{i}]" for i, s in enumerate(table.loop_multipliers)}
+        force = _block(kit.expressions, list(force_terms), force_at, multipliers)
+        acceleration = _block(kit.expressions, list(acceleration_terms), acceleration_at, extra)
+        rate = [f"double Ad[{k * n}];", f"{name}_loop_jacobian_dot(q, qd, p, Ad);"]
+        stored = [f"E[{i * width + n + j}] = -2.0*Ad[{i * n + j}];" for i in range(k) for j in range(n)]
+    lines += [f"double K[{n * n}];", *force, *(f"R[{i * width + j}] += K[{i * n + j}];" for i in range(n) for j in range(n))]
+    lines += [*rate, f"for (int i = 0; i < {k * width}; ++i) E[i] = 0.0;", *acceleration,
+              *(f"E[{i * width + j}] = -E[{i * width + j}];" for i in range(k) for j in range(n)), *stored,
               f"double M[{n * n}];", f"double Aj[{k * n}];", f"{name}_mass_matrix(q, p, M);",
               f"{name}_loop_jacobian(q, p, Aj);"]
     rows_lines, rows, bottom = _constraint_rows(derivation, "E", width)
@@ -457,7 +465,8 @@ def _loop_linearize(derivation: Derivation, kit: CKit) -> Any:
         "module); returns 0, or 1 or 2 as forward_dynamics (A, B untouched).", lines)
 
 
-def _rows_kept(n: int, k: int, bottom: str | None, jacobian: str = "Aj") -> tuple[list[str], str, str | None]:
+def _rows_kept(n: int, k: int, bottom: str | None, jacobian: str = "Aj",
+               columns: int = 1) -> tuple[list[str], str, str | None]:
     """A floating-base robot's rows in the row space of ``Aj`` at this state (the NumPy module's):
     ``Ar = U^T Aj`` and ``Ur`` from the one-sided Jacobi SVD, the rows whose singular value is
     above LOOP_RANK_TOLERANCE of the largest kept (``kept_``), the others zeroed; ``bottom``
@@ -471,6 +480,12 @@ def _rows_kept(n: int, k: int, bottom: str | None, jacobian: str = "Aj") -> tupl
               f"    if (!kept_[m]) for (int c = 0; c < {n}; ++c) Ar[m * {n} + c] = 0.0;", "}"]
     if bottom is None:
         return lines + ["(void)Ur;"], "Ar", None
+    if columns > 1:   # linearize's columns
+        lines += [f"double {bottom}_r[{k * columns}];", f"for (int m = 0; m < {k}; ++m) {{",
+                  f"    for (int c = 0; c < {columns}; ++c) {{", "        double sum = 0.0;",
+                  f"        for (int i = 0; i < {k}; ++i) sum += Ur[i * {k} + m]*{bottom}[i * {columns} + c];",
+                  f"        {bottom}_r[m * {columns} + c] = kept_[m] ? sum : 0.0;", "    }", "}"]
+        return lines, "Ar", f"{bottom}_r"
     lines += [f"double {bottom}_r[{k}];", f"for (int m = 0; m < {k}; ++m) {{", "    double sum = 0.0;",
               f"    for (int i = 0; i < {k}; ++i) sum += Ur[i * {k} + m]*{bottom}[i];",
               f"    {bottom}_r[m] = kept_[m] ? sum : 0.0;", "}"]

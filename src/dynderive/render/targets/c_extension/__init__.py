@@ -7,7 +7,7 @@ from __future__ import annotations
 import sysconfig
 
 from ....derivation import Derivation
-from ..target import MAXIMAL_NOT_PRINTED, QUATERNION_LOOPS_LINEARIZE, VECTOR_SPACE_MAPS, Target
+from ..target import MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS, Target
 from .compile import extension_files, failure_files, require_compiler, toolchain
 
 
@@ -33,5 +33,5 @@ TARGET = Target(
     needs=require_compiler,
     failure=failure_files, fingerprint=toolchain,
     stale=("{}_dynamics_c.log",),
-    not_built=(MAXIMAL_NOT_PRINTED, QUATERNION_LOOPS_LINEARIZE, VECTOR_SPACE_MAPS),
+    not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS),
 )

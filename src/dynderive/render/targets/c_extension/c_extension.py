@@ -93,9 +93,9 @@ def bindings(derivation: Derivation) -> list[Binding]:
     }
     groups = {"dynamics", "frames"} | (set() if robot.planar else {"centroidal"}) | \
         ({"loops"} if loops else set()) | ({"configuration"} if quaternions else set())
-    # loops on a floating base (rows on the tree's twists): Adot qd, no reduced form, no constrained linearization
-    left_out = ({"linearize", "forward_dynamics_derivatives", "loop_jacobian_dot", "reduced_basis",
-                 "reduced_forward_dynamics"} if loops and quaternions else {"loop_jacobian_dot_qd"})
+    # loops on a floating base (rows on the tree's twists): Adot qd, no reduced form
+    left_out = ({"loop_jacobian_dot", "reduced_basis", "reduced_forward_dynamics"} if loops and quaternions
+                else {"loop_jacobian_dot_qd"})
     table = []
     for function in api.API:
         if function.group not in groups or (quaternions and function.name == "generalized_forces") \
