@@ -44,7 +44,6 @@ TARGET = Target(
                         "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
                NotBuilt(group("frames"), "frameless", "a robot without frames: MATLAB writes no frame functions "
                                                       "(the NumPy module's raise for any frame name)"),
-               NotBuilt(("assemble", "linearize", "forward_dynamics_derivatives"), "quaternion_loops",
-                        "loops on a floating base or with spherical joints in MATLAB: no assemble nor the constrained "
-                        "linearization")),
+               NotBuilt(("assemble",), "quaternion_loops",
+                        "loops on a floating base or with spherical joints in MATLAB: no assemble (an iteration)")),
 )

@@ -137,8 +137,7 @@ def numeric_functions(derivation: Derivation) -> list[MFunction]:
 
 def _derivatives(derivation: Derivation, names: Names) -> list[MFunction]:
     """``inverse_dynamics_derivatives`` (the differentiated Newton-Euler program, the drives'
-    slope on dtau_dqd's diagonal) and ``forward_dynamics_derivatives`` (linearize's lower blocks,
-    none for loops on a floating base or with spherical joints)."""
+    slope on dtau_dqd's diagonal) and ``forward_dynamics_derivatives`` (linearize's lower blocks)."""
     robot = derivation.robot
     name, n, nu = robot.name, len(derivation.symbols.qd), len(derivation.symbols.efforts)
     notes = [*(["Tangent space: q perturbed as integrate(q, dq)."] if len(derivation.symbols.q) != n else []),
@@ -167,8 +166,7 @@ def _derivatives(derivation: Derivation, names: Names) -> list[MFunction]:
                    f"dqdd_dq = A({n + 1}:end, 1:{n});", f"dqdd_dqd = A({n + 1}:end, {n + 1}:end);",
                    f"dqdd_du = B({n + 1}:end, :);"]),
     ]
-    # loops on quaternions have no linearize, which forward_dynamics_derivatives reads
-    return derivatives[:1] if robot.floating and robot.loops else derivatives
+    return derivatives
 
 
 def _forward_dynamics(derivation: Derivation) -> MFunction:

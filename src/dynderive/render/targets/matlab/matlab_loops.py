@@ -61,10 +61,11 @@ def row_space_shim() -> MFunction:
 
 def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
     """The loop functions, and the constrained forward dynamics and linearize (a robot with
-    quaternions in q: its loops' rows on the tree's twists, no linearize)."""
+    quaternions in q: its loops' rows on the tree's twists, linearize on the tangent space)."""
     quantities = derivation.quantities
     if derivation.robot.floating:
-        return [*_tangent_rows(derivation, names), *_solved(derivation, len(derivation.loop_programs.rows), None)]
+        return [*_tangent_rows(derivation, names), *_solved(derivation, len(derivation.loop_programs.rows), None),
+                _linearize(derivation, names)]
     n, k, r = loop_sizes(derivation)
     return [
         MFunction("loop_constraints", "a", ["q", "p"],
@@ -130,28 +131,45 @@ def _solved(derivation: Derivation, k: int, r: int | None) -> list[MFunction]:
 
 
 def _linearize(derivation: Derivation, names: Names) -> Any:
+    """linearize of a loop robot: the constrained solve of the NumPy module's for every column, the
+    loops' terms symbolic (vector-space robots) or the engine's programs on the tangent space."""
     table = derivation.symbols
     name = derivation.robot.name
     n, k, r = loop_sizes(derivation)
     nu = len(table.efforts)
     width = 2 * n + nu
-    force, acceleration = derivation.loop_linearization
-    multipliers = names.extended({s: f"lambda({i + 1})" for i, s in enumerate(table.loop_multipliers)})
     accelerations = names.extended({s: f"qdd0({i + 1})" for i, s in enumerate(table.qdd)})
+    if derivation.robot.floating:   # on the tangent space: the engine's programs, the rank found at the state
+        terms = derivation.loop_linearization_programs
+        multipliers = names.extended({s: f"lambda({i + 1})" for i, s in enumerate(terms.multipliers)})
+        force = program_body(multipliers, terms.force, matrix_targets("K", n, n))
+        acceleration = program_body(accelerations, terms.acceleration, matrix_targets("G", k, n))
+        rate = [f"H = zeros({k}, {n});", *program_body(names, terms.rate, matrix_targets("H", k, n)),
+                f"E(:, {n + 1}:{2 * n}) = -H;"]
+        rank = "[]"
+    else:   # d(Adot qd)/dqd = 2 Adot: A_g is a Hessian's rows
+        force_terms, acceleration_terms = derivation.loop_linearization
+        multipliers = names.extended({s: f"lambda({i + 1})" for i, s in enumerate(table.loop_multipliers)})
+        force = expression_body(multipliers, list(force_terms), matrix_targets("K", n, n))
+        acceleration = expression_body(accelerations, list(acceleration_terms), matrix_targets("G", k, n))
+        rate = [f"E(:, {n + 1}:{2 * n}) = -2*{name}.loop_jacobian_dot(q, qd, p);"]
+        rank = str(r)
     body = [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
             "[qdd0, lambda] = loop_solve(q, qd, u, p, 0, 0);", *linearize_rhs(derivation, names, "qdd0"),
-            f"K = zeros({n}, {n});", *expression_body(multipliers, list(force), matrix_targets("K", n, n)),
+            f"K = zeros({n}, {n});", *force,
             f"R(:, 1:{n}) = R(:, 1:{n}) + K;",
             f"E = zeros({k}, {width});", f"G = zeros({k}, {n});",
-            *expression_body(accelerations, list(acceleration), matrix_targets("G", k, n)),
-            f"E(:, 1:{n}) = -G;", f"E(:, {n + 1}:{2 * n}) = -2*{name}.loop_jacobian_dot(q, qd, p);",
+            *acceleration,
+            f"E(:, 1:{n}) = -G;", *rate,
             f"M = {name}.mass_matrix(q, p);", f"Aj = {name}.loop_jacobian(q, p);",
-            f"X = row_space_solve(M, Aj, R, E, {r});",
+            f"X = row_space_solve(M, Aj, R, E, {rank});",
             f"A = [zeros({n}, {n}), eye({n}); X(:, 1:{2 * n})];",
             f"B = [zeros({n}, {nu}); X(:, {2 * n + 1}:end)];"]
     return MFunction(
         "linearize", "[A, B]", ["q", "qd", "u", "p"],
         [help_line(derivation, "linearize"), "",
          "   The constrained solve [M, -A_g'; A_g, 0] [dqdd/dx; dlambda/dx] = [dY/dx - dtau/dx + d(A_g' lambda)/dx;",
-         "   -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0, as the NumPy module)."],
+         "   -d(A_g qdd + Adot_g qd)/dx] at the state's qdd and lambda (alpha = beta = 0, as the NumPy module).",
+         *(["   On the tangent space: q perturbed as integrate(q, dq); the rows' rank found at the state."]
+           if derivation.robot.floating else [])],
         body, [_solve_function(derivation), row_space_shim()])
