@@ -393,3 +393,38 @@ def test_the_jax_module_agrees_under_jit_and_vmap(tmp_path):
     np.testing.assert_allclose(np.asarray(jax_module.loop_forces(qs, qds, us)), forces, rtol=0, atol=1e-12 * np.max(np.abs(forces)))
     closed = np.asarray(jax_module.assemble(qs))
     assert np.max(np.abs(numpy_module.loop_constraints(closed))) < 1e-12
+
+
+def test_checks_linearize_row_holds_and_catches_a_wrong_block(tied, four_bar):
+    """``check``'s row for a robot on a manifold (linearize against central differences through
+    integrate; with loops, dq along the motions they allow) passes on both robots' states on the
+    loops, and fails for a linearize whose velocity block is off by 1e-2."""
+    from dynderive.verify.checks import _linearize_along_integrate
+
+    for module in (tied, four_bar):
+        states = list(_states(module, 5, 2))
+        qs, us = np.array([module.assemble(q) for q, _, _ in states]), np.array([u for _, _, u in states])
+        vs = []
+        for q, (_, qd, _) in zip(qs, states):
+            _, sigma, vt = np.linalg.svd(module.loop_jacobian(q))
+            rows = vt[:int(np.sum(sigma > 1e-9 * sigma[0]))]
+            vs.append(qd - rows.T @ (rows @ qd))
+        row = _linearize_along_integrate(module, {}, qs, np.array(vs), us, True)
+        assert row.status == "pass" and row.residual < 1e-6, row
+
+        assert _linearize_along_integrate(_Off(module), {}, qs, np.array(vs), us, True).status == "FAIL"
+
+
+class _Off:
+    """A module whose linearize's velocity block is off by 1e-2."""
+
+    def __init__(self, module):
+        self.module = module
+
+    def __getattr__(self, name):
+        return getattr(self.module, name)
+
+    def linearize(self, q, qd, u):
+        A, B = self.module.linearize(q, qd, u)
+        A[self.module.NV:, self.module.NV:] += 1e-2
+        return A, B

@@ -25,6 +25,8 @@ SYMBOLIC_EVALUATION_NODES = 60_000
 #: The rows of a robot with quaternions that tie its velocity convention (``integrate``) to its dynamics.
 POWER_BALANCE = "energy balance along integrate: d(T + V)/dt = qd . (inverse_dynamics(q, qd, qdd) - friction_forces(qd))"
 MOMENTUM = "momentum conserved without gravity: d(linear, angular momentum)/dt = 0 under the joints' efforts"
+#: ``check``'s linearize row on a manifold (with loops, `` along the motions the loops allow`` added).
+LINEARIZE_ALONG_INTEGRATE = "linearize matches central differences of forward_dynamics through integrate"
 ENERGY_RUN = "energy conserved without efforts (simulate on the manifold; with damping or friction, energy + dissipated work)"
 
 
@@ -353,10 +355,43 @@ def _along_integrate(derivation: Derivation, module: Any, values: dict[str, floa
     if robot.floating_base:   # a fixed base (spherical joints only) takes the world's reaction
         rows.append(_momentum(module, robot, values, qs[:6], vs[:6], us[:6]))
     rows.append(_energy_along_a_run(module, values, qs[0], vs[0]))
+    rows.append(_linearize_along_integrate(module, values, qs[:3], vs[:3], us[:3], bool(robot.loops)))
     rows += _manifold(module, robot, qs, vs)
     if module.FRAMES:
         rows.append(_frames_along_integrate(module, values, qs[:4], vs[:4]))
     return rows
+
+
+def _linearize_along_integrate(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
+                               us: np.ndarray, loops: bool) -> Row:
+    """linearize on the tangent space against central differences of forward_dynamics through
+    ``integrate`` (q perturbed as integrate(q, dq)), of qd and of u; with loops (states on them)
+    dq along the motions they allow: across them a redundant row's rank found at the state can
+    change."""
+    h, worst, scale = 1e-6, 0.0, 1.0
+    for q, v, u in zip(qs, vs, us):
+        nv = len(v)
+        A, B = module.linearize(q, v, u, **values)
+        directions = np.eye(nv)
+        if loops:
+            _, sigma, vt = np.linalg.svd(module.loop_jacobian(q, **values))
+            directions = vt[int(np.sum(sigma > 1e-9 * sigma[0])):].T
+
+        def rate(q_: np.ndarray, v_: np.ndarray, u_: np.ndarray) -> np.ndarray:
+            return module.forward_dynamics(q_, v_, u_, **values)
+
+        columns = [(rate(module.integrate(q, h * d), v, u) - rate(module.integrate(q, -h * d), v, u)) / (2 * h)
+                   for d in directions.T]
+        columns += [(rate(q, v + h * e, u) - rate(q, v - h * e, u)) / (2 * h) for e in np.eye(nv)]
+        columns += [(rate(q, v, u + h * e) - rate(q, v, u - h * e)) / (2 * h) for e in np.eye(len(u))]
+        numeric = np.array(columns).reshape(len(columns), nv).T
+        analytic = np.hstack([A[nv:, :nv] @ directions, A[nv:, nv:], B[nv:]])
+        upper = np.hstack([np.zeros((nv, nv)), np.eye(nv), np.zeros((nv, B.shape[1]))]) - np.hstack([A[:nv], B[:nv]])
+        worst = max(worst, peak(analytic - numeric), peak(upper))
+        scale = max(scale, peak(numeric))
+    along = " along the motions the loops allow" if loops else ""
+    return _row(f"{LINEARIZE_ALONG_INTEGRATE}{along}",
+                worst < 1e-5 * scale, "numeric (h = 1e-6)", worst)
 
 
 def _energy_balance(module: Any, values: dict[str, float], qs: np.ndarray, vs: np.ndarray,
