@@ -31,7 +31,7 @@ def form_note(robot: Robot) -> str | None:
         sizes = f"note: {robot.name} {what} (NQ = {len(robot.configuration_names)}, NV = {robot.velocity_count})"
         if robot.loops:
             return (f"{sizes} and closed loops: the sheets, JSON and every code target but CasADi are built "
-                    "(MATLAB has no assemble for them; CasADi does not print such loops yet)")
+                    "(CasADi does not print such loops yet; no reduced form)")
         return f"{sizes}: every output is built except the MATLAB derivation script (--matlab writes its +package only)"
     if intermediate_form(robot):
         return (f"note: {robot.name} has {len(robot.coordinates)} coordinates: M, C, N, the energies and Lagrange's "

@@ -41,9 +41,7 @@ TARGET = Target(
     reads=("code", "sheet", "kinematics"),   # the script derives the sheet's quantities and checks
     not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS,
                NotBuilt(("assemble", "reduced_basis", "reduced_forward_dynamics"), "vector_space",
-                        "closed loops in MATLAB: the loop functions, loop_forces and forward_dynamics only"),
+                        "closed loops of vector-space joints in MATLAB: no assemble nor reduced form"),
                NotBuilt(group("frames"), "frameless", "a robot without frames: MATLAB writes no frame functions "
-                                                      "(the NumPy module's raise for any frame name)"),
-               NotBuilt(("assemble",), "quaternion_loops",
-                        "loops on a floating base or with spherical joints in MATLAB: no assemble (an iteration)")),
+                                                      "(the NumPy module's raise for any frame name)")),
 )

@@ -65,7 +65,7 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
     quantities = derivation.quantities
     if derivation.robot.floating:
         return [*_tangent_rows(derivation, names), *_solved(derivation, len(derivation.loop_programs.rows), None),
-                _linearize(derivation, names)]
+                _linearize(derivation, names), _tangent_assemble(derivation)]
     n, k, r = loop_sizes(derivation)
     return [
         MFunction("loop_constraints", "a", ["q", "p"],
@@ -101,6 +101,28 @@ def _tangent_rows(derivation: Derivation, names: Names) -> list[MFunction]:
                   [*prologue(derivation, ["q", "qd"], 3), f"a = zeros({k}, 1);",
                    *program_body(names, programs.jacobian_dot_qd, vector_targets("a", k))]),
     ]
+
+
+def _tangent_assemble(derivation: Derivation) -> MFunction:
+    """``assemble`` of a robot with quaternions in q: the NumPy module's Gauss-Newton steps of least
+    norm on the tangent space through the package's ``integrate``, with its limits and messages."""
+    name, k = derivation.robot.name, len(derivation.loop_programs.rows)
+    return MFunction(
+        "assemble", "q", ["q_guess", "p"],
+        [help_line(derivation, "assemble"), "",
+         "   At most 100 Gauss-Newton steps of least norm on the tangent space, q <- integrate(q, -A' (A A')^-1 a),",
+         "   each at most 0.5 in its largest entry; an error where |a(q)| >= 1e-9 after them."],
+        [*prologue(derivation, ["q_guess"], 2), "q = q_guess;",
+         "for iteration = 1:100",
+         f"    a = {name}.loop_constraints(q, p);",
+         "    if all(abs(a) < 1e-12)", "        return;", "    end",
+         f"    Aj = {name}.loop_jacobian(q, p);", "    normal = Aj * Aj';",
+         f"    normal = normal + 1e-14 * (1 + trace(normal)) * eye({k});",
+         "    step = -Aj' * (normal \\ a);", "    largest = max(abs(step));",
+         "    if largest > 0.5", "        step = step * (0.5 / largest);", "    end",
+         f"    q = {name}.integrate(q, step);", "end",
+         f"if ~all(abs({name}.loop_constraints(q, p)) < 1e-9)",
+         "    error('assemble: the loop constraints could not be solved from this guess');", "end"])
 
 
 def _solved(derivation: Derivation, k: int, r: int | None) -> list[MFunction]:
