@@ -209,6 +209,11 @@ def test_every_function_agrees_with_numpy(robot, tmp_path, code_dir):
             calls.add(tag + "lj", "loop_jacobian(q, p)", module.loop_jacobian(q, **kwargs))
             calls.add(tag + "ljd", "loop_jacobian_dot(q, qd, p)", module.loop_jacobian_dot(q, qd, **kwargs))
             calls.add(tag + "lf", "loop_forces(q, qd, u, p)", module.loop_forces(q, qd, u, **both))
+            calls.add(tag + "rb", "reduced_basis(q, p)", module.reduced_basis(q, **kwargs))
+            calls.add(tag + "rfd", "reduced_forward_dynamics(q, qd, u, p)",
+                      module.reduced_forward_dynamics(q, qd, u, **both))
+            guess = q + rng.uniform(-0.02, 0.02, q.shape)   # the dependent coordinates move back, the others stay
+            calls.add(tag + "asm", f"assemble({_vector(guess)}, p)", module.assemble(guess, **kwargs), tolerance=1e-9)
     calls.add("default_M", f"mass_matrix({_vector(np.zeros(len(module.COORDINATES)))})",
               module.mass_matrix(np.zeros(len(module.COORDINATES))))
     calls.check(_octave(tmp_path, "\n".join(calls.lines) + "\n"))

@@ -40,8 +40,6 @@ TARGET = Target(
     render=render, offered=offered, progress="generating MATLAB",
     reads=("code", "sheet", "kinematics"),   # the script derives the sheet's quantities and checks
     not_built=(MAXIMAL_NOT_PRINTED, VECTOR_SPACE_MAPS,
-               NotBuilt(("assemble", "reduced_basis", "reduced_forward_dynamics"), "vector_space",
-                        "closed loops of vector-space joints in MATLAB: no assemble nor reduced form"),
                NotBuilt(group("frames"), "frameless", "a robot without frames: MATLAB writes no frame functions "
                                                       "(the NumPy module's raise for any frame name)")),
 )

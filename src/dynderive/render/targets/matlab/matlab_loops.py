@@ -82,6 +82,55 @@ def loop_functions(derivation: Derivation, names: Names) -> list[MFunction]:
                    *expression_body(names, list(quantities["Adot_g"]), matrix_targets("Adot", k, n))]),
         *_solved(derivation, k, r),
         _linearize(derivation, names),
+        *_reduced(derivation),
+    ]
+
+
+def _reduced(derivation: Derivation) -> list[MFunction]:
+    """``reduced_basis``, ``reduced_forward_dynamics`` and ``assemble`` of a robot of vector-space
+    joints, as the NumPy module's (its independent coordinates; over-constrained rows in their
+    row space of the loops' rank; Newton's steps on the dependent coordinates, at most 0.5)."""
+    model, name = derivation.loop_model, derivation.robot.name
+    n, nu, m = len(derivation.symbols.q), len(derivation.symbols.efforts), len(model.independent)
+    independent = "[" + " ".join(str(i + 1) for i in model.independent) + "]"
+    dependent = "[" + " ".join(str(i + 1) for i in model.dependent) + "]"
+    space = ["[Ub, ~, ~] = svd(Aj);", f"Ur = Ub(:, 1:{model.rank});", "Aj = Ur' * Aj;"] if model.redundant else []
+    names = ", ".join(derivation.robot.coordinates[i] for i in model.independent)
+    return [
+        MFunction("reduced_basis", "R", ["q", "p"],
+                  [help_line(derivation, "reduced_basis"), "",
+                   f"   qd = R qd_i with qd_i the velocities of ({names}); R = P [I; -A_d^-1 A_i], A_g R = 0."],
+                  [*prologue(derivation, ["q"], 2), f"Aj = {name}.loop_jacobian(q, p);", *space,
+                   f"R = zeros({n}, {m});", f"R({independent}, :) = eye({m});",
+                   f"R({dependent}, :) = -(Aj(:, {dependent}) \\ Aj(:, {independent}));"]),
+        MFunction("reduced_forward_dynamics", "qdd", ["q", "qd", "u", "p"],
+                  [help_line(derivation, "reduced_forward_dynamics"), "",
+                   "   qdd = R qdd_i + s, s the dependent accelerations A_g qdd + Adot_g qd = 0 requires, and",
+                   "   (R' M R) qdd_i = R' (Y - C qd - N - M s): equals forward_dynamics with alpha = beta = 0 on the",
+                   "   constraints. u may be [] (no effort)."],
+                  [*prologue(derivation, ["q", "qd"], 4, {"u": f"zeros({nu}, 1)"}),
+                   f"Aj = {name}.loop_jacobian(q, p);", f"drift = {name}.loop_jacobian_dot(q, qd, p) * qd;",
+                   *([*space, "drift = Ur' * drift;"] if model.redundant else []),
+                   f"R = {name}.reduced_basis(q, p);", f"s = zeros({n}, 1);",
+                   f"s({dependent}) = -(Aj(:, {dependent}) \\ drift);", f"M = {name}.mass_matrix(q, p);",
+                   f"rhs = {name}.generalized_forces(q, u, p) - {name}.inverse_dynamics(q, qd, zeros({n}, 1), p) "
+                   "- M * s;",
+                   "qdd = R * ((R' * M * R) \\ (R' * rhs)) + s;"]),
+        MFunction("assemble", "q", ["q_guess", "p"],
+                  [help_line(derivation, "assemble"), "",
+                   f"   Newton's steps on the dependent coordinates, keeping ({names}), each at most 0.5 in its",
+                   "   largest entry, at most 100; an error where |a_g(q)| >= 1e-9 after them."],
+                  [*prologue(derivation, ["q_guess"], 2), "q = q_guess;", "for k = 1:100",
+                   f"    a = {name}.loop_constraints(q, p);", "    if all(abs(a) < 1e-12)", "        return;", "    end",
+                   f"    jac = {name}.loop_jacobian(q, p);", f"    jac = jac(:, {dependent});",
+                   "    S = jac' * jac;",
+                   f"    S = S + 1e-14 * (1 + trace(S)) * eye({len(model.dependent)});",
+                   "    x = S \\ (jac' * a);", "    top = max(abs(x));",
+                   "    if top > 0.5", "        x = x * (0.5 / top);", "    end",
+                   f"    q({dependent}) = q({dependent}) - x;", "end",
+                   f"if ~all(abs({name}.loop_constraints(q, p)) < 1e-9)",
+                   "    error('assemble: the loop constraints could not be solved for these independent coordinates "
+                   "from this guess');", "end"]),
     ]
 
 
@@ -113,14 +162,14 @@ def _tangent_assemble(derivation: Derivation) -> MFunction:
          "   At most 100 Gauss-Newton steps of least norm on the tangent space, q <- integrate(q, -A' (A A')^-1 a),",
          "   each at most 0.5 in its largest entry; an error where |a(q)| >= 1e-9 after them."],
         [*prologue(derivation, ["q_guess"], 2), "q = q_guess;",
-         "for iteration = 1:100",
+         "for k = 1:100",
          f"    a = {name}.loop_constraints(q, p);",
          "    if all(abs(a) < 1e-12)", "        return;", "    end",
-         f"    Aj = {name}.loop_jacobian(q, p);", "    normal = Aj * Aj';",
-         f"    normal = normal + 1e-14 * (1 + trace(normal)) * eye({k});",
-         "    step = -Aj' * (normal \\ a);", "    largest = max(abs(step));",
-         "    if largest > 0.5", "        step = step * (0.5 / largest);", "    end",
-         f"    q = {name}.integrate(q, step);", "end",
+         f"    Aj = {name}.loop_jacobian(q, p);", "    S = Aj * Aj';",
+         f"    S = S + 1e-14 * (1 + trace(S)) * eye({k});",
+         "    x = -Aj' * (S \\ a);", "    top = max(abs(x));",
+         "    if top > 0.5", "        x = x * (0.5 / top);", "    end",
+         f"    q = {name}.integrate(q, x);", "end",
          f"if ~all(abs({name}.loop_constraints(q, p)) < 1e-9)",
          "    error('assemble: the loop constraints could not be solved from this guess');", "end"])
 
@@ -166,8 +215,8 @@ def _linearize(derivation: Derivation, names: Names) -> Any:
         multipliers = names.extended({s: f"lambda({i + 1})" for i, s in enumerate(terms.multipliers)})
         force = program_body(multipliers, terms.force, matrix_targets("K", n, n))
         acceleration = program_body(accelerations, terms.acceleration, matrix_targets("G", k, n))
-        rate = [f"H = zeros({k}, {n});", *program_body(names, terms.rate, matrix_targets("H", k, n)),
-                f"E(:, {n + 1}:{2 * n}) = -H;"]
+        rate = [f"W = zeros({k}, {n});", *program_body(names, terms.rate, matrix_targets("W", k, n)),
+                f"E(:, {n + 1}:{2 * n}) = -W;"]
         rank = "[]"
     else:   # d(Adot qd)/dqd = 2 Adot: A_g is a Hessian's rows
         force_terms, acceleration_terms = derivation.loop_linearization

@@ -41,6 +41,7 @@ contacts baumgarte anchors restitution qd_minus qd_plus impulses forces frames s
 parts k kind anchor turn w v e err drift gamma free Jc Jf MiJt S target contact_list contact_rows schur_solve
 cross eig strjoin sprintf find num2cell cellstr isstruct isfield iscell isscalar isreal fix double false char
 cell acc b gam h jump kd kp rate twist jac lam reduced row_space_solve Sb values diag sum rows loop_rate loop_drift
+q_guess trace
 """.split())
 
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
