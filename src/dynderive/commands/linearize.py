@@ -31,6 +31,7 @@ from ..derivation import Derivation
 from ..errors import InputError, Problem
 from ..model.expressions import ExpressionError
 from ..model.robot import Robot
+from ..verify.motions import allowed_velocity
 from .options import real_number, split_top_level
 
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$", re.S)
@@ -168,10 +169,8 @@ def _on_tangent_loops(module: Any, at: dict[str, list[float]], given: set[tuple[
         q = module.assemble(np.array(at["q"], dtype=float), **values)
     except (ValueError, np.linalg.LinAlgError):
         raise InputError(_problem("the loops cannot be closed near the configuration given")) from None
-    _, sigma, vt = np.linalg.svd(module.loop_jacobian(q, **values))
-    rows = vt[:int(np.sum(sigma > 1e-9 * sigma[0]))] if sigma.size and sigma[0] > 0 else vt[:0]
     given_qd = np.array(at["qd"], dtype=float)
-    qd = given_qd - rows.T @ (rows @ given_qd)
+    qd = allowed_velocity(module, q, given_qd, values)
     notes = [f"{module.COORDINATES[i]} = {q[i]:.6g} follows from the loops (given {at['q'][i]:g})"
              for i in range(len(q)) if ("q", i) in given and abs(q[i] - at["q"][i]) > 1e-9]
     notes += [f"{module.VELOCITIES[i]} = {qd[i]:.6g} follows from the loops (given {given_qd[i]:g})"

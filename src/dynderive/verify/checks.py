@@ -372,10 +372,7 @@ def _linearize_along_integrate(module: Any, values: dict[str, float], qs: np.nda
     for q, v, u in zip(qs, vs, us):
         nv = len(v)
         A, B = module.linearize(q, v, u, **values)
-        directions = np.eye(nv)
-        if loops:
-            _, sigma, vt = np.linalg.svd(module.loop_jacobian(q, **values))
-            directions = vt[int(np.sum(sigma > 1e-9 * sigma[0])):].T
+        directions = _allowed_motions(module, q, values).T if loops else np.eye(nv)
 
         def rate(q_: np.ndarray, v_: np.ndarray, u_: np.ndarray) -> np.ndarray:
             return module.forward_dynamics(q_, v_, u_, **values)
