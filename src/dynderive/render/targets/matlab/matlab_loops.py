@@ -120,18 +120,25 @@ def _reduced(derivation: Derivation) -> list[MFunction]:
                   [help_line(derivation, "assemble"), "",
                    f"   Newton's steps on the dependent coordinates, keeping ({names}), each at most 0.5 in its",
                    "   largest entry, at most 100; an error where |a_g(q)| >= 1e-9 after them."],
-                  [*prologue(derivation, ["q_guess"], 2), "q = q_guess;", "for k = 1:100",
-                   f"    a = {name}.loop_constraints(q, p);", "    if all(abs(a) < 1e-12)", "        return;", "    end",
-                   f"    jac = {name}.loop_jacobian(q, p);", f"    jac = jac(:, {dependent});",
-                   "    S = jac' * jac;",
-                   f"    S = S + 1e-14 * (1 + trace(S)) * eye({len(model.dependent)});",
-                   "    x = S \\ (jac' * a);", "    top = max(abs(x));",
-                   "    if top > 0.5", "        x = x * (0.5 / top);", "    end",
-                   f"    q({dependent}) = q({dependent}) - x;", "end",
-                   f"if ~all(abs({name}.loop_constraints(q, p)) < 1e-9)",
-                   "    error('assemble: the loop constraints could not be solved for these independent coordinates "
-                   "from this guess');", "end"]),
+                  _newton(derivation, [f"jac = {name}.loop_jacobian(q, p);", f"jac = jac(:, {dependent});",
+                                       "S = jac' * jac;"], len(model.dependent), "S \\ (jac' * a)",
+                          f"q({dependent}) = q({dependent}) - x;",
+                          "for these independent coordinates from this guess")),
     ]
+
+
+def _newton(derivation: Derivation, normal: list[str], size: int, step: str, update: str, failure: str) -> list[str]:
+    """``assemble``'s body, the NumPy module's ``_newton``: at most 100 steps until every |a(q)| <
+    1e-12, each ``x = step`` (``normal``'s lines set S, regularized by 1e-14 (1 + trace S), of
+    ``size``), at most 0.5 in its largest entry, then ``update``; an error ``failure`` where
+    |a(q)| >= 1e-9 after them."""
+    name = derivation.robot.name
+    return [*prologue(derivation, ["q_guess"], 2), "q = q_guess;", "for k = 1:100",
+            f"    a = {name}.loop_constraints(q, p);", "    if all(abs(a) < 1e-12)", "        return;", "    end",
+            *(f"    {line}" for line in normal), f"    S = S + 1e-14 * (1 + trace(S)) * eye({size});",
+            f"    x = {step};", "    top = max(abs(x));", "    if top > 0.5", "        x = x * (0.5 / top);", "    end",
+            f"    {update}", "end", f"if ~all(abs({name}.loop_constraints(q, p)) < 1e-9)",
+            f"    error('assemble: the loop constraints could not be solved {failure}');", "end"]
 
 
 def _tangent_rows(derivation: Derivation, names: Names) -> list[MFunction]:
@@ -161,17 +168,8 @@ def _tangent_assemble(derivation: Derivation) -> MFunction:
         [help_line(derivation, "assemble"), "",
          "   At most 100 Gauss-Newton steps of least norm on the tangent space, q <- integrate(q, -A' (A A')^-1 a),",
          "   each at most 0.5 in its largest entry; an error where |a(q)| >= 1e-9 after them."],
-        [*prologue(derivation, ["q_guess"], 2), "q = q_guess;",
-         "for k = 1:100",
-         f"    a = {name}.loop_constraints(q, p);",
-         "    if all(abs(a) < 1e-12)", "        return;", "    end",
-         f"    Aj = {name}.loop_jacobian(q, p);", "    S = Aj * Aj';",
-         f"    S = S + 1e-14 * (1 + trace(S)) * eye({k});",
-         "    x = -Aj' * (S \\ a);", "    top = max(abs(x));",
-         "    if top > 0.5", "        x = x * (0.5 / top);", "    end",
-         f"    q = {name}.integrate(q, x);", "end",
-         f"if ~all(abs({name}.loop_constraints(q, p)) < 1e-9)",
-         "    error('assemble: the loop constraints could not be solved from this guess');", "end"])
+        _newton(derivation, [f"Aj = {name}.loop_jacobian(q, p);", "S = Aj * Aj';"], k, "-Aj' * (S \\ a)",
+                f"q = {name}.integrate(q, x);", "from this guess"))
 
 
 def _solved(derivation: Derivation, k: int, r: int | None) -> list[MFunction]:
