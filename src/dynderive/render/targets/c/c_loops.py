@@ -470,7 +470,7 @@ def _rows_kept(n: int, k: int, bottom: str | None, jacobian: str = "Aj",
     """A floating-base robot's rows in the row space of ``Aj`` at this state (the NumPy module's):
     ``Ar = U^T Aj`` and ``Ur`` from the one-sided Jacobi SVD, the rows whose singular value is
     above LOOP_RANK_TOLERANCE of the largest kept (``kept_``), the others zeroed; ``bottom``
-    projected to ``<bottom>_r`` (zero on the rows left out)."""
+    (NC x ``columns``) projected to ``<bottom>_r`` (zero on the rows left out)."""
     lines = row_space_lines(k, n, k, jacobian, "Ar", "Ur", "return 2;")
     lines += [f"int kept_[{k}];", "double top_ = 0.0;",
               f"for (int m = 0; m < {k}; ++m) {{", "    double norm = 0.0;",
@@ -480,15 +480,10 @@ def _rows_kept(n: int, k: int, bottom: str | None, jacobian: str = "Aj",
               f"    if (!kept_[m]) for (int c = 0; c < {n}; ++c) Ar[m * {n} + c] = 0.0;", "}"]
     if bottom is None:
         return lines + ["(void)Ur;"], "Ar", None
-    if columns > 1:   # linearize's columns
-        lines += [f"double {bottom}_r[{k * columns}];", f"for (int m = 0; m < {k}; ++m) {{",
-                  f"    for (int c = 0; c < {columns}; ++c) {{", "        double sum = 0.0;",
-                  f"        for (int i = 0; i < {k}; ++i) sum += Ur[i * {k} + m]*{bottom}[i * {columns} + c];",
-                  f"        {bottom}_r[m * {columns} + c] = kept_[m] ? sum : 0.0;", "    }", "}"]
-        return lines, "Ar", f"{bottom}_r"
-    lines += [f"double {bottom}_r[{k}];", f"for (int m = 0; m < {k}; ++m) {{", "    double sum = 0.0;",
-              f"    for (int i = 0; i < {k}; ++i) sum += Ur[i * {k} + m]*{bottom}[i];",
-              f"    {bottom}_r[m] = kept_[m] ? sum : 0.0;", "}"]
+    lines += [f"double {bottom}_r[{k * columns}];", f"for (int m = 0; m < {k}; ++m) {{",
+              f"    for (int c = 0; c < {columns}; ++c) {{", "        double sum = 0.0;",
+              f"        for (int i = 0; i < {k}; ++i) sum += Ur[i * {k} + m]*{bottom}[i * {columns} + c];",
+              f"        {bottom}_r[m * {columns} + c] = kept_[m] ? sum : 0.0;", "    }", "}"]
     return lines, "Ar", f"{bottom}_r"
 
 
